@@ -1,0 +1,203 @@
+//! Rendering diagnostics: human text through ariadne (byte offsets, so carets
+//! stay right on non-ASCII text) and JSON for tools.
+
+use crate::{Diagnostic, Severity, SourceMap, Span};
+use ariadne::{Config, IndexType, Label as ALabel, Report, ReportKind};
+use serde::Serialize;
+
+fn clamp(span: Span, text: &str) -> std::ops::Range<usize> {
+    let len = text.len();
+    let mut s = (span.start as usize).min(len);
+    let mut e = (span.end as usize).min(len).max(s);
+    while !text.is_char_boundary(s) {
+        s -= 1;
+    }
+    while !text.is_char_boundary(e) {
+        e += 1;
+    }
+    s..e
+}
+
+/// Render one diagnostic as text, with colour if `color` is set.
+pub fn render_human(d: &Diagnostic, sources: &SourceMap, color: bool) -> String {
+    let kind = match d.severity {
+        Severity::Error => ReportKind::Error,
+        Severity::Warning => ReportKind::Warning,
+    };
+    let primary = d.primary();
+    let pfile = sources.get(primary.file);
+    let id = |f: crate::FileId| sources.get(f).path.clone();
+    let mut report = Report::build(kind, (pfile.path.clone(), clamp(primary.span, &pfile.text)))
+        .with_config(
+            Config::default()
+                .with_index_type(IndexType::Byte)
+                .with_color(color),
+        )
+        .with_code(d.code.as_str())
+        .with_message(&d.message);
+    for (order, l) in d.labels.iter().enumerate() {
+        let text = &sources.get(l.file).text;
+        let mut label = ALabel::new((id(l.file), clamp(l.span, text))).with_order(order as i32);
+        if !l.message.is_empty() {
+            label = label.with_message(&l.message);
+        }
+        if l.primary {
+            label = label.with_priority(1);
+        }
+        report = report.with_label(label);
+    }
+    for n in &d.notes {
+        report = report.with_note(n);
+    }
+    if let Some(h) = &d.help {
+        report = report.with_help(h);
+    }
+    let cache = ariadne::sources(sources.iter().map(|(_, f)| (f.path.clone(), f.text.clone())));
+    let mut out = Vec::new();
+    // Writing into a Vec<u8> cannot fail for I/O reasons; if ariadne reports
+    // an error anyway, fall back to the plain one-line form.
+    if report.finish().write(cache, &mut out).is_err() {
+        return render_plain(d, sources);
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
+/// One line per diagnostic: `path:line:col: error[E0101]: message`.
+pub fn render_plain(d: &Diagnostic, sources: &SourceMap) -> String {
+    let p = d.primary();
+    let f = sources.get(p.file);
+    let (line, col) = f.line_col(p.span.start);
+    let sev = match d.severity {
+        Severity::Error => "error",
+        Severity::Warning => "warning",
+    };
+    format!(
+        "{}:{}:{}: {}[{}]: {}",
+        f.path,
+        line + 1,
+        col + 1,
+        sev,
+        d.code,
+        d.message
+    )
+}
+
+#[derive(Serialize)]
+struct JsonPos {
+    line: u32,
+    column: u32,
+}
+
+#[derive(Serialize)]
+struct JsonLabel<'a> {
+    file: &'a str,
+    start: u32,
+    end: u32,
+    start_pos: JsonPos,
+    end_pos: JsonPos,
+    message: &'a str,
+    primary: bool,
+}
+
+#[derive(Serialize)]
+struct JsonDiag<'a> {
+    code: &'a str,
+    severity: Severity,
+    message: &'a str,
+    file: &'a str,
+    labels: Vec<JsonLabel<'a>>,
+    notes: &'a [String],
+    help: Option<&'a str>,
+}
+
+fn json_value<'a>(d: &'a Diagnostic, sources: &'a SourceMap) -> JsonDiag<'a> {
+    let pos = |file: &crate::SourceFile, off: u32| {
+        let (l, c) = file.line_col(off);
+        JsonPos {
+            line: l + 1,
+            column: c + 1,
+        }
+    };
+    JsonDiag {
+        code: d.code.as_str(),
+        severity: d.severity,
+        message: &d.message,
+        file: &sources.get(d.primary().file).path,
+        labels: d
+            .labels
+            .iter()
+            .map(|l| {
+                let f = sources.get(l.file);
+                JsonLabel {
+                    file: &f.path,
+                    start: l.span.start,
+                    end: l.span.end,
+                    start_pos: pos(f, l.span.start),
+                    end_pos: pos(f, l.span.end),
+                    message: &l.message,
+                    primary: l.primary,
+                }
+            })
+            .collect(),
+        notes: &d.notes,
+        help: d.help.as_deref(),
+    }
+}
+
+/// One diagnostic as a JSON object (a single line).
+pub fn render_json(d: &Diagnostic, sources: &SourceMap) -> String {
+    // Serializing plain structs of strings and integers cannot fail.
+    serde_json::to_string(&json_value(d, sources)).unwrap_or_default()
+}
+
+/// All diagnostics as one JSON array.
+pub fn to_json(diags: &[Diagnostic], sources: &SourceMap) -> String {
+    let v: Vec<_> = diags.iter().map(|d| json_value(d, sources)).collect();
+    serde_json::to_string_pretty(&v).unwrap_or_default()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{Code, Diagnostic, SourceMap};
+
+    #[test]
+    fn renders_non_ascii_carets_and_json() {
+        let mut sm = SourceMap::new();
+        let text = "const é = ü + 1;\n";
+        let f = sm.add("t.grm", text);
+        let start = text.find('ü').unwrap() as u32;
+        let d = Diagnostic::new(
+            Code::UnknownName,
+            "unknown name `ü`",
+            f,
+            Span::new(start, start + 2),
+            "not found",
+        )
+        .with_help("define it");
+        let out = render_human(&d, &sm, false);
+        assert!(out.contains("E0101"), "{out}");
+        assert!(out.contains("not found"), "{out}");
+        let j = render_json(&d, &sm);
+        assert!(j.contains("\"column\":11"), "{j}");
+        assert_eq!(render_plain(&d, &sm), "t.grm:1:11: error[E0101]: unknown name `ü`");
+    }
+
+    #[test]
+    fn out_of_range_spans_do_not_panic() {
+        let mut sm = SourceMap::new();
+        let f = sm.add("t.grm", "ab");
+        let d = Diagnostic::new(Code::UnexpectedEof, "eof", f, Span::new(10, 20), "here");
+        let _ = render_human(&d, &sm, false);
+        let _ = render_json(&d, &sm);
+    }
+
+    #[test]
+    fn utf16_columns() {
+        let sf = crate::SourceFile::new("x", "a𝄞b\nc");
+        // 'b' is at byte 5, UTF-16 column 3
+        assert_eq!(sf.line_col_utf16(5), (0, 3));
+        assert_eq!(sf.offset_of_utf16(0, 3), 5);
+        assert_eq!(sf.offset_of_utf16(1, 0), 7);
+    }
+}
