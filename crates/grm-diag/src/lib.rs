@@ -112,10 +112,7 @@ impl SourceFile {
         let offset = clamp_to_boundary(&self.text, offset as usize);
         let (line, _) = self.line_col(offset as u32);
         let start = self.line_starts[line as usize] as usize;
-        let col: usize = self.text[start..offset]
-            .chars()
-            .map(char::len_utf16)
-            .sum();
+        let col: usize = self.text[start..offset].chars().map(char::len_utf16).sum();
         (line, col as u32)
     }
 
@@ -284,6 +281,11 @@ impl Diagnostic {
 pub fn sort(diags: &mut [Diagnostic]) {
     diags.sort_by(|a, b| {
         let (pa, pb) = (a.primary(), b.primary());
-        (pa.file, pa.span.start, pa.span.end, a.code).cmp(&(pb.file, pb.span.start, pb.span.end, b.code))
+        (pa.file, pa.span.start, pa.span.end, a.code).cmp(&(
+            pb.file,
+            pb.span.start,
+            pb.span.end,
+            b.code,
+        ))
     });
 }

@@ -52,7 +52,11 @@ pub fn render_human(d: &Diagnostic, sources: &SourceMap, color: bool) -> String 
     if let Some(h) = &d.help {
         report = report.with_help(h);
     }
-    let cache = ariadne::sources(sources.iter().map(|(_, f)| (f.path.clone(), f.text.clone())));
+    let cache = ariadne::sources(
+        sources
+            .iter()
+            .map(|(_, f)| (f.path.clone(), f.text.clone())),
+    );
     let mut out = Vec::new();
     // Writing into a Vec<u8> cannot fail for I/O reasons; if ariadne reports
     // an error anyway, fall back to the plain one-line form.
@@ -180,7 +184,10 @@ mod tests {
         assert!(out.contains("not found"), "{out}");
         let j = render_json(&d, &sm);
         assert!(j.contains("\"column\":11"), "{j}");
-        assert_eq!(render_plain(&d, &sm), "t.grm:1:11: error[E0101]: unknown name `ü`");
+        assert_eq!(
+            render_plain(&d, &sm),
+            "t.grm:1:11: error[E0101]: unknown name `ü`"
+        );
     }
 
     #[test]

@@ -1,0 +1,581 @@
+//! The lexer: logos turns text into tokens; a second pass splits comments
+//! out and tells polygon braces (`{` / `}` turtle commands inside a module
+//! string) from block braces.
+//!
+//! Lexing never fails: an invalid character, an unterminated string or
+//! comment becomes a diagnostic and the lexer continues after it.
+
+use grm_diag::{Code, Diagnostic, FileId, Span};
+use logos::Logos;
+
+/// A raw token as logos sees it.
+#[derive(Logos, Clone, Copy, Debug, PartialEq, Eq)]
+#[logos(skip r"[ \t\r\n\f\u{FEFF}]+")]
+enum Raw {
+    #[token("import")]
+    Import,
+    #[token("const")]
+    Const,
+    #[token("param")]
+    Param,
+    #[token("mesh")]
+    Mesh,
+    #[token("material")]
+    Material,
+    #[token("system")]
+    System,
+    #[token("module")]
+    Module,
+    #[token("skeleton")]
+    Skeleton,
+    #[token("geometry")]
+    Geometry,
+    #[token("wrapup")]
+    Wrapup,
+    #[token("axiom")]
+    Axiom,
+    #[token("ignore")]
+    Ignore,
+    #[token("in")]
+    In,
+    #[token("if")]
+    If,
+    #[token("then")]
+    Then,
+    #[token("else")]
+    Else,
+    #[token("true")]
+    True,
+    #[token("false")]
+    False,
+
+    #[regex(r"[\p{XID_Start}_][\p{XID_Continue}]*")]
+    Ident,
+    #[regex(r"[0-9]+(\.[0-9]+)?([eE][+-]?[0-9]+)?")]
+    Number,
+    /// The flag says whether the string was closed.
+    #[token("\"", lex_string)]
+    Str(bool),
+    #[token("//", lex_line_comment)]
+    LineComment,
+    /// The flag says whether the comment was closed.
+    #[token("/*", lex_block_comment)]
+    BlockComment(bool),
+
+    #[token(";")]
+    Semi,
+    #[token(",")]
+    Comma,
+    #[token(":")]
+    Colon,
+    #[token("=")]
+    Assign,
+    #[token("(")]
+    LParen,
+    #[token(")")]
+    RParen,
+    #[token("{")]
+    LBrace,
+    #[token("}")]
+    RBrace,
+    #[token("[")]
+    LBracket,
+    #[token("]")]
+    RBracket,
+    #[token("->")]
+    Arrow,
+    #[token("<")]
+    Lt,
+    #[token(">")]
+    Gt,
+    #[token("<=")]
+    Le,
+    #[token(">=")]
+    Ge,
+    #[token("==")]
+    EqEq,
+    #[token("!=")]
+    Ne,
+    #[token("&&")]
+    AndAnd,
+    #[token("||")]
+    OrOr,
+    #[token("+")]
+    Plus,
+    #[token("-")]
+    Minus,
+    #[token("*")]
+    Star,
+    #[token("/")]
+    Slash,
+    #[token("\\")]
+    Backslash,
+    #[token("%")]
+    Percent,
+    #[token("!")]
+    Bang,
+    #[token("&")]
+    Amp,
+    #[token("^")]
+    Caret,
+    #[token("|")]
+    Pipe,
+    #[token("'")]
+    Quote,
+    #[token(".")]
+    Dot,
+    #[token("..")]
+    DotDot,
+    #[token("$")]
+    Dollar,
+}
+
+fn lex_string(lex: &mut logos::Lexer<Raw>) -> bool {
+    let rest = lex.remainder();
+    let mut closed = false;
+    let mut len = rest.len();
+    let mut escaped = false;
+    for (i, c) in rest.char_indices() {
+        if escaped {
+            escaped = false;
+            continue;
+        }
+        match c {
+            '\\' => escaped = true,
+            '"' => {
+                len = i + 1;
+                closed = true;
+                break;
+            }
+            '\n' => {
+                len = i;
+                break;
+            }
+            _ => {}
+        }
+    }
+    lex.bump(len);
+    closed
+}
+
+fn lex_line_comment(lex: &mut logos::Lexer<Raw>) {
+    let rest = lex.remainder();
+    let len = rest.find('\n').unwrap_or(rest.len());
+    lex.bump(len);
+}
+
+fn lex_block_comment(lex: &mut logos::Lexer<Raw>) -> bool {
+    let rest = lex.remainder();
+    match rest.find("*/") {
+        Some(i) => {
+            lex.bump(i + 2);
+            true
+        }
+        None => {
+            lex.bump(rest.len());
+            false
+        }
+    }
+}
+
+/// A token kind as the parser sees it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum TokKind {
+    Import,
+    Const,
+    Param,
+    Mesh,
+    Material,
+    System,
+    Module,
+    Skeleton,
+    Geometry,
+    Wrapup,
+    Axiom,
+    Ignore,
+    In,
+    If,
+    Then,
+    Else,
+    True,
+    False,
+    Ident,
+    Number,
+    Str,
+    Semi,
+    Comma,
+    Colon,
+    Assign,
+    LParen,
+    RParen,
+    /// `{` opening a block (system, material).
+    LBrace,
+    /// `}` closing a block.
+    RBrace,
+    /// `{` turtle command: start a polygon.
+    PolyOpen,
+    /// `}` turtle command: close a polygon.
+    PolyClose,
+    LBracket,
+    RBracket,
+    Arrow,
+    Lt,
+    Gt,
+    Le,
+    Ge,
+    EqEq,
+    Ne,
+    AndAnd,
+    OrOr,
+    Plus,
+    Minus,
+    Star,
+    Slash,
+    Backslash,
+    Percent,
+    Bang,
+    Amp,
+    Caret,
+    Pipe,
+    Quote,
+    Dot,
+    DotDot,
+    Dollar,
+}
+
+impl TokKind {
+    /// How the token is written, for messages ("expected `;`").
+    pub fn describe(self) -> &'static str {
+        use TokKind::*;
+        match self {
+            Import => "`import`",
+            Const => "`const`",
+            Param => "`param`",
+            Mesh => "`mesh`",
+            Material => "`material`",
+            System => "`system`",
+            Module => "`module`",
+            Skeleton => "`skeleton`",
+            Geometry => "`geometry`",
+            Wrapup => "`wrapup`",
+            Axiom => "`axiom`",
+            Ignore => "`ignore`",
+            In => "`in`",
+            If => "`if`",
+            Then => "`then`",
+            Else => "`else`",
+            True => "`true`",
+            False => "`false`",
+            Ident => "a name",
+            Number => "a number",
+            Str => "a string",
+            Semi => "`;`",
+            Comma => "`,`",
+            Colon => "`:`",
+            Assign => "`=`",
+            LParen => "`(`",
+            RParen => "`)`",
+            LBrace => "`{`",
+            RBrace => "`}`",
+            PolyOpen => "`{`",
+            PolyClose => "`}`",
+            LBracket => "`[`",
+            RBracket => "`]`",
+            Arrow => "`->`",
+            Lt => "`<`",
+            Gt => "`>`",
+            Le => "`<=`",
+            Ge => "`>=`",
+            EqEq => "`==`",
+            Ne => "`!=`",
+            AndAnd => "`&&`",
+            OrOr => "`||`",
+            Plus => "`+`",
+            Minus => "`-`",
+            Star => "`*`",
+            Slash => "`/`",
+            Backslash => "`\\`",
+            Percent => "`%`",
+            Bang => "`!`",
+            Amp => "`&`",
+            Caret => "`^`",
+            Pipe => "`|`",
+            Quote => "`'`",
+            Dot => "`.`",
+            DotDot => "`..`",
+            Dollar => "`$`",
+        }
+    }
+
+    /// Keywords that start a top-level item.
+    pub fn starts_top_item(self) -> bool {
+        matches!(
+            self,
+            TokKind::Import
+                | TokKind::Const
+                | TokKind::Param
+                | TokKind::Mesh
+                | TokKind::Material
+                | TokKind::System
+        )
+    }
+}
+
+/// A token with its text and byte span.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Token<'a> {
+    pub kind: TokKind,
+    pub text: &'a str,
+    pub span: Span,
+}
+
+/// The lexer's output.
+#[derive(Clone, Debug, Default)]
+pub struct Lexed<'a> {
+    pub tokens: Vec<Token<'a>>,
+    pub comments: Vec<crate::ast::Comment>,
+    pub diagnostics: Vec<Diagnostic>,
+}
+
+fn convert(raw: Raw) -> Option<TokKind> {
+    use TokKind as T;
+    Some(match raw {
+        Raw::Import => T::Import,
+        Raw::Const => T::Const,
+        Raw::Param => T::Param,
+        Raw::Mesh => T::Mesh,
+        Raw::Material => T::Material,
+        Raw::System => T::System,
+        Raw::Module => T::Module,
+        Raw::Skeleton => T::Skeleton,
+        Raw::Geometry => T::Geometry,
+        Raw::Wrapup => T::Wrapup,
+        Raw::Axiom => T::Axiom,
+        Raw::Ignore => T::Ignore,
+        Raw::In => T::In,
+        Raw::If => T::If,
+        Raw::Then => T::Then,
+        Raw::Else => T::Else,
+        Raw::True => T::True,
+        Raw::False => T::False,
+        Raw::Ident => T::Ident,
+        Raw::Number => T::Number,
+        Raw::Str(_) => T::Str,
+        Raw::LineComment | Raw::BlockComment(_) => return None,
+        Raw::Semi => T::Semi,
+        Raw::Comma => T::Comma,
+        Raw::Colon => T::Colon,
+        Raw::Assign => T::Assign,
+        Raw::LParen => T::LParen,
+        Raw::RParen => T::RParen,
+        Raw::LBrace => T::LBrace,
+        Raw::RBrace => T::RBrace,
+        Raw::LBracket => T::LBracket,
+        Raw::RBracket => T::RBracket,
+        Raw::Arrow => T::Arrow,
+        Raw::Lt => T::Lt,
+        Raw::Gt => T::Gt,
+        Raw::Le => T::Le,
+        Raw::Ge => T::Ge,
+        Raw::EqEq => T::EqEq,
+        Raw::Ne => T::Ne,
+        Raw::AndAnd => T::AndAnd,
+        Raw::OrOr => T::OrOr,
+        Raw::Plus => T::Plus,
+        Raw::Minus => T::Minus,
+        Raw::Star => T::Star,
+        Raw::Slash => T::Slash,
+        Raw::Backslash => T::Backslash,
+        Raw::Percent => T::Percent,
+        Raw::Bang => T::Bang,
+        Raw::Amp => T::Amp,
+        Raw::Caret => T::Caret,
+        Raw::Pipe => T::Pipe,
+        Raw::Quote => T::Quote,
+        Raw::Dot => T::Dot,
+        Raw::DotDot => T::DotDot,
+        Raw::Dollar => T::Dollar,
+    })
+}
+
+/// Lex a whole file.
+pub fn lex(file: FileId, text: &str) -> Lexed<'_> {
+    let mut out = Lexed::default();
+    let mut lexer = Raw::lexer(text);
+    // A run of invalid characters is reported once.
+    let mut bad_run: Option<Span> = None;
+    let flush_bad = |bad: &mut Option<Span>, diags: &mut Vec<Diagnostic>| {
+        if let Some(s) = bad.take() {
+            let what = &text[s.range()];
+            let shown: String = what.chars().take(12).collect();
+            diags.push(
+                Diagnostic::new(
+                    Code::InvalidCharacter,
+                    format!(
+                        "invalid character{} `{}`",
+                        if what.chars().count() > 1 { "s" } else { "" },
+                        shown.escape_debug()
+                    ),
+                    file,
+                    s,
+                    "not part of any token",
+                )
+                .with_help("remove it; strings go in double quotes and comments start with `//`"),
+            );
+        }
+    };
+    while let Some(res) = lexer.next() {
+        let span = Span::from_range(lexer.span());
+        let slice = lexer.slice();
+        match res {
+            Err(()) => {
+                bad_run = Some(match bad_run {
+                    Some(b) if b.end == span.start => b.to(span),
+                    Some(b) => {
+                        let mut tmp = Some(b);
+                        flush_bad(&mut tmp, &mut out.diagnostics);
+                        span
+                    }
+                    None => span,
+                });
+            }
+            Ok(raw) => {
+                flush_bad(&mut bad_run, &mut out.diagnostics);
+                match raw {
+                    Raw::LineComment | Raw::BlockComment(_) => {
+                        if raw == Raw::BlockComment(false) {
+                            out.diagnostics.push(
+                                Diagnostic::new(
+                                    Code::UnterminatedComment,
+                                    "unterminated block comment",
+                                    file,
+                                    Span::new(span.start, span.start + 2),
+                                    "this comment is never closed",
+                                )
+                                .with_help("close it with `*/`"),
+                            );
+                        }
+                        out.comments.push(crate::ast::Comment {
+                            text: slice.to_string(),
+                            span,
+                        });
+                    }
+                    Raw::Str(false) => {
+                        out.diagnostics.push(
+                            Diagnostic::new(
+                                Code::UnterminatedString,
+                                "unterminated string",
+                                file,
+                                span,
+                                "this string has no closing quote",
+                            )
+                            .with_help("add a `\"` before the end of the line"),
+                        );
+                        // Keep it as a string token so the item still parses.
+                        out.tokens.push(Token {
+                            kind: TokKind::Str,
+                            text: slice,
+                            span,
+                        });
+                    }
+                    _ => {
+                        if let Some(kind) = convert(raw) {
+                            out.tokens.push(Token {
+                                kind,
+                                text: slice,
+                                span,
+                            });
+                        }
+                    }
+                }
+            }
+        }
+    }
+    flush_bad(&mut bad_run, &mut out.diagnostics);
+    mark_polygon_braces(&mut out.tokens);
+    out
+}
+
+/// Inside a module string (after `->`, `axiom` or `ignore`, up to `;`), a
+/// `{` is the polygon turtle command, and so is a `}` that closes one. A
+/// `}` with no open polygon ends the module string: it closes the block, so
+/// a forgotten `;` before a system's closing brace is one diagnostic, not a
+/// broken system.
+fn mark_polygon_braces(tokens: &mut [Token<'_>]) {
+    let mut in_string = false;
+    let mut depth = 0u32;
+    for t in tokens.iter_mut() {
+        match t.kind {
+            TokKind::Arrow | TokKind::Axiom | TokKind::Ignore => {
+                in_string = true;
+                depth = 0;
+            }
+            TokKind::Semi => in_string = false,
+            TokKind::LBrace if in_string => {
+                t.kind = TokKind::PolyOpen;
+                depth += 1;
+            }
+            TokKind::RBrace if in_string => {
+                if depth > 0 {
+                    t.kind = TokKind::PolyClose;
+                    depth -= 1;
+                } else {
+                    in_string = false;
+                }
+            }
+            k if k.starts_top_item() => in_string = false,
+            _ => {}
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn kinds(s: &str) -> Vec<TokKind> {
+        lex(FileId(0), s).tokens.iter().map(|t| t.kind).collect()
+    }
+
+    #[test]
+    fn numbers_and_ranges() {
+        use TokKind::*;
+        assert_eq!(kinds("1..2"), vec![Number, DotDot, Number]);
+        assert_eq!(kinds("1.5e3 .5"), vec![Number, Dot, Number]);
+    }
+
+    #[test]
+    fn polygon_braces() {
+        use TokKind::*;
+        assert_eq!(
+            kinds("system S { A -> { . F } ; }"),
+            vec![
+                System, Ident, LBrace, Ident, Arrow, PolyOpen, Dot, Ident, PolyClose, Semi, RBrace
+            ]
+        );
+        // Forgotten `;`: the `}` still closes the block.
+        assert_eq!(
+            kinds("system S { A -> F }"),
+            vec![System, Ident, LBrace, Ident, Arrow, Ident, RBrace]
+        );
+    }
+
+    #[test]
+    fn comments_and_errors() {
+        let l = lex(FileId(0), "a // x\n/* y */ b @@ \"s");
+        assert_eq!(l.comments.len(), 2);
+        let codes: Vec<_> = l.diagnostics.iter().map(|d| d.code).collect();
+        assert_eq!(
+            codes,
+            vec![Code::InvalidCharacter, Code::UnterminatedString]
+        );
+        let l = lex(FileId(0), "a /* never");
+        assert_eq!(l.diagnostics[0].code, Code::UnterminatedComment);
+    }
+
+    #[test]
+    fn unicode_identifiers() {
+        use TokKind::*;
+        assert_eq!(kinds("Zweig ästchen"), vec![Ident, Ident]);
+    }
+}

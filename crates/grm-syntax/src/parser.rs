@@ -1,0 +1,651 @@
+//! The parser driver: reads the block structure of a file by hand and hands
+//! each statement to the lalrpop grammar (`grammar/grm.lalrpop`).
+//!
+//! Recovery rules (each costs exactly one diagnostic):
+//! - a statement the grammar rejects becomes an `Error` item spanning the
+//!   statement; parsing resumes after its `;`;
+//! - a statement missing its `;` before `}`, before the next top-level
+//!   keyword, at the end of the file, or before a line that starts a new
+//!   statement is kept, and the missing `;` is reported;
+//! - text between top-level items that starts no item is skipped up to the
+//!   next top-level keyword;
+//! - a `system` or `material` left open at the end of the file (or at the
+//!   next top-level keyword) is closed there.
+
+use crate::ast::*;
+use crate::grm;
+use crate::lexer::{self, TokKind, Token};
+use grm_diag::{Code, Diagnostic, FileId};
+use lalrpop_util::ParseError;
+
+/// The result of parsing one file. Parsing never fails.
+#[derive(Clone, Debug)]
+pub struct Parsed {
+    pub file: File,
+    pub comments: Vec<Comment>,
+    /// Lexical and syntax diagnostics, in source order.
+    pub diagnostics: Vec<Diagnostic>,
+}
+
+impl Parsed {
+    pub fn has_errors(&self) -> bool {
+        self.diagnostics.iter().any(Diagnostic::is_error)
+    }
+}
+
+/// Parse a whole file.
+pub fn parse(file: FileId, text: &str) -> Parsed {
+    let lexed = lexer::lex(file, text);
+    let mut p = Driver {
+        file,
+        text,
+        toks: &lexed.tokens,
+        pos: 0,
+        diags: lexed.diagnostics.clone(),
+    };
+    let items = p.items();
+    let mut diagnostics = p.diags;
+    grm_diag::sort(&mut diagnostics);
+    Parsed {
+        file: File {
+            items,
+            span: Span::from_range(0..text.len()),
+        },
+        comments: lexed.comments,
+        diagnostics,
+    }
+}
+
+/// Parse a lone expression (for tests and tools). Returns `None` with
+/// diagnostics when the text is not exactly one expression.
+pub fn parse_expr(file: FileId, text: &str) -> (Option<Expr>, Vec<Diagnostic>) {
+    let lexed = lexer::lex(file, text);
+    let mut diags = lexed.diagnostics;
+    let mut errs = Vec::new();
+    let res = grm::ExprOnlyParser::new().parse(&mut errs, stream(&lexed.tokens));
+    push_value_errors(file, &mut diags, errs);
+    match res {
+        Ok(e) => (Some(e), diags),
+        Err(e) => {
+            diags.push(syntax_error(file, text, e, None));
+            (None, diags)
+        }
+    }
+}
+
+// ---- helpers used by the generated grammar ---------------------------------
+
+pub(crate) fn sp(l: usize, r: usize) -> Span {
+    Span::from_range(l..r)
+}
+
+pub(crate) fn sym(text: &str, l: usize, r: usize) -> Symbol {
+    Symbol {
+        name: text.to_string(),
+        span: sp(l, r),
+    }
+}
+
+/// Parse a number literal; out-of-range literals are reported.
+pub(crate) fn number(text: &str) -> (f64, Option<String>) {
+    match text.parse::<f64>() {
+        Ok(v) if v.is_finite() && (v == 0.0 || v.abs() <= f32::MAX as f64) => (v, None),
+        Ok(_) | Err(_) => (
+            0.0,
+            Some(format!(
+                "number literal `{text}` does not fit in a 32-bit float"
+            )),
+        ),
+    }
+}
+
+/// The content of a string literal token (quotes removed, `\"`, `\\`, `\n`
+/// and `\t` unescaped; an unterminated string has no closing quote).
+pub(crate) fn string_value(text: &str) -> String {
+    let inner = text.strip_prefix('"').unwrap_or(text);
+    let inner = inner.strip_suffix('"').unwrap_or(inner);
+    let mut out = String::with_capacity(inner.len());
+    let mut chars = inner.chars();
+    while let Some(c) = chars.next() {
+        if c == '\\' {
+            match chars.next() {
+                Some('n') => out.push('\n'),
+                Some('t') => out.push('\t'),
+                Some(o) => out.push(o),
+                None => out.push('\\'),
+            }
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+// ---- the driver ---------------------------------------------------------------
+
+type Tok<'a> = Result<(usize, Token<'a>, usize), ()>;
+
+fn stream<'a, 'b>(toks: &'b [Token<'a>]) -> impl Iterator<Item = Tok<'a>> + 'b {
+    toks.iter()
+        .map(|t| Ok((t.span.start as usize, *t, t.span.end as usize)))
+}
+
+fn push_value_errors(file: FileId, diags: &mut Vec<Diagnostic>, errs: Vec<(Span, String)>) {
+    for (span, msg) in errs {
+        diags.push(Diagnostic::new(
+            Code::InvalidNumber,
+            msg,
+            file,
+            span,
+            "out of range",
+        ));
+    }
+}
+
+/// Which grammar entry point a statement goes to.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Entry {
+    Top,
+    Sys,
+    Mat,
+}
+
+enum Stmt {
+    Item(Item),
+    SysItem(SystemItem),
+    Field(Field),
+}
+
+struct Driver<'a, 't> {
+    file: FileId,
+    text: &'a str,
+    toks: &'t [Token<'a>],
+    pos: usize,
+    diags: Vec<Diagnostic>,
+}
+
+impl<'a> Driver<'a, '_> {
+    fn peek(&self) -> Option<&Token<'a>> {
+        self.toks.get(self.pos)
+    }
+
+    fn peek_kind(&self) -> Option<TokKind> {
+        self.peek().map(|t| t.kind)
+    }
+
+    fn eof_span(&self) -> Span {
+        let n = self.text.len() as u32;
+        Span::new(n, n)
+    }
+
+    fn items(&mut self) -> Vec<Item> {
+        let mut items = Vec::new();
+        while let Some(t) = self.peek().copied() {
+            match t.kind {
+                TokKind::Import | TokKind::Const | TokKind::Param | TokKind::Mesh => {
+                    let end = self.stmt_end(false);
+                    let all = self.toks;
+                    let toks = &all[self.pos..end];
+                    self.pos = end;
+                    for s in self.statement(toks, Entry::Top) {
+                        if let Stmt::Item(i) = s {
+                            items.push(i);
+                        }
+                    }
+                }
+                TokKind::System => items.push(self.system()),
+                TokKind::Material => items.push(self.material()),
+                _ => {
+                    // Garbage between items: skip to the next item keyword at
+                    // brace depth 0, one diagnostic for the whole run.
+                    let start = self.pos;
+                    let mut depth = 0i32;
+                    while let Some(k) = self.peek_kind() {
+                        if depth <= 0 && k.starts_top_item() && self.pos > start {
+                            break;
+                        }
+                        match k {
+                            TokKind::LBrace => depth += 1,
+                            TokKind::RBrace => depth -= 1,
+                            _ => {}
+                        }
+                        self.pos += 1;
+                    }
+                    let last = self.toks[self.pos - 1].span;
+                    let span = t.span.to(last);
+                    self.diags.push(
+                        Diagnostic::new(
+                            Code::UnexpectedToken,
+                            format!("expected an item, found {}", t.kind.describe()),
+                            self.file,
+                            t.span,
+                            "items start with `system`, `const`, `param`, `mesh`, `material` or `import`",
+                        )
+                        .with_note("productions and settings go inside a `system NAME { ... }` block"),
+                    );
+                    items.push(Item::Error(span));
+                }
+            }
+        }
+        items
+    }
+
+    /// Index one past the end of the statement starting at `self.pos`: after
+    /// its `;`, or before a `}` / top-level keyword / EOF that ends it early.
+    fn stmt_end(&self, in_block: bool) -> usize {
+        let mut i = self.pos;
+        let mut first = true;
+        while let Some(t) = self.toks.get(i) {
+            match t.kind {
+                TokKind::Semi => return i + 1,
+                TokKind::RBrace if in_block => return i,
+                // `mesh`/`material` are also terminals inside module strings
+                // (`mesh(leaf)`); they start an item only as `mesh NAME =`.
+                TokKind::Mesh | TokKind::Material if !first && self.decl_at(i) => return i,
+                TokKind::Mesh | TokKind::Material => {}
+                k if k.starts_top_item() && !first => return i,
+                _ => {}
+            }
+            first = false;
+            i += 1;
+        }
+        i
+    }
+
+    /// Parse one statement (tokens up to and including `;` if present).
+    /// May yield two statements when a missing `;` is repaired.
+    fn statement(&mut self, toks: &[Token<'a>], entry: Entry) -> Vec<Stmt> {
+        if toks.is_empty() {
+            return Vec::new();
+        }
+        let terminated = toks.last().is_some_and(|t| t.kind == TokKind::Semi);
+        let mut owned;
+        let full: &[Token<'a>] = if terminated {
+            toks
+        } else {
+            owned = toks.to_vec();
+            let end = toks[toks.len() - 1].span.end;
+            owned.push(Token {
+                kind: TokKind::Semi,
+                text: ";",
+                span: Span::new(end, end),
+            });
+            &owned
+        };
+        match self.run(full, entry) {
+            Ok((stmt, errs)) => {
+                push_value_errors(self.file, &mut self.diags, errs);
+                if !terminated {
+                    self.missing_semi(toks[toks.len() - 1].span);
+                }
+                vec![stmt]
+            }
+            Err(err) => {
+                // Maybe a `;` is missing at a line break before the error:
+                // try splitting there.
+                if let Some(split) = self.split_point(full, &err) {
+                    let mut first = full[..split].to_vec();
+                    let end = full[split - 1].span.end;
+                    first.push(Token {
+                        kind: TokKind::Semi,
+                        text: ";",
+                        span: Span::new(end, end),
+                    });
+                    if let Ok((a, errs_a)) = self.run(&first, entry)
+                        && let Ok((b, errs_b)) = self.run(&full[split..], entry)
+                    {
+                        push_value_errors(self.file, &mut self.diags, errs_a);
+                        push_value_errors(self.file, &mut self.diags, errs_b);
+                        self.missing_semi(full[split - 1].span);
+                        return vec![a, b];
+                    }
+                }
+                let d = syntax_error(self.file, self.text, err, Some(toks));
+                self.diags.push(d);
+                let span = toks[0].span.to(toks[toks.len() - 1].span);
+                vec![match entry {
+                    Entry::Top => Stmt::Item(Item::Error(span)),
+                    Entry::Sys => Stmt::SysItem(SystemItem::Error(span)),
+                    Entry::Mat => return Vec::new(),
+                }]
+            }
+        }
+    }
+
+    fn missing_semi(&mut self, after: Span) {
+        self.diags.push(
+            Diagnostic::new(
+                Code::UnexpectedToken,
+                "expected `;`",
+                self.file,
+                Span::new(after.end, after.end),
+                "add `;` here",
+            )
+            .with_help("every statement ends with `;`"),
+        );
+    }
+
+    /// The index of the first token of the last line break at or before
+    /// the error token, if the error is past the first line of the statement.
+    fn split_point(
+        &self,
+        toks: &[Token<'a>],
+        err: &ParseError<usize, Token<'a>, ()>,
+    ) -> Option<usize> {
+        let at = match err {
+            ParseError::UnrecognizedToken {
+                token: (l, _, _), ..
+            }
+            | ParseError::ExtraToken { token: (l, _, _) } => *l,
+            _ => return None,
+        };
+        let err_idx = toks.iter().position(|t| t.span.start as usize >= at)?;
+        (1..=err_idx).rev().find(|&j| {
+            let gap = &self.text[toks[j - 1].span.end as usize..toks[j].span.start as usize];
+            gap.contains('\n')
+        })
+    }
+
+    #[allow(clippy::type_complexity)]
+    fn run(
+        &self,
+        toks: &[Token<'a>],
+        entry: Entry,
+    ) -> Result<(Stmt, Vec<(Span, String)>), ParseError<usize, Token<'a>, ()>> {
+        let mut errs = Vec::new();
+        let stmt = match entry {
+            Entry::Top => Stmt::Item(grm::TopDeclParser::new().parse(&mut errs, stream(toks))?),
+            Entry::Sys => Stmt::SysItem(grm::SysStmtParser::new().parse(&mut errs, stream(toks))?),
+            Entry::Mat => Stmt::Field(grm::MatFieldParser::new().parse(&mut errs, stream(toks))?),
+        };
+        Ok((stmt, errs))
+    }
+
+    /// `KEYWORD NAME {` — returns the name and whether the brace was found.
+    fn block_header(&mut self, what: &str) -> (Ident, bool) {
+        let kw = self.toks[self.pos];
+        self.pos += 1;
+        let name = match self.peek().copied() {
+            Some(t) if t.kind == TokKind::Ident => {
+                self.pos += 1;
+                Ident {
+                    name: t.text.to_string(),
+                    span: t.span,
+                }
+            }
+            other => {
+                let (span, found) = match other {
+                    Some(t) => (t.span, t.kind.describe()),
+                    None => (self.eof_span(), "end of file"),
+                };
+                let code = if other.is_none() {
+                    Code::UnexpectedEof
+                } else {
+                    Code::UnexpectedToken
+                };
+                self.diags.push(
+                    Diagnostic::new(
+                        code,
+                        format!("expected a {what} name, found {found}"),
+                        self.file,
+                        span,
+                        "name expected here",
+                    )
+                    .with_label(
+                        self.file,
+                        kw.span,
+                        format!("this {what} needs a name"),
+                    ),
+                );
+                Ident {
+                    name: String::new(),
+                    span: Span::new(kw.span.end, kw.span.end),
+                }
+            }
+        };
+        match self.peek().copied() {
+            Some(t) if t.kind == TokKind::LBrace => {
+                self.pos += 1;
+                (name, true)
+            }
+            other => {
+                let (span, found) = match other {
+                    Some(t) => (t.span, t.kind.describe()),
+                    None => (self.eof_span(), "end of file"),
+                };
+                let code = if other.is_none() {
+                    Code::UnexpectedEof
+                } else {
+                    Code::UnexpectedToken
+                };
+                self.diags.push(Diagnostic::new(
+                    code,
+                    format!("expected `{{` after the {what} name, found {found}"),
+                    self.file,
+                    span,
+                    "`{` expected here",
+                ));
+                (name, false)
+            }
+        }
+    }
+
+    /// After the block's items: consume `}` or report the unclosed block.
+    fn block_close(&mut self, open: Span, what: &str) -> Span {
+        match self.peek().copied() {
+            Some(t) if t.kind == TokKind::RBrace => {
+                self.pos += 1;
+                t.span
+            }
+            other => {
+                let span = other
+                    .map(|t| Span::new(t.span.start, t.span.start))
+                    .unwrap_or(self.eof_span());
+                let code = if other.is_none() {
+                    Code::UnexpectedEof
+                } else {
+                    Code::UnexpectedToken
+                };
+                self.diags.push(
+                    Diagnostic::new(
+                        code,
+                        format!("this {what} is not closed"),
+                        self.file,
+                        open,
+                        "opened here",
+                    )
+                    .with_label(self.file, span, "expected `}` before this")
+                    .with_help("add `}` at the end of the block"),
+                );
+                Span::new(span.start, span.start)
+            }
+        }
+    }
+
+    fn system(&mut self) -> Item {
+        let start = self.toks[self.pos].span;
+        let (name, braced) = self.block_header("system");
+        let mut items = Vec::new();
+        if braced {
+            while let Some(k) = self.peek_kind() {
+                if k == TokKind::RBrace
+                    || k.starts_top_item() && !matches!(k, TokKind::Mesh | TokKind::Material)
+                {
+                    break;
+                }
+                if matches!(k, TokKind::Mesh | TokKind::Material) && self.decl_at(self.pos) {
+                    break;
+                }
+                let end = self.stmt_end(true).max(self.pos + 1);
+                let all = self.toks;
+                let toks = &all[self.pos..end];
+                self.pos = end;
+                for s in self.statement(toks, Entry::Sys) {
+                    if let Stmt::SysItem(i) = s {
+                        items.push(i);
+                    }
+                }
+            }
+        }
+        let close = if braced {
+            self.block_close(start, "system")
+        } else {
+            name.span
+        };
+        Item::System(System {
+            name,
+            items,
+            span: start.to(close),
+        })
+    }
+
+    /// `mesh NAME =` / `material NAME {` at token `i` is a top-level item
+    /// (inside a system, the system was left open).
+    fn decl_at(&self, i: usize) -> bool {
+        matches!(
+            (
+                self.toks.get(i + 1).map(|t| t.kind),
+                self.toks.get(i + 2).map(|t| t.kind)
+            ),
+            (
+                Some(TokKind::Ident),
+                Some(TokKind::Assign | TokKind::LBrace)
+            )
+        )
+    }
+
+    fn material(&mut self) -> Item {
+        let start = self.toks[self.pos].span;
+        let (name, braced) = self.block_header("material");
+        let mut fields = Vec::new();
+        if braced {
+            while let Some(k) = self.peek_kind() {
+                if k == TokKind::RBrace || k.starts_top_item() {
+                    break;
+                }
+                let end = self.stmt_end(true).max(self.pos + 1);
+                let all = self.toks;
+                let toks = &all[self.pos..end];
+                self.pos = end;
+                for s in self.statement(toks, Entry::Mat) {
+                    if let Stmt::Field(f) = s {
+                        fields.push(f);
+                    }
+                }
+            }
+        }
+        let close = if braced {
+            self.block_close(start, "material")
+        } else {
+            name.span
+        };
+        Item::Material(MaterialDecl {
+            name,
+            fields,
+            span: start.to(close),
+        })
+    }
+}
+
+/// Turn a lalrpop error into a coded diagnostic.
+fn syntax_error(
+    file: FileId,
+    text: &str,
+    err: ParseError<usize, Token<'_>, ()>,
+    stmt: Option<&[Token<'_>]>,
+) -> Diagnostic {
+    let pretty = |expected: &[String]| -> String {
+        let mut names: Vec<String> = expected
+            .iter()
+            .map(|e| match e.as_str() {
+                "IDENT" => "a name".to_string(),
+                "NUMBER" => "a number".to_string(),
+                "STRING" => "a string".to_string(),
+                s => {
+                    let inner = s.trim_matches('"').replace("\\\\", "\\");
+                    format!("`{inner}`")
+                }
+            })
+            .collect();
+        names.dedup();
+        if names.len() > 8 {
+            names.truncate(8);
+            names.push("...".into());
+        }
+        names.join(", ")
+    };
+    match err {
+        ParseError::UnrecognizedToken {
+            token: (l, t, r),
+            expected,
+        } => {
+            // A virtual `;` we appended has an empty span: the statement
+            // simply ended too early.
+            let virtual_end = t.kind == TokKind::Semi && l == r;
+            let (code, msg, span, label) = if virtual_end {
+                (
+                    Code::UnexpectedToken,
+                    "unexpected end of statement".to_string(),
+                    Span::from_range(l..r),
+                    "the statement is incomplete here".to_string(),
+                )
+            } else {
+                (
+                    Code::UnexpectedToken,
+                    format!("unexpected {}", t.kind.describe()),
+                    Span::from_range(l..r),
+                    "unexpected here".to_string(),
+                )
+            };
+            let mut d = Diagnostic::new(code, msg, file, span, label);
+            if !expected.is_empty() {
+                d = d.with_help(format!("expected {}", pretty(&expected)));
+            }
+            if t.kind == TokKind::Ident
+                && let Some(s) = stmt
+                && s.first().is_some_and(|f| f.kind == TokKind::Ident)
+                && !s
+                    .iter()
+                    .any(|x| x.kind == TokKind::Arrow || x.kind == TokKind::Assign)
+            {
+                d = d.with_note("a production needs `->`, a setting needs `=`");
+            }
+            d
+        }
+        ParseError::UnrecognizedEof { location, expected } => {
+            let span = Span::from_range(location.min(text.len())..location.min(text.len()));
+            let mut d = Diagnostic::new(
+                Code::UnexpectedEof,
+                "unexpected end of file",
+                file,
+                span,
+                "the file ends here",
+            );
+            if !expected.is_empty() {
+                d = d.with_help(format!("expected {}", pretty(&expected)));
+            }
+            d
+        }
+        ParseError::ExtraToken { token: (l, t, r) } => Diagnostic::new(
+            Code::UnexpectedToken,
+            format!("unexpected {}", t.kind.describe()),
+            file,
+            Span::from_range(l..r),
+            "extra token",
+        ),
+        ParseError::InvalidToken { location } => Diagnostic::new(
+            Code::InvalidCharacter,
+            "invalid token",
+            file,
+            Span::from_range(location..location),
+            "here",
+        ),
+        ParseError::User { error: () } => Diagnostic::new(
+            Code::UnexpectedToken,
+            "syntax error",
+            file,
+            Span::from_range(0..0),
+            "here",
+        ),
+    }
+}

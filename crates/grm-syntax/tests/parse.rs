@@ -1,0 +1,203 @@
+//! Parser behaviour: the whole language parses, and recovery costs one
+//! diagnostic per typo.
+
+use grm_diag::{Code, FileId};
+use grm_syntax::ast::*;
+use grm_syntax::parse;
+
+fn codes(src: &str) -> Vec<&'static str> {
+    parse(FileId(0), src)
+        .diagnostics
+        .iter()
+        .map(|d| d.code.as_str())
+        .collect()
+}
+
+const FULL: &str = r#"
+import "common.grm";
+const R = 1.456;
+const UP: vec3 = vec3(0, 1, 0);
+param spread = 30 in 10 .. 60;
+param on: bool = true;
+mesh leaf = "leaf.obj";
+material bark { color = rgb(0.45, 0.3, 0.2); roughness = 0.9; }
+/* a block
+   comment */
+system Plant {
+    mode = derive;
+    iterations = 5;
+    angle = 25.7;
+    tropism = vec3(0, -1, 0);
+    ignore + - F;
+    axiom X;
+    module A(len: float, w), B;
+    X -> F [ + X ] F [ - X ] + X;
+    F -> (0.5) F F;
+    F -> (0.5) F;
+    A(l, w) : l > 1 && !(w < 0) -> F(l) A(l * 0.9, if w > 1 then w else -w);
+    a < b > [ c ] d : true -> ;
+    P -> { . f . f . } % $ | ' ! && || \(10) /(2) ^ & mesh(leaf) material(bark);
+    Q -> rotate(UP, spread) translate(1, 2, 3) v(UP.x);
+}
+system Tree {
+    mode = sample;
+    axiom branch;
+    skeleton branch, bl;
+    geometry leaf2;
+    branch -> F(1) leaf2 bl;
+    wrapup branch -> leaf2;
+    leaf2 -> sphere(0.1);
+}
+"#;
+
+#[test]
+fn full_language_parses_clean() {
+    let p = parse(FileId(0), FULL);
+    assert!(p.diagnostics.is_empty(), "{:#?}", p.diagnostics);
+    assert_eq!(p.file.items.len(), 9);
+    assert_eq!(p.comments.len(), 1);
+    let Item::System(s) = &p.file.items[7] else {
+        panic!()
+    };
+    assert_eq!(s.name.name, "Plant");
+    let prods: Vec<&Production> = s
+        .items
+        .iter()
+        .filter_map(|i| {
+            if let SystemItem::Production(p) = i {
+                Some(p)
+            } else {
+                None
+            }
+        })
+        .collect();
+    assert_eq!(prods.len(), 7);
+    // weights
+    assert!(prods[1].weight.is_some());
+    // context
+    assert_eq!(prods[4].left.len(), 1);
+    assert_eq!(prods[4].right.len(), 4);
+    assert!(prods[4].successor.is_empty());
+    // && and || in a module string are two turtle commands each
+    let syms: Vec<&str> = prods[5]
+        .successor
+        .iter()
+        .map(|m| m.symbol.name.as_str())
+        .collect();
+    assert_eq!(
+        syms,
+        [
+            "{", ".", "f", ".", "f", ".", "}", "%", "$", "|", "'", "!", "&", "&", "|", "|", "\\",
+            "/", "^", "&", "mesh", "material"
+        ]
+    );
+    let Item::System(t) = &p.file.items[8] else {
+        panic!()
+    };
+    assert!(
+        t.items
+            .iter()
+            .any(|i| matches!(i, SystemItem::Production(p) if p.wrapup))
+    );
+}
+
+#[test]
+fn missing_semicolon_before_brace_is_one_diagnostic() {
+    let src = "system S { axiom A; A -> B C }";
+    let p = parse(FileId(0), src);
+    assert_eq!(codes(src), ["E0001"]);
+    let Item::System(s) = &p.file.items[0] else {
+        panic!()
+    };
+    assert_eq!(s.items.len(), 2, "the production is kept");
+}
+
+#[test]
+fn missing_semicolon_between_lines_is_one_diagnostic() {
+    let src = "system S {\n  axiom A;\n  A -> B C\n  B -> A;\n  C -> ;\n}";
+    let p = parse(FileId(0), src);
+    assert_eq!(codes(src), ["E0001"], "{:#?}", p.diagnostics);
+    let Item::System(s) = &p.file.items[0] else {
+        panic!()
+    };
+    assert_eq!(s.items.len(), 4);
+}
+
+#[test]
+fn broken_statement_costs_one_diagnostic_and_rest_parses() {
+    let src = "system S {\n  axiom A;\n  A -> B(1 + );\n  B -> A;\n}\nconst X = 1;";
+    let p = parse(FileId(0), src);
+    assert_eq!(codes(src), ["E0001"], "{:#?}", p.diagnostics);
+    let Item::System(s) = &p.file.items[0] else {
+        panic!()
+    };
+    assert!(matches!(s.items[1], SystemItem::Error(_)));
+    assert!(matches!(s.items[2], SystemItem::Production(_)));
+    assert!(matches!(p.file.items[1], Item::Const(_)));
+}
+
+#[test]
+fn unclosed_system_at_eof() {
+    let src = "system S {\n  axiom A;\n  A -> B;\n";
+    let p = parse(FileId(0), src);
+    assert_eq!(p.diagnostics.len(), 1);
+    assert_eq!(p.diagnostics[0].code, Code::UnexpectedEof);
+    let Item::System(s) = &p.file.items[0] else {
+        panic!()
+    };
+    assert_eq!(s.items.len(), 2);
+}
+
+#[test]
+fn unclosed_system_before_next_item() {
+    let src = "system S {\n  axiom A;\nsystem T { axiom B; }";
+    let p = parse(FileId(0), src);
+    assert_eq!(codes(src), ["E0001"]);
+    assert_eq!(p.file.items.len(), 2);
+}
+
+#[test]
+fn garbage_at_top_level_is_one_diagnostic() {
+    let src = "A -> B;\nC -> D;\nsystem S { axiom A; }";
+    assert_eq!(codes(src), ["E0001"]);
+}
+
+#[test]
+fn garbage_never_panics() {
+    let inputs: &[&[u8]] = &[
+        b"",
+        b"\xff\xfe\x00\x01",
+        b"system",
+        b"system {",
+        b"system S { -> -> ; } } }",
+        b"material m { = ; ",
+        b"param p = 1 in ;",
+        b"const = ;;;;",
+        b"\"",
+        b"/*",
+        b"system S { A -> (((((((( ; }",
+        b"system S { axiom { { { ; A -> } } } ; }",
+    ];
+    for i in inputs {
+        let s = String::from_utf8_lossy(i);
+        let p = parse(FileId(0), &s);
+        if !s.trim().is_empty() && !s.starts_with("/*") {
+            assert!(
+                !p.diagnostics.is_empty() || !p.file.items.is_empty(),
+                "{s:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn mesh_terminal_on_its_own_line_stays_in_the_successor() {
+    let src = "mesh m = \"a.obj\";\nsystem S {\n  axiom A;\n  A -> [ F\n    mesh(m) ];\n}";
+    let p = parse(FileId(0), src);
+    assert!(p.diagnostics.is_empty(), "{:#?}", p.diagnostics);
+}
+
+#[test]
+fn invalid_number_is_reported() {
+    assert_eq!(codes("const X = 1e999;"), ["E0006"]);
+}
