@@ -1,0 +1,114 @@
+//! The module string: the output of a derivation and the input of turtle
+//! interpretation, stored as three flat arrays (structure of arrays) so the
+//! GPU engine can upload and download it unchanged.
+
+/// A parametric module string.
+///
+/// Module `i` has symbol `syms[i]` (a `grm_sema::SymbolId` index of the
+/// derived system) and parameters `params[starts[i] as usize..starts[i + 1]
+/// as usize]`. A `vec3` parameter takes three consecutive floats, a `bool`
+/// one float (0.0 or 1.0).
+///
+/// Invariant: `starts.len() == syms.len() + 1`, `starts[0] == 0`, `starts`
+/// is non-decreasing and `starts[len] == params.len()`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModuleString {
+    pub syms: Vec<u32>,
+    pub starts: Vec<u32>,
+    pub params: Vec<f32>,
+}
+
+impl Default for ModuleString {
+    fn default() -> Self {
+        ModuleString::new()
+    }
+}
+
+impl ModuleString {
+    pub fn new() -> ModuleString {
+        ModuleString {
+            syms: Vec::new(),
+            starts: vec![0],
+            params: Vec::new(),
+        }
+    }
+
+    pub fn with_capacity(modules: usize, params: usize) -> ModuleString {
+        let mut starts = Vec::with_capacity(modules + 1);
+        starts.push(0);
+        ModuleString {
+            syms: Vec::with_capacity(modules),
+            starts,
+            params: Vec::with_capacity(params),
+        }
+    }
+
+    /// Append a module.
+    pub fn push(&mut self, sym: u32, params: &[f32]) {
+        self.syms.push(sym);
+        self.params.extend_from_slice(params);
+        self.starts.push(self.params.len() as u32);
+    }
+
+    /// Number of modules.
+    pub fn len(&self) -> usize {
+        self.syms.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.syms.is_empty()
+    }
+
+    /// The symbol and parameters of module `i`.
+    pub fn get(&self, i: usize) -> (u32, &[f32]) {
+        let s = self.starts[i] as usize;
+        let e = self.starts[i + 1] as usize;
+        (self.syms[i], &self.params[s..e])
+    }
+
+    pub fn iter(&self) -> impl Iterator<Item = (u32, &[f32])> + '_ {
+        (0..self.len()).map(move |i| self.get(i))
+    }
+
+    /// Append all modules of `other`.
+    pub fn extend_from(&mut self, other: &ModuleString) {
+        let base = self.params.len() as u32;
+        self.syms.extend_from_slice(&other.syms);
+        self.params.extend_from_slice(&other.params);
+        self.starts
+            .extend(other.starts[1..].iter().map(|s| s + base));
+    }
+
+    /// Check the invariant (used by tests and after reading GPU buffers).
+    pub fn is_well_formed(&self) -> bool {
+        self.starts.len() == self.syms.len() + 1
+            && self.starts.first() == Some(&0)
+            && self.starts.windows(2).all(|w| w[0] <= w[1])
+            && self.starts.last().map(|&l| l as usize) == Some(self.params.len())
+    }
+
+    /// Bytes used by the three arrays (for memory limits and statistics).
+    pub fn heap_bytes(&self) -> usize {
+        self.syms.capacity() * 4 + self.starts.capacity() * 4 + self.params.capacity() * 4
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn push_get_extend() {
+        let mut a = ModuleString::new();
+        a.push(1, &[1.0, 2.0]);
+        a.push(2, &[]);
+        let mut b = ModuleString::new();
+        b.push(3, &[3.0]);
+        a.extend_from(&b);
+        assert_eq!(a.len(), 3);
+        assert_eq!(a.get(0), (1, &[1.0, 2.0][..]));
+        assert_eq!(a.get(1), (2, &[][..]));
+        assert_eq!(a.get(2), (3, &[3.0][..]));
+        assert!(a.is_well_formed());
+    }
+}
