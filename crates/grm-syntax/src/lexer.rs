@@ -148,7 +148,14 @@ fn lex_string(lex: &mut logos::Lexer<Raw>) -> bool {
                 break;
             }
             '\n' => {
-                len = i;
+                // Unterminated: stop at the line end, leaving a trailing `;`
+                // to the statement so the one typo costs one diagnostic.
+                let line = rest[..i].trim_end();
+                len = if line.ends_with(';') {
+                    line.len() - 1
+                } else {
+                    i
+                };
                 break;
             }
             _ => {}

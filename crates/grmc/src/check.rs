@@ -1,0 +1,100 @@
+//! `grmc check FILE...`
+
+use crate::{OutputFormat, Outcome};
+use grm_diag::{Diagnostic, Severity, SourceMap};
+use std::io::{IsTerminal, Write};
+use std::path::PathBuf;
+
+#[derive(clap::Args, Debug)]
+pub struct CheckArgs {
+    /// Files to check.
+    #[arg(required = true)]
+    pub files: Vec<PathBuf>,
+    /// How to print diagnostics.
+    #[arg(long, value_enum, default_value = "human")]
+    pub format: OutputFormat,
+    /// Treat warnings as errors (exit 1 when any warning is reported).
+    #[arg(long)]
+    pub deny_warnings: bool,
+}
+
+/// Load and check one file. `Err` is an I/O problem with the file itself.
+pub fn load_and_check(path: &std::path::Path) -> Result<(SourceMap, grm_sema::Checked), String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let mut sources = SourceMap::new();
+    let (text, bad_utf8) = match String::from_utf8(bytes) {
+        Ok(t) => (t, None),
+        Err(e) => {
+            let at = e.utf8_error().valid_up_to();
+            (String::from_utf8_lossy(e.as_bytes()).into_owned(), Some(at))
+        }
+    };
+    let root = sources.add(path.display().to_string(), text);
+    let mut checked = grm_sema::check(&mut sources, root, &grm_sema::FsLoader);
+    if let Some(at) = bad_utf8 {
+        let at = at as u32;
+        checked.diagnostics.push(
+            Diagnostic::new(
+                grm_diag::Code::InvalidEncoding,
+                "file is not valid UTF-8",
+                root,
+                grm_diag::Span::new(at, at + 1),
+                "invalid byte sequence here",
+            )
+            .with_note("grm files are UTF-8 text; invalid bytes were replaced with U+FFFD for checking"),
+        );
+        grm_diag::sort(&mut checked.diagnostics);
+    }
+    Ok((sources, checked))
+}
+
+pub fn run(args: CheckArgs) -> Outcome {
+    let color = std::io::stderr().is_terminal() && std::env::var_os("NO_COLOR").is_none();
+    let mut errors = 0usize;
+    let mut warnings = 0usize;
+    let mut io_failed = false;
+    let mut json_items: Vec<String> = Vec::new();
+    let stderr = std::io::stderr();
+    for path in &args.files {
+        let (sources, checked) = match load_and_check(path) {
+            Ok(r) => r,
+            Err(msg) => {
+                let _ = writeln!(stderr.lock(), "error: {msg}");
+                io_failed = true;
+                continue;
+            }
+        };
+        for d in &checked.diagnostics {
+            match d.severity {
+                Severity::Error => errors += 1,
+                Severity::Warning => warnings += 1,
+            }
+            match args.format {
+                OutputFormat::Human => {
+                    let _ = write!(stderr.lock(), "{}", grm_diag::render_human(d, &sources, color));
+                }
+                OutputFormat::Json => json_items.push(grm_diag::render_json(d, &sources)),
+            }
+        }
+    }
+    match args.format {
+        OutputFormat::Json => println!("[{}]", json_items.join(",\n")),
+        OutputFormat::Human => {
+            let n = args.files.len();
+            let files = if n == 1 { "file" } else { "files" };
+            let _ = writeln!(
+                stderr.lock(),
+                "checked {n} {files}: {errors} error{}, {warnings} warning{}",
+                if errors == 1 { "" } else { "s" },
+                if warnings == 1 { "" } else { "s" },
+            );
+        }
+    }
+    if io_failed {
+        Outcome::Usage
+    } else if errors > 0 || (args.deny_warnings && warnings > 0) {
+        Outcome::InputErrors
+    } else {
+        Outcome::Ok
+    }
+}

@@ -1,0 +1,62 @@
+//! `grmc`: the grm command-line front-end.
+//!
+//! Role: a thin shell over the library crates. Each subcommand reads files,
+//! calls one library entry point, prints the result and picks the exit code.
+//! No language logic lives here.
+//!
+//! Exit codes (all subcommands): 0 success (warnings allowed), 1 the input
+//! had errors (diagnostics were printed), 2 usage or I/O problems.
+
+mod check;
+mod fmt;
+
+use clap::{Parser, Subcommand, ValueEnum};
+use std::process::ExitCode;
+
+#[derive(Parser, Debug)]
+#[command(name = "grmc", version, about = "The grm procedural-modelling toolchain")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum OutputFormat {
+    Human,
+    Json,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Check .grm files and report diagnostics.
+    Check(check::CheckArgs),
+    /// Format .grm files in place (or check that they are formatted).
+    Fmt(fmt::FmtArgs),
+}
+
+/// The outcome of a subcommand, mapped to the process exit code.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Outcome {
+    Ok,
+    InputErrors,
+    Usage,
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            let _ = e.print();
+            return ExitCode::from(if e.use_stderr() { 2 } else { 0 });
+        }
+    };
+    let outcome = match cli.command {
+        Command::Check(a) => check::run(a),
+        Command::Fmt(a) => fmt::run(a),
+    };
+    ExitCode::from(match outcome {
+        Outcome::Ok => 0,
+        Outcome::InputErrors => 1,
+        Outcome::Usage => 2,
+    })
+}
