@@ -1,0 +1,231 @@
+//! The random draws: one counter-based hash, defined once here.
+//!
+//! Every random number in a derivation is a pure function of four `u32`s:
+//! the run's **seed**, the **iteration** (the index of the string being
+//! produced: 0 for the axiom, `k` for the string after `k` rewriting steps),
+//! the **position** (the index of the module being rewritten in the input
+//! string; 0 for the axiom) and the **draw index** (0 is the choice among a
+//! group's stochastic alternatives; each random call site of a compiled
+//! system has its own index from 1 up, `normal` uses two consecutive ones).
+//! Nothing depends on evaluation order or on threads, so the CPU engine with
+//! any number of threads and the GPU kernels draw the same numbers.
+//!
+//! # Formula
+//!
+//! `hash(seed, iteration, position, draw)` is MurmurHash3 x86_32 of the
+//! 12-byte key `iteration, position, draw` (three little-endian `u32`
+//! words) with `seed` as the hash seed:
+//!
+//! ```text
+//! h = seed
+//! for k in [iteration, position, draw]:
+//!     k = k * 0xcc9e2d51;  k = rotl(k, 15);  k = k * 0x1b873593
+//!     h = h ^ k;  h = rotl(h, 13);  h = h * 5 + 0xe6546b64
+//! h = h ^ 12
+//! h = h ^ (h >> 16);  h = h * 0x85ebca6b
+//! h = h ^ (h >> 13);  h = h * 0xc2b2ae35
+//! h = h ^ (h >> 16)
+//! ```
+//!
+//! All operations are on `u32` with wrapping multiplication and addition
+//! (WGSL `u32` arithmetic wraps the same way; `rotl(x, r)` is
+//! `(x << r) | (x >> (32 - r))`).
+//!
+//! The uniform float is `u = f32(h >> 8) * 2^-24`: a multiple of `2^-24` in
+//! `[0, 1)`. Both steps are exact in f32 (an integer below `2^24` converts
+//! exactly and the scale is a power of two), so `u` is bit-identical
+//! everywhere.
+//!
+//! `normal(mean, sd)` is Box-Muller in f32 on `u1 = u(draw)` and
+//! `u2 = u(draw + 1)`: `mean + sd * sqrt(-2 ln(1 - u1)) * cos(2 PI u2)`
+//! (`1 - u1` is in `(0, 1]`, so the logarithm is finite). It uses `ln`,
+//! `sqrt` and `cos`, which are not correctly rounded: CPU and GPU agree to a
+//! few ulps there, not bit for bit.
+
+/// MurmurHash3 x86_32 of the key `iteration, position, draw` (three
+/// little-endian words) with `seed`. See the module documentation.
+#[inline]
+pub const fn hash(seed: u32, iteration: u32, position: u32, draw: u32) -> u32 {
+    let mut h = seed;
+    h = mix(h, iteration);
+    h = mix(h, position);
+    h = mix(h, draw);
+    fmix(h ^ 12)
+}
+
+/// One MurmurHash3 block step.
+#[inline]
+const fn mix(h: u32, k: u32) -> u32 {
+    let k = k
+        .wrapping_mul(0xcc9e_2d51)
+        .rotate_left(15)
+        .wrapping_mul(0x1b87_3593);
+    (h ^ k)
+        .rotate_left(13)
+        .wrapping_mul(5)
+        .wrapping_add(0xe654_6b64)
+}
+
+/// The MurmurHash3 finalizer.
+#[inline]
+const fn fmix(mut h: u32) -> u32 {
+    h ^= h >> 16;
+    h = h.wrapping_mul(0x85eb_ca6b);
+    h ^= h >> 13;
+    h = h.wrapping_mul(0xc2b2_ae35);
+    h ^ (h >> 16)
+}
+
+/// The uniform float of a hash: `f32(h >> 8) * 2^-24`, in `[0, 1)`.
+#[inline]
+pub fn unit(h: u32) -> f32 {
+    (h >> 8) as f32 * (1.0 / 16_777_216.0)
+}
+
+/// The uniform draw `u(seed, iteration, position, draw)` in `[0, 1)`.
+#[inline]
+pub fn uniform(seed: u32, iteration: u32, position: u32, draw: u32) -> f32 {
+    unit(hash(seed, iteration, position, draw))
+}
+
+/// Where the draws of one module's rewrite come from: everything but the
+/// draw index.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct DrawCtx {
+    pub seed: u32,
+    pub iteration: u32,
+    pub position: u32,
+}
+
+impl DrawCtx {
+    /// The uniform draw with this index.
+    #[inline]
+    pub fn uniform(&self, draw: u32) -> f32 {
+        uniform(self.seed, self.iteration, self.position, draw)
+    }
+
+    /// A standard normal deviate from draws `draw` and `draw + 1`
+    /// (Box-Muller in f32).
+    #[inline]
+    pub fn standard_normal(&self, draw: u32) -> f32 {
+        let u1 = self.uniform(draw);
+        let u2 = self.uniform(draw.wrapping_add(1));
+        (-2.0 * (1.0 - u1).ln()).sqrt() * (std::f32::consts::TAU * u2).cos()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Reference MurmurHash3 x86_32 over bytes, written independently of
+    /// [`hash`], to check the word-key version against it and against
+    /// published vectors.
+    fn murmur3_bytes(key: &[u8], seed: u32) -> u32 {
+        let mut h = seed;
+        let mut chunks = key.chunks_exact(4);
+        for c in &mut chunks {
+            let k = u32::from_le_bytes([c[0], c[1], c[2], c[3]]);
+            h = mix(h, k);
+        }
+        let tail = chunks.remainder();
+        let mut k = 0u32;
+        for (i, b) in tail.iter().enumerate() {
+            k |= u32::from(*b) << (8 * i);
+        }
+        if !tail.is_empty() {
+            k = k
+                .wrapping_mul(0xcc9e_2d51)
+                .rotate_left(15)
+                .wrapping_mul(0x1b87_3593);
+            h ^= k;
+        }
+        fmix(h ^ key.len() as u32)
+    }
+
+    #[test]
+    fn murmur3_published_vectors() {
+        assert_eq!(murmur3_bytes(b"", 0), 0);
+        assert_eq!(murmur3_bytes(b"", 1), 0x514E_28B7);
+        assert_eq!(murmur3_bytes(b"", 0xffff_ffff), 0x81F1_6F39);
+        assert_eq!(murmur3_bytes(&[0, 0, 0, 0], 0), 0x2362_F9DE);
+        assert_eq!(murmur3_bytes(b"aaaa", 0x9747_b28c), 0x5A97_808A);
+        assert_eq!(murmur3_bytes(b"Hello, world!", 0x9747_b28c), 0x2488_4CBA);
+        assert_eq!(
+            murmur3_bytes(b"The quick brown fox jumps over the lazy dog", 0x9747_b28c),
+            0x2FA8_26CD
+        );
+    }
+
+    #[test]
+    fn word_key_is_murmur3_of_twelve_bytes() {
+        for (s, i, p, d) in [
+            (0, 0, 0, 0),
+            (7, 3, 12345, 1),
+            (u32::MAX, 1, 2, 3),
+            (42, 9, 0, 77),
+        ] {
+            let mut key = Vec::new();
+            for w in [i, p, d] {
+                key.extend_from_slice(&u32::to_le_bytes(w));
+            }
+            assert_eq!(hash(s, i, p, d), murmur3_bytes(&key, s));
+        }
+    }
+
+    /// Frozen values: changing the hash changes every stochastic model.
+    #[test]
+    fn frozen_values() {
+        assert_eq!(hash(0, 0, 0, 0), murmur3_bytes(&[0; 12], 0));
+        let u = uniform(1, 1, 0, 0);
+        assert!((0.0..1.0).contains(&u));
+        assert_eq!(unit(0), 0.0);
+        assert_eq!(unit(u32::MAX), 16_777_215.0 / 16_777_216.0);
+    }
+
+    #[test]
+    fn uniform_is_roughly_uniform() {
+        let n = 100_000u32;
+        let mut buckets = [0u32; 10];
+        let mut sum = 0.0f64;
+        for p in 0..n {
+            let u = uniform(7, 3, p, 0);
+            buckets[(u * 10.0) as usize] += 1;
+            sum += f64::from(u);
+        }
+        for b in buckets {
+            assert!((9_500..10_500).contains(&b), "{buckets:?}");
+        }
+        assert!((sum / f64::from(n) - 0.5).abs() < 0.005);
+    }
+
+    #[test]
+    fn draws_differ_by_each_coordinate() {
+        let base = hash(1, 2, 3, 4);
+        assert_ne!(base, hash(0, 2, 3, 4));
+        assert_ne!(base, hash(1, 0, 3, 4));
+        assert_ne!(base, hash(1, 2, 0, 4));
+        assert_ne!(base, hash(1, 2, 3, 0));
+    }
+
+    #[test]
+    fn normal_has_unit_variance() {
+        let ctx = |p| DrawCtx {
+            seed: 5,
+            iteration: 1,
+            position: p,
+        };
+        let n = 50_000u32;
+        let (mut s, mut s2) = (0.0f64, 0.0f64);
+        for p in 0..n {
+            let z = f64::from(ctx(p).standard_normal(1));
+            assert!(z.is_finite());
+            s += z;
+            s2 += z * z;
+        }
+        let mean = s / f64::from(n);
+        let var = s2 / f64::from(n) - mean * mean;
+        assert!(mean.abs() < 0.02, "mean {mean}");
+        assert!((var - 1.0).abs() < 0.03, "var {var}");
+    }
+}
