@@ -1,0 +1,520 @@
+//! The GPU context: one adapter, device and queue per process, shared by
+//! every engine call (and by all tests), plus the pipeline cache, buffer
+//! helpers, limit checks and dispatch splitting.
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, MutexGuard, OnceLock};
+
+use wgpu::util::DeviceExt;
+
+use crate::error::GpuError;
+use crate::shader::Kernel;
+
+/// Threads per workgroup of every 1D kernel (the shaders use the same
+/// constant, from the generated header).
+pub const WORKGROUP: u32 = 256;
+
+/// The shared GPU: adapter facts, device, queue, compiled pipelines.
+#[derive(Debug)]
+pub struct Gpu {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    info: wgpu::AdapterInfo,
+    limits: wgpu::Limits,
+    /// Set by the device-lost callback.
+    lost: Arc<Mutex<Option<String>>>,
+    /// Errors no error scope caught (kept instead of wgpu's default panic).
+    uncaptured: Arc<Mutex<Vec<String>>>,
+    pipelines: Mutex<HashMap<&'static str, Arc<Pipeline>>>,
+    /// Serialises engine runs: error scopes are per thread, and two large
+    /// derivations at once could together exceed memory that each alone fits.
+    run: Mutex<()>,
+}
+
+/// A compiled kernel with its explicit bind group layout.
+#[derive(Debug)]
+pub(crate) struct Pipeline {
+    pub(crate) pipeline: wgpu::ComputePipeline,
+    pub(crate) layout: wgpu::BindGroupLayout,
+    pub(crate) kernel: &'static Kernel,
+}
+
+static SHARED: OnceLock<Result<Gpu, GpuError>> = OnceLock::new();
+
+/// The process-wide GPU, created on first use. Every later call returns the
+/// same device (or the same error).
+pub fn shared() -> Result<&'static Gpu, GpuError> {
+    SHARED.get_or_init(Gpu::new).as_ref().map_err(Clone::clone)
+}
+
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    // A poisoned lock only means another thread panicked while holding it;
+    // the data (a cache or a flag) is still consistent.
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+impl Gpu {
+    /// Open the best adapter (high-performance preference; `WGPU_ADAPTER_NAME`
+    /// picks one by name) and create a device with the adapter's own limits.
+    pub fn new() -> Result<Gpu, GpuError> {
+        let instance =
+            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let adapter = match std::env::var("WGPU_ADAPTER_NAME") {
+            Ok(name) => {
+                let name = name.to_lowercase();
+                pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()))
+                    .into_iter()
+                    .find(|a| a.get_info().name.to_lowercase().contains(&name))
+                    .ok_or_else(|| GpuError::NoAdapter(format!("no adapter named like {name:?}")))?
+            }
+            Err(_) => pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+                power_preference: wgpu::PowerPreference::HighPerformance,
+                force_fallback_adapter: false,
+                compatible_surface: None,
+                apply_limit_buckets: false,
+            }))
+            .map_err(|e| GpuError::NoAdapter(e.to_string()))?,
+        };
+        let info = adapter.get_info();
+        let limits = adapter.limits();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("grm-gpu"),
+            required_features: wgpu::Features::empty(),
+            required_limits: limits.clone(),
+            experimental_features: wgpu::ExperimentalFeatures::disabled(),
+            memory_hints: wgpu::MemoryHints::Performance,
+            trace: wgpu::Trace::Off,
+        }))
+        .map_err(|e| GpuError::RequestDevice(e.to_string()))?;
+        let lost = Arc::new(Mutex::new(None));
+        let l2 = lost.clone();
+        device.set_device_lost_callback(move |reason, msg| {
+            *lock(&l2) = Some(format!("{reason:?}: {msg}"));
+        });
+        let uncaptured = Arc::new(Mutex::new(Vec::new()));
+        let u2 = uncaptured.clone();
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            lock(&u2).push(e.to_string());
+        }));
+        Ok(Gpu {
+            limits: device.limits(),
+            device,
+            queue,
+            info,
+            lost,
+            uncaptured,
+            pipelines: Mutex::new(HashMap::new()),
+            run: Mutex::new(()),
+        })
+    }
+
+    /// The adapter: name, backend, device type (lavapipe reports `Cpu`).
+    pub fn adapter_info(&self) -> &wgpu::AdapterInfo {
+        &self.info
+    }
+
+    /// One line for logs and benchmark output.
+    pub fn describe(&self) -> String {
+        format!(
+            "{} ({:?}, {:?}, driver {} {})",
+            self.info.name,
+            self.info.backend,
+            self.info.device_type,
+            self.info.driver,
+            self.info.driver_info
+        )
+    }
+
+    pub fn limits(&self) -> &wgpu::Limits {
+        &self.limits
+    }
+
+    /// Run `f` as one engine operation: serialised with other operations,
+    /// with every wgpu error turned into a [`GpuError`].
+    pub(crate) fn run<T>(&self, f: impl FnOnce() -> Result<T, GpuError>) -> Result<T, GpuError> {
+        let _guard = lock(&self.run);
+        self.check_lost()?;
+        let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let val = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let int = self.device.push_error_scope(wgpu::ErrorFilter::Internal);
+        let result = f();
+        let mut errors = Vec::new();
+        for scope in [int, val, oom] {
+            if let Some(e) = pollster::block_on(scope.pop()) {
+                errors.push(e.to_string());
+            }
+        }
+        errors.append(&mut lock(&self.uncaptured));
+        self.check_lost()?;
+        if !errors.is_empty() {
+            return Err(GpuError::Device(errors.join("; ")));
+        }
+        result
+    }
+
+    fn check_lost(&self) -> Result<(), GpuError> {
+        match lock(&self.lost).as_ref() {
+            Some(m) => Err(GpuError::DeviceLost(m.clone())),
+            None => Ok(()),
+        }
+    }
+
+    /// The compiled pipeline of a kernel (compiled once, then cached).
+    pub(crate) fn pipeline(&self, kernel: &'static Kernel) -> Result<Arc<Pipeline>, GpuError> {
+        if let Some(p) = lock(&self.pipelines).get(kernel.name) {
+            return Ok(p.clone());
+        }
+        let source = kernel.source()?;
+        let module = self
+            .device
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(kernel.name),
+                source: wgpu::ShaderSource::Wgsl(source.into()),
+            });
+        let entries: Vec<wgpu::BindGroupLayoutEntry> = kernel
+            .bindings
+            .iter()
+            .enumerate()
+            .map(|(i, b)| wgpu::BindGroupLayoutEntry {
+                binding: i as u32,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: match b {
+                    crate::shader::Bind::Uniform => wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    crate::shader::Bind::Read => wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Storage { read_only: true },
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    crate::shader::Bind::ReadWrite => wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Storage { read_only: false },
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                },
+                count: None,
+            })
+            .collect();
+        let layout = self
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some(kernel.name),
+                entries: &entries,
+            });
+        let pl = self
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(kernel.name),
+                bind_group_layouts: &[Some(&layout)],
+                immediate_size: 0,
+            });
+        let pipeline = self
+            .device
+            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(kernel.name),
+                layout: Some(&pl),
+                module: &module,
+                entry_point: Some(kernel.entry),
+                compilation_options: wgpu::PipelineCompilationOptions::default(),
+                cache: None,
+            });
+        let p = Arc::new(Pipeline {
+            pipeline,
+            layout,
+            kernel,
+        });
+        lock(&self.pipelines).insert(kernel.name, p.clone());
+        Ok(p)
+    }
+
+    // ---- limits -------------------------------------------------------
+
+    /// Check that a storage buffer of `bytes` may be created and bound.
+    pub fn check_storage(&self, what: &'static str, bytes: u64) -> Result<(), GpuError> {
+        check_storage_limits(&self.limits, what, bytes)
+    }
+
+    /// The 2D grid for `groups` workgroups (x at most
+    /// `max_compute_workgroups_per_dimension`; kernels linearise
+    /// `id.x + id.y * num_workgroups.x` and skip ids past the end).
+    pub fn grid(&self, what: &'static str, groups: u64) -> Result<(u32, u32), GpuError> {
+        grid_for(
+            self.limits.max_compute_workgroups_per_dimension,
+            what,
+            groups,
+        )
+    }
+
+    // ---- buffers ------------------------------------------------------
+
+    /// A storage buffer holding `data` (at least 4 bytes: wgpu rejects
+    /// empty bindings).
+    pub(crate) fn upload<T: bytemuck::Pod>(
+        &self,
+        what: &'static str,
+        data: &[T],
+    ) -> Result<wgpu::Buffer, GpuError> {
+        let bytes: &[u8] = bytemuck::cast_slice(data);
+        self.check_storage(what, bytes.len() as u64)?;
+        let padded;
+        let contents = if bytes.len() < 4 || !bytes.len().is_multiple_of(4) {
+            let mut v = bytes.to_vec();
+            v.resize(bytes.len().next_multiple_of(4).max(4), 0);
+            padded = v;
+            &padded[..]
+        } else {
+            bytes
+        };
+        Ok(self
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(what),
+                contents,
+                usage: wgpu::BufferUsages::STORAGE
+                    | wgpu::BufferUsages::COPY_SRC
+                    | wgpu::BufferUsages::COPY_DST,
+            }))
+    }
+
+    /// An uninitialised (zeroed) storage buffer of `bytes` (at least 16).
+    pub(crate) fn storage(&self, what: &'static str, bytes: u64) -> Result<wgpu::Buffer, GpuError> {
+        self.check_storage(what, bytes)?;
+        Ok(self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(what),
+            size: bytes.max(16).next_multiple_of(4),
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_SRC
+                | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        }))
+    }
+
+    /// A uniform buffer with the parameters of one dispatch.
+    pub(crate) fn uniform<T: bytemuck::Pod>(&self, what: &'static str, value: &T) -> wgpu::Buffer {
+        self.device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(what),
+                contents: bytemuck::bytes_of(value),
+                usage: wgpu::BufferUsages::UNIFORM,
+            })
+    }
+
+    /// Record one dispatch of `groups` workgroups of `kernel` with `buffers`
+    /// bound in order (binding 0, 1, ...).
+    pub(crate) fn dispatch(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        kernel: &'static Kernel,
+        buffers: &[&wgpu::Buffer],
+        groups: u64,
+    ) -> Result<(), GpuError> {
+        if groups == 0 {
+            return Ok(());
+        }
+        if buffers.len() != kernel.bindings.len() {
+            return Err(GpuError::Device(format!(
+                "internal: kernel {} takes {} bindings, got {}",
+                kernel.name,
+                kernel.bindings.len(),
+                buffers.len()
+            )));
+        }
+        let (x, y) = self.grid(kernel.name, groups)?;
+        let p = self.pipeline(kernel)?;
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(i, b)| wgpu::BindGroupEntry {
+                binding: i as u32,
+                resource: b.as_entire_binding(),
+            })
+            .collect();
+        let bg = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(p.kernel.name),
+            layout: &p.layout,
+            entries: &entries,
+        });
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(p.kernel.name),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&p.pipeline);
+        pass.set_bind_group(0, &bg, &[]);
+        pass.dispatch_workgroups(x, y, 1);
+        Ok(())
+    }
+
+    pub(crate) fn encoder(&self) -> wgpu::CommandEncoder {
+        self.device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("grm-gpu"),
+            })
+    }
+
+    /// Submit `encoder` and wait for the GPU to finish.
+    pub(crate) fn submit_wait(&self, encoder: wgpu::CommandEncoder) -> Result<(), GpuError> {
+        let idx = self.queue.submit([encoder.finish()]);
+        self.device
+            .poll(wgpu::PollType::Wait {
+                submission_index: Some(idx),
+                timeout: None,
+            })
+            .map_err(|e| GpuError::Device(e.to_string()))?;
+        Ok(())
+    }
+
+    /// Submit `encoder`, then copy `ranges` (buffer, first element, count
+    /// of `T`) back to the host and return them.
+    pub(crate) fn read<T: bytemuck::Pod>(
+        &self,
+        mut encoder: wgpu::CommandEncoder,
+        ranges: &[(&wgpu::Buffer, u64, u64)],
+    ) -> Result<Vec<Vec<T>>, GpuError> {
+        let size = std::mem::size_of::<T>() as u64;
+        let mut stagings = Vec::new();
+        for &(buf, first, count) in ranges {
+            let bytes = (count * size).next_multiple_of(4).max(4);
+            let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("readback"),
+                size: bytes,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            if count > 0 {
+                encoder.copy_buffer_to_buffer(
+                    buf,
+                    first * size,
+                    &staging,
+                    0,
+                    Some((count * size).next_multiple_of(4)),
+                );
+            }
+            stagings.push((staging, count));
+        }
+        self.submit_wait(encoder)?;
+        let mut out = Vec::new();
+        for (staging, count) in stagings {
+            let slice = staging.slice(..);
+            let status = Arc::new(Mutex::new(None));
+            let s2 = status.clone();
+            slice.map_async(wgpu::MapMode::Read, move |r| *lock(&s2) = Some(r));
+            self.device
+                .poll(wgpu::PollType::Wait {
+                    submission_index: None,
+                    timeout: None,
+                })
+                .map_err(|e| GpuError::Readback(e.to_string()))?;
+            match lock(&status).take() {
+                Some(Ok(())) => {}
+                Some(Err(e)) => return Err(GpuError::Readback(e.to_string())),
+                None => return Err(GpuError::Readback("buffer was not mapped".into())),
+            }
+            let data = slice
+                .get_mapped_range()
+                .map_err(|e| GpuError::Readback(e.to_string()))?;
+            let n = (count * size) as usize;
+            out.push(bytemuck::pod_collect_to_vec::<u8, T>(&data[..n]));
+            drop(data);
+            staging.unmap();
+        }
+        Ok(out)
+    }
+}
+
+/// The storage-buffer checks, separate from a device so they can be tested
+/// with any limits.
+pub fn check_storage_limits(
+    limits: &wgpu::Limits,
+    what: &'static str,
+    bytes: u64,
+) -> Result<(), GpuError> {
+    if bytes > limits.max_storage_buffer_binding_size {
+        return Err(GpuError::BufferTooLarge {
+            what,
+            bytes,
+            limit: limits.max_storage_buffer_binding_size,
+            limit_name: "max_storage_buffer_binding_size",
+        });
+    }
+    if bytes > limits.max_buffer_size {
+        return Err(GpuError::BufferTooLarge {
+            what,
+            bytes,
+            limit: limits.max_buffer_size,
+            limit_name: "max_buffer_size",
+        });
+    }
+    Ok(())
+}
+
+/// The 2D grid for `groups` workgroups with at most `max` per dimension.
+pub fn grid_for(max: u32, what: &'static str, groups: u64) -> Result<(u32, u32), GpuError> {
+    let max64 = u64::from(max.max(1));
+    if groups <= max64 {
+        return Ok((groups as u32, 1));
+    }
+    let y = groups.div_ceil(max64);
+    if y > max64 {
+        return Err(GpuError::TooManyWorkgroups {
+            what,
+            workgroups: groups,
+            limit: max64 * max64,
+        });
+    }
+    Ok((max64 as u32, y as u32))
+}
+
+/// Workgroups of [`WORKGROUP`] threads for `n` items.
+pub fn groups_for(n: u64) -> u64 {
+    n.div_ceil(u64::from(WORKGROUP))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grid_splits_past_the_limit() {
+        assert_eq!(grid_for(65535, "t", 10).unwrap(), (10, 1));
+        assert_eq!(grid_for(65535, "t", 65535).unwrap(), (65535, 1));
+        assert_eq!(grid_for(65535, "t", 65536).unwrap(), (65535, 2));
+        let (x, y) = grid_for(100, "t", 1234).unwrap();
+        assert!(u64::from(x) * u64::from(y) >= 1234 && x == 100 && y == 13);
+        assert!(matches!(
+            grid_for(100, "t", 100 * 100 + 1),
+            Err(GpuError::TooManyWorkgroups { .. })
+        ));
+    }
+
+    #[test]
+    fn storage_limits_are_typed_errors() {
+        let limits = wgpu::Limits {
+            max_storage_buffer_binding_size: 1000,
+            max_buffer_size: 2000,
+            ..wgpu::Limits::default()
+        };
+        assert!(check_storage_limits(&limits, "x", 1000).is_ok());
+        assert!(matches!(
+            check_storage_limits(&limits, "x", 1001),
+            Err(GpuError::BufferTooLarge {
+                limit_name: "max_storage_buffer_binding_size",
+                ..
+            })
+        ));
+        let limits = wgpu::Limits {
+            max_storage_buffer_binding_size: 5000,
+            max_buffer_size: 2000,
+            ..wgpu::Limits::default()
+        };
+        assert!(matches!(
+            check_storage_limits(&limits, "x", 3000),
+            Err(GpuError::BufferTooLarge {
+                limit_name: "max_buffer_size",
+                ..
+            })
+        ));
+    }
+}

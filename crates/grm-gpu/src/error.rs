@@ -1,0 +1,108 @@
+//! Typed errors of the GPU engine.
+
+use std::fmt;
+
+/// Everything that can go wrong on the GPU path. Library calls return this;
+/// they never panic on user input and never let a derivation outgrow the
+/// device (sizes are checked before each dispatch).
+#[derive(Clone, Debug, PartialEq)]
+pub enum GpuError {
+    /// No GPU adapter could be found (no Vulkan driver, or no device). On a
+    /// machine without a GPU install Mesa's lavapipe
+    /// (`mesa-vulkan-drivers`, `libvulkan1`).
+    NoAdapter(String),
+    /// The adapter refused to create a device.
+    RequestDevice(String),
+    /// A buffer the next dispatch needs is larger than the device allows.
+    BufferTooLarge {
+        /// Which buffer (for example `"output symbols"`).
+        what: &'static str,
+        /// Bytes it would need.
+        bytes: u64,
+        /// The device's limit in bytes.
+        limit: u64,
+        /// Which limit (`max_storage_buffer_binding_size` or `max_buffer_size`).
+        limit_name: &'static str,
+    },
+    /// A count does not fit the 32-bit indices the kernels use.
+    CountOverflow {
+        what: &'static str,
+        /// The count (saturated at `u64::MAX`).
+        count: u64,
+    },
+    /// A dispatch needs more workgroups than even a 2D grid of
+    /// `max_compute_workgroups_per_dimension`² allows.
+    TooManyWorkgroups {
+        what: &'static str,
+        workgroups: u64,
+        limit: u64,
+    },
+    /// The brackets of a module string do not balance (a `]` without `[`,
+    /// or a `[` never closed), so bracket-aware work cannot run.
+    UnbalancedBrackets {
+        /// Position of the first unmatched `]`, or `None` when only `[`s are left open.
+        position: Option<usize>,
+    },
+    /// The program uses something the GPU engine does not implement.
+    Unsupported(String),
+    /// The input is malformed (a module string that breaks its invariant,
+    /// a symbol out of range, ...).
+    InvalidInput(String),
+    /// wgpu reported an error (validation, out of memory, internal).
+    Device(String),
+    /// The device was lost.
+    DeviceLost(String),
+    /// Reading results back from the GPU failed.
+    Readback(String),
+}
+
+impl fmt::Display for GpuError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            GpuError::NoAdapter(m) => write!(
+                f,
+                "no GPU adapter found ({m}); without a GPU install Mesa's software Vulkan driver: \
+                 apt-get install mesa-vulkan-drivers libvulkan1"
+            ),
+            GpuError::RequestDevice(m) => write!(f, "could not create the GPU device: {m}"),
+            GpuError::BufferTooLarge {
+                what,
+                bytes,
+                limit,
+                limit_name,
+            } => write!(
+                f,
+                "the {what} buffer would need {bytes} bytes, over the device's {limit_name} of \
+                 {limit} bytes; derive fewer iterations or use the CPU engine"
+            ),
+            GpuError::CountOverflow { what, count } => write!(
+                f,
+                "{what} ({count}) does not fit 32-bit GPU indices; derive fewer iterations or use the CPU engine"
+            ),
+            GpuError::TooManyWorkgroups {
+                what,
+                workgroups,
+                limit,
+            } => write!(
+                f,
+                "the {what} dispatch needs {workgroups} workgroups, over the device's limit of {limit}"
+            ),
+            GpuError::UnbalancedBrackets { position: Some(p) } => {
+                write!(
+                    f,
+                    "unbalanced brackets: the `]` at module {p} closes no `[`"
+                )
+            }
+            GpuError::UnbalancedBrackets { position: None } => {
+                write!(f, "unbalanced brackets: a `[` is never closed")
+            }
+            GpuError::Unsupported(m) => write!(f, "not supported on the GPU engine: {m}"),
+            GpuError::InvalidInput(m) => write!(f, "invalid input: {m}"),
+            GpuError::Device(m) => write!(f, "GPU error: {m}"),
+            GpuError::DeviceLost(m) => write!(f, "GPU device lost: {m}"),
+            GpuError::Readback(m) => write!(f, "reading GPU results back failed: {m}"),
+        }
+    }
+}
+
+impl std::error::Error for GpuError {}

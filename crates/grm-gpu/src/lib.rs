@@ -1,0 +1,34 @@
+//! `grm-gpu`: the GPU L-system engine (Lipp, chapter 5) on wgpu.
+//!
+//! Role: derive module strings and interpret them with compute kernels
+//! written in WGSL (`shaders/` at the repository root).
+//!
+//! Inputs: a compiled program (packed production tables, expression
+//! bytecode and constant pool from `grm-compile`) and an axiom; or a
+//! [`grm_derive::ModuleString`]-shaped string to interpret.
+//!
+//! Outputs: the derived module string (the same flat arrays as the CPU
+//! engine: symbols, parameter starts, parameters) and bones.
+//!
+//! Invariants:
+//! - One device per process ([`device::shared`]); engine calls are
+//!   serialised on it.
+//! - Every buffer size is computed and checked against the device limits
+//!   before a dispatch; a derivation that outgrows them returns
+//!   [`GpuError::BufferTooLarge`] (or another typed error), never a device
+//!   loss. Dispatches of more than `max_compute_workgroups_per_dimension`
+//!   workgroups are split over a 2D grid.
+//! - No atomics on the hot path: every pass is count / scan / write.
+//! - Constants and struct layouts shared with WGSL are defined in Rust and
+//!   emitted as a generated header ([`layout::wgsl_header`]); tests check
+//!   both sides with naga.
+
+pub mod device;
+pub mod error;
+pub mod kernels;
+pub mod layout;
+pub mod scan;
+pub mod shader;
+
+pub use device::{Gpu, shared};
+pub use error::GpuError;
