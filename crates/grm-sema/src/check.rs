@@ -1,0 +1,880 @@
+//! The driver: loading the import closure, the global items (constants,
+//! meta-parameters, meshes, materials) and the per-system checks.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use grm_diag::{Code, Diagnostic, FileId, SourceMap, Span};
+use grm_syntax::ast::{self, Expr, ExprKind, Item};
+
+use crate::builtins::MaterialProp;
+use crate::expr::Scope;
+use crate::index::{Def, RefIndex};
+use crate::loader::{FileLoader, LoadError, normalize};
+use crate::program::*;
+use crate::suggest;
+
+/// One parsed file of the import closure.
+pub(crate) struct LoadedFile {
+    pub id: FileId,
+    /// The path used to read files relative to this one.
+    pub real: PathBuf,
+    pub ast: ast::File,
+    /// Files this one imports directly (indices into the loaded files).
+    pub imports: Vec<usize>,
+    /// Whether the parser reported errors in it.
+    pub broken: bool,
+}
+
+/// Load the root and everything it imports, parsing each file once.
+pub(crate) fn load_all(
+    sources: &mut SourceMap,
+    root: FileId,
+    loader: &dyn FileLoader,
+    diags: &mut Vec<Diagnostic>,
+) -> Vec<LoadedFile> {
+    let root_file = sources.get(root);
+    let root_display = root_file.path.clone();
+    let root_text = root_file.text.clone();
+    let real = loader.resolve(Path::new(""), &root_display);
+    let mut l = Loader {
+        sources,
+        loader,
+        diags,
+        files: Vec::new(),
+        by_path: HashMap::new(),
+        state: Vec::new(),
+        stack: Vec::new(),
+    };
+    l.load(root, real, &root_text);
+    l.files
+}
+
+struct Loader<'a> {
+    sources: &'a mut SourceMap,
+    loader: &'a dyn FileLoader,
+    diags: &'a mut Vec<Diagnostic>,
+    files: Vec<LoadedFile>,
+    by_path: HashMap<PathBuf, usize>,
+    /// Per file: still loading its imports (on the stack).
+    state: Vec<bool>,
+    stack: Vec<usize>,
+}
+
+impl Loader<'_> {
+    fn load(&mut self, id: FileId, real: PathBuf, text: &str) -> usize {
+        let parsed = grm_syntax::parse(id, text);
+        let broken = parsed.has_errors();
+        self.diags.extend(parsed.diagnostics);
+        let idx = self.files.len();
+        self.files.push(LoadedFile {
+            id,
+            real: real.clone(),
+            ast: parsed.file,
+            imports: Vec::new(),
+            broken,
+        });
+        self.by_path.insert(real.clone(), idx);
+        self.state.push(true);
+        self.stack.push(idx);
+
+        let imports: Vec<ast::Import> = self.files[idx]
+            .ast
+            .items
+            .iter()
+            .filter_map(|it| match it {
+                Item::Import(i) => Some(i.clone()),
+                _ => None,
+            })
+            .collect();
+        let display = self.sources.get(id).path.clone();
+        for imp in imports {
+            let written = &imp.path.value;
+            let target_real = self.loader.resolve(&real, written);
+            if let Some(&t) = self.by_path.get(&target_real) {
+                if self.state[t] {
+                    // On the stack: a cycle.
+                    let start = self.stack.iter().position(|&s| s == t).unwrap_or(0);
+                    let chain: Vec<String> = self.stack[start..]
+                        .iter()
+                        .chain(std::iter::once(&t))
+                        .map(|&f| format!("`{}`", self.sources.get(self.files[f].id).path))
+                        .collect();
+                    self.diags.push(
+                        Diagnostic::new(
+                            Code::ImportCycle,
+                            format!("`{written}` imports this file back"),
+                            id,
+                            imp.path.span,
+                            "this import closes a cycle",
+                        )
+                        .with_note(format!("import chain: {}", chain.join(" -> ")))
+                        .with_help(
+                            "move the shared definitions into a third file that both import",
+                        ),
+                    );
+                } else if !self.files[idx].imports.contains(&t) {
+                    self.files[idx].imports.push(t);
+                }
+                continue;
+            }
+            let target_display = normalize(
+                &Path::new(&display)
+                    .parent()
+                    .unwrap_or(Path::new(""))
+                    .join(written),
+            )
+            .to_string_lossy()
+            .replace('\\', "/");
+            let text = match self.sources.find(&target_display) {
+                Some(existing) => Ok(self.sources.get(existing).text.clone()),
+                None => self.loader.read(&target_real),
+            };
+            match text {
+                Ok(text) => {
+                    let fid = match self.sources.find(&target_display) {
+                        Some(f) => f,
+                        None => self.sources.add(target_display, text.clone()),
+                    };
+                    let t = self.load(fid, target_real, &text);
+                    self.files[idx].imports.push(t);
+                }
+                Err(e) => {
+                    let (code, msg, label) = match e {
+                        LoadError::NotFound => (
+                            Code::ImportNotFound,
+                            format!("cannot find the imported file `{written}`"),
+                            "no such file".to_string(),
+                        ),
+                        LoadError::NotUtf8 => (
+                            Code::InvalidEncoding,
+                            format!("the imported file `{written}` is not valid UTF-8 text"),
+                            "not UTF-8".to_string(),
+                        ),
+                        LoadError::Other(m) => (
+                            Code::ImportNotFound,
+                            format!("cannot read the imported file `{written}`"),
+                            m,
+                        ),
+                    };
+                    self.diags.push(
+                        Diagnostic::new(code, msg, id, imp.path.span, label).with_help(
+                            "import paths are relative to the directory of the importing file",
+                        ),
+                    );
+                }
+            }
+        }
+        self.stack.pop();
+        self.state[idx] = false;
+        idx
+    }
+}
+
+/// What a global name denotes.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum GlobalKind {
+    /// A constant or meta-parameter: index into `Checker::values`.
+    Value(usize),
+    Mesh(MeshId),
+    Material(MaterialId),
+}
+
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct GlobalName {
+    pub kind: GlobalKind,
+    pub file_idx: usize,
+    pub loc: Loc,
+}
+
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum ValueAst<'a> {
+    Const(&'a ast::ConstDecl),
+    Param(&'a ast::ParamDecl),
+}
+
+/// The checked form of a constant or meta-parameter.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum ValueInfo {
+    /// Not checked yet (or part of a cycle being checked).
+    Pending,
+    Const {
+        id: ConstId,
+        ty: Ty,
+        folded: Option<Value>,
+        broken: bool,
+    },
+    Param {
+        id: ParamId,
+        ty: Ty,
+    },
+}
+
+pub(crate) struct ValueDecl<'a> {
+    pub file_idx: usize,
+    pub name: &'a str,
+    pub loc: Loc,
+    pub ast: ValueAst<'a>,
+    pub info: ValueInfo,
+    pub uses: u32,
+}
+
+/// All checking state.
+pub(crate) struct Checker<'a> {
+    pub files: &'a [LoadedFile],
+    pub loader: &'a dyn FileLoader,
+    pub diags: Vec<Diagnostic>,
+    pub names: HashMap<&'a str, GlobalName>,
+    /// `visible[f][g]`: file f sees the definitions of file g.
+    pub visible: Vec<Vec<bool>>,
+    pub values: Vec<ValueDecl<'a>>,
+    pub program: Program,
+    /// Global values evaluated with the parameters' defaults (by ConstId).
+    pub default_globals: Vec<Value>,
+}
+
+impl<'a> Checker<'a> {
+    pub(crate) fn new(
+        files: &'a [LoadedFile],
+        loader: &'a dyn FileLoader,
+        diags: Vec<Diagnostic>,
+    ) -> Self {
+        let n = files.len();
+        let mut visible = vec![vec![false; n]; n];
+        for (f, row) in visible.iter_mut().enumerate() {
+            let mut stack = vec![f];
+            while let Some(g) = stack.pop() {
+                if !row[g] {
+                    row[g] = true;
+                    stack.extend(files[g].imports.iter().copied());
+                }
+            }
+        }
+        Checker {
+            files,
+            loader,
+            diags,
+            names: HashMap::new(),
+            visible,
+            values: Vec::new(),
+            program: Program {
+                root: files.first().map(|f| f.id).unwrap_or_default(),
+                consts: Vec::new(),
+                params: Vec::new(),
+                meshes: Vec::new(),
+                materials: Vec::new(),
+                systems: Vec::new(),
+                index: RefIndex::default(),
+            },
+            default_globals: Vec::new(),
+        }
+    }
+
+    pub(crate) fn file_id(&self, file_idx: usize) -> FileId {
+        self.files[file_idx].id
+    }
+
+    pub(crate) fn error(&mut self, d: Diagnostic) {
+        self.diags.push(d);
+    }
+
+    /// Collect and check the global items of every file.
+    pub(crate) fn globals(&mut self) {
+        let files = self.files;
+        // 1. Names.
+        let mut material_asts: Vec<(usize, &'a ast::MaterialDecl)> = Vec::new();
+        for (fi, f) in files.iter().enumerate() {
+            for item in &f.ast.items {
+                match item {
+                    Item::Const(c) => {
+                        let loc = Loc::new(f.id, c.name.span);
+                        if self.define(&c.name, fi, GlobalKind::Value(self.values.len())) {
+                            self.values.push(ValueDecl {
+                                file_idx: fi,
+                                name: &c.name.name,
+                                loc,
+                                ast: ValueAst::Const(c),
+                                info: ValueInfo::Pending,
+                                uses: 0,
+                            });
+                        }
+                    }
+                    Item::Param(p) => {
+                        let loc = Loc::new(f.id, p.name.span);
+                        if self.define(&p.name, fi, GlobalKind::Value(self.values.len())) {
+                            let id = ParamId(self.program.params.len() as u32);
+                            self.program.params.push(MetaParam {
+                                name: p.name.name.clone(),
+                                loc,
+                                ty: Ty::Float,
+                                default: Value::Float(0.0),
+                                range: None,
+                            });
+                            self.program
+                                .index
+                                .push(f.id, p.name.span, Def::Param(id), true);
+                            self.values.push(ValueDecl {
+                                file_idx: fi,
+                                name: &p.name.name,
+                                loc,
+                                ast: ValueAst::Param(p),
+                                info: ValueInfo::Param { id, ty: Ty::Float },
+                                uses: 0,
+                            });
+                        }
+                    }
+                    Item::Mesh(m) => {
+                        let id = MeshId(self.program.meshes.len() as u32);
+                        if self.define(&m.name, fi, GlobalKind::Mesh(id)) {
+                            let path = self.loader.resolve(&f.real, &m.path.value);
+                            if !self.loader.exists(&path) {
+                                self.error(
+                                    Diagnostic::new(
+                                        Code::MeshNotFound,
+                                        format!("cannot find the mesh file `{}`", m.path.value),
+                                        f.id,
+                                        m.path.span,
+                                        "no such file",
+                                    )
+                                    .with_help("mesh paths are relative to the directory of the file that declares them"),
+                                );
+                            }
+                            self.program
+                                .index
+                                .push(f.id, m.name.span, Def::Mesh(id), true);
+                            self.program.meshes.push(Mesh {
+                                name: m.name.name.clone(),
+                                loc: Loc::new(f.id, m.name.span),
+                                written: m.path.value.clone(),
+                                path,
+                            });
+                        }
+                    }
+                    Item::Material(m) => {
+                        let id = MaterialId(self.program.materials.len() as u32);
+                        if self.define(&m.name, fi, GlobalKind::Material(id)) {
+                            self.program
+                                .index
+                                .push(f.id, m.name.span, Def::Material(id), true);
+                            self.program.materials.push(Material {
+                                name: m.name.name.clone(),
+                                loc: Loc::new(f.id, m.name.span),
+                                fields: Vec::new(),
+                            });
+                            material_asts.push((fi, m));
+                        }
+                    }
+                    Item::Import(_) | Item::System(_) | Item::Error(_) => {}
+                }
+            }
+        }
+
+        // 2. Constants and parameters in dependency order.
+        self.check_values();
+
+        // 3. Materials.
+        for (i, (fi, m)) in material_asts.into_iter().enumerate() {
+            let fields = self.check_material(fi, m);
+            self.program.materials[i].fields = fields;
+        }
+    }
+
+    /// Register a global name; reports a duplicate and returns false.
+    fn define(&mut self, name: &'a ast::Ident, file_idx: usize, kind: GlobalKind) -> bool {
+        let file = self.file_id(file_idx);
+        if let Some(prev) = self.names.get(name.name.as_str()) {
+            let prev = *prev;
+            self.error(
+                Diagnostic::new(
+                    Code::DuplicateDefinition,
+                    format!("`{}` is defined more than once", name.name),
+                    file,
+                    name.span,
+                    "defined again here",
+                )
+                .with_label(prev.loc.file, prev.loc.span, "first defined here")
+                .with_help("constants, parameters, meshes and materials share one namespace; rename one of them"),
+            );
+            return false;
+        }
+        self.names.insert(
+            &name.name,
+            GlobalName {
+                kind,
+                file_idx,
+                loc: Loc::new(file, name.span),
+            },
+        );
+        true
+    }
+
+    /// Look a global name up as seen from a file.
+    pub(crate) fn lookup(&self, file_idx: usize, name: &str) -> Option<GlobalName> {
+        let g = self.names.get(name)?;
+        self.visible[file_idx][g.file_idx].then_some(*g)
+    }
+
+    /// Names visible from a file (for suggestions).
+    pub(crate) fn visible_names(&self, file_idx: usize) -> Vec<&'a str> {
+        let mut v: Vec<&'a str> = self
+            .names
+            .iter()
+            .filter(|(_, g)| self.visible[file_idx][g.file_idx])
+            .map(|(n, _)| *n)
+            .collect();
+        v.sort_unstable();
+        v
+    }
+
+    fn check_values(&mut self) {
+        let n = self.values.len();
+        // Dependency edges with the span of the reference.
+        let mut edges: Vec<Vec<(usize, Span)>> = vec![Vec::new(); n];
+        for (i, edge_list) in edges.iter_mut().enumerate() {
+            let v = &self.values[i];
+            let fi = v.file_idx;
+            let mut names = Vec::new();
+            match v.ast {
+                ValueAst::Const(c) => collect_names(&c.value, &mut names),
+                ValueAst::Param(p) => {
+                    collect_names(&p.default, &mut names);
+                    if let Some((lo, hi)) = &p.range {
+                        collect_names(lo, &mut names);
+                        collect_names(hi, &mut names);
+                    }
+                }
+            }
+            for id in names {
+                if let Some(GlobalName {
+                    kind: GlobalKind::Value(j),
+                    ..
+                }) = self.lookup(fi, &id.name)
+                {
+                    edge_list.push((j, id.span));
+                }
+            }
+        }
+        // Iterative DFS: post-order is dependency order; a back edge is a cycle.
+        #[derive(Clone, Copy, PartialEq)]
+        enum Mark {
+            White,
+            Gray,
+            Black,
+        }
+        let mut mark = vec![Mark::White; n];
+        let mut order = Vec::with_capacity(n);
+        let mut cyclic = vec![false; n];
+        for start in 0..n {
+            if mark[start] != Mark::White {
+                continue;
+            }
+            let mut stack: Vec<(usize, usize)> = vec![(start, 0)];
+            mark[start] = Mark::Gray;
+            while let Some(&mut (v, ref mut next)) = stack.last_mut() {
+                if let Some(&(w, span)) = edges[v].get(*next) {
+                    *next += 1;
+                    match mark[w] {
+                        Mark::White => {
+                            mark[w] = Mark::Gray;
+                            stack.push((w, 0));
+                        }
+                        Mark::Gray => {
+                            let from = stack.iter().position(|&(s, _)| s == w).unwrap_or(0);
+                            let members: Vec<usize> =
+                                stack[from..].iter().map(|&(s, _)| s).collect();
+                            for &m in &members {
+                                cyclic[m] = true;
+                            }
+                            let chain: Vec<String> = members
+                                .iter()
+                                .chain(std::iter::once(&w))
+                                .map(|&m| format!("`{}`", self.values[m].name))
+                                .collect();
+                            let file = self.file_id(self.values[v].file_idx);
+                            let wl = self.values[w].loc;
+                            let d = Diagnostic::new(
+                                Code::CyclicConstant,
+                                format!("`{}` is defined in terms of itself", self.values[w].name),
+                                file,
+                                span,
+                                "this reference closes the cycle",
+                            )
+                            .with_label(wl.file, wl.span, "defined here")
+                            .with_note(format!("cycle: {}", chain.join(" -> ")))
+                            .with_help(
+                                "give one of these a value that does not depend on the others",
+                            );
+                            self.error(d);
+                        }
+                        Mark::Black => {}
+                    }
+                } else {
+                    mark[v] = Mark::Black;
+                    order.push(v);
+                    stack.pop();
+                }
+            }
+        }
+        for v in order {
+            self.check_value(v, cyclic[v]);
+        }
+        // Values with the parameters' defaults, for settings.
+        let params = self.program.default_params();
+        let mut globals = Vec::with_capacity(self.program.consts.len());
+        for c in &self.program.consts {
+            let env = crate::eval::Env {
+                params: &params,
+                globals: &globals,
+                bindings: &[],
+            };
+            globals.push(crate::eval::eval(&c.value, &env).unwrap_or(Value::zero(c.ty)));
+        }
+        self.default_globals = globals;
+    }
+
+    pub(crate) fn resolve_type(&mut self, file_idx: usize, ann: &ast::TypeAnn) -> Ty {
+        match ann.name.name.as_str() {
+            "float" => Ty::Float,
+            "vec3" => Ty::Vec3,
+            "bool" => Ty::Bool,
+            other => {
+                let mut d = Diagnostic::new(
+                    Code::UnknownType,
+                    format!("unknown type `{other}`"),
+                    self.file_id(file_idx),
+                    ann.name.span,
+                    "not a type",
+                );
+                d = match suggest::did_you_mean(other, ["float", "vec3", "bool"]) {
+                    Some(h) => d.with_help(h),
+                    None if matches!(
+                        other,
+                        "int" | "integer" | "number" | "double" | "f32" | "f64"
+                    ) =>
+                    {
+                        d.with_help(
+                            "numbers are `float` (whole-number settings are checked as floats)",
+                        )
+                    }
+                    None => d.with_help("the types are `float`, `vec3` and `bool`"),
+                };
+                self.error(d);
+                Ty::Error
+            }
+        }
+    }
+
+    fn check_value(&mut self, v: usize, cyclic: bool) {
+        let fi = self.values[v].file_idx;
+        let file = self.file_id(fi);
+        match self.values[v].ast {
+            ValueAst::Const(c) => {
+                let ann = c.ty.as_ref().map(|t| self.resolve_type(fi, t));
+                let mut sc = Scope::global(fi, true, "a constant");
+                let mut value = if cyclic {
+                    TExpr::error(c.value.span)
+                } else {
+                    self.expr(&c.value, &mut sc)
+                };
+                if let Some(t) = ann {
+                    value = self.expect(file, value, t, "the declared type");
+                }
+                let ty = match ann {
+                    Some(t) => t,
+                    None => value.ty,
+                };
+                let broken = cyclic || ty == Ty::Error || value.ty == Ty::Error;
+                let id = ConstId(self.program.consts.len() as u32);
+                self.program
+                    .index
+                    .push(file, c.name.span, Def::Const(id), true);
+                self.values[v].info = ValueInfo::Const {
+                    id,
+                    ty,
+                    folded: value.constant(),
+                    broken,
+                };
+                self.program.consts.push(Const {
+                    name: c.name.name.clone(),
+                    loc: Loc::new(file, c.name.span),
+                    ty,
+                    value,
+                });
+            }
+            ValueAst::Param(p) => {
+                let ValueInfo::Param { id, .. } = self.values[v].info else {
+                    return;
+                };
+                let ann = p.ty.as_ref().map(|t| self.resolve_type(fi, t));
+                let mut sc = Scope::global(fi, false, "a meta-parameter's default");
+                let mut default = if cyclic {
+                    TExpr::error(p.default.span)
+                } else {
+                    self.expr(&p.default, &mut sc)
+                };
+                if let Some(t) = ann {
+                    default = self.expect(file, default, t, "the declared type");
+                }
+                let ty = ann.unwrap_or(default.ty);
+                let dv = default.constant();
+                let mut range = None;
+                if let Some((lo, hi)) = &p.range {
+                    let mut sc = Scope::global(fi, false, "a meta-parameter's range");
+                    let tlo = self.expr(lo, &mut sc);
+                    let thi = self.expr(hi, &mut sc);
+                    if ty == Ty::Error || tlo.ty == Ty::Error || thi.ty == Ty::Error {
+                        // already reported
+                    } else if ty != Ty::Float {
+                        self.error(
+                            Diagnostic::new(
+                                Code::InvalidParamRange,
+                                format!(
+                                    "a range needs a `float` parameter, but `{}` is `{ty}`",
+                                    p.name.name
+                                ),
+                                file,
+                                lo.span.to(hi.span),
+                                "range on a non-float parameter",
+                            )
+                            .with_help("remove the `in lo .. hi` part"),
+                        );
+                    } else {
+                        let tlo = self.expect(file, tlo, Ty::Float, "a range bound");
+                        let thi = self.expect(file, thi, Ty::Float, "a range bound");
+                        if let (Some(Value::Float(a)), Some(Value::Float(b))) =
+                            (tlo.constant(), thi.constant())
+                        {
+                            if a.partial_cmp(&b) != Some(std::cmp::Ordering::Less) {
+                                self.error(
+                                    Diagnostic::new(
+                                        Code::InvalidParamRange,
+                                        format!("the range of `{}` is empty", p.name.name),
+                                        file,
+                                        lo.span.to(hi.span),
+                                        format!("{a} .. {b} has no room"),
+                                    )
+                                    .with_help(
+                                        "write the smaller bound first: `in lo .. hi` with lo < hi",
+                                    ),
+                                );
+                            } else if let Some(Value::Float(d)) = dv {
+                                if !(a <= d && d <= b) {
+                                    self.error(
+                                        Diagnostic::new(
+                                            Code::InvalidParamRange,
+                                            format!(
+                                                "the default of `{}` is outside its range",
+                                                p.name.name
+                                            ),
+                                            file,
+                                            p.default.span,
+                                            format!("{d} is not in {a} .. {b}"),
+                                        )
+                                        .with_label(file, lo.span.to(hi.span), "the range")
+                                        .with_help(
+                                            "move the default into the range or widen the range",
+                                        ),
+                                    );
+                                } else {
+                                    range = Some((a, b));
+                                }
+                            } else {
+                                range = Some((a, b));
+                            }
+                        }
+                    }
+                }
+                let pm = &mut self.program.params[id.index()];
+                pm.ty = ty;
+                pm.default = dv.unwrap_or(Value::zero(ty));
+                pm.range = range;
+                self.values[v].info = ValueInfo::Param { id, ty };
+            }
+        }
+    }
+
+    fn check_material(&mut self, fi: usize, m: &'a ast::MaterialDecl) -> Vec<MaterialField> {
+        let file = self.file_id(fi);
+        let mut out: Vec<MaterialField> = Vec::new();
+        let mut seen: HashMap<MaterialProp, Span> = HashMap::new();
+        for f in &m.fields {
+            let mut sc = Scope::global(fi, true, "a material property");
+            let value = self.expr(&f.value, &mut sc);
+            let Some(prop) = MaterialProp::from_name(&f.name.name) else {
+                let mut d = Diagnostic::new(
+                    Code::UnknownMaterialProperty,
+                    format!("materials have no property `{}`", f.name.name),
+                    file,
+                    f.name.span,
+                    "unknown property",
+                );
+                let names = MaterialProp::ALL.iter().map(|p| p.name());
+                d = match suggest::did_you_mean(&f.name.name, names) {
+                    Some(h) => d.with_help(h),
+                    None => d.with_help(format!(
+                        "the properties are {}",
+                        MaterialProp::ALL
+                            .iter()
+                            .map(|p| format!("`{}`", p.name()))
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    )),
+                };
+                self.error(d);
+                continue;
+            };
+            if let Some(prev) = seen.get(&prop) {
+                let prev = *prev;
+                self.error(
+                    Diagnostic::new(
+                        Code::DuplicateSetting,
+                        format!(
+                            "`{}` is set twice in material `{}`",
+                            prop.name(),
+                            m.name.name
+                        ),
+                        file,
+                        f.name.span,
+                        "set again here",
+                    )
+                    .with_label(file, prev, "first set here")
+                    .with_help("remove one of them"),
+                );
+                continue;
+            }
+            seen.insert(prop, f.name.span);
+            let value = self.expect(
+                file,
+                value,
+                prop.ty(),
+                &format!("material property `{}`", prop.name()),
+            );
+            out.push(MaterialField {
+                prop,
+                value,
+                span: f.span,
+            });
+        }
+        out
+    }
+
+    /// Check every system of every file.
+    pub(crate) fn systems(&mut self) {
+        let files = self.files;
+        for (fi, f) in files.iter().enumerate() {
+            for item in &f.ast.items {
+                if let Item::System(s) = item {
+                    if let Some(prev) = self.program.systems.iter().find(|p| p.name == s.name.name)
+                    {
+                        let pl = prev.loc;
+                        self.error(
+                            Diagnostic::new(
+                                Code::DuplicateDefinition,
+                                format!("system `{}` is defined more than once", s.name.name),
+                                f.id,
+                                s.name.span,
+                                "defined again here",
+                            )
+                            .with_label(pl.file, pl.span, "first defined here")
+                            .with_help("rename one of the systems"),
+                        );
+                    }
+                    let id = SystemId(self.program.systems.len() as u32);
+                    self.program
+                        .index
+                        .push(f.id, s.name.span, Def::System(id), true);
+                    let sys = crate::system::check_system(self, fi, s, id);
+                    self.program.systems.push(sys);
+                }
+            }
+        }
+    }
+
+    /// File-level warnings: unused definitions and a root without systems.
+    pub(crate) fn file_warnings(&mut self) {
+        let Some(root) = self.files.first() else {
+            return;
+        };
+        let root_has_system = root.ast.items.iter().any(|i| matches!(i, Item::System(_)));
+        let root_has_holes =
+            root.broken || root.ast.items.iter().any(|i| matches!(i, Item::Error(_)));
+        if !root_has_system && !root_has_holes {
+            self.diags.push(
+                Diagnostic::new(
+                    Code::NoSystem,
+                    "this file defines no system",
+                    root.id,
+                    Span::new(0, 0),
+                    "no `system NAME { ... }` in this file",
+                )
+                .with_help("add a system, or import this file from one that has a system"),
+            );
+        }
+        if root_has_system && !root_has_holes {
+            let mut unused = Vec::new();
+            for v in &self.values {
+                if v.file_idx == 0 && v.uses == 0 && !v.name.starts_with('_') {
+                    unused.push((v.loc, v.name, matches!(v.ast, ValueAst::Param(_))));
+                }
+            }
+            for (loc, name, is_param) in unused {
+                let what = if is_param {
+                    "meta-parameter"
+                } else {
+                    "constant"
+                };
+                self.diags.push(
+                    Diagnostic::new(
+                        Code::UnusedDefinition,
+                        format!("{what} `{name}` is never used"),
+                        loc.file,
+                        loc.span,
+                        "defined here, used nowhere",
+                    )
+                    .with_help(format!(
+                        "remove it, or prefix the name with `_` (`_{name}`) to keep it"
+                    )),
+                );
+            }
+        }
+    }
+}
+
+/// Every name referenced by an expression (not function names).
+pub(crate) fn collect_names<'e>(e: &'e Expr, out: &mut Vec<&'e ast::Ident>) {
+    match &e.kind {
+        ExprKind::Name(id) => out.push(id),
+        ExprKind::Call { args, .. } => {
+            for a in args {
+                collect_names(a, out);
+            }
+        }
+        ExprKind::Unary { operand, .. } => collect_names(operand, out),
+        ExprKind::Binary { lhs, rhs, .. } => {
+            collect_names(lhs, out);
+            collect_names(rhs, out);
+        }
+        ExprKind::Field { base, .. } => collect_names(base, out),
+        ExprKind::If { cond, then, els } => {
+            collect_names(cond, out);
+            collect_names(then, out);
+            collect_names(els, out);
+        }
+        ExprKind::Paren(inner) => collect_names(inner, out),
+        ExprKind::Number { .. } | ExprKind::Bool(_) | ExprKind::Error => {}
+    }
+}
+
+/// Whether an expression contains a parse error hole.
+pub(crate) fn has_error(e: &Expr) -> bool {
+    match &e.kind {
+        ExprKind::Error => true,
+        ExprKind::Call { args, .. } => args.iter().any(has_error),
+        ExprKind::Unary { operand, .. } => has_error(operand),
+        ExprKind::Binary { lhs, rhs, .. } => has_error(lhs) || has_error(rhs),
+        ExprKind::Field { base, .. } => has_error(base),
+        ExprKind::If { cond, then, els } => has_error(cond) || has_error(then) || has_error(els),
+        ExprKind::Paren(inner) => has_error(inner),
+        ExprKind::Number { .. } | ExprKind::Bool(_) | ExprKind::Name(_) => false,
+    }
+}

@@ -1,0 +1,691 @@
+//! Typing expressions (with concrete types) into [`TExpr`], resolving names
+//! and folding constants. Module parameter types are already known here:
+//! inference ([`crate::infer`]) runs first.
+
+use grm_diag::{Code, Diagnostic, FileId, Span};
+use grm_syntax::ast::{BinaryOp, Expr, ExprKind, UnaryOp};
+
+use crate::builtins::{Builtin, PTy, RandomFn, SettingKey, function_names, terminal_forms};
+use crate::check::{Checker, GlobalKind, GlobalName, ValueInfo};
+use crate::eval;
+use crate::index::Def;
+use crate::program::{Loc, TExpr, TExprKind, Ty, Value};
+use crate::suggest;
+
+/// A name bound by a pattern, as seen by the expressions of its production.
+#[derive(Clone, Debug)]
+pub(crate) struct ScopeBinding {
+    pub name: String,
+    pub span: Span,
+    pub slot: u32,
+    pub ty: Ty,
+    pub used: bool,
+}
+
+/// What an expression may refer to.
+#[derive(Debug)]
+pub(crate) struct Scope {
+    pub file_idx: usize,
+    pub bindings: Vec<ScopeBinding>,
+    pub allow_random: bool,
+    pub allow_params: bool,
+    /// For messages: "a constant", "a setting", ...
+    pub what: &'static str,
+}
+
+impl Scope {
+    /// Outside productions: no bindings and no random draws.
+    pub(crate) fn global(file_idx: usize, allow_params: bool, what: &'static str) -> Scope {
+        Scope {
+            file_idx,
+            bindings: Vec::new(),
+            allow_random: false,
+            allow_params,
+            what,
+        }
+    }
+}
+
+pub(crate) fn node(kind: TExprKind, ty: Ty, span: Span) -> TExpr {
+    let e = TExpr { kind, ty, span };
+    let foldable = match &e.kind {
+        TExprKind::Unary(_, a) | TExprKind::Field(a, _) => a.constant().is_some(),
+        TExprKind::Binary(_, a, b) => a.constant().is_some() && b.constant().is_some(),
+        TExprKind::Call(_, args) => args.iter().all(|a| a.constant().is_some()),
+        _ => false,
+    };
+    if foldable {
+        let env = eval::Env {
+            params: &[],
+            globals: &[],
+            bindings: &[],
+        };
+        if let Ok(v) = eval::eval(&e, &env) {
+            return TExpr::lit(v, span);
+        }
+    }
+    e
+}
+
+fn is_zero(v: Value) -> bool {
+    match v {
+        Value::Float(x) => x == 0.0,
+        Value::Vec3(u) => u.contains(&0.0),
+        _ => false,
+    }
+}
+
+impl Checker<'_> {
+    /// Require a type; reports E0201 and returns an error expression on mismatch.
+    pub(crate) fn expect(&mut self, file: FileId, e: TExpr, ty: Ty, what: &str) -> TExpr {
+        if e.ty == ty || e.ty == Ty::Error || ty == Ty::Error {
+            return e;
+        }
+        let mut d = Diagnostic::new(
+            Code::TypeMismatch,
+            format!("expected `{ty}`, found `{}`", e.ty),
+            file,
+            e.span,
+            format!("this is `{}`", e.ty),
+        )
+        .with_note(format!("{what} must be `{ty}`"));
+        d = match (ty, e.ty) {
+            (Ty::Float, Ty::Vec3) => {
+                d.with_help("take a component with `.x`, `.y` or `.z`, or `length(...)`")
+            }
+            (Ty::Vec3, Ty::Float) => d.with_help("build a vector with `vec3(x, y, z)`"),
+            (Ty::Bool, Ty::Float) => d.with_help("compare it, e.g. `... > 0`"),
+            (Ty::Mesh, _) => {
+                d.with_help("write the name of a declared mesh: `mesh name = \"file.obj\";`")
+            }
+            (Ty::Material, _) => {
+                d.with_help("write the name of a declared material: `material name { ... }`")
+            }
+            (_, Ty::Mesh | Ty::Material) => d.with_help(
+                "mesh and material names can only be used as `mesh(name)` and `material(name)`",
+            ),
+            _ => d,
+        };
+        self.error(d);
+        TExpr::error(e.span)
+    }
+
+    /// Type an expression.
+    pub(crate) fn expr(&mut self, e: &Expr, sc: &mut Scope) -> TExpr {
+        let file = self.file_id(sc.file_idx);
+        let span = e.span;
+        match &e.kind {
+            ExprKind::Number { value, .. } => TExpr::lit(Value::Float(*value), span),
+            ExprKind::Bool(b) => TExpr::lit(Value::Bool(*b), span),
+            ExprKind::Paren(inner) => self.expr(inner, sc),
+            ExprKind::Error => TExpr::error(span),
+            ExprKind::Name(id) => self.name(file, id, sc),
+            ExprKind::Unary { op, operand } => {
+                let a = self.expr(operand, sc);
+                if a.ty == Ty::Error {
+                    return TExpr::error(span);
+                }
+                let ok = match op {
+                    UnaryOp::Neg => a.ty.is_numeric(),
+                    UnaryOp::Not => a.ty == Ty::Bool,
+                };
+                if !ok {
+                    let want = if *op == UnaryOp::Neg {
+                        "`float` or `vec3`"
+                    } else {
+                        "`bool`"
+                    };
+                    self.error(
+                        Diagnostic::new(
+                            Code::TypeMismatch,
+                            format!("`{}` cannot be applied to `{}`", op.as_str(), a.ty),
+                            file,
+                            span,
+                            format!("operand is `{}`", a.ty),
+                        )
+                        .with_note(format!("`{}` needs {want}", op.as_str())),
+                    );
+                    return TExpr::error(span);
+                }
+                let ty = a.ty;
+                node(TExprKind::Unary(*op, Box::new(a)), ty, span)
+            }
+            ExprKind::Binary { op, lhs, rhs } => {
+                let a = self.expr(lhs, sc);
+                let b = self.expr(rhs, sc);
+                self.binary(file, *op, a, b, span)
+            }
+            ExprKind::Field { base, field } => {
+                let b = self.expr(base, sc);
+                if b.ty == Ty::Error {
+                    return TExpr::error(span);
+                }
+                if b.ty != Ty::Vec3 {
+                    self.error(
+                        Diagnostic::new(
+                            Code::TypeMismatch,
+                            format!("`.{}` needs a `vec3`, found `{}`", field.name, b.ty),
+                            file,
+                            b.span,
+                            format!("this is `{}`", b.ty),
+                        )
+                        .with_note("only vectors have fields"),
+                    );
+                    return TExpr::error(span);
+                }
+                let i = match field.name.as_str() {
+                    "x" => 0,
+                    "y" => 1,
+                    "z" => 2,
+                    other => {
+                        let mut d = Diagnostic::new(
+                            Code::UnknownField,
+                            format!("`vec3` has no field `{other}`"),
+                            file,
+                            field.span,
+                            "unknown field",
+                        );
+                        d = match other {
+                            "r" => d.with_help("colours are vectors: write `.x` for red"),
+                            "g" => d.with_help("colours are vectors: write `.y` for green"),
+                            "b" => d.with_help("colours are vectors: write `.z` for blue"),
+                            _ => d.with_help("the fields are `x`, `y` and `z`"),
+                        };
+                        self.error(d);
+                        return TExpr::error(span);
+                    }
+                };
+                node(TExprKind::Field(Box::new(b), i), Ty::Float, span)
+            }
+            ExprKind::If { cond, then, els } => {
+                let c = self.expr(cond, sc);
+                let c = self.expect(file, c, Ty::Bool, "the condition of `if`");
+                let t = self.expr(then, sc);
+                let f = self.expr(els, sc);
+                if t.ty == Ty::Error || f.ty == Ty::Error {
+                    return TExpr::error(span);
+                }
+                if t.ty != f.ty {
+                    self.error(
+                        Diagnostic::new(
+                            Code::TypeMismatch,
+                            format!(
+                                "the branches of `if` have different types: `{}` and `{}`",
+                                t.ty, f.ty
+                            ),
+                            file,
+                            f.span,
+                            format!("this is `{}`", f.ty),
+                        )
+                        .with_label(file, t.span, format!("this is `{}`", t.ty))
+                        .with_note("both branches must have the same type"),
+                    );
+                    return TExpr::error(span);
+                }
+                match c.constant() {
+                    Some(Value::Bool(true)) => t,
+                    Some(Value::Bool(false)) => f,
+                    _ if c.ty == Ty::Error => TExpr::error(span),
+                    _ => {
+                        let ty = t.ty;
+                        TExpr {
+                            kind: TExprKind::If(Box::new(c), Box::new(t), Box::new(f)),
+                            ty,
+                            span,
+                        }
+                    }
+                }
+            }
+            ExprKind::Call { func, args } => {
+                let targs: Vec<TExpr> = args.iter().map(|a| self.expr(a, sc)).collect();
+                if let Some(b) = Builtin::from_name(&func.name) {
+                    self.builtin_call(file, b, targs, func.span, span)
+                } else if let Some(r) = RandomFn::from_name(&func.name) {
+                    if !sc.allow_random {
+                        self.error(
+                            Diagnostic::new(
+                                Code::NotConstant,
+                                format!("random draws are not allowed in {}", sc.what),
+                                file,
+                                span,
+                                format!("`{}` draws a random number", r.name()),
+                            )
+                            .with_note("constants, meta-parameters, settings and materials are fixed for a whole run")
+                            .with_help("draw random numbers in productions (conditions, weights, module arguments)"),
+                        );
+                        return TExpr::error(span);
+                    }
+                    self.random_call(file, r, targs, func.span, span)
+                } else {
+                    let mut d = Diagnostic::new(
+                        Code::UnknownFunction,
+                        format!("unknown function `{}`", func.name),
+                        file,
+                        func.span,
+                        "not a built-in function",
+                    );
+                    if terminal_forms(&func.name).is_some() {
+                        d = d.with_help(format!(
+                            "`{}` is a module: it can appear in a successor or axiom, not inside an expression",
+                            func.name
+                        ));
+                    } else if let Some(h) = suggest::did_you_mean(&func.name, function_names()) {
+                        d = d.with_help(h);
+                    }
+                    self.error(d);
+                    TExpr::error(span)
+                }
+            }
+        }
+    }
+
+    fn name(&mut self, file: FileId, id: &grm_syntax::ast::Ident, sc: &mut Scope) -> TExpr {
+        let span = id.span;
+        if let Some(b) = sc.bindings.iter_mut().find(|b| b.name == id.name) {
+            b.used = true;
+            let (slot, ty, bspan) = (b.slot, b.ty, b.span);
+            self.program.index.push(
+                file,
+                span,
+                Def::Binding {
+                    binding: Loc::new(file, bspan),
+                },
+                false,
+            );
+            return TExpr {
+                kind: if ty == Ty::Error {
+                    TExprKind::Error
+                } else {
+                    TExprKind::ModuleParam(slot)
+                },
+                ty,
+                span,
+            };
+        }
+        match self.lookup(sc.file_idx, &id.name) {
+            Some(GlobalName {
+                kind: GlobalKind::Value(j),
+                ..
+            }) => {
+                self.values[j].uses += 1;
+                match self.values[j].info {
+                    ValueInfo::Pending => TExpr::error(span),
+                    ValueInfo::Const {
+                        id: cid,
+                        ty,
+                        folded,
+                        broken,
+                    } => {
+                        self.program.index.push(file, span, Def::Const(cid), false);
+                        if broken {
+                            return TExpr::error(span);
+                        }
+                        if let Some(v) = folded {
+                            return TExpr::lit(v, span);
+                        }
+                        if !sc.allow_params {
+                            self.not_constant_param(file, span, &id.name, sc.what, true);
+                            return TExpr::error(span);
+                        }
+                        TExpr {
+                            kind: TExprKind::Global(cid),
+                            ty,
+                            span,
+                        }
+                    }
+                    ValueInfo::Param { id: pid, ty } => {
+                        self.program.index.push(file, span, Def::Param(pid), false);
+                        if !sc.allow_params {
+                            self.not_constant_param(file, span, &id.name, sc.what, false);
+                            return TExpr::error(span);
+                        }
+                        if ty == Ty::Error {
+                            return TExpr::error(span);
+                        }
+                        TExpr {
+                            kind: TExprKind::Param(pid),
+                            ty,
+                            span,
+                        }
+                    }
+                }
+            }
+            Some(GlobalName {
+                kind: GlobalKind::Mesh(m),
+                ..
+            }) => {
+                self.program.index.push(file, span, Def::Mesh(m), false);
+                TExpr::lit(Value::Mesh(m), span)
+            }
+            Some(GlobalName {
+                kind: GlobalKind::Material(m),
+                ..
+            }) => {
+                self.program.index.push(file, span, Def::Material(m), false);
+                TExpr::lit(Value::Material(m), span)
+            }
+            None => {
+                self.unknown_name(file, id, sc);
+                TExpr::error(span)
+            }
+        }
+    }
+
+    fn not_constant_param(
+        &mut self,
+        file: FileId,
+        span: Span,
+        name: &str,
+        what: &str,
+        via_const: bool,
+    ) {
+        let label = if via_const {
+            format!("`{name}` depends on a meta-parameter")
+        } else {
+            format!("`{name}` is a meta-parameter")
+        };
+        self.error(
+            Diagnostic::new(
+                Code::NotConstant,
+                format!("{what} must be a constant, but `{name}` can change from run to run"),
+                file,
+                span,
+                label,
+            )
+            .with_help("use a number or a constant that does not depend on meta-parameters"),
+        );
+    }
+
+    pub(crate) fn unknown_name(&mut self, file: FileId, id: &grm_syntax::ast::Ident, sc: &Scope) {
+        let mut d = Diagnostic::new(
+            Code::UnknownName,
+            format!("unknown name `{}`", id.name),
+            file,
+            id.span,
+            "not found in this scope",
+        );
+        if let Some(g) = self.names.get(id.name.as_str()) {
+            let other = g.loc.file;
+            d = d.with_label(
+                other,
+                g.loc.span,
+                "defined in a file this one does not import",
+            );
+            d = d.with_help("add an `import` of the file that defines it");
+        } else {
+            let mut cands: Vec<&str> = sc.bindings.iter().map(|b| b.name.as_str()).collect();
+            let globals = self.visible_names(sc.file_idx);
+            cands.extend(globals.iter().copied());
+            if let Some(h) = suggest::did_you_mean(&id.name, cands) {
+                d = d.with_help(h);
+            } else if SettingKey::from_name(&id.name).is_some() {
+                d = d.with_help("settings cannot be read in expressions; define a `const` and use it in both places");
+            } else if sc.bindings.is_empty() && sc.what == "a production" {
+                d = d.with_help(
+                    "bind it in the predecessor, e.g. `A(x) -> ...`, or define a `const`",
+                );
+            }
+        }
+        self.error(d);
+    }
+
+    fn binary(&mut self, file: FileId, op: BinaryOp, a: TExpr, b: TExpr, span: Span) -> TExpr {
+        use BinaryOp::*;
+        if a.ty == Ty::Error || b.ty == Ty::Error {
+            return TExpr::error(span);
+        }
+        let ty = match op {
+            Add | Sub => (a.ty == b.ty && a.ty.is_numeric()).then_some(a.ty),
+            Mul | Div | Rem => (a.ty.is_numeric() && b.ty.is_numeric()).then(|| {
+                if a.ty == Ty::Vec3 || b.ty == Ty::Vec3 {
+                    Ty::Vec3
+                } else {
+                    Ty::Float
+                }
+            }),
+            Lt | Le | Gt | Ge => (a.ty == Ty::Float && b.ty == Ty::Float).then_some(Ty::Bool),
+            Eq | Ne => (a.ty == b.ty && matches!(a.ty, Ty::Float | Ty::Vec3 | Ty::Bool))
+                .then_some(Ty::Bool),
+            And | Or => (a.ty == Ty::Bool && b.ty == Ty::Bool).then_some(Ty::Bool),
+        };
+        let Some(ty) = ty else {
+            let note = match op {
+                Add | Sub => "`+` and `-` need two floats or two vectors",
+                Mul | Div | Rem => {
+                    "`*`, `/` and `%` need floats or vectors (a float on either side scales a vector)"
+                }
+                Lt | Le | Gt | Ge => "comparisons need two floats",
+                Eq | Ne => "`==` and `!=` need two values of the same type",
+                And | Or => "`&&` and `||` need two booleans",
+            };
+            self.error(
+                Diagnostic::new(
+                    Code::TypeMismatch,
+                    format!(
+                        "`{}` cannot be applied to `{}` and `{}`",
+                        op.as_str(),
+                        a.ty,
+                        b.ty
+                    ),
+                    file,
+                    span,
+                    "mismatched operands",
+                )
+                .with_label(file, a.span, format!("`{}`", a.ty))
+                .with_label(file, b.span, format!("`{}`", b.ty))
+                .with_note(note),
+            );
+            return TExpr::error(span);
+        };
+        if matches!(op, Div | Rem) && b.constant().is_some_and(is_zero) {
+            let what = if op == Div { "division" } else { "remainder" };
+            self.error(
+                Diagnostic::new(
+                    Code::DivisionByZero,
+                    format!("{what} by zero"),
+                    file,
+                    b.span,
+                    "this is always zero",
+                )
+                .with_label(file, span, format!("this {what} has no finite value"))
+                .with_help("divide by a value that is never zero"),
+            );
+            return TExpr {
+                kind: TExprKind::Binary(op, Box::new(a), Box::new(b)),
+                ty,
+                span,
+            };
+        }
+        node(TExprKind::Binary(op, Box::new(a), Box::new(b)), ty, span)
+    }
+
+    fn arity_error(
+        &mut self,
+        file: FileId,
+        name: &str,
+        want: &str,
+        got: usize,
+        span: Span,
+        sig: &str,
+    ) {
+        let plural = if want == "1" { "argument" } else { "arguments" };
+        self.error(
+            Diagnostic::new(
+                Code::FunctionArity,
+                format!("`{name}` takes {want} {plural}, but {got} were given"),
+                file,
+                span,
+                format!("{got} arguments"),
+            )
+            .with_help(format!("write it as `{sig}`")),
+        );
+    }
+
+    /// Check generic positions: the first non-error generic argument fixes
+    /// `T`; the others must be `T`, or `float` when `T` is `vec3`.
+    fn generic(
+        &mut self,
+        file: FileId,
+        fname: &str,
+        args: &mut [TExpr],
+        is_gen: impl Fn(usize) -> bool,
+        numeric: bool,
+    ) -> Option<Ty> {
+        let t = args
+            .iter()
+            .enumerate()
+            .find(|(i, a)| is_gen(*i) && a.ty != Ty::Error)
+            .map(|(_, a)| a.ty)?;
+        if numeric && !t.is_numeric() {
+            let first = args
+                .iter()
+                .enumerate()
+                .find(|(i, a)| is_gen(*i) && a.ty != Ty::Error)
+                .map(|(_, a)| a.span);
+            self.error(Diagnostic::new(
+                Code::TypeMismatch,
+                format!("`{fname}` works on `float` or `vec3`, found `{t}`"),
+                file,
+                first.unwrap_or_default(),
+                format!("this is `{t}`"),
+            ));
+            return None;
+        }
+        for (i, a) in args.iter_mut().enumerate() {
+            if !is_gen(i) || a.ty == Ty::Error || a.ty == t || (t == Ty::Vec3 && a.ty == Ty::Float)
+            {
+                continue;
+            }
+            let taken = std::mem::replace(a, TExpr::error(Span::default()));
+            *a = self.expect(file, taken, t, &format!("this argument of `{fname}`"));
+        }
+        Some(t)
+    }
+
+    fn builtin_call(
+        &mut self,
+        file: FileId,
+        b: Builtin,
+        mut args: Vec<TExpr>,
+        fspan: Span,
+        span: Span,
+    ) -> TExpr {
+        let (ok, want) = b.arity();
+        if !ok(args.len()) {
+            let sig = builtin_signature(b);
+            self.arity_error(file, b.name(), want, args.len(), fspan.to(span), &sig);
+            return TExpr::error(span);
+        }
+        for (i, a) in args.iter_mut().enumerate() {
+            let want = match b.param(i) {
+                PTy::F => Ty::Float,
+                PTy::V => Ty::Vec3,
+                PTy::Gen => continue,
+            };
+            let taken = std::mem::replace(a, TExpr::error(Span::default()));
+            *a = self.expect(
+                file,
+                taken,
+                want,
+                &format!("argument {} of `{}`", i + 1, b.name()),
+            );
+        }
+        let t = self.generic(file, b.name(), &mut args, |i| b.param(i) == PTy::Gen, true);
+        if args.iter().any(|a| a.ty == Ty::Error) {
+            return TExpr::error(span);
+        }
+        let ret = match b.signature().1 {
+            PTy::F => Ty::Float,
+            PTy::V => Ty::Vec3,
+            PTy::Gen => match t {
+                Some(t) => t,
+                None => return TExpr::error(span),
+            },
+        };
+        node(TExprKind::Call(b, args), ret, span)
+    }
+
+    fn random_call(
+        &mut self,
+        file: FileId,
+        r: RandomFn,
+        mut args: Vec<TExpr>,
+        fspan: Span,
+        span: Span,
+    ) -> TExpr {
+        let n = args.len();
+        let (ok, want, sig) = match r {
+            RandomFn::Uniform => (n == 2, "2", "uniform(low, high)"),
+            RandomFn::Normal => (n == 2, "2", "normal(mean, sd)"),
+            RandomFn::RandInt => (n == 2, "2", "randint(low, high)"),
+            RandomFn::Chance => (n == 1, "1", "chance(p)"),
+            RandomFn::Choose => (
+                n >= 2 && n.is_multiple_of(2),
+                "an even number of (at least 2)",
+                "choose(v0, w0, v1, w1, ...)",
+            ),
+        };
+        if !ok {
+            self.arity_error(file, r.name(), want, n, fspan.to(span), sig);
+            return TExpr::error(span);
+        }
+        let ret = match r {
+            RandomFn::Choose => {
+                for (i, a) in args.iter_mut().enumerate().filter(|(i, _)| i % 2 == 1) {
+                    let taken = std::mem::replace(a, TExpr::error(Span::default()));
+                    *a = self.expect(
+                        file,
+                        taken,
+                        Ty::Float,
+                        &format!("weight {} of `choose`", i / 2 + 1),
+                    );
+                }
+                match self.generic(file, "choose", &mut args, |i| i % 2 == 0, false) {
+                    Some(t) => t,
+                    None => return TExpr::error(span),
+                }
+            }
+            _ => {
+                for (i, a) in args.iter_mut().enumerate() {
+                    let taken = std::mem::replace(a, TExpr::error(Span::default()));
+                    *a = self.expect(
+                        file,
+                        taken,
+                        Ty::Float,
+                        &format!("argument {} of `{}`", i + 1, r.name()),
+                    );
+                }
+                if r == RandomFn::Chance {
+                    Ty::Bool
+                } else {
+                    Ty::Float
+                }
+            }
+        };
+        if args.iter().any(|a| a.ty == Ty::Error) {
+            return TExpr::error(span);
+        }
+        TExpr {
+            kind: TExprKind::Random(r, args),
+            ty: ret,
+            span,
+        }
+    }
+}
+
+/// `name(a: float, b: float)` for help lines.
+fn builtin_signature(b: Builtin) -> String {
+    let (ps, _) = b.signature();
+    if b == Builtin::Spline {
+        return "spline(t, c0, c1, c2, c3, ...)".into();
+    }
+    let args: Vec<&str> = ps
+        .iter()
+        .map(|p| match p {
+            PTy::F => "float",
+            PTy::V => "vec3",
+            PTy::Gen => "T",
+        })
+        .collect();
+    format!("{}({})", b.name(), args.join(", "))
+}

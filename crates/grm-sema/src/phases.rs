@@ -1,0 +1,463 @@
+//! Whole-system analyses over the grouped productions: shadowing,
+//! ambiguity, reachability, and the phase rules of sample systems
+//! (docs/language.md section 7), including termination of geometry symbols.
+
+use grm_diag::{Code, Diagnostic, Span};
+
+use crate::program::*;
+
+/// Symbols that can derive a string of finished symbols.
+///
+/// `initially[s]` marks symbols that are finished as they are; `prods` lists
+/// (predecessor, successor symbols) of every alternative. The classic
+/// productive-symbol fixpoint, in linear time: each alternative counts its
+/// unfinished successor occurrences, and a symbol that becomes productive
+/// decrements the counts of the alternatives it occurs in.
+pub fn productive(initially: &[bool], prods: &[(usize, Vec<usize>)]) -> Vec<bool> {
+    let n = initially.len();
+    let mut done = initially.to_vec();
+    let mut missing: Vec<usize> = Vec::with_capacity(prods.len());
+    let mut occurs: Vec<Vec<usize>> = vec![Vec::new(); n];
+    let mut work: Vec<usize> = Vec::new();
+    for (pi, (pred, succ)) in prods.iter().enumerate() {
+        let mut m = 0;
+        for &s in succ {
+            if s < n && !done[s] {
+                m += 1;
+                occurs[s].push(pi);
+            }
+        }
+        missing.push(m);
+        if m == 0 && *pred < n && !done[*pred] {
+            done[*pred] = true;
+            work.push(*pred);
+        }
+    }
+    while let Some(s) = work.pop() {
+        for &pi in &occurs[s] {
+            missing[pi] -= 1;
+            let pred = prods[pi].0;
+            if missing[pi] == 0 && pred < n && !done[pred] {
+                done[pred] = true;
+                work.push(pred);
+            }
+        }
+    }
+    done
+}
+
+/// Symbols reachable from `roots` along `edges[s]` (breadth first).
+pub fn reachable(n: usize, roots: &[usize], edges: &[Vec<usize>]) -> Vec<bool> {
+    let mut seen = vec![false; n];
+    let mut queue: std::collections::VecDeque<usize> = std::collections::VecDeque::new();
+    for &r in roots {
+        if r < n && !seen[r] {
+            seen[r] = true;
+            queue.push_back(r);
+        }
+    }
+    while let Some(s) = queue.pop_front() {
+        for &t in edges.get(s).map(Vec::as_slice).unwrap_or(&[]) {
+            if t < n && !seen[t] {
+                seen[t] = true;
+                queue.push_back(t);
+            }
+        }
+    }
+    seen
+}
+
+/// W0005 (ambiguous groups), W0003 (shadowed groups) and, unless `skip_reach`,
+/// W0002 (unreachable productions).
+pub(crate) fn check_groups(sys: &System, diags: &mut Vec<Diagnostic>, skip_reach: bool) {
+    let file = sys.file;
+    for g in &sys.groups {
+        let unweighted: Vec<&Alternative> = g
+            .alternatives
+            .iter()
+            .filter(|a| !a.weight_written)
+            .collect();
+        if unweighted.len() >= 2 {
+            let name = &sys.symbol(g.pred.symbol).name;
+            diags.push(
+                Diagnostic::new(
+                    Code::AmbiguousProductions,
+                    format!("several productions for `{name}` apply in the same case, without weights"),
+                    file,
+                    unweighted[1].pred,
+                    "another alternative",
+                )
+                .with_label(file, unweighted[0].pred, "first alternative")
+                .with_note("one of them is drawn at random, each with weight 1")
+                .with_help("write the weights, e.g. `-> (1) ...`, or give the productions different conditions"),
+            );
+        }
+    }
+
+    for (si, info) in sys.symbols.iter().enumerate() {
+        let _ = si;
+        let mut catch_all: Option<&Group> = None;
+        for gid in &info.groups {
+            let g = &sys.groups[gid.index()];
+            if let Some(first) = catch_all {
+                let name = &info.name;
+                diags.push(
+                    Diagnostic::new(
+                        Code::ShadowedProduction,
+                        format!("this production for `{name}` can never apply"),
+                        file,
+                        g.alternatives[0].pred,
+                        "never tried",
+                    )
+                    .with_label(
+                        file,
+                        first.alternatives[0].span,
+                        "this earlier production always applies first",
+                    )
+                    .with_note(
+                        "productions are tried in source order; the first that matches is applied",
+                    )
+                    .with_help(
+                        "move it before the unconditional production, or give that one a condition",
+                    ),
+                );
+                continue;
+            }
+            let always = !g.has_context()
+                && match &g.condition {
+                    None => true,
+                    Some(c) => c.constant() == Some(Value::Bool(true)),
+                };
+            if always {
+                catch_all = Some(g);
+            }
+        }
+    }
+
+    if skip_reach {
+        return;
+    }
+    let n = sys.symbols.len();
+    let mut edges: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for g in &sys.groups {
+        let out = &mut edges[g.pred.symbol.index()];
+        for a in &g.alternatives {
+            out.extend(a.successor.iter().map(|m| m.symbol.index()));
+        }
+    }
+    for e in &mut edges {
+        e.sort_unstable();
+        e.dedup();
+    }
+    let roots: Vec<usize> = sys.axiom.iter().map(|m| m.symbol.index()).collect();
+    let seen = reachable(n, &roots, &edges);
+    for (s, info) in sys.symbols.iter().enumerate() {
+        if seen[s] {
+            continue;
+        }
+        let mut gids = info.groups.iter().chain(&info.wrapup_groups);
+        let Some(first) = gids.next() else {
+            continue;
+        };
+        let g = &sys.groups[first.index()];
+        let mut d = Diagnostic::new(
+            Code::UnreachableProduction,
+            format!(
+                "`{}` never occurs in a derivation, so its productions never apply",
+                info.name
+            ),
+            file,
+            g.alternatives[0].pred,
+            "unreachable",
+        );
+        for other in g
+            .alternatives
+            .iter()
+            .skip(1)
+            .chain(gids.flat_map(|id| &sys.groups[id.index()].alternatives))
+            .take(3)
+        {
+            d = d.with_label(file, other.pred, "also unreachable");
+        }
+        diags.push(d.with_help(format!(
+            "emit `{}` from the axiom or from a reachable production, or remove these productions",
+            info.name
+        )));
+    }
+}
+
+fn context_span(items: &[TContextItem]) -> Option<Span> {
+    let span = |c: &TContextItem| match c {
+        TContextItem::Pattern(p) => p.span,
+        TContextItem::Push(s) | TContextItem::Pop(s) => *s,
+    };
+    Some(span(items.first()?).to(span(items.last()?)))
+}
+
+/// The phase rules of sample systems (E0301-E0308, E0313, and E0101 for
+/// symbols that are neither declared nor rewritten). With `holes` (parse
+/// errors in the system) the whole-system rules are skipped.
+pub(crate) fn check_sample(sys: &System, diags: &mut Vec<Diagnostic>, holes: bool) {
+    let file = sys.file;
+    let mut phase_reported = vec![false; sys.symbols.len()];
+    for g in &sys.groups {
+        let pred = sys.symbol(g.pred.symbol);
+        for items in [&g.left, &g.right] {
+            if let Some(span) = context_span(items) {
+                diags.push(
+                    Diagnostic::new(
+                        Code::ContextInSampleMode,
+                        "sample systems cannot use context-sensitive productions",
+                        file,
+                        span,
+                        "context",
+                    )
+                    .with_note("the guided search expands one symbol at a time, so its neighbours are not known yet")
+                    .with_help("remove the context, or run the system with `mode = derive;`"),
+                );
+            }
+        }
+        if let Some(t) = pred.terminal() {
+            diags.push(
+                Diagnostic::new(
+                    Code::TerminalPredecessor,
+                    format!(
+                        "`{}` is a terminal and cannot be rewritten in a sample system",
+                        t.name()
+                    ),
+                    file,
+                    g.pred.span,
+                    "terminal",
+                )
+                .with_help("rewrite a skeleton or geometry symbol that emits it instead"),
+            );
+            continue;
+        }
+        if pred.phase == Phase::None {
+            if !phase_reported[g.pred.symbol.index()] {
+                phase_reported[g.pred.symbol.index()] = true;
+                diags.push(
+                    Diagnostic::new(
+                        Code::MissingPhase,
+                        format!("`{}` has productions but no phase", pred.name),
+                        file,
+                        g.pred.span,
+                        "non-terminal without a phase",
+                    )
+                    .with_help(format!(
+                        "declare it `skeleton {0};` (grown during the search) or `geometry {0};` (expanded after it)",
+                        pred.name
+                    )),
+                );
+            }
+            continue;
+        }
+        if g.wrapup && pred.phase == Phase::Geometry {
+            let decl = pred.decl.unwrap_or(pred.first);
+            diags.push(
+                Diagnostic::new(
+                    Code::WrapupNotSkeleton,
+                    format!(
+                        "`{}` is a geometry symbol; only skeleton symbols are wrapped up",
+                        pred.name
+                    ),
+                    file,
+                    g.pred.span,
+                    "not a skeleton symbol",
+                )
+                .with_label(file, decl, "declared `geometry` here")
+                .with_help("geometry symbols are expanded to completion anyway; remove `wrapup`"),
+            );
+            continue;
+        }
+        for a in &g.alternatives {
+            for m in &a.successor {
+                let s = sys.symbol(m.symbol);
+                if pred.phase == Phase::Skeleton && s.is_geometry_terminal() {
+                    diags.push(
+                        Diagnostic::new(
+                            Code::SkeletonEmitsGeometry,
+                            format!("skeleton symbol `{}` emits the geometry terminal `{}`", pred.name, s.name),
+                            file,
+                            m.span,
+                            "geometry terminal",
+                        )
+                        .with_label(file, a.pred, "a skeleton symbol")
+                        .with_help(format!(
+                            "decorate instead: emit a geometry symbol (`geometry deco;`) whose production emits `{}`",
+                            s.name
+                        )),
+                    );
+                }
+                if s.phase == Phase::Skeleton && g.wrapup {
+                    diags.push(
+                        Diagnostic::new(
+                            Code::WrapupLeavesSkeleton,
+                            format!("the wrap-up of `{}` emits the skeleton symbol `{}`", pred.name, s.name),
+                            file,
+                            m.span,
+                            "skeleton symbol",
+                        )
+                        .with_note("wrap-up runs once, when the search ends; what it emits is never expanded by the search")
+                        .with_help("emit only terminals and geometry symbols in a wrap-up"),
+                    );
+                } else if s.phase == Phase::Skeleton && pred.phase == Phase::Geometry {
+                    diags.push(
+                        Diagnostic::new(
+                            Code::GeometryEmitsSkeleton,
+                            format!("geometry symbol `{}` emits the skeleton symbol `{}`", pred.name, s.name),
+                            file,
+                            m.span,
+                            "skeleton symbol",
+                        )
+                        .with_label(file, a.pred, "a geometry symbol")
+                        .with_note("geometry symbols are expanded after the search; the skeleton is finished by then")
+                        .with_help("emit the skeleton symbol from a skeleton production instead"),
+                    );
+                }
+            }
+        }
+    }
+
+    for info in &sys.symbols {
+        if info.phase == Phase::Skeleton && info.wrapup_groups.is_empty() {
+            let at = info.decl.unwrap_or(info.first);
+            diags.push(
+                Diagnostic::new(
+                    Code::MissingWrapup,
+                    format!("skeleton symbol `{}` has no wrap-up production", info.name),
+                    file,
+                    at,
+                    "no `wrapup` for this symbol",
+                )
+                .with_note(
+                    "when the search ends, every open skeleton symbol is closed by its wrap-up",
+                )
+                .with_help(format!("add one, e.g. `wrapup {} -> ;`", info.name)),
+            );
+        }
+    }
+
+    if holes {
+        return;
+    }
+
+    // Symbols used but neither declared nor rewritten.
+    let known: Vec<&str> = sys
+        .symbols
+        .iter()
+        .filter(|s| !s.is_terminal() && (s.decl.is_some() || !s.groups.is_empty()))
+        .map(|s| s.name.as_str())
+        .collect();
+    for info in &sys.symbols {
+        if info.is_terminal()
+            || info.decl.is_some()
+            || !info.groups.is_empty()
+            || !info.wrapup_groups.is_empty()
+        {
+            continue;
+        }
+        let mut d = Diagnostic::new(
+            Code::UnknownName,
+            format!("unknown symbol `{}`", info.name),
+            file,
+            info.first,
+            "not declared, and no production rewrites it",
+        );
+        d = match crate::suggest::did_you_mean(&info.name, known.iter().copied()) {
+            Some(h) => d.with_help(h),
+            None => d.with_help(format!(
+                "declare it (`geometry {0};` or `module {0};`) if it is meant to stay in the model",
+                info.name
+            )),
+        };
+        diags.push(d);
+    }
+
+    // Termination of geometry symbols.
+    let initially: Vec<bool> = sys
+        .symbols
+        .iter()
+        .map(|s| s.phase != Phase::Geometry || s.groups.is_empty())
+        .collect();
+    let mut prods = Vec::new();
+    for g in sys.groups.iter().filter(|g| !g.wrapup) {
+        let pred = g.pred.symbol.index();
+        if initially[pred] {
+            continue;
+        }
+        for a in &g.alternatives {
+            prods.push((pred, a.successor.iter().map(|m| m.symbol.index()).collect()));
+        }
+    }
+    let done = productive(&initially, &prods);
+    for (s, info) in sys.symbols.iter().enumerate() {
+        if done[s] {
+            continue;
+        }
+        let at = info.decl.unwrap_or(info.first);
+        diags.push(
+            Diagnostic::new(
+                Code::NonTerminating,
+                format!("geometry symbol `{}` can never finish expanding", info.name),
+                file,
+                at,
+                "never terminates",
+            )
+            .with_note(
+                "every production for it emits it again, or another symbol that never finishes",
+            )
+            .with_help(format!(
+                "add a production that ends the recursion, e.g. `{} -> ;` under a condition",
+                info.name
+            )),
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn productive_fixpoint_finds_finishing_symbols() {
+        // 0: terminal. 1 -> 0 (finishes). 2 -> 2 (loops). 3 -> 2 | 1 (finishes via 1).
+        // 4 -> 4 2 (loops).
+        let initially = [true, false, false, false, false];
+        let prods = vec![
+            (1, vec![0]),
+            (2, vec![2]),
+            (3, vec![2]),
+            (3, vec![1, 0]),
+            (4, vec![4, 2]),
+        ];
+        assert_eq!(
+            productive(&initially, &prods),
+            vec![true, true, false, true, false]
+        );
+    }
+
+    #[test]
+    fn productive_counts_repeated_occurrences() {
+        // 1 -> 2 2, 2 -> (empty): both finish.
+        let initially = [true, false, false];
+        let prods = vec![(1, vec![2, 2]), (2, vec![])];
+        assert_eq!(productive(&initially, &prods), vec![true, true, true]);
+    }
+
+    #[test]
+    fn productive_chain_resolves_in_reverse_order() {
+        // 1 -> 2, 2 -> 3, ..., 999 -> 0: a long chain resolved without recursion.
+        let n = 1000;
+        let mut initially = vec![false; n];
+        initially[0] = true;
+        let prods: Vec<(usize, Vec<usize>)> = (1..n).map(|i| (i, vec![(i + 1) % n])).collect();
+        assert!(productive(&initially, &prods).iter().all(|&b| b));
+    }
+
+    #[test]
+    fn reachability_follows_edges_only() {
+        let edges = vec![vec![1], vec![2], vec![], vec![0]];
+        assert_eq!(reachable(4, &[0], &edges), vec![true, true, true, false]);
+    }
+}
