@@ -202,10 +202,11 @@ impl<'a> Printer<'a> {
 
     /// A comment inside a statement.
     fn inline_comment(&mut self, c: &Comment) {
-        if !self.line_empty && !self.out.ends_with('(') {
+        let t = comment_text(&c.text);
+        // `f(/* a */ x)`, but `f( // a`.
+        if !self.line_empty && (is_line_comment(t) || !self.out.ends_with('(')) {
             self.out.push(' ');
         }
-        let t = comment_text(&c.text);
         self.push(t);
         if is_line_comment(t) {
             self.nl();
