@@ -1,0 +1,514 @@
+//! The guiding-curve cost of Calder section 3.3 (equations 1-8), the
+//! heuristic term of equation 10, thick curves and the density term.
+//!
+//! Conventions (also in `docs/curves.md`):
+//!
+//! * Lower is better; costs may be negative (a bone that follows a curve
+//!   lowers the model's cost).
+//! * Curve choice (eq. 1): the curve whose tube surface is nearest to the
+//!   bone's base, i.e. the argmin of `|base - closest| - thickness`; with
+//!   thickness 0 this is eq. 1 exactly. Ties go to the lower curve index.
+//! * Distance (eq. 2-3): `d = max(0, |base - closest| - thickness)`, cost
+//!   `m0 + m1 d + m2 d^2`.
+//! * Alignment (eq. 4-6): `d_bone = -(tip - base) / |tip - base|` (the
+//!   paper's minus sign), `d_guide` = unit tangent at the closest point, cost
+//!   `(d_bone . d_guide + delta_a) * scale_a`. A bone along the curve's
+//!   direction costs `(delta_a - 1) scale_a` (negative), a perpendicular one
+//!   `delta_a scale_a`, an opposite one `(delta_a + 1) scale_a`. A
+//!   zero-length bone has no direction and is costed as perpendicular.
+//! * Utilization (eq. 7): see [`CostModel::add_bone`] and `docs/curves.md`:
+//!   the total is `-sum_curves scale_u sum_segments G(n_s)` with
+//!   `G(n) = sum_{k<n} e^-k`, a function of the use counts alone.
+//! * Density: `scale (1 - r / radius)^2` per unordered pair of bone
+//!   midpoints at distance `r < radius`.
+//!
+//! Every term is order-independent, and the totals are accumulated in fixed
+//! point ([`crate::fixed`]), so a model's [`CostBreakdown`] is bit-for-bit
+//! the same whatever order its bones were added in.
+
+use glam::{Affine3A, DVec3, Vec3};
+
+use crate::bezier::{BRACKET_SAMPLES, Bezier3, ClosestPoint};
+use crate::curves::{CurveParams, Curves, DensityParams, segment_count};
+use crate::density::PersistentGrid;
+use crate::fixed::{to_f64, to_fixed};
+
+/// Entries in the arc-length table used to map a curve parameter to a
+/// utilization segment.
+const ARC_TABLE: usize = 256;
+
+/// Use counts past this contribute less than 1e-27 of the first use, below
+/// the fixed-point resolution for any sane `scale_u`: the utilization table
+/// stops here and counts saturate in effect (order independence is kept,
+/// since the contribution is a function of the count alone).
+const UTIL_TABLE: usize = 64;
+
+/// Options of the cost that are not per curve.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CostOptions {
+    /// The density term; `None` (the default) turns it off.
+    pub density: Option<DensityParams>,
+}
+
+impl CostOptions {
+    /// The options a curves file asks for (its `density` object).
+    pub fn from_curves(curves: &Curves) -> Self {
+        Self {
+            density: curves.density(),
+        }
+    }
+}
+
+/// The cost of one bone, by term (eq. 3, 6, 7 and the density term).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BoneCost {
+    /// Index of the guiding curve chosen by eq. 1; `None` for a bone whose
+    /// base or tip is not finite (its cost is infinite).
+    pub curve: Option<usize>,
+    /// `COST_d` (eq. 3).
+    pub distance: f64,
+    /// `COST_a` (eq. 6).
+    pub alignment: f64,
+    /// `COST_u` (eq. 7) given the segment uses before this bone.
+    pub utilization: f64,
+    /// Density: the pairs this bone forms with the bones already there.
+    pub density: f64,
+}
+
+impl BoneCost {
+    /// Sum of the terms (eq. 8 plus density).
+    pub fn total(&self) -> f64 {
+        self.distance + self.alignment + self.utilization + self.density
+    }
+}
+
+/// The cost of a whole model, by term.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CostBreakdown {
+    /// Sum of `COST_d` over bones.
+    pub distance: f64,
+    /// Sum of `COST_a` over bones.
+    pub alignment: f64,
+    /// Utilization total, `-sum scale_u G(n_s)`.
+    pub utilization: f64,
+    /// Density total over pairs.
+    pub density: f64,
+    /// Bones added.
+    pub bones: u64,
+    /// Bones with a non-finite base or tip; any makes [`Self::total`] `+inf`.
+    pub non_finite: u64,
+    total_fixed: i128,
+}
+
+impl CostBreakdown {
+    /// `COST(x)`: the sum of all terms (exact fixed-point sum, then rounded
+    /// once), or `+inf` if a bone was not finite.
+    pub fn total(&self) -> f64 {
+        if self.non_finite > 0 {
+            f64::INFINITY
+        } else {
+            to_f64(self.total_fixed)
+        }
+    }
+}
+
+/// The cost state of one particle (one partial model): segment use counts,
+/// running fixed-point totals and, with the density term on, the bone
+/// midpoints.
+///
+/// Cloning is cheap: one `Vec<u16>` with a counter per utilization segment
+/// of all curves (tens to a few hundred; validation caps it at
+/// [`crate::MAX_SEGMENTS_TOTAL`]) copied with one allocation, plus an `Arc`
+/// increment for the density grid. A flat vector beats a persistent map
+/// here: each bone reads and writes several adjacent counters, which is a
+/// few contiguous loads and stores in a vector and a hash/pointer walk per
+/// counter in a map, while the clone it saves is a single small `memcpy`.
+/// The density set, which grows with the model, is persistent instead
+/// ([`crate::density`]).
+#[derive(Clone, Debug)]
+pub struct CostState {
+    uses: Vec<u16>,
+    distance: i128,
+    alignment: i128,
+    utilization: i128,
+    density: i128,
+    bones: u64,
+    non_finite: u64,
+    grid: Option<PersistentGrid>,
+}
+
+impl CostState {
+    /// Bones added so far.
+    pub fn bones(&self) -> u64 {
+        self.bones
+    }
+}
+
+#[derive(Clone, Debug)]
+struct CurveData {
+    bez: Bezier3,
+    samples: [DVec3; BRACKET_SAMPLES + 1],
+    lo: DVec3,
+    hi: DVec3,
+    params: CurveParams,
+    seg_offset: usize,
+    n_seg: usize,
+    /// Arc length at `i / ARC_TABLE`.
+    arc: Vec<f64>,
+    /// `util[n] = fixed(scale_u * G(n))`, `G(n) = sum_{k<n} e^-k`.
+    util: [i128; UTIL_TABLE + 1],
+}
+
+impl CurveData {
+    /// Utilization segment of parameter `t`: arc length from the start over
+    /// the segment length, clamped to the last segment.
+    fn segment(&self, t: f64) -> usize {
+        let x = t.clamp(0.0, 1.0) * ARC_TABLE as f64;
+        let i = (x.floor() as usize).min(ARC_TABLE - 1);
+        let s = self.arc[i] + (self.arc[i + 1] - self.arc[i]) * (x - i as f64);
+        let k = (s / self.params.segment_length).floor();
+        // Saturating cast; k >= 0 as s >= 0.
+        (k as usize).min(self.n_seg - 1)
+    }
+
+    #[inline]
+    fn util(&self, n: u16) -> i128 {
+        self.util[(n as usize).min(UTIL_TABLE)]
+    }
+}
+
+/// The cost function for one set of curves: precomputed per-curve data
+/// (bracket samples, bounds, arc-length tables, utilization tables). Shared
+/// read-only by all particles; per-particle data lives in [`CostState`].
+#[derive(Clone, Debug)]
+pub struct CostModel {
+    curves: Vec<CurveData>,
+    total_segments: usize,
+    density: Option<DensityParams>,
+}
+
+/// Eq. 4-6: `(d_bone . d_guide + offset) * scale` with
+/// `d_bone = -(dir / |dir|)` and `guide` a unit tangent. A zero-length `dir`
+/// is costed as perpendicular (`offset * scale`).
+pub fn alignment_cost(dir: DVec3, guide: DVec3, scale: f64, offset: f64) -> f64 {
+    let len = dir.length();
+    let d_bone_dot_guide = if len > 0.0 && len.is_finite() {
+        -(dir / len).dot(guide)
+    } else {
+        0.0
+    };
+    (d_bone_dot_guide + offset) * scale
+}
+
+/// Eq. 2-3 with thickness: `d = max(0, dist - thickness)`,
+/// `m0 + m1 d + m2 d^2`.
+pub fn distance_cost(dist: f64, params: &CurveParams) -> f64 {
+    let d = (dist - params.thickness).max(0.0);
+    let [m0, m1, m2] = params.distance;
+    m0 + (m1 + m2 * d) * d
+}
+
+/// `G(n) = sum_{k=0}^{n-1} e^-k`: the utilization of a segment used `n`
+/// times, in units of `scale_u` (with the sign left out).
+pub fn utilization_sum(n: u32) -> f64 {
+    (0..n).map(|k| (-(k as f64)).exp()).sum()
+}
+
+impl CostModel {
+    /// Precomputes the per-curve data for `curves`.
+    pub fn new(curves: &Curves, options: CostOptions) -> Self {
+        let mut seg_offset = 0;
+        let data = curves
+            .curves()
+            .iter()
+            .map(|c| {
+                let bez = c.bezier;
+                let arc = bez.arc_length_table(ARC_TABLE);
+                let length = arc[ARC_TABLE];
+                let n_seg = segment_count(length, c.params.segment_length);
+                let (lo, hi) = bez.bounds();
+                let mut util = [0i128; UTIL_TABLE + 1];
+                for (n, u) in util.iter_mut().enumerate() {
+                    *u = to_fixed(c.params.utilization_scale * utilization_sum(n as u32));
+                }
+                let d = CurveData {
+                    bez,
+                    samples: bez.bracket_samples(),
+                    lo,
+                    hi,
+                    params: c.params,
+                    seg_offset,
+                    n_seg,
+                    arc,
+                    util,
+                };
+                seg_offset += n_seg;
+                d
+            })
+            .collect();
+        Self {
+            curves: data,
+            total_segments: seg_offset,
+            density: options.density,
+        }
+    }
+
+    /// A fresh state: no bones.
+    pub fn new_state(&self) -> CostState {
+        CostState {
+            uses: vec![0; self.total_segments],
+            distance: 0,
+            alignment: 0,
+            utilization: 0,
+            density: 0,
+            bones: 0,
+            non_finite: 0,
+            grid: self.density.map(|d| PersistentGrid::new(d.radius)),
+        }
+    }
+
+    /// Number of curves.
+    pub fn curve_count(&self) -> usize {
+        self.curves.len()
+    }
+
+    /// Number of utilization segments of curve `curve` (0 if out of range).
+    pub fn segment_count(&self, curve: usize) -> usize {
+        self.curves.get(curve).map_or(0, |c| c.n_seg)
+    }
+
+    /// How many bones have used each segment of `curve` in `state` (empty
+    /// if out of range): for the preview and for tests.
+    pub fn segment_uses<'s>(&self, state: &'s CostState, curve: usize) -> &'s [u16] {
+        match self.curves.get(curve) {
+            Some(c) => state
+                .uses
+                .get(c.seg_offset..c.seg_offset + c.n_seg)
+                .unwrap_or(&[]),
+            None => &[],
+        }
+    }
+
+    /// Eq. 1 (with thickness): the curve whose tube is nearest to `p`, and
+    /// the closest point on its axis. Ties go to the lower index.
+    pub fn nearest_curve(&self, p: DVec3) -> (usize, ClosestPoint) {
+        // Box lower bounds prune curves that cannot win.
+        let lower = |c: &CurveData| (p.clamp(c.lo, c.hi) - p).length() - c.params.thickness;
+        let mut first = 0;
+        let mut first_lb = f64::INFINITY;
+        for (i, c) in self.curves.iter().enumerate() {
+            let lb = lower(c);
+            if lb < first_lb {
+                first = i;
+                first_lb = lb;
+            }
+        }
+        let c0 = &self.curves[first]; // `Curves` is never empty (validated).
+        let mut best_i = first;
+        let mut best = c0.bez.closest_point_sampled(&c0.samples, p);
+        let mut best_key = best.dist - c0.params.thickness;
+        for (i, c) in self.curves.iter().enumerate() {
+            if i == first {
+                continue;
+            }
+            let lb = lower(c);
+            if lb > best_key || (lb == best_key && i > best_i) {
+                continue;
+            }
+            let cp = c.bez.closest_point_sampled(&c.samples, p);
+            let key = cp.dist - c.params.thickness;
+            if key < best_key || (key == best_key && i < best_i) {
+                best_i = i;
+                best = cp;
+                best_key = key;
+            }
+        }
+        (best_i, best)
+    }
+
+    /// Adds a bone (world-space base and tip) to `state` and returns its cost.
+    ///
+    /// Distance and alignment follow eq. 1-6 (with thickness). Utilization
+    /// follows eq. 7: `S` is the range of segments of the chosen curve from
+    /// the one holding the closest point to the base to the one holding the
+    /// closest point to the tip, inclusive; each `s` in `S` that `n_s` bones
+    /// used before contributes `-scale_u e^(-n_s)`, then `n_s` grows by one.
+    /// The returned per-bone utilization depends on the insertion order, as
+    /// in the paper, but the state's total does not: it is
+    /// `-scale_u sum_s G(n_s)` with `G(n) = sum_{k<n} e^-k`, and this bone's
+    /// value is exactly the change of that total (fixed-point).
+    ///
+    /// A bone with a non-finite base or tip makes the model's total `+inf`
+    /// and changes nothing else.
+    pub fn add_bone(&self, state: &mut CostState, base: Vec3, tip: Vec3) -> BoneCost {
+        state.bones += 1;
+        let (b, t) = (base.as_dvec3(), tip.as_dvec3());
+        if !(b.is_finite() && t.is_finite()) {
+            state.non_finite += 1;
+            return BoneCost {
+                curve: None,
+                distance: f64::INFINITY,
+                ..BoneCost::default()
+            };
+        }
+        let (ci, cp) = self.nearest_curve(b);
+        let c = &self.curves[ci]; // index from `nearest_curve`
+        let p = &c.params;
+
+        let distance = distance_cost(cp.dist, p);
+        let guide = c.bez.tangent(cp.t);
+        let alignment = alignment_cost(t - b, guide, p.alignment_scale, p.alignment_offset);
+        state.distance += to_fixed(distance);
+        state.alignment += to_fixed(alignment);
+
+        let mut utilization = 0.0;
+        if p.utilization_scale > 0.0 {
+            let tip_cp = c.bez.closest_point_sampled(&c.samples, t);
+            let (s0, s1) = {
+                let (a, b) = (c.segment(cp.t), c.segment(tip_cp.t));
+                (a.min(b), a.max(b))
+            };
+            let mut delta = 0i128;
+            // `segment` clamps to `n_seg - 1`, and `uses` holds `n_seg`
+            // counters from `seg_offset` for this curve.
+            for n in &mut state.uses[c.seg_offset + s0..=c.seg_offset + s1] {
+                let next = n.saturating_add(1);
+                delta += c.util(next) - c.util(*n);
+                *n = next;
+            }
+            state.utilization -= delta;
+            utilization = -to_f64(delta);
+        }
+
+        let mut density = 0.0;
+        if let (Some(d), Some(grid)) = (self.density, state.grid.as_mut()) {
+            let mid = 0.5 * (b + t);
+            let mut sum = 0i128;
+            grid.for_each_within(mid, d.radius, |q| {
+                let w = 1.0 - mid.distance(q) / d.radius;
+                // Quantized per pair: the pair's value does not depend on
+                // which of the two bones came first.
+                sum += to_fixed(d.scale * w * w);
+            });
+            grid.insert(mid);
+            state.density += sum;
+            density = to_f64(sum);
+        }
+
+        BoneCost {
+            curve: Some(ci),
+            distance,
+            alignment,
+            utilization,
+            density,
+        }
+    }
+
+    /// The cost of the model `state` holds, by term.
+    pub fn total(&self, state: &CostState) -> CostBreakdown {
+        CostBreakdown {
+            distance: to_f64(state.distance),
+            alignment: to_f64(state.alignment),
+            utilization: to_f64(state.utilization),
+            density: to_f64(state.density),
+            bones: state.bones,
+            non_finite: state.non_finite,
+            total_fixed: state.distance + state.alignment + state.utilization + state.density,
+        }
+    }
+
+    /// The utilization total recomputed from the use counts alone,
+    /// `-sum_c scale_u(c) sum_s G(n_s)`; equal to `total(state).utilization`.
+    pub fn utilization_from_counts(&self, state: &CostState) -> f64 {
+        let mut sum = 0i128;
+        for c in &self.curves {
+            for &n in &state.uses[c.seg_offset..c.seg_offset + c.n_seg] {
+                sum += c.util(n);
+            }
+        }
+        to_f64(-sum)
+    }
+
+    /// One term of the heuristic cost, eq. 10: the alignment cost (eq. 6) of
+    /// a symbol's expected direction `expected` (already transformed to
+    /// world space, `M_i EXPECTED(Z[i])`) at the world position `position`
+    /// of its frame (`M_i [0,0,0]^T`), against the curve nearest to that
+    /// position. A zero expected vector is costed as perpendicular
+    /// (`delta_a scale_a`); a non-finite position gives `+inf`.
+    pub fn heuristic(&self, position: Vec3, expected: Vec3) -> f64 {
+        let p = position.as_dvec3();
+        if !p.is_finite() {
+            return f64::INFINITY;
+        }
+        let (ci, cp) = self.nearest_curve(p);
+        let c = &self.curves[ci]; // index from `nearest_curve`
+        let guide = c.bez.tangent(cp.t);
+        alignment_cost(
+            expected.as_dvec3(),
+            guide,
+            c.params.alignment_scale,
+            c.params.alignment_offset,
+        )
+    }
+
+    /// [`Self::heuristic`] for a symbol whose frame is `frame` (`M_i`) and
+    /// whose expected direction in its own frame is `expected`: position =
+    /// `frame`'s origin, direction = `frame`'s linear part times `expected`.
+    pub fn heuristic_in_frame(&self, frame: &Affine3A, expected: Vec3) -> f64 {
+        self.heuristic(
+            Vec3::from(frame.translation),
+            frame.transform_vector3(expected),
+        )
+    }
+}
+
+/// Accumulates Calder's eq. 9, the expected direction of a skeleton symbol:
+/// the mean over sampled models (grown from the symbol with `M` = identity)
+/// of the mean bone vector `TIP - BASE` of each model. Vectors are not
+/// normalized (eq. 9 averages raw bone vectors); a model with no bones adds
+/// nothing to the sum but counts in `|X|`, as the equation says.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ExpectedDirection {
+    sum: DVec3,
+    models: u64,
+}
+
+impl ExpectedDirection {
+    /// An empty accumulator.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Adds one sampled model, given as its bones `(base, tip)`.
+    pub fn add_model(&mut self, bones: &[(Vec3, Vec3)]) {
+        self.models += 1;
+        if bones.is_empty() {
+            return;
+        }
+        let s: DVec3 = bones.iter().map(|(b, t)| t.as_dvec3() - b.as_dvec3()).sum();
+        self.sum += s / bones.len() as f64;
+    }
+
+    /// Models added so far.
+    pub fn models(&self) -> u64 {
+        self.models
+    }
+
+    /// `EXPECTED(n_s)`; zero when no model was added.
+    pub fn finish(&self) -> Vec3 {
+        if self.models == 0 {
+            Vec3::ZERO
+        } else {
+            (self.sum / self.models as f64).as_vec3()
+        }
+    }
+}
+
+/// Eq. 9 over a set of sampled models, each a slice of bones `(base, tip)`.
+pub fn expected_direction<'a>(models: impl IntoIterator<Item = &'a [(Vec3, Vec3)]>) -> Vec3 {
+    let mut acc = ExpectedDirection::new();
+    for m in models {
+        acc.add_model(m);
+    }
+    acc.finish()
+}
