@@ -113,6 +113,8 @@ impl Loader<'_> {
                             "move the shared definitions into a third file that both import",
                         ),
                     );
+                    // Names stay visible, so the cycle is the only error.
+                    self.files[idx].imports.push(t);
                 } else if !self.files[idx].imports.contains(&t) {
                     self.files[idx].imports.push(t);
                 }
@@ -453,6 +455,9 @@ impl<'a> Checker<'a> {
                     edge_list.push((j, id.span));
                 }
             }
+        }
+        for e in edges.iter().flatten() {
+            self.values[e.0].uses += 1;
         }
         // Iterative DFS: post-order is dependency order; a back edge is a cycle.
         #[derive(Clone, Copy, PartialEq)]
@@ -810,7 +815,9 @@ impl<'a> Checker<'a> {
                 .with_help("add a system, or import this file from one that has a system"),
             );
         }
-        if root_has_system && !root_has_holes {
+        // A misspelt name is reported once, not also as an unused definition.
+        let misspelt = self.diags.iter().any(|d| d.code == Code::UnknownName);
+        if root_has_system && !root_has_holes && !misspelt {
             let mut unused = Vec::new();
             for v in &self.values {
                 if v.file_idx == 0 && v.uses == 0 && !v.name.starts_with('_') {

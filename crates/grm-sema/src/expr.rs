@@ -477,6 +477,22 @@ impl Checker<'_> {
             );
             return TExpr::error(span);
         };
+        if matches!(op, And | Or) {
+            // `false && x` is false, `true && x` is x (and the mirror
+            // cases), so a condition switched off by a constant folds.
+            let absorbing = op == Or;
+            match (a.constant(), b.constant()) {
+                (Some(Value::Bool(x)), _) if x == absorbing => {
+                    return TExpr::lit(Value::Bool(x), span);
+                }
+                (_, Some(Value::Bool(y))) if y == absorbing => {
+                    return TExpr::lit(Value::Bool(y), span);
+                }
+                (Some(Value::Bool(_)), _) => return b,
+                (_, Some(Value::Bool(_))) => return a,
+                _ => {}
+            }
+        }
         if matches!(op, Div | Rem) && b.constant().is_some_and(is_zero) {
             let what = if op == Div { "division" } else { "remainder" };
             self.error(

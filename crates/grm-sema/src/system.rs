@@ -30,6 +30,8 @@ struct PatRes {
     sym: SymbolId,
     /// Names it binds (as written, even on an arity error).
     binds: usize,
+    /// The pattern fits the symbol (else its names are bound as errors).
+    ok: bool,
 }
 
 struct ProdRes {
@@ -690,12 +692,12 @@ impl Sys<'_, '_> {
                     )),
                 );
             }
-            return PatRes { sym, binds: k };
+            return PatRes { sym, binds: k, ok };
         }
         let sym = self.tab.user(name, p.symbol.span);
         self.occurrences.push((p.symbol.span, sym));
-        self.fix_arity(sym, k, p.span, "pattern");
-        PatRes { sym, binds: k }
+        let ok = self.fix_arity(sym, k, p.span, "pattern");
+        PatRes { sym, binds: k, ok }
     }
 
     fn resolve_production(&mut self, p: &ast::Production) -> ProdRes {
@@ -1057,11 +1059,15 @@ impl Sys<'_, '_> {
         let file = self.file;
         let first = *slot;
         for (i, name) in pat.params.iter().enumerate() {
-            let ty = self.tab.infos[pr.sym.index()]
-                .params
-                .get(i)
-                .copied()
-                .unwrap_or(Ty::Error);
+            let ty = match pr.ok {
+                true => self.tab.infos[pr.sym.index()]
+                    .params
+                    .get(i)
+                    .copied()
+                    .unwrap_or(Ty::Error),
+                false => Ty::Error,
+            };
+            let mut duplicate = false;
             if name.name != "_"
                 && let Some(prev) = bindings.iter().find(|b| b.name == name.name)
             {
@@ -1080,6 +1086,7 @@ impl Sys<'_, '_> {
                             "give each parameter its own name (use `_` for values you ignore)",
                         ),
                     );
+                    duplicate = true;
                 }
             }
             self.cx.program.index.push(
@@ -1095,7 +1102,8 @@ impl Sys<'_, '_> {
                 span: name.span,
                 slot: *slot,
                 ty,
-                used: false,
+                // A duplicate is reported once, not again as unused.
+                used: duplicate,
             });
             *slot += 1;
         }
@@ -1144,6 +1152,7 @@ impl Sys<'_, '_> {
             allow_params: true,
             what: "a production",
         };
+        let diags_before = self.cx.diags.len();
 
         let condition = p.condition.as_ref().map(|c| {
             let t = self.cx.expr(c, &mut sc);
@@ -1224,7 +1233,11 @@ impl Sys<'_, '_> {
         });
         self.brackets(ctx_br, "context");
 
-        if !prod_has_error(p) {
+        // A misspelt name is reported once, not also as an unused parameter.
+        let misspelt = self.cx.diags[diags_before..]
+            .iter()
+            .any(|d| d.code == Code::UnknownName);
+        if !prod_has_error(p) && !misspelt {
             for b in &sc.bindings {
                 if !b.used && !b.name.starts_with('_') {
                     self.cx.error(
