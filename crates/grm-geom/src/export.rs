@@ -1,0 +1,526 @@
+//! Writing a [`Model`] to disk.
+//!
+//! Formats, chosen by extension (case-insensitive) in [`export`]:
+//! - `.glb`: glTF 2.0 binary. One mesh with one primitive per part
+//!   (material): `POSITION` (with min/max), `NORMAL`, `u32` indices; each
+//!   material a `pbrMetallicRoughness` with `baseColorFactor`. Buffer views
+//!   are 4-byte aligned, the JSON chunk is padded with spaces and the BIN
+//!   chunk with zeros.
+//! - `.obj`: Wavefront OBJ plus `NAME.mtl` beside it (`mtllib`, one group
+//!   and `usemtl` per part, `v`/`vn`/`f v//vn`).
+//! - `.ply`: binary little-endian PLY with normals and 8-bit vertex
+//!   colours (the part's material colour); [`ExportFormat::PlyAscii`] via
+//!   [`export_as`].
+//! - `.svg`: the XY projection (for 2D systems): bones as lines with their
+//!   widths as stroke widths (width 0: a one-pixel hairline), polygons as
+//!   filled paths; y points up (the picture is flipped into SVG's y-down
+//!   space); the viewBox is the projected bounds plus a 2% margin.
+//!   Primitives and meshes are not drawn in SVG.
+//!
+//! Every write is atomic: the data goes to a temporary file in the target's
+//! directory, which is renamed over the target only when complete, so a
+//! failure never leaves a truncated file (OBJ: the `.mtl` is renamed first,
+//! then the `.obj`).
+
+use std::fmt::Write as _;
+use std::io::{self, BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+use grm_turtle::{Aabb, Paint};
+use serde_json::{Value as Json, json};
+
+use crate::Model;
+
+/// An output format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ExportFormat {
+    Glb,
+    Obj,
+    Ply,
+    PlyAscii,
+    Svg,
+}
+
+impl ExportFormat {
+    /// The format for a path's extension.
+    pub fn from_path(path: &Path) -> Option<ExportFormat> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        Some(match ext.as_str() {
+            "glb" => ExportFormat::Glb,
+            "obj" => ExportFormat::Obj,
+            "ply" => ExportFormat::Ply,
+            "svg" => ExportFormat::Svg,
+            _ => return None,
+        })
+    }
+}
+
+/// Why an export failed. Each names the path it was about.
+#[derive(Debug)]
+pub enum ExportError {
+    /// The extension names no supported format.
+    UnknownFormat { path: PathBuf },
+    /// Creating, writing or renaming the file failed.
+    Io { path: PathBuf, source: io::Error },
+    /// The model is too large for the format (glb: 4 GiB).
+    TooLarge { path: PathBuf },
+}
+
+impl ExportError {
+    pub fn path(&self) -> &Path {
+        match self {
+            ExportError::UnknownFormat { path }
+            | ExportError::Io { path, .. }
+            | ExportError::TooLarge { path } => path,
+        }
+    }
+}
+
+impl std::fmt::Display for ExportError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ExportError::UnknownFormat { path } => write!(
+                f,
+                "cannot export {}: unknown format (use .glb, .obj, .ply or .svg)",
+                path.display()
+            ),
+            ExportError::Io { path, source } => {
+                write!(f, "cannot write {}: {source}", path.display())
+            }
+            ExportError::TooLarge { path } => {
+                write!(
+                    f,
+                    "cannot write {}: the model is too large for the format",
+                    path.display()
+                )
+            }
+        }
+    }
+}
+
+impl std::error::Error for ExportError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            ExportError::Io { source, .. } => Some(source),
+            _ => None,
+        }
+    }
+}
+
+/// Export `model` to `path` in the format its extension names.
+pub fn export(model: &Model, path: &Path) -> Result<(), ExportError> {
+    let format = ExportFormat::from_path(path).ok_or_else(|| ExportError::UnknownFormat {
+        path: path.to_path_buf(),
+    })?;
+    export_as(model, path, format)
+}
+
+/// Export `model` to `path` in `format`.
+pub fn export_as(model: &Model, path: &Path, format: ExportFormat) -> Result<(), ExportError> {
+    match format {
+        ExportFormat::Glb => {
+            let bytes = glb_bytes(model).ok_or_else(|| ExportError::TooLarge {
+                path: path.to_path_buf(),
+            })?;
+            let tmp = stage(path, |w| w.write_all(&bytes))?;
+            commit(tmp, path)
+        }
+        ExportFormat::Obj => {
+            let mtl_path = path.with_extension("mtl");
+            let mtl_name = mtl_path
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "model.mtl".to_string());
+            let mtl = stage(&mtl_path, |w| write_mtl(model, w))?;
+            let obj = stage(path, |w| write_obj(model, &mtl_name, w))?;
+            commit(mtl, &mtl_path)?;
+            commit(obj, path)
+        }
+        ExportFormat::Ply | ExportFormat::PlyAscii => {
+            let tmp = stage(path, |w| {
+                write_ply(model, format == ExportFormat::PlyAscii, w)
+            })?;
+            commit(tmp, path)
+        }
+        ExportFormat::Svg => {
+            let svg = svg_string(model);
+            let tmp = stage(path, |w| w.write_all(svg.as_bytes()))?;
+            commit(tmp, path)
+        }
+    }
+}
+
+fn io_error(path: &Path, source: io::Error) -> ExportError {
+    ExportError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// Write a temporary file beside `path` (deleted again if anything fails).
+fn stage(
+    path: &Path,
+    write: impl FnOnce(&mut dyn Write) -> io::Result<()>,
+) -> Result<tempfile::NamedTempFile, ExportError> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let mut tmp = tempfile::Builder::new()
+        .prefix(".grm-export-")
+        .suffix(".tmp")
+        .tempfile_in(dir)
+        .map_err(|e| io_error(path, e))?;
+    {
+        let mut w = BufWriter::with_capacity(1 << 16, tmp.as_file_mut());
+        write(&mut w).map_err(|e| io_error(path, e))?;
+        w.flush().map_err(|e| io_error(path, e))?;
+    }
+    Ok(tmp)
+}
+
+/// Rename a staged file over `path`.
+fn commit(tmp: tempfile::NamedTempFile, path: &Path) -> Result<(), ExportError> {
+    tmp.persist(path).map_err(|e| io_error(path, e.error))?;
+    Ok(())
+}
+
+fn push_f32s(bin: &mut Vec<u8>, vs: &[[f32; 3]]) {
+    bin.reserve(vs.len() * 12);
+    for v in vs {
+        for x in v {
+            bin.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+}
+
+/// The model as a glTF 2.0 binary (`.glb`) file in memory; `None` when it
+/// exceeds the format's 4 GiB limit.
+pub fn glb_bytes(model: &Model) -> Option<Vec<u8>> {
+    let mut bin: Vec<u8> = Vec::new();
+    let mut views: Vec<Json> = Vec::new();
+    let mut accessors: Vec<Json> = Vec::new();
+    let mut primitives: Vec<Json> = Vec::new();
+    for part in model.parts.iter().filter(|p| !p.mesh.is_empty()) {
+        let m = &part.mesh;
+        let mut view = |bin: &mut Vec<u8>, start: usize, target: u32| {
+            views.push(json!({
+                "buffer": 0,
+                "byteOffset": start,
+                "byteLength": bin.len() - start,
+                "target": target,
+            }));
+            views.len() - 1
+        };
+        // Positions (every offset stays a multiple of 4: all data is 4-byte).
+        let start = bin.len();
+        push_f32s(&mut bin, &m.positions);
+        let pv = view(&mut bin, start, 34962);
+        let start = bin.len();
+        push_f32s(&mut bin, &m.normals);
+        let nv = view(&mut bin, start, 34962);
+        let start = bin.len();
+        bin.reserve(m.indices.len() * 4);
+        for i in &m.indices {
+            bin.extend_from_slice(&i.to_le_bytes());
+        }
+        let iv = view(&mut bin, start, 34963);
+
+        let mut bounds = Aabb::EMPTY;
+        for p in &m.positions {
+            bounds.add(Vec3::from_array(*p));
+        }
+        accessors.push(json!({
+            "bufferView": pv,
+            "componentType": 5126,
+            "count": m.positions.len(),
+            "type": "VEC3",
+            "min": bounds.min.to_array(),
+            "max": bounds.max.to_array(),
+        }));
+        accessors.push(json!({
+            "bufferView": nv,
+            "componentType": 5126,
+            "count": m.normals.len(),
+            "type": "VEC3",
+        }));
+        accessors.push(json!({
+            "bufferView": iv,
+            "componentType": 5125,
+            "count": m.indices.len(),
+            "type": "SCALAR",
+        }));
+        let a = accessors.len();
+        primitives.push(json!({
+            "attributes": { "POSITION": a - 3, "NORMAL": a - 2 },
+            "indices": a - 1,
+            "material": part.material,
+            "mode": 4,
+        }));
+    }
+    let materials: Vec<Json> = model
+        .materials
+        .iter()
+        .map(|m| {
+            let mut j = json!({
+                "name": m.name,
+                "pbrMetallicRoughness": {
+                    "baseColorFactor": [m.color[0], m.color[1], m.color[2], m.opacity],
+                    "metallicFactor": m.metallic,
+                    "roughnessFactor": m.roughness,
+                },
+                "emissiveFactor": m.emissive,
+            });
+            if m.opacity < 1.0 {
+                j["alphaMode"] = json!("BLEND");
+            }
+            j
+        })
+        .collect();
+    let mut doc = json!({
+        "asset": { "version": "2.0", "generator": "grm" },
+        "scene": 0,
+        "scenes": [ { "name": "grm" } ],
+    });
+    if !primitives.is_empty() {
+        doc["scenes"][0]["nodes"] = json!([0]);
+        doc["nodes"] = json!([ { "name": "model", "mesh": 0 } ]);
+        doc["meshes"] = json!([ { "name": "model", "primitives": primitives } ]);
+        doc["materials"] = json!(materials);
+        doc["accessors"] = json!(accessors);
+        doc["bufferViews"] = json!(views);
+        doc["buffers"] = json!([ { "byteLength": bin.len() } ]);
+    }
+    // Serialising a `Value` of plain data cannot fail.
+    let mut json_bytes = serde_json::to_vec(&doc).unwrap_or_default();
+    json_bytes.resize(json_bytes.len().next_multiple_of(4), b' ');
+    bin.resize(bin.len().next_multiple_of(4), 0);
+    let has_bin = !primitives.is_empty();
+    let total = 12 + 8 + json_bytes.len() + if has_bin { 8 + bin.len() } else { 0 };
+    let total = u32::try_from(total).ok()?;
+    let mut out = Vec::with_capacity(total as usize);
+    out.extend_from_slice(b"glTF");
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&total.to_le_bytes());
+    out.extend_from_slice(&(json_bytes.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"JSON");
+    out.extend_from_slice(&json_bytes);
+    if has_bin {
+        out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+        out.extend_from_slice(b"BIN\0");
+        out.extend_from_slice(&bin);
+    }
+    Some(out)
+}
+
+fn write_mtl(model: &Model, w: &mut dyn Write) -> io::Result<()> {
+    writeln!(w, "# grm materials")?;
+    for m in &model.materials {
+        let [r, g, b] = m.color;
+        let [er, eg, eb] = m.emissive;
+        writeln!(w, "\nnewmtl {}", m.name)?;
+        writeln!(w, "Ka 0 0 0")?;
+        writeln!(w, "Kd {r} {g} {b}")?;
+        writeln!(w, "Ks 0.04 0.04 0.04")?;
+        writeln!(w, "Ke {er} {eg} {eb}")?;
+        writeln!(w, "d {}", m.opacity)?;
+        writeln!(w, "Pr {}", m.roughness)?;
+        writeln!(w, "Pm {}", m.metallic)?;
+        writeln!(w, "illum 2")?;
+    }
+    Ok(())
+}
+
+fn write_obj(model: &Model, mtl_name: &str, w: &mut dyn Write) -> io::Result<()> {
+    writeln!(
+        w,
+        "# grm model: {} vertices, {} triangles",
+        model.stats.vertices, model.stats.triangles
+    )?;
+    writeln!(w, "mtllib {mtl_name}")?;
+    let mut base = 1usize;
+    for (k, part) in model.parts.iter().enumerate() {
+        let m = &part.mesh;
+        let name = model
+            .materials
+            .get(part.material)
+            .map_or("default", |m| m.name.as_str());
+        writeln!(w, "o part{k}_{name}")?;
+        for [x, y, z] in &m.positions {
+            writeln!(w, "v {x} {y} {z}")?;
+        }
+        for [x, y, z] in &m.normals {
+            writeln!(w, "vn {x} {y} {z}")?;
+        }
+        writeln!(w, "usemtl {name}")?;
+        for t in m.indices.chunks_exact(3) {
+            let (a, b, c) = (
+                t[0] as usize + base,
+                t[1] as usize + base,
+                t[2] as usize + base,
+            );
+            writeln!(w, "f {a}//{a} {b}//{b} {c}//{c}")?;
+        }
+        base += m.positions.len();
+    }
+    Ok(())
+}
+
+fn write_ply(model: &Model, ascii: bool, w: &mut dyn Write) -> io::Result<()> {
+    let format = if ascii {
+        "ascii"
+    } else {
+        "binary_little_endian"
+    };
+    writeln!(w, "ply")?;
+    writeln!(w, "format {format} 1.0")?;
+    writeln!(w, "comment generated by grm")?;
+    writeln!(w, "element vertex {}", model.stats.vertices)?;
+    for p in ["x", "y", "z", "nx", "ny", "nz"] {
+        writeln!(w, "property float {p}")?;
+    }
+    for p in ["red", "green", "blue"] {
+        writeln!(w, "property uchar {p}")?;
+    }
+    writeln!(w, "element face {}", model.stats.triangles)?;
+    writeln!(w, "property list uchar uint vertex_indices")?;
+    writeln!(w, "end_header")?;
+    let rgb = |part: &crate::Part| {
+        model
+            .materials
+            .get(part.material)
+            .map_or([204, 204, 204], |m| m.color.map(crate::to_u8))
+    };
+    for part in &model.parts {
+        let c = rgb(part);
+        for (p, n) in part.mesh.positions.iter().zip(&part.mesh.normals) {
+            if ascii {
+                writeln!(
+                    w,
+                    "{} {} {} {} {} {} {} {} {}",
+                    p[0], p[1], p[2], n[0], n[1], n[2], c[0], c[1], c[2]
+                )?;
+            } else {
+                let mut buf = [0u8; 27];
+                for (i, x) in p.iter().chain(n).enumerate() {
+                    buf[i * 4..i * 4 + 4].copy_from_slice(&x.to_le_bytes());
+                }
+                buf[24..27].copy_from_slice(&c);
+                w.write_all(&buf)?;
+            }
+        }
+    }
+    let mut base = 0u32;
+    for part in &model.parts {
+        for t in part.mesh.indices.chunks_exact(3) {
+            let (a, b, c) = (t[0] + base, t[1] + base, t[2] + base);
+            if ascii {
+                writeln!(w, "3 {a} {b} {c}")?;
+            } else {
+                let mut buf = [0u8; 13];
+                buf[0] = 3;
+                buf[1..5].copy_from_slice(&a.to_le_bytes());
+                buf[5..9].copy_from_slice(&b.to_le_bytes());
+                buf[9..13].copy_from_slice(&c.to_le_bytes());
+                w.write_all(&buf)?;
+            }
+        }
+        base += part.mesh.positions.len() as u32;
+    }
+    Ok(())
+}
+
+fn hex(c: [f32; 3]) -> String {
+    let [r, g, b] = c.map(crate::to_u8);
+    format!("#{r:02x}{g:02x}{b:02x}")
+}
+
+/// A number for SVG (non-finite values become 0).
+fn num(x: f32) -> f32 {
+    if x.is_finite() { x } else { 0.0 }
+}
+
+/// The model's XY projection as an SVG document.
+pub fn svg_string(model: &Model) -> String {
+    let s = &model.skeleton;
+    let colour = |p: Paint| hex(model.paint_color(p));
+    // Projected bounds, including stroke widths.
+    let mut b = Aabb::EMPTY;
+    for bone in &s.bones {
+        let r = 0.5 * bone.width_base.max(bone.width_tip).max(0.0);
+        for p in [bone.base, bone.tip] {
+            b.add(Vec3::new(p.x - r, p.y - r, 0.0));
+            b.add(Vec3::new(p.x + r, p.y + r, 0.0));
+        }
+    }
+    for p in &s.polygon_vertices {
+        b.add(Vec3::new(p.x, p.y, 0.0));
+    }
+    let (min, size) = if b.is_empty() {
+        (Vec3::ZERO, Vec3::ONE)
+    } else {
+        let size = b.size().max(Vec3::splat(1e-6));
+        let margin = 0.02 * size.x.max(size.y);
+        (
+            b.min - Vec3::splat(margin),
+            size + Vec3::splat(2.0 * margin),
+        )
+    };
+    // SVG's y points down: a point (x, y) is drawn at (x, -y).
+    let (vx, vy, vw, vh) = (min.x, -(min.y + size.y), size.x, size.y);
+    let px = 800.0 / vw.max(vh);
+    let mut out = String::with_capacity(256 + s.bones.len() * 96);
+    out.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
+    let _ = writeln!(
+        out,
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"{} {} {} {}\" width=\"{}\" height=\"{}\">",
+        num(vx),
+        num(vy),
+        num(vw),
+        num(vh),
+        num((vw * px).round().max(1.0)),
+        num((vh * px).round().max(1.0)),
+    );
+    if !s.polygons.is_empty() {
+        out.push_str("<g stroke=\"none\">\n");
+        for poly in &s.polygons {
+            let vs = s.vertices(poly);
+            let _ = write!(out, "<path fill=\"{}\" d=\"", colour(poly.paint));
+            for (i, p) in vs.iter().enumerate() {
+                let _ = write!(
+                    out,
+                    "{}{} {} ",
+                    if i == 0 { "M" } else { "L" },
+                    num(p.x),
+                    num(-p.y)
+                );
+            }
+            out.push_str("Z\"/>\n");
+        }
+        out.push_str("</g>\n");
+    }
+    if !s.bones.is_empty() {
+        out.push_str("<g fill=\"none\" stroke-linecap=\"round\">\n");
+        for bone in &s.bones {
+            let w = 0.5 * (bone.width_base + bone.width_tip);
+            let _ = write!(
+                out,
+                "<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"{}\" ",
+                num(bone.base.x),
+                num(-bone.base.y),
+                num(bone.tip.x),
+                num(-bone.tip.y),
+                colour(bone.paint)
+            );
+            if w > 0.0 && w.is_finite() {
+                let _ = writeln!(out, "stroke-width=\"{w}\"/>");
+            } else {
+                out.push_str("stroke-width=\"1\" vector-effect=\"non-scaling-stroke\"/>\n");
+            }
+        }
+        out.push_str("</g>\n");
+    }
+    out.push_str("</svg>\n");
+    out
+}

@@ -1,0 +1,89 @@
+//! OBJ meshes declared with `mesh NAME = "file.obj";`, read with `tobj`.
+//!
+//! All objects of a file are merged into one [`MeshData`] (triangulated,
+//! single index). Normals come from the file when every object has them,
+//! otherwise they are computed (smooth, area weighted). The file's own
+//! materials (`mtllib`) are not read: grm materials paint the mesh.
+
+use std::io::Cursor;
+use std::path::Path;
+
+use crate::GeomError;
+use crate::mesh::{MeshData, compute_normals};
+
+/// Load one OBJ file. `name` is the mesh's name in the program (for errors).
+pub fn load_obj(name: &str, path: &Path) -> Result<MeshData, GeomError> {
+    let bytes = std::fs::read(path).map_err(|e| GeomError::MeshMissing {
+        mesh: name.to_string(),
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })?;
+    parse_obj(name, path, &bytes)
+}
+
+/// Parse OBJ text (already read from `path`).
+pub fn parse_obj(name: &str, path: &Path, bytes: &[u8]) -> Result<MeshData, GeomError> {
+    let malformed = |message: String| GeomError::MeshMalformed {
+        mesh: name.to_string(),
+        path: path.to_path_buf(),
+        message,
+    };
+    let opts = tobj::LoadOptions {
+        single_index: true,
+        triangulate: true,
+        ignore_points: true,
+        ignore_lines: true,
+    };
+    let (models, _materials) = tobj::load_obj_buf(&mut Cursor::new(bytes), &opts, |_| {
+        Err(tobj::LoadError::OpenFileFailed)
+    })
+    .map_err(|e| malformed(e.to_string()))?;
+    let mut out = MeshData::default();
+    let mut all_normals = true;
+    for model in &models {
+        let m = &model.mesh;
+        if m.positions.len() % 3 != 0 || m.indices.len() % 3 != 0 {
+            return Err(malformed(format!(
+                "object `{}` is not a triangle mesh",
+                model.name
+            )));
+        }
+        let count = m.positions.len() / 3;
+        if m.normals.len() != m.positions.len() {
+            all_normals = false;
+        }
+        let base = out.positions.len() as u32;
+        for p in m.positions.chunks_exact(3) {
+            if !p.iter().all(|x| x.is_finite()) {
+                return Err(malformed(format!(
+                    "object `{}` has a non-finite vertex",
+                    model.name
+                )));
+            }
+            out.positions.push([p[0], p[1], p[2]]);
+        }
+        for &i in &m.indices {
+            if i as usize >= count {
+                return Err(malformed(format!(
+                    "object `{}` refers to vertex {} of {count}",
+                    model.name,
+                    i + 1
+                )));
+            }
+            out.indices.push(base + i);
+        }
+        if all_normals {
+            for n in m.normals.chunks_exact(3) {
+                let v = glam::Vec3::new(n[0], n[1], n[2]);
+                out.normals.push(v.normalize_or(glam::Vec3::Y).to_array());
+            }
+        }
+    }
+    if out.indices.is_empty() {
+        return Err(malformed("the file has no faces".to_string()));
+    }
+    if !all_normals {
+        out.normals = compute_normals(&out.positions, &out.indices);
+    }
+    Ok(out)
+}

@@ -1,0 +1,634 @@
+//! `grm-geom`: meshes from the turtle's output, and export.
+//!
+//! Role: the last stage of the pipeline. [`build_model`] interprets a
+//! derived [`ModuleString`] with `grm-turtle` and turns the result into
+//! triangle meshes: generalized cylinders along the bones ([`tube`]), the
+//! primitives (`cylinder cone sphere box disc`, [`mesh`]), OBJ meshes
+//! declared in the program ([`import`], read once each and instanced) and
+//! the `{ . }` polygons ([`polygon`]). [`export()`] writes the model as
+//! glTF 2.0 binary (`.glb`), OBJ + MTL, PLY or SVG ([`export`]).
+//!
+//! Inputs: the checked [`grm_sema::Program`] and one of its systems, the
+//! system's [`Settings`], and the module string.
+//!
+//! Outputs: a [`Model`]: one [`Part`] (an indexed triangle mesh) per
+//! material or colour, the [`ModelMaterial`]s, the skeleton (the whole
+//! [`Interpretation`]: bones, instances, polygons), per-part [`Pick`]
+//! ranges saying which bone, instance or polygon (and so which module and
+//! production) made each triangle, and [`Stats`].
+//!
+//! Invariants: parts and their picks come in a deterministic order (tubes
+//! in bone order, then instances, then polygons); every index is in range,
+//! every normal unit length and every coordinate finite (anything that
+//! would not be is dropped and counted in [`Stats::dropped`]); errors
+//! (a missing or malformed OBJ file, an id the program does not have) are
+//! typed and leave no partial model.
+
+pub mod export;
+pub mod import;
+pub mod mesh;
+pub mod polygon;
+pub mod tube;
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+
+use glam::Vec3;
+use grm_derive::ModuleString;
+use grm_sema::{MaterialProp, Program, Settings, System, Value};
+use grm_turtle::{Aabb, InstanceKind, Interpretation, Paint, TurtleError};
+
+pub use export::{ExportError, ExportFormat, export, export_as};
+pub use grm_turtle;
+pub use mesh::MeshData;
+
+/// Mesh building settings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BuildOptions {
+    /// Sides of a bone's tube ring (at least 3).
+    pub tube_sides: u32,
+    /// Segments around cylinders, cones, discs and spheres (at least 3).
+    pub segments: u32,
+}
+
+impl Default for BuildOptions {
+    fn default() -> Self {
+        BuildOptions {
+            tube_sides: 8,
+            segments: 16,
+        }
+    }
+}
+
+/// A material of the model: a declared material, a palette colour or an
+/// explicit colour.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModelMaterial {
+    /// Unique in the model; no spaces (safe for OBJ/MTL).
+    pub name: String,
+    /// Linear RGB base colour in [0, 1].
+    pub color: [f32; 3],
+    pub roughness: f32,
+    pub metallic: f32,
+    pub emissive: [f32; 3],
+    /// 1 = opaque.
+    pub opacity: f32,
+}
+
+/// What made a run of triangles.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum PartSource {
+    /// A bone's tube (index into the skeleton's bones).
+    Bone(u32),
+    /// A primitive or mesh (index into the skeleton's instances).
+    Instance(u32),
+    /// A polygon (index into the skeleton's polygons).
+    Polygon(u32),
+}
+
+/// Triangles `first_triangle .. first_triangle + triangle_count` of a part
+/// were made by `source`, from module `module` of the string (made by
+/// production `origin`, see [`Model::fill_origins`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Pick {
+    pub first_triangle: u32,
+    pub triangle_count: u32,
+    pub source: PartSource,
+    pub module: u32,
+    pub origin: u32,
+}
+
+/// The geometry of one material.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Part {
+    /// Index into [`Model::materials`].
+    pub material: usize,
+    pub mesh: MeshData,
+    /// Sorted by `first_triangle`, not overlapping.
+    pub picks: Vec<Pick>,
+}
+
+/// Counts and bounds.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Stats {
+    pub vertices: usize,
+    pub triangles: usize,
+    pub bones: usize,
+    pub instances: usize,
+    pub polygons: usize,
+    pub parts: usize,
+    /// Bounds of the meshes and the skeleton.
+    pub bounds: Aabb,
+    /// Instances with a singular or non-finite transform and degenerate
+    /// polygons, skipped.
+    pub dropped: usize,
+}
+
+/// A built model.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Model {
+    /// The turtle's output: bones (the skeleton), instances, polygons.
+    pub skeleton: Interpretation,
+    /// The materials of the parts.
+    pub materials: Vec<ModelMaterial>,
+    /// Every material the program declares, evaluated (index =
+    /// [`grm_sema::MaterialId`]), whether used or not.
+    pub declared_materials: Vec<ModelMaterial>,
+    pub parts: Vec<Part>,
+    pub stats: Stats,
+}
+
+impl Model {
+    /// The base colour a paint stands for.
+    pub fn paint_color(&self, paint: Paint) -> [f32; 3] {
+        match paint {
+            Paint::Palette(i) => Paint::palette_color(i),
+            Paint::Rgb(c) => c,
+            Paint::Material(m) => self
+                .declared_materials
+                .get(m.index())
+                .map_or([0.8; 3], |m| m.color),
+        }
+    }
+
+    pub fn bones(&self) -> &[grm_turtle::Bone] {
+        &self.skeleton.bones
+    }
+
+    /// What made triangle `triangle` of part `part`.
+    pub fn pick(&self, part: usize, triangle: u32) -> Option<&Pick> {
+        let picks = &self.parts.get(part)?.picks;
+        let i = picks.partition_point(|p| p.first_triangle <= triangle);
+        let p = picks.get(i.checked_sub(1)?)?;
+        (triangle < p.first_triangle + p.triangle_count).then_some(p)
+    }
+
+    /// Set the `origin` of every bone, instance, polygon and pick from a
+    /// per-module side table (`origins[module]`, e.g. the production that
+    /// made each module); modules past its end get [`grm_turtle::NO_ORIGIN`].
+    pub fn fill_origins(&mut self, origins: &[u32]) {
+        self.skeleton.fill_origins(origins);
+        for part in &mut self.parts {
+            for p in &mut part.picks {
+                p.origin = origins
+                    .get(p.module as usize)
+                    .copied()
+                    .unwrap_or(grm_turtle::NO_ORIGIN);
+            }
+        }
+    }
+}
+
+/// Why a model could not be built.
+#[derive(Debug)]
+pub enum GeomError {
+    /// The string could not be interpreted.
+    Turtle(TurtleError),
+    /// `mesh(id)` with an id the program does not declare.
+    UnknownMesh { id: u32, module: u32 },
+    /// `material(id)` with an id the program does not declare.
+    UnknownMaterial { id: u32, module: u32 },
+    /// A declared mesh's file could not be read.
+    MeshMissing {
+        mesh: String,
+        path: PathBuf,
+        message: String,
+    },
+    /// A declared mesh's file is not a usable OBJ file.
+    MeshMalformed {
+        mesh: String,
+        path: PathBuf,
+        message: String,
+    },
+}
+
+impl std::fmt::Display for GeomError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            GeomError::Turtle(e) => write!(f, "{e}"),
+            GeomError::UnknownMesh { id, module } => {
+                write!(
+                    f,
+                    "module {module} draws mesh #{id}, which the program does not declare"
+                )
+            }
+            GeomError::UnknownMaterial { id, module } => write!(
+                f,
+                "module {module} uses material #{id}, which the program does not declare"
+            ),
+            GeomError::MeshMissing {
+                mesh,
+                path,
+                message,
+            } => write!(
+                f,
+                "cannot read mesh `{mesh}` from {}: {message}",
+                path.display()
+            ),
+            GeomError::MeshMalformed {
+                mesh,
+                path,
+                message,
+            } => write!(
+                f,
+                "mesh `{mesh}` in {} is not a valid OBJ file: {message}",
+                path.display()
+            ),
+        }
+    }
+}
+
+impl std::error::Error for GeomError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            GeomError::Turtle(e) => Some(e),
+            _ => None,
+        }
+    }
+}
+
+impl From<TurtleError> for GeomError {
+    fn from(e: TurtleError) -> Self {
+        GeomError::Turtle(e)
+    }
+}
+
+/// Interpret `string` (a string of `system`) and build its meshes.
+pub fn build_model(
+    program: &Program,
+    system: &System,
+    string: &ModuleString,
+    settings: &Settings,
+) -> Result<Model, GeomError> {
+    let skeleton = grm_turtle::interpret(system, settings, string)?;
+    build_from_interpretation(program, skeleton, &BuildOptions::default())
+}
+
+/// Build the meshes of an interpretation made elsewhere (e.g. by the
+/// guided sampler, expansion by expansion).
+pub fn build_from_interpretation(
+    program: &Program,
+    skeleton: Interpretation,
+    options: &BuildOptions,
+) -> Result<Model, GeomError> {
+    // Check ids and load every mesh used, once, before building anything.
+    let mut meshes: Vec<Option<MeshData>> = vec![None; program.meshes.len()];
+    for inst in &skeleton.instances {
+        if let InstanceKind::Mesh(id) = inst.kind {
+            let Some(decl) = program.meshes.get(id.index()) else {
+                return Err(GeomError::UnknownMesh {
+                    id: id.0,
+                    module: inst.module,
+                });
+            };
+            if meshes[id.index()].is_none() {
+                meshes[id.index()] = Some(import::load_obj(&decl.name, &decl.path)?);
+            }
+        }
+    }
+    let mut builder = Builder::new(program, options);
+    builder.check_paints(&skeleton)?;
+
+    // Tubes.
+    let plan = tube::TubePlan::new(&skeleton.bones);
+    let mut tip_rings: Vec<Option<(usize, u32)>> = vec![None; skeleton.bones.len()];
+    let mut scratch = Vec::with_capacity(options.tube_sides as usize);
+    for (i, bone) in skeleton.bones.iter().enumerate() {
+        if plan.dir[i].is_none() {
+            continue;
+        }
+        let part = builder.part(bone.paint);
+        let shared = if plan.continues[i] {
+            bone.parent
+                .and_then(|p| tip_rings[p as usize])
+                .and_then(|(pp, first)| (pp == part).then_some(first))
+        } else {
+            None
+        };
+        let before = builder.parts[part].mesh.triangle_count();
+        let m = &mut builder.parts[part].mesh;
+        if let Some(first) = tube::emit_bone(
+            &plan,
+            &skeleton.bones,
+            i,
+            options.tube_sides,
+            shared,
+            m,
+            &mut scratch,
+        ) {
+            tip_rings[i] = Some((part, first));
+        }
+        builder.pick(
+            part,
+            before,
+            PartSource::Bone(i as u32),
+            bone.module,
+            bone.origin,
+        );
+    }
+
+    // Instances.
+    let unit = UnitShapes::new(options.segments);
+    for (i, inst) in skeleton.instances.iter().enumerate() {
+        let shape = match inst.kind {
+            InstanceKind::Cylinder => &unit.cylinder,
+            InstanceKind::Cone => &unit.cone,
+            InstanceKind::Sphere => &unit.sphere,
+            InstanceKind::Box => &unit.cube,
+            InstanceKind::Disc => &unit.disc,
+            // Loaded above for every mesh instance.
+            InstanceKind::Mesh(id) => match meshes.get(id.index()).and_then(Option::as_ref) {
+                Some(m) => m,
+                None => continue,
+            },
+        };
+        let part = builder.part(inst.paint);
+        let before = builder.parts[part].mesh.triangle_count();
+        if builder.parts[part]
+            .mesh
+            .append_transformed(shape, &inst.transform)
+        {
+            builder.pick(
+                part,
+                before,
+                PartSource::Instance(i as u32),
+                inst.module,
+                inst.origin,
+            );
+        } else {
+            builder.dropped += 1;
+        }
+    }
+
+    // Polygons.
+    let mut tris = Vec::new();
+    for (i, poly) in skeleton.polygons.iter().enumerate() {
+        let vs = skeleton.vertices(poly);
+        let part = builder.part(poly.paint);
+        let before = builder.parts[part].mesh.triangle_count();
+        if polygon::emit_polygon(vs, &mut builder.parts[part].mesh, &mut tris) {
+            builder.pick(
+                part,
+                before,
+                PartSource::Polygon(i as u32),
+                poly.module,
+                poly.origin,
+            );
+        } else {
+            builder.dropped += 1;
+        }
+    }
+
+    Ok(builder.finish(skeleton))
+}
+
+/// The unit primitives, built once per model.
+struct UnitShapes {
+    cylinder: MeshData,
+    cone: MeshData,
+    sphere: MeshData,
+    cube: MeshData,
+    disc: MeshData,
+}
+
+impl UnitShapes {
+    fn new(segments: u32) -> UnitShapes {
+        UnitShapes {
+            cylinder: mesh::unit_cylinder(segments),
+            cone: mesh::unit_cone(segments),
+            sphere: mesh::unit_sphere(segments),
+            cube: mesh::unit_box(),
+            disc: mesh::unit_disc(segments),
+        }
+    }
+}
+
+/// Paints that share a material.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum PaintKey {
+    Palette(u32),
+    /// Quantised to 8 bits per channel.
+    Rgb([u8; 3]),
+    Material(u32),
+}
+
+pub(crate) fn to_u8(x: f32) -> u8 {
+    (x.clamp(0.0, 1.0) * 255.0).round() as u8
+}
+
+impl PaintKey {
+    fn of(p: Paint) -> PaintKey {
+        match p {
+            Paint::Palette(i) => PaintKey::Palette(i % grm_turtle::PALETTE.len() as u32),
+            Paint::Rgb(c) => PaintKey::Rgb(c.map(to_u8)),
+            Paint::Material(m) => PaintKey::Material(m.0),
+        }
+    }
+}
+
+struct Builder<'a> {
+    program: &'a Program,
+    /// Meta-parameter defaults and constant values, for material fields
+    /// that depend on meta-parameters.
+    params: Vec<Value>,
+    globals: Vec<Value>,
+    declared: Vec<ModelMaterial>,
+    materials: Vec<ModelMaterial>,
+    parts: Vec<Part>,
+    by_key: HashMap<PaintKey, usize>,
+    dropped: usize,
+}
+
+impl<'a> Builder<'a> {
+    fn new(program: &'a Program, _options: &BuildOptions) -> Builder<'a> {
+        let params = program.default_params();
+        let globals = program.global_values(&params).unwrap_or_default();
+        let mut b = Builder {
+            program,
+            params,
+            globals,
+            declared: Vec::new(),
+            materials: Vec::new(),
+            parts: Vec::new(),
+            by_key: HashMap::new(),
+            dropped: 0,
+        };
+        b.declared = program.materials.iter().map(|m| b.evaluate(m)).collect();
+        b
+    }
+
+    fn evaluate(&self, decl: &grm_sema::Material) -> ModelMaterial {
+        let vec3 = |p| {
+            decl.get(p)
+                .and_then(|e| self.eval(e))
+                .and_then(|v| v.as_vec3())
+                .map(|v| v.map(|x| (x as f32).clamp(0.0, 1.0)))
+        };
+        let float = |p| {
+            decl.get(p)
+                .and_then(|e| self.eval(e))
+                .and_then(|v| v.as_float())
+                .map(|x| (x as f32).clamp(0.0, 1.0))
+        };
+        let d = default_material();
+        ModelMaterial {
+            name: sanitize(&decl.name),
+            color: vec3(MaterialProp::Color).unwrap_or(d.color),
+            roughness: float(MaterialProp::Roughness).unwrap_or(d.roughness),
+            metallic: float(MaterialProp::Metallic).unwrap_or(d.metallic),
+            emissive: vec3(MaterialProp::Emissive).unwrap_or(d.emissive),
+            opacity: float(MaterialProp::Opacity).unwrap_or(d.opacity),
+        }
+    }
+
+    /// Every `material(m)` must name a declared material.
+    fn check_paints(&self, s: &Interpretation) -> Result<(), GeomError> {
+        let n = self.program.materials.len() as u32;
+        let bad = |p: Paint, module: u32| match p {
+            Paint::Material(m) if m.0 >= n => Err(GeomError::UnknownMaterial { id: m.0, module }),
+            _ => Ok(()),
+        };
+        for b in &s.bones {
+            bad(b.paint, b.module)?;
+        }
+        for i in &s.instances {
+            bad(i.paint, i.module)?;
+        }
+        for p in &s.polygons {
+            bad(p.paint, p.module)?;
+        }
+        Ok(())
+    }
+
+    fn eval(&self, e: &grm_sema::TExpr) -> Option<Value> {
+        e.constant().or_else(|| {
+            let env = grm_sema::eval::Env {
+                params: &self.params,
+                globals: &self.globals,
+                bindings: &[],
+            };
+            grm_sema::eval::eval(e, &env).ok()
+        })
+    }
+
+    fn material_of(&self, key: PaintKey) -> ModelMaterial {
+        let mut m = default_material();
+        match key {
+            PaintKey::Palette(i) => {
+                m.name = format!("color{i}");
+                m.color = Paint::palette_color(i);
+            }
+            PaintKey::Rgb(c) => {
+                m.name = format!("rgb_{:02x}{:02x}{:02x}", c[0], c[1], c[2]);
+                m.color = c.map(|x| f32::from(x) / 255.0);
+            }
+            // `check_paints` guarantees the id is in range.
+            PaintKey::Material(id) => m = self.declared[id as usize].clone(),
+        }
+        // Names are unique: a declared material may be called `color1`.
+        if self.materials.iter().any(|x| x.name == m.name) {
+            m.name = format!("{}_{}", m.name, self.materials.len());
+        }
+        m
+    }
+
+    fn part(&mut self, paint: Paint) -> usize {
+        let key = PaintKey::of(paint);
+        if let Some(&i) = self.by_key.get(&key) {
+            return i;
+        }
+        let material = self.material_of(key);
+        self.materials.push(material);
+        let i = self.parts.len();
+        self.parts.push(Part {
+            material: self.materials.len() - 1,
+            ..Part::default()
+        });
+        self.by_key.insert(key, i);
+        i
+    }
+
+    fn pick(&mut self, part: usize, before: usize, source: PartSource, module: u32, origin: u32) {
+        let p = &mut self.parts[part];
+        let after = p.mesh.triangle_count();
+        if after > before {
+            p.picks.push(Pick {
+                first_triangle: before as u32,
+                triangle_count: (after - before) as u32,
+                source,
+                module,
+                origin,
+            });
+        }
+    }
+
+    fn finish(mut self, skeleton: Interpretation) -> Model {
+        // Drop parts that ended up empty (everything in them was dropped)
+        // and their materials.
+        self.parts.retain(|p| !p.mesh.is_empty());
+        let mut materials = Vec::with_capacity(self.parts.len());
+        for p in &mut self.parts {
+            materials.push(self.materials[p.material].clone());
+            p.material = materials.len() - 1;
+        }
+        self.materials = materials;
+        let mut bounds = skeleton.bounds;
+        let mut vertices = 0;
+        let mut triangles = 0;
+        for p in &self.parts {
+            vertices += p.mesh.vertex_count();
+            triangles += p.mesh.triangle_count();
+            for v in &p.mesh.positions {
+                bounds.add(Vec3::from_array(*v));
+            }
+        }
+        let stats = Stats {
+            vertices,
+            triangles,
+            bones: skeleton.bones.len(),
+            instances: skeleton.instances.len(),
+            polygons: skeleton.polygons.len(),
+            parts: self.parts.len(),
+            bounds,
+            dropped: self.dropped,
+        };
+        Model {
+            skeleton,
+            materials: self.materials,
+            declared_materials: self.declared,
+            parts: self.parts,
+            stats,
+        }
+    }
+}
+
+/// Grey, rough, opaque.
+fn default_material() -> ModelMaterial {
+    ModelMaterial {
+        name: "default".to_string(),
+        color: [0.8; 3],
+        roughness: 0.8,
+        metallic: 0.0,
+        emissive: [0.0; 3],
+        opacity: 1.0,
+    }
+}
+
+/// A name safe for OBJ/MTL and glTF: ASCII letters, digits, `_` `-` `.`.
+pub(crate) fn sanitize(name: &str) -> String {
+    let s: String = name
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.') {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    if s.is_empty() {
+        "material".to_string()
+    } else {
+        s
+    }
+}

@@ -1,0 +1,252 @@
+//! Indexed triangle meshes and the unit primitives.
+//!
+//! Conventions: triangles are counter-clockwise seen from the side their
+//! normal points to; normals are unit length; every unit primitive is
+//! closed (each edge of the welded surface is shared by exactly two
+//! triangles), except the disc, which is two-sided (a front and a back face
+//! with their own vertices). The unit shapes are those of
+//! [`grm_turtle::InstanceKind`].
+
+use glam::{Affine3A, Mat3A, Vec3, Vec3A};
+
+/// An indexed triangle mesh.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MeshData {
+    pub positions: Vec<[f32; 3]>,
+    /// One per position, unit length.
+    pub normals: Vec<[f32; 3]>,
+    /// Three per triangle, each `< positions.len()`.
+    pub indices: Vec<u32>,
+}
+
+impl MeshData {
+    pub fn vertex_count(&self) -> usize {
+        self.positions.len()
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len() / 3
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.indices.is_empty()
+    }
+
+    /// Append a vertex; returns its index.
+    #[inline]
+    pub fn vertex(&mut self, p: Vec3, n: Vec3) -> u32 {
+        let i = self.positions.len() as u32;
+        self.positions.push(p.to_array());
+        self.normals.push(n.to_array());
+        i
+    }
+
+    #[inline]
+    pub fn triangle(&mut self, a: u32, b: u32, c: u32) {
+        self.indices.extend_from_slice(&[a, b, c]);
+    }
+
+    /// Append `other` transformed by `t` (normals by its inverse
+    /// transpose; the winding is flipped when `t` mirrors). Returns `false`
+    /// and appends nothing when `t` is singular or not finite.
+    pub fn append_transformed(&mut self, other: &MeshData, t: &Affine3A) -> bool {
+        let det = t.matrix3.determinant();
+        if !(det.is_finite() && det.abs() > 1e-18 && t.translation.is_finite()) {
+            return false;
+        }
+        let normal_matrix: Mat3A = t.matrix3.inverse().transpose();
+        let base = self.positions.len() as u32;
+        self.positions.reserve(other.positions.len());
+        self.normals.reserve(other.normals.len());
+        for (p, n) in other.positions.iter().zip(&other.normals) {
+            let p = t.transform_point3a(Vec3A::from_array(*p));
+            let n = (normal_matrix * Vec3A::from_array(*n)).normalize_or(Vec3A::Y);
+            self.positions.push(p.to_array());
+            self.normals.push(n.to_array());
+        }
+        self.indices.reserve(other.indices.len());
+        for tri in other.indices.chunks_exact(3) {
+            if det < 0.0 {
+                self.triangle(base + tri[0], base + tri[2], base + tri[1]);
+            } else {
+                self.triangle(base + tri[0], base + tri[1], base + tri[2]);
+            }
+        }
+        true
+    }
+
+    /// Whether all positions and normals are finite.
+    pub fn is_finite(&self) -> bool {
+        self.positions
+            .iter()
+            .chain(&self.normals)
+            .all(|v| v.iter().all(|x| x.is_finite()))
+    }
+}
+
+/// A ring of `sides` directions `cos(a) e1 + sin(a) e2` in the plane
+/// perpendicular to `d` (with `e2 = d x e1`), counter-clockwise seen from `+d`.
+pub(crate) fn ring_dirs(e1: Vec3, d: Vec3, sides: u32) -> impl Iterator<Item = Vec3> {
+    let e2 = d.cross(e1);
+    (0..sides).map(move |k| {
+        let a = std::f32::consts::TAU * k as f32 / sides as f32;
+        let (s, c) = a.sin_cos();
+        e1 * c + e2 * s
+    })
+}
+
+/// A flat cap: a centre and a ring at `centre + r * dirs`, facing `normal`.
+/// `ccw` says whether the ring runs counter-clockwise seen from `normal`.
+fn cap(m: &mut MeshData, centre: Vec3, dirs: &[Vec3], r: f32, normal: Vec3, ccw: bool) {
+    let c = m.vertex(centre, normal);
+    let first = m.positions.len() as u32;
+    for d in dirs {
+        m.vertex(centre + *d * r, normal);
+    }
+    let n = dirs.len() as u32;
+    for k in 0..n {
+        let a = first + k;
+        let b = first + (k + 1) % n;
+        if ccw {
+            m.triangle(c, a, b);
+        } else {
+            m.triangle(c, b, a);
+        }
+    }
+}
+
+/// Unit cylinder: radius 1, y from 0 to 1, closed with caps.
+pub fn unit_cylinder(segments: u32) -> MeshData {
+    let n = segments.max(3);
+    let dirs: Vec<Vec3> = ring_dirs(Vec3::Z, Vec3::Y, n).collect();
+    let mut m = MeshData::default();
+    for d in &dirs {
+        m.vertex(*d, *d);
+    }
+    for d in &dirs {
+        m.vertex(*d + Vec3::Y, *d);
+    }
+    for k in 0..n {
+        let (b0, b1) = (k, (k + 1) % n);
+        let (t0, t1) = (n + b0, n + b1);
+        m.triangle(b0, b1, t1);
+        m.triangle(b0, t1, t0);
+    }
+    cap(&mut m, Vec3::ZERO, &dirs, 1.0, -Vec3::Y, false);
+    cap(&mut m, Vec3::Y, &dirs, 1.0, Vec3::Y, true);
+    m
+}
+
+/// Unit cone: radius 1 at y = 0, apex at (0, 1, 0), closed with a base cap.
+pub fn unit_cone(segments: u32) -> MeshData {
+    let n = segments.max(3);
+    let dirs: Vec<Vec3> = ring_dirs(Vec3::Z, Vec3::Y, n).collect();
+    let mut m = MeshData::default();
+    // Side normal for radius 1, height 1: (cos, 1, sin) normalised.
+    let side = |d: Vec3| (d + Vec3::Y).normalize();
+    for d in &dirs {
+        m.vertex(*d, side(*d));
+    }
+    // One apex vertex per segment, with the normal of the segment's middle.
+    for k in 0..n {
+        let mid = (dirs[k as usize] + dirs[((k + 1) % n) as usize]).normalize_or(Vec3::X);
+        m.vertex(Vec3::Y, side(mid));
+    }
+    for k in 0..n {
+        m.triangle(k, (k + 1) % n, n + k);
+    }
+    cap(&mut m, Vec3::ZERO, &dirs, 1.0, -Vec3::Y, false);
+    m
+}
+
+/// Unit UV sphere about the origin: `segments` around, `segments / 2`
+/// stacks, one vertex at each pole.
+pub fn unit_sphere(segments: u32) -> MeshData {
+    let slices = segments.max(3);
+    let stacks = (segments / 2).max(2);
+    let mut m = MeshData::default();
+    let top = m.vertex(Vec3::Y, Vec3::Y);
+    for i in 1..stacks {
+        let phi = std::f32::consts::PI * i as f32 / stacks as f32;
+        let (sp, cp) = phi.sin_cos();
+        for j in 0..slices {
+            let th = std::f32::consts::TAU * j as f32 / slices as f32;
+            let (st, ct) = th.sin_cos();
+            let p = Vec3::new(sp * st, cp, sp * ct);
+            m.vertex(p, p);
+        }
+    }
+    let bottom = m.vertex(-Vec3::Y, -Vec3::Y);
+    let ring = |i: u32, j: u32| 1 + (i - 1) * slices + j % slices;
+    for j in 0..slices {
+        m.triangle(top, ring(1, j), ring(1, j + 1));
+    }
+    for i in 1..stacks - 1 {
+        for j in 0..slices {
+            let (a, b) = (ring(i, j), ring(i, j + 1));
+            let (c, d) = (ring(i + 1, j), ring(i + 1, j + 1));
+            m.triangle(a, c, d);
+            m.triangle(a, d, b);
+        }
+    }
+    for j in 0..slices {
+        m.triangle(bottom, ring(stacks - 1, j + 1), ring(stacks - 1, j));
+    }
+    m
+}
+
+/// Unit box `[-0.5, 0.5] x [0, 1] x [-0.5, 0.5]`: 24 vertices, 12 triangles.
+pub fn unit_box() -> MeshData {
+    let mut m = MeshData::default();
+    let centre = Vec3::new(0.0, 0.5, 0.0);
+    for axis in 0..3 {
+        for sign in [1.0f32, -1.0] {
+            let mut n = Vec3::ZERO;
+            n[axis] = sign;
+            // In-face axes with u x v = n, so (a, b) below runs counter-clockwise.
+            let mut u = Vec3::ZERO;
+            u[(axis + 1) % 3] = 1.0;
+            let v = n.cross(u);
+            let first = m.positions.len() as u32;
+            for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                m.vertex(centre + 0.5 * (n + u * a + v * b), n);
+            }
+            m.triangle(first, first + 1, first + 2);
+            m.triangle(first, first + 2, first + 3);
+        }
+    }
+    m
+}
+
+/// Unit disc: radius 1 in the XZ plane, two-sided (front faces +Y).
+pub fn unit_disc(segments: u32) -> MeshData {
+    let n = segments.max(3);
+    let dirs: Vec<Vec3> = ring_dirs(Vec3::Z, Vec3::Y, n).collect();
+    let mut m = MeshData::default();
+    cap(&mut m, Vec3::ZERO, &dirs, 1.0, Vec3::Y, true);
+    cap(&mut m, Vec3::ZERO, &dirs, 1.0, -Vec3::Y, false);
+    m
+}
+
+/// Smooth normals (area-weighted) for a mesh that has none.
+pub(crate) fn compute_normals(positions: &[[f32; 3]], indices: &[u32]) -> Vec<[f32; 3]> {
+    let mut acc = vec![Vec3::ZERO; positions.len()];
+    for tri in indices.chunks_exact(3) {
+        let [a, b, c] = [tri[0], tri[1], tri[2]].map(|i| i as usize);
+        if a >= positions.len() || b >= positions.len() || c >= positions.len() {
+            continue;
+        }
+        let (pa, pb, pc) = (
+            Vec3::from_array(positions[a]),
+            Vec3::from_array(positions[b]),
+            Vec3::from_array(positions[c]),
+        );
+        let n = (pb - pa).cross(pc - pa);
+        acc[a] += n;
+        acc[b] += n;
+        acc[c] += n;
+    }
+    acc.into_iter()
+        .map(|n| n.normalize_or(Vec3::Y).to_array())
+        .collect()
+}

@@ -1,0 +1,223 @@
+//! Generalized cylinders along the skeleton.
+//!
+//! Each bone with a width gets a tube: a ring of `sides` vertices at its
+//! tip, joined to a ring at its base. A bone **continues** its parent when
+//! it starts at the parent's tip and is the parent's most aligned such
+//! child (at most 120 degrees off): then its base ring is the parent's tip
+//! ring, mitred in the plane that bisects the two directions, so a chain of
+//! bones is one continuous tube (the ring orientation is carried along the
+//! chain by the minimal rotation between directions, so it does not
+//! twist). A continuing tube tapers from the parent's tip width to its own
+//! tip width. Other bones (lateral branches, bones after an `f`) start with
+//! their own ring and a cap; a tube ends with a cap where no bone continues
+//! it, so every tube is closed. Bones of width 0, of zero length or with
+//! non-finite ends get no tube.
+
+use glam::{Quat, Vec3};
+use grm_turtle::Bone;
+
+use crate::mesh::{MeshData, ring_dirs};
+
+/// The most a continuing bone may turn away from its parent (cosine).
+const MIN_CONTINUE_COS: f32 = -0.5;
+
+/// Per-bone tube layout, computed once before emitting geometry.
+#[derive(Debug)]
+pub(crate) struct TubePlan {
+    /// Unit direction, or `None` for bones without a tube.
+    pub dir: Vec<Option<Vec3>>,
+    /// The child that continues each bone.
+    pub next: Vec<Option<u32>>,
+    /// Whether each bone continues its parent.
+    pub continues: Vec<bool>,
+    /// Ring reference direction (unit, perpendicular to `dir`).
+    pub e1: Vec<Vec3>,
+}
+
+fn perpendicular(d: Vec3, hint: Vec3) -> Vec3 {
+    let p = hint - d * hint.dot(d);
+    if p.length_squared() > 1e-8 {
+        p.normalize()
+    } else {
+        d.any_orthonormal_vector()
+    }
+}
+
+impl TubePlan {
+    pub fn new(bones: &[Bone]) -> TubePlan {
+        let n = bones.len();
+        let mut dir = Vec::with_capacity(n);
+        for b in bones {
+            let v = b.tip - b.base;
+            let len = v.length();
+            let scale = b.base.abs().max_element().max(1.0);
+            let ok = b.base.is_finite()
+                && b.tip.is_finite()
+                && len > 1e-6 * scale
+                && len.is_finite()
+                && b.width_base.is_finite()
+                && b.width_tip.is_finite()
+                && (b.width_base > 0.0 || b.width_tip > 0.0);
+            dir.push(ok.then(|| v / len));
+        }
+        // The most aligned child starting at the parent's tip continues it.
+        let mut best: Vec<Option<(u32, f32)>> = vec![None; n];
+        for (i, b) in bones.iter().enumerate() {
+            let (Some(p), Some(d)) = (b.parent, dir[i]) else {
+                continue;
+            };
+            let p = p as usize;
+            if p >= i {
+                continue; // parents come first; anything else is not a chain
+            }
+            let Some(dp) = dir[p] else { continue };
+            let parent = &bones[p];
+            let tol = 1e-4 * parent.length().max(1e-3);
+            if parent.tip.distance(b.base) > tol || parent.width_tip <= 0.0 {
+                continue;
+            }
+            let c = dp.dot(d);
+            if c >= MIN_CONTINUE_COS && best[p].is_none_or(|(_, bc)| c > bc) {
+                best[p] = Some((i as u32, c));
+            }
+        }
+        let next: Vec<Option<u32>> = best.iter().map(|b| b.map(|(i, _)| i)).collect();
+        let mut continues = vec![false; n];
+        for c in next.iter().flatten() {
+            continues[*c as usize] = true;
+        }
+        // Ring frames, carried along chains (parents first).
+        let mut e1 = Vec::with_capacity(n);
+        for (i, b) in bones.iter().enumerate() {
+            let v = match dir[i] {
+                None => Vec3::X,
+                Some(d) if continues[i] => {
+                    // `continues` implies a parent with a direction.
+                    let p = b.parent.map_or(0, |p| p as usize);
+                    let dp = dir[p].unwrap_or(d);
+                    let carried = Quat::from_rotation_arc(dp, d) * e1[p];
+                    perpendicular(d, carried)
+                }
+                Some(d) => perpendicular(d, b.left),
+            };
+            e1.push(v);
+        }
+        TubePlan {
+            dir,
+            next,
+            continues,
+            e1,
+        }
+    }
+}
+
+/// A ring at `centre` around direction `d` (frame `e1`), radius `r`,
+/// mitred into the plane bisecting `d` and `d_next` when given.
+/// Returns (positions, normals) through `out`.
+fn ring(
+    centre: Vec3,
+    d: Vec3,
+    e1: Vec3,
+    r: f32,
+    d_next: Option<Vec3>,
+    sides: u32,
+    out: &mut Vec<(Vec3, Vec3)>,
+) {
+    out.clear();
+    let mitre = d_next.and_then(|dn| {
+        let n = d + dn;
+        (n.length_squared() > 1e-6).then(|| (n.normalize(), Quat::from_rotation_arc(d, dn)))
+    });
+    for q in ring_dirs(e1, d, sides) {
+        match mitre {
+            Some((n, rot)) => {
+                let off = q * r;
+                let t = -off.dot(n) / d.dot(n);
+                let normal = (q + rot * q).normalize_or(q);
+                out.push((centre + off + d * t, normal));
+            }
+            None => out.push((centre + q * r, q)),
+        }
+    }
+}
+
+/// Emits the tube of bone `i` into `m`. `shared_base` is the first vertex
+/// of the parent's tip ring when it lies in the same mesh. Returns the
+/// first vertex of this bone's tip ring (for its continuing child), or
+/// `None` when the bone has no tube.
+pub(crate) fn emit_bone(
+    plan: &TubePlan,
+    bones: &[Bone],
+    i: usize,
+    sides: u32,
+    shared_base: Option<u32>,
+    m: &mut MeshData,
+    scratch: &mut Vec<(Vec3, Vec3)>,
+) -> Option<u32> {
+    let d = plan.dir[i]?;
+    let b = &bones[i];
+    let e1 = plan.e1[i];
+    let sides = sides.max(3);
+    let r_tip = 0.5 * b.width_tip.max(0.0);
+    // The base ring: the parent's tip ring, or a fresh ring with a cap.
+    let base_first = if plan.continues[i] {
+        let p = b.parent.map_or(0, |p| p as usize);
+        let parent = &bones[p];
+        let r = 0.5 * parent.width_tip.max(0.0);
+        match shared_base {
+            Some(first) => first,
+            None => {
+                let dp = plan.dir[p].unwrap_or(d);
+                ring(b.base, dp, plan.e1[p], r, Some(d), sides, scratch);
+                push_ring(m, scratch)
+            }
+        }
+    } else {
+        let r = 0.5 * b.width_base.max(0.0);
+        ring(b.base, d, e1, r, None, sides, scratch);
+        let first = push_ring(m, scratch);
+        cap(m, b.base, scratch, -d, false);
+        first
+    };
+    // The tip ring, mitred towards the continuing child.
+    let d_next = plan.next[i].and_then(|c| plan.dir[c as usize]);
+    ring(b.tip, d, e1, r_tip, d_next, sides, scratch);
+    let tip_first = push_ring(m, scratch);
+    if d_next.is_none() {
+        cap(m, b.tip, scratch, d, true);
+    }
+    for k in 0..sides {
+        let (b0, b1) = (base_first + k, base_first + (k + 1) % sides);
+        let (t0, t1) = (tip_first + k, tip_first + (k + 1) % sides);
+        m.triangle(b0, b1, t1);
+        m.triangle(b0, t1, t0);
+    }
+    Some(tip_first)
+}
+
+fn push_ring(m: &mut MeshData, ring: &[(Vec3, Vec3)]) -> u32 {
+    let first = m.positions.len() as u32;
+    for (p, n) in ring {
+        m.vertex(*p, *n);
+    }
+    first
+}
+
+/// A flat cap over ring positions, facing `normal`; `ccw` when the ring
+/// runs counter-clockwise seen from `normal`.
+fn cap(m: &mut MeshData, centre: Vec3, ring: &[(Vec3, Vec3)], normal: Vec3, ccw: bool) {
+    let c = m.vertex(centre, normal);
+    let first = m.positions.len() as u32;
+    for (p, _) in ring {
+        m.vertex(*p, normal);
+    }
+    let n = ring.len() as u32;
+    for k in 0..n {
+        let (a, b) = (first + k, first + (k + 1) % n);
+        if ccw {
+            m.triangle(c, a, b);
+        } else {
+            m.triangle(c, b, a);
+        }
+    }
+}
