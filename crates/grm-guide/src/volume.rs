@@ -275,3 +275,117 @@ impl VolumeTarget {
         self.cost(&s)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One straight curve from (0,0,0) to (0,3,0).
+    fn line() -> Curves {
+        Curves::from_json_str(
+            "line.json",
+            r#"{"version":1,"curves":[{"points":[[0,0,0],[0,1,0],[0,2,0],[0,3,0]]}]}"#,
+        )
+        .expect("valid")
+    }
+
+    #[test]
+    fn target_is_the_tube_volume() {
+        let t = VolumeTarget::from_curves(&line(), VolumeOptions::default()).expect("valid");
+        // Capsule of radius 0.5 around a segment of length 3:
+        // pi r^2 L + 4/3 pi r^3 = 2.3562 + 0.5236 = 2.8798, over voxels of
+        // 0.001: about 2880 voxels (voxelization error a few percent).
+        let n = t.target_voxels() as f64;
+        assert!((n - 2880.0).abs() < 0.05 * 2880.0, "{n}");
+        assert!(t.contains(Vec3::new(0., 1.5, 0.)));
+        assert!(t.contains(Vec3::new(0.3, 1.5, -0.3)));
+        assert!(!t.contains(Vec3::new(0.6, 1.5, 0.)));
+        assert!(!t.contains(Vec3::new(0., 3.7, 0.)));
+        assert!(!t.contains(Vec3::new(50., 0., 0.)));
+        assert!(!t.contains(Vec3::NAN));
+    }
+
+    #[test]
+    fn cost_fractions() {
+        let t = VolumeTarget::from_curves(&line(), VolumeOptions::default()).expect("valid");
+        // No bones: nothing outside, nothing covered: 0 + 1.
+        let empty = t.evaluate(&[]);
+        assert_eq!(empty.outside_fraction, 0.0);
+        assert_eq!(empty.uncovered_fraction, 1.0);
+        assert_eq!(empty.total(), 1.0);
+        // A bone far away: all samples outside, nothing covered: 1 + 1.
+        let far = t.evaluate(&[(Vec3::new(5., 0., 0.), Vec3::new(5., 1., 0.))]);
+        assert_eq!(far.outside_fraction, 1.0);
+        assert_eq!(far.total(), 2.0);
+        // A bone along the axis: all inside; it covers one column of voxels,
+        // 3 / 0.1 = 30 of ~2880, plus one or two where its ends sit on voxel
+        // boundaries (the grid starts at y = -0.6).
+        let axis = t.evaluate(&[(Vec3::new(0.01, 0., 0.01), Vec3::new(0.01, 3., 0.01))]);
+        assert_eq!(axis.outside_fraction, 0.0);
+        let covered = (1.0 - axis.uncovered_fraction) * t.target_voxels() as f64;
+        assert!((30.0..=32.5).contains(&covered), "{covered}");
+        // Half in, half out: from (0,2,0) to (0,5,0): inside up to y = 3.5.
+        // Samples every 0.05: 61 samples, those with y < 3.5 (or on the
+        // boundary voxel) inside: about half.
+        let half = t.evaluate(&[(Vec3::new(0.01, 2., 0.01), Vec3::new(0.01, 5., 0.01))]);
+        assert!((half.outside_fraction - 0.5).abs() < 0.05, "{half:?}");
+        // A non-finite bone is one sample outside.
+        let nan = t.evaluate(&[(Vec3::NAN, Vec3::ZERO)]);
+        assert_eq!(nan.outside_fraction, 1.0);
+    }
+
+    #[test]
+    fn filling_the_tube_drives_the_cost_to_zero() {
+        let t = VolumeTarget::from_curves(&line(), VolumeOptions::default()).expect("valid");
+        let mut s = t.new_state();
+        // Vertical bones on a 0.05 grid inside radius 0.4: every sample's
+        // voxel centre is within 0.4 + 0.05 sqrt 2 < 0.5 of the axis.
+        let mut k = 0;
+        for i in -9..=9 {
+            for j in -9..=9 {
+                let (x, z) = (i as f32 * 0.05, j as f32 * 0.05);
+                if x * x + z * z < 0.4 * 0.4 {
+                    t.add_bone(&mut s, Vec3::new(x, 0.0, z), Vec3::new(x, 3.0, z));
+                    k += 1;
+                }
+            }
+        }
+        assert!(k > 150);
+        let c = t.cost(&s);
+        assert_eq!(c.outside_fraction, 0.0);
+        // The caps and the outer shell (0.4 < r < 0.5) stay uncovered:
+        // under half.
+        assert!(c.uncovered_fraction < 0.5, "{c:?}");
+        let cloned = s.clone();
+        t.add_bone(&mut s, Vec3::new(9., 9., 9.), Vec3::new(9., 9., 9.));
+        assert_eq!(t.cost(&cloned), c);
+        assert!(t.cost(&s).outside_fraction > 0.0);
+    }
+
+    #[test]
+    fn bad_options_are_errors() {
+        let c = line();
+        let e = VolumeTarget::from_curves(
+            &c,
+            VolumeOptions {
+                radius: 0.0,
+                voxel_size: 0.1,
+            },
+        )
+        .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "volume target: radius 0 must be a finite number > 0"
+        );
+        let e = VolumeTarget::from_curves(
+            &c,
+            VolumeOptions {
+                radius: 0.5,
+                voxel_size: 1e-4,
+            },
+        )
+        .unwrap_err();
+        assert!(matches!(e, VolumeError::TooManyVoxels { .. }), "{e}");
+        assert!(e.to_string().contains("at most 4194304"));
+    }
+}

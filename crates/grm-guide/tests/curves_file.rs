@@ -37,10 +37,7 @@ fn with_second_curve(curve1: &str) -> String {
 fn calder_tree_example_loads_with_defaults_applied() {
     let c = Curves::load(example("calder_tree.curves.json")).expect("example loads");
     let names: Vec<_> = c.curves().iter().map(|c| c.name.as_deref()).collect();
-    assert_eq!(
-        names,
-        [Some("trunk"), Some("left_arm"), Some("right_arm")]
-    );
+    assert_eq!(names, [Some("trunk"), Some("left_arm"), Some("right_arm")]);
     // The trunk rises from the origin; the arms leave it near its top, one
     // to each side.
     let trunk = c.curves()[0].bezier;
@@ -322,5 +319,8 @@ fn structured_error_location() {
 fn missing_file_is_an_io_error_naming_the_path() {
     let e = Curves::load("no/such/dir/x.curves.json").unwrap_err();
     assert!(matches!(e.kind, CurvesErrorKind::Io(_)));
-    assert!(e.to_string().starts_with("no/such/dir/x.curves.json: cannot read: "));
+    assert!(
+        e.to_string()
+            .starts_with("no/such/dir/x.curves.json: cannot read: ")
+    );
 }

@@ -1,0 +1,208 @@
+//! Closest point on a 3D cubic Bézier against brute force (dense sampling
+//! plus a local golden-section polish, written independently here), on
+//! thousands of random curves and points, and on hand-made hard cases.
+
+use glam::DVec3;
+use grm_guide::Bezier3;
+
+/// SplitMix64: a small seeded PRNG (no extra dependency).
+struct Rng(u64);
+
+impl Rng {
+    fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    fn unit(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.unit()
+    }
+    fn vec(&mut self, r: f64) -> DVec3 {
+        DVec3::new(self.range(-r, r), self.range(-r, r), self.range(-r, r))
+    }
+}
+
+/// Brute force: `n + 1` samples, then golden section between the best
+/// sample's neighbours.
+fn brute(c: &Bezier3, p: DVec3, n: usize) -> (f64, f64) {
+    let f = |t: f64| c.eval(t).distance(p);
+    let mut best = (0.0, f(0.0));
+    for i in 1..=n {
+        let t = i as f64 / n as f64;
+        let d = f(t);
+        if d < best.1 {
+            best = (t, d);
+        }
+    }
+    let h = 1.0 / n as f64;
+    let (mut lo, mut hi) = ((best.0 - h).max(0.0), (best.0 + h).min(1.0));
+    for _ in 0..100 {
+        let a = lo + (hi - lo) / 3.0;
+        let b = hi - (hi - lo) / 3.0;
+        if f(a) <= f(b) {
+            hi = b;
+        } else {
+            lo = a;
+        }
+    }
+    let t = 0.5 * (lo + hi);
+    if f(t) < best.1 { (t, f(t)) } else { best }
+}
+
+fn check(c: &Bezier3, p: DVec3, what: &str) {
+    let got = c.closest_point(p);
+    let (bt, bd) = brute(c, p, 4000);
+    // Consistency of the returned triple.
+    assert!(
+        (0.0..=1.0).contains(&got.t),
+        "{what}: t {} out of range",
+        got.t
+    );
+    assert!(
+        got.point.distance(c.eval(got.t)) < 1e-12,
+        "{what}: point != eval(t)"
+    );
+    assert!(
+        (got.dist - got.point.distance(p)).abs() < 1e-12,
+        "{what}: dist"
+    );
+    // Never worse than brute force, relative error < 1e-4 (floor 1e-9 for
+    // points on the curve).
+    let tol = 1e-4 * bd.max(1e-5);
+    assert!(
+        got.dist <= bd + tol,
+        "{what}: got t={} d={} but brute force t={bt} d={bd} (p={p}, curve={:?})",
+        got.t,
+        got.dist,
+        c.points()
+    );
+    // And not impossibly better (brute force is polished, so it is a true
+    // local minimum within ~1e-12).
+    assert!(got.dist >= bd - 1e-9, "{what}: below brute force?");
+}
+
+#[test]
+fn random_curves_and_points_match_brute_force() {
+    let mut rng = Rng(0x5EED_0001);
+    let mut queries = 0;
+    for k in 0..600 {
+        // Control points in a cube: loops, cusps and near-cusps included.
+        let c = Bezier3::new([rng.vec(1.0), rng.vec(1.0), rng.vec(1.0), rng.vec(1.0)]);
+        for j in 0..6 {
+            let p = if j % 2 == 0 {
+                // Anywhere around the curve.
+                rng.vec(1.6)
+            } else {
+                // Near the curve, where relative error is hardest.
+                c.eval(rng.unit()) + rng.vec(1e-2)
+            };
+            check(&c, p, &format!("curve {k} point {j}"));
+            queries += 1;
+        }
+    }
+    assert_eq!(queries, 3600);
+}
+
+#[test]
+fn large_and_anisotropic_curves() {
+    let mut rng = Rng(0x5EED_0002);
+    for k in 0..200 {
+        let s = DVec3::new(
+            rng.range(0.1, 50.0),
+            rng.range(0.1, 50.0),
+            rng.range(0.01, 5.0),
+        );
+        let o = rng.vec(100.0);
+        let c = Bezier3::new([
+            o + rng.vec(1.0) * s,
+            o + rng.vec(1.0) * s,
+            o + rng.vec(1.0) * s,
+            o + rng.vec(1.0) * s,
+        ]);
+        for j in 0..4 {
+            let p = o + rng.vec(1.5) * s;
+            check(&c, p, &format!("scaled curve {k} point {j}"));
+        }
+    }
+}
+
+#[test]
+fn hard_cases() {
+    let v = DVec3::new;
+    // A loop (P0 == P3): every point inside sees several local minima.
+    let lp = Bezier3::new([v(0., 0., 0.), v(2., 2., 0.), v(-2., 2., 0.), v(0., 0., 0.)]);
+    // A cusp.
+    let cusp = Bezier3::new([v(0., 0., 0.), v(1., 1., 0.), v(0., 1., 0.), v(1., 0., 0.)]);
+    // Coincident control points at both ends (zero end derivatives).
+    let flat_ends = Bezier3::new([v(0., 0., 0.), v(0., 0., 0.), v(1., 1., 1.), v(1., 1., 1.)]);
+    // A straight line with non-uniform speed and one that doubles back.
+    let line = Bezier3::new([v(0., 0., 0.), v(0., 0.1, 0.), v(0., 0.2, 0.), v(0., 3., 0.)]);
+    let back = Bezier3::new([v(0., 0., 0.), v(0., 3., 0.), v(0., -1., 0.), v(0., 2., 0.)]);
+    // A helix-like arc whose nearest point differs from the nearest point of
+    // its xy projection: z must not be ignored (a defect of the reference
+    // implementation).
+    let arc = Bezier3::new([v(1., 0., 0.), v(1., 1., 1.), v(-1., 1., 2.), v(-1., 0., 3.)]);
+    let curves = [lp, cusp, flat_ends, line, back, arc];
+    let mut rng = Rng(0x5EED_0003);
+    for (k, c) in curves.iter().enumerate() {
+        for j in 0..300 {
+            let p = rng.vec(3.0);
+            check(c, p, &format!("hard case {k} point {j}"));
+        }
+        // Exactly on the curve and at the control points.
+        for j in 0..=20 {
+            check(
+                c,
+                c.eval(j as f64 / 20.0),
+                &format!("hard case {k} on-curve {j}"),
+            );
+        }
+        for (j, q) in c.points().iter().enumerate() {
+            check(c, *q, &format!("hard case {k} control point {j}"));
+        }
+    }
+    // Symmetric point in the loop: two equally near minima; either is fine
+    // but the distance must be the minimum.
+    check(&lp, v(0., 1.0, 0.), "loop centre");
+    // z matters: the point above the arc's end is nearest to the end, not
+    // to the start that shares its xy projection region.
+    let cp = arc.closest_point(v(-1., 0., 3.2));
+    assert!(cp.t > 0.99, "t = {}", cp.t);
+    assert!((cp.dist - 0.2).abs() < 1e-9);
+}
+
+#[test]
+fn endpoints_and_tangents() {
+    let v = DVec3::new;
+    let c = Bezier3::new([v(0., 0., 0.), v(0., 1., 0.), v(0., 2., 0.), v(0., 3., 0.)]);
+    // Beyond the ends: the endpoints, exactly.
+    let a = c.closest_point(v(0.5, -2., 0.));
+    assert_eq!(a.t, 0.0);
+    assert_eq!(a.point, DVec3::ZERO);
+    let b = c.closest_point(v(0., 5., 0.));
+    assert_eq!(b.t, 1.0);
+    assert!((b.dist - 2.0).abs() < 1e-12);
+    // Evenly spaced collinear control points: B(t) = (0, 3t, 0).
+    let m = c.closest_point(v(1., 1.2, 0.));
+    assert!((m.t - 0.4).abs() < 1e-9);
+    assert!((m.dist - 1.0).abs() < 1e-9);
+    assert!((c.tangent(0.3) - v(0., 1., 0.)).length() < 1e-12);
+    // Zero end derivative: the tangent is the one-sided limit.
+    let f = Bezier3::new([v(0., 0., 0.), v(0., 0., 0.), v(1., 0., 0.), v(1., 1., 0.)]);
+    assert_eq!(f.derivative(0.0), DVec3::ZERO);
+    let t0 = f.tangent(0.0);
+    assert!((t0 - v(1., 0., 0.)).length() < 1e-3, "{t0}");
+    let g = Bezier3::new([v(0., 0., 0.), v(1., 0., 0.), v(1., 1., 0.), v(1., 1., 0.)]);
+    let t1 = g.tangent(1.0);
+    assert!((t1 - v(0., 1., 0.)).length() < 1e-3, "{t1}");
+    // A point curve has no tangent.
+    let p = Bezier3::new([v(1., 1., 1.); 4]);
+    assert_eq!(p.tangent(0.5), DVec3::ZERO);
+    // Arc length of a straight segment.
+    assert!((c.length() - 3.0).abs() < 1e-9);
+}

@@ -1,0 +1,216 @@
+//! Property: a model's cost does not depend on the order its bones were
+//! added (SOSMC expands symbols in random order, Calder section 3.3).
+//!
+//! Random bone sets around the benchmark curves, every term on (distance,
+//! alignment, utilization, thick curve, density), inserted in many shuffled
+//! orders: the totals must be bit-for-bit equal. The utilization total must
+//! also equal the sum over bones of eq. 7 evaluated literally (a reference
+//! implementation written here) for every order, and match the count-based
+//! formula.
+
+use std::path::PathBuf;
+
+use glam::Vec3;
+use grm_guide::{
+    CostBreakdown, CostModel, CostOptions, Curves, DensityParams, VolumeOptions, VolumeTarget,
+};
+
+/// SplitMix64.
+struct Rng(u64);
+
+impl Rng {
+    fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    fn unit(&mut self) -> f32 {
+        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
+    }
+    fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.unit()
+    }
+    fn below(&mut self, n: usize) -> usize {
+        (self.next_u64() % n as u64) as usize
+    }
+    fn shuffle<T>(&mut self, v: &mut [T]) {
+        for i in (1..v.len()).rev() {
+            let j = self.below(i + 1);
+            v.swap(i, j);
+        }
+    }
+}
+
+/// The benchmark curves with utilization on, a thick arm and density on.
+fn benchmark_curves() -> Curves {
+    let path =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/calder_tree.curves.json");
+    let text = std::fs::read_to_string(path).expect("example exists");
+    // Make the left arm thick and turn density on, via the format itself.
+    let text = text.replacen(
+        "\"name\": \"left_arm\",",
+        "\"name\": \"left_arm\", \"thickness\": 0.25,",
+        1,
+    );
+    let text = text.replacen(
+        "\"version\": 1,",
+        "\"version\": 1, \"density\": { \"radius\": 0.4, \"scale\": 30 },",
+        1,
+    );
+    let c = Curves::from_json_str("bench.curves.json", &text).expect("valid");
+    assert_eq!(c.curves()[1].params.thickness, 0.25);
+    assert_eq!(
+        c.density(),
+        Some(DensityParams {
+            radius: 0.4,
+            scale: 30.0
+        })
+    );
+    c
+}
+
+/// A random tree-like set of bones in the curves' neighbourhood, including
+/// repeated and zero-length bones.
+fn random_bones(rng: &mut Rng, n: usize) -> Vec<(Vec3, Vec3)> {
+    let mut bones = Vec::with_capacity(n);
+    let mut tips = vec![Vec3::ZERO];
+    for _ in 0..n {
+        let base = tips[rng.below(tips.len())];
+        let dir = Vec3::new(
+            rng.range(-1., 1.),
+            rng.range(-0.3, 1.),
+            rng.range(-0.5, 0.5),
+        );
+        let tip = base + dir * rng.range(0.0, 0.9);
+        let tip = if rng.below(20) == 0 { base } else { tip };
+        bones.push((base, tip));
+        if tip.y < 5.0 && tip.x.abs() < 3.5 {
+            tips.push(tip);
+        }
+        if rng.below(10) == 0 {
+            bones.push((base, tip)); // an exact duplicate
+        }
+    }
+    bones
+}
+
+fn run(model: &CostModel, bones: &[(Vec3, Vec3)]) -> (CostBreakdown, f64, f64) {
+    let mut s = model.new_state();
+    let mut per_bone_util = 0.0;
+    for &(b, t) in bones {
+        per_bone_util += model.add_bone(&mut s, b, t).utilization;
+    }
+    (
+        model.total(&s),
+        per_bone_util,
+        model.utilization_from_counts(&s),
+    )
+}
+
+/// Eq. 7 literally: for each bone in order, choose the curve (eq. 1), take
+/// the segment range between the closest points to base and tip, add
+/// `-scale_u e^{-uses}` per segment, then increment. Uses the library's
+/// closest point and segment counts, but none of its utilization code.
+fn eq7_reference(curves: &Curves, model: &CostModel, bones: &[(Vec3, Vec3)]) -> f64 {
+    const K: usize = 4096;
+    let mut uses: Vec<Vec<u32>> = (0..model.curve_count())
+        .map(|c| vec![0; model.segment_count(c)])
+        .collect();
+    // Arc length by dense chords.
+    let arcs: Vec<Vec<f64>> = curves
+        .curves()
+        .iter()
+        .map(|g| g.bezier.arc_length_table(K))
+        .collect();
+    let mut total = 0.0;
+    for &(b, t) in bones {
+        let (ci, cb) = model.nearest_curve(b.as_dvec3());
+        let g = &curves.curves()[ci];
+        let ct = g.bezier.closest_point(t.as_dvec3());
+        let n = model.segment_count(ci);
+        // Segment of a parameter: arc length from the start over the
+        // segment length, clamped.
+        let seg = |u: f64| {
+            let s = &arcs[ci];
+            let x = u * K as f64;
+            let i = (x.floor() as usize).min(K - 1);
+            let len = s[i] + (s[i + 1] - s[i]) * (x - i as f64);
+            ((len / g.params.segment_length).floor() as usize).min(n - 1)
+        };
+        let (a, z) = (seg(cb.t), seg(ct.t));
+        for s in &mut uses[ci][a.min(z)..=a.max(z)] {
+            total += -g.params.utilization_scale * (-(*s as f64)).exp();
+            *s += 1;
+        }
+    }
+    total
+}
+
+#[test]
+fn totals_are_bitwise_equal_for_any_insertion_order() {
+    let curves = benchmark_curves();
+    let model = CostModel::new(&curves, CostOptions::from_curves(&curves));
+    let mut rng = Rng(0xC0FFEE);
+    for trial in 0..12 {
+        let mut bones = random_bones(&mut rng, 60 + 20 * trial);
+        let (want, per_bone, from_counts) = run(&model, &bones);
+        assert!(want.bones as usize == bones.len());
+        // Every term is exercised.
+        assert!(want.distance > 0.0, "{want:?}");
+        assert!(want.alignment != 0.0);
+        assert!(want.utilization < 0.0);
+        assert!(want.density > 0.0, "{want:?}");
+        assert_eq!(from_counts, want.utilization);
+        assert!((per_bone - want.utilization).abs() < 1e-6 * want.utilization.abs());
+        let reference = eq7_reference(&curves, &model, &bones);
+        assert!(
+            (reference - want.utilization).abs() < 1e-6 * want.utilization.abs(),
+            "eq. 7 literal {reference} vs {}",
+            want.utilization
+        );
+        for _ in 0..10 {
+            rng.shuffle(&mut bones);
+            let (got, _, _) = run(&model, &bones);
+            assert_eq!(got, want, "trial {trial}: totals differ after a shuffle");
+            assert_eq!(got.total().to_bits(), want.total().to_bits());
+            // eq. 7 literally, in this order, sums to the same total.
+            let reference = eq7_reference(&curves, &model, &bones);
+            assert!((reference - want.utilization).abs() < 1e-6 * want.utilization.abs());
+        }
+    }
+}
+
+#[test]
+fn per_bone_utilization_depends_on_order_but_total_does_not() {
+    // Two bones over the same segments: the first gets -scale_u per
+    // segment, the second -scale_u e^-1 per segment, whichever comes first.
+    let curves = benchmark_curves();
+    let model = CostModel::new(&curves, CostOptions::default());
+    let a = (Vec3::new(0., 0.1, 0.), Vec3::new(0., 0.5, 0.));
+    let b = (Vec3::new(0.1, 0.1, 0.), Vec3::new(0.1, 0.5, 0.));
+    let mut s1 = model.new_state();
+    let a1 = model.add_bone(&mut s1, a.0, a.1);
+    let b1 = model.add_bone(&mut s1, b.0, b.1);
+    let mut s2 = model.new_state();
+    let b2 = model.add_bone(&mut s2, b.0, b.1);
+    let a2 = model.add_bone(&mut s2, a.0, a.1);
+    assert!((a1.utilization - b2.utilization).abs() < 1e-9);
+    assert!((b1.utilization - a2.utilization).abs() < 1e-9);
+    assert!(a1.utilization < a2.utilization);
+    assert_eq!(model.total(&s1), model.total(&s2));
+}
+
+#[test]
+fn volume_baseline_is_order_independent() {
+    let curves = benchmark_curves();
+    let target = VolumeTarget::from_curves(&curves, VolumeOptions::default()).expect("valid");
+    let mut rng = Rng(0xBA5E);
+    let mut bones = random_bones(&mut rng, 150);
+    let want = target.evaluate(&bones);
+    for _ in 0..5 {
+        rng.shuffle(&mut bones);
+        assert_eq!(target.evaluate(&bones), want);
+    }
+}
