@@ -462,12 +462,16 @@ impl SettingKey {
             let x = v.as_float().unwrap_or(f64::NAN);
             if x.is_finite() && x.fract() == 0.0 && x >= min && x <= f64::from(u32::MAX) {
                 Ok(x as u32)
+            } else if x > f64::from(u32::MAX) {
+                Err(format!(
+                    "`{}` must be at most {}, found {v}",
+                    key.name(),
+                    u32::MAX
+                ))
             } else {
                 Err(format!(
-                    "`{}` must be a whole number from {min} to {}, found {}",
-                    key.name(),
-                    u32::MAX,
-                    v
+                    "`{}` must be a whole number >= {min}, found {v}",
+                    key.name()
                 ))
             }
         }

@@ -24,6 +24,8 @@ pub(crate) struct LoadedFile {
     pub imports: Vec<usize>,
     /// Whether the parser reported errors in it.
     pub broken: bool,
+    /// Primary spans of the parser's diagnostics (to avoid follow-on reports).
+    pub error_spans: Vec<Span>,
 }
 
 /// Load the root and everything it imports, parsing each file once.
@@ -65,6 +67,11 @@ impl Loader<'_> {
     fn load(&mut self, id: FileId, real: PathBuf, text: &str) -> usize {
         let parsed = grm_syntax::parse(id, text);
         let broken = parsed.has_errors();
+        let error_spans = parsed
+            .diagnostics
+            .iter()
+            .map(|d| d.primary().span)
+            .collect();
         self.diags.extend(parsed.diagnostics);
         let idx = self.files.len();
         self.files.push(LoadedFile {
@@ -73,6 +80,7 @@ impl Loader<'_> {
             ast: parsed.file,
             imports: Vec::new(),
             broken,
+            error_spans,
         });
         self.by_path.insert(real.clone(), idx);
         self.state.push(true);
@@ -90,6 +98,9 @@ impl Loader<'_> {
         let display = self.sources.get(id).path.clone();
         for imp in imports {
             let written = &imp.path.value;
+            if overlaps_any(&self.files[idx].error_spans, imp.path.span) {
+                continue; // a garbled path was reported by the parser
+            }
             let target_real = self.loader.resolve(&real, written);
             if let Some(&t) = self.by_path.get(&target_real) {
                 if self.state[t] {
@@ -103,7 +114,7 @@ impl Loader<'_> {
                     self.diags.push(
                         Diagnostic::new(
                             Code::ImportCycle,
-                            format!("`{written}` imports this file back"),
+                            format!("importing `{written}` here closes an import cycle"),
                             id,
                             imp.path.span,
                             "this import closes a cycle",
@@ -159,11 +170,13 @@ impl Loader<'_> {
                             m,
                         ),
                     };
-                    self.diags.push(
-                        Diagnostic::new(code, msg, id, imp.path.span, label).with_help(
+                    let mut d = Diagnostic::new(code, msg, id, imp.path.span, label);
+                    if code == Code::ImportNotFound {
+                        d = d.with_help(
                             "import paths are relative to the directory of the importing file",
-                        ),
-                    );
+                        );
+                    }
+                    self.diags.push(d);
                 }
             }
         }
@@ -329,7 +342,8 @@ impl<'a> Checker<'a> {
                         let id = MeshId(self.program.meshes.len() as u32);
                         if self.define(&m.name, fi, GlobalKind::Mesh(id)) {
                             let path = self.loader.resolve(&f.real, &m.path.value);
-                            if !self.loader.exists(&path) {
+                            let garbled = overlaps_any(&f.error_spans, m.path.span);
+                            if !garbled && !self.loader.exists(&path) {
                                 self.error(
                                     Diagnostic::new(
                                         Code::MeshNotFound,
@@ -884,4 +898,11 @@ pub(crate) fn has_error(e: &Expr) -> bool {
         ExprKind::Paren(inner) => has_error(inner),
         ExprKind::Number { .. } | ExprKind::Bool(_) | ExprKind::Name(_) => false,
     }
+}
+
+/// Whether `span` overlaps one of `spans` (an empty span counts as one byte).
+fn overlaps_any(spans: &[Span], span: Span) -> bool {
+    spans
+        .iter()
+        .any(|s| s.start < span.end.max(span.start + 1) && span.start < s.end.max(s.start + 1))
 }

@@ -420,10 +420,12 @@ impl Checker<'_> {
                 d = d.with_help(h);
             } else if SettingKey::from_name(&id.name).is_some() {
                 d = d.with_help("settings cannot be read in expressions; define a `const` and use it in both places");
-            } else if sc.bindings.is_empty() && sc.what == "a production" {
+            } else if sc.what == "a production" {
                 d = d.with_help(
                     "bind it in the predecessor, e.g. `A(x) -> ...`, or define a `const`",
                 );
+            } else if sc.what == "the axiom" {
+                d = d.with_help("the axiom binds no names: use a number, a `const` or a `param`");
             }
         }
         self.error(d);
@@ -525,13 +527,18 @@ impl Checker<'_> {
         sig: &str,
     ) {
         let plural = if want == "1" { "argument" } else { "arguments" };
+        let given = if got == 1 {
+            "1 was given".to_string()
+        } else {
+            format!("{got} were given")
+        };
         self.error(
             Diagnostic::new(
                 Code::FunctionArity,
-                format!("`{name}` takes {want} {plural}, but {got} were given"),
+                format!("`{name}` takes {want} {plural}, but {given}"),
                 file,
                 span,
-                format!("{got} arguments"),
+                format!("{got} argument{}", if got == 1 { "" } else { "s" }),
             )
             .with_help(format!("write it as `{sig}`")),
         );
@@ -689,19 +696,25 @@ impl Checker<'_> {
     }
 }
 
-/// `name(a: float, b: float)` for help lines.
+/// The call as documented, for help lines.
 fn builtin_signature(b: Builtin) -> String {
-    let (ps, _) = b.signature();
-    if b == Builtin::Spline {
-        return "spline(t, c0, c1, c2, c3, ...)".into();
-    }
-    let args: Vec<&str> = ps
-        .iter()
-        .map(|p| match p {
-            PTy::F => "float",
-            PTy::V => "vec3",
-            PTy::Gen => "T",
-        })
-        .collect();
-    format!("{}({})", b.name(), args.join(", "))
+    use Builtin::*;
+    let args = match b {
+        Sin | Cos | Tan => "degrees",
+        Asin | Acos | Atan => "x",
+        Atan2 => "y, x",
+        Sqrt | Exp | Ln | Log10 | Abs | Floor | Ceil | Round | Fract | Sign => "x",
+        Pow => "base, exponent",
+        Min | Max => "a, b",
+        Clamp => "x, low, high",
+        Mix => "a, b, t",
+        Step => "edge, x",
+        Smoothstep => "edge0, edge1, x",
+        Vec3 => "x, y, z",
+        Rgb => "r, g, b",
+        Dot | Cross | Distance => "u, v",
+        Length | Normalize => "v",
+        Spline => "t, c0, c1, c2, c3, ...",
+    };
+    format!("{}({args})", b.name())
 }

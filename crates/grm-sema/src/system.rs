@@ -121,6 +121,8 @@ struct Sys<'c, 'a> {
     setting_exprs: Vec<SettingExpr>,
     /// User symbols: where each parameter's type was inferred from.
     origins: HashMap<usize, Vec<Option<Span>>>,
+    /// User symbols: the arity diagnostic already reported (index in diags).
+    arity_diag: HashMap<usize, usize>,
 }
 
 /// Group identity: predecessor, contexts, wrap-up flag and condition hash.
@@ -157,6 +159,7 @@ pub(crate) fn check_system(
         occurrences: Vec::new(),
         setting_exprs: Vec::new(),
         origins: HashMap::new(),
+        arity_diag: HashMap::new(),
     };
     sys.run(s)
 }
@@ -594,6 +597,21 @@ impl Sys<'_, '_> {
                 if arity == n {
                     return true;
                 }
+                // One diagnostic per symbol: later mismatches become labels.
+                if let Some(&di) = self.arity_diag.get(&i) {
+                    if let Some(d) = self.cx.diags.get_mut(di)
+                        && d.labels.len() < 8
+                    {
+                        d.labels.push(grm_diag::Label {
+                            file: self.file,
+                            span,
+                            message: format!("also {n} here"),
+                            primary: false,
+                        });
+                    }
+                    return false;
+                }
+                self.arity_diag.insert(i, self.cx.diags.len());
                 let name = self.tab.infos[i].name.clone();
                 let how = if self.tab.sig_at[i].is_some() {
                     "declared"
