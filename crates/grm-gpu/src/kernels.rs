@@ -34,5 +34,13 @@ pub static ADD_U32X2: Kernel = Kernel {
     subst: &[("ELEM", "vec2<u32>")],
 };
 
+pub static VM_EVAL: Kernel = Kernel {
+    name: "vm_eval",
+    file: "vm_eval.wgsl",
+    entry: "vm_eval",
+    bindings: &[Bind::Read, Bind::Read, Bind::Read, Bind::ReadWrite],
+    subst: &[],
+};
+
 /// All kernels.
-pub static ALL: &[&Kernel] = &[&SCAN_U32, &ADD_U32, &SCAN_U32X2, &ADD_U32X2];
+pub static ALL: &[&Kernel] = &[&SCAN_U32, &ADD_U32, &SCAN_U32X2, &ADD_U32X2, &VM_EVAL];

@@ -29,6 +29,7 @@ pub mod kernels;
 pub mod layout;
 pub mod scan;
 pub mod shader;
+pub mod vmeval;
 
 pub use device::{Gpu, shared};
 pub use error::GpuError;

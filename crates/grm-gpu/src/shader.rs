@@ -4,7 +4,8 @@
 //!
 //! Composition: a kernel's source is the generated header, then its file
 //! with every `//!include NAME.wgsl` line replaced by that file (each file
-//! at most once), then the kernel's text substitutions (used to
+//! at most once; `generated_tables` is the packed-table loader code
+//! generated from `grm-compile`'s records), then the kernel's text substitutions (used to
 //! instantiate the scan for `u32` and `vec2<u32>`).
 
 use std::collections::HashSet;
@@ -15,6 +16,12 @@ use crate::error::GpuError;
 pub const FILES: &[(&str, &str)] = &[
     ("scan.wgsl", include_str!("../../../shaders/scan.wgsl")),
     ("grid.wgsl", include_str!("../../../shaders/grid.wgsl")),
+    ("rng.wgsl", include_str!("../../../shaders/rng.wgsl")),
+    ("vm.wgsl", include_str!("../../../shaders/vm.wgsl")),
+    (
+        "vm_eval.wgsl",
+        include_str!("../../../shaders/vm_eval.wgsl"),
+    ),
 ];
 
 /// How a kernel binds a buffer (binding index = position in the list).
@@ -64,6 +71,10 @@ pub fn compose(name: &str) -> Result<String, GpuError> {
 
 fn include(name: &str, out: &mut String, seen: &mut HashSet<String>) -> Result<(), GpuError> {
     if !seen.insert(name.to_string()) {
+        return Ok(());
+    }
+    if name == "generated_tables" {
+        out.push_str(&crate::layout::wgsl_tables());
         return Ok(());
     }
     let text = file(name)

@@ -49,7 +49,7 @@ fn shared_struct_layouts_agree_with_rust() {
     let module = shader::validate("header", &header).expect("header validates");
     let mut layouter = naga::proc::Layouter::default();
     layouter.update(module.to_ctx()).expect("layout");
-    for st in layout::structs() {
+    for st in layout::all_structs() {
         let (name, size, offsets) = (st.name, st.size, st.offsets);
         let (handle, ty) = module
             .types
@@ -73,5 +73,20 @@ fn shared_struct_layouts_agree_with_rust() {
                 m.offset
             );
         }
+    }
+}
+
+#[test]
+fn the_vm_handles_every_op() {
+    let vm = shader::file("vm.wgsl").expect("vm.wgsl");
+    for op in grm_compile::op::Op::ALL {
+        let name = layout::op_const_name(*op);
+        let handled = vm.lines().any(|l| {
+            let l = l.trim();
+            l.starts_with("case ")
+                && l.split(|c: char| c == ',' || c == ':' || c.is_whitespace())
+                    .any(|w| w == name)
+        });
+        assert!(handled, "shaders/vm.wgsl has no `case {name}` for {op:?}");
     }
 }

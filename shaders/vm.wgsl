@@ -1,0 +1,420 @@
+// The expression bytecode interpreter: the GPU twin of grm_compile::vm,
+// running the same words (opcodes OP_* and STACK_SIZE come from the
+// generated header, i.e. from grm_compile::op). Semantics per op: see
+// grm_compile::op. Code and constants are read from the packed table
+// buffer `tables` (declared by the including kernel) at TAB.code_offset and
+// TAB.consts_offset; the binding words of the production being applied are
+// in `vm_bind`.
+//
+// Code is verified on the host (grm_compile::verify) before it is
+// uploaded, so the interpreter does not re-check stack bounds; it still
+// cannot run away: code is straight-line, pc only grows, and reading past
+// the code ends the run with VM_FAULT.
+//!include rng.wgsl
+
+const VM_FAULT: u32 = 0xffffffffu;
+
+var<private> vm_st: array<f32, STACK_SIZE>;
+var<private> vm_bind: array<f32, MAX_BIND_WORDS>;
+
+fn vm_code(pc: u32) -> u32 {
+    return tables[TAB.code_offset + pc];
+}
+
+fn vm_const(i: u32) -> f32 {
+    return bitcast<f32>(tables[TAB.consts_offset + i]);
+}
+
+fn truthy(x: f32) -> bool {
+    return x != 0.0;
+}
+
+fn b2f(b: bool) -> f32 {
+    return select(0.0, 1.0, b);
+}
+
+fn is_nan(x: f32) -> bool {
+    return !(x == x);
+}
+
+// IEEE minNum / maxNum: a NaN operand yields the other one.
+fn fmin(a: f32, b: f32) -> f32 {
+    if (is_nan(a)) { return b; }
+    if (is_nan(b)) { return a; }
+    return select(b, a, a < b);
+}
+
+fn fmax(a: f32, b: f32) -> f32 {
+    if (is_nan(a)) { return b; }
+    if (is_nan(b)) { return a; }
+    return select(b, a, a > b);
+}
+
+// Half away from zero (f32::round), not WGSL's half-to-even.
+fn fround(x: f32) -> f32 {
+    let t = trunc(x);
+    if (abs(x - t) >= 0.5) {
+        return t + select(-1.0, 1.0, x > 0.0);
+    }
+    return t;
+}
+
+fn fsign(x: f32) -> f32 {
+    if (x > 0.0) { return 1.0; }
+    if (x < 0.0) { return -1.0; }
+    return 0.0;
+}
+
+fn ffloor_rem(x: f32, y: f32) -> f32 {
+    return x - y * floor(x / y);
+}
+
+// powf with Rust's cases that WGSL's pow leaves undefined (x <= 0).
+fn fpow(x: f32, y: f32) -> f32 {
+    if (y == 0.0) { return 1.0; }
+    if (x == 1.0) { return 1.0; }
+    if (is_nan(x) || is_nan(y)) { return x + y; }
+    if (x == 0.0) {
+        if (y > 0.0) {
+            let odd = (trunc(y) == y) && (ffloor_rem(y, 2.0) == 1.0);
+            return select(0.0, x, odd);
+        }
+        return bitcast<f32>(0x7f800000u);
+    }
+    if (x < 0.0) {
+        if (trunc(y) != y) { return bitcast<f32>(0x7fc00000u); }
+        let m = pow(-x, y);
+        return select(m, -m, ffloor_rem(y, 2.0) == 1.0);
+    }
+    return pow(x, y);
+}
+
+fn fclamp(x: f32, lo: f32, hi: f32) -> f32 {
+    return fmin(fmax(x, lo), hi);
+}
+
+// f32::clamp: NaN stays NaN.
+fn fclamp_nan(x: f32, lo: f32, hi: f32) -> f32 {
+    if (is_nan(x)) { return x; }
+    return min(max(x, lo), hi);
+}
+
+fn fsmoothstep(e0: f32, e1: f32, x: f32) -> f32 {
+    let t = fclamp_nan((x - e0) / (e1 - e0), 0.0, 1.0);
+    return t * t * (3.0 - 2.0 * t);
+}
+
+fn unary(op: u32, x: f32) -> f32 {
+    switch op {
+        case OP_NEG: { return -x; }
+        case OP_ABS: { return abs(x); }
+        case OP_FLOOR: { return floor(x); }
+        case OP_CEIL: { return ceil(x); }
+        case OP_ROUND: { return fround(x); }
+        case OP_FRACT: { return x - floor(x); }
+        case OP_SIGN: { return fsign(x); }
+        case OP_NOT: { return b2f(!truthy(x)); }
+        case OP_SIN: { return sin(x * DEG_TO_RAD); }
+        case OP_COS: { return cos(x * DEG_TO_RAD); }
+        case OP_TAN: { return tan(x * DEG_TO_RAD); }
+        case OP_ASIN: { return asin(x) * RAD_TO_DEG; }
+        case OP_ACOS: { return acos(x) * RAD_TO_DEG; }
+        case OP_ATAN: { return atan(x) * RAD_TO_DEG; }
+        case OP_SQRT: { return sqrt(x); }
+        case OP_EXP: { return exp(x); }
+        case OP_LN: { return log(x); }
+        case OP_LOG10: { return log2(x) * LOG10_2; }
+        default: { return x; }
+    }
+}
+
+fn binary(op: u32, x: f32, y: f32) -> f32 {
+    switch op {
+        case OP_ADD: { return x + y; }
+        case OP_SUB: { return x - y; }
+        case OP_MUL: { return x * y; }
+        case OP_DIV: { return x / y; }
+        case OP_REM: { return ffloor_rem(x, y); }
+        case OP_MIN: { return fmin(x, y); }
+        case OP_MAX: { return fmax(x, y); }
+        case OP_STEP: { return select(1.0, 0.0, y < x); }
+        case OP_LT: { return b2f(x < y); }
+        case OP_LE: { return b2f(x <= y); }
+        case OP_GT: { return b2f(x > y); }
+        case OP_GE: { return b2f(x >= y); }
+        case OP_AND: { return b2f(truthy(x) && truthy(y)); }
+        case OP_OR: { return b2f(truthy(x) || truthy(y)); }
+        case OP_ATAN2: { return atan2(x, y) * RAD_TO_DEG; }
+        case OP_POW: { return fpow(x, y); }
+        default: { return x; }
+    }
+}
+
+fn ternary(op: u32, x: f32, y: f32, z: f32) -> f32 {
+    switch op {
+        case OP_CLAMP: { return fclamp(x, y, z); }
+        case OP_MIX: { return x * (1.0 - z) + y * z; }
+        default: { return fsmoothstep(x, y, z); }
+    }
+}
+
+fn vm_rand_int(a: f32, b: f32, u: f32) -> f32 {
+    if (is_nan(a) || is_nan(b)) {
+        return a + b;
+    }
+    let lo = fround(fmin(a, b));
+    let hi = fround(fmax(a, b));
+    return lo + fmin(floor(u * (hi - lo + 1.0)), hi - lo);
+}
+
+fn vm_spline(base: u32, n: u32, w: u32) {
+    let t = vm_st[base];
+    let segments = f32(n - 3u);
+    var tc = 0.0;
+    if (!is_nan(t)) {
+        tc = fclamp(t, 0.0, 1.0);
+    }
+    let u = tc * segments;
+    let i = min(u32(floor(u)), n - 4u);
+    let s = u - f32(i);
+    let s2 = s * s;
+    let s3 = s2 * s;
+    var b: array<f32, 4>;
+    b[0] = (1.0 - 3.0 * s + 3.0 * s2 - s3) / 6.0;
+    b[1] = (4.0 - 6.0 * s2 + 3.0 * s3) / 6.0;
+    b[2] = (1.0 + 3.0 * s + 3.0 * s2 - 3.0 * s3) / 6.0;
+    b[3] = s3 / 6.0;
+    var acc = vec3<f32>(0.0);
+    for (var k = 0u; k < 4u; k = k + 1u) {
+        let c = base + 1u + (i + k) * w;
+        for (var j = 0u; j < w; j = j + 1u) {
+            acc[j] = acc[j] + vm_st[c + j] * b[k];
+        }
+    }
+    for (var j = 0u; j < w; j = j + 1u) {
+        vm_st[base + j] = acc[j];
+    }
+}
+
+fn vm_choose_weight(base: u32, j: u32, w: u32) -> f32 {
+    let x = vm_st[base + j * (w + 1u) + w];
+    return select(0.0, x, x > 0.0);
+}
+
+fn vm_choose(base: u32, n: u32, w: u32, u: f32) {
+    var total = 0.0;
+    for (var j = 0u; j < n; j = j + 1u) {
+        total = total + vm_choose_weight(base, j, w);
+    }
+    if (is_nan(total) || total <= 0.0) {
+        let nan = bitcast<f32>(0x7fc00000u);
+        for (var k = 0u; k < w; k = k + 1u) {
+            vm_st[base + k] = nan;
+        }
+        return;
+    }
+    let goal = u * total;
+    var acc = 0.0;
+    var pick = n;
+    var last = 0u;
+    for (var j = 0u; j < n; j = j + 1u) {
+        let wj = vm_choose_weight(base, j, w);
+        if (wj > 0.0) {
+            last = j;
+            acc = acc + wj;
+            if (goal < acc) {
+                pick = j;
+                break;
+            }
+        }
+    }
+    if (pick == n) {
+        pick = last;
+    }
+    let src = base + pick * (w + 1u);
+    for (var k = 0u; k < w; k = k + 1u) {
+        vm_st[base + k] = vm_st[src + k];
+    }
+}
+
+// Run the expression at `entry`; returns the number of result words left
+// in vm_st[0..], or VM_FAULT.
+fn vm_run(entry: u32, d: Draws) -> u32 {
+    var pc = entry;
+    var sp = 0u;
+    loop {
+        if (pc >= TAB.code_count) {
+            return VM_FAULT;
+        }
+        let word = vm_code(pc);
+        pc = pc + 1u;
+        let op = word & 0xffu;
+        let a = word >> 8u;
+        switch op {
+            case OP_RET: {
+                return sp;
+            }
+            case OP_CONST: {
+                vm_st[sp] = vm_const(a);
+                sp = sp + 1u;
+            }
+            case OP_CONST3: {
+                vm_st[sp] = vm_const(a);
+                vm_st[sp + 1u] = vm_const(a + 1u);
+                vm_st[sp + 2u] = vm_const(a + 2u);
+                sp = sp + 3u;
+            }
+            case OP_LOAD: {
+                vm_st[sp] = vm_bind[a];
+                sp = sp + 1u;
+            }
+            case OP_LOAD3: {
+                vm_st[sp] = vm_bind[a];
+                vm_st[sp + 1u] = vm_bind[a + 1u];
+                vm_st[sp + 2u] = vm_bind[a + 2u];
+                sp = sp + 3u;
+            }
+            case OP_SPLAT: {
+                let x = vm_st[sp - 1u];
+                vm_st[sp] = x;
+                vm_st[sp + 1u] = x;
+                sp = sp + 2u;
+            }
+            case OP_PICK: {
+                let base = sp - 3u;
+                vm_st[base] = vm_st[base + a];
+                sp = base + 1u;
+            }
+            case OP_NEG, OP_ABS, OP_FLOOR, OP_CEIL, OP_ROUND, OP_FRACT, OP_SIGN: {
+                for (var k = sp - a; k < sp; k = k + 1u) {
+                    vm_st[k] = unary(op, vm_st[k]);
+                }
+            }
+            case OP_NOT, OP_SIN, OP_COS, OP_TAN, OP_ASIN, OP_ACOS, OP_ATAN, OP_SQRT, OP_EXP, OP_LN, OP_LOG10: {
+                vm_st[sp - 1u] = unary(op, vm_st[sp - 1u]);
+            }
+            case OP_ADD, OP_SUB, OP_MUL, OP_DIV, OP_REM, OP_MIN, OP_MAX, OP_STEP: {
+                let base = sp - 2u * a;
+                for (var k = 0u; k < a; k = k + 1u) {
+                    vm_st[base + k] = binary(op, vm_st[base + k], vm_st[base + a + k]);
+                }
+                sp = base + a;
+            }
+            case OP_EQ, OP_NE: {
+                let base = sp - 2u * a;
+                var eq = true;
+                for (var k = 0u; k < a; k = k + 1u) {
+                    eq = eq && (vm_st[base + k] == vm_st[base + a + k]);
+                }
+                vm_st[base] = b2f(eq == (op == OP_EQ));
+                sp = base + 1u;
+            }
+            case OP_LT, OP_LE, OP_GT, OP_GE, OP_AND, OP_OR, OP_ATAN2, OP_POW: {
+                let base = sp - 2u;
+                vm_st[base] = binary(op, vm_st[base], vm_st[base + 1u]);
+                sp = base + 1u;
+            }
+            case OP_SELECT: {
+                let base = sp - (1u + 2u * a);
+                var src = base + 1u + a;
+                if (truthy(vm_st[base])) {
+                    src = base + 1u;
+                }
+                for (var k = 0u; k < a; k = k + 1u) {
+                    vm_st[base + k] = vm_st[src + k];
+                }
+                sp = base + a;
+            }
+            case OP_CLAMP, OP_MIX, OP_SMOOTHSTEP: {
+                let base = sp - 3u * a;
+                for (var k = 0u; k < a; k = k + 1u) {
+                    vm_st[base + k] = ternary(op, vm_st[base + k], vm_st[base + a + k], vm_st[base + 2u * a + k]);
+                }
+                sp = base + a;
+            }
+            case OP_DOT, OP_DISTANCE, OP_CROSS: {
+                let base = sp - 6u;
+                let u = vec3<f32>(vm_st[base], vm_st[base + 1u], vm_st[base + 2u]);
+                let v = vec3<f32>(vm_st[base + 3u], vm_st[base + 4u], vm_st[base + 5u]);
+                if (op == OP_DOT) {
+                    vm_st[base] = u.x * v.x + u.y * v.y + u.z * v.z;
+                    sp = base + 1u;
+                } else if (op == OP_DISTANCE) {
+                    let e = u - v;
+                    vm_st[base] = sqrt(e.x * e.x + e.y * e.y + e.z * e.z);
+                    sp = base + 1u;
+                } else {
+                    vm_st[base] = u.y * v.z - u.z * v.y;
+                    vm_st[base + 1u] = u.z * v.x - u.x * v.z;
+                    vm_st[base + 2u] = u.x * v.y - u.y * v.x;
+                    sp = base + 3u;
+                }
+            }
+            case OP_LENGTH, OP_NORMALIZE: {
+                let base = sp - 3u;
+                let x = vm_st[base];
+                let y = vm_st[base + 1u];
+                let z = vm_st[base + 2u];
+                let l = sqrt(x * x + y * y + z * z);
+                if (op == OP_LENGTH) {
+                    vm_st[base] = l;
+                    sp = base + 1u;
+                } else if (l > 0.0) {
+                    vm_st[base] = x / l;
+                    vm_st[base + 1u] = y / l;
+                    vm_st[base + 2u] = z / l;
+                } else {
+                    vm_st[base] = 0.0;
+                    vm_st[base + 1u] = 0.0;
+                    vm_st[base + 2u] = 0.0;
+                }
+            }
+            case OP_SPLINE: {
+                let n = a & 0xffffu;
+                let w = a >> 16u;
+                let base = sp - (1u + n * w);
+                vm_spline(base, n, w);
+                sp = base + w;
+            }
+            case OP_RAND_UNIFORM: {
+                let base = sp - 2u;
+                let lo = vm_st[base];
+                let hi = vm_st[base + 1u];
+                vm_st[base] = lo + (hi - lo) * rng_uniform(d, a);
+                sp = base + 1u;
+            }
+            case OP_RAND_NORMAL: {
+                let base = sp - 2u;
+                let u1 = rng_uniform(d, a);
+                let u2 = rng_uniform(d, a + 1u);
+                let z = sqrt(-2.0 * log(1.0 - u1)) * cos(TAU * u2);
+                vm_st[base] = vm_st[base] + vm_st[base + 1u] * z;
+                sp = base + 1u;
+            }
+            case OP_RAND_INT: {
+                let base = sp - 2u;
+                vm_st[base] = vm_rand_int(vm_st[base], vm_st[base + 1u], rng_uniform(d, a));
+                sp = base + 1u;
+            }
+            case OP_RAND_CHANCE: {
+                vm_st[sp - 1u] = b2f(rng_uniform(d, a) < vm_st[sp - 1u]);
+            }
+            case OP_RAND_CHOOSE: {
+                if (pc >= TAB.code_count) {
+                    return VM_FAULT;
+                }
+                let draw = vm_code(pc);
+                pc = pc + 1u;
+                let n = a & 0xffffu;
+                let w = a >> 16u;
+                let base = sp - n * (w + 1u);
+                vm_choose(base, n, w, rng_uniform(d, draw));
+                sp = base + w;
+            }
+            default: {
+                return VM_FAULT;
+            }
+        }
+    }
+    return VM_FAULT;
+}
