@@ -10,7 +10,7 @@ use std::hint::black_box;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use glam::{DVec3, Vec3};
+use glam::Vec3;
 use grm_guide::{CostModel, CostOptions, Curves, DensityParams};
 
 struct Rng(u64);
@@ -120,7 +120,7 @@ fn main() {
     let trunk = curves.curves()[0].bezier;
     time("Bezier3::closest_point (samples on the fly)", n, || {
         bs.iter()
-            .map(|&(b, _)| trunk.closest_point(DVec3::from(b.as_dvec3())).dist)
+            .map(|&(b, _)| trunk.closest_point(b.as_dvec3()).dist)
             .sum()
     });
 }
