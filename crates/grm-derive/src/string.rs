@@ -91,6 +91,41 @@ impl ModuleString {
     pub fn heap_bytes(&self) -> usize {
         self.syms.capacity() * 4 + self.starts.capacity() * 4 + self.params.capacity() * 4
     }
+
+    /// The string as grm source text: modules separated by one space,
+    /// parameters in parentheses without spaces before them (`F(1) +(90)
+    /// [ A ]`), with `names` giving each symbol's name.
+    pub fn to_text<S: AsRef<str>>(&self, names: &[S]) -> String {
+        let mut out = String::with_capacity(self.len() * 4);
+        self.write_text(names, &mut out);
+        out
+    }
+
+    /// Append [`ModuleString::to_text`] to `out`.
+    pub fn write_text<S: AsRef<str>>(&self, names: &[S], out: &mut String) {
+        use std::fmt::Write;
+        for (i, (sym, params)) in self.iter().enumerate() {
+            if i > 0 {
+                out.push(' ');
+            }
+            match names.get(sym as usize) {
+                Some(n) => out.push_str(n.as_ref()),
+                None => {
+                    let _ = write!(out, "#{sym}");
+                }
+            }
+            if !params.is_empty() {
+                out.push('(');
+                for (k, p) in params.iter().enumerate() {
+                    if k > 0 {
+                        out.push_str(", ");
+                    }
+                    let _ = write!(out, "{p}");
+                }
+                out.push(')');
+            }
+        }
+    }
 }
 
 #[cfg(test)]
@@ -110,5 +145,6 @@ mod tests {
         assert_eq!(a.get(1), (2, &[][..]));
         assert_eq!(a.get(2), (3, &[3.0][..]));
         assert!(a.is_well_formed());
+        assert_eq!(a.to_text(&["x", "A", "B", "C"]), "A(1, 2) B C(3)");
     }
 }

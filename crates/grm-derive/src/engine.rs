@@ -1,0 +1,1035 @@
+//! The derivation engine: count / exclusive scan / rewrite over chunks.
+//!
+//! One iteration rewrites every module of the input string at once:
+//!
+//! 1. **Count.** Each chunk of the input decides, module by module, which
+//!    production applies (the first group whose contexts match and whose
+//!    condition holds; among its alternatives the one drawn with draw index
+//!    0) and sums the output modules and parameter words.
+//! 2. **Scan.** An exclusive prefix sum over the chunks' counts gives each
+//!    chunk its output offsets. The totals are checked against the
+//!    [`DeriveLimits`] *before* anything is allocated.
+//! 3. **Rewrite.** Each chunk decides again (the decision is a pure
+//!    function of the input, so it is the same) and writes its successors
+//!    into its own disjoint slice of the output.
+//!
+//! With one thread the chunk is the whole string and nothing touches rayon;
+//! with several, chunks are processed in parallel. Every decision, random
+//! draw and value depends only on the input string, the seed, the iteration
+//! and the module's position, never on the chunking, so the output is
+//! byte-identical for any number of threads. If several modules fail, the
+//! error reported is the one at the lowest position, also independent of
+//! the chunking.
+//!
+//! Hot-path rules: no allocation per module (per-chunk scratch is allocated
+//! once per chunk); symbols with one unconditional, context-free production
+//! (or none) take a table lookup instead of the group search; constant and
+//! copied parameters skip the VM.
+
+use std::ops::Range;
+use std::time::{Duration, Instant};
+
+use grm_compile::CompiledSystem;
+use grm_compile::rng::{self, DrawCtx};
+use grm_compile::table::*;
+use grm_compile::vm::Vm;
+use rayon::prelude::*;
+
+use crate::brackets::{self, UNMATCHED};
+use crate::error::{DeriveError, RuntimeError, RuntimeErrorKind};
+use crate::string::ModuleString;
+
+/// Limits that stop a runaway grammar before it exhausts the machine.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DeriveLimits {
+    /// The most modules a derived string may have.
+    pub max_modules: u64,
+    /// The most bytes an iteration may hold at once (input string, bracket
+    /// table, output string).
+    pub max_bytes: u64,
+}
+
+impl Default for DeriveLimits {
+    /// 50 million modules, 2 GiB.
+    fn default() -> Self {
+        DeriveLimits {
+            max_modules: 50_000_000,
+            max_bytes: 2 << 30,
+        }
+    }
+}
+
+/// How to run a derivation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DeriveOptions {
+    /// Rewriting steps.
+    pub iterations: u32,
+    /// The seed of every random draw.
+    pub seed: u32,
+    pub limits: DeriveLimits,
+}
+
+impl DeriveOptions {
+    /// The system's own settings (iterations, seed) and default limits.
+    pub fn from_system(sys: &CompiledSystem) -> DeriveOptions {
+        DeriveOptions {
+            iterations: sys.settings.iterations,
+            seed: sys.settings.seed,
+            limits: DeriveLimits::default(),
+        }
+    }
+}
+
+/// Figures of one iteration.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct IterationStats {
+    /// The index of the string: 0 is the axiom, `k` the string after `k`
+    /// rewriting steps.
+    pub iteration: u32,
+    /// Its length in modules.
+    pub modules: u64,
+    /// Its parameter words.
+    pub param_words: u64,
+    /// Modules produced so far: the sum of the lengths of strings 1 ..=
+    /// `iteration` (Lipp's "modules" figure for a derivation).
+    pub cumulative_modules: u64,
+    /// Modules rewritten so far: the sum of the lengths of strings 0 ..
+    /// `iteration` (the inputs of the steps).
+    pub processed_modules: u64,
+    /// Bytes of the string's arrays.
+    pub bytes: u64,
+    /// Time taken by this iteration.
+    pub elapsed: Duration,
+}
+
+/// The result of a derivation.
+#[derive(Clone, Debug)]
+pub struct Derivation {
+    /// The final string.
+    pub string: ModuleString,
+    /// One entry per string: the axiom (iteration 0), then each step.
+    pub stats: Vec<IterationStats>,
+}
+
+/// `fast[sym]`: the module is copied unchanged.
+const COPY: u32 = u32::MAX;
+/// `fast[sym]`: groups must be tried (context, condition or several groups
+/// or alternatives).
+const SLOW: u32 = u32::MAX - 1;
+
+/// Chunks smaller than this are not worth a task.
+const MIN_CHUNK: usize = 8192;
+
+/// A compiled system prepared for derivation, with its thread pool.
+#[derive(Debug)]
+pub struct Engine<'a> {
+    sys: &'a CompiledSystem,
+    /// Per symbol: `COPY`, `SLOW`, or the one alternative that always applies.
+    fast: Vec<u32>,
+    /// Per symbol: output modules / words when not `SLOW`.
+    fast_len: Vec<u32>,
+    fast_words: Vec<u32>,
+    /// Per symbol: parameter words.
+    sym_words: Vec<u32>,
+    /// Per symbol: 1 for `[`, 2 for `]`, 0 otherwise.
+    bracket: Vec<u8>,
+    /// Per symbol: in the ignore list.
+    ignored: Vec<bool>,
+    /// Per successor module (parallel to `sys.succ`): symbol, word offset.
+    succ_syms: Vec<u32>,
+    succ_words: Vec<u32>,
+    /// Per alternative: its first parameter expression and their count.
+    alt_params: Vec<(u32, u32)>,
+    has_context: bool,
+    threads: usize,
+    min_chunk: usize,
+    pool: Option<rayon::ThreadPool>,
+}
+
+/// Where the binding words of a decision are.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Binds {
+    /// The predecessor's own parameters (no copy needed).
+    Direct,
+    /// The worker's binding buffer.
+    Buffer,
+}
+
+/// Per-chunk scratch: the VM and the binding buffer.
+struct Worker {
+    vm: Vm,
+    buf: Vec<f32>,
+    weights: Vec<f32>,
+}
+
+/// Everything one iteration reads.
+struct Step<'s> {
+    input: &'s ModuleString,
+    /// Bracket partners (context-sensitive systems only).
+    mate: &'s [u32],
+    seed: u32,
+    iteration: u32,
+    /// Whether the output has parameter words (else `starts` stay 0).
+    write_starts: bool,
+}
+
+/// One chunk's output slices.
+struct ChunkOut<'o> {
+    range: Range<usize>,
+    syms: &'o mut [u32],
+    starts: &'o mut [u32],
+    params: &'o mut [f32],
+    word_base: u32,
+}
+
+impl<'a> Engine<'a> {
+    /// Prepare `sys` for derivation with `threads` threads: 1 runs
+    /// everything on the calling thread, 0 uses rayon's global pool (all
+    /// cores), `n > 1` a pool of `n` threads.
+    pub fn new(sys: &'a CompiledSystem, threads: usize) -> Result<Engine<'a>, DeriveError> {
+        sys.validate()
+            .map_err(|e| DeriveError::InvalidTables(e.0))?;
+        let n = sys.symbols.len();
+        let mut fast = vec![COPY; n];
+        let mut fast_len = vec![1; n];
+        let mut fast_words = vec![0; n];
+        let mut bracket = vec![0u8; n];
+        let mut ignored = vec![false; n];
+        let mut sym_words = vec![0; n];
+        for (i, s) in sys.symbols.iter().enumerate() {
+            sym_words[i] = s.param_words;
+            fast_words[i] = s.param_words;
+            ignored[i] = s.flags & SYM_IGNORED != 0;
+            if s.flags & SYM_PUSH != 0 {
+                bracket[i] = 1;
+            } else if s.flags & SYM_POP != 0 {
+                bracket[i] = 2;
+            }
+            let groups = sys.groups_of(i as u32);
+            if groups.is_empty() {
+                continue;
+            }
+            let g = &groups[0];
+            let simple = groups.len() == 1
+                && g.flags & GROUP_CONTEXT == 0
+                && g.cond_code == NONE
+                && g.alt_count == 1
+                && g.pred_bind_offset == 0
+                && g.bind_words == g.pred_bind_words;
+            if simple {
+                let alt = &sys.alts[g.first_alt as usize];
+                fast[i] = g.first_alt;
+                fast_len[i] = alt.succ_len;
+                fast_words[i] = alt.succ_words;
+            } else {
+                fast[i] = SLOW;
+            }
+        }
+        let succ_syms = sys.succ.iter().map(|m| m.symbol).collect();
+        let succ_words = sys.succ.iter().map(|m| m.word_offset).collect();
+        let alt_params = sys
+            .alts
+            .iter()
+            .map(|a| {
+                let mods = sys.successor(a);
+                let first = mods.first().map_or(0, |m| m.first_param);
+                let count = mods.iter().map(|m| m.param_count).sum();
+                (first, count)
+            })
+            .collect();
+        let pool = if threads > 1 {
+            Some(
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .map_err(|e| DeriveError::ThreadPool(e.to_string()))?,
+            )
+        } else {
+            None
+        };
+        Ok(Engine {
+            sys,
+            fast,
+            fast_len,
+            fast_words,
+            sym_words,
+            bracket,
+            ignored,
+            succ_syms,
+            succ_words,
+            alt_params,
+            has_context: sys.has_context(),
+            threads,
+            min_chunk: MIN_CHUNK,
+            pool,
+        })
+    }
+
+    /// Set the smallest chunk (in input modules) worth a parallel task
+    /// (default 8192). For tuning and tests: the output never depends on it.
+    pub fn with_min_chunk(mut self, modules: usize) -> Engine<'a> {
+        self.min_chunk = modules.max(1);
+        self
+    }
+
+    /// The compiled system.
+    pub fn system(&self) -> &'a CompiledSystem {
+        self.sys
+    }
+
+    /// Derive `opts.iterations` steps from the axiom. `progress` is called
+    /// once per string (the axiom first) as soon as it is complete.
+    pub fn derive(
+        &self,
+        opts: &DeriveOptions,
+        progress: &mut dyn FnMut(&IterationStats),
+    ) -> Result<Derivation, DeriveError> {
+        let t = Instant::now();
+        let mut string = self.axiom(opts.seed)?;
+        let mut stats = Vec::with_capacity(opts.iterations as usize + 1);
+        let first = stat_of(&string, 0, 0, 0, t.elapsed());
+        progress(&first);
+        stats.push(first);
+        let mut cumulative = 0u64;
+        let mut processed = 0u64;
+        for iteration in 1..=opts.iterations {
+            let t = Instant::now();
+            processed += string.len() as u64;
+            let next = self.step_unchecked(&string, iteration, opts.seed, &opts.limits)?;
+            // Free the input before reporting, so the peak stays at one
+            // input plus one output.
+            drop(std::mem::replace(&mut string, next));
+            cumulative += string.len() as u64;
+            let s = stat_of(&string, iteration, cumulative, processed, t.elapsed());
+            progress(&s);
+            stats.push(s);
+        }
+        Ok(Derivation { string, stats })
+    }
+
+    /// The axiom (string 0): its parameters evaluated with iteration 0 and
+    /// position 0.
+    pub fn axiom(&self, seed: u32) -> Result<ModuleString, DeriveError> {
+        let sys = self.sys;
+        let alt = &sys.alts[sys.axiom_alt as usize];
+        let n = alt.succ_len as usize;
+        let w = alt.succ_words as usize;
+        let mut out = ModuleString {
+            syms: vec![0; n],
+            starts: vec![0; n + 1],
+            params: vec![0.0; w],
+        };
+        let empty = ModuleString::new();
+        let step = Step {
+            input: &empty,
+            mate: &[],
+            seed,
+            iteration: 0,
+            write_starts: true,
+        };
+        let mut worker = self.worker();
+        let ModuleString {
+            syms,
+            starts,
+            params,
+        } = &mut out;
+        self.emit(
+            &step,
+            &mut worker,
+            sys.axiom_alt,
+            &[],
+            0,
+            ChunkOut {
+                range: 0..0,
+                syms,
+                starts,
+                params,
+                word_base: 0,
+            },
+        )
+        .map_err(DeriveError::Runtime)?;
+        out.starts[n] = w as u32;
+        Ok(out)
+    }
+
+    /// One rewriting step: the string that follows `input` (which must be a
+    /// string of this system) in iteration `iteration`.
+    pub fn step(
+        &self,
+        input: &ModuleString,
+        iteration: u32,
+        seed: u32,
+        limits: &DeriveLimits,
+    ) -> Result<ModuleString, DeriveError> {
+        self.check_input(input)?;
+        self.step_unchecked(input, iteration, seed, limits)
+    }
+
+    fn check_input(&self, s: &ModuleString) -> Result<(), DeriveError> {
+        if !s.is_well_formed() {
+            return Err(DeriveError::InvalidInput("offsets are inconsistent".into()));
+        }
+        if s.len() >= u32::MAX as usize {
+            return Err(DeriveError::InvalidInput("too many modules".into()));
+        }
+        for i in 0..s.len() {
+            let sym = s.syms[i] as usize;
+            let Some(&w) = self.sym_words.get(sym) else {
+                return Err(DeriveError::InvalidInput(format!(
+                    "module {i} has unknown symbol {sym}"
+                )));
+            };
+            if s.starts[i + 1] - s.starts[i] != w {
+                return Err(DeriveError::InvalidInput(format!(
+                    "module {i} (`{}`) has {} parameter words, not {w}",
+                    self.sys.symbol_names[sym],
+                    s.starts[i + 1] - s.starts[i]
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Chunk ranges for an input of `n` modules.
+    fn chunks(&self, n: usize) -> Vec<Range<usize>> {
+        if self.threads == 1 || n <= self.min_chunk {
+            return std::iter::once(0..n).collect();
+        }
+        let threads = match self.threads {
+            0 => rayon::current_num_threads(),
+            t => t,
+        };
+        // A few chunks per thread balance uneven successors.
+        let len = n.div_ceil(threads * 4).max(self.min_chunk);
+        (0..n.div_ceil(len))
+            .map(|c| c * len..((c + 1) * len).min(n))
+            .collect()
+    }
+
+    fn in_pool<R: Send>(&self, f: impl FnOnce() -> R + Send) -> R {
+        match &self.pool {
+            Some(p) => p.install(f),
+            None => f(),
+        }
+    }
+
+    fn worker(&self) -> Worker {
+        Worker {
+            vm: Vm::new(),
+            buf: vec![0.0; self.sys.max_bind_words as usize],
+            weights: Vec::new(),
+        }
+    }
+
+    fn step_unchecked(
+        &self,
+        input: &ModuleString,
+        iteration: u32,
+        seed: u32,
+        limits: &DeriveLimits,
+    ) -> Result<ModuleString, DeriveError> {
+        let n = input.len();
+        let chunks = self.chunks(n);
+        let parallel = chunks.len() > 1;
+        let mate = if self.has_context {
+            let bracket = &self.bracket;
+            let kind = |s: u32| bracket.get(s as usize).copied().unwrap_or(0);
+            let chunk = chunks.first().map_or(n, |c| c.len());
+            self.in_pool(|| brackets::mates(kind, &input.syms, chunk, parallel))
+        } else {
+            Vec::new()
+        };
+        let mut step = Step {
+            input,
+            mate: &mate,
+            seed,
+            iteration,
+            write_starts: true,
+        };
+
+        // 1. Count.
+        let counts: Vec<Result<(u64, u64), RuntimeError>> = if parallel {
+            self.in_pool(|| {
+                chunks
+                    .par_iter()
+                    .map(|r| self.count_chunk(&step, r.clone()))
+                    .collect()
+            })
+        } else {
+            chunks
+                .iter()
+                .map(|r| self.count_chunk(&step, r.clone()))
+                .collect()
+        };
+        let mut totals = Vec::with_capacity(counts.len());
+        let mut first_err: Option<RuntimeError> = None;
+        for c in counts {
+            match c {
+                Ok(t) => totals.push(t),
+                Err(e) => keep_first(&mut first_err, e),
+            }
+        }
+        if let Some(e) = first_err {
+            return Err(DeriveError::Runtime(e));
+        }
+
+        // 2. Scan, and the limits before allocating.
+        let mut offsets = Vec::with_capacity(totals.len());
+        let (mut m, mut w) = (0u64, 0u64);
+        for &(cm, cw) in &totals {
+            offsets.push((m, w));
+            m += cm;
+            w += cw;
+        }
+        self.check_limits(input, &mate, iteration, m, w, limits)?;
+        let (m, w) = (m as usize, w as usize);
+        step.write_starts = w > 0;
+
+        // 3. Rewrite into disjoint slices.
+        let mut out = ModuleString {
+            syms: vec![0; m],
+            starts: vec![0; m + 1],
+            params: vec![0.0; w],
+        };
+        {
+            let mut parts = Vec::with_capacity(chunks.len());
+            let (mut syms, mut starts, mut params) =
+                (&mut out.syms[..], &mut out.starts[..m], &mut out.params[..]);
+            for ((r, &(cm, cw)), &(_, word_base)) in chunks.iter().zip(&totals).zip(&offsets) {
+                let (s, rest) = syms.split_at_mut(cm as usize);
+                syms = rest;
+                let (st, rest) = starts.split_at_mut(cm as usize);
+                starts = rest;
+                let (p, rest) = params.split_at_mut(cw as usize);
+                params = rest;
+                parts.push(ChunkOut {
+                    range: r.clone(),
+                    syms: s,
+                    starts: st,
+                    params: p,
+                    word_base: word_base as u32,
+                });
+            }
+            let work = |out: ChunkOut<'_>| self.rewrite_chunk(&step, out);
+            let results: Vec<Result<(), RuntimeError>> = if parallel {
+                self.in_pool(|| parts.into_par_iter().map(work).collect())
+            } else {
+                parts.into_iter().map(work).collect()
+            };
+            let mut first_err = None;
+            for r in results {
+                if let Err(e) = r {
+                    keep_first(&mut first_err, e);
+                }
+            }
+            if let Some(e) = first_err {
+                return Err(DeriveError::Runtime(e));
+            }
+        }
+        out.starts[m] = w as u32;
+        Ok(out)
+    }
+
+    fn check_limits(
+        &self,
+        input: &ModuleString,
+        mate: &[u32],
+        iteration: u32,
+        m: u64,
+        w: u64,
+        limits: &DeriveLimits,
+    ) -> Result<(), DeriveError> {
+        let (file, span) = (self.sys.file, self.sys.span);
+        if m > limits.max_modules {
+            return Err(DeriveError::ModuleLimit {
+                iteration,
+                modules: m,
+                limit: limits.max_modules,
+                file,
+                span,
+            });
+        }
+        if m >= u64::from(u32::MAX) || w >= u64::from(u32::MAX) {
+            return Err(DeriveError::TooLarge {
+                iteration,
+                modules: m,
+                words: w,
+                file,
+                span,
+            });
+        }
+        let out_bytes = 4 * m + 4 * (m + 1) + 4 * w;
+        let bytes = input.heap_bytes() as u64 + 4 * mate.len() as u64 + out_bytes;
+        if bytes > limits.max_bytes {
+            return Err(DeriveError::MemoryLimit {
+                iteration,
+                bytes,
+                limit: limits.max_bytes,
+                modules: m,
+                words: w,
+                file,
+                span,
+            });
+        }
+        Ok(())
+    }
+
+    fn count_chunk(
+        &self,
+        step: &Step<'_>,
+        range: Range<usize>,
+    ) -> Result<(u64, u64), RuntimeError> {
+        let syms = &step.input.syms[range.clone()];
+        let (mut m, mut w) = (0u64, 0u64);
+        let mut worker: Option<Worker> = None;
+        for (k, &sym) in syms.iter().enumerate() {
+            let s = sym as usize;
+            if self.fast[s] != SLOW {
+                m += u64::from(self.fast_len[s]);
+                w += u64::from(self.fast_words[s]);
+                continue;
+            }
+            let wk = worker.get_or_insert_with(|| self.worker());
+            match self.decide(step, wk, range.start + k)? {
+                Some((alt, _)) => {
+                    let a = &self.sys.alts[alt as usize];
+                    m += u64::from(a.succ_len);
+                    w += u64::from(a.succ_words);
+                }
+                None => {
+                    m += 1;
+                    w += u64::from(self.sym_words[s]);
+                }
+            }
+        }
+        Ok((m, w))
+    }
+
+    fn rewrite_chunk(&self, step: &Step<'_>, out: ChunkOut<'_>) -> Result<(), RuntimeError> {
+        let ChunkOut {
+            range,
+            syms: osyms,
+            starts: ostarts,
+            params: oparams,
+            word_base,
+        } = out;
+        let input = step.input;
+        let mut worker = self.worker();
+        let (mut o, mut wo) = (0usize, 0usize);
+        for i in range {
+            let sym = input.syms[i];
+            let s = sym as usize;
+            let f = self.fast[s];
+            let decision = if f == COPY {
+                None
+            } else if f == SLOW {
+                self.decide(step, &mut worker, i)?
+            } else {
+                Some((f, Binds::Direct))
+            };
+            let (ps, pe) = (input.starts[i] as usize, input.starts[i + 1] as usize);
+            match decision {
+                None => {
+                    osyms[o] = sym;
+                    if step.write_starts {
+                        ostarts[o] = word_base + wo as u32;
+                    }
+                    let n = pe - ps;
+                    oparams[wo..wo + n].copy_from_slice(&input.params[ps..pe]);
+                    o += 1;
+                    wo += n;
+                }
+                Some((alt, binds)) => {
+                    let a = &self.sys.alts[alt as usize];
+                    let (len, words) = (a.succ_len as usize, a.succ_words as usize);
+                    let direct;
+                    let bind: &[f32] = match binds {
+                        Binds::Direct => {
+                            direct = &input.params[ps..pe];
+                            direct
+                        }
+                        Binds::Buffer => &[],
+                    };
+                    let out = ChunkOut {
+                        range: i..i + 1,
+                        syms: &mut osyms[o..o + len],
+                        starts: &mut ostarts[o..o + len],
+                        params: &mut oparams[wo..wo + words],
+                        word_base: word_base + wo as u32,
+                    };
+                    if binds == Binds::Buffer {
+                        // The bindings live in the worker; move the buffer out
+                        // for the call (no allocation: a swap).
+                        let buf = std::mem::take(&mut worker.buf);
+                        let r = self.emit(step, &mut worker, alt, &buf, i, out);
+                        worker.buf = buf;
+                        r?;
+                    } else {
+                        self.emit(step, &mut worker, alt, bind, i, out)?;
+                    }
+                    o += len;
+                    wo += words;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Write alternative `alt`'s successor for the module at `position`.
+    fn emit(
+        &self,
+        step: &Step<'_>,
+        worker: &mut Worker,
+        alt: u32,
+        bind: &[f32],
+        position: usize,
+        out: ChunkOut<'_>,
+    ) -> Result<(), RuntimeError> {
+        let sys = self.sys;
+        let a = &sys.alts[alt as usize];
+        let (so, len) = (a.succ_offset as usize, a.succ_len as usize);
+        out.syms.copy_from_slice(&self.succ_syms[so..so + len]);
+        if a.succ_words == 0 {
+            if step.write_starts {
+                out.starts.fill(out.word_base);
+            }
+            return Ok(());
+        }
+        for (st, off) in out.starts.iter_mut().zip(&self.succ_words[so..so + len]) {
+            *st = out.word_base + off;
+        }
+        let (first, count) = self.alt_params[alt as usize];
+        let exprs = &sys.params[first as usize..(first + count) as usize];
+        let mut dst = 0usize;
+        for p in exprs {
+            let wds = p.words as usize;
+            let a = p.a as usize;
+            match p.kind {
+                PARAM_CONST => out.params[dst..dst + wds].copy_from_slice(&sys.consts[a..a + wds]),
+                PARAM_COPY => out.params[dst..dst + wds].copy_from_slice(&bind[a..a + wds]),
+                _ => {
+                    let draws = DrawCtx {
+                        seed: step.seed,
+                        iteration: step.iteration,
+                        position: position as u32,
+                    };
+                    let v = worker
+                        .vm
+                        .run(&sys.code, &sys.consts, p.a, bind, &draws)
+                        .map_err(|e| self.fault(step, position, e))?;
+                    for (d, &x) in out.params[dst..dst + wds].iter_mut().zip(v) {
+                        if !x.is_finite() {
+                            return Err(self.runtime(
+                                step,
+                                position,
+                                RuntimeErrorKind::NonFinite { value: x },
+                                sys.param_spans[p.span as usize],
+                            ));
+                        }
+                        *d = x;
+                    }
+                }
+            }
+            dst += wds;
+        }
+        Ok(())
+    }
+
+    fn runtime(
+        &self,
+        step: &Step<'_>,
+        position: usize,
+        kind: RuntimeErrorKind,
+        span: grm_diag::Span,
+    ) -> RuntimeError {
+        let symbol = step
+            .input
+            .syms
+            .get(position)
+            .and_then(|&s| self.sys.symbol_names.get(s as usize))
+            .cloned()
+            .unwrap_or_else(|| "axiom".to_string());
+        RuntimeError {
+            iteration: step.iteration,
+            position: position as u64,
+            symbol,
+            kind,
+            file: self.sys.file,
+            span,
+        }
+    }
+
+    fn fault(&self, step: &Step<'_>, position: usize, e: grm_compile::vm::VmError) -> RuntimeError {
+        let span = self.sys.span_at(e.pc).unwrap_or(self.sys.span);
+        self.runtime(step, position, RuntimeErrorKind::Fault(e), span)
+    }
+
+    /// Decide the production for the module at `i`: the alternative and
+    /// where its bindings are, or `None` to copy the module.
+    fn decide(
+        &self,
+        step: &Step<'_>,
+        worker: &mut Worker,
+        i: usize,
+    ) -> Result<Option<(u32, Binds)>, RuntimeError> {
+        let sys = self.sys;
+        let input = step.input;
+        let sym = input.syms[i];
+        let (ps, pe) = (input.starts[i] as usize, input.starts[i + 1] as usize);
+        let draws = DrawCtx {
+            seed: step.seed,
+            iteration: step.iteration,
+            position: i as u32,
+        };
+        for g in sys.groups_of(sym) {
+            let direct = g.pred_bind_offset == 0 && g.bind_words == g.pred_bind_words;
+            if g.flags & GROUP_CONTEXT != 0 {
+                let left = &sys.context[g.left_offset as usize..][..g.left_len as usize];
+                let right = &sys.context[g.right_offset as usize..][..g.right_len as usize];
+                if !self.match_left(step, &mut worker.buf, i, left)
+                    || !self.match_right(step, &mut worker.buf, i, right)
+                {
+                    continue;
+                }
+            }
+            if !direct && g.pred_bind_words > 0 {
+                let o = g.pred_bind_offset as usize;
+                worker.buf[o..o + (pe - ps)].copy_from_slice(&input.params[ps..pe]);
+            }
+            let bind: &[f32] = if direct {
+                &input.params[ps..pe]
+            } else {
+                &worker.buf[..g.bind_words as usize]
+            };
+            if g.cond_code != NONE {
+                let c = worker
+                    .vm
+                    .run1(&sys.code, &sys.consts, g.cond_code, bind, &draws)
+                    .map_err(|e| self.fault(step, i, e))?;
+                if c == 0.0 {
+                    continue;
+                }
+            }
+            let binds = if direct { Binds::Direct } else { Binds::Buffer };
+            if g.alt_count == 1 {
+                return Ok(Some((g.first_alt, binds)));
+            }
+            let alts = &sys.alts[g.first_alt as usize..][..g.alt_count as usize];
+            let u = rng::uniform(step.seed, step.iteration, i as u32, 0);
+            if g.flags & GROUP_CONST_WEIGHTS != 0 {
+                let target = u * g.total_weight;
+                let k = alts
+                    .iter()
+                    .position(|a| target < a.cum_weight)
+                    .unwrap_or(alts.len() - 1);
+                return Ok(Some((g.first_alt + k as u32, binds)));
+            }
+            worker.weights.clear();
+            let mut total = 0.0f32;
+            for (k, a) in alts.iter().enumerate() {
+                let wgt = if a.weight_code == NONE {
+                    a.weight
+                } else {
+                    worker
+                        .vm
+                        .run1(&sys.code, &sys.consts, a.weight_code, bind, &draws)
+                        .map_err(|e| self.fault(step, i, e))?
+                };
+                if !(wgt.is_finite() && wgt > 0.0) {
+                    let span = sys.weight_spans[g.first_alt as usize + k];
+                    return Err(self.runtime(
+                        step,
+                        i,
+                        RuntimeErrorKind::BadWeight { value: wgt },
+                        span,
+                    ));
+                }
+                total += wgt;
+                worker.weights.push(total);
+            }
+            let target = u * total;
+            let k = worker
+                .weights
+                .iter()
+                .position(|&c| target < c)
+                .unwrap_or(alts.len() - 1);
+            return Ok(Some((g.first_alt + k as u32, binds)));
+        }
+        Ok(None)
+    }
+
+    /// Bind a matched context module's parameters.
+    fn bind(&self, step: &Step<'_>, buf: &mut [f32], pos: usize, item: &ContextItem) {
+        if item.bind_words > 0 {
+            let input = step.input;
+            let (s, e) = (input.starts[pos] as usize, input.starts[pos + 1] as usize);
+            let o = item.bind_offset as usize;
+            buf[o..o + (e - s)].copy_from_slice(&input.params[s..e]);
+        }
+    }
+
+    /// Left context: the nearest modules on the path towards the root,
+    /// stepping over complete branches `[ ... ]` (and out of the enclosing
+    /// `[`), skipping ignored symbols. Items are matched nearest first.
+    fn match_left(
+        &self,
+        step: &Step<'_>,
+        buf: &mut [f32],
+        i: usize,
+        items: &[ContextItem],
+    ) -> bool {
+        let syms = &step.input.syms;
+        let mut pos = i;
+        for item in items.iter().rev() {
+            // Find the next candidate before `pos`.
+            loop {
+                if pos == 0 {
+                    return false;
+                }
+                pos -= 1;
+                let s = syms[pos] as usize;
+                match self.bracket[s] {
+                    2 => {
+                        let m = step.mate[pos];
+                        if m == UNMATCHED {
+                            return false;
+                        }
+                        // Continue before the branch's `[`.
+                        pos = m as usize;
+                    }
+                    1 => {} // leave the enclosing branch: its parent is before it
+                    _ if self.ignored[s] => {}
+                    _ => break,
+                }
+            }
+            if item.kind != CTX_SYMBOL || syms[pos] != item.symbol {
+                return false;
+            }
+            self.bind(step, buf, pos, item);
+        }
+        true
+    }
+
+    /// Right context: the next modules forward in the current branch,
+    /// stepping over lateral branches `[ ... ]` unless the context itself
+    /// has `[` there, skipping ignored symbols; the branch ending (`]` or the
+    /// end of the string) fails the match.
+    fn match_right(
+        &self,
+        step: &Step<'_>,
+        buf: &mut [f32],
+        i: usize,
+        items: &[ContextItem],
+    ) -> bool {
+        let syms = &step.input.syms;
+        let n = syms.len();
+        let mut pos = i + 1;
+        for item in items {
+            match item.kind {
+                CTX_SYMBOL => {
+                    loop {
+                        if pos >= n {
+                            return false;
+                        }
+                        let s = syms[pos] as usize;
+                        match self.bracket[s] {
+                            1 => {
+                                let m = step.mate[pos];
+                                if m == UNMATCHED {
+                                    return false;
+                                }
+                                pos = m as usize + 1;
+                            }
+                            2 => return false,
+                            _ if self.ignored[s] => pos += 1,
+                            _ => break,
+                        }
+                    }
+                    if syms[pos] != item.symbol {
+                        return false;
+                    }
+                    self.bind(step, buf, pos, item);
+                    pos += 1;
+                }
+                CTX_PUSH => {
+                    // Enter the next lateral branch (ignored symbols may
+                    // come before it).
+                    loop {
+                        if pos >= n {
+                            return false;
+                        }
+                        let s = syms[pos] as usize;
+                        if self.bracket[s] == 1 {
+                            pos += 1;
+                            break;
+                        }
+                        if self.bracket[s] == 0 && self.ignored[s] {
+                            pos += 1;
+                            continue;
+                        }
+                        return false;
+                    }
+                }
+                _ => {
+                    // `]`: the rest of the current branch is skipped, up to
+                    // and including its `]`.
+                    loop {
+                        if pos >= n {
+                            return false;
+                        }
+                        match self.bracket[syms[pos] as usize] {
+                            2 => {
+                                pos += 1;
+                                break;
+                            }
+                            1 => {
+                                let m = step.mate[pos];
+                                if m == UNMATCHED {
+                                    return false;
+                                }
+                                pos = m as usize + 1;
+                            }
+                            _ => pos += 1,
+                        }
+                    }
+                }
+            }
+        }
+        true
+    }
+}
+
+fn keep_first(slot: &mut Option<RuntimeError>, e: RuntimeError) {
+    if slot.as_ref().is_none_or(|f| e.position < f.position) {
+        *slot = Some(e);
+    }
+}
+
+fn stat_of(
+    s: &ModuleString,
+    iteration: u32,
+    cumulative: u64,
+    processed: u64,
+    elapsed: Duration,
+) -> IterationStats {
+    IterationStats {
+        iteration,
+        modules: s.len() as u64,
+        param_words: s.params.len() as u64,
+        cumulative_modules: cumulative,
+        processed_modules: processed,
+        bytes: s.heap_bytes() as u64,
+        elapsed,
+    }
+}
+
+/// Derive with the system's compiled tables: [`Engine::new`] with `threads`,
+/// then [`Engine::derive`].
+pub fn derive(
+    sys: &CompiledSystem,
+    opts: &DeriveOptions,
+    threads: usize,
+    progress: &mut dyn FnMut(&IterationStats),
+) -> Result<Derivation, DeriveError> {
+    Engine::new(sys, threads)?.derive(opts, progress)
+}
