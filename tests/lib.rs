@@ -28,7 +28,8 @@ pub fn declared_codes(text: &str) -> Option<BTreeSet<String>> {
 /// Check a file the way `grmc check` does, from a path relative to this
 /// crate's directory (the working directory of cargo tests).
 pub fn check_file(rel: &Path) -> (SourceMap, grm_sema::Checked) {
-    let text = std::fs::read_to_string(rel).unwrap_or_else(|e| panic!("read {}: {e}", rel.display()));
+    let text =
+        std::fs::read_to_string(rel).unwrap_or_else(|e| panic!("read {}: {e}", rel.display()));
     let mut sources = SourceMap::new();
     let shown = rel.to_string_lossy().replace('\\', "/");
     let root = sources.add(shown, text);
@@ -80,13 +81,39 @@ pub fn generated_grammar(lines: usize) -> String {
         let n = (per_system - 6) / 4;
         for i in 0..n {
             let next = (i + 1) % n;
-            let _ = writeln!(s, "    A{i}(l, w) : l > 0.01 -> (2) F(l) [ + A{next}(l * SHRINK, w * 0.7) ] B{i}(w);");
-            let _ = writeln!(s, "    A{i}(l, w) : l > 0.01 -> (1) F(l) [ - A{next}(l * SHRINK, w) ] B{i}(w * 0.5);");
-            let _ = writeln!(s, "    A{i}(l, w) -> F(l + uniform(0, 0.1));");
-            let _ = writeln!(s, "    A{next}(_x, _y) < B{i}(w) -> !(w) B{i}(max(w - 0.01, 0));");
+            let _ = writeln!(
+                s,
+                "    A{i}(l, w) : l > 0.01 -> (2) F(l) [ + A{next}(l * SHRINK, w * 0.7) ] B{i}(w);"
+            );
+            let _ = writeln!(
+                s,
+                "    A{i}(l, w) : l > 0.01 -> (1) F(l) [ - A{next}(l * SHRINK, w) ] B{i}(w * 0.5);"
+            );
+            let _ = writeln!(s, "    A{i}(l, _w) -> F(l + uniform(0, 0.1));");
+            let _ = writeln!(
+                s,
+                "    A{next}(_x, _y) < B{i}(w) -> !(w) B{i}(max(w - 0.01, 0));"
+            );
         }
         let _ = writeln!(s, "}}");
         sys += 1;
     }
     s
+}
+
+#[cfg(test)]
+mod gen_tests {
+    #[test]
+    fn generated_grammar_is_clean() {
+        let text = super::generated_grammar(1000);
+        let (sources, checked) = grm_sema::check_text("gen.grm", &text);
+        let diags: Vec<String> = checked
+            .diagnostics
+            .iter()
+            .take(5)
+            .map(|d| grm_diag::render_plain(d, &sources))
+            .collect();
+        assert!(checked.diagnostics.is_empty(), "{}", diags.join("\n"));
+        assert!(text.lines().count() >= 950);
+    }
 }

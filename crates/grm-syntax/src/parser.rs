@@ -354,8 +354,8 @@ impl<'a> Driver<'a, '_> {
     ) -> Result<(Stmt, Vec<(Span, String)>), ParseError<usize, Token<'a>, ()>> {
         let mut errs = Vec::new();
         let stmt = match entry {
-            Entry::Top => Stmt::Item(grm::TopDeclParser::new().parse(&mut errs, stream(toks))?),
-            Entry::Sys => Stmt::SysItem(grm::SysStmtParser::new().parse(&mut errs, stream(toks))?),
+            Entry::Top => Stmt::Item(*grm::TopDeclParser::new().parse(&mut errs, stream(toks))?),
+            Entry::Sys => Stmt::SysItem(*grm::SysStmtParser::new().parse(&mut errs, stream(toks))?),
             Entry::Mat => Stmt::Field(grm::MatFieldParser::new().parse(&mut errs, stream(toks))?),
         };
         Ok((stmt, errs))
