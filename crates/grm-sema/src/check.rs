@@ -246,6 +246,9 @@ pub(crate) struct Checker<'a> {
     pub program: Program,
     /// Global values evaluated with the parameters' defaults (by ConstId).
     pub default_globals: Vec<Value>,
+    /// Current expression nesting (see `Checker::expr`).
+    pub depth: u32,
+    pub deep_reported: bool,
 }
 
 impl<'a> Checker<'a> {
@@ -282,6 +285,8 @@ impl<'a> Checker<'a> {
                 index: RefIndex::default(),
             },
             default_globals: Vec::new(),
+            depth: 0,
+            deep_reported: false,
         }
     }
 
@@ -817,7 +822,15 @@ impl<'a> Checker<'a> {
         let root_has_system = root.ast.items.iter().any(|i| matches!(i, Item::System(_)));
         let root_has_holes =
             root.broken || root.ast.items.iter().any(|i| matches!(i, Item::Error(_)));
-        if !root_has_system && !root_has_holes {
+        // A file of shared definitions (constants, parameters, meshes,
+        // materials) is a library meant to be imported: no warning.
+        let root_defines = root.ast.items.iter().any(|i| {
+            matches!(
+                i,
+                Item::Const(_) | Item::Param(_) | Item::Mesh(_) | Item::Material(_)
+            )
+        });
+        if !root_has_system && !root_defines && !root_has_holes {
             self.diags.push(
                 Diagnostic::new(
                     Code::NoSystem,
@@ -826,7 +839,7 @@ impl<'a> Checker<'a> {
                     Span::new(0, 0),
                     "no `system NAME { ... }` in this file",
                 )
-                .with_help("add a system, or import this file from one that has a system"),
+                .with_help("add a `system NAME { ... }` block; see docs/language.md"),
             );
         }
         // A misspelt name is reported once, not also as an unused definition.
@@ -861,41 +874,61 @@ impl<'a> Checker<'a> {
     }
 }
 
-/// Every name referenced by an expression (not function names).
+/// Every name referenced by an expression (not function names), down to
+/// the checker's nesting limit.
 pub(crate) fn collect_names<'e>(e: &'e Expr, out: &mut Vec<&'e ast::Ident>) {
+    names_rec(e, out, 0);
+}
+
+fn names_rec<'e>(e: &'e Expr, out: &mut Vec<&'e ast::Ident>, depth: u32) {
+    if depth >= crate::expr::MAX_DEPTH {
+        return;
+    }
+    let d = depth + 1;
     match &e.kind {
         ExprKind::Name(id) => out.push(id),
         ExprKind::Call { args, .. } => {
             for a in args {
-                collect_names(a, out);
+                names_rec(a, out, d);
             }
         }
-        ExprKind::Unary { operand, .. } => collect_names(operand, out),
+        ExprKind::Unary { operand, .. } => names_rec(operand, out, d),
         ExprKind::Binary { lhs, rhs, .. } => {
-            collect_names(lhs, out);
-            collect_names(rhs, out);
+            names_rec(lhs, out, d);
+            names_rec(rhs, out, d);
         }
-        ExprKind::Field { base, .. } => collect_names(base, out),
+        ExprKind::Field { base, .. } => names_rec(base, out, d),
         ExprKind::If { cond, then, els } => {
-            collect_names(cond, out);
-            collect_names(then, out);
-            collect_names(els, out);
+            names_rec(cond, out, d);
+            names_rec(then, out, d);
+            names_rec(els, out, d);
         }
-        ExprKind::Paren(inner) => collect_names(inner, out),
+        ExprKind::Paren(inner) => names_rec(inner, out, d),
         ExprKind::Number { .. } | ExprKind::Bool(_) | ExprKind::Error => {}
     }
 }
 
-/// Whether an expression contains a parse error hole.
+/// Whether an expression contains a parse error hole (or nests beyond the
+/// checker's limit, which is reported as an error too).
 pub(crate) fn has_error(e: &Expr) -> bool {
+    error_rec(e, 0)
+}
+
+fn error_rec(e: &Expr, depth: u32) -> bool {
+    if depth >= crate::expr::MAX_DEPTH {
+        return true;
+    }
+    let d = depth + 1;
     match &e.kind {
         ExprKind::Error => true,
-        ExprKind::Call { args, .. } => args.iter().any(has_error),
-        ExprKind::Unary { operand, .. } => has_error(operand),
-        ExprKind::Binary { lhs, rhs, .. } => has_error(lhs) || has_error(rhs),
-        ExprKind::Field { base, .. } => has_error(base),
-        ExprKind::If { cond, then, els } => has_error(cond) || has_error(then) || has_error(els),
-        ExprKind::Paren(inner) => has_error(inner),
+        ExprKind::Call { args, .. } => args.iter().any(|a| error_rec(a, d)),
+        ExprKind::Unary { operand, .. } => error_rec(operand, d),
+        ExprKind::Binary { lhs, rhs, .. } => error_rec(lhs, d) || error_rec(rhs, d),
+        ExprKind::Field { base, .. } => error_rec(base, d),
+        ExprKind::If { cond, then, els } => {
+            error_rec(cond, d) || error_rec(then, d) || error_rec(els, d)
+        }
+        ExprKind::Paren(inner) => error_rec(inner, d),
         ExprKind::Number { .. } | ExprKind::Bool(_) | ExprKind::Name(_) => false,
     }
 }
