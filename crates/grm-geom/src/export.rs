@@ -278,13 +278,13 @@ pub fn glb_bytes(model: &Model) -> Option<Vec<u8>> {
             j
         })
         .collect();
+    // An empty model is just the asset (a scene needs at least one node).
     let mut doc = json!({
         "asset": { "version": "2.0", "generator": "grm" },
-        "scene": 0,
-        "scenes": [ { "name": "grm" } ],
     });
     if !primitives.is_empty() {
-        doc["scenes"][0]["nodes"] = json!([0]);
+        doc["scene"] = json!(0);
+        doc["scenes"] = json!([ { "name": "grm", "nodes": [0] } ]);
         doc["nodes"] = json!([ { "name": "model", "mesh": 0 } ]);
         doc["meshes"] = json!([ { "name": "model", "primitives": primitives } ]);
         doc["materials"] = json!(materials);

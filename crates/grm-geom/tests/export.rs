@@ -1,0 +1,395 @@
+//! Export: glb re-read with `gltf`, OBJ re-read with `tobj`, PLY header,
+//! SVG, atomic writes and typed errors; OBJ mesh import errors; end to end
+//! from the examples.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::{axiom, derive, program};
+use glam::Vec3;
+use grm_geom::{
+    ExportError, ExportFormat, GeomError, Model, build_model, export, export::glb_bytes, export_as,
+};
+
+fn examples() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples")
+}
+
+fn load_example(name: &str) -> grm_sema::Program {
+    let path = examples().join(name);
+    let text = std::fs::read_to_string(&path).expect("example exists");
+    program(&path.to_string_lossy(), &text)
+}
+
+/// Koch island after 2 iterations, plus a sphere in a declared material.
+fn sample_model() -> Model {
+    let program = program(
+        "mem.grm",
+        "material red { color = rgb(1, 0, 0); opacity = 0.5; }\n\
+         system K { angle = 90; axiom F - F - F - F material(red) sphere(0.3);\n\
+         F -> F - F + F + F F - F - F + F; }",
+    );
+    let system = &program.systems[0];
+    let string = derive(&program, system, 2);
+    build_model(&program, system, &string, &system.settings).expect("builds")
+}
+
+fn files_in(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .expect("dir")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn glb_reads_back_with_gltf() {
+    let model = sample_model();
+    assert_eq!(model.stats.bones, 4 * 8 * 8);
+    assert_eq!(model.parts.len(), 2);
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("koch.glb");
+    export(&model, &path).expect("exports");
+    let bytes = std::fs::read(&path).expect("written");
+    assert_eq!(&bytes[0..4], b"glTF");
+    assert_eq!(
+        u32::from_le_bytes(bytes[8..12].try_into().unwrap()) as usize,
+        bytes.len()
+    );
+    let json_len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    assert_eq!(json_len % 4, 0);
+    assert_eq!(bytes.len() % 4, 0);
+
+    // `from_slice` validates the document.
+    let gltf = gltf::Gltf::from_slice(&bytes).expect("valid glb");
+    let blob = gltf.blob.clone().expect("BIN chunk");
+    assert_eq!(gltf.meshes().count(), 1);
+    let mesh = gltf.meshes().next().unwrap();
+    assert_eq!(mesh.primitives().count(), model.parts.len());
+    let mut vertices = 0;
+    let mut triangles = 0;
+    for (prim, part) in mesh.primitives().zip(&model.parts) {
+        let reader = prim.reader(|_| Some(&blob[..]));
+        let positions: Vec<[f32; 3]> = reader.read_positions().expect("positions").collect();
+        let normals: Vec<[f32; 3]> = reader.read_normals().expect("normals").collect();
+        let indices: Vec<u32> = reader.read_indices().expect("indices").into_u32().collect();
+        assert_eq!(positions, part.mesh.positions);
+        assert_eq!(normals.len(), positions.len());
+        assert_eq!(indices, part.mesh.indices);
+        vertices += positions.len();
+        triangles += indices.len() / 3;
+        // min/max are the exact bounds.
+        let bb = prim.bounding_box();
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for p in &positions {
+            lo = lo.min(Vec3::from_array(*p));
+            hi = hi.max(Vec3::from_array(*p));
+        }
+        assert_eq!(bb.min, lo.to_array());
+        assert_eq!(bb.max, hi.to_array());
+        let mat = prim.material();
+        let m = &model.materials[part.material];
+        let f = mat.pbr_metallic_roughness().base_color_factor();
+        assert_eq!(f, [m.color[0], m.color[1], m.color[2], m.opacity]);
+    }
+    assert_eq!(vertices, model.stats.vertices);
+    assert_eq!(triangles, model.stats.triangles);
+    let red = gltf
+        .materials()
+        .find(|m| m.name() == Some("red"))
+        .expect("red");
+    assert_eq!(red.alpha_mode(), gltf::material::AlphaMode::Blend);
+    // No temporary files left behind.
+    assert_eq!(files_in(dir.path()), vec!["koch.glb".to_string()]);
+
+    // An empty model is a valid glb too.
+    let empty = glb_bytes(&Model::default()).expect("small");
+    let g = gltf::Gltf::from_slice(&empty).expect("valid empty glb");
+    assert_eq!(g.meshes().count(), 0);
+}
+
+#[test]
+fn obj_and_mtl_read_back_with_tobj() {
+    let model = sample_model();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("koch.obj");
+    export(&model, &path).expect("exports");
+    assert_eq!(
+        files_in(dir.path()),
+        vec!["koch.mtl".to_string(), "koch.obj".to_string()]
+    );
+    let opts = tobj::LoadOptions {
+        single_index: true,
+        triangulate: true,
+        ..Default::default()
+    };
+    let (models, materials) = tobj::load_obj(&path, &opts).expect("obj loads");
+    let materials = materials.expect("mtl loads");
+    assert_eq!(models.len(), model.parts.len());
+    assert_eq!(materials.len(), model.materials.len());
+    let tris: usize = models.iter().map(|m| m.mesh.indices.len() / 3).sum();
+    assert_eq!(tris, model.stats.triangles);
+    for (m, part) in models.iter().zip(&model.parts) {
+        let mat = &materials[m.mesh.material_id.expect("usemtl")];
+        assert_eq!(mat.name, model.materials[part.material].name);
+        assert_eq!(mat.diffuse, Some(model.materials[part.material].color));
+        assert!(!m.mesh.normals.is_empty());
+    }
+    let red = materials.iter().find(|m| m.name == "red").expect("red");
+    assert_eq!(red.dissolve, Some(0.5));
+}
+
+#[test]
+fn ply_header_and_size() {
+    let model = sample_model();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("koch.ply");
+    export(&model, &path).expect("exports");
+    let bytes = std::fs::read(&path).expect("written");
+    let end = b"end_header\n";
+    let at = bytes
+        .windows(end.len())
+        .position(|w| w == end)
+        .expect("header end")
+        + end.len();
+    let header = std::str::from_utf8(&bytes[..at]).expect("ascii header");
+    assert!(header.starts_with("ply\nformat binary_little_endian 1.0\n"));
+    let (v, t) = (model.stats.vertices, model.stats.triangles);
+    assert!(header.contains(&format!("element vertex {v}\n")));
+    assert!(header.contains(&format!("element face {t}\n")));
+    assert!(header.contains("property uchar red\n"));
+    assert!(header.contains("property list uchar uint vertex_indices\n"));
+    assert_eq!(bytes.len() - at, v * 27 + t * 13);
+    // First vertex round-trips.
+    let x = f32::from_le_bytes(bytes[at..at + 4].try_into().unwrap());
+    assert_eq!(x, model.parts[0].mesh.positions[0][0]);
+
+    let ascii = dir.path().join("ascii.ply");
+    export_as(&model, &ascii, ExportFormat::PlyAscii).expect("exports");
+    let text = std::fs::read_to_string(&ascii).expect("text");
+    assert!(text.starts_with("ply\nformat ascii 1.0\n"));
+    let body = text.split("end_header\n").nth(1).expect("body");
+    assert_eq!(body.lines().count(), v + t);
+}
+
+#[test]
+fn svg_of_a_2d_system() {
+    let program = load_example("koch_island.grm");
+    let system = &program.systems[0];
+    let string = derive(&program, system, 1);
+    let model = build_model(&program, system, &string, &system.settings).expect("builds");
+    let svg = grm_geom::export::svg_string(&model);
+    assert!(svg.starts_with("<?xml"));
+    assert!(svg.trim_end().ends_with("</svg>"));
+    assert_eq!(svg.matches("<line ").count(), 32);
+    assert!(svg.contains("viewBox=\""));
+    // Tags balance: every element is self-closed or closed.
+    assert_eq!(svg.matches("<g").count(), svg.matches("</g>").count());
+    assert_eq!(svg.matches("<svg").count(), 1);
+    // The viewBox covers the island (y flipped).
+    let vb: Vec<f32> = svg
+        .split("viewBox=\"")
+        .nth(1)
+        .and_then(|r| r.split('"').next())
+        .expect("viewBox")
+        .split(' ')
+        .map(|x| x.parse().expect("number"))
+        .collect();
+    let b = model.skeleton.bounds;
+    assert!(vb[0] <= b.min.x && vb[0] + vb[2] >= b.max.x);
+    assert!(vb[1] <= -b.max.y && vb[1] + vb[3] >= -b.min.y);
+
+    // Polygons become paths.
+    let program = program_with_polygon();
+    let system = &program.systems[0];
+    let model = build_model(&program, system, &axiom(system), &system.settings).expect("builds");
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("leaf.svg");
+    export(&model, &path).expect("exports");
+    let svg = std::fs::read_to_string(&path).expect("written");
+    assert_eq!(svg.matches("<path ").count(), 1);
+    assert!(svg.contains(" Z\"/>"));
+}
+
+fn program_with_polygon() -> grm_sema::Program {
+    program(
+        "mem.grm",
+        "system S { angle = 60; axiom '(1) { . f . + f . + f . }; }",
+    )
+}
+
+#[test]
+fn unwritable_paths_give_typed_errors_and_no_file() {
+    let model = sample_model();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let file = dir.path().join("not_a_dir");
+    std::fs::write(&file, "x").expect("write");
+    for name in ["m.glb", "m.obj", "m.ply", "m.svg"] {
+        // Parent is a regular file.
+        let path = file.join(name);
+        match export(&model, &path) {
+            Err(ExportError::Io { path: p, .. }) => assert!(p.starts_with(&file), "{p:?}"),
+            other => panic!("expected an I/O error, got {other:?}"),
+        }
+        // Parent does not exist.
+        let path = dir.path().join("missing").join(name);
+        let err = export(&model, &path).expect_err("fails");
+        assert!(err.to_string().contains("missing"), "{err}");
+    }
+    // The target is a directory: the rename fails, nothing is left.
+    let target = dir.path().join("taken.glb");
+    std::fs::create_dir(&target).expect("mkdir");
+    assert!(matches!(
+        export(&model, &target),
+        Err(ExportError::Io { .. })
+    ));
+    assert_eq!(
+        files_in(dir.path()),
+        vec!["not_a_dir".to_string(), "taken.glb".to_string()]
+    );
+    assert!(std::fs::read_dir(&target).expect("dir").next().is_none());
+    // Unknown format.
+    let err = export(&model, &dir.path().join("m.fbx")).expect_err("unknown");
+    assert!(matches!(err, ExportError::UnknownFormat { .. }));
+    assert!(err.to_string().contains("m.fbx"));
+}
+
+#[test]
+fn existing_file_is_replaced_whole() {
+    let model = sample_model();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("m.glb");
+    std::fs::write(&path, vec![0u8; 10_000_000]).expect("write");
+    export(&model, &path).expect("exports");
+    let bytes = std::fs::read(&path).expect("read");
+    assert_eq!(bytes, glb_bytes(&model).expect("small"));
+}
+
+/// A directory with a copy of the example leaf and a grammar using it.
+fn mesh_program(dir: &Path, obj: Option<&[u8]>) -> grm_sema::Program {
+    let obj_path = dir.join("leaf.obj");
+    match obj {
+        Some(bytes) => std::fs::write(&obj_path, bytes).expect("write obj"),
+        None => {
+            std::fs::copy(examples().join("leaf.obj"), &obj_path).expect("copy leaf");
+        }
+    }
+    let grm = dir.join("plant.grm");
+    program(
+        &grm.to_string_lossy(),
+        "mesh leaf = \"leaf.obj\";\nsystem S { axiom F mesh(leaf) + F mesh(leaf) scale(2) mesh(leaf); }",
+    )
+}
+
+#[test]
+fn obj_meshes_are_loaded_once_and_instanced() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let program = mesh_program(dir.path(), None);
+    let system = &program.systems[0];
+    let model = build_model(&program, system, &axiom(system), &system.settings).expect("builds");
+    assert_eq!(model.stats.instances, 3);
+    let leaf = grm_geom::import::load_obj("leaf", &dir.path().join("leaf.obj")).expect("loads");
+    assert_eq!(leaf.triangle_count(), 4);
+    let part = &model.parts[0];
+    let mesh_tris: u32 = part
+        .picks
+        .iter()
+        .filter(|p| matches!(p.source, grm_geom::PartSource::Instance(_)))
+        .map(|p| p.triangle_count)
+        .sum();
+    assert_eq!(mesh_tris, 3 * 4);
+    // The scaled instance reaches twice as high: tip of leaf at (0, 1, 0)
+    // in the frame at (1, 1, 0) heading +X, scaled by 2: x = 1 + 2.
+    assert!(
+        (model.stats.bounds.max.x - 3.0).abs() < 1e-5,
+        "{:?}",
+        model.stats.bounds
+    );
+}
+
+#[test]
+fn missing_or_malformed_obj_is_a_typed_error() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let program = mesh_program(dir.path(), None);
+    let system = &program.systems[0];
+    let string = axiom(system);
+    // The file disappears after checking.
+    std::fs::remove_file(dir.path().join("leaf.obj")).expect("rm");
+    match build_model(&program, system, &string, &system.settings) {
+        Err(e @ GeomError::MeshMissing { .. }) => {
+            let msg = e.to_string();
+            assert!(msg.contains("leaf.obj") && msg.contains("`leaf`"), "{msg}");
+        }
+        other => panic!("expected MeshMissing, got {other:?}"),
+    }
+    for bad in [
+        &b"v 1 2\nf 1 2 3\n"[..],
+        b"v 0 0 0\nv 1 0 0\nf 1 2 9\n",
+        b"# nothing\n",
+    ] {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let program = mesh_program(dir.path(), Some(bad));
+        let system = &program.systems[0];
+        match build_model(&program, system, &axiom(system), &system.settings) {
+            Err(e @ GeomError::MeshMalformed { .. }) => {
+                assert!(e.to_string().contains("leaf.obj"), "{e}");
+            }
+            other => panic!("expected MeshMalformed for {bad:?}, got {other:?}"),
+        }
+    }
+}
+
+#[test]
+fn examples_end_to_end() {
+    let out = tempfile::tempdir().expect("tempdir");
+    // Koch island, n = 3: 4 * 8^3 bones; closed curve.
+    let program = load_example("koch_island.grm");
+    let system = &program.systems[0];
+    let string = derive(&program, system, system.settings.iterations);
+    let model = build_model(&program, system, &string, &system.settings).expect("builds");
+    assert_eq!(model.stats.bones, 2048);
+    let last = model.bones().last().expect("bones").tip;
+    assert!(last.length() < 1e-3, "island closes: {last}");
+    for ext in ["glb", "obj", "ply", "svg"] {
+        export(&model, &out.path().join(format!("koch.{ext}"))).expect("exports");
+    }
+
+    // 3D Hilbert curve, n = 2: 63 unit bones visiting a 4x4x4 grid once
+    // each, which only holds with ABoP's turn conventions.
+    let program = load_example("hilbert3d.grm");
+    let system = &program.systems[0];
+    let string = derive(&program, system, 2);
+    let model = build_model(&program, system, &string, &system.settings).expect("builds");
+    assert_eq!(model.stats.bones, 63);
+    let mut cells: Vec<[i32; 3]> = vec![[0; 3]];
+    for b in model.bones() {
+        assert!((b.length() - 1.0).abs() < 1e-4);
+        cells.push(b.tip.round().to_array().map(|x| x as i32));
+    }
+    cells.sort();
+    cells.dedup();
+    assert_eq!(cells.len(), 64, "self-intersecting curve");
+    let size = model.skeleton.bounds.size();
+    assert!((size - Vec3::splat(3.0)).length() < 1e-3, "{size}");
+    export(&model, &out.path().join("hilbert.glb")).expect("exports");
+
+    // Bracketed plant (meta-parameter angle), n = 3.
+    let program = load_example("bracketed_plant.grm");
+    let system = &program.systems[0];
+    let string = derive(&program, system, 3);
+    let model = build_model(&program, system, &string, &system.settings).expect("builds");
+    assert_eq!(
+        model.stats.bones as usize,
+        string
+            .syms
+            .iter()
+            .filter(|&&s| { system.symbols[s as usize].name == "F" })
+            .count()
+    );
+    let bytes = glb_bytes(&model).expect("small");
+    gltf::Gltf::from_slice(&bytes).expect("valid glb");
+    export(&model, &out.path().join("plant.obj")).expect("exports");
+}
