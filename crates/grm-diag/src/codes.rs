@@ -95,6 +95,9 @@ codes! {
     InvalidParamRange = "E0209", Error, "invalid parameter range";
     /// A recursive definition of constants.
     CyclicConstant = "E0210", Error, "cyclic constant definition";
+    /// An expression nested deeper than the checker follows (a guard against
+    /// pathological input; real grammars stay far below it).
+    ExprTooDeep = "E0211", Error, "expression nested too deeply";
 
     // ---- E03xx: systems, phases, guided mode ----------------------------
     /// A skeleton symbol's production emits a geometry terminal directly.

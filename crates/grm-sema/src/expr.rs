@@ -12,6 +12,9 @@ use crate::index::Def;
 use crate::program::{Loc, TExpr, TExprKind, Ty, Value};
 use crate::suggest;
 
+/// How deep the checker follows nested expressions.
+pub(crate) const MAX_DEPTH: u32 = 200;
+
 /// A name bound by a pattern, as seen by the expressions of its production.
 #[derive(Clone, Debug)]
 pub(crate) struct ScopeBinding {
@@ -110,8 +113,37 @@ impl Checker<'_> {
         TExpr::error(e.span)
     }
 
-    /// Type an expression.
+    /// Type an expression. Nesting deeper than [`MAX_DEPTH`] is reported
+    /// once (E0211) and becomes an error expression, which bounds every
+    /// recursion over typed expressions later on.
     pub(crate) fn expr(&mut self, e: &Expr, sc: &mut Scope) -> TExpr {
+        if self.depth == 0 {
+            self.deep_reported = false;
+        }
+        if self.depth >= MAX_DEPTH {
+            if !self.deep_reported {
+                self.deep_reported = true;
+                let file = self.file_id(sc.file_idx);
+                self.error(
+                    Diagnostic::new(
+                        Code::ExprTooDeep,
+                        format!("expression nested more than {MAX_DEPTH} levels deep"),
+                        file,
+                        e.span,
+                        "too deep from here on",
+                    )
+                    .with_help("split it up with constants"),
+                );
+            }
+            return TExpr::error(e.span);
+        }
+        self.depth += 1;
+        let r = self.expr_inner(e, sc);
+        self.depth -= 1;
+        r
+    }
+
+    fn expr_inner(&mut self, e: &Expr, sc: &mut Scope) -> TExpr {
         let file = self.file_id(sc.file_idx);
         let span = e.span;
         match &e.kind {

@@ -174,15 +174,23 @@ impl Infer {
 
     /// Infer an expression's type. `lookup` gives the type of a name.
     pub(crate) fn expr(&mut self, e: &Expr, lookup: &dyn Fn(&str) -> It) -> It {
+        self.expr_at(e, lookup, 0)
+    }
+
+    fn expr_at(&mut self, e: &Expr, lookup: &dyn Fn(&str) -> It, depth: u32) -> It {
+        if depth >= crate::expr::MAX_DEPTH {
+            return It::Any; // reported by the typing pass
+        }
+        let d = depth + 1;
         let span = e.span;
         match &e.kind {
             ExprKind::Number { .. } => It::K(Ty::Float),
             ExprKind::Bool(_) => It::K(Ty::Bool),
             ExprKind::Error => It::Any,
-            ExprKind::Paren(inner) => self.expr(inner, lookup),
+            ExprKind::Paren(inner) => self.expr_at(inner, lookup, d),
             ExprKind::Name(id) => lookup(&id.name),
             ExprKind::Unary { op, operand } => {
-                let a = self.expr(operand, lookup);
+                let a = self.expr_at(operand, lookup, d);
                 match op {
                     UnaryOp::Neg => a,
                     UnaryOp::Not => {
@@ -192,8 +200,8 @@ impl Infer {
                 }
             }
             ExprKind::Binary { op, lhs, rhs } => {
-                let a = self.expr(lhs, lookup);
-                let b = self.expr(rhs, lookup);
+                let a = self.expr_at(lhs, lookup, d);
+                let b = self.expr_at(rhs, lookup, d);
                 use BinaryOp::*;
                 match op {
                     Add | Sub => {
@@ -225,20 +233,20 @@ impl Infer {
                 }
             }
             ExprKind::Field { base, .. } => {
-                let b = self.expr(base, lookup);
+                let b = self.expr_at(base, lookup, d);
                 self.unify(b, It::K(Ty::Vec3), base.span);
                 It::K(Ty::Float)
             }
             ExprKind::If { cond, then, els } => {
-                let c = self.expr(cond, lookup);
+                let c = self.expr_at(cond, lookup, d);
                 self.unify(c, It::K(Ty::Bool), cond.span);
-                let t = self.expr(then, lookup);
-                let f = self.expr(els, lookup);
+                let t = self.expr_at(then, lookup, d);
+                let f = self.expr_at(els, lookup, d);
                 self.unify(t, f, span);
                 if t == It::Any { f } else { t }
             }
             ExprKind::Call { func, args } => {
-                let ts: Vec<It> = args.iter().map(|a| self.expr(a, lookup)).collect();
+                let ts: Vec<It> = args.iter().map(|a| self.expr_at(a, lookup, d)).collect();
                 if let Some(b) = Builtin::from_name(&func.name) {
                     let mut first_gen = None;
                     for (i, (t, a)) in ts.iter().zip(args).enumerate() {
