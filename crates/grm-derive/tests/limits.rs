@@ -1,0 +1,206 @@
+//! Runaway grammars stop with a typed error before allocating; run-time
+//! failures (NaN, infinite values, bad weights) name the iteration, the
+//! module and the source span.
+
+mod common;
+
+use common::*;
+use grm_derive::{DeriveError, DeriveLimits, DeriveOptions, RuntimeErrorKind, derive};
+
+fn run(
+    src: &str,
+    iterations: u32,
+    limits: DeriveLimits,
+    threads: usize,
+) -> Result<grm_derive::Derivation, DeriveError> {
+    let c = inline(src);
+    let opts = DeriveOptions {
+        iterations,
+        seed: 0,
+        limits,
+    };
+    derive(&c, &opts, threads, &mut |_| {})
+}
+
+fn span_text(src: &str, e: &DeriveError) -> String {
+    let (_, span) = e.location().expect("a location");
+    src[span.range()].to_string()
+}
+
+#[test]
+fn module_limit_stops_before_allocating() {
+    let src = "system Runaway { axiom A; A -> A A; }";
+    let limits = DeriveLimits {
+        max_modules: 1_000_000,
+        ..DeriveLimits::default()
+    };
+    for threads in [1, 2] {
+        let e = run(src, 100, limits, threads).unwrap_err();
+        match &e {
+            DeriveError::ModuleLimit {
+                iteration,
+                modules,
+                limit,
+                ..
+            } => {
+                assert_eq!(*iteration, 20);
+                assert_eq!(*modules, 1 << 20);
+                assert_eq!(*limit, 1_000_000);
+            }
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(e.code(), "R0201");
+        assert_eq!(span_text(src, &e), "Runaway");
+        assert!(
+            e.to_string()
+                .contains("iteration 20 would produce 1048576 modules")
+        );
+    }
+}
+
+/// With the default limits (50 million modules) a thousandfold fan-out
+/// stops at iteration 3 (10^9 modules) having built only 10^6.
+#[test]
+fn default_limits_catch_a_fast_runaway() {
+    let succ = vec!["A"; 1000].join(" ");
+    let src = format!("system Runaway {{ axiom A; A -> {succ}; }}");
+    let e = run(&src, 10, DeriveLimits::default(), 1).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            DeriveError::ModuleLimit {
+                iteration: 3,
+                modules: 1_000_000_000,
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+}
+
+#[test]
+fn memory_limit() {
+    let src = "system Runaway { axiom A(1); A(x) -> A(x) A(x + 1); }";
+    let limits = DeriveLimits {
+        max_modules: u64::MAX,
+        max_bytes: 1 << 20,
+    };
+    let e = run(src, 100, limits, 1).unwrap_err();
+    let DeriveError::MemoryLimit {
+        iteration,
+        bytes,
+        limit,
+        modules,
+        words,
+        ..
+    } = e
+    else {
+        panic!("{e:?}")
+    };
+    // 12 bytes per module (symbol, start, one parameter) in and out: the
+    // input of 2^k modules plus the output of 2^(k+1) passes 1 MiB at k = 15.
+    assert_eq!(iteration, 16);
+    assert_eq!(modules, 1 << 16);
+    assert_eq!(words, 1 << 16);
+    assert!(bytes > limit);
+    assert_eq!(limit, 1 << 20);
+}
+
+#[test]
+fn nan_parameter_points_at_the_expression() {
+    let src = "system S { axiom A(2); A(x) -> A(x - 1) B(sqrt(x)); }";
+    for threads in [1, 2] {
+        let e = run(src, 10, DeriveLimits::default(), threads).unwrap_err();
+        let DeriveError::Runtime(r) = &e else {
+            panic!("{e:?}")
+        };
+        assert_eq!(r.iteration, 4);
+        assert_eq!(r.position, 0);
+        assert_eq!(r.symbol, "A");
+        assert!(matches!(r.kind, RuntimeErrorKind::NonFinite { value } if value.is_nan()));
+        assert_eq!(e.code(), "R0204");
+        assert_eq!(span_text(src, &e), "sqrt(x)");
+    }
+}
+
+#[test]
+fn infinite_parameter() {
+    let src = "system S { axiom A(1); A(x) -> A(x * 1e30); }";
+    let e = run(src, 5, DeriveLimits::default(), 1).unwrap_err();
+    let DeriveError::Runtime(r) = &e else {
+        panic!("{e:?}")
+    };
+    assert_eq!(r.iteration, 2);
+    assert!(matches!(r.kind, RuntimeErrorKind::NonFinite { value } if value == f32::INFINITY));
+    assert_eq!(span_text(src, &e), "x * 1e30");
+}
+
+/// The first failing module in string order is reported, whatever the
+/// chunking.
+#[test]
+fn lowest_position_error_wins() {
+    // Modules A(3) .. A(-3): the first negative argument is at position 4.
+    let src = "system S { axiom A(3) A(2) A(1) A(0) A(-1) A(-2) A(-3); A(x) -> B(sqrt(x)); }";
+    let c = inline(src);
+    for (threads, chunk) in [(1, 8192), (2, 1), (8, 2)] {
+        let engine = grm_derive::Engine::new(&c, threads)
+            .expect("engine")
+            .with_min_chunk(chunk);
+        let e = engine
+            .derive(
+                &DeriveOptions {
+                    iterations: 1,
+                    seed: 0,
+                    limits: DeriveLimits::default(),
+                },
+                &mut |_| {},
+            )
+            .unwrap_err();
+        let DeriveError::Runtime(r) = e else {
+            panic!("{e:?}")
+        };
+        assert_eq!(r.position, 4, "threads {threads}");
+    }
+}
+
+#[test]
+fn zero_weight_at_run_time() {
+    let src = "system S { axiom A(1); A(x) -> (x) A(x - 1) A(x - 1); A(x) -> (x) A(x - 1); }";
+    let e = run(src, 5, DeriveLimits::default(), 1).unwrap_err();
+    let DeriveError::Runtime(r) = &e else {
+        panic!("{e:?}")
+    };
+    assert_eq!(r.iteration, 2);
+    assert_eq!(r.position, 0);
+    assert!(matches!(r.kind, RuntimeErrorKind::BadWeight { value } if value == 0.0));
+    assert_eq!(e.code(), "R0205");
+    assert_eq!(span_text(src, &e), "x");
+}
+
+#[test]
+fn stats_count_lipp_modules() {
+    let src = "system S { axiom A; A -> A B; B -> A; }";
+    let mut seen = Vec::new();
+    let c = inline(src);
+    let d = derive(
+        &c,
+        &DeriveOptions {
+            iterations: 5,
+            seed: 0,
+            limits: DeriveLimits::default(),
+        },
+        1,
+        &mut |s| seen.push(s.iteration),
+    )
+    .expect("derives");
+    // Fibonacci lengths: 1 2 3 5 8 13.
+    let lens: Vec<u64> = d.stats.iter().map(|s| s.modules).collect();
+    assert_eq!(lens, [1, 2, 3, 5, 8, 13]);
+    assert_eq!(seen, [0, 1, 2, 3, 4, 5]);
+    assert_eq!(d.stats[5].cumulative_modules, 2 + 3 + 5 + 8 + 13);
+    assert_eq!(d.stats[5].processed_modules, 1 + 2 + 3 + 5 + 8);
+    assert_eq!(
+        d.string.to_text(&c.symbol_names),
+        "A B A A B A B A A B A A B"
+    );
+}
