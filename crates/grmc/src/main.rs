@@ -7,7 +7,10 @@
 //! Exit codes (all subcommands): 0 success (warnings allowed), 1 the input
 //! had errors (diagnostics were printed), 2 usage or I/O problems.
 
+mod bench;
 mod check;
+mod derive;
+mod disasm;
 mod fmt;
 
 use clap::{Parser, Subcommand, ValueEnum};
@@ -32,6 +35,12 @@ enum Command {
     Check(check::CheckArgs),
     /// Format .grm files in place (or check that they are formatted).
     Fmt(fmt::FmtArgs),
+    /// Derive a system: statistics, the string, or an exported model.
+    Derive(derive::DeriveArgs),
+    /// Print a system's compiled tables and bytecode.
+    Disasm(disasm::DisasmArgs),
+    /// Benchmarks (`grmc bench derive`).
+    Bench(bench::BenchArgs),
 }
 
 /// The outcome of a subcommand, mapped to the process exit code.
@@ -53,6 +62,9 @@ fn main() -> ExitCode {
     let outcome = match cli.command {
         Command::Check(a) => check::run(a),
         Command::Fmt(a) => fmt::run(a),
+        Command::Derive(a) => derive::run(a),
+        Command::Disasm(a) => disasm::run(a),
+        Command::Bench(a) => bench::run(a),
     };
     ExitCode::from(match outcome {
         Outcome::Ok => 0,

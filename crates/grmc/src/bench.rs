@@ -1,0 +1,287 @@
+//! `grmc bench derive`: CPU derivation throughput on the ABoP scenes, with
+//! a naive rewriter measured in the same run as the baseline.
+//!
+//! Figure: modules per microsecond, Lipp's count (the sum over the
+//! iterations of the length of the string each one produces) divided by the
+//! wall time of the whole derivation (axiom and every iteration; compiling
+//! is not timed). The engine runs on one thread and on all threads; the
+//! baseline is a straightforward `Vec<{symbol, Vec<Value>}>` rewriter that
+//! walks the checked expression trees (`grm_sema::eval`, f64) and allocates
+//! every module. Its final string length is checked against the engine's.
+
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use grm_derive::{DeriveOptions, Engine};
+use grm_sema::{Program, System, TContextItem, Value};
+
+use crate::Outcome;
+use crate::derive::{load, report_derive_error};
+
+#[derive(clap::Args, Debug)]
+pub struct BenchArgs {
+    #[command(subcommand)]
+    pub what: BenchWhat,
+}
+
+#[derive(clap::Subcommand, Debug)]
+pub enum BenchWhat {
+    /// Derivation throughput (modules/us) on the ABoP scenes.
+    Derive(DeriveBench),
+}
+
+#[derive(clap::Args, Debug)]
+pub struct DeriveBench {
+    /// The examples folder.
+    #[arg(long, default_value = "examples")]
+    pub examples: PathBuf,
+    /// Timed runs per configuration (the best is reported).
+    #[arg(long, default_value_t = 5)]
+    pub runs: u32,
+    /// Threads for the parallel column (0: all cores).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Only these scenes (by name, e.g. `hilbert3d`).
+    #[arg(long = "scene")]
+    pub scenes: Vec<String>,
+    /// Skip the naive baseline.
+    #[arg(long)]
+    pub no_baseline: bool,
+}
+
+/// The scenes: example file, system, iterations (Lipp's where he has one).
+const SCENES: &[(&str, &str, u32)] = &[
+    ("hilbert3d", "Hilbert3D", 6),
+    ("koch_island", "KochIsland", 6),
+    ("bracketed_plant", "BracketedPlant", 7),
+    ("row_of_trees", "RowOfTrees", 10),
+    ("ternary_tree", "TernaryTreeB", 11),
+];
+
+pub fn run(args: BenchArgs) -> Outcome {
+    match args.what {
+        BenchWhat::Derive(a) => derive_bench(a),
+    }
+}
+
+fn best(
+    runs: u32,
+    mut f: impl FnMut() -> Result<u64, Outcome>,
+) -> Result<(Duration, u64), Outcome> {
+    let mut best = Duration::MAX;
+    let mut produced = 0;
+    for _ in 0..runs.max(1) {
+        let t = Instant::now();
+        produced = f()?;
+        best = best.min(t.elapsed());
+    }
+    Ok((best, produced))
+}
+
+fn rate(modules: u64, d: Duration) -> f64 {
+    modules as f64 / (d.as_secs_f64() * 1e6)
+}
+
+pub fn cpu_model() -> String {
+    std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split_once(':'))
+                .map(|(_, v)| v.trim().to_string())
+        })
+        .unwrap_or_else(|| "unknown CPU".into())
+}
+
+fn derive_bench(args: DeriveBench) -> Outcome {
+    let threads = if args.threads == 0 {
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    } else {
+        args.threads
+    };
+    println!(
+        "CPU derivation, {} ({} threads available), best of {} runs",
+        cpu_model(),
+        std::thread::available_parallelism().map_or(1, |n| n.get()),
+        args.runs
+    );
+    println!(
+        "{:<16} {:>3} {:>10} {:>10} {:>10} {:>9} {:>9} {:>9} {:>8} {:>8} {:>8} {:>8} {:>7}",
+        "scene",
+        "n",
+        "final",
+        "produced",
+        "naive ms",
+        "1T ms",
+        format!("{threads}T ms"),
+        "naive/us",
+        "1T/us",
+        format!("{threads}T/us"),
+        "1T/nv",
+        format!("{threads}T/nv"),
+        format!("{threads}T/1T"),
+    );
+    let mut failed = false;
+    for &(file, system, n) in SCENES {
+        if !args.scenes.is_empty() && !args.scenes.iter().any(|s| s == file) {
+            continue;
+        }
+        let path = args.examples.join(format!("{file}.grm"));
+        let loaded = match load(&path, Some(system), &[]) {
+            Ok(l) => l,
+            Err(o) => return o,
+        };
+        let c = &loaded.compiled;
+        let opts = DeriveOptions {
+            iterations: n,
+            ..DeriveOptions::from_system(c)
+        };
+        let mut final_len = 0u64;
+        let mut engine_run = |threads: usize| {
+            let engine =
+                Engine::new(c, threads).map_err(|e| report_derive_error(&loaded.sources, &e))?;
+            best(args.runs, || {
+                let d = engine
+                    .derive(&opts, &mut |_| {})
+                    .map_err(|e| report_derive_error(&loaded.sources, &e))?;
+                final_len = d.string.len() as u64;
+                Ok(d.stats.last().map_or(0, |s| s.cumulative_modules))
+            })
+        };
+        let (t1, produced) = match engine_run(1) {
+            Ok(r) => r,
+            Err(o) => return o,
+        };
+        let (tn, _) = match engine_run(threads) {
+            Ok(r) => r,
+            Err(o) => return o,
+        };
+        let naive = if args.no_baseline {
+            None
+        } else {
+            let t = Instant::now();
+            match naive_derive(&loaded.program, loaded.system(), n) {
+                Some(len) => {
+                    let d = t.elapsed();
+                    if len != final_len {
+                        eprintln!(
+                            "error: {file}: the baseline derived {len} modules, the engine {final_len}"
+                        );
+                        failed = true;
+                    }
+                    Some(d)
+                }
+                None => None,
+            }
+        };
+        let f = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{v:.1}"));
+        let naive_ms = naive.map(|d| d.as_secs_f64() * 1e3);
+        let naive_rate = naive.map(|d| rate(produced, d));
+        println!(
+            "{:<16} {:>3} {:>10} {:>10} {:>10} {:>9.2} {:>9.2} {:>9} {:>8.0} {:>8.0} {:>8} {:>8} {:>7.2}",
+            file,
+            n,
+            final_len,
+            produced,
+            f(naive_ms),
+            t1.as_secs_f64() * 1e3,
+            tn.as_secs_f64() * 1e3,
+            f(naive_rate),
+            rate(produced, t1),
+            rate(produced, tn),
+            f(naive.map(|d| d.as_secs_f64() / t1.as_secs_f64())),
+            f(naive.map(|d| d.as_secs_f64() / tn.as_secs_f64())),
+            t1.as_secs_f64() / tn.as_secs_f64(),
+        );
+    }
+    if failed {
+        Outcome::InputErrors
+    } else {
+        Outcome::Ok
+    }
+}
+
+/// One module of the naive baseline.
+struct NaiveModule {
+    sym: u32,
+    params: Vec<Value>,
+}
+
+/// The naive baseline: context-free, deterministic systems only (`None`
+/// otherwise). Returns the final string's length.
+fn naive_derive(program: &Program, sys: &System, iterations: u32) -> Option<u64> {
+    let params = program.default_params();
+    let globals = program.global_values(&params).ok()?;
+    let random_or_context = sys.groups.iter().any(|g| {
+        g.left
+            .iter()
+            .chain(&g.right)
+            .any(|c| matches!(c, TContextItem::Pattern(_)))
+            || g.alternatives.len() > 1
+    });
+    if random_or_context {
+        return None;
+    }
+    fn env<'e>(
+        params: &'e [Value],
+        globals: &'e [Value],
+        bindings: &'e [Value],
+    ) -> grm_sema::eval::Env<'e> {
+        grm_sema::eval::Env {
+            params,
+            globals,
+            bindings,
+        }
+    }
+    let eval_module = |m: &grm_sema::TModule, bindings: &[Value]| -> Option<NaiveModule> {
+        let mut ps = Vec::new();
+        for a in &m.args {
+            ps.push(grm_sema::eval::eval(a, &env(&params, &globals, bindings)).ok()?);
+        }
+        Some(NaiveModule {
+            sym: m.symbol.0,
+            params: ps,
+        })
+    };
+    let mut string: Vec<NaiveModule> = sys
+        .axiom
+        .iter()
+        .map(|m| eval_module(m, &[]))
+        .collect::<Option<_>>()?;
+    for _ in 0..iterations {
+        let mut next = Vec::new();
+        for m in &string {
+            let mut applied = false;
+            for g in sys.groups_of(grm_sema::SymbolId(m.sym)) {
+                let bindings: &[Value] = if g.pred.binds > 0 { &m.params } else { &[] };
+                if let Some(c) = &g.condition
+                    && grm_sema::eval::eval(c, &env(&params, &globals, bindings))
+                        .ok()?
+                        .as_bool()
+                        != Some(true)
+                {
+                    continue;
+                }
+                for s in &g.alternatives[0].successor {
+                    next.push(eval_module(s, bindings)?);
+                }
+                applied = true;
+                break;
+            }
+            if !applied {
+                next.push(NaiveModule {
+                    sym: m.sym,
+                    params: m.params.clone(),
+                });
+            }
+        }
+        string = next;
+    }
+    // Touch the parameters so nothing is optimized away.
+    let _ = string
+        .iter()
+        .filter(|m| matches!(m.params.first(), Some(Value::Float(x)) if x.is_nan()))
+        .count();
+    Some(string.len() as u64)
+}
