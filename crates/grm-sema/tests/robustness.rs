@@ -1,0 +1,175 @@
+//! The checker never panics: thousands of mutated grammars (deterministic
+//! pseudo-random edits of the examples and ui cases) are checked, and every
+//! diagnostic's labels stay inside their file.
+
+use grm_sema::{FileId, MemLoader, check_with};
+use std::path::Path;
+
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        // xorshift64*
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+    fn below(&mut self, n: usize) -> usize {
+        if n == 0 {
+            0
+        } else {
+            (self.next() % n as u64) as usize
+        }
+    }
+}
+
+const TOKENS: &[&str] = &[
+    "(",
+    ")",
+    "[",
+    "]",
+    "->",
+    ";",
+    ":",
+    "<",
+    ">",
+    ",",
+    "{",
+    "}",
+    "A",
+    "B(x)",
+    "F(",
+    "x",
+    "0",
+    "1e9",
+    "-1",
+    "/",
+    "%",
+    " wrapup ",
+    " skeleton ",
+    " geometry ",
+    "module A(v: vec3);",
+    "mode = sample;",
+    "mode = derive;",
+    "iterations = 2.5;",
+    "axiom ",
+    "ignore + F;",
+    "import \"lib.grm\";",
+    "import \"main.grm\";",
+    "mesh m = \"nope.obj\";",
+    "const K = K;",
+    "param p = 1 in 2 .. 0;",
+    ".x",
+    ".w",
+    "if true then 1 else 2",
+    "uniform(0, 1)",
+    "choose(1)",
+    "spline(0, 1)",
+    "vec3(1, 2, 3)",
+    "true",
+    "&&",
+    "!",
+    "'",
+    "$",
+    "|",
+    "system T { axiom A; A -> A; }",
+    "é",
+    "\"",
+    "//",
+    "/*",
+    "\n",
+];
+
+fn corpus() -> Vec<String> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let mut out = Vec::new();
+    let mut stack = vec![root.join("examples"), root.join("tests/ui")];
+    while let Some(dir) = stack.pop() {
+        let Ok(rd) = std::fs::read_dir(&dir) else {
+            continue;
+        };
+        for e in rd.flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.extension().is_some_and(|x| x == "grm") {
+                if let Ok(t) = std::fs::read_to_string(&p) {
+                    out.push(t);
+                }
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+fn boundary(s: &str, mut i: usize) -> usize {
+    i = i.min(s.len());
+    while !s.is_char_boundary(i) {
+        i -= 1;
+    }
+    i
+}
+
+fn mutate(rng: &mut Rng, text: &str) -> String {
+    let mut s = text.to_string();
+    for _ in 0..1 + rng.below(4) {
+        let a = boundary(&s, rng.below(s.len() + 1));
+        let b = boundary(&s, a + rng.below(40));
+        match rng.below(4) {
+            0 => s.replace_range(a..b, ""),
+            1 => {
+                let t = TOKENS[rng.below(TOKENS.len())];
+                s.insert_str(a, t);
+            }
+            2 => {
+                let piece = s[a..b].to_string();
+                s.insert_str(b, &piece);
+            }
+            _ => {
+                let t = TOKENS[rng.below(TOKENS.len())];
+                s.replace_range(a..b, t);
+            }
+        }
+    }
+    s
+}
+
+#[test]
+fn mutated_grammars_never_panic() {
+    let corpus = corpus();
+    assert!(corpus.len() > 20);
+    let mut files = MemLoader::new();
+    files.add("lib.grm", "const L = 1;\nimport \"main.grm\";");
+    let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+    // GRM_FUZZ_RUNS=200000 for a longer run.
+    let runs = std::env::var("GRM_FUZZ_RUNS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(if cfg!(debug_assertions) { 2000 } else { 20000 });
+    for i in 0..runs {
+        let base = &corpus[rng.below(corpus.len())];
+        let text = mutate(&mut rng, base);
+        let result = std::panic::catch_unwind(|| check_with("main.grm", &text, &files));
+        let Ok((sources, checked)) = result else {
+            panic!("run {i}: the checker panicked on:\n{text}");
+        };
+        for d in &checked.diagnostics {
+            for l in &d.labels {
+                let len = sources.get(l.file).text.len() as u32;
+                assert!(
+                    l.span.start <= l.span.end && l.span.end <= len,
+                    "run {i}: label {:?} outside its file ({len} bytes) in {}:\n{text}",
+                    l.span,
+                    d.code
+                );
+            }
+        }
+        // Rendering must not panic either.
+        for d in checked.diagnostics.iter().take(3) {
+            let _ = grm_diag::render_plain(d, &sources);
+        }
+        let _ = checked.program.index.at(FileId(0), 5);
+    }
+}
