@@ -120,10 +120,10 @@ pub fn export(model: &Model, path: &Path) -> Result<(), ExportError> {
 pub fn export_as(model: &Model, path: &Path, format: ExportFormat) -> Result<(), ExportError> {
     match format {
         ExportFormat::Glb => {
-            let bytes = glb_bytes(model).ok_or_else(|| ExportError::TooLarge {
+            let (json_bytes, bin_len) = glb_layout(model).ok_or_else(|| ExportError::TooLarge {
                 path: path.to_path_buf(),
             })?;
-            let tmp = stage(path, |w| w.write_all(&bytes))?;
+            let tmp = stage(path, |w| write_glb(model, &json_bytes, bin_len, w))?;
             commit(tmp, path)
         }
         ExportFormat::Obj => {
@@ -186,47 +186,55 @@ fn commit(tmp: tempfile::NamedTempFile, path: &Path) -> Result<(), ExportError> 
     Ok(())
 }
 
-fn push_f32s(bin: &mut Vec<u8>, vs: &[[f32; 3]]) {
-    bin.reserve(vs.len() * 12);
-    for v in vs {
-        for x in v {
-            bin.extend_from_slice(&x.to_le_bytes());
+/// Write `[f32; 3]`s little-endian, in chunks.
+fn write_f32s(w: &mut dyn Write, vs: &[[f32; 3]]) -> io::Result<()> {
+    let mut buf = [0u8; 12 * 1024];
+    for chunk in vs.chunks(1024) {
+        for (v, out) in chunk.iter().zip(buf.chunks_exact_mut(12)) {
+            out[0..4].copy_from_slice(&v[0].to_le_bytes());
+            out[4..8].copy_from_slice(&v[1].to_le_bytes());
+            out[8..12].copy_from_slice(&v[2].to_le_bytes());
         }
+        w.write_all(&buf[..chunk.len() * 12])?;
     }
+    Ok(())
 }
 
-/// The model as a glTF 2.0 binary (`.glb`) file in memory; `None` when it
-/// exceeds the format's 4 GiB limit.
-pub fn glb_bytes(model: &Model) -> Option<Vec<u8>> {
-    let mut bin: Vec<u8> = Vec::new();
+fn write_u32s(w: &mut dyn Write, vs: &[u32]) -> io::Result<()> {
+    let mut buf = [0u8; 4 * 4096];
+    for chunk in vs.chunks(4096) {
+        for (v, out) in chunk.iter().zip(buf.chunks_exact_mut(4)) {
+            out.copy_from_slice(&v.to_le_bytes());
+        }
+        w.write_all(&buf[..chunk.len() * 4])?;
+    }
+    Ok(())
+}
+
+/// The glb's JSON chunk (padded) and the length of its BIN chunk; `None`
+/// past the format's 4 GiB limit. The BIN chunk holds, per non-empty part
+/// in order, its positions, normals and indices (all 4-byte data, so every
+/// view stays 4-byte aligned).
+fn glb_layout(model: &Model) -> Option<(Vec<u8>, usize)> {
+    let mut offset = 0usize;
     let mut views: Vec<Json> = Vec::new();
     let mut accessors: Vec<Json> = Vec::new();
     let mut primitives: Vec<Json> = Vec::new();
     for part in model.parts.iter().filter(|p| !p.mesh.is_empty()) {
         let m = &part.mesh;
-        let mut view = |bin: &mut Vec<u8>, start: usize, target: u32| {
+        let mut view = |len: usize, target: u32| {
             views.push(json!({
                 "buffer": 0,
-                "byteOffset": start,
-                "byteLength": bin.len() - start,
+                "byteOffset": offset,
+                "byteLength": len,
                 "target": target,
             }));
+            offset += len;
             views.len() - 1
         };
-        // Positions (every offset stays a multiple of 4: all data is 4-byte).
-        let start = bin.len();
-        push_f32s(&mut bin, &m.positions);
-        let pv = view(&mut bin, start, 34962);
-        let start = bin.len();
-        push_f32s(&mut bin, &m.normals);
-        let nv = view(&mut bin, start, 34962);
-        let start = bin.len();
-        bin.reserve(m.indices.len() * 4);
-        for i in &m.indices {
-            bin.extend_from_slice(&i.to_le_bytes());
-        }
-        let iv = view(&mut bin, start, 34963);
-
+        let pv = view(m.positions.len() * 12, 34962);
+        let nv = view(m.normals.len() * 12, 34962);
+        let iv = view(m.indices.len() * 4, 34963);
         let mut bounds = Aabb::EMPTY;
         for p in &m.positions {
             bounds.add(Vec3::from_array(*p));
@@ -290,27 +298,51 @@ pub fn glb_bytes(model: &Model) -> Option<Vec<u8>> {
         doc["materials"] = json!(materials);
         doc["accessors"] = json!(accessors);
         doc["bufferViews"] = json!(views);
-        doc["buffers"] = json!([ { "byteLength": bin.len() } ]);
+        doc["buffers"] = json!([ { "byteLength": offset } ]);
     }
     // Serialising a `Value` of plain data cannot fail.
     let mut json_bytes = serde_json::to_vec(&doc).unwrap_or_default();
     json_bytes.resize(json_bytes.len().next_multiple_of(4), b' ');
-    bin.resize(bin.len().next_multiple_of(4), 0);
-    let has_bin = !primitives.is_empty();
-    let total = 12 + 8 + json_bytes.len() + if has_bin { 8 + bin.len() } else { 0 };
-    let total = u32::try_from(total).ok()?;
-    let mut out = Vec::with_capacity(total as usize);
-    out.extend_from_slice(b"glTF");
-    out.extend_from_slice(&2u32.to_le_bytes());
-    out.extend_from_slice(&total.to_le_bytes());
-    out.extend_from_slice(&(json_bytes.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"JSON");
-    out.extend_from_slice(&json_bytes);
-    if has_bin {
-        out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
-        out.extend_from_slice(b"BIN\0");
-        out.extend_from_slice(&bin);
+    let total = 12 + 8 + json_bytes.len() + if offset > 0 { 8 + offset } else { 0 };
+    u32::try_from(total).ok()?;
+    Some((json_bytes, offset))
+}
+
+/// Write the glb of `model` laid out by [`glb_layout`].
+fn write_glb(
+    model: &Model,
+    json_bytes: &[u8],
+    bin_len: usize,
+    w: &mut dyn Write,
+) -> io::Result<()> {
+    let total = 12 + 8 + json_bytes.len() + if bin_len > 0 { 8 + bin_len } else { 0 };
+    // `glb_layout` checked that everything fits in u32.
+    let len32 = |x: usize| u32::try_from(x).unwrap_or(u32::MAX).to_le_bytes();
+    w.write_all(b"glTF")?;
+    w.write_all(&2u32.to_le_bytes())?;
+    w.write_all(&len32(total))?;
+    w.write_all(&len32(json_bytes.len()))?;
+    w.write_all(b"JSON")?;
+    w.write_all(json_bytes)?;
+    if bin_len > 0 {
+        w.write_all(&len32(bin_len))?;
+        w.write_all(b"BIN\0")?;
+        for part in model.parts.iter().filter(|p| !p.mesh.is_empty()) {
+            write_f32s(w, &part.mesh.positions)?;
+            write_f32s(w, &part.mesh.normals)?;
+            write_u32s(w, &part.mesh.indices)?;
+        }
     }
+    Ok(())
+}
+
+/// The model as a glTF 2.0 binary (`.glb`) file in memory; `None` when it
+/// exceeds the format's 4 GiB limit.
+pub fn glb_bytes(model: &Model) -> Option<Vec<u8>> {
+    let (json_bytes, bin_len) = glb_layout(model)?;
+    let mut out = Vec::with_capacity(28 + json_bytes.len() + bin_len);
+    // Writing to a Vec cannot fail.
+    write_glb(model, &json_bytes, bin_len, &mut out).ok()?;
     Some(out)
 }
 

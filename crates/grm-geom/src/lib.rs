@@ -292,7 +292,8 @@ pub fn build_from_interpretation(
     // Tubes.
     let plan = tube::TubePlan::new(&skeleton.bones);
     let mut tip_rings: Vec<Option<(usize, u32)>> = vec![None; skeleton.bones.len()];
-    let mut scratch = Vec::with_capacity(options.tube_sides as usize);
+    let circle = tube::circle(options.tube_sides);
+    let mut scratch = Vec::with_capacity(circle.len());
     for (i, bone) in skeleton.bones.iter().enumerate() {
         if plan.dir[i].is_none() {
             continue;
@@ -307,15 +308,9 @@ pub fn build_from_interpretation(
         };
         let before = builder.parts[part].mesh.triangle_count();
         let m = &mut builder.parts[part].mesh;
-        if let Some(first) = tube::emit_bone(
-            &plan,
-            &skeleton.bones,
-            i,
-            options.tube_sides,
-            shared,
-            m,
-            &mut scratch,
-        ) {
+        if let Some(first) =
+            tube::emit_bone(&plan, &skeleton.bones, i, &circle, shared, m, &mut scratch)
+        {
             tip_rings[i] = Some((part, first));
         }
         builder.pick(

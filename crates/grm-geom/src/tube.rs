@@ -16,7 +16,7 @@
 use glam::{Quat, Vec3};
 use grm_turtle::Bone;
 
-use crate::mesh::{MeshData, ring_dirs};
+use crate::mesh::MeshData;
 
 /// The most a continuing bone may turn away from its parent (cosine).
 const MIN_CONTINUE_COS: f32 = -0.5;
@@ -120,7 +120,7 @@ fn ring(
     e1: Vec3,
     r: f32,
     d_next: Option<Vec3>,
-    sides: u32,
+    circle: &[(f32, f32)],
     out: &mut Vec<(Vec3, Vec3)>,
 ) {
     out.clear();
@@ -128,7 +128,9 @@ fn ring(
         let n = d + dn;
         (n.length_squared() > 1e-6).then(|| (n.normalize(), Quat::from_rotation_arc(d, dn)))
     });
-    for q in ring_dirs(e1, d, sides) {
+    let e2 = d.cross(e1);
+    for &(c, s) in circle {
+        let q = e1 * c + e2 * s;
         match mitre {
             Some((n, rot)) => {
                 let off = q * r;
@@ -141,6 +143,17 @@ fn ring(
     }
 }
 
+/// `(cos, sin)` of `sides` angles around the circle.
+pub(crate) fn circle(sides: u32) -> Vec<(f32, f32)> {
+    let n = sides.max(3);
+    (0..n)
+        .map(|k| {
+            let (s, c) = (std::f32::consts::TAU * k as f32 / n as f32).sin_cos();
+            (c, s)
+        })
+        .collect()
+}
+
 /// Emits the tube of bone `i` into `m`. `shared_base` is the first vertex
 /// of the parent's tip ring when it lies in the same mesh. Returns the
 /// first vertex of this bone's tip ring (for its continuing child), or
@@ -149,7 +162,7 @@ pub(crate) fn emit_bone(
     plan: &TubePlan,
     bones: &[Bone],
     i: usize,
-    sides: u32,
+    circle: &[(f32, f32)],
     shared_base: Option<u32>,
     m: &mut MeshData,
     scratch: &mut Vec<(Vec3, Vec3)>,
@@ -157,7 +170,7 @@ pub(crate) fn emit_bone(
     let d = plan.dir[i]?;
     let b = &bones[i];
     let e1 = plan.e1[i];
-    let sides = sides.max(3);
+    let sides = circle.len() as u32;
     let r_tip = 0.5 * b.width_tip.max(0.0);
     // The base ring: the parent's tip ring, or a fresh ring with a cap.
     let base_first = if plan.continues[i] {
@@ -168,20 +181,20 @@ pub(crate) fn emit_bone(
             Some(first) => first,
             None => {
                 let dp = plan.dir[p].unwrap_or(d);
-                ring(b.base, dp, plan.e1[p], r, Some(d), sides, scratch);
+                ring(b.base, dp, plan.e1[p], r, Some(d), circle, scratch);
                 push_ring(m, scratch)
             }
         }
     } else {
         let r = 0.5 * b.width_base.max(0.0);
-        ring(b.base, d, e1, r, None, sides, scratch);
+        ring(b.base, d, e1, r, None, circle, scratch);
         let first = push_ring(m, scratch);
         cap(m, b.base, scratch, -d, false);
         first
     };
     // The tip ring, mitred towards the continuing child.
     let d_next = plan.next[i].and_then(|c| plan.dir[c as usize]);
-    ring(b.tip, d, e1, r_tip, d_next, sides, scratch);
+    ring(b.tip, d, e1, r_tip, d_next, circle, scratch);
     let tip_first = push_ring(m, scratch);
     if d_next.is_none() {
         cap(m, b.tip, scratch, d, true);

@@ -242,3 +242,35 @@ fn primitives_in_a_model() {
     assert!((b.max.y - 3.0).abs() < 1e-5, "{b:?}");
     assert!((b.max.z - 2.0).abs() < 1e-5, "{b:?}");
 }
+
+/// Timing at scale: run with `cargo test --release -p grm-geom --test
+/// geometry -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn large_model_timing() {
+    let program = program(
+        "mem.grm",
+        "system S { angle = 25; axiom [ + F(1) ] F(0.5); }",
+    );
+    let system = &program.systems[0];
+    let unit = axiom(system);
+    let mut string = grm_derive::ModuleString::with_capacity(1_000_000, 1_000_000);
+    while string.len() < 1_000_000 {
+        string.extend_from(&unit);
+    }
+    let t0 = std::time::Instant::now();
+    let model = build_model(&program, system, &string, &system.settings).expect("builds");
+    let t1 = std::time::Instant::now();
+    let bytes = grm_geom::export::glb_bytes(&model).expect("fits");
+    let t2 = std::time::Instant::now();
+    println!(
+        "{} modules: {} bones, {} vertices, {} triangles; build {:?}, glb {:?} ({} MB)",
+        string.len(),
+        model.stats.bones,
+        model.stats.vertices,
+        model.stats.triangles,
+        t1 - t0,
+        t2 - t1,
+        bytes.len() / 1_000_000
+    );
+}
