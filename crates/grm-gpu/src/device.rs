@@ -129,6 +129,10 @@ impl Gpu {
         &self.limits
     }
 
+    pub(crate) fn queue(&self) -> &wgpu::Queue {
+        &self.queue
+    }
+
     /// Run `f` as one engine operation: serialised with other operations,
     /// with every wgpu error turned into a [`GpuError`].
     pub(crate) fn run<T>(&self, f: impl FnOnce() -> Result<T, GpuError>) -> Result<T, GpuError> {

@@ -43,6 +43,28 @@ pub enum GpuError {
         /// Position of the first unmatched `]`, or `None` when only `[`s are left open.
         position: Option<usize>,
     },
+    /// The next string would have more modules than allowed.
+    ModuleLimit {
+        iteration: u32,
+        modules: u64,
+        limit: u64,
+    },
+    /// The next iteration would need more device memory than allowed.
+    MemoryLimit {
+        iteration: u32,
+        bytes: u64,
+        limit: u64,
+    },
+    /// A production failed on one module (as the CPU engine's runtime errors).
+    Runtime {
+        /// The string being produced (0: the axiom).
+        iteration: u32,
+        /// The input position of the failing module (the lowest one).
+        position: u64,
+        /// Its symbol's name, when known.
+        symbol: String,
+        kind: RuntimeKind,
+    },
     /// The program uses something the GPU engine does not implement.
     Unsupported(String),
     /// The input is malformed (a module string that breaks its invariant,
@@ -54,6 +76,17 @@ pub enum GpuError {
     DeviceLost(String),
     /// Reading results back from the GPU failed.
     Readback(String),
+}
+
+/// What failed in a [`GpuError::Runtime`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RuntimeKind {
+    /// A module parameter evaluated to NaN or an infinity.
+    NonFinite,
+    /// A weight that is not a positive finite number.
+    BadWeight,
+    /// The bytecode faulted.
+    Fault,
 }
 
 impl fmt::Display for GpuError {
@@ -95,6 +128,39 @@ impl fmt::Display for GpuError {
             }
             GpuError::UnbalancedBrackets { position: None } => {
                 write!(f, "unbalanced brackets: a `[` is never closed")
+            }
+            GpuError::ModuleLimit {
+                iteration,
+                modules,
+                limit,
+            } => write!(
+                f,
+                "iteration {iteration} would produce {modules} modules, over the limit of {limit}"
+            ),
+            GpuError::MemoryLimit {
+                iteration,
+                bytes,
+                limit,
+            } => write!(
+                f,
+                "iteration {iteration} would need {bytes} bytes of GPU memory, over the limit of {limit}"
+            ),
+            GpuError::Runtime {
+                iteration,
+                position,
+                symbol,
+                kind,
+            } => {
+                let what = match kind {
+                    RuntimeKind::NonFinite => "a parameter is not finite",
+                    RuntimeKind::BadWeight => "a weight is not a positive finite number",
+                    RuntimeKind::Fault => "the bytecode faulted",
+                };
+                write!(f, "iteration {iteration}, module {position}")?;
+                if !symbol.is_empty() {
+                    write!(f, " (`{symbol}`)")?;
+                }
+                write!(f, ": {what}")
             }
             GpuError::Unsupported(m) => write!(f, "not supported on the GPU engine: {m}"),
             GpuError::InvalidInput(m) => write!(f, "invalid input: {m}"),

@@ -42,5 +42,85 @@ pub static VM_EVAL: Kernel = Kernel {
     subst: &[],
 };
 
+const DERIVE_BINDS: &[Bind] = &[
+    Bind::Uniform,
+    Bind::Read,
+    Bind::Read,
+    Bind::Read,
+    Bind::Read,
+    Bind::Read,
+    Bind::ReadWrite,
+    Bind::ReadWrite,
+    Bind::ReadWrite,
+    Bind::ReadWrite,
+    Bind::ReadWrite,
+    Bind::ReadWrite,
+];
+
+pub static COUNT: Kernel = Kernel {
+    name: "count",
+    file: "derive.wgsl",
+    entry: "count",
+    bindings: DERIVE_BINDS,
+    subst: &[],
+};
+pub static REWRITE: Kernel = Kernel {
+    name: "rewrite",
+    file: "derive.wgsl",
+    entry: "rewrite",
+    bindings: DERIVE_BINDS,
+    subst: &[],
+};
+
+const BRACKET_BINDS: &[Bind] = &[
+    Bind::Uniform,
+    Bind::Read,
+    Bind::Read,
+    Bind::ReadWrite,
+    Bind::ReadWrite,
+    Bind::ReadWrite,
+];
+
+pub static BRACKET_FLAGS: Kernel = Kernel {
+    name: "bracket_flags",
+    file: "brackets.wgsl",
+    entry: "bracket_flags",
+    bindings: BRACKET_BINDS,
+    subst: &[],
+};
+pub static BRACKET_DEPTH: Kernel = Kernel {
+    name: "bracket_depth",
+    file: "brackets.wgsl",
+    entry: "bracket_depth",
+    bindings: BRACKET_BINDS,
+    subst: &[],
+};
+pub static BRACKET_REDUCE: Kernel = Kernel {
+    name: "bracket_reduce",
+    file: "brackets.wgsl",
+    entry: "bracket_reduce",
+    bindings: BRACKET_BINDS,
+    subst: &[],
+};
+pub static BRACKET_MATCH: Kernel = Kernel {
+    name: "bracket_match",
+    file: "brackets.wgsl",
+    entry: "bracket_match",
+    bindings: BRACKET_BINDS,
+    subst: &[],
+};
+
 /// All kernels.
-pub static ALL: &[&Kernel] = &[&SCAN_U32, &ADD_U32, &SCAN_U32X2, &ADD_U32X2, &VM_EVAL];
+pub static ALL: &[&Kernel] = &[
+    &SCAN_U32,
+    &ADD_U32,
+    &SCAN_U32X2,
+    &ADD_U32X2,
+    &VM_EVAL,
+    &COUNT,
+    &REWRITE,
+    &BRACKET_FLAGS,
+    &BRACKET_DEPTH,
+    &BRACKET_REDUCE,
+    &BRACKET_MATCH,
+];

@@ -208,6 +208,55 @@ gpu_struct! {
     }
 }
 
+gpu_struct! {
+    /// Parameters of one derivation dispatch (`count`, `rewrite`).
+    pub struct DeriveParams {
+        /// Input modules (1 for the axiom).
+        pub n: u32 => "u32",
+        /// Input parameter words.
+        pub words: u32 => "u32",
+        pub seed: u32 => "u32",
+        /// The index of the string being produced (0: the axiom).
+        pub iteration: u32 => "u32",
+        /// 1: write the axiom instead of rewriting the input.
+        pub axiom: u32 => "u32",
+        pub pad0: u32 => "u32",
+        pub pad1: u32 => "u32",
+        pub pad2: u32 => "u32",
+    }
+}
+
+/// Fan-out of the bracket-matching minimum tree.
+pub const BRACKET_FAN: u32 = 32;
+/// Levels the bracket tree may have (`offs`/`lens` entries).
+pub const BRACKET_MAX_LEVELS: usize = 8;
+
+gpu_struct! {
+    /// Parameters of the bracket-matching kernels: the level table of the
+    /// minimum tree in the `levels` buffer.
+    pub struct BracketParams {
+        /// Modules.
+        pub n: u32 => "u32",
+        /// The level `bracket_reduce` reads.
+        pub level: u32 => "u32",
+        /// Levels in use.
+        pub levels: u32 => "u32",
+        pub pad0: u32 => "u32",
+        /// Start of each level in `levels` (`offs[l / 4][l % 4]`).
+        pub offs: [[u32; 4]; 2] => "array<vec4<u32>, 2>",
+        /// Length of each level.
+        pub lens: [[u32; 4]; 2] => "array<vec4<u32>, 2>",
+    }
+}
+
+/// Error bits of the derivation status buffer (`status[2 * slot + 1]`).
+pub const ERR_BAD_WEIGHT: u32 = 1;
+pub const ERR_FAULT: u32 = 2;
+pub const ERR_NON_FINITE: u32 = 4;
+/// Words of the derivation status buffer: per slot (count, rewrite) the
+/// inverted lowest failing position and the error bits.
+pub const STATUS_WORDS: u32 = 4;
+
 /// Every shared struct's WGSL declaration, with Rust's size and offsets
 /// (for the layout test).
 pub fn structs() -> Vec<StructInfo> {
@@ -219,7 +268,13 @@ pub fn structs() -> Vec<StructInfo> {
             offsets: T::offsets(),
         }
     }
-    vec![one::<ScanParams>(), one::<VmJob>(), one::<VmResult>()]
+    vec![
+        one::<ScanParams>(),
+        one::<VmJob>(),
+        one::<VmResult>(),
+        one::<DeriveParams>(),
+        one::<BracketParams>(),
+    ]
 }
 
 /// Every struct of the header: our own and the mirrored `grm-compile` records.
@@ -239,6 +294,11 @@ pub fn wgsl_header() -> String {
         ("SCAN_BLOCK", SCAN_BLOCK),
         ("STACK_SIZE", STACK_SIZE as u32),
         ("MAX_BIND_WORDS", MAX_BIND_WORDS),
+        ("BRACKET_FAN", BRACKET_FAN),
+        ("ERR_BAD_WEIGHT", ERR_BAD_WEIGHT),
+        ("ERR_FAULT", ERR_FAULT),
+        ("ERR_NON_FINITE", ERR_NON_FINITE),
+        ("STATUS_WORDS", STATUS_WORDS),
         ("NONE", t::NONE),
         ("PACKED_MAGIC", t::PACKED_MAGIC),
         ("SYM_PUSH", t::SYM_PUSH),

@@ -23,6 +23,8 @@
 //!   emitted as a generated header ([`layout::wgsl_header`]); tests check
 //!   both sides with naga.
 
+pub mod brackets;
+pub mod derive;
 pub mod device;
 pub mod error;
 pub mod kernels;
@@ -31,5 +33,6 @@ pub mod scan;
 pub mod shader;
 pub mod vmeval;
 
+pub use derive::{DeviceString, GpuDerivation, GpuDeriveOptions, GpuIterationStats, derive};
 pub use device::{Gpu, shared};
-pub use error::GpuError;
+pub use error::{GpuError, RuntimeKind};

@@ -22,6 +22,11 @@ pub const FILES: &[(&str, &str)] = &[
         "vm_eval.wgsl",
         include_str!("../../../shaders/vm_eval.wgsl"),
     ),
+    ("derive.wgsl", include_str!("../../../shaders/derive.wgsl")),
+    (
+        "brackets.wgsl",
+        include_str!("../../../shaders/brackets.wgsl"),
+    ),
 ];
 
 /// How a kernel binds a buffer (binding index = position in the list).

@@ -1,0 +1,515 @@
+//! GPU derivation: count / scan / rewrite per iteration (Lipp 5.2.2) on a
+//! compiled system's packed tables.
+//!
+//! Per iteration, on the device: (bracket matching for context-sensitive
+//! systems) -> `count` -> scan of the (modules, words) pairs -> read back the
+//! totals and the error status (the one synchronisation of an iteration:
+//! the next buffers' sizes depend on it) -> check the limits -> allocate
+//! -> `rewrite`. The string stays on the device between iterations.
+
+use std::time::{Duration, Instant};
+
+use grm_compile::CompiledSystem;
+use grm_derive::ModuleString;
+
+use crate::brackets;
+use crate::device::{Gpu, groups_for};
+use crate::error::{GpuError, RuntimeKind};
+use crate::kernels;
+use crate::layout::{
+    DeriveParams, ERR_BAD_WEIGHT, ERR_FAULT, ERR_NON_FINITE, MAX_BIND_WORDS, STATUS_WORDS,
+};
+use crate::scan::{ScanElem, record_scan};
+
+/// How to run a GPU derivation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GpuDeriveOptions {
+    /// Rewriting steps.
+    pub iterations: u32,
+    /// The seed of every random draw.
+    pub seed: u32,
+    /// The most modules a derived string may have.
+    pub max_modules: u64,
+    /// The most device memory one iteration may use (input, scratch and
+    /// output buffers together), in bytes. The device's own limits apply
+    /// in any case.
+    pub max_bytes: u64,
+}
+
+impl GpuDeriveOptions {
+    /// The system's settings (iterations, seed); limits as the CPU engine's
+    /// defaults (50 million modules, 2 GiB).
+    pub fn from_system(sys: &CompiledSystem) -> GpuDeriveOptions {
+        let cpu = grm_derive::DeriveLimits::default();
+        GpuDeriveOptions {
+            iterations: sys.settings.iterations,
+            seed: sys.settings.seed,
+            max_modules: cpu.max_modules,
+            max_bytes: cpu.max_bytes,
+        }
+    }
+}
+
+/// Figures of one string of a GPU derivation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GpuIterationStats {
+    /// 0 is the axiom, `k` the string after `k` steps.
+    pub iteration: u32,
+    pub modules: u64,
+    pub param_words: u64,
+    /// Wall time of this step on the host, including its synchronisation.
+    pub elapsed: Duration,
+}
+
+/// A module string that lives on the device.
+#[derive(Debug)]
+pub struct DeviceString {
+    pub(crate) syms: wgpu::Buffer,
+    pub(crate) starts: wgpu::Buffer,
+    pub(crate) params: wgpu::Buffer,
+    pub(crate) len: u64,
+    pub(crate) words: u64,
+}
+
+impl DeviceString {
+    pub fn len(&self) -> u64 {
+        self.len
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    pub fn param_words(&self) -> u64 {
+        self.words
+    }
+
+    /// Device bytes of the three arrays.
+    pub fn bytes(&self) -> u64 {
+        string_bytes(self.len, self.words)
+    }
+
+    /// Upload a host string (checked against the system: symbols in range,
+    /// parameter words as the symbols declare).
+    pub fn upload(
+        gpu: &Gpu,
+        sys: &CompiledSystem,
+        s: &ModuleString,
+    ) -> Result<DeviceString, GpuError> {
+        check_string(sys, s)?;
+        Ok(DeviceString {
+            syms: gpu.upload("symbols", &s.syms)?,
+            starts: gpu.upload("parameter starts", &s.starts)?,
+            params: gpu.upload("parameters", &s.params)?,
+            len: s.len() as u64,
+            words: s.params.len() as u64,
+        })
+    }
+
+    /// Read the string back (records the copies into a fresh submission).
+    pub(crate) fn read(&self, gpu: &Gpu) -> Result<ModuleString, GpuError> {
+        let enc = gpu.encoder();
+        let mut u = gpu.read::<u32>(
+            enc,
+            &[(&self.syms, 0, self.len), (&self.starts, 0, self.len + 1)],
+        )?;
+        let starts = u.pop().unwrap_or_default();
+        let syms = u.pop().unwrap_or_default();
+        let params = if self.words > 0 {
+            gpu.read::<f32>(gpu.encoder(), &[(&self.params, 0, self.words)])?
+                .pop()
+                .unwrap_or_default()
+        } else {
+            Vec::new()
+        };
+        let s = ModuleString {
+            syms,
+            starts,
+            params,
+        };
+        if !s.is_well_formed() {
+            return Err(GpuError::Readback(
+                "the derived string breaks its invariant".into(),
+            ));
+        }
+        Ok(s)
+    }
+}
+
+fn string_bytes(modules: u64, words: u64) -> u64 {
+    4 * modules + 4 * (modules + 1) + 4 * words
+}
+
+/// Check a host string against the system.
+pub(crate) fn check_string(sys: &CompiledSystem, s: &ModuleString) -> Result<(), GpuError> {
+    if !s.is_well_formed() {
+        return Err(GpuError::InvalidInput(
+            "the module string breaks its invariant".into(),
+        ));
+    }
+    for (i, &sym) in s.syms.iter().enumerate() {
+        let Some(e) = sys.symbols.get(sym as usize) else {
+            return Err(GpuError::InvalidInput(format!(
+                "module {i}: symbol {sym} is not in the system"
+            )));
+        };
+        if s.starts[i + 1] - s.starts[i] != e.param_words {
+            return Err(GpuError::InvalidInput(format!(
+                "module {i}: {} parameter words, its symbol has {}",
+                s.starts[i + 1] - s.starts[i],
+                e.param_words
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// The buffers of one derivation dispatch.
+struct Pass<'b> {
+    input: &'b DeviceString,
+    mate: &'b wgpu::Buffer,
+    counts: &'b wgpu::Buffer,
+    choice: &'b wgpu::Buffer,
+    out: &'b DeviceString,
+    status: &'b wgpu::Buffer,
+}
+
+/// A compiled system loaded on the device, ready to derive.
+#[derive(Debug)]
+pub struct GpuSystem<'a> {
+    gpu: &'a Gpu,
+    sys: &'a CompiledSystem,
+    pub(crate) tables: wgpu::Buffer,
+    has_context: bool,
+}
+
+/// The result of [`derive`].
+#[derive(Clone, Debug)]
+pub struct GpuDerivation {
+    pub string: ModuleString,
+    /// One entry per string: the axiom, then each step.
+    pub stats: Vec<GpuIterationStats>,
+}
+
+/// Derive on the GPU and read the final string back.
+pub fn derive(
+    gpu: &Gpu,
+    sys: &CompiledSystem,
+    opts: &GpuDeriveOptions,
+) -> Result<GpuDerivation, GpuError> {
+    gpu.run(|| {
+        let g = GpuSystem::load(gpu, sys)?;
+        let (s, stats) = g.derive(opts, &mut |_| {})?;
+        Ok(GpuDerivation {
+            string: s.read(gpu)?,
+            stats,
+        })
+    })
+}
+
+impl<'a> GpuSystem<'a> {
+    /// Validate and upload the tables. Must run inside [`Gpu::run`].
+    pub(crate) fn load(gpu: &'a Gpu, sys: &'a CompiledSystem) -> Result<GpuSystem<'a>, GpuError> {
+        sys.validate()
+            .map_err(|e| GpuError::InvalidInput(e.to_string()))?;
+        let widest = sys.symbols.iter().map(|s| s.param_words).max().unwrap_or(0);
+        if sys.max_bind_words > MAX_BIND_WORDS || widest > MAX_BIND_WORDS {
+            return Err(GpuError::Unsupported(format!(
+                "productions binding more than {MAX_BIND_WORDS} parameter words (this system binds {})",
+                sys.max_bind_words.max(widest)
+            )));
+        }
+        let tables = gpu.upload("tables", &sys.pack())?;
+        Ok(GpuSystem {
+            gpu,
+            sys,
+            tables,
+            has_context: sys.has_context(),
+        })
+    }
+
+    pub fn system(&self) -> &'a CompiledSystem {
+        self.sys
+    }
+
+    /// Run the derivation; the final string stays on the device.
+    /// `progress` sees every string's figures as soon as they are known.
+    pub(crate) fn derive(
+        &self,
+        opts: &GpuDeriveOptions,
+        progress: &mut dyn FnMut(&GpuIterationStats),
+    ) -> Result<(DeviceString, Vec<GpuIterationStats>), GpuError> {
+        let t = Instant::now();
+        let mut string = self.axiom(opts)?;
+        let mut stats = Vec::with_capacity(opts.iterations as usize + 1);
+        let first = GpuIterationStats {
+            iteration: 0,
+            modules: string.len,
+            param_words: string.words,
+            elapsed: t.elapsed(),
+        };
+        progress(&first);
+        stats.push(first);
+        let status = self
+            .gpu
+            .storage("derive status", u64::from(STATUS_WORDS) * 4)?;
+        for iteration in 1..=opts.iterations {
+            let t = Instant::now();
+            string = self.step(&string, iteration, opts, &status)?;
+            let s = GpuIterationStats {
+                iteration,
+                modules: string.len,
+                param_words: string.words,
+                elapsed: t.elapsed(),
+            };
+            progress(&s);
+            stats.push(s);
+        }
+        // Errors of the last rewrite.
+        let st = self
+            .gpu
+            .read::<u32>(self.gpu.encoder(), &[(&status, 0, u64::from(STATUS_WORDS))])?;
+        let st = st.into_iter().next().unwrap_or_default();
+        self.check_status(&st, 1, opts.iterations, None)?;
+        Ok((string, stats))
+    }
+
+    fn alloc_string(&self, modules: u64, words: u64) -> Result<DeviceString, GpuError> {
+        Ok(DeviceString {
+            syms: self.gpu.storage("output symbols", 4 * modules)?,
+            starts: self
+                .gpu
+                .storage("output parameter starts", 4 * (modules + 1))?,
+            params: self.gpu.storage("output parameters", 4 * words)?,
+            len: modules,
+            words,
+        })
+    }
+
+    fn dispatch_derive(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        kernel: &'static crate::shader::Kernel,
+        params: &DeriveParams,
+        pass: &Pass<'_>,
+        threads: u64,
+    ) -> Result<(), GpuError> {
+        let uniform = self.gpu.uniform("derive params", params);
+        self.gpu.dispatch(
+            enc,
+            kernel,
+            &[
+                &uniform,
+                &self.tables,
+                &pass.input.syms,
+                &pass.input.starts,
+                &pass.input.params,
+                pass.mate,
+                pass.counts,
+                pass.choice,
+                &pass.out.syms,
+                &pass.out.starts,
+                &pass.out.params,
+                pass.status,
+            ],
+            groups_for(threads),
+        )
+    }
+
+    /// String 0: the axiom's successor, evaluated on the device.
+    fn axiom(&self, opts: &GpuDeriveOptions) -> Result<DeviceString, GpuError> {
+        let alt = self
+            .sys
+            .alts
+            .get(self.sys.axiom_alt as usize)
+            .ok_or_else(|| GpuError::InvalidInput("no axiom".into()))?;
+        let (m, w) = (u64::from(alt.succ_len), u64::from(alt.succ_words));
+        let out = self.alloc_string(m, w)?;
+        let (mate, counts, choice) = (
+            self.gpu.storage("unused", 16)?,
+            self.gpu.storage("unused", 16)?,
+            self.gpu.storage("unused", 16)?,
+        );
+        let empty = DeviceString {
+            syms: self.gpu.storage("unused", 16)?,
+            starts: self.gpu.storage("unused", 16)?,
+            params: self.gpu.storage("unused", 16)?,
+            len: 0,
+            words: 0,
+        };
+        let status = self
+            .gpu
+            .storage("axiom status", u64::from(STATUS_WORDS) * 4)?;
+        let mut enc = self.gpu.encoder();
+        let params = DeriveParams {
+            n: 1,
+            seed: opts.seed,
+            iteration: 0,
+            axiom: 1,
+            ..DeriveParams::default()
+        };
+        let pass = Pass {
+            input: &empty,
+            mate: &mate,
+            counts: &counts,
+            choice: &choice,
+            out: &out,
+            status: &status,
+        };
+        self.dispatch_derive(&mut enc, &kernels::REWRITE, &params, &pass, 1)?;
+        self.gpu
+            .queue()
+            .write_buffer(&out.starts, 4 * m, bytemuck::bytes_of(&(w as u32)));
+        let st = self
+            .gpu
+            .read::<u32>(enc, &[(&status, 0, u64::from(STATUS_WORDS))])?;
+        let st = st.into_iter().next().unwrap_or_default();
+        self.check_status(&st, 1, 0, None)?;
+        Ok(out)
+    }
+
+    /// One rewriting step producing string `iteration`.
+    fn step(
+        &self,
+        input: &DeviceString,
+        iteration: u32,
+        opts: &GpuDeriveOptions,
+        status: &wgpu::Buffer,
+    ) -> Result<DeviceString, GpuError> {
+        let gpu = self.gpu;
+        let n = input.len;
+        let mut enc = gpu.encoder();
+        let mate = if self.has_context {
+            brackets::record_match(gpu, &mut enc, &self.tables, &input.syms, n)?
+        } else {
+            gpu.storage("unused", 16)?
+        };
+        let scratch = 8 * (n + 1)
+            + 4 * n
+            + if self.has_context {
+                4 * n + brackets::scratch_bytes(n)
+            } else {
+                0
+            };
+        let counts = gpu.storage("output counts", 8 * (n + 1))?;
+        let choice = gpu.storage("production choices", 4 * n)?;
+        let dummy = self.alloc_string(0, 0)?;
+        let params = DeriveParams {
+            n: u32::try_from(n).map_err(|_| GpuError::CountOverflow {
+                what: "input modules",
+                count: n,
+            })?,
+            words: u32::try_from(input.words).map_err(|_| GpuError::CountOverflow {
+                what: "input parameter words",
+                count: input.words,
+            })?,
+            seed: opts.seed,
+            iteration,
+            ..DeriveParams::default()
+        };
+        let pass = Pass {
+            input,
+            mate: &mate,
+            counts: &counts,
+            choice: &choice,
+            out: &dummy,
+            status,
+        };
+        self.dispatch_derive(&mut enc, &kernels::COUNT, &params, &pass, n + 1)?;
+        record_scan(gpu, &mut enc, ScanElem::U32x2, &counts, n + 1)?;
+        // Totals and status in one readback; then clear the status for the
+        // rewrite (the copy is recorded before the clear).
+        let tot = gpu.storage("totals", 8 + 4 * u64::from(STATUS_WORDS))?;
+        enc.copy_buffer_to_buffer(&counts, 8 * n, &tot, 0, Some(8));
+        enc.copy_buffer_to_buffer(status, 0, &tot, 8, Some(4 * u64::from(STATUS_WORDS)));
+        enc.clear_buffer(status, 0, None);
+        let words = gpu.read::<u32>(enc, &[(&tot, 0, 2 + u64::from(STATUS_WORDS))])?;
+        let words = words.into_iter().next().unwrap_or_default();
+        let (m, w) = (u64::from(words[0]), u64::from(words[1]));
+        let st = &words[2..];
+        // The previous rewrite's errors come first (an earlier iteration).
+        self.check_status(st, 1, iteration - 1, Some(input))?;
+        self.check_status(st, 0, iteration, Some(input))?;
+        if words[0] == u32::MAX || words[1] == u32::MAX {
+            return Err(GpuError::CountOverflow {
+                what: "derived modules or parameter words",
+                count: m.max(w),
+            });
+        }
+        if m > opts.max_modules {
+            return Err(GpuError::ModuleLimit {
+                iteration,
+                modules: m,
+                limit: opts.max_modules,
+            });
+        }
+        let bytes = input.bytes() + scratch + string_bytes(m, w);
+        if bytes > opts.max_bytes {
+            return Err(GpuError::MemoryLimit {
+                iteration,
+                bytes,
+                limit: opts.max_bytes,
+            });
+        }
+        let out = self.alloc_string(m, w)?;
+        let mut enc = gpu.encoder();
+        let pass = Pass {
+            input,
+            mate: &mate,
+            counts: &counts,
+            choice: &choice,
+            out: &out,
+            status,
+        };
+        self.dispatch_derive(&mut enc, &kernels::REWRITE, &params, &pass, n)?;
+        gpu.queue()
+            .write_buffer(&out.starts, 4 * m, bytemuck::bytes_of(&(w as u32)));
+        gpu.queue().submit([enc.finish()]);
+        Ok(out)
+    }
+
+    /// Turn an error slot of the status words into a typed error.
+    fn check_status(
+        &self,
+        st: &[u32],
+        slot: usize,
+        iteration: u32,
+        input: Option<&DeviceString>,
+    ) -> Result<(), GpuError> {
+        let (inv, bits) = (
+            st.get(2 * slot).copied().unwrap_or(0),
+            st.get(2 * slot + 1).copied().unwrap_or(0),
+        );
+        if inv == 0 {
+            return Ok(());
+        }
+        let position = u64::from(u32::MAX - inv);
+        let kind = if bits & ERR_FAULT != 0 {
+            RuntimeKind::Fault
+        } else if bits & ERR_BAD_WEIGHT != 0 {
+            RuntimeKind::BadWeight
+        } else if bits & ERR_NON_FINITE != 0 {
+            RuntimeKind::NonFinite
+        } else {
+            RuntimeKind::Fault
+        };
+        // The symbol of the failing module (for the message), when the
+        // input string is the one that failed.
+        let symbol = match input {
+            Some(s) if slot == 0 && position < s.len => self
+                .gpu
+                .read::<u32>(self.gpu.encoder(), &[(&s.syms, position, 1)])
+                .ok()
+                .and_then(|v| v.into_iter().next())
+                .and_then(|v| v.first().copied())
+                .and_then(|sym| self.sys.symbol_names.get(sym as usize).cloned()),
+            _ => None,
+        };
+        Err(GpuError::Runtime {
+            iteration,
+            position,
+            symbol: symbol.unwrap_or_default(),
+            kind,
+        })
+    }
+}

@@ -1,0 +1,394 @@
+// One derivation iteration (Lipp 5.2.2): `count` decides the production of
+// every module and writes its output size (modules, parameter words);
+// the host scans the sizes (scan.wgsl, vec2<u32>); `rewrite` writes every
+// module's successor at its scanned offset. One thread per input module,
+// no atomics except on the error path (the lowest failing position).
+//
+// The decision is the CPU engine's (grm_derive::engine), step for step:
+// groups in order; contexts matched bracket-aware with the ignore list
+// (left: towards the root over complete branches; right: forward in the
+// branch over lateral branches, `[`/`]` items enter a branch / skip to its
+// end); the condition; among alternatives the one drawn with draw index 0
+// (constant weights from the tables, computed weights from their code,
+// each checked positive and finite). Tables, bytecode and draws are
+// grm_compile's, read through the generated loaders.
+//!include grid.wgsl
+
+@group(0) @binding(0) var<uniform> P: DeriveParams;
+@group(0) @binding(1) var<storage, read> tables: array<u32>;
+@group(0) @binding(2) var<storage, read> in_syms: array<u32>;
+@group(0) @binding(3) var<storage, read> in_starts: array<u32>;
+@group(0) @binding(4) var<storage, read> in_params: array<f32>;
+@group(0) @binding(5) var<storage, read> mate: array<u32>;
+@group(0) @binding(6) var<storage, read_write> counts: array<vec2<u32>>;
+@group(0) @binding(7) var<storage, read_write> choice: array<u32>;
+@group(0) @binding(8) var<storage, read_write> out_syms: array<u32>;
+@group(0) @binding(9) var<storage, read_write> out_starts: array<u32>;
+@group(0) @binding(10) var<storage, read_write> out_params: array<f32>;
+@group(0) @binding(11) var<storage, read_write> status: array<atomic<u32>, STATUS_WORDS>;
+//!include generated_tables
+//!include vm.wgsl
+
+// `choice`: copy the module unchanged.
+const COPY: u32 = 0xffffffffu;
+
+struct Decision {
+    alt: u32,
+    err: u32,
+}
+
+fn sym_entry(s: u32) -> SymbolEntry {
+    return load_SymbolEntry(TAB.symbols_offset + s * SYMBOL_ENTRY_WORDS);
+}
+
+fn group_at(g: u32) -> GroupHeader {
+    return load_GroupHeader(TAB.groups_offset + g * GROUP_HEADER_WORDS);
+}
+
+fn alt_at(a: u32) -> AltHeader {
+    return load_AltHeader(TAB.alts_offset + a * ALT_HEADER_WORDS);
+}
+
+fn ctx_at(c: u32) -> ContextItem {
+    return load_ContextItem(TAB.context_offset + c * CONTEXT_ITEM_WORDS);
+}
+
+fn succ_at(k: u32) -> SuccModule {
+    return load_SuccModule(TAB.succ_offset + k * SUCC_MODULE_WORDS);
+}
+
+fn param_at(k: u32) -> ParamExpr {
+    return load_ParamExpr(TAB.params_offset + k * PARAM_EXPR_WORDS);
+}
+
+fn sym_flags(s: u32) -> u32 {
+    return sym_entry(s).flags;
+}
+
+// 1 for `[`, 2 for `]`, 0 otherwise.
+fn bracket_kind(s: u32) -> u32 {
+    let f = sym_flags(s);
+    if ((f & SYM_PUSH) != 0u) {
+        return 1u;
+    }
+    if ((f & SYM_POP) != 0u) {
+        return 2u;
+    }
+    return 0u;
+}
+
+// The bracket partner of the module at p, or NONE (stored as partner + 1).
+fn mate_of(p: u32) -> u32 {
+    let m = mate[p];
+    return select(m - 1u, NONE, m == 0u);
+}
+
+fn is_finite(x: f32) -> bool {
+    return x == x && abs(x) <= 3.40282347e38;
+}
+
+// Copy the parameter words of the module at `pos` to vm_bind[off..].
+fn bind_module(pos: u32, off: u32) {
+    let s = in_starts[pos];
+    let e = in_starts[pos + 1u];
+    for (var k = 0u; k < e - s; k = k + 1u) {
+        vm_bind[off + k] = in_params[s + k];
+    }
+}
+
+fn match_left(i: u32, g: GroupHeader) -> bool {
+    var pos = i;
+    for (var t = g.left_len; t > 0u; t = t - 1u) {
+        let item = ctx_at(g.left_offset + t - 1u);
+        loop {
+            if (pos == 0u) {
+                return false;
+            }
+            pos = pos - 1u;
+            let s = in_syms[pos];
+            let bk = bracket_kind(s);
+            if (bk == 2u) {
+                let m = mate_of(pos);
+                if (m == NONE) {
+                    return false;
+                }
+                pos = m;
+            } else if (bk == 1u) {
+                // Leave the enclosing branch: its parent is before it.
+            } else if ((sym_flags(s) & SYM_IGNORED) != 0u) {
+            } else {
+                break;
+            }
+        }
+        if (item.kind != CTX_SYMBOL || in_syms[pos] != item.symbol) {
+            return false;
+        }
+        if (item.bind_words > 0u) {
+            bind_module(pos, item.bind_offset);
+        }
+    }
+    return true;
+}
+
+fn match_right(i: u32, g: GroupHeader) -> bool {
+    let n = P.n;
+    var pos = i + 1u;
+    for (var t = 0u; t < g.right_len; t = t + 1u) {
+        let item = ctx_at(g.right_offset + t);
+        if (item.kind == CTX_SYMBOL) {
+            loop {
+                if (pos >= n) {
+                    return false;
+                }
+                let s = in_syms[pos];
+                let bk = bracket_kind(s);
+                if (bk == 1u) {
+                    let m = mate_of(pos);
+                    if (m == NONE) {
+                        return false;
+                    }
+                    pos = m + 1u;
+                } else if (bk == 2u) {
+                    return false;
+                } else if ((sym_flags(s) & SYM_IGNORED) != 0u) {
+                    pos = pos + 1u;
+                } else {
+                    break;
+                }
+            }
+            if (in_syms[pos] != item.symbol) {
+                return false;
+            }
+            if (item.bind_words > 0u) {
+                bind_module(pos, item.bind_offset);
+            }
+            pos = pos + 1u;
+        } else if (item.kind == CTX_PUSH) {
+            // Enter the next lateral branch (ignored symbols may come first).
+            loop {
+                if (pos >= n) {
+                    return false;
+                }
+                let s = in_syms[pos];
+                let bk = bracket_kind(s);
+                if (bk == 1u) {
+                    pos = pos + 1u;
+                    break;
+                }
+                if (bk == 0u && (sym_flags(s) & SYM_IGNORED) != 0u) {
+                    pos = pos + 1u;
+                    continue;
+                }
+                return false;
+            }
+        } else {
+            // `]`: skip the rest of the current branch, up to and including its `]`.
+            loop {
+                if (pos >= n) {
+                    return false;
+                }
+                let bk = bracket_kind(in_syms[pos]);
+                if (bk == 2u) {
+                    pos = pos + 1u;
+                    break;
+                }
+                if (bk == 1u) {
+                    let m = mate_of(pos);
+                    if (m == NONE) {
+                        return false;
+                    }
+                    pos = m + 1u;
+                } else {
+                    pos = pos + 1u;
+                }
+            }
+        }
+    }
+    return true;
+}
+
+// Match group g's contexts at module i (binding their parameters) and bind
+// the predecessor's parameters.
+fn bind_group(i: u32, g: GroupHeader) -> bool {
+    if ((g.flags & GROUP_CONTEXT) != 0u) {
+        if (!match_left(i, g) || !match_right(i, g)) {
+            return false;
+        }
+    }
+    if (g.pred_bind_words > 0u) {
+        bind_module(i, g.pred_bind_offset);
+    }
+    return true;
+}
+
+fn draws_at(i: u32) -> Draws {
+    return Draws(P.seed, P.iteration, i);
+}
+
+// The weight of alternative `a` (constant or computed); NaN on a fault.
+fn weight_of(a: u32, d: Draws) -> f32 {
+    let alt = alt_at(a);
+    if (alt.weight_code == NONE) {
+        return alt.weight;
+    }
+    if (vm_run(alt.weight_code, d) == VM_FAULT) {
+        return bitcast<f32>(0x7fc00000u);
+    }
+    return vm_st[0];
+}
+
+fn decide(i: u32) -> Decision {
+    let se = sym_entry(in_syms[i]);
+    let d = draws_at(i);
+    for (var gi = se.first_group; gi < se.first_group + se.group_count; gi = gi + 1u) {
+        let g = group_at(gi);
+        if (!bind_group(i, g)) {
+            continue;
+        }
+        if (g.cond_code != NONE) {
+            if (vm_run(g.cond_code, d) == VM_FAULT) {
+                return Decision(COPY, ERR_FAULT);
+            }
+            if (vm_st[0] == 0.0) {
+                continue;
+            }
+        }
+        if (g.alt_count == 1u) {
+            return Decision(g.first_alt, 0u);
+        }
+        let u = rng_uniform(d, 0u);
+        let last = g.first_alt + g.alt_count - 1u;
+        if ((g.flags & GROUP_CONST_WEIGHTS) != 0u) {
+            let goal = u * g.total_weight;
+            for (var a = g.first_alt; a < last; a = a + 1u) {
+                if (goal < alt_at(a).cum_weight) {
+                    return Decision(a, 0u);
+                }
+            }
+            return Decision(last, 0u);
+        }
+        // Computed weights: all must be positive and finite (the CPU checks
+        // them all before drawing); then the first cumulative sum above the draw.
+        var total = 0.0;
+        for (var a = g.first_alt; a <= last; a = a + 1u) {
+            let w = weight_of(a, d);
+            if (!(is_finite(w) && w > 0.0)) {
+                return Decision(COPY, ERR_BAD_WEIGHT);
+            }
+            total = total + w;
+        }
+        let goal = u * total;
+        var acc = 0.0;
+        for (var a = g.first_alt; a <= last; a = a + 1u) {
+            acc = acc + weight_of(a, d);
+            if (goal < acc) {
+                return Decision(a, 0u);
+            }
+        }
+        return Decision(last, 0u);
+    }
+    return Decision(COPY, 0u);
+}
+
+// Record an error at position i in slot 0 (count) or 1 (rewrite): the
+// lowest position wins (stored inverted, so zero means none).
+fn report(slot: u32, i: u32, kind: u32) {
+    atomicMax(&status[slot * 2u], 0xffffffffu - i);
+    atomicOr(&status[slot * 2u + 1u], kind);
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn count(
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+) {
+    let i = wg_linear(wid, nwg) * WORKGROUP + lid;
+    if (i > P.n) {
+        return;
+    }
+    if (i == P.n) {
+        // The slot after the last count: the scan leaves the totals here.
+        counts[i] = vec2<u32>(0u, 0u);
+        return;
+    }
+    TAB = load_PackedHeader(0u);
+    let dec = decide(i);
+    if (dec.err != 0u) {
+        report(0u, i, dec.err);
+    }
+    choice[i] = dec.alt;
+    if (dec.alt == COPY) {
+        counts[i] = vec2<u32>(1u, in_starts[i + 1u] - in_starts[i]);
+    } else {
+        let a = alt_at(dec.alt);
+        counts[i] = vec2<u32>(a.succ_len, a.succ_words);
+    }
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn rewrite(
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+) {
+    let i = wg_linear(wid, nwg) * WORKGROUP + lid;
+    if (i >= P.n) {
+        return;
+    }
+    TAB = load_PackedHeader(0u);
+    var o = 0u;
+    var wo = 0u;
+    var alt = TAB.axiom_alt;
+    if (P.axiom == 0u) {
+        let off = counts[i];
+        o = off.x;
+        wo = off.y;
+        alt = choice[i];
+        if (alt == COPY) {
+            out_syms[o] = in_syms[i];
+            out_starts[o] = wo;
+            let s = in_starts[i];
+            let e = in_starts[i + 1u];
+            for (var k = 0u; k < e - s; k = k + 1u) {
+                out_params[wo + k] = in_params[s + k];
+            }
+            return;
+        }
+        // Bind again (the decision is a pure function of the input, so the
+        // chosen group matches again and binds the same words).
+        bind_group(i, group_at(alt_at(alt).group));
+    }
+    let a = alt_at(alt);
+    let d = draws_at(i);
+    for (var k = 0u; k < a.succ_len; k = k + 1u) {
+        let m = succ_at(a.succ_offset + k);
+        out_syms[o + k] = m.symbol;
+        var dst = wo + m.word_offset;
+        out_starts[o + k] = dst;
+        for (var q = m.first_param; q < m.first_param + m.param_count; q = q + 1u) {
+            let pe = param_at(q);
+            if (pe.kind == PARAM_CONST) {
+                for (var c = 0u; c < pe.words; c = c + 1u) {
+                    out_params[dst + c] = vm_const(pe.a + c);
+                }
+            } else if (pe.kind == PARAM_COPY) {
+                for (var c = 0u; c < pe.words; c = c + 1u) {
+                    out_params[dst + c] = vm_bind[pe.a + c];
+                }
+            } else {
+                if (vm_run(pe.a, d) == VM_FAULT) {
+                    report(1u, i, ERR_FAULT);
+                }
+                for (var c = 0u; c < pe.words; c = c + 1u) {
+                    let x = vm_st[c];
+                    if (!is_finite(x)) {
+                        report(1u, i, ERR_NON_FINITE);
+                    }
+                    out_params[dst + c] = x;
+                }
+            }
+            dst = dst + pe.words;
+        }
+    }
+}
