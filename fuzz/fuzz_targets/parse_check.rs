@@ -5,7 +5,10 @@
 //! 3. `grm_fmt::format`: either it refuses a text with syntax errors, or its
 //!    output parses without errors to the same tree (spans aside) with the
 //!    same comments, and formatting it again changes nothing. It must never
-//!    report an internal error.
+//!    report an internal error. A clean text is also formatted with a
+//!    comment stuffed between every two tokens (block comments, then line
+//!    comments), which exercises comment placement far more than random
+//!    bytes do.
 //! 4. `grm_sema::check_with` must not panic; imports and meshes come from an
 //!    in-memory loader (no file system access).
 
@@ -47,11 +50,47 @@ fn comment_texts(p: &grm_syntax::Parsed) -> Vec<&str> {
         .collect()
 }
 
+/// `text` with a comment after the whitespace before every token but the
+/// first: the token stream, hence the tree, is unchanged.
+fn stuff_comments(text: &str, line: bool) -> String {
+    let toks = grm_syntax::lexer::lex(FileId(0), text).tokens;
+    let mut out = String::with_capacity(text.len() * 2);
+    let mut pos = 0usize;
+    for (i, t) in toks.iter().enumerate() {
+        let start = t.span.start as usize;
+        out.push_str(&text[pos..start]);
+        if i > 0 {
+            out.push_str(&if line {
+                format!("//{i}\n")
+            } else {
+                format!("/*{i}*/")
+            });
+        }
+        pos = start;
+    }
+    out.push_str(&text[pos..]);
+    out
+}
+
 fuzz_target!(|data: &[u8]| {
     let text = String::from_utf8_lossy(data);
     let parsed = grm_syntax::parse(FileId(0), &text);
     let _ = grm_fmt::format_file(&parsed, &text);
-    match grm_fmt::format(&text) {
+    if round_trip(&text, &parsed) {
+        for line in [false, true] {
+            let stuffed = stuff_comments(&text, line);
+            let p = grm_syntax::parse(FileId(0), &stuffed);
+            if !p.has_errors() {
+                round_trip(&stuffed, &p);
+            }
+        }
+    }
+    let _ = grm_sema::check_with("main.grm", &text, loader());
+});
+
+/// Check `format` on `text` (parsed as `parsed`); returns whether it formatted.
+fn round_trip(text: &str, parsed: &grm_syntax::Parsed) -> bool {
+    match grm_fmt::format(text) {
         Ok(out) => {
             assert!(!parsed.has_errors(), "formatted a text with syntax errors");
             let again = grm_syntax::parse(FileId(0), &out);
@@ -65,7 +104,7 @@ fuzz_target!(|data: &[u8]| {
                 "formatting changed the tree\n--- output ---\n{out}"
             );
             assert_eq!(
-                comment_texts(&parsed),
+                comment_texts(parsed),
                 comment_texts(&again),
                 "comments changed"
             );
@@ -73,14 +112,15 @@ fuzz_target!(|data: &[u8]| {
                 Ok(twice) => assert_eq!(out, twice, "formatting is not idempotent"),
                 Err(e) => panic!("formatted text does not format: {e}"),
             }
+            true
         }
         Err(FormatError::Syntax(diags)) => {
             assert!(
                 parsed.has_errors() && !diags.is_empty(),
                 "refused a clean text"
             );
+            false
         }
         Err(FormatError::Internal(msg)) => panic!("formatter bug: {msg}"),
     }
-    let _ = grm_sema::check_with("main.grm", &text, loader());
-});
+}

@@ -119,6 +119,14 @@ fn exercise(text: &str) -> bool {
     match grm_fmt::format(text) {
         Ok(_) => {
             common::check(text);
+            // The riskiest part is comment placement: put a comment in
+            // every gap between two tokens and format again.
+            for kind in [Stuff::Block, Stuff::Line] {
+                let stuffed = stuff_comments(text, kind);
+                if !grm_syntax::parse(FileId(0), &stuffed).has_errors() {
+                    common::check(&stuffed);
+                }
+            }
             true
         }
         Err(grm_fmt::FormatError::Syntax(d)) => {
@@ -128,6 +136,44 @@ fn exercise(text: &str) -> bool {
         Err(grm_fmt::FormatError::Internal(msg)) => {
             panic!("formatter bug: {msg}\n--- input ---\n{text}")
         }
+    }
+}
+
+#[derive(Clone, Copy)]
+enum Stuff {
+    Block,
+    Line,
+}
+
+/// `text` with a numbered comment after the whitespace before every token
+/// but the first (the token stream, hence the tree, is unchanged).
+fn stuff_comments(text: &str, kind: Stuff) -> String {
+    let toks = grm_syntax::lexer::lex(FileId(0), text).tokens;
+    let mut out = String::with_capacity(text.len() * 2);
+    let mut pos = 0usize;
+    for (i, t) in toks.iter().enumerate() {
+        let start = t.span.start as usize;
+        out.push_str(&text[pos..start]);
+        if i > 0 {
+            match kind {
+                Stuff::Block => out.push_str(&format!("/*{i}*/")),
+                Stuff::Line => out.push_str(&format!("//{i}\n")),
+            }
+        }
+        pos = start;
+    }
+    out.push_str(&text[pos..]);
+    out
+}
+
+#[test]
+fn comments_between_all_tokens() {
+    let root = common::root();
+    for p in common::grm_files(&root.join("examples")) {
+        let Ok(text) = std::fs::read_to_string(p) else {
+            continue;
+        };
+        exercise(&text);
     }
 }
 
