@@ -6,7 +6,7 @@
 //! primitives (`cylinder cone sphere box disc`, [`mesh`]), OBJ meshes
 //! declared in the program ([`import`], read once each and instanced) and
 //! the `{ . }` polygons ([`polygon`]). [`export()`] writes the model as
-//! glTF 2.0 binary (`.glb`), OBJ + MTL, PLY or SVG ([`export`]).
+//! glTF 2.0 binary (`.glb`), OBJ + MTL, PLY or SVG ([`mod@export`]).
 //!
 //! Inputs: the checked [`grm_sema::Program`] and one of its systems, the
 //! system's [`Settings`], and the module string.

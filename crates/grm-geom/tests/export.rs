@@ -393,3 +393,41 @@ fn examples_end_to_end() {
     gltf::Gltf::from_slice(&bytes).expect("valid glb");
     export(&model, &out.path().join("plant.obj")).expect("exports");
 }
+
+#[test]
+fn calder_example_meshes_and_materials() {
+    // A sample system cannot be derived here; place its declared meshes by
+    // hand, the way its geometry symbols do.
+    let program = load_example("calder_tree.grm");
+    let system = &program.systems[0];
+    let sym = |name: &str| system.symbol_by_name(name).expect("symbol").0;
+    let mesh = |name: &str| {
+        program
+            .meshes
+            .iter()
+            .position(|m| m.name == name)
+            .expect("mesh") as f32
+    };
+    let material = |name: &str| {
+        program
+            .materials
+            .iter()
+            .position(|m| m.name == name)
+            .expect("material") as f32
+    };
+    let mut s = grm_derive::ModuleString::new();
+    s.push(sym("material"), &[material("bark")]);
+    s.push(sym("mesh"), &[mesh("trunkMesh")]);
+    s.push(sym("F"), &[1.0]);
+    s.push(sym("material"), &[material("foliage")]);
+    s.push(sym("mesh"), &[mesh("leafMesh")]);
+    let model = build_model(&program, system, &s, &system.settings).expect("builds");
+    let names: Vec<&str> = model.materials.iter().map(|m| m.name.as_str()).collect();
+    assert_eq!(names, vec!["bark", "foliage"]);
+    assert_eq!(model.materials[0].color, [0.45, 0.32, 0.2]);
+    assert_eq!(model.stats.instances, 2);
+    // The bone is painted bark too (material set before it).
+    assert_eq!(model.parts[0].picks.len(), 2);
+    let out = tempfile::tempdir().expect("tempdir");
+    export(&model, &out.path().join("calder.glb")).expect("exports");
+}

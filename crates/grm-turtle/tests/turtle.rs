@@ -425,3 +425,31 @@ fn million_modules_timing() {
     println!("{} modules, {} bones in {:?}", s.len(), out.bones.len(), dt);
     assert_eq!(out.bones.len(), 400_000);
 }
+
+#[test]
+fn frame_locality_for_sample_expansions() {
+    // Sample systems: `F A F` where A later expands to `+ F F`. A's
+    // expansion starts from A's saved state and does not move the F after
+    // A, whichever order the sampler expands things in.
+    let mut it = interpreter(cfg());
+    let top = string("F A F");
+    let mut at_a = None;
+    it.run_range(it.initial(), &top, 0..top.len(), &mut |_, t| {
+        at_a = Some(*t)
+    })
+    .expect("runs");
+    let at_a = at_a.expect("A seen");
+    let expansion = string("+ F F");
+    let end = it
+        .run_range(at_a, &expansion, 0..expansion.len(), &mut |_, _| {})
+        .expect("runs");
+    close(end.position(), v(2.0, 1.0, 0.0));
+    let out = it.finish();
+    assert_eq!(out.bones.len(), 4);
+    close(out.bones[1].base, v(0.0, 1.0, 0.0));
+    close(out.bones[1].tip, v(0.0, 2.0, 0.0));
+    close(out.bones[2].base, v(0.0, 1.0, 0.0));
+    close(out.bones[3].tip, v(2.0, 1.0, 0.0));
+    // The expansion hangs off the bone that was current at A.
+    assert_eq!(out.bones[2].parent, Some(0));
+}
