@@ -34,6 +34,41 @@
 //!   (for the language server) and must not be lowered.
 //! - Floats are folded in f64 with the semantics of [`eval`], which the
 //!   engines share; the run-time type is 32-bit float.
+//!
+//! Decisions the language spec leaves open (the diagnostics they lead to are
+//! in `docs/diagnostics.md`):
+//! - Scope: one namespace for constants, meta-parameters, meshes and
+//!   materials across the whole import closure (duplicates are E0102); a
+//!   file sees its own definitions and those of the files it imports,
+//!   transitively. A production's parameters shadow global names.
+//! - Constants may depend on meta-parameters (they are then
+//!   [`TExprKind::Global`], evaluated once per run); meta-parameter defaults
+//!   and ranges may not (they define the sliders). Nothing outside
+//!   productions and the axiom may draw random numbers.
+//! - Built-in terminals are normalized to one symbol per meaning with a
+//!   fixed parameter list ([`Terminal::params`]): `F` is `F(step)`, `+` is
+//!   `+(angle)`, `translate(x, y, z)` is `translate(vec3(x, y, z))`, `push`
+//!   is `[`. `!` and `'` without an argument are distinct terminals
+//!   (`ShrinkWidth`, `NextColor`), as is uniform `scale(s)`. A pattern on a
+//!   terminal binds all of its parameters or none (`F -> F F` rewrites every
+//!   `F(l)`).
+//! - A user symbol's arity is fixed by its declaration or first use in the
+//!   system; parameter types are inferred by unification over all uses,
+//!   defaulting to `float` (see the private `infer` module).
+//! - Generic built-ins (`abs min max clamp mix step smoothstep spline ...`)
+//!   take the type of their first generic argument; a `float` may stand for
+//!   a `vec3` in the other generic positions (broadcast).
+//! - Mesh and material names are only values as the argument of the `mesh`
+//!   and `material` terminals ([`Value::Mesh`], [`Value::Material`]).
+//! - Groups: productions with the same predecessor symbol and binding count,
+//!   the same context shapes and structurally equal conditions (parameter
+//!   names do not matter) form one [`Group`], in order of first appearance;
+//!   wrap-up productions form their own groups.
+//! - Setting defaults are [`Settings::default`]; `seed` is a `u32` (the
+//!   random draws hash 32-bit words).
+//! - In sample systems a user symbol that is neither declared nor rewritten
+//!   is reported as unknown (E0101): it would stay in the model unexpanded,
+//!   and is nearly always a misspelling.
 
 mod builtins;
 mod check;
