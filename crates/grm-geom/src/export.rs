@@ -167,11 +167,20 @@ fn stage(
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
-    let mut tmp = tempfile::Builder::new()
-        .prefix(".grm-export-")
-        .suffix(".tmp")
-        .tempfile_in(dir)
-        .map_err(|e| io_error(path, e))?;
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".grm-export-").suffix(".tmp");
+    // Temporary files are private (0600); the export gets the permissions
+    // of the file it replaces, or the usual 0644.
+    #[cfg(unix)]
+    let perms = {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::metadata(path)
+            .map(|m| m.permissions())
+            .unwrap_or_else(|_| std::fs::Permissions::from_mode(0o644))
+    };
+    #[cfg(unix)]
+    builder.permissions(perms);
+    let mut tmp = builder.tempfile_in(dir).map_err(|e| io_error(path, e))?;
     {
         let mut w = BufWriter::with_capacity(1 << 16, tmp.as_file_mut());
         write(&mut w).map_err(|e| io_error(path, e))?;

@@ -431,3 +431,20 @@ fn calder_example_meshes_and_materials() {
     let out = tempfile::tempdir().expect("tempdir");
     export(&model, &out.path().join("calder.glb")).expect("exports");
 }
+
+#[cfg(unix)]
+#[test]
+fn exported_files_are_readable() {
+    use std::os::unix::fs::PermissionsExt;
+    let model = sample_model();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("m.glb");
+    export(&model, &path).expect("exports");
+    let mode = std::fs::metadata(&path).expect("meta").permissions().mode();
+    assert_eq!(mode & 0o777, 0o644);
+    // Replacing a file keeps its permissions.
+    std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o600)).expect("chmod");
+    export(&model, &path).expect("exports");
+    let mode = std::fs::metadata(&path).expect("meta").permissions().mode();
+    assert_eq!(mode & 0o777, 0o600);
+}
