@@ -1,8 +1,9 @@
 //! Cubic Bézier curves in 3D and a robust closest-point query.
 //!
 //! All geometry here is computed in `f64` ([`DVec3`]): the closest-point
-//! refinement converges to about 1e-12 in the curve parameter, which `f32`
-//! could not resolve. The sampler-facing API ([`crate::CostModel`]) takes
+//! refinement resolves the curve parameter to 1e-10 and distances to
+//! rounding, which `f32` could not (points near a curve need small relative
+//! errors). The sampler-facing API ([`crate::CostModel`]) takes
 //! `f32` [`glam::Vec3`] like the turtle and converts once per bone.
 //!
 //! # Closest point
@@ -11,10 +12,16 @@
 //! whose derivative `g(t) = 2 (B(t) - p) . B'(t)` is a quintic, so `f` has at
 //! most three local minima on `[0, 1]`. [`Bezier3::closest_point`]:
 //!
-//! 1. samples `f` at [`BRACKET_SAMPLES`]` + 1` evenly spaced parameters;
+//! 1. samples `f` at [`BRACKET_SAMPLES`]` + 1` evenly spaced parameters
+//!    (cached per curve by [`Bezier3::bracket_samples`]);
 //! 2. takes every discrete local minimum of the samples (the endpoints
-//!    included) as a candidate, bracketed by its two neighbouring samples;
-//! 3. in each bracket, finds a sign change of `g` from `-` to `+` (a local
+//!    included) as a candidate, bracketed by its two neighbouring samples,
+//!    the best sample first; a candidate is skipped when the samples prove
+//!    it cannot beat the best point found so far (every point of the curve
+//!    is within `h/2 * max|B'|` of a sample, and `max|B'|` is bounded by the
+//!    hodograph's control points);
+//! 3. in each bracket, starts at the vertex of the parabola through the
+//!    three samples, finds a sign change of `g` from `-` to `+` (a local
 //!    minimum of `f`) and polishes it with safeguarded Newton steps on `g`
 //!    (Newton while it stays inside the bracket, bisection otherwise); an
 //!    endpoint where `g` points outwards is a minimum as it stands; a bracket
@@ -29,10 +36,17 @@ use glam::DVec3;
 
 /// Number of intervals the closest-point search samples to bracket minima.
 ///
-/// 32 intervals resolve the at most three local minima of the squared
-/// distance of any cubic at the curve sizes the sampler sees; the brute-force
-/// test exercises loops and cusps at this resolution.
+/// The squared distance of a cubic has at most three local minima; the
+/// brute-force tests (random curves with loops and cusps) pass with 16
+/// intervals and fail with 8, so 32 leaves a margin. Sampling is cheap
+/// (about a quarter of a query); refinement is the main cost.
 pub const BRACKET_SAMPLES: usize = 32;
+
+/// Newton stops when a step moves `t` by less than this. Quadratic
+/// convergence means the error is then far smaller still (about the square
+/// of the previous step), and the distance, being stationary at the
+/// minimum, is exact to rounding.
+const NEWTON_TOL: f64 = 1e-10;
 
 /// The closest point on a curve to a query point.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -43,6 +57,15 @@ pub struct ClosestPoint {
     pub point: DVec3,
     /// Euclidean distance from the query point to `point`.
     pub dist: f64,
+}
+
+/// Cached bracket samples of a curve ([`Bezier3::bracket_samples`]),
+/// stored as structure of arrays.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BracketSamples {
+    x: [f64; BRACKET_SAMPLES + 1],
+    y: [f64; BRACKET_SAMPLES + 1],
+    z: [f64; BRACKET_SAMPLES + 1],
 }
 
 /// A cubic Bézier curve in 3D, `B(t) = sum_i C(3, i) (1-t)^(3-i) t^i P_i`.
@@ -56,18 +79,29 @@ pub struct Bezier3 {
     b: DVec3,
     c: DVec3,
     d: DVec3,
+    /// Control polygon length (size scale for tolerances).
+    polygon: f64,
+    /// Bound on how far the curve strays from its nearest bracket sample:
+    /// half a sample step times the maximum speed, which the hodograph's
+    /// control points `3 (P_{k+1} - P_k)` bound (convex hull).
+    slack: f64,
 }
 
 impl Bezier3 {
     /// A curve from its four control points `P0..P3` (`P0` = start, `P3` = end).
     pub fn new(points: [DVec3; 4]) -> Self {
         let [p0, p1, p2, p3] = points;
+        let (l0, l1, l2) = (p0.distance(p1), p1.distance(p2), p2.distance(p3));
+        let max_speed = 3.0 * l0.max(l1).max(l2);
         Self {
             points,
             a: p3 - p0 + 3.0 * (p1 - p2),
             b: 3.0 * (p0 - 2.0 * p1 + p2),
             c: 3.0 * (p1 - p0),
             d: p0,
+            polygon: l0 + l1 + l2,
+            // 1e-12 relative margin for rounding in the sample distances.
+            slack: 0.5 / BRACKET_SAMPLES as f64 * max_speed * (1.0 + 1e-12),
         }
     }
 
@@ -104,8 +138,7 @@ impl Bezier3 {
     /// Length of the control polygon, an upper bound of the arc length and
     /// the curve's size scale.
     pub fn polygon_length(&self) -> f64 {
-        let [p0, p1, p2, p3] = self.points;
-        p0.distance(p1) + p1.distance(p2) + p2.distance(p3)
+        self.polygon
     }
 
     /// The unit tangent `DIR` at `t` (Calder's `DIR(g, p)`).
@@ -115,7 +148,7 @@ impl Bezier3 {
     /// which is the one-sided limit of the tangent; failing that, the chord
     /// `P3 - P0`. Returns zero only for a curve that is a single point.
     pub fn tangent(&self, t: f64) -> DVec3 {
-        let scale = self.polygon_length();
+        let scale = self.polygon;
         let d = self.derivative(t);
         if d.length_squared() > 1e-18 * scale * scale {
             return d.normalize();
@@ -133,11 +166,17 @@ impl Bezier3 {
             .unwrap_or(DVec3::ZERO)
     }
 
-    /// The `BRACKET_SAMPLES + 1` points `B(i / BRACKET_SAMPLES)`.
-    pub fn bracket_samples(&self) -> [DVec3; BRACKET_SAMPLES + 1] {
-        let mut out = [DVec3::ZERO; BRACKET_SAMPLES + 1];
-        for (i, o) in out.iter_mut().enumerate() {
-            *o = self.eval(i as f64 / BRACKET_SAMPLES as f64);
+    /// The `BRACKET_SAMPLES + 1` points `B(i / BRACKET_SAMPLES)`, cached by
+    /// callers that query one curve many times.
+    pub fn bracket_samples(&self) -> BracketSamples {
+        let mut out = BracketSamples {
+            x: [0.0; BRACKET_SAMPLES + 1],
+            y: [0.0; BRACKET_SAMPLES + 1],
+            z: [0.0; BRACKET_SAMPLES + 1],
+        };
+        for i in 0..=BRACKET_SAMPLES {
+            let p = self.eval(i as f64 / BRACKET_SAMPLES as f64);
+            (out.x[i], out.y[i], out.z[i]) = (p.x, p.y, p.z);
         }
         out
     }
@@ -148,16 +187,46 @@ impl Bezier3 {
     }
 
     /// [`Self::closest_point`] with precomputed [`Self::bracket_samples`].
-    pub fn closest_point_sampled(
+    pub fn closest_point_sampled(&self, samples: &BracketSamples, p: DVec3) -> ClosestPoint {
+        // An infinite bound never prunes, so this is always `Some`.
+        self.closest_point_within(samples, p, f64::INFINITY)
+            .unwrap_or(ClosestPoint {
+                t: 0.0,
+                point: self.points[0],
+                dist: self.points[0].distance(p),
+            })
+    }
+
+    /// The closest point if the curve may come within `bound` of `p`;
+    /// `None` when the samples prove it cannot (every point of the curve
+    /// is further than `bound`). Used to skip curves that cannot win.
+    pub fn closest_point_within(
         &self,
-        samples: &[DVec3; BRACKET_SAMPLES + 1],
+        samples: &BracketSamples,
         p: DVec3,
-    ) -> ClosestPoint {
+        bound: f64,
+    ) -> Option<ClosestPoint> {
         const N: usize = BRACKET_SAMPLES;
-        let step = 1.0 / N as f64;
+        // Structure-of-arrays so that this loop vectorizes.
         let mut d2 = [0.0f64; N + 1];
-        for (o, s) in d2.iter_mut().zip(samples) {
-            *o = s.distance_squared(p);
+        for (((o, x), y), z) in d2
+            .iter_mut()
+            .zip(&samples.x)
+            .zip(&samples.y)
+            .zip(&samples.z)
+        {
+            let (dx, dy, dz) = (x - p.x, y - p.y, z - p.z);
+            *o = dx * dx + dy * dy + dz * dz;
+        }
+        let (mut min_i, mut min_d2) = (0, f64::INFINITY);
+        for (i, &v) in d2.iter().enumerate() {
+            if v < min_d2 {
+                (min_i, min_d2) = (i, v);
+            }
+        }
+        // Every point of the curve is within `slack` of a sample.
+        if min_d2.sqrt() - self.slack > bound {
+            return None;
         }
         // Endpoint checks: both ends are always candidates.
         let (mut best_t, mut best_d2) = if d2[N] < d2[0] {
@@ -165,30 +234,35 @@ impl Bezier3 {
         } else {
             (0.0, d2[0])
         };
+        // Refine the best sample's bracket first, then every other discrete
+        // local minimum that could still beat the best found so far (the
+        // endpoints count as local minima when their one neighbour is not
+        // nearer).
+        let (t, f) = self.refine_sample(p, &d2, min_i);
+        if f < best_d2 {
+            (best_t, best_d2) = (t, f);
+        }
         for i in 0..=N {
             let here = d2[i];
-            let left = if i == 0 { f64::INFINITY } else { d2[i - 1] };
-            let right = if i == N { f64::INFINITY } else { d2[i + 1] };
-            if here > left || here > right {
+            if i == min_i || (i > 0 && here > d2[i - 1]) || (i < N && here > d2[i + 1]) {
                 continue;
             }
-            let lo = if i == 0 { 0.0 } else { (i - 1) as f64 * step };
-            let hi = if i == N { 1.0 } else { (i + 1) as f64 * step };
-            let t0 = i as f64 * step;
-            let (t, f) = self.refine(p, lo, hi, t0);
-            // Never worse than the sample itself.
-            let (t, f) = if f <= here { (t, f) } else { (t0, here) };
+            // In this bracket every point is within `slack` of one of the
+            // three samples, the nearest of which is sample i.
+            if here.sqrt() - self.slack > best_d2.sqrt() {
+                continue;
+            }
+            let (t, f) = self.refine_sample(p, &d2, i);
             if f < best_d2 {
-                best_t = t;
-                best_d2 = f;
+                (best_t, best_d2) = (t, f);
             }
         }
         let point = self.eval(best_t);
-        ClosestPoint {
+        Some(ClosestPoint {
             t: best_t,
             point,
             dist: point.distance(p),
-        }
+        })
     }
 
     /// `(f, g)` with `f = |B(t) - p|^2` and `g = (B(t) - p) . B'(t)` (half of
@@ -199,38 +273,77 @@ impl Bezier3 {
         (q.length_squared(), q.dot(self.derivative(t)))
     }
 
-    /// A local minimum of `f` in `[lo, hi]` around `t0`: `(t, f(t))`.
+    /// Refines the discrete local minimum at sample `i` (squared sample
+    /// distances `d2`) within its neighbours' bracket; never worse than the
+    /// sample itself.
+    fn refine_sample(&self, p: DVec3, d2: &[f64; BRACKET_SAMPLES + 1], i: usize) -> (f64, f64) {
+        const N: usize = BRACKET_SAMPLES;
+        let step = 1.0 / N as f64;
+        let here = d2[i];
+        let t0 = i as f64 * step;
+        let (lo, hi, start) = if i == 0 {
+            (0.0, step, 0.0)
+        } else if i == N {
+            (1.0 - step, 1.0, 1.0)
+        } else {
+            let (lo, hi) = ((i - 1) as f64 * step, (i + 1) as f64 * step);
+            // Start at the vertex of the parabola through the three samples
+            // (within h/2 of t0 since f(t0) is the least), which leaves
+            // Newton two or three steps.
+            let (left, right) = (d2[i - 1], d2[i + 1]);
+            let curv = left - 2.0 * here + right;
+            let start = if curv > 0.0 {
+                (t0 + 0.5 * step * (left - right) / curv).clamp(lo, hi)
+            } else {
+                t0
+            };
+            (lo, hi, start)
+        };
+        let (t, f) = self.refine(p, lo, hi, start);
+        if f <= here { (t, f) } else { (t0, here) }
+    }
+
+    /// A local minimum of `f` in `[lo, hi]` starting from `t0`: `(t, f(t))`.
     fn refine(&self, p: DVec3, lo: f64, hi: f64, t0: f64) -> (f64, f64) {
-        let (f0, g0) = self.f_g(p, t0);
+        let q = self.eval(t0) - p;
+        let d1 = self.derivative(t0);
+        let g0 = q.dot(d1);
         if g0 == 0.0 {
-            return (t0, f0);
+            return (t0, q.length_squared());
         }
         // A sub-bracket where g goes from - to +, starting from t0.
         let bracket = if g0 > 0.0 {
             if t0 == 0.0 {
                 // f increases away from the start: the endpoint is a minimum.
-                return (t0, f0);
+                return (t0, q.length_squared());
             }
             (self.f_g(p, lo).1 < 0.0).then_some((lo, t0))
         } else {
             if t0 == 1.0 {
                 // f decreases towards the end: the endpoint is a minimum.
-                return (t0, f0);
+                return (t0, q.length_squared());
             }
             (self.f_g(p, hi).1 > 0.0).then_some((t0, hi))
         };
         match bracket {
-            Some((a, b)) => self.newton_bisect(p, a, b, t0),
+            Some((a, b)) => self.newton_bisect(p, a, b, t0, q, d1),
             None => self.golden(p, lo, hi),
         }
     }
 
-    /// Safeguarded Newton on `g` in a bracket with `g(lo) < 0 < g(hi)`.
-    fn newton_bisect(&self, p: DVec3, mut lo: f64, mut hi: f64, start: f64) -> (f64, f64) {
+    /// Safeguarded Newton on `g` in a bracket with `g(lo) < 0 < g(hi)`,
+    /// from `start` where `B - p = q` and `B' = d1` are already known.
+    fn newton_bisect(
+        &self,
+        p: DVec3,
+        mut lo: f64,
+        mut hi: f64,
+        start: f64,
+        mut q: DVec3,
+        mut d1: DVec3,
+    ) -> (f64, f64) {
         let mut t = start;
         for _ in 0..64 {
-            let q = self.eval(t) - p;
-            let d1 = self.derivative(t);
             let g = q.dot(d1);
             if g < 0.0 {
                 lo = t;
@@ -241,19 +354,21 @@ impl Bezier3 {
             }
             let gp = d1.length_squared() + q.dot(self.second_derivative(t));
             let newton = t - g / gp;
-            // `!(a && b)` also rejects NaN from a zero or negative `gp`.
+            // Rejects NaN from a zero `gp` too.
             let next = if gp > 0.0 && newton > lo && newton < hi {
                 newton
             } else {
                 0.5 * (lo + hi)
             };
-            let done = (next - t).abs() <= 1e-13 || hi - lo <= 1e-13;
+            let done = (next - t).abs() <= NEWTON_TOL || hi - lo <= NEWTON_TOL;
             t = next;
+            q = self.eval(t) - p;
             if done {
                 break;
             }
+            d1 = self.derivative(t);
         }
-        (t, self.eval(t).distance_squared(p))
+        (t, q.length_squared())
     }
 
     /// Golden-section search for a minimum of `f` on `[lo, hi]` (fallback).

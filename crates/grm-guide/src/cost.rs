@@ -28,7 +28,7 @@
 
 use glam::{Affine3A, DVec3, Vec3};
 
-use crate::bezier::{BRACKET_SAMPLES, Bezier3, ClosestPoint};
+use crate::bezier::{Bezier3, BracketSamples, ClosestPoint};
 use crate::curves::{CurveParams, Curves, DensityParams, segment_count};
 use crate::density::PersistentGrid;
 use crate::fixed::{to_f64, to_fixed};
@@ -147,7 +147,7 @@ impl CostState {
 #[derive(Clone, Debug)]
 struct CurveData {
     bez: Bezier3,
-    samples: [DVec3; BRACKET_SAMPLES + 1],
+    samples: BracketSamples,
     lo: DVec3,
     hi: DVec3,
     params: CurveParams,
@@ -292,7 +292,9 @@ impl CostModel {
     /// Eq. 1 (with thickness): the curve whose tube is nearest to `p`, and
     /// the closest point on its axis. Ties go to the lower index.
     pub fn nearest_curve(&self, p: DVec3) -> (usize, ClosestPoint) {
-        // Box lower bounds prune curves that cannot win.
+        // Start with the curve whose box is nearest; a later curve is only
+        // refined if its samples show it may still win (see
+        // `Bezier3::closest_point_within`).
         let lower = |c: &CurveData| (p.clamp(c.lo, c.hi) - p).length() - c.params.thickness;
         let mut first = 0;
         let mut first_lb = f64::INFINITY;
@@ -315,7 +317,10 @@ impl CostModel {
             if lb > best_key || (lb == best_key && i > best_i) {
                 continue;
             }
-            let cp = c.bez.closest_point_sampled(&c.samples, p);
+            let bound = best_key + c.params.thickness;
+            let Some(cp) = c.bez.closest_point_within(&c.samples, p, bound) else {
+                continue;
+            };
             let key = cp.dist - c.params.thickness;
             if key < best_key || (key == best_key && i < best_i) {
                 best_i = i;

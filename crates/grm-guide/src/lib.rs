@@ -51,7 +51,7 @@ mod density;
 mod fixed;
 pub mod volume;
 
-pub use bezier::{BRACKET_SAMPLES, Bezier3, ClosestPoint};
+pub use bezier::{BRACKET_SAMPLES, Bezier3, BracketSamples, ClosestPoint};
 pub use cost::{
     BoneCost, CostBreakdown, CostModel, CostOptions, CostState, ExpectedDirection, alignment_cost,
     distance_cost, expected_direction, utilization_sum,

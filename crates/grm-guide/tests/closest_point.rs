@@ -206,3 +206,52 @@ fn endpoints_and_tangents() {
     // Arc length of a straight segment.
     assert!((c.length() - 3.0).abs() < 1e-9);
 }
+
+#[test]
+fn nearest_curve_with_pruning_matches_exhaustive_search() {
+    use grm_guide::{CostModel, CostOptions, CurveParams, Curves, GuideCurve};
+    let mut rng = Rng(0x5EED_0004);
+    for k in 0..150 {
+        let n = 1 + (rng.next_u64() % 5) as usize;
+        let guides: Vec<GuideCurve> = (0..n)
+            .map(|_| {
+                let o = rng.vec(2.0);
+                GuideCurve {
+                    name: None,
+                    bezier: Bezier3::new([
+                        o + rng.vec(1.0),
+                        o + rng.vec(1.0),
+                        o + rng.vec(1.0),
+                        o + rng.vec(1.0),
+                    ]),
+                    params: CurveParams {
+                        thickness: if rng.unit() < 0.5 {
+                            0.0
+                        } else {
+                            rng.range(0.0, 0.5)
+                        },
+                        ..CurveParams::default()
+                    },
+                }
+            })
+            .collect();
+        let curves = Curves::new("random", guides, None).expect("valid");
+        let model = CostModel::new(&curves, CostOptions::default());
+        for j in 0..20 {
+            let p = rng.vec(3.5);
+            let (i, cp) = model.nearest_curve(p);
+            let keys: Vec<f64> = curves
+                .curves()
+                .iter()
+                .map(|g| brute(&g.bezier, p, 4000).1 - g.params.thickness)
+                .collect();
+            let best = keys.iter().copied().fold(f64::INFINITY, f64::min);
+            let got = cp.dist - curves.curves()[i].params.thickness;
+            assert!(
+                got <= best + 1e-4 * best.abs().max(1e-5),
+                "set {k} point {j}: chose curve {i} key {got}, best key {best} ({keys:?})"
+            );
+            assert!((keys[i] - got).abs() < 1e-6, "set {k} point {j}");
+        }
+    }
+}
