@@ -14,6 +14,9 @@ use crate::shader::Kernel;
 /// constant, from the generated header).
 pub const WORKGROUP: u32 = 256;
 
+/// Storage buffers the largest kernel binds (`shaders/derive.wgsl`).
+pub const MIN_STORAGE_BUFFERS: u32 = 11;
+
 /// The shared GPU: adapter facts, device, queue, compiled pipelines.
 #[derive(Debug)]
 pub struct Gpu {
@@ -77,6 +80,12 @@ impl Gpu {
         };
         let info = adapter.get_info();
         let limits = adapter.limits();
+        if limits.max_storage_buffers_per_shader_stage < MIN_STORAGE_BUFFERS {
+            return Err(GpuError::RequestDevice(format!(
+                "{} allows {} storage buffers per shader stage; the kernels need {MIN_STORAGE_BUFFERS}",
+                info.name, limits.max_storage_buffers_per_shader_stage
+            )));
+        }
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("grm-gpu"),
             required_features: wgpu::Features::empty(),

@@ -44,3 +44,258 @@ fn example_scenes_match_the_cpu() {
         }
     }
 }
+
+/// The hand-derived context cases of tests/derive_expect/context_matching.txt
+/// (which the CPU engine's tests check against the expected strings): the
+/// GPU derives the same strings.
+#[test]
+fn hand_derived_context_cases_match_the_cpu() {
+    let g = gpu();
+    let text = std::fs::read_to_string(repo().join("tests/derive_expect/context_matching.txt"))
+        .expect("context_matching.txt");
+    let mut n = 0;
+    let mut grammar: Option<String> = None;
+    let mut last = 0u32;
+    let mut run = |src: &str, iterations: u32| {
+        let sys = inline(src).unwrap_or_else(|| panic!("case grammar checks: {src}"));
+        for it in 0..=iterations {
+            let cpu = cpu_derive(&sys, it, 0).expect("cpu derives");
+            let gpu = derive(g, &sys, &opts(&sys, it, 0)).expect("gpu derives");
+            assert_same(&format!("{src} (str {it})"), &cpu, &gpu.string);
+        }
+    };
+    for line in text.lines() {
+        if let Some(gr) = line.strip_prefix("grammar ") {
+            if let Some(prev) = grammar.take() {
+                run(&prev, last);
+                n += 1;
+            }
+            grammar = Some(gr.to_string());
+            last = 0;
+        } else if let Some(rest) = line.strip_prefix("str ") {
+            let it: u32 = rest
+                .split(' ')
+                .next()
+                .and_then(|x| x.parse().ok())
+                .expect("iteration");
+            last = last.max(it);
+        }
+    }
+    if let Some(prev) = grammar.take() {
+        run(&prev, last);
+        n += 1;
+    }
+    assert!(n >= 10, "only {n} cases");
+}
+
+/// A random grammar over counters `A B C` (one exact integer parameter:
+/// conditions, contexts and weights read them, so CPU and GPU must take the
+/// same decisions), a plain symbol `D`, and turtle terminals `F + - [ ]`
+/// whose lengths take inexact expressions (sqrt, sin, division, draws).
+struct GrammarGen {
+    rng: Rng,
+}
+
+impl GrammarGen {
+    fn pick<'a>(&mut self, xs: &[&'a str]) -> &'a str {
+        xs[self.rng.below(xs.len() as u64) as usize]
+    }
+
+    fn counter_expr(&mut self, vars: &[&str]) -> String {
+        let v = vars[self.rng.below(vars.len() as u64) as usize];
+        match self.rng.below(10) {
+            0 => format!("{v} + 1"),
+            1 => format!("{v} - 1"),
+            2 => format!("{v} * 2"),
+            3 => "randint(0, 3)".into(),
+            4 => "floor(uniform(0, 4))".into(),
+            5 => format!("if {v} > 1 then {v} - 1 else {v} + 2"),
+            6 => format!("{v} % 3"),
+            7 => format!("choose(1, 1, {v}, 2)"),
+            8 => "0".into(),
+            _ => v.to_string(),
+        }
+    }
+
+    fn length_expr(&mut self, vars: &[&str]) -> String {
+        let v = vars[self.rng.below(vars.len() as u64) as usize];
+        match self.rng.below(8) {
+            0 => format!("sqrt(abs({v}) + 1)"),
+            1 => format!("sin({v} * 10) + 2"),
+            2 => format!("{v} / 3 + 0.5"),
+            3 => "uniform(0.5, 1.5)".into(),
+            4 => "normal(1, 0.1)".into(),
+            5 => format!("pow(1.1, {v})"),
+            6 => format!("exp({v} * 0.01)"),
+            _ => "1".into(),
+        }
+    }
+
+    fn successor(&mut self, vars: &[&str], depth: u32) -> String {
+        let len = self.rng.below(6);
+        let mut out = Vec::new();
+        for _ in 0..len {
+            match self.rng.below(9) {
+                0..=2 => {
+                    let s = self.pick(&["A", "B", "C"]);
+                    out.push(format!("{s}({})", self.counter_expr(vars)));
+                }
+                3 => out.push("D".into()),
+                4 => out.push(format!("F({})", self.length_expr(vars))),
+                5 => out.push(self.pick(&["+", "-"]).into()),
+                6 if depth < 2 => out.push(format!("[ {} ]", self.successor(vars, depth + 1))),
+                _ => {
+                    let s = self.pick(&["A", "B", "C"]);
+                    out.push(format!("{s}({})", self.counter_expr(vars)));
+                }
+            }
+        }
+        out.join(" ")
+    }
+
+    fn condition(&mut self, vars: &[&str]) -> String {
+        let v = vars[self.rng.below(vars.len() as u64) as usize];
+        match self.rng.below(6) {
+            0 => format!(" : {v} < {}", self.rng.below(4)),
+            1 => format!(" : {v} >= {}", self.rng.below(4)),
+            2 => format!(" : {v} % 2 == 0"),
+            3 => " : chance(0.5)".into(),
+            4 if vars.len() > 1 => format!(" : {} > {}", vars[0], vars[vars.len() - 1]),
+            _ => String::new(),
+        }
+    }
+
+    fn grammar(&mut self, seed: u32) -> String {
+        let mut s = format!("system R {{\n    seed = {seed};\n");
+        if self.rng.below(2) == 0 {
+            s.push_str("    ignore + - F;\n");
+        }
+        s.push_str(&format!(
+            "    axiom A(0) F(1) B(1) [ C(2) ] D {};\n",
+            self.successor(&["1"], 1)
+        ));
+        let nprod = 2 + self.rng.below(6);
+        for _ in 0..nprod {
+            let pred = self.pick(&["A", "B", "C", "D", "F"]);
+            let (pat, mut vars) = match pred {
+                "D" => ("D".to_string(), vec![]),
+                "F" => ("F(l)".to_string(), vec!["l"]),
+                p => (format!("{p}(x)"), vec!["x"]),
+            };
+            let mut left = String::new();
+            let mut right = String::new();
+            if pred != "F" && self.rng.below(3) == 0 {
+                let c = self.pick(&["A", "B", "C"]);
+                left = format!("{c}(y) < ");
+                vars.push("y");
+            }
+            if pred != "F" && self.rng.below(3) == 0 {
+                let c = self.pick(&["A", "B", "C"]);
+                right = if self.rng.below(3) == 0 {
+                    format!(" > [ {c}(z) ]")
+                } else {
+                    format!(" > {c}(z)")
+                };
+                vars.push("z");
+            }
+            let vars_ref: Vec<&str> = if vars.is_empty() {
+                vec!["1"]
+            } else {
+                vars.clone()
+            };
+            if pred == "F" {
+                s.push_str(&format!(
+                    "    F(l) -> F(l * {});\n",
+                    self.pick(&["0.9", "1.1", "1.5"])
+                ));
+                continue;
+            }
+            let counters: Vec<&str> = vars_ref.iter().copied().filter(|v| *v != "l").collect();
+            let counters = if counters.is_empty() {
+                vec!["1"]
+            } else {
+                counters
+            };
+            let cond = self.condition(&counters);
+            let alts = 1 + self.rng.below(3);
+            for _ in 0..alts {
+                let weight = if alts == 1 {
+                    String::new()
+                } else {
+                    match self.rng.below(4) {
+                        0 => format!("({} + 1) ", counters[0]),
+                        1 => format!("(abs({}) + 0.5) ", counters[0]),
+                        _ => format!("({}) ", 1 + self.rng.below(3)),
+                    }
+                };
+                let succ = self.successor(&counters, 0);
+                s.push_str(&format!(
+                    "    {left}{pat}{right}{cond} -> {weight}{succ};\n"
+                ));
+            }
+        }
+        s.push_str("}\n");
+        s
+    }
+}
+
+/// Many small random grammars: the GPU gives the CPU's strings, or the
+/// CPU's runtime error (same iteration and position) when a weight or
+/// parameter goes bad.
+#[test]
+fn random_grammars_match_the_cpu() {
+    let g = gpu();
+    let mut gen_ = GrammarGen { rng: Rng(2024) };
+    let (mut compared, mut errors, mut tried) = (0, 0, 0);
+    while compared < 120 && tried < 1000 {
+        tried += 1;
+        let seed = gen_.rng.below(1000) as u32;
+        let src = gen_.grammar(seed);
+        let Some(sys) = inline(&src) else { continue };
+        // As many iterations as keep the string small.
+        let mut iterations = 0;
+        let mut cpu = cpu_derive(&sys, 0, seed);
+        for it in 1..=6 {
+            let next = cpu_derive(&sys, it, seed);
+            match &next {
+                Ok(s) if s.len() > 4000 => break,
+                _ => {}
+            }
+            iterations = it;
+            let stop = next.is_err();
+            cpu = next;
+            if stop {
+                break;
+            }
+        }
+        let gpu = derive(g, &sys, &opts(&sys, iterations, seed));
+        match (&cpu, &gpu) {
+            (Ok(c), Ok(d)) => assert_same(&src, c, &d.string),
+            (
+                Err(grm_derive::DeriveError::Runtime(e)),
+                Err(grm_gpu::GpuError::Runtime {
+                    iteration,
+                    position,
+                    ..
+                }),
+            ) => {
+                assert_eq!((e.iteration, e.position), (*iteration, *position), "{src}");
+                errors += 1;
+            }
+            _ => panic!(
+                "{src}\ncpu: {cpu:?}\ngpu: {:?}",
+                gpu.as_ref().map(|d| d.string.len())
+            ),
+        }
+        compared += 1;
+    }
+    eprintln!("random grammars: {compared} compared of {tried} generated, {errors} runtime errors");
+    assert!(
+        compared >= 120,
+        "only {compared} of {tried} random grammars checked"
+    );
+    assert!(
+        errors > 0 && errors < compared / 2,
+        "{errors} of {compared} ended in runtime errors"
+    );
+}
