@@ -56,7 +56,7 @@ fn hand_derived_context_cases_match_the_cpu() {
     let mut n = 0;
     let mut grammar: Option<String> = None;
     let mut last = 0u32;
-    let mut run = |src: &str, iterations: u32| {
+    let run = |src: &str, iterations: u32| {
         let sys = inline(src).unwrap_or_else(|| panic!("case grammar checks: {src}"));
         for it in 0..=iterations {
             let cpu = cpu_derive(&sys, it, 0).expect("cpu derives");
