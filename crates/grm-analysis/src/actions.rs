@@ -1,0 +1,410 @@
+//! Code actions: the quick fixes for diagnostics whose fix is known, read
+//! from the diagnostic's code, span and help line ("did you mean `x`?",
+//! "prefix it with `_`", "add one, e.g. `wrapup A -> ;`", ...).
+
+use crate::{FileAnalysis, Span, TextEdit, clamp};
+use grm_diag::Code;
+use grm_syntax::ast::{Item, Phase, SystemItem};
+
+/// A quick fix: edits of the analysed file that resolve one diagnostic.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct CodeAction {
+    pub title: String,
+    /// The code and primary span of the diagnostic it fixes.
+    pub code: &'static str,
+    pub diagnostic: Span,
+    pub edits: Vec<TextEdit>,
+    /// The fix an editor may apply without asking ("fix all").
+    pub preferred: bool,
+}
+
+/// Text between the backticks following `after` in `help`.
+fn quoted_after<'a>(help: &'a str, after: &str) -> Option<&'a str> {
+    let i = help.find(after)? + after.len();
+    let rest = &help[i..];
+    let a = rest.find('`')? + 1;
+    let b = rest[a..].find('`')? + a;
+    Some(&rest[a..b])
+}
+
+/// Every backticked part of `help`.
+fn quoted(help: &str) -> Vec<&str> {
+    help.split('`').skip(1).step_by(2).collect()
+}
+
+fn edit(span: Span, new_text: impl Into<String>) -> TextEdit {
+    TextEdit {
+        span,
+        new_text: new_text.into(),
+    }
+}
+
+impl FileAnalysis {
+    /// Quick fixes for the diagnostics of this file whose primary span
+    /// touches `range`.
+    pub fn code_actions(&self, range: Span) -> Vec<CodeAction> {
+        let mut out = Vec::new();
+        for d in &self.checked.diagnostics {
+            let p = d.primary();
+            if p.file != self.root {
+                continue;
+            }
+            let span = clamp(p.span, self.text());
+            if span.end < range.start || span.start > range.end {
+                continue;
+            }
+            let help = d.help.as_deref().unwrap_or("");
+            let code = d.code.as_str();
+            let mut push = |title: String, edits: Vec<TextEdit>, preferred: bool| {
+                if !edits.is_empty() {
+                    out.push(CodeAction {
+                        title,
+                        code,
+                        diagnostic: span,
+                        edits,
+                        preferred,
+                    });
+                }
+            };
+            // "did you mean `x`?": replace the misspelt name.
+            if let Some(s) = quoted_after(help, "did you mean")
+                && crate::nav::valid_identifier(self.slice(span)).is_ok()
+            {
+                push(format!("Replace with `{s}`"), vec![edit(span, s)], true);
+            }
+            match d.code {
+                Code::UnexpectedToken if d.message == "expected `;`" => {
+                    push(
+                        "Insert `;`".into(),
+                        vec![edit(Span::new(span.end, span.end), ";")],
+                        true,
+                    );
+                }
+                Code::UnusedParameter | Code::UnusedDefinition => {
+                    let name = self.slice(span);
+                    if crate::nav::valid_identifier(name).is_ok() {
+                        push(
+                            format!("Prefix `{name}` with `_`"),
+                            vec![edit(Span::new(span.start, span.start), "_")],
+                            true,
+                        );
+                    }
+                }
+                Code::InvalidCharacter => {
+                    push(
+                        "Remove the invalid characters".into(),
+                        vec![edit(span, "")],
+                        true,
+                    );
+                }
+                Code::UnterminatedString => {
+                    push(
+                        "Close the string".into(),
+                        vec![edit(Span::new(span.end, span.end), "\"")],
+                        true,
+                    );
+                }
+                Code::UnterminatedComment => {
+                    let end = self.text().len() as u32;
+                    push(
+                        "Close the comment".into(),
+                        vec![edit(Span::new(end, end), " */")],
+                        true,
+                    );
+                }
+                Code::MissingWrapup => {
+                    if let Some(stmt) = quoted_after(help, "e.g.") {
+                        push(
+                            format!("Add `{stmt}`"),
+                            self.insert_at_system_end(span, stmt),
+                            true,
+                        );
+                    }
+                }
+                Code::MissingPhase | Code::UnknownName => {
+                    for stmt in quoted(help) {
+                        let mut words = stmt.trim_end_matches(';').split_whitespace();
+                        let (Some(kw), Some(name), None) =
+                            (words.next(), words.next(), words.next())
+                        else {
+                            continue;
+                        };
+                        let phase = match kw {
+                            "skeleton" => Phase::Skeleton,
+                            "geometry" => Phase::Geometry,
+                            "module" => Phase::None,
+                            _ => continue,
+                        };
+                        push(
+                            format!("Declare `{name}` as {kw}"),
+                            self.declare(span, phase, name),
+                            false,
+                        );
+                    }
+                }
+                Code::MissingAxiom => {
+                    let sys = self.ast_system(span);
+                    let first = sys.and_then(|s| {
+                        s.items.iter().find_map(|i| match i {
+                            SystemItem::Production(p) => Some(p.pred.symbol.name.clone()),
+                            _ => None,
+                        })
+                    });
+                    if let Some(name) = first {
+                        let stmt = format!("axiom {name};");
+                        push(
+                            format!("Add `{stmt}`"),
+                            self.insert_statement(span, &stmt),
+                            true,
+                        );
+                    }
+                }
+                Code::DuplicateSetting => {
+                    if let Some(s) = self.statement_span(span) {
+                        push(
+                            "Remove this statement".into(),
+                            vec![self.delete_lines(s)],
+                            true,
+                        );
+                    }
+                }
+                Code::WrapupNotSkeleton => {
+                    if self
+                        .text()
+                        .get(span.range())
+                        .is_some_and(|t| t.starts_with("wrapup"))
+                    {
+                        let mut end = span.start + 6;
+                        while self.text().as_bytes().get(end as usize) == Some(&b' ') {
+                            end += 1;
+                        }
+                        push(
+                            "Remove `wrapup`".into(),
+                            vec![edit(Span::new(span.start, end), "")],
+                            true,
+                        );
+                    } else if let Some(p) = self.production_at(span) {
+                        let mut end = p.start + 6;
+                        while self.text().as_bytes().get(end as usize) == Some(&b' ') {
+                            end += 1;
+                        }
+                        push(
+                            "Remove `wrapup`".into(),
+                            vec![edit(Span::new(p.start, end), "")],
+                            true,
+                        );
+                    }
+                }
+                Code::WrapupInDerive => {
+                    if let Some(p) = self.production_at(span) {
+                        push(
+                            "Remove this production".into(),
+                            vec![self.delete_lines(p)],
+                            false,
+                        );
+                    }
+                }
+                _ => {}
+            }
+            if help.contains("`mode = sample;`") {
+                push(
+                    "Set `mode = sample;`".into(),
+                    self.set_mode_sample(span),
+                    false,
+                );
+            }
+        }
+        out
+    }
+
+    /// The system of the syntax tree containing `span`.
+    fn ast_system(&self, span: Span) -> Option<&grm_syntax::ast::System> {
+        self.parsed.file.items.iter().find_map(|i| match i {
+            Item::System(s) if s.span.start <= span.start && span.start <= s.span.end => Some(s),
+            _ => None,
+        })
+    }
+
+    /// The production containing `span`.
+    fn production_at(&self, span: Span) -> Option<Span> {
+        self.ast_system(span)?.items.iter().find_map(|i| match i {
+            SystemItem::Production(p) if p.span.start <= span.start && span.end <= p.span.end => {
+                Some(p.span)
+            }
+            _ => None,
+        })
+    }
+
+    /// The statement (system item or material field) containing `span`.
+    fn statement_span(&self, span: Span) -> Option<Span> {
+        for item in &self.parsed.file.items {
+            match item {
+                Item::System(s) => {
+                    for i in &s.items {
+                        let is = i.span();
+                        if is.start <= span.start && span.end <= is.end {
+                            return Some(is);
+                        }
+                    }
+                }
+                Item::Material(m) => {
+                    for f in &m.fields {
+                        if f.span.start <= span.start && span.end <= f.span.end {
+                            return Some(f.span);
+                        }
+                    }
+                }
+                _ => {}
+            }
+        }
+        None
+    }
+
+    /// Delete a statement; with its whole line when nothing else is on it.
+    fn delete_lines(&self, s: Span) -> TextEdit {
+        let t = self.text();
+        let ls = t[..s.start as usize].rfind('\n').map_or(0, |i| i + 1);
+        let le = t[s.end as usize..]
+            .find('\n')
+            .map_or(t.len(), |i| s.end as usize + i + 1);
+        let alone =
+            t[ls..s.start as usize].trim().is_empty() && t[s.end as usize..le].trim().is_empty();
+        if alone {
+            edit(Span::from_range(ls..le), "")
+        } else {
+            edit(s, "")
+        }
+    }
+
+    /// The indentation of the statements of a system.
+    fn indent_of(&self, sys: &grm_syntax::ast::System) -> String {
+        let t = self.text();
+        sys.items
+            .first()
+            .map(|i| {
+                let st = i.span().start as usize;
+                let ls = t[..st].rfind('\n').map_or(0, |j| j + 1);
+                let pre = &t[ls..st];
+                if pre.trim().is_empty() {
+                    pre.to_string()
+                } else {
+                    "    ".to_string()
+                }
+            })
+            .unwrap_or_else(|| "    ".into())
+    }
+
+    /// Insert a statement before the closing `}` of the system containing `at`.
+    fn insert_at_system_end(&self, at: Span, stmt: &str) -> Vec<TextEdit> {
+        let Some(sys) = self.ast_system(at) else {
+            return Vec::new();
+        };
+        let t = self.text();
+        let body = self.slice(sys.span);
+        if !body.ends_with('}') {
+            let end = sys.span.end;
+            return vec![edit(
+                Span::new(end, end),
+                format!("\n{}{stmt}\n", self.indent_of(sys)),
+            )];
+        }
+        let close = sys.span.end as usize - 1;
+        let ls = t[..close].rfind('\n').map_or(0, |i| i + 1);
+        if t[ls..close].trim().is_empty() && ls > sys.span.start as usize {
+            let at = ls as u32;
+            vec![edit(
+                Span::new(at, at),
+                format!("{}{stmt}\n", self.indent_of(sys)),
+            )]
+        } else {
+            let at = close as u32;
+            vec![edit(Span::new(at, at), format!("{stmt} "))]
+        }
+    }
+
+    /// Insert a statement before the first production of the system
+    /// containing `at` (or at its end when it has none).
+    fn insert_statement(&self, at: Span, stmt: &str) -> Vec<TextEdit> {
+        let Some(sys) = self.ast_system(at) else {
+            return Vec::new();
+        };
+        let t = self.text();
+        let first = sys.items.iter().find_map(|i| match i {
+            SystemItem::Production(p) => Some(p.span.start as usize),
+            _ => None,
+        });
+        match first {
+            Some(st) => {
+                let ls = t[..st].rfind('\n').map_or(0, |j| j + 1);
+                if t[ls..st].trim().is_empty() {
+                    let at = ls as u32;
+                    vec![edit(
+                        Span::new(at, at),
+                        format!("{}{stmt}\n", self.indent_of(sys)),
+                    )]
+                } else {
+                    let at = st as u32;
+                    vec![edit(Span::new(at, at), format!("{stmt} "))]
+                }
+            }
+            None => self.insert_at_system_end(at, stmt),
+        }
+    }
+
+    /// Declare `name` with a phase: appended to an existing declaration of
+    /// that phase in the system, or as a new statement.
+    fn declare(&self, at: Span, phase: Phase, name: &str) -> Vec<TextEdit> {
+        let Some(sys) = self.ast_system(at) else {
+            return Vec::new();
+        };
+        let existing = sys.items.iter().find_map(|i| match i {
+            SystemItem::ModuleDecl(d) if d.phase == phase => d.modules.last().map(|m| m.span.end),
+            _ => None,
+        });
+        match existing {
+            Some(end) => vec![edit(Span::new(end, end), format!(", {name}"))],
+            None => {
+                let kw = match phase {
+                    Phase::None => "module",
+                    Phase::Skeleton => "skeleton",
+                    Phase::Geometry => "geometry",
+                };
+                self.insert_statement(at, &format!("{kw} {name};"))
+            }
+        }
+    }
+
+    /// Set `mode = sample;` in the system containing `at`.
+    fn set_mode_sample(&self, at: Span) -> Vec<TextEdit> {
+        let Some(sys) = self.ast_system(at) else {
+            return Vec::new();
+        };
+        for i in &sys.items {
+            if let SystemItem::Setting(s) = i
+                && s.name.name == "mode"
+            {
+                return vec![edit(s.value.span, "sample")];
+            }
+        }
+        // After the opening brace's line.
+        let t = self.text();
+        let Some(brace) = t[sys.span.range()].find('{') else {
+            return Vec::new();
+        };
+        let brace = sys.span.start as usize + brace;
+        let nl = t[brace..].find('\n').map(|i| brace + i + 1);
+        match nl {
+            Some(ls) if ls < sys.span.end as usize => {
+                let at = ls as u32;
+                vec![edit(
+                    Span::new(at, at),
+                    format!("{}mode = sample;\n", self.indent_of(sys)),
+                )]
+            }
+            _ => {
+                let at = brace as u32 + 1;
+                vec![edit(Span::new(at, at), " mode = sample;")]
+            }
+        }
+    }
+}

@@ -1,0 +1,321 @@
+//! Navigation: go to definition, find references, rename.
+//!
+//! A definition is identified across files by where it is written (path
+//! and span), so references and renames also reach the open documents that
+//! import the defining file.
+
+use crate::{Analysis, FileAnalysis, FileEdits, Location, Span, docs};
+use grm_diag::FileId;
+use grm_sema::{Def, Loc, Program, Ref, SymbolKind};
+use grm_syntax::ast::Item;
+use grm_syntax::lexer::TokKind;
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+/// Why a rename is refused.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RenameError(pub String);
+
+impl std::fmt::Display for RenameError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl FileAnalysis {
+    /// The name occurrence under a byte offset of the analysed file.
+    pub(crate) fn ref_at(&self, offset: u32) -> Option<&Ref> {
+        self.checked.program.index.at(self.root, offset)
+    }
+
+    /// Whether a definition is something the user wrote (not a built-in
+    /// terminal).
+    pub(crate) fn is_user_def(&self, def: Def) -> bool {
+        match def {
+            Def::Symbol(sid, id) => self
+                .checked
+                .program
+                .systems
+                .get(sid.index())
+                .and_then(|s| s.symbols.get(id.index()))
+                .is_some_and(|s| s.kind == SymbolKind::User),
+            _ => true,
+        }
+    }
+
+    /// Where a definition is written, for user definitions.
+    pub(crate) fn def_loc(&self, def: Def) -> Option<Loc> {
+        if !self.is_user_def(def) {
+            return None;
+        }
+        self.checked.program.index.definition(def)
+    }
+
+    fn path_of(&self, file: FileId) -> PathBuf {
+        PathBuf::from(&self.sources.get(file).path)
+    }
+
+    /// Go to definition: the definition of the name under `offset`, or the
+    /// file an `import` under `offset` names.
+    pub fn definition(&self, offset: u32) -> Option<Location> {
+        if let Some(r) = self.ref_at(offset) {
+            let loc = self.def_loc(r.def)?;
+            return Some(self.loc(loc.file, loc.span));
+        }
+        // An import path: jump to the imported file.
+        for item in &self.parsed.file.items {
+            if let Item::Import(imp) = item
+                && (imp.path.span.contains(offset) || imp.path.span.end == offset)
+            {
+                let dir = Path::new(&self.source().path)
+                    .parent()
+                    .unwrap_or(Path::new(""))
+                    .to_path_buf();
+                let target = grm_sema::normalize(&dir.join(&imp.path.value))
+                    .to_string_lossy()
+                    .replace('\\', "/");
+                let fid = self.sources.find(&target)?;
+                return Some(self.loc(fid, Span::new(0, 0)));
+            }
+        }
+        None
+    }
+
+    /// The definition under `offset` as (path, span) of where it is written.
+    fn def_key(&self, offset: u32) -> Option<(Def, PathBuf, Span)> {
+        let r = self.ref_at(offset)?;
+        let loc = self.def_loc(r.def)?;
+        Some((r.def, self.path_of(loc.file), loc.span))
+    }
+
+    /// This program's definition written at (path, span), if it sees it.
+    fn def_written_at(&self, path: &Path, span: Span) -> Option<Def> {
+        let file = self.sources.find(&path.to_string_lossy())?;
+        let prog: &Program = &self.checked.program;
+        prog.index
+            .refs
+            .iter()
+            .find(|r| r.is_def && r.loc.file == file && r.loc.span == span)
+            .map(|r| r.def)
+            .filter(|d| self.is_user_def(*d))
+    }
+
+    /// Every occurrence of `def` in this program (including its definition
+    /// when `include_decl`).
+    fn occurrences(&self, def: Def, include_decl: bool) -> Vec<Location> {
+        let def_loc = self.def_loc(def);
+        self.checked
+            .program
+            .index
+            .occurrences(def)
+            .filter(|r| include_decl || Some(r.loc) != def_loc)
+            .map(|r| self.loc(r.loc.file, r.loc.span))
+            .collect()
+    }
+
+    /// References within this file's program (the file and its imports).
+    pub fn references(&self, offset: u32, include_decl: bool) -> Vec<Location> {
+        let Some(r) = self.ref_at(offset) else {
+            return Vec::new();
+        };
+        if !self.is_user_def(r.def) {
+            return Vec::new();
+        }
+        let mut v = self.occurrences(r.def, include_decl);
+        v.sort_by(|a, b| (&a.path, a.span).cmp(&(&b.path, b.span)));
+        v.dedup();
+        v
+    }
+
+    /// Whether the name under `offset` can be renamed: its span and current
+    /// text, or why not.
+    pub fn prepare_rename(&self, offset: u32) -> Result<(Span, String), RenameError> {
+        let Some(r) = self.ref_at(offset) else {
+            return Err(RenameError("no renameable name here".into()));
+        };
+        if !self.is_user_def(r.def) {
+            return Err(RenameError(format!(
+                "`{}` is a built-in terminal and cannot be renamed",
+                self.slice(r.loc.span)
+            )));
+        }
+        if self.def_loc(r.def).is_none() {
+            return Err(RenameError("cannot find where this name is defined".into()));
+        }
+        Ok((r.loc.span, self.slice(r.loc.span).to_string()))
+    }
+
+    /// Why renaming `def` to `new` would change the program's meaning or
+    /// break it, if it would.
+    fn rename_conflict(&self, def: Def, new: &str) -> Option<String> {
+        let p = &self.checked.program;
+        let global_taken = p.consts.iter().any(|c| c.name == new)
+            || p.params.iter().any(|c| c.name == new)
+            || p.meshes.iter().any(|c| c.name == new)
+            || p.materials.iter().any(|c| c.name == new);
+        match def {
+            Def::Symbol(sid, _) => {
+                if docs::lookup(new, docs::DocKind::Terminal).is_some() {
+                    return Some(format!("`{new}` is a built-in terminal"));
+                }
+                let sys = p.systems.get(sid.index())?;
+                if sys.symbol_by_name(new).is_some() {
+                    return Some(format!(
+                        "system `{}` already has a symbol `{new}`",
+                        sys.name
+                    ));
+                }
+            }
+            Def::System(_) => {
+                if p.systems.iter().any(|s| s.name == new) {
+                    return Some(format!("a system `{new}` already exists"));
+                }
+            }
+            Def::Const(_) | Def::Param(_) | Def::Mesh(_) | Def::Material(_) => {
+                if global_taken {
+                    return Some(format!("`{new}` is already defined"));
+                }
+                // A use inside a production that binds `new` would be
+                // captured by the binding.
+                for r in p.index.occurrences(def) {
+                    for sys in p.systems.iter().filter(|s| s.file == r.loc.file) {
+                        for g in &sys.groups {
+                            for a in &g.alternatives {
+                                if a.span.contains(r.loc.span.start)
+                                    && a.bindings.iter().any(|b| b.name == new)
+                                {
+                                    return Some(format!(
+                                        "a use is inside a production that binds `{new}`"
+                                    ));
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+            Def::Binding { binding } => {
+                for sys in p.systems.iter().filter(|s| s.file == binding.file) {
+                    for g in &sys.groups {
+                        for a in &g.alternatives {
+                            if !a.bindings.iter().any(|b| b.span == binding.span) {
+                                continue;
+                            }
+                            if a.bindings.iter().any(|b| b.name == new) {
+                                return Some(format!("this production already binds `{new}`"));
+                            }
+                            // A global of that name used in this production
+                            // would be shadowed.
+                            let shadowed = p.index.refs.iter().any(|r| {
+                                r.loc.file == binding.file
+                                    && a.span.contains(r.loc.span.start)
+                                    && matches!(
+                                        r.def,
+                                        Def::Const(_)
+                                            | Def::Param(_)
+                                            | Def::Mesh(_)
+                                            | Def::Material(_)
+                                    )
+                                    && self.sources.get(r.loc.file).text.get(r.loc.span.range())
+                                        == Some(new)
+                            });
+                            if shadowed {
+                                return Some(format!(
+                                    "this production uses the global `{new}`, which the parameter would hide"
+                                ));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        None
+    }
+}
+
+/// Whether `s` is a plain identifier (and not a reserved word).
+pub(crate) fn valid_identifier(s: &str) -> Result<(), RenameError> {
+    let lexed = grm_syntax::lexer::lex(FileId(0), s);
+    let one_ident = lexed.diagnostics.is_empty()
+        && lexed.comments.is_empty()
+        && lexed.tokens.len() == 1
+        && lexed.tokens[0].kind == TokKind::Ident
+        && lexed.tokens[0].span.range() == (0..s.len());
+    if docs::is_keyword(s) {
+        return Err(RenameError(format!("`{s}` is a reserved word")));
+    }
+    if !one_ident {
+        return Err(RenameError(format!("`{s}` is not a valid name")));
+    }
+    Ok(())
+}
+
+impl Analysis {
+    /// References to the name under `offset` of `path`, in every open
+    /// document (and their imports) that sees the same definition.
+    pub fn references(&mut self, path: &Path, offset: u32, include_decl: bool) -> Vec<Location> {
+        let Some(fa) = self.analyze(path) else {
+            return Vec::new();
+        };
+        let Some((def, dpath, dspan)) = fa.def_key(offset) else {
+            return Vec::new();
+        };
+        let mut out: BTreeSet<(PathBuf, u32, u32)> = BTreeSet::new();
+        let mut locs = Vec::new();
+        let mut push = |v: Vec<Location>, locs: &mut Vec<Location>| {
+            for l in v {
+                if out.insert((l.path.clone(), l.span.start, l.span.end)) {
+                    locs.push(l);
+                }
+            }
+        };
+        push(fa.occurrences(def, include_decl), &mut locs);
+        if !matches!(def, Def::Binding { .. }) {
+            for doc in self.documents() {
+                if grm_sema::normalize(path) == doc {
+                    continue;
+                }
+                let Some(other) = self.analyze(&doc) else {
+                    continue;
+                };
+                if let Some(d) = other.def_written_at(&dpath, dspan) {
+                    push(other.occurrences(d, include_decl), &mut locs);
+                }
+            }
+        }
+        locs.sort_by(|a, b| (&a.path, a.span).cmp(&(&b.path, b.span)));
+        locs
+    }
+
+    /// Rename the name under `offset` of `path` to `new_name` everywhere it
+    /// is seen (see [`Analysis::references`]).
+    pub fn rename(
+        &mut self,
+        path: &Path,
+        offset: u32,
+        new_name: &str,
+    ) -> Result<Vec<FileEdits>, RenameError> {
+        let fa = self
+            .analyze(path)
+            .ok_or_else(|| RenameError("the file cannot be read".into()))?;
+        fa.prepare_rename(offset)?;
+        valid_identifier(new_name)?;
+        let (def, _, _) = fa
+            .def_key(offset)
+            .ok_or_else(|| RenameError("no renameable name here".into()))?;
+        if let Some(why) = fa.rename_conflict(def, new_name) {
+            return Err(RenameError(format!("cannot rename to `{new_name}`: {why}")));
+        }
+        let locs = self.references(path, offset, true);
+        let mut out: Vec<FileEdits> = Vec::new();
+        for l in locs {
+            match out.iter_mut().find(|f| f.path == l.path) {
+                Some(f) => f.edits.push((l, new_name.to_string())),
+                None => out.push(FileEdits {
+                    path: l.path.clone(),
+                    edits: vec![(l, new_name.to_string())],
+                }),
+            }
+        }
+        Ok(out)
+    }
+}

@@ -1,0 +1,484 @@
+//! Analysis-level tests: each query on small files held in memory.
+
+use grm_analysis::*;
+use grm_sema::MemLoader;
+use std::path::Path;
+use std::sync::Arc;
+
+const PLANT: &str = "// Branch length scale.
+const SHRINK = 0.5 + 0.25;
+param spread = 30 in 10 .. 60;
+
+system Plant {
+    iterations = 3;
+    angle = spread;
+    axiom A(1);
+    A(l) : l > 0.1 -> (2) F(l) [ + A(l * SHRINK) ] A(l * SHRINK);
+    A(l) : l > 0.1 -> (1) F(l) [ - A(l * SHRINK) ];
+    B(x, y) -> F(sin(y));
+}
+";
+
+fn analyze(text: &str) -> Arc<FileAnalysis> {
+    let mut a = Analysis::new(Arc::new(MemLoader::new()));
+    a.set_document(Path::new("main.grm"), 1, text);
+    a.analyze(Path::new("main.grm")).unwrap()
+}
+
+/// Byte offset of the `n`-th occurrence of `needle` (plus `delta`).
+fn at(text: &str, needle: &str, n: usize, delta: u32) -> u32 {
+    let mut from = 0;
+    let mut pos = 0;
+    for _ in 0..=n {
+        pos = from + text[from..].find(needle).expect(needle);
+        from = pos + 1;
+    }
+    pos as u32 + delta
+}
+
+#[test]
+fn diagnostics_carry_code_help_and_span() {
+    let fa = analyze("system S { axiom A; A -> B(1); B(x) -> F; }");
+    let d = fa.diagnostics();
+    assert_eq!(d.len(), 1, "{d:?}");
+    assert_eq!(d[0].code, "W0001");
+    assert!(d[0].unnecessary);
+    assert!(
+        d[0].message.contains("help: prefix it with `_`"),
+        "{}",
+        d[0].message
+    );
+    assert_eq!(&fa.text()[d[0].span.range()], "x");
+}
+
+#[test]
+fn hover_shows_types_values_docs_and_probabilities() {
+    let fa = analyze(PLANT);
+    // A constant's folded value and its leading comment.
+    let h = fa.hover(at(PLANT, "SHRINK", 1, 1)).unwrap();
+    assert!(h.markdown.contains("const SHRINK: float"), "{}", h.markdown);
+    assert!(h.markdown.contains("value: `0.75`"), "{}", h.markdown);
+    assert!(
+        h.markdown.contains("Branch length scale."),
+        "{}",
+        h.markdown
+    );
+    // A meta-parameter with its range.
+    let h = fa.hover(at(PLANT, "spread", 1, 0)).unwrap();
+    assert!(
+        h.markdown.contains("param spread: float = 30 in 10 .. 60"),
+        "{}",
+        h.markdown
+    );
+    // A module parameter's inferred type.
+    let h = fa.hover(at(PLANT, "l * SHRINK", 0, 0)).unwrap();
+    assert!(h.markdown.contains("l: float"), "{}", h.markdown);
+    assert!(h.markdown.contains("parameter of `A`"), "{}", h.markdown);
+    // A turtle command's documentation.
+    let h = fa.hover(at(PLANT, "F(l)", 0, 0)).unwrap();
+    assert!(h.markdown.contains("turtle command"), "{}", h.markdown);
+    assert!(h.markdown.contains("carries (float)"), "{}", h.markdown);
+    // A built-in function.
+    let h = fa.hover(at(PLANT, "sin", 0, 1)).unwrap();
+    assert!(
+        h.markdown.contains("sin(a: float) -> float"),
+        "{}",
+        h.markdown
+    );
+    // Each alternative's probability, on the predecessor and on the weight.
+    let h = fa.hover(at(PLANT, "A(l) :", 1, 0)).unwrap();
+    assert!(h.markdown.contains("33.3%"), "{}", h.markdown);
+    assert!(h.markdown.contains("66.7%"), "{}", h.markdown);
+    let h = fa.hover(at(PLANT, "(2)", 0, 1)).unwrap();
+    assert!(h.markdown.contains("66.7%"), "{}", h.markdown);
+    // A setting: documentation and value.
+    let h = fa.hover(at(PLANT, "iterations", 0, 2)).unwrap();
+    assert!(h.markdown.contains("rewriting steps"), "{}", h.markdown);
+    assert!(h.markdown.contains("value: `3`"), "{}", h.markdown);
+    // A keyword.
+    let h = fa.hover(at(PLANT, "axiom", 0, 1)).unwrap();
+    assert!(h.markdown.contains("start string"), "{}", h.markdown);
+    // An expression's type.
+    let h = fa.hover(at(PLANT, "0.1", 0, 1)).unwrap();
+    assert!(h.markdown.contains("`float`"), "{}", h.markdown);
+    // Nothing in comments.
+    assert!(fa.hover(2).is_none());
+}
+
+#[test]
+fn definition_and_references() {
+    let fa = analyze(PLANT);
+    let use_at = at(PLANT, "SHRINK", 2, 0);
+    let def = fa.definition(use_at).unwrap();
+    assert_eq!(def.span.start, at(PLANT, "SHRINK", 0, 0));
+    assert_eq!(def.start.line, 1);
+    let refs = fa.references(use_at, true);
+    assert_eq!(refs.len(), 4);
+    let refs = fa.references(use_at, false);
+    assert_eq!(refs.len(), 3);
+    // Terminals have no definition.
+    assert!(fa.definition(at(PLANT, "F(l)", 0, 0)).is_none());
+    // A binding's definition is in its predecessor.
+    let d = fa.definition(at(PLANT, "sin(y)", 0, 4)).unwrap();
+    assert_eq!(d.span.start, at(PLANT, "y)", 0, 0));
+}
+
+#[test]
+fn references_and_rename_across_open_documents() {
+    let mut a = Analysis::new(Arc::new(MemLoader::new()));
+    let lib = "const K = 2;\n";
+    let main = "import \"lib.grm\";\nsystem S { axiom F(K); }\n";
+    let other = "import \"lib.grm\";\nsystem T { axiom F(K * K); }\n";
+    a.set_document(Path::new("lib.grm"), 1, lib);
+    a.set_document(Path::new("main.grm"), 1, main);
+    a.set_document(Path::new("other.grm"), 1, other);
+    let refs = a.references(Path::new("main.grm"), at(main, "K", 0, 0), true);
+    let files: Vec<String> = refs.iter().map(|l| l.path.display().to_string()).collect();
+    assert_eq!(files, ["lib.grm", "main.grm", "other.grm", "other.grm"]);
+    let edits = a
+        .rename(Path::new("main.grm"), at(main, "K", 0, 0), "Scale")
+        .unwrap();
+    assert_eq!(edits.len(), 3);
+    assert!(
+        edits
+            .iter()
+            .all(|f| f.edits.iter().all(|(_, t)| t == "Scale"))
+    );
+    // Unsaved edits of an imported document are seen by its importers.
+    a.set_document(Path::new("lib.grm"), 2, "const K = 2;\nconst J = 3;\n");
+    let fa = a.analyze(Path::new("main.grm")).unwrap();
+    assert!(
+        fa.diagnostics().iter().any(|d| d.code == "W0004") || fa.checked.program.consts.len() == 2
+    );
+}
+
+#[test]
+fn rename_validity() {
+    let fa = analyze(PLANT);
+    assert!(fa.prepare_rename(at(PLANT, "F(l)", 0, 0)).is_err());
+    assert!(fa.prepare_rename(at(PLANT, "iterations", 0, 0)).is_err());
+    let (span, text) = fa.prepare_rename(at(PLANT, "A(1)", 0, 0)).unwrap();
+    assert_eq!(text, "A");
+    assert_eq!(span.len(), 1);
+    let mut a = Analysis::new(Arc::new(MemLoader::new()));
+    a.set_document(Path::new("main.grm"), 1, PLANT);
+    let p = Path::new("main.grm");
+    let a_at = at(PLANT, "A(1)", 0, 0);
+    assert!(a.rename(p, a_at, "F").is_err(), "terminal name");
+    assert!(a.rename(p, a_at, "B").is_err(), "existing symbol");
+    assert!(a.rename(p, a_at, "axiom").is_err(), "keyword");
+    assert!(a.rename(p, a_at, "two words").is_err(), "not a name");
+    let ok = a.rename(p, a_at, "Apex").unwrap();
+    assert_eq!(ok[0].edits.len(), 6);
+    // A binding may not be renamed to a global it would hide.
+    let l_at = at(PLANT, "l) :", 0, 0);
+    assert!(a.rename(p, l_at, "SHRINK").is_err());
+    assert_eq!(a.rename(p, l_at, "len").unwrap()[0].edits.len(), 5);
+    // A constant may not be captured by a binding.
+    assert!(a.rename(p, at(PLANT, "SHRINK", 0, 0), "l").is_err());
+}
+
+#[test]
+fn completion_by_context() {
+    let text = "const K = 1;\nsystem S {\n    axiom A(1);\n    A(len) : len > 0 -> F(le) A(len * K) ;\n    \n}\n";
+    let fa = analyze(text);
+    let labels =
+        |o: u32| -> Vec<String> { fa.completion(o).into_iter().map(|c| c.label).collect() };
+    // In a module argument: bindings, constants, functions.
+    let l = labels(at(text, "le)", 0, 2));
+    assert!(l.contains(&"len".to_string()), "{l:?}");
+    assert!(l.contains(&"K".to_string()), "{l:?}");
+    assert!(l.contains(&"uniform".to_string()), "{l:?}");
+    assert!(!l.contains(&"iterations".to_string()), "{l:?}");
+    // In the successor: symbols and turtle commands.
+    let l = labels(at(text, "A(len * K)", 0, 0));
+    assert!(
+        l.contains(&"A".to_string()) && l.contains(&"F".to_string()),
+        "{l:?}"
+    );
+    assert!(l.contains(&"cylinder".to_string()), "{l:?}");
+    // At a statement start: settings, keywords, the production snippet.
+    let l = labels(at(text, "    \n}", 0, 4));
+    assert!(l.contains(&"iterations".to_string()), "{l:?}");
+    assert!(l.contains(&"axiom".to_string()), "{l:?}");
+    assert!(l.contains(&"production".to_string()), "{l:?}");
+    // At the top level: item keywords.
+    let l = labels(0);
+    assert!(
+        l.contains(&"system".to_string()) && l.contains(&"import".to_string()),
+        "{l:?}"
+    );
+}
+
+#[test]
+fn signature_help_for_builtins_and_terminals() {
+    let text = "system S { axiom A; A -> F(mix(1, 2, 0.5)) cylinder(1, 2); }";
+    let fa = analyze(text);
+    let s = fa.signature_help(at(text, "2, 0.5", 0, 0)).unwrap();
+    assert_eq!(s.signatures[0].label, "mix(a: T, b: T, t: float) -> T");
+    assert_eq!(s.active_parameter, 1);
+    let s = fa.signature_help(at(text, "2); }", 0, 0)).unwrap();
+    assert_eq!(s.signatures[0].label, "cylinder(r: float, h: float)");
+    assert_eq!(s.active_parameter, 1);
+    assert!(fa.signature_help(at(text, "axiom", 0, 0)).is_none());
+}
+
+#[test]
+fn document_symbols_nest_systems() {
+    let fa = analyze(PLANT);
+    let s = fa.document_symbols();
+    let names: Vec<&str> = s.iter().map(|n| n.name.as_str()).collect();
+    assert_eq!(names, ["SHRINK", "spread", "Plant"]);
+    let plant = &s[2];
+    assert_eq!(plant.kind, SymbolKind::System);
+    let kids: Vec<(&str, SymbolKind)> = plant
+        .children
+        .iter()
+        .map(|c| (c.name.as_str(), c.kind))
+        .collect();
+    assert_eq!(kids[0], ("iterations", SymbolKind::Setting));
+    assert_eq!(kids[2], ("axiom", SymbolKind::Axiom));
+    assert_eq!(kids[3], ("A(l) : l > 0.1", SymbolKind::Production));
+    assert_eq!(kids.len(), 6);
+}
+
+#[test]
+fn workspace_symbols_search_open_documents() {
+    let mut a = Analysis::new(Arc::new(MemLoader::new()));
+    a.set_document(Path::new("a.grm"), 1, PLANT);
+    a.set_document(Path::new("b.grm"), 1, "system Other { axiom Apex; }");
+    let found: Vec<String> = a
+        .workspace_symbols("pl")
+        .into_iter()
+        .map(|s| s.name)
+        .collect();
+    assert_eq!(found, ["Plant"]);
+    let found = a.workspace_symbols("ap");
+    assert_eq!(found.len(), 1);
+    assert_eq!(found[0].container.as_deref(), Some("Other"));
+}
+
+#[test]
+fn semantic_tokens_classify_every_token() {
+    let fa = analyze(PLANT);
+    let toks = fa.semantic_tokens();
+    let kind_of = |needle: &str, n: usize| {
+        let o = at(PLANT, needle, n, 0);
+        toks.iter().find(|t| t.span.start == o).map(|t| t.kind)
+    };
+    assert_eq!(kind_of("// Branch", 0), Some(TokenKind::Comment));
+    assert_eq!(kind_of("const", 0), Some(TokenKind::Keyword));
+    assert_eq!(kind_of("SHRINK", 1), Some(TokenKind::Constant));
+    assert_eq!(kind_of("spread", 1), Some(TokenKind::MetaParameter));
+    assert_eq!(kind_of("Plant", 0), Some(TokenKind::System));
+    assert_eq!(kind_of("iterations", 0), Some(TokenKind::Property));
+    assert_eq!(kind_of("A(1)", 0), Some(TokenKind::Module));
+    assert_eq!(kind_of("F(l)", 0), Some(TokenKind::Turtle));
+    assert_eq!(kind_of("+ A", 0), Some(TokenKind::Turtle));
+    assert_eq!(kind_of("+ 0.25", 0), Some(TokenKind::Operator));
+    assert_eq!(kind_of("l) :", 0), Some(TokenKind::Parameter));
+    assert_eq!(kind_of("sin", 0), Some(TokenKind::Function));
+    assert_eq!(kind_of("0.1", 0), Some(TokenKind::Number));
+    assert_eq!(kind_of("->", 0), Some(TokenKind::Operator));
+    assert_eq!(kind_of(";", 0), Some(TokenKind::Punctuation));
+    // Every token is there once, in order, without overlap.
+    assert!(toks.windows(2).all(|w| w[0].span.end <= w[1].span.start));
+    assert!(!toks.iter().any(|t| t.kind == TokenKind::Unresolved));
+}
+
+#[test]
+fn inlay_hints_probabilities_and_types() {
+    let fa = analyze(PLANT);
+    let hints = fa.inlay_hints(Span::new(0, PLANT.len() as u32));
+    let labels: Vec<&str> = hints.iter().map(|h| h.label.as_str()).collect();
+    assert!(
+        labels.contains(&"66.7%") && labels.contains(&"33.3%"),
+        "{labels:?}"
+    );
+    assert_eq!(
+        labels.iter().filter(|l| **l == ": float").count(),
+        4,
+        "{labels:?}"
+    );
+    let p = hints.iter().find(|h| h.label == "66.7%").unwrap();
+    assert_eq!(p.offset, at(PLANT, "(2)", 0, 3));
+}
+
+#[test]
+fn folding_ranges() {
+    let text = "/* a\n b */\n// one\n// two\nmaterial m {\n  roughness = 1;\n}\nsystem S {\n  axiom F;\n}\n";
+    let fa = analyze(text);
+    let kinds: Vec<(FoldKind, u32)> = fa
+        .folding_ranges()
+        .iter()
+        .map(|f| (f.kind, f.span.start))
+        .collect();
+    assert_eq!(
+        kinds,
+        [
+            (FoldKind::Comment, 0),
+            (FoldKind::Comment, at(text, "// one", 0, 0)),
+            (FoldKind::Region, at(text, "material", 0, 0)),
+            (FoldKind::Region, at(text, "system", 0, 0)),
+        ]
+    );
+}
+
+fn apply(text: &str, edits: &[TextEdit]) -> String {
+    let mut edits = edits.to_vec();
+    edits.sort_by_key(|e| std::cmp::Reverse(e.span.start));
+    let mut s = text.to_string();
+    for e in edits {
+        s.replace_range(e.span.range(), &e.new_text);
+    }
+    s
+}
+
+/// Apply the first fix for `code` and return the new text and its diagnostics' codes.
+fn fix(text: &str, code: &str, title_has: &str) -> (String, Vec<&'static str>) {
+    let fa = analyze(text);
+    let all = fa.code_actions(Span::new(0, text.len() as u32));
+    let a = all
+        .iter()
+        .find(|a| a.code == code && a.title.contains(title_has))
+        .unwrap_or_else(|| panic!("no fix for {code} in {all:?}\n{:?}", fa.diagnostics()));
+    let out = apply(text, &a.edits);
+    let codes = analyze(&out).diagnostics().iter().map(|d| d.code).collect();
+    (out, codes)
+}
+
+#[test]
+fn code_actions_fix_their_diagnostics() {
+    // Unknown name with a suggestion.
+    let (t, c) = fix(
+        "const SHRINK = 1;\nsystem S { axiom F(SHRNK); }",
+        "E0101",
+        "Replace",
+    );
+    assert!(t.contains("F(SHRINK)"), "{t}");
+    assert!(c.is_empty(), "{c:?}");
+    // Missing `;`.
+    let (t, c) = fix("system S {\n    axiom F\n    F -> F F;\n}", "E0001", "`;`");
+    assert!(t.contains("axiom F;"), "{t}");
+    assert!(c.is_empty(), "{c:?}");
+    // Unused parameter.
+    let (t, c) = fix("system S { axiom A(1); A(x) -> F; }", "W0001", "_");
+    assert!(t.contains("A(_x)"), "{t}");
+    assert!(c.is_empty(), "{c:?}");
+    // Unknown setting.
+    let (t, c) = fix("system S { iteration = 2; axiom F; }", "E0105", "Replace");
+    assert!(t.contains("iterations = 2"), "{t}");
+    assert!(c.is_empty(), "{c:?}");
+    // Missing wrap-up.
+    let sample =
+        "system T {\n    mode = sample;\n    axiom b;\n    skeleton b;\n    b -> F b;\n}\n";
+    let (t, c) = fix(sample, "E0306", "wrapup");
+    assert!(t.contains("    wrapup b -> ;\n}"), "{t}");
+    assert!(c.is_empty(), "{c:?}\n{t}");
+    // Missing phase.
+    let sample = "system T {\n    mode = sample;\n    axiom b;\n    skeleton b;\n    b -> F b c;\n    wrapup b -> ;\n    c -> F;\n}\n";
+    let (t, c) = fix(sample, "E0304", "geometry");
+    assert!(t.contains("geometry c;"), "{t}");
+    assert!(c.is_empty(), "{c:?}\n{t}");
+    let (t, _) = fix(sample, "E0304", "skeleton");
+    assert!(t.contains("skeleton b, c;"), "{t}");
+    // Missing axiom.
+    let (t, c) = fix("system S {\n    A -> F A;\n}", "E0310", "axiom");
+    assert!(t.contains("    axiom A;\n    A -> F A;"), "{t}");
+    assert!(c.is_empty(), "{c:?}\n{t}");
+    // Duplicate setting.
+    let (t, c) = fix(
+        "system S {\n    angle = 1;\n    angle = 2;\n    axiom F;\n}",
+        "E0106",
+        "Remove",
+    );
+    assert_eq!(t, "system S {\n    angle = 1;\n    axiom F;\n}");
+    assert!(c.is_empty(), "{c:?}");
+    // Unterminated string.
+    let (t, _) = fix("import \"lib.grm;\n", "E0004", "Close");
+    assert_eq!(t, "import \"lib.grm\";\n");
+    // A wrap-up in a derive system.
+    let (t, c) = fix(
+        "system S {\n    axiom A;\n    A -> F;\n    wrapup A -> ;\n}",
+        "E0309",
+        "Remove",
+    );
+    assert_eq!(t, "system S {\n    axiom A;\n    A -> F;\n}");
+    assert!(c.is_empty(), "{c:?}");
+}
+
+#[test]
+fn formatting() {
+    let fa = analyze("system S{axiom F;F->F F;}");
+    let e = fa.format().unwrap().unwrap();
+    assert_eq!(e.new_text, "system S {\n    axiom F;\n    F -> F F;\n}\n");
+    let fa = analyze(&e.new_text);
+    assert_eq!(fa.format(), Ok(None));
+    let fa = analyze("system S { axiom F F -> ; ");
+    assert!(fa.format().is_err());
+}
+
+#[test]
+fn caching_by_version_and_imports() {
+    let mut a = Analysis::new(Arc::new(MemLoader::new()));
+    let p = Path::new("main.grm");
+    a.set_document(Path::new("lib.grm"), 1, "const K = 1;");
+    a.set_document(p, 1, "import \"lib.grm\";\nsystem S { axiom F(K); }");
+    let one = a.analyze(p).unwrap();
+    let again = a.analyze(p).unwrap();
+    assert!(Arc::ptr_eq(&one, &again), "same version: cached");
+    a.set_document(Path::new("lib.grm"), 2, "const J = 1;");
+    let two = a.analyze(p).unwrap();
+    assert!(!Arc::ptr_eq(&one, &two), "an import changed: re-checked");
+    assert!(two.diagnostics().iter().any(|d| d.code == "E0101"));
+    // A missing import that gets opened later.
+    a.set_document(p, 2, "import \"new.grm\";\nsystem S { axiom F(N); }");
+    assert!(
+        a.analyze(p)
+            .unwrap()
+            .diagnostics()
+            .iter()
+            .any(|d| d.code == "E0401")
+    );
+    a.set_document(Path::new("new.grm"), 1, "const N = 2;");
+    assert!(a.analyze(p).unwrap().diagnostics().is_empty());
+}
+
+#[test]
+fn utf16_positions_in_locations() {
+    let text = "const Ä𝔸 = 1;\nsystem S { axiom F(Ä𝔸); }";
+    let fa = analyze(text);
+    let d = fa.definition(at(text, "Ä𝔸)", 0, 0)).unwrap();
+    assert_eq!((d.start.line, d.start.col), (0, 6));
+    assert_eq!((d.end.line, d.end.col), (0, 9));
+}
+
+#[test]
+fn queries_survive_any_offset_and_garbage() {
+    let texts = [
+        "",
+        "system",
+        "system S { A -> F( ; }",
+        "@@@ \u{0} \"unterminated",
+        "/* open",
+        PLANT,
+        "system S { axiom A(; A(x, -> [ [ ; wrapup",
+    ];
+    for t in texts {
+        let fa = analyze(t);
+        for o in 0..=t.len() as u32 + 2 {
+            let _ = fa.hover(o);
+            let _ = fa.definition(o);
+            let _ = fa.references(o, true);
+            let _ = fa.completion(o);
+            let _ = fa.signature_help(o);
+            let _ = fa.prepare_rename(o);
+            let _ = fa.code_actions(Span::new(o, o));
+        }
+        let _ = fa.semantic_tokens();
+        let _ = fa.document_symbols();
+        let _ = fa.folding_ranges();
+        let _ = fa.inlay_hints(Span::new(0, u32::MAX));
+        let _ = fa.format();
+    }
+}
