@@ -154,6 +154,8 @@ codes! {
     NoSystem = "W0007", Warning, "file defines no system";
     /// A condition that is constantly true or false.
     ConstantCondition = "W0008", Warning, "constant condition";
+    /// A context that names a symbol of the ignore list, so it never matches.
+    IgnoredInContext = "W0009", Warning, "context names an ignored symbol";
 }
 
 impl std::fmt::Display for Code {

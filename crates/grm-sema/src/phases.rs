@@ -67,7 +67,8 @@ pub fn reachable(n: usize, roots: &[usize], edges: &[Vec<usize>]) -> Vec<bool> {
     seen
 }
 
-/// W0005 (ambiguous groups), W0003 (shadowed groups) and, unless `skip_reach`,
+/// W0005 (ambiguous groups), W0009 (contexts naming ignored symbols), W0003
+/// (shadowed groups) and, unless `skip_reach`,
 /// W0002 (unreachable productions).
 pub(crate) fn check_groups(sys: &System, diags: &mut Vec<Diagnostic>, skip_reach: bool) {
     let file = sys.file;
@@ -94,8 +95,32 @@ pub(crate) fn check_groups(sys: &System, diags: &mut Vec<Diagnostic>, skip_reach
         }
     }
 
-    for (si, info) in sys.symbols.iter().enumerate() {
-        let _ = si;
+    // Contexts that name an ignored symbol never match (docs/language.md,
+    // "Context matching"). Sample systems reject contexts altogether.
+    if sys.mode == Mode::Derive && !sys.ignore.is_empty() {
+        for g in &sys.groups {
+            for c in g.left.iter().chain(&g.right) {
+                if let TContextItem::Pattern(p) = c
+                    && sys.ignore.contains(&p.symbol)
+                {
+                    let name = &sys.symbol(p.symbol).name;
+                    diags.push(
+                        Diagnostic::new(
+                            Code::IgnoredInContext,
+                            format!("`{name}` is in the ignore list, so this context never matches"),
+                            file,
+                            p.span,
+                            "ignored while matching",
+                        )
+                        .with_note("ignored symbols are skipped while matching contexts, even where a context names them")
+                        .with_help(format!("remove `{name}` from the ignore list, or from this context")),
+                    );
+                }
+            }
+        }
+    }
+
+    for info in &sys.symbols {
         let mut catch_all: Option<&Group> = None;
         for gid in &info.groups {
             let g = &sys.groups[gid.index()];
