@@ -374,9 +374,17 @@ impl CostModel {
                 (a.min(b), a.max(b))
             };
             let mut delta = 0i128;
-            // `segment` clamps to `n_seg - 1`, and `uses` holds `n_seg`
-            // counters from `seg_offset` for this curve.
-            for n in &mut state.uses[c.seg_offset + s0..=c.seg_offset + s1] {
+            // `segment` clamps to `n_seg - 1`, and a state made by this
+            // model holds `n_seg` counters from `seg_offset` for this curve;
+            // a state from another model (a caller bug) gets no utilization
+            // rather than a panic.
+            let range = c.seg_offset + s0..=c.seg_offset + s1;
+            debug_assert_eq!(
+                state.uses.len(),
+                self.total_segments,
+                "state from another model"
+            );
+            for n in state.uses.get_mut(range).unwrap_or_default() {
                 let next = n.saturating_add(1);
                 delta += c.util(next) - c.util(*n);
                 *n = next;
@@ -427,7 +435,8 @@ impl CostModel {
     pub fn utilization_from_counts(&self, state: &CostState) -> f64 {
         let mut sum = 0i128;
         for c in &self.curves {
-            for &n in &state.uses[c.seg_offset..c.seg_offset + c.n_seg] {
+            let counts = state.uses.get(c.seg_offset..c.seg_offset + c.n_seg);
+            for &n in counts.unwrap_or_default() {
                 sum += c.util(n);
             }
         }

@@ -345,9 +345,11 @@ impl Curves {
 
 /// Number of utilization segments of a curve of arc length `length`:
 /// `ceil(length / segment_length)`, at least 1 (all `segment_length` long
-/// except the last, which is shorter).
+/// except the last, which is shorter). A ratio within 1e-9 above an integer
+/// counts as that integer, so that rounding in the arc length does not add
+/// a sliver of a last segment (2.1 / 0.3 = 7.000000000000001 gives 7).
 pub fn segment_count(length: f64, segment_length: f64) -> usize {
-    let n = (length / segment_length).ceil();
+    let n = (length / segment_length - 1e-9).ceil();
     if n.is_finite() && n >= 1.0 {
         // Saturating float-to-int cast; callers bound it.
         n as usize

@@ -543,3 +543,49 @@ fn eq10_heuristic_term() {
     assert_close!(m2.heuristic(v(0.4, 1., 0.), Vec3::Y), -160.0);
     assert_close!(m2.heuristic(v(1.6, 1., 0.), Vec3::Y), 640.0);
 }
+
+#[test]
+fn segment_counts_do_not_grow_slivers() {
+    // 2.1 / 0.3 is 7.000000000000001 in floating point: still 7 segments,
+    // not an eighth sliver.
+    assert!(2.1f64 / 0.3 > 7.0);
+    assert_eq!(grm_guide::curves::segment_count(2.1, 0.3), 7);
+    assert_eq!(grm_guide::curves::segment_count(2.11, 0.3), 8);
+    assert_eq!(grm_guide::curves::segment_count(0.0, 0.3), 1);
+    // A trunk of length 4 with segments of 0.2: 20.
+    let m = model(
+        vec![line(
+            "trunk",
+            DVec3::ZERO,
+            DVec3::new(0., 4., 0.),
+            CurveParams::default(),
+        )],
+        None,
+    );
+    assert_eq!(m.segment_count(0), 20);
+    // 3.1 / 0.5 = 6.2 -> 7 segments, the last 0.1 long.
+    let m = model(
+        vec![line(
+            "a",
+            DVec3::ZERO,
+            DVec3::new(0., 3.1, 0.),
+            CurveParams {
+                segment_length: 0.5,
+                ..CurveParams::default()
+            },
+        )],
+        None,
+    );
+    assert_eq!(m.segment_count(0), 7);
+    assert_eq!(m.segment_count(5), 0);
+}
+
+#[test]
+fn states_and_models_can_cross_threads() {
+    fn send_sync<T: Send + Sync>() {}
+    send_sync::<CostModel>();
+    send_sync::<grm_guide::CostState>();
+    send_sync::<Curves>();
+    send_sync::<grm_guide::VolumeTarget>();
+    send_sync::<grm_guide::VolumeState>();
+}
