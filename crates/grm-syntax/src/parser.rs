@@ -275,6 +275,10 @@ impl<'a> Driver<'a, '_> {
         match self.run(full, entry) {
             Ok((stmt, errs)) => {
                 push_value_errors(self.file, &mut self.diags, errs);
+                let stmt = match self.depth_guard(stmt, toks) {
+                    Ok(s) => s,
+                    Err(error_stmt) => return error_stmt.into_iter().collect(),
+                };
                 if !terminated {
                     self.missing_semi(toks[toks.len() - 1].span);
                 }
@@ -310,6 +314,37 @@ impl<'a> Driver<'a, '_> {
                 }]
             }
         }
+    }
+
+    /// Reject a statement whose expressions nest deeper than
+    /// [`MAX_EXPR_DEPTH`]: every later phase walks expressions recursively,
+    /// and even dropping such a tree would overflow the stack. The tree is
+    /// taken apart iteratively here.
+    fn depth_guard(&mut self, stmt: Stmt, toks: &[Token<'a>]) -> Result<Stmt, Option<Stmt>> {
+        let depth = stmt_exprs(&stmt).map(expr_depth).max().unwrap_or(0);
+        if depth <= MAX_EXPR_DEPTH {
+            return Ok(stmt);
+        }
+        let span = toks[0].span.to(toks[toks.len() - 1].span);
+        self.diags.push(
+            Diagnostic::new(
+                Code::ExprTooDeep,
+                format!(
+                    "expression nested too deeply ({depth} levels; the limit is {MAX_EXPR_DEPTH})"
+                ),
+                self.file,
+                span,
+                "in this statement",
+            )
+            .with_help("split the expression with constants"),
+        );
+        let error = match &stmt {
+            Stmt::Item(_) => Some(Stmt::Item(Item::Error(span))),
+            Stmt::SysItem(_) => Some(Stmt::SysItem(SystemItem::Error(span))),
+            Stmt::Field(_) => None,
+        };
+        dismantle_stmt(stmt);
+        Err(error)
     }
 
     fn missing_semi(&mut self, after: Span) {
@@ -544,6 +579,106 @@ impl<'a> Driver<'a, '_> {
             fields,
             span: start.to(close),
         })
+    }
+}
+
+/// The deepest expression the parser accepts. Hand-written grammars stay
+/// far below it; it protects the recursive phases after the parser.
+pub const MAX_EXPR_DEPTH: usize = 256;
+
+fn stmt_exprs(stmt: &Stmt) -> Box<dyn Iterator<Item = &Expr> + '_> {
+    fn modules(ms: &[Module]) -> impl Iterator<Item = &Expr> {
+        ms.iter().flat_map(|m| m.args.iter())
+    }
+    match stmt {
+        Stmt::Item(Item::Const(c)) => Box::new(std::iter::once(&c.value)),
+        Stmt::Item(Item::Param(p)) => {
+            Box::new(std::iter::once(&p.default).chain(p.range.iter().flat_map(|(a, b)| [a, b])))
+        }
+        Stmt::Item(_) => Box::new(std::iter::empty()),
+        Stmt::Field(f) => Box::new(std::iter::once(&f.value)),
+        Stmt::SysItem(SystemItem::Axiom(a)) => Box::new(modules(&a.modules)),
+        Stmt::SysItem(SystemItem::Setting(s)) => Box::new(std::iter::once(&s.value)),
+        Stmt::SysItem(SystemItem::Production(p)) => Box::new(
+            p.condition
+                .iter()
+                .chain(p.weight.iter())
+                .chain(modules(&p.successor)),
+        ),
+        Stmt::SysItem(_) => Box::new(std::iter::empty()),
+    }
+}
+
+fn children(e: &Expr) -> Vec<&Expr> {
+    match &e.kind {
+        ExprKind::Call { args, .. } => args.iter().collect(),
+        ExprKind::Unary { operand, .. } => vec![operand],
+        ExprKind::Binary { lhs, rhs, .. } => vec![lhs, rhs],
+        ExprKind::Field { base, .. } => vec![base],
+        ExprKind::If { cond, then, els } => vec![cond, then, els],
+        ExprKind::Paren(inner) => vec![inner],
+        ExprKind::Number { .. } | ExprKind::Bool(_) | ExprKind::Name(_) | ExprKind::Error => {
+            Vec::new()
+        }
+    }
+}
+
+/// Depth of an expression tree, computed without recursion.
+pub fn expr_depth(e: &Expr) -> usize {
+    let mut max = 0;
+    let mut stack = vec![(e, 1usize)];
+    while let Some((e, d)) = stack.pop() {
+        max = max.max(d);
+        stack.extend(children(e).into_iter().map(|c| (c, d + 1)));
+    }
+    max
+}
+
+/// Drop an expression tree without recursion.
+fn dismantle(e: Expr) {
+    let mut stack = vec![e];
+    while let Some(mut e) = stack.pop() {
+        let kind = std::mem::replace(&mut e.kind, ExprKind::Error);
+        match kind {
+            ExprKind::Call { args, .. } => stack.extend(args),
+            ExprKind::Unary { operand, .. } => stack.push(*operand),
+            ExprKind::Binary { lhs, rhs, .. } => {
+                stack.push(*lhs);
+                stack.push(*rhs);
+            }
+            ExprKind::Field { base, .. } => stack.push(*base),
+            ExprKind::If { cond, then, els } => stack.extend([*cond, *then, *els]),
+            ExprKind::Paren(inner) => stack.push(*inner),
+            ExprKind::Number { .. } | ExprKind::Bool(_) | ExprKind::Name(_) | ExprKind::Error => {}
+        }
+    }
+}
+
+fn dismantle_modules(ms: Vec<Module>) {
+    for m in ms {
+        m.args.into_iter().for_each(dismantle);
+    }
+}
+
+fn dismantle_stmt(stmt: Stmt) {
+    match stmt {
+        Stmt::Item(Item::Const(c)) => dismantle(c.value),
+        Stmt::Item(Item::Param(p)) => {
+            dismantle(p.default);
+            if let Some((a, b)) = p.range {
+                dismantle(a);
+                dismantle(b);
+            }
+        }
+        Stmt::Field(f) => dismantle(f.value),
+        Stmt::SysItem(SystemItem::Axiom(a)) => dismantle_modules(a.modules),
+        Stmt::SysItem(SystemItem::Setting(s)) => dismantle(s.value),
+        Stmt::SysItem(SystemItem::Production(p)) => {
+            p.condition.into_iter().for_each(dismantle);
+            p.weight.into_iter().for_each(dismantle);
+            dismantle_modules(p.successor);
+        }
+        Stmt::Item(_) | Stmt::SysItem(_) => {}
     }
 }
 

@@ -201,3 +201,28 @@ fn mesh_terminal_on_its_own_line_stays_in_the_successor() {
 fn invalid_number_is_reported() {
     assert_eq!(codes("const X = 1e999;"), ["E0006"]);
 }
+
+#[test]
+fn absurdly_deep_expressions_are_refused_not_overflowing() {
+    for (open, close) in [("(", ")"), ("-", ""), ("!", "")] {
+        let n = 200_000;
+        let src = format!(
+            "const X = {}1{};\nsystem S {{ axiom A; }}",
+            open.repeat(n),
+            close.repeat(n)
+        );
+        let p = parse(FileId(0), &src);
+        assert!(
+            p.diagnostics.iter().any(|d| d.code == Code::ExprTooDeep),
+            "{open}"
+        );
+        assert!(matches!(p.file.items[0], Item::Error(_)));
+        assert!(matches!(p.file.items[1], Item::System(_)));
+    }
+    let chain = format!("system S {{ axiom F({}1); }}", "1 + ".repeat(100_000));
+    let p = parse(FileId(0), &chain);
+    assert!(p.diagnostics.iter().any(|d| d.code == Code::ExprTooDeep));
+    // Deep but reasonable nesting is fine.
+    let ok = format!("const X = {}1{};", "(".repeat(100), ")".repeat(100));
+    assert!(parse(FileId(0), &ok).diagnostics.is_empty());
+}
