@@ -275,9 +275,8 @@ impl<'a> Driver<'a, '_> {
         match self.run(full, entry) {
             Ok((stmt, errs)) => {
                 push_value_errors(self.file, &mut self.diags, errs);
-                let stmt = match self.depth_guard(stmt, toks) {
-                    Ok(s) => s,
-                    Err(error_stmt) => return error_stmt.into_iter().collect(),
+                let Some(stmt) = self.depth_guard(stmt, toks) else {
+                    return Vec::new();
                 };
                 if !terminated {
                     self.missing_semi(toks[toks.len() - 1].span);
@@ -320,10 +319,12 @@ impl<'a> Driver<'a, '_> {
     /// [`MAX_EXPR_DEPTH`]: every later phase walks expressions recursively,
     /// and even dropping such a tree would overflow the stack. The tree is
     /// taken apart iteratively here.
-    fn depth_guard(&mut self, stmt: Stmt, toks: &[Token<'a>]) -> Result<Stmt, Option<Stmt>> {
+    /// Returns the statement, its `Error` replacement, or `None` for a
+    /// dropped material field.
+    fn depth_guard(&mut self, stmt: Stmt, toks: &[Token<'a>]) -> Option<Stmt> {
         let depth = stmt_exprs(&stmt).map(expr_depth).max().unwrap_or(0);
         if depth <= MAX_EXPR_DEPTH {
-            return Ok(stmt);
+            return Some(stmt);
         }
         let span = toks[0].span.to(toks[toks.len() - 1].span);
         self.diags.push(
@@ -344,7 +345,7 @@ impl<'a> Driver<'a, '_> {
             Stmt::Field(_) => None,
         };
         dismantle_stmt(stmt);
-        Err(error)
+        error
     }
 
     fn missing_semi(&mut self, after: Span) {
