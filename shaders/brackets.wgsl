@@ -9,9 +9,10 @@
 // with D[k] the depth before module k (a scan of (#[, #]) pairs), the
 // partner is j = k - 1 for the first k >= i + 2 with D[k] <= D[i]. That
 // query runs on a BRACKET_FAN-ary tree of block minima of D (levels built
-// by `bracket_reduce`): scan forward in the own block, climb while the
-// rest of the block is all deeper, then descend into the first block
-// whose minimum qualifies. O(BRACKET_FAN * levels) reads per `[`, no depth
+// by `bracket_reduce`, which keeps the maxima too: the interpreter reads
+// the depth range from the top level): scan forward in the own block,
+// climb while the rest of the block is all deeper, then descend into the
+// first block whose minimum qualifies. O(BRACKET_FAN * levels) reads per `[`, no depth
 // limit, no atomics; unbalanced strings get the same partial matching as
 // a stack (a stray `]` or `[` stays unmatched).
 //!include grid.wgsl
@@ -20,7 +21,7 @@
 @group(0) @binding(1) var<storage, read> tables: array<u32>;
 @group(0) @binding(2) var<storage, read> syms: array<u32>;
 @group(0) @binding(3) var<storage, read_write> pairs: array<vec2<u32>>;
-@group(0) @binding(4) var<storage, read_write> levels: array<i32>;
+@group(0) @binding(4) var<storage, read_write> levels: array<vec2<i32>>;
 @group(0) @binding(5) var<storage, read_write> mate: array<u32>;
 //!include generated_tables
 
@@ -70,10 +71,11 @@ fn bracket_depth(
         return;
     }
     let p = pairs[k];
-    levels[k] = i32(p.x) - i32(p.y);
+    let d = i32(p.x) - i32(p.y);
+    levels[k] = vec2<i32>(d, d);
 }
 
-// Level B.level + 1 from level B.level: the minimum of each block.
+// Level B.level + 1 from level B.level: the minimum and maximum of each block.
 @compute @workgroup_size(WORKGROUP)
 fn bracket_reduce(
     @builtin(workgroup_id) wid: vec3<u32>,
@@ -90,7 +92,8 @@ fn bracket_reduce(
     let first = b * BRACKET_FAN;
     var m = levels[src + first];
     for (var k = first + 1u; k < min(first + BRACKET_FAN, len); k = k + 1u) {
-        m = min(m, levels[src + k]);
+        let v = levels[src + k];
+        m = vec2<i32>(min(m.x, v.x), max(m.y, v.y));
     }
     levels[lvl_off(l + 1u) + b] = m;
 }
@@ -109,7 +112,7 @@ fn first_at_most(start: u32, limit: i32) -> u32 {
         let off = lvl_off(l);
         var found = NONE;
         for (var k = pos; k < end; k = k + 1u) {
-            if (levels[off + k] <= limit) {
+            if (levels[off + k].x <= limit) {
                 found = k;
                 break;
             }
@@ -135,7 +138,7 @@ fn first_at_most(start: u32, limit: i32) -> u32 {
         let end = min(first + BRACKET_FAN, lvl_len(l));
         var found = end;
         for (var k = first; k < end; k = k + 1u) {
-            if (levels[off + k] <= limit) {
+            if (levels[off + k].x <= limit) {
                 found = k;
                 break;
             }
@@ -159,7 +162,7 @@ fn bracket_match(
         return;
     }
     // A `[` at i: the depth returns to levels[i] right after its `]`.
-    let k = first_at_most(i + 2u, levels[i]);
+    let k = first_at_most(i + 2u, levels[i].x);
     if (k != NONE) {
         let j = k - 1u;
         mate[i] = j + 1u;

@@ -1,26 +1,24 @@
-// Exclusive prefix sum (scan), saturating at 0xffffffff, of ELEM values
-// (the host instantiates ELEM as u32 and as vec2<u32>).
+// Prefix scan of ELEM values under an associative operator: the host
+// instantiates it with an operator file SCAN_OP that defines ELEM's
+// `scan_identity()`, `scan_combine(earlier, later)` and SCAN_INCLUSIVE
+// (scan_add.wgsl: exclusive saturating sums of u32 and vec2<u32>;
+// turtle.wgsl's segmented scan of turtle transforms).
 //
 // Block scan + recursion over block sums: `scan_blocks` scans each block
 // of SCAN_BLOCK elements in place (each thread scans SCAN_PER_THREAD
 // consecutive elements serially, then the workgroup scans the per-thread
 // sums in shared memory) and writes the block's total to `sums`; the host
 // scans `sums` the same way (recursively, until one block is left), then
-// `add_sums` adds each block's scanned offset to its elements. No atomics.
-// Saturation makes an overflowing total visible to the host as 0xffffffff
-// in every component that overflowed, instead of wrapping.
+// `add_sums` combines each block's scanned offset with its elements. No
+// atomics.
 //!include grid.wgsl
+//!include SCAN_OP
 
 @group(0) @binding(0) var<uniform> P: ScanParams;
 @group(0) @binding(1) var<storage, read_write> data: array<ELEM>;
 @group(0) @binding(2) var<storage, read_write> sums: array<ELEM>;
 
 var<workgroup> tmp: array<ELEM, WORKGROUP>;
-
-fn sat_add(a: ELEM, b: ELEM) -> ELEM {
-    let s = a + b;
-    return select(s, ELEM(0xffffffffu), s < a);
-}
 
 @compute @workgroup_size(WORKGROUP)
 fn scan_blocks(
@@ -34,33 +32,38 @@ fn scan_blocks(
     }
     let base = block * SCAN_BLOCK + lid * SCAN_PER_THREAD;
     var v: array<ELEM, SCAN_PER_THREAD>;
-    var s = ELEM(0u);
+    var s = scan_identity();
     for (var i = 0u; i < SCAN_PER_THREAD; i = i + 1u) {
-        var x = ELEM(0u);
+        var x = scan_identity();
         if (base + i < P.n) {
             x = data[base + i];
         }
-        v[i] = s;
-        s = sat_add(s, x);
+        if (SCAN_INCLUSIVE) {
+            s = scan_combine(s, x);
+            v[i] = s;
+        } else {
+            v[i] = s;
+            s = scan_combine(s, x);
+        }
     }
     tmp[lid] = s;
     workgroupBarrier();
     for (var off = 1u; off < WORKGROUP; off = off << 1u) {
-        var t = ELEM(0u);
+        var t = scan_identity();
         if (lid >= off) {
             t = tmp[lid - off];
         }
         workgroupBarrier();
-        tmp[lid] = sat_add(tmp[lid], t);
+        tmp[lid] = scan_combine(t, tmp[lid]);
         workgroupBarrier();
     }
-    var excl = ELEM(0u);
+    var excl = scan_identity();
     if (lid > 0u) {
         excl = tmp[lid - 1u];
     }
     for (var i = 0u; i < SCAN_PER_THREAD; i = i + 1u) {
         if (base + i < P.n) {
-            data[base + i] = sat_add(excl, v[i]);
+            data[base + i] = scan_combine(excl, v[i]);
         }
     }
     if (lid == WORKGROUP - 1u) {
@@ -82,7 +85,7 @@ fn add_sums(
     let base = block * SCAN_BLOCK + lid * SCAN_PER_THREAD;
     for (var i = 0u; i < SCAN_PER_THREAD; i = i + 1u) {
         if (base + i < P.n) {
-            data[base + i] = sat_add(add, data[base + i]);
+            data[base + i] = scan_combine(add, data[base + i]);
         }
     }
 }

@@ -28,7 +28,7 @@ fn level_lens(n1: u64) -> Vec<u64> {
 
 /// Device bytes of the scratch buffers for `n` modules (pairs and levels).
 pub(crate) fn scratch_bytes(n: u64) -> u64 {
-    8 * (n + 1) + 4 * level_lens(n + 1).iter().sum::<u64>()
+    8 * (n + 1) + 8 * level_lens(n + 1).iter().sum::<u64>()
 }
 
 /// Record the matching of the `n` modules in `syms`; returns the partner
@@ -64,7 +64,7 @@ pub(crate) fn record_match(
     }
     let mate = gpu.storage("bracket partners", 4 * n)?;
     let pairs = gpu.storage("bracket depth pairs", 8 * (n + 1))?;
-    let levels = gpu.storage("bracket depth tree", 4 * off)?;
+    let levels = gpu.storage("bracket depth tree", 8 * off)?;
     let bind = |gpu: &Gpu, enc: &mut wgpu::CommandEncoder, k, p: &BracketParams, threads| {
         let u = gpu.uniform("bracket params", p);
         gpu.dispatch(

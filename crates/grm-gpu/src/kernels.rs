@@ -10,28 +10,28 @@ pub static SCAN_U32: Kernel = Kernel {
     file: "scan.wgsl",
     entry: "scan_blocks",
     bindings: SCAN_BINDS,
-    subst: &[("ELEM", "u32")],
+    subst: &[("ELEM", "u32"), ("SCAN_OP", "scan_add.wgsl")],
 };
 pub static ADD_U32: Kernel = Kernel {
     name: "add_sums_u32",
     file: "scan.wgsl",
     entry: "add_sums",
     bindings: SCAN_BINDS,
-    subst: &[("ELEM", "u32")],
+    subst: &[("ELEM", "u32"), ("SCAN_OP", "scan_add.wgsl")],
 };
 pub static SCAN_U32X2: Kernel = Kernel {
     name: "scan_blocks_u32x2",
     file: "scan.wgsl",
     entry: "scan_blocks",
     bindings: SCAN_BINDS,
-    subst: &[("ELEM", "vec2<u32>")],
+    subst: &[("ELEM", "vec2<u32>"), ("SCAN_OP", "scan_add.wgsl")],
 };
 pub static ADD_U32X2: Kernel = Kernel {
     name: "add_sums_u32x2",
     file: "scan.wgsl",
     entry: "add_sums",
     bindings: SCAN_BINDS,
-    subst: &[("ELEM", "vec2<u32>")],
+    subst: &[("ELEM", "vec2<u32>"), ("SCAN_OP", "scan_add.wgsl")],
 };
 
 pub static VM_EVAL: Kernel = Kernel {

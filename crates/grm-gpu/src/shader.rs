@@ -12,22 +12,23 @@ use std::collections::HashSet;
 
 use crate::error::GpuError;
 
-/// The WGSL files, by name (relative to `shaders/`).
-pub const FILES: &[(&str, &str)] = &[
-    ("scan.wgsl", include_str!("../../../shaders/scan.wgsl")),
-    ("grid.wgsl", include_str!("../../../shaders/grid.wgsl")),
-    ("rng.wgsl", include_str!("../../../shaders/rng.wgsl")),
-    ("vm.wgsl", include_str!("../../../shaders/vm.wgsl")),
-    (
-        "vm_eval.wgsl",
-        include_str!("../../../shaders/vm_eval.wgsl"),
-    ),
-    ("derive.wgsl", include_str!("../../../shaders/derive.wgsl")),
-    (
-        "brackets.wgsl",
-        include_str!("../../../shaders/brackets.wgsl"),
-    ),
-];
+macro_rules! shader_files {
+    ($($name:literal),* $(,)?) => {
+        &[$(($name, include_str!(concat!("../../../shaders/", $name)))),*]
+    };
+}
+
+/// The WGSL files, by name (relative to `shaders/`), embedded at build time.
+pub const FILES: &[(&str, &str)] = shader_files!(
+    "scan.wgsl",
+    "scan_add.wgsl",
+    "grid.wgsl",
+    "rng.wgsl",
+    "vm.wgsl",
+    "vm_eval.wgsl",
+    "derive.wgsl",
+    "brackets.wgsl",
+);
 
 /// How a kernel binds a buffer (binding index = position in the list).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -53,11 +54,7 @@ pub struct Kernel {
 impl Kernel {
     /// The full WGSL source of this kernel.
     pub fn source(&self) -> Result<String, GpuError> {
-        let mut s = compose(self.file)?;
-        for (from, to) in self.subst {
-            s = s.replace(from, to);
-        }
-        Ok(s)
+        compose_with(self.file, self.subst)
     }
 }
 
@@ -68,13 +65,24 @@ pub fn file(name: &str) -> Option<&'static str> {
 
 /// The generated header followed by `name` with its includes expanded.
 pub fn compose(name: &str) -> Result<String, GpuError> {
+    compose_with(name, &[])
+}
+
+/// As [`compose`], with text substitutions applied to the shader files
+/// (before their includes are resolved, so an include may be substituted).
+pub fn compose_with(name: &str, subst: &[(&str, &str)]) -> Result<String, GpuError> {
     let mut out = crate::layout::wgsl_header();
     let mut seen = HashSet::new();
-    include(name, &mut out, &mut seen)?;
+    include(name, subst, &mut out, &mut seen)?;
     Ok(out)
 }
 
-fn include(name: &str, out: &mut String, seen: &mut HashSet<String>) -> Result<(), GpuError> {
+fn include(
+    name: &str,
+    subst: &[(&str, &str)],
+    out: &mut String,
+    seen: &mut HashSet<String>,
+) -> Result<(), GpuError> {
     if !seen.insert(name.to_string()) {
         return Ok(());
     }
@@ -84,10 +92,14 @@ fn include(name: &str, out: &mut String, seen: &mut HashSet<String>) -> Result<(
     }
     let text = file(name)
         .ok_or_else(|| GpuError::InvalidInput(format!("internal: no shader file {name}")))?;
+    let mut text = text.to_string();
+    for (from, to) in subst {
+        text = text.replace(from, to);
+    }
     out.push_str(&format!("// ---- {name}\n"));
     for line in text.lines() {
         if let Some(rest) = line.trim().strip_prefix("//!include ") {
-            include(rest.trim(), out, seen)?;
+            include(rest.trim(), subst, out, seen)?;
         } else {
             out.push_str(line);
             out.push('\n');
