@@ -6,7 +6,8 @@
 //! whole set. [`PersistentGrid`] is a hash trie of fixed depth
 //! ([`LEVELS`] levels of [`WIDTH`] children, 4096 buckets) whose buckets are
 //! shared immutable linked lists: clone = one `Arc` increment, insert = a
-//! path copy of `LEVELS` small nodes plus one list cell, query = a walk down
+//! path copy of `LEVELS` small nodes (bitmap-compressed: only occupied
+//! children are stored and cloned) plus one list cell, query = a walk down
 //! the trie per grid cell touched. Points are bucketed by grid cell (edge
 //! `2 * radius`), so a query ball of the given radius touches at most 8 cells.
 
@@ -44,7 +45,10 @@ impl Drop for Cons {
 enum Slot {
     #[default]
     Empty,
-    Inner(Arc<[Slot; WIDTH]>),
+    /// A trie node: the children whose bits are set in the bitmap, in bit
+    /// order (only occupied children are stored, so a path copy clones
+    /// only those).
+    Inner(u16, Arc<[Slot]>),
     List(Arc<Cons>),
 }
 
@@ -126,6 +130,10 @@ impl PersistentGrid {
     }
 }
 
+fn child_bit(h: u32, level: u32) -> u16 {
+    1 << ((h >> (level * BITS)) as usize & (WIDTH - 1))
+}
+
 fn insert(slot: &Slot, h: u32, level: u32, cell: Cell, p: DVec3) -> Slot {
     if level == LEVELS {
         let next = match slot {
@@ -138,20 +146,53 @@ fn insert(slot: &Slot, h: u32, level: u32, cell: Cell, p: DVec3) -> Slot {
             next,
         }));
     }
-    let mut kids: [Slot; WIDTH] = match slot {
-        Slot::Inner(k) => (**k).clone(),
-        _ => Default::default(),
-    };
-    let i = ((h >> (level * BITS)) as usize) & (WIDTH - 1);
-    kids[i] = insert(&kids[i], h, level + 1, cell, p);
-    Slot::Inner(Arc::new(kids))
+    let bit = child_bit(h, level);
+    match slot {
+        Slot::Inner(bitmap, kids) => {
+            let pos = (bitmap & (bit - 1)).count_ones() as usize;
+            if bitmap & bit != 0 {
+                let mut new = Some(insert(&kids[pos], h, level + 1, cell, p));
+                let kids: Arc<[Slot]> = kids
+                    .iter()
+                    .enumerate()
+                    .map(|(j, k)| {
+                        if j == pos {
+                            new.take().unwrap_or_default()
+                        } else {
+                            k.clone()
+                        }
+                    })
+                    .collect();
+                Slot::Inner(*bitmap, kids)
+            } else {
+                let new = insert(&Slot::Empty, h, level + 1, cell, p);
+                let kids: Arc<[Slot]> = kids[..pos]
+                    .iter()
+                    .cloned()
+                    .chain(std::iter::once(new))
+                    .chain(kids[pos..].iter().cloned())
+                    .collect();
+                Slot::Inner(bitmap | bit, kids)
+            }
+        }
+        _ => {
+            let new = insert(&Slot::Empty, h, level + 1, cell, p);
+            Slot::Inner(bit, Arc::new([new]))
+        }
+    }
 }
 
 fn bucket(root: &Slot, h: u32) -> Option<&Cons> {
     let mut slot = root;
     for level in 0..LEVELS {
         match slot {
-            Slot::Inner(k) => slot = &k[((h >> (level * BITS)) as usize) & (WIDTH - 1)],
+            Slot::Inner(bitmap, kids) => {
+                let bit = child_bit(h, level);
+                if bitmap & bit == 0 {
+                    return None;
+                }
+                slot = &kids[(bitmap & (bit - 1)).count_ones() as usize];
+            }
             _ => return None,
         }
     }
