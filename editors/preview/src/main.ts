@@ -1,0 +1,653 @@
+// The preview page: wires the transport, the editing state, the 3D scene and
+// the side panel together. Runs unchanged in a VS Code webview and in a
+// browser served by `grmc view`.
+
+import type { V3 } from './bezier.js';
+import { Coalescer, type Delivery } from './coalesce.js';
+import { PARAM_KEYS, PARAM_RANGES, type ParamKey, checkParam } from './curves.js';
+import type { NotificationMethod } from './messages.js';
+import {
+  type PickParams,
+  type PreviewResult,
+  type RuleInfo,
+  decodePick,
+  decodePreview,
+  decodeSpread,
+} from './protocol.js';
+import { PreviewScene, ThumbnailRenderer } from './scene.js';
+import { PageState } from './state.js';
+import { type Transport, detectTransport } from './transport.js';
+
+/** What the page exposes for tests and for the curious (window.__grm). */
+interface DebugInfo {
+  ready: boolean;
+  /** Models shown so far. */
+  regrows: number;
+  /** Milliseconds from an edit to its model on screen, per edit. */
+  latencies: number[];
+  lastLatencyMs: number | null;
+  meshCount: number;
+  triangles: number;
+  bones: number;
+  mode: string;
+  seed: number | null;
+  curves: number;
+  lastPick: RuleInfo | null;
+  lastError: string | null;
+  saves: number;
+  /** Screen position of a world point (for tests that aim at things). */
+  toScreen: (p: V3) => [number, number];
+  /** Control points of curve i. */
+  curvePoints: (i: number) => V3[] | null;
+  selectedCurve: () => number | null;
+  /** Bone endpoints and origins of the current model. */
+  bonesList: () => { base: V3; tip: V3; origin: number }[];
+  rules: () => RuleInfo[];
+  spreadPoints: number;
+}
+
+const $ = <T extends HTMLElement>(id: string): T => {
+  const el = document.getElementById(id);
+  if (!el) throw new Error(`missing #${id}`);
+  return el as T;
+};
+
+class App {
+  private readonly state = new PageState();
+  private readonly scene: PreviewScene;
+  private readonly coalescer: Coalescer<ReturnType<PageState['previewParams']>, PreviewResult>;
+  private last: PreviewResult | null = null;
+  private framed = false;
+  private tool: 'orbit' | 'draw' = 'orbit';
+  private showCurves = true;
+  private paramSignature = '';
+  private gesture:
+    | { kind: 'none' }
+    | { kind: 'draw'; points: V3[]; centre: V3; startX: number; startY: number }
+    | { kind: 'drag'; curve: number; handle: number; through: V3; moved: boolean }
+    | { kind: 'click'; x: number; y: number; t: number } = { kind: 'none' };
+  private thumbs: ThumbnailRenderer | null = null;
+  private galleryStart = 0;
+  private galleryToken = 0;
+  private readonly debug: DebugInfo;
+
+  constructor(private readonly transport: Transport) {
+    this.scene = new PreviewScene($<HTMLCanvasElement>('view'));
+    this.coalescer = new Coalescer(
+      () => this.state.previewParams(),
+      async (params) => decodePreview(await this.transport.request('preview', params)),
+      (d) => this.show(d),
+      (e) => this.showError(String((e as Error).message ?? e)),
+      () => performance.now(),
+    );
+    this.debug = {
+      ready: false,
+      regrows: 0,
+      latencies: [],
+      lastLatencyMs: null,
+      meshCount: 0,
+      triangles: 0,
+      bones: 0,
+      mode: '',
+      seed: null,
+      curves: 0,
+      lastPick: null,
+      lastError: null,
+      saves: 0,
+      toScreen: (p) => this.scene.toScreen(p),
+      curvePoints: (i) => this.state.curves?.curves[i]?.points.map((p) => [...p] as V3) ?? null,
+      selectedCurve: () => this.state.selected,
+      bonesList: () => this.last?.model?.bones.map((b) => ({ base: b.base, tip: b.tip, origin: b.origin })) ?? [],
+      rules: () => this.last?.rules ?? [],
+      spreadPoints: 0,
+    };
+    (globalThis as unknown as { __grm: DebugInfo }).__grm = this.debug;
+    this.wireUi();
+    this.transport.onNotification((m, p) => this.notified(m, p));
+    new ResizeObserver(() => this.scene.resize()).observe($('viewport'));
+  }
+
+  start(): void {
+    this.transport.start();
+    // In a browser the page knows its document from the URL (?uri=...), or
+    // asks for the server's default document.
+    if (this.transport.kind === 'http') {
+      const uri = new URLSearchParams(location.search).get('uri') ?? '';
+      this.state.setDocument(uri);
+      this.regrow();
+    }
+  }
+
+  // ------------------------------------------------------------- host
+
+  private notified(method: NotificationMethod, params: unknown): void {
+    const p = (params ?? {}) as Record<string, unknown>;
+    if (method === 'document' && typeof p.uri === 'string') {
+      if (p.uri !== this.state.uri) {
+        this.state.setDocument(p.uri);
+        this.framed = false;
+        this.paramSignature = '';
+      }
+      if (typeof p.title === 'string') document.title = `grm preview: ${p.title}`;
+      this.regrow();
+    } else if (method === 'previewUpdated') {
+      if (typeof p.uri !== 'string' || p.uri === this.state.uri) this.regrow();
+    } else if (method === 'cursor' && typeof p.line === 'number') {
+      void this.showSpread(p.line, typeof p.character === 'number' ? p.character : 0);
+    }
+  }
+
+  private regrow(editedAt = performance.now()): void {
+    if (!this.state.uri && this.transport.kind === 'vscode') return;
+    this.setStatus('growing…');
+    this.coalescer.trigger(editedAt);
+  }
+
+  private show(d: Delivery<PreviewResult>): void {
+    const r = d.result;
+    this.last = r;
+    if (r.uri && !this.state.uri) this.state.uri = r.uri;
+    this.state.absorb(r);
+    const msg = $('overlay-msg');
+    const errors = r.diagnostics.filter((x) => x.severity === 'error');
+    msg.textContent = r.error ?? errors.map((e) => (e.line !== undefined ? `${e.line + 1}: ` : '') + e.message).join('\n');
+    if (this.state.curvesError) msg.textContent += `\ncurves: ${this.state.curvesError}`;
+    // An error keeps the last good model on screen (as the paper's editor does).
+    if (r.model) {
+      this.scene.setModel(r.model, !this.framed, () => {
+        const ms = performance.now() - d.editedAt;
+        this.debug.regrows++;
+        this.debug.lastLatencyMs = ms;
+        this.debug.latencies.push(ms);
+        this.debug.meshCount = this.scene.meshCount;
+        this.setStatus(this.summary(r, ms));
+      });
+      this.framed = true;
+      this.debug.triangles = r.model.triangles;
+      this.debug.bones = r.model.bones.length;
+    } else {
+      this.setStatus(r.error ? 'no model' : this.summary(r, null), true);
+    }
+    this.debug.mode = r.mode;
+    this.debug.seed = this.state.seed;
+    this.debug.ready = true;
+    this.debug.lastError = r.error ?? (errors[0]?.message ?? null);
+    this.refreshPanel();
+  }
+
+  private summary(r: PreviewResult, ms: number | null): string {
+    const m = r.model;
+    const parts = [`${r.system || 'system'} (${r.mode})`, `seed ${this.state.seed ?? r.seed}`];
+    if (m) parts.push(`${m.triangles.toLocaleString()} triangles`, `${m.bones.length.toLocaleString()} bones`);
+    const t = Object.entries(r.timings)
+      .map(([k, v]) => `${k} ${v.toFixed(1)} ms`)
+      .join(', ');
+    if (t) parts.push(t);
+    if (ms !== null) parts.push(`on screen in ${ms.toFixed(0)} ms`);
+    return parts.join(' · ');
+  }
+
+  private setStatus(text: string, error = false): void {
+    $('status-text').textContent = text;
+    $('status').classList.toggle('error', error);
+  }
+
+  private showError(text: string): void {
+    this.debug.lastError = text;
+    this.setStatus(text, true);
+  }
+
+  // ------------------------------------------------------------- UI
+
+  private wireUi(): void {
+    $('tool-orbit').addEventListener('click', () => this.setTool('orbit'));
+    $('tool-draw').addEventListener('click', () => this.setTool('draw'));
+    $<HTMLInputElement>('show-geometry').addEventListener('change', (e) => this.scene.setShowGeometry((e.target as HTMLInputElement).checked));
+    $<HTMLInputElement>('show-skeleton').addEventListener('change', (e) => this.scene.setShowSkeleton((e.target as HTMLInputElement).checked));
+    $<HTMLInputElement>('show-curves').addEventListener('change', (e) => {
+      this.showCurves = (e.target as HTMLInputElement).checked;
+      this.refreshCurves();
+    });
+    $<HTMLInputElement>('seed').addEventListener('change', (e) => {
+      this.state.setSeed(Number((e.target as HTMLInputElement).value));
+      this.regrow();
+    });
+    $('next-variation').addEventListener('click', () => this.nextVariation());
+    $('frame').addEventListener('click', () => {
+      if (this.last?.model?.bounds) this.scene.frame(this.last.model.bounds);
+    });
+    $('gallery-open').addEventListener('click', () => this.openGallery(this.state.seed ?? 0));
+    $('gallery-more').addEventListener('click', () => this.openGallery(this.galleryStart + 9));
+    $('gallery-close').addEventListener('click', () => this.closeGallery());
+    $('curve-delete').addEventListener('click', () => this.deleteSelected());
+    $<HTMLInputElement>('curve-name').addEventListener('change', (e) => {
+      const sel = this.state.selected;
+      if (sel === null) return;
+      const input = e.target as HTMLInputElement;
+      if (this.state.renameCurve(sel, input.value.trim())) this.curvesChanged(false);
+      else input.value = this.state.curves?.curves[sel]?.name ?? '';
+    });
+    $<HTMLSelectElement>('rule-select').addEventListener('change', (e) => {
+      const v = (e.target as HTMLSelectElement).value;
+      const rule = this.last?.rules.find((r) => String(r.origin) === v);
+      if (rule) void this.showSpread(rule.line, rule.character);
+      else this.scene.setHighlight([], []);
+    });
+    const vp = $('viewport');
+    // Capture phase: decide before OrbitControls (registered on the canvas) sees the press.
+    vp.addEventListener('pointerdown', (e) => this.pointerDown(e), { capture: true });
+    window.addEventListener('pointermove', (e) => this.pointerMove(e));
+    window.addEventListener('pointerup', (e) => this.pointerUp(e));
+    window.addEventListener('keydown', (e) => this.key(e));
+  }
+
+  private setTool(t: 'orbit' | 'draw'): void {
+    this.tool = t;
+    $('tool-orbit').classList.toggle('active', t === 'orbit');
+    $('tool-draw').classList.toggle('active', t === 'draw');
+    $('viewport').classList.toggle('drawing', t === 'draw');
+  }
+
+  private nextVariation(): void {
+    this.state.nextVariation();
+    $<HTMLInputElement>('seed').value = String(this.state.seed);
+    this.regrow();
+  }
+
+  private key(e: KeyboardEvent): void {
+    const target = e.target as HTMLElement | null;
+    if (target && (target.tagName === 'INPUT' || target.tagName === 'SELECT' || target.tagName === 'TEXTAREA')) return;
+    if (e.key === 'd' || e.key === 'D') this.setTool(this.tool === 'draw' ? 'orbit' : 'draw');
+    else if (e.key === 'o' || e.key === 'O') this.setTool('orbit');
+    else if (e.key === 'n' || e.key === 'N') this.nextVariation();
+    else if (e.key === 'f' || e.key === 'F') {
+      if (this.last?.model?.bounds) this.scene.frame(this.last.model.bounds);
+    } else if (e.key === 'Delete' || e.key === 'Backspace') this.deleteSelected();
+    else if (e.key === 'Escape') {
+      this.state.selected = null;
+      this.refreshCurves();
+      this.refreshPanel();
+    }
+  }
+
+  // ------------------------------------------------------------- pointer
+
+  private pointerDown(e: PointerEvent): void {
+    if (e.button !== 0) return;
+    const handle = this.showCurves ? this.scene.handleAt(e.clientX, e.clientY) : null;
+    const sel = this.state.selected;
+    if (handle !== null && sel !== null && this.state.curves) {
+      this.gesture = { kind: 'drag', curve: sel, handle, through: [...this.state.curves.curves[sel].points[handle]] as V3, moved: false };
+      this.scene.controls.enabled = false;
+      e.stopPropagation();
+      return;
+    }
+    if (this.tool === 'draw' || e.shiftKey) {
+      if (this.state.mode !== 'sample') {
+        this.setStatus('curves guide sample systems (mode = sample); this system is derived', true);
+        return;
+      }
+      const centre = this.scene.centre();
+      const p = this.scene.planePoint(e.clientX, e.clientY, centre);
+      this.gesture = { kind: 'draw', points: p ? [p] : [], centre, startX: e.clientX, startY: e.clientY };
+      this.scene.controls.enabled = false;
+      e.stopPropagation();
+      return;
+    }
+    this.gesture = { kind: 'click', x: e.clientX, y: e.clientY, t: performance.now() };
+  }
+
+  private pointerMove(e: PointerEvent): void {
+    const g = this.gesture;
+    if (g.kind === 'draw') {
+      const p = this.scene.planePoint(e.clientX, e.clientY, g.centre);
+      if (p) {
+        g.points.push(p);
+        this.scene.setStroke(g.points);
+      }
+    } else if (g.kind === 'drag') {
+      const p = this.scene.planePoint(e.clientX, e.clientY, g.through);
+      if (p) {
+        g.moved = true;
+        this.state.moveControlPoint(g.curve, g.handle, p);
+        this.curvesChanged(false);
+      }
+    }
+  }
+
+  private pointerUp(e: PointerEvent): void {
+    const g = this.gesture;
+    this.gesture = { kind: 'none' };
+    this.scene.controls.enabled = true;
+    if (g.kind === 'draw') {
+      this.scene.setStroke([]);
+      const longEnough = Math.hypot(e.clientX - g.startX, e.clientY - g.startY) > 8 || g.points.length > 4;
+      if (longEnough && this.state.addStroke(g.points) !== null) this.curvesChanged(true);
+    } else if (g.kind === 'drag') {
+      if (g.moved) this.curvesChanged(true);
+    } else if (g.kind === 'click') {
+      if (Math.hypot(e.clientX - g.x, e.clientY - g.y) < 5 && performance.now() - g.t < 600) this.click(e.clientX, e.clientY);
+    }
+  }
+
+  private click(x: number, y: number): void {
+    const curve = this.showCurves ? this.scene.curveAt(x, y) : null;
+    if (curve !== null) {
+      this.state.selected = curve;
+      this.refreshCurves();
+      this.refreshPanel();
+      return;
+    }
+    if (this.state.selected !== null) {
+      this.state.selected = null;
+      this.refreshCurves();
+      this.refreshPanel();
+    }
+    void this.pick(x, y);
+  }
+
+  private async pick(x: number, y: number): Promise<void> {
+    const model = this.last?.model;
+    if (!model || !this.last) return;
+    const params: PickParams = { uri: this.state.uri };
+    if (this.last.id !== undefined) params.preview = this.last.id;
+    const hit = this.scene.pickPart(x, y);
+    if (hit) {
+      params.part = hit.part;
+      params.triangle = hit.triangle;
+      if (hit.pick) {
+        params.module = hit.pick.module;
+        params.origin = hit.pick.origin;
+      }
+    } else {
+      const bone = this.scene.pickBone(x, y);
+      if (bone === null) return;
+      params.module = model.bones[bone].module;
+      params.origin = model.bones[bone].origin;
+    }
+    try {
+      const r = decodePick(await this.transport.request('pick', params));
+      this.debug.lastPick = r.rule;
+      const info = $('rule-info');
+      if (r.rule) {
+        info.textContent = `${r.rule.label} (line ${r.rule.line + 1})`;
+        void this.showSpread(r.rule.line, r.rule.character);
+      } else {
+        info.textContent = 'No rule made that part (it came from the axiom).';
+      }
+    } catch (e) {
+      this.showError(`pick: ${(e as Error).message}`);
+    }
+  }
+
+  private async showSpread(line: number, character: number): Promise<void> {
+    if (!this.state.uri && this.transport.kind === 'vscode') return;
+    try {
+      const s = decodeSpread(await this.transport.request('spread', { ...this.state.previewParams(), line, character }));
+      this.debug.spreadPoints = s.points.length;
+      this.scene.setHighlight(s.bones, s.points);
+      if (s.label) $('rule-info').textContent = `${s.label}: ${s.bones.length} bones in this model, ${s.points.length} possible places`;
+      const sel = $<HTMLSelectElement>('rule-select');
+      sel.value = s.origin === null ? '' : String(s.origin);
+    } catch (e) {
+      this.showError(`spread: ${(e as Error).message}`);
+    }
+  }
+
+  // ------------------------------------------------------------- curves
+
+  private deleteSelected(): void {
+    const sel = this.state.selected;
+    if (sel === null) return;
+    this.state.deleteCurve(sel);
+    this.curvesChanged(true);
+  }
+
+  /** The curves changed: redraw, regrow; `save` writes the curves file (at the end of a gesture). */
+  private curvesChanged(save: boolean): void {
+    const editedAt = performance.now();
+    this.refreshCurves();
+    this.refreshPanel();
+    this.regrow(editedAt);
+    if (save) void this.saveCurves();
+  }
+
+  private async saveCurves(): Promise<void> {
+    const out = this.state.curvesText();
+    if ('error' in out) {
+      this.setStatus(out.error, true);
+      return;
+    }
+    try {
+      await this.transport.request('saveCurves', { uri: this.state.uri, text: out.text });
+      this.debug.saves++;
+    } catch (e) {
+      this.showError(`saving the curves: ${(e as Error).message}`);
+    }
+  }
+
+  private refreshCurves(): void {
+    this.scene.setCurves(this.showCurves ? this.state.beziers() : [], this.showCurves ? this.state.selected : null);
+    this.debug.curves = this.state.curves?.curves.length ?? 0;
+  }
+
+  // ------------------------------------------------------------- side panel
+
+  private refreshPanel(): void {
+    $<HTMLInputElement>('seed').value = String(this.state.seed ?? 0);
+    this.refreshParams();
+    this.refreshCurves();
+    this.refreshCurveList();
+    this.refreshRules();
+  }
+
+  private refreshParams(): void {
+    const info = this.state.paramInfo;
+    const sig = JSON.stringify(info.map((p) => [p.name, p.min, p.max]));
+    const box = $('params');
+    if (sig !== this.paramSignature) {
+      this.paramSignature = sig;
+      box.replaceChildren();
+      if (info.length === 0) {
+        box.innerHTML = '<p class="hint">The grammar declares no <code>param</code>.</p>';
+      }
+      for (const p of info) {
+        const row = document.createElement('div');
+        row.className = 'param';
+        const head = document.createElement('div');
+        head.className = 'name';
+        const name = document.createElement('span');
+        name.textContent = p.name;
+        const val = document.createElement('span');
+        val.className = 'value';
+        head.append(name, val);
+        const slider = document.createElement('input');
+        slider.type = 'range';
+        slider.min = String(p.min);
+        slider.max = String(p.max);
+        slider.step = String((p.max - p.min) / 200 || 1);
+        slider.dataset.param = p.name;
+        slider.addEventListener('input', () => {
+          this.state.setParam(p.name, Number(slider.value));
+          val.textContent = formatValue(Number(slider.value));
+          this.regrow();
+        });
+        slider.addEventListener('dblclick', () => {
+          this.state.setParam(p.name, p.default);
+          this.refreshParams();
+          this.regrow();
+        });
+        row.append(head, slider);
+        box.append(row);
+      }
+    }
+    for (const slider of box.querySelectorAll<HTMLInputElement>('input[type=range]')) {
+      const v = this.state.paramValue(slider.dataset.param ?? '');
+      if (v !== undefined && document.activeElement !== slider) slider.value = String(v);
+      const label = slider.parentElement?.querySelector('.value');
+      if (label && v !== undefined) label.textContent = formatValue(v);
+    }
+  }
+
+  private refreshCurveList(): void {
+    const list = $('curve-list');
+    list.replaceChildren();
+    const set = this.state.curves;
+    $('curves-section').hidden = this.state.mode !== 'sample' && !set;
+    set?.curves.forEach((c, i) => {
+      const el = document.createElement('div');
+      el.className = 'curve' + (i === this.state.selected ? ' selected' : '');
+      el.textContent = c.name ?? `curve ${i}`;
+      el.addEventListener('click', () => {
+        this.state.selected = i;
+        this.refreshCurves();
+        this.refreshPanel();
+      });
+      list.append(el);
+    });
+    const sel = this.state.selected;
+    const curve = sel !== null ? set?.curves[sel] : undefined;
+    const panel = $('curve-panel');
+    panel.hidden = !curve;
+    if (!curve || sel === null) return;
+    const name = $<HTMLInputElement>('curve-name');
+    if (document.activeElement !== name) name.value = curve.name ?? '';
+    const fields = $('curve-fields');
+    if (!fields.contains(document.activeElement)) {
+      fields.replaceChildren();
+      for (const key of PARAM_KEYS) fields.append(this.paramField(sel, key));
+    }
+    const pts = $('curve-points');
+    if (!pts.contains(document.activeElement)) {
+      pts.replaceChildren();
+      curve.points.forEach((p, k) => {
+        const row = document.createElement('div');
+        row.className = 'pt';
+        const label = document.createElement('span');
+        label.textContent = `P${k}`;
+        row.append(label);
+        p.forEach((x, axis) => {
+          const input = document.createElement('input');
+          input.type = 'number';
+          input.step = '0.1';
+          input.value = formatValue(x);
+          input.addEventListener('change', () => {
+            const v = Number(input.value);
+            if (!Number.isFinite(v)) return;
+            const q = [...(this.state.curves?.curves[sel]?.points[k] ?? p)] as V3;
+            q[axis] = v;
+            this.state.moveControlPoint(sel, k, q);
+            this.curvesChanged(true);
+          });
+          row.append(input);
+        });
+        pts.append(row);
+      });
+    }
+  }
+
+  private paramField(curve: number, key: ParamKey): HTMLElement {
+    const row = document.createElement('label');
+    row.className = 'row';
+    const c = this.state.curves?.curves[curve];
+    const title = key === 'distance' ? 'distance m0 m1 m2' : PARAM_RANGES[key].label;
+    row.append(document.createTextNode(title));
+    const input = document.createElement('input');
+    input.type = 'text';
+    input.dataset.key = key;
+    const v = c?.params[key];
+    input.value = Array.isArray(v) ? v.map(formatValue).join(' ') : formatValue(v as number);
+    input.addEventListener('change', () => {
+      const raw = input.value.trim();
+      const value = key === 'distance' ? raw.split(/[\s,]+/).map(Number) : Number(raw);
+      const problem = checkParam(key, value);
+      row.classList.toggle('invalid', problem !== null);
+      row.title = problem ?? '';
+      if (problem) return;
+      this.state.setCurveParam(curve, key, value as never);
+      this.curvesChanged(true);
+    });
+    row.append(input);
+    return row;
+  }
+
+  private refreshRules(): void {
+    const sel = $<HTMLSelectElement>('rule-select');
+    const rules = this.last?.rules ?? [];
+    // Where the editor's cursor cannot drive the highlight (a browser), a list picks the rule.
+    sel.hidden = this.transport.kind === 'vscode' || rules.length === 0;
+    const sig = rules.map((r) => r.origin).join(',');
+    if (sel.dataset.sig === sig) return;
+    sel.dataset.sig = sig;
+    sel.replaceChildren(new Option('highlight a rule…', ''));
+    for (const r of rules) sel.append(new Option(`${r.line + 1}: ${r.label}`, String(r.origin)));
+  }
+
+  // ------------------------------------------------------------- gallery
+
+  private async openGallery(start: number): Promise<void> {
+    const token = ++this.galleryToken;
+    this.galleryStart = start;
+    $('gallery').hidden = false;
+    $('gallery-range').textContent = `seeds ${start} to ${start + 8}`;
+    const grid = $('gallery-grid');
+    grid.replaceChildren();
+    this.thumbs ??= new ThumbnailRenderer(160);
+    const cam = this.scene.camera.position.clone().sub(this.scene.controls.target);
+    for (let i = 0; i < 9; i++) {
+      const seed = start + i;
+      const fig = document.createElement('figure');
+      fig.className = seed === this.state.seed ? 'current' : '';
+      fig.dataset.seed = String(seed);
+      const img = document.createElement('img');
+      img.alt = `seed ${seed}`;
+      const cap = document.createElement('figcaption');
+      cap.textContent = `seed ${seed}…`;
+      fig.append(img, cap);
+      fig.addEventListener('click', () => {
+        this.state.setSeed(seed);
+        this.closeGallery();
+        this.regrow();
+      });
+      grid.append(fig);
+    }
+    for (let i = 0; i < 9; i++) {
+      if (token !== this.galleryToken) return;
+      const seed = start + i;
+      const fig = grid.children[i] as HTMLElement;
+      const cap = fig.querySelector('figcaption') as HTMLElement;
+      try {
+        const r = decodePreview(await this.transport.request('preview', { ...this.state.previewParams(), seed }));
+        if (token !== this.galleryToken) return;
+        if (r.model) (fig.querySelector('img') as HTMLImageElement).src = this.thumbs.render(r.model, [cam.x, cam.y, cam.z]);
+        cap.textContent = r.model ? `seed ${seed}` : `seed ${seed}: ${r.error ?? 'no model'}`;
+      } catch (e) {
+        cap.textContent = `seed ${seed}: ${(e as Error).message}`;
+      }
+    }
+  }
+
+  private closeGallery(): void {
+    this.galleryToken++;
+    $('gallery').hidden = true;
+  }
+}
+
+function formatValue(x: number): string {
+  if (!Number.isFinite(x)) return String(x);
+  return Number.isInteger(x) ? String(x) : String(Number(x.toFixed(4)));
+}
+
+function main(): void {
+  let transport: Transport;
+  try {
+    transport = detectTransport(globalThis as never);
+  } catch (e) {
+    document.body.textContent = (e as Error).message;
+    return;
+  }
+  const app = new App(transport);
+  app.start();
+}
+
+main();

@@ -1,0 +1,86 @@
+// Messages between the preview page and its host (the VS Code extension over
+// `postMessage`, or `grmc view` over HTTP). Shared by both sides: the
+// extension imports this file too.
+
+/** What the page asks of its host. */
+export type Method =
+  /** Grow the model: `PreviewParams` -> `PreviewResult` (LSP `grm/preview`). */
+  | 'preview'
+  /** Which rule made a part: `PickParams` -> `PickResult` (LSP `grm/pick`). */
+  | 'pick'
+  /** Where the rule under the cursor can grow: `{ uri, line, character }` -> `SpreadResult`. */
+  | 'spread'
+  /** Write the curves file: `{ uri, text }` -> `{ path }`. */
+  | 'saveCurves'
+  /** Show a rule in the editor: `{ uri, line, character }` -> `{}`. */
+  | 'reveal';
+
+export const METHODS: readonly Method[] = ['preview', 'pick', 'spread', 'saveCurves', 'reveal'];
+
+/** What the host tells the page without being asked. */
+export type NotificationMethod =
+  /** The document to show: `{ uri, title }`. Sent on open and when the editor changes. */
+  | 'document'
+  /** The document or its curves changed: `{ uri, version }`. The page asks for a new preview. */
+  | 'previewUpdated'
+  /** The cursor moved: `{ uri, line, character }` (for the rule highlight). */
+  | 'cursor';
+
+export interface RequestMessage {
+  type: 'request';
+  id: number;
+  method: Method;
+  params: unknown;
+}
+
+export interface ResponseMessage {
+  type: 'response';
+  id: number;
+  result?: unknown;
+  error?: string;
+}
+
+export interface NotificationMessage {
+  type: 'notify';
+  method: NotificationMethod;
+  params: unknown;
+}
+
+/** The page's first message: it is listening. */
+export interface ReadyMessage {
+  type: 'ready';
+}
+
+export type PageToHost = RequestMessage | ReadyMessage;
+export type HostToPage = ResponseMessage | NotificationMessage;
+
+function isObject(v: unknown): v is Record<string, unknown> {
+  return typeof v === 'object' && v !== null && !Array.isArray(v);
+}
+
+/** Validate a message from the page (the host must not trust its shape). */
+export function parsePageMessage(v: unknown): PageToHost | null {
+  if (!isObject(v)) return null;
+  if (v.type === 'ready') return { type: 'ready' };
+  if (v.type !== 'request') return null;
+  if (typeof v.id !== 'number' || !Number.isSafeInteger(v.id)) return null;
+  if (typeof v.method !== 'string' || !(METHODS as readonly string[]).includes(v.method)) return null;
+  return { type: 'request', id: v.id, method: v.method as Method, params: v.params };
+}
+
+/** Validate a message from the host. */
+export function parseHostMessage(v: unknown): HostToPage | null {
+  if (!isObject(v)) return null;
+  if (v.type === 'response' && typeof v.id === 'number') {
+    const out: ResponseMessage = { type: 'response', id: v.id };
+    if ('result' in v) out.result = v.result;
+    if (typeof v.error === 'string') out.error = v.error;
+    return out;
+  }
+  if (v.type === 'notify' && typeof v.method === 'string') {
+    if (v.method === 'document' || v.method === 'previewUpdated' || v.method === 'cursor') {
+      return { type: 'notify', method: v.method, params: v.params };
+    }
+  }
+  return null;
+}

@@ -1,0 +1,456 @@
+// The 3D view: three.js scene, orbit camera, grid, the model's parts and
+// skeleton, guiding curves with their control points, the live stroke, and
+// the spread of the rule under the cursor. Renders on demand (after a change
+// or a camera move), not in a loop.
+
+import * as THREE from 'three';
+import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
+import { type Bezier, type V3, sampleBezier } from './bezier.js';
+import type { Bounds, PickRange, SceneModel } from './protocol.js';
+import { findPick } from './protocol.js';
+
+const CURVE_COLOR = 0x3a8dde;
+const CURVE_SELECTED = 0xff8c1a;
+const SKELETON_COLOR = 0xd04020;
+const HIGHLIGHT_COLOR = 0xffe14d;
+const SPREAD_COLOR = 0xff40c0;
+
+export interface PartHit {
+  part: number;
+  triangle: number;
+  pick: PickRange | null;
+  point: V3;
+}
+
+function disposeObject(o: THREE.Object3D): void {
+  o.traverse((c) => {
+    const m = c as THREE.Mesh;
+    if (m.geometry) m.geometry.dispose();
+    const mat = m.material as THREE.Material | THREE.Material[] | undefined;
+    if (Array.isArray(mat)) mat.forEach((x) => x.dispose());
+    else if (mat) mat.dispose();
+  });
+}
+
+function clearGroup(g: THREE.Group): void {
+  for (const c of [...g.children]) {
+    g.remove(c);
+    disposeObject(c);
+  }
+}
+
+/** Meshes (one per part) and the skeleton of a model, in a fresh group. */
+export function buildModelObjects(model: SceneModel): { geometry: THREE.Group; skeleton: THREE.LineSegments } {
+  const geometry = new THREE.Group();
+  const materials = model.materials.map((m) => {
+    const mat = new THREE.MeshStandardMaterial({
+      color: new THREE.Color().setRGB(m.color[0], m.color[1], m.color[2], THREE.LinearSRGBColorSpace),
+      roughness: m.roughness,
+      metalness: m.metallic,
+      side: THREE.DoubleSide,
+    });
+    if (m.opacity < 1) {
+      mat.transparent = true;
+      mat.opacity = m.opacity;
+    }
+    return mat;
+  });
+  model.parts.forEach((p, i) => {
+    const g = new THREE.BufferGeometry();
+    g.setAttribute('position', new THREE.BufferAttribute(p.positions, 3));
+    if (p.normals) g.setAttribute('normal', new THREE.BufferAttribute(p.normals, 3));
+    g.setIndex(new THREE.BufferAttribute(p.indices, 1));
+    if (!p.normals) g.computeVertexNormals();
+    g.computeBoundingSphere();
+    const mat = materials[p.material] ?? new THREE.MeshStandardMaterial({ color: 0xcccccc, side: THREE.DoubleSide });
+    const mesh = new THREE.Mesh(g, mat);
+    mesh.userData.part = i;
+    geometry.add(mesh);
+  });
+  const pos = new Float32Array(model.bones.length * 6);
+  model.bones.forEach((b, i) => {
+    pos.set(b.base, i * 6);
+    pos.set(b.tip, i * 6 + 3);
+  });
+  const sg = new THREE.BufferGeometry();
+  sg.setAttribute('position', new THREE.BufferAttribute(pos, 3));
+  const skeleton = new THREE.LineSegments(
+    sg,
+    new THREE.LineBasicMaterial({ color: SKELETON_COLOR, depthTest: false, transparent: true, opacity: 0.9 }),
+  );
+  skeleton.renderOrder = 2;
+  return { geometry, skeleton };
+}
+
+function addLights(scene: THREE.Scene): void {
+  scene.add(new THREE.HemisphereLight(0xffffff, 0x404040, 1.6));
+  const sun = new THREE.DirectionalLight(0xffffff, 2.2);
+  sun.position.set(3, 6, 4);
+  scene.add(sun);
+}
+
+export class PreviewScene {
+  readonly renderer: THREE.WebGLRenderer;
+  readonly scene = new THREE.Scene();
+  readonly camera: THREE.PerspectiveCamera;
+  readonly controls: OrbitControls;
+  private readonly grid: THREE.GridHelper;
+  private readonly modelRoot = new THREE.Group();
+  private readonly skeletonRoot = new THREE.Group();
+  private readonly curvesRoot = new THREE.Group();
+  private readonly overlayRoot = new THREE.Group();
+  private readonly strokeLine: THREE.Line;
+  private model: SceneModel | null = null;
+  private curves: Bezier[] = [];
+  private selected: number | null = null;
+  private showSkeleton = true;
+  private showGeometry = true;
+  private frameRequested = false;
+  private afterRender: Array<() => void> = [];
+  private handleRadius = 0.06;
+  private readonly raycaster = new THREE.Raycaster();
+
+  constructor(private readonly canvas: HTMLCanvasElement) {
+    this.renderer = new THREE.WebGLRenderer({ canvas, antialias: true, preserveDrawingBuffer: true });
+    this.renderer.setPixelRatio(Math.min(2, globalThis.devicePixelRatio || 1));
+    this.renderer.setClearColor(0x1e1f22);
+    this.camera = new THREE.PerspectiveCamera(45, 1, 0.01, 1000);
+    this.camera.position.set(6, 4, 8);
+    this.controls = new OrbitControls(this.camera, canvas);
+    this.controls.target.set(0, 2, 0);
+    this.controls.addEventListener('change', () => this.requestRender());
+    this.grid = new THREE.GridHelper(20, 20, 0x666666, 0x3a3a3a);
+    this.scene.add(this.grid);
+    addLights(this.scene);
+    this.scene.add(this.modelRoot, this.skeletonRoot, this.curvesRoot, this.overlayRoot);
+    const sg = new THREE.BufferGeometry();
+    sg.setAttribute('position', new THREE.BufferAttribute(new Float32Array(0), 3));
+    this.strokeLine = new THREE.Line(sg, new THREE.LineBasicMaterial({ color: 0xffffff, depthTest: false }));
+    this.strokeLine.renderOrder = 5;
+    this.scene.add(this.strokeLine);
+    this.resize();
+  }
+
+  resize(): void {
+    const w = Math.max(1, this.canvas.clientWidth);
+    const h = Math.max(1, this.canvas.clientHeight);
+    this.renderer.setSize(w, h, false);
+    this.camera.aspect = w / h;
+    this.camera.updateProjectionMatrix();
+    this.requestRender();
+  }
+
+  /** Render at the next animation frame; `then` runs right after that render. */
+  requestRender(then?: () => void): void {
+    if (then) this.afterRender.push(then);
+    if (this.frameRequested) return;
+    this.frameRequested = true;
+    requestAnimationFrame(() => {
+      this.frameRequested = false;
+      this.renderer.render(this.scene, this.camera);
+      const cbs = this.afterRender;
+      this.afterRender = [];
+      for (const cb of cbs) cb();
+    });
+  }
+
+  get hasModel(): boolean {
+    return this.model !== null;
+  }
+
+  /** Number of meshes shown for the model (one per part). */
+  get meshCount(): number {
+    return this.modelRoot.children.length;
+  }
+
+  /** Replace the model; `frame` fits the camera to it. */
+  setModel(model: SceneModel | null, frame: boolean, then?: () => void): void {
+    clearGroup(this.modelRoot);
+    clearGroup(this.skeletonRoot);
+    this.model = model;
+    if (model) {
+      const { geometry, skeleton } = buildModelObjects(model);
+      for (const c of [...geometry.children]) this.modelRoot.add(c);
+      this.skeletonRoot.add(skeleton);
+      if (frame && model.bounds) this.frame(model.bounds);
+    }
+    this.modelRoot.visible = this.showGeometry;
+    this.skeletonRoot.visible = this.showSkeleton;
+    this.requestRender(then);
+  }
+
+  setShowSkeleton(on: boolean): void {
+    this.showSkeleton = on;
+    this.skeletonRoot.visible = on;
+    this.requestRender();
+  }
+
+  setShowGeometry(on: boolean): void {
+    this.showGeometry = on;
+    this.modelRoot.visible = on;
+    this.requestRender();
+  }
+
+  /** Point the camera at the bounds (union with the curves) from a three-quarter view. */
+  frame(bounds: Bounds): void {
+    const b = new THREE.Box3(new THREE.Vector3(...bounds.min), new THREE.Vector3(...bounds.max));
+    for (const c of this.curves) for (const p of c) b.expandByPoint(new THREE.Vector3(...p));
+    const centre = b.getCenter(new THREE.Vector3());
+    const size = b.getSize(new THREE.Vector3());
+    const radius = Math.max(0.5, size.length() / 2);
+    const dist = radius / Math.sin(THREE.MathUtils.degToRad(this.camera.fov / 2));
+    const dir = new THREE.Vector3(0.45, 0.35, 1).normalize();
+    this.controls.target.copy(centre);
+    this.camera.position.copy(centre).addScaledVector(dir, dist * 1.05);
+    this.camera.near = dist / 100;
+    this.camera.far = dist * 100;
+    this.camera.updateProjectionMatrix();
+    this.controls.update();
+    this.handleRadius = radius * 0.025;
+    const gridSize = Math.max(10, Math.ceil(radius * 4));
+    this.grid.scale.setScalar(gridSize / 20);
+    this.drawCurves();
+    this.requestRender();
+  }
+
+  /** The point the camera orbits: the scene's centre for drawing. */
+  centre(): V3 {
+    const t = this.controls.target;
+    return [t.x, t.y, t.z];
+  }
+
+  setCurves(curves: Bezier[], selected: number | null): void {
+    this.curves = curves;
+    this.selected = selected;
+    this.drawCurves();
+  }
+
+  private drawCurves(): void {
+    clearGroup(this.curvesRoot);
+    this.curves.forEach((c, i) => {
+      const sel = i === this.selected;
+      const pts = sampleBezier(c, 64).map((p) => new THREE.Vector3(...p));
+      const g = new THREE.BufferGeometry().setFromPoints(pts);
+      const line = new THREE.Line(g, new THREE.LineBasicMaterial({ color: sel ? CURVE_SELECTED : CURVE_COLOR, depthTest: false }));
+      line.renderOrder = 3;
+      this.curvesRoot.add(line);
+      // An arrow head at the end: a curve's direction matters (docs/curves.md 2.3).
+      const end = pts[pts.length - 1];
+      const dir = end.clone().sub(pts[pts.length - 3]).normalize();
+      if (dir.lengthSq() > 0) {
+        const cone = new THREE.Mesh(
+          new THREE.ConeGeometry(this.handleRadius * 1.2, this.handleRadius * 4, 12),
+          new THREE.MeshBasicMaterial({ color: sel ? CURVE_SELECTED : CURVE_COLOR, depthTest: false }),
+        );
+        cone.position.copy(end);
+        cone.quaternion.setFromUnitVectors(new THREE.Vector3(0, 1, 0), dir);
+        cone.renderOrder = 3;
+        this.curvesRoot.add(cone);
+      }
+      if (sel) {
+        const poly = new THREE.Line(
+          new THREE.BufferGeometry().setFromPoints(c.map((p) => new THREE.Vector3(...p))),
+          new THREE.LineDashedMaterial({ color: 0xaaaaaa, dashSize: this.handleRadius * 2, gapSize: this.handleRadius, depthTest: false }),
+        );
+        poly.computeLineDistances();
+        poly.renderOrder = 3;
+        this.curvesRoot.add(poly);
+        c.forEach((p, k) => {
+          const h = new THREE.Mesh(
+            new THREE.SphereGeometry(this.handleRadius * (k === 0 || k === 3 ? 1.2 : 1), 12, 8),
+            new THREE.MeshBasicMaterial({ color: k === 0 || k === 3 ? 0xffffff : CURVE_SELECTED, depthTest: false }),
+          );
+          h.position.set(...p);
+          h.renderOrder = 4;
+          this.curvesRoot.add(h);
+        });
+      }
+    });
+    this.requestRender();
+  }
+
+  /** Show the stroke being drawn (world points). */
+  setStroke(points: V3[]): void {
+    const g = new THREE.BufferGeometry().setFromPoints(points.map((p) => new THREE.Vector3(...p)));
+    this.strokeLine.geometry.dispose();
+    this.strokeLine.geometry = g;
+    this.requestRender();
+  }
+
+  /** Highlight bones (indices into the model's bones) and show spread points. */
+  setHighlight(bones: number[], spread: V3[]): void {
+    clearGroup(this.overlayRoot);
+    if (this.model && bones.length > 0) {
+      const pos: number[] = [];
+      for (const i of bones) {
+        const b = this.model.bones[i];
+        if (b) pos.push(...b.base, ...b.tip);
+      }
+      const g = new THREE.BufferGeometry();
+      g.setAttribute('position', new THREE.Float32BufferAttribute(pos, 3));
+      const l = new THREE.LineSegments(g, new THREE.LineBasicMaterial({ color: HIGHLIGHT_COLOR, depthTest: false }));
+      l.renderOrder = 6;
+      this.overlayRoot.add(l);
+    }
+    if (spread.length > 0) {
+      const g = new THREE.BufferGeometry();
+      g.setAttribute('position', new THREE.Float32BufferAttribute(spread.flat(), 3));
+      const pts = new THREE.Points(
+        g,
+        new THREE.PointsMaterial({ color: SPREAD_COLOR, size: 4, sizeAttenuation: false, transparent: true, opacity: 0.55, depthTest: false }),
+      );
+      pts.renderOrder = 6;
+      this.overlayRoot.add(pts);
+    }
+    this.requestRender();
+  }
+
+  // ----------------------------------------------------------- picking
+
+  private ndc(clientX: number, clientY: number): THREE.Vector2 {
+    const r = this.canvas.getBoundingClientRect();
+    return new THREE.Vector2(((clientX - r.left) / r.width) * 2 - 1, -((clientY - r.top) / r.height) * 2 + 1);
+  }
+
+  /** Screen position (client pixels) of a world point. */
+  toScreen(p: V3): [number, number] {
+    const r = this.canvas.getBoundingClientRect();
+    const v = new THREE.Vector3(...p).project(this.camera);
+    return [r.left + ((v.x + 1) / 2) * r.width, r.top + ((1 - v.y) / 2) * r.height];
+  }
+
+  /** The model triangle under the pointer, if geometry is shown. */
+  pickPart(clientX: number, clientY: number): PartHit | null {
+    if (!this.model || !this.showGeometry) return null;
+    this.raycaster.setFromCamera(this.ndc(clientX, clientY), this.camera);
+    const hits = this.raycaster.intersectObjects(this.modelRoot.children, false);
+    for (const h of hits) {
+      const part = h.object.userData.part as number | undefined;
+      if (part === undefined || h.faceIndex == null) continue;
+      const p = this.model.parts[part];
+      return { part, triangle: h.faceIndex, pick: p ? findPick(p, h.faceIndex) : null, point: [h.point.x, h.point.y, h.point.z] };
+    }
+    return null;
+  }
+
+  /** The bone nearest the pointer on screen (within `px`), for skeleton-only views. */
+  pickBone(clientX: number, clientY: number, px = 6): number | null {
+    if (!this.model || !this.showSkeleton) return null;
+    let best: number | null = null;
+    let bestD = px;
+    this.model.bones.forEach((b, i) => {
+      const d = segmentDistance([clientX, clientY], this.toScreen(b.base), this.toScreen(b.tip));
+      if (d < bestD) {
+        bestD = d;
+        best = i;
+      }
+    });
+    return best;
+  }
+
+  /** The curve whose drawn line passes within `px` pixels of the pointer. */
+  curveAt(clientX: number, clientY: number, px = 8): number | null {
+    let best: number | null = null;
+    let bestD = px;
+    this.curves.forEach((c, i) => {
+      const pts = sampleBezier(c, 48).map((p) => this.toScreen(p));
+      for (let k = 1; k < pts.length; k++) {
+        const d = segmentDistance([clientX, clientY], pts[k - 1], pts[k]);
+        if (d < bestD) {
+          bestD = d;
+          best = i;
+        }
+      }
+    });
+    return best;
+  }
+
+  /** The control point of the selected curve under the pointer. */
+  handleAt(clientX: number, clientY: number, px = 10): number | null {
+    if (this.selected === null) return null;
+    const c = this.curves[this.selected];
+    if (!c) return null;
+    let best: number | null = null;
+    let bestD = px;
+    c.forEach((p, k) => {
+      const [x, y] = this.toScreen(p);
+      const d = Math.hypot(x - clientX, y - clientY);
+      if (d < bestD) {
+        bestD = d;
+        best = k;
+      }
+    });
+    return best;
+  }
+
+  /**
+   * Where the pointer's ray meets the plane that faces the camera and passes
+   * through `through` (the scene's centre when drawing, the dragged point
+   * when moving a control point).
+   */
+  planePoint(clientX: number, clientY: number, through: V3): V3 | null {
+    this.raycaster.setFromCamera(this.ndc(clientX, clientY), this.camera);
+    const normal = this.camera.getWorldDirection(new THREE.Vector3());
+    const plane = new THREE.Plane().setFromNormalAndCoplanarPoint(normal, new THREE.Vector3(...through));
+    const hit = this.raycaster.ray.intersectPlane(plane, new THREE.Vector3());
+    return hit ? [hit.x, hit.y, hit.z] : null;
+  }
+
+  dispose(): void {
+    this.controls.dispose();
+    disposeObject(this.scene);
+    this.renderer.dispose();
+  }
+}
+
+/** Distance from point p to segment ab, in the same units. */
+export function segmentDistance(p: [number, number], a: [number, number], b: [number, number]): number {
+  const dx = b[0] - a[0];
+  const dy = b[1] - a[1];
+  const len2 = dx * dx + dy * dy;
+  const t = len2 > 0 ? Math.max(0, Math.min(1, ((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / len2)) : 0;
+  return Math.hypot(p[0] - (a[0] + t * dx), p[1] - (a[1] + t * dy));
+}
+
+/** Renders small pictures of models for the variation gallery, with one shared renderer. */
+export class ThumbnailRenderer {
+  private readonly renderer: THREE.WebGLRenderer;
+  private readonly scene = new THREE.Scene();
+  private readonly camera = new THREE.PerspectiveCamera(40, 1, 0.01, 1000);
+
+  constructor(size = 160) {
+    const canvas = document.createElement('canvas');
+    canvas.width = size;
+    canvas.height = size;
+    this.renderer = new THREE.WebGLRenderer({ canvas, antialias: true, preserveDrawingBuffer: true });
+    this.renderer.setSize(size, size, false);
+    this.renderer.setClearColor(0x26272b);
+    addLights(this.scene);
+  }
+
+  /** A PNG data URL of the model, framed from the given view direction. */
+  render(model: SceneModel, viewDir: V3): string {
+    const { geometry } = buildModelObjects(model);
+    this.scene.add(geometry);
+    if (model.bounds) {
+      const b = new THREE.Box3(new THREE.Vector3(...model.bounds.min), new THREE.Vector3(...model.bounds.max));
+      const centre = b.getCenter(new THREE.Vector3());
+      const radius = Math.max(0.5, b.getSize(new THREE.Vector3()).length() / 2);
+      const dist = radius / Math.sin(THREE.MathUtils.degToRad(this.camera.fov / 2));
+      this.camera.position.copy(centre).addScaledVector(new THREE.Vector3(...viewDir).normalize(), dist);
+      this.camera.near = dist / 100;
+      this.camera.far = dist * 100;
+      this.camera.lookAt(centre);
+      this.camera.updateProjectionMatrix();
+    }
+    this.renderer.render(this.scene, this.camera);
+    const url = this.renderer.domElement.toDataURL('image/png');
+    this.scene.remove(geometry);
+    disposeObject(geometry);
+    return url;
+  }
+
+  dispose(): void {
+    this.renderer.dispose();
+  }
+}

@@ -1,0 +1,158 @@
+// The page's editing state, without any DOM or three.js: what the next
+// preview request says, the curves being edited, the meta-parameter values.
+// Unit-tested under node.
+
+import { type Bezier, type V3, fitCubicBezier } from './bezier.js';
+import { type Curve, type CurveParams, type CurveSet, DEFAULT_PARAMS, cloneSet, freshName, fromJson, serializeCurves } from './curves.js';
+import type { ParamInfo, PreviewParams, PreviewResult } from './protocol.js';
+
+export class PageState {
+  uri = '';
+  seed: number | null = null;
+  /** Meta-parameter overrides the user set (name -> value). */
+  params: Record<string, number> = {};
+  /** The meta-parameters the grammar declares (from the last preview). */
+  paramInfo: ParamInfo[] = [];
+  /** The curves being edited; null until a sample system's preview brings them. */
+  curves: CurveSet | null = null;
+  /** True once the user changed the curves: requests carry them inline from then on. */
+  curvesEdited = false;
+  selected: number | null = null;
+  mode: 'derive' | 'sample' = 'derive';
+  system = '';
+  curvesError: string | null = null;
+
+  /** The parameters of the next preview request. */
+  previewParams(): PreviewParams {
+    const p: PreviewParams = { uri: this.uri };
+    if (this.seed !== null) p.seed = this.seed;
+    if (Object.keys(this.params).length > 0) p.params = { ...this.params };
+    if (this.curvesEdited && this.curves) p.curves = JSON.parse(serializeCurves(this.curves));
+    return p;
+  }
+
+  /** Switch to another document: everything document-specific is reset. */
+  setDocument(uri: string): void {
+    if (uri === this.uri) return;
+    this.uri = uri;
+    this.seed = null;
+    this.params = {};
+    this.paramInfo = [];
+    this.curves = null;
+    this.curvesEdited = false;
+    this.selected = null;
+    this.curvesError = null;
+  }
+
+  /** Take what a preview result says about the grammar (mode, seed, parameters, curves). */
+  absorb(r: PreviewResult): void {
+    this.mode = r.mode;
+    this.system = r.system;
+    if (this.seed === null) this.seed = r.seed;
+    this.paramInfo = r.params;
+    // Overrides of parameters the grammar no longer declares are dropped.
+    const names = new Set(r.params.map((p) => p.name));
+    for (const k of Object.keys(this.params)) if (!names.has(k)) delete this.params[k];
+    // The server's curves are the file's; once the user edits, the page's win.
+    if (!this.curvesEdited) {
+      if (r.curves !== undefined) {
+        try {
+          this.curves = fromJson(r.curves);
+          this.curvesError = null;
+        } catch (e) {
+          this.curvesError = (e as Error).message;
+        }
+      } else if (r.mode === 'sample' && !this.curves) {
+        this.curves = { curves: [] };
+      }
+    }
+    if (this.selected !== null && (!this.curves || this.selected >= this.curves.curves.length)) this.selected = null;
+  }
+
+  paramValue(name: string): number | undefined {
+    return this.params[name] ?? this.paramInfo.find((p) => p.name === name)?.value;
+  }
+
+  setParam(name: string, value: number): void {
+    const info = this.paramInfo.find((p) => p.name === name);
+    if (!info || !Number.isFinite(value)) return;
+    this.params[name] = Math.min(info.max, Math.max(info.min, value));
+  }
+
+  nextVariation(): void {
+    this.seed = ((this.seed ?? 0) + 1) >>> 0;
+  }
+
+  setSeed(seed: number): void {
+    if (Number.isFinite(seed)) this.seed = Math.max(0, Math.floor(seed)) >>> 0;
+  }
+
+  /** Parameters for a new curve: the selected curve's, else the last curve's, else grm-guide's defaults. */
+  templateParams(): CurveParams {
+    const set = this.curves;
+    const from = set && (set.curves[this.selected ?? -1] ?? set.curves[set.curves.length - 1]);
+    const p = from ? from.params : DEFAULT_PARAMS;
+    return { ...p, distance: [...p.distance] as [number, number, number] };
+  }
+
+  private editable(): CurveSet {
+    if (!this.curves) this.curves = { curves: [] };
+    this.curves = cloneSet(this.curves);
+    this.curvesEdited = true;
+    return this.curves;
+  }
+
+  /** Fit a stroke (world points) to a curve and add it, selected. Returns its index or null. */
+  addStroke(stroke: V3[]): number | null {
+    const fit = fitCubicBezier(stroke);
+    if (!fit) return null;
+    const params = this.templateParams();
+    const set = this.editable();
+    set.curves.push({ name: freshName(set), points: fit, params });
+    this.selected = set.curves.length - 1;
+    return this.selected;
+  }
+
+  moveControlPoint(curve: number, k: number, p: V3): void {
+    if (!this.curves?.curves[curve] || k < 0 || k > 3 || !p.every(Number.isFinite)) return;
+    const set = this.editable();
+    set.curves[curve].points[k] = [p[0], p[1], p[2]];
+  }
+
+  setCurveParam<K extends keyof CurveParams>(curve: number, key: K, value: CurveParams[K]): void {
+    if (!this.curves?.curves[curve]) return;
+    const set = this.editable();
+    set.curves[curve].params[key] = value;
+  }
+
+  renameCurve(curve: number, name: string): boolean {
+    if (!this.curves?.curves[curve]) return false;
+    if (this.curves.curves.some((c, i) => i !== curve && c.name === name)) return false;
+    const set = this.editable();
+    if (name === '') delete set.curves[curve].name;
+    else set.curves[curve].name = name;
+    return true;
+  }
+
+  deleteCurve(curve: number): void {
+    if (!this.curves?.curves[curve]) return;
+    const set = this.editable();
+    set.curves.splice(curve, 1);
+    this.selected = null;
+  }
+
+  /** The curves as Béziers, for drawing. */
+  beziers(): Bezier[] {
+    return this.curves ? this.curves.curves.map((c: Curve) => c.points) : [];
+  }
+
+  /** The curves file text to save, or why it cannot be saved. */
+  curvesText(): { text: string } | { error: string } {
+    if (!this.curves || this.curves.curves.length === 0) return { error: 'a curves file needs at least one curve: not saved' };
+    try {
+      return { text: serializeCurves(this.curves) };
+    } catch (e) {
+      return { error: (e as Error).message };
+    }
+  }
+}

@@ -1,0 +1,202 @@
+// One small interface between the page and its host, two implementations:
+// the VS Code webview (`acquireVsCodeApi().postMessage` and `message` events)
+// and a browser talking to `grmc view` (HTTP POST JSON, long-polled events).
+
+import {
+  type HostToPage,
+  type Method,
+  type NotificationMethod,
+  type PageToHost,
+  parseHostMessage,
+} from './messages.js';
+
+export type NotificationHandler = (method: NotificationMethod, params: unknown) => void;
+
+export interface Transport {
+  readonly kind: 'vscode' | 'http';
+  /** Ask the host; rejects with the host's error message. */
+  request(method: Method, params: unknown): Promise<unknown>;
+  /** Receive the host's notifications (one handler; a later call replaces it). */
+  onNotification(handler: NotificationHandler): void;
+  /** Start listening and tell the host the page is ready. */
+  start(): void;
+  /** Stop listening; pending requests are rejected. */
+  dispose(): void;
+}
+
+export class TransportError extends Error {}
+
+// ----------------------------------------------------------- VS Code webview
+
+/** The part of `acquireVsCodeApi()` the transport uses. */
+export interface PostTarget {
+  postMessage(message: PageToHost): void;
+}
+
+/** Where host messages arrive (`window` in a webview). */
+export interface MessageSource {
+  addEventListener(type: 'message', listener: (ev: { data: unknown }) => void): void;
+  removeEventListener(type: 'message', listener: (ev: { data: unknown }) => void): void;
+}
+
+export class VsCodeTransport implements Transport {
+  readonly kind = 'vscode' as const;
+  private nextId = 1;
+  private pending = new Map<number, { resolve: (v: unknown) => void; reject: (e: Error) => void }>();
+  private handler: NotificationHandler = () => {};
+  private readonly listener = (ev: { data: unknown }) => this.receive(ev.data);
+
+  constructor(
+    private readonly api: PostTarget,
+    private readonly source: MessageSource,
+  ) {}
+
+  start(): void {
+    this.source.addEventListener('message', this.listener);
+    this.api.postMessage({ type: 'ready' });
+  }
+
+  dispose(): void {
+    this.source.removeEventListener('message', this.listener);
+    for (const p of this.pending.values()) p.reject(new TransportError('the preview was closed'));
+    this.pending.clear();
+  }
+
+  onNotification(handler: NotificationHandler): void {
+    this.handler = handler;
+  }
+
+  request(method: Method, params: unknown): Promise<unknown> {
+    const id = this.nextId++;
+    return new Promise((resolve, reject) => {
+      this.pending.set(id, { resolve, reject });
+      this.api.postMessage({ type: 'request', id, method, params });
+    });
+  }
+
+  /** Number of requests still waiting for an answer (for tests). */
+  get pendingCount(): number {
+    return this.pending.size;
+  }
+
+  private receive(data: unknown): void {
+    const msg: HostToPage | null = parseHostMessage(data);
+    if (!msg) return;
+    if (msg.type === 'notify') {
+      this.handler(msg.method, msg.params);
+      return;
+    }
+    const p = this.pending.get(msg.id);
+    if (!p) return;
+    this.pending.delete(msg.id);
+    if (msg.error !== undefined) p.reject(new TransportError(msg.error));
+    else p.resolve(msg.result);
+  }
+}
+
+// ----------------------------------------------------------- HTTP (grmc view)
+
+export type FetchFn = (url: string, init?: { method?: string; headers?: Record<string, string>; body?: string; signal?: AbortSignal }) => Promise<{
+  ok: boolean;
+  status: number;
+  json(): Promise<unknown>;
+  text(): Promise<string>;
+}>;
+
+/**
+ * `grmc view`: requests are `POST {base}/api/{method}` with the params as the
+ * JSON body, answered `{ "result": ... }` or `{ "error": "..." }`;
+ * notifications come from long-polling `GET {base}/api/events?after=N`, which
+ * answers `{ "seq": M, "events": [{ "method", "params" }] }` when something
+ * happened after event N (or empty after a while).
+ */
+export class HttpTransport implements Transport {
+  readonly kind = 'http' as const;
+  private handler: NotificationHandler = () => {};
+  private stopped = false;
+  private seq = 0;
+  private readonly abort = new AbortController();
+
+  constructor(
+    private readonly base: string,
+    private readonly fetchFn: FetchFn,
+    private readonly retryMs = 1000,
+  ) {}
+
+  start(): void {
+    void this.poll();
+  }
+
+  dispose(): void {
+    this.stopped = true;
+    this.abort.abort();
+  }
+
+  onNotification(handler: NotificationHandler): void {
+    this.handler = handler;
+  }
+
+  async request(method: Method, params: unknown): Promise<unknown> {
+    const res = await this.fetchFn(`${this.base}/api/${method}`, {
+      method: 'POST',
+      headers: { 'content-type': 'application/json' },
+      body: JSON.stringify(params ?? null),
+      signal: this.abort.signal,
+    });
+    let body: unknown;
+    try {
+      body = await res.json();
+    } catch {
+      throw new TransportError(`${method}: HTTP ${res.status}, not JSON`);
+    }
+    const obj = body as Record<string, unknown> | null;
+    if (obj && typeof obj.error === 'string') throw new TransportError(obj.error);
+    if (!res.ok) throw new TransportError(`${method}: HTTP ${res.status}`);
+    if (!obj || !('result' in obj)) throw new TransportError(`${method}: the answer has no result`);
+    return obj.result;
+  }
+
+  private async poll(): Promise<void> {
+    while (!this.stopped) {
+      try {
+        const res = await this.fetchFn(`${this.base}/api/events?after=${this.seq}`, { signal: this.abort.signal });
+        if (!res.ok) throw new TransportError(`events: HTTP ${res.status}`);
+        const body = (await res.json()) as { seq?: unknown; events?: unknown };
+        if (typeof body.seq === 'number') this.seq = body.seq;
+        if (Array.isArray(body.events)) {
+          for (const e of body.events) {
+            const msg = parseHostMessage({ type: 'notify', ...(e as object) });
+            if (msg && msg.type === 'notify') this.handler(msg.method, msg.params);
+          }
+        }
+      } catch {
+        if (this.stopped) return;
+        await new Promise((r) => setTimeout(r, this.retryMs));
+      }
+    }
+  }
+}
+
+/** The transport for where the page runs: a VS Code webview if `acquireVsCodeApi` exists, else HTTP to its own origin. */
+export function detectTransport(g: {
+  acquireVsCodeApi?: () => PostTarget;
+  location?: { origin: string };
+  fetch?: FetchFn;
+  addEventListener?: MessageSource['addEventListener'];
+  removeEventListener?: MessageSource['removeEventListener'];
+}): Transport {
+  if (typeof g.acquireVsCodeApi === 'function') {
+    const api = g.acquireVsCodeApi();
+    const add = g.addEventListener;
+    const remove = g.removeEventListener;
+    if (!add || !remove) throw new TransportError('a webview without message events');
+    return new VsCodeTransport(api, {
+      addEventListener: (type, l) => add.call(g, type, l),
+      removeEventListener: (type, l) => remove.call(g, type, l),
+    });
+  }
+  if (!g.fetch || !g.location) throw new TransportError('no host: neither a VS Code webview nor a page served over HTTP');
+  // fetch must be called with the window as `this`.
+  const f = g.fetch.bind(g);
+  return new HttpTransport(g.location.origin, f);
+}

@@ -1,0 +1,137 @@
+// The extension's handling of the page's messages, and the two ends wired
+// together: the page's webview transport talking to the extension's host.
+import assert from 'node:assert/strict';
+import { test } from 'node:test';
+import type { HostToPage } from '../preview/src/messages.js';
+import { VsCodeTransport } from '../preview/src/transport.js';
+import { type HostDeps, PreviewHost, curvesPathFor } from '../vscode/src/host.js';
+
+const CURVES = JSON.stringify({ version: 1, curves: [{ name: 'a', points: [[0, 0, 0], [0, 1, 0], [0, 2, 0], [0, 3, 0]] }] });
+
+function fakeHost(overrides: Partial<HostDeps> = {}) {
+  const posted: HostToPage[] = [];
+  const requests: Array<[string, unknown]> = [];
+  const writes: Array<[string, string]> = [];
+  const reveals: Array<[string, number, number]> = [];
+  const deps: HostDeps = {
+    request: async (method, params) => {
+      requests.push([method, params]);
+      if (method === 'grm/preview') return { uri: (params as { uri: string }).uri, mode: 'sample', seed: 9, model: null };
+      if (method === 'grm/pick') return { rule: { origin: 2, label: 'branch -> ...', line: 41, character: 4 } };
+      return { points: [], bones: [] };
+    },
+    writeFile: async (p, t) => {
+      writes.push([p, t]);
+    },
+    reveal: async (u, l, c) => {
+      reveals.push([u, l, c]);
+    },
+    fsPath: (uri) => (uri.startsWith('file://') ? uri.slice('file://'.length) : null),
+    post: (m) => posted.push(m),
+    ...overrides,
+  };
+  return { host: new PreviewHost(deps), posted, requests, writes, reveals };
+}
+
+test('notifications wait for the page to be ready; only the latest document is kept', async () => {
+  const { host, posted } = fakeHost();
+  host.setDocument('file:///a.grm', 'a.grm');
+  host.documentChanged('file:///a.grm', 2);
+  host.setDocument('file:///b.grm', 'b.grm');
+  assert.equal(posted.length, 0);
+  await host.handle({ type: 'ready' });
+  assert.deepEqual(posted, [{ type: 'notify', method: 'document', params: { uri: 'file:///b.grm', title: 'b.grm' } }]);
+  host.documentChanged('file:///a.grm', 3); // not the shown document
+  host.documentChanged('file:///b.grm', 4);
+  host.cursor('file:///b.grm', 7, 2);
+  assert.deepEqual(posted.slice(1), [
+    { type: 'notify', method: 'previewUpdated', params: { uri: 'file:///b.grm', version: 4 } },
+    { type: 'notify', method: 'cursor', params: { uri: 'file:///b.grm', line: 7, character: 2 } },
+  ]);
+});
+
+test('preview requests go to grm/preview and the answer comes back with the same id', async () => {
+  const { host, posted, requests } = fakeHost();
+  host.setDocument('file:///t.grm', 't.grm');
+  await host.handle({ type: 'ready' });
+  await host.handle({ type: 'request', id: 7, method: 'preview', params: { uri: 'file:///t.grm', seed: 9, params: { spread: 40 } } });
+  assert.deepEqual(requests, [['grm/preview', { uri: 'file:///t.grm', seed: 9, params: { spread: 40 } }]]);
+  assert.deepEqual(posted.at(-1), { type: 'response', id: 7, result: { uri: 'file:///t.grm', mode: 'sample', seed: 9, model: null } });
+  assert.deepEqual(host.lastPreview('file:///t.grm'), { params: { spread: 40 }, mode: 'sample', seed: 9 });
+});
+
+test('a pick asks the server and jumps to the rule', async () => {
+  const { host, posted, reveals } = fakeHost();
+  host.setDocument('file:///t.grm', 't.grm');
+  await host.handle({ type: 'ready' });
+  await host.handle({ type: 'request', id: 1, method: 'pick', params: { uri: 'file:///t.grm', origin: 2 } });
+  assert.deepEqual(reveals, [['file:///t.grm', 41, 4]]);
+  assert.equal((posted.at(-1) as { result: { rule: { line: number } } }).result.rule.line, 41);
+});
+
+test('curves are saved next to the grammar, and only valid curves', async () => {
+  const { host, posted, writes } = fakeHost();
+  host.setDocument('file:///w/tree.grm', 'tree.grm');
+  await host.handle({ type: 'ready' });
+  await host.handle({ type: 'request', id: 2, method: 'saveCurves', params: { uri: 'file:///w/tree.grm', text: CURVES } });
+  assert.deepEqual(writes, [['/w/tree.curves.json', CURVES]]);
+  assert.deepEqual(posted.at(-1), { type: 'response', id: 2, result: { path: '/w/tree.curves.json' } });
+  await host.handle({ type: 'request', id: 3, method: 'saveCurves', params: { uri: 'file:///w/tree.grm', text: '{"version": 1, "curves": []}' } });
+  assert.equal(writes.length, 1);
+  assert.match((posted.at(-1) as { error: string }).error, /at least one curve/);
+});
+
+test('requests about another document, unsaved documents and server failures answer with an error', async () => {
+  const { host, posted, writes } = fakeHost({
+    request: async () => {
+      throw new Error('server crashed');
+    },
+  });
+  host.setDocument('untitled:Untitled-1', 'Untitled-1');
+  await host.handle({ type: 'ready' });
+  await host.handle({ type: 'request', id: 1, method: 'preview', params: { uri: 'file:///other.grm' } });
+  assert.match((posted.at(-1) as { error: string }).error, /not file:\/\/\/other.grm/);
+  await host.handle({ type: 'request', id: 2, method: 'preview', params: { uri: 'untitled:Untitled-1' } });
+  assert.deepEqual(posted.at(-1), { type: 'response', id: 2, error: 'server crashed' });
+  await host.handle({ type: 'request', id: 3, method: 'saveCurves', params: { uri: 'untitled:Untitled-1', text: CURVES } });
+  assert.match((posted.at(-1) as { error: string }).error, /save it first/);
+  await host.handle({ type: 'request', id: 4, method: 'preview', params: null });
+  assert.match((posted.at(-1) as { error: string }).error, /names no document/);
+  assert.equal(writes.length, 0);
+});
+
+test('malformed messages are ignored', async () => {
+  const { host, posted, requests } = fakeHost();
+  for (const m of [null, 'x', { type: 'request', id: 'a', method: 'preview' }, { type: 'request', id: 1, method: 'rm -rf' }, { type: 'response', id: 1 }]) {
+    await host.handle(m);
+  }
+  assert.equal(posted.length, 0);
+  assert.equal(requests.length, 0);
+});
+
+test('page and extension end to end: the page transport talks to the host', async () => {
+  // An in-memory webview: page -> host through handle(), host -> page through message events.
+  const listeners: Array<(ev: { data: unknown }) => void> = [];
+  const win = {
+    addEventListener: (_t: 'message', l: (ev: { data: unknown }) => void) => listeners.push(l),
+    removeEventListener: () => {},
+  };
+  let host!: PreviewHost;
+  const pending: Promise<void>[] = [];
+  const page = new VsCodeTransport({ postMessage: (m) => pending.push(host.handle(structuredClone(m))) }, win);
+  host = fakeHost({ post: (m) => listeners.forEach((l) => l({ data: structuredClone(m) })) }).host;
+  const notes: unknown[] = [];
+  page.onNotification((m, p) => notes.push([m, p]));
+  host.setDocument('file:///w/tree.grm', 'tree.grm');
+  page.start();
+  await Promise.all(pending);
+  assert.deepEqual(notes, [['document', { uri: 'file:///w/tree.grm', title: 'tree.grm' }]]);
+  const r = (await page.request('preview', { uri: 'file:///w/tree.grm' })) as { seed: number };
+  assert.equal(r.seed, 9);
+  await assert.rejects(page.request('saveCurves', { uri: 'file:///w/tree.grm', text: '{' }), /invalid JSON/);
+});
+
+test('the curves file is named after the grammar', () => {
+  assert.equal(curvesPathFor('/a/b/tree.grm'), '/a/b/tree.curves.json');
+  assert.equal(curvesPathFor('C:\\x\\Tree.GRM'), 'C:\\x\\Tree.curves.json');
+});

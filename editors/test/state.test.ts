@@ -1,0 +1,163 @@
+import assert from 'node:assert/strict';
+import { test } from 'node:test';
+import { Coalescer } from '../preview/src/coalesce.js';
+import { parseCurves } from '../preview/src/curves.js';
+import { decodePreview } from '../preview/src/protocol.js';
+import { PageState } from '../preview/src/state.js';
+
+const curvesJson = { version: 1, defaults: { utilization_scale: 100 }, curves: [{ name: 'trunk', points: [[0, 0, 0], [0, 1, 0], [0, 2, 0], [0, 3, 0]] }] };
+
+function result(over: Record<string, unknown> = {}) {
+  return decodePreview({
+    uri: 'file:///t.grm',
+    system: 'Tree',
+    mode: 'sample',
+    seed: 5,
+    params: [{ name: 'spread', value: 30, min: 10, max: 60, default: 30 }],
+    curves: curvesJson,
+    model: null,
+    ...over,
+  });
+}
+
+test('the first preview sets seed, parameters and curves; overrides are clamped and sent', () => {
+  const s = new PageState();
+  s.setDocument('file:///t.grm');
+  assert.deepEqual(s.previewParams(), { uri: 'file:///t.grm' });
+  s.absorb(result());
+  assert.equal(s.seed, 5);
+  assert.equal(s.curves?.curves[0].params.utilization_scale, 100);
+  s.setParam('spread', 99);
+  s.setParam('unknown', 1);
+  s.nextVariation();
+  assert.deepEqual(s.previewParams(), { uri: 'file:///t.grm', seed: 6, params: { spread: 60 } });
+  // Curves go inline only once edited.
+  assert.equal(s.previewParams().curves, undefined);
+});
+
+test('a drawn stroke becomes a selected curve with the template parameters, and is sent and saveable', () => {
+  const s = new PageState();
+  s.setDocument('file:///t.grm');
+  s.absorb(result());
+  const i = s.addStroke([[0, 3, 0], [-0.5, 3.5, 0], [-1, 3.8, 0], [-2, 4, 0]]);
+  assert.equal(i, 1);
+  assert.equal(s.selected, 1);
+  const c = s.curves!.curves[1];
+  assert.equal(c.name, 'curve1');
+  assert.equal(c.params.utilization_scale, 100); // copied from the last curve
+  const sent = s.previewParams().curves as { curves: unknown[] };
+  assert.equal(sent.curves.length, 2);
+  const out = s.curvesText();
+  assert.ok('text' in out);
+  assert.deepEqual(parseCurves(out.text), s.curves);
+  // A later preview (the file as the server knows it) does not overwrite the edit.
+  s.absorb(result());
+  assert.equal(s.curves!.curves.length, 2);
+});
+
+test('moving control points, editing parameters, renaming and deleting', () => {
+  const s = new PageState();
+  s.setDocument('file:///t.grm');
+  s.absorb(result());
+  const before = s.curves;
+  s.moveControlPoint(0, 2, [1, 2, 3]);
+  assert.notEqual(s.curves, before, 'edits make a new set (the old one is untouched)');
+  assert.deepEqual(before!.curves[0].points[2], [0, 2, 0]);
+  assert.deepEqual(s.curves!.curves[0].points[2], [1, 2, 3]);
+  s.moveControlPoint(0, 4, [0, 0, 0]);
+  s.moveControlPoint(0, 1, [NaN, 0, 0]);
+  assert.deepEqual(s.curves!.curves[0].points[1], [0, 1, 0]);
+  s.setCurveParam(0, 'alignment_offset', 0.3);
+  assert.equal(s.curves!.curves[0].params.alignment_offset, 0.3);
+  s.addStroke([[0, 0, 0], [1, 1, 0]]);
+  assert.equal(s.renameCurve(1, 'trunk'), false);
+  assert.equal(s.renameCurve(1, 'arm'), true);
+  s.deleteCurve(0);
+  s.deleteCurve(0);
+  assert.equal(s.selected, null);
+  const out = s.curvesText();
+  assert.ok('error' in out && /at least one curve/.test(out.error));
+});
+
+test('switching documents forgets the old one; invalid server curves are reported', () => {
+  const s = new PageState();
+  s.setDocument('file:///t.grm');
+  s.absorb(result());
+  s.setParam('spread', 20);
+  s.setDocument('file:///u.grm');
+  assert.deepEqual(s.previewParams(), { uri: 'file:///u.grm' });
+  s.absorb(result({ curves: { version: 7, curves: [] } }));
+  assert.match(s.curvesError ?? '', /version 7/);
+  s.absorb(result({ params: [] }));
+  assert.equal(s.paramValue('spread'), undefined);
+});
+
+test('derive systems draw no curves', () => {
+  const s = new PageState();
+  s.setDocument('file:///k.grm');
+  s.absorb(result({ mode: 'derive', curves: undefined }));
+  assert.equal(s.curves, null);
+  assert.deepEqual(s.beziers(), []);
+});
+
+test('coalescer: one request in flight, the latest state follows, results in order', async () => {
+  let state = 0;
+  const sent: number[] = [];
+  const delivered: Array<[number, boolean, number]> = [];
+  const resolvers: Array<() => void> = [];
+  let clock = 100;
+  const c = new Coalescer<number, number>(
+    () => state,
+    (s) => {
+      sent.push(s);
+      return new Promise((r) => resolvers.push(() => r(s * 10)));
+    },
+    (d) => delivered.push([d.result, d.final, d.editedAt]),
+    () => assert.fail('no failure expected'),
+    () => clock,
+  );
+  state = 1;
+  c.trigger();
+  clock = 110;
+  state = 2;
+  c.trigger();
+  clock = 120;
+  state = 3;
+  c.trigger();
+  assert.deepEqual(sent, [1]);
+  resolvers.shift()!();
+  await new Promise((r) => setImmediate(r));
+  assert.deepEqual(sent, [1, 3], 'the edits made meanwhile are merged into one request with the latest state');
+  resolvers.shift()!();
+  await new Promise((r) => setImmediate(r));
+  assert.deepEqual(delivered, [
+    [10, false, 100],
+    [30, true, 110],
+  ]);
+  assert.equal(c.busy, false);
+});
+
+test('coalescer: a failure is reported only when no newer edit is waiting', async () => {
+  const failures: unknown[] = [];
+  let n = 0;
+  let release!: () => void;
+  const c = new Coalescer<number, number>(
+    () => n,
+    async (s) => {
+      if (s === 1) {
+        await new Promise<void>((r) => (release = r));
+        throw new Error('stale failure');
+      }
+      throw new Error('current failure');
+    },
+    () => {},
+    (e) => failures.push((e as Error).message),
+  );
+  n = 1;
+  c.trigger();
+  n = 2;
+  c.trigger();
+  release();
+  await new Promise((r) => setTimeout(r, 5));
+  assert.deepEqual(failures, ['current failure']);
+});

@@ -1,0 +1,261 @@
+// The grm extension: starts `grmc lsp` as the language server, shows the
+// preview page in a webview beside the editor, exports models with `grmc`.
+
+import { execFile } from 'node:child_process';
+import { randomBytes } from 'node:crypto';
+import { accessSync, constants, readFileSync, statSync } from 'node:fs';
+import * as os from 'node:os';
+import * as path from 'node:path';
+import * as vscode from 'vscode';
+import { LanguageClient, type LanguageClientOptions, type ServerOptions } from 'vscode-languageclient/node';
+import { defaultOutput, type ExportFormat, exportArgs } from './exportArgs.js';
+import { PreviewHost, curvesPathFor } from './host.js';
+import { resolveServerPath } from './serverPath.js';
+import { makeNonce, webviewHtml } from './webviewHtml.js';
+
+let client: LanguageClient | undefined;
+let serverPath: string | undefined;
+let output: vscode.OutputChannel;
+let preview: PreviewPanel | undefined;
+
+function isExecutable(p: string): boolean {
+  try {
+    if (!statSync(p).isFile()) return false;
+    accessSync(p, process.platform === 'win32' ? constants.F_OK : constants.X_OK);
+    return true;
+  } catch {
+    return false;
+  }
+}
+
+function findServer(context: vscode.ExtensionContext): string | undefined {
+  const r = resolveServerPath({
+    setting: vscode.workspace.getConfiguration('grm').get<string>('server.path'),
+    extensionPath: context.extensionPath,
+    workspaceFolders: (vscode.workspace.workspaceFolders ?? []).map((f) => f.uri.fsPath),
+    platform: process.platform,
+    pathEnv: process.env.PATH,
+    home: os.homedir(),
+    isExecutable,
+  });
+  if ('error' in r) {
+    output.appendLine(`${r.error}\ntried:\n  ${r.tried.join('\n  ')}`);
+    void vscode.window.showErrorMessage(r.error, 'Open settings').then((choice) => {
+      if (choice) void vscode.commands.executeCommand('workbench.action.openSettings', 'grm.server.path');
+    });
+    return undefined;
+  }
+  output.appendLine(`grm: using ${r.path} (${r.source})`);
+  return r.path;
+}
+
+async function startClient(context: vscode.ExtensionContext): Promise<void> {
+  serverPath = findServer(context);
+  if (!serverPath) return;
+  const serverOptions: ServerOptions = { command: serverPath, args: ['lsp'] };
+  const clientOptions: LanguageClientOptions = {
+    documentSelector: [
+      { scheme: 'file', language: 'grm' },
+      { scheme: 'untitled', language: 'grm' },
+    ],
+    outputChannel: output,
+    synchronize: { fileEvents: vscode.workspace.createFileSystemWatcher('**/*.{grm,curves.json,obj}') },
+  };
+  // The client id `grm` makes vscode-languageclient honour `grm.trace.server`.
+  client = new LanguageClient('grm', 'grm language server', serverOptions, clientOptions);
+  client.onNotification('grm/previewUpdated', (p: { uri?: string; version?: number }) => {
+    if (p && typeof p.uri === 'string') preview?.host.documentChanged(p.uri, p.version);
+  });
+  await client.start();
+}
+
+async function stopClient(): Promise<void> {
+  const c = client;
+  client = undefined;
+  if (c) await c.stop();
+}
+
+function isGrm(doc: vscode.TextDocument | undefined): doc is vscode.TextDocument {
+  return doc?.languageId === 'grm';
+}
+
+class PreviewPanel {
+  readonly host: PreviewHost;
+  private readonly disposables: vscode.Disposable[] = [];
+  private cursorTimer: NodeJS.Timeout | undefined;
+
+  constructor(
+    context: vscode.ExtensionContext,
+    readonly panel: vscode.WebviewPanel,
+  ) {
+    const webview = panel.webview;
+    this.host = new PreviewHost({
+      request: async (method, params) => {
+        if (!client) throw new Error('the grm language server is not running (see the "grm" output)');
+        return client.sendRequest(method, params);
+      },
+      writeFile: async (file, text) => {
+        await vscode.workspace.fs.writeFile(vscode.Uri.file(file), Buffer.from(text, 'utf8'));
+      },
+      reveal: async (uri, line, character) => {
+        const doc = await vscode.workspace.openTextDocument(vscode.Uri.parse(uri));
+        const pos = new vscode.Position(line, character);
+        const shown = vscode.window.visibleTextEditors.find((e) => e.document.uri.toString() === doc.uri.toString());
+        const editor = await vscode.window.showTextDocument(doc, { viewColumn: shown?.viewColumn ?? vscode.ViewColumn.One, preserveFocus: false });
+        editor.selection = new vscode.Selection(pos, pos);
+        editor.revealRange(new vscode.Range(pos, pos), vscode.TextEditorRevealType.InCenterIfOutsideViewport);
+      },
+      fsPath: (uri) => {
+        const u = vscode.Uri.parse(uri);
+        return u.scheme === 'file' ? u.fsPath : null;
+      },
+      post: (msg) => void webview.postMessage(msg),
+    });
+    const media = vscode.Uri.joinPath(context.extensionUri, 'dist', 'preview');
+    webview.options = { enableScripts: true, localResourceRoots: [media] };
+    const template = readFileSync(path.join(context.extensionPath, 'dist', 'preview', 'index.html'), 'utf8');
+    webview.html = webviewHtml(template, {
+      scriptUri: webview.asWebviewUri(vscode.Uri.joinPath(media, 'preview.js')).toString(),
+      styleUri: webview.asWebviewUri(vscode.Uri.joinPath(media, 'preview.css')).toString(),
+      cspSource: webview.cspSource,
+      nonce: makeNonce((n) => new Uint8Array(randomBytes(n))),
+    });
+    this.disposables.push(
+      webview.onDidReceiveMessage((m) => void this.host.handle(m)),
+      vscode.window.onDidChangeActiveTextEditor((e) => {
+        if (isGrm(e?.document)) this.show(e.document);
+      }),
+      vscode.workspace.onDidChangeTextDocument((e) => {
+        // The server also says `grm/previewUpdated`; this covers a server that does not.
+        if (isGrm(e.document) && e.contentChanges.length > 0) this.host.documentChanged(e.document.uri.toString(), e.document.version);
+      }),
+      vscode.workspace.onDidSaveTextDocument((d) => {
+        if (d.uri.fsPath.endsWith('.curves.json') || d.uri.fsPath.endsWith('.obj')) {
+          const uri = this.host.uri;
+          if (uri) this.host.documentChanged(uri);
+        }
+      }),
+      vscode.window.onDidChangeTextEditorSelection((e) => {
+        if (!isGrm(e.textEditor.document)) return;
+        const uri = e.textEditor.document.uri.toString();
+        const pos = e.selections[0]?.active;
+        if (!pos) return;
+        // At most one highlight request per 120 ms of cursor movement.
+        clearTimeout(this.cursorTimer);
+        this.cursorTimer = setTimeout(() => this.host.cursor(uri, pos.line, pos.character), 120);
+      }),
+    );
+    panel.onDidDispose(() => this.dispose(), null, this.disposables);
+  }
+
+  show(doc: vscode.TextDocument): void {
+    this.host.setDocument(doc.uri.toString(), path.basename(doc.uri.fsPath));
+    this.panel.title = `Preview ${path.basename(doc.uri.fsPath)}`;
+  }
+
+  dispose(): void {
+    clearTimeout(this.cursorTimer);
+    preview = undefined;
+    for (const d of this.disposables) d.dispose();
+  }
+}
+
+function openPreview(context: vscode.ExtensionContext): void {
+  const doc = vscode.window.activeTextEditor?.document;
+  if (!isGrm(doc)) {
+    void vscode.window.showInformationMessage('Open a .grm file to preview it.');
+    return;
+  }
+  if (!preview) {
+    const panel = vscode.window.createWebviewPanel('grm.preview', 'grm preview', { viewColumn: vscode.ViewColumn.Beside, preserveFocus: true }, {
+      enableScripts: true,
+      retainContextWhenHidden: true,
+    });
+    preview = new PreviewPanel(context, panel);
+  } else {
+    preview.panel.reveal(vscode.ViewColumn.Beside, true);
+  }
+  preview.show(doc);
+}
+
+async function exportModel(): Promise<void> {
+  const doc = vscode.window.activeTextEditor?.document;
+  if (!isGrm(doc) || doc.uri.scheme !== 'file') {
+    void vscode.window.showInformationMessage('Open a saved .grm file to export its model.');
+    return;
+  }
+  if (!serverPath) {
+    void vscode.window.showErrorMessage('grmc was not found (see the "grm" output).');
+    return;
+  }
+  if (doc.isDirty) await doc.save();
+  const pickFormat = await vscode.window.showQuickPick(
+    [
+      { label: 'glTF binary (.glb)', format: 'glb' as ExportFormat },
+      { label: 'Wavefront OBJ + MTL (.obj)', format: 'obj' as ExportFormat },
+    ],
+    { placeHolder: 'Export the model as' },
+  );
+  if (!pickFormat) return;
+  const grammar = doc.uri.fsPath;
+  const target = await vscode.window.showSaveDialog({
+    defaultUri: vscode.Uri.file(defaultOutput(grammar, pickFormat.format)),
+    filters: pickFormat.format === 'glb' ? { glTF: ['glb'] } : { OBJ: ['obj'] },
+  });
+  if (!target) return;
+  const last = preview?.host.lastPreview(doc.uri.toString());
+  const mode = last?.mode === 'sample' || /\bmode\s*=\s*sample\b/.test(doc.getText()) ? 'sample' : 'derive';
+  const args = exportArgs({
+    grammar,
+    output: target.fsPath,
+    mode,
+    seed: last?.seed,
+    params: last?.params,
+    curves: curvesPathFor(grammar),
+  });
+  const exe = serverPath;
+  output.appendLine(`grm: ${exe} ${args.join(' ')}`);
+  await vscode.window.withProgress({ location: vscode.ProgressLocation.Notification, title: `Exporting ${path.basename(target.fsPath)}` }, () =>
+    new Promise<void>((resolve) => {
+      execFile(exe, args, { cwd: path.dirname(grammar), maxBuffer: 16 << 20 }, (err, stdout, stderr) => {
+        if (stdout) output.append(stdout);
+        if (stderr) output.append(stderr);
+        if (err) {
+          void vscode.window.showErrorMessage(`grmc failed: ${(stderr || err.message).split('\n')[0]}`, 'Show output').then((c) => {
+            if (c) output.show();
+          });
+        } else {
+          void vscode.window.showInformationMessage(`Exported ${target.fsPath}`);
+        }
+        resolve();
+      });
+    }),
+  );
+}
+
+export async function activate(context: vscode.ExtensionContext): Promise<void> {
+  output = vscode.window.createOutputChannel('grm');
+  context.subscriptions.push(
+    output,
+    vscode.commands.registerCommand('grm.openPreview', () => openPreview(context)),
+    vscode.commands.registerCommand('grm.exportModel', () => exportModel()),
+    vscode.commands.registerCommand('grm.restartServer', async () => {
+      await stopClient();
+      await startClient(context);
+      const uri = preview?.host.uri;
+      if (uri) preview?.host.documentChanged(uri);
+      void vscode.window.showInformationMessage(client ? 'grm language server restarted' : 'grm language server could not start');
+    }),
+    vscode.workspace.onDidChangeConfiguration(async (e) => {
+      if (e.affectsConfiguration('grm.server.path')) {
+        await stopClient();
+        await startClient(context);
+      }
+    }),
+  );
+  await startClient(context);
+}
+
+export async function deactivate(): Promise<void> {
+  await stopClient();
+}
