@@ -19,7 +19,8 @@ fn every_shader_file_is_used_by_a_kernel_or_included() {
     for (name, _) in shader::FILES {
         let used = kernels::ALL.iter().any(|k| {
             k.file == *name
-                || shader::compose(k.file).is_ok_and(|s| s.contains(&format!("// ---- {name}\n")))
+                || k.source()
+                    .is_ok_and(|s| s.contains(&format!("// ---- {name}\n")))
         });
         assert!(used, "shaders/{name} is not used by any kernel");
     }
