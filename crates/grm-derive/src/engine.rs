@@ -126,9 +126,9 @@ pub struct Engine<'a> {
     sys: &'a CompiledSystem,
     /// Per symbol: `COPY`, `SLOW`, or the one alternative that always applies.
     fast: Vec<u32>,
-    /// Per symbol: output modules / words when not `SLOW`.
-    fast_len: Vec<u32>,
-    fast_words: Vec<u32>,
+    /// Per symbol: `(fast, output modules, output words)`, the count pass's
+    /// table (one load per module).
+    counts: Vec<(u32, u32, u32)>,
     /// Per symbol: parameter words.
     sym_words: Vec<u32>,
     /// Per symbol: 1 for `[`, 2 for `]`, 0 otherwise.
@@ -138,12 +138,37 @@ pub struct Engine<'a> {
     /// Per successor module (parallel to `sys.succ`): symbol, word offset.
     succ_syms: Vec<u32>,
     succ_words: Vec<u32>,
-    /// Per alternative: its first parameter expression and their count.
-    alt_params: Vec<(u32, u32)>,
+    /// Per alternative: its parameter words with the constants filled in
+    /// (`tpl[tpl_off[alt] ..][.. succ_words]`).
+    tpl: Vec<f32>,
+    tpl_off: Vec<u32>,
+    /// Per alternative: the parameters that are not constants
+    /// (`patches[patch_range[alt].0 .. patch_range[alt].1]`).
+    patches: Vec<Patch>,
+    patch_range: Vec<(u32, u32)>,
     has_context: bool,
     threads: usize,
     min_chunk: usize,
     pool: Option<rayon::ThreadPool>,
+    /// Recycled string buffers (at most [`SPARES`]), so repeated iterations
+    /// and derivations reuse memory instead of faulting in fresh pages.
+    spare: std::sync::Mutex<Vec<ModuleString>>,
+}
+
+/// How many recycled buffers an engine keeps.
+const SPARES: usize = 3;
+
+/// Resize `v` to `n` elements, reusing its memory when it is large enough
+/// (the contents are overwritten by the caller).
+fn fit<T: Copy + Default>(v: &mut Vec<T>, n: usize) {
+    if v.len() >= n {
+        v.truncate(n);
+    } else if v.capacity() >= n {
+        v.resize(n, T::default());
+    } else {
+        // Fresh zeroed memory (lazily zeroed by the OS for large sizes).
+        *v = vec![T::default(); n];
+    }
 }
 
 /// Where the binding words of a decision are.
@@ -153,6 +178,87 @@ enum Binds {
     Direct,
     /// The worker's binding buffer.
     Buffer,
+}
+
+/// How one non-constant successor parameter is computed. The arithmetic
+/// forms are the bytecode `load a; const k; mul|add|sub w1; ret` (or
+/// `const k; load a; mul|add w1; ret`) recognized once, so the most common
+/// parameter expressions skip the interpreter; the result is the same single
+/// IEEE f32 operation the VM (and the GPU) performs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Patch {
+    Copy {
+        dst: u32,
+        src: u32,
+        words: u32,
+    },
+    MulConst {
+        dst: u32,
+        src: u32,
+        k: f32,
+        span: u32,
+    },
+    AddConst {
+        dst: u32,
+        src: u32,
+        k: f32,
+        span: u32,
+    },
+    SubConst {
+        dst: u32,
+        src: u32,
+        k: f32,
+        span: u32,
+    },
+    Code {
+        dst: u32,
+        entry: u32,
+        words: u32,
+        span: u32,
+    },
+}
+
+impl Patch {
+    fn of(sys: &CompiledSystem, p: &ParamExpr, dst: u32) -> Patch {
+        use grm_compile::op::Op;
+        if p.kind == PARAM_COPY {
+            return Patch::Copy {
+                dst,
+                src: p.a,
+                words: p.words,
+            };
+        }
+        let code = sys.code.get(p.a as usize..p.a as usize + 4);
+        let span = p.span;
+        if let (1, Some(&[w0, w1, w2, w3])) = (p.words, code) {
+            let dec = |w: u32| (Op::from_code(w & 0xFF), w >> 8);
+            let (o0, a0) = dec(w0);
+            let (o1, a1) = dec(w1);
+            let (o2, a2) = dec(w2);
+            let (o3, _) = dec(w3);
+            let operands = match (o0, o1) {
+                (Some(Op::Load), Some(Op::Const)) => Some((a0, a1, false)),
+                (Some(Op::Const), Some(Op::Load)) => Some((a1, a0, true)),
+                _ => None,
+            };
+            if let (Some((src, kidx, swapped)), Some(Op::Ret), 1) = (operands, o3, a2)
+                && let Some(&k) = sys.consts.get(kidx as usize)
+            {
+                match o2 {
+                    Some(Op::Mul) => return Patch::MulConst { dst, src, k, span },
+                    Some(Op::Add) => return Patch::AddConst { dst, src, k, span },
+                    Some(Op::Sub) if !swapped => return Patch::SubConst { dst, src, k, span },
+                    _ => {}
+                }
+            }
+        }
+        Patch::Code {
+            dst,
+            entry: p.a,
+            words: p.words,
+            span,
+        }
+    }
 }
 
 /// Per-chunk scratch: the VM and the binding buffer.
@@ -169,8 +275,6 @@ struct Step<'s> {
     mate: &'s [u32],
     seed: u32,
     iteration: u32,
-    /// Whether the output has parameter words (else `starts` stay 0).
-    write_starts: bool,
 }
 
 /// One chunk's output slices.
@@ -225,18 +329,36 @@ impl<'a> Engine<'a> {
                 fast[i] = SLOW;
             }
         }
+        let counts = (0..n)
+            .map(|i| (fast[i], fast_len[i], fast_words[i]))
+            .collect();
         let succ_syms = sys.succ.iter().map(|m| m.symbol).collect();
         let succ_words = sys.succ.iter().map(|m| m.word_offset).collect();
-        let alt_params = sys
-            .alts
-            .iter()
-            .map(|a| {
-                let mods = sys.successor(a);
-                let first = mods.first().map_or(0, |m| m.first_param);
-                let count = mods.iter().map(|m| m.param_count).sum();
-                (first, count)
-            })
-            .collect();
+        let mut tpl = Vec::new();
+        let mut tpl_off = Vec::with_capacity(sys.alts.len());
+        let mut patches = Vec::new();
+        let mut patch_range = Vec::with_capacity(sys.alts.len());
+        for a in &sys.alts {
+            tpl_off.push(tpl.len() as u32);
+            let first_patch = patches.len() as u32;
+            let mut dst = 0u32;
+            for m in sys.successor(a) {
+                for p in sys.module_params(m) {
+                    let w = p.words as usize;
+                    match p.kind {
+                        PARAM_CONST => {
+                            tpl.extend_from_slice(&sys.consts[p.a as usize..p.a as usize + w]);
+                        }
+                        _ => {
+                            tpl.extend(std::iter::repeat_n(0.0, w));
+                            patches.push(Patch::of(sys, p, dst));
+                        }
+                    }
+                    dst += p.words;
+                }
+            }
+            patch_range.push((first_patch, patches.len() as u32));
+        }
         let pool = if threads > 1 {
             Some(
                 rayon::ThreadPoolBuilder::new()
@@ -250,19 +372,62 @@ impl<'a> Engine<'a> {
         Ok(Engine {
             sys,
             fast,
-            fast_len,
-            fast_words,
+            counts,
             sym_words,
             bracket,
             ignored,
             succ_syms,
             succ_words,
-            alt_params,
+            tpl,
+            tpl_off,
+            patches,
+            patch_range,
             has_context: sys.has_context(),
             threads,
             min_chunk: MIN_CHUNK,
             pool,
+            spare: std::sync::Mutex::new(Vec::new()),
         })
+    }
+
+    /// Give a string back to the engine: its memory is reused for the next
+    /// strings it derives. Callers that derive repeatedly (a preview, a
+    /// benchmark) hand back each result when done with it.
+    pub fn recycle(&self, s: ModuleString) {
+        let mut spare = self.spare.lock().unwrap_or_else(|p| p.into_inner());
+        spare.push(s);
+        if spare.len() > SPARES {
+            // Keep the largest buffers.
+            if let Some(i) = (0..spare.len()).min_by_key(|&i| spare[i].syms.capacity()) {
+                spare.swap_remove(i);
+            }
+        }
+    }
+
+    /// A string of `m` modules and `w` parameter words whose contents will
+    /// be overwritten: a recycled buffer that fits without waste, else fresh
+    /// memory.
+    fn take(&self, m: usize, w: usize) -> ModuleString {
+        let mut spare = self.spare.lock().unwrap_or_else(|p| p.into_inner());
+        let fits = |s: &ModuleString| s.syms.capacity() >= m && s.params.capacity() >= w;
+        // The smallest buffer that fits and is not more than 4x too large
+        // (a much larger one is kept for the larger strings to come).
+        let pick = (0..spare.len())
+            .filter(|&i| fits(&spare[i]) && spare[i].syms.capacity() <= 4 * m.max(4096))
+            .min_by_key(|&i| spare[i].syms.capacity());
+        let mut s = match pick {
+            Some(i) => spare.swap_remove(i),
+            None => ModuleString {
+                syms: Vec::new(),
+                starts: Vec::new(),
+                params: Vec::new(),
+            },
+        };
+        drop(spare);
+        fit(&mut s.syms, m);
+        fit(&mut s.starts, m + 1);
+        fit(&mut s.params, w);
+        s
     }
 
     /// Set the smallest chunk (in input modules) worth a parallel task
@@ -296,9 +461,9 @@ impl<'a> Engine<'a> {
             let t = Instant::now();
             processed += string.len() as u64;
             let next = self.step_unchecked(&string, iteration, opts.seed, &opts.limits)?;
-            // Free the input before reporting, so the peak stays at one
-            // input plus one output.
-            drop(std::mem::replace(&mut string, next));
+            // Recycle the input before reporting, so the peak stays at one
+            // input plus one output (and the spares).
+            self.recycle(std::mem::replace(&mut string, next));
             cumulative += string.len() as u64;
             let s = stat_of(&string, iteration, cumulative, processed, t.elapsed());
             progress(&s);
@@ -325,7 +490,6 @@ impl<'a> Engine<'a> {
             mate: &[],
             seed,
             iteration: 0,
-            write_starts: true,
         };
         let mut worker = self.worker();
         let ModuleString {
@@ -439,12 +603,11 @@ impl<'a> Engine<'a> {
         } else {
             Vec::new()
         };
-        let mut step = Step {
+        let step = Step {
             input,
             mate: &mate,
             seed,
             iteration,
-            write_starts: true,
         };
 
         // 1. Count.
@@ -483,14 +646,9 @@ impl<'a> Engine<'a> {
         }
         self.check_limits(input, &mate, iteration, m, w, limits)?;
         let (m, w) = (m as usize, w as usize);
-        step.write_starts = w > 0;
 
         // 3. Rewrite into disjoint slices.
-        let mut out = ModuleString {
-            syms: vec![0; m],
-            starts: vec![0; m + 1],
-            params: vec![0.0; w],
-        };
+        let mut out = self.take(m, w);
         {
             let mut parts = Vec::with_capacity(chunks.len());
             let (mut syms, mut starts, mut params) =
@@ -584,9 +742,10 @@ impl<'a> Engine<'a> {
         let mut worker: Option<Worker> = None;
         for (k, &sym) in syms.iter().enumerate() {
             let s = sym as usize;
-            if self.fast[s] != SLOW {
-                m += u64::from(self.fast_len[s]);
-                w += u64::from(self.fast_words[s]);
+            let (f, len, words) = self.counts[s];
+            if f != SLOW {
+                m += u64::from(len);
+                w += u64::from(words);
                 continue;
             }
             let wk = worker.get_or_insert_with(|| self.worker());
@@ -620,22 +779,31 @@ impl<'a> Engine<'a> {
             let sym = input.syms[i];
             let s = sym as usize;
             let f = self.fast[s];
-            let decision = if f == COPY {
-                None
-            } else if f == SLOW {
+            let (ps, pe) = (input.starts[i] as usize, input.starts[i + 1] as usize);
+            if f == COPY {
+                // The common case first: copied unchanged.
+                osyms[o] = sym;
+                ostarts[o] = word_base + wo as u32;
+                match pe - ps {
+                    0 => {}
+                    1 => oparams[wo] = input.params[ps],
+                    n => copy_small(&mut oparams[wo..wo + n], &input.params[ps..pe]),
+                }
+                o += 1;
+                wo += pe - ps;
+                continue;
+            }
+            let decision = if f == SLOW {
                 self.decide(step, &mut worker, i)?
             } else {
                 Some((f, Binds::Direct))
             };
-            let (ps, pe) = (input.starts[i] as usize, input.starts[i + 1] as usize);
             match decision {
                 None => {
                     osyms[o] = sym;
-                    if step.write_starts {
-                        ostarts[o] = word_base + wo as u32;
-                    }
+                    ostarts[o] = word_base + wo as u32;
                     let n = pe - ps;
-                    oparams[wo..wo + n].copy_from_slice(&input.params[ps..pe]);
+                    copy_small(&mut oparams[wo..wo + n], &input.params[ps..pe]);
                     o += 1;
                     wo += n;
                 }
@@ -676,6 +844,7 @@ impl<'a> Engine<'a> {
     }
 
     /// Write alternative `alt`'s successor for the module at `position`.
+    #[inline(always)]
     fn emit(
         &self,
         step: &Step<'_>,
@@ -688,26 +857,34 @@ impl<'a> Engine<'a> {
         let sys = self.sys;
         let a = &sys.alts[alt as usize];
         let (so, len) = (a.succ_offset as usize, a.succ_len as usize);
-        out.syms.copy_from_slice(&self.succ_syms[so..so + len]);
+        copy_small(out.syms, &self.succ_syms[so..so + len]);
         if a.succ_words == 0 {
-            if step.write_starts {
-                out.starts.fill(out.word_base);
-            }
+            out.starts.fill(out.word_base);
             return Ok(());
         }
         for (st, off) in out.starts.iter_mut().zip(&self.succ_words[so..so + len]) {
             *st = out.word_base + off;
         }
-        let (first, count) = self.alt_params[alt as usize];
-        let exprs = &sys.params[first as usize..(first + count) as usize];
-        let mut dst = 0usize;
-        for p in exprs {
-            let wds = p.words as usize;
-            let a = p.a as usize;
-            match p.kind {
-                PARAM_CONST => out.params[dst..dst + wds].copy_from_slice(&sys.consts[a..a + wds]),
-                PARAM_COPY => out.params[dst..dst + wds].copy_from_slice(&bind[a..a + wds]),
-                _ => {
+        // Constants come from the template; the rest is patched in.
+        let t = self.tpl_off[alt as usize] as usize;
+        copy_small(out.params, &self.tpl[t..t + a.succ_words as usize]);
+        let (pa, pb) = self.patch_range[alt as usize];
+        for p in &self.patches[pa as usize..pb as usize] {
+            let (dst, value, span) = match *p {
+                Patch::Copy { dst, src, words } => {
+                    let (d, s, w) = (dst as usize, src as usize, words as usize);
+                    out.params[d..d + w].copy_from_slice(&bind[s..s + w]);
+                    continue;
+                }
+                Patch::MulConst { dst, src, k, span } => (dst, bind[src as usize] * k, span),
+                Patch::AddConst { dst, src, k, span } => (dst, bind[src as usize] + k, span),
+                Patch::SubConst { dst, src, k, span } => (dst, bind[src as usize] - k, span),
+                Patch::Code {
+                    dst,
+                    entry,
+                    words,
+                    span,
+                } => {
                     let draws = DrawCtx {
                         seed: step.seed,
                         iteration: step.iteration,
@@ -715,22 +892,32 @@ impl<'a> Engine<'a> {
                     };
                     let v = worker
                         .vm
-                        .run(&sys.code, &sys.consts, p.a, bind, &draws)
+                        .run(&sys.code, &sys.consts, entry, bind, &draws)
                         .map_err(|e| self.fault(step, position, e))?;
-                    for (d, &x) in out.params[dst..dst + wds].iter_mut().zip(v) {
+                    let d = dst as usize;
+                    for (o, &x) in out.params[d..d + words as usize].iter_mut().zip(v) {
                         if !x.is_finite() {
                             return Err(self.runtime(
                                 step,
                                 position,
                                 RuntimeErrorKind::NonFinite { value: x },
-                                sys.param_spans[p.span as usize],
+                                sys.param_spans[span as usize],
                             ));
                         }
-                        *d = x;
+                        *o = x;
                     }
+                    continue;
                 }
+            };
+            if !value.is_finite() {
+                return Err(self.runtime(
+                    step,
+                    position,
+                    RuntimeErrorKind::NonFinite { value },
+                    sys.param_spans[span as usize],
+                ));
             }
-            dst += wds;
+            out.params[dst as usize] = value;
         }
         Ok(())
     }
@@ -996,6 +1183,23 @@ impl<'a> Engine<'a> {
             }
         }
         true
+    }
+}
+
+/// Copy a short slice without a call to `memcpy`: successors are a few to
+/// a few dozen words, where the call costs more than the copy.
+#[inline(always)]
+fn copy_small<T: Copy>(dst: &mut [T], src: &[T]) {
+    let n = dst.len().min(src.len());
+    let (mut d, mut s) = (&mut dst[..n], &src[..n]);
+    while d.len() >= 8 {
+        let (dh, dt) = d.split_at_mut(8);
+        dh.copy_from_slice(&s[..8]);
+        d = dt;
+        s = &s[8..];
+    }
+    for (x, y) in d.iter_mut().zip(s) {
+        *x = *y;
     }
 }
 

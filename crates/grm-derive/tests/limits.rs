@@ -204,3 +204,29 @@ fn stats_count_lipp_modules() {
         "A B A A B A B A A B A A B"
     );
 }
+
+/// Parameters are computed in f32 exactly as the bytecode says: one IEEE
+/// operation per operator (the engine's shortcuts for `x * k`, `k * x`,
+/// `x + k`, `k + x`, `x - k` included), whatever the thread count.
+#[test]
+fn f32_arithmetic_is_exact() {
+    let src = "system S { axiom A(1.1); A(x) -> B(x * 3.7) B(2.5 * x) B(x + 1.3) B(0.7 + x) B(x - 0.1) B(0.1 - x) B(x / 3) B(x * x + 1); }";
+    let c = inline(src);
+    let x = 1.1f32;
+    let want = [
+        x * 3.7f32,
+        2.5f32 * x,
+        x + 1.3f32,
+        0.7f32 + x,
+        x - 0.1f32,
+        0.1f32 - x,
+        x / 3.0f32,
+        x * x + 1.0f32,
+    ];
+    for threads in [1, 2] {
+        let s = strings(&c, 1, 0, threads);
+        let got: Vec<u32> = s[1].params.iter().map(|v| v.to_bits()).collect();
+        let want: Vec<u32> = want.iter().map(|v| v.to_bits()).collect();
+        assert_eq!(got, want);
+    }
+}
