@@ -426,6 +426,25 @@ impl Analysis {
         Some(fa)
     }
 
+    /// Open documents other than `path` whose last analysis read `path`
+    /// (their diagnostics may change when it does).
+    pub fn dependents(&self, path: &Path) -> Vec<PathBuf> {
+        let key = normalize(path);
+        let mut v: Vec<PathBuf> = self
+            .docs
+            .keys()
+            .filter(|d| **d != key)
+            .filter(|d| {
+                self.cache
+                    .get(*d)
+                    .is_none_or(|fa| fa.broken_imports || fa.deps.iter().any(|(p, _)| *p == key))
+            })
+            .cloned()
+            .collect();
+        v.sort();
+        v
+    }
+
     /// The loader used for files that are not open.
     pub fn loader(&self) -> Arc<dyn FileLoader + Send + Sync> {
         self.base.clone()

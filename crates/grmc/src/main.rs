@@ -12,6 +12,7 @@ mod check;
 mod derive;
 mod disasm;
 mod fmt;
+mod lsp;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use std::process::ExitCode;
@@ -35,6 +36,8 @@ enum Command {
     Check(check::CheckArgs),
     /// Format .grm files in place (or check that they are formatted).
     Fmt(fmt::FmtArgs),
+    /// Run the language server (LSP over stdio).
+    Lsp(lsp::LspArgs),
     /// Derive a system: statistics, the string, or an exported model.
     Derive(derive::DeriveArgs),
     /// Print a system's compiled tables and bytecode.
@@ -62,6 +65,7 @@ fn main() -> ExitCode {
     let outcome = match cli.command {
         Command::Check(a) => check::run(a),
         Command::Fmt(a) => fmt::run(a),
+        Command::Lsp(a) => lsp::run(a),
         Command::Derive(a) => derive::run(a),
         Command::Disasm(a) => disasm::run(a),
         Command::Bench(a) => bench::run(a),

@@ -1,0 +1,418 @@
+//! Plain analysis results to LSP types and back. The only place that
+//! converts between byte offsets and LSP (line, UTF-16 column) positions.
+
+use grm_analysis as an;
+use grm_analysis::{FileAnalysis, SourceFile, Span};
+use std::collections::HashMap;
+use std::path::Path;
+use tower_lsp_server::ls_types::*;
+
+/// The URI of a file path (absolute paths; `None` for anything else).
+pub fn uri_of(path: &Path) -> Option<Uri> {
+    Uri::from_file_path(path)
+}
+
+/// A file path from a `file:` URI.
+pub fn path_of(uri: &Uri) -> Option<std::path::PathBuf> {
+    if uri.scheme().as_str() != "file" {
+        return None;
+    }
+    uri.to_file_path().map(|p| grm_sema::normalize(&p))
+}
+
+pub fn pos(src: &SourceFile, offset: u32) -> Position {
+    let (line, character) = src.line_col_utf16(offset);
+    Position { line, character }
+}
+
+pub fn range(src: &SourceFile, span: Span) -> Range {
+    Range {
+        start: pos(src, span.start),
+        end: pos(src, span.end),
+    }
+}
+
+/// The byte offset of an LSP position in a file (clamped to its lines).
+pub fn offset(src: &SourceFile, p: Position) -> u32 {
+    src.offset_of_utf16(p.line, p.character)
+}
+
+/// A byte span of an LSP range.
+pub fn span(src: &SourceFile, r: Range) -> Span {
+    let a = offset(src, r.start);
+    let b = offset(src, r.end);
+    Span::new(a.min(b), a.max(b))
+}
+
+pub fn location(l: &an::Location) -> Option<Location> {
+    Some(Location {
+        uri: uri_of(&l.path)?,
+        range: Range {
+            start: Position {
+                line: l.start.line,
+                character: l.start.col,
+            },
+            end: Position {
+                line: l.end.line,
+                character: l.end.col,
+            },
+        },
+    })
+}
+
+pub fn diagnostic(src: &SourceFile, d: &an::Diagnostic) -> Diagnostic {
+    let related: Vec<DiagnosticRelatedInformation> = d
+        .related
+        .iter()
+        .filter_map(|r| {
+            Some(DiagnosticRelatedInformation {
+                location: location(&r.location)?,
+                message: r.message.clone(),
+            })
+        })
+        .collect();
+    Diagnostic {
+        range: range(src, d.span),
+        severity: Some(match d.severity {
+            an::Severity::Error => DiagnosticSeverity::ERROR,
+            an::Severity::Warning => DiagnosticSeverity::WARNING,
+        }),
+        code: Some(NumberOrString::String(d.code.to_string())),
+        code_description: None,
+        source: Some("grm".into()),
+        message: d.message.clone(),
+        related_information: (!related.is_empty()).then_some(related),
+        tags: d.unnecessary.then(|| vec![DiagnosticTag::UNNECESSARY]),
+        data: None,
+    }
+}
+
+pub fn diagnostics(fa: &FileAnalysis) -> Vec<Diagnostic> {
+    let src = fa.source();
+    fa.diagnostics()
+        .iter()
+        .map(|d| diagnostic(src, d))
+        .collect()
+}
+
+pub fn text_edit(src: &SourceFile, e: &an::TextEdit) -> TextEdit {
+    TextEdit {
+        range: range(src, e.span),
+        new_text: e.new_text.clone(),
+    }
+}
+
+/// The token types, in [`an::TokenKind`] order.
+pub const TOKEN_TYPES: &[(an::TokenKind, &str)] = &[
+    (an::TokenKind::Keyword, "keyword"),
+    (an::TokenKind::Module, "class"),
+    (an::TokenKind::Turtle, "macro"),
+    (an::TokenKind::Parameter, "parameter"),
+    (an::TokenKind::Constant, "variable"),
+    (an::TokenKind::MetaParameter, "enumMember"),
+    (an::TokenKind::Function, "function"),
+    (an::TokenKind::Number, "number"),
+    (an::TokenKind::String, "string"),
+    (an::TokenKind::Comment, "comment"),
+    (an::TokenKind::Operator, "operator"),
+    (an::TokenKind::System, "namespace"),
+    (an::TokenKind::Resource, "struct"),
+    (an::TokenKind::Property, "property"),
+    (an::TokenKind::Type, "type"),
+    (an::TokenKind::Punctuation, "punctuation"),
+    (an::TokenKind::Unresolved, "variable"),
+];
+
+/// Token modifiers: bit 0 declaration, 1 readonly, 2 defaultLibrary.
+pub const TOKEN_MODIFIERS: &[&str] = &["declaration", "readonly", "defaultLibrary"];
+
+pub fn legend() -> SemanticTokensLegend {
+    let mut types: Vec<SemanticTokenType> = Vec::new();
+    for (_, name) in TOKEN_TYPES {
+        let t = SemanticTokenType::new(name);
+        if !types.contains(&t) {
+            types.push(t);
+        }
+    }
+    SemanticTokensLegend {
+        token_types: types,
+        token_modifiers: TOKEN_MODIFIERS
+            .iter()
+            .map(|m| SemanticTokenModifier::new(m))
+            .collect(),
+    }
+}
+
+fn type_index(kind: an::TokenKind) -> u32 {
+    let name = TOKEN_TYPES
+        .iter()
+        .find(|(k, _)| *k == kind)
+        .map_or("variable", |(_, n)| *n);
+    let mut seen: Vec<&str> = Vec::new();
+    for (_, n) in TOKEN_TYPES {
+        if !seen.contains(n) {
+            seen.push(n);
+        }
+    }
+    seen.iter().position(|n| *n == name).unwrap_or(0) as u32
+}
+
+/// Encode tokens relative to each other (LSP's five-integer form); a token
+/// spanning lines (a block comment) is split into one token per line.
+pub fn semantic_tokens(
+    src: &SourceFile,
+    toks: &[an::SemanticToken],
+    within: Option<Span>,
+) -> Vec<SemanticToken> {
+    let mut out = Vec::with_capacity(toks.len());
+    let (mut last_line, mut last_col) = (0u32, 0u32);
+    let text = &src.text;
+    for t in toks {
+        if let Some(w) = within
+            && (t.span.end < w.start || t.span.start > w.end)
+        {
+            continue;
+        }
+        let m = t.modifiers;
+        let bits = u32::from(m.declaration)
+            | (u32::from(m.readonly) << 1)
+            | (u32::from(m.default_library) << 2);
+        let ty = type_index(t.kind);
+        // Split at line breaks.
+        let mut start = t.span.start as usize;
+        let end = (t.span.end as usize).min(text.len());
+        while start < end {
+            let line_end = text[start..end].find('\n').map_or(end, |i| start + i);
+            let piece = text[start..line_end].trim_end_matches('\r');
+            if !piece.is_empty() {
+                let p = pos(src, start as u32);
+                let len: u32 = piece.chars().map(|c| c.len_utf16() as u32).sum();
+                let delta_line = p.line - last_line;
+                let delta_start = if delta_line == 0 {
+                    p.character - last_col
+                } else {
+                    p.character
+                };
+                out.push(SemanticToken {
+                    delta_line,
+                    delta_start,
+                    length: len,
+                    token_type: ty,
+                    token_modifiers_bitset: bits,
+                });
+                last_line = p.line;
+                last_col = p.character;
+            }
+            start = line_end + 1;
+        }
+    }
+    out
+}
+
+pub fn completion_kind(k: an::CompletionKind) -> CompletionItemKind {
+    use an::CompletionKind as K;
+    match k {
+        K::Keyword => CompletionItemKind::KEYWORD,
+        K::Snippet => CompletionItemKind::SNIPPET,
+        K::Module => CompletionItemKind::CLASS,
+        K::Turtle => CompletionItemKind::OPERATOR,
+        K::Parameter => CompletionItemKind::VARIABLE,
+        K::Constant => CompletionItemKind::CONSTANT,
+        K::MetaParameter => CompletionItemKind::ENUM_MEMBER,
+        K::Function => CompletionItemKind::FUNCTION,
+        K::Setting => CompletionItemKind::PROPERTY,
+        K::Resource => CompletionItemKind::STRUCT,
+        K::System => CompletionItemKind::MODULE,
+        K::Value => CompletionItemKind::VALUE,
+    }
+}
+
+pub fn completion(c: &an::CompletionItem) -> CompletionItem {
+    CompletionItem {
+        label: c.label.clone(),
+        kind: Some(completion_kind(c.kind)),
+        detail: c.detail.clone(),
+        documentation: c.documentation.as_ref().map(|d| {
+            Documentation::MarkupContent(MarkupContent {
+                kind: MarkupKind::Markdown,
+                value: d.clone(),
+            })
+        }),
+        insert_text: c.insert_text.clone(),
+        insert_text_format: Some(if c.snippet {
+            InsertTextFormat::SNIPPET
+        } else {
+            InsertTextFormat::PLAIN_TEXT
+        }),
+        ..CompletionItem::default()
+    }
+}
+
+pub fn symbol_kind(k: an::SymbolKind) -> SymbolKind {
+    use an::SymbolKind as K;
+    match k {
+        K::Import => SymbolKind::FILE,
+        K::Const => SymbolKind::CONSTANT,
+        K::Param => SymbolKind::VARIABLE,
+        K::Mesh => SymbolKind::FILE,
+        K::Material => SymbolKind::OBJECT,
+        K::System => SymbolKind::NAMESPACE,
+        K::Setting => SymbolKind::PROPERTY,
+        K::Axiom | K::Ignore => SymbolKind::FIELD,
+        K::Declaration => SymbolKind::INTERFACE,
+        K::Production => SymbolKind::FUNCTION,
+        K::Module => SymbolKind::CLASS,
+    }
+}
+
+#[allow(deprecated)] // `DocumentSymbol::deprecated` must still be written.
+pub fn document_symbol(src: &SourceFile, n: &an::SymbolNode) -> DocumentSymbol {
+    DocumentSymbol {
+        name: if n.name.is_empty() {
+            "?".into()
+        } else {
+            n.name.clone()
+        },
+        detail: n.detail.clone(),
+        kind: symbol_kind(n.kind),
+        tags: None,
+        deprecated: None,
+        range: range(src, n.span),
+        selection_range: range(src, n.selection),
+        children: (!n.children.is_empty())
+            .then(|| n.children.iter().map(|c| document_symbol(src, c)).collect()),
+    }
+}
+
+#[allow(deprecated)] // `SymbolInformation::deprecated` must still be written.
+pub fn workspace_symbol(s: &an::WorkspaceSymbol) -> Option<SymbolInformation> {
+    Some(SymbolInformation {
+        name: s.name.clone(),
+        kind: symbol_kind(s.kind),
+        tags: None,
+        deprecated: None,
+        location: location(&s.location)?,
+        container_name: s.container.clone(),
+    })
+}
+
+pub fn folding_range(src: &SourceFile, f: &an::FoldingRange) -> FoldingRange {
+    let start = pos(src, f.span.start).line;
+    let mut end = pos(src, f.span.end).line;
+    // Keep a block's closing brace visible.
+    if f.kind == an::FoldKind::Region && end > start {
+        end -= 1;
+    }
+    FoldingRange {
+        start_line: start,
+        start_character: None,
+        end_line: end,
+        end_character: None,
+        kind: Some(match f.kind {
+            an::FoldKind::Region => FoldingRangeKind::Region,
+            an::FoldKind::Comment => FoldingRangeKind::Comment,
+            an::FoldKind::Imports => FoldingRangeKind::Imports,
+        }),
+        collapsed_text: None,
+    }
+}
+
+pub fn inlay_hint(src: &SourceFile, h: &an::InlayHint) -> InlayHint {
+    InlayHint {
+        position: pos(src, h.offset),
+        label: InlayHintLabel::String(h.label.clone()),
+        kind: Some(match h.kind {
+            an::InlayHintKind::Type => InlayHintKind::TYPE,
+            an::InlayHintKind::Probability => InlayHintKind::PARAMETER,
+        }),
+        text_edits: None,
+        tooltip: h.tooltip.clone().map(InlayHintTooltip::String),
+        padding_left: Some(h.kind == an::InlayHintKind::Probability),
+        padding_right: None,
+        data: None,
+    }
+}
+
+pub fn signature_help(s: &an::SignatureHelp) -> SignatureHelp {
+    SignatureHelp {
+        signatures: s
+            .signatures
+            .iter()
+            .map(|sig| SignatureInformation {
+                label: sig.label.clone(),
+                documentation: Some(Documentation::MarkupContent(MarkupContent {
+                    kind: MarkupKind::Markdown,
+                    value: sig.doc.clone(),
+                })),
+                parameters: Some(
+                    sig.params
+                        .iter()
+                        .map(|&(a, b)| {
+                            // Labels are ASCII: byte offsets are UTF-16 offsets.
+                            let u = |x: usize| {
+                                sig.label[..x]
+                                    .chars()
+                                    .map(|c| c.len_utf16() as u32)
+                                    .sum::<u32>()
+                            };
+                            ParameterInformation {
+                                label: ParameterLabel::LabelOffsets([u(a), u(b)]),
+                                documentation: None,
+                            }
+                        })
+                        .collect(),
+                ),
+                active_parameter: None,
+            })
+            .collect(),
+        active_signature: Some(s.active_signature as u32),
+        active_parameter: Some(s.active_parameter as u32),
+    }
+}
+
+/// Edits of several files as a workspace edit.
+pub fn workspace_edit(files: &[an::FileEdits]) -> WorkspaceEdit {
+    let mut changes: HashMap<Uri, Vec<TextEdit>> = HashMap::new();
+    for f in files {
+        let Some(uri) = uri_of(&f.path) else {
+            continue;
+        };
+        let edits = changes.entry(uri).or_default();
+        for (l, text) in &f.edits {
+            edits.push(TextEdit {
+                range: Range {
+                    start: Position {
+                        line: l.start.line,
+                        character: l.start.col,
+                    },
+                    end: Position {
+                        line: l.end.line,
+                        character: l.end.col,
+                    },
+                },
+                new_text: text.clone(),
+            });
+        }
+    }
+    WorkspaceEdit {
+        changes: Some(changes),
+        document_changes: None,
+        change_annotations: None,
+    }
+}
+
+/// Apply LSP content changes to a text (incremental or full sync).
+pub fn apply_changes(text: &str, changes: &[TextDocumentContentChangeEvent]) -> String {
+    let mut text = text.to_string();
+    for c in changes {
+        match c.range {
+            None => text = c.text.clone(),
+            Some(r) => {
+                let src = SourceFile::new("", text.as_str());
+                let s = span(&src, r);
+                text.replace_range(s.range(), &c.text);
+            }
+        }
+    }
+    text
+}

@@ -1,0 +1,630 @@
+//! `grm-lsp`: the grm language server.
+//!
+//! Role: the only crate that knows the Language Server Protocol. It keeps
+//! the open documents in a [`grm_analysis::Analysis`], answers the editor's
+//! requests with its plain results converted to LSP types ([`convert`]),
+//! publishes diagnostics as the user types, and serves the live-preview
+//! extension (`grm/preview`, `grm/previewUpdated`, `grm/pick`; see
+//! docs/lsp-extensions.md). Built on `tower-lsp-server`, the maintained
+//! community fork of `tower-lsp`. Started by `grmc lsp` over stdio
+//! ([`run_stdio`]).
+//!
+//! Inputs: JSON-RPC messages (stdio, or a tower `Service` in tests).
+//! Outputs: responses and notifications.
+//!
+//! Invariants:
+//! - Positions are converted with UTF-16 columns at this edge only; the
+//!   analyses work in byte offsets.
+//! - Analysis runs off the async executor (`spawn_blocking`), so a long
+//!   check or a large preview never stalls reading messages.
+//! - Diagnostics are debounced after edits and carry the document version
+//!   they were computed for; a result is published only if its version is
+//!   still the document's current one and no newer result was published
+//!   before it (stale results never overwrite newer ones).
+//! - No request can bring the server down: user input never panics, a
+//!   failed task becomes an error response, a poisoned lock is recovered.
+
+pub mod convert;
+pub mod preview;
+
+use grm_analysis::{Analysis, FileAnalysis};
+use grm_sema::FileLoader;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::Duration;
+use tower_lsp_server::jsonrpc::{Error, ErrorCode, Result};
+use tower_lsp_server::ls_types::*;
+use tower_lsp_server::{Client, ClientSocket, LanguageServer, LspService, Server};
+
+/// Server settings.
+#[derive(Clone)]
+pub struct Config {
+    /// Delay after the last edit before diagnostics are computed.
+    pub debounce: Duration,
+    /// Where files that are not open are read from.
+    pub loader: Arc<dyn FileLoader + Send + Sync>,
+}
+
+impl std::fmt::Debug for Config {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Config")
+            .field("debounce", &self.debounce)
+            .finish()
+    }
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config {
+            debounce: Duration::from_millis(40),
+            loader: Arc::new(grm_sema::FsLoader),
+        }
+    }
+}
+
+/// State shared by the handlers and the background tasks.
+pub(crate) struct Shared {
+    pub(crate) analysis: Mutex<Analysis>,
+    /// The last version whose diagnostics were published, per file.
+    published: tokio::sync::Mutex<HashMap<PathBuf, i32>>,
+    /// Documents with a live preview: the options of the last request.
+    pub(crate) previews: Mutex<HashMap<PathBuf, preview::PreviewParams>>,
+    /// The last preview version sent per file (stale ones are dropped).
+    pub(crate) preview_sent: tokio::sync::Mutex<HashMap<PathBuf, i32>>,
+    /// Provenance of the last preview per file, for `grm/pick`.
+    pub(crate) picks: Mutex<HashMap<PathBuf, preview::PickTable>>,
+    debounce: Duration,
+}
+
+impl Shared {
+    /// The analysis host (a panic in another thread while holding the lock
+    /// leaves it usable: its state is only ever replaced whole).
+    pub(crate) fn analysis(&self) -> MutexGuard<'_, Analysis> {
+        self.analysis
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    pub(crate) fn version(&self, path: &Path) -> Option<i32> {
+        self.analysis().document(path).map(|(v, _)| v)
+    }
+
+    pub(crate) fn previews(&self) -> MutexGuard<'_, HashMap<PathBuf, preview::PreviewParams>> {
+        self.previews
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+}
+
+/// The language server.
+pub struct Backend {
+    client: Client,
+    shared: Arc<Shared>,
+}
+
+impl std::fmt::Debug for Backend {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Backend").finish_non_exhaustive()
+    }
+}
+
+/// The server as a tower service (for stdio, sockets or in-process tests).
+pub fn service(config: Config) -> (LspService<Backend>, ClientSocket) {
+    LspService::build(|client| Backend::new(client, config))
+        .custom_method("grm/preview", Backend::preview)
+        .custom_method("grm/pick", Backend::pick)
+        .finish()
+}
+
+/// Serve LSP on stdin/stdout until the client exits.
+pub fn run_stdio() -> std::io::Result<()> {
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()?;
+    rt.block_on(async {
+        let (service, socket) = service(Config::default());
+        Server::new(tokio::io::stdin(), tokio::io::stdout(), socket)
+            .serve(service)
+            .await;
+    });
+    Ok(())
+}
+
+fn internal(e: impl std::fmt::Display) -> Error {
+    Error {
+        code: ErrorCode::InternalError,
+        message: e.to_string().into(),
+        data: None,
+    }
+}
+
+/// LSP's RequestFailed (-32803): a valid request that cannot be honoured.
+pub(crate) fn failed(msg: impl Into<String>) -> Error {
+    Error {
+        code: ErrorCode::ServerError(-32803),
+        message: msg.into().into(),
+        data: None,
+    }
+}
+
+impl Backend {
+    fn new(client: Client, config: Config) -> Backend {
+        Backend {
+            client,
+            shared: Arc::new(Shared {
+                analysis: Mutex::new(Analysis::new(config.loader)),
+                published: tokio::sync::Mutex::new(HashMap::new()),
+                previews: Mutex::new(HashMap::new()),
+                preview_sent: tokio::sync::Mutex::new(HashMap::new()),
+                picks: Mutex::new(HashMap::new()),
+                debounce: config.debounce,
+            }),
+        }
+    }
+
+    /// Run `f` on the current analysis of `uri`, off the executor.
+    async fn with_file<R: Send + 'static>(
+        &self,
+        uri: &Uri,
+        f: impl FnOnce(&FileAnalysis) -> R + Send + 'static,
+    ) -> Result<Option<R>> {
+        let Some(path) = convert::path_of(uri) else {
+            return Ok(None);
+        };
+        let shared = self.shared.clone();
+        tokio::task::spawn_blocking(move || {
+            let fa = shared.analysis().analyze(&path)?;
+            Some(f(&fa))
+        })
+        .await
+        .map_err(internal)
+    }
+
+    /// Run `f` on the analysis host, off the executor.
+    async fn with_host<R: Send + 'static>(
+        &self,
+        f: impl FnOnce(&mut Analysis) -> R + Send + 'static,
+    ) -> Result<R> {
+        let shared = self.shared.clone();
+        tokio::task::spawn_blocking(move || f(&mut shared.analysis()))
+            .await
+            .map_err(internal)
+    }
+
+    /// Compute and publish diagnostics for `path` after `delay`, if its
+    /// version is then still `version`; also refresh a live preview.
+    fn schedule(&self, path: PathBuf, version: i32, delay: Duration) {
+        let shared = self.shared.clone();
+        let client = self.client.clone();
+        tokio::spawn(async move {
+            if !delay.is_zero() {
+                tokio::time::sleep(delay).await;
+            }
+            publish(&shared, &client, path.clone(), version).await;
+            preview::refresh(&shared, &client, path, version).await;
+        });
+    }
+
+    /// After `path` changed: its own diagnostics, and those of the open
+    /// documents that import it.
+    async fn changed(&self, path: PathBuf, version: i32, delay: Duration) {
+        self.schedule(path.clone(), version, delay);
+        let deps = {
+            let p = path.clone();
+            self.with_host(move |a| {
+                a.dependents(&p)
+                    .into_iter()
+                    .filter_map(|d| a.document(&d).map(|(v, _)| (d, v)))
+                    .collect::<Vec<_>>()
+            })
+            .await
+            .unwrap_or_default()
+        };
+        for (d, v) in deps {
+            self.schedule(d, v, delay);
+        }
+    }
+}
+
+/// Publish the diagnostics of `path` at `version` unless outdated.
+async fn publish(shared: &Arc<Shared>, client: &Client, path: PathBuf, version: i32) {
+    if shared.version(&path) != Some(version) {
+        return; // a newer edit has its own task
+    }
+    let s = shared.clone();
+    let p = path.clone();
+    let computed = tokio::task::spawn_blocking(move || {
+        let fa = s.analysis().analyze(&p)?;
+        Some((fa.version, convert::diagnostics(&fa)))
+    })
+    .await;
+    let Ok(Some((v, diags))) = computed else {
+        return;
+    };
+    let Some(uri) = convert::uri_of(&path) else {
+        return;
+    };
+    let mut published = shared.published.lock().await;
+    // Re-check under the publish lock: nothing newer is current or sent.
+    if shared.version(&path) != Some(v) || published.get(&path).is_some_and(|&p| p > v) {
+        return;
+    }
+    published.insert(path, v);
+    client.publish_diagnostics(uri, diags, Some(v)).await;
+}
+
+impl LanguageServer for Backend {
+    async fn initialize(&self, _: InitializeParams) -> Result<InitializeResult> {
+        Ok(InitializeResult {
+            offset_encoding: None,
+            server_info: Some(ServerInfo {
+                name: "grm-lsp".into(),
+                version: Some(env!("CARGO_PKG_VERSION").into()),
+            }),
+            capabilities: ServerCapabilities {
+                position_encoding: Some(PositionEncodingKind::UTF16),
+                text_document_sync: Some(TextDocumentSyncCapability::Options(
+                    TextDocumentSyncOptions {
+                        open_close: Some(true),
+                        change: Some(TextDocumentSyncKind::INCREMENTAL),
+                        ..TextDocumentSyncOptions::default()
+                    },
+                )),
+                hover_provider: Some(HoverProviderCapability::Simple(true)),
+                definition_provider: Some(OneOf::Left(true)),
+                references_provider: Some(OneOf::Left(true)),
+                rename_provider: Some(OneOf::Right(RenameOptions {
+                    prepare_provider: Some(true),
+                    work_done_progress_options: WorkDoneProgressOptions::default(),
+                })),
+                completion_provider: Some(CompletionOptions {
+                    trigger_characters: Some(vec!["(".into(), ",".into(), " ".into()]),
+                    ..CompletionOptions::default()
+                }),
+                signature_help_provider: Some(SignatureHelpOptions {
+                    trigger_characters: Some(vec!["(".into(), ",".into()]),
+                    retrigger_characters: None,
+                    work_done_progress_options: WorkDoneProgressOptions::default(),
+                }),
+                document_symbol_provider: Some(OneOf::Left(true)),
+                workspace_symbol_provider: Some(OneOf::Left(true)),
+                semantic_tokens_provider: Some(
+                    SemanticTokensServerCapabilities::SemanticTokensOptions(
+                        SemanticTokensOptions {
+                            legend: convert::legend(),
+                            range: Some(true),
+                            full: Some(SemanticTokensFullOptions::Bool(true)),
+                            work_done_progress_options: WorkDoneProgressOptions::default(),
+                        },
+                    ),
+                ),
+                document_formatting_provider: Some(OneOf::Left(true)),
+                code_action_provider: Some(CodeActionProviderCapability::Options(
+                    CodeActionOptions {
+                        code_action_kinds: Some(vec![CodeActionKind::QUICKFIX]),
+                        ..CodeActionOptions::default()
+                    },
+                )),
+                inlay_hint_provider: Some(OneOf::Left(true)),
+                folding_range_provider: Some(FoldingRangeProviderCapability::Simple(true)),
+                experimental: Some(serde_json::json!({
+                    "grmPreview": { "version": preview::PROTOCOL_VERSION }
+                })),
+                ..ServerCapabilities::default()
+            },
+        })
+    }
+
+    async fn shutdown(&self) -> Result<()> {
+        Ok(())
+    }
+
+    async fn did_open(&self, params: DidOpenTextDocumentParams) {
+        let Some(path) = convert::path_of(&params.text_document.uri) else {
+            return;
+        };
+        let version = params.text_document.version;
+        self.shared
+            .analysis()
+            .set_document(&path, version, params.text_document.text);
+        self.changed(path, version, Duration::ZERO).await;
+    }
+
+    async fn did_change(&self, params: DidChangeTextDocumentParams) {
+        let Some(path) = convert::path_of(&params.text_document.uri) else {
+            return;
+        };
+        let version = params.text_document.version;
+        {
+            // Applied before any await: edits are taken in arrival order.
+            let mut a = self.shared.analysis();
+            let old = a.document(&path).map(|(_, t)| t).unwrap_or_default();
+            let text = convert::apply_changes(&old, &params.content_changes);
+            a.set_document(&path, version, text);
+        }
+        self.changed(path, version, self.shared.debounce).await;
+    }
+
+    async fn did_close(&self, params: DidCloseTextDocumentParams) {
+        let Some(path) = convert::path_of(&params.text_document.uri) else {
+            return;
+        };
+        self.shared.analysis().close_document(&path);
+        self.shared.previews().remove(&path);
+        self.shared.published.lock().await.remove(&path);
+        self.client
+            .publish_diagnostics(params.text_document.uri, Vec::new(), None)
+            .await;
+    }
+
+    async fn did_change_watched_files(&self, params: DidChangeWatchedFilesParams) {
+        for c in params.changes {
+            if let Some(p) = convert::path_of(&c.uri) {
+                self.shared.analysis().file_changed(&p);
+                let deps: Vec<(PathBuf, i32)> = {
+                    let a = self.shared.analysis();
+                    a.dependents(&p)
+                        .into_iter()
+                        .filter_map(|d| a.document(&d).map(|(v, _)| (d, v)))
+                        .collect()
+                };
+                for (d, v) in deps {
+                    self.schedule(d, v, Duration::ZERO);
+                }
+            }
+        }
+    }
+
+    async fn hover(&self, params: HoverParams) -> Result<Option<Hover>> {
+        let p = params.text_document_position_params;
+        let at = p.position;
+        Ok(self
+            .with_file(&p.text_document.uri, move |fa| {
+                let src = fa.source();
+                let h = fa.hover(convert::offset(src, at))?;
+                Some(Hover {
+                    contents: HoverContents::Markup(MarkupContent {
+                        kind: MarkupKind::Markdown,
+                        value: h.markdown,
+                    }),
+                    range: Some(convert::range(src, h.span)),
+                })
+            })
+            .await?
+            .flatten())
+    }
+
+    async fn goto_definition(
+        &self,
+        params: GotoDefinitionParams,
+    ) -> Result<Option<GotoDefinitionResponse>> {
+        let p = params.text_document_position_params;
+        let at = p.position;
+        Ok(self
+            .with_file(&p.text_document.uri, move |fa| {
+                let l = fa.definition(convert::offset(fa.source(), at))?;
+                convert::location(&l).map(GotoDefinitionResponse::Scalar)
+            })
+            .await?
+            .flatten())
+    }
+
+    async fn references(&self, params: ReferenceParams) -> Result<Option<Vec<Location>>> {
+        let p = params.text_document_position;
+        let Some(path) = convert::path_of(&p.text_document.uri) else {
+            return Ok(None);
+        };
+        let at = p.position;
+        let include = params.context.include_declaration;
+        let locs = self
+            .with_host(move |a| {
+                let fa = a.analyze(&path)?;
+                let off = convert::offset(fa.source(), at);
+                Some(a.references(&path, off, include))
+            })
+            .await?;
+        Ok(locs.map(|v| v.iter().filter_map(convert::location).collect()))
+    }
+
+    async fn prepare_rename(
+        &self,
+        params: TextDocumentPositionParams,
+    ) -> Result<Option<PrepareRenameResponse>> {
+        let at = params.position;
+        let r = self
+            .with_file(&params.text_document.uri, move |fa| {
+                let src = fa.source();
+                fa.prepare_rename(convert::offset(src, at))
+                    .map(|(span, text)| PrepareRenameResponse::RangeWithPlaceholder {
+                        range: convert::range(src, span),
+                        placeholder: text,
+                    })
+            })
+            .await?;
+        match r {
+            None => Ok(None),
+            Some(Ok(x)) => Ok(Some(x)),
+            Some(Err(e)) => Err(failed(e.0)),
+        }
+    }
+
+    async fn rename(&self, params: RenameParams) -> Result<Option<WorkspaceEdit>> {
+        let p = params.text_document_position;
+        let Some(path) = convert::path_of(&p.text_document.uri) else {
+            return Ok(None);
+        };
+        let at = p.position;
+        let new_name = params.new_name;
+        let r = self
+            .with_host(move |a| {
+                let fa = a.analyze(&path)?;
+                let off = convert::offset(fa.source(), at);
+                Some(a.rename(&path, off, &new_name))
+            })
+            .await?;
+        match r {
+            None => Ok(None),
+            Some(Ok(files)) => Ok(Some(convert::workspace_edit(&files))),
+            Some(Err(e)) => Err(failed(e.0)),
+        }
+    }
+
+    async fn completion(&self, params: CompletionParams) -> Result<Option<CompletionResponse>> {
+        let p = params.text_document_position;
+        let at = p.position;
+        self.with_file(&p.text_document.uri, move |fa| {
+            let items = fa.completion(convert::offset(fa.source(), at));
+            CompletionResponse::Array(items.iter().map(convert::completion).collect())
+        })
+        .await
+    }
+
+    async fn signature_help(&self, params: SignatureHelpParams) -> Result<Option<SignatureHelp>> {
+        let p = params.text_document_position_params;
+        let at = p.position;
+        Ok(self
+            .with_file(&p.text_document.uri, move |fa| {
+                fa.signature_help(convert::offset(fa.source(), at))
+                    .map(|s| convert::signature_help(&s))
+            })
+            .await?
+            .flatten())
+    }
+
+    async fn document_symbol(
+        &self,
+        params: DocumentSymbolParams,
+    ) -> Result<Option<DocumentSymbolResponse>> {
+        self.with_file(&params.text_document.uri, |fa| {
+            let src = fa.source();
+            DocumentSymbolResponse::Nested(
+                fa.document_symbols()
+                    .iter()
+                    .map(|n| convert::document_symbol(src, n))
+                    .collect(),
+            )
+        })
+        .await
+    }
+
+    async fn symbol(
+        &self,
+        params: WorkspaceSymbolParams,
+    ) -> Result<Option<WorkspaceSymbolResponse>> {
+        let q = params.query;
+        let found = self.with_host(move |a| a.workspace_symbols(&q)).await?;
+        Ok(Some(WorkspaceSymbolResponse::Flat(
+            found.iter().filter_map(convert::workspace_symbol).collect(),
+        )))
+    }
+
+    async fn semantic_tokens_full(
+        &self,
+        params: SemanticTokensParams,
+    ) -> Result<Option<SemanticTokensResult>> {
+        self.with_file(&params.text_document.uri, |fa| {
+            SemanticTokensResult::Tokens(SemanticTokens {
+                result_id: None,
+                data: convert::semantic_tokens(fa.source(), &fa.semantic_tokens(), None),
+            })
+        })
+        .await
+    }
+
+    async fn semantic_tokens_range(
+        &self,
+        params: SemanticTokensRangeParams,
+    ) -> Result<Option<SemanticTokensRangeResult>> {
+        let r = params.range;
+        self.with_file(&params.text_document.uri, move |fa| {
+            let src = fa.source();
+            SemanticTokensRangeResult::Tokens(SemanticTokens {
+                result_id: None,
+                data: convert::semantic_tokens(
+                    src,
+                    &fa.semantic_tokens(),
+                    Some(convert::span(src, r)),
+                ),
+            })
+        })
+        .await
+    }
+
+    async fn formatting(&self, params: DocumentFormattingParams) -> Result<Option<Vec<TextEdit>>> {
+        let r = self
+            .with_file(&params.text_document.uri, |fa| {
+                fa.format()
+                    .map(|e| e.map(|e| vec![convert::text_edit(fa.source(), &e)]))
+            })
+            .await?;
+        match r {
+            None => Ok(None),
+            Some(Ok(Some(edits))) => Ok(Some(edits)),
+            Some(Ok(None)) => Ok(Some(Vec::new())),
+            Some(Err(why)) => {
+                // Refusing to format broken text is not an error to pop up.
+                self.client.log_message(MessageType::INFO, why).await;
+                Ok(None)
+            }
+        }
+    }
+
+    async fn code_action(&self, params: CodeActionParams) -> Result<Option<CodeActionResponse>> {
+        let uri = params.text_document.uri.clone();
+        let r = params.range;
+        self.with_file(&params.text_document.uri, move |fa| {
+            let src = fa.source();
+            let diags = fa.diagnostics();
+            fa.code_actions(convert::span(src, r))
+                .iter()
+                .map(|a| {
+                    let d = diags
+                        .iter()
+                        .find(|d| d.code == a.code && d.span == a.diagnostic)
+                        .map(|d| convert::diagnostic(src, d));
+                    let edits = a.edits.iter().map(|e| convert::text_edit(src, e)).collect();
+                    CodeActionOrCommand::CodeAction(CodeAction {
+                        title: a.title.clone(),
+                        kind: Some(CodeActionKind::QUICKFIX),
+                        diagnostics: d.map(|d| vec![d]),
+                        edit: Some(WorkspaceEdit {
+                            changes: Some(HashMap::from([(uri.clone(), edits)])),
+                            document_changes: None,
+                            change_annotations: None,
+                        }),
+                        command: None,
+                        is_preferred: Some(a.preferred),
+                        disabled: None,
+                        data: None,
+                    })
+                })
+                .collect()
+        })
+        .await
+    }
+
+    async fn inlay_hint(&self, params: InlayHintParams) -> Result<Option<Vec<InlayHint>>> {
+        let r = params.range;
+        self.with_file(&params.text_document.uri, move |fa| {
+            let src = fa.source();
+            fa.inlay_hints(convert::span(src, r))
+                .iter()
+                .map(|h| convert::inlay_hint(src, h))
+                .collect()
+        })
+        .await
+    }
+
+    async fn folding_range(&self, params: FoldingRangeParams) -> Result<Option<Vec<FoldingRange>>> {
+        self.with_file(&params.text_document.uri, |fa| {
+            let src = fa.source();
+            fa.folding_ranges()
+                .iter()
+                .map(|f| convert::folding_range(src, f))
+                .collect()
+        })
+        .await
+    }
+}

@@ -1,0 +1,843 @@
+//! The live-preview protocol (docs/lsp-extensions.md): `grm/preview`
+//! derives and builds the model of a document, `grm/previewUpdated` sends
+//! it again after debounced edits, `grm/pick` maps a picked triangle or
+//! bone back to the production that made it.
+//!
+//! Buffers are base64 of little-endian `f32` / `u32` / `i32` arrays inside
+//! the JSON: JSON-RPC over stdio has no binary frames, base64 is 4/3 of the
+//! raw size (decimal JSON numbers are about 3x and must be parsed one by
+//! one), and a webview turns it into a `Float32Array` with one `atob`.
+//! Everything is computed on a blocking thread, never on the executor.
+//!
+//! Provenance: the derivation engine reports strings, not who made each
+//! module, so [`origins`] recovers it step by step: the string after a
+//! step is the concatenation of each input module's successor, so aligning
+//! it against the compiled successors of each input symbol tells, for
+//! every module, the production (alternative) that made it; a module no
+//! production rewrote keeps its origin. When two alternatives of one group
+//! emit the same symbols the first is reported and the module is counted
+//! as ambiguous.
+
+use crate::{Backend, Shared, convert, failed};
+use base64::Engine as _;
+use grm_analysis::FileAnalysis;
+use grm_compile::CompiledSystem;
+use grm_derive::{DeriveLimits, Engine, ModuleString};
+use grm_sema::{Mode, Value};
+use serde::{Deserialize, Serialize};
+use std::collections::{BTreeMap, HashSet};
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Instant;
+use tower_lsp_server::Client;
+use tower_lsp_server::jsonrpc::{Error, ErrorCode, Result};
+use tower_lsp_server::ls_types::notification::Notification;
+use tower_lsp_server::ls_types::{Position, Range, TextDocumentIdentifier, Uri};
+
+/// Bumped on any incompatible change of the messages below.
+pub const PROTOCOL_VERSION: u32 = 1;
+
+/// No origin (a module whose maker is unknown).
+pub const NO_ORIGIN: u32 = u32::MAX;
+
+/// How the model is grown.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PreviewMode {
+    /// Parallel rewriting (the CPU derivation engine).
+    #[default]
+    Derive,
+    /// The guided sampler (needs curves).
+    Sample,
+}
+
+/// `grm/preview` parameters.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase")]
+pub struct PreviewParams {
+    pub text_document: TextDocumentIdentifier,
+    /// The document version the client shows; a different current version
+    /// is answered with ContentModified.
+    #[serde(default)]
+    pub version: Option<i32>,
+    #[serde(default)]
+    pub mode: PreviewMode,
+    /// The system to grow (default: the file's first).
+    #[serde(default)]
+    pub system: Option<String>,
+    #[serde(default)]
+    pub seed: Option<u32>,
+    #[serde(default)]
+    pub iterations: Option<u32>,
+    /// Meta-parameter values by name (sliders).
+    #[serde(default)]
+    pub params: BTreeMap<String, f64>,
+    /// Guiding curves (docs/curves.md format), for sample mode.
+    #[serde(default)]
+    pub curves: Option<serde_json::Value>,
+    /// A position in a production: the parts it grows are marked, and the
+    /// count is taken over `spreadSeeds` seeds.
+    #[serde(default)]
+    pub focus: Option<Position>,
+    /// Seeds for the focus spread (default 8, at most 64).
+    #[serde(default)]
+    pub spread_seeds: Option<u32>,
+    /// Send `grm/previewUpdated` after edits of this document.
+    #[serde(default)]
+    pub live: bool,
+    /// Stop growing past this many modules (default 2,000,000).
+    #[serde(default)]
+    pub max_modules: Option<u64>,
+}
+
+/// A run of triangles of a part and what made it.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(rename_all = "camelCase")]
+pub struct PickOut {
+    pub first_triangle: u32,
+    pub triangle_count: u32,
+    /// `bone`, `instance` or `polygon`.
+    pub kind: String,
+    /// Index into the skeleton's bones / instances / polygons.
+    pub index: u32,
+    /// The module of the derived string.
+    pub module: u32,
+    /// Index into [`PreviewResult::origins`], if known.
+    pub origin: Option<u32>,
+    /// Grown by the focused production.
+    pub focus: bool,
+}
+
+/// One material's triangles.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(rename_all = "camelCase")]
+pub struct PartOut {
+    pub material: usize,
+    pub vertex_count: usize,
+    pub triangle_count: usize,
+    /// base64 of `f32` x, y, z per vertex.
+    pub positions: String,
+    /// base64 of `f32` unit normals, one per vertex.
+    pub normals: String,
+    /// base64 of `u32` vertex indices, three per triangle.
+    pub indices: String,
+    pub picks: Vec<PickOut>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(rename_all = "camelCase")]
+pub struct MaterialOut {
+    pub name: String,
+    pub color: [f32; 3],
+    pub roughness: f32,
+    pub metallic: f32,
+    pub emissive: [f32; 3],
+    pub opacity: f32,
+}
+
+/// The skeleton: one record per bone.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(rename_all = "camelCase")]
+pub struct SkeletonOut {
+    pub bone_count: usize,
+    /// base64 of `f32` per bone: base x y z, tip x y z, width at base, at tip.
+    pub bones: String,
+    /// base64 of `i32` per bone: the parent bone, -1 for none.
+    pub parents: String,
+    /// base64 of `u32` per bone: index into the origins, `0xFFFFFFFF` unknown.
+    pub origins: String,
+}
+
+/// A production that made part of the model.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(rename_all = "camelCase")]
+pub struct OriginOut {
+    pub uri: Uri,
+    pub range: Range,
+    /// The predecessor symbol (or `axiom`).
+    pub symbol: String,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(rename_all = "camelCase")]
+pub struct StatsOut {
+    pub modules: usize,
+    pub vertices: usize,
+    pub triangles: usize,
+    pub bones: usize,
+    pub instances: usize,
+    pub polygons: usize,
+    pub parts: usize,
+    pub dropped: usize,
+    pub bounds_min: [f32; 3],
+    pub bounds_max: [f32; 3],
+    /// Modules whose origin was one of several identical alternatives.
+    pub ambiguous_origins: usize,
+    pub derive_ms: f64,
+    pub build_ms: f64,
+    pub encode_ms: f64,
+}
+
+/// What the focused production grows.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(rename_all = "camelCase")]
+pub struct FocusOut {
+    /// Index into the origins.
+    pub origin: u32,
+    /// Bones and instances it grows with the requested seed.
+    pub bones: usize,
+    pub instances: usize,
+    /// Bones it grows with each of the spread seeds (`seed`, `seed + 1`, ...).
+    pub spread_bones: Vec<usize>,
+}
+
+/// `grm/preview` result (also the payload of `grm/previewUpdated`).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(rename_all = "camelCase")]
+pub struct PreviewResult {
+    pub uri: Uri,
+    pub version: i32,
+    pub system: String,
+    pub mode: PreviewMode,
+    pub seed: u32,
+    pub iterations: u32,
+    /// Always `base64-le`.
+    pub encoding: String,
+    pub materials: Vec<MaterialOut>,
+    pub parts: Vec<PartOut>,
+    pub skeleton: SkeletonOut,
+    pub origins: Vec<OriginOut>,
+    pub focus: Option<FocusOut>,
+    pub stats: StatsOut,
+}
+
+/// `grm/previewUpdated` parameters: a new model, or why there is none.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(rename_all = "camelCase")]
+pub struct PreviewUpdatedParams {
+    pub uri: Uri,
+    pub version: i32,
+    pub result: Option<PreviewResult>,
+    pub error: Option<String>,
+}
+
+/// The `grm/previewUpdated` notification.
+#[derive(Debug)]
+pub enum PreviewUpdated {}
+
+impl Notification for PreviewUpdated {
+    type Params = PreviewUpdatedParams;
+    const METHOD: &'static str = "grm/previewUpdated";
+}
+
+/// `grm/pick` parameters: a triangle of a part, or a bone.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase")]
+pub struct PickParams {
+    pub text_document: TextDocumentIdentifier,
+    #[serde(default)]
+    pub part: Option<usize>,
+    #[serde(default)]
+    pub triangle: Option<u32>,
+    #[serde(default)]
+    pub bone: Option<u32>,
+}
+
+/// `grm/pick` result: where the picked thing came from.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(rename_all = "camelCase")]
+pub struct PickResult {
+    pub uri: Uri,
+    pub range: Range,
+    pub symbol: String,
+    /// The version of the preview the pick refers to.
+    pub version: i32,
+    pub module: u32,
+}
+
+/// What `grm/pick` needs from the last preview of a document.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct PickTable {
+    version: i32,
+    /// Per part: (first triangle, count, module, origin).
+    parts: Vec<Vec<(u32, u32, u32, u32)>>,
+    /// Per bone: (module, origin).
+    bones: Vec<(u32, u32)>,
+    origins: Vec<OriginOut>,
+}
+
+fn b64<T: Copy>(xs: &[T], to: fn(T) -> [u8; 4]) -> String {
+    let mut bytes = Vec::with_capacity(xs.len() * 4);
+    for &x in xs {
+        bytes.extend_from_slice(&to(x));
+    }
+    base64::engine::general_purpose::STANDARD.encode(bytes)
+}
+
+fn f32s(xs: &[f32]) -> String {
+    b64(xs, f32::to_le_bytes)
+}
+
+fn u32s(xs: &[u32]) -> String {
+    b64(xs, u32::to_le_bytes)
+}
+
+fn i32s(xs: &[i32]) -> String {
+    b64(xs, i32::to_le_bytes)
+}
+
+/// The candidates of one input symbol: (alternative or copy, successor symbols).
+fn candidates(sys: &CompiledSystem) -> Vec<Vec<(Option<u32>, Vec<u32>)>> {
+    (0..sys.symbols.len() as u32)
+        .map(|s| {
+            let groups = sys.groups_of(s);
+            let mut c = Vec::new();
+            for g in groups {
+                for a in g.first_alt..g.first_alt + g.alt_count {
+                    if let Some(alt) = sys.alts.get(a as usize) {
+                        c.push((
+                            Some(a),
+                            sys.successor(alt).iter().map(|m| m.symbol).collect(),
+                        ));
+                    }
+                }
+            }
+            // A module no group rewrites is copied; impossible when a group
+            // always applies (no condition, no context).
+            let always = groups.iter().any(|g| {
+                g.cond_code == grm_compile::table::NONE
+                    && g.flags & grm_compile::table::GROUP_CONTEXT == 0
+            });
+            if !always {
+                c.push((None, vec![s]));
+            }
+            c
+        })
+        .collect()
+}
+
+/// Origins and focus flags of `output`, one step after `input`; `None` when
+/// the output cannot be explained (then provenance is dropped, never guessed).
+#[allow(clippy::type_complexity)]
+pub(crate) fn origins(
+    cands: &[Vec<(Option<u32>, Vec<u32>)>],
+    input: &ModuleString,
+    in_origin: &[u32],
+    in_focus: &[bool],
+    output: &ModuleString,
+    focus: Option<u32>,
+) -> Option<(Vec<u32>, Vec<bool>, usize)> {
+    let n = input.syms.len();
+    let out = &output.syms;
+    // Depth-first search with a dead-state set: each (input, output
+    // position) state is explored at most once.
+    let mut dead: HashSet<(u32, u32)> = HashSet::new();
+    let mut stack: Vec<(usize, usize, usize)> = Vec::with_capacity(n);
+    let (mut i, mut pos, mut from) = (0usize, 0usize, 0usize);
+    loop {
+        if i == n {
+            if pos == out.len() {
+                break;
+            }
+        } else {
+            let cs = cands.get(input.syms[i] as usize)?;
+            let found = (from..cs.len()).find(|&c| {
+                let seq = &cs[c].1;
+                out.get(pos..pos + seq.len()) == Some(seq.as_slice())
+                    && !dead.contains(&((i + 1) as u32, (pos + seq.len()) as u32))
+            });
+            if let Some(c) = found {
+                stack.push((i, pos, c));
+                pos += cs[c].1.len();
+                i += 1;
+                from = 0;
+                continue;
+            }
+        }
+        dead.insert((i as u32, pos as u32));
+        let (pi, pp, pc) = stack.pop()?;
+        (i, pos, from) = (pi, pp, pc + 1);
+    }
+    let mut org = vec![NO_ORIGIN; out.len()];
+    let mut foc = vec![false; out.len()];
+    let mut ambiguous = 0;
+    for &(i, pos, c) in &stack {
+        let cs = &cands[input.syms[i] as usize];
+        let (alt, seq) = &cs[c];
+        let (o, f) = match alt {
+            Some(a) => (*a, in_focus[i] || focus == Some(*a)),
+            None => (in_origin[i], in_focus[i]),
+        };
+        if cs.iter().enumerate().any(|(k, x)| k != c && x.1 == *seq) {
+            ambiguous += seq.len();
+        }
+        for j in pos..pos + seq.len() {
+            org[j] = o;
+            foc[j] = f;
+        }
+    }
+    Some((org, foc, ambiguous))
+}
+
+/// A derived string with provenance.
+struct Grown {
+    string: ModuleString,
+    origin: Option<Vec<u32>>,
+    focus: Vec<bool>,
+    ambiguous: usize,
+}
+
+fn grow(
+    sys: &CompiledSystem,
+    iterations: u32,
+    seed: u32,
+    max_modules: u64,
+    focus: Option<u32>,
+) -> std::result::Result<Grown, String> {
+    let engine = Engine::new(sys, 1).map_err(|e| e.to_string())?;
+    let limits = DeriveLimits {
+        max_modules,
+        max_bytes: 1 << 30,
+    };
+    let mut s = engine.axiom(seed).map_err(|e| e.to_string())?;
+    let mut origin = Some(vec![sys.axiom_alt; s.len()]);
+    let mut foc = vec![focus == Some(sys.axiom_alt); s.len()];
+    let cands = candidates(sys);
+    let mut ambiguous = 0;
+    for it in 1..=iterations {
+        let next = engine
+            .step(&s, it, seed, &limits)
+            .map_err(|e| e.to_string())?;
+        match origin
+            .as_ref()
+            .and_then(|o| origins(&cands, &s, o, &foc, &next, focus))
+        {
+            Some((o, f, a)) => {
+                origin = Some(o);
+                foc = f;
+                ambiguous += a;
+            }
+            None => {
+                origin = None;
+                foc = vec![false; next.len()];
+            }
+        }
+        s = next;
+    }
+    Ok(Grown {
+        string: s,
+        origin,
+        focus: foc,
+        ambiguous,
+    })
+}
+
+/// Build the preview of a checked file. Errors are messages for the user.
+pub(crate) fn build(
+    fa: &FileAnalysis,
+    uri: &Uri,
+    p: &PreviewParams,
+) -> std::result::Result<(PreviewResult, PickTable), String> {
+    if p.mode == PreviewMode::Sample {
+        return Err(
+            "sample mode is not available yet: the guided sampler (grm-guide) has no search to run"
+                .into(),
+        );
+    }
+    if fa.checked.has_errors() {
+        let n = fa
+            .checked
+            .diagnostics
+            .iter()
+            .filter(|d| d.is_error())
+            .count();
+        return Err(format!(
+            "the program has {n} error{}: fix {} to preview",
+            if n == 1 { "" } else { "s" },
+            if n == 1 { "it" } else { "them" }
+        ));
+    }
+    let prog = &fa.checked.program;
+    let sys = match &p.system {
+        Some(name) => prog
+            .system(name)
+            .ok_or_else(|| format!("no system `{name}`"))?,
+        None => prog.default_system().ok_or("the file defines no system")?,
+    };
+    if sys.mode == Mode::Sample {
+        return Err(format!(
+            "system `{}` is a sample system: derive mode cannot grow it",
+            sys.name
+        ));
+    }
+    let mut values = prog.default_params();
+    for (name, v) in &p.params {
+        let id = prog
+            .param_by_name(name)
+            .ok_or_else(|| format!("no meta-parameter `{name}`"))?;
+        let decl = &prog.params[id.index()];
+        if decl.ty != grm_sema::Ty::Float {
+            return Err(format!("meta-parameter `{name}` is not a float"));
+        }
+        if !v.is_finite() {
+            return Err(format!("meta-parameter `{name}` must be finite"));
+        }
+        values[id.index()] = Value::Float(*v);
+    }
+    let globals = prog.global_values(&values).map_err(|e| e.to_string())?;
+    let mut settings = sys.settings_with(&values, &globals)?;
+    if let Some(s) = p.seed {
+        settings.seed = s;
+    }
+    if let Some(i) = p.iterations {
+        settings.iterations = i;
+    }
+    let compiled = grm_compile::compile(prog, sys, &values).map_err(|e| e.to_string())?;
+    let sys_file = fa.sources.get(sys.file);
+    let sys_uri = convert::uri_of(std::path::Path::new(&sys_file.path)).unwrap_or(uri.clone());
+    let origin_table: Vec<OriginOut> = compiled
+        .alt_spans
+        .iter()
+        .enumerate()
+        .map(|(a, span)| OriginOut {
+            uri: sys_uri.clone(),
+            range: convert::range(sys_file, *span),
+            symbol: if a as u32 == compiled.axiom_alt {
+                "axiom".into()
+            } else {
+                compiled
+                    .alts
+                    .get(a)
+                    .and_then(|alt| compiled.groups.get(alt.group as usize))
+                    .and_then(|g| compiled.symbol_names.get(g.pred as usize))
+                    .cloned()
+                    .unwrap_or_default()
+            },
+        })
+        .collect();
+    // The production under the focus position, if any.
+    let focus = p.focus.and_then(|pos| {
+        if sys.file != fa.root {
+            return None;
+        }
+        let off = convert::offset(sys_file, pos);
+        compiled
+            .alt_spans
+            .iter()
+            .position(|s| s.contains(off) || s.end == off)
+            .map(|a| a as u32)
+    });
+    let max_modules = p.max_modules.unwrap_or(2_000_000).min(50_000_000);
+
+    let t0 = Instant::now();
+    let grown = grow(
+        &compiled,
+        settings.iterations,
+        settings.seed,
+        max_modules,
+        focus,
+    )?;
+    let derive_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let t1 = Instant::now();
+    let mut model =
+        grm_geom::build_model(prog, sys, &grown.string, &settings).map_err(|e| e.to_string())?;
+    if let Some(o) = &grown.origin {
+        model.fill_origins(o);
+    }
+    let build_ms = t1.elapsed().as_secs_f64() * 1e3;
+
+    // Focus spread over seeds: bones grown by the focused production.
+    let mut focus_out = None;
+    if let Some(fo) = focus {
+        let count = |g: &Grown, m: &grm_geom::grm_turtle::Interpretation| {
+            let bones = m
+                .bones
+                .iter()
+                .filter(|b| g.focus.get(b.module as usize) == Some(&true))
+                .count();
+            let inst = m
+                .instances
+                .iter()
+                .filter(|b| g.focus.get(b.module as usize) == Some(&true))
+                .count();
+            (bones, inst)
+        };
+        let (bones, instances) = count(&grown, &model.skeleton);
+        let n = p.spread_seeds.unwrap_or(8).clamp(1, 64);
+        let mut spread = Vec::with_capacity(n as usize);
+        for k in 0..n {
+            let seed = settings.seed.wrapping_add(k);
+            let g = grow(&compiled, settings.iterations, seed, max_modules, focus)?;
+            let mut st = settings.clone();
+            st.seed = seed;
+            let interp =
+                grm_geom::grm_turtle::interpret(sys, &st, &g.string).map_err(|e| e.to_string())?;
+            spread.push(count(&g, &interp).0);
+        }
+        focus_out = Some(FocusOut {
+            origin: fo,
+            bones,
+            instances,
+            spread_bones: spread,
+        });
+    }
+
+    let t2 = Instant::now();
+    let is_focus = |module: u32| grown.focus.get(module as usize) == Some(&true);
+    let origin_of = |o: u32| (o != NO_ORIGIN && (o as usize) < origin_table.len()).then_some(o);
+    let mut table = PickTable {
+        version: fa.version,
+        origins: origin_table.clone(),
+        ..PickTable::default()
+    };
+    let parts: Vec<PartOut> = model
+        .parts
+        .iter()
+        .map(|part| {
+            let flat = |v: &[[f32; 3]]| -> Vec<f32> { v.iter().flatten().copied().collect() };
+            let picks: Vec<PickOut> = part
+                .picks
+                .iter()
+                .map(|pk| {
+                    let (kind, index) = match pk.source {
+                        grm_geom::PartSource::Bone(i) => ("bone", i),
+                        grm_geom::PartSource::Instance(i) => ("instance", i),
+                        grm_geom::PartSource::Polygon(i) => ("polygon", i),
+                    };
+                    PickOut {
+                        first_triangle: pk.first_triangle,
+                        triangle_count: pk.triangle_count,
+                        kind: kind.into(),
+                        index,
+                        module: pk.module,
+                        origin: origin_of(pk.origin),
+                        focus: is_focus(pk.module),
+                    }
+                })
+                .collect();
+            table.parts.push(
+                part.picks
+                    .iter()
+                    .map(|pk| (pk.first_triangle, pk.triangle_count, pk.module, pk.origin))
+                    .collect(),
+            );
+            PartOut {
+                material: part.material,
+                vertex_count: part.mesh.positions.len(),
+                triangle_count: part.mesh.indices.len() / 3,
+                positions: f32s(&flat(&part.mesh.positions)),
+                normals: f32s(&flat(&part.mesh.normals)),
+                indices: u32s(&part.mesh.indices),
+                picks,
+            }
+        })
+        .collect();
+    let bones = &model.skeleton.bones;
+    let mut bone_f = Vec::with_capacity(bones.len() * 8);
+    let mut parents = Vec::with_capacity(bones.len());
+    let mut bone_o = Vec::with_capacity(bones.len());
+    for b in bones {
+        bone_f.extend_from_slice(&b.base.to_array());
+        bone_f.extend_from_slice(&b.tip.to_array());
+        bone_f.push(b.width_base);
+        bone_f.push(b.width_tip);
+        parents.push(b.parent.map_or(-1, |p| i32::try_from(p).unwrap_or(-1)));
+        bone_o.push(origin_of(b.origin).unwrap_or(NO_ORIGIN));
+        table.bones.push((b.module, b.origin));
+    }
+    let skeleton = SkeletonOut {
+        bone_count: bones.len(),
+        bones: f32s(&bone_f),
+        parents: i32s(&parents),
+        origins: u32s(&bone_o),
+    };
+    let materials = model
+        .materials
+        .iter()
+        .map(|m| MaterialOut {
+            name: m.name.clone(),
+            color: m.color,
+            roughness: m.roughness,
+            metallic: m.metallic,
+            emissive: m.emissive,
+            opacity: m.opacity,
+        })
+        .collect();
+    let st = &model.stats;
+    let finite = |v: [f32; 3]| {
+        if v.iter().all(|x| x.is_finite()) {
+            v
+        } else {
+            [0.0; 3]
+        }
+    };
+    let result = PreviewResult {
+        uri: uri.clone(),
+        version: fa.version,
+        system: sys.name.clone(),
+        mode: PreviewMode::Derive,
+        seed: settings.seed,
+        iterations: settings.iterations,
+        encoding: "base64-le".into(),
+        materials,
+        parts,
+        skeleton,
+        origins: origin_table,
+        focus: focus_out,
+        stats: StatsOut {
+            modules: grown.string.len(),
+            vertices: st.vertices,
+            triangles: st.triangles,
+            bones: st.bones,
+            instances: st.instances,
+            polygons: st.polygons,
+            parts: st.parts,
+            dropped: st.dropped,
+            bounds_min: finite(st.bounds.min.to_array()),
+            bounds_max: finite(st.bounds.max.to_array()),
+            ambiguous_origins: grown.ambiguous,
+            derive_ms,
+            build_ms,
+            encode_ms: t2.elapsed().as_secs_f64() * 1e3,
+        },
+    };
+    Ok((result, table))
+}
+
+/// Compute a preview off the executor.
+async fn compute(
+    shared: &Arc<Shared>,
+    path: PathBuf,
+    uri: Uri,
+    params: PreviewParams,
+) -> Result<std::result::Result<(PreviewResult, PickTable), String>> {
+    let s = shared.clone();
+    tokio::task::spawn_blocking(move || {
+        let fa = s
+            .analysis()
+            .analyze(&path)
+            .ok_or_else(|| "the document is not open".to_string())?;
+        if let Some(v) = params.version
+            && v != fa.version
+        {
+            return Err(format!("stale:{}", fa.version));
+        }
+        build(&fa, &uri, &params)
+    })
+    .await
+    .map_err(|e| Error {
+        code: ErrorCode::InternalError,
+        message: e.to_string().into(),
+        data: None,
+    })
+}
+
+impl Backend {
+    /// `grm/preview`.
+    pub async fn preview(&self, params: PreviewParams) -> Result<PreviewResult> {
+        let uri = params.text_document.uri.clone();
+        let path = convert::path_of(&uri).ok_or_else(|| failed("not a file URI"))?;
+        {
+            let mut live = self.shared.previews();
+            if params.live {
+                live.insert(path.clone(), params.clone());
+            } else {
+                live.remove(&path);
+            }
+        }
+        match compute(&self.shared, path.clone(), uri, params).await? {
+            Ok((r, table)) => {
+                store(&self.shared, path, table);
+                Ok(r)
+            }
+            Err(msg) if msg.starts_with("stale:") => Err(Error {
+                code: ErrorCode::ContentModified,
+                message: format!(
+                    "the document changed: the current version is {}",
+                    msg.trim_start_matches("stale:")
+                )
+                .into(),
+                data: None,
+            }),
+            Err(msg) => Err(failed(msg)),
+        }
+    }
+
+    /// `grm/pick`.
+    pub async fn pick(&self, params: PickParams) -> Result<Option<PickResult>> {
+        let path =
+            convert::path_of(&params.text_document.uri).ok_or_else(|| failed("not a file URI"))?;
+        let tables = self
+            .shared
+            .picks
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let Some(t) = tables.get(&path) else {
+            return Err(failed("no preview of this document yet"));
+        };
+        let found = match (params.part, params.triangle, params.bone) {
+            (Some(part), Some(tri), _) => t.parts.get(part).and_then(|ps| {
+                let i = ps.partition_point(|p| p.0 <= tri);
+                let p = ps.get(i.checked_sub(1)?)?;
+                (tri < p.0 + p.1).then_some((p.2, p.3))
+            }),
+            (_, _, Some(b)) => t.bones.get(b as usize).copied(),
+            _ => return Err(failed("give `part` and `triangle`, or `bone`")),
+        };
+        Ok(found.and_then(|(module, origin)| {
+            let o = t.origins.get(origin as usize)?;
+            Some(PickResult {
+                uri: o.uri.clone(),
+                range: o.range,
+                symbol: o.symbol.clone(),
+                version: t.version,
+                module,
+            })
+        }))
+    }
+}
+
+fn store(shared: &Shared, path: PathBuf, table: PickTable) {
+    shared
+        .picks
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+        .insert(path, table);
+}
+
+/// After an edit: recompute a live preview of `path` at `version` and send
+/// it, unless a newer version exists or was sent.
+pub(crate) async fn refresh(shared: &Arc<Shared>, client: &Client, path: PathBuf, version: i32) {
+    let Some(mut params) = shared.previews().get(&path).cloned() else {
+        return;
+    };
+    if shared.version(&path) != Some(version) {
+        return;
+    }
+    params.version = Some(version);
+    let uri = params.text_document.uri.clone();
+    let Ok(outcome) = compute(shared, path.clone(), uri.clone(), params).await else {
+        return;
+    };
+    let (result, error) = match outcome {
+        Ok((r, table)) => {
+            store(shared, path.clone(), table);
+            (Some(r), None)
+        }
+        Err(msg) if msg.starts_with("stale:") => return,
+        Err(msg) => (None, Some(msg)),
+    };
+    let mut sent = shared.preview_sent.lock().await;
+    if shared.version(&path) != Some(version) || sent.get(&path).is_some_and(|&v| v > version) {
+        return;
+    }
+    sent.insert(path, version);
+    client
+        .send_notification::<PreviewUpdated>(PreviewUpdatedParams {
+            uri,
+            version,
+            result,
+            error,
+        })
+        .await;
+}
