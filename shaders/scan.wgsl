@@ -81,7 +81,12 @@ fn add_sums(
     if (block >= P.blocks || block == 0u) {
         return;
     }
-    let add = sums[block];
+    // The block sums were scanned the same way: exclusively (the offset of
+    // this block is its own entry) or inclusively (the previous entry).
+    var add = sums[block];
+    if (SCAN_INCLUSIVE) {
+        add = sums[block - 1u];
+    }
     let base = block * SCAN_BLOCK + lid * SCAN_PER_THREAD;
     for (var i = 0u; i < SCAN_PER_THREAD; i = i + 1u) {
         if (base + i < P.n) {

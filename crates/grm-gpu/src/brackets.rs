@@ -31,15 +31,35 @@ pub(crate) fn scratch_bytes(n: u64) -> u64 {
     8 * (n + 1) + 8 * level_lens(n + 1).iter().sum::<u64>()
 }
 
-/// Record the matching of the `n` modules in `syms`; returns the partner
-/// buffer (`partner + 1`, 0 for none).
+/// The buffers of a bracket matching.
+#[derive(Debug)]
+pub(crate) struct BracketTree {
+    /// Per module: partner + 1, or 0 for none.
+    pub(crate) mate: wgpu::Buffer,
+    /// The depth tree: level 0 is `(D, D)` for the depth `D` before each
+    /// module (and after the last); each level above holds (min, max) of
+    /// `BRACKET_FAN` entries below.
+    pub(crate) levels: wgpu::Buffer,
+    /// Length of each level.
+    pub(crate) lens: Vec<u64>,
+}
+
+impl BracketTree {
+    /// Where the top level starts in `levels` (in entries).
+    pub(crate) fn top_offset(&self) -> u64 {
+        self.lens[..self.lens.len() - 1].iter().sum()
+    }
+}
+
+/// Record the matching of the `n` modules in `syms` (`tables` says which
+/// symbols are brackets).
 pub(crate) fn record_match(
     gpu: &Gpu,
     enc: &mut wgpu::CommandEncoder,
     tables: &wgpu::Buffer,
     syms: &wgpu::Buffer,
     n: u64,
-) -> Result<wgpu::Buffer, GpuError> {
+) -> Result<BracketTree, GpuError> {
     let n32 = u32::try_from(n).map_err(|_| GpuError::CountOverflow {
         what: "modules to match brackets in",
         count: n,
@@ -85,7 +105,7 @@ pub(crate) fn record_match(
         bind(gpu, enc, &kernels::BRACKET_REDUCE, &q, lens[l + 1])?;
     }
     bind(gpu, enc, &kernels::BRACKET_MATCH, &p, n)?;
-    Ok(mate)
+    Ok(BracketTree { mate, levels, lens })
 }
 
 /// The bracket partner of every module of `s` (`[` and `]` are the
@@ -101,8 +121,8 @@ pub fn match_brackets(
         let syms = gpu.upload("symbols", &s.syms)?;
         let n = s.len() as u64;
         let mut enc = gpu.encoder();
-        let mate = record_match(gpu, &mut enc, &tables, &syms, n)?;
-        let raw = gpu.read::<u32>(enc, &[(&mate, 0, n)])?;
+        let tree = record_match(gpu, &mut enc, &tables, &syms, n)?;
+        let raw = gpu.read::<u32>(enc, &[(&tree.mate, 0, n)])?;
         Ok(raw
             .into_iter()
             .next()

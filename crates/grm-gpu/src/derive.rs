@@ -380,7 +380,7 @@ impl<'a> GpuSystem<'a> {
         let n = input.len;
         let mut enc = gpu.encoder();
         let mate = if self.has_context {
-            brackets::record_match(gpu, &mut enc, &self.tables, &input.syms, n)?
+            brackets::record_match(gpu, &mut enc, &self.tables, &input.syms, n)?.mate
         } else {
             gpu.storage("unused", 16)?
         };

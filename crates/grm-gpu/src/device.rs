@@ -14,6 +14,10 @@ use crate::shader::Kernel;
 /// constant, from the generated header).
 pub const WORKGROUP: u32 = 256;
 
+/// The smallest buffer created: at least one element of every array type
+/// a kernel declares (wgpu checks bindings against the element size).
+const MIN_BUFFER: u64 = 256;
+
 /// Storage buffers the largest kernel binds (`shaders/derive.wgsl`).
 pub const MIN_STORAGE_BUFFERS: u32 = 11;
 
@@ -273,9 +277,9 @@ impl Gpu {
         let bytes: &[u8] = bytemuck::cast_slice(data);
         self.check_storage(what, bytes.len() as u64)?;
         let padded;
-        let contents = if bytes.len() < 4 || !bytes.len().is_multiple_of(4) {
+        let contents = if bytes.len() < MIN_BUFFER as usize || !bytes.len().is_multiple_of(4) {
             let mut v = bytes.to_vec();
-            v.resize(bytes.len().next_multiple_of(4).max(4), 0);
+            v.resize(bytes.len().next_multiple_of(4).max(MIN_BUFFER as usize), 0);
             padded = v;
             &padded[..]
         } else {
@@ -292,12 +296,12 @@ impl Gpu {
             }))
     }
 
-    /// An uninitialised (zeroed) storage buffer of `bytes` (at least 16).
+    /// A zeroed storage buffer of `bytes` (at least [`MIN_BUFFER`]).
     pub(crate) fn storage(&self, what: &'static str, bytes: u64) -> Result<wgpu::Buffer, GpuError> {
         self.check_storage(what, bytes)?;
         Ok(self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some(what),
-            size: bytes.max(16).next_multiple_of(4),
+            size: bytes.max(MIN_BUFFER).next_multiple_of(4),
             usage: wgpu::BufferUsages::STORAGE
                 | wgpu::BufferUsages::COPY_SRC
                 | wgpu::BufferUsages::COPY_DST,
@@ -327,29 +331,9 @@ impl Gpu {
         if groups == 0 {
             return Ok(());
         }
-        if buffers.len() != kernel.bindings.len() {
-            return Err(GpuError::Device(format!(
-                "internal: kernel {} takes {} bindings, got {}",
-                kernel.name,
-                kernel.bindings.len(),
-                buffers.len()
-            )));
-        }
         let (x, y) = self.grid(kernel.name, groups)?;
         let p = self.pipeline(kernel)?;
-        let entries: Vec<wgpu::BindGroupEntry> = buffers
-            .iter()
-            .enumerate()
-            .map(|(i, b)| wgpu::BindGroupEntry {
-                binding: i as u32,
-                resource: b.as_entire_binding(),
-            })
-            .collect();
-        let bg = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some(p.kernel.name),
-            layout: &p.layout,
-            entries: &entries,
-        });
+        let bg = self.bind_group(&p, buffers)?;
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some(p.kernel.name),
             timestamp_writes: None,
@@ -358,6 +342,73 @@ impl Gpu {
         pass.set_bind_group(0, &bg, &[]);
         pass.dispatch_workgroups(x, y, 1);
         Ok(())
+    }
+
+    /// Record one indirect dispatch: the workgroup counts are three `u32`
+    /// at byte `offset` of `args` (written by an earlier kernel).
+    pub(crate) fn dispatch_indirect(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        kernel: &'static Kernel,
+        buffers: &[&wgpu::Buffer],
+        args: &wgpu::Buffer,
+        offset: u64,
+    ) -> Result<(), GpuError> {
+        let p = self.pipeline(kernel)?;
+        let bg = self.bind_group(&p, buffers)?;
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(p.kernel.name),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&p.pipeline);
+        pass.set_bind_group(0, &bg, &[]);
+        pass.dispatch_workgroups_indirect(args, offset);
+        Ok(())
+    }
+
+    fn bind_group(
+        &self,
+        p: &Pipeline,
+        buffers: &[&wgpu::Buffer],
+    ) -> Result<wgpu::BindGroup, GpuError> {
+        if buffers.len() != p.kernel.bindings.len() {
+            return Err(GpuError::Device(format!(
+                "internal: kernel {} takes {} bindings, got {}",
+                p.kernel.name,
+                p.kernel.bindings.len(),
+                buffers.len()
+            )));
+        }
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(i, b)| wgpu::BindGroupEntry {
+                binding: i as u32,
+                resource: b.as_entire_binding(),
+            })
+            .collect();
+        Ok(self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(p.kernel.name),
+            layout: &p.layout,
+            entries: &entries,
+        }))
+    }
+
+    /// A buffer of indirect dispatch arguments (filled by copying from a
+    /// storage buffer: a dispatch may not write the buffer it reads its
+    /// arguments from).
+    pub(crate) fn indirect(
+        &self,
+        what: &'static str,
+        bytes: u64,
+    ) -> Result<wgpu::Buffer, GpuError> {
+        self.check_storage(what, bytes)?;
+        Ok(self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(what),
+            size: bytes.max(MIN_BUFFER).next_multiple_of(4),
+            usage: wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        }))
     }
 
     pub(crate) fn encoder(&self) -> wgpu::CommandEncoder {

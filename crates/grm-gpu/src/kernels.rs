@@ -110,6 +110,61 @@ pub static BRACKET_MATCH: Kernel = Kernel {
     subst: &[],
 };
 
+pub static SCAN_TURTLE: Kernel = Kernel {
+    name: "scan_blocks_turtle",
+    file: "scan.wgsl",
+    entry: "scan_blocks",
+    bindings: SCAN_BINDS,
+    subst: &[("ELEM", "TurtleElem"), ("SCAN_OP", "turtle_scan.wgsl")],
+};
+pub static ADD_TURTLE: Kernel = Kernel {
+    name: "add_sums_turtle",
+    file: "scan.wgsl",
+    entry: "add_sums",
+    bindings: SCAN_BINDS,
+    subst: &[("ELEM", "TurtleElem"), ("SCAN_OP", "turtle_scan.wgsl")],
+};
+
+const TURTLE_BINDS: &[Bind] = &[
+    Bind::Uniform,
+    Bind::Read,
+    Bind::Read,
+    Bind::Read,
+    Bind::Read,
+    Bind::Read,
+    Bind::ReadWrite,
+    Bind::ReadWrite,
+    Bind::ReadWrite,
+    Bind::ReadWrite,
+    Bind::ReadWrite,
+    Bind::ReadWrite,
+];
+
+macro_rules! turtle_kernels {
+    ($($name:ident = $entry:literal),* $(,)?) => {
+        $(
+            pub static $name: Kernel = Kernel {
+                name: $entry,
+                file: "turtle.wgsl",
+                entry: $entry,
+                bindings: TURTLE_BINDS,
+                subst: &[],
+            };
+        )*
+    };
+}
+
+turtle_kernels! {
+    DEPTH_HIST = "depth_hist",
+    DEPTH_SCATTER = "depth_scatter",
+    DEPTH_STARTS = "depth_starts",
+    TURTLE_ELEMS = "turtle_elems",
+    TURTLE_ROUND = "turtle_round",
+    TURTLE_WALK = "turtle_walk",
+    BONE_FLAGS = "bone_flags",
+    BONES_WRITE = "bones_write",
+}
+
 /// All kernels.
 pub static ALL: &[&Kernel] = &[
     &SCAN_U32,
@@ -123,4 +178,14 @@ pub static ALL: &[&Kernel] = &[
     &BRACKET_DEPTH,
     &BRACKET_REDUCE,
     &BRACKET_MATCH,
+    &SCAN_TURTLE,
+    &ADD_TURTLE,
+    &DEPTH_HIST,
+    &DEPTH_SCATTER,
+    &DEPTH_STARTS,
+    &TURTLE_ELEMS,
+    &TURTLE_ROUND,
+    &TURTLE_WALK,
+    &BONE_FLAGS,
+    &BONES_WRITE,
 ];

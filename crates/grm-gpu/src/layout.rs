@@ -257,6 +257,85 @@ pub const ERR_NON_FINITE: u32 = 4;
 /// inverted lowest failing position and the error bits.
 pub const STATUS_WORDS: u32 = 4;
 
+gpu_struct! {
+    /// A module symbol's turtle command (per symbol id, see `interp`).
+    pub struct TurtleSym {
+        /// A `TOP_*` code ([`crate::interp::TurtleOp`]).
+        pub op: u32 => "u32",
+        /// +1 or -1: the direction of a rotation (`+` is `rotz(-a)`).
+        pub sign: f32 => "f32",
+    }
+}
+
+gpu_struct! {
+    /// Parameters of the interpretation kernels.
+    pub struct TurtleParams {
+        pub n: u32 => "u32",
+        /// The deepest depth.
+        pub dmax: u32 => "u32",
+        /// Modules per histogram chunk.
+        pub chunk: u32 => "u32",
+        pub chunks: u32 => "u32",
+        /// The depth of this round.
+        pub depth: u32 => "u32",
+        /// Where the bucket bounds start in `aux`.
+        pub bstart: u32 => "u32",
+        /// Where the indirect dispatch arguments start in `aux`.
+        pub args: u32 => "u32",
+        /// `max_compute_workgroups_per_dimension`.
+        pub max_groups: u32 => "u32",
+        pub angle: f32 => "f32",
+        pub step: f32 => "f32",
+        pub width: f32 => "f32",
+        pub elasticity: f32 => "f32",
+        pub tropism_x: f32 => "f32",
+        pub tropism_y: f32 => "f32",
+        pub tropism_z: f32 => "f32",
+        pub has_tropism: u32 => "u32",
+    }
+}
+
+gpu_struct! {
+    /// A turtle transform or state: the affine frame (columns L, H, -U and
+    /// the position), the width map `w -> wa * w + wb`, the last bone
+    /// (module index) and the segment word (`SEG_*` bits and the segment's
+    /// first module).
+    pub struct TurtleElem {
+        pub m: [f32; 12] => "array<f32, 12>",
+        pub wa: f32 => "f32",
+        pub wb: f32 => "f32",
+        pub bone: u32 => "u32",
+        pub seg: u32 => "u32",
+    }
+}
+
+gpu_struct! {
+    /// One bone, as `grm_turtle::Bone` has it (width at base and tip are
+    /// equal there): base, tip, the unit left vector, the world width, the
+    /// parent bone (`u32::MAX` for none) and the module index of its `F`.
+    pub struct GpuBone {
+        pub base_x: f32 => "f32",
+        pub base_y: f32 => "f32",
+        pub base_z: f32 => "f32",
+        pub tip_x: f32 => "f32",
+        pub tip_y: f32 => "f32",
+        pub tip_z: f32 => "f32",
+        pub left_x: f32 => "f32",
+        pub left_y: f32 => "f32",
+        pub left_z: f32 => "f32",
+        pub width: f32 => "f32",
+        pub parent: u32 => "u32",
+        pub module_index: u32 => "u32",
+    }
+}
+
+/// `TurtleElem::seg`: the element starts a segment.
+pub const SEG_START: u32 = 1 << 31;
+/// `TurtleElem::seg`: the state is cut off (`%`): nothing is drawn.
+pub const SEG_DEAD: u32 = 1 << 30;
+/// `TurtleElem::seg`: the segment's first module.
+pub const SEG_INDEX: u32 = SEG_DEAD - 1;
+
 /// Every shared struct's WGSL declaration, with Rust's size and offsets
 /// (for the layout test).
 pub fn structs() -> Vec<StructInfo> {
@@ -274,6 +353,10 @@ pub fn structs() -> Vec<StructInfo> {
         one::<VmResult>(),
         one::<DeriveParams>(),
         one::<BracketParams>(),
+        one::<TurtleSym>(),
+        one::<TurtleParams>(),
+        one::<TurtleElem>(),
+        one::<GpuBone>(),
     ]
 }
 
@@ -299,6 +382,9 @@ pub fn wgsl_header() -> String {
         ("ERR_FAULT", ERR_FAULT),
         ("ERR_NON_FINITE", ERR_NON_FINITE),
         ("STATUS_WORDS", STATUS_WORDS),
+        ("SEG_START", SEG_START),
+        ("SEG_DEAD", SEG_DEAD),
+        ("SEG_INDEX", SEG_INDEX),
         ("NONE", t::NONE),
         ("PACKED_MAGIC", t::PACKED_MAGIC),
         ("SYM_PUSH", t::SYM_PUSH),
@@ -327,6 +413,13 @@ pub fn wgsl_header() -> String {
             m.info.size / 4
         ));
     }
+    for op in crate::interp::TurtleOp::ALL {
+        s.push_str(&format!(
+            "const TOP_{}: u32 = {}u;\n",
+            screaming(&format!("{op:?}")),
+            *op as u32
+        ));
+    }
     for op in Op::ALL {
         s.push_str(&format!(
             "const {}: u32 = {}u;\n",
@@ -340,6 +433,7 @@ pub fn wgsl_header() -> String {
         ("RAD_TO_DEG", 1.0f32.to_degrees()),
         ("LOG10_2", std::f32::consts::LOG10_2),
         ("TAU", std::f32::consts::TAU),
+        ("SHRINK", grm_turtle::SHRINK),
     ];
     for (name, v) in fconsts {
         s.push_str(&format!("const {name}: f32 = {};\n", f32_lit(*v)));

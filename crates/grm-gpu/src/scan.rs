@@ -13,6 +13,9 @@ pub enum ScanElem {
     U32,
     /// `vec2<u32>`: two independent sums at once (modules and parameters).
     U32x2,
+    /// [`crate::layout::TurtleElem`]: segmented composition of turtle
+    /// transforms (inclusive).
+    Turtle,
 }
 
 impl ScanElem {
@@ -20,6 +23,7 @@ impl ScanElem {
         match self {
             ScanElem::U32 => 4,
             ScanElem::U32x2 => 8,
+            ScanElem::Turtle => std::mem::size_of::<crate::layout::TurtleElem>() as u64,
         }
     }
 
@@ -27,13 +31,15 @@ impl ScanElem {
         match self {
             ScanElem::U32 => (&kernels::SCAN_U32, &kernels::ADD_U32),
             ScanElem::U32x2 => (&kernels::SCAN_U32X2, &kernels::ADD_U32X2),
+            ScanElem::Turtle => (&kernels::SCAN_TURTLE, &kernels::ADD_TURTLE),
         }
     }
 }
 
-/// Record an in-place exclusive scan of the first `n` elements of `data`.
-/// Sums saturate at `u32::MAX` (per component). Put a zero after the last
-/// count and scan `n + 1` elements to get the total in element `n`.
+/// Record an in-place scan of the first `n` elements of `data`: exclusive
+/// sums for `U32`/`U32x2` (saturating at `u32::MAX` per component; put a
+/// zero after the last count and scan `n + 1` elements to get the total in
+/// element `n`), inclusive segmented composition for `Turtle`.
 pub(crate) fn record_scan(
     gpu: &Gpu,
     encoder: &mut wgpu::CommandEncoder,
@@ -88,6 +94,23 @@ pub fn exclusive_scan_u32x2(gpu: &Gpu, values: &[[u32; 2]]) -> Result<Vec<[u32; 
         let mut enc = gpu.encoder();
         record_scan(gpu, &mut enc, ScanElem::U32x2, &buf, values.len() as u64)?;
         let mut out = gpu.read::<[u32; 2]>(enc, &[(&buf, 0, values.len() as u64)])?;
+        Ok(out.pop().unwrap_or_default())
+    })
+}
+
+/// Inclusive segmented composition of turtle transforms on the GPU (for
+/// tests): element `k` becomes the composition of its segment's elements
+/// up to and including `k` (see `shaders/turtle_scan.wgsl`).
+pub fn inclusive_scan_turtle(
+    gpu: &Gpu,
+    values: &[crate::layout::TurtleElem],
+) -> Result<Vec<crate::layout::TurtleElem>, GpuError> {
+    gpu.run(|| {
+        let buf = gpu.upload("scan input", values)?;
+        let mut enc = gpu.encoder();
+        record_scan(gpu, &mut enc, ScanElem::Turtle, &buf, values.len() as u64)?;
+        let mut out =
+            gpu.read::<crate::layout::TurtleElem>(enc, &[(&buf, 0, values.len() as u64)])?;
         Ok(out.pop().unwrap_or_default())
     })
 }

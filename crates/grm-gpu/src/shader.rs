@@ -28,6 +28,8 @@ pub const FILES: &[(&str, &str)] = shader_files!(
     "vm_eval.wgsl",
     "derive.wgsl",
     "brackets.wgsl",
+    "turtle.wgsl",
+    "turtle_scan.wgsl",
 );
 
 /// How a kernel binds a buffer (binding index = position in the list).

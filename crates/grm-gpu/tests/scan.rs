@@ -73,3 +73,71 @@ fn scan_saturates_instead_of_wrapping() {
     assert_eq!(got, cpu_scan(&v));
     assert_eq!(got[3], u32::MAX);
 }
+
+/// The segmented inclusive scan of turtle transforms (`turtle_scan.wgsl`)
+/// against a sequential composition, over more than two levels of block
+/// sums. Entries are small integers so every product is exact.
+#[test]
+fn segmented_turtle_scan_matches_sequential_composition() {
+    use grm_gpu::layout::{SEG_START, TurtleElem};
+    let g = gpu();
+    fn compose(a: &TurtleElem, b: &TurtleElem) -> TurtleElem {
+        let mut r = *a;
+        for c in 0..3 {
+            for row in 0..3 {
+                r.m[3 * c + row] = (0..3).map(|k| a.m[3 * k + row] * b.m[3 * c + k]).sum();
+            }
+        }
+        for row in 0..3 {
+            r.m[9 + row] =
+                a.m[9 + row] + (0..3).map(|k| a.m[3 * k + row] * b.m[9 + k]).sum::<f32>();
+        }
+        r.wa = b.wa * a.wa;
+        r.wb = b.wa * a.wb + b.wb;
+        r.bone = if b.bone != u32::MAX { b.bone } else { a.bone };
+        r.seg = a.seg;
+        r
+    }
+    let mut rng = Rng(3);
+    let b = SCAN_BLOCK as usize;
+    for n in [1usize, 1000, b + 3, b * b + 77] {
+        let v: Vec<TurtleElem> = (0..n)
+            .map(|k| {
+                let mut e = TurtleElem::default();
+                // A signed permutation matrix and a small translation.
+                let p = [[0, 1, 2], [1, 2, 0], [2, 0, 1], [0, 2, 1]][rng.below(4) as usize];
+                for (c, row) in p.iter().enumerate() {
+                    e.m[3 * c + row] = if rng.below(2) == 0 { 1.0 } else { -1.0 };
+                }
+                for r in 0..3 {
+                    e.m[9 + r] = rng.below(5) as f32 - 2.0;
+                }
+                e.wa = [0.0, 1.0, 0.5][rng.below(3) as usize];
+                e.wb = rng.below(3) as f32;
+                e.bone = if rng.below(3) == 0 {
+                    k as u32
+                } else {
+                    u32::MAX
+                };
+                e.seg = if k == 0 || rng.below(50) == 0 {
+                    SEG_START | k as u32
+                } else {
+                    0
+                };
+                e
+            })
+            .collect();
+        let got = scan::inclusive_scan_turtle(g, &v).expect("scan runs");
+        let mut acc = v[0];
+        for (k, (x, y)) in v.iter().zip(&got).enumerate() {
+            if k > 0 {
+                acc = if x.seg & SEG_START != 0 {
+                    *x
+                } else {
+                    compose(&acc, x)
+                };
+            }
+            assert_eq!(*y, acc, "n = {n}, element {k}");
+        }
+    }
+}

@@ -100,3 +100,37 @@ pub fn assert_same(what: &str, cpu: &grm_derive::ModuleString, gpu: &grm_derive:
         );
     }
 }
+
+/// An example's checked program, its system (by name or the default) and
+/// the compiled system.
+pub fn example_program(
+    file: &str,
+    system: Option<&str>,
+) -> (grm_sema::Program, String, grm_compile::CompiledSystem) {
+    let path = repo().join("examples").join(file);
+    let text = std::fs::read_to_string(&path).expect("example exists");
+    let (_, checked) = grm_sema::check_text(&path.display().to_string(), &text);
+    assert!(!checked.has_errors(), "{file}: {:?}", checked.diagnostics);
+    let p = checked.program;
+    let sys = match system {
+        Some(n) => p.system(n).expect("system exists"),
+        None => p.default_system().expect("a system"),
+    };
+    let c = grm_compile::compile(&p, sys, &p.default_params()).expect("compiles");
+    let name = sys.name.clone();
+    (p, name, c)
+}
+
+/// As [`inline`], keeping the checked program.
+pub fn inline_program(src: &str) -> Option<(grm_sema::Program, grm_compile::CompiledSystem)> {
+    let (_, checked) = grm_sema::check_with("inline.grm", src, &grm_sema::MemLoader::new());
+    if checked.has_errors() {
+        return None;
+    }
+    let p = checked.program;
+    let c = {
+        let sys = p.default_system()?;
+        grm_compile::compile(&p, sys, &p.default_params()).ok()?
+    };
+    Some((p, c))
+}

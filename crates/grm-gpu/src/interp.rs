@@ -1,0 +1,437 @@
+//! GPU turtle interpretation (`shaders/turtle.wgsl`): the bones of a module
+//! string, as `grm_turtle::Interpreter` draws them (base, tip, left, width,
+//! parent, module).
+//!
+//! Scope: bones only. Geometry instances, polygons and paint are the CPU
+//! interpreter's (`grm-turtle`); on the GPU those modules leave the turtle
+//! unchanged, as they do on the CPU.
+//!
+//! Two ways, chosen per system:
+//! - every command an affine transform (no tropism, no `$`, no `%`): a
+//!   segmented matrix scan over the modules sorted by depth, then one
+//!   composition round per depth (work O(n), rounds = depth + 1);
+//! - otherwise: one thread per branch walks it, depth by depth (Lipp's
+//!   work items, level-synchronous).
+
+use std::time::{Duration, Instant};
+
+use bytemuck::Zeroable;
+use grm_compile::table::{PACKED_MAGIC, PackedHeader, SYM_POP, SYM_PUSH, SymbolEntry};
+use grm_derive::ModuleString;
+use grm_sema::{Settings, SymbolKind, System, Terminal};
+use grm_turtle::TurtleConfig;
+
+use crate::brackets;
+use crate::derive::DeviceString;
+use crate::device::{Gpu, groups_for};
+use crate::error::GpuError;
+use crate::kernels;
+use crate::layout::{GpuBone, SEG_INDEX, TurtleElem, TurtleParams, TurtleSym};
+use crate::scan::{ScanElem, record_scan};
+
+/// The turtle commands the GPU interpreter knows (`TOP_*` in WGSL).
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TurtleOp {
+    /// No effect on the turtle (user modules, geometry, paint, polygons).
+    Inert = 0,
+    /// `F`, `G`: a bone, then move.
+    Forward,
+    /// `f`, `g`: move.
+    Move,
+    RotX,
+    RotY,
+    RotZ,
+    TurnAround,
+    RollHorizontal,
+    Push,
+    Pop,
+    Cut,
+    SetWidth,
+    ShrinkWidth,
+    Translate,
+    Rotate,
+    ScaleUniform,
+    Scale,
+}
+
+impl TurtleOp {
+    pub const ALL: &'static [TurtleOp] = &[
+        TurtleOp::Inert,
+        TurtleOp::Forward,
+        TurtleOp::Move,
+        TurtleOp::RotX,
+        TurtleOp::RotY,
+        TurtleOp::RotZ,
+        TurtleOp::TurnAround,
+        TurtleOp::RollHorizontal,
+        TurtleOp::Push,
+        TurtleOp::Pop,
+        TurtleOp::Cut,
+        TurtleOp::SetWidth,
+        TurtleOp::ShrinkWidth,
+        TurtleOp::Translate,
+        TurtleOp::Rotate,
+        TurtleOp::ScaleUniform,
+        TurtleOp::Scale,
+    ];
+
+    /// The command of a terminal and the sign of its angle (as
+    /// `grm_turtle::Turtle::step`: `+(a)` is `rotz(-a)`, ...).
+    pub fn of(t: Terminal) -> (TurtleOp, f32) {
+        use Terminal as T;
+        use TurtleOp as O;
+        match t {
+            T::Forward | T::ForwardNoVertex => (O::Forward, 1.0),
+            T::Move | T::MoveNoVertex => (O::Move, 1.0),
+            T::TurnLeft => (O::RotZ, -1.0),
+            T::TurnRight => (O::RotZ, 1.0),
+            T::PitchDown => (O::RotX, 1.0),
+            T::PitchUp => (O::RotX, -1.0),
+            T::RollLeft => (O::RotY, 1.0),
+            T::RollRight => (O::RotY, -1.0),
+            T::TurnAround => (O::TurnAround, 1.0),
+            T::RollHorizontal => (O::RollHorizontal, 1.0),
+            T::Push => (O::Push, 1.0),
+            T::Pop => (O::Pop, 1.0),
+            T::Cut => (O::Cut, 1.0),
+            T::SetWidth => (O::SetWidth, 1.0),
+            T::ShrinkWidth => (O::ShrinkWidth, 1.0),
+            T::Translate => (O::Translate, 1.0),
+            T::Rotate => (O::Rotate, 1.0),
+            T::RotX => (O::RotX, 1.0),
+            T::RotY => (O::RotY, 1.0),
+            T::RotZ => (O::RotZ, 1.0),
+            T::ScaleUniform => (O::ScaleUniform, 1.0),
+            T::Scale => (O::Scale, 1.0),
+            T::SetColor
+            | T::NextColor
+            | T::PolygonStart
+            | T::PolygonVertex
+            | T::PolygonEnd
+            | T::Cylinder
+            | T::Cone
+            | T::Sphere
+            | T::Box
+            | T::Disc
+            | T::Mesh
+            | T::Material
+            | T::Color => (O::Inert, 1.0),
+        }
+    }
+
+    /// Whether the command depends on the turtle state in a way no affine
+    /// transform expresses (then branches are walked, not scanned).
+    pub fn is_state_dependent(self) -> bool {
+        matches!(self, TurtleOp::RollHorizontal | TurtleOp::Cut)
+    }
+}
+
+/// What the interpreter needs to know about a system: each symbol's
+/// command, and the turtle settings.
+#[derive(Clone, Debug)]
+pub struct TurtleProgram {
+    pub syms: Vec<TurtleSym>,
+    pub config: TurtleConfig,
+}
+
+impl TurtleProgram {
+    pub fn new(system: &System, settings: &Settings) -> TurtleProgram {
+        let syms = system
+            .symbols
+            .iter()
+            .map(|s| match s.kind {
+                SymbolKind::Terminal(t) => {
+                    let (op, sign) = TurtleOp::of(t);
+                    TurtleSym {
+                        op: op as u32,
+                        sign,
+                    }
+                }
+                SymbolKind::User => TurtleSym {
+                    op: TurtleOp::Inert as u32,
+                    sign: 1.0,
+                },
+            })
+            .collect();
+        TurtleProgram {
+            syms,
+            config: TurtleConfig::from_settings(settings),
+        }
+    }
+
+    /// Whether branches must be walked (tropism, `$` or `%`).
+    pub fn walks(&self) -> bool {
+        self.config.tropism.is_some()
+            || self.syms.iter().any(|s| {
+                TurtleOp::ALL
+                    .get(s.op as usize)
+                    .is_some_and(|o| o.is_state_dependent())
+            })
+    }
+
+    /// A packed table with just the symbol section (push / pop flags), for
+    /// the bracket kernels.
+    fn bracket_tables(&self) -> Vec<u32> {
+        let hw = (std::mem::size_of::<PackedHeader>() / 4) as u32;
+        let header = PackedHeader {
+            magic: PACKED_MAGIC,
+            symbols_offset: hw,
+            symbols_count: self.syms.len() as u32,
+            ..PackedHeader::zeroed()
+        };
+        let entries: Vec<SymbolEntry> = self
+            .syms
+            .iter()
+            .map(|s| SymbolEntry {
+                flags: if s.op == TurtleOp::Push as u32 {
+                    SYM_PUSH
+                } else if s.op == TurtleOp::Pop as u32 {
+                    SYM_POP
+                } else {
+                    0
+                },
+                ..SymbolEntry::zeroed()
+            })
+            .collect();
+        let mut words: Vec<u32> = bytemuck::cast_slice(&[header]).to_vec();
+        words.extend_from_slice(bytemuck::cast_slice(&entries));
+        words
+    }
+}
+
+/// Bones and figures of one interpretation.
+#[derive(Clone, Debug)]
+pub struct GpuInterpretation {
+    /// In string order (as the CPU numbers them).
+    pub bones: Vec<GpuBone>,
+    /// Deepest branch nesting.
+    pub max_depth: u32,
+    /// Whether branches were walked (else scanned).
+    pub walked: bool,
+    /// Wall time on the host, including the synchronisations, without
+    /// reading the bones back.
+    pub elapsed: Duration,
+}
+
+/// Histogram entries (chunks x depths) to aim for.
+const HIST_BUDGET: u64 = 1 << 24;
+
+/// Interpret a host string.
+pub fn interpret(
+    gpu: &Gpu,
+    program: &TurtleProgram,
+    string: &ModuleString,
+) -> Result<GpuInterpretation, GpuError> {
+    if !string.is_well_formed() {
+        return Err(GpuError::InvalidInput(
+            "the module string breaks its invariant".into(),
+        ));
+    }
+    if let Some(i) = string
+        .syms
+        .iter()
+        .position(|&s| s as usize >= program.syms.len())
+    {
+        return Err(GpuError::InvalidInput(format!(
+            "module {i}: symbol {} is not in the system",
+            string.syms[i]
+        )));
+    }
+    gpu.run(|| {
+        let s = DeviceString {
+            syms: gpu.upload("symbols", &string.syms)?,
+            starts: gpu.upload("parameter starts", &string.starts)?,
+            params: gpu.upload("parameters", &string.params)?,
+            len: string.len() as u64,
+            words: string.params.len() as u64,
+        };
+        let (bones, count, mut out) = interpret_device(gpu, program, &s)?;
+        out.bones = read_bones(gpu, &bones, count)?;
+        Ok(out)
+    })
+}
+
+pub(crate) fn read_bones(
+    gpu: &Gpu,
+    bones: &wgpu::Buffer,
+    count: u64,
+) -> Result<Vec<GpuBone>, GpuError> {
+    if count == 0 {
+        return Ok(Vec::new());
+    }
+    Ok(gpu
+        .read::<GpuBone>(gpu.encoder(), &[(bones, 0, count)])?
+        .pop()
+        .unwrap_or_default())
+}
+
+/// Interpret a string on the device; returns the bone buffer, the bone
+/// count and the figures (with no bones read yet). Inside [`Gpu::run`].
+pub(crate) fn interpret_device(
+    gpu: &Gpu,
+    program: &TurtleProgram,
+    s: &DeviceString,
+) -> Result<(wgpu::Buffer, u64, GpuInterpretation), GpuError> {
+    let t0 = Instant::now();
+    let n = s.len;
+    let walked = program.walks();
+    let mut out = GpuInterpretation {
+        bones: Vec::new(),
+        max_depth: 0,
+        walked,
+        elapsed: Duration::ZERO,
+    };
+    if n == 0 {
+        return Ok((gpu.storage("bones", 16)?, 0, out));
+    }
+    if n >= u64::from(SEG_INDEX) {
+        return Err(GpuError::CountOverflow {
+            what: "modules to interpret",
+            count: n,
+        });
+    }
+    // 1. Depths (and the depth range, the one early synchronisation).
+    let tables = gpu.upload("turtle symbols", &program.bracket_tables())?;
+    let mut enc = gpu.encoder();
+    let tree = brackets::record_match(gpu, &mut enc, &tables, &s.syms, n)?;
+    let top = gpu.read::<[i32; 2]>(
+        enc,
+        &[(
+            &tree.levels,
+            tree.top_offset(),
+            *tree.lens.last().unwrap_or(&1),
+        )],
+    )?;
+    let top = top.into_iter().next().unwrap_or_default();
+    let dmin = top.iter().map(|v| v[0]).min().unwrap_or(0);
+    let dmax = top.iter().map(|v| v[1]).max().unwrap_or(0);
+    if dmin < 0 {
+        return Err(GpuError::UnbalancedBrackets { position: None });
+    }
+    let dmax = dmax as u64;
+    out.max_depth = dmax as u32;
+
+    // 2. Buffers.
+    let chunk = (n * (dmax + 1)).div_ceil(HIST_BUDGET).max(32);
+    let chunks = n.div_ceil(chunk);
+    let hist_len = (chunks * (dmax + 1) + 1).max(n + 1);
+    let cfg = &program.config;
+    let trop = cfg.tropism.unwrap_or_default();
+    let base = TurtleParams {
+        n: n as u32,
+        dmax: dmax as u32,
+        chunk: chunk as u32,
+        chunks: chunks as u32,
+        depth: 0,
+        bstart: 0,
+        args: (dmax + 2) as u32,
+        max_groups: gpu.limits().max_compute_workgroups_per_dimension,
+        angle: cfg.angle,
+        step: cfg.step,
+        width: cfg.width,
+        elasticity: cfg.elasticity,
+        tropism_x: trop.x,
+        tropism_y: trop.y,
+        tropism_z: trop.z,
+        has_tropism: u32::from(cfg.tropism.is_some()),
+    };
+    let tsyms = gpu.upload("turtle commands", &program.syms)?;
+    let hist = gpu.storage("depth histogram", 4 * hist_len)?;
+    let order = gpu.storage("modules by depth", 4 * n)?;
+    let pos_of = gpu.storage("depth positions", 4 * n)?;
+    let elems = gpu.storage(
+        "turtle states",
+        std::mem::size_of::<TurtleElem>() as u64 * n,
+    )?;
+    let aux = gpu.storage("depth buckets", 4 * ((dmax + 2) + 3 * (dmax + 1)))?;
+    let indirect = gpu.indirect("round dispatches", 12 * (dmax + 1))?;
+    let no_bones = gpu.storage("unused", 16)?;
+    let run = |enc: &mut wgpu::CommandEncoder,
+               k,
+               p: &TurtleParams,
+               bones: &wgpu::Buffer,
+               threads: u64| {
+        let u = gpu.uniform("turtle params", p);
+        let b = [
+            &u,
+            &s.syms,
+            &s.starts,
+            &s.params,
+            &tsyms,
+            &tree.levels,
+            &hist,
+            &order,
+            &pos_of,
+            &elems,
+            bones,
+            &aux,
+        ];
+        gpu.dispatch(enc, k, &b, groups_for(threads))
+    };
+    let round = |enc: &mut wgpu::CommandEncoder, k, d: u64| {
+        let p = TurtleParams {
+            depth: d as u32,
+            ..base
+        };
+        let u = gpu.uniform("turtle params", &p);
+        let b = [
+            &u,
+            &s.syms,
+            &s.starts,
+            &s.params,
+            &tsyms,
+            &tree.levels,
+            &hist,
+            &order,
+            &pos_of,
+            &elems,
+            &no_bones,
+            &aux,
+        ];
+        gpu.dispatch_indirect(enc, k, &b, &indirect, 12 * d)
+    };
+
+    // 3. Sort by depth, then scan or walk, then number the bones.
+    let mut enc = gpu.encoder();
+    run(&mut enc, &kernels::DEPTH_HIST, &base, &no_bones, chunks + 1)?;
+    record_scan(gpu, &mut enc, ScanElem::U32, &hist, chunks * (dmax + 1) + 1)?;
+    run(&mut enc, &kernels::DEPTH_SCATTER, &base, &no_bones, chunks)?;
+    run(&mut enc, &kernels::DEPTH_STARTS, &base, &no_bones, dmax + 2)?;
+    enc.copy_buffer_to_buffer(
+        &aux,
+        4 * u64::from(base.args),
+        &indirect,
+        0,
+        Some(12 * (dmax + 1)),
+    );
+    if walked {
+        for d in 0..=dmax {
+            round(&mut enc, &kernels::TURTLE_WALK, d)?;
+        }
+    } else {
+        run(&mut enc, &kernels::TURTLE_ELEMS, &base, &no_bones, n)?;
+        record_scan(gpu, &mut enc, ScanElem::Turtle, &elems, n)?;
+        for d in 0..=dmax {
+            round(&mut enc, &kernels::TURTLE_ROUND, d)?;
+        }
+    }
+    run(&mut enc, &kernels::BONE_FLAGS, &base, &no_bones, n + 1)?;
+    record_scan(gpu, &mut enc, ScanElem::U32, &hist, n + 1)?;
+    let count = gpu.read::<u32>(enc, &[(&hist, n, 1)])?;
+    let count = u64::from(
+        count
+            .into_iter()
+            .next()
+            .and_then(|v| v.first().copied())
+            .unwrap_or(0),
+    );
+
+    // 4. The bones.
+    let bones = gpu.storage("bones", std::mem::size_of::<GpuBone>() as u64 * count)?;
+    let mut enc = gpu.encoder();
+    run(&mut enc, &kernels::BONES_WRITE, &base, &bones, n)?;
+    gpu.submit_wait(enc)?;
+    out.elapsed = t0.elapsed();
+    Ok((bones, count, out))
+}

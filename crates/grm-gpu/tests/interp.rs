@@ -1,0 +1,182 @@
+//! GPU turtle interpretation against grm-turtle (the CPU interpreter): the
+//! same bones in the same order, with the same parents and modules;
+//! positions, directions and widths within `TOL` of the scene's extent.
+
+mod common;
+use common::*;
+use grm_gpu::layout::GpuBone;
+use grm_gpu::{TurtleProgram, interpret};
+
+/// Absolute tolerance, relative to 1 + the largest coordinate of the scene:
+/// the GPU composes the same f32 transforms in a different order (a scan),
+/// and its sin/cos are not correctly rounded.
+const TOL: f32 = 2e-4;
+
+fn compare(what: &str, cpu: &grm_turtle::Interpretation, gpu: &[GpuBone]) {
+    assert_eq!(cpu.bones.len(), gpu.len(), "{what}: bone count");
+    let extent = cpu
+        .bones
+        .iter()
+        .flat_map(|b| [b.base.abs().max_element(), b.tip.abs().max_element()])
+        .fold(0.0f32, f32::max);
+    let tol = TOL * (1.0 + extent);
+    for (k, (c, g)) in cpu.bones.iter().zip(gpu).enumerate() {
+        assert_eq!(c.module, g.module_index, "{what}: bone {k}: module");
+        assert_eq!(
+            c.parent.unwrap_or(u32::MAX),
+            g.parent,
+            "{what}: bone {k}: parent"
+        );
+        let close =
+            |a: glam::Vec3, b: [f32; 3], t: f32| (a - glam::Vec3::from(b)).abs().max_element() <= t;
+        assert!(
+            close(c.base, [g.base_x, g.base_y, g.base_z], tol)
+                && close(c.tip, [g.tip_x, g.tip_y, g.tip_z], tol),
+            "{what}: bone {k}: cpu {:?} -> {:?}, gpu {:?}",
+            c.base,
+            c.tip,
+            g
+        );
+        assert!(
+            close(c.left, [g.left_x, g.left_y, g.left_z], 1e-3),
+            "{what}: bone {k}: left {:?} vs {g:?}",
+            c.left
+        );
+        assert!(
+            (c.width_base - g.width).abs() <= 1e-4 * c.width_base.abs().max(1.0),
+            "{what}: bone {k}: width {} vs {}",
+            c.width_base,
+            g.width
+        );
+    }
+}
+
+#[test]
+fn example_scenes_match_the_cpu_turtle() {
+    let g = gpu();
+    let cases: &[(&str, Option<&str>, u32, bool)] = &[
+        ("hilbert3d.grm", None, 3, false),
+        ("koch_island.grm", None, 3, false),
+        ("bracketed_plant.grm", None, 4, false),
+        ("row_of_trees.grm", None, 5, false),
+        ("ternary_tree.grm", None, 5, true),
+        ("ternary_tree.grm", Some("TernaryTreeD"), 4, true),
+        ("stochastic_plant.grm", None, 5, false),
+        ("context_plant_a.grm", None, 20, false),
+    ];
+    for &(file, system, iterations, walks) in cases {
+        let (p, name, c) = example_program(file, system);
+        let sys = p.system(&name).expect("system");
+        let string = cpu_derive(&c, iterations, c.settings.seed).expect("derives");
+        let cpu = grm_turtle::interpret(sys, &c.settings, &string).expect("cpu interprets");
+        let prog = TurtleProgram::new(sys, &c.settings);
+        assert_eq!(prog.walks(), walks, "{file}");
+        let gpu = interpret(g, &prog, &string).expect("gpu interprets");
+        assert!(!cpu.bones.is_empty());
+        compare(&format!("{file} {name}"), &cpu, &gpu.bones);
+    }
+}
+
+/// A random balanced string over every symbol of `sys`, with parameters in
+/// ranges that keep the scene bounded.
+fn random_string(
+    sys: &grm_sema::System,
+    rng: &mut Rng,
+    len: usize,
+    cuts: bool,
+) -> grm_derive::ModuleString {
+    use grm_sema::{SymbolKind, Terminal as T};
+    let mut s = grm_derive::ModuleString::new();
+    let mut depth = 0;
+    let ids: Vec<usize> = (0..sys.symbols.len()).collect();
+    let f =
+        |rng: &mut Rng, lo: f32, hi: f32| lo + (hi - lo) * (rng.below(10_001) as f32 / 10_000.0);
+    while s.len() < len {
+        let id = ids[rng.below(ids.len() as u64) as usize];
+        let info = &sys.symbols[id];
+        let words: usize = info
+            .params
+            .iter()
+            .map(|t| if *t == grm_sema::Ty::Vec3 { 3 } else { 1 })
+            .sum();
+        let term = match info.kind {
+            SymbolKind::Terminal(t) => Some(t),
+            SymbolKind::User => None,
+        };
+        match term {
+            Some(T::Push) => depth += 1,
+            Some(T::Pop) if depth == 0 => continue,
+            Some(T::Pop) => depth -= 1,
+            Some(T::Cut) if !cuts || rng.below(8) != 0 => continue,
+            Some(T::ScaleUniform | T::Scale) if rng.below(4) != 0 => continue,
+            _ => {}
+        }
+        let p: Vec<f32> = match term {
+            Some(T::Forward | T::ForwardNoVertex | T::Move | T::MoveNoVertex) => {
+                vec![f(rng, 0.1, 2.0)]
+            }
+            Some(T::ScaleUniform) => vec![f(rng, 0.8, 1.25)],
+            Some(T::Scale) => (0..3).map(|_| f(rng, 0.8, 1.25)).collect(),
+            Some(T::SetWidth) => vec![f(rng, 0.0, 2.0)],
+            Some(T::Translate) => (0..3).map(|_| f(rng, -1.0, 1.0)).collect(),
+            Some(T::Rotate) => vec![
+                f(rng, -1.0, 1.0),
+                f(rng, -1.0, 1.0),
+                f(rng, 0.2, 1.0),
+                f(rng, -90.0, 90.0),
+            ],
+            _ => (0..words).map(|_| f(rng, -90.0, 90.0)).collect(),
+        };
+        assert_eq!(p.len(), words, "{}", info.name);
+        s.push(id as u32, &p);
+    }
+    for _ in 0..depth {
+        let pop = sys.symbol_by_name("]").expect("]");
+        s.push(pop.0, &[]);
+    }
+    s
+}
+
+const ALL_TERMINALS: &str = "F(1) f(1) G(1) g(1) + - & ^ \\ / | [ ] !(1) ! '(1) ' { . } \
+    translate(1, 2, 3) rotate(vec3(0, 0, 1), 30) rotx(10) roty(10) rotz(10) scale(2) scale(1, 2, 3) \
+    cylinder(1, 1) sphere(1) A B(1)";
+
+/// Random strings over every terminal: scanned (affine commands only) and
+/// walked (with `$`, `%` and tropism), against the CPU turtle.
+#[test]
+fn random_strings_match_the_cpu_turtle() {
+    let g = gpu();
+    let systems = [
+        (
+            format!("system S {{ angle = 30; width = 0.5; axiom {ALL_TERMINALS}; }}"),
+            false,
+            false,
+        ),
+        (
+            format!("system S {{ angle = 30; axiom {ALL_TERMINALS} $ %; }}"),
+            true,
+            true,
+        ),
+        (
+            format!(
+                "system S {{ angle = 30; tropism = vec3(0.3, -1, 0); elasticity = 0.2; axiom {ALL_TERMINALS}; }}"
+            ),
+            true,
+            false,
+        ),
+    ];
+    let mut rng = Rng(17);
+    for (src, walks, cuts) in &systems {
+        let (p, c) = inline_program(src).unwrap_or_else(|| panic!("checks: {src}"));
+        let sys = p.default_system().expect("system");
+        let prog = TurtleProgram::new(sys, &c.settings);
+        assert_eq!(prog.walks(), *walks, "{src}");
+        for k in 0..25 {
+            let len = [10, 300, 2000, 5000][k % 4];
+            let string = random_string(sys, &mut rng, len, *cuts);
+            let cpu = grm_turtle::interpret(sys, &c.settings, &string).expect("cpu interprets");
+            let gpu = interpret(g, &prog, &string).expect("gpu interprets");
+            compare(&format!("{src} #{k}"), &cpu, &gpu.bones);
+        }
+    }
+}

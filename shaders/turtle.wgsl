@@ -1,0 +1,422 @@
+// Turtle interpretation on the GPU: bones (base, tip, left, width, parent)
+// of a module string, as grm_turtle::Interpreter computes them.
+//
+// The turtle state before a module is its enclosing branch's state at the
+// `[` composed with the transforms of the modules before it in its own
+// branch (nested branches excluded: `[ ... ]` restores the state). So:
+//
+// 1. Depth of every module (brackets.wgsl: the depth tree, level 0).
+// 2. Stable counting sort of the modules by depth (`depth_hist`: a
+//    histogram per chunk and depth, owner-exclusive; a scan; `depth_scatter`).
+//    In depth order each branch's own modules are contiguous: a branch is a
+//    segment that starts right after its `[`.
+// 3a. Linear turtles (every command is an affine transform: Lipp's matrix
+//    scan, 5.3.1, extended to branching strings): `turtle_elems` puts each
+//    module's predecessor's transform in place; one segmented inclusive
+//    scan (scan.wgsl with turtle_scan.wgsl) gives every module its local
+//    transform within its branch; `turtle_round` then composes, depth by
+//    depth, the state at each branch's `[` (known from the depth before)
+//    with the local transforms. d_max + 1 rounds, O(n) work in all.
+// 3b. Turtles with state-dependent commands (tropism, `$`, `%`): Lipp's
+//    branch work items (5.3.2), level-synchronous: in round d one thread
+//    per branch at depth d walks it sequentially from the state at its `[`.
+// 4. `bone_flags` + a scan number the bones in string order;
+//    `bones_write` writes them.
+//
+// Rounds are dispatched indirectly (`depth_starts` writes the bucket
+// bounds and workgroup counts), so the host synchronises only once, to
+// learn the depth range. No atomics.
+//!include grid.wgsl
+//!include turtle_scan.wgsl
+
+@group(0) @binding(0) var<uniform> T: TurtleParams;
+@group(0) @binding(1) var<storage, read> syms: array<u32>;
+@group(0) @binding(2) var<storage, read> starts: array<u32>;
+@group(0) @binding(3) var<storage, read> params: array<f32>;
+@group(0) @binding(4) var<storage, read> tsyms: array<TurtleSym>;
+@group(0) @binding(5) var<storage, read> levels: array<vec2<i32>>;
+@group(0) @binding(6) var<storage, read_write> hist: array<u32>;
+@group(0) @binding(7) var<storage, read_write> order: array<u32>;
+@group(0) @binding(8) var<storage, read_write> pos_of: array<u32>;
+@group(0) @binding(9) var<storage, read_write> elems: array<TurtleElem>;
+@group(0) @binding(10) var<storage, read_write> bones: array<GpuBone>;
+@group(0) @binding(11) var<storage, read_write> aux: array<u32>;
+
+fn tid(wid: vec3<u32>, nwg: vec3<u32>, lid: u32) -> u32 {
+    return wg_linear(wid, nwg) * WORKGROUP + lid;
+}
+
+fn depth_of(i: u32) -> u32 {
+    return u32(levels[i].x);
+}
+
+// ---- 2. counting sort by depth
+
+@compute @workgroup_size(WORKGROUP)
+fn depth_hist(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let c = tid(wid, nwg, lid);
+    if (c >= T.chunks) {
+        if (c == T.chunks) {
+            // The slot after the last count: the scan leaves n here.
+            hist[(T.dmax + 1u) * T.chunks] = 0u;
+        }
+        return;
+    }
+    for (var d = 0u; d <= T.dmax; d = d + 1u) {
+        hist[d * T.chunks + c] = 0u;
+    }
+    let end = min((c + 1u) * T.chunk, T.n);
+    for (var i = c * T.chunk; i < end; i = i + 1u) {
+        let k = depth_of(i) * T.chunks + c;
+        hist[k] = hist[k] + 1u;
+    }
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn depth_scatter(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let c = tid(wid, nwg, lid);
+    if (c >= T.chunks) {
+        return;
+    }
+    let end = min((c + 1u) * T.chunk, T.n);
+    for (var i = c * T.chunk; i < end; i = i + 1u) {
+        let k = depth_of(i) * T.chunks + c;
+        let s = hist[k];
+        hist[k] = s + 1u;
+        order[s] = i;
+        pos_of[i] = s;
+    }
+}
+
+// Bucket bounds aux[T.bstart + d] (d = 0 ..= dmax + 1) and the indirect
+// dispatch arguments of each round, aux[T.args + 3 d ..].
+@compute @workgroup_size(WORKGROUP)
+fn depth_starts(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let d = tid(wid, nwg, lid);
+    if (d > T.dmax + 1u) {
+        return;
+    }
+    // After depth_scatter, hist[d * chunks + c] is the end of (d, c); the
+    // start of depth d is the end of (d - 1, last chunk).
+    var lo = 0u;
+    if (d > 0u) {
+        lo = hist[d * T.chunks - 1u];
+    }
+    aux[T.bstart + d] = lo;
+    if (d <= T.dmax) {
+        let hi = hist[(d + 1u) * T.chunks - 1u];
+        let groups = (hi - lo + WORKGROUP - 1u) / WORKGROUP;
+        let x = min(groups, T.max_groups);
+        let y = select(1u, (groups + T.max_groups - 1u) / T.max_groups, groups > T.max_groups);
+        aux[T.args + 3u * d] = select(x, 0u, groups == 0u);
+        aux[T.args + 3u * d + 1u] = y;
+        aux[T.args + 3u * d + 2u] = 1u;
+    }
+}
+
+// ---- module commands
+
+fn op_of(i: u32) -> TurtleSym {
+    return tsyms[syms[i]];
+}
+
+fn nparams(i: u32) -> u32 {
+    return starts[i + 1u] - starts[i];
+}
+
+fn arg(i: u32, k: u32, dflt: f32) -> f32 {
+    if (k < nparams(i)) {
+        return params[starts[i] + k];
+    }
+    return dflt;
+}
+
+fn arg3(i: u32, dflt: vec3<f32>) -> vec3<f32> {
+    if (nparams(i) >= 3u) {
+        let s = starts[i];
+        return vec3<f32>(params[s], params[s + 1u], params[s + 2u]);
+    }
+    return dflt;
+}
+
+fn rot_x(a: f32) -> mat3x3<f32> {
+    let s = sin(a);
+    let c = cos(a);
+    return mat3x3<f32>(1.0, 0.0, 0.0, 0.0, c, s, 0.0, -s, c);
+}
+
+fn rot_y(a: f32) -> mat3x3<f32> {
+    let s = sin(a);
+    let c = cos(a);
+    return mat3x3<f32>(c, 0.0, -s, 0.0, 1.0, 0.0, s, 0.0, c);
+}
+
+fn rot_z(a: f32) -> mat3x3<f32> {
+    let s = sin(a);
+    let c = cos(a);
+    return mat3x3<f32>(c, s, 0.0, -s, c, 0.0, 0.0, 0.0, 1.0);
+}
+
+// glam's Mat3A::from_axis_angle (axis normalised).
+fn rot_axis(axis: vec3<f32>, a: f32) -> mat3x3<f32> {
+    let s = sin(a);
+    let c = cos(a);
+    let xs = axis * s;
+    let a2 = axis * axis;
+    let omc = 1.0 - c;
+    let xy = axis.x * axis.y * omc;
+    let xz = axis.x * axis.z * omc;
+    let yz = axis.y * axis.z * omc;
+    return mat3x3<f32>(
+        a2.x * omc + c, xy + xs.z, xz - xs.y,
+        xy - xs.z, a2.y * omc + c, yz + xs.x,
+        xz + xs.y, yz - xs.x, a2.z * omc + c,
+    );
+}
+
+fn finite(x: f32) -> bool {
+    return x == x && abs(x) <= 3.40282347e38;
+}
+
+fn finite3(v: vec3<f32>) -> bool {
+    return finite(v.x) && finite(v.y) && finite(v.z);
+}
+
+fn normalize_or_zero(v: vec3<f32>) -> vec3<f32> {
+    let r = 1.0 / sqrt(dot(v, v));
+    if (finite(r) && r > 0.0) {
+        return v * r;
+    }
+    return vec3<f32>(0.0);
+}
+
+// The affine part of module i's command (identity for brackets, cuts,
+// `$`, geometry and user modules). Its bone field is i for `F`/`G`.
+fn module_elem(i: u32) -> TurtleElem {
+    var e = scan_identity();
+    let o = op_of(i);
+    let angle = arg(i, 0u, T.angle) * DEG_TO_RAD * o.sign;
+    var m = mat3x3<f32>(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0);
+    var t = vec3<f32>(0.0);
+    switch o.op {
+        case TOP_FORWARD: {
+            t = vec3<f32>(0.0, arg(i, 0u, T.step), 0.0);
+            e.bone = i;
+        }
+        case TOP_MOVE: {
+            t = vec3<f32>(0.0, arg(i, 0u, T.step), 0.0);
+        }
+        case TOP_ROT_X: {
+            m = rot_x(angle);
+        }
+        case TOP_ROT_Y: {
+            m = rot_y(angle);
+        }
+        case TOP_ROT_Z: {
+            m = rot_z(angle);
+        }
+        case TOP_TURN_AROUND: {
+            m = mat3x3<f32>(-1.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 1.0);
+        }
+        case TOP_SET_WIDTH: {
+            let w = arg(i, 0u, T.width);
+            if (finite(w)) {
+                e.wa = 0.0;
+                e.wb = max(w, 0.0);
+            }
+        }
+        case TOP_SHRINK_WIDTH: {
+            e.wa = SHRINK;
+        }
+        case TOP_TRANSLATE: {
+            t = arg3(i, vec3<f32>(0.0));
+        }
+        case TOP_ROTATE: {
+            let axis = arg3(i, vec3<f32>(0.0, 1.0, 0.0));
+            let a = arg(i, 3u, T.angle) * DEG_TO_RAD;
+            let len = length(axis);
+            if (len > 1e-12 && finite(len)) {
+                m = rot_axis(axis / len, a);
+            }
+        }
+        case TOP_SCALE_UNIFORM: {
+            let s = arg(i, 0u, 1.0);
+            m = mat3x3<f32>(s, 0.0, 0.0, 0.0, s, 0.0, 0.0, 0.0, s);
+        }
+        case TOP_SCALE: {
+            let s = arg3(i, vec3<f32>(1.0));
+            m = mat3x3<f32>(s.x, 0.0, 0.0, 0.0, s.y, 0.0, 0.0, 0.0, s.z);
+        }
+        default: {}
+    }
+    set_frame(&e, m, t);
+    return e;
+}
+
+// Whether module i starts a branch segment (the first module, or right
+// after a `[`).
+fn seg_start(i: u32) -> bool {
+    return i == 0u || op_of(i - 1u).op == TOP_PUSH;
+}
+
+// The state at the start of module i's segment: the initial state at depth
+// 0, else the state at the `[` before it (computed in the round before).
+fn base_state(start: u32) -> TurtleElem {
+    if (start == 0u) {
+        var e = scan_identity();
+        e.wa = 0.0;
+        e.wb = T.width;
+        return e;
+    }
+    var b = elems[pos_of[start - 1u]];
+    b.seg = b.seg & SEG_DEAD;
+    return b;
+}
+
+// ---- 3a. linear turtles: segmented scan
+
+// elems[s] = the transform of the module before order[s] in its branch (a
+// segment start gets the identity and the SEG_START bit, and records its
+// module index).
+@compute @workgroup_size(WORKGROUP)
+fn turtle_elems(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let s = tid(wid, nwg, lid);
+    if (s >= T.n) {
+        return;
+    }
+    let i = order[s];
+    if (seg_start(i)) {
+        var e = scan_identity();
+        e.seg = SEG_START | i;
+        elems[s] = e;
+    } else {
+        // The module before i in its branch is the one before it in depth
+        // order (same segment).
+        var e = module_elem(order[s - 1u]);
+        e.seg = 0u;
+        elems[s] = e;
+    }
+}
+
+fn round_index(wid: vec3<u32>, nwg: vec3<u32>, lid: u32) -> u32 {
+    let lo = aux[T.bstart + T.depth];
+    let hi = aux[T.bstart + T.depth + 1u];
+    let s = lo + tid(wid, nwg, lid);
+    return select(NONE, s, s < hi);
+}
+
+// Round T.depth: the full state before every module at this depth.
+@compute @workgroup_size(WORKGROUP)
+fn turtle_round(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let s = round_index(wid, nwg, lid);
+    if (s == NONE) {
+        return;
+    }
+    let local = elems[s];
+    var full = compose(base_state(local.seg & SEG_INDEX), local);
+    full.seg = 0u;
+    elems[s] = full;
+}
+
+// ---- 3b. state-dependent turtles: one thread walks each branch
+
+fn tropism(e: ptr<function, TurtleElem>) {
+    if (T.has_tropism == 0u) {
+        return;
+    }
+    let m = elem_mat(*e);
+    let h = normalize_or_zero(m[1]);
+    let axis = cross(h, vec3<f32>(T.tropism_x, T.tropism_y, T.tropism_z));
+    let s = length(axis);
+    if (s > 1e-9 && finite(s)) {
+        set_frame(e, rot_axis(axis / s, T.elasticity * s) * m, elem_t(*e));
+    }
+}
+
+fn roll_horizontal(e: ptr<function, TurtleElem>) {
+    var m = elem_mat(*e);
+    let h = normalize_or_zero(m[1]);
+    let l0 = cross(vec3<f32>(0.0, 1.0, 0.0), h);
+    let len = length(l0);
+    if (len < 1e-6 || !finite(len)) {
+        return;
+    }
+    let l = l0 / len;
+    let u = cross(h, l);
+    let sx = length(m[0]);
+    let sz = length(m[2]);
+    m[0] = l * sx;
+    m[2] = -u * sz;
+    set_frame(e, m, elem_t(*e));
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn turtle_walk(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let s0 = round_index(wid, nwg, lid);
+    if (s0 == NONE) {
+        return;
+    }
+    let i0 = order[s0];
+    if (!seg_start(i0)) {
+        return;
+    }
+    let hi = aux[T.bstart + T.depth + 1u];
+    var st = base_state(i0);
+    for (var s = s0; s < hi; s = s + 1u) {
+        let i = order[s];
+        if (s > s0 && seg_start(i)) {
+            break;
+        }
+        elems[s] = st;
+        if ((st.seg & SEG_DEAD) != 0u) {
+            continue;
+        }
+        let op = op_of(i).op;
+        if (op == TOP_CUT) {
+            st.seg = st.seg | SEG_DEAD;
+        } else if (op == TOP_ROLL_HORIZONTAL) {
+            roll_horizontal(&st);
+        } else {
+            st = compose(st, module_elem(i));
+            if (op == TOP_FORWARD) {
+                tropism(&st);
+            }
+        }
+    }
+}
+
+// ---- 4. bones
+
+fn is_bone(i: u32) -> bool {
+    return op_of(i).op == TOP_FORWARD && (elems[pos_of[i]].seg & SEG_DEAD) == 0u;
+}
+
+// hist[i] = 1 for every live `F`/`G` (and 0 at i = n), to be scanned into
+// bone indices (the histogram is not needed any more).
+@compute @workgroup_size(WORKGROUP)
+fn bone_flags(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let i = tid(wid, nwg, lid);
+    if (i > T.n) {
+        return;
+    }
+    hist[i] = select(0u, 1u, i < T.n && is_bone(i));
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn bones_write(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let i = tid(wid, nwg, lid);
+    if (i >= T.n || !is_bone(i)) {
+        return;
+    }
+    let st = elems[pos_of[i]];
+    let m = elem_mat(st);
+    let base = elem_t(st);
+    let tip = base + m[1] * arg(i, 0u, T.step);
+    let left = normalize_or_zero(m[0]);
+    let w = st.wb * 0.5 * (length(m[0]) + length(m[2]));
+    var parent = NONE;
+    if (st.bone != NONE) {
+        parent = hist[st.bone];
+    }
+    bones[hist[i]] = GpuBone(base.x, base.y, base.z, tip.x, tip.y, tip.z, left.x, left.y, left.z, w, parent, i);
+}
