@@ -16,10 +16,12 @@ function fakeHost(overrides: Partial<HostDeps> = {}) {
   const deps: HostDeps = {
     request: async (method, params) => {
       requests.push([method, params]);
-      if (method === 'grm/preview') return { uri: (params as { uri: string }).uri, mode: 'sample', seed: 9, model: null };
-      if (method === 'grm/pick') return { rule: { origin: 2, label: 'branch -> ...', line: 41, character: 4 } };
-      return { points: [], bones: [] };
+      if (method === 'grm/preview') return { uri: (params as { textDocument: { uri: string } }).textDocument.uri, mode: 'sample', seed: 9, system: 'Tree' };
+      if (method === 'textDocument/documentSymbol') return [{ name: 'spread', kind: 13, detail: '30 in 10 .. 60' }];
+      if (method === 'grm/pick') return { uri: 'file:///t.grm', range: { start: { line: 41, character: 4 }, end: { line: 42, character: 0 } }, symbol: 'branch', version: 1, module: 3 };
+      throw new Error(`unexpected ${method}`);
     },
+    readFile: async (p) => (p === '/w/tree.curves.json' ? CURVES : null),
     writeFile: async (p, t) => {
       writes.push([p, t]);
     },
@@ -36,43 +38,66 @@ function fakeHost(overrides: Partial<HostDeps> = {}) {
 test('notifications wait for the page to be ready; only the latest document is kept', async () => {
   const { host, posted } = fakeHost();
   host.setDocument('file:///a.grm', 'a.grm');
-  host.documentChanged('file:///a.grm', 2);
+  host.previewUpdated({ uri: 'file:///a.grm', version: 2, result: null, error: 'x' });
   host.setDocument('file:///b.grm', 'b.grm');
   assert.equal(posted.length, 0);
   await host.handle({ type: 'ready' });
   assert.deepEqual(posted, [{ type: 'notify', method: 'document', params: { uri: 'file:///b.grm', title: 'b.grm' } }]);
-  host.documentChanged('file:///a.grm', 3); // not the shown document
-  host.documentChanged('file:///b.grm', 4);
+  host.previewUpdated({ uri: 'file:///a.grm', version: 3, result: null, error: 'x' }); // not the shown document
+  host.previewUpdated({ uri: 'file:///b.grm', version: 4, result: { seed: 1 }, error: null });
+  host.previewUpdated('junk');
   host.cursor('file:///b.grm', 7, 2);
+  host.refresh();
   assert.deepEqual(posted.slice(1), [
-    { type: 'notify', method: 'previewUpdated', params: { uri: 'file:///b.grm', version: 4 } },
+    { type: 'notify', method: 'previewUpdated', params: { uri: 'file:///b.grm', version: 4, result: { seed: 1 }, error: null } },
     { type: 'notify', method: 'cursor', params: { uri: 'file:///b.grm', line: 7, character: 2 } },
+    { type: 'notify', method: 'document', params: { uri: 'file:///b.grm', title: 'b.grm' } },
   ]);
+});
+
+test('server URIs are matched however they escape the path', async () => {
+  const { host, posted } = fakeHost();
+  host.setDocument('file:///c%3A/w/t.grm', 't.grm');
+  await host.handle({ type: 'ready' });
+  host.previewUpdated({ uri: 'file:///c:/w/t.grm', version: 1, result: null, error: 'e' });
+  assert.deepEqual((posted.at(-1) as { params: { uri: string } }).params.uri, 'file:///c%3A/w/t.grm');
 });
 
 test('preview requests go to grm/preview and the answer comes back with the same id', async () => {
   const { host, posted, requests } = fakeHost();
   host.setDocument('file:///t.grm', 't.grm');
   await host.handle({ type: 'ready' });
-  await host.handle({ type: 'request', id: 7, method: 'preview', params: { uri: 'file:///t.grm', seed: 9, params: { spread: 40 } } });
-  assert.deepEqual(requests, [['grm/preview', { uri: 'file:///t.grm', seed: 9, params: { spread: 40 } }]]);
-  assert.deepEqual(posted.at(-1), { type: 'response', id: 7, result: { uri: 'file:///t.grm', mode: 'sample', seed: 9, model: null } });
-  assert.deepEqual(host.lastPreview('file:///t.grm'), { params: { spread: 40 }, mode: 'sample', seed: 9 });
+  const params = { textDocument: { uri: 'file:///t.grm' }, mode: 'sample', seed: 9, params: { spread: 40 }, live: true };
+  await host.handle({ type: 'request', id: 7, method: 'preview', params });
+  assert.deepEqual(requests, [['grm/preview', params]]);
+  assert.deepEqual(posted.at(-1), { type: 'response', id: 7, result: { uri: 'file:///t.grm', mode: 'sample', seed: 9, system: 'Tree' } });
+  assert.deepEqual(host.lastPreview('file:///t.grm'), { params: { spread: 40 }, mode: 'sample', seed: 9, system: 'Tree' });
+});
+
+test('symbols come from textDocument/documentSymbol of the shown document', async () => {
+  const { host, posted, requests } = fakeHost();
+  host.setDocument('file:///t.grm', 't.grm');
+  await host.handle({ type: 'ready' });
+  await host.handle({ type: 'request', id: 3, method: 'symbols', params: { uri: 'file:///t.grm' } });
+  assert.deepEqual(requests, [['textDocument/documentSymbol', { textDocument: { uri: 'file:///t.grm' } }]]);
+  assert.deepEqual(posted.at(-1), { type: 'response', id: 3, result: [{ name: 'spread', kind: 13, detail: '30 in 10 .. 60' }] });
 });
 
 test('a pick asks the server and jumps to the rule', async () => {
   const { host, posted, reveals } = fakeHost();
   host.setDocument('file:///t.grm', 't.grm');
   await host.handle({ type: 'ready' });
-  await host.handle({ type: 'request', id: 1, method: 'pick', params: { uri: 'file:///t.grm', origin: 2 } });
+  await host.handle({ type: 'request', id: 1, method: 'pick', params: { textDocument: { uri: 'file:///t.grm' }, part: 0, triangle: 12 } });
   assert.deepEqual(reveals, [['file:///t.grm', 41, 4]]);
-  assert.equal((posted.at(-1) as { result: { rule: { line: number } } }).result.rule.line, 41);
+  assert.equal((posted.at(-1) as { result: { symbol: string } }).result.symbol, 'branch');
 });
 
-test('curves are saved next to the grammar, and only valid curves', async () => {
+test('curves are read from and saved next to the grammar, and only valid curves', async () => {
   const { host, posted, writes } = fakeHost();
   host.setDocument('file:///w/tree.grm', 'tree.grm');
   await host.handle({ type: 'ready' });
+  await host.handle({ type: 'request', id: 1, method: 'loadCurves', params: { uri: 'file:///w/tree.grm' } });
+  assert.deepEqual(posted.at(-1), { type: 'response', id: 1, result: { path: '/w/tree.curves.json', text: CURVES } });
   await host.handle({ type: 'request', id: 2, method: 'saveCurves', params: { uri: 'file:///w/tree.grm', text: CURVES } });
   assert.deepEqual(writes, [['/w/tree.curves.json', CURVES]]);
   assert.deepEqual(posted.at(-1), { type: 'response', id: 2, result: { path: '/w/tree.curves.json' } });
@@ -89,14 +114,16 @@ test('requests about another document, unsaved documents and server failures ans
   });
   host.setDocument('untitled:Untitled-1', 'Untitled-1');
   await host.handle({ type: 'ready' });
-  await host.handle({ type: 'request', id: 1, method: 'preview', params: { uri: 'file:///other.grm' } });
+  await host.handle({ type: 'request', id: 1, method: 'preview', params: { textDocument: { uri: 'file:///other.grm' } } });
   assert.match((posted.at(-1) as { error: string }).error, /not file:\/\/\/other.grm/);
-  await host.handle({ type: 'request', id: 2, method: 'preview', params: { uri: 'untitled:Untitled-1' } });
+  await host.handle({ type: 'request', id: 2, method: 'preview', params: { textDocument: { uri: 'untitled:Untitled-1' } } });
   assert.deepEqual(posted.at(-1), { type: 'response', id: 2, error: 'server crashed' });
   await host.handle({ type: 'request', id: 3, method: 'saveCurves', params: { uri: 'untitled:Untitled-1', text: CURVES } });
   assert.match((posted.at(-1) as { error: string }).error, /save it first/);
   await host.handle({ type: 'request', id: 4, method: 'preview', params: null });
   assert.match((posted.at(-1) as { error: string }).error, /names no document/);
+  await host.handle({ type: 'request', id: 5, method: 'loadCurves', params: { uri: 'untitled:Untitled-1' } });
+  assert.match((posted.at(-1) as { error: string }).error, /save it first/);
   assert.equal(writes.length, 0);
 });
 
@@ -126,7 +153,7 @@ test('page and extension end to end: the page transport talks to the host', asyn
   page.start();
   await Promise.all(pending);
   assert.deepEqual(notes, [['document', { uri: 'file:///w/tree.grm', title: 'tree.grm' }]]);
-  const r = (await page.request('preview', { uri: 'file:///w/tree.grm' })) as { seed: number };
+  const r = (await page.request('preview', { textDocument: { uri: 'file:///w/tree.grm' } })) as { seed: number };
   assert.equal(r.seed, 9);
   await assert.rejects(page.request('saveCurves', { uri: 'file:///w/tree.grm', text: '{' }), /invalid JSON/);
 });

@@ -1,79 +1,135 @@
 import assert from 'node:assert/strict';
 import { test } from 'node:test';
-import { ProtocolError, bytesToBase64, decodeF32, decodeModel, decodePreview, decodeU32, findPick } from '../preview/src/protocol.js';
+import {
+  ProtocolError,
+  bytesToBase64,
+  decodeF32,
+  decodePick,
+  decodePreview,
+  decodePreviewUpdated,
+  decodeU32,
+  findPick,
+  paramsFromSymbols,
+} from '../preview/src/protocol.js';
 
 const b64f32 = (xs: number[]) => bytesToBase64(new Uint8Array(new Float32Array(xs).buffer));
 const b64u32 = (xs: number[]) => bytesToBase64(new Uint8Array(new Uint32Array(xs).buffer));
 
-const triangleModel = (positions: unknown, indices: unknown) => ({
-  materials: [{ name: 'bark', color: [0.45, 0.32, 0.2], roughness: 0.9, metallic: 0, opacity: 1 }],
-  parts: [
-    {
-      material: 0,
-      positions,
-      normals: null,
-      indices,
-      picks: [
-        { first_triangle: 0, triangle_count: 1, kind: 'bone', index: 0, module: 3, origin: 1 },
-        { first_triangle: 1, triangle_count: 1, kind: 'instance', index: 0, module: 5, origin: 2 },
-      ],
+/** A grm/preview result as crates/grm-lsp/src/preview.rs writes it. */
+function wire(positions: number[], indices: number[], over: Record<string, unknown> = {}) {
+  return {
+    uri: 'file:///t.grm',
+    version: 3,
+    system: 'Tree',
+    mode: 'derive',
+    seed: 7,
+    iterations: 4,
+    encoding: 'base64-le',
+    materials: [{ name: 'bark', color: [0.45, 0.32, 0.2], roughness: 0.9, metallic: 0, emissive: [0, 0, 0], opacity: 1 }],
+    parts: [
+      {
+        material: 0,
+        vertexCount: positions.length / 3,
+        triangleCount: indices.length / 3,
+        positions: b64f32(positions),
+        normals: b64f32(positions.map(() => 0)),
+        indices: b64u32(indices),
+        picks: [
+          { firstTriangle: 0, triangleCount: 1, kind: 'bone', index: 0, module: 3, origin: 1, focus: true },
+          { firstTriangle: 1, triangleCount: 1, kind: 'instance', index: 0, module: 5, origin: null, focus: false },
+        ],
+      },
+    ],
+    skeleton: {
+      boneCount: 2,
+      bones: b64f32([0, 0, 0, 0, 1, 0, 0.1, 0.08, 0, 1, 0, 1, 2, 0, 0.08, 0.05]),
+      parents: bytesToBase64(new Uint8Array(new Int32Array([-1, 0]).buffer)),
+      origins: b64u32([1, 0xffffffff]),
     },
-  ],
-  bones: [{ base: [0, 0, 0], tip: [0, 1, 0], width: 0.1, module: 3, origin: 1 }],
-});
+    origins: [
+      { uri: 'file:///t.grm', range: { start: { line: 2, character: 4 }, end: { line: 2, character: 9 } }, symbol: 'axiom' },
+      { uri: 'file:///t.grm', range: { start: { line: 5, character: 4 }, end: { line: 5, character: 30 } }, symbol: 'A' },
+    ],
+    focus: { origin: 1, bones: 1, instances: 0, spreadBones: [1, 2, 1] },
+    stats: { modules: 9, triangles: 2, boundsMin: [0, 0, 0], boundsMax: [1, 2, 0.5], deriveMs: 0.5, buildMs: 1.25, encodeMs: 0.1 },
+    ...over,
+  };
+}
 
-test('a model decodes the same from numbers and from base64', () => {
+test('a preview result decodes: parts, picks with origins and focus, skeleton, origins, timings', () => {
   const pos = [0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0.5];
-  const idx = [0, 1, 2, 2, 1, 3];
-  const a = decodeModel(triangleModel(pos, idx));
-  const b = decodeModel(triangleModel(b64f32(pos), b64u32(idx)));
-  assert.deepEqual(a, b);
-  assert.equal(a.triangles, 2);
-  assert.deepEqual(Array.from(a.parts[0].positions), pos);
-  assert.deepEqual(a.bounds, { min: [0, 0, 0], max: [1, 1, 0.5] });
-  assert.equal(a.bones[0].origin, 1);
+  const r = decodePreview(wire(pos, [0, 1, 2, 2, 1, 3]));
+  assert.equal(r.version, 3);
+  assert.equal(r.seed, 7);
+  assert.deepEqual(Array.from(r.model.parts[0].positions), pos);
+  assert.equal(r.model.triangles, 2);
+  assert.deepEqual(r.model.parts[0].picks[0], { firstTriangle: 0, triangleCount: 1, kind: 'bone', index: 0, module: 3, origin: 1, focus: true });
+  assert.equal(r.model.parts[0].picks[1].origin, null);
+  assert.equal(r.model.bones.length, 2);
+  assert.deepEqual(r.model.bones[1], { base: [0, 1, 0], tip: [1, 2, 0], width: Math.fround(0.08), origin: null });
+  assert.equal(r.model.bones[0].origin, 1);
+  assert.deepEqual(r.model.bounds, { min: [0, 0, 0], max: [1, 2, 0.5] });
+  assert.equal(r.origins[1].symbol, 'A');
+  assert.equal(r.origins[1].range.start.line, 5);
+  assert.deepEqual(r.focus, { origin: 1, bones: 1, instances: 0, spreadBones: [1, 2, 1] });
+  assert.deepEqual(r.timings, { derive: 0.5, build: 1.25, encode: 0.1 });
+  assert.deepEqual(r.params, []);
 });
 
 test('malformed models are refused, not drawn', () => {
   const pos = [0, 0, 0, 1, 0, 0, 0, 1, 0];
-  assert.throws(() => decodeModel(triangleModel(pos, [0, 1, 3])), /out of range \(3 vertices\)/);
-  assert.throws(() => decodeModel(triangleModel(pos, [0, 1])), /not a multiple of 3/);
-  assert.throws(() => decodeModel(triangleModel([0, 0], [])), /not a multiple of 3/);
-  assert.throws(() => decodeModel(triangleModel([0, 0, 'x'], [])), ProtocolError);
+  assert.throws(() => decodePreview(wire(pos, [0, 1, 3])), /out of range \(3 vertices\)/);
+  assert.throws(() => decodePreview(wire(pos, [0, 1])), /not a multiple of 3/);
+  assert.throws(() => decodePreview(wire([0, 0], [])), /not a multiple of 3/);
+  assert.throws(() => decodePreview(wire(pos, [0, 1, 2], { skeleton: { boneCount: 3, bones: b64f32([0, 0, 0]) } })), /8 each/);
+  assert.throws(() => decodePreview(wire(pos, [0, 1, 2], { encoding: 'json' })), /unknown encoding/);
+  assert.throws(() => decodePreview(wire(pos, [0, 1, 2], { mode: 'gpu' })), /unknown mode/);
   assert.throws(() => decodeF32('AAA', 'x'), /whole number of f32/);
   assert.throws(() => decodeU32([1.5], 'x'), /not an index/);
+  assert.throws(() => decodeF32([0, 'x'], 'x'), ProtocolError);
 });
 
 test('picks find the range holding a triangle', () => {
-  const m = decodeModel(triangleModel([0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0], [0, 1, 2, 2, 1, 3]));
-  assert.equal(findPick(m.parts[0], 0)?.origin, 1);
-  assert.equal(findPick(m.parts[0], 1)?.kind, 'instance');
-  assert.equal(findPick(m.parts[0], 2), null);
+  const r = decodePreview(wire([0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0], [0, 1, 2, 2, 1, 3]));
+  assert.equal(findPick(r.model.parts[0], 0)?.origin, 1);
+  assert.equal(findPick(r.model.parts[0], 1)?.kind, 'instance');
+  assert.equal(findPick(r.model.parts[0], 2), null);
 });
 
-test('a preview result decodes with its parameters, rules and error', () => {
-  const r = decodePreview({
-    id: 4,
-    uri: 'file:///t.grm',
-    system: 'Tree',
-    mode: 'sample',
-    seed: 3,
-    params: [{ name: 'spread', value: 30, min: 10, max: 60, default: 30 }],
-    curves: { version: 1, curves: [] },
-    curves_path: '/t.curves.json',
-    model: null,
-    error: 'E0101: no axiom',
-    diagnostics: [{ message: 'no axiom', severity: 'error', line: 2, character: 4, code: 'E0101' }],
-    rules: [{ origin: 0, label: 'A -> B', line: 5, character: 4 }],
-    timings: { sample: 12.5 },
-  });
-  assert.equal(r.id, 4);
-  assert.equal(r.mode, 'sample');
-  assert.equal(r.params[0].max, 60);
-  assert.equal(r.curvesPath, '/t.curves.json');
-  assert.equal(r.model, null);
-  assert.equal(r.error, 'E0101: no axiom');
-  assert.equal(r.rules[0].line, 5);
-  assert.equal(r.timings.sample, 12.5);
-  assert.throws(() => decodePreview({ mode: 'gpu' }), /unknown mode/);
+test('an empty model (nothing drawn) has no bounds', () => {
+  const r = decodePreview(wire([], [], { parts: [], skeleton: { boneCount: 0, bones: '', parents: '', origins: '' }, focus: null }));
+  assert.equal(r.model.bounds, null);
+  assert.equal(r.focus, null);
+});
+
+test('previewUpdated carries a result or an error; pick results decode or are null', () => {
+  const u = decodePreviewUpdated({ uri: 'file:///t.grm', version: 4, result: wire([0, 0, 0, 1, 0, 0, 0, 1, 0], [0, 1, 2]), error: null });
+  assert.equal(u.result?.model.triangles, 1);
+  const e = decodePreviewUpdated({ uri: 'file:///t.grm', version: 5, result: null, error: 'the program has 1 error: fix it to preview' });
+  assert.equal(e.result, null);
+  assert.match(e.error ?? '', /1 error/);
+  assert.equal(decodePick(null), null);
+  const p = decodePick({ uri: 'file:///t.grm', range: { start: { line: 41, character: 4 }, end: { line: 44, character: 1 } }, symbol: 'branch', version: 3, module: 12 });
+  assert.equal(p?.range.start.line, 41);
+  assert.throws(() => decodePick({ uri: 'x' }), /expected a range/);
+});
+
+test('meta-parameters are read from the document symbols (numbers only)', () => {
+  const symbols = [
+    { name: 'delta', kind: 13, detail: '22.5 in 5 .. 45' },
+    { name: 'lr', kind: 13, detail: '1.109 in 1 .. 2' },
+    { name: 'neg', kind: 13, detail: '-0.5 in -1 .. 1e0' },
+    { name: 'expr', kind: 13, detail: 'BASE * 2 in 0 .. 10' },
+    { name: 'R', kind: 14, detail: '1.456' },
+    { name: 'Plant', kind: 3, children: [] },
+    { name: 'upside', kind: 13, detail: '5 in 10 .. 0' },
+  ];
+  const { params, skipped } = paramsFromSymbols(symbols);
+  assert.deepEqual(params, [
+    { name: 'delta', value: 22.5, min: 5, max: 45, default: 22.5 },
+    { name: 'lr', value: 1.109, min: 1, max: 2, default: 1.109 },
+    { name: 'neg', value: -0.5, min: -1, max: 1, default: -0.5 },
+  ]);
+  assert.deepEqual(skipped, ['expr', 'upside']);
+  assert.deepEqual(paramsFromSymbols(null), { params: [], skipped: [] });
 });

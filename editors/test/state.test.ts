@@ -5,7 +5,7 @@ import { parseCurves } from '../preview/src/curves.js';
 import { decodePreview } from '../preview/src/protocol.js';
 import { PageState } from '../preview/src/state.js';
 
-const curvesJson = { version: 1, defaults: { utilization_scale: 100 }, curves: [{ name: 'trunk', points: [[0, 0, 0], [0, 1, 0], [0, 2, 0], [0, 3, 0]] }] };
+const CURVES = JSON.stringify({ version: 1, defaults: { utilization_scale: 100 }, curves: [{ name: 'trunk', points: [[0, 0, 0], [0, 1, 0], [0, 2, 0], [0, 3, 0]] }] });
 
 function result(over: Record<string, unknown> = {}) {
   return decodePreview({
@@ -14,31 +14,47 @@ function result(over: Record<string, unknown> = {}) {
     mode: 'sample',
     seed: 5,
     params: [{ name: 'spread', value: 30, min: 10, max: 60, default: 30 }],
-    curves: curvesJson,
-    model: null,
+    parts: [],
     ...over,
   });
 }
 
-test('the first preview sets seed, parameters and curves; overrides are clamped and sent', () => {
+function sampleState(): PageState {
   const s = new PageState();
   s.setDocument('file:///t.grm');
-  assert.deepEqual(s.previewParams(), { uri: 'file:///t.grm' });
+  s.absorb(result());
+  s.loadCurves('/t.curves.json', CURVES);
+  return s;
+}
+
+test('the first preview sets mode, seed and parameters; overrides are clamped and sent', () => {
+  const s = new PageState();
+  s.setDocument('file:///t.grm');
+  assert.deepEqual(s.previewParams(), { textDocument: { uri: 'file:///t.grm' }, mode: 'derive', live: true });
   s.absorb(result());
   assert.equal(s.seed, 5);
-  assert.equal(s.curves?.curves[0].params.utilization_scale, 100);
+  assert.equal(s.mode, 'sample');
   s.setParam('spread', 99);
   s.setParam('unknown', 1);
   s.nextVariation();
-  assert.deepEqual(s.previewParams(), { uri: 'file:///t.grm', seed: 6, params: { spread: 60 } });
-  // Curves go inline only once edited.
+  s.focus = { line: 3, character: 1 };
+  assert.deepEqual(s.previewParams(), { textDocument: { uri: 'file:///t.grm' }, mode: 'sample', live: true, seed: 6, params: { spread: 60 }, focus: { line: 3, character: 1 } });
+});
+
+test('sample systems send their curves, loaded from the file (or none yet)', () => {
+  const s = sampleState();
+  assert.equal(s.curves?.curves[0].params.utilization_scale, 100);
+  const sent = s.previewParams().curves as { curves: Array<{ utilization_scale: number }> };
+  assert.equal(sent.curves[0].utilization_scale, 100);
+  s.loadCurves('/t.curves.json', null);
+  assert.deepEqual(s.curves, { curves: [] });
   assert.equal(s.previewParams().curves, undefined);
+  s.loadCurves('/t.curves.json', '{"version": 9}');
+  assert.match(s.curvesError ?? '', /version 9/);
 });
 
 test('a drawn stroke becomes a selected curve with the template parameters, and is sent and saveable', () => {
-  const s = new PageState();
-  s.setDocument('file:///t.grm');
-  s.absorb(result());
+  const s = sampleState();
   const i = s.addStroke([[0, 3, 0], [-0.5, 3.5, 0], [-1, 3.8, 0], [-2, 4, 0]]);
   assert.equal(i, 1);
   assert.equal(s.selected, 1);
@@ -50,15 +66,13 @@ test('a drawn stroke becomes a selected curve with the template parameters, and 
   const out = s.curvesText();
   assert.ok('text' in out);
   assert.deepEqual(parseCurves(out.text), s.curves);
-  // A later preview (the file as the server knows it) does not overwrite the edit.
+  // A later preview does not touch the edited curves.
   s.absorb(result());
   assert.equal(s.curves!.curves.length, 2);
 });
 
 test('moving control points, editing parameters, renaming and deleting', () => {
-  const s = new PageState();
-  s.setDocument('file:///t.grm');
-  s.absorb(result());
+  const s = sampleState();
   const before = s.curves;
   s.moveControlPoint(0, 2, [1, 2, 3]);
   assert.notEqual(s.curves, before, 'edits make a new set (the old one is untouched)');
@@ -79,25 +93,28 @@ test('moving control points, editing parameters, renaming and deleting', () => {
   assert.ok('error' in out && /at least one curve/.test(out.error));
 });
 
-test('switching documents forgets the old one; invalid server curves are reported', () => {
-  const s = new PageState();
-  s.setDocument('file:///t.grm');
-  s.absorb(result());
+test('switching documents forgets the old one; parameters the grammar dropped are dropped', () => {
+  const s = sampleState();
   s.setParam('spread', 20);
-  s.setDocument('file:///u.grm');
-  assert.deepEqual(s.previewParams(), { uri: 'file:///u.grm' });
-  s.absorb(result({ curves: { version: 7, curves: [] } }));
-  assert.match(s.curvesError ?? '', /version 7/);
+  // A result without a parameter list (the server's) leaves the sliders alone...
   s.absorb(result({ params: [] }));
+  assert.equal(s.paramValue('spread'), 20);
+  // ...the symbols of a grammar that no longer declares it drop the override.
+  s.setParamInfo([{ name: 'other', value: 1, min: 0, max: 2, default: 1 }]);
   assert.equal(s.paramValue('spread'), undefined);
+  assert.deepEqual(s.params, {});
+  s.setDocument('file:///u.grm');
+  assert.deepEqual(s.previewParams(), { textDocument: { uri: 'file:///u.grm' }, mode: 'derive', live: true });
+  assert.equal(s.curves, null);
 });
 
 test('derive systems draw no curves', () => {
   const s = new PageState();
   s.setDocument('file:///k.grm');
-  s.absorb(result({ mode: 'derive', curves: undefined }));
+  s.absorb(result({ mode: 'derive' }));
   assert.equal(s.curves, null);
   assert.deepEqual(s.beziers(), []);
+  assert.equal(s.previewParams().curves, undefined);
 });
 
 test('coalescer: one request in flight, the latest state follows, results in order', async () => {

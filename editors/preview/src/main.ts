@@ -7,12 +7,15 @@ import { Coalescer, type Delivery } from './coalesce.js';
 import { PARAM_KEYS, PARAM_RANGES, type ParamKey, checkParam } from './curves.js';
 import type { NotificationMethod } from './messages.js';
 import {
+  type Origin,
   type PickParams,
+  type PickResult,
   type PreviewResult,
-  type RuleInfo,
+  type SceneModel,
   decodePick,
   decodePreview,
-  decodeSpread,
+  decodePreviewUpdated,
+  paramsFromSymbols,
 } from './protocol.js';
 import { PreviewScene, ThumbnailRenderer } from './scene.js';
 import { PageState } from './state.js';
@@ -32,7 +35,7 @@ interface DebugInfo {
   mode: string;
   seed: number | null;
   curves: number;
-  lastPick: RuleInfo | null;
+  lastPick: PickResult | null;
   lastError: string | null;
   saves: number;
   /** Screen position of a world point (for tests that aim at things). */
@@ -41,9 +44,11 @@ interface DebugInfo {
   curvePoints: (i: number) => V3[] | null;
   selectedCurve: () => number | null;
   /** Bone endpoints and origins of the current model. */
-  bonesList: () => { base: V3; tip: V3; origin: number }[];
-  rules: () => RuleInfo[];
-  spreadPoints: number;
+  bonesList: () => { base: V3; tip: V3; origin: number | null }[];
+  origins: () => Origin[];
+  /** Bones highlighted for the focused rule, and bones of its spread over other seeds. */
+  focusBones: number;
+  spreadBones: number;
 }
 
 const $ = <T extends HTMLElement>(id: string): T => {
@@ -55,7 +60,7 @@ const $ = <T extends HTMLElement>(id: string): T => {
 class App {
   private readonly state = new PageState();
   private readonly scene: PreviewScene;
-  private readonly coalescer: Coalescer<ReturnType<PageState['previewParams']>, PreviewResult>;
+  private readonly coalescer: Coalescer<null, PreviewResult>;
   private last: PreviewResult | null = null;
   private framed = false;
   private tool: 'orbit' | 'draw' = 'orbit';
@@ -69,13 +74,17 @@ class App {
   private thumbs: ThumbnailRenderer | null = null;
   private galleryStart = 0;
   private galleryToken = 0;
+  private spreadToken = 0;
+  private curvesLoadedFor = '';
+  /** The document version whose meta-parameters the sliders show. */
+  private symbolsFor = '';
   private readonly debug: DebugInfo;
 
   constructor(private readonly transport: Transport) {
     this.scene = new PreviewScene($<HTMLCanvasElement>('view'));
     this.coalescer = new Coalescer(
-      () => this.state.previewParams(),
-      async (params) => decodePreview(await this.transport.request('preview', params)),
+      () => null,
+      () => this.fetchPreview(),
       (d) => this.show(d),
       (e) => this.showError(String((e as Error).message ?? e)),
       () => performance.now(),
@@ -97,9 +106,10 @@ class App {
       toScreen: (p) => this.scene.toScreen(p),
       curvePoints: (i) => this.state.curves?.curves[i]?.points.map((p) => [...p] as V3) ?? null,
       selectedCurve: () => this.state.selected,
-      bonesList: () => this.last?.model?.bones.map((b) => ({ base: b.base, tip: b.tip, origin: b.origin })) ?? [],
-      rules: () => this.last?.rules ?? [],
-      spreadPoints: 0,
+      bonesList: () => this.last?.model.bones.map((b) => ({ base: b.base, tip: b.tip, origin: b.origin })) ?? [],
+      origins: () => this.last?.origins ?? [],
+      focusBones: 0,
+      spreadBones: 0,
     };
     (globalThis as unknown as { __grm: DebugInfo }).__grm = this.debug;
     this.wireUi();
@@ -107,15 +117,9 @@ class App {
     new ResizeObserver(() => this.scene.resize()).observe($('viewport'));
   }
 
+  /** The host names the document to show with a `document` notification (VS Code: the active editor; `grmc view`: its file). */
   start(): void {
     this.transport.start();
-    // In a browser the page knows its document from the URL (?uri=...), or
-    // asks for the server's default document.
-    if (this.transport.kind === 'http') {
-      const uri = new URLSearchParams(location.search).get('uri') ?? '';
-      this.state.setDocument(uri);
-      this.regrow();
-    }
   }
 
   // ------------------------------------------------------------- host
@@ -127,18 +131,54 @@ class App {
         this.state.setDocument(p.uri);
         this.framed = false;
         this.paramSignature = '';
+        this.curvesLoadedFor = '';
+        this.symbolsFor = '';
       }
       if (typeof p.title === 'string') document.title = `grm preview: ${p.title}`;
       this.regrow();
     } else if (method === 'previewUpdated') {
-      if (typeof p.uri !== 'string' || p.uri === this.state.uri) this.regrow();
+      // The server regrew the live preview after an edit of the grammar.
+      let u;
+      try {
+        u = decodePreviewUpdated(params);
+      } catch (e) {
+        this.showError(`previewUpdated: ${(e as Error).message}`);
+        return;
+      }
+      if (u.uri !== this.state.uri) return;
+      if (u.result) this.show({ result: u.result, editedAt: performance.now(), final: true });
+      else if (u.error) this.showError(u.error);
     } else if (method === 'cursor' && typeof p.line === 'number') {
-      void this.showSpread(p.line, typeof p.character === 'number' ? p.character : 0);
+      this.setFocus({ line: p.line, character: typeof p.character === 'number' ? p.character : 0 });
     }
   }
 
+  /** Ask for the preview of the current state. A sample system is detected from the server's refusal to derive it; its curves are loaded first. */
+  private async fetchPreview(): Promise<PreviewResult> {
+    if (this.state.mode === 'sample') await this.ensureCurves();
+    try {
+      return decodePreview(await this.transport.request('preview', this.state.previewParams()));
+    } catch (e) {
+      const msg = (e as Error).message ?? '';
+      if (this.state.mode === 'derive' && /is a sample system/.test(msg)) {
+        this.state.mode = 'sample';
+        await this.ensureCurves();
+        return decodePreview(await this.transport.request('preview', this.state.previewParams()));
+      }
+      throw e;
+    }
+  }
+
+  private async ensureCurves(): Promise<void> {
+    if (this.curvesLoadedFor === this.state.uri) return;
+    const r = (await this.transport.request('loadCurves', { uri: this.state.uri })) as { path?: unknown; text?: unknown };
+    this.state.loadCurves(typeof r.path === 'string' ? r.path : '', typeof r.text === 'string' ? r.text : null);
+    this.curvesLoadedFor = this.state.uri;
+    this.refreshCurves();
+  }
+
   private regrow(editedAt = performance.now()): void {
-    if (!this.state.uri && this.transport.kind === 'vscode') return;
+    if (!this.state.uri) return;
     this.setStatus('growing…');
     this.coalescer.trigger(editedAt);
   }
@@ -146,39 +186,48 @@ class App {
   private show(d: Delivery<PreviewResult>): void {
     const r = d.result;
     this.last = r;
-    if (r.uri && !this.state.uri) this.state.uri = r.uri;
     this.state.absorb(r);
-    const msg = $('overlay-msg');
-    const errors = r.diagnostics.filter((x) => x.severity === 'error');
-    msg.textContent = r.error ?? errors.map((e) => (e.line !== undefined ? `${e.line + 1}: ` : '') + e.message).join('\n');
-    if (this.state.curvesError) msg.textContent += `\ncurves: ${this.state.curvesError}`;
-    // An error keeps the last good model on screen (as the paper's editor does).
-    if (r.model) {
-      this.scene.setModel(r.model, !this.framed, () => {
-        const ms = performance.now() - d.editedAt;
-        this.debug.regrows++;
-        this.debug.lastLatencyMs = ms;
-        this.debug.latencies.push(ms);
-        this.debug.meshCount = this.scene.meshCount;
-        this.setStatus(this.summary(r, ms));
-      });
-      this.framed = true;
-      this.debug.triangles = r.model.triangles;
-      this.debug.bones = r.model.bones.length;
-    } else {
-      this.setStatus(r.error ? 'no model' : this.summary(r, null), true);
-    }
+    $('overlay-msg').textContent = this.state.curvesError ? `curves: ${this.state.curvesError}` : '';
+    this.scene.setModel(r.model, !this.framed, () => {
+      const ms = performance.now() - d.editedAt;
+      this.debug.regrows++;
+      this.debug.lastLatencyMs = ms;
+      this.debug.latencies.push(ms);
+      this.debug.meshCount = this.scene.meshCount;
+      this.setStatus(this.summary(r, ms));
+    });
+    this.framed = true;
+    this.debug.triangles = r.model.triangles;
+    this.debug.bones = r.model.bones.length;
     this.debug.mode = r.mode;
     this.debug.seed = this.state.seed;
     this.debug.ready = true;
-    this.debug.lastError = r.error ?? (errors[0]?.message ?? null);
+    this.debug.lastError = null;
+    this.showFocus(r);
     this.refreshPanel();
+    void this.loadParams(r);
+  }
+
+  /** The sliders follow the grammar's `param` declarations (read from its symbols, once per document version). */
+  private async loadParams(r: PreviewResult): Promise<void> {
+    const key = `${this.state.uri}@${r.version}`;
+    if (this.symbolsFor === key) return;
+    this.symbolsFor = key;
+    try {
+      const { params, skipped } = paramsFromSymbols(await this.transport.request('symbols', { uri: this.state.uri }));
+      this.state.setParamInfo(params);
+      this.refreshParams();
+      $('params-skipped').textContent = skipped.length ? `No slider for ${skipped.join(', ')}: write the default and range as numbers.` : '';
+    } catch (e) {
+      this.symbolsFor = '';
+      this.showError(`meta-parameters: ${(e as Error).message}`);
+    }
   }
 
   private summary(r: PreviewResult, ms: number | null): string {
     const m = r.model;
-    const parts = [`${r.system || 'system'} (${r.mode})`, `seed ${this.state.seed ?? r.seed}`];
-    if (m) parts.push(`${m.triangles.toLocaleString()} triangles`, `${m.bones.length.toLocaleString()} bones`);
+    const parts = [`${r.system || 'system'} (${r.mode})`, `seed ${r.seed}`];
+    parts.push(`${m.triangles.toLocaleString()} triangles`, `${m.bones.length.toLocaleString()} bones`);
     const t = Object.entries(r.timings)
       .map(([k, v]) => `${k} ${v.toFixed(1)} ms`)
       .join(', ');
@@ -192,9 +241,12 @@ class App {
     $('status').classList.toggle('error', error);
   }
 
+  /** A failure keeps the last good model on screen (as the paper's editor does) and says why. */
   private showError(text: string): void {
     this.debug.lastError = text;
-    this.setStatus(text, true);
+    this.debug.ready = true;
+    $('overlay-msg').textContent = text;
+    this.setStatus(text.split('\n')[0], true);
   }
 
   // ------------------------------------------------------------- UI
@@ -214,7 +266,7 @@ class App {
     });
     $('next-variation').addEventListener('click', () => this.nextVariation());
     $('frame').addEventListener('click', () => {
-      if (this.last?.model?.bounds) this.scene.frame(this.last.model.bounds);
+      if (this.last?.model.bounds) this.scene.frame(this.last.model.bounds);
     });
     $('gallery-open').addEventListener('click', () => this.openGallery(this.state.seed ?? 0));
     $('gallery-more').addEventListener('click', () => this.openGallery(this.galleryStart + 9));
@@ -229,9 +281,8 @@ class App {
     });
     $<HTMLSelectElement>('rule-select').addEventListener('change', (e) => {
       const v = (e.target as HTMLSelectElement).value;
-      const rule = this.last?.rules.find((r) => String(r.origin) === v);
-      if (rule) void this.showSpread(rule.line, rule.character);
-      else this.scene.setHighlight([], []);
+      const o = v === '' ? undefined : this.last?.origins[Number(v)];
+      this.setFocus(o ? o.range.start : null);
     });
     const vp = $('viewport');
     // Capture phase: decide before OrbitControls (registered on the canvas) sees the press.
@@ -261,7 +312,7 @@ class App {
     else if (e.key === 'o' || e.key === 'O') this.setTool('orbit');
     else if (e.key === 'n' || e.key === 'N') this.nextVariation();
     else if (e.key === 'f' || e.key === 'F') {
-      if (this.last?.model?.bounds) this.scene.frame(this.last.model.bounds);
+      if (this.last?.model.bounds) this.scene.frame(this.last.model.bounds);
     } else if (e.key === 'Delete' || e.key === 'Backspace') this.deleteSelected();
     else if (e.key === 'Escape') {
       this.state.selected = null;
@@ -348,50 +399,100 @@ class App {
 
   private async pick(x: number, y: number): Promise<void> {
     const model = this.last?.model;
-    if (!model || !this.last) return;
-    const params: PickParams = { uri: this.state.uri };
-    if (this.last.id !== undefined) params.preview = this.last.id;
+    if (!model) return;
+    const params: PickParams = { textDocument: { uri: this.state.uri } };
     const hit = this.scene.pickPart(x, y);
     if (hit) {
       params.part = hit.part;
       params.triangle = hit.triangle;
-      if (hit.pick) {
-        params.module = hit.pick.module;
-        params.origin = hit.pick.origin;
-      }
     } else {
       const bone = this.scene.pickBone(x, y);
       if (bone === null) return;
-      params.module = model.bones[bone].module;
-      params.origin = model.bones[bone].origin;
+      params.bone = bone;
     }
     try {
       const r = decodePick(await this.transport.request('pick', params));
-      this.debug.lastPick = r.rule;
+      this.debug.lastPick = r;
       const info = $('rule-info');
-      if (r.rule) {
-        info.textContent = `${r.rule.label} (line ${r.rule.line + 1})`;
-        void this.showSpread(r.rule.line, r.rule.character);
+      if (r) {
+        info.textContent = `${r.symbol} (line ${r.range.start.line + 1})`;
+        this.setFocus(r.range.start);
       } else {
-        info.textContent = 'No rule made that part (it came from the axiom).';
+        info.textContent = 'No known rule made that part.';
       }
     } catch (e) {
       this.showError(`pick: ${(e as Error).message}`);
     }
   }
 
-  private async showSpread(line: number, character: number): Promise<void> {
-    if (!this.state.uri && this.transport.kind === 'vscode') return;
-    try {
-      const s = decodeSpread(await this.transport.request('spread', { ...this.state.previewParams(), line, character }));
-      this.debug.spreadPoints = s.points.length;
-      this.scene.setHighlight(s.bones, s.points);
-      if (s.label) $('rule-info').textContent = `${s.label}: ${s.bones.length} bones in this model, ${s.points.length} possible places`;
+  /** Highlight what the production at `pos` grows (null: none), with its spread over other seeds. */
+  private setFocus(pos: { line: number; character: number } | null): void {
+    const same = pos && this.state.focus && pos.line === this.state.focus.line && pos.character === this.state.focus.character;
+    if (same || (!pos && !this.state.focus)) return;
+    this.state.focus = pos ? { line: pos.line, character: pos.character } : null;
+    this.regrow();
+  }
+
+  /** Bones grown by the focused production: from the parts' focus flags, and bones it made itself. */
+  private focusedBones(model: SceneModel, origin: number): number[] {
+    const set = new Set<number>();
+    for (const p of model.parts) for (const pk of p.picks) if (pk.focus && pk.kind === 'bone') set.add(pk.index);
+    model.bones.forEach((b, i) => {
+      if (b.origin === origin) set.add(i);
+    });
+    return [...set].sort((a, b) => a - b);
+  }
+
+  private showFocus(r: PreviewResult): void {
+    const token = ++this.spreadToken;
+    const info = $('rule-info');
+    if (!r.focus) {
+      this.scene.setHighlight([], []);
+      this.debug.focusBones = 0;
+      this.debug.spreadBones = 0;
       const sel = $<HTMLSelectElement>('rule-select');
-      sel.value = s.origin === null ? '' : String(s.origin);
-    } catch (e) {
-      this.showError(`spread: ${(e as Error).message}`);
+      if (!this.state.focus) sel.value = '';
+      return;
     }
+    const f = r.focus;
+    const bones = this.focusedBones(r.model, f.origin);
+    this.debug.focusBones = bones.length;
+    this.scene.setHighlight(bones, []);
+    const o = r.origins[f.origin];
+    const counts = f.spreadBones.length ? `; over ${f.spreadBones.length} seeds ${Math.min(...f.spreadBones)} to ${Math.max(...f.spreadBones)} bones` : '';
+    info.textContent = `${o ? `${o.symbol} (line ${o.range.start.line + 1})` : 'rule'}: ${f.bones} bones, ${f.instances} parts here${counts}`;
+    $<HTMLSelectElement>('rule-select').value = String(f.origin);
+    void this.loadSpread(token, r, bones);
+  }
+
+  /**
+   * Where the focused production can grow: its bones in the models of the
+   * next few seeds, drawn faintly over the current model. The last request
+   * is the current state again, so the server's live preview keeps it.
+   */
+  private async loadSpread(token: number, r: PreviewResult, current: number[]): Promise<void> {
+    const seeds = 4;
+    const segs: [V3, V3][] = [];
+    const base = this.state.previewParams();
+    for (let k = 1; k <= seeds; k++) {
+      if (token !== this.spreadToken || this.coalescer.busy) return;
+      try {
+        const o = decodePreview(await this.transport.request('preview', { ...base, seed: (r.seed + k) >>> 0 }));
+        if (!o.focus) continue;
+        for (const i of this.focusedBones(o.model, o.focus.origin)) segs.push([o.model.bones[i].base, o.model.bones[i].tip]);
+      } catch {
+        return;
+      }
+    }
+    if (token !== this.spreadToken) return;
+    try {
+      await this.transport.request('preview', base);
+    } catch {
+      // The live registration is best effort; the next edit re-registers it.
+    }
+    if (token !== this.spreadToken) return;
+    this.debug.spreadBones = segs.length;
+    this.scene.setHighlight(current, segs);
   }
 
   // ------------------------------------------------------------- curves
@@ -573,14 +674,17 @@ class App {
 
   private refreshRules(): void {
     const sel = $<HTMLSelectElement>('rule-select');
-    const rules = this.last?.rules ?? [];
+    const origins = this.last?.origins ?? [];
     // Where the editor's cursor cannot drive the highlight (a browser), a list picks the rule.
-    sel.hidden = this.transport.kind === 'vscode' || rules.length === 0;
-    const sig = rules.map((r) => r.origin).join(',');
+    sel.hidden = this.transport.kind === 'vscode' || origins.length === 0;
+    const sig = origins.map((o) => `${o.range.start.line}:${o.symbol}`).join(',');
     if (sel.dataset.sig === sig) return;
     sel.dataset.sig = sig;
     sel.replaceChildren(new Option('highlight a rule…', ''));
-    for (const r of rules) sel.append(new Option(`${r.line + 1}: ${r.label}`, String(r.origin)));
+    origins.forEach((o, i) => {
+      if (o.symbol !== 'axiom') sel.append(new Option(`line ${o.range.start.line + 1}: ${o.symbol}`, String(i)));
+    });
+    if (this.state.focus && this.last?.focus) sel.value = String(this.last.focus.origin);
   }
 
   // ------------------------------------------------------------- gallery
@@ -617,14 +721,16 @@ class App {
       const fig = grid.children[i] as HTMLElement;
       const cap = fig.querySelector('figcaption') as HTMLElement;
       try {
-        const r = decodePreview(await this.transport.request('preview', { ...this.state.previewParams(), seed }));
+        const r = decodePreview(await this.transport.request('preview', { ...this.state.previewParams(), seed, focus: undefined }));
         if (token !== this.galleryToken) return;
-        if (r.model) (fig.querySelector('img') as HTMLImageElement).src = this.thumbs.render(r.model, [cam.x, cam.y, cam.z]);
-        cap.textContent = r.model ? `seed ${seed}` : `seed ${seed}: ${r.error ?? 'no model'}`;
+        (fig.querySelector('img') as HTMLImageElement).src = this.thumbs.render(r.model, [cam.x, cam.y, cam.z]);
+        cap.textContent = `seed ${seed}`;
       } catch (e) {
         cap.textContent = `seed ${seed}: ${(e as Error).message}`;
       }
     }
+    // The server's live preview follows the last request: make it the current state again.
+    this.regrow();
   }
 
   private closeGallery(): void {

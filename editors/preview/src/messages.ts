@@ -6,22 +6,24 @@
 export type Method =
   /** Grow the model: `PreviewParams` -> `PreviewResult` (LSP `grm/preview`). */
   | 'preview'
-  /** Which rule made a part: `PickParams` -> `PickResult` (LSP `grm/pick`). */
+  /** Which rule made a part: `PickParams` -> `PickResult | null` (LSP `grm/pick`). */
   | 'pick'
-  /** Where the rule under the cursor can grow: `{ uri, line, character }` -> `SpreadResult`. */
-  | 'spread'
-  /** Write the curves file: `{ uri, text }` -> `{ path }`. */
+  /** The document's symbols (LSP `textDocument/documentSymbol`): `{ uri }` -> `DocumentSymbol[]`; the page reads the meta-parameters from them. */
+  | 'symbols'
+  /** Read the grammar's curves file: `{ uri }` -> `{ path, text }` (`text` null: no file yet). */
+  | 'loadCurves'
+  /** Write the grammar's curves file: `{ uri, text }` -> `{ path }`. */
   | 'saveCurves'
   /** Show a rule in the editor: `{ uri, line, character }` -> `{}`. */
   | 'reveal';
 
-export const METHODS: readonly Method[] = ['preview', 'pick', 'spread', 'saveCurves', 'reveal'];
+export const METHODS: readonly Method[] = ['preview', 'pick', 'symbols', 'loadCurves', 'saveCurves', 'reveal'];
 
 /** What the host tells the page without being asked. */
 export type NotificationMethod =
   /** The document to show: `{ uri, title }`. Sent on open and when the editor changes. */
   | 'document'
-  /** The document or its curves changed: `{ uri, version }`. The page asks for a new preview. */
+  /** A new model after an edit (LSP `grm/previewUpdated`): `{ uri, version, result, error }`. */
   | 'previewUpdated'
   /** The cursor moved: `{ uri, line, character }` (for the rule highlight). */
   | 'cursor';

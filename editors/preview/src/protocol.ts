@@ -11,34 +11,44 @@ import type { V3 } from './bezier.js';
 
 // ---------------------------------------------------------------- requests
 
-/** Parameters of a preview request (LSP `grm/preview`, HTTP POST /api/preview). */
-export interface PreviewParams {
-  /** The grammar's document URI (`file:///...`). */
-  uri: string;
-  /** Seed; omitted = the system's `seed` setting. */
-  seed?: number;
-  /** Meta-parameter overrides by name; omitted ones take their defaults. */
-  params?: Record<string, number>;
-  /**
-   * Guiding curves (curves file v1 JSON) for a sample system; omitted = the
-   * curves file next to the grammar.
-   */
-  curves?: unknown;
-  /** The system to grow; omitted = the file's first system. */
-  system?: string;
+/** A position in a document: 0-based line, UTF-16 character. */
+export interface Position {
+  line: number;
+  character: number;
 }
 
-/** Parameters of a pick (LSP `grm/pick`, HTTP POST /api/pick). */
+export interface Range {
+  start: Position;
+  end: Position;
+}
+
+/** Parameters of a preview request (LSP `grm/preview`, HTTP POST /api/preview). */
+export interface PreviewParams {
+  textDocument: { uri: string };
+  /** Parallel rewriting or the guided sampler. */
+  mode?: 'derive' | 'sample';
+  /** The system to grow; omitted = the file's first system. */
+  system?: string;
+  /** Seed; omitted = the system's `seed` setting. */
+  seed?: number;
+  /** Meta-parameter values by name (sliders). */
+  params?: Record<string, number>;
+  /** Guiding curves (curves file v1 JSON) for a sample system. */
+  curves?: unknown;
+  /** A position in a production: the parts it grows are marked. */
+  focus?: Position;
+  /** Seeds for the focus spread. */
+  spreadSeeds?: number;
+  /** Ask the server to send `grm/previewUpdated` after edits. */
+  live?: boolean;
+}
+
+/** Parameters of a pick (LSP `grm/pick`, HTTP POST /api/pick): a triangle of a part, or a bone. */
 export interface PickParams {
-  uri: string;
-  /** The production that made the part (the model's `origin`), or absent. */
-  origin?: number;
-  /** The module of the derived string that made the part. */
-  module?: number;
-  /** The preview the pick refers to (`PreviewResult.id`), so the server knows which model. */
-  preview?: number;
+  textDocument: { uri: string };
   part?: number;
   triangle?: number;
+  bone?: number;
 }
 
 // ---------------------------------------------------------------- results
@@ -49,14 +59,6 @@ export interface ParamInfo {
   min: number;
   max: number;
   default: number;
-}
-
-export interface Diagnostic {
-  message: string;
-  severity: 'error' | 'warning' | 'info';
-  line?: number;
-  character?: number;
-  code?: string;
 }
 
 export interface SceneMaterial {
@@ -75,7 +77,10 @@ export interface PickRange {
   kind: SourceKind;
   index: number;
   module: number;
-  origin: number;
+  /** Index into the result's origins, or null when unknown. */
+  origin: number | null;
+  /** Grown by the focused production. */
+  focus: boolean;
 }
 
 export interface ScenePart {
@@ -90,8 +95,8 @@ export interface SceneBone {
   base: V3;
   tip: V3;
   width: number;
-  module: number;
-  origin: number;
+  /** Index into the result's origins, or null when unknown. */
+  origin: number | null;
 }
 
 export interface Bounds {
@@ -107,52 +112,52 @@ export interface SceneModel {
   triangles: number;
 }
 
-export interface RuleInfo {
+/** A production that made part of the model. */
+export interface Origin {
+  uri: string;
+  range: Range;
+  /** The predecessor symbol, or `axiom`. */
+  symbol: string;
+}
+
+export interface Focus {
   origin: number;
-  /** A label for the production, e.g. `branchOrLeaf -> (4) ...`. */
-  label: string;
-  uri?: string;
-  /** 0-based line and character of the production's start. */
-  line: number;
-  character: number;
-  endLine?: number;
-  endCharacter?: number;
+  bones: number;
+  instances: number;
+  /** Bones the focused production grows with each spread seed. */
+  spreadBones: number[];
 }
 
 export interface PreviewResult {
-  /** Identifies this preview for later picks. */
-  id?: number;
   uri: string;
+  version: number;
   system: string;
   mode: 'derive' | 'sample';
   seed: number;
+  /** The meta-parameters, when the server lists them. */
   params: ParamInfo[];
-  /** The curves used (a sample system), as curves-file JSON. */
-  curves?: unknown;
-  /** Where the curves file is (or would be). */
-  curvesPath?: string;
-  model: SceneModel | null;
-  /** Why there is no model (errors in the grammar, a derivation limit...). */
-  error?: string;
-  diagnostics: Diagnostic[];
-  /** Origin (production) -> rule, for labels and picks without a round trip. */
-  rules: RuleInfo[];
-  /** Server-side timings in milliseconds (derive, sample, build...). */
+  model: SceneModel;
+  origins: Origin[];
+  focus: Focus | null;
+  /** Server-side timings in milliseconds. */
   timings: Record<string, number>;
   stats: Record<string, number>;
 }
 
-export interface PickResult {
-  rule: RuleInfo | null;
+/** `grm/previewUpdated`: a new model after an edit, or why there is none. */
+export interface PreviewUpdated {
+  uri: string;
+  version: number;
+  result: PreviewResult | null;
+  error: string | null;
 }
 
-/** Where a rule can grow: points (bone tips over many expansions) for the rule under the cursor. */
-export interface SpreadResult {
-  origin: number | null;
-  label?: string;
-  points: V3[];
-  /** Bones of the current model made by that rule (indices into bones). */
-  bones: number[];
+export interface PickResult {
+  uri: string;
+  range: Range;
+  symbol: string;
+  version: number;
+  module: number;
 }
 
 // ---------------------------------------------------------------- decoding
@@ -234,23 +239,27 @@ export function decodeU32(v: unknown, what: string): Uint32Array {
 
 const NO_ORIGIN = 0xffffffff;
 
+function optIndex(v: unknown): number | null {
+  return typeof v === 'number' && Number.isInteger(v) && v >= 0 && v !== NO_ORIGIN ? v : null;
+}
+
 function decodePickRange(v: unknown, what: string): PickRange {
   if (!isObject(v)) throw new ProtocolError(`${what}: expected an object`);
   const kind = str(v.kind, 'bone');
   if (kind !== 'bone' && kind !== 'instance' && kind !== 'polygon') throw new ProtocolError(`${what}: unknown kind ${kind}`);
   return {
-    firstTriangle: num(v.first_triangle, `${what}.first_triangle`),
-    triangleCount: num(v.triangle_count, `${what}.triangle_count`),
+    firstTriangle: num(v.firstTriangle, `${what}.firstTriangle`),
+    triangleCount: num(v.triangleCount, `${what}.triangleCount`),
     kind,
     index: optNum(v.index, 0),
     module: optNum(v.module, 0),
-    origin: optNum(v.origin, NO_ORIGIN),
+    origin: optIndex(v.origin),
+    focus: v.focus === true,
   };
 }
 
-/** Decode a model from the wire; validates every index against its vertex count. */
-export function decodeModel(v: unknown): SceneModel {
-  if (!isObject(v)) throw new ProtocolError('model: expected an object');
+/** Decode a model (materials, parts, skeleton) from a preview result on the wire. */
+export function decodeModel(v: Record<string, unknown>): SceneModel {
   const materials: SceneMaterial[] = (Array.isArray(v.materials) ? v.materials : []).map((m: unknown, i: number) => {
     if (!isObject(m)) throw new ProtocolError(`materials[${i}]: expected an object`);
     return {
@@ -266,7 +275,7 @@ export function decodeModel(v: unknown): SceneModel {
     if (!isObject(p)) throw new ProtocolError(`parts[${i}]: expected an object`);
     const positions = decodeF32(p.positions, `parts[${i}].positions`);
     if (positions.length % 3 !== 0) throw new ProtocolError(`parts[${i}].positions: length ${positions.length} is not a multiple of 3`);
-    const normals = p.normals === undefined || p.normals === null ? null : decodeF32(p.normals, `parts[${i}].normals`);
+    const normals = p.normals === undefined || p.normals === null || p.normals === '' ? null : decodeF32(p.normals, `parts[${i}].normals`);
     if (normals && normals.length !== positions.length) throw new ProtocolError(`parts[${i}].normals: length differs from positions`);
     const indices = decodeU32(p.indices, `parts[${i}].indices`);
     if (indices.length % 3 !== 0) throw new ProtocolError(`parts[${i}].indices: length ${indices.length} is not a multiple of 3`);
@@ -282,18 +291,24 @@ export function decodeModel(v: unknown): SceneModel {
     const picks = (Array.isArray(p.picks) ? p.picks : []).map((q: unknown, k: number) => decodePickRange(q, `parts[${i}].picks[${k}]`));
     return { material, positions, normals, indices, picks };
   });
-  const bones: SceneBone[] = (Array.isArray(v.bones) ? v.bones : []).map((b: unknown, i: number) => {
-    if (!isObject(b)) throw new ProtocolError(`bones[${i}]: expected an object`);
-    return {
-      base: vec3(b.base, `bones[${i}].base`),
-      tip: vec3(b.tip, `bones[${i}].tip`),
-      width: optNum(b.width, 0),
-      module: optNum(b.module, 0),
-      origin: optNum(b.origin, NO_ORIGIN),
-    };
-  });
+  const bones: SceneBone[] = [];
+  if (isObject(v.skeleton)) {
+    const sk = v.skeleton;
+    const count = num(sk.boneCount ?? 0, 'skeleton.boneCount');
+    const f = count > 0 ? decodeF32(sk.bones, 'skeleton.bones') : new Float32Array(0);
+    if (f.length !== count * 8) throw new ProtocolError(`skeleton.bones: ${f.length} floats for ${count} bones (8 each)`);
+    const o = count > 0 && sk.origins !== undefined ? decodeU32(sk.origins, 'skeleton.origins') : null;
+    if (o && o.length !== count) throw new ProtocolError(`skeleton.origins: ${o.length} for ${count} bones`);
+    for (let i = 0; i < count; i++) {
+      const b = f.subarray(i * 8, i * 8 + 8);
+      bones.push({ base: [b[0], b[1], b[2]], tip: [b[3], b[4], b[5]], width: b[6], origin: o ? optIndex(o[i]) : null });
+    }
+  }
   let bounds: Bounds | null = null;
-  if (isObject(v.bounds)) bounds = { min: vec3(v.bounds.min, 'bounds.min'), max: vec3(v.bounds.max, 'bounds.max') };
+  const st = isObject(v.stats) ? v.stats : {};
+  if (Array.isArray(st.boundsMin) && Array.isArray(st.boundsMax) && (parts.length > 0 || bones.length > 0)) {
+    bounds = { min: vec3(st.boundsMin, 'stats.boundsMin'), max: vec3(st.boundsMax, 'stats.boundsMax') };
+  }
   return { parts, materials, bones, bounds: bounds ?? computeBounds(parts, bones), triangles };
 }
 
@@ -317,31 +332,19 @@ export function computeBounds(parts: readonly ScenePart[], bones: readonly Scene
   return min[0] <= max[0] ? { min, max } : null;
 }
 
-function decodeRule(r: unknown, what: string): RuleInfo {
-  if (!isObject(r)) throw new ProtocolError(`${what}: expected an object`);
-  const out: RuleInfo = {
-    origin: optNum(r.origin, NO_ORIGIN),
-    label: str(r.label),
-    line: num(r.line, `${what}.line`),
-    character: optNum(r.character, 0),
-  };
-  if (typeof r.uri === 'string') out.uri = r.uri;
-  if (typeof r.end_line === 'number') out.endLine = r.end_line;
-  if (typeof r.end_character === 'number') out.endCharacter = r.end_character;
-  return out;
+function decodePosition(v: unknown, what: string): Position {
+  if (!isObject(v)) throw new ProtocolError(`${what}: expected a position`);
+  return { line: num(v.line, `${what}.line`), character: num(v.character, `${what}.character`) };
 }
 
-function decodeDiagnostic(d: unknown, i: number): Diagnostic {
-  if (!isObject(d)) throw new ProtocolError(`diagnostics[${i}]: expected an object`);
-  const sev = str(d.severity, 'error');
-  const out: Diagnostic = {
-    message: str(d.message),
-    severity: sev === 'warning' || sev === 'info' ? sev : 'error',
-  };
-  if (typeof d.line === 'number') out.line = d.line;
-  if (typeof d.character === 'number') out.character = d.character;
-  if (typeof d.code === 'string') out.code = d.code;
-  return out;
+function decodeRange(v: unknown, what: string): Range {
+  if (!isObject(v)) throw new ProtocolError(`${what}: expected a range`);
+  return { start: decodePosition(v.start, `${what}.start`), end: decodePosition(v.end, `${what}.end`) };
+}
+
+function decodeOrigin(v: unknown, what: string): Origin {
+  if (!isObject(v)) throw new ProtocolError(`${what}: expected an object`);
+  return { uri: str(v.uri), range: decodeRange(v.range, `${what}.range`), symbol: str(v.symbol) };
 }
 
 function numberRecord(v: unknown): Record<string, number> {
@@ -350,9 +353,10 @@ function numberRecord(v: unknown): Record<string, number> {
   return out;
 }
 
-/** Decode a preview result from the wire. */
+/** Decode a `grm/preview` result. */
 export function decodePreview(v: unknown): PreviewResult {
   if (!isObject(v)) throw new ProtocolError('preview: expected an object');
+  if (v.encoding !== undefined && v.encoding !== 'base64-le') throw new ProtocolError(`preview: unknown encoding ${String(v.encoding)}`);
   const mode = str(v.mode, 'derive');
   if (mode !== 'derive' && mode !== 'sample') throw new ProtocolError(`preview: unknown mode ${mode}`);
   const params: ParamInfo[] = (Array.isArray(v.params) ? v.params : []).map((p: unknown, i: number) => {
@@ -366,38 +370,79 @@ export function decodePreview(v: unknown): PreviewResult {
       default: optNum(p.default, value),
     };
   });
-  const out: PreviewResult = {
+  const stats = numberRecord(v.stats);
+  const timings: Record<string, number> = {};
+  for (const [k, x] of Object.entries(stats)) if (k.endsWith('Ms')) timings[k.slice(0, -2)] = x;
+  let focus: Focus | null = null;
+  if (isObject(v.focus)) {
+    const f = v.focus;
+    focus = {
+      origin: num(f.origin, 'focus.origin'),
+      bones: optNum(f.bones, 0),
+      instances: optNum(f.instances, 0),
+      spreadBones: (Array.isArray(f.spreadBones) ? f.spreadBones : []).map((x: unknown, i: number) => num(x, `focus.spreadBones[${i}]`)),
+    };
+  }
+  return {
     uri: str(v.uri),
+    version: optNum(v.version, 0),
     system: str(v.system),
     mode,
     seed: optNum(v.seed, 0),
     params,
-    model: v.model === null || v.model === undefined ? null : decodeModel(v.model),
-    diagnostics: (Array.isArray(v.diagnostics) ? v.diagnostics : []).map(decodeDiagnostic),
-    rules: (Array.isArray(v.rules) ? v.rules : []).map((r: unknown, i: number) => decodeRule(r, `rules[${i}]`)),
-    timings: numberRecord(v.timings),
-    stats: numberRecord(v.stats),
+    model: decodeModel(v),
+    origins: (Array.isArray(v.origins) ? v.origins : []).map((o: unknown, i: number) => decodeOrigin(o, `origins[${i}]`)),
+    focus,
+    timings,
+    stats,
   };
-  if (typeof v.id === 'number') out.id = v.id;
-  if (v.curves !== undefined && v.curves !== null) out.curves = v.curves;
-  if (typeof v.curves_path === 'string') out.curvesPath = v.curves_path;
-  if (typeof v.error === 'string') out.error = v.error;
-  return out;
 }
 
-export function decodePick(v: unknown): PickResult {
-  if (!isObject(v)) throw new ProtocolError('pick: expected an object');
-  return { rule: v.rule === null || v.rule === undefined ? null : decodeRule(v.rule, 'rule') };
-}
-
-export function decodeSpread(v: unknown): SpreadResult {
-  if (!isObject(v)) throw new ProtocolError('spread: expected an object');
+/** Decode a `grm/previewUpdated` notification's parameters. */
+export function decodePreviewUpdated(v: unknown): PreviewUpdated {
+  if (!isObject(v)) throw new ProtocolError('previewUpdated: expected an object');
   return {
-    origin: typeof v.origin === 'number' ? v.origin : null,
-    ...(typeof v.label === 'string' ? { label: v.label } : {}),
-    points: (Array.isArray(v.points) ? v.points : []).map((p: unknown, i: number) => vec3(p, `points[${i}]`)),
-    bones: (Array.isArray(v.bones) ? v.bones : []).map((b: unknown, i: number) => num(b, `bones[${i}]`)),
+    uri: str(v.uri),
+    version: optNum(v.version, 0),
+    result: isObject(v.result) ? decodePreview(v.result) : null,
+    error: typeof v.error === 'string' ? v.error : null,
   };
+}
+
+/** Decode a `grm/pick` result (null: nothing known made that part). */
+export function decodePick(v: unknown): PickResult | null {
+  if (v === null || v === undefined) return null;
+  if (!isObject(v)) throw new ProtocolError('pick: expected an object or null');
+  return { uri: str(v.uri), range: decodeRange(v.range, 'range'), symbol: str(v.symbol), version: optNum(v.version, 0), module: optNum(v.module, 0) };
+}
+
+/** LSP SymbolKind.Variable: how the server lists a meta-parameter (`param`). */
+const SYMBOL_KIND_VARIABLE = 13;
+const NUMBER = String.raw`[-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?`;
+const PARAM_DETAIL = new RegExp(String.raw`^\s*(${NUMBER})\s+in\s+(${NUMBER})\s*\.\.\s*(${NUMBER})\s*$`);
+
+/**
+ * The meta-parameters of a document from its `textDocument/documentSymbol`
+ * answer: the server lists each `param` as a top-level variable whose detail
+ * is its source text, `30 in 10 .. 60`. Parameters whose default or bounds
+ * are expressions rather than numbers get no slider (their values are only
+ * known to the checker); they are reported in `skipped`.
+ */
+export function paramsFromSymbols(symbols: unknown): { params: ParamInfo[]; skipped: string[] } {
+  const params: ParamInfo[] = [];
+  const skipped: string[] = [];
+  if (!Array.isArray(symbols)) return { params, skipped };
+  for (const s of symbols) {
+    if (!isObject(s) || s.kind !== SYMBOL_KIND_VARIABLE || typeof s.name !== 'string') continue;
+    const m = typeof s.detail === 'string' ? PARAM_DETAIL.exec(s.detail) : null;
+    const [value, min, max] = m ? [Number(m[1]), Number(m[2]), Number(m[3])] : [NaN, NaN, NaN];
+    if (![value, min, max].every(Number.isFinite) || !(min <= max)) {
+      skipped.push(s.name);
+      continue;
+    }
+    params.push({ name: s.name, value, min, max, default: value });
+  }
+  return { params, skipped };
 }
 
 /** The pick range holding triangle `triangle` of a part, by binary search. */

@@ -277,8 +277,8 @@ export class PreviewScene {
     this.requestRender();
   }
 
-  /** Highlight bones (indices into the model's bones) and show spread points. */
-  setHighlight(bones: number[], spread: V3[]): void {
+  /** Highlight bones (indices into the model's bones) and draw spread segments (bones from other seeds) faintly. */
+  setHighlight(bones: number[], spread: [V3, V3][]): void {
     clearGroup(this.overlayRoot);
     if (this.model && bones.length > 0) {
       const pos: number[] = [];
@@ -294,11 +294,14 @@ export class PreviewScene {
     }
     if (spread.length > 0) {
       const g = new THREE.BufferGeometry();
-      g.setAttribute('position', new THREE.Float32BufferAttribute(spread.flat(), 3));
-      const pts = new THREE.Points(
-        g,
-        new THREE.PointsMaterial({ color: SPREAD_COLOR, size: 4, sizeAttenuation: false, transparent: true, opacity: 0.55, depthTest: false }),
-      );
+      g.setAttribute('position', new THREE.Float32BufferAttribute(spread.flat(2), 3));
+      const lines = new THREE.LineSegments(g, new THREE.LineBasicMaterial({ color: SPREAD_COLOR, transparent: true, opacity: 0.45, depthTest: false }));
+      lines.renderOrder = 5;
+      this.overlayRoot.add(lines);
+      // The tips: where the rule puts things, as dots.
+      const tips = new THREE.BufferGeometry();
+      tips.setAttribute('position', new THREE.Float32BufferAttribute(spread.flatMap((s) => s[1]), 3));
+      const pts = new THREE.Points(tips, new THREE.PointsMaterial({ color: SPREAD_COLOR, size: 5, sizeAttenuation: false, transparent: true, opacity: 0.7, depthTest: false }));
       pts.renderOrder = 6;
       this.overlayRoot.add(pts);
     }

@@ -3,31 +3,34 @@
 // Unit-tested under node.
 
 import { type Bezier, type V3, fitCubicBezier } from './bezier.js';
-import { type Curve, type CurveParams, type CurveSet, DEFAULT_PARAMS, cloneSet, freshName, fromJson, serializeCurves } from './curves.js';
-import type { ParamInfo, PreviewParams, PreviewResult } from './protocol.js';
+import { type Curve, type CurveParams, type CurveSet, DEFAULT_PARAMS, cloneSet, freshName, parseCurves, serializeCurves } from './curves.js';
+import type { ParamInfo, Position, PreviewParams, PreviewResult } from './protocol.js';
 
 export class PageState {
   uri = '';
   seed: number | null = null;
   /** Meta-parameter overrides the user set (name -> value). */
   params: Record<string, number> = {};
-  /** The meta-parameters the grammar declares (from the last preview). */
+  /** The meta-parameters the grammar declares (when the server lists them). */
   paramInfo: ParamInfo[] = [];
-  /** The curves being edited; null until a sample system's preview brings them. */
+  /** The curves being edited; null until loaded (sample systems only). */
   curves: CurveSet | null = null;
-  /** True once the user changed the curves: requests carry them inline from then on. */
-  curvesEdited = false;
+  /** Where the curves file is. */
+  curvesPath: string | null = null;
   selected: number | null = null;
   mode: 'derive' | 'sample' = 'derive';
   system = '';
   curvesError: string | null = null;
+  /** The production whose growth is highlighted (a position in it). */
+  focus: Position | null = null;
 
-  /** The parameters of the next preview request. */
+  /** The parameters of the next preview request (live: the server regrows it after edits). */
   previewParams(): PreviewParams {
-    const p: PreviewParams = { uri: this.uri };
+    const p: PreviewParams = { textDocument: { uri: this.uri }, mode: this.mode, live: true };
     if (this.seed !== null) p.seed = this.seed;
     if (Object.keys(this.params).length > 0) p.params = { ...this.params };
-    if (this.curvesEdited && this.curves) p.curves = JSON.parse(serializeCurves(this.curves));
+    if (this.mode === 'sample' && this.curves && this.curves.curves.length > 0) p.curves = JSON.parse(serializeCurves(this.curves));
+    if (this.focus) p.focus = { ...this.focus };
     return p;
   }
 
@@ -39,34 +42,45 @@ export class PageState {
     this.params = {};
     this.paramInfo = [];
     this.curves = null;
-    this.curvesEdited = false;
+    this.curvesPath = null;
     this.selected = null;
     this.curvesError = null;
+    this.mode = 'derive';
+    this.focus = null;
   }
 
-  /** Take what a preview result says about the grammar (mode, seed, parameters, curves). */
+  /** Take what a preview result says about the grammar (mode, system, seed, parameters). */
   absorb(r: PreviewResult): void {
     this.mode = r.mode;
     this.system = r.system;
     if (this.seed === null) this.seed = r.seed;
-    this.paramInfo = r.params;
-    // Overrides of parameters the grammar no longer declares are dropped.
-    const names = new Set(r.params.map((p) => p.name));
-    for (const k of Object.keys(this.params)) if (!names.has(k)) delete this.params[k];
-    // The server's curves are the file's; once the user edits, the page's win.
-    if (!this.curvesEdited) {
-      if (r.curves !== undefined) {
-        try {
-          this.curves = fromJson(r.curves);
-          this.curvesError = null;
-        } catch (e) {
-          this.curvesError = (e as Error).message;
-        }
-      } else if (r.mode === 'sample' && !this.curves) {
-        this.curves = { curves: [] };
-      }
+    // A server that lists the meta-parameters in the result is taken at its word.
+    if (r.params.length > 0) this.setParamInfo(r.params);
+  }
+
+  /** The curves file as read from disk (null text: there is none yet). */
+  loadCurves(path: string, text: string | null): void {
+    this.curvesPath = path;
+    this.selected = null;
+    if (text === null) {
+      this.curves = { curves: [] };
+      this.curvesError = null;
+      return;
     }
-    if (this.selected !== null && (!this.curves || this.selected >= this.curves.curves.length)) this.selected = null;
+    try {
+      this.curves = parseCurves(text);
+      this.curvesError = null;
+    } catch (e) {
+      this.curves = { curves: [] };
+      this.curvesError = (e as Error).message;
+    }
+  }
+
+  /** The meta-parameters the grammar declares (from its symbols). Overrides of parameters it no longer declares are dropped. */
+  setParamInfo(params: ParamInfo[]): void {
+    this.paramInfo = params;
+    const names = new Set(params.map((p) => p.name));
+    for (const k of Object.keys(this.params)) if (!names.has(k)) delete this.params[k];
   }
 
   paramValue(name: string): number | undefined {
@@ -96,9 +110,7 @@ export class PageState {
   }
 
   private editable(): CurveSet {
-    if (!this.curves) this.curves = { curves: [] };
-    this.curves = cloneSet(this.curves);
-    this.curvesEdited = true;
+    this.curves = cloneSet(this.curves ?? { curves: [] });
     return this.curves;
   }
 

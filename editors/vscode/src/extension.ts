@@ -63,9 +63,7 @@ async function startClient(context: vscode.ExtensionContext): Promise<void> {
   };
   // The client id `grm` makes vscode-languageclient honour `grm.trace.server`.
   client = new LanguageClient('grm', 'grm language server', serverOptions, clientOptions);
-  client.onNotification('grm/previewUpdated', (p: { uri?: string; version?: number }) => {
-    if (p && typeof p.uri === 'string') preview?.host.documentChanged(p.uri, p.version);
-  });
+  client.onNotification('grm/previewUpdated', (p: unknown) => preview?.host.previewUpdated(p));
   await client.start();
 }
 
@@ -93,6 +91,14 @@ class PreviewPanel {
       request: async (method, params) => {
         if (!client) throw new Error('the grm language server is not running (see the "grm" output)');
         return client.sendRequest(method, params);
+      },
+      readFile: async (file) => {
+        try {
+          return Buffer.from(await vscode.workspace.fs.readFile(vscode.Uri.file(file))).toString('utf8');
+        } catch (e) {
+          if (e instanceof vscode.FileSystemError && e.code === 'FileNotFound') return null;
+          throw e;
+        }
       },
       writeFile: async (file, text) => {
         await vscode.workspace.fs.writeFile(vscode.Uri.file(file), Buffer.from(text, 'utf8'));
@@ -124,16 +130,6 @@ class PreviewPanel {
       webview.onDidReceiveMessage((m) => void this.host.handle(m)),
       vscode.window.onDidChangeActiveTextEditor((e) => {
         if (isGrm(e?.document)) this.show(e.document);
-      }),
-      vscode.workspace.onDidChangeTextDocument((e) => {
-        // The server also says `grm/previewUpdated`; this covers a server that does not.
-        if (isGrm(e.document) && e.contentChanges.length > 0) this.host.documentChanged(e.document.uri.toString(), e.document.version);
-      }),
-      vscode.workspace.onDidSaveTextDocument((d) => {
-        if (d.uri.fsPath.endsWith('.curves.json') || d.uri.fsPath.endsWith('.obj')) {
-          const uri = this.host.uri;
-          if (uri) this.host.documentChanged(uri);
-        }
       }),
       vscode.window.onDidChangeTextEditorSelection((e) => {
         if (!isGrm(e.textEditor.document)) return;
@@ -212,6 +208,7 @@ async function exportModel(): Promise<void> {
     seed: last?.seed,
     params: last?.params,
     curves: curvesPathFor(grammar),
+    system: last?.system,
   });
   const exe = serverPath;
   output.appendLine(`grm: ${exe} ${args.join(' ')}`);
@@ -242,8 +239,7 @@ export async function activate(context: vscode.ExtensionContext): Promise<void> 
     vscode.commands.registerCommand('grm.restartServer', async () => {
       await stopClient();
       await startClient(context);
-      const uri = preview?.host.uri;
-      if (uri) preview?.host.documentChanged(uri);
+      preview?.host.refresh();
       void vscode.window.showInformationMessage(client ? 'grm language server restarted' : 'grm language server could not start');
     }),
     vscode.workspace.onDidChangeConfiguration(async (e) => {

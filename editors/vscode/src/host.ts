@@ -1,8 +1,8 @@
 // The extension's side of the preview page's messages (see
 // preview/src/messages.ts): answers the page's requests by asking the
-// language server (`grm/preview`, `grm/pick`, `grm/spread`) or the editor
-// (save the curves file, reveal a rule), and forwards editor events as
-// notifications. Free of the `vscode` module: the editor and the server are
+// language server (`grm/preview`, `grm/pick`, docs/lsp-extensions.md) or the
+// editor (read and save the curves file, reveal a rule), and forwards the
+// server's `grm/previewUpdated` and the editor's cursor as notifications. Free of the `vscode` module: the editor and the server are
 // passed in, so the message handling is unit-tested under node.
 
 import { parseCurves } from '../../preview/src/curves.js';
@@ -11,6 +11,8 @@ import { type HostToPage, type Method, type NotificationMethod, parsePageMessage
 export interface HostDeps {
   /** Ask the language server (method is the LSP method, e.g. `grm/preview`). */
   request(method: string, params: unknown): Promise<unknown>;
+  /** Read a file (the curves file); null when it does not exist. */
+  readFile(path: string): Promise<string | null>;
   /** Write a file (the curves file). */
   writeFile(path: string, text: string): Promise<void>;
   /** Show a place in the editor (0-based line and character). */
@@ -21,13 +23,6 @@ export interface HostDeps {
   post(message: HostToPage): void;
 }
 
-/** The language server's method for each page method that goes to the server. */
-export const SERVER_METHODS: Partial<Record<Method, string>> = {
-  preview: 'grm/preview',
-  pick: 'grm/pick',
-  spread: 'grm/spread',
-};
-
 /** `tree.grm` -> `tree.curves.json` beside it (docs/curves.md). */
 export function curvesPathFor(grammarPath: string): string {
   return grammarPath.replace(/\.grm$/i, '') + '.curves.json';
@@ -37,6 +32,17 @@ export interface LastPreview {
   params: Record<string, unknown>;
   mode: string | undefined;
   seed: number | undefined;
+  system: string | undefined;
+}
+
+/** Two document URIs name the same file (clients and servers escape differently). */
+export function sameUri(a: string, b: string): boolean {
+  if (a === b) return true;
+  try {
+    return decodeURIComponent(a).toLowerCase() === decodeURIComponent(b).toLowerCase() && a.toLowerCase().startsWith('file:');
+  } catch {
+    return false;
+  }
 }
 
 function isObject(v: unknown): v is Record<string, unknown> {
@@ -71,10 +77,15 @@ export class PreviewHost {
     this.notify('document', { uri, title });
   }
 
-  /** The shown document (or something it depends on) changed: the page asks for a new preview. */
-  documentChanged(uri: string, version?: number): void {
-    if (uri !== this.documentUri) return;
-    this.notify('previewUpdated', version === undefined ? { uri } : { uri, version });
+  /** Ask the page to grow the shown document again (after a server restart: the new server knows no live preview). */
+  refresh(): void {
+    if (this.documentUri) this.notify('document', { uri: this.documentUri, title: this.documentUri.split('/').pop() ?? this.documentUri });
+  }
+
+  /** The server's `grm/previewUpdated` (a new model after an edit): passed on if it is about the shown document. */
+  previewUpdated(params: unknown): void {
+    if (!isObject(params) || typeof params.uri !== 'string' || !this.documentUri || !sameUri(params.uri, this.documentUri)) return;
+    this.notify('previewUpdated', { ...params, uri: this.documentUri });
   }
 
   /** The cursor moved in the shown document. */
@@ -112,10 +123,18 @@ export class PreviewHost {
     }
   }
 
+  /** The document a request is about (`textDocument.uri` for server requests, `uri` for the others): only the shown one. */
   private checkUri(params: unknown): string {
-    if (!isObject(params) || typeof params.uri !== 'string') throw new Error('the request names no document (uri)');
-    if (params.uri !== this.documentUri) throw new Error(`the preview shows ${this.documentUri ?? 'no document'}, not ${params.uri}`);
-    return params.uri;
+    const uri = isObject(params) ? (isObject(params.textDocument) ? params.textDocument.uri : params.uri) : undefined;
+    if (typeof uri !== 'string') throw new Error('the request names no document');
+    if (uri !== this.documentUri) throw new Error(`the preview shows ${this.documentUri ?? 'no document'}, not ${uri}`);
+    return uri;
+  }
+
+  private curvesFile(uri: string): string {
+    const file = this.deps.fsPath(uri);
+    if (!file) throw new Error('the grammar is not a file on disk: save it first');
+    return curvesPathFor(file);
   }
 
   private async answer(method: Method, params: unknown): Promise<unknown> {
@@ -123,40 +142,42 @@ export class PreviewHost {
       case 'preview': {
         const uri = this.checkUri(params);
         const result = await this.deps.request('grm/preview', params);
-        if (isObject(result)) {
-          const p = params as Record<string, unknown>;
-          this.last.set(uri, {
-            params: isObject(p.params) ? p.params : {},
-            mode: typeof result.mode === 'string' ? result.mode : undefined,
-            seed: typeof result.seed === 'number' ? result.seed : typeof p.seed === 'number' ? p.seed : undefined,
-          });
-        }
+        const p = params as Record<string, unknown>;
+        const r = isObject(result) ? result : {};
+        this.last.set(uri, {
+          params: isObject(p.params) ? p.params : {},
+          mode: typeof r.mode === 'string' ? r.mode : typeof p.mode === 'string' ? p.mode : undefined,
+          seed: typeof r.seed === 'number' ? r.seed : typeof p.seed === 'number' ? p.seed : undefined,
+          system: typeof r.system === 'string' ? r.system : undefined,
+        });
         return result;
       }
       case 'pick': {
         this.checkUri(params);
         const result = await this.deps.request('grm/pick', params);
         // Jump to the rule: the point of picking in an editor.
-        if (isObject(result) && isObject(result.rule) && typeof result.rule.line === 'number') {
-          const r = result.rule;
-          const uri = typeof r.uri === 'string' ? r.uri : (params as { uri: string }).uri;
-          await this.deps.reveal(uri, r.line as number, typeof r.character === 'number' ? r.character : 0);
+        if (isObject(result) && typeof result.uri === 'string' && isObject(result.range) && isObject(result.range.start)) {
+          const start = result.range.start;
+          if (typeof start.line === 'number') {
+            await this.deps.reveal(result.uri, start.line, typeof start.character === 'number' ? start.character : 0);
+          }
         }
         return result;
       }
-      case 'spread': {
-        this.checkUri(params);
-        return this.deps.request('grm/spread', params);
+      case 'symbols': {
+        const uri = this.checkUri(params);
+        return this.deps.request('textDocument/documentSymbol', { textDocument: { uri } });
+      }
+      case 'loadCurves': {
+        const path = this.curvesFile(this.checkUri(params));
+        return { path, text: await this.deps.readFile(path) };
       }
       case 'saveCurves': {
-        const uri = this.checkUri(params);
+        const path = this.curvesFile(this.checkUri(params));
         const text = (params as { text?: unknown }).text;
         if (typeof text !== 'string') throw new Error('saveCurves: no text');
         // Never write a file the sampler would refuse.
         parseCurves(text);
-        const file = this.deps.fsPath(uri);
-        if (!file) throw new Error('the grammar is not a file on disk: save it first');
-        const path = curvesPathFor(file);
         await this.deps.writeFile(path, text);
         return { path };
       }
