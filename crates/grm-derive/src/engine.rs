@@ -410,11 +410,12 @@ impl<'a> Engine<'a> {
     fn take(&self, m: usize, w: usize) -> ModuleString {
         let mut spare = self.spare.lock().unwrap_or_else(|p| p.into_inner());
         let fits = |s: &ModuleString| s.syms.capacity() >= m && s.params.capacity() >= w;
-        // The smallest buffer that fits and is not more than 4x too large
-        // (a much larger one is kept for the larger strings to come).
+        // A buffer that fits and is not more than 4x too large (a much
+        // larger one is kept for the larger strings to come): preferably one
+        // already that long (nothing to zero), then the smallest.
         let pick = (0..spare.len())
             .filter(|&i| fits(&spare[i]) && spare[i].syms.capacity() <= 4 * m.max(4096))
-            .min_by_key(|&i| spare[i].syms.capacity());
+            .min_by_key(|&i| (spare[i].syms.len() < m, spare[i].syms.capacity()));
         let mut s = match pick {
             Some(i) => spare.swap_remove(i),
             None => ModuleString {
