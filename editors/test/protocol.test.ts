@@ -9,6 +9,7 @@ import {
   decodePreviewUpdated,
   decodeU32,
   findPick,
+  modeFromSymbols,
   paramsFromSymbols,
 } from '../preview/src/protocol.js';
 
@@ -132,4 +133,11 @@ test('meta-parameters are read from the document symbols (numbers only)', () => 
   ]);
   assert.deepEqual(skipped, ['expr', 'upside']);
   assert.deepEqual(paramsFromSymbols(null), { params: [], skipped: [] });
+});
+
+test("the first system's mode is read from its symbol", () => {
+  assert.equal(modeFromSymbols([{ name: 'delta', kind: 13, detail: '1 in 0 .. 2' }, { name: 'T', kind: 3, detail: 'system (sample)' }, { name: 'U', kind: 3, detail: 'system (derive)' }]), 'sample');
+  assert.equal(modeFromSymbols([{ name: 'U', kind: 3, detail: 'system (derive)' }]), 'derive');
+  assert.equal(modeFromSymbols([{ name: 'x', kind: 3, detail: 'class' }]), null);
+  assert.equal(modeFromSymbols('junk'), null);
 });

@@ -13,6 +13,7 @@ mod derive;
 mod disasm;
 mod fmt;
 mod lsp;
+mod view;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use std::process::ExitCode;
@@ -38,6 +39,8 @@ enum Command {
     Fmt(fmt::FmtArgs),
     /// Run the language server (LSP over stdio).
     Lsp(lsp::LspArgs),
+    /// Serve the live preview page for a .grm file on localhost.
+    View(view::ViewArgs),
     /// Derive a system: statistics, the string, or an exported model.
     Derive(derive::DeriveArgs),
     /// Print a system's compiled tables and bytecode.
@@ -66,6 +69,7 @@ fn main() -> ExitCode {
         Command::Check(a) => check::run(a),
         Command::Fmt(a) => fmt::run(a),
         Command::Lsp(a) => lsp::run(a),
+        Command::View(a) => view::run(a),
         Command::Derive(a) => derive::run(a),
         Command::Disasm(a) => disasm::run(a),
         Command::Bench(a) => bench::run(a),

@@ -15,6 +15,7 @@ import {
   decodePick,
   decodePreview,
   decodePreviewUpdated,
+  modeFromSymbols,
   paramsFromSymbols,
 } from './protocol.js';
 import { PreviewScene, ThumbnailRenderer } from './scene.js';
@@ -153,8 +154,9 @@ class App {
     }
   }
 
-  /** Ask for the preview of the current state. A sample system is detected from the server's refusal to derive it; its curves are loaded first. */
+  /** Ask for the preview of the current state. The mode is the first system's (from the document's symbols); a sample system's curves are loaded first. */
   private async fetchPreview(): Promise<PreviewResult> {
+    if (!this.symbolsFor.startsWith(`${this.state.uri}@`)) await this.loadSymbols('first');
     if (this.state.mode === 'sample') await this.ensureCurves();
     try {
       return decodePreview(await this.transport.request('preview', this.state.previewParams()));
@@ -205,23 +207,36 @@ class App {
     this.debug.lastError = null;
     this.showFocus(r);
     this.refreshPanel();
-    void this.loadParams(r);
+    void this.loadSymbols(String(r.version)).then((modeChanged) => {
+      if (modeChanged) this.regrow();
+    });
   }
 
-  /** The sliders follow the grammar's `param` declarations (read from its symbols, once per document version). */
-  private async loadParams(r: PreviewResult): Promise<void> {
-    const key = `${this.state.uri}@${r.version}`;
-    if (this.symbolsFor === key) return;
+  /**
+   * The sliders follow the grammar's `param` declarations and the mode its
+   * first system's, both read from the document's symbols (once per
+   * document version). Returns whether the mode changed.
+   */
+  private async loadSymbols(version: string): Promise<boolean> {
+    const key = `${this.state.uri}@${version}`;
+    if (this.symbolsFor === key) return false;
     this.symbolsFor = key;
     try {
-      const { params, skipped } = paramsFromSymbols(await this.transport.request('symbols', { uri: this.state.uri }));
+      const symbols = await this.transport.request('symbols', { uri: this.state.uri });
+      const { params, skipped } = paramsFromSymbols(symbols);
       this.state.setParamInfo(params);
       this.refreshParams();
       $('params-skipped').textContent = skipped.length ? `No slider for ${skipped.join(', ')}: write the default and range as numbers.` : '';
+      const mode = modeFromSymbols(symbols);
+      if (mode && mode !== this.state.mode) {
+        this.state.mode = mode;
+        return true;
+      }
     } catch (e) {
       this.symbolsFor = '';
-      this.showError(`meta-parameters: ${(e as Error).message}`);
+      this.showError(`symbols: ${(e as Error).message}`);
     }
+    return false;
   }
 
   private summary(r: PreviewResult, ms: number | null): string {

@@ -445,6 +445,20 @@ export function paramsFromSymbols(symbols: unknown): { params: ParamInfo[]; skip
   return { params, skipped };
 }
 
+/** LSP SymbolKind.Class: how the server lists a system, with detail `system (derive)` or `system (sample)`. */
+const SYMBOL_KIND_CLASS = 3;
+
+/** The mode of the document's first system (the one a preview grows by default), from its symbols. */
+export function modeFromSymbols(symbols: unknown): 'derive' | 'sample' | null {
+  if (!Array.isArray(symbols)) return null;
+  for (const s of symbols) {
+    if (!isObject(s) || s.kind !== SYMBOL_KIND_CLASS || typeof s.detail !== 'string') continue;
+    const m = /^system \((derive|sample)\)$/.exec(s.detail);
+    if (m) return m[1] as 'derive' | 'sample';
+  }
+  return null;
+}
+
 /** The pick range holding triangle `triangle` of a part, by binary search. */
 export function findPick(part: ScenePart, triangle: number): PickRange | null {
   const picks = part.picks;

@@ -74,10 +74,10 @@ export function buildModelObjects(model: SceneModel): { geometry: THREE.Group; s
   });
   const sg = new THREE.BufferGeometry();
   sg.setAttribute('position', new THREE.BufferAttribute(pos, 3));
-  const skeleton = new THREE.LineSegments(
-    sg,
-    new THREE.LineBasicMaterial({ color: SKELETON_COLOR, depthTest: false, transparent: true, opacity: 0.9 }),
-  );
+  // Depth-tested: the tubes hide the bones inside them; with the geometry
+  // hidden the skeleton shows whole. Opaque, so the highlight (drawn later)
+  // stays on top of it.
+  const skeleton = new THREE.LineSegments(sg, new THREE.LineBasicMaterial({ color: SKELETON_COLOR }));
   skeleton.renderOrder = 2;
   return { geometry, skeleton };
 }

@@ -1,0 +1,867 @@
+//! `grmc view FILE`: the live preview page in a browser, for artists on
+//! other editors and for tests.
+//!
+//! Role: serves the built preview page (`editors/preview/dist`, embedded at
+//! compile time) on 127.0.0.1 and answers its requests with the language
+//! server itself, run in-process (`grm_lsp::service`): `POST /api/preview`
+//! is `grm/preview` and `POST /api/pick` is `grm/pick`, with the same
+//! parameters and results (docs/lsp-extensions.md), so the page, the
+//! protocol and the model building are exactly those of the VS Code
+//! preview. The file is watched: when it changes on disk, the server gets
+//! a `didChange` and its `grm/previewUpdated` reaches the page.
+//!
+//! HTTP, by hand on `std::net` (one thread per connection, `Connection:
+//! close`):
+//!
+//! | request | answer |
+//! |---|---|
+//! | `GET /`, `/preview.js`, `/preview.css` | the page |
+//! | `POST /api/preview`, `/api/pick` | `{"result": ...}` or `{"error": "..."}` |
+//! | `POST /api/symbols` | `textDocument/documentSymbol` (the page reads the meta-parameters' ranges) |
+//! | `POST /api/loadCurves`, `/api/saveCurves` | the curves file next to the grammar (`tree.grm` -> `tree.curves.json`); saved only if `grm-guide` accepts it |
+//! | `GET /api/events?after=N` | long poll: `{"seq": M, "events": [{"method", "params"}]}` |
+//!
+//! Invariants: binds only to the loopback address; refuses requests whose
+//! `Host` is not this server (DNS rebinding) and cross-origin POSTs; only
+//! the served grammar's curves file can be read or written.
+
+use std::collections::VecDeque;
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::{SocketAddr, TcpListener, TcpStream};
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard, PoisonError};
+use std::time::{Duration, Instant, SystemTime};
+
+use futures::StreamExt;
+use serde_json::{Value, json};
+use tower::{Service, ServiceExt};
+use tower_lsp_server::jsonrpc::Request;
+
+use crate::Outcome;
+
+static INDEX_HTML: &str = include_str!("../../../editors/preview/dist/index.html");
+static PREVIEW_JS: &str = include_str!("../../../editors/preview/dist/preview.js");
+static PREVIEW_CSS: &str = include_str!("../../../editors/preview/dist/preview.css");
+
+/// Largest request body accepted (curves files and preview parameters are small).
+const MAX_BODY: usize = 16 << 20;
+/// Largest request head (request line and headers).
+const MAX_HEAD: usize = 16 << 10;
+/// How long an events request waits for something to happen.
+const POLL_WAIT: Duration = Duration::from_secs(20);
+/// How often the file is checked for changes.
+const WATCH_EVERY: Duration = Duration::from_millis(150);
+/// Events kept for pollers that fell behind.
+const EVENT_LOG: usize = 64;
+
+#[derive(clap::Args, Debug)]
+pub struct ViewArgs {
+    /// The .grm file to preview.
+    pub file: PathBuf,
+    /// Port on 127.0.0.1 (0: a free one, printed).
+    #[arg(long, default_value_t = 0)]
+    pub port: u16,
+}
+
+pub fn run(args: ViewArgs) -> Outcome {
+    let path = match std::fs::canonicalize(&args.file) {
+        Ok(p) if p.is_file() => grm_sema::normalize(&p),
+        Ok(p) => {
+            eprintln!("error: {} is not a file", p.display());
+            return Outcome::Usage;
+        }
+        Err(e) => {
+            eprintln!("error: cannot read {}: {e}", args.file.display());
+            return Outcome::Usage;
+        }
+    };
+    let listener = match TcpListener::bind(("127.0.0.1", args.port)) {
+        Ok(l) => l,
+        Err(e) => {
+            eprintln!("error: cannot listen on 127.0.0.1:{}: {e}", args.port);
+            return Outcome::Usage;
+        }
+    };
+    let server = match Server::start(&path, listener) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return Outcome::Usage;
+        }
+    };
+    println!(
+        "grmc view: http://{}/ previews {} (Ctrl-C to stop)",
+        server.addr,
+        path.display()
+    );
+    let _ = std::io::stdout().flush();
+    server.wait();
+    Outcome::Ok
+}
+
+// ------------------------------------------------------------------ events
+
+/// Notifications for the page, numbered from 1.
+#[derive(Default)]
+struct Events {
+    seq: u64,
+    log: VecDeque<(u64, Value)>,
+}
+
+struct EventQueue {
+    events: Mutex<Events>,
+    changed: Condvar,
+}
+
+impl EventQueue {
+    fn lock(&self) -> MutexGuard<'_, Events> {
+        self.events.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    fn push(&self, method: &str, params: Value) {
+        let mut e = self.lock();
+        e.seq += 1;
+        let seq = e.seq;
+        e.log
+            .push_back((seq, json!({ "method": method, "params": params })));
+        while e.log.len() > EVENT_LOG {
+            e.log.pop_front();
+        }
+        self.changed.notify_all();
+    }
+
+    /// The events after `after`, waiting up to `wait` for one. A poller
+    /// that fell behind the log gets what is left (the document event is
+    /// always kept first).
+    fn after(&self, after: u64, wait: Duration) -> Value {
+        let deadline = Instant::now() + wait;
+        let mut e = self.lock();
+        while e.seq <= after {
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                break;
+            }
+            e = self
+                .changed
+                .wait_timeout(e, left)
+                .unwrap_or_else(PoisonError::into_inner)
+                .0;
+        }
+        let events: Vec<Value> = e
+            .log
+            .iter()
+            .filter(|(s, _)| *s > after)
+            .map(|(_, v)| v.clone())
+            .collect();
+        json!({ "seq": e.seq, "events": events })
+    }
+}
+
+// ------------------------------------------------------------------ the in-process language server
+
+type Reply = std::sync::mpsc::SyncSender<Option<tower_lsp_server::jsonrpc::Response>>;
+
+/// Requests and notifications for the language server, answered by a task
+/// that owns the service (one `call` at a time, answers concurrently).
+struct Lsp {
+    tx: tokio::sync::mpsc::UnboundedSender<(Request, Option<Reply>)>,
+    next_id: Mutex<i64>,
+}
+
+impl Lsp {
+    fn start(rt: &tokio::runtime::Runtime, events: Arc<EventQueue>, uri: Value) -> Lsp {
+        let (service, socket) = grm_lsp::service(grm_lsp::Config::default());
+        let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<(Request, Option<Reply>)>();
+        rt.spawn(async move {
+            let mut service = service;
+            while let Some((req, reply)) = rx.recv().await {
+                let Ok(svc) = service.ready().await else {
+                    break;
+                };
+                let fut = svc.call(req);
+                tokio::spawn(async move {
+                    let resp = fut.await.ok().flatten();
+                    if let Some(reply) = reply {
+                        let _ = reply.send(resp);
+                    }
+                });
+            }
+        });
+        // What the server sends: the live preview goes to the page; the
+        // diagnostics are the editor's business (the preview reports errors).
+        rt.spawn(async move {
+            let mut socket = socket;
+            while let Some(msg) = socket.next().await {
+                if msg.method() == "grm/previewUpdated"
+                    && let Some(p) = msg.params()
+                    && p.get("uri") == Some(&uri)
+                {
+                    events.push("previewUpdated", p.clone());
+                }
+            }
+        });
+        Lsp {
+            tx,
+            next_id: Mutex::new(0),
+        }
+    }
+
+    /// A request; `Err` is the error message for the page.
+    fn request(&self, method: &str, params: Value) -> Result<Value, String> {
+        let id = {
+            let mut n = self.next_id.lock().unwrap_or_else(PoisonError::into_inner);
+            *n += 1;
+            *n
+        };
+        let req = Request::build(method.to_string())
+            .id(id)
+            .params(params)
+            .finish();
+        let (reply, answer) = std::sync::mpsc::sync_channel(1);
+        self.tx
+            .send((req, Some(reply)))
+            .map_err(|_| "the language server stopped".to_string())?;
+        let resp = answer
+            .recv()
+            .map_err(|_| "the language server stopped".to_string())?
+            .ok_or_else(|| format!("{method}: no answer"))?;
+        let (_, body) = resp.into_parts();
+        body.map_err(|e| e.message.to_string())
+    }
+
+    fn notify(&self, method: &str, params: Value) {
+        let req = Request::build(method.to_string()).params(params).finish();
+        let _ = self.tx.send((req, None));
+    }
+}
+
+// ------------------------------------------------------------------ the server
+
+/// What the handlers share.
+struct State {
+    path: PathBuf,
+    uri: String,
+    curves_path: PathBuf,
+    lsp: Lsp,
+    events: Arc<EventQueue>,
+    /// The file as last sent to the server: (modified, length, version).
+    seen: Mutex<(Option<SystemTime>, u64, i32)>,
+    /// Where this server listens (the only `Host` it answers).
+    addr: SocketAddr,
+}
+
+/// A running `grmc view` server.
+pub struct Server {
+    pub addr: SocketAddr,
+    accept: std::thread::JoinHandle<()>,
+    _rt: tokio::runtime::Runtime,
+}
+
+impl std::fmt::Debug for Server {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Server").field("addr", &self.addr).finish()
+    }
+}
+
+/// `tree.grm` -> `tree.curves.json` beside it (docs/curves.md).
+pub fn curves_path_for(grammar: &Path) -> PathBuf {
+    grammar.with_extension("curves.json")
+}
+
+fn stat(path: &Path) -> (Option<SystemTime>, u64) {
+    match std::fs::metadata(path) {
+        Ok(m) => (m.modified().ok(), m.len()),
+        Err(_) => (None, 0),
+    }
+}
+
+impl Server {
+    /// Open `path` in an in-process language server and serve the page on
+    /// `listener`, in background threads.
+    pub fn start(path: &Path, listener: TcpListener) -> Result<Server, String> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+        let uri = grm_lsp::convert::uri_of(path)
+            .ok_or_else(|| format!("{} has no file URI", path.display()))?;
+        let uri_json = serde_json::to_value(&uri).map_err(|e| e.to_string())?;
+        let uri_str = uri_json.as_str().unwrap_or_default().to_string();
+        let addr = listener.local_addr().map_err(|e| e.to_string())?;
+        let rt = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(2)
+            .enable_all()
+            .build()
+            .map_err(|e| format!("cannot start the runtime: {e}"))?;
+        let events = Arc::new(EventQueue {
+            events: Mutex::new(Events::default()),
+            changed: Condvar::new(),
+        });
+        let lsp = Lsp::start(&rt, events.clone(), uri_json.clone());
+        lsp.request("initialize", json!({ "capabilities": {} }))?;
+        lsp.notify("initialized", json!({}));
+        let (modified, len) = stat(path);
+        lsp.notify(
+            "textDocument/didOpen",
+            json!({ "textDocument": { "uri": uri_json, "languageId": "grm", "version": 1, "text": text } }),
+        );
+        let title = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        events.push("document", json!({ "uri": uri_str, "title": title }));
+        let state = Arc::new(State {
+            path: path.to_path_buf(),
+            uri: uri_str,
+            curves_path: curves_path_for(path),
+            lsp,
+            events,
+            seen: Mutex::new((modified, len, 1)),
+            addr,
+        });
+        let watch = state.clone();
+        std::thread::spawn(move || {
+            loop {
+                std::thread::sleep(WATCH_EVERY);
+                watch.check_file();
+            }
+        });
+        let accept = std::thread::spawn(move || {
+            for stream in listener.incoming().flatten() {
+                let st = state.clone();
+                std::thread::spawn(move || {
+                    let _ = handle(&st, stream);
+                });
+            }
+        });
+        Ok(Server {
+            addr,
+            accept,
+            _rt: rt,
+        })
+    }
+
+    /// Serve until the process is stopped.
+    pub fn wait(self) {
+        let _ = self.accept.join();
+    }
+}
+
+impl State {
+    /// If the grammar changed on disk, send its text to the server (which
+    /// then regrows the live preview and notifies the page).
+    fn check_file(&self) {
+        let (modified, len) = stat(&self.path);
+        let mut seen = self.seen.lock().unwrap_or_else(PoisonError::into_inner);
+        if (modified, len) == (seen.0, seen.1) {
+            return;
+        }
+        let Ok(text) = std::fs::read_to_string(&self.path) else {
+            return;
+        };
+        seen.0 = modified;
+        seen.1 = len;
+        seen.2 += 1;
+        self.lsp.notify(
+            "textDocument/didChange",
+            json!({
+                "textDocument": { "uri": self.uri, "version": seen.2 },
+                "contentChanges": [{ "text": text }],
+            }),
+        );
+    }
+
+    /// The document a request is about: only the served one.
+    fn check_uri(&self, params: &Value) -> Result<(), String> {
+        let uri = params
+            .get("textDocument")
+            .and_then(|d| d.get("uri"))
+            .or_else(|| params.get("uri"))
+            .and_then(Value::as_str)
+            .ok_or("the request names no document")?;
+        if uri == self.uri {
+            Ok(())
+        } else {
+            Err(format!("this server previews {}, not {uri}", self.uri))
+        }
+    }
+
+    fn api(&self, method: &str, params: Value) -> Result<Value, String> {
+        self.check_uri(&params)?;
+        match method {
+            "preview" => self.lsp.request("grm/preview", params),
+            "pick" => self.lsp.request("grm/pick", params),
+            "symbols" => self.lsp.request(
+                "textDocument/documentSymbol",
+                json!({ "textDocument": { "uri": self.uri } }),
+            ),
+            "loadCurves" => {
+                let text = match std::fs::read_to_string(&self.curves_path) {
+                    Ok(t) => Value::String(t),
+                    Err(e) if e.kind() == std::io::ErrorKind::NotFound => Value::Null,
+                    Err(e) => return Err(format!("{}: {e}", self.curves_path.display())),
+                };
+                Ok(json!({ "path": self.curves_path, "text": text }))
+            }
+            "saveCurves" => {
+                let text = params
+                    .get("text")
+                    .and_then(Value::as_str)
+                    .ok_or("saveCurves: no text")?;
+                let name = self
+                    .curves_path
+                    .file_name()
+                    .map(|n| n.to_string_lossy().into_owned())
+                    .unwrap_or_default();
+                // Never write a file the sampler would refuse.
+                grm_guide::Curves::from_json_str(&name, text).map_err(|e| e.to_string())?;
+                let tmp = self.curves_path.with_extension("json.tmp");
+                std::fs::write(&tmp, text)
+                    .and_then(|()| std::fs::rename(&tmp, &self.curves_path))
+                    .map_err(|e| {
+                        let _ = std::fs::remove_file(&tmp);
+                        format!("cannot write {}: {e}", self.curves_path.display())
+                    })?;
+                Ok(json!({ "path": self.curves_path }))
+            }
+            _ => Err(format!("unknown method {method}")),
+        }
+    }
+}
+
+// ------------------------------------------------------------------ HTTP
+
+/// A parsed request.
+#[derive(Debug, PartialEq, Eq)]
+struct HttpRequest {
+    method: String,
+    target: String,
+    headers: Vec<(String, String)>,
+    body: Vec<u8>,
+}
+
+impl HttpRequest {
+    fn header(&self, name: &str) -> Option<&str> {
+        self.headers
+            .iter()
+            .find(|(k, _)| k.eq_ignore_ascii_case(name))
+            .map(|(_, v)| v.as_str())
+    }
+}
+
+/// Read one request: request line, headers, a `Content-Length` body.
+fn read_request(r: &mut impl BufRead) -> Result<HttpRequest, (u16, String)> {
+    let bad = |m: &str| (400, m.to_string());
+    let mut head = 0usize;
+    let mut line = String::new();
+    let mut read_line = |line: &mut String| -> Result<(), (u16, String)> {
+        line.clear();
+        let n = r
+            .by_ref()
+            .take((MAX_HEAD - head.min(MAX_HEAD)) as u64 + 1)
+            .read_line(line)
+            .map_err(|e| (400, e.to_string()))?;
+        head += n;
+        if head > MAX_HEAD {
+            return Err((431, "request head too large".into()));
+        }
+        if n == 0 {
+            return Err(bad("connection closed"));
+        }
+        Ok(())
+    };
+    read_line(&mut line)?;
+    let mut parts = line.split_whitespace();
+    let (Some(method), Some(target), Some(version)) = (parts.next(), parts.next(), parts.next())
+    else {
+        return Err(bad("malformed request line"));
+    };
+    if !version.starts_with("HTTP/1.") {
+        return Err((505, "HTTP/1.x only".into()));
+    }
+    let (method, target) = (method.to_string(), target.to_string());
+    let mut headers = Vec::new();
+    loop {
+        read_line(&mut line)?;
+        let l = line.trim_end_matches(['\r', '\n']);
+        if l.is_empty() {
+            break;
+        }
+        let (k, v) = l.split_once(':').ok_or_else(|| bad("malformed header"))?;
+        headers.push((k.trim().to_string(), v.trim().to_string()));
+    }
+    let mut req = HttpRequest {
+        method,
+        target,
+        headers,
+        body: Vec::new(),
+    };
+    if req
+        .header("transfer-encoding")
+        .is_some_and(|t| !t.eq_ignore_ascii_case("identity"))
+    {
+        return Err((411, "send a Content-Length".into()));
+    }
+    if let Some(len) = req.header("content-length") {
+        let len: usize = len.parse().map_err(|_| bad("bad Content-Length"))?;
+        if len > MAX_BODY {
+            return Err((413, "request body too large".into()));
+        }
+        req.body = vec![0; len];
+        r.read_exact(&mut req.body)
+            .map_err(|e| (400, e.to_string()))?;
+    }
+    Ok(req)
+}
+
+fn respond(
+    w: &mut impl Write,
+    status: u16,
+    content_type: &str,
+    body: &[u8],
+) -> std::io::Result<()> {
+    let reason = match status {
+        200 => "OK",
+        400 => "Bad Request",
+        403 => "Forbidden",
+        404 => "Not Found",
+        405 => "Method Not Allowed",
+        411 => "Length Required",
+        413 => "Payload Too Large",
+        422 => "Unprocessable Content",
+        431 => "Request Header Fields Too Large",
+        _ => "Error",
+    };
+    write!(
+        w,
+        "HTTP/1.1 {status} {reason}\r\nContent-Type: {content_type}\r\nContent-Length: {}\r\nCache-Control: no-store\r\nX-Content-Type-Options: nosniff\r\nConnection: close\r\n\r\n",
+        body.len()
+    )?;
+    w.write_all(body)?;
+    w.flush()
+}
+
+fn respond_json(w: &mut impl Write, status: u16, v: &Value) -> std::io::Result<()> {
+    respond(w, status, "application/json", v.to_string().as_bytes())
+}
+
+/// `Host` must name this server: a page from elsewhere that resolves its
+/// own name to 127.0.0.1 (DNS rebinding) is refused.
+fn host_ok(req: &HttpRequest, addr: SocketAddr) -> bool {
+    let port = addr.port();
+    req.header("host")
+        .is_some_and(|h| h == format!("127.0.0.1:{port}") || h == format!("localhost:{port}"))
+}
+
+/// A POST from a page of another origin is refused (no CORS).
+fn origin_ok(req: &HttpRequest, addr: SocketAddr) -> bool {
+    let port = addr.port();
+    req.header("origin").is_none_or(|o| {
+        o == format!("http://127.0.0.1:{port}") || o == format!("http://localhost:{port}")
+    })
+}
+
+fn handle(st: &State, stream: TcpStream) -> std::io::Result<()> {
+    let mut reader = BufReader::new(stream.try_clone()?);
+    let mut w = stream;
+    let req = match read_request(&mut reader) {
+        Ok(r) => r,
+        Err((status, msg)) => return respond_json(&mut w, status, &json!({ "error": msg })),
+    };
+    if !host_ok(&req, st.addr) {
+        return respond_json(&mut w, 403, &json!({ "error": "wrong Host" }));
+    }
+    let (path, query) = req
+        .target
+        .split_once('?')
+        .unwrap_or((req.target.as_str(), ""));
+    match (req.method.as_str(), path) {
+        ("GET", "/" | "/index.html") => respond(
+            &mut w,
+            200,
+            "text/html; charset=utf-8",
+            INDEX_HTML.as_bytes(),
+        ),
+        ("GET", "/preview.js") => respond(
+            &mut w,
+            200,
+            "text/javascript; charset=utf-8",
+            PREVIEW_JS.as_bytes(),
+        ),
+        ("GET", "/preview.css") => respond(
+            &mut w,
+            200,
+            "text/css; charset=utf-8",
+            PREVIEW_CSS.as_bytes(),
+        ),
+        ("GET", "/api/events") => {
+            let after = query
+                .split('&')
+                .find_map(|kv| kv.strip_prefix("after="))
+                .and_then(|v| v.parse().ok())
+                .unwrap_or(0);
+            respond_json(&mut w, 200, &st.events.after(after, POLL_WAIT))
+        }
+        ("POST", p) if p.starts_with("/api/") => {
+            if !origin_ok(&req, st.addr) {
+                return respond_json(&mut w, 403, &json!({ "error": "cross-origin request" }));
+            }
+            let params: Value = match serde_json::from_slice(&req.body) {
+                Ok(v) => v,
+                Err(e) => {
+                    return respond_json(
+                        &mut w,
+                        400,
+                        &json!({ "error": format!("invalid JSON: {e}") }),
+                    );
+                }
+            };
+            match st.api(&p["/api/".len()..], params) {
+                Ok(result) => respond_json(&mut w, 200, &json!({ "result": result })),
+                Err(e) => respond_json(&mut w, 422, &json!({ "error": e })),
+            }
+        }
+        ("GET" | "POST", _) => respond_json(&mut w, 404, &json!({ "error": "not found" })),
+        _ => respond_json(&mut w, 405, &json!({ "error": "GET or POST" })),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(raw: &str) -> Result<HttpRequest, (u16, String)> {
+        read_request(&mut BufReader::new(raw.as_bytes()))
+    }
+
+    #[test]
+    fn requests_are_parsed_with_their_body() {
+        let r = parse(
+            "POST /api/pick HTTP/1.1\r\nHost: 127.0.0.1:9\r\nContent-Length: 4\r\n\r\n{}\r\nextra",
+        )
+        .expect("parses");
+        assert_eq!(r.method, "POST");
+        assert_eq!(r.target, "/api/pick");
+        assert_eq!(r.header("HOST"), Some("127.0.0.1:9"));
+        assert_eq!(r.body, b"{}\r\n");
+    }
+
+    #[test]
+    fn malformed_and_oversized_requests_are_refused() {
+        assert_eq!(parse("GARBAGE\r\n\r\n").unwrap_err().0, 400);
+        assert_eq!(parse("GET / HTTP/2\r\n\r\n").unwrap_err().0, 505);
+        assert_eq!(
+            parse("GET / HTTP/1.1\r\nNoColon\r\n\r\n").unwrap_err().0,
+            400
+        );
+        let big = format!(
+            "POST / HTTP/1.1\r\nContent-Length: {}\r\n\r\n",
+            MAX_BODY + 1
+        );
+        assert_eq!(parse(&big).unwrap_err().0, 413);
+        let long = format!("GET / HTTP/1.1\r\nX: {}\r\n\r\n", "a".repeat(MAX_HEAD));
+        assert_eq!(parse(&long).unwrap_err().0, 431);
+        assert_eq!(
+            parse("POST / HTTP/1.1\r\nTransfer-Encoding: chunked\r\n\r\n")
+                .unwrap_err()
+                .0,
+            411
+        );
+        assert_eq!(
+            parse("POST / HTTP/1.1\r\nContent-Length: 10\r\n\r\nshort")
+                .unwrap_err()
+                .0,
+            400
+        );
+    }
+
+    #[test]
+    fn host_and_origin_must_be_this_server() {
+        let addr: SocketAddr = "127.0.0.1:4321".parse().expect("addr");
+        let req = |h: &[(&str, &str)]| HttpRequest {
+            method: "POST".into(),
+            target: "/".into(),
+            headers: h
+                .iter()
+                .map(|(k, v)| (k.to_string(), v.to_string()))
+                .collect(),
+            body: vec![],
+        };
+        assert!(host_ok(&req(&[("Host", "127.0.0.1:4321")]), addr));
+        assert!(host_ok(&req(&[("host", "localhost:4321")]), addr));
+        assert!(!host_ok(&req(&[("Host", "evil.example:4321")]), addr));
+        assert!(!host_ok(&req(&[]), addr));
+        assert!(origin_ok(&req(&[]), addr));
+        assert!(origin_ok(
+            &req(&[("Origin", "http://127.0.0.1:4321")]),
+            addr
+        ));
+        assert!(!origin_ok(&req(&[("Origin", "http://evil.example")]), addr));
+    }
+
+    #[test]
+    fn events_wait_and_report_what_came_after() {
+        let q = EventQueue {
+            events: Mutex::new(Events::default()),
+            changed: Condvar::new(),
+        };
+        q.push("document", json!({ "uri": "u" }));
+        let first = q.after(0, Duration::ZERO);
+        assert_eq!(first["seq"], 1);
+        assert_eq!(first["events"][0]["method"], "document");
+        // Nothing new: an empty answer after the wait.
+        let t = Instant::now();
+        let none = q.after(1, Duration::from_millis(50));
+        assert!(t.elapsed() >= Duration::from_millis(50));
+        assert_eq!(none["events"].as_array().map(Vec::len), Some(0));
+        for i in 0..(EVENT_LOG + 10) {
+            q.push("previewUpdated", json!({ "n": i }));
+        }
+        let behind = q.after(1, Duration::ZERO);
+        assert_eq!(behind["events"].as_array().map(Vec::len), Some(EVENT_LOG));
+        assert_eq!(behind["seq"], (EVENT_LOG + 11) as u64);
+    }
+
+    #[test]
+    fn the_curves_file_is_named_after_the_grammar() {
+        assert_eq!(
+            curves_path_for(Path::new("/a/calder_tree.grm")),
+            PathBuf::from("/a/calder_tree.curves.json")
+        );
+    }
+
+    /// One HTTP exchange with a running server.
+    fn exchange(addr: SocketAddr, raw: &str) -> (u16, Value) {
+        let mut s = TcpStream::connect(addr).expect("connect");
+        s.write_all(raw.as_bytes()).expect("send");
+        let mut out = String::new();
+        s.read_to_string(&mut out).expect("read");
+        let status = out[9..12].parse().expect("status");
+        let body = out.split_once("\r\n\r\n").map(|(_, b)| b).unwrap_or("");
+        (
+            status,
+            serde_json::from_str(body).unwrap_or(Value::String(body.into())),
+        )
+    }
+
+    fn post(addr: SocketAddr, path: &str, body: &Value) -> (u16, Value) {
+        let b = body.to_string();
+        exchange(
+            addr,
+            &format!(
+                "POST {path} HTTP/1.1\r\nHost: {addr}\r\nContent-Type: application/json\r\nContent-Length: {}\r\n\r\n{b}",
+                b.len()
+            ),
+        )
+    }
+
+    #[test]
+    fn serves_the_page_and_the_language_servers_preview() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let grammar = dir.path().join("koch.grm");
+        std::fs::write(
+            &grammar,
+            "system Koch {\n    iterations = 2;\n    angle = 90;\n    width = 0.1;\n    axiom F - F - F - F;\n    F -> F - F + F + F F - F - F + F;\n}\n",
+        )
+        .expect("write");
+        let grammar = grm_sema::normalize(&std::fs::canonicalize(&grammar).expect("canonical"));
+        let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
+        let server = Server::start(&grammar, listener).expect("start");
+        let addr = server.addr;
+
+        let (status, page) = exchange(addr, &format!("GET / HTTP/1.1\r\nHost: {addr}\r\n\r\n"));
+        assert_eq!(status, 200);
+        assert!(page.as_str().is_some_and(|p| p.contains("preview.js")));
+        let (status, _) = exchange(addr, "GET / HTTP/1.1\r\nHost: evil.example\r\n\r\n");
+        assert_eq!(status, 403);
+
+        // The document event names the URI the page must use.
+        let (_, ev) = exchange(
+            addr,
+            &format!("GET /api/events?after=0 HTTP/1.1\r\nHost: {addr}\r\n\r\n"),
+        );
+        assert_eq!(ev["events"][0]["method"], "document");
+        let uri = ev["events"][0]["params"]["uri"].clone();
+
+        let (status, r) = post(
+            addr,
+            "/api/preview",
+            &json!({ "textDocument": { "uri": uri }, "live": true }),
+        );
+        assert_eq!(status, 200, "{r}");
+        let result = &r["result"];
+        assert_eq!(result["system"], "Koch");
+        assert_eq!(result["encoding"], "base64-le");
+        // Koch island, 2 iterations: 4 * 8^2 = 256 segments, one bone each.
+        assert_eq!(result["skeleton"]["boneCount"], 256);
+        assert!(result["stats"]["triangles"].as_u64().is_some_and(|t| t > 0));
+
+        let (status, p) = post(
+            addr,
+            "/api/pick",
+            &json!({ "textDocument": { "uri": uri }, "bone": 0 }),
+        );
+        assert_eq!(status, 200, "{p}");
+        assert_eq!(p["result"]["symbol"], "F");
+
+        let (status, e) = post(
+            addr,
+            "/api/preview",
+            &json!({ "textDocument": { "uri": "file:///etc/passwd" } }),
+        );
+        assert_eq!(status, 422);
+        assert!(
+            e["error"]
+                .as_str()
+                .is_some_and(|m| m.contains("not file:///etc/passwd"))
+        );
+
+        // Curves: none yet; an invalid file is refused, a valid one written.
+        let (_, c) = post(addr, "/api/loadCurves", &json!({ "uri": uri }));
+        assert_eq!(c["result"]["text"], Value::Null);
+        let (status, e) = post(
+            addr,
+            "/api/saveCurves",
+            &json!({ "uri": uri, "text": "{\"version\": 1, \"curves\": []}" }),
+        );
+        assert_eq!(status, 422, "{e}");
+        assert!(!curves_path_for(&grammar).exists());
+        let curves =
+            "{\"version\": 1, \"curves\": [{\"points\": [[0,0,0],[0,1,0],[0,2,0],[0,3,0]]}]}";
+        let (status, _) = post(
+            addr,
+            "/api/saveCurves",
+            &json!({ "uri": uri, "text": curves }),
+        );
+        assert_eq!(status, 200);
+        assert_eq!(
+            std::fs::read_to_string(curves_path_for(&grammar))
+                .ok()
+                .as_deref(),
+            Some(curves)
+        );
+
+        // An edit on disk reaches the page as the server's live preview.
+        std::thread::sleep(Duration::from_millis(20));
+        std::fs::write(
+            &grammar,
+            "system Koch {\n    iterations = 1;\n    angle = 90;\n    width = 0.1;\n    axiom F - F - F - F;\n    F -> F - F + F + F F - F - F + F;\n}\n",
+        )
+        .expect("write");
+        let deadline = Instant::now() + Duration::from_secs(20);
+        let mut after = ev["seq"].as_u64().unwrap_or(0);
+        let updated = loop {
+            assert!(Instant::now() < deadline, "no previewUpdated");
+            let (_, ev) = exchange(
+                addr,
+                &format!("GET /api/events?after={after} HTTP/1.1\r\nHost: {addr}\r\n\r\n"),
+            );
+            after = ev["seq"].as_u64().unwrap_or(after);
+            if let Some(u) = ev["events"]
+                .as_array()
+                .and_then(|es| es.iter().find(|e| e["method"] == "previewUpdated"))
+            {
+                break u["params"].clone();
+            }
+        };
+        assert_eq!(updated["result"]["skeleton"]["boneCount"], 32);
+    }
+}
