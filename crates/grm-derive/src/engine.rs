@@ -139,13 +139,12 @@ pub struct Engine<'a> {
     succ_syms: Vec<u32>,
     succ_words: Vec<u32>,
     /// Per alternative: its parameter words with the constants filled in
-    /// (`tpl[tpl_off[alt] ..][.. succ_words]`).
+    /// (`tpl[plan.tpl ..][.. plan.words]`).
     tpl: Vec<f32>,
-    tpl_off: Vec<u32>,
-    /// Per alternative: the parameters that are not constants
-    /// (`patches[patch_range[alt].0 .. patch_range[alt].1]`).
+    /// The parameters that are not constants, per alternative.
     patches: Vec<Patch>,
-    patch_range: Vec<(u32, u32)>,
+    /// Per alternative.
+    plans: Vec<Plan>,
     has_context: bool,
     threads: usize,
     min_chunk: usize,
@@ -178,6 +177,20 @@ enum Binds {
     Direct,
     /// The worker's binding buffer.
     Buffer,
+}
+
+/// Everything the rewrite needs about one alternative, in one record.
+#[derive(Clone, Copy, Debug, Default)]
+struct Plan {
+    /// First successor module (index into `succ_syms` / `succ_words`).
+    succ: u32,
+    len: u32,
+    words: u32,
+    /// Start of its parameter template in `tpl`.
+    tpl: u32,
+    /// Its patches: `patches[patch_lo .. patch_hi]`.
+    patch_lo: u32,
+    patch_hi: u32,
 }
 
 /// How one non-constant successor parameter is computed. The arithmetic
@@ -335,11 +348,10 @@ impl<'a> Engine<'a> {
         let succ_syms = sys.succ.iter().map(|m| m.symbol).collect();
         let succ_words = sys.succ.iter().map(|m| m.word_offset).collect();
         let mut tpl = Vec::new();
-        let mut tpl_off = Vec::with_capacity(sys.alts.len());
         let mut patches = Vec::new();
-        let mut patch_range = Vec::with_capacity(sys.alts.len());
+        let mut plans = Vec::with_capacity(sys.alts.len());
         for a in &sys.alts {
-            tpl_off.push(tpl.len() as u32);
+            let tpl_start = tpl.len() as u32;
             let first_patch = patches.len() as u32;
             let mut dst = 0u32;
             for m in sys.successor(a) {
@@ -357,7 +369,14 @@ impl<'a> Engine<'a> {
                     dst += p.words;
                 }
             }
-            patch_range.push((first_patch, patches.len() as u32));
+            plans.push(Plan {
+                succ: a.succ_offset,
+                len: a.succ_len,
+                words: a.succ_words,
+                tpl: tpl_start,
+                patch_lo: first_patch,
+                patch_hi: patches.len() as u32,
+            });
         }
         let pool = if threads > 1 {
             Some(
@@ -379,9 +398,8 @@ impl<'a> Engine<'a> {
             succ_syms,
             succ_words,
             tpl,
-            tpl_off,
             patches,
-            patch_range,
+            plans,
             has_context: sys.has_context(),
             threads,
             min_chunk: MIN_CHUNK,
@@ -809,8 +827,8 @@ impl<'a> Engine<'a> {
                     wo += n;
                 }
                 Some((alt, binds)) => {
-                    let a = &self.sys.alts[alt as usize];
-                    let (len, words) = (a.succ_len as usize, a.succ_words as usize);
+                    let plan = self.plans[alt as usize];
+                    let (len, words) = (plan.len as usize, plan.words as usize);
                     let direct;
                     let bind: &[f32] = match binds {
                         Binds::Direct => {
@@ -856,10 +874,10 @@ impl<'a> Engine<'a> {
         out: ChunkOut<'_>,
     ) -> Result<(), RuntimeError> {
         let sys = self.sys;
-        let a = &sys.alts[alt as usize];
-        let (so, len) = (a.succ_offset as usize, a.succ_len as usize);
+        let plan = self.plans[alt as usize];
+        let (so, len) = (plan.succ as usize, plan.len as usize);
         copy_small(out.syms, &self.succ_syms[so..so + len]);
-        if a.succ_words == 0 {
+        if plan.words == 0 {
             out.starts.fill(out.word_base);
             return Ok(());
         }
@@ -867,10 +885,9 @@ impl<'a> Engine<'a> {
             *st = out.word_base + off;
         }
         // Constants come from the template; the rest is patched in.
-        let t = self.tpl_off[alt as usize] as usize;
-        copy_small(out.params, &self.tpl[t..t + a.succ_words as usize]);
-        let (pa, pb) = self.patch_range[alt as usize];
-        for p in &self.patches[pa as usize..pb as usize] {
+        let t = plan.tpl as usize;
+        copy_small(out.params, &self.tpl[t..t + plan.words as usize]);
+        for p in &self.patches[plan.patch_lo as usize..plan.patch_hi as usize] {
             let (dst, value, span) = match *p {
                 Patch::Copy { dst, src, words } => {
                     let (d, s, w) = (dst as usize, src as usize, words as usize);
