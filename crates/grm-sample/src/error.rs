@@ -1,0 +1,179 @@
+//! Typed sampling errors, each with a stable code (`R03xx`) and, where
+//! there is one, the place in the source.
+
+use grm_compile::vm::VmError;
+use grm_diag::{FileId, Span};
+
+/// Why sampling stopped.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SampleError {
+    /// The system is not a sample system (`mode = sample;`).
+    NotSampleSystem { system: String },
+    /// A production failed while expanding one non-terminal.
+    Runtime(ExpandError),
+    /// The geometry phase (or a wrap-up) went past a limit: a geometry
+    /// symbol that in practice never stops expanding.
+    GeometryLimit {
+        /// The symbol being expanded when the limit was hit.
+        symbol: String,
+        /// What ran out.
+        what: LimitKind,
+        limit: u64,
+        file: FileId,
+        /// The production that was applied last.
+        span: Span,
+    },
+    /// The interpreter rejected an expansion (a broken compiled system).
+    Turtle(String),
+    /// The thread pool could not be created.
+    ThreadPool(String),
+    /// The options are unusable (e.g. a volume target that cannot be built).
+    Options(String),
+}
+
+/// Which geometry-phase limit was hit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LimitKind {
+    /// Nested geometry expansions ([`crate::FinishLimits::max_depth`]).
+    Depth,
+    /// Geometry expansions of one model ([`crate::FinishLimits::max_expansions`]).
+    Expansions,
+}
+
+/// A failure while applying a production to one non-terminal.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExpandError {
+    /// The phase: `"axiom"`, `"skeleton"`, `"wrap-up"`, `"geometry"` or
+    /// `"expected direction"`.
+    pub phase: &'static str,
+    /// The non-terminal's symbol name.
+    pub symbol: String,
+    pub kind: ExpandErrorKind,
+    /// The expression that failed.
+    pub file: FileId,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum ExpandErrorKind {
+    /// A module parameter evaluated to NaN or an infinity.
+    NonFinite { value: f32 },
+    /// A weight evaluated to something that is not a positive finite number.
+    BadWeight { value: f32 },
+    /// The bytecode faulted (a compiler bug or broken tables).
+    Fault(VmError),
+}
+
+impl SampleError {
+    /// The stable code: `R03xx`.
+    pub fn code(&self) -> &'static str {
+        match self {
+            SampleError::NotSampleSystem { .. } => "R0301",
+            SampleError::Runtime(e) => match e.kind {
+                ExpandErrorKind::NonFinite { .. } => "R0302",
+                ExpandErrorKind::BadWeight { .. } => "R0303",
+                ExpandErrorKind::Fault(_) => "R0304",
+            },
+            SampleError::GeometryLimit { .. } => "R0305",
+            SampleError::Turtle(_) => "R0306",
+            SampleError::ThreadPool(_) => "R0307",
+            SampleError::Options(_) => "R0308",
+        }
+    }
+
+    /// The place in the source the error points at, if any.
+    pub fn location(&self) -> Option<(FileId, Span)> {
+        match self {
+            SampleError::Runtime(e) => Some((e.file, e.span)),
+            SampleError::GeometryLimit { file, span, .. } => Some((*file, *span)),
+            _ => None,
+        }
+    }
+
+    /// A short label for the source span.
+    pub fn label(&self) -> String {
+        match self {
+            SampleError::Runtime(e) => match e.kind {
+                ExpandErrorKind::NonFinite { value } => format!("this evaluates to {value}"),
+                ExpandErrorKind::BadWeight { value } => format!("this weight is {value}"),
+                ExpandErrorKind::Fault(_) => "while evaluating this".into(),
+            },
+            SampleError::GeometryLimit { .. } => "applied here last".into(),
+            _ => String::new(),
+        }
+    }
+
+    /// A hint on how to fix it.
+    pub fn help(&self) -> Option<String> {
+        match self {
+            SampleError::NotSampleSystem { .. } => {
+                Some("add `mode = sample;` to the system, or run it with `grmc derive`".into())
+            }
+            SampleError::Runtime(e) => match e.kind {
+                ExpandErrorKind::NonFinite { .. } => Some(
+                    "guard the expression with a condition, e.g. `: x > 0`, or clamp its inputs"
+                        .into(),
+                ),
+                ExpandErrorKind::BadWeight { .. } => {
+                    Some("weights must be positive: e.g. `max(w, 0.001)`".into())
+                }
+                ExpandErrorKind::Fault(_) => None,
+            },
+            SampleError::GeometryLimit { what, .. } => Some(match what {
+                LimitKind::Depth => "make the recursion of the geometry symbols end sooner (a condition on a counter), or raise the limit".into(),
+                LimitKind::Expansions => "geometry symbols expand into too many modules: end their recursion sooner, or raise the limit".into(),
+            }),
+            _ => None,
+        }
+    }
+}
+
+impl std::fmt::Display for SampleError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SampleError::NotSampleSystem { system } => {
+                write!(f, "`{system}` is not a sample system")
+            }
+            SampleError::Runtime(e) => write!(f, "{e}"),
+            SampleError::GeometryLimit {
+                symbol,
+                what,
+                limit,
+                ..
+            } => match what {
+                LimitKind::Depth => write!(
+                    f,
+                    "the geometry phase nested more than {limit} expansions deep while expanding `{symbol}`"
+                ),
+                LimitKind::Expansions => write!(
+                    f,
+                    "the geometry phase made more than {limit} expansions (last: `{symbol}`)"
+                ),
+            },
+            SampleError::Turtle(m) => write!(f, "cannot interpret an expansion: {m}"),
+            SampleError::ThreadPool(m) => write!(f, "cannot start the thread pool: {m}"),
+            SampleError::Options(m) => write!(f, "{m}"),
+        }
+    }
+}
+
+impl std::error::Error for SampleError {}
+
+impl std::fmt::Display for ExpandError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let what = match &self.kind {
+            ExpandErrorKind::NonFinite { value } => format!("a parameter evaluated to {value}"),
+            ExpandErrorKind::BadWeight { value } => {
+                format!("a weight evaluated to {value}, not a positive number")
+            }
+            ExpandErrorKind::Fault(v) => v.to_string(),
+        };
+        write!(
+            f,
+            "{what} while expanding `{}` ({} phase)",
+            self.symbol, self.phase
+        )
+    }
+}
+
+impl std::error::Error for ExpandError {}

@@ -1,0 +1,170 @@
+//! What the sampler returns: complete models with their derivation trees,
+//! costs, and per-generation figures.
+
+use std::ops::Range;
+use std::time::Duration;
+
+use grm_derive::ModuleString;
+use grm_geom::{BuildOptions, GeomError, Model};
+use grm_guide::{CostBreakdown, VolumeCost};
+use grm_sema::Program;
+use grm_turtle::Interpretation;
+
+pub use crate::particle::NodeKind;
+
+/// One expansion of a complete derivation tree.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TreeNode {
+    /// The node that emitted the expanded non-terminal and the
+    /// non-terminal's ordinal among those the turtle met in that node's
+    /// successor; `None` for the axiom.
+    pub parent: Option<(u32, u32)>,
+    pub kind: NodeKind,
+    /// The expanded symbol (`u32::MAX` for the axiom).
+    pub symbol: u32,
+    /// The compiled alternative applied; `None` when no production applied
+    /// (the non-terminal stays as an inert module).
+    pub alt: Option<u32>,
+    /// The successor's parameter words.
+    pub params: Vec<f32>,
+    /// Its successor's modules in [`SampledModel::string`].
+    pub modules: Range<u32>,
+    /// The bones its successor made, in [`SampledModel::interpretation`].
+    pub bones: Range<u32>,
+}
+
+/// A complete derivation: every expansion, in depth-first order (a node's
+/// children follow it, in the order of their modules in its successor).
+/// Node 0 is the axiom.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct DerivationTree {
+    pub nodes: Vec<TreeNode>,
+}
+
+impl DerivationTree {
+    /// Expansions of each kind: (axiom, skeleton, wrap-up, geometry).
+    pub fn counts(&self) -> (usize, usize, usize, usize) {
+        let c = |k| self.nodes.iter().filter(|n| n.kind == k).count();
+        (
+            c(NodeKind::Axiom),
+            c(NodeKind::Skeleton),
+            c(NodeKind::Wrapup),
+            c(NodeKind::Geometry),
+        )
+    }
+}
+
+/// A complete model: skeleton phase, wrap-up and geometry phase done.
+#[derive(Clone, Debug)]
+pub struct SampledModel {
+    /// Its curve cost by term (eq. 8 plus density), over the skeleton
+    /// bones (those made by the axiom and by skeleton and wrap-up
+    /// productions).
+    pub cost: CostBreakdown,
+    /// The volume baseline's cost, when that was the objective.
+    pub volume: Option<VolumeCost>,
+    /// The objective it was ranked by: the curve cost's total, or the
+    /// volume cost times its weight.
+    pub objective: f64,
+    /// Skeleton bones scored.
+    pub skeleton_bones: u32,
+    /// Everything the turtle drew: all bones (skeleton and geometry),
+    /// instances, polygons; `origin` fields hold the compiled alternative
+    /// that made each part.
+    pub interpretation: Interpretation,
+    /// The expansions' successors laid end to end in tree order (each
+    /// interpreted from its own non-terminal's frame); non-terminals stay
+    /// in it as inert modules.
+    pub string: ModuleString,
+    /// Per module of `string`: the compiled alternative that produced it.
+    pub origins: Vec<u32>,
+    pub tree: DerivationTree,
+    /// Its index among the final generation's distinct particles.
+    pub candidate: usize,
+}
+
+impl SampledModel {
+    /// The bone list as `(base, tip)` pairs (all bones, in tree order).
+    pub fn bone_list(&self) -> Vec<([f32; 3], [f32; 3])> {
+        self.interpretation
+            .bones
+            .iter()
+            .map(|b| (b.base.to_array(), b.tip.to_array()))
+            .collect()
+    }
+
+    /// Build the meshes (tubes, primitives, OBJ meshes) for export.
+    pub fn build(&self, program: &Program, options: &BuildOptions) -> Result<Model, GeomError> {
+        grm_geom::build_from_interpretation(program, self.interpretation.clone(), options)
+    }
+}
+
+/// Figures of one generation of the skeleton phase.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GenerationStats {
+    /// 0-based.
+    pub generation: u32,
+    /// Particles expanded in this generation.
+    pub particles: usize,
+    /// Of them, those that still had an open skeleton symbol.
+    pub expanding: usize,
+    /// Effective sample size of the generation's weights, in `[1, particles]`.
+    pub ess: f64,
+    /// `HEURISTICSCALE` used.
+    pub heuristic_scale: f64,
+    /// The lowest objective (without heuristic) among the particles.
+    pub best_objective: f64,
+    /// Mean skeleton bones per particle.
+    pub mean_bones: f64,
+    /// Expansions made in this generation (all particles).
+    pub expansions: u64,
+}
+
+/// The result of [`crate::Sampler::sample`].
+#[derive(Clone, Debug)]
+pub struct SampleResult {
+    /// The best models, lowest objective first (at most
+    /// [`crate::SampleOptions::best`]).
+    pub models: Vec<SampledModel>,
+    /// One entry per generation run.
+    pub generations: Vec<GenerationStats>,
+    /// The objective of every distinct final particle after wrap-up, in
+    /// particle order (the models were the lowest of these).
+    pub candidates: Vec<f64>,
+    /// Whether the wall-clock budget stopped the skeleton phase early.
+    pub stopped_early: bool,
+    /// Wall time of the whole run (search, wrap-up, geometry phase).
+    pub elapsed: Duration,
+}
+
+impl SampleResult {
+    /// The best model.
+    pub fn best(&self) -> Option<&SampledModel> {
+        self.models.first()
+    }
+
+    /// Effective sample sizes, one per generation.
+    pub fn ess(&self) -> Vec<f64> {
+        self.generations.iter().map(|g| g.ess).collect()
+    }
+}
+
+/// Limits of the wrap-up and geometry phases.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FinishLimits {
+    /// Geometry symbols nested deeper than this (a geometry expansion
+    /// inside a geometry expansion, ...) are an error.
+    pub max_depth: u32,
+    /// More geometry expansions than this in one model are an error.
+    pub max_expansions: u64,
+}
+
+impl Default for FinishLimits {
+    /// Depth 4096, one million expansions.
+    fn default() -> Self {
+        FinishLimits {
+            max_depth: 4096,
+            max_expansions: 1_000_000,
+        }
+    }
+}

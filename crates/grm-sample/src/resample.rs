@@ -1,0 +1,183 @@
+//! Log-space particle weights: normalization, effective sample size and
+//! systematic resampling.
+//!
+//! Weights are kept as logarithms from start to end. They are only
+//! exponentiated after subtracting their maximum (the log-sum-exp trick),
+//! so the largest normalized weight is exactly 1 and nothing overflows,
+//! however negative the costs get (the reference implementation computed
+//! `exp(-cost)` directly, which is `+inf` below a cost of about -709).
+//!
+//! **Why systematic resampling.** One uniform draw `u` places `n` evenly
+//! spaced pointers `(u + k) / n`, `k = 0 .. n`, on the cumulative weights;
+//! particle `i` is copied once per pointer that falls in its interval. Each
+//! particle gets `floor(n w_i)` or `ceil(n w_i)` copies, so the extra noise
+//! resampling adds is as low as it gets among the standard schemes
+//! (multinomial resampling copies a particle `Binomial(n, w_i)` times;
+//! residual resampling is close to systematic but draws its remainder
+//! multinomially, with `n` draws), it is O(n), and it needs one random
+//! number per generation, which keeps the run a simple function of the
+//! seed. The pointers are matched with a binary search on the cumulative
+//! sums (first index whose cumulative weight exceeds the pointer), so
+//! every particle, the last one included, is reachable, and a particle of
+//! weight zero is never chosen.
+
+/// Normalized weights `exp(log_w - max)` in `out` (the largest is 1) and
+/// their sum. Non-finite or NaN log-weights count as zero weight. When no
+/// weight is positive (every particle is impossible) all get weight 1: the
+/// population is then resampled uniformly rather than not at all.
+pub fn normalized(log_w: &[f64], out: &mut Vec<f64>) -> f64 {
+    out.clear();
+    let max = log_w
+        .iter()
+        .copied()
+        .filter(|x| !x.is_nan())
+        .fold(f64::NEG_INFINITY, f64::max);
+    if !max.is_finite() {
+        // All -inf/NaN (or +inf, which only a broken cost could give):
+        // +inf particles share the weight, otherwise uniform.
+        let inf: Vec<bool> = log_w.iter().map(|&x| x == f64::INFINITY).collect();
+        let any = inf.iter().any(|&b| b);
+        out.extend(inf.iter().map(|&b| if b || !any { 1.0 } else { 0.0 }));
+        return out.iter().sum();
+    }
+    out.extend(log_w.iter().map(|&x| {
+        let w = (x - max).exp();
+        if w.is_nan() { 0.0 } else { w }
+    }));
+    out.iter().sum()
+}
+
+/// `log(sum(exp(log_w)))`, computed without overflow; `-inf` for an empty
+/// slice or when every weight is zero.
+pub fn log_sum_exp(log_w: &[f64]) -> f64 {
+    let max = log_w
+        .iter()
+        .copied()
+        .filter(|x| !x.is_nan())
+        .fold(f64::NEG_INFINITY, f64::max);
+    if max.is_infinite() {
+        return max;
+    }
+    let s: f64 = log_w
+        .iter()
+        .map(|&x| (x - max).exp())
+        .filter(|w| !w.is_nan())
+        .sum();
+    max + s.ln()
+}
+
+/// Effective sample size `(sum w)^2 / sum w^2` of normalized weights: `n`
+/// for equal weights, 1 when one particle holds all the weight.
+pub fn ess(weights: &[f64]) -> f64 {
+    let s: f64 = weights.iter().sum();
+    let s2: f64 = weights.iter().map(|w| w * w).sum();
+    if s2 > 0.0 { s * s / s2 } else { 0.0 }
+}
+
+/// Systematic resampling: `n_out` ancestor indices into `weights`
+/// (non-negative, not all zero; see [`normalized`]) for the pointers
+/// `(u + k) / n_out`, `u` in `[0, 1)`. Indices come out in increasing
+/// order.
+pub fn systematic(weights: &[f64], n_out: usize, u: f64, out: &mut Vec<usize>) {
+    out.clear();
+    if weights.is_empty() || n_out == 0 {
+        return;
+    }
+    let mut cum = Vec::with_capacity(weights.len());
+    let mut acc = 0.0f64;
+    for &w in weights {
+        acc += w.max(0.0);
+        cum.push(acc);
+    }
+    let total = acc;
+    // The last index of positive weight: where a pointer lands if rounding
+    // carried it to the total.
+    let last = weights
+        .iter()
+        .rposition(|&w| w > 0.0)
+        .unwrap_or(weights.len() - 1);
+    if total <= 0.0 || !total.is_finite() {
+        // Degenerate input: spread evenly.
+        out.extend((0..n_out).map(|k| k * weights.len() / n_out));
+        return;
+    }
+    let u = u.clamp(0.0, 1.0);
+    for k in 0..n_out {
+        let t = (u + k as f64) / n_out as f64 * total;
+        let i = cum.partition_point(|&c| c <= t);
+        out.push(if i < weights.len() { i } else { last });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn huge_negative_costs_do_not_overflow() {
+        // Costs of -1e6 and -1e6 + 1: log-weights 1e6 and 1e6 - 1.
+        let lw = [1e6, 1e6 - 1.0, f64::NEG_INFINITY];
+        let mut w = Vec::new();
+        let total = normalized(&lw, &mut w);
+        assert_eq!(w[0], 1.0);
+        assert!((w[1] - (-1.0f64).exp()).abs() < 1e-15);
+        assert_eq!(w[2], 0.0);
+        assert!((total - (1.0 + (-1.0f64).exp())).abs() < 1e-15);
+        assert!((log_sum_exp(&lw) - (1e6 + (1.0 + (-1.0f64).exp()).ln())).abs() < 1e-6);
+        let e = ess(&w);
+        assert!(e > 1.0 && e < 2.0, "{e}");
+    }
+
+    #[test]
+    fn impossible_populations_resample_uniformly() {
+        let mut w = Vec::new();
+        normalized(&[f64::NEG_INFINITY, f64::NAN, f64::NEG_INFINITY], &mut w);
+        assert_eq!(w, vec![1.0, 1.0, 1.0]);
+        assert_eq!(log_sum_exp(&[]), f64::NEG_INFINITY);
+    }
+
+    #[test]
+    fn the_last_particle_can_be_chosen() {
+        // All the weight on the last particle: every pointer lands on it.
+        let mut out = Vec::new();
+        for u in [0.0, 0.3, 0.999_999] {
+            systematic(&[0.0, 0.0, 0.0, 1.0], 5, u, &mut out);
+            assert_eq!(out, vec![3; 5]);
+        }
+        // Weight zero after it: never chosen, even at the end of the range.
+        systematic(&[0.5, 0.5, 0.0], 4, 0.999_999_9, &mut out);
+        assert!(out.iter().all(|&i| i < 2), "{out:?}");
+        assert_eq!(out.iter().filter(|&&i| i == 1).count(), 2);
+    }
+
+    #[test]
+    fn copies_are_floor_or_ceil_of_n_w() {
+        let weights = [0.1, 0.25, 0.05, 0.4, 0.2];
+        let n = 17;
+        let mut out = Vec::new();
+        for k in 0..50 {
+            let u = k as f64 / 50.0;
+            systematic(&weights, n, u, &mut out);
+            assert_eq!(out.len(), n);
+            assert!(out.windows(2).all(|p| p[0] <= p[1]));
+            for (i, &w) in weights.iter().enumerate() {
+                let c = out.iter().filter(|&&j| j == i).count() as f64;
+                let e = w * n as f64;
+                assert!(
+                    c == e.floor() || c == e.ceil(),
+                    "particle {i}: {c} copies for {e}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn equal_weights_keep_everyone_when_counts_match() {
+        let mut out = Vec::new();
+        systematic(&[1.0; 8], 8, 0.5, &mut out);
+        assert_eq!(out, (0..8).collect::<Vec<_>>());
+        let mut w = Vec::new();
+        normalized(&[-3.0; 8], &mut w);
+        assert!((ess(&w) - 8.0).abs() < 1e-12);
+    }
+}

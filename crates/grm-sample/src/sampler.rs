@@ -1,0 +1,1058 @@
+//! The sampler: the SOSMC loop, the expected directions, wrap-up and the
+//! geometry phase.
+
+use std::collections::HashMap;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use glam::Vec3;
+use grm_compile::CompiledSystem;
+use grm_compile::rng::{self, DrawCtx};
+use grm_derive::ModuleString;
+use grm_guide::{
+    CostBreakdown, CostModel, CostOptions, Curves, ExpectedDirection, VolumeOptions, VolumeTarget,
+};
+use grm_sema::{Mode, System};
+use grm_turtle::{Interpreter, Turtle};
+use rayon::prelude::*;
+
+use crate::error::{LimitKind, SampleError};
+use crate::expand::{Grammar, Which, Worker};
+use crate::model::*;
+use crate::particle::*;
+use crate::pvec::PVec;
+use crate::resample;
+use crate::schedule::Schedule;
+
+/// What the search minimizes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Objective {
+    /// The guiding-curve cost of Calder (eq. 1-8, plus density when the
+    /// curves file turns it on), with the heuristic of eq. 9-10.
+    Curves,
+    /// The volume-matching baseline (`grm_guide::VolumeTarget`): likelihood
+    /// `exp(-weight * cost)`; no heuristic (eq. 10 is a curve term).
+    Volume {
+        options: VolumeOptions,
+        /// The volume cost lies in `[0, 2]`; the weight puts it on a scale
+        /// comparable to the curve cost's.
+        weight: f64,
+    },
+}
+
+/// How the expected directions (eq. 9) are estimated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ExpectedOptions {
+    /// Sub-derivations sampled per skeleton symbol.
+    pub models: u32,
+    /// Expansions per sub-derivation (its open skeleton symbols are
+    /// expanded in random order until none is left or this many were made).
+    pub expansions: u32,
+    /// The fixed seed of those samples (independent of the run's seed).
+    pub seed: u32,
+}
+
+impl Default for ExpectedOptions {
+    /// 64 models of up to 24 expansions each, seed `0x5EED`.
+    fn default() -> Self {
+        ExpectedOptions {
+            models: 64,
+            expansions: 24,
+            seed: 0x5EED,
+        }
+    }
+}
+
+/// How one run samples.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SampleOptions {
+    /// The seed of every random draw of the run.
+    pub seed: u32,
+    pub schedule: Schedule,
+    /// Whether the heuristic (eq. 10) is used (with the schedule's scale).
+    pub heuristic: bool,
+    /// Likelihood `exp(-objective / temperature)`; 1 is Calder's.
+    /// `f64::INFINITY` gives every particle the same weight (unguided
+    /// sampling: resampling then only thins the population).
+    pub temperature: f64,
+    /// Worker threads: 1 runs on the calling thread, 0 uses all cores.
+    /// The result does not depend on it.
+    pub threads: usize,
+    /// Stop the search after the generation during which this much wall
+    /// time has passed (then wrap up and finish as usual). The one
+    /// non-deterministic option: where it stops depends on the machine.
+    pub budget: Option<Duration>,
+    /// How many of the best distinct final models to return (at least 1).
+    pub best: usize,
+    /// A particle's step expands random open skeleton symbols until one
+    /// adds a bone, at most this many.
+    pub max_expansions_per_step: u32,
+    pub limits: FinishLimits,
+}
+
+impl Default for SampleOptions {
+    fn default() -> Self {
+        SampleOptions {
+            seed: 0,
+            schedule: Schedule::calder_playground(),
+            heuristic: true,
+            temperature: 1.0,
+            threads: 1,
+            budget: None,
+            best: 1,
+            max_expansions_per_step: 1000,
+            limits: FinishLimits::default(),
+        }
+    }
+}
+
+impl SampleOptions {
+    /// Forward sampling without guidance: one particle, no weights, the
+    /// schedule's number of generations (steps).
+    pub fn unguided(seed: u32, generations: u32) -> SampleOptions {
+        SampleOptions {
+            seed,
+            schedule: Schedule {
+                generations,
+                particles_start: 1,
+                particles_end: 1,
+                heuristic_scale: 0.0,
+                heuristic_until: 0,
+            },
+            heuristic: false,
+            temperature: f64::INFINITY,
+            ..SampleOptions::default()
+        }
+    }
+}
+
+/// A sample system prepared for guided sampling: the compiled grammar, the
+/// cost of the curves and the expected direction of every skeleton symbol
+/// (eq. 9, computed here, once).
+#[derive(Debug)]
+pub struct Sampler<'a> {
+    g: Grammar<'a>,
+    cost: CostModel,
+    objective: Objective,
+    volume: Option<VolumeTarget>,
+    /// Per symbol: EXPECTED (zero for non-skeleton symbols and for those
+    /// that never grow a bone).
+    expected: Vec<Vec3>,
+    expected_time: Duration,
+}
+
+// Random streams. Every draw is `rng::hash` of the run's seed and a tuple
+// naming exactly one decision, so the run is a function of (program,
+// curves, seed, schedule) and of nothing else (not of thread timing).
+const STREAM_SKELETON: u32 = 1;
+const STREAM_RESAMPLE: u32 = 2;
+const STREAM_AXIOM: u32 = 3;
+const STREAM_WRAPUP: u32 = 4;
+const STREAM_GEOMETRY: u32 = 5;
+const STREAM_EXPECTED: u32 = 6;
+const STREAM_ORDER: u32 = 7;
+
+/// Expansion `k` of particle `i`'s step in generation `g`.
+fn skeleton_draws(seed: u32, g: u32, i: u32, k: u32) -> DrawCtx {
+    DrawCtx {
+        seed: rng::hash(seed, g, i, k),
+        iteration: STREAM_SKELETON,
+        position: 0,
+    }
+}
+
+fn tagged(seed: u32, tag: u32, a: u32, b: u32) -> DrawCtx {
+    DrawCtx {
+        seed: rng::hash(seed, u32::MAX - tag, a, b),
+        iteration: tag,
+        position: 0,
+    }
+}
+
+/// The uniform of generation `g`'s systematic resampling.
+fn resample_uniform(seed: u32, g: u32) -> f64 {
+    f64::from(rng::uniform(seed, g, u32::MAX, STREAM_RESAMPLE))
+}
+
+/// Pick an index in `0 .. n` with draw `draw` of `ctx`.
+fn pick(ctx: &DrawCtx, draw: u32, n: usize) -> usize {
+    ((ctx.uniform(draw) as f64 * n as f64) as usize).min(n.saturating_sub(1))
+}
+
+/// How an open non-terminal is expanded.
+enum How<'t> {
+    /// Draw the production and its parameters.
+    Draw {
+        draws: DrawCtx,
+        which: Which,
+        phase: &'static str,
+    },
+    /// Apply a given production with given successor parameters (replay).
+    Given {
+        alt: u32,
+        params: &'t [f32],
+        which: Which,
+    },
+}
+
+/// A simple (non-persistent) open symbol, for the expected directions.
+struct Loose {
+    symbol: u32,
+    params: Vec<f32>,
+    turtle: Turtle,
+}
+
+impl<'a> Sampler<'a> {
+    /// Prepare `system` (checked without errors, of mode sample) compiled
+    /// as `compiled`, guided by `curves`, for the given objective. This
+    /// estimates the expected direction of every skeleton symbol.
+    pub fn new(
+        system: &System,
+        compiled: &'a CompiledSystem,
+        curves: &Curves,
+        objective: Objective,
+        expected: ExpectedOptions,
+    ) -> Result<Sampler<'a>, SampleError> {
+        if system.mode != Mode::Sample {
+            return Err(SampleError::NotSampleSystem {
+                system: system.name.clone(),
+            });
+        }
+        let g = Grammar::new(system, compiled);
+        let cost = CostModel::new(curves, CostOptions::from_curves(curves));
+        let volume = match objective {
+            Objective::Curves => None,
+            Objective::Volume { options, weight } => {
+                if !(weight.is_finite() && weight > 0.0) {
+                    return Err(SampleError::Options(format!(
+                        "the volume weight {weight} must be a finite number > 0"
+                    )));
+                }
+                Some(
+                    VolumeTarget::from_curves(curves, options)
+                        .map_err(|e| SampleError::Options(e.to_string()))?,
+                )
+            }
+        };
+        let mut s = Sampler {
+            g,
+            cost,
+            objective,
+            volume,
+            expected: Vec::new(),
+            expected_time: Duration::ZERO,
+        };
+        let t = Instant::now();
+        s.expected = s.expected_directions(&expected)?;
+        s.expected_time = t.elapsed();
+        Ok(s)
+    }
+
+    /// The curve cost model.
+    pub fn cost_model(&self) -> &CostModel {
+        &self.cost
+    }
+
+    /// The expected direction (eq. 9) of a symbol, by name: `None` for a
+    /// name the system does not have; zero for symbols that are not
+    /// skeleton symbols or never grow a bone.
+    pub fn expected_direction(&self, symbol: &str) -> Option<Vec3> {
+        let i = self.g.sys.symbol_names.iter().position(|n| n == symbol)?;
+        self.expected.get(i).copied()
+    }
+
+    /// Time spent estimating the expected directions in [`Sampler::new`].
+    pub fn expected_time(&self) -> Duration {
+        self.expected_time
+    }
+
+    // ---- expected directions (eq. 9) ------------------------------------
+
+    /// Expand random open skeleton symbols of `open` (a plain vector) until
+    /// none is left or `max` were expanded; `on_bones` sees each
+    /// expansion's bones, `on_open` each skeleton symbol it opens.
+    fn grow_loose(
+        &self,
+        w: &mut Worker,
+        open: &mut Vec<Loose>,
+        max: u32,
+        draws: impl Fn(u32) -> DrawCtx,
+        bones: &mut Vec<(Vec3, Vec3)>,
+        mut on_open: impl FnMut(u32, &[f32]),
+    ) -> Result<(), SampleError> {
+        let sys = self.g.sys;
+        let mut k = 0;
+        while !open.is_empty() && k < max {
+            let ctx = draws(k);
+            k += 1;
+            let idx = pick(&ctx, sys.draws, open.len());
+            let item = open.swap_remove(idx);
+            let phase = "expected direction";
+            let Some(alt) =
+                self.g
+                    .choose(w, item.symbol, &item.params, Which::Normal, &ctx, phase)?
+            else {
+                continue;
+            };
+            self.g.eval_successor(w, item.symbol, alt, &ctx, phase)?;
+            self.g.interpret(w, alt, &item.turtle)?;
+            bones.extend_from_slice(&w.bones);
+            let a = &sys.alts[alt as usize];
+            for &(m, t) in &w.users {
+                let sym = sys.succ[(a.succ_offset + m) as usize].symbol;
+                if self.g.is_skeleton(sym) {
+                    let params = self.g.module_params(alt, m, &w.params).to_vec();
+                    on_open(sym, &params);
+                    open.push(Loose {
+                        symbol: sym,
+                        params,
+                        turtle: t,
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Eq. 9 for every skeleton symbol: the mean, over `opts.models`
+    /// sub-derivations grown from the symbol alone in the identity frame,
+    /// of each one's mean bone vector. A symbol with parameters is grown
+    /// with parameter values it actually takes: those of its occurrences in
+    /// forward samples from the axiom (a symbol never met there gets no
+    /// heuristic).
+    fn expected_directions(&self, opts: &ExpectedOptions) -> Result<Vec<Vec3>, SampleError> {
+        let n = self.g.phase.len();
+        let mut w = self.g.worker();
+        let mut params: Vec<Vec<Vec<f32>>> = vec![Vec::new(); n];
+        let per = opts.models.max(1) as usize;
+        let mut parametric = false;
+        for (s, list) in params.iter_mut().enumerate() {
+            if self.g.is_skeleton(s as u32) {
+                if self.g.words[s] == 0 {
+                    list.push(Vec::new());
+                } else {
+                    parametric = true;
+                }
+            }
+        }
+        let mut bones = Vec::new();
+        if parametric {
+            // Parameter values from forward samples of the whole grammar.
+            for run in 0..16u32 {
+                let root = self.axiom_loose(&mut w, opts.seed, run)?;
+                let mut open = root;
+                for o in &open {
+                    if params[o.symbol as usize].len() < per {
+                        params[o.symbol as usize].push(o.params.clone());
+                    }
+                }
+                self.grow_loose(
+                    &mut w,
+                    &mut open,
+                    opts.expansions.max(1) * 4,
+                    |k| tagged(opts.seed, STREAM_EXPECTED, u32::MAX - run, k),
+                    &mut bones,
+                    |sym, p| {
+                        let list = &mut params[sym as usize];
+                        if list.len() < per {
+                            list.push(p.to_vec());
+                        }
+                    },
+                )?;
+                bones.clear();
+            }
+        }
+        let mut out = vec![Vec3::ZERO; n];
+        let identity = self.g.initial_turtle();
+        for s in 0..n {
+            if !self.g.is_skeleton(s as u32) || params[s].is_empty() {
+                continue;
+            }
+            let mut acc = ExpectedDirection::new();
+            for m in 0..per {
+                let mut open = vec![Loose {
+                    symbol: s as u32,
+                    params: params[s][m % params[s].len()].clone(),
+                    turtle: identity,
+                }];
+                bones.clear();
+                self.grow_loose(
+                    &mut w,
+                    &mut open,
+                    opts.expansions.max(1),
+                    |k| {
+                        let seed = rng::hash(opts.seed, s as u32, m as u32, k);
+                        tagged(seed, STREAM_EXPECTED, 0, 0)
+                    },
+                    &mut bones,
+                    |_, _| {},
+                )?;
+                acc.add_model(&bones);
+            }
+            let e = acc.finish();
+            out[s] = if e.is_finite() { e } else { Vec3::ZERO };
+        }
+        Ok(out)
+    }
+
+    /// The axiom's skeleton symbols as loose open items (for the parameter
+    /// samples of the expected directions).
+    fn axiom_loose(&self, w: &mut Worker, seed: u32, run: u32) -> Result<Vec<Loose>, SampleError> {
+        let sys = self.g.sys;
+        let ctx = tagged(seed, STREAM_AXIOM, run, 0);
+        let alt = sys.axiom_alt;
+        self.g.eval_successor(w, u32::MAX, alt, &ctx, "axiom")?;
+        self.g.interpret(w, alt, &self.g.initial_turtle())?;
+        let a = &sys.alts[alt as usize];
+        let mut out = Vec::new();
+        for &(m, t) in &w.users {
+            let sym = sys.succ[(a.succ_offset + m) as usize].symbol;
+            if self.g.is_skeleton(sym) {
+                out.push(Loose {
+                    symbol: sym,
+                    params: self.g.module_params(alt, m, &w.params).to_vec(),
+                    turtle: t,
+                });
+            }
+        }
+        Ok(out)
+    }
+
+    // ---- particles --------------------------------------------------------
+
+    /// Eq. 10's term for a skeleton symbol opened at frame `t` (fixed
+    /// point); 0 for a symbol whose expected direction is zero (it grows
+    /// no bone, so it adds no future alignment cost).
+    fn heuristic_term(&self, sym: u32, t: &Turtle) -> i128 {
+        let e = self
+            .expected
+            .get(sym as usize)
+            .copied()
+            .unwrap_or(Vec3::ZERO);
+        if e == Vec3::ZERO {
+            return 0;
+        }
+        to_fixed(self.cost.heuristic_in_frame(&t.frame, e))
+    }
+
+    /// The objective without heuristic.
+    fn objective_of(&self, p: &Particle) -> f64 {
+        match (self.objective, &self.volume, &p.volume) {
+            (Objective::Volume { weight, .. }, Some(vt), Some(vs)) => weight * vt.cost(vs).total(),
+            _ => self.cost.total(&p.cost).total(),
+        }
+    }
+
+    fn score(&self, p: &Particle, h_scale: f64) -> f64 {
+        let base = self.objective_of(p);
+        if h_scale == 0.0 {
+            base
+        } else {
+            base + h_scale * from_fixed(p.heuristic)
+        }
+    }
+
+    /// Score `w.bones` into `p`.
+    fn add_bones(&self, w: &Worker, p: &mut Particle) {
+        for &(b, t) in &w.bones {
+            self.cost.add_bone(&mut p.cost, b, t);
+            if let (Some(vt), Some(vs)) = (&self.volume, p.volume.as_mut()) {
+                vt.add_bone(vs, b, t);
+            }
+        }
+        if w.non_finite {
+            // The interpreter dropped a bone with a non-finite end: the
+            // model's cost is +inf (weight 0).
+            self.cost.add_bone(&mut p.cost, Vec3::NAN, Vec3::NAN);
+        }
+        p.bones += w.bones.len() as u32;
+    }
+
+    /// The skeleton spawns of the successor just interpreted in `w`.
+    fn spawns(&self, w: &Worker, alt: u32, compute_h: bool) -> Vec<Spawn> {
+        let sys = self.g.sys;
+        let a = &sys.alts[alt as usize];
+        let mut out = Vec::new();
+        for (ord, &(m, t)) in w.users.iter().enumerate() {
+            let sym = sys.succ[(a.succ_offset + m) as usize].symbol;
+            if self.g.is_skeleton(sym) {
+                out.push(Spawn {
+                    ordinal: ord as u32,
+                    symbol: sym,
+                    module: m,
+                    turtle: t,
+                    h: if compute_h {
+                        self.heuristic_term(sym, &t)
+                    } else {
+                        0
+                    },
+                });
+            }
+        }
+        out
+    }
+
+    /// The particle holding only the axiom (interpreted from the initial
+    /// turtle, its bones scored, its skeleton symbols open).
+    fn root_particle(
+        &self,
+        w: &mut Worker,
+        how: Option<&[f32]>,
+        seed: u32,
+        h_scale: f64,
+    ) -> Result<Particle, SampleError> {
+        let alt = self.g.sys.axiom_alt;
+        match how {
+            None => {
+                let ctx = tagged(seed, STREAM_AXIOM, 0, 0);
+                self.g.eval_successor(w, u32::MAX, alt, &ctx, "axiom")?;
+            }
+            Some(p) => {
+                w.params.clear();
+                w.params.extend_from_slice(p);
+            }
+        }
+        self.g.interpret(w, alt, &self.g.initial_turtle())?;
+        let spawns = self.spawns(w, alt, h_scale > 0.0);
+        let node = Arc::new(Node {
+            prev: None,
+            seq: 0,
+            parent: ROOT,
+            symbol: u32::MAX,
+            kind: NodeKind::Axiom,
+            alt,
+            params: w.params.as_slice().into(),
+            spawns: spawns.into_boxed_slice(),
+        });
+        let mut p = Particle {
+            head: Arc::clone(&node),
+            open: PVec::new(),
+            cost: self.cost.new_state(),
+            volume: self.volume.as_ref().map(VolumeTarget::new_state),
+            heuristic: 0,
+            score: 0.0,
+            bones: 0,
+        };
+        self.add_bones(w, &mut p);
+        for (k, s) in node.spawns.iter().enumerate() {
+            p.open = p.open.push(OpenRef {
+                node: Arc::clone(&node),
+                spawn: k as u32,
+            });
+            p.heuristic += s.h;
+        }
+        p.score = self.score(&p, h_scale);
+        Ok(p)
+    }
+
+    /// Expand open symbol `idx` of `p`; returns the bones it added.
+    fn expand_open(
+        &self,
+        w: &mut Worker,
+        p: &mut Particle,
+        idx: usize,
+        how: How<'_>,
+        compute_h: bool,
+    ) -> Result<usize, SampleError> {
+        let Some((open, r)) = p.open.swap_remove(idx) else {
+            return Ok(0);
+        };
+        p.open = open;
+        let parent = &r.node;
+        let sp = *r.spawn();
+        p.heuristic -= sp.h;
+        let input = self.g.module_params(parent.alt, sp.module, &parent.params);
+        let which = match how {
+            How::Draw { which, .. } | How::Given { which, .. } => which,
+        };
+        let alt = match how {
+            How::Draw { draws, phase, .. } => {
+                match self.g.choose(w, sp.symbol, input, which, &draws, phase)? {
+                    Some(a) => {
+                        self.g.eval_successor(w, sp.symbol, a, &draws, phase)?;
+                        a
+                    }
+                    None => INERT,
+                }
+            }
+            How::Given { alt, params, .. } => {
+                w.params.clear();
+                w.params.extend_from_slice(params);
+                alt
+            }
+        };
+        let kind = match which {
+            Which::Normal => NodeKind::Skeleton,
+            Which::Wrapup => NodeKind::Wrapup,
+        };
+        let mut bones = 0;
+        let spawns = if alt == INERT {
+            w.params.clear();
+            Vec::new()
+        } else {
+            self.g.interpret(w, alt, &sp.turtle)?;
+            self.add_bones(w, p);
+            bones = w.bones.len();
+            self.spawns(w, alt, compute_h)
+        };
+        let node = Arc::new(Node {
+            prev: Some(Arc::clone(&p.head)),
+            seq: p.head.seq + 1,
+            parent: (parent.seq, sp.ordinal),
+            symbol: sp.symbol,
+            kind,
+            alt,
+            params: w.params.as_slice().into(),
+            spawns: spawns.into_boxed_slice(),
+        });
+        for (k, s) in node.spawns.iter().enumerate() {
+            p.open = p.open.push(OpenRef {
+                node: Arc::clone(&node),
+                spawn: k as u32,
+            });
+            p.heuristic += s.h;
+        }
+        p.head = node;
+        Ok(bones)
+    }
+
+    /// One particle step (Calder's `advance`): expand random open skeleton
+    /// symbols until one adds a bone or none is left; score the result.
+    #[allow(clippy::too_many_arguments)]
+    fn advance(
+        &self,
+        w: &mut Worker,
+        p: &Particle,
+        seed: u32,
+        g: u32,
+        i: u32,
+        h_scale: f64,
+        max_k: u32,
+    ) -> Result<(Particle, u32), SampleError> {
+        let mut q = p.clone();
+        let compute_h = h_scale > 0.0;
+        let mut k = 0;
+        while !q.open.is_empty() && k < max_k {
+            let draws = skeleton_draws(seed, g, i, k);
+            let idx = pick(&draws, self.g.sys.draws, q.open.len());
+            k += 1;
+            let how = How::Draw {
+                draws,
+                which: Which::Normal,
+                phase: "skeleton",
+            };
+            if self.expand_open(w, &mut q, idx, how, compute_h)? > 0 {
+                break;
+            }
+        }
+        q.score = self.score(&q, h_scale);
+        Ok((q, k))
+    }
+
+    /// Close every open skeleton symbol of `p` with its wrap-up production.
+    fn wrap_up(
+        &self,
+        w: &mut Worker,
+        p: &Particle,
+        seed: u32,
+        c: u32,
+        limits: &FinishLimits,
+    ) -> Result<Particle, SampleError> {
+        let mut q = p.clone();
+        let mut k = 0u32;
+        while !q.open.is_empty() {
+            if u64::from(k) >= limits.max_expansions {
+                let sym = q.open.get(q.open.len() - 1).map_or(0, |r| r.spawn().symbol);
+                return Err(SampleError::GeometryLimit {
+                    symbol: self.g.symbol_name(sym),
+                    what: LimitKind::Expansions,
+                    limit: limits.max_expansions,
+                    file: self.g.sys.file,
+                    span: self.g.sys.span,
+                });
+            }
+            let draws = tagged(seed, STREAM_WRAPUP, c, k);
+            k += 1;
+            let idx = q.open.len() - 1;
+            let how = How::Draw {
+                draws,
+                which: Which::Wrapup,
+                phase: "wrap-up",
+            };
+            self.expand_open(w, &mut q, idx, how, false)?;
+        }
+        q.score = self.score(&q, 0.0);
+        Ok(q)
+    }
+
+    // ---- the run ----------------------------------------------------------
+
+    /// Sample one model: the skeleton phase (SOSMC over the schedule),
+    /// wrap-up of every distinct final particle, then the geometry phase
+    /// for the best ones. Deterministic for a given seed and schedule,
+    /// whatever `threads`, unless a `budget` stops the search early.
+    pub fn sample(&self, opts: &SampleOptions) -> Result<SampleResult, SampleError> {
+        let threads = match opts.threads {
+            0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+            t => t,
+        };
+        if threads <= 1 {
+            return self.run(opts, false);
+        }
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .map_err(|e| SampleError::ThreadPool(e.to_string()))?;
+        pool.install(|| self.run(opts, true))
+    }
+
+    fn run(&self, opts: &SampleOptions, parallel: bool) -> Result<SampleResult, SampleError> {
+        let start = Instant::now();
+        let sched = opts.schedule;
+        let gens = sched.generations.max(1);
+        let seed = opts.seed;
+        let h_of = |g: u32| {
+            if opts.heuristic {
+                sched.heuristic_scale(g)
+            } else {
+                0.0
+            }
+        };
+        let temperature = if opts.temperature > 0.0 && !opts.temperature.is_nan() {
+            opts.temperature
+        } else {
+            1.0
+        };
+        let max_k = opts.max_expansions_per_step.max(1);
+        let mut w = self.g.worker();
+        let root = Arc::new(self.root_particle(&mut w, None, seed, h_of(0))?);
+        let mut pop: Vec<Arc<Particle>> = vec![root; sched.particles(0)];
+        let mut stats = Vec::with_capacity(gens as usize);
+        let mut log_w = Vec::new();
+        let mut weights = Vec::new();
+        let mut ancestors = Vec::new();
+        let mut stopped_early = false;
+        let mut last: Vec<Arc<Particle>> = Vec::new();
+        for g in 0..gens {
+            let h = h_of(g);
+            let step = |w: &mut Worker, (i, p): (usize, &Arc<Particle>)| {
+                self.advance(w, p, seed, g, i as u32, h, max_k)
+            };
+            let results: Vec<Result<(Particle, u32), SampleError>> = if parallel {
+                pop.par_iter()
+                    .enumerate()
+                    .map_init(|| self.g.worker(), step)
+                    .collect()
+            } else {
+                pop.iter().enumerate().map(|x| step(&mut w, x)).collect()
+            };
+            let mut next = Vec::with_capacity(results.len());
+            let mut expansions = 0u64;
+            for r in results {
+                // The first error in particle order, whatever the threads.
+                let (q, k) = r?;
+                expansions += u64::from(k);
+                next.push(Arc::new(q));
+            }
+            log_w.clear();
+            log_w.extend(next.iter().zip(&pop).map(|(q, p)| {
+                if temperature.is_infinite() {
+                    0.0
+                } else {
+                    -(q.score - p.score) / temperature
+                }
+            }));
+            resample::normalized(&log_w, &mut weights);
+            let best = next
+                .iter()
+                .map(|q| self.objective_of(q))
+                .fold(f64::INFINITY, f64::min);
+            stats.push(GenerationStats {
+                generation: g,
+                particles: next.len(),
+                expanding: pop.iter().filter(|p| !p.open.is_empty()).count(),
+                ess: resample::ess(&weights),
+                heuristic_scale: h,
+                best_objective: best,
+                mean_bones: next.iter().map(|q| f64::from(q.bones)).sum::<f64>()
+                    / next.len().max(1) as f64,
+                expansions,
+            });
+            let out_of_time = opts.budget.is_some_and(|b| start.elapsed() >= b);
+            if g + 1 == gens || out_of_time {
+                stopped_early = g + 1 < gens;
+                last = next;
+                break;
+            }
+            resample::systematic(
+                &weights,
+                sched.particles(g + 1),
+                resample_uniform(seed, g),
+                &mut ancestors,
+            );
+            pop = ancestors.iter().map(|&a| Arc::clone(&next[a])).collect();
+        }
+        drop(pop);
+
+        // Distinct final particles (copies share their head node).
+        let mut seen = std::collections::HashSet::new();
+        let finals: Vec<&Arc<Particle>> = last
+            .iter()
+            .filter(|p| seen.insert(Arc::as_ptr(&p.head)))
+            .collect();
+        let wrap = |w: &mut Worker, (c, p): (usize, &&Arc<Particle>)| {
+            self.wrap_up(w, p, seed, c as u32, &opts.limits)
+        };
+        let wrapped: Vec<Result<Particle, SampleError>> = if parallel {
+            finals
+                .par_iter()
+                .enumerate()
+                .map_init(|| self.g.worker(), wrap)
+                .collect()
+        } else {
+            finals.iter().enumerate().map(|x| wrap(&mut w, x)).collect()
+        };
+        let wrapped: Vec<Particle> = wrapped.into_iter().collect::<Result<_, _>>()?;
+        let candidates: Vec<f64> = wrapped.iter().map(|q| self.objective_of(q)).collect();
+        // Lowest objective first; NaN last; ties by particle index.
+        let mut order: Vec<usize> = (0..wrapped.len()).collect();
+        order.sort_by(|&a, &b| {
+            let (x, y) = (candidates[a], candidates[b]);
+            x.partial_cmp(&y)
+                .unwrap_or_else(|| x.is_nan().cmp(&y.is_nan()))
+                .then(a.cmp(&b))
+        });
+        order.truncate(opts.best.max(1));
+        let mut models = Vec::with_capacity(order.len());
+        for c in order {
+            models.push(self.build_model(&mut w, &wrapped[c], seed, c as u32, &opts.limits)?);
+        }
+        Ok(SampleResult {
+            models,
+            generations: stats,
+            candidates,
+            stopped_early,
+            elapsed: start.elapsed(),
+        })
+    }
+
+    // ---- the complete model ------------------------------------------------
+
+    /// The complete model of a wrapped-up particle: walk its derivation tree
+    /// depth first, interpreting each expansion's successor from its
+    /// non-terminal's frame, and expand the geometry symbols on the way
+    /// (the geometry phase, to completion, within `limits`).
+    fn build_model(
+        &self,
+        w: &mut Worker,
+        p: &Particle,
+        seed: u32,
+        c: u32,
+        limits: &FinishLimits,
+    ) -> Result<SampledModel, SampleError> {
+        let sys = self.g.sys;
+        let chain = p.chain();
+        let key = |a: u32, b: u32| (u64::from(a) << 32) | u64::from(b);
+        let mut kids: Vec<(u64, u32)> = chain
+            .iter()
+            .skip(1)
+            .map(|n| (key(n.parent.0, n.parent.1), n.seq))
+            .collect();
+        kids.sort_unstable();
+
+        enum Src {
+            Chain(u32),
+            Fresh {
+                symbol: u32,
+                alt: u32,
+                params: Vec<f32>,
+            },
+        }
+        struct Item {
+            src: Src,
+            turtle: Turtle,
+            parent: Option<(u32, u32)>,
+            depth: u32,
+        }
+        let mut interp = Interpreter::from_parts(self.g.ops.clone(), self.g.cfg);
+        let mut string = ModuleString::new();
+        let mut origins: Vec<u32> = Vec::new();
+        let mut tree = DerivationTree::default();
+        let mut users: Vec<(usize, Turtle)> = Vec::new();
+        let mut stack = vec![Item {
+            src: Src::Chain(0),
+            turtle: self.g.initial_turtle(),
+            parent: None,
+            depth: 0,
+        }];
+        let mut geometry = 0u64;
+        while let Some(item) = stack.pop() {
+            let (symbol, kind, alt, params): (u32, NodeKind, u32, &[f32]) = match &item.src {
+                Src::Chain(seq) => {
+                    let n = chain[*seq as usize];
+                    (n.symbol, n.kind, n.alt, &n.params)
+                }
+                Src::Fresh {
+                    symbol,
+                    alt,
+                    params,
+                } => (*symbol, NodeKind::Geometry, *alt, params),
+            };
+            let idx = tree.nodes.len() as u32;
+            let first = string.len();
+            if let Some(a) = sys.alts.get(alt as usize) {
+                for m in sys.successor(a) {
+                    let n = self.g.words[m.symbol as usize] as usize;
+                    let o = m.word_offset as usize;
+                    string.push(m.symbol, params.get(o..o + n).unwrap_or(&[]));
+                    origins.push(alt);
+                }
+            }
+            let b0 = interp.output().bones.len() as u32;
+            users.clear();
+            interp
+                .run_range(item.turtle, &string, first..string.len(), &mut |i, t| {
+                    users.push((i, *t));
+                })
+                .map_err(|e| SampleError::Turtle(e.to_string()))?;
+            let b1 = interp.output().bones.len() as u32;
+            tree.nodes.push(TreeNode {
+                parent: item.parent,
+                kind,
+                symbol,
+                alt: (alt != INERT).then_some(alt),
+                params: params.to_vec(),
+                modules: first as u32..string.len() as u32,
+                bones: b0..b1,
+            });
+            for (ord, &(i, t)) in users.iter().enumerate().rev() {
+                let parent = Some((idx, ord as u32));
+                if let Src::Chain(seq) = item.src
+                    && let Ok(pos) = kids.binary_search_by_key(&key(seq, ord as u32), |k| k.0)
+                {
+                    stack.push(Item {
+                        src: Src::Chain(kids[pos].1),
+                        turtle: t,
+                        parent,
+                        depth: 0,
+                    });
+                    continue;
+                }
+                let sym = string.syms[i];
+                if !self.g.is_geometry(sym) {
+                    // Inert: a symbol without a phase, or (only if the
+                    // checker let one through) a skeleton symbol.
+                    continue;
+                }
+                let depth = item.depth + 1;
+                let what = if depth > limits.max_depth {
+                    Some((LimitKind::Depth, u64::from(limits.max_depth)))
+                } else if geometry >= limits.max_expansions {
+                    Some((LimitKind::Expansions, limits.max_expansions))
+                } else {
+                    None
+                };
+                if let Some((what, limit)) = what {
+                    return Err(SampleError::GeometryLimit {
+                        symbol: self.g.symbol_name(sym),
+                        what,
+                        limit,
+                        file: sys.file,
+                        span: sys.alt_spans.get(alt as usize).copied().unwrap_or(sys.span),
+                    });
+                }
+                let draws = tagged(seed, STREAM_GEOMETRY, c, geometry as u32);
+                geometry += 1;
+                let input: Vec<f32> = string.get(i).1.to_vec();
+                if let Some(a) = self
+                    .g
+                    .choose(w, sym, &input, Which::Normal, &draws, "geometry")?
+                {
+                    self.g.eval_successor(w, sym, a, &draws, "geometry")?;
+                    stack.push(Item {
+                        src: Src::Fresh {
+                            symbol: sym,
+                            alt: a,
+                            params: w.params.clone(),
+                        },
+                        turtle: t,
+                        parent,
+                        depth,
+                    });
+                }
+            }
+        }
+        let mut interpretation = interp.finish();
+        interpretation.fill_origins(&origins);
+        Ok(SampledModel {
+            cost: self.cost.total(&p.cost),
+            volume: match (&self.volume, &p.volume) {
+                (Some(vt), Some(vs)) => Some(vt.cost(vs)),
+                _ => None,
+            },
+            objective: self.objective_of(p),
+            skeleton_bones: p.bones,
+            interpretation,
+            string,
+            origins,
+            tree,
+            candidate: c as usize,
+        })
+    }
+
+    // ---- checks -------------------------------------------------------------
+
+    /// Replay the axiom, skeleton and wrap-up expansions of `tree` (a
+    /// complete derivation made by this sampler) in a random order (every
+    /// non-terminal after the expansion that emitted it; the order is drawn
+    /// from `order_seed`) with the sampler's own machinery, and return the
+    /// cost of the result. It equals the model's cost, bit for bit, for
+    /// every order: the check that the cost does not depend on the order in
+    /// which symbols were expanded.
+    pub fn cost_in_order(
+        &self,
+        tree: &DerivationTree,
+        order_seed: u32,
+    ) -> Result<CostBreakdown, SampleError> {
+        let bad = |m: &str| SampleError::Options(format!("cannot replay the tree: {m}"));
+        let root = tree.nodes.first().ok_or_else(|| bad("it is empty"))?;
+        if root.kind != NodeKind::Axiom {
+            return Err(bad("node 0 is not the axiom"));
+        }
+        let mut kid: HashMap<(u32, u32), u32> = HashMap::new();
+        for (i, n) in tree.nodes.iter().enumerate() {
+            if let Some(p) = n.parent {
+                kid.insert(p, i as u32);
+            }
+        }
+        let mut w = self.g.worker();
+        let mut p = self.root_particle(&mut w, Some(&root.params), 0, 0.0)?;
+        // Chain seq -> tree node.
+        let mut tree_of = vec![0u32];
+        let mut k = 0u32;
+        while !p.open.is_empty() {
+            let ctx = tagged(order_seed, STREAM_ORDER, k, 0);
+            k += 1;
+            let idx = pick(&ctx, 0, p.open.len());
+            let r = p.open.get(idx).ok_or_else(|| bad("open list"))?;
+            let parent = tree_of[r.node.seq as usize];
+            let child = *kid
+                .get(&(parent, r.spawn().ordinal))
+                .ok_or_else(|| bad("an open symbol has no expansion"))?;
+            let n = &tree.nodes[child as usize];
+            let which = match n.kind {
+                NodeKind::Wrapup => Which::Wrapup,
+                NodeKind::Skeleton => Which::Normal,
+                _ => return Err(bad("a skeleton symbol has a geometry expansion")),
+            };
+            let how = How::Given {
+                alt: n.alt.unwrap_or(INERT),
+                params: &n.params,
+                which,
+            };
+            self.expand_open(&mut w, &mut p, idx, how, false)?;
+            tree_of.push(child);
+        }
+        Ok(self.cost.total(&p.cost))
+    }
+}
