@@ -23,3 +23,23 @@ fi
 
 echo "== cargo test"
 cargo test --workspace --locked
+
+# The VS Code extension and the preview page (editors/): node unit tests,
+# then the page in headless Chromium against `grmc view` (Debian's chromium,
+# no browser download; packages from the npm registry only).
+echo "== editors: npm ci, build, unit tests, browser test"
+if ! command -v node >/dev/null 2>&1; then
+    echo "node (20 or later) is needed for the editors tests" >&2
+    exit 1
+fi
+if [ ! -x /usr/bin/chromium ]; then
+    apt-get update && apt-get install -y --no-install-recommends chromium
+fi
+(cd editors && npm ci --ignore-scripts --no-audit --no-fund)
+(cd editors && node scripts/build.mjs && npm run --silent typecheck)
+# grmc view embeds the committed page: it must be the build of the sources.
+git diff --exit-code --stat -- editors/preview/dist
+(cd editors && node --test out/test/)
+bash editors/vscode/scripts/package.sh --out target/grm.vsix
+cargo build -p grmc --locked
+(cd editors && node --test out/browser-test/)

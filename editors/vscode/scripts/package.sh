@@ -12,7 +12,7 @@ out="$here/grm-$(node -p "require('$here/package.json').version").vsix"
 while [ $# -gt 0 ]; do
     case "$1" in
         --with-server) server="$2"; shift 2 ;;
-        --out) out="$2"; shift 2 ;;
+        --out) out="$(realpath -m "$2")"; shift 2 ;;
         *) echo "usage: $0 [--with-server PATH] [--out FILE]" >&2; exit 2 ;;
     esac
 done
