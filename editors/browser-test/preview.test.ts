@@ -228,6 +228,31 @@ test('derive mode: the model renders, a slider regrows it, a pick names the rule
   await page.close();
 });
 
+test('variations: next variation and the gallery of seeds (a stochastic grammar)', async () => {
+  const dir = scratch(['stochastic_plant.grm']);
+  const page = await openPage(await view(join(dir, 'stochastic_plant.grm')));
+  const g0 = await waitRegrows(page, 1, 'first model');
+  const bones0 = await page.evaluate(() => (globalThis as unknown as { __grm: { bonesList(): unknown[] } }).__grm.bonesList());
+  await page.click('#next-variation');
+  const g1 = await waitRegrows(page, g0.regrows + 1, 'next variation');
+  assert.equal(g1.seed, (g0.seed ?? 0) + 1);
+  const bones1 = await page.evaluate(() => (globalThis as unknown as { __grm: { bonesList(): unknown[] } }).__grm.bonesList());
+  assert.notDeepEqual(bones1, bones0, 'another seed grows another plant');
+
+  await page.click('#gallery-open');
+  await page.waitForFunction(() => document.querySelectorAll('#gallery-grid img[src^="data:image/png"]').length === 9, undefined, { timeout: 30_000 });
+  const captions = await page.$$eval('#gallery-grid figcaption', (els) => els.map((e) => e.textContent));
+  assert.deepEqual(captions, Array.from({ length: 9 }, (_, i) => `seed ${(g1.seed ?? 0) + i}`));
+  await page.screenshot({ path: join(artifacts, 'gallery.png') });
+  const before = await grm(page);
+  await page.click('#gallery-grid figure[data-seed="' + ((g1.seed ?? 0) + 4) + '"]');
+  await page.waitForFunction((n) => (globalThis as unknown as { __grm: Grm }).__grm.seed === n, (g1.seed ?? 0) + 4, { timeout: 10_000 });
+  await waitRegrows(page, before.regrows + 1, 'the chosen variation');
+  assert.equal(await page.isHidden('#gallery'), true);
+  assert.deepEqual(pageErrors(page), []);
+  await page.close();
+});
+
 test('sample mode: drawing a curve and dragging its control point regrow the Calder tree', async (t) => {
   const dir = scratch(['calder_tree.grm', 'calder_tree.curves.json', 'leaf.obj', 'trunk.obj']);
   const grammar = join(dir, 'calder_tree.grm');
