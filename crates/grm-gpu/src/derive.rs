@@ -34,6 +34,10 @@ pub struct GpuDeriveOptions {
     /// output buffers together), in bytes. The device's own limits apply
     /// in any case.
     pub max_bytes: u64,
+    /// Wait for every iteration to finish before the next starts, so that
+    /// each iteration's elapsed time is its own (benchmarks). Otherwise an
+    /// iteration's rewrite overlaps the next iteration's host work.
+    pub sync_iterations: bool,
 }
 
 impl GpuDeriveOptions {
@@ -46,6 +50,7 @@ impl GpuDeriveOptions {
             seed: sys.settings.seed,
             max_modules: cpu.max_modules,
             max_bytes: cpu.max_bytes,
+            sync_iterations: false,
         }
     }
 }
@@ -209,7 +214,7 @@ pub fn derive(
 
 impl<'a> GpuSystem<'a> {
     /// Validate and upload the tables. Must run inside [`Gpu::run`].
-    pub(crate) fn load(gpu: &'a Gpu, sys: &'a CompiledSystem) -> Result<GpuSystem<'a>, GpuError> {
+    pub fn load(gpu: &'a Gpu, sys: &'a CompiledSystem) -> Result<GpuSystem<'a>, GpuError> {
         sys.validate()
             .map_err(|e| GpuError::InvalidInput(e.to_string()))?;
         let widest = sys.symbols.iter().map(|s| s.param_words).max().unwrap_or(0);
@@ -234,7 +239,7 @@ impl<'a> GpuSystem<'a> {
 
     /// Run the derivation; the final string stays on the device.
     /// `progress` sees every string's figures as soon as they are known.
-    pub(crate) fn derive(
+    pub fn derive(
         &self,
         opts: &GpuDeriveOptions,
         progress: &mut dyn FnMut(&GpuIterationStats),

@@ -203,8 +203,10 @@ impl TurtleProgram {
 /// Bones and figures of one interpretation.
 #[derive(Clone, Debug)]
 pub struct GpuInterpretation {
-    /// In string order (as the CPU numbers them).
+    /// In string order (as the CPU numbers them); empty when not read back.
     pub bones: Vec<GpuBone>,
+    /// Number of bones.
+    pub bone_count: u64,
     /// Deepest branch nesting.
     pub max_depth: u32,
     /// Whether branches were walked (else scanned).
@@ -278,6 +280,7 @@ pub(crate) fn interpret_device(
     let walked = program.walks();
     let mut out = GpuInterpretation {
         bones: Vec::new(),
+        bone_count: 0,
         max_depth: 0,
         walked,
         elapsed: Duration::ZERO,
@@ -433,5 +436,6 @@ pub(crate) fn interpret_device(
     run(&mut enc, &kernels::BONES_WRITE, &base, &bones, n)?;
     gpu.submit_wait(enc)?;
     out.elapsed = t0.elapsed();
+    out.bone_count = count;
     Ok((bones, count, out))
 }

@@ -23,6 +23,7 @@
 //!   emitted as a generated header ([`layout::wgsl_header`]); tests check
 //!   both sides with naga.
 
+pub mod bench;
 pub mod brackets;
 pub mod derive;
 pub mod device;
@@ -30,6 +31,7 @@ pub mod error;
 pub mod interp;
 pub mod kernels;
 pub mod layout;
+pub mod pipeline;
 pub mod scan;
 pub mod shader;
 pub mod vmeval;
@@ -38,3 +40,4 @@ pub use derive::{DeviceString, GpuDerivation, GpuDeriveOptions, GpuIterationStat
 pub use device::{Gpu, shared};
 pub use error::{GpuError, RuntimeKind};
 pub use interp::{GpuInterpretation, TurtleProgram, interpret};
+pub use pipeline::{GpuRun, GpuRunOptions, run};

@@ -11,6 +11,7 @@ fn unlimited(iterations: u32) -> GpuDeriveOptions {
         seed: 0,
         max_modules: u64::MAX,
         max_bytes: u64::MAX,
+        sync_iterations: false,
     }
 }
 
@@ -79,6 +80,7 @@ fn module_and_memory_limits_stop_before_allocating() {
         seed: 0,
         max_modules: 10_000,
         max_bytes: u64::MAX,
+        sync_iterations: false,
     };
     match derive(g, &sys, &opts) {
         // Lengths 7, 59, 475, 3803, 30427: iteration 4 is the first over 10,000.
@@ -97,6 +99,7 @@ fn module_and_memory_limits_stop_before_allocating() {
         seed: 0,
         max_modules: u64::MAX,
         max_bytes: 100_000,
+        sync_iterations: false,
     };
     match derive(g, &sys, &opts) {
         Err(GpuError::MemoryLimit {

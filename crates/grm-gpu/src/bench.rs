@@ -1,0 +1,364 @@
+//! The GPU benchmark (`cargo run --release -p grm-gpu --example bench`,
+//! `grmc bench gpu`): one scene's derivation and interpretation on the GPU,
+//! with the CPU engines measured in the same run as the baseline.
+//!
+//! GPU times are host wall clock around complete submissions (one
+//! synchronisation per iteration: the next buffer sizes come from the
+//! scan). Pipeline compilation is excluded by a warm-up run; reading
+//! results back is reported apart and not counted. "Produced" modules are
+//! Lipp's count (the sum of the lengths of the strings after each step);
+//! derivation modules/us divides it by the derivation time,
+//! interpretation modules/us divides the final length by the
+//! interpretation time.
+
+use std::fmt::Write as _;
+use std::time::{Duration, Instant};
+
+use grm_compile::CompiledSystem;
+use grm_derive::ModuleString;
+
+use crate::derive::GpuDeriveOptions;
+use crate::device::Gpu;
+use crate::interp::TurtleProgram;
+use crate::pipeline::{GpuRunOptions, run};
+
+/// The standard scenes: example name, system, iterations (Lipp's where he
+/// has one).
+pub const SCENES: &[(&str, &str, u32)] = &[
+    ("hilbert3d", "Hilbert3D", 6),
+    ("koch_island", "KochIsland", 6),
+    ("bracketed_plant", "BracketedPlant", 7),
+    ("row_of_trees", "RowOfTrees", 10),
+    ("ternary_tree", "TernaryTreeB", 11),
+    ("stochastic_plant", "StochasticPlant", 11),
+    ("context_plant_a", "ContextPlantA", 30),
+];
+
+/// How to benchmark.
+#[derive(Clone, Copy, Debug)]
+pub struct BenchConfig {
+    pub iterations: u32,
+    pub seed: u32,
+    /// Timed runs per engine (the best is reported).
+    pub runs: u32,
+    /// CPU threads for the parallel column (0: all cores).
+    pub threads: usize,
+    /// Measure the CPU engines too.
+    pub cpu: bool,
+    pub max_modules: u64,
+}
+
+/// One row per string.
+#[derive(Clone, Copy, Debug)]
+pub struct IterRow {
+    pub iteration: u32,
+    pub modules: u64,
+    pub param_words: u64,
+    pub gpu: Duration,
+    pub cpu1: Option<Duration>,
+    pub cpun: Option<Duration>,
+}
+
+/// The figures of one scene.
+#[derive(Clone, Debug)]
+pub struct SceneReport {
+    pub name: String,
+    pub iterations: u32,
+    pub seed: u32,
+    pub adapter: String,
+    pub warmup: Duration,
+    pub rows: Vec<IterRow>,
+    pub modules: u64,
+    pub produced: u64,
+    pub gpu_derive: Duration,
+    pub cpu1_derive: Option<Duration>,
+    pub cpun_derive: Option<Duration>,
+    pub cpu_threads: usize,
+    pub bones: u64,
+    pub depth: u32,
+    pub walked: bool,
+    pub gpu_interpret: Duration,
+    pub cpu_interpret: Option<Duration>,
+    pub readback: Duration,
+    /// Whether the GPU string was compared with the CPU's (and equal).
+    pub checked: bool,
+}
+
+fn best<T>(
+    runs: u32,
+    mut f: impl FnMut() -> Result<(Duration, T), String>,
+) -> Result<(Duration, T), String> {
+    let mut out: Option<(Duration, T)> = None;
+    for _ in 0..runs.max(1) {
+        let (d, v) = f()?;
+        if out.as_ref().is_none_or(|(b, _)| d < *b) {
+            out = Some((d, v));
+        }
+    }
+    out.ok_or_else(|| "no run".to_string())
+}
+
+/// Compare two derived strings: symbols and starts exactly, parameters
+/// within a relative 1e-4.
+pub fn same_string(cpu: &ModuleString, gpu: &ModuleString) -> Result<(), String> {
+    if cpu.syms != gpu.syms || cpu.starts != gpu.starts {
+        let at = cpu.syms.iter().zip(&gpu.syms).position(|(a, b)| a != b);
+        return Err(format!(
+            "the GPU string differs from the CPU string ({} vs {} modules, first difference at {at:?})",
+            gpu.len(),
+            cpu.len()
+        ));
+    }
+    for (k, (a, b)) in cpu.params.iter().zip(&gpu.params).enumerate() {
+        if a.to_bits() != b.to_bits() && (a - b).abs() > 1e-4 * a.abs().max(1.0) {
+            return Err(format!("parameter word {k}: CPU {a}, GPU {b}"));
+        }
+    }
+    Ok(())
+}
+
+/// Benchmark one compiled system of a checked program.
+pub fn bench_scene(
+    gpu: &Gpu,
+    name: &str,
+    system: &grm_sema::System,
+    c: &CompiledSystem,
+    cfg: &BenchConfig,
+) -> Result<SceneReport, String> {
+    let turtle = TurtleProgram::new(system, &c.settings);
+    let mut ropts = GpuRunOptions {
+        derive: GpuDeriveOptions {
+            iterations: cfg.iterations,
+            seed: cfg.seed,
+            max_modules: cfg.max_modules,
+            max_bytes: u64::MAX,
+            sync_iterations: false,
+        },
+        interpret: true,
+        read_string: cfg.cpu,
+        read_bones: false,
+    };
+    let t = Instant::now();
+    let warm = run(gpu, c, &turtle, &ropts, &mut |_| {}).map_err(|e| e.to_string())?;
+    let warmup = t.elapsed();
+    ropts.read_string = false;
+    ropts.derive.sync_iterations = true;
+    let per_iter = run(gpu, c, &turtle, &ropts, &mut |_| {}).map_err(|e| e.to_string())?;
+    ropts.derive.sync_iterations = false;
+    let mut best_interp = Duration::MAX;
+    let (gpu_derive, last) = best(cfg.runs, || {
+        let r = run(gpu, c, &turtle, &ropts, &mut |_| {}).map_err(|e| e.to_string())?;
+        if let Some(i) = &r.interpretation {
+            best_interp = best_interp.min(i.elapsed);
+        }
+        Ok((r.derive_elapsed, r))
+    })?;
+    let interp = last.interpretation.clone().ok_or("no interpretation")?;
+
+    let mut cpu1 = None;
+    let mut cpun = None;
+    let mut cpu_interpret = None;
+    let mut checked = false;
+    if cfg.cpu {
+        let copts = grm_derive::DeriveOptions {
+            iterations: cfg.iterations,
+            seed: cfg.seed,
+            limits: grm_derive::DeriveLimits {
+                max_modules: cfg.max_modules,
+                max_bytes: u64::MAX,
+            },
+        };
+        for (threads, slot) in [(1usize, &mut cpu1), (cfg.threads, &mut cpun)] {
+            let engine = grm_derive::Engine::new(c, threads).map_err(|e| e.to_string())?;
+            *slot = Some(best(cfg.runs, || {
+                let t = Instant::now();
+                let d = engine
+                    .derive(&copts, &mut |_| {})
+                    .map_err(|e| e.to_string())?;
+                Ok((t.elapsed(), d))
+            })?);
+        }
+        if let (Some((_, d)), Some(gs)) = (&cpu1, &warm.string) {
+            same_string(&d.string, gs)?;
+            checked = true;
+            let (t, _) = best(cfg.runs, || {
+                let t = Instant::now();
+                let it = grm_turtle::interpret(system, &c.settings, &d.string)
+                    .map_err(|e| e.to_string())?;
+                Ok((t.elapsed(), it.bones.len()))
+            })?;
+            cpu_interpret = Some(t);
+        }
+    }
+    let rows = per_iter
+        .stats
+        .iter()
+        .enumerate()
+        .map(|(k, s)| IterRow {
+            iteration: s.iteration,
+            modules: s.modules,
+            param_words: s.param_words,
+            gpu: s.elapsed,
+            cpu1: cpu1
+                .as_ref()
+                .and_then(|(_, d)| d.stats.get(k))
+                .map(|s| s.elapsed),
+            cpun: cpun
+                .as_ref()
+                .and_then(|(_, d)| d.stats.get(k))
+                .map(|s| s.elapsed),
+        })
+        .collect();
+    Ok(SceneReport {
+        name: name.to_string(),
+        iterations: cfg.iterations,
+        seed: cfg.seed,
+        adapter: gpu.describe(),
+        warmup,
+        rows,
+        modules: last.modules(),
+        produced: last.produced_modules(),
+        gpu_derive,
+        cpu1_derive: cpu1.map(|(t, _)| t),
+        cpun_derive: cpun.map(|(t, _)| t),
+        cpu_threads: if cfg.threads == 0 {
+            std::thread::available_parallelism().map_or(1, |n| n.get())
+        } else {
+            cfg.threads
+        },
+        bones: interp.bone_count,
+        depth: interp.max_depth,
+        walked: interp.walked,
+        gpu_interpret: best_interp,
+        cpu_interpret,
+        readback: warm.readback_elapsed,
+        checked,
+    })
+}
+
+fn ms(d: Duration) -> f64 {
+    d.as_secs_f64() * 1e3
+}
+
+/// Modules per microsecond.
+pub fn rate(modules: u64, d: Duration) -> f64 {
+    if d.is_zero() {
+        0.0
+    } else {
+        modules as f64 / (d.as_secs_f64() * 1e6)
+    }
+}
+
+fn speedup(cpu: Duration, gpu: Duration) -> f64 {
+    if gpu.is_zero() {
+        0.0
+    } else {
+        cpu.as_secs_f64() / gpu.as_secs_f64()
+    }
+}
+
+impl SceneReport {
+    /// The report as text (one block per scene).
+    pub fn text(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "scene {}, {} iterations, seed {}",
+            self.name, self.iterations, self.seed
+        );
+        let _ = writeln!(
+            s,
+            "  warm-up run (pipeline compilation included): {:.1} ms",
+            ms(self.warmup)
+        );
+        if self.checked {
+            let _ = writeln!(s, "  check: the GPU string equals the CPU string");
+        }
+        let _ = writeln!(
+            s,
+            "  {:>9} {:>13} {:>13} {:>10} {:>10} {:>10}",
+            "iteration", "modules", "params", "gpu ms", "cpu1 ms", "cpuN ms"
+        );
+        let f = |x: Option<Duration>| x.map_or("-".to_string(), |v| format!("{:.3}", ms(v)));
+        for r in &self.rows {
+            let _ = writeln!(
+                s,
+                "  {:>9} {:>13} {:>13} {:>10.3} {:>10} {:>10}",
+                r.iteration,
+                r.modules,
+                r.param_words,
+                ms(r.gpu),
+                f(r.cpu1),
+                f(r.cpun)
+            );
+        }
+        let _ = writeln!(
+            s,
+            "  derive:    {} modules, {} produced; GPU {:.3} ms = {:.1} modules/us",
+            self.modules,
+            self.produced,
+            ms(self.gpu_derive),
+            rate(self.produced, self.gpu_derive)
+        );
+        for (label, t) in [
+            ("CPU 1 thread", self.cpu1_derive),
+            (
+                &*format!("CPU {} threads", self.cpu_threads),
+                self.cpun_derive,
+            ),
+        ] {
+            if let Some(t) = t {
+                let _ = writeln!(
+                    s,
+                    "             {label} {:.3} ms = {:.1} modules/us (GPU {:.2}x)",
+                    ms(t),
+                    rate(self.produced, t),
+                    speedup(t, self.gpu_derive)
+                );
+            }
+        }
+        let _ = writeln!(
+            s,
+            "  interpret: {} bones, depth {}, {}; GPU {:.3} ms = {:.1} modules/us",
+            self.bones,
+            self.depth,
+            if self.walked {
+                "branches walked"
+            } else {
+                "matrix scan"
+            },
+            ms(self.gpu_interpret),
+            rate(self.modules, self.gpu_interpret)
+        );
+        if let Some(t) = self.cpu_interpret {
+            let _ = writeln!(
+                s,
+                "             CPU turtle {:.3} ms = {:.1} modules/us (GPU {:.2}x)",
+                ms(t),
+                rate(self.modules, t),
+                speedup(t, self.gpu_interpret)
+            );
+        }
+        let total = self.gpu_derive + self.gpu_interpret;
+        let _ = writeln!(
+            s,
+            "  total:     GPU {:.3} ms = {:.1} modules/us (produced + final modules over derive + interpret)",
+            ms(total),
+            rate(self.produced + self.modules, total)
+        );
+        if let (Some(d), Some(t)) = (self.cpu1_derive, self.cpu_interpret) {
+            let _ = writeln!(
+                s,
+                "             CPU 1 thread {:.3} ms (GPU {:.2}x)",
+                ms(d + t),
+                speedup(d + t, total)
+            );
+        }
+        let _ = writeln!(
+            s,
+            "  readback (not counted): {:.3} ms for the string",
+            ms(self.readback)
+        );
+        s
+    }
+}
