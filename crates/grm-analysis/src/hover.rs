@@ -176,7 +176,11 @@ impl FileAnalysis {
                         let e = docs::lookup(written, DocKind::Terminal)
                             .or_else(|| docs::lookup(&info.name, DocKind::Terminal))?;
                         let carries: Vec<&str> = info.params.iter().map(|t| t.name()).collect();
-                        format!("{}\n\ncarries ({})", e.markdown(), carries.join(", "))
+                        if carries.is_empty() {
+                            format!("{}\n\ncarries no parameters", e.markdown())
+                        } else {
+                            format!("{}\n\ncarries ({})", e.markdown(), carries.join(", "))
+                        }
                     }
                     SymbolKind::User => {
                         let kw = match info.phase {

@@ -353,6 +353,12 @@ impl LanguageServer for Backend {
         };
         self.shared.analysis().close_document(&path);
         self.shared.previews().remove(&path);
+        self.shared
+            .picks
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .remove(&path);
+        self.shared.preview_sent.lock().await.remove(&path);
         self.shared.published.lock().await.remove(&path);
         self.client
             .publish_diagnostics(params.text_document.uri, Vec::new(), None)

@@ -841,3 +841,104 @@ pub(crate) async fn refresh(shared: &Arc<Shared>, client: &Client, path: PathBuf
         })
         .await;
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn compiled(text: &str) -> (grm_sema::Program, CompiledSystem) {
+        let (_, checked) = grm_sema::check_with("t.grm", text, &grm_sema::MemLoader::new());
+        assert!(!checked.has_errors(), "{:?}", checked.diagnostics);
+        let prog = checked.program;
+        let sys = prog.systems[0].clone();
+        let c = grm_compile::compile(&prog, &sys, &prog.default_params()).expect("compiles");
+        (prog, c)
+    }
+
+    /// The production (by its predecessor and first successor symbol) that
+    /// made each module.
+    fn makers(c: &CompiledSystem, g: &Grown) -> Vec<String> {
+        let o = g.origin.as_ref().expect("origins");
+        g.string
+            .syms
+            .iter()
+            .zip(o)
+            .map(|(&s, &a)| {
+                let alt = &c.alts[a as usize];
+                let first = c.successor(alt).first().map_or("ε".to_string(), |m| {
+                    c.symbol_names[m.symbol as usize].clone()
+                });
+                let pred = if a == c.axiom_alt {
+                    "axiom".to_string()
+                } else {
+                    c.symbol_names[c.groups[alt.group as usize].pred as usize].clone()
+                };
+                format!("{}<{pred}:{first}", c.symbol_names[s as usize])
+            })
+            .collect()
+    }
+
+    #[test]
+    fn origins_follow_each_step() {
+        // A -> F B; B -> G | f (stochastic); F is never rewritten and keeps
+        // its maker; X is copied from the axiom.
+        let (_, c) =
+            compiled("system S { iterations = 2; axiom X A; A -> F B; B -> (1) G; B -> (1) f; }");
+        let g = grow(&c, 2, 3, 1000, None).unwrap();
+        let m = makers(&c, &g);
+        assert_eq!(m.len(), 3);
+        assert_eq!(m[0], "X<axiom:X");
+        assert_eq!(m[1], "F<A:F");
+        assert!(m[2] == "G<B:G" || m[2] == "f<B:f", "{m:?}");
+        assert_eq!(g.ambiguous, 0);
+    }
+
+    #[test]
+    fn alignment_backtracks_and_flags_ties() {
+        // `A -> F` and `A -> F A` share a prefix: only a full alignment
+        // explains `F F A`-like strings. `C -> (1) G; C -> (1) G;` tie.
+        let (_, c) = compiled(
+            "system S { iterations = 3; axiom A C; A -> (1) F; A -> (1) F A; C -> (1) G; C -> (1) G; }",
+        );
+        for seed in 0..20 {
+            let g = grow(&c, 3, seed, 1000, None).unwrap();
+            let m = makers(&c, &g);
+            for x in &m {
+                assert!(
+                    x == "F<A:F" || x == "A<A:F" || x == "G<C:G",
+                    "seed {seed}: {m:?}"
+                );
+            }
+            assert_eq!(g.ambiguous, 1, "the tied G is counted once");
+        }
+    }
+
+    #[test]
+    fn focus_marks_descendants() {
+        // Focus on `B -> C D`: C and D, and what they become, are marked.
+        let text = "system S { iterations = 3; axiom A; A -> F B; B -> C D; C -> G; D -> G G; }";
+        let (_, c) = compiled(text);
+        let b_alt = (0..c.alts.len() as u32)
+            .find(|&a| {
+                let g = &c.groups[c.alts[a as usize].group as usize];
+                a != c.axiom_alt && c.symbol_names[g.pred as usize] == "B"
+            })
+            .unwrap();
+        let g = grow(&c, 3, 0, 1000, Some(b_alt)).unwrap();
+        let names: Vec<&str> = g
+            .string
+            .syms
+            .iter()
+            .map(|&s| c.symbol_names[s as usize].as_str())
+            .collect();
+        assert_eq!(names, ["F", "G", "G", "G"]);
+        assert_eq!(g.focus, [false, true, true, true]);
+    }
+
+    #[test]
+    fn base64_is_little_endian() {
+        assert_eq!(f32s(&[1.0]), "AACAPw==");
+        assert_eq!(u32s(&[1, 2]), "AQAAAAIAAAA=");
+        assert_eq!(i32s(&[-1]), "/////w==");
+    }
+}

@@ -1,0 +1,182 @@
+//! An in-process LSP client: drives the server as a tower `Service` with
+//! JSON-RPC requests and collects what it sends back.
+
+#![allow(dead_code)]
+
+use futures::StreamExt;
+use grm_diag::SourceFile;
+use grm_lsp::Config;
+use serde_json::{Value, json};
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+use tower::{Service, ServiceExt};
+use tower_lsp_server::LspService;
+use tower_lsp_server::jsonrpc::Request;
+use tower_lsp_server::ls_types::Uri;
+
+pub struct Client {
+    service: LspService<grm_lsp::Backend>,
+    notes: tokio::sync::mpsc::UnboundedReceiver<Request>,
+    /// Notifications received and not yet consumed.
+    pub seen: Vec<Request>,
+    id: i64,
+}
+
+/// The repository root.
+pub fn root() -> PathBuf {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    grm_sema::normalize(&std::fs::canonicalize(&p).unwrap_or(p))
+}
+
+/// A fixture of tests/lsp.
+pub fn fixture(name: &str) -> (PathBuf, String) {
+    let p = root().join("tests/lsp").join(name);
+    let text = std::fs::read_to_string(&p).expect("fixture");
+    (p, text)
+}
+
+pub fn uri(p: &Path) -> Uri {
+    Uri::from_file_path(p).expect("absolute path")
+}
+
+/// Text with the repository root replaced, for snapshots.
+pub fn scrub(s: &str) -> String {
+    let r = root().display().to_string();
+    s.replace(&format!("file://{r}"), "file://$ROOT")
+        .replace(&r, "$ROOT")
+}
+
+/// The LSP position of the `n`-th `needle` in `text`, plus `delta` bytes.
+pub fn pos(text: &str, needle: &str, n: usize, delta: usize) -> Value {
+    let mut from = 0;
+    let mut at = 0;
+    for _ in 0..=n {
+        at = from
+            + text[from..]
+                .find(needle)
+                .unwrap_or_else(|| panic!("{needle}"));
+        from = at + 1;
+    }
+    let src = SourceFile::new("", text);
+    let (line, character) = src.line_col_utf16((at + delta) as u32);
+    json!({ "line": line, "character": character })
+}
+
+pub fn range_str(r: &Value) -> String {
+    format!(
+        "{}:{}-{}:{}",
+        r["start"]["line"], r["start"]["character"], r["end"]["line"], r["end"]["character"]
+    )
+}
+
+impl Client {
+    pub async fn start() -> Client {
+        Client::with(Config {
+            debounce: Duration::from_millis(5),
+            ..Config::default()
+        })
+        .await
+    }
+
+    pub async fn with(config: Config) -> Client {
+        let (service, socket) = grm_lsp::service(config);
+        let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
+        tokio::spawn(async move {
+            let mut socket = socket;
+            while let Some(r) = socket.next().await {
+                if tx.send(r).is_err() {
+                    break;
+                }
+            }
+        });
+        let mut c = Client {
+            service,
+            notes: rx,
+            seen: Vec::new(),
+            id: 0,
+        };
+        let init = c.request("initialize", json!({ "capabilities": {} })).await;
+        assert!(init.is_ok(), "{init:?}");
+        c.notify("initialized", json!({})).await;
+        c
+    }
+
+    async fn call(&mut self, req: Request) -> Option<tower_lsp_server::jsonrpc::Response> {
+        let svc = self.service.ready().await.expect("service ready");
+        svc.call(req).await.expect("service call")
+    }
+
+    /// A request; `Err` carries the JSON-RPC error as JSON.
+    pub async fn request(&mut self, method: &'static str, params: Value) -> Result<Value, Value> {
+        self.id += 1;
+        let req = Request::build(method).id(self.id).params(params).finish();
+        let resp = self.call(req).await.expect("a request is always answered");
+        let (_, body) = resp.into_parts();
+        body.map_err(|e| serde_json::to_value(e).unwrap_or(Value::Null))
+    }
+
+    pub async fn ok(&mut self, method: &'static str, params: Value) -> Value {
+        match self.request(method, params).await {
+            Ok(v) => v,
+            Err(e) => panic!("{method} failed: {e}"),
+        }
+    }
+
+    pub async fn notify(&mut self, method: &'static str, params: Value) {
+        let req = Request::build(method).params(params).finish();
+        assert!(self.call(req).await.is_none());
+    }
+
+    pub async fn open(&mut self, path: &Path, text: &str) -> Uri {
+        let u = uri(path);
+        self.notify(
+            "textDocument/didOpen",
+            json!({ "textDocument": { "uri": u, "languageId": "grm", "version": 1, "text": text } }),
+        )
+        .await;
+        u
+    }
+
+    /// Wait for a notification matching `f` (10 s at most).
+    pub async fn wait_for(&mut self, f: impl Fn(&Request) -> bool) -> Request {
+        if let Some(i) = self.seen.iter().position(&f) {
+            return self.seen.remove(i);
+        }
+        let deadline = tokio::time::Instant::now() + Duration::from_secs(10);
+        loop {
+            let r = tokio::time::timeout_at(deadline, self.notes.recv())
+                .await
+                .expect("notification in time")
+                .expect("socket open");
+            if f(&r) {
+                return r;
+            }
+            self.seen.push(r);
+        }
+    }
+
+    /// The diagnostics published for `u` at `version`.
+    pub async fn diagnostics(&mut self, u: &Uri, version: i32) -> Value {
+        let want = serde_json::to_value(u).unwrap_or(Value::Null);
+        let r = self
+            .wait_for(|r| {
+                r.method() == "textDocument/publishDiagnostics"
+                    && r.params()
+                        .is_some_and(|p| p["uri"] == want && p["version"] == version)
+            })
+            .await;
+        r.params().cloned().unwrap_or(Value::Null)
+    }
+
+    /// Drain what has arrived so far without waiting.
+    pub fn drain(&mut self) {
+        while let Ok(r) = self.notes.try_recv() {
+            self.seen.push(r);
+        }
+    }
+}
+
+/// A whole-document position argument.
+pub fn at(u: &Uri, p: Value) -> Value {
+    json!({ "textDocument": { "uri": u }, "position": p })
+}

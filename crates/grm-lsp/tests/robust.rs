@@ -1,0 +1,476 @@
+//! The server under a long random edit session, stale-result ordering, and
+//! the preview protocol end to end.
+
+mod common;
+
+use common::*;
+use grm_diag::SourceFile;
+use grm_lsp::Config;
+use serde_json::{Value, json};
+use std::time::Duration;
+
+/// xorshift64*: a small seeded generator (the sequence is fixed by the seed).
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+
+    fn below(&mut self, n: usize) -> usize {
+        (self.next() % n.max(1) as u64) as usize
+    }
+}
+
+const PIECES: &[&str] = &[
+    "F",
+    "(",
+    ")",
+    "[",
+    "]",
+    ";",
+    "->",
+    "A(l)",
+    "B",
+    " ",
+    "\n",
+    "system X {",
+    "}",
+    "{",
+    "@",
+    "ä",
+    "𝔸",
+    "0.5",
+    "*",
+    "+",
+    "const K = 1;",
+    "\"",
+    "/*",
+    "*/",
+    "//",
+    "uniform(0, 1)",
+    "wrapup ",
+    "mode = sample;",
+    "skeleton b;",
+    ":",
+    "l > 1",
+    "(2)",
+    "import \"lib.grm\";",
+    "param p = 1 in 0 .. 2;",
+    "axiom A(1);",
+    "mix(",
+    ",",
+    "SHRINK",
+    "spread",
+    "\u{0}",
+    "\r\n",
+];
+
+/// A random UTF-16 position, sometimes past the end of a line or the file.
+fn random_pos(rng: &mut Rng, text: &str) -> (u32, u32) {
+    let lines: Vec<&str> = text.split('\n').collect();
+    let line = rng.below(lines.len() + 1) as u32;
+    let len = lines
+        .get(line as usize)
+        .map_or(0, |l| l.encode_utf16().count());
+    (line, rng.below(len + 3) as u32)
+}
+
+/// Apply an LSP range edit to a local copy exactly as the server must.
+fn apply_local(text: &str, a: (u32, u32), b: (u32, u32), new: &str) -> String {
+    let src = SourceFile::new("", text);
+    let x = src.offset_of_utf16(a.0, a.1) as usize;
+    let y = src.offset_of_utf16(b.0, b.1) as usize;
+    let (x, y) = (x.min(y), x.max(y));
+    let mut s = text.to_string();
+    s.replace_range(x..y, new);
+    s
+}
+
+fn lsp_pos(p: (u32, u32)) -> Value {
+    json!({ "line": p.0, "character": p.1 })
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn random_edit_session_keeps_the_server_up() {
+    let mut c = Client::with(Config {
+        debounce: Duration::from_millis(2),
+        ..Config::default()
+    })
+    .await;
+    let (p, mut text) = fixture("plant.grm");
+    let (lp, ltext) = fixture("lib.grm");
+    c.open(&lp, &ltext).await;
+    let u = c.open(&p, &text).await;
+    let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+    let mut version = 1;
+    let mut answered = 0;
+    for step in 0..400 {
+        // An edit: insert, delete or replace at random UTF-16 positions.
+        let a = random_pos(&mut rng, &text);
+        let b = if rng.below(3) == 0 {
+            random_pos(&mut rng, &text)
+        } else {
+            a
+        };
+        let new = if rng.below(4) == 0 {
+            ""
+        } else {
+            PIECES[rng.below(PIECES.len())]
+        };
+        let (a, b) = if a <= b { (a, b) } else { (b, a) };
+        text = apply_local(&text, a, b, new);
+        version += 1;
+        c.notify(
+            "textDocument/didChange",
+            json!({
+                "textDocument": { "uri": u, "version": version },
+                "contentChanges": [ { "range": { "start": lsp_pos(a), "end": lsp_pos(b) }, "text": new } ]
+            }),
+        )
+        .await;
+        // Now and then the whole text (full sync).
+        if step % 97 == 0 {
+            version += 1;
+            c.notify(
+                "textDocument/didChange",
+                json!({ "textDocument": { "uri": u, "version": version }, "contentChanges": [ { "text": text } ] }),
+            )
+            .await;
+        }
+        for _ in 0..2 {
+            let q = random_pos(&mut rng, &text);
+            let here = at(&u, lsp_pos(q));
+            let doc = json!({ "textDocument": { "uri": u } });
+            let whole = json!({ "start": { "line": 0, "character": 0 }, "end": { "line": 1000, "character": 0 } });
+            let (method, params): (&'static str, Value) = match rng.below(15) {
+                0 => ("textDocument/hover", here),
+                1 => ("textDocument/completion", here),
+                2 => ("textDocument/definition", here),
+                3 => {
+                    let mut p = here;
+                    p["context"] = json!({ "includeDeclaration": true });
+                    ("textDocument/references", p)
+                }
+                4 => ("textDocument/semanticTokens/full", doc),
+                5 => ("textDocument/documentSymbol", doc),
+                6 => {
+                    let mut d = doc;
+                    d["range"] = whole;
+                    d["context"] = json!({ "diagnostics": [] });
+                    ("textDocument/codeAction", d)
+                }
+                7 => {
+                    let mut d = doc;
+                    d["options"] = json!({ "tabSize": 4, "insertSpaces": true });
+                    ("textDocument/formatting", d)
+                }
+                8 => {
+                    let mut d = doc;
+                    d["range"] = whole;
+                    ("textDocument/inlayHint", d)
+                }
+                9 => ("textDocument/foldingRange", doc),
+                10 => ("textDocument/signatureHelp", here),
+                11 => ("textDocument/prepareRename", here),
+                12 => {
+                    let mut p = here;
+                    p["newName"] = json!(if rng.below(2) == 0 { "Zz" } else { "not valid" });
+                    ("textDocument/rename", p)
+                }
+                13 => (
+                    "grm/preview",
+                    json!({ "textDocument": { "uri": u }, "maxModules": 20000 }),
+                ),
+                _ => ("workspace/symbol", json!({ "query": "a" })),
+            };
+            match c.request(method, params).await {
+                Ok(_) => {}
+                Err(e) => {
+                    // Refusals are fine (RequestFailed, ContentModified);
+                    // an internal error is a bug.
+                    let code = e["code"].as_i64().unwrap_or(0);
+                    assert!(
+                        code == -32803 || code == -32801,
+                        "step {step}: {method} failed: {e}\ntext:\n{text}"
+                    );
+                }
+            }
+            answered += 1;
+        }
+        c.drain();
+    }
+    assert_eq!(answered, 800);
+    // The last version's diagnostics arrive.
+    let _ = c.diagnostics(&u, version).await;
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    c.drain();
+    let want = serde_json::to_value(&u).unwrap();
+    let later: Vec<i64> = c
+        .seen
+        .iter()
+        .filter(|r| r.method() == "textDocument/publishDiagnostics")
+        .filter_map(|r| r.params())
+        .filter(|p| p["uri"] == want)
+        .filter_map(|p| p["version"].as_i64())
+        .collect();
+    // Over the whole session: published in increasing version order, none
+    // after the last version's.
+    assert!(later.windows(2).all(|w| w[0] < w[1]), "{later:?}");
+    assert!(later.iter().all(|&v| v < version as i64), "{later:?}");
+    // The server's text is the client's: its tokens are those of the local copy.
+    let r = c
+        .ok(
+            "textDocument/semanticTokens/full",
+            json!({ "textDocument": { "uri": u } }),
+        )
+        .await;
+    let local = grm_analysis::FileAnalysis::new(&p, version, &text, &grm_sema::FsLoader);
+    let expect = grm_lsp::convert::semantic_tokens(local.source(), &local.semantic_tokens(), None);
+    let expect = tower_lsp_server::ls_types::SemanticTokens {
+        result_id: None,
+        data: expect,
+    };
+    assert_eq!(r["data"], serde_json::to_value(expect).unwrap()["data"]);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn stale_diagnostics_never_overwrite_newer_ones() {
+    let mut c = Client::with(Config {
+        debounce: Duration::from_millis(20),
+        ..Config::default()
+    })
+    .await;
+    let (p, text) = fixture("plant.grm");
+    let u = c.open(&p, &text).await;
+    let _ = c.diagnostics(&u, 1).await;
+    // A burst of edits faster than the debounce, each changing the error count.
+    let mut t = text.clone();
+    for v in 2..=30 {
+        t.push_str(if v % 2 == 0 { "@" } else { "\n" });
+        c.notify(
+            "textDocument/didChange",
+            json!({ "textDocument": { "uri": u, "version": v }, "contentChanges": [ { "text": t } ] }),
+        )
+        .await;
+    }
+    let last = c.diagnostics(&u, 30).await;
+    tokio::time::sleep(Duration::from_millis(150)).await;
+    c.drain();
+    let want = serde_json::to_value(&u).unwrap();
+    let published: Vec<i64> = c
+        .seen
+        .iter()
+        .filter(|r| r.method() == "textDocument/publishDiagnostics")
+        .filter_map(|r| r.params())
+        .filter(|p| p["uri"] == want)
+        .filter_map(|p| p["version"].as_i64())
+        .collect();
+    // Nothing after version 30, and what came before came in order.
+    assert!(published.iter().all(|&v| v < 30), "{published:?}");
+    assert!(published.windows(2).all(|w| w[0] < w[1]), "{published:?}");
+    // Debounced: far fewer publications than edits.
+    assert!(published.len() < 10, "{published:?}");
+    let n = last["diagnostics"].as_array().unwrap().len();
+    assert!(n >= 1, "the trailing `@` is reported");
+}
+
+/// Decode a base64 little-endian array.
+fn b64(s: &str) -> Vec<[u8; 4]> {
+    use base64::Engine as _;
+    let bytes = base64::engine::general_purpose::STANDARD
+        .decode(s)
+        .expect("base64");
+    assert_eq!(bytes.len() % 4, 0);
+    bytes.chunks(4).map(|c| [c[0], c[1], c[2], c[3]]).collect()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn preview_pick_and_live_updates() {
+    let mut c = Client::start().await;
+    let (p, text) = fixture("plant.grm");
+    let u = c.open(&p, &text).await;
+    let _ = c.diagnostics(&u, 1).await;
+    let r = c
+        .ok(
+            "grm/preview",
+            json!({ "textDocument": { "uri": u }, "seed": 1, "live": true }),
+        )
+        .await;
+    let mut out = String::new();
+    use std::fmt::Write;
+    let _ = writeln!(
+        out,
+        "system={} mode={} seed={} iterations={} encoding={}",
+        r["system"], r["mode"], r["seed"], r["iterations"], r["encoding"]
+    );
+    let st = &r["stats"];
+    let _ = writeln!(
+        out,
+        "modules={} bones={} instances={} polygons={} parts={} triangles={} vertices={} ambiguous={}",
+        st["modules"],
+        st["bones"],
+        st["instances"],
+        st["polygons"],
+        st["parts"],
+        st["triangles"],
+        st["vertices"],
+        st["ambiguousOrigins"]
+    );
+    for (i, o) in r["origins"].as_array().unwrap().iter().enumerate() {
+        let _ = writeln!(
+            out,
+            "origin {i}: {} {}",
+            o["symbol"],
+            range_str(&o["range"])
+        );
+    }
+    let mut triangles = 0;
+    for part in r["parts"].as_array().unwrap() {
+        let nv = part["vertexCount"].as_u64().unwrap() as usize;
+        let nt = part["triangleCount"].as_u64().unwrap() as usize;
+        let pos = b64(part["positions"].as_str().unwrap());
+        let nor = b64(part["normals"].as_str().unwrap());
+        let idx = b64(part["indices"].as_str().unwrap());
+        assert_eq!(pos.len(), nv * 3);
+        assert_eq!(nor.len(), nv * 3);
+        assert_eq!(idx.len(), nt * 3);
+        assert!(idx.iter().all(|b| (u32::from_le_bytes(*b) as usize) < nv));
+        assert!(pos.iter().all(|b| f32::from_le_bytes(*b).is_finite()));
+        triangles += nt;
+        let mut by_origin = std::collections::BTreeMap::new();
+        for pk in part["picks"].as_array().unwrap() {
+            *by_origin
+                .entry(format!("{}:{}", pk["kind"], pk["origin"]))
+                .or_insert(0) += pk["triangleCount"].as_u64().unwrap();
+        }
+        let _ = writeln!(
+            out,
+            "part material={} vertices={nv} triangles={nt} by origin {by_origin:?}",
+            part["material"]
+        );
+    }
+    assert_eq!(triangles as u64, st["triangles"].as_u64().unwrap());
+    let bones = b64(r["skeleton"]["bones"].as_str().unwrap());
+    assert_eq!(
+        bones.len(),
+        8 * r["skeleton"]["boneCount"].as_u64().unwrap() as usize
+    );
+    // Pick a triangle, then a bone: both lead to a production of the file.
+    let pk = c
+        .ok(
+            "grm/pick",
+            json!({ "textDocument": { "uri": u }, "part": 0, "triangle": 0 }),
+        )
+        .await;
+    let _ = writeln!(
+        out,
+        "pick part 0 triangle 0: {} {} module {}",
+        pk["symbol"],
+        range_str(&pk["range"]),
+        pk["module"]
+    );
+    let pk = c
+        .ok(
+            "grm/pick",
+            json!({ "textDocument": { "uri": u }, "bone": 3 }),
+        )
+        .await;
+    let _ = writeln!(
+        out,
+        "pick bone 3: {} {} module {}",
+        pk["symbol"],
+        range_str(&pk["range"]),
+        pk["module"]
+    );
+    let none = c
+        .ok(
+            "grm/pick",
+            json!({ "textDocument": { "uri": u }, "part": 0, "triangle": 999_999 }),
+        )
+        .await;
+    assert!(none.is_null());
+    // Focus on the second production of A: what it grows over 4 seeds.
+    let f = c
+        .ok(
+            "grm/preview",
+            json!({ "textDocument": { "uri": u }, "seed": 1, "focus": pos(&text, "(1) F(l)", 0, 4), "spreadSeeds": 4, "live": true }),
+        )
+        .await;
+    let _ = writeln!(out, "focus: {}", f["focus"]);
+    let focused: u64 = f["parts"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|p| p["picks"].as_array().unwrap().iter())
+        .filter(|pk| pk["focus"] == true)
+        .map(|pk| pk["triangleCount"].as_u64().unwrap())
+        .sum();
+    let _ = writeln!(out, "focused triangles: {focused}");
+    // Errors: a stale version, sample mode, an unknown parameter.
+    for params in [
+        json!({ "textDocument": { "uri": u }, "version": 7 }),
+        json!({ "textDocument": { "uri": u }, "mode": "sample" }),
+        json!({ "textDocument": { "uri": u }, "params": { "nope": 1 } }),
+    ] {
+        let e = c.request("grm/preview", params).await.unwrap_err();
+        let _ = writeln!(out, "error {} {}", e["code"], e["message"]);
+    }
+    // Live: re-sent after an edit (with the last options), then an error.
+    let edited = text.replace("iterations = 3", "iterations = 2");
+    c.notify(
+        "textDocument/didChange",
+        json!({ "textDocument": { "uri": u, "version": 2 }, "contentChanges": [ { "text": edited } ] }),
+    )
+    .await;
+    // The last grm/preview (the focus one) was live; the error ones
+    // without `live` turned it off: turn it on again.
+    let _ = c
+        .ok(
+            "grm/preview",
+            json!({ "textDocument": { "uri": u }, "seed": 1, "live": true }),
+        )
+        .await;
+    c.notify(
+        "textDocument/didChange",
+        json!({ "textDocument": { "uri": u, "version": 3 }, "contentChanges": [ { "text": edited.replace("iterations = 2", "iterations = 1") } ] }),
+    )
+    .await;
+    let n = c
+        .wait_for(|r| {
+            r.method() == "grm/previewUpdated" && r.params().is_some_and(|p| p["version"] == 3)
+        })
+        .await;
+    let p3 = n.params().unwrap();
+    let _ = writeln!(
+        out,
+        "updated v3: iterations={} bones={} error={}",
+        p3["result"]["iterations"], p3["result"]["stats"]["bones"], p3["error"]
+    );
+    c.notify(
+        "textDocument/didChange",
+        json!({ "textDocument": { "uri": u, "version": 4 }, "contentChanges": [ { "text": "system S { axiom A(Q); }" } ] }),
+    )
+    .await;
+    let n = c
+        .wait_for(|r| {
+            r.method() == "grm/previewUpdated" && r.params().is_some_and(|p| p["version"] == 4)
+        })
+        .await;
+    let p4 = n.params().unwrap();
+    let _ = writeln!(
+        out,
+        "updated v4: result={} error={}",
+        p4["result"], p4["error"]
+    );
+    insta::with_settings!({
+        snapshot_path => concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/lsp/snapshots"),
+        prepend_module_to_snapshot => false,
+        omit_expression => true,
+    }, {
+        insta::assert_snapshot!("preview", scrub(&out));
+    });
+}
