@@ -26,6 +26,23 @@ const chromiumPath = process.env.CHROMIUM ?? '/usr/bin/chromium';
 let browser: Browser;
 const servers: ChildProcess[] = [];
 const temps: string[] = [];
+/** Edit-to-screen times measured by the tests, written to target/browser-test/latency.json. */
+const latency: Record<string, { grammar: string; edit: string; ms: number[]; median: number; breakdown: Record<string, number>[] }> = {};
+
+function record(key: string, grammar: string, edit: string, ms: number[], breakdown: Record<string, number>[]): number {
+  const sorted = [...ms].sort((a, b) => a - b);
+  const median = sorted[Math.floor(sorted.length / 2)];
+  const r1 = (x: number) => Math.round(x * 10) / 10;
+  latency[key] = {
+    grammar,
+    edit,
+    ms: ms.map(r1),
+    median: r1(median),
+    breakdown: breakdown.map((b) => Object.fromEntries(Object.entries(b).map(([k, v]) => [k, r1(v)]))),
+  };
+  console.log(`${grammar}: ${edit} to the new model on screen: ${latency[key].ms.join(', ')} ms (median ${latency[key].median})`);
+  return median;
+}
 
 before(async () => {
   assert.ok(existsSync(grmc), `${grmc} is missing: run cargo build -p grmc first`);
@@ -51,6 +68,7 @@ before(async () => {
 });
 
 after(async () => {
+  if (Object.keys(latency).length > 0) writeFileSync(join(artifacts, 'latency.json'), JSON.stringify(latency, null, 2) + '\n');
   await browser?.close();
   for (const s of servers) s.kill();
   for (const d of temps) rmSync(d, { recursive: true, force: true });
@@ -90,6 +108,7 @@ interface Grm {
   regrows: number;
   latencies: number[];
   lastLatencyMs: number | null;
+  lastBreakdown: Record<string, number>;
   meshCount: number;
   triangles: number;
   bones: number;
@@ -203,7 +222,25 @@ test('derive mode: the model renders, a slider regrows it, a pick names the rule
     el.value = '40';
     el.dispatchEvent(new Event('input', { bubbles: true }));
   });
-  await waitRegrows(page, g0.regrows + 1, 'after the slider');
+  const g1 = await waitRegrows(page, g0.regrows + 1, 'after the slider');
+  const sliderMs = [g1.lastLatencyMs ?? NaN];
+  const sliderParts = [g1.lastBreakdown];
+  for (const v of ['30', '12', '35', '20']) {
+    const n = (await grm(page)).regrows;
+    await slider.evaluate((el: HTMLInputElement, x: string) => {
+      el.value = x;
+      el.dispatchEvent(new Event('input', { bubbles: true }));
+    }, v);
+    const g = await waitRegrows(page, n + 1, `slider ${v}`);
+    sliderMs.push(g.lastLatencyMs ?? NaN);
+    sliderParts.push(g.lastBreakdown);
+  }
+  record('derive', 'examples/bracketed_plant.grm (4,096 bones, 81,920 triangles)', 'a slider move', sliderMs, sliderParts);
+  await slider.evaluate((el: HTMLInputElement) => {
+    el.value = '40';
+    el.dispatchEvent(new Event('input', { bubbles: true }));
+  });
+  await waitRegrows(page, (await grm(page)).regrows + 1, 'slider back');
   const bonesAfter = await page.evaluate(() => (globalThis as unknown as { __grm: { bonesList(): unknown[] } }).__grm.bonesList().slice(0, 400));
   assert.notDeepEqual(bonesAfter, bonesBefore, 'the slider changed the model');
   await page.screenshot({ path: join(artifacts, 'derive-slider.png') });
@@ -300,6 +337,7 @@ test('sample mode: drawing a curve and dragging its control point regrow the Cal
   // from the mouse release to the new model on screen is the latency.
   await page.click('#tool-orbit');
   const latencies: number[] = [];
+  const parts: Record<string, number>[] = [];
   for (let k = 0; k < 6; k++) {
     const end = await page.evaluate(() => {
       const g = (globalThis as unknown as { __grm: { curvePoints(i: number): number[][]; toScreen(p: number[]): [number, number] } }).__grm;
@@ -317,6 +355,7 @@ test('sample mode: drawing a curve and dragging its control point regrow the Cal
     await page.mouse.up();
     const done = await waitRegrows(page, mid.regrows + 1, `after drag ${k}`);
     latencies.push(done.lastLatencyMs ?? NaN);
+    parts.push(done.lastBreakdown);
   }
   const moved = (await page.evaluate(() => (globalThis as unknown as { __grm: { curvePoints(i: number): number[][] } }).__grm.curvePoints(3))) as number[][];
   const savedAfter = JSON.parse(readFileSync(join(dir, 'calder_tree.curves.json'), 'utf8')) as { curves: { points: number[][] }[] };
@@ -335,10 +374,7 @@ test('sample mode: drawing a curve and dragging its control point regrow the Cal
   const g4 = await waitRegrows(page, s3.regrows + 1, 'next variation');
   assert.equal(g4.seed, (s3.seed ?? 0) + 1);
 
-  latencies.sort((a, b) => a - b);
-  const median = latencies[Math.floor(latencies.length / 2)];
-  writeFileSync(join(artifacts, 'latency.json'), JSON.stringify({ grammar: 'examples/calder_tree.grm', editToScreenMs: latencies, median }, null, 2) + '\n');
-  console.log(`curve edit to model on screen (ms): ${latencies.map((x) => x.toFixed(1)).join(', ')}; median ${median.toFixed(1)}`);
+  const median = record('sample', 'examples/calder_tree.grm', 'a control point drag (mouse release)', latencies, parts);
   assert.ok(Number.isFinite(median));
   assert.deepEqual(pageErrors(page), []);
   await page.close();

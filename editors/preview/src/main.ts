@@ -30,6 +30,8 @@ interface DebugInfo {
   /** Milliseconds from an edit to its model on screen, per edit. */
   latencies: number[];
   lastLatencyMs: number | null;
+  /** Where the last edit's time went (ms): waiting for the host (server work and transfer), decoding, building the scene, rendering. */
+  lastBreakdown: Record<string, number>;
   meshCount: number;
   triangles: number;
   bones: number;
@@ -77,6 +79,7 @@ class App {
   private galleryToken = 0;
   private spreadToken = 0;
   private curvesLoadedFor = '';
+  private pendingBreakdown: Record<string, number> = {};
   /** The document version whose meta-parameters the sliders show. */
   private symbolsFor = '';
   private readonly debug: DebugInfo;
@@ -95,6 +98,7 @@ class App {
       regrows: 0,
       latencies: [],
       lastLatencyMs: null,
+      lastBreakdown: {},
       meshCount: 0,
       triangles: 0,
       bones: 0,
@@ -159,7 +163,12 @@ class App {
     if (!this.symbolsFor.startsWith(`${this.state.uri}@`)) await this.loadSymbols('first');
     if (this.state.mode === 'sample') await this.ensureCurves();
     try {
-      return decodePreview(await this.transport.request('preview', this.state.previewParams()));
+      const t0 = performance.now();
+      const raw = await this.transport.request('preview', this.state.previewParams());
+      const t1 = performance.now();
+      const r = decodePreview(raw);
+      this.pendingBreakdown = { host: t1 - t0, decode: performance.now() - t1 };
+      return r;
     } catch (e) {
       const msg = (e as Error).message ?? '';
       if (this.state.mode === 'derive' && /is a sample system/.test(msg)) {
@@ -190,14 +199,20 @@ class App {
     this.last = r;
     this.state.absorb(r);
     $('overlay-msg').textContent = this.state.curvesError ? `curves: ${this.state.curvesError}` : '';
+    const breakdown = this.pendingBreakdown;
+    this.pendingBreakdown = {};
+    const tBuild = performance.now();
     this.scene.setModel(r.model, !this.framed, () => {
       const ms = performance.now() - d.editedAt;
+      const server = Object.fromEntries(Object.entries(r.timings).map(([k, v]) => [`server ${k}`, v]));
+      this.debug.lastBreakdown = { ...breakdown, ...server, scene: built - tBuild, render: performance.now() - built };
       this.debug.regrows++;
       this.debug.lastLatencyMs = ms;
       this.debug.latencies.push(ms);
       this.debug.meshCount = this.scene.meshCount;
       this.setStatus(this.summary(r, ms));
     });
+    const built = performance.now();
     this.framed = true;
     this.debug.triangles = r.model.triangles;
     this.debug.bones = r.model.bones.length;
