@@ -151,6 +151,8 @@ class App {
         return;
       }
       if (u.uri !== this.state.uri) return;
+      // Only a model of the state the page shows (not of a gallery or spread request).
+      if (u.result && this.state.seed !== null && u.result.seed !== this.state.seed) return;
       if (u.result) this.show({ result: u.result, editedAt: performance.now(), final: true });
       else if (u.error) this.showError(u.error);
     } else if (method === 'cursor' && typeof p.line === 'number') {
@@ -457,10 +459,20 @@ class App {
 
   /** Highlight what the production at `pos` grows (null: none), with its spread over other seeds. */
   private setFocus(pos: { line: number; character: number } | null): void {
-    const same = pos && this.state.focus && pos.line === this.state.focus.line && pos.character === this.state.focus.character;
-    if (same || (!pos && !this.state.focus)) return;
-    this.state.focus = pos ? { line: pos.line, character: pos.character } : null;
-    this.regrow();
+    // The cursor moves on every keystroke: regrow only when it enters another production.
+    const before = this.originAt(this.state.focus);
+    const after = this.originAt(pos);
+    this.state.focus = pos && after !== null ? { line: pos.line, character: pos.character } : null;
+    if (after !== before) this.regrow();
+  }
+
+  /** The production (index into the last result's origins) whose source range holds `pos`. */
+  private originAt(pos: { line: number; character: number } | null): number | null {
+    if (!pos || !this.last) return null;
+    const le = (a: { line: number; character: number }, b: { line: number; character: number }) =>
+      a.line < b.line || (a.line === b.line && a.character <= b.character);
+    const i = this.last.origins.findIndex((o) => o.symbol !== 'axiom' && le(o.range.start, pos) && le(pos, o.range.end));
+    return i < 0 ? null : i;
   }
 
   /** Bones grown by the focused production: from the parts' focus flags, and bones it made itself. */
@@ -507,7 +519,7 @@ class App {
     for (let k = 1; k <= seeds; k++) {
       if (token !== this.spreadToken || this.coalescer.busy) return;
       try {
-        const o = decodePreview(await this.transport.request('preview', { ...base, seed: (r.seed + k) >>> 0 }));
+        const o = decodePreview(await this.transport.request('preview', { ...base, seed: (r.seed + k) >>> 0, live: false }));
         if (!o.focus) continue;
         for (const i of this.focusedBones(o.model, o.focus.origin)) segs.push([o.model.bones[i].base, o.model.bones[i].tip]);
       } catch {
@@ -751,7 +763,7 @@ class App {
       const fig = grid.children[i] as HTMLElement;
       const cap = fig.querySelector('figcaption') as HTMLElement;
       try {
-        const r = decodePreview(await this.transport.request('preview', { ...this.state.previewParams(), seed, focus: undefined }));
+        const r = decodePreview(await this.transport.request('preview', { ...this.state.previewParams(), seed, focus: undefined, live: false }));
         if (token !== this.galleryToken) return;
         (fig.querySelector('img') as HTMLImageElement).src = this.thumbs.render(r.model, [cam.x, cam.y, cam.z]);
         cap.textContent = `seed ${seed}`;
