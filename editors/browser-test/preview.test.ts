@@ -105,6 +105,7 @@ async function view(file: string): Promise<string> {
 
 interface Grm {
   ready: boolean;
+  busy: boolean;
   regrows: number;
   latencies: number[];
   lastLatencyMs: number | null;
@@ -348,12 +349,26 @@ test('sample mode: drawing a curve and dragging its control point regrow the Cal
     await page.mouse.down();
     await page.mouse.move(end[0] + 10, end[1] - 15, { steps: 2 });
     await page.mouse.move(end[0] + 20 - k * 8, end[1] - 30 + k * 6, { steps: 2 });
-    // Let the drag's intermediate models arrive, so the release is the last edit.
-    await page.waitForFunction((n) => (globalThis as unknown as { __grm: Grm }).__grm.regrows > n, s.regrows, { timeout: 30_000 });
-    await page.waitForTimeout(150);
+    // Let the drag's intermediate models arrive, so the release is the only edit in flight.
+    await page.waitForFunction(
+      (n) => {
+        const g = (globalThis as unknown as { __grm: Grm }).__grm;
+        return g.regrows > n && !g.busy;
+      },
+      s.regrows,
+      { timeout: 30_000 },
+    );
     const mid = await grm(page);
     await page.mouse.up();
-    const done = await waitRegrows(page, mid.regrows + 1, `after drag ${k}`);
+    await page.waitForFunction(
+      (n) => {
+        const g = (globalThis as unknown as { __grm: Grm }).__grm;
+        return g.regrows > n && !g.busy;
+      },
+      mid.regrows,
+      { timeout: 30_000 },
+    );
+    const done = await grm(page);
     latencies.push(done.lastLatencyMs ?? NaN);
     parts.push(done.lastBreakdown);
   }

@@ -25,6 +25,8 @@ import { type Transport, detectTransport } from './transport.js';
 /** What the page exposes for tests and for the curious (window.__grm). */
 interface DebugInfo {
   ready: boolean;
+  /** A preview request is in flight or waiting. */
+  readonly busy: boolean;
   /** Models shown so far. */
   regrows: number;
   /** Milliseconds from an edit to its model on screen, per edit. */
@@ -93,8 +95,12 @@ class App {
       (e) => this.showError(String((e as Error).message ?? e)),
       () => performance.now(),
     );
+    const coalescer = this.coalescer;
     this.debug = {
       ready: false,
+      get busy() {
+        return coalescer.busy;
+      },
       regrows: 0,
       latencies: [],
       lastLatencyMs: null,
