@@ -60,8 +60,9 @@ pub struct PreviewParams {
     /// is answered with ContentModified.
     #[serde(default)]
     pub version: Option<i32>,
+    /// Default: the system's own `mode`.
     #[serde(default)]
-    pub mode: PreviewMode,
+    pub mode: Option<PreviewMode>,
     /// The system to grow (default: the file's first).
     #[serde(default)]
     pub system: Option<String>,
@@ -88,6 +89,10 @@ pub struct PreviewParams {
     /// Stop growing past this many modules (default 2,000,000).
     #[serde(default)]
     pub max_modules: Option<u64>,
+    /// Sample mode: stop the search after this much wall time (default
+    /// 5,000 ms; the result then says `stoppedEarly`).
+    #[serde(default)]
+    pub budget_ms: Option<u64>,
 }
 
 /// A run of triangles of a part and what made it.
@@ -208,7 +213,37 @@ pub struct PreviewResult {
     pub skeleton: SkeletonOut,
     pub origins: Vec<OriginOut>,
     pub focus: Option<FocusOut>,
+    /// The meta-parameters with the values used (for sliders).
+    pub params: Vec<ParamOut>,
+    /// Sample mode: how the search went.
+    pub sample: Option<SampleOut>,
     pub stats: StatsOut,
+}
+
+/// A meta-parameter: its value in this preview, its default and range.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(rename_all = "camelCase")]
+pub struct ParamOut {
+    pub name: String,
+    pub value: f64,
+    pub default: f64,
+    pub min: Option<f64>,
+    pub max: Option<f64>,
+}
+
+/// Figures of a guided-sampler run.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(rename_all = "camelCase")]
+pub struct SampleOut {
+    /// The best model's objective (curve cost).
+    pub objective: f64,
+    pub generations: usize,
+    /// Distinct final particles the best was chosen from.
+    pub candidates: usize,
+    /// The wall-clock budget stopped the search early.
+    pub stopped_early: bool,
+    /// Where the curves came from (`request` or a file path).
+    pub curves: String,
 }
 
 /// `grm/previewUpdated` parameters: a new model, or why there is none.
@@ -432,18 +467,193 @@ fn grow(
     })
 }
 
+/// A built model and what the preview reports about its growth.
+struct Made {
+    model: grm_geom::Model,
+    /// Modules of the final string.
+    modules: usize,
+    /// Per module: grown by the focused production.
+    focus_flags: Vec<bool>,
+    ambiguous: usize,
+    derive_ms: f64,
+    build_ms: f64,
+    focus_out: Option<FocusOut>,
+    sample: Option<SampleOut>,
+}
+
+/// Derive mode: the CPU engine, provenance by alignment, focus spread
+/// over seeds.
+fn derive_model(
+    prog: &grm_sema::Program,
+    sys: &grm_sema::System,
+    compiled: &CompiledSystem,
+    settings: &grm_sema::Settings,
+    p: &PreviewParams,
+    focus: Option<u32>,
+) -> std::result::Result<Made, String> {
+    let max_modules = p.max_modules.unwrap_or(2_000_000).min(50_000_000);
+    let t0 = Instant::now();
+    let grown = grow(
+        compiled,
+        settings.iterations,
+        settings.seed,
+        max_modules,
+        focus,
+    )?;
+    let derive_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let t1 = Instant::now();
+    let mut model =
+        grm_geom::build_model(prog, sys, &grown.string, settings).map_err(|e| e.to_string())?;
+    if let Some(o) = &grown.origin {
+        model.fill_origins(o);
+    }
+    let build_ms = t1.elapsed().as_secs_f64() * 1e3;
+    // Focus spread over seeds: bones grown by the focused production.
+    let mut focus_out = None;
+    if let Some(fo) = focus {
+        let count = |g: &Grown, m: &grm_geom::grm_turtle::Interpretation| {
+            let bones = m
+                .bones
+                .iter()
+                .filter(|b| g.focus.get(b.module as usize) == Some(&true))
+                .count();
+            let inst = m
+                .instances
+                .iter()
+                .filter(|b| g.focus.get(b.module as usize) == Some(&true))
+                .count();
+            (bones, inst)
+        };
+        let (bones, instances) = count(&grown, &model.skeleton);
+        let n = p.spread_seeds.unwrap_or(8).clamp(1, 64);
+        let mut spread = Vec::with_capacity(n as usize);
+        for k in 0..n {
+            let seed = settings.seed.wrapping_add(k);
+            let g = grow(compiled, settings.iterations, seed, max_modules, focus)?;
+            let mut st = settings.clone();
+            st.seed = seed;
+            let interp =
+                grm_geom::grm_turtle::interpret(sys, &st, &g.string).map_err(|e| e.to_string())?;
+            spread.push(count(&g, &interp).0);
+        }
+        focus_out = Some(FocusOut {
+            origin: fo,
+            bones,
+            instances,
+            spread_bones: spread,
+        });
+    }
+    Ok(Made {
+        modules: grown.string.len(),
+        focus_flags: grown.focus,
+        ambiguous: grown.ambiguous,
+        model,
+        derive_ms,
+        build_ms,
+        focus_out,
+        sample: None,
+    })
+}
+
+/// Sample mode: the guided sampler with the request's curves (or the
+/// file's `NAME.curves.json` next to it); the sampler reports provenance
+/// itself. Focus marks what the focused production made directly.
+fn sample_model(
+    fa: &FileAnalysis,
+    prog: &grm_sema::Program,
+    sys: &grm_sema::System,
+    compiled: &CompiledSystem,
+    settings: &grm_sema::Settings,
+    p: &PreviewParams,
+    focus: Option<u32>,
+) -> std::result::Result<Made, String> {
+    let (curves, from) = match &p.curves {
+        Some(v) => (
+            grm_guide::Curves::from_json_str("request", &v.to_string())
+                .map_err(|e| e.to_string())?,
+            "request".to_string(),
+        ),
+        None => {
+            let path = std::path::Path::new(&fa.source().path).with_extension("curves.json");
+            if !path.is_file() {
+                return Err(format!(
+                    "sample mode needs guiding curves: pass `curves`, or put them in {}",
+                    path.display()
+                ));
+            }
+            (
+                grm_guide::Curves::load(&path).map_err(|e| e.to_string())?,
+                path.display().to_string(),
+            )
+        }
+    };
+    let t0 = Instant::now();
+    let sampler = grm_sample::Sampler::new(
+        sys,
+        compiled,
+        &curves,
+        grm_sample::Objective::Curves,
+        grm_sample::ExpectedOptions::default(),
+    )
+    .map_err(|e| e.to_string())?;
+    let opts = grm_sample::SampleOptions {
+        seed: settings.seed,
+        schedule: grm_sample::Schedule::from_settings(settings),
+        threads: 1,
+        budget: Some(std::time::Duration::from_millis(
+            p.budget_ms.unwrap_or(5000).min(600_000),
+        )),
+        ..grm_sample::SampleOptions::default()
+    };
+    let run = sampler.sample(&opts).map_err(|e| e.to_string())?;
+    let best = run.best().ok_or("the sampler returned no model")?;
+    let derive_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let t1 = Instant::now();
+    let model = best
+        .build(prog, &grm_geom::BuildOptions::default())
+        .map_err(|e| e.to_string())?;
+    let build_ms = t1.elapsed().as_secs_f64() * 1e3;
+    let focus_flags: Vec<bool> = best.origins.iter().map(|&o| Some(o) == focus).collect();
+    let focus_out = focus.map(|fo| FocusOut {
+        origin: fo,
+        bones: model
+            .skeleton
+            .bones
+            .iter()
+            .filter(|b| b.origin == fo)
+            .count(),
+        instances: model
+            .skeleton
+            .instances
+            .iter()
+            .filter(|i| i.origin == fo)
+            .count(),
+        spread_bones: Vec::new(),
+    });
+    Ok(Made {
+        modules: best.string.len(),
+        focus_flags,
+        ambiguous: 0,
+        model,
+        derive_ms,
+        build_ms,
+        focus_out,
+        sample: Some(SampleOut {
+            objective: best.objective,
+            generations: run.generations.len(),
+            candidates: run.candidates.len(),
+            stopped_early: run.stopped_early,
+            curves: from,
+        }),
+    })
+}
+
 /// Build the preview of a checked file. Errors are messages for the user.
 pub(crate) fn build(
     fa: &FileAnalysis,
     uri: &Uri,
     p: &PreviewParams,
 ) -> std::result::Result<(PreviewResult, PickTable), String> {
-    if p.mode == PreviewMode::Sample {
-        return Err(
-            "sample mode is not available yet: the guided sampler (grm-guide) has no search to run"
-                .into(),
-        );
-    }
     if fa.checked.has_errors() {
         let n = fa
             .checked
@@ -464,11 +674,24 @@ pub(crate) fn build(
             .ok_or_else(|| format!("no system `{name}`"))?,
         None => prog.default_system().ok_or("the file defines no system")?,
     };
-    if sys.mode == Mode::Sample {
-        return Err(format!(
-            "system `{}` is a sample system: derive mode cannot grow it",
-            sys.name
-        ));
+    let mode = p.mode.unwrap_or(match sys.mode {
+        Mode::Derive => PreviewMode::Derive,
+        Mode::Sample => PreviewMode::Sample,
+    });
+    match (mode, sys.mode) {
+        (PreviewMode::Derive, Mode::Sample) => {
+            return Err(format!(
+                "system `{}` is a sample system: derive mode cannot grow it",
+                sys.name
+            ));
+        }
+        (PreviewMode::Sample, Mode::Derive) => {
+            return Err(format!(
+                "system `{}` is a derive system: only sample systems are sampled",
+                sys.name
+            ));
+        }
+        _ => {}
     }
     let mut values = prog.default_params();
     for (name, v) in &p.params {
@@ -527,63 +750,36 @@ pub(crate) fn build(
             .position(|s| s.contains(off) || s.end == off)
             .map(|a| a as u32)
     });
-    let max_modules = p.max_modules.unwrap_or(2_000_000).min(50_000_000);
-
-    let t0 = Instant::now();
-    let grown = grow(
-        &compiled,
-        settings.iterations,
-        settings.seed,
-        max_modules,
-        focus,
-    )?;
-    let derive_ms = t0.elapsed().as_secs_f64() * 1e3;
-    let t1 = Instant::now();
-    let mut model =
-        grm_geom::build_model(prog, sys, &grown.string, &settings).map_err(|e| e.to_string())?;
-    if let Some(o) = &grown.origin {
-        model.fill_origins(o);
-    }
-    let build_ms = t1.elapsed().as_secs_f64() * 1e3;
-
-    // Focus spread over seeds: bones grown by the focused production.
-    let mut focus_out = None;
-    if let Some(fo) = focus {
-        let count = |g: &Grown, m: &grm_geom::grm_turtle::Interpretation| {
-            let bones = m
-                .bones
-                .iter()
-                .filter(|b| g.focus.get(b.module as usize) == Some(&true))
-                .count();
-            let inst = m
-                .instances
-                .iter()
-                .filter(|b| g.focus.get(b.module as usize) == Some(&true))
-                .count();
-            (bones, inst)
-        };
-        let (bones, instances) = count(&grown, &model.skeleton);
-        let n = p.spread_seeds.unwrap_or(8).clamp(1, 64);
-        let mut spread = Vec::with_capacity(n as usize);
-        for k in 0..n {
-            let seed = settings.seed.wrapping_add(k);
-            let g = grow(&compiled, settings.iterations, seed, max_modules, focus)?;
-            let mut st = settings.clone();
-            st.seed = seed;
-            let interp =
-                grm_geom::grm_turtle::interpret(sys, &st, &g.string).map_err(|e| e.to_string())?;
-            spread.push(count(&g, &interp).0);
-        }
-        focus_out = Some(FocusOut {
-            origin: fo,
-            bones,
-            instances,
-            spread_bones: spread,
-        });
-    }
-
+    let made = match mode {
+        PreviewMode::Derive => derive_model(prog, sys, &compiled, &settings, p, focus)?,
+        PreviewMode::Sample => sample_model(fa, prog, sys, &compiled, &settings, p, focus)?,
+    };
+    let Made {
+        model,
+        modules,
+        focus_flags,
+        ambiguous,
+        derive_ms,
+        build_ms,
+        focus_out,
+        sample,
+    } = made;
+    let params_out: Vec<ParamOut> = prog
+        .params
+        .iter()
+        .zip(&values)
+        .filter_map(|(m, v)| {
+            Some(ParamOut {
+                name: m.name.clone(),
+                value: v.as_float()?,
+                default: m.default.as_float()?,
+                min: m.range.map(|r| r.0),
+                max: m.range.map(|r| r.1),
+            })
+        })
+        .collect();
     let t2 = Instant::now();
-    let is_focus = |module: u32| grown.focus.get(module as usize) == Some(&true);
+    let is_focus = |module: u32| focus_flags.get(module as usize) == Some(&true);
     let origin_of = |o: u32| (o != NO_ORIGIN && (o as usize) < origin_table.len()).then_some(o);
     let mut table = PickTable {
         version: fa.version,
@@ -675,7 +871,7 @@ pub(crate) fn build(
         uri: uri.clone(),
         version: fa.version,
         system: sys.name.clone(),
-        mode: PreviewMode::Derive,
+        mode,
         seed: settings.seed,
         iterations: settings.iterations,
         encoding: "base64-le".into(),
@@ -684,8 +880,10 @@ pub(crate) fn build(
         skeleton,
         origins: origin_table,
         focus: focus_out,
+        params: params_out,
+        sample,
         stats: StatsOut {
-            modules: grown.string.len(),
+            modules,
             vertices: st.vertices,
             triangles: st.triangles,
             bones: st.bones,
@@ -695,7 +893,7 @@ pub(crate) fn build(
             dropped: st.dropped,
             bounds_min: finite(st.bounds.min.to_array()),
             bounds_max: finite(st.bounds.max.to_array()),
-            ambiguous_origins: grown.ambiguous,
+            ambiguous_origins: ambiguous,
             derive_ms,
             build_ms,
             encode_ms: t2.elapsed().as_secs_f64() * 1e3,

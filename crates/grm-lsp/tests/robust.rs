@@ -474,3 +474,91 @@ async fn preview_pick_and_live_updates() {
         insta::assert_snapshot!("preview", scrub(&out));
     });
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn preview_sample_mode() {
+    let mut c = Client::start().await;
+    let (p, text) = fixture("guided.grm");
+    let u = c.open(&p, &text).await;
+    let _ = c.diagnostics(&u, 1).await;
+    use std::fmt::Write;
+    let mut out = String::new();
+    // The system's own mode; curves from guided.curves.json next to it.
+    let req = json!({ "textDocument": { "uri": u }, "budgetMs": 60000, "focus": pos(&text, "tip -> sphere", 0, 0) });
+    let a = c.ok("grm/preview", req.clone()).await;
+    let b = c.ok("grm/preview", req).await;
+    assert_eq!(
+        a["stats"]["triangles"], b["stats"]["triangles"],
+        "deterministic"
+    );
+    assert_eq!(a["parts"], b["parts"], "deterministic");
+    let s = &a["sample"];
+    let _ = writeln!(
+        out,
+        "mode={} seed={} generations={} candidates={} stoppedEarly={} curves={}",
+        a["mode"],
+        a["seed"],
+        s["generations"],
+        s["candidates"],
+        s["stoppedEarly"],
+        s["curves"].as_str().unwrap().rsplit('/').next().unwrap()
+    );
+    assert!(s["objective"].as_f64().unwrap().is_finite());
+    let st = &a["stats"];
+    let _ = writeln!(
+        out,
+        "bones={} instances={} parts={}",
+        st["bones"], st["instances"], st["parts"]
+    );
+    // Every picked run of triangles names the production that made it.
+    let mut by_origin = std::collections::BTreeMap::new();
+    for part in a["parts"].as_array().unwrap() {
+        for pk in part["picks"].as_array().unwrap() {
+            let o = pk["origin"].as_u64().expect("sampler provenance is exact");
+            let sym = a["origins"][o as usize]["symbol"]
+                .as_str()
+                .unwrap()
+                .to_string();
+            *by_origin
+                .entry(format!("{}<{sym} focus={}", pk["kind"], pk["focus"]))
+                .or_insert(0) += 1;
+        }
+    }
+    let _ = writeln!(out, "picks by origin: {by_origin:?}");
+    let _ = writeln!(out, "focus: {}", a["focus"]);
+    // Curves in the request; a derive-mode request of a sample system fails.
+    let curves: Value =
+        serde_json::from_str(&std::fs::read_to_string(p.with_extension("curves.json")).unwrap())
+            .unwrap();
+    let r = c
+        .ok(
+            "grm/preview",
+            json!({ "textDocument": { "uri": u }, "curves": curves, "budgetMs": 60000 }),
+        )
+        .await;
+    let _ = writeln!(out, "inline curves: {}", r["sample"]["curves"]);
+    assert_eq!(r["stats"]["bones"], a["stats"]["bones"]);
+    let e = c
+        .request(
+            "grm/preview",
+            json!({ "textDocument": { "uri": u }, "mode": "derive" }),
+        )
+        .await
+        .unwrap_err();
+    let _ = writeln!(out, "derive mode: error {} {}", e["code"], e["message"]);
+    let e = c
+        .request(
+            "grm/preview",
+            json!({ "textDocument": { "uri": u }, "curves": { "version": 1, "curves": [] } }),
+        )
+        .await
+        .unwrap_err();
+    let _ = writeln!(out, "bad curves: error {}", e["code"]);
+    insta::with_settings!({
+        snapshot_path => concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/lsp/snapshots"),
+        prepend_module_to_snapshot => false,
+        omit_expression => true,
+    }, {
+        insta::assert_snapshot!("preview_sample", scrub(&out));
+    });
+}
