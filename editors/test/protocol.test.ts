@@ -141,3 +141,20 @@ test("the first system's mode is read from its symbol", () => {
   assert.equal(modeFromSymbols([{ name: 'x', kind: 3, detail: 'class' }]), null);
   assert.equal(modeFromSymbols('junk'), null);
 });
+
+test('meta-parameters and sampler figures in a result; a parameter without a numeric range gets no slider', () => {
+  const r = decodePreview(
+    wire([0, 0, 0, 1, 0, 0, 0, 1, 0], [0, 1, 2], {
+      mode: 'sample',
+      params: [
+        { name: 'spread', value: 40, default: 30, min: 10, max: 60 },
+        { name: 'k', value: 2, default: 2, min: null, max: null },
+      ],
+      sample: { objective: -1234.5, generations: 100, candidates: 15, stoppedEarly: false, curves: 'request' },
+    }),
+  );
+  assert.deepEqual(r.params, [{ name: 'spread', value: 40, min: 10, max: 60, default: 30 }]);
+  assert.deepEqual(r.paramsWithoutRange, ['k']);
+  assert.deepEqual(r.sample, { objective: -1234.5, generations: 100, candidates: 15, stoppedEarly: false, curves: 'request' });
+  assert.equal(decodePreview(wire([0, 0, 0, 1, 0, 0, 0, 1, 0], [0, 1, 2])).sample, null);
+});

@@ -81,6 +81,8 @@ class App {
   private galleryToken = 0;
   private spreadToken = 0;
   private curvesLoadedFor = '';
+  /** The server lists the meta-parameters in its preview results. */
+  private serverParams = false;
   private pendingBreakdown: Record<string, number> = {};
   /** The document version whose meta-parameters the sliders show. */
   private symbolsFor = '';
@@ -167,6 +169,10 @@ class App {
   }
 
   /** Ask for the preview of the current state. The mode is the first system's (from the document's symbols); a sample system's curves are loaded first. */
+  private showSkippedParams(names: string[]): void {
+    $('params-skipped').textContent = names.length ? `No slider for ${names.join(', ')}: give it a range of numbers (param x = 1 in 0 .. 2).` : '';
+  }
+
   private async fetchPreview(): Promise<PreviewResult> {
     if (!this.symbolsFor.startsWith(`${this.state.uri}@`)) await this.loadSymbols('first');
     if (this.state.mode === 'sample') await this.ensureCurves();
@@ -206,6 +212,10 @@ class App {
     const r = d.result;
     this.last = r;
     this.state.absorb(r);
+    if (r.params.length > 0 || r.paramsWithoutRange.length > 0) {
+      this.serverParams = true;
+      this.showSkippedParams(r.paramsWithoutRange);
+    }
     $('overlay-msg').textContent = this.state.curvesError ? `curves: ${this.state.curvesError}` : '';
     const breakdown = this.pendingBreakdown;
     this.pendingBreakdown = {};
@@ -246,10 +256,13 @@ class App {
     this.symbolsFor = key;
     try {
       const symbols = await this.transport.request('symbols', { uri: this.state.uri });
-      const { params, skipped } = paramsFromSymbols(symbols);
-      this.state.setParamInfo(params);
-      this.refreshParams();
-      $('params-skipped').textContent = skipped.length ? `No slider for ${skipped.join(', ')}: write the default and range as numbers.` : '';
+      // A server that lists the meta-parameters in its results is the better source.
+      if (!this.serverParams) {
+        const { params, skipped } = paramsFromSymbols(symbols);
+        this.state.setParamInfo(params);
+        this.refreshParams();
+        this.showSkippedParams(skipped);
+      }
       const mode = modeFromSymbols(symbols);
       if (mode && mode !== this.state.mode) {
         this.state.mode = mode;
@@ -270,6 +283,9 @@ class App {
       .map(([k, v]) => `${k} ${v.toFixed(1)} ms`)
       .join(', ');
     if (t) parts.push(t);
+    if (r.sample) {
+      parts.push(`cost ${r.sample.objective.toFixed(1)} after ${r.sample.generations} generations${r.sample.stoppedEarly ? ' (stopped by the time budget)' : ''}`);
+    }
     if (ms !== null) parts.push(`on screen in ${ms.toFixed(0)} ms`);
     return parts.join(' · ');
   }

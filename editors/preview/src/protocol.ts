@@ -128,14 +128,29 @@ export interface Focus {
   spreadBones: number[];
 }
 
+/** How a guided-sampler run went (sample mode). */
+export interface SampleInfo {
+  /** The returned model's curve cost. */
+  objective: number;
+  generations: number;
+  candidates: number;
+  /** The wall-clock budget stopped the search early. */
+  stoppedEarly: boolean;
+  /** Where the curves came from: `request` or a file path. */
+  curves: string;
+}
+
 export interface PreviewResult {
   uri: string;
   version: number;
   system: string;
   mode: 'derive' | 'sample';
   seed: number;
-  /** The meta-parameters, when the server lists them. */
+  /** The meta-parameters with a numeric range, when the server lists them. */
   params: ParamInfo[];
+  /** Meta-parameters the server lists without a numeric range (no slider). */
+  paramsWithoutRange: string[];
+  sample: SampleInfo | null;
   model: SceneModel;
   origins: Origin[];
   focus: Focus | null;
@@ -359,17 +374,30 @@ export function decodePreview(v: unknown): PreviewResult {
   if (v.encoding !== undefined && v.encoding !== 'base64-le') throw new ProtocolError(`preview: unknown encoding ${String(v.encoding)}`);
   const mode = str(v.mode, 'derive');
   if (mode !== 'derive' && mode !== 'sample') throw new ProtocolError(`preview: unknown mode ${mode}`);
-  const params: ParamInfo[] = (Array.isArray(v.params) ? v.params : []).map((p: unknown, i: number) => {
+  // Meta-parameters as the server lists them; one without a numeric range
+  // (the server's min/max are null) gets no slider.
+  const params: ParamInfo[] = [];
+  const paramsWithoutRange: string[] = [];
+  (Array.isArray(v.params) ? v.params : []).forEach((p: unknown, i: number) => {
     if (!isObject(p)) throw new ProtocolError(`params[${i}]: expected an object`);
     const value = num(p.value, `params[${i}].value`);
-    return {
-      name: str(p.name),
-      value,
-      min: num(p.min, `params[${i}].min`),
-      max: num(p.max, `params[${i}].max`),
-      default: optNum(p.default, value),
-    };
+    const name = str(p.name);
+    if (typeof p.min !== 'number' || typeof p.max !== 'number' || !(p.min <= p.max)) {
+      paramsWithoutRange.push(name);
+      return;
+    }
+    params.push({ name, value, min: p.min, max: p.max, default: optNum(p.default, value) });
   });
+  let sample: SampleInfo | null = null;
+  if (isObject(v.sample)) {
+    sample = {
+      objective: optNum(v.sample.objective, NaN),
+      generations: optNum(v.sample.generations, 0),
+      candidates: optNum(v.sample.candidates, 0),
+      stoppedEarly: v.sample.stoppedEarly === true,
+      curves: str(v.sample.curves),
+    };
+  }
   const stats = numberRecord(v.stats);
   const timings: Record<string, number> = {};
   for (const [k, x] of Object.entries(stats)) if (k.endsWith('Ms')) timings[k.slice(0, -2)] = x;
@@ -390,6 +418,8 @@ export function decodePreview(v: unknown): PreviewResult {
     mode,
     seed: optNum(v.seed, 0),
     params,
+    paramsWithoutRange,
+    sample,
     model: decodeModel(v),
     origins: (Array.isArray(v.origins) ? v.origins : []).map((o: unknown, i: number) => decodeOrigin(o, `origins[${i}]`)),
     focus,

@@ -55,7 +55,7 @@ export class PageState {
     this.system = r.system;
     if (this.seed === null) this.seed = r.seed;
     // A server that lists the meta-parameters in the result is taken at its word.
-    if (r.params.length > 0) this.setParamInfo(r.params);
+    if (r.params.length > 0 || r.paramsWithoutRange.length > 0) this.setParamInfo(r.params);
   }
 
   /** The curves file as read from disk (null text: there is none yet). */
