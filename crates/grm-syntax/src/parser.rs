@@ -121,6 +121,48 @@ pub(crate) fn string_value(text: &str) -> String {
     out
 }
 
+/// Build a left-associative binary tree from `first (op operand)*` by
+/// precedence climbing (higher [`BinaryOp::precedence`] binds tighter).
+pub(crate) fn climb(first: Expr, rest: Vec<(BinaryOp, Expr)>) -> Expr {
+    if rest.is_empty() {
+        return first;
+    }
+    let mut items = rest.into_iter().peekable();
+    climb_from(first, &mut items, 0)
+}
+
+fn climb_from(
+    mut lhs: Expr,
+    items: &mut std::iter::Peekable<std::vec::IntoIter<(BinaryOp, Expr)>>,
+    min_prec: u8,
+) -> Expr {
+    while let Some(&(op, _)) = items.peek() {
+        if op.precedence() < min_prec {
+            break;
+        }
+        // `peek` just returned an item.
+        let Some((op, mut rhs)) = items.next() else {
+            break;
+        };
+        while let Some(&(next, _)) = items.peek() {
+            if next.precedence() <= op.precedence() {
+                break;
+            }
+            rhs = climb_from(rhs, items, op.precedence() + 1);
+        }
+        let span = lhs.span.to(rhs.span);
+        lhs = Expr {
+            kind: ExprKind::Binary {
+                op,
+                lhs: Box::new(lhs),
+                rhs: Box::new(rhs),
+            },
+            span,
+        };
+    }
+    lhs
+}
+
 // ---- the driver ---------------------------------------------------------------
 
 type Tok<'a> = Result<(usize, Token<'a>, usize), ()>;

@@ -226,3 +226,38 @@ fn absurdly_deep_expressions_are_refused_not_overflowing() {
     let ok = format!("const X = {}1{};", "(".repeat(100), ")".repeat(100));
     assert!(parse(FileId(0), &ok).diagnostics.is_empty());
 }
+
+#[test]
+fn operator_precedence_and_associativity() {
+    fn show(e: &Expr) -> String {
+        match &e.kind {
+            ExprKind::Binary { op, lhs, rhs } => {
+                format!("({} {} {})", show(lhs), op.as_str(), show(rhs))
+            }
+            ExprKind::Unary { op, operand } => format!("({}{})", op.as_str(), show(operand)),
+            ExprKind::Number { text, .. } => text.clone(),
+            ExprKind::Name(n) => n.name.clone(),
+            ExprKind::Paren(e) => format!("[{}]", show(e)),
+            _ => "?".into(),
+        }
+    }
+    let cases = [
+        ("1 + 2 * 3", "(1 + (2 * 3))"),
+        ("1 - 2 - 3", "((1 - 2) - 3)"),
+        ("a * b + c * d", "((a * b) + (c * d))"),
+        ("a < b && c >= d || e", "(((a < b) && (c >= d)) || e)"),
+        ("a || b && c", "(a || (b && c))"),
+        ("a == b != c", "((a == b) != c)"),
+        ("-a * b", "((-a) * b)"),
+        ("1 + 2 * 3 - 4 / 5 % 6", "((1 + (2 * 3)) - ((4 / 5) % 6))"),
+        ("(1 + 2) * 3", "([(1 + 2)] * 3)"),
+        ("a + b < c * d == e", "(((a + b) < (c * d)) == e)"),
+    ];
+    for (src, want) in cases {
+        let (e, d) = grm_syntax::parse_expr(FileId(0), src);
+        assert!(d.is_empty(), "{src}: {d:?}");
+        let e = e.expect("parses");
+        assert_eq!(show(&e), want, "{src}");
+        assert_eq!(e.span, Span::new(0, src.len() as u32), "{src}");
+    }
+}
