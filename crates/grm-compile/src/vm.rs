@@ -61,6 +61,13 @@ impl std::fmt::Display for VmError {
 
 impl std::error::Error for VmError {}
 
+const CONST: u32 = Op::Const as u32;
+const LOAD: u32 = Op::Load as u32;
+const ADD1: u32 = Op::Add.encode(1);
+const SUB1: u32 = Op::Sub.encode(1);
+const MUL1: u32 = Op::Mul.encode(1);
+const DIV1: u32 = Op::Div.encode(1);
+
 /// The stack machine. Create one per thread and reuse it.
 #[derive(Clone, Debug)]
 pub struct Vm {
@@ -155,6 +162,37 @@ impl Vm {
                 return Err(err(VmFault::CodeEnd));
             };
             pc += 1;
+            // Fast path for the commonest instructions (loads and scalar
+            // arithmetic), with the same checks and results as the general
+            // path below.
+            match word & 0xFF {
+                CONST if sp < STACK_SIZE => {
+                    st[sp] = *consts
+                        .get((word >> 8) as usize)
+                        .ok_or(err(VmFault::ConstOutOfRange))?;
+                    sp += 1;
+                    continue;
+                }
+                LOAD if sp < STACK_SIZE => {
+                    st[sp] = *bind
+                        .get((word >> 8) as usize)
+                        .ok_or(err(VmFault::BindOutOfRange))?;
+                    sp += 1;
+                    continue;
+                }
+                _ if sp >= 2 && matches!(word, ADD1 | SUB1 | MUL1 | DIV1) => {
+                    let (x, y) = (st[sp - 2], st[sp - 1]);
+                    st[sp - 2] = match word {
+                        ADD1 => x + y,
+                        SUB1 => x - y,
+                        MUL1 => x * y,
+                        _ => x / y,
+                    };
+                    sp -= 1;
+                    continue;
+                }
+                _ => {}
+            }
             let (opcode, a) = decode(word);
             let Some(op) = Op::from_code(opcode) else {
                 return Err(err(VmFault::BadOpcode(opcode)));
