@@ -314,6 +314,9 @@ pub struct Analysis {
     docs: HashMap<PathBuf, Doc>,
     cache: HashMap<PathBuf, Arc<FileAnalysis>>,
     base: Arc<dyn FileLoader + Send + Sync>,
+    /// `.grm` files of the workspace that may not be open (read through
+    /// the loader): searched by workspace symbols, references and rename.
+    workspace: std::collections::BTreeSet<PathBuf>,
 }
 
 impl std::fmt::Debug for Analysis {
@@ -338,6 +341,7 @@ impl Analysis {
             docs: HashMap::new(),
             cache: HashMap::new(),
             base,
+            workspace: std::collections::BTreeSet::new(),
         }
     }
 
@@ -387,6 +391,30 @@ impl Analysis {
     pub fn documents(&self) -> Vec<PathBuf> {
         let mut v: Vec<PathBuf> = self.docs.keys().cloned().collect();
         v.sort();
+        v
+    }
+
+    /// Make a workspace file known (or forget it): it is searched even when
+    /// it is not open.
+    pub fn set_workspace_file(&mut self, path: &Path, present: bool) {
+        let key = normalize(path);
+        if present {
+            self.workspace.insert(key);
+        } else {
+            self.workspace.remove(&key);
+        }
+    }
+
+    /// The open documents and the known workspace files, sorted.
+    pub fn known_files(&self) -> Vec<PathBuf> {
+        let mut v: Vec<PathBuf> = self
+            .docs
+            .keys()
+            .chain(self.workspace.iter())
+            .cloned()
+            .collect();
+        v.sort();
+        v.dedup();
         v
     }
 

@@ -251,7 +251,8 @@ pub(crate) fn valid_identifier(s: &str) -> Result<(), RenameError> {
 
 impl Analysis {
     /// References to the name under `offset` of `path`, in every open
-    /// document (and their imports) that sees the same definition.
+    /// document and known workspace file (and their imports) that sees the
+    /// same definition.
     pub fn references(&mut self, path: &Path, offset: u32, include_decl: bool) -> Vec<Location> {
         let Some(fa) = self.analyze(path) else {
             return Vec::new();
@@ -270,7 +271,7 @@ impl Analysis {
         };
         push(fa.occurrences(def, include_decl), &mut locs);
         if !matches!(def, Def::Binding { .. }) {
-            for doc in self.documents() {
+            for doc in self.known_files() {
                 if grm_sema::normalize(path) == doc {
                     continue;
                 }

@@ -381,10 +381,11 @@ fn fuzzy(query: &str, name: &str) -> bool {
 
 impl Analysis {
     /// Definitions matching `query` (case-insensitive subsequence) in the
-    /// open documents and the files they import, without duplicates.
+    /// open documents, the known workspace files and the files they import,
+    /// without duplicates.
     pub fn workspace_symbols(&mut self, query: &str) -> Vec<WorkspaceSymbol> {
         let mut out: Vec<WorkspaceSymbol> = Vec::new();
-        for doc in self.documents() {
+        for doc in self.known_files() {
             let Some(fa) = self.analyze(&doc) else {
                 continue;
             };

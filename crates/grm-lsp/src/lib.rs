@@ -75,6 +75,42 @@ pub(crate) struct Shared {
     /// Provenance of the last preview per file, for `grm/pick`.
     pub(crate) picks: Mutex<HashMap<PathBuf, preview::PickTable>>,
     debounce: Duration,
+    /// Workspace folders to scan for `.grm` files.
+    roots: Mutex<Vec<PathBuf>>,
+}
+
+/// The `.grm` files under `roots` (hidden directories, `target` and
+/// `node_modules` skipped; at most 2,000 files, 12 levels deep).
+fn scan(roots: &[PathBuf]) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let mut stack: Vec<(PathBuf, u32)> = roots.iter().map(|r| (r.clone(), 0)).collect();
+    while let Some((dir, depth)) = stack.pop() {
+        let Ok(entries) = std::fs::read_dir(&dir) else {
+            continue;
+        };
+        for e in entries.flatten() {
+            let p = e.path();
+            let name = e.file_name();
+            let name = name.to_string_lossy();
+            let Ok(ft) = e.file_type() else { continue };
+            if ft.is_dir() {
+                if depth < 12
+                    && !name.starts_with('.')
+                    && name != "target"
+                    && name != "node_modules"
+                {
+                    stack.push((p, depth + 1));
+                }
+            } else if ft.is_file() && name.ends_with(".grm") {
+                out.push(p);
+                if out.len() >= 2000 {
+                    return out;
+                }
+            }
+        }
+    }
+    out.sort();
+    out
 }
 
 impl Shared {
@@ -160,6 +196,7 @@ impl Backend {
                 preview_sent: tokio::sync::Mutex::new(HashMap::new()),
                 picks: Mutex::new(HashMap::new()),
                 debounce: config.debounce,
+                roots: Mutex::new(Vec::new()),
             }),
         }
     }
@@ -256,7 +293,25 @@ async fn publish(shared: &Arc<Shared>, client: &Client, path: PathBuf, version: 
 }
 
 impl LanguageServer for Backend {
-    async fn initialize(&self, _: InitializeParams) -> Result<InitializeResult> {
+    async fn initialize(&self, params: InitializeParams) -> Result<InitializeResult> {
+        #[allow(deprecated)] // `root_uri` is still what older clients send.
+        let mut roots: Vec<PathBuf> = params
+            .workspace_folders
+            .unwrap_or_default()
+            .iter()
+            .filter_map(|f| convert::path_of(&f.uri))
+            .collect();
+        #[allow(deprecated)]
+        if roots.is_empty()
+            && let Some(p) = params.root_uri.as_ref().and_then(convert::path_of)
+        {
+            roots.push(p);
+        }
+        *self
+            .shared
+            .roots
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner) = roots;
         Ok(InitializeResult {
             offset_encoding: None,
             server_info: Some(ServerInfo {
@@ -317,6 +372,27 @@ impl LanguageServer for Backend {
         })
     }
 
+    async fn initialized(&self, _: InitializedParams) {
+        // Index the workspace's `.grm` files for workspace symbols,
+        // references and rename (off the executor).
+        let roots = self
+            .shared
+            .roots
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .clone();
+        if roots.is_empty() {
+            return;
+        }
+        let _ = self
+            .with_host(move |a| {
+                for f in scan(&roots) {
+                    a.set_workspace_file(&f, true);
+                }
+            })
+            .await;
+    }
+
     async fn shutdown(&self) -> Result<()> {
         Ok(())
     }
@@ -368,7 +444,13 @@ impl LanguageServer for Backend {
     async fn did_change_watched_files(&self, params: DidChangeWatchedFilesParams) {
         for c in params.changes {
             if let Some(p) = convert::path_of(&c.uri) {
-                self.shared.analysis().file_changed(&p);
+                {
+                    let mut a = self.shared.analysis();
+                    if p.extension().is_some_and(|e| e == "grm") {
+                        a.set_workspace_file(&p, c.typ != FileChangeType::DELETED);
+                    }
+                    a.file_changed(&p);
+                }
                 let deps: Vec<(PathBuf, i32)> = {
                     let a = self.shared.analysis();
                     a.dependents(&p)

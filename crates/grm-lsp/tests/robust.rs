@@ -562,3 +562,85 @@ async fn preview_sample_mode() {
         insta::assert_snapshot!("preview_sample", scrub(&out));
     });
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn workspace_files_are_searched_without_being_open() {
+    let root = common::root().join("tests/lsp");
+    let mut c = Client::with_init(
+        Config::default(),
+        json!({ "capabilities": {}, "rootUri": uri(&root) }),
+    )
+    .await;
+    // Nothing is open: symbols come from the scanned folder.
+    let r = c.ok("workspace/symbol", json!({ "query": "zweig" })).await;
+    let names: Vec<&str> = r
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["Zweig"]);
+    // References to a constant of lib.grm include plant.grm, which is not open.
+    let (lp, ltext) = fixture("lib.grm");
+    let u = c.open(&lp, &ltext).await;
+    let mut params = at(&u, pos(&ltext, "GOLDEN", 0, 0));
+    params["context"] = json!({ "includeDeclaration": false });
+    let r = c.ok("textDocument/references", params).await;
+    let files: Vec<String> = r
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|l| {
+            l["uri"]
+                .as_str()
+                .unwrap()
+                .rsplit('/')
+                .next()
+                .unwrap()
+                .to_string()
+        })
+        .collect();
+    assert_eq!(files, ["plant.grm"]);
+    // A deleted file is forgotten.
+    let (up, _) = fixture("unicode.grm");
+    c.notify(
+        "workspace/didChangeWatchedFiles",
+        json!({ "changes": [ { "uri": uri(&up), "type": 3 } ] }),
+    )
+    .await;
+    let r = c.ok("workspace/symbol", json!({ "query": "zweig" })).await;
+    assert_eq!(r, json!([]));
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_large_preview_does_not_stall_other_requests() {
+    let mut c = Client::start().await;
+    let (dir, _) = fixture("lib.grm");
+    let p = dir.with_file_name("big.grm");
+    // 2^17 bones: seconds of mesh building in a debug build.
+    let text = "system Big { iterations = 17; axiom F; F -> F F; }";
+    let u = c.open(&p, text).await;
+    let _ = c.diagnostics(&u, 1).await;
+    let big = c
+        .spawn_request("grm/preview", json!({ "textDocument": { "uri": u } }))
+        .await;
+    let t = std::time::Instant::now();
+    let h = c
+        .ok("textDocument/hover", at(&u, pos(text, "F;", 0, 0)))
+        .await;
+    let hover_time = t.elapsed();
+    assert!(
+        h["contents"]["value"]
+            .as_str()
+            .unwrap()
+            .contains("turtle command")
+    );
+    assert!(
+        !big.is_finished(),
+        "the hover ({hover_time:?}) was answered while the preview was still being built"
+    );
+    let r = big.await.expect("task").expect("answered");
+    let (_, body) = r.into_parts();
+    let v = body.expect("preview");
+    assert_eq!(v["stats"]["bones"], 1 << 17);
+}

@@ -79,6 +79,11 @@ impl Client {
     }
 
     pub async fn with(config: Config) -> Client {
+        Client::with_init(config, json!({ "capabilities": {} })).await
+    }
+
+    /// A client whose `initialize` sends `init`.
+    pub async fn with_init(config: Config, init: Value) -> Client {
         let (service, socket) = grm_lsp::service(config);
         let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
         tokio::spawn(async move {
@@ -95,7 +100,7 @@ impl Client {
             seen: Vec::new(),
             id: 0,
         };
-        let init = c.request("initialize", json!({ "capabilities": {} })).await;
+        let init = c.request("initialize", init).await;
         assert!(init.is_ok(), "{init:?}");
         c.notify("initialized", json!({})).await;
         c
@@ -113,6 +118,20 @@ impl Client {
         let resp = self.call(req).await.expect("a request is always answered");
         let (_, body) = resp.into_parts();
         body.map_err(|e| serde_json::to_value(e).unwrap_or(Value::Null))
+    }
+
+    /// Send a request and return its pending answer as a task (to run
+    /// other requests while it is being computed).
+    pub async fn spawn_request(
+        &mut self,
+        method: &'static str,
+        params: Value,
+    ) -> tokio::task::JoinHandle<Option<tower_lsp_server::jsonrpc::Response>> {
+        self.id += 1;
+        let req = Request::build(method).id(self.id).params(params).finish();
+        let svc = self.service.ready().await.expect("service ready");
+        let fut = svc.call(req);
+        tokio::spawn(async move { fut.await.expect("service call") })
     }
 
     pub async fn ok(&mut self, method: &'static str, params: Value) -> Value {
