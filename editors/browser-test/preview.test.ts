@@ -377,7 +377,27 @@ test('sample mode: drawing a curve and dragging its control point regrow the Cal
   assert.deepEqual(savedAfter.curves[3].points, moved, 'the dragged curve is saved');
   await page.screenshot({ path: join(artifacts, 'sample-dragged.png') });
 
-  // Select the curve and edit a parameter: another regrow.
+  // A bone of the skeleton names the production that grew it: `branch -> ... F(1) ...`.
+  const branchLine = readFileSync(grammar, 'utf8').split('\n').findIndex((l) => /^\s*branch\s*->/.test(l));
+  // The trunk curve runs through the trunk's bones: hide the curves so the click picks, not selects.
+  await page.uncheck('#show-geometry');
+  await page.uncheck('#show-curves');
+  const bonePos = await page.evaluate(() => {
+    const g = (globalThis as unknown as { __grm: { bonesList(): { base: number[]; tip: number[] }[]; toScreen(p: number[]): [number, number] } }).__grm;
+    const b = g.bonesList()[0];
+    return g.toScreen([(b.base[0] + b.tip[0]) / 2, (b.base[1] + b.tip[1]) / 2, (b.base[2] + b.tip[2]) / 2]);
+  });
+  await page.mouse.click(bonePos[0], bonePos[1]);
+  await page.waitForFunction(() => (globalThis as unknown as { __grm: Grm }).__grm.lastPick !== null, undefined, { timeout: 10_000 });
+  const pickedBone = await grm(page);
+  assert.equal(pickedBone.lastPick?.symbol, 'branch');
+  assert.equal(pickedBone.lastPick?.range.start.line, branchLine);
+  await page.check('#show-geometry');
+  await page.check('#show-curves');
+  await page.waitForFunction(() => !(globalThis as unknown as { __grm: Grm }).__grm.busy, undefined, { timeout: 30_000 });
+
+  // Select the curve again and edit a parameter: another regrow.
+  await page.click('#curve-list .curve:nth-child(4)');
   const s2 = await grm(page);
   await page.fill('#curve-fields input[data-key=alignment_offset]', '0.3');
   await page.press('#curve-fields input[data-key=alignment_offset]', 'Enter');

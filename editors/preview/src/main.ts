@@ -279,8 +279,9 @@ class App {
     const m = r.model;
     const parts = [`${r.system || 'system'} (${r.mode})`, `seed ${r.seed}`];
     parts.push(`${m.triangles.toLocaleString()} triangles`, `${m.bones.length.toLocaleString()} bones`);
+    // The server's `derive` time is the search in sample mode.
     const t = Object.entries(r.timings)
-      .map(([k, v]) => `${k} ${v.toFixed(1)} ms`)
+      .map(([k, v]) => `${k === 'derive' && r.mode === 'sample' ? 'sample' : k} ${v.toFixed(1)} ms`)
       .join(', ');
     if (t) parts.push(t);
     if (r.sample) {
