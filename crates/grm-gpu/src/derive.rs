@@ -467,9 +467,13 @@ impl<'a> GpuSystem<'a> {
             status,
         };
         self.dispatch_derive(&mut enc, &kernels::REWRITE, &params, &pass, n)?;
-        gpu.queue()
-            .write_buffer(&out.starts, 4 * m, bytemuck::bytes_of(&(w as u32)));
-        gpu.queue().submit([enc.finish()]);
+        // The last start is the total of parameter words (the scan's total).
+        enc.copy_buffer_to_buffer(&counts, 8 * n + 4, &out.starts, 4 * m, Some(4));
+        if opts.sync_iterations {
+            gpu.submit_wait(enc)?;
+        } else {
+            gpu.queue().submit([enc.finish()]);
+        }
         Ok(out)
     }
 

@@ -28,6 +28,8 @@ pub struct BenchArgs {
 pub enum BenchWhat {
     /// Derivation throughput (modules/us) on the ABoP scenes.
     Derive(DeriveBench),
+    /// GPU derivation and interpretation against the CPU engines.
+    Gpu(crate::gpu::GpuBench),
 }
 
 #[derive(clap::Args, Debug)]
@@ -61,6 +63,7 @@ const SCENES: &[(&str, &str, u32)] = &[
 pub fn run(args: BenchArgs) -> Outcome {
     match args.what {
         BenchWhat::Derive(a) => derive_bench(a),
+        BenchWhat::Gpu(a) => crate::gpu::bench(a),
     }
 }
 

@@ -54,6 +54,13 @@ pub struct DeriveArgs {
     /// many MiB (default 2048).
     #[arg(long, value_name = "MIB")]
     pub max_memory: Option<u64>,
+    /// Derive (and interpret) on the GPU (grm-gpu; docs/gpu.md).
+    #[arg(long)]
+    pub gpu: bool,
+    /// With `--gpu`: derive on the CPU when no GPU can be used or the
+    /// derivation outgrows the device.
+    #[arg(long, requires = "gpu")]
+    pub cpu_fallback: bool,
 }
 
 /// A system loaded, checked and compiled, with what it came from.
@@ -305,6 +312,11 @@ pub fn run(args: DeriveArgs) -> Outcome {
         Ok(l) => l,
         Err(o) => return o,
     };
+    if args.gpu
+        && let Some(o) = crate::gpu::derive(&args, &loaded)
+    {
+        return o;
+    }
     let c = &loaded.compiled;
     let opts = DeriveOptions {
         iterations: args.iterations.unwrap_or(c.settings.iterations),

@@ -12,6 +12,7 @@ mod check;
 mod derive;
 mod disasm;
 mod fmt;
+mod gpu;
 mod lsp;
 mod view;
 

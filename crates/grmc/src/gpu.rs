@@ -1,0 +1,232 @@
+//! The GPU engine (`grm-gpu`) from the command line: `grmc derive --gpu`
+//! and `grmc bench gpu`.
+//!
+//! `--gpu` derives on the GPU and interprets the result there (bones);
+//! the string is read back only when it is printed or exported (the model
+//! is then built from it as on the CPU path). Without an adapter, or when a
+//! derivation outgrows the device, it stops with the reason; with
+//! `--cpu-fallback` it derives on the CPU instead and says so. A run-time
+//! error in a production (a non-finite parameter, a bad weight) is
+//! re-derived on the CPU, which reports it with its source span (both
+//! engines stop at the same iteration and module).
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use grm_gpu::{GpuDeriveOptions, GpuError, GpuRunOptions, TurtleProgram};
+
+use crate::Outcome;
+use crate::derive::{DeriveArgs, Loaded, limits, report_derive_error};
+
+fn ms(d: std::time::Duration) -> f64 {
+    d.as_secs_f64() * 1e3
+}
+
+/// Whether the CPU may take over after this error (`--cpu-fallback`): no
+/// device, or the device cannot hold the derivation.
+fn device_problem(e: &GpuError) -> bool {
+    matches!(
+        e,
+        GpuError::NoAdapter(_)
+            | GpuError::RequestDevice(_)
+            | GpuError::BufferTooLarge { .. }
+            | GpuError::TooManyWorkgroups { .. }
+            | GpuError::Unsupported(_)
+            | GpuError::Device(_)
+            | GpuError::DeviceLost(_)
+    )
+}
+
+/// `grmc derive --gpu`. Returns `None` when the CPU path should run
+/// instead (`--cpu-fallback` after a device problem, which was reported).
+pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
+    let c = &loaded.compiled;
+    let lim = limits(args.max_modules, args.max_memory);
+    let opts = GpuRunOptions {
+        derive: GpuDeriveOptions {
+            iterations: args.iterations.unwrap_or(c.settings.iterations),
+            seed: args.seed.unwrap_or(c.settings.seed),
+            max_modules: lim.max_modules,
+            max_bytes: lim.max_bytes,
+            sync_iterations: args.stats,
+        },
+        interpret: true,
+        read_string: args.print || args.output.is_some(),
+        read_bones: false,
+    };
+    let fallback = |e: &GpuError| -> Option<Outcome> {
+        if args.cpu_fallback && device_problem(e) {
+            eprintln!("note: GPU: {e}; deriving on the CPU (--cpu-fallback)");
+            None
+        } else {
+            eprintln!("error: GPU: {e}");
+            Some(Outcome::Usage)
+        }
+    };
+    let gpu = match grm_gpu::shared() {
+        Ok(g) => g,
+        Err(e) => return fallback(&e),
+    };
+    let turtle = TurtleProgram::new(loaded.system(), &c.settings);
+    if args.stats {
+        eprintln!("GPU: {}", gpu.describe());
+        println!(
+            "{:>9} {:>14} {:>12} {:>10}",
+            "iteration", "modules", "params", "ms"
+        );
+    }
+    let start = Instant::now();
+    let mut progress = |s: &grm_gpu::GpuIterationStats| {
+        if args.stats {
+            println!(
+                "{:>9} {:>14} {:>12} {:>10.3}",
+                s.iteration,
+                s.modules,
+                s.param_words,
+                ms(s.elapsed)
+            );
+        }
+    };
+    let r = match grm_gpu::run(gpu, c, &turtle, &opts, &mut progress) {
+        Ok(r) => r,
+        Err(e @ GpuError::Runtime { .. }) => {
+            // The CPU engine stops at the same module and names the source.
+            let cpu = grm_derive::DeriveOptions {
+                iterations: opts.derive.iterations,
+                seed: opts.derive.seed,
+                limits: lim,
+            };
+            return Some(match grm_derive::derive(c, &cpu, 0, &mut |_| {}) {
+                Err(ce) => report_derive_error(&loaded.sources, &ce),
+                Ok(_) => {
+                    eprintln!("error: GPU: {e}");
+                    Outcome::InputErrors
+                }
+            });
+        }
+        Err(
+            e @ (GpuError::ModuleLimit { .. }
+            | GpuError::MemoryLimit { .. }
+            | GpuError::CountOverflow { .. }
+            | GpuError::UnbalancedBrackets { .. }),
+        ) => {
+            eprintln!("error: GPU: {e}");
+            return Some(Outcome::InputErrors);
+        }
+        Err(e) => return fallback(&e),
+    };
+    let total = start.elapsed();
+    let interp = r.interpretation.as_ref();
+    eprintln!(
+        "{}: {} iterations on the GPU: {} modules ({} produced in all) in {:.3} ms, {:.0} modules/us; \
+         {} bones in {:.3} ms",
+        c.name,
+        opts.derive.iterations,
+        r.modules(),
+        r.produced_modules(),
+        ms(r.derive_elapsed),
+        grm_gpu::bench::rate(r.produced_modules(), r.derive_elapsed),
+        interp.map_or(0, |i| i.bone_count),
+        interp.map_or(0.0, |i| ms(i.elapsed)),
+    );
+    if args.stats {
+        eprintln!(
+            "total {:.3} ms (with read-back {:.3} ms)",
+            ms(total),
+            ms(r.readback_elapsed)
+        );
+    }
+    let Some(string) = r.string else {
+        return Some(Outcome::Ok);
+    };
+    if args.print {
+        let mut out = std::io::stdout().lock();
+        let _ = writeln!(out, "{}", string.to_text(&c.symbol_names));
+    }
+    if let Some(path) = &args.output {
+        let model =
+            match grm_geom::build_model(&loaded.program, loaded.system(), &string, &c.settings) {
+                Ok(m) => m,
+                Err(e) => {
+                    eprintln!("error: cannot build the model of `{}`: {e}", c.name);
+                    return Some(Outcome::InputErrors);
+                }
+            };
+        if let Err(e) = grm_geom::export(&model, path) {
+            eprintln!("error: {e}");
+            return Some(Outcome::Usage);
+        }
+        eprintln!("wrote {}", path.display());
+    }
+    Some(Outcome::Ok)
+}
+
+#[derive(clap::Args, Debug)]
+pub struct GpuBench {
+    /// The examples folder.
+    #[arg(long, default_value = "examples")]
+    pub examples: PathBuf,
+    /// Only these scenes (by name, e.g. `hilbert3d`; default: the standard set).
+    #[arg(long = "scene")]
+    pub scenes: Vec<String>,
+    /// Iterations (default: each scene's standard count).
+    #[arg(short = 'n', long)]
+    pub iterations: Option<u32>,
+    /// Timed runs per engine (the best is reported).
+    #[arg(long, default_value_t = 3)]
+    pub runs: u32,
+    /// Threads for the parallel CPU column (0: all cores).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Skip the CPU baselines.
+    #[arg(long)]
+    pub no_cpu: bool,
+}
+
+/// `grmc bench gpu`: GPU rows (derivation, interpretation, both) against
+/// the CPU engines measured in the same run.
+pub fn bench(args: GpuBench) -> Outcome {
+    let gpu = match grm_gpu::shared() {
+        Ok(g) => g,
+        Err(e) => {
+            eprintln!("error: GPU: {e}");
+            return Outcome::Usage;
+        }
+    };
+    println!("adapter: {}", gpu.describe());
+    let mut outcome = Outcome::Ok;
+    for &(file, system, n) in grm_gpu::bench::SCENES {
+        if !args.scenes.is_empty() && !args.scenes.iter().any(|s| s == file) {
+            continue;
+        }
+        let path = args.examples.join(format!("{file}.grm"));
+        let loaded = match crate::derive::load(&path, Some(system), &[]) {
+            Ok(l) => l,
+            Err(o) => return o,
+        };
+        let c = &loaded.compiled;
+        let cfg = grm_gpu::bench::BenchConfig {
+            iterations: args.iterations.unwrap_or(n),
+            seed: c.settings.seed,
+            runs: args.runs,
+            threads: args.threads,
+            cpu: !args.no_cpu,
+            max_modules: 200_000_000,
+        };
+        match grm_gpu::bench::bench_scene(
+            gpu,
+            &format!("{file} ({system})"),
+            loaded.system(),
+            c,
+            &cfg,
+        ) {
+            Ok(r) => println!("\n{}", r.text()),
+            Err(e) => {
+                eprintln!("error: {file}: {e}");
+                outcome = Outcome::InputErrors;
+            }
+        }
+    }
+    outcome
+}
