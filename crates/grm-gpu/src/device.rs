@@ -36,6 +36,9 @@ pub struct Gpu {
     /// Serialises engine runs: error scopes are per thread, and two large
     /// derivations at once could together exceed memory that each alone fits.
     run: Mutex<()>,
+    /// Workgroups per grid dimension the dispatches use (at most the
+    /// device's limit; lowered by [`Gpu::limit_dispatch_width`]).
+    grid_width: std::sync::atomic::AtomicU32,
 }
 
 /// A compiled kernel with its explicit bind group layout.
@@ -110,6 +113,9 @@ impl Gpu {
             lock(&u2).push(e.to_string());
         }));
         Ok(Gpu {
+            grid_width: std::sync::atomic::AtomicU32::new(
+                limits.max_compute_workgroups_per_dimension,
+            ),
             limits: device.limits(),
             device,
             queue,
@@ -259,10 +265,26 @@ impl Gpu {
     /// `id.x + id.y * num_workgroups.x` and skip ids past the end).
     pub fn grid(&self, what: &'static str, groups: u64) -> Result<(u32, u32), GpuError> {
         grid_for(
+            self.grid_width(),
             self.limits.max_compute_workgroups_per_dimension,
             what,
             groups,
         )
+    }
+
+    /// Workgroups per dimension of a dispatch grid.
+    pub fn grid_width(&self) -> u32 {
+        self.grid_width.load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    /// Use at most `width` workgroups per grid dimension (at least 1, at
+    /// most the device's limit), so that small dispatches are split over
+    /// 2D grids too: for testing the grid code on small inputs. Affects
+    /// every later dispatch of this device.
+    pub fn limit_dispatch_width(&self, width: u32) {
+        let w = width.clamp(1, self.limits.max_compute_workgroups_per_dimension);
+        self.grid_width
+            .store(w, std::sync::atomic::Ordering::Relaxed);
     }
 
     // ---- buffers ------------------------------------------------------
@@ -514,21 +536,28 @@ pub fn check_storage_limits(
     Ok(())
 }
 
-/// The 2D grid for `groups` workgroups with at most `max` per dimension.
-pub fn grid_for(max: u32, what: &'static str, groups: u64) -> Result<(u32, u32), GpuError> {
-    let max64 = u64::from(max.max(1));
-    if groups <= max64 {
+/// The 2D grid for `groups` workgroups: at most `max_x` wide, at most
+/// `max_y` high.
+pub fn grid_for(
+    max_x: u32,
+    max_y: u32,
+    what: &'static str,
+    groups: u64,
+) -> Result<(u32, u32), GpuError> {
+    let mx = u64::from(max_x.max(1));
+    let my = u64::from(max_y.max(1));
+    if groups <= mx {
         return Ok((groups as u32, 1));
     }
-    let y = groups.div_ceil(max64);
-    if y > max64 {
+    let y = groups.div_ceil(mx);
+    if y > my {
         return Err(GpuError::TooManyWorkgroups {
             what,
             workgroups: groups,
-            limit: max64 * max64,
+            limit: mx * my,
         });
     }
-    Ok((max64 as u32, y as u32))
+    Ok((mx as u32, y as u32))
 }
 
 /// Workgroups of [`WORKGROUP`] threads for `n` items.
@@ -542,15 +571,16 @@ mod tests {
 
     #[test]
     fn grid_splits_past_the_limit() {
-        assert_eq!(grid_for(65535, "t", 10).unwrap(), (10, 1));
-        assert_eq!(grid_for(65535, "t", 65535).unwrap(), (65535, 1));
-        assert_eq!(grid_for(65535, "t", 65536).unwrap(), (65535, 2));
-        let (x, y) = grid_for(100, "t", 1234).unwrap();
+        assert_eq!(grid_for(65535, 65535, "t", 10).unwrap(), (10, 1));
+        assert_eq!(grid_for(65535, 65535, "t", 65535).unwrap(), (65535, 1));
+        assert_eq!(grid_for(65535, 65535, "t", 65536).unwrap(), (65535, 2));
+        let (x, y) = grid_for(100, 100, "t", 1234).unwrap();
         assert!(u64::from(x) * u64::from(y) >= 1234 && x == 100 && y == 13);
         assert!(matches!(
-            grid_for(100, "t", 100 * 100 + 1),
+            grid_for(100, 100, "t", 100 * 100 + 1),
             Err(GpuError::TooManyWorkgroups { .. })
         ));
+        assert_eq!(grid_for(3, 65535, "t", 10).unwrap(), (3, 4));
     }
 
     #[test]

@@ -329,7 +329,7 @@ pub(crate) fn interpret_device(
         depth: 0,
         bstart: 0,
         args: (dmax + 2) as u32,
-        max_groups: gpu.limits().max_compute_workgroups_per_dimension,
+        max_groups: gpu.grid_width(),
         angle: cfg.angle,
         step: cfg.step,
         width: cfg.width,
