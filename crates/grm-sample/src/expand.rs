@@ -52,6 +52,8 @@ pub(crate) struct Worker {
     pub cum: Vec<f32>,
     /// The successor's parameter words.
     pub params: Vec<f32>,
+    /// The parameters of the non-terminal being expanded.
+    pub input: Vec<f32>,
     /// Non-terminals met while interpreting: (module offset, frame).
     pub users: Vec<(u32, Turtle)>,
     /// Bones made while interpreting: (base, tip).
@@ -89,6 +91,7 @@ impl<'a> Grammar<'a> {
             bind: Vec::new(),
             cum: Vec::new(),
             params: Vec::new(),
+            input: Vec::new(),
             users: Vec::new(),
             bones: Vec::new(),
             non_finite: false,

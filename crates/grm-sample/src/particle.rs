@@ -5,17 +5,25 @@
 //! the piece added before it). A node records which open non-terminal it
 //! expanded (the node that emitted it and its position there), the
 //! production applied, the successor's parameter words and the frames of
-//! the skeleton non-terminals it emitted. Expanding a particle allocates
-//! one node and links it to the old head: nothing of the ancestors is
-//! copied, and all particles descended from one ancestor share its nodes.
+//! the skeleton non-terminals it emitted. Expanding a particle adds one
+//! node that points to the old head: nothing of the ancestors is copied,
+//! and all particles descended from one ancestor share its nodes.
+//!
+//! Nodes live in an arena of [`Step`]s: the nodes one particle made in one
+//! generation (or the axiom, or one candidate's wrap-up), with their
+//! parameter words and spawns in flat vectors. A [`NodeId`] names (layer,
+//! step, index); layers are generations, append-only and immutable once
+//! their generation is done, so a lookup is two indexings, the parallel
+//! steps of a generation each fill their own step, and the run frees the
+//! whole tree at once at its end. The arena keeps every node made during
+//! the run (a few hundred bytes each), including those of particles that
+//! were not resampled.
 //!
 //! The open skeleton non-terminals are a persistent vector
-//! ([`crate::pvec::PVec`]) of references `(node, spawn)`: removing the
-//! expanded one and adding the new ones copies O(log n) small tree nodes.
-//! The cost state ([`grm_guide::CostState`]: a few hundred bytes of
-//! segment counters) is the only part cloned per expansion.
-
-use std::sync::Arc;
+//! ([`crate::pvec::PVec`]) of `Copy` references `(node, spawn)`: removing
+//! the expanded one and adding the new ones copies O(log n) small tree
+//! nodes. The cost state ([`grm_guide::CostState`]: a few hundred bytes of
+//! segment counters) is the only part cloned per step.
 
 use grm_guide::{CostState, VolumeState};
 use grm_turtle::Turtle;
@@ -56,61 +64,103 @@ pub(crate) struct Spawn {
     pub turtle: Turtle,
     /// Its unscaled heuristic term (eq. 10), in fixed point; 0 when not
     /// computed.
-    pub h: i128,
+    pub h: i64,
+}
+
+/// Where a node is in the arena: `layers[layer][step].nodes[k]`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub(crate) struct NodeId {
+    pub layer: u32,
+    pub step: u32,
+    pub k: u32,
 }
 
 /// One expansion.
-#[derive(Debug)]
+#[derive(Clone, Copy, Debug)]
 pub(crate) struct Node {
     /// The expansion before this one in the particle's history.
-    pub prev: Option<Arc<Node>>,
+    pub prev: Option<NodeId>,
     /// How many expansions come before it (0 for the axiom).
     pub seq: u32,
-    /// The node that emitted the expanded non-terminal and the spawn's
-    /// ordinal there; [`ROOT`] for the axiom.
+    /// The `seq` of the node that emitted the expanded non-terminal (an
+    /// ancestor in the same history) and the spawn's ordinal there;
+    /// [`ROOT`] for the axiom.
     pub parent: (u32, u32),
     /// The expanded non-terminal (`u32::MAX` for the axiom).
     pub symbol: u32,
     pub kind: NodeKind,
     /// The compiled alternative applied, or [`INERT`].
     pub alt: u32,
-    /// The successor's parameter words.
-    pub params: Box<[f32]>,
-    /// The skeleton non-terminals it emitted.
-    pub spawns: Box<[Spawn]>,
+    /// Its successor's parameter words: `Step::params[params.0 .. params.1]`.
+    pub params: (u32, u32),
+    /// The skeleton non-terminals it emitted: `Step::spawns[spawns.0 .. spawns.1]`.
+    pub spawns: (u32, u32),
 }
 
-impl Drop for Node {
-    /// Drop a long history iteratively (a recursive drop of a list of
-    /// thousands of nodes could overflow the stack).
-    fn drop(&mut self) {
-        let mut next = self.prev.take();
-        while let Some(arc) = next {
-            match Arc::try_unwrap(arc) {
-                Ok(mut node) => next = node.prev.take(),
-                Err(_) => break,
-            }
-        }
+/// The nodes one particle made in one generation (or the axiom, or one
+/// wrap-up), with their parameter words and spawns.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Step {
+    pub nodes: Vec<Node>,
+    pub params: Vec<f32>,
+    pub spawns: Vec<Spawn>,
+}
+
+impl Step {
+    /// Empty it, keeping its buffers.
+    pub fn clear(&mut self) {
+        self.nodes.clear();
+        self.params.clear();
+        self.spawns.clear();
+    }
+
+    pub fn params(&self, n: &Node) -> &[f32] {
+        self.params
+            .get(n.params.0 as usize..n.params.1 as usize)
+            .unwrap_or(&[])
+    }
+
+    pub fn spawns(&self, n: &Node) -> &[Spawn] {
+        self.spawns
+            .get(n.spawns.0 as usize..n.spawns.1 as usize)
+            .unwrap_or(&[])
     }
 }
 
-/// An open skeleton non-terminal: spawn `spawn` of `node`.
-#[derive(Clone, Debug)]
+/// Read access to the arena: finished layers plus the step being built
+/// (`local`, which is `layers[cur.0][cur.1]` once done).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Arena<'a> {
+    pub layers: &'a [Vec<Step>],
+    pub local: &'a Step,
+    pub cur: (u32, u32),
+}
+
+impl<'a> Arena<'a> {
+    /// The step holding node `id`, and the node.
+    pub fn get(&self, id: NodeId) -> Option<(&'a Step, &'a Node)> {
+        let step = if (id.layer, id.step) == self.cur {
+            self.local
+        } else {
+            self.layers.get(id.layer as usize)?.get(id.step as usize)?
+        };
+        Some((step, step.nodes.get(id.k as usize)?))
+    }
+}
+
+/// An open skeleton non-terminal: spawn `spawn` of node `node`.
+#[derive(Clone, Copy, Debug)]
 pub(crate) struct OpenRef {
-    pub node: Arc<Node>,
+    pub node: NodeId,
     pub spawn: u32,
-}
-
-impl OpenRef {
-    pub fn spawn(&self) -> &Spawn {
-        &self.node.spawns[self.spawn as usize]
-    }
 }
 
 /// A partial (or complete) derivation and its running cost.
 #[derive(Clone, Debug)]
 pub(crate) struct Particle {
-    pub head: Arc<Node>,
+    pub head: NodeId,
+    /// The head's `seq`.
+    pub seq: u32,
     pub open: PVec<OpenRef>,
     /// The curve cost (always kept: it is what the output reports).
     pub cost: CostState,
@@ -126,29 +176,43 @@ pub(crate) struct Particle {
 }
 
 impl Particle {
-    /// The nodes of its history, oldest (the axiom) first; `nodes[i].seq == i`.
-    pub fn chain(&self) -> Vec<&Node> {
-        let mut out = Vec::with_capacity(self.head.seq as usize + 1);
-        let mut n = Some(&*self.head);
-        while let Some(x) = n {
+    /// The nodes of its history with their steps, oldest (the axiom)
+    /// first: `out[i].1.seq == i`.
+    pub fn chain<'a>(&self, layers: &'a [Vec<Step>]) -> Vec<(&'a Step, &'a Node)> {
+        let arena = Arena {
+            layers,
+            local: &EMPTY_STEP,
+            cur: (u32::MAX, u32::MAX),
+        };
+        let mut out = Vec::with_capacity(self.seq as usize + 1);
+        let mut id = Some(self.head);
+        while let Some(x) = id.and_then(|i| arena.get(i)) {
             out.push(x);
-            n = x.prev.as_deref();
+            id = x.1.prev;
         }
         out.reverse();
         out
     }
 }
 
-/// Fixed-point scale of heuristic sums (exact, so the sum over open
-/// symbols does not depend on the order they were opened and closed).
-const FIXED_ONE: f64 = 4_294_967_296.0;
+static EMPTY_STEP: Step = Step {
+    nodes: Vec::new(),
+    params: Vec::new(),
+    spawns: Vec::new(),
+};
 
-pub(crate) fn to_fixed(x: f64) -> i128 {
+/// Fixed-point scale of heuristic terms (2^-20: exact sums, so the sum
+/// over open symbols does not depend on the order they were opened and
+/// closed).
+const FIXED_ONE: f64 = 1_048_576.0;
+
+/// A heuristic term in fixed point (clamped to +-1e12, which fits an i64).
+pub(crate) fn to_fixed(x: f64) -> i64 {
     let x = x.clamp(-1e12, 1e12);
     if x.is_nan() {
         0
     } else {
-        (x * FIXED_ONE).round() as i128
+        (x * FIXED_ONE).round() as i64
     }
 }
 

@@ -9,6 +9,8 @@
 //! ancestors' open symbols, and the particles that share an ancestor share
 //! its list.
 //!
+//! Each tree node is a single allocation (an `Arc<[T]>`).
+//!
 //! Element order is insertion order, except that [`PVec::swap_remove`]
 //! moves the last element into the hole (order only has to be
 //! deterministic: the sampler picks an index with a seeded draw).
@@ -20,16 +22,27 @@ pub const B: usize = 16;
 const BITS: u32 = 4;
 const MASK: usize = B - 1;
 
+/// A tree node: one allocation holding its entries (clones of the entries
+/// are what a path copy costs).
 #[derive(Debug)]
 enum Node<T> {
-    Leaf(Vec<T>),
-    Inner(Vec<Arc<Node<T>>>),
+    Leaf(Arc<[T]>),
+    Inner(Arc<[Node<T>]>),
+}
+
+impl<T> Clone for Node<T> {
+    fn clone(&self) -> Self {
+        match self {
+            Node::Leaf(a) => Node::Leaf(Arc::clone(a)),
+            Node::Inner(a) => Node::Inner(Arc::clone(a)),
+        }
+    }
 }
 
 /// A persistent vector (see the module documentation).
 #[derive(Debug)]
 pub struct PVec<T> {
-    root: Arc<Node<T>>,
+    root: Node<T>,
     len: usize,
     /// `BITS` times the height of the tree (0: the root is a leaf).
     shift: u32,
@@ -38,7 +51,7 @@ pub struct PVec<T> {
 impl<T> Clone for PVec<T> {
     fn clone(&self) -> Self {
         PVec {
-            root: Arc::clone(&self.root),
+            root: self.root.clone(),
             len: self.len,
             shift: self.shift,
         }
@@ -55,7 +68,7 @@ impl<T: Clone> PVec<T> {
     /// An empty vector.
     pub fn new() -> PVec<T> {
         PVec {
-            root: Arc::new(Node::Leaf(Vec::new())),
+            root: Node::Leaf(Arc::from(Vec::new())),
             len: 0,
             shift: 0,
         }
@@ -74,7 +87,7 @@ impl<T: Clone> PVec<T> {
         if i >= self.len {
             return None;
         }
-        let mut node = &*self.root;
+        let mut node = &self.root;
         let mut shift = self.shift;
         loop {
             match node {
@@ -98,7 +111,7 @@ impl<T: Clone> PVec<T> {
             // The tree is full: a new root over the old one and a new path.
             let path = new_path(self.shift, value);
             return PVec {
-                root: Arc::new(Node::Inner(vec![Arc::clone(&self.root), path])),
+                root: Node::Inner(Arc::from([self.root.clone(), path])),
                 len: self.len + 1,
                 shift: self.shift + BITS,
             };
@@ -131,12 +144,12 @@ impl<T: Clone> PVec<T> {
         let i = self.len - 1;
         let (mut root, mut shift) = match pop_rec(&self.root, self.shift, i) {
             Some(r) => (r, self.shift),
-            None => (Arc::new(Node::Leaf(Vec::new())), 0),
+            None => (Node::Leaf(Arc::from(Vec::new())), 0),
         };
         // Collapse a root with a single child.
         loop {
-            let only = match &*root {
-                Node::Inner(c) if c.len() == 1 => Arc::clone(&c[0]),
+            let only = match &root {
+                Node::Inner(c) if c.len() == 1 => c[0].clone(),
                 _ => break,
             };
             root = only;
@@ -172,82 +185,86 @@ impl<T: Clone> PVec<T> {
     }
 }
 
-fn new_path<T>(shift: u32, value: T) -> Arc<Node<T>> {
-    let mut node = Arc::new(Node::Leaf(vec![value]));
+fn new_path<T>(shift: u32, value: T) -> Node<T> {
+    let mut node = Node::Leaf(Arc::from([value]));
     let mut s = 0;
     while s < shift {
-        node = Arc::new(Node::Inner(vec![node]));
+        node = Node::Inner(Arc::from([node]));
         s += BITS;
     }
     node
 }
 
-fn push_rec<T: Clone>(node: &Arc<Node<T>>, shift: u32, i: usize, value: T) -> Arc<Node<T>> {
-    match &**node {
-        Node::Leaf(v) => {
-            let mut v2 = Vec::with_capacity(B);
-            v2.extend_from_slice(v);
-            v2.push(value);
-            Arc::new(Node::Leaf(v2))
-        }
+/// `items` with entry `k` replaced by `value` (one allocation).
+fn replaced<U: Clone>(items: &[U], k: usize, value: U) -> Arc<[U]> {
+    let mut value = Some(value);
+    items
+        .iter()
+        .enumerate()
+        .map(|(j, x)| match value.take_if(|_| j == k) {
+            Some(v) => v,
+            None => x.clone(),
+        })
+        .collect()
+}
+
+fn push_rec<T: Clone>(node: &Node<T>, shift: u32, i: usize, value: T) -> Node<T> {
+    match node {
+        Node::Leaf(v) => Node::Leaf(v.iter().cloned().chain(std::iter::once(value)).collect()),
         Node::Inner(c) => {
             let k = (i >> shift) & MASK;
-            let mut c2 = c.clone();
-            if k < c.len() {
-                c2[k] = push_rec(&c[k], shift - BITS, i, value);
-            } else {
-                c2.push(new_path(shift - BITS, value));
+            match c.get(k) {
+                Some(child) => {
+                    let child = push_rec(child, shift - BITS, i, value);
+                    Node::Inner(replaced(c, k, child))
+                }
+                None => {
+                    let path = new_path(shift - BITS, value);
+                    Node::Inner(c.iter().cloned().chain(std::iter::once(path)).collect())
+                }
             }
-            Arc::new(Node::Inner(c2))
         }
     }
 }
 
-fn set_rec<T: Clone>(node: &Arc<Node<T>>, shift: u32, i: usize, value: T) -> Arc<Node<T>> {
-    match &**node {
-        Node::Leaf(v) => {
-            let mut v2 = v.clone();
-            if let Some(x) = v2.get_mut(i & MASK) {
-                *x = value;
-            }
-            Arc::new(Node::Leaf(v2))
-        }
+fn set_rec<T: Clone>(node: &Node<T>, shift: u32, i: usize, value: T) -> Node<T> {
+    match node {
+        Node::Leaf(v) => Node::Leaf(replaced(v, i & MASK, value)),
         Node::Inner(c) => {
             let k = (i >> shift) & MASK;
-            let mut c2 = c.clone();
-            if let Some(child) = c.get(k) {
-                c2[k] = set_rec(child, shift.saturating_sub(BITS), i, value);
+            match c.get(k) {
+                Some(child) => {
+                    let child = set_rec(child, shift.saturating_sub(BITS), i, value);
+                    Node::Inner(replaced(c, k, child))
+                }
+                None => node.clone(),
             }
-            Arc::new(Node::Inner(c2))
         }
     }
 }
 
 /// Remove element `i` (the last one); `None` when the node becomes empty.
-fn pop_rec<T: Clone>(node: &Arc<Node<T>>, shift: u32, i: usize) -> Option<Arc<Node<T>>> {
-    match &**node {
+fn pop_rec<T: Clone>(node: &Node<T>, shift: u32, i: usize) -> Option<Node<T>> {
+    match node {
         Node::Leaf(v) => {
             if v.len() <= 1 {
                 return None;
             }
-            Some(Arc::new(Node::Leaf(v[..v.len() - 1].to_vec())))
+            Some(Node::Leaf(Arc::from(&v[..v.len() - 1])))
         }
         Node::Inner(c) => {
             let k = (i >> shift) & MASK;
-            let mut c2 = c.clone();
-            match c
+            let child = c
                 .get(k)
-                .and_then(|child| pop_rec(child, shift.saturating_sub(BITS), i))
-            {
-                Some(child) => c2[k] = child,
-                None => {
-                    c2.truncate(k);
-                }
-            }
-            if c2.is_empty() {
+                .and_then(|child| pop_rec(child, shift.saturating_sub(BITS), i));
+            let out: Arc<[Node<T>]> = match child {
+                Some(child) => replaced(c, k, child),
+                None => Arc::from(&c[..k.min(c.len())]),
+            };
+            if out.is_empty() {
                 None
             } else {
-                Some(Arc::new(Node::Inner(c2)))
+                Some(Node::Inner(out))
             }
         }
     }

@@ -423,7 +423,7 @@ impl<'a> Sampler<'a> {
     /// Eq. 10's term for a skeleton symbol opened at frame `t` (fixed
     /// point); 0 for a symbol whose expected direction is zero (it grows
     /// no bone, so it adds no future alignment cost).
-    fn heuristic_term(&self, sym: u32, t: &Turtle) -> i128 {
+    fn heuristic_term(&self, sym: u32, t: &Turtle) -> i64 {
         let e = self
             .expected
             .get(sym as usize)
@@ -468,41 +468,107 @@ impl<'a> Sampler<'a> {
         p.bones += w.bones.len() as u32;
     }
 
-    /// The skeleton spawns of the successor just interpreted in `w`.
-    fn spawns(&self, w: &Worker, alt: u32, compute_h: bool) -> Vec<Spawn> {
+    /// Append the skeleton spawns of the successor just interpreted in `w`
+    /// to `out`; returns the sum of their heuristic terms.
+    fn push_spawns(&self, w: &Worker, alt: u32, compute_h: bool, out: &mut Vec<Spawn>) -> i128 {
         let sys = self.g.sys;
         let a = &sys.alts[alt as usize];
-        let mut out = Vec::new();
+        let mut h_sum = 0;
         for (ord, &(m, t)) in w.users.iter().enumerate() {
             let sym = sys.succ[(a.succ_offset + m) as usize].symbol;
             if self.g.is_skeleton(sym) {
+                let h = if compute_h {
+                    self.heuristic_term(sym, &t)
+                } else {
+                    0
+                };
+                h_sum += i128::from(h);
                 out.push(Spawn {
                     ordinal: ord as u32,
                     symbol: sym,
                     module: m,
                     turtle: t,
-                    h: if compute_h {
-                        self.heuristic_term(sym, &t)
-                    } else {
-                        0
-                    },
+                    h,
                 });
             }
         }
-        out
+        h_sum
+    }
+
+    /// Add the node for the successor just made in `w` (parameter words in
+    /// `w.params`) to `local` (step `cur`), and open its skeleton spawns.
+    #[allow(clippy::too_many_arguments)]
+    fn add_node(
+        &self,
+        w: &Worker,
+        p: &mut Particle,
+        local: &mut Step,
+        cur: (u32, u32),
+        parent: (u32, u32),
+        symbol: u32,
+        kind: NodeKind,
+        alt: u32,
+        compute_h: bool,
+        slot: Option<usize>,
+    ) {
+        let p0 = local.params.len() as u32;
+        let s0 = local.spawns.len() as u32;
+        if alt != INERT {
+            local.params.extend_from_slice(&w.params);
+            p.heuristic += self.push_spawns(w, alt, compute_h, &mut local.spawns);
+        }
+        let id = NodeId {
+            layer: cur.0,
+            step: cur.1,
+            k: local.nodes.len() as u32,
+        };
+        let first = p.seq == u32::MAX;
+        local.nodes.push(Node {
+            prev: (!first).then_some(p.head),
+            seq: p.seq.wrapping_add(1),
+            parent,
+            symbol,
+            kind,
+            alt,
+            params: (p0, local.params.len() as u32),
+            spawns: (s0, local.spawns.len() as u32),
+        });
+        // The expanded symbol's slot (if any) takes the first new open
+        // symbol (one path copy instead of a removal and an append); the
+        // others are appended, or the slot is removed when there are none.
+        let n = local.spawns.len() as u32 - s0;
+        let mut first_new = 0;
+        if let Some(i) = slot {
+            let open = if n > 0 {
+                first_new = 1;
+                p.open.set(i, OpenRef { node: id, spawn: 0 })
+            } else {
+                p.open.swap_remove(i).map(|(v, _)| v)
+            };
+            if let Some(open) = open {
+                p.open = open;
+            }
+        }
+        for k in first_new..n {
+            p.open = p.open.push(OpenRef { node: id, spawn: k });
+        }
+        p.head = id;
+        p.seq = p.seq.wrapping_add(1);
     }
 
     /// The particle holding only the axiom (interpreted from the initial
-    /// turtle, its bones scored, its skeleton symbols open).
+    /// turtle, its bones scored, its skeleton symbols open), in its own
+    /// step (layer 0). `given`: the axiom's parameter words (replay);
+    /// otherwise they are drawn.
     fn root_particle(
         &self,
         w: &mut Worker,
-        how: Option<&[f32]>,
+        given: Option<&[f32]>,
         seed: u32,
         h_scale: f64,
-    ) -> Result<Particle, SampleError> {
+    ) -> Result<(Particle, Step), SampleError> {
         let alt = self.g.sys.axiom_alt;
-        match how {
+        match given {
             None => {
                 let ctx = tagged(seed, STREAM_AXIOM, 0, 0);
                 self.g.eval_successor(w, u32::MAX, alt, &ctx, "axiom")?;
@@ -513,19 +579,13 @@ impl<'a> Sampler<'a> {
             }
         }
         self.g.interpret(w, alt, &self.g.initial_turtle())?;
-        let spawns = self.spawns(w, alt, h_scale > 0.0);
-        let node = Arc::new(Node {
-            prev: None,
-            seq: 0,
-            parent: ROOT,
-            symbol: u32::MAX,
-            kind: NodeKind::Axiom,
-            alt,
-            params: w.params.as_slice().into(),
-            spawns: spawns.into_boxed_slice(),
-        });
         let mut p = Particle {
-            head: Arc::clone(&node),
+            head: NodeId {
+                layer: 0,
+                step: 0,
+                k: 0,
+            },
+            seq: u32::MAX,
             open: PVec::new(),
             cost: self.cost.new_state(),
             volume: self.volume.as_ref().map(VolumeTarget::new_state),
@@ -534,40 +594,61 @@ impl<'a> Sampler<'a> {
             bones: 0,
         };
         self.add_bones(w, &mut p);
-        for (k, s) in node.spawns.iter().enumerate() {
-            p.open = p.open.push(OpenRef {
-                node: Arc::clone(&node),
-                spawn: k as u32,
-            });
-            p.heuristic += s.h;
-        }
+        let mut step = Step::default();
+        self.add_node(
+            w,
+            &mut p,
+            &mut step,
+            (0, 0),
+            ROOT,
+            u32::MAX,
+            NodeKind::Axiom,
+            alt,
+            h_scale > 0.0,
+            None,
+        );
         p.score = self.score(&p, h_scale);
-        Ok(p)
+        Ok((p, step))
     }
 
-    /// Expand open symbol `idx` of `p`; returns the bones it added.
+    /// Expand open symbol `idx` of `p`, adding the node to `local` (step
+    /// `cur` of the arena); returns the bones it added.
+    #[allow(clippy::too_many_arguments)]
     fn expand_open(
         &self,
         w: &mut Worker,
+        layers: &[Vec<Step>],
+        local: &mut Step,
+        cur: (u32, u32),
         p: &mut Particle,
         idx: usize,
         how: How<'_>,
         compute_h: bool,
     ) -> Result<usize, SampleError> {
-        let Some((open, r)) = p.open.swap_remove(idx) else {
+        let Some(&r) = p.open.get(idx) else {
             return Ok(0);
         };
-        p.open = open;
-        let parent = &r.node;
-        let sp = *r.spawn();
-        p.heuristic -= sp.h;
-        let input = self.g.module_params(parent.alt, sp.module, &parent.params);
+        let bad = || SampleError::Options("an open symbol refers to a missing node".into());
+        // Read the parent (copy what is needed: `local` grows below).
+        let (sp, parent_seq) = {
+            let arena = Arena { layers, local, cur };
+            let (step, node) = arena.get(r.node).ok_or_else(bad)?;
+            let sp = *step.spawns(node).get(r.spawn as usize).ok_or_else(bad)?;
+            let input = self.g.module_params(node.alt, sp.module, step.params(node));
+            w.input.clear();
+            w.input.extend_from_slice(input);
+            (sp, node.seq)
+        };
+        p.heuristic -= i128::from(sp.h);
         let which = match how {
             How::Draw { which, .. } | How::Given { which, .. } => which,
         };
         let alt = match how {
             How::Draw { draws, phase, .. } => {
-                match self.g.choose(w, sp.symbol, input, which, &draws, phase)? {
+                let input = std::mem::take(&mut w.input);
+                let chosen = self.g.choose(w, sp.symbol, &input, which, &draws, phase);
+                w.input = input;
+                match chosen? {
                     Some(a) => {
                         self.g.eval_successor(w, sp.symbol, a, &draws, phase)?;
                         a
@@ -586,50 +667,47 @@ impl<'a> Sampler<'a> {
             Which::Wrapup => NodeKind::Wrapup,
         };
         let mut bones = 0;
-        let spawns = if alt == INERT {
-            w.params.clear();
-            Vec::new()
-        } else {
+        if alt != INERT {
             self.g.interpret(w, alt, &sp.turtle)?;
             self.add_bones(w, p);
             bones = w.bones.len();
-            self.spawns(w, alt, compute_h)
-        };
-        let node = Arc::new(Node {
-            prev: Some(Arc::clone(&p.head)),
-            seq: p.head.seq + 1,
-            parent: (parent.seq, sp.ordinal),
-            symbol: sp.symbol,
+        }
+        self.add_node(
+            w,
+            p,
+            local,
+            cur,
+            (parent_seq, sp.ordinal),
+            sp.symbol,
             kind,
             alt,
-            params: w.params.as_slice().into(),
-            spawns: spawns.into_boxed_slice(),
-        });
-        for (k, s) in node.spawns.iter().enumerate() {
-            p.open = p.open.push(OpenRef {
-                node: Arc::clone(&node),
-                spawn: k as u32,
-            });
-            p.heuristic += s.h;
-        }
-        p.head = node;
+            compute_h,
+            Some(idx),
+        );
         Ok(bones)
     }
 
     /// One particle step (Calder's `advance`): expand random open skeleton
     /// symbols until one adds a bone or none is left; score the result.
+    /// `local` is a (recycled) step to fill. Returns the new particle, the
+    /// step holding its new nodes (layer `g + 1`, index `i`) and the number
+    /// of expansions.
     #[allow(clippy::too_many_arguments)]
     fn advance(
         &self,
         w: &mut Worker,
+        layers: &[Vec<Step>],
+        mut local: Step,
         p: &Particle,
         seed: u32,
         g: u32,
         i: u32,
         h_scale: f64,
         max_k: u32,
-    ) -> Result<(Particle, u32), SampleError> {
+    ) -> Result<(Particle, Step, u32), SampleError> {
         let mut q = p.clone();
+        local.clear();
+        let cur = (g + 1, i);
         let compute_h = h_scale > 0.0;
         let mut k = 0;
         while !q.open.is_empty() && k < max_k {
@@ -641,37 +719,39 @@ impl<'a> Sampler<'a> {
                 which: Which::Normal,
                 phase: "skeleton",
             };
-            if self.expand_open(w, &mut q, idx, how, compute_h)? > 0 {
+            if self.expand_open(w, layers, &mut local, cur, &mut q, idx, how, compute_h)? > 0 {
                 break;
             }
         }
         q.score = self.score(&q, h_scale);
-        Ok((q, k))
+        Ok((q, local, k))
     }
 
-    /// Close every open skeleton symbol of `p` with its wrap-up production.
+    /// Close every open skeleton symbol of `p` with its wrap-up production
+    /// (nodes in step `cur`).
     fn wrap_up(
         &self,
         w: &mut Worker,
+        layers: &[Vec<Step>],
+        cur: (u32, u32),
         p: &Particle,
         seed: u32,
-        c: u32,
         limits: &FinishLimits,
-    ) -> Result<Particle, SampleError> {
+    ) -> Result<(Particle, Step), SampleError> {
         let mut q = p.clone();
+        let mut local = Step::default();
         let mut k = 0u32;
         while !q.open.is_empty() {
             if u64::from(k) >= limits.max_expansions {
-                let sym = q.open.get(q.open.len() - 1).map_or(0, |r| r.spawn().symbol);
                 return Err(SampleError::GeometryLimit {
-                    symbol: self.g.symbol_name(sym),
+                    symbol: "(wrap-up)".into(),
                     what: LimitKind::Expansions,
                     limit: limits.max_expansions,
                     file: self.g.sys.file,
                     span: self.g.sys.span,
                 });
             }
-            let draws = tagged(seed, STREAM_WRAPUP, c, k);
+            let draws = tagged(seed, STREAM_WRAPUP, cur.1, k);
             k += 1;
             let idx = q.open.len() - 1;
             let how = How::Draw {
@@ -679,10 +759,10 @@ impl<'a> Sampler<'a> {
                 which: Which::Wrapup,
                 phase: "wrap-up",
             };
-            self.expand_open(w, &mut q, idx, how, false)?;
+            self.expand_open(w, layers, &mut local, cur, &mut q, idx, how, false)?;
         }
         q.score = self.score(&q, 0.0);
-        Ok(q)
+        Ok((q, local))
     }
 
     // ---- the run ----------------------------------------------------------
@@ -725,35 +805,56 @@ impl<'a> Sampler<'a> {
         };
         let max_k = opts.max_expansions_per_step.max(1);
         let mut w = self.g.worker();
-        let root = Arc::new(self.root_particle(&mut w, None, seed, h_of(0))?);
-        let mut pop: Vec<Arc<Particle>> = vec![root; sched.particles(0)];
+        let (root, root_step) = self.root_particle(&mut w, None, seed, h_of(0))?;
+        // The arena: layer 0 the axiom, layer g + 1 generation g, then the
+        // wrap-ups.
+        let mut layers: Vec<Vec<Step>> = vec![vec![root_step]];
+        // Every particle of generation 0 starts as the same axiom (shared).
+        let root = Arc::new(root);
+        let mut pop: Vec<Arc<Particle>> =
+            (0..sched.particles(0)).map(|_| Arc::clone(&root)).collect();
         let mut stats = Vec::with_capacity(gens as usize);
         let mut log_w = Vec::new();
         let mut weights = Vec::new();
         let mut ancestors = Vec::new();
         let mut stopped_early = false;
         let mut last: Vec<Arc<Particle>> = Vec::new();
+        // Steps of particles that were not resampled, emptied for reuse.
+        let mut spare: Vec<Step> = Vec::new();
+        let mut used = Vec::new();
         for g in 0..gens {
             let h = h_of(g);
-            let step = |w: &mut Worker, (i, p): (usize, &Arc<Particle>)| {
-                self.advance(w, p, seed, g, i as u32, h, max_k)
+            let lay: &[Vec<Step>] = &layers;
+            let bufs: Vec<Step> = (0..pop.len())
+                .map(|_| spare.pop().unwrap_or_default())
+                .collect();
+            let step = |w: &mut Worker, (i, (p, buf)): (usize, (&Arc<Particle>, Step))| {
+                self.advance(w, lay, buf, p, seed, g, i as u32, h, max_k)
             };
-            let results: Vec<Result<(Particle, u32), SampleError>> = if parallel {
+            let results: Vec<Result<(Particle, Step, u32), SampleError>> = if parallel {
                 pop.par_iter()
+                    .zip(bufs)
                     .enumerate()
                     .map_init(|| self.g.worker(), step)
                     .collect()
             } else {
-                pop.iter().enumerate().map(|x| step(&mut w, x)).collect()
+                pop.iter()
+                    .zip(bufs)
+                    .enumerate()
+                    .map(|x| step(&mut w, x))
+                    .collect()
             };
             let mut next = Vec::with_capacity(results.len());
+            let mut layer = Vec::with_capacity(results.len());
             let mut expansions = 0u64;
             for r in results {
                 // The first error in particle order, whatever the threads.
-                let (q, k) = r?;
+                let (q, st, k) = r?;
                 expansions += u64::from(k);
                 next.push(Arc::new(q));
+                layer.push(st);
             }
+            layers.push(layer);
             log_w.clear();
             log_w.extend(next.iter().zip(&pop).map(|(q, p)| {
                 if temperature.is_infinite() {
@@ -791,19 +892,32 @@ impl<'a> Sampler<'a> {
                 &mut ancestors,
             );
             pop = ancestors.iter().map(|&a| Arc::clone(&next[a])).collect();
+            // A step that no resampled particle descends from is never
+            // read again: recycle its buffers.
+            used.clear();
+            used.resize(next.len(), false);
+            for &a in &ancestors {
+                used[a] = true;
+            }
+            if let Some(layer) = layers.last_mut() {
+                for (st, _) in layer.iter_mut().zip(&used).filter(|(_, u)| !**u) {
+                    let mut st = std::mem::take(st);
+                    st.clear();
+                    spare.push(st);
+                }
+            }
         }
         drop(pop);
 
         // Distinct final particles (copies share their head node).
         let mut seen = std::collections::HashSet::new();
-        let finals: Vec<&Arc<Particle>> = last
-            .iter()
-            .filter(|p| seen.insert(Arc::as_ptr(&p.head)))
-            .collect();
+        let finals: Vec<&Arc<Particle>> = last.iter().filter(|p| seen.insert(p.head)).collect();
+        let wl = layers.len() as u32;
+        let lay: &[Vec<Step>] = &layers;
         let wrap = |w: &mut Worker, (c, p): (usize, &&Arc<Particle>)| {
-            self.wrap_up(w, p, seed, c as u32, &opts.limits)
+            self.wrap_up(w, lay, (wl, c as u32), p, seed, &opts.limits)
         };
-        let wrapped: Vec<Result<Particle, SampleError>> = if parallel {
+        let wrapped: Vec<Result<(Particle, Step), SampleError>> = if parallel {
             finals
                 .par_iter()
                 .enumerate()
@@ -812,10 +926,17 @@ impl<'a> Sampler<'a> {
         } else {
             finals.iter().enumerate().map(|x| wrap(&mut w, x)).collect()
         };
-        let wrapped: Vec<Particle> = wrapped.into_iter().collect::<Result<_, _>>()?;
-        let candidates: Vec<f64> = wrapped.iter().map(|q| self.objective_of(q)).collect();
+        let mut done = Vec::with_capacity(wrapped.len());
+        let mut layer = Vec::with_capacity(wrapped.len());
+        for r in wrapped {
+            let (q, st) = r?;
+            done.push(q);
+            layer.push(st);
+        }
+        layers.push(layer);
+        let candidates: Vec<f64> = done.iter().map(|q| self.objective_of(q)).collect();
         // Lowest objective first; NaN last; ties by particle index.
-        let mut order: Vec<usize> = (0..wrapped.len()).collect();
+        let mut order: Vec<usize> = (0..done.len()).collect();
         order.sort_by(|&a, &b| {
             let (x, y) = (candidates[a], candidates[b]);
             x.partial_cmp(&y)
@@ -825,7 +946,14 @@ impl<'a> Sampler<'a> {
         order.truncate(opts.best.max(1));
         let mut models = Vec::with_capacity(order.len());
         for c in order {
-            models.push(self.build_model(&mut w, &wrapped[c], seed, c as u32, &opts.limits)?);
+            models.push(self.build_model(
+                &mut w,
+                &layers,
+                &done[c],
+                seed,
+                c as u32,
+                &opts.limits,
+            )?);
         }
         Ok(SampleResult {
             models,
@@ -845,18 +973,19 @@ impl<'a> Sampler<'a> {
     fn build_model(
         &self,
         w: &mut Worker,
+        layers: &[Vec<Step>],
         p: &Particle,
         seed: u32,
         c: u32,
         limits: &FinishLimits,
     ) -> Result<SampledModel, SampleError> {
         let sys = self.g.sys;
-        let chain = p.chain();
+        let chain = p.chain(layers);
         let key = |a: u32, b: u32| (u64::from(a) << 32) | u64::from(b);
         let mut kids: Vec<(u64, u32)> = chain
             .iter()
             .skip(1)
-            .map(|n| (key(n.parent.0, n.parent.1), n.seq))
+            .map(|(_, n)| (key(n.parent.0, n.parent.1), n.seq))
             .collect();
         kids.sort_unstable();
 
@@ -889,8 +1018,8 @@ impl<'a> Sampler<'a> {
         while let Some(item) = stack.pop() {
             let (symbol, kind, alt, params): (u32, NodeKind, u32, &[f32]) = match &item.src {
                 Src::Chain(seq) => {
-                    let n = chain[*seq as usize];
-                    (n.symbol, n.kind, n.alt, &n.params)
+                    let (st, n) = chain[*seq as usize];
+                    (n.symbol, n.kind, n.alt, st.params(n))
                 }
                 Src::Fresh {
                     symbol,
@@ -1026,7 +1155,8 @@ impl<'a> Sampler<'a> {
             }
         }
         let mut w = self.g.worker();
-        let mut p = self.root_particle(&mut w, Some(&root.params), 0, 0.0)?;
+        let (mut p, root_step) = self.root_particle(&mut w, Some(&root.params), 0, 0.0)?;
+        let mut layers = vec![vec![root_step]];
         // Chain seq -> tree node.
         let mut tree_of = vec![0u32];
         let mut k = 0u32;
@@ -1034,10 +1164,23 @@ impl<'a> Sampler<'a> {
             let ctx = tagged(order_seed, STREAM_ORDER, k, 0);
             k += 1;
             let idx = pick(&ctx, 0, p.open.len());
-            let r = p.open.get(idx).ok_or_else(|| bad("open list"))?;
-            let parent = tree_of[r.node.seq as usize];
+            let r = *p.open.get(idx).ok_or_else(|| bad("open list"))?;
+            let (seq, ordinal) = {
+                let arena = Arena {
+                    layers: &layers,
+                    local: &layers[0][0],
+                    cur: (0, 0),
+                };
+                let (st, n) = arena.get(r.node).ok_or_else(|| bad("a node is missing"))?;
+                let sp = st
+                    .spawns(n)
+                    .get(r.spawn as usize)
+                    .ok_or_else(|| bad("spawn"))?;
+                (n.seq, sp.ordinal)
+            };
+            let parent = tree_of[seq as usize];
             let child = *kid
-                .get(&(parent, r.spawn().ordinal))
+                .get(&(parent, ordinal))
                 .ok_or_else(|| bad("an open symbol has no expansion"))?;
             let n = &tree.nodes[child as usize];
             let which = match n.kind {
@@ -1050,7 +1193,11 @@ impl<'a> Sampler<'a> {
                 params: &n.params,
                 which,
             };
-            self.expand_open(&mut w, &mut p, idx, how, false)?;
+            // Each replayed expansion in a step (layer) of its own.
+            let cur = (layers.len() as u32, 0);
+            let mut local = Step::default();
+            self.expand_open(&mut w, &layers, &mut local, cur, &mut p, idx, how, false)?;
+            layers.push(vec![local]);
             tree_of.push(child);
         }
         Ok(self.cost.total(&p.cost))

@@ -1,0 +1,281 @@
+//! `cargo bench -p grm-sample --bench sample [-- --seeds N --only NAME]`:
+//! the guided sampler on the Calder tree (examples/calder_tree.grm with
+//! examples/calder_tree.curves.json), one thread.
+//!
+//! For each configuration and each seed `0 .. N` (default 50) it samples one
+//! model and records the wall time of `Sampler::sample` (search, wrap-up
+//! and geometry phase; the expected directions are computed once per
+//! sampler and timed separately) and the final model's curve cost. It
+//! prints the median, p10 and p90 of both, and the effective sample size
+//! per generation of the guided playground runs (mean over seeds).
+//!
+//! Configurations: Calder's playground schedule (100 generations, 100 -> 15
+//! particles, heuristic 0.013 -> 0 by generation 40) and the calder
+//! library's default (10 generations of 50 particles), each with the
+//! heuristic on and off; unguided forward sampling (one particle, 100
+//! steps); the playground schedule without weights (infinite temperature:
+//! the best of the final 15 unguided particles, the same amount of work as
+//! guided); and the volume-matching baseline on the playground schedule.
+
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use grm_guide::{Curves, VolumeOptions};
+use grm_sample::{ExpectedOptions, Objective, SampleOptions, Sampler, Schedule};
+
+struct Args {
+    seeds: u32,
+    only: Vec<String>,
+}
+
+fn args() -> Args {
+    let mut a = Args {
+        seeds: 50,
+        only: Vec::new(),
+    };
+    let mut it = std::env::args().skip(1);
+    while let Some(x) = it.next() {
+        match x.as_str() {
+            "--seeds" => a.seeds = it.next().and_then(|s| s.parse().ok()).unwrap_or(50),
+            "--only" => a.only.extend(it.next()),
+            // `cargo bench` passes `--bench`; ignore it and anything else.
+            _ => {}
+        }
+    }
+    a
+}
+
+fn pct(xs: &[f64], p: f64) -> f64 {
+    let mut v = xs.to_vec();
+    v.sort_by(|a, b| a.total_cmp(b));
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v[((p / 100.0) * (v.len() - 1) as f64).round() as usize]
+}
+
+fn cpu_model() -> String {
+    std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split_once(':'))
+                .map(|(_, v)| v.trim().to_string())
+        })
+        .unwrap_or_else(|| "unknown CPU".into())
+}
+
+struct Row {
+    name: &'static str,
+    times: Vec<f64>,
+    costs: Vec<f64>,
+    bones: Vec<f64>,
+    volume: Vec<f64>,
+    ess: Vec<Vec<f64>>,
+}
+
+fn main() {
+    let a = args();
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples");
+    let path = root.join("calder_tree.grm");
+    let text = std::fs::read_to_string(&path).expect("example");
+    let (_s, checked) = grm_sema::check_text(path.to_str().expect("path"), &text);
+    assert!(!checked.has_errors(), "calder_tree.grm has errors");
+    let program = checked.program;
+    let system = &program.systems[0];
+    let compiled =
+        grm_compile::compile(&program, system, &program.default_params()).expect("compiles");
+    let curves = Curves::load(root.join("calder_tree.curves.json")).expect("curves");
+    let t = Instant::now();
+    let guided = Sampler::new(
+        system,
+        &compiled,
+        &curves,
+        Objective::Curves,
+        ExpectedOptions::default(),
+    )
+    .expect("sampler");
+    let new_time = t.elapsed();
+    let volume_weight = 2000.0;
+    let volume = Sampler::new(
+        system,
+        &compiled,
+        &curves,
+        Objective::Volume {
+            options: VolumeOptions::default(),
+            weight: volume_weight,
+        },
+        ExpectedOptions::default(),
+    )
+    .expect("sampler");
+
+    println!(
+        "Guided sampling, calder_tree.grm + calder_tree.curves.json, {} seeds, 1 thread, {}",
+        a.seeds,
+        cpu_model()
+    );
+    println!(
+        "Sampler::new (expected directions, {} models x {} expansions per skeleton symbol): {:.2} ms",
+        ExpectedOptions::default().models,
+        ExpectedOptions::default().expansions,
+        new_time.as_secs_f64() * 1e3
+    );
+    for s in ["START", "branch", "branchOrLeaf", "maybeBranch"] {
+        let e = guided.expected_direction(s).unwrap_or_default();
+        println!("  EXPECTED({s}) = ({:.3}, {:.3}, {:.3})", e.x, e.y, e.z);
+    }
+
+    let playground = Schedule::calder_playground();
+    let library = Schedule::calder_library();
+    let configs: Vec<(&'static str, &Sampler<'_>, SampleOptions)> = vec![
+        (
+            "playground, heuristic on",
+            &guided,
+            SampleOptions {
+                schedule: playground,
+                ..SampleOptions::default()
+            },
+        ),
+        (
+            "playground, heuristic off",
+            &guided,
+            SampleOptions {
+                schedule: playground,
+                heuristic: false,
+                ..SampleOptions::default()
+            },
+        ),
+        (
+            "library 10x50, heuristic on",
+            &guided,
+            SampleOptions {
+                schedule: library,
+                ..SampleOptions::default()
+            },
+        ),
+        (
+            "library 10x50, heuristic off",
+            &guided,
+            SampleOptions {
+                schedule: library,
+                heuristic: false,
+                ..SampleOptions::default()
+            },
+        ),
+        (
+            "unguided forward, 1 particle",
+            &guided,
+            SampleOptions::unguided(0, 100),
+        ),
+        (
+            "playground, no weights",
+            &guided,
+            SampleOptions {
+                schedule: playground,
+                heuristic: false,
+                temperature: f64::INFINITY,
+                ..SampleOptions::default()
+            },
+        ),
+        (
+            "playground, volume baseline",
+            &volume,
+            SampleOptions {
+                schedule: playground,
+                heuristic: false,
+                ..SampleOptions::default()
+            },
+        ),
+    ];
+    let mut rows = Vec::new();
+    for (name, sampler, opts) in configs {
+        if !a.only.is_empty() && !a.only.iter().any(|o| name.contains(o.as_str())) {
+            continue;
+        }
+        let mut row = Row {
+            name,
+            times: Vec::new(),
+            costs: Vec::new(),
+            bones: Vec::new(),
+            volume: Vec::new(),
+            ess: Vec::new(),
+        };
+        for seed in 0..a.seeds {
+            let o = SampleOptions { seed, ..opts };
+            let t = Instant::now();
+            let r = sampler.sample(&o).expect("samples");
+            let dt: Duration = t.elapsed();
+            let m = r.best().expect("a model");
+            row.times.push(dt.as_secs_f64() * 1e3);
+            row.costs.push(m.cost.total());
+            row.bones.push(f64::from(m.skeleton_bones));
+            if let Some(v) = m.volume {
+                row.volume.push(v.total());
+            }
+            row.ess.push(r.ess());
+        }
+        rows.push(row);
+    }
+
+    println!();
+    println!(
+        "{:<30} {:>8} {:>8} {:>8} | {:>10} {:>10} {:>10} | {:>6}",
+        "configuration", "ms p50", "ms p10", "ms p90", "cost p50", "cost p10", "cost p90", "bones"
+    );
+    for r in &rows {
+        println!(
+            "{:<30} {:>8.2} {:>8.2} {:>8.2} | {:>10.1} {:>10.1} {:>10.1} | {:>6.0}",
+            r.name,
+            pct(&r.times, 50.0),
+            pct(&r.times, 10.0),
+            pct(&r.times, 90.0),
+            pct(&r.costs, 50.0),
+            pct(&r.costs, 10.0),
+            pct(&r.costs, 90.0),
+            pct(&r.bones, 50.0),
+        );
+        if !r.volume.is_empty() {
+            println!(
+                "{:<30} volume cost p50 {:.3} p10 {:.3} p90 {:.3} (weight {volume_weight})",
+                "",
+                pct(&r.volume, 50.0),
+                pct(&r.volume, 10.0),
+                pct(&r.volume, 90.0)
+            );
+        }
+    }
+
+    for r in &rows {
+        if r.ess.is_empty() || r.ess[0].len() < 2 || !r.name.starts_with("playground, heuristic on")
+        {
+            continue;
+        }
+        let gens = r.ess[0].len();
+        let mean_at =
+            |g: usize| r.ess.iter().filter_map(|e| e.get(g)).sum::<f64>() / r.ess.len() as f64;
+        println!();
+        println!(
+            "ESS per generation ({}; mean over seeds; particles in brackets):",
+            r.name
+        );
+        let mut line = String::new();
+        for g in (0..gens).step_by(10).chain([gens - 1]) {
+            line.push_str(&format!(
+                " g{g}: {:.2} [{}]",
+                mean_at(g),
+                playground.particles(g as u32)
+            ));
+        }
+        println!("{line}");
+        let all: Vec<f64> = r.ess.iter().flatten().copied().collect();
+        println!(
+            "  over all generations and seeds: mean {:.2}, median {:.2}, min {:.2}, max {:.2}; share of generations with ESS >= 2: {:.0}%",
+            all.iter().sum::<f64>() / all.len() as f64,
+            pct(&all, 50.0),
+            pct(&all, 0.0),
+            pct(&all, 100.0),
+            100.0 * all.iter().filter(|&&e| e >= 2.0).count() as f64 / all.len() as f64
+        );
+    }
+}

@@ -1,0 +1,437 @@
+//! The sampler's contract: the lowest-cost complete model, log-space
+//! weights, effective sample sizes, the budget, the volume baseline,
+//! guided against unguided, and typed errors.
+
+mod common;
+
+use std::time::Duration;
+
+use common::*;
+use grm_guide::{Curves, VolumeOptions};
+use grm_sample::*;
+
+fn calder() -> (grm_sema::Program, grm_compile::CompiledSystem) {
+    let p = example("calder_tree.grm");
+    let c = compile(&p, 0);
+    (p, c)
+}
+
+fn small() -> Schedule {
+    Schedule {
+        generations: 30,
+        particles_start: 30,
+        particles_end: 10,
+        heuristic_scale: 0.013,
+        heuristic_until: 12,
+    }
+}
+
+#[test]
+fn returns_the_lowest_cost_complete_models() {
+    let (p, c) = calder();
+    let curves = calder_curves();
+    let s = Sampler::new(
+        &p.systems[0],
+        &c,
+        &curves,
+        Objective::Curves,
+        ExpectedOptions::default(),
+    )
+    .expect("sampler");
+    let mut not_first = 0;
+    for seed in 0..10 {
+        let r = s
+            .sample(&SampleOptions {
+                seed,
+                schedule: small(),
+                best: 4,
+                ..SampleOptions::default()
+            })
+            .expect("samples");
+        assert!(r.candidates.len() >= r.models.len());
+        let min = r.candidates.iter().copied().fold(f64::INFINITY, f64::min);
+        let best = r.best().expect("model");
+        assert_eq!(best.objective, min);
+        assert_eq!(best.cost.total(), min);
+        // Sorted, distinct candidates, each complete (no open skeleton
+        // symbol: every skeleton non-terminal was expanded or wrapped up).
+        for w in r.models.windows(2) {
+            assert!(w[0].objective <= w[1].objective);
+            assert_ne!(w[0].candidate, w[1].candidate);
+        }
+        for m in &r.models {
+            let (_, _, wrapup, geometry) = m.tree.counts();
+            assert!(wrapup > 0 && geometry > 0);
+            assert_eq!(m.origins.len(), m.string.len());
+            assert!(m.string.is_well_formed());
+        }
+        if best.candidate != 0 {
+            not_first += 1;
+        }
+    }
+    // The reference returned the first particle; here the winner is
+    // wherever the lowest cost is.
+    assert!(not_first >= 5, "{not_first}");
+}
+
+#[test]
+fn ess_is_reported_per_generation() {
+    let (p, c) = calder();
+    let curves = calder_curves();
+    let s = Sampler::new(
+        &p.systems[0],
+        &c,
+        &curves,
+        Objective::Curves,
+        ExpectedOptions::default(),
+    )
+    .expect("sampler");
+    let sched = small();
+    let r = s
+        .sample(&SampleOptions {
+            seed: 1,
+            schedule: sched,
+            ..SampleOptions::default()
+        })
+        .expect("samples");
+    assert_eq!(r.generations.len(), 30);
+    for (g, st) in r.generations.iter().enumerate() {
+        assert_eq!(st.generation, g as u32);
+        assert_eq!(st.particles, sched.particles(g as u32));
+        assert!(
+            st.ess >= 1.0 - 1e-9 && st.ess <= st.particles as f64 + 1e-9,
+            "{st:?}"
+        );
+        assert!(st.best_objective.is_finite());
+        assert_eq!(st.heuristic_scale, sched.heuristic_scale(g as u32));
+    }
+    // Without weights every particle counts: ESS = particles.
+    let r = s
+        .sample(&SampleOptions {
+            seed: 1,
+            schedule: sched,
+            temperature: f64::INFINITY,
+            ..SampleOptions::default()
+        })
+        .expect("samples");
+    for st in &r.generations {
+        assert!((st.ess - st.particles as f64).abs() < 1e-9);
+    }
+}
+
+#[test]
+fn huge_negative_costs_keep_finite_weights() {
+    // Alignment scale 1e6: a good bone costs about -4e5, far below the
+    // -709 where exp(-cost) overflows in linear space.
+    let (p, c) = calder();
+    let text = std::fs::read_to_string(examples().join("calder_tree.curves.json"))
+        .expect("curves")
+        .replace("\"alignment_scale\": 400", "\"alignment_scale\": 1000000");
+    let curves = Curves::from_json_str("steep.curves.json", &text).expect("valid");
+    let s = Sampler::new(
+        &p.systems[0],
+        &c,
+        &curves,
+        Objective::Curves,
+        ExpectedOptions::default(),
+    )
+    .expect("sampler");
+    let r = s
+        .sample(&SampleOptions {
+            seed: 2,
+            schedule: small(),
+            ..SampleOptions::default()
+        })
+        .expect("samples");
+    let m = r.best().expect("model");
+    assert!(m.cost.total() < -1e6, "{}", m.cost.total());
+    for st in &r.generations {
+        assert!(st.ess.is_finite() && st.ess >= 1.0 - 1e-9, "{st:?}");
+    }
+    // And the search still prefers aligned bones: far better than
+    // forward sampling.
+    let u = s.sample(&SampleOptions::unguided(2, 30)).expect("samples");
+    assert!(m.cost.total() < u.best().expect("model").cost.total());
+}
+
+/// Guided models cost far less than unguided ones (forward samples of the
+/// grammar, same number of steps), over many seeds.
+#[test]
+fn guided_beats_unguided_by_a_wide_margin() {
+    let (p, c) = calder();
+    let curves = calder_curves();
+    let s = Sampler::new(
+        &p.systems[0],
+        &c,
+        &curves,
+        Objective::Curves,
+        ExpectedOptions::default(),
+    )
+    .expect("sampler");
+    let (mut guided, mut unguided) = (Vec::new(), Vec::new());
+    for seed in 0..30 {
+        let g = s
+            .sample(&SampleOptions {
+                seed,
+                schedule: small(),
+                ..SampleOptions::default()
+            })
+            .expect("samples");
+        guided.push(g.best().expect("model").cost.total());
+        let u = s
+            .sample(&SampleOptions::unguided(seed, 30))
+            .expect("samples");
+        unguided.push(u.best().expect("model").cost.total());
+    }
+    let (g90, u10) = (percentile(&guided, 90.0), percentile(&unguided, 10.0));
+    eprintln!(
+        "guided: p10 {:.0} median {:.0} p90 {g90:.0}; unguided: p10 {u10:.0} median {:.0} p90 {:.0}",
+        percentile(&guided, 10.0),
+        median(&guided),
+        median(&unguided),
+        percentile(&unguided, 90.0)
+    );
+    // Every guided model beats nearly every unguided one, and the medians
+    // are thousands apart.
+    assert!(g90 < u10, "guided p90 {g90} vs unguided p10 {u10}");
+    assert!(median(&guided) < median(&unguided) - 3000.0);
+    // Unguided models do not even average a negative cost.
+    assert!(median(&guided) < -5000.0);
+}
+
+#[test]
+fn a_zero_budget_stops_after_the_first_generation() {
+    let (p, c) = calder();
+    let curves = calder_curves();
+    let s = Sampler::new(
+        &p.systems[0],
+        &c,
+        &curves,
+        Objective::Curves,
+        ExpectedOptions::default(),
+    )
+    .expect("sampler");
+    let r = s
+        .sample(&SampleOptions {
+            seed: 0,
+            schedule: small(),
+            budget: Some(Duration::ZERO),
+            ..SampleOptions::default()
+        })
+        .expect("samples");
+    assert!(r.stopped_early);
+    assert_eq!(r.generations.len(), 1);
+    let m = r.best().expect("a complete model all the same");
+    assert!(m.skeleton_bones >= 1);
+    let long = s
+        .sample(&SampleOptions {
+            seed: 0,
+            schedule: small(),
+            budget: Some(Duration::from_secs(3600)),
+            ..SampleOptions::default()
+        })
+        .expect("samples");
+    assert!(!long.stopped_early);
+    assert_eq!(long.generations.len(), 30);
+}
+
+#[test]
+fn volume_baseline_runs_and_reports_both_costs() {
+    let (p, c) = calder();
+    let curves = calder_curves();
+    let s = Sampler::new(
+        &p.systems[0],
+        &c,
+        &curves,
+        Objective::Volume {
+            options: VolumeOptions::default(),
+            weight: 2000.0,
+        },
+        ExpectedOptions::default(),
+    )
+    .expect("sampler");
+    let (mut vol, mut unguided_vol) = (Vec::new(), Vec::new());
+    for seed in 0..8 {
+        let r = s
+            .sample(&SampleOptions {
+                seed,
+                schedule: small(),
+                heuristic: false,
+                ..SampleOptions::default()
+            })
+            .expect("samples");
+        let m = r.best().expect("model");
+        let v = m.volume.expect("volume cost");
+        assert!((m.objective - 2000.0 * v.total()).abs() < 1e-9);
+        assert!(m.cost.total().is_finite());
+        vol.push(v.total());
+        let u = s
+            .sample(&SampleOptions::unguided(seed, 30))
+            .expect("samples");
+        unguided_vol.push(u.best().expect("model").volume.expect("volume").total());
+    }
+    assert!(
+        median(&vol) < median(&unguided_vol),
+        "{vol:?} vs {unguided_vol:?}"
+    );
+    assert!(matches!(
+        Sampler::new(
+            &p.systems[0],
+            &c,
+            &curves,
+            Objective::Volume {
+                options: VolumeOptions::default(),
+                weight: -1.0,
+            },
+            ExpectedOptions::default(),
+        ),
+        Err(SampleError::Options(_))
+    ));
+}
+
+#[test]
+fn runaway_geometry_is_a_typed_error() {
+    // `Deep` can terminate as far as the checker can tell, but its
+    // condition never lets it: the geometry phase hits its depth limit.
+    let src = r#"
+system Runaway {
+    mode = sample;
+    axiom A;
+    skeleton A;
+    geometry Deep;
+    A -> F(1) Deep(0);
+    wrapup A -> ;
+    Deep(n) : n < 0 -> ;
+    Deep(n) : n >= 0 -> sphere(0.1) Deep(n + 1);
+}
+"#;
+    let p = program("runaway.grm", src);
+    let c = compile(&p, 0);
+    let curves = calder_curves();
+    let s = Sampler::new(
+        &p.systems[0],
+        &c,
+        &curves,
+        Objective::Curves,
+        ExpectedOptions::default(),
+    )
+    .expect("sampler");
+    let opts = SampleOptions {
+        schedule: Schedule {
+            generations: 2,
+            particles_start: 2,
+            particles_end: 2,
+            ..Schedule::calder_playground()
+        },
+        limits: FinishLimits {
+            max_depth: 50,
+            max_expansions: 1_000_000,
+        },
+        ..SampleOptions::default()
+    };
+    let e = s.sample(&opts).expect_err("runs away");
+    assert_eq!(e.code(), "R0305");
+    assert!(matches!(
+        e,
+        SampleError::GeometryLimit {
+            what: LimitKind::Depth,
+            limit: 50,
+            ..
+        }
+    ));
+    assert!(e.location().is_some());
+    assert!(e.to_string().contains("Deep"), "{e}");
+    let e = s
+        .sample(&SampleOptions {
+            limits: FinishLimits {
+                max_depth: 1000,
+                max_expansions: 30,
+            },
+            ..opts
+        })
+        .expect_err("runs away");
+    assert!(matches!(
+        e,
+        SampleError::GeometryLimit {
+            what: LimitKind::Expansions,
+            ..
+        }
+    ));
+}
+
+#[test]
+fn runtime_errors_name_the_expression() {
+    let src = r#"
+system Bad {
+    mode = sample;
+    axiom A(0);
+    skeleton A;
+    A(x) -> F(1) A(sqrt(x - 1));
+    wrapup A(x) -> ;
+}
+"#;
+    let p = program("bad.grm", src);
+    let c = compile(&p, 0);
+    let curves = calder_curves();
+    let e = Sampler::new(
+        &p.systems[0],
+        &c,
+        &curves,
+        Objective::Curves,
+        ExpectedOptions::default(),
+    )
+    .expect_err("sqrt(-1) while estimating the expected directions");
+    assert_eq!(e.code(), "R0302");
+    let (_, span) = e.location().expect("span");
+    assert_eq!(&src[span.start as usize..span.end as usize], "sqrt(x - 1)");
+}
+
+#[test]
+fn derive_systems_are_refused() {
+    let p = example("koch_island.grm");
+    let c = compile(&p, 0);
+    let curves = calder_curves();
+    let e = Sampler::new(
+        &p.systems[0],
+        &c,
+        &curves,
+        Objective::Curves,
+        ExpectedOptions::default(),
+    )
+    .expect_err("not a sample system");
+    assert_eq!(e.code(), "R0301");
+}
+
+#[test]
+fn vine_wall_example_samples() {
+    // The other sample example: parametric skeleton symbols, conditions,
+    // deep geometry (florets).
+    let p = example("vine_wall.grm");
+    let c = compile(&p, 0);
+    let curves = Curves::load(examples().join("vine_wall.curves.json")).expect("curves");
+    let s = Sampler::new(
+        &p.systems[0],
+        &c,
+        &curves,
+        Objective::Curves,
+        ExpectedOptions::default(),
+    )
+    .expect("sampler");
+    // runner(k) grows up its frame.
+    let e = s.expected_direction("runner").expect("runner");
+    assert!(e.y > 0.1, "{e}");
+    let r = s
+        .sample(&SampleOptions {
+            seed: 3,
+            schedule: small(),
+            ..SampleOptions::default()
+        })
+        .expect("samples");
+    let m = r.best().expect("model");
+    assert!(m.cost.total() < 0.0, "{}", m.cost.total());
+    assert!(!m.interpretation.instances.is_empty());
+    let model = m
+        .build(&p, &grm_geom::BuildOptions::default())
+        .expect("builds");
+    assert!(model.stats.triangles > 0);
+}
