@@ -14,6 +14,7 @@ mod disasm;
 mod fmt;
 mod gpu;
 mod lsp;
+mod sample;
 mod view;
 
 use clap::{Parser, Subcommand, ValueEnum};
@@ -44,6 +45,8 @@ enum Command {
     View(view::ViewArgs),
     /// Derive a system: statistics, the string, or an exported model.
     Derive(derive::DeriveArgs),
+    /// Grow a sample-mode system guided by curves (SOSMC) and export it.
+    Sample(sample::SampleArgs),
     /// Print a system's compiled tables and bytecode.
     Disasm(disasm::DisasmArgs),
     /// Benchmarks (`grmc bench derive`).
@@ -72,6 +75,7 @@ fn main() -> ExitCode {
         Command::Lsp(a) => lsp::run(a),
         Command::View(a) => view::run(a),
         Command::Derive(a) => derive::run(a),
+        Command::Sample(a) => sample::run(a),
         Command::Disasm(a) => disasm::run(a),
         Command::Bench(a) => bench::run(a),
     };

@@ -1,0 +1,361 @@
+//! `grmc sample FILE --curves CURVES.json`: grow a sample-mode system with
+//! the guided sampler (grm-sample) and print the model's cost by term, its
+//! bone count and the time; optionally export the model(s).
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use grm_geom::BuildOptions;
+use grm_guide::{Curves, VolumeOptions};
+use grm_sample::{
+    ExpectedOptions, FinishLimits, Objective, SampleError, SampleOptions, Sampler, Schedule,
+};
+
+use crate::Outcome;
+use crate::derive::{Report, load, render};
+
+/// What the search minimizes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum CostKind {
+    /// Calder's guiding-curve cost (distance, alignment, utilization, density).
+    Curves,
+    /// The volume-matching baseline: fill tubes around the curves.
+    Volume,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct SampleArgs {
+    /// The .grm file.
+    pub file: PathBuf,
+    /// The guiding curves (default: FILE's name with `.curves.json`).
+    #[arg(long)]
+    pub curves: Option<PathBuf>,
+    /// The system to sample (default: the file's first system).
+    #[arg(long)]
+    pub system: Option<String>,
+    /// Random seed (default: the system's `seed` setting).
+    #[arg(long)]
+    pub seed: Option<u32>,
+    /// Generations of the search (default: the system's `generations`).
+    #[arg(long)]
+    pub generations: Option<u32>,
+    /// Particles, ramped linearly from A to B over the generations (`A..B`,
+    /// or one number for a constant count; default: the system's
+    /// `particles_start..particles_end`).
+    #[arg(long, value_name = "A..B")]
+    pub particles: Option<String>,
+    /// Stop the search after this many milliseconds of wall time (then wrap
+    /// up and finish). The one non-deterministic option.
+    #[arg(long, value_name = "MS")]
+    pub budget_ms: Option<u64>,
+    /// Worker threads: 1 runs on the main thread, 0 uses all cores. The
+    /// model does not depend on it.
+    #[arg(long, default_value_t = 1)]
+    pub threads: usize,
+    /// Report and export the best K distinct models.
+    #[arg(long, default_value_t = 1, value_name = "K")]
+    pub best: usize,
+    /// What to minimize: the curve cost or the volume baseline.
+    #[arg(long, value_enum, default_value_t = CostKind::Curves)]
+    pub cost: CostKind,
+    /// Weight of the volume cost (likelihood exp(-weight * cost)).
+    #[arg(long, default_value_t = 2000.0)]
+    pub volume_weight: f64,
+    /// Turn the expected-direction heuristic off.
+    #[arg(long)]
+    pub no_heuristic: bool,
+    /// HEURISTICSCALE at generation 0 (default 0.013).
+    #[arg(long)]
+    pub heuristic_scale: Option<f64>,
+    /// Generation by which the heuristic scale has ramped to 0 (default:
+    /// 40% of the generations).
+    #[arg(long)]
+    pub heuristic_until: Option<u32>,
+    /// Likelihood exp(-cost / T); 1 is Calder's.
+    #[arg(long, default_value_t = 1.0)]
+    pub temperature: f64,
+    /// Expansions per particle step: a step expands open symbols until one
+    /// adds a bone, at most this many (1: one symbol per step).
+    #[arg(long, default_value_t = 1000)]
+    pub max_step_expansions: u32,
+    /// Override a meta-parameter: `NAME=VALUE`. Repeatable.
+    #[arg(long = "param", value_name = "NAME=VALUE")]
+    pub params: Vec<String>,
+    /// Print each generation's particles, effective sample size,
+    /// heuristic scale and best cost.
+    #[arg(long)]
+    pub stats: bool,
+    /// Build the best model and write it (format by extension: .glb .obj
+    /// .ply .svg); with --best K the others go to NAME-2.EXT, ...
+    #[arg(short = 'o', long = "output")]
+    pub output: Option<PathBuf>,
+}
+
+/// `A..B` or `N`.
+fn parse_particles(s: &str) -> Result<(u32, u32), String> {
+    let num = |t: &str| {
+        t.trim()
+            .parse::<u32>()
+            .ok()
+            .filter(|&n| n > 0)
+            .ok_or_else(|| format!("`--particles {s}`: `{t}` is not a whole number > 0"))
+    };
+    match s.split_once("..") {
+        Some((a, b)) => Ok((num(a)?, num(b)?)),
+        None => {
+            let n = num(s)?;
+            Ok((n, n))
+        }
+    }
+}
+
+/// `path` for model `k` (0-based): the path itself, then NAME-2.EXT, ...
+fn nth_path(path: &Path, k: usize) -> PathBuf {
+    if k == 0 {
+        return path.to_path_buf();
+    }
+    let stem = path
+        .file_stem()
+        .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
+    let name = match path.extension() {
+        Some(e) => format!("{stem}-{}.{}", k + 1, e.to_string_lossy()),
+        None => format!("{stem}-{}", k + 1),
+    };
+    path.with_file_name(name)
+}
+
+fn ms(d: Duration) -> f64 {
+    d.as_secs_f64() * 1e3
+}
+
+fn report(sources: &grm_diag::SourceMap, e: &SampleError) -> Outcome {
+    eprint!(
+        "{}",
+        render(
+            sources,
+            &Report {
+                code: e.code(),
+                message: e.to_string(),
+                file: e.location(),
+                label: e.label(),
+                help: e.help(),
+            }
+        )
+    );
+    match e {
+        SampleError::ThreadPool(_) | SampleError::Options(_) => Outcome::Usage,
+        _ => Outcome::InputErrors,
+    }
+}
+
+pub fn run(args: SampleArgs) -> Outcome {
+    if let Some(out) = &args.output
+        && grm_geom::ExportFormat::from_path(out).is_none()
+    {
+        eprintln!(
+            "error: cannot tell the format of {}: use .glb, .obj, .ply or .svg",
+            out.display()
+        );
+        return Outcome::Usage;
+    }
+    let particles = match args.particles.as_deref().map(parse_particles) {
+        Some(Err(m)) => {
+            eprintln!("error: {m}");
+            return Outcome::Usage;
+        }
+        Some(Ok(p)) => Some(p),
+        None => None,
+    };
+    let curves_path = args.curves.clone().unwrap_or_else(|| {
+        let stem = args
+            .file
+            .file_stem()
+            .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
+        args.file.with_file_name(format!("{stem}.curves.json"))
+    });
+    let loaded = match load(&args.file, args.system.as_deref(), &args.params) {
+        Ok(l) => l,
+        Err(o) => return o,
+    };
+    let curves = match Curves::load(&curves_path) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("error: {e}");
+            if args.curves.is_none() {
+                eprintln!("  help: name the guiding curves with `--curves CURVES.json`");
+            }
+            return match e.kind {
+                grm_guide::CurvesErrorKind::Io(_) => Outcome::Usage,
+                _ => Outcome::InputErrors,
+            };
+        }
+    };
+    let c = &loaded.compiled;
+    let mut schedule = Schedule::from_settings(&c.settings);
+    if let Some(g) = args.generations {
+        schedule.generations = g.max(1);
+        schedule.heuristic_until = (u64::from(schedule.generations) * 2).div_ceil(5) as u32;
+    }
+    if let Some((a, b)) = particles {
+        schedule.particles_start = a;
+        schedule.particles_end = b;
+    }
+    if let Some(h) = args.heuristic_scale {
+        schedule.heuristic_scale = h;
+    }
+    if let Some(u) = args.heuristic_until {
+        schedule.heuristic_until = u;
+    }
+    let objective = match args.cost {
+        CostKind::Curves => Objective::Curves,
+        CostKind::Volume => Objective::Volume {
+            options: VolumeOptions::default(),
+            weight: args.volume_weight,
+        },
+    };
+    let t0 = Instant::now();
+    let sampler = match Sampler::new(
+        loaded.system(),
+        c,
+        &curves,
+        objective,
+        ExpectedOptions::default(),
+    ) {
+        Ok(s) => s,
+        Err(e) => return report(&loaded.sources, &e),
+    };
+    let prepare = t0.elapsed();
+    let heuristic = !args.no_heuristic && args.cost == CostKind::Curves;
+    let opts = SampleOptions {
+        seed: args.seed.unwrap_or(c.settings.seed),
+        schedule,
+        heuristic,
+        temperature: args.temperature,
+        threads: args.threads,
+        budget: args.budget_ms.map(Duration::from_millis),
+        best: args.best.max(1),
+        max_expansions_per_step: args.max_step_expansions.max(1),
+        limits: FinishLimits::default(),
+    };
+    let result = match sampler.sample(&opts) {
+        Ok(r) => r,
+        Err(e) => return report(&loaded.sources, &e),
+    };
+    let heuristic_text = if heuristic && schedule.heuristic_until > 0 {
+        format!(
+            "heuristic {} -> 0 by generation {}",
+            schedule.heuristic_scale, schedule.heuristic_until
+        )
+    } else {
+        "no heuristic".to_string()
+    };
+    println!(
+        "{}: seed {}, {} generations{}, particles {} -> {}, {heuristic_text}",
+        c.name,
+        opts.seed,
+        result.generations.len(),
+        if result.stopped_early {
+            format!(" (of {}; budget reached)", schedule.generations)
+        } else {
+            String::new()
+        },
+        schedule.particles_start,
+        schedule.particles_end,
+    );
+    if args.stats {
+        println!(
+            "{:>10} {:>9} {:>9} {:>8} {:>10} {:>12} {:>8}",
+            "generation", "particles", "expanding", "ESS", "heuristic", "best cost", "bones"
+        );
+        for g in &result.generations {
+            println!(
+                "{:>10} {:>9} {:>9} {:>8.2} {:>10.5} {:>12.1} {:>8.1}",
+                g.generation,
+                g.particles,
+                g.expanding,
+                g.ess,
+                g.heuristic_scale,
+                g.best_objective,
+                g.mean_bones
+            );
+        }
+    }
+    for (k, m) in result.models.iter().enumerate() {
+        let b = &m.cost;
+        let (_, skeleton, wrapup, geometry) = m.tree.counts();
+        let rank = if result.models.len() > 1 {
+            format!("model {}: ", k + 1)
+        } else {
+            String::new()
+        };
+        println!(
+            "{rank}cost {:.3} = distance {:.3} + alignment {:.3} + utilization {:.3} + density {:.3}",
+            b.total(),
+            b.distance,
+            b.alignment,
+            b.utilization,
+            b.density
+        );
+        if let Some(v) = m.volume {
+            println!(
+                "{rank}volume cost {:.4} = outside {:.4} + uncovered {:.4} (weight {})",
+                v.total(),
+                v.outside_fraction,
+                v.uncovered_fraction,
+                args.volume_weight
+            );
+        }
+        println!(
+            "{rank}bones {} skeleton, {} in all; expansions: {skeleton} skeleton, {wrapup} wrap-up, {geometry} geometry",
+            m.skeleton_bones,
+            m.interpretation.bones.len()
+        );
+    }
+    let ess = result.ess();
+    let mean = ess.iter().sum::<f64>() / ess.len().max(1) as f64;
+    let min = ess.iter().copied().fold(f64::INFINITY, f64::min);
+    println!(
+        "time {:.2} ms (expected directions {:.2} ms, sampling {:.2} ms); ESS per generation: mean {mean:.2}, min {min:.2}",
+        ms(prepare + result.elapsed),
+        ms(sampler.expected_time()),
+        ms(result.elapsed),
+    );
+    if let Some(path) = &args.output {
+        for (k, m) in result.models.iter().enumerate() {
+            let model = match m.build(&loaded.program, &BuildOptions::default()) {
+                Ok(model) => model,
+                Err(e) => {
+                    eprintln!("error: cannot build the model of `{}`: {e}", c.name);
+                    return Outcome::InputErrors;
+                }
+            };
+            let p = nth_path(path, k);
+            if let Err(e) = grm_geom::export(&model, &p) {
+                eprintln!("error: {e}");
+                return Outcome::Usage;
+            }
+            eprintln!("wrote {}", p.display());
+        }
+    }
+    Outcome::Ok
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn particles_argument() {
+        assert_eq!(parse_particles("100..15"), Ok((100, 15)));
+        assert_eq!(parse_particles("50"), Ok((50, 50)));
+        assert!(parse_particles("0..5").is_err());
+        assert!(parse_particles("a..5").is_err());
+    }
+
+    #[test]
+    fn best_k_paths() {
+        let p = Path::new("out/tree.glb");
+        assert_eq!(nth_path(p, 0), PathBuf::from("out/tree.glb"));
+        assert_eq!(nth_path(p, 2), PathBuf::from("out/tree-3.glb"));
+    }
+}

@@ -1,0 +1,125 @@
+//! `grmc sample` as a user runs it: the cost by term, bone count and time;
+//! export; the same seed giving the same file; typed errors and exit codes.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn grmc(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_grmc"))
+        .args(args)
+        .env("NO_COLOR", "1")
+        .output()
+        .expect("grmc runs")
+}
+
+fn example(name: &str) -> String {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples")
+        .join(name)
+        .display()
+        .to_string()
+}
+
+#[test]
+fn samples_the_calder_tree_and_exports_it() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().join("tree.glb");
+    let tree = example("calder_tree.grm");
+    let curves = example("calder_tree.curves.json");
+    let run = |threads: &str, out: &std::path::Path| {
+        grmc(&[
+            "sample",
+            &tree,
+            "--curves",
+            &curves,
+            "--seed",
+            "4",
+            "--generations",
+            "20",
+            "--particles",
+            "20..5",
+            "--threads",
+            threads,
+            "--best",
+            "2",
+            "--stats",
+            "-o",
+            out.to_str().expect("utf-8"),
+        ])
+    };
+    let o = run("1", &out);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{stdout}\n{stderr}");
+    for needle in [
+        "CalderTree: seed 4, 20 generations, particles 20 -> 5",
+        "distance",
+        "alignment",
+        "utilization",
+        "density",
+        "bones 20 skeleton",
+        "time ",
+        "ESS per generation",
+        "model 2:",
+    ] {
+        assert!(stdout.contains(needle), "missing `{needle}` in:\n{stdout}");
+    }
+    // --stats prints one row per generation.
+    assert_eq!(
+        stdout
+            .lines()
+            .filter(|l| l
+                .split_whitespace()
+                .next()
+                .is_some_and(|w| w.parse::<u32>().is_ok()))
+            .count(),
+        20,
+        "{stdout}"
+    );
+    let a = std::fs::read(&out).expect("glb written");
+    assert!(a.starts_with(b"glTF"));
+    assert!(dir.path().join("tree-2.glb").exists());
+    // Same seed, other thread count: the same bytes.
+    let out3 = dir.path().join("tree3.glb");
+    let o = run("2", &out3);
+    assert_eq!(o.status.code(), Some(0));
+    assert_eq!(std::fs::read(&out3).expect("written"), a);
+}
+
+#[test]
+fn curves_default_to_the_file_beside_the_grammar() {
+    let o = grmc(&[
+        "sample",
+        &example("calder_tree.grm"),
+        "--generations",
+        "3",
+        "--particles",
+        "4",
+        "--cost",
+        "volume",
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(0), "{stdout}");
+    assert!(stdout.contains("volume cost"), "{stdout}");
+    assert!(stdout.contains("no heuristic"), "{stdout}");
+}
+
+#[test]
+fn errors_and_exit_codes() {
+    // A derive system: R0301, exit 1.
+    let o = grmc(&[
+        "sample",
+        &example("koch_island.grm"),
+        "--curves",
+        &example("calder_tree.curves.json"),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("R0301"));
+    // No curves file beside it: exit 2 with a hint.
+    let o = grmc(&["sample", &example("koch_island.grm")]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--curves"));
+    // A bad --particles: exit 2.
+    let o = grmc(&["sample", &example("calder_tree.grm"), "--particles", "0..3"]);
+    assert_eq!(o.status.code(), Some(2));
+}
