@@ -7,7 +7,9 @@
 //
 // Needs: `cargo build -p grmc` (or GRMC=path), Debian's chromium
 // (CHROMIUM=path, default /usr/bin/chromium). Screenshots and the measured
-// latency go to target/browser-test/.
+// latency go to target/browser-test/. PAGE_DIST=editors/preview/dist serves
+// the page from that folder instead of the copy built into grmc (to try page
+// changes without rebuilding grmc).
 
 import assert from 'node:assert/strict';
 import { type ChildProcess, spawn } from 'node:child_process';
@@ -22,6 +24,7 @@ const examples = join(root, 'examples');
 const artifacts = join(root, 'target/browser-test');
 const grmc = process.env.GRMC ?? join(root, 'target/debug/grmc');
 const chromiumPath = process.env.CHROMIUM ?? '/usr/bin/chromium';
+const pageDist = process.env.PAGE_DIST;
 
 let browser: Browser;
 const servers: ChildProcess[] = [];
@@ -177,6 +180,13 @@ async function openPage(url: string): Promise<Page> {
     if (m.type() === 'error') errors.push(m.text());
   });
   (page as unknown as { errors: string[] }).errors = errors;
+  if (pageDist) {
+    const types: Record<string, string> = { '': 'text/html', 'index.html': 'text/html', 'preview.js': 'text/javascript', 'preview.css': 'text/css' };
+    await page.route(/\/(index\.html|preview\.js|preview\.css)?$/, (route) => {
+      const name = new URL(route.request().url()).pathname.slice(1);
+      return route.fulfill({ contentType: types[name], body: readFileSync(join(pageDist, name || 'index.html')) });
+    });
+  }
   await page.goto(url);
   return page;
 }
