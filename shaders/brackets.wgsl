@@ -33,8 +33,12 @@ fn lvl_len(l: u32) -> u32 {
     return B.lens[l / 4u][l % 4u];
 }
 
-fn bracket_flags_of(s: u32) -> u32 {
-    return load_SymbolEntry(TAB.symbols_offset + s * SYMBOL_ENTRY_WORDS).flags;
+// The flags of a module's symbol, from its own system's tables (the
+// system index is above SYS_SHIFT; see derive.wgsl).
+fn bracket_flags_of(raw: u32) -> u32 {
+    let sys = load_SystemEntry((raw >> SYS_SHIFT) * SYSTEM_ENTRY_WORDS);
+    tab_select(sys.base);
+    return load_SymbolEntry(TAB_BASE + TAB.symbols_offset + (raw & SYM_MASK) * SYMBOL_ENTRY_WORDS).flags;
 }
 
 // pairs[k] = (is `[`, is `]`) for k < n, and (0, 0) at k = n.
@@ -50,7 +54,6 @@ fn bracket_flags(
     }
     var v = vec2<u32>(0u, 0u);
     if (k < B.n) {
-        TAB = load_PackedHeader(0u);
         let f = bracket_flags_of(syms[k]);
         v = vec2<u32>(select(0u, 1u, (f & SYM_PUSH) != 0u), select(0u, 1u, (f & SYM_POP) != 0u));
         // No partner until bracket_match writes one.
@@ -161,9 +164,11 @@ fn bracket_match(
     if (pairs[i + 1u].x == pairs[i].x) {
         return;
     }
-    // A `[` at i: the depth returns to levels[i] right after its `]`.
+    // A `[` at i: the depth returns to levels[i] right after its `]`,
+    // which must be in the same system.
     let k = first_at_most(i + 2u, levels[i].x);
-    if (k != NONE) {
+    let sys = load_SystemEntry((syms[i] >> SYS_SHIFT) * SYSTEM_ENTRY_WORDS);
+    if (k != NONE && k <= sys.end) {
         let j = k - 1u;
         mate[i] = j + 1u;
         mate[j] = i + 1u;

@@ -12,6 +12,15 @@
 // (constant weights from the tables, computed weights from their code,
 // each checked positive and finite). Tables, bytecode and draws are
 // grm_compile's, read through the generated loaders.
+//
+// Several systems at once (Lipp 5.4): `tables` starts with a directory of
+// SystemEntry records (each system's packed tables, iterations, seed and
+// its range in the current string); a module's symbol carries its system's
+// index above SYS_SHIFT. A module reads its own system's tables, draws
+// with its system's seed and its position within its system's range,
+// matches contexts only inside that range, and is copied unchanged once
+// its system has done its iterations. One system is the same with one
+// directory entry.
 //!include grid.wgsl
 
 @group(0) @binding(0) var<uniform> P: DeriveParams;
@@ -32,33 +41,48 @@
 // `choice`: copy the module unchanged.
 const COPY: u32 = 0xffffffffu;
 
+// The system of the module being worked on.
+var<private> SYS: SystemEntry;
+var<private> SYS_ID: u32;
+
+fn select_system(id: u32) {
+    SYS_ID = id;
+    SYS = load_SystemEntry(id * SYSTEM_ENTRY_WORDS);
+    tab_select(SYS.base);
+}
+
+// The symbol of input module p within its system.
+fn sym_at(p: u32) -> u32 {
+    return in_syms[p] & SYM_MASK;
+}
+
 struct Decision {
     alt: u32,
     err: u32,
 }
 
 fn sym_entry(s: u32) -> SymbolEntry {
-    return load_SymbolEntry(TAB.symbols_offset + s * SYMBOL_ENTRY_WORDS);
+    return load_SymbolEntry(TAB_BASE + TAB.symbols_offset + s * SYMBOL_ENTRY_WORDS);
 }
 
 fn group_at(g: u32) -> GroupHeader {
-    return load_GroupHeader(TAB.groups_offset + g * GROUP_HEADER_WORDS);
+    return load_GroupHeader(TAB_BASE + TAB.groups_offset + g * GROUP_HEADER_WORDS);
 }
 
 fn alt_at(a: u32) -> AltHeader {
-    return load_AltHeader(TAB.alts_offset + a * ALT_HEADER_WORDS);
+    return load_AltHeader(TAB_BASE + TAB.alts_offset + a * ALT_HEADER_WORDS);
 }
 
 fn ctx_at(c: u32) -> ContextItem {
-    return load_ContextItem(TAB.context_offset + c * CONTEXT_ITEM_WORDS);
+    return load_ContextItem(TAB_BASE + TAB.context_offset + c * CONTEXT_ITEM_WORDS);
 }
 
 fn succ_at(k: u32) -> SuccModule {
-    return load_SuccModule(TAB.succ_offset + k * SUCC_MODULE_WORDS);
+    return load_SuccModule(TAB_BASE + TAB.succ_offset + k * SUCC_MODULE_WORDS);
 }
 
 fn param_at(k: u32) -> ParamExpr {
-    return load_ParamExpr(TAB.params_offset + k * PARAM_EXPR_WORDS);
+    return load_ParamExpr(TAB_BASE + TAB.params_offset + k * PARAM_EXPR_WORDS);
 }
 
 fn sym_flags(s: u32) -> u32 {
@@ -101,11 +125,11 @@ fn match_left(i: u32, g: GroupHeader) -> bool {
     for (var t = g.left_len; t > 0u; t = t - 1u) {
         let item = ctx_at(g.left_offset + t - 1u);
         loop {
-            if (pos == 0u) {
+            if (pos == SYS.start) {
                 return false;
             }
             pos = pos - 1u;
-            let s = in_syms[pos];
+            let s = sym_at(pos);
             let bk = bracket_kind(s);
             if (bk == 2u) {
                 let m = mate_of(pos);
@@ -120,7 +144,7 @@ fn match_left(i: u32, g: GroupHeader) -> bool {
                 break;
             }
         }
-        if (item.kind != CTX_SYMBOL || in_syms[pos] != item.symbol) {
+        if (item.kind != CTX_SYMBOL || sym_at(pos) != item.symbol) {
             return false;
         }
         if (item.bind_words > 0u) {
@@ -131,7 +155,7 @@ fn match_left(i: u32, g: GroupHeader) -> bool {
 }
 
 fn match_right(i: u32, g: GroupHeader) -> bool {
-    let n = P.n;
+    let n = SYS.end;
     var pos = i + 1u;
     for (var t = 0u; t < g.right_len; t = t + 1u) {
         let item = ctx_at(g.right_offset + t);
@@ -140,7 +164,7 @@ fn match_right(i: u32, g: GroupHeader) -> bool {
                 if (pos >= n) {
                     return false;
                 }
-                let s = in_syms[pos];
+                let s = sym_at(pos);
                 let bk = bracket_kind(s);
                 if (bk == 1u) {
                     let m = mate_of(pos);
@@ -156,7 +180,7 @@ fn match_right(i: u32, g: GroupHeader) -> bool {
                     break;
                 }
             }
-            if (in_syms[pos] != item.symbol) {
+            if (sym_at(pos) != item.symbol) {
                 return false;
             }
             if (item.bind_words > 0u) {
@@ -169,7 +193,7 @@ fn match_right(i: u32, g: GroupHeader) -> bool {
                 if (pos >= n) {
                     return false;
                 }
-                let s = in_syms[pos];
+                let s = sym_at(pos);
                 let bk = bracket_kind(s);
                 if (bk == 1u) {
                     pos = pos + 1u;
@@ -187,7 +211,7 @@ fn match_right(i: u32, g: GroupHeader) -> bool {
                 if (pos >= n) {
                     return false;
                 }
-                let bk = bracket_kind(in_syms[pos]);
+                let bk = bracket_kind(sym_at(pos));
                 if (bk == 2u) {
                     pos = pos + 1u;
                     break;
@@ -221,8 +245,9 @@ fn bind_group(i: u32, g: GroupHeader) -> bool {
     return true;
 }
 
+// Draws use the position within the module's own system.
 fn draws_at(i: u32) -> Draws {
-    return Draws(P.seed, P.iteration, i);
+    return Draws(SYS.seed, P.iteration, i - SYS.start);
 }
 
 // The weight of alternative `a` (constant or computed); NaN on a fault.
@@ -238,7 +263,10 @@ fn weight_of(a: u32, d: Draws) -> f32 {
 }
 
 fn decide(i: u32) -> Decision {
-    let se = sym_entry(in_syms[i]);
+    if (P.iteration > SYS.iterations) {
+        return Decision(COPY, 0u);
+    }
+    let se = sym_entry(sym_at(i));
     let d = draws_at(i);
     for (var gi = se.first_group; gi < se.first_group + se.group_count; gi = gi + 1u) {
         let g = group_at(gi);
@@ -312,7 +340,7 @@ fn count(
         counts[i] = vec2<u32>(0u, 0u);
         return;
     }
-    TAB = load_PackedHeader(0u);
+    select_system(in_syms[i] >> SYS_SHIFT);
     let dec = decide(i);
     if (dec.err != 0u) {
         report(0u, i, dec.err);
@@ -336,14 +364,17 @@ fn rewrite(
     if (i >= P.n) {
         return;
     }
-    TAB = load_PackedHeader(0u);
-    var o = 0u;
-    var wo = 0u;
-    var alt = TAB.axiom_alt;
-    if (P.axiom == 0u) {
-        let off = counts[i];
-        o = off.x;
-        wo = off.y;
+    // The axiom: one thread per system writes its axiom at the offsets the
+    // host put in `counts`.
+    let off = counts[i];
+    var o = off.x;
+    var wo = off.y;
+    var alt = 0u;
+    if (P.axiom != 0u) {
+        select_system(i);
+        alt = TAB.axiom_alt;
+    } else {
+        select_system(in_syms[i] >> SYS_SHIFT);
         alt = choice[i];
         if (alt == COPY) {
             out_syms[o] = in_syms[i];
@@ -363,7 +394,7 @@ fn rewrite(
     let d = draws_at(i);
     for (var k = 0u; k < a.succ_len; k = k + 1u) {
         let m = succ_at(a.succ_offset + k);
-        out_syms[o + k] = m.symbol;
+        out_syms[o + k] = m.symbol | (SYS_ID << SYS_SHIFT);
         var dst = wo + m.word_offset;
         out_starts[o + k] = dst;
         for (var q = m.first_param; q < m.first_param + m.param_count; q = q + 1u) {

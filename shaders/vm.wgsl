@@ -3,7 +3,7 @@
 // generated header, i.e. from grm_compile::op). Semantics per op: see
 // grm_compile::op. Code and constants are read from the packed table
 // buffer `tables` (declared by the including kernel) at TAB.code_offset and
-// TAB.consts_offset; the binding words of the production being applied are
+// TAB.consts_offset (relative to the current system's TAB_BASE); the binding words of the production being applied are
 // in `vm_bind`.
 //
 // Code is verified on the host (grm_compile::verify) before it is
@@ -18,11 +18,11 @@ var<private> vm_st: array<f32, STACK_SIZE>;
 var<private> vm_bind: array<f32, MAX_BIND_WORDS>;
 
 fn vm_code(pc: u32) -> u32 {
-    return tables[TAB.code_offset + pc];
+    return tables[TAB_BASE + TAB.code_offset + pc];
 }
 
 fn vm_const(i: u32) -> f32 {
-    return bitcast<f32>(tables[TAB.consts_offset + i]);
+    return bitcast<f32>(tables[TAB_BASE + TAB.consts_offset + i]);
 }
 
 fn truthy(x: f32) -> bool {

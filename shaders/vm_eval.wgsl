@@ -19,7 +19,7 @@ fn vm_eval(
     if (i >= arrayLength(&jobs)) {
         return;
     }
-    TAB = load_PackedHeader(0u);
+    tab_select(0u);
     let j = jobs[i];
     for (var k = 0u; k < min(j.bind_len, MAX_BIND_WORDS); k = k + 1u) {
         vm_bind[k] = binds[j.bind_first + k];

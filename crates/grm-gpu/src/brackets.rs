@@ -117,7 +117,14 @@ pub fn match_brackets(
 ) -> Result<Vec<u32>, GpuError> {
     check_string(sys, s)?;
     gpu.run(|| {
-        let tables = gpu.upload("tables", &sys.pack())?;
+        let dir = crate::layout::SystemEntry {
+            base: (std::mem::size_of::<crate::layout::SystemEntry>() / 4) as u32,
+            end: u32::MAX,
+            ..Default::default()
+        };
+        let mut words: Vec<u32> = bytemuck::cast_slice(&[dir]).to_vec();
+        words.extend_from_slice(&sys.pack());
+        let tables = gpu.upload("tables", &words)?;
         let syms = gpu.upload("symbols", &s.syms)?;
         let n = s.len() as u64;
         let mut enc = gpu.encoder();

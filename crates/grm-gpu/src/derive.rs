@@ -17,7 +17,8 @@ use crate::device::{Gpu, groups_for};
 use crate::error::{GpuError, RuntimeKind};
 use crate::kernels;
 use crate::layout::{
-    DeriveParams, ERR_BAD_WEIGHT, ERR_FAULT, ERR_NON_FINITE, MAX_BIND_WORDS, STATUS_WORDS,
+    DeriveParams, ERR_BAD_WEIGHT, ERR_FAULT, ERR_NON_FINITE, MAX_BIND_WORDS, MAX_SYSTEMS,
+    STATUS_WORDS, SYM_MASK, SystemEntry,
 };
 use crate::scan::{ScanElem, record_scan};
 
@@ -179,12 +180,25 @@ struct Pass<'b> {
     status: &'b wgpu::Buffer,
 }
 
-/// A compiled system loaded on the device, ready to derive.
+/// One system of a multi-system derivation (Lipp 5.4): its tables, how
+/// many iterations it takes and its seed.
+#[derive(Clone, Copy, Debug)]
+pub struct GpuJob<'a> {
+    pub system: &'a CompiledSystem,
+    pub iterations: u32,
+    pub seed: u32,
+}
+
+/// Compiled systems loaded on the device, ready to derive together.
 #[derive(Debug)]
 pub struct GpuSystem<'a> {
     gpu: &'a Gpu,
-    sys: &'a CompiledSystem,
+    jobs: Vec<GpuJob<'a>>,
+    /// The directory (one `SystemEntry` per job) followed by each
+    /// system's packed tables.
     pub(crate) tables: wgpu::Buffer,
+    /// The directory as uploaded (string 0's ranges).
+    directory: Vec<SystemEntry>,
     has_context: bool,
 }
 
@@ -203,7 +217,12 @@ pub fn derive(
     opts: &GpuDeriveOptions,
 ) -> Result<GpuDerivation, GpuError> {
     gpu.run(|| {
-        let g = GpuSystem::load(gpu, sys)?;
+        let job = GpuJob {
+            system: sys,
+            iterations: opts.iterations,
+            seed: opts.seed,
+        };
+        let g = GpuSystem::load(gpu, &[job])?;
         let (s, stats) = g.derive(opts, &mut |_| {})?;
         Ok(GpuDerivation {
             string: s.read(gpu)?,
@@ -212,29 +231,118 @@ pub fn derive(
     })
 }
 
+/// The result of [`derive_many`].
+#[derive(Clone, Debug)]
+pub struct GpuManyDerivation {
+    /// Each job's final string, in job order.
+    pub strings: Vec<ModuleString>,
+    /// The combined string's figures: the axioms, then each step.
+    pub stats: Vec<GpuIterationStats>,
+}
+
+/// Derive several systems (or one system with several seeds) in the same
+/// dispatches: one combined string, each module reading its own system's
+/// tables (Lipp 5.4). Each job's string is what deriving it alone gives.
+/// `opts.iterations` and `opts.seed` are ignored (each job has its own);
+/// the limits apply to the combined string.
+pub fn derive_many(
+    gpu: &Gpu,
+    jobs: &[GpuJob<'_>],
+    opts: &GpuDeriveOptions,
+) -> Result<GpuManyDerivation, GpuError> {
+    gpu.run(|| {
+        let g = GpuSystem::load(gpu, jobs)?;
+        let iterations = jobs.iter().map(|j| j.iterations).max().unwrap_or(0);
+        let o = GpuDeriveOptions {
+            iterations,
+            ..*opts
+        };
+        let (s, stats) = g.derive(&o, &mut |_| {})?;
+        let all = s.read(gpu)?;
+        let dir = g.read_directory()?;
+        let mut strings = Vec::with_capacity(jobs.len());
+        for e in &dir {
+            let (a, b) = (e.start as usize, e.end as usize);
+            if a > b || b > all.len() {
+                return Err(GpuError::Readback(
+                    "a system's range is outside the string".into(),
+                ));
+            }
+            let mut one = ModuleString::with_capacity(b - a, 0);
+            for i in a..b {
+                let (sym, p) = all.get(i);
+                one.push(sym & SYM_MASK, p);
+            }
+            strings.push(one);
+        }
+        Ok(GpuManyDerivation { strings, stats })
+    })
+}
+
 impl<'a> GpuSystem<'a> {
-    /// Validate and upload the tables. Must run inside [`Gpu::run`].
-    pub fn load(gpu: &'a Gpu, sys: &'a CompiledSystem) -> Result<GpuSystem<'a>, GpuError> {
-        sys.validate()
-            .map_err(|e| GpuError::InvalidInput(e.to_string()))?;
-        let widest = sys.symbols.iter().map(|s| s.param_words).max().unwrap_or(0);
-        if sys.max_bind_words > MAX_BIND_WORDS || widest > MAX_BIND_WORDS {
-            return Err(GpuError::Unsupported(format!(
-                "productions binding more than {MAX_BIND_WORDS} parameter words (this system binds {})",
-                sys.max_bind_words.max(widest)
+    /// Validate and upload the tables of `jobs`. Must run inside [`Gpu::run`].
+    pub fn load(gpu: &'a Gpu, jobs: &[GpuJob<'a>]) -> Result<GpuSystem<'a>, GpuError> {
+        if jobs.is_empty() || jobs.len() > MAX_SYSTEMS {
+            return Err(GpuError::InvalidInput(format!(
+                "{} systems: one derivation takes 1 to {MAX_SYSTEMS}",
+                jobs.len()
             )));
         }
-        let tables = gpu.upload("tables", &sys.pack())?;
+        let dir_words = jobs.len() * std::mem::size_of::<SystemEntry>() / 4;
+        let mut words: Vec<u32> = vec![0; dir_words];
+        let mut directory = Vec::with_capacity(jobs.len());
+        let mut start = 0u64;
+        for job in jobs {
+            let sys = job.system;
+            sys.validate()
+                .map_err(|e| GpuError::InvalidInput(e.to_string()))?;
+            let widest = sys.symbols.iter().map(|s| s.param_words).max().unwrap_or(0);
+            if sys.max_bind_words > MAX_BIND_WORDS || widest > MAX_BIND_WORDS {
+                return Err(GpuError::Unsupported(format!(
+                    "productions binding more than {MAX_BIND_WORDS} parameter words (this system binds {})",
+                    sys.max_bind_words.max(widest)
+                )));
+            }
+            if sys.symbols.len() > SYM_MASK as usize {
+                return Err(GpuError::Unsupported(format!(
+                    "more than {SYM_MASK} symbols in one system"
+                )));
+            }
+            let axiom = sys
+                .alts
+                .get(sys.axiom_alt as usize)
+                .ok_or_else(|| GpuError::InvalidInput("no axiom".into()))?;
+            let end = start + u64::from(axiom.succ_len);
+            directory.push(SystemEntry {
+                base: words.len() as u32,
+                iterations: job.iterations,
+                seed: job.seed,
+                start: start as u32,
+                end: end as u32,
+                ..SystemEntry::default()
+            });
+            start = end;
+            words.extend_from_slice(&sys.pack());
+        }
+        words[..dir_words].copy_from_slice(bytemuck::cast_slice(&directory));
+        let tables = gpu.upload("tables", &words)?;
         Ok(GpuSystem {
             gpu,
-            sys,
+            has_context: jobs.iter().any(|j| j.system.has_context()),
+            jobs: jobs.to_vec(),
             tables,
-            has_context: sys.has_context(),
+            directory,
         })
     }
 
-    pub fn system(&self) -> &'a CompiledSystem {
-        self.sys
+    /// The directory as it is on the device now.
+    fn read_directory(&self) -> Result<Vec<SystemEntry>, GpuError> {
+        let n = self.jobs.len() as u64;
+        Ok(self
+            .gpu
+            .read::<SystemEntry>(self.gpu.encoder(), &[(&self.tables, 0, n)])?
+            .pop()
+            .unwrap_or_default())
     }
 
     /// Run the derivation; the final string stays on the device.
@@ -245,7 +353,18 @@ impl<'a> GpuSystem<'a> {
         progress: &mut dyn FnMut(&GpuIterationStats),
     ) -> Result<(DeviceString, Vec<GpuIterationStats>), GpuError> {
         let t = Instant::now();
-        let mut string = self.axiom(opts)?;
+        if self.jobs.len() == 1 {
+            // One system: its iterations and seed are the options'.
+            let e = SystemEntry {
+                iterations: opts.iterations,
+                seed: opts.seed,
+                ..self.directory[0]
+            };
+            self.gpu
+                .queue()
+                .write_buffer(&self.tables, 0, bytemuck::bytes_of(&e));
+        }
+        let mut string = self.axiom()?;
         let mut stats = Vec::with_capacity(opts.iterations as usize + 1);
         let first = GpuIterationStats {
             iteration: 0,
@@ -258,9 +377,13 @@ impl<'a> GpuSystem<'a> {
         let status = self
             .gpu
             .storage("derive status", u64::from(STATUS_WORDS) * 4)?;
+        let previous = self.gpu.storage(
+            "previous directory",
+            (self.directory.len() * std::mem::size_of::<SystemEntry>()) as u64,
+        )?;
         for iteration in 1..=opts.iterations {
             let t = Instant::now();
-            string = self.step(&string, iteration, opts, &status)?;
+            string = self.step(&string, iteration, opts, &status, &previous)?;
             let s = GpuIterationStats {
                 iteration,
                 modules: string.len,
@@ -275,7 +398,7 @@ impl<'a> GpuSystem<'a> {
             .gpu
             .read::<u32>(self.gpu.encoder(), &[(&status, 0, u64::from(STATUS_WORDS))])?;
         let st = st.into_iter().next().unwrap_or_default();
-        self.check_status(&st, 1, opts.iterations, None)?;
+        self.check_status(&st, 1, opts.iterations, None, &previous)?;
         Ok((string, stats))
     }
 
@@ -321,17 +444,26 @@ impl<'a> GpuSystem<'a> {
         )
     }
 
-    /// String 0: the axiom's successor, evaluated on the device.
-    fn axiom(&self, opts: &GpuDeriveOptions) -> Result<DeviceString, GpuError> {
-        let alt = self
-            .sys
-            .alts
-            .get(self.sys.axiom_alt as usize)
-            .ok_or_else(|| GpuError::InvalidInput("no axiom".into()))?;
-        let (m, w) = (u64::from(alt.succ_len), u64::from(alt.succ_words));
+    /// String 0: every system's axiom, evaluated on the device (one thread
+    /// per system, writing at offsets computed here).
+    fn axiom(&self) -> Result<DeviceString, GpuError> {
+        let mut offsets: Vec<[u32; 2]> = Vec::with_capacity(self.jobs.len());
+        let (mut m, mut w) = (0u64, 0u64);
+        for job in &self.jobs {
+            offsets.push([m as u32, w as u32]);
+            let a = &job.system.alts[job.system.axiom_alt as usize];
+            m += u64::from(a.succ_len);
+            w += u64::from(a.succ_words);
+        }
+        if m >= u64::from(u32::MAX) || w >= u64::from(u32::MAX) {
+            return Err(GpuError::CountOverflow {
+                what: "axiom modules",
+                count: m.max(w),
+            });
+        }
         let out = self.alloc_string(m, w)?;
-        let (mate, counts, choice) = (
-            self.gpu.storage("unused", 16)?,
+        let counts = self.gpu.upload("axiom offsets", &offsets)?;
+        let (mate, choice) = (
             self.gpu.storage("unused", 16)?,
             self.gpu.storage("unused", 16)?,
         );
@@ -347,8 +479,8 @@ impl<'a> GpuSystem<'a> {
             .storage("axiom status", u64::from(STATUS_WORDS) * 4)?;
         let mut enc = self.gpu.encoder();
         let params = DeriveParams {
-            n: 1,
-            seed: opts.seed,
+            n: self.jobs.len() as u32,
+            systems: self.jobs.len() as u32,
             iteration: 0,
             axiom: 1,
             ..DeriveParams::default()
@@ -361,7 +493,13 @@ impl<'a> GpuSystem<'a> {
             out: &out,
             status: &status,
         };
-        self.dispatch_derive(&mut enc, &kernels::REWRITE, &params, &pass, 1)?;
+        self.dispatch_derive(
+            &mut enc,
+            &kernels::REWRITE,
+            &params,
+            &pass,
+            self.jobs.len() as u64,
+        )?;
         self.gpu
             .queue()
             .write_buffer(&out.starts, 4 * m, bytemuck::bytes_of(&(w as u32)));
@@ -369,7 +507,18 @@ impl<'a> GpuSystem<'a> {
             .gpu
             .read::<u32>(enc, &[(&status, 0, u64::from(STATUS_WORDS))])?;
         let st = st.into_iter().next().unwrap_or_default();
-        self.check_status(&st, 1, 0, None)?;
+        if st.first().copied().unwrap_or(0) != 0 || st.get(2).copied().unwrap_or(0) != 0 {
+            // Axiom errors: the thread index is the system.
+            let slot = if st[0] != 0 { 0 } else { 1 };
+            let system = u32::MAX - st[2 * slot];
+            return Err(GpuError::Runtime {
+                system,
+                iteration: 0,
+                position: 0,
+                symbol: String::new(),
+                kind: kind_of(st[2 * slot + 1]),
+            });
+        }
         Ok(out)
     }
 
@@ -380,6 +529,7 @@ impl<'a> GpuSystem<'a> {
         iteration: u32,
         opts: &GpuDeriveOptions,
         status: &wgpu::Buffer,
+        previous: &wgpu::Buffer,
     ) -> Result<DeviceString, GpuError> {
         let gpu = self.gpu;
         let n = input.len;
@@ -408,7 +558,7 @@ impl<'a> GpuSystem<'a> {
                 what: "input parameter words",
                 count: input.words,
             })?,
-            seed: opts.seed,
+            systems: self.jobs.len() as u32,
             iteration,
             ..DeriveParams::default()
         };
@@ -432,9 +582,10 @@ impl<'a> GpuSystem<'a> {
         let words = words.into_iter().next().unwrap_or_default();
         let (m, w) = (u64::from(words[0]), u64::from(words[1]));
         let st = &words[2..];
-        // The previous rewrite's errors come first (an earlier iteration).
-        self.check_status(st, 1, iteration - 1, Some(input))?;
-        self.check_status(st, 0, iteration, Some(input))?;
+        // The previous rewrite's errors come first (an earlier iteration);
+        // its input's ranges are the saved directory.
+        self.check_status(st, 1, iteration - 1, None, previous)?;
+        self.check_status(st, 0, iteration, Some(input), &self.tables)?;
         if words[0] == u32::MAX || words[1] == u32::MAX {
             return Err(GpuError::CountOverflow {
                 what: "derived modules or parameter words",
@@ -469,6 +620,17 @@ impl<'a> GpuSystem<'a> {
         self.dispatch_derive(&mut enc, &kernels::REWRITE, &params, &pass, n)?;
         // The last start is the total of parameter words (the scan's total).
         enc.copy_buffer_to_buffer(&counts, 8 * n + 4, &out.starts, 4 * m, Some(4));
+        // Every system's range in the new string (the old one kept for
+        // error reports).
+        let dir_bytes = (self.directory.len() * std::mem::size_of::<SystemEntry>()) as u64;
+        enc.copy_buffer_to_buffer(&self.tables, 0, previous, 0, Some(dir_bytes));
+        let u = gpu.uniform("directory params", &params);
+        gpu.dispatch(
+            &mut enc,
+            &kernels::UPDATE_DIRECTORY,
+            &[&u, &self.tables, &counts],
+            groups_for(self.jobs.len() as u64),
+        )?;
         if opts.sync_iterations {
             gpu.submit_wait(enc)?;
         } else {
@@ -477,13 +639,15 @@ impl<'a> GpuSystem<'a> {
         Ok(out)
     }
 
-    /// Turn an error slot of the status words into a typed error.
+    /// Turn an error slot of the status words into a typed error; `dir`
+    /// holds the ranges of the string the failing pass read.
     fn check_status(
         &self,
         st: &[u32],
         slot: usize,
         iteration: u32,
         input: Option<&DeviceString>,
+        dir: &wgpu::Buffer,
     ) -> Result<(), GpuError> {
         let (inv, bits) = (
             st.get(2 * slot).copied().unwrap_or(0),
@@ -492,33 +656,55 @@ impl<'a> GpuSystem<'a> {
         if inv == 0 {
             return Ok(());
         }
-        let position = u64::from(u32::MAX - inv);
-        let kind = if bits & ERR_FAULT != 0 {
-            RuntimeKind::Fault
-        } else if bits & ERR_BAD_WEIGHT != 0 {
-            RuntimeKind::BadWeight
-        } else if bits & ERR_NON_FINITE != 0 {
-            RuntimeKind::NonFinite
-        } else {
-            RuntimeKind::Fault
-        };
+        let global = u64::from(u32::MAX - inv);
+        // Which system, and the position within it.
+        let entries = self
+            .gpu
+            .read::<SystemEntry>(self.gpu.encoder(), &[(dir, 0, self.jobs.len() as u64)])?
+            .pop()
+            .unwrap_or_default();
+        let (system, start) = entries
+            .iter()
+            .enumerate()
+            .find(|(_, e)| u64::from(e.start) <= global && global < u64::from(e.end))
+            .map_or((0, 0), |(k, e)| (k as u32, u64::from(e.start)));
         // The symbol of the failing module (for the message), when the
         // input string is the one that failed.
         let symbol = match input {
-            Some(s) if slot == 0 && position < s.len => self
+            Some(s) if global < s.len => self
                 .gpu
-                .read::<u32>(self.gpu.encoder(), &[(&s.syms, position, 1)])
+                .read::<u32>(self.gpu.encoder(), &[(&s.syms, global, 1)])
                 .ok()
                 .and_then(|v| v.into_iter().next())
                 .and_then(|v| v.first().copied())
-                .and_then(|sym| self.sys.symbol_names.get(sym as usize).cloned()),
+                .and_then(|sym| {
+                    self.jobs.get(system as usize).and_then(|j| {
+                        j.system
+                            .symbol_names
+                            .get((sym & SYM_MASK) as usize)
+                            .cloned()
+                    })
+                }),
             _ => None,
         };
         Err(GpuError::Runtime {
+            system,
             iteration,
-            position,
+            position: global - start,
             symbol: symbol.unwrap_or_default(),
-            kind,
+            kind: kind_of(bits),
         })
+    }
+}
+
+fn kind_of(bits: u32) -> RuntimeKind {
+    if bits & ERR_FAULT != 0 {
+        RuntimeKind::Fault
+    } else if bits & ERR_BAD_WEIGHT != 0 {
+        RuntimeKind::BadWeight
+    } else if bits & ERR_NON_FINITE != 0 {
+        RuntimeKind::NonFinite
+    } else {
+        RuntimeKind::Fault
     }
 }

@@ -57,6 +57,8 @@ pub enum GpuError {
     },
     /// A production failed on one module (as the CPU engine's runtime errors).
     Runtime {
+        /// The system (the job's index in a multi-system derivation; 0 otherwise).
+        system: u32,
         /// The string being produced (0: the axiom).
         iteration: u32,
         /// The input position of the failing module (the lowest one).
@@ -150,6 +152,7 @@ impl fmt::Display for GpuError {
                 position,
                 symbol,
                 kind,
+                ..
             } => {
                 let what = match kind {
                     RuntimeKind::NonFinite => "a parameter is not finite",

@@ -26,7 +26,7 @@ use crate::derive::DeviceString;
 use crate::device::{Gpu, groups_for};
 use crate::error::GpuError;
 use crate::kernels;
-use crate::layout::{GpuBone, SEG_INDEX, TurtleElem, TurtleParams, TurtleSym};
+use crate::layout::{GpuBone, SEG_INDEX, SystemEntry, TurtleElem, TurtleParams, TurtleSym};
 use crate::scan::{ScanElem, record_scan};
 
 /// The turtle commands the GPU interpreter knows (`TOP_*` in WGSL).
@@ -170,10 +170,16 @@ impl TurtleProgram {
             })
     }
 
-    /// A packed table with just the symbol section (push / pop flags), for
-    /// the bracket kernels.
+    /// A one-system table with just the symbol section (push / pop
+    /// flags), for the bracket kernels.
     fn bracket_tables(&self) -> Vec<u32> {
+        let dw = (std::mem::size_of::<SystemEntry>() / 4) as u32;
         let hw = (std::mem::size_of::<PackedHeader>() / 4) as u32;
+        let dir = SystemEntry {
+            base: dw,
+            end: u32::MAX,
+            ..SystemEntry::default()
+        };
         let header = PackedHeader {
             magic: PACKED_MAGIC,
             symbols_offset: hw,
@@ -194,7 +200,8 @@ impl TurtleProgram {
                 ..SymbolEntry::zeroed()
             })
             .collect();
-        let mut words: Vec<u32> = bytemuck::cast_slice(&[header]).to_vec();
+        let mut words: Vec<u32> = bytemuck::cast_slice(&[dir]).to_vec();
+        words.extend_from_slice(bytemuck::cast_slice(&[header]));
         words.extend_from_slice(bytemuck::cast_slice(&entries));
         words
     }

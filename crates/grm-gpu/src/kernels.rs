@@ -165,6 +165,14 @@ turtle_kernels! {
     BONES_WRITE = "bones_write",
 }
 
+pub static UPDATE_DIRECTORY: Kernel = Kernel {
+    name: "update_directory",
+    file: "directory.wgsl",
+    entry: "update_directory",
+    bindings: &[Bind::Uniform, Bind::ReadWrite, Bind::Read],
+    subst: &[],
+};
+
 /// All kernels.
 pub static ALL: &[&Kernel] = &[
     &SCAN_U32,
@@ -188,4 +196,5 @@ pub static ALL: &[&Kernel] = &[
     &TURTLE_WALK,
     &BONE_FLAGS,
     &BONES_WRITE,
+    &UPDATE_DIRECTORY,
 ];

@@ -63,6 +63,16 @@ macro_rules! mirror_struct {
             k += 1;
         )*
         loader.push_str(");\n}\n");
+        let mut store = format!("fn store_{}(b: u32, v: {}) {{\n", stringify!($name), stringify!($name));
+        let mut k = 0u32;
+        $(
+            match stringify!($w) {
+                "f32" => store.push_str(&format!("    tables[b + {k}u] = bitcast<u32>(v.{});\n", stringify!($f))),
+                _ => store.push_str(&format!("    tables[b + {k}u] = v.{};\n", stringify!($f))),
+            }
+            k += 1;
+        )*
+        store.push_str("}\n");
         let _ = k;
         Mirror {
             info: StructInfo {
@@ -72,15 +82,51 @@ macro_rules! mirror_struct {
                 offsets: vec![$( (stringify!($f), std::mem::offset_of!($ty, $f)) ),*],
             },
             loader,
+            store,
         }
     }};
 }
 
-/// A mirrored `grm-compile` record: its layout and its WGSL loader.
+/// A record the kernels read from the `tables` buffer: its layout, its
+/// WGSL loader and store (the store only in kernels that may write).
 #[derive(Clone, Debug)]
 pub struct Mirror {
     pub info: StructInfo,
     pub loader: String,
+    pub store: String,
+}
+
+/// One system of a (multi-system) derivation: the directory entry at the
+/// start of the `tables` buffer (Lipp 5.4's lookup table).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct SystemEntry {
+    /// Word offset of the system's packed tables in `tables`.
+    pub base: u32,
+    /// Its iterations: later iterations copy its modules unchanged.
+    pub iterations: u32,
+    pub seed: u32,
+    /// Its first module in the current string.
+    pub start: u32,
+    /// One past its last module.
+    pub end: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+    pub pad2: u32,
+}
+
+/// Symbols carry their system's index above this bit (multi-system strings).
+pub const SYS_SHIFT: u32 = 20;
+/// The symbol id within its system.
+pub const SYM_MASK: u32 = (1 << SYS_SHIFT) - 1;
+/// The most systems one derivation may hold.
+pub const MAX_SYSTEMS: usize = 1 << (32 - SYS_SHIFT);
+
+/// The system directory record.
+pub fn directory_mirror() -> Mirror {
+    mirror_struct!(SystemEntry as SystemEntry {
+        base: u32, iterations: u32, seed: u32, start: u32, end: u32, pad0: u32, pad1: u32, pad2: u32,
+    })
 }
 
 use crate::device::WORKGROUP;
@@ -123,6 +169,7 @@ pub fn mirrors() -> Vec<Mirror> {
         mirror_struct!(t::ParamExpr as ParamExpr {
             kind: u32, a: u32, words: u32, span: u32,
         }),
+        directory_mirror(),
     ]
 }
 
@@ -156,7 +203,17 @@ pub fn wgsl_tables() -> String {
         s.push_str(&m.loader);
     }
     s.push_str("var<private> TAB: PackedHeader;\n");
+    s.push_str("// Word offset of the current system's packed tables (TAB's own position).\n");
+    s.push_str("var<private> TAB_BASE: u32;\n");
+    s.push_str(
+        "fn tab_select(base: u32) {\n    TAB_BASE = base;\n    TAB = load_PackedHeader(base);\n}\n",
+    );
     s
+}
+
+/// The directory store, for the one kernel that updates it.
+pub fn wgsl_directory_store() -> String {
+    directory_mirror().store
 }
 
 /// Elements each scan thread handles serially.
@@ -215,7 +272,8 @@ gpu_struct! {
         pub n: u32 => "u32",
         /// Input parameter words.
         pub words: u32 => "u32",
-        pub seed: u32 => "u32",
+        /// Systems in the directory.
+        pub systems: u32 => "u32",
         /// The index of the string being produced (0: the axiom).
         pub iteration: u32 => "u32",
         /// 1: write the axiom instead of rewriting the input.
@@ -382,6 +440,8 @@ pub fn wgsl_header() -> String {
         ("ERR_FAULT", ERR_FAULT),
         ("ERR_NON_FINITE", ERR_NON_FINITE),
         ("STATUS_WORDS", STATUS_WORDS),
+        ("SYS_SHIFT", SYS_SHIFT),
+        ("SYM_MASK", SYM_MASK),
         ("SEG_START", SEG_START),
         ("SEG_DEAD", SEG_DEAD),
         ("SEG_INDEX", SEG_INDEX),

@@ -36,7 +36,10 @@ pub mod scan;
 pub mod shader;
 pub mod vmeval;
 
-pub use derive::{DeviceString, GpuDerivation, GpuDeriveOptions, GpuIterationStats, derive};
+pub use derive::{
+    DeviceString, GpuDerivation, GpuDeriveOptions, GpuIterationStats, GpuJob, GpuManyDerivation,
+    derive, derive_many,
+};
 pub use device::{Gpu, shared};
 pub use error::{GpuError, RuntimeKind};
 pub use interp::{GpuInterpretation, TurtleProgram, interpret};

@@ -62,7 +62,12 @@ pub fn run(
 ) -> Result<GpuRun, GpuError> {
     gpu.run(|| {
         let t = Instant::now();
-        let g = GpuSystem::load(gpu, sys)?;
+        let job = crate::derive::GpuJob {
+            system: sys,
+            iterations: opts.derive.iterations,
+            seed: opts.derive.seed,
+        };
+        let g = GpuSystem::load(gpu, &[job])?;
         let (string, stats) = g.derive(&opts.derive, progress)?;
         let derive_elapsed = t.elapsed();
         let mut interpretation = None;

@@ -30,6 +30,7 @@ pub const FILES: &[(&str, &str)] = shader_files!(
     "brackets.wgsl",
     "turtle.wgsl",
     "turtle_scan.wgsl",
+    "directory.wgsl",
 );
 
 /// How a kernel binds a buffer (binding index = position in the list).
@@ -90,6 +91,10 @@ fn include(
     }
     if name == "generated_tables" {
         out.push_str(&crate::layout::wgsl_tables());
+        return Ok(());
+    }
+    if name == "generated_directory_store" {
+        out.push_str(&crate::layout::wgsl_directory_store());
         return Ok(());
     }
     let text = file(name)
