@@ -219,7 +219,7 @@ impl FileAnalysis {
 
     /// The system of the syntax tree containing `span`.
     fn ast_system(&self, span: Span) -> Option<&grm_syntax::ast::System> {
-        self.parsed.file.items.iter().find_map(|i| match i {
+        self.parsed().file.items.iter().find_map(|i| match i {
             Item::System(s) if s.span.start <= span.start && span.start <= s.span.end => Some(s),
             _ => None,
         })
@@ -237,7 +237,7 @@ impl FileAnalysis {
 
     /// The statement (system item or material field) containing `span`.
     fn statement_span(&self, span: Span) -> Option<Span> {
-        for item in &self.parsed.file.items {
+        for item in &self.parsed().file.items {
             match item {
                 Item::System(s) => {
                     for i in &s.items {

@@ -129,8 +129,8 @@ struct Around<'a> {
 impl FileAnalysis {
     fn around(&self, offset: u32) -> Around<'_> {
         // Tokens entirely before the cursor, minus a word being typed.
-        let mut end = self.tokens.partition_point(|(_, s)| s.end < offset);
-        if let Some(&(k, s)) = self.tokens.get(end)
+        let mut end = self.tokens().partition_point(|(_, s)| s.end < offset);
+        if let Some(&(k, s)) = self.tokens().get(end)
             && s.end == offset
             && s.start < offset
             && !matches!(k, TokKind::Ident | TokKind::Number)
@@ -141,12 +141,12 @@ impl FileAnalysis {
         }
         let mut begin = end;
         while begin > 0 {
-            match self.tokens[begin - 1].0 {
+            match self.tokens()[begin - 1].0 {
                 TokKind::Semi | TokKind::LBrace | TokKind::RBrace => break,
                 _ => begin -= 1,
             }
         }
-        let system = self.parsed.file.items.iter().find_map(|i| match i {
+        let system = self.parsed().file.items.iter().find_map(|i| match i {
             // An unclosed system runs to the end of the file.
             Item::System(s)
                 if s.span.start < offset
@@ -157,23 +157,23 @@ impl FileAnalysis {
             }
             _ => None,
         });
-        let material = self.parsed.file.items.iter().any(
+        let material = self.parsed().file.items.iter().any(
             |i| matches!(i, Item::Material(m) if m.span.start < offset && offset < m.span.end),
         );
         Around {
-            toks: &self.tokens[begin..end],
+            toks: &self.tokens()[begin..end],
             system,
             material,
         }
     }
 
     fn context(&self, offset: u32) -> Ctx {
-        let in_comment = self.parsed.comments.iter().any(|c| {
+        let in_comment = self.parsed().comments.iter().any(|c| {
             c.span.start < offset
                 && (offset < c.span.end || (offset == c.span.end && c.text.starts_with("//")))
         });
         let in_string = self
-            .tokens
+            .tokens()
             .iter()
             .any(|(k, s)| *k == TokKind::Str && s.start < offset && offset < s.end);
         if in_comment || in_string {

@@ -78,8 +78,8 @@ impl FileAnalysis {
 
     /// The end of the first `)` at or after `from`.
     fn closing_paren_after(&self, from: u32) -> Option<u32> {
-        let i = self.tokens.partition_point(|(_, s)| s.start < from);
-        self.tokens[i..]
+        let i = self.tokens().partition_point(|(_, s)| s.start < from);
+        self.tokens()[i..]
             .iter()
             .find(|(k, _)| *k == TokKind::RParen)
             .map(|(_, s)| s.end)

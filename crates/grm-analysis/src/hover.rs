@@ -53,7 +53,12 @@ pub(crate) fn symbol_signature(info: &SymbolInfo) -> String {
 impl FileAnalysis {
     /// Hover at a byte offset.
     pub fn hover(&self, offset: u32) -> Option<Hover> {
-        if self.parsed.comments.iter().any(|c| c.span.contains(offset)) {
+        if self
+            .parsed()
+            .comments
+            .iter()
+            .any(|c| c.span.contains(offset))
+        {
             return None;
         }
         if let Some(r) = self.ref_at(offset) {
@@ -271,7 +276,7 @@ impl FileAnalysis {
         let (line, _) = src.line_col(loc.span.start);
         let mut lines = Vec::new();
         let mut want = line;
-        for c in self.parsed.comments.iter().rev() {
+        for c in self.parsed().comments.iter().rev() {
             if c.span.start >= loc.span.start {
                 continue;
             }
@@ -342,7 +347,7 @@ impl FileAnalysis {
 
     /// The system (of this file) whose setting statement starts at `start`.
     fn setting_at(&self, start: u32) -> Option<(&System, SettingKey)> {
-        for item in &self.parsed.file.items {
+        for item in &self.parsed().file.items {
             if let Item::System(s) = item {
                 for it in &s.items {
                     if let SystemItem::Setting(set) = it
@@ -364,7 +369,7 @@ impl FileAnalysis {
     }
 
     fn in_material(&self, offset: u32) -> bool {
-        self.parsed
+        self.parsed()
             .file
             .items
             .iter()
@@ -372,13 +377,13 @@ impl FileAnalysis {
     }
 
     pub(crate) fn next_token(&self, end: u32) -> Option<TokKind> {
-        let i = self.tokens.partition_point(|(_, s)| s.start < end);
-        self.tokens.get(i).map(|t| t.0)
+        let i = self.tokens().partition_point(|(_, s)| s.start < end);
+        self.tokens().get(i).map(|t| t.0)
     }
 
     pub(crate) fn prev_token(&self, start: u32) -> Option<TokKind> {
-        let i = self.tokens.partition_point(|(_, s)| s.end <= start);
-        self.tokens.get(i.checked_sub(1)?).map(|t| t.0)
+        let i = self.tokens().partition_point(|(_, s)| s.end <= start);
+        self.tokens().get(i.checked_sub(1)?).map(|t| t.0)
     }
 
     /// The group (and alternative index) whose production in this file has

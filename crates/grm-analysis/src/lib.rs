@@ -54,7 +54,7 @@ use grm_syntax::Parsed;
 use grm_syntax::lexer::TokKind;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 /// A zero-based line and a zero-based column in UTF-16 code units.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
@@ -136,11 +136,12 @@ pub struct FileAnalysis {
     pub sources: SourceMap,
     /// The analysed file in [`FileAnalysis::sources`].
     pub root: FileId,
-    /// The analysed file's own parse (syntax tree and comments).
-    pub parsed: Parsed,
+    /// The analysed file's own parse (syntax tree and comments), made on
+    /// first use: publishing diagnostics needs only the check.
+    parsed: OnceLock<Parsed>,
     pub checked: Checked,
-    /// Tokens of the analysed file: kind and span.
-    pub(crate) tokens: Vec<(TokKind, Span)>,
+    /// Tokens of the analysed file (kind and span), made on first use.
+    tokens: OnceLock<Vec<(TokKind, Span)>>,
     /// Imported files and the document version each had (None: read
     /// through the loader).
     deps: Vec<(PathBuf, Option<i32>)>,
@@ -156,12 +157,6 @@ impl FileAnalysis {
         let mut sources = SourceMap::new();
         let root = sources.add(display, text);
         let checked = grm_sema::check(&mut sources, root, loader);
-        let parsed = grm_syntax::parse(root, text);
-        let tokens = grm_syntax::lexer::lex(root, text)
-            .tokens
-            .iter()
-            .map(|t| (t.kind, t.span))
-            .collect();
         let deps = sources
             .iter()
             .filter(|(id, _)| *id != root)
@@ -178,12 +173,29 @@ impl FileAnalysis {
             version,
             sources,
             root,
-            parsed,
+            parsed: OnceLock::new(),
             checked,
-            tokens,
+            tokens: OnceLock::new(),
             deps,
             broken_imports,
         }
+    }
+
+    /// The analysed file's syntax tree and comments.
+    pub fn parsed(&self) -> &Parsed {
+        self.parsed
+            .get_or_init(|| grm_syntax::parse(self.root, &self.sources.get(self.root).text))
+    }
+
+    /// The analysed file's tokens: kind and span, in order.
+    pub(crate) fn tokens(&self) -> &[(TokKind, Span)] {
+        self.tokens.get_or_init(|| {
+            grm_syntax::lexer::lex(self.root, &self.sources.get(self.root).text)
+                .tokens
+                .iter()
+                .map(|t| (t.kind, t.span))
+                .collect()
+        })
     }
 
     /// The analysed file's text.
@@ -262,8 +274,8 @@ impl FileAnalysis {
 
     /// The token (kind, span) at or just before a byte offset.
     pub(crate) fn token_at(&self, offset: u32) -> Option<(TokKind, Span)> {
-        let i = self.tokens.partition_point(|(_, s)| s.start <= offset);
-        let (k, s) = *self.tokens.get(i.checked_sub(1)?)?;
+        let i = self.tokens().partition_point(|(_, s)| s.start <= offset);
+        let (k, s) = *self.tokens().get(i.checked_sub(1)?)?;
         (s.contains(offset) || s.end == offset).then_some((k, s))
     }
 
@@ -355,6 +367,9 @@ impl Analysis {
                 text: text.into(),
             },
         );
+        // The text changed: never serve the old analysis, even if a client
+        // reuses a version number.
+        self.cache.remove(&key);
         self.changed(&key);
     }
 

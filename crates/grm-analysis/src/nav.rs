@@ -63,7 +63,7 @@ impl FileAnalysis {
             return Some(self.loc(loc.file, loc.span));
         }
         // An import path: jump to the imported file.
-        for item in &self.parsed.file.items {
+        for item in &self.parsed().file.items {
             if let Item::Import(imp) = item
                 && (imp.path.span.contains(offset) || imp.path.span.end == offset)
             {

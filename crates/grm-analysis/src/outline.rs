@@ -87,7 +87,7 @@ impl FileAnalysis {
             selection,
             children: Vec::new(),
         };
-        for item in &self.parsed.file.items {
+        for item in &self.parsed().file.items {
             match item {
                 Item::Import(i) => out.push(leaf(
                     i.path.value.clone(),
@@ -258,7 +258,7 @@ impl FileAnalysis {
         let line = |o: u32| src.line_col(o).0;
         let mut out = Vec::new();
         let mut imports: Option<Span> = None;
-        for item in &self.parsed.file.items {
+        for item in &self.parsed().file.items {
             match item {
                 Item::System(s) => out.push(FoldingRange {
                     span: s.span,
@@ -287,7 +287,7 @@ impl FileAnalysis {
         }
         // Comments: a block comment, or consecutive line comments.
         let mut run: Option<Span> = None;
-        for c in &self.parsed.comments {
+        for c in &self.parsed().comments {
             if c.text.starts_with("/*") {
                 if let Some(r) = run.take() {
                     out.push(FoldingRange {

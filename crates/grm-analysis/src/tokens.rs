@@ -67,12 +67,12 @@ impl FileAnalysis {
     pub fn semantic_tokens(&self) -> Vec<SemanticToken> {
         let refs = &self.checked.program.index.refs;
         let p = &self.checked.program;
-        let mut out = Vec::with_capacity(self.tokens.len() + self.parsed.comments.len());
-        let mut comments = self.parsed.comments.iter().peekable();
+        let mut out = Vec::with_capacity(self.tokens().len() + self.parsed().comments.len());
+        let mut comments = self.parsed().comments.iter().peekable();
         // Refs of this file, in order: walk them alongside the tokens.
         let start = refs.partition_point(|r| r.loc.file < self.root);
         let mut ri = start;
-        for (i, &(kind, span)) in self.tokens.iter().enumerate() {
+        for (i, &(kind, span)) in self.tokens().iter().enumerate() {
             while let Some(c) = comments.next_if(|c| c.span.start < span.start) {
                 out.push(tok(c.span, TokenKind::Comment, TokenModifier::default()));
             }
@@ -85,8 +85,8 @@ impl FileAnalysis {
             let r = refs
                 .get(ri)
                 .filter(|r| r.loc.file == self.root && r.loc.span == span);
-            let prev = i.checked_sub(1).map(|j| self.tokens[j].0);
-            let next = self.tokens.get(i + 1).map(|t| t.0);
+            let prev = i.checked_sub(1).map(|j| self.tokens()[j].0);
+            let next = self.tokens().get(i + 1).map(|t| t.0);
             let (k, m) = match r {
                 Some(r) => classify_def(p, r.def, r.is_def),
                 None => self.classify_plain(kind, span, prev, next),

@@ -427,6 +427,14 @@ fn caching_by_version_and_imports() {
     let one = a.analyze(p).unwrap();
     let again = a.analyze(p).unwrap();
     assert!(Arc::ptr_eq(&one, &again), "same version: cached");
+    // A client reusing a version number with new text is still seen.
+    a.set_document(p, 1, "import \"lib.grm\";\nsystem S { axiom F(K) F(K); }");
+    let reused = a.analyze(p).unwrap();
+    assert!(!Arc::ptr_eq(&one, &reused));
+    assert!(reused.text().contains("F(K) F(K)"));
+    // Unrelated documents keep their cached analysis.
+    a.set_document(Path::new("other.grm"), 1, "system O { axiom F; }");
+    assert!(Arc::ptr_eq(&reused, &a.analyze(p).unwrap()));
     a.set_document(Path::new("lib.grm"), 2, "const J = 1;");
     let two = a.analyze(p).unwrap();
     assert!(!Arc::ptr_eq(&one, &two), "an import changed: re-checked");

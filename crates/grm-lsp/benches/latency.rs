@@ -51,7 +51,7 @@ fn main() {
         .enable_all()
         .build()
         .expect("runtime");
-    for debounce in [0u64, 40] {
+    for debounce in [0u64, 25] {
         let through = rt.block_on(async {
             let mut c = Client::with(Config {
                 debounce: Duration::from_millis(debounce),

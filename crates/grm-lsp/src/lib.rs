@@ -57,7 +57,7 @@ impl std::fmt::Debug for Config {
 impl Default for Config {
     fn default() -> Self {
         Config {
-            debounce: Duration::from_millis(40),
+            debounce: Duration::from_millis(25),
             loader: Arc::new(grm_sema::FsLoader),
         }
     }
@@ -335,7 +335,7 @@ impl LanguageServer for Backend {
                     work_done_progress_options: WorkDoneProgressOptions::default(),
                 })),
                 completion_provider: Some(CompletionOptions {
-                    trigger_characters: Some(vec!["(".into(), ",".into(), " ".into()]),
+                    trigger_characters: Some(vec!["(".into(), ",".into()]),
                     ..CompletionOptions::default()
                 }),
                 signature_help_provider: Some(SignatureHelpOptions {
