@@ -135,6 +135,11 @@ pub struct Engine<'a> {
     bracket: Vec<u8>,
     /// Per symbol: in the ignore list.
     ignored: Vec<bool>,
+    /// When no symbol needs the group search: per symbol, the symbols it
+    /// becomes and how many of each. The derivation then carries the
+    /// string's symbol histogram from one iteration to the next and the
+    /// one-chunk path counts from it instead of scanning the string.
+    succ_hist: Option<Vec<Vec<(u32, u64)>>>,
     /// Per successor module (parallel to `sys.succ`): symbol, word offset.
     succ_syms: Vec<u32>,
     succ_words: Vec<u32>,
@@ -345,6 +350,26 @@ impl<'a> Engine<'a> {
         let counts = (0..n)
             .map(|i| (fast[i], fast_len[i], fast_words[i]))
             .collect();
+        let succ_hist = fast.iter().all(|&f| f != SLOW).then(|| {
+            (0..n)
+                .map(|i| {
+                    let mut h: Vec<(u32, u64)> = Vec::new();
+                    let syms: Vec<u32> = if fast[i] == COPY {
+                        vec![i as u32]
+                    } else {
+                        let a = &sys.alts[fast[i] as usize];
+                        sys.successor(a).iter().map(|m| m.symbol).collect()
+                    };
+                    for t in syms {
+                        match h.iter_mut().find(|(x, _)| *x == t) {
+                            Some((_, c)) => *c += 1,
+                            None => h.push((t, 1)),
+                        }
+                    }
+                    h
+                })
+                .collect()
+        });
         let succ_syms = sys.succ.iter().map(|m| m.symbol).collect();
         let succ_words = sys.succ.iter().map(|m| m.word_offset).collect();
         let mut tpl = Vec::new();
@@ -395,6 +420,7 @@ impl<'a> Engine<'a> {
             sym_words,
             bracket,
             ignored,
+            succ_hist,
             succ_syms,
             succ_words,
             tpl,
@@ -476,10 +502,18 @@ impl<'a> Engine<'a> {
         stats.push(first);
         let mut cumulative = 0u64;
         let mut processed = 0u64;
+        let mut hist = self.succ_hist.as_ref().map(|_| {
+            let mut h = vec![0u64; self.sym_words.len()];
+            for &s in &string.syms {
+                h[s as usize] += 1;
+            }
+            h
+        });
         for iteration in 1..=opts.iterations {
             let t = Instant::now();
             processed += string.len() as u64;
-            let next = self.step_unchecked(&string, iteration, opts.seed, &opts.limits)?;
+            let next =
+                self.step_counted(&string, iteration, opts.seed, &opts.limits, hist.as_mut())?;
             // Recycle the input before reporting, so the peak stays at one
             // input plus one output (and the spares).
             self.recycle(std::mem::replace(&mut string, next));
@@ -545,7 +579,7 @@ impl<'a> Engine<'a> {
         limits: &DeriveLimits,
     ) -> Result<ModuleString, DeriveError> {
         self.check_input(input)?;
-        self.step_unchecked(input, iteration, seed, limits)
+        self.step_counted(input, iteration, seed, limits, None)
     }
 
     fn check_input(&self, s: &ModuleString) -> Result<(), DeriveError> {
@@ -604,16 +638,40 @@ impl<'a> Engine<'a> {
         }
     }
 
-    fn step_unchecked(
+    /// One step; `hist`, when given, is the input's symbol histogram (see
+    /// `succ_hist`) and is advanced to the output's.
+    fn step_counted(
         &self,
         input: &ModuleString,
         iteration: u32,
         seed: u32,
         limits: &DeriveLimits,
+        hist: Option<&mut Vec<u64>>,
     ) -> Result<ModuleString, DeriveError> {
         let n = input.len();
         let chunks = self.chunks(n);
         let parallel = chunks.len() > 1;
+        // Counts from the histogram (exact: no symbol needs a decision).
+        let mut from_hist = None;
+        if let (Some(h), Some(sh)) = (hist, &self.succ_hist) {
+            let (mut m, mut w) = (0u64, 0u64);
+            let mut next = vec![0u64; h.len()];
+            for (s, &c) in h.iter().enumerate() {
+                if c == 0 {
+                    continue;
+                }
+                let (_, len, words) = self.counts[s];
+                m += c * u64::from(len);
+                w += c * u64::from(words);
+                for &(t, k) in &sh[s] {
+                    next[t as usize] += c * k;
+                }
+            }
+            *h = next;
+            if !parallel {
+                from_hist = Some((m, w));
+            }
+        }
         let mate = if self.has_context {
             let bracket = &self.bracket;
             let kind = |s: u32| bracket.get(s as usize).copied().unwrap_or(0);
@@ -630,7 +688,9 @@ impl<'a> Engine<'a> {
         };
 
         // 1. Count.
-        let counts: Vec<Result<(u64, u64), RuntimeError>> = if parallel {
+        let counts: Vec<Result<(u64, u64), RuntimeError>> = if let Some(t) = from_hist {
+            vec![Ok(t)]
+        } else if parallel {
             self.in_pool(|| {
                 chunks
                     .par_iter()

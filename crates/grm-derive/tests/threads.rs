@@ -145,3 +145,37 @@ fn recycled_buffers_are_fully_overwritten() {
         }
     }
 }
+
+/// `derive` (which counts from the symbol histogram when no symbol needs a
+/// decision) gives the same strings as stepping one iteration at a time
+/// (which counts by scanning).
+#[test]
+fn derive_matches_single_steps() {
+    for (file, n) in [
+        ("hilbert3d.grm", 4),
+        ("row_of_trees.grm", 6),
+        ("ternary_tree.grm", 6),
+        ("stochastic_plant.grm", 5),
+        ("context_plant_a.grm", 20),
+    ] {
+        let c = example(file, None);
+        let steps = derive_with(&c, n, 7, 1, None);
+        for threads in [1, 2] {
+            let d = grm_derive::derive(
+                &c,
+                &grm_derive::DeriveOptions {
+                    iterations: n,
+                    seed: 7,
+                    limits: DeriveLimits::default(),
+                },
+                threads,
+                &mut |_| {},
+            )
+            .expect("derives");
+            assert!(bits(&d.string) == bits(&steps[n as usize]), "{file}");
+            for (s, st) in d.stats.iter().zip(&steps) {
+                assert_eq!(s.modules, st.len() as u64, "{file}");
+            }
+        }
+    }
+}
