@@ -22,7 +22,7 @@ import { type Browser, type Page, chromium } from 'playwright-core';
 const root = join(import.meta.dirname, '../../..');
 const examples = join(root, 'examples');
 const artifacts = join(root, 'target/browser-test');
-const grmc = process.env.GRMC ?? join(root, 'target/debug/grmc');
+const grmc = process.env.GRMC ?? join(process.env.CARGO_TARGET_DIR ?? join(root, 'target'), 'debug/grmc');
 const chromiumPath = process.env.CHROMIUM ?? '/usr/bin/chromium';
 const pageDist = process.env.PAGE_DIST;
 

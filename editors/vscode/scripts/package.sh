@@ -29,6 +29,7 @@ if [ -n "$server" ]; then
 fi
 
 cd "$here"
+mkdir -p "$(dirname "$out")"
 # Everything is bundled by esbuild: the .vsix needs no node_modules.
 "$editors/node_modules/.bin/vsce" package --no-dependencies --skip-license --allow-missing-repository --out "$out"
 rm -rf "$here/server"
