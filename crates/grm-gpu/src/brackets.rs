@@ -40,6 +40,8 @@ pub(crate) struct BracketTree {
     /// module (and after the last); each level above holds (min, max) of
     /// `BRACKET_FAN` entries below.
     pub(crate) levels: wgpu::Buffer,
+    /// Scratch: the scanned bracket counts.
+    pub(crate) pairs: wgpu::Buffer,
     /// Length of each level.
     pub(crate) lens: Vec<u64>,
 }
@@ -105,7 +107,12 @@ pub(crate) fn record_match(
         bind(gpu, enc, &kernels::BRACKET_REDUCE, &q, lens[l + 1])?;
     }
     bind(gpu, enc, &kernels::BRACKET_MATCH, &p, n)?;
-    Ok(BracketTree { mate, levels, lens })
+    Ok(BracketTree {
+        mate,
+        levels,
+        pairs,
+        lens,
+    })
 }
 
 /// The bracket partner of every module of `s` (`[` and `]` are the

@@ -90,6 +90,11 @@ impl DeviceString {
         self.words
     }
 
+    /// The three buffers (to recycle them).
+    pub(crate) fn into_buffers(self) -> [wgpu::Buffer; 3] {
+        [self.syms, self.starts, self.params]
+    }
+
     /// Device bytes of the three arrays.
     pub fn bytes(&self) -> u64 {
         string_bytes(self.len, self.words)
@@ -376,14 +381,16 @@ impl<'a> GpuSystem<'a> {
         stats.push(first);
         let status = self
             .gpu
-            .storage("derive status", u64::from(STATUS_WORDS) * 4)?;
+            .storage_zeroed("derive status", u64::from(STATUS_WORDS) * 4)?;
         let previous = self.gpu.storage(
             "previous directory",
             (self.directory.len() * std::mem::size_of::<SystemEntry>()) as u64,
         )?;
         for iteration in 1..=opts.iterations {
             let t = Instant::now();
-            string = self.step(&string, iteration, opts, &status, &previous)?;
+            let next = self.step(&string, iteration, opts, &status, &previous)?;
+            let old = std::mem::replace(&mut string, next);
+            self.gpu.recycle(old.into_buffers());
             let s = GpuIterationStats {
                 iteration,
                 modules: string.len,
@@ -476,7 +483,7 @@ impl<'a> GpuSystem<'a> {
         };
         let status = self
             .gpu
-            .storage("axiom status", u64::from(STATUS_WORDS) * 4)?;
+            .storage_zeroed("axiom status", u64::from(STATUS_WORDS) * 4)?;
         let mut enc = self.gpu.encoder();
         let params = DeriveParams {
             n: self.jobs.len() as u32,
@@ -534,8 +541,12 @@ impl<'a> GpuSystem<'a> {
         let gpu = self.gpu;
         let n = input.len;
         let mut enc = gpu.encoder();
+        let mut scratch_bufs = Vec::new();
         let mate = if self.has_context {
-            brackets::record_match(gpu, &mut enc, &self.tables, &input.syms, n)?.mate
+            let tree = brackets::record_match(gpu, &mut enc, &self.tables, &input.syms, n)?;
+            scratch_bufs.push(tree.levels);
+            scratch_bufs.push(tree.pairs);
+            tree.mate
         } else {
             gpu.storage("unused", 16)?
         };
@@ -636,6 +647,9 @@ impl<'a> GpuSystem<'a> {
         } else {
             gpu.queue().submit([enc.finish()]);
         }
+        scratch_bufs.extend([mate, counts, choice, tot]);
+        scratch_bufs.extend(dummy.into_buffers());
+        gpu.recycle(scratch_bufs);
         Ok(out)
     }
 

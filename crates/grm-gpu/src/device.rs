@@ -18,6 +18,9 @@ pub const WORKGROUP: u32 = 256;
 /// a kernel declares (wgpu checks bindings against the element size).
 const MIN_BUFFER: u64 = 256;
 
+/// The most device memory the buffer pool keeps between uses.
+pub const POOL_BYTES: u64 = 2 << 30;
+
 /// Storage buffers the largest kernel binds (`shaders/derive.wgsl`).
 pub const MIN_STORAGE_BUFFERS: u32 = 11;
 
@@ -33,6 +36,8 @@ pub struct Gpu {
     /// Errors no error scope caught (kept instead of wgpu's default panic).
     uncaptured: Arc<Mutex<Vec<String>>>,
     pipelines: Mutex<HashMap<&'static str, Arc<Pipeline>>>,
+    /// Recycled storage buffers ([`Gpu::storage`], [`Gpu::recycle`]).
+    pool: Mutex<Vec<wgpu::Buffer>>,
     /// Serialises engine runs: error scopes are per thread, and two large
     /// derivations at once could together exceed memory that each alone fits.
     run: Mutex<()>,
@@ -123,6 +128,7 @@ impl Gpu {
             lost,
             uncaptured,
             pipelines: Mutex::new(HashMap::new()),
+            pool: Mutex::new(Vec::new()),
             run: Mutex::new(()),
         })
     }
@@ -318,17 +324,85 @@ impl Gpu {
             }))
     }
 
-    /// A zeroed storage buffer of `bytes` (at least [`MIN_BUFFER`]).
-    pub(crate) fn storage(&self, what: &'static str, bytes: u64) -> Result<wgpu::Buffer, GpuError> {
+    /// A new, zeroed storage buffer of `bytes` (at least [`MIN_BUFFER`]).
+    pub(crate) fn storage_zeroed(
+        &self,
+        what: &'static str,
+        bytes: u64,
+    ) -> Result<wgpu::Buffer, GpuError> {
         self.check_storage(what, bytes)?;
-        Ok(self.device.create_buffer(&wgpu::BufferDescriptor {
+        Ok(self.create_storage(what, bytes.max(MIN_BUFFER).next_multiple_of(4)))
+    }
+
+    fn create_storage(&self, what: &'static str, size: u64) -> wgpu::Buffer {
+        self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some(what),
-            size: bytes.max(MIN_BUFFER).next_multiple_of(4),
+            size,
             usage: wgpu::BufferUsages::STORAGE
                 | wgpu::BufferUsages::COPY_SRC
                 | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
-        }))
+        })
+    }
+
+    /// A storage buffer of at least `bytes`, from the pool of recycled
+    /// buffers when one fits (its contents are then undefined: every
+    /// kernel writes what it later reads), else a new one with room to
+    /// grow (the next power of two, within the device's limits). Reusing
+    /// buffers saves allocating and zeroing them in every iteration.
+    pub(crate) fn storage(&self, what: &'static str, bytes: u64) -> Result<wgpu::Buffer, GpuError> {
+        self.check_storage(what, bytes)?;
+        let want = bytes.max(MIN_BUFFER).next_multiple_of(4);
+        {
+            let mut pool = lock(&self.pool);
+            // The smallest pooled buffer that fits and is not more than 4x too big.
+            let best = pool
+                .iter()
+                .enumerate()
+                .filter(|(_, b)| {
+                    b.size() >= want && b.size() <= want.saturating_mul(4).max(64 * 1024)
+                })
+                .min_by_key(|(_, b)| b.size())
+                .map(|(i, _)| i);
+            if let Some(i) = best {
+                let b = pool.swap_remove(i);
+                return Ok(b);
+            }
+        }
+        let limit = self
+            .limits
+            .max_storage_buffer_binding_size
+            .min(self.limits.max_buffer_size)
+            & !3;
+        let size = want
+            .checked_next_power_of_two()
+            .unwrap_or(want)
+            .min(limit)
+            .max(want);
+        Ok(self.create_storage(what, size))
+    }
+
+    /// Give a buffer from [`Gpu::storage`] back for reuse (later submissions
+    /// are ordered after the ones already recorded with it). The pool keeps
+    /// at most [`POOL_BYTES`]; [`Gpu::trim`] empties it.
+    pub(crate) fn recycle(&self, buffers: impl IntoIterator<Item = wgpu::Buffer>) {
+        let mut pool = lock(&self.pool);
+        for b in buffers {
+            if !b.usage().contains(wgpu::BufferUsages::STORAGE)
+                || b.usage().contains(wgpu::BufferUsages::UNIFORM)
+            {
+                continue;
+            }
+            let held: u64 = pool.iter().map(|p| p.size()).sum();
+            if held + b.size() <= POOL_BYTES {
+                pool.push(b);
+            }
+        }
+    }
+
+    /// Free every pooled buffer.
+    pub fn trim(&self) {
+        lock(&self.pool).clear();
     }
 
     /// A uniform buffer with the parameters of one dispatch.

@@ -444,5 +444,16 @@ pub(crate) fn interpret_device(
     gpu.submit_wait(enc)?;
     out.elapsed = t0.elapsed();
     out.bone_count = count;
+    gpu.recycle([
+        hist,
+        order,
+        pos_of,
+        elems,
+        aux,
+        no_bones,
+        tree.mate,
+        tree.levels,
+        tree.pairs,
+    ]);
     Ok((bones, count, out))
 }

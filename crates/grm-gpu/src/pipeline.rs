@@ -79,6 +79,7 @@ pub fn run(
                 out.bones = read_bones(gpu, &bones, count)?;
                 readback_elapsed += t.elapsed();
             }
+            gpu.recycle([bones]);
             interpretation = Some(out);
         }
         let mut host = None;
@@ -87,6 +88,7 @@ pub fn run(
             host = Some(string.read(gpu)?);
             readback_elapsed += t.elapsed();
         }
+        gpu.recycle(string.into_buffers());
         Ok(GpuRun {
             stats,
             derive_elapsed,

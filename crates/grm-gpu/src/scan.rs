@@ -72,6 +72,8 @@ pub(crate) fn record_scan(
         record_scan(gpu, encoder, elem, &sums, blocks)?;
         gpu.dispatch(encoder, add, &[&params, data, &sums], blocks)?;
     }
+    // Dead after the dispatches just recorded; later ones may reuse it.
+    gpu.recycle([sums]);
     Ok(())
 }
 
