@@ -419,6 +419,19 @@ test('sample mode: drawing a curve and dragging its control point regrow the Cal
   const g4 = await waitRegrows(page, s3.regrows + 1, 'next variation');
   assert.equal(g4.seed, (s3.seed ?? 0) + 1);
 
+  // The curves file edited by someone else (here: the original three curves
+  // written back): the page reloads it and regrows.
+  const s5 = await grm(page);
+  copyFileSync(join(examples, 'calder_tree.curves.json'), join(dir, 'calder_tree.curves.json'));
+  await page.waitForFunction(
+    (n) => {
+      const g = (globalThis as unknown as { __grm: Grm }).__grm;
+      return g.curves === 3 && g.regrows > n;
+    },
+    s5.regrows,
+    { timeout: 30_000 },
+  );
+
   const median = record('sample', 'examples/calder_tree.grm', 'a control point drag (mouse release)', latencies, parts);
   assert.ok(Number.isFinite(median));
   assert.deepEqual(pageErrors(page), []);

@@ -55,6 +55,18 @@ test('notifications wait for the page to be ready; only the latest document is k
   ]);
 });
 
+test('saving the curves file in the editor tells the page to reload it', async () => {
+  const { host, posted } = fakeHost();
+  host.setDocument('file:///w/tree.grm', 'tree.grm');
+  await host.handle({ type: 'ready' });
+  const n = posted.length;
+  host.fileSaved('/w/other.curves.json');
+  host.fileSaved('/w/tree.grm');
+  assert.equal(posted.length, n);
+  host.fileSaved('/w/tree.curves.json');
+  assert.deepEqual(posted.at(-1), { type: 'notify', method: 'curvesChanged', params: { uri: 'file:///w/tree.grm' } });
+});
+
 test('server URIs are matched however they escape the path', async () => {
   const { host, posted } = fakeHost();
   host.setDocument('file:///c%3A/w/t.grm', 't.grm');

@@ -19,7 +19,7 @@
 //! | `POST /api/preview`, `/api/pick` | `{"result": ...}` or `{"error": "..."}` |
 //! | `POST /api/symbols` | `textDocument/documentSymbol` (the page reads the meta-parameters' ranges) |
 //! | `POST /api/loadCurves`, `/api/saveCurves` | the curves file next to the grammar (`tree.grm` -> `tree.curves.json`); saved only if `grm-guide` accepts it |
-//! | `GET /api/events?after=N` | long poll: `{"seq": M, "events": [{"method", "params"}]}` |
+//! | `GET /api/events?after=N[&wait=MS]` | long poll (20 s at most): `{"seq": M, "events": [{"method", "params"}]}` |
 //!
 //! Invariants: binds only to the loopback address; refuses requests whose
 //! `Host` is not this server (DNS rebinding) and cross-origin POSTs; only
@@ -246,6 +246,8 @@ struct State {
     events: Arc<EventQueue>,
     /// The file as last sent to the server: (modified, length, version).
     seen: Mutex<(Option<SystemTime>, u64, i32)>,
+    /// The curves file as last seen or written by the page: (modified, length).
+    curves_seen: Mutex<(Option<SystemTime>, u64)>,
     /// Where this server listens (the only `Host` it answers).
     addr: SocketAddr,
 }
@@ -308,10 +310,12 @@ impl Server {
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_default();
         events.push("document", json!({ "uri": uri_str, "title": title }));
+        let curves_path = curves_path_for(path);
         let state = Arc::new(State {
             path: path.to_path_buf(),
             uri: uri_str,
-            curves_path: curves_path_for(path),
+            curves_seen: Mutex::new(stat(&curves_path)),
+            curves_path,
             lsp,
             events,
             seen: Mutex::new((modified, len, 1)),
@@ -347,8 +351,21 @@ impl Server {
 
 impl State {
     /// If the grammar changed on disk, send its text to the server (which
-    /// then regrows the live preview and notifies the page).
+    /// then regrows the live preview and notifies the page); if the curves
+    /// file changed (not by the page), tell the page to reload it.
     fn check_file(&self) {
+        let curves = stat(&self.curves_path);
+        {
+            let mut seen = self
+                .curves_seen
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner);
+            if curves != *seen {
+                *seen = curves;
+                self.events
+                    .push("curvesChanged", json!({ "uri": self.uri }));
+            }
+        }
         let (modified, len) = stat(&self.path);
         let mut seen = self.seen.lock().unwrap_or_else(PoisonError::into_inner);
         if (modified, len) == (seen.0, seen.1) {
@@ -414,12 +431,18 @@ impl State {
                 // Never write a file the sampler would refuse.
                 grm_guide::Curves::from_json_str(&name, text).map_err(|e| e.to_string())?;
                 let tmp = self.curves_path.with_extension("json.tmp");
+                // Held while writing, so the watcher does not report the page's own save.
+                let mut seen = self
+                    .curves_seen
+                    .lock()
+                    .unwrap_or_else(PoisonError::into_inner);
                 std::fs::write(&tmp, text)
                     .and_then(|()| std::fs::rename(&tmp, &self.curves_path))
                     .map_err(|e| {
                         let _ = std::fs::remove_file(&tmp);
                         format!("cannot write {}: {e}", self.curves_path.display())
                     })?;
+                *seen = stat(&self.curves_path);
                 Ok(json!({ "path": self.curves_path }))
             }
             _ => Err(format!("unknown method {method}")),
@@ -593,12 +616,18 @@ fn handle(st: &State, stream: TcpStream) -> std::io::Result<()> {
             PREVIEW_CSS.as_bytes(),
         ),
         ("GET", "/api/events") => {
-            let after = query
-                .split('&')
-                .find_map(|kv| kv.strip_prefix("after="))
-                .and_then(|v| v.parse().ok())
-                .unwrap_or(0);
-            respond_json(&mut w, 200, &st.events.after(after, POLL_WAIT))
+            let arg = |name: &str| -> Option<u64> {
+                query
+                    .split('&')
+                    .find_map(|kv| kv.strip_prefix(name)?.strip_prefix('='))
+                    .and_then(|v| v.parse().ok())
+            };
+            let wait = arg("wait").map_or(POLL_WAIT, |ms| Duration::from_millis(ms).min(POLL_WAIT));
+            respond_json(
+                &mut w,
+                200,
+                &st.events.after(arg("after").unwrap_or(0), wait),
+            )
         }
         ("POST", p) if p.starts_with("/api/") => {
             if !origin_ok(&req, st.addr) {
@@ -839,6 +868,40 @@ mod tests {
             Some(curves)
         );
 
+        // The page's own save is not a change to report; a write by someone else is.
+        std::thread::sleep(WATCH_EVERY * 3);
+        let (_, quiet) = exchange(
+            addr,
+            &format!("GET /api/events?after=1&wait=0 HTTP/1.1\r\nHost: {addr}\r\n\r\n"),
+        );
+        assert!(
+            !quiet["events"]
+                .as_array()
+                .is_some_and(|es| es.iter().any(|e| e["method"] == "curvesChanged")),
+            "{quiet}"
+        );
+        let mut after = quiet["seq"].as_u64().unwrap_or(1);
+        std::fs::write(
+            curves_path_for(&grammar),
+            curves.replace("[0,3,0]", "[0,4,0]"),
+        )
+        .expect("write curves");
+        let deadline = Instant::now() + Duration::from_secs(20);
+        loop {
+            assert!(Instant::now() < deadline, "no curvesChanged");
+            let (_, ev) = exchange(
+                addr,
+                &format!("GET /api/events?after={after} HTTP/1.1\r\nHost: {addr}\r\n\r\n"),
+            );
+            after = ev["seq"].as_u64().unwrap_or(after);
+            if ev["events"].as_array().is_some_and(|es| {
+                es.iter()
+                    .any(|e| e["method"] == "curvesChanged" && e["params"]["uri"] == uri)
+            }) {
+                break;
+            }
+        }
+
         // An edit on disk reaches the page as the server's live preview.
         std::thread::sleep(Duration::from_millis(20));
         std::fs::write(
@@ -847,7 +910,6 @@ mod tests {
         )
         .expect("write");
         let deadline = Instant::now() + Duration::from_secs(20);
-        let mut after = ev["seq"].as_u64().unwrap_or(0);
         let updated = loop {
             assert!(Instant::now() < deadline, "no previewUpdated");
             let (_, ev) = exchange(

@@ -163,6 +163,11 @@ class App {
       if (u.result && this.state.seed !== null && u.result.seed !== this.state.seed) return;
       if (u.result) this.show({ result: u.result, editedAt: performance.now(), final: true });
       else if (u.error) this.showError(u.error);
+    } else if (method === 'curvesChanged') {
+      if (p.uri !== this.state.uri || this.state.mode !== 'sample' || this.gesture.kind !== 'none') return;
+      // Edited by hand or by another tool: the file wins over the page's copy.
+      this.curvesLoadedFor = '';
+      this.regrow();
     } else if (method === 'cursor' && typeof p.line === 'number') {
       this.setFocus({ line: p.line, character: typeof p.character === 'number' ? p.character : 0 });
     }

@@ -26,7 +26,9 @@ export type NotificationMethod =
   /** A new model after an edit (LSP `grm/previewUpdated`): `{ uri, version, result, error }`. */
   | 'previewUpdated'
   /** The cursor moved: `{ uri, line, character }` (for the rule highlight). */
-  | 'cursor';
+  | 'cursor'
+  /** The curves file was changed outside the page: `{ uri }`. The page reloads it. */
+  | 'curvesChanged';
 
 export interface RequestMessage {
   type: 'request';
@@ -80,7 +82,7 @@ export function parseHostMessage(v: unknown): HostToPage | null {
     return out;
   }
   if (v.type === 'notify' && typeof v.method === 'string') {
-    if (v.method === 'document' || v.method === 'previewUpdated' || v.method === 'cursor') {
+    if (v.method === 'document' || v.method === 'previewUpdated' || v.method === 'cursor' || v.method === 'curvesChanged') {
       return { type: 'notify', method: v.method, params: v.params };
     }
   }

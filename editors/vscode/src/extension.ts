@@ -131,6 +131,9 @@ class PreviewPanel {
       vscode.window.onDidChangeActiveTextEditor((e) => {
         if (isGrm(e?.document)) this.show(e.document);
       }),
+      vscode.workspace.onDidSaveTextDocument((d) => {
+        if (d.uri.scheme === 'file') this.host.fileSaved(d.uri.fsPath);
+      }),
       vscode.window.onDidChangeTextEditorSelection((e) => {
         if (!isGrm(e.textEditor.document)) return;
         const uri = e.textEditor.document.uri.toString();

@@ -88,6 +88,14 @@ export class PreviewHost {
     this.notify('previewUpdated', { ...params, uri: this.documentUri });
   }
 
+  /** A file was saved in the editor: if it is the shown grammar's curves file, the page reloads it. */
+  fileSaved(path: string): void {
+    const uri = this.documentUri;
+    if (!uri || !this.ready) return;
+    const grammar = this.deps.fsPath(uri);
+    if (grammar && curvesPathFor(grammar) === path) this.notify('curvesChanged', { uri });
+  }
+
   /** The cursor moved in the shown document. */
   cursor(uri: string, line: number, character: number): void {
     if (uri !== this.documentUri || !this.ready) return;
