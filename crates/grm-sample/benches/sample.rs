@@ -1,4 +1,4 @@
-//! `cargo bench -p grm-sample --bench sample [-- --seeds N --only NAME]`:
+//! `cargo bench -p grm-sample --bench sample [-- --seeds N --runs R --only NAME --volume-weight W]`:
 //! the guided sampler on the Calder tree (examples/calder_tree.grm with
 //! examples/calder_tree.curves.json), one thread.
 //!
@@ -12,7 +12,9 @@
 //! Configurations: Calder's playground schedule (100 generations, 100 -> 15
 //! particles, heuristic 0.013 -> 0 by generation 40) and the calder
 //! library's default (10 generations of 50 particles), each with the
-//! heuristic on and off; unguided forward sampling (one particle, 100
+//! heuristic on and off; the playground schedule with one expansion per
+//! particle step instead of Calder's expand-until-a-bone step, heuristic on
+//! and off; unguided forward sampling (one particle, 100
 //! steps); the playground schedule without weights (infinite temperature:
 //! the best of the final 15 unguided particles, the same amount of work as
 //! guided); and the volume-matching baseline on the playground schedule.
@@ -25,12 +27,16 @@ use grm_sample::{ExpectedOptions, Objective, SampleOptions, Sampler, Schedule};
 
 struct Args {
     seeds: u32,
+    runs: u32,
+    volume_weight: f64,
     only: Vec<String>,
 }
 
 fn args() -> Args {
     let mut a = Args {
         seeds: 50,
+        runs: 1,
+        volume_weight: 20000.0,
         only: Vec::new(),
     };
     let mut it = std::env::args().skip(1);
@@ -38,6 +44,10 @@ fn args() -> Args {
         match x.as_str() {
             "--seeds" => a.seeds = it.next().and_then(|s| s.parse().ok()).unwrap_or(50),
             "--only" => a.only.extend(it.next()),
+            "--runs" => a.runs = it.next().and_then(|s| s.parse().ok()).unwrap_or(1),
+            "--volume-weight" => {
+                a.volume_weight = it.next().and_then(|s| s.parse().ok()).unwrap_or(20000.0)
+            }
             // `cargo bench` passes `--bench`; ignore it and anything else.
             _ => {}
         }
@@ -52,6 +62,20 @@ fn pct(xs: &[f64], p: f64) -> f64 {
         return f64::NAN;
     }
     v[((p / 100.0) * (v.len() - 1) as f64).round() as usize]
+}
+
+/// CPU time of this process so far (user + system), from /proc/self/stat
+/// (clock ticks of 10 ms: `getconf CLK_TCK` is 100 on Linux x86-64). Unlike
+/// wall time it does not count the time the machine's other work kept this
+/// process waiting for a core.
+fn cpu_seconds() -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the command name (which is in parentheses).
+    let rest = s.rsplit_once(')')?.1;
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let utime: f64 = f.get(11)?.parse().ok()?;
+    let stime: f64 = f.get(12)?.parse().ok()?;
+    Some((utime + stime) / 100.0)
 }
 
 fn cpu_model() -> String {
@@ -69,6 +93,8 @@ fn cpu_model() -> String {
 struct Row {
     name: &'static str,
     times: Vec<f64>,
+    /// CPU milliseconds per model (process CPU time over all seeds / seeds).
+    cpu_ms: f64,
     costs: Vec<f64>,
     bones: Vec<f64>,
     volume: Vec<f64>,
@@ -97,7 +123,7 @@ fn main() {
     )
     .expect("sampler");
     let new_time = t.elapsed();
-    let volume_weight = 2000.0;
+    let volume_weight = a.volume_weight;
     let volume = Sampler::new(
         system,
         &compiled,
@@ -164,6 +190,25 @@ fn main() {
             },
         ),
         (
+            "playground 1-exp, heur. on",
+            &guided,
+            SampleOptions {
+                schedule: playground,
+                max_expansions_per_step: 1,
+                ..SampleOptions::default()
+            },
+        ),
+        (
+            "playground 1-exp, heur. off",
+            &guided,
+            SampleOptions {
+                schedule: playground,
+                max_expansions_per_step: 1,
+                heuristic: false,
+                ..SampleOptions::default()
+            },
+        ),
+        (
             "unguided forward, 1 particle",
             &guided,
             SampleOptions::unguided(0, 100),
@@ -177,6 +222,11 @@ fn main() {
                 temperature: f64::INFINITY,
                 ..SampleOptions::default()
             },
+        ),
+        (
+            "unguided forward (volume)",
+            &volume,
+            SampleOptions::unguided(0, 100),
         ),
         (
             "playground, volume baseline",
@@ -196,16 +246,26 @@ fn main() {
         let mut row = Row {
             name,
             times: Vec::new(),
+            cpu_ms: f64::NAN,
             costs: Vec::new(),
             bones: Vec::new(),
             volume: Vec::new(),
             ess: Vec::new(),
         };
+        let cpu0 = cpu_seconds();
         for seed in 0..a.seeds {
             let o = SampleOptions { seed, ..opts };
-            let t = Instant::now();
-            let r = sampler.sample(&o).expect("samples");
-            let dt: Duration = t.elapsed();
+            // Best of `runs` wall times (the machine is shared; the model is
+            // the same each run).
+            let mut dt = Duration::MAX;
+            let mut r = None;
+            for _ in 0..a.runs.max(1) {
+                let t = Instant::now();
+                let x = sampler.sample(&o).expect("samples");
+                dt = dt.min(t.elapsed());
+                r = Some(x);
+            }
+            let r = r.expect("ran");
             let m = r.best().expect("a model");
             row.times.push(dt.as_secs_f64() * 1e3);
             row.costs.push(m.cost.total());
@@ -215,21 +275,37 @@ fn main() {
             }
             row.ess.push(r.ess());
         }
+        if let (Some(c0), Some(c1)) = (cpu0, cpu_seconds()) {
+            row.cpu_ms = (c1 - c0) * 1e3 / f64::from(a.seeds * a.runs.max(1));
+        }
         rows.push(row);
     }
 
     println!();
     println!(
-        "{:<30} {:>8} {:>8} {:>8} | {:>10} {:>10} {:>10} | {:>6}",
-        "configuration", "ms p50", "ms p10", "ms p90", "cost p50", "cost p10", "cost p90", "bones"
+        "wall ms: best of {} runs per seed; CPU ms: process CPU time per run (10 ms ticks, summed over all runs)",
+        a.runs.max(1)
+    );
+    println!(
+        "{:<30} {:>8} {:>8} {:>8} {:>7} | {:>10} {:>10} {:>10} | {:>6}",
+        "configuration",
+        "ms p50",
+        "ms p10",
+        "ms p90",
+        "CPU ms",
+        "cost p50",
+        "cost p10",
+        "cost p90",
+        "bones"
     );
     for r in &rows {
         println!(
-            "{:<30} {:>8.2} {:>8.2} {:>8.2} | {:>10.1} {:>10.1} {:>10.1} | {:>6.0}",
+            "{:<30} {:>8.2} {:>8.2} {:>8.2} {:>7.2} | {:>10.1} {:>10.1} {:>10.1} | {:>6.0}",
             r.name,
             pct(&r.times, 50.0),
             pct(&r.times, 10.0),
             pct(&r.times, 90.0),
+            r.cpu_ms,
             pct(&r.costs, 50.0),
             pct(&r.costs, 10.0),
             pct(&r.costs, 90.0),

@@ -59,7 +59,7 @@ pub struct SampleArgs {
     #[arg(long, value_enum, default_value_t = CostKind::Curves)]
     pub cost: CostKind,
     /// Weight of the volume cost (likelihood exp(-weight * cost)).
-    #[arg(long, default_value_t = 2000.0)]
+    #[arg(long, default_value_t = 20000.0)]
     pub volume_weight: f64,
     /// Turn the expected-direction heuristic off.
     #[arg(long)]
