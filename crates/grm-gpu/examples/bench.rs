@@ -54,6 +54,12 @@ fn main() {
         }
     };
     println!("adapter: {}", gpu.describe());
+    if gpu.is_software() {
+        println!(
+            "warning: a software adapter (CPU): these are not GPU timings; on a GPU machine check that its \
+             Vulkan driver is installed (vulkaninfo), or pick it with WGPU_ADAPTER_NAME"
+        );
+    }
     println!(
         "cpu: {} threads available",
         std::thread::available_parallelism().map_or(1, |n| n.get())

@@ -150,6 +150,12 @@ impl Gpu {
         )
     }
 
+    /// Whether the adapter is a software rasteriser on the CPU (lavapipe,
+    /// llvmpipe, WARP): right for tests, meaningless for GPU timings.
+    pub fn is_software(&self) -> bool {
+        self.info.device_type == wgpu::DeviceType::Cpu
+    }
+
     pub fn limits(&self) -> &wgpu::Limits {
         &self.limits
     }

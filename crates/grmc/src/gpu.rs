@@ -195,6 +195,9 @@ pub fn bench(args: GpuBench) -> Outcome {
         }
     };
     println!("adapter: {}", gpu.describe());
+    if gpu.is_software() {
+        println!("warning: a software adapter (CPU): these are not GPU timings");
+    }
     let mut outcome = Outcome::Ok;
     for &(file, system, n) in grm_gpu::bench::SCENES {
         if !args.scenes.is_empty() && !args.scenes.iter().any(|s| s == file) {
