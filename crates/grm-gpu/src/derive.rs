@@ -514,16 +514,15 @@ impl<'a> GpuSystem<'a> {
             .gpu
             .read::<u32>(enc, &[(&status, 0, u64::from(STATUS_WORDS))])?;
         let st = st.into_iter().next().unwrap_or_default();
-        if st.first().copied().unwrap_or(0) != 0 || st.get(2).copied().unwrap_or(0) != 0 {
-            // Axiom errors: the thread index is the system.
-            let slot = if st[0] != 0 { 0 } else { 1 };
-            let system = u32::MAX - st[2 * slot];
+        // Only the rewrite ran (slot 1); its thread index is the system.
+        let word = |k: usize| st.get(k).copied().unwrap_or(0);
+        if word(2) != 0 {
             return Err(GpuError::Runtime {
-                system,
+                system: u32::MAX - word(2),
                 iteration: 0,
                 position: 0,
                 symbol: String::new(),
-                kind: kind_of(st[2 * slot + 1]),
+                kind: kind_of(word(3)),
             });
         }
         Ok(out)
@@ -591,13 +590,14 @@ impl<'a> GpuSystem<'a> {
         enc.clear_buffer(status, 0, None);
         let words = gpu.read::<u32>(enc, &[(&tot, 0, 2 + u64::from(STATUS_WORDS))])?;
         let words = words.into_iter().next().unwrap_or_default();
-        let (m, w) = (u64::from(words[0]), u64::from(words[1]));
-        let st = &words[2..];
+        let word = |k: usize| words.get(k).copied().unwrap_or(0);
+        let (m, w) = (u64::from(word(0)), u64::from(word(1)));
+        let st = words.get(2..).unwrap_or(&[]);
         // The previous rewrite's errors come first (an earlier iteration);
         // its input's ranges are the saved directory.
         self.check_status(st, 1, iteration - 1, None, previous)?;
         self.check_status(st, 0, iteration, Some(input), &self.tables)?;
-        if words[0] == u32::MAX || words[1] == u32::MAX {
+        if word(0) == u32::MAX || word(1) == u32::MAX {
             return Err(GpuError::CountOverflow {
                 what: "derived modules or parameter words",
                 count: m.max(w),
