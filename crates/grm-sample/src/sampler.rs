@@ -657,6 +657,13 @@ impl<'a> Sampler<'a> {
                 }
             }
             How::Given { alt, params, .. } => {
+                if alt != INERT && !self.fits(alt, sp.symbol, which, params) {
+                    return Err(SampleError::Options(format!(
+                        "cannot replay the tree: production {alt} with {} parameter words does not expand `{}`",
+                        params.len(),
+                        self.g.symbol_name(sp.symbol)
+                    )));
+                }
                 w.params.clear();
                 w.params.extend_from_slice(params);
                 alt
@@ -685,6 +692,23 @@ impl<'a> Sampler<'a> {
             Some(idx),
         );
         Ok(bones)
+    }
+
+    /// Whether alternative `alt` is a `which` production of `symbol` whose
+    /// successor has `params.len()` parameter words (a replayed tree's node
+    /// must be, or the tables would be read out of range).
+    fn fits(&self, alt: u32, symbol: u32, which: Which, params: &[f32]) -> bool {
+        let sys = self.g.sys;
+        let Some(a) = sys.alts.get(alt as usize) else {
+            return false;
+        };
+        let Some(g) = sys.groups.get(a.group as usize) else {
+            return false;
+        };
+        let wrapup = g.flags & grm_compile::table::GROUP_WRAPUP != 0;
+        g.pred == symbol
+            && wrapup == (which == Which::Wrapup)
+            && a.succ_words as usize == params.len()
     }
 
     /// One particle step (Calder's `advance`): expand random open skeleton
@@ -1154,11 +1178,19 @@ impl<'a> Sampler<'a> {
                 kid.insert(p, i as u32);
             }
         }
+        let axiom = self.g.sys.alts.get(self.g.sys.axiom_alt as usize);
+        if root.alt != Some(self.g.sys.axiom_alt)
+            || axiom.is_none_or(|a| a.succ_words as usize != root.params.len())
+        {
+            return Err(bad("node 0 does not fit the axiom"));
+        }
         let mut w = self.g.worker();
         let (mut p, root_step) = self.root_particle(&mut w, Some(&root.params), 0, 0.0)?;
         let mut layers = vec![vec![root_step]];
         // Chain seq -> tree node.
         let mut tree_of = vec![0u32];
+        let mut used = vec![false; tree.nodes.len()];
+        used[0] = true;
         let mut k = 0u32;
         while !p.open.is_empty() {
             let ctx = tagged(order_seed, STREAM_ORDER, k, 0);
@@ -1182,6 +1214,11 @@ impl<'a> Sampler<'a> {
             let child = *kid
                 .get(&(parent, ordinal))
                 .ok_or_else(|| bad("an open symbol has no expansion"))?;
+            // Each node expands one symbol once (defensive: with one parent
+            // per node and the root used once, no node can come back).
+            if std::mem::replace(&mut used[child as usize], true) {
+                return Err(bad("a node is reached twice"));
+            }
             let n = &tree.nodes[child as usize];
             let which = match n.kind {
                 NodeKind::Wrapup => Which::Wrapup,

@@ -256,3 +256,47 @@ system Local {
         assert_eq!(b.parent, None, "B hangs off no bone: its frame is S's");
     }
 }
+
+#[test]
+fn replaying_a_broken_tree_is_an_error_not_a_panic() {
+    let p = example("calder_tree.grm");
+    let c = compile(&p, 0);
+    let curves = calder_curves();
+    let s = Sampler::new(
+        &p.systems[0],
+        &c,
+        &curves,
+        Objective::Curves,
+        ExpectedOptions::default(),
+    )
+    .expect("sampler");
+    let r = s
+        .sample(&SampleOptions {
+            seed: 1,
+            schedule: small(),
+            ..SampleOptions::default()
+        })
+        .expect("samples");
+    let tree = &r.best().expect("model").tree;
+    let mut bad = tree.clone();
+    bad.nodes[1].alt = Some(u32::MAX - 1);
+    assert!(matches!(
+        s.cost_in_order(&bad, 0),
+        Err(SampleError::Options(_))
+    ));
+    let mut bad = tree.clone();
+    bad.nodes[1].params.push(1.0);
+    assert!(s.cost_in_order(&bad, 0).is_err());
+    let mut bad = tree.clone();
+    bad.nodes[0].params.push(1.0);
+    assert!(s.cost_in_order(&bad, 0).is_err());
+    let mut bad = tree.clone();
+    bad.nodes.truncate(bad.nodes.len() / 2);
+    assert!(s.cost_in_order(&bad, 0).is_err());
+    assert!(s.cost_in_order(&DerivationTree::default(), 0).is_err());
+    // Nodes that name themselves or the wrong node as parent.
+    let mut cyclic = tree.clone();
+    cyclic.nodes[1].parent = Some((1, 0));
+    cyclic.nodes[2].parent = Some((0, 0));
+    assert!(s.cost_in_order(&cyclic, 0).is_err());
+}
