@@ -1,7 +1,10 @@
 //! Latency of diagnostics after a one-character edit of a 2,000-line file,
 //! through the whole server (in-process, as a tower service): the time from
-//! sending `didChange` to receiving `publishDiagnostics` for that version.
-//! Also the analysis alone (parse + check + diagnostics) as the baseline.
+//! sending `didChange` to receiving `publishDiagnostics` for that version:
+//! without debounce, with the default 25 ms debounce after a 100 ms pause
+//! (a single edit: analysed at once), and with edits 10 ms apart (typing:
+//! debounced). Also the analysis alone (check + diagnostics) as the
+//! baseline, and semantic tokens right after an edit.
 //!
 //! Run: `cargo bench -p grm-lsp --bench latency`.
 
@@ -51,7 +54,7 @@ fn main() {
         .enable_all()
         .build()
         .expect("runtime");
-    for debounce in [0u64, 25] {
+    for (debounce, pause) in [(0u64, 0u64), (25, 100), (25, 10)] {
         let through = rt.block_on(async {
             let mut c = Client::with(Config {
                 debounce: Duration::from_millis(debounce),
@@ -70,6 +73,8 @@ fn main() {
                 } else {
                     (json!({ "start": { "line": line, "character": 4 }, "end": { "line": line, "character": 5 } }), "")
                 };
+                // A pause before the edit, as between a user's edits.
+                tokio::time::sleep(Duration::from_millis(pause)).await;
                 let t = Instant::now();
                 c.notify(
                     "textDocument/didChange",
@@ -81,12 +86,40 @@ fn main() {
                 assert_eq!(d["diagnostics"].as_array().map(Vec::len), Some(0));
                 c.seen.clear();
             }
-            out
+            // Semantic tokens of the whole file right after an edit (the
+            // request re-checks, parses and lexes the new text).
+            let mut tokens = Vec::new();
+            for v in (2 + runs)..(2 + 2 * runs) {
+                let new = if v % 2 == 0 { " " } else { "" };
+                let end = if v % 2 == 0 { 4 } else { 5 };
+                c.notify(
+                    "textDocument/didChange",
+                    json!({ "textDocument": { "uri": u, "version": v }, "contentChanges": [ { "range": { "start": { "line": line, "character": 4 }, "end": { "line": line, "character": end } }, "text": new } ] }),
+                )
+                .await;
+                let t = Instant::now();
+                let r = c
+                    .ok("textDocument/semanticTokens/full", json!({ "textDocument": { "uri": u } }))
+                    .await;
+                tokens.push(t.elapsed().as_secs_f64() * 1e3);
+                assert!(r["data"].as_array().is_some_and(|d| d.len() > 1000));
+            }
+            (out, tokens)
         });
+        let (through, tokens) = through;
+        if debounce == 0 {
+            println!(
+                "semanticTokens/full after an edit:        {}",
+                stats(tokens)
+            );
+        }
         println!(
             "edit -> publishDiagnostics, debounce {debounce:2} ms: {}",
             stats(through)
         );
     }
-    println!("analysis alone ({lines} lines):         {}", stats(alone));
+    println!(
+        "analysis alone ({lines} lines):                     {}",
+        stats(alone)
+    );
 }

@@ -17,7 +17,8 @@
 //!   analyses work in byte offsets.
 //! - Analysis runs off the async executor (`spawn_blocking`), so a long
 //!   check or a large preview never stalls reading messages.
-//! - Diagnostics are debounced after edits and carry the document version
+//! - Diagnostics of an edit after a pause are computed at once; edits in
+//!   quick succession are debounced. Diagnostics carry the document version
 //!   they were computed for; a result is published only if its version is
 //!   still the document's current one and no newer result was published
 //!   before it (stale results never overwrite newer ones).
@@ -32,7 +33,7 @@ use grm_sema::FileLoader;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, MutexGuard};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 use tower_lsp_server::jsonrpc::{Error, ErrorCode, Result};
 use tower_lsp_server::ls_types::*;
 use tower_lsp_server::{Client, ClientSocket, LanguageServer, LspService, Server};
@@ -40,7 +41,9 @@ use tower_lsp_server::{Client, ClientSocket, LanguageServer, LspService, Server}
 /// Server settings.
 #[derive(Clone)]
 pub struct Config {
-    /// Delay after the last edit before diagnostics are computed.
+    /// Edits closer together than this are debounced: diagnostics (and a
+    /// live preview) wait this long after each of them. An edit after a
+    /// longer pause is analysed at once.
     pub debounce: Duration,
     /// Where files that are not open are read from.
     pub loader: Arc<dyn FileLoader + Send + Sync>,
@@ -66,17 +69,21 @@ impl Default for Config {
 /// State shared by the handlers and the background tasks.
 pub(crate) struct Shared {
     pub(crate) analysis: Mutex<Analysis>,
-    /// The last version whose diagnostics were published, per file.
-    published: tokio::sync::Mutex<HashMap<PathBuf, i32>>,
+    /// The last version whose diagnostics were published, and what was
+    /// published, per file.
+    published: tokio::sync::Mutex<HashMap<PathBuf, (i32, Vec<Diagnostic>)>>,
     /// Documents with a live preview: the options of the last request.
     pub(crate) previews: Mutex<HashMap<PathBuf, preview::PreviewParams>>,
     /// The last preview version sent per file (stale ones are dropped).
-    pub(crate) preview_sent: tokio::sync::Mutex<HashMap<PathBuf, i32>>,
+    /// (version, identity of the analysis it was built from) per file.
+    pub(crate) preview_sent: tokio::sync::Mutex<HashMap<PathBuf, (i32, usize)>>,
     /// Provenance of the last preview per file, for `grm/pick`.
     pub(crate) picks: Mutex<HashMap<PathBuf, preview::PickTable>>,
     debounce: Duration,
     /// Workspace folders to scan for `.grm` files.
     roots: Mutex<Vec<PathBuf>>,
+    /// When each document was last edited (for the debounce).
+    last_edit: Mutex<HashMap<PathBuf, Instant>>,
 }
 
 /// The `.grm` files under `roots` (hidden directories, `target` and
@@ -197,6 +204,7 @@ impl Backend {
                 picks: Mutex::new(HashMap::new()),
                 debounce: config.debounce,
                 roots: Mutex::new(Vec::new()),
+                last_edit: Mutex::new(HashMap::new()),
             }),
         }
     }
@@ -284,11 +292,16 @@ async fn publish(shared: &Arc<Shared>, client: &Client, path: PathBuf, version: 
         return;
     };
     let mut published = shared.published.lock().await;
-    // Re-check under the publish lock: nothing newer is current or sent.
-    if shared.version(&path) != Some(v) || published.get(&path).is_some_and(|&p| p > v) {
+    // Re-check under the publish lock: nothing newer is current or sent,
+    // and the same diagnostics are not sent twice for one version (they
+    // are sent again for the same version when an import changed them).
+    let last = published.get(&path);
+    if shared.version(&path) != Some(v)
+        || last.is_some_and(|(p, d)| *p > v || (*p == v && *d == diags))
+    {
         return;
     }
-    published.insert(path, v);
+    published.insert(path, (v, diags.clone()));
     client.publish_diagnostics(uri, diags, Some(v)).await;
 }
 
@@ -420,7 +433,21 @@ impl LanguageServer for Backend {
             let text = convert::apply_changes(&old, &params.content_changes);
             a.set_document(&path, version, text);
         }
-        self.changed(path, version, self.shared.debounce).await;
+        // Leading-edge debounce: an edit after a pause is analysed at once;
+        // edits that follow each other closer than the debounce wait it out
+        // (and all but the last are then skipped by the version check).
+        let now = Instant::now();
+        let previous = self
+            .shared
+            .last_edit
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .insert(path.clone(), now);
+        let delay = match previous {
+            Some(t) if now.duration_since(t) < self.shared.debounce => self.shared.debounce,
+            _ => Duration::ZERO,
+        };
+        self.changed(path, version, delay).await;
     }
 
     async fn did_close(&self, params: DidCloseTextDocumentParams) {

@@ -1006,15 +1006,30 @@ fn store(shared: &Shared, path: PathBuf, table: PickTable) {
 /// After an edit: recompute a live preview of `path` at `version` and send
 /// it, unless a newer version exists or was sent.
 pub(crate) async fn refresh(shared: &Arc<Shared>, client: &Client, path: PathBuf, version: i32) {
-    let Some(mut params) = shared.previews().get(&path).cloned() else {
+    let Some(params) = shared.previews().get(&path).cloned() else {
         return;
     };
     if shared.version(&path) != Some(version) {
         return;
     }
-    params.version = Some(version);
     let uri = params.text_document.uri.clone();
-    let Ok(outcome) = compute(shared, path.clone(), uri.clone(), params).await else {
+    let s = shared.clone();
+    let (p, u) = (path.clone(), uri.clone());
+    let built = tokio::task::spawn_blocking(move || {
+        let fa = s.analysis().analyze(&p)?;
+        if fa.version != version {
+            return None; // a newer text has its own refresh
+        }
+        // Built from this very analysis already (a second task for the same
+        // edit): nothing to send. A changed import makes a new analysis.
+        let key = Arc::as_ptr(&fa) as usize;
+        if s.preview_sent.blocking_lock().get(&p) == Some(&(version, key)) {
+            return None;
+        }
+        Some((key, build(&fa, &u, &params)))
+    })
+    .await;
+    let Ok(Some((key, outcome))) = built else {
         return;
     };
     let (result, error) = match outcome {
@@ -1022,14 +1037,17 @@ pub(crate) async fn refresh(shared: &Arc<Shared>, client: &Client, path: PathBuf
             store(shared, path.clone(), table);
             (Some(r), None)
         }
-        Err(msg) if msg.starts_with("stale:") => return,
         Err(msg) => (None, Some(msg)),
     };
     let mut sent = shared.preview_sent.lock().await;
-    if shared.version(&path) != Some(version) || sent.get(&path).is_some_and(|&v| v > version) {
+    if shared.version(&path) != Some(version)
+        || sent
+            .get(&path)
+            .is_some_and(|&(v, k)| v > version || (v, k) == (version, key))
+    {
         return;
     }
-    sent.insert(path, version);
+    sent.insert(path, (version, key));
     client
         .send_notification::<PreviewUpdated>(PreviewUpdatedParams {
             uri,
