@@ -80,8 +80,10 @@ pub struct SceneReport {
     pub gpu_interpret: Duration,
     pub cpu_interpret: Option<Duration>,
     pub readback: Duration,
-    /// Whether the GPU string was compared with the CPU's (and equal).
-    pub checked: bool,
+    /// The comparison of the GPU string with the CPU's: `None` when not
+    /// compared, else equal or the first difference (reported, the timings
+    /// are still printed).
+    pub checked: Option<Result<(), String>>,
 }
 
 fn best<T>(
@@ -158,7 +160,7 @@ pub fn bench_scene(
     let mut cpu1 = None;
     let mut cpun = None;
     let mut cpu_interpret = None;
-    let mut checked = false;
+    let mut checked = None;
     if cfg.cpu {
         let copts = grm_derive::DeriveOptions {
             iterations: cfg.iterations,
@@ -179,8 +181,7 @@ pub fn bench_scene(
             })?);
         }
         if let (Some((_, d)), Some(gs)) = (&cpu1, &warm.string) {
-            same_string(&d.string, gs)?;
-            checked = true;
+            checked = Some(same_string(&d.string, gs));
             let (t, _) = best(cfg.runs, || {
                 let t = Instant::now();
                 let it = grm_turtle::interpret(system, &c.settings, &d.string)
@@ -271,8 +272,14 @@ impl SceneReport {
             "  warm-up run (pipeline compilation included): {:.1} ms",
             ms(self.warmup)
         );
-        if self.checked {
-            let _ = writeln!(s, "  check: the GPU string equals the CPU string");
+        match &self.checked {
+            Some(Ok(())) => {
+                let _ = writeln!(s, "  check: the GPU string equals the CPU string");
+            }
+            Some(Err(e)) => {
+                let _ = writeln!(s, "  CHECK FAILED: {e}");
+            }
+            None => {}
         }
         let _ = writeln!(
             s,
