@@ -106,6 +106,9 @@ pub fn run(args: ViewArgs) -> Outcome {
 struct Events {
     seq: u64,
     log: VecDeque<(u64, Value)>,
+    /// The `document` event: given to every new poller (`after=0`), however
+    /// many events came since.
+    document: Option<Value>,
 }
 
 struct EventQueue {
@@ -122,17 +125,21 @@ impl EventQueue {
         let mut e = self.lock();
         e.seq += 1;
         let seq = e.seq;
-        e.log
-            .push_back((seq, json!({ "method": method, "params": params })));
-        while e.log.len() > EVENT_LOG {
-            e.log.pop_front();
+        let event = json!({ "method": method, "params": params });
+        if method == "document" {
+            e.document = Some(event);
+        } else {
+            e.log.push_back((seq, event));
+            while e.log.len() > EVENT_LOG {
+                e.log.pop_front();
+            }
         }
         self.changed.notify_all();
     }
 
-    /// The events after `after`, waiting up to `wait` for one. A poller
-    /// that fell behind the log gets what is left (the document event is
-    /// always kept first).
+    /// The events after `after`, waiting up to `wait` for one. A new
+    /// poller (`after` 0) gets the document event first; one that fell
+    /// behind the log gets what is left of it.
     fn after(&self, after: u64, wait: Duration) -> Value {
         let deadline = Instant::now() + wait;
         let mut e = self.lock();
@@ -147,11 +154,10 @@ impl EventQueue {
                 .unwrap_or_else(PoisonError::into_inner)
                 .0;
         }
-        let events: Vec<Value> = e
-            .log
-            .iter()
-            .filter(|(s, _)| *s > after)
-            .map(|(_, v)| v.clone())
+        let document = e.document.iter().filter(|_| after == 0);
+        let events: Vec<Value> = document
+            .chain(e.log.iter().filter(|(s, _)| *s > after).map(|(_, v)| v))
+            .cloned()
             .collect();
         json!({ "seq": e.seq, "events": events })
     }
@@ -583,6 +589,8 @@ fn origin_ok(req: &HttpRequest, addr: SocketAddr) -> bool {
 }
 
 fn handle(st: &State, stream: TcpStream) -> std::io::Result<()> {
+    // A client that connects and says nothing does not hold a thread forever.
+    stream.set_read_timeout(Some(Duration::from_secs(30)))?;
     let mut reader = BufReader::new(stream.try_clone()?);
     let mut w = stream;
     let req = match read_request(&mut reader) {
@@ -747,6 +755,11 @@ mod tests {
         let behind = q.after(1, Duration::ZERO);
         assert_eq!(behind["events"].as_array().map(Vec::len), Some(EVENT_LOG));
         assert_eq!(behind["seq"], (EVENT_LOG + 11) as u64);
+        assert_eq!(behind["events"][0]["params"]["n"], 10);
+        // A page opened late still learns its document first.
+        let late = q.after(0, Duration::ZERO);
+        assert_eq!(late["events"][0]["method"], "document");
+        assert_eq!(late["events"].as_array().map(Vec::len), Some(EVENT_LOG + 1));
     }
 
     #[test]
