@@ -158,3 +158,27 @@ test('meta-parameters and sampler figures in a result; a parameter without a num
   assert.deepEqual(r.sample, { objective: -1234.5, generations: 100, candidates: 15, stoppedEarly: false, curves: 'request' });
   assert.equal(decodePreview(wire([0, 0, 0, 1, 0, 0, 0, 1, 0], [0, 1, 2])).sample, null);
 });
+
+test('base64 decodes the same through the native decoder and atob', () => {
+  const xs = [0, -1.5, 3.25, 1e-7, 65504];
+  const b64 = b64f32(xs);
+  const viaAtob = Array.from(decodeF32(b64, 'x'));
+  const holder = Uint8Array as unknown as { fromBase64?: (s: string) => Uint8Array };
+  const had = Object.prototype.hasOwnProperty.call(holder, 'fromBase64');
+  const saved = holder.fromBase64;
+  let calls = 0;
+  holder.fromBase64 = function (this: unknown, s: string) {
+    assert.equal(this, Uint8Array);
+    calls++;
+    return new Uint8Array(Buffer.from(s, 'base64'));
+  };
+  try {
+    assert.deepEqual(Array.from(decodeF32(b64, 'x')), viaAtob);
+    assert.deepEqual(Array.from(decodeU32(b64u32([7, 0xffffffff]), 'x')), [7, 0xffffffff]);
+    assert.equal(calls, 2);
+  } finally {
+    if (had) holder.fromBase64 = saved;
+    else delete holder.fromBase64;
+  }
+  assert.deepEqual(viaAtob, xs.map(Math.fround));
+});
