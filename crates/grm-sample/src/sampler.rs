@@ -269,8 +269,9 @@ impl<'a> Sampler<'a> {
     // ---- expected directions (eq. 9) ------------------------------------
 
     /// Expand random open skeleton symbols of `open` (a plain vector) until
-    /// none is left or `max` were expanded; `on_bones` sees each
-    /// expansion's bones, `on_open` each skeleton symbol it opens.
+    /// none is left or `max` were expanded; the bones made are appended to
+    /// `bones`, and `on_open` sees each skeleton symbol opened (symbol,
+    /// parameters).
     fn grow_loose(
         &self,
         w: &mut Worker,
