@@ -1,5 +1,8 @@
 // Turtle interpretation on the GPU: bones (base, tip, left, width, parent)
-// of a module string, as grm_turtle::Interpreter computes them.
+// of a module string, as grm_turtle::Interpreter computes them. The string
+// may hold several systems (derive.wgsl's symbol bits above SYS_SHIFT):
+// each has its own commands and settings (TurtleConfig), its first module
+// starts from the initial turtle, and nothing crosses a system boundary.
 //
 // The turtle state before a module is its enclosing branch's state at the
 // `[` composed with the transforms of the modules before it in its own
@@ -33,7 +36,10 @@
 @group(0) @binding(1) var<storage, read> syms: array<u32>;
 @group(0) @binding(2) var<storage, read> starts: array<u32>;
 @group(0) @binding(3) var<storage, read> params: array<f32>;
-@group(0) @binding(4) var<storage, read> tsyms: array<TurtleSym>;
+// Per system: its TurtleConfig (TURTLE_CONFIG_WORDS words, config k at
+// word k * TURTLE_CONFIG_WORDS), then its symbols' TurtleSym records from
+// the config's `syms` word on.
+@group(0) @binding(4) var<storage, read> tsyms: array<u32>;
 @group(0) @binding(5) var<storage, read> levels: array<vec2<i32>>;
 @group(0) @binding(6) var<storage, read_write> hist: array<u32>;
 @group(0) @binding(7) var<storage, read_write> order: array<u32>;
@@ -116,8 +122,27 @@ fn depth_starts(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) 
 
 // ---- module commands
 
+// The system of module i (its symbol's bits above SYS_SHIFT; derive.wgsl).
+fn sys_of(i: u32) -> u32 {
+    return syms[i] >> SYS_SHIFT;
+}
+
+fn config_of(sys: u32) -> TurtleConfig {
+    let b = sys * TURTLE_CONFIG_WORDS;
+    return TurtleConfig(
+        tsyms[b], bitcast<f32>(tsyms[b + 1u]), bitcast<f32>(tsyms[b + 2u]), bitcast<f32>(tsyms[b + 3u]),
+        bitcast<f32>(tsyms[b + 4u]), bitcast<f32>(tsyms[b + 5u]), bitcast<f32>(tsyms[b + 6u]),
+        bitcast<f32>(tsyms[b + 7u]), tsyms[b + 8u], tsyms[b + 9u], tsyms[b + 10u], tsyms[b + 11u],
+    );
+}
+
+// The configuration of the module being worked on.
+var<private> CFG: TurtleConfig;
+
 fn op_of(i: u32) -> TurtleSym {
-    return tsyms[syms[i]];
+    let raw = syms[i];
+    let b = config_of(raw >> SYS_SHIFT).syms + (raw & SYM_MASK) * TURTLE_SYM_WORDS;
+    return TurtleSym(tsyms[b], bitcast<f32>(tsyms[b + 1u]));
 }
 
 fn nparams(i: u32) -> u32 {
@@ -193,18 +218,19 @@ fn normalize_or_zero(v: vec3<f32>) -> vec3<f32> {
 // The affine part of module i's command (identity for brackets, cuts,
 // `$`, geometry and user modules). Its bone field is i for `F`/`G`.
 fn module_elem(i: u32) -> TurtleElem {
+    CFG = config_of(sys_of(i));
     var e = scan_identity();
     let o = op_of(i);
-    let angle = arg(i, 0u, T.angle) * DEG_TO_RAD * o.sign;
+    let angle = arg(i, 0u, CFG.angle) * DEG_TO_RAD * o.sign;
     var m = mat3x3<f32>(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0);
     var t = vec3<f32>(0.0);
     switch o.op {
         case TOP_FORWARD: {
-            t = vec3<f32>(0.0, arg(i, 0u, T.step), 0.0);
+            t = vec3<f32>(0.0, arg(i, 0u, CFG.step), 0.0);
             e.bone = i;
         }
         case TOP_MOVE: {
-            t = vec3<f32>(0.0, arg(i, 0u, T.step), 0.0);
+            t = vec3<f32>(0.0, arg(i, 0u, CFG.step), 0.0);
         }
         case TOP_ROT_X: {
             m = rot_x(angle);
@@ -219,7 +245,7 @@ fn module_elem(i: u32) -> TurtleElem {
             m = mat3x3<f32>(-1.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 1.0);
         }
         case TOP_SET_WIDTH: {
-            let w = arg(i, 0u, T.width);
+            let w = arg(i, 0u, CFG.width);
             if (finite(w)) {
                 e.wa = 0.0;
                 e.wb = max(w, 0.0);
@@ -233,7 +259,7 @@ fn module_elem(i: u32) -> TurtleElem {
         }
         case TOP_ROTATE: {
             let axis = arg3(i, vec3<f32>(0.0, 1.0, 0.0));
-            let a = arg(i, 3u, T.angle) * DEG_TO_RAD;
+            let a = arg(i, 3u, CFG.angle) * DEG_TO_RAD;
             let len = length(axis);
             if (len > 1e-12 && finite(len)) {
                 m = rot_axis(axis / len, a);
@@ -253,19 +279,20 @@ fn module_elem(i: u32) -> TurtleElem {
     return e;
 }
 
-// Whether module i starts a branch segment (the first module, or right
-// after a `[`).
+// Whether module i starts a branch segment: the first module of its
+// system, or right after a `[`.
 fn seg_start(i: u32) -> bool {
-    return i == 0u || op_of(i - 1u).op == TOP_PUSH;
+    return i == 0u || sys_of(i - 1u) != sys_of(i) || op_of(i - 1u).op == TOP_PUSH;
 }
 
 // The state at the start of module i's segment: the initial state at depth
 // 0, else the state at the `[` before it (computed in the round before).
 fn base_state(start: u32) -> TurtleElem {
-    if (start == 0u) {
+    if (start == 0u || sys_of(start - 1u) != sys_of(start)) {
+        CFG = config_of(sys_of(start));
         var e = scan_identity();
         e.wa = 0.0;
-        e.wb = T.width;
+        e.wb = CFG.width;
         return e;
     }
     var b = elems[pos_of[start - 1u]];
@@ -321,15 +348,15 @@ fn turtle_round(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) 
 // ---- 3b. state-dependent turtles: one thread walks each branch
 
 fn tropism(e: ptr<function, TurtleElem>) {
-    if (T.has_tropism == 0u) {
+    if (CFG.has_tropism == 0u) {
         return;
     }
     let m = elem_mat(*e);
     let h = normalize_or_zero(m[1]);
-    let axis = cross(h, vec3<f32>(T.tropism_x, T.tropism_y, T.tropism_z));
+    let axis = cross(h, vec3<f32>(CFG.tropism_x, CFG.tropism_y, CFG.tropism_z));
     let s = length(axis);
     if (s > 1e-9 && finite(s)) {
-        set_frame(e, rot_axis(axis / s, T.elasticity * s) * m, elem_t(*e));
+        set_frame(e, rot_axis(axis / s, CFG.elasticity * s) * m, elem_t(*e));
     }
 }
 
@@ -361,6 +388,7 @@ fn turtle_walk(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) n
         return;
     }
     let hi = aux[T.bstart + T.depth + 1u];
+    CFG = config_of(sys_of(i0));
     var st = base_state(i0);
     for (var s = s0; s < hi; s = s + 1u) {
         let i = order[s];
@@ -408,10 +436,11 @@ fn bones_write(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) n
     if (i >= T.n || !is_bone(i)) {
         return;
     }
+    CFG = config_of(sys_of(i));
     let st = elems[pos_of[i]];
     let m = elem_mat(st);
     let base = elem_t(st);
-    let tip = base + m[1] * arg(i, 0u, T.step);
+    let tip = base + m[1] * arg(i, 0u, CFG.step);
     let left = normalize_or_zero(m[0]);
     let w = st.wb * 0.5 * (length(m[0]) + length(m[2]));
     var parent = NONE;

@@ -265,23 +265,37 @@ pub fn derive_many(
         let (s, stats) = g.derive(&o, &mut |_| {})?;
         let all = s.read(gpu)?;
         let dir = g.read_directory()?;
-        let mut strings = Vec::with_capacity(jobs.len());
-        for e in &dir {
-            let (a, b) = (e.start as usize, e.end as usize);
-            if a > b || b > all.len() {
-                return Err(GpuError::Readback(
-                    "a system's range is outside the string".into(),
-                ));
-            }
-            let mut one = ModuleString::with_capacity(b - a, 0);
-            for i in a..b {
-                let (sym, p) = all.get(i);
-                one.push(sym & SYM_MASK, p);
-            }
-            strings.push(one);
-        }
-        Ok(GpuManyDerivation { strings, stats })
+        gpu.recycle(s.into_buffers());
+        Ok(GpuManyDerivation {
+            strings: split_string(&all, &dir)?,
+            stats,
+        })
     })
+}
+
+/// Cut a combined string into its systems' strings (symbols without the
+/// system bits).
+pub(crate) fn split_string(
+    all: &ModuleString,
+    dir: &[SystemEntry],
+) -> Result<Vec<ModuleString>, GpuError> {
+    let mut strings = Vec::with_capacity(dir.len());
+    for e in dir {
+        let (a, b) = (e.start as usize, e.end as usize);
+        if a > b || b > all.len() {
+            return Err(GpuError::Readback(
+                "a system's range is outside the string".into(),
+            ));
+        }
+        let words = (all.starts[b] - all.starts[a]) as usize;
+        let mut one = ModuleString::with_capacity(b - a, words);
+        for i in a..b {
+            let (sym, p) = all.get(i);
+            one.push(sym & SYM_MASK, p);
+        }
+        strings.push(one);
+    }
+    Ok(strings)
 }
 
 impl<'a> GpuSystem<'a> {
@@ -341,7 +355,7 @@ impl<'a> GpuSystem<'a> {
     }
 
     /// The directory as it is on the device now.
-    fn read_directory(&self) -> Result<Vec<SystemEntry>, GpuError> {
+    pub(crate) fn read_directory(&self) -> Result<Vec<SystemEntry>, GpuError> {
         let n = self.jobs.len() as u64;
         Ok(self
             .gpu

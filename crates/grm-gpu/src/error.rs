@@ -37,10 +37,12 @@ pub enum GpuError {
         workgroups: u64,
         limit: u64,
     },
-    /// The brackets of a module string do not balance (a `]` without `[`,
-    /// or a `[` never closed), so bracket-aware work cannot run.
+    /// The brackets of a module string do not balance where the
+    /// interpreter needs them to (a `]` without `[`; or, in a string of
+    /// several systems, a system that leaves a `[` open before the next).
     UnbalancedBrackets {
-        /// Position of the first unmatched `]`, or `None` when only `[`s are left open.
+        /// Where it shows (the first module of the system that starts at
+        /// the wrong depth), when known.
         position: Option<usize>,
     },
     /// The next string would have more modules than allowed.
@@ -122,14 +124,12 @@ impl fmt::Display for GpuError {
                 f,
                 "the {what} dispatch needs {workgroups} workgroups, over the device's limit of {limit}"
             ),
-            GpuError::UnbalancedBrackets { position: Some(p) } => {
-                write!(
-                    f,
-                    "unbalanced brackets: the `]` at module {p} closes no `[`"
-                )
-            }
+            GpuError::UnbalancedBrackets { position: Some(p) } => write!(
+                f,
+                "unbalanced brackets: the system starting at module {p} does not start at depth 0"
+            ),
             GpuError::UnbalancedBrackets { position: None } => {
-                write!(f, "unbalanced brackets: a `[` is never closed")
+                write!(f, "unbalanced brackets: a `]` closes no `[`")
             }
             GpuError::ModuleLimit {
                 iteration,

@@ -26,7 +26,10 @@ use crate::derive::DeviceString;
 use crate::device::{Gpu, groups_for};
 use crate::error::GpuError;
 use crate::kernels;
-use crate::layout::{GpuBone, SEG_INDEX, SystemEntry, TurtleElem, TurtleParams, TurtleSym};
+use crate::layout::{
+    GpuBone, SEG_INDEX, SystemEntry, TurtleConfig as GpuTurtleConfig, TurtleElem, TurtleParams,
+    TurtleSym,
+};
 use crate::scan::{ScanElem, record_scan};
 
 /// The turtle commands the GPU interpreter knows (`TOP_*` in WGSL).
@@ -170,16 +173,9 @@ impl TurtleProgram {
             })
     }
 
-    /// A one-system table with just the symbol section (push / pop
-    /// flags), for the bracket kernels.
-    fn bracket_tables(&self) -> Vec<u32> {
-        let dw = (std::mem::size_of::<SystemEntry>() / 4) as u32;
+    /// Push / pop flags of the symbols, as a packed symbol section.
+    fn bracket_section(&self) -> Vec<u32> {
         let hw = (std::mem::size_of::<PackedHeader>() / 4) as u32;
-        let dir = SystemEntry {
-            base: dw,
-            end: u32::MAX,
-            ..SystemEntry::default()
-        };
         let header = PackedHeader {
             magic: PACKED_MAGIC,
             symbols_offset: hw,
@@ -200,11 +196,62 @@ impl TurtleProgram {
                 ..SymbolEntry::zeroed()
             })
             .collect();
-        let mut words: Vec<u32> = bytemuck::cast_slice(&[dir]).to_vec();
-        words.extend_from_slice(bytemuck::cast_slice(&[header]));
+        let mut words: Vec<u32> = bytemuck::cast_slice(&[header]).to_vec();
         words.extend_from_slice(bytemuck::cast_slice(&entries));
         words
     }
+
+    /// This system's settings, its symbols' records at word `syms`.
+    fn gpu_config(&self, syms: u32) -> GpuTurtleConfig {
+        let cfg = &self.config;
+        let t = cfg.tropism.unwrap_or_default();
+        GpuTurtleConfig {
+            syms,
+            angle: cfg.angle,
+            step: cfg.step,
+            width: cfg.width,
+            elasticity: cfg.elasticity,
+            tropism_x: t.x,
+            tropism_y: t.y,
+            tropism_z: t.z,
+            has_tropism: u32::from(cfg.tropism.is_some()),
+            ..GpuTurtleConfig::default()
+        }
+    }
+}
+
+/// The bracket kernels' tables for systems over `ranges` of the string: a
+/// directory, then each system's symbol flags.
+fn bracket_tables(programs: &[&TurtleProgram], ranges: &[(u64, u64)]) -> Vec<u32> {
+    let dw = programs.len() * std::mem::size_of::<SystemEntry>() / 4;
+    let mut words = vec![0u32; dw];
+    let mut dir = Vec::with_capacity(programs.len());
+    for (p, &(start, end)) in programs.iter().zip(ranges) {
+        dir.push(SystemEntry {
+            base: words.len() as u32,
+            start: start as u32,
+            end: end as u32,
+            ..SystemEntry::default()
+        });
+        words.extend_from_slice(&p.bracket_section());
+    }
+    words[..dw].copy_from_slice(bytemuck::cast_slice(&dir));
+    words
+}
+
+/// The `tsyms` buffer: every system's config, then their symbol records.
+fn turtle_tables(programs: &[&TurtleProgram]) -> Vec<u32> {
+    let cw = std::mem::size_of::<GpuTurtleConfig>() / 4;
+    let mut words = vec![0u32; cw * programs.len()];
+    let mut configs = Vec::with_capacity(programs.len());
+    for p in programs {
+        configs.push(p.gpu_config(words.len() as u32));
+        for t in &p.syms {
+            words.extend_from_slice(bytemuck::cast_slice(&[*t]));
+        }
+    }
+    words[..cw * programs.len()].copy_from_slice(bytemuck::cast_slice(&configs));
+    words
 }
 
 /// Bones and figures of one interpretation.
@@ -255,7 +302,7 @@ pub fn interpret(
             len: string.len() as u64,
             words: string.params.len() as u64,
         };
-        let (bones, count, mut out) = interpret_device(gpu, program, &s)?;
+        let (bones, count, mut out) = interpret_device(gpu, &[program], &s, &[(0, s.len)])?;
         out.bones = read_bones(gpu, &bones, count)?;
         Ok(out)
     })
@@ -275,16 +322,24 @@ pub(crate) fn read_bones(
         .unwrap_or_default())
 }
 
-/// Interpret a string on the device; returns the bone buffer, the bone
-/// count and the figures (with no bones read yet). Inside [`Gpu::run`].
+/// Interpret a string on the device: system `k` (the symbols' bits above
+/// `SYS_SHIFT`) is `programs[k]` and covers `ranges[k]` of the string.
+/// Returns the bone buffer (bones in string order), the bone count and the
+/// figures (with no bones read yet). Inside [`Gpu::run`].
 pub(crate) fn interpret_device(
     gpu: &Gpu,
-    program: &TurtleProgram,
+    programs: &[&TurtleProgram],
     s: &DeviceString,
+    ranges: &[(u64, u64)],
 ) -> Result<(wgpu::Buffer, u64, GpuInterpretation), GpuError> {
     let t0 = Instant::now();
     let n = s.len;
-    let walked = program.walks();
+    if programs.is_empty() || programs.len() != ranges.len() {
+        return Err(GpuError::InvalidInput(
+            "one turtle program and range per system".into(),
+        ));
+    }
+    let walked = programs.iter().any(|p| p.walks());
     let mut out = GpuInterpretation {
         bones: Vec::new(),
         bone_count: 0,
@@ -302,22 +357,34 @@ pub(crate) fn interpret_device(
         });
     }
     // 1. Depths (and the depth range, the one early synchronisation).
-    let tables = gpu.upload("turtle symbols", &program.bracket_tables())?;
+    let tables = gpu.upload("turtle symbols", &bracket_tables(programs, ranges))?;
     let mut enc = gpu.encoder();
     let tree = brackets::record_match(gpu, &mut enc, &tables, &s.syms, n)?;
-    let top = gpu.read::<[i32; 2]>(
-        enc,
-        &[(
-            &tree.levels,
-            tree.top_offset(),
-            *tree.lens.last().unwrap_or(&1),
-        )],
-    )?;
-    let top = top.into_iter().next().unwrap_or_default();
+    // The depth range, and the depth where each later system starts (it
+    // must start at depth 0: every system before it closed its brackets).
+    let mut reads = vec![(
+        &tree.levels,
+        tree.top_offset(),
+        *tree.lens.last().unwrap_or(&1),
+    )];
+    for &(start, _) in ranges.iter().skip(1) {
+        reads.push((&tree.levels, start.min(n), 1));
+    }
+    let got = gpu.read::<[i32; 2]>(enc, &reads)?;
+    let top = got.first().cloned().unwrap_or_default();
     let dmin = top.iter().map(|v| v[0]).min().unwrap_or(0);
     let dmax = top.iter().map(|v| v[1]).max().unwrap_or(0);
     if dmin < 0 {
         return Err(GpuError::UnbalancedBrackets { position: None });
+    }
+    if let Some(k) = got
+        .iter()
+        .skip(1)
+        .position(|v| v.first().is_some_and(|d| d[0] != 0))
+    {
+        return Err(GpuError::UnbalancedBrackets {
+            position: Some(ranges[k + 1].0 as usize),
+        });
     }
     let dmax = dmax as u64;
     out.max_depth = dmax as u32;
@@ -326,8 +393,6 @@ pub(crate) fn interpret_device(
     let chunk = (n * (dmax + 1)).div_ceil(HIST_BUDGET).max(32);
     let chunks = n.div_ceil(chunk);
     let hist_len = (chunks * (dmax + 1) + 1).max(n + 1);
-    let cfg = &program.config;
-    let trop = cfg.tropism.unwrap_or_default();
     let base = TurtleParams {
         n: n as u32,
         dmax: dmax as u32,
@@ -337,16 +402,8 @@ pub(crate) fn interpret_device(
         bstart: 0,
         args: (dmax + 2) as u32,
         max_groups: gpu.grid_width(),
-        angle: cfg.angle,
-        step: cfg.step,
-        width: cfg.width,
-        elasticity: cfg.elasticity,
-        tropism_x: trop.x,
-        tropism_y: trop.y,
-        tropism_z: trop.z,
-        has_tropism: u32::from(cfg.tropism.is_some()),
     };
-    let tsyms = gpu.upload("turtle commands", &program.syms)?;
+    let tsyms = gpu.upload("turtle commands", &turtle_tables(programs))?;
     let hist = gpu.storage("depth histogram", 4 * hist_len)?;
     let order = gpu.storage("modules by depth", 4 * n)?;
     let pos_of = gpu.storage("depth positions", 4 * n)?;

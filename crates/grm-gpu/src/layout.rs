@@ -340,8 +340,17 @@ gpu_struct! {
         pub bstart: u32 => "u32",
         /// Where the indirect dispatch arguments start in `aux`.
         pub args: u32 => "u32",
-        /// `max_compute_workgroups_per_dimension`.
+        /// Workgroups per grid dimension.
         pub max_groups: u32 => "u32",
+    }
+}
+
+gpu_struct! {
+    /// One system's turtle settings (`grm_turtle::TurtleConfig`) and where
+    /// its symbols' [`TurtleSym`] records start (in words of the `tsyms`
+    /// buffer).
+    pub struct TurtleConfig {
+        pub syms: u32 => "u32",
         pub angle: f32 => "f32",
         pub step: f32 => "f32",
         pub width: f32 => "f32",
@@ -350,6 +359,9 @@ gpu_struct! {
         pub tropism_y: f32 => "f32",
         pub tropism_z: f32 => "f32",
         pub has_tropism: u32 => "u32",
+        pub pad0: u32 => "u32",
+        pub pad1: u32 => "u32",
+        pub pad2: u32 => "u32",
     }
 }
 
@@ -413,6 +425,7 @@ pub fn structs() -> Vec<StructInfo> {
         one::<BracketParams>(),
         one::<TurtleSym>(),
         one::<TurtleParams>(),
+        one::<TurtleConfig>(),
         one::<TurtleElem>(),
         one::<GpuBone>(),
     ]
@@ -445,6 +458,14 @@ pub fn wgsl_header() -> String {
         ("SEG_START", SEG_START),
         ("SEG_DEAD", SEG_DEAD),
         ("SEG_INDEX", SEG_INDEX),
+        (
+            "TURTLE_CONFIG_WORDS",
+            (std::mem::size_of::<TurtleConfig>() / 4) as u32,
+        ),
+        (
+            "TURTLE_SYM_WORDS",
+            (std::mem::size_of::<TurtleSym>() / 4) as u32,
+        ),
         ("NONE", t::NONE),
         ("PACKED_MAGIC", t::PACKED_MAGIC),
         ("SYM_PUSH", t::SYM_PUSH),

@@ -43,4 +43,4 @@ pub use derive::{
 pub use device::{Gpu, shared};
 pub use error::{GpuError, RuntimeKind};
 pub use interp::{GpuInterpretation, TurtleProgram, interpret};
-pub use pipeline::{GpuRun, GpuRunOptions, run};
+pub use pipeline::{GpuManyRun, GpuRun, GpuRunOptions, run, run_many};

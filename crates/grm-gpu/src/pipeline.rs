@@ -6,10 +6,11 @@ use std::time::{Duration, Instant};
 use grm_compile::CompiledSystem;
 use grm_derive::ModuleString;
 
-use crate::derive::{GpuDeriveOptions, GpuIterationStats, GpuSystem};
+use crate::derive::{GpuDeriveOptions, GpuIterationStats, GpuJob, GpuSystem, split_string};
 use crate::device::Gpu;
 use crate::error::GpuError;
 use crate::interp::{GpuInterpretation, TurtleProgram, interpret_device, read_bones};
+use crate::layout::GpuBone;
 
 /// What to run and what to bring back.
 #[derive(Clone, Copy, Debug)]
@@ -73,7 +74,8 @@ pub fn run(
         let mut interpretation = None;
         let mut readback_elapsed = Duration::ZERO;
         if opts.interpret {
-            let (bones, count, mut out) = interpret_device(gpu, turtle, &string)?;
+            let (bones, count, mut out) =
+                interpret_device(gpu, &[turtle], &string, &[(0, string.len())])?;
             if opts.read_bones {
                 let t = Instant::now();
                 out.bones = read_bones(gpu, &bones, count)?;
@@ -97,4 +99,108 @@ pub fn run(
             readback_elapsed,
         })
     })
+}
+
+/// The outcome of [`run_many`]: per job, in job order.
+#[derive(Clone, Debug)]
+pub struct GpuManyRun {
+    /// The combined string's figures (the axioms, then each step).
+    pub stats: Vec<GpuIterationStats>,
+    pub derive_elapsed: Duration,
+    /// The interpretation of the combined string (its bones are in `bones`).
+    pub interpretation: Option<GpuInterpretation>,
+    /// Each job's string, when read back.
+    pub strings: Option<Vec<ModuleString>>,
+    /// Each job's bones (module and parent indices within the job), when
+    /// read back.
+    pub bones: Option<Vec<Vec<GpuBone>>>,
+    pub readback_elapsed: Duration,
+}
+
+/// Derive several systems together (Lipp 5.4, see
+/// [`crate::derive::derive_many`]) and interpret them together, each with
+/// its own turtle program (`turtles[k]` for `jobs[k]`): every job's bones
+/// are what interpreting its own string gives. `opts.derive.iterations`
+/// and `seed` are ignored (each job has its own).
+pub fn run_many(
+    gpu: &Gpu,
+    jobs: &[GpuJob<'_>],
+    turtles: &[&TurtleProgram],
+    opts: &GpuRunOptions,
+    progress: &mut dyn FnMut(&GpuIterationStats),
+) -> Result<GpuManyRun, GpuError> {
+    if turtles.len() != jobs.len() {
+        return Err(GpuError::InvalidInput("one turtle program per job".into()));
+    }
+    gpu.run(|| {
+        let t = Instant::now();
+        let g = GpuSystem::load(gpu, jobs)?;
+        let iterations = jobs.iter().map(|j| j.iterations).max().unwrap_or(0);
+        let d = GpuDeriveOptions {
+            iterations,
+            ..opts.derive
+        };
+        let (string, stats) = g.derive(&d, progress)?;
+        let dir = g.read_directory()?;
+        let derive_elapsed = t.elapsed();
+        let ranges: Vec<(u64, u64)> = dir
+            .iter()
+            .map(|e| (u64::from(e.start), u64::from(e.end)))
+            .collect();
+        let mut interpretation = None;
+        let mut bones = None;
+        let mut readback_elapsed = Duration::ZERO;
+        if opts.interpret {
+            let (buf, count, out) = interpret_device(gpu, turtles, &string, &ranges)?;
+            if opts.read_bones {
+                let t = Instant::now();
+                let all = read_bones(gpu, &buf, count)?;
+                readback_elapsed += t.elapsed();
+                bones = Some(split_bones(&all, &ranges));
+            }
+            gpu.recycle([buf]);
+            interpretation = Some(out);
+        }
+        let mut strings = None;
+        if opts.read_string {
+            let t = Instant::now();
+            let all = string.read(gpu)?;
+            readback_elapsed += t.elapsed();
+            strings = Some(split_string(&all, &dir)?);
+        }
+        gpu.recycle(string.into_buffers());
+        Ok(GpuManyRun {
+            stats,
+            derive_elapsed,
+            interpretation,
+            strings,
+            bones,
+            readback_elapsed,
+        })
+    })
+}
+
+/// Cut the combined bones (in string order) by the systems' module ranges,
+/// renumbering modules and parents within each system (a parent is always
+/// in its bone's own system: each system starts from the initial turtle).
+fn split_bones(all: &[GpuBone], ranges: &[(u64, u64)]) -> Vec<Vec<GpuBone>> {
+    let mut out = Vec::with_capacity(ranges.len());
+    let mut k = 0usize;
+    for &(start, end) in ranges {
+        let first = k;
+        let mut mine = Vec::new();
+        while k < all.len() && u64::from(all[k].module_index) < end {
+            let mut b = all[k];
+            if u64::from(b.module_index) >= start {
+                b.module_index -= start as u32;
+                if b.parent != u32::MAX {
+                    b.parent -= first as u32;
+                }
+                mine.push(b);
+            }
+            k += 1;
+        }
+        out.push(mine);
+    }
+    out
 }

@@ -113,3 +113,90 @@ fn a_runtime_error_names_its_system_and_local_position() {
         ),
     }
 }
+
+/// Derivation and interpretation of several systems in the same
+/// dispatches: each job's bones are what the CPU turtle draws for its own
+/// string (each system with its own commands, angle, step and tropism).
+#[test]
+fn a_forest_is_interpreted_per_system() {
+    let g = gpu();
+    let loaded: Vec<(grm_sema::Program, String, grm_compile::CompiledSystem)> = vec![
+        example_program("stochastic_plant.grm", None),
+        example_program("ternary_tree.grm", Some("TernaryTreeD")),
+        example_program("hilbert3d.grm", None),
+        example_program("context_plant_a.grm", None),
+        example_program("bracketed_plant.grm", None),
+    ];
+    let programs: Vec<grm_gpu::TurtleProgram> = loaded
+        .iter()
+        .map(|(p, n, c)| grm_gpu::TurtleProgram::new(p.system(n).expect("system"), &c.settings))
+        .collect();
+    // All systems (branches walked: TernaryTreeD has tropism), then those
+    // without tropism (the segmented matrix scan).
+    for subset in [vec![0usize, 1, 2, 3, 4], vec![3, 0, 4, 2]] {
+        forest(g, &loaded, &programs, &subset);
+    }
+}
+
+fn forest(
+    g: &grm_gpu::Gpu,
+    loaded: &[(grm_sema::Program, String, grm_compile::CompiledSystem)],
+    programs: &[grm_gpu::TurtleProgram],
+    subset: &[usize],
+) {
+    let mut jobs = Vec::new();
+    let mut turtles = Vec::new();
+    let mut which = Vec::new();
+    for &k in subset {
+        let c = &loaded[k].2;
+        for seed in 0..2u32 {
+            which.push(k);
+            jobs.push(GpuJob {
+                system: c,
+                iterations: [4, 3, 2, 12, 3][k],
+                seed: seed * 31,
+            });
+            turtles.push(&programs[k]);
+        }
+    }
+    let opts = grm_gpu::GpuRunOptions {
+        derive: GpuDeriveOptions::from_system(&loaded[0].2),
+        interpret: true,
+        read_string: true,
+        read_bones: true,
+    };
+    let out = grm_gpu::run_many(g, &jobs, &turtles, &opts, &mut |_| {}).expect("runs");
+    let bones = out.bones.expect("bones read");
+    let strings = out.strings.expect("strings read");
+    assert_eq!(
+        out.interpretation.expect("interpreted").walked,
+        subset.contains(&1)
+    );
+    for (k, job) in jobs.iter().enumerate() {
+        let (p, name, c) = &loaded[which[k]];
+        let sys = p.system(name).expect("system");
+        let string = cpu_derive(c, job.iterations, job.seed).expect("cpu derives");
+        assert_same(&format!("job {k}"), &string, &strings[k]);
+        let want = grm_turtle::interpret(sys, &c.settings, &string).expect("cpu interprets");
+        assert_eq!(want.bones.len(), bones[k].len(), "job {k} ({name}): bones");
+        for (a, b) in want.bones.iter().zip(&bones[k]) {
+            assert_eq!(
+                (a.module, a.parent.unwrap_or(u32::MAX)),
+                (b.module_index, b.parent),
+                "job {k} ({name})"
+            );
+            let d =
+                (a.tip.x - b.tip_x).abs() + (a.tip.y - b.tip_y).abs() + (a.tip.z - b.tip_z).abs();
+            let scale = 1.0 + a.tip.abs().max_element();
+            assert!(
+                d <= 1e-3 * scale,
+                "job {k} ({name}): tip {:?} vs {b:?}",
+                a.tip
+            );
+            assert!(
+                (a.width_base - b.width).abs() <= 1e-4 * a.width_base.max(1.0),
+                "job {k} ({name}): width"
+            );
+        }
+    }
+}
