@@ -4,6 +4,7 @@
 //!     cargo run --release -p grm-gpu --example bench                 # the standard scenes
 //!     cargo run --release -p grm-gpu --example bench -- --scene hilbert3d -n 7
 //!     cargo run --release -p grm-gpu --example bench -- --scene path/to/file.grm --system S -n 5
+//!     cargo run --release -p grm-gpu --example bench -- --scene stochastic_plant -n 7 --forest 256
 //!
 //! `--scene` takes an example name (`examples/NAME.grm`) or a path and may
 //! be repeated. `WGPU_ADAPTER_NAME=...` picks an adapter by name.
@@ -38,6 +39,10 @@ struct Args {
     /// Module limit of the derivations.
     #[arg(long, default_value_t = 200_000_000)]
     max_modules: u64,
+    /// Also derive and interpret this many seeds of each scene together
+    /// (several systems in one dispatch, Lipp 5.4).
+    #[arg(long)]
+    forest: Option<u32>,
 }
 
 fn repo() -> PathBuf {
@@ -108,7 +113,18 @@ fn main() {
                 max_modules: args.max_modules,
             };
             let name = format!("{} ({})", path.display(), sys.name);
-            Ok(bench_scene(gpu, &name, sys, &c, &cfg)?.text())
+            let mut text = bench_scene(gpu, &name, sys, &c, &cfg)?.text();
+            if let Some(copies) = args.forest {
+                text.push_str(&grm_gpu::bench::bench_forest(
+                    gpu,
+                    &name,
+                    sys,
+                    &c,
+                    copies.max(1),
+                    &cfg,
+                )?);
+            }
+            Ok(text)
         })();
         match result {
             Ok(text) => println!("\n{text}"),

@@ -369,3 +369,92 @@ impl SceneReport {
         s
     }
 }
+
+/// A forest: `copies` jobs of one system with seeds `seed, seed + 1, ...`
+/// derived and interpreted in the same dispatches (Lipp 5.4), against the
+/// CPU deriving and interpreting them one after the other.
+pub fn bench_forest(
+    gpu: &Gpu,
+    name: &str,
+    system: &grm_sema::System,
+    c: &CompiledSystem,
+    copies: u32,
+    cfg: &BenchConfig,
+) -> Result<String, String> {
+    use crate::derive::GpuJob;
+    let turtle = TurtleProgram::new(system, &c.settings);
+    let jobs: Vec<GpuJob> = (0..copies)
+        .map(|k| GpuJob {
+            system: c,
+            iterations: cfg.iterations,
+            seed: cfg.seed.wrapping_add(k),
+        })
+        .collect();
+    let turtles = vec![&turtle; jobs.len()];
+    let opts = GpuRunOptions {
+        derive: GpuDeriveOptions {
+            iterations: cfg.iterations,
+            seed: cfg.seed,
+            max_modules: cfg.max_modules,
+            max_bytes: u64::MAX,
+            sync_iterations: false,
+        },
+        interpret: true,
+        read_string: false,
+        read_bones: false,
+    };
+    let warm = crate::pipeline::run_many(gpu, &jobs, &turtles, &opts, &mut |_| {})
+        .map_err(|e| e.to_string())?;
+    let modules = warm.stats.last().map_or(0, |s| s.modules);
+    let produced: u64 = warm.stats.iter().skip(1).map(|s| s.modules).sum();
+    let (gpu_time, _) = best(cfg.runs, || {
+        let t = Instant::now();
+        crate::pipeline::run_many(gpu, &jobs, &turtles, &opts, &mut |_| {})
+            .map_err(|e| e.to_string())?;
+        Ok((t.elapsed(), ()))
+    })?;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "forest {name}: {copies} seeds x {} iterations in one derivation: {modules} modules, {produced} produced",
+        cfg.iterations
+    );
+    let _ = writeln!(
+        s,
+        "  GPU derive + interpret {:.3} ms = {:.1} modules/us",
+        ms(gpu_time),
+        rate(produced + modules, gpu_time)
+    );
+    if cfg.cpu {
+        let engine = grm_derive::Engine::new(c, cfg.threads).map_err(|e| e.to_string())?;
+        let (cpu_time, _) = best(cfg.runs, || {
+            let t = Instant::now();
+            for j in &jobs {
+                let o = grm_derive::DeriveOptions {
+                    iterations: j.iterations,
+                    seed: j.seed,
+                    limits: grm_derive::DeriveLimits {
+                        max_modules: cfg.max_modules,
+                        max_bytes: u64::MAX,
+                    },
+                };
+                let d = engine.derive(&o, &mut |_| {}).map_err(|e| e.to_string())?;
+                grm_turtle::interpret(system, &c.settings, &d.string).map_err(|e| e.to_string())?;
+            }
+            Ok((t.elapsed(), ()))
+        })?;
+        let _ = writeln!(
+            s,
+            "  CPU ({} derivation threads, one job after the other) {:.3} ms = {:.1} modules/us (GPU {:.2}x)",
+            if cfg.threads == 0 {
+                "all".to_string()
+            } else {
+                cfg.threads.to_string()
+            },
+            ms(cpu_time),
+            rate(produced + modules, cpu_time),
+            speedup(cpu_time, gpu_time)
+        );
+    }
+    Ok(s)
+}
