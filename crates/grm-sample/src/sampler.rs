@@ -139,6 +139,8 @@ pub struct Sampler<'a> {
     /// that never grow a bone).
     expected: Vec<Vec3>,
     expected_time: Duration,
+    /// Per curve: its Bézier and parameters (as the cost model has them).
+    guides: Vec<(grm_guide::Bezier3, grm_guide::CurveParams)>,
 }
 
 // Random streams. Every draw is `rng::hash` of the run's seed and a tuple
@@ -195,6 +197,16 @@ enum How<'t> {
     },
 }
 
+/// The guiding curve nearest to a position and its unit tangent there
+/// (eq. 1 and 5), with the curve's alignment parameters.
+#[derive(Clone, Copy, Debug)]
+struct GuideAt {
+    position: Vec3,
+    tangent: glam::DVec3,
+    scale: f64,
+    offset: f64,
+}
+
 /// A simple (non-persistent) open symbol, for the expected directions.
 struct Loose {
     symbol: u32,
@@ -241,6 +253,11 @@ impl<'a> Sampler<'a> {
             volume,
             expected: Vec::new(),
             expected_time: Duration::ZERO,
+            guides: curves
+                .curves()
+                .iter()
+                .map(|c| (c.bezier, c.params))
+                .collect(),
         };
         let t = Instant::now();
         s.expected = s.expected_directions(&expected)?;
@@ -259,6 +276,19 @@ impl<'a> Sampler<'a> {
     pub fn expected_direction(&self, symbol: &str) -> Option<Vec3> {
         let i = self.g.sys.symbol_names.iter().position(|n| n == symbol)?;
         self.expected.get(i).copied()
+    }
+
+    /// The heuristic term (eq. 10, unscaled) of skeleton symbol `symbol`
+    /// opened at `frame`, as the sampler computes it; equal, bit for bit, to
+    /// `CostModel::heuristic_in_frame` with the symbol's expected direction
+    /// (0 for a symbol whose expected direction is zero).
+    pub fn heuristic_term_at(&self, symbol: &str, frame: &glam::Affine3A) -> Option<f64> {
+        let i = self.g.sys.symbol_names.iter().position(|n| n == symbol)?;
+        let e = self.expected.get(i).copied()?;
+        if e == Vec3::ZERO {
+            return Some(0.0);
+        }
+        Some(self.heuristic_in_frame(frame, e, &mut None))
     }
 
     /// Time spent estimating the expected directions in [`Sampler::new`].
@@ -424,7 +454,7 @@ impl<'a> Sampler<'a> {
     /// Eq. 10's term for a skeleton symbol opened at frame `t` (fixed
     /// point); 0 for a symbol whose expected direction is zero (it grows
     /// no bone, so it adds no future alignment cost).
-    fn heuristic_term(&self, sym: u32, t: &Turtle) -> i64 {
+    fn heuristic_term(&self, sym: u32, t: &Turtle, memo: &mut Option<GuideAt>) -> i64 {
         let e = self
             .expected
             .get(sym as usize)
@@ -433,7 +463,47 @@ impl<'a> Sampler<'a> {
         if e == Vec3::ZERO {
             return 0;
         }
-        to_fixed(self.cost.heuristic_in_frame(&t.frame, e))
+        to_fixed(self.heuristic_in_frame(&t.frame, e, memo))
+    }
+
+    /// `CostModel::heuristic_in_frame`, computed the same way (the same
+    /// operations on the same values, so bit for bit the same result), with
+    /// the nearest curve and its tangent remembered for the last position:
+    /// the non-terminals an expansion emits side by side share their frame
+    /// (`branch maybeBranch maybeBranch`), and the closest-point search is
+    /// most of the cost.
+    fn heuristic_in_frame(
+        &self,
+        frame: &glam::Affine3A,
+        expected: Vec3,
+        memo: &mut Option<GuideAt>,
+    ) -> f64 {
+        let position = Vec3::from(frame.translation);
+        let p = position.as_dvec3();
+        if !p.is_finite() {
+            return f64::INFINITY;
+        }
+        let at = match memo {
+            Some(m) if m.position == position => *m,
+            _ => {
+                let (ci, cp) = self.cost.nearest_curve(p);
+                let (bez, params) = &self.guides[ci];
+                let at = GuideAt {
+                    position,
+                    tangent: bez.tangent(cp.t),
+                    scale: params.alignment_scale,
+                    offset: params.alignment_offset,
+                };
+                *memo = Some(at);
+                at
+            }
+        };
+        grm_guide::alignment_cost(
+            frame.transform_vector3(expected).as_dvec3(),
+            at.tangent,
+            at.scale,
+            at.offset,
+        )
     }
 
     /// The objective without heuristic.
@@ -475,11 +545,12 @@ impl<'a> Sampler<'a> {
         let sys = self.g.sys;
         let a = &sys.alts[alt as usize];
         let mut h_sum = 0;
+        let mut memo = None;
         for (ord, &(m, t)) in w.users.iter().enumerate() {
             let sym = sys.succ[(a.succ_offset + m) as usize].symbol;
             if self.g.is_skeleton(sym) {
                 let h = if compute_h {
-                    self.heuristic_term(sym, &t)
+                    self.heuristic_term(sym, &t, &mut memo)
                 } else {
                     0
                 };

@@ -195,3 +195,39 @@ fn heuristic_off_when_the_curves_make_every_direction_equal() {
         b.best().expect("model").bone_list()
     );
 }
+
+#[test]
+fn the_sampler_s_heuristic_is_eq_10_bit_for_bit() {
+    let (p, c) = calder_sampler_parts();
+    let curves = calder_curves();
+    let s = Sampler::new(
+        &p.systems[0],
+        &c,
+        &curves,
+        Objective::Curves,
+        ExpectedOptions::default(),
+    )
+    .expect("sampler");
+    let e = s.expected_direction("branchOrLeaf").expect("symbol");
+    let mut x = 0x1234_5678u32;
+    let mut r = || {
+        x ^= x << 13;
+        x ^= x >> 17;
+        x ^= x << 5;
+        (x as f32 / u32::MAX as f32) * 2.0 - 1.0
+    };
+    for _ in 0..500 {
+        let frame = glam::Affine3A::from_scale_rotation_translation(
+            glam::Vec3::splat(0.5 + r().abs()),
+            glam::Quat::from_euler(glam::EulerRot::XYZ, 3.0 * r(), 3.0 * r(), 3.0 * r()),
+            glam::Vec3::new(3.0 * r(), 2.5 + 2.5 * r(), r()),
+        );
+        let mine = s.heuristic_term_at("branchOrLeaf", &frame).expect("symbol");
+        let theirs = s.cost_model().heuristic_in_frame(&frame, e);
+        assert_eq!(mine.to_bits(), theirs.to_bits(), "{frame:?}");
+    }
+    assert_eq!(
+        s.heuristic_term_at("leaf", &glam::Affine3A::IDENTITY),
+        Some(0.0)
+    );
+}
