@@ -1,9 +1,9 @@
 //! Latency of diagnostics after a one-character edit of a 2,000-line file,
 //! through the whole server (in-process, as a tower service): the time from
 //! sending `didChange` to receiving `publishDiagnostics` for that version:
-//! without debounce, with the default 25 ms debounce after a 100 ms pause
-//! (a single edit: analysed at once), and with edits 10 ms apart (typing:
-//! debounced). Also the analysis alone (check + diagnostics) as the
+//! without debounce, with the default 25 ms debounce for a single edit
+//! after a 100 ms pause (analysed at once), and for the last of a burst of
+//! 5 edits 5 ms apart (typing: debounced). Also the analysis alone (check + diagnostics) as the
 //! baseline, and semantic tokens right after an edit.
 //!
 //! Run: `cargo bench -p grm-lsp --bench latency`.
@@ -54,8 +54,10 @@ fn main() {
         .enable_all()
         .build()
         .expect("runtime");
-    for (debounce, pause) in [(0u64, 0u64), (25, 100), (25, 10)] {
-        let through = rt.block_on(async {
+    // (debounce, edits per burst): a single edit after a 100 ms pause, or
+    // the last of 5 edits 5 ms apart (typing), timed from that last edit.
+    for (debounce, burst) in [(0u64, 1u32), (25, 1), (25, 5)] {
+        let (through, tokens) = rt.block_on(async {
             let mut c = Client::with(Config {
                 debounce: Duration::from_millis(debounce),
                 ..Config::default()
@@ -66,21 +68,29 @@ fn main() {
             let _ = c.diagnostics(&u, 1).await;
             // Edit a line in the middle: insert a space, then remove it.
             let line = (lines / 2) as u32;
+            let edit = |v: i32| {
+                let end = if v % 2 == 0 { 4 } else { 5 };
+                let new = if v % 2 == 0 { " " } else { "" };
+                json!({
+                    "textDocument": { "uri": u, "version": v },
+                    "contentChanges": [ { "range": { "start": { "line": line, "character": 4 }, "end": { "line": line, "character": end } }, "text": new } ]
+                })
+            };
             let mut out = Vec::new();
-            for v in 2..(2 + runs) {
-                let (range, new) = if v % 2 == 0 {
-                    (json!({ "start": { "line": line, "character": 4 }, "end": { "line": line, "character": 4 } }), " ")
-                } else {
-                    (json!({ "start": { "line": line, "character": 4 }, "end": { "line": line, "character": 5 } }), "")
-                };
-                // A pause before the edit, as between a user's edits.
-                tokio::time::sleep(Duration::from_millis(pause)).await;
+            let mut v = 1;
+            for _ in 0..runs {
+                tokio::time::sleep(Duration::from_millis(100)).await;
+                for k in 0..burst {
+                    if k > 0 {
+                        tokio::time::sleep(Duration::from_millis(5)).await;
+                    }
+                    v += 1;
+                    if k + 1 < burst {
+                        c.notify("textDocument/didChange", edit(v)).await;
+                    }
+                }
                 let t = Instant::now();
-                c.notify(
-                    "textDocument/didChange",
-                    json!({ "textDocument": { "uri": u, "version": v }, "contentChanges": [ { "range": range, "text": new } ] }),
-                )
-                .await;
+                c.notify("textDocument/didChange", edit(v)).await;
                 let d = c.diagnostics(&u, v).await;
                 out.push(t.elapsed().as_secs_f64() * 1e3);
                 assert_eq!(d["diagnostics"].as_array().map(Vec::len), Some(0));
@@ -89,14 +99,9 @@ fn main() {
             // Semantic tokens of the whole file right after an edit (the
             // request re-checks, parses and lexes the new text).
             let mut tokens = Vec::new();
-            for v in (2 + runs)..(2 + 2 * runs) {
-                let new = if v % 2 == 0 { " " } else { "" };
-                let end = if v % 2 == 0 { 4 } else { 5 };
-                c.notify(
-                    "textDocument/didChange",
-                    json!({ "textDocument": { "uri": u, "version": v }, "contentChanges": [ { "range": { "start": { "line": line, "character": 4 }, "end": { "line": line, "character": end } }, "text": new } ] }),
-                )
-                .await;
+            for _ in 0..runs {
+                v += 1;
+                c.notify("textDocument/didChange", edit(v)).await;
                 let t = Instant::now();
                 let r = c
                     .ok("textDocument/semanticTokens/full", json!({ "textDocument": { "uri": u } }))
@@ -106,20 +111,19 @@ fn main() {
             }
             (out, tokens)
         });
-        let (through, tokens) = through;
         if debounce == 0 {
             println!(
-                "semanticTokens/full after an edit:        {}",
+                "semanticTokens/full right after an edit:       {}",
                 stats(tokens)
             );
         }
         println!(
-            "edit -> publishDiagnostics, debounce {debounce:2} ms: {}",
+            "edit -> publishDiagnostics, debounce {debounce:2} ms, burst {burst}: {}",
             stats(through)
         );
     }
     println!(
-        "analysis alone ({lines} lines):                     {}",
+        "analysis alone ({lines} lines):                 {}",
         stats(alone)
     );
 }
