@@ -7,15 +7,30 @@ use std::collections::HashMap;
 use std::path::Path;
 use tower_lsp_server::ls_types::*;
 
-/// The URI of a file path (absolute paths; `None` for anything else).
+/// Documents that are not files (`untitled:` buffers) live under this
+/// made-up directory, their URI hex-encoded as the file name.
+const VIRTUAL: &str = "/.grm-virtual/";
+
+/// The URI of a path: a file's, or a non-file document's original URI.
 pub fn uri_of(path: &Path) -> Option<Uri> {
+    if let Some(hex) = path.to_str().and_then(|s| s.strip_prefix(VIRTUAL)) {
+        let bytes: Option<Vec<u8>> = (0..hex.len())
+            .step_by(2)
+            .map(|i| u8::from_str_radix(hex.get(i..i + 2)?, 16).ok())
+            .collect();
+        let text = String::from_utf8(bytes?).ok()?;
+        return text.parse().ok();
+    }
     Uri::from_file_path(path)
 }
 
-/// A file path from a `file:` URI.
+/// The path a document is known by: a `file:` URI's path, or a made-up
+/// path for other schemes (so unsaved buffers are analysed too; their
+/// imports resolve nowhere).
 pub fn path_of(uri: &Uri) -> Option<std::path::PathBuf> {
     if uri.scheme().as_str() != "file" {
-        return None;
+        let hex: String = uri.as_str().bytes().map(|b| format!("{b:02x}")).collect();
+        return Some(std::path::PathBuf::from(format!("{VIRTUAL}{hex}")));
     }
     uri.to_file_path().map(|p| grm_sema::normalize(&p))
 }

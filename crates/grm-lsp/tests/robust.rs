@@ -644,3 +644,45 @@ async fn a_large_preview_does_not_stall_other_requests() {
     let v = body.expect("preview");
     assert_eq!(v["stats"]["bones"], 1 << 17);
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn untitled_buffers_are_analysed() {
+    let mut c = Client::start().await;
+    let text = "system S { axiom A(1); A(x) -> F(y); }";
+    let u: tower_lsp_server::ls_types::Uri = "untitled:Untitled-1".parse().unwrap();
+    c.notify(
+        "textDocument/didOpen",
+        json!({ "textDocument": { "uri": u, "languageId": "grm", "version": 1, "text": text } }),
+    )
+    .await;
+    let d = c.diagnostics(&u, 1).await;
+    let codes: Vec<&str> = d["diagnostics"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x["code"].as_str().unwrap())
+        .collect();
+    assert_eq!(codes, ["E0101"]);
+    let h = c
+        .ok("textDocument/hover", at(&u, pos(text, "F(y)", 0, 0)))
+        .await;
+    assert!(
+        h["contents"]["value"]
+            .as_str()
+            .unwrap()
+            .contains("turtle command")
+    );
+    let r = c
+        .ok(
+            "textDocument/codeAction",
+            json!({ "textDocument": { "uri": u }, "range": { "start": { "line": 0, "character": 0 }, "end": { "line": 0, "character": 40 } }, "context": { "diagnostics": [] } }),
+        )
+        .await;
+    let key = serde_json::to_value(&u).unwrap();
+    assert!(
+        r.as_array()
+            .unwrap()
+            .iter()
+            .all(|a| a["edit"]["changes"][key.as_str().unwrap()].is_array())
+    );
+}
