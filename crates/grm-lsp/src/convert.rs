@@ -202,9 +202,10 @@ pub fn semantic_tokens(
             if !piece.is_empty() {
                 let p = pos(src, start as u32);
                 let len: u32 = piece.chars().map(|c| c.len_utf16() as u32).sum();
-                let delta_line = p.line - last_line;
+                // Tokens come sorted and never overlap; saturate anyway.
+                let delta_line = p.line.saturating_sub(last_line);
                 let delta_start = if delta_line == 0 {
-                    p.character - last_col
+                    p.character.saturating_sub(last_col)
                 } else {
                     p.character
                 };

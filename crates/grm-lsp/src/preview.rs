@@ -390,6 +390,11 @@ pub(crate) fn origins(
             }
         }
         dead.insert((i as u32, pos as u32));
+        // A pathological grammar could make the search long: give up
+        // (provenance unknown) rather than stall the preview.
+        if dead.len() > 1 << 20 {
+            return None;
+        }
         let (pi, pp, pc) = stack.pop()?;
         (i, pos, from) = (pi, pp, pc + 1);
     }
