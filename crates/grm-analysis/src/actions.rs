@@ -90,6 +90,15 @@ impl FileAnalysis {
                         );
                     }
                 }
+                Code::UnknownField => {
+                    // "colours are vectors: write `.x` for red"
+                    if let Some(f) = quoted_after(help, "write")
+                        .and_then(|q| q.strip_prefix('.'))
+                        .filter(|f| matches!(*f, "x" | "y" | "z"))
+                    {
+                        push(format!("Replace with `.{f}`"), vec![edit(span, f)], true);
+                    }
+                }
                 Code::InvalidCharacter => {
                     push(
                         "Remove the invalid characters".into(),

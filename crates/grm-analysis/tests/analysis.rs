@@ -394,6 +394,27 @@ fn code_actions_fix_their_diagnostics() {
     );
     assert_eq!(t, "system S {\n    angle = 1;\n    axiom F;\n}");
     assert!(c.is_empty(), "{c:?}");
+    // Unknown type, function, material property and field.
+    let (t, c) = fix(
+        "const A: flot = 1;\nsystem S { axiom F(A); }",
+        "E0104",
+        "Replace",
+    );
+    assert!(t.contains("A: float"), "{t}");
+    assert!(c.is_empty(), "{c:?}");
+    let (t, c) = fix("system S { axiom F(sinn(1)); }", "E0103", "Replace");
+    assert!(t.contains("F(sin(1))"), "{t}");
+    assert!(c.is_empty(), "{c:?}");
+    let (t, c) = fix(
+        "material m { rougness = 1; }\nsystem S { axiom material(m); }",
+        "E0108",
+        "Replace",
+    );
+    assert!(t.contains("roughness = 1"), "{t}");
+    assert!(c.is_empty(), "{c:?}");
+    let (t, c) = fix("system S { axiom F(rgb(1, 0, 0).r); }", "E0107", ".x");
+    assert!(t.contains("rgb(1, 0, 0).x"), "{t}");
+    assert!(c.is_empty(), "{c:?}");
     // Unterminated string.
     let (t, _) = fix("import \"lib.grm;\n", "E0004", "Close");
     assert_eq!(t, "import \"lib.grm\";\n");
