@@ -90,6 +90,23 @@ impl FileAnalysis {
                         );
                     }
                 }
+                Code::AmbiguousProductions => {
+                    // Write the implicit weight 1 on every unweighted
+                    // alternative of the group: same meaning, now explicit.
+                    let group = self
+                        .root_systems()
+                        .flat_map(|s| &s.groups)
+                        .find(|g| g.alternatives.iter().any(|a| a.pred == span));
+                    if let Some(g) = group {
+                        let edits: Vec<TextEdit> = g
+                            .alternatives
+                            .iter()
+                            .filter(|a| !a.weight_written)
+                            .map(|a| edit(Span::new(a.arrow.end, a.arrow.end), " (1)"))
+                            .collect();
+                        push("Write the weights `(1)`".into(), edits, false);
+                    }
+                }
                 Code::UnknownField => {
                     // "colours are vectors: write `.x` for red"
                     if let Some(f) = quoted_after(help, "write")

@@ -415,6 +415,14 @@ fn code_actions_fix_their_diagnostics() {
     let (t, c) = fix("system S { axiom F(rgb(1, 0, 0).r); }", "E0107", ".x");
     assert!(t.contains("rgb(1, 0, 0).x"), "{t}");
     assert!(c.is_empty(), "{c:?}");
+    // Ambiguous unweighted alternatives: the implicit weights written out.
+    let (t, c) = fix(
+        "system S {\n    axiom A;\n    A -> F A;\n    A -> F F A;\n}",
+        "W0005",
+        "weights",
+    );
+    assert!(t.contains("A -> (1) F A;\n    A -> (1) F F A;"), "{t}");
+    assert!(c.is_empty(), "{c:?}");
     // Unterminated string.
     let (t, _) = fix("import \"lib.grm;\n", "E0004", "Close");
     assert_eq!(t, "import \"lib.grm\";\n");
