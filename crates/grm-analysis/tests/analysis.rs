@@ -519,3 +519,44 @@ fn queries_survive_any_offset_and_garbage() {
         let _ = fa.format();
     }
 }
+
+#[test]
+fn examples_are_fully_classified_and_queryable() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples");
+    let mut n = 0;
+    for e in std::fs::read_dir(&dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().is_none_or(|x| x != "grm") {
+            continue;
+        }
+        n += 1;
+        let mut a = Analysis::default();
+        let text = std::fs::read_to_string(&p).unwrap();
+        let p = std::path::absolute(&p).unwrap();
+        a.set_document(&p, 1, text.as_str());
+        let fa = a.analyze(&p).unwrap();
+        assert!(
+            !fa.checked.has_errors(),
+            "{}: {:?}",
+            p.display(),
+            fa.diagnostics()
+        );
+        let unresolved: Vec<&str> = fa
+            .semantic_tokens()
+            .iter()
+            .filter(|t| t.kind == TokenKind::Unresolved)
+            .map(|t| &text[t.span.range()])
+            .collect();
+        assert!(unresolved.is_empty(), "{}: {unresolved:?}", p.display());
+        assert!(!fa.document_symbols().is_empty());
+        for o in (0..text.len() as u32).step_by(5) {
+            let _ = fa.hover(o);
+            let _ = fa.completion(o);
+            let _ = fa.definition(o);
+            let _ = fa.signature_help(o);
+        }
+        let _ = fa.inlay_hints(Span::new(0, text.len() as u32));
+        assert!(fa.format().is_ok(), "{} can be formatted", p.display());
+    }
+    assert!(n >= 10);
+}
