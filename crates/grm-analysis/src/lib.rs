@@ -331,6 +331,51 @@ pub struct Analysis {
     workspace: std::collections::BTreeSet<PathBuf>,
 }
 
+/// The cached analysis, or the work to make it (see [`Analysis::lookup`]).
+#[derive(Debug)]
+pub enum Lookup {
+    Ready(Arc<FileAnalysis>),
+    Run(Job),
+}
+
+/// Parsing and checking one file against a snapshot of the open documents.
+#[must_use = "a job does nothing until it is run"]
+pub struct Job {
+    key: PathBuf,
+    /// The open document's version and text; `None` to read the file
+    /// through the loader (as version -1).
+    text: Option<(i32, Arc<str>)>,
+    docs: HashMap<PathBuf, Doc>,
+    base: Arc<dyn FileLoader + Send + Sync>,
+}
+
+impl std::fmt::Debug for Job {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Job")
+            .field("key", &self.key)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Job {
+    /// Do the work; `None` when the file is not open and cannot be read.
+    pub fn run(self) -> Option<FileAnalysis> {
+        let (version, text) = match self.text {
+            Some(t) => t,
+            None => (-1, Arc::from(self.base.read(&self.key).ok()?)),
+        };
+        let overlay = Overlay {
+            docs: &self.docs,
+            base: &*self.base,
+        };
+        let mut fa = FileAnalysis::new(&self.key, version, &text, &overlay);
+        for (p, v) in &mut fa.deps {
+            *v = self.docs.get(p).map(|d| d.version);
+        }
+        Some(fa)
+    }
+}
+
 impl std::fmt::Debug for Analysis {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Analysis")
@@ -436,37 +481,61 @@ impl Analysis {
     /// The analysis of an open document (or of a file the loader can read,
     /// as version -1), computed now if the cached one is stale.
     pub fn analyze(&mut self, path: &Path) -> Option<Arc<FileAnalysis>> {
+        match self.lookup(path) {
+            Lookup::Ready(fa) => Some(fa),
+            Lookup::Run(job) => Some(self.store(job.run()?)),
+        }
+    }
+
+    /// The cached analysis of `path` if it is current, or the work to make
+    /// it: run the [`Job`] without holding the host (it has its own
+    /// snapshot of the open documents), then [`Analysis::store`] the result.
+    pub fn lookup(&self, path: &Path) -> Lookup {
         let key = normalize(path);
-        let (version, text) = match self.docs.get(&key) {
-            Some(d) => (d.version, d.text.clone()),
-            None => {
-                if let Some(fa) = self.cache.get(&key) {
-                    return Some(fa.clone());
+        let cached = self.cache.get(&key);
+        let text = match self.docs.get(&key) {
+            Some(d) => {
+                if let Some(fa) = cached
+                    && fa.version == d.version
+                    && fa
+                        .deps
+                        .iter()
+                        .all(|(p, v)| self.docs.get(p).map(|d| d.version) == *v)
+                {
+                    return Lookup::Ready(fa.clone());
                 }
-                let t = self.base.read(&key).ok()?;
-                (-1, Arc::from(t))
+                Some((d.version, d.text.clone()))
             }
+            // A file that is not open: cached until it changes on disk.
+            None => match cached {
+                Some(fa) => return Lookup::Ready(fa.clone()),
+                None => None,
+            },
         };
-        if let Some(fa) = self.cache.get(&key)
-            && fa.version == version
-            && fa
-                .deps
-                .iter()
-                .all(|(p, v)| self.docs.get(p).map(|d| d.version) == *v)
-        {
-            return Some(fa.clone());
-        }
-        let overlay = Overlay {
-            docs: &self.docs,
-            base: &*self.base,
-        };
-        let mut fa = FileAnalysis::new(&key, version, &text, &overlay);
-        for (p, v) in &mut fa.deps {
-            *v = self.docs.get(p).map(|d| d.version);
-        }
+        Lookup::Run(Job {
+            key,
+            text,
+            docs: self.docs.clone(),
+            base: self.base.clone(),
+        })
+    }
+
+    /// Keep a finished analysis (unless its document moved on meanwhile)
+    /// and hand it out.
+    pub fn store(&mut self, fa: FileAnalysis) -> Arc<FileAnalysis> {
         let fa = Arc::new(fa);
-        self.cache.insert(key, fa.clone());
-        Some(fa)
+        let current = match self.docs.get(&fa.path) {
+            Some(d) => d.version == fa.version,
+            None => fa.version == -1,
+        };
+        let deps_current = fa
+            .deps
+            .iter()
+            .all(|(p, v)| self.docs.get(p).map(|d| d.version) == *v);
+        if current && deps_current {
+            self.cache.insert(fa.path.clone(), fa.clone());
+        }
+        fa
     }
 
     /// Open documents other than `path` whose last analysis read `path`

@@ -560,3 +560,22 @@ fn examples_are_fully_classified_and_queryable() {
     }
     assert!(n >= 10);
 }
+
+#[test]
+fn jobs_run_outside_the_host_and_stale_results_are_not_cached() {
+    let mut a = Analysis::new(Arc::new(MemLoader::new()));
+    let p = Path::new("main.grm");
+    a.set_document(p, 1, "system S { axiom F; }");
+    let Lookup::Run(job) = a.lookup(p) else {
+        panic!("nothing cached yet")
+    };
+    // The document moves on while the job runs.
+    a.set_document(p, 2, "system S { axiom F F; }");
+    let old = a.store(job.run().unwrap());
+    assert_eq!(old.version, 1);
+    // Version 1's result is handed out but not cached: version 2 is computed.
+    let new = a.analyze(p).unwrap();
+    assert_eq!(new.version, 2);
+    assert!(new.text().contains("F F"));
+    assert!(matches!(a.lookup(p), Lookup::Ready(fa) if Arc::ptr_eq(&fa, &new)));
+}

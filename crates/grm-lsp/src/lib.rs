@@ -15,8 +15,10 @@
 //! Invariants:
 //! - Positions are converted with UTF-16 columns at this edge only; the
 //!   analyses work in byte offsets.
-//! - Analysis runs off the async executor (`spawn_blocking`), so a long
-//!   check or a large preview never stalls reading messages.
+//! - Analysis runs off the async executor (`spawn_blocking`), and without
+//!   holding the host's lock (a [`grm_analysis::Job`] works on a snapshot),
+//!   so a long check or a large preview never stalls reading messages or
+//!   applying edits.
 //! - Diagnostics of an edit after a pause are computed at once; edits in
 //!   quick succession are debounced. Diagnostics carry the document version
 //!   they were computed for; a result is published only if its version is
@@ -28,7 +30,7 @@
 pub mod convert;
 pub mod preview;
 
-use grm_analysis::{Analysis, FileAnalysis};
+use grm_analysis::{Analysis, FileAnalysis, Lookup};
 use grm_sema::FileLoader;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -129,6 +131,17 @@ impl Shared {
             .unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
+    /// The current analysis of `path`; when it must be computed, the work
+    /// runs without holding the host's lock (edits keep being applied).
+    pub(crate) fn analyze(&self, path: &Path) -> Option<Arc<FileAnalysis>> {
+        let job = match self.analysis().lookup(path) {
+            Lookup::Ready(fa) => return Some(fa),
+            Lookup::Run(job) => job,
+        };
+        let fa = job.run()?;
+        Some(self.analysis().store(fa))
+    }
+
     pub(crate) fn version(&self, path: &Path) -> Option<i32> {
         self.analysis().document(path).map(|(v, _)| v)
     }
@@ -220,7 +233,7 @@ impl Backend {
         };
         let shared = self.shared.clone();
         tokio::task::spawn_blocking(move || {
-            let fa = shared.analysis().analyze(&path)?;
+            let fa = shared.analyze(&path)?;
             Some(f(&fa))
         })
         .await
@@ -281,7 +294,7 @@ async fn publish(shared: &Arc<Shared>, client: &Client, path: PathBuf, version: 
     let s = shared.clone();
     let p = path.clone();
     let computed = tokio::task::spawn_blocking(move || {
-        let fa = s.analysis().analyze(&p)?;
+        let fa = s.analyze(&p)?;
         Some((fa.version, convert::diagnostics(&fa)))
     })
     .await;

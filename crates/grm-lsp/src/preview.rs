@@ -917,7 +917,6 @@ async fn compute(
     let s = shared.clone();
     tokio::task::spawn_blocking(move || {
         let fa = s
-            .analysis()
             .analyze(&path)
             .ok_or_else(|| "the document is not open".to_string())?;
         if let Some(v) = params.version
@@ -1021,7 +1020,7 @@ pub(crate) async fn refresh(shared: &Arc<Shared>, client: &Client, path: PathBuf
     let s = shared.clone();
     let (p, u) = (path.clone(), uri.clone());
     let built = tokio::task::spawn_blocking(move || {
-        let fa = s.analysis().analyze(&p)?;
+        let fa = s.analyze(&p)?;
         if fa.version != version {
             return None; // a newer text has its own refresh
         }
