@@ -412,6 +412,15 @@ test('sample mode: drawing a curve and dragging its control point regrow the Cal
   await page.fill('#curve-fields input[data-key=alignment_offset]', '0.3');
   await page.press('#curve-fields input[data-key=alignment_offset]', 'Enter');
   await waitRegrows(page, s2.regrows + 1, 'after a parameter edit');
+  const offsetOf = () => (JSON.parse(readFileSync(join(dir, 'calder_tree.curves.json'), 'utf8')) as { curves: { alignment_offset: number }[] }).curves[3].alignment_offset;
+  await page.waitForFunction((n) => (globalThis as unknown as { __grm: Grm }).__grm.saves >= n, 8, { timeout: 10_000 });
+  assert.equal(offsetOf(), 0.3);
+  // Undo takes the edit back: regrown and saved again.
+  const s2b = await grm(page);
+  await page.click('#curve-undo');
+  await waitRegrows(page, s2b.regrows + 1, 'after undo');
+  await page.waitForFunction((n) => (globalThis as unknown as { __grm: Grm }).__grm.saves > n, s2b.saves, { timeout: 10_000 });
+  assert.equal(offsetOf(), 0.6);
 
   // Next variation: another seed, another tree.
   const s3 = await grm(page);

@@ -178,3 +178,43 @@ test('coalescer: a failure is reported only when no newer edit is waiting', asyn
   await new Promise((r) => setTimeout(r, 5));
   assert.deepEqual(failures, ['current failure']);
 });
+
+test('undo and redo: a drag (many moves) is one step; a new edit clears redo; loading a file clears both', () => {
+  const s = sampleState();
+  assert.equal(s.canUndo, false);
+  const original = s.curves!;
+  // A drag: several moves, then the release ends the edit.
+  s.moveControlPoint(0, 3, [0, 3.5, 0]);
+  s.moveControlPoint(0, 3, [0.5, 4, 0]);
+  s.moveControlPoint(0, 3, [1, 4.5, 0]);
+  s.finishEdit();
+  const dragged = s.curves!;
+  s.addStroke([[0, 0, 0], [1, 1, 0], [2, 1, 0]]);
+  s.finishEdit();
+  assert.equal(s.curves!.curves.length, 2);
+  assert.equal(s.undo(), true);
+  assert.equal(s.curves, dragged);
+  assert.equal(s.selected, null, 'the selected (new) curve is gone');
+  assert.equal(s.undo(), true);
+  assert.equal(s.curves, original);
+  assert.deepEqual(s.curves!.curves[0].points[3], [0, 3, 0]);
+  assert.equal(s.undo(), false);
+  assert.equal(s.redo(), true);
+  assert.deepEqual(s.curves!.curves[0].points[3], [1, 4.5, 0]);
+  // A new edit after an undo drops what could have been redone.
+  s.setCurveParam(0, 'thickness', 0.2);
+  s.finishEdit();
+  assert.equal(s.canRedo, false);
+  assert.equal(s.undo(), true);
+  assert.equal(s.curves!.curves[0].params.thickness, 0);
+  s.loadCurves('/t.curves.json', CURVES);
+  assert.equal(s.canUndo, false);
+  assert.equal(s.canRedo, false);
+});
+
+test('undo takes back an edit that was not finished yet', () => {
+  const s = sampleState();
+  s.moveControlPoint(0, 1, [5, 5, 5]);
+  assert.equal(s.undo(), true);
+  assert.deepEqual(s.curves!.curves[0].points[1], [0, 1, 0]);
+});

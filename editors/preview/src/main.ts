@@ -332,6 +332,8 @@ class App {
     $('gallery-more').addEventListener('click', () => this.openGallery(this.galleryStart + 9));
     $('gallery-close').addEventListener('click', () => this.closeGallery());
     $('curve-delete').addEventListener('click', () => this.deleteSelected());
+    $('curve-undo').addEventListener('click', () => this.undoRedo(false));
+    $('curve-redo').addEventListener('click', () => this.undoRedo(true));
     $<HTMLInputElement>('curve-name').addEventListener('change', (e) => {
       const sel = this.state.selected;
       if (sel === null) return;
@@ -368,6 +370,11 @@ class App {
   private key(e: KeyboardEvent): void {
     const target = e.target as HTMLElement | null;
     if (target && (target.tagName === 'INPUT' || target.tagName === 'SELECT' || target.tagName === 'TEXTAREA')) return;
+    if ((e.ctrlKey || e.metaKey) && (e.key === 'z' || e.key === 'Z' || e.key === 'y')) {
+      e.preventDefault();
+      this.undoRedo(e.key === 'y' || e.shiftKey);
+      return;
+    }
     if (e.key === 'd' || e.key === 'D') this.setTool(this.tool === 'draw' ? 'orbit' : 'draw');
     else if (e.key === 'o' || e.key === 'O') this.setTool('orbit');
     else if (e.key === 'n' || e.key === 'N') this.nextVariation();
@@ -574,13 +581,19 @@ class App {
     this.curvesChanged(true);
   }
 
-  /** The curves changed: redraw, regrow; `save` writes the curves file (at the end of a gesture). */
+  /** The curves changed: redraw, regrow; `save` ends the edit (one undo step) and writes the curves file. */
   private curvesChanged(save: boolean): void {
     const editedAt = performance.now();
+    if (save) this.state.finishEdit();
     this.refreshCurves();
     this.refreshPanel();
     this.regrow(editedAt);
     if (save) void this.saveCurves();
+  }
+
+  private undoRedo(redo: boolean): void {
+    if (this.state.mode !== 'sample' || this.gesture.kind !== 'none') return;
+    if (redo ? this.state.redo() : this.state.undo()) this.curvesChanged(true);
   }
 
   private async saveCurves(): Promise<void> {
@@ -661,6 +674,8 @@ class App {
   }
 
   private refreshCurveList(): void {
+    $<HTMLButtonElement>('curve-undo').disabled = !this.state.canUndo;
+    $<HTMLButtonElement>('curve-redo').disabled = !this.state.canRedo;
     const list = $('curve-list');
     list.replaceChildren();
     const set = this.state.curves;

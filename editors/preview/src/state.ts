@@ -23,6 +23,11 @@ export class PageState {
   curvesError: string | null = null;
   /** The production whose growth is highlighted (a position in it). */
   focus: Position | null = null;
+  /** Curve sets before each finished edit (undo), and those undone (redo). */
+  private undoStack: CurveSet[] = [];
+  private redoStack: CurveSet[] = [];
+  /** The set when the current edit (a drag, a stroke) began. */
+  private editBase: CurveSet | null = null;
 
   /** The parameters of the next preview request (live: the server regrows it after edits). */
   previewParams(): PreviewParams {
@@ -62,6 +67,9 @@ export class PageState {
   loadCurves(path: string, text: string | null): void {
     this.curvesPath = path;
     this.selected = null;
+    this.undoStack = [];
+    this.redoStack = [];
+    this.editBase = null;
     if (text === null) {
       this.curves = { curves: [] };
       this.curvesError = null;
@@ -110,8 +118,48 @@ export class PageState {
   }
 
   private editable(): CurveSet {
-    this.curves = cloneSet(this.curves ?? { curves: [] });
+    // Edits never mutate a set in place, so the sets on the undo stack stay as they were.
+    const before = this.curves ?? { curves: [] };
+    this.editBase ??= before;
+    this.curves = cloneSet(before);
     return this.curves;
+  }
+
+  /** An edit is finished (a drag released, a stroke drawn, a field changed): it becomes one undo step. */
+  finishEdit(): void {
+    if (!this.editBase) return;
+    this.undoStack.push(this.editBase);
+    if (this.undoStack.length > 100) this.undoStack.shift();
+    this.redoStack = [];
+    this.editBase = null;
+  }
+
+  get canUndo(): boolean {
+    return this.undoStack.length > 0;
+  }
+
+  get canRedo(): boolean {
+    return this.redoStack.length > 0;
+  }
+
+  /** Back to the curves before the last finished edit. Returns false if there is none. */
+  undo(): boolean {
+    this.finishEdit();
+    const prev = this.undoStack.pop();
+    if (!prev) return false;
+    if (this.curves) this.redoStack.push(this.curves);
+    this.curves = prev;
+    this.selected = this.selected !== null && this.selected < prev.curves.length ? this.selected : null;
+    return true;
+  }
+
+  redo(): boolean {
+    const next = this.redoStack.pop();
+    if (!next) return false;
+    if (this.curves) this.undoStack.push(this.curves);
+    this.curves = next;
+    this.selected = this.selected !== null && this.selected < next.curves.length ? this.selected : null;
+    return true;
   }
 
   /** Fit a stroke (world points) to a curve and add it, selected. Returns its index or null. */
