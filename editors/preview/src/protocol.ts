@@ -220,7 +220,7 @@ export function base64ToBytes(b64: string): Uint8Array {
 
 const LITTLE_ENDIAN = new Uint8Array(new Uint16Array([1]).buffer)[0] === 1;
 
-/** Base64 of bytes (for tests and for the HTTP transport's echo). */
+/** Base64 of bytes (the inverse of base64ToBytes; the tests build wire data with it). */
 export function bytesToBase64(bytes: Uint8Array): string {
   let bin = '';
   for (let i = 0; i < bytes.length; i += 0x8000) {
