@@ -361,7 +361,14 @@ fn rewrite(
     @builtin(local_invocation_index) lid: u32,
 ) {
     let i = wg_linear(wid, nwg) * WORKGROUP + lid;
-    if (i >= P.n) {
+    if (i > P.n || (i == P.n && P.axiom != 0u)) {
+        return;
+    }
+    if (i == P.n) {
+        // The thread after the last module: the last start is the total
+        // of parameter words (the scan's totals are at n).
+        let t = counts[i];
+        out_starts[t.x] = t.y;
         return;
     }
     // The axiom: one thread per system writes its axiom at the offsets the

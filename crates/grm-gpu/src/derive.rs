@@ -6,6 +6,16 @@
 //! totals and the error status (the one synchronisation of an iteration:
 //! the next buffers' sizes depend on it) -> check the limits -> allocate
 //! -> `rewrite`. The string stays on the device between iterations.
+//!
+//! Batched (the default when nothing needs the iterations one by one): an
+//! upper bound of every string's length is computed on the host from the
+//! tables, the buffers are sized from it, and all iterations are recorded
+//! into one submission whose dispatch sizes are written on the device
+//! (`shaders/batch.wgsl`, indirect dispatches); the totals, an overflow
+//! flag and the error status are read back once at the end. Where the
+//! bound is over a limit, or the batched run reports an error or an
+//! overflow, the derivation runs (again) iteration by iteration, which
+//! gives the exact error.
 
 use std::time::{Duration, Instant};
 
@@ -13,12 +23,12 @@ use grm_compile::CompiledSystem;
 use grm_derive::ModuleString;
 
 use crate::brackets;
-use crate::device::{Gpu, groups_for};
+use crate::device::{Bound, Gpu, groups_for};
 use crate::error::{GpuError, RuntimeKind};
 use crate::kernels;
 use crate::layout::{
-    DeriveParams, ERR_BAD_WEIGHT, ERR_FAULT, ERR_NON_FINITE, MAX_BIND_WORDS, MAX_SYSTEMS,
-    STATUS_WORDS, SYM_MASK, SystemEntry,
+    BatchParams, DeriveParams, ERR_BAD_WEIGHT, ERR_FAULT, ERR_NON_FINITE, MAX_BIND_WORDS,
+    MAX_SYSTEMS, SCAN_BLOCK, STATUS_WORDS, SYM_MASK, SystemEntry,
 };
 use crate::scan::{ScanElem, record_scan};
 
@@ -365,24 +375,392 @@ impl<'a> GpuSystem<'a> {
     }
 
     /// Run the derivation; the final string stays on the device.
-    /// `progress` sees every string's figures as soon as they are known.
+    /// `progress` sees every string's figures as soon as they are known
+    /// (in a batched derivation, all of them at the end, the whole time
+    /// counted as the last string's).
     pub fn derive(
         &self,
         opts: &GpuDeriveOptions,
         progress: &mut dyn FnMut(&GpuIterationStats),
     ) -> Result<(DeviceString, Vec<GpuIterationStats>), GpuError> {
-        let t = Instant::now();
-        if self.jobs.len() == 1 {
-            // One system: its iterations and seed are the options'.
-            let e = SystemEntry {
-                iterations: opts.iterations,
-                seed: opts.seed,
-                ..self.directory[0]
-            };
-            self.gpu
-                .queue()
-                .write_buffer(&self.tables, 0, bytemuck::bytes_of(&e));
+        self.derive_with(opts, DeriveStrategy::Auto, progress)
+            .map(|(s, stats, _)| (s, stats))
+    }
+
+    /// As [`GpuSystem::derive`], choosing how the iterations are recorded;
+    /// also says which path ran.
+    pub fn derive_with(
+        &self,
+        opts: &GpuDeriveOptions,
+        strategy: DeriveStrategy,
+        progress: &mut dyn FnMut(&GpuIterationStats),
+    ) -> Result<(DeviceString, Vec<GpuIterationStats>, DerivePath), GpuError> {
+        let mut path = DerivePath::PerIteration;
+        let plan = if strategy != DeriveStrategy::PerIteration && !opts.sync_iterations {
+            self.batch_plan(opts)
+        } else {
+            None
+        };
+        if let Some(plan) = plan {
+            let t = Instant::now();
+            match self.derive_batched(&plan, opts, strategy)? {
+                Some((string, totals)) => {
+                    let elapsed = t.elapsed();
+                    let last = totals.len() - 1;
+                    let stats: Vec<GpuIterationStats> = totals
+                        .iter()
+                        .enumerate()
+                        .map(|(k, &(m, w))| GpuIterationStats {
+                            iteration: k as u32,
+                            modules: m,
+                            param_words: w,
+                            elapsed: if k == last { elapsed } else { Duration::ZERO },
+                        })
+                        .collect();
+                    for st in &stats {
+                        progress(st);
+                    }
+                    return Ok((string, stats, DerivePath::Batched));
+                }
+                None => path = DerivePath::BatchedThenPerIteration,
+            }
         }
+        let (s, stats) = self.derive_per_iteration(opts, progress)?;
+        Ok((s, stats, path))
+    }
+
+    /// The directory as the derivation starts: the uploaded ranges; one
+    /// system takes the options' iterations and seed.
+    fn reset_directory(&self, opts: &GpuDeriveOptions) {
+        let mut dir = self.directory.clone();
+        if let [one] = &mut dir[..] {
+            one.iterations = opts.iterations;
+            one.seed = opts.seed;
+        }
+        self.gpu
+            .queue()
+            .write_buffer(&self.tables, 0, bytemuck::cast_slice(&dir));
+    }
+
+    /// Each job's iterations in this derivation.
+    fn job_iterations(&self, opts: &GpuDeriveOptions) -> Vec<u32> {
+        if self.jobs.len() == 1 {
+            vec![opts.iterations]
+        } else {
+            self.jobs.iter().map(|j| j.iterations).collect()
+        }
+    }
+
+    /// Upper bounds of every string's modules and parameter words (string
+    /// 0 is the axiom), from the tables: per symbol, the most modules of
+    /// each symbol any of its outcomes produces (every alternative of the
+    /// groups that may apply, and the unchanged copy unless a group
+    /// without context or condition always applies). Exact for
+    /// deterministic context-free systems. `None` when a table is out of
+    /// range (the per-iteration path reports it).
+    pub(crate) fn string_bounds(&self, opts: &GpuDeriveOptions) -> Option<Vec<(u64, u64)>> {
+        let k_max = opts.iterations as usize;
+        let mut total = vec![(0u64, 0u64); k_max + 1];
+        for (job, its) in self.jobs.iter().zip(self.job_iterations(opts)) {
+            let sys = job.system;
+            let ns = sys.symbols.len();
+            let rows = (0..ns)
+                .map(|s| growth_row(sys, s))
+                .collect::<Option<Vec<_>>>()?;
+            let mut c = vec![0u64; ns];
+            let axiom = sys.alts.get(sys.axiom_alt as usize)?;
+            for m in succ_of(sys, axiom)? {
+                *c.get_mut(m.symbol as usize)? += 1;
+            }
+            for (k, tot) in total.iter_mut().enumerate() {
+                if k > 0 && k <= its as usize {
+                    let mut next = vec![0u64; ns];
+                    for (s, &n) in c.iter().enumerate() {
+                        if n == 0 {
+                            continue;
+                        }
+                        for &(t, q) in &rows[s] {
+                            next[t] = next[t].saturating_add(n.saturating_mul(q));
+                        }
+                    }
+                    c = next;
+                }
+                let m = c.iter().fold(0u64, |a, &x| a.saturating_add(x));
+                let w = c.iter().zip(&sys.symbols).fold(0u64, |a, (&x, e)| {
+                    a.saturating_add(x.saturating_mul(u64::from(e.param_words)))
+                });
+                tot.0 = tot.0.saturating_add(m);
+                tot.1 = tot.1.saturating_add(w);
+            }
+        }
+        Some(total)
+    }
+
+    /// The buffers of a batched derivation, or `None` when the bounds are
+    /// over a limit (the options', the device's, 32-bit counts) or the
+    /// system needs bracket matching.
+    fn batch_plan(&self, opts: &GpuDeriveOptions) -> Option<BatchPlan> {
+        if self.has_context || opts.iterations == 0 {
+            return None;
+        }
+        let bounds = self.string_bounds(opts)?;
+        let limit32 = u64::from(u32::MAX) - 1;
+        let mut caps = [(0u64, 0u64); 2];
+        let mut max_in = 0u64;
+        for (k, &(m, w)) in bounds.iter().enumerate() {
+            if m > limit32 || w > limit32 {
+                return None;
+            }
+            let c = &mut caps[k % 2];
+            *c = (c.0.max(m), c.1.max(w));
+            if k > 0 {
+                let (n, nw) = bounds[k - 1];
+                max_in = max_in.max(n);
+                let bytes = string_bytes(n, nw) + 8 * (n + 1) + 4 * n + string_bytes(m, w);
+                if m > opts.max_modules || bytes > opts.max_bytes {
+                    return None;
+                }
+            }
+        }
+        let mut levels = Vec::new();
+        let mut len = max_in + 1;
+        loop {
+            let blocks = len.div_ceil(u64::from(SCAN_BLOCK));
+            levels.push(blocks);
+            if blocks <= 1 {
+                break;
+            }
+            len = blocks;
+        }
+        let total = string_bytes(caps[0].0, caps[0].1)
+            + string_bytes(caps[1].0, caps[1].1)
+            + 12 * (max_in + 1);
+        let gpu = self.gpu;
+        let fits = |what, b| gpu.check_storage(what, b).is_ok();
+        // A loose bound (stochastic or conditional productions) costs its
+        // allocation however short the string: keep it small.
+        let exact = self
+            .jobs
+            .iter()
+            .all(|j| (0..j.system.symbols.len()).all(|s| exact_symbol(j.system, s)));
+        let cap = if exact {
+            BATCH_MAX_BYTES
+        } else {
+            BATCH_LOOSE_MAX_BYTES
+        };
+        let ok = total <= cap
+            && total <= opts.max_bytes
+            && caps.iter().all(|&(m, w)| {
+                fits("output symbols", 4 * m)
+                    && fits("output parameter starts", 4 * (m + 1))
+                    && fits("output parameters", 4 * w)
+            })
+            && fits("output counts", 8 * (max_in + 1))
+            && gpu.grid("count", groups_for(max_in + 1)).is_ok();
+        ok.then_some(BatchPlan {
+            bounds,
+            caps,
+            max_in,
+            levels,
+        })
+    }
+
+    /// All iterations in one submission (see the module documentation).
+    /// `None`: an error or an overflow was reported; nothing is returned
+    /// and the caller derives iteration by iteration.
+    #[allow(clippy::type_complexity)]
+    fn derive_batched(
+        &self,
+        plan: &BatchPlan,
+        opts: &GpuDeriveOptions,
+        strategy: DeriveStrategy,
+    ) -> Result<Option<(DeviceString, Vec<(u64, u64)>)>, GpuError> {
+        let gpu = self.gpu;
+        self.reset_directory(opts);
+        let k_max = opts.iterations as usize;
+        let nlev = plan.levels.len();
+        let (offsets, m0, w0) = self.axiom_offsets()?;
+        let strings = [
+            self.alloc_string(plan.caps[0].0, plan.caps[0].1)?,
+            self.alloc_string(plan.caps[1].0, plan.caps[1].1)?,
+        ];
+        let counts = gpu.storage("output counts", 8 * (plan.max_in + 1))?;
+        let choice = gpu.storage("production choices", 4 * plan.max_in)?;
+        let mate = gpu.storage("unused", 16)?;
+        let status = gpu.storage_zeroed("derive status", u64::from(STATUS_WORDS) * 4)?;
+        let sums = plan
+            .levels
+            .iter()
+            .map(|&b| gpu.storage("scan block sums", 8 * b))
+            .collect::<Result<Vec<_>, _>>()?;
+        // Parameters written on the device, and where the copies put them.
+        let params =
+            gpu.uniform_target("derive params", std::mem::size_of::<DeriveParams>() as u64);
+        let scan_params: Vec<wgpu::Buffer> = (0..nlev)
+            .map(|_| gpu.uniform_target("scan params", 16))
+            .collect();
+        let arg_bytes = 12 * (1 + 2 * nlev as u64);
+        let indirect = gpu.indirect("batch dispatch args", arg_bytes)?;
+        let dp = gpu.upload(
+            "batch derive params",
+            &[DeriveParams {
+                systems: self.jobs.len() as u32,
+                ..DeriveParams::default()
+            }],
+        )?;
+        let sp = gpu.storage_zeroed("batch scan params", 16 * nlev as u64)?;
+        let args = gpu.storage_zeroed("batch dispatch args", arg_bytes)?;
+        let flag = 2 * (k_max + 1);
+        let hist = gpu.upload("batch history", &vec![0u32; flag + 1])?;
+        let mut caps: Vec<[u32; 2]> = plan
+            .bounds
+            .iter()
+            .map(|&(m, w)| [m as u32, w as u32])
+            .collect();
+        if strategy == DeriveStrategy::AutoShrunkCaps {
+            caps[k_max] = [0, 0];
+        }
+        let caps = gpu.upload("batch capacities", &caps)?;
+        let bp = gpu.uniform(
+            "batch params",
+            &BatchParams {
+                grid_width: gpu.grid_width(),
+                levels: nlev as u32,
+                flag: flag as u32,
+                ..BatchParams::default()
+            },
+        );
+
+        let next = gpu.bound(
+            &kernels::BATCH_NEXT,
+            &[&bp, &counts, &caps, &dp, &sp, &args, &hist],
+        )?;
+        let derive_bound =
+            |kernel: &'static crate::shader::Kernel, p: usize| -> Result<Bound, GpuError> {
+                let (i, o) = (&strings[p], &strings[1 - p]);
+                gpu.bound(
+                    kernel,
+                    &[
+                        &params,
+                        &self.tables,
+                        &i.syms,
+                        &i.starts,
+                        &i.params,
+                        &mate,
+                        &counts,
+                        &choice,
+                        &o.syms,
+                        &o.starts,
+                        &o.params,
+                        &status,
+                    ],
+                )
+            };
+        let count = [
+            derive_bound(&kernels::COUNT, 0)?,
+            derive_bound(&kernels::COUNT, 1)?,
+        ];
+        let rewrite = [
+            derive_bound(&kernels::REWRITE, 0)?,
+            derive_bound(&kernels::REWRITE, 1)?,
+        ];
+        let mut scans = Vec::with_capacity(nlev);
+        let mut adds = Vec::with_capacity(nlev);
+        for l in 0..nlev {
+            let data = if l == 0 { &counts } else { &sums[l - 1] };
+            let b = [&scan_params[l], data, &sums[l]];
+            scans.push(gpu.bound(&kernels::SCAN_U32X2, &b)?);
+            adds.push(gpu.bound(&kernels::ADD_U32X2, &b)?);
+        }
+        let directory = gpu.bound(
+            &kernels::UPDATE_DIRECTORY,
+            &[&params, &self.tables, &counts],
+        )?;
+        let dir_grid = gpu.grid("update directory", groups_for(self.jobs.len() as u64))?;
+
+        let mut enc = gpu.encoder();
+        self.record_axiom(&mut enc, &offsets, &strings[0], &status)?;
+        gpu.queue()
+            .write_buffer(&strings[0].starts, 4 * m0, bytemuck::bytes_of(&(w0 as u32)));
+        gpu.queue()
+            .write_buffer(&counts, 0, bytemuck::cast_slice(&[m0 as u32, w0 as u32]));
+        let copy_params = |enc: &mut wgpu::CommandEncoder| {
+            enc.copy_buffer_to_buffer(
+                &dp,
+                0,
+                &params,
+                0,
+                Some(std::mem::size_of::<DeriveParams>() as u64),
+            );
+            for (l, u) in scan_params.iter().enumerate() {
+                enc.copy_buffer_to_buffer(&sp, 16 * l as u64, u, 0, Some(16));
+            }
+            enc.copy_buffer_to_buffer(&args, 0, &indirect, 0, Some(arg_bytes));
+        };
+        {
+            let mut pass = begin(&mut enc, "batch start");
+            next.dispatch(&mut pass, (1, 1));
+        }
+        copy_params(&mut enc);
+        for k in 1..=k_max {
+            let p = (k - 1) % 2;
+            {
+                let mut pass = begin(&mut enc, "batch iteration");
+                count[p].dispatch_indirect(&mut pass, &indirect, 0);
+                for (l, sc) in scans.iter().enumerate() {
+                    sc.dispatch_indirect(&mut pass, &indirect, 12 * (1 + l as u64));
+                }
+                for (l, ad) in adds.iter().enumerate().rev() {
+                    ad.dispatch_indirect(&mut pass, &indirect, 12 * (1 + (nlev + l) as u64));
+                }
+                next.dispatch(&mut pass, (1, 1));
+                rewrite[p].dispatch_indirect(&mut pass, &indirect, 0);
+                directory.dispatch(&mut pass, dir_grid);
+            }
+            if k < k_max {
+                copy_params(&mut enc);
+            }
+        }
+        let words = gpu.read::<u32>(
+            enc,
+            &[
+                (&hist, 0, flag as u64 + 1),
+                (&status, 0, u64::from(STATUS_WORDS)),
+            ],
+        )?;
+        let [strings0, strings1] = strings;
+        let (last, other) = if k_max.is_multiple_of(2) {
+            (strings0, strings1)
+        } else {
+            (strings1, strings0)
+        };
+        let mut scratch: Vec<wgpu::Buffer> = vec![counts, choice, mate, sp, args];
+        scratch.extend(sums);
+        scratch.extend(other.into_buffers());
+        let h = words.first().map(Vec::as_slice).unwrap_or(&[]);
+        let st = words.get(1).map(Vec::as_slice).unwrap_or(&[]);
+        let failed = h.len() != flag + 1 || h[flag] != 0 || st.iter().any(|&x| x != 0);
+        if failed {
+            scratch.extend(last.into_buffers());
+            gpu.recycle(scratch);
+            return Ok(None);
+        }
+        gpu.recycle(scratch);
+        let totals: Vec<(u64, u64)> = (0..=k_max)
+            .map(|k| (u64::from(h[2 * k]), u64::from(h[2 * k + 1])))
+            .collect();
+        let (len, words) = totals[k_max];
+        Ok(Some((DeviceString { len, words, ..last }, totals)))
+    }
+
+    /// One submission and one synchronisation per iteration.
+    fn derive_per_iteration(
+        &self,
+        opts: &GpuDeriveOptions,
+        progress: &mut dyn FnMut(&GpuIterationStats),
+    ) -> Result<(DeviceString, Vec<GpuIterationStats>), GpuError> {
+        let t = Instant::now();
+        self.reset_directory(opts);
         let mut string = self.axiom()?;
         let mut stats = Vec::with_capacity(opts.iterations as usize + 1);
         let first = GpuIterationStats {
@@ -465,9 +843,8 @@ impl<'a> GpuSystem<'a> {
         )
     }
 
-    /// String 0: every system's axiom, evaluated on the device (one thread
-    /// per system, writing at offsets computed here).
-    fn axiom(&self) -> Result<DeviceString, GpuError> {
+    /// Where each system's axiom goes in string 0, and its totals.
+    fn axiom_offsets(&self) -> Result<(Vec<[u32; 2]>, u64, u64), GpuError> {
         let mut offsets: Vec<[u32; 2]> = Vec::with_capacity(self.jobs.len());
         let (mut m, mut w) = (0u64, 0u64);
         for job in &self.jobs {
@@ -482,8 +859,20 @@ impl<'a> GpuSystem<'a> {
                 count: m.max(w),
             });
         }
-        let out = self.alloc_string(m, w)?;
-        let counts = self.gpu.upload("axiom offsets", &offsets)?;
+        Ok((offsets, m, w))
+    }
+
+    /// Record the axiom kernel writing string 0 into `out` (one thread
+    /// per system, at `offsets`; errors in `status` slot 1). The last
+    /// start is not written.
+    fn record_axiom(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        offsets: &[[u32; 2]],
+        out: &DeviceString,
+        status: &wgpu::Buffer,
+    ) -> Result<(), GpuError> {
+        let counts = self.gpu.upload("axiom offsets", offsets)?;
         let (mate, choice) = (
             self.gpu.storage("unused", 16)?,
             self.gpu.storage("unused", 16)?,
@@ -495,10 +884,6 @@ impl<'a> GpuSystem<'a> {
             len: 0,
             words: 0,
         };
-        let status = self
-            .gpu
-            .storage_zeroed("axiom status", u64::from(STATUS_WORDS) * 4)?;
-        let mut enc = self.gpu.encoder();
         let params = DeriveParams {
             n: self.jobs.len() as u32,
             systems: self.jobs.len() as u32,
@@ -511,16 +896,32 @@ impl<'a> GpuSystem<'a> {
             mate: &mate,
             counts: &counts,
             choice: &choice,
-            out: &out,
-            status: &status,
+            out,
+            status,
         };
         self.dispatch_derive(
-            &mut enc,
+            enc,
             &kernels::REWRITE,
             &params,
             &pass,
             self.jobs.len() as u64,
         )?;
+        let mut done = vec![mate, choice];
+        done.extend(empty.into_buffers());
+        self.gpu.recycle(done);
+        Ok(())
+    }
+
+    /// String 0: every system's axiom, evaluated on the device (one thread
+    /// per system, writing at offsets computed here).
+    fn axiom(&self) -> Result<DeviceString, GpuError> {
+        let (offsets, m, w) = self.axiom_offsets()?;
+        let out = self.alloc_string(m, w)?;
+        let status = self
+            .gpu
+            .storage_zeroed("axiom status", u64::from(STATUS_WORDS) * 4)?;
+        let mut enc = self.gpu.encoder();
+        self.record_axiom(&mut enc, &offsets, &out, &status)?;
         self.gpu
             .queue()
             .write_buffer(&out.starts, 4 * m, bytemuck::bytes_of(&(w as u32)));
@@ -735,4 +1136,143 @@ fn kind_of(bits: u32) -> RuntimeKind {
     } else {
         RuntimeKind::Fault
     }
+}
+
+/// The most device memory a batched derivation allocates; larger ones run
+/// iteration by iteration (with exact sizes).
+pub const BATCH_MAX_BYTES: u64 = 4 << 30;
+
+/// As [`BATCH_MAX_BYTES`] where the bound may be above the real sizes
+/// (some symbol has conditions, contexts or several alternatives): the
+/// bound of a stochastic plant can be 20 times its string, and allocating
+/// (and clearing) it costs more than the synchronisations it saves.
+pub const BATCH_LOOSE_MAX_BYTES: u64 = 256 << 20;
+
+/// How [`GpuSystem::derive_with`] records the iterations.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DeriveStrategy {
+    /// Batched (one submission, sizes from the bound) where the bounds
+    /// allow it and `sync_iterations` is off; else iteration by iteration.
+    Auto,
+    /// One submission and one synchronisation per iteration.
+    PerIteration,
+    /// As `Auto`, with the device's capacity check of the last string set
+    /// to zero: a non-empty result overflows, the batched run is discarded
+    /// and the derivation runs iteration by iteration (tests the fallback).
+    #[doc(hidden)]
+    AutoShrunkCaps,
+}
+
+/// The path a derivation took.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DerivePath {
+    /// All iterations in one submission.
+    Batched,
+    /// Iteration by iteration (the bound was over a limit, or batching was
+    /// not asked for).
+    PerIteration,
+    /// Batched first; an error or an overflow was reported, so it ran
+    /// again iteration by iteration.
+    BatchedThenPerIteration,
+}
+
+/// [`derive`], choosing the strategy and reporting the path taken.
+pub fn derive_with(
+    gpu: &Gpu,
+    sys: &CompiledSystem,
+    opts: &GpuDeriveOptions,
+    strategy: DeriveStrategy,
+) -> Result<(GpuDerivation, DerivePath), GpuError> {
+    gpu.run(|| {
+        let job = GpuJob {
+            system: sys,
+            iterations: opts.iterations,
+            seed: opts.seed,
+        };
+        let g = GpuSystem::load(gpu, &[job])?;
+        let (s, stats, path) = g.derive_with(opts, strategy, &mut |_| {})?;
+        let string = s.read(gpu)?;
+        gpu.recycle(s.into_buffers());
+        Ok((GpuDerivation { string, stats }, path))
+    })
+}
+
+/// The sizes of a batched derivation.
+#[derive(Debug)]
+struct BatchPlan {
+    /// Every string's bound (modules, parameter words).
+    bounds: Vec<(u64, u64)>,
+    /// The two string buffers' capacities (even and odd strings).
+    caps: [(u64, u64); 2],
+    /// The largest input bound.
+    max_in: u64,
+    /// Blocks of each scan level for the largest input.
+    levels: Vec<u64>,
+}
+
+fn begin<'e>(enc: &'e mut wgpu::CommandEncoder, label: &'static str) -> wgpu::ComputePass<'e> {
+    enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some(label),
+        timestamp_writes: None,
+    })
+}
+
+/// An alternative's successor modules.
+fn succ_of<'s>(
+    sys: &'s CompiledSystem,
+    a: &grm_compile::table::AltHeader,
+) -> Option<&'s [grm_compile::table::SuccModule]> {
+    let start = a.succ_offset as usize;
+    sys.succ.get(start..start.checked_add(a.succ_len as usize)?)
+}
+
+/// For symbol `s`: (symbol, the most modules of it one module of `s`
+/// becomes in one step), over every outcome that may happen.
+fn growth_row(sys: &CompiledSystem, s: usize) -> Option<Vec<(usize, u64)>> {
+    use grm_compile::table::{GROUP_CONTEXT, NONE};
+    let e = sys.symbols.get(s)?;
+    let mut row: std::collections::BTreeMap<usize, u64> = Default::default();
+    let mut copy = true;
+    for g in e.first_group..e.first_group.checked_add(e.group_count)? {
+        let gh = sys.groups.get(g as usize)?;
+        for a in gh.first_alt..gh.first_alt.checked_add(gh.alt_count)? {
+            let mut here: std::collections::BTreeMap<usize, u64> = Default::default();
+            for m in succ_of(sys, sys.alts.get(a as usize)?)? {
+                if m.symbol as usize >= sys.symbols.len() {
+                    return None;
+                }
+                *here.entry(m.symbol as usize).or_default() += 1;
+            }
+            for (t, q) in here {
+                let r = row.entry(t).or_default();
+                *r = (*r).max(q);
+            }
+        }
+        if gh.flags & GROUP_CONTEXT == 0 && gh.cond_code == NONE {
+            // Always applies: the groups after it never do, nor the copy.
+            copy = false;
+            break;
+        }
+    }
+    if copy {
+        let r = row.entry(s).or_default();
+        *r = (*r).max(1);
+    }
+    Some(row.into_iter().collect())
+}
+
+/// Whether every module of symbol `s` becomes the same successor (or
+/// stays): its first group always applies and has one alternative, or it
+/// has no group. The bound is then the exact size.
+fn exact_symbol(sys: &CompiledSystem, s: usize) -> bool {
+    use grm_compile::table::{GROUP_CONTEXT, NONE};
+    let Some(e) = sys.symbols.get(s) else {
+        return false;
+    };
+    if e.group_count == 0 {
+        return true;
+    }
+    sys.groups
+        .get(e.first_group as usize)
+        .is_some_and(|g| g.flags & GROUP_CONTEXT == 0 && g.cond_code == NONE && g.alt_count == 1)
 }

@@ -468,6 +468,32 @@ impl Gpu {
         Ok(())
     }
 
+    /// A kernel's pipeline with `buffers` bound (binding 0, 1, ...), to
+    /// record several dispatches in one compute pass.
+    pub(crate) fn bound(
+        &self,
+        kernel: &'static Kernel,
+        buffers: &[&wgpu::Buffer],
+    ) -> Result<Bound, GpuError> {
+        let p = self.pipeline(kernel)?;
+        let bg = self.bind_group(&p, buffers)?;
+        Ok(Bound {
+            pipeline: p,
+            bind_group: bg,
+        })
+    }
+
+    /// A uniform buffer of `bytes` that copies may write (parameters
+    /// computed on the device).
+    pub(crate) fn uniform_target(&self, what: &'static str, bytes: u64) -> wgpu::Buffer {
+        self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(what),
+            size: bytes.next_multiple_of(16).max(16),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    }
+
     fn bind_group(
         &self,
         p: &Pipeline,
@@ -587,6 +613,38 @@ impl Gpu {
             staging.unmap();
         }
         Ok(out)
+    }
+}
+
+/// A kernel with its buffers bound, ready to dispatch in a compute pass.
+#[derive(Debug)]
+pub(crate) struct Bound {
+    pipeline: Arc<Pipeline>,
+    bind_group: wgpu::BindGroup,
+}
+
+impl Bound {
+    /// Record an indirect dispatch into `pass` (workgroup counts: three
+    /// `u32` at byte `offset` of `args`).
+    pub(crate) fn dispatch_indirect(
+        &self,
+        pass: &mut wgpu::ComputePass<'_>,
+        args: &wgpu::Buffer,
+        offset: u64,
+    ) {
+        pass.set_pipeline(&self.pipeline.pipeline);
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.dispatch_workgroups_indirect(args, offset);
+    }
+
+    /// Record a direct dispatch of an `(x, y)` grid into `pass`.
+    pub(crate) fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>, (x, y): (u32, u32)) {
+        if x == 0 || y == 0 {
+            return;
+        }
+        pass.set_pipeline(&self.pipeline.pipeline);
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.dispatch_workgroups(x, y, 1);
     }
 }
 

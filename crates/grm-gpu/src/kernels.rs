@@ -173,6 +173,22 @@ pub static UPDATE_DIRECTORY: Kernel = Kernel {
     subst: &[],
 };
 
+pub static BATCH_NEXT: Kernel = Kernel {
+    name: "batch_next",
+    file: "batch.wgsl",
+    entry: "batch_next",
+    bindings: &[
+        Bind::Uniform,
+        Bind::Read,
+        Bind::Read,
+        Bind::ReadWrite,
+        Bind::ReadWrite,
+        Bind::ReadWrite,
+        Bind::ReadWrite,
+    ],
+    subst: &[],
+};
+
 /// All kernels.
 pub static ALL: &[&Kernel] = &[
     &SCAN_U32,
@@ -197,4 +213,5 @@ pub static ALL: &[&Kernel] = &[
     &BONE_FLAGS,
     &BONES_WRITE,
     &UPDATE_DIRECTORY,
+    &BATCH_NEXT,
 ];

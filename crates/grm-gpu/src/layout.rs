@@ -284,6 +284,20 @@ gpu_struct! {
     }
 }
 
+gpu_struct! {
+    /// Constants of a batched derivation's `batch_next` kernel
+    /// (`shaders/batch.wgsl`).
+    pub struct BatchParams {
+        /// Workgroups per grid dimension of the indirect dispatches.
+        pub grid_width: u32 => "u32",
+        /// Scan levels recorded (for the largest input).
+        pub levels: u32 => "u32",
+        /// Where the overflow flag is in the history buffer.
+        pub flag: u32 => "u32",
+        pub pad0: u32 => "u32",
+    }
+}
+
 /// Fan-out of the bracket-matching minimum tree.
 pub const BRACKET_FAN: u32 = 32;
 /// Levels the bracket tree may have (`offs`/`lens` entries).
@@ -422,6 +436,7 @@ pub fn structs() -> Vec<StructInfo> {
         one::<VmJob>(),
         one::<VmResult>(),
         one::<DeriveParams>(),
+        one::<BatchParams>(),
         one::<BracketParams>(),
         one::<TurtleSym>(),
         one::<TurtleParams>(),

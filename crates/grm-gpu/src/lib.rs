@@ -37,8 +37,8 @@ pub mod shader;
 pub mod vmeval;
 
 pub use derive::{
-    DeviceString, GpuDerivation, GpuDeriveOptions, GpuIterationStats, GpuJob, GpuManyDerivation,
-    derive, derive_many,
+    DerivePath, DeriveStrategy, DeviceString, GpuDerivation, GpuDeriveOptions, GpuIterationStats,
+    GpuJob, GpuManyDerivation, derive, derive_many, derive_with,
 };
 pub use device::{Gpu, shared};
 pub use error::{GpuError, RuntimeKind};

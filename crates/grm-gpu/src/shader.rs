@@ -31,6 +31,7 @@ pub const FILES: &[(&str, &str)] = shader_files!(
     "turtle.wgsl",
     "turtle_scan.wgsl",
     "directory.wgsl",
+    "batch.wgsl",
 );
 
 /// How a kernel binds a buffer (binding index = position in the list).

@@ -1,0 +1,232 @@
+//! The batched derivation (all iterations in one submission, buffers sized
+//! from a bound computed from the tables) against the per-iteration one:
+//! identical strings (bit for bit: the same kernels read the same input)
+//! and identical errors, on the example scenes and random grammars; and
+//! the fallbacks, when the bound is over a limit and when the device
+//! reports an overflow.
+
+mod common;
+use common::*;
+use grm_gpu::{DerivePath, DeriveStrategy, GpuDeriveOptions, derive_with};
+
+fn opts(sys: &grm_compile::CompiledSystem, iterations: u32, seed: u32) -> GpuDeriveOptions {
+    GpuDeriveOptions {
+        iterations,
+        seed,
+        ..GpuDeriveOptions::from_system(sys)
+    }
+}
+
+fn same_bits(what: &str, a: &grm_derive::ModuleString, b: &grm_derive::ModuleString) {
+    assert_eq!(a.syms, b.syms, "{what}: symbols");
+    assert_eq!(a.starts, b.starts, "{what}: starts");
+    let bits =
+        |s: &grm_derive::ModuleString| s.params.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(a), bits(b), "{what}: parameters");
+}
+
+#[test]
+fn example_scenes_batched_equal_per_iteration() {
+    let g = gpu();
+    let cases: &[(&str, Option<&str>, u32)] = &[
+        ("hilbert3d.grm", None, 3),
+        ("koch_island.grm", None, 3),
+        ("bracketed_plant.grm", None, 4),
+        ("row_of_trees.grm", None, 6),
+        ("ternary_tree.grm", None, 5),
+        ("ternary_tree.grm", Some("TernaryTreeB"), 5),
+        ("ternary_tree.grm", Some("TernaryTreeC"), 5),
+        ("ternary_tree.grm", Some("TernaryTreeD"), 5),
+        ("stochastic_plant.grm", None, 5),
+        ("context_plant_a.grm", None, 24),
+        ("context_plant_b.grm", None, 20),
+    ];
+    let mut batched = 0;
+    for &(file, system, iterations) in cases {
+        let sys = example(file, system);
+        for seed in [sys.settings.seed, 12345] {
+            let o = opts(&sys, iterations, seed);
+            let what = format!("{file} {system:?} seed {seed}");
+            let (a, pa) = derive_with(g, &sys, &o, DeriveStrategy::Auto).expect("derives");
+            let (b, pb) = derive_with(g, &sys, &o, DeriveStrategy::PerIteration).expect("derives");
+            assert_eq!(pb, DerivePath::PerIteration);
+            // Context-sensitive systems need bracket matching per iteration.
+            let expect = if sys.has_context() {
+                DerivePath::PerIteration
+            } else {
+                DerivePath::Batched
+            };
+            assert_eq!(pa, expect, "{what}");
+            batched += usize::from(pa == DerivePath::Batched);
+            same_bits(&what, &a.string, &b.string);
+            let figures = |d: &grm_gpu::GpuDerivation| {
+                d.stats
+                    .iter()
+                    .map(|s| (s.iteration, s.modules, s.param_words))
+                    .collect::<Vec<_>>()
+            };
+            assert_eq!(figures(&a), figures(&b), "{what}: stats");
+        }
+    }
+    assert!(batched >= 16, "only {batched} batched");
+}
+
+/// Random context-free grammars with conditions, constant and computed
+/// weights, draws and parameter expressions that may go bad (division by
+/// a counter that reaches zero): the batched path gives the per-iteration
+/// path's string, or (after falling back) its exact error.
+#[test]
+fn random_grammars_batched_equal_per_iteration() {
+    let g = gpu();
+    let mut rng = Rng(77);
+    let (mut compared, mut errors, mut batched) = (0, 0, 0);
+    let mut tried = 0;
+    while compared < 60 && tried < 400 {
+        tried += 1;
+        let src = grammar(&mut rng);
+        let Some(sys) = inline(&src) else { continue };
+        let iterations = 1 + rng.below(5) as u32;
+        let seed = rng.below(1000) as u32;
+        let o = GpuDeriveOptions {
+            max_modules: 200_000,
+            ..opts(&sys, iterations, seed)
+        };
+        let a = derive_with(g, &sys, &o, DeriveStrategy::Auto);
+        let b = derive_with(g, &sys, &o, DeriveStrategy::PerIteration);
+        match (&a, &b) {
+            (Ok((a, pa)), Ok((b, _))) => {
+                same_bits(&src, &a.string, &b.string);
+                batched += usize::from(*pa == DerivePath::Batched);
+            }
+            (Err(ea), Err(eb)) => {
+                assert_eq!(ea, eb, "{src}");
+                errors += 1;
+            }
+            _ => panic!(
+                "{src}\nauto: {:?}\nper iteration: {:?}",
+                a.as_ref().map(|(d, p)| (d.string.len(), *p)),
+                b.as_ref().map(|(d, p)| (d.string.len(), *p))
+            ),
+        }
+        compared += 1;
+    }
+    eprintln!("{compared} compared of {tried}: {batched} batched, {errors} errors");
+    assert!(compared >= 60, "only {compared} grammars");
+    assert!(
+        batched >= compared / 2,
+        "only {batched} of {compared} batched"
+    );
+    assert!(errors > 0, "no runtime error exercised the fallback");
+}
+
+fn grammar(rng: &mut Rng) -> String {
+    let pick = |rng: &mut Rng, xs: &[&'static str]| xs[rng.below(xs.len() as u64) as usize];
+    let succ = |rng: &mut Rng| {
+        let mut out = Vec::new();
+        for _ in 0..rng.below(6) {
+            out.push(match rng.below(8) {
+                0 => "A(x + 1)".to_string(),
+                1 => "B(x - 1)".to_string(),
+                2 => "C(randint(0, 4))".to_string(),
+                3 => format!(
+                    "F({})",
+                    pick(rng, &["x / 2", "uniform(0.5, 1)", "1", "10 / x"])
+                ),
+                4 => pick(rng, &["+", "-"]).to_string(),
+                5 => "[ B(x) F(1) ]".to_string(),
+                _ => "D".to_string(),
+            });
+        }
+        out.join(" ")
+    };
+    let mut s = String::from("system R {\n    axiom A(1) B(2) F(1) C(3) D;\n");
+    for _ in 0..2 + rng.below(5) {
+        let pred = pick(rng, &["A", "B", "C", "D"]);
+        let pat = if pred == "D" {
+            "D"
+        } else {
+            &format!("{pred}(x)")
+        };
+        let cond = if pred == "D" {
+            ""
+        } else {
+            pick(
+                rng,
+                &["", "", " : x < 3", " : x % 2 == 0", " : chance(0.5)"],
+            )
+        };
+        let alts = 1 + rng.below(3);
+        for _ in 0..alts {
+            let weight = match (alts, rng.below(3), pred) {
+                (1, _, _) => String::new(),
+                (_, 0, p) if p != "D" => "(abs(x) + 1) ".into(),
+                (_, 1, p) if p != "D" => "(x) ".into(),
+                _ => format!("({}) ", 1 + rng.below(3)),
+            };
+            let body = succ(rng).replace('x', if pred == "D" { "1" } else { "x" });
+            s.push_str(&format!("    {pat}{cond} -> {weight}{body};\n"));
+        }
+    }
+    s.push_str("}\n");
+    s
+}
+
+/// The device's overflow check (here forced: the last string's capacity
+/// set to zero) discards the batched run; the per-iteration path gives the
+/// string.
+#[test]
+fn a_device_overflow_falls_back_to_per_iteration() {
+    let g = gpu();
+    for (file, iterations) in [("hilbert3d.grm", 3), ("stochastic_plant.grm", 4)] {
+        let sys = example(file, None);
+        let o = opts(&sys, iterations, sys.settings.seed);
+        let (a, pa) = derive_with(g, &sys, &o, DeriveStrategy::AutoShrunkCaps).expect("derives");
+        assert_eq!(pa, DerivePath::BatchedThenPerIteration, "{file}");
+        let (b, _) = derive_with(g, &sys, &o, DeriveStrategy::PerIteration).expect("derives");
+        same_bits(file, &a.string, &b.string);
+        assert_eq!(a.stats.len(), b.stats.len());
+    }
+}
+
+/// A bound over the module limit (a conditional production that could
+/// quadruple every module, though it never applies) derives iteration by
+/// iteration, within the limit; a real excess is the per-iteration error.
+#[test]
+fn a_bound_over_a_limit_falls_back_to_per_iteration() {
+    let g = gpu();
+    let src = "system S { axiom A(1) A(2); A(x) : x > 100 -> A(x) A(x) A(x) A(x); A(x) -> A(x + 1) F(x); }";
+    let sys = inline(src).expect("checks");
+    let o = GpuDeriveOptions {
+        max_modules: 100,
+        ..opts(&sys, 6, 0)
+    };
+    let (a, pa) = derive_with(g, &sys, &o, DeriveStrategy::Auto).expect("derives");
+    assert_eq!(pa, DerivePath::PerIteration);
+    let (b, _) = derive_with(g, &sys, &o, DeriveStrategy::PerIteration).expect("derives");
+    same_bits(src, &a.string, &b.string);
+    assert_eq!(a.string.len(), 14);
+    let cpu = cpu_derive(&sys, 6, 0).expect("cpu derives");
+    assert_same(src, &cpu, &a.string);
+    // With room for the bound, the same system is batched.
+    let o = GpuDeriveOptions {
+        max_modules: 1 << 20,
+        ..o
+    };
+    let (c, pc) = derive_with(g, &sys, &o, DeriveStrategy::Auto).expect("derives");
+    assert_eq!(pc, DerivePath::Batched);
+    same_bits(src, &c.string, &b.string);
+    // Over the limit for real: the per-iteration error, whichever path.
+    let src = "system S { axiom A; A -> A A; }";
+    let sys = inline(src).expect("checks");
+    let o = GpuDeriveOptions {
+        max_modules: 100,
+        ..opts(&sys, 8, 0)
+    };
+    let ea = derive_with(g, &sys, &o, DeriveStrategy::Auto).map(|(_, p)| p);
+    let eb = derive_with(g, &sys, &o, DeriveStrategy::PerIteration).map(|(_, p)| p);
+    assert!(
+        matches!(ea, Err(grm_gpu::GpuError::ModuleLimit { iteration: 7, .. })),
+        "{ea:?}"
+    );
+    assert_eq!(ea, eb);
+}
