@@ -156,10 +156,154 @@ codes! {
     ConstantCondition = "W0008", Warning, "constant condition";
     /// A context that names a symbol of the ignore list, so it never matches.
     IgnoredInContext = "W0009", Warning, "context names an ignored symbol";
+
+    // ---- R0xxx: run time -------------------------------------------------
+    // Reported by the engines after a clean check (`grmc derive`, `sample`,
+    // `disasm`, the preview). Codes marked "internal" come only from a bug
+    // in grm or from the environment (docs/diagnostics.md says which).
+
+    // R01xx: compiling (grm-compile, `CompileError`)
+    /// Internal: a program with checker errors reached the compiler.
+    CompiledWithErrors = "R0101", Error, "compiled with errors";
+    /// Internal: meta-parameter values of the wrong count or type.
+    ParamValues = "R0102", Error, "meta-parameter values do not fit";
+    /// A setting that is invalid for the given meta-parameter values.
+    SettingForParams = "R0103", Error, "setting invalid for these meta-parameters";
+    /// A constant module parameter that is NaN or infinite in 32-bit float.
+    NonFiniteConstant = "R0104", Error, "constant not finite in 32-bit float";
+    /// A constant weight that is not a positive finite number in 32-bit float.
+    InvalidConstantWeight = "R0105", Error, "constant weight not positive and finite";
+    /// An expression that needs more evaluation stack than the VM has.
+    ExprNeedsTooMuchStack = "R0106", Error, "expression needs too much stack";
+    /// A system whose tables do not fit the compiled format's operands.
+    TablesTooLarge = "R0107", Error, "compiled tables too large";
+    /// Internal: `[` or `]` in a left context (the parser never makes one).
+    LeftContextBracket = "R0108", Error, "bracket in a left context";
+    /// Internal: an axiom that refers to a module parameter.
+    AxiomBinding = "R0109", Error, "axiom refers to a module parameter";
+
+    // R02xx: deriving (grm-derive `DeriveError`; also grm-gpu)
+    /// The next string would have more modules than the limit.
+    ModuleLimit = "R0201", Error, "module limit exceeded";
+    /// The next iteration would need more memory than the limit.
+    MemoryLimit = "R0202", Error, "memory limit exceeded";
+    /// The next string does not fit 32-bit indices.
+    StringTooLarge = "R0203", Error, "string too large for 32-bit indices";
+    /// A module parameter evaluated to NaN or an infinity.
+    NonFiniteParameter = "R0204", Error, "parameter not finite";
+    /// A weight evaluated to something that is not a positive finite number.
+    InvalidWeight = "R0205", Error, "weight not positive and finite";
+    /// Internal: the bytecode faulted.
+    BytecodeFault = "R0206", Error, "bytecode fault";
+    /// Internal: inconsistent compiled tables.
+    InvalidTables = "R0207", Error, "invalid compiled tables";
+    /// Internal: a module string that does not fit its system.
+    InvalidModuleString = "R0208", Error, "invalid module string";
+    /// Internal (environment): the worker threads could not start.
+    ThreadPool = "R0209", Error, "thread pool failed";
+
+    // R03xx: guided sampling (grm-sample, `SampleError`)
+    /// `grmc sample` on a system without `mode = sample;`.
+    NotSampleSystem = "R0301", Error, "not a sample system";
+    /// A module parameter evaluated to NaN or an infinity while sampling.
+    SampleNonFinite = "R0302", Error, "parameter not finite while sampling";
+    /// A weight that is not a positive finite number while sampling.
+    SampleInvalidWeight = "R0303", Error, "weight not positive and finite while sampling";
+    /// Internal: the bytecode faulted while sampling.
+    SampleBytecodeFault = "R0304", Error, "bytecode fault while sampling";
+    /// The geometry phase went past its depth or expansion limit.
+    GeometryLimit = "R0305", Error, "geometry phase limit exceeded";
+    /// Internal: an expansion the turtle could not interpret.
+    SampleInterpret = "R0306", Error, "expansion cannot be interpreted";
+    /// Internal (environment): the sampler's worker threads could not start.
+    SampleThreadPool = "R0307", Error, "thread pool failed while sampling";
+    /// Sampling options that cannot be used (a volume weight <= 0, ...).
+    SampleOptions = "R0308", Error, "unusable sampling options";
+
+    // R04xx: building and exporting models (grm-geom)
+    /// Internal: a module string the turtle cannot interpret.
+    InterpretString = "R0401", Error, "string cannot be interpreted";
+    /// Internal: `mesh(id)` with an id the program does not declare.
+    UnknownMeshId = "R0402", Error, "unknown mesh id";
+    /// Internal: `material(id)` with an id the program does not declare.
+    UnknownMaterialId = "R0403", Error, "unknown material id";
+    /// A declared mesh file that cannot be read.
+    MeshUnreadable = "R0404", Error, "mesh file cannot be read";
+    /// A declared mesh file that is not a usable OBJ mesh.
+    MeshMalformed = "R0405", Error, "malformed OBJ mesh";
+    /// An output path whose extension names no export format.
+    UnknownExportFormat = "R0406", Error, "unknown export format";
+    /// The output file could not be written.
+    ExportIo = "R0407", Error, "cannot write the output file";
+    /// A model too large for the output format (glb: 4 GiB).
+    ModelTooLarge = "R0408", Error, "model too large for the format";
+
+    // R05xx: guiding-curves files (grm-guide, `CurvesError`)
+    /// The curves file could not be read.
+    CurvesIo = "R0501", Error, "cannot read the curves file";
+    /// The curves file is not JSON.
+    CurvesSyntax = "R0502", Error, "curves file is not valid JSON";
+    /// The curves file's `version` is not one this grm reads.
+    CurvesVersion = "R0503", Error, "unsupported curves file version";
+    /// A field of the curves file is missing, mistyped, unknown or out of range.
+    CurvesField = "R0504", Error, "invalid field in the curves file";
+
+    // R06xx: the GPU engine (grm-gpu, `GpuError`; limits and production
+    // errors share R0201, R0202 and R0204 to R0206 with the CPU engine)
+    /// Internal (environment): no GPU adapter.
+    GpuNoAdapter = "R0601", Error, "no GPU adapter";
+    /// Internal (environment): the adapter refused to create a device.
+    GpuRequestDevice = "R0602", Error, "GPU device cannot be created";
+    /// A buffer larger than the device allows.
+    GpuBufferTooLarge = "R0603", Error, "GPU buffer over the device limit";
+    /// A count that does not fit the kernels' 32-bit indices.
+    GpuCountOverflow = "R0604", Error, "count too large for GPU indices";
+    /// A dispatch needing more workgroups than the device allows.
+    GpuTooManyWorkgroups = "R0605", Error, "dispatch over the device's workgroup limit";
+    /// A system using something the GPU engine does not implement.
+    GpuUnsupported = "R0606", Error, "not supported on the GPU";
+    /// Internal: a module string with unbalanced brackets on the GPU path.
+    GpuUnbalancedBrackets = "R0607", Error, "unbalanced brackets in a GPU string";
+    /// Internal: malformed input to the GPU engine.
+    GpuInvalidInput = "R0608", Error, "invalid GPU input";
+    /// Internal (environment): wgpu reported an error.
+    GpuDevice = "R0609", Error, "GPU error";
+    /// Internal (environment): the device was lost.
+    GpuDeviceLost = "R0610", Error, "GPU device lost";
+    /// Internal (environment): reading results back from the GPU failed.
+    GpuReadback = "R0611", Error, "GPU read-back failed";
 }
 
 impl std::fmt::Display for Code {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.as_str())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Code;
+    use crate::Severity;
+
+    /// Codes are unique, round-trip through their written form, and the
+    /// letter matches the severity: `E` and `R` errors, `W` warnings.
+    #[test]
+    fn codes_are_unique_and_consistent() {
+        let mut seen = std::collections::BTreeSet::new();
+        for &c in Code::ALL {
+            let s = c.as_str();
+            assert!(seen.insert(s), "{s} is listed twice");
+            assert_eq!(Code::from_str_code(s), Some(c));
+            assert_eq!(s.len(), 5, "{s}");
+            assert!(s[1..].bytes().all(|b| b.is_ascii_digit()), "{s}");
+            let expected = match s.as_bytes()[0] {
+                b'E' | b'R' => Severity::Error,
+                b'W' => Severity::Warning,
+                _ => panic!("{s}: unknown prefix"),
+            };
+            assert_eq!(c.severity(), expected, "{s}");
+            assert!(!c.title().is_empty(), "{s}");
+        }
+        assert_eq!(Code::from_str_code("R9999"), None);
     }
 }
