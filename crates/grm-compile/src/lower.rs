@@ -2,7 +2,7 @@
 
 use std::collections::HashMap;
 
-use grm_diag::{FileId, Span};
+use grm_diag::{Code, Diagnostic, FileId, Span};
 use grm_sema::{
     BinaryOp, Builtin, Group, Program, RandomFn, SymbolKind, System, TContextItem, TExpr,
     TExprKind, TModule, TPattern, Terminal, Ty, UnaryOp, Value,
@@ -47,20 +47,56 @@ pub enum CompileErrorKind {
 
 impl CompileError {
     /// The stable code of this error (`R01xx`: lowering).
-    pub fn code(&self) -> &'static str {
+    pub fn code(&self) -> Code {
         match self.kind {
-            CompileErrorKind::HasErrors => "R0101",
-            CompileErrorKind::Params(_) => "R0102",
-            CompileErrorKind::Settings(_) => "R0103",
-            CompileErrorKind::NonFiniteConstant { .. } => "R0104",
-            CompileErrorKind::BadWeight { .. } => "R0105",
-            CompileErrorKind::TooDeep { .. } => "R0106",
-            CompileErrorKind::TooLarge { .. } => "R0107",
-            CompileErrorKind::LeftContextBracket => "R0108",
-            CompileErrorKind::AxiomBinding => "R0109",
+            CompileErrorKind::HasErrors => Code::CompiledWithErrors,
+            CompileErrorKind::Params(_) => Code::ParamValues,
+            CompileErrorKind::Settings(_) => Code::SettingForParams,
+            CompileErrorKind::NonFiniteConstant { .. } => Code::NonFiniteConstant,
+            CompileErrorKind::BadWeight { .. } => Code::InvalidConstantWeight,
+            CompileErrorKind::TooDeep { .. } => Code::ExprNeedsTooMuchStack,
+            CompileErrorKind::TooLarge { .. } => Code::TablesTooLarge,
+            CompileErrorKind::LeftContextBracket => Code::LeftContextBracket,
+            CompileErrorKind::AxiomBinding => Code::AxiomBinding,
         }
     }
+
+    /// The error as a diagnostic: its code, the message, the primary label
+    /// on the span it names and a help line.
+    pub fn to_diagnostic(&self) -> Diagnostic {
+        let (label, help) = match &self.kind {
+            CompileErrorKind::HasErrors => ("this has errors", INTERNAL),
+            CompileErrorKind::Params(_) => ("in this system", INTERNAL),
+            CompileErrorKind::Settings(_) => (
+                "in this system",
+                "choose meta-parameter values (`--param`) for which the setting is valid",
+            ),
+            CompileErrorKind::NonFiniteConstant { .. } => (
+                "this is not finite in 32-bit float",
+                "32-bit floats hold magnitudes up to about 3.4e38: scale the value down",
+            ),
+            CompileErrorKind::BadWeight { .. } => (
+                "this weight",
+                "weights must be positive finite 32-bit numbers (at most about 3.4e38)",
+            ),
+            CompileErrorKind::TooDeep { .. } => (
+                "this expression",
+                "nest it less deeply on the right: `((a + b) + c) + d` needs less stack than `a + (b + (c + d))`",
+            ),
+            CompileErrorKind::TooLarge { .. } => (
+                "in this system",
+                "split the system, or use fewer spline controls or `choose` alternatives in one call",
+            ),
+            CompileErrorKind::LeftContextBracket => ("this bracket", INTERNAL),
+            CompileErrorKind::AxiomBinding => ("this refers to a module parameter", INTERNAL),
+        };
+        Diagnostic::new(self.code(), self.to_string(), self.file, self.span, label).with_help(help)
+    }
 }
+
+/// The help line of errors that only a bug in grm can cause.
+const INTERNAL: &str =
+    "this is an internal error of grm; please report it with the file that caused it";
 
 impl std::fmt::Display for CompileError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -70,12 +106,16 @@ impl std::fmt::Display for CompileError {
             }
             CompileErrorKind::Params(m) => write!(f, "meta-parameters: {m}"),
             CompileErrorKind::Settings(m) => write!(f, "setting: {m}"),
-            CompileErrorKind::NonFiniteConstant { value } => {
-                write!(f, "module parameter is {value} in 32-bit float")
-            }
-            CompileErrorKind::BadWeight { value } => {
-                write!(f, "weight {value} is not a positive finite number")
-            }
+            CompileErrorKind::NonFiniteConstant { value } => write!(
+                f,
+                "module parameter {} is not finite in 32-bit float",
+                number(*value)
+            ),
+            CompileErrorKind::BadWeight { value } => write!(
+                f,
+                "weight {} is not a positive finite 32-bit number",
+                number(*value)
+            ),
             CompileErrorKind::TooDeep { depth } => write!(
                 f,
                 "expression needs {depth} stack slots; at most {} are available",
@@ -91,6 +131,16 @@ impl std::fmt::Display for CompileError {
 }
 
 impl std::error::Error for CompileError {}
+
+/// A number as a message shows it: very large or small magnitudes in
+/// exponent form (`1e60`, not sixty digits).
+fn number(v: f64) -> String {
+    if v.is_finite() && v != 0.0 && !(1e-6..1e16).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
 
 /// Compile `system` of `program` with the meta-parameter values `params`
 /// (indexed by `grm_sema::ParamId`; [`Program::default_params`] gives the

@@ -1,7 +1,7 @@
 //! Typed derivation errors, each with a stable code (`R02xx`) and a place.
 
 use grm_compile::vm::VmError;
-use grm_diag::{FileId, Span};
+use grm_diag::{Code, Diagnostic, FileId, Span};
 
 /// Why a derivation stopped.
 #[derive(Clone, Debug, PartialEq)]
@@ -77,19 +77,34 @@ pub enum RuntimeErrorKind {
 
 impl DeriveError {
     /// The stable code: `R02xx`.
-    pub fn code(&self) -> &'static str {
+    pub fn code(&self) -> Code {
         match self {
-            DeriveError::ModuleLimit { .. } => "R0201",
-            DeriveError::MemoryLimit { .. } => "R0202",
-            DeriveError::TooLarge { .. } => "R0203",
+            DeriveError::ModuleLimit { .. } => Code::ModuleLimit,
+            DeriveError::MemoryLimit { .. } => Code::MemoryLimit,
+            DeriveError::TooLarge { .. } => Code::StringTooLarge,
             DeriveError::Runtime(e) => match e.kind {
-                RuntimeErrorKind::NonFinite { .. } => "R0204",
-                RuntimeErrorKind::BadWeight { .. } => "R0205",
-                RuntimeErrorKind::Fault(_) => "R0206",
+                RuntimeErrorKind::NonFinite { .. } => Code::NonFiniteParameter,
+                RuntimeErrorKind::BadWeight { .. } => Code::InvalidWeight,
+                RuntimeErrorKind::Fault(_) => Code::BytecodeFault,
             },
-            DeriveError::InvalidTables(_) => "R0207",
-            DeriveError::InvalidInput(_) => "R0208",
-            DeriveError::ThreadPool(_) => "R0209",
+            DeriveError::InvalidTables(_) => Code::InvalidTables,
+            DeriveError::InvalidInput(_) => Code::InvalidModuleString,
+            DeriveError::ThreadPool(_) => Code::ThreadPool,
+        }
+    }
+
+    /// The error as a diagnostic: code, message, the primary label on the
+    /// span it names (errors that name none point at `file`/`span`, the
+    /// system being derived) and the help line.
+    pub fn to_diagnostic(&self, file: FileId, span: Span) -> Diagnostic {
+        let (file, span, label) = match self.location() {
+            Some((f, s)) => (f, s, self.label()),
+            None => (file, span, "while deriving this system".to_string()),
+        };
+        let d = Diagnostic::new(self.code(), self.to_string(), file, span, label);
+        match self.help() {
+            Some(h) => d.with_help(h),
+            None => d,
         }
     }
 
@@ -137,12 +152,20 @@ impl DeriveError {
                 RuntimeErrorKind::BadWeight { .. } => {
                     Some("weights must be positive: e.g. `max(w, 0.001)`".into())
                 }
-                RuntimeErrorKind::Fault(_) => None,
+                RuntimeErrorKind::Fault(_) => Some(INTERNAL.into()),
             },
-            _ => None,
+            DeriveError::InvalidTables(_) | DeriveError::InvalidInput(_) => Some(INTERNAL.into()),
+            DeriveError::ThreadPool(_) => Some(
+                "the operating system refused the worker threads: run with `--threads 1`, or free resources"
+                    .into(),
+            ),
         }
     }
 }
+
+/// The help line of errors that only a bug in grm can cause.
+const INTERNAL: &str =
+    "this is an internal error of grm; please report it with the file that caused it";
 
 fn mib(bytes: u64) -> String {
     format!("{:.1} MiB", bytes as f64 / (1024.0 * 1024.0))

@@ -6,6 +6,7 @@ mod common;
 
 use common::*;
 use grm_derive::{DeriveError, DeriveLimits, DeriveOptions, RuntimeErrorKind, derive};
+use grm_diag::{Code, FileId, Span};
 
 fn run(
     src: &str,
@@ -49,7 +50,7 @@ fn module_limit_stops_before_allocating() {
             }
             other => panic!("{other:?}"),
         }
-        assert_eq!(e.code(), "R0201");
+        assert_eq!(e.code(), Code::ModuleLimit);
         assert_eq!(span_text(src, &e), "Runaway");
         assert!(
             e.to_string()
@@ -118,7 +119,7 @@ fn nan_parameter_points_at_the_expression() {
         assert_eq!(r.position, 0);
         assert_eq!(r.symbol, "A");
         assert!(matches!(r.kind, RuntimeErrorKind::NonFinite { value } if value.is_nan()));
-        assert_eq!(e.code(), "R0204");
+        assert_eq!(e.code(), Code::NonFiniteParameter);
         assert_eq!(span_text(src, &e), "sqrt(x)");
     }
 }
@@ -173,7 +174,7 @@ fn zero_weight_at_run_time() {
     assert_eq!(r.iteration, 2);
     assert_eq!(r.position, 0);
     assert!(matches!(r.kind, RuntimeErrorKind::BadWeight { value } if value == 0.0));
-    assert_eq!(e.code(), "R0205");
+    assert_eq!(e.code(), Code::InvalidWeight);
     assert_eq!(span_text(src, &e), "x");
 }
 
@@ -229,4 +230,75 @@ fn f32_arithmetic_is_exact() {
         let want: Vec<u32> = want.iter().map(|v| v.to_bits()).collect();
         assert_eq!(got, want);
     }
+}
+
+/// A diagnostic points at the span the error names, or at the given
+/// system span when it names none; the help line comes along.
+#[test]
+fn errors_become_diagnostics() {
+    let src = "system S { axiom A(2); A(x) -> A(x - 1) B(sqrt(x)); }";
+    let e = run(src, 10, DeriveLimits::default(), 1).unwrap_err();
+    let d = e.to_diagnostic(FileId(7), Span::new(0, 1));
+    assert_eq!(d.code, Code::NonFiniteParameter);
+    assert_eq!(&src[d.primary().span.range()], "sqrt(x)");
+    assert_eq!(d.primary().file, e.location().expect("a location").0);
+    assert_eq!(d.help, e.help());
+    assert!(d.help.is_some());
+    let e = DeriveError::ThreadPool("no threads".into());
+    let d = e.to_diagnostic(FileId(7), Span::new(3, 4));
+    assert_eq!(d.code, Code::ThreadPool);
+    assert_eq!(
+        (d.primary().file, d.primary().span),
+        (FileId(7), Span::new(3, 4))
+    );
+}
+
+/// Internal R0207: tables that break their invariants are refused before
+/// anything runs.
+#[test]
+fn broken_tables_are_refused() {
+    let mut c = inline("system S { axiom A; A -> F A; }");
+    c.symbols[0].group_count = 1000;
+    let Err(e) = grm_derive::Engine::new(&c, 1) else {
+        panic!("expected invalid tables")
+    };
+    assert!(matches!(e, DeriveError::InvalidTables(_)), "{e:?}");
+    assert_eq!(e.code(), Code::InvalidTables);
+    let d = e.to_diagnostic(c.file, c.span);
+    assert!(
+        d.help.as_deref().is_some_and(|h| h.contains("internal")),
+        "{d:?}"
+    );
+}
+
+/// Internal R0208: a module string that does not fit the system.
+#[test]
+fn foreign_strings_are_refused() {
+    let c = inline("system S { axiom A(1); A(x) -> A(x + 1); }");
+    let engine = grm_derive::Engine::new(&c, 1).expect("engine");
+    let mut s = engine.axiom(0).expect("axiom");
+    s.syms[0] = 99;
+    let e = engine
+        .step(&s, 1, 0, &DeriveLimits::default())
+        .expect_err("unknown symbol");
+    assert!(matches!(e, DeriveError::InvalidInput(_)), "{e:?}");
+    assert_eq!(e.code(), Code::InvalidModuleString);
+}
+
+/// R0203: a string past 32-bit indices, caught before it is allocated.
+#[test]
+fn strings_past_32_bit_indices_are_refused() {
+    let succ = vec!["A"; 1700].join(" ");
+    let src = format!("system Big {{ axiom A; A -> {succ}; }}");
+    let limits = DeriveLimits {
+        max_modules: u64::MAX,
+        max_bytes: u64::MAX,
+    };
+    let e = run(&src, 3, limits, 1).unwrap_err();
+    assert!(
+        matches!(e, DeriveError::TooLarge { iteration: 3, modules, .. } if modules == 1700u64.pow(3)),
+        "{e:?}"
+    );
+    assert_eq!(e.code(), Code::StringTooLarge);
+    assert_eq!(span_text(&src, &e), "Big");
 }

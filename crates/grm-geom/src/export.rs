@@ -27,6 +27,7 @@ use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
+use grm_diag::{Code, Diagnostic, FileId, Span};
 use grm_turtle::{Aabb, Paint};
 use serde_json::{Value as Json, json};
 
@@ -74,6 +75,41 @@ impl ExportError {
             | ExportError::Io { path, .. }
             | ExportError::TooLarge { path } => path,
         }
+    }
+}
+
+impl ExportError {
+    /// The stable code: `R0406` to `R0408`.
+    pub fn code(&self) -> Code {
+        match self {
+            ExportError::UnknownFormat { .. } => Code::UnknownExportFormat,
+            ExportError::Io { .. } => Code::ExportIo,
+            ExportError::TooLarge { .. } => Code::ModelTooLarge,
+        }
+    }
+
+    /// The error as a diagnostic pointing at `file`/`span`, the system
+    /// whose model was being exported (an export names no source place).
+    pub fn to_diagnostic(&self, file: FileId, span: Span) -> Diagnostic {
+        let help = match self {
+            ExportError::UnknownFormat { .. } => {
+                "name the output with the extension of its format: .glb, .obj, .ply or .svg"
+            }
+            ExportError::Io { .. } => {
+                "check that the output's directory exists and that you may write to it"
+            }
+            ExportError::TooLarge { .. } => {
+                "glb files hold at most 4 GiB: export as .obj or .ply, or derive fewer iterations"
+            }
+        };
+        Diagnostic::new(
+            self.code(),
+            self.to_string(),
+            file,
+            span,
+            "the model of this system",
+        )
+        .with_help(help)
     }
 }
 
@@ -180,7 +216,9 @@ fn stage(
     };
     #[cfg(unix)]
     builder.permissions(perms);
-    let mut tmp = builder.tempfile_in(dir).map_err(|e| io_error(path, e))?;
+    let mut tmp = builder
+        .tempfile_in(dir)
+        .map_err(|e| io_error(path, without_temp_path(e)))?;
     {
         let mut w = BufWriter::with_capacity(1 << 16, tmp.as_file_mut());
         write(&mut w).map_err(|e| io_error(path, e))?;
@@ -190,6 +228,17 @@ fn stage(
 }
 
 /// Rename a staged file over `path`.
+/// tempfile's errors read `<the OS error> at path "<temporary file>"`: the
+/// user never asked for that file (and its random name would make the
+/// message differ run to run), so keep only the operating system's error.
+fn without_temp_path(e: io::Error) -> io::Error {
+    let text = e.to_string();
+    match text.split_once(" at path ") {
+        Some((os, _)) => io::Error::new(e.kind(), os.to_string()),
+        None => e,
+    }
+}
+
 fn commit(tmp: tempfile::NamedTempFile, path: &Path) -> Result<(), ExportError> {
     tmp.persist(path).map_err(|e| io_error(path, e.error))?;
     Ok(())

@@ -35,6 +35,7 @@ use std::path::PathBuf;
 
 use glam::Vec3;
 use grm_derive::ModuleString;
+use grm_diag::{Code, Diagnostic, FileId, Span};
 use grm_sema::{MaterialProp, Program, Settings, System, Value};
 use grm_turtle::{Aabb, InstanceKind, Interpretation, Paint, TurtleError};
 
@@ -237,6 +238,68 @@ impl std::fmt::Display for GeomError {
         }
     }
 }
+
+impl GeomError {
+    /// The stable code: `R04xx`.
+    pub fn code(&self) -> Code {
+        match self {
+            GeomError::Turtle(_) => Code::InterpretString,
+            GeomError::UnknownMesh { .. } => Code::UnknownMeshId,
+            GeomError::UnknownMaterial { .. } => Code::UnknownMaterialId,
+            GeomError::MeshMissing { .. } => Code::MeshUnreadable,
+            GeomError::MeshMalformed { .. } => Code::MeshMalformed,
+        }
+    }
+
+    /// The error as a diagnostic. A mesh file's problem points at the
+    /// mesh's declaration in `program` and names the file as written there;
+    /// the others point at `file`/`span`, the system whose model was being
+    /// built.
+    pub fn to_diagnostic(&self, program: &Program, file: FileId, span: Span) -> Diagnostic {
+        let (mesh, message, help) = match self {
+            GeomError::MeshMissing { mesh, message, .. } => (mesh, message, MESH_MISSING_HELP),
+            GeomError::MeshMalformed { mesh, message, .. } => (mesh, message, MESH_MALFORMED_HELP),
+            GeomError::Turtle(_)
+            | GeomError::UnknownMesh { .. }
+            | GeomError::UnknownMaterial { .. } => {
+                let label = "while building the model of this system";
+                return Diagnostic::new(self.code(), self.to_string(), file, span, label)
+                    .with_help(INTERNAL_HELP);
+            }
+        };
+        let Some(m) = program.meshes.iter().find(|m| &m.name == mesh) else {
+            return Diagnostic::new(self.code(), self.to_string(), file, span, "in this model")
+                .with_help(help);
+        };
+        let text = match self {
+            GeomError::MeshMissing { .. } => {
+                format!(
+                    "cannot read mesh `{mesh}` from \"{}\": {message}",
+                    m.written
+                )
+            }
+            _ => format!(
+                "mesh `{mesh}` in \"{}\" is not a valid OBJ file: {message}",
+                m.written
+            ),
+        };
+        Diagnostic::new(
+            self.code(),
+            text,
+            m.loc.file,
+            m.loc.span,
+            "this mesh's file",
+        )
+        .with_help(help)
+    }
+}
+
+const MESH_MISSING_HELP: &str = "mesh paths are relative to the directory of the file that \
+     declares them; make the file readable and run again";
+const MESH_MALFORMED_HELP: &str =
+    "save the mesh as an OBJ file of triangles or polygons with at least one face";
+const INTERNAL_HELP: &str =
+    "this is an internal error of grm; please report it with the file that caused it";
 
 impl std::error::Error for GeomError {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {

@@ -448,3 +448,82 @@ fn exported_files_are_readable() {
     let mode = std::fs::metadata(&path).expect("meta").permissions().mode();
     assert_eq!(mode & 0o777, 0o600);
 }
+
+/// Mesh-file errors point at the mesh's declaration and name the file as
+/// written there; the codes are R0404 (unreadable) and R0405 (malformed).
+#[test]
+fn mesh_errors_become_diagnostics() {
+    use grm_diag::{Code, FileId, Span};
+    let at = (FileId(9), Span::new(0, 1));
+    let dir = tempfile::tempdir().expect("tempdir");
+    let program = mesh_program(dir.path(), Some(b"# nothing\n"));
+    let system = &program.systems[0];
+    let e = build_model(&program, system, &axiom(system), &system.settings).expect_err("no faces");
+    let d = e.to_diagnostic(&program, at.0, at.1);
+    assert_eq!(d.code, Code::MeshMalformed);
+    assert_eq!(d.primary().span, program.meshes[0].loc.span);
+    assert!(d.message.contains("\"leaf.obj\""), "{}", d.message);
+    assert!(
+        !d.message.contains(&*dir.path().to_string_lossy()),
+        "{}",
+        d.message
+    );
+    std::fs::remove_file(dir.path().join("leaf.obj")).expect("rm");
+    let e = build_model(&program, system, &axiom(system), &system.settings).expect_err("gone");
+    let d = e.to_diagnostic(&program, at.0, at.1);
+    assert_eq!(d.code, Code::MeshUnreadable);
+    assert_eq!(d.primary().file, program.meshes[0].loc.file);
+}
+
+/// Internal R0401 to R0403: strings and ids that a checked program never
+/// produces are typed errors with their codes.
+#[test]
+fn internal_geometry_errors_have_codes() {
+    use grm_diag::{Code, FileId, Span};
+    let at = (FileId(9), Span::new(0, 1));
+    // A module string whose offsets break the invariant.
+    let program = program(
+        "m.grm",
+        "material red { color = rgb(1, 0, 0); }\nsystem S { axiom F material(red) F; }",
+    );
+    let system = &program.systems[0];
+    let mut broken = axiom(system);
+    broken.starts.push(7);
+    let e = build_model(&program, system, &broken, &system.settings).expect_err("malformed");
+    assert!(matches!(e, GeomError::Turtle(_)), "{e:?}");
+    assert_eq!(e.code(), Code::InterpretString);
+    let d = e.to_diagnostic(&program, at.0, at.1);
+    assert_eq!((d.primary().file, d.primary().span), at);
+    assert!(d.help.as_deref().is_some_and(|h| h.contains("internal")));
+    // A material id past the program's materials.
+    let mut fewer = program.clone();
+    fewer.materials.clear();
+    let e = build_model(&fewer, system, &axiom(system), &system.settings).expect_err("material");
+    assert!(matches!(e, GeomError::UnknownMaterial { .. }), "{e:?}");
+    assert_eq!(e.code(), Code::UnknownMaterialId);
+    // A mesh id past the program's meshes.
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut meshless = mesh_program(dir.path(), None);
+    meshless.meshes.clear();
+    let system = &meshless.systems[0];
+    let e = build_model(&meshless, system, &axiom(system), &system.settings).expect_err("mesh");
+    assert!(matches!(e, GeomError::UnknownMesh { .. }), "{e:?}");
+    assert_eq!(e.code(), Code::UnknownMeshId);
+}
+
+/// Export errors carry their codes: an unknown extension (R0406) and a
+/// directory that does not exist (R0407).
+#[test]
+fn export_errors_have_codes() {
+    use grm_diag::{Code, FileId, Span};
+    let model = sample_model();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let e = export(&model, &dir.path().join("m.stl")).expect_err("format");
+    assert_eq!(e.code(), Code::UnknownExportFormat);
+    let e = export(&model, &dir.path().join("missing/m.glb")).expect_err("no directory");
+    assert_eq!(e.code(), Code::ExportIo);
+    let d = e.to_diagnostic(FileId(2), Span::new(4, 5));
+    assert_eq!(d.code, Code::ExportIo);
+    assert_eq!(d.primary().span, Span::new(4, 5));
+    assert!(d.help.is_some());
+}

@@ -2,6 +2,8 @@
 
 use std::fmt;
 
+use grm_diag::{Code, Diagnostic, FileId, Span};
+
 /// Everything that can go wrong on the GPU path. Library calls return this;
 /// they never panic on user input and never let a derivation outgrow the
 /// device (sizes are checked before each dispatch).
@@ -91,6 +93,79 @@ pub enum RuntimeKind {
     BadWeight,
     /// The bytecode faulted.
     Fault,
+}
+
+impl GpuError {
+    /// The stable code: `R06xx`, except the limits and production errors,
+    /// which share the CPU engine's codes (R0201, R0202, R0204 to R0206).
+    pub fn code(&self) -> Code {
+        match self {
+            GpuError::NoAdapter(_) => Code::GpuNoAdapter,
+            GpuError::RequestDevice(_) => Code::GpuRequestDevice,
+            GpuError::BufferTooLarge { .. } => Code::GpuBufferTooLarge,
+            GpuError::CountOverflow { .. } => Code::GpuCountOverflow,
+            GpuError::TooManyWorkgroups { .. } => Code::GpuTooManyWorkgroups,
+            GpuError::UnbalancedBrackets { .. } => Code::GpuUnbalancedBrackets,
+            GpuError::ModuleLimit { .. } => Code::ModuleLimit,
+            GpuError::MemoryLimit { .. } => Code::MemoryLimit,
+            GpuError::Runtime { kind, .. } => match kind {
+                RuntimeKind::NonFinite => Code::NonFiniteParameter,
+                RuntimeKind::BadWeight => Code::InvalidWeight,
+                RuntimeKind::Fault => Code::BytecodeFault,
+            },
+            GpuError::Unsupported(_) => Code::GpuUnsupported,
+            GpuError::InvalidInput(_) => Code::GpuInvalidInput,
+            GpuError::Device(_) => Code::GpuDevice,
+            GpuError::DeviceLost(_) => Code::GpuDeviceLost,
+            GpuError::Readback(_) => Code::GpuReadback,
+        }
+    }
+
+    /// The error as a diagnostic pointing at `file`/`span`, the system
+    /// being derived (GPU errors name no source place; a production error
+    /// is best reported by the CPU engine, which names the expression).
+    pub fn to_diagnostic(&self, file: FileId, span: Span) -> Diagnostic {
+        let help = match self {
+            GpuError::NoAdapter(_) | GpuError::RequestDevice(_) => {
+                Some("derive on the CPU (without `--gpu`, or with `--cpu-fallback`)")
+            }
+            GpuError::BufferTooLarge { .. }
+            | GpuError::CountOverflow { .. }
+            | GpuError::TooManyWorkgroups { .. } => Some(
+                "derive fewer iterations, or on the CPU (without `--gpu`, or with `--cpu-fallback`)",
+            ),
+            GpuError::ModuleLimit { .. } => {
+                Some("derive fewer iterations (`-n`), or raise the limit (`--max-modules`)")
+            }
+            GpuError::MemoryLimit { .. } => {
+                Some("derive fewer iterations (`-n`), or raise the limit (`--max-memory`)")
+            }
+            GpuError::Unsupported(_) => Some("derive this system on the CPU (without `--gpu`)"),
+            GpuError::Device(_) | GpuError::DeviceLost(_) | GpuError::Readback(_) => Some(
+                "a problem of the GPU or its driver: try again, or derive on the CPU (`--cpu-fallback`)",
+            ),
+            GpuError::UnbalancedBrackets { .. }
+            | GpuError::InvalidInput(_)
+            | GpuError::Runtime {
+                kind: RuntimeKind::Fault,
+                ..
+            } => Some(
+                "this is an internal error of grm; please report it with the file that caused it",
+            ),
+            GpuError::Runtime { .. } => None,
+        };
+        let d = Diagnostic::new(
+            self.code(),
+            format!("GPU: {self}"),
+            file,
+            span,
+            "while deriving this system on the GPU",
+        );
+        match help {
+            Some(h) => d.with_help(h),
+            None => d,
+        }
+    }
 }
 
 impl fmt::Display for GpuError {

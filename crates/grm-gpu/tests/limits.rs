@@ -3,6 +3,7 @@
 
 mod common;
 use common::*;
+use grm_diag::Code;
 use grm_gpu::{GpuDeriveOptions, GpuError, RuntimeKind, derive};
 
 fn unlimited(iterations: u32) -> GpuDeriveOptions {
@@ -39,7 +40,11 @@ fn a_buffer_over_the_device_limit_is_a_typed_error() {
         k <= 5,
         "this test needs a device limit below 32 GiB (got {limit})"
     );
-    match derive(g, &sys, &unlimited(k + 2)) {
+    let r = derive(g, &sys, &unlimited(k + 2));
+    if let Err(e @ GpuError::BufferTooLarge { .. }) = &r {
+        assert_eq!(e.code(), Code::GpuBufferTooLarge);
+    }
+    match r {
         Err(GpuError::BufferTooLarge {
             bytes, limit: l, ..
         }) => {
@@ -62,7 +67,11 @@ fn a_count_past_32_bits_is_a_typed_error() {
     let g = gpu();
     let succ = vec!["A"; 70_000].join(" ");
     let sys = inline(&format!("system S {{ axiom A; A -> {succ}; }}")).expect("checks");
-    match derive(g, &sys, &unlimited(2)) {
+    let r = derive(g, &sys, &unlimited(2));
+    if let Err(e @ GpuError::CountOverflow { .. }) = &r {
+        assert_eq!(e.code(), Code::GpuCountOverflow);
+    }
+    match r {
         Err(GpuError::CountOverflow { .. }) => {}
         other => panic!(
             "expected CountOverflow, got {:?}",
@@ -82,7 +91,11 @@ fn module_and_memory_limits_stop_before_allocating() {
         max_bytes: u64::MAX,
         sync_iterations: false,
     };
-    match derive(g, &sys, &opts) {
+    let r = derive(g, &sys, &opts);
+    if let Err(e @ GpuError::ModuleLimit { .. }) = &r {
+        assert_eq!(e.code(), Code::ModuleLimit);
+    }
+    match r {
         // Lengths 7, 59, 475, 3803, 30427: iteration 4 is the first over 10,000.
         Err(GpuError::ModuleLimit {
             iteration: 4,
@@ -101,7 +114,11 @@ fn module_and_memory_limits_stop_before_allocating() {
         max_bytes: 100_000,
         sync_iterations: false,
     };
-    match derive(g, &sys, &opts) {
+    let r = derive(g, &sys, &opts);
+    if let Err(e @ GpuError::MemoryLimit { .. }) = &r {
+        assert_eq!(e.code(), Code::MemoryLimit);
+    }
+    match r {
         Err(GpuError::MemoryLimit {
             iteration, bytes, ..
         }) => {
@@ -131,10 +148,14 @@ fn runtime_errors_match_the_cpu() {
     for (src, want) in cases {
         let sys = inline(src).unwrap_or_else(|| panic!("checks: {src}"));
         let cpu = cpu_derive(&sys, 3, 0);
+        let cpu_code = cpu.as_ref().err().map(|e| e.code());
         let Err(grm_derive::DeriveError::Runtime(e)) = cpu else {
             panic!("the CPU derives {src}: {cpu:?}");
         };
-        match derive(g, &sys, &unlimited(3)) {
+        let r = derive(g, &sys, &unlimited(3));
+        // Both engines report the same code.
+        assert_eq!(r.as_ref().err().map(GpuError::code), cpu_code, "{src}");
+        match r {
             Err(GpuError::Runtime {
                 iteration,
                 position,
@@ -153,4 +174,26 @@ fn runtime_errors_match_the_cpu() {
             ),
         }
     }
+}
+
+/// A production binding more parameter words than the kernels hold is
+/// refused before anything runs (R0606); the CPU derives it.
+#[test]
+fn too_many_bound_words_are_unsupported() {
+    let g = gpu();
+    let names: Vec<String> = (0..33).map(|i| format!("a{i}")).collect();
+    let zeros = vec!["0"; 33].join(", ");
+    let src = format!(
+        "system S {{ axiom A({zeros}); A({}) -> A({}); }}",
+        names.join(", "),
+        names.join(", ")
+    );
+    let sys = inline(&src).expect("checks");
+    let e = match derive(g, &sys, &unlimited(1)) {
+        Err(e) => e,
+        Ok(d) => panic!("expected Unsupported, got {} modules", d.string.len()),
+    };
+    assert!(matches!(e, GpuError::Unsupported(_)), "{e:?}");
+    assert_eq!(e.code(), Code::GpuUnsupported);
+    assert!(cpu_derive(&sys, 1, 0).is_ok());
 }

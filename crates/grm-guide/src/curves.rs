@@ -166,6 +166,51 @@ pub struct CurvesError {
     pub kind: CurvesErrorKind,
 }
 
+impl CurvesError {
+    /// The stable code: `R0501` to `R0504`.
+    pub fn code(&self) -> grm_diag::Code {
+        use grm_diag::Code;
+        match self.kind {
+            CurvesErrorKind::Io(_) => Code::CurvesIo,
+            CurvesErrorKind::Syntax { .. } => Code::CurvesSyntax,
+            CurvesErrorKind::UnsupportedVersion(_) => Code::CurvesVersion,
+            CurvesErrorKind::Field { .. } => Code::CurvesField,
+        }
+    }
+
+    /// The error as a diagnostic. Its message names the curves file (and
+    /// the line, curve and field); the primary label is on `file`/`span`,
+    /// the system the curves guide, since the curves file is not grm source.
+    pub fn to_diagnostic(
+        &self,
+        file: grm_diag::FileId,
+        span: grm_diag::Span,
+    ) -> grm_diag::Diagnostic {
+        let help = match self.kind {
+            CurvesErrorKind::Io(_) => {
+                "name the guiding curves with `--curves CURVES.json` (by default FILE.curves.json next to the .grm file)"
+            }
+            CurvesErrorKind::Syntax { .. } => {
+                "the curves file is JSON: fix it at the line and column given"
+            }
+            CurvesErrorKind::UnsupportedVersion(_) => {
+                "write `\"version\": 1`, the format docs/curves.md describes"
+            }
+            CurvesErrorKind::Field { .. } => {
+                "docs/curves.md lists every field, its type and its range"
+            }
+        };
+        grm_diag::Diagnostic::new(
+            self.code(),
+            self.to_string(),
+            file,
+            span,
+            "guided by these curves",
+        )
+        .with_help(help)
+    }
+}
+
 impl fmt::Display for CurvesError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let file = &self.file;

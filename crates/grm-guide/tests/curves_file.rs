@@ -324,3 +324,31 @@ fn missing_file_is_an_io_error_naming_the_path() {
             .starts_with("no/such/dir/x.curves.json: cannot read: ")
     );
 }
+
+/// Each kind of curves error has its code (R0501 to R0504), and its
+/// diagnostic keeps the message and points where it is told to.
+#[test]
+fn curves_errors_have_codes() {
+    use grm_diag::{Code, FileId, Span};
+    let io = Curves::load("no/such/dir/x.curves.json").unwrap_err();
+    let syntax = Curves::from_json_str("f.json", "{ \"version\": 1 } x").unwrap_err();
+    let version =
+        Curves::from_json_str("f.json", "{ \"version\": 2, \"curves\": [] }").unwrap_err();
+    let field = Curves::from_json_str("f.json", "{ \"version\": 1 }").unwrap_err();
+    for (e, code) in [
+        (io, Code::CurvesIo),
+        (syntax, Code::CurvesSyntax),
+        (version, Code::CurvesVersion),
+        (field, Code::CurvesField),
+    ] {
+        assert_eq!(e.code(), code, "{e}");
+        let d = e.to_diagnostic(FileId(1), Span::new(2, 3));
+        assert_eq!(d.code, code);
+        assert_eq!(d.message, e.to_string());
+        assert_eq!(
+            (d.primary().file, d.primary().span),
+            (FileId(1), Span::new(2, 3))
+        );
+        assert!(d.help.is_some());
+    }
+}

@@ -2,7 +2,7 @@
 //! there is one, the place in the source.
 
 use grm_compile::vm::VmError;
-use grm_diag::{FileId, Span};
+use grm_diag::{Code, Diagnostic, FileId, Span};
 
 /// Why sampling stopped.
 #[derive(Clone, Debug, PartialEq)]
@@ -66,18 +66,39 @@ pub enum ExpandErrorKind {
 
 impl SampleError {
     /// The stable code: `R03xx`.
-    pub fn code(&self) -> &'static str {
+    pub fn code(&self) -> Code {
         match self {
-            SampleError::NotSampleSystem { .. } => "R0301",
+            SampleError::NotSampleSystem { .. } => Code::NotSampleSystem,
             SampleError::Runtime(e) => match e.kind {
-                ExpandErrorKind::NonFinite { .. } => "R0302",
-                ExpandErrorKind::BadWeight { .. } => "R0303",
-                ExpandErrorKind::Fault(_) => "R0304",
+                ExpandErrorKind::NonFinite { .. } => Code::SampleNonFinite,
+                ExpandErrorKind::BadWeight { .. } => Code::SampleInvalidWeight,
+                ExpandErrorKind::Fault(_) => Code::SampleBytecodeFault,
             },
-            SampleError::GeometryLimit { .. } => "R0305",
-            SampleError::Turtle(_) => "R0306",
-            SampleError::ThreadPool(_) => "R0307",
-            SampleError::Options(_) => "R0308",
+            SampleError::GeometryLimit { .. } => Code::GeometryLimit,
+            SampleError::Turtle(_) => Code::SampleInterpret,
+            SampleError::ThreadPool(_) => Code::SampleThreadPool,
+            SampleError::Options(_) => Code::SampleOptions,
+        }
+    }
+
+    /// The error as a diagnostic: code, message, the primary label on the
+    /// span it names (errors that name none point at `file`/`span`, the
+    /// system being sampled) and the help line.
+    pub fn to_diagnostic(&self, file: FileId, span: Span) -> Diagnostic {
+        let (file, span, label) = match self.location() {
+            Some((f, s)) => (f, s, self.label()),
+            None => {
+                let label = match self {
+                    SampleError::NotSampleSystem { .. } => "this system has no `mode = sample;`",
+                    _ => "while sampling this system",
+                };
+                (file, span, label.to_string())
+            }
+        };
+        let d = Diagnostic::new(self.code(), self.to_string(), file, span, label);
+        match self.help() {
+            Some(h) => d.with_help(h),
+            None => d,
         }
     }
 
@@ -117,16 +138,25 @@ impl SampleError {
                 ExpandErrorKind::BadWeight { .. } => {
                     Some("weights must be positive: e.g. `max(w, 0.001)`".into())
                 }
-                ExpandErrorKind::Fault(_) => None,
+                ExpandErrorKind::Fault(_) => Some(INTERNAL.into()),
             },
             SampleError::GeometryLimit { what, .. } => Some(match what {
                 LimitKind::Depth => "make the recursion of the geometry symbols end sooner (a condition on a counter), or raise the limit".into(),
                 LimitKind::Expansions => "geometry symbols expand into too many modules: end their recursion sooner, or raise the limit".into(),
             }),
-            _ => None,
+            SampleError::Turtle(_) => Some(INTERNAL.into()),
+            SampleError::ThreadPool(_) => Some(
+                "the operating system refused the worker threads: run with `--threads 1`, or free resources"
+                    .into(),
+            ),
+            SampleError::Options(_) => None,
         }
     }
 }
+
+/// The help line of errors that only a bug in grm can cause.
+const INTERNAL: &str =
+    "this is an internal error of grm; please report it with the file that caused it";
 
 impl std::fmt::Display for SampleError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {

@@ -70,6 +70,15 @@ impl Schedule {
         }
     }
 
+    /// The same schedule over `generations` generations (at least 1), the
+    /// heuristic ramp again ending at 40% of the run (`grmc sample
+    /// --generations`).
+    pub fn with_generations(mut self, generations: u32) -> Schedule {
+        self.generations = generations.max(1);
+        self.heuristic_until = ((u64::from(self.generations) * 2).div_ceil(5)) as u32;
+        self
+    }
+
     /// The same schedule without the heuristic.
     pub fn without_heuristic(mut self) -> Schedule {
         self.heuristic_scale = 0.0;
@@ -129,6 +138,19 @@ mod tests {
             (5700..5800).contains(&s.total_steps()),
             "{}",
             s.total_steps()
+        );
+    }
+
+    #[test]
+    fn fewer_generations_shorten_the_heuristic_ramp() {
+        let s = Schedule::calder_playground().with_generations(3);
+        assert_eq!((s.generations, s.heuristic_until), (3, 2));
+        assert_eq!(s.particles_start, 100);
+        let s = s.with_generations(0);
+        assert_eq!((s.generations, s.heuristic_until), (1, 1));
+        assert_eq!(
+            Schedule::calder_playground().with_generations(100),
+            Schedule::calder_playground()
         );
     }
 

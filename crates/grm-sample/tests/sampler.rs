@@ -330,7 +330,7 @@ system Runaway {
         ..SampleOptions::default()
     };
     let e = s.sample(&opts).expect_err("runs away");
-    assert_eq!(e.code(), "R0305");
+    assert_eq!(e.code(), grm_diag::Code::GeometryLimit);
     assert!(matches!(
         e,
         SampleError::GeometryLimit {
@@ -381,7 +381,7 @@ system Bad {
         ExpectedOptions::default(),
     )
     .expect_err("sqrt(-1) while estimating the expected directions");
-    assert_eq!(e.code(), "R0302");
+    assert_eq!(e.code(), grm_diag::Code::SampleNonFinite);
     let (_, span) = e.location().expect("span");
     assert_eq!(&src[span.start as usize..span.end as usize], "sqrt(x - 1)");
 }
@@ -399,7 +399,7 @@ fn derive_systems_are_refused() {
         ExpectedOptions::default(),
     )
     .expect_err("not a sample system");
-    assert_eq!(e.code(), "R0301");
+    assert_eq!(e.code(), grm_diag::Code::NotSampleSystem);
 }
 
 #[test]
@@ -434,4 +434,57 @@ fn vine_wall_example_samples() {
         .build(&p, &grm_geom::BuildOptions::default())
         .expect("builds");
     assert!(model.stats.triangles > 0);
+}
+
+/// Errors become diagnostics: the span they name, or the system's name
+/// when they name none; internal ones say so in their help line.
+#[test]
+fn errors_become_diagnostics() {
+    use grm_diag::{Code, FileId, Span};
+    let p = example("koch_island.grm");
+    let c = compile(&p, 0);
+    let curves = calder_curves();
+    let e = Sampler::new(
+        &p.systems[0],
+        &c,
+        &curves,
+        Objective::Curves,
+        ExpectedOptions::default(),
+    )
+    .expect_err("not a sample system");
+    let d = e.to_diagnostic(c.file, c.span);
+    assert_eq!(d.code, Code::NotSampleSystem);
+    assert_eq!((d.primary().file, d.primary().span), (c.file, c.span));
+    assert!(
+        d.help
+            .as_deref()
+            .is_some_and(|h| h.contains("mode = sample"))
+    );
+    let at = (FileId(3), Span::new(1, 2));
+    for (e, code) in [
+        (
+            SampleError::Turtle("module range 5..9".into()),
+            Code::SampleInterpret,
+        ),
+        (
+            SampleError::Runtime(ExpandError {
+                phase: "skeleton",
+                symbol: "A".into(),
+                kind: ExpandErrorKind::Fault(grm_compile::vm::VmError {
+                    pc: 3,
+                    fault: grm_compile::vm::VmFault::StackUnderflow,
+                }),
+                file: FileId(3),
+                span: Span::new(5, 6),
+            }),
+            Code::SampleBytecodeFault,
+        ),
+    ] {
+        let d = e.to_diagnostic(at.0, at.1);
+        assert_eq!(d.code, code);
+        assert!(
+            d.help.as_deref().is_some_and(|h| h.contains("internal")),
+            "{d:?}"
+        );
+    }
 }

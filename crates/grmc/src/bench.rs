@@ -148,13 +148,13 @@ fn derive_bench(args: DeriveBench) -> Outcome {
         // engine (cold: every string in fresh memory).
         let mut engine_run = |threads: usize| -> Result<(Duration, Duration, u64), Outcome> {
             let engine =
-                Engine::new(c, threads).map_err(|e| report_derive_error(&loaded.sources, &e))?;
+                Engine::new(c, threads).map_err(|e| report_derive_error(&loaded.sources, c, &e))?;
             let mut cold = None;
             let (warm, produced) = best(args.runs.max(2), || {
                 let t = Instant::now();
                 let d = engine
                     .derive(&opts, &mut |_| {})
-                    .map_err(|e| report_derive_error(&loaded.sources, &e))?;
+                    .map_err(|e| report_derive_error(&loaded.sources, c, &e))?;
                 cold.get_or_insert(t.elapsed());
                 final_len = d.string.len() as u64;
                 let produced = d.stats.last().map_or(0, |s| s.cumulative_modules);

@@ -1,10 +1,10 @@
 //! `grmc derive FILE`: check, compile and derive one system; print
 //! statistics or the string, or build and export the model.
 //!
-//! Also the helpers `grmc disasm` and `grmc bench` share: loading and
-//! compiling a system with `--param` overrides, and rendering run-time
-//! errors (codes `R01xx` from the compiler, `R02xx` from the engine) with
-//! the source span they name.
+//! Also the helpers `grmc disasm`, `grmc sample` and `grmc bench` share:
+//! loading and compiling a system with `--param` overrides, and rendering
+//! run-time errors (codes `R0xxx`, docs/diagnostics.md) through
+//! `grm_diag::render_human`, like `grmc check` renders its diagnostics.
 
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
@@ -12,8 +12,8 @@ use std::time::{Duration, Instant};
 
 use grm_compile::CompiledSystem;
 use grm_derive::{DeriveError, DeriveLimits, DeriveOptions, Engine, IterationStats};
-use grm_diag::{FileId, Severity, SourceMap, Span};
-use grm_sema::{Program, Ty, Value};
+use grm_diag::{Diagnostic, Severity, SourceMap};
+use grm_sema::Program;
 
 use crate::Outcome;
 
@@ -122,28 +122,14 @@ pub fn load(path: &Path, system: Option<&str>, params: &[String]) -> Result<Load
         }
         return Err(Outcome::Usage);
     };
-    let values = param_values(&program, params).map_err(|m| {
+    let values = grm_compile::param_values(&program, params).map_err(|m| {
         eprintln!("error: {m}");
         Outcome::Usage
     })?;
     let compiled = match grm_compile::compile(&program, &program.systems[index], &values) {
         Ok(c) => c,
         Err(e) => {
-            let span = e.span;
-            let file = e.file;
-            eprint!(
-                "{}",
-                render(
-                    &sources,
-                    &Report {
-                        code: e.code(),
-                        message: e.to_string(),
-                        file: Some((file, span)),
-                        label: "here".into(),
-                        help: None,
-                    }
-                )
-            );
+            emit(&sources, &e.to_diagnostic());
             return Err(Outcome::InputErrors);
         }
     };
@@ -155,131 +141,19 @@ pub fn load(path: &Path, system: Option<&str>, params: &[String]) -> Result<Load
     })
 }
 
-/// The meta-parameter values: the defaults, with `NAME=VALUE` overrides.
-pub fn param_values(program: &Program, overrides: &[String]) -> Result<Vec<Value>, String> {
-    let mut values = program.default_params();
-    for o in overrides {
-        let Some((name, text)) = o.split_once('=') else {
-            return Err(format!("`--param {o}`: write it as NAME=VALUE"));
-        };
-        let (name, text) = (name.trim(), text.trim());
-        let Some(id) = program.param_by_name(name) else {
-            let known: Vec<&str> = program.params.iter().map(|p| p.name.as_str()).collect();
-            return Err(if known.is_empty() {
-                format!("unknown meta-parameter `{name}`: the file declares none")
-            } else {
-                format!(
-                    "unknown meta-parameter `{name}`; the file declares: {}",
-                    known.join(", ")
-                )
-            });
-        };
-        let p = &program.params[id.index()];
-        let number = |s: &str| -> Result<f64, String> {
-            s.trim()
-                .parse::<f64>()
-                .ok()
-                .filter(|x| x.is_finite())
-                .ok_or_else(|| format!("`--param {name}={text}`: `{s}` is not a finite number"))
-        };
-        let v = match p.ty {
-            Ty::Float => {
-                let x = number(text)?;
-                if let Some((lo, hi)) = p.range
-                    && !(lo..=hi).contains(&x)
-                {
-                    return Err(format!(
-                        "`--param {name}={text}`: outside its range {lo} .. {hi}"
-                    ));
-                }
-                Value::Float(x)
-            }
-            Ty::Bool => match text {
-                "true" => Value::Bool(true),
-                "false" => Value::Bool(false),
-                _ => return Err(format!("`--param {name}={text}`: expected true or false")),
-            },
-            Ty::Vec3 => {
-                let parts: Vec<&str> = text.split(',').collect();
-                if parts.len() != 3 {
-                    return Err(format!("`--param {name}={text}`: expected x,y,z"));
-                }
-                Value::Vec3([number(parts[0])?, number(parts[1])?, number(parts[2])?])
-            }
-            other => return Err(format!("`{name}` is a `{other}`; it cannot be overridden")),
-        };
-        values[id.index()] = v;
-    }
-    Ok(values)
+/// Print a run-time error's diagnostic to stderr, like `grmc check` does.
+pub fn emit(sources: &SourceMap, d: &Diagnostic) {
+    eprint!("{}", grm_diag::render_human(d, sources, color()));
 }
 
-/// An error to render: a code, a message, and maybe a labelled span.
-pub struct Report {
-    pub code: &'static str,
-    pub message: String,
-    pub file: Option<(FileId, Span)>,
-    pub label: String,
-    pub help: Option<String>,
-}
-
-/// Render a run-time error like a diagnostic: code, message, the source
-/// span with its label, help.
-pub fn render(sources: &SourceMap, r: &Report) -> String {
-    use ariadne::{Config, IndexType, Label, ReportKind, Source};
-    let Some((file, span)) = r.file else {
-        let mut s = format!("error[{}]: {}\n", r.code, r.message);
-        if let Some(h) = &r.help {
-            s.push_str(&format!("  help: {h}\n"));
-        }
-        return s;
-    };
-    let f = sources.get(file);
-    let len = f.text.len();
-    let start = (span.start as usize).min(len);
-    let end = (span.end as usize).clamp(start, len);
-    let mut report = ariadne::Report::build(ReportKind::Error, (f.path.clone(), start..end))
-        .with_config(
-            Config::default()
-                .with_index_type(IndexType::Byte)
-                .with_color(color()),
-        )
-        .with_code(r.code)
-        .with_message(&r.message)
-        .with_label(Label::new((f.path.clone(), start..end)).with_message(&r.label));
-    if let Some(h) = &r.help {
-        report = report.with_help(h);
-    }
-    let mut out = Vec::new();
-    let cache = (f.path.clone(), Source::from(f.text.clone()));
-    if report.finish().write(cache, &mut out).is_err() {
-        let (line, col) = f.line_col(span.start);
-        return format!(
-            "{}:{}:{}: error[{}]: {}\n",
-            f.path,
-            line + 1,
-            col + 1,
-            r.code,
-            r.message
-        );
-    }
-    String::from_utf8_lossy(&out).into_owned()
-}
-
-/// Render a derivation error; returns the outcome to exit with.
-pub fn report_derive_error(sources: &SourceMap, e: &DeriveError) -> Outcome {
-    eprint!(
-        "{}",
-        render(
-            sources,
-            &Report {
-                code: e.code(),
-                message: e.to_string(),
-                file: e.location(),
-                label: e.label(),
-                help: e.help(),
-            }
-        )
-    );
+/// Render a derivation error of `system` (where errors that name no place
+/// point); returns the outcome to exit with.
+pub fn report_derive_error(
+    sources: &SourceMap,
+    system: &CompiledSystem,
+    e: &DeriveError,
+) -> Outcome {
+    emit(sources, &e.to_diagnostic(system.file, system.span));
     match e {
         DeriveError::ThreadPool(_) => Outcome::Usage,
         _ => Outcome::InputErrors,
@@ -299,19 +173,13 @@ fn ms(d: Duration) -> f64 {
 }
 
 pub fn run(args: DeriveArgs) -> Outcome {
-    if let Some(out) = &args.output
-        && grm_geom::ExportFormat::from_path(out).is_none()
-    {
-        eprintln!(
-            "error: cannot tell the format of {}: use .glb, .obj, .ply or .svg",
-            out.display()
-        );
-        return Outcome::Usage;
-    }
     let loaded = match load(&args.file, args.system.as_deref(), &args.params) {
         Ok(l) => l,
         Err(o) => return o,
     };
+    if let Some(o) = check_output_format(&loaded, args.output.as_deref()) {
+        return o;
+    }
     if args.gpu
         && let Some(o) = crate::gpu::derive(&args, &loaded)
     {
@@ -325,7 +193,7 @@ pub fn run(args: DeriveArgs) -> Outcome {
     };
     let engine = match Engine::new(c, args.threads) {
         Ok(e) => e,
-        Err(e) => return report_derive_error(&loaded.sources, &e),
+        Err(e) => return report_derive_error(&loaded.sources, c, &e),
     };
     let bar = (!args.stats && std::io::stderr().is_terminal() && opts.iterations > 0).then(|| {
         let b = indicatif::ProgressBar::new(u64::from(opts.iterations));
@@ -366,7 +234,7 @@ pub fn run(args: DeriveArgs) -> Outcome {
     }
     let d = match result {
         Ok(d) => d,
-        Err(e) => return report_derive_error(&loaded.sources, &e),
+        Err(e) => return report_derive_error(&loaded.sources, c, &e),
     };
     let total = start.elapsed();
     let last = d.stats.last().copied();
@@ -393,19 +261,50 @@ pub fn run(args: DeriveArgs) -> Outcome {
         let _ = writeln!(out, "{}", d.string.to_text(&c.symbol_names));
     }
     if let Some(path) = &args.output {
-        let system = loaded.system();
-        let model = match grm_geom::build_model(&loaded.program, system, &d.string, &c.settings) {
-            Ok(m) => m,
-            Err(e) => {
-                eprintln!("error: cannot build the model of `{}`: {e}", c.name);
-                return Outcome::InputErrors;
-            }
-        };
-        if let Err(e) = grm_geom::export(&model, path) {
-            eprintln!("error: {e}");
-            return Outcome::Usage;
-        }
-        eprintln!("wrote {}", path.display());
+        return export_string(&loaded, &d.string, path);
     }
+    Outcome::Ok
+}
+
+/// `-o PATH` must name a format grm writes (R0406); `Some` is the outcome
+/// to exit with (the problem was printed).
+pub fn check_output_format(loaded: &Loaded, output: Option<&Path>) -> Option<Outcome> {
+    let path = output?;
+    if grm_geom::ExportFormat::from_path(path).is_some() {
+        return None;
+    }
+    let e = grm_geom::ExportError::UnknownFormat {
+        path: path.to_path_buf(),
+    };
+    let c = &loaded.compiled;
+    emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));
+    Some(Outcome::Usage)
+}
+
+/// Build the model of a derived string and write it to `path`; the
+/// outcome to exit with (errors were printed).
+pub fn export_string(loaded: &Loaded, string: &grm_derive::ModuleString, path: &Path) -> Outcome {
+    let c = &loaded.compiled;
+    let model = match grm_geom::build_model(&loaded.program, loaded.system(), string, &c.settings) {
+        Ok(m) => m,
+        Err(e) => {
+            emit(
+                &loaded.sources,
+                &e.to_diagnostic(&loaded.program, c.file, c.span),
+            );
+            return Outcome::InputErrors;
+        }
+    };
+    export_model(loaded, &model, path)
+}
+
+/// Write a built model to `path`; the outcome to exit with.
+pub fn export_model(loaded: &Loaded, model: &grm_geom::Model, path: &Path) -> Outcome {
+    if let Err(e) = grm_geom::export(model, path) {
+        let c = &loaded.compiled;
+        emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));
+        return Outcome::Usage;
+    }
+    eprintln!("wrote {}", path.display());
     Outcome::Ok
 }

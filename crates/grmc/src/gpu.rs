@@ -17,7 +17,7 @@ use std::time::Instant;
 use grm_gpu::{GpuDeriveOptions, GpuError, GpuRunOptions, TurtleProgram};
 
 use crate::Outcome;
-use crate::derive::{DeriveArgs, Loaded, limits, report_derive_error};
+use crate::derive::{DeriveArgs, Loaded, emit, limits, report_derive_error};
 
 fn ms(d: std::time::Duration) -> f64 {
     d.as_secs_f64() * 1e3
@@ -60,7 +60,7 @@ pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
             eprintln!("note: GPU: {e}; deriving on the CPU (--cpu-fallback)");
             None
         } else {
-            eprintln!("error: GPU: {e}");
+            emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));
             Some(Outcome::Usage)
         }
     };
@@ -98,9 +98,9 @@ pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
                 limits: lim,
             };
             return Some(match grm_derive::derive(c, &cpu, 0, &mut |_| {}) {
-                Err(ce) => report_derive_error(&loaded.sources, &ce),
+                Err(ce) => report_derive_error(&loaded.sources, c, &ce),
                 Ok(_) => {
-                    eprintln!("error: GPU: {e}");
+                    emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));
                     Outcome::InputErrors
                 }
             });
@@ -111,7 +111,7 @@ pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
             | GpuError::CountOverflow { .. }
             | GpuError::UnbalancedBrackets { .. }),
         ) => {
-            eprintln!("error: GPU: {e}");
+            emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));
             return Some(Outcome::InputErrors);
         }
         Err(e) => return fallback(&e),
@@ -145,19 +145,7 @@ pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
         let _ = writeln!(out, "{}", string.to_text(&c.symbol_names));
     }
     if let Some(path) = &args.output {
-        let model =
-            match grm_geom::build_model(&loaded.program, loaded.system(), &string, &c.settings) {
-                Ok(m) => m,
-                Err(e) => {
-                    eprintln!("error: cannot build the model of `{}`: {e}", c.name);
-                    return Some(Outcome::InputErrors);
-                }
-            };
-        if let Err(e) = grm_geom::export(&model, path) {
-            eprintln!("error: {e}");
-            return Some(Outcome::Usage);
-        }
-        eprintln!("wrote {}", path.display());
+        return Some(crate::derive::export_string(loaded, &string, path));
     }
     Some(Outcome::Ok)
 }

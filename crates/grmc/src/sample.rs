@@ -12,7 +12,7 @@ use grm_sample::{
 };
 
 use crate::Outcome;
-use crate::derive::{Report, load, render};
+use crate::derive::{emit, export_model, load};
 
 /// What the search minimizes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -128,20 +128,9 @@ fn ms(d: Duration) -> f64 {
     d.as_secs_f64() * 1e3
 }
 
-fn report(sources: &grm_diag::SourceMap, e: &SampleError) -> Outcome {
-    eprint!(
-        "{}",
-        render(
-            sources,
-            &Report {
-                code: e.code(),
-                message: e.to_string(),
-                file: e.location(),
-                label: e.label(),
-                help: e.help(),
-            }
-        )
-    );
+fn report(loaded: &crate::derive::Loaded, e: &SampleError) -> Outcome {
+    let c = &loaded.compiled;
+    emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));
     match e {
         SampleError::ThreadPool(_) | SampleError::Options(_) => Outcome::Usage,
         _ => Outcome::InputErrors,
@@ -149,15 +138,6 @@ fn report(sources: &grm_diag::SourceMap, e: &SampleError) -> Outcome {
 }
 
 pub fn run(args: SampleArgs) -> Outcome {
-    if let Some(out) = &args.output
-        && grm_geom::ExportFormat::from_path(out).is_none()
-    {
-        eprintln!(
-            "error: cannot tell the format of {}: use .glb, .obj, .ply or .svg",
-            out.display()
-        );
-        return Outcome::Usage;
-    }
     let particles = match args.particles.as_deref().map(parse_particles) {
         Some(Err(m)) => {
             eprintln!("error: {m}");
@@ -177,13 +157,14 @@ pub fn run(args: SampleArgs) -> Outcome {
         Ok(l) => l,
         Err(o) => return o,
     };
+    if let Some(o) = crate::derive::check_output_format(&loaded, args.output.as_deref()) {
+        return o;
+    }
     let curves = match Curves::load(&curves_path) {
         Ok(c) => c,
         Err(e) => {
-            eprintln!("error: {e}");
-            if args.curves.is_none() {
-                eprintln!("  help: name the guiding curves with `--curves CURVES.json`");
-            }
+            let c = &loaded.compiled;
+            emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));
             return match e.kind {
                 grm_guide::CurvesErrorKind::Io(_) => Outcome::Usage,
                 _ => Outcome::InputErrors,
@@ -193,8 +174,7 @@ pub fn run(args: SampleArgs) -> Outcome {
     let c = &loaded.compiled;
     let mut schedule = Schedule::from_settings(&c.settings);
     if let Some(g) = args.generations {
-        schedule.generations = g.max(1);
-        schedule.heuristic_until = (u64::from(schedule.generations) * 2).div_ceil(5) as u32;
+        schedule = schedule.with_generations(g);
     }
     if let Some((a, b)) = particles {
         schedule.particles_start = a;
@@ -222,7 +202,7 @@ pub fn run(args: SampleArgs) -> Outcome {
         ExpectedOptions::default(),
     ) {
         Ok(s) => s,
-        Err(e) => return report(&loaded.sources, &e),
+        Err(e) => return report(&loaded, &e),
     };
     let prepare = t0.elapsed();
     let heuristic = !args.no_heuristic && args.cost == CostKind::Curves;
@@ -239,7 +219,7 @@ pub fn run(args: SampleArgs) -> Outcome {
     };
     let result = match sampler.sample(&opts) {
         Ok(r) => r,
-        Err(e) => return report(&loaded.sources, &e),
+        Err(e) => return report(&loaded, &e),
     };
     let heuristic_text = if heuristic && schedule.heuristic_until > 0 {
         format!(
@@ -325,16 +305,17 @@ pub fn run(args: SampleArgs) -> Outcome {
             let model = match m.build(&loaded.program, &BuildOptions::default()) {
                 Ok(model) => model,
                 Err(e) => {
-                    eprintln!("error: cannot build the model of `{}`: {e}", c.name);
+                    emit(
+                        &loaded.sources,
+                        &e.to_diagnostic(&loaded.program, c.file, c.span),
+                    );
                     return Outcome::InputErrors;
                 }
             };
-            let p = nth_path(path, k);
-            if let Err(e) = grm_geom::export(&model, &p) {
-                eprintln!("error: {e}");
-                return Outcome::Usage;
+            let o = export_model(&loaded, &model, &nth_path(path, k));
+            if o != Outcome::Ok {
+                return o;
             }
-            eprintln!("wrote {}", p.display());
         }
     }
     Outcome::Ok
