@@ -14,10 +14,10 @@ fn diagnostics_doc_lists_every_code() {
     let doc = read("docs/diagnostics.md");
     let mut documented = Vec::new();
     for line in doc.lines() {
-        if let Some(rest) = line.strip_prefix("## ") {
-            if let Some((code, _)) = rest.split_once(':') {
-                documented.push(code.trim().to_string());
-            }
+        if let Some(rest) = line.strip_prefix("## ")
+            && let Some((code, _)) = rest.split_once(':')
+        {
+            documented.push(code.trim().to_string());
         }
     }
     for code in grm_diag::Code::ALL {
@@ -32,6 +32,27 @@ fn diagnostics_doc_lists_every_code() {
         assert!(
             grm_diag::Code::from_str_code(d).is_some(),
             "docs/diagnostics.md documents unknown code {d}"
+        );
+    }
+}
+
+/// The codes the snapshot suites exempt as internal (`grm_tests::runner::
+/// EXEMPT`) say in docs/diagnostics.md that they are internal.
+#[test]
+fn internal_codes_are_documented_as_internal() {
+    let doc = read("docs/diagnostics.md");
+    for (code, why) in grm_tests::runner::EXEMPT {
+        if !why.starts_with("internal") {
+            continue;
+        }
+        let head = format!("{}:", code.as_str());
+        let section = doc
+            .split("\n## ")
+            .find(|s| s.starts_with(&head))
+            .unwrap_or_else(|| panic!("docs/diagnostics.md lacks `## {head}`"));
+        assert!(
+            section.contains("Internal"),
+            "docs/diagnostics.md: {code} is exempt from the snapshot suites as internal; its section must say \"Internal\""
         );
     }
 }

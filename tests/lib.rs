@@ -1,12 +1,15 @@
 //! `grm-tests`: shared helpers for the workspace-level test suites.
 //!
 //! Role: run the real pipeline (parse + check, with the real file loader)
-//! on files under `tests/ui/` and render what a user would see. Inputs:
+//! on files under `tests/ui/` and render what a user would see; for
+//! `tests/run/`, also run the engines as grmc does ([`runner`]). Inputs:
 //! paths relative to this crate. Outputs: plain-text renderings for insta
 //! snapshots and the set of codes produced.
 //!
 //! Invariant: renderings use paths relative to this crate and no colour, so
 //! snapshots are identical on every machine.
+
+pub mod runner;
 
 use grm_diag::SourceMap;
 use std::collections::BTreeSet;

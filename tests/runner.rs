@@ -1,0 +1,466 @@
+//! The run suite's driver: `tests/run/**/*.grm` are checked and then run
+//! through the engines the way `grmc derive`, `grmc sample` and `grmc
+//! disasm` run them, and the diagnostics are rendered as grmc renders them.
+//!
+//! A case declares the codes it must produce on its first line
+//! (`// expect: R0201`) and the command on its second, without `grmc` and
+//! the file: `// run: derive -n 30 --max-modules 1000`. Paths in the
+//! command are relative to this crate's directory (the working directory
+//! of cargo tests), as if `grmc` ran there: `--curves
+//! ../examples/calder_tree.curves.json`.
+//!
+//! Invariants: the driver makes the same library calls as grmc in the same
+//! order and stops at the first error, as grmc does; it never writes a
+//! file (an export to a relative path, which would land in the source
+//! tree, is refused: cases export only to paths that cannot be written).
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+use grm_compile::CompiledSystem;
+use grm_diag::{Code, Diagnostic};
+use grm_sema::Program;
+
+/// Codes the run suite does not cover, with the reason. Every other code
+/// has a case under `tests/ui/` or `tests/run/`; each of these is
+/// documented as such in docs/diagnostics.md and, where feasible, has a
+/// test in the crate that reports it (named in the reason).
+pub const EXEMPT: &[(Code, &str)] = &[
+    // Internal: only a bug in grm produces them.
+    (
+        Code::CompiledWithErrors,
+        "internal: grmc never compiles a program with errors (grm-compile tests/errors.rs)",
+    ),
+    (
+        Code::ParamValues,
+        "internal: grmc and the preview validate --param values first (grm-compile tests/errors.rs)",
+    ),
+    (
+        Code::LeftContextBracket,
+        "internal: the parser allows no bracket in a left context (grm-compile tests/errors.rs)",
+    ),
+    (
+        Code::AxiomBinding,
+        "internal: the checker resolves no module parameter in an axiom (grm-compile tests/errors.rs)",
+    ),
+    (
+        Code::BytecodeFault,
+        "internal: verified bytecode cannot fault (grm-derive tests/limits.rs renders one)",
+    ),
+    (
+        Code::InvalidTables,
+        "internal: compiled tables are valid (grm-derive tests/limits.rs)",
+    ),
+    (
+        Code::InvalidModuleString,
+        "internal: only a library caller passes a foreign string (grm-derive tests/limits.rs)",
+    ),
+    (
+        Code::SampleBytecodeFault,
+        "internal: verified bytecode cannot fault (grm-sample tests/sampler.rs renders one)",
+    ),
+    (
+        Code::SampleInterpret,
+        "internal: the sampler's expansions are well formed (grm-sample tests/sampler.rs renders one)",
+    ),
+    (
+        Code::InterpretString,
+        "internal: derived strings are well formed (grm-geom tests/export.rs)",
+    ),
+    (
+        Code::UnknownMeshId,
+        "internal: mesh ids come from checked names (grm-geom tests/export.rs)",
+    ),
+    (
+        Code::UnknownMaterialId,
+        "internal: material ids come from checked names (grm-geom tests/export.rs)",
+    ),
+    (
+        Code::GpuUnbalancedBrackets,
+        "internal: checked systems balance their brackets (GPU only)",
+    ),
+    (
+        Code::GpuInvalidInput,
+        "internal: only a library caller passes malformed input (GPU only)",
+    ),
+    // Internal (environment): the machine, not the input, decides.
+    (
+        Code::ThreadPool,
+        "internal (environment): the OS refuses threads (grm-derive tests/limits.rs renders one)",
+    ),
+    (
+        Code::SampleThreadPool,
+        "internal (environment): the OS refuses threads",
+    ),
+    (
+        Code::GpuNoAdapter,
+        "internal (environment): depends on the machine's GPU",
+    ),
+    (
+        Code::GpuRequestDevice,
+        "internal (environment): depends on the machine's GPU",
+    ),
+    (
+        Code::GpuDevice,
+        "internal (environment): a wgpu or driver error",
+    ),
+    (
+        Code::GpuDeviceLost,
+        "internal (environment): a wgpu or driver error",
+    ),
+    (
+        Code::GpuReadback,
+        "internal (environment): a wgpu or driver error",
+    ),
+    // Not internal, but not coverable by this CPU-only, file-based suite.
+    (
+        Code::GpuBufferTooLarge,
+        "needs a GPU adapter, which this suite does not assume (grm-gpu tests/limits.rs)",
+    ),
+    (
+        Code::GpuCountOverflow,
+        "needs a GPU adapter, which this suite does not assume (grm-gpu tests/limits.rs)",
+    ),
+    (
+        Code::GpuTooManyWorkgroups,
+        "needs a GPU adapter and a dispatch of over 65535^2 workgroups, beyond any buffer limit",
+    ),
+    (
+        Code::GpuUnsupported,
+        "needs a GPU adapter, which this suite does not assume (grm-gpu tests/limits.rs)",
+    ),
+    (
+        Code::MeshUnreadable,
+        "needs a mesh file that is readable when checked and not when built (a race, or \
+         permissions, which do not apply to root): grm-geom tests/export.rs removes one",
+    ),
+    (
+        Code::TablesTooLarge,
+        "needs a 65,536-control spline: too large for a snapshot (grm-compile tests/errors.rs)",
+    ),
+    (
+        Code::ModelTooLarge,
+        "needs a model of over 4 GiB in memory: not tested",
+    ),
+];
+
+/// The command a run case declares on its second line: `// run: ARGS`.
+pub fn declared_command(text: &str) -> Option<Vec<String>> {
+    let second = text.lines().nth(1)?;
+    let rest = second.trim().strip_prefix("// run:")?;
+    Some(rest.split_whitespace().map(str::to_string).collect())
+}
+
+/// Check and run a case (a path relative to this crate); the source with
+/// the rendered diagnostics as one snapshot body, and the codes produced.
+pub fn run_case(rel: &Path) -> (String, BTreeSet<String>) {
+    let (sources, checked) = crate::check_file(rel);
+    let text = sources.get(grm_diag::FileId(0)).text.clone();
+    let mut out = String::new();
+    for (i, line) in text.lines().enumerate() {
+        out.push_str(&format!("{:>3} | {line}\n", i + 1));
+    }
+    out.push_str("\n----- diagnostics -----\n");
+    let mut diags = checked.diagnostics.clone();
+    let mut usage = None;
+    if !checked.has_errors() {
+        let args = declared_command(&text).unwrap_or_default();
+        match run(rel, &checked.program, &args) {
+            Ok(()) => {}
+            Err(Stop::Diagnostic(d)) => diags.push(*d),
+            Err(Stop::Usage(m)) => usage = Some(m),
+        }
+    }
+    if diags.is_empty() && usage.is_none() {
+        out.push_str("(none)\n");
+    }
+    for d in &diags {
+        out.push_str(&grm_diag::render_human(d, &sources, false));
+    }
+    if let Some(m) = usage {
+        out.push_str(&format!("error: {m}\n"));
+    }
+    let codes = diags.iter().map(|d| d.code.as_str().to_string()).collect();
+    (out, codes)
+}
+
+/// Why a run stopped: a coded diagnostic, or a usage problem grmc prints
+/// as a plain `error:` line.
+enum Stop {
+    Diagnostic(Box<Diagnostic>),
+    Usage(String),
+}
+
+impl From<Diagnostic> for Stop {
+    fn from(d: Diagnostic) -> Stop {
+        Stop::Diagnostic(Box::new(d))
+    }
+}
+
+/// The options of a command line, by name; `-n` and `-o` are the short
+/// forms grmc accepts.
+#[derive(Default)]
+struct Opts {
+    values: Vec<(String, String)>,
+}
+
+impl Opts {
+    fn parse(args: &[String], flags: &[&str], valued: &[&str]) -> Result<Opts, String> {
+        let mut o = Opts::default();
+        let mut it = args.iter();
+        while let Some(a) = it.next() {
+            let name = match a.as_str() {
+                "-n" => "--iterations",
+                "-o" => "--output",
+                other => other,
+            };
+            if flags.contains(&name) {
+                o.values.push((name.to_string(), String::new()));
+            } else if valued.contains(&name) {
+                let v = it.next().ok_or_else(|| format!("`{name}` needs a value"))?;
+                o.values.push((name.to_string(), v.clone()));
+            } else {
+                return Err(format!("the run suite does not support `{a}`"));
+            }
+        }
+        Ok(o)
+    }
+
+    fn get(&self, name: &str) -> Option<&str> {
+        self.values
+            .iter()
+            .rev()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v.as_str())
+    }
+
+    fn all(&self, name: &str) -> Vec<String> {
+        self.values
+            .iter()
+            .filter(|(n, _)| n == name)
+            .map(|(_, v)| v.clone())
+            .collect()
+    }
+
+    fn has(&self, name: &str) -> bool {
+        self.get(name).is_some()
+    }
+
+    fn number<T: std::str::FromStr>(&self, name: &str) -> Result<Option<T>, String> {
+        self.get(name)
+            .map(|v| {
+                v.parse()
+                    .map_err(|_| format!("`{name} {v}`: not a valid number"))
+            })
+            .transpose()
+    }
+}
+
+fn run(rel: &Path, program: &Program, args: &[String]) -> Result<(), Stop> {
+    let Some((command, rest)) = args.split_first() else {
+        return Err(Stop::Usage(
+            "second line must be `// run: derive|sample|disasm ARGS`".into(),
+        ));
+    };
+    match command.as_str() {
+        "derive" => derive(program, rest),
+        "sample" => sample(rel, program, rest),
+        "disasm" => {
+            let o = Opts::parse(rest, &[], &["--system", "--param"]).map_err(Stop::Usage)?;
+            compile(program, &o).map(|_| ())
+        }
+        other => Err(Stop::Usage(format!("unknown command `{other}`"))),
+    }
+}
+
+/// grmc's `load` after checking: pick the system, apply `--param`s,
+/// compile (R01xx).
+fn compile(program: &Program, o: &Opts) -> Result<(usize, CompiledSystem), Stop> {
+    let index = match o.get("--system") {
+        Some(name) => program.systems.iter().position(|s| s.name == name),
+        None => program
+            .default_system()
+            .and_then(|d| program.systems.iter().position(|s| s.name == d.name)),
+    }
+    .ok_or_else(|| Stop::Usage("no such system".into()))?;
+    let values = grm_compile::param_values(program, &o.all("--param")).map_err(Stop::Usage)?;
+    let compiled = grm_compile::compile(program, &program.systems[index], &values)
+        .map_err(|e| e.to_diagnostic())?;
+    Ok((index, compiled))
+}
+
+/// grmc's `check_output_format` (R0406).
+fn output_format(c: &CompiledSystem, output: Option<&str>) -> Result<(), Stop> {
+    let Some(path) = output else { return Ok(()) };
+    if grm_geom::ExportFormat::from_path(Path::new(path)).is_some() {
+        return Ok(());
+    }
+    let e = grm_geom::ExportError::UnknownFormat {
+        path: PathBuf::from(path),
+    };
+    Err(e.to_diagnostic(c.file, c.span).into())
+}
+
+/// grmc's `export_model` (R0407, R0408), refusing to write into the tree.
+fn export(c: &CompiledSystem, model: &grm_geom::Model, path: &str) -> Result<(), Stop> {
+    let path = Path::new(path);
+    assert!(
+        path.is_absolute(),
+        "run cases export only to absolute paths that cannot be written, not {}",
+        path.display()
+    );
+    grm_geom::export(model, path).map_err(|e| e.to_diagnostic(c.file, c.span).into())
+}
+
+/// `grmc derive` on the CPU.
+fn derive(program: &Program, args: &[String]) -> Result<(), Stop> {
+    let o = Opts::parse(
+        args,
+        &[],
+        &[
+            "--system",
+            "--param",
+            "--iterations",
+            "--seed",
+            "--threads",
+            "--output",
+            "--max-modules",
+            "--max-memory",
+        ],
+    )
+    .map_err(Stop::Usage)?;
+    let (index, c) = compile(program, &o)?;
+    output_format(&c, o.get("--output"))?;
+    let at = |e: grm_derive::DeriveError| Stop::from(e.to_diagnostic(c.file, c.span));
+    let d = grm_derive::DeriveLimits::default();
+    let max_mib: Option<u64> = o.number("--max-memory").map_err(Stop::Usage)?;
+    let opts = grm_derive::DeriveOptions {
+        iterations: o
+            .number("--iterations")
+            .map_err(Stop::Usage)?
+            .unwrap_or(c.settings.iterations),
+        seed: o
+            .number("--seed")
+            .map_err(Stop::Usage)?
+            .unwrap_or(c.settings.seed),
+        limits: grm_derive::DeriveLimits {
+            max_modules: o
+                .number("--max-modules")
+                .map_err(Stop::Usage)?
+                .unwrap_or(d.max_modules),
+            max_bytes: max_mib.map_or(d.max_bytes, |m| m.saturating_mul(1 << 20)),
+        },
+    };
+    let threads = o.number("--threads").map_err(Stop::Usage)?.unwrap_or(1);
+    let engine = grm_derive::Engine::new(&c, threads).map_err(at)?;
+    let derivation = engine.derive(&opts, &mut |_| {}).map_err(at)?;
+    if let Some(path) = o.get("--output") {
+        let system = &program.systems[index];
+        let model = grm_geom::build_model(program, system, &derivation.string, &c.settings)
+            .map_err(|e| Stop::from(e.to_diagnostic(program, c.file, c.span)))?;
+        export(&c, &model, path)?;
+    }
+    Ok(())
+}
+
+/// `grmc sample`.
+fn sample(rel: &Path, program: &Program, args: &[String]) -> Result<(), Stop> {
+    let o = Opts::parse(
+        args,
+        &["--no-heuristic"],
+        &[
+            "--system",
+            "--param",
+            "--curves",
+            "--seed",
+            "--generations",
+            "--particles",
+            "--threads",
+            "--cost",
+            "--volume-weight",
+            "--output",
+        ],
+    )
+    .map_err(Stop::Usage)?;
+    let particles = match o.get("--particles") {
+        Some(s) => {
+            let num = |t: &str| t.trim().parse::<u32>().ok().filter(|&n| n > 0);
+            let (a, b) = s.split_once("..").unwrap_or((s, s));
+            match (num(a), num(b)) {
+                (Some(a), Some(b)) => Some((a, b)),
+                _ => return Err(Stop::Usage(format!("`--particles {s}`: not A..B"))),
+            }
+        }
+        None => None,
+    };
+    let curves_path = match o.get("--curves") {
+        Some(p) => PathBuf::from(p),
+        None => {
+            let stem = rel
+                .file_stem()
+                .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
+            rel.with_file_name(format!("{stem}.curves.json"))
+        }
+    };
+    let (index, c) = compile(program, &o)?;
+    output_format(&c, o.get("--output"))?;
+    let curves = grm_guide::Curves::load(&curves_path)
+        .map_err(|e| Stop::from(e.to_diagnostic(c.file, c.span)))?;
+    let mut schedule = grm_sample::Schedule::from_settings(&c.settings);
+    if let Some(g) = o.number("--generations").map_err(Stop::Usage)? {
+        schedule = schedule.with_generations(g);
+    }
+    if let Some((a, b)) = particles {
+        schedule.particles_start = a;
+        schedule.particles_end = b;
+    }
+    let volume = match o.get("--cost") {
+        None | Some("curves") => false,
+        Some("volume") => true,
+        Some(other) => return Err(Stop::Usage(format!("`--cost {other}`"))),
+    };
+    let objective = if volume {
+        grm_sample::Objective::Volume {
+            options: grm_guide::VolumeOptions::default(),
+            weight: o
+                .number("--volume-weight")
+                .map_err(Stop::Usage)?
+                .unwrap_or(20000.0),
+        }
+    } else {
+        grm_sample::Objective::Curves
+    };
+    let at = |e: grm_sample::SampleError| Stop::from(e.to_diagnostic(c.file, c.span));
+    let sampler = grm_sample::Sampler::new(
+        &program.systems[index],
+        &c,
+        &curves,
+        objective,
+        grm_sample::ExpectedOptions::default(),
+    )
+    .map_err(at)?;
+    let opts = grm_sample::SampleOptions {
+        seed: o
+            .number("--seed")
+            .map_err(Stop::Usage)?
+            .unwrap_or(c.settings.seed),
+        schedule,
+        heuristic: !o.has("--no-heuristic") && !volume,
+        temperature: 1.0,
+        threads: o.number("--threads").map_err(Stop::Usage)?.unwrap_or(1),
+        budget: None,
+        best: 1,
+        max_expansions_per_step: 1000,
+        limits: grm_sample::FinishLimits::default(),
+    };
+    let result = sampler.sample(&opts).map_err(at)?;
+    if let Some(path) = o.get("--output") {
+        for m in &result.models {
+            let model = m
+                .build(program, &grm_geom::BuildOptions::default())
+                .map_err(|e| Stop::from(e.to_diagnostic(program, c.file, c.span)))?;
+            export(&c, &model, path)?;
+        }
+    }
+    Ok(())
+}
