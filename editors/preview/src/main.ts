@@ -563,9 +563,15 @@ class App {
     }
     if (token !== this.spreadToken) return;
     try {
-      await this.transport.request('preview', base);
+      // Live again; if the grammar was edited meanwhile (the server sent no
+      // update while it was not live), this is the model to show.
+      const again = decodePreview(await this.transport.request('preview', base));
+      if (again.version !== r.version && token === this.spreadToken && !this.coalescer.busy) {
+        this.show({ result: again, editedAt: performance.now(), final: true });
+        return;
+      }
     } catch {
-      // The live registration is best effort; the next edit re-registers it.
+      // The next edit or request registers the live preview again.
     }
     if (token !== this.spreadToken) return;
     this.debug.spreadBones = segs.length;
