@@ -270,6 +270,8 @@ test('derive mode: the model renders, a slider regrows it, a pick names the rule
   assert.equal(picked.lastPick?.range.start.line, fLine);
   // The pick focuses the rule: what it grows is highlighted, with its spread over other seeds.
   await page.waitForFunction(() => (globalThis as unknown as { __grm: Grm }).__grm.focusBones > 0, undefined, { timeout: 20_000 });
+  // ...and its spread: the bones it grows with the next seeds, drawn faintly.
+  await page.waitForFunction(() => (globalThis as unknown as { __grm: Grm }).__grm.spreadBones > 0, undefined, { timeout: 30_000 });
   assert.match(await page.textContent('#rule-info') ?? '', new RegExp(`F \\(line ${fLine + 1}\\)`));
   await page.screenshot({ path: join(artifacts, 'derive-pick.png') });
   assert.deepEqual(pageErrors(page), []);
