@@ -142,6 +142,7 @@ test('coalescer: one request in flight, the latest state follows, results in ord
   state = 3;
   c.trigger();
   assert.deepEqual(sent, [1]);
+  assert.equal(c.pending, true, 'edits wait for the request in flight');
   resolvers.shift()!();
   await new Promise((r) => setImmediate(r));
   assert.deepEqual(sent, [1, 3], 'the edits made meanwhile are merged into one request with the latest state');

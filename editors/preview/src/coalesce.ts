@@ -39,6 +39,11 @@ export class Coalescer<S, R> {
     return this.inFlight || this.dirty;
   }
 
+  /** An edit is waiting for its request (a newer state than any in flight). */
+  get pending(): boolean {
+    return this.dirty;
+  }
+
   dispose(): void {
     this.disposed = true;
   }

@@ -552,7 +552,8 @@ class App {
     const segs: [V3, V3][] = [];
     const base = this.state.previewParams();
     for (let k = 1; k <= seeds; k++) {
-      if (token !== this.spreadToken || this.coalescer.busy) return;
+      // Started while the focused model is being delivered: stop only for a newer edit.
+      if (token !== this.spreadToken || this.coalescer.pending) return;
       try {
         const o = decodePreview(await this.transport.request('preview', { ...base, seed: (r.seed + k) >>> 0, live: false }));
         if (!o.focus) continue;
