@@ -299,6 +299,18 @@ test('variations: next variation and the gallery of seeds (a stochastic grammar)
   await page.waitForFunction((n) => (globalThis as unknown as { __grm: Grm }).__grm.seed === n, (g1.seed ?? 0) + 4, { timeout: 10_000 });
   await waitRegrows(page, before.regrows + 1, 'the chosen variation');
   assert.equal(await page.isHidden('#gallery'), true);
+
+  // In a browser a list picks the rule to highlight (in VS Code, the cursor does).
+  const options = await page.$$eval('#rule-select option', (os) => os.map((o) => (o as HTMLOptionElement).value).filter((v) => v !== ''));
+  assert.equal(options.length, 3, 'the three alternatives of F');
+  await page.selectOption('#rule-select', options[1]);
+  await page.waitForFunction(() => (globalThis as unknown as { __grm: Grm }).__grm.spreadBones > 0, undefined, { timeout: 30_000 });
+  const focused = await grm(page);
+  // Everything the production grows is marked, through later rewrites too (it may be the whole plant).
+  assert.ok(focused.focusBones > 0 && focused.focusBones <= focused.bones, JSON.stringify(focused));
+  await page.uncheck('#show-geometry');
+  await page.waitForTimeout(100);
+  await page.screenshot({ path: join(artifacts, 'rule-spread.png') });
   assert.deepEqual(pageErrors(page), []);
   await page.close();
 });

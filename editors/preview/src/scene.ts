@@ -295,13 +295,13 @@ export class PreviewScene {
     if (spread.length > 0) {
       const g = new THREE.BufferGeometry();
       g.setAttribute('position', new THREE.Float32BufferAttribute(spread.flat(2), 3));
-      const lines = new THREE.LineSegments(g, new THREE.LineBasicMaterial({ color: SPREAD_COLOR, transparent: true, opacity: 0.45, depthTest: false }));
+      const lines = new THREE.LineSegments(g, new THREE.LineBasicMaterial({ color: SPREAD_COLOR, transparent: true, opacity: 0.3, depthTest: false }));
       lines.renderOrder = 5;
       this.overlayRoot.add(lines);
       // The tips: where the rule puts things, as dots.
       const tips = new THREE.BufferGeometry();
       tips.setAttribute('position', new THREE.Float32BufferAttribute(spread.flatMap((s) => s[1]), 3));
-      const pts = new THREE.Points(tips, new THREE.PointsMaterial({ color: SPREAD_COLOR, size: 5, sizeAttenuation: false, transparent: true, opacity: 0.7, depthTest: false }));
+      const pts = new THREE.Points(tips, new THREE.PointsMaterial({ color: SPREAD_COLOR, size: 2.5, sizeAttenuation: false, transparent: true, opacity: 0.5, depthTest: false }));
       pts.renderOrder = 6;
       this.overlayRoot.add(pts);
     }
