@@ -47,8 +47,20 @@ fn main() {
         std::hint::black_box(c);
     });
     let ms = |d: Duration| d.as_secs_f64() * 1e3;
-    println!("grmc check benchmark: generated grammar, {lines} lines, {} bytes, {diags} diagnostics", text.len());
+    println!(
+        "grmc check benchmark: generated grammar, {lines} lines, {} bytes, {diags} diagnostics",
+        text.len()
+    );
     println!("  lex    {:>8.3} ms   (baseline)", ms(lex));
-    println!("  parse  {:>8.3} ms   {:>6.2}x lex", ms(parse), ms(parse) / ms(lex));
-    println!("  check  {:>8.3} ms   {:>6.2}x lex   target < 10 ms: {}", ms(check), ms(check) / ms(lex), if ms(check) < 10.0 { "met" } else { "NOT met" });
+    println!(
+        "  parse  {:>8.3} ms   {:>6.2}x lex",
+        ms(parse),
+        ms(parse) / ms(lex)
+    );
+    println!(
+        "  check  {:>8.3} ms   {:>6.2}x lex   target < 10 ms: {}",
+        ms(check),
+        ms(check) / ms(lex),
+        if ms(check) < 10.0 { "met" } else { "NOT met" }
+    );
 }

@@ -1,6 +1,6 @@
 //! `grmc check FILE...`
 
-use crate::{OutputFormat, Outcome};
+use crate::{Outcome, OutputFormat};
 use grm_diag::{Diagnostic, Severity, SourceMap};
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
@@ -41,7 +41,9 @@ pub fn load_and_check(path: &std::path::Path) -> Result<(SourceMap, grm_sema::Ch
                 grm_diag::Span::new(at, at + 1),
                 "invalid byte sequence here",
             )
-            .with_note("grm files are UTF-8 text; invalid bytes were replaced with U+FFFD for checking"),
+            .with_note(
+                "grm files are UTF-8 text; invalid bytes were replaced with U+FFFD for checking",
+            ),
         );
         grm_diag::sort(&mut checked.diagnostics);
     }
@@ -71,7 +73,11 @@ pub fn run(args: CheckArgs) -> Outcome {
             }
             match args.format {
                 OutputFormat::Human => {
-                    let _ = write!(stderr.lock(), "{}", grm_diag::render_human(d, &sources, color));
+                    let _ = write!(
+                        stderr.lock(),
+                        "{}",
+                        grm_diag::render_human(d, &sources, color)
+                    );
                 }
                 OutputFormat::Json => json_items.push(grm_diag::render_json(d, &sources)),
             }

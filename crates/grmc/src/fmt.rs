@@ -47,7 +47,9 @@ pub fn run(args: FmtArgs) -> Outcome {
             // Write to a temporary file and rename it over the original so an
             // interrupted write never leaves a truncated grammar.
             let tmp = path.with_extension("grm.fmt-tmp");
-            if let Err(e) = std::fs::write(&tmp, &formatted).and_then(|()| std::fs::rename(&tmp, path)) {
+            if let Err(e) =
+                std::fs::write(&tmp, &formatted).and_then(|()| std::fs::rename(&tmp, path))
+            {
                 let _ = std::fs::remove_file(&tmp);
                 let _ = writeln!(err, "error: cannot write {}: {e}", path.display());
                 return Outcome::Usage;

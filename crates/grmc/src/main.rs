@@ -21,7 +21,11 @@ use clap::{Parser, Subcommand, ValueEnum};
 use std::process::ExitCode;
 
 #[derive(Parser, Debug)]
-#[command(name = "grmc", version, about = "The grm procedural-modelling toolchain")]
+#[command(
+    name = "grmc",
+    version,
+    about = "The grm procedural-modelling toolchain"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
