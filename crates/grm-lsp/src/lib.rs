@@ -86,6 +86,8 @@ pub(crate) struct Shared {
     roots: Mutex<Vec<PathBuf>>,
     /// When each document was last edited (for the debounce).
     last_edit: Mutex<HashMap<PathBuf, Instant>>,
+    /// Per file: held while its analysis is computed.
+    computing: Mutex<HashMap<PathBuf, Arc<Mutex<()>>>>,
 }
 
 /// The `.grm` files under `roots` (hidden directories, `target` and
@@ -134,6 +136,18 @@ impl Shared {
     /// The current analysis of `path`; when it must be computed, the work
     /// runs without holding the host's lock (edits keep being applied).
     pub(crate) fn analyze(&self, path: &Path) -> Option<Arc<FileAnalysis>> {
+        // One computation per file at a time: a second request for the same
+        // version waits for the first and takes its result from the cache.
+        let gate = self
+            .computing
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .entry(path.to_path_buf())
+            .or_default()
+            .clone();
+        let _one = gate
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
         let job = match self.analysis().lookup(path) {
             Lookup::Ready(fa) => return Some(fa),
             Lookup::Run(job) => job,
@@ -218,6 +232,7 @@ impl Backend {
                 debounce: config.debounce,
                 roots: Mutex::new(Vec::new()),
                 last_edit: Mutex::new(HashMap::new()),
+                computing: Mutex::new(HashMap::new()),
             }),
         }
     }
