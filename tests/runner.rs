@@ -447,6 +447,7 @@ fn sample(rel: &Path, program: &Program, args: &[String]) -> Result<(), Stop> {
         schedule,
         heuristic: !o.has("--no-heuristic") && !volume,
         temperature: 1.0,
+        ess_target: grm_sample::DEFAULT_ESS_TARGET,
         threads: o.number("--threads").map_err(Stop::Usage)?.unwrap_or(1),
         budget: None,
         best: 1,

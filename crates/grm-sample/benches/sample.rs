@@ -10,7 +10,9 @@
 //! per generation of the guided playground runs (mean over seeds).
 //!
 //! Configurations: Calder's playground schedule (100 generations, 100 -> 15
-//! particles, heuristic 0.013 -> 0 by generation 40) and the calder
+//! particles, heuristic 0.013 -> 0 by generation 40; untempered, the
+//! default, then with adaptive tempering to an ESS of 0.5, 0.2 and 0.1 of
+//! the particles) and the calder
 //! library's default (10 generations of 50 particles), each with the
 //! heuristic on and off; the playground schedule with one expansion per
 //! particle step instead of Calder's expand-until-a-bone step, heuristic on
@@ -99,6 +101,8 @@ struct Row {
     bones: Vec<f64>,
     volume: Vec<f64>,
     ess: Vec<Vec<f64>>,
+    /// Per seed, per generation: the tempering factor.
+    beta: Vec<Vec<f64>>,
 }
 
 fn main() {
@@ -160,6 +164,33 @@ fn main() {
             &guided,
             SampleOptions {
                 schedule: playground,
+                ..SampleOptions::default()
+            },
+        ),
+        (
+            "playground, tempered ESS 0.5",
+            &guided,
+            SampleOptions {
+                schedule: playground,
+                ess_target: 0.5,
+                ..SampleOptions::default()
+            },
+        ),
+        (
+            "playground, tempered ESS 0.2",
+            &guided,
+            SampleOptions {
+                schedule: playground,
+                ess_target: 0.2,
+                ..SampleOptions::default()
+            },
+        ),
+        (
+            "playground, tempered ESS 0.1",
+            &guided,
+            SampleOptions {
+                schedule: playground,
+                ess_target: 0.1,
                 ..SampleOptions::default()
             },
         ),
@@ -251,6 +282,7 @@ fn main() {
             bones: Vec::new(),
             volume: Vec::new(),
             ess: Vec::new(),
+            beta: Vec::new(),
         };
         let cpu0 = cpu_seconds();
         for seed in 0..a.seeds {
@@ -274,6 +306,8 @@ fn main() {
                 row.volume.push(v.total());
             }
             row.ess.push(r.ess());
+            row.beta
+                .push(r.generations.iter().map(|g| g.beta).collect());
         }
         if let (Some(c0), Some(c1)) = (cpu0, cpu_seconds()) {
             row.cpu_ms = (c1 - c0) * 1e3 / f64::from(a.seeds * a.runs.max(1));
@@ -323,7 +357,9 @@ fn main() {
     }
 
     for r in &rows {
-        if r.ess.is_empty() || r.ess[0].len() < 2 || !r.name.starts_with("playground, heuristic on")
+        if r.ess.is_empty()
+            || r.ess[0].len() < 2
+            || !(r.name.starts_with("playground, heuristic on") || r.name.contains("tempered"))
         {
             continue;
         }
@@ -352,6 +388,14 @@ fn main() {
             pct(&all, 0.0),
             pct(&all, 100.0),
             100.0 * all.iter().filter(|&&e| e >= 2.0).count() as f64 / all.len() as f64
+        );
+        let betas: Vec<f64> = r.beta.iter().flatten().copied().collect();
+        println!(
+            "  tempering factor beta: mean {:.4}, median {:.4}, min {:.2e}; beta = 1 in {:.0}% of generations",
+            betas.iter().sum::<f64>() / betas.len() as f64,
+            pct(&betas, 50.0),
+            pct(&betas, 0.0),
+            100.0 * betas.iter().filter(|&&b| b == 1.0).count() as f64 / betas.len() as f64
         );
     }
 }

@@ -67,5 +67,5 @@ pub use error::{ExpandError, ExpandErrorKind, LimitKind, SampleError};
 pub use model::{
     DerivationTree, FinishLimits, GenerationStats, NodeKind, SampleResult, SampledModel, TreeNode,
 };
-pub use sampler::{ExpectedOptions, Objective, SampleOptions, Sampler};
+pub use sampler::{DEFAULT_ESS_TARGET, ExpectedOptions, Objective, SampleOptions, Sampler};
 pub use schedule::Schedule;

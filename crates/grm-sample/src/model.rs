@@ -108,8 +108,12 @@ pub struct GenerationStats {
     pub particles: usize,
     /// Of them, those that still had an open skeleton symbol.
     pub expanding: usize,
-    /// Effective sample size of the generation's weights, in `[1, particles]`.
+    /// Effective sample size of the generation's weights (after
+    /// tempering, the weights resampling uses), in `[1, particles]`.
     pub ess: f64,
+    /// The tempering factor of the generation's incremental log-weights
+    /// (1: untempered; `SampleOptions::ess_target`).
+    pub beta: f64,
     /// `HEURISTICSCALE` used.
     pub heuristic_scale: f64,
     /// The lowest objective (without heuristic) among the particles.

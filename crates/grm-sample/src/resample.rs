@@ -74,6 +74,79 @@ pub fn ess(weights: &[f64]) -> f64 {
     if s2 > 0.0 { s * s / s2 } else { 0.0 }
 }
 
+/// ESS of the log-weights `log_w` tempered by `beta > 0` (finite ones
+/// multiplied by `beta`; the others are zero weight), `max` the largest
+/// finite log-weight: `(sum w)^2 / sum w^2` with `w = exp(beta (x - max))`,
+/// summed in particle order. Equals `ess` of [`normalized`] of the
+/// tempered weights when they are all finite or `-inf`.
+fn tempered_ess(log_w: &[f64], beta: f64, max: f64) -> f64 {
+    let (mut s, mut s2) = (0.0f64, 0.0f64);
+    for &x in log_w {
+        if x.is_finite() {
+            let w = (beta * (x - max)).exp();
+            s += w;
+            s2 += w * w;
+        }
+    }
+    if s2 > 0.0 { s * s / s2 } else { 0.0 }
+}
+
+/// Iterations of the bisection in [`temper`]: `beta` to within `2^-30`.
+pub const TEMPER_ITERATIONS: u32 = 30;
+
+/// Adaptive tempering: the largest `beta` in `(0, 1]` (to within
+/// `2^-30`) such that the log-weights `beta * log_w` keep an effective
+/// sample size of at least `target` (a particle count). Returns 1 when the
+/// untempered weights already reach it (or `target <= 0`, or fewer than
+/// two weights are finite: nothing to flatten). The target is capped at the
+/// number of finite weights, the ESS as `beta -> 0`.
+///
+/// Found by bisection on `beta`, [`TEMPER_ITERATIONS`] steps, a pure
+/// function of `log_w` in particle order (no randomness, no dependence on
+/// threads). ESS is non-increasing in `beta` for tempered weights, so the
+/// bisection keeps `lo` (meets the target, or 0) and `hi` (misses it) and
+/// returns `lo`, or `hi` if no tried `beta > 0` met it (then `hi` is
+/// `2^-30`).
+pub fn temper(log_w: &[f64], target: f64) -> f64 {
+    let finite = log_w.iter().filter(|x| x.is_finite()).count();
+    if target.is_nan() || target <= 0.0 || finite < 2 {
+        return 1.0;
+    }
+    // Slightly below the limit so that the cap is reachable with beta > 0.
+    let target = target.min(finite as f64 * (1.0 - 1e-9));
+    if log_w.contains(&f64::INFINITY) {
+        // Only a broken cost gives +inf; `normalized` then keeps those.
+        return 1.0;
+    }
+    let max = log_w
+        .iter()
+        .copied()
+        .filter(|x| x.is_finite())
+        .fold(f64::NEG_INFINITY, f64::max);
+    if tempered_ess(log_w, 1.0, max) >= target {
+        return 1.0;
+    }
+    let (mut lo, mut hi) = (0.0f64, 1.0f64);
+    for _ in 0..TEMPER_ITERATIONS {
+        let mid = 0.5 * (lo + hi);
+        if tempered_ess(log_w, mid, max) >= target {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    if lo > 0.0 { lo } else { hi }
+}
+
+/// `log_w` multiplied in place by `beta` (finite entries only).
+pub fn scale(log_w: &mut [f64], beta: f64) {
+    if beta != 1.0 {
+        for x in log_w.iter_mut().filter(|x| x.is_finite()) {
+            *x *= beta;
+        }
+    }
+}
+
 /// Systematic resampling: `n_out` ancestor indices into `weights`
 /// (non-negative, not all zero; see [`normalized`]) for the pointers
 /// `(u + k) / n_out`, `u` in `[0, 1)`. Indices come out in increasing
@@ -179,5 +252,35 @@ mod tests {
         let mut w = Vec::new();
         normalized(&[-3.0; 8], &mut w);
         assert!((ess(&w) - 8.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn tempering_reaches_the_target_ess() {
+        // Peaked weights: one bone moves the log-weight by hundreds.
+        let lw: Vec<f64> = (0..100).map(|i| -((i * 37) % 100) as f64 * 13.0).collect();
+        let mut w = Vec::new();
+        normalized(&lw, &mut w);
+        assert!(ess(&w) < 1.1);
+        let beta = temper(&lw, 50.0);
+        assert!(beta > 0.0 && beta < 1.0, "{beta}");
+        let mut t = lw.clone();
+        scale(&mut t, beta);
+        normalized(&t, &mut w);
+        let e = ess(&w);
+        assert!((50.0..50.5).contains(&e), "{e}");
+        // Deterministic, and 1 when the target is met already or disabled.
+        assert_eq!(temper(&lw, 50.0).to_bits(), beta.to_bits());
+        assert_eq!(temper(&lw, 0.0), 1.0);
+        assert_eq!(temper(&[0.0; 10], 5.0), 1.0);
+        assert_eq!(temper(&[-3.0, f64::NEG_INFINITY], 1.5), 1.0);
+        // Impossible particles stay impossible; the target is capped at
+        // the finite count.
+        let lw = [0.0, -500.0, -900.0, f64::NEG_INFINITY];
+        let beta = temper(&lw, 4.0);
+        let mut t = lw.to_vec();
+        scale(&mut t, beta);
+        normalized(&t, &mut w);
+        assert_eq!(w[3], 0.0);
+        assert!(ess(&w) > 2.99, "{}", ess(&w));
     }
 }

@@ -63,6 +63,11 @@ impl Default for ExpectedOptions {
     }
 }
 
+/// The default [`SampleOptions::ess_target`]: no tempering. Tempering to
+/// an ESS of half the particles raised the median final cost of the Calder
+/// tree from -19,118 to -13,363 (`docs/benchmarks.md`), so it is an option.
+pub const DEFAULT_ESS_TARGET: f64 = 0.0;
+
 /// How one run samples.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SampleOptions {
@@ -75,6 +80,12 @@ pub struct SampleOptions {
     /// `f64::INFINITY` gives every particle the same weight (unguided
     /// sampling: resampling then only thins the population).
     pub temperature: f64,
+    /// Adaptive tempering: each generation's incremental log-weights are
+    /// multiplied by the largest `beta` in `(0, 1]` that keeps the effective
+    /// sample size at least this fraction of the generation's particle
+    /// count (bisection, deterministic; `docs/sampling.md` section 4).
+    /// 0 disables it: the untempered weights, Calder's.
+    pub ess_target: f64,
     /// Worker threads: 1 runs on the calling thread, 0 uses all cores.
     /// The result does not depend on it.
     pub threads: usize,
@@ -97,6 +108,7 @@ impl Default for SampleOptions {
             schedule: Schedule::calder_playground(),
             heuristic: true,
             temperature: 1.0,
+            ess_target: DEFAULT_ESS_TARGET,
             threads: 1,
             budget: None,
             best: 1,
@@ -899,6 +911,11 @@ impl<'a> Sampler<'a> {
         } else {
             1.0
         };
+        let ess_target = if opts.ess_target.is_finite() {
+            opts.ess_target.clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
         let max_k = opts.max_expansions_per_step.max(1);
         let mut w = self.g.worker();
         let (root, root_step) = self.root_particle(&mut w, None, seed, h_of(0))?;
@@ -959,6 +976,12 @@ impl<'a> Sampler<'a> {
                     -(q.score - p.score) / temperature
                 }
             }));
+            let beta = if ess_target > 0.0 {
+                resample::temper(&log_w, ess_target * next.len() as f64)
+            } else {
+                1.0
+            };
+            resample::scale(&mut log_w, beta);
             resample::normalized(&log_w, &mut weights);
             let best = next
                 .iter()
@@ -969,6 +992,7 @@ impl<'a> Sampler<'a> {
                 particles: next.len(),
                 expanding: pop.iter().filter(|p| !p.open.is_empty()).count(),
                 ess: resample::ess(&weights),
+                beta,
                 heuristic_scale: h,
                 best_objective: best,
                 mean_bones: next.iter().map(|q| f64::from(q.bones)).sum::<f64>()

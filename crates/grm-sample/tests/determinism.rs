@@ -30,12 +30,13 @@ fn same_seed_same_model_for_any_thread_count() {
         ExpectedOptions::default(),
     )
     .expect("sampler");
-    let run = |seed: u32, threads: usize| {
+    let run_with = |seed: u32, threads: usize, ess_target: f64| {
         let r = s
             .sample(&SampleOptions {
                 seed,
                 schedule: small(),
                 threads,
+                ess_target,
                 best: 3,
                 ..SampleOptions::default()
             })
@@ -47,6 +48,21 @@ fn same_seed_same_model_for_any_thread_count() {
         let glb = grm_geom::export::glb_bytes(&model).expect("small");
         (r, glb)
     };
+    let run = |seed: u32, threads: usize| run_with(seed, threads, 0.0);
+    // Adaptive tempering: beta is a function of the generation's weights
+    // alone, so tempered runs are as reproducible.
+    for seed in [0, 7] {
+        let (a, glb_a) = run_with(seed, 1, 0.5);
+        let (b, glb_b) = run_with(seed, 3, 0.5);
+        assert_eq!(glb_a, glb_b, "seed {seed}, tempered: 1 vs 3 threads");
+        assert_eq!(a.candidates, b.candidates);
+        assert_eq!(a.ess(), b.ess());
+        let beta = |r: &SampleResult| -> Vec<u64> {
+            r.generations.iter().map(|g| g.beta.to_bits()).collect()
+        };
+        assert_eq!(beta(&a), beta(&b));
+        assert!(a.generations.iter().any(|g| g.beta < 1.0));
+    }
     for seed in [0, 7] {
         let (a, glb_a) = run(seed, 1);
         let (b, glb_b) = run(seed, 3);

@@ -120,6 +120,58 @@ fn ess_is_reported_per_generation() {
 }
 
 #[test]
+fn adaptive_tempering_keeps_the_population_diverse() {
+    let (p, c) = calder();
+    let curves = calder_curves();
+    let s = Sampler::new(
+        &p.systems[0],
+        &c,
+        &curves,
+        Objective::Curves,
+        ExpectedOptions::default(),
+    )
+    .expect("sampler");
+    let sched = small();
+    // Mean over generations of ESS / particles.
+    let mean_share = |r: &SampleResult| {
+        r.generations
+            .iter()
+            .map(|g| g.ess / g.particles as f64)
+            .sum::<f64>()
+            / r.generations.len() as f64
+    };
+    for seed in 0..4 {
+        let run = |ess_target: f64| {
+            s.sample(&SampleOptions {
+                seed,
+                schedule: sched,
+                ess_target,
+                ..SampleOptions::default()
+            })
+            .expect("samples")
+        };
+        let off = run(0.0);
+        let on = run(0.5);
+        // Untempered: Calder's peaked weights keep a few particles.
+        assert!(off.generations.iter().all(|g| g.beta == 1.0));
+        assert!(mean_share(&off) < 0.2, "off: {}", mean_share(&off));
+        // Tempered: every generation at (or, with beta = 1, above) half
+        // the particles, within the bisection's tolerance.
+        assert!(mean_share(&on) >= 0.45, "on: {}", mean_share(&on));
+        for g in &on.generations {
+            assert!(g.beta > 0.0 && g.beta <= 1.0, "{g:?}");
+            assert!(g.ess >= 0.5 * g.particles as f64 - 1e-3, "{g:?}");
+            if g.beta < 1.0 {
+                assert!(g.ess < 0.5 * g.particles as f64 + 0.5, "{g:?}");
+            }
+        }
+        assert!(on.best().expect("model").cost.total().is_finite());
+    }
+    // The default is untempered: the same run as ess_target 0.
+    assert_eq!(SampleOptions::default().ess_target, 0.0);
+}
+
+#[test]
 fn huge_negative_costs_keep_finite_weights() {
     // Alignment scale 1e6: a good bone costs about -4e5, far below the
     // -709 where exp(-cost) overflows in linear space.

@@ -74,6 +74,11 @@ pub struct SampleArgs {
     /// Likelihood exp(-cost / T); 1 is Calder's.
     #[arg(long, default_value_t = 1.0)]
     pub temperature: f64,
+    /// Adaptive tempering: scale each generation's incremental log-weights
+    /// down just enough to keep the effective sample size at this fraction
+    /// of the particles; 0 turns it off (Calder's untempered weights).
+    #[arg(long, value_name = "F", default_value_t = grm_sample::DEFAULT_ESS_TARGET)]
+    pub ess_target: f64,
     /// Expansions per particle step: a step expands open symbols until one
     /// adds a bone, at most this many (1: one symbol per step).
     #[arg(long, default_value_t = 1000)]
@@ -211,6 +216,7 @@ pub fn run(args: SampleArgs) -> Outcome {
         schedule,
         heuristic,
         temperature: args.temperature,
+        ess_target: args.ess_target,
         threads: args.threads,
         budget: args.budget_ms.map(Duration::from_millis),
         best: args.best.max(1),
@@ -244,16 +250,24 @@ pub fn run(args: SampleArgs) -> Outcome {
     );
     if args.stats {
         println!(
-            "{:>10} {:>9} {:>9} {:>8} {:>10} {:>12} {:>8}",
-            "generation", "particles", "expanding", "ESS", "heuristic", "best cost", "bones"
+            "{:>10} {:>9} {:>9} {:>8} {:>8} {:>10} {:>12} {:>8}",
+            "generation",
+            "particles",
+            "expanding",
+            "ESS",
+            "beta",
+            "heuristic",
+            "best cost",
+            "bones"
         );
         for g in &result.generations {
             println!(
-                "{:>10} {:>9} {:>9} {:>8.2} {:>10.5} {:>12.1} {:>8.1}",
+                "{:>10} {:>9} {:>9} {:>8.2} {:>8.5} {:>10.5} {:>12.1} {:>8.1}",
                 g.generation,
                 g.particles,
                 g.expanding,
                 g.ess,
+                g.beta,
                 g.heuristic_scale,
                 g.best_objective,
                 g.mean_bones

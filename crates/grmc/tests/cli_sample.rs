@@ -87,6 +87,53 @@ fn samples_the_calder_tree_and_exports_it() {
 }
 
 #[test]
+fn ess_target_tempers_the_weights() {
+    let tree = example("calder_tree.grm");
+    let curves = example("calder_tree.curves.json");
+    let run = |target: &str| {
+        let o = grmc(&[
+            "sample",
+            &tree,
+            "--curves",
+            &curves,
+            "--generations",
+            "10",
+            "--particles",
+            "20",
+            "--ess-target",
+            target,
+            "--stats",
+        ]);
+        let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
+        assert_eq!(o.status.code(), Some(0), "{stdout}");
+        assert!(stdout.contains(" beta "), "{stdout}");
+        // Column 4 is the ESS, column 5 beta.
+        stdout
+            .lines()
+            .filter(|l| {
+                l.split_whitespace()
+                    .next()
+                    .is_some_and(|w| w.parse::<u32>().is_ok())
+            })
+            .map(|l| {
+                let f: Vec<f64> = l
+                    .split_whitespace()
+                    .map(|w| w.parse().unwrap_or(f64::NAN))
+                    .collect();
+                (f[3], f[4])
+            })
+            .collect::<Vec<_>>()
+    };
+    let on = run("0.5");
+    assert_eq!(on.len(), 10);
+    assert!(on.iter().all(|&(ess, _)| ess >= 9.99), "{on:?}");
+    assert!(on.iter().any(|&(_, beta)| beta < 1.0), "{on:?}");
+    // 0 (the default): untempered.
+    let off = run("0");
+    assert!(off.iter().all(|&(_, beta)| beta == 1.0), "{off:?}");
+}
+
+#[test]
 fn curves_default_to_the_file_beside_the_grammar() {
     let o = grmc(&[
         "sample",
