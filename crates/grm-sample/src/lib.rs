@@ -10,14 +10,15 @@
 //! **Inputs.** A checked sample [`grm_sema::System`] and its
 //! [`grm_compile::CompiledSystem`], the guiding [`grm_guide::Curves`], an
 //! [`Objective`] (the curve cost, or the volume-matching baseline) and
-//! [`SampleOptions`] (seed, [`Schedule`], heuristic, temperature, threads,
-//! optional wall-clock budget, how many best models).
+//! [`SampleOptions`] (seed, [`Schedule`], heuristic, temperature, adaptive
+//! tempering's ESS target, threads, optional wall-clock budget, how many
+//! best models).
 //!
 //! **Outputs.** A [`SampleResult`]: the best [`SampledModel`]s (cost by
 //! term, the full turtle [`grm_turtle::Interpretation`] ready for
 //! `grm-geom`, the flat module string with per-module origins, the
 //! [`DerivationTree`]), and [`GenerationStats`] per generation (effective
-//! sample size, heuristic scale, best objective).
+//! sample size, tempering factor, heuristic scale, best objective).
 //!
 //! **Method** (details and reasons in docs/sampling.md):
 //! - A particle is a partial derivation: an `Arc`-linked list of
