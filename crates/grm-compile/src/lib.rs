@@ -29,6 +29,7 @@ mod lower;
 pub mod op;
 mod params;
 pub mod rng;
+pub mod select;
 pub mod table;
 pub mod verify;
 pub mod vm;

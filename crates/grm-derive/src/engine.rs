@@ -31,6 +31,7 @@ use std::time::{Duration, Instant};
 
 use grm_compile::CompiledSystem;
 use grm_compile::rng::{self, DrawCtx};
+use grm_compile::select::{self, AltError};
 use grm_compile::table::*;
 use grm_compile::vm::Vm;
 use rayon::prelude::*;
@@ -1079,46 +1080,26 @@ impl<'a> Engine<'a> {
             if g.alt_count == 1 {
                 return Ok(Some((g.first_alt, binds)));
             }
-            let alts = &sys.alts[g.first_alt as usize..][..g.alt_count as usize];
             let u = rng::uniform(step.seed, step.iteration, i as u32, 0);
-            if g.flags & GROUP_CONST_WEIGHTS != 0 {
-                let target = u * g.total_weight;
-                let k = alts
-                    .iter()
-                    .position(|a| target < a.cum_weight)
-                    .unwrap_or(alts.len() - 1);
-                return Ok(Some((g.first_alt + k as u32, binds)));
-            }
-            worker.weights.clear();
-            let mut total = 0.0f32;
-            for (k, a) in alts.iter().enumerate() {
-                let wgt = if a.weight_code == NONE {
-                    a.weight
-                } else {
-                    worker
-                        .vm
-                        .run1(&sys.code, &sys.consts, a.weight_code, bind, &draws)
-                        .map_err(|e| self.fault(step, i, e))?
-                };
-                if !(wgt.is_finite() && wgt > 0.0) {
-                    let span = sys.weight_spans[g.first_alt as usize + k];
-                    return Err(self.runtime(
-                        step,
-                        i,
-                        RuntimeErrorKind::BadWeight { value: wgt },
-                        span,
-                    ));
-                }
-                total += wgt;
-                worker.weights.push(total);
-            }
-            let target = u * total;
-            let k = worker
-                .weights
-                .iter()
-                .position(|&c| target < c)
-                .unwrap_or(alts.len() - 1);
-            return Ok(Some((g.first_alt + k as u32, binds)));
+            let alt = select::choose_alternative(
+                sys,
+                g,
+                &mut worker.vm,
+                bind,
+                &draws,
+                u,
+                &mut worker.weights,
+            )
+            .map_err(|e| match e {
+                AltError::Fault(e) => self.fault(step, i, e),
+                AltError::BadWeight { value, alt } => self.runtime(
+                    step,
+                    i,
+                    RuntimeErrorKind::BadWeight { value },
+                    sys.weight_spans[alt as usize],
+                ),
+            })?;
+            return Ok(Some((alt, binds)));
         }
         Ok(None)
     }

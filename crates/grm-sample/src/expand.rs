@@ -8,6 +8,7 @@
 use glam::Vec3;
 use grm_compile::CompiledSystem;
 use grm_compile::rng::DrawCtx;
+use grm_compile::select::{self, AltError};
 use grm_compile::table::*;
 use grm_compile::vm::Vm;
 use grm_derive::ModuleString;
@@ -203,47 +204,18 @@ impl<'a> Grammar<'a> {
             if g.alt_count == 1 {
                 return Ok(Some(g.first_alt));
             }
-            let alts = sys
-                .alts
-                .get(g.first_alt as usize..(g.first_alt + g.alt_count) as usize)
-                .unwrap_or(&[]);
             let u = draws.uniform(0);
-            if g.flags & GROUP_CONST_WEIGHTS != 0 {
-                let target = u * g.total_weight;
-                let k = alts
-                    .iter()
-                    .position(|a| target < a.cum_weight)
-                    .unwrap_or(alts.len().saturating_sub(1));
-                return Ok(Some(g.first_alt + k as u32));
-            }
-            w.cum.clear();
-            let mut total = 0.0f32;
-            for (k, a) in alts.iter().enumerate() {
-                let wgt = if a.weight_code == NONE {
-                    a.weight
-                } else {
-                    w.vm.run1(&sys.code, &sys.consts, a.weight_code, &w.bind, draws)
-                        .map_err(|e| self.fault(phase, sym, e))?
-                };
-                if !(wgt.is_finite() && wgt > 0.0) {
-                    let span = sys.weight_spans[g.first_alt as usize + k];
-                    return Err(self.error(
+            let alt = select::choose_alternative(sys, g, &mut w.vm, &w.bind, draws, u, &mut w.cum)
+                .map_err(|e| match e {
+                    AltError::Fault(e) => self.fault(phase, sym, e),
+                    AltError::BadWeight { value, alt } => self.error(
                         phase,
                         sym,
-                        ExpandErrorKind::BadWeight { value: wgt },
-                        span,
-                    ));
-                }
-                total += wgt;
-                w.cum.push(total);
-            }
-            let target = u * total;
-            let k = w
-                .cum
-                .iter()
-                .position(|&c| target < c)
-                .unwrap_or(alts.len().saturating_sub(1));
-            return Ok(Some(g.first_alt + k as u32));
+                        ExpandErrorKind::BadWeight { value },
+                        sys.weight_spans[alt as usize],
+                    ),
+                })?;
+            return Ok(Some(alt));
         }
         Ok(None)
     }
