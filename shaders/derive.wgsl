@@ -430,3 +430,110 @@ fn rewrite(
         }
     }
 }
+
+// Output offsets of this workgroup's input modules (and the one after).
+var<workgroup> wg_off: array<u32, WG_OFF_LEN>;
+
+// `rewrite` by output module (the host's choice for systems without
+// contexts; same grid, same results): the workgroup's input modules
+// [base, end) write the output range [counts[base].x, counts[end].x); its
+// threads stride over that range, each output position finding its input
+// module by binary search over the offsets in workgroup memory, then
+// writing that one successor module (symbol, start, parameters evaluated
+// with the same code and draws as `rewrite`). Writes are coalesced and the
+// work is spread evenly however long the successors are.
+@compute @workgroup_size(WORKGROUP)
+fn rewrite_out(
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+) {
+    let base = wg_linear(wid, nwg) * WORKGROUP;
+    let end = min(base + WORKGROUP, P.n);
+    let first = min(base, P.n);
+    wg_off[lid] = counts[min(first + lid, end)].x;
+    if (lid == 0u) {
+        wg_off[WORKGROUP] = counts[end].x;
+    }
+    workgroupBarrier();
+    if (base + lid == P.n) {
+        // The last start is the total of parameter words.
+        let t = counts[P.n];
+        out_starts[t.x] = t.y;
+    }
+    if (base >= P.n) {
+        return;
+    }
+    let m = end - base;
+    let o1 = wg_off[m];
+    var cur = NONE;
+    var alt = COPY;
+    var succ = 0u;
+    var wo = 0u;
+    var d = Draws(0u, 0u, 0u);
+    for (var o = wg_off[0] + lid; o < o1; o = o + WORKGROUP) {
+        // wg_off[lo] <= o < wg_off[hi]
+        var lo = 0u;
+        var hi = m;
+        while (hi - lo > 1u) {
+            let mid = (lo + hi) / 2u;
+            if (wg_off[mid] <= o) {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let i = base + lo;
+        let k = o - wg_off[lo];
+        if (i != cur) {
+            cur = i;
+            select_system(in_syms[i] >> SYS_SHIFT);
+            alt = choice[i];
+            wo = counts[i].y;
+            if (alt != COPY) {
+                let a = alt_at(alt);
+                succ = a.succ_offset;
+                bind_group(i, group_at(a.group));
+                d = draws_at(i);
+            }
+        }
+        if (alt == COPY) {
+            out_syms[o] = in_syms[i];
+            out_starts[o] = wo;
+            let s = in_starts[i];
+            let e = in_starts[i + 1u];
+            for (var c = 0u; c < e - s; c = c + 1u) {
+                out_params[wo + c] = in_params[s + c];
+            }
+            continue;
+        }
+        let sm = succ_at(succ + k);
+        out_syms[o] = sm.symbol | (SYS_ID << SYS_SHIFT);
+        var dst = wo + sm.word_offset;
+        out_starts[o] = dst;
+        for (var q = sm.first_param; q < sm.first_param + sm.param_count; q = q + 1u) {
+            let pe = param_at(q);
+            if (pe.kind == PARAM_CONST) {
+                for (var c = 0u; c < pe.words; c = c + 1u) {
+                    out_params[dst + c] = vm_const(pe.a + c);
+                }
+            } else if (pe.kind == PARAM_COPY) {
+                for (var c = 0u; c < pe.words; c = c + 1u) {
+                    out_params[dst + c] = vm_bind[pe.a + c];
+                }
+            } else {
+                if (vm_run(pe.a, d) == VM_FAULT) {
+                    report(1u, i, ERR_FAULT);
+                }
+                for (var c = 0u; c < pe.words; c = c + 1u) {
+                    let x = vm_st[c];
+                    if (!is_finite(x)) {
+                        report(1u, i, ERR_NON_FINITE);
+                    }
+                    out_params[dst + c] = x;
+                }
+            }
+            dst = dst + pe.words;
+        }
+    }
+}

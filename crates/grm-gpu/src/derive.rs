@@ -661,8 +661,8 @@ impl<'a> GpuSystem<'a> {
             derive_bound(&kernels::COUNT, 1)?,
         ];
         let rewrite = [
-            derive_bound(&kernels::REWRITE, 0)?,
-            derive_bound(&kernels::REWRITE, 1)?,
+            derive_bound(self.rewrite_kernel(), 0)?,
+            derive_bound(self.rewrite_kernel(), 1)?,
         ];
         let mut scans = Vec::with_capacity(nlev);
         let mut adds = Vec::with_capacity(nlev);
@@ -799,6 +799,18 @@ impl<'a> GpuSystem<'a> {
         let st = st.into_iter().next().unwrap_or_default();
         self.check_status(&st, 1, opts.iterations, None, &previous)?;
         Ok((string, stats))
+    }
+
+    /// The rewrite kernel: one thread per output module (`rewrite_out`),
+    /// or per input module (`rewrite`) for context-sensitive systems,
+    /// whose binding would otherwise match the contexts again for every
+    /// output module.
+    fn rewrite_kernel(&self) -> &'static crate::shader::Kernel {
+        if self.has_context {
+            &kernels::REWRITE
+        } else {
+            &kernels::REWRITE_OUT
+        }
     }
 
     fn alloc_string(&self, modules: u64, words: u64) -> Result<DeviceString, GpuError> {
@@ -1043,7 +1055,7 @@ impl<'a> GpuSystem<'a> {
             out: &out,
             status,
         };
-        self.dispatch_derive(&mut enc, &kernels::REWRITE, &params, &pass, n)?;
+        self.dispatch_derive(&mut enc, self.rewrite_kernel(), &params, &pass, n)?;
         // The last start is the total of parameter words (the scan's total).
         enc.copy_buffer_to_buffer(&counts, 8 * n + 4, &out.starts, 4 * m, Some(4));
         // Every system's range in the new string (the old one kept for

@@ -71,6 +71,13 @@ pub static REWRITE: Kernel = Kernel {
     bindings: DERIVE_BINDS,
     subst: &[],
 };
+pub static REWRITE_OUT: Kernel = Kernel {
+    name: "rewrite_out",
+    file: "derive.wgsl",
+    entry: "rewrite_out",
+    bindings: DERIVE_BINDS,
+    subst: &[],
+};
 
 const BRACKET_BINDS: &[Bind] = &[
     Bind::Uniform,
@@ -198,6 +205,7 @@ pub static ALL: &[&Kernel] = &[
     &VM_EVAL,
     &COUNT,
     &REWRITE,
+    &REWRITE_OUT,
     &BRACKET_FLAGS,
     &BRACKET_DEPTH,
     &BRACKET_REDUCE,
