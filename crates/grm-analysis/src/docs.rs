@@ -324,32 +324,7 @@ mod tests {
         for name in grm_syntax::PUNCT_SYMBOLS {
             assert!(lookup(name, DocKind::Terminal).is_some(), "{name}");
         }
-        use Terminal::*;
-        for t in [
-            Forward,
-            Move,
-            ForwardNoVertex,
-            MoveNoVertex,
-            TurnAround,
-            RollHorizontal,
-            Translate,
-            Rotate,
-            RotX,
-            RotY,
-            RotZ,
-            ScaleUniform,
-            Scale,
-            Cylinder,
-            Cone,
-            Sphere,
-            Box,
-            Disc,
-            Mesh,
-            Material,
-            Color,
-            Push,
-            Pop,
-        ] {
+        for &t in Terminal::ALL {
             let n = terminal_name(t);
             assert!(lookup(n, DocKind::Terminal).is_some(), "{n}");
         }

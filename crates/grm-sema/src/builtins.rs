@@ -224,6 +224,47 @@ pub enum Terminal {
 }
 
 impl Terminal {
+    /// Every terminal, in declaration order.
+    pub const ALL: &'static [Terminal] = &[
+        Terminal::Forward,
+        Terminal::Move,
+        Terminal::ForwardNoVertex,
+        Terminal::MoveNoVertex,
+        Terminal::TurnLeft,
+        Terminal::TurnRight,
+        Terminal::PitchDown,
+        Terminal::PitchUp,
+        Terminal::RollLeft,
+        Terminal::RollRight,
+        Terminal::TurnAround,
+        Terminal::RollHorizontal,
+        Terminal::Push,
+        Terminal::Pop,
+        Terminal::SetWidth,
+        Terminal::ShrinkWidth,
+        Terminal::SetColor,
+        Terminal::NextColor,
+        Terminal::PolygonStart,
+        Terminal::PolygonVertex,
+        Terminal::PolygonEnd,
+        Terminal::Cut,
+        Terminal::Translate,
+        Terminal::Rotate,
+        Terminal::RotX,
+        Terminal::RotY,
+        Terminal::RotZ,
+        Terminal::ScaleUniform,
+        Terminal::Scale,
+        Terminal::Cylinder,
+        Terminal::Cone,
+        Terminal::Sphere,
+        Terminal::Box,
+        Terminal::Disc,
+        Terminal::Mesh,
+        Terminal::Material,
+        Terminal::Color,
+    ];
+
     /// Canonical spelling.
     pub fn name(self) -> &'static str {
         use Terminal::*;
