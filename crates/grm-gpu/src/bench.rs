@@ -19,8 +19,10 @@ use grm_derive::ModuleString;
 
 use crate::derive::GpuDeriveOptions;
 use crate::device::Gpu;
+use crate::device::Timestamps;
 use crate::interp::TurtleProgram;
 use crate::pipeline::{GpuRunOptions, run};
+use crate::stamps::DeviceTime;
 
 /// The standard scenes: example name, system, iterations (Lipp's where he
 /// has one).
@@ -80,6 +82,13 @@ pub struct SceneReport {
     pub gpu_interpret: Duration,
     pub cpu_interpret: Option<Duration>,
     pub readback: Duration,
+    /// Device timestamps of the best timed derivation, per step after the
+    /// axiom (`None` where the device writes none or the derivation was
+    /// not batched).
+    pub device_rows: Vec<Option<DeviceTime>>,
+    /// The same derivation on the device: from the first step's kernels
+    /// beginning to the last step's ending.
+    pub device_derive: Option<Duration>,
     /// The comparison of the GPU string with the CPU's: `None` when not
     /// compared, else equal or the first difference (reported, the timings
     /// are still printed).
@@ -156,6 +165,7 @@ pub fn bench_scene(
         Ok((r.derive_elapsed, r))
     })?;
     let interp = last.interpretation.clone().ok_or("no interpretation")?;
+    let (device_derive, device_rows) = device_profile(gpu, c, &turtle, &ropts, cfg.runs)?;
 
     let mut cpu1 = None;
     let mut cpun = None;
@@ -233,8 +243,64 @@ pub fn bench_scene(
         gpu_interpret: best_interp,
         cpu_interpret,
         readback: warm.readback_elapsed,
+        device_rows,
+        device_derive,
         checked,
     })
+}
+
+/// Device timestamps of the derivation, from runs of their own (stamps
+/// can slow the work they measure, so the wall-clock runs write none): the
+/// best whole-derivation time over `runs` runs with stamps at the passes'
+/// ends only, and per step the best run's pass times with, where the device
+/// can stamp inside passes, one more run's time per kernel stage.
+#[allow(clippy::type_complexity)]
+fn device_profile(
+    gpu: &Gpu,
+    c: &CompiledSystem,
+    turtle: &TurtleProgram,
+    ropts: &GpuRunOptions,
+    runs: u32,
+) -> Result<(Option<Duration>, Vec<Option<DeviceTime>>), String> {
+    let mut opts = *ropts;
+    opts.interpret = false;
+    let steps = |r: &crate::pipeline::GpuRun| -> Vec<Option<DeviceTime>> {
+        r.stats.iter().skip(1).map(|s| s.device).collect()
+    };
+    let whole = |rows: &[Option<DeviceTime>]| match rows.last() {
+        Some(Some(d)) if rows.iter().all(Option::is_some) => Some(d.end),
+        _ => None,
+    };
+    let result = (|| {
+        if gpu.set_profiling(Timestamps::Passes) == Timestamps::None {
+            return Ok((None, Vec::new()));
+        }
+        let mut best: Option<(Duration, Vec<Option<DeviceTime>>)> = None;
+        for _ in 0..runs.max(1) {
+            let r = run(gpu, c, turtle, &opts, &mut |_| {}).map_err(|e| e.to_string())?;
+            let rows = steps(&r);
+            match whole(&rows) {
+                Some(d) if best.as_ref().is_none_or(|(b, _)| d < *b) => best = Some((d, rows)),
+                Some(_) => {}
+                // Not batched: no stamps to take.
+                None => return Ok((None, Vec::new())),
+            }
+        }
+        let Some((total, mut rows)) = best else {
+            return Ok((None, Vec::new()));
+        };
+        if gpu.set_profiling(Timestamps::InsidePasses) == Timestamps::InsidePasses {
+            let r = run(gpu, c, turtle, &opts, &mut |_| {}).map_err(|e| e.to_string())?;
+            for (row, staged) in rows.iter_mut().zip(steps(&r)) {
+                if let (Some(row), Some(st)) = (row, staged) {
+                    row.stages = st.stages;
+                }
+            }
+        }
+        Ok((Some(total), rows))
+    })();
+    gpu.set_profiling(Timestamps::None);
+    result
 }
 
 fn ms(d: Duration) -> f64 {
@@ -307,6 +373,27 @@ impl SceneReport {
             ms(self.gpu_derive),
             rate(self.produced, self.gpu_derive)
         );
+        if let Some(d) = self.device_derive {
+            let _ = writeln!(
+                s,
+                "             on the device (timestamps, first kernel to last; stage times from one more run): {:.3} ms = {:.1} modules/us",
+                ms(d),
+                rate(self.produced, d)
+            );
+            for (k, row) in self.device_rows.iter().enumerate() {
+                let Some(t) = row else { continue };
+                let mut line = format!("               step {:>2}: {:>8.3} ms", k + 1, ms(t.pass));
+                if let Some(st) = t.stages {
+                    let parts: Vec<String> = crate::stamps::KERNEL_STAGES
+                        .iter()
+                        .zip(st)
+                        .map(|(n, d)| format!("{n} {:.3}", ms(d)))
+                        .collect();
+                    let _ = write!(line, "  ({})", parts.join(", "));
+                }
+                let _ = writeln!(s, "{line}");
+            }
+        }
         for (label, t) in [
             ("CPU 1 thread", self.cpu1_derive),
             (

@@ -31,6 +31,7 @@ use crate::layout::{
     MAX_SYSTEMS, SCAN_BLOCK, STATUS_WORDS, SYM_MASK, SystemEntry,
 };
 use crate::scan::{ScanElem, record_scan};
+use crate::stamps::{DeviceTime, Stamps};
 
 /// How to run a GPU derivation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -75,6 +76,9 @@ pub struct GpuIterationStats {
     pub param_words: u64,
     /// Wall time of this step on the host, including its synchronisation.
     pub elapsed: Duration,
+    /// The step's kernels on the device, from timestamps (batched
+    /// derivations on devices that write them; `None` otherwise).
+    pub device: Option<DeviceTime>,
 }
 
 /// A module string that lives on the device.
@@ -404,7 +408,7 @@ impl<'a> GpuSystem<'a> {
         if let Some(plan) = plan {
             let t = Instant::now();
             match self.derive_batched(&plan, opts, strategy)? {
-                Some((string, totals)) => {
+                Some((string, totals, device)) => {
                     let elapsed = t.elapsed();
                     let last = totals.len() - 1;
                     let stats: Vec<GpuIterationStats> = totals
@@ -415,6 +419,7 @@ impl<'a> GpuSystem<'a> {
                             modules: m,
                             param_words: w,
                             elapsed: if k == last { elapsed } else { Duration::ZERO },
+                            device: k.checked_sub(1).and_then(|j| device.get(j).copied()),
                         })
                         .collect();
                     for st in &stats {
@@ -574,7 +579,7 @@ impl<'a> GpuSystem<'a> {
         plan: &BatchPlan,
         opts: &GpuDeriveOptions,
         strategy: DeriveStrategy,
-    ) -> Result<Option<(DeviceString, Vec<(u64, u64)>)>, GpuError> {
+    ) -> Result<Option<(DeviceString, Vec<(u64, u64)>, Vec<DeviceTime>)>, GpuError> {
         let gpu = self.gpu;
         self.reset_directory(opts);
         let k_max = opts.iterations as usize;
@@ -702,32 +707,53 @@ impl<'a> GpuSystem<'a> {
             next.dispatch(&mut pass, (1, 1));
         }
         copy_params(&mut enc);
+        let stamps = Stamps::new(gpu, k_max as u32);
         for k in 1..=k_max {
             let p = (k - 1) % 2;
             {
-                let mut pass = begin(&mut enc, "batch iteration");
+                let j = k as u32 - 1;
+                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("batch iteration"),
+                    timestamp_writes: stamps.as_ref().and_then(|s| s.pass_writes(j)),
+                });
+                let stage = |pass: &mut wgpu::ComputePass<'_>, st: u32| {
+                    if let Some(s) = &stamps {
+                        s.after_stage(pass, j, st);
+                    }
+                };
                 count[p].dispatch_indirect(&mut pass, &indirect, 0);
+                stage(&mut pass, 0);
                 for (l, sc) in scans.iter().enumerate() {
                     sc.dispatch_indirect(&mut pass, &indirect, 12 * (1 + l as u64));
                 }
                 for (l, ad) in adds.iter().enumerate().rev() {
                     ad.dispatch_indirect(&mut pass, &indirect, 12 * (1 + (nlev + l) as u64));
                 }
+                stage(&mut pass, 1);
                 next.dispatch(&mut pass, (1, 1));
+                stage(&mut pass, 2);
                 rewrite[p].dispatch_indirect(&mut pass, &indirect, 0);
+                stage(&mut pass, 3);
                 directory.dispatch(&mut pass, dir_grid);
             }
             if k < k_max {
                 copy_params(&mut enc);
             }
         }
-        let words = gpu.read::<u32>(
-            enc,
-            &[
-                (&hist, 0, flag as u64 + 1),
-                (&status, 0, u64::from(STATUS_WORDS)),
-            ],
-        )?;
+        let mut ranges = vec![
+            (&hist, 0, flag as u64 + 1),
+            (&status, 0, u64::from(STATUS_WORDS)),
+        ];
+        if let Some(s) = &stamps {
+            s.resolve(&mut enc);
+            let (buf, words) = s.readback();
+            ranges.push((buf, 0, words));
+        }
+        let words = gpu.read::<u32>(enc, &ranges)?;
+        let device = match (&stamps, words.get(2)) {
+            (Some(s), Some(w)) => s.times(w),
+            _ => Vec::new(),
+        };
         let [strings0, strings1] = strings;
         let (last, other) = if k_max.is_multiple_of(2) {
             (strings0, strings1)
@@ -750,7 +776,7 @@ impl<'a> GpuSystem<'a> {
             .map(|k| (u64::from(h[2 * k]), u64::from(h[2 * k + 1])))
             .collect();
         let (len, words) = totals[k_max];
-        Ok(Some((DeviceString { len, words, ..last }, totals)))
+        Ok(Some((DeviceString { len, words, ..last }, totals, device)))
     }
 
     /// One submission and one synchronisation per iteration.
@@ -768,6 +794,7 @@ impl<'a> GpuSystem<'a> {
             modules: string.len,
             param_words: string.words,
             elapsed: t.elapsed(),
+            device: None,
         };
         progress(&first);
         stats.push(first);
@@ -788,6 +815,7 @@ impl<'a> GpuSystem<'a> {
                 modules: string.len,
                 param_words: string.words,
                 elapsed: t.elapsed(),
+                device: None,
             };
             progress(&s);
             stats.push(s);

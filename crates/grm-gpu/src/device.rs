@@ -44,6 +44,22 @@ pub struct Gpu {
     /// Workgroups per grid dimension the dispatches use (at most the
     /// device's limit; lowered by [`Gpu::limit_dispatch_width`]).
     grid_width: std::sync::atomic::AtomicU32,
+    /// Which device timestamps the adapter can write (requested when
+    /// offered; they only measure, they never change a result).
+    timestamps: Timestamps,
+    /// The timestamps derivations write now ([`Gpu::set_profiling`]):
+    /// `Timestamps as u8`, at most `timestamps`.
+    profiling: std::sync::atomic::AtomicU8,
+}
+
+/// The device timestamps the engine can write: none, at the beginning and
+/// end of compute passes (`TIMESTAMP_QUERY`), or also between the
+/// dispatches of a pass (`TIMESTAMP_QUERY_INSIDE_PASSES`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Timestamps {
+    None = 0,
+    Passes = 1,
+    InsidePasses = 2,
 }
 
 /// A compiled kernel with its explicit bind group layout.
@@ -98,9 +114,26 @@ impl Gpu {
                 info.name, limits.max_storage_buffers_per_shader_stage
             )));
         }
+        let offered = adapter.features();
+        let timestamps = if offered.contains(
+            wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES,
+        ) {
+            Timestamps::InsidePasses
+        } else if offered.contains(wgpu::Features::TIMESTAMP_QUERY) {
+            Timestamps::Passes
+        } else {
+            Timestamps::None
+        };
+        let required_features = match timestamps {
+            Timestamps::None => wgpu::Features::empty(),
+            Timestamps::Passes => wgpu::Features::TIMESTAMP_QUERY,
+            Timestamps::InsidePasses => {
+                wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES
+            }
+        };
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("grm-gpu"),
-            required_features: wgpu::Features::empty(),
+            required_features,
             required_limits: limits.clone(),
             experimental_features: wgpu::ExperimentalFeatures::disabled(),
             memory_hints: wgpu::MemoryHints::Performance,
@@ -130,7 +163,39 @@ impl Gpu {
             pipelines: Mutex::new(HashMap::new()),
             pool: Mutex::new(Vec::new()),
             run: Mutex::new(()),
+            timestamps,
+            profiling: std::sync::atomic::AtomicU8::new(Timestamps::None as u8),
         })
+    }
+
+    /// Which device timestamps this device writes.
+    pub fn timestamps(&self) -> Timestamps {
+        self.timestamps
+    }
+
+    /// Which timestamps derivations write from now on (benchmarks): off by
+    /// default, since stamps between kernels can serialise the device's
+    /// work and so slow what they measure. Capped at what the device
+    /// supports; returns the level set.
+    pub fn set_profiling(&self, level: Timestamps) -> Timestamps {
+        let level = level.min(self.timestamps);
+        self.profiling
+            .store(level as u8, std::sync::atomic::Ordering::Relaxed);
+        level
+    }
+
+    /// The level set by [`Gpu::set_profiling`].
+    pub fn profiling(&self) -> Timestamps {
+        match self.profiling.load(std::sync::atomic::Ordering::Relaxed) {
+            0 => Timestamps::None,
+            1 => Timestamps::Passes,
+            _ => Timestamps::InsidePasses,
+        }
+    }
+
+    /// Nanoseconds per timestamp tick.
+    pub fn timestamp_period(&self) -> f32 {
+        self.queue.get_timestamp_period()
     }
 
     /// The adapter: name, backend, device type (lavapipe reports `Cpu`).
@@ -158,6 +223,10 @@ impl Gpu {
 
     pub fn limits(&self) -> &wgpu::Limits {
         &self.limits
+    }
+
+    pub(crate) fn device(&self) -> &wgpu::Device {
+        &self.device
     }
 
     pub(crate) fn queue(&self) -> &wgpu::Queue {

@@ -34,13 +34,15 @@ pub mod layout;
 pub mod pipeline;
 pub mod scan;
 pub mod shader;
+pub mod stamps;
 pub mod vmeval;
 
 pub use derive::{
     DerivePath, DeriveStrategy, DeviceString, GpuDerivation, GpuDeriveOptions, GpuIterationStats,
     GpuJob, GpuManyDerivation, derive, derive_many, derive_with,
 };
-pub use device::{Gpu, shared};
+pub use device::{Gpu, Timestamps, shared};
 pub use error::{GpuError, RuntimeKind};
 pub use interp::{GpuInterpretation, TurtleProgram, interpret};
 pub use pipeline::{GpuManyRun, GpuRun, GpuRunOptions, run, run_many};
+pub use stamps::{DeviceTime, KERNEL_STAGES};

@@ -1,0 +1,69 @@
+//! Device timestamps (`grm_gpu::stamps`): with profiling on, a batched
+//! derivation reports each step's kernel time on the device, the stages
+//! in order inside it where the device stamps inside passes; with it off
+//! it reports none; and the derived string is the same either way.
+//!
+//! Its own test binary: profiling is a setting of the shared device, and
+//! the other test binaries must not see it change.
+
+mod common;
+use common::*;
+use grm_gpu::{GpuDeriveOptions, Timestamps, derive};
+
+#[test]
+fn profiling_reports_device_time_per_step_and_changes_nothing() {
+    let g = gpu();
+    let sys = example("hilbert3d.grm", None);
+    let o = GpuDeriveOptions {
+        iterations: 3,
+        ..GpuDeriveOptions::from_system(&sys)
+    };
+    assert_eq!(
+        g.profiling(),
+        Timestamps::None,
+        "profiling is off by default"
+    );
+    let plain = derive(g, &sys, &o).expect("derives");
+    assert!(plain.stats.iter().all(|s| s.device.is_none()));
+
+    for level in [Timestamps::Passes, Timestamps::InsidePasses] {
+        let set = g.set_profiling(level);
+        assert!(set <= level && set <= g.timestamps());
+        let timed = derive(g, &sys, &o).expect("derives");
+        g.set_profiling(Timestamps::None);
+        assert_eq!(timed.string.syms, plain.string.syms, "{level:?}");
+        assert_eq!(timed.string.starts, plain.string.starts, "{level:?}");
+        assert_eq!(timed.stats.len(), plain.stats.len());
+        assert!(timed.stats[0].device.is_none(), "the axiom is not a step");
+        if set == Timestamps::None {
+            assert!(timed.stats.iter().all(|s| s.device.is_none()));
+            continue;
+        }
+        let mut end = std::time::Duration::ZERO;
+        for s in &timed.stats[1..] {
+            let d = s.device.expect("every step is stamped");
+            assert!(
+                !d.pass.is_zero(),
+                "step {} took no device time",
+                s.iteration
+            );
+            // Each pass ends after the previous one, and after its own length.
+            assert!(
+                d.end > end && d.end >= d.pass,
+                "step {}: {d:?}",
+                s.iteration
+            );
+            end = d.end;
+            match (set, d.stages) {
+                (Timestamps::InsidePasses, Some(st)) => {
+                    let sum: std::time::Duration = st.iter().sum();
+                    // Each span is rounded to a nanosecond on its own.
+                    let gap = sum.abs_diff(d.pass);
+                    assert!(gap.as_nanos() <= 5, "the stages partition the pass: {d:?}");
+                }
+                (Timestamps::Passes, None) => {}
+                other => panic!("stages {other:?}"),
+            }
+        }
+    }
+}
