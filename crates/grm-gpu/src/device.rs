@@ -88,8 +88,19 @@ impl Gpu {
     /// Open the best adapter (high-performance preference; `WGPU_ADAPTER_NAME`
     /// picks one by name) and create a device with the adapter's own limits.
     pub fn new() -> Result<Gpu, GpuError> {
-        let instance =
-            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        // wgpu validates every indirect dispatch with a compute pass and a
+        // copy of its own. The engine's indirect arguments are computed on
+        // the device within the limits by construction (`batch_next` and
+        // `depth_starts` split their grids at the width the host checked),
+        // so that validation only adds passes: it stays on where the
+        // user's WGPU_VALIDATION_INDIRECT_CALL asks for it, and on Windows,
+        // where D3D12 needs it for `num_workgroups`, which the kernels read.
+        if std::env::var_os("WGPU_VALIDATION_INDIRECT_CALL").is_none() && !cfg!(windows) {
+            desc.flags
+                .remove(wgpu::InstanceFlags::VALIDATION_INDIRECT_CALL);
+        }
+        let instance = wgpu::Instance::new(desc);
         let adapter = match std::env::var("WGPU_ADAPTER_NAME") {
             Ok(name) => {
                 let name = name.to_lowercase();
