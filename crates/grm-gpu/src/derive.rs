@@ -527,16 +527,7 @@ impl<'a> GpuSystem<'a> {
                 }
             }
         }
-        let mut levels = Vec::new();
-        let mut len = max_in + 1;
-        loop {
-            let blocks = len.div_ceil(u64::from(SCAN_BLOCK));
-            levels.push(blocks);
-            if blocks <= 1 {
-                break;
-            }
-            len = blocks;
-        }
+        let levels = scan_levels(max_in);
         let total = string_bytes(caps[0].0, caps[0].1)
             + string_bytes(caps[1].0, caps[1].1)
             + 12 * (max_in + 1);
@@ -721,12 +712,16 @@ impl<'a> GpuSystem<'a> {
                         s.after_stage(pass, j, st);
                     }
                 };
+                // The input's bound says which scan levels can have work:
+                // `batch_next` gives the others empty grids, so they are
+                // not recorded (an empty dispatch still costs a barrier).
+                let lev = scan_levels(plan.bounds[k - 1].0).len().min(nlev);
                 count[p].dispatch_indirect(&mut pass, &indirect, 0);
                 stage(&mut pass, 0);
-                for (l, sc) in scans.iter().enumerate() {
+                for (l, sc) in scans.iter().enumerate().take(lev) {
                     sc.dispatch_indirect(&mut pass, &indirect, 12 * (1 + l as u64));
                 }
-                for (l, ad) in adds.iter().enumerate().rev() {
+                for (l, ad) in adds.iter().enumerate().take(lev - 1).rev() {
                     ad.dispatch_indirect(&mut pass, &indirect, 12 * (1 + (nlev + l) as u64));
                 }
                 stage(&mut pass, 1);
@@ -734,7 +729,12 @@ impl<'a> GpuSystem<'a> {
                 stage(&mut pass, 2);
                 rewrite[p].dispatch_indirect(&mut pass, &indirect, 0);
                 stage(&mut pass, 3);
-                directory.dispatch(&mut pass, dir_grid);
+                // One system's range is the whole string: no kernel reads
+                // it on this path (contexts are derived per iteration); it
+                // is written once at the end instead.
+                if self.jobs.len() > 1 {
+                    directory.dispatch(&mut pass, dir_grid);
+                }
             }
             if k < k_max {
                 copy_params(&mut enc);
@@ -776,6 +776,17 @@ impl<'a> GpuSystem<'a> {
             .map(|k| (u64::from(h[2 * k]), u64::from(h[2 * k + 1])))
             .collect();
         let (len, words) = totals[k_max];
+        if let [one] = &self.directory[..] {
+            let e = SystemEntry {
+                start: 0,
+                end: len as u32,
+                iterations: opts.iterations,
+                seed: opts.seed,
+                ..*one
+            };
+            gpu.queue()
+                .write_buffer(&self.tables, 0, bytemuck::bytes_of(&e));
+        }
         Ok(Some((DeviceString { len, words, ..last }, totals, device)))
     }
 
@@ -1248,6 +1259,22 @@ struct BatchPlan {
     max_in: u64,
     /// Blocks of each scan level for the largest input.
     levels: Vec<u64>,
+}
+
+/// Blocks of each level of the scan of the counts of `n` input modules
+/// (`n + 1` elements), down to the level of one block.
+fn scan_levels(n: u64) -> Vec<u64> {
+    let mut levels = Vec::new();
+    let mut len = n + 1;
+    loop {
+        let blocks = len.div_ceil(u64::from(SCAN_BLOCK));
+        levels.push(blocks);
+        if blocks <= 1 {
+            break;
+        }
+        len = blocks;
+    }
+    levels
 }
 
 fn begin<'e>(enc: &'e mut wgpu::CommandEncoder, label: &'static str) -> wgpu::ComputePass<'e> {
