@@ -433,6 +433,15 @@ fn rewrite(
 
 // Output offsets of this workgroup's input modules (and the one after).
 var<workgroup> wg_off: array<u32, WG_OFF_LEN>;
+// Per input module of the workgroup, loaded once by its own thread: the
+// chosen alternative (`choice`), its first parameter word in the output,
+// its system, its successor's first module in the tables, and whether its
+// production binds parameters (contexts or the predecessor's).
+var<workgroup> wg_alt: array<u32, WORKGROUP>;
+var<workgroup> wg_wo: array<u32, WORKGROUP>;
+var<workgroup> wg_sys: array<u32, WORKGROUP>;
+var<workgroup> wg_succ: array<u32, WORKGROUP>;
+var<workgroup> wg_bind: array<u32, WORKGROUP>;
 
 // `rewrite` by output module (the host's choice for systems without
 // contexts; same grid, same results): the workgroup's input modules
@@ -441,7 +450,10 @@ var<workgroup> wg_off: array<u32, WG_OFF_LEN>;
 // module by binary search over the offsets in workgroup memory, then
 // writing that one successor module (symbol, start, parameters evaluated
 // with the same code and draws as `rewrite`). Writes are coalesced and the
-// work is spread evenly however long the successors are.
+// work is spread evenly however long the successors are. What an input
+// module's outputs share (its production, system, offsets) is read from
+// the tables once per input module, into workgroup memory, not once per
+// output module.
 @compute @workgroup_size(WORKGROUP)
 fn rewrite_out(
     @builtin(workgroup_id) wid: vec3<u32>,
@@ -454,6 +466,27 @@ fn rewrite_out(
     wg_off[lid] = counts[min(first + lid, end)].x;
     if (lid == 0u) {
         wg_off[WORKGROUP] = counts[end].x;
+    }
+    var selected = false;
+    if (base + lid < end) {
+        let i = base + lid;
+        let sid = in_syms[i] >> SYS_SHIFT;
+        select_system(sid);
+        selected = true;
+        let alt = choice[i];
+        wg_alt[lid] = alt;
+        wg_wo[lid] = counts[i].y;
+        wg_sys[lid] = sid;
+        if (alt != COPY) {
+            let a = alt_at(alt);
+            let g = group_at(a.group);
+            wg_succ[lid] = a.succ_offset;
+            wg_bind[lid] = select(
+                0u,
+                1u,
+                (g.flags & GROUP_CONTEXT) != 0u || g.pred_bind_words > 0u,
+            );
+        }
     }
     workgroupBarrier();
     if (base + lid == P.n) {
@@ -487,13 +520,18 @@ fn rewrite_out(
         let k = o - wg_off[lo];
         if (i != cur) {
             cur = i;
-            select_system(in_syms[i] >> SYS_SHIFT);
-            alt = choice[i];
-            wo = counts[i].y;
+            let sid = wg_sys[lo];
+            if (!selected || sid != SYS_ID) {
+                select_system(sid);
+                selected = true;
+            }
+            alt = wg_alt[lo];
+            wo = wg_wo[lo];
             if (alt != COPY) {
-                let a = alt_at(alt);
-                succ = a.succ_offset;
-                bind_group(i, group_at(a.group));
+                succ = wg_succ[lo];
+                if (wg_bind[lo] != 0u) {
+                    bind_group(i, group_at(alt_at(alt).group));
+                }
                 d = draws_at(i);
             }
         }
