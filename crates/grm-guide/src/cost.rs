@@ -82,6 +82,58 @@ impl BoneCost {
     }
 }
 
+/// A bone's geometric cost terms, computed before it is added to a state
+/// ([`CostModel::plan_bone`]): eq. 1's curve, eq. 3 and eq. 6, and the range
+/// of utilization segments eq. 7 will count. What depends on the state
+/// (segment counts, density neighbours) is evaluated when it is peeked at
+/// or added.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BonePlan {
+    base: DVec3,
+    tip: DVec3,
+    /// `None` for a bone with a non-finite end.
+    curve: Option<usize>,
+    distance: f64,
+    alignment: f64,
+    /// First and last utilization segment of the curve (inclusive), when
+    /// the curve's utilization is on.
+    segments: Option<(u32, u32)>,
+    /// The closest point of the curve to the tip (searched for the
+    /// utilization segments).
+    tip_closest: Option<ClosestPoint>,
+}
+
+impl BonePlan {
+    fn non_finite(base: Vec3, tip: Vec3) -> BonePlan {
+        BonePlan {
+            base: base.as_dvec3(),
+            tip: tip.as_dvec3(),
+            curve: None,
+            distance: f64::INFINITY,
+            alignment: 0.0,
+            segments: None,
+            tip_closest: None,
+        }
+    }
+
+    /// The curve eq. 1 chose; `None` for a bone with a non-finite end.
+    pub fn curve(&self) -> Option<usize> {
+        self.curve
+    }
+
+    /// The world-space base and tip it was planned for.
+    pub fn ends(&self) -> (DVec3, DVec3) {
+        (self.base, self.tip)
+    }
+
+    /// The chosen curve and its closest point to the tip, when the plan
+    /// searched it (the curve's utilization is on): reusable as
+    /// [`CostModel::nearest_curve_known`]'s `known` at the tip.
+    pub fn tip_closest(&self) -> Option<(usize, &ClosestPoint)> {
+        Some((self.curve?, self.tip_closest.as_ref()?))
+    }
+}
+
 /// The cost of a whole model, by term.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CostBreakdown {
@@ -292,6 +344,26 @@ impl CostModel {
     /// Eq. 1 (with thickness): the curve whose tube is nearest to `p`, and
     /// the closest point on its axis. Ties go to the lower index.
     pub fn nearest_curve(&self, p: DVec3) -> (usize, ClosestPoint) {
+        self.nearest_curve_known(p, None)
+    }
+
+    /// [`Self::nearest_curve`] given the closest point of one curve to `p`
+    /// already (`known`: that curve's index and
+    /// `closest_point_sampled` answer at `p`, as [`BonePlan::tip_closest`]
+    /// gives for a bone's tip), which is then not searched again. The
+    /// answer is the same, bit for bit: the search of a curve either gives
+    /// that point or proves the curve cannot win.
+    pub fn nearest_curve_known(
+        &self,
+        p: DVec3,
+        known: Option<(usize, &ClosestPoint)>,
+    ) -> (usize, ClosestPoint) {
+        let search = |i: usize, c: &CurveData, bound: f64| -> Option<ClosestPoint> {
+            match known {
+                Some((k, cp)) if k == i => Some(*cp),
+                _ => c.bez.closest_point_within(&c.samples, p, bound),
+            }
+        };
         // Start with the curve whose box is nearest; a later curve is only
         // refined if its samples show it may still win (see
         // `Bezier3::closest_point_within`).
@@ -307,7 +379,10 @@ impl CostModel {
         }
         let c0 = &self.curves[first]; // `Curves` is never empty (validated).
         let mut best_i = first;
-        let mut best = c0.bez.closest_point_sampled(&c0.samples, p);
+        let mut best = match known {
+            Some((k, cp)) if k == first => *cp,
+            _ => c0.bez.closest_point_sampled(&c0.samples, p),
+        };
         let mut best_key = best.dist - c0.params.thickness;
         for (i, c) in self.curves.iter().enumerate() {
             if i == first {
@@ -318,7 +393,7 @@ impl CostModel {
                 continue;
             }
             let bound = best_key + c.params.thickness;
-            let Some(cp) = c.bez.closest_point_within(&c.samples, p, bound) else {
+            let Some(cp) = search(i, c, bound) else {
                 continue;
             };
             let key = cp.dist - c.params.thickness;
@@ -329,6 +404,123 @@ impl CostModel {
             }
         }
         (best_i, best)
+    }
+
+    /// Eq. 1-6 for a bone from `base` to `tip` (world space), before it is
+    /// added to any state: the chosen curve, the distance and alignment
+    /// costs and the range of utilization segments it covers. The state
+    /// dependent parts (utilization counts, density neighbours) are
+    /// evaluated by [`Self::peek`] and [`Self::add_planned`].
+    /// [`Self::add_bone`] is `add_planned(state, &plan_bone(base, tip))`.
+    pub fn plan_bone(&self, base: Vec3, tip: Vec3) -> BonePlan {
+        let b = base.as_dvec3();
+        if !(b.is_finite() && tip.as_dvec3().is_finite()) {
+            return BonePlan::non_finite(base, tip);
+        }
+        let (ci, cp) = self.nearest_curve(b);
+        self.plan_bone_near(base, tip, ci, &cp)
+    }
+
+    /// [`Self::plan_bone`] given eq. 1's answer for the base: `curve` and
+    /// `closest` must be `nearest_curve(base)` (as the caller computed it,
+    /// e.g. once for several bones sharing a base); the plan is then the
+    /// same, bit for bit.
+    pub fn plan_bone_near(
+        &self,
+        base: Vec3,
+        tip: Vec3,
+        curve: usize,
+        closest: &ClosestPoint,
+    ) -> BonePlan {
+        let (b, t) = (base.as_dvec3(), tip.as_dvec3());
+        let Some(c) = self.curves.get(curve) else {
+            return BonePlan::non_finite(base, tip);
+        };
+        if !(b.is_finite() && t.is_finite()) {
+            return BonePlan::non_finite(base, tip);
+        }
+        let p = &c.params;
+        let distance = distance_cost(closest.dist, p);
+        let guide = c.bez.tangent(closest.t);
+        let alignment = alignment_cost(t - b, guide, p.alignment_scale, p.alignment_offset);
+        let (segments, tip_closest) = if p.utilization_scale > 0.0 {
+            let tip_cp = c.bez.closest_point_sampled(&c.samples, t);
+            let (s0, s1) = (c.segment(closest.t), c.segment(tip_cp.t));
+            (Some((s0.min(s1) as u32, s0.max(s1) as u32)), Some(tip_cp))
+        } else {
+            (None, None)
+        };
+        BonePlan {
+            base: b,
+            tip: t,
+            curve: Some(curve),
+            distance,
+            alignment,
+            segments,
+            tip_closest,
+        }
+    }
+
+    /// Utilization change (fixed point, the total's increase in
+    /// `scale_u G` units) of the plan's segments given `uses`, and the
+    /// counter range; `None` when the plan has no segments.
+    fn utilization_delta(&self, uses: &[u16], plan: &BonePlan) -> (i128, Option<(usize, usize)>) {
+        let (Some(ci), Some((s0, s1))) = (plan.curve, plan.segments) else {
+            return (0, None);
+        };
+        let Some(c) = self.curves.get(ci) else {
+            return (0, None);
+        };
+        // `segment` clamps to `n_seg - 1`, and a state made by this model
+        // holds `n_seg` counters from `seg_offset` for this curve; a state
+        // from another model (a caller bug) gets no utilization rather than
+        // a panic.
+        let (a, b) = (c.seg_offset + s0 as usize, c.seg_offset + s1 as usize);
+        debug_assert_eq!(uses.len(), self.total_segments, "state from another model");
+        let mut delta = 0i128;
+        for &n in uses.get(a..=b).unwrap_or_default() {
+            delta += c.util(n.saturating_add(1)) - c.util(n);
+        }
+        (delta, Some((a, b)))
+    }
+
+    /// The density of the bone's midpoint against the bones in `state`
+    /// (fixed point), when the density term is on.
+    fn density_sum(&self, state: &CostState, plan: &BonePlan) -> i128 {
+        let (Some(d), Some(grid)) = (self.density, state.grid.as_ref()) else {
+            return 0;
+        };
+        let mid = 0.5 * (plan.base + plan.tip);
+        let mut sum = 0i128;
+        grid.for_each_within(mid, d.radius, |q| {
+            let w = 1.0 - mid.distance(q) / d.radius;
+            // Quantized per pair: the pair's value does not depend on
+            // which of the two bones came first.
+            sum += to_fixed(d.scale * w * w);
+        });
+        sum
+    }
+
+    /// The cost [`Self::add_planned`] would return for `plan` in `state`
+    /// (its `total()`, bit for bit), without changing the state: for
+    /// comparing candidate bones before choosing one. `+inf` for a
+    /// non-finite bone.
+    pub fn peek(&self, state: &CostState, plan: &BonePlan) -> f64 {
+        if plan.curve.is_none() {
+            return f64::INFINITY;
+        }
+        let (delta, _) = self.utilization_delta(&state.uses, plan);
+        let utilization = if plan.segments.is_some() {
+            -to_f64(delta)
+        } else {
+            0.0
+        };
+        let density = if self.density.is_some() && state.grid.is_some() {
+            to_f64(self.density_sum(state, plan))
+        } else {
+            0.0
+        };
+        plan.distance + plan.alignment + utilization + density
     }
 
     /// Adds a bone (world-space base and tip) to `state` and returns its cost.
@@ -346,72 +538,52 @@ impl CostModel {
     /// A bone with a non-finite base or tip makes the model's total `+inf`
     /// and changes nothing else.
     pub fn add_bone(&self, state: &mut CostState, base: Vec3, tip: Vec3) -> BoneCost {
+        let plan = self.plan_bone(base, tip);
+        self.add_planned(state, &plan)
+    }
+
+    /// Adds the bone `plan` was made for ([`Self::plan_bone`] or
+    /// [`Self::plan_bone_near`] of this model) to `state`: exactly
+    /// [`Self::add_bone`] of the same base and tip.
+    pub fn add_planned(&self, state: &mut CostState, plan: &BonePlan) -> BoneCost {
         state.bones += 1;
-        let (b, t) = (base.as_dvec3(), tip.as_dvec3());
-        if !(b.is_finite() && t.is_finite()) {
+        let Some(ci) = plan.curve else {
             state.non_finite += 1;
             return BoneCost {
                 curve: None,
                 distance: f64::INFINITY,
                 ..BoneCost::default()
             };
-        }
-        let (ci, cp) = self.nearest_curve(b);
-        let c = &self.curves[ci]; // index from `nearest_curve`
-        let p = &c.params;
-
-        let distance = distance_cost(cp.dist, p);
-        let guide = c.bez.tangent(cp.t);
-        let alignment = alignment_cost(t - b, guide, p.alignment_scale, p.alignment_offset);
-        state.distance += to_fixed(distance);
-        state.alignment += to_fixed(alignment);
+        };
+        state.distance += to_fixed(plan.distance);
+        state.alignment += to_fixed(plan.alignment);
 
         let mut utilization = 0.0;
-        if p.utilization_scale > 0.0 {
-            let tip_cp = c.bez.closest_point_sampled(&c.samples, t);
-            let (s0, s1) = {
-                let (a, b) = (c.segment(cp.t), c.segment(tip_cp.t));
-                (a.min(b), a.max(b))
-            };
-            let mut delta = 0i128;
-            // `segment` clamps to `n_seg - 1`, and a state made by this
-            // model holds `n_seg` counters from `seg_offset` for this curve;
-            // a state from another model (a caller bug) gets no utilization
-            // rather than a panic.
-            let range = c.seg_offset + s0..=c.seg_offset + s1;
-            debug_assert_eq!(
-                state.uses.len(),
-                self.total_segments,
-                "state from another model"
-            );
-            for n in state.uses.get_mut(range).unwrap_or_default() {
-                let next = n.saturating_add(1);
-                delta += c.util(next) - c.util(*n);
-                *n = next;
+        let (delta, range) = self.utilization_delta(&state.uses, plan);
+        if let Some((a, b)) = range {
+            for n in state.uses.get_mut(a..=b).unwrap_or_default() {
+                *n = n.saturating_add(1);
             }
+        }
+        if plan.segments.is_some() {
             state.utilization -= delta;
             utilization = -to_f64(delta);
         }
 
         let mut density = 0.0;
-        if let (Some(d), Some(grid)) = (self.density, state.grid.as_mut()) {
-            let mid = 0.5 * (b + t);
-            let mut sum = 0i128;
-            grid.for_each_within(mid, d.radius, |q| {
-                let w = 1.0 - mid.distance(q) / d.radius;
-                // Quantized per pair: the pair's value does not depend on
-                // which of the two bones came first.
-                sum += to_fixed(d.scale * w * w);
-            });
-            grid.insert(mid);
+        if self.density.is_some() && state.grid.is_some() {
+            let sum = self.density_sum(state, plan);
+            if let Some(grid) = state.grid.as_mut() {
+                grid.insert(0.5 * (plan.base + plan.tip));
+            }
             state.density += sum;
             density = to_f64(sum);
         }
 
         BoneCost {
             curve: Some(ci),
-            distance,
-            alignment,
+            distance: plan.distance,
+            alignment: plan.alignment,
             utilization,
             density,
         }

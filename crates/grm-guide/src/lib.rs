@@ -53,8 +53,8 @@ pub mod volume;
 
 pub use bezier::{BRACKET_SAMPLES, Bezier3, BracketSamples, ClosestPoint};
 pub use cost::{
-    BoneCost, CostBreakdown, CostModel, CostOptions, CostState, ExpectedDirection, alignment_cost,
-    distance_cost, expected_direction, utilization_sum,
+    BoneCost, BonePlan, CostBreakdown, CostModel, CostOptions, CostState, ExpectedDirection,
+    alignment_cost, distance_cost, expected_direction, utilization_sum,
 };
 pub use curves::{
     CurveParams, Curves, CurvesError, CurvesErrorKind, DensityParams, FORMAT_VERSION, GuideCurve,

@@ -214,3 +214,65 @@ fn volume_baseline_is_order_independent() {
         assert_eq!(target.evaluate(&bones), want);
     }
 }
+
+/// Pricing a bone before adding it (the sampler's candidates): `peek`
+/// returns exactly what `add_planned` then returns and changes nothing,
+/// `add_planned` is `add_bone` bit for bit (with eq. 1 computed by the plan
+/// or given), and `nearest_curve_known` with a plan's tip point is
+/// `nearest_curve` at the tip.
+#[test]
+fn planned_bones_cost_what_added_bones_cost() {
+    let curves = benchmark_curves();
+    let model = CostModel::new(&curves, CostOptions::from_curves(&curves));
+    let mut rng = Rng(0x05EE_DCA7);
+    for trial in 0..6 {
+        let mut bones = random_bones(&mut rng, 80 + 10 * trial);
+        bones.push((Vec3::new(f32::NAN, 0.0, 0.0), Vec3::ONE));
+        bones.push((Vec3::ZERO, Vec3::new(0.0, f32::INFINITY, 0.0)));
+        let (mut direct, mut planned, mut given) =
+            (model.new_state(), model.new_state(), model.new_state());
+        let mut known_used = 0;
+        for &(b, t) in &bones {
+            let want = model.add_bone(&mut direct, b, t);
+            let plan = model.plan_bone(b, t);
+            let finite = b.is_finite() && t.is_finite();
+            if finite {
+                assert_eq!(plan.ends(), (b.as_dvec3(), t.as_dvec3()));
+            } else {
+                assert_eq!(plan.curve(), None);
+            }
+            let before = model.total(&planned);
+            let peeked = model.peek(&planned, &plan);
+            assert_eq!(model.total(&planned), before, "peek changed the state");
+            let got = model.add_planned(&mut planned, &plan);
+            assert_eq!(got, want);
+            if want.curve.is_some() {
+                assert_eq!(peeked.to_bits(), got.total().to_bits(), "{b} {t}");
+            } else {
+                assert_eq!(peeked, f64::INFINITY);
+            }
+            // Eq. 1 given by the caller.
+            let plan2 = if finite {
+                let (ci, cp) = model.nearest_curve(b.as_dvec3());
+                let p2 = model.plan_bone_near(b, t, ci, &cp);
+                assert_eq!(p2, plan);
+                p2
+            } else {
+                model.plan_bone(b, t)
+            };
+            assert_eq!(model.add_planned(&mut given, &plan2), want);
+            // The tip's closest point on the bone's curve, reused.
+            if let Some((ci, cp)) = plan.tip_closest() {
+                assert_eq!(plan.curve(), Some(ci));
+                let tip = t.as_dvec3();
+                let (a, pa) = model.nearest_curve(tip);
+                let (k, pk) = model.nearest_curve_known(tip, Some((ci, cp)));
+                assert_eq!((a, pa), (k, pk), "{t}");
+                known_used += 1;
+            }
+        }
+        assert_eq!(model.total(&planned), model.total(&direct));
+        assert_eq!(model.total(&given), model.total(&direct));
+        assert!(known_used > bones.len() / 2);
+    }
+}
