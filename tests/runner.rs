@@ -448,6 +448,7 @@ fn sample(rel: &Path, program: &Program, args: &[String]) -> Result<(), Stop> {
         heuristic: !o.has("--no-heuristic") && !volume,
         temperature: 1.0,
         ess_target: grm_sample::DEFAULT_ESS_TARGET,
+        candidates: grm_sample::DEFAULT_CANDIDATES,
         threads: o.number("--threads").map_err(Stop::Usage)?.unwrap_or(1),
         budget: None,
         best: 1,

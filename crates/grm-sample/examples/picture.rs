@@ -1,12 +1,12 @@
 //! `cargo run -p grm-sample --release --example picture -- OUT.svg [SEED]`:
 //! sample the Calder tree (examples/calder_tree.grm, Calder's playground
-//! schedule) and draw its skeleton with the guiding curves as an SVG, in an
+//! schedule, the default weights) and draw its skeleton with the guiding curves as an SVG, in an
 //! orthographic front view (x to the right, y up; z is dropped). The
 //! documentation's picture is this file converted to PNG:
 //!
 //! ```text
 //! cargo run -p grm-sample --release --example picture -- /tmp/tree.svg 1
-//! rsvg-convert -w 900 /tmp/tree.svg -o docs/img/calder_tree_guided.png
+//! rsvg-convert -w 1000 /tmp/tree.svg -o docs/img/calder_tree_guided.png
 //! ```
 //!
 //! Drawn: each guiding curve as a wide translucent band with an arrow at its
@@ -178,7 +178,9 @@ fn main() {
     }
     let c = &m.cost;
     let caption = format!(
-        "calder_tree.grm + calder_tree.curves.json, seed {seed}, Calder's playground schedule (100 generations, 100 -> 15 particles)"
+        "calder_tree.grm, seed {seed}, playground schedule (100 generations, 100 -> 15 particles), {} candidates, ESS >= {} N",
+        grm_sample::DEFAULT_CANDIDATES,
+        grm_sample::DEFAULT_ESS_TARGET
     );
     let caption2 = format!(
         "{} bones, cost {:.0} = distance {:.0} + alignment {:.0} + utilization {:.0}; front view, z dropped",

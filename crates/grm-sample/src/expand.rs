@@ -36,6 +36,10 @@ pub(crate) struct Grammar<'a> {
     pub phase: Vec<Phase>,
     /// Per symbol: parameter words.
     pub words: Vec<u32>,
+    /// Per symbol: whether one of its normal productions' successors holds
+    /// a bone-drawing terminal (`F`, `G`): the symbols whose expansions
+    /// are drawn as several candidates (`SampleOptions::candidates`).
+    pub can_bone: Vec<bool>,
     pub cfg: TurtleConfig,
 }
 
@@ -61,6 +65,26 @@ pub(crate) struct Worker {
     pub bones: Vec<(Vec3, Vec3)>,
     /// Whether a bone had a non-finite end (dropped by the interpreter).
     pub non_finite: bool,
+    /// Candidate expansions of one step (`Sampler::advance`): per
+    /// candidate its alternative, parameter words and planned bones.
+    pub cand_alt: Vec<u32>,
+    pub cand_params: Vec<Vec<f32>>,
+    pub cand_plans: Vec<Vec<grm_guide::BonePlan>>,
+    /// Per candidate: its successor's non-terminal frames and bones (as
+    /// `users`, `bones` and `non_finite`).
+    pub cand_users: Vec<Vec<(u32, Turtle)>>,
+    pub cand_bones: Vec<Vec<(Vec3, Vec3)>>,
+    pub cand_non_finite: Vec<bool>,
+    /// Per candidate: its log selection weight.
+    pub cand_logv: Vec<f64>,
+}
+
+/// The terminal of symbol `sym`, if it is one.
+fn ops_of(system: &System, sym: u32) -> Option<Terminal> {
+    match system.symbols.get(sym as usize)?.kind {
+        SymbolKind::Terminal(t) => Some(t),
+        SymbolKind::User => None,
+    }
 }
 
 impl<'a> Grammar<'a> {
@@ -75,11 +99,35 @@ impl<'a> Grammar<'a> {
             .collect();
         let phase = system.symbols.iter().map(|s| s.phase).collect();
         let words = sys.symbols.iter().map(|s| s.param_words).collect();
+        let can_bone = sys
+            .symbols
+            .iter()
+            .map(|s| {
+                let first = s.first_group as usize;
+                let groups = sys
+                    .groups
+                    .get(first..first + s.group_count as usize)
+                    .unwrap_or(&[]);
+                groups.iter().any(|g| {
+                    let a0 = g.first_alt as usize;
+                    let alts = sys.alts.get(a0..a0 + g.alt_count as usize).unwrap_or(&[]);
+                    alts.iter().any(|a| {
+                        sys.successor(a).iter().any(|m| {
+                            matches!(
+                                ops_of(system, m.symbol),
+                                Some(Terminal::Forward | Terminal::ForwardNoVertex)
+                            )
+                        })
+                    })
+                })
+            })
+            .collect();
         Grammar {
             sys,
             ops,
             phase,
             words,
+            can_bone,
             cfg: TurtleConfig::from_settings(&sys.settings),
         }
     }
@@ -96,6 +144,13 @@ impl<'a> Grammar<'a> {
             users: Vec::new(),
             bones: Vec::new(),
             non_finite: false,
+            cand_alt: Vec::new(),
+            cand_params: Vec::new(),
+            cand_plans: Vec::new(),
+            cand_users: Vec::new(),
+            cand_bones: Vec::new(),
+            cand_non_finite: Vec::new(),
+            cand_logv: Vec::new(),
         }
     }
 

@@ -10,15 +10,16 @@
 //! **Inputs.** A checked sample [`grm_sema::System`] and its
 //! [`grm_compile::CompiledSystem`], the guiding [`grm_guide::Curves`], an
 //! [`Objective`] (the curve cost, or the volume-matching baseline) and
-//! [`SampleOptions`] (seed, [`Schedule`], heuristic, temperature, adaptive
-//! tempering's ESS target, threads, optional wall-clock budget, how many
-//! best models).
+//! [`SampleOptions`] (seed, [`Schedule`], heuristic, temperature, candidate
+//! expansions, adaptive tempering's ESS floor, threads, optional
+//! wall-clock budget, how many best models).
 //!
 //! **Outputs.** A [`SampleResult`]: the best [`SampledModel`]s (cost by
 //! term, the full turtle [`grm_turtle::Interpretation`] ready for
 //! `grm-geom`, the flat module string with per-module origins, the
 //! [`DerivationTree`]), and [`GenerationStats`] per generation (effective
-//! sample size, tempering factor, heuristic scale, best objective).
+//! sample size, distinct survivors of resampling, tempering factor,
+//! heuristic scale, best objective).
 //!
 //! **Method** (details and reasons in docs/sampling.md):
 //! - A particle is a partial derivation: an `Arc`-linked list of
@@ -30,12 +31,21 @@
 //!   alternative is drawn by its weight and the parameters evaluated with
 //!   the grm-compile VM; the successor is interpreted from the
 //!   non-terminal's own saved turtle frame (frame locality) and each bone
-//!   is scored with `CostModel::add_bone` at once.
+//!   is scored against the curves at once.
+//! - Candidates: an expansion of a symbol that can make a bone draws
+//!   [`SampleOptions::candidates`] (default 3) productions and parameters,
+//!   prices each one's bones without changing the particle
+//!   (`CostModel::peek`) and keeps one in proportion to `exp(-cost / T)`;
+//!   the weight gets the sampling-importance-resampling correction
+//!   `log(mean v) - log(v_kept)`.
 //! - Weights are incremental and in log space: `log w = -(S_g(new) -
-//!   S_{g-1}(old)) / T` with `S = cost + HEURISTICSCALE_g * heuristic`;
-//!   normalized with log-sum-exp; systematic resampling every generation
-//!   ([`resample`]), where every particle, the last one included, can be
-//!   chosen.
+//!   S_{g-1}(old)) / T` (plus the candidates' correction) with `S = cost +
+//!   HEURISTICSCALE_g * heuristic`; tempered by the largest `beta <= 1`
+//!   that keeps the effective sample size at least
+//!   [`SampleOptions::ess_target`] (default 0.1) of the particles: no
+//!   population collapse; normalized with log-sum-exp; systematic
+//!   resampling every generation ([`resample`]), where every particle, the
+//!   last one included, can be chosen.
 //! - The heuristic (eq. 9-10): each skeleton symbol's expected bone
 //!   direction is estimated once, in [`Sampler::new`], from sub-derivations
 //!   grown from the identity frame with a fixed seed; each open symbol
@@ -68,5 +78,7 @@ pub use error::{ExpandError, ExpandErrorKind, LimitKind, SampleError};
 pub use model::{
     DerivationTree, FinishLimits, GenerationStats, NodeKind, SampleResult, SampledModel, TreeNode,
 };
-pub use sampler::{DEFAULT_ESS_TARGET, ExpectedOptions, Objective, SampleOptions, Sampler};
+pub use sampler::{
+    DEFAULT_CANDIDATES, DEFAULT_ESS_TARGET, ExpectedOptions, Objective, SampleOptions, Sampler,
+};
 pub use schedule::Schedule;

@@ -114,6 +114,11 @@ pub struct GenerationStats {
     /// The tempering factor of the generation's incremental log-weights
     /// (1: untempered; `SampleOptions::ess_target`).
     pub beta: f64,
+    /// Distinct particles of this generation that resampling kept (each
+    /// the ancestor of one or more particles of the next generation); for
+    /// the last generation, its distinct particles (those wrapped up). With
+    /// Calder's untempered weights it is 1 to 3: a population collapse.
+    pub survivors: usize,
     /// `HEURISTICSCALE` used.
     pub heuristic_scale: f64,
     /// The lowest objective (without heuristic) among the particles.

@@ -65,6 +65,20 @@ pub(crate) struct Spawn {
     /// Its unscaled heuristic term (eq. 10), in fixed point; 0 when not
     /// computed.
     pub h: i64,
+    /// Eq. 1 at its position (the curve nearest to it and the closest
+    /// point), computed once when it was emitted: the base of the bones
+    /// its expansion draws from that position (every copy of the particle
+    /// shares it). `None` at a non-finite position.
+    pub near: Option<Near>,
+}
+
+/// The guiding curve nearest to a position (eq. 1) and the closest point
+/// on it.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Near {
+    pub position: glam::Vec3,
+    pub curve: usize,
+    pub closest: grm_guide::ClosestPoint,
 }
 
 /// Where a node is in the arena: `layers[layer][step].nodes[k]`.

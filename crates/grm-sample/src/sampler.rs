@@ -10,7 +10,8 @@ use grm_compile::CompiledSystem;
 use grm_compile::rng::{self, DrawCtx};
 use grm_derive::ModuleString;
 use grm_guide::{
-    CostBreakdown, CostModel, CostOptions, Curves, ExpectedDirection, VolumeOptions, VolumeTarget,
+    BonePlan, CostBreakdown, CostModel, CostOptions, Curves, ExpectedDirection, VolumeOptions,
+    VolumeTarget,
 };
 use grm_sema::{Mode, System};
 use grm_turtle::{Interpreter, Turtle};
@@ -63,10 +64,19 @@ impl Default for ExpectedOptions {
     }
 }
 
-/// The default [`SampleOptions::ess_target`]: no tempering. Tempering to
-/// an ESS of half the particles raised the median final cost of the Calder
-/// tree from -19,118 to -13,363 (`docs/benchmarks.md`), so it is an option.
-pub const DEFAULT_ESS_TARGET: f64 = 0.0;
+/// The default [`SampleOptions::ess_target`]: every generation keeps an
+/// effective sample size of at least a tenth of its particles (no
+/// population collapse). With Calder's untempered weights the ESS is 1 to 3
+/// of 15 to 100 particles; with tempering alone the final cost rises, and
+/// the candidates ([`DEFAULT_CANDIDATES`]) win it back
+/// (`docs/sampling.md` section 4, `docs/benchmarks.md`).
+pub const DEFAULT_ESS_TARGET: f64 = 0.1;
+
+/// The default [`SampleOptions::candidates`]: 3 candidate expansions per
+/// bone-making expansion (with [`DEFAULT_ESS_TARGET`], a lower median final
+/// cost on the Calder tree than Calder's untempered weights with one, in
+/// about 1.6 times the time).
+pub const DEFAULT_CANDIDATES: u32 = 3;
 
 /// How one run samples.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -83,8 +93,9 @@ pub struct SampleOptions {
     /// Adaptive tempering: each generation's incremental log-weights are
     /// multiplied by the largest `beta` in `(0, 1]` that keeps the effective
     /// sample size at least this fraction of the generation's particle
-    /// count (bisection, deterministic; `docs/sampling.md` section 4).
-    /// 0 disables it: the untempered weights, Calder's.
+    /// count (bisection, deterministic; `docs/sampling.md` section 4.2).
+    /// 0 disables it: the untempered weights, Calder's. Default
+    /// [`DEFAULT_ESS_TARGET`].
     pub ess_target: f64,
     /// Worker threads: 1 runs on the calling thread, 0 uses all cores.
     /// The result does not depend on it.
@@ -98,6 +109,15 @@ pub struct SampleOptions {
     /// A particle's step expands random open skeleton symbols until one
     /// adds a bone, at most this many.
     pub max_expansions_per_step: u32,
+    /// Candidate expansions per bone-making expansion (the proposal of
+    /// `docs/sampling.md` section 4.1): each expansion of a symbol that can
+    /// make a bone draws this many candidates (production and parameters)
+    /// and keeps one, chosen in proportion to `exp(-cost / temperature)` of
+    /// its bones; the particle's weight is corrected by the candidates'
+    /// mean. 1 is the plain proposal (the grammar's own draws, Calder's).
+    /// Only the curve objective at a finite temperature uses candidates.
+    /// Default [`DEFAULT_CANDIDATES`].
+    pub candidates: u32,
     pub limits: FinishLimits,
 }
 
@@ -113,6 +133,7 @@ impl Default for SampleOptions {
             budget: None,
             best: 1,
             max_expansions_per_step: 1000,
+            candidates: DEFAULT_CANDIDATES,
             limits: FinishLimits::default(),
         }
     }
@@ -133,6 +154,7 @@ impl SampleOptions {
             },
             heuristic: false,
             temperature: f64::INFINITY,
+            candidates: 1,
             ..SampleOptions::default()
         }
     }
@@ -165,6 +187,7 @@ const STREAM_WRAPUP: u32 = 4;
 const STREAM_GEOMETRY: u32 = 5;
 const STREAM_EXPECTED: u32 = 6;
 const STREAM_ORDER: u32 = 7;
+const STREAM_CANDIDATE: u32 = 8;
 
 /// Expansion `k` of particle `i`'s step in generation `g`.
 fn skeleton_draws(seed: u32, g: u32, i: u32, k: u32) -> DrawCtx {
@@ -207,16 +230,10 @@ enum How<'t> {
         params: &'t [f32],
         which: Which,
     },
-}
-
-/// The guiding curve nearest to a position and its unit tangent there
-/// (eq. 1 and 5), with the curve's alignment parameters.
-#[derive(Clone, Copy, Debug)]
-struct GuideAt {
-    position: Vec3,
-    tangent: glam::DVec3,
-    scale: f64,
-    offset: f64,
+    /// Apply production `alt` (a normal one) whose successor the worker
+    /// holds already evaluated and interpreted from the symbol's frame
+    /// (`params`, `users`, `bones`, `non_finite`): a chosen candidate.
+    Prepared { alt: u32 },
 }
 
 /// A simple (non-persistent) open symbol, for the expected directions.
@@ -300,7 +317,7 @@ impl<'a> Sampler<'a> {
         if e == Vec3::ZERO {
             return Some(0.0);
         }
-        Some(self.heuristic_in_frame(frame, e, &mut None))
+        Some(self.heuristic_in_frame(frame, e))
     }
 
     /// Time spent estimating the expected directions in [`Sampler::new`].
@@ -463,10 +480,46 @@ impl<'a> Sampler<'a> {
 
     // ---- particles --------------------------------------------------------
 
+    /// Eq. 1 at `position`: remembered in `memo` for the last position
+    /// asked (the non-terminals an expansion emits side by side share
+    /// their frame, `branch maybeBranch maybeBranch`, and the closest-point
+    /// search is most of the cost). `None` for a non-finite position.
+    fn near_at(&self, position: Vec3, memo: &mut Option<Near>) -> Option<Near> {
+        self.near_at_known(position, memo, None)
+    }
+
+    /// [`Self::near_at`] with one curve's closest point known
+    /// (`CostModel::nearest_curve_known`; the same answer).
+    fn near_at_known(
+        &self,
+        position: Vec3,
+        memo: &mut Option<Near>,
+        known: Option<(usize, &grm_guide::ClosestPoint)>,
+    ) -> Option<Near> {
+        match memo {
+            Some(m) if m.position == position => Some(*m),
+            _ => {
+                let p = position.as_dvec3();
+                if !p.is_finite() {
+                    return None;
+                }
+                let (curve, closest) = self.cost.nearest_curve_known(p, known);
+                let n = Near {
+                    position,
+                    curve,
+                    closest,
+                };
+                *memo = Some(n);
+                Some(n)
+            }
+        }
+    }
+
     /// Eq. 10's term for a skeleton symbol opened at frame `t` (fixed
-    /// point); 0 for a symbol whose expected direction is zero (it grows
-    /// no bone, so it adds no future alignment cost).
-    fn heuristic_term(&self, sym: u32, t: &Turtle, memo: &mut Option<GuideAt>) -> i64 {
+    /// point) whose position's nearest curve is `near`; 0 for a symbol
+    /// whose expected direction is zero (it grows no bone, so it adds no
+    /// future alignment cost).
+    fn heuristic_term(&self, sym: u32, t: &Turtle, near: Option<Near>) -> i64 {
         let e = self
             .expected
             .get(sym as usize)
@@ -475,47 +528,29 @@ impl<'a> Sampler<'a> {
         if e == Vec3::ZERO {
             return 0;
         }
-        to_fixed(self.heuristic_in_frame(&t.frame, e, memo))
+        to_fixed(self.heuristic_near(&t.frame, e, near))
     }
 
     /// `CostModel::heuristic_in_frame`, computed the same way (the same
-    /// operations on the same values, so bit for bit the same result), with
-    /// the nearest curve and its tangent remembered for the last position:
-    /// the non-terminals an expansion emits side by side share their frame
-    /// (`branch maybeBranch maybeBranch`), and the closest-point search is
-    /// most of the cost.
-    fn heuristic_in_frame(
-        &self,
-        frame: &glam::Affine3A,
-        expected: Vec3,
-        memo: &mut Option<GuideAt>,
-    ) -> f64 {
-        let position = Vec3::from(frame.translation);
-        let p = position.as_dvec3();
-        if !p.is_finite() {
+    /// operations on the same values, so bit for bit the same result),
+    /// given eq. 1 at the frame's position (`None`: not finite).
+    fn heuristic_near(&self, frame: &glam::Affine3A, expected: Vec3, near: Option<Near>) -> f64 {
+        let Some(n) = near else {
             return f64::INFINITY;
-        }
-        let at = match memo {
-            Some(m) if m.position == position => *m,
-            _ => {
-                let (ci, cp) = self.cost.nearest_curve(p);
-                let (bez, params) = &self.guides[ci];
-                let at = GuideAt {
-                    position,
-                    tangent: bez.tangent(cp.t),
-                    scale: params.alignment_scale,
-                    offset: params.alignment_offset,
-                };
-                *memo = Some(at);
-                at
-            }
         };
+        let (bez, params) = &self.guides[n.curve];
         grm_guide::alignment_cost(
             frame.transform_vector3(expected).as_dvec3(),
-            at.tangent,
-            at.scale,
-            at.offset,
+            bez.tangent(n.closest.t),
+            params.alignment_scale,
+            params.alignment_offset,
         )
+    }
+
+    /// [`Self::heuristic_near`] for a frame, finding eq. 1 at its position.
+    fn heuristic_in_frame(&self, frame: &glam::Affine3A, expected: Vec3) -> f64 {
+        let near = self.near_at(Vec3::from(frame.translation), &mut None);
+        self.heuristic_near(frame, expected, near)
     }
 
     /// The objective without heuristic.
@@ -535,10 +570,28 @@ impl<'a> Sampler<'a> {
         }
     }
 
-    /// Score `w.bones` into `p`.
-    fn add_bones(&self, w: &Worker, p: &mut Particle) {
-        for &(b, t) in &w.bones {
-            self.cost.add_bone(&mut p.cost, b, t);
+    /// Score `w.bones` into `p`. `plans`: the bones' plans when the caller
+    /// made them already (a chosen candidate), else empty.
+    /// `near`: eq. 1 at the expanded symbol's position, for bones based
+    /// there.
+    fn add_bones(&self, w: &Worker, p: &mut Particle, plans: &[BonePlan], near: Option<Near>) {
+        let planned = plans.len() == w.bones.len()
+            && plans
+                .iter()
+                .zip(&w.bones)
+                .all(|(pl, &(b, t))| pl.ends() == (b.as_dvec3(), t.as_dvec3()));
+        for (k, &(b, t)) in w.bones.iter().enumerate() {
+            if planned {
+                self.cost.add_planned(&mut p.cost, &plans[k]);
+            } else {
+                let plan = match near {
+                    Some(n) if n.position == b => {
+                        self.cost.plan_bone_near(b, t, n.curve, &n.closest)
+                    }
+                    _ => self.cost.plan_bone(b, t),
+                };
+                self.cost.add_planned(&mut p.cost, &plan);
+            }
             if let (Some(vt), Some(vs)) = (&self.volume, p.volume.as_mut()) {
                 vt.add_bone(vs, b, t);
             }
@@ -553,16 +606,33 @@ impl<'a> Sampler<'a> {
 
     /// Append the skeleton spawns of the successor just interpreted in `w`
     /// to `out`; returns the sum of their heuristic terms.
-    fn push_spawns(&self, w: &Worker, alt: u32, compute_h: bool, out: &mut Vec<Spawn>) -> i128 {
+    /// Each spawn gets eq. 1 at its position (`memo`: the expanded
+    /// symbol's, reused where a spawn sits at the same position).
+    fn push_spawns(
+        &self,
+        w: &Worker,
+        alt: u32,
+        compute_h: bool,
+        out: &mut Vec<Spawn>,
+        mut memo: Option<Near>,
+        plans: &[BonePlan],
+    ) -> i128 {
         let sys = self.g.sys;
         let a = &sys.alts[alt as usize];
         let mut h_sum = 0;
-        let mut memo = None;
         for (ord, &(m, t)) in w.users.iter().enumerate() {
             let sym = sys.succ[(a.succ_offset + m) as usize].symbol;
             if self.g.is_skeleton(sym) {
+                let position = Vec3::from(t.frame.translation);
+                // At a planned bone's tip the tip's closest point on the
+                // bone's curve is known already.
+                let known = plans
+                    .iter()
+                    .find(|pl| pl.ends().1 == position.as_dvec3())
+                    .and_then(BonePlan::tip_closest);
+                let near = self.near_at_known(position, &mut memo, known);
                 let h = if compute_h {
-                    self.heuristic_term(sym, &t, &mut memo)
+                    self.heuristic_term(sym, &t, near)
                 } else {
                     0
                 };
@@ -573,6 +643,7 @@ impl<'a> Sampler<'a> {
                     module: m,
                     turtle: t,
                     h,
+                    near,
                 });
             }
         }
@@ -594,12 +665,14 @@ impl<'a> Sampler<'a> {
         alt: u32,
         compute_h: bool,
         slot: Option<usize>,
+        near: Option<Near>,
+        plans: &[BonePlan],
     ) {
         let p0 = local.params.len() as u32;
         let s0 = local.spawns.len() as u32;
         if alt != INERT {
             local.params.extend_from_slice(&w.params);
-            p.heuristic += self.push_spawns(w, alt, compute_h, &mut local.spawns);
+            p.heuristic += self.push_spawns(w, alt, compute_h, &mut local.spawns, near, plans);
         }
         let id = NodeId {
             layer: cur.0,
@@ -677,7 +750,7 @@ impl<'a> Sampler<'a> {
             score: 0.0,
             bones: 0,
         };
-        self.add_bones(w, &mut p);
+        self.add_bones(w, &mut p, &[], None);
         let mut step = Step::default();
         self.add_node(
             w,
@@ -690,6 +763,8 @@ impl<'a> Sampler<'a> {
             alt,
             h_scale > 0.0,
             None,
+            None,
+            &[],
         );
         p.score = self.score(&p, h_scale);
         Ok((p, step))
@@ -708,6 +783,7 @@ impl<'a> Sampler<'a> {
         idx: usize,
         how: How<'_>,
         compute_h: bool,
+        plans: &[BonePlan],
     ) -> Result<usize, SampleError> {
         let Some(&r) = p.open.get(idx) else {
             return Ok(0);
@@ -726,7 +802,9 @@ impl<'a> Sampler<'a> {
         p.heuristic -= i128::from(sp.h);
         let which = match how {
             How::Draw { which, .. } | How::Given { which, .. } => which,
+            How::Prepared { .. } => Which::Normal,
         };
+        let prepared = matches!(how, How::Prepared { .. });
         let alt = match how {
             How::Draw { draws, phase, .. } => {
                 let input = std::mem::take(&mut w.input);
@@ -752,6 +830,7 @@ impl<'a> Sampler<'a> {
                 w.params.extend_from_slice(params);
                 alt
             }
+            How::Prepared { alt } => alt,
         };
         let kind = match which {
             Which::Normal => NodeKind::Skeleton,
@@ -759,8 +838,10 @@ impl<'a> Sampler<'a> {
         };
         let mut bones = 0;
         if alt != INERT {
-            self.g.interpret(w, alt, &sp.turtle)?;
-            self.add_bones(w, p);
+            if !prepared {
+                self.g.interpret(w, alt, &sp.turtle)?;
+            }
+            self.add_bones(w, p, plans, sp.near);
             bones = w.bones.len();
         }
         self.add_node(
@@ -774,6 +855,8 @@ impl<'a> Sampler<'a> {
             alt,
             compute_h,
             Some(idx),
+            sp.near,
+            plans,
         );
         Ok(bones)
     }
@@ -797,9 +880,11 @@ impl<'a> Sampler<'a> {
 
     /// One particle step (Calder's `advance`): expand random open skeleton
     /// symbols until one adds a bone or none is left; score the result.
-    /// `local` is a (recycled) step to fill. Returns the new particle, the
-    /// step holding its new nodes (layer `g + 1`, index `i`) and the number
-    /// of expansions.
+    /// `local` is a (recycled) step to fill. An expansion of a symbol that
+    /// can make a bone draws `kc` candidates when `kc > 1`
+    /// ([`Self::draw_candidates`]). Returns the new particle, the step
+    /// holding its new nodes (layer `g + 1`, index `i`), the number of
+    /// expansions and the log-weight correction of the candidates chosen.
     #[allow(clippy::too_many_arguments)]
     fn advance(
         &self,
@@ -812,27 +897,189 @@ impl<'a> Sampler<'a> {
         i: u32,
         h_scale: f64,
         max_k: u32,
-    ) -> Result<(Particle, Step, u32), SampleError> {
+        kc: u32,
+        temperature: f64,
+    ) -> Result<(Particle, Step, u32, f64), SampleError> {
         let mut q = p.clone();
         local.clear();
         let cur = (g + 1, i);
         let compute_h = h_scale > 0.0;
         let mut k = 0;
+        let mut correction = 0.0;
         while !q.open.is_empty() && k < max_k {
             let draws = skeleton_draws(seed, g, i, k);
             let idx = pick(&draws, self.g.sys.draws, q.open.len());
             k += 1;
-            let how = How::Draw {
-                draws,
-                which: Which::Normal,
-                phase: "skeleton",
+            let symbol = {
+                let arena = Arena {
+                    layers,
+                    local: &local,
+                    cur,
+                };
+                q.open
+                    .get(idx)
+                    .and_then(|r| arena.get(r.node).map(|(st, n)| (r, st, n)))
+                    .and_then(|(r, st, n)| st.spawns(n).get(r.spawn as usize))
+                    .map(|sp| sp.symbol)
             };
-            if self.expand_open(w, layers, &mut local, cur, &mut q, idx, how, compute_h)? > 0 {
+            let candidates = kc > 1 && symbol.is_some_and(|s| self.g.can_bone[s as usize]);
+            let added = if candidates {
+                let (c, corr) =
+                    self.draw_candidates(w, layers, &local, cur, &q, idx, draws, kc, temperature)?;
+                correction += corr;
+                // The chosen candidate's successor into the worker.
+                std::mem::swap(&mut w.params, &mut w.cand_params[c]);
+                std::mem::swap(&mut w.users, &mut w.cand_users[c]);
+                std::mem::swap(&mut w.bones, &mut w.cand_bones[c]);
+                w.non_finite = w.cand_non_finite[c];
+                let plans = std::mem::take(&mut w.cand_plans[c]);
+                let how = How::Prepared { alt: w.cand_alt[c] };
+                let r = self.expand_open(
+                    w, layers, &mut local, cur, &mut q, idx, how, compute_h, &plans,
+                );
+                w.cand_plans[c] = plans;
+                r?
+            } else {
+                let how = How::Draw {
+                    draws,
+                    which: Which::Normal,
+                    phase: "skeleton",
+                };
+                self.expand_open(w, layers, &mut local, cur, &mut q, idx, how, compute_h, &[])?
+            };
+            if added > 0 {
                 break;
             }
         }
         q.score = self.score(&q, h_scale);
-        Ok((q, local, k))
+        Ok((q, local, k, correction))
+    }
+
+    /// The candidates of one expansion: open symbol `idx` of `q` expanded
+    /// `kc` times from its own frame, candidate `c` with the draws of
+    /// `draws` at position `c` (candidate 0 draws exactly what a plain
+    /// expansion draws), each candidate's bones planned and priced against
+    /// `q`'s cost state without changing it ([`CostModel::peek`]).
+    /// Candidate `c` gets the selection weight `v_c = exp(-cost_c / T)`;
+    /// one is chosen with probability `v_c / sum v` (a seeded uniform), and
+    /// the returned correction `log(mean v) - log(v_chosen)` makes the
+    /// particle's weight the sampling-importance-resampling weight of the
+    /// step (section 4.1 of docs/sampling.md). Results are left in `w`'s
+    /// `cand_*` buffers; returns (chosen candidate, correction).
+    #[allow(clippy::too_many_arguments)]
+    fn draw_candidates(
+        &self,
+        w: &mut Worker,
+        layers: &[Vec<Step>],
+        local: &Step,
+        cur: (u32, u32),
+        q: &Particle,
+        idx: usize,
+        draws: DrawCtx,
+        kc: u32,
+        temperature: f64,
+    ) -> Result<(usize, f64), SampleError> {
+        let bad = || SampleError::Options("an open symbol refers to a missing node".into());
+        let r = *q.open.get(idx).ok_or_else(bad)?;
+        let sp = {
+            let arena = Arena { layers, local, cur };
+            let (step, node) = arena.get(r.node).ok_or_else(bad)?;
+            let sp = *step.spawns(node).get(r.spawn as usize).ok_or_else(bad)?;
+            let input = self.g.module_params(node.alt, sp.module, step.params(node));
+            w.input.clear();
+            w.input.extend_from_slice(input);
+            sp
+        };
+        let n = kc as usize;
+        w.cand_alt.clear();
+        w.cand_logv.clear();
+        let m = n.max(w.cand_params.len());
+        w.cand_params.resize_with(m, Vec::new);
+        w.cand_plans.resize_with(m, Vec::new);
+        w.cand_users.resize_with(m, Vec::new);
+        w.cand_bones.resize_with(m, Vec::new);
+        w.cand_non_finite.resize(m, false);
+        // Eq. 1 at the symbol's own position (where a successor's first
+        // bone starts) is the spawn's; other bases are remembered.
+        let mut memo = None;
+        let input = std::mem::take(&mut w.input);
+        for c in 0..n {
+            let ctx = DrawCtx {
+                position: c as u32,
+                ..draws
+            };
+            let chosen = self
+                .g
+                .choose(w, sp.symbol, &input, Which::Normal, &ctx, "skeleton");
+            let alt = match chosen {
+                Ok(Some(a)) => a,
+                Ok(None) => INERT,
+                Err(e) => {
+                    w.input = input;
+                    return Err(e);
+                }
+            };
+            let mut plans = std::mem::take(&mut w.cand_plans[c]);
+            plans.clear();
+            let mut cost = 0.0;
+            if alt != INERT {
+                let done = self
+                    .g
+                    .eval_successor(w, sp.symbol, alt, &ctx, "skeleton")
+                    .and_then(|()| self.g.interpret(w, alt, &sp.turtle));
+                if let Err(e) = done {
+                    w.input = input;
+                    return Err(e);
+                }
+                for &(b, t) in &w.bones {
+                    let plan = if !(b.is_finite() && t.is_finite()) {
+                        self.cost.plan_bone(b, t)
+                    } else {
+                        let near = match sp.near {
+                            Some(n) if n.position == b => Some(n),
+                            _ => self.near_at(b, &mut memo),
+                        };
+                        match near {
+                            Some(n) => self.cost.plan_bone_near(b, t, n.curve, &n.closest),
+                            None => self.cost.plan_bone(b, t),
+                        }
+                    };
+                    cost += self.cost.peek(&q.cost, &plan);
+                    plans.push(plan);
+                }
+                if w.non_finite {
+                    cost = f64::INFINITY;
+                }
+            } else {
+                w.params.clear();
+                w.users.clear();
+                w.bones.clear();
+                w.non_finite = false;
+            }
+            // Keep the candidate's successor (swapped: no copies).
+            std::mem::swap(&mut w.params, &mut w.cand_params[c]);
+            std::mem::swap(&mut w.users, &mut w.cand_users[c]);
+            std::mem::swap(&mut w.bones, &mut w.cand_bones[c]);
+            w.cand_non_finite[c] = w.non_finite;
+            w.cand_plans[c] = plans;
+            w.cand_alt.push(alt);
+            w.cand_logv.push(if cost.is_nan() {
+                f64::NEG_INFINITY
+            } else {
+                -cost / temperature
+            });
+        }
+        w.input = input;
+        let u = f64::from(
+            DrawCtx {
+                iteration: STREAM_CANDIDATE,
+                position: 0,
+                ..draws
+            }
+            .uniform(0),
+        );
+        let (c, correction) = resample::choose_candidate(&w.cand_logv, u);
+        Ok((c, correction))
     }
 
     /// Close every open skeleton symbol of `p` with its wrap-up production
@@ -867,7 +1114,7 @@ impl<'a> Sampler<'a> {
                 which: Which::Wrapup,
                 phase: "wrap-up",
             };
-            self.expand_open(w, layers, &mut local, cur, &mut q, idx, how, false)?;
+            self.expand_open(w, layers, &mut local, cur, &mut q, idx, how, false, &[])?;
         }
         q.score = self.score(&q, 0.0);
         Ok((q, local))
@@ -917,6 +1164,12 @@ impl<'a> Sampler<'a> {
             0.0
         };
         let max_k = opts.max_expansions_per_step.max(1);
+        // Candidates need a per-bone cost and finite weights.
+        let kc = if matches!(self.objective, Objective::Curves) && temperature.is_finite() {
+            opts.candidates.max(1)
+        } else {
+            1
+        };
         let mut w = self.g.worker();
         let (root, root_step) = self.root_particle(&mut w, None, seed, h_of(0))?;
         // The arena: layer 0 the axiom, layer g + 1 generation g, then the
@@ -942,9 +1195,9 @@ impl<'a> Sampler<'a> {
                 .map(|_| spare.pop().unwrap_or_default())
                 .collect();
             let step = |w: &mut Worker, (i, (p, buf)): (usize, (&Arc<Particle>, Step))| {
-                self.advance(w, lay, buf, p, seed, g, i as u32, h, max_k)
+                self.advance(w, lay, buf, p, seed, g, i as u32, h, max_k, kc, temperature)
             };
-            let results: Vec<Result<(Particle, Step, u32), SampleError>> = if parallel {
+            let results: Vec<Result<(Particle, Step, u32, f64), SampleError>> = if parallel {
                 pop.par_iter()
                     .zip(bufs)
                     .enumerate()
@@ -960,22 +1213,29 @@ impl<'a> Sampler<'a> {
             let mut next = Vec::with_capacity(results.len());
             let mut layer = Vec::with_capacity(results.len());
             let mut expansions = 0u64;
+            let mut corrections = Vec::with_capacity(results.len());
             for r in results {
                 // The first error in particle order, whatever the threads.
-                let (q, st, k) = r?;
+                let (q, st, k, corr) = r?;
                 expansions += u64::from(k);
                 next.push(Arc::new(q));
                 layer.push(st);
+                corrections.push(corr);
             }
             layers.push(layer);
             log_w.clear();
-            log_w.extend(next.iter().zip(&pop).map(|(q, p)| {
-                if temperature.is_infinite() {
-                    0.0
-                } else {
-                    -(q.score - p.score) / temperature
-                }
-            }));
+            log_w.extend(
+                next.iter()
+                    .zip(&pop)
+                    .zip(&corrections)
+                    .map(|((q, p), corr)| {
+                        if temperature.is_infinite() {
+                            0.0
+                        } else {
+                            -(q.score - p.score) / temperature + corr
+                        }
+                    }),
+            );
             let beta = if ess_target > 0.0 {
                 resample::temper(&log_w, ess_target * next.len() as f64)
             } else {
@@ -993,6 +1253,7 @@ impl<'a> Sampler<'a> {
                 expanding: pop.iter().filter(|p| !p.open.is_empty()).count(),
                 ess: resample::ess(&weights),
                 beta,
+                survivors: 0,
                 heuristic_scale: h,
                 best_objective: best,
                 mean_bones: next.iter().map(|q| f64::from(q.bones)).sum::<f64>()
@@ -1002,6 +1263,11 @@ impl<'a> Sampler<'a> {
             let out_of_time = opts.budget.is_some_and(|b| start.elapsed() >= b);
             if g + 1 == gens || out_of_time {
                 stopped_early = g + 1 < gens;
+                let mut seen = std::collections::HashSet::new();
+                let distinct = next.iter().filter(|p| seen.insert(p.head)).count();
+                if let Some(st) = stats.last_mut() {
+                    st.survivors = distinct;
+                }
                 last = next;
                 break;
             }
@@ -1018,6 +1284,9 @@ impl<'a> Sampler<'a> {
             used.resize(next.len(), false);
             for &a in &ancestors {
                 used[a] = true;
+            }
+            if let Some(st) = stats.last_mut() {
+                st.survivors = used.iter().filter(|&&u| u).count();
             }
             if let Some(layer) = layers.last_mut() {
                 for (st, _) in layer.iter_mut().zip(&used).filter(|(_, u)| !**u) {
@@ -1329,7 +1598,17 @@ impl<'a> Sampler<'a> {
             // Each replayed expansion in a step (layer) of its own.
             let cur = (layers.len() as u32, 0);
             let mut local = Step::default();
-            self.expand_open(&mut w, &layers, &mut local, cur, &mut p, idx, how, false)?;
+            self.expand_open(
+                &mut w,
+                &layers,
+                &mut local,
+                cur,
+                &mut p,
+                idx,
+                how,
+                false,
+                &[],
+            )?;
             layers.push(vec![local]);
             tree_of.push(child);
         }

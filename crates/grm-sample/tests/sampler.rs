@@ -152,7 +152,9 @@ fn adaptive_tempering_keeps_the_population_diverse() {
         };
         let off = run(0.0);
         let on = run(0.5);
-        // Untempered: Calder's peaked weights keep a few particles.
+        // Untempered: Calder's peaked weights keep a few particles (the
+        // candidates make each particle's weight less peaked, but not
+        // enough).
         assert!(off.generations.iter().all(|g| g.beta == 1.0));
         assert!(mean_share(&off) < 0.2, "off: {}", mean_share(&off));
         // Tempered: every generation at (or, with beta = 1, above) half
@@ -167,8 +169,121 @@ fn adaptive_tempering_keeps_the_population_diverse() {
         }
         assert!(on.best().expect("model").cost.total().is_finite());
     }
-    // The default is untempered: the same run as ess_target 0.
-    assert_eq!(SampleOptions::default().ess_target, 0.0);
+    assert_eq!(SampleOptions::default().ess_target, DEFAULT_ESS_TARGET);
+}
+
+/// Calder's weights: one candidate, untempered.
+fn calder_weights(seed: u32) -> SampleOptions {
+    SampleOptions {
+        seed,
+        schedule: small(),
+        candidates: 1,
+        ess_target: 0.0,
+        ..SampleOptions::default()
+    }
+}
+
+/// The default configuration does not collapse: in every generation the
+/// effective sample size is at least a tenth of the particles and
+/// resampling keeps more than one particle, where Calder's untempered
+/// weights keep 1 to 3 of them.
+#[test]
+fn the_default_keeps_the_population_from_collapsing() {
+    let (p, c) = calder();
+    let curves = calder_curves();
+    let s = Sampler::new(
+        &p.systems[0],
+        &c,
+        &curves,
+        Objective::Curves,
+        ExpectedOptions::default(),
+    )
+    .expect("sampler");
+    assert_eq!(SampleOptions::default().ess_target, 0.1);
+    assert_eq!(SampleOptions::default().candidates, 3);
+    let mut collapsed_calder = 0;
+    let mut generations = 0;
+    for seed in 0..6 {
+        let r = s
+            .sample(&SampleOptions {
+                seed,
+                schedule: small(),
+                ..SampleOptions::default()
+            })
+            .expect("samples");
+        assert_eq!(r.generations.len(), 30);
+        for g in &r.generations {
+            let n = g.particles as f64;
+            assert!(g.ess >= 0.1 * n - 1e-6, "seed {seed}: {g:?}");
+            assert!(g.beta > 0.0 && g.beta <= 1.0, "{g:?}");
+            // An ESS of 2 or more keeps at least two distinct particles
+            // through systematic resampling (none can take more than
+            // ceil(0.71 n) of n >= 4 copies): true while a tenth of the
+            // particles is 2 or more (30 down to 20 here).
+            if g.particles >= 20 && g.generation + 1 < 30 {
+                assert!(g.survivors >= 2, "seed {seed}: {g:?}");
+            }
+        }
+        let calder = s.sample(&calder_weights(seed)).expect("samples");
+        for g in &calder.generations {
+            generations += 1;
+            if g.ess < 0.1 * g.particles as f64 {
+                collapsed_calder += 1;
+            }
+        }
+    }
+    // The same check fails for Calder's weights in most generations.
+    assert!(
+        collapsed_calder * 2 > generations,
+        "{collapsed_calder} of {generations}"
+    );
+}
+
+/// At the same ESS target, drawing candidate expansions lowers the final
+/// cost a lot: tempering alone gives up cost, the candidates win it back.
+/// And the default (3 candidates, ESS >= 0.1 N) is better than Calder's
+/// untempered weights with one.
+#[test]
+fn candidates_lower_the_final_cost() {
+    let (p, c) = calder();
+    let curves = calder_curves();
+    let s = Sampler::new(
+        &p.systems[0],
+        &c,
+        &curves,
+        Objective::Curves,
+        ExpectedOptions::default(),
+    )
+    .expect("sampler");
+    let cost = |o: &SampleOptions| {
+        s.sample(o)
+            .expect("samples")
+            .best()
+            .expect("model")
+            .cost
+            .total()
+    };
+    let (mut one, mut three, mut calder) = (Vec::new(), Vec::new(), Vec::new());
+    for seed in 0..40 {
+        let o = SampleOptions {
+            seed,
+            schedule: small(),
+            ..SampleOptions::default()
+        };
+        three.push(cost(&o));
+        one.push(cost(&SampleOptions { candidates: 1, ..o }));
+        calder.push(cost(&calder_weights(seed)));
+    }
+    eprintln!(
+        "median cost: 3 candidates {:.0}, 1 candidate {:.0} (both ESS >= 0.1 N); Calder's weights {:.0}",
+        median(&three),
+        median(&one),
+        median(&calder)
+    );
+    assert!(median(&three) < median(&one) - 300.0);
+    assert!(median(&three) < median(&calder) - 200.0);
+    let wins = three.iter().zip(&one).filter(|(a, b)| a < b).count();
+    assert!(wins >= 28, "{wins} of 40");
 }
 
 #[test]

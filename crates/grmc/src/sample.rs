@@ -79,6 +79,11 @@ pub struct SampleArgs {
     /// of the particles; 0 turns it off (Calder's untempered weights).
     #[arg(long, value_name = "F", default_value_t = grm_sample::DEFAULT_ESS_TARGET)]
     pub ess_target: f64,
+    /// Candidate expansions per bone-making expansion, one kept in
+    /// proportion to exp(-cost of its bones); 1: the grammar's own draws
+    /// (Calder's proposal).
+    #[arg(long, value_name = "K", default_value_t = grm_sample::DEFAULT_CANDIDATES)]
+    pub candidates: u32,
     /// Expansions per particle step: a step expands open symbols until one
     /// adds a bone, at most this many (1: one symbol per step).
     #[arg(long, default_value_t = 1000)]
@@ -217,6 +222,7 @@ pub fn run(args: SampleArgs) -> Outcome {
         heuristic,
         temperature: args.temperature,
         ess_target: args.ess_target,
+        candidates: args.candidates.max(1),
         threads: args.threads,
         budget: args.budget_ms.map(Duration::from_millis),
         best: args.best.max(1),
@@ -235,8 +241,16 @@ pub fn run(args: SampleArgs) -> Outcome {
     } else {
         "no heuristic".to_string()
     };
+    // Candidates and tempering need the curve cost at a finite temperature.
+    let guided = args.cost == CostKind::Curves && opts.temperature.is_finite();
+    let k = if guided { opts.candidates } else { 1 };
+    let weights_text = if opts.ess_target > 0.0 {
+        format!(", {k} candidates, ESS >= {} N", opts.ess_target)
+    } else {
+        format!(", {k} candidates, untempered")
+    };
     println!(
-        "{}: seed {}, {} generations{}, particles {} -> {}, {heuristic_text}",
+        "{}: seed {}, {} generations{}, particles {} -> {}, {heuristic_text}{weights_text}",
         c.name,
         opts.seed,
         result.generations.len(),
@@ -250,24 +264,26 @@ pub fn run(args: SampleArgs) -> Outcome {
     );
     if args.stats {
         println!(
-            "{:>10} {:>9} {:>9} {:>8} {:>8} {:>10} {:>12} {:>8}",
+            "{:>10} {:>9} {:>9} {:>8} {:>8} {:>9} {:>10} {:>12} {:>8}",
             "generation",
             "particles",
             "expanding",
             "ESS",
             "beta",
+            "survivors",
             "heuristic",
             "best cost",
             "bones"
         );
         for g in &result.generations {
             println!(
-                "{:>10} {:>9} {:>9} {:>8.2} {:>8.5} {:>10.5} {:>12.1} {:>8.1}",
+                "{:>10} {:>9} {:>9} {:>8.2} {:>8.5} {:>9} {:>10.5} {:>12.1} {:>8.1}",
                 g.generation,
                 g.particles,
                 g.expanding,
                 g.ess,
                 g.beta,
+                g.survivors,
                 g.heuristic_scale,
                 g.best_objective,
                 g.mean_bones
@@ -308,11 +324,17 @@ pub fn run(args: SampleArgs) -> Outcome {
     let ess = result.ess();
     let mean = ess.iter().sum::<f64>() / ess.len().max(1) as f64;
     let min = ess.iter().copied().fold(f64::INFINITY, f64::min);
+    let min_share = result
+        .generations
+        .iter()
+        .map(|g| g.ess / g.particles.max(1) as f64)
+        .fold(f64::INFINITY, f64::min);
     println!(
-        "time {:.2} ms (expected directions {:.2} ms, sampling {:.2} ms); ESS per generation: mean {mean:.2}, min {min:.2}",
+        "time {:.2} ms (expected directions {:.2} ms, sampling {:.2} ms); ESS per generation: mean {mean:.2}, min {min:.2} ({:.0}% of the particles)",
         ms(prepare + result.elapsed),
         ms(sampler.expected_time()),
         ms(result.elapsed),
+        100.0 * min_share,
     );
     if let Some(path) = &args.output {
         for (k, m) in result.models.iter().enumerate() {

@@ -128,9 +128,56 @@ fn ess_target_tempers_the_weights() {
     assert_eq!(on.len(), 10);
     assert!(on.iter().all(|&(ess, _)| ess >= 9.99), "{on:?}");
     assert!(on.iter().any(|&(_, beta)| beta < 1.0), "{on:?}");
-    // 0 (the default): untempered.
+    // 0: untempered (the default is 0.1: sampling.md section 4.2).
     let off = run("0");
     assert!(off.iter().all(|&(_, beta)| beta == 1.0), "{off:?}");
+    // The default keeps a tenth of the particles (20 here): ESS >= 2.
+    let default = run("0.1");
+    assert!(default.iter().all(|&(ess, _)| ess >= 1.999), "{default:?}");
+}
+
+#[test]
+fn candidates_are_an_option() {
+    let tree = example("calder_tree.grm");
+    let curves = example("calder_tree.curves.json");
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "sample",
+            tree.as_str(),
+            "--curves",
+            curves.as_str(),
+            "--generations",
+            "10",
+            "--particles",
+            "20",
+        ];
+        args.extend_from_slice(extra);
+        let o = grmc(&args);
+        let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
+        assert_eq!(o.status.code(), Some(0), "{stdout}");
+        stdout
+    };
+    let cost = |s: &str| -> f64 {
+        s.lines()
+            .find_map(|l| l.strip_prefix("cost "))
+            .and_then(|l| l.split_whitespace().next())
+            .and_then(|w| w.parse().ok())
+            .unwrap_or(f64::NAN)
+    };
+    let default = run(&[]);
+    assert!(default.contains("3 candidates, ESS >= 0.1 N"), "{default}");
+    let three = run(&["--candidates", "3"]);
+    assert_eq!(cost(&default), cost(&three));
+    let one = run(&["--candidates", "1", "--ess-target", "0"]);
+    assert!(one.contains("1 candidates, untempered"), "{one}");
+    assert!(cost(&one).is_finite() && cost(&default).is_finite());
+    assert_ne!(cost(&one), cost(&default), "{one}\n{default}");
+    // The volume baseline has no candidates.
+    let volume = run(&["--cost", "volume"]);
+    assert!(volume.contains("1 candidates"), "{volume}");
+    // 0 is taken as 1.
+    let zero = run(&["--candidates", "0", "--ess-target", "0"]);
+    assert_eq!(cost(&zero), cost(&one));
 }
 
 #[test]
