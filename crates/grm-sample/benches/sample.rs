@@ -10,16 +10,25 @@
 //! per generation of the guided playground runs (mean over seeds).
 //!
 //! Configurations: Calder's playground schedule (100 generations, 100 -> 15
-//! particles, heuristic 0.013 -> 0 by generation 40; untempered, the
-//! default, then with adaptive tempering to an ESS of 0.5, 0.2 and 0.1 of
-//! the particles) and the calder
-//! library's default (10 generations of 50 particles), each with the
-//! heuristic on and off; the playground schedule with one expansion per
-//! particle step instead of Calder's expand-until-a-bone step, heuristic on
-//! and off; unguided forward sampling (one particle, 100
+//! particles, heuristic 0.013 -> 0 by generation 40) with the default
+//! weights (3 candidate expansions per bone, adaptive tempering to an ESS
+//! of at least 0.1 of the particles), with Calder's weights (one
+//! candidate, untempered: the default before), with each half of the
+//! default alone (tempering with one candidate; three candidates
+//! untempered) and with more of either (4 candidates; ESS 0.2 N); the
+//! calder library's default (10 generations of 50 particles); each of the
+//! main ones with the heuristic on and off; the playground schedule with one
+//! expansion per particle step instead of Calder's expand-until-a-bone
+//! step, heuristic on and off; unguided forward sampling (one particle, 100
 //! steps); the playground schedule without weights (infinite temperature:
 //! the best of the final 15 unguided particles, the same amount of work as
 //! guided); and the volume-matching baseline on the playground schedule.
+//!
+//! For the playground rows it also prints the effective sample size per
+//! generation (mean over seeds), the smallest ESS as a share of the
+//! particles, the share of generations below a tenth of the particles,
+//! the distinct particles resampling kept (`GenerationStats::survivors`)
+//! and the tempering factors.
 
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -92,6 +101,14 @@ fn cpu_model() -> String {
         .unwrap_or_else(|| "unknown CPU".into())
 }
 
+/// The 1, 5 and 15 minute load averages (`/proc/loadavg`).
+fn load_average() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .ok()
+        .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+        .unwrap_or_else(|| "unknown".into())
+}
+
 struct Row {
     name: &'static str,
     times: Vec<f64>,
@@ -103,6 +120,11 @@ struct Row {
     ess: Vec<Vec<f64>>,
     /// Per seed, per generation: the tempering factor.
     beta: Vec<Vec<f64>>,
+    /// Per seed, per generation: ESS / particles.
+    share: Vec<Vec<f64>>,
+    /// Per seed, per generation: distinct particles kept by resampling.
+    survivors: Vec<Vec<f64>>,
+    particles: Vec<usize>,
 }
 
 fn main() {
@@ -141,9 +163,10 @@ fn main() {
     .expect("sampler");
 
     println!(
-        "Guided sampling, calder_tree.grm + calder_tree.curves.json, {} seeds, 1 thread, {}",
+        "Guided sampling, calder_tree.grm + calder_tree.curves.json, {} seeds, 1 thread, {}; load average {}",
         a.seeds,
-        cpu_model()
+        cpu_model(),
+        load_average()
     );
     println!(
         "Sampler::new (expected directions, {} models x {} expansions per skeleton symbol): {:.2} ms",
@@ -158,9 +181,15 @@ fn main() {
 
     let playground = Schedule::calder_playground();
     let library = Schedule::calder_library();
+    // Calder's weights: the plain proposal, untempered.
+    let calder = SampleOptions {
+        candidates: 1,
+        ess_target: 0.0,
+        ..SampleOptions::default()
+    };
     let configs: Vec<(&'static str, &Sampler<'_>, SampleOptions)> = vec![
         (
-            "playground, heuristic on",
+            "playground, default, heur. on",
             &guided,
             SampleOptions {
                 schedule: playground,
@@ -168,16 +197,60 @@ fn main() {
             },
         ),
         (
-            "playground, tempered ESS 0.5",
+            "playground, default, heur. off",
             &guided,
             SampleOptions {
                 schedule: playground,
-                ess_target: 0.5,
+                heuristic: false,
                 ..SampleOptions::default()
             },
         ),
         (
-            "playground, tempered ESS 0.2",
+            "playground, Calder wts, heur. on",
+            &guided,
+            SampleOptions {
+                schedule: playground,
+                ..calder
+            },
+        ),
+        (
+            "playground, Calder wts, heur. off",
+            &guided,
+            SampleOptions {
+                schedule: playground,
+                heuristic: false,
+                ..calder
+            },
+        ),
+        (
+            "playground, 1 cand., ESS 0.1",
+            &guided,
+            SampleOptions {
+                schedule: playground,
+                candidates: 1,
+                ..SampleOptions::default()
+            },
+        ),
+        (
+            "playground, 3 cand., untempered",
+            &guided,
+            SampleOptions {
+                schedule: playground,
+                ess_target: 0.0,
+                ..SampleOptions::default()
+            },
+        ),
+        (
+            "playground, 4 cand., ESS 0.1",
+            &guided,
+            SampleOptions {
+                schedule: playground,
+                candidates: 4,
+                ..SampleOptions::default()
+            },
+        ),
+        (
+            "playground, 3 cand., ESS 0.2",
             &guided,
             SampleOptions {
                 schedule: playground,
@@ -186,25 +259,7 @@ fn main() {
             },
         ),
         (
-            "playground, tempered ESS 0.1",
-            &guided,
-            SampleOptions {
-                schedule: playground,
-                ess_target: 0.1,
-                ..SampleOptions::default()
-            },
-        ),
-        (
-            "playground, heuristic off",
-            &guided,
-            SampleOptions {
-                schedule: playground,
-                heuristic: false,
-                ..SampleOptions::default()
-            },
-        ),
-        (
-            "library 10x50, heuristic on",
+            "library 10x50, default, heur. on",
             &guided,
             SampleOptions {
                 schedule: library,
@@ -212,12 +267,29 @@ fn main() {
             },
         ),
         (
-            "library 10x50, heuristic off",
+            "library 10x50, default, heur. off",
             &guided,
             SampleOptions {
                 schedule: library,
                 heuristic: false,
                 ..SampleOptions::default()
+            },
+        ),
+        (
+            "library 10x50, Calder wts, h. on",
+            &guided,
+            SampleOptions {
+                schedule: library,
+                ..calder
+            },
+        ),
+        (
+            "library 10x50, Calder wts, h. off",
+            &guided,
+            SampleOptions {
+                schedule: library,
+                heuristic: false,
+                ..calder
             },
         ),
         (
@@ -283,6 +355,9 @@ fn main() {
             volume: Vec::new(),
             ess: Vec::new(),
             beta: Vec::new(),
+            share: Vec::new(),
+            survivors: Vec::new(),
+            particles: Vec::new(),
         };
         let cpu0 = cpu_seconds();
         for seed in 0..a.seeds {
@@ -308,6 +383,15 @@ fn main() {
             row.ess.push(r.ess());
             row.beta
                 .push(r.generations.iter().map(|g| g.beta).collect());
+            row.share.push(
+                r.generations
+                    .iter()
+                    .map(|g| g.ess / g.particles.max(1) as f64)
+                    .collect(),
+            );
+            row.survivors
+                .push(r.generations.iter().map(|g| g.survivors as f64).collect());
+            row.particles = r.generations.iter().map(|g| g.particles).collect();
         }
         if let (Some(c0), Some(c1)) = (cpu0, cpu_seconds()) {
             row.cpu_ms = (c1 - c0) * 1e3 / f64::from(a.seeds * a.runs.max(1));
@@ -317,8 +401,9 @@ fn main() {
 
     println!();
     println!(
-        "wall ms: best of {} runs per seed; CPU ms: process CPU time per run (10 ms ticks, summed over all runs)",
-        a.runs.max(1)
+        "wall ms: best of {} runs per seed; CPU ms: process CPU time per run (10 ms ticks, summed over all runs); load average now {}",
+        a.runs.max(1),
+        load_average()
     );
     println!(
         "{:<30} {:>8} {:>8} {:>8} {:>7} | {:>10} {:>10} {:>10} | {:>6}",
@@ -357,37 +442,56 @@ fn main() {
     }
 
     for r in &rows {
-        if r.ess.is_empty()
-            || r.ess[0].len() < 2
-            || !(r.name.starts_with("playground, heuristic on") || r.name.contains("tempered"))
-        {
+        if r.ess.is_empty() || r.ess[0].len() < 2 || !r.name.starts_with("playground,") {
+            continue;
+        }
+        if r.name.contains("no weights") || r.name.contains("volume") {
             continue;
         }
         let gens = r.ess[0].len();
-        let mean_at =
-            |g: usize| r.ess.iter().filter_map(|e| e.get(g)).sum::<f64>() / r.ess.len() as f64;
+        let mean_of = |v: &Vec<Vec<f64>>, g: usize| {
+            v.iter().filter_map(|e| e.get(g)).sum::<f64>() / v.len() as f64
+        };
         println!();
         println!(
-            "ESS per generation ({}; mean over seeds; particles in brackets):",
+            "{}: per generation, mean over seeds: ESS [distinct particles kept by resampling] / particles, b = beta",
             r.name
         );
         let mut line = String::new();
-        for g in (0..gens).step_by(10).chain([gens - 1]) {
+        for g in (0..gens).step_by(10).chain([gens - 2, gens - 1]) {
+            // The last generation is not resampled (its "survivors" are
+            // its distinct particles, all wrapped up).
+            let surv = if g + 1 < gens {
+                format!("{:.1}", mean_of(&r.survivors, g))
+            } else {
+                "-".into()
+            };
             line.push_str(&format!(
-                " g{g}: {:.2} [{}]",
-                mean_at(g),
-                playground.particles(g as u32)
+                " g{g}: {:.1} [{surv}] / {} b{:.2};",
+                mean_of(&r.ess, g),
+                r.particles.get(g).copied().unwrap_or(0),
+                mean_of(&r.beta, g)
             ));
         }
         println!("{line}");
         let all: Vec<f64> = r.ess.iter().flatten().copied().collect();
+        let shares: Vec<f64> = r.share.iter().flatten().copied().collect();
+        // Survivors of the resampled generations (all but the last).
+        let surv: Vec<f64> = r
+            .survivors
+            .iter()
+            .flat_map(|v| v[..v.len().saturating_sub(1)].iter().copied())
+            .collect();
         println!(
-            "  over all generations and seeds: mean {:.2}, median {:.2}, min {:.2}, max {:.2}; share of generations with ESS >= 2: {:.0}%",
+            "  all generations and seeds: ESS mean {:.2}, median {:.2}, min {:.2}, max {:.2}; ESS / particles min {:.3}, below 0.1 in {:.1}% of generations; kept by resampling: mean {:.1}, min {:.0}",
             all.iter().sum::<f64>() / all.len() as f64,
             pct(&all, 50.0),
             pct(&all, 0.0),
             pct(&all, 100.0),
-            100.0 * all.iter().filter(|&&e| e >= 2.0).count() as f64 / all.len() as f64
+            pct(&shares, 0.0),
+            100.0 * shares.iter().filter(|&&x| x < 0.1 - 1e-9).count() as f64 / shares.len() as f64,
+            surv.iter().sum::<f64>() / surv.len() as f64,
+            pct(&surv, 0.0),
         );
         let betas: Vec<f64> = r.beta.iter().flatten().copied().collect();
         println!(
