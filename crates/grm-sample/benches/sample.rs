@@ -101,6 +101,29 @@ fn cpu_model() -> String {
         .unwrap_or_else(|| "unknown CPU".into())
 }
 
+/// Standard error of the median of `xs`: the standard deviation of the
+/// medians of 400 bootstrap resamples (a fixed generator: the same figure
+/// for the same costs).
+fn median_se(xs: &[f64]) -> f64 {
+    if xs.len() < 2 {
+        return f64::NAN;
+    }
+    let mut state = 0x9E37_79B9_7F4A_7C15u64;
+    let mut meds = Vec::with_capacity(400);
+    let mut v = vec![0.0; xs.len()];
+    for _ in 0..400 {
+        for x in v.iter_mut() {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            *x = xs[(state >> 33) as usize % xs.len()];
+        }
+        meds.push(pct(&v, 50.0));
+    }
+    let mean = meds.iter().sum::<f64>() / meds.len() as f64;
+    (meds.iter().map(|m| (m - mean) * (m - mean)).sum::<f64>() / meds.len() as f64).sqrt()
+}
+
 /// The 1, 5 and 15 minute load averages (`/proc/loadavg`).
 fn load_average() -> String {
     std::fs::read_to_string("/proc/loadavg")
@@ -429,6 +452,11 @@ fn main() {
             pct(&r.costs, 10.0),
             pct(&r.costs, 90.0),
             pct(&r.bones, 50.0),
+        );
+        println!(
+            "{:<30} cost p50 standard error {:.0} (bootstrap, 400 resamples of the seeds)",
+            "",
+            median_se(&r.costs)
         );
         if !r.volume.is_empty() {
             println!(
