@@ -21,6 +21,10 @@
 //! | `POST /api/loadCurves`, `/api/saveCurves` | the curves file next to the grammar (`tree.grm` -> `tree.curves.json`); saved only if `grm-guide` accepts it |
 //! | `GET /api/events?after=N[&wait=MS]` | long poll (20 s at most): `{"seq": M, "events": [{"method", "params"}]}` |
 //!
+//! Every `POST /api/...` answer carries `Server-Timing: app;dur=MS`: the
+//! milliseconds from the request read to the answer ready to write (the
+//! page reports it in its edit-to-screen breakdown).
+//!
 //! Invariants: binds only to the loopback address; refuses requests whose
 //! `Host` is not this server (DNS rebinding) and cross-origin POSTs; only
 //! the served grammar's curves file can be read or written.
@@ -547,6 +551,17 @@ fn respond(
     content_type: &str,
     body: &[u8],
 ) -> std::io::Result<()> {
+    respond_with(w, status, content_type, body, "")
+}
+
+/// An answer with `extra` headers (each line ending in CRLF).
+fn respond_with(
+    w: &mut impl Write,
+    status: u16,
+    content_type: &str,
+    body: &[u8],
+    extra: &str,
+) -> std::io::Result<()> {
     let reason = match status {
         200 => "OK",
         400 => "Bad Request",
@@ -562,7 +577,7 @@ fn respond(
     // One write for head and body: small writes on a socket would wait for
     // the client's delayed ACK (Nagle), about 40 ms each.
     let mut out = format!(
-        "HTTP/1.1 {status} {reason}\r\nContent-Type: {content_type}\r\nContent-Length: {}\r\nCache-Control: no-store\r\nX-Content-Type-Options: nosniff\r\nConnection: close\r\n\r\n",
+        "HTTP/1.1 {status} {reason}\r\nContent-Type: {content_type}\r\nContent-Length: {}\r\nCache-Control: no-store\r\nX-Content-Type-Options: nosniff\r\n{extra}Connection: close\r\n\r\n",
         body.len()
     )
     .into_bytes();
@@ -655,10 +670,17 @@ fn handle(st: &State, stream: TcpStream) -> std::io::Result<()> {
                     );
                 }
             };
-            match st.api(&p["/api/".len()..], params) {
-                Ok(result) => respond_json(&mut w, 200, &json!({ "result": result })),
-                Err(e) => respond_json(&mut w, 422, &json!({ "error": e })),
-            }
+            let started = Instant::now();
+            let (status, answer) = match st.api(&p["/api/".len()..], params) {
+                Ok(result) => (200, json!({ "result": result })),
+                Err(e) => (422, json!({ "error": e })),
+            };
+            let body = answer.to_string();
+            let timing = format!(
+                "Server-Timing: app;dur={:.2}\r\n",
+                started.elapsed().as_secs_f64() * 1e3
+            );
+            respond_with(&mut w, status, "application/json", body.as_bytes(), &timing)
         }
         ("GET" | "POST", _) => respond_json(&mut w, 404, &json!({ "error": "not found" })),
         _ => respond_json(&mut w, 405, &json!({ "error": "GET or POST" })),
@@ -774,17 +796,23 @@ mod tests {
         );
     }
 
-    /// One HTTP exchange with a running server.
-    fn exchange(addr: SocketAddr, raw: &str) -> (u16, Value) {
+    /// One HTTP exchange with a running server: the answer's head and body.
+    fn exchange_raw(addr: SocketAddr, raw: &str) -> (String, String) {
         let mut s = TcpStream::connect(addr).expect("connect");
         s.write_all(raw.as_bytes()).expect("send");
         let mut out = String::new();
         s.read_to_string(&mut out).expect("read");
-        let status = out[9..12].parse().expect("status");
-        let body = out.split_once("\r\n\r\n").map(|(_, b)| b).unwrap_or("");
+        let (head, body) = out.split_once("\r\n\r\n").unwrap_or((out.as_str(), ""));
+        (head.to_string(), body.to_string())
+    }
+
+    /// One HTTP exchange with a running server.
+    fn exchange(addr: SocketAddr, raw: &str) -> (u16, Value) {
+        let (head, body) = exchange_raw(addr, raw);
+        let status = head[9..12].parse().expect("status");
         (
             status,
-            serde_json::from_str(body).unwrap_or(Value::String(body.into())),
+            serde_json::from_str(&body).unwrap_or(Value::String(body)),
         )
     }
 
@@ -839,6 +867,24 @@ mod tests {
         // Koch island, 2 iterations: 4 * 8^2 = 256 segments, one bone each.
         assert_eq!(result["skeleton"]["boneCount"], 256);
         assert!(result["stats"]["triangles"].as_u64().is_some_and(|t| t > 0));
+
+        // API answers say how long the server took (Server-Timing).
+        let body = json!({ "textDocument": { "uri": uri }, "live": true }).to_string();
+        let (head, _) = exchange_raw(
+            addr,
+            &format!(
+                "POST /api/preview HTTP/1.1\r\nHost: {addr}\r\nContent-Length: {}\r\n\r\n{body}",
+                body.len()
+            ),
+        );
+        let dur: f64 = head
+            .lines()
+            .find_map(|l| l.strip_prefix("Server-Timing: app;dur="))
+            .and_then(|d| d.parse().ok())
+            .unwrap_or_else(|| panic!("no Server-Timing in {head}"));
+        assert!(dur.is_finite() && dur >= 0.0, "{head}");
+        let (page_head, _) = exchange_raw(addr, &format!("GET / HTTP/1.1\r\nHost: {addr}\r\n\r\n"));
+        assert!(!page_head.contains("Server-Timing"), "{page_head}");
 
         let (status, p) = post(
             addr,
