@@ -1,7 +1,7 @@
 import assert from 'node:assert/strict';
 import { test } from 'node:test';
 import type { PageToHost } from '../preview/src/messages.js';
-import { type FetchFn, HttpTransport, TransportError, VsCodeTransport, detectTransport } from '../preview/src/transport.js';
+import { type FetchFn, HttpTransport, type RequestTiming, TransportError, VsCodeTransport, detectTransport, serverTimingMs } from '../preview/src/transport.js';
 
 class FakeWindow {
   listeners: Array<(ev: { data: unknown }) => void> = [];
@@ -71,6 +71,28 @@ test('http transport: POST JSON per method, result or error', async () => {
   assert.deepEqual(await t.request('preview', { uri: 'x', seed: 2 }), { echo: { uri: 'x', seed: 2 } });
   await assert.rejects(t.request('pick', {}), /no such preview/);
   assert.deepEqual(calls[0], { url: 'http://127.0.0.1:9/api/preview', body: '{"uri":"x","seed":2}', method: 'POST' });
+});
+
+test('http transport: the server time of a request comes from its Server-Timing header', async () => {
+  assert.equal(serverTimingMs('app;dur=12.5'), 12.5);
+  assert.equal(serverTimingMs('db;dur=3, app;desc="grmc view";dur=7'), 7);
+  assert.equal(serverTimingMs('db;dur=3'), undefined);
+  assert.equal(serverTimingMs(null), undefined);
+  const headers = (h: Record<string, string>) => ({ get: (n: string) => h[n.toLowerCase()] ?? null });
+  const fetchFn: FetchFn = async (url) => ({
+    ok: true,
+    status: 200,
+    headers: headers(url.endsWith('/api/preview') ? { 'server-timing': 'app;dur=21.25' } : {}),
+    json: async () => ({ result: 1 }),
+    text: async () => '',
+  });
+  const t = new HttpTransport('http://h', fetchFn);
+  const timing: RequestTiming = {};
+  assert.equal(await t.request('preview', {}, timing), 1);
+  assert.equal(timing.serverMs, 21.25);
+  const none: RequestTiming = { serverMs: 5 };
+  await t.request('pick', {}, none);
+  assert.equal(none.serverMs, undefined, 'an answer without the header leaves no stale figure');
 });
 
 test('http transport: long-polled events become notifications, in order, with the cursor advanced', async () => {

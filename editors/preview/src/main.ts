@@ -20,7 +20,7 @@ import {
 } from './protocol.js';
 import { PreviewScene, ThumbnailRenderer } from './scene.js';
 import { PageState } from './state.js';
-import { type Transport, detectTransport } from './transport.js';
+import { type RequestTiming, type Transport, detectTransport } from './transport.js';
 
 /** What the page exposes for tests and for the curious (window.__grm). */
 interface DebugInfo {
@@ -29,10 +29,15 @@ interface DebugInfo {
   readonly busy: boolean;
   /** Models shown so far. */
   regrows: number;
-  /** Milliseconds from an edit to its model on screen, per edit. */
+  /** Milliseconds from an edit to the end of the frame that shows its model, per edit. */
   latencies: number[];
   lastLatencyMs: number | null;
-  /** Where the last edit's time went (ms): waiting for the host (server work and transfer), decoding, building the scene, rendering. */
+  /**
+   * Where the last edit's time went (ms): `host` (request to answer; `server total` of it is the
+   * server's own time where the host tells it, `server ...` its stages), `decode`, `scene` (meshes),
+   * `render` (the wait for the next animation frame and three.js's draw calls in it), `present` (the
+   * rest of that frame: the browser's commit, after which the pixels exist).
+   */
   lastBreakdown: Record<string, number>;
   meshCount: number;
   triangles: number;
@@ -183,10 +188,13 @@ class App {
     if (this.state.mode === 'sample') await this.ensureCurves();
     try {
       const t0 = performance.now();
-      const raw = await this.transport.request('preview', this.state.previewParams());
+      const timing: RequestTiming = {};
+      const raw = await this.transport.request('preview', this.state.previewParams(), timing);
       const t1 = performance.now();
       const r = decodePreview(raw);
       this.pendingBreakdown = { host: t1 - t0, decode: performance.now() - t1 };
+      // The part of `host` the server itself spent (grmc view tells it).
+      if (timing.serverMs !== undefined) this.pendingBreakdown['server total'] = timing.serverMs;
       return r;
     } catch (e) {
       const msg = (e as Error).message ?? '';
@@ -226,14 +234,21 @@ class App {
     this.pendingBreakdown = {};
     const tBuild = performance.now();
     this.scene.setModel(r.model, !this.framed, () => {
-      const ms = performance.now() - d.editedAt;
-      const server = Object.fromEntries(Object.entries(r.timings).map(([k, v]) => [`server ${k}`, v]));
-      this.debug.lastBreakdown = { ...breakdown, ...server, scene: built - tBuild, render: performance.now() - built };
-      this.debug.regrows++;
-      this.debug.lastLatencyMs = ms;
-      this.debug.latencies.push(ms);
-      this.debug.meshCount = this.scene.meshCount;
-      this.setStatus(this.summary(r, ms));
+      const rendered = performance.now();
+      // The frame is done (and its pixels exist) when the task that ran
+      // this animation frame ends: the browser commits the frame in it
+      // (with software compositing, reading the WebGL canvas back).
+      afterThisTask(() => {
+        const now = performance.now();
+        const ms = now - d.editedAt;
+        const server = Object.fromEntries(Object.entries(r.timings).map(([k, v]) => [`server ${k}`, v]));
+        this.debug.lastBreakdown = { ...breakdown, ...server, scene: built - tBuild, render: rendered - built, present: now - rendered };
+        this.debug.regrows++;
+        this.debug.lastLatencyMs = ms;
+        this.debug.latencies.push(ms);
+        this.debug.meshCount = this.scene.meshCount;
+        this.setStatus(this.summary(r, ms));
+      });
     });
     const built = performance.now();
     this.framed = true;
@@ -829,6 +844,16 @@ class App {
     this.galleryToken++;
     $('gallery').hidden = true;
   }
+}
+
+/** Run `f` in a task of its own, after the current one (a message, not a timer: timers may be clamped). */
+function afterThisTask(f: () => void): void {
+  const ch = new MessageChannel();
+  ch.port1.onmessage = () => {
+    ch.port1.close();
+    f();
+  };
+  ch.port2.postMessage(null);
 }
 
 function formatValue(x: number): string {

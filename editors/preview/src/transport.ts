@@ -12,10 +12,16 @@ import {
 
 export type NotificationHandler = (method: NotificationMethod, params: unknown) => void;
 
+/** What a host may tell about one request besides its answer. */
+export interface RequestTiming {
+  /** Milliseconds the server spent on it (`grmc view`'s `Server-Timing`). */
+  serverMs?: number;
+}
+
 export interface Transport {
   readonly kind: 'vscode' | 'http';
-  /** Ask the host; rejects with the host's error message. */
-  request(method: Method, params: unknown): Promise<unknown>;
+  /** Ask the host; rejects with the host's error message. `timing` is filled where the host says more. */
+  request(method: Method, params: unknown, timing?: RequestTiming): Promise<unknown>;
   /** Receive the host's notifications (one handler; a later call replaces it). */
   onNotification(handler: NotificationHandler): void;
   /** Start listening and tell the host the page is ready. */
@@ -99,9 +105,24 @@ export class VsCodeTransport implements Transport {
 export type FetchFn = (url: string, init?: { method?: string; headers?: Record<string, string>; body?: string; signal?: AbortSignal }) => Promise<{
   ok: boolean;
   status: number;
+  headers?: { get(name: string): string | null };
   json(): Promise<unknown>;
   text(): Promise<string>;
 }>;
+
+/** The `app` metric of a `Server-Timing` header (`app;dur=12.5`), in milliseconds. */
+export function serverTimingMs(header: string | null | undefined): number | undefined {
+  if (!header) return undefined;
+  for (const metric of header.split(',')) {
+    const [name, ...params] = metric.split(';').map((x) => x.trim());
+    if (name !== 'app') continue;
+    for (const p of params) {
+      const m = /^dur=([0-9.]+)$/.exec(p);
+      if (m) return Number(m[1]);
+    }
+  }
+  return undefined;
+}
 
 /**
  * `grmc view`: requests are `POST {base}/api/{method}` with the params as the
@@ -136,13 +157,14 @@ export class HttpTransport implements Transport {
     this.handler = handler;
   }
 
-  async request(method: Method, params: unknown): Promise<unknown> {
+  async request(method: Method, params: unknown, timing?: RequestTiming): Promise<unknown> {
     const res = await this.fetchFn(`${this.base}/api/${method}`, {
       method: 'POST',
       headers: { 'content-type': 'application/json' },
       body: JSON.stringify(params ?? null),
       signal: this.abort.signal,
     });
+    if (timing) timing.serverMs = serverTimingMs(res.headers?.get('server-timing'));
     let body: unknown;
     try {
       body = await res.json();
