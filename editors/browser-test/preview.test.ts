@@ -30,15 +30,20 @@ let browser: Browser;
 const servers: ChildProcess[] = [];
 const temps: string[] = [];
 /** Edit-to-screen times measured by the tests, written to target/browser-test/latency.json. */
-const latency: Record<string, { grammar: string; edit: string; ms: number[]; median: number; breakdown: Record<string, number>[] }> = {};
+const latency: Record<
+  string,
+  { grammar: string; edit: string; renderer: string; antialias: boolean; ms: number[]; median: number; breakdown: Record<string, number>[] }
+> = {};
 
-function record(key: string, grammar: string, edit: string, ms: number[], breakdown: Record<string, number>[]): number {
+function record(key: string, grammar: string, edit: string, g: Grm, ms: number[], breakdown: Record<string, number>[]): number {
   const sorted = [...ms].sort((a, b) => a - b);
   const median = sorted[Math.floor(sorted.length / 2)];
   const r1 = (x: number) => Math.round(x * 10) / 10;
   latency[key] = {
     grammar,
     edit,
+    renderer: g.renderer,
+    antialias: g.antialias,
     ms: ms.map(r1),
     median: r1(median),
     breakdown: breakdown.map((b) => Object.fromEntries(Object.entries(b).map(([k, v]) => [k, r1(v)]))),
@@ -124,6 +129,9 @@ interface Grm {
   saves: number;
   focusBones: number;
   spreadBones: number;
+  renderer: string;
+  antialias: boolean;
+  curveDraws: number;
 }
 
 const grm = (page: Page): Promise<Grm> =>
@@ -199,6 +207,9 @@ test('derive mode: the model renders, a slider regrows it, a pick names the rule
   const page = await openPage(url);
   const g0 = await waitRegrows(page, 1, 'first model');
   assert.equal(g0.mode, 'derive');
+  // Without a GPU (SwiftShader here) the view is not multisampled: it would make each frame several times slower.
+  assert.ok(g0.renderer.length > 0, 'the page knows its WebGL renderer');
+  assert.equal(g0.antialias, !/swiftshader|llvmpipe|softpipe|lavapipe|software|basic render/i.test(g0.renderer), g0.renderer);
 
   // What the server itself answers for the same request.
   const uri = `file://${join(dir, 'bracketed_plant.grm')}`;
@@ -246,7 +257,7 @@ test('derive mode: the model renders, a slider regrows it, a pick names the rule
     sliderMs.push(g.lastLatencyMs ?? NaN);
     sliderParts.push(g.lastBreakdown);
   }
-  record('derive', 'examples/bracketed_plant.grm (4,096 bones, 81,920 triangles)', 'a slider move', sliderMs, sliderParts);
+  record('derive', 'examples/bracketed_plant.grm (4,096 bones, 81,920 triangles)', 'a slider move', g1, sliderMs, sliderParts);
   await slider.evaluate((el: HTMLInputElement) => {
     el.value = '40';
     el.dispatchEvent(new Event('input', { bubbles: true }));
@@ -364,6 +375,8 @@ test('sample mode: drawing a curve and dragging its control point regrow the Cal
   await page.click('#tool-orbit');
   const latencies: number[] = [];
   const parts: Record<string, number>[] = [];
+  const programs = () => page.evaluate(() => (globalThis as unknown as { __grm: { programs(): number[] } }).__grm.programs());
+  const programsBefore = await programs();
   for (let k = 0; k < 6; k++) {
     const end = await page.evaluate(() => {
       const g = (globalThis as unknown as { __grm: { curvePoints(i: number): number[][]; toScreen(p: number[]): [number, number] } }).__grm;
@@ -396,11 +409,15 @@ test('sample mode: drawing a curve and dragging its control point regrow the Cal
     const done = await grm(page);
     latencies.push(done.lastLatencyMs ?? NaN);
     parts.push(done.lastBreakdown);
+    // The release is where the last move was: the curves are not drawn again.
+    assert.equal(done.curveDraws, mid.curveDraws, 'the release redrew unchanged curves');
     // The measured time runs to the end of the frame that shows the model, and the server's own time is part of the host's.
     const b = done.lastBreakdown;
     assert.ok(b.present >= 0 && b.render >= 0 && b['server total'] >= 0, JSON.stringify(b));
     assert.ok(b.host >= b['server total'], JSON.stringify(b));
   }
+  // New models and curves reuse the shader programs (compiling one takes tens of ms with software WebGL).
+  assert.deepEqual(await programs(), programsBefore, 'no shader program was compiled or dropped for the new models');
   const moved = (await page.evaluate(() => (globalThis as unknown as { __grm: { curvePoints(i: number): number[][] } }).__grm.curvePoints(3))) as number[][];
   const savedAfter = JSON.parse(readFileSync(join(dir, 'calder_tree.curves.json'), 'utf8')) as { curves: { points: number[][] }[] };
   assert.deepEqual(savedAfter.curves[3].points, moved, 'the dragged curve is saved');
@@ -460,7 +477,7 @@ test('sample mode: drawing a curve and dragging its control point regrow the Cal
     { timeout: 30_000 },
   );
 
-  const median = record('sample', 'examples/calder_tree.grm', 'a control point drag (mouse release)', latencies, parts);
+  const median = record('sample', 'examples/calder_tree.grm', 'a control point drag (mouse release)', g0, latencies, parts);
   assert.ok(Number.isFinite(median));
   assert.deepEqual(pageErrors(page), []);
   await page.close();

@@ -59,6 +59,12 @@ interface DebugInfo {
   /** Bones highlighted for the focused rule, and bones of its spread over other seeds. */
   focusBones: number;
   spreadBones: number;
+  /** The WebGL renderer, and whether the view is multisampled (not on a software renderer). */
+  renderer: string;
+  antialias: boolean;
+  /** Times the guiding curves were redrawn, and the shader programs held (ids). */
+  readonly curveDraws: number;
+  programs: () => number[];
 }
 
 const $ = <T extends HTMLElement>(id: string): T => {
@@ -103,6 +109,7 @@ class App {
       () => performance.now(),
     );
     const coalescer = this.coalescer;
+    const scene = this.scene;
     this.debug = {
       ready: false,
       get busy() {
@@ -128,6 +135,12 @@ class App {
       origins: () => this.last?.origins ?? [],
       focusBones: 0,
       spreadBones: 0,
+      renderer: this.scene.rendererName,
+      antialias: this.scene.antialias,
+      get curveDraws() {
+        return scene.curveDraws;
+      },
+      programs: () => this.scene.programIds(),
     };
     (globalThis as unknown as { __grm: DebugInfo }).__grm = this.debug;
     this.wireUi();

@@ -2,6 +2,14 @@
 // skeleton, guiding curves with their control points, the live stroke, and
 // the spread of the rule under the cursor. Renders on demand (after a change
 // or a camera move), not in a loop.
+//
+// Materials are kept across models and redraws (MaterialCache): three.js
+// deletes a shader program when the last material using it is disposed, and
+// a new model or curve drawn with fresh materials then compiles its programs
+// again, which costs tens of milliseconds per frame with software WebGL
+// (docs/benchmarks.md, "Preview: edit to screen"). Geometry is rebuilt.
+// Antialiasing (multisampling) is on only where WebGL runs on a GPU: on a
+// software renderer it makes every frame several times slower.
 
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
@@ -22,13 +30,55 @@ export interface PartHit {
   point: V3;
 }
 
+/** Renderer names of WebGL without a GPU (Chromium's SwiftShader, Mesa's llvmpipe and softpipe, Windows' WARP). */
+export const SOFTWARE_RENDERER = /swiftshader|llvmpipe|softpipe|lavapipe|software|basic render/i;
+
+/** The name of the WebGL renderer (the unmasked one where the browser tells it), from a throwaway context. */
+export function webglRendererName(): string {
+  const c = document.createElement('canvas');
+  const gl = c.getContext('webgl2') ?? c.getContext('webgl');
+  if (!gl) return '';
+  const info = gl.getExtension('WEBGL_debug_renderer_info');
+  const name = String(gl.getParameter(info ? info.UNMASKED_RENDERER_WEBGL : gl.RENDERER) ?? '');
+  gl.getExtension('WEBGL_lose_context')?.loseContext();
+  return name;
+}
+
+/** Materials by a key of their settings; a cached material outlives the objects drawn with it. */
+export class MaterialCache {
+  private readonly cache = new Map<string, THREE.Material>();
+
+  get<T extends THREE.Material>(key: string, make: () => T): T {
+    let m = this.cache.get(key);
+    if (!m) {
+      m = make();
+      m.userData.cached = true;
+      this.cache.set(key, m);
+    }
+    return m as T;
+  }
+
+  /** Dispose the materials not in `keep` (call it after a frame drew `keep`, so their programs stay). */
+  prune(keep: Set<THREE.Material>): void {
+    for (const [k, m] of this.cache) {
+      if (keep.has(m)) continue;
+      this.cache.delete(k);
+      m.dispose();
+    }
+  }
+
+  dispose(): void {
+    this.prune(new Set());
+  }
+}
+
+/** Dispose an object's geometries and its materials, except cached ones. */
 function disposeObject(o: THREE.Object3D): void {
   o.traverse((c) => {
     const m = c as THREE.Mesh;
     if (m.geometry) m.geometry.dispose();
     const mat = m.material as THREE.Material | THREE.Material[] | undefined;
-    if (Array.isArray(mat)) mat.forEach((x) => x.dispose());
-    else if (mat) mat.dispose();
+    for (const x of Array.isArray(mat) ? mat : mat ? [mat] : []) if (!x.userData.cached) x.dispose();
   });
 }
 
@@ -39,22 +89,31 @@ function clearGroup(g: THREE.Group): void {
   }
 }
 
-/** Meshes (one per part) and the skeleton of a model, in a fresh group. */
-export function buildModelObjects(model: SceneModel): { geometry: THREE.Group; skeleton: THREE.LineSegments } {
+/**
+ * Meshes (one per part) and the skeleton of a model, in a fresh group, with
+ * materials from `cache`; `used` is the set of materials the model needs.
+ */
+export function buildModelObjects(
+  model: SceneModel,
+  cache: MaterialCache,
+): { geometry: THREE.Group; skeleton: THREE.LineSegments; used: Set<THREE.Material> } {
   const geometry = new THREE.Group();
-  const materials = model.materials.map((m) => {
-    const mat = new THREE.MeshStandardMaterial({
-      color: new THREE.Color().setRGB(m.color[0], m.color[1], m.color[2], THREE.LinearSRGBColorSpace),
-      roughness: m.roughness,
-      metalness: m.metallic,
-      side: THREE.DoubleSide,
-    });
-    if (m.opacity < 1) {
-      mat.transparent = true;
-      mat.opacity = m.opacity;
-    }
-    return mat;
-  });
+  const used = new Set<THREE.Material>();
+  const materials = model.materials.map((m) =>
+    cache.get(`standard ${m.color.join(' ')} ${m.roughness} ${m.metallic} ${m.opacity}`, () => {
+      const mat = new THREE.MeshStandardMaterial({
+        color: new THREE.Color().setRGB(m.color[0], m.color[1], m.color[2], THREE.LinearSRGBColorSpace),
+        roughness: m.roughness,
+        metalness: m.metallic,
+        side: THREE.DoubleSide,
+      });
+      if (m.opacity < 1) {
+        mat.transparent = true;
+        mat.opacity = m.opacity;
+      }
+      return mat;
+    }),
+  );
   model.parts.forEach((p, i) => {
     const g = new THREE.BufferGeometry();
     g.setAttribute('position', new THREE.BufferAttribute(p.positions, 3));
@@ -62,7 +121,8 @@ export function buildModelObjects(model: SceneModel): { geometry: THREE.Group; s
     g.setIndex(new THREE.BufferAttribute(p.indices, 1));
     if (!p.normals) g.computeVertexNormals();
     g.computeBoundingSphere();
-    const mat = materials[p.material] ?? new THREE.MeshStandardMaterial({ color: 0xcccccc, side: THREE.DoubleSide });
+    const mat = materials[p.material] ?? cache.get('standard default', () => new THREE.MeshStandardMaterial({ color: 0xcccccc, side: THREE.DoubleSide }));
+    used.add(mat);
     const mesh = new THREE.Mesh(g, mat);
     mesh.userData.part = i;
     geometry.add(mesh);
@@ -77,9 +137,11 @@ export function buildModelObjects(model: SceneModel): { geometry: THREE.Group; s
   // Depth-tested: the tubes hide the bones inside them; with the geometry
   // hidden the skeleton shows whole. Opaque, so the highlight (drawn later)
   // stays on top of it.
-  const skeleton = new THREE.LineSegments(sg, new THREE.LineBasicMaterial({ color: SKELETON_COLOR }));
+  const skeletonMaterial = cache.get('skeleton', () => new THREE.LineBasicMaterial({ color: SKELETON_COLOR }));
+  used.add(skeletonMaterial);
+  const skeleton = new THREE.LineSegments(sg, skeletonMaterial);
   skeleton.renderOrder = 2;
-  return { geometry, skeleton };
+  return { geometry, skeleton, used };
 }
 
 function addLights(scene: THREE.Scene): void {
@@ -101,7 +163,15 @@ export class PreviewScene {
   private readonly overlayRoot = new THREE.Group();
   private readonly strokeLine: THREE.Line;
   private model: SceneModel | null = null;
+  /** The model's materials (pruned to the current model's after each new model is drawn). */
+  private readonly modelMaterials = new MaterialCache();
+  /** The materials of the model shown. */
+  private modelUsed = new Set<THREE.Material>();
+  /** Curves, handles, highlight: a fixed set of materials. */
+  private readonly materials = new MaterialCache();
   private curves: Bezier[] = [];
+  /** What the curves group shows: curves, selection, handle size (redrawn only when it changes). */
+  private curvesDrawn = '';
   private selected: number | null = null;
   private showSkeleton = true;
   private showGeometry = true;
@@ -110,8 +180,14 @@ export class PreviewScene {
   private handleRadius = 0.06;
   private readonly raycaster = new THREE.Raycaster();
 
+  /** The WebGL renderer's name, and whether frames are multisampled (not on a software renderer). */
+  readonly rendererName: string;
+  readonly antialias: boolean;
+
   constructor(private readonly canvas: HTMLCanvasElement) {
-    this.renderer = new THREE.WebGLRenderer({ canvas, antialias: true, preserveDrawingBuffer: true });
+    this.rendererName = webglRendererName();
+    this.antialias = !SOFTWARE_RENDERER.test(this.rendererName);
+    this.renderer = new THREE.WebGLRenderer({ canvas, antialias: this.antialias, preserveDrawingBuffer: true });
     this.renderer.setPixelRatio(Math.min(2, globalThis.devicePixelRatio || 1));
     this.renderer.setClearColor(0x1e1f22);
     this.camera = new THREE.PerspectiveCamera(45, 1, 0.01, 1000);
@@ -168,15 +244,25 @@ export class PreviewScene {
     clearGroup(this.modelRoot);
     clearGroup(this.skeletonRoot);
     this.model = model;
+    this.modelUsed = new Set();
     if (model) {
-      const { geometry, skeleton } = buildModelObjects(model);
-      for (const c of [...geometry.children]) this.modelRoot.add(c);
-      this.skeletonRoot.add(skeleton);
+      const built = buildModelObjects(model, this.modelMaterials);
+      this.modelUsed = built.used;
+      for (const c of [...built.geometry.children]) this.modelRoot.add(c);
+      this.skeletonRoot.add(built.skeleton);
       if (frame && model.bounds) this.frame(model.bounds);
     }
     this.modelRoot.visible = this.showGeometry;
     this.skeletonRoot.visible = this.showSkeleton;
-    this.requestRender(then);
+    // Materials the new model no longer uses go once it is drawn (its own
+    // materials have their programs by then, so shared programs survive).
+    this.requestRender(() => this.modelMaterials.prune(this.modelUsed));
+    if (then) this.requestRender(then);
+  }
+
+  /** Ids of the shader programs three.js holds (for tests: a new model compiles none). */
+  programIds(): number[] {
+    return (this.renderer.info.programs ?? []).map((p) => p.id).sort((a, b) => a - b);
   }
 
   setShowSkeleton(on: boolean): void {
@@ -219,47 +305,52 @@ export class PreviewScene {
     return [t.x, t.y, t.z];
   }
 
+  /** Show these curves; nothing is redrawn if they are what is shown (a drag's release where its last move was). */
   setCurves(curves: Bezier[], selected: number | null): void {
     this.curves = curves;
     this.selected = selected;
-    this.drawCurves();
+    this.drawCurves(false);
   }
 
-  private drawCurves(): void {
+  /** Times the curves were drawn (for tests: an unchanged set is not redrawn). */
+  curveDraws = 0;
+
+  private drawCurves(always = true): void {
+    const drawn = JSON.stringify([this.curves, this.selected, this.handleRadius]);
+    if (!always && drawn === this.curvesDrawn) return;
+    this.curvesDrawn = drawn;
+    this.curveDraws++;
     clearGroup(this.curvesRoot);
+    const basic = (color: number) => this.materials.get(`basic ${color}`, () => new THREE.MeshBasicMaterial({ color, depthTest: false }));
     this.curves.forEach((c, i) => {
       const sel = i === this.selected;
       const pts = sampleBezier(c, 64).map((p) => new THREE.Vector3(...p));
       const g = new THREE.BufferGeometry().setFromPoints(pts);
-      const line = new THREE.Line(g, new THREE.LineBasicMaterial({ color: sel ? CURVE_SELECTED : CURVE_COLOR, depthTest: false }));
+      const color = sel ? CURVE_SELECTED : CURVE_COLOR;
+      const line = new THREE.Line(g, this.materials.get(`line ${color}`, () => new THREE.LineBasicMaterial({ color, depthTest: false })));
       line.renderOrder = 3;
       this.curvesRoot.add(line);
       // An arrow head at the end: a curve's direction matters (docs/curves.md 2.3).
       const end = pts[pts.length - 1];
       const dir = end.clone().sub(pts[pts.length - 3]).normalize();
       if (dir.lengthSq() > 0) {
-        const cone = new THREE.Mesh(
-          new THREE.ConeGeometry(this.handleRadius * 1.2, this.handleRadius * 4, 12),
-          new THREE.MeshBasicMaterial({ color: sel ? CURVE_SELECTED : CURVE_COLOR, depthTest: false }),
-        );
+        const cone = new THREE.Mesh(new THREE.ConeGeometry(this.handleRadius * 1.2, this.handleRadius * 4, 12), basic(color));
         cone.position.copy(end);
         cone.quaternion.setFromUnitVectors(new THREE.Vector3(0, 1, 0), dir);
         cone.renderOrder = 3;
         this.curvesRoot.add(cone);
       }
       if (sel) {
-        const poly = new THREE.Line(
-          new THREE.BufferGeometry().setFromPoints(c.map((p) => new THREE.Vector3(...p))),
-          new THREE.LineDashedMaterial({ color: 0xaaaaaa, dashSize: this.handleRadius * 2, gapSize: this.handleRadius, depthTest: false }),
-        );
+        const dashed = this.materials.get('dashed', () => new THREE.LineDashedMaterial({ color: 0xaaaaaa, depthTest: false }));
+        // Uniforms: changing them needs no new program.
+        dashed.dashSize = this.handleRadius * 2;
+        dashed.gapSize = this.handleRadius;
+        const poly = new THREE.Line(new THREE.BufferGeometry().setFromPoints(c.map((p) => new THREE.Vector3(...p))), dashed);
         poly.computeLineDistances();
         poly.renderOrder = 3;
         this.curvesRoot.add(poly);
         c.forEach((p, k) => {
-          const h = new THREE.Mesh(
-            new THREE.SphereGeometry(this.handleRadius * (k === 0 || k === 3 ? 1.2 : 1), 12, 8),
-            new THREE.MeshBasicMaterial({ color: k === 0 || k === 3 ? 0xffffff : CURVE_SELECTED, depthTest: false }),
-          );
+          const h = new THREE.Mesh(new THREE.SphereGeometry(this.handleRadius * (k === 0 || k === 3 ? 1.2 : 1), 12, 8), basic(k === 0 || k === 3 ? 0xffffff : CURVE_SELECTED));
           h.position.set(...p);
           h.renderOrder = 4;
           this.curvesRoot.add(h);
@@ -288,20 +379,26 @@ export class PreviewScene {
       }
       const g = new THREE.BufferGeometry();
       g.setAttribute('position', new THREE.Float32BufferAttribute(pos, 3));
-      const l = new THREE.LineSegments(g, new THREE.LineBasicMaterial({ color: HIGHLIGHT_COLOR, depthTest: false }));
+      const l = new THREE.LineSegments(g, this.materials.get('highlight', () => new THREE.LineBasicMaterial({ color: HIGHLIGHT_COLOR, depthTest: false })));
       l.renderOrder = 6;
       this.overlayRoot.add(l);
     }
     if (spread.length > 0) {
       const g = new THREE.BufferGeometry();
       g.setAttribute('position', new THREE.Float32BufferAttribute(spread.flat(2), 3));
-      const lines = new THREE.LineSegments(g, new THREE.LineBasicMaterial({ color: SPREAD_COLOR, transparent: true, opacity: 0.3, depthTest: false }));
+      const lines = new THREE.LineSegments(
+        g,
+        this.materials.get('spread', () => new THREE.LineBasicMaterial({ color: SPREAD_COLOR, transparent: true, opacity: 0.3, depthTest: false })),
+      );
       lines.renderOrder = 5;
       this.overlayRoot.add(lines);
       // The tips: where the rule puts things, as dots.
       const tips = new THREE.BufferGeometry();
       tips.setAttribute('position', new THREE.Float32BufferAttribute(spread.flatMap((s) => s[1]), 3));
-      const pts = new THREE.Points(tips, new THREE.PointsMaterial({ color: SPREAD_COLOR, size: 2.5, sizeAttenuation: false, transparent: true, opacity: 0.5, depthTest: false }));
+      const pts = new THREE.Points(
+        tips,
+        this.materials.get('spread tips', () => new THREE.PointsMaterial({ color: SPREAD_COLOR, size: 2.5, sizeAttenuation: false, transparent: true, opacity: 0.5, depthTest: false })),
+      );
       pts.renderOrder = 6;
       this.overlayRoot.add(pts);
     }
@@ -402,6 +499,8 @@ export class PreviewScene {
   dispose(): void {
     this.controls.dispose();
     disposeObject(this.scene);
+    this.modelMaterials.dispose();
+    this.materials.dispose();
     this.renderer.dispose();
   }
 }
@@ -420,11 +519,13 @@ export class ThumbnailRenderer {
   private readonly renderer: THREE.WebGLRenderer;
   private readonly scene = new THREE.Scene();
   private readonly camera = new THREE.PerspectiveCamera(40, 1, 0.01, 1000);
+  private readonly materials = new MaterialCache();
 
   constructor(size = 160) {
     const canvas = document.createElement('canvas');
     canvas.width = size;
     canvas.height = size;
+    // One picture per model, not a frame per edit: multisampled even on a software renderer.
     this.renderer = new THREE.WebGLRenderer({ canvas, antialias: true, preserveDrawingBuffer: true });
     this.renderer.setSize(size, size, false);
     this.renderer.setClearColor(0x26272b);
@@ -433,7 +534,8 @@ export class ThumbnailRenderer {
 
   /** A PNG data URL of the model, framed from the given view direction. */
   render(model: SceneModel, viewDir: V3): string {
-    const { geometry } = buildModelObjects(model);
+    const { geometry, skeleton, used } = buildModelObjects(model, this.materials);
+    skeleton.geometry.dispose();
     this.scene.add(geometry);
     if (model.bounds) {
       const b = new THREE.Box3(new THREE.Vector3(...model.bounds.min), new THREE.Vector3(...model.bounds.max));
@@ -450,10 +552,12 @@ export class ThumbnailRenderer {
     const url = this.renderer.domElement.toDataURL('image/png');
     this.scene.remove(geometry);
     disposeObject(geometry);
+    this.materials.prune(used);
     return url;
   }
 
   dispose(): void {
+    this.materials.dispose();
     this.renderer.dispose();
   }
 }
