@@ -219,6 +219,8 @@ codes! {
     SampleThreadPool = "R0307", Error, "thread pool failed while sampling";
     /// Sampling options that cannot be used (a volume weight <= 0, ...).
     SampleOptions = "R0308", Error, "unusable sampling options";
+    /// The caller cancelled the run (`SampleOptions::cancel`); no model.
+    SampleCancelled = "R0309", Error, "sampling cancelled";
 
     // R04xx: building and exporting models (grm-geom)
     /// Internal: a module string the turtle cannot interpret.

@@ -233,7 +233,7 @@ fn main() {
             &guided,
             SampleOptions {
                 schedule: playground,
-                ..calder
+                ..calder.clone()
             },
         ),
         (
@@ -242,7 +242,7 @@ fn main() {
             SampleOptions {
                 schedule: playground,
                 heuristic: false,
-                ..calder
+                ..calder.clone()
             },
         ),
         (
@@ -303,7 +303,7 @@ fn main() {
             &guided,
             SampleOptions {
                 schedule: library,
-                ..calder
+                ..calder.clone()
             },
         ),
         (
@@ -312,7 +312,7 @@ fn main() {
             SampleOptions {
                 schedule: library,
                 heuristic: false,
-                ..calder
+                ..calder.clone()
             },
         ),
         (
@@ -384,7 +384,10 @@ fn main() {
         };
         let cpu0 = cpu_seconds();
         for seed in 0..a.seeds {
-            let o = SampleOptions { seed, ..opts };
+            let o = SampleOptions {
+                seed,
+                ..opts.clone()
+            };
             // Best of `runs` wall times (the machine is shared; the model is
             // the same each run).
             let mut dt = Duration::MAX;

@@ -29,6 +29,9 @@ pub enum SampleError {
     ThreadPool(String),
     /// The options are unusable (e.g. a volume target that cannot be built).
     Options(String),
+    /// The run's [`crate::CancelToken`] was set: the caller asked it to
+    /// stop (there is no model, not even a partial one).
+    Cancelled,
 }
 
 /// Which geometry-phase limit was hit.
@@ -78,6 +81,7 @@ impl SampleError {
             SampleError::Turtle(_) => Code::SampleInterpret,
             SampleError::ThreadPool(_) => Code::SampleThreadPool,
             SampleError::Options(_) => Code::SampleOptions,
+            SampleError::Cancelled => Code::SampleCancelled,
         }
     }
 
@@ -149,7 +153,7 @@ impl SampleError {
                 "the operating system refused the worker threads: run with `--threads 1`, or free resources"
                     .into(),
             ),
-            SampleError::Options(_) => None,
+            SampleError::Options(_) | SampleError::Cancelled => None,
         }
     }
 }
@@ -183,6 +187,7 @@ impl std::fmt::Display for SampleError {
             SampleError::Turtle(m) => write!(f, "cannot interpret an expansion: {m}"),
             SampleError::ThreadPool(m) => write!(f, "cannot start the thread pool: {m}"),
             SampleError::Options(m) => write!(f, "{m}"),
+            SampleError::Cancelled => write!(f, "sampling was cancelled"),
         }
     }
 }

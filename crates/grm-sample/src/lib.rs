@@ -12,7 +12,7 @@
 //! [`Objective`] (the curve cost, or the volume-matching baseline) and
 //! [`SampleOptions`] (seed, [`Schedule`], heuristic, temperature, candidate
 //! expansions, adaptive tempering's ESS floor, threads, optional
-//! wall-clock budget, how many best models).
+//! wall-clock budget, how many best models, an optional [`CancelToken`]).
 //!
 //! **Outputs.** A [`SampleResult`]: the best [`SampledModel`]s (cost by
 //! term, the full turtle [`grm_turtle::Interpretation`] ready for
@@ -57,6 +57,9 @@
 //!   so the result is a function of (program, curves, seed, schedule),
 //!   the same for 1 or many threads. The one exception is
 //!   [`SampleOptions::budget`], which stops when the wall clock says so.
+//! - Cancellation is cooperative ([`SampleOptions::cancel`]): a set token
+//!   stops the run at its next check with [`SampleError::Cancelled`],
+//!   never with a partial model; an unset one changes nothing.
 //! - A model's cost does not depend on the order its symbols were expanded
 //!   (fixed-point sums; [`Sampler::cost_in_order`] checks it).
 //! - The returned model is the lowest-cost complete one among the final
@@ -65,6 +68,7 @@
 //!   codes `R03xx` and source spans; the geometry phase has depth and size
 //!   limits ([`FinishLimits`]).
 
+mod cancel;
 mod error;
 mod expand;
 mod model;
@@ -74,6 +78,7 @@ pub mod resample;
 mod sampler;
 mod schedule;
 
+pub use cancel::CancelToken;
 pub use error::{ExpandError, ExpandErrorKind, LimitKind, SampleError};
 pub use model::{
     DerivationTree, FinishLimits, GenerationStats, NodeKind, SampleResult, SampledModel, TreeNode,

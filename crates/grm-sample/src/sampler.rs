@@ -17,6 +17,7 @@ use grm_sema::{Mode, System};
 use grm_turtle::{Interpreter, Turtle};
 use rayon::prelude::*;
 
+use crate::cancel::{self, CancelToken};
 use crate::error::{LimitKind, SampleError};
 use crate::expand::{Grammar, Which, Worker};
 use crate::model::*;
@@ -78,8 +79,11 @@ pub const DEFAULT_ESS_TARGET: f64 = 0.1;
 /// about 1.6 times the time).
 pub const DEFAULT_CANDIDATES: u32 = 3;
 
+/// Wrap-up and geometry expansions between two checks of the cancel token.
+const CANCEL_EVERY: u32 = 4096;
+
 /// How one run samples.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct SampleOptions {
     /// The seed of every random draw of the run.
     pub seed: u32,
@@ -119,6 +123,12 @@ pub struct SampleOptions {
     /// Default [`DEFAULT_CANDIDATES`].
     pub candidates: u32,
     pub limits: FinishLimits,
+    /// Cooperative cancellation: when another thread sets the token, the
+    /// run stops at its next check (between generations, before wrap-up
+    /// and the geometry phase, every 4096 wrap-up or geometry expansions)
+    /// and returns [`SampleError::Cancelled`]. A token that is never set
+    /// changes nothing: the result is the same as without one.
+    pub cancel: Option<CancelToken>,
 }
 
 impl Default for SampleOptions {
@@ -135,6 +145,7 @@ impl Default for SampleOptions {
             max_expansions_per_step: 1000,
             candidates: DEFAULT_CANDIDATES,
             limits: FinishLimits::default(),
+            cancel: None,
         }
     }
 }
@@ -1091,12 +1102,16 @@ impl<'a> Sampler<'a> {
         cur: (u32, u32),
         p: &Particle,
         seed: u32,
-        limits: &FinishLimits,
+        opts: &SampleOptions,
     ) -> Result<(Particle, Step), SampleError> {
+        let (limits, cancel) = (&opts.limits, opts.cancel.as_ref());
         let mut q = p.clone();
         let mut local = Step::default();
         let mut k = 0u32;
         while !q.open.is_empty() {
+            if k.is_multiple_of(CANCEL_EVERY) {
+                cancel::check(cancel)?;
+            }
             if u64::from(k) >= limits.max_expansions {
                 return Err(SampleError::GeometryLimit {
                     symbol: "(wrap-up)".into(),
@@ -1126,7 +1141,11 @@ impl<'a> Sampler<'a> {
     /// wrap-up of every distinct final particle, then the geometry phase
     /// for the best ones. Deterministic for a given seed and schedule,
     /// whatever `threads`, unless a `budget` stops the search early.
+    /// A set [`SampleOptions::cancel`] token stops it with
+    /// [`SampleError::Cancelled`].
     pub fn sample(&self, opts: &SampleOptions) -> Result<SampleResult, SampleError> {
+        let cancel = opts.cancel.as_ref();
+        cancel::check(cancel)?;
         let threads = match opts.threads {
             0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
             t => t,
@@ -1170,6 +1189,7 @@ impl<'a> Sampler<'a> {
         } else {
             1
         };
+        let cancel = opts.cancel.as_ref();
         let mut w = self.g.worker();
         let (root, root_step) = self.root_particle(&mut w, None, seed, h_of(0))?;
         // The arena: layer 0 the axiom, layer g + 1 generation g, then the
@@ -1189,6 +1209,9 @@ impl<'a> Sampler<'a> {
         let mut spare: Vec<Step> = Vec::new();
         let mut used = Vec::new();
         for g in 0..gens {
+            // Between generations: a cancelled run stops here (a
+            // generation of the Calder tree is a fraction of a millisecond).
+            cancel::check(cancel)?;
             let h = h_of(g);
             let lay: &[Vec<Step>] = &layers;
             let bufs: Vec<Step> = (0..pop.len())
@@ -1297,6 +1320,7 @@ impl<'a> Sampler<'a> {
             }
         }
         drop(pop);
+        cancel::check(cancel)?;
 
         // Distinct final particles (copies share their head node).
         let mut seen = std::collections::HashSet::new();
@@ -1304,7 +1328,7 @@ impl<'a> Sampler<'a> {
         let wl = layers.len() as u32;
         let lay: &[Vec<Step>] = &layers;
         let wrap = |w: &mut Worker, (c, p): (usize, &&Arc<Particle>)| {
-            self.wrap_up(w, lay, (wl, c as u32), p, seed, &opts.limits)
+            self.wrap_up(w, lay, (wl, c as u32), p, seed, opts)
         };
         let wrapped: Vec<Result<(Particle, Step), SampleError>> = if parallel {
             finals
@@ -1322,6 +1346,7 @@ impl<'a> Sampler<'a> {
             done.push(q);
             layer.push(st);
         }
+        cancel::check(cancel)?;
         layers.push(layer);
         let candidates: Vec<f64> = done.iter().map(|q| self.objective_of(q)).collect();
         // Lowest objective first; NaN last; ties by particle index.
@@ -1341,7 +1366,7 @@ impl<'a> Sampler<'a> {
                 &done[c],
                 seed,
                 c as u32,
-                &opts.limits,
+                opts,
             )?);
         }
         Ok(SampleResult {
@@ -1366,8 +1391,9 @@ impl<'a> Sampler<'a> {
         p: &Particle,
         seed: u32,
         c: u32,
-        limits: &FinishLimits,
+        opts: &SampleOptions,
     ) -> Result<SampledModel, SampleError> {
+        let (limits, cancel) = (&opts.limits, opts.cancel.as_ref());
         let sys = self.g.sys;
         let chain = p.chain(layers);
         let key = |a: u32, b: u32| (u64::from(a) << 32) | u64::from(b);
@@ -1478,6 +1504,9 @@ impl<'a> Sampler<'a> {
                         file: sys.file,
                         span: sys.alt_spans.get(alt as usize).copied().unwrap_or(sys.span),
                     });
+                }
+                if geometry.is_multiple_of(u64::from(CANCEL_EVERY)) {
+                    cancel::check(cancel)?;
                 }
                 let draws = tagged(seed, STREAM_GEOMETRY, c, geometry as u32);
                 geometry += 1;

@@ -139,7 +139,7 @@ fn the_heuristic_lowers_the_final_cost() {
                 .cost
                 .total()
         };
-        on.push(cost(o));
+        on.push(cost(o.clone()));
         off.push(cost(SampleOptions {
             heuristic: false,
             ..o

@@ -142,7 +142,10 @@ fn report(loaded: &crate::derive::Loaded, e: &SampleError) -> Outcome {
     let c = &loaded.compiled;
     emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));
     match e {
-        SampleError::ThreadPool(_) | SampleError::Options(_) => Outcome::Usage,
+        // (grmc never cancels a run; a cancelled one would not be the input's fault.)
+        SampleError::ThreadPool(_) | SampleError::Options(_) | SampleError::Cancelled => {
+            Outcome::Usage
+        }
         _ => Outcome::InputErrors,
     }
 }
@@ -228,6 +231,7 @@ pub fn run(args: SampleArgs) -> Outcome {
         best: args.best.max(1),
         max_expansions_per_step: args.max_step_expansions.max(1),
         limits: FinishLimits::default(),
+        cancel: None,
     };
     let result = match sampler.sample(&opts) {
         Ok(r) => r,
