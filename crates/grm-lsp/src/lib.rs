@@ -34,6 +34,7 @@ use grm_analysis::{Analysis, FileAnalysis, Lookup};
 use grm_sema::FileLoader;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicU64;
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 use tower_lsp_server::jsonrpc::{Error, ErrorCode, Result};
@@ -81,6 +82,11 @@ pub(crate) struct Shared {
     pub(crate) preview_sent: tokio::sync::Mutex<HashMap<PathBuf, (i32, usize)>>,
     /// Provenance of the last preview per file, for `grm/pick`.
     pub(crate) picks: Mutex<HashMap<PathBuf, preview::PickTable>>,
+    /// The live `grm/preview` in progress per file (its ticket's id and
+    /// cancel token): a newer live request for the file cancels it.
+    pub(crate) running: Mutex<HashMap<PathBuf, (u64, grm_sample::CancelToken)>>,
+    /// Ids of `grm/preview` requests, in the order they started.
+    pub(crate) preview_seq: AtomicU64,
     debounce: Duration,
     /// Workspace folders to scan for `.grm` files.
     roots: Mutex<Vec<PathBuf>>,
@@ -125,6 +131,22 @@ fn scan(roots: &[PathBuf]) -> Vec<PathBuf> {
 }
 
 impl Shared {
+    pub(crate) fn new(config: Config) -> Shared {
+        Shared {
+            analysis: Mutex::new(Analysis::new(config.loader)),
+            published: tokio::sync::Mutex::new(HashMap::new()),
+            previews: Mutex::new(HashMap::new()),
+            preview_sent: tokio::sync::Mutex::new(HashMap::new()),
+            picks: Mutex::new(HashMap::new()),
+            running: Mutex::new(HashMap::new()),
+            preview_seq: AtomicU64::new(0),
+            debounce: config.debounce,
+            roots: Mutex::new(Vec::new()),
+            last_edit: Mutex::new(HashMap::new()),
+            computing: Mutex::new(HashMap::new()),
+        }
+    }
+
     /// The analysis host (a panic in another thread while holding the lock
     /// leaves it usable: its state is only ever replaced whole).
     pub(crate) fn analysis(&self) -> MutexGuard<'_, Analysis> {
@@ -162,6 +184,14 @@ impl Shared {
 
     pub(crate) fn previews(&self) -> MutexGuard<'_, HashMap<PathBuf, preview::PreviewParams>> {
         self.previews
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    pub(crate) fn running(
+        &self,
+    ) -> MutexGuard<'_, HashMap<PathBuf, (u64, grm_sample::CancelToken)>> {
+        self.running
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner)
     }
@@ -223,17 +253,7 @@ impl Backend {
     fn new(client: Client, config: Config) -> Backend {
         Backend {
             client,
-            shared: Arc::new(Shared {
-                analysis: Mutex::new(Analysis::new(config.loader)),
-                published: tokio::sync::Mutex::new(HashMap::new()),
-                previews: Mutex::new(HashMap::new()),
-                preview_sent: tokio::sync::Mutex::new(HashMap::new()),
-                picks: Mutex::new(HashMap::new()),
-                debounce: config.debounce,
-                roots: Mutex::new(Vec::new()),
-                last_edit: Mutex::new(HashMap::new()),
-                computing: Mutex::new(HashMap::new()),
-            }),
+            shared: Arc::new(Shared::new(config)),
         }
     }
 

@@ -9,6 +9,14 @@
 //! one), and a webview turns it into a `Float32Array` with one `atob`.
 //! Everything is computed on a blocking thread, never on the executor.
 //!
+//! Superseding: a `grm/preview` with `live: true` supersedes the document's
+//! live request still in progress (the live preview is the document's one
+//! current preview): the older one's [`CancelToken`] is set, its sampler
+//! (or derivation) stops at its next check, and it is answered with
+//! ServerCancelled (-32802). A request whose future is dropped (the
+//! client's `$/cancelRequest`, answered RequestCancelled by
+//! tower-lsp-server) sets its token too, so its work stops as well.
+//!
 //! Provenance: the derivation engine reports strings, not who made each
 //! module, so [`origins`] recovers it step by step: the string after a
 //! step is the concatenation of each input module's successor, so aligning
@@ -23,11 +31,13 @@ use base64::Engine as _;
 use grm_analysis::FileAnalysis;
 use grm_compile::CompiledSystem;
 use grm_derive::{DeriveLimits, Engine, ModuleString};
+use grm_sample::CancelToken;
 use grm_sema::{Mode, Value};
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, HashSet};
 use std::path::PathBuf;
 use std::sync::Arc;
+use std::sync::atomic::Ordering;
 use std::time::Instant;
 use tower_lsp_server::Client;
 use tower_lsp_server::jsonrpc::{Error, ErrorCode, Result};
@@ -39,6 +49,51 @@ pub const PROTOCOL_VERSION: u32 = 1;
 
 /// No origin (a module whose maker is unknown).
 pub const NO_ORIGIN: u32 = u32::MAX;
+
+/// LSP 3.17's ServerCancelled: the answer of a `grm/preview` that a newer
+/// live one for the same document superseded.
+pub const SERVER_CANCELLED: i64 = -32802;
+
+/// Why a preview was not built.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum Failure {
+    /// A message for the user (RequestFailed).
+    Msg(String),
+    /// The request named a version; the document is at this one.
+    Stale(i32),
+    /// Its cancel token was set: superseded, or dropped by the client.
+    Cancelled,
+}
+
+impl From<String> for Failure {
+    fn from(m: String) -> Failure {
+        Failure::Msg(m)
+    }
+}
+
+impl From<&str> for Failure {
+    fn from(m: &str) -> Failure {
+        Failure::Msg(m.to_string())
+    }
+}
+
+impl std::fmt::Display for Failure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Failure::Msg(m) => f.write_str(m),
+            Failure::Stale(v) => write!(f, "the document changed: the current version is {v}"),
+            Failure::Cancelled => f.write_str("the preview was cancelled"),
+        }
+    }
+}
+
+/// `Err(Cancelled)` once `cancel` is set.
+fn check(cancel: Option<&CancelToken>) -> std::result::Result<(), Failure> {
+    match cancel {
+        Some(t) if t.is_cancelled() => Err(Failure::Cancelled),
+        _ => Ok(()),
+    }
+}
 
 /// How the model is grown.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -433,7 +488,8 @@ fn grow(
     seed: u32,
     max_modules: u64,
     focus: Option<u32>,
-) -> std::result::Result<Grown, String> {
+    cancel: Option<&CancelToken>,
+) -> std::result::Result<Grown, Failure> {
     let engine = Engine::new(sys, 1).map_err(|e| e.to_string())?;
     let limits = DeriveLimits {
         max_modules,
@@ -445,6 +501,8 @@ fn grow(
     let cands = candidates(sys);
     let mut ambiguous = 0;
     for it in 1..=iterations {
+        // Between steps (the engine itself takes no token).
+        check(cancel)?;
         let next = engine
             .step(&s, it, seed, &limits)
             .map_err(|e| e.to_string())?;
@@ -495,7 +553,8 @@ fn derive_model(
     settings: &grm_sema::Settings,
     p: &PreviewParams,
     focus: Option<u32>,
-) -> std::result::Result<Made, String> {
+    cancel: Option<&CancelToken>,
+) -> std::result::Result<Made, Failure> {
     let max_modules = p.max_modules.unwrap_or(2_000_000).min(50_000_000);
     let t0 = Instant::now();
     let grown = grow(
@@ -504,8 +563,10 @@ fn derive_model(
         settings.seed,
         max_modules,
         focus,
+        cancel,
     )?;
     let derive_ms = t0.elapsed().as_secs_f64() * 1e3;
+    check(cancel)?;
     let t1 = Instant::now();
     let mut model =
         grm_geom::build_model(prog, sys, &grown.string, settings).map_err(|e| e.to_string())?;
@@ -534,7 +595,14 @@ fn derive_model(
         let mut spread = Vec::with_capacity(n as usize);
         for k in 0..n {
             let seed = settings.seed.wrapping_add(k);
-            let g = grow(compiled, settings.iterations, seed, max_modules, focus)?;
+            let g = grow(
+                compiled,
+                settings.iterations,
+                seed,
+                max_modules,
+                focus,
+                cancel,
+            )?;
             let mut st = settings.clone();
             st.seed = seed;
             let interp =
@@ -565,13 +633,14 @@ fn derive_model(
 /// itself. Focus marks what the focused production made directly.
 fn sample_model(
     fa: &FileAnalysis,
-    prog: &grm_sema::Program,
     sys: &grm_sema::System,
     compiled: &CompiledSystem,
     settings: &grm_sema::Settings,
     p: &PreviewParams,
     focus: Option<u32>,
-) -> std::result::Result<Made, String> {
+    cancel: Option<&CancelToken>,
+) -> std::result::Result<Made, Failure> {
+    let prog = &fa.checked.program;
     let (curves, from) = match &p.curves {
         Some(v) => (
             grm_guide::Curves::from_json_str("request", &v.to_string())
@@ -581,10 +650,10 @@ fn sample_model(
         None => {
             let path = std::path::Path::new(&fa.source().path).with_extension("curves.json");
             if !path.is_file() {
-                return Err(format!(
+                return Err(Failure::Msg(format!(
                     "sample mode needs guiding curves: pass `curves`, or put them in {}",
                     path.display()
-                ));
+                )));
             }
             (
                 grm_guide::Curves::load(&path).map_err(|e| e.to_string())?,
@@ -608,9 +677,13 @@ fn sample_model(
         budget: Some(std::time::Duration::from_millis(
             p.budget_ms.unwrap_or(5000).min(600_000),
         )),
+        cancel: cancel.cloned(),
         ..grm_sample::SampleOptions::default()
     };
-    let run = sampler.sample(&opts).map_err(|e| e.to_string())?;
+    let run = sampler.sample(&opts).map_err(|e| match e {
+        grm_sample::SampleError::Cancelled => Failure::Cancelled,
+        e => Failure::Msg(e.to_string()),
+    })?;
     let best = run.best().ok_or("the sampler returned no model")?;
     let derive_ms = t0.elapsed().as_secs_f64() * 1e3;
     let t1 = Instant::now();
@@ -658,7 +731,9 @@ pub(crate) fn build(
     fa: &FileAnalysis,
     uri: &Uri,
     p: &PreviewParams,
-) -> std::result::Result<(PreviewResult, PickTable), String> {
+    cancel: Option<&CancelToken>,
+) -> std::result::Result<(PreviewResult, PickTable), Failure> {
+    check(cancel)?;
     if fa.checked.has_errors() {
         let n = fa
             .checked
@@ -666,11 +741,11 @@ pub(crate) fn build(
             .iter()
             .filter(|d| d.is_error())
             .count();
-        return Err(format!(
+        return Err(Failure::Msg(format!(
             "the program has {n} error{}: fix {} to preview",
             if n == 1 { "" } else { "s" },
             if n == 1 { "it" } else { "them" }
-        ));
+        )));
     }
     let prog = &fa.checked.program;
     let sys = match &p.system {
@@ -685,16 +760,16 @@ pub(crate) fn build(
     });
     match (mode, sys.mode) {
         (PreviewMode::Derive, Mode::Sample) => {
-            return Err(format!(
+            return Err(Failure::Msg(format!(
                 "system `{}` is a sample system: derive mode cannot grow it",
                 sys.name
-            ));
+            )));
         }
         (PreviewMode::Sample, Mode::Derive) => {
-            return Err(format!(
+            return Err(Failure::Msg(format!(
                 "system `{}` is a derive system: only sample systems are sampled",
                 sys.name
-            ));
+            )));
         }
         _ => {}
     }
@@ -705,10 +780,14 @@ pub(crate) fn build(
             .ok_or_else(|| format!("no meta-parameter `{name}`"))?;
         let decl = &prog.params[id.index()];
         if decl.ty != grm_sema::Ty::Float {
-            return Err(format!("meta-parameter `{name}` is not a float"));
+            return Err(Failure::Msg(format!(
+                "meta-parameter `{name}` is not a float"
+            )));
         }
         if !v.is_finite() {
-            return Err(format!("meta-parameter `{name}` must be finite"));
+            return Err(Failure::Msg(format!(
+                "meta-parameter `{name}` must be finite"
+            )));
         }
         values[id.index()] = Value::Float(*v);
     }
@@ -756,9 +835,10 @@ pub(crate) fn build(
             .map(|a| a as u32)
     });
     let made = match mode {
-        PreviewMode::Derive => derive_model(prog, sys, &compiled, &settings, p, focus)?,
-        PreviewMode::Sample => sample_model(fa, prog, sys, &compiled, &settings, p, focus)?,
+        PreviewMode::Derive => derive_model(prog, sys, &compiled, &settings, p, focus, cancel)?,
+        PreviewMode::Sample => sample_model(fa, sys, &compiled, &settings, p, focus, cancel)?,
     };
+    check(cancel)?;
     let Made {
         model,
         modules,
@@ -913,7 +993,8 @@ async fn compute(
     path: PathBuf,
     uri: Uri,
     params: PreviewParams,
-) -> Result<std::result::Result<(PreviewResult, PickTable), String>> {
+    cancel: CancelToken,
+) -> Result<std::result::Result<(PreviewResult, PickTable), Failure>> {
     let s = shared.clone();
     tokio::task::spawn_blocking(move || {
         let fa = s
@@ -922,9 +1003,9 @@ async fn compute(
         if let Some(v) = params.version
             && v != fa.version
         {
-            return Err(format!("stale:{}", fa.version));
+            return Err(Failure::Stale(fa.version));
         }
-        build(&fa, &uri, &params)
+        build(&fa, &uri, &params, Some(&cancel))
     })
     .await
     .map_err(|e| Error {
@@ -932,6 +1013,62 @@ async fn compute(
         message: e.to_string().into(),
         data: None,
     })
+}
+
+/// A `grm/preview` in progress: its cancel token, registered as the
+/// document's live request when it is live (superseding the one before).
+/// Dropped with the request's future, before its answer when the client
+/// cancelled it (`$/cancelRequest`): then it stops the work.
+pub(crate) struct Ticket {
+    shared: Arc<Shared>,
+    path: PathBuf,
+    id: u64,
+    pub(crate) token: CancelToken,
+}
+
+impl Ticket {
+    pub(crate) fn begin(shared: &Arc<Shared>, path: &std::path::Path, live: bool) -> Ticket {
+        let token = CancelToken::new();
+        let id = shared.preview_seq.fetch_add(1, Ordering::Relaxed);
+        if live {
+            let old = shared
+                .running()
+                .insert(path.to_path_buf(), (id, token.clone()));
+            if let Some((_, old)) = old {
+                old.cancel();
+            }
+        }
+        Ticket {
+            shared: shared.clone(),
+            path: path.to_path_buf(),
+            id,
+            token,
+        }
+    }
+}
+
+impl Drop for Ticket {
+    fn drop(&mut self) {
+        // After the answer the flag is read by no one; before it, the
+        // request was dropped, and its blocking work stops at its next check.
+        self.token.cancel();
+        let mut running = self.shared.running();
+        if running
+            .get(&self.path)
+            .is_some_and(|(id, _)| *id == self.id)
+        {
+            running.remove(&self.path);
+        }
+    }
+}
+
+/// The answer of a superseded `grm/preview`.
+fn superseded() -> Error {
+    Error {
+        code: ErrorCode::ServerError(SERVER_CANCELLED),
+        message: "superseded by a newer grm/preview request for this document".into(),
+        data: None,
+    }
 }
 
 impl Backend {
@@ -947,21 +1084,29 @@ impl Backend {
                 live.remove(&path);
             }
         }
-        match compute(&self.shared, path.clone(), uri, params).await? {
+        let ticket = Ticket::begin(&self.shared, &path, params.live);
+        let outcome = compute(
+            &self.shared,
+            path.clone(),
+            uri,
+            params,
+            ticket.token.clone(),
+        )
+        .await?;
+        match outcome {
+            // Superseded while being built: a newer request answers.
+            _ if ticket.token.is_cancelled() => Err(superseded()),
             Ok((r, table)) => {
                 store(&self.shared, path, table);
                 Ok(r)
             }
-            Err(msg) if msg.starts_with("stale:") => Err(Error {
+            Err(Failure::Cancelled) => Err(superseded()),
+            Err(stale @ Failure::Stale(_)) => Err(Error {
                 code: ErrorCode::ContentModified,
-                message: format!(
-                    "the document changed: the current version is {}",
-                    msg.trim_start_matches("stale:")
-                )
-                .into(),
+                message: stale.to_string().into(),
                 data: None,
             }),
-            Err(msg) => Err(failed(msg)),
+            Err(Failure::Msg(msg)) => Err(failed(msg)),
         }
     }
 
@@ -1030,7 +1175,7 @@ pub(crate) async fn refresh(shared: &Arc<Shared>, client: &Client, path: PathBuf
         if s.preview_sent.blocking_lock().get(&p) == Some(&(version, key)) {
             return None;
         }
-        Some((key, build(&fa, &u, &params)))
+        Some((key, build(&fa, &u, &params, None)))
     })
     .await;
     let Ok(Some((key, outcome))) = built else {
@@ -1041,7 +1186,7 @@ pub(crate) async fn refresh(shared: &Arc<Shared>, client: &Client, path: PathBuf
             store(shared, path.clone(), table);
             (Some(r), None)
         }
-        Err(msg) => (None, Some(msg)),
+        Err(failure) => (None, Some(failure.to_string())),
     };
     let mut sent = shared.preview_sent.lock().await;
     if shared.version(&path) != Some(version)
@@ -1104,7 +1249,7 @@ mod tests {
         // its maker; X is copied from the axiom.
         let (_, c) =
             compiled("system S { iterations = 2; axiom X A; A -> F B; B -> (1) G; B -> (1) f; }");
-        let g = grow(&c, 2, 3, 1000, None).unwrap();
+        let g = grow(&c, 2, 3, 1000, None, None).unwrap();
         let m = makers(&c, &g);
         assert_eq!(m.len(), 3);
         assert_eq!(m[0], "X<axiom:X");
@@ -1121,7 +1266,7 @@ mod tests {
             "system S { iterations = 3; axiom A C; A -> (1) F; A -> (1) F A; C -> (1) G; C -> (1) G; }",
         );
         for seed in 0..20 {
-            let g = grow(&c, 3, seed, 1000, None).unwrap();
+            let g = grow(&c, 3, seed, 1000, None, None).unwrap();
             let m = makers(&c, &g);
             for x in &m {
                 assert!(
@@ -1144,7 +1289,7 @@ mod tests {
                 a != c.axiom_alt && c.symbol_names[g.pred as usize] == "B"
             })
             .unwrap();
-        let g = grow(&c, 3, 0, 1000, Some(b_alt)).unwrap();
+        let g = grow(&c, 3, 0, 1000, Some(b_alt), None).unwrap();
         let names: Vec<&str> = g
             .string
             .syms
@@ -1153,6 +1298,34 @@ mod tests {
             .collect();
         assert_eq!(names, ["F", "G", "G", "G"]);
         assert_eq!(g.focus, [false, true, true, true]);
+    }
+
+    #[test]
+    fn a_live_ticket_supersedes_the_one_before_and_dropping_one_cancels_it() {
+        let shared = Arc::new(Shared::new(crate::Config::default()));
+        let path = std::path::Path::new("/t/tree.grm");
+        let other = std::path::Path::new("/t/other.grm");
+        let a = Ticket::begin(&shared, path, true);
+        let elsewhere = Ticket::begin(&shared, other, true);
+        assert!(!a.token.is_cancelled());
+        // A request that is not live neither supersedes nor is superseded.
+        let once = Ticket::begin(&shared, path, false);
+        assert!(!a.token.is_cancelled());
+        let b = Ticket::begin(&shared, path, true);
+        assert!(a.token.is_cancelled(), "superseded");
+        assert!(!b.token.is_cancelled());
+        assert!(!once.token.is_cancelled());
+        assert!(!elsewhere.token.is_cancelled(), "another document");
+        // The superseded ticket ending does not unregister the newer one.
+        drop(a);
+        assert_eq!(shared.running().get(path).map(|r| r.0), Some(b.id));
+        // A ticket dropped before its answer (`$/cancelRequest`) stops its work.
+        let (tb, tonce) = (b.token.clone(), once.token.clone());
+        drop(b);
+        drop(once);
+        assert!(tb.is_cancelled() && tonce.is_cancelled());
+        assert!(shared.running().get(path).is_none());
+        assert!(shared.running().get(other).is_some());
     }
 
     #[test]

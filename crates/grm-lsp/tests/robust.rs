@@ -563,6 +563,134 @@ async fn preview_sample_mode() {
     });
 }
 
+/// The answer of a spawned request, within `limit`.
+async fn answer_within(
+    task: tokio::task::JoinHandle<Option<tower_lsp_server::jsonrpc::Response>>,
+    limit: Duration,
+) -> Result<Value, Value> {
+    let r = tokio::time::timeout(limit, task)
+        .await
+        .expect("answered in time")
+        .expect("task")
+        .expect("answered");
+    let (_, body) = r.into_parts();
+    body.map_err(|e| serde_json::to_value(e).unwrap_or(Value::Null))
+}
+
+/// A sample system whose search runs for ten million generations (minutes
+/// in a debug build): only its wall-clock budget or a cancellation ends it.
+fn endless_guided() -> (std::path::PathBuf, String, Value) {
+    let (p, text) = fixture("guided.grm");
+    let text = text.replace("generations = 6;", "generations = 10000000;");
+    let curves: Value =
+        serde_json::from_str(&std::fs::read_to_string(p.with_extension("curves.json")).unwrap())
+            .unwrap();
+    (p.with_file_name("endless.grm"), text, curves)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_newer_live_preview_supersedes_the_one_in_flight() {
+    let mut c = Client::start().await;
+    let (p, text, curves) = endless_guided();
+    let u = c.open(&p, &text).await;
+    let _ = c.diagnostics(&u, 1).await;
+    let req = |live: bool, budget: u64| json!({ "textDocument": { "uri": u }, "curves": curves, "live": live, "budgetMs": budget });
+    // The first request would search for a minute.
+    let first = c.spawn_request("grm/preview", req(true, 60_000)).await;
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    assert!(
+        !first.is_finished(),
+        "the first preview is still being built"
+    );
+    // A request that is not live (a thumbnail) leaves it running.
+    let once = c.ok("grm/preview", req(false, 20)).await;
+    assert_eq!(once["sample"]["stoppedEarly"], true);
+    tokio::time::sleep(Duration::from_millis(100)).await;
+    assert!(
+        !first.is_finished(),
+        "a request without `live` superseded it"
+    );
+    // A newer live request for the same document supersedes it: the first
+    // is answered with ServerCancelled at once, the second with its model.
+    let t = std::time::Instant::now();
+    let second = c.spawn_request("grm/preview", req(true, 20)).await;
+    let e = answer_within(first, Duration::from_secs(10))
+        .await
+        .expect_err("superseded");
+    let superseded_after = t.elapsed();
+    assert_eq!(e["code"], -32802, "{e}");
+    assert!(
+        e["message"]
+            .as_str()
+            .is_some_and(|m| m.contains("superseded")),
+        "{e}"
+    );
+    let model = answer_within(second, Duration::from_secs(30))
+        .await
+        .expect("the newer request's model");
+    assert_eq!(model["mode"], "sample");
+    assert_eq!(model["sample"]["stoppedEarly"], true);
+    assert!(model["stats"]["bones"].as_u64().is_some_and(|b| b > 0));
+    assert!(
+        superseded_after < Duration::from_secs(5),
+        "the superseded preview answered after {superseded_after:?}"
+    );
+    // The newer request's model is the one `grm/pick` refers to.
+    let pick = c
+        .ok(
+            "grm/pick",
+            json!({ "textDocument": { "uri": u }, "bone": 0 }),
+        )
+        .await;
+    assert_eq!(pick["symbol"], "branch");
+}
+
+#[test]
+fn a_preview_the_client_cancels_is_answered_request_cancelled_and_stops() {
+    // A runtime of its own: dropping it waits for its blocking tasks, so
+    // the time the drop takes tells whether the cancelled search stopped.
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .expect("runtime");
+    rt.block_on(async {
+        let mut c = Client::start().await;
+        let (p, text, curves) = endless_guided();
+        let u = c.open(&p, &text).await;
+        let _ = c.diagnostics(&u, 1).await;
+        let long = c
+            .spawn_request(
+                "grm/preview",
+                json!({ "textDocument": { "uri": u }, "curves": curves, "live": true, "budgetMs": 60_000 }),
+            )
+            .await;
+        let id = c.last_id();
+        tokio::time::sleep(Duration::from_millis(200)).await;
+        assert!(!long.is_finished());
+        c.notify("$/cancelRequest", json!({ "id": id })).await;
+        let e = answer_within(long, Duration::from_secs(5))
+            .await
+            .expect_err("cancelled");
+        assert_eq!(e["code"], -32800, "{e}");
+        // The server goes on previewing the document.
+        let r = c
+            .ok(
+                "grm/preview",
+                json!({ "textDocument": { "uri": u }, "curves": curves, "live": true, "budgetMs": 20 }),
+            )
+            .await;
+        assert_eq!(r["mode"], "sample");
+    });
+    let t = std::time::Instant::now();
+    drop(rt);
+    assert!(
+        t.elapsed() < Duration::from_secs(5),
+        "the cancelled preview's search went on for {:?} after its answer",
+        t.elapsed()
+    );
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn workspace_files_are_searched_without_being_open() {
     let root = common::root().join("tests/lsp");

@@ -134,6 +134,11 @@ impl Client {
         tokio::spawn(async move { fut.await.expect("service call") })
     }
 
+    /// The id of the last request sent.
+    pub fn last_id(&self) -> i64 {
+        self.id
+    }
+
     pub async fn ok(&mut self, method: &'static str, params: Value) -> Value {
         match self.request(method, params).await {
             Ok(v) => v,
