@@ -11,12 +11,16 @@
 //! a `didChange` and its `grm/previewUpdated` reaches the page.
 //!
 //! HTTP, by hand on `std::net` (one thread per connection, `Connection:
-//! close`):
+//! close`). Requests are not serialised: each connection's thread hands its
+//! request to the server and waits for its own answer, and the server works
+//! on several at once, so a newer `grm/preview` reaches the server while an
+//! older one is being built, supersedes it, and the older one is answered
+//! at once (docs/lsp-extensions.md):
 //!
 //! | request | answer |
 //! |---|---|
 //! | `GET /`, `/preview.js`, `/preview.css` | the page |
-//! | `POST /api/preview`, `/api/pick` | `{"result": ...}` or `{"error": "..."}` |
+//! | `POST /api/preview`, `/api/pick` | `{"result": ...}` or `{"error": "...", "code": N}` (`code`: the language server's JSON-RPC error code, e.g. -32802 for a preview a newer one superseded) |
 //! | `POST /api/symbols` | `textDocument/documentSymbol` (the page reads the meta-parameters' ranges) |
 //! | `POST /api/loadCurves`, `/api/saveCurves` | the curves file next to the grammar (`tree.grm` -> `tree.curves.json`); saved only if `grm-guide` accepts it |
 //! | `GET /api/events?after=N[&wait=MS]` | long poll (20 s at most): `{"seq": M, "events": [{"method", "params"}]}` |
@@ -169,6 +173,29 @@ impl EventQueue {
 
 // ------------------------------------------------------------------ the in-process language server
 
+/// A failed API request: the message for the page, and the language
+/// server's JSON-RPC error code when it answered with one.
+#[derive(Debug)]
+struct ApiError {
+    message: String,
+    code: Option<i64>,
+}
+
+impl From<String> for ApiError {
+    fn from(message: String) -> ApiError {
+        ApiError {
+            message,
+            code: None,
+        }
+    }
+}
+
+impl From<&str> for ApiError {
+    fn from(message: &str) -> ApiError {
+        ApiError::from(message.to_string())
+    }
+}
+
 type Reply = std::sync::mpsc::SyncSender<Option<tower_lsp_server::jsonrpc::Response>>;
 
 /// Requests and notifications for the language server, answered by a task
@@ -216,8 +243,9 @@ impl Lsp {
         }
     }
 
-    /// A request; `Err` is the error message for the page.
-    fn request(&self, method: &str, params: Value) -> Result<Value, String> {
+    /// A request; `Err` is the error for the page. Called from many
+    /// threads at once: each waits for its own answer only.
+    fn request(&self, method: &str, params: Value) -> Result<Value, ApiError> {
         let id = {
             let mut n = self.next_id.lock().unwrap_or_else(PoisonError::into_inner);
             *n += 1;
@@ -236,7 +264,10 @@ impl Lsp {
             .map_err(|_| "the language server stopped".to_string())?
             .ok_or_else(|| format!("{method}: no answer"))?;
         let (_, body) = resp.into_parts();
-        body.map_err(|e| e.message.to_string())
+        body.map_err(|e| ApiError {
+            message: e.message.to_string(),
+            code: Some(e.code.code()),
+        })
     }
 
     fn notify(&self, method: &str, params: Value) {
@@ -308,7 +339,8 @@ impl Server {
             changed: Condvar::new(),
         });
         let lsp = Lsp::start(&rt, events.clone(), uri_json.clone());
-        lsp.request("initialize", json!({ "capabilities": {} }))?;
+        lsp.request("initialize", json!({ "capabilities": {} }))
+            .map_err(|e| e.message)?;
         lsp.notify("initialized", json!({}));
         let (modified, len) = stat(path);
         lsp.notify(
@@ -411,7 +443,7 @@ impl State {
         }
     }
 
-    fn api(&self, method: &str, params: Value) -> Result<Value, String> {
+    fn api(&self, method: &str, params: Value) -> Result<Value, ApiError> {
         self.check_uri(&params)?;
         match method {
             "preview" => self.lsp.request("grm/preview", params),
@@ -424,7 +456,7 @@ impl State {
                 let text = match std::fs::read_to_string(&self.curves_path) {
                     Ok(t) => Value::String(t),
                     Err(e) if e.kind() == std::io::ErrorKind::NotFound => Value::Null,
-                    Err(e) => return Err(format!("{}: {e}", self.curves_path.display())),
+                    Err(e) => return Err(format!("{}: {e}", self.curves_path.display()).into()),
                 };
                 Ok(json!({ "path": self.curves_path, "text": text }))
             }
@@ -455,7 +487,7 @@ impl State {
                 *seen = stat(&self.curves_path);
                 Ok(json!({ "path": self.curves_path }))
             }
-            _ => Err(format!("unknown method {method}")),
+            _ => Err(format!("unknown method {method}").into()),
         }
     }
 }
@@ -673,7 +705,14 @@ fn handle(st: &State, stream: TcpStream) -> std::io::Result<()> {
             let started = Instant::now();
             let (status, answer) = match st.api(&p["/api/".len()..], params) {
                 Ok(result) => (200, json!({ "result": result })),
-                Err(e) => (422, json!({ "error": e })),
+                Err(ApiError {
+                    message,
+                    code: Some(code),
+                }) => (422, json!({ "error": message, "code": code })),
+                Err(ApiError {
+                    message,
+                    code: None,
+                }) => (422, json!({ "error": message })),
             };
             let body = answer.to_string();
             let timing = format!(
@@ -825,6 +864,58 @@ mod tests {
                 b.len()
             ),
         )
+    }
+
+    /// Two overlapping previews of one document: the second is not queued
+    /// behind the first, supersedes it, and the first is answered at once
+    /// with the server's ServerCancelled code.
+    #[test]
+    fn a_newer_preview_supersedes_the_one_in_flight() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let grammar = dir.path().join("endless.grm");
+        // Ten million generations: minutes, unless the budget or a newer
+        // request stops it.
+        std::fs::write(
+            &grammar,
+            "system Endless {\n    mode = sample;\n    generations = 10000000;\n    particles_start = 8;\n    particles_end = 4;\n    axiom branch;\n    skeleton branch, maybe;\n    geometry tip;\n    branch -> roty(uniform(0, 360)) rotz(uniform(0, 40)) F(1) maybe;\n    maybe -> (3) branch;\n    maybe -> (1) tip;\n    wrapup branch -> tip;\n    wrapup maybe -> tip;\n    tip -> sphere(0.1);\n}\n",
+        )
+        .expect("write");
+        let grammar = grm_sema::normalize(&std::fs::canonicalize(&grammar).expect("canonical"));
+        let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
+        let server = Server::start(&grammar, listener).expect("start");
+        let addr = server.addr;
+        let (_, ev) = exchange(
+            addr,
+            &format!("GET /api/events?after=0 HTTP/1.1\r\nHost: {addr}\r\n\r\n"),
+        );
+        let uri = ev["events"][0]["params"]["uri"].clone();
+        let curves = json!({ "version": 1, "curves": [{ "points": [[0,0,0],[0,1.3,0],[0,2.7,0],[0,4,0]] }] });
+        let req = |budget: u64| json!({ "textDocument": { "uri": uri }, "curves": curves, "live": true, "budgetMs": budget });
+        let first_req = req(60_000);
+        let first = std::thread::spawn(move || {
+            let r = post(addr, "/api/preview", &first_req);
+            (r, Instant::now())
+        });
+        std::thread::sleep(Duration::from_millis(300));
+        assert!(!first.is_finished(), "the first preview is being built");
+        let t = Instant::now();
+        let (status, second) = post(addr, "/api/preview", &req(20));
+        assert_eq!(status, 200, "{second}");
+        assert_eq!(second["result"]["sample"]["stoppedEarly"], true);
+        let ((status, e), answered) = first.join().expect("first");
+        assert_eq!(status, 422, "{e}");
+        assert_eq!(e["code"], -32802, "{e}");
+        assert!(
+            e["error"]
+                .as_str()
+                .is_some_and(|m| m.contains("superseded")),
+            "{e}"
+        );
+        assert!(
+            answered.duration_since(t) < Duration::from_secs(5),
+            "the superseded preview was answered {:?} after the newer one was sent",
+            answered.duration_since(t)
+        );
     }
 
     #[test]
