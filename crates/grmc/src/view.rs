@@ -20,7 +20,7 @@
 //! | request | answer |
 //! |---|---|
 //! | `GET /`, `/preview.js`, `/preview.css` | the page |
-//! | `POST /api/preview`, `/api/pick` | `{"result": ...}` or `{"error": "...", "code": N}` (`code`: the language server's JSON-RPC error code, e.g. -32802 for a preview a newer one superseded) |
+//! | `POST /api/preview`, `/api/pick` | `{"result": ...}` (200) or `{"error": "...", "code": N}` (422; `code`: the language server's JSON-RPC error code, where it gave one); a request the server dropped on purpose, a preview a newer one superseded (-32802) or a cancelled one (-32800), is not a failure and is answered 200 with its `error` and `code` (browsers log every 4xx answer in the console) |
 //! | `POST /api/symbols` | `textDocument/documentSymbol` (the page reads the meta-parameters' ranges) |
 //! | `POST /api/loadCurves`, `/api/saveCurves` | the curves file next to the grammar (`tree.grm` -> `tree.curves.json`); saved only if `grm-guide` accepts it |
 //! | `GET /api/events?after=N[&wait=MS]` | long poll (20 s at most): `{"seq": M, "events": [{"method", "params"}]}` |
@@ -61,6 +61,10 @@ const POLL_WAIT: Duration = Duration::from_secs(20);
 const WATCH_EVERY: Duration = Duration::from_millis(150);
 /// Events kept for pollers that fell behind.
 const EVENT_LOG: usize = 64;
+/// LSP 3.17's ServerCancelled: a `grm/preview` a newer one superseded.
+const SERVER_CANCELLED: i64 = grm_lsp::preview::SERVER_CANCELLED;
+/// LSP's RequestCancelled.
+const REQUEST_CANCELLED: i64 = -32800;
 
 #[derive(clap::Args, Debug)]
 pub struct ViewArgs {
@@ -705,6 +709,11 @@ fn handle(st: &State, stream: TcpStream) -> std::io::Result<()> {
             let started = Instant::now();
             let (status, answer) = match st.api(&p["/api/".len()..], params) {
                 Ok(result) => (200, json!({ "result": result })),
+                // Dropped on purpose (superseded, cancelled): not a failure.
+                Err(ApiError {
+                    message,
+                    code: Some(code @ (SERVER_CANCELLED | REQUEST_CANCELLED)),
+                }) => (200, json!({ "error": message, "code": code })),
                 Err(ApiError {
                     message,
                     code: Some(code),
@@ -903,7 +912,9 @@ mod tests {
         assert_eq!(status, 200, "{second}");
         assert_eq!(second["result"]["sample"]["stoppedEarly"], true);
         let ((status, e), answered) = first.join().expect("first");
-        assert_eq!(status, 422, "{e}");
+        // Not a failure (no 4xx for the browser to log), but no model.
+        assert_eq!(status, 200, "{e}");
+        assert_eq!(e.get("result"), None, "{e}");
         assert_eq!(e["code"], -32802, "{e}");
         assert!(
             e["error"]
