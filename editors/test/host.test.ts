@@ -3,7 +3,7 @@
 import assert from 'node:assert/strict';
 import { test } from 'node:test';
 import type { HostToPage } from '../preview/src/messages.js';
-import { VsCodeTransport } from '../preview/src/transport.js';
+import { VsCodeTransport, isSuperseded } from '../preview/src/transport.js';
 import { type HostDeps, PreviewHost, curvesPathFor } from '../vscode/src/host.js';
 
 const CURVES = JSON.stringify({ version: 1, curves: [{ name: 'a', points: [[0, 0, 0], [0, 1, 0], [0, 2, 0], [0, 3, 0]] }] });
@@ -116,6 +116,34 @@ test('curves are read from and saved next to the grammar, and only valid curves'
   await host.handle({ type: 'request', id: 3, method: 'saveCurves', params: { uri: 'file:///w/tree.grm', text: '{"version": 1, "curves": []}' } });
   assert.equal(writes.length, 1);
   assert.match((posted.at(-1) as { error: string }).error, /at least one curve/);
+});
+
+test("the server's error code reaches the page with the error (a superseded preview is told apart)", async () => {
+  class ResponseError extends Error {
+    constructor(
+      readonly code: number,
+      message: string,
+    ) {
+      super(message);
+    }
+  }
+  const { host, posted } = fakeHost({
+    request: async () => {
+      throw new ResponseError(-32802, 'superseded by a newer grm/preview request for this document');
+    },
+  });
+  host.setDocument('file:///t.grm', 't.grm');
+  await host.handle({ type: 'ready' });
+  await host.handle({ type: 'request', id: 4, method: 'preview', params: { textDocument: { uri: 'file:///t.grm' }, live: true } });
+  assert.deepEqual(posted.at(-1), { type: 'response', id: 4, error: 'superseded by a newer grm/preview request for this document', code: -32802 });
+  // And the page's transport turns it into an error it recognises.
+  const win = { listeners: [] as Array<(ev: { data: unknown }) => void> };
+  const t = new VsCodeTransport(
+    { postMessage: (m) => void (m.type === 'request' && host.handle(m).then(() => win.listeners.forEach((l) => l({ data: posted.at(-1) })))) },
+    { addEventListener: (_t, l) => win.listeners.push(l), removeEventListener: () => {} },
+  );
+  t.start();
+  await assert.rejects(t.request('preview', { textDocument: { uri: 'file:///t.grm' } }), (e: unknown) => isSuperseded(e));
 });
 
 test('requests about another document, unsaved documents and server failures answer with an error', async () => {

@@ -1,7 +1,7 @@
 import assert from 'node:assert/strict';
 import { test } from 'node:test';
 import type { PageToHost } from '../preview/src/messages.js';
-import { type FetchFn, HttpTransport, type RequestTiming, TransportError, VsCodeTransport, detectTransport, serverTimingMs } from '../preview/src/transport.js';
+import { type FetchFn, HttpTransport, type RequestTiming, TransportError, VsCodeTransport, detectTransport, isSuperseded, serverTimingMs } from '../preview/src/transport.js';
 
 class FakeWindow {
   listeners: Array<(ev: { data: unknown }) => void> = [];
@@ -71,6 +71,28 @@ test('http transport: POST JSON per method, result or error', async () => {
   assert.deepEqual(await t.request('preview', { uri: 'x', seed: 2 }), { echo: { uri: 'x', seed: 2 } });
   await assert.rejects(t.request('pick', {}), /no such preview/);
   assert.deepEqual(calls[0], { url: 'http://127.0.0.1:9/api/preview', body: '{"uri":"x","seed":2}', method: 'POST' });
+});
+
+test('http transport and webview transport: the server error code comes with the error', async () => {
+  const fetchFn: FetchFn = async (url) => {
+    if (url.endsWith('/api/preview')) return { ok: false, status: 422, json: async () => ({ error: 'superseded by a newer grm/preview request for this document', code: -32802 }), text: async () => '' };
+    return { ok: false, status: 422, json: async () => ({ error: 'saveCurves: no text' }), text: async () => '' };
+  };
+  const t = new HttpTransport('http://h', fetchFn);
+  await assert.rejects(t.request('preview', {}), (e: unknown) => e instanceof TransportError && e.code === -32802 && isSuperseded(e) && /superseded/.test(e.message));
+  await assert.rejects(t.request('saveCurves', {}), (e: unknown) => e instanceof TransportError && e.code === undefined && !isSuperseded(e));
+
+  const sent: PageToHost[] = [];
+  const win = new FakeWindow();
+  const vs = new VsCodeTransport({ postMessage: (m) => sent.push(m) }, win);
+  vs.start();
+  const a = vs.request('preview', {});
+  const b = vs.request('preview', {});
+  const [ra, rb] = sent.slice(1) as Array<{ id: number }>;
+  win.deliver({ type: 'response', id: ra.id, error: 'superseded', code: -32802 });
+  win.deliver({ type: 'response', id: rb.id, error: 'failed', code: 'x' });
+  await assert.rejects(a, (e: unknown) => isSuperseded(e));
+  await assert.rejects(b, (e: unknown) => e instanceof TransportError && e.code === undefined);
 });
 
 test('http transport: the server time of a request comes from its Server-Timing header', async () => {

@@ -1,9 +1,21 @@
-// At most one request in flight; edits made meanwhile are merged into one
-// follow-up request with the latest state. Dragging a slider or a control
-// point thus never queues a backlog of stale models, and the newest edit
-// always wins. Every result is delivered (they arrive in order, because only
-// one request is in flight), marked `final` when no newer edit is pending,
-// so a long drag still shows intermediate models.
+// Requests for the model of the page's state, without a backlog and without
+// waiting for stale answers.
+//
+// Continuous edits (the moves of a drag, a slider being dragged) are
+// coalesced: one request in flight, and the edits made meanwhile are merged
+// into one follow-up request with the latest state, sent when the answer
+// comes. A long drag thus shows intermediate models and never queues stale
+// ones.
+//
+// A final edit (a release, a typed value, a click: `trigger(t, true)` or
+// `flush()`) does not wait for a stale answer: if a request is in flight
+// for an older state, the newest state is sent at once. The host supersedes
+// the older request (the language server answers it with ServerCancelled,
+// docs/lsp-extensions.md), and its answer, whatever it is, is dropped
+// without being shown: after a request is sent, no answer to an older one
+// is delivered or reported. At most two requests are in flight (the stale
+// one and the current one); a final edit made while two are in flight is
+// sent when one of them answers.
 
 export interface Delivery<R> {
   result: R;
@@ -13,11 +25,31 @@ export interface Delivery<R> {
   final: boolean;
 }
 
+/** Most requests in flight at once: one stale, one current. */
+export const MAX_IN_FLIGHT = 2;
+
+export interface CoalescerOptions {
+  /** Whether a failure says the host dropped the request on purpose (superseded or cancelled): never reported. */
+  isSuperseded?: (e: unknown) => boolean;
+  /** The newest request was superseded by someone else (no newer request of this coalescer follows it). */
+  supersededElsewhere?: () => void;
+}
+
 export class Coalescer<S, R> {
-  private inFlight = false;
+  private inFlight = 0;
+  /** Number of the last request sent (1, 2, ...). */
+  private sent = 0;
   private dirty = false;
+  /** The edit waiting is final: send it even while a request is in flight. */
+  private urgent = false;
   private firstDirtyAt = 0;
   private disposed = false;
+  /** Answers dropped because a newer request had been sent (results and errors alike). */
+  staleAnswers = 0;
+  /** Of those and the others, answers that were the host's "superseded" or "cancelled" error. */
+  supersededAnswers = 0;
+  /** Requests sent while another was in flight (each supersedes it). */
+  supersedes = 0;
 
   constructor(
     private readonly state: () => S,
@@ -25,18 +57,36 @@ export class Coalescer<S, R> {
     private readonly deliver: (d: Delivery<R>) => void,
     private readonly fail: (e: unknown) => void,
     private readonly now: () => number = () => Date.now(),
+    private readonly options: CoalescerOptions = {},
   ) {}
 
-  /** Something changed: make sure a request with the new state follows. */
-  trigger(editedAt: number = this.now()): void {
+  /**
+   * Something changed: make sure a request with the new state follows. A
+   * `final` edit is sent at once even if a request for an older state is in
+   * flight; other edits wait for its answer.
+   */
+  trigger(editedAt: number = this.now(), final = false): void {
     if (this.disposed) return;
     if (!this.dirty) this.firstDirtyAt = editedAt;
     this.dirty = true;
-    if (!this.inFlight) void this.pump();
+    if (final) this.urgent = true;
+    this.pump();
   }
 
+  /**
+   * A gesture ended (pointer or slider released) without changing the state
+   * again: edits still waiting are sent at once instead of after the stale
+   * answer. Nothing is sent when no edit waits.
+   */
+  flush(): void {
+    if (this.disposed || !this.dirty) return;
+    this.urgent = true;
+    this.pump();
+  }
+
+  /** A request is in flight or an edit waits for one. */
   get busy(): boolean {
-    return this.inFlight || this.dirty;
+    return this.inFlight > 0 || this.dirty;
   }
 
   /** An edit is waiting for its request (a newer state than any in flight). */
@@ -44,24 +94,59 @@ export class Coalescer<S, R> {
     return this.dirty;
   }
 
+  /** Requests sent and not answered yet (at most {@link MAX_IN_FLIGHT}). */
+  get inFlightCount(): number {
+    return this.inFlight;
+  }
+
   dispose(): void {
     this.disposed = true;
   }
 
-  private async pump(): Promise<void> {
-    while (this.dirty && !this.disposed) {
+  private pump(): void {
+    while (this.dirty && !this.disposed && (this.inFlight === 0 || (this.urgent && this.inFlight < MAX_IN_FLIGHT))) {
+      if (this.inFlight > 0) this.supersedes++;
       this.dirty = false;
+      this.urgent = false;
+      this.inFlight++;
+      const seq = ++this.sent;
       const editedAt = this.firstDirtyAt;
-      this.inFlight = true;
+      let request: Promise<R>;
       try {
-        const result = await this.send(this.state());
-        if (!this.disposed) this.deliver({ result, editedAt, final: !this.dirty });
+        request = this.send(this.state());
       } catch (e) {
-        // A failure for a state that is already outdated is not worth showing.
-        if (!this.dirty && !this.disposed) this.fail(e);
-      } finally {
-        this.inFlight = false;
+        request = Promise.reject(e);
+      }
+      request.then(
+        (result) => this.settled(seq, () => this.deliver({ result, editedAt, final: !this.dirty })),
+        (e: unknown) => this.settled(seq, () => this.failed(e), e),
+      );
+    }
+  }
+
+  private settled(seq: number, use: () => void, error?: unknown): void {
+    this.inFlight--;
+    if (this.disposed) return;
+    const superseded = error !== undefined && (this.options.isSuperseded?.(error) ?? false);
+    if (superseded) this.supersededAnswers++;
+    if (seq < this.sent) {
+      // A newer request was sent: this answer is stale, whatever it says.
+      this.staleAnswers++;
+    } else if (superseded) {
+      // Superseded by someone else's request: nothing to show or report.
+      if (!this.dirty) this.options.supersededElsewhere?.();
+    } else {
+      try {
+        use();
+      } catch (e) {
+        this.failed(e);
       }
     }
+    this.pump();
+  }
+
+  private failed(e: unknown): void {
+    // A failure for a state that is already outdated is not worth showing.
+    if (!this.dirty) this.fail(e);
   }
 }

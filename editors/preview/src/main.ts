@@ -20,13 +20,37 @@ import {
 } from './protocol.js';
 import { PreviewScene, ThumbnailRenderer } from './scene.js';
 import { PageState } from './state.js';
-import { type RequestTiming, type Transport, detectTransport } from './transport.js';
+import { type RequestTiming, type Transport, detectTransport, isSuperseded } from './transport.js';
+
+/** A preview answer and where the time went on its way (ms). */
+interface Fetched {
+  result: PreviewResult;
+  breakdown: Record<string, number>;
+}
 
 /** What the page exposes for tests and for the curious (window.__grm). */
 interface DebugInfo {
   ready: boolean;
   /** A preview request is in flight or waiting. */
   readonly busy: boolean;
+  /** Preview requests in flight (at most 2: a stale one being superseded and the current one). */
+  readonly inFlight: number;
+  /** An edit waits for its preview request (a newer state than any in flight). */
+  readonly pending: boolean;
+  /** Models handed to the scene so far (counted when delivered, before their frame). */
+  delivered: number;
+  /** Preview requests sent while another was in flight (a final edit that did not wait for a stale answer). */
+  readonly supersedes: number;
+  /** Answers to a request a newer one had replaced: dropped, never shown. */
+  readonly staleAnswers: number;
+  /** Answers that were the host's "superseded" (or "cancelled") error: never shown as errors. */
+  readonly supersededAnswers: number;
+  /** `performance.now()` at the end of the frame that showed the last model. */
+  lastShownAt: number | null;
+  /** The sampler's objective of the model shown (sample mode). */
+  objective: number | null;
+  /** The parameters of the page's next preview request (for tests that ask the server themselves). */
+  previewParams: () => unknown;
   /** Models shown so far. */
   regrows: number;
   /** Milliseconds from an edit to the end of the frame that shows its model, per edit. */
@@ -76,7 +100,7 @@ const $ = <T extends HTMLElement>(id: string): T => {
 class App {
   private readonly state = new PageState();
   private readonly scene: PreviewScene;
-  private readonly coalescer: Coalescer<null, PreviewResult>;
+  private readonly coalescer: Coalescer<null, Fetched>;
   private last: PreviewResult | null = null;
   private framed = false;
   private tool: 'orbit' | 'draw' = 'orbit';
@@ -94,7 +118,6 @@ class App {
   private curvesLoadedFor = '';
   /** The server lists the meta-parameters in its preview results. */
   private serverParams = false;
-  private pendingBreakdown: Record<string, number> = {};
   /** The document version whose meta-parameters the sliders show. */
   private symbolsFor = '';
   private readonly debug: DebugInfo;
@@ -104,9 +127,15 @@ class App {
     this.coalescer = new Coalescer(
       () => null,
       () => this.fetchPreview(),
-      (d) => this.show(d),
+      (d) => this.show({ ...d, result: d.result.result }, d.result.breakdown),
       (e) => this.showError(String((e as Error).message ?? e)),
       () => performance.now(),
+      {
+        // A newer request superseded it: its answer is not an error to show.
+        isSuperseded,
+        // Superseded by a request that is not this page's (another page on the same document).
+        supersededElsewhere: () => this.setStatus('another preview request for this document replaced this one'),
+      },
     );
     const coalescer = this.coalescer;
     const scene = this.scene;
@@ -115,6 +144,25 @@ class App {
       get busy() {
         return coalescer.busy;
       },
+      get inFlight() {
+        return coalescer.inFlightCount;
+      },
+      get pending() {
+        return coalescer.pending;
+      },
+      delivered: 0,
+      get supersedes() {
+        return coalescer.supersedes;
+      },
+      get staleAnswers() {
+        return coalescer.staleAnswers;
+      },
+      get supersededAnswers() {
+        return coalescer.supersededAnswers;
+      },
+      lastShownAt: null,
+      objective: null,
+      previewParams: () => this.state.previewParams(),
       regrows: 0,
       latencies: [],
       lastLatencyMs: null,
@@ -196,7 +244,7 @@ class App {
     $('params-skipped').textContent = names.length ? `No slider for ${names.join(', ')}: give it a range of numbers (param x = 1 in 0 .. 2).` : '';
   }
 
-  private async fetchPreview(): Promise<PreviewResult> {
+  private async fetchPreview(): Promise<Fetched> {
     if (!this.symbolsFor.startsWith(`${this.state.uri}@`)) await this.loadSymbols('first');
     if (this.state.mode === 'sample') await this.ensureCurves();
     try {
@@ -204,17 +252,17 @@ class App {
       const timing: RequestTiming = {};
       const raw = await this.transport.request('preview', this.state.previewParams(), timing);
       const t1 = performance.now();
-      const r = decodePreview(raw);
-      this.pendingBreakdown = { host: t1 - t0, decode: performance.now() - t1 };
+      const result = decodePreview(raw);
+      const breakdown: Record<string, number> = { host: t1 - t0, decode: performance.now() - t1 };
       // The part of `host` the server itself spent (grmc view tells it).
-      if (timing.serverMs !== undefined) this.pendingBreakdown['server total'] = timing.serverMs;
-      return r;
+      if (timing.serverMs !== undefined) breakdown['server total'] = timing.serverMs;
+      return { result, breakdown };
     } catch (e) {
       const msg = (e as Error).message ?? '';
       if (this.state.mode === 'derive' && /is a sample system/.test(msg)) {
         this.state.mode = 'sample';
         await this.ensureCurves();
-        return decodePreview(await this.transport.request('preview', this.state.previewParams()));
+        return { result: decodePreview(await this.transport.request('preview', this.state.previewParams())), breakdown: {} };
       }
       throw e;
     }
@@ -228,14 +276,34 @@ class App {
     this.refreshCurves();
   }
 
-  private regrow(editedAt = performance.now()): void {
+  /**
+   * The state changed: grow its model. A `final` edit (a click, a typed
+   * value, a release) is sent at once even while a request for an older
+   * state is in flight; the moves of a drag (`final` false) wait for its
+   * answer and are merged.
+   */
+  private regrow(editedAt = performance.now(), final = true): void {
     if (!this.state.uri) return;
     this.setStatus('growing…');
-    this.coalescer.trigger(editedAt);
+    this.coalescer.trigger(editedAt, final);
   }
 
-  private show(d: Delivery<PreviewResult>): void {
+  /**
+   * A drag or a slider was released where its last move left it. Moves still
+   * waiting for a stale answer are sent now; a request in flight for the
+   * current state is the final one already. With nothing in flight the
+   * release regrows (as it always did: the release's edit-to-screen time is
+   * what the browser test measures).
+   */
+  private released(editedAt: number, regrowIfIdle: boolean): void {
+    if (!this.state.uri) return;
+    if (this.coalescer.busy) this.coalescer.flush();
+    else if (regrowIfIdle) this.regrow(editedAt);
+  }
+
+  private show(d: Delivery<PreviewResult>, breakdown: Record<string, number> = {}): void {
     const r = d.result;
+    this.debug.delivered++;
     this.last = r;
     this.state.absorb(r);
     if (r.params.length > 0 || r.paramsWithoutRange.length > 0) {
@@ -243,8 +311,6 @@ class App {
       this.showSkippedParams(r.paramsWithoutRange);
     }
     $('overlay-msg').textContent = this.state.curvesError ? `curves: ${this.state.curvesError}` : '';
-    const breakdown = this.pendingBreakdown;
-    this.pendingBreakdown = {};
     const tBuild = performance.now();
     this.scene.setModel(r.model, !this.framed, () => {
       const rendered = performance.now();
@@ -257,6 +323,8 @@ class App {
         const server = Object.fromEntries(Object.entries(r.timings).map(([k, v]) => [`server ${k}`, v]));
         this.debug.lastBreakdown = { ...breakdown, ...server, scene: built - tBuild, render: rendered - built, present: now - rendered };
         this.debug.regrows++;
+        this.debug.lastShownAt = now;
+        this.debug.objective = r.sample?.objective ?? null;
         this.debug.lastLatencyMs = ms;
         this.debug.latencies.push(ms);
         this.debug.meshCount = this.scene.meshCount;
@@ -456,7 +524,7 @@ class App {
       if (p) {
         g.moved = true;
         this.state.moveControlPoint(g.curve, g.handle, p);
-        this.curvesChanged(false);
+        this.curvesChanged(false, 'move');
       }
     }
   }
@@ -470,7 +538,7 @@ class App {
       const longEnough = Math.hypot(e.clientX - g.startX, e.clientY - g.startY) > 8 || g.points.length > 4;
       if (longEnough && this.state.addStroke(g.points) !== null) this.curvesChanged(true);
     } else if (g.kind === 'drag') {
-      if (g.moved) this.curvesChanged(true);
+      if (g.moved) this.curvesChanged(true, 'release');
     } else if (g.kind === 'click') {
       if (Math.hypot(e.clientX - g.x, e.clientY - g.y) < 5 && performance.now() - g.t < 600) this.click(e.clientX, e.clientY);
     }
@@ -593,7 +661,10 @@ class App {
     if (token !== this.spreadToken) return;
     try {
       // Live again; if the grammar was edited meanwhile (the server sent no
-      // update while it was not live), this is the model to show.
+      // update while it was not live), this is the model to show. Not while
+      // the page's own (live) request is on its way: it registers the live
+      // preview itself, and this one would supersede it.
+      if (this.coalescer.busy) return;
       const again = decodePreview(await this.transport.request('preview', base));
       if (again.version !== r.version && token === this.spreadToken && !this.coalescer.busy) {
         this.show({ result: again, editedAt: performance.now(), final: true });
@@ -616,13 +687,20 @@ class App {
     this.curvesChanged(true);
   }
 
-  /** The curves changed: redraw, regrow; `save` ends the edit (one undo step) and writes the curves file. */
-  private curvesChanged(save: boolean): void {
+  /**
+   * The curves changed: redraw, regrow; `save` ends the edit (one undo step)
+   * and writes the curves file. `how`: a `move` of a drag (merged with the
+   * next moves while a model is on its way), the `release` of a drag (no
+   * new state: what still waits is sent at once), or any other `edit`
+   * (sent at once).
+   */
+  private curvesChanged(save: boolean, how: 'edit' | 'move' | 'release' = 'edit'): void {
     const editedAt = performance.now();
     if (save) this.state.finishEdit();
     this.refreshCurves();
     this.refreshPanel();
-    this.regrow(editedAt);
+    if (how === 'release') this.released(editedAt, true);
+    else this.regrow(editedAt, how === 'edit');
     if (save) void this.saveCurves();
   }
 
@@ -689,8 +767,11 @@ class App {
         slider.addEventListener('input', () => {
           this.state.setParam(p.name, Number(slider.value));
           val.textContent = formatValue(Number(slider.value));
-          this.regrow();
+          // A move of the slider: merged with the next ones while a model is on its way.
+          this.regrow(performance.now(), false);
         });
+        // Released: the last value does not wait for a stale model.
+        slider.addEventListener('change', () => this.released(performance.now(), false));
         slider.addEventListener('dblclick', () => {
           this.state.setParam(p.name, p.default);
           this.refreshParams();

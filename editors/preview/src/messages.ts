@@ -42,6 +42,18 @@ export interface ResponseMessage {
   id: number;
   result?: unknown;
   error?: string;
+  /** With `error`: the language server's JSON-RPC error code, where it gave one. */
+  code?: number;
+}
+
+/** LSP's RequestCancelled: the client cancelled the request (`$/cancelRequest`). */
+export const REQUEST_CANCELLED = -32800;
+/** LSP 3.17's ServerCancelled: the server dropped the request, e.g. a `grm/preview` a newer one for the document superseded. */
+export const SERVER_CANCELLED = -32802;
+
+/** An error code that says no answer was built on purpose (not a failure to show). */
+export function isCancelledCode(code: unknown): boolean {
+  return code === SERVER_CANCELLED || code === REQUEST_CANCELLED;
 }
 
 export interface NotificationMessage {
@@ -78,7 +90,10 @@ export function parseHostMessage(v: unknown): HostToPage | null {
   if (v.type === 'response' && typeof v.id === 'number') {
     const out: ResponseMessage = { type: 'response', id: v.id };
     if ('result' in v) out.result = v.result;
-    if (typeof v.error === 'string') out.error = v.error;
+    if (typeof v.error === 'string') {
+      out.error = v.error;
+      if (typeof v.code === 'number' && Number.isSafeInteger(v.code)) out.code = v.code;
+    }
     return out;
   }
   if (v.type === 'notify' && typeof v.method === 'string') {

@@ -7,6 +7,7 @@ import {
   type Method,
   type NotificationMethod,
   type PageToHost,
+  isCancelledCode,
   parseHostMessage,
 } from './messages.js';
 
@@ -30,7 +31,20 @@ export interface Transport {
   dispose(): void;
 }
 
-export class TransportError extends Error {}
+/** A request the host answered with an error (`code`: the language server's JSON-RPC error code, where it gave one). */
+export class TransportError extends Error {
+  constructor(
+    message: string,
+    readonly code?: number,
+  ) {
+    super(message);
+  }
+}
+
+/** The host dropped the request on purpose: a newer one superseded it (ServerCancelled) or it was cancelled (RequestCancelled). Not a failure to show. */
+export function isSuperseded(e: unknown): boolean {
+  return e instanceof TransportError && isCancelledCode(e.code);
+}
 
 // ----------------------------------------------------------- VS Code webview
 
@@ -95,7 +109,7 @@ export class VsCodeTransport implements Transport {
     const p = this.pending.get(msg.id);
     if (!p) return;
     this.pending.delete(msg.id);
-    if (msg.error !== undefined) p.reject(new TransportError(msg.error));
+    if (msg.error !== undefined) p.reject(new TransportError(msg.error, msg.code));
     else p.resolve(msg.result);
   }
 }
@@ -126,7 +140,9 @@ export function serverTimingMs(header: string | null | undefined): number | unde
 
 /**
  * `grmc view`: requests are `POST {base}/api/{method}` with the params as the
- * JSON body, answered `{ "result": ... }` or `{ "error": "..." }`;
+ * JSON body, answered `{ "result": ... }` or `{ "error": "...", "code": N }`
+ * (`code`: the language server's error code, where it gave one); requests
+ * are answered concurrently;
  * notifications come from long-polling `GET {base}/api/events?after=N`, which
  * answers `{ "seq": M, "events": [{ "method", "params" }] }` when something
  * happened after event N (or empty after a while).
@@ -172,7 +188,7 @@ export class HttpTransport implements Transport {
       throw new TransportError(`${method}: HTTP ${res.status}, not JSON`);
     }
     const obj = body as Record<string, unknown> | null;
-    if (obj && typeof obj.error === 'string') throw new TransportError(obj.error);
+    if (obj && typeof obj.error === 'string') throw new TransportError(obj.error, typeof obj.code === 'number' ? obj.code : undefined);
     if (!res.ok) throw new TransportError(`${method}: HTTP ${res.status}`);
     if (!obj || !('result' in obj)) throw new TransportError(`${method}: the answer has no result`);
     return obj.result;

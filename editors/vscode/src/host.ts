@@ -127,7 +127,11 @@ export class PreviewHost {
       const result = await this.answer(msg.method, msg.params);
       this.deps.post({ type: 'response', id: msg.id, result });
     } catch (e) {
-      this.deps.post({ type: 'response', id: msg.id, error: e instanceof Error ? e.message : String(e) });
+      const error = e instanceof Error ? e.message : String(e);
+      // The language client's ResponseError carries the server's JSON-RPC code (e.g. ServerCancelled for a superseded preview).
+      const code = (e as { code?: unknown } | null)?.code;
+      if (typeof code === 'number' && Number.isSafeInteger(code)) this.deps.post({ type: 'response', id: msg.id, error, code });
+      else this.deps.post({ type: 'response', id: msg.id, error });
     }
   }
 
