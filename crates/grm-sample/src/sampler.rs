@@ -1360,14 +1360,7 @@ impl<'a> Sampler<'a> {
         order.truncate(opts.best.max(1));
         let mut models = Vec::with_capacity(order.len());
         for c in order {
-            models.push(self.build_model(
-                &mut w,
-                &layers,
-                &done[c],
-                seed,
-                c as u32,
-                opts,
-            )?);
+            models.push(self.build_model(&mut w, &layers, &done[c], seed, c as u32, opts)?);
         }
         Ok(SampleResult {
             models,
