@@ -87,6 +87,22 @@ impl ModuleString {
             && self.starts.last().map(|&l| l as usize) == Some(self.params.len())
     }
 
+    /// The invariant as far as the modules in `range` need it: the parameter
+    /// slice of every module in `range` is in bounds (`starts` has one
+    /// entry more than `syms`, is non-decreasing over the range and ends
+    /// within `params`). Costs the range's length, not the string's: for
+    /// callers that walk a growing string piece by piece. `false` for a
+    /// range past the end.
+    pub fn is_well_formed_in(&self, range: std::ops::Range<usize>) -> bool {
+        self.starts.len() == self.syms.len() + 1
+            && range.start <= range.end
+            && range.end <= self.syms.len()
+            && self.starts[range.start..=range.end]
+                .windows(2)
+                .all(|w| w[0] <= w[1])
+            && self.starts[range.end] as usize <= self.params.len()
+    }
+
     /// Bytes used by the three arrays (for memory limits and statistics).
     pub fn heap_bytes(&self) -> usize {
         self.syms.capacity() * 4 + self.starts.capacity() * 4 + self.params.capacity() * 4
@@ -146,5 +162,38 @@ mod tests {
         assert_eq!(a.get(2), (3, &[3.0][..]));
         assert!(a.is_well_formed());
         assert_eq!(a.to_text(&["x", "A", "B", "C"]), "A(1, 2) B C(3)");
+    }
+
+    #[test]
+    fn well_formed_in_checks_only_the_range() {
+        let mut a = ModuleString::new();
+        a.push(1, &[1.0]);
+        a.push(2, &[2.0, 3.0]);
+        a.push(3, &[]);
+        a.push(4, &[4.0]);
+        for r in [0..0, 0..4, 1..3, 4..4] {
+            assert!(a.is_well_formed_in(r.clone()), "{r:?}");
+        }
+        assert!(!a.is_well_formed_in(3..5), "past the end");
+        // Module 1's parameters end before they start: ranges holding
+        // module 1 fail; the others slice in bounds and pass.
+        a.starts[2] = 0;
+        assert!(!a.is_well_formed());
+        assert!(!a.is_well_formed_in(0..2));
+        assert!(!a.is_well_formed_in(1..2));
+        assert!(!a.is_well_formed_in(1..4));
+        assert!(a.is_well_formed_in(0..1));
+        assert!(a.is_well_formed_in(2..4));
+        // A range ending past the parameters.
+        let mut b = ModuleString::new();
+        b.push(1, &[1.0]);
+        b.params.clear();
+        assert!(!b.is_well_formed_in(0..1));
+        assert!(b.is_well_formed_in(0..0));
+        // A start array of the wrong length.
+        let mut c = ModuleString::new();
+        c.push(1, &[]);
+        c.starts.pop();
+        assert!(!c.is_well_formed_in(0..0));
     }
 }

@@ -825,15 +825,18 @@ impl Interpreter {
         range: Range<usize>,
         on_user: &mut dyn FnMut(usize, &Turtle),
     ) -> Result<Turtle, TurtleError> {
-        if !string.is_well_formed() {
-            return Err(TurtleError::MalformedString);
-        }
         if range.start > range.end || range.end > string.len() {
             return Err(TurtleError::BadRange {
                 start: range.start,
                 end: range.end,
                 len: string.len(),
             });
+        }
+        // Only the range is read: checking it alone keeps a caller that
+        // interprets a growing string piece by piece (the sampler's
+        // geometry phase) linear, not quadratic, in the string's length.
+        if !string.is_well_formed_in(range.clone()) {
+            return Err(TurtleError::MalformedString);
         }
         let base_depth = self.stack.len();
         let mut t = start;
@@ -843,7 +846,8 @@ impl Interpreter {
         let params = &string.params;
         while i < range.end {
             let sym = syms[i];
-            // Well-formedness (checked above) makes these slices valid.
+            // Well-formedness of the range (checked above) makes these
+            // slices valid.
             let p = &params[starts[i] as usize..starts[i + 1] as usize];
             let op = match self.ops.get(sym as usize) {
                 Some(op) => *op,
