@@ -781,6 +781,25 @@ impl<'a> Sampler<'a> {
         Ok((p, step))
     }
 
+    /// The spawn an open symbol refers to and its parent node's sequence
+    /// number; puts the spawned module's parameters in `w.input`.
+    fn open_spawn(
+        &self,
+        w: &mut Worker,
+        arena: Arena<'_>,
+        r: OpenRef,
+    ) -> Result<(Spawn, u32), SampleError> {
+        let (step, node) = arena.get(r.node).ok_or_else(missing_node)?;
+        let sp = *step
+            .spawns(node)
+            .get(r.spawn as usize)
+            .ok_or_else(missing_node)?;
+        let input = self.g.module_params(node.alt, sp.module, step.params(node));
+        w.input.clear();
+        w.input.extend_from_slice(input);
+        Ok((sp, node.seq))
+    }
+
     /// Expand open symbol `idx` of `p`, adding the node to `local` (step
     /// `cur` of the arena); returns the bones it added.
     #[allow(clippy::too_many_arguments)]
@@ -799,17 +818,8 @@ impl<'a> Sampler<'a> {
         let Some(&r) = p.open.get(idx) else {
             return Ok(0);
         };
-        let bad = || SampleError::Options("an open symbol refers to a missing node".into());
         // Read the parent (copy what is needed: `local` grows below).
-        let (sp, parent_seq) = {
-            let arena = Arena { layers, local, cur };
-            let (step, node) = arena.get(r.node).ok_or_else(bad)?;
-            let sp = *step.spawns(node).get(r.spawn as usize).ok_or_else(bad)?;
-            let input = self.g.module_params(node.alt, sp.module, step.params(node));
-            w.input.clear();
-            w.input.extend_from_slice(input);
-            (sp, node.seq)
-        };
+        let (sp, parent_seq) = self.open_spawn(w, Arena { layers, local, cur }, r)?;
         p.heuristic -= i128::from(sp.h);
         let which = match how {
             How::Draw { which, .. } | How::Given { which, .. } => which,
@@ -990,17 +1000,8 @@ impl<'a> Sampler<'a> {
         kc: u32,
         temperature: f64,
     ) -> Result<(usize, f64), SampleError> {
-        let bad = || SampleError::Options("an open symbol refers to a missing node".into());
-        let r = *q.open.get(idx).ok_or_else(bad)?;
-        let sp = {
-            let arena = Arena { layers, local, cur };
-            let (step, node) = arena.get(r.node).ok_or_else(bad)?;
-            let sp = *step.spawns(node).get(r.spawn as usize).ok_or_else(bad)?;
-            let input = self.g.module_params(node.alt, sp.module, step.params(node));
-            w.input.clear();
-            w.input.extend_from_slice(input);
-            sp
-        };
+        let r = *q.open.get(idx).ok_or_else(missing_node)?;
+        let (sp, _) = self.open_spawn(w, Arena { layers, local, cur }, r)?;
         let n = kc as usize;
         w.cand_alt.clear();
         w.cand_logv.clear();
@@ -1636,4 +1637,10 @@ impl<'a> Sampler<'a> {
         }
         Ok(self.cost.total(&p.cost))
     }
+}
+
+/// An open symbol whose node or spawn is not in the arena (an invariant
+/// broken inside the sampler, reported rather than panicking).
+fn missing_node() -> SampleError {
+    SampleError::Options("an open symbol refers to a missing node".into())
 }
