@@ -23,7 +23,9 @@
 // directory entry.
 //!include grid.wgsl
 
-@group(0) @binding(0) var<uniform> P: DeriveParams;
+// PARAM_SPACE: `uniform` (parameters written by the host) or `storage, read`
+// (written on the device by `batch_next`, batched derivations).
+@group(0) @binding(0) var<PARAM_SPACE> P: DeriveParams;
 @group(0) @binding(1) var<storage, read> tables: array<u32>;
 @group(0) @binding(2) var<storage, read> in_syms: array<u32>;
 @group(0) @binding(3) var<storage, read> in_starts: array<u32>;

@@ -4,7 +4,7 @@
 // [counts[start].x, counts[end].x).
 //!include grid.wgsl
 
-@group(0) @binding(0) var<uniform> P: DeriveParams;
+@group(0) @binding(0) var<PARAM_SPACE> P: DeriveParams;
 @group(0) @binding(1) var<storage, read_write> tables: array<u32>;
 @group(0) @binding(2) var<storage, read> counts: array<vec2<u32>>;
 //!include generated_tables

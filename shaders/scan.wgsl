@@ -14,7 +14,9 @@
 //!include grid.wgsl
 //!include SCAN_OP
 
-@group(0) @binding(0) var<uniform> P: ScanParams;
+// PARAM_SPACE: `uniform` (parameters from the host) or `storage, read`
+// (written on the device by `batch_next`).
+@group(0) @binding(0) var<PARAM_SPACE> P: ScanParams;
 @group(0) @binding(1) var<storage, read_write> data: array<ELEM>;
 @group(0) @binding(2) var<storage, read_write> sums: array<ELEM>;
 

@@ -589,23 +589,27 @@ impl<'a> GpuSystem<'a> {
             .iter()
             .map(|&b| gpu.storage("scan block sums", 8 * b))
             .collect::<Result<Vec<_>, _>>()?;
-        // Parameters written on the device, and where the copies put them.
-        let params =
-            gpu.uniform_target("derive params", std::mem::size_of::<DeriveParams>() as u64);
-        let scan_params: Vec<wgpu::Buffer> = (0..nlev)
-            .map(|_| gpu.uniform_target("scan params", 16))
-            .collect();
+        // Parameters written on the device by `batch_next`, read where
+        // they are written (shaders/batch.wgsl): the DeriveParams and the
+        // indirect arguments by iteration parity, the scan levels' records
+        // `align` bytes apart (binding offsets must be aligned).
+        let align = gpu.storage_offset_alignment();
+        let sp_stride = 16u64.next_multiple_of(align);
         let arg_bytes = 12 * (1 + 2 * nlev as u64);
-        let indirect = gpu.indirect("batch dispatch args", arg_bytes)?;
-        let dp = gpu.upload(
+        let arg_half = arg_bytes.next_multiple_of(align);
+        let args = gpu.indirect_storage("batch dispatch args", 2 * arg_half)?;
+        let dp0 = gpu.upload(
             "batch derive params",
             &[DeriveParams {
                 systems: self.jobs.len() as u32,
                 ..DeriveParams::default()
             }],
         )?;
-        let sp = gpu.storage_zeroed("batch scan params", 16 * nlev as u64)?;
-        let args = gpu.storage_zeroed("batch dispatch args", arg_bytes)?;
+        let dp = [
+            gpu.storage("derive params", std::mem::size_of::<DeriveParams>() as u64)?,
+            gpu.storage("derive params", std::mem::size_of::<DeriveParams>() as u64)?,
+        ];
+        let sp = gpu.storage_zeroed("batch scan params", sp_stride * nlev as u64)?;
         let flag = 2 * (k_max + 1);
         let hist = gpu.upload("batch history", &vec![0u32; flag + 1])?;
         let mut caps: Vec<[u32; 2]> = plan
@@ -623,21 +627,37 @@ impl<'a> GpuSystem<'a> {
                 grid_width: gpu.grid_width(),
                 levels: nlev as u32,
                 flag: flag as u32,
-                ..BatchParams::default()
+                sp_stride: (sp_stride / 16) as u32,
             },
         );
 
-        let next = gpu.bound(
-            &kernels::BATCH_NEXT,
-            &[&bp, &counts, &caps, &dp, &sp, &args, &hist],
-        )?;
+        // `batch_next` before iteration 1 reads `dp0` and writes parity 0;
+        // after iteration k (parity p = (k - 1) % 2) it reads dp[p] and
+        // writes the other parity's DeriveParams and arguments.
+        let next_bound = |input: &wgpu::Buffer, out: usize| -> Result<Bound, GpuError> {
+            gpu.bound_ranges(
+                &kernels::BATCH_NEXT,
+                &[
+                    (&bp, 0, None),
+                    (&counts, 0, None),
+                    (&caps, 0, None),
+                    (input, 0, None),
+                    (&dp[out], 0, None),
+                    (&sp, 0, None),
+                    (&args, arg_half * out as u64, Some(arg_half)),
+                    (&hist, 0, None),
+                ],
+            )
+        };
+        let start = next_bound(&dp0, 0)?;
+        let next = [next_bound(&dp[0], 1)?, next_bound(&dp[1], 0)?];
         let derive_bound =
             |kernel: &'static crate::shader::Kernel, p: usize| -> Result<Bound, GpuError> {
                 let (i, o) = (&strings[p], &strings[1 - p]);
                 gpu.bound(
                     kernel,
                     &[
-                        &params,
+                        &dp[p],
                         &self.tables,
                         &i.syms,
                         &i.starts,
@@ -653,25 +673,35 @@ impl<'a> GpuSystem<'a> {
                 )
             };
         let count = [
-            derive_bound(&kernels::COUNT, 0)?,
-            derive_bound(&kernels::COUNT, 1)?,
+            derive_bound(&kernels::COUNT_DEV, 0)?,
+            derive_bound(&kernels::COUNT_DEV, 1)?,
         ];
         let rewrite = [
-            derive_bound(self.rewrite_kernel(), 0)?,
-            derive_bound(self.rewrite_kernel(), 1)?,
+            derive_bound(&kernels::REWRITE_OUT_DEV, 0)?,
+            derive_bound(&kernels::REWRITE_OUT_DEV, 1)?,
         ];
         let mut scans = Vec::with_capacity(nlev);
         let mut adds = Vec::with_capacity(nlev);
         for l in 0..nlev {
             let data = if l == 0 { &counts } else { &sums[l - 1] };
-            let b = [&scan_params[l], data, &sums[l]];
-            scans.push(gpu.bound(&kernels::SCAN_U32X2, &b)?);
-            adds.push(gpu.bound(&kernels::ADD_U32X2, &b)?);
+            let b = [
+                (&sp, sp_stride * l as u64, Some(16)),
+                (data, 0, None),
+                (&sums[l], 0, None),
+            ];
+            scans.push(gpu.bound_ranges(&kernels::SCAN_U32X2_DEV, &b)?);
+            adds.push(gpu.bound_ranges(&kernels::ADD_U32X2_DEV, &b)?);
         }
-        let directory = gpu.bound(
-            &kernels::UPDATE_DIRECTORY,
-            &[&params, &self.tables, &counts],
-        )?;
+        let directory = [
+            gpu.bound(
+                &kernels::UPDATE_DIRECTORY_DEV,
+                &[&dp[0], &self.tables, &counts],
+            )?,
+            gpu.bound(
+                &kernels::UPDATE_DIRECTORY_DEV,
+                &[&dp[1], &self.tables, &counts],
+            )?,
+        ];
         let dir_grid = gpu.grid("update directory", groups_for(self.jobs.len() as u64))?;
 
         let mut enc = gpu.encoder();
@@ -680,64 +710,48 @@ impl<'a> GpuSystem<'a> {
             .write_buffer(&strings[0].starts, 4 * m0, bytemuck::bytes_of(&(w0 as u32)));
         gpu.queue()
             .write_buffer(&counts, 0, bytemuck::cast_slice(&[m0 as u32, w0 as u32]));
-        let copy_params = |enc: &mut wgpu::CommandEncoder| {
-            enc.copy_buffer_to_buffer(
-                &dp,
-                0,
-                &params,
-                0,
-                Some(std::mem::size_of::<DeriveParams>() as u64),
-            );
-            for (l, u) in scan_params.iter().enumerate() {
-                enc.copy_buffer_to_buffer(&sp, 16 * l as u64, u, 0, Some(16));
-            }
-            enc.copy_buffer_to_buffer(&args, 0, &indirect, 0, Some(arg_bytes));
-        };
         {
             let mut pass = begin(&mut enc, "batch start");
-            next.dispatch(&mut pass, (1, 1));
+            start.dispatch(&mut pass, (1, 1));
         }
-        copy_params(&mut enc);
         let stamps = Stamps::new(gpu, k_max as u32);
         for k in 1..=k_max {
             let p = (k - 1) % 2;
-            {
-                let j = k as u32 - 1;
-                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("batch iteration"),
-                    timestamp_writes: stamps.as_ref().and_then(|s| s.pass_writes(j)),
-                });
-                let stage = |pass: &mut wgpu::ComputePass<'_>, st: u32| {
-                    if let Some(s) = &stamps {
-                        s.after_stage(pass, j, st);
-                    }
-                };
-                // The input's bound says which scan levels can have work:
-                // `batch_next` gives the others empty grids, so they are
-                // not recorded (an empty dispatch still costs a barrier).
-                let lev = scan_levels(plan.bounds[k - 1].0).len().min(nlev);
-                count[p].dispatch_indirect(&mut pass, &indirect, 0);
-                stage(&mut pass, 0);
-                for (l, sc) in scans.iter().enumerate().take(lev) {
-                    sc.dispatch_indirect(&mut pass, &indirect, 12 * (1 + l as u64));
+            let j = k as u32 - 1;
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("batch iteration"),
+                timestamp_writes: stamps.as_ref().and_then(|s| s.pass_writes(j)),
+            });
+            let stage = |pass: &mut wgpu::ComputePass<'_>, st: u32| {
+                if let Some(s) = &stamps {
+                    s.after_stage(pass, j, st);
                 }
-                for (l, ad) in adds.iter().enumerate().take(lev - 1).rev() {
-                    ad.dispatch_indirect(&mut pass, &indirect, 12 * (1 + (nlev + l) as u64));
-                }
-                stage(&mut pass, 1);
-                next.dispatch(&mut pass, (1, 1));
-                stage(&mut pass, 2);
-                rewrite[p].dispatch_indirect(&mut pass, &indirect, 0);
-                stage(&mut pass, 3);
-                // One system's range is the whole string: no kernel reads
-                // it on this path (contexts are derived per iteration); it
-                // is written once at the end instead.
-                if self.jobs.len() > 1 {
-                    directory.dispatch(&mut pass, dir_grid);
-                }
+            };
+            // This iteration's arguments (written by the previous
+            // `batch_next` into parity p's half).
+            let a = arg_half * p as u64;
+            // The input's bound says which scan levels can have work:
+            // `batch_next` gives the others empty grids, so they are
+            // not recorded (an empty dispatch still costs a barrier).
+            let lev = scan_levels(plan.bounds[k - 1].0).len().min(nlev);
+            count[p].dispatch_indirect(&mut pass, &args, a);
+            stage(&mut pass, 0);
+            for (l, sc) in scans.iter().enumerate().take(lev) {
+                sc.dispatch_indirect(&mut pass, &args, a + 12 * (1 + l as u64));
             }
-            if k < k_max {
-                copy_params(&mut enc);
+            for (l, ad) in adds.iter().enumerate().take(lev - 1).rev() {
+                ad.dispatch_indirect(&mut pass, &args, a + 12 * (1 + (nlev + l) as u64));
+            }
+            stage(&mut pass, 1);
+            next[p].dispatch(&mut pass, (1, 1));
+            stage(&mut pass, 2);
+            rewrite[p].dispatch_indirect(&mut pass, &args, a);
+            stage(&mut pass, 3);
+            // One system's range is the whole string: no kernel reads
+            // it on this path (contexts are derived per iteration); it
+            // is written once at the end instead.
+            if self.jobs.len() > 1 {
+                directory[p].dispatch(&mut pass, dir_grid);
             }
         }
         let mut ranges = vec![
@@ -760,7 +774,8 @@ impl<'a> GpuSystem<'a> {
         } else {
             (strings1, strings0)
         };
-        let mut scratch: Vec<wgpu::Buffer> = vec![counts, choice, mate, sp, args];
+        let [dp_a, dp_b] = dp;
+        let mut scratch: Vec<wgpu::Buffer> = vec![counts, choice, mate, sp, dp_a, dp_b];
         scratch.extend(sums);
         scratch.extend(other.into_buffers());
         let h = words.first().map(Vec::as_slice).unwrap_or(&[]);

@@ -563,21 +563,42 @@ impl Gpu {
         })
     }
 
-    /// A uniform buffer of `bytes` that copies may write (parameters
-    /// computed on the device).
-    pub(crate) fn uniform_target(&self, what: &'static str, bytes: u64) -> wgpu::Buffer {
-        self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some(what),
-            size: bytes.next_multiple_of(16).max(16),
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
+    /// As [`Gpu::bound`], each binding a range of its buffer: (buffer,
+    /// byte offset, bytes; `None`: to the end). Offsets must be multiples
+    /// of the device's `min_storage_buffer_offset_alignment`
+    /// ([`Gpu::storage_offset_alignment`]).
+    pub(crate) fn bound_ranges(
+        &self,
+        kernel: &'static Kernel,
+        ranges: &[(&wgpu::Buffer, u64, Option<u64>)],
+    ) -> Result<Bound, GpuError> {
+        let p = self.pipeline(kernel)?;
+        let bg = self.bind_group_ranges(&p, ranges)?;
+        Ok(Bound {
+            pipeline: p,
+            bind_group: bg,
         })
+    }
+
+    /// The alignment of storage binding offsets, in bytes.
+    pub(crate) fn storage_offset_alignment(&self) -> u64 {
+        u64::from(self.limits.min_storage_buffer_offset_alignment.max(4))
     }
 
     fn bind_group(
         &self,
         p: &Pipeline,
         buffers: &[&wgpu::Buffer],
+    ) -> Result<wgpu::BindGroup, GpuError> {
+        let ranges: Vec<(&wgpu::Buffer, u64, Option<u64>)> =
+            buffers.iter().map(|&b| (b, 0, None)).collect();
+        self.bind_group_ranges(p, &ranges)
+    }
+
+    fn bind_group_ranges(
+        &self,
+        p: &Pipeline,
+        buffers: &[(&wgpu::Buffer, u64, Option<u64>)],
     ) -> Result<wgpu::BindGroup, GpuError> {
         if buffers.len() != p.kernel.bindings.len() {
             return Err(GpuError::Device(format!(
@@ -590,9 +611,13 @@ impl Gpu {
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
             .enumerate()
-            .map(|(i, b)| wgpu::BindGroupEntry {
+            .map(|(i, &(buffer, offset, size))| wgpu::BindGroupEntry {
                 binding: i as u32,
-                resource: b.as_entire_binding(),
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer,
+                    offset,
+                    size: size.and_then(wgpu::BufferSize::new),
+                }),
             })
             .collect();
         Ok(self.device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -615,6 +640,26 @@ impl Gpu {
             label: Some(what),
             size: bytes.max(MIN_BUFFER).next_multiple_of(4),
             usage: wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        }))
+    }
+
+    /// A zeroed storage buffer that is also read as indirect dispatch
+    /// arguments (a kernel writes the arguments of later dispatches in
+    /// place; wgpu orders the write before the indirect read).
+    pub(crate) fn indirect_storage(
+        &self,
+        what: &'static str,
+        bytes: u64,
+    ) -> Result<wgpu::Buffer, GpuError> {
+        self.check_storage(what, bytes)?;
+        Ok(self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(what),
+            size: bytes.max(MIN_BUFFER).next_multiple_of(4),
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::INDIRECT
+                | wgpu::BufferUsages::COPY_SRC
+                | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         }))
     }

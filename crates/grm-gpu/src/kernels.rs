@@ -3,6 +3,14 @@
 
 use crate::shader::{Bind, Kernel};
 
+/// `PARAM_SPACE` of `derive.wgsl`, `scan.wgsl` and `directory.wgsl`:
+/// parameters in a uniform buffer the host wrote ...
+const HOST_PARAMS: (&str, &str) = ("PARAM_SPACE", "uniform");
+/// ... or in a storage buffer a kernel wrote (`batch_next`: batched
+/// derivations read their parameters where the device computed them, with
+/// no copy between iterations). The `_DEV` kernels are these variants.
+const DEVICE_PARAMS: (&str, &str) = ("PARAM_SPACE", "storage, read");
+
 const SCAN_BINDS: &[Bind] = &[Bind::Uniform, Bind::ReadWrite, Bind::ReadWrite];
 
 pub static SCAN_U32: Kernel = Kernel {
@@ -10,28 +18,47 @@ pub static SCAN_U32: Kernel = Kernel {
     file: "scan.wgsl",
     entry: "scan_blocks",
     bindings: SCAN_BINDS,
-    subst: &[("ELEM", "u32"), ("SCAN_OP", "scan_add.wgsl")],
+    subst: &[("ELEM", "u32"), ("SCAN_OP", "scan_add.wgsl"), HOST_PARAMS],
 };
 pub static ADD_U32: Kernel = Kernel {
     name: "add_sums_u32",
     file: "scan.wgsl",
     entry: "add_sums",
     bindings: SCAN_BINDS,
-    subst: &[("ELEM", "u32"), ("SCAN_OP", "scan_add.wgsl")],
+    subst: &[("ELEM", "u32"), ("SCAN_OP", "scan_add.wgsl"), HOST_PARAMS],
 };
 pub static SCAN_U32X2: Kernel = Kernel {
     name: "scan_blocks_u32x2",
     file: "scan.wgsl",
     entry: "scan_blocks",
     bindings: SCAN_BINDS,
-    subst: &[("ELEM", "vec2<u32>"), ("SCAN_OP", "scan_add.wgsl")],
+    subst: &[("ELEM", "vec2<u32>"), ("SCAN_OP", "scan_add.wgsl"), HOST_PARAMS],
 };
 pub static ADD_U32X2: Kernel = Kernel {
     name: "add_sums_u32x2",
     file: "scan.wgsl",
     entry: "add_sums",
     bindings: SCAN_BINDS,
-    subst: &[("ELEM", "vec2<u32>"), ("SCAN_OP", "scan_add.wgsl")],
+    subst: &[("ELEM", "vec2<u32>"), ("SCAN_OP", "scan_add.wgsl"), HOST_PARAMS],
+};
+
+const SCAN_DEV_BINDS: &[Bind] = &[Bind::Read, Bind::ReadWrite, Bind::ReadWrite];
+
+/// [`SCAN_U32X2`] with its parameters written on the device.
+pub static SCAN_U32X2_DEV: Kernel = Kernel {
+    name: "scan_blocks_u32x2_dev",
+    file: "scan.wgsl",
+    entry: "scan_blocks",
+    bindings: SCAN_DEV_BINDS,
+    subst: &[("ELEM", "vec2<u32>"), ("SCAN_OP", "scan_add.wgsl"), DEVICE_PARAMS],
+};
+/// [`ADD_U32X2`] with its parameters written on the device.
+pub static ADD_U32X2_DEV: Kernel = Kernel {
+    name: "add_sums_u32x2_dev",
+    file: "scan.wgsl",
+    entry: "add_sums",
+    bindings: SCAN_DEV_BINDS,
+    subst: &[("ELEM", "vec2<u32>"), ("SCAN_OP", "scan_add.wgsl"), DEVICE_PARAMS],
 };
 
 pub static VM_EVAL: Kernel = Kernel {
@@ -62,21 +89,53 @@ pub static COUNT: Kernel = Kernel {
     file: "derive.wgsl",
     entry: "count",
     bindings: DERIVE_BINDS,
-    subst: &[],
+    subst: &[HOST_PARAMS],
 };
 pub static REWRITE: Kernel = Kernel {
     name: "rewrite",
     file: "derive.wgsl",
     entry: "rewrite",
     bindings: DERIVE_BINDS,
-    subst: &[],
+    subst: &[HOST_PARAMS],
 };
 pub static REWRITE_OUT: Kernel = Kernel {
     name: "rewrite_out",
     file: "derive.wgsl",
     entry: "rewrite_out",
     bindings: DERIVE_BINDS,
-    subst: &[],
+    subst: &[HOST_PARAMS],
+};
+
+const DERIVE_DEV_BINDS: &[Bind] = &[
+    Bind::Read,
+    Bind::Read,
+    Bind::Read,
+    Bind::Read,
+    Bind::Read,
+    Bind::Read,
+    Bind::ReadWrite,
+    Bind::ReadWrite,
+    Bind::ReadWrite,
+    Bind::ReadWrite,
+    Bind::ReadWrite,
+    Bind::ReadWrite,
+];
+
+/// [`COUNT`] with its parameters written on the device (batched).
+pub static COUNT_DEV: Kernel = Kernel {
+    name: "count_dev",
+    file: "derive.wgsl",
+    entry: "count",
+    bindings: DERIVE_DEV_BINDS,
+    subst: &[DEVICE_PARAMS],
+};
+/// [`REWRITE_OUT`] with its parameters written on the device (batched).
+pub static REWRITE_OUT_DEV: Kernel = Kernel {
+    name: "rewrite_out_dev",
+    file: "derive.wgsl",
+    entry: "rewrite_out",
+    bindings: DERIVE_DEV_BINDS,
+    subst: &[DEVICE_PARAMS],
 };
 
 const BRACKET_BINDS: &[Bind] = &[
@@ -122,14 +181,14 @@ pub static SCAN_TURTLE: Kernel = Kernel {
     file: "scan.wgsl",
     entry: "scan_blocks",
     bindings: SCAN_BINDS,
-    subst: &[("ELEM", "TurtleElem"), ("SCAN_OP", "turtle_scan.wgsl")],
+    subst: &[("ELEM", "TurtleElem"), ("SCAN_OP", "turtle_scan.wgsl"), HOST_PARAMS],
 };
 pub static ADD_TURTLE: Kernel = Kernel {
     name: "add_sums_turtle",
     file: "scan.wgsl",
     entry: "add_sums",
     bindings: SCAN_BINDS,
-    subst: &[("ELEM", "TurtleElem"), ("SCAN_OP", "turtle_scan.wgsl")],
+    subst: &[("ELEM", "TurtleElem"), ("SCAN_OP", "turtle_scan.wgsl"), HOST_PARAMS],
 };
 
 const TURTLE_BINDS: &[Bind] = &[
@@ -177,7 +236,15 @@ pub static UPDATE_DIRECTORY: Kernel = Kernel {
     file: "directory.wgsl",
     entry: "update_directory",
     bindings: &[Bind::Uniform, Bind::ReadWrite, Bind::Read],
-    subst: &[],
+    subst: &[HOST_PARAMS],
+};
+/// [`UPDATE_DIRECTORY`] with its parameters written on the device.
+pub static UPDATE_DIRECTORY_DEV: Kernel = Kernel {
+    name: "update_directory_dev",
+    file: "directory.wgsl",
+    entry: "update_directory",
+    bindings: &[Bind::Read, Bind::ReadWrite, Bind::Read],
+    subst: &[DEVICE_PARAMS],
 };
 
 pub static BATCH_NEXT: Kernel = Kernel {
@@ -186,6 +253,7 @@ pub static BATCH_NEXT: Kernel = Kernel {
     entry: "batch_next",
     bindings: &[
         Bind::Uniform,
+        Bind::Read,
         Bind::Read,
         Bind::Read,
         Bind::ReadWrite,
@@ -202,10 +270,14 @@ pub static ALL: &[&Kernel] = &[
     &ADD_U32,
     &SCAN_U32X2,
     &ADD_U32X2,
+    &SCAN_U32X2_DEV,
+    &ADD_U32X2_DEV,
     &VM_EVAL,
     &COUNT,
     &REWRITE,
     &REWRITE_OUT,
+    &COUNT_DEV,
+    &REWRITE_OUT_DEV,
     &BRACKET_FLAGS,
     &BRACKET_DEPTH,
     &BRACKET_REDUCE,
@@ -221,5 +293,6 @@ pub static ALL: &[&Kernel] = &[
     &BONE_FLAGS,
     &BONES_WRITE,
     &UPDATE_DIRECTORY,
+    &UPDATE_DIRECTORY_DEV,
     &BATCH_NEXT,
 ];

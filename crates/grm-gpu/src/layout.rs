@@ -294,7 +294,9 @@ gpu_struct! {
         pub levels: u32 => "u32",
         /// Where the overflow flag is in the history buffer.
         pub flag: u32 => "u32",
-        pub pad0: u32 => "u32",
+        /// `ScanParams` records from one scan level's parameters to the
+        /// next (binding offsets must be aligned).
+        pub sp_stride: u32 => "u32",
     }
 }
 
