@@ -39,6 +39,10 @@ struct Args {
     /// Module limit of the derivations.
     #[arg(long, default_value_t = 200_000_000)]
     max_modules: u64,
+    /// Derive the first iterations on the CPU while the strings have at
+    /// most this many modules (a GPU-only derivation is timed as well).
+    #[arg(long, default_value_t = grm_gpu::derive::CPU_PREFIX_MODULES)]
+    cpu_prefix: u64,
     /// Also derive and interpret this many seeds of each scene together
     /// (several systems in one dispatch, Lipp 5.4).
     #[arg(long)]
@@ -111,6 +115,7 @@ fn main() {
                 threads: args.threads,
                 cpu: !args.no_cpu,
                 max_modules: args.max_modules,
+                cpu_prefix: args.cpu_prefix,
             };
             let name = format!("{} ({})", path.display(), sys.name);
             let mut text = bench_scene(gpu, &name, sys, &c, &cfg)?.text();

@@ -48,6 +48,9 @@ pub struct BenchConfig {
     /// Measure the CPU engines too.
     pub cpu: bool,
     pub max_modules: u64,
+    /// [`GpuDeriveOptions::cpu_prefix`] of the timed derivations (a
+    /// GPU-only derivation is timed beside them).
+    pub cpu_prefix: u64,
 }
 
 /// One row per string.
@@ -73,6 +76,11 @@ pub struct SceneReport {
     pub modules: u64,
     pub produced: u64,
     pub gpu_derive: Duration,
+    /// Iterations the timed derivation ran on the CPU
+    /// ([`BenchConfig::cpu_prefix`]; 0: none).
+    pub cpu_steps: u32,
+    /// The same derivation with every iteration on the GPU.
+    pub gpu_only_derive: Duration,
     pub cpu1_derive: Option<Duration>,
     pub cpun_derive: Option<Duration>,
     pub cpu_threads: usize,
@@ -144,6 +152,7 @@ pub fn bench_scene(
             max_modules: cfg.max_modules,
             max_bytes: u64::MAX,
             sync_iterations: false,
+            cpu_prefix: cfg.cpu_prefix,
         },
         interpret: true,
         read_string: cfg.cpu,
@@ -153,9 +162,17 @@ pub fn bench_scene(
     let warm = run(gpu, c, &turtle, &ropts, &mut |_| {}).map_err(|e| e.to_string())?;
     let warmup = t.elapsed();
     ropts.read_string = false;
-    ropts.derive.sync_iterations = true;
-    let per_iter = run(gpu, c, &turtle, &ropts, &mut |_| {}).map_err(|e| e.to_string())?;
-    ropts.derive.sync_iterations = false;
+    // Per iteration and on the device: every iteration on the GPU.
+    let mut gpu_only = ropts;
+    gpu_only.derive.cpu_prefix = 0;
+    gpu_only.derive.sync_iterations = true;
+    let per_iter = run(gpu, c, &turtle, &gpu_only, &mut |_| {}).map_err(|e| e.to_string())?;
+    gpu_only.derive.sync_iterations = false;
+    gpu_only.interpret = false;
+    let (gpu_only_derive, _) = best(cfg.runs, || {
+        let r = run(gpu, c, &turtle, &gpu_only, &mut |_| {}).map_err(|e| e.to_string())?;
+        Ok((r.derive_elapsed, ()))
+    })?;
     let mut best_interp = Duration::MAX;
     let (gpu_derive, last) = best(cfg.runs, || {
         let r = run(gpu, c, &turtle, &ropts, &mut |_| {}).map_err(|e| e.to_string())?;
@@ -165,7 +182,8 @@ pub fn bench_scene(
         Ok((r.derive_elapsed, r))
     })?;
     let interp = last.interpretation.clone().ok_or("no interpretation")?;
-    let (device_derive, device_rows) = device_profile(gpu, c, &turtle, &ropts, cfg.runs)?;
+    let cpu_steps = last.stats.iter().skip(1).filter(|s| s.on_cpu).count() as u32;
+    let (device_derive, device_rows) = device_profile(gpu, c, &turtle, &gpu_only, cfg.runs)?;
 
     let mut cpu1 = None;
     let mut cpun = None;
@@ -230,6 +248,8 @@ pub fn bench_scene(
         modules: last.modules(),
         produced: last.produced_modules(),
         gpu_derive,
+        cpu_steps,
+        gpu_only_derive,
         cpu1_derive: cpu1.map(|(t, _)| t),
         cpun_derive: cpun.map(|(t, _)| t),
         cpu_threads: if cfg.threads == 0 {
@@ -367,16 +387,30 @@ impl SceneReport {
         }
         let _ = writeln!(
             s,
-            "  derive:    {} modules, {} produced; GPU {:.3} ms = {:.1} modules/us",
+            "  derive:    {} modules, {} produced; GPU {:.3} ms = {:.1} modules/us{}",
             self.modules,
             self.produced,
             ms(self.gpu_derive),
-            rate(self.produced, self.gpu_derive)
+            rate(self.produced, self.gpu_derive),
+            match self.cpu_steps {
+                0 => " (every iteration on the GPU)".to_string(),
+                k => format!(
+                    " (iterations 1-{k} on the CPU, then {} on the GPU)",
+                    self.iterations.saturating_sub(k)
+                ),
+            }
+        );
+        let _ = writeln!(
+            s,
+            "             GPU only (every iteration on the GPU) {:.3} ms = {:.1} modules/us ({:.2}x the time above)",
+            ms(self.gpu_only_derive),
+            rate(self.produced, self.gpu_only_derive),
+            speedup(self.gpu_only_derive, self.gpu_derive)
         );
         if let Some(d) = self.device_derive {
             let _ = writeln!(
                 s,
-                "             on the device (timestamps, first kernel to last; stage times from one more run): {:.3} ms = {:.1} modules/us",
+                "             GPU only on the device (timestamps, first kernel to last; stage times from one more run): {:.3} ms = {:.1} modules/us",
                 ms(d),
                 rate(self.produced, d)
             );
@@ -485,6 +519,7 @@ pub fn bench_forest(
             max_modules: cfg.max_modules,
             max_bytes: u64::MAX,
             sync_iterations: false,
+            cpu_prefix: cfg.cpu_prefix,
         },
         interpret: true,
         read_string: false,

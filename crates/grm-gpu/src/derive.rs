@@ -28,7 +28,7 @@ use crate::error::{GpuError, RuntimeKind};
 use crate::kernels;
 use crate::layout::{
     BatchParams, DeriveParams, ERR_BAD_WEIGHT, ERR_FAULT, ERR_NON_FINITE, MAX_BIND_WORDS,
-    MAX_SYSTEMS, SCAN_BLOCK, STATUS_WORDS, SYM_MASK, SystemEntry,
+    MAX_SYSTEMS, SCAN_BLOCK, STATUS_WORDS, SYM_MASK, SYS_SHIFT, SystemEntry,
 };
 use crate::scan::{ScanElem, record_scan};
 use crate::stamps::{DeviceTime, Stamps};
@@ -50,7 +50,20 @@ pub struct GpuDeriveOptions {
     /// each iteration's elapsed time is its own (benchmarks). Otherwise an
     /// iteration's rewrite overlaps the next iteration's host work.
     pub sync_iterations: bool,
+    /// Derive the first iterations on the CPU (`grm-derive`, one thread)
+    /// while the next string is bounded by this many modules, then upload
+    /// the string and go on on the GPU; 0: every iteration on the GPU.
+    /// Small strings cost the CPU microseconds and the GPU a chain of
+    /// latency-bound dispatches; the result is the same string either way
+    /// (the engines agree module for module). [`CPU_PREFIX_MODULES`] by
+    /// default.
+    pub cpu_prefix: u64,
 }
+
+/// The default [`GpuDeriveOptions::cpu_prefix`]: strings of up to 32,768
+/// modules are derived on the CPU (at 350-1,300 modules/us on one thread,
+/// at most about 0.1 ms for all of them together; docs/gpu.md).
+pub const CPU_PREFIX_MODULES: u64 = 32_768;
 
 impl GpuDeriveOptions {
     /// The system's settings (iterations, seed); limits as the CPU engine's
@@ -63,6 +76,7 @@ impl GpuDeriveOptions {
             max_modules: cpu.max_modules,
             max_bytes: cpu.max_bytes,
             sync_iterations: false,
+            cpu_prefix: CPU_PREFIX_MODULES,
         }
     }
 }
@@ -79,6 +93,8 @@ pub struct GpuIterationStats {
     /// The step's kernels on the device, from timestamps (batched
     /// derivations on devices that write them; `None` otherwise).
     pub device: Option<DeviceTime>,
+    /// This string was derived on the CPU ([`GpuDeriveOptions::cpu_prefix`]).
+    pub on_cpu: bool,
 }
 
 /// A module string that lives on the device.
@@ -400,26 +416,33 @@ impl<'a> GpuSystem<'a> {
         progress: &mut dyn FnMut(&GpuIterationStats),
     ) -> Result<(DeviceString, Vec<GpuIterationStats>, DerivePath), GpuError> {
         let mut path = DerivePath::PerIteration;
+        let prefix = self.cpu_prefix(opts);
+        let prefix = prefix.as_ref();
         let plan = if strategy != DeriveStrategy::PerIteration && !opts.sync_iterations {
-            self.batch_plan(opts)
+            self.batch_plan(opts, prefix)
         } else {
             None
         };
         if let Some(plan) = plan {
             let t = Instant::now();
-            match self.derive_batched(&plan, opts, strategy)? {
+            match self.derive_batched(&plan, opts, strategy, prefix)? {
                 Some((string, totals, device)) => {
                     let elapsed = t.elapsed();
                     let last = totals.len() - 1;
+                    let k0 = prefix.map_or(0, |p| p.stats.len() - 1);
                     let stats: Vec<GpuIterationStats> = totals
                         .iter()
                         .enumerate()
-                        .map(|(k, &(m, w))| GpuIterationStats {
-                            iteration: k as u32,
-                            modules: m,
-                            param_words: w,
-                            elapsed: if k == last { elapsed } else { Duration::ZERO },
-                            device: k.checked_sub(1).and_then(|j| device.get(j).copied()),
+                        .map(|(k, &(m, w))| match prefix.and_then(|p| p.stats.get(k)) {
+                            Some(st) => *st,
+                            None => GpuIterationStats {
+                                iteration: k as u32,
+                                modules: m,
+                                param_words: w,
+                                elapsed: if k == last { elapsed } else { Duration::ZERO },
+                                device: k.checked_sub(1 + k0).and_then(|j| device.get(j).copied()),
+                                on_cpu: false,
+                            },
                         })
                         .collect();
                     for st in &stats {
@@ -430,14 +453,139 @@ impl<'a> GpuSystem<'a> {
                 None => path = DerivePath::BatchedThenPerIteration,
             }
         }
-        let (s, stats) = self.derive_per_iteration(opts, progress)?;
+        let (s, stats) = self.derive_per_iteration(opts, prefix, progress)?;
         Ok((s, stats, path))
+    }
+
+    /// The first strings on the CPU ([`GpuDeriveOptions::cpu_prefix`]):
+    /// every job steps while the bound of the next combined string is
+    /// within the option (and the GPU's own limits would let that string
+    /// be derived). `None` when not even the first step qualifies, or when
+    /// the CPU reports an error: the GPU then derives from the axiom and
+    /// reports the error exactly as without a prefix.
+    fn cpu_prefix(&self, opts: &GpuDeriveOptions) -> Option<Prefix> {
+        if opts.cpu_prefix == 0 || opts.iterations == 0 {
+            return None;
+        }
+        let t = Instant::now();
+        let its = self.job_iterations(opts);
+        let seeds: Vec<u32> = if self.jobs.len() == 1 {
+            vec![opts.seed]
+        } else {
+            self.jobs.iter().map(|j| j.seed).collect()
+        };
+        // One engine per distinct system (a forest of seeds shares one).
+        let mut engines: Vec<grm_derive::Engine<'a>> = Vec::new();
+        let mut engine_of = Vec::with_capacity(self.jobs.len());
+        let mut rows: Vec<Vec<Vec<(usize, u64)>>> = Vec::new();
+        for job in &self.jobs {
+            let k = match engines
+                .iter()
+                .position(|e| std::ptr::eq(e.system(), job.system))
+            {
+                Some(k) => k,
+                None => {
+                    let sys = job.system;
+                    engines.push(grm_derive::Engine::new(sys, 1).ok()?);
+                    rows.push(
+                        (0..sys.symbols.len())
+                            .map(|s| growth_row(sys, s))
+                            .collect::<Option<Vec<_>>>()?,
+                    );
+                    engines.len() - 1
+                }
+            };
+            engine_of.push(k);
+        }
+        let limits = grm_derive::DeriveLimits {
+            max_modules: opts.max_modules,
+            max_bytes: opts.max_bytes,
+        };
+        let mut strings = Vec::with_capacity(self.jobs.len());
+        for (j, &e) in engine_of.iter().enumerate() {
+            strings.push(engines[e].axiom(seeds[j]).ok()?);
+        }
+        let totals = |strings: &[ModuleString]| {
+            strings.iter().fold((0u64, 0u64), |(m, w), s| {
+                (m + s.len() as u64, w + s.params.len() as u64)
+            })
+        };
+        let stat = |k: u32, (m, w): (u64, u64), elapsed: Duration| GpuIterationStats {
+            iteration: k,
+            modules: m,
+            param_words: w,
+            elapsed,
+            device: None,
+            on_cpu: true,
+        };
+        let mut stats = vec![stat(0, totals(&strings), t.elapsed())];
+        let mut k = 0u32;
+        while k < opts.iterations {
+            let t = Instant::now();
+            // The bound of the next string (exact for deterministic
+            // context-free systems).
+            let mut next = (0u64, 0u64);
+            for (j, s) in strings.iter().enumerate() {
+                if k >= its[j] {
+                    next.0 += s.len() as u64;
+                    next.1 += s.params.len() as u64;
+                    continue;
+                }
+                let sys = self.jobs[j].system;
+                let row = &rows[engine_of[j]];
+                for &sym in &s.syms {
+                    for &(t, q) in row.get(sym as usize)? {
+                        next.0 = next.0.saturating_add(q);
+                        next.1 = next.1.saturating_add(
+                            q.saturating_mul(u64::from(sys.symbols.get(t)?.param_words)),
+                        );
+                    }
+                }
+            }
+            let (n, nw) = stats.last().map_or((0, 0), |s| (s.modules, s.param_words));
+            let bytes = string_bytes(n, nw) + 8 * (n + 1) + 4 * n + string_bytes(next.0, next.1);
+            if next.0 > opts.cpu_prefix || next.0 > opts.max_modules || bytes > opts.max_bytes {
+                break;
+            }
+            k += 1;
+            for (j, s) in strings.iter_mut().enumerate() {
+                if k <= its[j] {
+                    *s = engines[engine_of[j]].step(s, k, seeds[j], &limits).ok()?;
+                }
+            }
+            stats.push(stat(k, totals(&strings), t.elapsed()));
+        }
+        if k == 0 {
+            return None;
+        }
+        // The combined string, each module tagged with its job.
+        let (m, w) = totals(&strings);
+        let mut string = ModuleString::with_capacity(m as usize, w as usize);
+        let mut directory = self.directory.clone();
+        let mut hist = Vec::with_capacity(strings.len());
+        for (j, one) in strings.iter().enumerate() {
+            let start = string.len() as u32;
+            let mut h = vec![0u64; self.jobs[j].system.symbols.len()];
+            for (sym, p) in one.iter() {
+                *h.get_mut(sym as usize)? += 1;
+                string.push(sym | ((j as u32) << SYS_SHIFT), p);
+            }
+            hist.push(h);
+            directory[j].start = start;
+            directory[j].end = string.len() as u32;
+        }
+        Some(Prefix {
+            string,
+            directory,
+            hist,
+            stats,
+        })
     }
 
     /// The directory as the derivation starts: the uploaded ranges; one
     /// system takes the options' iterations and seed.
-    fn reset_directory(&self, opts: &GpuDeriveOptions) {
-        let mut dir = self.directory.clone();
+    fn reset_directory(&self, opts: &GpuDeriveOptions, prefix: Option<&Prefix>) {
+        let mut dir = prefix.map_or_else(|| self.directory.clone(), |p| p.directory.clone());
         if let [one] = &mut dir[..] {
             one.iterations = opts.iterations;
             one.seed = opts.seed;
@@ -463,22 +611,32 @@ impl<'a> GpuSystem<'a> {
     /// without context or condition always applies). Exact for
     /// deterministic context-free systems. `None` when a table is out of
     /// range (the per-iteration path reports it).
-    pub(crate) fn string_bounds(&self, opts: &GpuDeriveOptions) -> Option<Vec<(u64, u64)>> {
+    pub(crate) fn string_bounds(
+        &self,
+        opts: &GpuDeriveOptions,
+        prefix: Option<&Prefix>,
+    ) -> Option<Vec<(u64, u64)>> {
         let k_max = opts.iterations as usize;
+        let k0 = prefix.map_or(0, |p| p.stats.len() - 1);
         let mut total = vec![(0u64, 0u64); k_max + 1];
-        for (job, its) in self.jobs.iter().zip(self.job_iterations(opts)) {
+        for (j, (job, its)) in self.jobs.iter().zip(self.job_iterations(opts)).enumerate() {
             let sys = job.system;
             let ns = sys.symbols.len();
             let rows = (0..ns)
                 .map(|s| growth_row(sys, s))
                 .collect::<Option<Vec<_>>>()?;
             let mut c = vec![0u64; ns];
-            let axiom = sys.alts.get(sys.axiom_alt as usize)?;
-            for m in succ_of(sys, axiom)? {
-                *c.get_mut(m.symbol as usize)? += 1;
+            match prefix {
+                Some(p) => c.clone_from(p.hist.get(j)?),
+                None => {
+                    let axiom = sys.alts.get(sys.axiom_alt as usize)?;
+                    for m in succ_of(sys, axiom)? {
+                        *c.get_mut(m.symbol as usize)? += 1;
+                    }
+                }
             }
-            for (k, tot) in total.iter_mut().enumerate() {
-                if k > 0 && k <= its as usize {
+            for (k, tot) in total.iter_mut().enumerate().skip(k0) {
+                if k > k0 && k <= its as usize {
                     let mut next = vec![0u64; ns];
                     for (s, &n) in c.iter().enumerate() {
                         if n == 0 {
@@ -498,27 +656,37 @@ impl<'a> GpuSystem<'a> {
                 tot.1 = tot.1.saturating_add(w);
             }
         }
+        // The CPU's strings are known exactly.
+        for (tot, st) in total
+            .iter_mut()
+            .zip(prefix.map_or(&[][..], |p| &p.stats[..]))
+        {
+            *tot = (st.modules, st.param_words);
+        }
         Some(total)
     }
 
     /// The buffers of a batched derivation, or `None` when the bounds are
     /// over a limit (the options', the device's, 32-bit counts) or the
     /// system needs bracket matching.
-    fn batch_plan(&self, opts: &GpuDeriveOptions) -> Option<BatchPlan> {
-        if self.has_context || opts.iterations == 0 {
+    fn batch_plan(&self, opts: &GpuDeriveOptions, prefix: Option<&Prefix>) -> Option<BatchPlan> {
+        let k0 = prefix.map_or(0, |p| p.stats.len() - 1);
+        if self.has_context || opts.iterations as usize <= k0 {
             return None;
         }
-        let bounds = self.string_bounds(opts)?;
+        let bounds = self.string_bounds(opts, prefix)?;
         let limit32 = u64::from(u32::MAX) - 1;
         let mut caps = [(0u64, 0u64); 2];
         let mut max_in = 0u64;
-        for (k, &(m, w)) in bounds.iter().enumerate() {
+        // String k lives in buffer (k - k0) % 2; the CPU's strings before
+        // k0 are not on the device.
+        for (k, &(m, w)) in bounds.iter().enumerate().skip(k0) {
             if m > limit32 || w > limit32 {
                 return None;
             }
-            let c = &mut caps[k % 2];
+            let c = &mut caps[(k - k0) % 2];
             *c = (c.0.max(m), c.1.max(w));
-            if k > 0 {
+            if k > k0 {
                 let (n, nw) = bounds[k - 1];
                 max_in = max_in.max(n);
                 let bytes = string_bytes(n, nw) + 8 * (n + 1) + 4 * n + string_bytes(m, w);
@@ -554,6 +722,7 @@ impl<'a> GpuSystem<'a> {
             && fits("output counts", 8 * (max_in + 1))
             && gpu.grid("count", groups_for(max_in + 1)).is_ok();
         ok.then_some(BatchPlan {
+            k0,
             bounds,
             caps,
             max_in,
@@ -570,12 +739,21 @@ impl<'a> GpuSystem<'a> {
         plan: &BatchPlan,
         opts: &GpuDeriveOptions,
         strategy: DeriveStrategy,
+        prefix: Option<&Prefix>,
     ) -> Result<Option<(DeviceString, Vec<(u64, u64)>, Vec<DeviceTime>)>, GpuError> {
         let gpu = self.gpu;
-        self.reset_directory(opts);
+        self.reset_directory(opts, prefix);
         let k_max = opts.iterations as usize;
         let nlev = plan.levels.len();
-        let (offsets, m0, w0) = self.axiom_offsets()?;
+        let k0 = plan.k0;
+        let (offsets, m0, w0) = match prefix {
+            Some(p) => (
+                Vec::new(),
+                p.string.len() as u64,
+                p.string.params.len() as u64,
+            ),
+            None => self.axiom_offsets()?,
+        };
         let strings = [
             self.alloc_string(plan.caps[0].0, plan.caps[0].1)?,
             self.alloc_string(plan.caps[1].0, plan.caps[1].1)?,
@@ -602,6 +780,7 @@ impl<'a> GpuSystem<'a> {
             "batch derive params",
             &[DeriveParams {
                 systems: self.jobs.len() as u32,
+                iteration: k0 as u32,
                 ..DeriveParams::default()
             }],
         )?;
@@ -705,19 +884,27 @@ impl<'a> GpuSystem<'a> {
         let dir_grid = gpu.grid("update directory", groups_for(self.jobs.len() as u64))?;
 
         let mut enc = gpu.encoder();
-        self.record_axiom(&mut enc, &offsets, &strings[0], &status)?;
-        gpu.queue()
-            .write_buffer(&strings[0].starts, 4 * m0, bytemuck::bytes_of(&(w0 as u32)));
+        match prefix {
+            Some(p) => write_string(gpu, &strings[0], &p.string),
+            None => {
+                self.record_axiom(&mut enc, &offsets, &strings[0], &status)?;
+                gpu.queue().write_buffer(
+                    &strings[0].starts,
+                    4 * m0,
+                    bytemuck::bytes_of(&(w0 as u32)),
+                );
+            }
+        }
         gpu.queue()
             .write_buffer(&counts, 0, bytemuck::cast_slice(&[m0 as u32, w0 as u32]));
         {
             let mut pass = begin(&mut enc, "batch start");
             start.dispatch(&mut pass, (1, 1));
         }
-        let stamps = Stamps::new(gpu, k_max as u32);
-        for k in 1..=k_max {
-            let p = (k - 1) % 2;
-            let j = k as u32 - 1;
+        let stamps = Stamps::new(gpu, (k_max - k0) as u32);
+        for k in k0 + 1..=k_max {
+            let p = (k - 1 - k0) % 2;
+            let j = (k - 1 - k0) as u32;
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("batch iteration"),
                 timestamp_writes: stamps.as_ref().and_then(|s| s.pass_writes(j)),
@@ -769,7 +956,7 @@ impl<'a> GpuSystem<'a> {
             _ => Vec::new(),
         };
         let [strings0, strings1] = strings;
-        let (last, other) = if k_max.is_multiple_of(2) {
+        let (last, other) = if (k_max - k0).is_multiple_of(2) {
             (strings0, strings1)
         } else {
             (strings1, strings0)
@@ -809,21 +996,39 @@ impl<'a> GpuSystem<'a> {
     fn derive_per_iteration(
         &self,
         opts: &GpuDeriveOptions,
+        prefix: Option<&Prefix>,
         progress: &mut dyn FnMut(&GpuIterationStats),
     ) -> Result<(DeviceString, Vec<GpuIterationStats>), GpuError> {
         let t = Instant::now();
-        self.reset_directory(opts);
-        let mut string = self.axiom()?;
+        self.reset_directory(opts, prefix);
         let mut stats = Vec::with_capacity(opts.iterations as usize + 1);
-        let first = GpuIterationStats {
-            iteration: 0,
-            modules: string.len,
-            param_words: string.words,
-            elapsed: t.elapsed(),
-            device: None,
+        let mut string = match prefix {
+            Some(p) => {
+                let s = &p.string;
+                let out = self.alloc_string(s.len() as u64, s.params.len() as u64)?;
+                write_string(self.gpu, &out, s);
+                for st in &p.stats {
+                    progress(st);
+                    stats.push(*st);
+                }
+                out
+            }
+            None => {
+                let string = self.axiom()?;
+                let first = GpuIterationStats {
+                    iteration: 0,
+                    modules: string.len,
+                    param_words: string.words,
+                    elapsed: t.elapsed(),
+                    device: None,
+                    on_cpu: false,
+                };
+                progress(&first);
+                stats.push(first);
+                string
+            }
         };
-        progress(&first);
-        stats.push(first);
+        let k0 = stats.len() as u32 - 1;
         let status = self
             .gpu
             .storage_zeroed("derive status", u64::from(STATUS_WORDS) * 4)?;
@@ -831,7 +1036,7 @@ impl<'a> GpuSystem<'a> {
             "previous directory",
             (self.directory.len() * std::mem::size_of::<SystemEntry>()) as u64,
         )?;
-        for iteration in 1..=opts.iterations {
+        for iteration in k0 + 1..=opts.iterations {
             let t = Instant::now();
             let next = self.step(&string, iteration, opts, &status, &previous)?;
             let old = std::mem::replace(&mut string, next);
@@ -842,6 +1047,7 @@ impl<'a> GpuSystem<'a> {
                 param_words: string.words,
                 elapsed: t.elapsed(),
                 device: None,
+                on_cpu: false,
             };
             progress(&s);
             stats.push(s);
@@ -1263,9 +1469,39 @@ pub fn derive_with(
     })
 }
 
+/// The first strings of a derivation, derived on the CPU
+/// ([`GpuDeriveOptions::cpu_prefix`]).
+#[derive(Debug)]
+pub(crate) struct Prefix {
+    /// The combined string after the CPU's iterations (each module's
+    /// symbol tagged with its job above `SYS_SHIFT`).
+    string: ModuleString,
+    /// The directory for it: each job's range in `string`.
+    directory: Vec<SystemEntry>,
+    /// Per job, how many modules of each symbol its string has.
+    hist: Vec<Vec<u64>>,
+    /// Strings 0 ..= k0 (k0 = `stats.len() - 1`, the CPU's iterations).
+    stats: Vec<GpuIterationStats>,
+}
+
+/// Write a host string into device buffers that hold at least its length
+/// (all three arrays, the last start included).
+fn write_string(gpu: &Gpu, out: &DeviceString, s: &ModuleString) {
+    let q = gpu.queue();
+    if !s.syms.is_empty() {
+        q.write_buffer(&out.syms, 0, bytemuck::cast_slice(&s.syms));
+    }
+    q.write_buffer(&out.starts, 0, bytemuck::cast_slice(&s.starts));
+    if !s.params.is_empty() {
+        q.write_buffer(&out.params, 0, bytemuck::cast_slice(&s.params));
+    }
+}
+
 /// The sizes of a batched derivation.
 #[derive(Debug)]
 struct BatchPlan {
+    /// The strings derived on the CPU before the batch: 0..=k0.
+    k0: usize,
     /// Every string's bound (modules, parameter words).
     bounds: Vec<(u64, u64)>,
     /// The two string buffers' capacities (even and odd strings).

@@ -32,14 +32,22 @@ pub static SCAN_U32X2: Kernel = Kernel {
     file: "scan.wgsl",
     entry: "scan_blocks",
     bindings: SCAN_BINDS,
-    subst: &[("ELEM", "vec2<u32>"), ("SCAN_OP", "scan_add.wgsl"), HOST_PARAMS],
+    subst: &[
+        ("ELEM", "vec2<u32>"),
+        ("SCAN_OP", "scan_add.wgsl"),
+        HOST_PARAMS,
+    ],
 };
 pub static ADD_U32X2: Kernel = Kernel {
     name: "add_sums_u32x2",
     file: "scan.wgsl",
     entry: "add_sums",
     bindings: SCAN_BINDS,
-    subst: &[("ELEM", "vec2<u32>"), ("SCAN_OP", "scan_add.wgsl"), HOST_PARAMS],
+    subst: &[
+        ("ELEM", "vec2<u32>"),
+        ("SCAN_OP", "scan_add.wgsl"),
+        HOST_PARAMS,
+    ],
 };
 
 const SCAN_DEV_BINDS: &[Bind] = &[Bind::Read, Bind::ReadWrite, Bind::ReadWrite];
@@ -50,7 +58,11 @@ pub static SCAN_U32X2_DEV: Kernel = Kernel {
     file: "scan.wgsl",
     entry: "scan_blocks",
     bindings: SCAN_DEV_BINDS,
-    subst: &[("ELEM", "vec2<u32>"), ("SCAN_OP", "scan_add.wgsl"), DEVICE_PARAMS],
+    subst: &[
+        ("ELEM", "vec2<u32>"),
+        ("SCAN_OP", "scan_add.wgsl"),
+        DEVICE_PARAMS,
+    ],
 };
 /// [`ADD_U32X2`] with its parameters written on the device.
 pub static ADD_U32X2_DEV: Kernel = Kernel {
@@ -58,7 +70,11 @@ pub static ADD_U32X2_DEV: Kernel = Kernel {
     file: "scan.wgsl",
     entry: "add_sums",
     bindings: SCAN_DEV_BINDS,
-    subst: &[("ELEM", "vec2<u32>"), ("SCAN_OP", "scan_add.wgsl"), DEVICE_PARAMS],
+    subst: &[
+        ("ELEM", "vec2<u32>"),
+        ("SCAN_OP", "scan_add.wgsl"),
+        DEVICE_PARAMS,
+    ],
 };
 
 pub static VM_EVAL: Kernel = Kernel {
@@ -181,14 +197,22 @@ pub static SCAN_TURTLE: Kernel = Kernel {
     file: "scan.wgsl",
     entry: "scan_blocks",
     bindings: SCAN_BINDS,
-    subst: &[("ELEM", "TurtleElem"), ("SCAN_OP", "turtle_scan.wgsl"), HOST_PARAMS],
+    subst: &[
+        ("ELEM", "TurtleElem"),
+        ("SCAN_OP", "turtle_scan.wgsl"),
+        HOST_PARAMS,
+    ],
 };
 pub static ADD_TURTLE: Kernel = Kernel {
     name: "add_sums_turtle",
     file: "scan.wgsl",
     entry: "add_sums",
     bindings: SCAN_BINDS,
-    subst: &[("ELEM", "TurtleElem"), ("SCAN_OP", "turtle_scan.wgsl"), HOST_PARAMS],
+    subst: &[
+        ("ELEM", "TurtleElem"),
+        ("SCAN_OP", "turtle_scan.wgsl"),
+        HOST_PARAMS,
+    ],
 };
 
 const TURTLE_BINDS: &[Bind] = &[

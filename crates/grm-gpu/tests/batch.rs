@@ -13,16 +13,10 @@ fn opts(sys: &grm_compile::CompiledSystem, iterations: u32, seed: u32) -> GpuDer
     GpuDeriveOptions {
         iterations,
         seed,
+        // Every iteration on the GPU: these tests are about its kernels.
+        cpu_prefix: 0,
         ..GpuDeriveOptions::from_system(sys)
     }
-}
-
-fn same_bits(what: &str, a: &grm_derive::ModuleString, b: &grm_derive::ModuleString) {
-    assert_eq!(a.syms, b.syms, "{what}: symbols");
-    assert_eq!(a.starts, b.starts, "{what}: starts");
-    let bits =
-        |s: &grm_derive::ModuleString| s.params.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-    assert_eq!(bits(a), bits(b), "{what}: parameters");
 }
 
 #[test]
@@ -83,7 +77,7 @@ fn random_grammars_batched_equal_per_iteration() {
     let mut tried = 0;
     while compared < 60 && tried < 400 {
         tried += 1;
-        let src = grammar(&mut rng);
+        let src = random_grammar(&mut rng);
         let Some(sys) = inline(&src) else { continue };
         let iterations = 1 + rng.below(5) as u32;
         let seed = rng.below(1000) as u32;
@@ -117,58 +111,6 @@ fn random_grammars_batched_equal_per_iteration() {
         "only {batched} of {compared} batched"
     );
     assert!(errors > 0, "no runtime error exercised the fallback");
-}
-
-fn grammar(rng: &mut Rng) -> String {
-    let pick = |rng: &mut Rng, xs: &[&'static str]| xs[rng.below(xs.len() as u64) as usize];
-    let succ = |rng: &mut Rng| {
-        let mut out = Vec::new();
-        for _ in 0..rng.below(6) {
-            out.push(match rng.below(8) {
-                0 => "A(x + 1)".to_string(),
-                1 => "B(x - 1)".to_string(),
-                2 => "C(randint(0, 4))".to_string(),
-                3 => format!(
-                    "F({})",
-                    pick(rng, &["x / 2", "uniform(0.5, 1)", "1", "10 / x"])
-                ),
-                4 => pick(rng, &["+", "-"]).to_string(),
-                5 => "[ B(x) F(1) ]".to_string(),
-                _ => "D".to_string(),
-            });
-        }
-        out.join(" ")
-    };
-    let mut s = String::from("system R {\n    axiom A(1) B(2) F(1) C(3) D;\n");
-    for _ in 0..2 + rng.below(5) {
-        let pred = pick(rng, &["A", "B", "C", "D"]);
-        let pat = if pred == "D" {
-            "D"
-        } else {
-            &format!("{pred}(x)")
-        };
-        let cond = if pred == "D" {
-            ""
-        } else {
-            pick(
-                rng,
-                &["", "", " : x < 3", " : x % 2 == 0", " : chance(0.5)"],
-            )
-        };
-        let alts = 1 + rng.below(3);
-        for _ in 0..alts {
-            let weight = match (alts, rng.below(3), pred) {
-                (1, _, _) => String::new(),
-                (_, 0, p) if p != "D" => "(abs(x) + 1) ".into(),
-                (_, 1, p) if p != "D" => "(x) ".into(),
-                _ => format!("({}) ", 1 + rng.below(3)),
-            };
-            let body = succ(rng).replace('x', if pred == "D" { "1" } else { "x" });
-            s.push_str(&format!("    {pat}{cond} -> {weight}{body};\n"));
-        }
-    }
-    s.push_str("}\n");
-    s
 }
 
 /// The device's overflow check (here forced: the last string's capacity

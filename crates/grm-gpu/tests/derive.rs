@@ -11,6 +11,8 @@ fn opts(sys: &grm_compile::CompiledSystem, iterations: u32, seed: u32) -> GpuDer
     GpuDeriveOptions {
         iterations,
         seed,
+        // Every iteration on the GPU: these tests are about its kernels.
+        cpu_prefix: 0,
         ..GpuDeriveOptions::from_system(sys)
     }
 }

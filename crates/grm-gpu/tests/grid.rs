@@ -35,6 +35,7 @@ fn two_dimensional_grids_give_the_same_results() {
         let opts = GpuDeriveOptions {
             iterations: n,
             seed: c.settings.seed,
+            cpu_prefix: 0,
             ..GpuDeriveOptions::from_system(&c)
         };
         let d = derive(g, &c, &opts).expect("gpu derives");

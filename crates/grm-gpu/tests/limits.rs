@@ -13,6 +13,7 @@ fn unlimited(iterations: u32) -> GpuDeriveOptions {
         max_modules: u64::MAX,
         max_bytes: u64::MAX,
         sync_iterations: false,
+        cpu_prefix: 0,
     }
 }
 
@@ -90,6 +91,7 @@ fn module_and_memory_limits_stop_before_allocating() {
         max_modules: 10_000,
         max_bytes: u64::MAX,
         sync_iterations: false,
+        cpu_prefix: 0,
     };
     let r = derive(g, &sys, &opts);
     if let Err(e @ GpuError::ModuleLimit { .. }) = &r {
@@ -113,6 +115,7 @@ fn module_and_memory_limits_stop_before_allocating() {
         max_modules: u64::MAX,
         max_bytes: 100_000,
         sync_iterations: false,
+        cpu_prefix: 0,
     };
     let r = derive(g, &sys, &opts);
     if let Err(e @ GpuError::MemoryLimit { .. }) = &r {

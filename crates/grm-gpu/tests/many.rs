@@ -56,7 +56,10 @@ fn a_forest_of_systems_and_seeds_matches_each_cpu_derivation() {
         iterations: 9,
         seed: 3,
     });
-    let opts = GpuDeriveOptions::from_system(&stochastic);
+    let opts = GpuDeriveOptions {
+        cpu_prefix: 0,
+        ..GpuDeriveOptions::from_system(&stochastic)
+    };
     let out = derive_many(g, &jobs, &opts).expect("derives");
     assert_eq!(out.strings.len(), jobs.len());
     for (k, (job, got)) in jobs.iter().zip(&out.strings).enumerate() {
@@ -98,7 +101,11 @@ fn a_runtime_error_names_its_system_and_local_position() {
             seed: 0,
         },
     ];
-    match derive_many(g, &jobs, &GpuDeriveOptions::from_system(&fine)) {
+    let opts = GpuDeriveOptions {
+        cpu_prefix: 0,
+        ..GpuDeriveOptions::from_system(&fine)
+    };
+    match derive_many(g, &jobs, &opts) {
         Err(GpuError::Runtime {
             system,
             iteration,
@@ -160,7 +167,10 @@ fn forest(
         }
     }
     let opts = grm_gpu::GpuRunOptions {
-        derive: GpuDeriveOptions::from_system(&loaded[0].2),
+        derive: GpuDeriveOptions {
+            cpu_prefix: 0,
+            ..GpuDeriveOptions::from_system(&loaded[0].2)
+        },
         interpret: true,
         read_string: true,
         read_bones: true,

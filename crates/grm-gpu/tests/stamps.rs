@@ -16,6 +16,7 @@ fn profiling_reports_device_time_per_step_and_changes_nothing() {
     let sys = example("hilbert3d.grm", None);
     let o = GpuDeriveOptions {
         iterations: 3,
+        cpu_prefix: 0,
         ..GpuDeriveOptions::from_system(&sys)
     };
     assert_eq!(

@@ -61,6 +61,11 @@ pub struct DeriveArgs {
     /// derivation outgrows the device.
     #[arg(long, requires = "gpu")]
     pub cpu_fallback: bool,
+    /// With `--gpu`: derive the first iterations on the CPU while the
+    /// strings have at most this many modules (0: every iteration on the
+    /// GPU; the string is the same either way).
+    #[arg(long, requires = "gpu", value_name = "MODULES", default_value_t = grm_gpu::derive::CPU_PREFIX_MODULES)]
+    pub cpu_prefix: u64,
 }
 
 /// A system loaded, checked and compiled, with what it came from.

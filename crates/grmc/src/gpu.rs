@@ -50,6 +50,7 @@ pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
             max_modules: lim.max_modules,
             max_bytes: lim.max_bytes,
             sync_iterations: args.stats,
+            cpu_prefix: args.cpu_prefix,
         },
         interpret: true,
         read_string: args.print || args.output.is_some(),
@@ -72,19 +73,20 @@ pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
     if args.stats {
         eprintln!("GPU: {}", gpu.describe());
         println!(
-            "{:>9} {:>14} {:>12} {:>10}",
-            "iteration", "modules", "params", "ms"
+            "{:>9} {:>14} {:>12} {:>10} {:>6}",
+            "iteration", "modules", "params", "ms", "engine"
         );
     }
     let start = Instant::now();
     let mut progress = |s: &grm_gpu::GpuIterationStats| {
         if args.stats {
             println!(
-                "{:>9} {:>14} {:>12} {:>10.3}",
+                "{:>9} {:>14} {:>12} {:>10.3} {:>6}",
                 s.iteration,
                 s.modules,
                 s.param_words,
-                ms(s.elapsed)
+                ms(s.elapsed),
+                if s.on_cpu { "CPU" } else { "GPU" }
             );
         }
     };
@@ -170,6 +172,10 @@ pub struct GpuBench {
     /// Skip the CPU baselines.
     #[arg(long)]
     pub no_cpu: bool,
+    /// Derive the first iterations on the CPU while the strings have at
+    /// most this many modules (a GPU-only derivation is timed as well).
+    #[arg(long, value_name = "MODULES", default_value_t = grm_gpu::derive::CPU_PREFIX_MODULES)]
+    pub cpu_prefix: u64,
 }
 
 /// `grmc bench gpu`: GPU rows (derivation, interpretation, both) against
@@ -204,6 +210,7 @@ pub fn bench(args: GpuBench) -> Outcome {
             threads: args.threads,
             cpu: !args.no_cpu,
             max_modules: 200_000_000,
+            cpu_prefix: args.cpu_prefix,
         };
         match grm_gpu::bench::bench_scene(
             gpu,
