@@ -76,6 +76,9 @@ pub struct SceneReport {
     pub modules: u64,
     pub produced: u64,
     pub gpu_derive: Duration,
+    /// Buffers created on the device per timed run (derive + interpret);
+    /// the large ones should come from the pool.
+    pub allocated_per_run: crate::device::Allocations,
     /// Iterations the timed derivation ran on the CPU
     /// ([`BenchConfig::cpu_prefix`]; 0: none).
     pub cpu_steps: u32,
@@ -174,6 +177,7 @@ pub fn bench_scene(
         Ok((r.derive_elapsed, ()))
     })?;
     let mut best_interp = Duration::MAX;
+    let before = gpu.allocated();
     let (gpu_derive, last) = best(cfg.runs, || {
         let r = run(gpu, c, &turtle, &ropts, &mut |_| {}).map_err(|e| e.to_string())?;
         if let Some(i) = &r.interpretation {
@@ -181,6 +185,12 @@ pub fn bench_scene(
         }
         Ok((r.derive_elapsed, r))
     })?;
+    let created = gpu.allocated() - before;
+    let runs = u64::from(cfg.runs.max(1));
+    let allocated_per_run = crate::device::Allocations {
+        buffers: created.buffers / runs,
+        bytes: created.bytes / runs,
+    };
     let interp = last.interpretation.clone().ok_or("no interpretation")?;
     let cpu_steps = last.stats.iter().skip(1).filter(|s| s.on_cpu).count() as u32;
     let (device_derive, device_rows) = device_profile(gpu, c, &turtle, &gpu_only, cfg.runs)?;
@@ -248,6 +258,7 @@ pub fn bench_scene(
         modules: last.modules(),
         produced: last.produced_modules(),
         gpu_derive,
+        allocated_per_run,
         cpu_steps,
         gpu_only_derive,
         cpu1_derive: cpu1.map(|(t, _)| t),
@@ -486,6 +497,12 @@ impl SceneReport {
             s,
             "  readback (not counted): {:.3} ms for the string",
             ms(self.readback)
+        );
+        let _ = writeln!(
+            s,
+            "  device buffers created per timed run (derive + interpret): {} buffers, {:.3} MiB",
+            self.allocated_per_run.buffers,
+            self.allocated_per_run.bytes as f64 / (1024.0 * 1024.0)
         );
         s
     }

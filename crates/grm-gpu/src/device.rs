@@ -37,7 +37,9 @@ pub struct Gpu {
     uncaptured: Arc<Mutex<Vec<String>>>,
     pipelines: Mutex<HashMap<&'static str, Arc<Pipeline>>>,
     /// Recycled storage buffers ([`Gpu::storage`], [`Gpu::recycle`]).
-    pool: Mutex<Vec<wgpu::Buffer>>,
+    pool: Mutex<Pool<wgpu::Buffer>>,
+    /// Buffers created so far and their bytes ([`Gpu::allocated`]).
+    created: [std::sync::atomic::AtomicU64; 2],
     /// Serialises engine runs: error scopes are per thread, and two large
     /// derivations at once could together exceed memory that each alone fits.
     run: Mutex<()>,
@@ -60,6 +62,26 @@ pub enum Timestamps {
     None = 0,
     Passes = 1,
     InsidePasses = 2,
+}
+
+/// Buffers the engine has created on the device (cumulative, per
+/// process): what a run allocates is the difference of two readings. A
+/// repeated run of the same work should take its large buffers from the
+/// pool and create only small ones (parameters, read-back staging).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Allocations {
+    pub buffers: u64,
+    pub bytes: u64,
+}
+
+impl std::ops::Sub for Allocations {
+    type Output = Allocations;
+    fn sub(self, o: Allocations) -> Allocations {
+        Allocations {
+            buffers: self.buffers.saturating_sub(o.buffers),
+            bytes: self.bytes.saturating_sub(o.bytes),
+        }
+    }
 }
 
 /// A compiled kernel with its explicit bind group layout.
@@ -172,7 +194,8 @@ impl Gpu {
             lost,
             uncaptured,
             pipelines: Mutex::new(HashMap::new()),
-            pool: Mutex::new(Vec::new()),
+            pool: Mutex::new(Pool::new(POOL_BYTES)),
+            created: Default::default(),
             run: Mutex::new(()),
             timestamps,
             profiling: std::sync::atomic::AtomicU8::new(Timestamps::None as u8),
@@ -381,6 +404,22 @@ impl Gpu {
 
     // ---- buffers ------------------------------------------------------
 
+    /// Buffers created on this device so far ([`Allocations`]).
+    pub fn allocated(&self) -> Allocations {
+        use std::sync::atomic::Ordering::Relaxed;
+        Allocations {
+            buffers: self.created[0].load(Relaxed),
+            bytes: self.created[1].load(Relaxed),
+        }
+    }
+
+    /// Count a buffer about to be created.
+    fn creating(&self, bytes: u64) {
+        use std::sync::atomic::Ordering::Relaxed;
+        self.created[0].fetch_add(1, Relaxed);
+        self.created[1].fetch_add(bytes, Relaxed);
+    }
+
     /// A storage buffer holding `data` (at least 4 bytes: wgpu rejects
     /// empty bindings).
     pub(crate) fn upload<T: bytemuck::Pod>(
@@ -399,6 +438,7 @@ impl Gpu {
         } else {
             bytes
         };
+        self.creating(contents.len() as u64);
         Ok(self
             .device
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -421,6 +461,7 @@ impl Gpu {
     }
 
     fn create_storage(&self, what: &'static str, size: u64) -> wgpu::Buffer {
+        self.creating(size);
         self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some(what),
             size,
@@ -434,54 +475,34 @@ impl Gpu {
     /// A storage buffer of at least `bytes`, from the pool of recycled
     /// buffers when one fits (its contents are then undefined: every
     /// kernel writes what it later reads), else a new one with room to
-    /// grow (the next power of two, within the device's limits). Reusing
-    /// buffers saves allocating and zeroing them in every iteration.
+    /// grow ([`size_class`], within the device's limits). Reusing buffers
+    /// saves allocating and zeroing them in every iteration and run.
     pub(crate) fn storage(&self, what: &'static str, bytes: u64) -> Result<wgpu::Buffer, GpuError> {
         self.check_storage(what, bytes)?;
         let want = bytes.max(MIN_BUFFER).next_multiple_of(4);
-        {
-            let mut pool = lock(&self.pool);
-            // The smallest pooled buffer that fits and is not more than 4x too big.
-            let best = pool
-                .iter()
-                .enumerate()
-                .filter(|(_, b)| {
-                    b.size() >= want && b.size() <= want.saturating_mul(4).max(64 * 1024)
-                })
-                .min_by_key(|(_, b)| b.size())
-                .map(|(i, _)| i);
-            if let Some(i) = best {
-                let b = pool.swap_remove(i);
-                return Ok(b);
-            }
+        if let Some(b) = lock(&self.pool).take(want) {
+            return Ok(b);
         }
         let limit = self
             .limits
             .max_storage_buffer_binding_size
             .min(self.limits.max_buffer_size)
             & !3;
-        let size = want
-            .checked_next_power_of_two()
-            .unwrap_or(want)
-            .min(limit)
-            .max(want);
+        let size = size_class(want).min(limit).max(want);
         Ok(self.create_storage(what, size))
     }
 
     /// Give a buffer from [`Gpu::storage`] back for reuse (later submissions
     /// are ordered after the ones already recorded with it). The pool keeps
-    /// at most [`POOL_BYTES`]; [`Gpu::trim`] empties it.
+    /// at most [`POOL_BYTES`], evicting the least recently given back
+    /// buffers for newer ones; [`Gpu::trim`] empties it.
     pub(crate) fn recycle(&self, buffers: impl IntoIterator<Item = wgpu::Buffer>) {
         let mut pool = lock(&self.pool);
         for b in buffers {
-            if !b.usage().contains(wgpu::BufferUsages::STORAGE)
-                || b.usage().contains(wgpu::BufferUsages::UNIFORM)
+            if b.usage().contains(wgpu::BufferUsages::STORAGE)
+                && !b.usage().contains(wgpu::BufferUsages::UNIFORM)
             {
-                continue;
-            }
-            let held: u64 = pool.iter().map(|p| p.size()).sum();
-            if held + b.size() <= POOL_BYTES {
-                pool.push(b);
+                pool.give(b);
             }
         }
     }
@@ -493,6 +514,7 @@ impl Gpu {
 
     /// A uniform buffer with the parameters of one dispatch.
     pub(crate) fn uniform<T: bytemuck::Pod>(&self, what: &'static str, value: &T) -> wgpu::Buffer {
+        self.creating(std::mem::size_of::<T>() as u64);
         self.device
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(what),
@@ -636,9 +658,11 @@ impl Gpu {
         bytes: u64,
     ) -> Result<wgpu::Buffer, GpuError> {
         self.check_storage(what, bytes)?;
+        let size = bytes.max(MIN_BUFFER).next_multiple_of(4);
+        self.creating(size);
         Ok(self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some(what),
-            size: bytes.max(MIN_BUFFER).next_multiple_of(4),
+            size,
             usage: wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         }))
@@ -653,9 +677,11 @@ impl Gpu {
         bytes: u64,
     ) -> Result<wgpu::Buffer, GpuError> {
         self.check_storage(what, bytes)?;
+        let size = bytes.max(MIN_BUFFER).next_multiple_of(4);
+        self.creating(size);
         Ok(self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some(what),
-            size: bytes.max(MIN_BUFFER).next_multiple_of(4),
+            size,
             usage: wgpu::BufferUsages::STORAGE
                 | wgpu::BufferUsages::INDIRECT
                 | wgpu::BufferUsages::COPY_SRC
@@ -694,6 +720,7 @@ impl Gpu {
         let mut stagings = Vec::new();
         for &(buf, first, count) in ranges {
             let bytes = (count * size).next_multiple_of(4).max(4);
+            self.creating(bytes);
             let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("readback"),
                 size: bytes,
@@ -823,6 +850,96 @@ pub fn grid_for(
     Ok((mx as u32, y as u32))
 }
 
+/// Something the pool can hold: its size in bytes.
+pub(crate) trait Pooled {
+    fn bytes(&self) -> u64;
+}
+
+impl Pooled for wgpu::Buffer {
+    fn bytes(&self) -> u64 {
+        self.size()
+    }
+}
+
+/// Recycled buffers, least recently given back first, holding at most
+/// `limit` bytes: a buffer given back when the pool is full evicts the
+/// oldest ones (the buffers of the work at hand are the likely next
+/// requests, not those of some earlier, different run).
+#[derive(Debug)]
+pub(crate) struct Pool<B> {
+    items: std::collections::VecDeque<B>,
+    held: u64,
+    limit: u64,
+}
+
+impl<B: Pooled> Pool<B> {
+    pub(crate) fn new(limit: u64) -> Pool<B> {
+        Pool {
+            items: Default::default(),
+            held: 0,
+            limit,
+        }
+    }
+
+    /// The smallest item of at least `want` bytes and not more than 4x
+    /// too big (or 64 KiB), removed from the pool.
+    pub(crate) fn take(&mut self, want: u64) -> Option<B> {
+        let cap = want.saturating_mul(4).max(64 * 1024);
+        let i = self
+            .items
+            .iter()
+            .enumerate()
+            .filter(|(_, b)| b.bytes() >= want && b.bytes() <= cap)
+            .min_by_key(|(_, b)| b.bytes())
+            .map(|(i, _)| i)?;
+        let b = self.items.remove(i)?;
+        self.held -= b.bytes();
+        Some(b)
+    }
+
+    /// Keep `b` (dropped if it alone is over the limit), evicting the
+    /// least recently given back items while the pool would be over it.
+    pub(crate) fn give(&mut self, b: B) {
+        let size = b.bytes();
+        if size > self.limit {
+            return;
+        }
+        while self.held + size > self.limit {
+            match self.items.pop_front() {
+                Some(old) => self.held -= old.bytes(),
+                None => break,
+            }
+        }
+        self.held += size;
+        self.items.push_back(b);
+    }
+
+    pub(crate) fn clear(&mut self) {
+        self.items.clear();
+        self.held = 0;
+    }
+
+    #[cfg(test)]
+    fn sizes(&self) -> Vec<u64> {
+        self.items.iter().map(Pooled::bytes).collect()
+    }
+}
+
+/// The size a new pooled buffer of at least `bytes` gets: the next of
+/// the sizes 4, 5, 6, 7 x 2^k (at most 25% above the request, so that
+/// the buffers of a large run, counted against [`POOL_BYTES`], stay in the
+/// pool; powers of two wasted up to half of it). Below 1 KiB: the next
+/// power of two, at least [`MIN_BUFFER`].
+pub fn size_class(bytes: u64) -> u64 {
+    let b = bytes.max(MIN_BUFFER);
+    if b < 1024 {
+        return b.next_power_of_two();
+    }
+    let k = 63 - b.leading_zeros(); // 2^k <= b < 2^(k+1), k >= 10
+    let step = 1u64 << (k - 2);
+    b.div_ceil(step).saturating_mul(step)
+}
+
 /// Workgroups of [`WORKGROUP`] threads for `n` items.
 pub fn groups_for(n: u64) -> u64 {
     n.div_ceil(u64::from(WORKGROUP))
@@ -844,6 +961,54 @@ mod tests {
             Err(GpuError::TooManyWorkgroups { .. })
         ));
         assert_eq!(grid_for(3, 65535, "t", 10).unwrap(), (3, 4));
+    }
+
+    impl Pooled for u64 {
+        fn bytes(&self) -> u64 {
+            *self
+        }
+    }
+
+    #[test]
+    fn the_pool_takes_the_best_fit_and_evicts_the_oldest() {
+        let mut p: Pool<u64> = Pool::new(1000 * 1024);
+        for b in [300, 100, 200, 150].map(|k| k * 1024) {
+            p.give(b);
+        }
+        // Best fit, within 4x.
+        assert_eq!(p.take(120 * 1024), Some(150 * 1024));
+        assert_eq!(p.take(40 * 1024), Some(100 * 1024));
+        assert_eq!(p.take(40 * 1024), None, "200 KiB is over 4x of 40");
+        assert_eq!(p.sizes(), vec![300 * 1024, 200 * 1024]);
+        // Full: the oldest (300) makes room for the newest.
+        p.give(600 * 1024);
+        assert_eq!(p.sizes(), vec![200 * 1024, 600 * 1024]);
+        p.give(500 * 1024);
+        assert_eq!(p.sizes(), vec![500 * 1024]);
+        // Over the limit alone: not kept, nothing evicted.
+        p.give(2000 * 1024);
+        assert_eq!(p.sizes(), vec![500 * 1024]);
+        assert_eq!(p.held, 500 * 1024);
+        p.clear();
+        assert_eq!((p.sizes(), p.held), (vec![], 0));
+    }
+
+    #[test]
+    fn size_classes_are_within_a_quarter_of_the_request() {
+        assert_eq!(size_class(1), MIN_BUFFER);
+        assert_eq!(size_class(300), 512);
+        assert_eq!(size_class(64 * 1024), 64 * 1024);
+        assert_eq!(size_class(64 * 1024 + 1), 80 * 1024);
+        assert_eq!(size_class(570_000_000), 671_088_640); // 5 x 2^27
+        let mut prev = 0;
+        for b in (1..40u64).map(|k| (k * 7_919) << k.min(30)) {
+            let c = size_class(b);
+            assert!(c >= b && c as f64 <= b as f64 * 1.25, "{b} -> {c}");
+            if b > prev {
+                assert!(c >= size_class(prev));
+            }
+            prev = b;
+        }
     }
 
     #[test]

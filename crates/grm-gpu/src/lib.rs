@@ -41,7 +41,7 @@ pub use derive::{
     DerivePath, DeriveStrategy, DeviceString, GpuDerivation, GpuDeriveOptions, GpuIterationStats,
     GpuJob, GpuManyDerivation, derive, derive_many, derive_with,
 };
-pub use device::{Gpu, Timestamps, shared};
+pub use device::{Allocations, Gpu, Timestamps, shared};
 pub use error::{GpuError, RuntimeKind};
 pub use interp::{GpuInterpretation, TurtleProgram, interpret};
 pub use pipeline::{GpuManyRun, GpuRun, GpuRunOptions, run, run_many};
