@@ -53,7 +53,27 @@ fn tid(wid: vec3<u32>, nwg: vec3<u32>, lid: u32) -> u32 {
 }
 
 fn depth_of(i: u32) -> u32 {
+    if (T.straight != 0u) {
+        return 0u;
+    }
     return u32(levels[i].x);
+}
+
+// A string without brackets (T.straight): every module is at depth 0, the
+// depth order is the string order, and neither the depths nor the sort
+// are computed (`levels`, `order` and `pos_of` are not read).
+fn order_at(s: u32) -> u32 {
+    if (T.straight != 0u) {
+        return s;
+    }
+    return order[s];
+}
+
+fn pos_at(i: u32) -> u32 {
+    if (T.straight != 0u) {
+        return i;
+    }
+    return pos_of[i];
 }
 
 // ---- 2. counting sort by depth
@@ -94,6 +114,16 @@ fn depth_scatter(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups)
     }
 }
 
+// The end of depth d's bucket in depth order: after depth_scatter,
+// hist[d * chunks + c] is the end of (d, c). A straight string has one
+// bucket, the whole string.
+fn depth_end(d: u32) -> u32 {
+    if (T.straight != 0u) {
+        return T.n;
+    }
+    return hist[(d + 1u) * T.chunks - 1u];
+}
+
 // Bucket bounds aux[T.bstart + d] (d = 0 ..= dmax + 1) and the indirect
 // dispatch arguments of each round, aux[T.args + 3 d ..].
 @compute @workgroup_size(WORKGROUP)
@@ -106,11 +136,11 @@ fn depth_starts(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) 
     // start of depth d is the end of (d - 1, last chunk).
     var lo = 0u;
     if (d > 0u) {
-        lo = hist[d * T.chunks - 1u];
+        lo = depth_end(d - 1u);
     }
     aux[T.bstart + d] = lo;
     if (d <= T.dmax) {
-        let hi = hist[(d + 1u) * T.chunks - 1u];
+        let hi = depth_end(d);
         let groups = (hi - lo + WORKGROUP - 1u) / WORKGROUP;
         let x = min(groups, T.max_groups);
         let y = select(1u, (groups + T.max_groups - 1u) / T.max_groups, groups > T.max_groups);
@@ -295,7 +325,7 @@ fn base_state(start: u32) -> TurtleElem {
         e.wb = CFG.width;
         return e;
     }
-    var b = elems[pos_of[start - 1u]];
+    var b = elems[pos_at(start - 1u)];
     b.seg = b.seg & SEG_DEAD;
     return b;
 }
@@ -311,7 +341,7 @@ fn turtle_elems(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) 
     if (s >= T.n) {
         return;
     }
-    let i = order[s];
+    let i = order_at(s);
     if (seg_start(i)) {
         var e = scan_identity();
         e.seg = SEG_START | i;
@@ -319,7 +349,7 @@ fn turtle_elems(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) 
     } else {
         // The module before i in its branch is the one before it in depth
         // order (same segment).
-        var e = module_elem(order[s - 1u]);
+        var e = module_elem(order_at(s - 1u));
         e.seg = 0u;
         elems[s] = e;
     }
@@ -383,7 +413,7 @@ fn turtle_walk(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) n
     if (s0 == NONE) {
         return;
     }
-    let i0 = order[s0];
+    let i0 = order_at(s0);
     if (!seg_start(i0)) {
         return;
     }
@@ -391,7 +421,7 @@ fn turtle_walk(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) n
     CFG = config_of(sys_of(i0));
     var st = base_state(i0);
     for (var s = s0; s < hi; s = s + 1u) {
-        let i = order[s];
+        let i = order_at(s);
         if (s > s0 && seg_start(i)) {
             break;
         }
@@ -416,7 +446,7 @@ fn turtle_walk(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) n
 // ---- 4. bones
 
 fn is_bone(i: u32) -> bool {
-    return op_of(i).op == TOP_FORWARD && (elems[pos_of[i]].seg & SEG_DEAD) == 0u;
+    return op_of(i).op == TOP_FORWARD && (elems[pos_at(i)].seg & SEG_DEAD) == 0u;
 }
 
 // hist[i] = 1 for every live `F`/`G` (and 0 at i = n), to be scanned into
@@ -437,7 +467,7 @@ fn bones_write(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) n
         return;
     }
     CFG = config_of(sys_of(i));
-    let st = elems[pos_of[i]];
+    let st = elems[pos_at(i)];
     let m = elem_mat(st);
     let base = elem_t(st);
     let tip = base + m[1] * arg(i, 0u, CFG.step);

@@ -173,6 +173,14 @@ impl TurtleProgram {
             })
     }
 
+    /// Whether any symbol is a bracket (`[` or `]`): else every string
+    /// of the system is straight (depth 0 everywhere).
+    pub fn has_brackets(&self) -> bool {
+        self.syms
+            .iter()
+            .any(|s| s.op == TurtleOp::Push as u32 || s.op == TurtleOp::Pop as u32)
+    }
+
     /// Push / pop flags of the symbols, as a packed symbol section.
     fn bracket_section(&self) -> Vec<u32> {
         let hw = (std::mem::size_of::<PackedHeader>() / 4) as u32;
@@ -252,6 +260,49 @@ fn turtle_tables(programs: &[&TurtleProgram]) -> Vec<u32> {
     }
     words[..cw * programs.len()].copy_from_slice(bytemuck::cast_slice(&configs));
     words
+}
+
+/// Bracket matching of a string with brackets and its depth range (the
+/// interpretation's one early synchronisation): the tree and the deepest
+/// depth. Every system must start at depth 0 and the depths never go
+/// below it.
+fn depths(
+    gpu: &Gpu,
+    programs: &[&TurtleProgram],
+    s: &DeviceString,
+    ranges: &[(u64, u64)],
+) -> Result<(brackets::BracketTree, u64), GpuError> {
+    let n = s.len;
+    let tables = gpu.upload("turtle symbols", &bracket_tables(programs, ranges))?;
+    let mut enc = gpu.encoder();
+    let tree = brackets::record_match(gpu, &mut enc, &tables, &s.syms, n)?;
+    // The depth range, and the depth where each later system starts (it
+    // must start at depth 0: every system before it closed its brackets).
+    let mut reads = vec![(
+        &tree.levels,
+        tree.top_offset(),
+        *tree.lens.last().unwrap_or(&1),
+    )];
+    for &(start, _) in ranges.iter().skip(1) {
+        reads.push((&tree.levels, start.min(n), 1));
+    }
+    let got = gpu.read::<[i32; 2]>(enc, &reads)?;
+    let top = got.first().cloned().unwrap_or_default();
+    let dmin = top.iter().map(|v| v[0]).min().unwrap_or(0);
+    let dmax = top.iter().map(|v| v[1]).max().unwrap_or(0);
+    if dmin < 0 {
+        return Err(GpuError::UnbalancedBrackets { position: None });
+    }
+    if let Some(k) = got
+        .iter()
+        .skip(1)
+        .position(|v| v.first().is_some_and(|d| d[0] != 0))
+    {
+        return Err(GpuError::UnbalancedBrackets {
+            position: Some(ranges[k + 1].0 as usize),
+        });
+    }
+    Ok((tree, dmax as u64))
 }
 
 /// Bones and figures of one interpretation.
@@ -356,38 +407,22 @@ pub(crate) fn interpret_device(
             count: n,
         });
     }
-    // 1. Depths (and the depth range, the one early synchronisation).
-    let tables = gpu.upload("turtle symbols", &bracket_tables(programs, ranges))?;
-    let mut enc = gpu.encoder();
-    let tree = brackets::record_match(gpu, &mut enc, &tables, &s.syms, n)?;
-    // The depth range, and the depth where each later system starts (it
-    // must start at depth 0: every system before it closed its brackets).
-    let mut reads = vec![(
-        &tree.levels,
-        tree.top_offset(),
-        *tree.lens.last().unwrap_or(&1),
-    )];
-    for &(start, _) in ranges.iter().skip(1) {
-        reads.push((&tree.levels, start.min(n), 1));
-    }
-    let got = gpu.read::<[i32; 2]>(enc, &reads)?;
-    let top = got.first().cloned().unwrap_or_default();
-    let dmin = top.iter().map(|v| v[0]).min().unwrap_or(0);
-    let dmax = top.iter().map(|v| v[1]).max().unwrap_or(0);
-    if dmin < 0 {
-        return Err(GpuError::UnbalancedBrackets { position: None });
-    }
-    if let Some(k) = got
-        .iter()
-        .skip(1)
-        .position(|v| v.first().is_some_and(|d| d[0] != 0))
-    {
-        return Err(GpuError::UnbalancedBrackets {
-            position: Some(ranges[k + 1].0 as usize),
-        });
-    }
-    let dmax = dmax as u64;
+    // 1. Depths (and the depth range, the one early synchronisation). A
+    // string of systems without brackets is straight: depth 0 everywhere,
+    // already in depth order; nothing to match, read or sort.
+    let straight = !programs.iter().any(|p| p.has_brackets());
+    let tree = if straight {
+        None
+    } else {
+        Some(depths(gpu, programs, s, ranges)?)
+    };
+    let dmax = tree.as_ref().map_or(0, |t| t.1);
     out.max_depth = dmax as u32;
+    let unused = || gpu.storage("unused", 16);
+    let (levels, tree_bufs) = match tree {
+        Some((t, _)) => (t.levels, vec![t.mate, t.pairs]),
+        None => (unused()?, Vec::new()),
+    };
 
     // 2. Buffers.
     let chunk = (n * (dmax + 1)).div_ceil(HIST_BUDGET).max(32);
@@ -402,11 +437,19 @@ pub(crate) fn interpret_device(
         bstart: 0,
         args: (dmax + 2) as u32,
         max_groups: gpu.grid_width(),
+        straight: u32::from(straight),
+        ..TurtleParams::default()
     };
     let tsyms = gpu.upload("turtle commands", &turtle_tables(programs))?;
     let hist = gpu.storage("depth histogram", 4 * hist_len)?;
-    let order = gpu.storage("modules by depth", 4 * n)?;
-    let pos_of = gpu.storage("depth positions", 4 * n)?;
+    let (order, pos_of) = if straight {
+        (unused()?, unused()?)
+    } else {
+        (
+            gpu.storage("modules by depth", 4 * n)?,
+            gpu.storage("depth positions", 4 * n)?,
+        )
+    };
     let elems = gpu.storage(
         "turtle states",
         std::mem::size_of::<TurtleElem>() as u64 * n,
@@ -421,18 +464,8 @@ pub(crate) fn interpret_device(
                threads: u64| {
         let u = gpu.uniform("turtle params", p);
         let b = [
-            &u,
-            &s.syms,
-            &s.starts,
-            &s.params,
-            &tsyms,
-            &tree.levels,
-            &hist,
-            &order,
-            &pos_of,
-            &elems,
-            bones,
-            &aux,
+            &u, &s.syms, &s.starts, &s.params, &tsyms, &levels, &hist, &order, &pos_of, &elems,
+            bones, &aux,
         ];
         gpu.dispatch(enc, k, &b, groups_for(threads))
     };
@@ -443,27 +476,19 @@ pub(crate) fn interpret_device(
         };
         let u = gpu.uniform("turtle params", &p);
         let b = [
-            &u,
-            &s.syms,
-            &s.starts,
-            &s.params,
-            &tsyms,
-            &tree.levels,
-            &hist,
-            &order,
-            &pos_of,
-            &elems,
-            &no_bones,
-            &aux,
+            &u, &s.syms, &s.starts, &s.params, &tsyms, &levels, &hist, &order, &pos_of, &elems,
+            &no_bones, &aux,
         ];
         gpu.dispatch_indirect(enc, k, &b, &indirect, 12 * d)
     };
 
     // 3. Sort by depth, then scan or walk, then number the bones.
     let mut enc = gpu.encoder();
-    run(&mut enc, &kernels::DEPTH_HIST, &base, &no_bones, chunks + 1)?;
-    record_scan(gpu, &mut enc, ScanElem::U32, &hist, chunks * (dmax + 1) + 1)?;
-    run(&mut enc, &kernels::DEPTH_SCATTER, &base, &no_bones, chunks)?;
+    if !straight {
+        run(&mut enc, &kernels::DEPTH_HIST, &base, &no_bones, chunks + 1)?;
+        record_scan(gpu, &mut enc, ScanElem::U32, &hist, chunks * (dmax + 1) + 1)?;
+        run(&mut enc, &kernels::DEPTH_SCATTER, &base, &no_bones, chunks)?;
+    }
     run(&mut enc, &kernels::DEPTH_STARTS, &base, &no_bones, dmax + 2)?;
     enc.copy_buffer_to_buffer(
         &aux,
@@ -501,16 +526,7 @@ pub(crate) fn interpret_device(
     gpu.submit_wait(enc)?;
     out.elapsed = t0.elapsed();
     out.bone_count = count;
-    gpu.recycle([
-        hist,
-        order,
-        pos_of,
-        elems,
-        aux,
-        no_bones,
-        tree.mate,
-        tree.levels,
-        tree.pairs,
-    ]);
+    gpu.recycle([hist, order, pos_of, elems, aux, no_bones, levels]);
+    gpu.recycle(tree_bufs);
     Ok((bones, count, out))
 }

@@ -358,6 +358,13 @@ gpu_struct! {
         pub args: u32 => "u32",
         /// Workgroups per grid dimension.
         pub max_groups: u32 => "u32",
+        /// 1: no module is a bracket (depth 0 everywhere; the depth order
+        /// is the string order, so no depths are computed and nothing is
+        /// sorted).
+        pub straight: u32 => "u32",
+        pub pad0: u32 => "u32",
+        pub pad1: u32 => "u32",
+        pub pad2: u32 => "u32",
     }
 }
 

@@ -141,12 +141,33 @@ const ALL_TERMINALS: &str = "F(1) f(1) G(1) g(1) + - & ^ \\ / | [ ] !(1) ! '(1) 
     translate(1, 2, 3) rotate(vec3(0, 0, 1), 30) rotx(10) roty(10) rotz(10) scale(2) scale(1, 2, 3) \
     cylinder(1, 1) sphere(1) A B(1)";
 
+/// Every terminal but the brackets: straight strings (depth 0, in depth
+/// order already: interpreted without depths or a sort).
+fn straight_terminals() -> String {
+    ALL_TERMINALS.replace(" [ ]", "")
+}
+
 /// Random strings over every terminal: scanned (affine commands only) and
-/// walked (with `$`, `%` and tropism), against the CPU turtle.
+/// walked (with `$`, `%` and tropism), with brackets and without, against
+/// the CPU turtle.
 #[test]
 fn random_strings_match_the_cpu_turtle() {
     let g = gpu();
+    let straight = straight_terminals();
+    assert!(!straight.contains('[') && straight.len() < ALL_TERMINALS.len());
     let systems = [
+        (
+            format!("system S {{ angle = 30; width = 0.5; axiom {straight}; }}"),
+            false,
+            false,
+        ),
+        (
+            format!(
+                "system S {{ angle = 30; tropism = vec3(0.3, -1, 0); elasticity = 0.2; axiom {straight} $; }}"
+            ),
+            true,
+            false,
+        ),
         (
             format!("system S {{ angle = 30; width = 0.5; axiom {ALL_TERMINALS}; }}"),
             false,
@@ -177,6 +198,9 @@ fn random_strings_match_the_cpu_turtle() {
             let cpu = grm_turtle::interpret(sys, &c.settings, &string).expect("cpu interprets");
             let gpu = interpret(g, &prog, &string).expect("gpu interprets");
             compare(&format!("{src} #{k}"), &cpu, &gpu.bones);
+            if !prog.has_brackets() {
+                assert_eq!(gpu.max_depth, 0);
+            }
         }
     }
 }

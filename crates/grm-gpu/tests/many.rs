@@ -139,8 +139,9 @@ fn a_forest_is_interpreted_per_system() {
         .map(|(p, n, c)| grm_gpu::TurtleProgram::new(p.system(n).expect("system"), &c.settings))
         .collect();
     // All systems (branches walked: TernaryTreeD has tropism), then those
-    // without tropism (the segmented matrix scan).
-    for subset in [vec![0usize, 1, 2, 3, 4], vec![3, 0, 4, 2]] {
+    // without tropism (the segmented matrix scan), then a forest without
+    // brackets (straight: no depths, no sort; each system starts afresh).
+    for subset in [vec![0usize, 1, 2, 3, 4], vec![3, 0, 4, 2], vec![2]] {
         forest(g, &loaded, &programs, &subset);
     }
 }
