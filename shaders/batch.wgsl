@@ -15,8 +15,10 @@
 // dispatch is empty (the host re-runs the derivation iteration by
 // iteration).
 //
-// `args` layout, three words (x, y, 1) per dispatch: 0: count and rewrite
-// (n + 1 threads), 1 + l: scan level l, 1 + levels + l: add level l.
+// `args` layout, three words (x, y, 1) per dispatch: 0: rewrite (n + 1
+// threads), 1 + l: scan level l (level 0: `count_scan`, which counts and
+// scans each block of WORKGROUP modules), 1 + levels + l: add level l
+// (level 0 is never added: the kernels combine block sums themselves).
 // `sp`: level l's ScanParams at element l * B.sp_stride (a binding offset
 // must be aligned, so each level's record starts on its own boundary).
 
@@ -28,6 +30,9 @@
 @group(0) @binding(5) var<storage, read_write> sp: array<ScanParams>;
 @group(0) @binding(6) var<storage, read_write> args: array<u32>;
 @group(0) @binding(7) var<storage, read_write> hist: array<u32>;
+// The string's totals come from the block-local offsets and block sums of
+// `count_scan` (binding 8).
+//!include offsets_blocks.wgsl
 
 fn set_grid(slot: u32, groups: u32) {
     var x = groups;
@@ -46,7 +51,7 @@ fn batch_next() {
     // String k was just sized: its totals are the scan's last element
     // (for the axiom the host put them in counts[0], with dp.n = 0).
     let k = dp_in.iteration;
-    var t = counts[dp_in.n];
+    var t = out_offset(dp_in.n);
     hist[2u * k] = t.x;
     hist[2u * k + 1u] = t.y;
     if (hist[B.flag] != 0u || t.x > caps[k].x || t.y > caps[k].y) {
@@ -63,7 +68,10 @@ fn batch_next() {
     var len = threads;
     var need = true;
     for (var l = 0u; l < B.levels; l = l + 1u) {
-        let blocks = (len + SCAN_BLOCK - 1u) / SCAN_BLOCK;
+        // Level 0 (`count_scan`): blocks of WORKGROUP modules; above it,
+        // `scan_blocks` over SCAN_BLOCK block sums.
+        let per = select(SCAN_BLOCK, WORKGROUP, l == 0u);
+        let blocks = (len + per - 1u) / per;
         sp[l * B.sp_stride] = ScanParams(len, blocks, 0u, 0u);
         set_grid(1u + l, select(0u, blocks, need));
         need = need && blocks > 1u;

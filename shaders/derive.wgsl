@@ -37,6 +37,10 @@
 @group(0) @binding(9) var<storage, read_write> out_starts: array<u32>;
 @group(0) @binding(10) var<storage, read_write> out_params: array<f32>;
 @group(0) @binding(11) var<storage, read_write> status: array<atomic<u32>, STATUS_WORDS>;
+// `out_offset(i)`: module i's output offsets (modules, parameter words),
+// from `counts` alone (offsets_global.wgsl) or from block-local offsets and
+// block sums (offsets_blocks.wgsl, the batched kernels' binding 12).
+//!include OFFSETS
 //!include generated_tables
 //!include vm.wgsl
 
@@ -327,6 +331,22 @@ fn report(slot: u32, i: u32, kind: u32) {
     atomicOr(&status[slot * 2u + 1u], kind);
 }
 
+// Decide module i's production (recorded in `choice`, errors reported)
+// and return its output size: (modules, parameter words).
+fn count_one(i: u32) -> vec2<u32> {
+    select_system(in_syms[i] >> SYS_SHIFT);
+    let dec = decide(i);
+    if (dec.err != 0u) {
+        report(0u, i, dec.err);
+    }
+    choice[i] = dec.alt;
+    if (dec.alt == COPY) {
+        return vec2<u32>(1u, in_starts[i + 1u] - in_starts[i]);
+    }
+    let a = alt_at(dec.alt);
+    return vec2<u32>(a.succ_len, a.succ_words);
+}
+
 @compute @workgroup_size(WORKGROUP)
 fn count(
     @builtin(workgroup_id) wid: vec3<u32>,
@@ -342,18 +362,7 @@ fn count(
         counts[i] = vec2<u32>(0u, 0u);
         return;
     }
-    select_system(in_syms[i] >> SYS_SHIFT);
-    let dec = decide(i);
-    if (dec.err != 0u) {
-        report(0u, i, dec.err);
-    }
-    choice[i] = dec.alt;
-    if (dec.alt == COPY) {
-        counts[i] = vec2<u32>(1u, in_starts[i + 1u] - in_starts[i]);
-    } else {
-        let a = alt_at(dec.alt);
-        counts[i] = vec2<u32>(a.succ_len, a.succ_words);
-    }
+    counts[i] = count_one(i);
 }
 
 @compute @workgroup_size(WORKGROUP)
@@ -369,13 +378,13 @@ fn rewrite(
     if (i == P.n) {
         // The thread after the last module: the last start is the total
         // of parameter words (the scan's totals are at n).
-        let t = counts[i];
+        let t = out_offset(i);
         out_starts[t.x] = t.y;
         return;
     }
     // The axiom: one thread per system writes its axiom at the offsets the
     // host put in `counts`.
-    let off = counts[i];
+    let off = out_offset(i);
     var o = off.x;
     var wo = off.y;
     var alt = 0u;
@@ -465,9 +474,9 @@ fn rewrite_out(
     let base = wg_linear(wid, nwg) * WORKGROUP;
     let end = min(base + WORKGROUP, P.n);
     let first = min(base, P.n);
-    wg_off[lid] = counts[min(first + lid, end)].x;
+    wg_off[lid] = out_offset(min(first + lid, end)).x;
     if (lid == 0u) {
-        wg_off[WORKGROUP] = counts[end].x;
+        wg_off[WORKGROUP] = out_offset(end).x;
     }
     var selected = false;
     if (base + lid < end) {
@@ -477,7 +486,7 @@ fn rewrite_out(
         selected = true;
         let alt = choice[i];
         wg_alt[lid] = alt;
-        wg_wo[lid] = counts[i].y;
+        wg_wo[lid] = out_offset(i).y;
         wg_sys[lid] = sid;
         if (alt != COPY) {
             let a = alt_at(alt);
@@ -493,7 +502,7 @@ fn rewrite_out(
     workgroupBarrier();
     if (base + lid == P.n) {
         // The last start is the total of parameter words.
-        let t = counts[P.n];
+        let t = out_offset(P.n);
         out_starts[t.x] = t.y;
     }
     if (base >= P.n) {

@@ -1,12 +1,13 @@
 // After each rewrite: every system's range in the new string, from the
-// scanned output offsets (`counts` holds each input module's output offset
-// and the total at n): a range [start, end) of the input maps to
-// [counts[start].x, counts[end].x).
+// scanned output offsets (`out_offset`: each input module's output offset,
+// the total at n): a range [start, end) of the input maps to
+// [out_offset(start).x, out_offset(end).x).
 //!include grid.wgsl
 
 @group(0) @binding(0) var<PARAM_SPACE> P: DeriveParams;
 @group(0) @binding(1) var<storage, read_write> tables: array<u32>;
 @group(0) @binding(2) var<storage, read> counts: array<vec2<u32>>;
+//!include OFFSETS
 //!include generated_tables
 //!include generated_directory_store
 
@@ -21,7 +22,7 @@ fn update_directory(
         return;
     }
     var e = load_SystemEntry(s * SYSTEM_ENTRY_WORDS);
-    e.start = counts[e.start].x;
-    e.end = counts[e.end].x;
+    e.start = out_offset(e.start).x;
+    e.end = out_offset(e.end).x;
     store_SystemEntry(s * SYSTEM_ENTRY_WORDS, e);
 }

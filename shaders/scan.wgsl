@@ -13,14 +13,13 @@
 // atomics.
 //!include grid.wgsl
 //!include SCAN_OP
+//!include wg_scan.wgsl
 
 // PARAM_SPACE: `uniform` (parameters from the host) or `storage, read`
 // (written on the device by `batch_next`).
 @group(0) @binding(0) var<PARAM_SPACE> P: ScanParams;
 @group(0) @binding(1) var<storage, read_write> data: array<ELEM>;
 @group(0) @binding(2) var<storage, read_write> sums: array<ELEM>;
-
-var<workgroup> tmp: array<ELEM, WORKGROUP>;
 
 @compute @workgroup_size(WORKGROUP)
 fn scan_blocks(
@@ -48,28 +47,14 @@ fn scan_blocks(
             s = scan_combine(s, x);
         }
     }
-    tmp[lid] = s;
-    workgroupBarrier();
-    for (var off = 1u; off < WORKGROUP; off = off << 1u) {
-        var t = scan_identity();
-        if (lid >= off) {
-            t = tmp[lid - off];
-        }
-        workgroupBarrier();
-        tmp[lid] = scan_combine(t, tmp[lid]);
-        workgroupBarrier();
-    }
-    var excl = scan_identity();
-    if (lid > 0u) {
-        excl = tmp[lid - 1u];
-    }
+    let excl = wg_scan_exclusive(lid, s);
     for (var i = 0u; i < SCAN_PER_THREAD; i = i + 1u) {
         if (base + i < P.n) {
             data[base + i] = scan_combine(excl, v[i]);
         }
     }
     if (lid == WORKGROUP - 1u) {
-        sums[block] = tmp[lid];
+        sums[block] = wg_scan_total();
     }
 }
 

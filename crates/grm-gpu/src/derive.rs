@@ -825,6 +825,7 @@ impl<'a> GpuSystem<'a> {
                     (&sp, 0, None),
                     (&args, arg_half * out as u64, Some(arg_half)),
                     (&hist, 0, None),
+                    (&sums[0], 0, None),
                 ],
             )
         };
@@ -848,37 +849,42 @@ impl<'a> GpuSystem<'a> {
                         &o.starts,
                         &o.params,
                         &status,
+                        &sums[0],
                     ],
                 )
             };
+        // Count and scan level 0 in one kernel: `counts` gets the offsets
+        // within each block, `sums[0]` the blocks' totals; the levels
+        // above scan those, and the readers combine the two
+        // (shaders/offsets_blocks.wgsl), so level 0 is never added.
         let count = [
-            derive_bound(&kernels::COUNT_DEV, 0)?,
-            derive_bound(&kernels::COUNT_DEV, 1)?,
+            derive_bound(&kernels::COUNT_SCAN_DEV, 0)?,
+            derive_bound(&kernels::COUNT_SCAN_DEV, 1)?,
         ];
         let rewrite = [
             derive_bound(&kernels::REWRITE_OUT_DEV, 0)?,
             derive_bound(&kernels::REWRITE_OUT_DEV, 1)?,
         ];
+        // Levels 1 and up (level l scans level l - 1's block sums).
         let mut scans = Vec::with_capacity(nlev);
         let mut adds = Vec::with_capacity(nlev);
-        for l in 0..nlev {
-            let data = if l == 0 { &counts } else { &sums[l - 1] };
+        for l in 1..nlev {
             let b = [
                 (&sp, sp_stride * l as u64, Some(16)),
-                (data, 0, None),
+                (&sums[l - 1], 0, None),
                 (&sums[l], 0, None),
             ];
-            scans.push(gpu.bound_ranges(&kernels::SCAN_U32X2_DEV, &b)?);
-            adds.push(gpu.bound_ranges(&kernels::ADD_U32X2_DEV, &b)?);
+            scans.push((l, gpu.bound_ranges(&kernels::SCAN_U32X2_DEV, &b)?));
+            adds.push((l, gpu.bound_ranges(&kernels::ADD_U32X2_DEV, &b)?));
         }
         let directory = [
             gpu.bound(
                 &kernels::UPDATE_DIRECTORY_DEV,
-                &[&dp[0], &self.tables, &counts],
+                &[&dp[0], &self.tables, &counts, &sums[0]],
             )?,
             gpu.bound(
                 &kernels::UPDATE_DIRECTORY_DEV,
-                &[&dp[1], &self.tables, &counts],
+                &[&dp[1], &self.tables, &counts, &sums[0]],
             )?,
         ];
         let dir_grid = gpu.grid("update directory", groups_for(self.jobs.len() as u64))?;
@@ -921,12 +927,13 @@ impl<'a> GpuSystem<'a> {
             // `batch_next` gives the others empty grids, so they are
             // not recorded (an empty dispatch still costs a barrier).
             let lev = scan_levels(plan.bounds[k - 1].0).len().min(nlev);
-            count[p].dispatch_indirect(&mut pass, &args, a);
+            // Level 0's grid (one workgroup per block of SCAN_BLOCK).
+            count[p].dispatch_indirect(&mut pass, &args, a + 12);
             stage(&mut pass, 0);
-            for (l, sc) in scans.iter().enumerate().take(lev) {
-                sc.dispatch_indirect(&mut pass, &args, a + 12 * (1 + l as u64));
+            for (l, sc) in scans.iter().take(lev - 1) {
+                sc.dispatch_indirect(&mut pass, &args, a + 12 * (1 + *l as u64));
             }
-            for (l, ad) in adds.iter().enumerate().take(lev - 1).rev() {
+            for (l, ad) in adds.iter().take(lev.saturating_sub(2)).rev() {
                 ad.dispatch_indirect(&mut pass, &args, a + 12 * (1 + (nlev + l) as u64));
             }
             stage(&mut pass, 1);
@@ -1512,13 +1519,21 @@ struct BatchPlan {
     levels: Vec<u64>,
 }
 
-/// Blocks of each level of the scan of the counts of `n` input modules
-/// (`n + 1` elements), down to the level of one block.
+/// Blocks of each level of a batched iteration's scan of the counts of
+/// `n` input modules (`n + 1` elements), down to the level of one block:
+/// level 0 is `count_scan`'s (one block per workgroup), the levels above
+/// scan block sums [`SCAN_BLOCK`] at a time (shaders/batch.wgsl sizes them
+/// the same way).
 fn scan_levels(n: u64) -> Vec<u64> {
     let mut levels = Vec::new();
     let mut len = n + 1;
     loop {
-        let blocks = len.div_ceil(u64::from(SCAN_BLOCK));
+        let per = if levels.is_empty() {
+            u64::from(crate::device::WORKGROUP)
+        } else {
+            u64::from(SCAN_BLOCK)
+        };
+        let blocks = len.div_ceil(per);
         levels.push(blocks);
         if blocks <= 1 {
             break;

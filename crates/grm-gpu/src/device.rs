@@ -21,8 +21,9 @@ const MIN_BUFFER: u64 = 256;
 /// The most device memory the buffer pool keeps between uses.
 pub const POOL_BYTES: u64 = 2 << 30;
 
-/// Storage buffers the largest kernel binds (`shaders/derive.wgsl`).
-pub const MIN_STORAGE_BUFFERS: u32 = 11;
+/// Storage buffers the largest kernel binds (`shaders/count_scan.wgsl`
+/// and the batched `rewrite_out`: 13 with their parameters).
+pub const MIN_STORAGE_BUFFERS: u32 = 13;
 
 /// The shared GPU: adapter facts, device, queue, compiled pipelines.
 #[derive(Debug)]

@@ -11,6 +11,16 @@ const HOST_PARAMS: (&str, &str) = ("PARAM_SPACE", "uniform");
 /// no copy between iterations). The `_DEV` kernels are these variants.
 const DEVICE_PARAMS: (&str, &str) = ("PARAM_SPACE", "storage, read");
 
+/// `OFFSETS` of `derive.wgsl` and `directory.wgsl`: output offsets read
+/// from fully scanned counts (the per-iteration path) ...
+const GLOBAL_OFFSETS: (&str, &str) = ("OFFSETS", "offsets_global.wgsl");
+/// ... or from block-local offsets and block sums (`count_scan`, the
+/// batched kernels), with `block_sums` at the kernel's binding 12.
+const BLOCK_OFFSETS: (&str, &str) = ("OFFSETS", "offsets_blocks.wgsl");
+/// The scan operator's element in the kernels that include
+/// `offsets_blocks.wgsl` (saturating sums of pairs).
+const PAIRS: (&str, &str) = ("ELEM", "vec2<u32>");
+
 const SCAN_BINDS: &[Bind] = &[Bind::Uniform, Bind::ReadWrite, Bind::ReadWrite];
 
 pub static SCAN_U32: Kernel = Kernel {
@@ -105,21 +115,21 @@ pub static COUNT: Kernel = Kernel {
     file: "derive.wgsl",
     entry: "count",
     bindings: DERIVE_BINDS,
-    subst: &[HOST_PARAMS],
+    subst: &[HOST_PARAMS, GLOBAL_OFFSETS],
 };
 pub static REWRITE: Kernel = Kernel {
     name: "rewrite",
     file: "derive.wgsl",
     entry: "rewrite",
     bindings: DERIVE_BINDS,
-    subst: &[HOST_PARAMS],
+    subst: &[HOST_PARAMS, GLOBAL_OFFSETS],
 };
 pub static REWRITE_OUT: Kernel = Kernel {
     name: "rewrite_out",
     file: "derive.wgsl",
     entry: "rewrite_out",
     bindings: DERIVE_BINDS,
-    subst: &[HOST_PARAMS],
+    subst: &[HOST_PARAMS, GLOBAL_OFFSETS],
 };
 
 const DERIVE_DEV_BINDS: &[Bind] = &[
@@ -135,23 +145,36 @@ const DERIVE_DEV_BINDS: &[Bind] = &[
     Bind::ReadWrite,
     Bind::ReadWrite,
     Bind::ReadWrite,
+    Bind::ReadWrite,
 ];
 
-/// [`COUNT`] with its parameters written on the device (batched).
-pub static COUNT_DEV: Kernel = Kernel {
-    name: "count_dev",
-    file: "derive.wgsl",
-    entry: "count",
+/// The batched derivation's count and first scan level in one dispatch
+/// (`count_scan.wgsl`), parameters written on the device.
+pub static COUNT_SCAN_DEV: Kernel = Kernel {
+    name: "count_scan_dev",
+    file: "count_scan.wgsl",
+    entry: "count_scan",
     bindings: DERIVE_DEV_BINDS,
-    subst: &[DEVICE_PARAMS],
+    subst: &[
+        DEVICE_PARAMS,
+        BLOCK_OFFSETS,
+        ("BLOCK_SUMS_BINDING", "12"),
+        PAIRS,
+    ],
 };
-/// [`REWRITE_OUT`] with its parameters written on the device (batched).
+/// [`REWRITE_OUT`] with its parameters written on the device and its
+/// offsets from [`COUNT_SCAN_DEV`]'s blocks (batched).
 pub static REWRITE_OUT_DEV: Kernel = Kernel {
     name: "rewrite_out_dev",
     file: "derive.wgsl",
     entry: "rewrite_out",
     bindings: DERIVE_DEV_BINDS,
-    subst: &[DEVICE_PARAMS],
+    subst: &[
+        DEVICE_PARAMS,
+        BLOCK_OFFSETS,
+        ("BLOCK_SUMS_BINDING", "12"),
+        PAIRS,
+    ],
 };
 
 const BRACKET_BINDS: &[Bind] = &[
@@ -260,15 +283,20 @@ pub static UPDATE_DIRECTORY: Kernel = Kernel {
     file: "directory.wgsl",
     entry: "update_directory",
     bindings: &[Bind::Uniform, Bind::ReadWrite, Bind::Read],
-    subst: &[HOST_PARAMS],
+    subst: &[HOST_PARAMS, GLOBAL_OFFSETS],
 };
 /// [`UPDATE_DIRECTORY`] with its parameters written on the device.
 pub static UPDATE_DIRECTORY_DEV: Kernel = Kernel {
     name: "update_directory_dev",
     file: "directory.wgsl",
     entry: "update_directory",
-    bindings: &[Bind::Read, Bind::ReadWrite, Bind::Read],
-    subst: &[DEVICE_PARAMS],
+    bindings: &[Bind::Read, Bind::ReadWrite, Bind::Read, Bind::ReadWrite],
+    subst: &[
+        DEVICE_PARAMS,
+        BLOCK_OFFSETS,
+        ("BLOCK_SUMS_BINDING", "3"),
+        PAIRS,
+    ],
 };
 
 pub static BATCH_NEXT: Kernel = Kernel {
@@ -284,8 +312,9 @@ pub static BATCH_NEXT: Kernel = Kernel {
         Bind::ReadWrite,
         Bind::ReadWrite,
         Bind::ReadWrite,
+        Bind::ReadWrite,
     ],
-    subst: &[],
+    subst: &[("BLOCK_SUMS_BINDING", "8"), PAIRS],
 };
 
 /// All kernels.
@@ -300,7 +329,7 @@ pub static ALL: &[&Kernel] = &[
     &COUNT,
     &REWRITE,
     &REWRITE_OUT,
-    &COUNT_DEV,
+    &COUNT_SCAN_DEV,
     &REWRITE_OUT_DEV,
     &BRACKET_FLAGS,
     &BRACKET_DEPTH,

@@ -32,6 +32,10 @@ pub const FILES: &[(&str, &str)] = shader_files!(
     "turtle_scan.wgsl",
     "directory.wgsl",
     "batch.wgsl",
+    "wg_scan.wgsl",
+    "offsets_global.wgsl",
+    "offsets_blocks.wgsl",
+    "count_scan.wgsl",
 );
 
 /// How a kernel binds a buffer (binding index = position in the list).

@@ -172,3 +172,24 @@ fn a_bound_over_a_limit_falls_back_to_per_iteration() {
     );
     assert_eq!(ea, eb);
 }
+
+/// An input of more than SCAN_BLOCK^2 = 1,048,576 modules: three scan
+/// levels (the fused count and first level, two levels of block sums and
+/// an add), against the CPU, batched.
+#[test]
+fn an_input_past_a_million_modules_scans_three_levels() {
+    let g = gpu();
+    let sys = inline("system S { axiom A(0); A(x) -> A(x + 1) B(x * 2); B(x) -> A(x - 1); }")
+        .expect("checks");
+    // Fibonacci lengths: string 29 has 1,346,269 modules, string 30
+    // 2,178,309.
+    let o = GpuDeriveOptions {
+        max_modules: 4_000_000,
+        ..opts(&sys, 30, 0)
+    };
+    let (d, path) = derive_with(g, &sys, &o, DeriveStrategy::Auto).expect("derives");
+    assert_eq!(path, DerivePath::Batched);
+    assert_eq!(d.stats[29].modules, 1_346_269);
+    let cpu = cpu_derive(&sys, 30, 0).expect("cpu derives");
+    assert_same("fibonacci 30", &cpu, &d.string);
+}
