@@ -16,7 +16,9 @@ use std::time::Duration;
 
 use crate::device::{Gpu, Timestamps};
 
-/// The kernels of one batched iteration, in dispatch order, as stamped.
+/// The kernels of one batched iteration, in dispatch order, as stamped:
+/// "count" is `count_scan` (the count and the scan's first level), "scan"
+/// the levels above it.
 pub const KERNEL_STAGES: [&str; 5] = ["count", "scan", "next", "rewrite", "directory"];
 
 /// Device time of one iteration: the whole pass, and each stage when the
