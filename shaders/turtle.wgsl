@@ -31,6 +31,7 @@
 // learn the depth range. No atomics.
 //!include grid.wgsl
 //!include turtle_scan.wgsl
+//!include wg_scan.wgsl
 
 @group(0) @binding(0) var<uniform> T: TurtleParams;
 @group(0) @binding(1) var<storage, read> syms: array<u32>;
@@ -446,7 +447,11 @@ fn turtle_walk(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) n
 // ---- 4. bones
 
 fn is_bone(i: u32) -> bool {
-    return op_of(i).op == TOP_FORWARD && (elems[pos_at(i)].seg & SEG_DEAD) == 0u;
+    if (op_of(i).op != TOP_FORWARD) {
+        return false;
+    }
+    // Only a walk cuts (`%`); the fused scan keeps no per-module states.
+    return T.fused != 0u || (elems[pos_at(i)].seg & SEG_DEAD) == 0u;
 }
 
 // hist[i] = 1 for every live `F`/`G` (and 0 at i = n), to be scanned into
@@ -460,14 +465,9 @@ fn bone_flags(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nw
     hist[i] = select(0u, 1u, i < T.n && is_bone(i));
 }
 
-@compute @workgroup_size(WORKGROUP)
-fn bones_write(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
-    let i = tid(wid, nwg, lid);
-    if (i >= T.n || !is_bone(i)) {
-        return;
-    }
+// Write module i's bone from the turtle state `st` before it.
+fn write_bone(i: u32, st: TurtleElem) {
     CFG = config_of(sys_of(i));
-    let st = elems[pos_at(i)];
     let m = elem_mat(st);
     let base = elem_t(st);
     let tip = base + m[1] * arg(i, 0u, CFG.step);
@@ -478,4 +478,101 @@ fn bones_write(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) n
         parent = hist[st.bone];
     }
     bones[hist[i]] = GpuBone(base.x, base.y, base.z, tip.x, tip.y, tip.z, left.x, left.y, left.z, w, parent, i);
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn bones_write(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let i = tid(wid, nwg, lid);
+    if (i >= T.n || !is_bone(i)) {
+        return;
+    }
+    write_bone(i, elems[pos_at(i)]);
+}
+
+// ---- 3c. straight linear strings: the matrix scan fused (T.fused)
+//
+// Without brackets and with affine commands only, each system is one
+// segment in string order, and the state before a module is the initial
+// state composed with the transforms of the modules before it in its
+// system: Lipp's matrix scan (5.3.1) as reduce, scan, re-scan. No
+// per-module state is stored: `straight_reduce` writes each block's
+// composition (SCAN_BLOCK modules) to elems[block], the host scans those
+// (scan.wgsl, inclusive, segmented), and `straight_bones` scans each block
+// again from its block's prefix and writes the bones at once (their
+// indices from the scanned bone flags in `hist`).
+
+// The scan's input at module i (as `turtle_elems` puts it at position i of
+// the depth order): a segment start at a system's first module, else the
+// transform of module i - 1.
+fn scan_input(i: u32) -> TurtleElem {
+    if (seg_start(i)) {
+        var e = scan_identity();
+        e.seg = SEG_START | i;
+        return e;
+    }
+    var e = module_elem(i - 1u);
+    e.seg = 0u;
+    return e;
+}
+
+// The composition of this thread's SCAN_PER_THREAD modules of `block`.
+fn thread_total(block: u32, lid: u32) -> TurtleElem {
+    let first = block * SCAN_BLOCK + lid * SCAN_PER_THREAD;
+    var s = scan_identity();
+    for (var j = 0u; j < SCAN_PER_THREAD; j = j + 1u) {
+        if (first + j < T.n) {
+            s = scan_combine(s, scan_input(first + j));
+        }
+    }
+    return s;
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn straight_reduce(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let block = wg_linear(wid, nwg);
+    if (block >= T.blocks) {
+        return;
+    }
+    let s = thread_total(block, lid);
+    let before = wg_scan_exclusive(lid, s);
+    if (lid == WORKGROUP - 1u) {
+        elems[block] = scan_combine(before, s);
+    }
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn straight_bones(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let block = wg_linear(wid, nwg);
+    if (block >= T.blocks) {
+        return;
+    }
+    // This thread's modules: their scan inputs, kept (as scan_blocks keeps
+    // its elements) rather than computed again after the workgroup scan.
+    let first = block * SCAN_BLOCK + lid * SCAN_PER_THREAD;
+    var v: array<TurtleElem, SCAN_PER_THREAD>;
+    var s = scan_identity();
+    for (var j = 0u; j < SCAN_PER_THREAD; j = j + 1u) {
+        if (first + j < T.n) {
+            v[j] = scan_input(first + j);
+            s = scan_combine(s, v[j]);
+        }
+    }
+    let before = wg_scan_exclusive(lid, s);
+    // elems[] is the inclusive scan of the block totals.
+    var acc = scan_identity();
+    if (block > 0u) {
+        acc = elems[block - 1u];
+    }
+    acc = scan_combine(acc, before);
+    for (var j = 0u; j < SCAN_PER_THREAD; j = j + 1u) {
+        let i = first + j;
+        if (i >= T.n) {
+            break;
+        }
+        // The state before module i, relative to its system's start.
+        acc = scan_combine(acc, v[j]);
+        if (op_of(i).op == TOP_FORWARD) {
+            write_bone(i, compose(base_state(acc.seg & SEG_INDEX), acc));
+        }
+    }
 }

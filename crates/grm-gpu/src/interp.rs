@@ -27,8 +27,8 @@ use crate::device::{Gpu, groups_for};
 use crate::error::GpuError;
 use crate::kernels;
 use crate::layout::{
-    GpuBone, SEG_INDEX, SystemEntry, TurtleConfig as GpuTurtleConfig, TurtleElem, TurtleParams,
-    TurtleSym,
+    GpuBone, SCAN_BLOCK, SEG_INDEX, SystemEntry, TurtleConfig as GpuTurtleConfig, TurtleElem,
+    TurtleParams, TurtleSym,
 };
 use crate::scan::{ScanElem, record_scan};
 
@@ -316,6 +316,9 @@ pub struct GpuInterpretation {
     pub max_depth: u32,
     /// Whether branches were walked (else scanned).
     pub walked: bool,
+    /// Whether the matrix scan was fused (a straight string of affine
+    /// commands: no per-module states stored).
+    pub fused: bool,
     /// Wall time on the host, including the synchronisations, without
     /// reading the bones back.
     pub elapsed: Duration,
@@ -396,6 +399,7 @@ pub(crate) fn interpret_device(
         bone_count: 0,
         max_depth: 0,
         walked,
+        fused: false,
         elapsed: Duration::ZERO,
     };
     if n == 0 {
@@ -424,7 +428,12 @@ pub(crate) fn interpret_device(
         None => (unused()?, Vec::new()),
     };
 
-    // 2. Buffers.
+    // 2. Buffers. A straight string of affine commands keeps one turtle
+    // state per block of SCAN_BLOCK modules, not one per module (the
+    // fused matrix scan, shaders/turtle.wgsl 3c).
+    let fused = straight && !walked;
+    out.fused = fused;
+    let blocks = n.div_ceil(u64::from(SCAN_BLOCK));
     let chunk = (n * (dmax + 1)).div_ceil(HIST_BUDGET).max(32);
     let chunks = n.div_ceil(chunk);
     let hist_len = (chunks * (dmax + 1) + 1).max(n + 1);
@@ -438,6 +447,8 @@ pub(crate) fn interpret_device(
         args: (dmax + 2) as u32,
         max_groups: gpu.grid_width(),
         straight: u32::from(straight),
+        fused: u32::from(fused),
+        blocks: blocks as u32,
         ..TurtleParams::default()
     };
     let tsyms = gpu.upload("turtle commands", &turtle_tables(programs))?;
@@ -452,7 +463,7 @@ pub(crate) fn interpret_device(
     };
     let elems = gpu.storage(
         "turtle states",
-        std::mem::size_of::<TurtleElem>() as u64 * n,
+        std::mem::size_of::<TurtleElem>() as u64 * if fused { blocks } else { n },
     )?;
     let aux = gpu.storage("depth buckets", 4 * ((dmax + 2) + 3 * (dmax + 1)))?;
     let indirect = gpu.indirect("round dispatches", 12 * (dmax + 1))?;
@@ -482,26 +493,41 @@ pub(crate) fn interpret_device(
         gpu.dispatch_indirect(enc, k, &b, &indirect, 12 * d)
     };
 
-    // 3. Sort by depth, then scan or walk, then number the bones.
+    // 3. Sort by depth, then scan or walk, then number the bones; or, for
+    // a straight string of affine commands, reduce the blocks, scan the
+    // block totals and number the bones (the bones are written with the
+    // second pass over the blocks, in step 4).
     let mut enc = gpu.encoder();
-    if !straight {
+    let wg = u64::from(crate::device::WORKGROUP);
+    if fused {
+        run(
+            &mut enc,
+            &kernels::STRAIGHT_REDUCE,
+            &base,
+            &no_bones,
+            blocks * wg,
+        )?;
+        record_scan(gpu, &mut enc, ScanElem::Turtle, &elems, blocks)?;
+    } else if !straight {
         run(&mut enc, &kernels::DEPTH_HIST, &base, &no_bones, chunks + 1)?;
         record_scan(gpu, &mut enc, ScanElem::U32, &hist, chunks * (dmax + 1) + 1)?;
         run(&mut enc, &kernels::DEPTH_SCATTER, &base, &no_bones, chunks)?;
     }
-    run(&mut enc, &kernels::DEPTH_STARTS, &base, &no_bones, dmax + 2)?;
-    enc.copy_buffer_to_buffer(
-        &aux,
-        4 * u64::from(base.args),
-        &indirect,
-        0,
-        Some(12 * (dmax + 1)),
-    );
+    if !fused {
+        run(&mut enc, &kernels::DEPTH_STARTS, &base, &no_bones, dmax + 2)?;
+        enc.copy_buffer_to_buffer(
+            &aux,
+            4 * u64::from(base.args),
+            &indirect,
+            0,
+            Some(12 * (dmax + 1)),
+        );
+    }
     if walked {
         for d in 0..=dmax {
             round(&mut enc, &kernels::TURTLE_WALK, d)?;
         }
-    } else {
+    } else if !fused {
         run(&mut enc, &kernels::TURTLE_ELEMS, &base, &no_bones, n)?;
         record_scan(gpu, &mut enc, ScanElem::Turtle, &elems, n)?;
         for d in 0..=dmax {
@@ -522,7 +548,17 @@ pub(crate) fn interpret_device(
     // 4. The bones.
     let bones = gpu.storage("bones", std::mem::size_of::<GpuBone>() as u64 * count)?;
     let mut enc = gpu.encoder();
-    run(&mut enc, &kernels::BONES_WRITE, &base, &bones, n)?;
+    if fused {
+        run(
+            &mut enc,
+            &kernels::STRAIGHT_BONES,
+            &base,
+            &bones,
+            blocks * wg,
+        )?;
+    } else {
+        run(&mut enc, &kernels::BONES_WRITE, &base, &bones, n)?;
+    }
     gpu.submit_wait(enc)?;
     out.elapsed = t0.elapsed();
     out.bone_count = count;

@@ -261,7 +261,8 @@ macro_rules! turtle_kernels {
                 file: "turtle.wgsl",
                 entry: $entry,
                 bindings: TURTLE_BINDS,
-                subst: &[],
+                // wg_scan.wgsl's element: turtle transforms.
+                subst: &[("ELEM", "TurtleElem")],
             };
         )*
     };
@@ -276,6 +277,8 @@ turtle_kernels! {
     TURTLE_WALK = "turtle_walk",
     BONE_FLAGS = "bone_flags",
     BONES_WRITE = "bones_write",
+    STRAIGHT_REDUCE = "straight_reduce",
+    STRAIGHT_BONES = "straight_bones",
 }
 
 pub static UPDATE_DIRECTORY: Kernel = Kernel {
@@ -345,6 +348,8 @@ pub static ALL: &[&Kernel] = &[
     &TURTLE_WALK,
     &BONE_FLAGS,
     &BONES_WRITE,
+    &STRAIGHT_REDUCE,
+    &STRAIGHT_BONES,
     &UPDATE_DIRECTORY,
     &UPDATE_DIRECTORY_DEV,
     &BATCH_NEXT,

@@ -362,9 +362,13 @@ gpu_struct! {
         /// is the string order, so no depths are computed and nothing is
         /// sorted).
         pub straight: u32 => "u32",
+        /// 1: straight and every command affine: the matrix scan is fused
+        /// (`straight_reduce`, a scan of block totals, `straight_bones`;
+        /// `elems` then holds one element per block, not per module).
+        pub fused: u32 => "u32",
+        /// Blocks of `SCAN_BLOCK` modules (fused).
+        pub blocks: u32 => "u32",
         pub pad0: u32 => "u32",
-        pub pad1: u32 => "u32",
-        pub pad2: u32 => "u32",
     }
 }
 

@@ -73,6 +73,10 @@ fn example_scenes_match_the_cpu_turtle() {
         assert_eq!(prog.walks(), walks, "{file}");
         let gpu = interpret(g, &prog, &string).expect("gpu interprets");
         assert!(!cpu.bones.is_empty());
+        assert_eq!(gpu.fused, !prog.has_brackets() && !walks, "{file}");
+        if matches!(file, "hilbert3d.grm" | "koch_island.grm") {
+            assert!(gpu.fused, "{file}: Lipp's straight scenes");
+        }
         compare(&format!("{file} {name}"), &cpu, &gpu.bones);
     }
 }
@@ -201,6 +205,8 @@ fn random_strings_match_the_cpu_turtle() {
             if !prog.has_brackets() {
                 assert_eq!(gpu.max_depth, 0);
             }
+            // Straight strings of affine commands take the fused scan.
+            assert_eq!(gpu.fused, !prog.has_brackets() && !walks, "{src}");
         }
     }
 }
