@@ -90,6 +90,8 @@ pub struct SceneReport {
     pub bones: u64,
     pub depth: u32,
     pub walked: bool,
+    /// The matrix scan was fused (a straight string of affine commands).
+    pub fused: bool,
     pub gpu_interpret: Duration,
     pub cpu_interpret: Option<Duration>,
     pub readback: Duration,
@@ -271,6 +273,7 @@ pub fn bench_scene(
         bones: interp.bone_count,
         depth: interp.max_depth,
         walked: interp.walked,
+        fused: interp.fused,
         gpu_interpret: best_interp,
         cpu_interpret,
         readback: warm.readback_elapsed,
@@ -463,6 +466,8 @@ impl SceneReport {
             self.depth,
             if self.walked {
                 "branches walked"
+            } else if self.fused {
+                "matrix scan, fused (no brackets)"
             } else {
                 "matrix scan"
             },

@@ -19,6 +19,10 @@
 //!   loss. Dispatches of more than `max_compute_workgroups_per_dimension`
 //!   workgroups are split over a 2D grid.
 //! - No atomics on the hot path: every pass is count / scan / write.
+//! - The derived string does not depend on who derives a step: the first,
+//!   small strings are derived on the CPU by default
+//!   ([`GpuDeriveOptions::cpu_prefix`]) and the GPU goes on from the CPU's
+//!   string; every result and error is the GPU-only derivation's.
 //! - Constants and struct layouts shared with WGSL are defined in Rust and
 //!   emitted as a generated header ([`layout::wgsl_header`]); tests check
 //!   both sides with naga.
