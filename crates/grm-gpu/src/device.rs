@@ -658,15 +658,7 @@ impl Gpu {
         what: &'static str,
         bytes: u64,
     ) -> Result<wgpu::Buffer, GpuError> {
-        self.check_storage(what, bytes)?;
-        let size = bytes.max(MIN_BUFFER).next_multiple_of(4);
-        self.creating(size);
-        Ok(self.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some(what),
-            size,
-            usage: wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        }))
+        self.indirect_with(what, bytes, wgpu::BufferUsages::COPY_DST)
     }
 
     /// A zeroed storage buffer that is also read as indirect dispatch
@@ -677,16 +669,23 @@ impl Gpu {
         what: &'static str,
         bytes: u64,
     ) -> Result<wgpu::Buffer, GpuError> {
+        use wgpu::BufferUsages as U;
+        self.indirect_with(what, bytes, U::STORAGE | U::COPY_SRC | U::COPY_DST)
+    }
+
+    fn indirect_with(
+        &self,
+        what: &'static str,
+        bytes: u64,
+        usage: wgpu::BufferUsages,
+    ) -> Result<wgpu::Buffer, GpuError> {
         self.check_storage(what, bytes)?;
         let size = bytes.max(MIN_BUFFER).next_multiple_of(4);
         self.creating(size);
         Ok(self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some(what),
             size,
-            usage: wgpu::BufferUsages::STORAGE
-                | wgpu::BufferUsages::INDIRECT
-                | wgpu::BufferUsages::COPY_SRC
-                | wgpu::BufferUsages::COPY_DST,
+            usage: wgpu::BufferUsages::INDIRECT | usage,
             mapped_at_creation: false,
         }))
     }

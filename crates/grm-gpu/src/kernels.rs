@@ -95,20 +95,22 @@ pub static VM_EVAL: Kernel = Kernel {
     subst: &[],
 };
 
-const DERIVE_BINDS: &[Bind] = &[
-    Bind::Uniform,
-    Bind::Read,
-    Bind::Read,
-    Bind::Read,
-    Bind::Read,
-    Bind::Read,
-    Bind::ReadWrite,
-    Bind::ReadWrite,
-    Bind::ReadWrite,
-    Bind::ReadWrite,
-    Bind::ReadWrite,
-    Bind::ReadWrite,
-];
+/// The bindings of derive.wgsl: the parameters (`params`: a uniform the
+/// host wrote, or storage `batch_next` wrote), five read-only buffers
+/// (tables, the input string, bracket partners), the read-write rest;
+/// `N` = 13 adds the batched kernels' block sums (offsets_blocks.wgsl).
+const fn derive_binds<const N: usize>(params: Bind) -> [Bind; N] {
+    let mut b = [Bind::ReadWrite; N];
+    b[0] = params;
+    let mut i = 1;
+    while i < 6 {
+        b[i] = Bind::Read;
+        i += 1;
+    }
+    b
+}
+
+const DERIVE_BINDS: &[Bind] = &derive_binds::<12>(Bind::Uniform);
 
 pub static COUNT: Kernel = Kernel {
     name: "count",
@@ -132,20 +134,14 @@ pub static REWRITE_OUT: Kernel = Kernel {
     subst: &[HOST_PARAMS, GLOBAL_OFFSETS],
 };
 
-const DERIVE_DEV_BINDS: &[Bind] = &[
-    Bind::Read,
-    Bind::Read,
-    Bind::Read,
-    Bind::Read,
-    Bind::Read,
-    Bind::Read,
-    Bind::ReadWrite,
-    Bind::ReadWrite,
-    Bind::ReadWrite,
-    Bind::ReadWrite,
-    Bind::ReadWrite,
-    Bind::ReadWrite,
-    Bind::ReadWrite,
+const DERIVE_DEV_BINDS: &[Bind] = &derive_binds::<13>(Bind::Read);
+/// The batched derive kernels' substitutions: parameters from the device,
+/// offsets from block sums at binding 12.
+const BATCHED_DERIVE: &[(&str, &str)] = &[
+    DEVICE_PARAMS,
+    BLOCK_OFFSETS,
+    ("BLOCK_SUMS_BINDING", "12"),
+    PAIRS,
 ];
 
 /// The batched derivation's count and first scan level in one dispatch
@@ -155,12 +151,7 @@ pub static COUNT_SCAN_DEV: Kernel = Kernel {
     file: "count_scan.wgsl",
     entry: "count_scan",
     bindings: DERIVE_DEV_BINDS,
-    subst: &[
-        DEVICE_PARAMS,
-        BLOCK_OFFSETS,
-        ("BLOCK_SUMS_BINDING", "12"),
-        PAIRS,
-    ],
+    subst: BATCHED_DERIVE,
 };
 /// [`REWRITE_OUT`] with its parameters written on the device and its
 /// offsets from [`COUNT_SCAN_DEV`]'s blocks (batched).
@@ -169,12 +160,7 @@ pub static REWRITE_OUT_DEV: Kernel = Kernel {
     file: "derive.wgsl",
     entry: "rewrite_out",
     bindings: DERIVE_DEV_BINDS,
-    subst: &[
-        DEVICE_PARAMS,
-        BLOCK_OFFSETS,
-        ("BLOCK_SUMS_BINDING", "12"),
-        PAIRS,
-    ],
+    subst: BATCHED_DERIVE,
 };
 
 const BRACKET_BINDS: &[Bind] = &[
