@@ -120,9 +120,16 @@ pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
     };
     let total = start.elapsed();
     let interp = r.interpretation.as_ref();
+    let on_cpu = r.stats.iter().skip(1).filter(|s| s.on_cpu).count();
+    let n = opts.derive.iterations as usize;
+    let engines = match on_cpu {
+        0 => "on the GPU".to_string(),
+        k if k == n => "on the CPU (every string within --cpu-prefix)".to_string(),
+        k => format!("(1-{k} on the CPU, {}-{n} on the GPU)", k + 1),
+    };
     eprintln!(
-        "{}: {} iterations on the GPU: {} modules ({} produced in all) in {:.3} ms, {:.0} modules/us; \
-         {} bones in {:.3} ms",
+        "{}: {} iterations {engines}: {} modules ({} produced in all) in {:.3} ms, {:.0} modules/us; \
+         {} bones on the GPU in {:.3} ms",
         c.name,
         opts.derive.iterations,
         r.modules(),

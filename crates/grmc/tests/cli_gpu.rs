@@ -33,10 +33,52 @@ fn derive_gpu_prints_the_cpu_string() {
         ("examples/ternary_tree.grm", "3"),
     ] {
         let cpu = ok(&["derive", file, "-n", n, "--print"]);
-        let gpu = ok(&["derive", file, "-n", n, "--print", "--gpu"]);
         assert!(!cpu.trim().is_empty());
-        assert_eq!(gpu, cpu, "{file}");
+        // Every iteration on the GPU, the default (small strings on the
+        // CPU first), and the first string only on the CPU.
+        for prefix in ["0", "32768", "1"] {
+            let gpu = ok(&[
+                "derive",
+                file,
+                "-n",
+                n,
+                "--print",
+                "--gpu",
+                "--cpu-prefix",
+                prefix,
+            ]);
+            assert_eq!(gpu, cpu, "{file} --cpu-prefix {prefix}");
+        }
     }
+}
+
+/// `--stats` says which engine derived each string; the summary too.
+#[test]
+fn derive_gpu_stats_name_each_strings_engine() {
+    let out = grmc(&[
+        "derive",
+        "examples/hilbert3d.grm",
+        "-n",
+        "4",
+        "--gpu",
+        "--stats",
+        "--cpu-prefix",
+        "300",
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    let engines: Vec<&str> = stdout
+        .lines()
+        .skip(1)
+        .filter_map(|l| l.split_whitespace().last())
+        .collect();
+    // Strings 0-2 (1, 29 and 271 modules) on the CPU, 3-4 on the GPU.
+    assert_eq!(engines, ["CPU", "CPU", "CPU", "GPU", "GPU"], "{stdout}");
+    assert!(
+        err.contains("4 iterations (1-2 on the CPU, 3-4 on the GPU)"),
+        "{err}"
+    );
 }
 
 #[test]
