@@ -235,3 +235,32 @@ fn errors_with_a_cpu_prefix_are_the_gpu_only_errors() {
     assert!(compared >= 40, "only {compared} grammars compared");
     assert!(errors > 0, "no runtime error compared");
 }
+
+/// A batched run after a CPU prefix that the device reports as overflowed
+/// (capacity check forced) is discarded and derived again iteration by
+/// iteration from the same CPU string: the same result.
+#[test]
+fn a_device_overflow_after_a_cpu_prefix_falls_back_to_per_iteration() {
+    let g = gpu();
+    for (file, iterations) in [("hilbert3d.grm", 4), ("stochastic_plant.grm", 5)] {
+        let sys = example(file, None);
+        let seed = sys.settings.seed;
+        let (want, _) = derive_with(
+            g,
+            &sys,
+            &opts(&sys, iterations, seed, 0),
+            DeriveStrategy::Auto,
+        )
+        .expect("derives");
+        let o = opts(&sys, iterations, seed, 300);
+        let (got, path) =
+            derive_with(g, &sys, &o, DeriveStrategy::AutoShrunkCaps).expect("derives");
+        assert_eq!(path, DerivePath::BatchedThenPerIteration, "{file}");
+        assert!(
+            cpu_steps(&got) > 0,
+            "{file}: the CPU took the first strings"
+        );
+        same_bits(file, &want.string, &got.string);
+        assert_eq!(figures(&got), figures(&want), "{file}");
+    }
+}
