@@ -616,9 +616,35 @@ impl<'a> GpuSystem<'a> {
         opts: &GpuDeriveOptions,
         prefix: Option<&Prefix>,
     ) -> Option<Vec<(u64, u64)>> {
+        self.symbol_bounds(opts, prefix).map(|(total, _)| total)
+    }
+
+    /// Per job, how many modules of each symbol its final string has, when
+    /// that is known before deriving: every symbol of every job is exact
+    /// (deterministic and context-free, so the bound is the count).
+    pub(crate) fn exact_final_counts(&self, opts: &GpuDeriveOptions) -> Option<Vec<Vec<u64>>> {
+        let exact = self
+            .jobs
+            .iter()
+            .all(|j| (0..j.system.symbols.len()).all(|s| exact_symbol(j.system, s)));
+        if !exact {
+            return None;
+        }
+        self.symbol_bounds(opts, None).map(|(_, last)| last)
+    }
+
+    /// [`GpuSystem::string_bounds`], and per job the bound of each
+    /// symbol's count in its final string.
+    #[allow(clippy::type_complexity)]
+    fn symbol_bounds(
+        &self,
+        opts: &GpuDeriveOptions,
+        prefix: Option<&Prefix>,
+    ) -> Option<(Vec<(u64, u64)>, Vec<Vec<u64>>)> {
         let k_max = opts.iterations as usize;
         let k0 = prefix.map_or(0, |p| p.stats.len() - 1);
         let mut total = vec![(0u64, 0u64); k_max + 1];
+        let mut last = Vec::with_capacity(self.jobs.len());
         for (j, (job, its)) in self.jobs.iter().zip(self.job_iterations(opts)).enumerate() {
             let sys = job.system;
             let ns = sys.symbols.len();
@@ -655,6 +681,7 @@ impl<'a> GpuSystem<'a> {
                 tot.0 = tot.0.saturating_add(m);
                 tot.1 = tot.1.saturating_add(w);
             }
+            last.push(c);
         }
         // The CPU's strings are known exactly.
         for (tot, st) in total
@@ -663,7 +690,7 @@ impl<'a> GpuSystem<'a> {
         {
             *tot = (st.modules, st.param_words);
         }
-        Some(total)
+        Some((total, last))
     }
 
     /// The buffers of a batched derivation, or `None` when the bounds are

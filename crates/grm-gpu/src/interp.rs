@@ -181,6 +181,17 @@ impl TurtleProgram {
             .any(|s| s.op == TurtleOp::Push as u32 || s.op == TurtleOp::Pop as u32)
     }
 
+    /// At most how many bones a string with `counts[s]` modules of each
+    /// symbol `s` has (its `F`/`G` modules: one bone each, except those a
+    /// cut `%` removes).
+    pub fn bones_at_most(&self, counts: &[u64]) -> u64 {
+        self.syms
+            .iter()
+            .zip(counts)
+            .filter(|(t, _)| t.op == TurtleOp::Forward as u32)
+            .fold(0u64, |a, (_, &n)| a.saturating_add(n))
+    }
+
     /// Push / pop flags of the symbols, as a packed symbol section.
     fn bracket_section(&self) -> Vec<u32> {
         let hw = (std::mem::size_of::<PackedHeader>() / 4) as u32;
@@ -356,7 +367,14 @@ pub fn interpret(
             len: string.len() as u64,
             words: string.params.len() as u64,
         };
-        let (bones, count, mut out) = interpret_device(gpu, &[program], &s, &[(0, s.len)])?;
+        let mut counts = vec![0u64; program.syms.len()];
+        for &sym in &string.syms {
+            // In range: checked above.
+            counts[sym as usize] += 1;
+        }
+        let most = program.bones_at_most(&counts);
+        let (bones, count, mut out) =
+            interpret_device(gpu, &[program], &s, &[(0, s.len)], Some(most))?;
         out.bones = read_bones(gpu, &bones, count)?;
         Ok(out)
     })
@@ -379,12 +397,16 @@ pub(crate) fn read_bones(
 /// Interpret a string on the device: system `k` (the symbols' bits above
 /// `SYS_SHIFT`) is `programs[k]` and covers `ranges[k]` of the string.
 /// Returns the bone buffer (bones in string order), the bone count and the
-/// figures (with no bones read yet). Inside [`Gpu::run`].
+/// figures (with no bones read yet). `bones_at_most`, when the caller
+/// knows it (an exact derivation's symbol counts), sizes the bone buffer
+/// before the bones are counted, so counting and writing them is one
+/// submission (else the count is read back first). Inside [`Gpu::run`].
 pub(crate) fn interpret_device(
     gpu: &Gpu,
     programs: &[&TurtleProgram],
     s: &DeviceString,
     ranges: &[(u64, u64)],
+    bones_at_most: Option<u64>,
 ) -> Result<(wgpu::Buffer, u64, GpuInterpretation), GpuError> {
     let t0 = Instant::now();
     let n = s.len;
@@ -536,30 +558,49 @@ pub(crate) fn interpret_device(
     }
     run(&mut enc, &kernels::BONE_FLAGS, &base, &no_bones, n + 1)?;
     record_scan(gpu, &mut enc, ScanElem::U32, &hist, n + 1)?;
-    let count = gpu.read::<u32>(enc, &[(&hist, n, 1)])?;
-    let count = u64::from(
-        count
-            .into_iter()
-            .next()
-            .and_then(|v| v.first().copied())
-            .unwrap_or(0),
-    );
 
-    // 4. The bones.
-    let bones = gpu.storage("bones", std::mem::size_of::<GpuBone>() as u64 * count)?;
-    let mut enc = gpu.encoder();
-    if fused {
-        run(
-            &mut enc,
-            &kernels::STRAIGHT_BONES,
-            &base,
-            &bones,
-            blocks * wg,
-        )?;
-    } else {
-        run(&mut enc, &kernels::BONES_WRITE, &base, &bones, n)?;
-    }
-    gpu.submit_wait(enc)?;
+    // 4. The bones: in the same submission when their number is bounded
+    // in advance (and the bound fits a buffer), else after reading it.
+    let bone_bytes = std::mem::size_of::<GpuBone>() as u64;
+    let known = bones_at_most.filter(|&b| gpu.check_storage("bones", bone_bytes * b).is_ok());
+    let write = |enc: &mut wgpu::CommandEncoder, bones: &wgpu::Buffer| {
+        if fused {
+            run(enc, &kernels::STRAIGHT_BONES, &base, bones, blocks * wg)
+        } else {
+            run(enc, &kernels::BONES_WRITE, &base, bones, n)
+        }
+    };
+    let read_count = |enc: wgpu::CommandEncoder| -> Result<u64, GpuError> {
+        let count = gpu.read::<u32>(enc, &[(&hist, n, 1)])?;
+        Ok(u64::from(
+            count
+                .into_iter()
+                .next()
+                .and_then(|v| v.first().copied())
+                .unwrap_or(0),
+        ))
+    };
+    let (bones, count) = match known {
+        Some(most) => {
+            let bones = gpu.storage("bones", bone_bytes * most)?;
+            write(&mut enc, &bones)?;
+            let count = read_count(enc)?;
+            if count > most {
+                return Err(GpuError::Readback(format!(
+                    "{count} bones, more than the {most} the string's symbols allow"
+                )));
+            }
+            (bones, count)
+        }
+        None => {
+            let count = read_count(enc)?;
+            let bones = gpu.storage("bones", bone_bytes * count)?;
+            let mut enc = gpu.encoder();
+            write(&mut enc, &bones)?;
+            gpu.submit_wait(enc)?;
+            (bones, count)
+        }
+    };
     out.elapsed = t0.elapsed();
     out.bone_count = count;
     gpu.recycle([hist, order, pos_of, elems, aux, no_bones, levels]);

@@ -74,8 +74,9 @@ pub fn run(
         let mut interpretation = None;
         let mut readback_elapsed = Duration::ZERO;
         if opts.interpret {
+            let most = bones_at_most(&g, &opts.derive, &[turtle]);
             let (bones, count, mut out) =
-                interpret_device(gpu, &[turtle], &string, &[(0, string.len())])?;
+                interpret_device(gpu, &[turtle], &string, &[(0, string.len())], most)?;
             if opts.read_bones {
                 let t = Instant::now();
                 out.bones = read_bones(gpu, &bones, count)?;
@@ -151,7 +152,8 @@ pub fn run_many(
         let mut bones = None;
         let mut readback_elapsed = Duration::ZERO;
         if opts.interpret {
-            let (buf, count, out) = interpret_device(gpu, turtles, &string, &ranges)?;
+            let most = bones_at_most(&g, &d, turtles);
+            let (buf, count, out) = interpret_device(gpu, turtles, &string, &ranges, most)?;
             if opts.read_bones {
                 let t = Instant::now();
                 let all = read_bones(gpu, &buf, count)?;
@@ -178,6 +180,23 @@ pub fn run_many(
             readback_elapsed,
         })
     })
+}
+
+/// At most how many bones the derived string has, when its symbol counts
+/// are known without reading it (every system exact: deterministic and
+/// context-free).
+fn bones_at_most(
+    g: &GpuSystem<'_>,
+    opts: &GpuDeriveOptions,
+    turtles: &[&TurtleProgram],
+) -> Option<u64> {
+    let counts = g.exact_final_counts(opts)?;
+    Some(
+        counts
+            .iter()
+            .zip(turtles)
+            .fold(0u64, |a, (c, t)| a.saturating_add(t.bones_at_most(c))),
+    )
 }
 
 /// Cut the combined bones (in string order) by the systems' module ranges,
