@@ -79,6 +79,8 @@ pub struct SceneReport {
     /// Buffers created on the device per timed run (derive + interpret);
     /// the large ones should come from the pool.
     pub allocated_per_run: crate::device::Allocations,
+    /// Times the host waited for the device per timed run.
+    pub waits_per_run: u64,
     /// Iterations the timed derivation ran on the CPU
     /// ([`BenchConfig::cpu_prefix`]; 0: none).
     pub cpu_steps: u32,
@@ -180,6 +182,7 @@ pub fn bench_scene(
     })?;
     let mut best_interp = Duration::MAX;
     let before = gpu.allocated();
+    let waits_before = gpu.waits();
     let (gpu_derive, last) = best(cfg.runs, || {
         let r = run(gpu, c, &turtle, &ropts, &mut |_| {}).map_err(|e| e.to_string())?;
         if let Some(i) = &r.interpretation {
@@ -189,6 +192,7 @@ pub fn bench_scene(
     })?;
     let created = gpu.allocated() - before;
     let runs = u64::from(cfg.runs.max(1));
+    let waits_per_run = (gpu.waits() - waits_before) / runs;
     let allocated_per_run = crate::device::Allocations {
         buffers: created.buffers / runs,
         bytes: created.bytes / runs,
@@ -261,6 +265,7 @@ pub fn bench_scene(
         produced: last.produced_modules(),
         gpu_derive,
         allocated_per_run,
+        waits_per_run,
         cpu_steps,
         gpu_only_derive,
         cpu1_derive: cpu1.map(|(t, _)| t),
@@ -505,7 +510,8 @@ impl SceneReport {
         );
         let _ = writeln!(
             s,
-            "  device buffers created per timed run (derive + interpret): {} buffers, {:.3} MiB",
+            "  per timed run (derive + interpret): {} waits for the device; {} device buffers created, {:.3} MiB",
+            self.waits_per_run,
             self.allocated_per_run.buffers,
             self.allocated_per_run.bytes as f64 / (1024.0 * 1024.0)
         );

@@ -41,6 +41,8 @@ pub struct Gpu {
     pool: Mutex<Pool<wgpu::Buffer>>,
     /// Buffers created so far and their bytes ([`Gpu::allocated`]).
     created: [std::sync::atomic::AtomicU64; 2],
+    /// Times the host has waited for the device ([`Gpu::waits`]).
+    waits: std::sync::atomic::AtomicU64,
     /// Serialises engine runs: error scopes are per thread, and two large
     /// derivations at once could together exceed memory that each alone fits.
     run: Mutex<()>,
@@ -197,6 +199,7 @@ impl Gpu {
             pipelines: Mutex::new(HashMap::new()),
             pool: Mutex::new(Pool::new(POOL_BYTES)),
             created: Default::default(),
+            waits: Default::default(),
             run: Mutex::new(()),
             timestamps,
             profiling: std::sync::atomic::AtomicU8::new(Timestamps::None as u8),
@@ -412,6 +415,14 @@ impl Gpu {
             buffers: self.created[0].load(Relaxed),
             bytes: self.created[1].load(Relaxed),
         }
+    }
+
+    /// How many times the host has waited for the device to finish a
+    /// submission (cumulative, per process; a run's is the difference of
+    /// two readings): the synchronisations that a GPU's latency is paid
+    /// for, whatever the work.
+    pub fn waits(&self) -> u64 {
+        self.waits.load(std::sync::atomic::Ordering::Relaxed)
     }
 
     /// Count a buffer about to be created.
@@ -699,6 +710,8 @@ impl Gpu {
 
     /// Submit `encoder` and wait for the GPU to finish.
     pub(crate) fn submit_wait(&self, encoder: wgpu::CommandEncoder) -> Result<(), GpuError> {
+        self.waits
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let idx = self.queue.submit([encoder.finish()]);
         self.device
             .poll(wgpu::PollType::Wait {

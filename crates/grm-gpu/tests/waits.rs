@@ -1,0 +1,70 @@
+//! How many times a derivation and interpretation wait for the device: on
+//! a GPU each wait costs a round trip whatever the work, so the structure
+//! is pinned here. A batched derivation waits once (its totals and
+//! status); the interpretation of a straight string whose bone count is
+//! known in advance once more; a branching string first reads its depth
+//! range; a bone count not known in advance is read before the bones are
+//! written. A derivation the CPU did entirely waits for nothing.
+
+mod common;
+use common::*;
+use grm_gpu::{GpuDeriveOptions, GpuRunOptions, TurtleProgram, run};
+
+#[test]
+fn runs_wait_for_the_device_as_few_times_as_their_structure_needs() {
+    let g = gpu();
+    // (file, iterations, CPU prefix, derivation's waits, interpretation's)
+    let cases: &[(&str, u32, u64, u64, u64)] = &[
+        // Exact, straight: batched, then one submission.
+        ("hilbert3d.grm", 5, 0, 1, 1),
+        (
+            "hilbert3d.grm",
+            5,
+            grm_gpu::derive::CPU_PREFIX_MODULES,
+            1,
+            1,
+        ),
+        // Exact, branching: the depth range first.
+        ("bracketed_plant.grm", 5, 0, 1, 2),
+        // Stochastic, branching: the bone count is read too.
+        ("stochastic_plant.grm", 5, 0, 1, 3),
+        // Context-sensitive, every string on the CPU: no wait to derive.
+        (
+            "context_plant_a.grm",
+            20,
+            grm_gpu::derive::CPU_PREFIX_MODULES,
+            0,
+            3,
+        ),
+    ];
+    for &(file, iterations, prefix, derive_waits, interp_waits) in cases {
+        let (p, name, c) = example_program(file, None);
+        let sys = p.system(&name).expect("system");
+        let turtle = TurtleProgram::new(sys, &c.settings);
+        let mut opts = GpuRunOptions {
+            derive: GpuDeriveOptions {
+                iterations,
+                cpu_prefix: prefix,
+                ..GpuDeriveOptions::from_system(&c)
+            },
+            interpret: false,
+            read_string: false,
+            read_bones: false,
+        };
+        let what = format!("{file} n {iterations} prefix {prefix}");
+        // Warm: pipelines compiled, pool filled.
+        run(g, &c, &turtle, &opts, &mut |_| {}).expect("runs");
+        let w = g.waits();
+        run(g, &c, &turtle, &opts, &mut |_| {}).expect("runs");
+        assert_eq!(g.waits() - w, derive_waits, "{what}: derivation");
+        opts.interpret = true;
+        run(g, &c, &turtle, &opts, &mut |_| {}).expect("runs");
+        let w = g.waits();
+        run(g, &c, &turtle, &opts, &mut |_| {}).expect("runs");
+        assert_eq!(
+            g.waits() - w,
+            derive_waits + interp_waits,
+            "{what}: derivation and interpretation"
+        );
+    }
+}
