@@ -49,8 +49,15 @@ struct Args {
     forest: Option<u32>,
 }
 
+/// Where `examples/` is: the current folder when it has one (a copied
+/// binary run from a checkout elsewhere, as on a lent GPU machine), else
+/// the checkout this was built in.
 fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
+    if std::path::Path::new("examples").is_dir() {
+        PathBuf::from(".")
+    } else {
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
+    }
 }
 
 fn main() {
