@@ -589,12 +589,9 @@ impl Gpu {
         kernel: &'static Kernel,
         buffers: &[&wgpu::Buffer],
     ) -> Result<Bound, GpuError> {
-        let p = self.pipeline(kernel)?;
-        let bg = self.bind_group(&p, buffers)?;
-        Ok(Bound {
-            pipeline: p,
-            bind_group: bg,
-        })
+        let ranges: Vec<(&wgpu::Buffer, u64, Option<u64>)> =
+            buffers.iter().map(|&b| (b, 0, None)).collect();
+        self.bound_ranges(kernel, &ranges)
     }
 
     /// As [`Gpu::bound`], each binding a range of its buffer: (buffer,
