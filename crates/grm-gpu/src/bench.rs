@@ -76,6 +76,12 @@ pub struct SceneReport {
     pub modules: u64,
     pub produced: u64,
     pub gpu_derive: Duration,
+    /// How the timed derivation ran.
+    pub path: crate::DerivePath,
+    /// Where it ran directly (no intermediate string): the same
+    /// derivation with every string derived ([`crate::DeriveStrategy::Stepwise`],
+    /// the same CPU prefix), the baseline of the direct path.
+    pub stepwise_derive: Option<Duration>,
     /// Buffers created on the device per timed run (derive + interpret);
     /// the large ones should come from the pool.
     pub allocated_per_run: crate::device::Allocations,
@@ -98,8 +104,9 @@ pub struct SceneReport {
     pub cpu_interpret: Option<Duration>,
     pub readback: Duration,
     /// Device timestamps of the best timed derivation, per step after the
-    /// axiom (`None` where the device writes none or the derivation was
-    /// not batched).
+    /// axiom (`None` where the device writes none, the derivation was not
+    /// batched, or no pass derived that string: a direct derivation has
+    /// one pass, the last string's).
     pub device_rows: Vec<Option<DeviceTime>>,
     /// The same derivation on the device: from the first step's kernels
     /// beginning to the last step's ending.
@@ -164,6 +171,7 @@ pub fn bench_scene(
         interpret: true,
         read_string: cfg.cpu,
         read_bones: false,
+        strategy: crate::DeriveStrategy::Auto,
     };
     let t = Instant::now();
     let warm = run(gpu, c, &turtle, &ropts, &mut |_| {}).map_err(|e| e.to_string())?;
@@ -196,6 +204,18 @@ pub fn bench_scene(
     let allocated_per_run = crate::device::Allocations {
         buffers: created.buffers / runs,
         bytes: created.bytes / runs,
+    };
+    let stepwise_derive = if last.path == crate::DerivePath::Direct {
+        let mut step = ropts;
+        step.strategy = crate::DeriveStrategy::Stepwise;
+        step.interpret = false;
+        let (t, _) = best(cfg.runs, || {
+            let r = run(gpu, c, &turtle, &step, &mut |_| {}).map_err(|e| e.to_string())?;
+            Ok((r.derive_elapsed, ()))
+        })?;
+        Some(t)
+    } else {
+        None
     };
     let interp = last.interpretation.clone().ok_or("no interpretation")?;
     let cpu_steps = last.stats.iter().skip(1).filter(|s| s.on_cpu).count() as u32;
@@ -264,6 +284,8 @@ pub fn bench_scene(
         modules: last.modules(),
         produced: last.produced_modules(),
         gpu_derive,
+        path: last.path,
+        stepwise_derive,
         allocated_per_run,
         waits_per_run,
         cpu_steps,
@@ -306,8 +328,10 @@ fn device_profile(
     let steps = |r: &crate::pipeline::GpuRun| -> Vec<Option<DeviceTime>> {
         r.stats.iter().skip(1).map(|s| s.device).collect()
     };
+    // The last string's pass ends the derivation (a direct derivation
+    // stamps only that one).
     let whole = |rows: &[Option<DeviceTime>]| match rows.last() {
-        Some(Some(d)) if rows.iter().all(Option::is_some) => Some(d.end),
+        Some(Some(d)) => Some(d.end),
         _ => None,
     };
     let result = (|| {
@@ -412,6 +436,7 @@ impl SceneReport {
             ms(self.gpu_derive),
             rate(self.produced, self.gpu_derive),
             match self.cpu_steps {
+                _ if self.path == crate::DerivePath::Direct => " (direct, on the GPU)".to_string(),
                 0 => " (every iteration on the GPU)".to_string(),
                 k => format!(
                     " (iterations 1-{k} on the CPU, then {} on the GPU)",
@@ -419,9 +444,25 @@ impl SceneReport {
                 ),
             }
         );
+        if self.path == crate::DerivePath::Direct {
+            let _ = writeln!(
+                s,
+                "             direct: the final string in one pass, no intermediate string ({:.1} final modules/us)",
+                rate(self.modules, self.gpu_derive)
+            );
+        }
+        if let Some(t) = self.stepwise_derive {
+            let _ = writeln!(
+                s,
+                "             stepwise (every string derived, same CPU prefix) {:.3} ms = {:.1} modules/us (direct {:.2}x faster)",
+                ms(t),
+                rate(self.produced, t),
+                speedup(t, self.gpu_derive)
+            );
+        }
         let _ = writeln!(
             s,
-            "             GPU only (every iteration on the GPU) {:.3} ms = {:.1} modules/us ({:.2}x the time above)",
+            "             GPU only (no CPU prefix) {:.3} ms = {:.1} modules/us ({:.2}x the time above)",
             ms(self.gpu_only_derive),
             rate(self.produced, self.gpu_only_derive),
             speedup(self.gpu_only_derive, self.gpu_derive)
@@ -552,6 +593,7 @@ pub fn bench_forest(
         interpret: true,
         read_string: false,
         read_bones: false,
+        strategy: crate::DeriveStrategy::Auto,
     };
     let warm = crate::pipeline::run_many(gpu, &jobs, &turtles, &opts, &mut |_| {})
         .map_err(|e| e.to_string())?;

@@ -33,6 +33,9 @@ use crate::layout::{
 use crate::scan::{ScanElem, record_scan};
 use crate::stamps::{DeviceTime, Stamps};
 
+mod direct;
+pub use direct::DIRECT_MAX_STEPS;
+
 /// How to run a GPU derivation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct GpuDeriveOptions {
@@ -415,6 +418,16 @@ impl<'a> GpuSystem<'a> {
         strategy: DeriveStrategy,
         progress: &mut dyn FnMut(&GpuIterationStats),
     ) -> Result<(DeviceString, Vec<GpuIterationStats>, DerivePath), GpuError> {
+        if strategy == DeriveStrategy::Auto
+            && !opts.sync_iterations
+            && let Some(plan) = self.direct_plan(opts)
+        {
+            let (s, stats) = self.derive_direct(&plan, opts)?;
+            for st in &stats {
+                progress(st);
+            }
+            return Ok((s, stats, DerivePath::Direct));
+        }
         let mut path = DerivePath::PerIteration;
         let prefix = self.cpu_prefix(opts);
         let prefix = prefix.as_ref();
@@ -1461,9 +1474,14 @@ pub const BATCH_LOOSE_MAX_BYTES: u64 = 256 << 20;
 /// How [`GpuSystem::derive_with`] records the iterations.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DeriveStrategy {
-    /// Batched (one submission, sizes from the bound) where the bounds
-    /// allow it and `sync_iterations` is off; else iteration by iteration.
+    /// Direct (the final string in one pass, for deterministic,
+    /// context-free systems without parameters), else batched (one
+    /// submission, sizes from the bound) where the bounds allow it, else
+    /// iteration by iteration; neither direct nor batched with
+    /// `sync_iterations`.
     Auto,
+    /// As `Auto` without the direct path: every string is derived.
+    Stepwise,
     /// One submission and one synchronisation per iteration.
     PerIteration,
     /// As `Auto`, with the device's capacity check of the last string set
@@ -1476,6 +1494,9 @@ pub enum DeriveStrategy {
 /// The path a derivation took.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DerivePath {
+    /// The final string in one pass, no intermediate string
+    /// (deterministic, context-free, parameter-free systems).
+    Direct,
     /// All iterations in one submission.
     Batched,
     /// Iteration by iteration (the bound was over a limit, or batching was

@@ -306,6 +306,28 @@ pub static BATCH_NEXT: Kernel = Kernel {
     subst: &[("BLOCK_SUMS_BINDING", "8"), PAIRS],
 };
 
+/// The direct derivation (`expand.wgsl`): the final string of
+/// deterministic, context-free systems with constant successor
+/// parameters in one pass.
+pub static EXPAND: Kernel = Kernel {
+    name: "expand",
+    file: "expand.wgsl",
+    entry: "expand",
+    bindings: &[
+        Bind::Uniform,
+        Bind::Read,
+        Bind::Read,
+        Bind::Read,
+        Bind::Read,
+        Bind::Read,
+        Bind::Read,
+        Bind::ReadWrite,
+        Bind::ReadWrite,
+        Bind::ReadWrite,
+    ],
+    subst: &[],
+};
+
 /// All kernels.
 pub static ALL: &[&Kernel] = &[
     &SCAN_U32,
@@ -339,4 +361,5 @@ pub static ALL: &[&Kernel] = &[
     &UPDATE_DIRECTORY,
     &UPDATE_DIRECTORY_DEV,
     &BATCH_NEXT,
+    &EXPAND,
 ];

@@ -300,6 +300,49 @@ gpu_struct! {
     }
 }
 
+gpu_struct! {
+    /// Parameters of the direct derivation's `expand` kernel
+    /// (`shaders/expand.wgsl`).
+    pub struct ExpandParams {
+        /// Modules of string 0 (the axioms).
+        pub n_in: u32 => "u32",
+        /// Modules of the final string: one thread each.
+        pub total: u32 => "u32",
+        /// Parameter words of the final string.
+        pub total_words: u32 => "u32",
+        pub pad0: u32 => "u32",
+    }
+}
+
+/// Words of one successor slot in the expansion tables: its symbol, its
+/// parameter words and where they are in the tables.
+pub const EXPAND_SLOT_WORDS: u32 = 3;
+
+gpu_struct! {
+    /// One job of a direct derivation: where its expansion tables are in
+    /// the `expand` kernel's table buffer (word indices). Symbol `s` has
+    /// the record `(first slot, successor length)` at `symbols + 2 s`
+    /// (length 0: the symbol stays itself). Slot `f + i` (successor module
+    /// `i` of the symbol whose first slot is `f`) is the record
+    /// `(symbol, parameter words, index of those words)` at
+    /// `slots + EXPAND_SLOT_WORDS (f + i)`; with `r` steps left
+    /// (1 ..= steps), the pair (first module, first parameter word) of
+    /// that module's expansion inside its predecessor's is at
+    /// `offsets + 2 ((r - 1) slot_count + f + i)`.
+    pub struct ExpandJob {
+        pub symbols: u32 => "u32",
+        pub slots: u32 => "u32",
+        pub offsets: u32 => "u32",
+        /// Successor slots of the job's system.
+        pub slot_count: u32 => "u32",
+        /// The job's rewriting steps.
+        pub steps: u32 => "u32",
+        pub pad0: u32 => "u32",
+        pub pad1: u32 => "u32",
+        pub pad2: u32 => "u32",
+    }
+}
+
 /// Fan-out of the bracket-matching minimum tree.
 pub const BRACKET_FAN: u32 = 32;
 /// Levels the bracket tree may have (`offs`/`lens` entries).
@@ -450,6 +493,8 @@ pub fn structs() -> Vec<StructInfo> {
         one::<VmResult>(),
         one::<DeriveParams>(),
         one::<BatchParams>(),
+        one::<ExpandParams>(),
+        one::<ExpandJob>(),
         one::<BracketParams>(),
         one::<TurtleSym>(),
         one::<TurtleParams>(),
@@ -487,6 +532,7 @@ pub fn wgsl_header() -> String {
         ("SEG_START", SEG_START),
         ("SEG_DEAD", SEG_DEAD),
         ("SEG_INDEX", SEG_INDEX),
+        ("EXPAND_SLOT_WORDS", EXPAND_SLOT_WORDS),
         (
             "TURTLE_CONFIG_WORDS",
             (std::mem::size_of::<TurtleConfig>() / 4) as u32,

@@ -6,7 +6,10 @@ use std::time::{Duration, Instant};
 use grm_compile::CompiledSystem;
 use grm_derive::ModuleString;
 
-use crate::derive::{GpuDeriveOptions, GpuIterationStats, GpuJob, GpuSystem, split_string};
+use crate::derive::{
+    DerivePath, DeriveStrategy, GpuDeriveOptions, GpuIterationStats, GpuJob, GpuSystem,
+    split_string,
+};
 use crate::device::Gpu;
 use crate::error::GpuError;
 use crate::interp::{GpuInterpretation, TurtleProgram, interpret_device, read_bones};
@@ -22,6 +25,9 @@ pub struct GpuRunOptions {
     pub read_string: bool,
     /// Read the bones back to the host.
     pub read_bones: bool,
+    /// How the iterations are recorded ([`DeriveStrategy::Auto`]: the
+    /// fastest path that applies).
+    pub strategy: DeriveStrategy,
 }
 
 /// The outcome of [`run`], with timings.
@@ -29,6 +35,8 @@ pub struct GpuRunOptions {
 pub struct GpuRun {
     /// One entry per string (the axiom first).
     pub stats: Vec<GpuIterationStats>,
+    /// How the derivation ran.
+    pub path: DerivePath,
     /// Wall time of the whole derivation (uploading the tables included).
     pub derive_elapsed: Duration,
     /// The interpretation (its bones only when read back).
@@ -69,7 +77,7 @@ pub fn run(
             seed: opts.derive.seed,
         };
         let g = GpuSystem::load(gpu, &[job])?;
-        let (string, stats) = g.derive(&opts.derive, progress)?;
+        let (string, stats, path) = g.derive_with(&opts.derive, opts.strategy, progress)?;
         let derive_elapsed = t.elapsed();
         let mut interpretation = None;
         let mut readback_elapsed = Duration::ZERO;
@@ -94,6 +102,7 @@ pub fn run(
         gpu.recycle(string.into_buffers());
         Ok(GpuRun {
             stats,
+            path,
             derive_elapsed,
             interpretation,
             string: host,
@@ -107,6 +116,8 @@ pub fn run(
 pub struct GpuManyRun {
     /// The combined string's figures (the axioms, then each step).
     pub stats: Vec<GpuIterationStats>,
+    /// How the derivation ran.
+    pub path: DerivePath,
     pub derive_elapsed: Duration,
     /// The interpretation of the combined string (its bones are in `bones`).
     pub interpretation: Option<GpuInterpretation>,
@@ -141,7 +152,7 @@ pub fn run_many(
             iterations,
             ..opts.derive
         };
-        let (string, stats) = g.derive(&d, progress)?;
+        let (string, stats, path) = g.derive_with(&d, opts.strategy, progress)?;
         let dir = g.read_directory()?;
         let derive_elapsed = t.elapsed();
         let ranges: Vec<(u64, u64)> = dir
@@ -173,6 +184,7 @@ pub fn run_many(
         gpu.recycle(string.into_buffers());
         Ok(GpuManyRun {
             stats,
+            path,
             derive_elapsed,
             interpretation,
             strings,

@@ -36,6 +36,7 @@ pub const FILES: &[(&str, &str)] = shader_files!(
     "offsets_global.wgsl",
     "offsets_blocks.wgsl",
     "count_scan.wgsl",
+    "expand.wgsl",
 );
 
 /// How a kernel binds a buffer (binding index = position in the list).

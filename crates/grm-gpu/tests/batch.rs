@@ -41,7 +41,9 @@ fn example_scenes_batched_equal_per_iteration() {
         for seed in [sys.settings.seed, 12345] {
             let o = opts(&sys, iterations, seed);
             let what = format!("{file} {system:?} seed {seed}");
-            let (a, pa) = derive_with(g, &sys, &o, DeriveStrategy::Auto).expect("derives");
+            // Stepwise: the direct path would take the deterministic
+            // parameter-free scenes (tests/direct.rs).
+            let (a, pa) = derive_with(g, &sys, &o, DeriveStrategy::Stepwise).expect("derives");
             let (b, pb) = derive_with(g, &sys, &o, DeriveStrategy::PerIteration).expect("derives");
             assert_eq!(pb, DerivePath::PerIteration);
             // Context-sensitive systems need bracket matching per iteration.
@@ -85,7 +87,7 @@ fn random_grammars_batched_equal_per_iteration() {
             max_modules: 200_000,
             ..opts(&sys, iterations, seed)
         };
-        let a = derive_with(g, &sys, &o, DeriveStrategy::Auto);
+        let a = derive_with(g, &sys, &o, DeriveStrategy::Stepwise);
         let b = derive_with(g, &sys, &o, DeriveStrategy::PerIteration);
         match (&a, &b) {
             (Ok((a, pa)), Ok((b, _))) => {
@@ -187,7 +189,7 @@ fn an_input_past_a_million_modules_scans_three_levels() {
         max_modules: 4_000_000,
         ..opts(&sys, 30, 0)
     };
-    let (d, path) = derive_with(g, &sys, &o, DeriveStrategy::Auto).expect("derives");
+    let (d, path) = derive_with(g, &sys, &o, DeriveStrategy::Stepwise).expect("derives");
     assert_eq!(path, DerivePath::Batched);
     assert_eq!(d.stats[29].modules, 1_346_269);
     let cpu = cpu_derive(&sys, 30, 0).expect("cpu derives");

@@ -175,6 +175,7 @@ fn forest(
         interpret: true,
         read_string: true,
         read_bones: true,
+        strategy: grm_gpu::DeriveStrategy::Auto,
     };
     let out = grm_gpu::run_many(g, &jobs, &turtles, &opts, &mut |_| {}).expect("runs");
     let bones = out.bones.expect("bones read");

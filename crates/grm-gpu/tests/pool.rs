@@ -31,6 +31,7 @@ fn a_repeated_run_creates_only_small_buffers() {
                 // results) every time; they are not what is measured here.
                 read_string: false,
                 read_bones: false,
+                strategy: grm_gpu::DeriveStrategy::Auto,
             };
             let first = run(g, &c, &turtle, &opts, &mut |_| {}).expect("runs");
             let before = g.allocated();

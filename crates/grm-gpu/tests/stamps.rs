@@ -1,14 +1,16 @@
 //! Device timestamps (`grm_gpu::stamps`): with profiling on, a batched
 //! derivation reports each step's kernel time on the device, the stages
-//! in order inside it where the device stamps inside passes; with it off
-//! it reports none; and the derived string is the same either way.
+//! in order inside it where the device stamps inside passes, and a direct
+//! one its single pass as the last string's (its kernel is the "rewrite"
+//! stage); with it off it reports none; and the derived string is the
+//! same either way.
 //!
 //! Its own test binary: profiling is a setting of the shared device, and
 //! the other test binaries must not see it change.
 
 mod common;
 use common::*;
-use grm_gpu::{GpuDeriveOptions, Timestamps, derive};
+use grm_gpu::{DerivePath, DeriveStrategy, GpuDeriveOptions, Timestamps, derive_with};
 
 #[test]
 fn profiling_reports_device_time_per_step_and_changes_nothing() {
@@ -24,13 +26,29 @@ fn profiling_reports_device_time_per_step_and_changes_nothing() {
         Timestamps::None,
         "profiling is off by default"
     );
-    let plain = derive(g, &sys, &o).expect("derives");
+    for (strategy, path) in [
+        (DeriveStrategy::Stepwise, DerivePath::Batched),
+        (DeriveStrategy::Auto, DerivePath::Direct),
+    ] {
+        check(g, &sys, &o, strategy, path);
+    }
+}
+
+fn check(
+    g: &grm_gpu::Gpu,
+    sys: &grm_compile::CompiledSystem,
+    o: &GpuDeriveOptions,
+    strategy: DeriveStrategy,
+    path: DerivePath,
+) {
+    let (plain, p) = derive_with(g, sys, o, strategy).expect("derives");
+    assert_eq!(p, path);
     assert!(plain.stats.iter().all(|s| s.device.is_none()));
 
     for level in [Timestamps::Passes, Timestamps::InsidePasses] {
         let set = g.set_profiling(level);
         assert!(set <= level && set <= g.timestamps());
-        let timed = derive(g, &sys, &o).expect("derives");
+        let (timed, _) = derive_with(g, sys, o, strategy).expect("derives");
         g.set_profiling(Timestamps::None);
         assert_eq!(timed.string.syms, plain.string.syms, "{level:?}");
         assert_eq!(timed.string.starts, plain.string.starts, "{level:?}");
@@ -41,7 +59,12 @@ fn profiling_reports_device_time_per_step_and_changes_nothing() {
             continue;
         }
         let mut end = std::time::Duration::ZERO;
+        let last = timed.stats.len() - 1;
         for s in &timed.stats[1..] {
+            if path == DerivePath::Direct && (s.iteration as usize) < last {
+                assert!(s.device.is_none(), "no pass derives string {}", s.iteration);
+                continue;
+            }
             let d = s.device.expect("every step is stamped");
             assert!(
                 !d.pass.is_zero(),
@@ -61,6 +84,13 @@ fn profiling_reports_device_time_per_step_and_changes_nothing() {
                     // Each span is rounded to a nanosecond on its own.
                     let gap = sum.abs_diff(d.pass);
                     assert!(gap.as_nanos() <= 5, "the stages partition the pass: {d:?}");
+                    if path == DerivePath::Direct {
+                        // Only the expand kernel ("rewrite") runs.
+                        assert!(
+                            st[3] >= st.iter().copied().max().unwrap_or_default(),
+                            "{d:?}"
+                        );
+                    }
                 }
                 (Timestamps::Passes, None) => {}
                 other => panic!("stages {other:?}"),

@@ -50,6 +50,7 @@ fn runs_wait_for_the_device_as_few_times_as_their_structure_needs() {
             interpret: false,
             read_string: false,
             read_bones: false,
+            strategy: grm_gpu::DeriveStrategy::Auto,
         };
         let what = format!("{file} n {iterations} prefix {prefix}");
         // Warm: pipelines compiled, pool filled.

@@ -55,6 +55,7 @@ pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
         interpret: true,
         read_string: args.print || args.output.is_some(),
         read_bones: false,
+        strategy: grm_gpu::DeriveStrategy::Auto,
     };
     let fallback = |e: &GpuError| -> Option<Outcome> {
         if args.cpu_fallback && device_problem(e) {
@@ -123,6 +124,9 @@ pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
     let on_cpu = r.stats.iter().skip(1).filter(|s| s.on_cpu).count();
     let n = opts.derive.iterations as usize;
     let engines = match on_cpu {
+        _ if r.path == grm_gpu::DerivePath::Direct => {
+            "on the GPU, directly (the final string in one pass)".to_string()
+        }
         0 => "on the GPU".to_string(),
         k if k == n => "on the CPU (every string within --cpu-prefix)".to_string(),
         k => format!("(1-{k} on the CPU, {}-{n} on the GPU)", k + 1),

@@ -1,0 +1,417 @@
+//! Direct derivation: the final string of deterministic, context-free
+//! systems whose successors' parameters are constants, in one pass
+//! (`shaders/expand.wgsl`), with no intermediate string, no scan and no
+//! read-back but the wait for it.
+//!
+//! In such a system (every symbol either has no production or a first
+//! group with one alternative, no context and no condition; every
+//! parameter a successor writes is a constant, as the turtle symbols'
+//! defaults such as `F(1)` are) every module of a symbol becomes the same
+//! string after the same number of steps, so each symbol's length and
+//! parameter words after `r` steps are known from the tables, and so is
+//! the final string's layout: a tree of expansions. The host writes, per
+//! job, every successor module's first position (module and parameter
+//! word) inside its predecessor's expansion for each number of steps
+//! left, and the axioms' own offsets; the kernel's threads take one
+//! output position each and walk down to the module there (a binary
+//! search per step). The work is one pass over the output whatever the
+//! number of iterations, where stepwise derivation writes and scans every
+//! intermediate string.
+//!
+//! Invariants: the result (string, per-string figures, directory) is the
+//! stepwise derivation's exactly (the axioms are the CPU engine's, the
+//! constants the tables'); a plan exists only when every string of the
+//! stepwise derivation is within the options' and the device's limits
+//! (otherwise the stepwise path runs and reports the limit as before);
+//! every table value a thread reads on its way is exact (clamping applies
+//! only to symbols the final string cannot reach, whose sizes overflow).
+
+use std::time::Instant;
+
+use grm_compile::CompiledSystem;
+use grm_compile::table::{PARAM_CONST, SuccModule};
+use grm_derive::ModuleString;
+
+use super::{
+    DeviceString, GpuDeriveOptions, GpuIterationStats, GpuJob, GpuSystem, exact_symbol,
+    string_bytes, succ_of,
+};
+use crate::device::groups_for;
+use crate::error::GpuError;
+use crate::kernels;
+use crate::layout::{EXPAND_SLOT_WORDS, ExpandJob, ExpandParams, SYS_SHIFT, SystemEntry};
+use crate::stamps::Stamps;
+
+/// The most rewriting steps a direct derivation takes: each output module
+/// walks down one tree level per step, so a long derivation of a slowly
+/// growing string (`A -> A F` for thousands of steps) is cheaper stepwise.
+pub const DIRECT_MAX_STEPS: u32 = 64;
+
+/// The most words of expansion tables (16 MiB).
+const DIRECT_MAX_TABLE_WORDS: usize = 1 << 22;
+
+/// What the `expand` kernel reads, and the figures of every string.
+#[derive(Debug)]
+pub(crate) struct DirectPlan {
+    jobs: Vec<ExpandJob>,
+    words: Vec<u32>,
+    /// String 0: each job's axiom (the CPU engine's), each module tagged
+    /// with its job.
+    axioms: ModuleString,
+    /// Per axiom module, its expansion's first (module, parameter word)
+    /// in the final string; then the final string's totals.
+    in_offs: Vec<[u32; 2]>,
+    /// (Modules, parameter words) of strings 0 ..= the last iteration.
+    pub(crate) totals: Vec<(u64, u64)>,
+    /// Each job's final length.
+    job_lens: Vec<u64>,
+}
+
+/// Sizes of one module's expansion after `r` steps, per symbol: `r = 0`
+/// is the module itself.
+type Sizes = Vec<Vec<(u64, u64)>>;
+
+/// One system's expansion tables for `steps` steps (appended to `words`)
+/// and its sizes; `None` when the system does not qualify or its tables
+/// would be too large.
+fn expansion(sys: &CompiledSystem, steps: u32, words: &mut Vec<u32>) -> Option<(ExpandJob, Sizes)> {
+    let ns = sys.symbols.len();
+    let mut succ: Vec<Option<&[SuccModule]>> = Vec::with_capacity(ns);
+    for (s, e) in sys.symbols.iter().enumerate() {
+        if !exact_symbol(sys, s) {
+            return None;
+        }
+        if e.group_count == 0 {
+            succ.push(None);
+            continue;
+        }
+        let g = sys.groups.get(e.first_group as usize)?;
+        succ.push(Some(succ_of(sys, sys.alts.get(g.first_alt as usize)?)?));
+    }
+    // Every successor module: a known symbol, constant parameters of its
+    // symbol's width.
+    let mut consts: Vec<Vec<u32>> = Vec::new();
+    for m in succ.iter().flatten().flat_map(|c| c.iter()) {
+        let e = sys.symbols.get(m.symbol as usize)?;
+        let start = m.first_param as usize;
+        let pes = sys
+            .params
+            .get(start..start.checked_add(m.param_count as usize)?)?;
+        let mut w = Vec::with_capacity(e.param_words as usize);
+        for pe in pes {
+            if pe.kind != PARAM_CONST {
+                return None;
+            }
+            let a = pe.a as usize;
+            let c = sys.consts.get(a..a.checked_add(pe.words as usize)?)?;
+            w.extend(c.iter().map(|x| x.to_bits()));
+        }
+        if w.len() != e.param_words as usize {
+            return None;
+        }
+        consts.push(w);
+    }
+    let own: Vec<(u64, u64)> = sys
+        .symbols
+        .iter()
+        .map(|e| (1, u64::from(e.param_words)))
+        .collect();
+    let mut size = vec![own.clone()];
+    for r in 1..=steps as usize {
+        let prev = &size[r - 1];
+        let row = succ
+            .iter()
+            .zip(&own)
+            .map(|(c, &me)| match c {
+                None => me,
+                Some(c) => c.iter().fold((0u64, 0u64), |(m, w), x| {
+                    let (dm, dw) = prev[x.symbol as usize];
+                    (m.saturating_add(dm), w.saturating_add(dw))
+                }),
+            })
+            .collect();
+        size.push(row);
+    }
+    let slots: usize = consts.len();
+    let data: usize = consts.iter().map(Vec::len).sum();
+    let need = 2 * ns + EXPAND_SLOT_WORDS as usize * slots + data + 2 * slots * steps as usize;
+    if words.len() + need > DIRECT_MAX_TABLE_WORDS {
+        return None;
+    }
+    let base = words.len();
+    let slot_base = base + 2 * ns;
+    let data_base = slot_base + EXPAND_SLOT_WORDS as usize * slots;
+    let job = ExpandJob {
+        symbols: base as u32,
+        slots: slot_base as u32,
+        offsets: (data_base + data) as u32,
+        slot_count: slots as u32,
+        steps,
+        ..ExpandJob::default()
+    };
+    let mut first = 0u32;
+    for c in &succ {
+        let n = c.map_or(0, |c| c.len() as u32);
+        words.extend_from_slice(&[first, n]);
+        first += n;
+    }
+    let mut at = data_base as u32;
+    for (m, w) in succ.iter().flatten().flat_map(|c| c.iter()).zip(&consts) {
+        words.extend_from_slice(&[m.symbol, w.len() as u32, at]);
+        at += w.len() as u32;
+    }
+    for w in &consts {
+        words.extend_from_slice(w);
+    }
+    let clamp = |x: u64| x.min(u64::from(u32::MAX)) as u32;
+    for prev in &size[..steps as usize] {
+        for c in succ.iter().flatten() {
+            let (mut m, mut w) = (0u64, 0u64);
+            for x in c.iter() {
+                words.extend_from_slice(&[clamp(m), clamp(w)]);
+                let (dm, dw) = prev[x.symbol as usize];
+                m = m.saturating_add(dm);
+                w = w.saturating_add(dw);
+            }
+        }
+    }
+    debug_assert_eq!(words.len(), base + need);
+    Some((job, size))
+}
+
+impl DirectPlan {
+    /// The plan for `jobs` taking `its` steps each with `seeds` (the
+    /// derivation's last string is `k_max`), or `None` where a job's
+    /// system does not qualify, its axiom fails on the CPU (the stepwise
+    /// path reports it), or the string's positions do not fit 32 bits.
+    pub(crate) fn new(
+        jobs: &[GpuJob<'_>],
+        its: &[u32],
+        seeds: &[u32],
+        k_max: usize,
+    ) -> Option<DirectPlan> {
+        let mut words = Vec::new();
+        let mut headers = Vec::with_capacity(jobs.len());
+        // Jobs of the same system and steps (a forest of seeds) share tables.
+        let mut made: Vec<(&CompiledSystem, u32, ExpandJob, Sizes)> = Vec::new();
+        let mut axioms = ModuleString::new();
+        let mut in_offs = Vec::new();
+        let mut totals = vec![(0u64, 0u64); k_max + 1];
+        let mut job_lens = Vec::with_capacity(jobs.len());
+        let (mut pos, mut wpos) = (0u64, 0u64);
+        for (j, ((job, &steps), &seed)) in jobs.iter().zip(its).zip(seeds).enumerate() {
+            if steps > DIRECT_MAX_STEPS {
+                return None;
+            }
+            let sys = job.system;
+            let k = match made
+                .iter()
+                .position(|(s, r, ..)| std::ptr::eq(*s, sys) && *r == steps)
+            {
+                Some(k) => k,
+                None => {
+                    let (h, size) = expansion(sys, steps, &mut words)?;
+                    made.push((sys, steps, h, size));
+                    made.len() - 1
+                }
+            };
+            let (_, _, h, size) = &made[k];
+            headers.push(*h);
+            let axiom = grm_derive::Engine::new(sys, 1).ok()?.axiom(seed).ok()?;
+            let start = pos;
+            for (sym, p) in axiom.iter() {
+                let s = sym as usize;
+                axioms.push(sym | ((j as u32) << SYS_SHIFT), p);
+                in_offs.push([u32::try_from(pos).ok()?, u32::try_from(wpos).ok()?]);
+                let (m, w) = *size.get(steps as usize)?.get(s)?;
+                pos = pos.checked_add(m)?;
+                wpos = wpos.checked_add(w)?;
+                for (k, t) in totals.iter_mut().enumerate() {
+                    let (m, w) = size[k.min(steps as usize)][s];
+                    *t = (t.0.saturating_add(m), t.1.saturating_add(w));
+                }
+            }
+            job_lens.push(pos - start);
+        }
+        // Positions and the thread after the last must fit 32 bits.
+        if pos >= u64::from(u32::MAX) || wpos >= u64::from(u32::MAX) {
+            return None;
+        }
+        in_offs.push([pos as u32, wpos as u32]);
+        Some(DirectPlan {
+            jobs: headers,
+            words,
+            axioms,
+            in_offs,
+            totals,
+            job_lens,
+        })
+    }
+
+    /// The final string's modules and parameter words.
+    pub(crate) fn total(&self) -> (u64, u64) {
+        self.totals.last().copied().unwrap_or((0, 0))
+    }
+}
+
+impl GpuSystem<'_> {
+    /// The direct plan for this derivation, or `None` where the stepwise
+    /// paths must run: a system does not qualify, the CPU derives the
+    /// whole string anyway (within [`GpuDeriveOptions::cpu_prefix`]), or a
+    /// string of the stepwise derivation would be over a limit (the
+    /// stepwise path then reports it exactly).
+    pub(crate) fn direct_plan(&self, opts: &GpuDeriveOptions) -> Option<DirectPlan> {
+        if opts.iterations == 0 {
+            return None;
+        }
+        let its = self.job_iterations(opts);
+        let seeds: Vec<u32> = if self.jobs.len() == 1 {
+            vec![opts.seed]
+        } else {
+            self.jobs.iter().map(|j| j.seed).collect()
+        };
+        let plan = DirectPlan::new(&self.jobs, &its, &seeds, opts.iterations as usize)?;
+        let (total, total_words) = plan.total();
+        if opts.cpu_prefix > 0 && total <= opts.cpu_prefix {
+            return None;
+        }
+        // The stepwise derivation's limits, string by string (a string can
+        // be longer than the final one: productions may erase).
+        for (k, &(m, w)) in plan.totals.iter().enumerate().skip(1) {
+            let (n, nw) = plan.totals[k - 1];
+            let bytes = string_bytes(n, nw) + 8 * (n + 1) + 4 * n + string_bytes(m, w);
+            if m > opts.max_modules || bytes > opts.max_bytes {
+                return None;
+            }
+        }
+        let gpu = self.gpu;
+        let fits = |what, b| gpu.check_storage(what, b).is_ok();
+        let ok = fits("output symbols", 4 * total)
+            && fits("output parameter starts", 4 * (total + 1))
+            && fits("output parameters", 4 * total_words)
+            && fits("expansion tables", 4 * plan.words.len() as u64)
+            && gpu.grid("expand", groups_for(total + 1)).is_ok();
+        ok.then_some(plan)
+    }
+
+    /// Run a direct derivation: one dispatch, one wait.
+    pub(crate) fn derive_direct(
+        &self,
+        plan: &DirectPlan,
+        opts: &GpuDeriveOptions,
+    ) -> Result<(DeviceString, Vec<GpuIterationStats>), GpuError> {
+        let t = Instant::now();
+        let gpu = self.gpu;
+        let (total, total_words) = plan.total();
+        let out = self.alloc_string(total, total_words)?;
+        let put = |what, data: &[u8]| -> Result<wgpu::Buffer, GpuError> {
+            let b = gpu.storage(what, data.len() as u64)?;
+            if !data.is_empty() {
+                gpu.queue().write_buffer(&b, 0, data);
+            }
+            Ok(b)
+        };
+        let ax = &plan.axioms;
+        let jobs = put("expansion jobs", bytemuck::cast_slice(&plan.jobs))?;
+        let xt = put("expansion tables", bytemuck::cast_slice(&plan.words))?;
+        let syms = put("axiom symbols", bytemuck::cast_slice(&ax.syms))?;
+        let starts = put("axiom parameter starts", bytemuck::cast_slice(&ax.starts))?;
+        let aparams = put("axiom parameters", bytemuck::cast_slice(&ax.params))?;
+        let offs = put("axiom offsets", bytemuck::cast_slice(&plan.in_offs))?;
+        let params = gpu.uniform(
+            "expand params",
+            &ExpandParams {
+                n_in: ax.len() as u32,
+                total: total as u32,
+                total_words: total_words as u32,
+                ..ExpandParams::default()
+            },
+        );
+        let bound = gpu.bound(
+            &kernels::EXPAND,
+            &[
+                &params,
+                &jobs,
+                &xt,
+                &syms,
+                &starts,
+                &aparams,
+                &offs,
+                &out.syms,
+                &out.starts,
+                &out.params,
+            ],
+        )?;
+        let grid = gpu.grid("expand", groups_for(total + 1))?;
+        // Profiling: one pass; the kernel is the "rewrite" stage (the
+        // stages before it, count, scan and next, are empty).
+        let stamps = Stamps::new(gpu, 1);
+        let mut enc = gpu.encoder();
+        {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("direct derivation"),
+                timestamp_writes: stamps.as_ref().and_then(|s| s.pass_writes(0)),
+            });
+            if let Some(s) = &stamps {
+                for stage in 0..3 {
+                    s.after_stage(&mut pass, 0, stage);
+                }
+            }
+            bound.dispatch(&mut pass, grid);
+            if let Some(s) = &stamps {
+                s.after_stage(&mut pass, 0, 3);
+            }
+        }
+        let device = match &stamps {
+            Some(s) => {
+                s.resolve(&mut enc);
+                let (buf, n) = s.readback();
+                let words = gpu.read::<u32>(enc, &[(buf, 0, n)])?;
+                words.first().map(|w| s.times(w)).unwrap_or_default()
+            }
+            None => {
+                gpu.submit_wait(enc)?;
+                Vec::new()
+            }
+        };
+        let elapsed = t.elapsed();
+        gpu.recycle([jobs, xt, syms, starts, aparams, offs]);
+        // The directory: each job's range in the final string.
+        let mut dir: Vec<SystemEntry> = self.directory.clone();
+        let mut start = 0u64;
+        for (e, &n) in dir.iter_mut().zip(&plan.job_lens) {
+            e.start = start as u32;
+            start += n;
+            e.end = start as u32;
+        }
+        if let [one] = &mut dir[..] {
+            one.iterations = opts.iterations;
+            one.seed = opts.seed;
+        }
+        gpu.queue()
+            .write_buffer(&self.tables, 0, bytemuck::cast_slice(&dir));
+        let last = plan.totals.len() - 1;
+        let stats = plan
+            .totals
+            .iter()
+            .enumerate()
+            .map(|(k, &(m, w))| GpuIterationStats {
+                iteration: k as u32,
+                modules: m,
+                param_words: w,
+                elapsed: if k == last {
+                    elapsed
+                } else {
+                    std::time::Duration::ZERO
+                },
+                device: if k == last {
+                    device.first().copied()
+                } else {
+                    None
+                },
+                on_cpu: false,
+            })
+            .collect();
+        Ok((out, stats))
+    }
+}

@@ -1,0 +1,269 @@
+//! The direct derivation (the final string of deterministic, context-free
+//! systems with constant successor parameters in one pass,
+//! `shaders/expand.wgsl`) against the
+//! CPU and the stepwise GPU paths: the same string and the same figures
+//! for every string, on the example scenes, random grammars (erasing
+//! productions, symbols without productions, branches) and forests; the
+//! limits, the CPU prefix and the step cap send a derivation the stepwise
+//! way, with the stepwise errors.
+
+mod common;
+use common::*;
+use grm_gpu::{
+    DIRECT_MAX_STEPS, DerivePath, DeriveStrategy, GpuDeriveOptions, GpuError, GpuJob, derive_many,
+    derive_with,
+};
+
+fn opts(sys: &grm_compile::CompiledSystem, iterations: u32) -> GpuDeriveOptions {
+    GpuDeriveOptions {
+        iterations,
+        cpu_prefix: 0,
+        ..GpuDeriveOptions::from_system(sys)
+    }
+}
+
+fn figures(d: &grm_gpu::GpuDerivation) -> Vec<(u32, u64, u64)> {
+    d.stats
+        .iter()
+        .map(|s| (s.iteration, s.modules, s.param_words))
+        .collect()
+}
+
+/// Direct, stepwise and CPU agree on `sys` at `iterations`; the path taken
+/// by `Auto` is returned.
+fn compare(what: &str, sys: &grm_compile::CompiledSystem, o: &GpuDeriveOptions) -> DerivePath {
+    let g = gpu();
+    let (a, pa) = derive_with(g, sys, o, DeriveStrategy::Auto).expect("derives");
+    let (b, _) = derive_with(g, sys, o, DeriveStrategy::Stepwise).expect("derives");
+    same_bits(what, &a.string, &b.string);
+    assert_eq!(figures(&a), figures(&b), "{what}: figures");
+    let cpu = cpu_derive(sys, o.iterations, o.seed).expect("cpu derives");
+    assert_same(what, &cpu, &a.string);
+    pa
+}
+
+#[test]
+fn deterministic_example_scenes_derive_directly() {
+    for (file, iterations) in [
+        ("hilbert3d.grm", 4),
+        ("koch_island.grm", 3),
+        ("bracketed_plant.grm", 4),
+    ] {
+        let sys = example(file, None);
+        for n in [1, iterations] {
+            let path = compare(file, &sys, &opts(&sys, n));
+            assert_eq!(path, DerivePath::Direct, "{file} at {n}");
+        }
+    }
+    // Parametric or stochastic scenes are derived step by step.
+    for file in [
+        "row_of_trees.grm",
+        "stochastic_plant.grm",
+        "ternary_tree.grm",
+    ] {
+        let sys = example(file, None);
+        let path = compare(file, &sys, &opts(&sys, 3));
+        assert_ne!(path, DerivePath::Direct, "{file}");
+    }
+}
+
+/// A random deterministic grammar with constant parameters only: up to
+/// six nonterminals, each with one production or none, successors of 0
+/// to 7 modules (erasing ones included) with turtle symbols (their default
+/// parameters or constants of their own, in the axiom too) and branches.
+fn random_deterministic(rng: &mut Rng) -> String {
+    let names = ["A", "B", "C", "D", "E", "G"];
+    let k = 1 + rng.below(names.len() as u64) as usize;
+    let pick = |rng: &mut Rng| -> String {
+        match rng.below(8) {
+            0 => "F".into(),
+            1 => "+".into(),
+            2 => "-".into(),
+            // Constant parameters of their own.
+            3 => format!("F({})", rng.below(9) as f32 / 4.0),
+            4 => format!("+({})", 5 * rng.below(19)),
+            _ => names[rng.below(k as u64) as usize].into(),
+        }
+    };
+    let mut src = String::from("system S {\n    axiom");
+    for _ in 0..1 + rng.below(3) {
+        src.push(' ');
+        src.push_str(&pick(rng));
+    }
+    src.push_str(";\n");
+    for name in &names[..k] {
+        if rng.below(5) == 0 {
+            continue;
+        }
+        src.push_str(&format!("    {name} ->"));
+        let len = rng.below(8);
+        let mut open = false;
+        for _ in 0..len {
+            if !open && rng.below(6) == 0 {
+                src.push_str(" [");
+                open = true;
+            }
+            src.push(' ');
+            src.push_str(&pick(rng));
+            if open && rng.below(3) == 0 {
+                src.push_str(" ]");
+                open = false;
+            }
+        }
+        if open {
+            src.push_str(" ]");
+        }
+        src.push_str(";\n");
+    }
+    src.push_str("}\n");
+    src
+}
+
+#[test]
+fn random_deterministic_grammars_derive_directly() {
+    let mut rng = Rng(2026);
+    let (mut direct, mut tried) = (0, 0);
+    while direct < 60 && tried < 400 {
+        tried += 1;
+        let src = random_deterministic(&mut rng);
+        let Some(sys) = inline(&src) else { continue };
+        let iterations = 1 + rng.below(9) as u32;
+        let o = GpuDeriveOptions {
+            max_modules: 300_000,
+            ..opts(&sys, iterations)
+        };
+        let g = gpu();
+        let auto = derive_with(g, &sys, &o, DeriveStrategy::Auto);
+        let step = derive_with(g, &sys, &o, DeriveStrategy::Stepwise);
+        match (auto, step) {
+            (Ok((a, pa)), Ok((b, _))) => {
+                let what = format!("{src} at {iterations}");
+                same_bits(&what, &a.string, &b.string);
+                assert_eq!(figures(&a), figures(&b), "{what}: figures");
+                let cpu = cpu_derive(&sys, iterations, 0).expect("cpu derives");
+                assert_same(&what, &cpu, &a.string);
+                assert_eq!(pa, DerivePath::Direct, "{what}");
+                direct += 1;
+            }
+            // Over the module limit: the stepwise error either way.
+            (Err(ea), Err(eb)) => assert_eq!(ea, eb, "{src}"),
+            (a, b) => panic!("{src}\nauto: {:?}\nstepwise: {:?}", a.is_ok(), b.is_ok()),
+        }
+    }
+    assert!(direct >= 60, "only {direct} direct derivations in {tried}");
+}
+
+/// A forest of deterministic systems with their own iteration counts in
+/// one direct dispatch: each string is the CPU's for that system alone,
+/// and the directory gives each system's range.
+#[test]
+fn a_deterministic_forest_derives_directly() {
+    let g = gpu();
+    let hilbert = example("hilbert3d.grm", None);
+    let koch = example("koch_island.grm", None);
+    let plant = example("bracketed_plant.grm", None);
+    let erasing = inline("system S { axiom A B A; A -> A B [ + A ]; B -> ; }").expect("checks");
+    let jobs = [
+        (&hilbert, 3),
+        (&koch, 2),
+        (&plant, 3),
+        (&erasing, 5),
+        (&hilbert, 1),
+        (&koch, 0),
+    ]
+    .map(|(system, iterations)| GpuJob {
+        system,
+        iterations,
+        seed: 0,
+    });
+    let o = GpuDeriveOptions {
+        iterations: 0,
+        seed: 0,
+        max_modules: 1 << 24,
+        max_bytes: u64::MAX,
+        sync_iterations: false,
+        cpu_prefix: 0,
+    };
+    let out = derive_many(g, &jobs, &o).expect("derives");
+    assert_eq!(out.strings.len(), jobs.len());
+    for (j, (job, s)) in jobs.iter().zip(&out.strings).enumerate() {
+        let cpu = cpu_derive(job.system, job.iterations, 0).expect("cpu derives");
+        assert_same(&format!("job {j}"), &cpu, s);
+    }
+    let total: u64 = out.strings.iter().map(|s| s.len() as u64).sum();
+    assert_eq!(out.stats.last().map(|s| s.modules), Some(total));
+}
+
+/// Limits: a string of the stepwise derivation over the module limit, even
+/// an intermediate one longer than the final string (an erasing
+/// production), is the stepwise error.
+#[test]
+fn limits_are_the_stepwise_ones() {
+    let g = gpu();
+    // Strings: A; A A A A E (5); then every A erases: ... the longest is
+    // string 1 with 5 modules, the final one has 1.
+    let src = "system S { axiom A; A -> B B B B E; B -> ; }";
+    let sys = inline(src).expect("checks");
+    let o = GpuDeriveOptions {
+        max_modules: 4,
+        ..opts(&sys, 2)
+    };
+    let ea = derive_with(g, &sys, &o, DeriveStrategy::Auto).map(|(_, p)| p);
+    let eb = derive_with(g, &sys, &o, DeriveStrategy::PerIteration).map(|(_, p)| p);
+    assert!(
+        matches!(ea, Err(GpuError::ModuleLimit { iteration: 1, .. })),
+        "{ea:?}"
+    );
+    assert_eq!(ea, eb);
+    let o = GpuDeriveOptions {
+        max_modules: 5,
+        ..o
+    };
+    assert_eq!(compare(src, &sys, &o), DerivePath::Direct);
+    let sys = inline("system S { axiom A; A -> A A; }").expect("checks");
+    let o = GpuDeriveOptions {
+        max_modules: 1000,
+        ..opts(&sys, 12)
+    };
+    let ea = derive_with(g, &sys, &o, DeriveStrategy::Auto).map(|(_, p)| p);
+    assert!(
+        matches!(ea, Err(GpuError::ModuleLimit { iteration: 10, .. })),
+        "{ea:?}"
+    );
+    let eb = derive_with(g, &sys, &o, DeriveStrategy::PerIteration).map(|(_, p)| p);
+    assert_eq!(ea, eb);
+}
+
+/// Within the CPU prefix the CPU derives the whole string; past the step
+/// cap (a slowly growing string) the derivation is stepwise; both give the
+/// direct path's string.
+#[test]
+fn the_cpu_prefix_and_the_step_cap_choose_stepwise() {
+    let sys = example("hilbert3d.grm", None);
+    let small = GpuDeriveOptions {
+        cpu_prefix: 1 << 20,
+        ..opts(&sys, 3)
+    };
+    assert_ne!(
+        compare("hilbert3d in the prefix", &sys, &small),
+        DerivePath::Direct
+    );
+    let large = GpuDeriveOptions {
+        cpu_prefix: 1000,
+        ..opts(&sys, 4)
+    };
+    assert_eq!(
+        compare("hilbert3d past the prefix", &sys, &large),
+        DerivePath::Direct
+    );
+    let slow = inline("system S { axiom A; A -> F A; }").expect("checks");
+    let n = DIRECT_MAX_STEPS;
+    assert_eq!(
+        compare("linear at the cap", &slow, &opts(&slow, n)),
+        DerivePath::Direct
+    );
+    assert_ne!(
+        compare("linear past the cap", &slow, &opts(&slow, n + 1)),
+        DerivePath::Direct
+    );
+}
