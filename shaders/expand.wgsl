@@ -1,6 +1,6 @@
 // Direct derivation (grm-gpu's derive/direct.rs): the final string of
-// deterministic, context-free systems whose successors' parameters are
-// constants, written in one pass with no intermediate string.
+// deterministic, context-free systems, written in one pass with no
+// intermediate string.
 //
 // In such a system every module of symbol s becomes, after r more steps,
 // the same string, whose length and parameter words the host computes
@@ -13,10 +13,13 @@
 // host's offsets of the successor modules), adding up the parameter words
 // before it, until no step is left or the symbol has no production (it
 // stays itself). The module there is the successor slot it came from:
-// its symbol and constant parameters (or, when no step was taken, the
-// axiom module itself). Module writes are coalesced; there is no scan,
-// no atomic, and nothing is read but the small tables: the derivation
-// costs one pass over the output.
+// its symbol, and its parameters (EXPAND_PARAMS: expand_const.wgsl copies
+// the slot's constants, or the axiom module's own parameters when no step
+// was taken; expand_vm.wgsl evaluates the chain of computed parameters
+// from the last slot with constant ones down to the module, with the
+// bytecode interpreter). Module writes are coalesced; there is no scan,
+// no atomic (but on the error path), and nothing is read but the small
+// tables: the derivation costs one pass over the output.
 //!include grid.wgsl
 
 @group(0) @binding(0) var<uniform> E: ExpandParams;
@@ -32,6 +35,8 @@
 @group(0) @binding(7) var<storage, read_write> out_syms: array<u32>;
 @group(0) @binding(8) var<storage, read_write> out_starts: array<u32>;
 @group(0) @binding(9) var<storage, read_write> out_params: array<f32>;
+// walk_begin(), walk_step(slot), write_params(job, input module, first word).
+//!include EXPAND_PARAMS
 
 @compute @workgroup_size(WORKGROUP)
 fn expand(
@@ -64,7 +69,7 @@ fn expand(
     var s = tagged & SYM_MASK;
     var rest = o - in_offs[lo].x;
     var wo = in_offs[lo].y;
-    var slot = NONE;
+    walk_begin();
     var r = j.steps;
     while (r > 0u) {
         let first = xt[j.symbols + 2u * s];
@@ -85,23 +90,12 @@ fn expand(
         }
         rest = rest - xt[row + 2u * a];
         wo = wo + xt[row + 2u * a + 1u];
-        slot = j.slots + EXPAND_SLOT_WORDS * (first + a);
+        let slot = j.slots + EXPAND_SLOT_WORDS * (first + a);
+        walk_step(slot);
         s = xt[slot];
         r = r - 1u;
     }
     out_syms[o] = s | (job << SYS_SHIFT);
     out_starts[o] = wo;
-    if (slot == NONE) {
-        let a = in_starts[lo];
-        let n = in_starts[lo + 1u] - a;
-        for (var c = 0u; c < n; c = c + 1u) {
-            out_params[wo + c] = in_params[a + c];
-        }
-    } else {
-        let n = xt[slot + 1u];
-        let d = xt[slot + 2u];
-        for (var c = 0u; c < n; c = c + 1u) {
-            out_params[wo + c] = bitcast<f32>(xt[d + c]);
-        }
-    }
+    write_params(job, lo, wo);
 }

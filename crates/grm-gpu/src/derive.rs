@@ -16,6 +16,11 @@
 //! bound is over a limit, or the batched run reports an error or an
 //! overflow, the derivation runs (again) iteration by iteration, which
 //! gives the exact error.
+//!
+//! Direct (deterministic, context-free systems; `direct.rs`): the final
+//! string in one dispatch,
+//! each output module found by walking down the derivation tree, whose
+//! shape the host computes from the tables; no intermediate string.
 
 use std::time::{Duration, Instant};
 
@@ -34,7 +39,7 @@ use crate::scan::{ScanElem, record_scan};
 use crate::stamps::{DeviceTime, Stamps};
 
 mod direct;
-pub use direct::DIRECT_MAX_STEPS;
+pub use crate::layout::DIRECT_MAX_STEPS;
 
 /// How to run a GPU derivation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -421,8 +426,8 @@ impl<'a> GpuSystem<'a> {
         if strategy == DeriveStrategy::Auto
             && !opts.sync_iterations
             && let Some(plan) = self.direct_plan(opts)
+            && let Some((s, stats)) = self.derive_direct(&plan, opts)?
         {
-            let (s, stats) = self.derive_direct(&plan, opts)?;
             for st in &stats {
                 progress(st);
             }
@@ -1475,7 +1480,7 @@ pub const BATCH_LOOSE_MAX_BYTES: u64 = 256 << 20;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DeriveStrategy {
     /// Direct (the final string in one pass, for deterministic,
-    /// context-free systems without parameters), else batched (one
+    /// context-free systems), else batched (one
     /// submission, sizes from the bound) where the bounds allow it, else
     /// iteration by iteration; neither direct nor batched with
     /// `sync_iterations`.
@@ -1495,7 +1500,7 @@ pub enum DeriveStrategy {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DerivePath {
     /// The final string in one pass, no intermediate string
-    /// (deterministic, context-free, parameter-free systems).
+    /// (deterministic, context-free systems).
     Direct,
     /// All iterations in one submission.
     Batched,

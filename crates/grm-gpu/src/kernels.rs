@@ -306,26 +306,48 @@ pub static BATCH_NEXT: Kernel = Kernel {
     subst: &[("BLOCK_SUMS_BINDING", "8"), PAIRS],
 };
 
+const EXPAND_BINDS: [Bind; 10] = [
+    Bind::Uniform,
+    Bind::Read,
+    Bind::Read,
+    Bind::Read,
+    Bind::Read,
+    Bind::Read,
+    Bind::Read,
+    Bind::ReadWrite,
+    Bind::ReadWrite,
+    Bind::ReadWrite,
+];
+
 /// The direct derivation (`expand.wgsl`): the final string of
-/// deterministic, context-free systems with constant successor
-/// parameters in one pass.
+/// deterministic, context-free systems in one pass, where every successor
+/// parameter is a constant.
 pub static EXPAND: Kernel = Kernel {
     name: "expand",
     file: "expand.wgsl",
     entry: "expand",
-    bindings: &[
-        Bind::Uniform,
-        Bind::Read,
-        Bind::Read,
-        Bind::Read,
-        Bind::Read,
-        Bind::Read,
-        Bind::Read,
-        Bind::ReadWrite,
-        Bind::ReadWrite,
-        Bind::ReadWrite,
-    ],
-    subst: &[],
+    bindings: &EXPAND_BINDS,
+    subst: &[("EXPAND_PARAMS", "expand_const.wgsl")],
+};
+
+/// [`EXPAND`] where some successor parameters are computed: the chain of
+/// computed parameters is evaluated with the bytecode interpreter, which
+/// reads the systems' packed tables (binding 10); errors in binding 11.
+pub static EXPAND_VM: Kernel = Kernel {
+    name: "expand_vm",
+    file: "expand.wgsl",
+    entry: "expand",
+    bindings: &{
+        let mut b = [Bind::ReadWrite; 12];
+        let mut i = 0;
+        while i < 10 {
+            b[i] = EXPAND_BINDS[i];
+            i += 1;
+        }
+        b[10] = Bind::Read;
+        b
+    },
+    subst: &[("EXPAND_PARAMS", "expand_vm.wgsl")],
 };
 
 /// All kernels.
@@ -362,4 +384,5 @@ pub static ALL: &[&Kernel] = &[
     &UPDATE_DIRECTORY_DEV,
     &BATCH_NEXT,
     &EXPAND,
+    &EXPAND_VM,
 ];

@@ -315,16 +315,24 @@ gpu_struct! {
 }
 
 /// Words of one successor slot in the expansion tables: its symbol, its
-/// parameter words and where they are in the tables.
-pub const EXPAND_SLOT_WORDS: u32 = 3;
+/// parameter words, where its constant parameters are in the expansion
+/// tables (`NONE`: computed), its first parameter expression and their
+/// count in its system's parameter table, and where its predecessor's
+/// parameters are bound for them (binding word, words).
+pub const EXPAND_SLOT_WORDS: u32 = 7;
+
+/// The most rewriting steps a direct derivation takes: each output module
+/// walks down one tree level per step, so a long derivation of a slowly
+/// growing string (`A -> F A` for thousands of steps) is cheaper stepwise.
+pub const DIRECT_MAX_STEPS: u32 = 64;
 
 gpu_struct! {
     /// One job of a direct derivation: where its expansion tables are in
     /// the `expand` kernel's table buffer (word indices). Symbol `s` has
     /// the record `(first slot, successor length)` at `symbols + 2 s`
     /// (length 0: the symbol stays itself). Slot `f + i` (successor module
-    /// `i` of the symbol whose first slot is `f`) is the record
-    /// `(symbol, parameter words, index of those words)` at
+    /// `i` of the symbol whose first slot is `f`) is a record of
+    /// [`EXPAND_SLOT_WORDS`] words at
     /// `slots + EXPAND_SLOT_WORDS (f + i)`; with `r` steps left
     /// (1 ..= steps), the pair (first module, first parameter word) of
     /// that module's expansion inside its predecessor's is at
@@ -533,6 +541,7 @@ pub fn wgsl_header() -> String {
         ("SEG_DEAD", SEG_DEAD),
         ("SEG_INDEX", SEG_INDEX),
         ("EXPAND_SLOT_WORDS", EXPAND_SLOT_WORDS),
+        ("DIRECT_MAX_STEPS", DIRECT_MAX_STEPS),
         (
             "TURTLE_CONFIG_WORDS",
             (std::mem::size_of::<TurtleConfig>() / 4) as u32,

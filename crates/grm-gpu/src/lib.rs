@@ -18,7 +18,10 @@
 //!   [`GpuError::BufferTooLarge`] (or another typed error), never a device
 //!   loss. Dispatches of more than `max_compute_workgroups_per_dimension`
 //!   workgroups are split over a 2D grid.
-//! - No atomics on the hot path: every pass is count / scan / write.
+//! - No atomics on the hot path: every pass is count / scan / write, or
+//!   (the direct derivation of deterministic context-free systems,
+//!   `derive/direct.rs`) one write of the final string whose layout the
+//!   host computed from the tables.
 //! - The derived string does not depend on who derives a step: the first,
 //!   small strings are derived on the CPU by default
 //!   ([`GpuDeriveOptions::cpu_prefix`]) and the GPU goes on from the CPU's

@@ -37,6 +37,8 @@ pub const FILES: &[(&str, &str)] = shader_files!(
     "offsets_blocks.wgsl",
     "count_scan.wgsl",
     "expand.wgsl",
+    "expand_const.wgsl",
+    "expand_vm.wgsl",
 );
 
 /// How a kernel binds a buffer (binding index = position in the list).

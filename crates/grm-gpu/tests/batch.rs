@@ -42,7 +42,7 @@ fn example_scenes_batched_equal_per_iteration() {
             let o = opts(&sys, iterations, seed);
             let what = format!("{file} {system:?} seed {seed}");
             // Stepwise: the direct path would take the deterministic
-            // parameter-free scenes (tests/direct.rs).
+            // context-free scenes (tests/direct.rs).
             let (a, pa) = derive_with(g, &sys, &o, DeriveStrategy::Stepwise).expect("derives");
             let (b, pb) = derive_with(g, &sys, &o, DeriveStrategy::PerIteration).expect("derives");
             assert_eq!(pb, DerivePath::PerIteration);

@@ -1,9 +1,9 @@
 //! The direct derivation (the final string of deterministic, context-free
-//! systems with constant successor parameters in one pass,
-//! `shaders/expand.wgsl`) against the
+//! systems in one pass, `shaders/expand.wgsl`) against the
 //! CPU and the stepwise GPU paths: the same string and the same figures
 //! for every string, on the example scenes, random grammars (erasing
-//! productions, symbols without productions, branches) and forests; the
+//! productions, symbols without productions, branches, constant and
+//! computed parameters, faults) and forests; the
 //! limits, the CPU prefix and the step cap send a derivation the stepwise
 //! way, with the stepwise errors.
 
@@ -44,27 +44,131 @@ fn compare(what: &str, sys: &grm_compile::CompiledSystem, o: &GpuDeriveOptions) 
 
 #[test]
 fn deterministic_example_scenes_derive_directly() {
-    for (file, iterations) in [
-        ("hilbert3d.grm", 4),
-        ("koch_island.grm", 3),
-        ("bracketed_plant.grm", 4),
+    for (file, system, iterations) in [
+        ("hilbert3d.grm", None, 4),
+        ("koch_island.grm", None, 3),
+        ("bracketed_plant.grm", None, 4),
+        // Computed parameters (`F(x) -> F(x * p) ...`, `F(l) -> F(l * lr)`).
+        ("row_of_trees.grm", None, 6),
+        ("ternary_tree.grm", None, 5),
+        ("ternary_tree.grm", Some("TernaryTreeB"), 5),
+        ("ternary_tree.grm", Some("TernaryTreeC"), 5),
+        ("ternary_tree.grm", Some("TernaryTreeD"), 5),
     ] {
-        let sys = example(file, None);
+        let sys = example(file, system);
         for n in [1, iterations] {
-            let path = compare(file, &sys, &opts(&sys, n));
-            assert_eq!(path, DerivePath::Direct, "{file} at {n}");
+            let what = format!("{file} {system:?} at {n}");
+            let path = compare(&what, &sys, &opts(&sys, n));
+            assert_eq!(path, DerivePath::Direct, "{what}");
         }
     }
-    // Parametric or stochastic scenes are derived step by step.
-    for file in [
-        "row_of_trees.grm",
-        "stochastic_plant.grm",
-        "ternary_tree.grm",
+    // Stochastic and context-sensitive scenes are derived step by step.
+    for (file, n) in [
+        ("stochastic_plant.grm", 3),
+        ("context_plant_a.grm", 10),
+        ("context_plant_b.grm", 10),
     ] {
         let sys = example(file, None);
-        let path = compare(file, &sys, &opts(&sys, 3));
+        let path = compare(file, &sys, &opts(&sys, n));
         assert_ne!(path, DerivePath::Direct, "{file}");
     }
+}
+
+/// A random deterministic grammar with computed parameters: `A(x)` and
+/// `B(x)` rewrite with expressions of `x` (some of which fault or leave
+/// the finite range: `1 / (x - 2)`, `sqrt(x - 3)`, `x * 1e30`), constant
+/// parameters and copies; sometimes a random draw (`uniform`), which the
+/// direct path cannot take.
+fn random_parametric(rng: &mut Rng) -> String {
+    let exprs = [
+        "x",
+        "x * 0.5",
+        "x + 1",
+        "2",
+        "x - 1",
+        "1 / (x - 2)",
+        "sqrt(x - 3)",
+        "x * 1e30",
+        "x * x",
+        "-x",
+    ];
+    let module = |rng: &mut Rng| -> String {
+        let e = exprs[rng.below(exprs.len() as u64) as usize];
+        match rng.below(6) {
+            0 => format!("F({e})"),
+            1 => format!("+({e})"),
+            2 => "F".into(),
+            3 => format!("B({e})"),
+            _ => format!("A({e})"),
+        }
+    };
+    let mut src = String::from("system S {\n    axiom A(1) B(3);\n");
+    for name in ["A", "B"] {
+        src.push_str(&format!("    {name}(x) ->"));
+        for k in 0..rng.below(6) {
+            if k == 1 && rng.below(4) == 0 {
+                src.push_str(" [ + A(x) ]");
+            }
+            src.push(' ');
+            src.push_str(&module(rng));
+        }
+        if rng.below(12) == 0 {
+            src.push_str(" F(uniform(0, x))");
+        }
+        src.push_str(";\n");
+    }
+    src.push_str("}\n");
+    src
+}
+
+#[test]
+fn random_parametric_grammars_derive_directly_or_fail_alike() {
+    let g = gpu();
+    let mut rng = Rng(99);
+    let (mut direct, mut errors, mut drawn, mut tried) = (0, 0, 0, 0);
+    while (direct < 50 || errors < 5) && tried < 600 {
+        tried += 1;
+        let src = random_parametric(&mut rng);
+        let Some(sys) = inline(&src) else { continue };
+        let iterations = 1 + rng.below(7) as u32;
+        let o = GpuDeriveOptions {
+            max_modules: 300_000,
+            ..opts(&sys, iterations)
+        };
+        let auto = derive_with(g, &sys, &o, DeriveStrategy::Auto);
+        let step = derive_with(g, &sys, &o, DeriveStrategy::Stepwise);
+        let what = format!("{src} at {iterations}");
+        match (auto, step) {
+            (Ok((a, pa)), Ok((b, _))) => {
+                same_bits(&what, &a.string, &b.string);
+                assert_eq!(figures(&a), figures(&b), "{what}: figures");
+                let cpu = cpu_derive(&sys, iterations, 0).expect("cpu derives");
+                assert_same(&what, &cpu, &a.string);
+                if src.contains("uniform") {
+                    assert_ne!(pa, DerivePath::Direct, "{what}");
+                    drawn += 1;
+                } else {
+                    assert_eq!(pa, DerivePath::Direct, "{what}");
+                    direct += 1;
+                }
+            }
+            // A fault, a non-finite value or the module limit: the
+            // stepwise error either way.
+            (Err(ea), Err(eb)) => {
+                assert_eq!(ea, eb, "{what}");
+                errors += 1;
+            }
+            (a, b) => panic!(
+                "{what}\nauto: {:?}\nstepwise: {:?}",
+                a.map(|(_, p)| p),
+                b.map(|(_, p)| p)
+            ),
+        }
+    }
+    eprintln!("{tried} tried: {direct} direct, {errors} errors, {drawn} with draws");
+    assert!(direct >= 50, "only {direct} direct derivations");
+    assert!(errors >= 5, "only {errors} errors");
+    assert!(drawn > 0, "no grammar with draws");
 }
 
 /// A random deterministic grammar with constant parameters only: up to
@@ -153,9 +257,10 @@ fn random_deterministic_grammars_derive_directly() {
     assert!(direct >= 60, "only {direct} direct derivations in {tried}");
 }
 
-/// A forest of deterministic systems with their own iteration counts in
-/// one direct dispatch: each string is the CPU's for that system alone,
-/// and the directory gives each system's range.
+/// A forest of deterministic systems (constant and computed parameters)
+/// with their own iteration counts in one direct dispatch: each string is
+/// the CPU's for that system alone, and the directory gives each system's
+/// range.
 #[test]
 fn a_deterministic_forest_derives_directly() {
     let g = gpu();
@@ -163,12 +268,17 @@ fn a_deterministic_forest_derives_directly() {
     let koch = example("koch_island.grm", None);
     let plant = example("bracketed_plant.grm", None);
     let erasing = inline("system S { axiom A B A; A -> A B [ + A ]; B -> ; }").expect("checks");
+    let row = example("row_of_trees.grm", None);
+    let ternary = example("ternary_tree.grm", Some("TernaryTreeC"));
     let jobs = [
         (&hilbert, 3),
+        (&row, 4),
         (&koch, 2),
         (&plant, 3),
+        (&ternary, 4),
         (&erasing, 5),
         (&hilbert, 1),
+        (&row, 2),
         (&koch, 0),
     ]
     .map(|(system, iterations)| GpuJob {

@@ -1,35 +1,40 @@
 //! Direct derivation: the final string of deterministic, context-free
-//! systems whose successors' parameters are constants, in one pass
-//! (`shaders/expand.wgsl`), with no intermediate string, no scan and no
-//! read-back but the wait for it.
+//! systems in one pass (`shaders/expand.wgsl`), with no intermediate
+//! string, no scan and one wait.
 //!
 //! In such a system (every symbol either has no production or a first
-//! group with one alternative, no context and no condition; every
-//! parameter a successor writes is a constant, as the turtle symbols'
-//! defaults such as `F(1)` are) every module of a symbol becomes the same
-//! string after the same number of steps, so each symbol's length and
-//! parameter words after `r` steps are known from the tables, and so is
-//! the final string's layout: a tree of expansions. The host writes, per
-//! job, every successor module's first position (module and parameter
-//! word) inside its predecessor's expansion for each number of steps
-//! left, and the axioms' own offsets; the kernel's threads take one
-//! output position each and walk down to the module there (a binary
-//! search per step). The work is one pass over the output whatever the
-//! number of iterations, where stepwise derivation writes and scans every
-//! intermediate string.
+//! group with one alternative, no context and no condition) every module
+//! of a symbol becomes a string of the same size after the same number of
+//! steps, whatever its parameters, so each symbol's length and parameter
+//! words after `r` steps are known from the tables, and so is the final
+//! string's layout: a tree of expansions. The host writes, per job, every
+//! successor module's first position (module and parameter word) inside
+//! its predecessor's expansion for each number of steps left, and the
+//! axioms' own offsets; the kernel's threads take one output position each
+//! and walk down to the module there (a binary search per step). Its
+//! parameters are its slot's constants, or (`expand_vm.wgsl`) the chain of
+//! computed parameters from the last slot with constant ones, evaluated
+//! in order with the bytecode interpreter. The work is one pass over the
+//! output whatever the number of iterations, where stepwise derivation
+//! writes and scans every intermediate string.
 //!
 //! Invariants: the result (string, per-string figures, directory) is the
 //! stepwise derivation's exactly (the axioms are the CPU engine's, the
-//! constants the tables'); a plan exists only when every string of the
-//! stepwise derivation is within the options' and the device's limits
-//! (otherwise the stepwise path runs and reports the limit as before);
-//! every table value a thread reads on its way is exact (clamping applies
-//! only to symbols the final string cannot reach, whose sizes overflow).
+//! constants the tables', computed parameters the same operations in the
+//! same order); code with random draws is never taken (the walk has no
+//! positions in the intermediate strings); a fault or non-finite value
+//! makes the caller derive stepwise, which reports it; a plan exists only
+//! when every string of the stepwise derivation is within the options' and
+//! the device's limits (otherwise the stepwise path runs and reports the
+//! limit as before); every table value a thread reads on its way is exact
+//! (clamping applies only to symbols the final string cannot reach, whose
+//! sizes overflow).
 
 use std::time::Instant;
 
 use grm_compile::CompiledSystem;
-use grm_compile::table::{PARAM_CONST, SuccModule};
+use grm_compile::op::{Op, decode};
+use grm_compile::table::{NONE, PARAM_CODE, PARAM_CONST, SuccModule};
 use grm_derive::ModuleString;
 
 use super::{
@@ -39,13 +44,9 @@ use super::{
 use crate::device::groups_for;
 use crate::error::GpuError;
 use crate::kernels;
+pub use crate::layout::DIRECT_MAX_STEPS;
 use crate::layout::{EXPAND_SLOT_WORDS, ExpandJob, ExpandParams, SYS_SHIFT, SystemEntry};
 use crate::stamps::Stamps;
-
-/// The most rewriting steps a direct derivation takes: each output module
-/// walks down one tree level per step, so a long derivation of a slowly
-/// growing string (`A -> A F` for thousands of steps) is cheaper stepwise.
-pub const DIRECT_MAX_STEPS: u32 = 64;
 
 /// The most words of expansion tables (16 MiB).
 const DIRECT_MAX_TABLE_WORDS: usize = 1 << 22;
@@ -65,6 +66,8 @@ pub(crate) struct DirectPlan {
     pub(crate) totals: Vec<(u64, u64)>,
     /// Each job's final length.
     job_lens: Vec<u64>,
+    /// Some successor parameters are computed ([`kernels::EXPAND_VM`]).
+    computed: bool,
 }
 
 /// Sizes of one module's expansion after `r` steps, per symbol: `r = 0`
@@ -72,9 +75,13 @@ pub(crate) struct DirectPlan {
 type Sizes = Vec<Vec<(u64, u64)>>;
 
 /// One system's expansion tables for `steps` steps (appended to `words`)
-/// and its sizes; `None` when the system does not qualify or its tables
-/// would be too large.
-fn expansion(sys: &CompiledSystem, steps: u32, words: &mut Vec<u32>) -> Option<(ExpandJob, Sizes)> {
+/// , its sizes and whether some successor parameters are computed; `None`
+/// when the system does not qualify or its tables would be too large.
+fn expansion(
+    sys: &CompiledSystem,
+    steps: u32,
+    words: &mut Vec<u32>,
+) -> Option<(ExpandJob, Sizes, bool)> {
     let ns = sys.symbols.len();
     let mut succ: Vec<Option<&[SuccModule]>> = Vec::with_capacity(ns);
     for (s, e) in sys.symbols.iter().enumerate() {
@@ -88,9 +95,10 @@ fn expansion(sys: &CompiledSystem, steps: u32, words: &mut Vec<u32>) -> Option<(
         let g = sys.groups.get(e.first_group as usize)?;
         succ.push(Some(succ_of(sys, sys.alts.get(g.first_alt as usize)?)?));
     }
-    // Every successor module: a known symbol, constant parameters of its
-    // symbol's width.
-    let mut consts: Vec<Vec<u32>> = Vec::new();
+    // Every successor module: a known symbol and parameters of its
+    // symbol's width; constants kept (`Some`), computed ones without
+    // random draws (`None`: the walk evaluates them).
+    let mut consts: Vec<Option<Vec<u32>>> = Vec::new();
     for m in succ.iter().flatten().flat_map(|c| c.iter()) {
         let e = sys.symbols.get(m.symbol as usize)?;
         let start = m.first_param as usize;
@@ -98,18 +106,25 @@ fn expansion(sys: &CompiledSystem, steps: u32, words: &mut Vec<u32>) -> Option<(
             .params
             .get(start..start.checked_add(m.param_count as usize)?)?;
         let mut w = Vec::with_capacity(e.param_words as usize);
+        let mut words = 0u32;
+        let mut constant = true;
         for pe in pes {
-            if pe.kind != PARAM_CONST {
-                return None;
+            words = words.checked_add(pe.words)?;
+            if pe.kind == PARAM_CONST {
+                let a = pe.a as usize;
+                let c = sys.consts.get(a..a.checked_add(pe.words as usize)?)?;
+                w.extend(c.iter().map(|x| x.to_bits()));
+            } else {
+                constant = false;
+                if pe.kind == PARAM_CODE && !draws_nothing(sys, pe.a)? {
+                    return None;
+                }
             }
-            let a = pe.a as usize;
-            let c = sys.consts.get(a..a.checked_add(pe.words as usize)?)?;
-            w.extend(c.iter().map(|x| x.to_bits()));
         }
-        if w.len() != e.param_words as usize {
+        if words != e.param_words {
             return None;
         }
-        consts.push(w);
+        consts.push(constant.then_some(w));
     }
     let own: Vec<(u64, u64)> = sys
         .symbols
@@ -133,7 +148,7 @@ fn expansion(sys: &CompiledSystem, steps: u32, words: &mut Vec<u32>) -> Option<(
         size.push(row);
     }
     let slots: usize = consts.len();
-    let data: usize = consts.iter().map(Vec::len).sum();
+    let data: usize = consts.iter().flatten().map(Vec::len).sum();
     let need = 2 * ns + EXPAND_SLOT_WORDS as usize * slots + data + 2 * slots * steps as usize;
     if words.len() + need > DIRECT_MAX_TABLE_WORDS {
         return None;
@@ -156,11 +171,33 @@ fn expansion(sys: &CompiledSystem, steps: u32, words: &mut Vec<u32>) -> Option<(
         first += n;
     }
     let mut at = data_base as u32;
-    for (m, w) in succ.iter().flatten().flat_map(|c| c.iter()).zip(&consts) {
-        words.extend_from_slice(&[m.symbol, w.len() as u32, at]);
-        at += w.len() as u32;
+    let mut k = 0;
+    for (s, c) in succ.iter().enumerate() {
+        let Some(c) = c else { continue };
+        // The production's binding of its predecessor's parameters.
+        let g = sys.groups.get(sys.symbols[s].first_group as usize)?;
+        for m in c.iter() {
+            let pw = sys.symbols[m.symbol as usize].param_words;
+            let data = match &consts[k] {
+                Some(w) => {
+                    at += w.len() as u32;
+                    at - w.len() as u32
+                }
+                None => NONE,
+            };
+            words.extend_from_slice(&[
+                m.symbol,
+                pw,
+                data,
+                m.first_param,
+                m.param_count,
+                g.pred_bind_offset,
+                g.pred_bind_words,
+            ]);
+            k += 1;
+        }
     }
-    for w in &consts {
+    for w in consts.iter().flatten() {
         words.extend_from_slice(w);
     }
     let clamp = |x: u64| x.min(u64::from(u32::MAX)) as u32;
@@ -176,7 +213,25 @@ fn expansion(sys: &CompiledSystem, steps: u32, words: &mut Vec<u32>) -> Option<(
         }
     }
     debug_assert_eq!(words.len(), base + need);
-    Some((job, size))
+    let computed = consts.iter().any(Option::is_none);
+    Some((job, size, computed))
+}
+
+/// Whether the code at `entry` runs without random draws (the walk has no
+/// string positions to draw with); `None` when it does not decode.
+fn draws_nothing(sys: &CompiledSystem, entry: u32) -> Option<bool> {
+    let mut pc = entry as usize;
+    loop {
+        let (code, _) = decode(*sys.code.get(pc)?);
+        let op = Op::from_code(code)?;
+        if op.is_random() {
+            return Some(false);
+        }
+        if op == Op::Ret {
+            return Some(true);
+        }
+        pc += 1 + op.extra_words() as usize;
+    }
 }
 
 impl DirectPlan {
@@ -194,6 +249,7 @@ impl DirectPlan {
         let mut headers = Vec::with_capacity(jobs.len());
         // Jobs of the same system and steps (a forest of seeds) share tables.
         let mut made: Vec<(&CompiledSystem, u32, ExpandJob, Sizes)> = Vec::new();
+        let mut computed = false;
         let mut axioms = ModuleString::new();
         let mut in_offs = Vec::new();
         let mut totals = vec![(0u64, 0u64); k_max + 1];
@@ -210,7 +266,8 @@ impl DirectPlan {
             {
                 Some(k) => k,
                 None => {
-                    let (h, size) = expansion(sys, steps, &mut words)?;
+                    let (h, size, c) = expansion(sys, steps, &mut words)?;
+                    computed |= c;
                     made.push((sys, steps, h, size));
                     made.len() - 1
                 }
@@ -245,6 +302,7 @@ impl DirectPlan {
             in_offs,
             totals,
             job_lens,
+            computed,
         })
     }
 
@@ -294,12 +352,15 @@ impl GpuSystem<'_> {
         ok.then_some(plan)
     }
 
-    /// Run a direct derivation: one dispatch, one wait.
+    /// Run a direct derivation: one dispatch, one wait. `None`: a computed
+    /// parameter faulted or was not finite; nothing is returned and the
+    /// caller derives stepwise, which reports the error exactly.
+    #[allow(clippy::type_complexity)]
     pub(crate) fn derive_direct(
         &self,
         plan: &DirectPlan,
         opts: &GpuDeriveOptions,
-    ) -> Result<(DeviceString, Vec<GpuIterationStats>), GpuError> {
+    ) -> Result<Option<(DeviceString, Vec<GpuIterationStats>)>, GpuError> {
         let t = Instant::now();
         let gpu = self.gpu;
         let (total, total_words) = plan.total();
@@ -327,21 +388,26 @@ impl GpuSystem<'_> {
                 ..ExpandParams::default()
             },
         );
-        let bound = gpu.bound(
-            &kernels::EXPAND,
-            &[
-                &params,
-                &jobs,
-                &xt,
-                &syms,
-                &starts,
-                &aparams,
-                &offs,
-                &out.syms,
-                &out.starts,
-                &out.params,
-            ],
-        )?;
+        let status = gpu.storage_zeroed("direct status", 4)?;
+        let mut bufs = vec![
+            &params,
+            &jobs,
+            &xt,
+            &syms,
+            &starts,
+            &aparams,
+            &offs,
+            &out.syms,
+            &out.starts,
+            &out.params,
+        ];
+        let kernel = if plan.computed {
+            bufs.extend([&self.tables, &status]);
+            &kernels::EXPAND_VM
+        } else {
+            &kernels::EXPAND
+        };
+        let bound = gpu.bound(kernel, &bufs)?;
         let grid = gpu.grid("expand", groups_for(total + 1))?;
         // Profiling: one pass; the kernel is the "rewrite" stage (the
         // stages before it, count, scan and next, are empty).
@@ -362,20 +428,36 @@ impl GpuSystem<'_> {
                 s.after_stage(&mut pass, 0, 3);
             }
         }
-        let device = match &stamps {
-            Some(s) => {
-                s.resolve(&mut enc);
-                let (buf, n) = s.readback();
-                let words = gpu.read::<u32>(enc, &[(buf, 0, n)])?;
-                words.first().map(|w| s.times(w)).unwrap_or_default()
-            }
-            None => {
-                gpu.submit_wait(enc)?;
-                Vec::new()
-            }
+        // One wait: the status (computed parameters can fail) and the
+        // stamps, read together.
+        let mut ranges = Vec::new();
+        if plan.computed {
+            ranges.push((&status, 0, 1));
+        }
+        if let Some(s) = &stamps {
+            s.resolve(&mut enc);
+            let (buf, n) = s.readback();
+            ranges.push((buf, 0, n));
+        }
+        let (failed, device) = if ranges.is_empty() {
+            gpu.submit_wait(enc)?;
+            (false, Vec::new())
+        } else {
+            let words = gpu.read::<u32>(enc, &ranges)?;
+            let mut words = words.iter();
+            let failed = plan.computed && words.next().is_none_or(|w| w.iter().any(|&x| x != 0));
+            let device = match (&stamps, words.next()) {
+                (Some(s), Some(w)) => s.times(w),
+                _ => Vec::new(),
+            };
+            (failed, device)
         };
         let elapsed = t.elapsed();
-        gpu.recycle([jobs, xt, syms, starts, aparams, offs]);
+        gpu.recycle([jobs, xt, syms, starts, aparams, offs, status]);
+        if failed {
+            gpu.recycle(out.into_buffers());
+            return Ok(None);
+        }
         // The directory: each job's range in the final string.
         let mut dir: Vec<SystemEntry> = self.directory.clone();
         let mut start = 0u64;
@@ -412,6 +494,6 @@ impl GpuSystem<'_> {
                 on_cpu: false,
             })
             .collect();
-        Ok((out, stats))
+        Ok(Some((out, stats)))
     }
 }
