@@ -40,6 +40,7 @@ use crate::stamps::{DeviceTime, Stamps};
 
 mod direct;
 pub use crate::layout::DIRECT_MAX_STEPS;
+pub use direct::DIRECT_MAX_EVAL_RATIO;
 
 /// How to run a GPU derivation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

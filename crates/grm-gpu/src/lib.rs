@@ -45,8 +45,9 @@ pub mod stamps;
 pub mod vmeval;
 
 pub use derive::{
-    DIRECT_MAX_STEPS, DerivePath, DeriveStrategy, DeviceString, GpuDerivation, GpuDeriveOptions,
-    GpuIterationStats, GpuJob, GpuManyDerivation, derive, derive_many, derive_with,
+    DIRECT_MAX_EVAL_RATIO, DIRECT_MAX_STEPS, DerivePath, DeriveStrategy, DeviceString,
+    GpuDerivation, GpuDeriveOptions, GpuIterationStats, GpuJob, GpuManyDerivation, derive,
+    derive_many, derive_with,
 };
 pub use device::{Allocations, Gpu, Timestamps, shared};
 pub use error::{GpuError, RuntimeKind};

@@ -48,8 +48,7 @@ fn deterministic_example_scenes_derive_directly() {
         ("hilbert3d.grm", None, 4),
         ("koch_island.grm", None, 3),
         ("bracketed_plant.grm", None, 4),
-        // Computed parameters (`F(x) -> F(x * p) ...`, `F(l) -> F(l * lr)`).
-        ("row_of_trees.grm", None, 6),
+        // Computed parameters (`F(l) -> F(l * lr)`).
         ("ternary_tree.grm", None, 5),
         ("ternary_tree.grm", Some("TernaryTreeB"), 5),
         ("ternary_tree.grm", Some("TernaryTreeC"), 5),
@@ -62,8 +61,11 @@ fn deterministic_example_scenes_derive_directly() {
             assert_eq!(path, DerivePath::Direct, "{what}");
         }
     }
-    // Stochastic and context-sensitive scenes are derived step by step.
+    // Stochastic and context-sensitive scenes are derived step by step;
+    // so is the row of trees, whose every final `F` would evaluate its
+    // whole chain `x * p * ...` (DIRECT_MAX_EVAL_RATIO).
     for (file, n) in [
+        ("row_of_trees.grm", 6),
         ("stochastic_plant.grm", 3),
         ("context_plant_a.grm", 10),
         ("context_plant_b.grm", 10),
@@ -126,7 +128,7 @@ fn random_parametric_grammars_derive_directly_or_fail_alike() {
     let g = gpu();
     let mut rng = Rng(99);
     let (mut direct, mut errors, mut drawn, mut tried) = (0, 0, 0, 0);
-    while (direct < 50 || errors < 5) && tried < 600 {
+    while (direct < 40 || errors < 5) && tried < 600 {
         tried += 1;
         let src = random_parametric(&mut rng);
         let Some(sys) = inline(&src) else { continue };
@@ -148,8 +150,8 @@ fn random_parametric_grammars_derive_directly_or_fail_alike() {
                     assert_ne!(pa, DerivePath::Direct, "{what}");
                     drawn += 1;
                 } else {
-                    assert_eq!(pa, DerivePath::Direct, "{what}");
-                    direct += 1;
+                    // Direct unless the walks would evaluate too much.
+                    direct += usize::from(pa == DerivePath::Direct);
                 }
             }
             // A fault, a non-finite value or the module limit: the
@@ -166,7 +168,7 @@ fn random_parametric_grammars_derive_directly_or_fail_alike() {
         }
     }
     eprintln!("{tried} tried: {direct} direct, {errors} errors, {drawn} with draws");
-    assert!(direct >= 50, "only {direct} direct derivations");
+    assert!(direct >= 40, "only {direct} direct derivations");
     assert!(errors >= 5, "only {errors} errors");
     assert!(drawn > 0, "no grammar with draws");
 }
@@ -268,17 +270,16 @@ fn a_deterministic_forest_derives_directly() {
     let koch = example("koch_island.grm", None);
     let plant = example("bracketed_plant.grm", None);
     let erasing = inline("system S { axiom A B A; A -> A B [ + A ]; B -> ; }").expect("checks");
-    let row = example("row_of_trees.grm", None);
     let ternary = example("ternary_tree.grm", Some("TernaryTreeC"));
+    let ternary_d = example("ternary_tree.grm", Some("TernaryTreeD"));
     let jobs = [
         (&hilbert, 3),
-        (&row, 4),
+        (&ternary, 4),
         (&koch, 2),
         (&plant, 3),
-        (&ternary, 4),
         (&erasing, 5),
         (&hilbert, 1),
-        (&row, 2),
+        (&ternary_d, 2),
         (&koch, 0),
     ]
     .map(|(system, iterations)| GpuJob {

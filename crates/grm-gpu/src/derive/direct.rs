@@ -44,9 +44,16 @@ use super::{
 use crate::device::groups_for;
 use crate::error::GpuError;
 use crate::kernels;
-pub use crate::layout::DIRECT_MAX_STEPS;
-use crate::layout::{EXPAND_SLOT_WORDS, ExpandJob, ExpandParams, SYS_SHIFT, SystemEntry};
+use crate::layout::{
+    DIRECT_MAX_STEPS, EXPAND_SLOT_WORDS, ExpandJob, ExpandParams, SYS_SHIFT, SystemEntry,
+};
 use crate::stamps::Stamps;
+
+/// The most computed-parameter evaluations a direct derivation may do per
+/// evaluation of the stepwise derivation: on lavapipe, the ternary tree
+/// (as many either way) derives 1.7x faster directly and the row of trees
+/// (7.5 times as many) 4.6x slower (docs/benchmarks.md).
+pub const DIRECT_MAX_EVAL_RATIO: u64 = 2;
 
 /// The most words of expansion tables (16 MiB).
 const DIRECT_MAX_TABLE_WORDS: usize = 1 << 22;
@@ -68,20 +75,36 @@ pub(crate) struct DirectPlan {
     job_lens: Vec<u64>,
     /// Some successor parameters are computed ([`kernels::EXPAND_VM`]).
     computed: bool,
+    /// Computed successor slots the walks evaluate, and those the stepwise
+    /// derivation would.
+    walk_evals: u64,
+    step_evals: u64,
 }
 
 /// Sizes of one module's expansion after `r` steps, per symbol: `r = 0`
 /// is the module itself.
 type Sizes = Vec<Vec<(u64, u64)>>;
 
+/// One system's expansion tables for a number of steps.
+#[derive(Debug)]
+struct Expansion {
+    job: ExpandJob,
+    size: Sizes,
+    /// Some successor parameters are computed.
+    computed: bool,
+    /// Per steps and symbol, the computed slots the walks of one module's
+    /// expansion evaluate (each final module evaluates the computed slots
+    /// after the last constant one on its path) ...
+    walk_evals: Vec<Vec<u64>>,
+    /// ... and those the stepwise derivation evaluates (every computed
+    /// slot of every step once).
+    step_evals: Vec<Vec<u64>>,
+}
+
 /// One system's expansion tables for `steps` steps (appended to `words`)
 /// , its sizes and whether some successor parameters are computed; `None`
 /// when the system does not qualify or its tables would be too large.
-fn expansion(
-    sys: &CompiledSystem,
-    steps: u32,
-    words: &mut Vec<u32>,
-) -> Option<(ExpandJob, Sizes, bool)> {
+fn expansion(sys: &CompiledSystem, steps: u32, words: &mut Vec<u32>) -> Option<Expansion> {
     let ns = sys.symbols.len();
     let mut succ: Vec<Option<&[SuccModule]>> = Vec::with_capacity(ns);
     for (s, e) in sys.symbols.iter().enumerate() {
@@ -214,7 +237,48 @@ fn expansion(
     }
     debug_assert_eq!(words.len(), base + need);
     let computed = consts.iter().any(Option::is_none);
-    Some((job, size, computed))
+    // The evaluations either way. Per symbol with a production, its
+    // successor's slots as (symbol, computed); `reach[r][s]`: the final
+    // modules of the expansion whose path below `s` is all computed slots
+    // (their chains reach up to `s`).
+    let mut kids: Vec<Option<Vec<(usize, u64)>>> = Vec::with_capacity(ns);
+    let mut k = 0;
+    for c in &succ {
+        kids.push(c.map(|c| {
+            c.iter()
+                .map(|m| {
+                    let one = u64::from(consts[k].is_none());
+                    k += 1;
+                    (m.symbol as usize, one)
+                })
+                .collect()
+        }));
+    }
+    let (mut reach, mut walk, mut step) =
+        (vec![1u64; ns], vec![vec![0u64; ns]], vec![vec![0u64; ns]]);
+    for r in 1..=steps as usize {
+        let (mut reach1, mut walk1, mut step1) = (vec![1u64; ns], vec![0u64; ns], vec![0u64; ns]);
+        for (s, kid) in kids.iter().enumerate() {
+            let Some(kid) = kid else { continue };
+            let (mut a, mut d, mut e) = (0u64, 0u64, 0u64);
+            for &(c, one) in kid {
+                a = a.saturating_add(one.saturating_mul(reach[c]));
+                d = d.saturating_add(walk[r - 1][c].saturating_add(one.saturating_mul(reach[c])));
+                e = e.saturating_add(one.saturating_add(step[r - 1][c]));
+            }
+            (reach1[s], walk1[s], step1[s]) = (a, d, e);
+        }
+        reach = reach1;
+        walk.push(walk1);
+        step.push(step1);
+    }
+    Some(Expansion {
+        job,
+        size,
+        computed,
+        walk_evals: walk,
+        step_evals: step,
+    })
 }
 
 /// Whether the code at `entry` runs without random draws (the walk has no
@@ -248,8 +312,9 @@ impl DirectPlan {
         let mut words = Vec::new();
         let mut headers = Vec::with_capacity(jobs.len());
         // Jobs of the same system and steps (a forest of seeds) share tables.
-        let mut made: Vec<(&CompiledSystem, u32, ExpandJob, Sizes)> = Vec::new();
+        let mut made: Vec<(&CompiledSystem, u32, Expansion)> = Vec::new();
         let mut computed = false;
+        let (mut walk_evals, mut step_evals) = (0u64, 0u64);
         let mut axioms = ModuleString::new();
         let mut in_offs = Vec::new();
         let mut totals = vec![(0u64, 0u64); k_max + 1];
@@ -266,14 +331,15 @@ impl DirectPlan {
             {
                 Some(k) => k,
                 None => {
-                    let (h, size, c) = expansion(sys, steps, &mut words)?;
-                    computed |= c;
-                    made.push((sys, steps, h, size));
+                    let x = expansion(sys, steps, &mut words)?;
+                    computed |= x.computed;
+                    made.push((sys, steps, x));
                     made.len() - 1
                 }
             };
-            let (_, _, h, size) = &made[k];
-            headers.push(*h);
+            let (_, _, x) = &made[k];
+            let size = &x.size;
+            headers.push(x.job);
             let axiom = grm_derive::Engine::new(sys, 1).ok()?.axiom(seed).ok()?;
             let start = pos;
             for (sym, p) in axiom.iter() {
@@ -281,6 +347,8 @@ impl DirectPlan {
                 axioms.push(sym | ((j as u32) << SYS_SHIFT), p);
                 in_offs.push([u32::try_from(pos).ok()?, u32::try_from(wpos).ok()?]);
                 let (m, w) = *size.get(steps as usize)?.get(s)?;
+                walk_evals = walk_evals.saturating_add(x.walk_evals[steps as usize][s]);
+                step_evals = step_evals.saturating_add(x.step_evals[steps as usize][s]);
                 pos = pos.checked_add(m)?;
                 wpos = wpos.checked_add(w)?;
                 for (k, t) in totals.iter_mut().enumerate() {
@@ -303,6 +371,8 @@ impl DirectPlan {
             totals,
             job_lens,
             computed,
+            walk_evals,
+            step_evals,
         })
     }
 
@@ -331,6 +401,13 @@ impl GpuSystem<'_> {
         let plan = DirectPlan::new(&self.jobs, &its, &seeds, opts.iterations as usize)?;
         let (total, total_words) = plan.total();
         if opts.cpu_prefix > 0 && total <= opts.cpu_prefix {
+            return None;
+        }
+        // Walks that evaluate many more computed parameters than the
+        // stepwise derivation (each final module its whole chain: the row
+        // of trees at 10 steps, 10.5 million against 1.4 million) lose
+        // what skipping the intermediate strings saves.
+        if plan.walk_evals > DIRECT_MAX_EVAL_RATIO.saturating_mul(plan.step_evals) {
             return None;
         }
         // The stepwise derivation's limits, string by string (a string can
