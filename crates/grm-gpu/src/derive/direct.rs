@@ -315,6 +315,8 @@ impl DirectPlan {
         let mut made: Vec<(&CompiledSystem, u32, Expansion)> = Vec::new();
         let mut computed = false;
         let (mut walk_evals, mut step_evals) = (0u64, 0u64);
+        // One CPU engine per distinct system, for the axioms.
+        let mut engines: Vec<grm_derive::Engine<'_>> = Vec::new();
         let mut axioms = ModuleString::new();
         let mut in_offs = Vec::new();
         let mut totals = vec![(0u64, 0u64); k_max + 1];
@@ -340,7 +342,14 @@ impl DirectPlan {
             let (_, _, x) = &made[k];
             let size = &x.size;
             headers.push(x.job);
-            let axiom = grm_derive::Engine::new(sys, 1).ok()?.axiom(seed).ok()?;
+            let e = match engines.iter().position(|e| std::ptr::eq(e.system(), sys)) {
+                Some(e) => e,
+                None => {
+                    engines.push(grm_derive::Engine::new(sys, 1).ok()?);
+                    engines.len() - 1
+                }
+            };
+            let axiom = engines[e].axiom(seed).ok()?;
             let start = pos;
             for (sym, p) in axiom.iter() {
                 let s = sym as usize;
@@ -442,20 +451,34 @@ impl GpuSystem<'_> {
         let gpu = self.gpu;
         let (total, total_words) = plan.total();
         let out = self.alloc_string(total, total_words)?;
-        let put = |what, data: &[u8]| -> Result<wgpu::Buffer, GpuError> {
-            let b = gpu.storage(what, data.len() as u64)?;
-            if !data.is_empty() {
-                gpu.queue().write_buffer(&b, 0, data);
-            }
-            Ok(b)
-        };
         let ax = &plan.axioms;
-        let jobs = put("expansion jobs", bytemuck::cast_slice(&plan.jobs))?;
-        let xt = put("expansion tables", bytemuck::cast_slice(&plan.words))?;
-        let syms = put("axiom symbols", bytemuck::cast_slice(&ax.syms))?;
-        let starts = put("axiom parameter starts", bytemuck::cast_slice(&ax.starts))?;
-        let aparams = put("axiom parameters", bytemuck::cast_slice(&ax.params))?;
-        let offs = put("axiom offsets", bytemuck::cast_slice(&plan.in_offs))?;
+        // Everything the kernel reads, in one upload: each part at an
+        // aligned offset of one pooled buffer (one write, one binding
+        // range each).
+        let parts: [&[u8]; 6] = [
+            bytemuck::cast_slice(&plan.jobs),
+            bytemuck::cast_slice(&plan.words),
+            bytemuck::cast_slice(&ax.syms),
+            bytemuck::cast_slice(&ax.starts),
+            bytemuck::cast_slice(&ax.params),
+            bytemuck::cast_slice(&plan.in_offs),
+        ];
+        let align = gpu.storage_offset_alignment() as usize;
+        let mut packed: Vec<u8> = Vec::new();
+        let mut at = Vec::with_capacity(parts.len());
+        for part in parts {
+            let start = packed.len();
+            // An empty part still binds 16 bytes.
+            let len = part.len().max(16);
+            packed.extend_from_slice(part);
+            packed.resize(start + len, 0);
+            at.push((start as u64, Some(len as u64)));
+            packed.resize(packed.len().next_multiple_of(align), 0);
+        }
+        let input = gpu.storage("direct derivation input", packed.len() as u64)?;
+        gpu.queue().write_buffer(&input, 0, &packed);
+        let status = gpu.storage("direct status", 4)?;
+        gpu.queue().write_buffer(&status, 0, &[0u8; 4]);
         let params = gpu.uniform(
             "expand params",
             &ExpandParams {
@@ -465,26 +488,20 @@ impl GpuSystem<'_> {
                 ..ExpandParams::default()
             },
         );
-        let status = gpu.storage_zeroed("direct status", 4)?;
-        let mut bufs = vec![
-            &params,
-            &jobs,
-            &xt,
-            &syms,
-            &starts,
-            &aparams,
-            &offs,
-            &out.syms,
-            &out.starts,
-            &out.params,
-        ];
+        let mut bufs: Vec<(&wgpu::Buffer, u64, Option<u64>)> = vec![(&params, 0, None)];
+        bufs.extend(at.iter().map(|&(o, n)| (&input, o, n)));
+        bufs.extend([
+            (&out.syms, 0, None),
+            (&out.starts, 0, None),
+            (&out.params, 0, None),
+        ]);
         let kernel = if plan.computed {
-            bufs.extend([&self.tables, &status]);
+            bufs.extend([(&self.tables, 0, None), (&status, 0, None)]);
             &kernels::EXPAND_VM
         } else {
             &kernels::EXPAND
         };
-        let bound = gpu.bound(kernel, &bufs)?;
+        let bound = gpu.bound_ranges(kernel, &bufs)?;
         let grid = gpu.grid("expand", groups_for(total + 1))?;
         // Profiling: one pass; the kernel is the "rewrite" stage (the
         // stages before it, count, scan and next, are empty).
@@ -530,7 +547,7 @@ impl GpuSystem<'_> {
             (failed, device)
         };
         let elapsed = t.elapsed();
-        gpu.recycle([jobs, xt, syms, starts, aparams, offs, status]);
+        gpu.recycle([input, status]);
         if failed {
             gpu.recycle(out.into_buffers());
             return Ok(None);
