@@ -1,12 +1,13 @@
 //! Dispatches split over 2D grids: with the grid width lowered to 3
 //! workgroups, every dispatch of more than 768 threads takes the 2D path
-//! (`wg_linear` in the kernels, indirect round dispatches included), and
+//! (`wg_linear` in the kernels, indirect round dispatches and the direct
+//! derivation included), and
 //! the results must not change. Its own test binary, so the lowered width
 //! does not reach the other tests.
 
 mod common;
 use common::*;
-use grm_gpu::{GpuDeriveOptions, TurtleProgram, derive, interpret, scan};
+use grm_gpu::{DeriveStrategy, GpuDeriveOptions, TurtleProgram, derive_with, interpret, scan};
 
 #[test]
 fn two_dimensional_grids_give_the_same_results() {
@@ -38,8 +39,11 @@ fn two_dimensional_grids_give_the_same_results() {
             cpu_prefix: 0,
             ..GpuDeriveOptions::from_system(&c)
         };
-        let d = derive(g, &c, &opts).expect("gpu derives");
-        assert_same(file, &cpu, &d.string);
+        // Direct where it applies, and stepwise (batched or per iteration).
+        for strategy in [DeriveStrategy::Auto, DeriveStrategy::Stepwise] {
+            let (d, path) = derive_with(g, &c, &opts, strategy).expect("gpu derives");
+            assert_same(&format!("{file} {path:?}"), &cpu, &d.string);
+        }
         let bones =
             interpret(g, &TurtleProgram::new(sys, &c.settings), &cpu).expect("gpu interprets");
         let want = grm_turtle::interpret(sys, &c.settings, &cpu).expect("cpu interprets");
