@@ -113,10 +113,6 @@ fn mate_of(p: u32) -> u32 {
     return select(m - 1u, NONE, m == 0u);
 }
 
-fn is_finite(x: f32) -> bool {
-    return x == x && abs(x) <= 3.40282347e38;
-}
-
 // Copy the parameter words of the module at `pos` to vm_bind[off..].
 fn bind_module(pos: u32, off: u32) {
     let s = in_starts[pos];
@@ -417,25 +413,15 @@ fn rewrite(
         out_starts[o + k] = dst;
         for (var q = m.first_param; q < m.first_param + m.param_count; q = q + 1u) {
             let pe = param_at(q);
-            if (pe.kind == PARAM_CONST) {
-                for (var c = 0u; c < pe.words; c = c + 1u) {
-                    out_params[dst + c] = vm_const(pe.a + c);
-                }
-            } else if (pe.kind == PARAM_COPY) {
-                for (var c = 0u; c < pe.words; c = c + 1u) {
-                    out_params[dst + c] = vm_bind[pe.a + c];
-                }
-            } else {
-                if (vm_run(pe.a, d) == VM_FAULT) {
-                    report(1u, i, ERR_FAULT);
-                }
-                for (var c = 0u; c < pe.words; c = c + 1u) {
-                    let x = vm_st[c];
-                    if (!is_finite(x)) {
-                        report(1u, i, ERR_NON_FINITE);
-                    }
-                    out_params[dst + c] = x;
-                }
+            let bad = vm_param(pe, d);
+            if ((bad & VM_PARAM_FAULT) != 0u) {
+                report(1u, i, ERR_FAULT);
+            }
+            if ((bad & VM_PARAM_NON_FINITE) != 0u) {
+                report(1u, i, ERR_NON_FINITE);
+            }
+            for (var c = 0u; c < pe.words; c = c + 1u) {
+                out_params[dst + c] = vm_st[c];
             }
             dst = dst + pe.words;
         }
@@ -562,25 +548,15 @@ fn rewrite_out(
         out_starts[o] = dst;
         for (var q = sm.first_param; q < sm.first_param + sm.param_count; q = q + 1u) {
             let pe = param_at(q);
-            if (pe.kind == PARAM_CONST) {
-                for (var c = 0u; c < pe.words; c = c + 1u) {
-                    out_params[dst + c] = vm_const(pe.a + c);
-                }
-            } else if (pe.kind == PARAM_COPY) {
-                for (var c = 0u; c < pe.words; c = c + 1u) {
-                    out_params[dst + c] = vm_bind[pe.a + c];
-                }
-            } else {
-                if (vm_run(pe.a, d) == VM_FAULT) {
-                    report(1u, i, ERR_FAULT);
-                }
-                for (var c = 0u; c < pe.words; c = c + 1u) {
-                    let x = vm_st[c];
-                    if (!is_finite(x)) {
-                        report(1u, i, ERR_NON_FINITE);
-                    }
-                    out_params[dst + c] = x;
-                }
+            let bad = vm_param(pe, d);
+            if ((bad & VM_PARAM_FAULT) != 0u) {
+                report(1u, i, ERR_FAULT);
+            }
+            if ((bad & VM_PARAM_NON_FINITE) != 0u) {
+                report(1u, i, ERR_NON_FINITE);
+            }
+            for (var c = 0u; c < pe.words; c = c + 1u) {
+                out_params[dst + c] = vm_st[c];
             }
             dst = dst + pe.words;
         }

@@ -34,10 +34,6 @@ fn walk_step(slot: u32) {
     }
 }
 
-fn is_finite(x: f32) -> bool {
-    return x == x && abs(x) <= 3.40282347e38;
-}
-
 fn write_params(job: u32, lo: u32, wo: u32) {
     var n = 0u;
     if (anchor == NONE) {
@@ -66,25 +62,11 @@ fn write_params(job: u32, lo: u32, wo: u32) {
         let first = xt[slot + 3u];
         for (var q = first; q < first + xt[slot + 4u]; q = q + 1u) {
             let pe = load_ParamExpr(TAB_BASE + TAB.params_offset + q * PARAM_EXPR_WORDS);
-            if (pe.kind == PARAM_CONST) {
-                for (var c = 0u; c < pe.words; c = c + 1u) {
-                    nxt[w + c] = vm_const(pe.a + c);
-                }
-            } else if (pe.kind == PARAM_COPY) {
-                for (var c = 0u; c < pe.words; c = c + 1u) {
-                    nxt[w + c] = vm_bind[pe.a + c];
-                }
-            } else {
-                if (vm_run(pe.a, Draws(0u, 0u, 0u)) == VM_FAULT) {
-                    atomicOr(&status[0], 1u);
-                }
-                for (var c = 0u; c < pe.words; c = c + 1u) {
-                    let x = vm_st[c];
-                    if (!is_finite(x)) {
-                        atomicOr(&status[0], 1u);
-                    }
-                    nxt[w + c] = x;
-                }
+            if (vm_param(pe, Draws(0u, 0u, 0u)) != 0u) {
+                atomicOr(&status[0], 1u);
+            }
+            for (var c = 0u; c < pe.words; c = c + 1u) {
+                nxt[w + c] = vm_st[c];
             }
             w = w + pe.words;
         }

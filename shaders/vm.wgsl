@@ -239,6 +239,44 @@ fn vm_choose(base: u32, n: u32, w: u32, u: f32) {
 
 // Run the expression at `entry`; returns the number of result words left
 // in vm_st[0..], or VM_FAULT.
+fn is_finite(x: f32) -> bool {
+    return x == x && abs(x) <= 3.40282347e38;
+}
+
+// vm_param's findings (bits).
+const VM_PARAM_FAULT: u32 = 1u;
+const VM_PARAM_NON_FINITE: u32 = 2u;
+
+// The words of one successor parameter (`pe`, grm_compile's ParamExpr)
+// into vm_st[0 .. pe.words]: its constants, a copy of binding words, or
+// its code run with draws `d`. Returns VM_PARAM_FAULT when the code
+// faulted and VM_PARAM_NON_FINITE when a word it computed is not finite
+// (constants and copies are not checked: they were when they were made).
+fn vm_param(pe: ParamExpr, d: Draws) -> u32 {
+    if (pe.kind == PARAM_CONST) {
+        for (var c = 0u; c < pe.words; c = c + 1u) {
+            vm_st[c] = vm_const(pe.a + c);
+        }
+        return 0u;
+    }
+    if (pe.kind == PARAM_COPY) {
+        for (var c = 0u; c < pe.words; c = c + 1u) {
+            vm_st[c] = vm_bind[pe.a + c];
+        }
+        return 0u;
+    }
+    var bad = 0u;
+    if (vm_run(pe.a, d) == VM_FAULT) {
+        bad = VM_PARAM_FAULT;
+    }
+    for (var c = 0u; c < pe.words; c = c + 1u) {
+        if (!is_finite(vm_st[c])) {
+            bad = bad | VM_PARAM_NON_FINITE;
+        }
+    }
+    return bad;
+}
+
 fn vm_run(entry: u32, d: Draws) -> u32 {
     var pc = entry;
     var sp = 0u;
