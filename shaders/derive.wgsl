@@ -361,6 +361,22 @@ fn count(
     counts[i] = count_one(i);
 }
 
+// Successor parameter `pe` of input module i, evaluated with draws d,
+// written at out_params[dst ..]; a fault or a non-finite value is
+// reported at i.
+fn write_param(i: u32, pe: ParamExpr, d: Draws, dst: u32) {
+    let bad = vm_param(pe, d);
+    if ((bad & VM_PARAM_FAULT) != 0u) {
+        report(1u, i, ERR_FAULT);
+    }
+    if ((bad & VM_PARAM_NON_FINITE) != 0u) {
+        report(1u, i, ERR_NON_FINITE);
+    }
+    for (var c = 0u; c < pe.words; c = c + 1u) {
+        out_params[dst + c] = vm_st[c];
+    }
+}
+
 @compute @workgroup_size(WORKGROUP)
 fn rewrite(
     @builtin(workgroup_id) wid: vec3<u32>,
@@ -413,16 +429,7 @@ fn rewrite(
         out_starts[o + k] = dst;
         for (var q = m.first_param; q < m.first_param + m.param_count; q = q + 1u) {
             let pe = param_at(q);
-            let bad = vm_param(pe, d);
-            if ((bad & VM_PARAM_FAULT) != 0u) {
-                report(1u, i, ERR_FAULT);
-            }
-            if ((bad & VM_PARAM_NON_FINITE) != 0u) {
-                report(1u, i, ERR_NON_FINITE);
-            }
-            for (var c = 0u; c < pe.words; c = c + 1u) {
-                out_params[dst + c] = vm_st[c];
-            }
+            write_param(i, pe, d, dst);
             dst = dst + pe.words;
         }
     }
@@ -548,16 +555,7 @@ fn rewrite_out(
         out_starts[o] = dst;
         for (var q = sm.first_param; q < sm.first_param + sm.param_count; q = q + 1u) {
             let pe = param_at(q);
-            let bad = vm_param(pe, d);
-            if ((bad & VM_PARAM_FAULT) != 0u) {
-                report(1u, i, ERR_FAULT);
-            }
-            if ((bad & VM_PARAM_NON_FINITE) != 0u) {
-                report(1u, i, ERR_NON_FINITE);
-            }
-            for (var c = 0u; c < pe.words; c = c + 1u) {
-                out_params[dst + c] = vm_st[c];
-            }
+            write_param(i, pe, d, dst);
             dst = dst + pe.words;
         }
     }
