@@ -102,6 +102,8 @@ pub struct SceneReport {
     pub fused: bool,
     pub gpu_interpret: Duration,
     pub cpu_interpret: Option<Duration>,
+    /// Why the interpretation was not run (a device buffer limit), if so.
+    pub interpret_skipped: Option<String>,
     pub readback: Duration,
     /// Device timestamps of the best timed derivation, per step after the
     /// axiom (`None` where the device writes none, the derivation was not
@@ -174,7 +176,19 @@ pub fn bench_scene(
         strategy: crate::DeriveStrategy::Auto,
     };
     let t = Instant::now();
-    let warm = run(gpu, c, &turtle, &ropts, &mut |_| {}).map_err(|e| e.to_string())?;
+    // A string the device cannot interpret (over a buffer limit: a
+    // branching string's turtle states on lavapipe's 128 MiB bindings)
+    // is still derived and timed; the interpretation is reported skipped.
+    let mut interpret_skipped = None;
+    let warm = match run(gpu, c, &turtle, &ropts, &mut |_| {}) {
+        Ok(w) => w,
+        Err(e @ crate::GpuError::BufferTooLarge { .. }) => {
+            interpret_skipped = Some(e.to_string());
+            ropts.interpret = false;
+            run(gpu, c, &turtle, &ropts, &mut |_| {}).map_err(|e| e.to_string())?
+        }
+        Err(e) => return Err(e.to_string()),
+    };
     let warmup = t.elapsed();
     ropts.read_string = false;
     // Per iteration and on the device: every iteration on the GPU.
@@ -221,7 +235,11 @@ pub fn bench_scene(
     } else {
         None
     };
-    let interp = last.interpretation.clone().ok_or("no interpretation")?;
+    let interp = match (&last.interpretation, &interpret_skipped) {
+        (Some(i), _) => i.clone(),
+        (None, Some(_)) => crate::GpuInterpretation::default(),
+        (None, None) => return Err("no interpretation".into()),
+    };
     let cpu_steps = last.stats.iter().skip(1).filter(|s| s.on_cpu).count() as u32;
     let (device_derive, device_rows) = device_profile(gpu, c, &turtle, &gpu_only, cfg.runs)?;
 
@@ -250,6 +268,8 @@ pub fn bench_scene(
         }
         if let (Some((_, d)), Some(gs)) = (&cpu1, &warm.string) {
             checked = Some(same_string(&d.string, gs));
+        }
+        if let (Some((_, d)), None) = (&cpu1, &interpret_skipped) {
             let (t, _) = best(cfg.runs, || {
                 let t = Instant::now();
                 let it = grm_turtle::interpret(system, &c.settings, &d.string)
@@ -307,6 +327,7 @@ pub fn bench_scene(
         fused: interp.fused,
         gpu_interpret: best_interp,
         cpu_interpret,
+        interpret_skipped,
         readback: warm.readback_elapsed,
         device_rows,
         device_derive,
@@ -509,6 +530,28 @@ impl SceneReport {
                 );
             }
         }
+        if let Some(why) = &self.interpret_skipped {
+            let _ = writeln!(s, "  interpret: not run: {why}");
+        } else {
+            self.interpretation_text(&mut s);
+        }
+        let _ = writeln!(
+            s,
+            "  readback (not counted): {:.3} ms for the string",
+            ms(self.readback)
+        );
+        let _ = writeln!(
+            s,
+            "  per timed run (derive + interpret): {} waits for the device; {} device buffers created, {:.3} MiB",
+            self.waits_per_run,
+            self.allocated_per_run.buffers,
+            self.allocated_per_run.bytes as f64 / (1024.0 * 1024.0)
+        );
+        s
+    }
+
+    /// The interpretation's lines of [`SceneReport::text`].
+    fn interpretation_text(&self, s: &mut String) {
         let _ = writeln!(
             s,
             "  interpret: {} bones, depth {}, {}; GPU {:.3} ms = {:.1} modules/us",
@@ -548,19 +591,6 @@ impl SceneReport {
                 speedup(d + t, total)
             );
         }
-        let _ = writeln!(
-            s,
-            "  readback (not counted): {:.3} ms for the string",
-            ms(self.readback)
-        );
-        let _ = writeln!(
-            s,
-            "  per timed run (derive + interpret): {} waits for the device; {} device buffers created, {:.3} MiB",
-            self.waits_per_run,
-            self.allocated_per_run.buffers,
-            self.allocated_per_run.bytes as f64 / (1024.0 * 1024.0)
-        );
-        s
     }
 }
 

@@ -712,6 +712,48 @@ impl<'a> GpuSystem<'a> {
         Some((total, last))
     }
 
+    /// The expected modules and parameter words of every string after
+    /// the CPU's (each symbol's outcomes weighted by their probabilities;
+    /// the largest outcome where a condition, a context or computed
+    /// weights decide), from the prefix string's exact symbol counts.
+    /// `None` without a prefix or when a table is out of range.
+    fn projected_sizes(
+        &self,
+        opts: &GpuDeriveOptions,
+        prefix: Option<&Prefix>,
+    ) -> Option<Vec<(f64, f64)>> {
+        let p = prefix?;
+        let k_max = opts.iterations as usize;
+        let k0 = p.stats.len() - 1;
+        let mut total = vec![(0f64, 0f64); k_max + 1];
+        for (j, (job, its)) in self.jobs.iter().zip(self.job_iterations(opts)).enumerate() {
+            let sys = job.system;
+            let ns = sys.symbols.len();
+            let rows = (0..ns)
+                .map(|s| expected_row(sys, s))
+                .collect::<Option<Vec<_>>>()?;
+            let mut c: Vec<f64> = p.hist.get(j)?.iter().map(|&n| n as f64).collect();
+            for (k, tot) in total.iter_mut().enumerate().skip(k0) {
+                if k > k0 && k <= its as usize {
+                    let mut next = vec![0f64; ns];
+                    for (s, &n) in c.iter().enumerate() {
+                        for &(t, q) in &rows[s] {
+                            next[t] += n * q;
+                        }
+                    }
+                    c = next;
+                }
+                tot.0 += c.iter().sum::<f64>();
+                tot.1 += c
+                    .iter()
+                    .zip(&sys.symbols)
+                    .map(|(&x, e)| x * f64::from(e.param_words))
+                    .sum::<f64>();
+            }
+        }
+        Some(total)
+    }
+
     /// The buffers of a batched derivation, or `None` when the bounds are
     /// over a limit (the options', the device's, 32-bit counts) or the
     /// system needs bracket matching.
@@ -720,7 +762,31 @@ impl<'a> GpuSystem<'a> {
         if self.has_context || opts.iterations as usize <= k0 {
             return None;
         }
-        let bounds = self.string_bounds(opts, prefix)?;
+        let mut bounds = self.string_bounds(opts, prefix)?;
+        // A loose bound (stochastic or conditional productions) can be far
+        // above the real sizes (every symbol taking its largest outcome at
+        // every step: 21x for the stochastic plant at 11 steps). After a
+        // CPU prefix of at least PROJECT_MIN_MODULES modules, whose exact
+        // symbol counts make the rest predictable within a fraction of a
+        // percent, the buffers are sized from the expected sizes with a
+        // margin instead; a string over them sets the overflow flag, and
+        // the derivation runs again iteration by iteration.
+        let exact = self
+            .jobs
+            .iter()
+            .all(|j| (0..j.system.symbols.len()).all(|s| exact_symbol(j.system, s)));
+        let projected = match prefix {
+            Some(p) if !exact && p.string.len() as u64 >= PROJECT_MIN_MODULES => {
+                self.projected_sizes(opts, prefix)
+            }
+            _ => None,
+        };
+        if let Some(proj) = &projected {
+            let cap = |x: f64| (x * PROJECT_MARGIN).ceil() as u64 + PROJECT_SLACK;
+            for (b, &(m, w)) in bounds.iter_mut().zip(proj).skip(k0 + 1) {
+                *b = (b.0.min(cap(m)), b.1.min(cap(w)));
+            }
+        }
         let limit32 = u64::from(u32::MAX) - 1;
         let mut caps = [(0u64, 0u64); 2];
         let mut max_in = 0u64;
@@ -749,10 +815,6 @@ impl<'a> GpuSystem<'a> {
         let fits = |what, b| gpu.check_storage(what, b).is_ok();
         // A loose bound (stochastic or conditional productions) costs its
         // allocation however short the string: keep it small.
-        let exact = self
-            .jobs
-            .iter()
-            .all(|j| (0..j.system.symbols.len()).all(|s| exact_symbol(j.system, s)));
         let cap = if exact {
             BATCH_MAX_BYTES
         } else {
@@ -1477,6 +1539,18 @@ pub const BATCH_MAX_BYTES: u64 = 4 << 30;
 /// (and clearing) it costs more than the synchronisations it saves.
 pub const BATCH_LOOSE_MAX_BYTES: u64 = 256 << 20;
 
+/// The shortest CPU prefix string from which a batched derivation of a
+/// loosely bounded system is sized from the expected sizes
+/// ([`PROJECT_MARGIN`]) instead of the bound. From a string of n modules
+/// the rest of a branching derivation varies by about 1/sqrt(n) of its
+/// expected size (the stochastic plant: 0.3/sqrt(n)).
+pub const PROJECT_MIN_MODULES: u64 = 1024;
+/// Buffers of a projected batched derivation hold this many times the
+/// expected sizes ...
+pub const PROJECT_MARGIN: f64 = 1.25;
+/// ... plus this many modules (or parameter words).
+pub const PROJECT_SLACK: u64 = 4096;
+
 /// How [`GpuSystem::derive_with`] records the iterations.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DeriveStrategy {
@@ -1648,6 +1722,42 @@ fn growth_row(sys: &CompiledSystem, s: usize) -> Option<Vec<(usize, u64)>> {
     if copy {
         let r = row.entry(s).or_default();
         *r = (*r).max(1);
+    }
+    Some(row.into_iter().collect())
+}
+
+/// For symbol `s`: (symbol, the expected number of modules of it one
+/// module of `s` becomes in one step): its first group's alternatives
+/// weighted by their constant weights where that group always applies,
+/// else (a condition, a context or computed weights decide)
+/// [`growth_row`]'s largest outcome.
+fn expected_row(sys: &CompiledSystem, s: usize) -> Option<Vec<(usize, f64)>> {
+    use grm_compile::table::{GROUP_CONST_WEIGHTS, GROUP_CONTEXT, NONE};
+    let e = sys.symbols.get(s)?;
+    if e.group_count == 0 {
+        return Some(vec![(s, 1.0)]);
+    }
+    let g = sys.groups.get(e.first_group as usize)?;
+    let sure = g.flags & GROUP_CONTEXT == 0 && g.cond_code == NONE;
+    let weighted = g.alt_count == 1 || (g.flags & GROUP_CONST_WEIGHTS != 0 && g.total_weight > 0.0);
+    if !(sure && weighted) {
+        let row = growth_row(sys, s)?;
+        return Some(row.into_iter().map(|(t, q)| (t, q as f64)).collect());
+    }
+    let mut row: std::collections::BTreeMap<usize, f64> = Default::default();
+    for a in g.first_alt..g.first_alt.checked_add(g.alt_count)? {
+        let alt = sys.alts.get(a as usize)?;
+        let p = if g.alt_count == 1 {
+            1.0
+        } else {
+            f64::from(alt.weight) / f64::from(g.total_weight)
+        };
+        for m in succ_of(sys, alt)? {
+            if m.symbol as usize >= sys.symbols.len() {
+                return None;
+            }
+            *row.entry(m.symbol as usize).or_default() += p;
+        }
     }
     Some(row.into_iter().collect())
 }

@@ -317,7 +317,7 @@ fn depths(
 }
 
 /// Bones and figures of one interpretation.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct GpuInterpretation {
     /// In string order (as the CPU numbers them); empty when not read back.
     pub bones: Vec<GpuBone>,

@@ -195,3 +195,45 @@ fn an_input_past_a_million_modules_scans_three_levels() {
     let cpu = cpu_derive(&sys, 30, 0).expect("cpu derives");
     assert_same("fibonacci 30", &cpu, &d.string);
 }
+
+/// A loosely bounded system (one `F` in ten becomes ten: the bound takes
+/// ten at every step, 1.9 are expected) after a CPU prefix of a few
+/// thousand modules: its bound is far over the loose-bound budget, so it
+/// used to derive iteration by iteration; sized from the expected sizes
+/// (with a margin) it is batched, with the per-iteration string. Without
+/// a prefix (nothing exact to project from) it still goes per iteration.
+#[test]
+fn a_loose_bound_is_batched_from_the_expected_sizes_after_a_cpu_prefix() {
+    let g = gpu();
+    let src =
+        "system S { axiom F F F F F F F F F F; F -> (0.9) F; F -> (0.1) F F F F F F F F F F; }";
+    let sys = inline(src).expect("checks");
+    for seed in [1, 2, 3] {
+        let o = GpuDeriveOptions {
+            cpu_prefix: 20_000,
+            max_modules: 1 << 30,
+            ..opts(&sys, 14, seed)
+        };
+        let (a, pa) = derive_with(g, &sys, &o, DeriveStrategy::Stepwise).expect("derives");
+        assert_eq!(pa, DerivePath::Batched, "seed {seed}");
+        let k = a.stats.iter().filter(|s| s.on_cpu).count();
+        assert!(
+            a.stats[k - 1].modules >= grm_gpu::derive::PROJECT_MIN_MODULES,
+            "seed {seed}: the prefix ended at {} modules",
+            a.stats[k - 1].modules
+        );
+        let (b, _) = derive_with(g, &sys, &o, DeriveStrategy::PerIteration).expect("derives");
+        same_bits(&format!("seed {seed}"), &a.string, &b.string);
+        let cpu = cpu_derive(&sys, 14, seed).expect("cpu derives");
+        assert_same(&format!("seed {seed}"), &cpu, &a.string);
+        // A string over its projected size: the overflow flag, then the
+        // per-iteration string (here forced: the last capacity zeroed).
+        let (d, pd) = derive_with(g, &sys, &o, DeriveStrategy::AutoShrunkCaps).expect("derives");
+        assert_eq!(pd, DerivePath::BatchedThenPerIteration, "seed {seed}");
+        same_bits(&format!("seed {seed} overflow"), &d.string, &b.string);
+        let o0 = GpuDeriveOptions { cpu_prefix: 0, ..o };
+        let (c, pc) = derive_with(g, &sys, &o0, DeriveStrategy::Stepwise).expect("derives");
+        assert_eq!(pc, DerivePath::PerIteration, "seed {seed}");
+        same_bits(&format!("seed {seed} GPU only"), &c.string, &b.string);
+    }
+}
