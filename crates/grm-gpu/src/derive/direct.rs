@@ -101,9 +101,9 @@ struct Expansion {
     step_evals: Vec<Vec<u64>>,
 }
 
-/// One system's expansion tables for `steps` steps (appended to `words`)
-/// , its sizes and whether some successor parameters are computed; `None`
-/// when the system does not qualify or its tables would be too large.
+/// One system's expansion tables for `steps` steps (appended to `words`),
+/// with its sizes and evaluation counts; `None` when the system does not
+/// qualify or its tables would be too large.
 fn expansion(sys: &CompiledSystem, steps: u32, words: &mut Vec<u32>) -> Option<Expansion> {
     let ns = sys.symbols.len();
     let mut succ: Vec<Option<&[SuccModule]>> = Vec::with_capacity(ns);
