@@ -56,7 +56,14 @@ run)
     forest=(-n 7)
     if [ "${QUICK:-}" = 1 ]; then forest=(); fi
     "$b" --scene stochastic_plant "${forest[@]}" --forest 256 "${quick[@]}" >"$out/forest.txt" 2>&1 || true
-    grep -h -E "^adapter|^scene|derive:|direct|stepwise|GPU only|interpret:|total:|per timed run|CHECK|error" "$out"/*.txt
+    # A forest of deterministic trees (derived directly), and Hilbert 3D
+    # at 5 for where the direct path starts to beat the CPU.
+    tforest=(-n 8)
+    h5=(-n 5)
+    if [ "${QUICK:-}" = 1 ]; then tforest=(); h5=(); fi
+    "$b" --scene ternary_tree "${tforest[@]}" --forest 64 "${quick[@]}" >"$out/forest_ternary.txt" 2>&1 || true
+    "$b" --scene hilbert3d "${h5[@]}" "${quick[@]}" >"$out/hilbert5.txt" 2>&1 || true
+    grep -h -E "^adapter|^scene|^forest|derive:|GPU derive|direct|stepwise|GPU only|interpret:|total:|per timed run|CHECK|error" "$out"/*.txt
     ;;
 *)
     sed -n '2,14p' "$0"
