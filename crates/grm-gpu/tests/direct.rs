@@ -378,3 +378,27 @@ fn the_cpu_prefix_and_the_step_cap_choose_stepwise() {
         DerivePath::Direct
     );
 }
+
+/// An axiom that draws (`F(uniform(1, 2))`) is evaluated by the CPU
+/// engine, with the derivation's seed; a constant one is read from the
+/// tables. Either way the direct string is the stepwise and CPU one.
+#[test]
+fn drawn_and_constant_axioms_derive_directly() {
+    for src in [
+        "system S { axiom F(uniform(1, 2)) A +(uniform(0, 90)); A -> F [ + A ] A; }",
+        "system S { axiom F(2) A +(30); A -> F [ + A ] A; }",
+    ] {
+        let sys = inline(src).expect("checks");
+        for seed in [0, 7, 1234] {
+            let o = GpuDeriveOptions {
+                seed,
+                ..opts(&sys, 8)
+            };
+            assert_eq!(
+                compare(src, &sys, &o),
+                DerivePath::Direct,
+                "{src} seed {seed}"
+            );
+        }
+    }
+}
