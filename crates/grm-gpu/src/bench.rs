@@ -90,8 +90,10 @@ pub struct SceneReport {
     /// Iterations the timed derivation ran on the CPU
     /// ([`BenchConfig::cpu_prefix`]; 0: none).
     pub cpu_steps: u32,
-    /// The same derivation with every iteration on the GPU.
+    /// The same derivation with every iteration on the GPU, and how it
+    /// ran (also the path of the device timestamps).
     pub gpu_only_derive: Duration,
+    pub gpu_only_path: crate::DerivePath,
     pub cpu1_derive: Option<Duration>,
     pub cpun_derive: Option<Duration>,
     pub cpu_threads: usize,
@@ -200,7 +202,9 @@ pub fn bench_scene(
     gpu_only.interpret = false;
     // Untimed first: its pipelines compiled (the warm-up may have taken
     // another path).
-    run(gpu, c, &turtle, &gpu_only, &mut |_| {}).map_err(|e| e.to_string())?;
+    let gpu_only_path = run(gpu, c, &turtle, &gpu_only, &mut |_| {})
+        .map_err(|e| e.to_string())?
+        .path;
     let (gpu_only_derive, _) = best(cfg.runs, || {
         let r = run(gpu, c, &turtle, &gpu_only, &mut |_| {}).map_err(|e| e.to_string())?;
         Ok((r.derive_elapsed, ()))
@@ -314,6 +318,7 @@ pub fn bench_scene(
         waits_per_run,
         cpu_steps,
         gpu_only_derive,
+        gpu_only_path,
         cpu1_derive: cpu1.map(|(t, _)| t),
         cpun_derive: cpun.map(|(t, _)| t),
         cpu_threads: if cfg.threads == 0 {
@@ -487,7 +492,8 @@ impl SceneReport {
         }
         let _ = writeln!(
             s,
-            "             GPU only (no CPU prefix) {:.3} ms = {:.1} modules/us ({:.2}x the time above)",
+            "             GPU only (no CPU prefix; {:?}) {:.3} ms = {:.1} modules/us ({:.2}x the time above)",
+            self.gpu_only_path,
             ms(self.gpu_only_derive),
             rate(self.produced, self.gpu_only_derive),
             speedup(self.gpu_only_derive, self.gpu_derive)
@@ -502,7 +508,10 @@ impl SceneReport {
             for (k, row) in self.device_rows.iter().enumerate() {
                 let Some(t) = row else { continue };
                 let mut line = format!("               step {:>2}: {:>8.3} ms", k + 1, ms(t.pass));
-                if let Some(st) = t.stages {
+                if self.gpu_only_path == crate::DerivePath::Direct {
+                    // One pass: the expand kernel (no count, scan or next).
+                    line.push_str("  (the direct derivation's expand kernel)");
+                } else if let Some(st) = t.stages {
                     let parts: Vec<String> = crate::stamps::KERNEL_STAGES
                         .iter()
                         .zip(st)
