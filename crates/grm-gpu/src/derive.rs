@@ -18,9 +18,13 @@
 //! gives the exact error.
 //!
 //! Direct (deterministic, context-free systems; `direct.rs`): the final
-//! string in one dispatch,
-//! each output module found by walking down the derivation tree, whose
-//! shape the host computes from the tables; no intermediate string.
+//! string in one dispatch, each output module found by walking down the
+//! derivation tree, whose shape the host computes from the tables; no
+//! intermediate string.
+//!
+//! A loosely bounded (stochastic) system after a CPU prefix of at least
+//! [`PROJECT_MIN_MODULES`] modules is batched with buffers sized from its
+//! expected sizes; an overflow reruns it iteration by iteration.
 
 use std::time::{Duration, Instant};
 
