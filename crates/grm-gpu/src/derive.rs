@@ -250,7 +250,7 @@ pub struct GpuSystem<'a> {
     has_context: bool,
 }
 
-/// The result of [`derive`].
+/// The result of [`derive()`].
 #[derive(Clone, Debug)]
 pub struct GpuDerivation {
     pub string: ModuleString,
@@ -342,7 +342,7 @@ pub(crate) fn split_string(
 }
 
 impl<'a> GpuSystem<'a> {
-    /// Validate and upload the tables of `jobs`. Must run inside [`Gpu::run`].
+    /// Validate and upload the tables of `jobs`. Must run inside `Gpu::run`.
     pub fn load(gpu: &'a Gpu, jobs: &[GpuJob<'a>]) -> Result<GpuSystem<'a>, GpuError> {
         if jobs.is_empty() || jobs.len() > MAX_SYSTEMS {
             return Err(GpuError::InvalidInput(format!(
@@ -1591,7 +1591,7 @@ pub enum DerivePath {
     BatchedThenPerIteration,
 }
 
-/// [`derive`], choosing the strategy and reporting the path taken.
+/// [`derive()`], choosing the strategy and reporting the path taken.
 pub fn derive_with(
     gpu: &Gpu,
     sys: &CompiledSystem,

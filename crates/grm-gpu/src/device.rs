@@ -939,7 +939,7 @@ impl<B: Pooled> Pool<B> {
 /// the sizes 4, 5, 6, 7 x 2^k (at most 25% above the request, so that
 /// the buffers of a large run, counted against [`POOL_BYTES`], stay in the
 /// pool; powers of two wasted up to half of it). Below 1 KiB: the next
-/// power of two, at least [`MIN_BUFFER`].
+/// power of two, at least `MIN_BUFFER`.
 pub fn size_class(bytes: u64) -> u64 {
     let b = bytes.max(MIN_BUFFER);
     if b < 1024 {

@@ -1,6 +1,6 @@
 //! Structs shared by Rust and WGSL, and the generated WGSL header.
 //!
-//! Each struct is declared once, with [`gpu_struct!`], which defines the
+//! Each struct is declared once, with `gpu_struct!`, which defines the
 //! `#[repr(C)]` Pod Rust type and the WGSL declaration from the same field
 //! list; a test parses the header with naga and checks that every member
 //! offset and every struct size agree with `std::mem::offset_of!` and
