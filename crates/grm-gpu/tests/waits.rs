@@ -1,7 +1,8 @@
 //! How many times a derivation and interpretation wait for the device: on
 //! a GPU each wait costs a round trip whatever the work, so the structure
-//! is pinned here. A batched derivation waits once (its totals and
-//! status); the interpretation of a straight string whose bone count is
+//! is pinned here. A direct derivation waits once (for the kernel, and
+//! its status where parameters are computed), a batched one once (its
+//! totals and status); the interpretation of a straight string whose bone count is
 //! known in advance once more; a branching string first reads its depth
 //! range; a bone count not known in advance is read before the bones are
 //! written. A derivation the CPU did entirely waits for nothing.
@@ -15,7 +16,7 @@ fn runs_wait_for_the_device_as_few_times_as_their_structure_needs() {
     let g = gpu();
     // (file, iterations, CPU prefix, derivation's waits, interpretation's)
     let cases: &[(&str, u32, u64, u64, u64)] = &[
-        // Exact, straight: batched, then one submission.
+        // Deterministic, straight: direct, then one submission.
         ("hilbert3d.grm", 5, 0, 1, 1),
         (
             "hilbert3d.grm",
@@ -24,9 +25,11 @@ fn runs_wait_for_the_device_as_few_times_as_their_structure_needs() {
             1,
             1,
         ),
-        // Exact, branching: the depth range first.
+        // Deterministic, branching: direct, the depth range first.
         ("bracketed_plant.grm", 5, 0, 1, 2),
-        // Stochastic, branching: the bone count is read too.
+        // Computed parameters: direct, its status read with the wait.
+        ("ternary_tree.grm", 6, 0, 1, 2),
+        // Stochastic, branching: batched; the bone count is read too.
         ("stochastic_plant.grm", 5, 0, 1, 3),
         // Context-sensitive, every string on the CPU: no wait to derive.
         (
