@@ -102,6 +102,8 @@ pub struct SceneReport {
     pub walked: bool,
     /// The matrix scan was fused (a straight string of affine commands).
     pub fused: bool,
+    /// The bones came from a direct derivation's tables.
+    pub direct_interp: bool,
     pub gpu_interpret: Duration,
     pub cpu_interpret: Option<Duration>,
     /// Why the interpretation was not run (a device buffer limit), if so.
@@ -330,6 +332,7 @@ pub fn bench_scene(
         depth: interp.max_depth,
         walked: interp.walked,
         fused: interp.fused,
+        direct_interp: interp.direct,
         gpu_interpret: best_interp,
         cpu_interpret,
         interpret_skipped,
@@ -566,7 +569,9 @@ impl SceneReport {
             "  interpret: {} bones, depth {}, {}; GPU {:.3} ms = {:.1} modules/us",
             self.bones,
             self.depth,
-            if self.walked {
+            if self.direct_interp {
+                "direct (from the derivation's tables; the string is not read)"
+            } else if self.walked {
                 "branches walked"
             } else if self.fused {
                 "matrix scan, fused (no brackets)"

@@ -248,6 +248,9 @@ pub struct GpuSystem<'a> {
     /// The directory as uploaded (string 0's ranges).
     directory: Vec<SystemEntry>,
     has_context: bool,
+    /// The plan of the last derivation when it ran directly (its tables
+    /// serve the direct interpretation).
+    direct: std::cell::RefCell<Option<direct::DirectPlan>>,
 }
 
 /// The result of [`derive()`].
@@ -394,6 +397,7 @@ impl<'a> GpuSystem<'a> {
             jobs: jobs.to_vec(),
             tables,
             directory,
+            direct: std::cell::RefCell::new(None),
         })
     }
 
@@ -428,6 +432,7 @@ impl<'a> GpuSystem<'a> {
         strategy: DeriveStrategy,
         progress: &mut dyn FnMut(&GpuIterationStats),
     ) -> Result<(DeviceString, Vec<GpuIterationStats>, DerivePath), GpuError> {
+        self.direct.replace(None);
         if strategy == DeriveStrategy::Auto
             && !opts.sync_iterations
             && let Some(plan) = self.direct_plan(opts)
@@ -436,6 +441,7 @@ impl<'a> GpuSystem<'a> {
             for st in &stats {
                 progress(st);
             }
+            self.direct.replace(Some(plan));
             return Ok((s, stats, DerivePath::Direct));
         }
         let mut path = DerivePath::PerIteration;

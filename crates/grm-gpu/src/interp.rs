@@ -259,7 +259,7 @@ fn bracket_tables(programs: &[&TurtleProgram], ranges: &[(u64, u64)]) -> Vec<u32
 }
 
 /// The `tsyms` buffer: every system's config, then their symbol records.
-fn turtle_tables(programs: &[&TurtleProgram]) -> Vec<u32> {
+pub(crate) fn turtle_tables(programs: &[&TurtleProgram]) -> Vec<u32> {
     let cw = std::mem::size_of::<GpuTurtleConfig>() / 4;
     let mut words = vec![0u32; cw * programs.len()];
     let mut configs = Vec::with_capacity(programs.len());
@@ -330,6 +330,9 @@ pub struct GpuInterpretation {
     /// Whether the matrix scan was fused (a straight string of affine
     /// commands: no per-module states stored).
     pub fused: bool,
+    /// Whether the bones came from a direct derivation's tables, without
+    /// reading the string (derive/direct.rs, shaders/expand_turtle.wgsl).
+    pub direct: bool,
     /// Wall time on the host, including the synchronisations, without
     /// reading the bones back.
     pub elapsed: Duration,
@@ -422,6 +425,7 @@ pub(crate) fn interpret_device(
         max_depth: 0,
         walked,
         fused: false,
+        direct: false,
         elapsed: Duration::ZERO,
     };
     if n == 0 {

@@ -350,6 +350,37 @@ pub static EXPAND_VM: Kernel = Kernel {
     subst: &[("EXPAND_PARAMS", "expand_vm.wgsl")],
 };
 
+const EXPAND_TURTLE_BINDS: &[Bind] = &[
+    Bind::Uniform,
+    Bind::Read,
+    Bind::Read,
+    Bind::Read,
+    Bind::Read,
+    Bind::Read,
+    Bind::Read,
+    Bind::ReadWrite,
+    Bind::ReadWrite,
+];
+
+/// The direct interpretation's tables (`expand_turtle.wgsl`, one
+/// workgroup): every expansion's and slot prefix's turtle transform.
+pub static EXPAND_NETS: Kernel = Kernel {
+    name: "expand_nets",
+    file: "expand_turtle.wgsl",
+    entry: "expand_nets",
+    bindings: EXPAND_TURTLE_BINDS,
+    subst: &[("ELEM", "TurtleElem")],
+};
+
+/// The direct interpretation's bones, one thread each.
+pub static EXPAND_BONES: Kernel = Kernel {
+    name: "expand_bones",
+    file: "expand_turtle.wgsl",
+    entry: "expand_bones",
+    bindings: EXPAND_TURTLE_BINDS,
+    subst: &[("ELEM", "TurtleElem")],
+};
+
 /// All kernels.
 pub static ALL: &[&Kernel] = &[
     &SCAN_U32,
@@ -385,4 +416,6 @@ pub static ALL: &[&Kernel] = &[
     &BATCH_NEXT,
     &EXPAND,
     &EXPAND_VM,
+    &EXPAND_NETS,
+    &EXPAND_BONES,
 ];

@@ -351,6 +351,43 @@ gpu_struct! {
     }
 }
 
+gpu_struct! {
+    /// Parameters of the direct interpretation (`shaders/expand_turtle.wgsl`)
+    /// of one job's direct derivation: the expansion tables' places (as
+    /// [`ExpandJob`]), the sizes, and where each table starts in the
+    /// `nets` (turtle transforms) and `ft` (bone counts) buffers.
+    pub struct ExpandTurtleParams {
+        pub symbols: u32 => "u32",
+        pub slots: u32 => "u32",
+        pub offsets: u32 => "u32",
+        pub slot_count: u32 => "u32",
+        pub steps: u32 => "u32",
+        /// Symbols of the system.
+        pub nsym: u32 => "u32",
+        /// Axiom modules (after the slots in the slot string).
+        pub n_ax: u32 => "u32",
+        /// Bones to write: one thread each.
+        pub bones: u32 => "u32",
+        /// `nets`: each slot's and axiom module's own transform from 0,
+        /// then per step `r` every symbol's whole expansion (`net_n`), every
+        /// slot's prefix within its predecessor's (`net_p`), and the prefix
+        /// before each axiom module (`net_ax`).
+        pub net_n: u32 => "u32",
+        pub net_p: u32 => "u32",
+        pub net_ax: u32 => "u32",
+        /// `ft`: per symbol whether it has a production from 0; per step and
+        /// slot the bones before it in its predecessor's expansion
+        /// (`f_pre`); the bones before each axiom module's expansion and the
+        /// total (`f_top`); each axiom module's first output module
+        /// (`m_top`).
+        pub f_pre: u32 => "u32",
+        pub f_top: u32 => "u32",
+        pub m_top: u32 => "u32",
+        pub pad0: u32 => "u32",
+        pub pad1: u32 => "u32",
+    }
+}
+
 /// Fan-out of the bracket-matching minimum tree.
 pub const BRACKET_FAN: u32 = 32;
 /// Levels the bracket tree may have (`offs`/`lens` entries).
@@ -503,6 +540,7 @@ pub fn structs() -> Vec<StructInfo> {
         one::<BatchParams>(),
         one::<ExpandParams>(),
         one::<ExpandJob>(),
+        one::<ExpandTurtleParams>(),
         one::<BracketParams>(),
         one::<TurtleSym>(),
         one::<TurtleParams>(),

@@ -82,9 +82,16 @@ pub fn run(
         let mut interpretation = None;
         let mut readback_elapsed = Duration::ZERO;
         if opts.interpret {
-            let most = bones_at_most(&g, &opts.derive, &[turtle]);
-            let (bones, count, mut out) =
-                interpret_device(gpu, &[turtle], &string, &[(0, string.len())], most)?;
+            // A direct derivation's bones come from its tables where it
+            // can (a straight string of affine commands), else from the
+            // string.
+            let (bones, count, mut out) = match g.interpret_direct(turtle)? {
+                Some(done) => done,
+                None => {
+                    let most = bones_at_most(&g, &opts.derive, &[turtle]);
+                    interpret_device(gpu, &[turtle], &string, &[(0, string.len())], most)?
+                }
+            };
             if opts.read_bones {
                 let t = Instant::now();
                 out.bones = read_bones(gpu, &bones, count)?;

@@ -39,6 +39,8 @@ pub const FILES: &[(&str, &str)] = shader_files!(
     "expand.wgsl",
     "expand_const.wgsl",
     "expand_vm.wgsl",
+    "turtle_cmds.wgsl",
+    "expand_turtle.wgsl",
 );
 
 /// How a kernel binds a buffer (binding index = position in the list).

@@ -402,3 +402,123 @@ fn drawn_and_constant_axioms_derive_directly() {
         }
     }
 }
+
+/// Derive directly and interpret: the bones (read back) and whether they
+/// came from the tables (the direct interpretation).
+fn run_bones(
+    sys: &grm_sema::System,
+    c: &grm_compile::CompiledSystem,
+    n: u32,
+) -> (grm_gpu::GpuRun, Vec<grm_gpu::layout::GpuBone>) {
+    let g = gpu();
+    let opts = grm_gpu::GpuRunOptions {
+        derive: opts(c, n),
+        interpret: true,
+        read_string: true,
+        read_bones: true,
+        strategy: DeriveStrategy::Auto,
+    };
+    let turtle = grm_gpu::TurtleProgram::new(sys, &c.settings);
+    let mut r = grm_gpu::run(g, c, &turtle, &opts, &mut |_| {}).expect("runs");
+    let bones = std::mem::take(&mut r.interpretation.as_mut().expect("interpreted").bones);
+    (r, bones)
+}
+
+/// A straight string of affine commands derived directly is interpreted
+/// from the expansion tables (shaders/expand_turtle.wgsl), without reading
+/// the string: the CPU turtle's bones, on Hilbert 3D and the Koch island
+/// at every iteration count up to 5, and on random straight grammars with
+/// every affine command and constant parameters. Branching and walked
+/// strings are interpreted from the string.
+#[test]
+fn straight_direct_derivations_are_interpreted_from_their_tables() {
+    for (file, top) in [("hilbert3d.grm", 5), ("koch_island.grm", 4)] {
+        let (p, name, c) = example_program(file, None);
+        let sys = p.system(&name).expect("system");
+        for n in 1..=top {
+            let (r, bones) = run_bones(sys, &c, n);
+            assert_eq!(r.path, DerivePath::Direct, "{file} {n}");
+            let i = r.interpretation.as_ref().expect("interpreted");
+            assert!(i.direct, "{file} {n}: interpreted from the tables");
+            let string = cpu_derive(&c, n, c.settings.seed).expect("cpu derives");
+            same_bits(file, &string, r.string.as_ref().expect("read"));
+            let cpu = grm_turtle::interpret(sys, &c.settings, &string).expect("cpu interprets");
+            assert_bones_match(&format!("{file} {n}"), &cpu, &bones);
+        }
+    }
+    for (file, n) in [("bracketed_plant.grm", 3), ("ternary_tree.grm", 3)] {
+        let (p, name, c) = example_program(file, None);
+        let sys = p.system(&name).expect("system");
+        let (r, _) = run_bones(sys, &c, n);
+        assert_eq!(r.path, DerivePath::Direct, "{file}");
+        assert!(!r.interpretation.expect("interpreted").direct, "{file}");
+    }
+    let mut rng = Rng(5150);
+    let cmds = [
+        "F",
+        "F(0.5)",
+        "f",
+        "f(2)",
+        "+",
+        "-(30)",
+        "&",
+        "^(45)",
+        "/",
+        "\\(10)",
+        "|",
+        "!(0.3)",
+        "!",
+        "G(1.5)",
+        "rotx(20)",
+        "scale(1.1)",
+    ];
+    let mut done = 0;
+    for _ in 0..200 {
+        if done >= 25 {
+            break;
+        }
+        let names = ["A", "B", "C"];
+        let pick = |rng: &mut Rng| -> String {
+            if rng.below(3) == 0 {
+                names[rng.below(3) as usize].to_string()
+            } else {
+                cmds[rng.below(cmds.len() as u64) as usize].to_string()
+            }
+        };
+        let mut src = String::from("system S {\n    angle = 37;\n    axiom");
+        for _ in 0..1 + rng.below(3) {
+            src.push(' ');
+            src.push_str(&pick(&mut rng));
+        }
+        src.push_str(" A;\n");
+        for name in names {
+            src.push_str(&format!("    {name} ->"));
+            for _ in 0..rng.below(6) {
+                src.push(' ');
+                src.push_str(&pick(&mut rng));
+            }
+            src.push_str(";\n");
+        }
+        src.push_str("}\n");
+        let Some((p, c)) = inline_program(&src) else {
+            continue;
+        };
+        let sys = p.default_system().expect("system");
+        let n = 1 + rng.below(6) as u32;
+        let cpu_string = cpu_derive(&c, n, 0).expect("cpu derives");
+        if cpu_string.len() as u64 > 200_000 {
+            continue;
+        }
+        let (r, bones) = run_bones(sys, &c, n);
+        if r.path != DerivePath::Direct {
+            // Within the CPU prefix or otherwise stepwise: not this test.
+            continue;
+        }
+        let i = r.interpretation.as_ref().expect("interpreted");
+        assert!(i.direct, "{src}");
+        let cpu = grm_turtle::interpret(sys, &c.settings, &cpu_string).expect("cpu interprets");
+        assert_bones_match(&format!("{src} at {n}"), &cpu, &bones);
+        done += 1;
+    }
+    assert!(done >= 25, "only {done} random straight grammars");
+}

@@ -43,9 +43,11 @@ use super::{
 };
 use crate::device::groups_for;
 use crate::error::GpuError;
+use crate::interp::{GpuInterpretation, TurtleOp, TurtleProgram, turtle_tables};
 use crate::kernels;
 use crate::layout::{
-    DIRECT_MAX_STEPS, EXPAND_SLOT_WORDS, ExpandJob, ExpandParams, SYS_SHIFT, SystemEntry,
+    DIRECT_MAX_STEPS, EXPAND_SLOT_WORDS, ExpandJob, ExpandParams, ExpandTurtleParams, GpuBone,
+    SYM_MASK, SYS_SHIFT, SystemEntry, TurtleElem,
 };
 use crate::stamps::Stamps;
 
@@ -79,6 +81,16 @@ pub(crate) struct DirectPlan {
     /// derivation would.
     walk_evals: u64,
     step_evals: u64,
+    /// One job with constant parameters: what its direct interpretation
+    /// needs.
+    single: Option<SingleJob>,
+}
+
+/// A single job's expansion, kept for its direct interpretation.
+#[derive(Debug)]
+pub(crate) struct SingleJob {
+    succ: Vec<Option<Vec<u32>>>,
+    slot_string: ModuleString,
 }
 
 /// Sizes of one module's expansion after `r` steps, per symbol: `r = 0`
@@ -99,6 +111,12 @@ struct Expansion {
     /// ... and those the stepwise derivation evaluates (every computed
     /// slot of every step once).
     step_evals: Vec<Vec<u64>>,
+    /// Per symbol with a production, its successor's symbols in slot
+    /// order (the direct interpretation's bone counts).
+    succ: Vec<Option<Vec<u32>>>,
+    /// One module per slot with its constant parameters, when every slot's
+    /// are constants (the direct interpretation's slot string).
+    slot_string: Option<ModuleString>,
 }
 
 /// One system's expansion tables for `steps` steps (appended to `words`),
@@ -272,12 +290,29 @@ fn expansion(sys: &CompiledSystem, steps: u32, words: &mut Vec<u32>) -> Option<E
         walk.push(walk1);
         step.push(step1);
     }
+    let slot_string = if computed {
+        None
+    } else {
+        let mut st = ModuleString::with_capacity(slots, data);
+        let mut p: Vec<f32> = Vec::new();
+        for (m, w) in succ.iter().flatten().flat_map(|c| c.iter()).zip(&consts) {
+            p.clear();
+            p.extend(w.iter().flatten().map(|&x| f32::from_bits(x)));
+            st.push(m.symbol, &p);
+        }
+        Some(st)
+    };
     Some(Expansion {
         job,
         size,
         computed,
         walk_evals: walk,
         step_evals: step,
+        succ: succ
+            .iter()
+            .map(|c| c.map(|c| c.iter().map(|m| m.symbol).collect()))
+            .collect(),
+        slot_string,
     })
 }
 
@@ -342,6 +377,7 @@ impl DirectPlan {
         let mut headers = Vec::with_capacity(jobs.len());
         // Jobs of the same system and steps (a forest of seeds) share tables.
         let mut made: Vec<(&CompiledSystem, u32, Expansion)> = Vec::new();
+        let mut single = None;
         let mut computed = false;
         let (mut walk_evals, mut step_evals) = (0u64, 0u64);
         // One CPU engine per distinct system, for the axioms.
@@ -371,6 +407,14 @@ impl DirectPlan {
             let (_, _, x) = &made[k];
             let size = &x.size;
             headers.push(x.job);
+            if jobs.len() == 1
+                && let Some(st) = &x.slot_string
+            {
+                single = Some(SingleJob {
+                    succ: x.succ.clone(),
+                    slot_string: st.clone(),
+                });
+            }
             let axiom = match constant_axiom(sys) {
                 Some(a) => a,
                 None => {
@@ -416,6 +460,7 @@ impl DirectPlan {
             computed,
             walk_evals,
             step_evals,
+            single,
         })
     }
 
@@ -623,5 +668,145 @@ impl GpuSystem<'_> {
             })
             .collect();
         Ok(Some((out, stats)))
+    }
+}
+
+impl GpuSystem<'_> {
+    /// The bones of the last derivation when it ran directly, for one job
+    /// with constant parameters and a straight string of affine commands
+    /// (`shaders/expand_turtle.wgsl`): from the expansion tables, without
+    /// reading the string. `None` where that does not hold (the caller
+    /// interprets the string). One submission, one wait.
+    pub(crate) fn interpret_direct(
+        &self,
+        program: &TurtleProgram,
+    ) -> Result<Option<(wgpu::Buffer, u64, GpuInterpretation)>, GpuError> {
+        let t0 = Instant::now();
+        let guard = self.direct.borrow();
+        let Some(plan) = guard.as_ref() else {
+            return Ok(None);
+        };
+        let (Some(one), [job]) = (&plan.single, &plan.jobs[..]) else {
+            return Ok(None);
+        };
+        if program.has_brackets() || program.walks() {
+            return Ok(None);
+        }
+        let ns = one.succ.len();
+        let steps = job.steps as usize;
+        let slots = one.slot_string.len();
+        let n_ax = plan.axioms.len();
+        if ns != program.syms.len() || n_ax == 0 {
+            return Ok(None);
+        }
+        // Bone counts: per step and symbol the `F`s of its expansion ...
+        let is_f = |s: usize| u64::from(program.syms[s].op == TurtleOp::Forward as u32);
+        let mut f = vec![(0..ns).map(is_f).collect::<Vec<u64>>()];
+        for r in 1..=steps {
+            let row = (0..ns)
+                .map(|s| match &one.succ[s] {
+                    Some(c) => c
+                        .iter()
+                        .fold(0u64, |a, &t| a.saturating_add(f[r - 1][t as usize])),
+                    None => is_f(s),
+                })
+                .collect();
+            f.push(row);
+        }
+        // ... the table: productions, per step the bones before each slot
+        // in its predecessor's expansion, per axiom module the bones and
+        // modules before its expansion.
+        let mut ft: Vec<u32> = one.succ.iter().map(|c| u32::from(c.is_some())).collect();
+        let f_pre = ft.len();
+        for prev in &f[..steps] {
+            for c in one.succ.iter().flatten() {
+                let mut at = 0u64;
+                for &t in c {
+                    ft.push(u32::try_from(at).ok().unwrap_or(u32::MAX));
+                    at = at.saturating_add(prev[t as usize]);
+                }
+            }
+        }
+        let f_top = ft.len();
+        let mut at = 0u64;
+        for &sym in &plan.axioms.syms {
+            ft.push(u32::try_from(at).unwrap_or(u32::MAX));
+            at = at.saturating_add(f[steps][(sym & SYM_MASK) as usize]);
+        }
+        let bones = at;
+        if bones >= u64::from(u32::MAX) {
+            return Ok(None);
+        }
+        ft.push(bones as u32);
+        let m_top = ft.len();
+        ft.extend(plan.in_offs[..n_ax].iter().map(|o| o[0]));
+        // The slot string, then the axiom modules.
+        let mut st = one.slot_string.clone();
+        for (sym, p) in plan.axioms.iter() {
+            st.push(sym, p);
+        }
+        let net_n = (slots + n_ax) as u64;
+        let net_p = net_n + (steps * ns) as u64;
+        let net_ax = net_p + (steps * slots) as u64;
+        let nets_len = net_ax + n_ax as u64;
+        let gpu = self.gpu;
+        let elem = std::mem::size_of::<TurtleElem>() as u64;
+        let bone_bytes = std::mem::size_of::<GpuBone>() as u64;
+        if gpu
+            .check_storage("direct turtle tables", elem * nets_len)
+            .is_err()
+            || gpu.check_storage("bones", bone_bytes * bones).is_err()
+        {
+            return Ok(None);
+        }
+        let x = ExpandTurtleParams {
+            symbols: job.symbols,
+            slots: job.slots,
+            offsets: job.offsets,
+            slot_count: job.slot_count,
+            steps: job.steps,
+            nsym: ns as u32,
+            n_ax: n_ax as u32,
+            bones: bones as u32,
+            net_n: net_n as u32,
+            net_p: net_p as u32,
+            net_ax: net_ax as u32,
+            f_pre: f_pre as u32,
+            f_top: f_top as u32,
+            m_top: m_top as u32,
+            ..ExpandTurtleParams::default()
+        };
+        let u = gpu.uniform("direct turtle params", &x);
+        // Pooled buffers, written (nothing is created in a repeated run but
+        // the parameters).
+        let put = |what, data: &[u8]| -> Result<wgpu::Buffer, GpuError> {
+            let b = gpu.storage(what, data.len() as u64)?;
+            if !data.is_empty() {
+                gpu.queue().write_buffer(&b, 0, data);
+            }
+            Ok(b)
+        };
+        let syms = put("slot symbols", bytemuck::cast_slice(&st.syms))?;
+        let starts = put("slot parameter starts", bytemuck::cast_slice(&st.starts))?;
+        let params = put("slot parameters", bytemuck::cast_slice(&st.params))?;
+        let tables = turtle_tables(&[program]);
+        let tsyms = put("turtle commands", bytemuck::cast_slice(&tables))?;
+        let xt = put("expansion tables", bytemuck::cast_slice(&plan.words))?;
+        let ftb = put("direct bone counts", bytemuck::cast_slice(&ft))?;
+        let nets = gpu.storage("direct turtle tables", elem * nets_len)?;
+        let out = gpu.storage("bones", bone_bytes * bones)?;
+        let b = [&u, &syms, &starts, &params, &tsyms, &xt, &ftb, &nets, &out];
+        let mut enc = gpu.encoder();
+        gpu.dispatch(&mut enc, &kernels::EXPAND_NETS, &b, 1)?;
+        gpu.dispatch(&mut enc, &kernels::EXPAND_BONES, &b, groups_for(bones))?;
+        gpu.submit_wait(enc)?;
+        gpu.recycle([nets, syms, starts, params, tsyms, xt, ftb]);
+        let interp = GpuInterpretation {
+            bone_count: bones,
+            direct: true,
+            elapsed: t0.elapsed(),
+            ..GpuInterpretation::default()
+        };
+        Ok(Some((out, bones, interp)))
     }
 }

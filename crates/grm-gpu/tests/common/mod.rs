@@ -198,3 +198,54 @@ pub fn random_grammar(rng: &mut Rng) -> String {
     s.push_str("}\n");
     s
 }
+
+/// Absolute tolerance, relative to 1 + the largest coordinate of the scene:
+/// the GPU composes the same f32 transforms in a different order (a scan),
+/// and its sin/cos are not correctly rounded.
+pub const TOL: f32 = 2e-4;
+
+/// The GPU bones are the CPU turtle's: the same bones in the same order,
+/// with the same parents and modules; positions within [`TOL`] of the
+/// scene's extent, directions within 1e-3, widths within a relative 1e-4.
+pub fn assert_bones_match(
+    what: &str,
+    cpu: &grm_turtle::Interpretation,
+    gpu: &[grm_gpu::layout::GpuBone],
+) {
+    assert_eq!(cpu.bones.len(), gpu.len(), "{what}: bone count");
+    let extent = cpu
+        .bones
+        .iter()
+        .flat_map(|b| [b.base.abs().max_element(), b.tip.abs().max_element()])
+        .fold(0.0f32, f32::max);
+    let tol = TOL * (1.0 + extent);
+    for (k, (c, g)) in cpu.bones.iter().zip(gpu).enumerate() {
+        assert_eq!(c.module, g.module_index, "{what}: bone {k}: module");
+        assert_eq!(
+            c.parent.unwrap_or(u32::MAX),
+            g.parent,
+            "{what}: bone {k}: parent"
+        );
+        let close =
+            |a: glam::Vec3, b: [f32; 3], t: f32| (a - glam::Vec3::from(b)).abs().max_element() <= t;
+        assert!(
+            close(c.base, [g.base_x, g.base_y, g.base_z], tol)
+                && close(c.tip, [g.tip_x, g.tip_y, g.tip_z], tol),
+            "{what}: bone {k}: cpu {:?} -> {:?}, gpu {:?}",
+            c.base,
+            c.tip,
+            g
+        );
+        assert!(
+            close(c.left, [g.left_x, g.left_y, g.left_z], 1e-3),
+            "{what}: bone {k}: left {:?} vs {g:?}",
+            c.left
+        );
+        assert!(
+            (c.width_base - g.width).abs() <= 1e-4 * c.width_base.abs().max(1.0),
+            "{what}: bone {k}: width {} vs {}",
+            c.width_base,
+            g.width
+        );
+    }
+}
