@@ -1,22 +1,26 @@
-// Direct interpretation (grm-gpu's interp_direct): the bones of a straight
-// string of affine turtle commands that was derived directly
-// (expand.wgsl) with constant parameters, without reading the string.
+// Direct interpretation (grm-gpu's interpret_direct): the bones of a string
+// of affine turtle commands that was derived directly (expand.wgsl) with
+// constant parameters, without reading the string.
 //
 // The turtle state before a module is the initial state composed with the
-// transforms of every module before it (turtle_scan.wgsl's `compose`). In
-// the derivation tree of a direct derivation that is, level by level, the
-// composition of the whole expansions of the siblings before the path's
-// slot: `expand_nets` computes, once, each symbol's whole expansion after
-// r steps (`N[r][s]`, the composition of its successor slots' expansions
-// with one step fewer) and each slot's prefix within its predecessor's
-// expansion (`P[r][slot]`); the slots' own transforms come from a string
-// of one module per slot with its constant parameters (`syms`, `starts`,
-// `params`: the slot string, then the axiom modules). Then `expand_bones`
+// transforms of the modules before it on its path (turtle_scan.wgsl's
+// `compose`; a closed branch `[ ... ]` leaves the state as it found it).
+// In the derivation tree of a direct derivation that is, level by level,
+// the composition of the whole expansions of the siblings before the
+// path's slot, branches skipped: `expand_nets` computes, once, each
+// symbol's whole expansion after r steps (`N[r][s]`: its successor's
+// slots' expansions with one step fewer, composed with a stack at the
+// brackets) and each slot's prefix within its predecessor's expansion
+// (`P[r][slot]`); the slots' own transforms come from a string of one
+// module per slot with its constant parameters (`syms`, `starts`,
+// `params`: the slot string, then the axiom modules). A transform's
+// `bone` field is the number of the last bone in it (relative to its
+// expansion's first bone; absolute once composed on a path), so the
+// state carries its parent bone as the CPU's does. Then `expand_bones`
 // takes one thread per bone b: it walks down to the b-th `F` by the bone
-// counts of the host (`ft`), composing the prefixes on its way, and writes
-// the bone as turtle.wgsl's `write_bone` does (its parent is bone b - 1: a
-// straight string has no cuts). One pass over the bones; the string is
-// not read, only the small tables.
+// counts of the host (`ft`), composing the prefixes on its way, and
+// writes the bone as turtle.wgsl's `write_bone` does. One pass over the
+// bones; the string is not read, only the small tables.
 //!include grid.wgsl
 //!include turtle_scan.wgsl
 
@@ -45,14 +49,34 @@ fn child_net(r: u32, k: u32, s: u32) -> TurtleElem {
     return nets[k];
 }
 
+fn op_of_symbol(s: u32) -> u32 {
+    return tsyms[config_of(0u).syms + s * TURTLE_SYM_WORDS];
+}
+
+// A transform with its bone numbers moved by `by` (relative to absolute,
+// or to an enclosing expansion).
+fn moved(e: TurtleElem, by: u32) -> TurtleElem {
+    var m = e;
+    if (m.bone != NONE) {
+        m.bone = m.bone + by;
+    }
+    return m;
+}
+
+var<private> stack: array<TurtleElem, DIRECT_TURTLE_STACK>;
+
 // One workgroup: the slots' transforms, then N and P step by step, then
-// the prefixes of the axiom modules.
+// the prefixes of the axiom modules. Brackets: `[` saves the state, `]`
+// restores it (the host checks that every successor and the axiom are
+// balanced within DIRECT_TURTLE_STACK and that brackets have no
+// production).
 @compute @workgroup_size(WORKGROUP)
 fn expand_nets(@builtin(local_invocation_index) lid: u32) {
     let own = X.slot_count + X.n_ax;
     for (var k = lid; k < own; k = k + WORKGROUP) {
         var e = module_elem(k);
-        e.bone = NONE;
+        // Its own bone, if it is one, is its expansion's bone 0.
+        e.bone = select(NONE, 0u, op_of(k).op == TOP_FORWARD);
         e.seg = 0u;
         nets[k] = e;
     }
@@ -66,10 +90,22 @@ fn expand_nets(@builtin(local_invocation_index) lid: u32) {
             let first = xt[X.symbols + 2u * s];
             let len = xt[X.symbols + 2u * s + 1u];
             var acc = scan_identity();
+            var sp = 0u;
             for (var i = 0u; i < len; i = i + 1u) {
                 let k = first + i;
                 nets[X.net_p + (r - 1u) * X.slot_count + k] = acc;
-                acc = compose(acc, child_net(r - 1u, k, xt[X.slots + EXPAND_SLOT_WORDS * k]));
+                let c = xt[X.slots + EXPAND_SLOT_WORDS * k];
+                let op = op_of_symbol(c);
+                if (op == TOP_PUSH) {
+                    stack[sp] = acc;
+                    sp = sp + 1u;
+                } else if (op == TOP_POP) {
+                    sp = sp - 1u;
+                    acc = stack[sp];
+                } else {
+                    let bones_before = ft[X.f_pre + (r - 1u) * X.slot_count + k];
+                    acc = compose(acc, moved(child_net(r - 1u, k, c), bones_before));
+                }
             }
             nets[X.net_n + (r - 1u) * X.nsym + s] = acc;
         }
@@ -78,10 +114,21 @@ fn expand_nets(@builtin(local_invocation_index) lid: u32) {
     }
     if (lid == 0u) {
         var acc = scan_identity();
+        var sp = 0u;
         for (var i = 0u; i < X.n_ax; i = i + 1u) {
             nets[X.net_ax + i] = acc;
             let k = X.slot_count + i;
-            acc = compose(acc, child_net(X.steps, k, syms[k] & SYM_MASK));
+            let c = syms[k] & SYM_MASK;
+            let op = op_of_symbol(c);
+            if (op == TOP_PUSH) {
+                stack[sp] = acc;
+                sp = sp + 1u;
+            } else if (op == TOP_POP) {
+                sp = sp - 1u;
+                acc = stack[sp];
+            } else {
+                acc = compose(acc, moved(child_net(X.steps, k, c), ft[X.f_top + i]));
+            }
         }
     }
 }
@@ -128,9 +175,12 @@ fn expand_bones(
                 z = m;
             }
         }
+        // The first bone of this expansion, absolute: its prefixes' bone
+        // numbers are relative to it.
+        let start = b - rest;
         rest = rest - ft[fr + a];
         o = o + xt[X.offsets + 2u * ((r - 1u) * X.slot_count + first + a)];
-        st = compose(st, nets[X.net_p + (r - 1u) * X.slot_count + first + a]);
+        st = compose(st, moved(nets[X.net_p + (r - 1u) * X.slot_count + first + a], start));
         k = first + a;
         s = xt[X.slots + EXPAND_SLOT_WORDS * k];
         r = r - 1u;
@@ -147,9 +197,7 @@ fn expand_bones(
     let tip = at + m[1] * arg(k, 0u, CFG.step);
     let left = normalize_or_zero(m[0]);
     let w = full.wb * 0.5 * (length(m[0]) + length(m[2]));
-    var parent = NONE;
-    if (b > 0u) {
-        parent = b - 1u;
-    }
+    // The bone that was current: the last `F` on the path.
+    let parent = full.bone;
     bones[b] = GpuBone(at.x, at.y, at.z, tip.x, tip.y, tip.z, left.x, left.y, left.z, w, parent, o);
 }

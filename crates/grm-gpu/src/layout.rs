@@ -326,6 +326,10 @@ pub const EXPAND_SLOT_WORDS: u32 = 7;
 /// growing string (`A -> F A` for thousands of steps) is cheaper stepwise.
 pub const DIRECT_MAX_STEPS: u32 = 64;
 
+/// The deepest bracket nesting within one successor (or the axiom) that
+/// the direct interpretation's table kernel keeps states for.
+pub const DIRECT_TURTLE_STACK: u32 = 16;
+
 gpu_struct! {
     /// One job of a direct derivation: where its expansion tables are in
     /// the `expand` kernel's table buffer (word indices). Symbol `s` has
@@ -580,6 +584,7 @@ pub fn wgsl_header() -> String {
         ("SEG_INDEX", SEG_INDEX),
         ("EXPAND_SLOT_WORDS", EXPAND_SLOT_WORDS),
         ("DIRECT_MAX_STEPS", DIRECT_MAX_STEPS),
+        ("DIRECT_TURTLE_STACK", DIRECT_TURTLE_STACK),
         (
             "TURTLE_CONFIG_WORDS",
             (std::mem::size_of::<TurtleConfig>() / 4) as u32,

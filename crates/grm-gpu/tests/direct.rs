@@ -424,15 +424,20 @@ fn run_bones(
     (r, bones)
 }
 
-/// A straight string of affine commands derived directly is interpreted
-/// from the expansion tables (shaders/expand_turtle.wgsl), without reading
-/// the string: the CPU turtle's bones, on Hilbert 3D and the Koch island
-/// at every iteration count up to 5, and on random straight grammars with
-/// every affine command and constant parameters. Branching and walked
-/// strings are interpreted from the string.
+/// A string of affine commands derived directly is interpreted from the
+/// expansion tables (shaders/expand_turtle.wgsl), without reading the
+/// string: the CPU turtle's bones (parents included), on Hilbert 3D, the
+/// Koch island and the bracketed plant at every iteration count up to 5,
+/// 4 and 4, and on random grammars with every affine command, constant
+/// parameters and nested branches. Walked strings (tropism) are
+/// interpreted from the string.
 #[test]
-fn straight_direct_derivations_are_interpreted_from_their_tables() {
-    for (file, top) in [("hilbert3d.grm", 5), ("koch_island.grm", 4)] {
+fn direct_derivations_of_affine_turtles_are_interpreted_from_their_tables() {
+    for (file, top) in [
+        ("hilbert3d.grm", 5),
+        ("koch_island.grm", 4),
+        ("bracketed_plant.grm", 4),
+    ] {
         let (p, name, c) = example_program(file, None);
         let sys = p.system(&name).expect("system");
         for n in 1..=top {
@@ -446,13 +451,12 @@ fn straight_direct_derivations_are_interpreted_from_their_tables() {
             assert_bones_match(&format!("{file} {n}"), &cpu, &bones);
         }
     }
-    for (file, n) in [("bracketed_plant.grm", 3), ("ternary_tree.grm", 3)] {
-        let (p, name, c) = example_program(file, None);
-        let sys = p.system(&name).expect("system");
-        let (r, _) = run_bones(sys, &c, n);
-        assert_eq!(r.path, DerivePath::Direct, "{file}");
-        assert!(!r.interpretation.expect("interpreted").direct, "{file}");
-    }
+    // Tropism: the turtle walks its branches, from the string.
+    let (p, name, c) = example_program("ternary_tree.grm", None);
+    let sys = p.system(&name).expect("system");
+    let (r, _) = run_bones(sys, &c, 3);
+    assert_eq!(r.path, DerivePath::Direct);
+    assert!(!r.interpretation.expect("interpreted").direct);
     let mut rng = Rng(5150);
     let cmds = [
         "F",
@@ -493,9 +497,26 @@ fn straight_direct_derivations_are_interpreted_from_their_tables() {
         src.push_str(" A;\n");
         for name in names {
             src.push_str(&format!("    {name} ->"));
-            for _ in 0..rng.below(6) {
-                src.push(' ');
-                src.push_str(&pick(&mut rng));
+            // Balanced branches, nested up to three deep.
+            let mut open = 0;
+            for _ in 0..rng.below(8) {
+                match rng.below(5) {
+                    0 if open < 3 => {
+                        src.push_str(" [");
+                        open += 1;
+                    }
+                    1 if open > 0 => {
+                        src.push_str(" ]");
+                        open -= 1;
+                    }
+                    _ => {
+                        src.push(' ');
+                        src.push_str(&pick(&mut rng));
+                    }
+                }
+            }
+            for _ in 0..open {
+                src.push_str(" ]");
             }
             src.push_str(";\n");
         }
@@ -520,5 +541,5 @@ fn straight_direct_derivations_are_interpreted_from_their_tables() {
         assert_bones_match(&format!("{src} at {n}"), &cpu, &bones);
         done += 1;
     }
-    assert!(done >= 25, "only {done} random straight grammars");
+    assert!(done >= 25, "only {done} random grammars");
 }

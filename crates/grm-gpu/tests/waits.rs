@@ -2,7 +2,8 @@
 //! a GPU each wait costs a round trip whatever the work, so the structure
 //! is pinned here. A direct derivation waits once (for the kernel, and
 //! its status where parameters are computed), a batched one once (its
-//! totals and status); the interpretation of a straight string whose bone count is
+//! totals and status); the interpretation of a direct derivation's affine
+//! string (from its tables) or of a straight string whose bone count is
 //! known in advance once more; a branching string first reads its depth
 //! range; a bone count not known in advance is read before the bones are
 //! written. A derivation the CPU did entirely waits for nothing.
@@ -25,8 +26,8 @@ fn runs_wait_for_the_device_as_few_times_as_their_structure_needs() {
             1,
             1,
         ),
-        // Deterministic, branching: direct, the depth range first.
-        ("bracketed_plant.grm", 5, 0, 1, 2),
+        // Deterministic, branching, affine: direct, bones from the tables.
+        ("bracketed_plant.grm", 5, 0, 1, 1),
         // Computed parameters: direct, its status read with the wait.
         ("ternary_tree.grm", 6, 0, 1, 2),
         // Stochastic, branching: batched; the bone count is read too.

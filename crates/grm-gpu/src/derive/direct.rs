@@ -46,8 +46,8 @@ use crate::error::GpuError;
 use crate::interp::{GpuInterpretation, TurtleOp, TurtleProgram, turtle_tables};
 use crate::kernels;
 use crate::layout::{
-    DIRECT_MAX_STEPS, EXPAND_SLOT_WORDS, ExpandJob, ExpandParams, ExpandTurtleParams, GpuBone,
-    SYM_MASK, SYS_SHIFT, SystemEntry, TurtleElem,
+    DIRECT_MAX_STEPS, DIRECT_TURTLE_STACK, EXPAND_SLOT_WORDS, ExpandJob, ExpandParams,
+    ExpandTurtleParams, GpuBone, SYM_MASK, SYS_SHIFT, SystemEntry, TurtleElem,
 };
 use crate::stamps::Stamps;
 
@@ -673,8 +673,9 @@ impl GpuSystem<'_> {
 
 impl GpuSystem<'_> {
     /// The bones of the last derivation when it ran directly, for one job
-    /// with constant parameters and a straight string of affine commands
-    /// (`shaders/expand_turtle.wgsl`): from the expansion tables, without
+    /// with constant parameters and affine commands (brackets balanced in
+    /// every successor; `shaders/expand_turtle.wgsl`): from the expansion
+    /// tables, without
     /// reading the string. `None` where that does not hold (the caller
     /// interprets the string). One submission, one wait.
     pub(crate) fn interpret_direct(
@@ -689,7 +690,7 @@ impl GpuSystem<'_> {
         let (Some(one), [job]) = (&plan.single, &plan.jobs[..]) else {
             return Ok(None);
         };
-        if program.has_brackets() || program.walks() {
+        if program.walks() {
             return Ok(None);
         }
         let ns = one.succ.len();
@@ -697,6 +698,38 @@ impl GpuSystem<'_> {
         let slots = one.slot_string.len();
         let n_ax = plan.axioms.len();
         if ns != program.syms.len() || n_ax == 0 {
+            return Ok(None);
+        }
+        // Brackets: none with a production, every successor and the axiom
+        // balanced within the table kernel's stack.
+        let op = |s: u32| program.syms.get(s as usize).map(|t| t.op);
+        let (push, pop) = (TurtleOp::Push as u32, TurtleOp::Pop as u32);
+        let balanced = |seq: &mut dyn Iterator<Item = u32>| {
+            let mut depth = 0u32;
+            for s in seq {
+                match op(s) {
+                    Some(o) if o == push => depth += 1,
+                    Some(o) if o == pop => match depth.checked_sub(1) {
+                        Some(d) => depth = d,
+                        None => return false,
+                    },
+                    Some(_) => {}
+                    None => return false,
+                }
+                if depth > DIRECT_TURTLE_STACK {
+                    return false;
+                }
+            }
+            depth == 0
+        };
+        let brackets_ok = one.succ.iter().enumerate().all(|(s, c)| match c {
+            Some(c) => {
+                let o = op(s as u32);
+                o != Some(push) && o != Some(pop) && balanced(&mut c.iter().copied())
+            }
+            None => true,
+        }) && balanced(&mut plan.axioms.syms.iter().map(|&x| x & SYM_MASK));
+        if !brackets_ok {
             return Ok(None);
         }
         // Bone counts: per step and symbol the `F`s of its expansion ...
