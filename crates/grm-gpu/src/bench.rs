@@ -199,9 +199,10 @@ pub fn bench_scene(
     let mut gpu_only = ropts;
     gpu_only.derive.cpu_prefix = 0;
     gpu_only.derive.sync_iterations = true;
+    // The per-iteration rows time the derivation only.
+    gpu_only.interpret = false;
     let per_iter = run(gpu, c, &turtle, &gpu_only, &mut |_| {}).map_err(|e| e.to_string())?;
     gpu_only.derive.sync_iterations = false;
-    gpu_only.interpret = false;
     // Untimed first: its pipelines compiled (the warm-up may have taken
     // another path).
     let gpu_only_path = run(gpu, c, &turtle, &gpu_only, &mut |_| {})
@@ -566,9 +567,13 @@ impl SceneReport {
     fn interpretation_text(&self, s: &mut String) {
         let _ = writeln!(
             s,
-            "  interpret: {} bones, depth {}, {}; GPU {:.3} ms = {:.1} modules/us",
+            "  interpret: {} bones, {}{}; GPU {:.3} ms = {:.1} modules/us",
             self.bones,
-            self.depth,
+            if self.direct_interp {
+                String::new()
+            } else {
+                format!("depth {}, ", self.depth)
+            },
             if self.direct_interp {
                 "direct (from the derivation's tables; the string is not read)"
             } else if self.walked {
