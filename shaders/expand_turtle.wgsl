@@ -64,6 +64,25 @@ fn moved(e: TurtleElem, by: u32) -> TurtleElem {
 }
 
 var<private> stack: array<TurtleElem, DIRECT_TURTLE_STACK>;
+var<private> sp: u32;
+
+// The state after one more module of a successor (or of the axiom): slot
+// string entry k, symbol c, with r steps left and `bones` bones before it
+// in the sequence. `[` saves the state, `]` restores the saved one,
+// anything else composes the module's whole expansion.
+fn then_module(acc: TurtleElem, r: u32, k: u32, c: u32, bones: u32) -> TurtleElem {
+    let op = op_of_symbol(c);
+    if (op == TOP_PUSH) {
+        stack[sp] = acc;
+        sp = sp + 1u;
+        return acc;
+    }
+    if (op == TOP_POP) {
+        sp = sp - 1u;
+        return stack[sp];
+    }
+    return compose(acc, moved(child_net(r, k, c), bones));
+}
 
 // One workgroup: the slots' transforms, then N and P step by step, then
 // the prefixes of the axiom modules. Brackets: `[` saves the state, `]`
@@ -90,22 +109,13 @@ fn expand_nets(@builtin(local_invocation_index) lid: u32) {
             let first = xt[X.symbols + 2u * s];
             let len = xt[X.symbols + 2u * s + 1u];
             var acc = scan_identity();
-            var sp = 0u;
+            sp = 0u;
             for (var i = 0u; i < len; i = i + 1u) {
                 let k = first + i;
                 nets[X.net_p + (r - 1u) * X.slot_count + k] = acc;
                 let c = xt[X.slots + EXPAND_SLOT_WORDS * k];
-                let op = op_of_symbol(c);
-                if (op == TOP_PUSH) {
-                    stack[sp] = acc;
-                    sp = sp + 1u;
-                } else if (op == TOP_POP) {
-                    sp = sp - 1u;
-                    acc = stack[sp];
-                } else {
-                    let bones_before = ft[X.f_pre + (r - 1u) * X.slot_count + k];
-                    acc = compose(acc, moved(child_net(r - 1u, k, c), bones_before));
-                }
+                let bones = ft[X.f_pre + (r - 1u) * X.slot_count + k];
+                acc = then_module(acc, r - 1u, k, c, bones);
             }
             nets[X.net_n + (r - 1u) * X.nsym + s] = acc;
         }
@@ -114,21 +124,11 @@ fn expand_nets(@builtin(local_invocation_index) lid: u32) {
     }
     if (lid == 0u) {
         var acc = scan_identity();
-        var sp = 0u;
+        sp = 0u;
         for (var i = 0u; i < X.n_ax; i = i + 1u) {
             nets[X.net_ax + i] = acc;
             let k = X.slot_count + i;
-            let c = syms[k] & SYM_MASK;
-            let op = op_of_symbol(c);
-            if (op == TOP_PUSH) {
-                stack[sp] = acc;
-                sp = sp + 1u;
-            } else if (op == TOP_POP) {
-                sp = sp - 1u;
-                acc = stack[sp];
-            } else {
-                acc = compose(acc, moved(child_net(X.steps, k, c), ft[X.f_top + i]));
-            }
+            acc = then_module(acc, X.steps, k, syms[k] & SYM_MASK, ft[X.f_top + i]);
         }
     }
 }

@@ -55,12 +55,6 @@ fn example_scenes_batched_equal_per_iteration() {
             assert_eq!(pa, expect, "{what}");
             batched += usize::from(pa == DerivePath::Batched);
             same_bits(&what, &a.string, &b.string);
-            let figures = |d: &grm_gpu::GpuDerivation| {
-                d.stats
-                    .iter()
-                    .map(|s| (s.iteration, s.modules, s.param_words))
-                    .collect::<Vec<_>>()
-            };
             assert_eq!(figures(&a), figures(&b), "{what}: stats");
         }
     }

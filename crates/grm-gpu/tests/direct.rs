@@ -22,13 +22,6 @@ fn opts(sys: &grm_compile::CompiledSystem, iterations: u32) -> GpuDeriveOptions 
     }
 }
 
-fn figures(d: &grm_gpu::GpuDerivation) -> Vec<(u32, u64, u64)> {
-    d.stats
-        .iter()
-        .map(|s| (s.iteration, s.modules, s.param_words))
-        .collect()
-}
-
 /// Direct, stepwise and CPU agree on `sys` at `iterations`; the path taken
 /// by `Auto` is returned.
 fn compare(what: &str, sys: &grm_compile::CompiledSystem, o: &GpuDeriveOptions) -> DerivePath {

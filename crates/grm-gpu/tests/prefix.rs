@@ -25,13 +25,6 @@ fn opts(
     }
 }
 
-fn figures(d: &grm_gpu::GpuDerivation) -> Vec<(u32, u64, u64)> {
-    d.stats
-        .iter()
-        .map(|s| (s.iteration, s.modules, s.param_words))
-        .collect()
-}
-
 /// How many strings after the axiom the CPU derived; they come first.
 fn cpu_steps(d: &grm_gpu::GpuDerivation) -> usize {
     let k = d.stats.iter().skip(1).take_while(|s| s.on_cpu).count();

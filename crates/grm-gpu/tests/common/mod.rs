@@ -249,3 +249,11 @@ pub fn assert_bones_match(
         );
     }
 }
+
+/// Each string's (index, modules, parameter words) of a derivation.
+pub fn figures(d: &grm_gpu::GpuDerivation) -> Vec<(u32, u64, u64)> {
+    d.stats
+        .iter()
+        .map(|s| (s.iteration, s.modules, s.param_words))
+        .collect()
+}
