@@ -95,19 +95,25 @@ pub static VM_EVAL: Kernel = Kernel {
     subst: &[],
 };
 
+/// A kernel's bindings in the usual order: its parameters (`params`), then
+/// `reads` read-only buffers, then read-write ones up to `N`.
+const fn binds<const N: usize>(params: Bind, reads: usize) -> [Bind; N] {
+    let mut b = [Bind::ReadWrite; N];
+    b[0] = params;
+    let mut i = 1;
+    while i <= reads {
+        b[i] = Bind::Read;
+        i += 1;
+    }
+    b
+}
+
 /// The bindings of derive.wgsl: the parameters (`params`: a uniform the
 /// host wrote, or storage `batch_next` wrote), five read-only buffers
 /// (tables, the input string, bracket partners), the read-write rest;
 /// `N` = 13 adds the batched kernels' block sums (offsets_blocks.wgsl).
 const fn derive_binds<const N: usize>(params: Bind) -> [Bind; N] {
-    let mut b = [Bind::ReadWrite; N];
-    b[0] = params;
-    let mut i = 1;
-    while i < 6 {
-        b[i] = Bind::Read;
-        i += 1;
-    }
-    b
+    binds::<N>(params, 5)
 }
 
 const DERIVE_BINDS: &[Bind] = &derive_binds::<12>(Bind::Uniform);
@@ -163,14 +169,7 @@ pub static REWRITE_OUT_DEV: Kernel = Kernel {
     subst: BATCHED_DERIVE,
 };
 
-const BRACKET_BINDS: &[Bind] = &[
-    Bind::Uniform,
-    Bind::Read,
-    Bind::Read,
-    Bind::ReadWrite,
-    Bind::ReadWrite,
-    Bind::ReadWrite,
-];
+const BRACKET_BINDS: &[Bind] = &binds::<6>(Bind::Uniform, 2);
 
 pub static BRACKET_FLAGS: Kernel = Kernel {
     name: "bracket_flags",
@@ -224,20 +223,7 @@ pub static ADD_TURTLE: Kernel = Kernel {
     ],
 };
 
-const TURTLE_BINDS: &[Bind] = &[
-    Bind::Uniform,
-    Bind::Read,
-    Bind::Read,
-    Bind::Read,
-    Bind::Read,
-    Bind::Read,
-    Bind::ReadWrite,
-    Bind::ReadWrite,
-    Bind::ReadWrite,
-    Bind::ReadWrite,
-    Bind::ReadWrite,
-    Bind::ReadWrite,
-];
+const TURTLE_BINDS: &[Bind] = &binds::<12>(Bind::Uniform, 5);
 
 macro_rules! turtle_kernels {
     ($($name:ident = $entry:literal),* $(,)?) => {
@@ -306,18 +292,7 @@ pub static BATCH_NEXT: Kernel = Kernel {
     subst: &[("BLOCK_SUMS_BINDING", "8"), PAIRS],
 };
 
-const EXPAND_BINDS: [Bind; 10] = [
-    Bind::Uniform,
-    Bind::Read,
-    Bind::Read,
-    Bind::Read,
-    Bind::Read,
-    Bind::Read,
-    Bind::Read,
-    Bind::ReadWrite,
-    Bind::ReadWrite,
-    Bind::ReadWrite,
-];
+const EXPAND_BINDS: [Bind; 10] = binds::<10>(Bind::Uniform, 6);
 
 /// The direct derivation (`expand.wgsl`): the final string of
 /// deterministic, context-free systems in one pass, where every successor
@@ -350,17 +325,7 @@ pub static EXPAND_VM: Kernel = Kernel {
     subst: &[("EXPAND_PARAMS", "expand_vm.wgsl")],
 };
 
-const EXPAND_TURTLE_BINDS: &[Bind] = &[
-    Bind::Uniform,
-    Bind::Read,
-    Bind::Read,
-    Bind::Read,
-    Bind::Read,
-    Bind::Read,
-    Bind::Read,
-    Bind::ReadWrite,
-    Bind::ReadWrite,
-];
+const EXPAND_TURTLE_BINDS: &[Bind] = &binds::<9>(Bind::Uniform, 6);
 
 /// The direct interpretation's tables (`expand_turtle.wgsl`, one
 /// workgroup): every expansion's and slot prefix's turtle transform.
