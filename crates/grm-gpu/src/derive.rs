@@ -248,6 +248,10 @@ pub struct GpuSystem<'a> {
     /// The directory as uploaded (string 0's ranges).
     directory: Vec<SystemEntry>,
     has_context: bool,
+    /// The count and rewrite kernels: compiled without the bytecode
+    /// interpreter when no system's tables hold code (computed weights,
+    /// conditions or successor parameters).
+    kernels: &'static kernels::DeriveKernels,
     /// The plan of the last derivation when it ran directly (its tables
     /// serve the direct interpretation).
     direct: std::cell::RefCell<Option<direct::DirectPlan>>,
@@ -391,14 +395,24 @@ impl<'a> GpuSystem<'a> {
         }
         words[..dir_words].copy_from_slice(bytemuck::cast_slice(&directory));
         let tables = gpu.upload("tables", &words)?;
+        let has_code = jobs.iter().any(|j| !j.system.code.is_empty());
         Ok(GpuSystem {
             gpu,
             has_context: jobs.iter().any(|j| j.system.has_context()),
+            kernels: kernels::DeriveKernels::for_code(has_code),
             jobs: jobs.to_vec(),
             tables,
             directory,
             direct: std::cell::RefCell::new(None),
         })
+    }
+
+    /// Whether the count and rewrite kernels carry the bytecode
+    /// interpreter: some system's tables hold code. Systems whose weights,
+    /// conditions and successor parameters are all constants or copies
+    /// derive with kernels compiled without it.
+    pub fn interprets_code(&self) -> bool {
+        !std::ptr::eq(self.kernels, &kernels::DERIVE_PLAIN)
     }
 
     /// The directory as it is on the device now.
@@ -976,12 +990,12 @@ impl<'a> GpuSystem<'a> {
         // above scan those, and the readers combine the two
         // (shaders/offsets_blocks.wgsl), so level 0 is never added.
         let count = [
-            derive_bound(&kernels::COUNT_SCAN_DEV, 0)?,
-            derive_bound(&kernels::COUNT_SCAN_DEV, 1)?,
+            derive_bound(self.kernels.count_scan_dev, 0)?,
+            derive_bound(self.kernels.count_scan_dev, 1)?,
         ];
         let rewrite = [
-            derive_bound(&kernels::REWRITE_OUT_DEV, 0)?,
-            derive_bound(&kernels::REWRITE_OUT_DEV, 1)?,
+            derive_bound(self.kernels.rewrite_out_dev, 0)?,
+            derive_bound(self.kernels.rewrite_out_dev, 1)?,
         ];
         // Levels 1 and up (level l scans level l - 1's block sums).
         let mut scans = Vec::with_capacity(nlev);
@@ -1196,9 +1210,9 @@ impl<'a> GpuSystem<'a> {
     /// output module.
     fn rewrite_kernel(&self) -> &'static crate::shader::Kernel {
         if self.has_context {
-            &kernels::REWRITE
+            self.kernels.rewrite
         } else {
-            &kernels::REWRITE_OUT
+            self.kernels.rewrite_out
         }
     }
 
@@ -1302,7 +1316,7 @@ impl<'a> GpuSystem<'a> {
         };
         self.dispatch_derive(
             enc,
-            &kernels::REWRITE,
+            self.kernels.rewrite,
             &params,
             &pass,
             self.jobs.len() as u64,
@@ -1396,7 +1410,7 @@ impl<'a> GpuSystem<'a> {
             out: &dummy,
             status,
         };
-        self.dispatch_derive(&mut enc, &kernels::COUNT, &params, &pass, n + 1)?;
+        self.dispatch_derive(&mut enc, self.kernels.count, &params, &pass, n + 1)?;
         record_scan(gpu, &mut enc, ScanElem::U32x2, &counts, n + 1)?;
         // Totals and status in one readback; then clear the status for the
         // rewrite (the copy is recorded before the clear).

@@ -21,6 +21,18 @@ const BLOCK_OFFSETS: (&str, &str) = ("OFFSETS", "offsets_blocks.wgsl");
 /// `offsets_blocks.wgsl` (saturating sums of pairs).
 const PAIRS: (&str, &str) = ("ELEM", "vec2<u32>");
 
+/// `VM_RUN` of `vm.wgsl`: the bytecode interpreter, in every kernel that
+/// evaluates code ...
+const VM: (&str, &str) = ("VM_RUN", "vm_run.wgsl");
+/// ... or none, in the `_PLAIN` derive kernels the host picks for programs
+/// whose tables hold no code (every weight, condition and successor
+/// parameter a constant or a copy; [`DERIVE_PLAIN`]). Leaving
+/// the interpreter's loop out of the count and rewrite kernels took the
+/// stochastic plant's GPU steps at 8 iterations from 71.4 to 18.4 ms on
+/// lavapipe (docs/benchmarks.md): fewer registers, no dynamically
+/// indexed stack.
+const NO_VM: (&str, &str) = ("VM_RUN", "vm_run_none.wgsl");
+
 const SCAN_BINDS: &[Bind] = &[Bind::Uniform, Bind::ReadWrite, Bind::ReadWrite];
 
 pub static SCAN_U32: Kernel = Kernel {
@@ -92,7 +104,7 @@ pub static VM_EVAL: Kernel = Kernel {
     file: "vm_eval.wgsl",
     entry: "vm_eval",
     bindings: &[Bind::Read, Bind::Read, Bind::Read, Bind::ReadWrite],
-    subst: &[],
+    subst: &[VM],
 };
 
 /// A kernel's bindings in the usual order: its parameters (`params`), then
@@ -123,32 +135,61 @@ pub static COUNT: Kernel = Kernel {
     file: "derive.wgsl",
     entry: "count",
     bindings: DERIVE_BINDS,
-    subst: &[HOST_PARAMS, GLOBAL_OFFSETS],
+    subst: &[HOST_PARAMS, GLOBAL_OFFSETS, VM],
 };
 pub static REWRITE: Kernel = Kernel {
     name: "rewrite",
     file: "derive.wgsl",
     entry: "rewrite",
     bindings: DERIVE_BINDS,
-    subst: &[HOST_PARAMS, GLOBAL_OFFSETS],
+    subst: &[HOST_PARAMS, GLOBAL_OFFSETS, VM],
 };
 pub static REWRITE_OUT: Kernel = Kernel {
     name: "rewrite_out",
     file: "derive.wgsl",
     entry: "rewrite_out",
     bindings: DERIVE_BINDS,
-    subst: &[HOST_PARAMS, GLOBAL_OFFSETS],
+    subst: &[HOST_PARAMS, GLOBAL_OFFSETS, VM],
+};
+/// [`COUNT`] without the interpreter.
+pub static COUNT_PLAIN: Kernel = Kernel {
+    name: "count_plain",
+    file: "derive.wgsl",
+    entry: "count",
+    bindings: DERIVE_BINDS,
+    subst: &[HOST_PARAMS, GLOBAL_OFFSETS, NO_VM],
+};
+/// [`REWRITE`] without the interpreter.
+pub static REWRITE_PLAIN: Kernel = Kernel {
+    name: "rewrite_plain",
+    file: "derive.wgsl",
+    entry: "rewrite",
+    bindings: DERIVE_BINDS,
+    subst: &[HOST_PARAMS, GLOBAL_OFFSETS, NO_VM],
+};
+/// [`REWRITE_OUT`] without the interpreter.
+pub static REWRITE_OUT_PLAIN: Kernel = Kernel {
+    name: "rewrite_out_plain",
+    file: "derive.wgsl",
+    entry: "rewrite_out",
+    bindings: DERIVE_BINDS,
+    subst: &[HOST_PARAMS, GLOBAL_OFFSETS, NO_VM],
 };
 
 const DERIVE_DEV_BINDS: &[Bind] = &derive_binds::<13>(Bind::Read);
 /// The batched derive kernels' substitutions: parameters from the device,
-/// offsets from block sums at binding 12.
-const BATCHED_DERIVE: &[(&str, &str)] = &[
-    DEVICE_PARAMS,
-    BLOCK_OFFSETS,
-    ("BLOCK_SUMS_BINDING", "12"),
-    PAIRS,
-];
+/// offsets from block sums at binding 12 (and the interpreter, or none).
+macro_rules! batched_derive {
+    ($vm:expr) => {
+        &[
+            DEVICE_PARAMS,
+            BLOCK_OFFSETS,
+            ("BLOCK_SUMS_BINDING", "12"),
+            PAIRS,
+            $vm,
+        ]
+    };
+}
 
 /// The batched derivation's count and first scan level in one dispatch
 /// (`count_scan.wgsl`), parameters written on the device.
@@ -157,7 +198,7 @@ pub static COUNT_SCAN_DEV: Kernel = Kernel {
     file: "count_scan.wgsl",
     entry: "count_scan",
     bindings: DERIVE_DEV_BINDS,
-    subst: BATCHED_DERIVE,
+    subst: batched_derive!(VM),
 };
 /// [`REWRITE_OUT`] with its parameters written on the device and its
 /// offsets from [`COUNT_SCAN_DEV`]'s blocks (batched).
@@ -166,8 +207,63 @@ pub static REWRITE_OUT_DEV: Kernel = Kernel {
     file: "derive.wgsl",
     entry: "rewrite_out",
     bindings: DERIVE_DEV_BINDS,
-    subst: BATCHED_DERIVE,
+    subst: batched_derive!(VM),
 };
+/// [`COUNT_SCAN_DEV`] without the interpreter.
+pub static COUNT_SCAN_DEV_PLAIN: Kernel = Kernel {
+    name: "count_scan_dev_plain",
+    file: "count_scan.wgsl",
+    entry: "count_scan",
+    bindings: DERIVE_DEV_BINDS,
+    subst: batched_derive!(NO_VM),
+};
+/// [`REWRITE_OUT_DEV`] without the interpreter.
+pub static REWRITE_OUT_DEV_PLAIN: Kernel = Kernel {
+    name: "rewrite_out_dev_plain",
+    file: "derive.wgsl",
+    entry: "rewrite_out",
+    bindings: DERIVE_DEV_BINDS,
+    subst: batched_derive!(NO_VM),
+};
+
+/// The kernels of one derivation that evaluate the tables' code: with
+/// the interpreter, or without it for programs that have none.
+#[derive(Debug)]
+pub struct DeriveKernels {
+    pub count: &'static Kernel,
+    pub rewrite: &'static Kernel,
+    pub rewrite_out: &'static Kernel,
+    pub count_scan_dev: &'static Kernel,
+    pub rewrite_out_dev: &'static Kernel,
+}
+
+/// With the interpreter.
+pub static DERIVE_WITH_VM: DeriveKernels = DeriveKernels {
+    count: &COUNT,
+    rewrite: &REWRITE,
+    rewrite_out: &REWRITE_OUT,
+    count_scan_dev: &COUNT_SCAN_DEV,
+    rewrite_out_dev: &REWRITE_OUT_DEV,
+};
+/// Without it: only for tables with no code (`vm_run` faults there).
+pub static DERIVE_PLAIN: DeriveKernels = DeriveKernels {
+    count: &COUNT_PLAIN,
+    rewrite: &REWRITE_PLAIN,
+    rewrite_out: &REWRITE_OUT_PLAIN,
+    count_scan_dev: &COUNT_SCAN_DEV_PLAIN,
+    rewrite_out_dev: &REWRITE_OUT_DEV_PLAIN,
+};
+
+impl DeriveKernels {
+    /// The set for systems whose packed tables have code (`has_code`) or not.
+    pub fn for_code(has_code: bool) -> &'static DeriveKernels {
+        if has_code {
+            &DERIVE_WITH_VM
+        } else {
+            &DERIVE_PLAIN
+        }
+    }
+}
 
 const BRACKET_BINDS: &[Bind] = &binds::<6>(Bind::Uniform, 2);
 
@@ -322,7 +418,7 @@ pub static EXPAND_VM: Kernel = Kernel {
         b[10] = Bind::Read;
         b
     },
-    subst: &[("EXPAND_PARAMS", "expand_vm.wgsl")],
+    subst: &[("EXPAND_PARAMS", "expand_vm.wgsl"), VM],
 };
 
 const EXPAND_TURTLE_BINDS: &[Bind] = &binds::<9>(Bind::Uniform, 6);
@@ -360,6 +456,11 @@ pub static ALL: &[&Kernel] = &[
     &REWRITE_OUT,
     &COUNT_SCAN_DEV,
     &REWRITE_OUT_DEV,
+    &COUNT_PLAIN,
+    &REWRITE_PLAIN,
+    &REWRITE_OUT_PLAIN,
+    &COUNT_SCAN_DEV_PLAIN,
+    &REWRITE_OUT_DEV_PLAIN,
     &BRACKET_FLAGS,
     &BRACKET_DEPTH,
     &BRACKET_REDUCE,

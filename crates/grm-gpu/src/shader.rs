@@ -25,6 +25,8 @@ pub const FILES: &[(&str, &str)] = shader_files!(
     "grid.wgsl",
     "rng.wgsl",
     "vm.wgsl",
+    "vm_run.wgsl",
+    "vm_run_none.wgsl",
     "vm_eval.wgsl",
     "derive.wgsl",
     "brackets.wgsl",

@@ -301,3 +301,30 @@ fn random_grammars_match_the_cpu() {
         "{errors} of {compared} ended in runtime errors"
     );
 }
+
+/// The count and rewrite kernels carry the bytecode interpreter only where
+/// some system has code: the stochastic plant (constant weights and
+/// parameters) and the context plant derive without it; the row of trees
+/// (computed lengths), and a forest that holds it, with it. Both kinds are
+/// checked against the CPU by the tests above.
+#[test]
+fn only_systems_with_code_get_the_interpreter() {
+    let g = gpu();
+    let plant = example("stochastic_plant.grm", None);
+    let context = example("context_plant_a.grm", None);
+    let row = example("row_of_trees.grm", None);
+    let job = |system| grm_gpu::GpuJob {
+        system,
+        iterations: 2,
+        seed: 0,
+    };
+    let interprets = |jobs: &[grm_gpu::GpuJob]| {
+        grm_gpu::derive::GpuSystem::load(g, jobs)
+            .expect("loads")
+            .interprets_code()
+    };
+    assert!(!interprets(&[job(&plant)]));
+    assert!(!interprets(&[job(&context)]));
+    assert!(interprets(&[job(&row)]));
+    assert!(interprets(&[job(&plant), job(&row)]));
+}

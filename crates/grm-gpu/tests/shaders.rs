@@ -79,7 +79,7 @@ fn shared_struct_layouts_agree_with_rust() {
 
 #[test]
 fn the_vm_handles_every_op() {
-    let vm = shader::file("vm.wgsl").expect("vm.wgsl");
+    let vm = shader::file("vm_run.wgsl").expect("vm_run.wgsl");
     for op in grm_compile::op::Op::ALL {
         let name = layout::op_const_name(*op);
         let handled = vm.lines().any(|l| {
@@ -88,6 +88,9 @@ fn the_vm_handles_every_op() {
                 && l.split(|c: char| c == ',' || c == ':' || c.is_whitespace())
                     .any(|w| w == name)
         });
-        assert!(handled, "shaders/vm.wgsl has no `case {name}` for {op:?}");
+        assert!(
+            handled,
+            "shaders/vm_run.wgsl has no `case {name}` for {op:?}"
+        );
     }
 }
