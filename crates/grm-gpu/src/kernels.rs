@@ -28,9 +28,9 @@ const VM: (&str, &str) = ("VM_RUN", "vm_run.wgsl");
 /// whose tables hold no code (every weight, condition and successor
 /// parameter a constant or a copy; [`DERIVE_PLAIN`]). Leaving
 /// the interpreter's loop out of the count and rewrite kernels took the
-/// stochastic plant's GPU steps at 8 iterations from 71.4 to 18.4 ms on
-/// lavapipe (docs/benchmarks.md): fewer registers, no dynamically
-/// indexed stack.
+/// stochastic plant's GPU steps at 8 iterations from 84 to 26-31 ms on
+/// lavapipe (docs/benchmarks.md, session 5): fewer registers, no
+/// dynamically indexed stack.
 const NO_VM: (&str, &str) = ("VM_RUN", "vm_run_none.wgsl");
 
 const SCAN_BINDS: &[Bind] = &[Bind::Uniform, Bind::ReadWrite, Bind::ReadWrite];
