@@ -250,7 +250,8 @@ pub struct GpuSystem<'a> {
     has_context: bool,
     /// The count and rewrite kernels: compiled without the bytecode
     /// interpreter when no system's tables hold code (computed weights,
-    /// conditions or successor parameters).
+    /// conditions or successor parameters), without context matching
+    /// when no group has a context.
     kernels: &'static kernels::DeriveKernels,
     /// The plan of the last derivation when it ran directly (its tables
     /// serve the direct interpretation).
@@ -396,10 +397,11 @@ impl<'a> GpuSystem<'a> {
         words[..dir_words].copy_from_slice(bytemuck::cast_slice(&directory));
         let tables = gpu.upload("tables", &words)?;
         let has_code = jobs.iter().any(|j| !j.system.code.is_empty());
+        let has_context = jobs.iter().any(|j| j.system.has_context());
         Ok(GpuSystem {
             gpu,
-            has_context: jobs.iter().any(|j| j.system.has_context()),
-            kernels: kernels::DeriveKernels::for_code(has_code),
+            has_context,
+            kernels: kernels::DeriveKernels::pick(has_code, has_context),
             jobs: jobs.to_vec(),
             tables,
             directory,
@@ -412,7 +414,13 @@ impl<'a> GpuSystem<'a> {
     /// conditions and successor parameters are all constants or copies
     /// derive with kernels compiled without it.
     pub fn interprets_code(&self) -> bool {
-        !std::ptr::eq(self.kernels, &kernels::DERIVE_PLAIN)
+        self.kernels.interprets_code()
+    }
+
+    /// Whether the count kernel matches contexts: some system's groups
+    /// have them (the others derive with kernels compiled without).
+    pub fn matches_contexts(&self) -> bool {
+        self.kernels.matches_contexts()
     }
 
     /// The directory as it is on the device now.

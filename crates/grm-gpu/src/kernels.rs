@@ -26,7 +26,7 @@ const PAIRS: (&str, &str) = ("ELEM", "vec2<u32>");
 const VM: (&str, &str) = ("VM_RUN", "vm_run.wgsl");
 /// ... or none, in the `_PLAIN` derive kernels the host picks for programs
 /// whose tables hold no code (every weight, condition and successor
-/// parameter a constant or a copy; [`DERIVE_PLAIN`]). Leaving
+/// parameter a constant or a copy; [`DeriveKernels::pick`]). Leaving
 /// the interpreter's loop out of the count and rewrite kernels took the
 /// stochastic plant's GPU steps at 8 iterations from 84 to 26-31 ms on
 /// lavapipe (docs/benchmarks.md, session 5): fewer registers, no
@@ -130,114 +130,166 @@ const fn derive_binds<const N: usize>(params: Bind) -> [Bind; N] {
 
 const DERIVE_BINDS: &[Bind] = &derive_binds::<12>(Bind::Uniform);
 
-pub static COUNT: Kernel = Kernel {
-    name: "count",
-    file: "derive.wgsl",
-    entry: "count",
-    bindings: DERIVE_BINDS,
-    subst: &[HOST_PARAMS, GLOBAL_OFFSETS, VM],
-};
-pub static REWRITE: Kernel = Kernel {
-    name: "rewrite",
-    file: "derive.wgsl",
-    entry: "rewrite",
-    bindings: DERIVE_BINDS,
-    subst: &[HOST_PARAMS, GLOBAL_OFFSETS, VM],
-};
-pub static REWRITE_OUT: Kernel = Kernel {
-    name: "rewrite_out",
-    file: "derive.wgsl",
-    entry: "rewrite_out",
-    bindings: DERIVE_BINDS,
-    subst: &[HOST_PARAMS, GLOBAL_OFFSETS, VM],
-};
-/// [`COUNT`] without the interpreter.
-pub static COUNT_PLAIN: Kernel = Kernel {
-    name: "count_plain",
-    file: "derive.wgsl",
-    entry: "count",
-    bindings: DERIVE_BINDS,
-    subst: &[HOST_PARAMS, GLOBAL_OFFSETS, NO_VM],
-};
-/// [`REWRITE`] without the interpreter.
-pub static REWRITE_PLAIN: Kernel = Kernel {
-    name: "rewrite_plain",
-    file: "derive.wgsl",
-    entry: "rewrite",
-    bindings: DERIVE_BINDS,
-    subst: &[HOST_PARAMS, GLOBAL_OFFSETS, NO_VM],
-};
-/// [`REWRITE_OUT`] without the interpreter.
-pub static REWRITE_OUT_PLAIN: Kernel = Kernel {
-    name: "rewrite_out_plain",
-    file: "derive.wgsl",
-    entry: "rewrite_out",
-    bindings: DERIVE_BINDS,
-    subst: &[HOST_PARAMS, GLOBAL_OFFSETS, NO_VM],
-};
+/// `CONTEXT_MATCH` of `derive.wgsl`: the bracket-aware context matching,
+/// in the kernels that context-sensitive systems use ...
+const CTX: (&str, &str) = ("CONTEXT_MATCH", "contexts.wgsl");
+/// ... or none, in the kernels only context-free systems use: the
+/// output-parallel and batched rewrites (never picked with contexts) and
+/// the `_free` count builds. Without the matching loops the stochastic
+/// plant's GPU steps took a further 1.4x less time on lavapipe.
+const NO_CTX: (&str, &str) = ("CONTEXT_MATCH", "contexts_none.wgsl");
 
-const DERIVE_DEV_BINDS: &[Bind] = &derive_binds::<13>(Bind::Read);
-/// The batched derive kernels' substitutions: parameters from the device,
-/// offsets from block sums at binding 12 (and the interpreter, or none).
-macro_rules! batched_derive {
-    ($vm:expr) => {
-        &[
-            DEVICE_PARAMS,
-            BLOCK_OFFSETS,
-            ("BLOCK_SUMS_BINDING", "12"),
-            PAIRS,
-            $vm,
-        ]
+/// A derive kernel: `derive_kernel!(NAME, "name", file, entry, bindings,
+/// [substitutions])`.
+macro_rules! derive_kernel {
+    ($(#[$doc:meta])* $name:ident, $label:literal, $file:literal, $entry:literal, $binds:expr, [$($s:expr),*]) => {
+        $(#[$doc])*
+        pub static $name: Kernel = Kernel {
+            name: $label,
+            file: $file,
+            entry: $entry,
+            bindings: $binds,
+            subst: &[$($s),*],
+        };
     };
 }
 
-/// The batched derivation's count and first scan level in one dispatch
-/// (`count_scan.wgsl`), parameters written on the device.
-pub static COUNT_SCAN_DEV: Kernel = Kernel {
-    name: "count_scan_dev",
-    file: "count_scan.wgsl",
-    entry: "count_scan",
-    bindings: DERIVE_DEV_BINDS,
-    subst: batched_derive!(VM),
-};
-/// [`REWRITE_OUT`] with its parameters written on the device and its
-/// offsets from [`COUNT_SCAN_DEV`]'s blocks (batched).
-pub static REWRITE_OUT_DEV: Kernel = Kernel {
-    name: "rewrite_out_dev",
-    file: "derive.wgsl",
-    entry: "rewrite_out",
-    bindings: DERIVE_DEV_BINDS,
-    subst: batched_derive!(VM),
-};
-/// [`COUNT_SCAN_DEV`] without the interpreter.
-pub static COUNT_SCAN_DEV_PLAIN: Kernel = Kernel {
-    name: "count_scan_dev_plain",
-    file: "count_scan.wgsl",
-    entry: "count_scan",
-    bindings: DERIVE_DEV_BINDS,
-    subst: batched_derive!(NO_VM),
-};
-/// [`REWRITE_OUT_DEV`] without the interpreter.
-pub static REWRITE_OUT_DEV_PLAIN: Kernel = Kernel {
-    name: "rewrite_out_dev_plain",
-    file: "derive.wgsl",
-    entry: "rewrite_out",
-    bindings: DERIVE_DEV_BINDS,
-    subst: batched_derive!(NO_VM),
-};
+derive_kernel!(
+    /// Each module's production and output size (one thread per input
+    /// module), with the interpreter and context matching.
+    COUNT,
+    "count",
+    "derive.wgsl",
+    "count",
+    DERIVE_BINDS,
+    [HOST_PARAMS, GLOBAL_OFFSETS, VM, CTX]
+);
+derive_kernel!(
+    /// [`COUNT`] without the interpreter.
+    COUNT_PLAIN,
+    "count_plain",
+    "derive.wgsl",
+    "count",
+    DERIVE_BINDS,
+    [HOST_PARAMS, GLOBAL_OFFSETS, NO_VM, CTX]
+);
+derive_kernel!(
+    /// [`COUNT`] without context matching.
+    COUNT_FREE,
+    "count_free",
+    "derive.wgsl",
+    "count",
+    DERIVE_BINDS,
+    [HOST_PARAMS, GLOBAL_OFFSETS, VM, NO_CTX]
+);
+derive_kernel!(
+    /// [`COUNT`] without the interpreter or context matching.
+    COUNT_PLAIN_FREE,
+    "count_plain_free",
+    "derive.wgsl",
+    "count",
+    DERIVE_BINDS,
+    [HOST_PARAMS, GLOBAL_OFFSETS, NO_VM, NO_CTX]
+);
+derive_kernel!(
+    /// The rewrite by input module: context-sensitive systems, and every
+    /// system's axiom.
+    REWRITE,
+    "rewrite",
+    "derive.wgsl",
+    "rewrite",
+    DERIVE_BINDS,
+    [HOST_PARAMS, GLOBAL_OFFSETS, VM, CTX]
+);
+derive_kernel!(
+    /// [`REWRITE`] without the interpreter.
+    REWRITE_PLAIN,
+    "rewrite_plain",
+    "derive.wgsl",
+    "rewrite",
+    DERIVE_BINDS,
+    [HOST_PARAMS, GLOBAL_OFFSETS, NO_VM, CTX]
+);
+derive_kernel!(
+    /// The rewrite by output module (context-free systems).
+    REWRITE_OUT,
+    "rewrite_out",
+    "derive.wgsl",
+    "rewrite_out",
+    DERIVE_BINDS,
+    [HOST_PARAMS, GLOBAL_OFFSETS, VM, NO_CTX]
+);
+derive_kernel!(
+    /// [`REWRITE_OUT`] without the interpreter.
+    REWRITE_OUT_PLAIN,
+    "rewrite_out_plain",
+    "derive.wgsl",
+    "rewrite_out",
+    DERIVE_BINDS,
+    [HOST_PARAMS, GLOBAL_OFFSETS, NO_VM, NO_CTX]
+);
 
-/// The kernels of one derivation that evaluate the tables' code: with
-/// the interpreter, or without it for programs that have none.
+const DERIVE_DEV_BINDS: &[Bind] = &derive_binds::<13>(Bind::Read);
+/// The batched derive kernels (parameters from the device, offsets from
+/// block sums at binding 12; no contexts: batched derivations are
+/// context-free).
+const BLOCK_SUMS_12: (&str, &str) = ("BLOCK_SUMS_BINDING", "12");
+
+derive_kernel!(
+    /// The batched derivation's count and first scan level in one dispatch
+    /// (`count_scan.wgsl`), parameters written on the device.
+    COUNT_SCAN_DEV,
+    "count_scan_dev",
+    "count_scan.wgsl",
+    "count_scan",
+    DERIVE_DEV_BINDS,
+    [DEVICE_PARAMS, BLOCK_OFFSETS, BLOCK_SUMS_12, PAIRS, VM, NO_CTX]
+);
+derive_kernel!(
+    /// [`COUNT_SCAN_DEV`] without the interpreter.
+    COUNT_SCAN_DEV_PLAIN,
+    "count_scan_dev_plain",
+    "count_scan.wgsl",
+    "count_scan",
+    DERIVE_DEV_BINDS,
+    [DEVICE_PARAMS, BLOCK_OFFSETS, BLOCK_SUMS_12, PAIRS, NO_VM, NO_CTX]
+);
+derive_kernel!(
+    /// [`REWRITE_OUT`] with its parameters written on the device and its
+    /// offsets from [`COUNT_SCAN_DEV`]'s blocks (batched).
+    REWRITE_OUT_DEV,
+    "rewrite_out_dev",
+    "derive.wgsl",
+    "rewrite_out",
+    DERIVE_DEV_BINDS,
+    [DEVICE_PARAMS, BLOCK_OFFSETS, BLOCK_SUMS_12, PAIRS, VM, NO_CTX]
+);
+derive_kernel!(
+    /// [`REWRITE_OUT_DEV`] without the interpreter.
+    REWRITE_OUT_DEV_PLAIN,
+    "rewrite_out_dev_plain",
+    "derive.wgsl",
+    "rewrite_out",
+    DERIVE_DEV_BINDS,
+    [DEVICE_PARAMS, BLOCK_OFFSETS, BLOCK_SUMS_12, PAIRS, NO_VM, NO_CTX]
+);
+
+/// The kernels of one derivation that evaluate the tables' code and match
+/// contexts: with the interpreter or without it (programs with no code),
+/// with context matching or without it (context-free systems, whose
+/// rewrites are the output-parallel ones).
 #[derive(Debug)]
 pub struct DeriveKernels {
     pub count: &'static Kernel,
+    /// By input module: context-sensitive systems and the axiom.
     pub rewrite: &'static Kernel,
+    /// By output module: context-free systems.
     pub rewrite_out: &'static Kernel,
     pub count_scan_dev: &'static Kernel,
     pub rewrite_out_dev: &'static Kernel,
 }
 
-/// With the interpreter.
+/// Code and contexts.
 pub static DERIVE_WITH_VM: DeriveKernels = DeriveKernels {
     count: &COUNT,
     rewrite: &REWRITE,
@@ -245,7 +297,7 @@ pub static DERIVE_WITH_VM: DeriveKernels = DeriveKernels {
     count_scan_dev: &COUNT_SCAN_DEV,
     rewrite_out_dev: &REWRITE_OUT_DEV,
 };
-/// Without it: only for tables with no code (`vm_run` faults there).
+/// Contexts, no code (`vm_run` faults in these).
 pub static DERIVE_PLAIN: DeriveKernels = DeriveKernels {
     count: &COUNT_PLAIN,
     rewrite: &REWRITE_PLAIN,
@@ -253,15 +305,37 @@ pub static DERIVE_PLAIN: DeriveKernels = DeriveKernels {
     count_scan_dev: &COUNT_SCAN_DEV_PLAIN,
     rewrite_out_dev: &REWRITE_OUT_DEV_PLAIN,
 };
+/// Code, no contexts (`match_contexts` faults in the count).
+pub static DERIVE_FREE: DeriveKernels = DeriveKernels {
+    count: &COUNT_FREE,
+    ..DERIVE_WITH_VM
+};
+/// Neither.
+pub static DERIVE_PLAIN_FREE: DeriveKernels = DeriveKernels {
+    count: &COUNT_PLAIN_FREE,
+    ..DERIVE_PLAIN
+};
 
 impl DeriveKernels {
-    /// The set for systems whose packed tables have code (`has_code`) or not.
-    pub fn for_code(has_code: bool) -> &'static DeriveKernels {
-        if has_code {
-            &DERIVE_WITH_VM
-        } else {
-            &DERIVE_PLAIN
+    /// The set for systems whose packed tables have code (`has_code`) or
+    /// not, and groups with contexts (`has_context`) or not.
+    pub fn pick(has_code: bool, has_context: bool) -> &'static DeriveKernels {
+        match (has_code, has_context) {
+            (true, true) => &DERIVE_WITH_VM,
+            (false, true) => &DERIVE_PLAIN,
+            (true, false) => &DERIVE_FREE,
+            (false, false) => &DERIVE_PLAIN_FREE,
         }
+    }
+
+    /// Whether these kernels carry the bytecode interpreter.
+    pub fn interprets_code(&self) -> bool {
+        self.count.subst.contains(&VM)
+    }
+
+    /// Whether the count matches contexts.
+    pub fn matches_contexts(&self) -> bool {
+        self.count.subst.contains(&CTX)
     }
 }
 
@@ -457,6 +531,8 @@ pub static ALL: &[&Kernel] = &[
     &COUNT_SCAN_DEV,
     &REWRITE_OUT_DEV,
     &COUNT_PLAIN,
+    &COUNT_FREE,
+    &COUNT_PLAIN_FREE,
     &REWRITE_PLAIN,
     &REWRITE_OUT_PLAIN,
     &COUNT_SCAN_DEV_PLAIN,

@@ -29,6 +29,8 @@ pub const FILES: &[(&str, &str)] = shader_files!(
     "vm_run_none.wgsl",
     "vm_eval.wgsl",
     "derive.wgsl",
+    "contexts.wgsl",
+    "contexts_none.wgsl",
     "brackets.wgsl",
     "turtle.wgsl",
     "turtle_scan.wgsl",

@@ -305,7 +305,8 @@ fn random_grammars_match_the_cpu() {
 /// The count and rewrite kernels carry the bytecode interpreter only where
 /// some system has code: the stochastic plant (constant weights and
 /// parameters) and the context plant derive without it; the row of trees
-/// (computed lengths), and a forest that holds it, with it. Both kinds are
+/// (computed lengths), and a forest that holds it, with it. The count
+/// matches contexts only where some system has them. Every build is
 /// checked against the CPU by the tests above.
 #[test]
 fn only_systems_with_code_get_the_interpreter() {
@@ -327,4 +328,13 @@ fn only_systems_with_code_get_the_interpreter() {
     assert!(!interprets(&[job(&context)]));
     assert!(interprets(&[job(&row)]));
     assert!(interprets(&[job(&plant), job(&row)]));
+    let matches = |jobs: &[grm_gpu::GpuJob]| {
+        grm_gpu::derive::GpuSystem::load(g, jobs)
+            .expect("loads")
+            .matches_contexts()
+    };
+    assert!(!matches(&[job(&plant)]));
+    assert!(!matches(&[job(&row)]));
+    assert!(matches(&[job(&context)]));
+    assert!(matches(&[job(&plant), job(&context)]));
 }
