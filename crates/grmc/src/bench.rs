@@ -40,8 +40,8 @@ pub struct DeriveBench {
     /// Timed runs per configuration (the best is reported).
     #[arg(long, default_value_t = 5)]
     pub runs: u32,
-    /// Threads for the parallel column (0: all cores).
-    #[arg(long, default_value_t = 0)]
+    /// Threads for the parallel column (0: all cores; at most 1024).
+    #[arg(long, default_value_t = 0, value_parser = crate::parse_threads)]
     pub threads: usize,
     /// Only these scenes (by name, e.g. `hilbert3d`).
     #[arg(long = "scene")]
@@ -65,6 +65,34 @@ pub fn run(args: BenchArgs) -> Outcome {
         BenchWhat::Derive(a) => derive_bench(a),
         BenchWhat::Gpu(a) => crate::gpu::bench(a),
     }
+}
+
+/// `--scene` names that are not among `known` are a usage error (a typo
+/// would otherwise print an empty table and succeed); `Some` is the
+/// outcome to exit with (the problem was printed).
+pub fn unknown_scenes<'a>(
+    requested: &[String],
+    known: impl Iterator<Item = &'a str> + Clone,
+) -> Option<Outcome> {
+    let unknown: Vec<&str> = requested
+        .iter()
+        .map(String::as_str)
+        .filter(|r| !known.clone().any(|k| k == *r))
+        .collect();
+    if unknown.is_empty() {
+        return None;
+    }
+    eprintln!(
+        "error: unknown scene{} {}; the scenes are: {}",
+        if unknown.len() == 1 { "" } else { "s" },
+        unknown
+            .iter()
+            .map(|u| format!("`{u}`"))
+            .collect::<Vec<_>>()
+            .join(", "),
+        known.collect::<Vec<_>>().join(", ")
+    );
+    Some(Outcome::Usage)
 }
 
 fn best(
@@ -98,6 +126,9 @@ pub fn cpu_model() -> String {
 }
 
 fn derive_bench(args: DeriveBench) -> Outcome {
+    if let Some(o) = unknown_scenes(&args.scenes, SCENES.iter().map(|s| s.0)) {
+        return o;
+    }
     let threads = if args.threads == 0 {
         std::thread::available_parallelism().map_or(1, |n| n.get())
     } else {

@@ -32,29 +32,31 @@ pub fn load_and_check(path: &std::path::Path) -> Result<(SourceMap, grm_sema::Ch
     let root = sources.add(path.display().to_string(), text);
     let mut checked = grm_sema::check(&mut sources, root, &grm_sema::FsLoader);
     if let Some(at) = bad_utf8 {
-        let at = at as u32;
-        checked.diagnostics.push(
-            Diagnostic::new(
-                grm_diag::Code::InvalidEncoding,
-                "file is not valid UTF-8",
-                root,
-                grm_diag::Span::new(at, at + 1),
-                "invalid byte sequence here",
-            )
-            .with_note(
-                "grm files are UTF-8 text; invalid bytes were replaced with U+FFFD for checking",
-            ),
-        );
+        checked.diagnostics.push(invalid_utf8(root, at).with_note(
+            "grm files are UTF-8 text; invalid bytes were replaced with U+FFFD for checking",
+        ));
         grm_diag::sort(&mut checked.diagnostics);
     }
     Ok((sources, checked))
+}
+
+/// The E0404 report of the first invalid UTF-8 byte, at byte `at`.
+pub fn invalid_utf8(file: grm_diag::FileId, at: usize) -> Diagnostic {
+    let at = at as u32;
+    Diagnostic::new(
+        grm_diag::Code::InvalidEncoding,
+        "file is not valid UTF-8",
+        file,
+        grm_diag::Span::new(at, at + 1),
+        "invalid byte sequence here",
+    )
 }
 
 pub fn run(args: CheckArgs) -> Outcome {
     let color = std::io::stderr().is_terminal() && std::env::var_os("NO_COLOR").is_none();
     let mut errors = 0usize;
     let mut warnings = 0usize;
-    let mut io_failed = false;
+    let mut unreadable = 0usize;
     let mut json_items: Vec<String> = Vec::new();
     let stderr = std::io::stderr();
     for path in &args.files {
@@ -62,7 +64,7 @@ pub fn run(args: CheckArgs) -> Outcome {
             Ok(r) => r,
             Err(msg) => {
                 let _ = writeln!(stderr.lock(), "error: {msg}");
-                io_failed = true;
+                unreadable += 1;
                 continue;
             }
         };
@@ -86,17 +88,24 @@ pub fn run(args: CheckArgs) -> Outcome {
     match args.format {
         OutputFormat::Json => println!("[{}]", json_items.join(",\n")),
         OutputFormat::Human => {
-            let n = args.files.len();
-            let files = if n == 1 { "file" } else { "files" };
+            // Files that could not be read were not checked: say so, not
+            // "0 errors" for them.
+            let n = (args.files.len() - unreadable) as u64;
+            let not_read = if unreadable > 0 {
+                format!("; {unreadable} could not be read")
+            } else {
+                String::new()
+            };
             let _ = writeln!(
                 stderr.lock(),
-                "checked {n} {files}: {errors} error{}, {warnings} warning{}",
-                if errors == 1 { "" } else { "s" },
-                if warnings == 1 { "" } else { "s" },
+                "checked {}: {}, {}{not_read}",
+                crate::count(n, "file"),
+                crate::count(errors as u64, "error"),
+                crate::count(warnings as u64, "warning"),
             );
         }
     }
-    if io_failed {
+    if unreadable > 0 {
         Outcome::Usage
     } else if errors > 0 || (args.deny_warnings && warnings > 0) {
         Outcome::InputErrors

@@ -30,8 +30,9 @@ pub struct DeriveArgs {
     /// Random seed (default: the system's `seed` setting).
     #[arg(long)]
     pub seed: Option<u32>,
-    /// Worker threads: 1 runs on the main thread, 0 uses all cores.
-    #[arg(long, default_value_t = 0)]
+    /// Worker threads: 1 runs on the main thread, 0 uses all cores (at
+    /// most 1024).
+    #[arg(long, default_value_t = 0, value_parser = crate::parse_threads)]
     pub threads: usize,
     /// Override a meta-parameter: `NAME=VALUE` (a number, `true`/`false`,
     /// or `x,y,z` for a vec3). Repeatable.
@@ -182,6 +183,17 @@ pub fn run(args: DeriveArgs) -> Outcome {
         Ok(l) => l,
         Err(o) => return o,
     };
+    if loaded.system().mode == grm_sema::Mode::Sample {
+        // Rewriting a sample system in parallel grows nothing useful (its
+        // skeleton symbols are meant to be searched for); the preview
+        // refuses it too.
+        eprintln!(
+            "error: `{}` in {} is a sample system (`mode = sample;`): grow it with `grmc sample`",
+            loaded.system().name,
+            args.file.display()
+        );
+        return Outcome::Usage;
+    }
     if let Some(o) = check_output_format(&loaded, args.output.as_deref()) {
         return o;
     }
@@ -253,9 +265,9 @@ pub fn run(args: DeriveArgs) -> Outcome {
             String::new()
         };
         eprintln!(
-            "{}: {} iterations: {} modules ({} produced in all) in {:.3} ms{rate}",
+            "{}: {}: {} modules ({} produced in all) in {:.3} ms{rate}",
             c.name,
-            s.iteration,
+            crate::count(s.iteration, "iteration"),
             s.modules,
             s.cumulative_modules,
             ms(total)
@@ -271,15 +283,29 @@ pub fn run(args: DeriveArgs) -> Outcome {
     Outcome::Ok
 }
 
-/// `-o PATH` must name a format grm writes (R0406); `Some` is the outcome
-/// to exit with (the problem was printed).
+/// `-o PATH` must name a format grm writes (R0406) in a directory that
+/// exists (R0407), checked before the work that the export would waste;
+/// `Some` is the outcome to exit with (the problem was printed).
 pub fn check_output_format(loaded: &Loaded, output: Option<&Path>) -> Option<Outcome> {
     let path = output?;
-    if grm_geom::ExportFormat::from_path(path).is_some() {
-        return None;
-    }
-    let e = grm_geom::ExportError::UnknownFormat {
-        path: path.to_path_buf(),
+    let e = if grm_geom::ExportFormat::from_path(path).is_none() {
+        grm_geom::ExportError::UnknownFormat {
+            path: path.to_path_buf(),
+        }
+    } else {
+        let dir = path
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        let source = match std::fs::metadata(dir) {
+            Ok(m) if m.is_dir() => return None,
+            Ok(_) => std::io::Error::other(format!("{} is not a directory", dir.display())),
+            Err(e) => e,
+        };
+        grm_geom::ExportError::Io {
+            path: path.to_path_buf(),
+            source,
+        }
     };
     let c = &loaded.compiled;
     emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));

@@ -177,8 +177,8 @@ pub struct GpuBench {
     /// Timed runs per engine (the best is reported).
     #[arg(long, default_value_t = 3)]
     pub runs: u32,
-    /// Threads for the parallel CPU column (0: all cores).
-    #[arg(long, default_value_t = 0)]
+    /// Threads for the parallel CPU column (0: all cores; at most 1024).
+    #[arg(long, default_value_t = 0, value_parser = crate::parse_threads)]
     pub threads: usize,
     /// Skip the CPU baselines.
     #[arg(long)]
@@ -192,6 +192,10 @@ pub struct GpuBench {
 /// `grmc bench gpu`: GPU rows (derivation, interpretation, both) against
 /// the CPU engines measured in the same run.
 pub fn bench(args: GpuBench) -> Outcome {
+    let known = grm_gpu::bench::SCENES.iter().map(|s| s.0);
+    if let Some(o) = crate::bench::unknown_scenes(&args.scenes, known) {
+        return o;
+    }
     let gpu = match grm_gpu::shared() {
         Ok(g) => g,
         Err(e) => {

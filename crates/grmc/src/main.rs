@@ -53,8 +53,36 @@ enum Command {
     Sample(sample::SampleArgs),
     /// Print a system's compiled tables and bytecode.
     Disasm(disasm::DisasmArgs),
-    /// Benchmarks (`grmc bench derive`).
+    /// Benchmarks (`grmc bench derive`, `grmc bench gpu`).
     Bench(bench::BenchArgs),
+}
+
+/// The most worker threads `--threads` accepts. Far more threads than
+/// cores only costs memory, and tens of thousands exhaust it (the
+/// operating system then fails inside the new threads, which panics).
+pub const MAX_THREADS: usize = 1024;
+
+/// `--threads N`: 0 (all cores) to [`MAX_THREADS`].
+pub fn parse_threads(s: &str) -> Result<usize, String> {
+    let n: usize = s
+        .parse()
+        .map_err(|_| format!("`{s}` is not a whole number >= 0"))?;
+    if n > MAX_THREADS {
+        return Err(format!(
+            "{n} threads is more than the {MAX_THREADS} grmc starts (0 uses all cores)"
+        ));
+    }
+    Ok(n)
+}
+
+/// `1 iteration`, `2 iterations`.
+pub fn count(n: impl Into<u64>, one: &str) -> String {
+    let n = n.into();
+    if n == 1 {
+        format!("1 {one}")
+    } else {
+        format!("{n} {one}s")
+    }
 }
 
 /// The outcome of a subcommand, mapped to the process exit code.

@@ -48,9 +48,9 @@ pub struct SampleArgs {
     /// up and finish). The one non-deterministic option.
     #[arg(long, value_name = "MS")]
     pub budget_ms: Option<u64>,
-    /// Worker threads: 1 runs on the main thread, 0 uses all cores. The
-    /// model does not depend on it.
-    #[arg(long, default_value_t = 1)]
+    /// Worker threads: 1 runs on the main thread, 0 uses all cores (at
+    /// most 1024). The model does not depend on it.
+    #[arg(long, default_value_t = 1, value_parser = crate::parse_threads)]
     pub threads: usize,
     /// Report and export the best K distinct models.
     #[arg(long, default_value_t = 1, value_name = "K")]
@@ -249,15 +249,19 @@ pub fn run(args: SampleArgs) -> Outcome {
     let guided = args.cost == CostKind::Curves && opts.temperature.is_finite();
     let k = if guided { opts.candidates } else { 1 };
     let weights_text = if opts.ess_target > 0.0 {
-        format!(", {k} candidates, ESS >= {} N", opts.ess_target)
+        format!(
+            ", {}, ESS >= {} N",
+            crate::count(k, "candidate"),
+            opts.ess_target
+        )
     } else {
-        format!(", {k} candidates, untempered")
+        format!(", {}, untempered", crate::count(k, "candidate"))
     };
     println!(
-        "{}: seed {}, {} generations{}, particles {} -> {}, {heuristic_text}{weights_text}",
+        "{}: seed {}, {}{}, particles {} -> {}, {heuristic_text}{weights_text}",
         c.name,
         opts.seed,
-        result.generations.len(),
+        crate::count(result.generations.len() as u64, "generation"),
         if result.stopped_early {
             format!(" (of {}; budget reached)", schedule.generations)
         } else {

@@ -1,0 +1,288 @@
+//! The mistakes a new user makes, and the commands of the README, as a
+//! user runs them: exit codes, messages, and nothing done before a usage
+//! problem is reported.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn grmc(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_grmc"))
+        .args(args)
+        .env("NO_COLOR", "1")
+        .output()
+        .expect("grmc runs")
+}
+
+fn example(name: &str) -> String {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples")
+        .join(name)
+        .display()
+        .to_string()
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+fn path(p: &Path) -> &str {
+    p.to_str().expect("utf-8 path")
+}
+
+/// README: `grmc derive examples/koch_island.grm --stats -o koch.svg`.
+#[test]
+fn readme_derive_with_stats_writes_an_svg() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let svg = dir.path().join("koch.svg");
+    let out = grmc(&[
+        "derive",
+        &example("koch_island.grm"),
+        "--stats",
+        "-o",
+        path(&svg),
+    ]);
+    let (stdout, stderr) = (text(&out.stdout), text(&out.stderr));
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    // The header and one row per string (the axiom and 3 iterations).
+    assert!(stdout.starts_with("iteration"), "{stdout}");
+    assert_eq!(stdout.lines().count(), 5, "{stdout}");
+    assert!(
+        stderr.contains("KochIsland: 3 iterations: 3803 modules (4337 produced in all)"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("wrote "), "{stderr}");
+    let written = std::fs::read_to_string(&svg).expect("svg written");
+    assert!(written.starts_with("<?xml"), "{written:.80}");
+    assert!(written.contains("<svg"));
+}
+
+/// A file that could not be read was not checked: the summary must not
+/// count it as a clean file.
+#[test]
+fn check_summary_counts_unreadable_files_apart() {
+    let out = grmc(&["check", "/nonexistent/x.grm"]);
+    let err = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("cannot read /nonexistent/x.grm"), "{err}");
+    assert!(
+        err.contains("checked 0 files: 0 errors, 0 warnings; 1 could not be read"),
+        "{err}"
+    );
+    let out = grmc(&["check", &example("koch_island.grm"), "/nonexistent/x.grm"]);
+    let err = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("checked 1 file: 0 errors, 0 warnings; 1 could not be read"),
+        "{err}"
+    );
+}
+
+/// `grmc fmt` on a file with syntax errors shows them like `grmc check`
+/// (code, file:line:column, the source), not as byte offsets.
+#[test]
+fn fmt_renders_syntax_errors_as_diagnostics() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let f = dir.path().join("broken.grm");
+    std::fs::write(&f, "system S { A -> ( ; }").expect("write");
+    for flag in [None, Some("--check"), Some("--stdout")] {
+        let mut args = vec!["fmt"];
+        args.extend(flag);
+        args.push(path(&f));
+        let out = grmc(&args);
+        let err = text(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{flag:?}: {err}");
+        assert!(err.contains("[E0001] Error: unexpected `;`"), "{err}");
+        assert!(err.contains("broken.grm:1:19"), "{err}");
+        assert!(
+            err.contains("was not formatted: it has 1 syntax error\n"),
+            "{err}"
+        );
+        assert!(!err.contains("at bytes"), "{err}");
+        assert!(!err.contains("not formatted: not formatted"), "{err}");
+    }
+    assert_eq!(
+        std::fs::read_to_string(&f).expect("read"),
+        "system S { A -> ( ; }"
+    );
+}
+
+/// Invalid UTF-8 is an input error with the checker's code, and the file
+/// is left alone.
+#[test]
+fn fmt_reports_invalid_utf8_with_its_code() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let f = dir.path().join("latin1.grm");
+    let bytes = b"system S { axiom \xff A; }\n";
+    std::fs::write(&f, bytes).expect("write");
+    let out = grmc(&["fmt", path(&f)]);
+    let err = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("[E0404]"), "{err}");
+    assert!(err.contains("latin1.grm:1:18"), "{err}");
+    assert_eq!(std::fs::read(&f).expect("read"), bytes);
+}
+
+/// One unreadable file does not stop the others from being formatted; the
+/// exit code still says something went wrong.
+#[test]
+fn fmt_goes_on_after_an_unreadable_file() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let f = dir.path().join("messy.grm");
+    std::fs::write(&f, "system   S{axiom A;\nA->F   A;}\n").expect("write");
+    let out = grmc(&["fmt", "/nonexistent/x.grm", path(&f)]);
+    let err = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("cannot read /nonexistent/x.grm"), "{err}");
+    let formatted = std::fs::read_to_string(&f).expect("read");
+    assert_eq!(formatted, "system S {\n    axiom A;\n    A -> F A;\n}\n");
+}
+
+/// `grmc derive` on a `mode = sample` system says to use `grmc sample`
+/// instead of rewriting it into an empty model.
+#[test]
+fn derive_refuses_a_sample_system() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let glb = dir.path().join("tree.glb");
+    let out = grmc(&["derive", &example("calder_tree.grm"), "-o", path(&glb)]);
+    let err = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("`CalderTree` in ") && err.contains("is a sample system"),
+        "{err}"
+    );
+    assert!(err.contains("grow it with `grmc sample`"), "{err}");
+    assert!(!glb.exists());
+    // The same file is what `grmc disasm` shows.
+    let out = grmc(&["disasm", &example("calder_tree.grm")]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+}
+
+/// `-o` into a directory that does not exist is R0407 before any work:
+/// no derivation summary, no sampling report.
+#[test]
+fn output_into_a_missing_directory_fails_first() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let missing = dir.path().join("no-such-dir").join("koch.glb");
+    let out = grmc(&["derive", &example("koch_island.grm"), "-o", path(&missing)]);
+    let err = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("[R0407] Error: cannot write "), "{err}");
+    assert!(err.contains("No such file or directory"), "{err}");
+    assert!(!err.contains("modules ("), "derived before failing: {err}");
+
+    // A file where the directory should be.
+    let file = dir.path().join("plain");
+    std::fs::write(&file, "").expect("write");
+    let under = file.join("koch.glb");
+    let out = grmc(&["derive", &example("koch_island.grm"), "-o", path(&under)]);
+    let err = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("is not a directory"), "{err}");
+
+    let out = grmc(&[
+        "sample",
+        &example("calder_tree.grm"),
+        "--generations",
+        "2",
+        "-o",
+        path(&missing),
+    ]);
+    let err = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("[R0407]"), "{err}");
+    assert!(out.stdout.is_empty(), "sampled before failing");
+
+    // A bare file name is written into the current directory.
+    let out = Command::new(env!("CARGO_BIN_EXE_grmc"))
+        .args([
+            "derive",
+            &example("koch_island.grm"),
+            "-n",
+            "1",
+            "-o",
+            "k.ply",
+        ])
+        .current_dir(dir.path())
+        .output()
+        .expect("grmc runs");
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    assert!(dir.path().join("k.ply").exists());
+}
+
+/// Absurd thread counts are refused by the argument parser; tens of
+/// thousands of threads used to panic inside the thread pool.
+#[test]
+fn threads_are_capped() {
+    let koch = example("koch_island.grm");
+    let tree = example("calder_tree.grm");
+    for args in [
+        vec!["derive", koch.as_str(), "-n", "1", "--threads", "100000"],
+        vec!["sample", tree.as_str(), "--threads", "100000"],
+        vec!["bench", "derive", "--threads", "100000"],
+        vec!["bench", "gpu", "--threads", "100000"],
+    ] {
+        let out = grmc(&args);
+        let err = text(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains("more than the 1024"), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+    }
+    let out = grmc(&["derive", &koch, "-n", "1", "--threads", "3"]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+}
+
+/// A misspelt `--scene` is an error naming the scenes, not an empty table.
+/// (`bench gpu` checks the names before it looks for a GPU.)
+#[test]
+fn bench_refuses_unknown_scenes() {
+    for what in ["derive", "gpu"] {
+        let out = grmc(&["bench", what, "--scene", "koch", "--runs", "1"]);
+        let err = text(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{what}: {err}");
+        assert!(err.contains("unknown scene `koch`"), "{what}: {err}");
+        assert!(err.contains("koch_island"), "{what}: {err}");
+        assert!(out.stdout.is_empty(), "{what}: {}", text(&out.stdout));
+    }
+}
+
+/// Counts of one read as English.
+#[test]
+fn counts_of_one_are_singular() {
+    let out = grmc(&["derive", &example("koch_island.grm"), "-n", "1"]);
+    let err = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert!(err.contains("KochIsland: 1 iteration: 59 modules"), "{err}");
+    let out = grmc(&[
+        "sample",
+        &example("calder_tree.grm"),
+        "--generations",
+        "1",
+        "--candidates",
+        "1",
+    ]);
+    let stdout = text(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    assert!(
+        stdout.contains("CalderTree: seed 1, 1 generation, ") && stdout.contains(", 1 candidate, "),
+        "{stdout}"
+    );
+}
+
+/// `grmc --help` names both benchmarks.
+#[test]
+fn help_names_both_benchmarks() {
+    let out = grmc(&["--help"]);
+    let stdout = text(&out.stdout);
+    assert_eq!(out.status.code(), Some(0));
+    assert!(
+        stdout.contains("`grmc bench derive`, `grmc bench gpu`"),
+        "{stdout}"
+    );
+    for sub in [
+        "check", "fmt", "lsp", "view", "derive", "sample", "disasm", "bench",
+    ] {
+        let out = grmc(&[sub, "--help"]);
+        assert_eq!(out.status.code(), Some(0), "{sub}");
+        assert!(text(&out.stdout).contains("Usage: grmc "), "{sub}");
+    }
+}
