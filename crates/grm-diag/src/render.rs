@@ -1,10 +1,16 @@
-//! Rendering diagnostics: human text through ariadne (byte offsets, so carets
-//! stay right on non-ASCII text) and JSON for tools.
+//! Rendering diagnostics: human text through ariadne (spans converted to
+//! character offsets, so carets stay right on non-ASCII text) and JSON for
+//! tools.
 
 use crate::{Diagnostic, Severity, SourceMap, Span};
 use ariadne::{Config, IndexType, Label as ALabel, Report, ReportKind};
 use serde::Serialize;
 
+/// The span clamped to the text and to char boundaries, as a range of
+/// character (Unicode scalar value) offsets. ariadne is given character
+/// offsets: in byte mode it places the header of a label in a file other
+/// than the primary one by a character offset read as a byte offset, which
+/// gives a wrong column or panics on a non-ASCII line.
 fn clamp(span: Span, text: &str) -> std::ops::Range<usize> {
     let len = text.len();
     let mut s = (span.start as usize).min(len);
@@ -15,7 +21,25 @@ fn clamp(span: Span, text: &str) -> std::ops::Range<usize> {
     while !text.is_char_boundary(e) {
         e += 1;
     }
-    s..e
+    let start = text[..s].chars().count();
+    start..start + text[s..e].chars().count()
+}
+
+/// The text as ariadne gets it: ariadne also breaks lines at a lone
+/// `\r`, vertical tab, form feed, U+0085, U+2028 and U+2029, grm (and the
+/// JSON and LSP positions) only at `\n`. Each of those is shown as a space,
+/// which keeps every character offset and the line numbers.
+fn lines_at_newlines(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut chars = text.chars().peekable();
+    while let Some(c) = chars.next() {
+        match c {
+            '\r' if chars.peek() == Some(&'\n') => out.push(c),
+            '\r' | '\x0B' | '\x0C' | '\u{85}' | '\u{2028}' | '\u{2029}' => out.push(' '),
+            c => out.push(c),
+        }
+    }
+    out
 }
 
 /// Render one diagnostic as text, with colour if `color` is set.
@@ -30,7 +54,7 @@ pub fn render_human(d: &Diagnostic, sources: &SourceMap, color: bool) -> String 
     let mut report = Report::build(kind, (pfile.path.clone(), clamp(primary.span, &pfile.text)))
         .with_config(
             Config::default()
-                .with_index_type(IndexType::Byte)
+                .with_index_type(IndexType::Char)
                 .with_color(color),
         )
         .with_code(d.code.as_str())
@@ -55,7 +79,7 @@ pub fn render_human(d: &Diagnostic, sources: &SourceMap, color: bool) -> String 
     let cache = ariadne::sources(
         sources
             .iter()
-            .map(|(_, f)| (f.path.clone(), f.text.clone())),
+            .map(|(_, f)| (f.path.clone(), lines_at_newlines(&f.text))),
     );
     let mut out = Vec::new();
     // Writing into a Vec<u8> cannot fail for I/O reasons; if ariadne reports
@@ -188,6 +212,48 @@ mod tests {
             render_plain(&d, &sm),
             "t.grm:1:11: error[E0101]: unknown name `ü`"
         );
+    }
+
+    #[test]
+    fn label_in_another_non_ascii_file() {
+        // The secondary label's file has non-ASCII text before the label:
+        // ariadne's byte mode panicked here (or showed a wrong column).
+        let mut sm = SourceMap::new();
+        let lib = sm.add("lib.grm", "const size = 1;\n");
+        let main_text = format!("// {}\nconst size = 2;\n", "é".repeat(40));
+        let main = sm.add("main.grm", main_text.clone());
+        let at = main_text.find("size").unwrap() as u32;
+        let d = Diagnostic::new(
+            Code::DuplicateDefinition,
+            "`size` is defined more than once",
+            lib,
+            Span::new(6, 10),
+            "defined again here",
+        )
+        .with_label(main, Span::new(at, at + 4), "first defined here");
+        let out = render_human(&d, &sm, false);
+        assert!(out.contains("lib.grm:1:7"), "{out}");
+        assert!(out.contains("main.grm:2:7"), "{out}");
+    }
+
+    #[test]
+    fn line_numbers_count_only_newlines() {
+        // A form feed or U+2028 is no line break for grm: the header agrees
+        // with `render_plain` (and the JSON and LSP positions).
+        let mut sm = SourceMap::new();
+        let text = "// a\x0c b\u{2028} c\r d\nconst x = y;\n";
+        let f = sm.add("t.grm", text);
+        let at = text.find('y').unwrap() as u32;
+        let d = Diagnostic::new(
+            Code::UnknownName,
+            "unknown",
+            f,
+            Span::new(at, at + 1),
+            "here",
+        );
+        assert_eq!(render_plain(&d, &sm), "t.grm:2:11: error[E0101]: unknown");
+        let out = render_human(&d, &sm, false);
+        assert!(out.contains("t.grm:2:11"), "{out}");
     }
 
     #[test]

@@ -64,7 +64,31 @@ struct Loader<'a> {
 }
 
 impl Loader<'_> {
+    /// Load a file and, depth first, everything it imports. Iterative (an
+    /// explicit stack of open files), so a long import chain cannot
+    /// exhaust the call stack.
     fn load(&mut self, id: FileId, real: PathBuf, text: &str) -> usize {
+        let root = self.open(id, real, text);
+        // Per open file: its imports and how many of them were handled.
+        let mut open = vec![(root, self.imports_of(root), 0usize)];
+        while let Some((idx, imports, next)) = open.last_mut() {
+            let idx = *idx;
+            let Some(imp) = imports.get(*next).cloned() else {
+                open.pop();
+                self.stack.pop();
+                self.state[idx] = false;
+                continue;
+            };
+            *next += 1;
+            if let Some(t) = self.import(idx, &imp) {
+                open.push((t, self.imports_of(t), 0));
+            }
+        }
+        root
+    }
+
+    /// Parse a file and put it on the stack of files being loaded.
+    fn open(&mut self, id: FileId, real: PathBuf, text: &str) -> usize {
         let parsed = grm_syntax::parse(id, text);
         let broken = parsed.has_errors();
         let error_spans = parsed
@@ -82,11 +106,14 @@ impl Loader<'_> {
             broken,
             error_spans,
         });
-        self.by_path.insert(real.clone(), idx);
+        self.by_path.insert(real, idx);
         self.state.push(true);
         self.stack.push(idx);
+        idx
+    }
 
-        let imports: Vec<ast::Import> = self.files[idx]
+    fn imports_of(&self, idx: usize) -> Vec<ast::Import> {
+        self.files[idx]
             .ast
             .items
             .iter()
@@ -94,95 +121,97 @@ impl Loader<'_> {
                 Item::Import(i) => Some(i.clone()),
                 _ => None,
             })
-            .collect();
+            .collect()
+    }
+
+    /// Handle one import of file `idx`. Returns the imported file if it was
+    /// newly opened (its imports are to be loaded next).
+    fn import(&mut self, idx: usize, imp: &ast::Import) -> Option<usize> {
+        let id = self.files[idx].id;
+        let real = self.files[idx].real.clone();
         let display = self.sources.get(id).path.clone();
-        for imp in imports {
-            let written = &imp.path.value;
-            if overlaps_any(&self.files[idx].error_spans, imp.path.span) {
-                continue; // a garbled path was reported by the parser
+        let written = &imp.path.value;
+        if overlaps_any(&self.files[idx].error_spans, imp.path.span) {
+            return None; // a garbled path was reported by the parser
+        }
+        let target_real = self.loader.resolve(&real, written);
+        if let Some(&t) = self.by_path.get(&target_real) {
+            if self.state[t] {
+                // On the stack: a cycle.
+                let start = self.stack.iter().position(|&s| s == t).unwrap_or(0);
+                let chain: Vec<String> = self.stack[start..]
+                    .iter()
+                    .chain(std::iter::once(&t))
+                    .map(|&f| format!("`{}`", self.sources.get(self.files[f].id).path))
+                    .collect();
+                self.diags.push(
+                    Diagnostic::new(
+                        Code::ImportCycle,
+                        format!("importing `{written}` here closes an import cycle"),
+                        id,
+                        imp.path.span,
+                        "this import closes a cycle",
+                    )
+                    .with_note(format!("import chain: {}", chain.join(" -> ")))
+                    .with_help("move the shared definitions into a third file that both import"),
+                );
+                // Names stay visible, so the cycle is the only error.
+                self.files[idx].imports.push(t);
+            } else if !self.files[idx].imports.contains(&t) {
+                self.files[idx].imports.push(t);
             }
-            let target_real = self.loader.resolve(&real, written);
-            if let Some(&t) = self.by_path.get(&target_real) {
-                if self.state[t] {
-                    // On the stack: a cycle.
-                    let start = self.stack.iter().position(|&s| s == t).unwrap_or(0);
-                    let chain: Vec<String> = self.stack[start..]
-                        .iter()
-                        .chain(std::iter::once(&t))
-                        .map(|&f| format!("`{}`", self.sources.get(self.files[f].id).path))
-                        .collect();
-                    self.diags.push(
-                        Diagnostic::new(
-                            Code::ImportCycle,
-                            format!("importing `{written}` here closes an import cycle"),
-                            id,
-                            imp.path.span,
-                            "this import closes a cycle",
-                        )
-                        .with_note(format!("import chain: {}", chain.join(" -> ")))
-                        .with_help(
-                            "move the shared definitions into a third file that both import",
-                        ),
+            return None;
+        }
+        let target_display = normalize(
+            &Path::new(&display)
+                .parent()
+                .unwrap_or(Path::new(""))
+                .join(written),
+        )
+        .to_string_lossy()
+        .replace('\\', "/");
+        let text = match self.sources.find(&target_display) {
+            Some(existing) => Ok(self.sources.get(existing).text.clone()),
+            None => self.loader.read(&target_real),
+        };
+        match text {
+            Ok(text) => {
+                let fid = match self.sources.find(&target_display) {
+                    Some(f) => f,
+                    None => self.sources.add(target_display, text.clone()),
+                };
+                let t = self.open(fid, target_real, &text);
+                self.files[idx].imports.push(t);
+                Some(t)
+            }
+            Err(e) => {
+                let (code, msg, label) = match e {
+                    LoadError::NotFound => (
+                        Code::ImportNotFound,
+                        format!("cannot find the imported file `{written}`"),
+                        "no such file".to_string(),
+                    ),
+                    LoadError::NotUtf8 => (
+                        Code::InvalidEncoding,
+                        format!("the imported file `{written}` is not valid UTF-8 text"),
+                        "not UTF-8".to_string(),
+                    ),
+                    LoadError::Other(m) => (
+                        Code::ImportNotFound,
+                        format!("cannot read the imported file `{written}`"),
+                        m,
+                    ),
+                };
+                let mut d = Diagnostic::new(code, msg, id, imp.path.span, label);
+                if code == Code::ImportNotFound {
+                    d = d.with_help(
+                        "import paths are relative to the directory of the importing file",
                     );
-                    // Names stay visible, so the cycle is the only error.
-                    self.files[idx].imports.push(t);
-                } else if !self.files[idx].imports.contains(&t) {
-                    self.files[idx].imports.push(t);
                 }
-                continue;
-            }
-            let target_display = normalize(
-                &Path::new(&display)
-                    .parent()
-                    .unwrap_or(Path::new(""))
-                    .join(written),
-            )
-            .to_string_lossy()
-            .replace('\\', "/");
-            let text = match self.sources.find(&target_display) {
-                Some(existing) => Ok(self.sources.get(existing).text.clone()),
-                None => self.loader.read(&target_real),
-            };
-            match text {
-                Ok(text) => {
-                    let fid = match self.sources.find(&target_display) {
-                        Some(f) => f,
-                        None => self.sources.add(target_display, text.clone()),
-                    };
-                    let t = self.load(fid, target_real, &text);
-                    self.files[idx].imports.push(t);
-                }
-                Err(e) => {
-                    let (code, msg, label) = match e {
-                        LoadError::NotFound => (
-                            Code::ImportNotFound,
-                            format!("cannot find the imported file `{written}`"),
-                            "no such file".to_string(),
-                        ),
-                        LoadError::NotUtf8 => (
-                            Code::InvalidEncoding,
-                            format!("the imported file `{written}` is not valid UTF-8 text"),
-                            "not UTF-8".to_string(),
-                        ),
-                        LoadError::Other(m) => (
-                            Code::ImportNotFound,
-                            format!("cannot read the imported file `{written}`"),
-                            m,
-                        ),
-                    };
-                    let mut d = Diagnostic::new(code, msg, id, imp.path.span, label);
-                    if code == Code::ImportNotFound {
-                        d = d.with_help(
-                            "import paths are relative to the directory of the importing file",
-                        );
-                    }
-                    self.diags.push(d);
-                }
+                self.diags.push(d);
+                None
             }
         }
-        self.stack.pop();
-        self.state[idx] = false;
-        idx
     }
 }
 

@@ -173,3 +173,22 @@ fn mutated_grammars_never_panic() {
         let _ = checked.program.index.at(FileId(0), 5);
     }
 }
+
+#[test]
+fn long_import_chain_does_not_overflow() {
+    // Imports are loaded depth first; a chain of thousands of files must not
+    // exhaust the stack (the test thread has 2 MiB).
+    let n = 5000;
+    let mut files = MemLoader::new();
+    for i in 1..n {
+        files.add(
+            format!("f{i}.grm"),
+            format!("import \"f{}.grm\";\nconst C{i} = 1;\n", i + 1),
+        );
+    }
+    files.add(format!("f{n}.grm"), format!("const C{n} = 1;\n"));
+    let main = format!("import \"f1.grm\";\nsystem S {{ axiom F(C{n}); }}\n");
+    let (sources, checked) = check_with("main.grm", &main, &files);
+    assert!(!checked.has_errors(), "{:?}", checked.diagnostics);
+    assert_eq!(sources.iter().count(), n + 1);
+}

@@ -290,6 +290,28 @@ pub struct Expr {
     pub span: Span,
 }
 
+/// Expressions are dropped without recursion: the parser builds trees as
+/// deep as the text nests before it can refuse them (a statement rejected
+/// after a deeply nested expression drops the parser's stack, holding that
+/// tree), and a recursive drop of such a tree would overflow the stack.
+impl Drop for Expr {
+    fn drop(&mut self) {
+        if matches!(
+            self.kind,
+            ExprKind::Number { .. } | ExprKind::Bool(_) | ExprKind::Name(_) | ExprKind::Error
+        ) {
+            return;
+        }
+        let mut stack = Vec::new();
+        self.kind.take_children(&mut stack);
+        // Each popped node's children are taken before it drops, so its
+        // own `drop` finds a leaf.
+        while let Some(mut e) = stack.pop() {
+            e.kind.take_children(&mut stack);
+        }
+    }
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub enum ExprKind {
     /// A number literal; `text` is as written (the formatter keeps it).
@@ -329,6 +351,21 @@ pub enum ExprKind {
     Paren(Box<Expr>),
     /// An expression the parser could not read (already reported).
     Error,
+}
+
+impl ExprKind {
+    /// Move the sub-expressions onto `out`, leaving `Error` behind.
+    fn take_children(&mut self, out: &mut Vec<Expr>) {
+        match std::mem::replace(self, ExprKind::Error) {
+            ExprKind::Call { args, .. } => out.extend(args),
+            ExprKind::Unary { operand, .. } => out.push(*operand),
+            ExprKind::Binary { lhs, rhs, .. } => out.extend([*lhs, *rhs]),
+            ExprKind::Field { base, .. } => out.push(*base),
+            ExprKind::If { cond, then, els } => out.extend([*cond, *then, *els]),
+            ExprKind::Paren(inner) => out.push(*inner),
+            ExprKind::Number { .. } | ExprKind::Bool(_) | ExprKind::Name(_) | ExprKind::Error => {}
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

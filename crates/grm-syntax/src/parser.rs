@@ -57,7 +57,8 @@ pub fn parse(file: FileId, text: &str) -> Parsed {
 }
 
 /// Parse a lone expression (for tests and tools). Returns `None` with
-/// diagnostics when the text is not exactly one expression.
+/// diagnostics when the text is not exactly one expression, or one nested
+/// deeper than [`MAX_EXPR_DEPTH`].
 pub fn parse_expr(file: FileId, text: &str) -> (Option<Expr>, Vec<Diagnostic>) {
     let lexed = lexer::lex(file, text);
     let mut diags = lexed.diagnostics;
@@ -65,7 +66,25 @@ pub fn parse_expr(file: FileId, text: &str) -> (Option<Expr>, Vec<Diagnostic>) {
     let res = grm::ExprOnlyParser::new().parse(&mut errs, stream(&lexed.tokens));
     push_value_errors(file, &mut diags, errs);
     match res {
-        Ok(e) => (Some(e), diags),
+        Ok(e) => {
+            let depth = expr_depth(&e);
+            if depth <= MAX_EXPR_DEPTH {
+                return (Some(e), diags);
+            }
+            diags.push(
+                Diagnostic::new(
+                    Code::ExprTooDeep,
+                    format!(
+                        "expression nested too deeply ({depth} levels; the limit is {MAX_EXPR_DEPTH})"
+                    ),
+                    file,
+                    e.span,
+                    "this expression",
+                )
+                .with_help("split the expression with constants"),
+            );
+            (None, diags)
+        }
         Err(e) => {
             diags.push(syntax_error(file, text, e, None));
             (None, diags)
@@ -342,7 +361,9 @@ impl<'a> Driver<'a, '_> {
                         push_value_errors(self.file, &mut self.diags, errs_a);
                         push_value_errors(self.file, &mut self.diags, errs_b);
                         self.missing_semi(full[split - 1].span);
-                        return vec![a, b];
+                        let a = self.depth_guard(a, &toks[..split]);
+                        let b = self.depth_guard(b, &toks[split..]);
+                        return a.into_iter().chain(b).collect();
                     }
                 }
                 let d = syntax_error(self.file, self.text, err, Some(toks));
@@ -358,9 +379,8 @@ impl<'a> Driver<'a, '_> {
     }
 
     /// Reject a statement whose expressions nest deeper than
-    /// [`MAX_EXPR_DEPTH`]: every later phase walks expressions recursively,
-    /// and even dropping such a tree would overflow the stack. The tree is
-    /// taken apart iteratively here.
+    /// [`MAX_EXPR_DEPTH`]: every later phase walks expressions recursively
+    /// (only dropping one is safe: `Expr` drops without recursion).
     /// Returns the statement, its `Error` replacement, or `None` for a
     /// dropped material field.
     fn depth_guard(&mut self, stmt: Stmt, toks: &[Token<'a>]) -> Option<Stmt> {
@@ -386,7 +406,8 @@ impl<'a> Driver<'a, '_> {
             Stmt::SysItem(_) => Some(Stmt::SysItem(SystemItem::Error(span))),
             Stmt::Field(_) => None,
         };
-        dismantle_stmt(stmt);
+        // `Expr` drops without recursion.
+        drop(stmt);
         error
     }
 
@@ -675,54 +696,6 @@ pub fn expr_depth(e: &Expr) -> usize {
         stack.extend(children(e).into_iter().map(|c| (c, d + 1)));
     }
     max
-}
-
-/// Drop an expression tree without recursion.
-fn dismantle(e: Expr) {
-    let mut stack = vec![e];
-    while let Some(mut e) = stack.pop() {
-        let kind = std::mem::replace(&mut e.kind, ExprKind::Error);
-        match kind {
-            ExprKind::Call { args, .. } => stack.extend(args),
-            ExprKind::Unary { operand, .. } => stack.push(*operand),
-            ExprKind::Binary { lhs, rhs, .. } => {
-                stack.push(*lhs);
-                stack.push(*rhs);
-            }
-            ExprKind::Field { base, .. } => stack.push(*base),
-            ExprKind::If { cond, then, els } => stack.extend([*cond, *then, *els]),
-            ExprKind::Paren(inner) => stack.push(*inner),
-            ExprKind::Number { .. } | ExprKind::Bool(_) | ExprKind::Name(_) | ExprKind::Error => {}
-        }
-    }
-}
-
-fn dismantle_modules(ms: Vec<Module>) {
-    for m in ms {
-        m.args.into_iter().for_each(dismantle);
-    }
-}
-
-fn dismantle_stmt(stmt: Stmt) {
-    match stmt {
-        Stmt::Item(Item::Const(c)) => dismantle(c.value),
-        Stmt::Item(Item::Param(p)) => {
-            dismantle(p.default);
-            if let Some((a, b)) = p.range {
-                dismantle(a);
-                dismantle(b);
-            }
-        }
-        Stmt::Field(f) => dismantle(f.value),
-        Stmt::SysItem(SystemItem::Axiom(a)) => dismantle_modules(a.modules),
-        Stmt::SysItem(SystemItem::Setting(s)) => dismantle(s.value),
-        Stmt::SysItem(SystemItem::Production(p)) => {
-            p.condition.into_iter().for_each(dismantle);
-            p.weight.into_iter().for_each(dismantle);
-            dismantle_modules(p.successor);
-        }
-        Stmt::Item(_) | Stmt::SysItem(_) => {}
-    }
 }
 
 /// Turn a lalrpop error into a coded diagnostic.

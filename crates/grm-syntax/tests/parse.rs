@@ -228,6 +228,50 @@ fn absurdly_deep_expressions_are_refused_not_overflowing() {
 }
 
 #[test]
+fn deep_expressions_in_rejected_or_split_statements_do_not_overflow() {
+    let n = 100_000;
+    let parens = format!("{}1{}", "(".repeat(n), ")".repeat(n));
+    // A syntax error after a complete deep expression: the parser drops the
+    // tree it built.
+    for src in [
+        format!("const X = {parens} 2;"),
+        format!("const X = {parens});"),
+        format!("const X = v{} 1;", ".x".repeat(n)),
+        format!("const X = {}1{} 2;", "f(".repeat(n), ")".repeat(n)),
+    ] {
+        let p = parse(FileId(0), &src);
+        assert!(matches!(p.file.items[..], [Item::Error(_)]), "{:.40}", src);
+        assert!(
+            p.diagnostics
+                .iter()
+                .any(|d| d.code == Code::UnexpectedToken)
+        );
+    }
+    // A missing `;` repaired by splitting the statement at a line break:
+    // both halves are checked for depth.
+    for src in [
+        format!("system S {{ axiom A\nA -> F({parens}); }}"),
+        format!("system S {{ axiom F({parens})\nA -> F; }}"),
+        format!("system S {{ axiom F(1{})\nA -> F; }}", " + 1".repeat(n)),
+    ] {
+        let p = parse(FileId(0), &src);
+        let c: Vec<Code> = p.diagnostics.iter().map(|d| d.code).collect();
+        assert!(c.contains(&Code::ExprTooDeep), "{c:?}");
+        let Item::System(s) = &p.file.items[0] else {
+            panic!()
+        };
+        assert_eq!(s.items.len(), 2);
+        assert_eq!(
+            s.items
+                .iter()
+                .filter(|i| matches!(i, SystemItem::Error(_)))
+                .count(),
+            1
+        );
+    }
+}
+
+#[test]
 fn operator_precedence_and_associativity() {
     fn show(e: &Expr) -> String {
         match &e.kind {
@@ -260,4 +304,12 @@ fn operator_precedence_and_associativity() {
         assert_eq!(show(&e), want, "{src}");
         assert_eq!(e.span, Span::new(0, src.len() as u32), "{src}");
     }
+}
+
+#[test]
+fn parse_expr_refuses_absurdly_deep_expressions() {
+    let src = format!("{}1{}", "(".repeat(100_000), ")".repeat(100_000));
+    let (e, d) = grm_syntax::parse_expr(FileId(0), &src);
+    assert!(e.is_none());
+    assert!(d.iter().any(|d| d.code == Code::ExprTooDeep), "{d:?}");
 }
