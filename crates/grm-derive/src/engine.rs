@@ -121,6 +121,15 @@ const SLOW: u32 = u32::MAX - 1;
 /// Chunks smaller than this are not worth a task.
 const MIN_CHUNK: usize = 8192;
 
+/// The most worker threads [`Engine::new`] starts; asking for more is
+/// [`DeriveError::TooManyThreads`] (R0209), checked before any thread
+/// starts. Far more threads than cores only costs memory, and tens of
+/// thousands exhaust it: the operating system then fails *inside* the new
+/// threads (their stack guard pages), which no caller could recover from.
+/// `grmc --threads` accepts the same maximum (its `MAX_THREADS`, checked
+/// equal to this one at compile time).
+pub const MAX_THREADS: usize = 1024;
+
 /// A compiled system prepared for derivation, with its thread pool.
 #[derive(Debug)]
 pub struct Engine<'a> {
@@ -308,8 +317,16 @@ struct ChunkOut<'o> {
 impl<'a> Engine<'a> {
     /// Prepare `sys` for derivation with `threads` threads: 1 runs
     /// everything on the calling thread, 0 uses rayon's global pool (all
-    /// cores), `n > 1` a pool of `n` threads.
+    /// cores), `n > 1` a pool of `n` threads, at most [`MAX_THREADS`]
+    /// (more is [`DeriveError::TooManyThreads`]; a pool the operating
+    /// system refuses is [`DeriveError::ThreadPool`]).
     pub fn new(sys: &'a CompiledSystem, threads: usize) -> Result<Engine<'a>, DeriveError> {
+        if threads > MAX_THREADS {
+            return Err(DeriveError::TooManyThreads {
+                threads,
+                max: MAX_THREADS,
+            });
+        }
         sys.validate()
             .map_err(|e| DeriveError::InvalidTables(e.0))?;
         let n = sys.symbols.len();

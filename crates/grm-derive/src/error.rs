@@ -48,6 +48,15 @@ pub enum DeriveError {
     InvalidInput(String),
     /// The thread pool could not be created.
     ThreadPool(String),
+    /// More worker threads were asked for than an engine starts
+    /// ([`crate::MAX_THREADS`]); nothing was started. Same code as
+    /// [`DeriveError::ThreadPool`] (R0209): the pool cannot start.
+    TooManyThreads {
+        /// The thread count asked for.
+        threads: usize,
+        /// [`crate::MAX_THREADS`].
+        max: usize,
+    },
 }
 
 /// A failure while applying a production to one module.
@@ -89,7 +98,7 @@ impl DeriveError {
             },
             DeriveError::InvalidTables(_) => Code::InvalidTables,
             DeriveError::InvalidInput(_) => Code::InvalidModuleString,
-            DeriveError::ThreadPool(_) => Code::ThreadPool,
+            DeriveError::ThreadPool(_) | DeriveError::TooManyThreads { .. } => Code::ThreadPool,
         }
     }
 
@@ -159,6 +168,9 @@ impl DeriveError {
                 "the operating system refused the worker threads: run with `--threads 1`, or free resources"
                     .into(),
             ),
+            DeriveError::TooManyThreads { max, .. } => Some(format!(
+                "ask for at most {max} threads (0 uses all cores, 1 runs on the calling thread)"
+            )),
         }
     }
 }
@@ -209,6 +221,10 @@ impl std::fmt::Display for DeriveError {
             DeriveError::InvalidTables(m) => write!(f, "invalid compiled tables: {m}"),
             DeriveError::InvalidInput(m) => write!(f, "invalid module string: {m}"),
             DeriveError::ThreadPool(m) => write!(f, "cannot start the thread pool: {m}"),
+            DeriveError::TooManyThreads { threads, max } => write!(
+                f,
+                "cannot start the thread pool: {threads} threads is more than the {max} an engine starts"
+            ),
         }
     }
 }

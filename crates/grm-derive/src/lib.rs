@@ -27,6 +27,8 @@ pub mod engine;
 mod error;
 pub mod string;
 
-pub use engine::{Derivation, DeriveLimits, DeriveOptions, Engine, IterationStats, derive};
+pub use engine::{
+    Derivation, DeriveLimits, DeriveOptions, Engine, IterationStats, MAX_THREADS, derive,
+};
 pub use error::{DeriveError, RuntimeError, RuntimeErrorKind};
 pub use string::ModuleString;

@@ -302,3 +302,50 @@ fn strings_past_32_bit_indices_are_refused() {
     assert_eq!(e.code(), Code::StringTooLarge);
     assert_eq!(span_text(&src, &e), "Big");
 }
+
+/// R0209: more threads than [`grm_derive::MAX_THREADS`] is a typed error
+/// before any thread starts (tens of thousands of threads would exhaust
+/// memory and fail inside the new threads, a panic no caller could catch).
+/// Cheap: nothing is started, so this test starts no thread at all.
+#[test]
+fn too_many_threads_is_a_typed_error() {
+    let c = inline("system S { axiom A; A -> F A; }");
+    for threads in [grm_derive::MAX_THREADS + 1, 100_000, usize::MAX] {
+        let Err(e) = grm_derive::Engine::new(&c, threads) else {
+            panic!("{threads} threads accepted");
+        };
+        assert_eq!(
+            e,
+            DeriveError::TooManyThreads {
+                threads,
+                max: grm_derive::MAX_THREADS
+            }
+        );
+        assert_eq!(e.code(), Code::ThreadPool);
+        assert_eq!(e.code().as_str(), "R0209");
+        assert!(e.to_string().contains("more than the 1024"), "{e}");
+        let d = e.to_diagnostic(FileId(7), Span::new(3, 4));
+        assert_eq!(d.code, Code::ThreadPool);
+        assert_eq!(
+            (d.primary().file, d.primary().span),
+            (FileId(7), Span::new(3, 4))
+        );
+        assert!(
+            d.help
+                .as_deref()
+                .is_some_and(|h| h.contains("at most 1024"))
+        );
+        // The one-call entry point refuses it the same way.
+        let opts = DeriveOptions {
+            iterations: 3,
+            seed: 0,
+            limits: DeriveLimits::default(),
+        };
+        assert_eq!(derive(&c, &opts, threads, &mut |_| {}).err(), Some(e));
+    }
+    assert_eq!(grm_derive::MAX_THREADS, 1024);
+    // 0 (all cores) and a few threads still work.
+    for threads in [0, 3] {
+        assert_eq!(strings(&c, 2, 0, threads), strings(&c, 2, 0, 1));
+    }
+}

@@ -82,6 +82,15 @@ pub const DEFAULT_CANDIDATES: u32 = 3;
 /// Wrap-up and geometry expansions between two checks of the cancel token.
 const CANCEL_EVERY: u32 = 4096;
 
+/// The most worker threads [`Sampler::sample`] starts
+/// ([`SampleOptions::threads`]); asking for more is
+/// [`SampleError::Options`] (R0308), returned before any thread starts.
+/// The same maximum as the derivation engine's ([`grm_derive::MAX_THREADS`])
+/// and `grmc --threads`: tens of thousands of threads exhaust memory and the
+/// operating system then fails inside the new threads, which panics.
+/// `threads: 0` (all cores) uses at most this many too.
+pub const MAX_THREADS: usize = grm_derive::MAX_THREADS;
+
 /// How one run samples.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SampleOptions {
@@ -101,7 +110,8 @@ pub struct SampleOptions {
     /// 0 disables it: the untempered weights, Calder's. Default
     /// [`DEFAULT_ESS_TARGET`].
     pub ess_target: f64,
-    /// Worker threads: 1 runs on the calling thread, 0 uses all cores.
+    /// Worker threads: 1 runs on the calling thread, 0 uses all cores,
+    /// at most [`MAX_THREADS`] (more is [`SampleError::Options`]).
     /// The result does not depend on it.
     pub threads: usize,
     /// Stop the search after the generation during which this much wall
@@ -1145,12 +1155,16 @@ impl<'a> Sampler<'a> {
     /// A set [`SampleOptions::cancel`] token stops it with
     /// [`SampleError::Cancelled`].
     pub fn sample(&self, opts: &SampleOptions) -> Result<SampleResult, SampleError> {
-        let cancel = opts.cancel.as_ref();
-        cancel::check(cancel)?;
         let threads = match opts.threads {
-            0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+            0 => std::thread::available_parallelism().map_or(1, |n| n.get().min(MAX_THREADS)),
+            t if t > MAX_THREADS => {
+                return Err(SampleError::Options(format!(
+                    "{t} threads is more than the {MAX_THREADS} a sampler starts (0 uses all cores, 1 runs on the calling thread)"
+                )));
+            }
             t => t,
         };
+        cancel::check(opts.cancel.as_ref())?;
         if threads <= 1 {
             return self.run(opts, false);
         }

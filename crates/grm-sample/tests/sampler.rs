@@ -456,6 +456,41 @@ fn volume_baseline_runs_and_reports_both_costs() {
     ));
 }
 
+/// R0308: more threads than [`MAX_THREADS`] is refused before any thread
+/// starts (tens of thousands would exhaust memory and fail inside the new
+/// threads, a panic). Cheap: nothing runs, no thread is started.
+#[test]
+fn too_many_threads_is_a_typed_error() {
+    let (p, c) = calder();
+    let curves = calder_curves();
+    let s = Sampler::new(
+        &p.systems[0],
+        &c,
+        &curves,
+        Objective::Curves,
+        ExpectedOptions::default(),
+    )
+    .expect("sampler");
+    assert_eq!(MAX_THREADS, grm_derive::MAX_THREADS);
+    assert_eq!(MAX_THREADS, 1024);
+    for threads in [MAX_THREADS + 1, 100_000, usize::MAX] {
+        let e = s
+            .sample(&SampleOptions {
+                threads,
+                ..SampleOptions::default()
+            })
+            .expect_err("refused");
+        assert!(matches!(e, SampleError::Options(_)), "{e:?}");
+        assert_eq!(e.code(), grm_diag::Code::SampleOptions);
+        assert_eq!(e.code().as_str(), "R0308");
+        assert!(
+            e.to_string()
+                .contains(&format!("{threads} threads is more than the 1024")),
+            "{e}"
+        );
+    }
+}
+
 #[test]
 fn runaway_geometry_is_a_typed_error() {
     // `Deep` can terminate as far as the checker can tell, but its

@@ -37,7 +37,9 @@ pub struct DeriveBench {
     /// The examples folder.
     #[arg(long, default_value = "examples")]
     pub examples: PathBuf,
-    /// Timed runs per configuration (the best is reported).
+    /// Timed runs per configuration, at least 2 (fewer are raised to 2:
+    /// the first run of a fresh engine is the cold column, the best of all
+    /// is the warm one).
     #[arg(long, default_value_t = 5)]
     pub runs: u32,
     /// Threads for the parallel column (0: all cores; at most 1024).
@@ -125,6 +127,30 @@ pub fn cpu_model() -> String {
         .unwrap_or_else(|| "unknown CPU".into())
 }
 
+/// The fewest timed runs per configuration: the first run of a fresh
+/// engine is the `1T cold` column, so the warm columns need a second.
+const MIN_RUNS: u32 = 2;
+
+/// The timed runs per configuration `--runs N` makes.
+fn timed_runs(asked: u32) -> u32 {
+    asked.max(MIN_RUNS)
+}
+
+/// The first line of `bench derive`'s table: the machine and how many runs
+/// each figure is the best of (the runs actually made).
+fn derive_header(cpu: &str, available: usize, asked_runs: u32) -> String {
+    let runs = timed_runs(asked_runs);
+    let raised = if runs == asked_runs {
+        String::new()
+    } else {
+        format!(" (--runs {asked_runs} raised to {runs}: the first run is the cold one)")
+    };
+    format!("CPU derivation, {cpu} ({available} threads available), best of {runs} runs{raised}")
+}
+
+// `grmc --threads` accepts exactly what the sampler starts too.
+const _: () = assert!(crate::MAX_THREADS == grm_sample::MAX_THREADS);
+
 fn derive_bench(args: DeriveBench) -> Outcome {
     if let Some(o) = unknown_scenes(&args.scenes, SCENES.iter().map(|s| s.0)) {
         return o;
@@ -135,10 +161,12 @@ fn derive_bench(args: DeriveBench) -> Outcome {
         args.threads
     };
     println!(
-        "CPU derivation, {} ({} threads available), best of {} runs",
-        cpu_model(),
-        std::thread::available_parallelism().map_or(1, |n| n.get()),
-        args.runs
+        "{}",
+        derive_header(
+            &cpu_model(),
+            std::thread::available_parallelism().map_or(1, |n| n.get()),
+            args.runs
+        )
     );
     let nt = format!("{threads}T");
     println!(
@@ -174,14 +202,15 @@ fn derive_bench(args: DeriveBench) -> Outcome {
             ..DeriveOptions::from_system(c)
         };
         let mut final_len = 0u64;
-        // Best of `runs` with one engine (buffers recycled between runs, as
-        // a preview regrowing a model does), and the first run of a fresh
-        // engine (cold: every string in fresh memory).
+        // Best of `timed_runs(runs)` (at least 2) with one engine (buffers
+        // recycled between runs, as a preview regrowing a model does), and
+        // the first run of a fresh engine (cold: every string in fresh
+        // memory).
         let mut engine_run = |threads: usize| -> Result<(Duration, Duration, u64), Outcome> {
             let engine =
                 Engine::new(c, threads).map_err(|e| report_derive_error(&loaded.sources, c, &e))?;
             let mut cold = None;
-            let (warm, produced) = best(args.runs.max(2), || {
+            let (warm, produced) = best(timed_runs(args.runs), || {
                 let t = Instant::now();
                 let d = engine
                     .derive(&opts, &mut |_| {})
@@ -329,4 +358,32 @@ fn naive_derive(program: &Program, sys: &System, iterations: u32) -> Option<u64>
         .filter(|m| matches!(m.params.first(), Some(Value::Float(x)) if x.is_nan()))
         .count();
     Some(string.len() as u64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The header names the runs actually made: at least 2.
+    #[test]
+    fn header_counts_the_runs_made() {
+        assert_eq!(
+            derive_header("X", 2, 8),
+            "CPU derivation, X (2 threads available), best of 8 runs"
+        );
+        assert_eq!(
+            derive_header("X", 2, 2),
+            "CPU derivation, X (2 threads available), best of 2 runs"
+        );
+        for asked in [0, 1] {
+            let h = derive_header("X", 2, asked);
+            assert!(
+                h.contains(&format!(
+                    "best of 2 runs (--runs {asked} raised to 2: the first run is the cold one)"
+                )),
+                "{h}"
+            );
+            assert_eq!(timed_runs(asked), 2);
+        }
+    }
 }

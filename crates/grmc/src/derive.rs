@@ -161,7 +161,7 @@ pub fn report_derive_error(
 ) -> Outcome {
     emit(sources, &e.to_diagnostic(system.file, system.span));
     match e {
-        DeriveError::ThreadPool(_) => Outcome::Usage,
+        DeriveError::ThreadPool(_) | DeriveError::TooManyThreads { .. } => Outcome::Usage,
         _ => Outcome::InputErrors,
     }
 }

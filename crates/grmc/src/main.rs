@@ -57,10 +57,10 @@ enum Command {
     Bench(bench::BenchArgs),
 }
 
-/// The most worker threads `--threads` accepts. Far more threads than
-/// cores only costs memory, and tens of thousands exhaust it (the
-/// operating system then fails inside the new threads, which panics).
-pub const MAX_THREADS: usize = 1024;
+/// The most worker threads `--threads` accepts: what the engines start
+/// (`grm_derive::MAX_THREADS`, which the sampler shares). Far more threads
+/// than cores only costs memory, and tens of thousands exhaust it.
+pub const MAX_THREADS: usize = grm_derive::MAX_THREADS;
 
 /// `--threads N`: 0 (all cores) to [`MAX_THREADS`].
 pub fn parse_threads(s: &str) -> Result<usize, String> {
