@@ -14,17 +14,28 @@
 //    In depth order each branch's own modules are contiguous: a branch is a
 //    segment that starts right after its `[`.
 // 3a. Linear turtles (every command is an affine transform: Lipp's matrix
-//    scan, 5.3.1, extended to branching strings): `turtle_elems` puts each
-//    module's predecessor's transform in place; one segmented inclusive
-//    scan (scan.wgsl with turtle_scan.wgsl) gives every module its local
-//    transform within its branch; `turtle_round` then composes, depth by
-//    depth, the state at each branch's `[` (known from the depth before)
-//    with the local transforms. d_max + 1 rounds, O(n) work in all.
+//    scan, 5.3.1, extended to branching strings), fused: no per-module
+//    state is stored. `fused_reduce` composes each block of SCAN_BLOCK
+//    positions of the depth order (segmented: a branch starts afresh) into
+//    one transform; the host scans the block totals; then one
+//    `fused_round` per depth scans again the blocks that hold that depth,
+//    from their block's prefix, and composes each module's transform
+//    within its branch with the state at the branch's `[` (written in the
+//    round before): it writes the bones at that depth and the states at
+//    its `[`s (one per `[`, by the `[`'s rank). d_max + 1 rounds, O(n)
+//    work, and only block totals and `[` states in memory.
+// 3a'. The same with a state per module (T.fused = 0): `turtle_elems` puts
+//    each module's predecessor's transform in place; one segmented
+//    inclusive scan (scan.wgsl with turtle_scan.wgsl) gives every module
+//    its local transform within its branch; `turtle_round` then composes,
+//    depth by depth, the state at each branch's `[` with them, and
+//    `bones_write` reads them. Each transform is computed once instead of
+//    twice, for five passes over 64 bytes per module.
 // 3b. Turtles with state-dependent commands (tropism, `$`, `%`): Lipp's
 //    branch work items (5.3.2), level-synchronous: in round d one thread
 //    per branch at depth d walks it sequentially from the state at its `[`.
-// 4. `bone_flags` + a scan number the bones in string order;
-//    `bones_write` writes them.
+// 4. `bone_flags` + a scan number the bones in string order (before the
+//    fused rounds, which write them; after a walk, `bones_write` does).
 //
 // Rounds are dispatched indirectly (`depth_starts` writes the bucket
 // bounds and workgroup counts), so the host synchronises only once, to
@@ -48,6 +59,10 @@
 @group(0) @binding(9) var<storage, read_write> elems: array<TurtleElem>;
 @group(0) @binding(10) var<storage, read_write> bones: array<GpuBone>;
 @group(0) @binding(11) var<storage, read_write> aux: array<u32>;
+// Per module (brackets.wgsl, scanned): the number of `[` and of `]` before
+// it; a `[`'s first number is its rank, where the fused rounds keep the
+// state at it (elems[T.blocks + rank]).
+@group(0) @binding(12) var<storage, read_write> pairs: array<vec2<u32>>;
 
 fn tid(wid: vec3<u32>, nwg: vec3<u32>, lid: u32) -> u32 {
     return wg_linear(wid, nwg) * WORKGROUP + lid;
@@ -142,7 +157,12 @@ fn depth_starts(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) 
     aux[T.bstart + d] = lo;
     if (d <= T.dmax) {
         let hi = depth_end(d);
-        let groups = (hi - lo + WORKGROUP - 1u) / WORKGROUP;
+        var groups = (hi - lo + WORKGROUP - 1u) / WORKGROUP;
+        if (T.fused != 0u) {
+            // One workgroup per block of SCAN_BLOCK positions holding some
+            // of depth d (fused_round).
+            groups = select(0u, (hi - 1u) / SCAN_BLOCK - lo / SCAN_BLOCK + 1u, hi > lo);
+        }
         let x = min(groups, T.max_groups);
         let y = select(1u, (groups + T.max_groups - 1u) / T.max_groups, groups > T.max_groups);
         aux[T.args + 3u * d] = select(x, 0u, groups == 0u);
@@ -170,34 +190,28 @@ fn base_state(start: u32) -> TurtleElem {
         e.wb = CFG.width;
         return e;
     }
-    var b = elems[pos_at(start - 1u)];
+    // The state at the `[` before it: per module after a walk, per `[`
+    // (by rank, after the block totals) in the fused rounds.
+    var b: TurtleElem;
+    if (T.fused != 0u) {
+        b = elems[T.blocks + pairs[start - 1u].x];
+    } else {
+        b = elems[pos_at(start - 1u)];
+    }
     b.seg = b.seg & SEG_DEAD;
     return b;
 }
 
-// ---- 3a. linear turtles: segmented scan
+// ---- 3a'. linear turtles with branches, per-module states
 
-// elems[s] = the transform of the module before order[s] in its branch (a
-// segment start gets the identity and the SEG_START bit, and records its
-// module index).
+// elems[s] = the scan's input at position s (scan_input_at, 3a below).
 @compute @workgroup_size(WORKGROUP)
 fn turtle_elems(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     let s = tid(wid, nwg, lid);
     if (s >= T.n) {
         return;
     }
-    let i = order_at(s);
-    if (seg_start(i)) {
-        var e = scan_identity();
-        e.seg = SEG_START | i;
-        elems[s] = e;
-    } else {
-        // The module before i in its branch is the one before it in depth
-        // order (same segment).
-        var e = module_elem(order_at(s - 1u));
-        e.seg = 0u;
-        elems[s] = e;
-    }
+    elems[s] = scan_input_at(s);
 }
 
 fn round_index(wid: vec3<u32>, nwg: vec3<u32>, lid: u32) -> u32 {
@@ -333,46 +347,51 @@ fn bones_write(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) n
     write_bone(i, elems[pos_at(i)]);
 }
 
-// ---- 3c. straight linear strings: the matrix scan fused (T.fused)
+// ---- 3a (and straight strings). Linear turtles: the matrix scan fused
 //
-// Without brackets and with affine commands only, each system is one
-// segment in string order, and the state before a module is the initial
-// state composed with the transforms of the modules before it in its
-// system: Lipp's matrix scan (5.3.1) as reduce, scan, re-scan. No
-// per-module state is stored: `straight_reduce` writes each block's
-// composition (SCAN_BLOCK modules) to elems[block], the host scans those
-// (scan.wgsl, inclusive, segmented), and `straight_bones` scans each block
-// again from its block's prefix and writes the bones at once (their
-// indices from the scanned bone flags in `hist`).
+// With affine commands only, the state before a module is the state at its
+// branch's `[` (the initial state for a system's first branch) composed
+// with the transforms of the modules before it in its branch, which are
+// the positions before it in the depth order, back to its segment's start.
+// Lipp's matrix scan (5.3.1) as reduce, scan, re-scan over the depth order
+// (the string order for a straight string, T.straight): no per-module
+// state is stored. `fused_reduce` writes each block's composition
+// (SCAN_BLOCK positions) to elems[block], the host scans those (scan.wgsl,
+// inclusive, segmented); then `straight_bones` (a straight string: one
+// depth, the initial state at every segment start) or one `fused_round`
+// per depth scans each block again from its block's prefix and writes the
+// bones at once (their indices from the scanned bone flags in `hist`).
 
-// The scan's input at module i (as `turtle_elems` puts it at position i of
-// the depth order): a segment start at a system's first module, else the
-// transform of module i - 1.
-fn scan_input(i: u32) -> TurtleElem {
+// The scan's input at position s of the depth order (as a segmented scan
+// of the modules' transforms wants it): a segment start (its module index
+// recorded), else the transform of the module before it in its branch,
+// which is the module at position s - 1.
+fn scan_input_at(s: u32) -> TurtleElem {
+    let i = order_at(s);
     if (seg_start(i)) {
         var e = scan_identity();
         e.seg = SEG_START | i;
         return e;
     }
-    var e = module_elem(i - 1u);
+    var e = module_elem(order_at(s - 1u));
     e.seg = 0u;
     return e;
 }
 
-// The composition of this thread's SCAN_PER_THREAD modules of `block`.
+// The composition of this thread's SCAN_PER_THREAD positions of `block`.
 fn thread_total(block: u32, lid: u32) -> TurtleElem {
     let first = block * SCAN_BLOCK + lid * SCAN_PER_THREAD;
     var s = scan_identity();
     for (var j = 0u; j < SCAN_PER_THREAD; j = j + 1u) {
         if (first + j < T.n) {
-            s = scan_combine(s, scan_input(first + j));
+            s = scan_combine(s, scan_input_at(first + j));
         }
     }
     return s;
 }
 
 @compute @workgroup_size(WORKGROUP)
-fn straight_reduce(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+fn fused_reduce(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     let block = wg_linear(wid, nwg);
     if (block >= T.blocks) {
         return;
@@ -384,20 +403,18 @@ fn straight_reduce(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroup
     }
 }
 
-@compute @workgroup_size(WORKGROUP)
-fn straight_bones(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
-    let block = wg_linear(wid, nwg);
-    if (block >= T.blocks) {
-        return;
-    }
-    // This thread's modules: their scan inputs, kept (as scan_blocks keeps
-    // its elements) rather than computed again after the workgroup scan.
+// The scan of `block` again: this thread's inputs into v, and the
+// composition from the block prefix's segment start to just before them.
+var<private> v: array<TurtleElem, SCAN_PER_THREAD>;
+
+fn rescan(block: u32, lid: u32) -> TurtleElem {
+    // The inputs are kept (as scan_blocks keeps its elements) rather than
+    // computed again after the workgroup scan.
     let first = block * SCAN_BLOCK + lid * SCAN_PER_THREAD;
-    var v: array<TurtleElem, SCAN_PER_THREAD>;
     var s = scan_identity();
     for (var j = 0u; j < SCAN_PER_THREAD; j = j + 1u) {
         if (first + j < T.n) {
-            v[j] = scan_input(first + j);
+            v[j] = scan_input_at(first + j);
             s = scan_combine(s, v[j]);
         }
     }
@@ -407,7 +424,17 @@ fn straight_bones(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups
     if (block > 0u) {
         acc = elems[block - 1u];
     }
-    acc = scan_combine(acc, before);
+    return scan_combine(acc, before);
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn straight_bones(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let block = wg_linear(wid, nwg);
+    if (block >= T.blocks) {
+        return;
+    }
+    var acc = rescan(block, lid);
+    let first = block * SCAN_BLOCK + lid * SCAN_PER_THREAD;
     for (var j = 0u; j < SCAN_PER_THREAD; j = j + 1u) {
         let i = first + j;
         if (i >= T.n) {
@@ -417,6 +444,51 @@ fn straight_bones(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups
         acc = scan_combine(acc, v[j]);
         if (op_of(i).op == TOP_FORWARD) {
             write_bone(i, compose(base_state(acc.seg & SEG_INDEX), acc));
+        }
+    }
+}
+
+// Round T.depth of a branching string: the blocks holding positions of
+// that depth (aux's bucket bounds), one workgroup each. Every position of
+// the block joins the scan; those of this depth write their bone (an `F`)
+// or the state at them (a `[`, for the branch it opens, read in the next
+// round by base_state).
+var<workgroup> wg_bounds: vec2<u32>;
+
+@compute @workgroup_size(WORKGROUP)
+fn fused_round(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    // The bucket bounds, read once and uniform across the workgroup (its
+    // scan has barriers).
+    if (lid == 0u) {
+        wg_bounds = vec2<u32>(aux[T.bstart + T.depth], aux[T.bstart + T.depth + 1u]);
+    }
+    let bounds = workgroupUniformLoad(&wg_bounds);
+    let lo = bounds.x;
+    let hi = bounds.y;
+    let block = lo / SCAN_BLOCK + wg_linear(wid, nwg);
+    if (hi <= lo || block > (hi - 1u) / SCAN_BLOCK) {
+        return;
+    }
+    var acc = rescan(block, lid);
+    let first = block * SCAN_BLOCK + lid * SCAN_PER_THREAD;
+    for (var j = 0u; j < SCAN_PER_THREAD; j = j + 1u) {
+        let s = first + j;
+        if (s >= hi) {
+            break;
+        }
+        acc = scan_combine(acc, v[j]);
+        if (s < lo) {
+            continue;
+        }
+        let i = order_at(s);
+        let op = op_of(i).op;
+        if (op == TOP_FORWARD || op == TOP_PUSH) {
+            let st = compose(base_state(acc.seg & SEG_INDEX), acc);
+            if (op == TOP_FORWARD) {
+                write_bone(i, st);
+            } else {
+                elems[T.blocks + pairs[i].x] = st;
+            }
         }
     }
 }

@@ -100,8 +100,13 @@ pub struct SceneReport {
     pub bones: u64,
     pub depth: u32,
     pub walked: bool,
-    /// The matrix scan was fused (a straight string of affine commands).
+    /// The matrix scan was fused (no per-module states: a straight string
+    /// of affine commands, or a branching one whose states did not fit).
     pub fused: bool,
+    /// A branching string of affine commands interpreted with a state per
+    /// module: the fused scan of the same string, timed in the same run
+    /// (best of the runs), so a GPU's figures say which to prefer there.
+    pub fused_interpret: Option<Duration>,
     /// The bones came from a direct derivation's tables.
     pub direct_interp: bool,
     pub gpu_interpret: Duration,
@@ -178,6 +183,7 @@ pub fn bench_scene(
         read_string: cfg.cpu,
         read_bones: false,
         strategy: crate::DeriveStrategy::Auto,
+        branch_scan: crate::interp::BranchScan::Auto,
     };
     let t = Instant::now();
     // A string the device cannot interpret (over a buffer limit: a
@@ -247,6 +253,24 @@ pub fn bench_scene(
         (None, Some(_)) => crate::GpuInterpretation::default(),
         (None, None) => return Err("no interpretation".into()),
     };
+    let fused_interpret =
+        if !interp.direct && !interp.walked && !interp.fused && turtle.has_brackets() {
+            let mut f = ropts;
+            f.branch_scan = crate::interp::BranchScan::Fused;
+            // Untimed first: its pipelines compiled.
+            run(gpu, c, &turtle, &f, &mut |_| {}).map_err(|e| e.to_string())?;
+            let mut best_f = Duration::MAX;
+            best(cfg.runs, || {
+                let r = run(gpu, c, &turtle, &f, &mut |_| {}).map_err(|e| e.to_string())?;
+                if let Some(i) = &r.interpretation {
+                    best_f = best_f.min(i.elapsed);
+                }
+                Ok((r.derive_elapsed, ()))
+            })?;
+            Some(best_f)
+        } else {
+            None
+        };
     let cpu_steps = last.stats.iter().skip(1).filter(|s| s.on_cpu).count() as u32;
     let (device_derive, device_rows) = device_profile(gpu, c, &turtle, &gpu_only, cfg.runs)?;
 
@@ -333,6 +357,7 @@ pub fn bench_scene(
         depth: interp.max_depth,
         walked: interp.walked,
         fused: interp.fused,
+        fused_interpret,
         direct_interp: interp.direct,
         gpu_interpret: best_interp,
         cpu_interpret,
@@ -578,14 +603,25 @@ impl SceneReport {
                 "direct (from the derivation's tables; the string is not read)"
             } else if self.walked {
                 "branches walked"
-            } else if self.fused {
+            } else if self.fused && self.depth == 0 {
                 "matrix scan, fused (no brackets)"
+            } else if self.fused {
+                "matrix scan, fused (the states per module would not fit)"
             } else {
-                "matrix scan"
+                "matrix scan, a state per module"
             },
             ms(self.gpu_interpret),
             rate(self.modules, self.gpu_interpret)
         );
+        if let Some(t) = self.fused_interpret {
+            let _ = writeln!(
+                s,
+                "             fused scan (block totals and states at `[` only) {:.3} ms = {:.1} modules/us ({:.2}x the time above)",
+                ms(t),
+                rate(self.modules, t),
+                t.as_secs_f64() / self.gpu_interpret.as_secs_f64().max(1e-12)
+            );
+        }
         if let Some(t) = self.cpu_interpret {
             let _ = writeln!(
                 s,
@@ -647,6 +683,7 @@ pub fn bench_forest(
         read_string: false,
         read_bones: false,
         strategy: crate::DeriveStrategy::Auto,
+        branch_scan: crate::interp::BranchScan::Auto,
     };
     let warm = crate::pipeline::run_many(gpu, &jobs, &turtles, &opts, &mut |_| {})
         .map_err(|e| e.to_string())?;

@@ -274,15 +274,15 @@ pub(crate) fn turtle_tables(programs: &[&TurtleProgram]) -> Vec<u32> {
 }
 
 /// Bracket matching of a string with brackets and its depth range (the
-/// interpretation's one early synchronisation): the tree and the deepest
-/// depth. Every system must start at depth 0 and the depths never go
-/// below it.
+/// interpretation's one early synchronisation): the tree, the deepest
+/// depth and the number of `[`. Every system must start at depth 0 and the
+/// depths never go below it.
 fn depths(
     gpu: &Gpu,
     programs: &[&TurtleProgram],
     s: &DeviceString,
     ranges: &[(u64, u64)],
-) -> Result<(brackets::BracketTree, u64), GpuError> {
+) -> Result<Depths, GpuError> {
     let n = s.len;
     let tables = gpu.upload("turtle symbols", &bracket_tables(programs, ranges))?;
     let mut enc = gpu.encoder();
@@ -294,11 +294,17 @@ fn depths(
         tree.top_offset(),
         *tree.lens.last().unwrap_or(&1),
     )];
+    // The number of `[` (the scanned counts' totals).
+    reads.push((&tree.pairs, n, 1));
     for &(start, _) in ranges.iter().skip(1) {
         reads.push((&tree.levels, start.min(n), 1));
     }
     let got = gpu.read::<[i32; 2]>(enc, &reads)?;
     let top = got.first().cloned().unwrap_or_default();
+    let opens = got
+        .get(1)
+        .and_then(|v| v.first())
+        .map_or(0, |c| c[0] as u32 as u64);
     let dmin = top.iter().map(|v| v[0]).min().unwrap_or(0);
     let dmax = top.iter().map(|v| v[1]).max().unwrap_or(0);
     if dmin < 0 {
@@ -306,14 +312,26 @@ fn depths(
     }
     if let Some(k) = got
         .iter()
-        .skip(1)
+        .skip(2)
         .position(|v| v.first().is_some_and(|d| d[0] != 0))
     {
         return Err(GpuError::UnbalancedBrackets {
             position: Some(ranges[k + 1].0 as usize),
         });
     }
-    Ok((tree, dmax as u64))
+    Ok(Depths {
+        tree,
+        dmax: dmax as u64,
+        opens,
+    })
+}
+
+/// The bracket pass's results: the tree, the deepest nesting and the
+/// number of `[`.
+struct Depths {
+    tree: brackets::BracketTree,
+    dmax: u64,
+    opens: u64,
 }
 
 /// Bones and figures of one interpretation.
@@ -327,8 +345,8 @@ pub struct GpuInterpretation {
     pub max_depth: u32,
     /// Whether branches were walked (else scanned).
     pub walked: bool,
-    /// Whether the matrix scan was fused (a straight string of affine
-    /// commands: no per-module states stored).
+    /// Whether the matrix scan was fused (affine commands: no per-module
+    /// states stored, only block totals and the states at `[`).
     pub fused: bool,
     /// Whether the bones came from a direct derivation's tables, without
     /// reading the string (derive/direct.rs, shaders/expand_turtle.wgsl).
@@ -341,11 +359,40 @@ pub struct GpuInterpretation {
 /// Histogram entries (chunks x depths) to aim for.
 const HIST_BUDGET: u64 = 1 << 24;
 
+/// How a branching string of affine commands is scanned (shaders/turtle.wgsl
+/// 3a and 3a'). A straight string always takes the fused scan (one pass,
+/// no rounds); state-dependent commands always walk, with a state per
+/// module.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BranchScan {
+    /// A state per module where that buffer fits the device, else fused.
+    #[default]
+    Auto,
+    /// A state per module: each transform computed once, then scanned,
+    /// composed and read (five passes over 64 bytes per module). Fails
+    /// with [`GpuError::BufferTooLarge`] where the states do not fit.
+    PerModule,
+    /// Block totals and the states at `[` only: each transform computed
+    /// twice (reduce, then the round that writes the bones), a fifth of
+    /// the memory or less.
+    Fused,
+}
+
 /// Interpret a host string.
 pub fn interpret(
     gpu: &Gpu,
     program: &TurtleProgram,
     string: &ModuleString,
+) -> Result<GpuInterpretation, GpuError> {
+    interpret_with(gpu, program, string, BranchScan::Auto)
+}
+
+/// As [`interpret`], choosing how a branching string is scanned.
+pub fn interpret_with(
+    gpu: &Gpu,
+    program: &TurtleProgram,
+    string: &ModuleString,
+    scan: BranchScan,
 ) -> Result<GpuInterpretation, GpuError> {
     if !string.is_well_formed() {
         return Err(GpuError::InvalidInput(
@@ -377,7 +424,7 @@ pub fn interpret(
         }
         let most = program.bones_at_most(&counts);
         let (bones, count, mut out) =
-            interpret_device(gpu, &[program], &s, &[(0, s.len)], Some(most))?;
+            interpret_device(gpu, &[program], &s, &[(0, s.len)], Some(most), scan)?;
         out.bones = read_bones(gpu, &bones, count)?;
         Ok(out)
     })
@@ -410,6 +457,7 @@ pub(crate) fn interpret_device(
     s: &DeviceString,
     ranges: &[(u64, u64)],
     bones_at_most: Option<u64>,
+    scan: BranchScan,
 ) -> Result<(wgpu::Buffer, u64, GpuInterpretation), GpuError> {
     let t0 = Instant::now();
     let n = s.len;
@@ -446,18 +494,28 @@ pub(crate) fn interpret_device(
     } else {
         Some(depths(gpu, programs, s, ranges)?)
     };
-    let dmax = tree.as_ref().map_or(0, |t| t.1);
+    let dmax = tree.as_ref().map_or(0, |t| t.dmax);
+    let opens = tree.as_ref().map_or(0, |t| t.opens);
     out.max_depth = dmax as u32;
     let unused = || gpu.storage("unused", 16);
-    let (levels, tree_bufs) = match tree {
-        Some((t, _)) => (t.levels, vec![t.mate, t.pairs]),
-        None => (unused()?, Vec::new()),
+    let (levels, pairs, tree_bufs) = match tree {
+        Some(t) => (t.tree.levels, t.tree.pairs, vec![t.tree.mate]),
+        None => (unused()?, unused()?, Vec::new()),
     };
 
     // 2. Buffers. A straight string of affine commands keeps one turtle
-    // state per block of SCAN_BLOCK modules, not one per module (the
-    // fused matrix scan, shaders/turtle.wgsl 3c).
-    let fused = straight && !walked;
+    // state per block of SCAN_BLOCK modules, not one per module (the fused
+    // matrix scan, shaders/turtle.wgsl 3a); a branching one also one per
+    // `[` when it is fused (`scan`: where the per-module states would not
+    // fit, by default).
+    let state_bytes = std::mem::size_of::<TurtleElem>() as u64;
+    let fused = !walked
+        && (straight
+            || match scan {
+                BranchScan::Fused => true,
+                BranchScan::PerModule => false,
+                BranchScan::Auto => gpu.check_storage("turtle states", state_bytes * n).is_err(),
+            });
     out.fused = fused;
     let blocks = n.div_ceil(u64::from(SCAN_BLOCK));
     let chunk = (n * (dmax + 1)).div_ceil(HIST_BUDGET).max(32);
@@ -489,7 +547,7 @@ pub(crate) fn interpret_device(
     };
     let elems = gpu.storage(
         "turtle states",
-        std::mem::size_of::<TurtleElem>() as u64 * if fused { blocks } else { n },
+        state_bytes * if fused { blocks + opens } else { n },
     )?;
     let aux = gpu.storage("depth buckets", 4 * ((dmax + 2) + 3 * (dmax + 1)))?;
     let indirect = gpu.indirect("round dispatches", 12 * (dmax + 1))?;
@@ -502,11 +560,11 @@ pub(crate) fn interpret_device(
         let u = gpu.uniform("turtle params", p);
         let b = [
             &u, &s.syms, &s.starts, &s.params, &tsyms, &levels, &hist, &order, &pos_of, &elems,
-            bones, &aux,
+            bones, &aux, &pairs,
         ];
         gpu.dispatch(enc, k, &b, groups_for(threads))
     };
-    let round = |enc: &mut wgpu::CommandEncoder, k, d: u64| {
+    let round = |enc: &mut wgpu::CommandEncoder, k, d: u64, bones: &wgpu::Buffer| {
         let p = TurtleParams {
             depth: d as u32,
             ..base
@@ -514,32 +572,23 @@ pub(crate) fn interpret_device(
         let u = gpu.uniform("turtle params", &p);
         let b = [
             &u, &s.syms, &s.starts, &s.params, &tsyms, &levels, &hist, &order, &pos_of, &elems,
-            &no_bones, &aux,
+            bones, &aux, &pairs,
         ];
         gpu.dispatch_indirect(enc, k, &b, &indirect, 12 * d)
     };
 
-    // 3. Sort by depth, then scan or walk, then number the bones; or, for
-    // a straight string of affine commands, reduce the blocks, scan the
-    // block totals and number the bones (the bones are written with the
-    // second pass over the blocks, in step 4).
+    // 3. Sort by depth (a string with brackets), then walk (state-dependent
+    // commands) or scan the per-module states and compose them depth by
+    // depth, then number the bones. The fused scan comes with the bones,
+    // in step 4.
     let mut enc = gpu.encoder();
     let wg = u64::from(crate::device::WORKGROUP);
-    if fused {
-        run(
-            &mut enc,
-            &kernels::STRAIGHT_REDUCE,
-            &base,
-            &no_bones,
-            blocks * wg,
-        )?;
-        record_scan(gpu, &mut enc, ScanElem::Turtle, &elems, blocks)?;
-    } else if !straight {
+    if !straight {
         run(&mut enc, &kernels::DEPTH_HIST, &base, &no_bones, chunks + 1)?;
         record_scan(gpu, &mut enc, ScanElem::U32, &hist, chunks * (dmax + 1) + 1)?;
         run(&mut enc, &kernels::DEPTH_SCATTER, &base, &no_bones, chunks)?;
     }
-    if !fused {
+    if !straight || !fused {
         run(&mut enc, &kernels::DEPTH_STARTS, &base, &no_bones, dmax + 2)?;
         enc.copy_buffer_to_buffer(
             &aux,
@@ -551,13 +600,13 @@ pub(crate) fn interpret_device(
     }
     if walked {
         for d in 0..=dmax {
-            round(&mut enc, &kernels::TURTLE_WALK, d)?;
+            round(&mut enc, &kernels::TURTLE_WALK, d, &no_bones)?;
         }
     } else if !fused {
         run(&mut enc, &kernels::TURTLE_ELEMS, &base, &no_bones, n)?;
         record_scan(gpu, &mut enc, ScanElem::Turtle, &elems, n)?;
         for d in 0..=dmax {
-            round(&mut enc, &kernels::TURTLE_ROUND, d)?;
+            round(&mut enc, &kernels::TURTLE_ROUND, d, &no_bones)?;
         }
     }
     run(&mut enc, &kernels::BONE_FLAGS, &base, &no_bones, n + 1)?;
@@ -565,14 +614,25 @@ pub(crate) fn interpret_device(
 
     // 4. The bones: in the same submission when their number is bounded
     // in advance (and the bound fits a buffer), else after reading it.
+    // Fused: reduce the blocks, scan the block totals, then scan each
+    // block again as it writes its bones (one pass for a straight string,
+    // one round per depth otherwise, each writing the states at its `[`s
+    // for the next).
     let bone_bytes = std::mem::size_of::<GpuBone>() as u64;
     let known = bones_at_most.filter(|&b| gpu.check_storage("bones", bone_bytes * b).is_ok());
     let write = |enc: &mut wgpu::CommandEncoder, bones: &wgpu::Buffer| {
-        if fused {
-            run(enc, &kernels::STRAIGHT_BONES, &base, bones, blocks * wg)
-        } else {
-            run(enc, &kernels::BONES_WRITE, &base, bones, n)
+        if !fused {
+            return run(enc, &kernels::BONES_WRITE, &base, bones, n);
         }
+        run(enc, &kernels::FUSED_REDUCE, &base, &no_bones, blocks * wg)?;
+        record_scan(gpu, enc, ScanElem::Turtle, &elems, blocks)?;
+        if straight {
+            return run(enc, &kernels::STRAIGHT_BONES, &base, bones, blocks * wg);
+        }
+        for d in 0..=dmax {
+            round(enc, &kernels::FUSED_ROUND, d, bones)?;
+        }
+        Ok(())
     };
     let read_count = |enc: wgpu::CommandEncoder| -> Result<u64, GpuError> {
         let count = gpu.read::<u32>(enc, &[(&hist, n, 1)])?;
@@ -607,7 +667,7 @@ pub(crate) fn interpret_device(
     };
     out.elapsed = t0.elapsed();
     out.bone_count = count;
-    gpu.recycle([hist, order, pos_of, elems, aux, no_bones, levels]);
+    gpu.recycle([hist, order, pos_of, elems, aux, no_bones, levels, pairs]);
     gpu.recycle(tree_bufs);
     Ok((bones, count, out))
 }

@@ -393,7 +393,9 @@ pub static ADD_TURTLE: Kernel = Kernel {
     ],
 };
 
-const TURTLE_BINDS: &[Bind] = &binds::<12>(Bind::Uniform, 5);
+/// turtle.wgsl: parameters, the string and its turtle tables and depths
+/// (read), then the sort, states, bones and bracket counts (read-write).
+const TURTLE_BINDS: &[Bind] = &binds::<13>(Bind::Uniform, 5);
 
 macro_rules! turtle_kernels {
     ($($name:ident = $entry:literal),* $(,)?) => {
@@ -414,12 +416,13 @@ turtle_kernels! {
     DEPTH_HIST = "depth_hist",
     DEPTH_SCATTER = "depth_scatter",
     DEPTH_STARTS = "depth_starts",
-    TURTLE_ELEMS = "turtle_elems",
-    TURTLE_ROUND = "turtle_round",
     TURTLE_WALK = "turtle_walk",
     BONE_FLAGS = "bone_flags",
     BONES_WRITE = "bones_write",
-    STRAIGHT_REDUCE = "straight_reduce",
+    TURTLE_ELEMS = "turtle_elems",
+    TURTLE_ROUND = "turtle_round",
+    FUSED_REDUCE = "fused_reduce",
+    FUSED_ROUND = "fused_round",
     STRAIGHT_BONES = "straight_bones",
 }
 
@@ -548,10 +551,11 @@ pub static ALL: &[&Kernel] = &[
     &DEPTH_STARTS,
     &TURTLE_ELEMS,
     &TURTLE_ROUND,
+    &FUSED_ROUND,
     &TURTLE_WALK,
     &BONE_FLAGS,
     &BONES_WRITE,
-    &STRAIGHT_REDUCE,
+    &FUSED_REDUCE,
     &STRAIGHT_BONES,
     &UPDATE_DIRECTORY,
     &UPDATE_DIRECTORY_DEV,

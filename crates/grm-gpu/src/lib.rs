@@ -51,6 +51,6 @@ pub use derive::{
 };
 pub use device::{Allocations, Gpu, Timestamps, shared};
 pub use error::{GpuError, RuntimeKind};
-pub use interp::{GpuInterpretation, TurtleProgram, interpret};
+pub use interp::{BranchScan, GpuInterpretation, TurtleProgram, interpret, interpret_with};
 pub use pipeline::{GpuManyRun, GpuRun, GpuRunOptions, run, run_many};
 pub use stamps::{DeviceTime, KERNEL_STAGES};

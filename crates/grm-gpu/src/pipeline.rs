@@ -12,7 +12,7 @@ use crate::derive::{
 };
 use crate::device::Gpu;
 use crate::error::GpuError;
-use crate::interp::{GpuInterpretation, TurtleProgram, interpret_device, read_bones};
+use crate::interp::{BranchScan, GpuInterpretation, TurtleProgram, interpret_device, read_bones};
 use crate::layout::GpuBone;
 
 /// What to run and what to bring back.
@@ -28,6 +28,9 @@ pub struct GpuRunOptions {
     /// How the iterations are recorded ([`DeriveStrategy::Auto`]: the
     /// fastest path that applies).
     pub strategy: DeriveStrategy,
+    /// How a branching string is scanned when it is interpreted from the
+    /// string ([`BranchScan::Auto`]: a state per module where it fits).
+    pub branch_scan: BranchScan,
 }
 
 /// The outcome of [`run`], with timings.
@@ -89,7 +92,14 @@ pub fn run(
                 Some(done) => done,
                 None => {
                     let most = bones_at_most(&g, &opts.derive, &[turtle]);
-                    interpret_device(gpu, &[turtle], &string, &[(0, string.len())], most)?
+                    interpret_device(
+                        gpu,
+                        &[turtle],
+                        &string,
+                        &[(0, string.len())],
+                        most,
+                        opts.branch_scan,
+                    )?
                 }
             };
             if opts.read_bones {
@@ -171,7 +181,8 @@ pub fn run_many(
         let mut readback_elapsed = Duration::ZERO;
         if opts.interpret {
             let most = bones_at_most(&g, &d, turtles);
-            let (buf, count, out) = interpret_device(gpu, turtles, &string, &ranges, most)?;
+            let (buf, count, out) =
+                interpret_device(gpu, turtles, &string, &ranges, most, opts.branch_scan)?;
             if opts.read_bones {
                 let t = Instant::now();
                 let all = read_bones(gpu, &buf, count)?;

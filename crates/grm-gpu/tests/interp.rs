@@ -4,7 +4,7 @@
 
 mod common;
 use common::*;
-use grm_gpu::{TurtleProgram, interpret};
+use grm_gpu::{BranchScan, TurtleProgram, interpret, interpret_with};
 
 #[test]
 fn example_scenes_match_the_cpu_turtle() {
@@ -28,11 +28,18 @@ fn example_scenes_match_the_cpu_turtle() {
         assert_eq!(prog.walks(), walks, "{file}");
         let gpu = interpret(g, &prog, &string).expect("gpu interprets");
         assert!(!cpu.bones.is_empty());
+        // Straight strings of affine commands take the fused scan; a
+        // branching one keeps a state per module where it fits.
         assert_eq!(gpu.fused, !prog.has_brackets() && !walks, "{file}");
         if matches!(file, "hilbert3d.grm" | "koch_island.grm") {
             assert!(gpu.fused, "{file}: Lipp's straight scenes");
         }
         assert_bones_match(&format!("{file} {name}"), &cpu, &gpu.bones);
+        if prog.has_brackets() && !walks {
+            let fused = interpret_with(g, &prog, &string, BranchScan::Fused).expect("fused");
+            assert!(fused.fused, "{file}");
+            assert_bones_match(&format!("{file} {name} fused"), &cpu, &fused.bones);
+        }
     }
 }
 
@@ -162,6 +169,12 @@ fn random_strings_match_the_cpu_turtle() {
             }
             // Straight strings of affine commands take the fused scan.
             assert_eq!(gpu.fused, !prog.has_brackets() && !walks, "{src}");
+            // Both scans of a branching string of affine commands.
+            if prog.has_brackets() && !walks {
+                let fused = interpret_with(g, &prog, &string, BranchScan::Fused).expect("fused");
+                assert!(fused.fused);
+                assert_bones_match(&format!("{src} #{k} fused"), &cpu, &fused.bones);
+            }
         }
     }
 }

@@ -167,48 +167,54 @@ fn forest(
             turtles.push(&programs[k]);
         }
     }
-    let opts = grm_gpu::GpuRunOptions {
-        derive: GpuDeriveOptions {
-            cpu_prefix: 0,
-            ..GpuDeriveOptions::from_system(&loaded[0].2)
-        },
-        interpret: true,
-        read_string: true,
-        read_bones: true,
-        strategy: grm_gpu::DeriveStrategy::Auto,
-    };
-    let out = grm_gpu::run_many(g, &jobs, &turtles, &opts, &mut |_| {}).expect("runs");
-    let bones = out.bones.expect("bones read");
-    let strings = out.strings.expect("strings read");
-    assert_eq!(
-        out.interpretation.expect("interpreted").walked,
-        subset.contains(&1)
-    );
-    for (k, job) in jobs.iter().enumerate() {
-        let (p, name, c) = &loaded[which[k]];
-        let sys = p.system(name).expect("system");
-        let string = cpu_derive(c, job.iterations, job.seed).expect("cpu derives");
-        assert_same(&format!("job {k}"), &string, &strings[k]);
-        let want = grm_turtle::interpret(sys, &c.settings, &string).expect("cpu interprets");
-        assert_eq!(want.bones.len(), bones[k].len(), "job {k} ({name}): bones");
-        for (a, b) in want.bones.iter().zip(&bones[k]) {
-            assert_eq!(
-                (a.module, a.parent.unwrap_or(u32::MAX)),
-                (b.module_index, b.parent),
-                "job {k} ({name})"
-            );
-            let d =
-                (a.tip.x - b.tip_x).abs() + (a.tip.y - b.tip_y).abs() + (a.tip.z - b.tip_z).abs();
-            let scale = 1.0 + a.tip.abs().max_element();
-            assert!(
-                d <= 1e-3 * scale,
-                "job {k} ({name}): tip {:?} vs {b:?}",
-                a.tip
-            );
-            assert!(
-                (a.width_base - b.width).abs() <= 1e-4 * a.width_base.max(1.0),
-                "job {k} ({name}): width"
-            );
+    // Both scans of a branching string (the forests with brackets).
+    for branch_scan in [grm_gpu::BranchScan::Auto, grm_gpu::BranchScan::Fused] {
+        let opts = grm_gpu::GpuRunOptions {
+            derive: GpuDeriveOptions {
+                cpu_prefix: 0,
+                ..GpuDeriveOptions::from_system(&loaded[0].2)
+            },
+            interpret: true,
+            read_string: true,
+            read_bones: true,
+            strategy: grm_gpu::DeriveStrategy::Auto,
+            branch_scan,
+        };
+        let out = grm_gpu::run_many(g, &jobs, &turtles, &opts, &mut |_| {}).expect("runs");
+        let bones = out.bones.expect("bones read");
+        let strings = out.strings.expect("strings read");
+        assert_eq!(
+            out.interpretation.expect("interpreted").walked,
+            subset.contains(&1)
+        );
+        let scan = format!("{branch_scan:?}");
+        for (k, job) in jobs.iter().enumerate() {
+            let (p, name, c) = &loaded[which[k]];
+            let sys = p.system(name).expect("system");
+            let string = cpu_derive(c, job.iterations, job.seed).expect("cpu derives");
+            assert_same(&format!("job {k} {scan}"), &string, &strings[k]);
+            let want = grm_turtle::interpret(sys, &c.settings, &string).expect("cpu interprets");
+            assert_eq!(want.bones.len(), bones[k].len(), "job {k} ({name}): bones");
+            for (a, b) in want.bones.iter().zip(&bones[k]) {
+                assert_eq!(
+                    (a.module, a.parent.unwrap_or(u32::MAX)),
+                    (b.module_index, b.parent),
+                    "job {k} ({name})"
+                );
+                let d = (a.tip.x - b.tip_x).abs()
+                    + (a.tip.y - b.tip_y).abs()
+                    + (a.tip.z - b.tip_z).abs();
+                let scale = 1.0 + a.tip.abs().max_element();
+                assert!(
+                    d <= 1e-3 * scale,
+                    "job {k} ({name}): tip {:?} vs {b:?}",
+                    a.tip
+                );
+                assert!(
+                    (a.width_base - b.width).abs() <= 1e-4 * a.width_base.max(1.0),
+                    "job {k} ({name}): width"
+                );
+            }
         }
     }
 }

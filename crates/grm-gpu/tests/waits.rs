@@ -55,6 +55,7 @@ fn runs_wait_for_the_device_as_few_times_as_their_structure_needs() {
             read_string: false,
             read_bones: false,
             strategy: grm_gpu::DeriveStrategy::Auto,
+            branch_scan: grm_gpu::interp::BranchScan::Auto,
         };
         let what = format!("{file} n {iterations} prefix {prefix}");
         // Warm: pipelines compiled, pool filled.

@@ -56,6 +56,7 @@ pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
         read_string: args.print || args.output.is_some(),
         read_bones: false,
         strategy: grm_gpu::DeriveStrategy::Auto,
+        branch_scan: grm_gpu::interp::BranchScan::Auto,
     };
     let fallback = |e: &GpuError| -> Option<Outcome> {
         if args.cpu_fallback && device_problem(e) {
