@@ -454,9 +454,10 @@ gpu_struct! {
         /// is the string order, so no depths are computed and nothing is
         /// sorted).
         pub straight: u32 => "u32",
-        /// 1: straight and every command affine: the matrix scan is fused
-        /// (`straight_reduce`, a scan of block totals, `straight_bones`;
-        /// `elems` then holds one element per block, not per module).
+        /// 1: every command affine and the matrix scan fused
+        /// (`fused_reduce`, a scan of block totals, then `straight_bones`
+        /// or a `fused_round` per depth; `elems` then holds one element
+        /// per block, then one per `[`, not one per module).
         pub fused: u32 => "u32",
         /// Blocks of `SCAN_BLOCK` modules (fused).
         pub blocks: u32 => "u32",
