@@ -160,6 +160,9 @@ pub struct Engine<'a> {
     patches: Vec<Patch>,
     /// Per alternative.
     plans: Vec<Plan>,
+    /// Per symbol: the one-module rewrite of its one word, where that is
+    /// its production ([`Unit`]).
+    units: Vec<Option<Unit>>,
     has_context: bool,
     threads: usize,
     min_chunk: usize,
@@ -206,6 +209,26 @@ struct Plan {
     /// Its patches: `patches[patch_lo .. patch_hi]`.
     patch_lo: u32,
     patch_hi: u32,
+}
+
+/// A symbol whose one production always applies and rewrites it into one
+/// module whose one word is one arithmetic patch of its own word:
+/// `F(l) -> F(l * lr)`, `!(w) -> !(w * vr)`, most of a parametric tree's
+/// string. The rewrite loop writes it inline instead of through the
+/// general `emit` (the same single f32 operation, the same error).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Unit {
+    sym: u32,
+    op: UnitOp,
+    k: f32,
+    span: u32,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum UnitOp {
+    Mul,
+    Add,
+    Sub,
 }
 
 /// How one non-constant successor parameter is computed. The arithmetic
@@ -388,7 +411,7 @@ impl<'a> Engine<'a> {
                 })
                 .collect()
         });
-        let succ_syms = sys.succ.iter().map(|m| m.symbol).collect();
+        let succ_syms: Vec<u32> = sys.succ.iter().map(|m| m.symbol).collect();
         let succ_words = sys.succ.iter().map(|m| m.word_offset).collect();
         let mut tpl = Vec::new();
         let mut patches = Vec::new();
@@ -421,6 +444,45 @@ impl<'a> Engine<'a> {
                 patch_hi: patches.len() as u32,
             });
         }
+        let units = (0..n)
+            .map(|i| {
+                let alt = fast[i];
+                if alt == COPY || alt == SLOW || sym_words[i] != 1 {
+                    return None;
+                }
+                let plan = plans[alt as usize];
+                if plan.len != 1 || plan.words != 1 || plan.patch_hi != plan.patch_lo + 1 {
+                    return None;
+                }
+                let (op, k, span) = match patches[plan.patch_lo as usize] {
+                    Patch::MulConst {
+                        dst: 0,
+                        src: 0,
+                        k,
+                        span,
+                    } => (UnitOp::Mul, k, span),
+                    Patch::AddConst {
+                        dst: 0,
+                        src: 0,
+                        k,
+                        span,
+                    } => (UnitOp::Add, k, span),
+                    Patch::SubConst {
+                        dst: 0,
+                        src: 0,
+                        k,
+                        span,
+                    } => (UnitOp::Sub, k, span),
+                    _ => return None,
+                };
+                Some(Unit {
+                    sym: succ_syms[plan.succ as usize],
+                    op,
+                    k,
+                    span,
+                })
+            })
+            .collect();
         let pool = if threads > 1 {
             Some(
                 rayon::ThreadPoolBuilder::new()
@@ -444,6 +506,7 @@ impl<'a> Engine<'a> {
             tpl,
             patches,
             plans,
+            units,
             has_context: sys.has_context(),
             threads,
             min_chunk: MIN_CHUNK,
@@ -888,6 +951,30 @@ impl<'a> Engine<'a> {
                 }
                 o += 1;
                 wo += pe - ps;
+                continue;
+            }
+            if let Some(u) = self.units[s]
+                && pe - ps == 1
+            {
+                let x = input.params[ps];
+                let v = match u.op {
+                    UnitOp::Mul => x * u.k,
+                    UnitOp::Add => x + u.k,
+                    UnitOp::Sub => x - u.k,
+                };
+                if !v.is_finite() {
+                    return Err(self.runtime(
+                        step,
+                        i,
+                        RuntimeErrorKind::NonFinite { value: v },
+                        self.sys.param_spans[u.span as usize],
+                    ));
+                }
+                osyms[o] = u.sym;
+                ostarts[o] = word_base + wo as u32;
+                oparams[wo] = v;
+                o += 1;
+                wo += 1;
                 continue;
             }
             let decision = if f == SLOW {
