@@ -271,6 +271,14 @@ pub(crate) struct Checker<'a> {
     pub names: HashMap<&'a str, GlobalName>,
     /// `visible[f][g]`: file f sees the definitions of file g.
     pub visible: Vec<Vec<bool>>,
+    /// Per file: its place in load order ([`load_order`]).
+    pub load_rank: Vec<usize>,
+    /// Per global name: the definition that comes first in load order
+    /// (file index, name span); every other one is a duplicate (E0102).
+    pub first_defs: HashMap<&'a str, (usize, Span)>,
+    /// Per file: the global names it sees, sorted (for suggestions; built
+    /// on first use, once the names are complete).
+    pub visible_cache: Vec<Option<suggest::Candidates<'a>>>,
     pub values: Vec<ValueDecl<'a>>,
     pub program: Program,
     /// Global values evaluated with the parameters' defaults (by ConstId).
@@ -303,6 +311,9 @@ impl<'a> Checker<'a> {
             diags,
             names: HashMap::new(),
             visible,
+            load_rank: load_order(files),
+            first_defs: HashMap::new(),
+            visible_cache: (0..n).map(|_| None).collect(),
             values: Vec::new(),
             program: Program {
                 root: files.first().map(|f| f.id).unwrap_or_default(),
@@ -330,6 +341,27 @@ impl<'a> Checker<'a> {
     /// Collect and check the global items of every file.
     pub(crate) fn globals(&mut self) {
         let files = self.files;
+        // 0. Which definition of each name comes first in load order.
+        for (fi, f) in files.iter().enumerate() {
+            for item in &f.ast.items {
+                let name = match item {
+                    Item::Const(c) => &c.name,
+                    Item::Param(p) => &p.name,
+                    Item::Mesh(m) => &m.name,
+                    Item::Material(m) => &m.name,
+                    Item::Import(_) | Item::System(_) | Item::Error(_) => continue,
+                };
+                let key = (self.load_rank[fi], name.span.start);
+                self.first_defs
+                    .entry(&name.name)
+                    .and_modify(|e| {
+                        if key < (self.load_rank[e.0], e.1.start) {
+                            *e = (fi, name.span);
+                        }
+                    })
+                    .or_insert((fi, name.span));
+            }
+        }
         // 1. Names.
         let mut material_asts: Vec<(usize, &'a ast::MaterialDecl)> = Vec::new();
         for (fi, f) in files.iter().enumerate() {
@@ -429,11 +461,21 @@ impl<'a> Checker<'a> {
         }
     }
 
-    /// Register a global name; reports a duplicate and returns false.
+    /// Register a global name; reports a duplicate and returns false. Of
+    /// several definitions of a name the first in load order is the one
+    /// registered (within a file the first written; across files that of
+    /// the imported file, whose definitions come before the importer's),
+    /// and each other one is reported as defined again, as it would be if
+    /// the imported file's text stood in place of its `import`.
     fn define(&mut self, name: &'a ast::Ident, file_idx: usize, kind: GlobalKind) -> bool {
         let file = self.file_id(file_idx);
-        if let Some(prev) = self.names.get(name.name.as_str()) {
-            let prev = *prev;
+        let first = self
+            .first_defs
+            .get(name.name.as_str())
+            .copied()
+            .unwrap_or((file_idx, name.span));
+        if first != (file_idx, name.span) {
+            let prev = Loc::new(self.file_id(first.0), first.1);
             self.error(
                 Diagnostic::new(
                     Code::DuplicateDefinition,
@@ -442,11 +484,12 @@ impl<'a> Checker<'a> {
                     name.span,
                     "defined again here",
                 )
-                .with_label(prev.loc.file, prev.loc.span, "first defined here")
+                .with_label(prev.file, prev.span, "first defined here")
                 .with_help("constants, parameters, meshes and materials share one namespace; rename one of them"),
             );
             return false;
         }
+        self.visible_cache.iter_mut().for_each(|c| *c = None);
         self.names.insert(
             &name.name,
             GlobalName {
@@ -464,16 +507,21 @@ impl<'a> Checker<'a> {
         self.visible[file_idx][g.file_idx].then_some(*g)
     }
 
-    /// Names visible from a file (for suggestions).
-    pub(crate) fn visible_names(&self, file_idx: usize) -> Vec<&'a str> {
-        let mut v: Vec<&'a str> = self
-            .names
-            .iter()
-            .filter(|(_, g)| self.visible[file_idx][g.file_idx])
-            .map(|(n, _)| *n)
-            .collect();
-        v.sort_unstable();
-        v
+    /// Global names visible from a file, sorted (for suggestions). Built
+    /// once per file and check (the names are complete before the first
+    /// expression is typed; a later definition would clear the cache).
+    pub(crate) fn visible_names(&mut self, file_idx: usize) -> &suggest::Candidates<'a> {
+        let names = &self.names;
+        let visible = &self.visible[file_idx];
+        self.visible_cache[file_idx].get_or_insert_with(|| {
+            let mut v: Vec<&'a str> = names
+                .iter()
+                .filter(|(_, g)| visible[g.file_idx])
+                .map(|(n, _)| *n)
+                .collect();
+            v.sort_unstable();
+            suggest::Candidates::new(v)
+        })
     }
 
     fn check_values(&mut self) {
@@ -811,15 +859,33 @@ impl<'a> Checker<'a> {
         out
     }
 
-    /// Check every system of every file.
+    /// Check every system of every file. Of several systems with one name
+    /// the first in load order is the first definition (as for globals,
+    /// see `define`); all of them are checked.
     pub(crate) fn systems(&mut self) {
         let files = self.files;
+        let mut first: HashMap<&str, (usize, Span)> = HashMap::new();
         for (fi, f) in files.iter().enumerate() {
             for item in &f.ast.items {
                 if let Item::System(s) = item {
-                    if let Some(prev) = self.program.systems.iter().find(|p| p.name == s.name.name)
-                    {
-                        let pl = prev.loc;
+                    let key = (self.load_rank[fi], s.name.span.start);
+                    first
+                        .entry(&s.name.name)
+                        .and_modify(|e| {
+                            if key < (self.load_rank[e.0], e.1.start) {
+                                *e = (fi, s.name.span);
+                            }
+                        })
+                        .or_insert((fi, s.name.span));
+                }
+            }
+        }
+        for (fi, f) in files.iter().enumerate() {
+            for item in &f.ast.items {
+                if let Item::System(s) = item {
+                    let (ffi, fspan) = first[s.name.name.as_str()];
+                    if (ffi, fspan) != (fi, s.name.span) {
+                        let pl = Loc::new(files[ffi].id, fspan);
                         self.error(
                             Diagnostic::new(
                                 Code::DuplicateDefinition,
@@ -901,6 +967,39 @@ impl<'a> Checker<'a> {
             }
         }
     }
+}
+
+/// Each file's place in load order: a file comes after everything it
+/// imports (a depth-first post-order from the root, imports in the order
+/// written; in a cycle, the file reached first comes last), as if each
+/// `import` were replaced by the imported file's text.
+pub(crate) fn load_order(files: &[LoadedFile]) -> Vec<usize> {
+    let n = files.len();
+    let mut rank = vec![0; n];
+    let mut seen = vec![false; n];
+    let mut next = 0;
+    for start in 0..n {
+        if seen[start] {
+            continue;
+        }
+        seen[start] = true;
+        let mut stack = vec![(start, 0usize)];
+        while let Some((f, i)) = stack.last_mut() {
+            let f = *f;
+            if let Some(&g) = files[f].imports.get(*i) {
+                *i += 1;
+                if !seen[g] {
+                    seen[g] = true;
+                    stack.push((g, 0));
+                }
+            } else {
+                rank[f] = next;
+                next += 1;
+                stack.pop();
+            }
+        }
+    }
+    rank
 }
 
 /// Every name referenced by an expression (not function names), down to

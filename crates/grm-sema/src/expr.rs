@@ -12,8 +12,10 @@ use crate::index::Def;
 use crate::program::{Loc, TExpr, TExprKind, Ty, Value};
 use crate::suggest;
 
-/// How deep the checker follows nested expressions.
-pub(crate) const MAX_DEPTH: u32 = 200;
+/// How deep the checker follows nested expressions: the language's one
+/// limit ([`grm_syntax::MAX_EXPR_DEPTH`]), which the parser enforces
+/// already; this guards trees that did not come from the parser.
+pub(crate) const MAX_DEPTH: u32 = grm_syntax::MAX_EXPR_DEPTH as u32;
 
 /// A name bound by a pattern, as seen by the expressions of its production.
 #[derive(Clone, Debug)]
@@ -124,16 +126,7 @@ impl Checker<'_> {
             if !self.deep_reported {
                 self.deep_reported = true;
                 let file = self.file_id(sc.file_idx);
-                self.error(
-                    Diagnostic::new(
-                        Code::ExprTooDeep,
-                        format!("expression nested more than {MAX_DEPTH} levels deep"),
-                        file,
-                        e.span,
-                        "too deep from here on",
-                    )
-                    .with_help("split it up with constants"),
-                );
+                self.error(grm_syntax::expr_too_deep(file, e.span));
             }
             return TExpr::error(e.span);
         }
@@ -445,10 +438,9 @@ impl Checker<'_> {
             );
             d = d.with_help("add an `import` of the file that defines it");
         } else {
-            let mut cands: Vec<&str> = sc.bindings.iter().map(|b| b.name.as_str()).collect();
+            let bindings = sc.bindings.iter().map(|b| b.name.as_str());
             let globals = self.visible_names(sc.file_idx);
-            cands.extend(globals.iter().copied());
-            if let Some(h) = suggest::did_you_mean(&id.name, cands) {
+            if let Some(h) = suggest::did_you_mean_in(&id.name, bindings, globals) {
                 d = d.with_help(h);
             } else if SettingKey::from_name(&id.name).is_some() {
                 d = d.with_help("settings cannot be read in expressions; define a `const` and use it in both places");

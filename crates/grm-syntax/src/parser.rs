@@ -67,22 +67,10 @@ pub fn parse_expr(file: FileId, text: &str) -> (Option<Expr>, Vec<Diagnostic>) {
     push_value_errors(file, &mut diags, errs);
     match res {
         Ok(e) => {
-            let depth = expr_depth(&e);
-            if depth <= MAX_EXPR_DEPTH {
+            let Some(at) = too_deep_at(&e) else {
                 return (Some(e), diags);
-            }
-            diags.push(
-                Diagnostic::new(
-                    Code::ExprTooDeep,
-                    format!(
-                        "expression nested too deeply ({depth} levels; the limit is {MAX_EXPR_DEPTH})"
-                    ),
-                    file,
-                    e.span,
-                    "this expression",
-                )
-                .with_help("split the expression with constants"),
-            );
+            };
+            diags.push(expr_too_deep(file, at));
             (None, diags)
         }
         Err(e) => {
@@ -336,9 +324,7 @@ impl<'a> Driver<'a, '_> {
         match self.run(full, entry) {
             Ok((stmt, errs)) => {
                 push_value_errors(self.file, &mut self.diags, errs);
-                let Some(stmt) = self.depth_guard(stmt, toks) else {
-                    return Vec::new();
-                };
+                let stmt = self.depth_guard(stmt);
                 if !terminated {
                     self.missing_semi(toks[toks.len() - 1].span);
                 }
@@ -361,9 +347,9 @@ impl<'a> Driver<'a, '_> {
                         push_value_errors(self.file, &mut self.diags, errs_a);
                         push_value_errors(self.file, &mut self.diags, errs_b);
                         self.missing_semi(full[split - 1].span);
-                        let a = self.depth_guard(a, &toks[..split]);
-                        let b = self.depth_guard(b, &toks[split..]);
-                        return a.into_iter().chain(b).collect();
+                        let a = self.depth_guard(a);
+                        let b = self.depth_guard(b);
+                        return vec![a, b];
                     }
                 }
                 let d = syntax_error(self.file, self.text, err, Some(toks));
@@ -378,37 +364,25 @@ impl<'a> Driver<'a, '_> {
         }
     }
 
-    /// Reject a statement whose expressions nest deeper than
-    /// [`MAX_EXPR_DEPTH`]: every later phase walks expressions recursively
-    /// (only dropping one is safe: `Expr` drops without recursion).
-    /// Returns the statement, its `Error` replacement, or `None` for a
-    /// dropped material field.
-    fn depth_guard(&mut self, stmt: Stmt, toks: &[Token<'a>]) -> Option<Stmt> {
-        let depth = stmt_exprs(&stmt).map(expr_depth).max().unwrap_or(0);
-        if depth <= MAX_EXPR_DEPTH {
-            return Some(stmt);
+    /// Replace each expression of a statement that nests deeper than
+    /// [`MAX_EXPR_DEPTH`] by an `Error` expression over the same text, and
+    /// report it (E0211): every later phase walks expressions recursively
+    /// (only dropping one is safe: `Expr` drops without recursion). The
+    /// statement itself stays, so the name it defines is still known and
+    /// its uses are not reported again.
+    fn depth_guard(&mut self, mut stmt: Stmt) -> Stmt {
+        for e in stmt_exprs_mut(&mut stmt) {
+            if let Some(at) = too_deep_at(e) {
+                self.diags.push(expr_too_deep(self.file, at));
+                let error = Expr {
+                    kind: ExprKind::Error,
+                    span: e.span,
+                };
+                // `Expr` drops without recursion.
+                drop(std::mem::replace(e, error));
+            }
         }
-        let span = toks[0].span.to(toks[toks.len() - 1].span);
-        self.diags.push(
-            Diagnostic::new(
-                Code::ExprTooDeep,
-                format!(
-                    "expression nested too deeply ({depth} levels; the limit is {MAX_EXPR_DEPTH})"
-                ),
-                self.file,
-                span,
-                "in this statement",
-            )
-            .with_help("split the expression with constants"),
-        );
-        let error = match &stmt {
-            Stmt::Item(_) => Some(Stmt::Item(Item::Error(span))),
-            Stmt::SysItem(_) => Some(Stmt::SysItem(SystemItem::Error(span))),
-            Stmt::Field(_) => None,
-        };
-        // `Expr` drops without recursion.
-        drop(stmt);
-        error
+        stmt
     }
 
     fn missing_semi(&mut self, after: Span) {
@@ -646,30 +620,63 @@ impl<'a> Driver<'a, '_> {
     }
 }
 
-/// The deepest expression the parser accepts. Hand-written grammars stay
-/// far below it; it protects the recursive phases after the parser.
-pub const MAX_EXPR_DEPTH: usize = 256;
+/// The deepest expression the language accepts, in levels (a lone number
+/// or name is 1 level, `(1)` is 2, `-(1)` is 3). The parser rejects a
+/// statement nesting deeper (E0211) and the checker stops following an
+/// expression at the same depth (`grm-sema` derives its limit from this
+/// one), so every later phase may walk expressions recursively. Hand-written
+/// grammars stay far below it.
+pub const MAX_EXPR_DEPTH: usize = 200;
 
-fn stmt_exprs(stmt: &Stmt) -> Box<dyn Iterator<Item = &Expr> + '_> {
-    fn modules(ms: &[Module]) -> impl Iterator<Item = &Expr> {
-        ms.iter().flat_map(|m| m.args.iter())
+/// The E0211 diagnostic, the same wherever the limit is hit (the parser,
+/// [`parse_expr`], the checker for trees not built by the parser). `span`
+/// is the first subexpression past the limit.
+pub fn expr_too_deep(file: FileId, span: Span) -> Diagnostic {
+    Diagnostic::new(
+        Code::ExprTooDeep,
+        format!("expression nested more than {MAX_EXPR_DEPTH} levels deep"),
+        file,
+        span,
+        "too deep from here on",
+    )
+    .with_help("split the expression with constants")
+}
+
+/// The span of the first subexpression (in text order) at level
+/// `MAX_EXPR_DEPTH + 1`, if the expression nests that deep. Without
+/// recursion.
+fn too_deep_at(e: &Expr) -> Option<Span> {
+    let mut stack = vec![(e, 1usize)];
+    while let Some((e, d)) = stack.pop() {
+        if d > MAX_EXPR_DEPTH {
+            return Some(e.span);
+        }
+        stack.extend(children(e).into_iter().rev().map(|c| (c, d + 1)));
+    }
+    None
+}
+
+/// The top-level expressions of a statement (those the checker types).
+fn stmt_exprs_mut(stmt: &mut Stmt) -> Vec<&mut Expr> {
+    fn modules(ms: &mut [Module]) -> impl Iterator<Item = &mut Expr> {
+        ms.iter_mut().flat_map(|m| m.args.iter_mut())
     }
     match stmt {
-        Stmt::Item(Item::Const(c)) => Box::new(std::iter::once(&c.value)),
-        Stmt::Item(Item::Param(p)) => {
-            Box::new(std::iter::once(&p.default).chain(p.range.iter().flat_map(|(a, b)| [a, b])))
-        }
-        Stmt::Item(_) => Box::new(std::iter::empty()),
-        Stmt::Field(f) => Box::new(std::iter::once(&f.value)),
-        Stmt::SysItem(SystemItem::Axiom(a)) => Box::new(modules(&a.modules)),
-        Stmt::SysItem(SystemItem::Setting(s)) => Box::new(std::iter::once(&s.value)),
-        Stmt::SysItem(SystemItem::Production(p)) => Box::new(
-            p.condition
-                .iter()
-                .chain(p.weight.iter())
-                .chain(modules(&p.successor)),
-        ),
-        Stmt::SysItem(_) => Box::new(std::iter::empty()),
+        Stmt::Item(Item::Const(c)) => vec![&mut c.value],
+        Stmt::Item(Item::Param(p)) => std::iter::once(&mut p.default)
+            .chain(p.range.iter_mut().flat_map(|(a, b)| [a, b]))
+            .collect(),
+        Stmt::Item(_) => Vec::new(),
+        Stmt::Field(f) => vec![&mut f.value],
+        Stmt::SysItem(SystemItem::Axiom(a)) => modules(&mut a.modules).collect(),
+        Stmt::SysItem(SystemItem::Setting(s)) => vec![&mut s.value],
+        Stmt::SysItem(SystemItem::Production(p)) => p
+            .condition
+            .iter_mut()
+            .chain(p.weight.iter_mut())
+            .chain(modules(&mut p.successor))
+            .collect(),
+        Stmt::SysItem(_) => Vec::new(),
     }
 }
 

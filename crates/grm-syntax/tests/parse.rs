@@ -3,7 +3,7 @@
 
 use grm_diag::{Code, FileId};
 use grm_syntax::ast::*;
-use grm_syntax::parse;
+use grm_syntax::{MAX_EXPR_DEPTH, parse};
 
 fn codes(src: &str) -> Vec<&'static str> {
     parse(FileId(0), src)
@@ -216,8 +216,15 @@ fn absurdly_deep_expressions_are_refused_not_overflowing() {
             p.diagnostics.iter().any(|d| d.code == Code::ExprTooDeep),
             "{open}"
         );
-        assert!(matches!(p.file.items[0], Item::Error(_)));
+        // The statement stays (its name is still defined); the expression
+        // is an error node over the same text.
+        let Item::Const(c) = &p.file.items[0] else {
+            panic!("{:?}", p.file.items[0])
+        };
+        assert!(matches!(c.value.kind, ExprKind::Error));
+        assert_eq!(c.value.span.start, 10);
         assert!(matches!(p.file.items[1], Item::System(_)));
+        assert_eq!(p.diagnostics.len(), 1, "{:?}", p.diagnostics);
     }
     let chain = format!("system S {{ axiom F({}1); }}", "1 + ".repeat(100_000));
     let p = parse(FileId(0), &chain);
@@ -225,6 +232,62 @@ fn absurdly_deep_expressions_are_refused_not_overflowing() {
     // Deep but reasonable nesting is fine.
     let ok = format!("const X = {}1{};", "(".repeat(100), ")".repeat(100));
     assert!(parse(FileId(0), &ok).diagnostics.is_empty());
+}
+
+#[test]
+fn the_depth_limit_is_exact() {
+    // `1` is one level, each parenthesis one more.
+    let nested = |levels: usize| {
+        format!(
+            "const X = {}1{};",
+            "(".repeat(levels - 1),
+            ")".repeat(levels - 1)
+        )
+    };
+    assert!(codes(&nested(MAX_EXPR_DEPTH)).is_empty());
+    assert_eq!(codes(&nested(MAX_EXPR_DEPTH + 1)), ["E0211"]);
+    let p = parse(FileId(0), &nested(MAX_EXPR_DEPTH + 1));
+    assert_eq!(
+        p.diagnostics[0].message,
+        format!("expression nested more than {MAX_EXPR_DEPTH} levels deep")
+    );
+}
+
+#[test]
+fn every_too_deep_expression_is_reported_once_where_it_is() {
+    let deep = format!("{}1{}", "-".repeat(MAX_EXPR_DEPTH), "");
+    let srcs = [
+        format!("param p = {deep} in 0 .. 1;"),
+        format!("param p = 0 in {deep} .. 1;"),
+        format!("material m {{ roughness = {deep}; }}"),
+        format!("system S {{ angle = {deep}; axiom F; }}"),
+        format!("system S {{ axiom F(1) F({deep}); }}"),
+        format!("system S {{ axiom A; A : {deep} -> F; }}"),
+        format!("system S {{ axiom A; A -> ({deep}) F; }}"),
+        format!("system S {{ axiom A; A -> F(1) [ F({deep}) ]; }}"),
+    ];
+    for src in &srcs {
+        let p = parse(FileId(0), src);
+        let c: Vec<&str> = p.diagnostics.iter().map(|d| d.code.as_str()).collect();
+        assert_eq!(c, ["E0211"], "{:.60}", src);
+        // The label is on the part past the limit: the `1`, at level 201.
+        let at = src.find(&deep).unwrap() + MAX_EXPR_DEPTH;
+        assert_eq!(
+            p.diagnostics[0].primary().span,
+            grm_diag::Span::new(at as u32, at as u32 + 1),
+            "{:.60}",
+            src
+        );
+        assert!(
+            !p.file.items.iter().any(|i| match i {
+                Item::Error(_) => true,
+                Item::System(s) => s.items.iter().any(|i| matches!(i, SystemItem::Error(_))),
+                _ => false,
+            }),
+            "{:.60}",
+            src
+        );
+    }
 }
 
 #[test]
@@ -257,17 +320,17 @@ fn deep_expressions_in_rejected_or_split_statements_do_not_overflow() {
         let p = parse(FileId(0), &src);
         let c: Vec<Code> = p.diagnostics.iter().map(|d| d.code).collect();
         assert!(c.contains(&Code::ExprTooDeep), "{c:?}");
+        assert_eq!(
+            c.iter().filter(|c| **c == Code::ExprTooDeep).count(),
+            1,
+            "{c:?}"
+        );
         let Item::System(s) = &p.file.items[0] else {
             panic!()
         };
+        // Both statements stay; the deep expression is an error node.
         assert_eq!(s.items.len(), 2);
-        assert_eq!(
-            s.items
-                .iter()
-                .filter(|i| matches!(i, SystemItem::Error(_)))
-                .count(),
-            1
-        );
+        assert!(!s.items.iter().any(|i| matches!(i, SystemItem::Error(_))));
     }
 }
 
