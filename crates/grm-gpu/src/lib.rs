@@ -29,6 +29,9 @@
 //! - Constants and struct layouts shared with WGSL are defined in Rust and
 //!   emitted as a generated header ([`layout::wgsl_header`]); tests check
 //!   both sides with naga.
+//! - A kernel build without a feature (the bytecode interpreter, context
+//!   matching: [`kernels::DeriveKernels`]) is picked only for tables that
+//!   cannot need it, and faults, never answers, if it is reached anyway.
 
 pub mod bench;
 pub mod brackets;
