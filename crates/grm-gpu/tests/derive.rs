@@ -319,22 +319,14 @@ fn only_systems_with_code_get_the_interpreter() {
         iterations: 2,
         seed: 0,
     };
-    let interprets = |jobs: &[grm_gpu::GpuJob]| {
-        grm_gpu::derive::GpuSystem::load(g, jobs)
-            .expect("loads")
-            .interprets_code()
+    // (interpreter, context matching) of the kernels loaded for `jobs`.
+    let builds = |jobs: &[grm_gpu::GpuJob]| {
+        let s = grm_gpu::derive::GpuSystem::load(g, jobs).expect("loads");
+        (s.interprets_code(), s.matches_contexts())
     };
-    assert!(!interprets(&[job(&plant)]));
-    assert!(!interprets(&[job(&context)]));
-    assert!(interprets(&[job(&row)]));
-    assert!(interprets(&[job(&plant), job(&row)]));
-    let matches = |jobs: &[grm_gpu::GpuJob]| {
-        grm_gpu::derive::GpuSystem::load(g, jobs)
-            .expect("loads")
-            .matches_contexts()
-    };
-    assert!(!matches(&[job(&plant)]));
-    assert!(!matches(&[job(&row)]));
-    assert!(matches(&[job(&context)]));
-    assert!(matches(&[job(&plant), job(&context)]));
+    assert_eq!(builds(&[job(&plant)]), (false, false));
+    assert_eq!(builds(&[job(&context)]), (false, true));
+    assert_eq!(builds(&[job(&row)]), (true, false));
+    assert_eq!(builds(&[job(&plant), job(&row)]), (true, false));
+    assert_eq!(builds(&[job(&plant), job(&context)]), (false, true));
 }

@@ -2,15 +2,9 @@
 //! formats, and hostile input.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
-fn grmc(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_grmc"))
-        .args(args)
-        .env("NO_COLOR", "1")
-        .output()
-        .expect("grmc runs")
-}
+mod common;
+use common::*;
 
 fn examples() -> Vec<String> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples");

@@ -2,20 +2,11 @@
 //! lavapipe where there is no GPU; without any adapter these tests fail
 //! with grmc's message saying so, they never skip).
 
-use std::path::Path;
-use std::process::{Command, Output};
-
-fn grmc(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_grmc"))
-        .args(args)
-        .current_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join("../.."))
-        .env("NO_COLOR", "1")
-        .output()
-        .expect("grmc runs")
-}
+mod common;
+use common::*;
 
 fn ok(args: &[&str]) -> String {
-    let out = grmc(args);
+    let out = grmc_at_root(args);
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(0), "grmc {}: {err}", args.join(" "));
     String::from_utf8_lossy(&out.stdout).into_owned()
@@ -55,7 +46,7 @@ fn derive_gpu_prints_the_cpu_string() {
 /// `--stats` says which engine derived each string; the summary too.
 #[test]
 fn derive_gpu_stats_name_each_strings_engine() {
-    let out = grmc(&[
+    let out = grmc_at_root(&[
         "derive",
         "examples/hilbert3d.grm",
         "-n",
@@ -91,7 +82,7 @@ fn derive_gpu_reports_a_production_error_with_its_span() {
         "system S { axiom A(2) A(3); A(x) -> A(x - 1) F(1 / (x - 1)); }\n",
     )
     .expect("write");
-    let out = grmc(&["derive", &f.display().to_string(), "-n", "3", "--gpu"]);
+    let out = grmc_at_root(&["derive", &f.display().to_string(), "-n", "3", "--gpu"]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(
@@ -102,7 +93,7 @@ fn derive_gpu_reports_a_production_error_with_its_span() {
 
 #[test]
 fn derive_gpu_limits_are_errors_not_crashes() {
-    let out = grmc(&[
+    let out = grmc_at_root(&[
         "derive",
         "examples/koch_island.grm",
         "-n",

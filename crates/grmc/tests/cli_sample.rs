@@ -1,24 +1,8 @@
 //! `grmc sample` as a user runs it: the cost by term, bone count and time;
 //! export; the same seed giving the same file; typed errors and exit codes.
 
-use std::path::PathBuf;
-use std::process::{Command, Output};
-
-fn grmc(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_grmc"))
-        .args(args)
-        .env("NO_COLOR", "1")
-        .output()
-        .expect("grmc runs")
-}
-
-fn example(name: &str) -> String {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../examples")
-        .join(name)
-        .display()
-        .to_string()
-}
+mod common;
+use common::*;
 
 #[test]
 fn samples_the_calder_tree_and_exports_it() {

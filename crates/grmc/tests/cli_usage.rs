@@ -2,28 +2,11 @@
 //! user runs them: exit codes, messages, and nothing done before a usage
 //! problem is reported.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
+use std::process::Command;
 
-fn grmc(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_grmc"))
-        .args(args)
-        .env("NO_COLOR", "1")
-        .output()
-        .expect("grmc runs")
-}
-
-fn example(name: &str) -> String {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../examples")
-        .join(name)
-        .display()
-        .to_string()
-}
-
-fn text(b: &[u8]) -> String {
-    String::from_utf8_lossy(b).into_owned()
-}
+mod common;
+use common::*;
 
 fn path(p: &Path) -> &str {
     p.to_str().expect("utf-8 path")
