@@ -36,8 +36,21 @@ pub fn path_of(uri: &Uri) -> Option<std::path::PathBuf> {
 }
 
 pub fn pos(src: &SourceFile, offset: u32) -> Position {
-    let (line, character) = src.line_col_utf16(offset);
+    let (line, character) = src.line_col_utf16(before_crlf(src, offset));
     Position { line, character }
+}
+
+/// An offset between the `\r` and the `\n` of a CRLF line break moved to
+/// before the `\r`: LSP has no position inside a line terminator, and a
+/// line's end (what a character past it means) excludes it.
+fn before_crlf(src: &SourceFile, offset: u32) -> u32 {
+    let b = src.text.as_bytes();
+    let i = offset as usize;
+    if i > 0 && b.get(i) == Some(&b'\n') && b[i - 1] == b'\r' {
+        offset - 1
+    } else {
+        offset
+    }
 }
 
 pub fn range(src: &SourceFile, span: Span) -> Range {
@@ -47,9 +60,11 @@ pub fn range(src: &SourceFile, span: Span) -> Range {
     }
 }
 
-/// The byte offset of an LSP position in a file (clamped to its lines).
+/// The byte offset of an LSP position in a file (clamped to its lines; a
+/// character past the end of a line is the line's end, before a CRLF's
+/// `\r`).
 pub fn offset(src: &SourceFile, p: Position) -> u32 {
-    src.offset_of_utf16(p.line, p.character)
+    before_crlf(src, src.offset_of_utf16(p.line, p.character))
 }
 
 /// A byte span of an LSP range.

@@ -474,12 +474,32 @@ impl LanguageServer for Backend {
             return;
         };
         let version = params.text_document.version;
-        {
+        let open = {
             // Applied before any await: edits are taken in arrival order.
             let mut a = self.shared.analysis();
-            let old = a.document(&path).map(|(_, t)| t).unwrap_or_default();
-            let text = convert::apply_changes(&old, &params.content_changes);
-            a.set_document(&path, version, text);
+            // A change to a document that is not open (a client bug) has no
+            // text to apply to: taking it as an edit of an empty text would
+            // open a document that hides the file from its importers.
+            match a.document(&path) {
+                Some((_, old)) => {
+                    let text = convert::apply_changes(&old, &params.content_changes);
+                    a.set_document(&path, version, text);
+                    true
+                }
+                None => false,
+            }
+        };
+        if !open {
+            self.client
+                .log_message(
+                    MessageType::WARNING,
+                    format!(
+                        "didChange for {} ignored: the document is not open",
+                        params.text_document.uri.as_str()
+                    ),
+                )
+                .await;
+            return;
         }
         // Leading-edge debounce: an edit after a pause is analysed at once;
         // edits that follow each other closer than the debounce wait it out
@@ -502,7 +522,19 @@ impl LanguageServer for Backend {
         let Some(path) = convert::path_of(&params.text_document.uri) else {
             return;
         };
-        self.shared.analysis().close_document(&path);
+        // Its importers now read the file on disk (the buffer may have had
+        // unsaved edits): check them again.
+        let deps: Vec<(PathBuf, i32)> = {
+            let mut a = self.shared.analysis();
+            a.close_document(&path);
+            a.dependents(&path)
+                .into_iter()
+                .filter_map(|d| a.document(&d).map(|(v, _)| (d, v)))
+                .collect()
+        };
+        for (d, v) in deps {
+            self.schedule(d, v, Duration::ZERO);
+        }
         self.shared.previews().remove(&path);
         self.shared
             .picks

@@ -81,9 +81,19 @@ fn random_pos(rng: &mut Rng, text: &str) -> (u32, u32) {
 
 /// Apply an LSP range edit to a local copy exactly as the server must.
 fn apply_local(text: &str, a: (u32, u32), b: (u32, u32), new: &str) -> String {
+    // As LSP defines positions: a character past a line's end is its end,
+    // before a CRLF's `\r` (`grm_lsp::convert::offset`).
     let src = SourceFile::new("", text);
-    let x = src.offset_of_utf16(a.0, a.1) as usize;
-    let y = src.offset_of_utf16(b.0, b.1) as usize;
+    let o = |p: (u32, u32)| {
+        grm_lsp::convert::offset(
+            &src,
+            tower_lsp_server::ls_types::Position {
+                line: p.0,
+                character: p.1,
+            },
+        ) as usize
+    };
+    let (x, y) = (o(a), o(b));
     let (x, y) = (x.min(y), x.max(y));
     let mut s = text.to_string();
     s.replace_range(x..y, new);
