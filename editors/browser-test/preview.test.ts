@@ -309,6 +309,55 @@ test('derive mode: the model renders, a slider regrows it, a pick names the rule
   await page.close();
 });
 
+test('a grammar with errors keeps the last model on screen and says so; an empty model and a file without a system', async () => {
+  const dir = scratch(['bracketed_plant.grm']);
+  const file = join(dir, 'bracketed_plant.grm');
+  const good = readFileSync(file, 'utf8');
+  const page = await openPage(await view(file));
+  const g0 = await waitRegrows(page, 1, 'first model');
+  const lit = await litPixels(page);
+  assert.ok(lit > 2000, `the model covers ${lit} pixels`);
+  const waitError = (re: RegExp) =>
+    page.waitForFunction((src) => new RegExp(src).test((globalThis as unknown as { __grm: Grm }).__grm.lastError ?? ''), re.source, { timeout: 20_000 });
+  // Saved with a syntax error (grmc view watches the file): the message is shown over the last good model.
+  const bad = good.replace(/^(\s*)F\s*->/m, '$1F -> [ ->');
+  assert.notEqual(bad, good);
+  writeFileSync(file, bad);
+  await waitError(/error/);
+  await page.waitForTimeout(100);
+  const broken = await grm(page);
+  assert.equal(broken.regrows, g0.regrows, 'no model was shown for the broken grammar');
+  assert.equal(broken.meshCount, g0.meshCount, 'the last model stays');
+  assert.ok((await litPixels(page)) > lit / 2, 'the view did not blank out');
+  assert.match((await page.textContent('#overlay-msg')) ?? '', /error/);
+  assert.match((await page.getAttribute('#status', 'class')) ?? '', /error/);
+  await page.screenshot({ path: join(artifacts, 'derive-error.png') });
+  // Fixed: the model regrows and the message goes.
+  writeFileSync(file, good);
+  // (waitRegrows stops at an error: the broken grammar's is still shown until the new model comes.)
+  await page.waitForFunction((n) => (globalThis as unknown as { __grm: Grm }).__grm.regrows > n, g0.regrows, { timeout: 20_000 });
+  const g1 = await grm(page);
+  assert.equal(g1.lastError, null);
+  assert.equal(g1.bones, g0.bones);
+  assert.equal((await page.textContent('#overlay-msg')) ?? '', '');
+  // A system that draws nothing: an empty model, not an error.
+  writeFileSync(file, 'system Empty {\n    axiom X;\n}\n');
+  const g2 = await waitRegrows(page, g1.regrows + 1, 'the empty model');
+  assert.deepEqual([g2.lastError, g2.bones, g2.triangles, g2.meshCount], [null, 0, 0, 0]);
+  assert.match((await page.textContent('#status-text')) ?? '', /Empty \(derive\).*0 triangles.*0 bones/);
+  await page.click('#frame');
+  await page.keyboard.press('n');
+  await waitRegrows(page, g2.regrows + 1, 'next variation of the empty model');
+  // No system at all: said, not a blank page.
+  writeFileSync(file, '// nothing yet\n');
+  await waitError(/defines no system/);
+  assert.match((await page.textContent('#overlay-msg')) ?? '', /defines no system/);
+  // grmc view answers a grammar it cannot preview with HTTP 422, which the browser logs by itself.
+  const errors = pageErrors(page).filter((e) => !/Failed to load resource: the server responded with a status of 422/.test(e));
+  assert.deepEqual(errors, []);
+  await page.close();
+});
+
 test('variations: next variation and the gallery of seeds (a stochastic grammar)', async () => {
   const dir = scratch(['stochastic_plant.grm']);
   const page = await openPage(await view(join(dir, 'stochastic_plant.grm')));
@@ -477,6 +526,19 @@ test('sample mode: drawing a curve and dragging its control point regrow the Cal
   await waitRegrows(page, s2b.regrows + 1, 'after undo');
   await page.waitForFunction((n) => (globalThis as unknown as { __grm: Grm }).__grm.saves > n, s2b.saves, { timeout: 10_000 });
   assert.equal(offsetOf(), 0.6);
+
+  // A segment length the sampler refuses (the 4-unit trunk curve cut into 40000 utilization segments,
+  // at most 2048 are allowed): marked, not applied, not saved.
+  await page.click('#curve-list .curve:nth-child(1)');
+  const s2c = await grm(page);
+  await page.fill('#curve-fields input[data-key=segment_length]', '0.0001');
+  await page.press('#curve-fields input[data-key=segment_length]', 'Enter');
+  await page.waitForTimeout(300);
+  assert.match((await page.getAttribute('#curve-fields label:has(input[data-key=segment_length])', 'class')) ?? '', /invalid/);
+  assert.match((await page.getAttribute('#curve-fields label:has(input[data-key=segment_length])', 'title')) ?? '', /at most 2048 are allowed/);
+  const s2d = await grm(page);
+  assert.deepEqual([s2d.regrows, s2d.saves, s2d.lastError], [s2c.regrows, s2c.saves, null]);
+  await page.click('#curve-list .curve:nth-child(4)');
 
   // Next variation: another seed, another tree.
   const s3 = await grm(page);

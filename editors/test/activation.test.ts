@@ -1,12 +1,16 @@
 // The built extension bundle (vscode/dist/extension.js) activates against a
 // stand-in for the `vscode` module: commands registered, and a server path
-// that does not exist reported rather than started.
+// that does not exist reported rather than started, and one that does not
+// start reported without failing the activation.
 import assert from 'node:assert/strict';
+import { chmodSync, mkdtempSync, rmSync, writeFileSync } from 'node:fs';
 import Module, { createRequire } from 'node:module';
+import { tmpdir } from 'node:os';
 import { join } from 'node:path';
 import { test } from 'node:test';
 
-test('the bundle activates: three commands, a clear error for a missing server', async () => {
+/** Activate the built bundle against a stand-in `vscode` whose `grm.server.path` is `setting`. */
+async function activateWith(setting: string): Promise<{ commands: string[]; errors: string[]; log: string[] }> {
   const calls = { commands: [] as string[], errors: [] as string[], log: [] as string[] };
   // Anything the extension touches that the test does not care about is a
   // harmless callable (a `function`, so that classes may extend it).
@@ -35,9 +39,10 @@ test('the bundle activates: three commands, a clear error for a missing server',
         showInformationMessage: async () => undefined,
       },
       workspace: {
-        getConfiguration: () => ({ get: (k: string) => (k === 'server.path' ? '/nonexistent/grmc' : undefined) }),
+        getConfiguration: () => ({ get: (k: string) => (k === 'server.path' ? setting : undefined) }),
         workspaceFolders: [],
         onDidChangeConfiguration: () => disposable,
+        createFileSystemWatcher: () => disposable,
       },
     },
     anything,
@@ -49,18 +54,46 @@ test('the bundle activates: three commands, a clear error for a missing server',
   };
   try {
     const require = createRequire(import.meta.url);
-    const ext = require(join(import.meta.dirname, '../../vscode/dist/extension.js')) as {
+    const bundle = join(import.meta.dirname, '../../vscode/dist/extension.js');
+    // A fresh copy each time: the bundle binds the `vscode` module it is loaded with.
+    delete require.cache[require.resolve(bundle)];
+    const ext = require(bundle) as {
       activate(c: unknown): Promise<void>;
       deactivate(): Promise<void>;
     };
     const context = { subscriptions: [] as unknown[], extensionPath: '/ext', extensionUri: {} };
     await ext.activate(context);
-    assert.deepEqual(calls.commands.sort(), ['grm.exportModel', 'grm.openPreview', 'grm.restartServer']);
-    assert.deepEqual(calls.errors, ['grm.server.path is set to /nonexistent/grmc, but /nonexistent/grmc is not an executable file']);
-    assert.match(calls.log.join('\n'), /tried:\n {2}\/nonexistent\/grmc/);
     assert.ok(context.subscriptions.length >= 4);
     await ext.deactivate();
+    return calls;
   } finally {
     loader._load = original;
+  }
+}
+
+test('the bundle activates: three commands, a clear error for a missing server', async () => {
+  const calls = await activateWith('/nonexistent/grmc');
+  assert.deepEqual(calls.commands.sort(), ['grm.exportModel', 'grm.openPreview', 'grm.restartServer']);
+  assert.deepEqual(calls.errors, ['grm.server.path is set to /nonexistent/grmc, but /nonexistent/grmc is not an executable file']);
+  assert.match(calls.log.join('\n'), /tried:\n {2}\/nonexistent\/grmc/);
+});
+
+// A server that is found but whose client does not start (a binary that is
+// not grmc or crashes; here the client fails against the stand-in `vscode`):
+// activation used to reject, so VS Code reported the extension as failed, the
+// restart command threw and the preview said nothing useful.
+test('a server that cannot start is reported; activation still succeeds', async () => {
+  const dir = mkdtempSync(join(tmpdir(), 'grm-activation-'));
+  try {
+    const fake = join(dir, 'grmc');
+    writeFileSync(fake, '#!/bin/sh\nexit 3\n');
+    chmodSync(fake, 0o755);
+    const calls = await activateWith(fake);
+    assert.deepEqual(calls.commands.sort(), ['grm.exportModel', 'grm.openPreview', 'grm.restartServer']);
+    assert.equal(calls.errors.length, 1, JSON.stringify(calls));
+    assert.match(calls.errors[0], new RegExp(`^the grm language server could not start \\(${fake} lsp\\): `));
+    assert.match(calls.log.join('\n'), /could not start/);
+  } finally {
+    rmSync(dir, { recursive: true, force: true });
   }
 });

@@ -2,7 +2,19 @@ import assert from 'node:assert/strict';
 import { readFileSync } from 'node:fs';
 import { join } from 'node:path';
 import { test } from 'node:test';
-import { CurvesError, DEFAULT_PARAMS, cloneSet, formatNumber, freshName, parseCurves, serializeCurves } from '../preview/src/curves.js';
+import {
+  CurvesError,
+  DEFAULT_PARAMS,
+  MAX_SEGMENTS_PER_CURVE,
+  cloneSet,
+  curveLength,
+  formatNumber,
+  freshName,
+  parseCurves,
+  segmentCount,
+  serializeCurves,
+  setProblem,
+} from '../preview/src/curves.js';
 
 const examples = join(import.meta.dirname, '../../../examples');
 
@@ -65,6 +77,35 @@ test('serializing refuses what the sampler would refuse', () => {
   assert.throws(() => serializeCurves({ curves: [] }), /at least one curve/);
   const set = { curves: [{ points: [[0, 0, 0], [0, 1, 0], [0, 2, 0], [0, 3, 0]], params: { ...DEFAULT_PARAMS, thickness: -1 } }] } as any;
   assert.throws(() => serializeCurves(set), /thickness -1 must be >= 0/);
+});
+
+// grm-guide limits a curve to 2048 utilization segments and a file to 8192
+// (docs/curves.md, "Validation"): the editor refused neither, so the page
+// applied (and VS Code saved) a segment length the sampler then refused.
+test('too many utilization segments are refused, as grm-guide refuses them', () => {
+  const line = (len: number) => [[0, 0, 0], [0, len / 3, 0], [0, (2 * len) / 3, 0], [0, len, 0]];
+  assert.ok(Math.abs(curveLength(line(4) as any) - 4) < 1e-9);
+  assert.equal(segmentCount(2.1, 0.3), 7);
+  assert.equal(segmentCount(4, 0.2), 20);
+  const file = (curves: unknown[]) => JSON.stringify({ version: 1, curves });
+  // 4 / 0.0001 = 40000 segments (the calder trunk with a tiny segment length).
+  assert.throws(
+    () => parseCurves(file([{ name: 'trunk', points: line(4), segment_length: 0.0001 }])),
+    (e: Error) => e instanceof CurvesError && /curve 0 \("trunk"\): segment_length 0.0001 splits the curve \(length 4.000\) into 40000 segments; at most 2048 are allowed/.test(e.message),
+  );
+  // Exactly the limit is accepted.
+  assert.equal(parseCurves(file([{ points: line(MAX_SEGMENTS_PER_CURVE * 0.25), segment_length: 0.25 }])).curves.length, 1);
+  // Five curves of 2000 segments each: each within its limit, 10000 in all.
+  const five = Array.from({ length: 5 }, (_, i) => ({ name: `c${i}`, points: line(200).map(([x, y, z]) => [x + i, y, z]), segment_length: 0.1 }));
+  assert.throws(() => parseCurves(file(five)), /10000 utilization segments in all; at most 8192/);
+  // Serializing (what the page saves) and the page's check of an edited set refuse it too.
+  const set = parseCurves(readFileSync(join(examples, 'calder_tree.curves.json'), 'utf8'));
+  assert.equal(setProblem(set), null);
+  set.curves[0].params.segment_length = 0.0001;
+  assert.match(setProblem(set) ?? '', /into 40000 segments/);
+  assert.throws(() => serializeCurves(set), /into 40000 segments/);
+  // A curve that is (nearly) a point, as grm-guide measures it.
+  assert.throws(() => parseCurves(file([{ points: [[1, 1, 1], [1, 1, 1], [1, 1, 1 + 1e-12], [1, 1, 1]] }])), /coincide/);
 });
 
 test('fresh names and deep copies', () => {

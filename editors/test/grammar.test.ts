@@ -1,6 +1,6 @@
 // The TextMate grammar, tokenized by the same engine VS Code uses.
 import assert from 'node:assert/strict';
-import { readFileSync } from 'node:fs';
+import { readFileSync, readdirSync } from 'node:fs';
 import { createRequire } from 'node:module';
 import { join } from 'node:path';
 import { test } from 'node:test';
@@ -75,10 +75,28 @@ test('productions: turtle symbols, terminals, modules and expressions in paramet
   assert.deepEqual(scopeOf(toks, '->'), ['keyword.operator.arrow.grm']);
 });
 
+// `vec3` is a type (`const UP: vec3 = ...`) and a function (`vec3(0, 1, 0)`);
+// outside parentheses the call was scoped as the type, e.g. in the
+// `tropism = vec3(0, -1, 0);` setting of docs/language.md.
+test('vec3: the type in a declaration, the built-in function in a call at any depth', async () => {
+  const g = await grammar();
+  const toks = tokens(g, `const UP: vec3 = vec3(0, 1, 0);\nsystem S {\n  tropism = vec3 (0, -1, 0);\n  module A(v: vec3);\n  axiom A(vec3(1, 2, 3));\n  A(v) -> translate(vec3(v.x, 0, 0)) A(v);\n}`);
+  assert.deepEqual(scopeOf(toks, 'vec3'), [
+    'storage.type.grm',
+    'support.function.builtin.grm',
+    'support.function.builtin.grm',
+    'storage.type.grm',
+    'support.function.builtin.grm',
+    'support.function.builtin.grm',
+  ]);
+});
+
 test('every example grammar tokenizes without a stray scope at the end', async () => {
   const g = await grammar();
   const examples = join(editors, '../examples');
-  for (const f of ['calder_tree.grm', 'hilbert3d.grm', 'stochastic_plant.grm', 'context_plant_a.grm']) {
+  const files = readdirSync(examples).filter((f) => f.endsWith('.grm'));
+  assert.ok(files.length >= 10, files.join(' '));
+  for (const f of files) {
     let stack = textmate.INITIAL;
     for (const line of readFileSync(join(examples, f), 'utf8').split('\n')) stack = g.tokenizeLine(line, stack).ruleStack;
     // Back at the top level: no unclosed comment, string, successor or parenthesis.

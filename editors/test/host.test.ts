@@ -116,6 +116,12 @@ test('curves are read from and saved next to the grammar, and only valid curves'
   await host.handle({ type: 'request', id: 3, method: 'saveCurves', params: { uri: 'file:///w/tree.grm', text: '{"version": 1, "curves": []}' } });
   assert.equal(writes.length, 1);
   assert.match((posted.at(-1) as { error: string }).error, /at least one curve/);
+  // A file the sampler refuses for its utilization segments is not written either.
+  const tiny = CURVES.replace(/"points"/, '"segment_length": 0.00001, "points"');
+  assert.notEqual(tiny, CURVES);
+  await host.handle({ type: 'request', id: 4, method: 'saveCurves', params: { uri: 'file:///w/tree.grm', text: tiny } });
+  assert.equal(writes.length, 1);
+  assert.match((posted.at(-1) as { error: string }).error, /at most 2048 are allowed/);
 });
 
 test("the server's error code reaches the page with the error (a superseded preview is told apart)", async () => {

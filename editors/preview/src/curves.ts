@@ -61,7 +61,87 @@ export const PARAM_RANGES: Record<Exclude<ParamKey, 'distance'>, { min: number; 
   thickness: { min: 0, max: Infinity, label: 'thickness' },
 };
 
+/** Most utilization segments one curve may be split into (grm-guide's `MAX_SEGMENTS_PER_CURVE`). */
+export const MAX_SEGMENTS_PER_CURVE = 2048;
+
+/** Most utilization segments over all curves of a file (grm-guide's `MAX_SEGMENTS_TOTAL`). */
+export const MAX_SEGMENTS_TOTAL = 8192;
+
 export class CurvesError extends Error {}
+
+/** Arc length of a cubic Bézier as grm-guide measures it (`Bezier3::length`: 1024 chords, power basis). */
+export function curveLength(points: Bezier): number {
+  const [p0, p1, p2, p3] = points;
+  const a = [0, 1, 2].map((k) => p3[k] - p0[k] + 3 * (p1[k] - p2[k]));
+  const b = [0, 1, 2].map((k) => 3 * (p0[k] - 2 * p1[k] + p2[k]));
+  const c = [0, 1, 2].map((k) => 3 * (p1[k] - p0[k]));
+  const at = (t: number) => [0, 1, 2].map((k) => ((a[k] * t + b[k]) * t + c[k]) * t + p0[k]);
+  const n = 1024;
+  let acc = 0;
+  let prev = at(0);
+  for (let i = 1; i <= n; i++) {
+    const cur = at(i / n);
+    acc += Math.hypot(cur[0] - prev[0], cur[1] - prev[1], cur[2] - prev[2]);
+    prev = cur;
+  }
+  return acc;
+}
+
+/** grm-guide's `segment_count`: `ceil(length / segment_length)`, at least 1 (a ratio within 1e-9 above an integer counts as it). */
+export function segmentCount(length: number, segmentLength: number): number {
+  const n = Math.ceil(length / segmentLength - 1e-9);
+  return Number.isFinite(n) && n >= 1 ? n : 1;
+}
+
+/**
+ * The checks grm-guide makes on a curve's shape (`check_curve`): not of zero
+ * length, and at most MAX_SEGMENTS_PER_CURVE utilization segments. Returns
+ * its number of segments; throws CurvesError.
+ */
+function checkShape(c: Curve, at: string): number {
+  const [p0, p1, p2, p3] = c.points;
+  const polygon = dist3(p0, p1) + dist3(p1, p2) + dist3(p2, p3);
+  const length = curveLength(c.points);
+  if (Number.isNaN(length) || length <= 1e-9 * Math.max(polygon, 1)) throw new CurvesError(`${at}all control points coincide (a curve of zero length)`);
+  const n = segmentCount(length, c.params.segment_length);
+  if (n > MAX_SEGMENTS_PER_CURVE) {
+    throw new CurvesError(
+      `${at}segment_length ${c.params.segment_length} splits the curve (length ${length.toFixed(3)}) into ${n} segments; at most ${MAX_SEGMENTS_PER_CURVE} are allowed`,
+    );
+  }
+  return n;
+}
+
+/** grm-guide's limits on a whole set's shapes: each curve's, then the segments of all curves together. Throws CurvesError. */
+function checkShapes(set: CurveSet): void {
+  let total = 0;
+  set.curves.forEach((c, i) => (total += checkShape(c, where(i, c.name))));
+  if (total > MAX_SEGMENTS_TOTAL) {
+    throw new CurvesError(`curves: have ${total} utilization segments in all; at most ${MAX_SEGMENTS_TOTAL} are allowed (raise segment_length)`);
+  }
+}
+
+/** Why grm-guide would refuse this set (a parameter out of range, a curve of zero length, too many utilization segments), or null. */
+export function setProblem(set: CurveSet): string | null {
+  try {
+    if (set.curves.length === 0) return 'a curves file needs at least one curve';
+    set.curves.forEach((c, i) => {
+      for (const key of PARAM_KEYS) {
+        const problem = checkParam(key, c.params[key]);
+        if (problem) throw new CurvesError(where(i, c.name) + problem);
+      }
+    });
+    checkShapes(set);
+    return null;
+  } catch (e) {
+    if (e instanceof CurvesError) return e.message;
+    throw e;
+  }
+}
+
+function dist3(a: V3, b: V3): number {
+  return Math.hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]);
+}
 
 function isObject(v: unknown): v is Record<string, unknown> {
   return typeof v === 'object' && v !== null && !Array.isArray(v);
@@ -178,14 +258,13 @@ export function fromJson(json: unknown): CurveSet {
       if (!Array.isArray(p) || p.length !== 3) throw new CurvesError(`${at}points[${j}] must be [x, y, z]`);
       return p.map((x, k) => finite(x, at, `points[${j}][${k}]`)) as V3;
     }) as Bezier;
-    if (points.every((p) => p[0] === points[0][0] && p[1] === points[0][1] && p[2] === points[0][2])) {
-      throw new CurvesError(`${at}all control points coincide`);
-    }
     const curve: Curve = { points, params: readParams(c, defaults, at) };
     if (name !== undefined) curve.name = name;
     return curve;
   });
-  return density ? { curves, density } : { curves };
+  const set: CurveSet = density ? { curves, density } : { curves };
+  checkShapes(set);
+  return set;
 }
 
 /** A number as grm-guide writes it (`{:?}` on f64): integers get a `.0`. */
@@ -199,7 +278,8 @@ export function formatNumber(x: number): string {
 /**
  * The canonical text, as `Curves::to_json_string` writes it: version 1, every
  * parameter per curve, no `defaults`. Refuses (throws) an empty set or a
- * parameter out of range, so a saved file always loads.
+ * parameter out of range, a curve of zero length or too many utilization
+ * segments (grm-guide's limits), so a saved file always loads.
  */
 export function serializeCurves(set: CurveSet): string {
   if (set.curves.length === 0) throw new CurvesError('a curves file needs at least one curve');
@@ -209,11 +289,9 @@ export function serializeCurves(set: CurveSet): string {
     s += `  "density": { "radius": ${formatNumber(set.density.radius)}, "scale": ${formatNumber(set.density.scale)} },\n`;
   }
   s += '  "curves": [\n';
+  const problem = setProblem(set);
+  if (problem) throw new CurvesError(problem);
   set.curves.forEach((c, i) => {
-    for (const key of PARAM_KEYS) {
-      const problem = checkParam(key, c.params[key]);
-      if (problem) throw new CurvesError(where(i, c.name) + problem);
-    }
     const p = c.params;
     s += '    {\n';
     if (c.name !== undefined) s += `      "name": ${JSON.stringify(c.name)},\n`;

@@ -4,7 +4,7 @@
 
 import type { V3 } from './bezier.js';
 import { Coalescer, type Delivery } from './coalesce.js';
-import { PARAM_KEYS, PARAM_RANGES, type ParamKey, checkParam } from './curves.js';
+import { PARAM_KEYS, PARAM_RANGES, type ParamKey, checkParam, cloneSet, setProblem } from './curves.js';
 import type { NotificationMethod } from './messages.js';
 import {
   type Origin,
@@ -862,7 +862,14 @@ class App {
     input.addEventListener('change', () => {
       const raw = input.value.trim();
       const value = key === 'distance' ? raw.split(/[\s,]+/).map(Number) : Number(raw);
-      const problem = checkParam(key, value);
+      // The value alone, then the set with it (grm-guide's limits: a tiny segment length on a long curve).
+      let problem = checkParam(key, value);
+      const set = this.state.curves;
+      if (!problem && set?.curves[curve]) {
+        const next = cloneSet(set);
+        (next.curves[curve].params as unknown as Record<string, unknown>)[key] = value;
+        problem = setProblem(next);
+      }
       row.classList.toggle('invalid', problem !== null);
       row.title = problem ?? '';
       if (problem) return;

@@ -62,9 +62,25 @@ async function startClient(context: vscode.ExtensionContext): Promise<void> {
     synchronize: { fileEvents: vscode.workspace.createFileSystemWatcher('**/*.{grm,curves.json,obj}') },
   };
   // The client id `grm` makes vscode-languageclient honour `grm.trace.server`.
-  client = new LanguageClient('grm', 'grm language server', serverOptions, clientOptions);
-  client.onNotification('grm/previewUpdated', (p: unknown) => preview?.host.previewUpdated(p));
-  await client.start();
+  let c: LanguageClient | undefined;
+  try {
+    c = new LanguageClient('grm', 'grm language server', serverOptions, clientOptions);
+    c.onNotification('grm/previewUpdated', (p: unknown) => preview?.host.previewUpdated(p));
+    await c.start();
+    client = c;
+  } catch (e) {
+    // A binary that is not grmc, crashes or exits: said, and activation (and the restart command) still succeed.
+    const why = `the grm language server could not start (${serverPath} lsp): ${e instanceof Error ? e.message : String(e)}`;
+    output.appendLine(why);
+    void vscode.window.showErrorMessage(why, 'Show output').then((choice) => {
+      if (choice) output.show();
+    });
+    try {
+      await c?.dispose();
+    } catch {
+      // Never started: nothing to stop.
+    }
+  }
 }
 
 async function stopClient(): Promise<void> {
