@@ -20,7 +20,7 @@
 //! | request | answer |
 //! |---|---|
 //! | `GET /`, `/preview.js`, `/preview.css` | the page |
-//! | `POST /api/preview`, `/api/pick` | `{"result": ...}` (200) or `{"error": "...", "code": N}` (422; `code`: the language server's JSON-RPC error code, where it gave one); a request the server dropped on purpose, a preview a newer one superseded (-32802) or a cancelled one (-32800), is not a failure and is answered 200 with its `error` and `code` (browsers log every 4xx answer in the console) |
+//! | `POST /api/preview`, `/api/pick` | 200 with `{"result": ...}` or `{"error": "...", "code": N}` (`code`: the language server's JSON-RPC error code, where it gave one: a preview a newer one superseded is -32802, a cancelled one -32800); every call that reached the server is answered 200, as a JSON-RPC reply is, since a grammar that cannot be previewed is no HTTP failure (browsers log every 4xx answer in the console); 4xx only for a request that is not a call (bad JSON, too large, another origin) |
 //! | `POST /api/symbols` | `textDocument/documentSymbol` (the page reads the meta-parameters' ranges) |
 //! | `POST /api/loadCurves`, `/api/saveCurves` | the curves file next to the grammar (`tree.grm` -> `tree.curves.json`); saved only if `grm-guide` accepts it |
 //! | `GET /api/events?after=N[&wait=MS]` | long poll (20 s at most): `{"seq": M, "events": [{"method", "params"}]}` |
@@ -61,10 +61,6 @@ const POLL_WAIT: Duration = Duration::from_secs(20);
 const WATCH_EVERY: Duration = Duration::from_millis(150);
 /// Events kept for pollers that fell behind.
 const EVENT_LOG: usize = 64;
-/// LSP 3.17's ServerCancelled: a `grm/preview` a newer one superseded.
-const SERVER_CANCELLED: i64 = grm_lsp::preview::SERVER_CANCELLED;
-/// LSP's RequestCancelled.
-const REQUEST_CANCELLED: i64 = -32800;
 
 #[derive(clap::Args, Debug)]
 pub struct ViewArgs {
@@ -606,7 +602,6 @@ fn respond_with(
         405 => "Method Not Allowed",
         411 => "Length Required",
         413 => "Payload Too Large",
-        422 => "Unprocessable Content",
         431 => "Request Header Fields Too Large",
         _ => "Error",
     };
@@ -707,22 +702,22 @@ fn handle(st: &State, stream: TcpStream) -> std::io::Result<()> {
                 }
             };
             let started = Instant::now();
-            let (status, answer) = match st.api(&p["/api/".len()..], params) {
-                Ok(result) => (200, json!({ "result": result })),
-                // Dropped on purpose (superseded, cancelled): not a failure.
-                Err(ApiError {
-                    message,
-                    code: Some(code @ (SERVER_CANCELLED | REQUEST_CANCELLED)),
-                }) => (200, json!({ "error": message, "code": code })),
+            // A call the request reached is answered 200 whatever its
+            // outcome, like a JSON-RPC reply: a grammar that cannot be
+            // previewed is the page's everyday state, not an HTTP failure
+            // (browsers log every 4xx answer in the console).
+            let answer = match st.api(&p["/api/".len()..], params) {
+                Ok(result) => json!({ "result": result }),
                 Err(ApiError {
                     message,
                     code: Some(code),
-                }) => (422, json!({ "error": message, "code": code })),
+                }) => json!({ "error": message, "code": code }),
                 Err(ApiError {
                     message,
                     code: None,
-                }) => (422, json!({ "error": message })),
+                }) => json!({ "error": message }),
             };
+            let status = 200;
             let body = answer.to_string();
             let timing = format!(
                 "Server-Timing: app;dur={:.2}\r\n",
@@ -1001,7 +996,7 @@ mod tests {
             "/api/preview",
             &json!({ "textDocument": { "uri": "file:///etc/passwd" } }),
         );
-        assert_eq!(status, 422);
+        assert_eq!(status, 200);
         assert!(
             e["error"]
                 .as_str()
@@ -1016,7 +1011,8 @@ mod tests {
             "/api/saveCurves",
             &json!({ "uri": uri, "text": "{\"version\": 1, \"curves\": []}" }),
         );
-        assert_eq!(status, 422, "{e}");
+        assert_eq!(status, 200, "{e}");
+        assert!(e["error"].is_string(), "{e}");
         assert!(!curves_path_for(&grammar).exists());
         let curves =
             "{\"version\": 1, \"curves\": [{\"points\": [[0,0,0],[0,1,0],[0,2,0],[0,3,0]]}]}";
