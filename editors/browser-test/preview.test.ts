@@ -267,7 +267,9 @@ test('derive mode: the model renders, a slider regrows it, a pick names the rule
   const g1 = await waitRegrows(page, g0.regrows + 1, 'after the slider');
   const sliderMs = [g1.lastLatencyMs ?? NaN];
   const sliderParts = [g1.lastBreakdown];
-  for (const v of ['30', '12', '35', '20']) {
+  // Past either end the browser clamps the slider to its range, which the
+  // server requires (a value outside it is refused, as `grmc --param` does).
+  for (const v of ['30', '12', '1000', '-5', '35', '20']) {
     const n = (await grm(page)).regrows;
     await slider.evaluate((el: HTMLInputElement, x: string) => {
       el.value = x;

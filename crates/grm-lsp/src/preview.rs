@@ -789,6 +789,14 @@ pub(crate) fn build(
                 "meta-parameter `{name}` must be finite"
             )));
         }
+        // As `grmc --param` refuses it: a slider never leaves its range.
+        if let Some((lo, hi)) = decl.range
+            && !(lo..=hi).contains(v)
+        {
+            return Err(Failure::Msg(format!(
+                "meta-parameter `{name}` = {v} is outside its range {lo} .. {hi}"
+            )));
+        }
         values[id.index()] = Value::Float(*v);
     }
     let globals = prog.global_values(&values).map_err(|e| e.to_string())?;

@@ -420,11 +420,13 @@ async fn preview_pick_and_live_updates() {
         .map(|pk| pk["triangleCount"].as_u64().unwrap())
         .sum();
     let _ = writeln!(out, "focused triangles: {focused}");
-    // Errors: a stale version, sample mode, an unknown parameter.
+    // Errors: a stale version, sample mode, an unknown parameter, one
+    // outside its range.
     for params in [
         json!({ "textDocument": { "uri": u }, "version": 7 }),
         json!({ "textDocument": { "uri": u }, "mode": "sample" }),
         json!({ "textDocument": { "uri": u }, "params": { "nope": 1 } }),
+        json!({ "textDocument": { "uri": u }, "params": { "spread": 1000 } }),
     ] {
         let e = c.request("grm/preview", params).await.unwrap_err();
         let _ = writeln!(out, "error {} {}", e["code"], e["message"]);
