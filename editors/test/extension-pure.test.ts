@@ -3,7 +3,7 @@ import assert from 'node:assert/strict';
 import { readFileSync } from 'node:fs';
 import { join } from 'node:path';
 import { test } from 'node:test';
-import { defaultOutput, exportArgs } from '../vscode/src/exportArgs.js';
+import { defaultOutput, exportArgs, firstSystemMode } from '../vscode/src/exportArgs.js';
 import { makeNonce, webviewHtml } from '../vscode/src/webviewHtml.js';
 
 test('export: derive systems use grmc derive with the preview seed and parameters', () => {
@@ -18,6 +18,17 @@ test('export: sample systems use grmc sample with the curves file', () => {
   ]);
   assert.equal(defaultOutput('/w/calder_tree.grm', 'glb'), '/w/calder_tree.glb');
   assert.equal(defaultOutput('/w/calder_tree.grm', 'obj'), '/w/calder_tree.obj');
+});
+
+test('export without a preview: the mode of the file\'s first system, the one grmc exports', () => {
+  assert.equal(firstSystemMode('system A { mode = sample; axiom X; }'), 'sample');
+  assert.equal(firstSystemMode('system A { axiom F; F -> F F; }\nsystem B { mode = sample; axiom X; }'), 'derive');
+  assert.equal(firstSystemMode('// mode = sample\n/* system Z { mode = sample; } */\nsystem A { axiom F; }'), 'derive');
+  assert.equal(firstSystemMode('import "mode = sample";\nsystem A { F -> [ { . } ]; mode = sample; }'), 'sample');
+  assert.equal(firstSystemMode('const x = 1;'), 'derive');
+  for (const [file, mode] of [['calder_tree.grm', 'sample'], ['vine_wall.grm', 'sample'], ['koch_island.grm', 'derive'], ['ternary_tree.grm', 'derive']] as const) {
+    assert.equal(firstSystemMode(readFileSync(join(import.meta.dirname, '../../../examples', file), 'utf8')), mode, file);
+  }
 });
 
 test('webview html: the real page template gets a CSP, a nonce and webview URIs', () => {

@@ -8,7 +8,7 @@ import * as os from 'node:os';
 import * as path from 'node:path';
 import * as vscode from 'vscode';
 import { LanguageClient, type LanguageClientOptions, type ServerOptions } from 'vscode-languageclient/node';
-import { defaultOutput, type ExportFormat, exportArgs } from './exportArgs.js';
+import { defaultOutput, type ExportFormat, exportArgs, firstSystemMode } from './exportArgs.js';
 import { PreviewHost, curvesPathFor } from './host.js';
 import { resolveServerPath } from './serverPath.js';
 import { makeNonce, webviewHtml } from './webviewHtml.js';
@@ -219,7 +219,7 @@ async function exportModel(): Promise<void> {
   });
   if (!target) return;
   const last = preview?.host.lastPreview(doc.uri.toString());
-  const mode = last?.mode === 'sample' || /\bmode\s*=\s*sample\b/.test(doc.getText()) ? 'sample' : 'derive';
+  const mode = last ? (last.mode === 'sample' ? 'sample' : 'derive') : firstSystemMode(doc.getText());
   const args = exportArgs({
     grammar,
     output: target.fsPath,
