@@ -38,14 +38,7 @@ fn cancel_after(token: &CancelToken, delay: Duration) -> std::thread::JoinHandle
 fn a_token_set_before_the_run_stops_it() {
     let (p, c) = calder_sampler_parts();
     let curves = calder_curves();
-    let s = Sampler::new(
-        &p.systems[0],
-        &c,
-        &curves,
-        Objective::Curves,
-        ExpectedOptions::default(),
-    )
-    .expect("sampler");
+    let s = curves_sampler(&p, &c, &curves);
     let token = CancelToken::new();
     token.cancel();
     for threads in [1, 2] {
@@ -67,14 +60,7 @@ fn a_token_set_before_the_run_stops_it() {
 fn a_token_set_while_searching_stops_the_run() {
     let (p, c) = calder_sampler_parts();
     let curves = calder_curves();
-    let s = Sampler::new(
-        &p.systems[0],
-        &c,
-        &curves,
-        Objective::Curves,
-        ExpectedOptions::default(),
-    )
-    .expect("sampler");
+    let s = curves_sampler(&p, &c, &curves);
     // A million generations of 100 particles: hours, unless cancelled.
     let endless = Schedule {
         generations: 1_000_000,
@@ -129,14 +115,7 @@ system Bushy {
     let p = program("bushy.grm", src);
     let c = compile(&p, 0);
     let curves = calder_curves();
-    let s = Sampler::new(
-        &p.systems[0],
-        &c,
-        &curves,
-        Objective::Curves,
-        ExpectedOptions::default(),
-    )
-    .expect("sampler");
+    let s = curves_sampler(&p, &c, &curves);
     let opts = SampleOptions {
         schedule: Schedule {
             generations: 1,
@@ -188,14 +167,7 @@ system Bushy {
 fn a_token_that_is_never_set_changes_nothing() {
     let (p, c) = calder_sampler_parts();
     let curves = calder_curves();
-    let s = Sampler::new(
-        &p.systems[0],
-        &c,
-        &curves,
-        Objective::Curves,
-        ExpectedOptions::default(),
-    )
-    .expect("sampler");
+    let s = curves_sampler(&p, &c, &curves);
     let glb = |cancel: Option<CancelToken>, threads: usize| {
         let r = s
             .sample(&SampleOptions {

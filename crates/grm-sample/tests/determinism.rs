@@ -22,14 +22,7 @@ fn same_seed_same_model_for_any_thread_count() {
     let p = example("calder_tree.grm");
     let c = compile(&p, 0);
     let curves = calder_curves();
-    let s = Sampler::new(
-        &p.systems[0],
-        &c,
-        &curves,
-        Objective::Curves,
-        ExpectedOptions::default(),
-    )
-    .expect("sampler");
+    let s = curves_sampler(&p, &c, &curves);
     let run_with = |seed: u32, threads: usize, ess_target: f64| {
         let r = s
             .sample(&SampleOptions {
@@ -97,14 +90,7 @@ fn cost_does_not_depend_on_expansion_order() {
     let p = example("calder_tree.grm");
     let c = compile(&p, 0);
     let curves = calder_curves();
-    let s = Sampler::new(
-        &p.systems[0],
-        &c,
-        &curves,
-        Objective::Curves,
-        ExpectedOptions::default(),
-    )
-    .expect("sampler");
+    let s = curves_sampler(&p, &c, &curves);
     for seed in 0..4 {
         let r = s
             .sample(&SampleOptions {
@@ -169,14 +155,7 @@ system Rich {
     let p = program("rich.grm", src);
     let c = compile(&p, 0);
     let curves = calder_curves();
-    let s = Sampler::new(
-        &p.systems[0],
-        &c,
-        &curves,
-        Objective::Curves,
-        ExpectedOptions::default(),
-    )
-    .expect("sampler");
+    let s = curves_sampler(&p, &c, &curves);
     let mut checked = 0;
     for seed in 0..6 {
         let r = s
@@ -222,14 +201,7 @@ system Local {
     let p = program("local.grm", src);
     let c = compile(&p, 0);
     let curves = calder_curves();
-    let s = Sampler::new(
-        &p.systems[0],
-        &c,
-        &curves,
-        Objective::Curves,
-        ExpectedOptions::default(),
-    )
-    .expect("sampler");
+    let s = curves_sampler(&p, &c, &curves);
     for seed in 0..5 {
         let r = s
             .sample(&SampleOptions {
@@ -278,14 +250,7 @@ fn replaying_a_broken_tree_is_an_error_not_a_panic() {
     let p = example("calder_tree.grm");
     let c = compile(&p, 0);
     let curves = calder_curves();
-    let s = Sampler::new(
-        &p.systems[0],
-        &c,
-        &curves,
-        Objective::Curves,
-        ExpectedOptions::default(),
-    )
-    .expect("sampler");
+    let s = curves_sampler(&p, &c, &curves);
     let r = s
         .sample(&SampleOptions {
             seed: 1,

@@ -17,14 +17,7 @@ fn calder_sampler_parts() -> (grm_sema::Program, grm_compile::CompiledSystem) {
 fn expected_directions_of_the_calder_tree_point_up() {
     let (p, c) = calder_sampler_parts();
     let curves = calder_curves();
-    let s = Sampler::new(
-        &p.systems[0],
-        &c,
-        &curves,
-        Objective::Curves,
-        ExpectedOptions::default(),
-    )
-    .expect("sampler");
+    let s = curves_sampler(&p, &c, &curves);
     // `branch` tilts its bone 0..80 degrees from +y in a random azimuth,
     // scaled by 0.7 * (0.9 .. 1.3): the horizontal parts average out, the
     // vertical part does not (mean cos over 0..80 degrees is about 0.7, so
@@ -44,14 +37,7 @@ fn expected_directions_of_the_calder_tree_point_up() {
     assert_eq!(s.expected_direction("leaf"), Some(glam::Vec3::ZERO));
     assert_eq!(s.expected_direction("nope"), None);
     // A fixed seed: the same directions every time.
-    let again = Sampler::new(
-        &p.systems[0],
-        &c,
-        &curves,
-        Objective::Curves,
-        ExpectedOptions::default(),
-    )
-    .expect("sampler");
+    let again = curves_sampler(&p, &c, &curves);
     assert_eq!(again.expected_direction("branch"), Some(branch));
 }
 
@@ -72,14 +58,7 @@ system Side {
     let p = program("side.grm", src);
     let c = compile(&p, 0);
     let curves = calder_curves();
-    let s = Sampler::new(
-        &p.systems[0],
-        &c,
-        &curves,
-        Objective::Curves,
-        ExpectedOptions::default(),
-    )
-    .expect("sampler");
+    let s = curves_sampler(&p, &c, &curves);
     // rotz(-90) turns the heading +y to +x: every bone of A's derivation
     // points along +x.
     let a = s.expected_direction("A").expect("A");
@@ -108,14 +87,7 @@ system Side {
 fn the_heuristic_lowers_the_final_cost() {
     let (p, c) = calder_sampler_parts();
     let curves = calder_curves();
-    let s = Sampler::new(
-        &p.systems[0],
-        &c,
-        &curves,
-        Objective::Curves,
-        ExpectedOptions::default(),
-    )
-    .expect("sampler");
+    let s = curves_sampler(&p, &c, &curves);
     let schedule = Schedule {
         generations: 60,
         particles_start: 30,
@@ -169,14 +141,7 @@ fn heuristic_off_when_the_curves_make_every_direction_equal() {
         .expect("curves")
         .replace("\"alignment_scale\": 400", "\"alignment_scale\": 0");
     let curves = Curves::from_json_str("flat.curves.json", &text).expect("valid");
-    let s = Sampler::new(
-        &p.systems[0],
-        &c,
-        &curves,
-        Objective::Curves,
-        ExpectedOptions::default(),
-    )
-    .expect("sampler");
+    let s = curves_sampler(&p, &c, &curves);
     let o = SampleOptions {
         seed: 3,
         schedule: Schedule {
@@ -204,14 +169,7 @@ fn heuristic_off_when_the_curves_make_every_direction_equal() {
 fn the_sampler_s_heuristic_is_eq_10_bit_for_bit() {
     let (p, c) = calder_sampler_parts();
     let curves = calder_curves();
-    let s = Sampler::new(
-        &p.systems[0],
-        &c,
-        &curves,
-        Objective::Curves,
-        ExpectedOptions::default(),
-    )
-    .expect("sampler");
+    let s = curves_sampler(&p, &c, &curves);
     let e = s.expected_direction("branchOrLeaf").expect("symbol");
     let mut x = 0x1234_5678u32;
     let mut r = || {

@@ -30,14 +30,7 @@ fn small() -> Schedule {
 fn returns_the_lowest_cost_complete_models() {
     let (p, c) = calder();
     let curves = calder_curves();
-    let s = Sampler::new(
-        &p.systems[0],
-        &c,
-        &curves,
-        Objective::Curves,
-        ExpectedOptions::default(),
-    )
-    .expect("sampler");
+    let s = curves_sampler(&p, &c, &curves);
     let mut not_first = 0;
     for seed in 0..10 {
         let r = s
@@ -78,14 +71,7 @@ fn returns_the_lowest_cost_complete_models() {
 fn ess_is_reported_per_generation() {
     let (p, c) = calder();
     let curves = calder_curves();
-    let s = Sampler::new(
-        &p.systems[0],
-        &c,
-        &curves,
-        Objective::Curves,
-        ExpectedOptions::default(),
-    )
-    .expect("sampler");
+    let s = curves_sampler(&p, &c, &curves);
     let sched = small();
     let r = s
         .sample(&SampleOptions {
@@ -123,14 +109,7 @@ fn ess_is_reported_per_generation() {
 fn adaptive_tempering_keeps_the_population_diverse() {
     let (p, c) = calder();
     let curves = calder_curves();
-    let s = Sampler::new(
-        &p.systems[0],
-        &c,
-        &curves,
-        Objective::Curves,
-        ExpectedOptions::default(),
-    )
-    .expect("sampler");
+    let s = curves_sampler(&p, &c, &curves);
     let sched = small();
     // Mean over generations of ESS / particles.
     let mean_share = |r: &SampleResult| {
@@ -191,14 +170,7 @@ fn calder_weights(seed: u32) -> SampleOptions {
 fn the_default_keeps_the_population_from_collapsing() {
     let (p, c) = calder();
     let curves = calder_curves();
-    let s = Sampler::new(
-        &p.systems[0],
-        &c,
-        &curves,
-        Objective::Curves,
-        ExpectedOptions::default(),
-    )
-    .expect("sampler");
+    let s = curves_sampler(&p, &c, &curves);
     assert_eq!(SampleOptions::default().ess_target, 0.1);
     assert_eq!(SampleOptions::default().candidates, 3);
     let mut collapsed_calder = 0;
@@ -247,14 +219,7 @@ fn the_default_keeps_the_population_from_collapsing() {
 fn candidates_lower_the_final_cost() {
     let (p, c) = calder();
     let curves = calder_curves();
-    let s = Sampler::new(
-        &p.systems[0],
-        &c,
-        &curves,
-        Objective::Curves,
-        ExpectedOptions::default(),
-    )
-    .expect("sampler");
+    let s = curves_sampler(&p, &c, &curves);
     let cost = |o: &SampleOptions| {
         s.sample(o)
             .expect("samples")
@@ -295,14 +260,7 @@ fn huge_negative_costs_keep_finite_weights() {
         .expect("curves")
         .replace("\"alignment_scale\": 400", "\"alignment_scale\": 1000000");
     let curves = Curves::from_json_str("steep.curves.json", &text).expect("valid");
-    let s = Sampler::new(
-        &p.systems[0],
-        &c,
-        &curves,
-        Objective::Curves,
-        ExpectedOptions::default(),
-    )
-    .expect("sampler");
+    let s = curves_sampler(&p, &c, &curves);
     let r = s
         .sample(&SampleOptions {
             seed: 2,
@@ -327,14 +285,7 @@ fn huge_negative_costs_keep_finite_weights() {
 fn guided_beats_unguided_by_a_wide_margin() {
     let (p, c) = calder();
     let curves = calder_curves();
-    let s = Sampler::new(
-        &p.systems[0],
-        &c,
-        &curves,
-        Objective::Curves,
-        ExpectedOptions::default(),
-    )
-    .expect("sampler");
+    let s = curves_sampler(&p, &c, &curves);
     let (mut guided, mut unguided) = (Vec::new(), Vec::new());
     for seed in 0..30 {
         let g = s
@@ -370,14 +321,7 @@ fn guided_beats_unguided_by_a_wide_margin() {
 fn a_zero_budget_stops_after_the_first_generation() {
     let (p, c) = calder();
     let curves = calder_curves();
-    let s = Sampler::new(
-        &p.systems[0],
-        &c,
-        &curves,
-        Objective::Curves,
-        ExpectedOptions::default(),
-    )
-    .expect("sampler");
+    let s = curves_sampler(&p, &c, &curves);
     let r = s
         .sample(&SampleOptions {
             seed: 0,
@@ -463,14 +407,7 @@ fn volume_baseline_runs_and_reports_both_costs() {
 fn too_many_threads_is_a_typed_error() {
     let (p, c) = calder();
     let curves = calder_curves();
-    let s = Sampler::new(
-        &p.systems[0],
-        &c,
-        &curves,
-        Objective::Curves,
-        ExpectedOptions::default(),
-    )
-    .expect("sampler");
+    let s = curves_sampler(&p, &c, &curves);
     assert_eq!(MAX_THREADS, grm_derive::MAX_THREADS);
     assert_eq!(MAX_THREADS, 1024);
     for threads in [MAX_THREADS + 1, 100_000, usize::MAX] {
@@ -510,14 +447,7 @@ system Runaway {
     let p = program("runaway.grm", src);
     let c = compile(&p, 0);
     let curves = calder_curves();
-    let s = Sampler::new(
-        &p.systems[0],
-        &c,
-        &curves,
-        Objective::Curves,
-        ExpectedOptions::default(),
-    )
-    .expect("sampler");
+    let s = curves_sampler(&p, &c, &curves);
     let opts = SampleOptions {
         schedule: Schedule {
             generations: 2,
@@ -611,14 +541,7 @@ fn vine_wall_example_samples() {
     let p = example("vine_wall.grm");
     let c = compile(&p, 0);
     let curves = Curves::load(examples().join("vine_wall.curves.json")).expect("curves");
-    let s = Sampler::new(
-        &p.systems[0],
-        &c,
-        &curves,
-        Objective::Curves,
-        ExpectedOptions::default(),
-    )
-    .expect("sampler");
+    let s = curves_sampler(&p, &c, &curves);
     // runner(k) grows up its frame.
     let e = s.expected_direction("runner").expect("runner");
     assert!(e.y > 0.1, "{e}");

@@ -50,3 +50,20 @@ pub fn percentile(xs: &[f64], p: f64) -> f64 {
 pub fn median(xs: &[f64]) -> f64 {
     percentile(xs, 50.0)
 }
+
+/// The sampler of `program`'s first system with `curves`, the curve
+/// objective and the default heuristic: what most tests sample with.
+pub fn curves_sampler<'a>(
+    program: &'a Program,
+    compiled: &'a CompiledSystem,
+    curves: &'a Curves,
+) -> grm_sample::Sampler<'a> {
+    grm_sample::Sampler::new(
+        &program.systems[0],
+        compiled,
+        curves,
+        grm_sample::Objective::Curves,
+        grm_sample::ExpectedOptions::default(),
+    )
+    .expect("sampler")
+}
