@@ -134,10 +134,9 @@ pub const MAX_THREADS: usize = 1024;
 #[derive(Debug)]
 pub struct Engine<'a> {
     sys: &'a CompiledSystem,
-    /// Per symbol: `COPY`, `SLOW`, or the one alternative that always applies.
-    fast: Vec<u32>,
     /// Per symbol: `(fast, output modules, output words)`, the count pass's
-    /// table (one load per module).
+    /// table (one load per module); `fast` is `COPY`, `SLOW`, or the one
+    /// alternative that always applies.
     counts: Vec<(u32, u32, u32)>,
     /// Per symbol: parameter words.
     sym_words: Vec<u32>,
@@ -150,19 +149,22 @@ pub struct Engine<'a> {
     /// string's symbol histogram from one iteration to the next and the
     /// one-chunk path counts from it instead of scanning the string.
     succ_hist: Option<Vec<Vec<(u32, u64)>>>,
-    /// Per successor module (parallel to `sys.succ`): symbol, word offset.
+    /// Per successor module (parallel to `sys.succ`, then `2 * PAD`
+    /// zeros): symbol, word offset.
     succ_syms: Vec<u32>,
     succ_words: Vec<u32>,
     /// Per alternative: its parameter words with the constants filled in
-    /// (`tpl[plan.tpl ..][.. plan.words]`).
+    /// (`tpl[plan.tpl ..][.. plan.words]`), then `PAD` zeros.
     tpl: Vec<f32>,
     /// The parameters that are not constants, per alternative.
     patches: Vec<Patch>,
+    /// Parallel to `patches`: the arithmetic ones, compact (the others
+    /// zero).
+    ariths: Vec<Arith>,
     /// Per alternative.
     plans: Vec<Plan>,
-    /// Per symbol: the one-module rewrite of its one word, where that is
-    /// its production ([`Unit`]).
-    units: Vec<Option<Unit>>,
+    /// Per symbol: what the rewrite does with it ([`Act`]).
+    acts: Vec<Act>,
     has_context: bool,
     threads: usize,
     min_chunk: usize,
@@ -209,6 +211,9 @@ struct Plan {
     /// Its patches: `patches[patch_lo .. patch_hi]`.
     patch_lo: u32,
     patch_hi: u32,
+    /// Every patch is [`Patch::Arith`] (none can fault but by a
+    /// non-finite value).
+    arith: bool,
 }
 
 /// A symbol whose one production always applies and rewrites it into one
@@ -219,17 +224,44 @@ struct Plan {
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Unit {
     sym: u32,
-    op: UnitOp,
-    k: f32,
+    /// The patch, `x * m + a` ([`Patch::Arith`]).
+    m: f32,
+    a: f32,
     span: u32,
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum UnitOp {
-    Mul,
-    Add,
-    Sub,
+/// What the rewrite does with a module, per symbol: one load and one
+/// branch for the common cases.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Act {
+    /// Copied unchanged; the symbol has no parameters.
+    Copy0,
+    /// Copied unchanged with its `words` parameter words.
+    Copy(u32),
+    /// [`Unit`].
+    Unit(Unit),
+    /// Rewritten by this one alternative (its plan), which always applies,
+    /// the predecessor's own words as its bindings.
+    Plan(u32),
+    /// [`Act::Plan`] for a short successor of arithmetic patches only: at
+    /// most `PAD` modules and words, a predecessor of at most `PAD` words,
+    /// every patch index in range and the constants finite, checked when
+    /// the engine is built. Its template is written as one `PAD`-word
+    /// move and its patches into that window without bounds checks, the
+    /// non-finite test folded into one bit for the whole successor.
+    Small(u32),
+    /// The groups must be tried ([`Engine::decide`]).
+    Slow,
 }
+
+/// Padding after the template table (`PAD` words) and the successor
+/// tables (`2 * PAD` modules): a successor of at most `PAD` (or `2 * PAD`)
+/// modules or words is copied as `PAD` (`2 * PAD`) of them in fixed-size
+/// moves where the output has room. The words past its end land on
+/// positions of the chunk's output that the following modules' successors
+/// overwrite (the rewrite writes its output in order, every position
+/// once), or are never reached when the output has no room.
+const PAD: usize = 8;
 
 /// How one non-constant successor parameter is computed. The arithmetic
 /// forms are the bytecode `load a; const k; mul|add|sub w1; ret` (or
@@ -243,22 +275,16 @@ enum Patch {
         src: u32,
         words: u32,
     },
-    MulConst {
+    /// `x * m + a` of binding word `src`: `x * k` is `m = k, a = -0.0`
+    /// (adding -0.0 leaves every value, -0.0 included, unchanged), `x + k`
+    /// is `m = 1, a = k` (`x * 1` is exact), `x - k` is `m = 1, a = -k`
+    /// (IEEE subtraction is the addition of the negation). So each is the
+    /// same single rounding the VM performs, without a branch on the kind.
+    Arith {
         dst: u32,
         src: u32,
-        k: f32,
-        span: u32,
-    },
-    AddConst {
-        dst: u32,
-        src: u32,
-        k: f32,
-        span: u32,
-    },
-    SubConst {
-        dst: u32,
-        src: u32,
-        k: f32,
+        m: f32,
+        a: f32,
         span: u32,
     },
     Code {
@@ -295,11 +321,20 @@ impl Patch {
             if let (Some((src, kidx, swapped)), Some(Op::Ret), 1) = (operands, o3, a2)
                 && let Some(&k) = sys.consts.get(kidx as usize)
             {
-                match o2 {
-                    Some(Op::Mul) => return Patch::MulConst { dst, src, k, span },
-                    Some(Op::Add) => return Patch::AddConst { dst, src, k, span },
-                    Some(Op::Sub) if !swapped => return Patch::SubConst { dst, src, k, span },
-                    _ => {}
+                let form = match o2 {
+                    Some(Op::Mul) => Some((k, -0.0)),
+                    Some(Op::Add) => Some((1.0, k)),
+                    Some(Op::Sub) if !swapped => Some((1.0, -k)),
+                    _ => None,
+                };
+                if let Some((m, a)) = form {
+                    return Patch::Arith {
+                        dst,
+                        src,
+                        m,
+                        a,
+                        span,
+                    };
                 }
             }
         }
@@ -310,6 +345,16 @@ impl Patch {
             span,
         }
     }
+}
+
+/// [`Patch::Arith`] without its span, in a table parallel to the patches
+/// (`ariths[i]` is `patches[i]` where that is arithmetic).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Arith {
+    dst: u32,
+    src: u32,
+    m: f32,
+    a: f32,
 }
 
 /// Per-chunk scratch: the VM and the binding buffer.
@@ -326,6 +371,17 @@ struct Step<'s> {
     mate: &'s [u32],
     seed: u32,
     iteration: u32,
+}
+
+/// Where a successor is written: a chunk's output slices and the module
+/// and word positions in them.
+struct Out<'o> {
+    syms: &'o mut [u32],
+    starts: &'o mut [u32],
+    params: &'o mut [f32],
+    word_base: u32,
+    o: usize,
+    wo: usize,
 }
 
 /// One chunk's output slices.
@@ -412,7 +468,7 @@ impl<'a> Engine<'a> {
                 .collect()
         });
         let succ_syms: Vec<u32> = sys.succ.iter().map(|m| m.symbol).collect();
-        let succ_words = sys.succ.iter().map(|m| m.word_offset).collect();
+        let succ_words: Vec<u32> = sys.succ.iter().map(|m| m.word_offset).collect();
         let mut tpl = Vec::new();
         let mut patches = Vec::new();
         let mut plans = Vec::with_capacity(sys.alts.len());
@@ -442,47 +498,74 @@ impl<'a> Engine<'a> {
                 tpl: tpl_start,
                 patch_lo: first_patch,
                 patch_hi: patches.len() as u32,
+                arith: patches[first_patch as usize..]
+                    .iter()
+                    .all(|p| matches!(p, Patch::Arith { .. })),
             });
         }
-        let units = (0..n)
+        let acts = (0..n)
             .map(|i| {
                 let alt = fast[i];
-                if alt == COPY || alt == SLOW || sym_words[i] != 1 {
-                    return None;
+                match alt {
+                    COPY if sym_words[i] == 0 => return Act::Copy0,
+                    COPY => return Act::Copy(sym_words[i]),
+                    SLOW => return Act::Slow,
+                    _ => {}
                 }
                 let plan = plans[alt as usize];
-                if plan.len != 1 || plan.words != 1 || plan.patch_hi != plan.patch_lo + 1 {
-                    return None;
+                if sym_words[i] == 1
+                    && plan.len == 1
+                    && plan.words == 1
+                    && plan.patch_hi == plan.patch_lo + 1
+                    && let Patch::Arith {
+                        dst: 0,
+                        src: 0,
+                        m,
+                        a,
+                        span,
+                    } = patches[plan.patch_lo as usize]
+                {
+                    return Act::Unit(Unit {
+                        sym: succ_syms[plan.succ as usize],
+                        m,
+                        a,
+                        span,
+                    });
                 }
-                let (op, k, span) = match patches[plan.patch_lo as usize] {
-                    Patch::MulConst {
-                        dst: 0,
-                        src: 0,
-                        k,
-                        span,
-                    } => (UnitOp::Mul, k, span),
-                    Patch::AddConst {
-                        dst: 0,
-                        src: 0,
-                        k,
-                        span,
-                    } => (UnitOp::Add, k, span),
-                    Patch::SubConst {
-                        dst: 0,
-                        src: 0,
-                        k,
-                        span,
-                    } => (UnitOp::Sub, k, span),
-                    _ => return None,
-                };
-                Some(Unit {
-                    sym: succ_syms[plan.succ as usize],
-                    op,
-                    k,
-                    span,
-                })
+                let (t, words) = (plan.tpl as usize, plan.words as usize);
+                let small = plan.arith
+                    && plan.len as usize <= PAD
+                    && words <= PAD
+                    && sym_words[i] as usize <= PAD
+                    && tpl[t..t + words].iter().all(|x| x.is_finite())
+                    && patches[plan.patch_lo as usize..plan.patch_hi as usize]
+                        .iter()
+                        .all(|p| match *p {
+                            Patch::Arith { dst, src, .. } => {
+                                (dst as usize) < words && src < sym_words[i]
+                            }
+                            _ => false,
+                        });
+                if small {
+                    Act::Small(alt)
+                } else {
+                    Act::Plan(alt)
+                }
             })
             .collect();
+        let ariths = patches
+            .iter()
+            .map(|p| match *p {
+                Patch::Arith { dst, src, m, a, .. } => Arith { dst, src, m, a },
+                _ => Arith::default(),
+            })
+            .collect();
+        // The padded tables (see `PAD`).
+        let mut succ_syms = succ_syms;
+        let mut succ_words = succ_words;
+        succ_syms.extend([0; 2 * PAD]);
+        succ_words.extend([0; 2 * PAD]);
+        tpl.extend([0.0; PAD]);
         let pool = if threads > 1 {
             Some(
                 rayon::ThreadPoolBuilder::new()
@@ -495,7 +578,6 @@ impl<'a> Engine<'a> {
         };
         Ok(Engine {
             sys,
-            fast,
             counts,
             sym_words,
             bracket,
@@ -505,8 +587,9 @@ impl<'a> Engine<'a> {
             succ_words,
             tpl,
             patches,
+            ariths,
             plans,
-            units,
+            acts,
             has_context: sys.has_context(),
             threads,
             min_chunk: MIN_CHUNK,
@@ -637,12 +720,13 @@ impl<'a> Engine<'a> {
             sys.axiom_alt,
             &[],
             0,
-            ChunkOut {
-                range: 0..0,
+            &mut Out {
                 syms,
                 starts,
                 params,
                 word_base: 0,
+                o: 0,
+                wo: 0,
             },
         )
         .map_err(DeriveError::Runtime)?;
@@ -935,96 +1019,294 @@ impl<'a> Engine<'a> {
         let input = step.input;
         let mut worker = self.worker();
         let (mut o, mut wo) = (0usize, 0usize);
+        // The input's words are walked with the modules: every module has
+        // its symbol's word count (`check_input`, and the engine's own
+        // strings), so `starts` is not read.
+        let mut wi = input.starts[range.start] as usize;
         for i in range {
             let sym = input.syms[i];
             let s = sym as usize;
-            let f = self.fast[s];
-            let (ps, pe) = (input.starts[i] as usize, input.starts[i + 1] as usize);
-            if f == COPY {
-                // The common case first: copied unchanged.
-                osyms[o] = sym;
-                ostarts[o] = word_base + wo as u32;
-                match pe - ps {
-                    0 => {}
-                    1 => oparams[wo] = input.params[ps],
-                    n => copy_small(&mut oparams[wo..wo + n], &input.params[ps..pe]),
-                }
-                o += 1;
-                wo += pe - ps;
-                continue;
-            }
-            if let Some(u) = self.units[s]
-                && pe - ps == 1
-            {
-                let x = input.params[ps];
-                let v = match u.op {
-                    UnitOp::Mul => x * u.k,
-                    UnitOp::Add => x + u.k,
-                    UnitOp::Sub => x - u.k,
-                };
-                if !v.is_finite() {
-                    return Err(self.runtime(
-                        step,
-                        i,
-                        RuntimeErrorKind::NonFinite { value: v },
-                        self.sys.param_spans[u.span as usize],
-                    ));
-                }
-                osyms[o] = u.sym;
-                ostarts[o] = word_base + wo as u32;
-                oparams[wo] = v;
-                o += 1;
-                wo += 1;
-                continue;
-            }
-            let decision = if f == SLOW {
-                self.decide(step, &mut worker, i)?
-            } else {
-                Some((f, Binds::Direct))
-            };
-            match decision {
-                None => {
+            match self.acts[s] {
+                Act::Copy0 => {
+                    // The common case first: copied, no parameters.
                     osyms[o] = sym;
                     ostarts[o] = word_base + wo as u32;
-                    let n = pe - ps;
-                    copy_small(&mut oparams[wo..wo + n], &input.params[ps..pe]);
+                    o += 1;
+                }
+                Act::Copy(n) => {
+                    let n = n as usize;
+                    osyms[o] = sym;
+                    ostarts[o] = word_base + wo as u32;
+                    if n == 1 {
+                        oparams[wo] = input.params[wi];
+                    } else {
+                        copy_small(&mut oparams[wo..wo + n], &input.params[wi..wi + n]);
+                    }
                     o += 1;
                     wo += n;
+                    wi += n;
                 }
-                Some((alt, binds)) => {
-                    let plan = self.plans[alt as usize];
-                    let (len, words) = (plan.len as usize, plan.words as usize);
-                    let direct;
-                    let bind: &[f32] = match binds {
-                        Binds::Direct => {
-                            direct = &input.params[ps..pe];
-                            direct
-                        }
-                        Binds::Buffer => &[],
-                    };
-                    let out = ChunkOut {
-                        range: i..i + 1,
-                        syms: &mut osyms[o..o + len],
-                        starts: &mut ostarts[o..o + len],
-                        params: &mut oparams[wo..wo + words],
-                        word_base: word_base + wo as u32,
-                    };
-                    if binds == Binds::Buffer {
-                        // The bindings live in the worker; move the buffer out
-                        // for the call (no allocation: a swap).
-                        let buf = std::mem::take(&mut worker.buf);
-                        let r = self.emit(step, &mut worker, alt, &buf, i, out);
-                        worker.buf = buf;
-                        r?;
-                    } else {
-                        self.emit(step, &mut worker, alt, bind, i, out)?;
+                Act::Unit(u) => {
+                    let v = input.params[wi] * u.m + u.a;
+                    if !v.is_finite() {
+                        return Err(self.runtime(
+                            step,
+                            i,
+                            RuntimeErrorKind::NonFinite { value: v },
+                            self.sys.param_spans[u.span as usize],
+                        ));
                     }
-                    o += len;
+                    osyms[o] = u.sym;
+                    ostarts[o] = word_base + wo as u32;
+                    oparams[wo] = v;
+                    o += 1;
+                    wo += 1;
+                    wi += 1;
+                }
+                Act::Plan(alt) => {
+                    let plan = self.plans[alt as usize];
+                    let n = self.sym_words[s] as usize;
+                    let mut out = Out {
+                        syms: &mut *osyms,
+                        starts: &mut *ostarts,
+                        params: &mut *oparams,
+                        word_base,
+                        o,
+                        wo,
+                    };
+                    if plan.words == 0 {
+                        // Symbols only (Koch curves, Hilbert curves).
+                        self.emit_syms(plan, &mut out);
+                        o += plan.len as usize;
+                        wi += n;
+                        continue;
+                    }
+                    let bind = &input.params[wi..wi + n];
+                    if plan.arith {
+                        self.emit_arith(step, plan, bind, i, &mut out)?;
+                    } else {
+                        self.emit(step, &mut worker, alt, bind, i, &mut out)?;
+                    }
+                    o += plan.len as usize;
+                    wo += plan.words as usize;
+                    wi += n;
+                }
+                Act::Small(alt) => {
+                    let plan = self.plans[alt as usize];
+                    let n = self.sym_words[s] as usize;
+                    let mut spare = [0.0f32; PAD];
+                    let b: &[f32; PAD] = match input.params.get(wi..wi + PAD) {
+                        // A slice of `PAD` words.
+                        Some(w) => w.try_into().unwrap_or(&spare),
+                        None => {
+                            spare[..n].copy_from_slice(&input.params[wi..wi + n]);
+                            &spare
+                        }
+                    };
+                    let mut out = Out {
+                        syms: &mut *osyms,
+                        starts: &mut *ostarts,
+                        params: &mut *oparams,
+                        word_base,
+                        o,
+                        wo,
+                    };
+                    self.emit_syms(plan, &mut out);
+                    let words = plan.words as usize;
+                    let ariths = &self.ariths[plan.patch_lo as usize..plan.patch_hi as usize];
+                    let t = plan.tpl as usize;
+                    // `tpl` is padded with `PAD` words.
+                    let tpl: &[f32; PAD] = self.tpl[t..t + PAD].try_into().unwrap_or(&[0.0; PAD]);
+                    // Bit 31 set where a value is not finite: its exponent
+                    // is all ones, and one more carries into bit 31.
+                    let mut bad = 0u32;
+                    let room = oparams
+                        .get_mut(wo..wo + PAD)
+                        .and_then(|d| <&mut [f32; PAD]>::try_from(d).ok());
+                    match room {
+                        Some(d) => {
+                            *d = *tpl;
+                            for p in ariths {
+                                // In range (`Act::Small`); the masks only
+                                // spare the bounds checks.
+                                let v = b[p.src as usize % PAD] * p.m + p.a;
+                                bad |= (v.to_bits() & 0x7f80_0000) + 0x0080_0000;
+                                d[p.dst as usize % PAD] = v;
+                            }
+                        }
+                        None => {
+                            let d = &mut oparams[wo..wo + words];
+                            d.copy_from_slice(&tpl[..words]);
+                            for p in ariths {
+                                let v = b[p.src as usize % PAD] * p.m + p.a;
+                                bad |= (v.to_bits() & 0x7f80_0000) + 0x0080_0000;
+                                d[p.dst as usize] = v;
+                            }
+                        }
+                    }
+                    if bad & 0x8000_0000 != 0 {
+                        let patches = &self.patches[plan.patch_lo as usize..plan.patch_hi as usize];
+                        return Err(self.non_finite(step, i, &oparams[wo..wo + words], patches));
+                    }
+                    o += plan.len as usize;
                     wo += words;
+                    wi += n;
+                }
+                Act::Slow => {
+                    let n = self.sym_words[s] as usize;
+                    match self.decide(step, &mut worker, i)? {
+                        None => {
+                            osyms[o] = sym;
+                            ostarts[o] = word_base + wo as u32;
+                            copy_small(&mut oparams[wo..wo + n], &input.params[wi..wi + n]);
+                            o += 1;
+                            wo += n;
+                        }
+                        Some((alt, binds)) => {
+                            let mut out = Out {
+                                syms: &mut *osyms,
+                                starts: &mut *ostarts,
+                                params: &mut *oparams,
+                                word_base,
+                                o,
+                                wo,
+                            };
+                            if binds == Binds::Buffer {
+                                // The bindings live in the worker; move the
+                                // buffer out for the call (no allocation: a
+                                // swap).
+                                let buf = std::mem::take(&mut worker.buf);
+                                let r = self.emit(step, &mut worker, alt, &buf, i, &mut out);
+                                worker.buf = buf;
+                                r?;
+                            } else {
+                                let bind = &input.params[wi..wi + n];
+                                self.emit(step, &mut worker, alt, bind, i, &mut out)?;
+                            }
+                            let plan = self.plans[alt as usize];
+                            o += plan.len as usize;
+                            wo += plan.words as usize;
+                        }
+                    }
+                    wi += n;
                 }
             }
         }
         Ok(())
+    }
+
+    /// Write alternative `plan`'s symbols, starts and constant words at
+    /// `out.o` / `out.wo` (the patches are the caller's).
+    #[inline(always)]
+    fn emit_template(&self, plan: Plan, out: &mut Out<'_>) {
+        self.emit_syms(plan, out);
+        let (t, words, wo) = (plan.tpl as usize, plan.words as usize, out.wo);
+        if words == 0 {
+            return;
+        }
+        if words <= PAD && wo + PAD <= out.params.len() {
+            out.params[wo..wo + PAD].copy_from_slice(&self.tpl[t..t + PAD]);
+        } else {
+            copy_small(&mut out.params[wo..wo + words], &self.tpl[t..t + words]);
+        }
+    }
+
+    /// Write alternative `plan`'s symbols and starts at `out.o`.
+    #[inline(always)]
+    fn emit_syms(&self, plan: Plan, out: &mut Out<'_>) {
+        let (so, len) = (plan.succ as usize, plan.len as usize);
+        let (o, wo) = (out.o, out.wo);
+        let base = out.word_base + wo as u32;
+        if len <= PAD && o + PAD <= out.syms.len() {
+            // Fixed-size moves (see `PAD`); `starts` has the same length.
+            out.syms[o..o + PAD].copy_from_slice(&self.succ_syms[so..so + PAD]);
+            let offs = &self.succ_words[so..so + PAD];
+            for (st, off) in out.starts[o..o + PAD].iter_mut().zip(offs) {
+                *st = base + off;
+            }
+        } else if len <= 2 * PAD && o + 2 * PAD <= out.syms.len() {
+            // The same in `2 * PAD` (Koch curves, bracketed plants).
+            out.syms[o..o + 2 * PAD].copy_from_slice(&self.succ_syms[so..so + 2 * PAD]);
+            let starts = &mut out.starts[o..o + 2 * PAD];
+            if plan.words == 0 {
+                starts.fill(base);
+            } else {
+                for (st, off) in starts.iter_mut().zip(&self.succ_words[so..so + 2 * PAD]) {
+                    *st = base + off;
+                }
+            }
+        } else {
+            copy_small(&mut out.syms[o..o + len], &self.succ_syms[so..so + len]);
+            let starts = &mut out.starts[o..o + len];
+            if plan.words == 0 {
+                starts.fill(base);
+            } else {
+                for (st, off) in starts.iter_mut().zip(&self.succ_words[so..so + len]) {
+                    *st = base + off;
+                }
+            }
+        }
+    }
+
+    /// [`Engine::emit`] for a plan whose patches are all [`Patch::Arith`]:
+    /// no dispatch per patch, one test for non-finite values.
+    #[inline(always)]
+    fn emit_arith(
+        &self,
+        step: &Step<'_>,
+        plan: Plan,
+        bind: &[f32],
+        position: usize,
+        out: &mut Out<'_>,
+    ) -> Result<(), RuntimeError> {
+        self.emit_template(plan, out);
+        let patches = &self.patches[plan.patch_lo as usize..plan.patch_hi as usize];
+        let params = &mut out.params[out.wo..out.wo + plan.words as usize];
+        let mut finite = true;
+        for p in patches {
+            if let Patch::Arith { dst, src, m, a, .. } = *p {
+                let v = bind[src as usize] * m + a;
+                finite &= v.is_finite();
+                params[dst as usize] = v;
+            }
+        }
+        if finite {
+            return Ok(());
+        }
+        Err(self.non_finite(step, position, params, patches))
+    }
+
+    /// The error for the first of `patches` (arithmetic, in the
+    /// successor's order, as `emit` reports it) whose word in `params` is
+    /// not finite.
+    #[cold]
+    fn non_finite(
+        &self,
+        step: &Step<'_>,
+        position: usize,
+        params: &[f32],
+        patches: &[Patch],
+    ) -> RuntimeError {
+        let bad = patches.iter().find_map(|p| match *p {
+            Patch::Arith { dst, span, .. } => params
+                .get(dst as usize)
+                .filter(|v| !v.is_finite())
+                .map(|&v| (v, span)),
+            _ => None,
+        });
+        // Unreachable: the callers found a non-finite patched word. The
+        // fallback still names the module.
+        let (value, span) = bad.unwrap_or((f32::NAN, 0));
+        self.runtime(
+            step,
+            position,
+            RuntimeErrorKind::NonFinite { value },
+            self.sys
+                .param_spans
+                .get(span as usize)
+                .copied()
+                .unwrap_or_default(),
+        )
     }
 
     /// Write alternative `alt`'s successor for the module at `position`.
@@ -1036,32 +1318,29 @@ impl<'a> Engine<'a> {
         alt: u32,
         bind: &[f32],
         position: usize,
-        out: ChunkOut<'_>,
+        out: &mut Out<'_>,
     ) -> Result<(), RuntimeError> {
         let sys = self.sys;
         let plan = self.plans[alt as usize];
-        let (so, len) = (plan.succ as usize, plan.len as usize);
-        copy_small(out.syms, &self.succ_syms[so..so + len]);
-        if plan.words == 0 {
-            out.starts.fill(out.word_base);
+        self.emit_template(plan, out);
+        if plan.patch_lo == plan.patch_hi {
             return Ok(());
         }
-        for (st, off) in out.starts.iter_mut().zip(&self.succ_words[so..so + len]) {
-            *st = out.word_base + off;
-        }
-        // Constants come from the template; the rest is patched in.
-        let t = plan.tpl as usize;
-        copy_small(out.params, &self.tpl[t..t + plan.words as usize]);
+        let params = &mut out.params[out.wo..out.wo + plan.words as usize];
         for p in &self.patches[plan.patch_lo as usize..plan.patch_hi as usize] {
             let (dst, value, span) = match *p {
                 Patch::Copy { dst, src, words } => {
                     let (d, s, w) = (dst as usize, src as usize, words as usize);
-                    out.params[d..d + w].copy_from_slice(&bind[s..s + w]);
+                    params[d..d + w].copy_from_slice(&bind[s..s + w]);
                     continue;
                 }
-                Patch::MulConst { dst, src, k, span } => (dst, bind[src as usize] * k, span),
-                Patch::AddConst { dst, src, k, span } => (dst, bind[src as usize] + k, span),
-                Patch::SubConst { dst, src, k, span } => (dst, bind[src as usize] - k, span),
+                Patch::Arith {
+                    dst,
+                    src,
+                    m,
+                    a,
+                    span,
+                } => (dst, bind[src as usize] * m + a, span),
                 Patch::Code {
                     dst,
                     entry,
@@ -1078,7 +1357,7 @@ impl<'a> Engine<'a> {
                         .run(&sys.code, &sys.consts, entry, bind, &draws)
                         .map_err(|e| self.fault(step, position, e))?;
                     let d = dst as usize;
-                    for (o, &x) in out.params[d..d + words as usize].iter_mut().zip(v) {
+                    for (o, &x) in params[d..d + words as usize].iter_mut().zip(v) {
                         if !x.is_finite() {
                             return Err(self.runtime(
                                 step,
@@ -1100,7 +1379,7 @@ impl<'a> Engine<'a> {
                     sys.param_spans[span as usize],
                 ));
             }
-            out.params[dst as usize] = value;
+            params[dst as usize] = value;
         }
         Ok(())
     }

@@ -136,6 +136,31 @@ fn infinite_parameter() {
     assert_eq!(span_text(src, &e), "x * 1e30");
 }
 
+/// In a successor of several arithmetic words (written by the engine's
+/// short-successor path, one test for the whole successor, and by the
+/// general writer when the successor is longer), the word reported is
+/// the first one that failed, in the successor's order.
+#[test]
+fn first_infinite_word_of_a_successor_is_reported() {
+    let short = "system S { axiom A(1e10); A(x) -> B(x * 2) B(x - 1e9) B(x * 1e30) B(1e30 * x); }";
+    let long = "system S { axiom A(1e10); A(x) -> + + + + + + + + B(x * 2) B(x - 1e9) B(x * 1e30) B(1e30 * x); }";
+    for src in [short, long] {
+        for threads in [1, 2] {
+            let e = run(src, 1, DeriveLimits::default(), threads).unwrap_err();
+            let DeriveError::Runtime(r) = &e else {
+                panic!("{e:?}")
+            };
+            assert_eq!((r.iteration, r.position), (1, 0));
+            assert!(
+                matches!(r.kind, RuntimeErrorKind::NonFinite { value } if value == f32::INFINITY),
+                "{:?}",
+                r.kind
+            );
+            assert_eq!(span_text(src, &e), "x * 1e30", "{src}");
+        }
+    }
+}
+
 /// The first failing module in string order is reported, whatever the
 /// chunking.
 #[test]
