@@ -286,13 +286,39 @@ impl FileAnalysis {
         None
     }
 
+    /// Where the line holding byte `at` starts (lines end at `\n`, `\r\n`
+    /// or a lone `\r`, as the file's line table counts them).
+    fn line_start_of(&self, at: usize) -> usize {
+        let src = self.source();
+        let line = src.line_of(u32::try_from(at).unwrap_or(u32::MAX));
+        src.line_start(line).map_or(0, |s| s as usize)
+    }
+
+    /// Where the line after the one holding byte `at` starts, if there is
+    /// one (after its `\n`, `\r\n` or lone `\r`).
+    fn next_line_start(&self, at: usize) -> Option<usize> {
+        let src = self.source();
+        let line = src.line_of(u32::try_from(at).unwrap_or(u32::MAX));
+        src.line_start(line.saturating_add(1)).map(|s| s as usize)
+    }
+
+    /// The line break inserted lines end with: the file's first one (`\n`,
+    /// `\r\n` or a lone `\r`), `\n` in a file of one line.
+    fn eol(&self) -> &'static str {
+        let t = self.text();
+        let i = grm_diag::first_line_len(t);
+        match (t.as_bytes().get(i), t.as_bytes().get(i + 1)) {
+            (Some(b'\r'), Some(b'\n')) => "\r\n",
+            (Some(b'\r'), _) => "\r",
+            _ => "\n",
+        }
+    }
+
     /// Delete a statement; with its whole line when nothing else is on it.
     fn delete_lines(&self, s: Span) -> TextEdit {
         let t = self.text();
-        let ls = t[..s.start as usize].rfind('\n').map_or(0, |i| i + 1);
-        let le = t[s.end as usize..]
-            .find('\n')
-            .map_or(t.len(), |i| s.end as usize + i + 1);
+        let ls = self.line_start_of(s.start as usize);
+        let le = self.next_line_start(s.end as usize).unwrap_or(t.len());
         let alone =
             t[ls..s.start as usize].trim().is_empty() && t[s.end as usize..le].trim().is_empty();
         if alone {
@@ -309,7 +335,7 @@ impl FileAnalysis {
             .first()
             .map(|i| {
                 let st = i.span().start as usize;
-                let ls = t[..st].rfind('\n').map_or(0, |j| j + 1);
+                let ls = self.line_start_of(st);
                 let pre = &t[ls..st];
                 if pre.trim().is_empty() {
                     pre.to_string()
@@ -331,16 +357,16 @@ impl FileAnalysis {
             let end = sys.span.end;
             return vec![edit(
                 Span::new(end, end),
-                format!("\n{}{stmt}\n", self.indent_of(sys)),
+                format!("{nl}{}{stmt}{nl}", self.indent_of(sys), nl = self.eol()),
             )];
         }
         let close = sys.span.end as usize - 1;
-        let ls = t[..close].rfind('\n').map_or(0, |i| i + 1);
+        let ls = self.line_start_of(close);
         if t[ls..close].trim().is_empty() && ls > sys.span.start as usize {
             let at = ls as u32;
             vec![edit(
                 Span::new(at, at),
-                format!("{}{stmt}\n", self.indent_of(sys)),
+                format!("{}{stmt}{}", self.indent_of(sys), self.eol()),
             )]
         } else {
             let at = close as u32;
@@ -361,12 +387,12 @@ impl FileAnalysis {
         });
         match first {
             Some(st) => {
-                let ls = t[..st].rfind('\n').map_or(0, |j| j + 1);
+                let ls = self.line_start_of(st);
                 if t[ls..st].trim().is_empty() {
                     let at = ls as u32;
                     vec![edit(
                         Span::new(at, at),
-                        format!("{}{stmt}\n", self.indent_of(sys)),
+                        format!("{}{stmt}{}", self.indent_of(sys), self.eol()),
                     )]
                 } else {
                     let at = st as u32;
@@ -418,13 +444,13 @@ impl FileAnalysis {
             return Vec::new();
         };
         let brace = sys.span.start as usize + brace;
-        let nl = t[brace..].find('\n').map(|i| brace + i + 1);
+        let nl = self.next_line_start(brace);
         match nl {
             Some(ls) if ls < sys.span.end as usize => {
                 let at = ls as u32;
                 vec![edit(
                     Span::new(at, at),
-                    format!("{}mode = sample;\n", self.indent_of(sys)),
+                    format!("{}mode = sample;{}", self.indent_of(sys), self.eol()),
                 )]
             }
             _ => {

@@ -436,6 +436,37 @@ fn code_actions_fix_their_diagnostics() {
     assert!(c.is_empty(), "{c:?}");
 }
 
+/// Fixes that delete or insert whole lines find the lines of a file with
+/// old Mac (lone `\r`) or Windows line endings, and end inserted lines as
+/// the file ends its lines.
+#[test]
+fn code_actions_on_lone_carriage_return_and_crlf_lines() {
+    for nl in ["\r", "\r\n", "\n"] {
+        let l = |s: &str| s.replace('\n', nl);
+        let (t, c) = fix(
+            &l("system S {\n    angle = 1;\n    angle = 2;\n    axiom F;\n}"),
+            "E0106",
+            "Remove",
+        );
+        assert_eq!(
+            t,
+            l("system S {\n    angle = 1;\n    axiom F;\n}"),
+            "{nl:?}"
+        );
+        assert!(c.is_empty(), "{nl:?}: {c:?}");
+        let (t, c) = fix(
+            &l("system S {\n    axiom A;\n    A -> F;\n    wrapup A -> ;\n}"),
+            "E0309",
+            "Remove",
+        );
+        assert_eq!(t, l("system S {\n    axiom A;\n    A -> F;\n}"), "{nl:?}");
+        assert!(c.is_empty(), "{nl:?}: {c:?}");
+        let (t, c) = fix(&l("system S {\n    A -> F A;\n}"), "E0310", "axiom");
+        assert_eq!(t, l("system S {\n    axiom A;\n    A -> F A;\n}"), "{nl:?}");
+        assert!(c.is_empty(), "{nl:?}: {c:?}");
+    }
+}
+
 #[test]
 fn formatting() {
     let fa = analyze("system S{axiom F;F->F F;}");

@@ -25,21 +25,18 @@ fn clamp(span: Span, text: &str) -> std::ops::Range<usize> {
     start..start + text[s..e].chars().count()
 }
 
-/// The text as ariadne gets it: ariadne also breaks lines at a lone
-/// `\r`, vertical tab, form feed, U+0085, U+2028 and U+2029, grm (and the
-/// JSON and LSP positions) only at `\n`. Each of those is shown as a space,
-/// which keeps every character offset and the line numbers.
+/// The text as ariadne gets it. ariadne breaks lines where grm does (at
+/// `\n`, `\r\n` as one break, and a lone `\r`), and also at a vertical
+/// tab, form feed, U+0085, U+2028 and U+2029, which are no line breaks for
+/// grm (nor for the JSON and LSP positions). Each of those is shown as a
+/// space, which keeps every character offset and the line numbers.
 fn lines_at_newlines(text: &str) -> String {
-    let mut out = String::with_capacity(text.len());
-    let mut chars = text.chars().peekable();
-    while let Some(c) = chars.next() {
-        match c {
-            '\r' if chars.peek() == Some(&'\n') => out.push(c),
-            '\r' | '\x0B' | '\x0C' | '\u{85}' | '\u{2028}' | '\u{2029}' => out.push(' '),
-            c => out.push(c),
-        }
-    }
-    out
+    text.chars()
+        .map(|c| match c {
+            '\x0B' | '\x0C' | '\u{85}' | '\u{2028}' | '\u{2029}' => ' ',
+            c => c,
+        })
+        .collect()
 }
 
 /// Render one diagnostic as text, with colour if `color` is set.
@@ -237,9 +234,10 @@ mod tests {
     }
 
     #[test]
-    fn line_numbers_count_only_newlines() {
-        // A form feed or U+2028 is no line break for grm: the header agrees
-        // with `render_plain` (and the JSON and LSP positions).
+    fn line_numbers_count_only_line_breaks() {
+        // A form feed or U+2028 is no line break for grm, a lone `\r` is:
+        // the header agrees with `render_plain` (and the JSON and LSP
+        // positions).
         let mut sm = SourceMap::new();
         let text = "// a\x0c b\u{2028} c\r d\nconst x = y;\n";
         let f = sm.add("t.grm", text);
@@ -251,9 +249,46 @@ mod tests {
             Span::new(at, at + 1),
             "here",
         );
-        assert_eq!(render_plain(&d, &sm), "t.grm:2:11: error[E0101]: unknown");
+        assert_eq!(render_plain(&d, &sm), "t.grm:3:11: error[E0101]: unknown");
         let out = render_human(&d, &sm, false);
-        assert!(out.contains("t.grm:2:11"), "{out}");
+        assert!(out.contains("t.grm:3:11"), "{out}");
+    }
+
+    #[test]
+    fn lone_carriage_returns_and_crlf_in_every_rendering() {
+        // The same program with old-Mac, Windows and mixed line endings:
+        // every rendering puts `y` on line 3, column 11.
+        for nl in ["\r", "\r\n", "\n", "mixed"] {
+            let text = match nl {
+                "mixed" => "// a\r\n// b\rconst x = y;\n".to_string(),
+                nl => format!("// a{nl}// b{nl}const x = y;{nl}"),
+            };
+            let mut sm = SourceMap::new();
+            let f = sm.add("t.grm", text.as_str());
+            let at = text.find('y').unwrap() as u32;
+            let d = Diagnostic::new(
+                Code::UnknownName,
+                "unknown",
+                f,
+                Span::new(at, at + 1),
+                "here",
+            );
+            assert_eq!(
+                render_plain(&d, &sm),
+                "t.grm:3:11: error[E0101]: unknown",
+                "{nl:?}"
+            );
+            let out = render_human(&d, &sm, false);
+            assert!(out.contains("t.grm:3:11"), "{nl:?}: {out}");
+            // The source line is shown without its line break.
+            assert!(out.contains("const x = y;\n"), "{nl:?}: {out}");
+            assert!(!out.contains('\r'), "{nl:?}: {out}");
+            let j = render_json(&d, &sm);
+            assert!(
+                j.contains("\"start_pos\":{\"line\":3,\"column\":11}"),
+                "{nl:?}: {j}"
+            );
+        }
     }
 
     #[test]

@@ -10,7 +10,7 @@
 //! after it (trailing), on lines of their own (standalone), or on the line
 //! of the next statement before it (leading, written inline).
 
-use grm_diag::FileId;
+use grm_diag::{FileId, count_line_breaks, has_line_break};
 use grm_syntax::Parsed;
 use grm_syntax::ast::*;
 use grm_syntax::lexer::{self, Token};
@@ -276,7 +276,7 @@ impl<'a> Printer<'a> {
                     break;
                 }
                 let rest = self.text.get(c.span.end as usize..span.start as usize);
-                if !rest.is_some_and(|r| r.contains('\n')) {
+                if !rest.is_some_and(has_line_break) {
                     // On the statement's line: written inline before it.
                     break;
                 }
@@ -313,7 +313,7 @@ impl<'a> Printer<'a> {
                 break;
             }
             let gap = self.text.get(st.prev_end as usize..c.span.start as usize);
-            if gap.is_none_or(|g| g.contains('\n')) {
+            if gap.is_none_or(has_line_break) {
                 break;
             }
             self.next += 1;
@@ -341,7 +341,7 @@ impl<'a> Printer<'a> {
             .text
             .get(st.prev_end as usize..to as usize)
             .unwrap_or("\n");
-        let newlines = gap.matches('\n').count();
+        let newlines = count_line_breaks(gap);
         if !st.wrote {
             if !st.top {
                 self.nl();
@@ -643,7 +643,7 @@ impl<'a> Printer<'a> {
                 let gap = self
                     .text
                     .get(ms[i - 1].span.end as usize..m.span.start as usize);
-                if gap.is_some_and(|g| g.contains('\n')) {
+                if gap.is_some_and(has_line_break) {
                     self.comments_before(m.span.start);
                     if !self.line_empty {
                         self.nl();

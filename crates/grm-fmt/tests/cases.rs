@@ -173,6 +173,24 @@ fn crlf_and_trailing_whitespace() {
     );
 }
 
+/// Old Mac (lone `\r`) and mixed line endings format as `\n` ones do:
+/// comments end at the line break, blank lines are kept, statements and
+/// the line breaks of a module string stay on their lines.
+#[test]
+fn lone_carriage_returns_and_mixed_line_endings() {
+    let unix = "// head\n\nconst A = 1; // trailing\n\nsystem S {\n    // own line\n    axiom F\n        F;\n\n    F -> F F; // t\n}\n";
+    let expected = check(unix);
+    fmt(&unix.replace('\n', "\r"), &expected);
+    fmt(&unix.replace('\n', "\r\n"), &expected);
+    let mut mixed = String::new();
+    for (i, line) in unix.split_inclusive('\n').enumerate() {
+        let nl = ["\n", "\r", "\r\n"][i % 3];
+        mixed.push_str(line.strip_suffix('\n').unwrap_or(line));
+        mixed.push_str(nl);
+    }
+    fmt(&mixed, &expected);
+}
+
 #[test]
 fn empty_and_comment_only_files() {
     assert_eq!(check(""), "");

@@ -35,22 +35,13 @@ pub fn path_of(uri: &Uri) -> Option<std::path::PathBuf> {
     uri.to_file_path().map(|p| grm_sema::normalize(&p))
 }
 
+/// The LSP position of a byte offset. Lines end at `\n`, `\r\n` or a lone
+/// `\r`, as LSP defines them ([`SourceFile`] counts them so); an offset
+/// inside a `\r\n` is its line's end, before the `\r`: LSP has no position
+/// inside a line break.
 pub fn pos(src: &SourceFile, offset: u32) -> Position {
-    let (line, character) = src.line_col_utf16(before_crlf(src, offset));
+    let (line, character) = src.line_col_utf16(offset);
     Position { line, character }
-}
-
-/// An offset between the `\r` and the `\n` of a CRLF line break moved to
-/// before the `\r`: LSP has no position inside a line terminator, and a
-/// line's end (what a character past it means) excludes it.
-fn before_crlf(src: &SourceFile, offset: u32) -> u32 {
-    let b = src.text.as_bytes();
-    let i = offset as usize;
-    if i > 0 && b.get(i) == Some(&b'\n') && b[i - 1] == b'\r' {
-        offset - 1
-    } else {
-        offset
-    }
 }
 
 pub fn range(src: &SourceFile, span: Span) -> Range {
@@ -61,10 +52,10 @@ pub fn range(src: &SourceFile, span: Span) -> Range {
 }
 
 /// The byte offset of an LSP position in a file (clamped to its lines; a
-/// character past the end of a line is the line's end, before a CRLF's
-/// `\r`).
+/// character past the end of a line is the line's end, before its line
+/// break: before the `\r` of a `\r\n` or of a lone `\r`).
 pub fn offset(src: &SourceFile, p: Position) -> u32 {
-    before_crlf(src, src.offset_of_utf16(p.line, p.character))
+    src.offset_of_utf16(p.line, p.character)
 }
 
 /// A byte span of an LSP range.
@@ -208,12 +199,14 @@ pub fn semantic_tokens(
             | (u32::from(m.readonly) << 1)
             | (u32::from(m.default_library) << 2);
         let ty = type_index(t.kind);
-        // Split at line breaks.
+        // Split at line breaks (`\n`, `\r\n` or a lone `\r`).
         let mut start = t.span.start as usize;
         let end = (t.span.end as usize).min(text.len());
         while start < end {
-            let line_end = text[start..end].find('\n').map_or(end, |i| start + i);
-            let piece = text[start..line_end].trim_end_matches('\r');
+            let line = src.line_of(start as u32);
+            let line_end = src.line_end(line).map_or(end, |e| (e as usize).min(end));
+            // Empty when `start` is in a line break (`start >= line_end`).
+            let piece = text.get(start..line_end).unwrap_or("");
             if !piece.is_empty() {
                 let p = pos(src, start as u32);
                 let len: u32 = piece.chars().map(|c| c.len_utf16() as u32).sum();
@@ -234,7 +227,11 @@ pub fn semantic_tokens(
                 last_line = p.line;
                 last_col = p.character;
             }
-            start = line_end + 1;
+            // The next line starts after `start` (which is on this line).
+            match src.line_start(line + 1) {
+                Some(next) => start = next as usize,
+                None => break,
+            }
         }
     }
     out

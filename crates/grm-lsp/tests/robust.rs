@@ -67,22 +67,25 @@ const PIECES: &[&str] = &[
     "spread",
     "\u{0}",
     "\r\n",
+    "\r",
 ];
 
-/// A random UTF-16 position, sometimes past the end of a line or the file.
+/// A random UTF-16 position, sometimes past the end of a line or the file
+/// (lines end at `\n`, `\r\n` or a lone `\r`).
 fn random_pos(rng: &mut Rng, text: &str) -> (u32, u32) {
-    let lines: Vec<&str> = text.split('\n').collect();
-    let line = rng.below(lines.len() + 1) as u32;
-    let len = lines
-        .get(line as usize)
-        .map_or(0, |l| l.encode_utf16().count());
+    let src = SourceFile::new("", text);
+    let line = rng.below(src.line_count() + 1) as u32;
+    let len = match (src.line_start(line), src.line_end(line)) {
+        (Some(a), Some(b)) => text[a as usize..b as usize].encode_utf16().count(),
+        _ => 0,
+    };
     (line, rng.below(len + 3) as u32)
 }
 
 /// Apply an LSP range edit to a local copy exactly as the server must.
 fn apply_local(text: &str, a: (u32, u32), b: (u32, u32), new: &str) -> String {
     // As LSP defines positions: a character past a line's end is its end,
-    // before a CRLF's `\r` (`grm_lsp::convert::offset`).
+    // before its line break (`grm_lsp::convert::offset`).
     let src = SourceFile::new("", text);
     let o = |p: (u32, u32)| {
         grm_lsp::convert::offset(

@@ -1,6 +1,7 @@
 //! Text synchronisation edge cases an editor runs into: positions past the
-//! end of a CRLF line, closing an imported buffer without saving it, and a
-//! client that sends edits for a document it never opened.
+//! end of a CRLF line, old Mac (lone `\r`) and mixed line endings, closing
+//! an imported buffer without saving it, and a client that sends edits for
+//! a document it never opened.
 
 mod common;
 
@@ -109,6 +110,157 @@ async fn a_position_past_the_end_of_a_crlf_line_is_the_line_end() {
     if !h.is_null() {
         assert_eq!(h["range"]["start"]["line"], 1, "{h}");
     }
+}
+
+/// The diagnostics with `code`, as `line:char-line:char` ranges.
+fn ranges_of(d: &Value, code: &str) -> Vec<String> {
+    d["diagnostics"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|d| d["code"] == code)
+        .map(|d| range_str(&d["range"]))
+        .collect()
+}
+
+fn replace(
+    u: &tower_lsp_server::ls_types::Uri,
+    version: i32,
+    r: [(u32, u32); 2],
+    text: &str,
+) -> Value {
+    json!({
+        "textDocument": { "uri": u, "version": version },
+        "contentChanges": [ { "range": {
+            "start": { "line": r[0].0, "character": r[0].1 },
+            "end": { "line": r[1].0, "character": r[1].1 } }, "text": text } ]
+    })
+}
+
+/// LSP: a line ends at `\n`, `\r\n` or a lone `\r` (old Mac line
+/// endings). In a lone-`\r` document diagnostics are on the lines the
+/// editor shows, and incremental edits apply where the editor made them.
+#[tokio::test]
+async fn lone_carriage_return_line_endings() {
+    let mut c = Client::start().await;
+    let path = root().join("tests/lsp/lone-cr.grm");
+    // Line 1 is a comment: it ends at its `\r`, as the line does.
+    let text = "const A = 1;\r// comment\rsystem S {\r    axiom F(B);\r}\r";
+    let u = c.open(&path, text).await;
+    let d = c.diagnostics(&u, 1).await;
+    assert_eq!(codes(&d), vec!["E0101"], "{d}");
+    assert_eq!(ranges_of(&d, "E0101"), vec!["3:12-3:13"], "{d}");
+
+    // Replace `B` by `A`: no diagnostic left.
+    c.notify(
+        "textDocument/didChange",
+        replace(&u, 2, [(3, 12), (3, 13)], "A"),
+    )
+    .await;
+    let d = c.diagnostics(&u, 2).await;
+    assert_eq!(codes(&d), Vec::<String>::new(), "{d}");
+    // `A` of the axiom is defined on line 0.
+    let def = c
+        .ok(
+            "textDocument/definition",
+            at(&u, json!({ "line": 3, "character": 12 })),
+        )
+        .await;
+    assert_eq!(range_str(&def["range"]), "0:6-0:7", "{def}");
+
+    // Append to line 0 past its end: before its `\r`, not on line 1.
+    c.notify(
+        "textDocument/didChange",
+        change(&u, 3, json!({ "line": 0, "character": 999 }), " // note"),
+    )
+    .await;
+    let d = c.diagnostics(&u, 3).await;
+    assert_eq!(codes(&d), Vec::<String>::new(), "{d}");
+    let r = c
+        .ok(
+            "textDocument/semanticTokens/full",
+            json!({ "textDocument": { "uri": u } }),
+        )
+        .await;
+    let toks = tokens(&r["data"]);
+    // Two comments: ` // note` at the end of line 0, `// comment` on line 1.
+    assert!(toks.contains(&(0, 13, 7)), "{toks:?}");
+    assert!(toks.contains(&(1, 0, 10)), "{toks:?}");
+    // `axiom` is still on line 3, at column 4.
+    assert!(toks.contains(&(3, 4, 5)), "{toks:?}");
+
+    // Insert a line before the comment, then break the axiom on line 4.
+    c.notify(
+        "textDocument/didChange",
+        change(
+            &u,
+            4,
+            json!({ "line": 1, "character": 0 }),
+            "const B = 2;\r",
+        ),
+    )
+    .await;
+    c.notify(
+        "textDocument/didChange",
+        replace(&u, 5, [(4, 12), (4, 13)], "Q"),
+    )
+    .await;
+    let d = c.diagnostics(&u, 5).await;
+    assert_eq!(ranges_of(&d, "E0101"), vec!["4:12-4:13"], "{d}");
+    let h = c
+        .ok(
+            "textDocument/hover",
+            at(&u, json!({ "line": 1, "character": 6 })),
+        )
+        .await;
+    assert_eq!(range_str(&h["range"]), "1:6-1:7", "{h}");
+
+    // Delete the inserted line (a range across its lone `\r`): the axiom
+    // is back on line 3.
+    c.notify(
+        "textDocument/didChange",
+        replace(&u, 6, [(1, 0), (2, 0)], ""),
+    )
+    .await;
+    let d = c.diagnostics(&u, 6).await;
+    assert_eq!(codes(&d), vec!["E0101"], "{d}");
+    assert_eq!(ranges_of(&d, "E0101"), vec!["3:12-3:13"], "{d}");
+    let h = c
+        .ok(
+            "textDocument/hover",
+            at(&u, json!({ "line": 0, "character": 6 })),
+        )
+        .await;
+    assert_eq!(range_str(&h["range"]), "0:6-0:7", "{h}");
+}
+
+/// Mixed line endings (`\r\n`, a lone `\r`, `\n`) in one document: each
+/// is one line break.
+#[tokio::test]
+async fn mixed_line_endings() {
+    let mut c = Client::start().await;
+    let path = root().join("tests/lsp/mixed-eol.grm");
+    let text = "const A = 1;\r\n// c\rsystem S {\n    axiom F(B);\r\r\n}";
+    let u = c.open(&path, text).await;
+    let d = c.diagnostics(&u, 1).await;
+    assert_eq!(ranges_of(&d, "E0101"), vec!["3:12-3:13"], "{d}");
+    // Lines 4 (empty, between the lone `\r` and the `\r\n`) and 5 (`}`).
+    c.notify(
+        "textDocument/didChange",
+        change(
+            &u,
+            2,
+            json!({ "line": 4, "character": 0 }),
+            "    G -> F(C);",
+        ),
+    )
+    .await;
+    let d = c.diagnostics(&u, 2).await;
+    assert_eq!(
+        ranges_of(&d, "E0101"),
+        vec!["3:12-3:13", "4:11-4:12"],
+        "{d}"
+    );
 }
 
 /// Closing an imported document that has unsaved edits reverts it to the

@@ -147,9 +147,10 @@ fn lex_string(lex: &mut logos::Lexer<Raw>) -> bool {
                 closed = true;
                 break;
             }
-            '\n' => {
-                // Unterminated: stop at the line end, leaving a trailing `;`
-                // to the statement so the one typo costs one diagnostic.
+            '\n' | '\r' => {
+                // Unterminated: stop at the line end (a line break is `\n`,
+                // `\r\n` or a lone `\r`), leaving a trailing `;` to the
+                // statement so the one typo costs one diagnostic.
                 let line = rest[..i].trim_end();
                 len = if line.ends_with(';') {
                     line.len() - 1
@@ -165,9 +166,10 @@ fn lex_string(lex: &mut logos::Lexer<Raw>) -> bool {
     closed
 }
 
+/// A line comment runs to the end of its line, before its line break
+/// (`\n`, `\r\n` or a lone `\r`, as `grm_diag::SourceFile` counts lines).
 fn lex_line_comment(lex: &mut logos::Lexer<Raw>) {
-    let rest = lex.remainder();
-    let len = rest.find('\n').unwrap_or(rest.len());
+    let len = grm_diag::first_line_len(lex.remainder());
     lex.bump(len);
 }
 
@@ -578,6 +580,25 @@ mod tests {
         );
         let l = lex(FileId(0), "a /* never");
         assert_eq!(l.diagnostics[0].code, Code::UnterminatedComment);
+    }
+
+    /// A line comment or an unterminated string ends at a line break:
+    /// `\n`, `\r\n` or a lone `\r` (old Mac line endings).
+    #[test]
+    fn line_comments_and_strings_end_at_every_line_break() {
+        use TokKind::*;
+        for nl in ["\n", "\r\n", "\r"] {
+            let text = format!("a // x{nl}b");
+            let l = lex(FileId(0), &text);
+            assert_eq!(l.comments.len(), 1, "{nl:?}");
+            assert_eq!(l.comments[0].span, Span::new(2, 6), "{nl:?}");
+            assert_eq!(kinds(&text), vec![Ident, Ident], "{nl:?}");
+            let text = format!("a \"s;{nl}b;");
+            let l = lex(FileId(0), &text);
+            let codes: Vec<_> = l.diagnostics.iter().map(|d| d.code).collect();
+            assert_eq!(codes, vec![Code::UnterminatedString], "{nl:?}");
+            assert_eq!(kinds(&text), vec![Ident, Str, Semi, Ident, Semi], "{nl:?}");
+        }
     }
 
     #[test]

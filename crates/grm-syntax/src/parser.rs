@@ -415,7 +415,7 @@ impl<'a> Driver<'a, '_> {
         let err_idx = toks.iter().position(|t| t.span.start as usize >= at)?;
         (1..=err_idx).rev().find(|&j| {
             let gap = &self.text[toks[j - 1].span.end as usize..toks[j].span.start as usize];
-            gap.contains('\n')
+            grm_diag::has_line_break(gap)
         })
     }
 
