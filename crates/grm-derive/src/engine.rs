@@ -1023,10 +1023,14 @@ impl<'a> Engine<'a> {
         // its symbol's word count (`check_input`, and the engine's own
         // strings), so `starts` is not read.
         let mut wi = input.starts[range.start] as usize;
+        // The tables, hoisted out of the loop (the compiler reloads fields
+        // behind `self` after every store otherwise).
+        let (acts, plans, sym_words) = (&self.acts[..], &self.plans[..], &self.sym_words[..]);
+        let (ariths, tpls) = (&self.ariths[..], &self.tpl[..]);
         for i in range {
             let sym = input.syms[i];
             let s = sym as usize;
-            match self.acts[s] {
+            match acts[s] {
                 Act::Copy0 => {
                     // The common case first: copied, no parameters.
                     osyms[o] = sym;
@@ -1064,8 +1068,8 @@ impl<'a> Engine<'a> {
                     wi += 1;
                 }
                 Act::Plan(alt) => {
-                    let plan = self.plans[alt as usize];
-                    let n = self.sym_words[s] as usize;
+                    let plan = plans[alt as usize];
+                    let n = sym_words[s] as usize;
                     let mut out = Out {
                         syms: &mut *osyms,
                         starts: &mut *ostarts,
@@ -1092,8 +1096,8 @@ impl<'a> Engine<'a> {
                     wi += n;
                 }
                 Act::Small(alt) => {
-                    let plan = self.plans[alt as usize];
-                    let n = self.sym_words[s] as usize;
+                    let plan = plans[alt as usize];
+                    let n = sym_words[s] as usize;
                     let mut spare = [0.0f32; PAD];
                     let b: &[f32; PAD] = match input.params.get(wi..wi + PAD) {
                         // A slice of `PAD` words.
@@ -1113,10 +1117,10 @@ impl<'a> Engine<'a> {
                     };
                     self.emit_syms(plan, &mut out);
                     let words = plan.words as usize;
-                    let ariths = &self.ariths[plan.patch_lo as usize..plan.patch_hi as usize];
+                    let ariths = &ariths[plan.patch_lo as usize..plan.patch_hi as usize];
                     let t = plan.tpl as usize;
                     // `tpl` is padded with `PAD` words.
-                    let tpl: &[f32; PAD] = self.tpl[t..t + PAD].try_into().unwrap_or(&[0.0; PAD]);
+                    let tpl: &[f32; PAD] = tpls[t..t + PAD].try_into().unwrap_or(&[0.0; PAD]);
                     // Bit 31 set where a value is not finite: its exponent
                     // is all ones, and one more carries into bit 31.
                     let mut bad = 0u32;
@@ -1153,7 +1157,7 @@ impl<'a> Engine<'a> {
                     wi += n;
                 }
                 Act::Slow => {
-                    let n = self.sym_words[s] as usize;
+                    let n = sym_words[s] as usize;
                     match self.decide(step, &mut worker, i)? {
                         None => {
                             osyms[o] = sym;
@@ -1183,7 +1187,7 @@ impl<'a> Engine<'a> {
                                 let bind = &input.params[wi..wi + n];
                                 self.emit(step, &mut worker, alt, bind, i, &mut out)?;
                             }
-                            let plan = self.plans[alt as usize];
+                            let plan = plans[alt as usize];
                             o += plan.len as usize;
                             wo += plan.words as usize;
                         }
