@@ -684,6 +684,72 @@ impl<'a> GpuSystem<'a> {
         self.symbol_bounds(opts, None).map(|(_, last)| last)
     }
 
+    /// At most how deep the brackets of the final string nest and how many
+    /// `[` it has, over every outcome that may happen (the outcomes
+    /// [`growth_row`] counts), `kinds[j][s]` being 1 for a `[` and -1 for
+    /// a `]` of job `j`'s symbol `s`. Each job's string starts at depth 0.
+    /// `None` when a table is out of range.
+    pub(crate) fn bracket_bounds(
+        &self,
+        opts: &GpuDeriveOptions,
+        kinds: &[Vec<i8>],
+    ) -> Option<(u64, u64)> {
+        let (_, last) = self.symbol_bounds(opts, None)?;
+        let mut opens = 0u64;
+        let mut depth = 0i64;
+        for (((job, its), counts), kind) in self
+            .jobs
+            .iter()
+            .zip(self.job_iterations(opts))
+            .zip(&last)
+            .zip(kinds)
+        {
+            let sys = job.system;
+            let k = |s: u32| i64::from(kind.get(s as usize).copied().unwrap_or(0));
+            for (s, &c) in counts.iter().enumerate() {
+                if k(s as u32) > 0 {
+                    opens = opens.saturating_add(c);
+                }
+            }
+            // `rel[s]`: the deepest a module of `s` and what it becomes
+            // reach after the steps so far, relative to the depth before
+            // it. A module's own depth: 1 for `[` (the depth after it),
+            // else 0.
+            let ns = sys.symbols.len();
+            let outcomes = (0..ns)
+                .map(|s| successors_of(sys, s))
+                .collect::<Option<Vec<_>>>()?;
+            let mut rel: Vec<i64> = (0..ns).map(|s| k(s as u32).max(0)).collect();
+            let reach = |succ: &[u32], rel: &[i64]| -> i64 {
+                let mut d = 0i64;
+                let mut most = 0i64;
+                for &m in succ {
+                    most = most.max(d.saturating_add(rel[m as usize]));
+                    d = d.saturating_add(k(m));
+                }
+                most.max(d)
+            };
+            for _ in 0..its {
+                rel = outcomes
+                    .iter()
+                    .enumerate()
+                    .map(|(s, outs)| {
+                        outs.iter()
+                            .map(|succ| reach(succ, &rel))
+                            .fold(rel[s], i64::max)
+                    })
+                    .collect();
+            }
+            let axiom = sys.alts.get(sys.axiom_alt as usize)?;
+            let axiom: Vec<u32> = succ_of(sys, axiom)?.iter().map(|m| m.symbol).collect();
+            if axiom.iter().any(|&m| m as usize >= ns) {
+                return None;
+            }
+            depth = depth.max(reach(&axiom, &rel));
+        }
+        Some((depth.max(0) as u64, opens))
+    }
+
     /// [`GpuSystem::string_bounds`], and per job the bound of each
     /// symbol's count in its final string.
     #[allow(clippy::type_complexity)]
@@ -1756,6 +1822,34 @@ fn growth_row(sys: &CompiledSystem, s: usize) -> Option<Vec<(usize, u64)>> {
         *r = (*r).max(1);
     }
     Some(row.into_iter().collect())
+}
+
+/// For symbol `s`: the successors (as symbol lists) a module of it may
+/// become in one step, staying as it is included where that may happen
+/// (the outcomes of [`growth_row`]).
+fn successors_of(sys: &CompiledSystem, s: usize) -> Option<Vec<Vec<u32>>> {
+    use grm_compile::table::{GROUP_CONTEXT, NONE};
+    let e = sys.symbols.get(s)?;
+    let mut outs = Vec::new();
+    let mut copy = true;
+    for g in e.first_group..e.first_group.checked_add(e.group_count)? {
+        let gh = sys.groups.get(g as usize)?;
+        for a in gh.first_alt..gh.first_alt.checked_add(gh.alt_count)? {
+            let succ = succ_of(sys, sys.alts.get(a as usize)?)?;
+            if succ.iter().any(|m| m.symbol as usize >= sys.symbols.len()) {
+                return None;
+            }
+            outs.push(succ.iter().map(|m| m.symbol).collect());
+        }
+        if gh.flags & GROUP_CONTEXT == 0 && gh.cond_code == NONE {
+            copy = false;
+            break;
+        }
+    }
+    if copy {
+        outs.push(vec![s as u32]);
+    }
+    Some(outs)
 }
 
 /// For symbol `s`: (symbol, the expected number of modules of it one

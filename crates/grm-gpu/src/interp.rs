@@ -181,6 +181,18 @@ impl TurtleProgram {
             .any(|s| s.op == TurtleOp::Push as u32 || s.op == TurtleOp::Pop as u32)
     }
 
+    /// Per symbol: 1 for `[`, -1 for `]`, 0 for the rest.
+    pub(crate) fn bracket_kinds(&self) -> Vec<i8> {
+        self.syms
+            .iter()
+            .map(|s| match s.op {
+                op if op == TurtleOp::Push as u32 => 1,
+                op if op == TurtleOp::Pop as u32 => -1,
+                _ => 0,
+            })
+            .collect()
+    }
+
     /// At most how many bones a string with `counts[s]` modules of each
     /// symbol `s` has (its `F`/`G` modules: one bone each, except those a
     /// cut `%` removes).
@@ -273,38 +285,60 @@ pub(crate) fn turtle_tables(programs: &[&TurtleProgram]) -> Vec<u32> {
     words
 }
 
-/// Bracket matching of a string with brackets and its depth range (the
-/// interpretation's one early synchronisation): the tree, the deepest
-/// depth and the number of `[`. Every system must start at depth 0 and the
-/// depths never go below it.
-fn depths(
-    gpu: &Gpu,
-    programs: &[&TurtleProgram],
-    s: &DeviceString,
+/// The deepest nesting a [`BracketBounds`] may give for the interpretation
+/// to use it: each depth up to the bound costs one (possibly empty) round,
+/// and a few dozen empty dispatches cost about what the one read-back they
+/// save does on a GPU.
+const MAX_BOUNDED_DEPTH: u64 = 64;
+
+/// Bounds on a string's brackets known before it is interpreted (from the
+/// derivation's tables, or counted on the host): the deepest nesting and
+/// the number of `[`. With them the buffers are sized and the rounds
+/// recorded without first reading the depth range back, and the range is
+/// read (and checked against them) with the bone count.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct BracketBounds {
+    pub depth: u64,
+    pub opens: u64,
+}
+
+/// The bracket pass's figures, read back: what [`check_depths`] reads.
+/// In `u32` words: the top level's `[min, max]` depth pairs, the number
+/// of `[` (the scanned counts' total), and the depth where each later
+/// system starts (it must start at depth 0: every system before it closed
+/// its brackets).
+fn depth_reads<'b>(
+    tree: &'b brackets::BracketTree,
+    n: u64,
     ranges: &[(u64, u64)],
-) -> Result<Depths, GpuError> {
-    let n = s.len;
-    let tables = gpu.upload("turtle symbols", &bracket_tables(programs, ranges))?;
-    let mut enc = gpu.encoder();
-    let tree = brackets::record_match(gpu, &mut enc, &tables, &s.syms, n)?;
-    // The depth range, and the depth where each later system starts (it
-    // must start at depth 0: every system before it closed its brackets).
+) -> Vec<(&'b wgpu::Buffer, u64, u64)> {
     let mut reads = vec![(
         &tree.levels,
-        tree.top_offset(),
-        *tree.lens.last().unwrap_or(&1),
+        2 * tree.top_offset(),
+        2 * *tree.lens.last().unwrap_or(&1),
     )];
-    // The number of `[` (the scanned counts' totals).
-    reads.push((&tree.pairs, n, 1));
+    // `pairs` holds (`[` count, `]` count) pairs: the first word of pair n.
+    reads.push((&tree.pairs, 2 * n, 1));
     for &(start, _) in ranges.iter().skip(1) {
-        reads.push((&tree.levels, start.min(n), 1));
+        reads.push((&tree.levels, 2 * start.min(n), 2));
     }
-    let got = gpu.read::<[i32; 2]>(enc, &reads)?;
-    let top = got.first().cloned().unwrap_or_default();
+    reads
+}
+
+/// The deepest nesting and the number of `[` from [`depth_reads`]' words;
+/// unbalanced brackets (a depth below 0, or a system that does not start
+/// at depth 0) are an error.
+fn check_depths(got: &[Vec<u32>], ranges: &[(u64, u64)]) -> Result<(u64, u64), GpuError> {
+    let pairs = |v: &Vec<u32>| -> Vec<[i32; 2]> {
+        v.chunks_exact(2)
+            .map(|c| [c[0] as i32, c[1] as i32])
+            .collect()
+    };
+    let top = got.first().map(pairs).unwrap_or_default();
     let opens = got
         .get(1)
         .and_then(|v| v.first())
-        .map_or(0, |c| c[0] as u32 as u64);
+        .map_or(0, |&c| u64::from(c));
     let dmin = top.iter().map(|v| v[0]).min().unwrap_or(0);
     let dmax = top.iter().map(|v| v[1]).max().unwrap_or(0);
     if dmin < 0 {
@@ -313,25 +347,29 @@ fn depths(
     if let Some(k) = got
         .iter()
         .skip(2)
-        .position(|v| v.first().is_some_and(|d| d[0] != 0))
+        .position(|v| v.first().is_some_and(|&d| d != 0))
     {
         return Err(GpuError::UnbalancedBrackets {
             position: Some(ranges[k + 1].0 as usize),
         });
     }
-    Ok(Depths {
-        tree,
-        dmax: dmax as u64,
-        opens,
-    })
+    Ok((dmax as u64, opens))
 }
 
-/// The bracket pass's results: the tree, the deepest nesting and the
-/// number of `[`.
-struct Depths {
-    tree: brackets::BracketTree,
-    dmax: u64,
-    opens: u64,
+/// The exact [`BracketBounds`] of a host string (one pass over it).
+fn host_bracket_bounds(program: &TurtleProgram, string: &ModuleString) -> BracketBounds {
+    let kinds = program.bracket_kinds();
+    let (mut d, mut depth, mut opens) = (0i64, 0i64, 0u64);
+    for &sym in &string.syms {
+        let k = kinds.get(sym as usize).copied().unwrap_or(0);
+        d += i64::from(k);
+        opens += u64::from(k > 0);
+        depth = depth.max(d);
+    }
+    BracketBounds {
+        depth: depth.max(0) as u64,
+        opens,
+    }
 }
 
 /// Bones and figures of one interpretation.
@@ -423,8 +461,16 @@ pub fn interpret_with(
             counts[sym as usize] += 1;
         }
         let most = program.bones_at_most(&counts);
-        let (bones, count, mut out) =
-            interpret_device(gpu, &[program], &s, &[(0, s.len)], Some(most), scan)?;
+        let b = host_bracket_bounds(program, string);
+        let (bones, count, mut out) = interpret_device(
+            gpu,
+            &[program],
+            &s,
+            &[(0, s.len)],
+            Some(most),
+            Some(b),
+            scan,
+        )?;
         out.bones = read_bones(gpu, &bones, count)?;
         Ok(out)
     })
@@ -450,13 +496,17 @@ pub(crate) fn read_bones(
 /// figures (with no bones read yet). `bones_at_most`, when the caller
 /// knows it (an exact derivation's symbol counts), sizes the bone buffer
 /// before the bones are counted, so counting and writing them is one
-/// submission (else the count is read back first). Inside [`Gpu::run`].
+/// submission (else the count is read back first). `brackets_at_most`,
+/// when the caller knows it, does the same for the depth range of a
+/// branching string (else it is read back before anything is sized).
+/// Inside [`Gpu::run`].
 pub(crate) fn interpret_device(
     gpu: &Gpu,
     programs: &[&TurtleProgram],
     s: &DeviceString,
     ranges: &[(u64, u64)],
     bones_at_most: Option<u64>,
+    brackets_at_most: Option<BracketBounds>,
     scan: BranchScan,
 ) -> Result<(wgpu::Buffer, u64, GpuInterpretation), GpuError> {
     let t0 = Instant::now();
@@ -485,29 +535,12 @@ pub(crate) fn interpret_device(
             count: n,
         });
     }
-    // 1. Depths (and the depth range, the one early synchronisation). A
-    // string of systems without brackets is straight: depth 0 everywhere,
-    // already in depth order; nothing to match, read or sort.
+    // 1. Depths. A string of systems without brackets is straight: depth
+    // 0 everywhere, already in depth order; nothing to match, read or sort.
+    // A branching one is matched first; its depth range sizes the buffers
+    // and the rounds: the caller's bounds (checked against the range when
+    // the bone count is read), else the range read back now.
     let straight = !programs.iter().any(|p| p.has_brackets());
-    let tree = if straight {
-        None
-    } else {
-        Some(depths(gpu, programs, s, ranges)?)
-    };
-    let dmax = tree.as_ref().map_or(0, |t| t.dmax);
-    let opens = tree.as_ref().map_or(0, |t| t.opens);
-    out.max_depth = dmax as u32;
-    let unused = || gpu.storage("unused", 16);
-    let (levels, pairs, tree_bufs) = match tree {
-        Some(t) => (t.tree.levels, t.tree.pairs, vec![t.tree.mate]),
-        None => (unused()?, unused()?, Vec::new()),
-    };
-
-    // 2. Buffers. A straight string of affine commands keeps one turtle
-    // state per block of SCAN_BLOCK modules, not one per module (the fused
-    // matrix scan, shaders/turtle.wgsl 3a); a branching one also one per
-    // `[` when it is fused (`scan`: where the per-module states would not
-    // fit, by default).
     let state_bytes = std::mem::size_of::<TurtleElem>() as u64;
     let fused = !walked
         && (straight
@@ -518,6 +551,66 @@ pub(crate) fn interpret_device(
             });
     out.fused = fused;
     let blocks = n.div_ceil(u64::from(SCAN_BLOCK));
+    let mut enc = gpu.encoder();
+    let mut bracket_tables_buf = None;
+    let mut bounded = None;
+    let tree = if straight {
+        None
+    } else {
+        let tables = gpu.upload("turtle symbols", &bracket_tables(programs, ranges))?;
+        let tree = brackets::record_match(gpu, &mut enc, &tables, &s.syms, n)?;
+        bracket_tables_buf = Some(tables);
+        // A depth bound costs a round per depth whether the string reaches
+        // it or not: past `MAX_BOUNDED_DEPTH` the range is read instead. A
+        // fused scan keeps a state per `[`: that bound must fit too.
+        let usable = brackets_at_most
+            .map(|b| BracketBounds {
+                depth: b.depth.min(n),
+                opens: b.opens.min(n),
+            })
+            .filter(|b| {
+                b.depth <= MAX_BOUNDED_DEPTH
+                    && (!fused
+                        || gpu
+                            .check_storage(
+                                "turtle states",
+                                state_bytes.saturating_mul(blocks.saturating_add(b.opens)),
+                            )
+                            .is_ok())
+            });
+        match usable {
+            Some(b) => {
+                bounded = Some(b);
+                Some((tree, b.depth, b.opens))
+            }
+            None => {
+                let first = std::mem::replace(&mut enc, gpu.encoder());
+                let got = gpu.read::<u32>(first, &depth_reads(&tree, n, ranges))?;
+                let (dmax, opens) = check_depths(&got, ranges)?;
+                Some((tree, dmax, opens))
+            }
+        }
+    };
+    let dmax = tree.as_ref().map_or(0, |t| t.1);
+    let opens = tree.as_ref().map_or(0, |t| t.2);
+    out.max_depth = dmax as u32;
+    let unused = || gpu.storage("unused", 16);
+    let tree = match tree {
+        Some((t, _, _)) => t,
+        None => brackets::BracketTree {
+            mate: unused()?,
+            levels: unused()?,
+            pairs: unused()?,
+            lens: vec![1],
+        },
+    };
+    let (levels, pairs) = (&tree.levels, &tree.pairs);
+
+    // 2. Buffers. A straight string of affine commands keeps one turtle
+    // state per block of SCAN_BLOCK modules, not one per module (the fused
+    // matrix scan, shaders/turtle.wgsl 3a); a branching one also one per
+    // `[` when it is fused (`scan`: where the per-module states would not
+    // fit, by default).
     let chunk = (n * (dmax + 1)).div_ceil(HIST_BUDGET).max(32);
     let chunks = n.div_ceil(chunk);
     let hist_len = (chunks * (dmax + 1) + 1).max(n + 1);
@@ -559,8 +652,8 @@ pub(crate) fn interpret_device(
                threads: u64| {
         let u = gpu.uniform("turtle params", p);
         let b = [
-            &u, &s.syms, &s.starts, &s.params, &tsyms, &levels, &hist, &order, &pos_of, &elems,
-            bones, &aux, &pairs,
+            &u, &s.syms, &s.starts, &s.params, &tsyms, levels, &hist, &order, &pos_of, &elems,
+            bones, &aux, pairs,
         ];
         gpu.dispatch(enc, k, &b, groups_for(threads))
     };
@@ -571,8 +664,8 @@ pub(crate) fn interpret_device(
         };
         let u = gpu.uniform("turtle params", &p);
         let b = [
-            &u, &s.syms, &s.starts, &s.params, &tsyms, &levels, &hist, &order, &pos_of, &elems,
-            bones, &aux, &pairs,
+            &u, &s.syms, &s.starts, &s.params, &tsyms, levels, &hist, &order, &pos_of, &elems,
+            bones, &aux, pairs,
         ];
         gpu.dispatch_indirect(enc, k, &b, &indirect, 12 * d)
     };
@@ -581,7 +674,6 @@ pub(crate) fn interpret_device(
     // commands) or scan the per-module states and compose them depth by
     // depth, then number the bones. The fused scan comes with the bones,
     // in step 4.
-    let mut enc = gpu.encoder();
     let wg = u64::from(crate::device::WORKGROUP);
     if !straight {
         run(&mut enc, &kernels::DEPTH_HIST, &base, &no_bones, chunks + 1)?;
@@ -634,40 +726,128 @@ pub(crate) fn interpret_device(
         }
         Ok(())
     };
-    let read_count = |enc: wgpu::CommandEncoder| -> Result<u64, GpuError> {
-        let count = gpu.read::<u32>(enc, &[(&hist, n, 1)])?;
-        Ok(u64::from(
-            count
-                .into_iter()
-                .next()
-                .and_then(|v| v.first().copied())
-                .unwrap_or(0),
-        ))
+    // The bone count; with bounds, the depth range with it (checked: a
+    // depth range over the bounds means the kernels ran on buffers too
+    // small, so nothing they wrote is used).
+    let read_count = |enc: wgpu::CommandEncoder| -> Result<(u64, Option<(u64, u64)>), GpuError> {
+        let mut reads = vec![(&hist, n, 1)];
+        if bounded.is_some() {
+            reads.extend(depth_reads(&tree, n, ranges));
+        }
+        let got = gpu.read::<u32>(enc, &reads)?;
+        let count = got
+            .first()
+            .and_then(|v| v.first())
+            .map_or(0, |&c| u64::from(c));
+        let range = match bounded {
+            Some(_) => Some(check_depths(&got[1..], ranges)?),
+            None => None,
+        };
+        Ok((count, range))
     };
-    let (bones, count) = match known {
+    let (bones, count, range) = match known {
         Some(most) => {
             let bones = gpu.storage("bones", bone_bytes * most)?;
             write(&mut enc, &bones)?;
-            let count = read_count(enc)?;
+            let (count, range) = read_count(enc)?;
             if count > most {
                 return Err(GpuError::Readback(format!(
                     "{count} bones, more than the {most} the string's symbols allow"
                 )));
             }
-            (bones, count)
+            (bones, count, range)
         }
         None => {
-            let count = read_count(enc)?;
+            let (count, range) = read_count(enc)?;
             let bones = gpu.storage("bones", bone_bytes * count)?;
-            let mut enc = gpu.encoder();
-            write(&mut enc, &bones)?;
-            gpu.submit_wait(enc)?;
-            (bones, count)
+            if range.is_none_or(|(d, o)| d <= dmax && o <= opens) {
+                let mut enc = gpu.encoder();
+                write(&mut enc, &bones)?;
+                gpu.submit_wait(enc)?;
+            }
+            (bones, count, range)
         }
     };
+    let _ = bracket_tables_buf;
+    gpu.recycle([hist, order, pos_of, elems, aux, no_bones]);
+    gpu.recycle([tree.levels, tree.pairs, tree.mate]);
+    if let Some((d, o)) = range {
+        if d > dmax || o > opens {
+            // The caller's bounds were wrong: interpret again, reading the
+            // depth range first.
+            gpu.recycle([bones]);
+            return interpret_device(gpu, programs, s, ranges, bones_at_most, None, scan);
+        }
+        out.max_depth = d as u32;
+    }
     out.elapsed = t0.elapsed();
     out.bone_count = count;
-    gpu.recycle([hist, order, pos_of, elems, aux, no_bones, levels, pairs]);
-    gpu.recycle(tree_bufs);
     Ok((bones, count, out))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Bounds below the string's real depth range are caught when the
+    /// range is read with the bone count, and the string is interpreted
+    /// again from the range read first: the same bones as with no bounds.
+    #[test]
+    fn wrong_bracket_bounds_are_caught_and_the_string_interpreted_again() {
+        let gpu = match crate::shared() {
+            Ok(g) => g,
+            Err(e) => {
+                panic!("GPU tests need a GPU adapter (scripts/test.sh installs lavapipe): {e}")
+            }
+        };
+        let src = "system S { axiom F [ + F [ - F [ + F ] ] F ] F [ - F ] F; }";
+        let (_, checked) = grm_sema::check_with("inline.grm", src, &grm_sema::MemLoader::new());
+        assert!(!checked.has_errors(), "{:?}", checked.diagnostics);
+        let p = &checked.program;
+        let sys = p.default_system().expect("a system");
+        let c = grm_compile::compile(p, sys, &p.default_params()).expect("compiles");
+        let string = grm_derive::Engine::new(&c, 1)
+            .and_then(|e| e.axiom(0))
+            .expect("axiom");
+        let prog = TurtleProgram::new(sys, &c.settings);
+        let exact = host_bracket_bounds(&prog, &string);
+        assert_eq!(exact, BracketBounds { depth: 3, opens: 4 });
+        for scan in [BranchScan::PerModule, BranchScan::Fused] {
+            let got = gpu.run(|| {
+                let mut out = Vec::new();
+                for bounds in [
+                    None,
+                    Some(exact),
+                    Some(BracketBounds { depth: 0, opens: 4 }),
+                    Some(BracketBounds { depth: 3, opens: 1 }),
+                ] {
+                    let s = DeviceString {
+                        syms: gpu.upload("symbols", &string.syms)?,
+                        starts: gpu.upload("parameter starts", &string.starts)?,
+                        params: gpu.upload("parameters", &string.params)?,
+                        len: string.len() as u64,
+                        words: string.params.len() as u64,
+                    };
+                    let w = gpu.waits();
+                    let (bones, count, o) =
+                        interpret_device(gpu, &[&prog], &s, &[(0, s.len)], Some(8), bounds, scan)?;
+                    let waits = gpu.waits() - w;
+                    out.push((read_bones(gpu, &bones, count)?, o.max_depth, waits));
+                }
+                Ok(out)
+            });
+            let got = got.expect("interprets");
+            let (want, depth, _) = &got[0];
+            assert_eq!(want.len(), 8, "{scan:?}");
+            assert_eq!(*depth, 3, "{scan:?}");
+            // None: the range, then the bones with their count. Exact: one
+            // wait. Wrong: one, then again as None.
+            let waits: Vec<u64> = got.iter().map(|g| g.2).collect();
+            assert_eq!(waits, [2, 1, 3, 3], "{scan:?}");
+            for (k, (bones, depth, _)) in got.iter().enumerate().skip(1) {
+                assert_eq!(bones, want, "{scan:?} bounds {k}");
+                assert_eq!(*depth, 3, "{scan:?} bounds {k}");
+            }
+        }
+    }
 }

@@ -12,7 +12,9 @@ use crate::derive::{
 };
 use crate::device::Gpu;
 use crate::error::GpuError;
-use crate::interp::{BranchScan, GpuInterpretation, TurtleProgram, interpret_device, read_bones};
+use crate::interp::{
+    BracketBounds, BranchScan, GpuInterpretation, TurtleProgram, interpret_device, read_bones,
+};
 use crate::layout::GpuBone;
 
 /// What to run and what to bring back.
@@ -92,12 +94,14 @@ pub fn run(
                 Some(done) => done,
                 None => {
                     let most = bones_at_most(&g, &opts.derive, &[turtle]);
+                    let brackets = brackets_at_most(&g, &opts.derive, &[turtle]);
                     interpret_device(
                         gpu,
                         &[turtle],
                         &string,
                         &[(0, string.len())],
                         most,
+                        brackets,
                         opts.branch_scan,
                     )?
                 }
@@ -181,8 +185,16 @@ pub fn run_many(
         let mut readback_elapsed = Duration::ZERO;
         if opts.interpret {
             let most = bones_at_most(&g, &d, turtles);
-            let (buf, count, out) =
-                interpret_device(gpu, turtles, &string, &ranges, most, opts.branch_scan)?;
+            let brackets = brackets_at_most(&g, &d, turtles);
+            let (buf, count, out) = interpret_device(
+                gpu,
+                turtles,
+                &string,
+                &ranges,
+                most,
+                brackets,
+                opts.branch_scan,
+            )?;
             if opts.read_bones {
                 let t = Instant::now();
                 let all = read_bones(gpu, &buf, count)?;
@@ -227,6 +239,19 @@ fn bones_at_most(
             .zip(turtles)
             .fold(0u64, |a, (c, t)| a.saturating_add(t.bones_at_most(c))),
     )
+}
+
+/// Bounds on the derived string's bracket depth and `[` count from the
+/// derivation's tables (every outcome that may happen), so a branching
+/// string is interpreted without first reading its depth range back.
+fn brackets_at_most(
+    g: &GpuSystem<'_>,
+    opts: &GpuDeriveOptions,
+    turtles: &[&TurtleProgram],
+) -> Option<BracketBounds> {
+    let kinds: Vec<Vec<i8>> = turtles.iter().map(|t| t.bracket_kinds()).collect();
+    let (depth, opens) = g.bracket_bounds(opts, &kinds)?;
+    Some(BracketBounds { depth, opens })
 }
 
 /// Cut the combined bones (in string order) by the systems' module ranges,

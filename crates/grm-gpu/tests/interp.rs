@@ -178,3 +178,60 @@ fn random_strings_match_the_cpu_turtle() {
         }
     }
 }
+
+/// A derived branching string is interpreted with its depth range bounded
+/// from the tables (not read back first): the bones are the CPU turtle's
+/// and the reported depth is the string's own, for deterministic,
+/// stochastic and context-sensitive scenes and both scans.
+#[test]
+fn derived_strings_interpret_with_table_bounds() {
+    let g = gpu();
+    let cases: &[(&str, Option<&str>, u32)] = &[
+        ("ternary_tree.grm", None, 4),
+        ("stochastic_plant.grm", None, 5),
+        ("context_plant_a.grm", None, 12),
+        ("context_plant_b.grm", None, 12),
+        ("bracketed_plant.grm", None, 3),
+    ];
+    for &(file, system, iterations) in cases {
+        let (p, name, c) = example_program(file, system);
+        let sys = p.system(&name).expect("system");
+        let string = cpu_derive(&c, iterations, c.settings.seed).expect("derives");
+        let cpu = grm_turtle::interpret(sys, &c.settings, &string).expect("cpu interprets");
+        let depth = string
+            .syms
+            .iter()
+            .scan(0i64, |d, &s| {
+                match sys.symbols[s as usize].name.as_str() {
+                    "[" => *d += 1,
+                    "]" => *d -= 1,
+                    _ => {}
+                }
+                Some(*d)
+            })
+            .max()
+            .unwrap_or(0);
+        let turtle = TurtleProgram::new(sys, &c.settings);
+        for scan in [BranchScan::Auto, BranchScan::Fused] {
+            let opts = grm_gpu::GpuRunOptions {
+                derive: grm_gpu::GpuDeriveOptions {
+                    iterations,
+                    cpu_prefix: 0,
+                    ..grm_gpu::GpuDeriveOptions::from_system(&c)
+                },
+                interpret: true,
+                read_string: false,
+                read_bones: true,
+                strategy: grm_gpu::DeriveStrategy::Auto,
+                branch_scan: scan,
+            };
+            let run = grm_gpu::run(g, &c, &turtle, &opts, &mut |_| {}).expect("runs");
+            let i = run.interpretation.expect("interpreted");
+            let what = format!("{file} {scan:?}");
+            assert_bones_match(&what, &cpu, &i.bones);
+            if !i.direct {
+                assert_eq!(i.max_depth as i64, depth, "{what}: depth");
+            }
+        }
+    }
+}
