@@ -63,7 +63,7 @@ run)
     if [ "${QUICK:-}" = 1 ]; then tforest=(); h5=(); fi
     "$b" --scene ternary_tree "${tforest[@]}" --forest 64 "${quick[@]}" >"$out/forest_ternary.txt" 2>&1 || true
     "$b" --scene hilbert3d "${h5[@]}" "${quick[@]}" >"$out/hilbert5.txt" 2>&1 || true
-    grep -h -E "^adapter|^scene|^forest|derive:|GPU derive|direct|stepwise|GPU only|interpret:|fused scan|total:|per timed run|CHECK|error" "$out"/*.txt
+    grep -h -E "^adapter|^scene|^forest|derive:|GPU derive|direct|stepwise|GPU only|interpret:|fused scan|total:|end to end|per timed run|CHECK|error" "$out"/*.txt
     ;;
 *)
     sed -n '2,14p' "$0"

@@ -110,6 +110,10 @@ pub struct SceneReport {
     /// The bones came from a direct derivation's tables.
     pub direct_interp: bool,
     pub gpu_interpret: Duration,
+    /// Derivation and interpretation as one run, the interpretation
+    /// recorded right behind the derivation ([`GpuRunOptions::pipelined`]):
+    /// the run's wall time, best of the runs, and its waits per run.
+    pub end_to_end: Option<(Duration, u64)>,
     pub cpu_interpret: Option<Duration>,
     /// Why the interpretation was not run (a device buffer limit), if so.
     pub interpret_skipped: Option<String>,
@@ -184,6 +188,9 @@ pub fn bench_scene(
         read_bones: false,
         strategy: crate::DeriveStrategy::Auto,
         branch_scan: crate::interp::BranchScan::Auto,
+        // Each phase waited for, so each is timed on its own; the
+        // end-to-end run below does not wait between them.
+        pipelined: false,
     };
     let t = Instant::now();
     // A string the device cannot interpret (over a buffer limit: a
@@ -234,6 +241,23 @@ pub fn bench_scene(
     let allocated_per_run = crate::device::Allocations {
         buffers: created.buffers / runs,
         bytes: created.bytes / runs,
+    };
+    // End to end, as `grmc derive --gpu` runs it: the interpretation
+    // recorded right behind the derivation (one wait for both where the
+    // derivation reads nothing back), the run's whole wall time.
+    let end_to_end = if interpret_skipped.is_none() {
+        let mut e = ropts;
+        e.pipelined = true;
+        run(gpu, c, &turtle, &e, &mut |_| {}).map_err(|e| e.to_string())?;
+        let waits = gpu.waits();
+        let (t, _) = best(cfg.runs, || {
+            let t = Instant::now();
+            run(gpu, c, &turtle, &e, &mut |_| {}).map_err(|e| e.to_string())?;
+            Ok((t.elapsed(), ()))
+        })?;
+        Some((t, (gpu.waits() - waits) / runs))
+    } else {
+        None
     };
     let stepwise_derive = if last.path == crate::DerivePath::Direct {
         let mut step = ropts;
@@ -360,6 +384,7 @@ pub fn bench_scene(
         fused_interpret,
         direct_interp: interp.direct,
         gpu_interpret: best_interp,
+        end_to_end,
         cpu_interpret,
         interpret_skipped,
         readback: warm.readback_elapsed,
@@ -638,6 +663,14 @@ impl SceneReport {
             ms(total),
             rate(self.produced + self.modules, total)
         );
+        if let Some((t, waits)) = self.end_to_end {
+            let _ = writeln!(
+                s,
+                "             end to end (one run, interpretation recorded behind the derivation, {waits} wait(s)) {:.3} ms = {:.1} modules/us",
+                ms(t),
+                rate(self.produced + self.modules, t)
+            );
+        }
         if let (Some(d), Some(t)) = (self.cpu1_derive, self.cpu_interpret) {
             let _ = writeln!(
                 s,
@@ -684,6 +717,7 @@ pub fn bench_forest(
         read_bones: false,
         strategy: crate::DeriveStrategy::Auto,
         branch_scan: crate::interp::BranchScan::Auto,
+        pipelined: false,
     };
     let warm = crate::pipeline::run_many(gpu, &jobs, &turtles, &opts, &mut |_| {})
         .map_err(|e| e.to_string())?;

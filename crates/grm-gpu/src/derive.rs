@@ -454,11 +454,25 @@ impl<'a> GpuSystem<'a> {
         strategy: DeriveStrategy,
         progress: &mut dyn FnMut(&GpuIterationStats),
     ) -> Result<(DeviceString, Vec<GpuIterationStats>, DerivePath), GpuError> {
+        self.derive_then(opts, strategy, true, progress)
+    }
+
+    /// As [`GpuSystem::derive_with`]; with `wait` false a derivation that
+    /// reads nothing back (a direct one of constant parameters) is
+    /// submitted and not waited for: the caller's next wait covers it, and
+    /// its elapsed time is that of recording and submitting it.
+    pub(crate) fn derive_then(
+        &self,
+        opts: &GpuDeriveOptions,
+        strategy: DeriveStrategy,
+        wait: bool,
+        progress: &mut dyn FnMut(&GpuIterationStats),
+    ) -> Result<(DeviceString, Vec<GpuIterationStats>, DerivePath), GpuError> {
         self.direct.replace(None);
         if strategy == DeriveStrategy::Auto
             && !opts.sync_iterations
             && let Some(plan) = self.direct_plan(opts)
-            && let Some((s, stats)) = self.derive_direct(&plan, opts)?
+            && let Some((s, stats)) = self.derive_direct(&plan, opts, wait)?
         {
             for st in &stats {
                 progress(st);

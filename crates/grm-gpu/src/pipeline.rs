@@ -33,6 +33,14 @@ pub struct GpuRunOptions {
     /// How a branching string is scanned when it is interpreted from the
     /// string ([`BranchScan::Auto`]: a state per module where it fits).
     pub branch_scan: BranchScan,
+    /// Record the interpretation right behind the derivation, without
+    /// waiting for the derivation where it reads nothing back (a direct
+    /// derivation of constant parameters): one wait for both. The
+    /// derivation's `derive_elapsed` is then the time to record and
+    /// submit it, and its kernel's time shows in the interpretation's.
+    /// `false` waits between them, so that each is timed on its own (the
+    /// benchmark's per-phase columns).
+    pub pipelined: bool,
 }
 
 /// The outcome of [`run`], with timings.
@@ -82,7 +90,8 @@ pub fn run(
             seed: opts.derive.seed,
         };
         let g = GpuSystem::load(gpu, &[job])?;
-        let (string, stats, path) = g.derive_with(&opts.derive, opts.strategy, progress)?;
+        let wait = !(opts.pipelined && opts.interpret);
+        let (string, stats, path) = g.derive_then(&opts.derive, opts.strategy, wait, progress)?;
         let derive_elapsed = t.elapsed();
         let mut interpretation = None;
         let mut readback_elapsed = Duration::ZERO;

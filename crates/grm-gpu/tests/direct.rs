@@ -411,6 +411,7 @@ fn run_bones(
         read_bones: true,
         strategy: DeriveStrategy::Auto,
         branch_scan: grm_gpu::interp::BranchScan::Auto,
+        pipelined: false,
     };
     let turtle = grm_gpu::TurtleProgram::new(sys, &c.settings);
     let mut r = grm_gpu::run(g, c, &turtle, &opts, &mut |_| {}).expect("runs");

@@ -224,6 +224,7 @@ fn derived_strings_interpret_with_table_bounds() {
                 read_bones: true,
                 strategy: grm_gpu::DeriveStrategy::Auto,
                 branch_scan: scan,
+                pipelined: false,
             };
             let run = grm_gpu::run(g, &c, &turtle, &opts, &mut |_| {}).expect("runs");
             let i = run.interpretation.expect("interpreted");

@@ -179,6 +179,7 @@ fn forest(
             read_bones: true,
             strategy: grm_gpu::DeriveStrategy::Auto,
             branch_scan,
+            pipelined: false,
         };
         let out = grm_gpu::run_many(g, &jobs, &turtles, &opts, &mut |_| {}).expect("runs");
         let bones = out.bones.expect("bones read");

@@ -33,6 +33,7 @@ fn a_repeated_run_creates_only_small_buffers() {
                 read_bones: false,
                 strategy: grm_gpu::DeriveStrategy::Auto,
                 branch_scan: grm_gpu::interp::BranchScan::Auto,
+                pipelined: false,
             };
             let first = run(g, &c, &turtle, &opts, &mut |_| {}).expect("runs");
             let before = g.allocated();

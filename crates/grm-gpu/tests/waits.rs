@@ -7,7 +7,10 @@
 //! advance, once more: a branching string's depth range is bounded from
 //! the tables and read with the bone count, not before; a bone count not
 //! known in advance is read before the bones are written. A derivation
-//! the CPU did entirely waits for nothing.
+//! the CPU did entirely waits for nothing. Pipelined
+//! (`GpuRunOptions::pipelined`), a derivation that reads nothing back is
+//! not waited for at all: Hilbert 3D and the bracketed plant derive and
+//! interpret with one wait.
 
 mod common;
 use common::*;
@@ -58,6 +61,7 @@ fn runs_wait_for_the_device_as_few_times_as_their_structure_needs() {
             read_bones: false,
             strategy: grm_gpu::DeriveStrategy::Auto,
             branch_scan: grm_gpu::interp::BranchScan::Auto,
+            pipelined: false,
         };
         let what = format!("{file} n {iterations} prefix {prefix}");
         // Warm: pipelines compiled, pool filled.
@@ -74,5 +78,28 @@ fn runs_wait_for_the_device_as_few_times_as_their_structure_needs() {
             derive_waits + interp_waits,
             "{what}: derivation and interpretation"
         );
+        // Pipelined: a derivation that reads nothing back (direct, constant
+        // parameters) is not waited for; the interpretation's wait covers
+        // it. The bones are the same.
+        opts.read_bones = true;
+        let apart = run(g, &c, &turtle, &opts, &mut |_| {}).expect("runs");
+        opts.read_bones = false;
+        opts.pipelined = true;
+        run(g, &c, &turtle, &opts, &mut |_| {}).expect("runs");
+        let w = g.waits();
+        let r = run(g, &c, &turtle, &opts, &mut |_| {}).expect("runs");
+        // (The ternary tree derives directly but computes its parameters:
+        // its status is read.)
+        let reads_nothing = r.path == grm_gpu::DerivePath::Direct && !file.starts_with("ternary");
+        assert_eq!(
+            g.waits() - w,
+            derive_waits + interp_waits - u64::from(reads_nothing),
+            "{what}: pipelined"
+        );
+        opts.read_bones = true;
+        let together = run(g, &c, &turtle, &opts, &mut |_| {}).expect("runs");
+        let bones = |r: &grm_gpu::GpuRun| r.interpretation.clone().expect("interpreted").bones;
+        assert!(!bones(&apart).is_empty(), "{what}");
+        assert_eq!(bones(&apart), bones(&together), "{what}: pipelined bones");
     }
 }

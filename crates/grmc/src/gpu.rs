@@ -57,6 +57,7 @@ pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
         read_bones: false,
         strategy: grm_gpu::DeriveStrategy::Auto,
         branch_scan: grm_gpu::interp::BranchScan::Auto,
+        pipelined: true,
     };
     let fallback = |e: &GpuError| -> Option<Outcome> {
         if args.cpu_fallback && device_problem(e) {

@@ -517,14 +517,17 @@ impl GpuSystem<'_> {
         ok.then_some(plan)
     }
 
-    /// Run a direct derivation: one dispatch, one wait. `None`: a computed
-    /// parameter faulted or was not finite; nothing is returned and the
-    /// caller derives stepwise, which reports the error exactly.
+    /// Run a direct derivation: one dispatch, one wait (none when `wait`
+    /// is false and nothing is read back: constant parameters, no device
+    /// timestamps). `None`: a computed parameter faulted or was not finite;
+    /// nothing is returned and the caller derives stepwise, which reports
+    /// the error exactly.
     #[allow(clippy::type_complexity)]
     pub(crate) fn derive_direct(
         &self,
         plan: &DirectPlan,
         opts: &GpuDeriveOptions,
+        wait: bool,
     ) -> Result<Option<(DeviceString, Vec<GpuIterationStats>)>, GpuError> {
         let t = Instant::now();
         let gpu = self.gpu;
@@ -613,7 +616,11 @@ impl GpuSystem<'_> {
             ranges.push((buf, 0, n));
         }
         let (failed, device) = if ranges.is_empty() {
-            gpu.submit_wait(enc)?;
+            if wait {
+                gpu.submit_wait(enc)?;
+            } else {
+                gpu.submit(enc);
+            }
             (false, Vec::new())
         } else {
             let words = gpu.read::<u32>(enc, &ranges)?;
