@@ -4,36 +4,9 @@
 use grm_analysis as an;
 use grm_analysis::{FileAnalysis, SourceFile, Span};
 use std::collections::HashMap;
-use std::path::Path;
 use tower_lsp_server::ls_types::*;
 
-/// Documents that are not files (`untitled:` buffers) live under this
-/// made-up directory, their URI hex-encoded as the file name.
-const VIRTUAL: &str = "/.grm-virtual/";
-
-/// The URI of a path: a file's, or a non-file document's original URI.
-pub fn uri_of(path: &Path) -> Option<Uri> {
-    if let Some(hex) = path.to_str().and_then(|s| s.strip_prefix(VIRTUAL)) {
-        let bytes: Option<Vec<u8>> = (0..hex.len())
-            .step_by(2)
-            .map(|i| u8::from_str_radix(hex.get(i..i + 2)?, 16).ok())
-            .collect();
-        let text = String::from_utf8(bytes?).ok()?;
-        return text.parse().ok();
-    }
-    Uri::from_file_path(path)
-}
-
-/// The path a document is known by: a `file:` URI's path, or a made-up
-/// path for other schemes (so unsaved buffers are analysed too; their
-/// imports resolve nowhere).
-pub fn path_of(uri: &Uri) -> Option<std::path::PathBuf> {
-    if uri.scheme().as_str() != "file" {
-        let hex: String = uri.as_str().bytes().map(|b| format!("{b:02x}")).collect();
-        return Some(std::path::PathBuf::from(format!("{VIRTUAL}{hex}")));
-    }
-    uri.to_file_path().map(|p| grm_sema::normalize(&p))
-}
+pub use crate::uris::{Uris, path_of, uri_of};
 
 /// The LSP position of a byte offset. Lines end at `\n`, `\r\n` or a lone
 /// `\r`, as LSP defines them ([`SourceFile`] counts them so); an offset
@@ -65,9 +38,10 @@ pub fn span(src: &SourceFile, r: Range) -> Span {
     Span::new(a.min(b), a.max(b))
 }
 
-pub fn location(l: &an::Location) -> Option<Location> {
+/// A location, its file named as the client names it.
+pub fn location(uris: &Uris, l: &an::Location) -> Option<Location> {
     Some(Location {
-        uri: uri_of(&l.path)?,
+        uri: uris.uri_of(&l.path)?,
         range: Range {
             start: Position {
                 line: l.start.line,
@@ -81,13 +55,13 @@ pub fn location(l: &an::Location) -> Option<Location> {
     })
 }
 
-pub fn diagnostic(src: &SourceFile, d: &an::Diagnostic) -> Diagnostic {
+pub fn diagnostic(uris: &Uris, src: &SourceFile, d: &an::Diagnostic) -> Diagnostic {
     let related: Vec<DiagnosticRelatedInformation> = d
         .related
         .iter()
         .filter_map(|r| {
             Some(DiagnosticRelatedInformation {
-                location: location(&r.location)?,
+                location: location(uris, &r.location)?,
                 message: r.message.clone(),
             })
         })
@@ -108,11 +82,11 @@ pub fn diagnostic(src: &SourceFile, d: &an::Diagnostic) -> Diagnostic {
     }
 }
 
-pub fn diagnostics(fa: &FileAnalysis) -> Vec<Diagnostic> {
+pub fn diagnostics(uris: &Uris, fa: &FileAnalysis) -> Vec<Diagnostic> {
     let src = fa.source();
     fa.diagnostics()
         .iter()
-        .map(|d| diagnostic(src, d))
+        .map(|d| diagnostic(uris, src, d))
         .collect()
 }
 
@@ -313,13 +287,13 @@ pub fn document_symbol(src: &SourceFile, n: &an::SymbolNode) -> DocumentSymbol {
 }
 
 #[allow(deprecated)] // `SymbolInformation::deprecated` must still be written.
-pub fn workspace_symbol(s: &an::WorkspaceSymbol) -> Option<SymbolInformation> {
+pub fn workspace_symbol(uris: &Uris, s: &an::WorkspaceSymbol) -> Option<SymbolInformation> {
     Some(SymbolInformation {
         name: s.name.clone(),
         kind: symbol_kind(s.kind),
         tags: None,
         deprecated: None,
-        location: location(&s.location)?,
+        location: location(uris, &s.location)?,
         container_name: s.container.clone(),
     })
 }
@@ -398,11 +372,12 @@ pub fn signature_help(s: &an::SignatureHelp) -> SignatureHelp {
     }
 }
 
-/// Edits of several files as a workspace edit.
-pub fn workspace_edit(files: &[an::FileEdits]) -> WorkspaceEdit {
+/// Edits of several files as a workspace edit, each file named as the
+/// client names it.
+pub fn workspace_edit(uris: &Uris, files: &[an::FileEdits]) -> WorkspaceEdit {
     let mut changes: HashMap<Uri, Vec<TextEdit>> = HashMap::new();
     for f in files {
-        let Some(uri) = uri_of(&f.path) else {
+        let Some(uri) = uris.uri_of(&f.path) else {
             continue;
         };
         let edits = changes.entry(uri).or_default();

@@ -15,6 +15,10 @@
 //! Invariants:
 //! - Positions are converted with UTF-16 columns at this edge only; the
 //!   analyses work in byte offsets.
+//! - Documents are known by their path, whatever spelling of its URI a
+//!   message uses; every URI the server sends is spelt as the client spelt
+//!   it: an open document's as it was opened, a workspace file's under its
+//!   folder's URI ([`uris`]).
 //! - Analysis runs off the async executor (`spawn_blocking`), and without
 //!   holding the host's lock (a [`grm_analysis::Job`] works on a snapshot),
 //!   so a long check or a large preview never stalls reading messages or
@@ -29,6 +33,7 @@
 
 pub mod convert;
 pub mod preview;
+pub mod uris;
 
 use grm_analysis::{Analysis, FileAnalysis, Lookup};
 use grm_sema::FileLoader;
@@ -90,6 +95,8 @@ pub(crate) struct Shared {
     debounce: Duration,
     /// Workspace folders to scan for `.grm` files.
     roots: Mutex<Vec<PathBuf>>,
+    /// The client's spelling of the open documents' and folders' URIs.
+    uris: Mutex<uris::Uris>,
     /// When each document was last edited (for the debounce).
     last_edit: Mutex<HashMap<PathBuf, Instant>>,
     /// Per file: held while its analysis is computed.
@@ -142,6 +149,7 @@ impl Shared {
             preview_seq: AtomicU64::new(0),
             debounce: config.debounce,
             roots: Mutex::new(Vec::new()),
+            uris: Mutex::new(uris::Uris::default()),
             last_edit: Mutex::new(HashMap::new()),
             computing: Mutex::new(HashMap::new()),
         }
@@ -176,6 +184,17 @@ impl Shared {
         };
         let fa = job.run()?;
         Some(self.analysis().store(fa))
+    }
+
+    /// The client's spellings of URIs (a snapshot).
+    pub(crate) fn uris(&self) -> uris::Uris {
+        self.uris_mut().clone()
+    }
+
+    fn uris_mut(&self) -> MutexGuard<'_, uris::Uris> {
+        self.uris
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
     pub(crate) fn version(&self, path: &Path) -> Option<i32> {
@@ -330,13 +349,14 @@ async fn publish(shared: &Arc<Shared>, client: &Client, path: PathBuf, version: 
     let p = path.clone();
     let computed = tokio::task::spawn_blocking(move || {
         let fa = s.analyze(&p)?;
-        Some((fa.version, convert::diagnostics(&fa)))
+        Some((fa.version, convert::diagnostics(&s.uris(), &fa)))
     })
     .await;
     let Ok(Some((v, diags))) = computed else {
         return;
     };
-    let Some(uri) = convert::uri_of(&path) else {
+    // The URI the document is open under (it is open: its version is).
+    let Some(uri) = shared.uris().uri_of(&path) else {
         return;
     };
     let mut published = shared.published.lock().await;
@@ -355,19 +375,19 @@ async fn publish(shared: &Arc<Shared>, client: &Client, path: PathBuf, version: 
 
 impl LanguageServer for Backend {
     async fn initialize(&self, params: InitializeParams) -> Result<InitializeResult> {
-        #[allow(deprecated)] // `root_uri` is still what older clients send.
-        let mut roots: Vec<PathBuf> = params
+        let mut folders: Vec<Uri> = params
             .workspace_folders
             .unwrap_or_default()
-            .iter()
-            .filter_map(|f| convert::path_of(&f.uri))
+            .into_iter()
+            .map(|f| f.uri)
             .collect();
-        #[allow(deprecated)]
-        if roots.is_empty()
-            && let Some(p) = params.root_uri.as_ref().and_then(convert::path_of)
+        #[allow(deprecated)] // `root_uri` is still what older clients send.
+        if folders.is_empty()
+            && let Some(u) = params.root_uri
         {
-            roots.push(p);
+            folders.push(u);
         }
+        let roots = self.shared.uris_mut().set_roots(&folders);
         *self
             .shared
             .roots
@@ -463,6 +483,10 @@ impl LanguageServer for Backend {
             return;
         };
         let version = params.text_document.version;
+        // Its spelling first: what is published for it is named so.
+        self.shared
+            .uris_mut()
+            .open(path.clone(), params.text_document.uri);
         self.shared
             .analysis()
             .set_document(&path, version, params.text_document.text);
@@ -524,6 +548,7 @@ impl LanguageServer for Backend {
         };
         // Its importers now read the file on disk (the buffer may have had
         // unsaved edits): check them again.
+        self.shared.uris_mut().close(&path);
         let deps: Vec<(PathBuf, i32)> = {
             let mut a = self.shared.analysis();
             a.close_document(&path);
@@ -597,10 +622,11 @@ impl LanguageServer for Backend {
     ) -> Result<Option<GotoDefinitionResponse>> {
         let p = params.text_document_position_params;
         let at = p.position;
+        let uris = self.shared.uris();
         Ok(self
             .with_file(&p.text_document.uri, move |fa| {
                 let l = fa.definition(convert::offset(fa.source(), at))?;
-                convert::location(&l).map(GotoDefinitionResponse::Scalar)
+                convert::location(&uris, &l).map(GotoDefinitionResponse::Scalar)
             })
             .await?
             .flatten())
@@ -620,7 +646,12 @@ impl LanguageServer for Backend {
                 Some(a.references(&path, off, include))
             })
             .await?;
-        Ok(locs.map(|v| v.iter().filter_map(convert::location).collect()))
+        let uris = self.shared.uris();
+        Ok(locs.map(|v| {
+            v.iter()
+                .filter_map(|l| convert::location(&uris, l))
+                .collect()
+        }))
     }
 
     async fn prepare_rename(
@@ -661,7 +692,7 @@ impl LanguageServer for Backend {
             .await?;
         match r {
             None => Ok(None),
-            Some(Ok(files)) => Ok(Some(convert::workspace_edit(&files))),
+            Some(Ok(files)) => Ok(Some(convert::workspace_edit(&self.shared.uris(), &files))),
             Some(Err(e)) => Err(failed(e.0)),
         }
     }
@@ -710,8 +741,12 @@ impl LanguageServer for Backend {
     ) -> Result<Option<WorkspaceSymbolResponse>> {
         let q = params.query;
         let found = self.with_host(move |a| a.workspace_symbols(&q)).await?;
+        let uris = self.shared.uris();
         Ok(Some(WorkspaceSymbolResponse::Flat(
-            found.iter().filter_map(convert::workspace_symbol).collect(),
+            found
+                .iter()
+                .filter_map(|s| convert::workspace_symbol(&uris, s))
+                .collect(),
         )))
     }
 
@@ -769,6 +804,7 @@ impl LanguageServer for Backend {
     async fn code_action(&self, params: CodeActionParams) -> Result<Option<CodeActionResponse>> {
         let uri = params.text_document.uri.clone();
         let r = params.range;
+        let uris = self.shared.uris();
         self.with_file(&params.text_document.uri, move |fa| {
             let src = fa.source();
             let diags = fa.diagnostics();
@@ -778,7 +814,7 @@ impl LanguageServer for Backend {
                     let d = diags
                         .iter()
                         .find(|d| d.code == a.code && d.span == a.diagnostic)
-                        .map(|d| convert::diagnostic(src, d));
+                        .map(|d| convert::diagnostic(&uris, src, d));
                     let edits = a.edits.iter().map(|e| convert::text_edit(src, e)).collect();
                     CodeActionOrCommand::CodeAction(CodeAction {
                         title: a.title.clone(),

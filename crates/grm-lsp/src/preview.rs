@@ -730,6 +730,7 @@ fn sample_model(
 pub(crate) fn build(
     fa: &FileAnalysis,
     uri: &Uri,
+    uris: &crate::uris::Uris,
     p: &PreviewParams,
     cancel: Option<&CancelToken>,
 ) -> std::result::Result<(PreviewResult, PickTable), Failure> {
@@ -809,7 +810,14 @@ pub(crate) fn build(
     }
     let compiled = grm_compile::compile(prog, sys, &values).map_err(|e| e.to_string())?;
     let sys_file = fa.sources.get(sys.file);
-    let sys_uri = convert::uri_of(std::path::Path::new(&sys_file.path)).unwrap_or(uri.clone());
+    // The file of the system, named as the client names it (it may be an
+    // imported file: the previewed document's URI only when it is this one).
+    let sys_path = grm_sema::normalize(std::path::Path::new(&sys_file.path));
+    let sys_uri = if sys_path == fa.path {
+        uri.clone()
+    } else {
+        uris.uri_of(&sys_path).unwrap_or_else(|| uri.clone())
+    };
     let origin_table: Vec<OriginOut> = compiled
         .alt_spans
         .iter()
@@ -1013,7 +1021,7 @@ async fn compute(
         {
             return Err(Failure::Stale(fa.version));
         }
-        build(&fa, &uri, &params, Some(&cancel))
+        build(&fa, &uri, &s.uris(), &params, Some(&cancel))
     })
     .await
     .map_err(|e| Error {
@@ -1183,7 +1191,7 @@ pub(crate) async fn refresh(shared: &Arc<Shared>, client: &Client, path: PathBuf
         if s.preview_sent.blocking_lock().get(&p) == Some(&(version, key)) {
             return None;
         }
-        Some((key, build(&fa, &u, &params, None)))
+        Some((key, build(&fa, &u, &s.uris(), &params, None)))
     })
     .await;
     let Ok(Some((key, outcome))) = built else {

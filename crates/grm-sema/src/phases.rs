@@ -368,12 +368,14 @@ pub(crate) fn check_sample(sys: &System, diags: &mut Vec<Diagnostic>, holes: boo
     }
 
     // Symbols used but neither declared nor rewritten.
-    let known: Vec<&str> = sys
-        .symbols
-        .iter()
-        .filter(|s| !s.is_terminal() && (s.decl.is_some() || !s.groups.is_empty()))
-        .map(|s| s.name.as_str())
-        .collect();
+    // Prepared once for all the unknown symbols of the system.
+    let known = crate::suggest::Candidates::new(
+        sys.symbols
+            .iter()
+            .filter(|s| !s.is_terminal() && (s.decl.is_some() || !s.groups.is_empty()))
+            .map(|s| s.name.as_str())
+            .collect(),
+    );
     for info in &sys.symbols {
         if info.is_terminal()
             || info.decl.is_some()
@@ -389,7 +391,7 @@ pub(crate) fn check_sample(sys: &System, diags: &mut Vec<Diagnostic>, holes: boo
             info.first,
             "not declared, and no production rewrites it",
         );
-        d = match crate::suggest::did_you_mean(&info.name, known.iter().copied()) {
+        d = match known.did_you_mean(&info.name) {
             Some(h) => d.with_help(h),
             None => d.with_help(format!(
                 "declare it (`geometry {0};` or `module {0};`) if it is meant to stay in the model",

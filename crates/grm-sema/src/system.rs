@@ -742,6 +742,9 @@ impl Sys<'_, '_> {
 
     fn ignore_list(&mut self, ignores: &[&ast::Ignore]) -> Vec<SymbolId> {
         let mut out: Vec<SymbolId> = Vec::new();
+        // The system's symbols in the order they were first seen, prepared
+        // once (on the first unknown entry) for every suggestion.
+        let mut known: Option<suggest::Candidates<'_>> = None;
         for ig in ignores {
             for s in &ig.symbols {
                 if let Some(forms) = terminal_forms(&s.name) {
@@ -769,13 +772,22 @@ impl Sys<'_, '_> {
                         s.span,
                         "unknown symbol",
                     );
-                    let names: Vec<&str> = self.tab.user.keys().map(String::as_str).collect();
-                    if let Some(h) = suggest::did_you_mean(&s.name, names) {
+                    let known = known.get_or_insert_with(|| {
+                        let mut v: Vec<(SymbolId, &str)> = self
+                            .tab
+                            .user
+                            .iter()
+                            .map(|(n, &id)| (id, n.as_str()))
+                            .collect();
+                        v.sort_unstable();
+                        suggest::Candidates::new(v.into_iter().map(|(_, n)| n).collect())
+                    });
+                    if let Some(h) = known.did_you_mean(&s.name) {
                         d = d.with_help(h);
                     } else {
                         d = d.with_help("remove it from the ignore list");
                     }
-                    self.err(d);
+                    self.cx.error(d);
                 }
             }
         }

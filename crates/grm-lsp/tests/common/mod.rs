@@ -161,6 +161,19 @@ impl Client {
         u
     }
 
+    /// Open a document under `uri` exactly as written (the client's own
+    /// spelling: percent-encoded or not, any hex case).
+    pub async fn open_as(&mut self, uri: &str, text: &str) -> Uri {
+        let u: Uri = uri.parse().expect("a valid URI");
+        assert_eq!(u.as_str(), uri, "parsing keeps the spelling");
+        self.notify(
+            "textDocument/didOpen",
+            json!({ "textDocument": { "uri": uri, "languageId": "grm", "version": 1, "text": text } }),
+        )
+        .await;
+        u
+    }
+
     /// Wait for a notification matching `f` (10 s at most).
     pub async fn wait_for(&mut self, f: impl Fn(&Request) -> bool) -> Request {
         if let Some(i) = self.seen.iter().position(&f) {
