@@ -85,11 +85,12 @@ fn check(
                     let gap = sum.abs_diff(d.pass);
                     assert!(gap.as_nanos() <= 5, "the stages partition the pass: {d:?}");
                     if path == DerivePath::Direct {
-                        // Only the expand kernel ("rewrite") runs.
-                        assert!(
-                            st[3] >= st.iter().copied().max().unwrap_or_default(),
-                            "{d:?}"
-                        );
+                        // Only the expand kernel ("rewrite") runs: its span
+                        // is stamped and not empty. (Not compared with the
+                        // empty spans around it: on a software device their
+                        // length is the host's scheduling, and under load one
+                        // of them can outlast a small kernel.)
+                        assert!(!st[3].is_zero(), "{d:?}");
                     }
                 }
                 (Timestamps::Passes, None) => {}
