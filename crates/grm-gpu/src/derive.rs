@@ -824,6 +824,38 @@ impl<'a> GpuSystem<'a> {
         Some((total, last))
     }
 
+    /// Per job, the expected number of modules of each symbol in its final
+    /// string, from the axiom: each symbol's outcomes weighted by their
+    /// probabilities (the largest outcome where a condition, a context or
+    /// computed weights decide; [`expected_row`]). `None` when a table is
+    /// out of range.
+    pub(crate) fn expected_final_counts(&self, opts: &GpuDeriveOptions) -> Option<Vec<Vec<f64>>> {
+        let mut out = Vec::with_capacity(self.jobs.len());
+        for (job, its) in self.jobs.iter().zip(self.job_iterations(opts)) {
+            let sys = job.system;
+            let ns = sys.symbols.len();
+            let rows = (0..ns)
+                .map(|s| expected_row(sys, s))
+                .collect::<Option<Vec<_>>>()?;
+            let mut c = vec![0f64; ns];
+            let axiom = sys.alts.get(sys.axiom_alt as usize)?;
+            for m in succ_of(sys, axiom)? {
+                *c.get_mut(m.symbol as usize)? += 1.0;
+            }
+            for _ in 0..its {
+                let mut next = vec![0f64; ns];
+                for (s, &n) in c.iter().enumerate() {
+                    for &(t, q) in &rows[s] {
+                        next[t] += n * q;
+                    }
+                }
+                c = next;
+            }
+            out.push(c);
+        }
+        Some(out)
+    }
+
     /// The expected modules and parameter words of every string after
     /// the CPU's (each symbol's outcomes weighted by their probabilities;
     /// the largest outcome where a condition, a context or computed

@@ -204,6 +204,16 @@ impl TurtleProgram {
             .fold(0u64, |a, (_, &n)| a.saturating_add(n))
     }
 
+    /// [`TurtleProgram::bones_at_most`] for expected counts.
+    pub(crate) fn bones_expected(&self, counts: &[f64]) -> f64 {
+        self.syms
+            .iter()
+            .zip(counts)
+            .filter(|(t, _)| t.op == TurtleOp::Forward as u32)
+            .map(|(_, &n)| n)
+            .sum()
+    }
+
     /// Push / pop flags of the symbols, as a packed symbol section.
     fn bracket_section(&self) -> Vec<u32> {
         let hw = (std::mem::size_of::<PackedHeader>() / 4) as u32;
@@ -284,6 +294,24 @@ pub(crate) fn turtle_tables(programs: &[&TurtleProgram]) -> Vec<u32> {
     words[..cw * programs.len()].copy_from_slice(bytemuck::cast_slice(&configs));
     words
 }
+
+/// What the caller knows of the number of bones before they are counted.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum BoneCount {
+    /// At most this many (a host string's or an exact derivation's symbol
+    /// counts): the bone buffer is sized from it, and counting and writing
+    /// the bones is one submission.
+    AtMost(u64),
+    /// Probably at most this many (a stochastic derivation's expected
+    /// counts with a margin): the same, and where the count turns out
+    /// larger the bones are written again into a buffer of that size.
+    Expected(u64),
+    /// Nothing: the count is read back first.
+    Unknown,
+}
+
+/// The largest bone buffer allocated on a guess ([`BoneCount::Expected`]).
+const GUESS_MAX_BYTES: u64 = 256 << 20;
 
 /// The deepest nesting a [`BracketBounds`] may give for the interpretation
 /// to use it: each depth up to the bound costs one (possibly empty) round,
@@ -467,7 +495,7 @@ pub fn interpret_with(
             &[program],
             &s,
             &[(0, s.len)],
-            Some(most),
+            BoneCount::AtMost(most),
             Some(b),
             scan,
         )?;
@@ -493,10 +521,10 @@ pub(crate) fn read_bones(
 /// Interpret a string on the device: system `k` (the symbols' bits above
 /// `SYS_SHIFT`) is `programs[k]` and covers `ranges[k]` of the string.
 /// Returns the bone buffer (bones in string order), the bone count and the
-/// figures (with no bones read yet). `bones_at_most`, when the caller
-/// knows it (an exact derivation's symbol counts), sizes the bone buffer
-/// before the bones are counted, so counting and writing them is one
-/// submission (else the count is read back first). `brackets_at_most`,
+/// figures (with no bones read yet). `bones` ([`BoneCount`]), when the
+/// caller knows or expects it, sizes the bone buffer before the bones are
+/// counted, so counting and writing them is one submission (else the count
+/// is read back first). `brackets_at_most`,
 /// when the caller knows it, does the same for the depth range of a
 /// branching string (else it is read back before anything is sized).
 /// Inside [`Gpu::run`].
@@ -505,7 +533,7 @@ pub(crate) fn interpret_device(
     programs: &[&TurtleProgram],
     s: &DeviceString,
     ranges: &[(u64, u64)],
-    bones_at_most: Option<u64>,
+    bones_hint: BoneCount,
     brackets_at_most: Option<BracketBounds>,
     scan: BranchScan,
 ) -> Result<(wgpu::Buffer, u64, GpuInterpretation), GpuError> {
@@ -711,7 +739,17 @@ pub(crate) fn interpret_device(
     // one round per depth otherwise, each writing the states at its `[`s
     // for the next).
     let bone_bytes = std::mem::size_of::<GpuBone>() as u64;
-    let known = bones_at_most.filter(|&b| gpu.check_storage("bones", bone_bytes * b).is_ok());
+    // The bone buffer sized before counting: (capacity, a bound that holds).
+    let sized = match bones_hint {
+        BoneCount::AtMost(b) => Some((b, true)),
+        BoneCount::Expected(b) => Some((b.min(n), false))
+            .filter(|&(b, _)| bone_bytes.saturating_mul(b) <= GUESS_MAX_BYTES),
+        BoneCount::Unknown => None,
+    }
+    .filter(|&(b, _)| {
+        gpu.check_storage("bones", bone_bytes.saturating_mul(b))
+            .is_ok()
+    });
     let write = |enc: &mut wgpu::CommandEncoder, bones: &wgpu::Buffer| {
         if !fused {
             return run(enc, &kernels::BONES_WRITE, &base, bones, n);
@@ -745,22 +783,34 @@ pub(crate) fn interpret_device(
         };
         Ok((count, range))
     };
-    let (bones, count, range) = match known {
-        Some(most) => {
-            let bones = gpu.storage("bones", bone_bytes * most)?;
+    let in_bounds = |range: Option<(u64, u64)>| range.is_none_or(|(d, o)| d <= dmax && o <= opens);
+    let (bones, count, range) = match sized {
+        Some((most, holds)) => {
+            let mut bones = gpu.storage("bones", bone_bytes * most)?;
             write(&mut enc, &bones)?;
             let (count, range) = read_count(enc)?;
             if count > most {
-                return Err(GpuError::Readback(format!(
-                    "{count} bones, more than the {most} the string's symbols allow"
-                )));
+                if holds {
+                    return Err(GpuError::Readback(format!(
+                        "{count} bones, more than the {most} the string's symbols allow"
+                    )));
+                }
+                // More than expected: written again, into a buffer of the
+                // count (what the unknown count does after reading it).
+                gpu.recycle([bones]);
+                bones = gpu.storage("bones", bone_bytes * count)?;
+                if in_bounds(range) {
+                    let mut enc = gpu.encoder();
+                    write(&mut enc, &bones)?;
+                    gpu.submit_wait(enc)?;
+                }
             }
             (bones, count, range)
         }
         None => {
             let (count, range) = read_count(enc)?;
             let bones = gpu.storage("bones", bone_bytes * count)?;
-            if range.is_none_or(|(d, o)| d <= dmax && o <= opens) {
+            if in_bounds(range) {
                 let mut enc = gpu.encoder();
                 write(&mut enc, &bones)?;
                 gpu.submit_wait(enc)?;
@@ -776,7 +826,7 @@ pub(crate) fn interpret_device(
             // The caller's bounds were wrong: interpret again, reading the
             // depth range first.
             gpu.recycle([bones]);
-            return interpret_device(gpu, programs, s, ranges, bones_at_most, None, scan);
+            return interpret_device(gpu, programs, s, ranges, bones_hint, None, scan);
         }
         out.max_depth = d as u32;
     }
@@ -791,7 +841,8 @@ mod tests {
 
     /// Bounds below the string's real depth range are caught when the
     /// range is read with the bone count, and the string is interpreted
-    /// again from the range read first: the same bones as with no bounds.
+    /// again from the range read first; an expected bone count below the
+    /// real one has the bones written again: the same bones every way.
     #[test]
     fn wrong_bracket_bounds_are_caught_and_the_string_interpreted_again() {
         let gpu = match crate::shared() {
@@ -815,11 +866,16 @@ mod tests {
         for scan in [BranchScan::PerModule, BranchScan::Fused] {
             let got = gpu.run(|| {
                 let mut out = Vec::new();
-                for bounds in [
-                    None,
-                    Some(exact),
-                    Some(BracketBounds { depth: 0, opens: 4 }),
-                    Some(BracketBounds { depth: 3, opens: 1 }),
+                let at_most = BoneCount::AtMost(8);
+                for (bounds, hint) in [
+                    (None, at_most),
+                    (Some(exact), at_most),
+                    (Some(BracketBounds { depth: 0, opens: 4 }), at_most),
+                    (Some(BracketBounds { depth: 3, opens: 1 }), at_most),
+                    (Some(exact), BoneCount::Expected(3)),
+                    (Some(exact), BoneCount::Expected(100)),
+                    (Some(exact), BoneCount::Unknown),
+                    (None, BoneCount::Unknown),
                 ] {
                     let s = DeviceString {
                         syms: gpu.upload("symbols", &string.syms)?,
@@ -830,7 +886,7 @@ mod tests {
                     };
                     let w = gpu.waits();
                     let (bones, count, o) =
-                        interpret_device(gpu, &[&prog], &s, &[(0, s.len)], Some(8), bounds, scan)?;
+                        interpret_device(gpu, &[&prog], &s, &[(0, s.len)], hint, bounds, scan)?;
                     let waits = gpu.waits() - w;
                     out.push((read_bones(gpu, &bones, count)?, o.max_depth, waits));
                 }
@@ -840,10 +896,12 @@ mod tests {
             let (want, depth, _) = &got[0];
             assert_eq!(want.len(), 8, "{scan:?}");
             assert_eq!(*depth, 3, "{scan:?}");
-            // None: the range, then the bones with their count. Exact: one
-            // wait. Wrong: one, then again as None.
+            // No bracket bounds: the range, then the bones with their
+            // count. Exact: one wait. Wrong: one, then again without. An
+            // expected bone count too small: the bones written again; large
+            // enough: as a bound. Unknown: the count, then the bones.
             let waits: Vec<u64> = got.iter().map(|g| g.2).collect();
-            assert_eq!(waits, [2, 1, 3, 3], "{scan:?}");
+            assert_eq!(waits, [2, 1, 3, 3, 2, 1, 2, 3], "{scan:?}");
             for (k, (bones, depth, _)) in got.iter().enumerate().skip(1) {
                 assert_eq!(bones, want, "{scan:?} bounds {k}");
                 assert_eq!(*depth, 3, "{scan:?} bounds {k}");

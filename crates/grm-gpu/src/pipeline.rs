@@ -13,7 +13,8 @@ use crate::derive::{
 use crate::device::Gpu;
 use crate::error::GpuError;
 use crate::interp::{
-    BracketBounds, BranchScan, GpuInterpretation, TurtleProgram, interpret_device, read_bones,
+    BoneCount, BracketBounds, BranchScan, GpuInterpretation, TurtleProgram, interpret_device,
+    read_bones,
 };
 use crate::layout::GpuBone;
 
@@ -102,7 +103,7 @@ pub fn run(
             let (bones, count, mut out) = match g.interpret_direct(turtle)? {
                 Some(done) => done,
                 None => {
-                    let most = bones_at_most(&g, &opts.derive, &[turtle]);
+                    let most = bone_count(&g, &opts.derive, &[turtle], string.len());
                     let brackets = brackets_at_most(&g, &opts.derive, &[turtle]);
                     interpret_device(
                         gpu,
@@ -193,7 +194,7 @@ pub fn run_many(
         let mut bones = None;
         let mut readback_elapsed = Duration::ZERO;
         if opts.interpret {
-            let most = bones_at_most(&g, &d, turtles);
+            let most = bone_count(&g, &d, turtles, string.len());
             let brackets = brackets_at_most(&g, &d, turtles);
             let (buf, count, out) = interpret_device(
                 gpu,
@@ -233,22 +234,50 @@ pub fn run_many(
     })
 }
 
-/// At most how many bones the derived string has, when its symbol counts
-/// are known without reading it (every system exact: deterministic and
-/// context-free).
-fn bones_at_most(
+/// What is known of the number of bones of the derived string (of `n`
+/// modules) without reading it: at most its `F` count where every system
+/// is exact (deterministic and context-free: the symbol counts are
+/// known); else the expected share of `F`s among the modules times `n`,
+/// with a margin (each symbol's outcomes weighted by their probabilities,
+/// `GpuSystem::expected_final_counts`: the share is far steadier than the
+/// counts, which for a stochastic system vary from run to run with the
+/// first steps' draws).
+fn bone_count(
     g: &GpuSystem<'_>,
     opts: &GpuDeriveOptions,
     turtles: &[&TurtleProgram],
-) -> Option<u64> {
-    let counts = g.exact_final_counts(opts)?;
-    Some(
-        counts
-            .iter()
-            .zip(turtles)
-            .fold(0u64, |a, (c, t)| a.saturating_add(t.bones_at_most(c))),
-    )
+    n: u64,
+) -> BoneCount {
+    if let Some(counts) = g.exact_final_counts(opts) {
+        return BoneCount::AtMost(
+            counts
+                .iter()
+                .zip(turtles)
+                .fold(0u64, |a, (c, t)| a.saturating_add(t.bones_at_most(c))),
+        );
+    }
+    let Some(expected) = g.expected_final_counts(opts) else {
+        return BoneCount::Unknown;
+    };
+    let bones: f64 = expected
+        .iter()
+        .zip(turtles)
+        .map(|(c, t)| t.bones_expected(c))
+        .sum();
+    let modules: f64 = expected.iter().flatten().sum();
+    let share = bones / modules;
+    if !(share.is_finite() && share >= 0.0) {
+        return BoneCount::Unknown;
+    }
+    let guess = (n as f64 * share.min(1.0) * BONES_MARGIN).ceil() as u64 + BONES_SLACK;
+    BoneCount::Expected(guess.min(n))
 }
+
+/// The margin on an expected bone count (a string over it has its bones
+/// written again).
+const BONES_MARGIN: f64 = 1.25;
+/// Added to the margin: the share strays the most in small strings.
+const BONES_SLACK: u64 = 1024;
 
 /// Bounds on the derived string's bracket depth and `[` count from the
 /// derivation's tables (every outcome that may happen), so a branching

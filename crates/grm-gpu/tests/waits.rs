@@ -6,7 +6,8 @@
 //! string (from its tables), or of a string whose bone count is known in
 //! advance, once more: a branching string's depth range is bounded from
 //! the tables and read with the bone count, not before; a bone count not
-//! known in advance is read before the bones are written. A derivation
+//! known in advance is expected (and the bones written again where it
+//! was more than expected). A derivation
 //! the CPU did entirely waits for nothing. Pipelined
 //! (`GpuRunOptions::pipelined`), a derivation that reads nothing back is
 //! not waited for at all: Hilbert 3D and the bracketed plant derive and
@@ -35,15 +36,18 @@ fn runs_wait_for_the_device_as_few_times_as_their_structure_needs() {
         // Computed parameters: direct, its status read with the wait;
         // branching, its depth range bounded from the tables.
         ("ternary_tree.grm", 6, 0, 1, 1),
-        // Stochastic, branching: batched; the bone count is read first.
-        ("stochastic_plant.grm", 5, 0, 1, 2),
-        // Context-sensitive, every string on the CPU: no wait to derive.
+        // Stochastic, branching: batched; the bones sized from their
+        // expected count and read with it.
+        ("stochastic_plant.grm", 5, 0, 1, 1),
+        // Context-sensitive, every string on the CPU: no wait to derive;
+        // the bones sized from their expected count (the largest outcome
+        // where a context decides).
         (
             "context_plant_a.grm",
             20,
             grm_gpu::derive::CPU_PREFIX_MODULES,
             0,
-            2,
+            1,
         ),
     ];
     for &(file, iterations, prefix, derive_waits, interp_waits) in cases {
