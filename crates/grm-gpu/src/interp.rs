@@ -877,13 +877,7 @@ mod tests {
                     (Some(exact), BoneCount::Unknown),
                     (None, BoneCount::Unknown),
                 ] {
-                    let s = DeviceString {
-                        syms: gpu.upload("symbols", &string.syms)?,
-                        starts: gpu.upload("parameter starts", &string.starts)?,
-                        params: gpu.upload("parameters", &string.params)?,
-                        len: string.len() as u64,
-                        words: string.params.len() as u64,
-                    };
+                    let s = DeviceString::upload(gpu, &c, &string)?;
                     let w = gpu.waits();
                     let (bones, count, o) =
                         interpret_device(gpu, &[&prog], &s, &[(0, s.len)], hint, bounds, scan)?;
