@@ -455,30 +455,33 @@ impl<'a> GpuSystem<'a> {
         progress: &mut dyn FnMut(&GpuIterationStats),
     ) -> Result<(DeviceString, Vec<GpuIterationStats>, DerivePath), GpuError> {
         self.derive_then(opts, strategy, true, progress)
+            .map(|(s, stats, path, _)| (s, stats, path))
     }
 
     /// As [`GpuSystem::derive_with`]; with `wait` false a derivation that
     /// reads nothing back (a direct one of constant parameters) is
     /// submitted and not waited for: the caller's next wait covers it, and
-    /// its elapsed time is that of recording and submitting it.
+    /// its elapsed time is that of recording and submitting it. The flag
+    /// returned says whether it was waited for.
+    #[allow(clippy::type_complexity)]
     pub(crate) fn derive_then(
         &self,
         opts: &GpuDeriveOptions,
         strategy: DeriveStrategy,
         wait: bool,
         progress: &mut dyn FnMut(&GpuIterationStats),
-    ) -> Result<(DeviceString, Vec<GpuIterationStats>, DerivePath), GpuError> {
+    ) -> Result<(DeviceString, Vec<GpuIterationStats>, DerivePath, bool), GpuError> {
         self.direct.replace(None);
         if strategy == DeriveStrategy::Auto
             && !opts.sync_iterations
             && let Some(plan) = self.direct_plan(opts)
-            && let Some((s, stats)) = self.derive_direct(&plan, opts, wait)?
+            && let Some((s, stats, waited)) = self.derive_direct(&plan, opts, wait)?
         {
             for st in &stats {
                 progress(st);
             }
             self.direct.replace(Some(plan));
-            return Ok((s, stats, DerivePath::Direct));
+            return Ok((s, stats, DerivePath::Direct, waited));
         }
         let mut path = DerivePath::PerIteration;
         let prefix = self.cpu_prefix(opts);
@@ -513,13 +516,13 @@ impl<'a> GpuSystem<'a> {
                     for st in &stats {
                         progress(st);
                     }
-                    return Ok((string, stats, DerivePath::Batched));
+                    return Ok((string, stats, DerivePath::Batched, true));
                 }
                 None => path = DerivePath::BatchedThenPerIteration,
             }
         }
         let (s, stats) = self.derive_per_iteration(opts, prefix, progress)?;
-        Ok((s, stats, path))
+        Ok((s, stats, path, true))
     }
 
     /// The first strings on the CPU ([`GpuDeriveOptions::cpu_prefix`]):

@@ -51,8 +51,14 @@ pub struct GpuRun {
     pub stats: Vec<GpuIterationStats>,
     /// How the derivation ran.
     pub path: DerivePath,
-    /// Wall time of the whole derivation (uploading the tables included).
+    /// Wall time of the whole derivation (uploading the tables included);
+    /// where it was not waited for ([`GpuRun::derive_waited`]), the time
+    /// to record and submit it.
     pub derive_elapsed: Duration,
+    /// The derivation was waited for before the interpretation was
+    /// recorded (else, pipelined, its kernels' time is in the
+    /// interpretation's).
+    pub derive_waited: bool,
     /// The interpretation (its bones only when read back).
     pub interpretation: Option<GpuInterpretation>,
     /// The derived string, when read back.
@@ -92,7 +98,8 @@ pub fn run(
         };
         let g = GpuSystem::load(gpu, &[job])?;
         let wait = !(opts.pipelined && opts.interpret);
-        let (string, stats, path) = g.derive_then(&opts.derive, opts.strategy, wait, progress)?;
+        let (string, stats, path, derive_waited) =
+            g.derive_then(&opts.derive, opts.strategy, wait, progress)?;
         let derive_elapsed = t.elapsed();
         let mut interpretation = None;
         let mut readback_elapsed = Duration::ZERO;
@@ -135,6 +142,7 @@ pub fn run(
             stats,
             path,
             derive_elapsed,
+            derive_waited,
             interpretation,
             string: host,
             readback_elapsed,

@@ -519,7 +519,7 @@ impl GpuSystem<'_> {
 
     /// Run a direct derivation: one dispatch, one wait (none when `wait`
     /// is false and nothing is read back: constant parameters, no device
-    /// timestamps). `None`: a computed parameter faulted or was not finite;
+    /// timestamps; the flag returned says whether it waited). `None`: a computed parameter faulted or was not finite;
     /// nothing is returned and the caller derives stepwise, which reports
     /// the error exactly.
     #[allow(clippy::type_complexity)]
@@ -528,7 +528,7 @@ impl GpuSystem<'_> {
         plan: &DirectPlan,
         opts: &GpuDeriveOptions,
         wait: bool,
-    ) -> Result<Option<(DeviceString, Vec<GpuIterationStats>)>, GpuError> {
+    ) -> Result<Option<(DeviceString, Vec<GpuIterationStats>, bool)>, GpuError> {
         let t = Instant::now();
         let gpu = self.gpu;
         let (total, total_words) = plan.total();
@@ -615,6 +615,7 @@ impl GpuSystem<'_> {
             let (buf, n) = s.readback();
             ranges.push((buf, 0, n));
         }
+        let waited = wait || !ranges.is_empty();
         let (failed, device) = if ranges.is_empty() {
             if wait {
                 gpu.submit_wait(enc)?;
@@ -674,7 +675,7 @@ impl GpuSystem<'_> {
                 on_cpu: false,
             })
             .collect();
-        Ok(Some((out, stats)))
+        Ok(Some((out, stats, waited)))
     }
 }
 
