@@ -620,10 +620,15 @@ impl<'a> Engine<'a> {
         let fits = |s: &ModuleString| s.syms.capacity() >= m && s.params.capacity() >= w;
         // A buffer that fits and is not more than 4x too large (a much
         // larger one is kept for the larger strings to come): preferably one
-        // already that long (nothing to zero), then the smallest.
+        // already that long (nothing to zero), then the smallest, then among
+        // equally large ones the shortest (a longer one is kept for the
+        // longer strings to come, which then need nothing zeroed either).
         let pick = (0..spare.len())
             .filter(|&i| fits(&spare[i]) && spare[i].syms.capacity() <= 4 * m.max(4096))
-            .min_by_key(|&i| (spare[i].syms.len() < m, spare[i].syms.capacity()));
+            .min_by_key(|&i| {
+                let s = &spare[i].syms;
+                (s.len() < m, s.capacity(), s.len())
+            });
         let mut s = match pick {
             Some(i) => spare.swap_remove(i),
             None => ModuleString {
@@ -1682,4 +1687,61 @@ pub fn derive(
     progress: &mut dyn FnMut(&IterationStats),
 ) -> Result<Derivation, DeriveError> {
     Engine::new(sys, threads)?.derive(opts, progress)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn compiled(src: &str) -> CompiledSystem {
+        let (_, checked) = grm_sema::check_with("inline.grm", src, &grm_sema::MemLoader::new());
+        assert!(!checked.has_errors(), "{:?}", checked.diagnostics);
+        let p = &checked.program;
+        let sys = p.default_system().expect("a system");
+        grm_compile::compile(p, sys, &p.default_params()).expect("compiles")
+    }
+
+    fn spare(len: usize, cap: usize) -> ModuleString {
+        let mut syms = Vec::with_capacity(cap);
+        syms.resize(len, 0);
+        let mut starts = Vec::with_capacity(cap + 1);
+        starts.resize(len + 1, 0);
+        let mut params = Vec::with_capacity(cap);
+        params.resize(len, 0.0);
+        ModuleString {
+            syms,
+            starts,
+            params,
+        }
+    }
+
+    /// Of two recycled buffers as large as each other, a string takes the
+    /// shorter one that is long enough, so the longer one is left, with
+    /// nothing to zero, for the longer string to come (a derivation's
+    /// last two steps, when the previous result came back: the ternary
+    /// tree zeroed a million-module buffer per run before).
+    #[test]
+    fn a_string_takes_the_shortest_long_enough_buffer() {
+        let c = compiled("system S { axiom A; A -> A A A; }");
+        let e = Engine::new(&c, 1).expect("engine");
+        // Either order of recycling.
+        for first_long in [true, false] {
+            let (a, b) = (spare(1_000_000, 1_000_000), spare(300_000, 1_000_000));
+            let (a, b) = if first_long { (a, b) } else { (b, a) };
+            e.recycle(a);
+            e.recycle(b);
+            let mid = e.take(300_000, 300_000);
+            assert_eq!(mid.syms.capacity(), 1_000_000);
+            // The buffer already that long is left for the longer string.
+            assert_eq!(spare_lens(&e), [1_000_000], "first_long {first_long}");
+            let big = e.take(1_000_000, 1_000_000);
+            assert_eq!(big.syms.len(), 1_000_000);
+            assert!(spare_lens(&e).is_empty());
+        }
+    }
+
+    fn spare_lens(e: &Engine<'_>) -> Vec<usize> {
+        let s = e.spare.lock().unwrap_or_else(|p| p.into_inner());
+        s.iter().map(|x| x.syms.len()).collect()
+    }
 }
