@@ -256,6 +256,9 @@ pub struct GpuSystem<'a> {
     /// The plan of the last derivation when it ran directly (its tables
     /// serve the direct interpretation).
     direct: std::cell::RefCell<Option<direct::DirectPlan>>,
+    /// The directory after the last derivation, where it knew it without
+    /// a read of its own ([`GpuSystem::read_directory`]).
+    final_directory: std::cell::RefCell<Option<Vec<SystemEntry>>>,
 }
 
 /// The result of [`derive()`].
@@ -406,6 +409,7 @@ impl<'a> GpuSystem<'a> {
             tables,
             directory,
             direct: std::cell::RefCell::new(None),
+            final_directory: std::cell::RefCell::new(None),
         })
     }
 
@@ -423,8 +427,13 @@ impl<'a> GpuSystem<'a> {
         self.kernels.matches_contexts()
     }
 
-    /// The directory as it is on the device now.
+    /// The directory as it is on the device now: as the last derivation
+    /// left it where that derivation knew it (a direct one computes it on
+    /// the host, a batched one reads it with its totals), else read back.
     pub(crate) fn read_directory(&self) -> Result<Vec<SystemEntry>, GpuError> {
+        if let Some(d) = self.final_directory.borrow().as_ref() {
+            return Ok(d.clone());
+        }
         let n = self.jobs.len() as u64;
         Ok(self
             .gpu
@@ -472,6 +481,7 @@ impl<'a> GpuSystem<'a> {
         progress: &mut dyn FnMut(&GpuIterationStats),
     ) -> Result<(DeviceString, Vec<GpuIterationStats>, DerivePath, bool), GpuError> {
         self.direct.replace(None);
+        self.final_directory.replace(None);
         if strategy == DeriveStrategy::Auto
             && !opts.sync_iterations
             && let Some(plan) = self.direct_plan(opts)
@@ -1212,11 +1222,27 @@ impl<'a> GpuSystem<'a> {
             let (buf, words) = s.readback();
             ranges.push((buf, 0, words));
         }
+        // Several systems: their ranges in the final string, read with the
+        // totals (the interpretation needs them; no wait of their own).
+        let entry_words = (std::mem::size_of::<SystemEntry>() / 4) as u64;
+        let dir_at = ranges.len();
+        if self.jobs.len() > 1 {
+            ranges.push((&self.tables, 0, entry_words * self.jobs.len() as u64));
+        }
         let words = gpu.read::<u32>(enc, &ranges)?;
         let device = match (&stamps, words.get(2)) {
             (Some(s), Some(w)) => s.times(w),
             _ => Vec::new(),
         };
+        if self.jobs.len() > 1
+            && let Some(w) = words.get(dir_at)
+        {
+            let entries: Vec<SystemEntry> = w
+                .chunks_exact(entry_words as usize)
+                .map(|c| bytemuck::pod_read_unaligned(bytemuck::cast_slice(c)))
+                .collect();
+            self.final_directory.replace(Some(entries));
+        }
         let [strings0, strings1] = strings;
         let (last, other) = if (k_max - k0).is_multiple_of(2) {
             (strings0, strings1)
@@ -1250,6 +1276,7 @@ impl<'a> GpuSystem<'a> {
             };
             gpu.queue()
                 .write_buffer(&self.tables, 0, bytemuck::bytes_of(&e));
+            self.final_directory.replace(Some(vec![e]));
         }
         Ok(Some((DeviceString { len, words, ..last }, totals, device)))
     }

@@ -107,3 +107,54 @@ fn runs_wait_for_the_device_as_few_times_as_their_structure_needs() {
         assert_eq!(bones(&apart), bones(&together), "{what}: pipelined bones");
     }
 }
+
+/// A forest (several systems in one derivation, Lipp 5.4): the systems'
+/// ranges come with the derivation's own read (batched) or from the host
+/// (direct), so deriving and interpreting waits twice (batched: the
+/// totals, then the bones with their guessed count) or once and once more
+/// (direct: the kernel, then the bones from the string).
+#[test]
+fn forests_wait_for_their_ranges_with_the_derivation() {
+    let g = gpu();
+    for (file, derive_and_interp) in [("stochastic_plant.grm", 2), ("bracketed_plant.grm", 2)] {
+        let (p, name, c) = example_program(file, None);
+        let sys = p.system(&name).expect("system");
+        let turtle = TurtleProgram::new(sys, &c.settings);
+        let jobs: Vec<grm_gpu::GpuJob> = (0..4u32)
+            .map(|seed| grm_gpu::GpuJob {
+                system: &c,
+                iterations: 4 + seed % 2,
+                seed,
+            })
+            .collect();
+        let turtles = vec![&turtle; jobs.len()];
+        let mut opts = GpuRunOptions {
+            derive: GpuDeriveOptions {
+                cpu_prefix: 0,
+                ..GpuDeriveOptions::from_system(&c)
+            },
+            interpret: true,
+            read_string: false,
+            read_bones: false,
+            strategy: grm_gpu::DeriveStrategy::Auto,
+            branch_scan: grm_gpu::interp::BranchScan::Auto,
+            pipelined: false,
+        };
+        grm_gpu::run_many(g, &jobs, &turtles, &opts, &mut |_| {}).expect("runs");
+        let w = g.waits();
+        grm_gpu::run_many(g, &jobs, &turtles, &opts, &mut |_| {}).expect("runs");
+        assert_eq!(g.waits() - w, derive_and_interp, "{file}");
+        // The ranges are right: each job's bones are its own string's.
+        opts.read_bones = true;
+        opts.read_string = true;
+        let out = grm_gpu::run_many(g, &jobs, &turtles, &opts, &mut |_| {}).expect("runs");
+        let strings = out.strings.expect("strings");
+        let bones = out.bones.expect("bones");
+        for (k, job) in jobs.iter().enumerate() {
+            let want = cpu_derive(&c, job.iterations, job.seed).expect("derives");
+            same_bits(&format!("{file} job {k}"), &want, &strings[k]);
+            let cpu = grm_turtle::interpret(sys, &c.settings, &want).expect("cpu");
+            assert_bones_match(&format!("{file} job {k}"), &cpu, &bones[k]);
+        }
+    }
+}

@@ -653,6 +653,7 @@ impl GpuSystem<'_> {
         }
         gpu.queue()
             .write_buffer(&self.tables, 0, bytemuck::cast_slice(&dir));
+        self.final_directory.replace(Some(dir));
         let last = plan.totals.len() - 1;
         let stats = plan
             .totals
