@@ -22,9 +22,15 @@
 //! the chunking.
 //!
 //! Hot-path rules: no allocation per module (per-chunk scratch is allocated
-//! once per chunk); symbols with one unconditional, context-free production
-//! (or none) take a table lookup instead of the group search; constant and
-//! copied parameters skip the VM.
+//! once per chunk); every symbol has one precomputed action (`Act`: copy,
+//! one-word unit, plan, short arithmetic plan, group search), so symbols
+//! with one unconditional, context-free production (or none) take a table
+//! lookup instead of the group search; constant and copied parameters skip
+//! the VM, and the arithmetic forms `x * k`, `x + k`, `x - k` are one
+//! branch-free `x * m + a`; short successors are written as fixed-size
+//! moves from padded tables (`PAD`), which may write ahead of the
+//! successor into positions the following ones overwrite, never past the
+//! chunk's slice.
 
 use std::ops::Range;
 use std::time::{Duration, Instant};
