@@ -259,6 +259,10 @@ pub struct GpuSystem<'a> {
     /// The directory after the last derivation, where it knew it without
     /// a read of its own ([`GpuSystem::read_directory`]).
     final_directory: std::cell::RefCell<Option<Vec<SystemEntry>>>,
+    /// The status word of a direct derivation with computed parameters
+    /// that was not waited for: nonzero where a value faulted or was not
+    /// finite (its string is then not to be used).
+    pending_status: std::cell::RefCell<Option<wgpu::Buffer>>,
 }
 
 /// The result of [`derive()`].
@@ -410,6 +414,7 @@ impl<'a> GpuSystem<'a> {
             directory,
             direct: std::cell::RefCell::new(None),
             final_directory: std::cell::RefCell::new(None),
+            pending_status: std::cell::RefCell::new(None),
         })
     }
 
@@ -425,6 +430,12 @@ impl<'a> GpuSystem<'a> {
     /// have them (the others derive with kernels compiled without).
     pub fn matches_contexts(&self) -> bool {
         self.kernels.matches_contexts()
+    }
+
+    /// The status buffer the last derivation left unread (see
+    /// `pending_status`), for the caller to read with its own results.
+    pub(crate) fn take_pending_status(&self) -> Option<wgpu::Buffer> {
+        self.pending_status.replace(None)
     }
 
     /// The directory as it is on the device now: as the last derivation
@@ -482,6 +493,9 @@ impl<'a> GpuSystem<'a> {
     ) -> Result<(DeviceString, Vec<GpuIterationStats>, DerivePath, bool), GpuError> {
         self.direct.replace(None);
         self.final_directory.replace(None);
+        if let Some(b) = self.pending_status.replace(None) {
+            self.gpu.recycle([b]);
+        }
         if strategy == DeriveStrategy::Auto
             && !opts.sync_iterations
             && let Some(plan) = self.direct_plan(opts)

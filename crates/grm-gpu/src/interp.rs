@@ -310,6 +310,19 @@ pub(crate) enum BoneCount {
     Unknown,
 }
 
+/// What the caller of [`interpret_device`] knows in advance, and what it
+/// wants read back with the bone count.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct InterpHints<'b> {
+    pub bones: BoneCount,
+    /// Bounds on a branching string's brackets (else its depth range is
+    /// read back before anything is sized).
+    pub brackets: Option<BracketBounds>,
+    /// A buffer whose first word is read back with the bone count, with
+    /// no wait of its own (a pipelined derivation's status).
+    pub also_read: Option<&'b wgpu::Buffer>,
+}
+
 /// The largest bone buffer allocated on a guess ([`BoneCount::Expected`]).
 const GUESS_MAX_BYTES: u64 = 256 << 20;
 
@@ -490,15 +503,13 @@ pub fn interpret_with(
         }
         let most = program.bones_at_most(&counts);
         let b = host_bracket_bounds(program, string);
-        let (bones, count, mut out) = interpret_device(
-            gpu,
-            &[program],
-            &s,
-            &[(0, s.len)],
-            BoneCount::AtMost(most),
-            Some(b),
-            scan,
-        )?;
+        let hints = InterpHints {
+            bones: BoneCount::AtMost(most),
+            brackets: Some(b),
+            also_read: None,
+        };
+        let (bones, count, mut out, _) =
+            interpret_device(gpu, &[program], &s, &[(0, s.len)], hints, scan)?;
         out.bones = read_bones(gpu, &bones, count)?;
         Ok(out)
     })
@@ -521,22 +532,23 @@ pub(crate) fn read_bones(
 /// Interpret a string on the device: system `k` (the symbols' bits above
 /// `SYS_SHIFT`) is `programs[k]` and covers `ranges[k]` of the string.
 /// Returns the bone buffer (bones in string order), the bone count and the
-/// figures (with no bones read yet). `bones` ([`BoneCount`]), when the
-/// caller knows or expects it, sizes the bone buffer before the bones are
-/// counted, so counting and writing them is one submission (else the count
-/// is read back first). `brackets_at_most`,
-/// when the caller knows it, does the same for the depth range of a
-/// branching string (else it is read back before anything is sized).
+/// figures (with no bones read yet), and the first word of
+/// `hints.also_read`. `hints.bones` ([`BoneCount`]), when the caller
+/// knows or expects it, sizes the bone buffer before the bones are
+/// counted, so counting and writing them is one submission (else the
+/// count is read back first). `hints.brackets`, when the caller knows
+/// them, does the same for the depth range of a branching string (else it
+/// is read back before anything is sized).
 /// Inside [`Gpu::run`].
 pub(crate) fn interpret_device(
     gpu: &Gpu,
     programs: &[&TurtleProgram],
     s: &DeviceString,
     ranges: &[(u64, u64)],
-    bones_hint: BoneCount,
-    brackets_at_most: Option<BracketBounds>,
+    hints: InterpHints<'_>,
     scan: BranchScan,
-) -> Result<(wgpu::Buffer, u64, GpuInterpretation), GpuError> {
+) -> Result<(wgpu::Buffer, u64, GpuInterpretation, Option<u32>), GpuError> {
+    let (bones_hint, brackets_at_most) = (hints.bones, hints.brackets);
     let t0 = Instant::now();
     let n = s.len;
     if programs.is_empty() || programs.len() != ranges.len() {
@@ -555,7 +567,14 @@ pub(crate) fn interpret_device(
         elapsed: Duration::ZERO,
     };
     if n == 0 {
-        return Ok((gpu.storage("bones", 16)?, 0, out));
+        let also = match hints.also_read {
+            Some(b) => gpu
+                .read::<u32>(gpu.encoder(), &[(b, 0, 1)])?
+                .first()
+                .and_then(|v| v.first().copied()),
+            None => None,
+        };
+        return Ok((gpu.storage("bones", 16)?, 0, out, also));
     }
     if n >= u64::from(SEG_INDEX) {
         return Err(GpuError::CountOverflow {
@@ -767,8 +786,13 @@ pub(crate) fn interpret_device(
     // The bone count; with bounds, the depth range with it (checked: a
     // depth range over the bounds means the kernels ran on buffers too
     // small, so nothing they wrote is used).
+    let also = std::cell::Cell::new(None);
     let read_count = |enc: wgpu::CommandEncoder| -> Result<(u64, Option<(u64, u64)>), GpuError> {
         let mut reads = vec![(&hist, n, 1)];
+        if let Some(b) = hints.also_read {
+            reads.push((b, 0, 1));
+        }
+        let skip = reads.len();
         if bounded.is_some() {
             reads.extend(depth_reads(&tree, n, ranges));
         }
@@ -777,8 +801,11 @@ pub(crate) fn interpret_device(
             .first()
             .and_then(|v| v.first())
             .map_or(0, |&c| u64::from(c));
+        if hints.also_read.is_some() {
+            also.set(got.get(1).and_then(|v| v.first().copied()));
+        }
         let range = match bounded {
-            Some(_) => Some(check_depths(&got[1..], ranges)?),
+            Some(_) => Some(check_depths(&got[skip..], ranges)?),
             None => None,
         };
         Ok((count, range))
@@ -826,13 +853,17 @@ pub(crate) fn interpret_device(
             // The caller's bounds were wrong: interpret again, reading the
             // depth range first.
             gpu.recycle([bones]);
-            return interpret_device(gpu, programs, s, ranges, bones_hint, None, scan);
+            let exact = InterpHints {
+                brackets: None,
+                ..hints
+            };
+            return interpret_device(gpu, programs, s, ranges, exact, scan);
         }
         out.max_depth = d as u32;
     }
     out.elapsed = t0.elapsed();
     out.bone_count = count;
-    Ok((bones, count, out))
+    Ok((bones, count, out, also.get()))
 }
 
 #[cfg(test)]
@@ -879,8 +910,13 @@ mod tests {
                 ] {
                     let s = DeviceString::upload(gpu, &c, &string)?;
                     let w = gpu.waits();
-                    let (bones, count, o) =
-                        interpret_device(gpu, &[&prog], &s, &[(0, s.len)], hint, bounds, scan)?;
+                    let hints = InterpHints {
+                        bones: hint,
+                        brackets: bounds,
+                        also_read: None,
+                    };
+                    let (bones, count, o, _) =
+                        interpret_device(gpu, &[&prog], &s, &[(0, s.len)], hints, scan)?;
                     let waits = gpu.waits() - w;
                     out.push((read_bones(gpu, &bones, count)?, o.max_depth, waits));
                 }

@@ -13,8 +13,8 @@ use crate::derive::{
 use crate::device::Gpu;
 use crate::error::GpuError;
 use crate::interp::{
-    BoneCount, BracketBounds, BranchScan, GpuInterpretation, TurtleProgram, interpret_device,
-    read_bones,
+    BoneCount, BracketBounds, BranchScan, GpuInterpretation, InterpHints, TurtleProgram,
+    interpret_device, read_bones,
 };
 use crate::layout::GpuBone;
 
@@ -89,65 +89,113 @@ pub fn run(
     opts: &GpuRunOptions,
     progress: &mut dyn FnMut(&GpuIterationStats),
 ) -> Result<GpuRun, GpuError> {
-    gpu.run(|| {
-        let t = Instant::now();
-        let job = crate::derive::GpuJob {
-            system: sys,
-            iterations: opts.derive.iterations,
-            seed: opts.derive.seed,
-        };
-        let g = GpuSystem::load(gpu, &[job])?;
-        let wait = !(opts.pipelined && opts.interpret);
-        let (string, stats, path, derive_waited) =
-            g.derive_then(&opts.derive, opts.strategy, wait, progress)?;
-        let derive_elapsed = t.elapsed();
-        let mut interpretation = None;
-        let mut readback_elapsed = Duration::ZERO;
-        if opts.interpret {
-            // A direct derivation's bones come from its tables where it
-            // can (a straight string of affine commands), else from the
-            // string.
-            let (bones, count, mut out) = match g.interpret_direct(turtle)? {
-                Some(done) => done,
-                None => {
-                    let most = bone_count(&g, &opts.derive, &[turtle], string.len());
-                    let brackets = brackets_at_most(&g, &opts.derive, &[turtle]);
-                    interpret_device(
-                        gpu,
-                        &[turtle],
-                        &string,
-                        &[(0, string.len())],
-                        most,
-                        brackets,
-                        opts.branch_scan,
-                    )?
-                }
+    gpu.run(|| match run_once(gpu, sys, turtle, opts, progress)? {
+        Some(r) => Ok(r),
+        // A pipelined direct derivation whose computed values failed (read
+        // with the interpretation's results): derived again, waited for,
+        // so that the stepwise derivation reports the error exactly.
+        None => {
+            let apart = GpuRunOptions {
+                pipelined: false,
+                ..*opts
             };
-            if opts.read_bones {
-                let t = Instant::now();
-                out.bones = read_bones(gpu, &bones, count)?;
-                readback_elapsed += t.elapsed();
-            }
-            gpu.recycle([bones]);
-            interpretation = Some(out);
+            run_once(gpu, sys, turtle, &apart, progress)?.ok_or_else(|| {
+                GpuError::Readback("a derivation failed without reporting an error".into())
+            })
         }
-        let mut host = None;
-        if opts.read_string {
+    })
+}
+
+/// [`run`] inside [`Gpu::run`]. `None`: a pipelined derivation's status,
+/// read with the interpretation's results, says a computed value failed;
+/// nothing it wrote is returned.
+fn run_once(
+    gpu: &Gpu,
+    sys: &CompiledSystem,
+    turtle: &TurtleProgram,
+    opts: &GpuRunOptions,
+    progress: &mut dyn FnMut(&GpuIterationStats),
+) -> Result<Option<GpuRun>, GpuError> {
+    let t = Instant::now();
+    let job = crate::derive::GpuJob {
+        system: sys,
+        iterations: opts.derive.iterations,
+        seed: opts.derive.seed,
+    };
+    let g = GpuSystem::load(gpu, &[job])?;
+    let wait = !(opts.pipelined && opts.interpret);
+    let (string, stats, path, derive_waited) =
+        g.derive_then(&opts.derive, opts.strategy, wait, progress)?;
+    let derive_elapsed = t.elapsed();
+    // A direct derivation with computed parameters not waited for: its
+    // status, read below with the interpretation's results.
+    let status = g.take_pending_status();
+    let mut interpretation = None;
+    let mut readback_elapsed = Duration::ZERO;
+    let mut failed = false;
+    if opts.interpret {
+        // A direct derivation's bones come from its tables where it can (a
+        // straight string of affine commands), else from the string.
+        let (bones, count, mut out, also) = match g.interpret_direct(turtle)? {
+            Some((b, c, o)) => (b, c, o, None),
+            None => {
+                let hints = InterpHints {
+                    bones: bone_count(&g, &opts.derive, &[turtle], string.len()),
+                    brackets: brackets_at_most(&g, &opts.derive, &[turtle]),
+                    also_read: status.as_ref(),
+                };
+                interpret_device(
+                    gpu,
+                    &[turtle],
+                    &string,
+                    &[(0, string.len())],
+                    hints,
+                    opts.branch_scan,
+                )?
+            }
+        };
+        failed = match (&status, also) {
+            (None, _) => false,
+            (Some(_), Some(word)) => word != 0,
+            (Some(b), None) => read_status(gpu, b)?,
+        };
+        if opts.read_bones && !failed {
             let t = Instant::now();
-            host = Some(string.read(gpu)?);
+            out.bones = read_bones(gpu, &bones, count)?;
             readback_elapsed += t.elapsed();
         }
+        gpu.recycle([bones]);
+        interpretation = Some(out);
+    } else if let Some(b) = &status {
+        failed = read_status(gpu, b)?;
+    }
+    gpu.recycle(status);
+    if failed {
         gpu.recycle(string.into_buffers());
-        Ok(GpuRun {
-            stats,
-            path,
-            derive_elapsed,
-            derive_waited,
-            interpretation,
-            string: host,
-            readback_elapsed,
-        })
-    })
+        return Ok(None);
+    }
+    let mut host = None;
+    if opts.read_string {
+        let t = Instant::now();
+        host = Some(string.read(gpu)?);
+        readback_elapsed += t.elapsed();
+    }
+    gpu.recycle(string.into_buffers());
+    Ok(Some(GpuRun {
+        stats,
+        path,
+        derive_elapsed,
+        derive_waited,
+        interpretation,
+        string: host,
+        readback_elapsed,
+    }))
+}
+
+/// Whether a derivation's status word says a value failed (a wait).
+fn read_status(gpu: &Gpu, status: &wgpu::Buffer) -> Result<bool, GpuError> {
+    let words = gpu.read::<u32>(gpu.encoder(), &[(status, 0, 1)])?;
+    Ok(words.first().is_none_or(|w| w.iter().any(|&x| x != 0)))
 }
 
 /// The outcome of [`run_many`]: per job, in job order.
@@ -204,15 +252,13 @@ pub fn run_many(
         if opts.interpret {
             let most = bone_count(&g, &d, turtles, string.len());
             let brackets = brackets_at_most(&g, &d, turtles);
-            let (buf, count, out) = interpret_device(
-                gpu,
-                turtles,
-                &string,
-                &ranges,
-                most,
+            let hints = InterpHints {
+                bones: most,
                 brackets,
-                opts.branch_scan,
-            )?;
+                also_read: None,
+            };
+            let (buf, count, out, _) =
+                interpret_device(gpu, turtles, &string, &ranges, hints, opts.branch_scan)?;
             if opts.read_bones {
                 let t = Instant::now();
                 let all = read_bones(gpu, &buf, count)?;

@@ -538,3 +538,65 @@ fn direct_derivations_of_affine_turtles_are_interpreted_from_their_tables() {
     }
     assert!(done >= 25, "only {done} random grammars");
 }
+
+/// Pipelined (`GpuRunOptions::pipelined`): a direct derivation with
+/// computed parameters is not waited for, its status is read with the
+/// interpretation's results, and where a value failed the run is done
+/// again unpipelined. Either way the outcome is the unpipelined run's:
+/// the same string and bones, or the same error.
+#[test]
+fn pipelined_runs_give_the_unpipelined_outcome() {
+    let g = gpu();
+    let mut rng = Rng(4242);
+    let (mut ok, mut errors, mut tried) = (0, 0, 0);
+    while (ok < 20 || errors < 5) && tried < 400 {
+        tried += 1;
+        let src = random_parametric(&mut rng);
+        if src.contains("uniform") {
+            continue;
+        }
+        let Some((p, c)) = inline_program(&src) else {
+            continue;
+        };
+        let sys = p.default_system().expect("system");
+        let turtle = grm_gpu::TurtleProgram::new(sys, &c.settings);
+        let iterations = 1 + rng.below(6) as u32;
+        let mut o = grm_gpu::GpuRunOptions {
+            derive: GpuDeriveOptions {
+                max_modules: 300_000,
+                ..opts(&c, iterations)
+            },
+            interpret: true,
+            read_string: true,
+            read_bones: true,
+            strategy: DeriveStrategy::Auto,
+            branch_scan: grm_gpu::BranchScan::Auto,
+            pipelined: false,
+        };
+        let apart = grm_gpu::run(g, &c, &turtle, &o, &mut |_| {});
+        o.pipelined = true;
+        let together = grm_gpu::run(g, &c, &turtle, &o, &mut |_| {});
+        let what = format!("{src} at {iterations}");
+        match (apart, together) {
+            (Ok(a), Ok(b)) => {
+                let read = |r: &grm_gpu::GpuRun| r.string.clone().expect("read");
+                same_bits(&what, &read(&a), &read(&b));
+                let bones =
+                    |r: &grm_gpu::GpuRun| r.interpretation.clone().expect("interpreted").bones;
+                assert_eq!(bones(&a), bones(&b), "{what}: bones");
+                ok += 1;
+            }
+            (Err(ea), Err(eb)) => {
+                assert_eq!(ea, eb, "{what}");
+                errors += 1;
+            }
+            (a, b) => panic!(
+                "{what}\napart: {:?}\npipelined: {:?}",
+                a.map(|r| r.path),
+                b.map(|r| r.path)
+            ),
+        }
+    }
+    eprintln!("{tried} tried: {ok} alike, {errors} errors alike");
+    assert!(ok >= 20 && errors >= 5, "{ok} ok, {errors} errors");
+}

@@ -518,8 +518,9 @@ impl GpuSystem<'_> {
     }
 
     /// Run a direct derivation: one dispatch, one wait (none when `wait`
-    /// is false and nothing is read back: constant parameters, no device
-    /// timestamps; the flag returned says whether it waited). `None`: a computed parameter faulted or was not finite;
+    /// is false and no device timestamps are taken: with computed
+    /// parameters the status is then the caller's to read; the flag
+    /// returned says whether it waited). `None`: a computed parameter faulted or was not finite;
     /// nothing is returned and the caller derives stepwise, which reports
     /// the error exactly.
     #[allow(clippy::type_complexity)]
@@ -605,9 +606,12 @@ impl GpuSystem<'_> {
             }
         }
         // One wait: the status (computed parameters can fail) and the
-        // stamps, read together.
+        // stamps, read together. Not waited for (`wait` false, no stamps):
+        // the status is left for the caller to read with its own results
+        // (`GpuSystem::take_pending_status`).
+        let defer = !wait && plan.computed && stamps.is_none();
         let mut ranges = Vec::new();
-        if plan.computed {
+        if plan.computed && !defer {
             ranges.push((&status, 0, 1));
         }
         if let Some(s) = &stamps {
@@ -634,7 +638,12 @@ impl GpuSystem<'_> {
             (failed, device)
         };
         let elapsed = t.elapsed();
-        gpu.recycle([input, status]);
+        gpu.recycle([input]);
+        if defer {
+            self.pending_status.replace(Some(status));
+        } else {
+            gpu.recycle([status]);
+        }
         if failed {
             gpu.recycle(out.into_buffers());
             return Ok(None);
