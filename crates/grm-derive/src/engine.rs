@@ -1038,6 +1038,19 @@ impl<'a> Engine<'a> {
         // behind `self` after every store otherwise).
         let (acts, plans, sym_words) = (&self.acts[..], &self.plans[..], &self.sym_words[..]);
         let (ariths, tpls) = (&self.ariths[..], &self.tpl[..]);
+        // Where the next successor goes: the chunk's slices, reborrowed.
+        macro_rules! out_at {
+            ($o:expr, $wo:expr) => {
+                Out {
+                    syms: &mut *osyms,
+                    starts: &mut *ostarts,
+                    params: &mut *oparams,
+                    word_base,
+                    o: $o,
+                    wo: $wo,
+                }
+            };
+        }
         for i in range {
             let sym = input.syms[i];
             let s = sym as usize;
@@ -1081,14 +1094,7 @@ impl<'a> Engine<'a> {
                 Act::Plan(alt) => {
                     let plan = plans[alt as usize];
                     let n = sym_words[s] as usize;
-                    let mut out = Out {
-                        syms: &mut *osyms,
-                        starts: &mut *ostarts,
-                        params: &mut *oparams,
-                        word_base,
-                        o,
-                        wo,
-                    };
+                    let mut out = out_at!(o, wo);
                     if plan.words == 0 {
                         // Symbols only (Koch curves, Hilbert curves).
                         self.emit_syms(plan, &mut out);
@@ -1118,14 +1124,7 @@ impl<'a> Engine<'a> {
                             &spare
                         }
                     };
-                    let mut out = Out {
-                        syms: &mut *osyms,
-                        starts: &mut *ostarts,
-                        params: &mut *oparams,
-                        word_base,
-                        o,
-                        wo,
-                    };
+                    let mut out = out_at!(o, wo);
                     self.emit_syms(plan, &mut out);
                     let words = plan.words as usize;
                     let ariths = &ariths[plan.patch_lo as usize..plan.patch_hi as usize];
@@ -1178,14 +1177,7 @@ impl<'a> Engine<'a> {
                             wo += n;
                         }
                         Some((alt, binds)) => {
-                            let mut out = Out {
-                                syms: &mut *osyms,
-                                starts: &mut *ostarts,
-                                params: &mut *oparams,
-                                word_base,
-                                o,
-                                wo,
-                            };
+                            let mut out = out_at!(o, wo);
                             if binds == Binds::Buffer {
                                 // The bindings live in the worker; move the
                                 // buffer out for the call (no allocation: a
