@@ -409,17 +409,21 @@ mod tests {
         assert_eq!(best(&a, [b.as_str()]), Some(b.as_str()));
     }
 
-    #[test]
-    fn prepared_candidates_suggest_exactly_what_the_plain_list_does() {
-        // Many short names over a small alphabet: lots of ties, case-only
-        // differences, names of every length near the cap.
-        let mut x = 0x9E37_79B9_7F4A_7C15u64;
-        let mut next = move |n: u64| {
+    /// A xorshift generator: `next(n)` is below `n`.
+    fn xorshift(mut x: u64) -> impl FnMut(u64) -> u64 {
+        move |n| {
             x ^= x << 13;
             x ^= x >> 7;
             x ^= x << 17;
             x % n
-        };
+        }
+    }
+
+    #[test]
+    fn prepared_candidates_suggest_exactly_what_the_plain_list_does() {
+        // Many short names over a small alphabet: lots of ties, case-only
+        // differences, names of every length near the cap.
+        let mut next = xorshift(0x9E37_79B9_7F4A_7C15);
         let word = |next: &mut dyn FnMut(u64) -> u64| {
             let len = 1 + next(8) as usize;
             (0..len)
@@ -450,13 +454,7 @@ mod tests {
         // Unsorted lists with duplicates and the empty name: the trie walks
         // names in sorted order, but a tie still goes to the first in the
         // list, as with the plain rule.
-        let mut x = 0x2545_F491_4F6C_DD1Du64;
-        let mut next = move |n: u64| {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            x % n
-        };
+        let mut next = xorshift(0x2545_F491_4F6C_DD1D);
         let word = |next: &mut dyn FnMut(u64) -> u64| {
             let len = next(9) as usize;
             (0..len)
