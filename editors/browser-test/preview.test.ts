@@ -456,14 +456,19 @@ test('sample mode: drawing a curve and dragging its control point regrow the Cal
     await page.mouse.move(end[0], end[1]);
     await page.mouse.down();
     await page.mouse.move(end[0] + 10, end[1] - 15, { steps: 2 });
-    await page.mouse.move(end[0] + 20 - k * 8, end[1] - 30 + k * 6, { steps: 2 });
-    // Let the drag's intermediate models arrive, so the release is the only edit in flight.
+    const last: [number, number] = [end[0] + 20 - k * 8, end[1] - 30 + k * 6];
+    await page.mouse.move(last[0], last[1], { steps: 2 });
+    // Let the drag's intermediate models arrive, so the release is the only
+    // edit in flight. Chromium hands pointer moves to the page with the next
+    // animation frame, after `mouse.move` returns: wait until the page has
+    // taken the last one too (the dragged point is under the pointer).
     await page.waitForFunction(
-      (n) => {
-        const g = (globalThis as unknown as { __grm: Grm }).__grm;
-        return g.regrows > n && !g.busy;
+      ([n, x, y]) => {
+        const g = (globalThis as unknown as { __grm: Grm & { curvePoints(i: number): number[][]; toScreen(p: number[]): [number, number] } }).__grm;
+        const [px, py] = g.toScreen(g.curvePoints(3)[3]);
+        return Math.hypot(px - x, py - y) < 1.5 && g.regrows > n && !g.busy;
       },
-      s.regrows,
+      [s.regrows, last[0], last[1]] as const,
       { timeout: 30_000 },
     );
     const mid = await grm(page);
