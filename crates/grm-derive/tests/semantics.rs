@@ -1,0 +1,241 @@
+//! Folded and run-time values agree: the same expression, once folded by
+//! the checker (`grm_sema::eval`, in f64, rounded to f32 once) as a
+//! `const`, and once computed by the engine while rewriting (the bytecode
+//! VM and the engine's fast paths, in f32), over random expressions.
+//!
+//! Two groups:
+//!
+//! - **exact**: whole numbers and small binary fractions, the operators and
+//!   the piecewise functions (`floor ceil round fract sign abs min max
+//!   clamp step mix %`, comparisons, `&& || !`, `if`), magnitudes kept
+//!   small. Every intermediate value is exactly representable in f32, and
+//!   the one inexact step (the quotient inside `%`) is far from a whole
+//!   number, so f32 and f64 give the same result: it must be bit for bit the
+//!   same (up to the sign of zero). This is where the two definitions of an
+//!   operator's meaning (grm-sema's evaluator, grm-compile's VM) can differ.
+//! - **continuous**: one transcendental or vector function of exact
+//!   arguments in its well-conditioned range, compared with a relative
+//!   tolerance of 1e-5 (f32 rounding of the argument and the result).
+
+mod common;
+
+use std::fmt::Write as _;
+
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        // xorshift64*
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
+    }
+    fn below(&mut self, n: u64) -> u64 {
+        self.next() % n
+    }
+    fn int(&mut self, lo: i64, hi: i64) -> i64 {
+        lo + self.below((hi - lo + 1) as u64) as i64
+    }
+}
+
+/// A number literal as source text (negative ones in parentheses).
+fn lit(v: f64) -> String {
+    if v < 0.0 {
+        format!("({v})")
+    } else {
+        format!("{v}")
+    }
+}
+
+/// A float expression of the exact group over `x` and `y`.
+fn exact(r: &mut Rng, depth: u32) -> String {
+    if depth == 0 || r.below(5) == 0 {
+        return match r.below(4) {
+            0 => "x".into(),
+            1 => "y".into(),
+            2 => lit(r.int(-9, 9) as f64),
+            _ => lit(r.int(-19, 19) as f64 / 4.0),
+        };
+    }
+    let d = depth - 1;
+    macro_rules! e {
+        () => {
+            exact(r, d)
+        };
+    }
+    let s = match r.below(22) {
+        0 => format!("{} + {}", e!(), e!()),
+        1 => format!("{} - {}", e!(), e!()),
+        2 => format!("-({})", e!()),
+        3 => {
+            let k = r.int(-4, 4);
+            format!("({}) * {}", e!(), lit(k as f64))
+        }
+        4 => format!("({}) / {}", e!(), [2, 4, -2][r.below(3) as usize]),
+        5 => {
+            let k = [1, 2, 3, 5, 7, -3, -4][r.below(7) as usize];
+            format!("({}) % {}", e!(), lit(k as f64))
+        }
+        6 => format!("floor({})", e!()),
+        7 => format!("ceil({})", e!()),
+        8 => format!("round({})", e!()),
+        9 => format!("fract({})", e!()),
+        10 => format!("sign({})", e!()),
+        11 => format!("abs({})", e!()),
+        12 => format!("min({}, {})", e!(), e!()),
+        13 => format!("max({}, {})", e!(), e!()),
+        14 => format!("clamp({}, {}, {})", e!(), e!(), e!()),
+        15 => format!("step({}, {})", e!(), e!()),
+        16 => {
+            let t = [0.0, 0.5, 1.0, 0.25][r.below(4) as usize];
+            format!("mix({}, {}, {t})", e!(), e!())
+        }
+        17 | 18 => format!(
+            "if {} then {} else {}",
+            cond(r, d),
+            exact(r, d),
+            exact(r, d)
+        ),
+        19 => format!(
+            "vec3({}, {}, {}).{}",
+            e!(),
+            e!(),
+            e!(),
+            ["x", "y", "z"][r.below(3) as usize]
+        ),
+        20 => format!("(vec3({}, {}, 1) * {}).y", e!(), e!(), e!()),
+        _ => format!("(vec3({}, 0, {}) + vec3({}, 1, 2)).x", e!(), e!(), e!()),
+    };
+    // Keep magnitudes small: every value stays a short binary fraction.
+    format!("clamp({s}, -1000, 1000)")
+}
+
+/// A boolean expression of the exact group.
+fn cond(r: &mut Rng, depth: u32) -> String {
+    let d = depth.saturating_sub(1);
+    match r.below(9) {
+        0 => format!("{} < {}", exact(r, d), exact(r, d)),
+        1 => format!("{} <= {}", exact(r, d), exact(r, d)),
+        2 => format!("{} > {}", exact(r, d), exact(r, d)),
+        3 => format!("{} >= {}", exact(r, d), exact(r, d)),
+        4 => format!("{} == {}", exact(r, d), exact(r, d)),
+        5 => format!("{} != {}", exact(r, d), exact(r, d)),
+        6 => format!("({}) && ({})", cond(r, d), cond(r, d)),
+        7 => format!("({}) || ({})", cond(r, d), cond(r, d)),
+        _ => format!("!({})", cond(r, d)),
+    }
+}
+
+/// One function of the continuous group over `x` and `y`, which hold
+/// values of `[-4, 4]` in steps of 1/4.
+fn continuous(r: &mut Rng) -> String {
+    match r.below(18) {
+        0 => "sin(x * 20)".into(),
+        1 => "cos(y * 20 + 7)".into(),
+        2 => "tan(x * 10)".into(), // within (-45, 45) degrees
+        3 => "asin(x / 4.5)".into(),
+        4 => "acos(y / 4.5)".into(),
+        5 => "atan(x * 3)".into(),
+        6 => "atan2(x + 0.5, y - 0.25)".into(),
+        7 => "sqrt(abs(x) + 1)".into(),
+        8 => "exp(x)".into(),
+        9 => "ln(abs(y) + 0.5)".into(),
+        10 => "log10(abs(x) * 10 + 1)".into(),
+        11 => "pow(abs(x) + 1, y / 2)".into(),
+        12 => "length(vec3(x, y, 1))".into(),
+        13 => "dot(vec3(x, y, 1), vec3(y, 2, x))".into(),
+        14 => "distance(vec3(x, 1, y), vec3(y, x, 3))".into(),
+        15 => "normalize(vec3(x, y, 1)).y".into(),
+        16 => "cross(vec3(x, 1, 2), vec3(y, 3, x)).z".into(),
+        _ => "smoothstep(-3, 5, x + y)".into(),
+    }
+}
+
+/// `expr` with the bindings replaced by the axiom's values.
+fn substitute(expr: &str, x: f64, y: f64) -> String {
+    let mut out = String::with_capacity(expr.len() + 16);
+    let b = expr.as_bytes();
+    for (i, c) in expr.char_indices() {
+        let word = |k: usize| k < b.len() && (b[k].is_ascii_alphanumeric() || b[k] == b'_');
+        // A lone `x` / `y` (not part of a name, not a field `.x`).
+        let lone = !word(i + 1) && (i == 0 || !(word(i - 1) || b[i - 1] == b'.'));
+        match c {
+            'x' if lone => out.push_str(&lit(x)),
+            'y' if lone => out.push_str(&lit(y)),
+            _ => out.push(c),
+        }
+    }
+    out
+}
+
+/// Run `exprs` both ways at (`x`, `y`); returns (expression, folded, run).
+fn both(exprs: &[String], x: f64, y: f64) -> Vec<(String, f32, f32)> {
+    let mut src = String::new();
+    for (i, e) in exprs.iter().enumerate() {
+        writeln!(src, "const C{i} = {};", substitute(e, x, y)).unwrap();
+    }
+    src.push_str("system S {\n    iterations = 1;\n    axiom A(");
+    write!(src, "{}, {})", lit(x), lit(y)).unwrap();
+    for i in 0..exprs.len() {
+        write!(src, " K(C{i})").unwrap();
+    }
+    src.push_str(";\n    A(x, y) ->");
+    for e in exprs {
+        write!(src, " B({e})").unwrap();
+    }
+    src.push_str(";\n}\n");
+    let c = common::inline(&src);
+    let s = common::strings(&c, 1, 0, 1).pop().expect("string 1");
+    // B(v0) ... B(vn) K(c0) ... K(cn)
+    assert_eq!(s.len(), 2 * exprs.len(), "{src}");
+    let n = exprs.len();
+    (0..n)
+        .map(|i| (exprs[i].clone(), s.get(n + i).1[0], s.get(i).1[0]))
+        .collect()
+}
+
+#[test]
+fn exact_expressions_fold_and_run_to_the_same_value() {
+    let mut r = Rng(0x9e37_79b9_7f4a_7c15);
+    let mut checked = 0;
+    for round in 0..40 {
+        let x = r.int(-16, 16) as f64 / 4.0;
+        let y = r.int(-16, 16) as f64 / 4.0;
+        let exprs: Vec<String> = (0..30).map(|_| exact(&mut r, 4)).collect();
+        for (e, folded, run) in both(&exprs, x, y) {
+            assert!(
+                folded == run,
+                "round {round}, x = {x}, y = {y}: `{e}` folds to {folded} but runs to {run}"
+            );
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 1200);
+}
+
+#[test]
+fn continuous_functions_fold_and_run_within_tolerance() {
+    let mut r = Rng(0x2545_f491_4f6c_dd1d);
+    for round in 0..20 {
+        let x = r.int(-16, 16) as f64 / 4.0;
+        let y = r.int(-16, 16) as f64 / 4.0;
+        let exprs: Vec<String> = (0..18).map(|_| continuous(&mut r)).collect();
+        for (e, folded, run) in both(&exprs, x, y) {
+            let tol = 1e-5 * folded.abs().max(1.0);
+            assert!(
+                (folded - run).abs() <= tol,
+                "round {round}, x = {x}, y = {y}: `{e}` folds to {folded} but runs to {run}"
+            );
+        }
+    }
+}
+
+/// The generator's substitution itself: names and fields keep their `x`.
+#[test]
+fn substitution_replaces_only_the_bindings() {
+    assert_eq!(
+        substitute("max(x, vec3(y, 1, x).x) + exp(y)", 1.5, -2.0),
+        "max(1.5, vec3((-2), 1, 1.5).x) + exp((-2))"
+    );
+}
