@@ -496,7 +496,7 @@ impl CostModel {
             let w = 1.0 - mid.distance(q) / d.radius;
             // Quantized per pair: the pair's value does not depend on
             // which of the two bones came first.
-            sum += to_fixed(d.scale * w * w);
+            sum = sum.saturating_add(to_fixed(d.scale * w * w));
         });
         sum
     }
@@ -555,8 +555,8 @@ impl CostModel {
                 ..BoneCost::default()
             };
         };
-        state.distance += to_fixed(plan.distance);
-        state.alignment += to_fixed(plan.alignment);
+        state.distance = state.distance.saturating_add(to_fixed(plan.distance));
+        state.alignment = state.alignment.saturating_add(to_fixed(plan.alignment));
 
         let mut utilization = 0.0;
         let (delta, range) = self.utilization_delta(&state.uses, plan);
@@ -566,7 +566,7 @@ impl CostModel {
             }
         }
         if plan.segments.is_some() {
-            state.utilization -= delta;
+            state.utilization = state.utilization.saturating_sub(delta);
             utilization = -to_f64(delta);
         }
 
@@ -576,7 +576,7 @@ impl CostModel {
             if let Some(grid) = state.grid.as_mut() {
                 grid.insert(0.5 * (plan.base + plan.tip));
             }
-            state.density += sum;
+            state.density = state.density.saturating_add(sum);
             density = to_f64(sum);
         }
 
@@ -598,7 +598,11 @@ impl CostModel {
             density: to_f64(state.density),
             bones: state.bones,
             non_finite: state.non_finite,
-            total_fixed: state.distance + state.alignment + state.utilization + state.density,
+            total_fixed: state
+                .distance
+                .saturating_add(state.alignment)
+                .saturating_add(state.utilization)
+                .saturating_add(state.density),
         }
     }
 

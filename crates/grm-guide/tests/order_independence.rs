@@ -276,3 +276,28 @@ fn planned_bones_cost_what_added_bones_cost() {
         assert!(known_used > bones.len() / 2);
     }
 }
+
+/// Bones absurdly far from every curve (extreme meta-parameters put them
+/// there) have huge but finite costs: the fixed-point sums clamp each one
+/// and saturate instead of overflowing, and the order still does not
+/// matter. (Two such bones overflowed the `i128` sum before.)
+#[test]
+fn far_bones_cost_huge_amounts_without_overflow() {
+    let curves = benchmark_curves();
+    let model = CostModel::new(&curves, CostOptions::from_curves(&curves));
+    let far = |k: f32| (Vec3::new(1e30 * k, 0.0, 0.0), Vec3::new(1e30 * k, 1.0, 0.0));
+    let bones: Vec<(Vec3, Vec3)> = (1..=6)
+        .map(|k| far(k as f32))
+        .chain([(Vec3::ZERO, Vec3::Y)])
+        .collect();
+    let (forward, _, _) = run(&model, &bones);
+    let mut back = bones.clone();
+    back.reverse();
+    let (backward, _, _) = run(&model, &back);
+    assert_eq!(forward, backward);
+    assert!(
+        forward.distance.is_finite() && forward.distance > 1e20,
+        "{forward:?}"
+    );
+    assert!(forward.total().is_finite(), "{forward:?}");
+}

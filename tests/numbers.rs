@@ -1,0 +1,229 @@
+//! Edge-case numbers in the shipped examples, all the way down the
+//! pipeline: the stable, deterministic stand-in for the `pipeline` fuzz
+//! target (`fuzz/`), run with the normal tests.
+//!
+//! Each mutant is an example (`examples/*.grm`) with one to three of its
+//! number literals replaced by an edge value (zero, tiny, huge, past f32,
+//! whole numbers past the limits of counts). A mutant that the checker
+//! refuses must be refused with diagnostics; one that it accepts is
+//! compiled, derived on the CPU (at most 10 iterations, 50,000 modules),
+//! interpreted and meshed, or for a sample-mode system grown by the guided
+//! sampler with its guiding curves file (a tiny schedule). Nothing may
+//! panic: every failure comes back as a typed error.
+
+use grm_derive::{DeriveLimits, Engine};
+use grm_sample::{ExpectedOptions, FinishLimits, Objective, SampleOptions, Sampler, Schedule};
+use grm_sema::Mode;
+use grm_syntax::lexer::TokKind;
+use std::path::{Path, PathBuf};
+
+const EDGES: &[&str] = &[
+    "0",
+    "0.0",
+    "1e-30",
+    "1e-45",
+    "0.5",
+    "3",
+    "64",
+    "1000",
+    "100000",
+    "4294967296",
+    "1e30",
+    "3.4e38",
+    "1e39",
+    "1e300",
+    "-1",
+    "-0.5",
+    "-1e30",
+    "0.001",
+];
+
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        // xorshift64*
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
+    }
+    fn below(&mut self, n: usize) -> usize {
+        (self.next() % n.max(1) as u64) as usize
+    }
+}
+
+fn examples() -> Vec<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples");
+    let mut out: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .expect("examples/")
+        .map(|e| e.expect("an entry").path())
+        .filter(|p| p.extension().is_some_and(|x| x == "grm"))
+        .collect();
+    out.sort();
+    out
+}
+
+/// `text` with up to three of its number literals replaced.
+fn mutate(text: &str, r: &mut Rng) -> String {
+    let lexed = grm_syntax::lexer::lex(grm_diag::FileId(0), text);
+    let numbers: Vec<_> = lexed
+        .tokens
+        .iter()
+        .filter(|t| t.kind == TokKind::Number)
+        .map(|t| t.span)
+        .collect();
+    let mut picked: Vec<_> = (0..1 + r.below(3))
+        .filter_map(|_| numbers.get(r.below(numbers.len())).copied())
+        .collect();
+    picked.sort_by_key(|s| s.start);
+    picked.dedup();
+    let mut out = String::with_capacity(text.len() + 64);
+    let mut pos = 0usize;
+    for s in picked {
+        out.push_str(&text[pos..s.start as usize]);
+        out.push_str(EDGES[r.below(EDGES.len())]);
+        pos = s.end as usize;
+    }
+    out.push_str(&text[pos..]);
+    out
+}
+
+/// What happened to the mutants.
+#[derive(Debug, Default)]
+struct Tally {
+    refused: usize,
+    derived: usize,
+    sampled: usize,
+    failed_typed: usize,
+}
+
+fn grow(path: &Path, text: &str, t: &mut Tally) {
+    let (_, checked) = grm_sema::check_text(&path.to_string_lossy(), text);
+    if checked.has_errors() {
+        t.refused += 1;
+        return;
+    }
+    let program = &checked.program;
+    let values = program.default_params();
+    for sys in &program.systems {
+        let compiled = match grm_compile::compile(program, sys, &values) {
+            Ok(c) => c,
+            Err(_) => {
+                t.failed_typed += 1;
+                continue;
+            }
+        };
+        let _ = grm_compile::disassemble(&compiled, Some(text));
+        if sys.mode == Mode::Sample {
+            sample(path, program, sys, &compiled, t);
+            continue;
+        }
+        let limits = DeriveLimits {
+            max_modules: 50_000,
+            max_bytes: 1 << 24,
+        };
+        let Ok(engine) = Engine::new(&compiled, 1) else {
+            t.failed_typed += 1;
+            continue;
+        };
+        let settings = &compiled.settings;
+        let mut s = match engine.axiom(settings.seed) {
+            Ok(s) => s,
+            Err(_) => {
+                t.failed_typed += 1;
+                continue;
+            }
+        };
+        let mut ok = true;
+        for it in 1..=settings.iterations.min(10) {
+            match engine.step(&s, it, settings.seed, &limits) {
+                Ok(next) => s = next,
+                Err(_) => {
+                    ok = false;
+                    break;
+                }
+            }
+        }
+        if !ok {
+            t.failed_typed += 1;
+            continue;
+        }
+        match grm_geom::build_model(program, sys, &s, settings) {
+            Ok(_) => t.derived += 1,
+            Err(_) => t.failed_typed += 1,
+        }
+    }
+}
+
+fn sample(
+    path: &Path,
+    program: &grm_sema::Program,
+    sys: &grm_sema::System,
+    compiled: &grm_compile::CompiledSystem,
+    t: &mut Tally,
+) {
+    let curves_path = path.with_extension("curves.json");
+    let Ok(text) = std::fs::read_to_string(&curves_path) else {
+        return;
+    };
+    let curves = grm_guide::Curves::from_json_str(&curves_path.to_string_lossy(), &text)
+        .expect("the shipped curves file reads");
+    let sampler = match Sampler::new(
+        sys,
+        compiled,
+        &curves,
+        Objective::Curves,
+        ExpectedOptions::default(),
+    ) {
+        Ok(s) => s,
+        Err(_) => {
+            t.failed_typed += 1;
+            return;
+        }
+    };
+    let mut schedule = Schedule::from_settings(&compiled.settings).with_generations(4);
+    schedule.particles_start = 4;
+    schedule.particles_end = 2;
+    let opts = SampleOptions {
+        seed: compiled.settings.seed,
+        schedule,
+        threads: 1,
+        candidates: 2,
+        max_expansions_per_step: 200,
+        limits: FinishLimits {
+            max_depth: 64,
+            max_expansions: 20_000,
+        },
+        ..SampleOptions::default()
+    };
+    match sampler.sample(&opts) {
+        Ok(run) => {
+            if let Some(best) = run.best() {
+                let _ = best.build(program, &grm_geom::BuildOptions::default());
+            }
+            t.sampled += 1;
+        }
+        Err(_) => t.failed_typed += 1,
+    }
+}
+
+#[test]
+fn edge_numbers_in_the_examples_never_panic() {
+    let files = examples();
+    assert!(files.len() >= 10, "{files:?}");
+    let mut r = Rng(0x005e_ed0f_ed9e);
+    let mut t = Tally::default();
+    for path in &files {
+        let text = std::fs::read_to_string(path).expect("an example");
+        for _ in 0..40 {
+            let m = mutate(&text, &mut r);
+            grow(path, &m, &mut t);
+        }
+    }
+    eprintln!("{t:?}");
+    // The mutants must reach every stage, or the test tests nothing.
+    assert!(t.derived >= 20, "{t:?}");
+    assert!(t.sampled >= 3, "{t:?}");
+    assert!(t.refused >= 5, "{t:?}");
+}
