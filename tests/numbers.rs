@@ -227,3 +227,107 @@ fn edge_numbers_in_the_examples_never_panic() {
     assert!(t.sampled >= 3, "{t:?}");
     assert!(t.refused >= 5, "{t:?}");
 }
+
+/// `json` with up to three of its numbers replaced.
+fn mutate_json(json: &str, r: &mut Rng) -> String {
+    let b = json.as_bytes();
+    let mut numbers = Vec::new();
+    let mut i = 0;
+    while i < b.len() {
+        let starts = (b[i].is_ascii_digit() || b[i] == b'-')
+            && (i == 0 || !(b[i - 1].is_ascii_alphanumeric() || b[i - 1] == b'.'));
+        if starts {
+            let j = i
+                + 1
+                + b[i + 1..]
+                    .iter()
+                    .take_while(|c| {
+                        c.is_ascii_digit() || matches!(c, b'.' | b'e' | b'E' | b'-' | b'+')
+                    })
+                    .count();
+            numbers.push(i..j);
+            i = j;
+        } else {
+            i += 1;
+        }
+    }
+    let mut picked: Vec<_> = (0..1 + r.below(3))
+        .filter_map(|_| numbers.get(r.below(numbers.len())).cloned())
+        .collect();
+    picked.sort_by_key(|s| s.start);
+    picked.dedup();
+    let mut out = String::with_capacity(json.len() + 64);
+    let mut pos = 0usize;
+    for s in picked {
+        out.push_str(&json[pos..s.start]);
+        out.push_str(EDGES[r.below(EDGES.len())]);
+        pos = s.end;
+    }
+    out.push_str(&json[pos..]);
+    out
+}
+
+/// The same for the guiding curves: edge numbers in the shipped curves
+/// files (points, distances, scales, segment lengths, thickness, density),
+/// then the guided sampler on the unchanged grammar. A file it refuses
+/// must be refused with a typed error.
+#[test]
+fn edge_numbers_in_the_curves_files_never_panic() {
+    let mut r = Rng(0x0c0f_fee0_c0de);
+    let (mut read, mut refused, mut sampled) = (0usize, 0usize, 0usize);
+    for path in examples() {
+        let curves_path = path.with_extension("curves.json");
+        let Ok(json) = std::fs::read_to_string(&curves_path) else {
+            continue;
+        };
+        let text = std::fs::read_to_string(&path).expect("an example");
+        let (_, checked) = grm_sema::check_text(&path.to_string_lossy(), &text);
+        assert!(!checked.has_errors(), "{}", path.display());
+        let program = &checked.program;
+        let sys = program
+            .systems
+            .iter()
+            .find(|s| s.mode == Mode::Sample)
+            .expect("a sample-mode system beside its curves file");
+        let compiled =
+            grm_compile::compile(program, sys, &program.default_params()).expect("compiles");
+        for _ in 0..60 {
+            let m = mutate_json(&json, &mut r);
+            let Ok(curves) = grm_guide::Curves::from_json_str("mutant.curves.json", &m) else {
+                refused += 1;
+                continue;
+            };
+            read += 1;
+            let Ok(sampler) = Sampler::new(
+                sys,
+                &compiled,
+                &curves,
+                Objective::Curves,
+                ExpectedOptions::default(),
+            ) else {
+                continue;
+            };
+            let mut schedule = Schedule::from_settings(&compiled.settings).with_generations(4);
+            schedule.particles_start = 4;
+            schedule.particles_end = 2;
+            let opts = SampleOptions {
+                seed: 1,
+                schedule,
+                threads: 1,
+                candidates: 2,
+                ..SampleOptions::default()
+            };
+            if let Ok(run) = sampler.sample(&opts) {
+                if let Some(best) = run.best() {
+                    let _ = best.build(program, &grm_geom::BuildOptions::default());
+                }
+                sampled += 1;
+            }
+        }
+    }
+    eprintln!("curves mutants: {read} read, {refused} refused, {sampled} sampled");
+    assert!(
+        read >= 20 && refused >= 5 && sampled >= 20,
+        "{read} {refused} {sampled}"
+    );
+}
