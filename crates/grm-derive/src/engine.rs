@@ -671,7 +671,9 @@ impl<'a> Engine<'a> {
     ) -> Result<Derivation, DeriveError> {
         let t = Instant::now();
         let mut string = self.axiom(opts.seed)?;
-        let mut stats = Vec::with_capacity(opts.iterations as usize + 1);
+        // Not sized by `opts.iterations` (any u32): a string that stops
+        // growing can run many steps, a limit can end it after a few.
+        let mut stats = Vec::with_capacity(opts.iterations.min(64) as usize + 1);
         let first = stat_of(&string, 0, 0, 0, t.elapsed());
         progress(&first);
         stats.push(first);

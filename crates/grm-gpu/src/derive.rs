@@ -1304,7 +1304,8 @@ impl<'a> GpuSystem<'a> {
     ) -> Result<(DeviceString, Vec<GpuIterationStats>), GpuError> {
         let t = Instant::now();
         self.reset_directory(opts, prefix);
-        let mut stats = Vec::with_capacity(opts.iterations as usize + 1);
+        // Not sized by `opts.iterations` (any u32; a limit can end it early).
+        let mut stats = Vec::with_capacity(opts.iterations.min(64) as usize + 1);
         let mut string = match prefix {
             Some(p) => {
                 let s = &p.string;

@@ -806,6 +806,13 @@ pub(crate) fn build(
         settings.seed = s;
     }
     if let Some(i) = p.iterations {
+        // The checker's bound on the setting holds for the override too.
+        if i > grm_sema::MAX_ITERATIONS {
+            return Err(Failure::Msg(format!(
+                "{i} iterations is more than the {} a preview derives",
+                grm_sema::MAX_ITERATIONS
+            )));
+        }
         settings.iterations = i;
     }
     let compiled = grm_compile::compile(prog, sys, &values).map_err(|e| e.to_string())?;

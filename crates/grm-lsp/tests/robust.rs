@@ -424,12 +424,13 @@ async fn preview_pick_and_live_updates() {
         .sum();
     let _ = writeln!(out, "focused triangles: {focused}");
     // Errors: a stale version, sample mode, an unknown parameter, one
-    // outside its range.
+    // outside its range, more iterations than the setting's bound.
     for params in [
         json!({ "textDocument": { "uri": u }, "version": 7 }),
         json!({ "textDocument": { "uri": u }, "mode": "sample" }),
         json!({ "textDocument": { "uri": u }, "params": { "nope": 1 } }),
         json!({ "textDocument": { "uri": u }, "params": { "spread": 1000 } }),
+        json!({ "textDocument": { "uri": u }, "iterations": 4_000_000_000u64 }),
     ] {
         let e = c.request("grm/preview", params).await.unwrap_err();
         let _ = writeln!(out, "error {} {}", e["code"], e["message"]);
@@ -596,7 +597,7 @@ async fn answer_within(
 /// in a debug build): only its wall-clock budget or a cancellation ends it.
 fn endless_guided() -> (std::path::PathBuf, String, Value) {
     let (p, text) = fixture("guided.grm");
-    let text = text.replace("generations = 6;", "generations = 10000000;");
+    let text = text.replace("generations = 6;", "generations = 100000;");
     let curves: Value =
         serde_json::from_str(&std::fs::read_to_string(p.with_extension("curves.json")).unwrap())
             .unwrap();

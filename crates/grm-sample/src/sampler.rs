@@ -1164,6 +1164,31 @@ impl<'a> Sampler<'a> {
             }
             t => t,
         };
+        // The checker's bounds on the settings (a schedule built by hand
+        // can pass anything): beyond them the particles alone would not fit
+        // in memory.
+        let sched = &opts.schedule;
+        if sched.generations > grm_sema::MAX_GENERATIONS {
+            return Err(SampleError::Options(format!(
+                "{} generations is more than the {} a search runs",
+                sched.generations,
+                grm_sema::MAX_GENERATIONS
+            )));
+        }
+        let most = sched.particles_start.max(sched.particles_end);
+        if most > grm_sema::MAX_PARTICLES {
+            return Err(SampleError::Options(format!(
+                "{most} particles is more than the {} a search keeps",
+                grm_sema::MAX_PARTICLES
+            )));
+        }
+        if opts.candidates > grm_sema::MAX_PARTICLES {
+            return Err(SampleError::Options(format!(
+                "{} candidates is more than the {} a search tries",
+                opts.candidates,
+                grm_sema::MAX_PARTICLES
+            )));
+        }
         cancel::check(opts.cancel.as_ref())?;
         if threads <= 1 {
             return self.run(opts, false);

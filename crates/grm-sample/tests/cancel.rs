@@ -63,7 +63,7 @@ fn a_token_set_while_searching_stops_the_run() {
     let s = curves_sampler(&p, &c, &curves);
     // A million generations of 100 particles: hours, unless cancelled.
     let endless = Schedule {
-        generations: 1_000_000,
+        generations: grm_sema::MAX_GENERATIONS,
         particles_start: 100,
         particles_end: 100,
         ..Schedule::calder_playground()

@@ -428,6 +428,35 @@ fn too_many_threads_is_a_typed_error() {
     }
 }
 
+/// A schedule built by hand past the checker's bounds on the settings is
+/// refused with a typed error before anything is allocated (4e9 particles
+/// aborted the process on a failed allocation before).
+#[test]
+fn oversized_schedules_are_typed_errors() {
+    let (p, c) = calder();
+    let curves = calder_curves();
+    let s = curves_sampler(&p, &c, &curves);
+    let base = SampleOptions::default();
+    let mut cases = Vec::new();
+    let mut o = base.clone();
+    o.schedule.particles_start = grm_sema::MAX_PARTICLES + 1;
+    cases.push((o, "particles is more than the 100000"));
+    let mut o = base.clone();
+    o.schedule.particles_end = u32::MAX;
+    cases.push((o, "4294967295 particles"));
+    let mut o = base.clone();
+    o.schedule.generations = grm_sema::MAX_GENERATIONS + 1;
+    cases.push((o, "generations is more than the 100000"));
+    let mut o = base.clone();
+    o.candidates = u32::MAX;
+    cases.push((o, "candidates is more than"));
+    for (opts, want) in cases {
+        let e = s.sample(&opts).expect_err("refused");
+        assert!(matches!(e, SampleError::Options(_)), "{e:?}");
+        assert!(e.to_string().contains(want), "{e}");
+    }
+}
+
 #[test]
 fn runaway_geometry_is_a_typed_error() {
     // `Deep` can terminate as far as the checker can tell, but its

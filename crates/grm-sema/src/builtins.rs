@@ -446,6 +446,15 @@ pub enum SettingKey {
     ParticlesEnd,
 }
 
+/// The most iterations a system derives: far past any string that grows
+/// (those reach the module limits within a few dozen), and a bound on what
+/// a string that does not grow can spend.
+pub const MAX_ITERATIONS: u32 = 100_000;
+/// The most generations of a guided search.
+pub const MAX_GENERATIONS: u32 = 100_000;
+/// The most particles of a guided search (each holds a derivation).
+pub const MAX_PARTICLES: u32 = 100_000;
+
 impl SettingKey {
     pub const ALL: &'static [SettingKey] = &[
         SettingKey::Mode,
@@ -497,18 +506,28 @@ impl SettingKey {
         )
     }
 
+    /// The largest value a whole-number setting takes: what a derivation,
+    /// a search or an allocation sized by it can do (`seed` takes any
+    /// 32-bit value). `grmc`'s flags and the preview's overrides are held
+    /// to the same bounds.
+    pub fn max_whole(self) -> u32 {
+        match self {
+            SettingKey::Iterations => MAX_ITERATIONS,
+            SettingKey::Generations => MAX_GENERATIONS,
+            SettingKey::ParticlesStart | SettingKey::ParticlesEnd => MAX_PARTICLES,
+            _ => u32::MAX,
+        }
+    }
+
     /// Validate a value and store it. The error says what is allowed.
     pub fn apply(self, s: &mut Settings, v: Value) -> Result<(), String> {
         fn whole(key: SettingKey, v: Value, min: f64) -> Result<u32, String> {
             let x = v.as_float().unwrap_or(f64::NAN);
-            if x.is_finite() && x.fract() == 0.0 && x >= min && x <= f64::from(u32::MAX) {
+            let max = key.max_whole();
+            if x.is_finite() && x.fract() == 0.0 && x >= min && x <= f64::from(max) {
                 Ok(x as u32)
-            } else if x > f64::from(u32::MAX) {
-                Err(format!(
-                    "`{}` must be at most {}, found {v}",
-                    key.name(),
-                    u32::MAX
-                ))
+            } else if x > f64::from(max) {
+                Err(format!("`{}` must be at most {max}, found {v}", key.name(),))
             } else {
                 Err(format!(
                     "`{}` must be a whole number >= {min}, found {v}",

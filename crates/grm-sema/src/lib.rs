@@ -82,7 +82,10 @@ mod program;
 mod suggest;
 mod system;
 
-pub use builtins::{Builtin, MaterialProp, RandomFn, SettingKey, Terminal};
+pub use builtins::{
+    Builtin, MAX_GENERATIONS, MAX_ITERATIONS, MAX_PARTICLES, MaterialProp, RandomFn, SettingKey,
+    Terminal,
+};
 pub use grm_diag::{Diagnostic, FileId, SourceMap, Span};
 pub use index::{Def, Ref, RefIndex};
 pub use loader::{FileLoader, FsLoader, LoadError, MemLoader, normalize};

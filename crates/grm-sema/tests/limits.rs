@@ -41,3 +41,35 @@ fn a_too_deep_expression_costs_one_diagnostic_anywhere() {
         assert_eq!(codes(src), ["E0211"], "{:.70}", src);
     }
 }
+
+/// Whole-number settings have upper bounds (what a derivation or a search
+/// sized by them can hold): at the bound a setting is accepted, past it
+/// refused with E0208 naming the bound. Before the bounds,
+/// `particles_start = 4000000000` made the sampler (and the preview in
+/// the language server's process) abort on a failed 32 GB allocation.
+#[test]
+fn whole_number_settings_are_bounded() {
+    for (key, max, sample) in [
+        ("iterations", MAX_ITERATIONS, false),
+        ("generations", MAX_GENERATIONS, true),
+        ("particles_start", MAX_PARTICLES, true),
+        ("particles_end", MAX_PARTICLES, true),
+    ] {
+        let src = |v: u64| {
+            let mode = if sample { "mode = sample; " } else { "" };
+            format!("system S {{ {mode}{key} = {v}; axiom F; }}")
+        };
+        assert!(codes(&src(u64::from(max))).is_empty(), "{key} = {max}");
+        let (_, c) = check_with("main.grm", &src(u64::from(max) + 1), &MemLoader::new());
+        let d: Vec<_> = c.diagnostics.iter().filter(|d| d.is_error()).collect();
+        assert_eq!(d.len(), 1, "{key}: {d:?}");
+        assert_eq!(d[0].code.as_str(), "E0208", "{key}");
+        assert!(
+            d[0].message.contains(&format!("at most {max}")),
+            "{key}: {}",
+            d[0].message
+        );
+    }
+    // `seed` takes every 32-bit value.
+    assert!(codes("system S { seed = 4294967295; axiom F; }").is_empty());
+}

@@ -24,8 +24,9 @@ pub struct DeriveArgs {
     /// The system to derive (default: the file's first system).
     #[arg(long)]
     pub system: Option<String>,
-    /// Iterations (default: the system's `iterations` setting).
-    #[arg(short = 'n', long = "iterations")]
+    /// Iterations (default: the system's `iterations` setting; at most
+    /// 100,000).
+    #[arg(short = 'n', long = "iterations", value_parser = clap::value_parser!(u32).range(..=i64::from(grm_sema::MAX_ITERATIONS)))]
     pub iterations: Option<u32>,
     /// Random seed (default: the system's `seed` setting).
     #[arg(long)]

@@ -36,8 +36,9 @@ pub struct SampleArgs {
     /// Random seed (default: the system's `seed` setting).
     #[arg(long)]
     pub seed: Option<u32>,
-    /// Generations of the search (default: the system's `generations`).
-    #[arg(long)]
+    /// Generations of the search (default: the system's `generations`;
+    /// at most 100,000).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(..=i64::from(grm_sema::MAX_GENERATIONS)))]
     pub generations: Option<u32>,
     /// Particles, ramped linearly from A to B over the generations (`A..B`,
     /// or one number for a constant count; default: the system's
@@ -107,8 +108,13 @@ fn parse_particles(s: &str) -> Result<(u32, u32), String> {
         t.trim()
             .parse::<u32>()
             .ok()
-            .filter(|&n| n > 0)
-            .ok_or_else(|| format!("`--particles {s}`: `{t}` is not a whole number > 0"))
+            .filter(|&n| n > 0 && n <= grm_sema::MAX_PARTICLES)
+            .ok_or_else(|| {
+                format!(
+                    "`--particles {s}`: `{t}` is not a whole number from 1 to {}",
+                    grm_sema::MAX_PARTICLES
+                )
+            })
     };
     match s.split_once("..") {
         Some((a, b)) => Ok((num(a)?, num(b)?)),

@@ -269,3 +269,30 @@ fn help_names_both_benchmarks() {
         assert!(text(&out.stdout).contains("Usage: grmc "), "{sub}");
     }
 }
+
+/// Flags that size a derivation or a search are held to the bounds of the
+/// settings they override (usage errors, exit 2, before anything runs).
+#[test]
+fn iteration_generation_and_particle_flags_are_bounded() {
+    let koch = example("koch_island.grm");
+    let calder = example("calder_tree.grm");
+    for (args, want) in [
+        (
+            vec!["derive", koch.as_str(), "-n", "100001"],
+            "100001 is not in 0..=100000",
+        ),
+        (
+            vec!["sample", calder.as_str(), "--generations", "4000000000"],
+            "is not in 0..=100000",
+        ),
+        (
+            vec!["sample", calder.as_str(), "--particles", "1..100001"],
+            "`100001` is not a whole number from 1 to 100000",
+        ),
+    ] {
+        let out = grmc(&args);
+        let err = text(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(want), "{args:?}: {err}");
+    }
+}
