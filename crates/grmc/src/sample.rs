@@ -65,20 +65,21 @@ pub struct SampleArgs {
     /// Turn the expected-direction heuristic off.
     #[arg(long)]
     pub no_heuristic: bool,
-    /// HEURISTICSCALE at generation 0 (default 0.013).
-    #[arg(long)]
+    /// HEURISTICSCALE at generation 0 (default 0.013; a finite number >= 0).
+    #[arg(long, value_parser = finite_non_negative)]
     pub heuristic_scale: Option<f64>,
     /// Generation by which the heuristic scale has ramped to 0 (default:
     /// 40% of the generations).
     #[arg(long)]
     pub heuristic_until: Option<u32>,
-    /// Likelihood exp(-cost / T); 1 is Calder's.
-    #[arg(long, default_value_t = 1.0)]
+    /// Likelihood exp(-cost / T); 1 is Calder's (a number > 0; `inf`
+    /// weighs every particle alike).
+    #[arg(long, default_value_t = 1.0, value_parser = positive)]
     pub temperature: f64,
     /// Adaptive tempering: scale each generation's incremental log-weights
     /// down just enough to keep the effective sample size at this fraction
     /// of the particles; 0 turns it off (Calder's untempered weights).
-    #[arg(long, value_name = "F", default_value_t = grm_sample::DEFAULT_ESS_TARGET)]
+    #[arg(long, value_name = "F", default_value_t = grm_sample::DEFAULT_ESS_TARGET, value_parser = fraction)]
     pub ess_target: f64,
     /// Candidate expansions per bone-making expansion, one kept in
     /// proportion to exp(-cost of its bones); 1: the grammar's own draws
@@ -100,6 +101,30 @@ pub struct SampleArgs {
     /// .ply .svg); with --best K the others go to NAME-2.EXT, ...
     #[arg(short = 'o', long = "output")]
     pub output: Option<PathBuf>,
+}
+
+/// A number > 0 (`inf` included), for `--temperature`.
+fn positive(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(x) if x > 0.0 => Ok(x),
+        _ => Err(format!("`{s}` is not a number > 0")),
+    }
+}
+
+/// A number from 0 to 1, for `--ess-target`.
+fn fraction(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(x) if (0.0..=1.0).contains(&x) => Ok(x),
+        _ => Err(format!("`{s}` is not a number from 0 to 1")),
+    }
+}
+
+/// A finite number >= 0, for `--heuristic-scale`.
+fn finite_non_negative(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(x) if x.is_finite() && x >= 0.0 => Ok(x),
+        _ => Err(format!("`{s}` is not a finite number >= 0")),
+    }
 }
 
 /// `A..B` or `N`.
@@ -374,6 +399,24 @@ pub fn run(args: SampleArgs) -> Outcome {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn number_arguments() {
+        assert_eq!(positive("0.5"), Ok(0.5));
+        assert_eq!(positive("inf"), Ok(f64::INFINITY));
+        for bad in ["0", "-1", "nan", "x"] {
+            assert!(positive(bad).is_err(), "{bad}");
+        }
+        assert_eq!(fraction("0"), Ok(0.0));
+        assert_eq!(fraction("1"), Ok(1.0));
+        for bad in ["1.5", "-0.1", "nan", "inf"] {
+            assert!(fraction(bad).is_err(), "{bad}");
+        }
+        assert_eq!(finite_non_negative("0"), Ok(0.0));
+        for bad in ["inf", "nan", "-1"] {
+            assert!(finite_non_negative(bad).is_err(), "{bad}");
+        }
+    }
 
     #[test]
     fn particles_argument() {
