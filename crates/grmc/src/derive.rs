@@ -266,10 +266,10 @@ pub fn run(args: DeriveArgs) -> Outcome {
             String::new()
         };
         eprintln!(
-            "{}: {}: {} modules ({} produced in all) in {:.3} ms{rate}",
+            "{}: {}: {} ({} produced in all) in {:.3} ms{rate}",
             c.name,
             crate::count(s.iteration, "iteration"),
-            s.modules,
+            crate::count(s.modules, "module"),
             s.cumulative_modules,
             ms(total)
         );
