@@ -15,6 +15,7 @@ use grm_derive::{DeriveLimits, Engine};
 use grm_sample::{ExpectedOptions, FinishLimits, Objective, SampleOptions, Sampler, Schedule};
 use grm_sema::Mode;
 use grm_syntax::lexer::TokKind;
+use grm_tests::Rng;
 use std::path::{Path, PathBuf};
 
 const EDGES: &[&str] = &[
@@ -37,21 +38,6 @@ const EDGES: &[&str] = &[
     "-1e30",
     "0.001",
 ];
-
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        // xorshift64*
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
-    }
-}
 
 fn examples() -> Vec<PathBuf> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples");

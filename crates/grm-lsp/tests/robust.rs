@@ -9,21 +9,7 @@ use grm_lsp::Config;
 use serde_json::{Value, json};
 use std::time::Duration;
 
-/// xorshift64*: a small seeded generator (the sequence is fixed by the seed).
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
-    }
-}
+use grm_tests::Rng;
 
 const PIECES: &[&str] = &[
     "F",

@@ -396,12 +396,15 @@ impl State {
     /// then regrows the live preview and notifies the page); if the curves
     /// file changed (not by the page), tell the page to reload it.
     fn check_file(&self) {
-        let curves = stat(&self.curves_path);
         {
             let mut seen = self
                 .curves_seen
                 .lock()
                 .unwrap_or_else(PoisonError::into_inner);
+            // Read under the lock a save holds while it writes: a look taken
+            // before a save and compared after it would report the page's
+            // own save as a change, twice (the old state, then the new).
+            let curves = stat(&self.curves_path);
             if curves != *seen {
                 *seen = curves;
                 self.events

@@ -17,26 +17,31 @@
 //!   arguments in its well-conditioned range, compared with a relative
 //!   tolerance of 1e-5 (f32 rounding of the argument and the result).
 
-mod common;
-
+use grm_derive::{DeriveLimits, Engine};
+use grm_tests::Rng;
 use std::fmt::Write as _;
 
-struct Rng(u64);
+/// Check and compile the first system of `src` (no errors allowed).
+fn inline(src: &str) -> grm_compile::CompiledSystem {
+    let (_, checked) = grm_sema::check_with("inline.grm", src, &grm_sema::MemLoader::new());
+    let errors: Vec<_> = checked
+        .diagnostics
+        .iter()
+        .filter(|d| d.is_error())
+        .collect();
+    assert!(errors.is_empty(), "{src}\n{errors:?}");
+    let p = &checked.program;
+    let sys = p.default_system().expect("a system");
+    grm_compile::compile(p, sys, &p.default_params()).expect("compiles")
+}
 
-impl Rng {
-    fn next(&mut self) -> u64 {
-        // xorshift64*
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
-    }
-    fn below(&mut self, n: u64) -> u64 {
-        self.next() % n
-    }
-    fn int(&mut self, lo: i64, hi: i64) -> i64 {
-        lo + self.below((hi - lo + 1) as u64) as i64
-    }
+/// The string of one rewriting step of `c`'s axiom.
+fn step_once(c: &grm_compile::CompiledSystem) -> grm_derive::ModuleString {
+    let engine = Engine::new(c, 1).expect("engine");
+    let axiom = engine.axiom(0).expect("axiom");
+    engine
+        .step(&axiom, 1, 0, &DeriveLimits::default())
+        .expect("step")
 }
 
 /// A number literal as source text (negative ones in parentheses).
@@ -72,9 +77,9 @@ fn exact(r: &mut Rng, depth: u32) -> String {
             let k = r.int(-4, 4);
             format!("({}) * {}", e!(), lit(k as f64))
         }
-        4 => format!("({}) / {}", e!(), [2, 4, -2][r.below(3) as usize]),
+        4 => format!("({}) / {}", e!(), [2, 4, -2][r.below(3)]),
         5 => {
-            let k = [1, 2, 3, 5, 7, -3, -4][r.below(7) as usize];
+            let k = [1, 2, 3, 5, 7, -3, -4][r.below(7)];
             format!("({}) % {}", e!(), lit(k as f64))
         }
         6 => format!("floor({})", e!()),
@@ -88,7 +93,7 @@ fn exact(r: &mut Rng, depth: u32) -> String {
         14 => format!("clamp({}, {}, {})", e!(), e!(), e!()),
         15 => format!("step({}, {})", e!(), e!()),
         16 => {
-            let t = [0.0, 0.5, 1.0, 0.25][r.below(4) as usize];
+            let t = [0.0, 0.5, 1.0, 0.25][r.below(4)];
             format!("mix({}, {}, {t})", e!(), e!())
         }
         17 | 18 => format!(
@@ -102,7 +107,7 @@ fn exact(r: &mut Rng, depth: u32) -> String {
             e!(),
             e!(),
             e!(),
-            ["x", "y", "z"][r.below(3) as usize]
+            ["x", "y", "z"][r.below(3)]
         ),
         20 => format!("(vec3({}, {}, 1) * {}).y", e!(), e!(), e!()),
         _ => format!("(vec3({}, 0, {}) + vec3({}, 1, 2)).x", e!(), e!(), e!()),
@@ -185,8 +190,8 @@ fn both(exprs: &[String], x: f64, y: f64) -> Vec<(String, f32, f32)> {
         write!(src, " B({e})").unwrap();
     }
     src.push_str(";\n}\n");
-    let c = common::inline(&src);
-    let s = common::strings(&c, 1, 0, 1).pop().expect("string 1");
+    let c = inline(&src);
+    let s = step_once(&c);
     // B(v0) ... B(vn) K(c0) ... K(cn)
     assert_eq!(s.len(), 2 * exprs.len(), "{src}");
     let n = exprs.len();
