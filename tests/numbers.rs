@@ -16,6 +16,7 @@ use grm_sample::{ExpectedOptions, FinishLimits, Objective, SampleOptions, Sample
 use grm_sema::Mode;
 use grm_syntax::lexer::TokKind;
 use grm_tests::Rng;
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 const EDGES: &[&str] = &[
@@ -57,19 +58,25 @@ fn mutate(text: &str, r: &mut Rng) -> String {
         .tokens
         .iter()
         .filter(|t| t.kind == TokKind::Number)
-        .map(|t| t.span)
+        .map(|t| t.span.start as usize..t.span.end as usize)
         .collect();
+    replace_some(text, &numbers, r)
+}
+
+/// `text` with one to three of the ranges `numbers` (sorted, disjoint)
+/// replaced by edge values.
+fn replace_some(text: &str, numbers: &[Range<usize>], r: &mut Rng) -> String {
     let mut picked: Vec<_> = (0..1 + r.below(3))
-        .filter_map(|_| numbers.get(r.below(numbers.len())).copied())
+        .filter_map(|_| numbers.get(r.below(numbers.len())).cloned())
         .collect();
     picked.sort_by_key(|s| s.start);
     picked.dedup();
     let mut out = String::with_capacity(text.len() + 64);
     let mut pos = 0usize;
     for s in picked {
-        out.push_str(&text[pos..s.start as usize]);
+        out.push_str(&text[pos..s.start]);
         out.push_str(EDGES[r.below(EDGES.len())]);
-        pos = s.end as usize;
+        pos = s.end;
     }
     out.push_str(&text[pos..]);
     out
@@ -237,20 +244,7 @@ fn mutate_json(json: &str, r: &mut Rng) -> String {
             i += 1;
         }
     }
-    let mut picked: Vec<_> = (0..1 + r.below(3))
-        .filter_map(|_| numbers.get(r.below(numbers.len())).cloned())
-        .collect();
-    picked.sort_by_key(|s| s.start);
-    picked.dedup();
-    let mut out = String::with_capacity(json.len() + 64);
-    let mut pos = 0usize;
-    for s in picked {
-        out.push_str(&json[pos..s.start]);
-        out.push_str(EDGES[r.below(EDGES.len())]);
-        pos = s.end;
-    }
-    out.push_str(&json[pos..]);
-    out
+    replace_some(json, &numbers, r)
 }
 
 /// The same for the guiding curves: edge numbers in the shipped curves
