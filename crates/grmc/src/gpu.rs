@@ -137,14 +137,15 @@ pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
     let interp_elapsed = interp.map_or(Duration::ZERO, |i| i.elapsed);
     if r.derive_waited {
         eprintln!(
-            "{}: {} iterations {engines}: {} modules ({} produced in all) in {:.3} ms, {:.0} modules/us; \
-             {bones} bones on the GPU in {:.3} ms",
+            "{}: {} {engines}: {} ({} produced in all) in {:.3} ms, {:.0} modules/us; \
+             {} on the GPU in {:.3} ms",
             c.name,
-            opts.derive.iterations,
-            r.modules(),
+            crate::count(opts.derive.iterations, "iteration"),
+            crate::count(r.modules(), "module"),
             r.produced_modules(),
             ms(r.derive_elapsed),
             grm_gpu::bench::rate(r.produced_modules(), r.derive_elapsed),
+            crate::count(bones, "bone"),
             ms(interp_elapsed),
         );
     } else {
@@ -152,13 +153,14 @@ pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
         // the interpretation's; only the sum is a measurement.
         let both = r.derive_elapsed + interp_elapsed;
         eprintln!(
-            "{}: {} iterations {engines}: {} modules ({} produced in all) and {bones} bones \
+            "{}: {} {engines}: {} ({} produced in all) and {} \
              on the GPU in {:.3} ms, derivation and interpretation together \
              ({:.0} produced and final modules/us)",
             c.name,
-            opts.derive.iterations,
-            r.modules(),
+            crate::count(opts.derive.iterations, "iteration"),
+            crate::count(r.modules(), "module"),
             r.produced_modules(),
+            crate::count(bones, "bone"),
             ms(both),
             grm_gpu::bench::rate(r.produced_modules() + r.modules(), both),
         );
