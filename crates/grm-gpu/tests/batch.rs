@@ -68,7 +68,7 @@ fn example_scenes_batched_equal_per_iteration() {
 #[test]
 fn random_grammars_batched_equal_per_iteration() {
     let g = gpu();
-    let mut rng = Rng(77);
+    let mut rng = Rng::seeded(77);
     let (mut compared, mut errors, mut batched) = (0, 0, 0);
     let mut tried = 0;
     while compared < 60 && tried < 400 {

@@ -34,7 +34,7 @@ fn matching_equals_a_stack() {
             .expect("symbol") as u32
     };
     let (push, pop, a) = (id("["), id("]"), id("A"));
-    let mut rng = Rng(5);
+    let mut rng = Rng::seeded(5);
     let mut cases: Vec<Vec<u8>> = vec![
         vec![],
         vec![1],

@@ -247,7 +247,9 @@ impl GrammarGen {
 #[test]
 fn random_grammars_match_the_cpu() {
     let g = gpu();
-    let mut gen_ = GrammarGen { rng: Rng(2024) };
+    let mut gen_ = GrammarGen {
+        rng: Rng::seeded(2024),
+    };
     let (mut compared, mut errors, mut tried) = (0, 0, 0);
     while compared < 120 && tried < 1000 {
         tried += 1;

@@ -152,7 +152,7 @@ fn random_strings_match_the_cpu_turtle() {
             false,
         ),
     ];
-    let mut rng = Rng(17);
+    let mut rng = Rng::seeded(17);
     for (src, walks, cuts) in &systems {
         let (p, c) = inline_program(src).unwrap_or_else(|| panic!("checks: {src}"));
         let sys = p.default_system().expect("system");

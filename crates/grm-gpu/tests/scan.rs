@@ -22,7 +22,7 @@ fn cpu_scan(v: &[u32]) -> Vec<u32> {
 fn scan_matches_cpu_on_many_sizes() {
     let g = gpu();
     let b = SCAN_BLOCK as usize;
-    let mut rng = Rng(7);
+    let mut rng = Rng::seeded(7);
     let mut sizes = vec![
         0,
         1,
@@ -52,7 +52,7 @@ fn scan_matches_cpu_on_many_sizes() {
 #[test]
 fn pair_scan_scans_each_component() {
     let g = gpu();
-    let mut rng = Rng(11);
+    let mut rng = Rng::seeded(11);
     for n in [1usize, 1000, 5000, 70_001] {
         let v: Vec<[u32; 2]> = (0..n)
             .map(|_| [rng.below(9) as u32, rng.below(1000) as u32])
@@ -98,7 +98,7 @@ fn segmented_turtle_scan_matches_sequential_composition() {
         r.seg = a.seg;
         r
     }
-    let mut rng = Rng(3);
+    let mut rng = Rng::seeded(3);
     let b = SCAN_BLOCK as usize;
     for n in [1usize, 1000, b + 3, b * b + 77] {
         let v: Vec<TurtleElem> = (0..n)

@@ -427,7 +427,7 @@ struct Case {
 /// Generate `n` expressions into one code array; returns code, consts,
 /// binds and the cases.
 fn generate(seed: u64, n: usize, exact: bool) -> (Vec<u32>, Vec<f32>, Vec<f32>, Vec<Case>) {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::seeded(seed);
     let mut code = Vec::new();
     let mut consts = Vec::new();
     let mut binds = Vec::new();
@@ -668,7 +668,7 @@ fn random_draws_are_the_cpu_draws() {
         Op::Ret.encode(0),
     ];
     let consts = vec![0.0f32, 1.0];
-    let mut rng = Rng(99);
+    let mut rng = Rng::seeded(99);
     let jobs: Vec<VmJob> = (0..20_000)
         .map(|_| VmJob {
             entry: 0,

@@ -23,7 +23,9 @@
 //! constants the tables', computed parameters the same operations in the
 //! same order); code with random draws is never taken (the walk has no
 //! positions in the intermediate strings); a fault or non-finite value
-//! makes the caller derive stepwise, which reports it; a plan exists only
+//! makes the caller derive stepwise, which reports it, and a plan exists
+//! only where every computed parameter of the stepwise derivation is
+//! evaluated by some walk (so none can fail unseen); a plan exists only
 //! when every string of the stepwise derivation is within the options' and
 //! the device's limits (otherwise the stepwise path runs and reports the
 //! limit as before); every table value a thread reads on its way is exact
@@ -272,23 +274,30 @@ fn expansion(sys: &CompiledSystem, steps: u32, words: &mut Vec<u32>) -> Option<E
                 .collect()
         }));
     }
-    let (mut reach, mut walk, mut step) =
-        (vec![1u64; ns], vec![vec![0u64; ns]], vec![vec![0u64; ns]]);
+    let (mut reach, mut walk, mut step) = (
+        vec![vec![1u64; ns]],
+        vec![vec![0u64; ns]],
+        vec![vec![0u64; ns]],
+    );
     for r in 1..=steps as usize {
         let (mut reach1, mut walk1, mut step1) = (vec![1u64; ns], vec![0u64; ns], vec![0u64; ns]);
+        let below = &reach[r - 1];
         for (s, kid) in kids.iter().enumerate() {
             let Some(kid) = kid else { continue };
             let (mut a, mut d, mut e) = (0u64, 0u64, 0u64);
             for &(c, one) in kid {
-                a = a.saturating_add(one.saturating_mul(reach[c]));
-                d = d.saturating_add(walk[r - 1][c].saturating_add(one.saturating_mul(reach[c])));
+                a = a.saturating_add(one.saturating_mul(below[c]));
+                d = d.saturating_add(walk[r - 1][c].saturating_add(one.saturating_mul(below[c])));
                 e = e.saturating_add(one.saturating_add(step[r - 1][c]));
             }
             (reach1[s], walk1[s], step1[s]) = (a, d, e);
         }
-        reach = reach1;
+        reach.push(reach1);
         walk.push(walk1);
         step.push(step1);
+    }
+    if computed && !every_evaluation_walked(sys, &kids, &reach, steps)? {
+        return None;
     }
     let slot_string = if computed {
         None
@@ -314,6 +323,53 @@ fn expansion(sys: &CompiledSystem, steps: u32, words: &mut Vec<u32>) -> Option<E
             .collect(),
         slot_string,
     })
+}
+
+/// Whether every computed successor slot that the stepwise derivation
+/// evaluates is evaluated by some walk, so that a fault or non-finite value
+/// anywhere in the derivation shows in the direct one's status. A walk
+/// evaluates a computed slot only when the final module it leads to
+/// descends from it through computed slots alone (`reach[r][c]`: how many
+/// final modules a module of `c` with `r` steps left leads to that way).
+/// A slot whose expansion is erased (`B(x) ->`), or reaches the final
+/// string only through slots with constant parameters (`B(y) -> F`), is
+/// evaluated by the stepwise derivation, which reports `B(sqrt(-2))`, but
+/// by no walk: such a system is derived stepwise. Only the (symbol, steps
+/// left) pairs the axiom's modules lead to are checked.
+fn every_evaluation_walked(
+    sys: &CompiledSystem,
+    kids: &[Option<Vec<(usize, u64)>>],
+    reach: &[Vec<u64>],
+    steps: u32,
+) -> Option<bool> {
+    let ns = kids.len();
+    let mut occurs = vec![false; ns];
+    for m in succ_of(sys, sys.alts.get(sys.axiom_alt as usize)?)? {
+        *occurs.get_mut(m.symbol as usize)? = true;
+    }
+    for r in (1..=steps as usize).rev() {
+        let mut next = vec![false; ns];
+        for (s, kid) in kids.iter().enumerate() {
+            let Some(kid) = kid else { continue };
+            if !occurs[s] {
+                continue;
+            }
+            for &(c, one) in kid {
+                if one == 1 && reach[r - 1][c] == 0 {
+                    return Some(false);
+                }
+                next[c] = true;
+            }
+        }
+        // A symbol without a production stays itself.
+        for (s, kid) in kids.iter().enumerate() {
+            if kid.is_none() && occurs[s] {
+                next[s] = true;
+            }
+        }
+        occurs = next;
+    }
+    Some(true)
 }
 
 /// The axiom when all its parameters are constants (the common case:
