@@ -11,29 +11,8 @@
 
 pub mod runner;
 
-/// xorshift64*: a small seeded generator for the property and mutation
-/// tests (the sequence is fixed by the seed, so a failure reproduces).
-#[derive(Clone, Debug)]
-pub struct Rng(pub u64);
-
-impl Rng {
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-
-    /// A value in `0..n` (0 when `n` is 0).
-    pub fn below(&mut self, n: usize) -> usize {
-        (self.next_u64() % n.max(1) as u64) as usize
-    }
-
-    /// A whole number in `lo..=hi`.
-    pub fn int(&mut self, lo: i64, hi: i64) -> i64 {
-        lo + self.below((hi - lo + 1) as usize) as i64
-    }
-}
+/// The suites' generator of random inputs (`GRM_TEST_SEED` soaks them).
+pub use grm_testkit::Rng;
 
 use grm_diag::SourceMap;
 use std::collections::BTreeSet;

@@ -202,7 +202,7 @@ fn both(exprs: &[String], x: f64, y: f64) -> Vec<(String, f32, f32)> {
 
 #[test]
 fn exact_expressions_fold_and_run_to_the_same_value() {
-    let mut r = Rng(0x9e37_79b9_7f4a_7c15);
+    let mut r = Rng::seeded(0x9e37_79b9_7f4a_7c15);
     let mut checked = 0;
     for round in 0..40 {
         let x = r.int(-16, 16) as f64 / 4.0;
@@ -221,7 +221,7 @@ fn exact_expressions_fold_and_run_to_the_same_value() {
 
 #[test]
 fn continuous_functions_fold_and_run_within_tolerance() {
-    let mut r = Rng(0x2545_f491_4f6c_dd1d);
+    let mut r = Rng::seeded(0x2545_f491_4f6c_dd1d);
     for round in 0..20 {
         let x = r.int(-16, 16) as f64 / 4.0;
         let y = r.int(-16, 16) as f64 / 4.0;

@@ -16,6 +16,7 @@ use grm_compile::rng::DrawCtx;
 use grm_compile::table::{NONE, PARAM_CODE, PARAM_CONST, PARAM_COPY};
 use grm_compile::vm::Vm;
 use grm_derive::{DeriveError, DeriveLimits, Engine, ModuleString};
+use grm_testkit::Rng;
 
 /// What the reference makes of a step: the next string, or the input
 /// position of the first module that fails.
@@ -82,25 +83,6 @@ fn reference_step(
         }
     }
     Ok(out)
-}
-
-/// A small deterministic random generator (splitmix64).
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn below(&mut self, n: u64) -> u64 {
-        self.next() % n
-    }
-    fn pick<'a>(&mut self, xs: &[&'a str]) -> &'a str {
-        xs[self.below(xs.len() as u64) as usize]
-    }
 }
 
 /// A random deterministic grammar over `F(x)`, `P(x, y)`, `V(v)` (a
@@ -173,7 +155,7 @@ fn grammar(rng: &mut Rng) -> String {
 
 #[test]
 fn the_engine_rewrites_as_the_reference_does() {
-    let mut rng = Rng(0x5EED_0002);
+    let mut rng = Rng::seeded(0x5EED_0002);
     let limits = DeriveLimits {
         max_modules: 200_000,
         ..DeriveLimits::default()

@@ -7,22 +7,7 @@
 mod common;
 
 use grm_diag::FileId;
-
-/// xorshift64*: small, deterministic, good enough to pick mutations.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
-    }
-}
+use grm_testkit::Rng;
 
 /// Fragments that make mutants likely to stay (almost) valid.
 const FRAGMENTS: &[&str] = &[
@@ -186,7 +171,7 @@ fn mutated_corpus() {
         .filter_map(|p| std::fs::read_to_string(p).ok())
         .collect();
     seeds.push("system S { A -> B; }".into());
-    let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+    let mut rng = Rng::seeded(0x9E37_79B9_7F4A_7C15);
     let (mut clean, mut total) = (0, 0);
     for _ in 0..1500 {
         let seed = &seeds[rng.below(seeds.len())];

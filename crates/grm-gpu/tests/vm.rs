@@ -674,9 +674,9 @@ fn random_draws_are_the_cpu_draws() {
             entry: 0,
             bind_first: 0,
             bind_len: 0,
-            seed: rng.next() as u32,
+            seed: rng.next_u64() as u32,
             iteration: rng.below(64) as u32,
-            position: rng.next() as u32,
+            position: rng.next_u64() as u32,
         })
         .collect();
     let results = vmeval::eval(g, &code, &consts, &[], &jobs).expect("gpu vm runs");

@@ -6,6 +6,7 @@
 //! is restarted every 200 bones, and cloned before every bone as the
 //! sampler does when it resamples.
 
+use grm_testkit::Rng;
 use std::hint::black_box;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -13,34 +14,19 @@ use std::time::Instant;
 use glam::Vec3;
 use grm_guide::{CostModel, CostOptions, Curves, DensityParams};
 
-struct Rng(u64);
-
-impl Rng {
-    fn unit(&mut self) -> f32 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.unit()
-    }
-}
-
 fn bones(n: usize) -> Vec<(Vec3, Vec3)> {
-    let mut rng = Rng(42);
+    let mut rng = Rng::new(42);
     (0..n)
         .map(|_| {
             let base = Vec3::new(
-                rng.range(-2.5, 2.5),
-                rng.range(0.0, 4.8),
-                rng.range(-0.6, 0.6),
+                rng.range_f32(-2.5, 2.5),
+                rng.range_f32(0.0, 4.8),
+                rng.range_f32(-0.6, 0.6),
             );
             let dir = Vec3::new(
-                rng.range(-1., 1.),
-                rng.range(-0.2, 1.),
-                rng.range(-0.4, 0.4),
+                rng.range_f32(-1., 1.),
+                rng.range_f32(-0.2, 1.),
+                rng.range_f32(-0.4, 0.4),
             );
             (base, base + dir * 0.5)
         })

@@ -8,40 +8,13 @@
 //! implementation written here) for every order, and match the count-based
 //! formula.
 
+use grm_testkit::Rng;
 use std::path::PathBuf;
 
 use glam::Vec3;
 use grm_guide::{
     CostBreakdown, CostModel, CostOptions, Curves, DensityParams, VolumeOptions, VolumeTarget,
 };
-
-/// SplitMix64.
-struct Rng(u64);
-
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn unit(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.unit()
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next_u64() % n as u64) as usize
-    }
-    fn shuffle<T>(&mut self, v: &mut [T]) {
-        for i in (1..v.len()).rev() {
-            let j = self.below(i + 1);
-            v.swap(i, j);
-        }
-    }
-}
 
 /// The benchmark curves with utilization on, a thick arm and density on.
 fn benchmark_curves() -> Curves {
@@ -79,11 +52,11 @@ fn random_bones(rng: &mut Rng, n: usize) -> Vec<(Vec3, Vec3)> {
     for _ in 0..n {
         let base = tips[rng.below(tips.len())];
         let dir = Vec3::new(
-            rng.range(-1., 1.),
-            rng.range(-0.3, 1.),
-            rng.range(-0.5, 0.5),
+            rng.range_f32(-1., 1.),
+            rng.range_f32(-0.3, 1.),
+            rng.range_f32(-0.5, 0.5),
         );
-        let tip = base + dir * rng.range(0.0, 0.9);
+        let tip = base + dir * rng.range_f32(0.0, 0.9);
         let tip = if rng.below(20) == 0 { base } else { tip };
         bones.push((base, tip));
         if tip.y < 5.0 && tip.x.abs() < 3.5 {
@@ -152,7 +125,7 @@ fn eq7_reference(curves: &Curves, model: &CostModel, bones: &[(Vec3, Vec3)]) -> 
 fn totals_are_bitwise_equal_for_any_insertion_order() {
     let curves = benchmark_curves();
     let model = CostModel::new(&curves, CostOptions::from_curves(&curves));
-    let mut rng = Rng(0xC0FFEE);
+    let mut rng = Rng::seeded(0xC0FFEE);
     for trial in 0..12 {
         let mut bones = random_bones(&mut rng, 60 + 20 * trial);
         let (want, per_bone, from_counts) = run(&model, &bones);
@@ -206,7 +179,7 @@ fn per_bone_utilization_depends_on_order_but_total_does_not() {
 fn volume_baseline_is_order_independent() {
     let curves = benchmark_curves();
     let target = VolumeTarget::from_curves(&curves, VolumeOptions::default()).expect("valid");
-    let mut rng = Rng(0xBA5E);
+    let mut rng = Rng::seeded(0xBA5E);
     let mut bones = random_bones(&mut rng, 150);
     let want = target.evaluate(&bones);
     for _ in 0..5 {
@@ -224,7 +197,7 @@ fn volume_baseline_is_order_independent() {
 fn planned_bones_cost_what_added_bones_cost() {
     let curves = benchmark_curves();
     let model = CostModel::new(&curves, CostOptions::from_curves(&curves));
-    let mut rng = Rng(0x05EE_DCA7);
+    let mut rng = Rng::seeded(0x05EE_DCA7);
     for trial in 0..6 {
         let mut bones = random_bones(&mut rng, 80 + 10 * trial);
         bones.push((Vec3::new(f32::NAN, 0.0, 0.0), Vec3::ONE));

@@ -7,41 +7,24 @@ mod common;
 
 use common::*;
 use grm_sample::*;
-
-/// A small deterministic generator (xorshift).
-struct Gen(u64);
-
-impl Gen {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        self.0
-    }
-    fn below(&mut self, n: u64) -> u64 {
-        self.next() % n
-    }
-    fn num(&mut self, lo: i32, hi: i32) -> i32 {
-        lo + self.below((hi - lo + 1) as u64) as i32
-    }
-}
+use grm_testkit::Rng;
 
 const SKELETON: [&str; 3] = ["A", "B", "C"];
 
 /// A random successor for a skeleton production: transforms, bones,
 /// brackets, skeleton symbols (with a depth counter `n`) and decoration.
-fn successor(g: &mut Gen, wrapup: bool) -> String {
+fn successor(g: &mut Rng, wrapup: bool) -> String {
     let mut out = Vec::new();
     let mut open = 0;
-    for _ in 0..g.num(2, 8) {
+    for _ in 0..g.int(2, 8) {
         match g.below(11) {
-            0 => out.push(format!("rotz({})", g.num(-90, 90))),
+            0 => out.push(format!("rotz({})", g.int(-90, 90))),
             1 => out.push(format!(
                 "rotx(uniform({}, {}))",
-                g.num(-60, 0),
-                g.num(0, 60)
+                g.int(-60, 0),
+                g.int(0, 60)
             )),
-            2 => out.push(format!("roty({})", g.num(0, 360))),
+            2 => out.push(format!("roty({})", g.int(0, 360))),
             3 => out.push(format!("scale({:.2})", 0.6 + 0.1 * g.below(5) as f64)),
             4 | 5 => out.push(format!(
                 "F(uniform(0.2, {:.1}))",
@@ -66,16 +49,16 @@ fn successor(g: &mut Gen, wrapup: bool) -> String {
     out.join(" ")
 }
 
-fn grammar(g: &mut Gen) -> String {
+fn grammar(g: &mut Rng) -> String {
     let mut s = String::from(
         "system R {\n    mode = sample;\n    axiom F(0.5) A(6);\n    skeleton A, B, C;\n    geometry Deco;\n",
     );
     for sym in SKELETON {
-        let alts = g.num(1, 3);
+        let alts = g.int(1, 3);
         for _ in 0..alts {
             s.push_str(&format!(
                 "    {sym}(n) : n > 0 -> ({}) {};\n",
-                g.num(1, 4),
+                g.int(1, 4),
                 successor(g, false)
             ));
         }
@@ -90,7 +73,7 @@ fn grammar(g: &mut Gen) -> String {
 #[test]
 fn generated_grammars_cost_the_same_in_every_expansion_order() {
     let curves = calder_curves();
-    let mut g = Gen(0x9E37_79B9_7F4A_7C15);
+    let mut g = Rng::seeded(0x9E37_79B9_7F4A_7C15);
     let mut models = 0;
     let mut expansions = 0;
     for k in 0..25 {

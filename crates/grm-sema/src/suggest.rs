@@ -409,21 +409,17 @@ mod tests {
         assert_eq!(best(&a, [b.as_str()]), Some(b.as_str()));
     }
 
-    /// A xorshift generator: `next(n)` is below `n`.
-    fn xorshift(mut x: u64) -> impl FnMut(u64) -> u64 {
-        move |n| {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            x % n
-        }
+    /// `next(n)` is below `n`: the suites' generator as a closure.
+    fn draws(seed: u64) -> impl FnMut(u64) -> u64 {
+        let mut rng = grm_testkit::Rng::seeded(seed);
+        move |n| rng.below(n)
     }
 
     #[test]
     fn prepared_candidates_suggest_exactly_what_the_plain_list_does() {
         // Many short names over a small alphabet: lots of ties, case-only
         // differences, names of every length near the cap.
-        let mut next = xorshift(0x9E37_79B9_7F4A_7C15);
+        let mut next = draws(0x9E37_79B9_7F4A_7C15);
         let word = |next: &mut dyn FnMut(u64) -> u64| {
             let len = 1 + next(8) as usize;
             (0..len)
@@ -454,7 +450,7 @@ mod tests {
         // Unsorted lists with duplicates and the empty name: the trie walks
         // names in sorted order, but a tie still goes to the first in the
         // list, as with the plain rule.
-        let mut next = xorshift(0x2545_F491_4F6C_DD1D);
+        let mut next = draws(0x2545_F491_4F6C_DD1D);
         let word = |next: &mut dyn FnMut(u64) -> u64| {
             let len = next(9) as usize;
             (0..len)

@@ -3,26 +3,8 @@
 //! diagnostic's labels stay inside their file.
 
 use grm_sema::{FileId, MemLoader, check_with};
+use grm_testkit::Rng;
 use std::path::Path;
-
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        // xorshift64*
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-    fn below(&mut self, n: usize) -> usize {
-        if n == 0 {
-            0
-        } else {
-            (self.next() % n as u64) as usize
-        }
-    }
-}
 
 const TOKENS: &[&str] = &[
     "(",
@@ -142,7 +124,7 @@ fn mutated_grammars_never_panic() {
     assert!(corpus.len() > 20);
     let mut files = MemLoader::new();
     files.add("lib.grm", "const L = 1;\nimport \"main.grm\";");
-    let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+    let mut rng = Rng::seeded(0x9E37_79B9_7F4A_7C15);
     // GRM_FUZZ_RUNS=200000 for a longer run.
     let runs = std::env::var("GRM_FUZZ_RUNS")
         .ok()

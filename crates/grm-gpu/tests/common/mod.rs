@@ -13,45 +13,8 @@ pub fn gpu() -> &'static grm_gpu::Gpu {
     }
 }
 
-/// A small deterministic PRNG for test inputs (splitmix64).
-#[derive(Debug)]
-pub struct Rng(pub u64);
-
-impl Rng {
-    /// The generator of a random test: seeded with `default`, or, when
-    /// `GRM_TEST_SEED` is set, with `default` mixed with it, so that a soak
-    /// run (`GRM_TEST_SEED=n cargo test -p grm-gpu`, n = 1, 2, ...) checks
-    /// the same properties over other inputs. The ordinary run is always the
-    /// same. A failing case prints its input (the grammar or the string), so
-    /// it reproduces without the seed.
-    pub fn seeded(default: u64) -> Rng {
-        match std::env::var("GRM_TEST_SEED") {
-            Ok(v) => {
-                let n: u64 = v
-                    .trim()
-                    .parse()
-                    .unwrap_or_else(|_| panic!("GRM_TEST_SEED={v:?} is not a number"));
-                eprintln!("GRM_TEST_SEED={n}");
-                let mut mix = Rng(default ^ n.wrapping_mul(0x2545_f491_4f6c_dd1d));
-                Rng(mix.next())
-            }
-            Err(_) => Rng(default),
-        }
-    }
-
-    pub fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in `0..n`.
-    pub fn below(&mut self, n: u64) -> u64 {
-        self.next() % n.max(1)
-    }
-}
+/// The suites' generator of random inputs (`GRM_TEST_SEED` soaks them).
+pub use grm_testkit::Rng;
 
 pub fn repo() -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
