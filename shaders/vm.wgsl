@@ -69,6 +69,149 @@ fn ffloor_rem(x: f32, y: f32) -> f32 {
     return x - y * floor(x / y);
 }
 
+// ln(x) to a few ulps, relative, for every x (as Rust's f32::ln). WGSL
+// bounds log()'s error on [0.5, 2] only by an absolute 2^-21, and there
+// ln(x) is near 0: lavapipe's log(1 - 2^-24) is 73% off, and a GPU's may
+// even have the wrong sign (a NaN normal draw, sqrt(-2 ln(1 - u1)) with a
+// tiny u1). There it is the series ln(x) = 2 atanh(s) = 2 (s + s^3/3 +
+// ... + s^15/15), s = (x - 1) / (x + 1): x - 1 is exact, |s| <= 1/3, and
+// the first term left out is below 2^-29 of the sum. NaN, 0, negative
+// and infinite x take log(), whose values there are Rust's.
+fn fln(x: f32) -> f32 {
+    if (x >= 0.5 && x <= 2.0) {
+        let s = (x - 1.0) / (x + 1.0);
+        let s2 = s * s;
+        var p = 1.0 / 15.0;
+        p = p * s2 + 1.0 / 13.0;
+        p = p * s2 + 1.0 / 11.0;
+        p = p * s2 + 1.0 / 9.0;
+        p = p * s2 + 1.0 / 7.0;
+        p = p * s2 + 1.0 / 5.0;
+        p = p * s2 + 1.0 / 3.0;
+        p = p * s2 + 1.0;
+        return 2.0 * s * p;
+    }
+    return log(x);
+}
+
+// Inverse trigonometry to a few ulps (Cephes' single-precision asinf,
+// acosf and atanf: polynomials in +, *, / and sqrt, which WGSL rounds to
+// within 2.5 ulps). WGSL only bounds asin and acos by atan2's error, 4096
+// ulps, and lavapipe's asin(0.8288) is 2e-4 radians off Rust's.
+const F_PI: f32 = 3.14159265358979323846;
+const F_PI_2: f32 = 1.57079632679489661923;
+const F_PI_4: f32 = 0.78539816339744830962;
+
+fn copysign(m: f32, s: f32) -> f32 {
+    return bitcast<f32>((bitcast<u32>(m) & 0x7fffffffu) | (bitcast<u32>(s) & 0x80000000u));
+}
+
+// atan(x) for x >= 0 (or NaN), infinity included.
+fn fatan_pos(x: f32) -> f32 {
+    var y = 0.0;
+    var t = x;
+    if (x > 2.414213562373095) {
+        y = F_PI_2;
+        t = -1.0 / x;
+    } else if (x > 0.4142135623730950) {
+        y = F_PI_4;
+        t = (x - 1.0) / (x + 1.0);
+    }
+    let z = t * t;
+    return y + ((((8.05374449538e-2 * z - 1.38776856032e-1) * z + 1.99777106478e-1) * z
+        - 3.33329491539e-1) * z * t + t);
+}
+
+fn fatan(x: f32) -> f32 {
+    return copysign(fatan_pos(abs(x)), x);
+}
+
+fn fasin(x: f32) -> f32 {
+    let a = abs(x);
+    if (!(a <= 1.0)) {
+        return bitcast<f32>(0x7fc00000u);
+    }
+    let big = a > 0.5;
+    var z = a * a;
+    var t = a;
+    if (big) {
+        z = 0.5 * (1.0 - a);
+        t = sqrt(z);
+    }
+    var r = ((((4.2163199048e-2 * z + 2.4181311049e-2) * z + 4.5470025998e-2) * z
+        + 7.4953002686e-2) * z + 1.6666752422e-1) * z * t + t;
+    if (big) {
+        r = F_PI_2 - (r + r);
+    }
+    return copysign(r, x);
+}
+
+fn facos(x: f32) -> f32 {
+    if (!(abs(x) <= 1.0)) {
+        return bitcast<f32>(0x7fc00000u);
+    }
+    if (x < -0.5) {
+        return F_PI - 2.0 * fasin(sqrt(0.5 * (1.0 + x)));
+    }
+    if (x > 0.5) {
+        return 2.0 * fasin(sqrt(0.5 * (1.0 - x)));
+    }
+    return F_PI_2 - fasin(x);
+}
+
+fn is_inf(x: f32) -> bool {
+    return (bitcast<u32>(x) & 0x7fffffffu) == 0x7f800000u;
+}
+
+// f32::atan2(y, x), special values included: signed zeros pick the
+// half-plane (x = -0 counts as negative), infinities give the multiples
+// of pi/4.
+fn fatan2(y: f32, x: f32) -> f32 {
+    if (is_nan(x) || is_nan(y)) {
+        return x + y;
+    }
+    let neg_x = (bitcast<u32>(x) & 0x80000000u) != 0u;
+    let ax = abs(x);
+    let ay = abs(y);
+    var r: f32;
+    if (is_inf(ax)) {
+        if (is_inf(ay)) {
+            r = select(F_PI_4, 3.0 * F_PI_4, neg_x);
+        } else {
+            r = select(0.0, F_PI, neg_x);
+        }
+    } else if (is_inf(ay) || ax == 0.0) {
+        if (ay == 0.0) {
+            r = select(0.0, F_PI, neg_x);
+        } else {
+            r = F_PI_2;
+        }
+    } else if (ay == 0.0) {
+        r = select(0.0, F_PI, neg_x);
+    } else {
+        if (ay <= ax) {
+            r = fatan_pos(ay / ax);
+        } else {
+            r = F_PI_2 - fatan_pos(ax / ay);
+        }
+        if (neg_x) {
+            r = F_PI - r;
+        }
+    }
+    return copysign(r, y);
+}
+
+// pow for x > 0. WGSL's pow is exp2(y * log2(x)), whose log2 has fln's
+// problem near 1 (pow(1.0001, 1000) would be off by 1e-4 relative): there
+// it is exp2 of y times fln's logarithm. Powers of two and every x
+// outside (0.5, 2) keep the builtin, exact for pow(2, 3).
+fn fpow_pos(x: f32, y: f32) -> f32 {
+    if (x > 0.5 && x < 2.0) {
+        return exp2(y * (fln(x) * LOG2_E));
+    }
+    return pow(x, y);
+}
+
 // powf with Rust's cases that WGSL's pow leaves undefined (x <= 0).
 fn fpow(x: f32, y: f32) -> f32 {
     if (y == 0.0) { return 1.0; }
@@ -83,10 +226,10 @@ fn fpow(x: f32, y: f32) -> f32 {
     }
     if (x < 0.0) {
         if (trunc(y) != y) { return bitcast<f32>(0x7fc00000u); }
-        let m = pow(-x, y);
+        let m = fpow_pos(-x, y);
         return select(m, -m, ffloor_rem(y, 2.0) == 1.0);
     }
-    return pow(x, y);
+    return fpow_pos(x, y);
 }
 
 fn fclamp(x: f32, lo: f32, hi: f32) -> f32 {
@@ -117,13 +260,16 @@ fn unary(op: u32, x: f32) -> f32 {
         case OP_SIN: { return sin(x * DEG_TO_RAD); }
         case OP_COS: { return cos(x * DEG_TO_RAD); }
         case OP_TAN: { return tan(x * DEG_TO_RAD); }
-        case OP_ASIN: { return asin(x) * RAD_TO_DEG; }
-        case OP_ACOS: { return acos(x) * RAD_TO_DEG; }
-        case OP_ATAN: { return atan(x) * RAD_TO_DEG; }
+        case OP_ASIN: { return fasin(x) * RAD_TO_DEG; }
+        case OP_ACOS: { return facos(x) * RAD_TO_DEG; }
+        case OP_ATAN: { return fatan(x) * RAD_TO_DEG; }
         case OP_SQRT: { return sqrt(x); }
         case OP_EXP: { return exp(x); }
-        case OP_LN: { return log(x); }
-        case OP_LOG10: { return log2(x) * LOG10_2; }
+        case OP_LN: { return fln(x); }
+        case OP_LOG10: {
+            if (x >= 0.5 && x <= 2.0) { return fln(x) * LOG10_E; }
+            return log2(x) * LOG10_2;
+        }
         default: { return x; }
     }
 }
@@ -144,7 +290,7 @@ fn binary(op: u32, x: f32, y: f32) -> f32 {
         case OP_GE: { return b2f(x >= y); }
         case OP_AND: { return b2f(truthy(x) && truthy(y)); }
         case OP_OR: { return b2f(truthy(x) || truthy(y)); }
-        case OP_ATAN2: { return atan2(x, y) * RAD_TO_DEG; }
+        case OP_ATAN2: { return fatan2(x, y) * RAD_TO_DEG; }
         case OP_POW: { return fpow(x, y); }
         default: { return x; }
     }

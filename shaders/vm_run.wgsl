@@ -148,7 +148,7 @@ fn vm_run(entry: u32, d: Draws) -> u32 {
                 let base = sp - 2u;
                 let u1 = rng_uniform(d, a);
                 let u2 = rng_uniform(d, a + 1u);
-                let z = sqrt(-2.0 * log(1.0 - u1)) * cos(TAU * u2);
+                let z = sqrt(-2.0 * fln(1.0 - u1)) * cos(TAU * u2);
                 vm_st[base] = vm_st[base] + vm_st[base + 1u] * z;
                 sp = base + 1u;
             }

@@ -40,7 +40,8 @@
 //! `u2 = u(draw + 1)`: `mean + sd * sqrt(-2 ln(1 - u1)) * cos(2 PI u2)`
 //! (`1 - u1` is in `(0, 1]`, so the logarithm is finite). It uses `ln`,
 //! `sqrt` and `cos`, which are not correctly rounded: CPU and GPU agree to a
-//! few ulps there, not bit for bit.
+//! few ulps there, not bit for bit (the GPU computes `ln` near 1 itself, as
+//! WGSL's `log` has no relative accuracy there: docs/gpu.md).
 
 /// MurmurHash3 x86_32 of the key `iteration, position, draw` (three
 /// little-endian words) with `seed`. See the module documentation.

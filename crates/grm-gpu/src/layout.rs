@@ -641,6 +641,8 @@ pub fn wgsl_header() -> String {
         ("DEG_TO_RAD", std::f32::consts::PI / 180.0),
         ("RAD_TO_DEG", 1.0f32.to_degrees()),
         ("LOG10_2", std::f32::consts::LOG10_2),
+        ("LOG10_E", std::f32::consts::LOG10_E),
+        ("LOG2_E", std::f32::consts::LOG2_E),
         ("TAU", std::f32::consts::TAU),
         ("SHRINK", grm_turtle::SHRINK),
     ];

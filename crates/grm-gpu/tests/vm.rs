@@ -685,3 +685,242 @@ fn random_draws_are_the_cpu_draws() {
         assert_eq!(r.x.to_bits(), want.to_bits(), "{j:?}");
     }
 }
+
+/// Distance in units in the last place between two f32 values (0 for
+/// equal values, zeros of either sign, or two NaNs; `u32::MAX` for a NaN
+/// against a number).
+fn ulps(a: f32, b: f32) -> u32 {
+    if a == b || (a.is_nan() && b.is_nan()) {
+        return 0;
+    }
+    if a.is_nan() || b.is_nan() {
+        return u32::MAX;
+    }
+    // Map to a line where consecutive floats are consecutive integers.
+    let key = |x: f32| {
+        let i = x.to_bits() as i32;
+        if i < 0 { i32::MIN - i } else { i }
+    };
+    key(a).abs_diff(key(b))
+}
+
+/// Inputs that stress each function: dense steps over its domain, the
+/// points near 1 where a logarithm is near 0, the ends of the domains,
+/// the branch points of the approximations, and special values.
+fn probes(op: Op) -> Vec<(f32, f32)> {
+    let mut xs: Vec<f32> = Vec::new();
+    let near_one = |xs: &mut Vec<f32>| {
+        for k in 0..24 {
+            let e = (2.0f32).powi(-24 + k);
+            xs.extend([1.0 - e, 1.0 + 2.0 * e, 1.0 - 3.0 * e]);
+        }
+    };
+    let octaves = |xs: &mut Vec<f32>| {
+        for k in -30..30 {
+            for m in [1.0f32, 1.1, 1.25, 1.5, 1.75, 1.99] {
+                xs.push(m * (2.0f32).powi(k));
+            }
+        }
+    };
+    match op {
+        Op::Asin | Op::Acos => {
+            xs.extend((-1024..=1024).map(|k| k as f32 / 1024.0));
+            xs.extend([1.0 - 2.0f32.powi(-24), -1.0 + 2.0f32.powi(-24), 0.5, -0.5]);
+            xs.extend([0.5f32.next_up(), 0.5f32.next_down(), 1e-30, -0.0, 1.5, -1.5]);
+        }
+        Op::Atan => {
+            octaves(&mut xs);
+            let neg: Vec<f32> = xs.iter().map(|x| -x).collect();
+            xs.extend(neg);
+            for b in [0.414_213_57f32, 2.414_213_7] {
+                xs.extend([b.next_down(), b, b.next_up()]);
+            }
+            xs.extend([0.0, -0.0, f32::INFINITY, f32::NEG_INFINITY]);
+        }
+        Op::Ln | Op::Log10 => {
+            near_one(&mut xs);
+            octaves(&mut xs);
+            xs.extend([
+                0.5,
+                2.0,
+                0.5f32.next_up(),
+                2.0f32.next_down(),
+                0.0,
+                f32::INFINITY,
+            ]);
+        }
+        Op::Atan2 => {
+            let vs = [
+                -3.0f32,
+                -1.0,
+                -0.5,
+                -0.0,
+                0.0,
+                0.5,
+                1.0,
+                3.0,
+                1e-30,
+                1e30,
+                f32::INFINITY,
+                f32::NEG_INFINITY,
+            ];
+            let mut pairs = Vec::new();
+            for &y in &vs {
+                for &x in &vs {
+                    pairs.push((y, x));
+                }
+            }
+            for k in 0..360 {
+                let t = (k as f32).to_radians();
+                pairs.push((t.sin() * 2.5, t.cos() * 2.5));
+            }
+            return pairs;
+        }
+        Op::Pow => {
+            let mut pairs = Vec::new();
+            let mut bases = Vec::new();
+            near_one(&mut bases);
+            bases.extend([0.6f32, 0.9, 1.1, 1.5, 1.9999, 3.0, 10.0]);
+            for &x in &bases {
+                for y in [-2.0f32, -0.5, 0.5, 1.5, 3.0, 100.0, 1000.0] {
+                    pairs.push((x, y));
+                }
+            }
+            return pairs;
+        }
+        _ => unreachable!("not probed"),
+    }
+    xs.into_iter().map(|x| (x, 0.0)).collect()
+}
+
+/// The functions grm's WGSL computes itself rather than trusting the
+/// driver's builtins (WGSL bounds asin and acos only by 4096 ulps, log and
+/// log2 near 1 only by an absolute 2^-21: lavapipe's asin(0.8288) was 2e-4
+/// radians off and its log(1 - 2^-24) 73%), one by one against Rust's f32
+/// functions: within 8 ulps for the inverse trigonometry, the logarithms
+/// and pow of bases in (0.5, 2) (whose error is 3 + 2|y ln x| ulps by
+/// exp2's bound), special values alike.
+#[test]
+fn elementary_functions_are_within_a_few_ulps_of_the_cpu() {
+    let g = gpu();
+    let mut code = Vec::new();
+    let mut consts = Vec::new();
+    let mut cases = Vec::new();
+    for op in [
+        Op::Asin,
+        Op::Acos,
+        Op::Atan,
+        Op::Ln,
+        Op::Log10,
+        Op::Atan2,
+        Op::Pow,
+    ] {
+        let binary = matches!(op, Op::Atan2 | Op::Pow);
+        for (x, y) in probes(op) {
+            let entry = code.len() as u32;
+            code.push(Op::Const.encode(consts.len() as u32));
+            consts.push(x);
+            if binary {
+                code.push(Op::Const.encode(consts.len() as u32));
+                consts.push(y);
+            }
+            code.push(op.encode(0));
+            code.push(Op::Ret.encode(0));
+            cases.push((op, x, y, entry));
+        }
+    }
+    let jobs: Vec<VmJob> = cases
+        .iter()
+        .map(|&(_, _, _, entry)| VmJob {
+            entry,
+            bind_first: 0,
+            bind_len: 0,
+            seed: 0,
+            iteration: 0,
+            position: 0,
+        })
+        .collect();
+    let results = vmeval::eval(g, &code, &consts, &[], &jobs).expect("gpu vm runs");
+    let mut bad = Vec::new();
+    let mut worst = std::collections::BTreeMap::new();
+    for (&(op, x, y, entry), r) in cases.iter().zip(&results) {
+        let mut vm = Vm::new();
+        let ctx = DrawCtx {
+            seed: 0,
+            iteration: 0,
+            position: 0,
+        };
+        let want = vm.run(&code, &consts, entry, &[], &ctx).expect("cpu")[0];
+        let d = ulps(want, r.x);
+        let allowed = match op {
+            // exp2's own bound grows with its argument.
+            Op::Pow => 8 + 2 * (y * x.ln()).abs().ceil() as u32,
+            _ => 8,
+        };
+        let w = worst.entry(op.name()).or_insert(0u32);
+        *w = (*w).max(d);
+        if d > allowed {
+            bad.push(format!(
+                "{}({x:e}, {y:e}): cpu {want:e} gpu {:e} ({d} ulps)",
+                op.name(),
+                r.x
+            ));
+        }
+    }
+    eprintln!("worst ulps: {worst:?}");
+    assert!(
+        bad.is_empty(),
+        "{} of {} beyond the bound:\n{}",
+        bad.len(),
+        cases.len(),
+        bad[..bad.len().min(20)].join("\n")
+    );
+}
+
+/// The normal draw's `sqrt(-2 ln(1 - u1))` where `u1` is tiny (1 - u1 is
+/// then just below 1, where a GPU's log may be wildly off or of the wrong
+/// sign: a NaN where the CPU draws a number): positions whose first
+/// uniform is below 2^-14, found on the CPU, drawn on both sides.
+#[test]
+fn normal_draws_with_tiny_uniforms_are_the_cpu_draws() {
+    let g = gpu();
+    let code = vec![
+        Op::Const.encode(0),
+        Op::Const.encode(1),
+        Op::RandNormal.encode(0),
+        Op::Ret.encode(0),
+    ];
+    let consts = vec![0.0f32, 1.0];
+    let mut jobs = Vec::new();
+    let mut position = 0u32;
+    while jobs.len() < 64 && position < 50_000_000 {
+        if grm_compile::rng::uniform(7, 3, position, 0) < (2.0f32).powi(-14) {
+            jobs.push(VmJob {
+                entry: 0,
+                bind_first: 0,
+                bind_len: 0,
+                seed: 7,
+                iteration: 3,
+                position,
+            });
+        }
+        position += 1;
+    }
+    assert!(jobs.len() >= 16, "only {} tiny draws found", jobs.len());
+    let results = vmeval::eval(g, &code, &consts, &[], &jobs).expect("gpu vm runs");
+    for (j, r) in jobs.iter().zip(&results) {
+        let ctx = DrawCtx {
+            seed: j.seed,
+            iteration: j.iteration,
+            position: j.position,
+        };
+        let want = ctx.standard_normal(0);
+        // sqrt and cos: a few ulps each; the logarithm itself within 8.
+        assert!(
+            ulps(want, r.x) <= 16 || (want - r.x).abs() <= 1e-6,
+            "u1 = {:e}: cpu {want:e} gpu {:e}",
+            grm_compile::rng::uniform(j.seed, j.iteration, j.position, 0),
+            r.x
+        );
+    }
+}
