@@ -17,31 +17,44 @@ impl VecDraw for Rng {
     }
 }
 
-/// Brute force: `n + 1` samples, then golden section between the best
-/// sample's neighbours.
+/// Brute force: `n + 1` samples, then a golden-section polish between
+/// the neighbours of every sample that is a local minimum of the samples
+/// and within 1e-3 of the best one. Polishing the best sample alone is
+/// not enough: where two minima are nearly equal (a loop's two ends at one
+/// point) the best sample can sit beside the lesser one, and the search
+/// under test, rightly, found the other (`GRM_TEST_SEED=11`: 1.15424234
+/// against brute force's 1.15424244).
 fn brute(c: &Bezier3, p: DVec3, n: usize) -> (f64, f64) {
     let f = |t: f64| c.eval(t).distance(p);
-    let mut best = (0.0, f(0.0));
-    for i in 1..=n {
-        let t = i as f64 / n as f64;
-        let d = f(t);
-        if d < best.1 {
-            best = (t, d);
-        }
-    }
+    let d: Vec<f64> = (0..=n).map(|i| f(i as f64 / n as f64)).collect();
+    let least = d.iter().copied().fold(f64::INFINITY, f64::min);
     let h = 1.0 / n as f64;
-    let (mut lo, mut hi) = ((best.0 - h).max(0.0), (best.0 + h).min(1.0));
-    for _ in 0..100 {
-        let a = lo + (hi - lo) / 3.0;
-        let b = hi - (hi - lo) / 3.0;
-        if f(a) <= f(b) {
-            hi = b;
-        } else {
-            lo = a;
+    let mut best = (0.0, d[0]);
+    for i in 0..=n {
+        let t = i as f64 / n as f64;
+        if d[i] < best.1 {
+            best = (t, d[i]);
+        }
+        let local = (i == 0 || d[i] < d[i - 1]) && (i == n || d[i] <= d[i + 1]);
+        if !local || d[i] > least + 1e-3 {
+            continue;
+        }
+        let (mut lo, mut hi) = ((t - h).max(0.0), (t + h).min(1.0));
+        for _ in 0..100 {
+            let a = lo + (hi - lo) / 3.0;
+            let b = hi - (hi - lo) / 3.0;
+            if f(a) <= f(b) {
+                hi = b;
+            } else {
+                lo = a;
+            }
+        }
+        let m = 0.5 * (lo + hi);
+        if f(m) < best.1 {
+            best = (m, f(m));
         }
     }
-    let t = 0.5 * (lo + hi);
-    if f(t) < best.1 { (t, f(t)) } else { best }
+    best
 }
 
 fn check(c: &Bezier3, p: DVec3, what: &str) {
@@ -73,7 +86,12 @@ fn check(c: &Bezier3, p: DVec3, what: &str) {
     );
     // And not impossibly better (brute force is polished, so it is a true
     // local minimum within ~1e-12).
-    assert!(got.dist >= bd - 1e-9, "{what}: below brute force?");
+    assert!(
+        got.dist >= bd - 1e-9,
+        "{what}: below brute force? got t={} d={} brute t={bt} d={bd} p={p}",
+        got.t,
+        got.dist
+    );
 }
 
 #[test]
