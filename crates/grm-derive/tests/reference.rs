@@ -18,24 +18,37 @@ use grm_compile::vm::Vm;
 use grm_derive::{DeriveError, DeriveLimits, Engine, ModuleString};
 use grm_testkit::Rng;
 
-/// What the reference makes of a step: the next string, or the input
-/// position of the first module that fails.
+/// How a reference step fails: the input position of the first module
+/// that fails, or the length of an output over the module limit.
+#[derive(Debug, PartialEq)]
+enum Fail {
+    At(u64),
+    Limit(u64),
+}
+
+/// What the reference makes of a step, in the engine's documented order
+/// (docs/engine.md): every module's production decided (conditions run),
+/// the output counted and held to `max_modules` before anything is
+/// written, then the successors written (computed parameters run).
 fn reference_step(
     c: &CompiledSystem,
     input: &ModuleString,
     iteration: u32,
     seed: u32,
-) -> Result<ModuleString, u64> {
+    max_modules: u64,
+) -> Result<ModuleString, Fail> {
     let mut vm = Vm::new();
-    let mut out = ModuleString::new();
     let mut buf = vec![0.0f32; c.max_bind_words as usize];
+    let draws = |i: usize| DrawCtx {
+        seed,
+        iteration,
+        position: i as u32,
+    };
+    // Decide: per module, the alternative and its bound words.
+    let mut decided = Vec::with_capacity(input.len());
+    let mut len = 0u64;
     for i in 0..input.len() {
         let (sym, params) = input.get(i);
-        let draws = DrawCtx {
-            seed,
-            iteration,
-            position: i as u32,
-        };
         let mut applied = None;
         for g in c.groups_of(sym) {
             assert_eq!(g.alt_count, 1, "the generator writes one alternative");
@@ -47,8 +60,8 @@ fn reference_step(
             let bind = &buf[..g.bind_words as usize];
             if g.cond_code != NONE {
                 let v = vm
-                    .run1(&c.code, &c.consts, g.cond_code, bind, &draws)
-                    .map_err(|_| i as u64)?;
+                    .run1(&c.code, &c.consts, g.cond_code, bind, &draws(i))
+                    .map_err(|_| Fail::At(i as u64))?;
                 if v == 0.0 {
                     continue;
                 }
@@ -56,6 +69,18 @@ fn reference_step(
             applied = Some((g.first_alt, bind.to_vec()));
             break;
         }
+        len += applied.as_ref().map_or(1, |(alt, _)| {
+            c.successor(&c.alts[*alt as usize]).len() as u64
+        });
+        decided.push(applied);
+    }
+    if len > max_modules {
+        return Err(Fail::Limit(len));
+    }
+    // Write.
+    let mut out = ModuleString::new();
+    for (i, applied) in decided.into_iter().enumerate() {
+        let (sym, params) = input.get(i);
         let Some((alt, bind)) = applied else {
             out.push(sym, params);
             continue;
@@ -69,10 +94,10 @@ fn reference_step(
                     PARAM_COPY => words.extend_from_slice(&bind[p.a as usize..][..w]),
                     PARAM_CODE => {
                         let v = vm
-                            .run(&c.code, &c.consts, p.a, &bind, &draws)
-                            .map_err(|_| i as u64)?;
+                            .run(&c.code, &c.consts, p.a, &bind, &draws(i))
+                            .map_err(|_| Fail::At(i as u64))?;
                         if v.iter().any(|x| !x.is_finite()) {
-                            return Err(i as u64);
+                            return Err(Fail::At(i as u64));
                         }
                         words.extend_from_slice(&v[..w]);
                     }
@@ -160,7 +185,7 @@ fn the_engine_rewrites_as_the_reference_does() {
         max_modules: 200_000,
         ..DeriveLimits::default()
     };
-    let (mut compared, mut failed) = (0, 0);
+    let (mut compared, mut failed, mut over) = (0, 0, 0);
     for case in 0..150 {
         let src = grammar(&mut rng);
         let c = inline(&src);
@@ -173,19 +198,22 @@ fn the_engine_rewrites_as_the_reference_does() {
         let mut want = engines[0].axiom(case).expect("axiom");
         let mut got: Vec<ModuleString> = engines.iter().map(|_| want.clone()).collect();
         for it in 1..=6 {
-            let next = reference_step(&c, &want, it, case);
+            let next = reference_step(&c, &want, it, case, limits.max_modules);
             for (e, g) in engines.iter().zip(&mut got) {
                 match (&next, e.step(g, it, case, &limits)) {
                     (Ok(w), Ok(s)) => {
                         same_bits(&format!("case {case} iteration {it}\n{src}"), w, &s);
                         *g = s;
                     }
-                    (Err(pos), Err(DeriveError::Runtime(r))) => {
+                    (Err(Fail::At(pos)), Err(DeriveError::Runtime(r))) => {
                         assert_eq!(r.position, *pos, "case {case} iteration {it}\n{src}");
                         assert_eq!(r.iteration, it);
                     }
-                    (Ok(w), Err(DeriveError::ModuleLimit { .. })) => {
-                        assert!(w.len() as u64 > limits.max_modules)
+                    // Over the limit: reported from the counts, before a
+                    // parameter that would fail is computed.
+                    (Err(Fail::Limit(n)), Err(DeriveError::ModuleLimit { modules, .. })) => {
+                        assert_eq!(*n, modules, "case {case} iteration {it}\n{src}");
+                        over += 1;
                     }
                     (w, s) => panic!(
                         "case {case} iteration {it}\n{src}\nreference {:?}\nengine {:?}",
@@ -195,12 +223,12 @@ fn the_engine_rewrites_as_the_reference_does() {
                 }
             }
             match next {
-                Ok(w) if w.len() as u64 <= limits.max_modules => {
+                Ok(w) => {
                     compared += 1;
                     want = w;
                 }
-                Ok(_) => break,
-                Err(_) => {
+                Err(Fail::Limit(_)) => break,
+                Err(Fail::At(_)) => {
                     failed += 1;
                     break;
                 }
@@ -210,7 +238,8 @@ fn the_engine_rewrites_as_the_reference_does() {
     // The generator reaches both outcomes.
     assert!(compared > 300, "only {compared} steps compared");
     assert!(failed > 10, "only {failed} cases failed");
-    eprintln!("{compared} steps compared, {failed} cases failed");
+    assert!(over > 0, "no case went over the module limit");
+    eprintln!("{compared} steps compared, {failed} cases failed, {over} over the limit");
 }
 
 /// Bit-for-bit equality, parameters compared as bits.
