@@ -139,6 +139,46 @@ fn large_and_anisotropic_curves() {
     }
 }
 
+/// Found by a soak (`GRM_TEST_SEED=26`): near a sharp turn just after the
+/// start, one sample bracket holds the start (a local minimum) and an
+/// interior minimum 0.02 further on, nearer by 2%; refining the discrete
+/// minima of the samples alone returned the start.
+#[test]
+fn two_minima_in_one_sample_bracket() {
+    let v = DVec3::new;
+    let c = Bezier3::new([
+        v(
+            -0.6722235120411277,
+            0.8059965337069215,
+            -0.024216430165460157,
+        ),
+        v(-0.6953247520103001, 0.7537748663508306, 0.06499770254621229),
+        v(
+            -0.8817807442949941,
+            -0.9932024514980855,
+            -0.5129776972196665,
+        ),
+        v(
+            -0.5824264398890768,
+            0.10287935766502532,
+            -0.15792896476051443,
+        ),
+    ]);
+    let p = v(
+        -0.6782964946275045,
+        0.7949322599823553,
+        -0.032324003933220005,
+    );
+    let got = c.closest_point(p);
+    assert!(got.t > 0.02 && got.t < 0.023, "t = {}", got.t);
+    assert!(
+        (got.dist - 0.014692346660880267).abs() < 1e-9,
+        "d = {}",
+        got.dist
+    );
+    check(&c, p, "two minima in one bracket");
+}
+
 #[test]
 fn hard_cases() {
     let v = DVec3::new;
