@@ -93,7 +93,8 @@ fn hand_derived_context_cases_match_the_cpu() {
 /// A random grammar over counters `A B C` (one exact integer parameter:
 /// conditions, contexts and weights read them, so CPU and GPU must take the
 /// same decisions), a plain symbol `D`, and turtle terminals `F + - [ ]`
-/// whose lengths take inexact expressions (sqrt, sin, division, draws).
+/// whose lengths take inexact expressions (sqrt, sin, division, draws, the
+/// inverse trigonometry and logarithms).
 struct GrammarGen {
     rng: Rng,
 }
@@ -121,7 +122,7 @@ impl GrammarGen {
 
     fn length_expr(&mut self, vars: &[&str]) -> String {
         let v = vars[self.rng.below(vars.len() as u64) as usize];
-        match self.rng.below(8) {
+        match self.rng.below(11) {
             0 => format!("sqrt(abs({v}) + 1)"),
             1 => format!("sin({v} * 10) + 2"),
             2 => format!("{v} / 3 + 0.5"),
@@ -129,6 +130,10 @@ impl GrammarGen {
             4 => "normal(1, 0.1)".into(),
             5 => format!("pow(1.1, {v})"),
             6 => format!("exp({v} * 0.01)"),
+            // The functions the interpreter computes itself (docs/gpu.md).
+            7 => format!("asin(sin({v} * 7) * 0.9) / 60 + 1.5"),
+            8 => format!("ln(abs({v}) * 0.001 + 1) * 100 + 1"),
+            9 => format!("atan2({v}, 2) / 45 + 2"),
             _ => "1".into(),
         }
     }
