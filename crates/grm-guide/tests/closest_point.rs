@@ -303,3 +303,32 @@ fn nearest_curve_with_pruning_matches_exhaustive_search() {
         }
     }
 }
+
+/// Curves where the derivative quintic is all rounding noise (control
+/// points equal to within an ulp) or nearly zero (a point at the centre
+/// of a circular arc): the answer as good as brute force (the root
+/// isolation's work is bounded by `ISOLATE_BUDGET` pieces).
+#[test]
+fn degenerate_curves_stay_fast_and_right() {
+    let v = DVec3::new;
+    let e = f64::EPSILON;
+    let nearly_a_point = Bezier3::new([
+        v(1.0, 1.0, 1.0),
+        v(1.0 + e, 1.0, 1.0 - e),
+        v(1.0 - e, 1.0 + e, 1.0),
+        v(1.0, 1.0 - e, 1.0 + e),
+    ]);
+    // A quarter circle of radius 1 around the origin (k = 0.5523).
+    let k = 0.552_284_749_830_793_4;
+    let arc = Bezier3::new([v(1., 0., 0.), v(1., k, 0.), v(k, 1., 0.), v(0., 1., 0.)]);
+    for c in [nearly_a_point, arc] {
+        for p in [
+            v(0., 0., 0.),
+            v(1., 1., 1.),
+            v(0., 0., 5.),
+            v(1.0 + e, 1.0, 1.0),
+        ] {
+            check(&c, p, &format!("degenerate {:?} {p}", c.points()[0]));
+        }
+    }
+}
