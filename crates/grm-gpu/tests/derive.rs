@@ -122,7 +122,7 @@ impl GrammarGen {
 
     fn length_expr(&mut self, vars: &[&str]) -> String {
         let v = vars[self.rng.below(vars.len() as u64) as usize];
-        match self.rng.below(11) {
+        match self.rng.below(12) {
             0 => format!("sqrt(abs({v}) + 1)"),
             1 => format!("sin({v} * 10) + 2"),
             2 => format!("{v} / 3 + 0.5"),
@@ -134,6 +134,9 @@ impl GrammarGen {
             7 => format!("asin(sin({v} * 7) * 0.9) / 60 + 1.5"),
             8 => format!("ln(abs({v}) * 0.001 + 1) * 100 + 1"),
             9 => format!("atan2({v}, 2) / 45 + 2"),
+            // Infinite where the counter is 3: a runtime error, at the
+            // CPU's iteration and position.
+            10 => format!("1 / ({v} - 3) + 2"),
             _ => "1".into(),
         }
     }
