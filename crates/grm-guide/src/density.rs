@@ -206,21 +206,14 @@ fn bucket(root: &Slot, h: u32) -> Option<&Cons> {
 mod tests {
     use super::*;
 
-    fn lcg(state: &mut u64) -> f64 {
-        *state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (*state >> 11) as f64 / (1u64 << 53) as f64
-    }
-
     #[test]
     fn query_matches_brute_force_and_clones_are_independent() {
-        let mut s = 7u64;
+        let mut rng = grm_testkit::Rng::seeded(7);
         let r = 0.3;
         let mut g = PersistentGrid::new(r);
         let mut pts = Vec::new();
         for _ in 0..2000 {
-            let p = DVec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 4.0 - 2.0;
+            let p = DVec3::new(rng.unit(), rng.unit(), rng.unit()) * 4.0 - 2.0;
             g.insert(p);
             pts.push(p);
         }
@@ -229,7 +222,7 @@ mod tests {
         assert_eq!(snapshot.len(), 2000);
         assert_eq!(g.len(), 2001);
         for _ in 0..200 {
-            let q = DVec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 4.4 - 2.2;
+            let q = DVec3::new(rng.unit(), rng.unit(), rng.unit()) * 4.4 - 2.2;
             let mut got = Vec::new();
             snapshot.for_each_within(q, r, |p| got.push(p));
             let want: Vec<_> = pts.iter().filter(|p| p.distance(q) < r).collect();
