@@ -70,8 +70,11 @@ fn a_token_set_while_searching_stops_the_run() {
     };
     for threads in [1, 2] {
         let token = CancelToken::new();
-        let setter = cancel_after(&token, Duration::from_millis(150));
+        // Before the setter starts its wait, so that the token cannot be
+        // set less than 150 ms after it (under load the setter thread may
+        // start sleeping before the sampler does).
         let t0 = Instant::now();
+        let setter = cancel_after(&token, Duration::from_millis(150));
         let r = s.sample(&SampleOptions {
             schedule: endless,
             threads,

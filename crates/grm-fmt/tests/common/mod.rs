@@ -75,21 +75,22 @@ pub fn check(src: &str) -> String {
     );
     for (n, line) in out.lines().enumerate() {
         assert!(
-            line.trim_end() == line || in_block_comment(&out, n),
-            "trailing whitespace on line {}: {line:?}",
+            line.trim_end() == line || in_block_comment(&out, n, line.trim_end().len()),
+            "trailing whitespace on line {}: {line:?}\n--- output ---\n{out}",
             n + 1
         );
     }
     out
 }
 
-/// Whether line `n` of `text` lies in a block comment (whose bytes are kept).
-fn in_block_comment(text: &str, n: usize) -> bool {
-    let start: usize = text.lines().take(n).map(|l| l.len() + 1).sum();
+/// Whether byte `col` of line `n` of `text` lies in a block comment (whose
+/// bytes are kept, trailing spaces included: `/* ` ending a line).
+fn in_block_comment(text: &str, n: usize, col: usize) -> bool {
+    let at = text.lines().take(n).map(|l| l.len() + 1).sum::<usize>() + col;
     grm_syntax::parse(FileId(0), text)
         .comments
         .iter()
-        .any(|c| c.text.starts_with("/*") && c.span.range().contains(&start))
+        .any(|c| c.text.starts_with("/*") && c.span.range().contains(&at))
 }
 
 /// The repository root.
