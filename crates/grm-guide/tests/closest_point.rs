@@ -332,3 +332,27 @@ fn degenerate_curves_stay_fast_and_right() {
         }
     }
 }
+
+/// Where the seed-26 miss came from, drawn on purpose: a short first leg
+/// (`P1` near `P0`) and a long pull away, so the curve turns sharply within
+/// the first sample bracket, with query points just off that turn.
+#[test]
+fn sharp_turns_near_the_ends_match_brute_force() {
+    let mut rng = Rng::seeded(0x5EED_0005);
+    for k in 0..300 {
+        let p0 = rng.vec(1.0);
+        let p1 = p0 + rng.vec(0.08);
+        let (p2, p3) = (rng.vec(1.0), rng.vec(1.0));
+        let c = if k % 2 == 0 {
+            Bezier3::new([p0, p1, p2, p3])
+        } else {
+            Bezier3::new([p3, p2, p1, p0])
+        };
+        for j in 0..8 {
+            let u = rng.range(0.0, 0.06);
+            let u = if k % 2 == 0 { u } else { 1.0 - u };
+            let p = c.eval(u) + rng.vec(2e-2);
+            check(&c, p, &format!("sharp curve {k} point {j}"));
+        }
+    }
+}
