@@ -23,10 +23,10 @@
 //! constants the tables', computed parameters the same operations in the
 //! same order); code with random draws is never taken (the walk has no
 //! positions in the intermediate strings); a fault or non-finite value
-//! makes the caller derive stepwise, which reports it, and a plan exists
-//! only where every computed parameter of the stepwise derivation is
-//! evaluated by some walk (so none can fail unseen); a plan exists only
-//! when every string of the stepwise derivation is within the options' and
+//! makes the caller derive stepwise, which reports it; a plan exists only
+//! where every computed parameter of the stepwise derivation is evaluated
+//! by some walk (so none can fail unseen) and every string of the
+//! stepwise derivation is within the options' and
 //! the device's limits (otherwise the stepwise path runs and reports the
 //! limit as before); every table value a thread reads on its way is exact
 //! (clamping applies only to symbols the final string cannot reach, whose
