@@ -5,19 +5,19 @@
 //! canonical style and puts every comment back where it was, by span
 //! position.
 //!
-//! Inputs: the text of one file ([`format`]), or an already parsed file and
+//! Inputs: the text of one file ([`format()`]), or an already parsed file and
 //! its text ([`format_file`]). Output: the formatted text, or a
 //! [`FormatError`] listing the syntax errors that make formatting unsafe.
 //!
 //! Invariants:
 //! - Meaning is never changed: the formatted text parses without errors to
-//!   the same tree, spans aside. [`format`] re-parses its own output and
+//!   the same tree, spans aside. [`format()`] re-parses its own output and
 //!   refuses ([`FormatError::Internal`]) rather than return text that breaks
 //!   this (a bug guard; it has never fired on the tests or the fuzzer).
 //! - No text is dropped: every comment is kept, in source order relative to
 //!   the tokens around it. Line comments lose trailing whitespace only.
 //! - Idempotent: `format(format(x)) == format(x)`.
-//! - Text with syntax errors is refused by [`format`]: a recovering parser
+//! - Text with syntax errors is refused by [`format()`]: a recovering parser
 //!   has guessed at it, and printing that guess could change meaning.
 //!
 //! Style:
@@ -110,7 +110,7 @@ pub fn format(text: &str) -> Result<String, FormatError> {
 /// Print an already parsed file.
 ///
 /// Meant for text without syntax errors (check [`Parsed::has_errors`]
-/// first, as [`format`] does). Given a file with errors it still never
+/// first, as [`format()`] does). Given a file with errors it still never
 /// panics: statements the parser could not read are copied verbatim, but
 /// text the parser skipped inside a statement may be lost.
 pub fn format_file(parsed: &Parsed, text: &str) -> String {

@@ -23,7 +23,7 @@
 //!   midpoints at distance `r < radius`.
 //!
 //! Every term is order-independent, and the totals are accumulated in fixed
-//! point ([`crate::fixed`]), so a model's [`CostBreakdown`] is bit-for-bit
+//! point (`crate::fixed`), so a model's [`CostBreakdown`] is bit-for-bit
 //! the same whatever order its bones were added in.
 
 use glam::{Affine3A, DVec3, Vec3};
@@ -176,7 +176,7 @@ impl CostBreakdown {
 /// few contiguous loads and stores in a vector and a hash/pointer walk per
 /// counter in a map, while the clone it saves is a single small `memcpy`.
 /// The density set, which grows with the model, is persistent instead
-/// ([`crate::density`]).
+/// (`crate::density`).
 #[derive(Clone, Debug)]
 pub struct CostState {
     uses: Vec<u16>,

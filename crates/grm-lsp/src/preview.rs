@@ -18,7 +18,7 @@
 //! tower-lsp-server) sets its token too, so its work stops as well.
 //!
 //! Provenance: the derivation engine reports strings, not who made each
-//! module, so [`origins`] recovers it step by step: the string after a
+//! module, so `origins` recovers it step by step: the string after a
 //! step is the concatenation of each input module's successor, so aligning
 //! it against the compiled successors of each input symbol tells, for
 //! every module, the production (alternative) that made it; a module no
