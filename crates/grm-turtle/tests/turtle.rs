@@ -453,3 +453,104 @@ fn frame_locality_for_sample_expansions() {
     // The expansion hangs off the bone that was current at A.
     assert_eq!(out.bones[2].parent, Some(0));
 }
+
+/// A random run of turtle commands without brackets, cuts or polygons:
+/// moves, turns, rolls, widths, colours and transforms with random
+/// arguments (or their defaults).
+fn random_commands(rng: &mut grm_testkit::Rng, n: usize) -> String {
+    const PLAIN: &[&str] = &[
+        "F", "f", "G", "g", "+", "-", "&", "^", "\\", "/", "|", "$", "!!", "''",
+    ];
+    let mut out = Vec::new();
+    for _ in 0..n {
+        let a = rng.range(-3.0, 3.0) as f32;
+        let tok = match rng.below(10) {
+            0 => format!("F({})", rng.range(0.1, 2.0) as f32),
+            1 => format!("+({})", a * 30.0),
+            2 => format!("&({})", a * 30.0),
+            3 => format!("/({})", a * 30.0),
+            4 => format!("!({})", rng.range(0.01, 0.5) as f32),
+            5 => format!("'({})", rng.below(8)),
+            6 => match rng.below(4) {
+                0 => format!("translate({a},{},{})", a * 0.5, -a),
+                1 => format!("rotx({})", a * 20.0),
+                2 => format!("scale({})", rng.range(0.5, 1.5) as f32),
+                _ => format!("rotate({},{},{},{})", 0.3, a, 1.0, a * 10.0),
+            },
+            _ => rng.pick(PLAIN).to_string(),
+        };
+        out.push(tok);
+    }
+    out.join(" ")
+}
+
+/// What a bone looks like, bit for bit, without its module index; its
+/// parent mapped through `parent`.
+fn bone_key(b: &grm_turtle::Bone, parent: impl Fn(u32) -> u32) -> String {
+    format!(
+        "{:?} {:?} {:?} {:?} {:?} {:?} {:?}",
+        b.base.to_array().map(f32::to_bits),
+        b.tip.to_array().map(f32::to_bits),
+        b.left.to_array().map(f32::to_bits),
+        b.width_base.to_bits(),
+        b.width_tip.to_bits(),
+        b.paint,
+        b.parent.map(parent),
+    )
+}
+
+/// A branch leaves the turtle as it found it: `S [ T ] U` draws the bones
+/// of `S U`, bit for bit, with the branch's bones in between (parents
+/// renumbered past them), on random command strings with and without
+/// tropism; a cut `%` inside the branch changes only the branch.
+#[test]
+fn a_branch_leaves_the_turtle_as_it_found_it() {
+    let mut rng = grm_testkit::Rng::seeded(0x7u64 << 40 | 0x0e71e);
+    for case in 0..300 {
+        let mut c = cfg();
+        if case % 3 == 0 {
+            c.tropism = Some(v(0.0, -1.0, 0.2));
+            c.elasticity = 0.3;
+        }
+        let n = |rng: &mut grm_testkit::Rng| 1 + rng.below(12usize);
+        let (ls, lt, lu) = (n(&mut rng), n(&mut rng), n(&mut rng));
+        let s = random_commands(&mut rng, ls);
+        let mut t = random_commands(&mut rng, lt);
+        if rng.below(4) == 0 {
+            // A nested branch, or a cut, inside the branch.
+            let inner = random_commands(&mut rng, 3);
+            t = if rng.below(2) == 0 {
+                format!("{t} [ {inner} ] F")
+            } else {
+                format!("{t} % {inner}")
+            };
+        }
+        let u = random_commands(&mut rng, lu);
+        let plain = run_with(c, &format!("{s} {u}")).0;
+        let branched = run_with(c, &format!("{s} [ {t} ] {u}")).0;
+        let before = run_with(c, &s).0.bones.len();
+        let inside = run_with(c, &format!("{s} [ {t} ]")).0.bones.len() - before;
+        let what = format!("case {case}: {s} [ {t} ] {u}");
+        assert_eq!(
+            branched.bones.len(),
+            plain.bones.len() + inside,
+            "{what}: bone count"
+        );
+        let shift = |p: u32| {
+            if (p as usize) < before {
+                p
+            } else {
+                p + inside as u32
+            }
+        };
+        for (k, b) in plain.bones.iter().enumerate() {
+            let j = if k < before { k } else { k + inside };
+            assert_eq!(
+                bone_key(&branched.bones[j], |p| p),
+                bone_key(b, shift),
+                "{what}: bone {k}"
+            );
+        }
+        assert_eq!(branched.warnings, plain.warnings, "{what}: warnings");
+    }
+}
