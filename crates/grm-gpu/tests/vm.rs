@@ -480,14 +480,20 @@ fn generate(seed: u64, n: usize, exact: bool) -> (Vec<u32>, Vec<f32>, Vec<f32>, 
 }
 
 fn cpu(code: &[u32], consts: &[f32], binds: &[f32], c: &Case) -> Vec<f32> {
+    cpu_job(code, consts, binds, &c.job)
+}
+
+/// The CPU VM's result for one GPU job: the same entry, binding words and
+/// draw coordinates.
+fn cpu_job(code: &[u32], consts: &[f32], binds: &[f32], job: &VmJob) -> Vec<f32> {
     let mut vm = Vm::new();
-    let b = &binds[c.job.bind_first as usize..(c.job.bind_first + c.job.bind_len) as usize];
+    let b = &binds[job.bind_first as usize..(job.bind_first + job.bind_len) as usize];
     let ctx = DrawCtx {
-        seed: c.job.seed,
-        iteration: c.job.iteration,
-        position: c.job.position,
+        seed: job.seed,
+        iteration: job.iteration,
+        position: job.position,
     };
-    vm.run(code, consts, c.entry, b, &ctx)
+    vm.run(code, consts, job.entry, b, &ctx)
         .expect("cpu vm runs")
         .to_vec()
 }
@@ -636,16 +642,7 @@ fn edge_semantics_match_the_cpu() {
         .collect();
     let results = vmeval::eval(g, &code, &consts, &binds, &jobs).expect("gpu vm runs");
     for (job, r) in jobs.iter().zip(&results) {
-        let mut vm = Vm::new();
-        let ctx = DrawCtx {
-            seed: job.seed,
-            iteration: job.iteration,
-            position: job.position,
-        };
-        let want = vm
-            .run(&code, &consts, job.entry, &binds, &ctx)
-            .expect("cpu")
-            .to_vec();
+        let want = cpu_job(&code, &consts, &binds, job);
         let close = (want[0] - r.x).abs() <= 1e-5 * want[0].abs().max(1.0) || want[0] == r.x;
         assert!(
             close,
@@ -843,14 +840,8 @@ fn elementary_functions_are_within_a_few_ulps_of_the_cpu() {
     let results = vmeval::eval(g, &code, &consts, &[], &jobs).expect("gpu vm runs");
     let mut bad = Vec::new();
     let mut worst = std::collections::BTreeMap::new();
-    for (&(op, x, y, entry), r) in cases.iter().zip(&results) {
-        let mut vm = Vm::new();
-        let ctx = DrawCtx {
-            seed: 0,
-            iteration: 0,
-            position: 0,
-        };
-        let want = vm.run(&code, &consts, entry, &[], &ctx).expect("cpu")[0];
+    for ((&(op, x, y, _), job), r) in cases.iter().zip(&jobs).zip(&results) {
+        let want = cpu_job(&code, &consts, &[], job)[0];
         let d = ulps(want, r.x);
         let allowed = match op {
             // exp2's own bound grows with its argument.
