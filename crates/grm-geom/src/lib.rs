@@ -384,6 +384,11 @@ pub fn build_from_interpretation(
             bone.origin,
         );
     }
+    // Every part holds only tubes so far.
+    for part in &mut builder.parts {
+        let m = &mut part.mesh;
+        mesh::smooth_normals(&m.positions, &m.indices, &mut m.normals);
+    }
 
     // Instances.
     let unit = UnitShapes::new(options.segments);

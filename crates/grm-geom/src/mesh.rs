@@ -228,25 +228,45 @@ pub fn unit_disc(segments: u32) -> MeshData {
     m
 }
 
-/// Smooth normals (area-weighted) for a mesh that has none.
+/// Smooth normals for a mesh that has none (`+Y` where a vertex has no
+/// triangle with an area).
 pub(crate) fn compute_normals(positions: &[[f32; 3]], indices: &[u32]) -> Vec<[f32; 3]> {
-    let mut acc = vec![Vec3::ZERO; positions.len()];
-    for tri in indices.chunks_exact(3) {
-        let [a, b, c] = [tri[0], tri[1], tri[2]].map(|i| i as usize);
-        if a >= positions.len() || b >= positions.len() || c >= positions.len() {
+    let mut normals = vec![Vec3::Y.to_array(); positions.len()];
+    smooth_normals(positions, indices, &mut normals);
+    normals
+}
+
+/// Sets each vertex's normal to the mean of the normals of the triangles
+/// around it, each weighted by its angle at the vertex (so splitting a
+/// quad into two triangles does not tilt it). A vertex keeps its normal
+/// where those cancel or there are none; triangles with an index out of
+/// range are skipped. Over a part's tubes (crate::tube) a cap's vertices
+/// are its own, so caps stay flat, and a ring shared by two tubes takes
+/// the triangles of both.
+pub(crate) fn smooth_normals(positions: &[[f32; 3]], indices: &[u32], normals: &mut [[f32; 3]]) {
+    let mut sum = vec![Vec3::ZERO; positions.len()];
+    for t in indices.chunks_exact(3) {
+        if t.iter().any(|&i| i as usize >= positions.len()) {
             continue;
         }
-        let (pa, pb, pc) = (
-            Vec3::from_array(positions[a]),
-            Vec3::from_array(positions[b]),
-            Vec3::from_array(positions[c]),
-        );
-        let n = (pb - pa).cross(pc - pa);
-        acc[a] += n;
-        acc[b] += n;
-        acc[c] += n;
+        let p = |k: usize| Vec3::from_array(positions[t[k] as usize]);
+        let g = (p(1) - p(0)).cross(p(2) - p(0));
+        // Scaled first: a tiny model's areas square to below f32's range.
+        let big = g.abs().max_element();
+        if !(big > 0.0 && big.is_finite()) {
+            continue;
+        }
+        let face = (g / big).normalize();
+        for k in 0..3 {
+            let angle = (p((k + 1) % 3) - p(k)).angle_between(p((k + 2) % 3) - p(k));
+            if angle.is_finite() {
+                sum[t[k] as usize] += face * angle;
+            }
+        }
     }
-    acc.into_iter()
-        .map(|n| n.normalize_or(Vec3::Y).to_array())
-        .collect()
+    for (normal, s) in normals.iter_mut().zip(sum) {
+        if let Some(u) = s.try_normalize() {
+            *normal = u.to_array();
+        }
+    }
 }

@@ -1,7 +1,8 @@
 //! Polygons from `{ . }`: triangulated by ear clipping in their best-fit
 //! plane (Newell normal), emitted two-sided (leaves are seen from both
-//! sides). A polygon whose ears run out (self-intersecting) is finished as
-//! a fan.
+//! sides). Repeated vertices and vertices on a straight edge (`{ . f . f
+//! . }`) are skipped without a triangle. A polygon whose ears run out
+//! (self-intersecting) is finished as a fan.
 
 use glam::{Vec2, Vec3};
 
@@ -35,6 +36,12 @@ fn in_triangle(p: Vec2, a: Vec2, b: Vec2, c: Vec2) -> bool {
 
 /// Triangles (indices into `vs`) counter-clockwise about `normal`, which
 /// must be the polygon's Newell normal, normalised.
+///
+/// A simple polygon gives at most `n - 2` triangles that cover it exactly:
+/// flat corners (a vertex repeated, or on the line through its
+/// neighbours) are dropped without a triangle, and a vertex at the same
+/// place as an ear's corner does not block the ear. Only a polygon whose
+/// ears run out (self-intersecting) is finished as a fan.
 pub fn triangulate(vs: &[Vec3], normal: Vec3, out: &mut Vec<[u32; 3]>) {
     out.clear();
     let n = vs.len();
@@ -45,6 +52,13 @@ pub fn triangulate(vs: &[Vec3], normal: Vec3, out: &mut Vec<[u32; 3]>) {
     let u = normal.any_orthonormal_vector();
     let v = normal.cross(u);
     let pts: Vec<Vec2> = vs.iter().map(|p| Vec2::new(p.dot(u), p.dot(v))).collect();
+    // Corners whose doubled area is below this are flat (f32 rounding of
+    // the coordinates is about 1e-7 of the extent).
+    let (lo, hi) = pts
+        .iter()
+        .fold((pts[0], pts[0]), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+    let extent = (hi - lo).max_element();
+    let flat = 1e-6 * extent * extent;
     let mut idx: Vec<u32> = (0..n as u32).collect();
     // Ear clipping is quadratic or worse; very large polygons are fanned.
     let mut guard = if n > EAR_CLIP_MAX { 0 } else { n * n };
@@ -55,12 +69,26 @@ pub fn triangulate(vs: &[Vec3], normal: Vec3, out: &mut Vec<[u32; 3]>) {
         for i in 0..m {
             let (ia, ib, ic) = (idx[(i + m - 1) % m], idx[i], idx[(i + 1) % m]);
             let (a, b, c) = (pts[ia as usize], pts[ib as usize], pts[ic as usize]);
-            if cross2(b - a, c - b) <= 0.0 {
-                continue; // reflex or flat corner
+            let corner = cross2(b - a, c - b);
+            if corner.abs() <= flat {
+                // A flat corner or a repeated vertex: no area to cover.
+                idx.remove(i);
+                clipped = true;
+                break;
             }
-            let blocked = idx
-                .iter()
-                .any(|&j| j != ia && j != ib && j != ic && in_triangle(pts[j as usize], a, b, c));
+            if corner < 0.0 {
+                continue; // reflex
+            }
+            let blocked = idx.iter().any(|&j| {
+                let p = pts[j as usize];
+                j != ia
+                    && j != ib
+                    && j != ic
+                    && p != a
+                    && p != b
+                    && p != c
+                    && in_triangle(p, a, b, c)
+            });
             if !blocked {
                 out.push([ia, ib, ic]);
                 idx.remove(i);
@@ -72,8 +100,14 @@ pub fn triangulate(vs: &[Vec3], normal: Vec3, out: &mut Vec<[u32; 3]>) {
             break;
         }
     }
-    // Whatever is left (a triangle, or a knot of a self-intersecting
-    // polygon) as a fan.
+    if idx.len() == 3 {
+        let [a, b, c] = [idx[0], idx[1], idx[2]].map(|i| pts[i as usize]);
+        if cross2(b - a, c - b).abs() > flat {
+            out.push([idx[0], idx[1], idx[2]]);
+        }
+        return;
+    }
+    // Whatever is left (a knot of a self-intersecting polygon) as a fan.
     for k in 1..idx.len().saturating_sub(1) {
         out.push([idx[0], idx[k], idx[k + 1]]);
     }

@@ -12,6 +12,21 @@
 //! their own ring and a cap; a tube ends with a cap where no bone continues
 //! it, so every tube is closed. Bones of width 0, of zero length or with
 //! non-finite ends get no tube.
+//!
+//! Side normals are the mesh's own ([`crate::mesh::smooth_normals`], run
+//! over a part's tubes once they are all made): each ring vertex takes the
+//! angle-weighted mean of the side triangles around it, so a cylinder's
+//! are radial, a tapering tube's lean with its taper, and a mitred ring
+//! shared by two tubes takes both tubes' triangles; caps are flat. (Where
+//! a chain changes paint, each part's copy of the shared ring sees only
+//! its own tube's triangles.)
+//!
+//! Mitre limit: on the inner side of a bend a mitred ring reaches back
+//! into both tubes, by `r tan(angle / 2)`. Where that is more than
+//! [`MITRE_DEPTH`] of the shorter tube's length, the ring's points there
+//! are drawn towards the axis (within the bisecting plane) until it is
+//! not, so a short thick bone between two bends never folds inside out;
+//! the elbow is pinched instead.
 
 use glam::{Quat, Vec3};
 use grm_turtle::Bone;
@@ -20,6 +35,11 @@ use crate::mesh::MeshData;
 
 /// The most a continuing bone may turn away from its parent (cosine).
 const MIN_CONTINUE_COS: f32 = -0.5;
+
+/// The deepest a mitred ring may reach into either of its tubes, as a
+/// share of the shorter one's length (under a half, so the two rings of a
+/// tube never cross).
+pub const MITRE_DEPTH: f32 = 0.25;
 
 /// Per-bone tube layout, computed once before emitting geometry.
 #[derive(Debug)]
@@ -111,32 +131,55 @@ impl TubePlan {
     }
 }
 
+/// The continuing tube at a mitred ring: its direction, and how deep the
+/// ring may reach into either tube.
+#[derive(Clone, Copy)]
+struct Joint {
+    dir: Vec3,
+    depth: f32,
+}
+
+impl Joint {
+    /// The joint between bone `i` and its continuing child `c`.
+    fn new(plan: &TubePlan, bones: &[Bone], i: usize, c: usize) -> Option<Joint> {
+        Some(Joint {
+            dir: plan.dir[c]?,
+            depth: MITRE_DEPTH * bones[i].length().min(bones[c].length()),
+        })
+    }
+}
+
 /// A ring at `centre` around direction `d` (frame `e1`), radius `r`,
-/// mitred into the plane bisecting `d` and `d_next` when given.
-/// Returns (positions, normals) through `out`.
+/// mitred into the plane bisecting `d` and the continuing tube's direction
+/// when `next` gives it. Returns (positions, radial normals) through
+/// `out`; [`crate::mesh::smooth_normals`] replaces the normals once the
+/// tubes are made.
 fn ring(
     centre: Vec3,
     d: Vec3,
     e1: Vec3,
     r: f32,
-    d_next: Option<Vec3>,
+    next: Option<Joint>,
     circle: &[(f32, f32)],
     out: &mut Vec<(Vec3, Vec3)>,
 ) {
     out.clear();
-    let mitre = d_next.and_then(|dn| {
-        let n = d + dn;
-        (n.length_squared() > 1e-6).then(|| (n.normalize(), Quat::from_rotation_arc(d, dn)))
+    let mitre = next.and_then(|j| {
+        let n = d + j.dir;
+        (n.length_squared() > 1e-6).then(|| (n.normalize(), Quat::from_rotation_arc(d, j.dir), j))
     });
     let e2 = d.cross(e1);
     for &(c, s) in circle {
         let q = e1 * c + e2 * s;
         match mitre {
-            Some((n, rot)) => {
+            Some((n, rot, j)) => {
                 let off = q * r;
+                // `t < 0` on the inner side: the point lies `-t` back in
+                // this tube and `-t` on in the next (the plane bisects).
                 let t = -off.dot(n) / d.dot(n);
+                let pinch = if -t > j.depth { j.depth / -t } else { 1.0 };
                 let normal = (q + rot * q).normalize_or(q);
-                out.push((centre + off + d * t, normal));
+                out.push((centre + (off + d * t) * pinch, normal));
             }
             None => out.push((centre + q * r, q)),
         }
@@ -181,7 +224,8 @@ pub(crate) fn emit_bone(
             Some(first) => first,
             None => {
                 let dp = plan.dir[p].unwrap_or(d);
-                ring(b.base, dp, plan.e1[p], r, Some(d), circle, scratch);
+                let next = Joint::new(plan, bones, p, i);
+                ring(b.base, dp, plan.e1[p], r, next, circle, scratch);
                 push_ring(m, scratch)
             }
         }
@@ -193,10 +237,10 @@ pub(crate) fn emit_bone(
         first
     };
     // The tip ring, mitred towards the continuing child.
-    let d_next = plan.next[i].and_then(|c| plan.dir[c as usize]);
-    ring(b.tip, d, e1, r_tip, d_next, circle, scratch);
+    let next = plan.next[i].and_then(|c| Joint::new(plan, bones, i, c as usize));
+    ring(b.tip, d, e1, r_tip, next, circle, scratch);
     let tip_first = push_ring(m, scratch);
-    if d_next.is_none() {
+    if next.is_none() {
         cap(m, b.tip, scratch, d, true);
     }
     for k in 0..sides {

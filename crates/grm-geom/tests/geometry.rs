@@ -274,3 +274,28 @@ fn large_model_timing() {
         bytes.len() / 1_000_000
     );
 }
+
+#[test]
+fn tapering_tube_normals_lean_with_the_taper() {
+    // Radius 0.2 -> 0.1 over length 1: the side leans in by atan(0.1), so
+    // its normals point up the tube by about sin(atan(0.1)) = 0.0995 (the
+    // octagon's faces lean by atan(0.1 cos(pi/8)) = 0.0920).
+    let mut b = bone(Vec3::ZERO, Vec3::Y, None, 0.4);
+    b.width_tip = 0.2;
+    let model = build(vec![b]);
+    let m = &model.parts[0].mesh;
+    assert!(is_closed(m) && normals_ok(m));
+    let mut sides = 0;
+    for (p, n) in m.positions.iter().zip(&m.normals) {
+        let (p, n) = (Vec3::from_array(*p), Vec3::from_array(*n));
+        let radial = Vec3::new(p.x, 0.0, p.z);
+        if n.y.abs() > 0.99 || radial.length() < 1e-6 {
+            continue; // a cap's
+        }
+        sides += 1;
+        let want = 0.1f32.atan();
+        assert!((n.y.asin() - want).abs() < 0.01, "{n} at {p}");
+        assert!(n.dot(radial.normalize()) > 0.99, "{n} at {p}");
+    }
+    assert_eq!(sides, 16, "two rings of 8");
+}

@@ -118,6 +118,34 @@ pub fn is_closed(m: &MeshData) -> bool {
         .all(|(&(x, y), &n)| n == 1 && edges.get(&(y, x)) == Some(&1))
 }
 
+/// Whether the welded mesh is a union of closed, consistently oriented
+/// surfaces, which may touch (two tubes meeting at a ring or a cap): every
+/// edge is used as often in one direction as in the other. Unlike
+/// [`is_closed`], this survives welding vertices of different surfaces
+/// together, so it can check a whole model (a chain split between two
+/// parts leaves each part open at the split and the union closed).
+pub fn edges_balanced(m: &MeshData) -> bool {
+    let mut ids: HashMap<[i64; 3], u32> = HashMap::new();
+    let weld: Vec<u32> = m
+        .positions
+        .iter()
+        .map(|p| {
+            let n = ids.len() as u32;
+            *ids.entry(key(*p)).or_insert(n)
+        })
+        .collect();
+    let mut edges: HashMap<(u32, u32), i64> = HashMap::new();
+    for t in m.indices.chunks_exact(3) {
+        let w = |k: usize| weld[t[k] as usize];
+        for (x, y) in [(w(0), w(1)), (w(1), w(2)), (w(2), w(0))] {
+            if x != y {
+                *edges.entry((x.min(y), x.max(y))).or_default() += if x < y { 1 } else { -1 };
+            }
+        }
+    }
+    edges.values().all(|&n| n == 0)
+}
+
 /// Every normal has unit length and every triangle's winding agrees with
 /// its vertex normals.
 pub fn normals_ok(m: &MeshData) -> bool {
