@@ -386,8 +386,7 @@ pub fn build_from_interpretation(
     }
     // Every part holds only tubes so far.
     for part in &mut builder.parts {
-        let m = &mut part.mesh;
-        mesh::smooth_normals(&m.positions, &m.indices, &mut m.normals);
+        tube::finish_normals(&mut part.mesh);
     }
 
     // Instances.

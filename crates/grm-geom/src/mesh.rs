@@ -240,9 +240,7 @@ pub(crate) fn compute_normals(positions: &[[f32; 3]], indices: &[u32]) -> Vec<[f
 /// around it, each weighted by its angle at the vertex (so splitting a
 /// quad into two triangles does not tilt it). A vertex keeps its normal
 /// where those cancel or there are none; triangles with an index out of
-/// range are skipped. Over a part's tubes (crate::tube) a cap's vertices
-/// are its own, so caps stay flat, and a ring shared by two tubes takes
-/// the triangles of both.
+/// range are skipped.
 pub(crate) fn smooth_normals(positions: &[[f32; 3]], indices: &[u32], normals: &mut [[f32; 3]]) {
     let mut sum = vec![Vec3::ZERO; positions.len()];
     for t in indices.chunks_exact(3) {

@@ -13,13 +13,15 @@
 //! it, so every tube is closed. Bones of width 0, of zero length or with
 //! non-finite ends get no tube.
 //!
-//! Side normals are the mesh's own ([`crate::mesh::smooth_normals`], run
-//! over a part's tubes once they are all made): each ring vertex takes the
-//! angle-weighted mean of the side triangles around it, so a cylinder's
-//! are radial, a tapering tube's lean with its taper, and a mitred ring
-//! shared by two tubes takes both tubes' triangles; caps are flat. (Where
+//! Side normals are the mesh's own: each ring vertex takes the
+//! area-weighted mean of the normals of the side quads around it (each
+//! quad's from its diagonals, so the split into two triangles does not
+//! tilt it), summed while the quads are made and normalised by
+//! [`finish_normals`] once a part's tubes are all made. So a cylinder's
+//! normals are radial, a tapering tube's lean with its taper, and a mitred
+//! ring shared by two tubes takes both tubes' quads; caps are flat. (Where
 //! a chain changes paint, each part's copy of the shared ring sees only
-//! its own tube's triangles.)
+//! its own tube's quads.)
 //!
 //! Mitre limit: on the inner side of a bend a mitred ring reaches back
 //! into both tubes, by `r tan(angle / 2)`. Where that is more than
@@ -151,9 +153,7 @@ impl Joint {
 
 /// A ring at `centre` around direction `d` (frame `e1`), radius `r`,
 /// mitred into the plane bisecting `d` and the continuing tube's direction
-/// when `next` gives it. Returns (positions, radial normals) through
-/// `out`; [`crate::mesh::smooth_normals`] replaces the normals once the
-/// tubes are made.
+/// when `next` gives it. Returns the positions through `out`.
 fn ring(
     centre: Vec3,
     d: Vec3,
@@ -161,27 +161,26 @@ fn ring(
     r: f32,
     next: Option<Joint>,
     circle: &[(f32, f32)],
-    out: &mut Vec<(Vec3, Vec3)>,
+    out: &mut Vec<Vec3>,
 ) {
     out.clear();
     let mitre = next.and_then(|j| {
         let n = d + j.dir;
-        (n.length_squared() > 1e-6).then(|| (n.normalize(), Quat::from_rotation_arc(d, j.dir), j))
+        (n.length_squared() > 1e-6).then(|| (n.normalize(), j))
     });
     let e2 = d.cross(e1);
     for &(c, s) in circle {
         let q = e1 * c + e2 * s;
         match mitre {
-            Some((n, rot, j)) => {
+            Some((n, j)) => {
                 let off = q * r;
                 // `t < 0` on the inner side: the point lies `-t` back in
                 // this tube and `-t` on in the next (the plane bisects).
                 let t = -off.dot(n) / d.dot(n);
                 let pinch = if -t > j.depth { j.depth / -t } else { 1.0 };
-                let normal = (q + rot * q).normalize_or(q);
-                out.push((centre + (off + d * t) * pinch, normal));
+                out.push(centre + (off + d * t) * pinch);
             }
-            None => out.push((centre + q * r, q)),
+            None => out.push(centre + q * r),
         }
     }
 }
@@ -208,7 +207,7 @@ pub(crate) fn emit_bone(
     circle: &[(f32, f32)],
     shared_base: Option<u32>,
     m: &mut MeshData,
-    scratch: &mut Vec<(Vec3, Vec3)>,
+    scratch: &mut Vec<Vec3>,
 ) -> Option<u32> {
     let d = plan.dir[i]?;
     let b = &bones[i];
@@ -248,24 +247,52 @@ pub(crate) fn emit_bone(
         let (t0, t1) = (tip_first + k, tip_first + (k + 1) % sides);
         m.triangle(b0, b1, t1);
         m.triangle(b0, t1, t0);
+        // The quad's normal (twice its area) from its diagonals, summed
+        // into its corners' normals (see finish_normals).
+        let p = |i: u32| Vec3::from_array(m.positions[i as usize]);
+        let n = (p(t1) - p(b0)).cross(p(t0) - p(b1));
+        if n.is_finite() {
+            for v in [b0, b1, t0, t1] {
+                let s = &mut m.normals[v as usize];
+                *s = (Vec3::from_array(*s) + n).to_array();
+            }
+        }
     }
     Some(tip_first)
 }
 
-fn push_ring(m: &mut MeshData, ring: &[(Vec3, Vec3)]) -> u32 {
+/// Pushes a ring's vertices with zero normals, the sums its quads add to.
+fn push_ring(m: &mut MeshData, ring: &[Vec3]) -> u32 {
     let first = m.positions.len() as u32;
-    for (p, n) in ring {
-        m.vertex(*p, *n);
+    for p in ring {
+        m.vertex(*p, Vec3::ZERO);
     }
     first
 }
 
+/// Normalises the normals of a mesh holding only tubes: the ring
+/// vertices' sums of their quads' normals, and the caps' (already unit).
+/// A ring vertex whose quads all have no area (a ring of f32-rounded
+/// points) gets +Y.
+pub(crate) fn finish_normals(m: &mut MeshData) {
+    for n in &mut m.normals {
+        let v = Vec3::from_array(*n);
+        // Scaled first: a tiny model's sums square to below f32's range.
+        let big = v.abs().max_element();
+        *n = if big > 0.0 && big.is_finite() {
+            (v / big).normalize().to_array()
+        } else {
+            Vec3::Y.to_array()
+        };
+    }
+}
+
 /// A flat cap over ring positions, facing `normal`; `ccw` when the ring
 /// runs counter-clockwise seen from `normal`.
-fn cap(m: &mut MeshData, centre: Vec3, ring: &[(Vec3, Vec3)], normal: Vec3, ccw: bool) {
+fn cap(m: &mut MeshData, centre: Vec3, ring: &[Vec3], normal: Vec3, ccw: bool) {
     let c = m.vertex(centre, normal);
     let first = m.positions.len() as u32;
-    for (p, _) in ring {
+    for p in ring {
         m.vertex(*p, normal);
     }
     let n = ring.len() as u32;
