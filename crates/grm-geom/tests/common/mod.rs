@@ -87,18 +87,22 @@ fn key(p: [f32; 3]) -> [i64; 3] {
     p.map(|x| (f64::from(x) * 1e4).round() as i64)
 }
 
-/// Whether the welded surface is closed and consistently oriented: every
-/// directed edge appears once and its reverse once.
-pub fn is_closed(m: &MeshData) -> bool {
+/// Each vertex's id after welding positions equal to 1e-4.
+fn weld(m: &MeshData) -> Vec<u32> {
     let mut ids: HashMap<[i64; 3], u32> = HashMap::new();
-    let weld: Vec<u32> = m
-        .positions
+    m.positions
         .iter()
         .map(|p| {
             let n = ids.len() as u32;
             *ids.entry(key(*p)).or_insert(n)
         })
-        .collect();
+        .collect()
+}
+
+/// Whether the welded surface is closed and consistently oriented: every
+/// directed edge appears once and its reverse once.
+pub fn is_closed(m: &MeshData) -> bool {
+    let weld = weld(m);
     let mut edges: HashMap<(u32, u32), i32> = HashMap::new();
     for t in m.indices.chunks_exact(3) {
         let [a, b, c] = [
@@ -125,15 +129,7 @@ pub fn is_closed(m: &MeshData) -> bool {
 /// together, so it can check a whole model (a chain split between two
 /// parts leaves each part open at the split and the union closed).
 pub fn edges_balanced(m: &MeshData) -> bool {
-    let mut ids: HashMap<[i64; 3], u32> = HashMap::new();
-    let weld: Vec<u32> = m
-        .positions
-        .iter()
-        .map(|p| {
-            let n = ids.len() as u32;
-            *ids.entry(key(*p)).or_insert(n)
-        })
-        .collect();
+    let weld = weld(m);
     let mut edges: HashMap<(u32, u32), i64> = HashMap::new();
     for t in m.indices.chunks_exact(3) {
         let w = |k: usize| weld[t[k] as usize];
