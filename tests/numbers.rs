@@ -142,7 +142,7 @@ fn grow(path: &Path, text: &str, t: &mut Tally) {
             t.failed_typed += 1;
             continue;
         }
-        match grm_geom::build_model(program, sys, &s, settings) {
+        match grm_geom::build_model(program, sys, &s, settings, &compiled.param_values) {
             Ok(_) => t.derived += 1,
             Err(_) => t.failed_typed += 1,
         }

@@ -361,8 +361,14 @@ fn derive(program: &Program, args: &[String]) -> Result<(), Stop> {
     let derivation = engine.derive(&opts, &mut |_| {}).map_err(at)?;
     if let Some(path) = o.get("--output") {
         let system = &program.systems[index];
-        let model = grm_geom::build_model(program, system, &derivation.string, &c.settings)
-            .map_err(|e| Stop::from(e.to_diagnostic(program, c.file, c.span)))?;
+        let model = grm_geom::build_model(
+            program,
+            system,
+            &derivation.string,
+            &c.settings,
+            &c.param_values,
+        )
+        .map_err(|e| Stop::from(e.to_diagnostic(program, c.file, c.span)))?;
         export(&c, &model, path)?;
     }
     Ok(())

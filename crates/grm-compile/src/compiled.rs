@@ -3,7 +3,7 @@
 
 use bytemuck::Zeroable;
 use grm_diag::{FileId, Span};
-use grm_sema::Settings;
+use grm_sema::{Settings, Value};
 
 use crate::op::Op;
 use crate::table::*;
@@ -23,6 +23,9 @@ pub struct CompiledSystem {
     pub span: Span,
     /// The settings evaluated for the meta-parameter values it was compiled with.
     pub settings: Settings,
+    /// The meta-parameter values it was compiled with, by
+    /// `grm_sema::ParamId` (the model builder evaluates materials with them).
+    pub param_values: Vec<Value>,
     /// By symbol id (`grm_sema::SymbolId`).
     pub symbols: Vec<SymbolEntry>,
     /// Symbol names, by symbol id (for printing strings and disassembly).

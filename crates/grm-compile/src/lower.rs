@@ -192,6 +192,7 @@ pub fn compile(
             file,
             span: system.loc.span,
             settings,
+            param_values: params.to_vec(),
             symbols: Vec::with_capacity(system.symbols.len()),
             symbol_names: system.symbols.iter().map(|s| s.name.clone()).collect(),
             groups: Vec::new(),

@@ -9,7 +9,8 @@
 //! glTF 2.0 binary (`.glb`), OBJ + MTL, PLY or SVG ([`mod@export`]).
 //!
 //! Inputs: the checked [`grm_sema::Program`] and one of its systems, the
-//! system's [`Settings`], and the module string.
+//! system's [`Settings`], the module string, and the meta-parameter values
+//! of the run (material properties may depend on them).
 //!
 //! Outputs: a [`Model`]: one [`Part`] (an indexed triangle mesh) per
 //! material or colour, the [`ModelMaterial`]s, the skeleton (the whole
@@ -201,6 +202,9 @@ pub enum GeomError {
         path: PathBuf,
         message: String,
     },
+    /// Meta-parameter values that do not fit the program (wrong count or
+    /// type): a caller's mistake, never the user's.
+    Params(String),
 }
 
 impl std::fmt::Display for GeomError {
@@ -235,6 +239,7 @@ impl std::fmt::Display for GeomError {
                 "mesh `{mesh}` in {} is not a valid OBJ file: {message}",
                 path.display()
             ),
+            GeomError::Params(m) => write!(f, "meta-parameter values do not fit: {m}"),
         }
     }
 }
@@ -248,6 +253,7 @@ impl GeomError {
             GeomError::UnknownMaterial { .. } => Code::UnknownMaterialId,
             GeomError::MeshMissing { .. } => Code::MeshUnreadable,
             GeomError::MeshMalformed { .. } => Code::MeshMalformed,
+            GeomError::Params(_) => Code::ParamValues,
         }
     }
 
@@ -261,7 +267,8 @@ impl GeomError {
             GeomError::MeshMalformed { mesh, message, .. } => (mesh, message, MESH_MALFORMED_HELP),
             GeomError::Turtle(_)
             | GeomError::UnknownMesh { .. }
-            | GeomError::UnknownMaterial { .. } => {
+            | GeomError::UnknownMaterial { .. }
+            | GeomError::Params(_) => {
                 let label = "while building the model of this system";
                 return Diagnostic::new(self.code(), self.to_string(), file, span, label)
                     .with_help(INTERNAL_HELP);
@@ -317,23 +324,30 @@ impl From<TurtleError> for GeomError {
 }
 
 /// Interpret `string` (a string of `system`) and build its meshes.
+/// `params` are the meta-parameter values of the run, by
+/// [`grm_sema::ParamId`] (`CompiledSystem::param_values`, or
+/// [`Program::default_params`]): declared materials are evaluated with them.
 pub fn build_model(
     program: &Program,
     system: &System,
     string: &ModuleString,
     settings: &Settings,
+    params: &[Value],
 ) -> Result<Model, GeomError> {
     let skeleton = grm_turtle::interpret(system, settings, string)?;
-    build_from_interpretation(program, skeleton, &BuildOptions::default())
+    build_from_interpretation(program, skeleton, &BuildOptions::default(), params)
 }
 
 /// Build the meshes of an interpretation made elsewhere (e.g. by the
-/// guided sampler, expansion by expansion).
+/// guided sampler, expansion by expansion); `params` as for
+/// [`build_model`].
 pub fn build_from_interpretation(
     program: &Program,
     skeleton: Interpretation,
     options: &BuildOptions,
+    params: &[Value],
 ) -> Result<Model, GeomError> {
+    let mut builder = Builder::new(program, options, params)?;
     // Check ids and load every mesh used, once, before building anything.
     let mut meshes: Vec<Option<MeshData>> = vec![None; program.meshes.len()];
     for inst in &skeleton.instances {
@@ -349,7 +363,6 @@ pub fn build_from_interpretation(
             }
         }
     }
-    let mut builder = Builder::new(program, options);
     builder.check_paints(&skeleton)?;
 
     // Tubes.
@@ -490,8 +503,8 @@ impl PaintKey {
 
 struct Builder<'a> {
     program: &'a Program,
-    /// Meta-parameter defaults and constant values, for material fields
-    /// that depend on meta-parameters.
+    /// Meta-parameter values of the run and the constants' values with
+    /// them, for material fields that depend on meta-parameters.
     params: Vec<Value>,
     globals: Vec<Value>,
     declared: Vec<ModelMaterial>,
@@ -502,12 +515,37 @@ struct Builder<'a> {
 }
 
 impl<'a> Builder<'a> {
-    fn new(program: &'a Program, _options: &BuildOptions) -> Builder<'a> {
-        let params = program.default_params();
-        let globals = program.global_values(&params).unwrap_or_default();
+    fn new(
+        program: &'a Program,
+        _options: &BuildOptions,
+        params: &[Value],
+    ) -> Result<Builder<'a>, GeomError> {
+        if params.len() != program.params.len() {
+            return Err(GeomError::Params(format!(
+                "{} values given for {} meta-parameters",
+                params.len(),
+                program.params.len()
+            )));
+        }
+        if let Some((p, v)) = program
+            .params
+            .iter()
+            .zip(params)
+            .find(|(p, v)| p.ty != v.ty())
+        {
+            return Err(GeomError::Params(format!(
+                "`{}` is `{}`, the value given is `{}`",
+                p.name,
+                p.ty,
+                v.ty()
+            )));
+        }
+        let globals = program
+            .global_values(params)
+            .map_err(|e| GeomError::Params(e.to_string()))?;
         let mut b = Builder {
             program,
-            params,
+            params: params.to_vec(),
             globals,
             declared: Vec::new(),
             materials: Vec::new(),
@@ -516,23 +554,29 @@ impl<'a> Builder<'a> {
             dropped: 0,
         };
         b.declared = program.materials.iter().map(|m| b.evaluate(m)).collect();
-        b
+        Ok(b)
     }
 
+    /// A declared material with the run's values: each property clamped to
+    /// 0..1 (the checker warns, W0010); an unset or NaN one (the checker
+    /// rejects a NaN with the defaults, E0212, but other meta-parameter
+    /// values may still make one) takes the default material's value.
     fn evaluate(&self, decl: &grm_sema::Material) -> ModelMaterial {
         let vec3 = |p| {
             decl.get(p)
                 .and_then(|e| self.eval(e))
                 .and_then(|v| v.as_vec3())
+                .filter(|v| v.iter().all(|x| !x.is_nan()))
                 .map(|v| v.map(|x| (x as f32).clamp(0.0, 1.0)))
         };
         let float = |p| {
             decl.get(p)
                 .and_then(|e| self.eval(e))
                 .and_then(|v| v.as_float())
+                .filter(|x| !x.is_nan())
                 .map(|x| (x as f32).clamp(0.0, 1.0))
         };
-        let d = default_material();
+        let d = ModelMaterial::default();
         ModelMaterial {
             name: sanitize(&decl.name),
             color: vec3(MaterialProp::Color).unwrap_or(d.color),
@@ -574,7 +618,7 @@ impl<'a> Builder<'a> {
     }
 
     fn material_of(&self, key: PaintKey) -> ModelMaterial {
-        let mut m = default_material();
+        let mut m = ModelMaterial::default();
         match key {
             PaintKey::Palette(i) => {
                 m.name = format!("color{i}");
@@ -664,15 +708,18 @@ impl<'a> Builder<'a> {
     }
 }
 
-/// Grey, rough, opaque.
-fn default_material() -> ModelMaterial {
-    ModelMaterial {
-        name: "default".to_string(),
-        color: [0.8; 3],
-        roughness: 0.8,
-        metallic: 0.0,
-        emissive: [0.0; 3],
-        opacity: 1.0,
+/// The default material: grey, rough, opaque (what an unset property of a
+/// declared material takes).
+impl Default for ModelMaterial {
+    fn default() -> Self {
+        ModelMaterial {
+            name: "default".to_string(),
+            color: [0.8; 3],
+            roughness: 0.8,
+            metallic: 0.0,
+            emissive: [0.0; 3],
+            opacity: 1.0,
+        }
     }
 }
 

@@ -4,7 +4,10 @@ mod common;
 
 use common::{area, axiom, is_closed, normals_ok, program};
 use glam::Vec3;
-use grm_geom::{BuildOptions, Model, PartSource, build_from_interpretation, build_model, mesh};
+use grm_geom::{
+    BuildOptions, Model, ModelMaterial, PartSource, build_from_interpretation, build_model, mesh,
+};
+use grm_sema::Value;
 use grm_turtle::{Bone, Interpretation, NO_ORIGIN, Paint};
 
 #[test]
@@ -72,7 +75,8 @@ fn build(bones: Vec<Bone>) -> Model {
         bones,
         ..Interpretation::default()
     };
-    build_from_interpretation(&empty_program(), skeleton, &BuildOptions::default()).expect("builds")
+    build_from_interpretation(&empty_program(), skeleton, &BuildOptions::default(), &[])
+        .expect("builds")
 }
 
 #[test]
@@ -167,6 +171,56 @@ fn branches_and_widths() {
     assert_eq!(lateral.triangle_count, 8 + 16 + 8);
 }
 
+/// Materials take the run's meta-parameter values: a value outside 0..1
+/// is clamped, a NaN one falls back to the default property, and values
+/// that do not fit the program are a typed error (R0102), not a guess.
+#[test]
+fn materials_follow_the_meta_parameters() {
+    let program = program(
+        "mem.grm",
+        "param red = 0.25 in 0 .. 4;\n\
+         material m { color = rgb(red, 0, 0); roughness = acos(red - 0.25); metallic = red; }\n\
+         system S { axiom material(m) F; }",
+    );
+    let system = &program.systems[0];
+    let build = |red: f64| {
+        build_model(
+            &program,
+            system,
+            &axiom(system),
+            &system.settings,
+            &[Value::Float(red)],
+        )
+        .expect("builds")
+    };
+    let default = build(0.25);
+    let m = &default.materials[0];
+    assert_eq!((m.color, m.metallic), ([0.25, 0.0, 0.0], 0.25));
+    // acos(0) = 90 degrees, clamped to 1.
+    assert_eq!(m.roughness, 1.0);
+
+    let other = build(0.75);
+    let m = &other.materials[0];
+    assert_eq!((m.color, m.metallic), ([0.75, 0.0, 0.0], 0.75));
+
+    // acos(2.75) is NaN: the default roughness; 3 is clamped to 1.
+    let wild = build(3.0);
+    let m = &wild.materials[0];
+    let fallback = ModelMaterial::default().roughness;
+    assert_eq!(
+        (m.color, m.metallic, m.roughness),
+        ([1.0, 0.0, 0.0], 1.0, fallback)
+    );
+    let glb = grm_geom::export::glb_bytes(&wild).expect("small");
+    gltf::Gltf::from_slice(&glb).expect("a valid glb, no null factors");
+
+    for bad in [&[][..], &[Value::Bool(true)][..]] {
+        let e = build_model(&program, system, &axiom(system), &system.settings, bad)
+            .expect_err("values that do not fit");
+        assert_eq!(e.code().as_str(), "R0102", "{e}");
+    }
+}
+
 #[test]
 fn parts_by_paint_and_materials() {
     let program = program(
@@ -176,7 +230,14 @@ fn parts_by_paint_and_materials() {
     );
     let system = &program.systems[0];
     let string = axiom(system);
-    let model = build_model(&program, system, &string, &system.settings).expect("builds");
+    let model = build_model(
+        &program,
+        system,
+        &string,
+        &system.settings,
+        &program.default_params(),
+    )
+    .expect("builds");
     assert_eq!(model.parts.len(), 4);
     let names: Vec<&str> = model.materials.iter().map(|m| m.name.as_str()).collect();
     assert_eq!(names, vec!["color0", "bark", "rgb_0000ff", "color1"]);
@@ -209,7 +270,14 @@ fn polygons_triangulated_two_sided() {
         "system S { angle = 90; axiom { . g(2) . - g(1) . - g(1) . + g(1) . - g(1) . - g(2) . }; }",
     );
     let system = &program.systems[0];
-    let model = build_model(&program, system, &axiom(system), &system.settings).expect("builds");
+    let model = build_model(
+        &program,
+        system,
+        &axiom(system),
+        &system.settings,
+        &program.default_params(),
+    )
+    .expect("builds");
     assert_eq!(model.stats.polygons, 1);
     assert_eq!(model.skeleton.polygon_vertices.len(), 6);
     let m = &model.parts[0].mesh;
@@ -230,7 +298,14 @@ fn primitives_in_a_model() {
         "system S { axiom F cylinder(0.5, 2) sphere(1) box(1, 2, 3) cone(1, 1) disc(2) scale(0) sphere(1); }",
     );
     let system = &program.systems[0];
-    let model = build_model(&program, system, &axiom(system), &system.settings).expect("builds");
+    let model = build_model(
+        &program,
+        system,
+        &axiom(system),
+        &system.settings,
+        &program.default_params(),
+    )
+    .expect("builds");
     assert_eq!(model.stats.instances, 6);
     // The zero-scaled sphere is dropped, not a NaN mesh.
     assert_eq!(model.stats.dropped, 1);
@@ -259,7 +334,14 @@ fn large_model_timing() {
         string.extend_from(&unit);
     }
     let t0 = std::time::Instant::now();
-    let model = build_model(&program, system, &string, &system.settings).expect("builds");
+    let model = build_model(
+        &program,
+        system,
+        &string,
+        &system.settings,
+        &program.default_params(),
+    )
+    .expect("builds");
     let t1 = std::time::Instant::now();
     let bytes = grm_geom::export::glb_bytes(&model).expect("fits");
     let t2 = std::time::Instant::now();

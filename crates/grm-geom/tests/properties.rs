@@ -120,7 +120,7 @@ fn build(bones: Vec<Bone>) -> Model {
         bones,
         ..Interpretation::default()
     };
-    build_from_interpretation(&program, skeleton, &BuildOptions::default()).expect("builds")
+    build_from_interpretation(&program, skeleton, &BuildOptions::default(), &[]).expect("builds")
 }
 
 /// Indices in range, finite positions, one unit normal per position, and

@@ -569,7 +569,8 @@ fn derive_model(
     check(cancel)?;
     let t1 = Instant::now();
     let mut model =
-        grm_geom::build_model(prog, sys, &grown.string, settings).map_err(|e| e.to_string())?;
+        grm_geom::build_model(prog, sys, &grown.string, settings, &compiled.param_values)
+            .map_err(|e| e.to_string())?;
     if let Some(o) = &grown.origin {
         model.fill_origins(o);
     }

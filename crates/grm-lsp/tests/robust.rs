@@ -816,3 +816,43 @@ async fn untitled_buffers_are_analysed() {
             .all(|a| a["edit"]["changes"][key.as_str().unwrap()].is_array())
     );
 }
+
+/// A slider moves a material that depends on its meta-parameter, not only
+/// the geometry: the model is built with the preview's values.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn preview_materials_follow_the_sliders() {
+    let mut c = Client::start().await;
+    let p = root().join("tests/lsp/slider_material.grm");
+    let text = "param red = 0.2 in 0 .. 1;\n\
+                material m { color = rgb(red, 0, 0); metallic = 1 - red; }\n\
+                system S { axiom material(m) F; }\n";
+    let u = c.open(&p, text).await;
+    let d = c.diagnostics(&u, 1).await;
+    assert_eq!(d["diagnostics"], json!([]));
+    let color = |r: &Value| {
+        let m = r["materials"]
+            .as_array()
+            .expect("materials")
+            .iter()
+            .find(|m| m["name"] == "m")
+            .unwrap_or_else(|| panic!("material m in {r}"))
+            .clone();
+        (
+            m["color"][0].as_f64().unwrap(),
+            m["metallic"].as_f64().unwrap(),
+        )
+    };
+    let at_default = c
+        .ok("grm/preview", json!({ "textDocument": { "uri": u } }))
+        .await;
+    let (r, m) = color(&at_default);
+    assert!((r - 0.2).abs() < 1e-6 && (m - 0.8).abs() < 1e-6, "{r} {m}");
+    let moved = c
+        .ok(
+            "grm/preview",
+            json!({ "textDocument": { "uri": u }, "params": { "red": 0.9 } }),
+        )
+        .await;
+    let (r, m) = color(&moved);
+    assert!((r - 0.9).abs() < 1e-6 && (m - 0.1).abs() < 1e-6, "{r} {m}");
+}

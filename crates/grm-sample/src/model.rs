@@ -7,7 +7,7 @@ use std::time::Duration;
 use grm_derive::ModuleString;
 use grm_geom::{BuildOptions, GeomError, Model};
 use grm_guide::{CostBreakdown, VolumeCost};
-use grm_sema::Program;
+use grm_sema::{Program, Value};
 use grm_turtle::Interpretation;
 
 pub use crate::particle::NodeKind;
@@ -81,6 +81,9 @@ pub struct SampledModel {
     pub tree: DerivationTree,
     /// Its index among the final generation's distinct particles.
     pub candidate: usize,
+    /// The meta-parameter values it was grown with (those the system was
+    /// compiled with); [`SampledModel::build`] evaluates materials with them.
+    pub param_values: Vec<Value>,
 }
 
 impl SampledModel {
@@ -95,7 +98,12 @@ impl SampledModel {
 
     /// Build the meshes (tubes, primitives, OBJ meshes) for export.
     pub fn build(&self, program: &Program, options: &BuildOptions) -> Result<Model, GeomError> {
-        grm_geom::build_from_interpretation(program, self.interpretation.clone(), options)
+        grm_geom::build_from_interpretation(
+            program,
+            self.interpretation.clone(),
+            options,
+            &self.param_values,
+        )
     }
 }
 

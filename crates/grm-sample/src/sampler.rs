@@ -1577,6 +1577,7 @@ impl<'a> Sampler<'a> {
             origins,
             tree,
             candidate: c as usize,
+            param_values: sys.param_values.clone(),
         })
     }
 

@@ -317,7 +317,13 @@ pub fn check_output_format(loaded: &Loaded, output: Option<&Path>) -> Option<Out
 /// outcome to exit with (errors were printed).
 pub fn export_string(loaded: &Loaded, string: &grm_derive::ModuleString, path: &Path) -> Outcome {
     let c = &loaded.compiled;
-    let model = match grm_geom::build_model(&loaded.program, loaded.system(), string, &c.settings) {
+    let model = match grm_geom::build_model(
+        &loaded.program,
+        loaded.system(),
+        string,
+        &c.settings,
+        &c.param_values,
+    ) {
         Ok(m) => m,
         Err(e) => {
             emit(
