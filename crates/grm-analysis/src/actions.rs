@@ -116,6 +116,14 @@ impl FileAnalysis {
                         push(format!("Replace with `.{f}`"), vec![edit(span, f)], true);
                     }
                 }
+                Code::MaterialValueClamped => {
+                    // "material values lie in 0..1: write `rgb(1, 1, 1)`"
+                    // (only for a constant value: the fix would drop a
+                    // meta-parameter).
+                    if let Some(v) = quoted_after(help, "write") {
+                        push(format!("Replace with `{v}`"), vec![edit(span, v)], true);
+                    }
+                }
                 Code::InvalidCharacter => {
                     push(
                         "Remove the invalid characters".into(),

@@ -423,6 +423,20 @@ fn code_actions_fix_their_diagnostics() {
     );
     assert!(t.contains("A -> (1) F A;\n    A -> (1) F F A;"), "{t}");
     assert!(c.is_empty(), "{c:?}");
+    // A material value outside 0..1: the value the model uses written in.
+    let (t, c) = fix(
+        "material m { emissive = rgb(2, 0.5, -1); }\nsystem S { axiom material(m) F; }",
+        "W0010",
+        "Replace",
+    );
+    assert!(t.contains("emissive = rgb(1, 0.5, 0);"), "{t}");
+    assert!(c.is_empty(), "{c:?}");
+    // ... but not where it depends on a meta-parameter.
+    let fa =
+        analyze("param p = 2;\nmaterial m { metallic = p; }\nsystem S { axiom material(m) F; }");
+    let all = fa.code_actions(Span::new(0, 80));
+    assert!(fa.diagnostics().iter().any(|d| d.code == "W0010"));
+    assert!(all.iter().all(|a| a.code != "W0010"), "{all:?}");
     // Unterminated string.
     let (t, _) = fix("import \"lib.grm;\n", "E0004", "Close");
     assert_eq!(t, "import \"lib.grm\";\n");
