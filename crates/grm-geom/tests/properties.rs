@@ -8,6 +8,9 @@
 //!   consistently oriented surfaces and every tube triangle faces away
 //!   from its bone's axis (no tube folds inside out at a bend); the picks
 //!   cover the triangles in order.
+//! * Export: random models (tubes in palette colours, explicit colours and
+//!   declared materials, primitives, polygons) read back from glb, OBJ +
+//!   MTL, binary and ASCII PLY and SVG as they were built.
 //! * Polygons: a random simple (star-shaped) polygon in a random plane,
 //!   with collinear and repeated vertices, triangulates into at most
 //!   `n - 2` triangles that all face the Newell normal and whose areas add
@@ -372,4 +375,373 @@ fn random_simple_polygons_triangulate_exactly() {
             pts.len()
         );
     }
+}
+
+/// A random model: a random skeleton painted with palette colours,
+/// explicit colours and declared materials (random properties, some
+/// outside 0..1), plus primitives (some with a singular transform) and
+/// star polygons; `(program, model)`.
+fn random_model(rng: &mut Rng) -> (grm_sema::Program, Model) {
+    use glam::Affine3A;
+    use grm_sema::MaterialId;
+    use grm_turtle::{Instance, InstanceKind, Polygon};
+    let materials = rng.below(4usize);
+    let mut text = String::new();
+    for k in 0..materials {
+        let mut v = || format!("{}", rng.range_f32(-0.2, 1.2));
+        let (r, g, b, e) = (v(), v(), v(), v());
+        let (rough, metal, opacity) = (v(), v(), v());
+        text.push_str(&format!(
+            "material m{k} {{ color = rgb({r}, {g}, {b}); emissive = rgb({e}, 0, 0); \
+             roughness = {rough}; metallic = {metal}; opacity = {opacity}; }}\n"
+        ));
+    }
+    text.push_str("system S { axiom F; }\n");
+    let program = common::program("mem.grm", &text);
+    let paint = |rng: &mut Rng| match rng.below(3u32) {
+        0 => Paint::Palette(rng.below(5u32)),
+        1 if materials > 0 => Paint::Material(MaterialId(rng.below(materials as u32))),
+        _ => Paint::Rgb([rng.range_f32(0.0, 1.0), 0.5, rng.range_f32(0.0, 1.0)]),
+    };
+    let n = rng.below(12usize);
+    let mut bones = skeleton(rng, n, 1.0, (0.02, 0.3));
+    for b in &mut bones {
+        b.paint = paint(rng);
+    }
+    let mut s = Interpretation {
+        bones,
+        ..Interpretation::default()
+    };
+    let kinds = [
+        InstanceKind::Cylinder,
+        InstanceKind::Cone,
+        InstanceKind::Sphere,
+        InstanceKind::Box,
+        InstanceKind::Disc,
+    ];
+    for m in 0..rng.below(5u32) {
+        let scale = if rng.below(6u32) == 0 {
+            Vec3::new(1.0, 0.0, 1.0)
+        } else {
+            Vec3::new(
+                rng.range_f32(0.1, 2.0),
+                rng.range_f32(0.1, 2.0),
+                rng.range_f32(0.1, 2.0),
+            )
+        };
+        let rotation = Quat::from_axis_angle(unit_vector(rng), rng.range_f32(0.0, 6.0));
+        let at = Vec3::new(rng.range_f32(-3.0, 3.0), 0.0, rng.range_f32(-3.0, 3.0));
+        s.instances.push(Instance {
+            kind: *rng.pick(&kinds),
+            transform: Affine3A::from_scale_rotation_translation(scale, rotation, at),
+            paint: paint(rng),
+            bone: None,
+            module: m,
+            origin: NO_ORIGIN,
+        });
+    }
+    for m in 0..rng.below(3u32) {
+        let centre = Vec3::new(rng.range_f32(-3.0, 3.0), 1.0, 0.0);
+        let normal = unit_vector(rng);
+        let pts = star_polygon(rng, centre, normal);
+        s.polygons.push(Polygon {
+            first: s.polygon_vertices.len() as u32,
+            len: pts.len() as u32,
+            paint: paint(rng),
+            module: 100 + m,
+            origin: NO_ORIGIN,
+        });
+        s.polygon_vertices.extend(pts);
+    }
+    let model =
+        build_from_interpretation(&program, s, &BuildOptions::default(), &[]).expect("builds");
+    (program, model)
+}
+
+/// Every format reads back as what was built: the glb (validated by
+/// `gltf`) holds each non-empty part's positions, normals and indices bit
+/// for bit with exact bounds and its material's factors (all in 0..1,
+/// none null); OBJ + MTL (read by `tobj`) the same triangles, normals and
+/// materials; binary and ASCII PLY every vertex, colour and face; the SVG
+/// one line per bone and one path per polygon, all numbers finite.
+#[test]
+fn random_models_read_back_from_every_format() {
+    use grm_geom::{ExportFormat, export_as};
+    let mut rng = Rng::seeded(0xe8_9081);
+    let dir = tempfile::tempdir().expect("tempdir");
+    for case in 0..60 {
+        let (_program, model) = random_model(&mut rng);
+        let ctx = |what: &str| format!("case {case}: {what}");
+        let parts: Vec<&grm_geom::Part> =
+            model.parts.iter().filter(|p| !p.mesh.is_empty()).collect();
+        for m in &model.materials {
+            let floats = [m.roughness, m.metallic, m.opacity];
+            let all = m.color.iter().chain(&m.emissive).chain(&floats);
+            for x in all {
+                assert!(
+                    (0.0..=1.0).contains(x),
+                    "{}",
+                    ctx(&format!("material {m:?}"))
+                );
+            }
+        }
+
+        // glb.
+        let path = dir.path().join(format!("m{case}.glb"));
+        export_as(&model, &path, ExportFormat::Glb).expect("exports");
+        let bytes = std::fs::read(&path).expect("written");
+        let gltf =
+            gltf::Gltf::from_slice(&bytes).unwrap_or_else(|e| panic!("{}", ctx(&e.to_string())));
+        let prims: Vec<gltf::Primitive> = gltf.meshes().flat_map(|m| m.primitives()).collect();
+        assert_eq!(prims.len(), parts.len(), "{}", ctx("primitives"));
+        let blob = gltf.blob.clone().unwrap_or_default();
+        for (prim, part) in prims.iter().zip(&parts) {
+            let reader = prim.reader(|_| Some(&blob[..]));
+            let positions: Vec<[f32; 3]> = reader.read_positions().expect("positions").collect();
+            let normals: Vec<[f32; 3]> = reader.read_normals().expect("normals").collect();
+            let indices: Vec<u32> = reader.read_indices().expect("indices").into_u32().collect();
+            assert_eq!(positions, part.mesh.positions, "{}", ctx("glb positions"));
+            assert_eq!(normals, part.mesh.normals, "{}", ctx("glb normals"));
+            assert_eq!(indices, part.mesh.indices, "{}", ctx("glb indices"));
+            let mut lo = Vec3::splat(f32::INFINITY);
+            let mut hi = Vec3::splat(f32::NEG_INFINITY);
+            for p in &positions {
+                lo = lo.min(Vec3::from_array(*p));
+                hi = hi.max(Vec3::from_array(*p));
+            }
+            let bb = prim.bounding_box();
+            assert_eq!(
+                (bb.min, bb.max),
+                (lo.to_array(), hi.to_array()),
+                "{}",
+                ctx("bounds")
+            );
+            let mat = prim.material();
+            assert_eq!(
+                mat.index(),
+                Some(part.material),
+                "{}",
+                ctx("material index")
+            );
+            let m = &model.materials[part.material];
+            let pbr = mat.pbr_metallic_roughness();
+            assert_eq!(mat.name(), Some(m.name.as_str()));
+            assert_eq!(
+                (
+                    pbr.base_color_factor(),
+                    pbr.metallic_factor(),
+                    pbr.roughness_factor()
+                ),
+                (
+                    [m.color[0], m.color[1], m.color[2], m.opacity],
+                    m.metallic,
+                    m.roughness
+                ),
+                "{}",
+                ctx("material factors")
+            );
+            assert_eq!(mat.emissive_factor(), m.emissive, "{}", ctx("emissive"));
+        }
+
+        // OBJ + MTL: triangle by triangle (tobj renumbers vertices).
+        let path = dir.path().join(format!("m{case}.obj"));
+        export_as(&model, &path, ExportFormat::Obj).expect("exports");
+        let (objs, mtls) = tobj::load_obj(&path, &tobj::LoadOptions::default()).expect("obj loads");
+        let mtls = mtls.expect("mtl loads");
+        let objs: Vec<&tobj::Model> = objs.iter().filter(|o| !o.mesh.indices.is_empty()).collect();
+        assert_eq!(objs.len(), parts.len(), "{}", ctx("objects"));
+        for (o, part) in objs.iter().zip(&parts) {
+            let (om, pm) = (&o.mesh, &part.mesh);
+            assert_eq!(
+                om.indices.len(),
+                pm.indices.len(),
+                "{}",
+                ctx("obj triangles")
+            );
+            let at = |v: &[f32], i: u32| {
+                [
+                    v[3 * i as usize],
+                    v[3 * i as usize + 1],
+                    v[3 * i as usize + 2],
+                ]
+            };
+            for (k, &i) in pm.indices.iter().enumerate() {
+                let i = i as usize;
+                assert_eq!(
+                    at(&om.positions, om.indices[k]),
+                    pm.positions[i],
+                    "{}",
+                    ctx("obj position")
+                );
+                assert_eq!(
+                    at(&om.normals, om.normal_indices[k]),
+                    pm.normals[i],
+                    "{}",
+                    ctx("obj normal")
+                );
+            }
+            let mtl = &mtls[om.material_id.expect("usemtl")];
+            let m = &model.materials[part.material];
+            assert_eq!(mtl.name, m.name);
+            assert_eq!(
+                (mtl.diffuse, mtl.dissolve),
+                (Some(m.color), Some(m.opacity)),
+                "{}",
+                ctx("mtl")
+            );
+        }
+
+        // PLY, binary and ASCII.
+        for (format, name) in [
+            (ExportFormat::Ply, "b.ply"),
+            (ExportFormat::PlyAscii, "a.ply"),
+        ] {
+            let path = dir.path().join(format!("m{case}{name}"));
+            export_as(&model, &path, format).expect("exports");
+            let bytes = std::fs::read(&path).expect("written");
+            let (vertices, faces) = read_ply(&bytes).unwrap_or_else(|e| panic!("{}", ctx(&e)));
+            let mut want_v = Vec::new();
+            let mut want_f = Vec::new();
+            for part in &model.parts {
+                let base = want_v.len() as u32;
+                let c = model.materials[part.material]
+                    .color
+                    .map(|x| (x.clamp(0.0, 1.0) * 255.0).round() as u8);
+                for (p, n) in part.mesh.positions.iter().zip(&part.mesh.normals) {
+                    want_v.push((*p, *n, c));
+                }
+                for t in part.mesh.indices.chunks_exact(3) {
+                    want_f.push([t[0] + base, t[1] + base, t[2] + base]);
+                }
+            }
+            assert!(vertices == want_v, "{}", ctx(&format!("{name} vertices")));
+            assert_eq!(faces, want_f, "{}", ctx(&format!("{name} faces")));
+        }
+
+        // SVG.
+        let path = dir.path().join(format!("m{case}.svg"));
+        export_as(&model, &path, ExportFormat::Svg).expect("exports");
+        let svg = std::fs::read_to_string(&path).expect("written");
+        assert_eq!(svg.matches("<line ").count(), model.skeleton.bones.len());
+        assert_eq!(svg.matches("<path ").count(), model.skeleton.polygons.len());
+        assert!(
+            !svg.contains("NaN") && !svg.contains("inf"),
+            "{}",
+            ctx("non-finite SVG number")
+        );
+        assert!(svg.trim_end().ends_with("</svg>"));
+    }
+}
+
+type PlyVertex = ([f32; 3], [f32; 3], [u8; 3]);
+
+/// A reader for the PLY files grm writes (x y z nx ny nz as floats, red
+/// green blue as uchar; faces as a uchar-counted list of uints), binary
+/// little-endian or ASCII, checking the header on the way.
+fn read_ply(bytes: &[u8]) -> Result<(Vec<PlyVertex>, Vec<[u32; 3]>), String> {
+    let end = b"end_header\n";
+    let at = bytes
+        .windows(end.len())
+        .position(|w| w == end)
+        .ok_or("no end_header")?;
+    let header = std::str::from_utf8(&bytes[..at]).map_err(|e| e.to_string())?;
+    let body = &bytes[at + end.len()..];
+    let mut lines = header.lines();
+    if lines.next() != Some("ply") {
+        return Err("no magic".into());
+    }
+    let ascii = match lines.next() {
+        Some("format ascii 1.0") => true,
+        Some("format binary_little_endian 1.0") => false,
+        f => return Err(format!("format {f:?}")),
+    };
+    let count = |name: &str| {
+        header
+            .lines()
+            .find_map(|l| l.strip_prefix(&format!("element {name} ")))
+            .and_then(|n| n.parse::<usize>().ok())
+            .ok_or(format!("no {name} count"))
+    };
+    let (nv, nf) = (count("vertex")?, count("face")?);
+    let props: Vec<&str> = header
+        .lines()
+        .filter(|l| l.starts_with("property"))
+        .collect();
+    let want = [
+        "property float x",
+        "property float y",
+        "property float z",
+        "property float nx",
+        "property float ny",
+        "property float nz",
+        "property uchar red",
+        "property uchar green",
+        "property uchar blue",
+        "property list uchar uint vertex_indices",
+    ];
+    if props != want {
+        return Err(format!("properties {props:?}"));
+    }
+    let mut vertices = Vec::with_capacity(nv);
+    let mut faces = Vec::with_capacity(nf);
+    if ascii {
+        let text = std::str::from_utf8(body).map_err(|e| e.to_string())?;
+        let mut lines = text.lines();
+        for _ in 0..nv {
+            let l = lines.next().ok_or("vertex line missing")?;
+            let w: Vec<&str> = l.split(' ').collect();
+            if w.len() != 9 {
+                return Err(format!("vertex line {l:?}"));
+            }
+            let f = |i: usize| w[i].parse::<f32>().map_err(|e| format!("{l:?}: {e}"));
+            let u = |i: usize| w[i].parse::<u8>().map_err(|e| format!("{l:?}: {e}"));
+            vertices.push((
+                [f(0)?, f(1)?, f(2)?],
+                [f(3)?, f(4)?, f(5)?],
+                [u(6)?, u(7)?, u(8)?],
+            ));
+        }
+        for _ in 0..nf {
+            let l = lines.next().ok_or("face line missing")?;
+            let w: Vec<u32> = l
+                .split(' ')
+                .map(|x| x.parse::<u32>().map_err(|e| format!("{l:?}: {e}")))
+                .collect::<Result<_, _>>()?;
+            if w.len() != 4 || w[0] != 3 {
+                return Err(format!("face line {l:?}"));
+            }
+            faces.push([w[1], w[2], w[3]]);
+        }
+        if lines.next().is_some() {
+            return Err("trailing lines".into());
+        }
+    } else {
+        if body.len() != nv * 27 + nf * 13 {
+            return Err(format!(
+                "{} body bytes for {nv} vertices and {nf} faces",
+                body.len()
+            ));
+        }
+        let f = |b: &[u8], i: usize| {
+            f32::from_le_bytes([b[4 * i], b[4 * i + 1], b[4 * i + 2], b[4 * i + 3]])
+        };
+        for v in body[..nv * 27].chunks_exact(27) {
+            vertices.push((
+                [f(v, 0), f(v, 1), f(v, 2)],
+                [f(v, 3), f(v, 4), f(v, 5)],
+                [v[24], v[25], v[26]],
+            ));
+        }
+        let u = |b: &[u8], at: usize| u32::from_le_bytes([b[at], b[at + 1], b[at + 2], b[at + 3]]);
+        for t in body[nv * 27..].chunks_exact(13) {
+            if t[0] != 3 {
+                return Err(format!("a face of {} vertices", t[0]));
+            }
+            faces.push([u(t, 1), u(t, 5), u(t, 9)]);
+        }
+    }
+    if let Some(i) = faces.iter().flatten().find(|&&i| i as usize >= nv) {
+        return Err(format!("face index {i} of {nv} vertices"));
+    }
+    Ok((vertices, faces))
 }
