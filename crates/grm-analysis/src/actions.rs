@@ -116,8 +116,10 @@ impl FileAnalysis {
                         push(format!("Replace with `.{f}`"), vec![edit(span, f)], true);
                     }
                 }
-                Code::MaterialValueClamped => {
-                    // "material values lie in 0..1: write `rgb(1, 1, 1)`"
+                Code::UnitValueClamped => {
+                    // "material values lie in 0..1: write `rgb(1, 1, 1)`",
+                    // "colours lie in 0..1; for 0..255 values divide by
+                    // 255: write `color(1, 0.502, 0)`"
                     // (only for a constant value: the fix would drop a
                     // meta-parameter).
                     if let Some(v) = quoted_after(help, "write") {

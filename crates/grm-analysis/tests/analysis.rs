@@ -431,6 +431,14 @@ fn code_actions_fix_their_diagnostics() {
     );
     assert!(t.contains("emissive = rgb(1, 0.5, 0);"), "{t}");
     assert!(c.is_empty(), "{c:?}");
+    // A colour on a 0..255 scale: divided by 255.
+    let (t, c) = fix(
+        "system S { axiom color(255, 128, 0) F; }",
+        "W0010",
+        "Replace",
+    );
+    assert!(t.contains("axiom color(1, 0.502, 0) F;"), "{t}");
+    assert!(c.is_empty(), "{c:?}");
     // ... but not where it depends on a meta-parameter.
     let fa =
         analyze("param p = 2;\nmaterial m { metallic = p; }\nsystem S { axiom material(m) F; }");

@@ -98,8 +98,8 @@ codes! {
     /// An expression nested deeper than the checker follows (a guard against
     /// pathological input; real grammars stay far below it).
     ExprTooDeep = "E0211", Error, "expression nested too deeply";
-    /// A material property whose value is not a finite number.
-    InvalidMaterialValue = "E0212", Error, "invalid material value";
+    /// A material property or `color(...)` value that is not a finite number.
+    InvalidUnitValue = "E0212", Error, "colour or material value is not a number";
 
     // ---- E03xx: systems, phases, guided mode ----------------------------
     /// A skeleton symbol's production emits a geometry terminal directly.
@@ -158,8 +158,8 @@ codes! {
     ConstantCondition = "W0008", Warning, "constant condition";
     /// A context that names a symbol of the ignore list, so it never matches.
     IgnoredInContext = "W0009", Warning, "context names an ignored symbol";
-    /// A material property outside 0..1, which the model clamps.
-    MaterialValueClamped = "W0010", Warning, "material value out of range";
+    /// A material property or `color(...)` value outside 0..1, which the model clamps.
+    UnitValueClamped = "W0010", Warning, "colour or material value out of range";
 
     // ---- R0xxx: run time -------------------------------------------------
     // Reported by the engines after a clean check (`grmc derive`, `sample`,

@@ -890,57 +890,17 @@ impl<'a> Checker<'a> {
             Value::Vec3(c) => c.to_vec(),
             _ => return,
         };
-        let shown = match v {
-            Value::Float(x) => show_f32(x),
-            _ => format!(
-                "rgb({})",
-                xs.iter()
-                    .map(|&x| show_f32(x))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
-        };
-        let note = |d: Diagnostic| {
-            if value.constant().is_none() && !self.program.params.is_empty() {
-                d.with_note("evaluated with the meta-parameters' default values")
-            } else {
-                d
-            }
-        };
-        let name = prop.name();
-        if xs.iter().any(|x| !x.is_finite()) {
-            let d = Diagnostic::new(
-                Code::InvalidMaterialValue,
-                format!("`{name}` of material `{material}` has no finite value"),
-                file,
-                value.span,
-                format!("this is {shown}"),
-            )
-            .with_help(format!("give `{name}` a value from 0 to 1"));
-            let d = note(d);
-            self.error(d);
-        } else if xs.iter().any(|&x| !(0.0..=1.0).contains(&x)) {
-            let clamped: Vec<String> = xs.iter().map(|&x| show_f32(x.clamp(0.0, 1.0))).collect();
-            let to = if xs.len() == 1 {
-                clamped[0].clone()
-            } else {
-                format!("rgb({})", clamped.join(", "))
-            };
-            let d = Diagnostic::new(
-                Code::MaterialValueClamped,
-                format!("`{name}` of material `{material}` is outside 0..1"),
-                file,
-                value.span,
-                format!("this is {shown}; the model uses {to}"),
-            )
-            .with_help(if value.constant().is_some() {
-                format!("material values lie in 0..1: write `{to}`")
-            } else {
-                "material values lie in 0..1: keep this one in range for every \
-                 value of the meta-parameters (e.g. with `clamp`)"
-                    .to_string()
-            });
-            let d = note(d);
+        let subject = format!("`{}` of material `{material}`", prop.name());
+        let d = crate::unit::check(&crate::unit::UnitValue {
+            file,
+            span: value.span,
+            subject: &subject,
+            xs: &xs,
+            write: &crate::unit::write_value,
+            constant: value.constant().is_some(),
+            kind: "material values",
+        });
+        if let Some(d) = d {
             self.error(d);
         }
     }
@@ -1126,11 +1086,6 @@ fn names_rec<'e>(e: &'e Expr, out: &mut Vec<&'e ast::Ident>, depth: u32) {
 /// checker's limit, which is reported as an error too).
 pub(crate) fn has_error(e: &Expr) -> bool {
     error_rec(e, 0)
-}
-
-/// A value as the language's 32-bit floats print it.
-fn show_f32(x: f64) -> String {
-    format!("{}", x as f32)
 }
 
 fn error_rec(e: &Expr, depth: u32) -> bool {

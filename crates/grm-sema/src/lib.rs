@@ -81,6 +81,7 @@ pub mod phases;
 mod program;
 mod suggest;
 mod system;
+mod unit;
 
 pub use builtins::{
     Builtin, MAX_GENERATIONS, MAX_ITERATIONS, MAX_PARTICLES, MaterialProp, RandomFn, SettingKey,

@@ -1072,6 +1072,26 @@ impl Sys<'_, '_> {
                 out
             }
         };
+        if let (SymbolKind::Terminal(Terminal::Color), Some(f)) = (kind, r.form)
+            && let Some(Value::Vec3(c)) = args.first().and_then(|a| a.constant())
+        {
+            let write = |xs: &[f64]| match f.fill {
+                Fill::Pack3 => format!("color({})", crate::unit::join(xs)),
+                _ => format!("color(rgb({}))", crate::unit::join(xs)),
+            };
+            let d = crate::unit::check(&crate::unit::UnitValue {
+                file,
+                span: m.span,
+                subject: "this colour",
+                xs: &c,
+                write: &write,
+                constant: true,
+                kind: "colours",
+            });
+            if let Some(d) = d {
+                self.err(d);
+            }
+        }
         TModule {
             symbol: r.sym,
             args,
