@@ -28,6 +28,7 @@ pub fn parse_obj(name: &str, path: &Path, bytes: &[u8]) -> Result<MeshData, Geom
         path: path.to_path_buf(),
         message,
     };
+    check_indices(bytes).map_err(malformed)?;
     let opts = tobj::LoadOptions {
         single_index: true,
         triangulate: true,
@@ -86,4 +87,55 @@ pub fn parse_obj(name: &str, path: &Path, bytes: &[u8]) -> Result<MeshData, Geom
         out.normals = compute_normals(&out.positions, &out.indices);
     }
     Ok(out)
+}
+
+/// Check every index of every `f` and `l` line before `tobj` sees the file:
+/// each position, texture coordinate and normal index must name an
+/// element defined above it (1-based, or negative counting back from the
+/// last one). `tobj` turns an index before the first element into a huge
+/// one and multiplies it unchecked (an overflow panic in a debug build),
+/// so such files are refused here with the line they are on.
+fn check_indices(bytes: &[u8]) -> Result<(), String> {
+    let text = String::from_utf8_lossy(bytes);
+    let mut counts = [0usize; 3];
+    const WHAT: [&str; 3] = ["vertex", "texture coordinate", "normal"];
+    for (n, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("v") => counts[0] += 1,
+            Some("vt") => counts[1] += 1,
+            Some("vn") => counts[2] += 1,
+            Some("f" | "l") => {
+                for word in words {
+                    for (k, part) in word.split('/').enumerate().take(3) {
+                        if part.is_empty() {
+                            continue;
+                        }
+                        // Not a number: tobj reports the face as malformed.
+                        let Ok(x) = part.parse::<i64>() else {
+                            continue;
+                        };
+                        let count = counts[k];
+                        if x == 0 || x.unsigned_abs() > count as u64 {
+                            let what = WHAT[k];
+                            return Err(match count {
+                                0 => format!(
+                                    "line {}: {what} index {x}, but no {what} is defined above it",
+                                    n + 1
+                                ),
+                                _ => format!(
+                                    "line {}: {what} index {x}, but only {count} {what}{} defined above it \
+                                     (indices run from 1 to {count}, or from -1 back to -{count})",
+                                    n + 1,
+                                    if count == 1 { " is" } else { "s are" }
+                                ),
+                            });
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(())
 }

@@ -363,6 +363,12 @@ fn missing_or_malformed_obj_is_a_typed_error() {
         &b"v 1 2\nf 1 2 3\n"[..],
         b"v 0 0 0\nv 1 0 0\nf 1 2 9\n",
         b"# nothing\n",
+        // Indices before the first element: tobj would overflow on them.
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//-3 2//-3 3//-3\n",
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/-3 2/-3 3/-3\n",
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//6148914691236517206 2//1 3//1\n",
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n",
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf -4 -2 -1\n",
     ] {
         let dir = tempfile::tempdir().expect("tempdir");
         let program = mesh_program(dir.path(), Some(bad));
@@ -380,6 +386,18 @@ fn missing_or_malformed_obj_is_a_typed_error() {
             other => panic!("expected MeshMalformed for {bad:?}, got {other:?}"),
         }
     }
+    // Relative indices that name elements above them are fine.
+    let path = Path::new("rel.obj");
+    let ok = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\nf -3/-1/-1 -2/1/1 -1/-1/-1\n";
+    let mesh = grm_geom::import::parse_obj("rel", path, ok).expect("relative indices");
+    assert_eq!(mesh.triangle_count(), 1);
+    assert_eq!(mesh.normals, vec![[0.0, 0.0, 1.0]; 3]);
+    let e = grm_geom::import::parse_obj("rel", path, b"v 0 0 0\nf 1//-1 1 1\n")
+        .expect_err("no normal above");
+    assert_eq!(
+        e.to_string(),
+        "mesh `rel` in rel.obj is not a valid OBJ file: line 2: normal index -1, but no normal is defined above it"
+    );
 }
 
 #[test]
