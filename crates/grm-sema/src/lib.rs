@@ -89,7 +89,7 @@ pub use builtins::{
 };
 pub use grm_diag::{Diagnostic, FileId, SourceMap, Span};
 pub use index::{Def, Ref, RefIndex};
-pub use loader::{FileLoader, FsLoader, LoadError, MemLoader, normalize};
+pub use loader::{FileLoader, FsLoader, LoadError, MAX_SOURCE_BYTES, MemLoader, normalize};
 pub use program::*;
 
 /// The result of checking: the program and all diagnostics.

@@ -36,13 +36,48 @@ pub trait FileLoader {
 #[derive(Clone, Copy, Debug, Default)]
 pub struct FsLoader;
 
+/// The largest `.grm` file [`FsLoader`] reads (a 1,000-line grammar is
+/// about 30 KiB): an `import` of something else (a huge data file by
+/// mistake) is refused instead of filling memory.
+pub const MAX_SOURCE_BYTES: u64 = 16 << 20;
+
 impl FileLoader for FsLoader {
+    /// Only regular files are read: an `import` of `/dev/zero` would read
+    /// forever, and one of `/dev/stdin` in the language server would eat
+    /// its protocol stream.
     fn read(&self, path: &Path) -> Result<String, LoadError> {
-        match std::fs::read(path) {
-            Ok(bytes) => String::from_utf8(bytes).map_err(|_| LoadError::NotUtf8),
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Err(LoadError::NotFound),
-            Err(e) => Err(LoadError::Other(e.to_string())),
+        use std::io::Read;
+        let io = |e: std::io::Error| match e.kind() {
+            std::io::ErrorKind::NotFound => LoadError::NotFound,
+            _ => LoadError::Other(e.to_string()),
+        };
+        let meta = std::fs::metadata(path).map_err(io)?;
+        if !meta.is_file() {
+            return Err(LoadError::Other(if meta.is_dir() {
+                "it is a directory".to_string()
+            } else {
+                "it is not a regular file".to_string()
+            }));
         }
+        let too_big = || {
+            LoadError::Other(format!(
+                "it is larger than {} MiB, the most a grammar file may be",
+                MAX_SOURCE_BYTES >> 20
+            ))
+        };
+        if meta.len() > MAX_SOURCE_BYTES {
+            return Err(too_big());
+        }
+        let file = std::fs::File::open(path).map_err(io)?;
+        let mut bytes = Vec::with_capacity(meta.len() as usize);
+        // A file that grows while it is read stops at the limit too.
+        file.take(MAX_SOURCE_BYTES + 1)
+            .read_to_end(&mut bytes)
+            .map_err(io)?;
+        if bytes.len() as u64 > MAX_SOURCE_BYTES {
+            return Err(too_big());
+        }
+        String::from_utf8(bytes).map_err(|_| LoadError::NotUtf8)
     }
 
     fn exists(&self, path: &Path) -> bool {

@@ -174,3 +174,39 @@ fn long_import_chain_does_not_overflow() {
     assert!(!checked.has_errors(), "{:?}", checked.diagnostics);
     assert_eq!(sources.iter().count(), n + 1);
 }
+
+/// The file-system loader reads only regular files of at most
+/// `MAX_SOURCE_BYTES`: an import of a device (`/dev/zero` would be read
+/// forever, `/dev/stdin` would eat the language server's protocol stream),
+/// a directory or a huge file is an E0401 saying why, at once.
+#[test]
+fn imports_of_devices_directories_and_huge_files_are_refused() {
+    let dir = std::env::temp_dir().join(format!("grm-sema-imports-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("sub")).expect("tempdir");
+    let huge = dir.join("huge.grm");
+    let f = std::fs::File::create(&huge).expect("create");
+    f.set_len(grm_sema::MAX_SOURCE_BYTES + 1).expect("sparse file");
+    std::fs::write(dir.join("ok.grm"), "const A = 1;\n").expect("write");
+    let main = dir.join("main.grm");
+    let text = "import \"/dev/zero\";\nimport \"/dev/null\";\nimport \"sub\";\n\
+                import \"huge.grm\";\nimport \"ok.grm\";\nsystem S { axiom F(A); }\n";
+    let (_sources, checked) = grm_sema::check_text(&main.to_string_lossy(), text);
+    let got: Vec<(String, String)> = checked
+        .diagnostics
+        .iter()
+        .map(|d| (d.code.as_str().to_string(), d.labels[0].message.clone()))
+        .collect();
+    let _ = std::fs::remove_dir_all(&dir);
+    let want = |m: &str| ("E0401".to_string(), m.to_string());
+    assert_eq!(
+        got,
+        vec![
+            want("it is not a regular file"),
+            want("it is not a regular file"),
+            want("it is a directory"),
+            want("it is larger than 16 MiB, the most a grammar file may be"),
+        ],
+        "{:#?}",
+        checked.diagnostics
+    );
+}
