@@ -185,7 +185,8 @@ fn imports_of_devices_directories_and_huge_files_are_refused() {
     std::fs::create_dir_all(dir.join("sub")).expect("tempdir");
     let huge = dir.join("huge.grm");
     let f = std::fs::File::create(&huge).expect("create");
-    f.set_len(grm_sema::MAX_SOURCE_BYTES + 1).expect("sparse file");
+    f.set_len(grm_sema::MAX_SOURCE_BYTES + 1)
+        .expect("sparse file");
     std::fs::write(dir.join("ok.grm"), "const A = 1;\n").expect("write");
     let main = dir.join("main.grm");
     let text = "import \"/dev/zero\";\nimport \"/dev/null\";\nimport \"sub\";\n\

@@ -201,6 +201,14 @@ pub fn run(args: SampleArgs) -> Outcome {
         Ok(l) => l,
         Err(o) => return o,
     };
+    // Before the curves: a derive system needs none, so "cannot read the
+    // curves" would send the user the wrong way.
+    if loaded.system().mode != grm_sema::Mode::Sample {
+        let e = SampleError::NotSampleSystem {
+            system: loaded.system().name.clone(),
+        };
+        return report(&loaded, &e);
+    }
     if let Some(o) = crate::derive::check_output_format(&loaded, args.output.as_deref()) {
         return o;
     }

@@ -193,10 +193,24 @@ fn errors_and_exit_codes() {
     ]);
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("R0301"));
-    // No curves file beside it: exit 2 with a hint.
+    // The same without curves: still R0301 (a derive system needs no
+    // curves; "cannot read koch_island.curves.json" would mislead).
     let o = grmc(&["sample", &example("koch_island.grm")]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("--curves"));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("R0301") && !err.contains("R0501"), "{err}");
+    // A sample system with no curves file beside it: exit 2 with a hint.
+    let dir = tempfile::tempdir().expect("tempdir");
+    let grammar = dir.path().join("tree.grm");
+    std::fs::write(
+        &grammar,
+        "system T {\n    mode = sample;\n    axiom b;\n    skeleton b;\n    b -> F b;\n    wrapup b -> ;\n}\n",
+    )
+    .expect("write");
+    let o = grmc(&["sample", &grammar.to_string_lossy()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("R0501") && err.contains("--curves"), "{err}");
     // A bad --particles: exit 2.
     let o = grmc(&["sample", &example("calder_tree.grm"), "--particles", "0..3"]);
     assert_eq!(o.status.code(), Some(2));
