@@ -11,11 +11,17 @@ server=""
 out="$here/grm-$(node -p "require('$here/package.json').version").vsix"
 while [ $# -gt 0 ]; do
     case "$1" in
-        --with-server) server="$2"; shift 2 ;;
+        # Resolved now: the build below runs in another directory.
+        --with-server) server="$(realpath -m "$2")"; shift 2 ;;
         --out) out="$(realpath -m "$2")"; shift 2 ;;
         *) echo "usage: $0 [--with-server PATH] [--out FILE]" >&2; exit 2 ;;
     esac
 done
+
+if [ -n "$server" ] && [ ! -f "$server" ]; then
+    echo "error: --with-server $server: no such file (build it first: cargo build --release -p grmc)" >&2
+    exit 2
+fi
 
 cd "$editors"
 if [ ! -d node_modules ]; then npm ci --ignore-scripts --no-audit --no-fund; fi
