@@ -6,11 +6,9 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::{axiom, derive, program};
+use common::{axiom, build_with_defaults, derive, program};
 use glam::Vec3;
-use grm_geom::{
-    ExportError, ExportFormat, GeomError, Model, build_model, export, export::glb_bytes, export_as,
-};
+use grm_geom::{ExportError, ExportFormat, GeomError, Model, export, export::glb_bytes, export_as};
 
 fn examples() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples")
@@ -32,14 +30,7 @@ fn sample_model() -> Model {
     );
     let system = &program.systems[0];
     let string = derive(&program, system, 2);
-    build_model(
-        &program,
-        system,
-        &string,
-        &system.settings,
-        &program.default_params(),
-    )
-    .expect("builds")
+    build_with_defaults(&program, system, &string).expect("builds")
 }
 
 fn files_in(dir: &Path) -> Vec<String> {
@@ -187,14 +178,7 @@ fn svg_of_a_2d_system() {
     let program = load_example("koch_island.grm");
     let system = &program.systems[0];
     let string = derive(&program, system, 1);
-    let model = build_model(
-        &program,
-        system,
-        &string,
-        &system.settings,
-        &program.default_params(),
-    )
-    .expect("builds");
+    let model = build_with_defaults(&program, system, &string).expect("builds");
     let svg = grm_geom::export::svg_string(&model);
     assert!(svg.starts_with("<?xml"));
     assert!(svg.trim_end().ends_with("</svg>"));
@@ -219,14 +203,7 @@ fn svg_of_a_2d_system() {
     // Polygons become paths.
     let program = program_with_polygon();
     let system = &program.systems[0];
-    let model = build_model(
-        &program,
-        system,
-        &axiom(system),
-        &system.settings,
-        &program.default_params(),
-    )
-    .expect("builds");
+    let model = build_with_defaults(&program, system, &axiom(system)).expect("builds");
     let dir = tempfile::tempdir().expect("tempdir");
     let path = dir.path().join("leaf.svg");
     export(&model, &path).expect("exports");
@@ -310,14 +287,7 @@ fn obj_meshes_are_loaded_once_and_instanced() {
     let dir = tempfile::tempdir().expect("tempdir");
     let program = mesh_program(dir.path(), None);
     let system = &program.systems[0];
-    let model = build_model(
-        &program,
-        system,
-        &axiom(system),
-        &system.settings,
-        &program.default_params(),
-    )
-    .expect("builds");
+    let model = build_with_defaults(&program, system, &axiom(system)).expect("builds");
     assert_eq!(model.stats.instances, 3);
     let leaf = grm_geom::import::load_obj("leaf", &dir.path().join("leaf.obj")).expect("loads");
     assert_eq!(leaf.triangle_count(), 4);
@@ -346,13 +316,7 @@ fn missing_or_malformed_obj_is_a_typed_error() {
     let string = axiom(system);
     // The file disappears after checking.
     std::fs::remove_file(dir.path().join("leaf.obj")).expect("rm");
-    match build_model(
-        &program,
-        system,
-        &string,
-        &system.settings,
-        &program.default_params(),
-    ) {
+    match build_with_defaults(&program, system, &string) {
         Err(e @ GeomError::MeshMissing { .. }) => {
             let msg = e.to_string();
             assert!(msg.contains("leaf.obj") && msg.contains("`leaf`"), "{msg}");
@@ -373,13 +337,7 @@ fn missing_or_malformed_obj_is_a_typed_error() {
         let dir = tempfile::tempdir().expect("tempdir");
         let program = mesh_program(dir.path(), Some(bad));
         let system = &program.systems[0];
-        match build_model(
-            &program,
-            system,
-            &axiom(system),
-            &system.settings,
-            &program.default_params(),
-        ) {
+        match build_with_defaults(&program, system, &axiom(system)) {
             Err(e @ GeomError::MeshMalformed { .. }) => {
                 assert!(e.to_string().contains("leaf.obj"), "{e}");
             }
@@ -407,14 +365,7 @@ fn examples_end_to_end() {
     let program = load_example("koch_island.grm");
     let system = &program.systems[0];
     let string = derive(&program, system, system.settings.iterations);
-    let model = build_model(
-        &program,
-        system,
-        &string,
-        &system.settings,
-        &program.default_params(),
-    )
-    .expect("builds");
+    let model = build_with_defaults(&program, system, &string).expect("builds");
     assert_eq!(model.stats.bones, 2048);
     let last = model.bones().last().expect("bones").tip;
     assert!(last.length() < 1e-3, "island closes: {last}");
@@ -427,14 +378,7 @@ fn examples_end_to_end() {
     let program = load_example("hilbert3d.grm");
     let system = &program.systems[0];
     let string = derive(&program, system, 2);
-    let model = build_model(
-        &program,
-        system,
-        &string,
-        &system.settings,
-        &program.default_params(),
-    )
-    .expect("builds");
+    let model = build_with_defaults(&program, system, &string).expect("builds");
     assert_eq!(model.stats.bones, 63);
     let mut cells: Vec<[i32; 3]> = vec![[0; 3]];
     for b in model.bones() {
@@ -452,16 +396,9 @@ fn examples_end_to_end() {
     let program = load_example("bracketed_plant.grm");
     let system = &program.systems[0];
     let string = derive(&program, system, 3);
-    let model = build_model(
-        &program,
-        system,
-        &string,
-        &system.settings,
-        &program.default_params(),
-    )
-    .expect("builds");
+    let model = build_with_defaults(&program, system, &string).expect("builds");
     assert_eq!(
-        model.stats.bones as usize,
+        model.stats.bones,
         string
             .syms
             .iter()
@@ -500,14 +437,7 @@ fn calder_example_meshes_and_materials() {
     s.push(sym("F"), &[1.0]);
     s.push(sym("material"), &[material("foliage")]);
     s.push(sym("mesh"), &[mesh("leafMesh")]);
-    let model = build_model(
-        &program,
-        system,
-        &s,
-        &system.settings,
-        &program.default_params(),
-    )
-    .expect("builds");
+    let model = build_with_defaults(&program, system, &s).expect("builds");
     let names: Vec<&str> = model.materials.iter().map(|m| m.name.as_str()).collect();
     assert_eq!(names, vec!["bark", "foliage"]);
     assert_eq!(model.materials[0].color, [0.45, 0.32, 0.2]);
@@ -544,14 +474,7 @@ fn mesh_errors_become_diagnostics() {
     let dir = tempfile::tempdir().expect("tempdir");
     let program = mesh_program(dir.path(), Some(b"# nothing\n"));
     let system = &program.systems[0];
-    let e = build_model(
-        &program,
-        system,
-        &axiom(system),
-        &system.settings,
-        &program.default_params(),
-    )
-    .expect_err("no faces");
+    let e = build_with_defaults(&program, system, &axiom(system)).expect_err("no faces");
     let d = e.to_diagnostic(&program, at.0, at.1);
     assert_eq!(d.code, Code::MeshMalformed);
     assert_eq!(d.primary().span, program.meshes[0].loc.span);
@@ -562,14 +485,7 @@ fn mesh_errors_become_diagnostics() {
         d.message
     );
     std::fs::remove_file(dir.path().join("leaf.obj")).expect("rm");
-    let e = build_model(
-        &program,
-        system,
-        &axiom(system),
-        &system.settings,
-        &program.default_params(),
-    )
-    .expect_err("gone");
+    let e = build_with_defaults(&program, system, &axiom(system)).expect_err("gone");
     let d = e.to_diagnostic(&program, at.0, at.1);
     assert_eq!(d.code, Code::MeshUnreadable);
     assert_eq!(d.primary().file, program.meshes[0].loc.file);
@@ -589,14 +505,7 @@ fn internal_geometry_errors_have_codes() {
     let system = &program.systems[0];
     let mut broken = axiom(system);
     broken.starts.push(7);
-    let e = build_model(
-        &program,
-        system,
-        &broken,
-        &system.settings,
-        &program.default_params(),
-    )
-    .expect_err("malformed");
+    let e = build_with_defaults(&program, system, &broken).expect_err("malformed");
     assert!(matches!(e, GeomError::Turtle(_)), "{e:?}");
     assert_eq!(e.code(), Code::InterpretString);
     let d = e.to_diagnostic(&program, at.0, at.1);
@@ -605,14 +514,7 @@ fn internal_geometry_errors_have_codes() {
     // A material id past the program's materials.
     let mut fewer = program.clone();
     fewer.materials.clear();
-    let e = build_model(
-        &fewer,
-        system,
-        &axiom(system),
-        &system.settings,
-        &fewer.default_params(),
-    )
-    .expect_err("material");
+    let e = build_with_defaults(&fewer, system, &axiom(system)).expect_err("material");
     assert!(matches!(e, GeomError::UnknownMaterial { .. }), "{e:?}");
     assert_eq!(e.code(), Code::UnknownMaterialId);
     // A mesh id past the program's meshes.
@@ -620,14 +522,7 @@ fn internal_geometry_errors_have_codes() {
     let mut meshless = mesh_program(dir.path(), None);
     meshless.meshes.clear();
     let system = &meshless.systems[0];
-    let e = build_model(
-        &meshless,
-        system,
-        &axiom(system),
-        &system.settings,
-        &meshless.default_params(),
-    )
-    .expect_err("mesh");
+    let e = build_with_defaults(&meshless, system, &axiom(system)).expect_err("mesh");
     assert!(matches!(e, GeomError::UnknownMesh { .. }), "{e:?}");
     assert_eq!(e.code(), Code::UnknownMeshId);
 }

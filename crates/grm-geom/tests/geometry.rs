@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{area, axiom, is_closed, normals_ok, program};
+use common::{area, axiom, build_with_defaults, is_closed, normals_ok, program};
 use glam::Vec3;
 use grm_geom::{
     BuildOptions, Model, ModelMaterial, PartSource, build_from_interpretation, build_model, mesh,
@@ -230,14 +230,7 @@ fn parts_by_paint_and_materials() {
     );
     let system = &program.systems[0];
     let string = axiom(system);
-    let model = build_model(
-        &program,
-        system,
-        &string,
-        &system.settings,
-        &program.default_params(),
-    )
-    .expect("builds");
+    let model = build_with_defaults(&program, system, &string).expect("builds");
     assert_eq!(model.parts.len(), 4);
     let names: Vec<&str> = model.materials.iter().map(|m| m.name.as_str()).collect();
     assert_eq!(names, vec!["color0", "bark", "rgb_0000ff", "color1"]);
@@ -270,14 +263,7 @@ fn polygons_triangulated_two_sided() {
         "system S { angle = 90; axiom { . g(2) . - g(1) . - g(1) . + g(1) . - g(1) . - g(2) . }; }",
     );
     let system = &program.systems[0];
-    let model = build_model(
-        &program,
-        system,
-        &axiom(system),
-        &system.settings,
-        &program.default_params(),
-    )
-    .expect("builds");
+    let model = build_with_defaults(&program, system, &axiom(system)).expect("builds");
     assert_eq!(model.stats.polygons, 1);
     assert_eq!(model.skeleton.polygon_vertices.len(), 6);
     let m = &model.parts[0].mesh;
@@ -298,14 +284,7 @@ fn primitives_in_a_model() {
         "system S { axiom F cylinder(0.5, 2) sphere(1) box(1, 2, 3) cone(1, 1) disc(2) scale(0) sphere(1); }",
     );
     let system = &program.systems[0];
-    let model = build_model(
-        &program,
-        system,
-        &axiom(system),
-        &system.settings,
-        &program.default_params(),
-    )
-    .expect("builds");
+    let model = build_with_defaults(&program, system, &axiom(system)).expect("builds");
     assert_eq!(model.stats.instances, 6);
     // The zero-scaled sphere is dropped, not a NaN mesh.
     assert_eq!(model.stats.dropped, 1);
@@ -334,14 +313,7 @@ fn large_model_timing() {
         string.extend_from(&unit);
     }
     let t0 = std::time::Instant::now();
-    let model = build_model(
-        &program,
-        system,
-        &string,
-        &system.settings,
-        &program.default_params(),
-    )
-    .expect("builds");
+    let model = build_with_defaults(&program, system, &string).expect("builds");
     let t1 = std::time::Instant::now();
     let bytes = grm_geom::export::glb_bytes(&model).expect("fits");
     let t2 = std::time::Instant::now();

@@ -168,3 +168,18 @@ pub fn area(m: &MeshData) -> f32 {
         })
         .sum()
 }
+
+/// Build `string` of `system` with the meta-parameters' default values.
+pub fn build_with_defaults(
+    program: &Program,
+    system: &System,
+    string: &ModuleString,
+) -> Result<grm_geom::Model, grm_geom::GeomError> {
+    grm_geom::build_model(
+        program,
+        system,
+        string,
+        &system.settings,
+        &program.default_params(),
+    )
+}
