@@ -53,6 +53,9 @@ codes! {
     UnterminatedComment = "E0005", Error, "unterminated block comment";
     /// A number literal that cannot be represented.
     InvalidNumber = "E0006", Error, "invalid number literal";
+    /// A top-level declaration (`param`, `const`, `mesh`, `material`,
+    /// `import`) written inside a system block.
+    DeclInsideSystem = "E0007", Error, "declaration inside a system";
 
     // ---- E01xx: names ----------------------------------------------------
     /// A name that refers to nothing in scope.
@@ -160,6 +163,9 @@ codes! {
     IgnoredInContext = "W0009", Warning, "context names an ignored symbol";
     /// A material property or `color(...)` value outside 0..1, which the model clamps.
     UnitValueClamped = "W0010", Warning, "colour or material value out of range";
+    /// A never-rewritten symbol spelt like several modules without spaces
+    /// (`FF` for `F F`, as the books print it).
+    RunTogether = "W0011", Warning, "modules written without spaces";
 
     // ---- R0xxx: run time -------------------------------------------------
     // Reported by the engines after a clean check (`grmc derive`, `sample`,

@@ -42,6 +42,7 @@ pub fn parse(file: FileId, text: &str) -> Parsed {
         toks: &lexed.tokens,
         pos: 0,
         diags: lexed.diagnostics.clone(),
+        hoisted: Vec::new(),
     };
     let items = p.items();
     let mut diagnostics = p.diags;
@@ -211,6 +212,10 @@ struct Driver<'a, 't> {
     toks: &'t [Token<'a>],
     pos: usize,
     diags: Vec<Diagnostic>,
+    /// Top-level declarations written inside a system block (E0007): kept
+    /// as items of the file, so the names they define still resolve and
+    /// their uses are not reported again.
+    hoisted: Vec<Item>,
 }
 
 impl<'a> Driver<'a, '_> {
@@ -242,7 +247,10 @@ impl<'a> Driver<'a, '_> {
                         }
                     }
                 }
-                TokKind::System => items.push(self.system()),
+                TokKind::System => {
+                    items.push(self.system());
+                    items.append(&mut self.hoisted);
+                }
                 TokKind::Material => items.push(self.material()),
                 _ => {
                     // Garbage between items: skip to the next item keyword at
@@ -511,9 +519,9 @@ impl<'a> Driver<'a, '_> {
                 t.span
             }
             other => {
-                let span = other
-                    .map(|t| Span::new(t.span.start, t.span.start))
-                    .unwrap_or(self.eof_span());
+                // The token the block should have closed before (a
+                // zero-width span at a line start renders on the line above).
+                let span = other.map(|t| t.span).unwrap_or(self.eof_span());
                 let code = if other.is_none() {
                     Code::UnexpectedEof
                 } else {
@@ -541,12 +549,21 @@ impl<'a> Driver<'a, '_> {
         let mut items = Vec::new();
         if braced {
             while let Some(k) = self.peek_kind() {
-                if k == TokKind::RBrace
-                    || k.starts_top_item() && !matches!(k, TokKind::Mesh | TokKind::Material)
-                {
+                if k == TokKind::RBrace {
                     break;
                 }
-                if matches!(k, TokKind::Mesh | TokKind::Material) && self.decl_at(self.pos) {
+                let decl = match k {
+                    TokKind::Mesh | TokKind::Material => self.decl_at(self.pos),
+                    k => k.starts_top_item(),
+                };
+                if decl {
+                    // A declaration inside the block: if the block still
+                    // closes after it, it was written inside by mistake
+                    // (one E0007); otherwise the block was left open.
+                    if k != TokKind::System && self.block_closes_after(self.pos) {
+                        self.hoist(&name);
+                        continue;
+                    }
                     break;
                 }
                 let end = self.stmt_end(true).max(self.pos + 1);
@@ -570,6 +587,69 @@ impl<'a> Driver<'a, '_> {
             items,
             span: start.to(close),
         })
+    }
+
+    /// Whether, scanning on from token `i`, a `}` closes the enclosing block
+    /// before the next `system` or the end of the file (braces of blocks in
+    /// between, a `material`'s, are balanced on the way).
+    fn block_closes_after(&self, i: usize) -> bool {
+        let mut depth = 0i32;
+        for t in &self.toks[i..] {
+            match t.kind {
+                TokKind::LBrace => depth += 1,
+                TokKind::RBrace if depth == 0 => return true,
+                TokKind::RBrace => depth -= 1,
+                TokKind::System => return false,
+                _ => {}
+            }
+        }
+        false
+    }
+
+    /// Parse the top-level declaration at `self.pos`, found inside `system`,
+    /// report it (E0007) and keep it as an item of the file.
+    fn hoist(&mut self, system: &Ident) {
+        let kw = self.toks[self.pos];
+        let what = kw.text;
+        let before = self.diags.len();
+        if kw.kind == TokKind::Material {
+            let item = self.material();
+            self.hoisted.push(item);
+        } else {
+            let end = self.stmt_end(true).max(self.pos + 1);
+            let all = self.toks;
+            let toks = &all[self.pos..end];
+            self.pos = end;
+            for s in self.statement(toks, Entry::Top) {
+                if let Stmt::Item(i) = s {
+                    self.hoisted.push(i);
+                }
+            }
+        }
+        let (kind, scope) = match kw.kind {
+            TokKind::Param => ("parameters", "every system of the file"),
+            TokKind::Const => ("constants", "every system of the file"),
+            TokKind::Material => ("materials", "every system of the file"),
+            TokKind::Mesh => ("meshes", "every system of the file"),
+            _ => ("imports", "the whole file"),
+        };
+        let header = if system.name.is_empty() {
+            "system NAME {".to_string()
+        } else {
+            format!("system {} {{", system.name)
+        };
+        let d = Diagnostic::new(
+            Code::DeclInsideSystem,
+            format!("`{what}` declarations go at the top level, not inside a system"),
+            self.file,
+            kw.span,
+            format!("`{what}` inside a system"),
+        )
+        .with_help(format!(
+            "move it above `{header}`: {kind} are declared once and seen by {scope}"
+        ));
+        // Source order: before any error inside the declaration itself.
+        self.diags.insert(before, d);
     }
 
     /// `mesh NAME =` / `material NAME {` at token `i` is a top-level item
