@@ -126,6 +126,30 @@ impl FileAnalysis {
                         push(format!("Replace with `{v}`"), vec![edit(span, v)], true);
                     }
                 }
+                Code::RunTogether | Code::UnknownName
+                    if help.starts_with("write `") && !help.contains("did you mean") =>
+                {
+                    // "write `F F`": every occurrence of the run-together
+                    // symbol in this file, spaced out.
+                    if let Some(v) = quoted_after(help, "write")
+                        && let Some(r) = self.checked.program.index.at(self.root, span.start)
+                        && matches!(r.def, grm_sema::Def::Symbol(..))
+                    {
+                        let mut edits: Vec<TextEdit> = self
+                            .checked
+                            .program
+                            .index
+                            .occurrences(r.def)
+                            .filter(|o| {
+                                o.loc.file == self.root
+                                    && self.slice(o.loc.span) == self.slice(span)
+                            })
+                            .map(|o| edit(o.loc.span, v))
+                            .collect();
+                        edits.dedup_by_key(|e| e.span);
+                        push(format!("Replace with `{v}`"), edits, true);
+                    }
+                }
                 Code::InvalidCharacter => {
                     push(
                         "Remove the invalid characters".into(),

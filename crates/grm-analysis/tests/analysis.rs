@@ -445,6 +445,22 @@ fn code_actions_fix_their_diagnostics() {
     let all = fa.code_actions(Span::new(0, 80));
     assert!(fa.diagnostics().iter().any(|d| d.code == "W0010"));
     assert!(all.iter().all(|a| a.code != "W0010"), "{all:?}");
+    // Modules written without spaces, as the books print them: every
+    // occurrence spaced out (the E0101 of a sample system too).
+    let (t, c) = fix(
+        "system S {\n    axiom FF;\n    F -> FF + F;\n}",
+        "W0011",
+        "Replace",
+    );
+    assert_eq!(t, "system S {\n    axiom F F;\n    F -> F F + F;\n}");
+    assert!(c.is_empty(), "{c:?}");
+    let (t, c) = fix(
+        "system T {\n    mode = sample;\n    axiom b;\n    skeleton b;\n    b -> F bF;\n    wrapup b -> ;\n}",
+        "E0101",
+        "Replace",
+    );
+    assert!(t.contains("b -> F b F;"), "{t}");
+    assert!(c.is_empty(), "{c:?}\n{t}");
     // Unterminated string.
     let (t, _) = fix("import \"lib.grm;\n", "E0004", "Close");
     assert_eq!(t, "import \"lib.grm\";\n");

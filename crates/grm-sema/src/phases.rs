@@ -67,6 +67,73 @@ pub fn reachable(n: usize, roots: &[usize], edges: &[Vec<usize>]) -> Vec<bool> {
     seen
 }
 
+/// The modules a name written without spaces would be if each letter were
+/// one symbol, when that reading is what the author most likely meant:
+/// every letter is a drawing command (`F f G g`) or a one-letter symbol the
+/// system rewrites, and the name itself is never rewritten or declared.
+/// `None` for any other name.
+pub fn run_together_split(sys: &System, info: &SymbolInfo) -> Option<String> {
+    if info.is_terminal()
+        || info.name.chars().count() < 2
+        || info.arity != 0
+        || info.decl.is_some()
+        || !info.groups.is_empty()
+        || !info.wrapup_groups.is_empty()
+    {
+        return None;
+    }
+    let mut drawing = false;
+    for c in info.name.chars() {
+        if matches!(c, 'F' | 'f' | 'G' | 'g') {
+            drawing = true;
+            continue;
+        }
+        let mut buf = [0u8; 4];
+        let one: &str = c.encode_utf8(&mut buf);
+        let rewritten = sys
+            .symbols
+            .iter()
+            .any(|o| !o.is_terminal() && o.name == one && !o.groups.is_empty());
+        if !rewritten {
+            return None;
+        }
+    }
+    // `AB` made only of rewritten symbols may be a deliberate marker; a
+    // drawing letter in it is the book's notation (`FF`, `YF`).
+    drawing.then(|| {
+        let letters: Vec<String> = info.name.chars().map(String::from).collect();
+        letters.join(" ")
+    })
+}
+
+/// W0011: `FF` written as in the books is one symbol here, never rewritten
+/// and drawing nothing.
+fn check_run_together(sys: &System, diags: &mut Vec<Diagnostic>) {
+    for info in &sys.symbols {
+        let Some(split) = run_together_split(sys, info) else {
+            continue;
+        };
+        let name = &info.name;
+        let n = name.chars().count();
+        let count = [
+            "two", "three", "four", "five", "six", "seven", "eight", "nine",
+        ]
+        .get(n - 2)
+        .map_or_else(|| n.to_string(), |w| w.to_string());
+        diags.push(
+            Diagnostic::new(
+                Code::RunTogether,
+                format!("`{name}` is one symbol, not {count} modules"),
+                sys.file,
+                info.first,
+                "one symbol, never rewritten, draws nothing",
+            )
+            .with_note("module names are whole identifiers: separate modules with spaces")
+            .with_help(format!("write `{split}`")),
+        );
+    }
+}
+
 /// W0005 (ambiguous groups), W0009 (contexts naming ignored symbols), W0003
 /// (shadowed groups) and, unless `skip_reach`,
 /// W0002 (unreachable productions).
@@ -118,6 +185,10 @@ pub(crate) fn check_groups(sys: &System, diags: &mut Vec<Diagnostic>, skip_reach
                 }
             }
         }
+    }
+
+    if sys.mode == Mode::Derive {
+        check_run_together(sys, diags);
     }
 
     for info in &sys.symbols {
@@ -391,12 +462,18 @@ pub(crate) fn check_sample(sys: &System, diags: &mut Vec<Diagnostic>, holes: boo
             info.first,
             "not declared, and no production rewrites it",
         );
-        d = match known.did_you_mean(&info.name) {
-            Some(h) => d.with_help(h),
+        // Modules run together (`bF` for `b F`) before a near spelling.
+        d = match run_together_split(sys, info) {
+            Some(split) => d
+                .with_note("module names are whole identifiers: separate modules with spaces")
+                .with_help(format!("write `{split}`")),
+            None => match known.did_you_mean(&info.name) {
+                Some(h) => d.with_help(h),
             None => d.with_help(format!(
                 "declare it (`geometry {0};` or `module {0};`) if it is meant to stay in the model",
-                info.name
-            )),
+                    info.name
+                )),
+            },
         };
         diags.push(d);
     }
