@@ -296,3 +296,37 @@ fn iteration_generation_and_particle_flags_are_bounded() {
         assert!(err.contains(want), "{args:?}: {err}");
     }
 }
+
+/// The README's command table names every option of every subcommand, so
+/// a new flag cannot ship undocumented there (the flags are read from
+/// `grmc COMMAND --help`, the table row from the README).
+#[test]
+fn readme_command_table_lists_every_flag() {
+    let readme = std::fs::read_to_string(common::repo().join("README.md")).expect("README");
+    for cmd in ["check", "fmt", "derive", "disasm", "sample", "view", "lsp"] {
+        let help = common::text(&common::grmc(&[cmd, "--help"]).stdout);
+        let row = readme
+            .lines()
+            .find(|l| l.starts_with(&format!("| `grmc {cmd}")))
+            .unwrap_or_else(|| panic!("README has no row for `grmc {cmd}`"));
+        let usage = row.split(" | ").next().unwrap_or(row);
+        let flags: Vec<&str> = help
+            .split(|c: char| c.is_whitespace() || c == ',' || c == '[' || c == ']')
+            .filter(|w| w.starts_with("--") && w.len() > 2 && *w != "--help")
+            .map(|w| w.split('=').next().unwrap_or(w))
+            .collect();
+        assert!(
+            !flags.is_empty() || cmd == "disasm",
+            "{cmd}: no flags read from\n{help}"
+        );
+        for f in flags {
+            assert!(
+                usage.contains(&format!("{f} "))
+                    || usage.contains(&format!("{f}]"))
+                    || usage.contains(&format!("{f}`"))
+                    || usage.contains(&format!("{f}\\")),
+                "README row of `grmc {cmd}` does not name `{f}`:\n{usage}"
+            );
+        }
+    }
+}
