@@ -437,7 +437,9 @@ impl Parser<'_> {
                 file: self.file.to_string(),
                 kind: CurvesErrorKind::Syntax {
                     line: e.line(),
-                    column: e.column(),
+                    // serde_json counts 0 at the start of a line (an error
+                    // right after a line break, e.g. the end of the file).
+                    column: e.column().max(1),
                     message,
                 },
             }

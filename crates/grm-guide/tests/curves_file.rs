@@ -290,6 +290,10 @@ fn syntax_errors_have_line_and_column() {
     let big = err("{ \"version\": 1e999 }");
     assert!(big.starts_with("calder_tree.curves.json:1:"), "{big}");
     assert!(big.contains("invalid JSON: number out of range"), "{big}");
+    // A file cut short after a line break: serde_json says column 0; the
+    // column is 1-based like every other.
+    let cut = err("{\n  \"version\": 1,\n");
+    assert!(cut.starts_with("calder_tree.curves.json:3:1: invalid JSON: EOF"), "{cut}");
 }
 
 #[test]
