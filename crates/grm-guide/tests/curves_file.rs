@@ -293,7 +293,10 @@ fn syntax_errors_have_line_and_column() {
     // A file cut short after a line break: serde_json says column 0; the
     // column is 1-based like every other.
     let cut = err("{\n  \"version\": 1,\n");
-    assert!(cut.starts_with("calder_tree.curves.json:3:1: invalid JSON: EOF"), "{cut}");
+    assert!(
+        cut.starts_with("calder_tree.curves.json:3:1: invalid JSON: EOF"),
+        "{cut}"
+    );
 }
 
 #[test]
