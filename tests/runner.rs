@@ -335,8 +335,13 @@ fn derive(program: &Program, args: &[String]) -> Result<(), Stop> {
     )
     .map_err(Stop::Usage)?;
     let (index, c) = compile(program, &o)?;
-    output_format(&c, o.get("--output"))?;
     let at = |e: grm_derive::DeriveError| Stop::from(e.to_diagnostic(c.file, c.span));
+    if program.systems[index].mode == grm_sema::Mode::Sample {
+        return Err(at(grm_derive::DeriveError::SampleSystem {
+            system: program.systems[index].name.clone(),
+        }));
+    }
+    output_format(&c, o.get("--output"))?;
     let d = grm_derive::DeriveLimits::default();
     let max_mib: Option<u64> = o.number("--max-memory").map_err(Stop::Usage)?;
     let opts = grm_derive::DeriveOptions {

@@ -57,6 +57,15 @@ pub enum DeriveError {
         /// [`crate::MAX_THREADS`].
         max: usize,
     },
+    /// A `mode = sample` system was given to classic derivation (`grmc
+    /// derive`, the runner): its skeleton symbols are meant to be searched
+    /// for by the guided sampler, and parallel rewriting grows nothing
+    /// useful from them. The engine itself rewrites any compiled system;
+    /// front-ends refuse these with this error.
+    SampleSystem {
+        /// The system's name.
+        system: String,
+    },
 }
 
 /// A failure while applying a production to one module.
@@ -99,6 +108,7 @@ impl DeriveError {
             DeriveError::InvalidTables(_) => Code::InvalidTables,
             DeriveError::InvalidInput(_) => Code::InvalidModuleString,
             DeriveError::ThreadPool(_) | DeriveError::TooManyThreads { .. } => Code::ThreadPool,
+            DeriveError::SampleSystem { .. } => Code::NotDeriveSystem,
         }
     }
 
@@ -108,6 +118,7 @@ impl DeriveError {
     pub fn to_diagnostic(&self, file: FileId, span: Span) -> Diagnostic {
         let (file, span, label) = match self.location() {
             Some((f, s)) => (f, s, self.label()),
+            None if matches!(self, DeriveError::SampleSystem { .. }) => (file, span, self.label()),
             None => (file, span, "while deriving this system".to_string()),
         };
         let d = Diagnostic::new(self.code(), self.to_string(), file, span, label);
@@ -139,6 +150,7 @@ impl DeriveError {
                 RuntimeErrorKind::BadWeight { value } => format!("this weight is {value}"),
                 RuntimeErrorKind::Fault(_) => "while evaluating this".into(),
             },
+            DeriveError::SampleSystem { .. } => "this system has `mode = sample;`".into(),
             _ => String::new(),
         }
     }
@@ -171,6 +183,10 @@ impl DeriveError {
             DeriveError::TooManyThreads { max, .. } => Some(format!(
                 "ask for at most {max} threads (0 uses all cores, 1 runs on the calling thread)"
             )),
+            DeriveError::SampleSystem { .. } => Some(
+                "grow it with `grmc sample` (guided by curves), or remove `mode = sample;` to derive it"
+                    .into(),
+            ),
         }
     }
 }
@@ -224,6 +240,10 @@ impl std::fmt::Display for DeriveError {
             DeriveError::TooManyThreads { threads, max } => write!(
                 f,
                 "cannot start the thread pool: {threads} threads is more than the {max} an engine starts"
+            ),
+            DeriveError::SampleSystem { system } => write!(
+                f,
+                "`{system}` is a sample system: classic derivation does not grow it"
             ),
         }
     }

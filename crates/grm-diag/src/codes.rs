@@ -211,6 +211,8 @@ codes! {
     InvalidModuleString = "R0208", Error, "invalid module string";
     /// Internal (environment): the worker threads could not start.
     ThreadPool = "R0209", Error, "thread pool failed";
+    /// A `mode = sample` system given to classic derivation.
+    NotDeriveSystem = "R0210", Error, "not a derive system";
 
     // R03xx: guided sampling (grm-sample, `SampleError`)
     /// `grmc sample` on a system without `mode = sample;`.

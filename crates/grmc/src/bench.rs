@@ -160,7 +160,7 @@ fn derive_bench(args: DeriveBench) -> Outcome {
     } else {
         args.threads
     };
-    println!(
+    outln!(
         "{}",
         derive_header(
             &cpu_model(),
@@ -169,7 +169,7 @@ fn derive_bench(args: DeriveBench) -> Outcome {
         )
     );
     let nt = format!("{threads}T");
-    println!(
+    outln!(
         "{:<16} {:>3} {:>9} {:>9} | {:>9} {:>9} {:>9} {:>9} | {:>8} {:>8} {:>8} {:>8} | {:>7} {:>7}",
         "scene",
         "n",
@@ -251,7 +251,7 @@ fn derive_bench(args: DeriveBench) -> Outcome {
         };
         let f = |x: Option<f64>, prec: usize| x.map_or("-".to_string(), |v| format!("{v:.prec$}"));
         let ms = |d: Duration| d.as_secs_f64() * 1e3;
-        println!(
+        outln!(
             "{:<16} {:>3} {:>9} {:>9} | {:>9} {:>9.2} {:>9.2} {:>9.2} | {:>8} {:>8.0} {:>8.0} {:>8.0} | {:>7} {:>7.2}",
             file,
             n,

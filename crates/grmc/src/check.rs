@@ -86,7 +86,7 @@ pub fn run(args: CheckArgs) -> Outcome {
         }
     }
     match args.format {
-        OutputFormat::Json => println!("[{}]", json_items.join(",\n")),
+        OutputFormat::Json => outln!("[{}]", json_items.join(",\n")),
         OutputFormat::Human => {
             // Files that could not be read were not checked: say so, not
             // "0 errors" for them.

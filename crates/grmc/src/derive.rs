@@ -187,13 +187,11 @@ pub fn run(args: DeriveArgs) -> Outcome {
     if loaded.system().mode == grm_sema::Mode::Sample {
         // Rewriting a sample system in parallel grows nothing useful (its
         // skeleton symbols are meant to be searched for); the preview
-        // refuses it too.
-        eprintln!(
-            "error: `{}` in {} is a sample system (`mode = sample;`): grow it with `grmc sample`",
-            loaded.system().name,
-            args.file.display()
-        );
-        return Outcome::Usage;
+        // refuses it too. R0210, the twin of `grmc sample`'s R0301.
+        let e = grm_derive::DeriveError::SampleSystem {
+            system: loaded.system().name.clone(),
+        };
+        return report_derive_error(&loaded.sources, &loaded.compiled, &e);
     }
     if let Some(o) = check_output_format(&loaded, args.output.as_deref()) {
         return o;
@@ -224,15 +222,19 @@ pub fn run(args: DeriveArgs) -> Outcome {
         b
     });
     if args.stats {
-        println!(
+        outln!(
             "{:>9} {:>14} {:>16} {:>12} {:>10}",
-            "iteration", "modules", "cumulative", "params", "ms"
+            "iteration",
+            "modules",
+            "cumulative",
+            "params",
+            "ms"
         );
     }
     let start = Instant::now();
     let mut progress = |s: &IterationStats| {
         if args.stats {
-            println!(
+            outln!(
                 "{:>9} {:>14} {:>16} {:>12} {:>10.3}",
                 s.iteration,
                 s.modules,

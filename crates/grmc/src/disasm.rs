@@ -23,6 +23,6 @@ pub fn run(args: DisasmArgs) -> Outcome {
         Err(o) => return o,
     };
     let text = &loaded.sources.get(loaded.compiled.file).text;
-    print!("{}", grm_compile::disassemble(&loaded.compiled, Some(text)));
+    out!("{}", grm_compile::disassemble(&loaded.compiled, Some(text)));
     Outcome::Ok
 }

@@ -93,7 +93,7 @@ fn one(args: &FmtArgs, path: &Path, color: bool) -> Done {
         }
     };
     if args.stdout {
-        print!("{formatted}");
+        out!("{formatted}");
     } else if args.check {
         if formatted != text {
             let _ = writeln!(err, "{} is not formatted", path.display());

@@ -75,15 +75,19 @@ pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
     let turtle = TurtleProgram::new(loaded.system(), &c.settings);
     if args.stats {
         eprintln!("GPU: {}", gpu.describe());
-        println!(
+        outln!(
             "{:>9} {:>14} {:>12} {:>10} {:>6}",
-            "iteration", "modules", "params", "ms", "engine"
+            "iteration",
+            "modules",
+            "params",
+            "ms",
+            "engine"
         );
     }
     let start = Instant::now();
     let mut progress = |s: &grm_gpu::GpuIterationStats| {
         if args.stats {
-            println!(
+            outln!(
                 "{:>9} {:>14} {:>12} {:>10.3} {:>6}",
                 s.iteration,
                 s.modules,
@@ -225,9 +229,9 @@ pub fn bench(args: GpuBench) -> Outcome {
             return Outcome::Usage;
         }
     };
-    println!("adapter: {}", gpu.describe());
+    outln!("adapter: {}", gpu.describe());
     if gpu.is_software() {
-        println!("warning: a software adapter (CPU): these are not GPU timings");
+        outln!("warning: a software adapter (CPU): these are not GPU timings");
     }
     let mut outcome = Outcome::Ok;
     for &(file, system, n) in grm_gpu::bench::SCENES {
@@ -256,7 +260,7 @@ pub fn bench(args: GpuBench) -> Outcome {
             c,
             &cfg,
         ) {
-            Ok(r) => println!("\n{}", r.text()),
+            Ok(r) => outln!("\n{}", r.text()),
             Err(e) => {
                 eprintln!("error: {file}: {e}");
                 outcome = Outcome::InputErrors;

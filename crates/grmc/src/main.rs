@@ -7,6 +7,22 @@
 //! Exit codes (all subcommands): 0 success (warnings allowed), 1 the input
 //! had errors (diagnostics were printed), 2 usage or I/O problems.
 
+/// `println!` for the report on stdout, which a user may pipe into `head`:
+/// a closed pipe ends the program quietly with success, as for any Unix
+/// filter (`println!` panicked there), any other write error exits with 2.
+macro_rules! outln {
+    ($($t:tt)*) => {
+        $crate::write_stdout(format_args!("{}\n", format_args!($($t)*)))
+    };
+}
+
+/// `print!` for the report on stdout (see [`outln!`]).
+macro_rules! out {
+    ($($t:tt)*) => {
+        $crate::write_stdout(format_args!($($t)*))
+    };
+}
+
 mod bench;
 mod check;
 mod derive;
@@ -116,4 +132,17 @@ fn main() -> ExitCode {
         Outcome::InputErrors => 1,
         Outcome::Usage => 2,
     })
+}
+
+/// Write to stdout for [`outln!`] and [`out!`].
+pub fn write_stdout(args: std::fmt::Arguments<'_>) {
+    use std::io::Write;
+    let mut o = std::io::stdout().lock();
+    if let Err(e) = o.write_fmt(args).and_then(|()| o.flush()) {
+        if e.kind() == std::io::ErrorKind::BrokenPipe {
+            std::process::exit(0);
+        }
+        eprintln!("error: cannot write to stdout: {e}");
+        std::process::exit(2);
+    }
 }

@@ -296,7 +296,7 @@ pub fn run(args: SampleArgs) -> Outcome {
     } else {
         format!(", {}, untempered", crate::count(k, "candidate"))
     };
-    println!(
+    outln!(
         "{}: seed {}, {}{}, particles {} -> {}, {heuristic_text}{weights_text}",
         c.name,
         opts.seed,
@@ -310,7 +310,7 @@ pub fn run(args: SampleArgs) -> Outcome {
         schedule.particles_end,
     );
     if args.stats {
-        println!(
+        outln!(
             "{:>10} {:>9} {:>9} {:>8} {:>8} {:>9} {:>10} {:>12} {:>8}",
             "generation",
             "particles",
@@ -323,7 +323,7 @@ pub fn run(args: SampleArgs) -> Outcome {
             "bones"
         );
         for g in &result.generations {
-            println!(
+            outln!(
                 "{:>10} {:>9} {:>9} {:>8.2} {:>8.5} {:>9} {:>10.5} {:>12.1} {:>8.1}",
                 g.generation,
                 g.particles,
@@ -345,7 +345,7 @@ pub fn run(args: SampleArgs) -> Outcome {
         } else {
             String::new()
         };
-        println!(
+        outln!(
             "{rank}cost {:.3} = distance {:.3} + alignment {:.3} + utilization {:.3} + density {:.3}",
             b.total(),
             b.distance,
@@ -354,7 +354,7 @@ pub fn run(args: SampleArgs) -> Outcome {
             b.density
         );
         if let Some(v) = m.volume {
-            println!(
+            outln!(
                 "{rank}volume cost {:.4} = outside {:.4} + uncovered {:.4} (weight {})",
                 v.total(),
                 v.outside_fraction,
@@ -362,7 +362,7 @@ pub fn run(args: SampleArgs) -> Outcome {
                 args.volume_weight
             );
         }
-        println!(
+        outln!(
             "{rank}bones {} skeleton, {} in all; expansions: {skeleton} skeleton, {wrapup} wrap-up, {geometry} geometry",
             m.skeleton_bones,
             m.interpretation.bones.len()
@@ -376,7 +376,7 @@ pub fn run(args: SampleArgs) -> Outcome {
         .iter()
         .map(|g| g.ess / g.particles.max(1) as f64)
         .fold(f64::INFINITY, f64::min);
-    println!(
+    outln!(
         "time {:.2} ms (expected directions {:.2} ms, sampling {:.2} ms); ESS per generation: mean {mean:.2}, min {min:.2} ({:.0}% of the particles)",
         ms(prepare + result.elapsed),
         ms(sampler.expected_time()),

@@ -97,7 +97,7 @@ pub fn run(args: ViewArgs) -> Outcome {
             return Outcome::Usage;
         }
     };
-    println!(
+    outln!(
         "grmc view: http://{}/ previews {} (Ctrl-C to stop)",
         server.addr,
         path.display()

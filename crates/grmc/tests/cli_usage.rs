@@ -128,11 +128,13 @@ fn derive_refuses_a_sample_system() {
     let glb = dir.path().join("tree.glb");
     let out = grmc(&["derive", &example("calder_tree.grm"), "-o", path(&glb)]);
     let err = text(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{err}");
+    // R0210, an input error like `grmc sample`'s R0301 on a derive system.
+    assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(
-        err.contains("`CalderTree` in ") && err.contains("is a sample system"),
+        err.contains("[R0210]") && err.contains("`CalderTree` is a sample system"),
         "{err}"
     );
+    assert!(err.contains("calder_tree.grm"), "{err}");
     assert!(err.contains("grow it with `grmc sample`"), "{err}");
     assert!(!glb.exists());
     // The same file is what `grmc disasm` shows.
@@ -329,4 +331,40 @@ fn readme_command_table_lists_every_flag() {
             );
         }
     }
+}
+
+/// A report piped into a reader that stops early (`grmc ... | head`) ends
+/// quietly with success: no "failed printing to stdout" panic.
+#[test]
+fn closed_stdout_ends_quietly() {
+    use std::process::{Command, Stdio};
+    // Over a pipe buffer (64 KiB) of JSON: 1024 run-together symbols of
+    // ten drawing letters each, one W0011 each.
+    let dir = tempfile::tempdir().expect("tempdir");
+    let names: Vec<String> = (0..1024u32)
+        .map(|i| {
+            (0..10)
+                .map(|b| if i >> b & 1 == 1 { 'F' } else { 'f' })
+                .collect()
+        })
+        .collect();
+    let src = format!("system S {{\n    axiom {};\n}}\n", names.join(" "));
+    let file = dir.path().join("many.grm");
+    std::fs::write(&file, src).expect("write");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_grmc"))
+        .args(["check", "--format", "json", path(&file)])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("grmc starts");
+    drop(child.stdout.take());
+    let out = child.wait_with_output().expect("grmc ends");
+    let err = text(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    // The same report, read to the end, is the whole array.
+    let full = grmc(&["check", "--format", "json", path(&file)]);
+    let json = text(&full.stdout);
+    assert!(json.len() > 1 << 17, "{}", json.len());
+    assert_eq!(json.matches("\"W0011\"").count(), 1024);
 }
