@@ -255,6 +255,11 @@ impl FileAnalysis {
                         );
                     }
                 }
+                Code::DeclInsideSystem => {
+                    if let Some(edits) = self.move_above_system(span) {
+                        push("Move above the system".into(), edits, true);
+                    }
+                }
                 Code::WrapupInDerive => {
                     if let Some(p) = self.production_at(span) {
                         push(
@@ -283,6 +288,42 @@ impl FileAnalysis {
             Item::System(s) if s.span.start <= span.start && span.start <= s.span.end => Some(s),
             _ => None,
         })
+    }
+
+    /// E0007: cut the declaration starting at `span` (its keyword) out of
+    /// the system it was written in and paste it, dedented, on its own
+    /// lines above that system.
+    fn move_above_system(&self, span: Span) -> Option<Vec<TextEdit>> {
+        let items = &self.parsed().file.items;
+        let decl = items
+            .iter()
+            .find(|i| !matches!(i, Item::System(_)) && i.span().start == span.start)?
+            .span();
+        let sys = items.iter().find_map(|i| match i {
+            Item::System(s) if s.span.start < decl.start && decl.end <= s.span.end => Some(s),
+            _ => None,
+        })?;
+        let t = self.text();
+        let ls = self.line_start_of(decl.start as usize);
+        let indent = &t[ls..decl.start as usize];
+        let indent = if indent.trim().is_empty() { indent } else { "" };
+        let body = &t[decl.start as usize..decl.end as usize];
+        let eol = self.eol();
+        let mut text = String::new();
+        for (i, line) in body.lines().enumerate() {
+            if i > 0 {
+                text.push_str(eol);
+            }
+            text.push_str(if i > 0 {
+                line.strip_prefix(indent).unwrap_or(line)
+            } else {
+                line
+            });
+        }
+        text.push_str(eol);
+        text.push_str(eol);
+        let at = self.line_start_of(sys.span.start as usize) as u32;
+        Some(vec![edit(Span::new(at, at), text), self.delete_lines(decl)])
     }
 
     /// The production containing `span`.

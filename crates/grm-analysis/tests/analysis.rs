@@ -445,6 +445,23 @@ fn code_actions_fix_their_diagnostics() {
     let all = fa.code_actions(Span::new(0, 80));
     assert!(fa.diagnostics().iter().any(|d| d.code == "W0010"));
     assert!(all.iter().all(|a| a.code != "W0010"), "{all:?}");
+    // A declaration written inside a system: moved above it, dedented.
+    let (t, c) = fix(
+        "system S {\n    param size = 2;\n    axiom F(size);\n    material m {\n        roughness = 1;\n    }\n}\n",
+        "E0007",
+        "Move",
+    );
+    assert_eq!(
+        t,
+        "param size = 2;\n\nsystem S {\n    axiom F(size);\n    material m {\n        roughness = 1;\n    }\n}\n"
+    );
+    assert_eq!(c, ["E0007"], "{t}");
+    let (t, c) = fix(&t, "E0007", "Move");
+    assert_eq!(
+        t,
+        "param size = 2;\n\nmaterial m {\n    roughness = 1;\n}\n\nsystem S {\n    axiom F(size);\n}\n"
+    );
+    assert!(c.is_empty(), "{c:?}\n{t}");
     // Modules written without spaces, as the books print them: every
     // occurrence spaced out (the E0101 of a sample system too).
     let (t, c) = fix(
