@@ -73,6 +73,11 @@ impl FileAnalysis {
                 push(format!("Replace with `{s}`"), vec![edit(span, s)], true);
             }
             match d.code {
+                Code::UnexpectedToken | Code::InvalidCharacter
+                    if d.message.ends_with("is not an arrow in grm") =>
+                {
+                    push("Replace with `->`".into(), vec![edit(span, "->")], true);
+                }
                 Code::UnexpectedToken if d.message == "expected `;`" => {
                     push(
                         "Insert `;`".into(),

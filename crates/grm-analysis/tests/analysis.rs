@@ -445,6 +445,16 @@ fn code_actions_fix_their_diagnostics() {
     let all = fa.code_actions(Span::new(0, 80));
     assert!(fa.diagnostics().iter().any(|d| d.code == "W0010"));
     assert!(all.iter().all(|a| a.code != "W0010"), "{all:?}");
+    // Arrows of other tools.
+    for arrow in ["=>", "\u{2192}"] {
+        let (t, c) = fix(
+            &format!("system S {{\n    axiom F;\n    F {arrow} F F;\n}}"),
+            if arrow == "=>" { "E0001" } else { "E0003" },
+            "->",
+        );
+        assert!(t.contains("F -> F F;"), "{t}");
+        assert!(c.is_empty(), "{c:?}");
+    }
     // A declaration written inside a system: moved above it, dedented.
     let (t, c) = fix(
         "system S {\n    param size = 2;\n    axiom F(size);\n    material m {\n        roughness = 1;\n    }\n}\n",

@@ -254,7 +254,9 @@ impl Sys<'_, '_> {
                 .map(|m| (self.bracket_of(m.symbol), m.span))
                 .collect();
             self.brackets(br.into_iter(), "axiom");
-        } else {
+        } else if !holes && s.span.end > s.name.span.end {
+            // (A broken statement may be the axiom, and a system without
+            // its `{` has no statements: the syntax error says it all.)
             self.err(
                 Diagnostic::new(
                     Code::MissingAxiom,

@@ -51,7 +51,10 @@ enum Raw {
 
     #[regex(r"[\p{XID_Start}_][\p{XID_Continue}]*")]
     Ident,
-    #[regex(r"[0-9]+(\.[0-9]+)?([eE][+-]?[0-9]+)?")]
+    // A digit starts a number, and the letters and digits run on with it
+    // (`1e`, `1e+`, `1ee3`, `2x`): one malformed literal (E0006), not a
+    // number followed by a name.
+    #[regex(r"[0-9]+(\.[0-9]+)?([eE][+-]?[0-9]*)?[\p{XID_Continue}]*")]
     Number,
     /// The flag says whether the string was closed.
     #[token("\"", lex_string)]
@@ -84,6 +87,13 @@ enum Raw {
     RBracket,
     #[token("->")]
     Arrow,
+    /// Arrows of other L-system tools and of books: reported, then read
+    /// as `->` so the production is still checked.
+    #[token("=>")]
+    #[token("\u{2192}")]
+    #[token("\u{21D2}")]
+    #[token("\u{27F6}")]
+    OtherArrow,
     #[token("<")]
     Lt,
     #[token(">")]
@@ -382,6 +392,7 @@ fn convert(raw: Raw) -> Option<TokKind> {
         Raw::LBracket => T::LBracket,
         Raw::RBracket => T::RBracket,
         Raw::Arrow => T::Arrow,
+        Raw::OtherArrow => T::Arrow,
         Raw::Lt => T::Lt,
         Raw::Gt => T::Gt,
         Raw::Le => T::Le,
@@ -483,6 +494,28 @@ pub fn lex(file: FileId, text: &str) -> Lexed<'_> {
                         // Keep it as a string token so the item still parses.
                         out.tokens.push(Token {
                             kind: TokKind::Str,
+                            text: slice,
+                            span,
+                        });
+                    }
+                    Raw::OtherArrow => {
+                        let ascii = slice.is_ascii();
+                        out.diagnostics.push(
+                            Diagnostic::new(
+                                if ascii {
+                                    Code::UnexpectedToken
+                                } else {
+                                    Code::InvalidCharacter
+                                },
+                                format!("`{slice}` is not an arrow in grm"),
+                                file,
+                                span,
+                                "read as `->`",
+                            )
+                            .with_help("productions are written with `->`: `F -> F F;`"),
+                        );
+                        out.tokens.push(Token {
+                            kind: TokKind::Arrow,
                             text: slice,
                             span,
                         });

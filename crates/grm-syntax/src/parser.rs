@@ -96,9 +96,24 @@ pub(crate) fn sym(text: &str, l: usize, r: usize) -> Symbol {
 
 /// Parse a number literal; out-of-range literals are reported.
 pub(crate) fn number(text: &str) -> (f64, Option<String>) {
+    let well_formed = text
+        .bytes()
+        .all(|b| b.is_ascii_digit() || matches!(b, b'.' | b'e' | b'E' | b'+' | b'-'));
     match text.parse::<f64>() {
         Ok(v) if v.is_finite() && (v == 0.0 || v.abs() <= f32::MAX as f64) => (v, None),
-        Ok(_) | Err(_) => (
+        Err(_) if !well_formed => (
+            0.0,
+            Some(format!(
+                "`{text}` is not a number: a number is digits with an optional fraction and exponent (`1.5e3`)"
+            )),
+        ),
+        Err(_) => (
+            0.0,
+            Some(format!(
+                "`{text}` is not a number: an exponent needs digits (`1e3`, `2.5e-4`)"
+            )),
+        ),
+        Ok(_) => (
             0.0,
             Some(format!(
                 "number literal `{text}` does not fit in a 32-bit float"
@@ -182,13 +197,59 @@ fn stream<'a, 'b>(toks: &'b [Token<'a>]) -> impl Iterator<Item = Tok<'a>> + 'b {
 
 fn push_value_errors(file: FileId, diags: &mut Vec<Diagnostic>, errs: Vec<(Span, String)>) {
     for (span, msg) in errs {
-        diags.push(Diagnostic::new(
-            Code::InvalidNumber,
-            msg,
-            file,
+        let label = if msg.contains("does not fit") {
+            "out of range"
+        } else {
+            "malformed"
+        };
+        diags.push(Diagnostic::new(Code::InvalidNumber, msg, file, span, label));
+    }
+}
+
+/// A `const NAME [: TYPE] = ...` or `param NAME [: TYPE] = ...` whose value
+/// does not parse, kept as a declaration with an `Error` value (its syntax
+/// error is reported): the name is still defined, so its uses are not
+/// reported as unknown names too.
+fn recover_decl(toks: &[Token<'_>]) -> Option<Item> {
+    let kw = toks.first()?;
+    let name = toks.get(1).filter(|t| t.kind == TokKind::Ident)?;
+    let name = Ident {
+        name: name.text.to_string(),
+        span: name.span,
+    };
+    let assign = toks.iter().position(|t| t.kind == TokKind::Assign)?;
+    let ty = match &toks[2..assign] {
+        [] => None,
+        [c, t] if c.kind == TokKind::Colon && t.kind == TokKind::Ident => Some(TypeAnn {
+            name: Ident {
+                name: t.text.to_string(),
+                span: t.span,
+            },
+        }),
+        _ => return None,
+    };
+    let last = toks[toks.len() - 1].span;
+    let value_start = toks.get(assign + 1).map_or(last.end, |t| t.span.start);
+    let value = Expr {
+        kind: ExprKind::Error,
+        span: Span::new(value_start, last.end.max(value_start)),
+    };
+    let span = kw.span.to(last);
+    match kw.kind {
+        TokKind::Const => Some(Item::Const(ConstDecl {
+            name,
+            ty,
+            value,
             span,
-            "out of range",
-        ));
+        })),
+        TokKind::Param => Some(Item::Param(ParamDecl {
+            name,
+            ty,
+            default: value,
+            range: None,
+            span,
+        })),
+        _ => None,
     }
 }
 
@@ -362,6 +423,11 @@ impl<'a> Driver<'a, '_> {
                 }
                 let d = syntax_error(self.file, self.text, err, Some(toks));
                 self.diags.push(d);
+                if entry == Entry::Top
+                    && let Some(item) = recover_decl(toks)
+                {
+                    return vec![Stmt::Item(item)];
+                }
                 let span = toks[0].span.to(toks[toks.len() - 1].span);
                 vec![match entry {
                     Entry::Top => Stmt::Item(Item::Error(span)),
@@ -394,16 +460,24 @@ impl<'a> Driver<'a, '_> {
     }
 
     fn missing_semi(&mut self, after: Span) {
-        self.diags.push(
-            Diagnostic::new(
-                Code::UnexpectedToken,
-                "expected `;`",
-                self.file,
-                Span::new(after.end, after.end),
-                "add `;` here",
-            )
-            .with_help("every statement ends with `;`"),
-        );
+        let mut d = Diagnostic::new(
+            Code::UnexpectedToken,
+            "expected `;`",
+            self.file,
+            Span::new(after.end, after.end),
+            "add `;` here",
+        )
+        .with_help("every statement ends with `;`");
+        // ABoP writes two roll-right turns as `//`: here that starts a
+        // comment, which hides the rest of the line (its `;` included).
+        let rest = &self.text[after.end as usize..];
+        let line = &rest[..grm_diag::first_line_len(rest)];
+        if line.trim_start().starts_with("//") {
+            d = d.with_note(
+                "`//` starts a comment, which runs to the end of the line; two roll-right turns are written `/ /`",
+            );
+        }
+        self.diags.push(d);
     }
 
     /// The index of the first token of the last line break at or before
@@ -785,6 +859,17 @@ pub fn expr_depth(e: &Expr) -> usize {
     max
 }
 
+/// How an unexpected token is named in "unexpected ...": names and numbers
+/// with their text (`unexpected name `foo``), the rest as described.
+fn unexpected(t: &Token<'_>) -> String {
+    match t.kind {
+        TokKind::Ident => format!("name `{}`", t.text),
+        TokKind::Number => format!("number `{}`", t.text),
+        TokKind::Str => "string".to_string(),
+        k => k.describe().to_string(),
+    }
+}
+
 /// Turn a lalrpop error into a coded diagnostic.
 fn syntax_error(
     file: FileId,
@@ -830,7 +915,7 @@ fn syntax_error(
             } else {
                 (
                     Code::UnexpectedToken,
-                    format!("unexpected {}", t.kind.describe()),
+                    format!("unexpected {}", unexpected(&t)),
                     Span::from_range(l..r),
                     "unexpected here".to_string(),
                 )
@@ -866,7 +951,7 @@ fn syntax_error(
         }
         ParseError::ExtraToken { token: (l, t, r) } => Diagnostic::new(
             Code::UnexpectedToken,
-            format!("unexpected {}", t.kind.describe()),
+            format!("unexpected {}", unexpected(&t)),
             file,
             Span::from_range(l..r),
             "extra token",
