@@ -25,10 +25,10 @@ pub fn disassemble(c: &CompiledSystem, source: Option<&str>) -> String {
     );
     let _ = writeln!(
         o,
-        "sizes: {} symbols, {} groups, {} alternatives, {} context items, {} successor modules, {} parameters, {} code words, {} constants, {} draws, binding words <= {}",
+        "sizes: {} symbols, {} groups, {} alternatives (+ the axiom), {} context items, {} successor modules, {} parameters, {} code words, {} constants, draw indices 0..{} (0: the choice), binding words <= {}",
         c.symbols.len(),
         c.groups.len(),
-        c.alts.len(),
+        c.alts.len().saturating_sub(1),
         c.context.len(),
         c.succ.len(),
         c.params.len(),

@@ -556,7 +556,7 @@ impl SettingKey {
             SettingKey::Mode => {}
             SettingKey::Iterations => s.iterations = whole(self, v, 0.0)?,
             SettingKey::Seed => s.seed = whole(self, v, 0.0)?,
-            SettingKey::Generations => s.generations = whole(self, v, 0.0)?,
+            SettingKey::Generations => s.generations = whole(self, v, 1.0)?,
             SettingKey::ParticlesStart => s.particles_start = whole(self, v, 1.0)?,
             SettingKey::ParticlesEnd => s.particles_end = whole(self, v, 1.0)?,
             SettingKey::Angle => s.angle = finite(self, v, None)?,

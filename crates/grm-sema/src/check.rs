@@ -416,7 +416,7 @@ impl<'a> Checker<'a> {
                                         format!("cannot find the mesh file `{}`", m.path.value),
                                         f.id,
                                         m.path.span,
-                                        "no such file",
+                                        self.loader.why_missing(&path),
                                     )
                                     .with_help("mesh paths are relative to the directory of the file that declares them"),
                                 );

@@ -23,6 +23,12 @@ pub trait FileLoader {
     /// Whether a file (a mesh) exists and can be read.
     fn exists(&self, path: &Path) -> bool;
 
+    /// Why `path`, for which [`FileLoader::exists`] is false, cannot be
+    /// used: the label of the diagnostic.
+    fn why_missing(&self, _path: &Path) -> &'static str {
+        "no such file"
+    }
+
     /// Resolve `written` (as written in an import or mesh declaration)
     /// relative to the directory of the file `from`.
     fn resolve(&self, from: &Path, written: &str) -> PathBuf {
@@ -82,6 +88,14 @@ impl FileLoader for FsLoader {
 
     fn exists(&self, path: &Path) -> bool {
         path.is_file()
+    }
+
+    fn why_missing(&self, path: &Path) -> &'static str {
+        match std::fs::metadata(path) {
+            Ok(m) if m.is_dir() => "it is a directory",
+            Ok(_) => "it is not a regular file",
+            Err(_) => "no such file",
+        }
     }
 
     fn resolve(&self, from: &Path, written: &str) -> PathBuf {

@@ -211,3 +211,32 @@ fn imports_of_devices_directories_and_huge_files_are_refused() {
         checked.diagnostics
     );
 }
+
+/// A mesh path that names a directory or a device says so, not "no such
+/// file".
+#[test]
+fn mesh_paths_that_are_not_files_say_what_they_are() {
+    let dir = std::env::temp_dir().join(format!("grm-sema-meshes-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("leaves")).expect("tempdir");
+    let main = dir.join("main.grm");
+    let text = "mesh a = \"leaves\";\nmesh b = \"/dev/null\";\nmesh c = \"gone.obj\";\n\
+                system S { axiom mesh(a) mesh(b) mesh(c); }\n";
+    let (_sources, checked) = grm_sema::check_text(&main.to_string_lossy(), text);
+    let got: Vec<(String, String)> = checked
+        .diagnostics
+        .iter()
+        .map(|d| (d.code.as_str().to_string(), d.labels[0].message.clone()))
+        .collect();
+    let _ = std::fs::remove_dir_all(&dir);
+    let want = |m: &str| ("E0402".to_string(), m.to_string());
+    assert_eq!(
+        got,
+        vec![
+            want("it is a directory"),
+            want("it is not a regular file"),
+            want("no such file"),
+        ],
+        "{:#?}",
+        checked.diagnostics
+    );
+}

@@ -32,6 +32,17 @@ pub fn load_and_check(path: &std::path::Path) -> Result<(SourceMap, grm_sema::Ch
     let root = sources.add(path.display().to_string(), text);
     let mut checked = grm_sema::check(&mut sources, root, &grm_sema::FsLoader);
     if let Some(at) = bad_utf8 {
+        // The replacement characters are the E0404 below, not also E0003
+        // "invalid character".
+        let text = &sources.get(root).text;
+        checked.diagnostics.retain(|d| {
+            let p = d.primary();
+            !(d.code == grm_diag::Code::InvalidCharacter
+                && p.file == root
+                && text
+                    .get(p.span.start as usize..p.span.end as usize)
+                    .is_some_and(|t| t.chars().all(|c| c == '\u{FFFD}')))
+        });
         checked.diagnostics.push(invalid_utf8(root, at).with_note(
             "grm files are UTF-8 text; invalid bytes were replaced with U+FFFD for checking",
         ));

@@ -110,7 +110,14 @@ pub enum Outcome {
 }
 
 fn main() -> ExitCode {
-    let cli = match Cli::try_parse() {
+    // `--seed -1` is a value to refuse with its range, not a flag `-1`
+    // (whose "use `-- -1`" tip would make it the FILE argument).
+    let cmd = <Cli as clap::CommandFactory>::command()
+        .mut_subcommands(|c| c.allow_negative_numbers(true));
+    let parsed = cmd
+        .try_get_matches()
+        .and_then(|m| <Cli as clap::FromArgMatches>::from_arg_matches(&m));
+    let cli = match parsed {
         Ok(cli) => cli,
         Err(e) => {
             let _ = e.print();

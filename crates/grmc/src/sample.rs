@@ -37,8 +37,8 @@ pub struct SampleArgs {
     #[arg(long)]
     pub seed: Option<u32>,
     /// Generations of the search (default: the system's `generations`;
-    /// at most 100,000).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(..=i64::from(grm_sema::MAX_GENERATIONS)))]
+    /// 1 to 100,000).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(grm_sema::MAX_GENERATIONS)))]
     pub generations: Option<u32>,
     /// Particles, ramped linearly from A to B over the generations (`A..B`,
     /// or one number for a constant count; default: the system's
@@ -53,8 +53,9 @@ pub struct SampleArgs {
     /// most 1024). The model does not depend on it.
     #[arg(long, default_value_t = 1, value_parser = crate::parse_threads)]
     pub threads: usize,
-    /// Report and export the best K distinct models.
-    #[arg(long, default_value_t = 1, value_name = "K")]
+    /// Report and export the best K distinct models (K >= 1; fewer when
+    /// the search ends with fewer distinct ones).
+    #[arg(long, default_value_t = 1, value_name = "K", value_parser = at_least_one)]
     pub best: usize,
     /// What to minimize: the curve cost or the volume baseline.
     #[arg(long, value_enum, default_value_t = CostKind::Curves)]
@@ -84,11 +85,11 @@ pub struct SampleArgs {
     /// Candidate expansions per bone-making expansion, one kept in
     /// proportion to exp(-cost of its bones); 1: the grammar's own draws
     /// (Calder's proposal).
-    #[arg(long, value_name = "K", default_value_t = grm_sample::DEFAULT_CANDIDATES)]
+    #[arg(long, value_name = "K", default_value_t = grm_sample::DEFAULT_CANDIDATES, value_parser = clap::value_parser!(u32).range(1..))]
     pub candidates: u32,
     /// Expansions per particle step: a step expands open symbols until one
     /// adds a bone, at most this many (1: one symbol per step).
-    #[arg(long, default_value_t = 1000)]
+    #[arg(long, default_value_t = 1000, value_parser = clap::value_parser!(u32).range(1..))]
     pub max_step_expansions: u32,
     /// Override a meta-parameter: `NAME=VALUE`. Repeatable.
     #[arg(long = "param", value_name = "NAME=VALUE")]
@@ -108,6 +109,14 @@ fn positive(s: &str) -> Result<f64, String> {
     match s.trim().parse::<f64>() {
         Ok(x) if x > 0.0 => Ok(x),
         _ => Err(format!("`{s}` is not a number > 0")),
+    }
+}
+
+/// A whole number >= 1, for `--best`.
+fn at_least_one(s: &str) -> Result<usize, String> {
+    match s.trim().parse::<usize>() {
+        Ok(k) if k >= 1 => Ok(k),
+        _ => Err(format!("`{s}` is not a whole number >= 1")),
     }
 }
 
@@ -264,11 +273,11 @@ pub fn run(args: SampleArgs) -> Outcome {
         heuristic,
         temperature: args.temperature,
         ess_target: args.ess_target,
-        candidates: args.candidates.max(1),
+        candidates: args.candidates,
         threads: args.threads,
         budget: args.budget_ms.map(Duration::from_millis),
-        best: args.best.max(1),
-        max_expansions_per_step: args.max_step_expansions.max(1),
+        best: args.best,
+        max_expansions_per_step: args.max_step_expansions,
         limits: FinishLimits::default(),
         cancel: None,
     };

@@ -105,6 +105,20 @@ fn fmt_reports_invalid_utf8_with_its_code() {
     assert_eq!(std::fs::read(&f).expect("read"), bytes);
 }
 
+/// `grmc check` on a file that is not UTF-8: the one E0404, not also an
+/// E0003 "invalid character" on the replacement character.
+#[test]
+fn check_reports_invalid_utf8_once() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let f = dir.path().join("latin1.grm");
+    std::fs::write(&f, b"system S { axiom \xff F; }\n").expect("write");
+    let out = grmc(&["check", "--format", "json", path(&f)]);
+    let json = text(&out.stdout);
+    assert_eq!(out.status.code(), Some(1), "{}", text(&out.stderr));
+    assert_eq!(json.matches("\"code\"").count(), 1, "{json}");
+    assert!(json.contains("\"E0404\""), "{json}");
+}
+
 /// One unreadable file does not stop the others from being formatted; the
 /// exit code still says something went wrong.
 #[test]
@@ -285,7 +299,38 @@ fn iteration_generation_and_particle_flags_are_bounded() {
         ),
         (
             vec!["sample", calder.as_str(), "--generations", "4000000000"],
-            "is not in 0..=100000",
+            "is not in 1..=100000",
+        ),
+        // Zero of what a search needs at least one of is refused, not
+        // quietly run as one.
+        (
+            vec!["sample", calder.as_str(), "--generations", "0"],
+            "0 is not in 1..=100000",
+        ),
+        (
+            vec!["sample", calder.as_str(), "--candidates", "0"],
+            "0 is not in 1..",
+        ),
+        (
+            vec!["sample", calder.as_str(), "--max-step-expansions", "0"],
+            "0 is not in 1..",
+        ),
+        (
+            vec!["sample", calder.as_str(), "--best", "0"],
+            "`0` is not a whole number >= 1",
+        ),
+        // Negative numbers are values out of range, not unknown flags.
+        (
+            vec!["derive", koch.as_str(), "-n", "-1"],
+            "-1 is not in 0..=100000",
+        ),
+        (
+            vec!["sample", calder.as_str(), "--seed", "-1"],
+            "-1 is not in 0..=4294967295",
+        ),
+        (
+            vec!["sample", calder.as_str(), "--heuristic-scale", "-1"],
+            "`-1` is not a finite number >= 0",
         ),
         (
             vec!["sample", calder.as_str(), "--particles", "1..100001"],
