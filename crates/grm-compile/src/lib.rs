@@ -31,6 +31,7 @@ mod params;
 pub mod rng;
 pub mod select;
 pub mod table;
+pub mod text;
 pub mod verify;
 pub mod vm;
 

@@ -6,7 +6,7 @@
 //! run-time errors (codes `R0xxx`, docs/diagnostics.md) through
 //! `grm_diag::render_human`, like `grmc check` renders its diagnostics.
 
-use std::io::{IsTerminal, Write};
+use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -277,8 +277,10 @@ pub fn run(args: DeriveArgs) -> Outcome {
         );
     }
     if args.print {
-        let mut out = std::io::stdout().lock();
-        let _ = writeln!(out, "{}", d.string.to_text(&c.symbol_names));
+        outln!(
+            "{}",
+            grm_compile::text::string_text(&loaded.program, loaded.system(), d.string.iter())
+        );
     }
     if let Some(path) = &args.output {
         return export_string(&loaded, &d.string, path);

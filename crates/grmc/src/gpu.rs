@@ -10,7 +10,6 @@
 //! re-derived on the CPU, which reports it with its source span (both
 //! engines stop at the same iteration and module).
 
-use std::io::Write;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -180,8 +179,10 @@ pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
         return Some(Outcome::Ok);
     };
     if args.print {
-        let mut out = std::io::stdout().lock();
-        let _ = writeln!(out, "{}", string.to_text(&c.symbol_names));
+        outln!(
+            "{}",
+            grm_compile::text::string_text(&loaded.program, loaded.system(), string.iter())
+        );
     }
     if let Some(path) = &args.output {
         return Some(crate::derive::export_string(loaded, &string, path));

@@ -413,3 +413,45 @@ fn closed_stdout_ends_quietly() {
     assert!(json.len() > 1 << 17, "{}", json.len());
     assert_eq!(json.matches("\"W0011\"").count(), 1024);
 }
+
+/// `derive --print` writes grm source text that reads back: vectors,
+/// booleans, meshes and materials as written, so the printed string, pasted
+/// back as an axiom, prints the same string again.
+#[test]
+fn printed_strings_read_back_as_an_axiom() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    std::fs::copy(
+        common::repo().join("examples/leaf.obj"),
+        dir.path().join("leaf.obj"),
+    )
+    .expect("copy");
+    let decls = "mesh leaf = \"leaf.obj\";\nmaterial bark { roughness = 0.5; }\n";
+    let first = dir.path().join("grow.grm");
+    std::fs::write(
+        &first,
+        format!(
+            "{decls}system S {{\n    iterations = 3;\n    \
+             axiom A(vec3(1, 2, 3), true) rotate(vec3(0, 0, 1), 30) mesh(leaf) material(bark);\n    \
+             A(v, b) : b -> F(v.x / 3) [ + A(v * 0.5, !b) ] A(v, !b);\n    \
+             A(v, b) -> ! (1.5) F(v.y) A(v, !b);\n}}\n"
+        ),
+    )
+    .expect("write");
+    let out = grmc(&["derive", path(&first), "--print"]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    let printed = text(&out.stdout).trim_end().to_string();
+    assert!(
+        printed.contains("vec3(") && printed.contains("false"),
+        "{printed}"
+    );
+    assert!(printed.contains("mesh(leaf) material(bark)"), "{printed}");
+    let again = dir.path().join("again.grm");
+    std::fs::write(
+        &again,
+        format!("{decls}system S {{\n    iterations = 0;\n    module A(v: vec3, b: bool);\n    axiom {printed};\n}}\n"),
+    )
+    .expect("write");
+    let out = grmc(&["derive", path(&again), "--print"]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    assert_eq!(text(&out.stdout).trim_end(), printed);
+}
