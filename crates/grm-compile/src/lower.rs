@@ -68,7 +68,7 @@ impl CompileError {
             CompileErrorKind::HasErrors => ("this has errors", INTERNAL),
             CompileErrorKind::Params(_) => ("in this system", INTERNAL),
             CompileErrorKind::Settings(_) => (
-                "in this system",
+                "invalid for these meta-parameter values",
                 "choose meta-parameter values (`--param`) for which the setting is valid",
             ),
             CompileErrorKind::NonFiniteConstant { .. } => (
@@ -179,8 +179,8 @@ pub fn compile(
         .global_values(params)
         .map_err(|e| err(CompileErrorKind::Params(e.to_string()), system.loc.span))?;
     let settings = system
-        .settings_with(params, &globals)
-        .map_err(|m| err(CompileErrorKind::Settings(m), system.span))?;
+        .settings_at(params, &globals)
+        .map_err(|(m, at)| err(CompileErrorKind::Settings(m), at))?;
 
     let mut lw = Lowerer {
         system,

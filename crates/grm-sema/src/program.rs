@@ -605,6 +605,16 @@ impl System {
     /// (indexed by [`ParamId`]) and global values (from
     /// [`Program::global_values`]).
     pub fn settings_with(&self, params: &[Value], globals: &[Value]) -> Result<Settings, String> {
+        self.settings_at(params, globals).map_err(|(m, _)| m)
+    }
+
+    /// [`System::settings_with`], the error with the span of the setting
+    /// statement that failed.
+    pub fn settings_at(
+        &self,
+        params: &[Value],
+        globals: &[Value],
+    ) -> Result<Settings, (String, Span)> {
         let env = crate::eval::Env {
             params,
             globals,
@@ -612,8 +622,8 @@ impl System {
         };
         let mut s = Settings::default();
         for se in &self.setting_exprs {
-            let v = crate::eval::eval(&se.value, &env).map_err(|e| e.to_string())?;
-            se.key.apply(&mut s, v)?;
+            let v = crate::eval::eval(&se.value, &env).map_err(|e| (e.to_string(), se.span))?;
+            se.key.apply(&mut s, v).map_err(|m| (m, se.span))?;
         }
         Ok(s)
     }

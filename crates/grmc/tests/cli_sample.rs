@@ -159,9 +159,18 @@ fn candidates_are_an_option() {
     // The volume baseline has no candidates.
     let volume = run(&["--cost", "volume"]);
     assert!(volume.contains("1 candidate,"), "{volume}");
-    // 0 is taken as 1.
-    let zero = run(&["--candidates", "0", "--ess-target", "0"]);
-    assert_eq!(cost(&zero), cost(&one));
+    // 0 candidates is a usage error, not a silent 1.
+    let o = grmc(&[
+        "sample",
+        tree.as_str(),
+        "--curves",
+        curves.as_str(),
+        "--candidates",
+        "0",
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("--candidates"), "{stderr}");
 }
 
 #[test]
