@@ -5,6 +5,7 @@ import { test } from 'node:test';
 import {
   CurvesError,
   DEFAULT_PARAMS,
+  MAX_COORDINATE,
   MAX_SEGMENTS_PER_CURVE,
   cloneSet,
   curveLength,
@@ -106,6 +107,16 @@ test('too many utilization segments are refused, as grm-guide refuses them', () 
   assert.throws(() => serializeCurves(set), /into 40000 segments/);
   // A curve that is (nearly) a point, as grm-guide measures it.
   assert.throws(() => parseCurves(file([{ points: [[1, 1, 1], [1, 1, 1], [1, 1, 1 + 1e-12], [1, 1, 1]] }])), /coincide/);
+  // Coordinates beyond grm-guide's MAX_COORDINATE (1e6), parsed or dragged there.
+  assert.throws(() => parseCurves(file([{ points: [[0, 0, 0], [0, 1, 0], [0, 2e6, 0], [0, 3, 0]] }])), /points\[2\] has a coordinate beyond ±1e6/);
+  set.curves[0].params.segment_length = 0.2;
+  assert.equal(setProblem(set), null);
+  set.curves[0].points[1][0] = -1e300;
+  assert.match(setProblem(set) ?? '', /points\[1\] has a coordinate beyond/);
+  // The limits are grm-guide's own (one definition, checked here).
+  const rust = readFileSync(join(examples, '../crates/grm-guide/src/curves.rs'), 'utf8');
+  assert.equal(Number(/pub const MAX_COORDINATE: f64 = ([0-9e.]+);/.exec(rust)?.[1]), MAX_COORDINATE);
+  assert.equal(Number(/pub const MAX_SEGMENTS_PER_CURVE: usize = (\d+);/.exec(rust)?.[1]), MAX_SEGMENTS_PER_CURVE);
 });
 
 test('fresh names and deep copies', () => {

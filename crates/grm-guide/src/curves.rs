@@ -28,6 +28,8 @@ pub const FORMAT_VERSION: u64 = 1;
 
 /// Most utilization segments one curve may be split into.
 pub const MAX_SEGMENTS_PER_CURVE: usize = 2048;
+/// The largest absolute control-point coordinate accepted.
+pub const MAX_COORDINATE: f64 = 1e6;
 
 /// Most utilization segments over all curves of a file (each sampler
 /// particle carries one counter per segment).
@@ -457,6 +459,21 @@ impl Parser<'_> {
         match top.get("version") {
             None => return Err(self.err(Location::File, "version", "is missing (expected 1)")),
             Some(v) if v.as_u64() == Some(FORMAT_VERSION) => {}
+            // `1.0` or `"1"`: the right version in the wrong form.
+            Some(v) if v.as_f64() == Some(FORMAT_VERSION as f64) => {
+                return Err(self.err(
+                    Location::File,
+                    "version",
+                    format!("{v} must be written as the integer {FORMAT_VERSION}"),
+                ));
+            }
+            Some(v) if !v.is_number() => {
+                return Err(self.err(
+                    Location::File,
+                    "version",
+                    format!("is {}; expected the integer {FORMAT_VERSION}", kind(v)),
+                ));
+            }
             Some(v) => {
                 return Err(CurvesError {
                     file: self.file.to_string(),
@@ -764,6 +781,20 @@ impl Parser<'_> {
                     "has a coordinate that is not finite",
                 ));
             }
+            // Models are built in f32: far beyond this, a bone's position
+            // keeps no precision (and lengths overflow).
+            if p.abs().max_element() > MAX_COORDINATE {
+                return Err(self.err(
+                    at.clone(),
+                    &format!("points[{i}]"),
+                    format!(
+                        "[{}, {}, {}] has a coordinate beyond ±{MAX_COORDINATE:e} (models are built in single precision)",
+                        short(p.x),
+                        short(p.y),
+                        short(p.z)
+                    ),
+                ));
+            }
         }
         self.check_params(at, &c.params)?;
         let length = c.bezier.length();
@@ -781,12 +812,26 @@ impl Parser<'_> {
                 at.clone(),
                 "segment_length",
                 format!(
-                    "{} splits the curve (length {length:.3}) into {n} segments; at most {MAX_SEGMENTS_PER_CURVE} are allowed",
-                    c.params.segment_length
+                    "{} splits the curve (length {length:.3}) into {} segments; at most {MAX_SEGMENTS_PER_CURVE} are allowed",
+                    short(c.params.segment_length),
+                    if n > 1_000_000_000 {
+                        "more than a billion".to_string()
+                    } else {
+                        n.to_string()
+                    }
                 ),
             ));
         }
         Ok(n)
+    }
+}
+
+/// A number as written in an error: huge and tiny ones in exponent form.
+fn short(x: f64) -> String {
+    if x.abs() >= 1e7 || (x != 0.0 && x.abs() < 1e-4) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
     }
 }
 

@@ -178,6 +178,18 @@ fn field_errors_name_file_curve_and_field() {
             r#"calder_tree.curves.json: curve 1 ("left"): segment_length 0.0001 splits the curve (length 3.191) into 31914 segments; at most 2048 are allowed"#,
         ),
         (
+            r#"{ "name": "left", "points": [[0,2,0],[-1,2.5,0],[-2,1e9,0],[-3,3,0]] }"#,
+            r#"calder_tree.curves.json: curve 1 ("left"): points[2] [-2, 1e9, 0] has a coordinate beyond ±1e6 (models are built in single precision)"#,
+        ),
+        (
+            r#"{ "name": "left", "points": [[0,2,0],[-1,2.5,0],[-2,1e300,0],[-3,3,0]] }"#,
+            r#"calder_tree.curves.json: curve 1 ("left"): points[2] [-2, 1e300, 0] has a coordinate beyond ±1e6 (models are built in single precision)"#,
+        ),
+        (
+            r#"{ "name": "left", "points": [[0,2,0],[-1,2.5,0],[-2,3,0],[-3,3,0]], "segment_length": 1e-300 }"#,
+            r#"calder_tree.curves.json: curve 1 ("left"): segment_length 1e-300 splits the curve (length 3.191) into more than a billion segments; at most 2048 are allowed"#,
+        ),
+        (
             r#"{ "name": "trunk", "points": [[0,2,0],[-1,2.5,0],[-2,3,0],[-3,3,0]] }"#,
             r#"calder_tree.curves.json: curve 1 ("trunk"): name "trunk" is already used by curve 0"#,
         ),
@@ -216,7 +228,11 @@ fn file_level_errors() {
         ),
         (
             r#"{ "version": "1", "curves": [] }"#,
-            r#"calder_tree.curves.json: version "1" is not supported (this grm reads version 1)"#,
+            r#"calder_tree.curves.json: version is a string; expected the integer 1"#,
+        ),
+        (
+            r#"{ "version": 1.0, "curves": [] }"#,
+            "calder_tree.curves.json: version 1.0 must be written as the integer 1",
         ),
         (
             r#"{ "version": 1, "curves": [] }"#,

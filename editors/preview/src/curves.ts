@@ -87,6 +87,9 @@ export function curveLength(points: Bezier): number {
   return acc;
 }
 
+/** grm-guide's `MAX_COORDINATE`: the largest absolute control-point coordinate. */
+export const MAX_COORDINATE = 1e6;
+
 /** grm-guide's `segment_count`: `ceil(length / segment_length)`, at least 1 (a ratio within 1e-9 above an integer counts as it). */
 export function segmentCount(length: number, segmentLength: number): number {
   const n = Math.ceil(length / segmentLength - 1e-9);
@@ -94,11 +97,16 @@ export function segmentCount(length: number, segmentLength: number): number {
 }
 
 /**
- * The checks grm-guide makes on a curve's shape (`check_curve`): not of zero
- * length, and at most MAX_SEGMENTS_PER_CURVE utilization segments. Returns
+ * The checks grm-guide makes on a curve's shape (`check_curve`): coordinates
+ * within ±MAX_COORDINATE, not of zero length, and at most MAX_SEGMENTS_PER_CURVE utilization segments. Returns
  * its number of segments; throws CurvesError.
  */
 function checkShape(c: Curve, at: string): number {
+  c.points.forEach((p, j) => {
+    if (p.some((x) => Math.abs(x) > MAX_COORDINATE)) {
+      throw new CurvesError(`${at}points[${j}] has a coordinate beyond ±1e6 (models are built in single precision)`);
+    }
+  });
   const [p0, p1, p2, p3] = c.points;
   const polygon = dist3(p0, p1) + dist3(p1, p2) + dist3(p2, p3);
   const length = curveLength(c.points);
