@@ -166,6 +166,8 @@ codes! {
     /// A never-rewritten symbol spelt like several modules without spaces
     /// (`FF` for `F F`, as the books print it).
     RunTogether = "W0011", Warning, "modules written without spaces";
+    /// `[` or `]` in an ignore list: brackets are never ignored.
+    BracketIgnored = "W0012", Warning, "bracket in the ignore list";
 
     // ---- R0xxx: run time -------------------------------------------------
     // Reported by the engines after a clean check (`grmc derive`, `sample`,

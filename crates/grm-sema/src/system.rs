@@ -749,7 +749,21 @@ impl Sys<'_, '_> {
         let mut known: Option<suggest::Candidates<'_>> = None;
         for ig in ignores {
             for s in &ig.symbols {
-                if let Some(forms) = terminal_forms(&s.name) {
+                if s.name == "[" || s.name == "]" {
+                    self.cx.error(
+                        Diagnostic::new(
+                            Code::BracketIgnored,
+                            format!("`{}` cannot be ignored", s.name),
+                            self.file,
+                            s.span,
+                            "has no effect",
+                        )
+                        .with_note(
+                            "brackets are never ignored: context matching steps over lateral branches by the bracket rules",
+                        )
+                        .with_help("remove it from the ignore list"),
+                    );
+                } else if let Some(forms) = terminal_forms(&s.name) {
                     for f in forms {
                         if let Some(&id) = self.tab.term.get(&f.terminal)
                             && !out.contains(&id)
