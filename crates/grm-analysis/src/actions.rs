@@ -66,10 +66,26 @@ impl FileAnalysis {
                     });
                 }
             };
-            // "did you mean `x`?": replace the misspelt name.
-            if let Some(s) = quoted_after(help, "did you mean")
+            // W0002 "did you mean `x` where `X` is written?": the misspelt
+            // name is where the second label points, not the production.
+            if d.code == Code::UnreachableProduction {
+                if let Some(s) = quoted_after(help, "did you mean") {
+                    let written: Vec<TextEdit> = d
+                        .labels
+                        .iter()
+                        .filter(|l| {
+                            !l.primary
+                                && l.file == self.root
+                                && l.message.ends_with("nothing rewrites it")
+                        })
+                        .map(|l| edit(clamp(l.span, self.text()), s))
+                        .collect();
+                    push(format!("Replace with `{s}`"), written, false);
+                }
+            } else if let Some(s) = quoted_after(help, "did you mean")
                 && crate::nav::valid_identifier(self.slice(span)).is_ok()
             {
+                // "did you mean `x`?": replace the misspelt name.
                 push(format!("Replace with `{s}`"), vec![edit(span, s)], true);
             }
             match d.code {

@@ -357,6 +357,15 @@ fn code_actions_fix_their_diagnostics() {
     );
     assert!(t.contains("F(SHRINK)"), "{t}");
     assert!(c.is_empty(), "{c:?}");
+    // An unreachable production whose symbol is misspelt where it is
+    // written: the written name is replaced, not the production's.
+    let (t, c) = fix(
+        "system S {\n    axiom Plant;\n    plant -> F plant;\n}",
+        "W0002",
+        "Replace with `plant`",
+    );
+    assert_eq!(t, "system S {\n    axiom plant;\n    plant -> F plant;\n}");
+    assert!(c.is_empty(), "{c:?}");
     // Missing `;`.
     let (t, c) = fix("system S {\n    axiom F\n    F -> F F;\n}", "E0001", "`;`");
     assert!(t.contains("axiom F;"), "{t}");

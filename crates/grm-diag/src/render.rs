@@ -56,7 +56,26 @@ pub fn render_human(d: &Diagnostic, sources: &SourceMap, color: bool) -> String 
         )
         .with_code(d.code.as_str())
         .with_message(&d.message);
-    for (order, l) in d.labels.iter().enumerate() {
+    // ariadne starts a new source group (with a header repeating the
+    // primary's line:col) whenever a label comes before the previous one in
+    // the file; ordered by file (the primary's first) and position, each
+    // file is one group whose lines read top to bottom (labels on one line
+    // keep their order).
+    let line_of = |l: &crate::Label| {
+        let text = &sources.get(l.file).text;
+        let at = clamp(l.span, text).start;
+        text.chars().take(at).filter(|&c| c == '\n').count()
+    };
+    let mut by_place: Vec<usize> = (0..d.labels.len()).collect();
+    by_place.sort_by_cached_key(|&i| {
+        let l = &d.labels[i];
+        (l.file != primary.file, l.file.0, line_of(l), i)
+    });
+    let mut order = vec![0; d.labels.len()];
+    for (rank, &i) in by_place.iter().enumerate() {
+        order[i] = rank;
+    }
+    for (l, &order) in d.labels.iter().zip(&order) {
         let text = &sources.get(l.file).text;
         let mut label = ALabel::new((id(l.file), clamp(l.span, text))).with_order(order as i32);
         if !l.message.is_empty() {

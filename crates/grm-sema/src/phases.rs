@@ -5,6 +5,7 @@
 use grm_diag::{Code, Diagnostic, Span};
 
 use crate::program::*;
+use crate::suggest;
 
 /// Symbols that can derive a string of finished symbols.
 ///
@@ -275,10 +276,46 @@ pub(crate) fn check_groups(sys: &System, diags: &mut Vec<Diagnostic>, skip_reach
         {
             d = d.with_label(file, other.pred, "also unreachable");
         }
-        diags.push(d.with_help(format!(
-            "emit `{}` from the axiom or from a reachable production, or remove these productions",
-            info.name
-        )));
+        // A reachable symbol that nothing rewrites, spelt nearly the same
+        // (`Plant` in the axiom, productions for `plant`): likely a typo.
+        let near = suggest::best(
+            &info.name,
+            sys.symbols
+                .iter()
+                .enumerate()
+                .filter(|(t, o)| {
+                    seen[*t]
+                        && !o.is_terminal()
+                        && o.groups.is_empty()
+                        && o.wrapup_groups.is_empty()
+                        // W0011 explains those (`FX` for `F X`).
+                        && (sys.mode != Mode::Derive || run_together_split(sys, o).is_none())
+                })
+                .map(|(_, o)| o.name.as_str()),
+        );
+        let written = near.and_then(|near| {
+            let modules = sys.axiom.iter().chain(
+                sys.groups
+                    .iter()
+                    .filter(|g| seen[g.pred.symbol.index()])
+                    .flat_map(|g| g.alternatives.iter().flat_map(|a| &a.successor)),
+            );
+            let mut at = modules.filter(|m| sys.symbol(m.symbol).name == near);
+            at.next().map(|m| (near, m.span))
+        });
+        match written {
+            Some((near, at)) => {
+                d = d.with_label(file, at, format!("`{near}` is written here, and nothing rewrites it"));
+                diags.push(d.with_help(format!(
+                    "did you mean `{}` where `{near}` is written?",
+                    info.name
+                )));
+            }
+            None => diags.push(d.with_help(format!(
+                "emit `{}` from the axiom or from a reachable production, or remove these productions",
+                info.name
+            ))),
+        }
     }
 }
 
