@@ -686,6 +686,26 @@ impl Checker<'_> {
                         Ty::Float,
                         &format!("weight {} of `choose`", i / 2 + 1),
                     );
+                    // As for production weights (E0207): a constant weight
+                    // must be positive; parametric ones are checked at run
+                    // time.
+                    if let Some(Value::Float(x)) = a.constant()
+                        && !(x.is_finite() && x > 0.0)
+                    {
+                        self.error(
+                            Diagnostic::new(
+                                Code::NonPositiveWeight,
+                                format!(
+                                    "weight {} of `choose` must be a positive number, but this is {x}",
+                                    i / 2 + 1
+                                ),
+                                file,
+                                a.span,
+                                "not positive",
+                            )
+                            .with_help("use a weight > 0; to drop a value, remove it and its weight"),
+                        );
+                    }
                 }
                 match self.generic(file, "choose", &mut args, |i| i % 2 == 0, false) {
                     Some(t) => t,

@@ -429,6 +429,22 @@ impl Sys<'_, '_> {
                 );
                 continue;
             }
+            if key == crate::builtins::SettingKey::Iterations && self.mode == Mode::Sample {
+                self.cx.error(
+                    Diagnostic::new(
+                        Code::UnknownSetting,
+                        "`iterations` is a setting of derive systems",
+                        file,
+                        name_span,
+                        "not used by a sample system",
+                    )
+                    .with_note(
+                        "a sample system is grown by the search, whose length is `generations`",
+                    )
+                    .with_help("remove this setting, or set `generations`"),
+                );
+                continue;
+            }
             if v.ty != Ty::Error
                 && let Ok(val) = crate::eval::eval(&v, &env)
                 && let Err(msg) = key.apply(&mut out, val)
@@ -659,9 +675,10 @@ impl Sys<'_, '_> {
                 Diagnostic::new(
                     Code::ModuleArity,
                     format!(
-                        "`{name}` takes {} argument{}, but {k} were given",
+                        "`{name}` takes {} argument{}, but {k} {} given",
                         form_counts(forms),
-                        if form_counts(forms) == "1" { "" } else { "s" }
+                        if form_counts(forms) == "1" { "" } else { "s" },
+                        if k == 1 { "was" } else { "were" }
                     ),
                     self.file,
                     m.span,
