@@ -61,11 +61,7 @@ pub fn render_human(d: &Diagnostic, sources: &SourceMap, color: bool) -> String 
     // the file; ordered by file (the primary's first) and position, each
     // file is one group whose lines read top to bottom (labels on one line
     // keep their order).
-    let line_of = |l: &crate::Label| {
-        let text = &sources.get(l.file).text;
-        let at = clamp(l.span, text).start;
-        text.chars().take(at).filter(|&c| c == '\n').count()
-    };
+    let line_of = |l: &crate::Label| sources.get(l.file).line_of(l.span.start);
     let mut by_place: Vec<usize> = (0..d.labels.len()).collect();
     by_place.sort_by_cached_key(|&i| {
         let l = &d.labels[i];
@@ -250,6 +246,34 @@ mod tests {
         let out = render_human(&d, &sm, false);
         assert!(out.contains("lib.grm:1:7"), "{out}");
         assert!(out.contains("main.grm:2:7"), "{out}");
+    }
+
+    #[test]
+    fn labels_of_one_file_are_one_group_in_line_order() {
+        // A secondary label above the primary, with `\n`, `\r\n` and lone
+        // `\r` line ends: one header, the primary's, and the lines top to
+        // bottom (a label above the previous one used to open a second
+        // group whose header repeated the primary's line:col).
+        for nl in ["\n", "\r\n", "\r"] {
+            let text = ["system P {", "  axiom F X;", "  G -> F;", "}", ""].join(nl);
+            let mut sm = SourceMap::new();
+            let f = sm.add("t.grm", text.as_str());
+            let g = text.find('G').unwrap() as u32;
+            let x = text.find('X').unwrap() as u32;
+            let d = Diagnostic::new(
+                Code::UnreachableProduction,
+                "m",
+                f,
+                Span::new(g, g + 1),
+                "primary",
+            )
+            .with_label(f, Span::new(x, x + 1), "secondary");
+            let out = render_human(&d, &sm, false);
+            assert_eq!(out.matches("t.grm:").count(), 1, "{nl:?}\n{out}");
+            assert!(out.contains("t.grm:3:3"), "{out}");
+            let (sec, pri) = (out.find("secondary").unwrap(), out.find("primary").unwrap());
+            assert!(sec < pri, "{out}");
+        }
     }
 
     #[test]

@@ -278,6 +278,9 @@ pub(crate) fn check_groups(sys: &System, diags: &mut Vec<Diagnostic>, skip_reach
         }
         // A reachable symbol that nothing rewrites, spelt nearly the same
         // (`Plant` in the axiom, productions for `plant`): likely a typo.
+        // One- and two-letter names are all one edit apart (`X` for `G`):
+        // only a difference of case counts for them.
+        let short = info.name.chars().count() < 3;
         let near = suggest::best(
             &info.name,
             sys.symbols
@@ -290,6 +293,7 @@ pub(crate) fn check_groups(sys: &System, diags: &mut Vec<Diagnostic>, skip_reach
                         && o.wrapup_groups.is_empty()
                         // W0011 explains those (`FX` for `F X`).
                         && (sys.mode != Mode::Derive || run_together_split(sys, o).is_none())
+                        && (!short || o.name.to_lowercase() == info.name.to_lowercase())
                 })
                 .map(|(_, o)| o.name.as_str()),
         );
