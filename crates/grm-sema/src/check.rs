@@ -265,6 +265,9 @@ pub(crate) struct ValueDecl<'a> {
 
 /// All checking state.
 pub(crate) struct Checker<'a> {
+    /// The type a bare name being checked must have, where that says what
+    /// to declare if it is unknown (`mesh(leaf)`: a mesh).
+    pub name_wanted: Option<Ty>,
     pub files: &'a [LoadedFile],
     pub loader: &'a dyn FileLoader,
     pub diags: Vec<Diagnostic>,
@@ -327,6 +330,7 @@ impl<'a> Checker<'a> {
             default_globals: Vec::new(),
             depth: 0,
             deep_reported: false,
+            name_wanted: None,
         }
     }
 

@@ -1064,7 +1064,25 @@ impl Sys<'_, '_> {
 
     fn module(&mut self, m: &ast::Module, r: &UseRes, sc: &mut Scope) -> TModule {
         let file = self.file;
-        let targs: Vec<TExpr> = m.args.iter().map(|a| self.cx.expr(a, sc)).collect();
+        let wanted = match (self.tab.infos[r.sym.index()].kind, r.form) {
+            (SymbolKind::Terminal(_), Some(f)) => f
+                .written
+                .first()
+                .copied()
+                .filter(|t| matches!(t, Ty::Mesh | Ty::Material)),
+            _ => None,
+        };
+        let targs: Vec<TExpr> = m
+            .args
+            .iter()
+            .map(|a| {
+                // Only a bare name: in `if(x > 0, m1, m2)`, `x` is no mesh.
+                self.cx.name_wanted = wanted.filter(|_| matches!(a.kind, ast::ExprKind::Name(_)));
+                let t = self.cx.expr(a, sc);
+                self.cx.name_wanted = None;
+                t
+            })
+            .collect();
         let info = &self.tab.infos[r.sym.index()];
         let arity = info.arity;
         let kind = info.kind;
