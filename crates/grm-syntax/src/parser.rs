@@ -35,13 +35,15 @@ impl Parsed {
 
 /// Parse a whole file.
 pub fn parse(file: FileId, text: &str) -> Parsed {
-    let lexed = lexer::lex(file, text);
+    let mut lexed = lexer::lex(file, text);
+    let mut diags = lexed.diagnostics.clone();
+    misspelt_item_keywords(file, &mut lexed.tokens, &mut diags);
     let mut p = Driver {
         file,
         text,
         toks: &lexed.tokens,
         pos: 0,
-        diags: lexed.diagnostics.clone(),
+        diags,
         hoisted: Vec::new(),
     };
     let items = p.items();
@@ -210,6 +212,101 @@ fn push_value_errors(file: FileId, diags: &mut Vec<Diagnostic>, errs: Vec<(Span,
 /// does not parse, kept as a declaration with an `Error` value (its syntax
 /// error is reported): the name is still defined, so its uses are not
 /// reported as unknown names too.
+/// A name at the start of a top-level item, shaped like an item whose
+/// keyword it nearly spells (`sytem P {`, `Const x =`, `include "f.grm"`), is
+/// read as that keyword, with one E0001: the item parses, its names resolve,
+/// and nothing else is reported for it.
+fn misspelt_item_keywords(file: FileId, toks: &mut [Token<'_>], diags: &mut Vec<Diagnostic>) {
+    let mut depth = 0i32;
+    let mut at_start = true;
+    for i in 0..toks.len() {
+        let k = toks[i].kind;
+        if depth == 0 && at_start && k == TokKind::Ident {
+            let next = |j: usize| toks.get(i + j).map(|t| t.kind);
+            let kind = item_keyword_for(toks[i].text).and_then(|kw| {
+                let (kind, fits) = match kw {
+                    "system" => (
+                        TokKind::System,
+                        next(1) == Some(TokKind::Ident) && next(2) == Some(TokKind::LBrace),
+                    ),
+                    "material" => (
+                        TokKind::Material,
+                        next(1) == Some(TokKind::Ident) && next(2) == Some(TokKind::LBrace),
+                    ),
+                    "import" => (TokKind::Import, next(1) == Some(TokKind::Str)),
+                    kw => (
+                        match kw {
+                            "const" => TokKind::Const,
+                            "param" => TokKind::Param,
+                            _ => TokKind::Mesh,
+                        },
+                        next(1) == Some(TokKind::Ident)
+                            && matches!(next(2), Some(TokKind::Assign | TokKind::Colon)),
+                    ),
+                };
+                fits.then_some((kw, kind))
+            });
+            if let Some((kw, kind)) = kind {
+                let t = &mut toks[i];
+                diags.push(
+                    Diagnostic::new(
+                        Code::UnexpectedToken,
+                        format!("`{}` is not a keyword; read as `{kw}`", t.text),
+                        file,
+                        t.span,
+                        "not a keyword",
+                    )
+                    .with_help(format!("did you mean `{kw}`?")),
+                );
+                t.kind = kind;
+            }
+        }
+        match k {
+            TokKind::LBrace => depth += 1,
+            TokKind::RBrace => depth = (depth - 1).max(0),
+            _ => {}
+        }
+        at_start = depth == 0 && matches!(k, TokKind::Semi | TokKind::RBrace);
+    }
+}
+
+/// The item keyword a name at the start of an item probably means: a
+/// keyword misspelt by one letter or in another case (`sytem`, `System`), or
+/// another language's word for it (`include`, `let`).
+fn item_keyword_for(word: &str) -> Option<&'static str> {
+    const KEYWORDS: [&str; 6] = ["system", "const", "param", "mesh", "material", "import"];
+    let lower = word.to_lowercase();
+    match lower.as_str() {
+        "include" | "use" | "require" | "from" => return Some("import"),
+        "let" | "var" | "define" | "constant" => return Some("const"),
+        "lsystem" | "grammar" | "rules" => return Some("system"),
+        "parameter" => return Some("param"),
+        _ => {}
+    }
+    KEYWORDS
+        .into_iter()
+        .find(|kw| lower == *kw || (word.chars().count() >= 4 && within_one_edit(&lower, kw)))
+}
+
+/// Whether `a` becomes `b` by one insertion, deletion, substitution or swap
+/// of neighbours.
+fn within_one_edit(a: &str, b: &str) -> bool {
+    let (a, b): (Vec<char>, Vec<char>) = (a.chars().collect(), b.chars().collect());
+    let pre = a.iter().zip(&b).take_while(|(x, y)| x == y).count();
+    let suf = a[pre..]
+        .iter()
+        .rev()
+        .zip(b[pre..].iter().rev())
+        .take_while(|(x, y)| x == y)
+        .count();
+    let (ra, rb) = (&a[pre..a.len() - suf], &b[pre..b.len() - suf]);
+    match (ra.len(), rb.len()) {
+        (0, 0) | (1, 0) | (0, 1) | (1, 1) => true,
+        (2, 2) => ra[0] == rb[1] && ra[1] == rb[0],
+        _ => false,
+    }
+}
+
 fn recover_decl(toks: &[Token<'_>]) -> Option<Item> {
     let kw = toks.first()?;
     let name = toks.get(1).filter(|t| t.kind == TokKind::Ident)?;
@@ -331,16 +428,28 @@ impl<'a> Driver<'a, '_> {
                     }
                     let last = self.toks[self.pos - 1].span;
                     let span = t.span.to(last);
-                    self.diags.push(
-                        Diagnostic::new(
-                            Code::UnexpectedToken,
-                            format!("expected an item, found {}", t.kind.describe()),
-                            self.file,
-                            t.span,
-                            "items start with `system`, `const`, `param`, `mesh`, `material` or `import`",
-                        )
-                        .with_note("productions and settings go inside a `system NAME { ... }` block"),
+                    let mut d = Diagnostic::new(
+                        Code::UnexpectedToken,
+                        match t.kind {
+                            TokKind::Ident => format!("expected an item, found `{}`", t.text),
+                            k => format!("expected an item, found {}", k.describe()),
+                        },
+                        self.file,
+                        t.span,
+                        "items start with `system`, `const`, `param`, `mesh`, `material` or `import`",
                     );
+                    match (t.kind == TokKind::Ident)
+                        .then(|| item_keyword_for(t.text))
+                        .flatten()
+                    {
+                        Some(kw) => d = d.with_help(format!("did you mean `{kw}`?")),
+                        None => {
+                            d = d.with_note(
+                                "productions and settings go inside a `system NAME { ... }` block",
+                            )
+                        }
+                    }
+                    self.diags.push(d);
                     items.push(Item::Error(span));
                 }
             }
