@@ -94,6 +94,14 @@ impl FileAnalysis {
                 {
                     push("Replace with `->`".into(), vec![edit(span, "->")], true);
                 }
+                // `=` or `and` in a condition: the grm operator.
+                Code::UnexpectedToken
+                    if help.starts_with("to compare, write") || help.starts_with("write `") =>
+                {
+                    if let Some(op) = quoted_after(help, "write") {
+                        push(format!("Replace with `{op}`"), vec![edit(span, op)], true);
+                    }
+                }
                 Code::UnexpectedToken if d.message == "expected `;`" => {
                     push(
                         "Insert `;`".into(),

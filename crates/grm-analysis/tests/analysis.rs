@@ -366,6 +366,21 @@ fn code_actions_fix_their_diagnostics() {
     );
     assert_eq!(t, "system S {\n    axiom plant;\n    plant -> F plant;\n}");
     assert!(c.is_empty(), "{c:?}");
+    // Another notation's operators in a condition.
+    let (t, c) = fix(
+        "system S {\n    axiom A(1);\n    A(t) : t = 5 -> B;\n}",
+        "E0001",
+        "`==`",
+    );
+    assert!(t.contains("A(t) : t == 5 -> B;"), "{t}");
+    assert!(c.is_empty(), "{c:?}");
+    let (t, c) = fix(
+        "system S {\n    axiom A(1);\n    A(t) : t > 0 and t < 5 -> B;\n}",
+        "E0001",
+        "`&&`",
+    );
+    assert!(t.contains("t > 0 && t < 5"), "{t}");
+    assert!(c.is_empty(), "{c:?}");
     // Missing `;`.
     let (t, c) = fix("system S {\n    axiom F\n    F -> F F;\n}", "E0001", "`;`");
     assert!(t.contains("axiom F;"), "{t}");

@@ -979,6 +979,41 @@ fn unexpected(t: &Token<'_>) -> String {
     }
 }
 
+/// The grm way to write what an unexpected token says in another notation:
+/// `=` or `and` in a condition, a weight before the arrow.
+fn other_notation(t: &Token<'_>, at: usize, stmt: Option<&[Token<'_>]>) -> Option<String> {
+    let s = stmt?;
+    let i = s.iter().position(|x| x.span.start as usize == at)?;
+    let arrow_after = s[i..].iter().any(|x| x.kind == TokKind::Arrow);
+    let colon_before = s[..i].iter().any(|x| x.kind == TokKind::Colon);
+    match t.kind {
+        TokKind::Assign if colon_before && arrow_after => {
+            Some("to compare, write `==` (`=` only gives a setting or a constant its value)".into())
+        }
+        TokKind::Ident if colon_before || !arrow_after => match t.text {
+            "and" => Some("write `&&` for and".into()),
+            "or" => Some("write `||` for or".into()),
+            "not" => Some("write `!` for not".into()),
+            _ => None,
+        },
+        // `F (0.5) -> ...`: ABoP and other tools write the probability
+        // after the predecessor.
+        TokKind::Number
+            if arrow_after
+                && i == 2
+                && s[0].kind == TokKind::Ident
+                && s[1].kind == TokKind::LParen
+                && s.get(3).is_some_and(|x| x.kind == TokKind::RParen) =>
+        {
+            Some(format!(
+                "a production's weight goes after the arrow: `{} -> ({}) ...`",
+                s[0].text, t.text
+            ))
+        }
+        _ => None,
+    }
+}
+
 /// Turn a lalrpop error into a coded diagnostic.
 fn syntax_error(
     file: FileId,
@@ -1030,8 +1065,12 @@ fn syntax_error(
                 )
             };
             let mut d = Diagnostic::new(code, msg, file, span, label);
-            if !expected.is_empty() {
-                d = d.with_help(format!("expected {}", pretty(&expected)));
+            match other_notation(&t, l, stmt) {
+                Some(help) => d = d.with_help(help),
+                None if !expected.is_empty() => {
+                    d = d.with_help(format!("expected {}", pretty(&expected)));
+                }
+                None => {}
             }
             if t.kind == TokKind::Ident
                 && let Some(s) = stmt
