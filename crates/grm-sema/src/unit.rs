@@ -2,7 +2,7 @@
 //! One check for both: a value that is not a finite number is an error
 //! (E0212: glTF and MTL cannot hold one), one outside 0..1 a warning
 //! (W0010: the model clamps it). Colours written on a 0..255 scale (whole
-//! numbers up to 255, one above 1) get the division by 255 as the fix.
+//! numbers up to 255, one of at least 10) get the division by 255 as the fix.
 
 use grm_diag::{Code, Diagnostic, FileId, Span};
 
@@ -59,10 +59,12 @@ pub(crate) fn check(v: &UnitValue<'_>) -> Option<Diagnostic> {
     }
     let clamped: Vec<f64> = v.xs.iter().map(|x| x.clamp(0.0, 1.0)).collect();
     let to = (v.write)(&clamped);
+    // `color(2, 0, 0)` is more likely an overshoot than a 0..255 colour.
     let bytes = v.xs.len() == 3
         && v.xs
             .iter()
-            .all(|&x| x.fract() == 0.0 && (0.0..=255.0).contains(&x));
+            .all(|&x| x.fract() == 0.0 && (0.0..=255.0).contains(&x))
+        && v.xs.iter().any(|&x| x >= 10.0);
     let help = if !v.constant {
         format!(
             "{} lie in 0..1: keep this one in range for every value of the \
