@@ -986,6 +986,22 @@ fn other_notation(t: &Token<'_>, at: usize, stmt: Option<&[Token<'_>]>) -> Optio
     let i = s.iter().position(|x| x.span.start as usize == at)?;
     let arrow_after = s[i..].iter().any(|x| x.kind == TokKind::Arrow);
     let colon_before = s[..i].iter().any(|x| x.kind == TokKind::Colon);
+    // `axiom: F;`, ABoP's `ω: F` / `w: F`.
+    if s.len() > 2
+        && s[1].kind == TokKind::Colon
+        && (s[0].kind == TokKind::Axiom || matches!(s[0].text, "w" | "ω" | "omega"))
+        && !s.iter().any(|x| x.kind == TokKind::Arrow)
+    {
+        let rest: Vec<&str> = s[2..]
+            .iter()
+            .filter(|x| x.kind != TokKind::Semi)
+            .map(|x| x.text)
+            .collect();
+        return Some(format!(
+            "the axiom is written without `:`: `axiom {};`",
+            rest.join(" ")
+        ));
+    }
     match t.kind {
         TokKind::Assign if colon_before && arrow_after => {
             Some("to compare, write `==` (`=` only gives a setting or a constant its value)".into())
