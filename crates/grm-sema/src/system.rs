@@ -349,7 +349,18 @@ impl Sys<'_, '_> {
                     "not a setting",
                 );
                 let names = SettingKey::ALL.iter().map(|k| k.name());
-                d = match suggest::did_you_mean(&set.name.name, names) {
+                // ABoP's symbols and other tools' names for the settings.
+                let alias = match set.name.name.as_str() {
+                    "n" | "depth" | "generation" | "steps" | "iter" => Some("iterations"),
+                    "δ" | "delta" | "turn" | "theta" => Some("angle"),
+                    "length" | "len" | "distance" => Some("step"),
+                    "thickness" | "diameter" | "radius" => Some("width"),
+                    _ => None,
+                };
+                d = match alias
+                    .map(|a| format!("did you mean `{a}`?"))
+                    .or_else(|| suggest::did_you_mean(&set.name.name, names))
+                {
                     Some(h) => d.with_help(h),
                     None => d.with_help(format!(
                         "the settings are {}",

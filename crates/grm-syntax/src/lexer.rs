@@ -440,7 +440,11 @@ pub fn lex(file: FileId, text: &str) -> Lexed<'_> {
                     s,
                     "not part of any token",
                 )
-                .with_help("remove it; strings go in double quotes and comments start with `//`"),
+                .with_help(if what.chars().all(|c| c == '°') {
+                    "remove it: angles are written in degrees without a sign (`25.7`)"
+                } else {
+                    "remove it; strings go in double quotes and comments start with `//`"
+                }),
             );
         }
     };
