@@ -167,7 +167,7 @@ impl DeriveError {
             DeriveError::TooLarge { .. } => Some("derive fewer iterations (`-n`)".into()),
             DeriveError::Runtime(e) => match e.kind {
                 RuntimeErrorKind::NonFinite { .. } => Some(
-                    "guard the expression with a condition, e.g. `: x > 0`, or clamp its inputs"
+                    "guard the expression with a condition, e.g. `: x > 0`, or clamp its inputs (a `choose` whose weights are all 0 is NaN too)"
                         .into(),
                 ),
                 RuntimeErrorKind::BadWeight { .. } => {

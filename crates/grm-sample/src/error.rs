@@ -136,7 +136,7 @@ impl SampleError {
             }
             SampleError::Runtime(e) => match e.kind {
                 ExpandErrorKind::NonFinite { .. } => Some(
-                    "guard the expression with a condition, e.g. `: x > 0`, or clamp its inputs"
+                    "guard the expression with a condition, e.g. `: x > 0`, or clamp its inputs (a `choose` whose weights are all 0 is NaN too)"
                         .into(),
                 ),
                 ExpandErrorKind::BadWeight { .. } => {
