@@ -68,7 +68,8 @@ pub fn write_module(
     out.push(')');
 }
 
-fn write_numbers(words: &[f32], out: &mut String) {
+/// Append `(a, b, ...)` for a module's parameter words; nothing for none.
+pub fn write_numbers(words: &[f32], out: &mut String) {
     use std::fmt::Write;
     if words.is_empty() {
         return;

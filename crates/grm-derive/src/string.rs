@@ -130,16 +130,7 @@ impl ModuleString {
                     let _ = write!(out, "#{sym}");
                 }
             }
-            if !params.is_empty() {
-                out.push('(');
-                for (k, p) in params.iter().enumerate() {
-                    if k > 0 {
-                        out.push_str(", ");
-                    }
-                    let _ = write!(out, "{p}");
-                }
-                out.push(')');
-            }
+            grm_compile::text::write_numbers(params, out);
         }
     }
 }

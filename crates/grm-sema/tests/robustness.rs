@@ -192,11 +192,7 @@ fn imports_of_devices_directories_and_huge_files_are_refused() {
     let text = "import \"/dev/zero\";\nimport \"/dev/null\";\nimport \"sub\";\n\
                 import \"huge.grm\";\nimport \"ok.grm\";\nsystem S { axiom F(A); }\n";
     let (_sources, checked) = grm_sema::check_text(&main.to_string_lossy(), text);
-    let got: Vec<(String, String)> = checked
-        .diagnostics
-        .iter()
-        .map(|d| (d.code.as_str().to_string(), d.labels[0].message.clone()))
-        .collect();
+    let got = codes_and_first_labels(&checked.diagnostics);
     let _ = std::fs::remove_dir_all(&dir);
     let want = |m: &str| ("E0401".to_string(), m.to_string());
     assert_eq!(
@@ -222,11 +218,7 @@ fn mesh_paths_that_are_not_files_say_what_they_are() {
     let text = "mesh a = \"leaves\";\nmesh b = \"/dev/null\";\nmesh c = \"gone.obj\";\n\
                 system S { axiom mesh(a) mesh(b) mesh(c); }\n";
     let (_sources, checked) = grm_sema::check_text(&main.to_string_lossy(), text);
-    let got: Vec<(String, String)> = checked
-        .diagnostics
-        .iter()
-        .map(|d| (d.code.as_str().to_string(), d.labels[0].message.clone()))
-        .collect();
+    let got = codes_and_first_labels(&checked.diagnostics);
     let _ = std::fs::remove_dir_all(&dir);
     let want = |m: &str| ("E0402".to_string(), m.to_string());
     assert_eq!(
@@ -239,4 +231,12 @@ fn mesh_paths_that_are_not_files_say_what_they_are() {
         "{:#?}",
         checked.diagnostics
     );
+}
+
+/// Each diagnostic's code and its primary label's message.
+fn codes_and_first_labels(diags: &[grm_diag::Diagnostic]) -> Vec<(String, String)> {
+    diags
+        .iter()
+        .map(|d| (d.code.as_str().to_string(), d.labels[0].message.clone()))
+        .collect()
 }
