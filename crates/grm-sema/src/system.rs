@@ -1268,6 +1268,27 @@ impl Sys<'_, '_> {
 
         let condition = p.condition.as_ref().map(|c| {
             let t = self.cx.expr(c, &mut sc);
+            // ABoP's production labels, `p1: F -> F F`: read here as a
+            // predecessor `p1` whose condition is the name `F`.
+            let label = p
+                .pred
+                .symbol
+                .name
+                .strip_prefix('p')
+                .is_some_and(|n| n.chars().all(|c| c.is_ascii_digit()));
+            if label
+                && p.pred.params.is_empty()
+                && p.left.is_empty()
+                && let ast::ExprKind::Name(n) = &c.kind
+                && let Some(d) = self.cx.diags[diags_before..]
+                    .iter_mut()
+                    .find(|d| d.code == Code::UnknownName && d.primary().span == c.span)
+            {
+                d.help = Some(format!(
+                    "production labels like `{}:` are not written in grm: write `{} -> ...;`",
+                    p.pred.symbol.name, n.name
+                ));
+            }
             if t.ty != Ty::Bool && t.ty != Ty::Error {
                 let mut d = Diagnostic::new(
                     Code::ConditionNotBool,
