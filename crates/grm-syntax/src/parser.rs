@@ -208,10 +208,6 @@ fn push_value_errors(file: FileId, diags: &mut Vec<Diagnostic>, errs: Vec<(Span,
     }
 }
 
-/// A `const NAME [: TYPE] = ...` or `param NAME [: TYPE] = ...` whose value
-/// does not parse, kept as a declaration with an `Error` value (its syntax
-/// error is reported): the name is still defined, so its uses are not
-/// reported as unknown names too.
 /// A name at the start of a top-level item, shaped like an item whose
 /// keyword it nearly spells (`sytem P {`, `Const x =`, `include "f.grm"`), is
 /// read as that keyword, with one E0001: the item parses, its names resolve,
@@ -307,6 +303,10 @@ fn within_one_edit(a: &str, b: &str) -> bool {
     }
 }
 
+/// A `const NAME [: TYPE] = ...` or `param NAME [: TYPE] = ...` whose value
+/// does not parse, kept as a declaration with an `Error` value (its syntax
+/// error is reported): the name is still defined, so its uses are not
+/// reported as unknown names too.
 fn recover_decl(toks: &[Token<'_>]) -> Option<Item> {
     let kw = toks.first()?;
     let name = toks.get(1).filter(|t| t.kind == TokKind::Ident)?;
