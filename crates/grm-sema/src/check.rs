@@ -265,9 +265,6 @@ pub(crate) struct ValueDecl<'a> {
 
 /// All checking state.
 pub(crate) struct Checker<'a> {
-    /// The type a bare name being checked must have, where that says what
-    /// to declare if it is unknown (`mesh(leaf)`: a mesh).
-    pub name_wanted: Option<Ty>,
     pub files: &'a [LoadedFile],
     pub loader: &'a dyn FileLoader,
     pub diags: Vec<Diagnostic>,
@@ -330,7 +327,6 @@ impl<'a> Checker<'a> {
             default_globals: Vec::new(),
             depth: 0,
             deep_reported: false,
-            name_wanted: None,
         }
     }
 
@@ -340,6 +336,28 @@ impl<'a> Checker<'a> {
 
     pub(crate) fn error(&mut self, d: Diagnostic) {
         self.diags.push(d);
+    }
+
+    /// Give the E0101 reported at `span` since diagnostic `since` the help
+    /// its context knows better (`mesh(leaf)`: declare a mesh), unless
+    /// `keep_suggestion` and it already suggests a close name.
+    pub(crate) fn amend_unknown_name(
+        &mut self,
+        since: usize,
+        span: Span,
+        help: String,
+        keep_suggestion: bool,
+    ) {
+        if let Some(d) = self.diags[since..]
+            .iter_mut()
+            .find(|d| d.code == Code::UnknownName && d.primary().span == span)
+            && !(keep_suggestion
+                && d.help
+                    .as_deref()
+                    .is_some_and(|h| h.starts_with("did you mean")))
+        {
+            d.help = Some(help);
+        }
     }
 
     /// Collect and check the global items of every file.

@@ -442,16 +442,6 @@ impl Checker<'_> {
             let globals = self.visible_names(sc.file_idx);
             if let Some(h) = suggest::did_you_mean_in(&id.name, bindings, globals) {
                 d = d.with_help(h);
-            } else if self.name_wanted == Some(Ty::Mesh) {
-                d = d.with_help(format!(
-                    "declare the mesh above the system: `mesh {} = \"{}.obj\";`",
-                    id.name, id.name
-                ));
-            } else if self.name_wanted == Some(Ty::Material) {
-                d = d.with_help(format!(
-                    "declare the material above the system: `material {} {{ color = rgb(0.5, 0.5, 0.5); }}`",
-                    id.name
-                ));
             } else if SettingKey::from_name(&id.name).is_some() {
                 d = d.with_help("settings cannot be read in expressions; define a `const` and use it in both places");
             } else if sc.what == "a production" {

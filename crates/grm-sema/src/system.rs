@@ -1087,10 +1087,23 @@ impl Sys<'_, '_> {
             .args
             .iter()
             .map(|a| {
-                // Only a bare name: in `if(x > 0, m1, m2)`, `x` is no mesh.
-                self.cx.name_wanted = wanted.filter(|_| matches!(a.kind, ast::ExprKind::Name(_)));
+                let since = self.cx.diags.len();
                 let t = self.cx.expr(a, sc);
-                self.cx.name_wanted = None;
+                // Only a bare name: in `if(x > 0, m1, m2)`, `x` is no mesh.
+                if let (Some(want), ast::ExprKind::Name(n)) = (wanted, &a.kind) {
+                    let help = if want == Ty::Mesh {
+                        format!(
+                            "declare the mesh above the system: `mesh {} = \"{}.obj\";`",
+                            n.name, n.name
+                        )
+                    } else {
+                        format!(
+                            "declare the material above the system: `material {} {{ color = rgb(0.5, 0.5, 0.5); }}`",
+                            n.name
+                        )
+                    };
+                    self.cx.amend_unknown_name(since, a.span, help, true);
+                }
                 t
             })
             .collect();
@@ -1280,14 +1293,13 @@ impl Sys<'_, '_> {
                 && p.pred.params.is_empty()
                 && p.left.is_empty()
                 && let ast::ExprKind::Name(n) = &c.kind
-                && let Some(d) = self.cx.diags[diags_before..]
-                    .iter_mut()
-                    .find(|d| d.code == Code::UnknownName && d.primary().span == c.span)
             {
-                d.help = Some(format!(
+                let help = format!(
                     "production labels like `{}:` are not written in grm: write `{} -> ...;`",
                     p.pred.symbol.name, n.name
-                ));
+                );
+                self.cx
+                    .amend_unknown_name(diags_before, c.span, help, false);
             }
             if t.ty != Ty::Bool && t.ty != Ty::Error {
                 let mut d = Diagnostic::new(
