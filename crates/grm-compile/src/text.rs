@@ -28,6 +28,9 @@ pub fn write_module(
     if info.params.iter().map(width).sum::<usize>() != words.len() {
         return write_numbers(words, out);
     }
+    // `scale` has no vec3 form (`scale(s)` is the uniform one): its vector
+    // is written as the three numbers the checker reads it from.
+    let spread = info.terminal() == Some(grm_sema::Terminal::Scale);
     out.push('(');
     let mut w = words.iter().copied();
     for (k, t) in info.params.iter().enumerate() {
@@ -37,6 +40,10 @@ pub fn write_module(
         // The widths were checked above: every `next` has a word.
         let mut next = || w.next().unwrap_or(0.0);
         match t {
+            Ty::Vec3 if spread => {
+                let (x, y, z) = (next(), next(), next());
+                let _ = write!(out, "{x}, {y}, {z}");
+            }
             Ty::Vec3 => {
                 let (x, y, z) = (next(), next(), next());
                 let _ = write!(out, "vec3({x}, {y}, {z})");

@@ -326,7 +326,9 @@ impl TokKind {
         }
     }
 
-    /// Keywords that start a top-level item.
+    /// Keywords that can start a top-level item. `mesh` and `material` are
+    /// also terminals inside module strings (`mesh(leaf)`): ask
+    /// [`starts_item_at`] whether a token really starts one.
     pub fn starts_top_item(self) -> bool {
         matches!(
             self,
@@ -337,6 +339,21 @@ impl TokKind {
                 | TokKind::Material
                 | TokKind::System
         )
+    }
+}
+
+/// Whether `tokens[i]` starts a top-level item: an item keyword, where
+/// `mesh` and `material` count only as `mesh NAME =` / `material NAME {`
+/// (followed by anything else, they are the module-string terminals).
+pub fn starts_item_at(tokens: &[Token<'_>], i: usize) -> bool {
+    let kind = |j: usize| tokens.get(j).map(|t| t.kind);
+    match kind(i) {
+        Some(TokKind::Mesh | TokKind::Material) => {
+            kind(i + 1) == Some(TokKind::Ident)
+                && matches!(kind(i + 2), Some(TokKind::Assign | TokKind::LBrace))
+        }
+        Some(k) => k.starts_top_item(),
+        None => false,
     }
 }
 
@@ -550,7 +567,9 @@ pub fn lex(file: FileId, text: &str) -> Lexed<'_> {
 fn mark_polygon_braces(tokens: &mut [Token<'_>]) {
     let mut in_string = false;
     let mut depth = 0u32;
-    for t in tokens.iter_mut() {
+    for i in 0..tokens.len() {
+        let item = starts_item_at(tokens, i);
+        let t = &mut tokens[i];
         match t.kind {
             TokKind::Arrow | TokKind::Axiom | TokKind::Ignore => {
                 in_string = true;
@@ -569,7 +588,7 @@ fn mark_polygon_braces(tokens: &mut [Token<'_>]) {
                     in_string = false;
                 }
             }
-            k if k.starts_top_item() => in_string = false,
+            _ if item => in_string = false,
             _ => {}
         }
     }
@@ -597,6 +616,22 @@ mod tests {
             kinds("system S { A -> { . F } ; }"),
             vec![
                 System, Ident, LBrace, Ident, Arrow, PolyOpen, Dot, Ident, PolyClose, Semi, RBrace
+            ]
+        );
+        // `material(..)` / `mesh(..)` are terminals of the string, not items:
+        // the polygon after them is still a polygon.
+        assert_eq!(
+            kinds("system S { axiom material(m) { . } ; }"),
+            vec![
+                System, Ident, LBrace, Axiom, Material, LParen, Ident, RParen, PolyOpen, Dot,
+                PolyClose, Semi, RBrace
+            ]
+        );
+        // A declaration does end the string (its `{` is a block).
+        assert_eq!(
+            kinds("system S { A -> F material m { }"),
+            vec![
+                System, Ident, LBrace, Ident, Arrow, Ident, Material, Ident, LBrace, RBrace
             ]
         );
         // Forgotten `;`: the `}` still closes the block.

@@ -14,7 +14,7 @@
 
 use crate::ast::*;
 use crate::grm;
-use crate::lexer::{self, TokKind, Token};
+use crate::lexer::{self, TokKind, Token, starts_item_at};
 use grm_diag::{Code, Diagnostic, FileId};
 use lalrpop_util::ParseError;
 
@@ -416,7 +416,7 @@ impl<'a> Driver<'a, '_> {
                     let start = self.pos;
                     let mut depth = 0i32;
                     while let Some(k) = self.peek_kind() {
-                        if depth <= 0 && k.starts_top_item() && self.pos > start {
+                        if depth <= 0 && starts_item_at(self.toks, self.pos) && self.pos > start {
                             break;
                         }
                         match k {
@@ -468,9 +468,7 @@ impl<'a> Driver<'a, '_> {
                 TokKind::RBrace if in_block => return i,
                 // `mesh`/`material` are also terminals inside module strings
                 // (`mesh(leaf)`); they start an item only as `mesh NAME =`.
-                TokKind::Mesh | TokKind::Material if !first && self.decl_at(i) => return i,
-                TokKind::Mesh | TokKind::Material => {}
-                k if k.starts_top_item() && !first => return i,
+                _ if !first && starts_item_at(self.toks, i) => return i,
                 _ => {}
             }
             first = false;
@@ -735,10 +733,7 @@ impl<'a> Driver<'a, '_> {
                 if k == TokKind::RBrace {
                     break;
                 }
-                let decl = match k {
-                    TokKind::Mesh | TokKind::Material => self.decl_at(self.pos),
-                    k => k.starts_top_item(),
-                };
+                let decl = starts_item_at(self.toks, self.pos);
                 if decl {
                     // A declaration inside the block: if the block still
                     // closes after it, it was written inside by mistake
@@ -835,28 +830,13 @@ impl<'a> Driver<'a, '_> {
         self.diags.insert(before, d);
     }
 
-    /// `mesh NAME =` / `material NAME {` at token `i` is a top-level item
-    /// (inside a system, the system was left open).
-    fn decl_at(&self, i: usize) -> bool {
-        matches!(
-            (
-                self.toks.get(i + 1).map(|t| t.kind),
-                self.toks.get(i + 2).map(|t| t.kind)
-            ),
-            (
-                Some(TokKind::Ident),
-                Some(TokKind::Assign | TokKind::LBrace)
-            )
-        )
-    }
-
     fn material(&mut self) -> Item {
         let start = self.toks[self.pos].span;
         let (name, braced) = self.block_header("material");
         let mut fields = Vec::new();
         if braced {
             while let Some(k) = self.peek_kind() {
-                if k == TokKind::RBrace || k.starts_top_item() {
+                if k == TokKind::RBrace || starts_item_at(self.toks, self.pos) {
                     break;
                 }
                 let end = self.stmt_end(true).max(self.pos + 1);
