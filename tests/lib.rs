@@ -39,7 +39,8 @@ pub fn check_file(rel: &Path) -> (SourceMap, grm_sema::Checked) {
     let mut sources = SourceMap::new();
     let shown = rel.to_string_lossy().replace('\\', "/");
     let root = sources.add(shown, text);
-    let checked = grm_sema::check(&mut sources, root, &grm_sema::FsLoader);
+    let mut checked = grm_sema::check(&mut sources, root, &grm_sema::FsLoader);
+    checked.diagnostics.extend(grm_compile::check(&checked));
     (sources, checked)
 }
 

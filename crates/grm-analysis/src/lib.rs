@@ -156,7 +156,9 @@ impl FileAnalysis {
         let display = path.to_string_lossy().replace('\\', "/");
         let mut sources = SourceMap::new();
         let root = sources.add(display, text);
-        let checked = grm_sema::check(&mut sources, root, loader);
+        let mut checked = grm_sema::check(&mut sources, root, loader);
+        // What compiling finds (R01xx), as `grmc check` reports it.
+        checked.diagnostics.extend(grm_compile::check(&checked));
         let deps = sources
             .iter()
             .filter(|(id, _)| *id != root)

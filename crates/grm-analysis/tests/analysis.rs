@@ -52,6 +52,17 @@ fn diagnostics_carry_code_help_and_span() {
 }
 
 #[test]
+fn diagnostics_include_what_compiling_finds() {
+    // Clean for the checker, refused by the compiler (R0104): the editor
+    // shows it where it is, as `grmc check` does.
+    let text = "system S { axiom F(acos(2)); }";
+    let d = analyze(text).diagnostics();
+    assert_eq!(d.len(), 1, "{d:?}");
+    assert_eq!(d[0].code, "R0104");
+    assert_eq!(&text[d[0].span.range()], "acos(2)");
+}
+
+#[test]
 fn hover_shows_types_values_docs_and_probabilities() {
     let fa = analyze(PLANT);
     // A constant's folded value and its leading comment.

@@ -37,5 +37,5 @@ pub mod vm;
 
 pub use compiled::{CompiledSystem, InvalidTables};
 pub use disasm::disassemble;
-pub use lower::{CompileError, CompileErrorKind, compile};
+pub use lower::{CompileError, CompileErrorKind, check, compile};
 pub use params::param_values;

@@ -71,6 +71,10 @@ impl CompileError {
                 "invalid for these meta-parameter values",
                 "choose meta-parameter values (`--param`) for which the setting is valid",
             ),
+            CompileErrorKind::NonFiniteConstant { value } if value.is_nan() => (
+                "this is not a number (NaN)",
+                "a function was given an argument outside its domain (`sqrt` or `log` of a negative number, `acos` or `asin` beyond -1..1, `0 * inf`): change the argument",
+            ),
             CompileErrorKind::NonFiniteConstant { .. } => (
                 "this is not finite in 32-bit float",
                 "32-bit floats hold magnitudes up to about 3.4e38: scale the value down",
@@ -106,6 +110,9 @@ impl std::fmt::Display for CompileError {
             }
             CompileErrorKind::Params(m) => write!(f, "meta-parameters: {m}"),
             CompileErrorKind::Settings(m) => write!(f, "setting: {m}"),
+            CompileErrorKind::NonFiniteConstant { value } if value.is_nan() => {
+                f.write_str("module parameter is NaN (not a number)")
+            }
             CompileErrorKind::NonFiniteConstant { value } => write!(
                 f,
                 "module parameter {} is not finite in 32-bit float",
@@ -140,6 +147,27 @@ fn number(v: f64) -> String {
     } else {
         format!("{v}")
     }
+}
+
+/// The errors compiling finds in a program checked without errors: every
+/// system of the checked file (not of its imports: they are reported when
+/// those files are checked) compiled with the meta-parameters' defaults,
+/// as diagnostics
+/// (`grmc check` and the editor report them beside the checker's). Empty
+/// for a program with errors (it cannot be compiled; its errors say why).
+pub fn check(checked: &grm_sema::Checked) -> Vec<Diagnostic> {
+    if checked.has_errors() {
+        return Vec::new();
+    }
+    let program = &checked.program;
+    let params = program.default_params();
+    program
+        .systems
+        .iter()
+        .filter(|s| s.file == program.root)
+        .filter_map(|s| compile(program, s, &params).err())
+        .map(|e| e.to_diagnostic())
+        .collect()
 }
 
 /// Compile `system` of `program` with the meta-parameter values `params`

@@ -532,9 +532,11 @@ impl Checker<'_> {
                 .with_label(file, span, format!("this {what} has no finite value"))
                 .with_help("divide by a value that is never zero"),
             );
+            // Reported: typed as an error, so the checks of whatever holds
+            // it (a setting, a material value) do not report it again.
             return TExpr {
                 kind: TExprKind::Binary(op, Box::new(a), Box::new(b)),
-                ty,
+                ty: Ty::Error,
                 span,
             };
         }

@@ -4,6 +4,7 @@
 
 use grm_diag::{Code, Diagnostic, Span};
 
+use crate::builtins::Terminal;
 use crate::program::*;
 use crate::suggest;
 
@@ -333,14 +334,25 @@ fn context_span(items: &[TContextItem]) -> Option<Span> {
 
 /// The phase rules of sample systems (E0301-E0308, E0313, and E0101 for
 /// symbols that are neither declared nor rewritten). With `holes` (parse
-/// errors in the system) the whole-system rules are skipped.
-pub(crate) fn check_sample(sys: &System, diags: &mut Vec<Diagnostic>, holes: bool) {
+/// errors in the system) the whole-system rules are skipped. Rewriting one
+/// of `declared` (terminals whose declaration was already refused) is not
+/// reported again.
+pub(crate) fn check_sample(
+    sys: &System,
+    diags: &mut Vec<Diagnostic>,
+    holes: bool,
+    declared: &[Terminal],
+) {
     let file = sys.file;
     let mut phase_reported = vec![false; sys.symbols.len()];
+    // The contexts reported below: a symbol first seen in one is part of
+    // that mistake, not an unknown symbol of its own.
+    let mut contexts: Vec<Span> = Vec::new();
     for g in &sys.groups {
         let pred = sys.symbol(g.pred.symbol);
         for items in [&g.left, &g.right] {
             if let Some(span) = context_span(items) {
+                contexts.push(span);
                 diags.push(
                     Diagnostic::new(
                         Code::ContextInSampleMode,
@@ -355,6 +367,9 @@ pub(crate) fn check_sample(sys: &System, diags: &mut Vec<Diagnostic>, holes: boo
             }
         }
         if let Some(t) = pred.terminal() {
+            if declared.contains(&t) {
+                continue;
+            }
             diags.push(
                 Diagnostic::new(
                     Code::TerminalPredecessor,
@@ -493,6 +508,9 @@ pub(crate) fn check_sample(sys: &System, diags: &mut Vec<Diagnostic>, holes: boo
             || info.decl.is_some()
             || !info.groups.is_empty()
             || !info.wrapup_groups.is_empty()
+            || contexts
+                .iter()
+                .any(|c| c.start <= info.first.start && info.first.end <= c.end)
         {
             continue;
         }

@@ -117,6 +117,9 @@ struct Sys<'c, 'a> {
     mode: Mode,
     tab: SymTab,
     occurrences: Vec<(Span, SymbolId)>,
+    /// Terminals named in a phase declaration (E0102 reported): rewriting
+    /// them is the same mistake, not reported again.
+    declared_terminals: Vec<Terminal>,
     /// Typed setting expressions by key.
     setting_exprs: Vec<SettingExpr>,
     /// User symbols: where each parameter's type was inferred from.
@@ -157,6 +160,7 @@ pub(crate) fn check_system(
         mode: Mode::Derive,
         tab: SymTab::default(),
         occurrences: Vec::new(),
+        declared_terminals: Vec::new(),
         setting_exprs: Vec::new(),
         origins: HashMap::new(),
         arity_diag: HashMap::new(),
@@ -328,7 +332,7 @@ impl Sys<'_, '_> {
         let diags = &mut self.cx.diags;
         crate::phases::check_groups(&system, diags, holes || axiom_ast.is_none());
         if system.mode == Mode::Sample {
-            crate::phases::check_sample(&system, diags, holes);
+            crate::phases::check_sample(&system, diags, holes, &self.declared_terminals);
         }
         system
     }
@@ -523,7 +527,9 @@ impl Sys<'_, '_> {
             }
             for sig in &d.modules {
                 let name = &sig.symbol.name;
-                if terminal_forms(name).is_some() {
+                if let Some(forms) = terminal_forms(name) {
+                    self.declared_terminals
+                        .extend(forms.iter().map(|f| f.terminal));
                     self.err(
                         Diagnostic::new(
                             Code::DuplicateDefinition,

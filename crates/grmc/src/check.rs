@@ -71,7 +71,7 @@ pub fn run(args: CheckArgs) -> Outcome {
     let mut json_items: Vec<String> = Vec::new();
     let stderr = std::io::stderr();
     for path in &args.files {
-        let (sources, checked) = match load_and_check(path) {
+        let (sources, mut checked) = match load_and_check(path) {
             Ok(r) => r,
             Err(msg) => {
                 let _ = writeln!(stderr.lock(), "error: {msg}");
@@ -79,6 +79,9 @@ pub fn run(args: CheckArgs) -> Outcome {
                 continue;
             }
         };
+        // What compiling finds (R01xx) is reported by `check` too, as the
+        // editor does: `derive` would stop on it.
+        checked.diagnostics.extend(grm_compile::check(&checked));
         for d in &checked.diagnostics {
             match d.severity {
                 Severity::Error => errors += 1,
