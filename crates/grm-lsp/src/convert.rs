@@ -162,6 +162,10 @@ pub fn semantic_tokens(
     let mut out = Vec::with_capacity(toks.len());
     let (mut last_line, mut last_col) = (0u32, 0u32);
     let text = &src.text;
+    // Where the previous piece started (byte offset, line, UTF-16 column):
+    // the tokens come sorted, so each column is counted on from there, not
+    // from the line's start (linear in the text, even on one long line).
+    let mut cursor: Option<(usize, u32, u32)> = None;
     for t in toks {
         if let Some(w) = within
             && (t.span.end < w.start || t.span.start > w.end)
@@ -182,7 +186,19 @@ pub fn semantic_tokens(
             // Empty when `start` is in a line break (`start >= line_end`).
             let piece = text.get(start..line_end).unwrap_or("");
             if !piece.is_empty() {
-                let p = pos(src, start as u32);
+                let p = match cursor {
+                    Some((at, l, col)) if l == line && at <= start => {
+                        let more: u32 = text
+                            .get(at..start)
+                            .map_or(0, |s| s.chars().map(|c| c.len_utf16() as u32).sum());
+                        Position {
+                            line,
+                            character: col + more,
+                        }
+                    }
+                    _ => pos(src, start as u32),
+                };
+                cursor = Some((start, p.line, p.character));
                 let len: u32 = piece.chars().map(|c| c.len_utf16() as u32).sum();
                 // Tokens come sorted and never overlap; saturate anyway.
                 let delta_line = p.line.saturating_sub(last_line);
@@ -418,4 +434,50 @@ pub fn apply_changes(text: &str, changes: &[TextDocumentContentChangeEvent]) -> 
         }
     }
     text
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::Path;
+    use std::sync::Arc;
+
+    /// Each token's absolute start, counted from its line's start.
+    fn starts_from_line(src: &SourceFile, toks: &[an::SemanticToken]) -> Vec<Position> {
+        toks.iter().map(|t| pos(src, t.span.start)).collect()
+    }
+
+    #[test]
+    fn semantic_token_columns_on_long_lines_with_wide_characters() {
+        // One long line of modules, with characters of 1, 2 (U+03B4) and
+        // 4 (U+1F33F) UTF-8 bytes in comments and names, then a second line.
+        let mut text = String::from("system S { axiom ");
+        for i in 0..200 {
+            text.push_str(match i % 3 {
+                0 => "F ",
+                1 => "/* \u{03B4}\u{1F33F} */ + ",
+                _ => "A\u{03B4} ",
+            });
+        }
+        text.push_str(";\n  A\u{03B4} -> F; }\n");
+        let mut a = an::Analysis::new(Arc::new(grm_sema::MemLoader::new()));
+        a.set_document(Path::new("t.grm"), 1, text.as_str());
+        let fa = a.analyze(Path::new("t.grm")).expect("analysed");
+        let toks = fa.semantic_tokens();
+        assert!(toks.len() > 250, "{}", toks.len());
+        let src = fa.source();
+        let want = starts_from_line(src, &toks);
+        let got = semantic_tokens(src, &toks, None);
+        assert_eq!(got.len(), want.len());
+        let (mut line, mut col) = (0u32, 0u32);
+        for (g, w) in got.iter().zip(&want) {
+            if g.delta_line > 0 {
+                line += g.delta_line;
+                col = g.delta_start;
+            } else {
+                col += g.delta_start;
+            }
+            assert_eq!((line, col), (w.line, w.character));
+        }
+    }
 }
