@@ -215,8 +215,78 @@ impl FileAnalysis {
         Location::new(&f.path, f, span)
     }
 
-    /// The diagnostics whose primary label is in this file, in source order.
+    /// The diagnostics whose primary label is in this file, in source order,
+    /// then one for each import that leads to errors in other files (an
+    /// import cycle closed there, a syntax error in a file that is not
+    /// open): on the import, with the first such error's code and message
+    /// and its place as related information.
     pub fn diagnostics(&self) -> Vec<Diagnostic> {
+        let mut out = self.own_diagnostics();
+        out.extend(self.import_diagnostics());
+        out
+    }
+
+    /// Errors in imported files, reported on the root's import that
+    /// (directly or through other imports) loads each file.
+    fn import_diagnostics(&self) -> Vec<Diagnostic> {
+        let edges = &self.checked.program.imports;
+        let mut out = Vec::new();
+        for (at, to) in edges
+            .iter()
+            .filter(|(at, to)| at.file == self.root && *to != self.root)
+        {
+            // The files this import reaches.
+            let mut reach = vec![*to];
+            let mut i = 0;
+            while let Some(&f) = reach.get(i) {
+                for (from, next) in edges {
+                    if from.file == f && !reach.contains(next) && *next != self.root {
+                        reach.push(*next);
+                    }
+                }
+                i += 1;
+            }
+            let errors: Vec<&grm_diag::Diagnostic> = self
+                .checked
+                .diagnostics
+                .iter()
+                .filter(|d| d.is_error() && reach.contains(&d.primary().file))
+                .collect();
+            let Some(first) = errors.first() else {
+                continue;
+            };
+            let p = first.primary();
+            let file = &self.sources.get(p.file).path;
+            let line = self.sources.get(p.file).line_of(p.span.start) + 1;
+            let mut message = format!(
+                "error in the imported file `{file}` (line {line}): {}",
+                first.message
+            );
+            if errors.len() > 1 {
+                message.push_str(&format!(
+                    "\nnote: {} more error{} in imported files",
+                    errors.len() - 1,
+                    if errors.len() == 2 { "" } else { "s" }
+                ));
+            }
+            message.push_str("\nhelp: open that file to see and fix it");
+            out.push(Diagnostic {
+                code: first.code.as_str(),
+                severity: grm_diag::Severity::Error,
+                message,
+                span: clamp(at.span, self.text()),
+                related: vec![Related {
+                    location: self.loc(p.file, clamp(p.span, &self.sources.get(p.file).text)),
+                    message: first.message.clone(),
+                }],
+                unnecessary: false,
+            });
+        }
+        out
+    }
+
+    /// The diagnostics whose primary label is in this file, in source order.
+    fn own_diagnostics(&self) -> Vec<Diagnostic> {
         self.checked
             .diagnostics
             .iter()

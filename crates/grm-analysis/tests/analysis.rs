@@ -63,6 +63,42 @@ fn diagnostics_include_what_compiling_finds() {
 }
 
 #[test]
+fn errors_in_imported_files_show_on_the_import() {
+    let mut loader = MemLoader::new();
+    loader
+        .add("lib.grm", "const LEN = 2 +;\nconst W = 1;\n")
+        .add("mid.grm", "import \"lib.grm\";\nconst M = W;\n")
+        .add("cycle_b.grm", "import \"main.grm\";\nconst B = 2;\n")
+        .add("clean.grm", "const C = 2;\n");
+    let mut a = Analysis::new(Arc::new(loader));
+    // A syntax error two imports away, in a file that is not open.
+    let main = "import \"mid.grm\";\nsystem S { axiom F(M); }\n";
+    a.set_document(Path::new("main.grm"), 1, main);
+    let d = a.analyze(Path::new("main.grm")).unwrap().diagnostics();
+    assert_eq!(d.len(), 1, "{d:?}");
+    assert_eq!(d[0].code, "E0001");
+    assert_eq!(&main[d[0].span.range()], "\"mid.grm\"");
+    assert!(
+        d[0].message.contains("imported file `lib.grm` (line 1)"),
+        "{}",
+        d[0].message
+    );
+    assert_eq!(d[0].related.len(), 1);
+    // An import cycle closed in the other file.
+    let main = "import \"cycle_b.grm\";\nsystem S { axiom F(B); }\n";
+    a.set_document(Path::new("main.grm"), 2, main);
+    let d = a.analyze(Path::new("main.grm")).unwrap().diagnostics();
+    assert_eq!(d.len(), 1, "{d:?}");
+    assert_eq!(d[0].code, "E0403");
+    assert_eq!(&main[d[0].span.range()], "\"cycle_b.grm\"");
+    // A clean import adds nothing.
+    let main = "import \"clean.grm\";\nsystem S { axiom F(C); }\n";
+    a.set_document(Path::new("main.grm"), 3, main);
+    let d = a.analyze(Path::new("main.grm")).unwrap().diagnostics();
+    assert!(d.is_empty(), "{d:?}");
+}
+
+#[test]
 fn hover_shows_types_values_docs_and_probabilities() {
     let fa = analyze(PLANT);
     // A constant's folded value and its leading comment.

@@ -22,6 +22,9 @@ pub(crate) struct LoadedFile {
     pub ast: ast::File,
     /// Files this one imports directly (indices into the loaded files).
     pub imports: Vec<usize>,
+    /// Each import that loaded a file: the path's span and the file
+    /// (for [`crate::Program::imports`]).
+    pub edges: Vec<(Span, FileId)>,
     /// Whether the parser reported errors in it.
     pub broken: bool,
     /// Primary spans of the parser's diagnostics (to avoid follow-on reports).
@@ -103,6 +106,7 @@ impl Loader<'_> {
             real: real.clone(),
             ast: parsed.file,
             imports: Vec::new(),
+            edges: Vec::new(),
             broken,
             error_spans,
         });
@@ -136,6 +140,8 @@ impl Loader<'_> {
         }
         let target_real = self.loader.resolve(&real, written);
         if let Some(&t) = self.by_path.get(&target_real) {
+            let to = self.files[t].id;
+            self.files[idx].edges.push((imp.path.span, to));
             if self.state[t] {
                 // On the stack: a cycle.
                 let start = self.stack.iter().position(|&s| s == t).unwrap_or(0);
@@ -182,6 +188,7 @@ impl Loader<'_> {
                 };
                 let t = self.open(fid, target_real, &text);
                 self.files[idx].imports.push(t);
+                self.files[idx].edges.push((imp.path.span, fid));
                 Some(t)
             }
             Err(e) => {
@@ -323,6 +330,7 @@ impl<'a> Checker<'a> {
                 materials: Vec::new(),
                 systems: Vec::new(),
                 index: RefIndex::default(),
+                imports: Vec::new(),
             },
             default_globals: Vec::new(),
             depth: 0,

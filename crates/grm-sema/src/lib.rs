@@ -114,6 +114,10 @@ pub fn check(sources: &mut SourceMap, root: FileId, loader: &dyn FileLoader) -> 
     let files = check::load_all(sources, root, loader, &mut diags);
     let mut cx = check::Checker::new(&files, loader, diags);
     cx.program.root = root;
+    cx.program.imports = files
+        .iter()
+        .flat_map(|f| f.edges.iter().map(|&(span, to)| (Loc::new(f.id, span), to)))
+        .collect();
     cx.globals();
     cx.systems();
     cx.file_warnings();

@@ -382,6 +382,9 @@ pub struct Program {
     pub systems: Vec<System>,
     /// Name occurrences and their definitions, for the language server.
     pub index: RefIndex,
+    /// Every import that loaded a file: where it is written (the path
+    /// string) and the file it loads, in load order.
+    pub imports: Vec<(Loc, FileId)>,
 }
 
 impl Program {
