@@ -10,9 +10,10 @@
 //! ../examples/calder_tree.curves.json`.
 //!
 //! Invariants: the driver makes the same library calls as grmc in the same
-//! order and stops at the first error, as grmc does; it never writes a
-//! file (an export to a relative path, which would land in the source
-//! tree, is refused: cases export only to paths that cannot be written).
+//! order and stops at the first error, as grmc does; it never writes into
+//! the source tree (an export to a relative path is refused: cases export
+//! to paths that cannot be written, or to `$TMP/NAME`, which lands in a
+//! fresh temporary directory removed after the export).
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -170,7 +171,12 @@ pub fn run_case(rel: &Path) -> (String, BTreeSet<String>) {
     let mut usage = None;
     if !checked.has_errors() {
         let args = declared_command(&text).unwrap_or_default();
-        match run(rel, &checked.program, &args) {
+        let mut warnings = Vec::new();
+        let stop = run(rel, &checked.program, &args, &mut warnings);
+        // The model's warnings come first, as grmc prints them before it
+        // writes the file.
+        diags.extend(warnings);
+        match stop {
             Ok(()) => {}
             Err(Stop::Diagnostic(d)) => diags.push(*d),
             Err(Stop::Usage(m)) => usage = Some(m),
@@ -261,15 +267,20 @@ impl Opts {
     }
 }
 
-fn run(rel: &Path, program: &Program, args: &[String]) -> Result<(), Stop> {
+fn run(
+    rel: &Path,
+    program: &Program,
+    args: &[String],
+    warnings: &mut Vec<Diagnostic>,
+) -> Result<(), Stop> {
     let Some((command, rest)) = args.split_first() else {
         return Err(Stop::Usage(
             "second line must be `// run: derive|sample|disasm ARGS`".into(),
         ));
     };
     match command.as_str() {
-        "derive" => derive(program, rest),
-        "sample" => sample(rel, program, rest),
+        "derive" => derive(program, rest, warnings),
+        "sample" => sample(rel, program, rest, warnings),
         "disasm" => {
             let o = Opts::parse(rest, &[], &["--system", "--param"]).map_err(Stop::Usage)?;
             compile(program, &o).map(|_| ())
@@ -306,9 +317,26 @@ fn output_format(c: &CompiledSystem, output: Option<&str>) -> Result<(), Stop> {
     Err(e.to_diagnostic(c.file, c.span).into())
 }
 
-/// grmc's `export_model` (R0407, R0408), refusing to write into the tree.
-fn export(c: &CompiledSystem, model: &grm_geom::Model, path: &str) -> Result<(), Stop> {
+/// grmc's `export_model` (its warnings, W0013 and W0014; R0407, R0408),
+/// refusing to write into the tree.
+fn export(
+    c: &CompiledSystem,
+    model: &grm_geom::Model,
+    path: &str,
+    warnings: &mut Vec<Diagnostic>,
+) -> Result<(), Stop> {
+    if let Some(name) = path.strip_prefix("$TMP/") {
+        static NEXT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+        let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let dir = std::env::temp_dir().join(format!("grm-run-{}-{n}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("a temporary directory");
+        let out = export(c, model, &dir.join(name).to_string_lossy(), warnings);
+        let _ = std::fs::remove_dir_all(&dir);
+        return out;
+    }
     let path = Path::new(path);
+    let lines = grm_geom::ExportFormat::from_path(path) == Some(grm_geom::ExportFormat::Svg);
+    warnings.extend(model.warnings(c.file, c.span, lines));
     assert!(
         path.is_absolute(),
         "run cases export only to absolute paths that cannot be written, not {}",
@@ -318,7 +346,7 @@ fn export(c: &CompiledSystem, model: &grm_geom::Model, path: &str) -> Result<(),
 }
 
 /// `grmc derive` on the CPU.
-fn derive(program: &Program, args: &[String]) -> Result<(), Stop> {
+fn derive(program: &Program, args: &[String], warnings: &mut Vec<Diagnostic>) -> Result<(), Stop> {
     let o = Opts::parse(
         args,
         &[],
@@ -374,13 +402,18 @@ fn derive(program: &Program, args: &[String]) -> Result<(), Stop> {
             &c.param_values,
         )
         .map_err(|e| Stop::from(e.to_diagnostic(program, c.file, c.span)))?;
-        export(&c, &model, path)?;
+        export(&c, &model, path, warnings)?;
     }
     Ok(())
 }
 
 /// `grmc sample`.
-fn sample(rel: &Path, program: &Program, args: &[String]) -> Result<(), Stop> {
+fn sample(
+    rel: &Path,
+    program: &Program,
+    args: &[String],
+    warnings: &mut Vec<Diagnostic>,
+) -> Result<(), Stop> {
     let o = Opts::parse(
         args,
         &["--no-heuristic"],
@@ -478,7 +511,7 @@ fn sample(rel: &Path, program: &Program, args: &[String]) -> Result<(), Stop> {
             let model = m
                 .build(program, &grm_geom::BuildOptions::default())
                 .map_err(|e| Stop::from(e.to_diagnostic(program, c.file, c.span)))?;
-            export(&c, &model, path)?;
+            export(&c, &model, path, warnings)?;
         }
     }
     Ok(())

@@ -168,6 +168,10 @@ codes! {
     RunTogether = "W0011", Warning, "modules written without spaces";
     /// `[` or `]` in an ignore list: brackets are never ignored.
     BracketIgnored = "W0012", Warning, "bracket in the ignore list";
+    /// A built model without a single triangle (its file would be empty).
+    EmptyModel = "W0013", Warning, "model has no triangles";
+    /// Instances or polygons the model builder had to leave out.
+    GeometryDropped = "W0014", Warning, "geometry left out of the model";
 
     // ---- R0xxx: run time -------------------------------------------------
     // Reported by the engines after a clean check (`grmc derive`, `sample`,

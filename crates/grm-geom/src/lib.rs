@@ -124,6 +124,9 @@ pub struct Stats {
     /// Instances with a singular or non-finite transform and degenerate
     /// polygons, skipped.
     pub dropped: usize,
+    /// Bones without a tube: zero width, zero length or not finite (an SVG
+    /// export still draws the finite ones as lines).
+    pub bare_bones: usize,
 }
 
 /// A built model.
@@ -155,6 +158,68 @@ impl Model {
 
     pub fn bones(&self) -> &[grm_turtle::Bone] {
         &self.skeleton.bones
+    }
+
+    /// What the model lacks that its string asked for, as warnings on
+    /// `span` of `file` (the system's name): no triangles at all (W0013),
+    /// or instances and polygons the builder had to leave out (W0014).
+    /// `grmc` prints them before it writes a mesh format; a format that
+    /// draws lines (SVG) is told by `lines`, where bones need no width.
+    pub fn warnings(&self, file: FileId, span: Span, lines: bool) -> Vec<Diagnostic> {
+        let s = &self.stats;
+        let count =
+            |n: usize, one: &str, many: &str| format!("{n} {}", if n == 1 { one } else { many });
+        let dropped_note = |n: usize| {
+            format!(
+                "{} left out: an instance whose transform is singular or not finite (e.g. after `scale(0)`), or a polygon with fewer than three distinct vertices, has no triangles",
+                count(n, "shape was", "shapes were")
+            )
+        };
+        // An SVG draws every bone as a line, with or without a width.
+        if s.triangles == 0 && !(lines && s.bones > 0) {
+            let mut d = Diagnostic::new(
+                Code::EmptyModel,
+                "the model has no triangles",
+                file,
+                span,
+                "this system's string draws nothing",
+            );
+            if s.bare_bones > 0 {
+                d = d
+                    .with_note(format!(
+                        "{} no tube: zero width, zero length or a position that is not finite",
+                        count(s.bare_bones, "bone has", "bones have"),
+                    ))
+                    .with_help(
+                        "give the bones a width (the `width` setting or `!(w)`) and a length (`F(len)`), or export to .svg to draw them as lines",
+                    );
+            }
+            if s.dropped > 0 {
+                d = d.with_note(dropped_note(s.dropped));
+            }
+            if s.bones + s.instances + s.polygons == 0 {
+                d = d.with_help(
+                    "no module of the string draws: `F` draws a bone, `sphere(r)`, `mesh(m)` and `{ . . . }` draw shapes",
+                );
+            }
+            return vec![d];
+        }
+        if s.dropped == 0 {
+            return Vec::new();
+        }
+        vec![
+            Diagnostic::new(
+                Code::GeometryDropped,
+                format!(
+                    "{} left out of the model",
+                    count(s.dropped, "shape", "shapes")
+                ),
+                file,
+                span,
+                "in this system's model",
+            )
+            .with_note(dropped_note(s.dropped)),
+        ]
     }
 
     /// What made triangle `triangle` of part `part`.
@@ -372,6 +437,7 @@ pub fn build_from_interpretation(
     let mut scratch = Vec::with_capacity(circle.len());
     for (i, bone) in skeleton.bones.iter().enumerate() {
         if plan.dir[i].is_none() {
+            builder.bare_bones += 1;
             continue;
         }
         let part = builder.part(bone.paint);
@@ -512,6 +578,7 @@ struct Builder<'a> {
     parts: Vec<Part>,
     by_key: HashMap<PaintKey, usize>,
     dropped: usize,
+    bare_bones: usize,
 }
 
 impl<'a> Builder<'a> {
@@ -552,6 +619,7 @@ impl<'a> Builder<'a> {
             parts: Vec::new(),
             by_key: HashMap::new(),
             dropped: 0,
+            bare_bones: 0,
         };
         b.declared = program.materials.iter().map(|m| b.evaluate(m)).collect();
         Ok(b)
@@ -697,6 +765,7 @@ impl<'a> Builder<'a> {
             parts: self.parts.len(),
             bounds,
             dropped: self.dropped,
+            bare_bones: self.bare_bones,
         };
         Model {
             skeleton,

@@ -342,11 +342,21 @@ pub fn export_string(loaded: &Loaded, string: &grm_derive::ModuleString, path: &
 
 /// Write a built model to `path`; the outcome to exit with.
 pub fn export_model(loaded: &Loaded, model: &grm_geom::Model, path: &Path) -> Outcome {
+    let c = &loaded.compiled;
+    let lines = grm_geom::ExportFormat::from_path(path) == Some(grm_geom::ExportFormat::Svg);
+    for w in model.warnings(c.file, c.span, lines) {
+        emit(&loaded.sources, &w);
+    }
     if let Err(e) = grm_geom::export(model, path) {
-        let c = &loaded.compiled;
         emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));
         return Outcome::Usage;
     }
-    eprintln!("wrote {}", path.display());
+    let s = &model.stats;
+    eprintln!(
+        "wrote {} ({}, {})",
+        path.display(),
+        crate::count(s.triangles as u64, "triangle"),
+        crate::count(s.bones as u64, "bone"),
+    );
     Outcome::Ok
 }
