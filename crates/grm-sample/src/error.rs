@@ -144,9 +144,13 @@ impl SampleError {
                 }
                 ExpandErrorKind::Fault(_) => Some(INTERNAL.into()),
             },
-            SampleError::GeometryLimit { what, .. } => Some(match what {
-                LimitKind::Depth => "make the recursion of the geometry symbols end sooner (a condition on a counter), or raise the limit".into(),
-                LimitKind::Expansions => "geometry symbols expand into too many modules: end their recursion sooner, or raise the limit".into(),
+            SampleError::GeometryLimit { what, limit, .. } => Some(match what {
+                LimitKind::Depth => format!(
+                    "make the recursion of the geometry symbols end sooner (a condition on a counter): they nest at most {limit} deep, and a chain like `deco(n) -> sphere(r) deco(n + 1)` nests one level per step, so emit several shapes per expansion"
+                ),
+                LimitKind::Expansions => format!(
+                    "geometry symbols expand into too many modules: end their recursion sooner (a model has at most {limit} geometry expansions)"
+                ),
             }),
             SampleError::Turtle(_) => Some(INTERNAL.into()),
             SampleError::ThreadPool(_) => Some(
