@@ -172,6 +172,8 @@ codes! {
     EmptyModel = "W0013", Warning, "model has no triangles";
     /// Instances or polygons the model builder had to leave out.
     GeometryDropped = "W0014", Warning, "geometry left out of the model";
+    /// A sample-mode skeleton symbol that can neither draw a bone nor finish.
+    SkeletonNeverGrows = "W0015", Warning, "skeleton symbol never draws a bone";
 
     // ---- R0xxx: run time -------------------------------------------------
     // Reported by the engines after a clean check (`grmc derive`, `sample`,

@@ -576,6 +576,59 @@ pub(crate) fn check_sample(
             )),
         );
     }
+
+    // Skeleton symbols that can neither draw a bone nor finish: some
+    // alternative must draw one (`F`, `G`), emit a skeleton symbol that
+    // can, or emit no skeleton symbol at all (which ends that branch).
+    let is_skeleton = |i: usize| sys.symbols[i].phase == Phase::Skeleton;
+    let draws = |i: usize| {
+        matches!(
+            sys.symbols[i].terminal(),
+            Some(Terminal::Forward | Terminal::ForwardNoVertex)
+        )
+    };
+    let mut grows = vec![false; sys.symbols.len()];
+    loop {
+        let mut changed = false;
+        for g in sys.groups.iter().filter(|g| !g.wrapup) {
+            let pred = g.pred.symbol.index();
+            if grows[pred] || !is_skeleton(pred) {
+                continue;
+            }
+            let way_out = g.alternatives.iter().any(|a| {
+                let succ = || a.successor.iter().map(|m| m.symbol.index());
+                succ().any(|m| draws(m) || (is_skeleton(m) && grows[m])) || !succ().any(is_skeleton)
+            });
+            if way_out {
+                grows[pred] = true;
+                changed = true;
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+    for (i, info) in sys.symbols.iter().enumerate() {
+        if !is_skeleton(i) || info.groups.is_empty() || grows[i] {
+            continue;
+        }
+        diags.push(
+            Diagnostic::new(
+                Code::SkeletonNeverGrows,
+                format!("skeleton symbol `{}` never draws a bone", info.name),
+                file,
+                info.decl.unwrap_or(info.first),
+                "never grows",
+            )
+            .with_note(
+                "every production for it emits it again, or another skeleton symbol that never draws, without a bone: the search expands it until its per-step limit, and the model has nothing to score",
+            )
+            .with_help(format!(
+                "draw a bone in one of its productions (`{0} -> F(1) {0};`), or end it with one that emits no skeleton symbol",
+                info.name
+            )),
+        );
+    }
 }
 
 #[cfg(test)]
