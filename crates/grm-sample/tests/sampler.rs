@@ -590,6 +590,46 @@ fn vine_wall_example_samples() {
     assert!(model.stats.triangles > 0);
 }
 
+#[test]
+fn vine_wall_follows_its_curves() {
+    // With the file's own schedule, the vine's skeleton runs along the
+    // three curves it was drawn for: few bones start more than 0.5 from
+    // every curve (the example's header promises runners that follow them).
+    let p = example("vine_wall.grm");
+    let c = compile(&p, 0);
+    let curves = Curves::load(examples().join("vine_wall.curves.json")).expect("curves");
+    let s = curves_sampler(&p, &c, &curves);
+    let (mut far, mut all) = (0, 0);
+    for seed in 1..=4 {
+        let r = s
+            .sample(&SampleOptions {
+                seed,
+                schedule: Schedule::from_settings(&c.settings),
+                ..SampleOptions::default()
+            })
+            .expect("samples");
+        let m = r.best().expect("model");
+        // Its geometry symbols draw no `F`: every bone is a skeleton bone.
+        let bones = &m.interpretation.bones;
+        assert_eq!(bones.len(), m.skeleton_bones as usize);
+        for b in bones {
+            let base = b.base.as_dvec3();
+            let d = curves
+                .curves()
+                .iter()
+                .map(|g| g.bezier.closest_point(base).dist)
+                .fold(f64::INFINITY, f64::min);
+            far += usize::from(d > 0.5);
+        }
+        all += bones.len();
+    }
+    assert!(all >= 100, "{all} skeleton bones");
+    assert!(
+        far * 10 < all,
+        "{far} of {all} skeleton bones are off the curves"
+    );
+}
+
 /// Errors become diagnostics: the span they name, or the system's name
 /// when they name none; internal ones say so in their help line.
 #[test]
