@@ -210,7 +210,24 @@ impl FileAnalysis {
                         );
                     }
                 }
+                Code::PhaseInDerive => {
+                    // The declaration's keyword: `module` keeps the
+                    // parameters it declares and drops the phase.
+                    if matches!(self.slice(span), "skeleton" | "geometry") {
+                        push(
+                            format!("Change `{}` to `module`", self.slice(span)),
+                            vec![edit(span, "module")],
+                            true,
+                        );
+                    }
+                }
                 Code::MissingPhase | Code::UnknownName => {
+                    // The phase the checker's other rules allow first: a
+                    // symbol that emits geometry or is emitted by a wrap-up
+                    // cannot be a skeleton symbol; one that emits a skeleton
+                    // symbol cannot be a geometry symbol.
+                    let fits = self.phase_fits(span);
+                    let mut fixes: Vec<(bool, String, Vec<TextEdit>)> = Vec::new();
                     for stmt in quoted(help) {
                         let mut words = stmt.trim_end_matches(';').split_whitespace();
                         let (Some(kw), Some(name), None) =
@@ -224,11 +241,22 @@ impl FileAnalysis {
                             "module" => Phase::None,
                             _ => continue,
                         };
-                        push(
+                        let ok = match phase {
+                            Phase::Skeleton => fits.0,
+                            Phase::Geometry => fits.1,
+                            Phase::None => true,
+                        };
+                        fixes.push((
+                            ok,
                             format!("Declare `{name}` as {kw}"),
                             self.declare(span, phase, name),
-                            false,
-                        );
+                        ));
+                    }
+                    // Those that fit first; preferred if it is the only one.
+                    fixes.sort_by_key(|f| !f.0);
+                    let fitting = fixes.iter().filter(|f| f.0).count();
+                    for (ok, title, edits) in fixes {
+                        push(title, edits, ok && fitting == 1);
                     }
                 }
                 Code::MissingAxiom => {
@@ -309,6 +337,39 @@ impl FileAnalysis {
             }
         }
         out
+    }
+
+    /// For the symbol written at `span` in a sample system: whether the
+    /// phase rules allow it to be a skeleton symbol and a geometry symbol
+    /// (E0301, E0303, E0308 are what the wrong choice would bring). Both
+    /// when the symbol is not known.
+    fn phase_fits(&self, span: Span) -> (bool, bool) {
+        use grm_sema::{Def, Phase as P};
+        let p = &self.checked.program;
+        let Some(Def::Symbol(sid, sym)) = p.index.at(self.root, span.start).map(|r| r.def) else {
+            return (true, true);
+        };
+        let Some(sys) = p.systems.get(sid.0 as usize) else {
+            return (true, true);
+        };
+        let (mut skeleton, mut geometry) = (true, true);
+        for g in &sys.groups {
+            let pred = sys.symbol(g.pred.symbol);
+            for a in &g.alternatives {
+                let emits = a.successor.iter().any(|m| m.symbol == sym);
+                if g.pred.symbol == sym && !g.wrapup {
+                    for m in &a.successor {
+                        let info = sys.symbol(m.symbol);
+                        skeleton &= !info.is_geometry_terminal();
+                        geometry &= info.phase != P::Skeleton;
+                    }
+                }
+                if emits && (g.wrapup || pred.phase == P::Geometry) {
+                    skeleton = false;
+                }
+            }
+        }
+        (skeleton, geometry)
     }
 
     /// The system of the syntax tree containing `span`.

@@ -453,6 +453,32 @@ fn code_actions_fix_their_diagnostics() {
     assert!(c.is_empty(), "{c:?}\n{t}");
     let (t, _) = fix(sample, "E0304", "skeleton");
     assert!(t.contains("skeleton b, c;"), "{t}");
+    // A symbol that emits geometry and ends a wrap-up can only be a
+    // geometry symbol: that fix comes first and is the preferred one.
+    let sample = "system T {\n    mode = sample;\n    axiom b;\n    skeleton b;\n    b -> F(1) leaf b;\n    wrapup b -> leaf;\n    leaf -> sphere(0.2);\n}\n";
+    let fa = analyze(sample);
+    let fixes: Vec<_> = fa
+        .code_actions(Span::new(0, sample.len() as u32))
+        .into_iter()
+        .filter(|a| a.code == "E0304")
+        .collect();
+    assert_eq!(fixes.len(), 2, "{fixes:?}");
+    assert!(
+        fixes[0].title.contains("as geometry") && fixes[0].preferred,
+        "{fixes:?}"
+    );
+    assert!(!fixes[1].preferred, "{fixes:?}");
+    let (t, c) = fix(sample, "E0304", "geometry");
+    assert!(t.contains("geometry leaf;"), "{t}");
+    assert!(c.is_empty(), "{c:?}\n{t}");
+    // A phase in a derive system: `module` keeps the declaration.
+    let (t, c) = fix(
+        "system S {\n    axiom A;\n    skeleton A;\n    A -> F A;\n}",
+        "W0006",
+        "`module`",
+    );
+    assert!(t.contains("    module A;\n"), "{t}");
+    assert!(c.is_empty(), "{c:?}\n{t}");
     // Missing axiom.
     let (t, c) = fix("system S {\n    A -> F A;\n}", "E0310", "axiom");
     assert!(t.contains("    axiom A;\n    A -> F A;"), "{t}");
