@@ -220,6 +220,8 @@ impl Shared {
 pub struct Backend {
     client: Client,
     shared: Arc<Shared>,
+    /// Set by `shutdown`: an `exit` after it is a clean one (exit code 0).
+    shut_down: Arc<std::sync::atomic::AtomicBool>,
 }
 
 impl std::fmt::Debug for Backend {
@@ -230,25 +232,35 @@ impl std::fmt::Debug for Backend {
 
 /// The server as a tower service (for stdio, sockets or in-process tests).
 pub fn service(config: Config) -> (LspService<Backend>, ClientSocket) {
-    LspService::build(|client| Backend::new(client, config))
+    build(config, Arc::default())
+}
+
+fn build(
+    config: Config,
+    shut_down: Arc<std::sync::atomic::AtomicBool>,
+) -> (LspService<Backend>, ClientSocket) {
+    LspService::build(|client| Backend::new(client, config, shut_down))
         .custom_method("grm/preview", Backend::preview)
         .custom_method("grm/pick", Backend::pick)
         .finish()
 }
 
-/// Serve LSP on stdin/stdout until the client exits.
-pub fn run_stdio() -> std::io::Result<()> {
+/// Serve LSP on stdin/stdout until the client exits (`exit`, or the end of
+/// its input). `Ok(true)` when a `shutdown` request came first: LSP asks
+/// for exit code 0 then, and 1 otherwise.
+pub fn run_stdio() -> std::io::Result<bool> {
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
         .build()?;
+    let shut_down = Arc::new(std::sync::atomic::AtomicBool::new(false));
     rt.block_on(async {
-        let (service, socket) = service(Config::default());
+        let (service, socket) = build(Config::default(), shut_down.clone());
         Server::new(tokio::io::stdin(), tokio::io::stdout(), socket)
             .serve(service)
             .await;
     });
-    Ok(())
+    Ok(shut_down.load(std::sync::atomic::Ordering::SeqCst))
 }
 
 fn internal(e: impl std::fmt::Display) -> Error {
@@ -269,10 +281,15 @@ pub(crate) fn failed(msg: impl Into<String>) -> Error {
 }
 
 impl Backend {
-    fn new(client: Client, config: Config) -> Backend {
+    fn new(
+        client: Client,
+        config: Config,
+        shut_down: Arc<std::sync::atomic::AtomicBool>,
+    ) -> Backend {
         Backend {
             client,
             shared: Arc::new(Shared::new(config)),
+            shut_down,
         }
     }
 
@@ -475,6 +492,8 @@ impl LanguageServer for Backend {
     }
 
     async fn shutdown(&self) -> Result<()> {
+        self.shut_down
+            .store(true, std::sync::atomic::Ordering::SeqCst);
         Ok(())
     }
 

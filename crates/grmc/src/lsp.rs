@@ -13,7 +13,10 @@ pub struct LspArgs {
 pub fn run(args: LspArgs) -> Outcome {
     let _ = args.stdio;
     match grm_lsp::run_stdio() {
-        Ok(()) => Outcome::Ok,
+        Ok(true) => Outcome::Ok,
+        // LSP: `exit` without `shutdown` first (or the client vanished)
+        // ends with exit code 1.
+        Ok(false) => Outcome::InputErrors,
         Err(e) => {
             eprintln!("error: the language server could not start: {e}");
             Outcome::Usage

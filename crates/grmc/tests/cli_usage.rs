@@ -455,3 +455,50 @@ fn printed_strings_read_back_as_an_axiom() {
     assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
     assert_eq!(text(&out.stdout).trim_end(), printed);
 }
+
+/// `grmc lsp` exits 0 after `shutdown` then `exit`, and 1 after an `exit`
+/// with no `shutdown` before it (LSP's rule for the exit notification).
+#[test]
+fn lsp_exit_code_follows_shutdown() {
+    use std::io::{BufRead, BufReader, Read, Write};
+    use std::process::{Command, Stdio};
+    let frame = |body: &str| format!("Content-Length: {}\r\n\r\n{body}", body.len());
+    let init = r#"{"jsonrpc":"2.0","id":1,"method":"initialize","params":{"capabilities":{}}}"#;
+    let shutdown = r#"{"jsonrpc":"2.0","id":2,"method":"shutdown"}"#;
+    let exit = r#"{"jsonrpc":"2.0","method":"exit"}"#;
+    for (requests, want) in [(vec![init, shutdown], 0), (vec![init], 1)] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_grmc"))
+            .arg("lsp")
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("grmc lsp starts");
+        let mut stdin = child.stdin.take().expect("stdin");
+        let mut stdout = BufReader::new(child.stdout.take().expect("stdout"));
+        // Each request waits for its response, as a client does.
+        for (id, m) in requests.iter().enumerate() {
+            stdin.write_all(frame(m).as_bytes()).expect("write");
+            stdin.flush().expect("flush");
+            loop {
+                let mut len = 0;
+                let mut line = String::new();
+                while stdout.read_line(&mut line).expect("read") > 2 {
+                    if let Some(n) = line.trim().strip_prefix("Content-Length: ") {
+                        len = n.parse().expect("a length");
+                    }
+                    line.clear();
+                }
+                let mut body = vec![0; len];
+                stdout.read_exact(&mut body).expect("a message");
+                if String::from_utf8_lossy(&body).contains(&format!("\"id\":{}", id + 1)) {
+                    break;
+                }
+            }
+        }
+        stdin.write_all(frame(exit).as_bytes()).expect("write");
+        drop(stdin);
+        let status = child.wait().expect("grmc lsp ends");
+        assert_eq!(status.code(), Some(want), "{requests:?}");
+    }
+}
