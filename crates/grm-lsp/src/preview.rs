@@ -1029,6 +1029,16 @@ async fn compute(
         {
             return Err(Failure::Stale(fa.version));
         }
+        if params.live {
+            // This answer is the live preview of this analysis: a refresh
+            // scheduled by the same edit (or the opening) need not build
+            // and send it again.
+            let key = (fa.version, Arc::as_ptr(&fa) as usize);
+            let mut sent = s.preview_sent.blocking_lock();
+            if sent.get(&path).is_none_or(|&(v, _)| v <= fa.version) {
+                sent.insert(path.clone(), key);
+            }
+        }
         build(&fa, &uri, &s.uris(), &params, Some(&cancel))
     })
     .await

@@ -287,6 +287,38 @@ fn b64(s: &str) -> Vec<[u8; 4]> {
     bytes.chunks(4).map(|c| [c[0], c[1], c[2], c[3]]).collect()
 }
 
+/// A live `grm/preview` sent right after `didOpen` answers for version 1,
+/// and the refresh the opening scheduled does not build and send the same
+/// preview again as `grm/previewUpdated`.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn live_preview_right_after_open_is_sent_once() {
+    for round in 0..5 {
+        let mut c = Client::start().await;
+        let (p, text) = fixture("plant.grm");
+        let u = c.open(&p, &text).await;
+        let r = c
+            .ok(
+                "grm/preview",
+                json!({ "textDocument": { "uri": u }, "live": true }),
+            )
+            .await;
+        assert_eq!(r["version"], 1);
+        let _ = c.diagnostics(&u, 1).await;
+        // The refresh runs right after the diagnostics are published.
+        tokio::time::sleep(Duration::from_millis(300)).await;
+        c.drain();
+        let again = c
+            .seen()
+            .iter()
+            .filter(|r| r.method() == "grm/previewUpdated")
+            .count();
+        assert_eq!(
+            again, 0,
+            "round {round}: the version-1 preview was sent twice"
+        );
+    }
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn preview_pick_and_live_updates() {
     let mut c = Client::start().await;

@@ -205,6 +205,11 @@ impl Client {
         r.params().cloned().unwrap_or(Value::Null)
     }
 
+    /// The notifications received and not yet waited for (after `drain`).
+    pub fn seen(&self) -> &[Request] {
+        &self.seen
+    }
+
     /// Drain what has arrived so far without waiting.
     pub fn drain(&mut self) {
         while let Ok(r) = self.notes.try_recv() {
