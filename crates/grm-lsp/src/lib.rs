@@ -87,9 +87,10 @@ pub(crate) struct Shared {
     pub(crate) preview_sent: tokio::sync::Mutex<HashMap<PathBuf, (i32, usize)>>,
     /// Provenance of the last preview per file, for `grm/pick`.
     pub(crate) picks: Mutex<HashMap<PathBuf, preview::PickTable>>,
-    /// The live `grm/preview` in progress per file (its ticket's id and
-    /// cancel token): a newer live request for the file cancels it.
-    pub(crate) running: Mutex<HashMap<PathBuf, (u64, grm_sample::CancelToken)>>,
+    /// The live `grm/preview` in progress per file (its ticket's id, cancel
+    /// token, and the document's version when it began): a newer live
+    /// request for the file cancels it.
+    pub(crate) running: Mutex<HashMap<PathBuf, (u64, grm_sample::CancelToken, Option<i32>)>>,
     /// Ids of `grm/preview` requests, in the order they started.
     pub(crate) preview_seq: AtomicU64,
     debounce: Duration,
@@ -209,7 +210,7 @@ impl Shared {
 
     pub(crate) fn running(
         &self,
-    ) -> MutexGuard<'_, HashMap<PathBuf, (u64, grm_sample::CancelToken)>> {
+    ) -> MutexGuard<'_, HashMap<PathBuf, (u64, grm_sample::CancelToken, Option<i32>)>> {
         self.running
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner)

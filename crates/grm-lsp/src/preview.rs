@@ -1065,10 +1065,11 @@ impl Ticket {
         let token = CancelToken::new();
         let id = shared.preview_seq.fetch_add(1, Ordering::Relaxed);
         if live {
+            let version = shared.version(path);
             let old = shared
                 .running()
-                .insert(path.to_path_buf(), (id, token.clone()));
-            if let Some((_, old)) = old {
+                .insert(path.to_path_buf(), (id, token.clone(), version));
+            if let Some((_, old, _)) = old {
                 old.cancel();
             }
         }
@@ -1089,7 +1090,7 @@ impl Drop for Ticket {
         let mut running = self.shared.running();
         if running
             .get(&self.path)
-            .is_some_and(|(id, _)| *id == self.id)
+            .is_some_and(|(id, _, _)| *id == self.id)
         {
             running.remove(&self.path);
         }
@@ -1110,6 +1111,9 @@ impl Backend {
     pub async fn preview(&self, params: PreviewParams) -> Result<PreviewResult> {
         let uri = params.text_document.uri.clone();
         let path = convert::path_of(&uri).ok_or_else(|| failed("not a file URI"))?;
+        // The ticket first: a refresh that sees the live registration below
+        // also sees this request running (and leaves the answer to it).
+        let ticket = Ticket::begin(&self.shared, &path, params.live);
         {
             let mut live = self.shared.previews();
             if params.live {
@@ -1118,7 +1122,6 @@ impl Backend {
                 live.remove(&path);
             }
         }
-        let ticket = Ticket::begin(&self.shared, &path, params.live);
         let outcome = compute(
             &self.shared,
             path.clone(),
@@ -1193,6 +1196,15 @@ pub(crate) async fn refresh(shared: &Arc<Shared>, client: &Client, path: PathBuf
         return;
     };
     if shared.version(&path) != Some(version) {
+        return;
+    }
+    // A live request that began at this version or later answers with
+    // this analysis (or a newer one): not built twice.
+    if shared
+        .running()
+        .get(&path)
+        .is_some_and(|&(_, _, v)| v >= Some(version))
+    {
         return;
     }
     let uri = params.text_document.uri.clone();
