@@ -74,6 +74,10 @@ impl Default for Config {
     }
 }
 
+/// A live `grm/preview` in progress: its ticket's id, its cancel token, and
+/// the document's version when it began.
+pub(crate) type RunningPreview = (u64, grm_sample::CancelToken, Option<i32>);
+
 /// State shared by the handlers and the background tasks.
 pub(crate) struct Shared {
     pub(crate) analysis: Mutex<Analysis>,
@@ -90,7 +94,7 @@ pub(crate) struct Shared {
     /// The live `grm/preview` in progress per file (its ticket's id, cancel
     /// token, and the document's version when it began): a newer live
     /// request for the file cancels it.
-    pub(crate) running: Mutex<HashMap<PathBuf, (u64, grm_sample::CancelToken, Option<i32>)>>,
+    pub(crate) running: Mutex<HashMap<PathBuf, RunningPreview>>,
     /// Ids of `grm/preview` requests, in the order they started.
     pub(crate) preview_seq: AtomicU64,
     debounce: Duration,
@@ -208,9 +212,7 @@ impl Shared {
             .unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
-    pub(crate) fn running(
-        &self,
-    ) -> MutexGuard<'_, HashMap<PathBuf, (u64, grm_sample::CancelToken, Option<i32>)>> {
+    pub(crate) fn running(&self) -> MutexGuard<'_, HashMap<PathBuf, RunningPreview>> {
         self.running
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner)
