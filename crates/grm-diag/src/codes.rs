@@ -174,6 +174,8 @@ codes! {
     GeometryDropped = "W0014", Warning, "geometry left out of the model";
     /// A sample-mode skeleton symbol that can neither draw a bone nor finish.
     SkeletonNeverGrows = "W0015", Warning, "skeleton symbol never draws a bone";
+    /// A weight written on the only production of its group (it always applies).
+    LoneWeight = "W0016", Warning, "weight of an only production";
 
     // ---- R0xxx: run time -------------------------------------------------
     // Reported by the engines after a clean check (`grmc derive`, `sample`,

@@ -136,12 +136,32 @@ fn check_run_together(sys: &System, diags: &mut Vec<Diagnostic>) {
     }
 }
 
-/// W0005 (ambiguous groups), W0009 (contexts naming ignored symbols), W0003
+/// W0016 (a weight on a group's only production), W0005 (ambiguous
+/// groups), W0009 (contexts naming ignored symbols), W0003
 /// (shadowed groups) and, unless `skip_reach`,
 /// W0002 (unreachable productions).
 pub(crate) fn check_groups(sys: &System, diags: &mut Vec<Diagnostic>, skip_reach: bool) {
     let file = sys.file;
     for g in &sys.groups {
+        if let [only] = &g.alternatives[..]
+            && only.weight_written
+            && only.weight.ty != Ty::Error
+        {
+            let name = &sys.symbol(g.pred.symbol).name;
+            diags.push(
+                Diagnostic::new(
+                    Code::LoneWeight,
+                    format!("the weight of the only production for `{name}` in this case has no effect"),
+                    file,
+                    only.weight.span,
+                    "always applies",
+                )
+                .with_note("a weight is a share among the productions of a group (same predecessor, contexts and condition); alone, it always applies")
+                .with_help(format!(
+                    "remove the weight; to apply it only some of the time, add an alternative that keeps the module, e.g. `{name} -> (1) {name};` (with its parameters)"
+                )),
+            );
+        }
         let unweighted: Vec<&Alternative> = g
             .alternatives
             .iter()
