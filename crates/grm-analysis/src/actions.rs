@@ -312,6 +312,29 @@ impl FileAnalysis {
                         );
                     }
                 }
+                Code::LoneWeight => {
+                    // `(w) ` around the weight's expression.
+                    let b = self.text().as_bytes();
+                    let mut start = span.start as usize;
+                    while start > 0 && b[start - 1].is_ascii_whitespace() {
+                        start -= 1;
+                    }
+                    let mut end = span.end as usize;
+                    while end < b.len() && b[end].is_ascii_whitespace() {
+                        end += 1;
+                    }
+                    if start > 0 && b[start - 1] == b'(' && b.get(end) == Some(&b')') {
+                        let mut after = end + 1;
+                        while after < b.len() && b[after] == b' ' {
+                            after += 1;
+                        }
+                        push(
+                            "Remove the weight".into(),
+                            vec![edit(Span::from_range(start - 1..after), "")],
+                            true,
+                        );
+                    }
+                }
                 Code::DeclInsideSystem => {
                     if let Some(edits) = self.move_above_system(span) {
                         push("Move above the system".into(), edits, true);

@@ -5,13 +5,21 @@
 //! being typed): inside parentheses or after `:` / `=` an expression is
 //! expected; after `->`, `axiom` or `ignore` a module string; at the start
 //! of a system statement a setting, keyword or predecessor.
+//!
+//! Where a name is being defined nothing is proposed: a system's name, the
+//! parameters a pattern binds (`A(x) ->`) and the parameter list of a
+//! declared signature. A declaration list (`module`, `skeleton`,
+//! `geometry`) proposes only user symbols that it may still declare, and a
+//! constant's or meta-parameter's value leaves out the globals that would
+//! make it cyclic (E0210).
 
 use crate::docs::{self, DocKind};
 use crate::hover::symbol_signature;
 use crate::{FileAnalysis, Span};
-use grm_sema::{SymbolKind, System};
-use grm_syntax::ast::Item;
+use grm_sema::{Phase, SymbolKind, System};
+use grm_syntax::ast::{Expr, ExprKind, Item, SystemItem};
 use grm_syntax::lexer::TokKind;
+use std::collections::HashSet;
 
 /// What a completion item is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -97,16 +105,20 @@ enum Ctx {
     None,
     /// Start of a top-level item.
     TopLevel,
-    /// An expression outside any system (const, param, material field).
-    GlobalExpr,
+    /// An expression outside any system (const, param, material field),
+    /// with the name of the const or param being defined, if any.
+    GlobalExpr(Option<Span>),
     /// A material field name.
     MaterialField,
     /// Start of a statement in a system.
     SystemStatement,
     /// Before `->`: predecessor or contexts.
     Pattern,
-    /// A module string (successor, axiom, ignore list, declaration).
+    /// A module string (successor, axiom, ignore list).
     Modules,
+    /// The symbol list of a `module` / `skeleton` / `geometry`
+    /// declaration (outside its parentheses).
+    Declaration(Phase),
     /// An expression in a system (condition, weight, argument, setting).
     Expr,
     /// After `mode =`.
@@ -223,10 +235,21 @@ impl FileAnalysis {
             }
             let _ = s;
         }
+        let first = toks.first().map(|t| t.0);
+        if first == Some(TokKind::System) {
+            // `system NAME {`: the system's name is being defined (the
+            // enclosing system already starts at the keyword).
+            return Ctx::None;
+        }
         if a.system.is_none() && !a.material {
-            return match toks.first().map(|t| t.0) {
+            return match first {
                 None => Ctx::TopLevel,
-                Some(TokKind::Const | TokKind::Param) if assign || depth > 0 => Ctx::GlobalExpr,
+                Some(TokKind::Const | TokKind::Param) if assign || depth > 0 => {
+                    // `const NAME [: ty] = ...`: the name, to keep out of
+                    // its own value.
+                    let name = toks.get(1).filter(|t| t.0 == TokKind::Ident);
+                    Ctx::GlobalExpr(name.map(|t| t.1))
+                }
                 _ => Ctx::None,
             };
         }
@@ -234,10 +257,30 @@ impl FileAnalysis {
             return if toks.is_empty() {
                 Ctx::MaterialField
             } else if assign {
-                Ctx::GlobalExpr
+                Ctx::GlobalExpr(None)
             } else {
                 Ctx::None
             };
+        }
+        let decl = match first {
+            Some(TokKind::Module) => Some(Phase::None),
+            Some(TokKind::Skeleton) => Some(Phase::Skeleton),
+            Some(TokKind::Geometry) => Some(Phase::Geometry),
+            _ => None,
+        };
+        if let Some(phase) = decl {
+            // Inside parentheses: the parameter names and types of a
+            // declared signature, not expressions.
+            return if depth > 0 {
+                Ctx::None
+            } else {
+                Ctx::Declaration(phase)
+            };
+        }
+        if depth > 0 && !arrow && !modules && !colon && !assign {
+            // The parameters of a predecessor or context pattern
+            // (`A(x, y) ->`): new names bound here, nothing to propose.
+            return Ctx::None;
         }
         if depth > 0 {
             return match call {
@@ -341,7 +384,8 @@ impl FileAnalysis {
                     out.push(item);
                 }
             }
-            Ctx::Expr | Ctx::GlobalExpr => {
+            Ctx::Declaration(phase) => self.push_undeclared(offset, phase, &mut out),
+            Ctx::Expr | Ctx::GlobalExpr(_) => {
                 if ctx == Ctx::Expr {
                     for b in self.bindings_before(offset) {
                         out.push(
@@ -349,7 +393,13 @@ impl FileAnalysis {
                         );
                     }
                 }
-                self.push_globals(&mut out);
+                // A constant's value may not use the constant itself, nor
+                // a global defined in terms of it (E0210).
+                let cyclic = match ctx {
+                    Ctx::GlobalExpr(Some(name)) => self.dependents_of(self.slice(name)),
+                    _ => HashSet::new(),
+                };
+                self.push_globals(&mut out, |n| !cyclic.contains(n));
                 for e in docs::of_kind(DocKind::Function)
                     .chain(docs::of_kind(DocKind::Random).filter(|_| ctx == Ctx::Expr))
                 {
@@ -403,16 +453,108 @@ impl FileAnalysis {
         }
     }
 
-    fn push_globals(&self, out: &mut Vec<CompletionItem>) {
+    /// The user symbols of the system at `offset` that a declaration list
+    /// introduced by `phase` may still declare. Terminals cannot be
+    /// declared (E0102). A `skeleton` / `geometry` list leaves out the
+    /// symbols that already have a phase (the same one would be redundant,
+    /// the other one conflicts); a symbol declared only by a `module` list
+    /// (parameters, no phase) is still proposed there. A `module` list
+    /// leaves out the symbols declared in any list.
+    fn push_undeclared(&self, offset: u32, phase: Phase, out: &mut Vec<CompletionItem>) {
+        let Some(sys) = self.system_at(offset) else {
+            return;
+        };
+        let a = self.around(offset);
+        let counts = |p: Phase| phase == Phase::None || p != Phase::None;
+        // The word at the cursor is being typed: not a declaration yet.
+        let at_cursor = |s: Span| s.start <= offset && offset <= s.end;
+        let mut declared: HashSet<&str> = HashSet::new();
+        for item in a.system.iter().flat_map(|s| &s.items) {
+            if let SystemItem::ModuleDecl(d) = item
+                && counts(d.phase)
+            {
+                declared.extend(
+                    d.modules
+                        .iter()
+                        .filter(|m| !at_cursor(m.symbol.span))
+                        .map(|m| m.symbol.name.as_str()),
+                );
+            }
+        }
+        // The names already listed by the declaration being written, which
+        // may not have parsed yet: identifiers outside its parentheses.
+        let mut depth = 0i32;
+        for &(k, s) in a.toks.iter().skip(1) {
+            match k {
+                TokKind::LParen => depth += 1,
+                TokKind::RParen => depth -= 1,
+                TokKind::Ident if depth == 0 => {
+                    declared.insert(self.slice(s));
+                }
+                _ => {}
+            }
+        }
+        for info in &sys.symbols {
+            // A symbol first seen at the cursor is the word being typed.
+            if info.kind != SymbolKind::User
+                || declared.contains(info.name.as_str())
+                || at_cursor(info.first)
+            {
+                continue;
+            }
+            out.push(
+                CompletionItem::new(&info.name, CompletionKind::Module)
+                    .detail(symbol_signature(info)),
+            );
+        }
+    }
+
+    /// The constants and meta-parameters written in this file whose value
+    /// depends on `name`, directly or through others, and `name` itself:
+    /// using one of them in `name`'s value would make a cycle (E0210).
+    /// Imported globals cannot depend on this file's.
+    fn dependents_of(&self, name: &str) -> HashSet<String> {
+        // Each global of this file with the names its value mentions.
+        let mut deps: Vec<(&str, Vec<&str>)> = Vec::new();
+        for item in &self.parsed().file.items {
+            let (def, exprs): (&str, Vec<&Expr>) = match item {
+                Item::Const(c) => (&c.name.name, vec![&c.value]),
+                Item::Param(p) => {
+                    let mut v = vec![&p.default];
+                    if let Some((lo, hi)) = &p.range {
+                        v.extend([lo, hi]);
+                    }
+                    (&p.name.name, v)
+                }
+                _ => continue,
+            };
+            deps.push((def, names_in(exprs)));
+        }
+        let mut out: HashSet<String> = HashSet::from([name.to_string()]);
+        // Grow the set to a fixed point (each round adds a global or ends).
+        loop {
+            let before = out.len();
+            for (def, names) in &deps {
+                if !out.contains(*def) && names.iter().any(|n| out.contains(*n)) {
+                    out.insert(def.to_string());
+                }
+            }
+            if out.len() == before {
+                return out;
+            }
+        }
+    }
+
+    fn push_globals(&self, out: &mut Vec<CompletionItem>, keep: impl Fn(&str) -> bool) {
         let p = &self.checked.program;
-        for c in &p.consts {
+        for c in p.consts.iter().filter(|c| keep(&c.name)) {
             let d = match c.value.constant() {
                 Some(v) => format!("const {}: {} = {v}", c.name, c.ty),
                 None => format!("const {}: {}", c.name, c.ty),
             };
             out.push(CompletionItem::new(&c.name, CompletionKind::Constant).detail(d));
         }
-        for m in &p.params {
+        for m in p.params.iter().filter(|m| keep(&m.name)) {
             out.push(
                 CompletionItem::new(&m.name, CompletionKind::MetaParameter)
                     .detail(format!("param {}: {} = {}", m.name, m.ty, m.default)),
@@ -535,6 +677,26 @@ impl FileAnalysis {
             active_parameter,
         })
     }
+}
+
+/// The names an expression mentions (not function or field names), walked
+/// without recursion: a parsed expression may nest arbitrarily deep.
+fn names_in(roots: Vec<&Expr>) -> Vec<&str> {
+    let mut out = Vec::new();
+    let mut stack = roots;
+    while let Some(e) = stack.pop() {
+        match &e.kind {
+            ExprKind::Name(id) => out.push(id.name.as_str()),
+            ExprKind::Call { args, .. } => stack.extend(args),
+            ExprKind::Unary { operand, .. } => stack.push(operand),
+            ExprKind::Binary { lhs, rhs, .. } => stack.extend([&**lhs, &**rhs]),
+            ExprKind::Field { base, .. } => stack.push(base),
+            ExprKind::If { cond, then, els } => stack.extend([&**cond, &**then, &**els]),
+            ExprKind::Paren(inner) => stack.push(inner),
+            ExprKind::Number { .. } | ExprKind::Bool(_) | ExprKind::Error => {}
+        }
+    }
+    out
 }
 
 fn keyword(kw: &str) -> CompletionItem {

@@ -257,6 +257,157 @@ fn completion_by_context() {
     );
 }
 
+fn labels_at(fa: &FileAnalysis, offset: u32) -> Vec<String> {
+    fa.completion(offset).into_iter().map(|c| c.label).collect()
+}
+
+/// The labels at `offset`, sorted.
+fn sorted_labels_at(fa: &FileAnalysis, offset: u32) -> Vec<String> {
+    let mut l = labels_at(fa, offset);
+    l.sort();
+    l
+}
+
+#[test]
+fn completion_offers_nothing_for_a_system_name() {
+    let text = "system Other { axiom B; B -> F; }\nsystem Tree {\n    axiom A;\n    A -> F A;\n}\n";
+    let fa = analyze(text);
+    for o in [
+        at(text, "Tree", 0, 0),
+        at(text, "Tree", 0, 2),
+        at(text, "Tree", 0, 4),
+    ] {
+        let l = labels_at(&fa, o);
+        assert!(l.is_empty(), "{o}: {l:?}");
+    }
+    // Typed with no body yet.
+    let text = "system Tr";
+    let fa = analyze(text);
+    assert!(labels_at(&fa, 9).is_empty());
+    // Right after the brace the body starts.
+    let text = "system Tree { axiom A; A -> F A; }";
+    let fa = analyze(text);
+    let l = labels_at(&fa, at(text, "{", 0, 1));
+    assert!(l.contains(&"axiom".to_string()), "{l:?}");
+}
+
+#[test]
+fn completion_in_declarations_offers_undeclared_symbols() {
+    let text = "system S {\n    mode = sample;\n    skeleton branch;\n    geometry ;\n    module A(len: float);\n    axiom branch;\n    branch -> F [ + branch ] leaf A(1) B;\n    wrapup branch -> leaf;\n    leaf -> ;\n    A(l) -> ;\n    B -> ;\n}\n";
+    let fa = analyze(text);
+    // `geometry |`: user symbols without a phase yet, no terminals.
+    let l = sorted_labels_at(&fa, at(text, "geometry ", 0, 9));
+    assert_eq!(l, ["A", "B", "leaf"]);
+    // `skeleton |` before the name already there: that name is the word at
+    // the cursor, the others are already declared or phase-less.
+    let l = labels_at(&fa, at(text, "skeleton ", 0, 9));
+    assert!(
+        !l.contains(&"F".to_string()) && !l.contains(&"[".to_string()),
+        "{l:?}"
+    );
+    assert!(l.contains(&"leaf".to_string()), "{l:?}");
+    // `module |`: symbols in no declaration at all.
+    let text2 = text.replace("module A(len: float);", "module ;");
+    let fa2 = analyze(&text2);
+    let l = sorted_labels_at(&fa2, at(&text2, "module ", 0, 7));
+    assert_eq!(l, ["A", "B", "leaf"]);
+    // Names already in the list being written, parsed or not, are left
+    // out, and the partial word itself is not proposed.
+    let text3 = text.replace("geometry ;", "geometry leaf, A, l");
+    let fa3 = analyze(&text3);
+    let l = labels_at(&fa3, at(&text3, "A, l", 0, 4));
+    assert_eq!(l, ["B"]);
+    let text4 = text.replace("geometry ;", "geometry leaf, ");
+    let fa4 = analyze(&text4);
+    let l = sorted_labels_at(&fa4, at(&text4, "leaf, ", 0, 6));
+    assert_eq!(l, ["A", "B"]);
+    // A declared signature's parameter list takes names and types.
+    let l = labels_at(&fa, at(text, "len: float", 0, 0));
+    assert!(l.is_empty(), "{l:?}");
+    let l = labels_at(&fa, at(text, "float)", 0, 0));
+    assert!(l.is_empty(), "{l:?}");
+    // The axiom and successors still take any module.
+    let l = labels_at(&fa, at(text, "leaf A(1)", 0, 0));
+    assert!(
+        l.contains(&"F".to_string()) && l.contains(&"branch".to_string()),
+        "{l:?}"
+    );
+    // Half-written declarations: any offset is fine.
+    for t in [
+        "system S { skeleton",
+        "system S { module A(x: , B) ), C; geometry ,, (",
+        "system S { skeleton ] F [; A -> ",
+    ] {
+        let fa = analyze(t);
+        for o in 0..=t.len() as u32 {
+            let _ = fa.completion(o);
+        }
+    }
+}
+
+#[test]
+fn completion_in_a_global_value_leaves_out_cycles() {
+    let text = "const A = K * 2;\nconst B = A + 1;\nconst C = 3;\nparam p = 1 in 0 .. 2;\nparam q = K in 0 .. 5;\nconst K = 2;\nconst L = C;\n";
+    let fa = analyze(text);
+    // K's value: not K, nor A, B, q (defined through K).
+    let l = labels_at(&fa, at(text, "K = 2", 0, 4));
+    for n in ["K", "A", "B", "q"] {
+        assert!(!l.contains(&n.to_string()), "{n}: {l:?}");
+    }
+    for n in ["C", "p", "L", "sin"] {
+        assert!(l.contains(&n.to_string()), "{n}: {l:?}");
+    }
+    // Before the value is there (the statement does not parse yet).
+    let text2 = text.replace("const K = 2;", "const K = ");
+    let fa2 = analyze(&text2);
+    let l = labels_at(&fa2, at(&text2, "K = ", 0, 4));
+    assert!(!l.contains(&"K".to_string()), "{l:?}");
+    assert!(l.contains(&"C".to_string()), "{l:?}");
+    // A meta-parameter's range too; elsewhere every global is offered.
+    let l = labels_at(&fa, at(text, "0 .. 5", 0, 5));
+    assert!(!l.contains(&"q".to_string()), "{l:?}");
+    assert!(
+        l.contains(&"K".to_string()) && l.contains(&"p".to_string()),
+        "{l:?}"
+    );
+    let l = labels_at(&fa, at(text, "C;", 0, 0));
+    assert!(
+        !l.contains(&"L".to_string()) && l.contains(&"K".to_string()),
+        "{l:?}"
+    );
+}
+
+#[test]
+fn completion_offers_nothing_for_pattern_parameters() {
+    let text = "const K = 1;\nsystem S {\n    axiom A(1);\n    B(u) < A(len, w) > C(v) : len > (K) -> F(len);\n}\n";
+    let fa = analyze(text);
+    for (needle, d) in [
+        ("len, w", 0),
+        ("len, w", 3),
+        ("w)", 0),
+        ("u)", 0),
+        ("v)", 1),
+    ] {
+        let l = labels_at(&fa, at(text, needle, 0, d));
+        assert!(l.is_empty(), "{needle}+{d}: {l:?}");
+    }
+    // While the pattern is typed.
+    let text2 = "system S {\n    axiom A(1);\n    A(";
+    let fa2 = analyze(text2);
+    assert!(labels_at(&fa2, text2.len() as u32).is_empty());
+    // The condition and the successor's arguments are expressions.
+    let l = labels_at(&fa, at(text, "K) ->", 0, 0));
+    assert!(
+        l.contains(&"len".to_string()) && l.contains(&"K".to_string()),
+        "{l:?}"
+    );
+    let l = labels_at(&fa, at(text, "len);", 0, 0));
+    assert!(
+        l.contains(&"len".to_string()) && l.contains(&"sin".to_string()),
+        "{l:?}"
+    );
+}
+
 #[test]
 fn signature_help_for_builtins_and_terminals() {
     let text = "system S { axiom A; A -> F(mix(1, 2, 0.5)) cylinder(1, 2); }";
@@ -771,4 +922,15 @@ fn jobs_run_outside_the_host_and_stale_results_are_not_cached() {
     assert_eq!(new.version, 2);
     assert!(new.text().contains("F F"));
     assert!(matches!(a.lookup(p), Lookup::Ready(fa) if Arc::ptr_eq(&fa, &new)));
+}
+
+#[test]
+fn a_lone_weight_is_removed_by_its_fix() {
+    let (t, c) = fix(
+        "system S {\n    axiom A;\n    A -> ( 0.3 ) F A;\n}",
+        "W0016",
+        "Remove the weight",
+    );
+    assert_eq!(t, "system S {\n    axiom A;\n    A -> F A;\n}");
+    assert!(c.is_empty(), "{c:?}");
 }
