@@ -27,6 +27,9 @@ pub(crate) struct LoadedFile {
     pub edges: Vec<(Span, FileId)>,
     /// Whether the parser reported errors in it.
     pub broken: bool,
+    /// Whether one of its imports could not be read (E0401, E0404): names
+    /// it does not know may be defined there, and are not reported.
+    pub failed_import: bool,
     /// Primary spans of the parser's diagnostics (to avoid follow-on reports).
     pub error_spans: Vec<Span>,
 }
@@ -108,6 +111,7 @@ impl Loader<'_> {
             imports: Vec::new(),
             edges: Vec::new(),
             broken,
+            failed_import: false,
             error_spans,
         });
         self.by_path.insert(real, idx);
@@ -209,6 +213,7 @@ impl Loader<'_> {
                         m,
                     ),
                 };
+                self.files[idx].failed_import = true;
                 let mut d = Diagnostic::new(code, msg, id, imp.path.span, label);
                 if code == Code::ImportNotFound {
                     d = d.with_help(

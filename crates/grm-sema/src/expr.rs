@@ -422,6 +422,11 @@ impl Checker<'_> {
     }
 
     pub(crate) fn unknown_name(&mut self, file: FileId, id: &grm_syntax::ast::Ident, sc: &Scope) {
+        if self.files.get(sc.file_idx).is_some_and(|f| f.failed_import) {
+            // It may be defined in the import that could not be read: that
+            // one error (E0401) stands for it.
+            return;
+        }
         let mut d = Diagnostic::new(
             Code::UnknownName,
             format!("unknown name `{}`", id.name),
