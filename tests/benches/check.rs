@@ -77,6 +77,10 @@ fn main() {
         "  check + compile {:>8.3} ms   {:>6.2}x lex   target < 10 ms: {}",
         ms(with_compile),
         ms(with_compile) / ms(lex),
-        if ms(with_compile) < 10.0 { "met" } else { "NOT met" }
+        if ms(with_compile) < 10.0 {
+            "met"
+        } else {
+            "NOT met"
+        }
     );
 }
