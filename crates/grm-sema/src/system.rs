@@ -1275,6 +1275,24 @@ impl Sys<'_, '_> {
         let mut slot = 0u32;
         let left = self.context(&p.left, &r.left, &mut bindings, &mut slot);
         let pred = self.bind(&r.pred, &p.pred, &mut bindings, &mut slot);
+        if r.pred.ok
+            && let Some(open) = self.bracket_of(r.pred.sym)
+        {
+            // `[ -> ..` does not parse; its word spelling must not slip past.
+            let (word, sign) = if open { ("push", "[") } else { ("pop", "]") };
+            self.err(
+                Diagnostic::new(
+                    Code::UnbalancedBrackets,
+                    format!("a production for `{word}` would unbalance every string it rewrites"),
+                    file,
+                    p.pred.span,
+                    format!("`{word}` is the bracket `{sign}`"),
+                )
+                .with_help(
+                    "brackets are not rewritten; rewrite a symbol inside the branch instead",
+                ),
+            );
+        }
         let right = self.context(&p.right, &r.right, &mut bindings, &mut slot);
         let mut sc = Scope {
             file_idx: self.fi,
