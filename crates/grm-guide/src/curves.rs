@@ -431,21 +431,27 @@ impl Parser<'_> {
     }
 
     fn document(&self, text: &str) -> Result<Curves, CurvesError> {
-        let value: Value = serde_json::from_str(text).map_err(|e| {
-            let full = e.to_string();
-            let suffix = format!(" at line {} column {}", e.line(), e.column());
-            let message = full.strip_suffix(&suffix).unwrap_or(&full).to_string();
-            CurvesError {
-                file: self.file.to_string(),
-                kind: CurvesErrorKind::Syntax {
-                    line: e.line(),
-                    // serde_json counts 0 at the start of a line (an error
-                    // right after a line break, e.g. the end of the file).
-                    column: e.column().max(1),
-                    message,
-                },
-            }
-        })?;
+        // Editors on Windows save a byte-order mark; JSON does not allow one.
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+        // serde_json keeps the last of two equal keys; a key given twice is
+        // a mistake to report (with its position), not a value to drop.
+        let value: Value = serde_json::from_str::<NoDuplicateKeys>(text)
+            .and_then(|_| serde_json::from_str(text))
+            .map_err(|e| {
+                let full = e.to_string();
+                let suffix = format!(" at line {} column {}", e.line(), e.column());
+                let message = full.strip_suffix(&suffix).unwrap_or(&full).to_string();
+                CurvesError {
+                    file: self.file.to_string(),
+                    kind: CurvesErrorKind::Syntax {
+                        line: e.line(),
+                        // serde_json counts 0 at the start of a line (an error
+                        // right after a line break, e.g. the end of the file).
+                        column: e.column().max(1),
+                        message,
+                    },
+                }
+            })?;
         let Value::Object(top) = value else {
             return Err(self.err(
                 Location::File,
@@ -850,5 +856,65 @@ fn kind(v: &Value) -> &'static str {
         Value::String(_) => "a string",
         Value::Array(_) => "an array",
         Value::Object(_) => "an object",
+    }
+}
+
+/// Walks a JSON document and fails on an object that gives a key twice
+/// (serde_json's `Value` would silently keep the last one).
+struct NoDuplicateKeys;
+
+impl<'de> serde::Deserialize<'de> for NoDuplicateKeys {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_any(NoDuplicateKeysVisitor)
+    }
+}
+
+struct NoDuplicateKeysVisitor;
+
+impl<'de> serde::de::Visitor<'de> for NoDuplicateKeysVisitor {
+    type Value = NoDuplicateKeys;
+
+    fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("a JSON value")
+    }
+    fn visit_bool<E>(self, _: bool) -> Result<NoDuplicateKeys, E> {
+        Ok(NoDuplicateKeys)
+    }
+    fn visit_i64<E>(self, _: i64) -> Result<NoDuplicateKeys, E> {
+        Ok(NoDuplicateKeys)
+    }
+    fn visit_u64<E>(self, _: u64) -> Result<NoDuplicateKeys, E> {
+        Ok(NoDuplicateKeys)
+    }
+    fn visit_f64<E>(self, _: f64) -> Result<NoDuplicateKeys, E> {
+        Ok(NoDuplicateKeys)
+    }
+    fn visit_str<E>(self, _: &str) -> Result<NoDuplicateKeys, E> {
+        Ok(NoDuplicateKeys)
+    }
+    fn visit_unit<E>(self) -> Result<NoDuplicateKeys, E> {
+        Ok(NoDuplicateKeys)
+    }
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(
+        self,
+        mut seq: A,
+    ) -> Result<NoDuplicateKeys, A::Error> {
+        while seq.next_element::<NoDuplicateKeys>()?.is_some() {}
+        Ok(NoDuplicateKeys)
+    }
+    fn visit_map<A: serde::de::MapAccess<'de>>(
+        self,
+        mut map: A,
+    ) -> Result<NoDuplicateKeys, A::Error> {
+        let mut seen = std::collections::HashSet::new();
+        while let Some(key) = map.next_key::<String>()? {
+            if !seen.insert(key.clone()) {
+                return Err(serde::de::Error::custom(format!(
+                    "the key \"{key}\" is given twice in one object"
+                )));
+            }
+            map.next_value::<NoDuplicateKeys>()?;
+        }
+        Ok(NoDuplicateKeys)
     }
 }

@@ -375,3 +375,25 @@ fn curves_errors_have_codes() {
         assert!(d.help.is_some());
     }
 }
+
+#[test]
+fn a_key_given_twice_is_an_error_with_its_position() {
+    let text = "{ \"version\": 1, \"curves\": [ { \"points\": [[0,0,0],[0,1,0],[0,2,0],[0,3,0]],\n  \"alignment_scale\": 1, \"alignment_scale\": 400 } ] }";
+    let e = Curves::from_json_str("v.json", text).unwrap_err();
+    assert!(
+        matches!(e.kind, CurvesErrorKind::Syntax { line: 2, .. }),
+        "{e:?}"
+    );
+    assert!(
+        e.to_string()
+            .contains("the key \"alignment_scale\" is given twice"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_byte_order_mark_is_accepted() {
+    let text = "\u{feff}{ \"version\": 1, \"curves\": [ { \"points\": [[0,0,0],[0,1,0],[0,2,0],[0,3,0]] } ] }";
+    let c = Curves::from_json_str("bom.json", text).expect("a BOM is not an error");
+    assert_eq!(c.curves().len(), 1);
+}

@@ -64,7 +64,15 @@ pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
             None
         } else {
             emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));
-            Some(Outcome::Usage)
+            // A derivation that outgrows the device is a limit, like the
+            // CPU's R0201/R0202 (exit 1); no device or a failing one is the
+            // environment (exit 2).
+            Some(match e {
+                GpuError::BufferTooLarge { .. }
+                | GpuError::CountOverflow { .. }
+                | GpuError::TooManyWorkgroups { .. } => Outcome::InputErrors,
+                _ => Outcome::Usage,
+            })
         }
     };
     let gpu = match grm_gpu::shared() {
