@@ -352,11 +352,22 @@ pub fn export_model(loaded: &Loaded, model: &grm_geom::Model, path: &Path) -> Ou
         return Outcome::Usage;
     }
     let s = &model.stats;
-    eprintln!(
-        "wrote {} ({}, {})",
-        path.display(),
-        crate::count(s.triangles as u64, "triangle"),
-        crate::count(s.bones as u64, "bone"),
-    );
+    if lines {
+        // An SVG draws the bones as lines and the polygons as paths; the
+        // meshes are not in it.
+        eprintln!(
+            "wrote {} ({}, {})",
+            path.display(),
+            crate::count(s.bones as u64, "line"),
+            crate::count(model.skeleton.polygons.len() as u64, "polygon"),
+        );
+    } else {
+        eprintln!(
+            "wrote {} ({}, {})",
+            path.display(),
+            crate::count(s.triangles as u64, "triangle"),
+            crate::count(s.bones as u64, "bone"),
+        );
+    }
     Outcome::Ok
 }

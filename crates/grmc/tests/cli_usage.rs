@@ -33,10 +33,19 @@ fn readme_derive_with_stats_writes_an_svg() {
         stderr.contains("KochIsland: 3 iterations: 3803 modules (4337 produced in all)"),
         "{stderr}"
     );
-    assert!(stderr.contains("wrote "), "{stderr}");
+    // An SVG holds lines and polygons, not triangles: the note counts those.
+    let lines = stderr
+        .lines()
+        .find(|l| l.starts_with("wrote "))
+        .unwrap_or_else(|| panic!("no `wrote` line: {stderr}"));
     let written = std::fs::read_to_string(&svg).expect("svg written");
     assert!(written.starts_with("<?xml"), "{written:.80}");
     assert!(written.contains("<svg"));
+    let drawn = written.matches("<line ").count();
+    assert!(
+        lines.ends_with(&format!("({drawn} lines, 0 polygons)")),
+        "{lines}"
+    );
 }
 
 /// A file that could not be read was not checked: the summary must not
