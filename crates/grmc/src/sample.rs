@@ -83,9 +83,9 @@ pub struct SampleArgs {
     #[arg(long, value_name = "F", default_value_t = grm_sample::DEFAULT_ESS_TARGET, value_parser = fraction)]
     pub ess_target: f64,
     /// Candidate expansions per bone-making expansion, one kept in
-    /// proportion to exp(-cost of its bones); 1: the grammar's own draws
-    /// (Calder's proposal).
-    #[arg(long, value_name = "K", default_value_t = grm_sample::DEFAULT_CANDIDATES, value_parser = clap::value_parser!(u32).range(1..))]
+    /// proportion to exp(-cost of its bones / T); 1: the grammar's own
+    /// draws (Calder's proposal); at most 100,000.
+    #[arg(long, value_name = "K", default_value_t = grm_sample::DEFAULT_CANDIDATES, value_parser = clap::value_parser!(u32).range(1..=i64::from(grm_sema::MAX_PARTICLES)))]
     pub candidates: u32,
     /// Expansions per particle step: a step expands open symbols until one
     /// adds a bone, at most this many (1: one symbol per step).
@@ -285,18 +285,21 @@ pub fn run(args: SampleArgs) -> Outcome {
         Ok(r) => r,
         Err(e) => return report(&loaded, &e),
     };
-    let heuristic_text = if heuristic && schedule.heuristic_until > 0 {
-        format!(
-            "heuristic {} -> 0 by generation {}",
-            schedule.heuristic_scale, schedule.heuristic_until
-        )
-    } else {
-        "no heuristic".to_string()
-    };
+    let heuristic_text =
+        if heuristic && schedule.heuristic_until > 0 && schedule.heuristic_scale > 0.0 {
+            format!(
+                "heuristic {} -> 0 by generation {}",
+                schedule.heuristic_scale, schedule.heuristic_until
+            )
+        } else {
+            "no heuristic".to_string()
+        };
     // Candidates and tempering need the curve cost at a finite temperature.
     let guided = args.cost == CostKind::Curves && opts.temperature.is_finite();
     let k = if guided { opts.candidates } else { 1 };
-    let weights_text = if opts.ess_target > 0.0 {
+    // At an infinite temperature every particle weighs the same: there is
+    // nothing to temper.
+    let weights_text = if opts.ess_target > 0.0 && guided {
         format!(
             ", {}, ESS >= {} N",
             crate::count(k, "candidate"),
