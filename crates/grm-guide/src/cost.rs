@@ -623,8 +623,10 @@ impl CostModel {
     /// a symbol's expected direction `expected` (already transformed to
     /// world space, `M_i EXPECTED(Z[i])`) at the world position `position`
     /// of its frame (`M_i [0,0,0]^T`), against the curve nearest to that
-    /// position. A zero expected vector is costed as perpendicular
-    /// (`delta_a scale_a`); a non-finite position gives `+inf`.
+    /// position. A zero vector (a degenerate frame) is costed as
+    /// perpendicular (`delta_a scale_a`), as a zero bone is; a non-finite
+    /// position gives `+inf`. [`Self::heuristic_in_frame`] gives 0 for a
+    /// symbol whose own expected direction is zero.
     pub fn heuristic(&self, position: Vec3, expected: Vec3) -> f64 {
         let p = position.as_dvec3();
         if !p.is_finite() {
@@ -644,7 +646,12 @@ impl CostModel {
     /// [`Self::heuristic`] for a symbol whose frame is `frame` (`M_i`) and
     /// whose expected direction in its own frame is `expected`: position =
     /// `frame`'s origin, direction = `frame`'s linear part times `expected`.
+    /// A symbol whose expected direction is zero (it grows no bone) adds
+    /// 0: no future alignment cost, as in the sampler.
     pub fn heuristic_in_frame(&self, frame: &Affine3A, expected: Vec3) -> f64 {
+        if expected == Vec3::ZERO {
+            return 0.0;
+        }
         self.heuristic(
             Vec3::from(frame.translation),
             frame.transform_vector3(expected),

@@ -510,8 +510,14 @@ fn eq10_heuristic_term() {
     assert_close!(m.heuristic(v(0.5, 1., 0.), v(0., 2., 0.)), -160.0);
     // Expected along x: perpendicular: 0.6 * 400 = 240.
     assert_close!(m.heuristic(v(0.5, 1., 0.), v(3., 0., 0.)), 240.0);
-    // A zero expected vector is costed as perpendicular: 240.
+    // A zero world vector (a degenerate frame) is costed as perpendicular:
+    // 240; a symbol whose own expected direction is zero grows no bone and
+    // adds nothing, as in the sampler.
     assert_close!(m.heuristic(v(0.5, 1., 0.), Vec3::ZERO), 240.0);
+    assert_close!(
+        m.heuristic_in_frame(&Affine3A::from_translation(v(0.5, 1., 0.)), Vec3::ZERO),
+        0.0
+    );
     // In a frame: M = translate(0,1,0) * rotate_z(-90 deg) maps the local y
     // axis to world +x: perpendicular to a, 240. With rotate_z(0) it is +y:
     // -160. With rotate_z(180 deg) it is -y: (1 + 0.6) 400 = 640.
