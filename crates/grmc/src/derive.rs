@@ -261,8 +261,8 @@ pub fn run(args: DeriveArgs) -> Outcome {
     if let Some(s) = last {
         let rate = if total.as_secs_f64() > 0.0 {
             format!(
-                ", {:.0} modules/us",
-                s.cumulative_modules as f64 / (total.as_secs_f64() * 1e6)
+                ", {} modules/us",
+                crate::rate(s.cumulative_modules as f64 / (total.as_secs_f64() * 1e6))
             )
         } else {
             String::new()

@@ -148,14 +148,14 @@ pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
     let interp_elapsed = interp.map_or(Duration::ZERO, |i| i.elapsed);
     if r.derive_waited {
         eprintln!(
-            "{}: {} {engines}: {} ({} produced in all) in {:.3} ms, {:.0} modules/us; \
+            "{}: {} {engines}: {} ({} produced in all) in {:.3} ms, {} modules/us; \
              {} on the GPU in {:.3} ms",
             c.name,
             crate::count(opts.derive.iterations, "iteration"),
             crate::count(r.modules(), "module"),
             r.produced_modules(),
             ms(r.derive_elapsed),
-            grm_gpu::bench::rate(r.produced_modules(), r.derive_elapsed),
+            crate::rate(grm_gpu::bench::rate(r.produced_modules(), r.derive_elapsed)),
             crate::count(bones, "bone"),
             ms(interp_elapsed),
         );
@@ -166,14 +166,17 @@ pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
         eprintln!(
             "{}: {} {engines}: {} ({} produced in all) and {} \
              on the GPU in {:.3} ms, derivation and interpretation together \
-             ({:.0} produced and final modules/us)",
+             ({} produced and final modules/us)",
             c.name,
             crate::count(opts.derive.iterations, "iteration"),
             crate::count(r.modules(), "module"),
             r.produced_modules(),
             crate::count(bones, "bone"),
             ms(both),
-            grm_gpu::bench::rate(r.produced_modules() + r.modules(), both),
+            crate::rate(grm_gpu::bench::rate(
+                r.produced_modules() + r.modules(),
+                both
+            )),
         );
     }
     if args.stats {
@@ -209,8 +212,8 @@ pub struct GpuBench {
     /// Iterations (default: each scene's standard count).
     #[arg(short = 'n', long)]
     pub iterations: Option<u32>,
-    /// Timed runs per engine (the best is reported).
-    #[arg(long, default_value_t = 3)]
+    /// Timed runs per engine, at least 1 (the best is reported).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
     pub runs: u32,
     /// Threads for the parallel CPU column (0: all cores; at most 1024).
     #[arg(long, default_value_t = 0, value_parser = crate::parse_threads)]

@@ -101,6 +101,18 @@ pub fn count(n: impl Into<u64>, one: &str) -> String {
     }
 }
 
+/// A rate for a summary line: whole numbers from 10 up, three significant
+/// digits below (a slow adapter's 0.04 modules/us must not read as 0).
+pub fn rate(x: f64) -> String {
+    if !x.is_finite() || x >= 10.0 {
+        format!("{x:.0}")
+    } else if x >= 1.0 {
+        format!("{x:.2}")
+    } else {
+        format!("{x:.3}")
+    }
+}
+
 /// The outcome of a subcommand, mapped to the process exit code.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Outcome {
