@@ -522,9 +522,13 @@ impl SceneReport {
             match self.cpu_steps {
                 _ if self.path == crate::DerivePath::Direct => " (direct, on the GPU)".to_string(),
                 0 => " (every iteration on the GPU)".to_string(),
+                k if k >= self.iterations => {
+                    " (every iteration on the CPU: the strings are within the CPU prefix)"
+                        .to_string()
+                }
                 k => format!(
                     " (iterations 1-{k} on the CPU, then {} on the GPU)",
-                    self.iterations.saturating_sub(k)
+                    self.iterations - k
                 ),
             }
         );

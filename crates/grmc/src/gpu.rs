@@ -142,7 +142,13 @@ pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
         }
         0 => "on the GPU".to_string(),
         k if k == n => "on the CPU (every string within --cpu-prefix)".to_string(),
-        k => format!("(1-{k} on the CPU, {}-{n} on the GPU)", k + 1),
+        k => {
+            let span = |a: usize, b: usize| match a == b {
+                true => format!("{a}"),
+                false => format!("{a}-{b}"),
+            };
+            format!("({} on the CPU, {} on the GPU)", span(1, k), span(k + 1, n))
+        }
     };
     let bones = interp.map_or(0, |i| i.bone_count);
     let interp_elapsed = interp.map_or(Duration::ZERO, |i| i.elapsed);
