@@ -10,7 +10,8 @@
 //! Batched (the default when nothing needs the iterations one by one): an
 //! upper bound of every string's length is computed on the host from the
 //! tables, the buffers are sized from it, and all iterations are recorded
-//! into one submission whose dispatch sizes are written on the device
+//! into one submission (one per [`BATCH_SUBMIT_ITERATIONS`] for long
+//! derivations) whose dispatch sizes are written on the device
 //! (`shaders/batch.wgsl`, indirect dispatches); the totals, an overflow
 //! flag and the error status are read back once at the end. Where the
 //! bound is over a limit, or the batched run reports an error or an
@@ -27,6 +28,11 @@
 //! expected sizes; an overflow reruns it iteration by iteration.
 
 use std::time::{Duration, Instant};
+
+/// Iterations recorded into one submission of a batched derivation before
+/// it is submitted and waited for (bounds the host memory of the recorded
+/// commands; one wait per chunk costs nothing next to a chunk's work).
+const BATCH_SUBMIT_ITERATIONS: u32 = 1024;
 
 use grm_compile::CompiledSystem;
 use grm_derive::ModuleString;
@@ -1190,6 +1196,14 @@ impl<'a> GpuSystem<'a> {
         for k in k0 + 1..=k_max {
             let p = (k - 1 - k0) % 2;
             let j = (k - 1 - k0) as u32;
+            // A recorded iteration holds host memory until its submission
+            // completes: a long derivation (thousands of iterations of a
+            // slowly growing string) is submitted in chunks, each waited
+            // for, so the host holds at most one chunk.
+            if j > 0 && j.is_multiple_of(BATCH_SUBMIT_ITERATIONS) {
+                let full = std::mem::replace(&mut enc, gpu.encoder());
+                gpu.submit_wait(full)?;
+            }
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("batch iteration"),
                 timestamp_writes: stamps.as_ref().and_then(|s| s.pass_writes(j)),

@@ -705,13 +705,13 @@ impl Gpu {
             })
     }
 
-    /// Submit `encoder` and wait for the GPU to finish.
     /// Submit `encoder` without waiting for it: what is recorded after it
     /// runs after it (one queue), and the next wait covers it.
     pub(crate) fn submit(&self, encoder: wgpu::CommandEncoder) {
         self.queue.submit([encoder.finish()]);
     }
 
+    /// Submit `encoder` and wait for the GPU to finish.
     pub(crate) fn submit_wait(&self, encoder: wgpu::CommandEncoder) -> Result<(), GpuError> {
         self.waits
             .fetch_add(1, std::sync::atomic::Ordering::Relaxed);

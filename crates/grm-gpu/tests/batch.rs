@@ -231,3 +231,29 @@ fn a_loose_bound_is_batched_from_the_expected_sizes_after_a_cpu_prefix() {
         same_bits(&format!("seed {seed} GPU only"), &c.string, &b.string);
     }
 }
+
+/// A long batched derivation is submitted in chunks of iterations (the host
+/// holds one chunk of recorded commands, not all of them): across chunk
+/// boundaries the string still equals the CPU's, stochastic choices and
+/// parameters included.
+#[test]
+fn a_long_batched_derivation_crosses_submission_chunks() {
+    let g = gpu();
+    let sys = inline(
+        "system S {
+            axiom A(0) B;
+            A(x) -> (1) A(x + 1);
+            A(x) -> (2) A(x + 2);
+            B -> B;
+        }",
+    )
+    .expect("checks");
+    let iterations = 2_500;
+    let o = opts(&sys, iterations, 9);
+    let (d, path) = derive_with(g, &sys, &o, DeriveStrategy::Stepwise).expect("derives");
+    assert_eq!(path, DerivePath::Batched);
+    let cpu = cpu_derive(&sys, iterations, 9).expect("CPU derives");
+    assert_same("2,500 iterations", &cpu, &d.string);
+    let x = cpu.params[0];
+    assert!(x > 2_500.0 && x < 5_000.0, "A({x})");
+}
