@@ -10,7 +10,7 @@
 //! Batched (the default when nothing needs the iterations one by one): an
 //! upper bound of every string's length is computed on the host from the
 //! tables, the buffers are sized from it, and all iterations are recorded
-//! into one submission (one per [`BATCH_SUBMIT_ITERATIONS`] for long
+//! into one submission (one per `BATCH_SUBMIT_ITERATIONS` for long
 //! derivations) whose dispatch sizes are written on the device
 //! (`shaders/batch.wgsl`, indirect dispatches); the totals, an overflow
 //! flag and the error status are read back once at the end. Where the
