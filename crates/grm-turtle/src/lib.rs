@@ -264,6 +264,73 @@ impl Interpretation {
             p.origin = get(p.module);
         }
     }
+
+    /// Append `other` moved by `offset` (a forest: one interpretation per
+    /// tree, placed side by side). `other`'s module indices are shifted by
+    /// `module_offset` (the length of the strings before its own, so that
+    /// every part still names one module of the concatenated strings), its
+    /// bone and polygon-vertex indices by what `self` already holds; the
+    /// warnings add up. `None` (and `self` unchanged) when an index would
+    /// no longer fit in 32 bits.
+    pub fn append_translated(
+        &mut self,
+        other: &Interpretation,
+        offset: Vec3,
+        module_offset: u32,
+    ) -> Option<()> {
+        let bone_base = u32::try_from(self.bones.len()).ok()?;
+        let vertex_base = u32::try_from(self.polygon_vertices.len()).ok()?;
+        let fits = |base: u32, n: usize| u32::try_from(n).ok()?.checked_add(base);
+        fits(bone_base, other.bones.len())?;
+        fits(vertex_base, other.polygon_vertices.len())?;
+        let module_end = [
+            other.bones.iter().map(|b| b.module).max(),
+            other.instances.iter().map(|i| i.module).max(),
+            other.polygons.iter().map(|p| p.module).max(),
+        ];
+        if let Some(m) = module_end.into_iter().flatten().max() {
+            m.checked_add(module_offset)?;
+        }
+        let module = |m: u32| m + module_offset;
+        self.bones.extend(other.bones.iter().map(|b| Bone {
+            base: b.base + offset,
+            tip: b.tip + offset,
+            parent: b.parent.map(|p| p + bone_base),
+            module: module(b.module),
+            ..*b
+        }));
+        let shift = Affine3A::from_translation(offset);
+        self.instances
+            .extend(other.instances.iter().map(|i| Instance {
+                transform: shift * i.transform,
+                bone: i.bone.map(|b| b + bone_base),
+                module: module(i.module),
+                ..*i
+            }));
+        self.polygons.extend(other.polygons.iter().map(|p| Polygon {
+            first: p.first + vertex_base,
+            module: module(p.module),
+            ..*p
+        }));
+        self.polygon_vertices
+            .extend(other.polygon_vertices.iter().map(|v| *v + offset));
+        if !other.bounds.is_empty() {
+            self.bounds = self.bounds.union(&Aabb {
+                min: other.bounds.min + offset,
+                max: other.bounds.max + offset,
+            });
+        }
+        let (w, o) = (&mut self.warnings, &other.warnings);
+        w.unbalanced_pops = w.unbalanced_pops.saturating_add(o.unbalanced_pops);
+        w.unbalanced_polygon_ends = w
+            .unbalanced_polygon_ends
+            .saturating_add(o.unbalanced_polygon_ends);
+        w.unclosed_polygons = w.unclosed_polygons.saturating_add(o.unclosed_polygons);
+        w.degenerate_polygons = w.degenerate_polygons.saturating_add(o.degenerate_polygons);
+        w.non_finite = w.non_finite.saturating_add(o.non_finite);
+        w.bad_ids = w.bad_ids.saturating_add(o.bad_ids);
+        Some(())
+    }
 }
 
 /// Why a string could not be interpreted.

@@ -554,3 +554,61 @@ fn a_branch_leaves_the_turtle_as_it_found_it() {
         assert_eq!(branched.warnings, plain.warnings, "{what}: warnings");
     }
 }
+
+/// A forest's interpretation: a second tree appended beside the first
+/// keeps the first as it was and is the second moved, with its bone,
+/// vertex and module indices shifted past what came before.
+#[test]
+fn append_translated_places_a_second_interpretation() {
+    let first_text = "F [ + F ] sphere(1) { . F . + F . }";
+    let second_text = "F + F [ - F ] cone(1,2) { . f . + f . + f . }";
+    let a = run(first_text);
+    let b = run(second_text);
+    let modules_a = string(first_text).len() as u32;
+    let offset = v(10.0, 0.0, -3.0);
+    let mut m = a.clone();
+    m.append_translated(&b, offset, modules_a).expect("fits");
+
+    let (na, ni, np) = (a.bones.len(), a.instances.len(), a.polygons.len());
+    assert!(na > 0 && ni > 0 && np > 0, "{a:?}");
+    assert!(!b.bones.is_empty() && !b.instances.is_empty() && !b.polygons.is_empty());
+    assert_eq!(m.bones.len(), na + b.bones.len());
+    assert_eq!(m.instances.len(), ni + b.instances.len());
+    assert_eq!(m.polygons.len(), np + b.polygons.len());
+    assert_eq!(m.bones[..na], a.bones[..]);
+    assert_eq!(m.instances[..ni], a.instances[..]);
+    assert_eq!(m.polygons[..np], a.polygons[..]);
+    for (got, want) in m.bones[na..].iter().zip(&b.bones) {
+        close(got.base, want.base + offset);
+        close(got.tip, want.tip + offset);
+        close(got.left, want.left);
+        assert_eq!(got.parent, want.parent.map(|p| p + na as u32));
+        assert_eq!(got.module, want.module + modules_a);
+        assert_eq!(got.width_base, want.width_base);
+    }
+    for (got, want) in m.instances[ni..].iter().zip(&b.instances) {
+        close(
+            Vec3::from(got.transform.translation),
+            Vec3::from(want.transform.translation) + offset,
+        );
+        assert_eq!(got.transform.matrix3, want.transform.matrix3);
+        assert_eq!(got.bone, want.bone.map(|p| p + na as u32));
+        assert_eq!(got.module, want.module + modules_a);
+    }
+    for (got, want) in m.polygons[np..].iter().zip(&b.polygons) {
+        let (gv, wv) = (m.vertices(got), b.vertices(want));
+        assert_eq!(gv.len(), wv.len());
+        assert!(gv.len() >= 3);
+        for (g, w) in gv.iter().zip(wv) {
+            close(*g, *w + offset);
+        }
+        assert_eq!(got.module, want.module + modules_a);
+    }
+    close(m.bounds.min, a.bounds.min.min(b.bounds.min + offset));
+    close(m.bounds.max, a.bounds.max.max(b.bounds.max + offset));
+
+    // A module index past 32 bits refuses and leaves the forest as it was.
+    let before = m.clone();
+    assert_eq!(m.append_translated(&b, offset, u32::MAX), None);
+    assert_eq!(m, before);
+}

@@ -24,7 +24,7 @@ fn ms(d: std::time::Duration) -> f64 {
 
 /// Whether the CPU may take over after this error (`--cpu-fallback`): no
 /// device, or the device cannot hold the derivation.
-fn device_problem(e: &GpuError) -> bool {
+pub(crate) fn device_problem(e: &GpuError) -> bool {
     matches!(
         e,
         GpuError::NoAdapter(_)
@@ -35,6 +35,18 @@ fn device_problem(e: &GpuError) -> bool {
             | GpuError::Device(_)
             | GpuError::DeviceLost(_)
     )
+}
+
+/// The exit outcome of a GPU error that stops the run: a derivation that
+/// outgrows the device is a limit, like the CPU's R0201/R0202 (exit 1); no
+/// device or a failing one is the environment (exit 2).
+pub(crate) fn error_outcome(e: &GpuError) -> Outcome {
+    match e {
+        GpuError::BufferTooLarge { .. }
+        | GpuError::CountOverflow { .. }
+        | GpuError::TooManyWorkgroups { .. } => Outcome::InputErrors,
+        _ => Outcome::Usage,
+    }
 }
 
 /// `grmc derive --gpu`. Returns `None` when the CPU path should run
@@ -64,15 +76,7 @@ pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
             None
         } else {
             emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));
-            // A derivation that outgrows the device is a limit, like the
-            // CPU's R0201/R0202 (exit 1); no device or a failing one is the
-            // environment (exit 2).
-            Some(match e {
-                GpuError::BufferTooLarge { .. }
-                | GpuError::CountOverflow { .. }
-                | GpuError::TooManyWorkgroups { .. } => Outcome::InputErrors,
-                _ => Outcome::Usage,
-            })
+            Some(error_outcome(e))
         }
     };
     let gpu = match grm_gpu::shared() {

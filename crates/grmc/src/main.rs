@@ -28,6 +28,7 @@ mod check;
 mod derive;
 mod disasm;
 mod fmt;
+mod forest;
 mod gpu;
 mod lsp;
 mod sample;
@@ -65,6 +66,9 @@ enum Command {
     View(view::ViewArgs),
     /// Derive a system: statistics, the string, or an exported model.
     Derive(derive::DeriveArgs),
+    /// Derive many trees at once (on the GPU: one derivation) and plant
+    /// them on a grid in one model.
+    Forest(forest::ForestArgs),
     /// Grow a sample-mode system guided by curves (SOSMC) and export it.
     Sample(sample::SampleArgs),
     /// Print a system's compiled tables and bytecode.
@@ -142,6 +146,7 @@ fn main() -> ExitCode {
         Command::Lsp(a) => lsp::run(a),
         Command::View(a) => view::run(a),
         Command::Derive(a) => derive::run(a),
+        Command::Forest(a) => forest::run(a),
         Command::Sample(a) => sample::run(a),
         Command::Disasm(a) => disasm::run(a),
         Command::Bench(a) => bench::run(a),

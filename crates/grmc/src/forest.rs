@@ -1,0 +1,869 @@
+//! `grmc forest FILE`: many trees of one file's systems, derived together
+//! and planted on a grid in one model (the Lipp workflow: a forest of
+//! different trees with different seeds, parameters and iteration counts).
+//!
+//! Tree `k` is system `--system[k % len]` (default: the file's first
+//! system) with seed `SEED + k`, its own iteration count, the `--param`
+//! values, and for each `--vary NAME=LO..HI` a value drawn for it from the
+//! project's counter-based hash (`grm_compile::rng`). With `--gpu` the
+//! whole forest is one derivation and one interpretation on the device
+//! (`grm_gpu::run_many`, Lipp 5.4: one count / scan / rewrite per
+//! iteration for every tree); without it the trees are derived on the CPU
+//! engine, one tree per worker thread. Either way every tree's string is
+//! exactly what `grmc derive --system S --seed SEED+k` gives. The model is
+//! built from the strings (the CPU turtle, as `grmc derive -o` does): each
+//! tree interpreted alone, moved to its grid cell
+//! (`Interpretation::append_translated`) and meshed once.
+
+use std::path::PathBuf;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::{Duration, Instant};
+
+use grm_compile::CompiledSystem;
+use grm_derive::{DeriveOptions, Engine, ModuleString};
+use grm_geom::grm_turtle::{self, Interpretation};
+use grm_gpu::{GpuDeriveOptions, GpuError, GpuJob, GpuRunOptions, TurtleProgram};
+
+use crate::Outcome;
+use crate::derive::{Loaded, emit, limits, report_derive_error};
+
+/// The most trees in one forest: the GPU's directory of systems
+/// (`grm_gpu::layout::MAX_SYSTEMS`), whichever engine derives them.
+pub const MAX_TREES: u32 = grm_gpu::layout::MAX_SYSTEMS as u32;
+
+/// The draw of `--vary` (the hash's fourth input): apart from every draw
+/// a derivation makes, which uses small draw indices.
+const VARY_DRAW: u32 = 0x7661_7279;
+
+#[derive(clap::Args, Debug)]
+pub struct ForestArgs {
+    /// The .grm file.
+    pub file: PathBuf,
+    /// A system to plant; repeat it for a mixed forest (tree k is the
+    /// (k mod count)-th). Default: the file's first system.
+    #[arg(long = "system", value_name = "NAME")]
+    pub systems: Vec<String>,
+    /// How many trees (1 to 4096).
+    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_TREES)))]
+    pub trees: u32,
+    /// Iterations of every tree (default: each system's `iterations`
+    /// setting; at most 100,000).
+    #[arg(short = 'n', long = "iterations", value_parser = clap::value_parser!(u32).range(..=i64::from(grm_sema::MAX_ITERATIONS)))]
+    pub iterations: Option<u32>,
+    /// The first tree's seed; tree k has SEED + k (default: each system's
+    /// `seed` setting, plus k).
+    #[arg(long)]
+    pub seed: Option<u32>,
+    /// Override a meta-parameter for every tree: `NAME=VALUE`. Repeatable.
+    #[arg(long = "param", value_name = "NAME=VALUE")]
+    pub params: Vec<String>,
+    /// Draw a number meta-parameter for each tree, uniformly in LO..HI
+    /// (inside its declared range). Repeatable.
+    #[arg(long = "vary", value_name = "NAME=LO..HI")]
+    pub vary: Vec<String>,
+    /// Trees per row of the grid (default: the square root of the count,
+    /// rounded up).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    pub columns: Option<u32>,
+    /// Distance between neighbouring trees (default: the widest tree's
+    /// footprint plus 10%, so that no two trees overlap).
+    #[arg(long, value_parser = parse_spacing)]
+    pub spacing: Option<f32>,
+    /// Build the forest's model and write it (.glb .obj .ply .svg).
+    #[arg(short = 'o', long = "output")]
+    pub output: Option<PathBuf>,
+    /// Print a line per tree: system, seed, iterations, modules, bones,
+    /// place and drawn parameters.
+    #[arg(long)]
+    pub stats: bool,
+    /// Print each tree's derived string (grm source text), a line per
+    /// tree in tree order, to stdout.
+    #[arg(long)]
+    pub print: bool,
+    /// CPU worker threads (trees derive in parallel, one per thread): 0
+    /// uses all cores (at most 1024).
+    #[arg(long, default_value_t = 0, value_parser = crate::parse_threads)]
+    pub threads: usize,
+    /// Stop with an error before a string would exceed this many modules
+    /// (each tree's on the CPU, the forest's combined string on the GPU;
+    /// default 50,000,000).
+    #[arg(long)]
+    pub max_modules: Option<u64>,
+    /// Stop with an error before an iteration would need more than this
+    /// many MiB (as for --max-modules; default 2048).
+    #[arg(long, value_name = "MIB")]
+    pub max_memory: Option<u64>,
+    /// Derive and interpret the whole forest on the GPU, in one
+    /// derivation (docs/gpu.md).
+    #[arg(long)]
+    pub gpu: bool,
+    /// With `--gpu`: derive on the CPU when no GPU can be used or the
+    /// forest outgrows the device.
+    #[arg(long, requires = "gpu")]
+    pub cpu_fallback: bool,
+    /// With `--gpu`: derive the first iterations on the CPU while the
+    /// combined string has at most this many modules.
+    #[arg(long, requires = "gpu", value_name = "MODULES", default_value_t = grm_gpu::derive::CPU_PREFIX_MODULES)]
+    pub cpu_prefix: u64,
+}
+
+fn parse_spacing(s: &str) -> Result<f32, String> {
+    match s.parse::<f32>() {
+        Ok(x) if x.is_finite() && x >= 0.0 => Ok(x),
+        _ => Err(format!("`{s}` is not a finite distance >= 0")),
+    }
+}
+
+/// `--vary NAME=LO..HI`, parsed.
+struct Vary {
+    name: String,
+    lo: f64,
+    hi: f64,
+}
+
+fn parse_vary(text: &str) -> Result<Vary, String> {
+    let bad = || format!("`--vary {text}`: write it as NAME=LO..HI (e.g. angle=20..30)");
+    let (name, range) = text.split_once('=').ok_or_else(bad)?;
+    let (lo, hi) = range.split_once("..").ok_or_else(bad)?;
+    let number = |s: &str| {
+        s.trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| format!("`--vary {text}`: `{}` is not a finite number", s.trim()))
+    };
+    let (lo, hi) = (number(lo)?, number(hi)?);
+    if lo > hi {
+        return Err(format!("`--vary {text}`: the range is empty ({lo} > {hi})"));
+    }
+    Ok(Vary {
+        name: name.trim().to_string(),
+        lo,
+        hi,
+    })
+}
+
+/// One tree of the forest.
+struct Tree {
+    /// Index into `program.systems`.
+    system: usize,
+    /// Index into the compiled systems.
+    compiled: usize,
+    iterations: u32,
+    seed: u32,
+    /// The `--vary` values, in their order.
+    drawn: Vec<f64>,
+}
+
+/// What deriving (and interpreting) a tree gave.
+struct Grown {
+    modules: u64,
+    interpretation: Option<Interpretation>,
+    /// The string as grm source text (`--print`).
+    text: Option<String>,
+}
+
+/// A derived forest: each tree, the modules produced over the
+/// derivation, and how it ran (for the summary).
+struct Derived {
+    trees: Vec<Grown>,
+    produced: u64,
+    note: String,
+}
+
+/// Run `f(i)` for `i` in `0..n` on up to `threads` threads (0: all
+/// cores), results in order.
+fn parallel_map<R: Send>(n: usize, threads: usize, f: impl Fn(usize) -> R + Sync) -> Vec<R> {
+    let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
+    let workers = if threads == 0 { cores } else { threads }.clamp(1, n.max(1));
+    if workers == 1 {
+        return (0..n).map(f).collect();
+    }
+    let next = AtomicUsize::new(0);
+    let out: Mutex<Vec<Option<R>>> = Mutex::new((0..n).map(|_| None).collect());
+    std::thread::scope(|s| {
+        for _ in 0..workers {
+            s.spawn(|| {
+                loop {
+                    let i = next.fetch_add(1, Ordering::Relaxed);
+                    if i >= n {
+                        break;
+                    }
+                    let r = f(i);
+                    // A poisoned lock means another worker panicked, which
+                    // the scope re-raises anyway.
+                    if let Ok(mut o) = out.lock() {
+                        o[i] = Some(r);
+                    }
+                }
+            });
+        }
+    });
+    out.into_inner()
+        .unwrap_or_default()
+        .into_iter()
+        .flatten()
+        .collect()
+}
+
+fn ms(d: Duration) -> f64 {
+    d.as_secs_f64() * 1e3
+}
+
+pub fn run(args: ForestArgs) -> Outcome {
+    let varies = match args
+        .vary
+        .iter()
+        .map(|v| parse_vary(v))
+        .collect::<Result<Vec<_>, _>>()
+    {
+        Ok(v) => v,
+        Err(m) => {
+            eprintln!("error: {m}");
+            return Outcome::Usage;
+        }
+    };
+    let first = args.systems.first().map(String::as_str);
+    let loaded = match crate::derive::load(&args.file, first, &args.params) {
+        Ok(l) => l,
+        Err(o) => return o,
+    };
+    let program = &loaded.program;
+    let mut systems = vec![loaded.system];
+    for name in args.systems.iter().skip(1) {
+        let Some(i) = program.systems.iter().position(|s| &s.name == name) else {
+            let names: Vec<&str> = program.systems.iter().map(|s| s.name.as_str()).collect();
+            eprintln!(
+                "error: {} has no system `{name}`; it has: {}",
+                args.file.display(),
+                names.join(", ")
+            );
+            return Outcome::Usage;
+        };
+        systems.push(i);
+    }
+    for &i in &systems {
+        if program.systems[i].mode == grm_sema::Mode::Sample {
+            let e = grm_derive::DeriveError::SampleSystem {
+                system: program.systems[i].name.clone(),
+            };
+            return report_derive_error(&loaded.sources, &loaded.compiled, &e);
+        }
+    }
+    if let Some(o) = crate::derive::check_output_format(&loaded, args.output.as_deref()) {
+        return o;
+    }
+    // Each range must be inside the parameter's own (checked as overrides).
+    for v in &varies {
+        if let Some(id) = program.param_by_name(&v.name)
+            && program.params[id.index()].ty != grm_sema::Ty::Float
+        {
+            eprintln!(
+                "error: `--vary {}`: `{}` is a `{}`; only a number can vary",
+                v.name,
+                v.name,
+                program.params[id.index()].ty
+            );
+            return Outcome::Usage;
+        }
+        for end in [v.lo, v.hi] {
+            let mut o = args.params.clone();
+            o.push(format!("{}={end}", v.name));
+            if let Err(m) = grm_compile::param_values(program, &o) {
+                eprintln!("error: {}", m.replacen("--param", "--vary", 1));
+                return Outcome::Usage;
+            }
+        }
+    }
+
+    let (compiled, trees) = match plan(&args, &loaded, &systems, &varies) {
+        Ok(p) => p,
+        Err(o) => return o,
+    };
+    let need_model = args.output.is_some() || args.stats;
+    let start = Instant::now();
+    let mut gpu_error = None;
+    let mut derived = None;
+    if args.gpu {
+        match derive_gpu(&args, &loaded, &compiled, &trees, need_model) {
+            GpuOutcome::Done(d) => derived = Some(d),
+            GpuOutcome::Stop(o) => return o,
+            GpuOutcome::OnCpu => {}
+            GpuOutcome::Runtime(e) => gpu_error = Some(e),
+        }
+    }
+    let derived = match derived {
+        Some(d) => d,
+        None => match derive_cpu(&args, &loaded, &compiled, &trees, need_model) {
+            Ok(d) => d,
+            Err(o) => return o,
+        },
+    };
+    if let Some(e) = gpu_error {
+        // The GPU failed a value the CPU engine computed: report the GPU's
+        // error rather than a forest the engines disagree on.
+        let c = &loaded.compiled;
+        emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));
+        return Outcome::InputErrors;
+    }
+    let elapsed = start.elapsed();
+    let Derived {
+        trees: grown,
+        produced,
+        note: engine_note,
+    } = derived;
+    let modules: u64 = grown.iter().map(|g| g.modules).sum();
+
+    let names: Vec<&str> = systems
+        .iter()
+        .map(|&i| program.systems[i].name.as_str())
+        .collect();
+    let seeds = match (trees.first(), trees.last()) {
+        (Some(a), Some(b)) if trees.len() > 1 => format!("seeds {}-{}", a.seed, b.seed),
+        (Some(a), _) => format!("seed {}", a.seed),
+        _ => String::new(),
+    };
+    let per_us = if elapsed.as_secs_f64() > 0.0 {
+        format!(
+            ", {} modules/us",
+            crate::rate(produced as f64 / (elapsed.as_secs_f64() * 1e6))
+        )
+    } else {
+        String::new()
+    };
+    eprintln!(
+        "{}: {} of {} ({seeds}): {} ({produced} produced in all) {engine_note} in {:.3} ms{per_us}",
+        args.file.display(),
+        crate::count(trees.len() as u64, "tree"),
+        names.join(", "),
+        crate::count(modules, "module"),
+        ms(elapsed),
+    );
+    if args.print {
+        for g in &grown {
+            outln!("{}", g.text.as_deref().unwrap_or_default());
+        }
+    }
+    if !need_model {
+        return Outcome::Ok;
+    }
+
+    let layout = Layout::new(args.columns, args.spacing, &grown);
+    if args.stats {
+        let mut head = format!(
+            "{:>5} {:<20} {:>10} {:>10} {:>12} {:>10} {:>10} {:>10}",
+            "tree", "system", "seed", "iterations", "modules", "bones", "x", "z"
+        );
+        for v in &varies {
+            head.push_str(&format!(" {:>10}", v.name));
+        }
+        outln!("{head}");
+        for (k, (t, g)) in trees.iter().zip(&grown).enumerate() {
+            let at = layout.place(k);
+            let mut line = format!(
+                "{k:>5} {:<20} {:>10} {:>10} {:>12} {:>10} {:>10.3} {:>10.3}",
+                program.systems[t.system].name,
+                t.seed,
+                t.iterations,
+                g.modules,
+                g.interpretation.as_ref().map_or(0, |i| i.bones.len()),
+                at.x,
+                at.z
+            );
+            // Exact (the shortest text that reads back), so that a tree
+            // can be derived again with `--param NAME=VALUE`.
+            for x in &t.drawn {
+                line.push_str(&format!(" {x:>10}"));
+            }
+            outln!("{line}");
+        }
+    }
+    let Some(path) = &args.output else {
+        return Outcome::Ok;
+    };
+    let mut forest = Interpretation::default();
+    let mut module_base = 0u64;
+    for (k, g) in grown.iter().enumerate() {
+        let Some(interp) = &g.interpretation else {
+            continue;
+        };
+        let placed = u32::try_from(module_base)
+            .ok()
+            .and_then(|base| forest.append_translated(interp, layout.place(k), base));
+        if placed.is_none() {
+            eprintln!(
+                "error: the forest has more than {} modules or parts; a model cannot number them (plant fewer or smaller trees)",
+                u32::MAX
+            );
+            return Outcome::InputErrors;
+        }
+        module_base += g.modules;
+    }
+    eprintln!(
+        "{} x {} grid, spacing {:.3} x {:.3}",
+        layout.columns, layout.rows, layout.dx, layout.dz
+    );
+    let model = match grm_geom::build_from_interpretation(
+        program,
+        forest,
+        &grm_geom::BuildOptions::default(),
+        &loaded.compiled.param_values,
+    ) {
+        Ok(m) => m,
+        Err(e) => {
+            let c = &loaded.compiled;
+            emit(&loaded.sources, &e.to_diagnostic(program, c.file, c.span));
+            return Outcome::InputErrors;
+        }
+    };
+    crate::derive::export_model(&loaded, &model, path)
+}
+
+/// Compile what the trees need (one system per `--system` without
+/// `--vary`, one per tree with it) and list the trees.
+fn plan(
+    args: &ForestArgs,
+    loaded: &Loaded,
+    systems: &[usize],
+    varies: &[Vary],
+) -> Result<(Vec<CompiledSystem>, Vec<Tree>), Outcome> {
+    let program = &loaded.program;
+    let compile = |system: usize, overrides: &[String]| {
+        let values = grm_compile::param_values(program, overrides).map_err(|m| {
+            eprintln!("error: {m}");
+            Outcome::Usage
+        })?;
+        grm_compile::compile(program, &program.systems[system], &values).map_err(|e| {
+            emit(&loaded.sources, &e.to_diagnostic());
+            Outcome::InputErrors
+        })
+    };
+    let mut compiled = Vec::new();
+    if varies.is_empty() {
+        for &s in systems {
+            compiled.push(compile(s, &args.params)?);
+        }
+    }
+    let base_seed = args.seed.unwrap_or(loaded.compiled.settings.seed);
+    let mut trees = Vec::with_capacity(args.trees as usize);
+    for k in 0..args.trees {
+        let slot = k as usize % systems.len();
+        let system = systems[slot];
+        let mut drawn = Vec::with_capacity(varies.len());
+        let index = if varies.is_empty() {
+            slot
+        } else {
+            let mut overrides = args.params.clone();
+            for (j, v) in varies.iter().enumerate() {
+                let u = f64::from(grm_compile::rng::uniform(base_seed, k, j as u32, VARY_DRAW));
+                // Six decimals, so that the value printed is the value used.
+                let x = v.lo + (v.hi - v.lo) * u;
+                let r: f64 = format!("{x:.6}").parse().unwrap_or(x);
+                let x = if (v.lo..=v.hi).contains(&r) {
+                    r
+                } else {
+                    x.clamp(v.lo, v.hi)
+                };
+                drawn.push(x);
+                overrides.push(format!("{}={x}", v.name));
+            }
+            compiled.push(compile(system, &overrides)?);
+            compiled.len() - 1
+        };
+        let c = &compiled[index];
+        trees.push(Tree {
+            system,
+            compiled: index,
+            iterations: args.iterations.unwrap_or(c.settings.iterations),
+            seed: args.seed.unwrap_or(c.settings.seed).wrapping_add(k),
+            drawn,
+        });
+    }
+    Ok((compiled, trees))
+}
+
+/// The forest on the CPU: one tree per worker thread, each on a
+/// one-thread engine. `Err` is the outcome to exit with (the first failing
+/// tree's error was printed).
+fn derive_cpu(
+    args: &ForestArgs,
+    loaded: &Loaded,
+    compiled: &[CompiledSystem],
+    trees: &[Tree],
+    need_model: bool,
+) -> Result<Derived, Outcome> {
+    let lim = limits(args.max_modules, args.max_memory);
+    enum Failure {
+        Derive(grm_derive::DeriveError),
+        Turtle(grm_turtle::TurtleError),
+    }
+    let results = parallel_map(trees.len(), args.threads, |k| {
+        let t = &trees[k];
+        let c = &compiled[t.compiled];
+        let opts = DeriveOptions {
+            iterations: t.iterations,
+            seed: t.seed,
+            limits: lim,
+        };
+        let d = Engine::new(c, 1)
+            .and_then(|e| e.derive(&opts, &mut |_| {}))
+            .map_err(Failure::Derive)?;
+        let produced = d.stats.last().map_or(0, |s| s.cumulative_modules);
+        let interpretation = match need_model {
+            true => Some(interpret(loaded, t, c, &d.string).map_err(Failure::Turtle)?),
+            false => None,
+        };
+        Ok((
+            Grown {
+                modules: d.string.len() as u64,
+                interpretation,
+                text: args.print.then(|| text(loaded, t, &d.string)),
+            },
+            produced,
+        ))
+    });
+    let mut out = Vec::with_capacity(results.len());
+    let mut produced = 0u64;
+    for (k, r) in results.into_iter().enumerate() {
+        match r {
+            Ok((g, p)) => {
+                out.push(g);
+                produced = produced.saturating_add(p);
+            }
+            Err(Failure::Derive(e)) => {
+                eprintln!("error: tree {k} (seed {}):", trees[k].seed);
+                return Err(report_derive_error(
+                    &loaded.sources,
+                    &compiled[trees[k].compiled],
+                    &e,
+                ));
+            }
+            Err(Failure::Turtle(e)) => return Err(report_turtle(loaded, k, e)),
+        }
+    }
+    let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
+    let workers = if args.threads == 0 {
+        cores
+    } else {
+        args.threads
+    };
+    Ok(Derived {
+        trees: out,
+        produced,
+        note: format!(
+            "on the CPU ({})",
+            crate::count(workers.clamp(1, trees.len()) as u64, "thread")
+        ),
+    })
+}
+
+/// Interpret one tree's string with its own system and settings.
+fn interpret(
+    loaded: &Loaded,
+    t: &Tree,
+    c: &CompiledSystem,
+    s: &ModuleString,
+) -> Result<Interpretation, grm_turtle::TurtleError> {
+    grm_turtle::interpret(&loaded.program.systems[t.system], &c.settings, s)
+}
+
+/// A tree's string as grm source text.
+fn text(loaded: &Loaded, t: &Tree, s: &ModuleString) -> String {
+    let p = &loaded.program;
+    grm_compile::text::string_text(p, &p.systems[t.system], s.iter())
+}
+
+/// Report a tree's turtle error (a string its own system did not make:
+/// not expected of a checked system); the outcome to exit with.
+fn report_turtle(loaded: &Loaded, k: usize, e: grm_turtle::TurtleError) -> Outcome {
+    let c = &loaded.compiled;
+    eprintln!("error: tree {k}:");
+    emit(
+        &loaded.sources,
+        &grm_geom::GeomError::Turtle(e).to_diagnostic(&loaded.program, c.file, c.span),
+    );
+    Outcome::InputErrors
+}
+
+/// The grid: tree `k` in column `k % columns`, row `k / columns`, the
+/// grid centred on the origin (x across, z in depth; trees grow along +y).
+struct Layout {
+    columns: u32,
+    rows: u32,
+    dx: f32,
+    dz: f32,
+}
+
+impl Layout {
+    fn new(columns: Option<u32>, spacing: Option<f32>, grown: &[Grown]) -> Layout {
+        let n = grown.len().max(1) as u32;
+        let columns = columns
+            .unwrap_or_else(|| (f64::from(n).sqrt().ceil()) as u32)
+            .clamp(1, n);
+        let rows = n.div_ceil(columns);
+        let (dx, dz) = match spacing {
+            Some(s) => (s, s),
+            None => {
+                // Tree k's x extent is [a_k, b_k] around its own origin;
+                // cells max(b) - min(a) apart never overlap.
+                let mut all = grm_turtle::Aabb::EMPTY;
+                for i in grown.iter().filter_map(|g| g.interpretation.as_ref()) {
+                    if !i.bounds.is_empty() {
+                        all = all.union(&i.bounds);
+                    }
+                }
+                let size = all.size();
+                let (x, z) = (size.x * 1.1, size.z * 1.1);
+                let fallback = if x > 0.0 {
+                    x
+                } else if z > 0.0 {
+                    z
+                } else {
+                    size.y.max(1.0)
+                };
+                (
+                    if x > 0.0 { x } else { fallback },
+                    if z > 0.0 { z } else { fallback },
+                )
+            }
+        };
+        Layout {
+            columns,
+            rows,
+            dx,
+            dz,
+        }
+    }
+
+    fn place(&self, k: usize) -> glam::Vec3 {
+        let (c, r) = (k as u32 % self.columns, k as u32 / self.columns);
+        let x = (c as f32 - (self.columns - 1) as f32 / 2.0) * self.dx;
+        let z = (r as f32 - (self.rows - 1) as f32 / 2.0) * self.dz;
+        glam::Vec3::new(x, 0.0, z)
+    }
+}
+
+enum GpuOutcome {
+    Done(Derived),
+    /// Exit with this (the problem was printed).
+    Stop(Outcome),
+    /// Derive on the CPU (`--cpu-fallback`, which was reported).
+    OnCpu,
+    /// A value failed: the CPU engine derives the forest to report it
+    /// with its source; this is the error should the CPU not fail.
+    Runtime(GpuError),
+}
+
+/// The forest as one GPU derivation (`run_many`).
+fn derive_gpu(
+    args: &ForestArgs,
+    loaded: &Loaded,
+    compiled: &[CompiledSystem],
+    trees: &[Tree],
+    need_model: bool,
+) -> GpuOutcome {
+    let c = &loaded.compiled;
+    let lim = limits(args.max_modules, args.max_memory);
+    let fallback = |e: &GpuError| -> GpuOutcome {
+        if args.cpu_fallback && crate::gpu::device_problem(e) {
+            eprintln!("note: GPU: {e}; deriving on the CPU (--cpu-fallback)");
+            GpuOutcome::OnCpu
+        } else {
+            emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));
+            GpuOutcome::Stop(crate::gpu::error_outcome(e))
+        }
+    };
+    let gpu = match grm_gpu::shared() {
+        Ok(g) => g,
+        Err(e) => return fallback(&e),
+    };
+    let turtles: Vec<TurtleProgram> = trees
+        .iter()
+        .map(|t| {
+            TurtleProgram::new(
+                &loaded.program.systems[t.system],
+                &compiled[t.compiled].settings,
+            )
+        })
+        .collect();
+    let turtle_refs: Vec<&TurtleProgram> = turtles.iter().collect();
+    let jobs: Vec<GpuJob<'_>> = trees
+        .iter()
+        .map(|t| GpuJob {
+            system: &compiled[t.compiled],
+            iterations: t.iterations,
+            seed: t.seed,
+        })
+        .collect();
+    let opts = GpuRunOptions {
+        derive: GpuDeriveOptions {
+            iterations: 0,
+            seed: 0,
+            max_modules: lim.max_modules,
+            max_bytes: lim.max_bytes,
+            sync_iterations: false,
+            cpu_prefix: args.cpu_prefix,
+        },
+        interpret: true,
+        read_string: true,
+        read_bones: false,
+        strategy: grm_gpu::DeriveStrategy::Auto,
+        branch_scan: grm_gpu::interp::BranchScan::Auto,
+        pipelined: true,
+    };
+    let r = match grm_gpu::run_many(gpu, &jobs, &turtle_refs, &opts, &mut |_| {}) {
+        Ok(r) => r,
+        // The CPU engine finds the same error and names its source.
+        Err(e @ GpuError::Runtime { .. }) => return GpuOutcome::Runtime(e),
+        Err(
+            e @ (GpuError::ModuleLimit { .. }
+            | GpuError::MemoryLimit { .. }
+            | GpuError::CountOverflow { .. }
+            | GpuError::UnbalancedBrackets { .. }),
+        ) => {
+            emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));
+            return GpuOutcome::Stop(Outcome::InputErrors);
+        }
+        Err(e) => return fallback(&e),
+    };
+    let Some(strings) = r.strings else {
+        emit(
+            &loaded.sources,
+            &GpuError::InvalidInput("the forest's strings were not read back".into())
+                .to_diagnostic(c.file, c.span),
+        );
+        return GpuOutcome::Stop(Outcome::Usage);
+    };
+    let bones = r.interpretation.as_ref().map_or(0, |i| i.bone_count);
+    let gpu_ms = ms(r.derive_elapsed
+        + r.interpretation
+            .as_ref()
+            .map_or(Duration::ZERO, |i| i.elapsed));
+    let produced: u64 = r.stats.iter().skip(1).map(|s| s.modules).sum();
+    let interpretations = parallel_map(strings.len(), args.threads, |k| {
+        let t = &trees[k];
+        need_model
+            .then(|| interpret(loaded, t, &compiled[t.compiled], &strings[k]))
+            .transpose()
+    });
+    let mut grown = Vec::with_capacity(strings.len());
+    for (k, (s, i)) in strings.iter().zip(interpretations).enumerate() {
+        match i {
+            Ok(interpretation) => grown.push(Grown {
+                modules: s.len() as u64,
+                interpretation,
+                text: args.print.then(|| text(loaded, &trees[k], s)),
+            }),
+            Err(e) => return GpuOutcome::Stop(report_turtle(loaded, k, e)),
+        }
+    }
+    GpuOutcome::Done(Derived {
+        trees: grown,
+        produced,
+        note: format!(
+            "on the GPU in one derivation ({} there, {gpu_ms:.3} ms with the interpretation)",
+            crate::count(bones, "bone")
+        ),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    fn tree(min: Vec3, max: Vec3) -> Grown {
+        Grown {
+            modules: 1,
+            interpretation: Some(Interpretation {
+                bounds: grm_turtle::Aabb { min, max },
+                ..Interpretation::default()
+            }),
+            text: None,
+        }
+    }
+
+    /// Trees off-centre around their own origins never overlap at the
+    /// default spacing, and the grid is centred on the origin.
+    #[test]
+    fn default_spacing_keeps_neighbours_apart() {
+        let grown = vec![
+            tree(Vec3::new(-1.0, 0.0, -0.5), Vec3::new(3.0, 5.0, 0.5)),
+            tree(Vec3::new(-2.0, 0.0, -1.0), Vec3::new(0.5, 4.0, 2.0)),
+            tree(Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 1.0)),
+            tree(Vec3::new(-0.5, 0.0, -2.0), Vec3::new(0.5, 2.0, 0.0)),
+            tree(Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 1.0, 1.0)),
+        ];
+        let l = Layout::new(None, None, &grown);
+        assert_eq!((l.columns, l.rows), (3, 2));
+        assert!((l.dx - 5.0 * 1.1).abs() < 1e-5, "{}", l.dx);
+        assert!((l.dz - 4.0 * 1.1).abs() < 1e-5, "{}", l.dz);
+        let boxes: Vec<grm_turtle::Aabb> = grown
+            .iter()
+            .enumerate()
+            .map(|(k, g)| {
+                let b = g
+                    .interpretation
+                    .as_ref()
+                    .map(|i| i.bounds)
+                    .unwrap_or_default();
+                let at = l.place(k);
+                grm_turtle::Aabb {
+                    min: b.min + at,
+                    max: b.max + at,
+                }
+            })
+            .collect();
+        for i in 0..boxes.len() {
+            for j in i + 1..boxes.len() {
+                let (a, b) = (&boxes[i], &boxes[j]);
+                let overlap = a.min.x < b.max.x
+                    && b.min.x < a.max.x
+                    && a.min.z < b.max.z
+                    && b.min.z < a.max.z;
+                assert!(!overlap, "trees {i} and {j}: {a:?} {b:?}");
+            }
+        }
+        // Centred: the first and last columns, rows mirror each other.
+        assert!((l.place(0).x + l.place(2).x).abs() < 1e-5);
+        assert!((l.place(0).z + l.place(3).z).abs() < 1e-5);
+    }
+
+    /// Flat trees get the spacing across in depth too; `--spacing` and
+    /// `--columns` are taken as given (columns at most the tree count).
+    #[test]
+    fn flat_trees_and_given_spacing() {
+        let flat = vec![
+            tree(Vec3::new(-1.0, 0.0, 0.0), Vec3::new(1.0, 3.0, 0.0)),
+            tree(Vec3::new(-1.0, 0.0, 0.0), Vec3::new(1.0, 3.0, 0.0)),
+        ];
+        let l = Layout::new(None, None, &flat);
+        assert_eq!((l.columns, l.rows), (2, 1));
+        assert!((l.dx - 2.2).abs() < 1e-5 && (l.dz - 2.2).abs() < 1e-5);
+        let l = Layout::new(Some(10), Some(7.0), &flat);
+        assert_eq!((l.columns, l.rows, l.dx, l.dz), (2, 1, 7.0, 7.0));
+        assert_eq!(l.place(1), Vec3::new(3.5, 0.0, 0.0));
+    }
+
+    #[test]
+    fn vary_flags_parse_or_say_why() {
+        let v = parse_vary("a = 1.5..2").expect("parses");
+        assert_eq!((v.name.as_str(), v.lo, v.hi), ("a", 1.5, 2.0));
+        assert!(parse_vary("a=2..1").is_err());
+        assert!(parse_vary("a=1").is_err());
+        assert!(parse_vary("a=x..2").is_err());
+        assert!(parse_vary("a=1..inf").is_err());
+        let v = parse_vary("a=3..3").expect("one value");
+        assert_eq!(v.lo, v.hi);
+    }
+
+    #[test]
+    fn parallel_map_keeps_the_order() {
+        for threads in [0, 1, 2, 7] {
+            let got = parallel_map(50, threads, |i| i * i);
+            assert_eq!(got, (0..50).map(|i| i * i).collect::<Vec<_>>());
+        }
+        assert!(parallel_map(0, 3, |i| i).is_empty());
+    }
+}
