@@ -17,7 +17,7 @@
 
 use std::path::PathBuf;
 use std::sync::Mutex;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 use grm_compile::CompiledSystem;
@@ -85,13 +85,14 @@ pub struct ForestArgs {
     /// uses all cores (at most 1024).
     #[arg(long, default_value_t = 0, value_parser = crate::parse_threads)]
     pub threads: usize,
-    /// Stop with an error before a string would exceed this many modules
-    /// (each tree's on the CPU, the forest's combined string on the GPU;
-    /// default 50,000,000).
+    /// Stop with an error before a tree's string, or the forest's final
+    /// strings together, would exceed this many modules (default
+    /// 50,000,000).
     #[arg(long)]
     pub max_modules: Option<u64>,
     /// Stop with an error before an iteration would need more than this
-    /// many MiB (as for --max-modules; default 2048).
+    /// many MiB (a tree's on the CPU, the forest's on the GPU; default
+    /// 2048).
     #[arg(long, value_name = "MIB")]
     pub max_memory: Option<u64>,
     /// Derive and interpret the whole forest on the GPU, in one
@@ -483,9 +484,13 @@ fn plan(
     Ok((compiled, trees))
 }
 
-/// The forest on the CPU: one tree per worker thread, each on a
-/// one-thread engine. `Err` is the outcome to exit with (the first failing
-/// tree's error was printed).
+/// The forest on the CPU: trees in parallel, one per worker thread (each
+/// tree's engine gets the threads left over when there are fewer trees
+/// than workers). `--max-modules` bounds each tree's strings and the
+/// forest's final strings together (as on the GPU, where they are one
+/// string): a worker whose tree takes the total over it stops the rest.
+/// `Err` is the outcome to exit with (the first failing tree's error, in
+/// tree order, was printed).
 fn derive_cpu(
     args: &ForestArgs,
     loaded: &Loaded,
@@ -497,8 +502,30 @@ fn derive_cpu(
     enum Failure {
         Derive(grm_derive::DeriveError),
         Turtle(grm_turtle::TurtleError),
+        /// The forest's total passed the limit (modules so far).
+        Forest(u64),
+        /// Not derived: another tree stopped the forest.
+        Skipped,
     }
-    let results = parallel_map(trees.len(), args.threads, |k| {
+    let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
+    let workers = if args.threads == 0 {
+        cores
+    } else {
+        args.threads
+    };
+    let workers = workers.clamp(1, trees.len().max(1));
+    let engine_threads = (if args.threads == 0 {
+        cores
+    } else {
+        args.threads
+    } / workers)
+        .max(1);
+    let total = AtomicU64::new(0);
+    let stop = AtomicBool::new(false);
+    let results = parallel_map(trees.len(), workers, |k| {
+        if stop.load(Ordering::Relaxed) {
+            return Err(Failure::Skipped);
+        }
         let t = &trees[k];
         let c = &compiled[t.compiled];
         let opts = DeriveOptions {
@@ -506,9 +533,18 @@ fn derive_cpu(
             seed: t.seed,
             limits: lim,
         };
-        let d = Engine::new(c, 1)
+        let d = Engine::new(c, engine_threads)
             .and_then(|e| e.derive(&opts, &mut |_| {}))
-            .map_err(Failure::Derive)?;
+            .map_err(|e| {
+                stop.store(true, Ordering::Relaxed);
+                Failure::Derive(e)
+            })?;
+        let modules = d.string.len() as u64;
+        let sum = total.fetch_add(modules, Ordering::Relaxed) + modules;
+        if sum > lim.max_modules {
+            stop.store(true, Ordering::Relaxed);
+            return Err(Failure::Forest(sum));
+        }
         let produced = d.stats.last().map_or(0, |s| s.cumulative_modules);
         let interpretation = match need_model {
             true => Some(interpret(loaded, t, c, &d.string).map_err(Failure::Turtle)?),
@@ -516,7 +552,7 @@ fn derive_cpu(
         };
         Ok((
             Grown {
-                modules: d.string.len() as u64,
+                modules,
                 interpretation,
                 text: args.print.then(|| text(loaded, t, &d.string)),
             },
@@ -525,6 +561,7 @@ fn derive_cpu(
     });
     let mut out = Vec::with_capacity(results.len());
     let mut produced = 0u64;
+    let mut over = None;
     for (k, r) in results.into_iter().enumerate() {
         match r {
             Ok((g, p)) => {
@@ -540,21 +577,22 @@ fn derive_cpu(
                 ));
             }
             Err(Failure::Turtle(e)) => return Err(report_turtle(loaded, k, e)),
+            Err(Failure::Forest(sum)) => over = over.max(Some(sum)),
+            Err(Failure::Skipped) => {}
         }
     }
-    let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
-    let workers = if args.threads == 0 {
-        cores
-    } else {
-        args.threads
-    };
+    if let Some(sum) = over {
+        eprintln!(
+            "error: the forest's strings hold {sum} modules or more together, over the limit of {} \
+             (--max-modules); plant fewer or smaller trees, or raise the limit",
+            lim.max_modules
+        );
+        return Err(Outcome::InputErrors);
+    }
     Ok(Derived {
         trees: out,
         produced,
-        note: format!(
-            "on the CPU ({})",
-            crate::count(workers.clamp(1, trees.len()) as u64, "thread")
-        ),
+        note: format!("on the CPU ({})", crate::count(workers as u64, "thread")),
     })
 }
 

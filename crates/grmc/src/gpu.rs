@@ -235,6 +235,11 @@ pub struct GpuBench {
     /// most this many modules (a GPU-only derivation is timed as well).
     #[arg(long, value_name = "MODULES", default_value_t = grm_gpu::derive::CPU_PREFIX_MODULES)]
     pub cpu_prefix: u64,
+    /// Also time a forest of this many copies of each scene (seeds SEED,
+    /// SEED + 1, ...) derived and interpreted together, against the CPU
+    /// deriving them one after the other (1 to 4096).
+    #[arg(long, value_name = "COPIES", value_parser = clap::value_parser!(u32).range(1..=i64::from(crate::forest::MAX_TREES)))]
+    pub forest: Option<u32>,
 }
 
 /// `grmc bench gpu`: GPU rows (derivation, interpretation, both) against
@@ -282,7 +287,20 @@ pub fn bench(args: GpuBench) -> Outcome {
             c,
             &cfg,
         ) {
-            Ok(r) => outln!("\n{}", r.text()),
+            Ok(r) => {
+                outln!("\n{}", r.text());
+                if let Some(copies) = args.forest {
+                    let name = format!("{file} ({system})");
+                    match grm_gpu::bench::bench_forest(gpu, &name, loaded.system(), c, copies, &cfg)
+                    {
+                        Ok(text) => out!("{text}"),
+                        Err(e) => {
+                            eprintln!("error: {file}: forest of {copies}: {e}");
+                            outcome = Outcome::InputErrors;
+                        }
+                    }
+                }
+            }
             Err(e) => {
                 eprintln!("error: {file}: {e}");
                 outcome = Outcome::InputErrors;

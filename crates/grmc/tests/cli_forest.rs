@@ -271,3 +271,25 @@ fn a_tree_over_the_module_limit_stops_the_forest() {
     assert!(err.contains("error: tree 0 (seed 1):"), "{err}");
     assert!(err.contains("R0201"), "{err}");
 }
+
+/// Trees each under the limit but over it together stop the forest on
+/// both engines (on the GPU the forest is one string).
+#[test]
+fn the_limit_bounds_the_forest_together() {
+    let args = [
+        "forest",
+        "examples/stochastic_plant.grm",
+        "--trees",
+        "5",
+        "--max-modules",
+        "5000",
+    ];
+    refused(&args, 1, "over the limit of 5000 (--max-modules)");
+    let mut gpu = args.to_vec();
+    gpu.push("--gpu");
+    refused(&gpu, 1, "R0201");
+    // One tree alone is within it.
+    let mut one = args.to_vec();
+    one[3] = "1";
+    ok(&one);
+}

@@ -125,3 +125,28 @@ fn bench_gpu_checks_against_the_cpu() {
     );
     assert!(out.contains("modules/us"), "{out}");
 }
+
+/// `--forest N` adds the forest of N seeds, one derivation, against the
+/// CPU deriving them one after the other.
+#[test]
+fn bench_gpu_times_a_forest() {
+    let out = ok(&[
+        "bench",
+        "gpu",
+        "--scene",
+        "stochastic_plant",
+        "-n",
+        "3",
+        "--runs",
+        "1",
+        "--forest",
+        "3",
+    ]);
+    assert!(
+        out.contains(
+            "forest stochastic_plant (StochasticPlant): 3 seeds x 3 iterations in one derivation"
+        ),
+        "{out}"
+    );
+    assert!(out.contains("one job after the other"), "{out}");
+}
