@@ -427,6 +427,7 @@ fn sample(
             "--threads",
             "--cost",
             "--volume-weight",
+            "--max-memory",
             "--output",
         ],
     )
@@ -503,6 +504,10 @@ fn sample(
         best: 1,
         max_expansions_per_step: 1000,
         limits: grm_sample::FinishLimits::default(),
+        max_bytes: o
+            .number::<u64>("--max-memory")
+            .map_err(Stop::Usage)?
+            .map_or(grm_sample::DEFAULT_MAX_BYTES, |m| m.saturating_mul(1 << 20)),
         cancel: None,
     };
     let result = sampler.sample(&opts).map_err(at)?;

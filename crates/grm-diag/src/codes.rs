@@ -243,6 +243,9 @@ codes! {
     SampleOptions = "R0308", Error, "unusable sampling options";
     /// The caller cancelled the run (`SampleOptions::cancel`); no model.
     SampleCancelled = "R0309", Error, "sampling cancelled";
+    /// The search held more memory than `SampleOptions::max_bytes`
+    /// (`grmc sample --max-memory`).
+    SampleMemoryLimit = "R0310", Error, "sampling memory limit exceeded";
 
     // R04xx: building and exporting models (grm-geom)
     /// Internal: a module string the turtle cannot interpret.

@@ -190,6 +190,12 @@ pub struct CostState {
 }
 
 impl CostState {
+    /// Heap bytes this state owns (its segment counters; the density
+    /// grid is shared between the states cloned from one another).
+    pub fn heap_bytes(&self) -> usize {
+        self.uses.capacity() * std::mem::size_of::<u16>()
+    }
+
     /// Bones added so far.
     pub fn bones(&self) -> u64 {
         self.bones

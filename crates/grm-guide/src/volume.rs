@@ -103,6 +103,13 @@ pub struct VolumeState {
     outside: u64,
 }
 
+impl VolumeState {
+    /// Heap bytes this state owns (its coverage bits).
+    pub fn heap_bytes(&self) -> usize {
+        self.covered.capacity() * std::mem::size_of::<u64>()
+    }
+}
+
 /// The baseline cost of a model.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct VolumeCost {

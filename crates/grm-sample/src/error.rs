@@ -29,6 +29,16 @@ pub enum SampleError {
     ThreadPool(String),
     /// The options are unusable (e.g. a volume target that cannot be built).
     Options(String),
+    /// After generation `generation` (0-based) the search held `bytes`
+    /// ([`crate::GenerationStats::memory_bytes`]), over
+    /// [`crate::SampleOptions::max_bytes`].
+    MemoryLimit {
+        generation: u32,
+        bytes: u64,
+        limit: u64,
+        /// The particles it kept.
+        particles: usize,
+    },
     /// The run's [`crate::CancelToken`] was set: the caller asked it to
     /// stop (there is no model, not even a partial one).
     Cancelled,
@@ -82,6 +92,7 @@ impl SampleError {
             SampleError::ThreadPool(_) => Code::SampleThreadPool,
             SampleError::Options(_) => Code::SampleOptions,
             SampleError::Cancelled => Code::SampleCancelled,
+            SampleError::MemoryLimit { .. } => Code::SampleMemoryLimit,
         }
     }
 
@@ -157,8 +168,22 @@ impl SampleError {
                 "the operating system refused the worker threads: run with `--threads 1`, or free resources"
                     .into(),
             ),
+            SampleError::MemoryLimit { .. } => Some(
+                "sample fewer particles (`--particles`, or the `particles` setting) or fewer generations, or raise the limit (`--max-memory`)"
+                    .into(),
+            ),
             SampleError::Options(_) | SampleError::Cancelled => None,
         }
+    }
+}
+
+/// Bytes in MiB for a message (two decimals below 10 MiB).
+fn mib(b: u64) -> String {
+    let m = b as f64 / f64::from(1u32 << 20);
+    if m < 10.0 {
+        format!("{m:.2} MiB")
+    } else {
+        format!("{m:.0} MiB")
     }
 }
 
@@ -192,6 +217,18 @@ impl std::fmt::Display for SampleError {
             SampleError::ThreadPool(m) => write!(f, "cannot start the thread pool: {m}"),
             SampleError::Options(m) => write!(f, "{m}"),
             SampleError::Cancelled => write!(f, "sampling was cancelled"),
+            SampleError::MemoryLimit {
+                generation,
+                bytes,
+                limit,
+                particles,
+            } => write!(
+                f,
+                "after generation {}, the search holds {} for its {particles} particles, over the limit of {}",
+                generation + 1,
+                mib(*bytes),
+                mib(*limit)
+            ),
         }
     }
 }

@@ -135,6 +135,11 @@ pub struct GenerationStats {
     pub mean_bones: f64,
     /// Expansions made in this generation (all particles).
     pub expansions: u64,
+    /// Bytes the search holds after the generation: the arena of every
+    /// expansion the kept particles descend from, the recycled buffers,
+    /// and the kept particles' own state (what
+    /// [`crate::SampleOptions::max_bytes`] bounds).
+    pub memory_bytes: u64,
 }
 
 /// The result of [`crate::Sampler::sample`].

@@ -121,6 +121,13 @@ pub(crate) struct Step {
 }
 
 impl Step {
+    /// Bytes its buffers hold (capacities: a recycled step keeps them).
+    pub fn bytes(&self) -> usize {
+        self.nodes.capacity() * std::mem::size_of::<Node>()
+            + self.params.capacity() * std::mem::size_of::<f32>()
+            + self.spawns.capacity() * std::mem::size_of::<Spawn>()
+    }
+
     /// Empty it, keeping its buffers.
     pub fn clear(&mut self) {
         self.nodes.clear();
@@ -190,6 +197,15 @@ pub(crate) struct Particle {
 }
 
 impl Particle {
+    /// Bytes this particle owns beyond what it shares with its ancestors:
+    /// itself, its cost states and the path of its open list its last
+    /// step copied (the memory accounting of `SampleOptions::max_bytes`).
+    pub fn own_bytes(&self) -> usize {
+        std::mem::size_of::<Particle>()
+            + self.cost.heap_bytes()
+            + self.volume.as_ref().map_or(0, |v| v.heap_bytes())
+            + self.open.path_bytes()
+    }
     /// The nodes of its history with their steps, oldest (the axiom)
     /// first: `out[i].1.seq == i`.
     pub fn chain<'a>(&self, layers: &'a [Vec<Step>]) -> Vec<(&'a Step, &'a Node)> {

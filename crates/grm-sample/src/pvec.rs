@@ -74,6 +74,12 @@ impl<T: Clone> PVec<T> {
         }
     }
 
+    /// Bytes of one root-to-leaf path: what a `set`, `push` or `pop`
+    /// copies, so what a modified vector owns beyond the one it came from.
+    pub fn path_bytes(&self) -> usize {
+        (self.shift / BITS + 1) as usize * B * std::mem::size_of::<T>().max(1)
+    }
+
     pub fn len(&self) -> usize {
         self.len
     }

@@ -133,6 +133,13 @@ pub struct SampleOptions {
     /// Default [`DEFAULT_CANDIDATES`].
     pub candidates: u32,
     pub limits: FinishLimits,
+    /// Stop with [`SampleError::MemoryLimit`] after a generation that
+    /// leaves the search holding more than this many bytes
+    /// ([`crate::GenerationStats::memory_bytes`]: the arena, recycled
+    /// buffers, the kept particles). Checked between generations, so a run
+    /// ends at most one generation's growth past it. Default
+    /// [`DEFAULT_MAX_BYTES`].
+    pub max_bytes: u64,
     /// Cooperative cancellation: when another thread sets the token, the
     /// run stops at its next check (between generations, before wrap-up
     /// and the geometry phase, every 4096 wrap-up or geometry expansions)
@@ -155,10 +162,15 @@ impl Default for SampleOptions {
             max_expansions_per_step: 1000,
             candidates: DEFAULT_CANDIDATES,
             limits: FinishLimits::default(),
+            max_bytes: DEFAULT_MAX_BYTES,
             cancel: None,
         }
     }
 }
+
+/// The default of [`SampleOptions::max_bytes`]: 2 GiB, the CPU
+/// derivation's default too (`grm_derive::DeriveLimits`).
+pub const DEFAULT_MAX_BYTES: u64 = 2048 << 20;
 
 impl SampleOptions {
     /// Forward sampling without guidance: one particle, no weights, the
@@ -1248,6 +1260,21 @@ impl<'a> Sampler<'a> {
         // Steps of particles that were not resampled, emptied for reuse.
         let mut spare: Vec<Step> = Vec::new();
         let mut used = Vec::new();
+        // The bytes of every step in `layers` and `spare` (a recycled
+        // step moves from one to the other with its capacity).
+        let mut arena_bytes: u64 = layers.iter().flatten().map(|s| s.bytes() as u64).sum();
+        let check_memory = |g: u32, held: u64, particles: usize| {
+            if held > opts.max_bytes {
+                Err(SampleError::MemoryLimit {
+                    generation: g,
+                    bytes: held,
+                    limit: opts.max_bytes,
+                    particles,
+                })
+            } else {
+                Ok(())
+            }
+        };
         for g in 0..gens {
             // Between generations: a cancelled run stops here (a
             // generation of the Calder tree is a fraction of a millisecond).
@@ -1257,6 +1284,7 @@ impl<'a> Sampler<'a> {
             let bufs: Vec<Step> = (0..pop.len())
                 .map(|_| spare.pop().unwrap_or_default())
                 .collect();
+            let taken_bytes: u64 = bufs.iter().map(|s| s.bytes() as u64).sum();
             let step = |w: &mut Worker, (i, (p, buf)): (usize, (&Arc<Particle>, Step))| {
                 self.advance(w, lay, buf, p, seed, g, i as u32, h, max_k, kc, temperature)
             };
@@ -1285,6 +1313,10 @@ impl<'a> Sampler<'a> {
                 layer.push(st);
                 corrections.push(corr);
             }
+            // Taken from `spare` (counted there) or new: the arena holds
+            // whatever capacity they have now.
+            arena_bytes += layer.iter().map(|s| s.bytes() as u64).sum::<u64>();
+            arena_bytes -= taken_bytes;
             layers.push(layer);
             log_w.clear();
             log_w.extend(
@@ -1322,15 +1354,19 @@ impl<'a> Sampler<'a> {
                 mean_bones: next.iter().map(|q| f64::from(q.bones)).sum::<f64>()
                     / next.len().max(1) as f64,
                 expansions,
+                memory_bytes: 0,
             });
             let out_of_time = opts.budget.is_some_and(|b| start.elapsed() >= b);
             if g + 1 == gens || out_of_time {
                 stopped_early = g + 1 < gens;
                 let mut seen = std::collections::HashSet::new();
                 let distinct = next.iter().filter(|p| seen.insert(p.head)).count();
+                let held = arena_bytes + next.iter().map(|p| p.own_bytes() as u64).sum::<u64>();
                 if let Some(st) = stats.last_mut() {
                     st.survivors = distinct;
+                    st.memory_bytes = held;
                 }
+                check_memory(g, held, next.len())?;
                 last = next;
                 break;
             }
@@ -1358,6 +1394,17 @@ impl<'a> Sampler<'a> {
                     spare.push(st);
                 }
             }
+            let held = arena_bytes
+                + next
+                    .iter()
+                    .zip(&used)
+                    .filter(|(_, u)| **u)
+                    .map(|(p, _)| p.own_bytes() as u64)
+                    .sum::<u64>();
+            if let Some(st) = stats.last_mut() {
+                st.memory_bytes = held;
+            }
+            check_memory(g, held, pop.len())?;
         }
         drop(pop);
         cancel::check(cancel)?;

@@ -95,9 +95,13 @@ pub struct SampleArgs {
     #[arg(long = "param", value_name = "NAME=VALUE")]
     pub params: Vec<String>,
     /// Print each generation's particles, effective sample size,
-    /// heuristic scale and best cost.
+    /// heuristic scale, best cost and the memory the search holds.
     #[arg(long)]
     pub stats: bool,
+    /// Stop with an error (R0310) after a generation that leaves the
+    /// search holding more than this many MiB (default 2048).
+    #[arg(long, value_name = "MIB", value_parser = clap::value_parser!(u64).range(1..=(u64::MAX >> 20)))]
+    pub max_memory: Option<u64>,
     /// Build the best model and write it (format by extension: .glb .obj
     /// .ply .svg); with --best K the others go to NAME-2.EXT, ...
     #[arg(short = 'o', long = "output")]
@@ -279,6 +283,9 @@ pub fn run(args: SampleArgs) -> Outcome {
         best: args.best,
         max_expansions_per_step: args.max_step_expansions,
         limits: FinishLimits::default(),
+        max_bytes: args
+            .max_memory
+            .map_or(grm_sample::DEFAULT_MAX_BYTES, |m| m << 20),
         cancel: None,
     };
     let result = match sampler.sample(&opts) {
@@ -323,7 +330,7 @@ pub fn run(args: SampleArgs) -> Outcome {
     );
     if args.stats {
         outln!(
-            "{:>10} {:>9} {:>9} {:>8} {:>8} {:>9} {:>10} {:>12} {:>8}",
+            "{:>10} {:>9} {:>9} {:>8} {:>8} {:>9} {:>10} {:>12} {:>8} {:>9}",
             "generation",
             "particles",
             "expanding",
@@ -332,11 +339,12 @@ pub fn run(args: SampleArgs) -> Outcome {
             "survivors",
             "heuristic",
             "best cost",
-            "bones"
+            "bones",
+            "MiB"
         );
         for g in &result.generations {
             outln!(
-                "{:>10} {:>9} {:>9} {:>8.2} {:>8.5} {:>9} {:>10.5} {:>12.1} {:>8.1}",
+                "{:>10} {:>9} {:>9} {:>8.2} {:>8.5} {:>9} {:>10.5} {:>12.1} {:>8.1} {:>9.2}",
                 g.generation,
                 g.particles,
                 g.expanding,
@@ -345,7 +353,8 @@ pub fn run(args: SampleArgs) -> Outcome {
                 g.survivors,
                 g.heuristic_scale,
                 g.best_objective,
-                g.mean_bones
+                g.mean_bones,
+                g.memory_bytes as f64 / f64::from(1u32 << 20)
             );
         }
     }

@@ -1,0 +1,107 @@
+//! The memory bound (`SampleOptions::max_bytes`): the figure each
+//! generation reports is deterministic, the same for any thread count, and
+//! grows with the search; a bound below it stops the run after the first
+//! generation past it with `SampleError::MemoryLimit`.
+
+mod common;
+
+use common::*;
+use grm_sample::*;
+
+fn schedule() -> Schedule {
+    Schedule {
+        generations: 30,
+        particles_start: 60,
+        particles_end: 20,
+        heuristic_scale: 0.013,
+        heuristic_until: 12,
+    }
+}
+
+#[test]
+fn the_memory_figure_is_deterministic_and_grows() {
+    let p = example("calder_tree.grm");
+    let c = compile(&p, 0);
+    let curves = calder_curves();
+    let s = curves_sampler(&p, &c, &curves);
+    let run = |threads| {
+        s.sample(&SampleOptions {
+            schedule: schedule(),
+            threads,
+            ..SampleOptions::default()
+        })
+        .expect("samples")
+    };
+    let one = run(1);
+    let figures: Vec<u64> = one.generations.iter().map(|g| g.memory_bytes).collect();
+    assert_eq!(figures.len(), 30);
+    for threads in [2, 4] {
+        let other: Vec<u64> = run(threads)
+            .generations
+            .iter()
+            .map(|g| g.memory_bytes)
+            .collect();
+        assert_eq!(other, figures, "{threads} threads");
+    }
+    // Every kept expansion stays: the figure never falls by much (the kept
+    // particles' own state shrinks with the schedule) and ends well above
+    // where it started.
+    assert!(figures[0] > 0);
+    assert!(figures[29] > 3 * figures[0], "{figures:?}");
+    // The default bound is far above a small run: the model is unchanged.
+    let bounded = s
+        .sample(&SampleOptions {
+            schedule: schedule(),
+            max_bytes: figures[29],
+            ..SampleOptions::default()
+        })
+        .expect("at the bound is within it");
+    assert_eq!(bounded.models[0].cost, one.models[0].cost);
+}
+
+#[test]
+fn a_bound_below_the_figure_stops_after_that_generation() {
+    let p = example("calder_tree.grm");
+    let c = compile(&p, 0);
+    let curves = calder_curves();
+    let s = curves_sampler(&p, &c, &curves);
+    let full = s
+        .sample(&SampleOptions {
+            schedule: schedule(),
+            ..SampleOptions::default()
+        })
+        .expect("samples");
+    let figures: Vec<u64> = full.generations.iter().map(|g| g.memory_bytes).collect();
+    let limit = figures[10] - 1;
+    // The first generation whose figure passes the bound.
+    let first = figures.iter().position(|&b| b > limit).expect("passes") as u32;
+    for threads in [1, 3] {
+        let e = s
+            .sample(&SampleOptions {
+                schedule: schedule(),
+                max_bytes: limit,
+                threads,
+                ..SampleOptions::default()
+            })
+            .expect_err("over the bound");
+        let SampleError::MemoryLimit {
+            generation,
+            bytes,
+            limit: l,
+            particles,
+        } = e
+        else {
+            panic!("{e:?}");
+        };
+        assert_eq!(generation, first, "{threads} threads");
+        assert_eq!(bytes, figures[first as usize]);
+        assert_eq!(l, limit);
+        assert!(particles > 0);
+        assert_eq!(e.code(), grm_diag::Code::SampleMemoryLimit);
+        assert!(
+            e.to_string()
+                .starts_with(&format!("after generation {}, the search holds", first + 1)),
+            "{e}"
+        );
+    }
+}
