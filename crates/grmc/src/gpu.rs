@@ -87,21 +87,29 @@ pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
     if args.stats {
         eprintln!("GPU: {}", gpu.describe());
         outln!(
-            "{:>9} {:>14} {:>12} {:>10} {:>6}",
+            "{:>9} {:>14} {:>16} {:>12} {:>10} {:>6}",
             "iteration",
             "modules",
+            "cumulative",
             "params",
             "ms",
             "engine"
         );
     }
     let start = Instant::now();
+    // Modules produced so far (strings 1 ..= iteration), as the CPU's
+    // `--stats` prints it.
+    let mut cumulative = 0u64;
     let mut progress = |s: &grm_gpu::GpuIterationStats| {
+        if s.iteration > 0 {
+            cumulative = cumulative.saturating_add(s.modules);
+        }
         if args.stats {
             outln!(
-                "{:>9} {:>14} {:>12} {:>10.3} {:>6}",
+                "{:>9} {:>14} {:>16} {:>12} {:>10.3} {:>6}",
                 s.iteration,
                 s.modules,
+                cumulative,
                 s.param_words,
                 ms(s.elapsed),
                 if s.on_cpu { "CPU" } else { "GPU" }
