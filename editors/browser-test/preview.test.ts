@@ -125,6 +125,7 @@ async function view(file: string): Promise<string> {
 
 interface Grm {
   ready: boolean;
+  warnings: string[];
   busy: boolean;
   regrows: number;
   latencies: number[];
@@ -351,6 +352,11 @@ test('a grammar with errors keeps the last model on screen and says so; an empty
   const g2 = await grm(page);
   assert.deepEqual([g2.lastError, g2.bones, g2.triangles, g2.meshCount], [null, 0, 0, 0]);
   assert.match((await page.textContent('#status-text')) ?? '', /Empty \(derive\).*0 triangles.*0 bones/);
+  // ... and the status says why (W0013, the model's own warning), in the warning colour.
+  assert.deepEqual(g2.warnings, ['W0013']);
+  assert.match((await page.textContent('#status-text')) ?? '', /⚠ W0013: /);
+  assert.match((await page.getAttribute('#status', 'class')) ?? '', /warning/);
+  assert.match((await page.getAttribute('#status-text', 'title')) ?? '', /^W0013: the model has no triangles/);
   await page.click('#frame');
   await page.keyboard.press('n');
   await waitRegrows(page, g2.regrows + 1, 'next variation of the empty model');

@@ -77,6 +77,15 @@ test('a preview result decodes: parts, picks with origins and focus, skeleton, o
   assert.deepEqual(r.params, []);
 });
 
+test("the model's warnings decode; a server that sends none gives none", () => {
+  const pos = [0, 0, 0, 1, 0, 0, 0, 1, 0];
+  const w = { code: 'W0013', message: 'the model has no triangles', notes: ['2 bones have no tube'], help: 'give the bones a width' };
+  const r = decodePreview(wire(pos, [0, 1, 2], { warnings: [w, { code: 'W0014', message: '1 instance left out', help: null }] }));
+  assert.deepEqual(r.warnings, [w, { code: 'W0014', message: '1 instance left out', notes: [], help: null }]);
+  assert.deepEqual(decodePreview(wire(pos, [0, 1, 2])).warnings, []);
+  assert.throws(() => decodePreview(wire(pos, [0, 1, 2], { warnings: ['W0013'] })), /warnings\[0\]: expected an object/);
+});
+
 test('malformed models are refused, not drawn', () => {
   const pos = [0, 0, 0, 1, 0, 0, 0, 1, 0];
   assert.throws(() => decodePreview(wire(pos, [0, 1, 3])), /out of range \(3 vertices\)/);

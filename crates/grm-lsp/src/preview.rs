@@ -273,6 +273,23 @@ pub struct PreviewResult {
     /// Sample mode: how the search went.
     pub sample: Option<SampleOut>,
     pub stats: StatsOut,
+    /// What the model lacks that its string asked for (W0013 no
+    /// triangles, W0014 geometry left out), as `grmc derive -o` prints
+    /// them: these depend on the seed and the parameters, so they come
+    /// with the model rather than with the file's diagnostics.
+    pub warnings: Vec<WarningOut>,
+}
+
+/// A model warning (`grm_geom::Model::warnings`).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(rename_all = "camelCase")]
+pub struct WarningOut {
+    /// The stable code, e.g. `W0013`.
+    pub code: String,
+    pub message: String,
+    /// What the builder counted (e.g. bones without a tube).
+    pub notes: Vec<String>,
+    pub help: Option<String>,
 }
 
 /// A meta-parameter: its value in this preview, its default and range.
@@ -968,6 +985,16 @@ pub(crate) fn build(
             opacity: m.opacity,
         })
         .collect();
+    let warnings: Vec<WarningOut> = model
+        .warnings(compiled.file, compiled.span, false)
+        .into_iter()
+        .map(|d| WarningOut {
+            code: d.code.as_str().to_string(),
+            message: d.message,
+            notes: d.notes,
+            help: d.help,
+        })
+        .collect();
     let st = &model.stats;
     let finite = |v: [f32; 3]| {
         if v.iter().all(|x| x.is_finite()) {
@@ -1007,6 +1034,7 @@ pub(crate) fn build(
             build_ms,
             encode_ms: t2.elapsed().as_secs_f64() * 1e3,
         },
+        warnings,
     };
     Ok((result, table))
 }

@@ -66,6 +66,8 @@ interface DebugInfo {
   meshCount: number;
   triangles: number;
   bones: number;
+  /** The codes of the shown model's warnings (W0013, W0014). */
+  warnings: string[];
   mode: string;
   seed: number | null;
   curves: number;
@@ -170,6 +172,7 @@ class App {
       meshCount: 0,
       triangles: 0,
       bones: 0,
+      warnings: [],
       mode: '',
       seed: null,
       curves: 0,
@@ -328,12 +331,16 @@ class App {
         this.debug.lastLatencyMs = ms;
         this.debug.latencies.push(ms);
         this.debug.meshCount = this.scene.meshCount;
-        this.setStatus(this.summary(r, ms));
+        this.setStatus(this.summary(r, ms), false, r.warnings.length > 0);
+        $('status-text').title = r.warnings
+          .map((w) => [`${w.code}: ${w.message}`, ...w.notes.map((n) => `note: ${n}`), ...(w.help ? [`help: ${w.help}`] : [])].join('\n'))
+          .join('\n');
       });
     });
     const built = performance.now();
     this.framed = true;
     this.debug.triangles = r.model.triangles;
+    this.debug.warnings = r.warnings.map((w) => w.code);
     this.debug.bones = r.model.bones.length;
     this.debug.mode = r.mode;
     this.debug.seed = this.state.seed;
@@ -389,12 +396,16 @@ class App {
       parts.push(`cost ${r.sample.objective.toFixed(1)} after ${r.sample.generations} generations${r.sample.stoppedEarly ? ' (stopped by the time budget)' : ''}`);
     }
     if (ms !== null) parts.push(`on screen in ${ms.toFixed(0)} ms`);
+    // The model's own warnings (why a preview is empty or lacks shapes); the help is in the tooltip.
+    for (const w of r.warnings) parts.push(`⚠ ${w.code}: ${w.message}`);
     return parts.join(' · ');
   }
 
-  private setStatus(text: string, error = false): void {
+  private setStatus(text: string, error = false, warning = false): void {
     $('status-text').textContent = text;
+    if (error || !warning) $('status-text').title = '';
     $('status').classList.toggle('error', error);
+    $('status').classList.toggle('warning', warning && !error);
   }
 
   /** A failure keeps the last good model on screen (as the paper's editor does) and says why. */

@@ -140,6 +140,15 @@ export interface SampleInfo {
   curves: string;
 }
 
+/** A warning about the model itself (W0013 no triangles, W0014 geometry left out). */
+export interface ModelWarning {
+  code: string;
+  message: string;
+  /** What the builder counted (e.g. bones without a tube). */
+  notes: string[];
+  help: string | null;
+}
+
 export interface PreviewResult {
   uri: string;
   version: number;
@@ -157,6 +166,8 @@ export interface PreviewResult {
   /** Server-side timings in milliseconds. */
   timings: Record<string, number>;
   stats: Record<string, number>;
+  /** What the model lacks that its string asked for (none from a server that does not send them). */
+  warnings: ModelWarning[];
 }
 
 /** `grm/previewUpdated`: a new model after an edit, or why there is none. */
@@ -439,6 +450,11 @@ export function decodePreview(v: unknown): PreviewResult {
     focus,
     timings,
     stats,
+    warnings: (Array.isArray(v.warnings) ? v.warnings : []).map((w: unknown, i: number) => {
+      if (!isObject(w)) throw new ProtocolError(`warnings[${i}]: expected an object`);
+      const notes = (Array.isArray(w.notes) ? w.notes : []).filter((n: unknown): n is string => typeof n === 'string');
+      return { code: str(w.code), message: str(w.message), notes, help: typeof w.help === 'string' ? w.help : null };
+    }),
   };
 }
 
