@@ -168,7 +168,11 @@ struct Grown {
 /// A derived forest: each tree, the modules produced over the
 /// derivation, and how it ran (for the summary).
 struct Derived {
+    /// Every tree, in order; empty where nothing per tree was asked for
+    /// (a GPU forest whose strings stay on the device).
     trees: Vec<Grown>,
+    /// The final strings' modules, all trees together.
+    modules: u64,
     produced: u64,
     note: String,
 }
@@ -311,10 +315,10 @@ pub fn run(args: ForestArgs) -> Outcome {
     let elapsed = start.elapsed();
     let Derived {
         trees: grown,
+        modules,
         produced,
         note: engine_note,
     } = derived;
-    let modules: u64 = grown.iter().map(|g| g.modules).sum();
 
     let names: Vec<&str> = systems
         .iter()
@@ -590,6 +594,7 @@ fn derive_cpu(
         return Err(Outcome::InputErrors);
     }
     Ok(Derived {
+        modules: out.iter().map(|g| g.modules).sum(),
         trees: out,
         produced,
         note: format!("on the CPU ({})", crate::count(workers as u64, "thread")),
@@ -743,8 +748,11 @@ fn derive_gpu(
             sync_iterations: false,
             cpu_prefix: args.cpu_prefix,
         },
-        interpret: true,
-        read_string: true,
+        // The model is built from the strings by the CPU turtle (shapes
+        // and polygons too), so the GPU interprets only a forest that
+        // stays there: the summary's bone count.
+        interpret: !need_model,
+        read_string: need_model || args.print,
         read_bones: false,
         strategy: grm_gpu::DeriveStrategy::Auto,
         branch_scan: grm_gpu::interp::BranchScan::Auto,
@@ -765,20 +773,27 @@ fn derive_gpu(
         }
         Err(e) => return fallback(&e),
     };
-    let Some(strings) = r.strings else {
-        emit(
-            &loaded.sources,
-            &GpuError::InvalidInput("the forest's strings were not read back".into())
-                .to_diagnostic(c.file, c.span),
-        );
-        return GpuOutcome::Stop(Outcome::Usage);
-    };
-    let bones = r.interpretation.as_ref().map_or(0, |i| i.bone_count);
+    let produced: u64 = r.stats.iter().skip(1).map(|s| s.modules).sum();
+    let modules = r.stats.last().map_or(0, |s| s.modules);
     let gpu_ms = ms(r.derive_elapsed
         + r.interpretation
             .as_ref()
             .map_or(Duration::ZERO, |i| i.elapsed));
-    let produced: u64 = r.stats.iter().skip(1).map(|s| s.modules).sum();
+    let note = match &r.interpretation {
+        Some(i) => format!(
+            "on the GPU in one derivation and interpretation ({} there, {gpu_ms:.3} ms)",
+            crate::count(i.bone_count, "bone")
+        ),
+        None => format!("on the GPU in one derivation ({gpu_ms:.3} ms)"),
+    };
+    let Some(strings) = r.strings else {
+        return GpuOutcome::Done(Derived {
+            trees: Vec::new(),
+            modules,
+            produced,
+            note,
+        });
+    };
     let interpretations = parallel_map(strings.len(), args.threads, |k| {
         let t = &trees[k];
         need_model
@@ -798,11 +813,9 @@ fn derive_gpu(
     }
     GpuOutcome::Done(Derived {
         trees: grown,
+        modules,
         produced,
-        note: format!(
-            "on the GPU in one derivation ({} there, {gpu_ms:.3} ms with the interpretation)",
-            crate::count(bones, "bone")
-        ),
+        note,
     })
 }
 

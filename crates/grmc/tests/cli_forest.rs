@@ -293,3 +293,35 @@ fn the_limit_bounds_the_forest_together() {
     one[3] = "1";
     ok(&one);
 }
+
+/// A GPU forest that stays on the device is interpreted there: its bone
+/// count is the model's (built from the strings by the CPU turtle).
+#[test]
+fn the_gpus_bones_are_the_models() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("f.glb").display().to_string();
+    let base = [
+        "forest",
+        "examples/stochastic_plant.grm",
+        "--trees",
+        "6",
+        "-n",
+        "4",
+        "--gpu",
+    ];
+    let (_, on_device) = ok(&base);
+    let there = on_device
+        .split(" bones there")
+        .next()
+        .and_then(|s| s.rsplit('(').next())
+        .and_then(|n| n.trim().parse::<u64>().ok())
+        .unwrap_or_else(|| panic!("{on_device}"));
+    let mut with_model = base.to_vec();
+    with_model.extend(["-o", &out]);
+    let (_, built) = ok(&with_model);
+    assert!(
+        built.contains(&format!(", {there} bones)")),
+        "{there}: {built}"
+    );
+    assert!(there > 0);
+}
