@@ -30,9 +30,13 @@
 //!   before it (stale results never overwrite newer ones).
 //! - No request can bring the server down: user input never panics, a
 //!   failed task becomes an error response, a poisoned lock is recovered.
+//!   Over stdio no message can either: [`stdio`] frames and checks every
+//!   message before the server reads it, and answers a malformed one
+//!   (tower-lsp-server's reader ends the session at the first).
 
 pub mod convert;
 pub mod preview;
+pub mod stdio;
 pub mod uris;
 
 use grm_analysis::{Analysis, FileAnalysis, Lookup};
@@ -259,10 +263,20 @@ pub fn run_stdio() -> std::io::Result<bool> {
     let shut_down = Arc::new(std::sync::atomic::AtomicBool::new(false));
     rt.block_on(async {
         let (service, socket) = build(Config::default(), shut_down.clone());
-        Server::new(tokio::io::stdin(), tokio::io::stdout(), socket)
-            .serve(service)
-            .await;
+        // The server reads and writes through the guard ([`stdio`]): a
+        // malformed message is answered, not the end of the session.
+        let (server_in, to_server) = tokio::io::duplex(1 << 16);
+        let (from_server, server_out) = tokio::io::duplex(1 << 16);
+        let (answers, answers_rx) = tokio::sync::mpsc::unbounded_channel();
+        // Not awaited: after `exit` its read of stdin cannot be cancelled
+        // (tokio reads stdin on a blocking thread); the runtime is shut
+        // down without waiting for it.
+        tokio::spawn(stdio::guard_input(tokio::io::stdin(), to_server, answers));
+        let serve = Server::new(server_in, from_server, socket).serve(service);
+        let write = stdio::merge_output(server_out, tokio::io::stdout(), answers_rx);
+        tokio::join!(serve, write);
     });
+    rt.shutdown_background();
     Ok(shut_down.load(std::sync::atomic::Ordering::SeqCst))
 }
 

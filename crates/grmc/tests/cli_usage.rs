@@ -511,3 +511,102 @@ fn lsp_exit_code_follows_shutdown() {
         assert_eq!(status.code(), Some(want), "{requests:?}");
     }
 }
+
+/// `grmc lsp` answers malformed messages (bad JSON, wrong JSON-RPC, bad
+/// framing, invalid UTF-8, deep nesting, a lone surrogate) with an error
+/// and keeps serving; an `exit` ends it even while the client keeps its
+/// end of stdin open.
+#[test]
+fn lsp_survives_malformed_messages() {
+    use std::io::{BufRead, BufReader, Read, Write};
+    use std::process::{Command, Stdio};
+    let frame = |body: &[u8]| {
+        let mut f = format!("Content-Length: {}\r\n\r\n", body.len()).into_bytes();
+        f.extend_from_slice(body);
+        f
+    };
+    let mut child = Command::new(env!("CARGO_BIN_EXE_grmc"))
+        .arg("lsp")
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("grmc lsp starts");
+    let mut stdin = child.stdin.take().expect("stdin");
+    let mut stdout = BufReader::new(child.stdout.take().expect("stdout"));
+    let mut read = move || -> String {
+        let mut len = 0;
+        let mut line = String::new();
+        while stdout.read_line(&mut line).expect("read") > 2 {
+            if let Some(n) = line.trim().strip_prefix("Content-Length: ") {
+                len = n.parse().expect("a length");
+            }
+            line.clear();
+        }
+        let mut body = vec![0; len];
+        stdout.read_exact(&mut body).expect("a message");
+        String::from_utf8_lossy(&body).into_owned()
+    };
+    let mut send = |bytes: &[u8]| {
+        stdin.write_all(bytes).expect("write");
+        stdin.flush().expect("flush");
+    };
+    send(&frame(
+        br#"{"jsonrpc":"2.0","id":1,"method":"initialize","params":{"capabilities":{}}}"#,
+    ));
+    assert!(read().contains("\"id\":1"));
+    send(&frame(
+        br#"{"jsonrpc":"2.0","method":"initialized","params":{}}"#,
+    ));
+    let deep = "[".repeat(100_000);
+    let bad: Vec<Vec<u8>> = vec![
+        frame(b"{{{{{"),
+        frame(b"[]"),
+        frame(b"5"),
+        frame(br#"{"jsonrpc":"1.0","id":3,"method":"shutdown"}"#),
+        frame(br#"{"jsonrpc":"2.0","id":1.5,"method":"shutdown"}"#),
+        frame(b"{\"jsonrpc\":\"2.0\",\"id\":4,\"method\":\"\xff\"}"),
+        frame(deep.as_bytes()),
+        b"Content-Length: abc\r\n\r\n".to_vec(),
+    ];
+    for (k, b) in bad.iter().enumerate() {
+        send(b);
+        let answer = read();
+        assert!(
+            answer.contains("\"error\"")
+                && (answer.contains("-32700") || answer.contains("-32600")),
+            "message {k}: {answer}"
+        );
+    }
+    // A Content-Type header, LF-only lines, and a lone surrogate in a
+    // document's text: all read.
+    let uri = "file:///tmp/grm-lsp-survives.grm";
+    let open = format!(
+        r#"{{"jsonrpc":"2.0","method":"textDocument/didOpen","params":{{"textDocument":{{"uri":"{uri}","languageId":"grm","version":1,"text":"// \ud83c\nsystem S {{ axiom F; }}\n"}}}}}}"#
+    );
+    let mut f = format!(
+        "Content-Length: {}\nContent-Type: application/vscode-jsonrpc; charset=utf-8\n\n",
+        open.len()
+    )
+    .into_bytes();
+    f.extend_from_slice(open.as_bytes());
+    send(&f);
+    let published = read();
+    assert!(
+        published.contains("publishDiagnostics") && published.contains(uri),
+        "{published}"
+    );
+    send(&frame(br#"{"jsonrpc":"2.0","id":2,"method":"shutdown"}"#));
+    assert!(read().contains("\"id\":2"));
+    // `exit` with stdin still open: the server ends anyway, with 0.
+    send(&frame(br#"{"jsonrpc":"2.0","method":"exit"}"#));
+    let start = std::time::Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().expect("wait") {
+            break s;
+        }
+        assert!(start.elapsed().as_secs() < 20, "grmc lsp did not exit");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    assert_eq!(status.code(), Some(0));
+}
