@@ -24,7 +24,7 @@ pub mod codes;
 mod render;
 
 pub use codes::Code;
-pub use render::{render_human, render_json, render_plain, to_json};
+pub use render::{HumanRenderer, render_human, render_json, render_plain, to_json};
 
 use serde::Serialize;
 

@@ -1005,39 +1005,61 @@ impl Sys<'_, '_> {
         }
     }
 
-    /// Report unbalanced brackets (E0311).
+    /// Report unbalanced brackets (E0311): one diagnostic for the `]`s
+    /// that close no branch and one for the `[`s never closed, each on the
+    /// first of them, the next few as secondary labels and a count of the
+    /// rest (a successor of ten thousand `[` is one mistake, not ten
+    /// thousand).
     fn brackets(&mut self, items: impl Iterator<Item = (Option<bool>, Span)>, what: &str) {
-        let items: Vec<(Option<bool>, Span)> = items.collect();
+        /// Secondary labels shown after the primary one.
+        const SHOWN: usize = 3;
         let mut open: Vec<Span> = Vec::new();
+        let mut stray: Vec<Span> = Vec::new();
         for (b, span) in items {
             match b {
                 Some(true) => open.push(span),
-                Some(false) if open.pop().is_none() => {
-                    self.err(
-                        Diagnostic::new(
-                            Code::UnbalancedBrackets,
-                            format!("`]` closes no branch in this {what}"),
-                            self.file,
-                            span,
-                            "no `[` before it",
-                        )
-                        .with_help("remove it, or open the branch with `[` first"),
-                    );
-                }
+                Some(false) if open.pop().is_none() => stray.push(span),
                 Some(false) | None => {}
             }
         }
-        for span in open {
-            self.err(
-                Diagnostic::new(
-                    Code::UnbalancedBrackets,
-                    format!("`[` is never closed in this {what}"),
-                    self.file,
-                    span,
-                    "no matching `]`",
-                )
-                .with_help("close the branch with `]`"),
-            );
+        let file = self.file;
+        let report =
+            |spans: &[Span], one: &str, many: &str, label: &str, again: &str, help: &str| {
+                let first = *spans.first()?;
+                let n = spans.len();
+                let message = if n == 1 {
+                    format!("{one} in this {what}")
+                } else {
+                    format!("{n} {many} in this {what}")
+                };
+                let mut d = Diagnostic::new(Code::UnbalancedBrackets, message, file, first, label)
+                    .with_help(help);
+                for &s in spans.iter().skip(1).take(SHOWN) {
+                    d = d.with_label(file, s, again);
+                }
+                if n > SHOWN + 1 {
+                    d = d.with_note(format!("and {} more", n - SHOWN - 1));
+                }
+                Some(d)
+            };
+        let stray_d = report(
+            &stray,
+            "`]` closes no branch",
+            "`]` close no branch",
+            "no `[` before it",
+            "nor this one",
+            "remove it, or open the branch with `[` first",
+        );
+        let open_d = report(
+            &open,
+            "`[` is never closed",
+            "`[` are never closed",
+            "no matching `]`",
+            "nor this one",
+            "close the branch with `]`",
+        );
+        for d in [stray_d, open_d].into_iter().flatten() {
+            self.err(d);
         }
     }
 

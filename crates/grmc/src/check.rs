@@ -82,6 +82,7 @@ pub fn run(args: CheckArgs) -> Outcome {
         // What compiling finds (R01xx) is reported by `check` too, as the
         // editor does: `derive` would stop on it.
         checked.diagnostics.extend(grm_compile::check(&checked));
+        let mut human = grm_diag::HumanRenderer::new(&sources, color);
         for d in &checked.diagnostics {
             match d.severity {
                 Severity::Error => errors += 1,
@@ -89,11 +90,7 @@ pub fn run(args: CheckArgs) -> Outcome {
             }
             match args.format {
                 OutputFormat::Human => {
-                    let _ = write!(
-                        stderr.lock(),
-                        "{}",
-                        grm_diag::render_human(d, &sources, color)
-                    );
+                    let _ = write!(stderr.lock(), "{}", human.render(d));
                 }
                 OutputFormat::Json => json_items.push(grm_diag::render_json(d, &sources)),
             }

@@ -99,9 +99,11 @@ pub fn load(path: &Path, system: Option<&str>, params: &[String]) -> Result<Load
             return Err(Outcome::Usage);
         }
     };
-    let color = color();
-    for d in &checked.diagnostics {
-        eprint!("{}", grm_diag::render_human(d, &sources, color));
+    {
+        let mut human = grm_diag::HumanRenderer::new(&sources, color());
+        for d in &checked.diagnostics {
+            eprint!("{}", human.render(d));
+        }
     }
     if checked
         .diagnostics
