@@ -276,10 +276,28 @@ mod tests {
         let a = sm.add("a.grm", "const x = y;\nconst z = w;\n");
         let b = sm.add("b.grm", "// é\nconst q = r;\n");
         let ds = [
-            Diagnostic::new(Code::UnknownName, "unknown `y`", a, Span::new(10, 11), "here"),
-            Diagnostic::new(Code::UnknownName, "unknown `r`", b, Span::new(16, 17), "here")
-                .with_label(a, Span::new(23, 24), "and here"),
-            Diagnostic::new(Code::UnknownName, "unknown `w`", a, Span::new(23, 24), "here"),
+            Diagnostic::new(
+                Code::UnknownName,
+                "unknown `y`",
+                a,
+                Span::new(10, 11),
+                "here",
+            ),
+            Diagnostic::new(
+                Code::UnknownName,
+                "unknown `r`",
+                b,
+                Span::new(16, 17),
+                "here",
+            )
+            .with_label(a, Span::new(23, 24), "and here"),
+            Diagnostic::new(
+                Code::UnknownName,
+                "unknown `w`",
+                a,
+                Span::new(23, 24),
+                "here",
+            ),
         ];
         let mut r = HumanRenderer::new(&sm, false);
         for d in &ds {

@@ -100,15 +100,42 @@ fn one(args: &FmtArgs, path: &Path, color: bool) -> Done {
             return Done::Input;
         }
     } else if formatted != text {
-        // Write to a temporary file and rename it over the original so an
-        // interrupted write never leaves a truncated grammar.
-        let tmp = path.with_extension("grm.fmt-tmp");
-        if let Err(e) = std::fs::write(&tmp, &formatted).and_then(|()| std::fs::rename(&tmp, path))
-        {
-            let _ = std::fs::remove_file(&tmp);
+        if let Err(e) = replace(path, formatted.as_bytes()) {
             let _ = writeln!(err, "error: cannot write {}: {e}", path.display());
             return Done::Io;
         }
     }
     Done::Ok
+}
+
+/// Replace the contents of `path` without ever leaving it truncated: write
+/// a temporary file beside the real file (through a symbolic link, so the
+/// link stays a link and its target is formatted), give it the file's
+/// permissions, and rename it over the file.
+fn replace(path: &std::path::Path, bytes: &[u8]) -> std::io::Result<()> {
+    let target = std::fs::canonicalize(path)?;
+    let perms = std::fs::metadata(&target)?.permissions();
+    let name = target
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    // A name no other run or file uses: the process id, and a counter.
+    static NEXT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+    let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let tmp = target.with_file_name(format!(".{name}.fmt-{}-{n}.tmp", std::process::id()));
+    let written = (|| {
+        let mut f = std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&tmp)?;
+        std::io::Write::write_all(&mut f, bytes)?;
+        f.sync_all()?;
+        drop(f);
+        std::fs::set_permissions(&tmp, perms)?;
+        std::fs::rename(&tmp, &target)
+    })();
+    if written.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    written
 }

@@ -142,6 +142,41 @@ fn fmt_check_and_rewrite() {
     );
 }
 
+/// `fmt` writes through a symbolic link (the link stays a link, its
+/// target is formatted) and keeps the file's permissions; it leaves no
+/// temporary file behind.
+#[cfg(unix)]
+#[test]
+fn fmt_keeps_links_and_permissions() {
+    use std::os::unix::fs::PermissionsExt;
+    let d = temp_dir("fmt-link");
+    let real = d.join("real.grm");
+    let link = d.join("link.grm");
+    std::fs::write(&real, "system S{axiom F;}\n").expect("write");
+    std::fs::set_permissions(&real, std::fs::Permissions::from_mode(0o600)).expect("chmod");
+    std::os::unix::fs::symlink("real.grm", &link).expect("symlink");
+    let out = grmc(&["fmt", link.to_str().expect("utf8 path")]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    assert!(
+        std::fs::symlink_metadata(&link)
+            .expect("link")
+            .file_type()
+            .is_symlink()
+    );
+    assert_eq!(
+        std::fs::read_to_string(&real).expect("read"),
+        "system S {\n    axiom F;\n}\n"
+    );
+    let mode = std::fs::metadata(&real).expect("meta").permissions().mode();
+    assert_eq!(mode & 0o777, 0o600, "{mode:o}");
+    let left: Vec<_> = std::fs::read_dir(&d)
+        .expect("dir")
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(left.len(), 2, "{left:?}");
+}
+
 #[test]
 fn examples_are_formatted() {
     let ex = examples();
