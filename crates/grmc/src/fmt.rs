@@ -99,11 +99,11 @@ fn one(args: &FmtArgs, path: &Path, color: bool) -> Done {
             let _ = writeln!(err, "{} is not formatted", path.display());
             return Done::Input;
         }
-    } else if formatted != text {
-        if let Err(e) = replace(path, formatted.as_bytes()) {
-            let _ = writeln!(err, "error: cannot write {}: {e}", path.display());
-            return Done::Io;
-        }
+    } else if formatted != text
+        && let Err(e) = replace(path, formatted.as_bytes())
+    {
+        let _ = writeln!(err, "error: cannot write {}: {e}", path.display());
+        return Done::Io;
     }
     Done::Ok
 }
