@@ -509,7 +509,7 @@ impl<'a> Checker<'a> {
             .get(name.name.as_str())
             .copied()
             .unwrap_or((file_idx, name.span));
-        if first != (file_idx, name.span) {
+        if first != (file_idx, name.span) && !name.name.is_empty() {
             let prev = Loc::new(self.file_id(first.0), first.1);
             self.error(
                 Diagnostic::new(
@@ -965,7 +965,9 @@ impl<'a> Checker<'a> {
             for item in &f.ast.items {
                 if let Item::System(s) = item {
                     let (ffi, fspan) = first[s.name.name.as_str()];
-                    if (ffi, fspan) != (fi, s.name.span) {
+                    // A system whose name did not parse (the parser
+                    // reported it) has an empty name: not a duplicate.
+                    if (ffi, fspan) != (fi, s.name.span) && !s.name.name.is_empty() {
                         let pl = Loc::new(files[ffi].id, fspan);
                         self.error(
                             Diagnostic::new(

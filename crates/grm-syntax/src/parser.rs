@@ -659,6 +659,14 @@ impl<'a> Driver<'a, '_> {
                         format!("this {what} needs a name"),
                     ),
                 );
+                // `system if { ... }`: the token in the name's place is
+                // taken for the (missing) name, and the block is read.
+                if let Some(t) = other
+                    && t.kind != TokKind::LBrace
+                    && self.toks.get(self.pos + 1).map(|n| n.kind) == Some(TokKind::LBrace)
+                {
+                    self.pos += 1;
+                }
                 Ident {
                     name: String::new(),
                     span: Span::new(kw.span.end, kw.span.end),
@@ -669,6 +677,14 @@ impl<'a> Driver<'a, '_> {
             Some(t) if t.kind == TokKind::LBrace => {
                 self.pos += 1;
                 (name, true)
+            }
+            _ if name.name.is_empty() => {
+                // No name and no block: one mistake, already reported;
+                // what follows up to the next item is skipped unreported.
+                while self.peek_kind().is_some() && !starts_item_at(self.toks, self.pos) {
+                    self.pos += 1;
+                }
+                (name, false)
             }
             other => {
                 let (span, found) = match other {
