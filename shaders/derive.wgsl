@@ -182,10 +182,20 @@ fn decide(i: u32) -> Decision {
             }
             total = total + w;
         }
+        // Past the f32 range: every weight scaled by WEIGHT_SCALE (2^-64,
+        // exact), as the CPU does; times 1 otherwise.
+        var scale = 1.0;
+        if (!is_finite(total)) {
+            scale = WEIGHT_SCALE;
+            total = 0.0;
+            for (var a = g.first_alt; a <= last; a = a + 1u) {
+                total = total + weight_of(a, d) * scale;
+            }
+        }
         let goal = u * total;
         var acc = 0.0;
         for (var a = g.first_alt; a <= last; a = a + 1u) {
-            acc = acc + weight_of(a, d);
+            acc = acc + weight_of(a, d) * scale;
             if (goal < acc) {
                 return Decision(a, 0u);
             }

@@ -310,7 +310,21 @@ fn vm_rand_int(a: f32, b: f32, u: f32) -> f32 {
     }
     let lo = fround(fmin(a, b));
     let hi = fround(fmax(a, b));
-    return lo + fmin(floor(u * (hi - lo + 1.0)), hi - lo);
+    let span = hi - lo;
+    // A span past the f32 range: between the bounds as vm_rand_uniform,
+    // rounded (as the CPU's `rand_int`).
+    if (!is_finite(span) && is_finite(lo) && is_finite(hi)) {
+        return fclamp(fround(lo * (1.0 - u) + hi * u), lo, hi);
+    }
+    return lo + fmin(floor(u * (span + 1.0)), span);
+}
+
+fn vm_rand_uniform(lo: f32, hi: f32, u: f32) -> f32 {
+    let span = hi - lo;
+    if (!is_finite(span) && is_finite(lo) && is_finite(hi)) {
+        return lo * (1.0 - u) + hi * u;
+    }
+    return lo + span * u;
 }
 
 fn vm_spline(base: u32, n: u32, w: u32) {
@@ -359,6 +373,22 @@ fn vm_choose(base: u32, n: u32, w: u32, u: f32) {
         }
         return;
     }
+    // Finite weights past the f32 range together: scaled by WEIGHT_SCALE,
+    // as the CPU's `choose`.
+    var scale = 1.0;
+    if (!is_finite(total)) {
+        var all_finite = true;
+        for (var j = 0u; j < n; j = j + 1u) {
+            all_finite = all_finite && is_finite(vm_choose_weight(base, j, w));
+        }
+        if (all_finite) {
+            scale = WEIGHT_SCALE;
+            total = 0.0;
+            for (var j = 0u; j < n; j = j + 1u) {
+                total = total + vm_choose_weight(base, j, w) * scale;
+            }
+        }
+    }
     let goal = u * total;
     var acc = 0.0;
     var pick = n;
@@ -367,7 +397,7 @@ fn vm_choose(base: u32, n: u32, w: u32, u: f32) {
         let wj = vm_choose_weight(base, j, w);
         if (wj > 0.0) {
             last = j;
-            acc = acc + wj;
+            acc = acc + wj * scale;
             if (goal < acc) {
                 pick = j;
                 break;

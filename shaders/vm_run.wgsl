@@ -139,9 +139,7 @@ fn vm_run(entry: u32, d: Draws) -> u32 {
             }
             case OP_RAND_UNIFORM: {
                 let base = sp - 2u;
-                let lo = vm_st[base];
-                let hi = vm_st[base + 1u];
-                vm_st[base] = lo + (hi - lo) * rng_uniform(d, a);
+                vm_st[base] = vm_rand_uniform(vm_st[base], vm_st[base + 1u], rng_uniform(d, a));
                 sp = base + 1u;
             }
             case OP_RAND_NORMAL: {

@@ -457,6 +457,14 @@ impl Lowerer<'_> {
                 a.cum_weight = 0.0;
             }
             total = 0.0;
+        } else if !total.is_finite() {
+            // The weights add up past f32: the same draw on weights scaled
+            // by an exact power of two (`table::WEIGHT_SCALE`).
+            total = 0.0;
+            for a in &mut self.out.alts[first_alt as usize..] {
+                total += a.weight * crate::table::WEIGHT_SCALE;
+                a.cum_weight = total;
+            }
         }
         let mut flags = 0;
         if g.has_context() {

@@ -62,6 +62,7 @@ pub fn choose_alternative(
             .unwrap_or(last);
         return Ok(g.first_alt + k as u32);
     }
+    // The weights, then their sum (in order, as the GPU sums them).
     scratch.clear();
     let mut total = 0.0f32;
     for (k, a) in alts.iter().enumerate() {
@@ -77,9 +78,26 @@ pub fn choose_alternative(
             });
         }
         total += wgt;
-        scratch.push(total);
+        scratch.push(wgt);
     }
+    // Past the f32 range: every weight scaled by an exact power of two
+    // (multiplying by 1 otherwise changes nothing).
+    let scale = if total.is_finite() {
+        1.0
+    } else {
+        total = scratch
+            .iter()
+            .fold(0.0f32, |t, &w| t + w * crate::table::WEIGHT_SCALE);
+        crate::table::WEIGHT_SCALE
+    };
     let target = u * total;
-    let k = scratch.iter().position(|&c| target < c).unwrap_or(last);
+    let mut acc = 0.0f32;
+    let k = scratch
+        .iter()
+        .position(|&w| {
+            acc += w * scale;
+            target < acc
+        })
+        .unwrap_or(last);
     Ok(g.first_alt + k as u32)
 }

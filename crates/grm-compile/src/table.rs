@@ -23,7 +23,9 @@
 //!    alternative is taken; otherwise `u = u(seed, iteration, i, 0)`
 //!    ([`crate::rng`]) and the first `k` with `u * total < cum_k` (constant
 //!    weights: `alt.cum_weight` and `g.total_weight`; else the weights
-//!    are evaluated from `alt.weight_code`).
+//!    are evaluated from `alt.weight_code`). Weights whose sum passes the
+//!    f32 range are all multiplied by [`WEIGHT_SCALE`] first (an exact
+//!    power of two, so the draw is the one the real numbers give).
 //! 5. Emit `succ[alt.succ_offset ..+ alt.succ_len]`: module `k` gets symbol
 //!    `succ.symbol` and parameters `param_exprs[succ.first_param ..+
 //!    succ.param_count]`, whose words land at `succ.word_offset` within the
@@ -107,6 +109,14 @@ pub struct GroupHeader {
     /// The index of the group in `grm_sema::System::groups`.
     pub sema_group: u32,
 }
+
+/// What every weight of a group is multiplied by when their sum passes the
+/// f32 range (2^-64: exact, and no sum of finite f32 weights then
+/// overflows): a group of weights `3e38` and `3e38` is a fair coin, not
+/// always its last alternative. The compiler applies it to constant
+/// groups' `cum_weight` and `total_weight`; `select::choose_alternative`
+/// and the GPU's `decide` to computed weights whose sum is not finite.
+pub const WEIGHT_SCALE: f32 = 5.421_011e-20;
 
 /// `AltHeader::flags`: every successor parameter is a constant or a copy of
 /// a binding word (no code runs for this alternative's successor).

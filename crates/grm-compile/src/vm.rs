@@ -121,7 +121,10 @@ fn clamp(x: f32, lo: f32, hi: f32) -> f32 {
     x.max(lo).min(hi)
 }
 
-/// `randint` on a uniform draw `u`; see [`Op::RandInt`].
+/// `randint` on a uniform draw `u`; see [`Op::RandInt`]. Bounds whose
+/// span passes the f32 range (`randint(-2e38, 2e38)`) draw between them
+/// as [`rand_uniform`] does, rounded (every f32 that large is a whole
+/// number).
 #[inline]
 pub fn rand_int(a: f32, b: f32, u: f32) -> f32 {
     if a.is_nan() || b.is_nan() {
@@ -129,7 +132,23 @@ pub fn rand_int(a: f32, b: f32, u: f32) -> f32 {
     }
     let lo = a.min(b).round();
     let hi = a.max(b).round();
-    lo + (u * (hi - lo + 1.0)).floor().min(hi - lo)
+    let span = hi - lo;
+    if !span.is_finite() && lo.is_finite() && hi.is_finite() {
+        return clamp((lo * (1.0 - u) + hi * u).round(), lo, hi);
+    }
+    lo + (u * (span + 1.0)).floor().min(span)
+}
+
+/// `uniform(lo, hi)` on a uniform draw `u`; see [`Op::RandUniform`]. Finite
+/// bounds whose difference passes the f32 range (`uniform(-3e38, 3e38)`)
+/// are interpolated without forming it, so the value stays between them.
+#[inline]
+pub fn rand_uniform(lo: f32, hi: f32, u: f32) -> f32 {
+    let span = hi - lo;
+    if !span.is_finite() && lo.is_finite() && hi.is_finite() {
+        return lo * (1.0 - u) + hi * u;
+    }
+    lo + span * u
 }
 
 impl Vm {
@@ -314,8 +333,7 @@ impl Vm {
                 }
                 Op::Spline => spline(st, base, a & 0xFFFF, a >> 16),
                 Op::RandUniform => {
-                    let (lo, hi) = (st[base], st[base + 1]);
-                    st[base] = lo + (hi - lo) * draws.uniform(a as u32);
+                    st[base] = rand_uniform(st[base], st[base + 1], draws.uniform(a as u32));
                 }
                 Op::RandNormal => {
                     let (mean, sd) = (st[base], st[base + 1]);
@@ -423,6 +441,16 @@ fn choose(st: &mut [f32; STACK_SIZE], base: usize, n: usize, w: usize, u: f32) {
         st[base..base + w].fill(f32::NAN);
         return;
     }
+    // Finite weights whose sum passes the f32 range: all scaled by an
+    // exact power of two (`table::WEIGHT_SCALE`), as for productions.
+    let mut scale = 1.0f32;
+    if total.is_infinite() && (0..n).all(|j| weight(j).is_finite()) {
+        scale = crate::table::WEIGHT_SCALE;
+        total = 0.0;
+        for j in 0..n {
+            total += weight(j) * scale;
+        }
+    }
     let target = u * total;
     let mut acc = 0.0f32;
     let mut pick = None;
@@ -431,7 +459,7 @@ fn choose(st: &mut [f32; STACK_SIZE], base: usize, n: usize, w: usize, u: f32) {
         let wj = weight(j);
         if wj > 0.0 {
             last = j;
-            acc += wj;
+            acc += wj * scale;
             if target < acc {
                 pick = Some(j);
                 break;

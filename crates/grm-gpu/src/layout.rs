@@ -645,6 +645,7 @@ pub fn wgsl_header() -> String {
         ("LOG2_E", std::f32::consts::LOG2_E),
         ("TAU", std::f32::consts::TAU),
         ("SHRINK", grm_turtle::SHRINK),
+        ("WEIGHT_SCALE", t::WEIGHT_SCALE),
     ];
     for (name, v) in fconsts {
         s.push_str(&format!("const {name}: f32 = {};\n", f32_lit(*v)));

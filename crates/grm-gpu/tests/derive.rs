@@ -47,6 +47,69 @@ fn example_scenes_match_the_cpu() {
     }
 }
 
+/// Weights that add up past the f32 range (constant and computed): both
+/// engines scale them by `WEIGHT_SCALE` and draw a fair coin, not always
+/// the last alternative, and agree module for module.
+#[test]
+fn weights_past_the_float_range_draw_fairly_on_both_engines() {
+    let g = gpu();
+    let axiom = |m: &str| vec![m; 200].join(" ");
+    let constant = inline(&format!(
+        "system S {{ iterations = 1; axiom {}; A -> (3e38) F; A -> (3e38) G; }}",
+        axiom("A")
+    ))
+    .expect("compiles");
+    let computed = inline(&format!(
+        "system S {{ iterations = 1; axiom {}; A(x) -> (x) F; A(x) -> (x * 1.5) G; }}",
+        axiom("A(2e38)")
+    ))
+    .expect("compiles");
+    for (what, sys) in [("constant", &constant), ("computed", &computed)] {
+        for seed in [1, 77] {
+            let cpu = cpu_derive(sys, 1, seed).expect("cpu derives");
+            let gpu = derive(g, sys, &opts(sys, 1, seed)).expect("gpu derives");
+            assert_same(&format!("{what} seed {seed}"), &cpu, &gpu.string);
+            let f = cpu.syms.iter().filter(|&&s| s == cpu.syms[0]).count();
+            let distinct: std::collections::HashSet<_> = cpu.syms.iter().collect();
+            assert_eq!(distinct.len(), 2, "{what}: both alternatives are drawn");
+            // 200 fair (1:1) or 2:3 draws: far from all one way.
+            assert!((20..=180).contains(&f), "{what} seed {seed}: {f} of 200");
+        }
+    }
+}
+
+/// `uniform` and `randint` between bounds whose difference passes the f32
+/// range: a value between them on both engines (it was infinite: R0204);
+/// `choose` with weights that add up past it: each value drawn (it was
+/// always the last).
+#[test]
+fn draws_between_huge_bounds_stay_between_them() {
+    let g = gpu();
+    let sys = inline(
+        "system S { iterations = 1; axiom A A A A A A A A A A A A A A A A; \
+         A -> F(uniform(-3e38, 3e38)) F(randint(-2e38, 2e38)) F(choose(1, 3e38, 2, 3e38)); }",
+    )
+    .expect("compiles");
+    let cpu = cpu_derive(&sys, 1, 5).expect("cpu derives");
+    let gpu = derive(g, &sys, &opts(&sys, 1, 5)).expect("gpu derives");
+    assert_same("huge bounds", &cpu, &gpu.string);
+    let mut signs = [0, 0];
+    let mut chosen = [0, 0];
+    for m in cpu.params.chunks(3) {
+        assert!(m.iter().all(|x| x.is_finite()), "{m:?}");
+        assert!((-3e38..=3e38).contains(&m[0]) && (-2e38..=2e38).contains(&m[1]));
+        assert_eq!(m[1], m[1].round());
+        signs[usize::from(m[0] > 0.0)] += 1;
+        assert!(m[2] == 1.0 || m[2] == 2.0, "{m:?}");
+        chosen[usize::from(m[2] == 2.0)] += 1;
+    }
+    assert!(signs[0] > 0 && signs[1] > 0, "both halves drawn: {signs:?}");
+    assert!(
+        chosen[0] > 0 && chosen[1] > 0,
+        "both choices drawn: {chosen:?}"
+    );
+}
+
 /// The hand-derived context cases of tests/derive_expect/context_matching.txt
 /// (which the CPU engine's tests check against the expected strings): the
 /// GPU derives the same strings.
