@@ -9,11 +9,20 @@ use grm_sema::{Program, Ty, Value};
 /// is wrong and why.
 pub fn param_values(program: &Program, overrides: &[String]) -> Result<Vec<Value>, String> {
     let mut values = program.default_params();
+    let mut given: Vec<(&str, &str)> = Vec::new();
     for o in overrides {
         let Some((name, text)) = o.split_once('=') else {
             return Err(format!("`--param {o}`: write it as NAME=VALUE"));
         };
         let (name, text) = (name.trim(), text.trim());
+        // Two values for one parameter: a mistake to point out, not one
+        // to settle by taking the last.
+        if let Some((_, first)) = given.iter().find(|(n, _)| *n == name) {
+            return Err(format!(
+                "`--param {name}` is given twice (`{first}` and `{text}`)"
+            ));
+        }
+        given.push((name, text));
         let Some(id) = program.param_by_name(name) else {
             let known: Vec<&str> = program.params.iter().map(|p| p.name.as_str()).collect();
             return Err(if known.is_empty() {

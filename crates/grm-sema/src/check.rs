@@ -445,13 +445,24 @@ impl<'a> Checker<'a> {
                             let path = self.loader.resolve(&f.real, &m.path.value);
                             let garbled = overlaps_any(&f.error_spans, m.path.span);
                             if !garbled && !self.loader.exists(&path) {
+                                let why = self.loader.why_missing(&path);
+                                // A path that exists but is no file (a
+                                // directory, a device) is named as such.
+                                let message = if why == "no such file" {
+                                    format!("cannot find the mesh file `{}`", m.path.value)
+                                } else {
+                                    format!(
+                                        "the mesh file `{}` cannot be read: {why}",
+                                        m.path.value
+                                    )
+                                };
                                 self.error(
                                     Diagnostic::new(
                                         Code::MeshNotFound,
-                                        format!("cannot find the mesh file `{}`", m.path.value),
+                                        message,
                                         f.id,
                                         m.path.span,
-                                        self.loader.why_missing(&path),
+                                        why,
                                     )
                                     .with_help("mesh paths are relative to the directory of the file that declares them"),
                                 );

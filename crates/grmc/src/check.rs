@@ -18,9 +18,40 @@ pub struct CheckArgs {
     pub deny_warnings: bool,
 }
 
+/// The bytes of a grammar file named on the command line, by the rules
+/// imports follow (`grm_sema::FsLoader`): a regular file of at most
+/// `MAX_SOURCE_BYTES` (`grmc check /dev/zero` read until memory ran out).
+fn read_source(path: &std::path::Path) -> std::io::Result<Vec<u8>> {
+    use std::io::Read;
+    let max = grm_sema::MAX_SOURCE_BYTES;
+    let meta = std::fs::metadata(path)?;
+    if meta.is_dir() {
+        return Err(std::io::Error::other("it is a directory"));
+    }
+    let too_big = || {
+        std::io::Error::other(format!(
+            "it is larger than {} MiB, the most a grammar file may be",
+            max >> 20
+        ))
+    };
+    if meta.is_file() && meta.len() > max {
+        return Err(too_big());
+    }
+    // Not a regular file (a pipe, `/dev/stdin`, process substitution): read
+    // it, but no more than a file may hold.
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)?
+        .take(max + 1)
+        .read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > max {
+        return Err(too_big());
+    }
+    Ok(bytes)
+}
+
 /// Load and check one file. `Err` is an I/O problem with the file itself.
 pub fn load_and_check(path: &std::path::Path) -> Result<(SourceMap, grm_sema::Checked), String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let bytes = read_source(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
     let mut sources = SourceMap::new();
     let (text, bad_utf8) = match String::from_utf8(bytes) {
         Ok(t) => (t, None),

@@ -54,7 +54,7 @@ pub struct DeriveArgs {
     pub max_modules: Option<u64>,
     /// Stop with an error before an iteration would need more than this
     /// many MiB (default 2048).
-    #[arg(long, value_name = "MIB")]
+    #[arg(long, value_name = "MIB", value_parser = clap::value_parser!(u64).range(1..))]
     pub max_memory: Option<u64>,
     /// Derive (and interpret) on the GPU (grm-gpu; docs/gpu.md).
     #[arg(long)]

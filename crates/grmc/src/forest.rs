@@ -93,7 +93,7 @@ pub struct ForestArgs {
     /// Stop with an error before an iteration would need more than this
     /// many MiB (a tree's on the CPU, the forest's on the GPU; default
     /// 2048).
-    #[arg(long, value_name = "MIB")]
+    #[arg(long, value_name = "MIB", value_parser = clap::value_parser!(u64).range(1..))]
     pub max_memory: Option<u64>,
     /// Derive and interpret the whole forest on the GPU, in one
     /// derivation (docs/gpu.md).
@@ -260,7 +260,23 @@ pub fn run(args: ForestArgs) -> Outcome {
         return o;
     }
     // Each range must be inside the parameter's own (checked as overrides).
-    for v in &varies {
+    for (i, v) in varies.iter().enumerate() {
+        let fixed = args
+            .params
+            .iter()
+            .any(|p| p.split_once('=').is_some_and(|(n, _)| n.trim() == v.name));
+        if fixed || varies[..i].iter().any(|w| w.name == v.name) {
+            eprintln!(
+                "error: `--vary {}`: the parameter is also given by {}",
+                v.name,
+                if fixed {
+                    "`--param`"
+                } else {
+                    "another `--vary`"
+                }
+            );
+            return Outcome::Usage;
+        }
         if let Some(id) = program.param_by_name(&v.name)
             && program.params[id.index()].ty != grm_sema::Ty::Float
         {

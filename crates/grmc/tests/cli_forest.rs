@@ -244,6 +244,21 @@ fn bad_forests_are_refused_with_the_reason() {
         "unknown meta-parameter `nope`",
     );
     refused(
+        &["forest", f, "--vary", "a=15..20", "--param", "a=16"],
+        2,
+        "also given by `--param`",
+    );
+    refused(
+        &["forest", f, "--vary", "a=15..20", "--vary", "a=16..17"],
+        2,
+        "another `--vary`",
+    );
+    refused(
+        &["forest", f, "--param", "a=15", "--param", "a=16"],
+        2,
+        "given twice",
+    );
+    refused(
         &["forest", f, "--system", "TernaryTree", "--system", "Nope"],
         2,
         "has no system `Nope`",
