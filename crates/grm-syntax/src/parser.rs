@@ -507,26 +507,18 @@ impl<'a> Driver<'a, '_> {
                 vec![stmt]
             }
             Err(err) => {
-                // Maybe a `;` is missing at a line break before the error:
-                // try splitting there.
-                if let Some(split) = self.split_point(full, &err) {
-                    let mut first = full[..split].to_vec();
-                    let end = full[split - 1].span.end;
-                    first.push(Token {
-                        kind: TokKind::Semi,
-                        text: ";",
-                        span: Span::new(end, end),
-                    });
-                    if let Ok((a, errs_a)) = self.run(&first, entry)
-                        && let Ok((b, errs_b)) = self.run(&full[split..], entry)
-                    {
-                        push_value_errors(self.file, &mut self.diags, errs_a);
-                        push_value_errors(self.file, &mut self.diags, errs_b);
-                        self.missing_semi(full[split - 1].span);
-                        let a = self.depth_guard(a);
-                        let b = self.depth_guard(b);
-                        return vec![a, b];
+                // Maybe a `;` is missing at a line break before the error
+                // (at several, one statement per line): try splitting there.
+                if let Some(parts) = self.repair(full, err.clone(), entry) {
+                    let mut out = Vec::with_capacity(parts.len());
+                    for (stmt, errs, semi_after) in parts {
+                        push_value_errors(self.file, &mut self.diags, errs);
+                        if let Some(at) = semi_after {
+                            self.missing_semi(at);
+                        }
+                        out.push(self.depth_guard(stmt));
                     }
+                    return out;
                 }
                 let d = syntax_error(self.file, self.text, err, Some(toks));
                 self.diags.push(d);
@@ -585,6 +577,45 @@ impl<'a> Driver<'a, '_> {
             );
         }
         self.diags.push(d);
+    }
+
+    /// Split `full` (which fails with `err`) into statements at line breaks
+    /// where a `;` is missing: each piece before a split must parse with a
+    /// `;` added; the rest is split again until it parses. The pieces with
+    /// their value errors and the token after which a `;` is missing, or
+    /// `None` when no such split explains the error.
+    #[allow(clippy::type_complexity)]
+    fn repair(
+        &self,
+        full: &[Token<'a>],
+        mut err: ParseError<usize, Token<'a>, ()>,
+        entry: Entry,
+    ) -> Option<Vec<(Stmt, Vec<(Span, String)>, Option<Span>)>> {
+        /// Missing `;`s repaired in one statement at most.
+        const MAX_SPLITS: usize = 64;
+        let mut parts = Vec::new();
+        let mut rest = full;
+        for _ in 0..MAX_SPLITS {
+            let split = self.split_point(rest, &err)?;
+            let mut head = rest[..split].to_vec();
+            let after = rest[split - 1].span;
+            head.push(Token {
+                kind: TokKind::Semi,
+                text: ";",
+                span: Span::new(after.end, after.end),
+            });
+            let (stmt, errs) = self.run(&head, entry).ok()?;
+            parts.push((stmt, errs, Some(after)));
+            rest = &rest[split..];
+            match self.run(rest, entry) {
+                Ok((stmt, errs)) => {
+                    parts.push((stmt, errs, None));
+                    return Some(parts);
+                }
+                Err(e) => err = e,
+            }
+        }
+        None
     }
 
     /// The index of the first token of the last line break at or before
