@@ -82,14 +82,17 @@ pub fn load_and_check(path: &std::path::Path) -> Result<(SourceMap, grm_sema::Ch
     Ok((sources, checked))
 }
 
-/// The E0404 report of the first invalid UTF-8 byte, at byte `at`.
+/// The E0404 report of the first invalid UTF-8 byte, at byte `at` (the
+/// same offset in the decoded text, whose prefix is the file's): the label
+/// covers the U+FFFD that stands for it there (3 bytes), so it is neither
+/// zero-width nor ends inside a character.
 pub fn invalid_utf8(file: grm_diag::FileId, at: usize) -> Diagnostic {
     let at = at as u32;
     Diagnostic::new(
         grm_diag::Code::InvalidEncoding,
         "file is not valid UTF-8",
         file,
-        grm_diag::Span::new(at, at + 1),
+        grm_diag::Span::new(at, at + '\u{FFFD}'.len_utf8() as u32),
         "invalid byte sequence here",
     )
 }
