@@ -75,6 +75,10 @@ impl CompileError {
                 "this is not a number (NaN)",
                 "a function was given an argument outside its domain (`sqrt` or `log` of a negative number, `acos` or `asin` beyond -1..1, `0 * inf`): change the argument",
             ),
+            CompileErrorKind::NonFiniteConstant { value } if value.is_infinite() => (
+                "this is infinite",
+                "the expression is infinite whatever the precision (a division by zero, `ln(0)` or `log10(0)`, an `exp` or `pow` past the f64 range): change it",
+            ),
             CompileErrorKind::NonFiniteConstant { .. } => (
                 "this is not finite in 32-bit float",
                 "32-bit floats hold magnitudes up to about 3.4e38: scale the value down",
@@ -112,6 +116,9 @@ impl std::fmt::Display for CompileError {
             CompileErrorKind::Settings(m) => write!(f, "setting: {m}"),
             CompileErrorKind::NonFiniteConstant { value } if value.is_nan() => {
                 f.write_str("module parameter is NaN (not a number)")
+            }
+            CompileErrorKind::NonFiniteConstant { value } if value.is_infinite() => {
+                write!(f, "module parameter is {}", number(*value))
             }
             CompileErrorKind::NonFiniteConstant { value } => write!(
                 f,
