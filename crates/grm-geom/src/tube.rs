@@ -17,7 +17,7 @@
 //! area-weighted mean of the normals of the side quads around it (each
 //! quad's from its diagonals, so the split into two triangles does not
 //! tilt it), summed while the quads are made and normalised by
-//! [`finish_normals`] once a part's tubes are all made. So a cylinder's
+//! `finish_normals` once a part's tubes are all made. So a cylinder's
 //! normals are radial, a tapering tube's lean with its taper, and a mitred
 //! ring shared by two tubes takes both tubes' quads; caps are flat. (Where
 //! a chain changes paint, each part's copy of the shared ring sees only

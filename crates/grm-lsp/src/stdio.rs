@@ -6,7 +6,7 @@
 //! the first message it cannot decode (a JSON syntax error, a `jsonrpc`
 //! field other than `"2.0"`, an `id` of the wrong type, a header it does
 //! not know such as `Content-Type`, a bad `Content-Length`): the server
-//! answered a Parse error and exited. [`run`] puts this module between the
+//! answered a Parse error and exited. `crate::run_stdio` puts this module between the
 //! process's stdio and the server:
 //!
 //! - [`Deframer`] splits the byte stream into message bodies the way the
