@@ -172,7 +172,8 @@ pub fn check(checked: &grm_sema::Checked) -> Vec<Diagnostic> {
         .systems
         .iter()
         .filter(|s| s.file == program.root)
-        .filter_map(|s| compile(program, s, &params).err())
+        .filter_map(|s| compile_reporting_all(program, s, &params).err())
+        .flatten()
         .map(|e| e.to_diagnostic())
         .collect()
 }
@@ -184,6 +185,38 @@ pub fn compile(
     program: &Program,
     system: &System,
     params: &[Value],
+) -> Result<CompiledSystem, CompileError> {
+    compile_reporting_all(program, system, params).map_err(|mut es| es.swap_remove(0))
+}
+
+/// [`compile`], with every module parameter that is not finite (R0104)
+/// reported rather than the first only: lowering goes on past them (each
+/// stands for a NaN in the pool, never used since the result is an
+/// error), and stops at any other error. `Err` is never empty; its first
+/// error is the first in the source's lowering order.
+fn compile_reporting_all(
+    program: &Program,
+    system: &System,
+    params: &[Value],
+) -> Result<CompiledSystem, Vec<CompileError>> {
+    let mut deferred = Vec::new();
+    let out = lower(program, system, params, &mut deferred).map_err(|e| {
+        let mut all = std::mem::take(&mut deferred);
+        all.push(e);
+        all
+    })?;
+    if deferred.is_empty() {
+        Ok(out)
+    } else {
+        Err(deferred)
+    }
+}
+
+fn lower(
+    program: &Program,
+    system: &System,
+    params: &[Value],
+    deferred: &mut Vec<CompileError>,
 ) -> Result<CompiledSystem, CompileError> {
     let file = system.file;
     let err = |kind, span| CompileError { kind, file, span };
@@ -249,6 +282,7 @@ pub fn compile(
         const_index: HashMap::new(),
         slot_words: Vec::new(),
         bind_words: 0,
+        deferred,
     };
     lw.symbols();
     for (i, sym) in system.symbols.iter().enumerate() {
@@ -316,6 +350,9 @@ struct Lowerer<'a> {
     /// For the group being lowered: binding word offset of each slot.
     slot_words: Vec<u32>,
     bind_words: u32,
+    /// Errors that do not stop lowering (module parameters that are not
+    /// finite), in the order found.
+    deferred: &'a mut Vec<CompileError>,
 }
 
 impl Lowerer<'_> {
@@ -602,10 +639,11 @@ impl Lowerer<'_> {
             Value::Mesh(m) => vec![f64::from(m.0)],
             Value::Material(m) => vec![f64::from(m.0)],
         };
-        for &x in &xs {
-            if finite && !(x as f32).is_finite() {
-                return Err(self.err(CompileErrorKind::NonFiniteConstant { value: x }, span));
-            }
+        // Reported, and lowering goes on to find the others (the result
+        // is an error anyway: see `compile_reporting_all`).
+        if finite && let Some(&x) = xs.iter().find(|x| !(**x as f32).is_finite()) {
+            let e = self.err(CompileErrorKind::NonFiniteConstant { value: x }, span);
+            self.deferred.push(e);
         }
         if let [x] = xs[..] {
             let bits = (x as f32).to_bits();
