@@ -520,8 +520,17 @@ impl<'a> Driver<'a, '_> {
                     }
                     return out;
                 }
+                // At an unterminated string the lexer's E0004 is the
+                // mistake (its missing quote took the rest of the line).
+                let at_open_string = matches!(
+                    &err,
+                    ParseError::UnrecognizedToken { token: (_, t, _), .. }
+                        if t.kind == TokKind::Str && !(t.text.len() >= 2 && t.text.ends_with('"'))
+                );
                 let d = syntax_error(self.file, self.text, err, Some(toks));
-                self.diags.push(d);
+                if !at_open_string {
+                    self.diags.push(d);
+                }
                 if entry == Entry::Top
                     && let Some(item) = recover_decl(toks)
                 {
