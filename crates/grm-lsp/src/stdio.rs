@@ -160,6 +160,10 @@ impl Deframer {
                             (Some((why, skip)), _) => {
                                 if skip > 0 {
                                     self.state = State::Skip(skip);
+                                } else {
+                                    // The body of unknown length follows:
+                                    // skipped with the message, unreported.
+                                    self.garbage = true;
                                 }
                                 return Some(Event::Bad(why));
                             }
@@ -318,7 +322,13 @@ fn valid_id(v: &Value) -> bool {
     }
 }
 
-/// A body the server may read (possibly with lone surrogates replaced),
+/// LSP methods that take no parameters.
+fn no_params(method: &str) -> bool {
+    matches!(method, "shutdown" | "exit")
+}
+
+/// A body the server may read (possibly with lone surrogates replaced,
+/// or empty `params` removed),
 /// or the error response to send instead.
 pub fn check(body: &[u8]) -> Result<Vec<u8>, Vec<u8>> {
     let body = fix_lone_surrogates(body);
@@ -350,11 +360,24 @@ pub fn check(body: &[u8]) -> Result<Vec<u8>, Vec<u8>> {
         return invalid("`id` must be a string or an integer", Value::Null);
     }
     match m.get("method") {
-        Some(Value::String(_)) => {
-            if let Some(p) = m.get("params")
-                && !(p.is_object() || p.is_array())
-            {
-                return invalid("`params` must be an object or an array", id_out);
+        Some(Value::String(method)) => {
+            // `"params": null` is what several clients send for "none"
+            // (Eglot, lsp4ij), and `{}` or `[]` for `shutdown` and `exit`,
+            // which take none: the server reads them as no params (it
+            // refused them, and a refused `exit` left it running).
+            let empty = match m.get("params") {
+                None => false,
+                Some(Value::Null) => true,
+                Some(Value::Object(o)) => o.is_empty() && no_params(method),
+                Some(Value::Array(a)) => a.is_empty() && no_params(method),
+                Some(_) => {
+                    return invalid("`params` must be an object or an array", id_out);
+                }
+            };
+            if empty {
+                let mut m = m.clone();
+                m.remove("params");
+                return Ok(Value::Object(m).to_string().into_bytes());
             }
         }
         Some(_) => return invalid("`method` must be a string", id_out),
@@ -493,11 +516,11 @@ mod tests {
         assert_eq!(got[1], body("{}"));
         // Bad lengths: unparsable (the body then reads as garbage), too
         // large (skipped), missing.
+        // (one answer for the message: its body is skipped unreported).
         let got = events(&[b"Content-Length: abc\r\n\r\n{}\r\nContent-Length: 1\r\n\r\n1"]);
-        assert_eq!(got.len(), 3, "{got:?}");
+        assert_eq!(got.len(), 2, "{got:?}");
         assert!(matches!(&got[0], Event::Bad(m) if m.contains("abc")));
-        assert!(matches!(&got[1], Event::Bad(_)));
-        assert_eq!(got[2], body("1"));
+        assert_eq!(got[1], body("1"));
         let huge = "Content-Length: 1001\r\n\r\n";
         let got = events(&[
             huge.as_bytes(),
@@ -550,6 +573,21 @@ mod tests {
             -32600
         );
         assert_eq!(err(r#"{"jsonrpc":"2.0","id":1}"#)["error"]["code"], -32600);
+        // Empty params where there are none to give: read as none.
+        for m in [
+            r#"{"jsonrpc":"2.0","id":2,"method":"shutdown","params":null}"#,
+            r#"{"jsonrpc":"2.0","id":2,"method":"shutdown","params":{}}"#,
+            r#"{"jsonrpc":"2.0","method":"exit","params":[]}"#,
+            r#"{"jsonrpc":"2.0","method":"initialized","params":null}"#,
+        ] {
+            let v: Value = serde_json::from_str(&ok(m).expect(m)).unwrap();
+            assert!(v.get("params").is_none(), "{m}: {v}");
+        }
+        let kept: Value = serde_json::from_str(
+            &ok(r#"{"jsonrpc":"2.0","method":"initialized","params":{}}"#).unwrap(),
+        )
+        .unwrap();
+        assert_eq!(kept["params"], json!({}));
         assert_eq!(err("\u{1}")["error"]["code"], -32700);
         let bad_utf8 = check(b"{\"jsonrpc\":\"2.0\",\"method\":\"\xff\"}").expect_err("utf-8");
         assert!(String::from_utf8_lossy(&bad_utf8).contains("-32700"));
