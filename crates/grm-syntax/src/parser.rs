@@ -511,10 +511,16 @@ impl<'a> Driver<'a, '_> {
                 // (at several, one statement per line): try splitting there.
                 if let Some(parts) = self.repair(full, err.clone(), entry) {
                     let mut out = Vec::with_capacity(parts.len());
-                    for (stmt, errs, semi_after) in parts {
+                    let last = parts.len() - 1;
+                    for (k, (stmt, errs, semi_after)) in parts.into_iter().enumerate() {
                         push_value_errors(self.file, &mut self.diags, errs);
                         if let Some(at) = semi_after {
                             self.missing_semi(at);
+                        }
+                        // The last one lacks its `;` too when the
+                        // statement ended at `}` or the next item.
+                        if k == last && !terminated {
+                            self.missing_semi(toks[toks.len() - 1].span);
                         }
                         out.push(self.depth_guard(stmt));
                     }
