@@ -51,8 +51,8 @@ pub struct ForestArgs {
     /// setting; at most 100,000).
     #[arg(short = 'n', long = "iterations", value_parser = clap::value_parser!(u32).range(..=i64::from(grm_sema::MAX_ITERATIONS)))]
     pub iterations: Option<u32>,
-    /// The first tree's seed; tree k has SEED + k (default: each system's
-    /// `seed` setting, plus k).
+    /// The first tree's seed; tree k has SEED + k, wrapping past
+    /// 4294967295 to 0 (default: each system's `seed` setting, plus k).
     #[arg(long)]
     pub seed: Option<u32>,
     /// Override a meta-parameter for every tree: `NAME=VALUE`. Repeatable.
@@ -109,10 +109,14 @@ pub struct ForestArgs {
     pub cpu_prefix: u64,
 }
 
+/// The largest `--spacing`: beyond it a grid's far corners lose the
+/// trees' detail to 32-bit float positions (a 1e30 spacing left nothing).
+const MAX_SPACING: f32 = 1e6;
+
 fn parse_spacing(s: &str) -> Result<f32, String> {
     match s.parse::<f32>() {
-        Ok(x) if x.is_finite() && x >= 0.0 => Ok(x),
-        _ => Err(format!("`{s}` is not a finite distance >= 0")),
+        Ok(x) if (0.0..=MAX_SPACING).contains(&x) => Ok(x),
+        _ => Err(format!("`{s}` is not a distance from 0 to {MAX_SPACING:e}")),
     }
 }
 
@@ -336,10 +340,13 @@ pub fn run(args: ForestArgs) -> Outcome {
         note: engine_note,
     } = derived;
 
-    let names: Vec<&str> = systems
-        .iter()
-        .map(|&i| program.systems[i].name.as_str())
-        .collect();
+    let mut names: Vec<&str> = Vec::new();
+    for &i in &systems {
+        let n = program.systems[i].name.as_str();
+        if !names.contains(&n) {
+            names.push(n);
+        }
+    }
     let seeds = match (trees.first(), trees.last()) {
         (Some(a), Some(b)) if trees.len() > 1 => format!("seeds {}-{}", a.seed, b.seed),
         (Some(a), _) => format!("seed {}", a.seed),
@@ -489,7 +496,18 @@ fn plan(
                 drawn.push(x);
                 overrides.push(format!("{}={x}", v.name));
             }
-            compiled.push(compile(system, &overrides)?);
+            let drawn_text: Vec<String> = varies
+                .iter()
+                .zip(&drawn)
+                .map(|(v, x)| format!("{}={x}", v.name))
+                .collect();
+            compiled.push(compile(system, &overrides).inspect_err(|_| {
+                eprintln!(
+                    "note: tree {k} ({}, drawn by --vary: {})",
+                    program.systems[system].name,
+                    drawn_text.join(", ")
+                );
+            })?);
             compiled.len() - 1
         };
         let c = &compiled[index];
@@ -645,6 +663,27 @@ fn report_turtle(loaded: &Loaded, k: usize, e: grm_turtle::TurtleError) -> Outco
     Outcome::InputErrors
 }
 
+/// What a tree's meshes can cover: its skeleton's bounds (bone ends,
+/// shapes, polygons) grown by its thickest tube's radius; `None` when it
+/// has no geometry.
+fn footprint(i: &Interpretation) -> Option<grm_turtle::Aabb> {
+    if i.bounds.is_empty() {
+        return None;
+    }
+    let radius = i
+        .bones
+        .iter()
+        .map(|b| b.width_base.max(b.width_tip))
+        .filter(|w| w.is_finite())
+        .fold(0.0f32, f32::max)
+        / 2.0;
+    let r = glam::Vec3::splat(radius);
+    Some(grm_turtle::Aabb {
+        min: i.bounds.min - r,
+        max: i.bounds.max + r,
+    })
+}
+
 /// The grid: tree `k` in column `k % columns`, row `k / columns`, the
 /// grid centred on the origin (x across, z in depth; trees grow along +y).
 struct Layout {
@@ -668,23 +707,16 @@ impl Layout {
                 // cells max(b) - min(a) apart never overlap.
                 let mut all = grm_turtle::Aabb::EMPTY;
                 for i in grown.iter().filter_map(|g| g.interpretation.as_ref()) {
-                    if !i.bounds.is_empty() {
-                        all = all.union(&i.bounds);
+                    if let Some(b) = footprint(i) {
+                        all = all.union(&b);
                     }
                 }
                 let size = all.size();
-                let (x, z) = (size.x * 1.1, size.z * 1.1);
-                let fallback = if x > 0.0 {
-                    x
-                } else if z > 0.0 {
-                    z
-                } else {
-                    size.y.max(1.0)
-                };
-                (
-                    if x > 0.0 { x } else { fallback },
-                    if z > 0.0 { z } else { fallback },
-                )
+                // Square cells, as wide as the widest extent (a flat
+                // plant's rows as far apart in depth as its columns).
+                let d = (size.x.max(size.z) * 1.1).max(0.0);
+                let d = if d > 0.0 { d } else { size.y.max(1.0) };
+                (d, d)
             }
         };
         Layout {
@@ -697,8 +729,9 @@ impl Layout {
 
     fn place(&self, k: usize) -> glam::Vec3 {
         let (c, r) = (k as u32 % self.columns, k as u32 / self.columns);
-        let x = (c as f32 - (self.columns - 1) as f32 / 2.0) * self.dx;
-        let z = (r as f32 - (self.rows - 1) as f32 / 2.0) * self.dz;
+        // `+ 0.0` turns the centre's -0 into 0 (printed by `--stats`).
+        let x = (c as f32 - (self.columns - 1) as f32 / 2.0) * self.dx + 0.0;
+        let z = (r as f32 - (self.rows - 1) as f32 / 2.0) * self.dz + 0.0;
         glam::Vec3::new(x, 0.0, z)
     }
 }
@@ -795,7 +828,11 @@ fn derive_gpu(
         + r.interpretation
             .as_ref()
             .map_or(Duration::ZERO, |i| i.elapsed));
+    let all_on_cpu = r.stats.iter().skip(1).all(|s| s.on_cpu) && r.stats.len() > 1;
     let note = match &r.interpretation {
+        _ if all_on_cpu => {
+            "on the CPU (every string within --cpu-prefix; --cpu-prefix 0 for the GPU)".to_string()
+        }
         Some(i) => format!(
             "on the GPU in one derivation and interpretation ({} there, {gpu_ms:.3} ms)",
             crate::count(i.bone_count, "bone")
@@ -864,8 +901,9 @@ mod tests {
         ];
         let l = Layout::new(None, None, &grown);
         assert_eq!((l.columns, l.rows), (3, 2));
+        // Square cells as wide as the widest extent (x: -2 .. 3).
         assert!((l.dx - 5.0 * 1.1).abs() < 1e-5, "{}", l.dx);
-        assert!((l.dz - 4.0 * 1.1).abs() < 1e-5, "{}", l.dz);
+        assert_eq!(l.dx, l.dz);
         let boxes: Vec<grm_turtle::Aabb> = grown
             .iter()
             .enumerate()
@@ -897,8 +935,9 @@ mod tests {
         assert!((l.place(0).z + l.place(3).z).abs() < 1e-5);
     }
 
-    /// Flat trees get the spacing across in depth too; `--spacing` and
-    /// `--columns` are taken as given (columns at most the tree count).
+    /// Flat trees get the spacing across in depth too; a thick tube widens
+    /// the cell by its radius; `--spacing` and `--columns` are taken as
+    /// given (columns at most the tree count).
     #[test]
     fn flat_trees_and_given_spacing() {
         let flat = vec![
@@ -908,6 +947,34 @@ mod tests {
         let l = Layout::new(None, None, &flat);
         assert_eq!((l.columns, l.rows), (2, 1));
         assert!((l.dx - 2.2).abs() < 1e-5 && (l.dz - 2.2).abs() < 1e-5);
+        // One bone of width 4 (radius 2) from (0,0,0) to (0,1,0): the mesh
+        // spans -2 .. 2 across.
+        let mut thick = Interpretation::default();
+        thick.bones.push(grm_turtle::Bone {
+            base: Vec3::ZERO,
+            tip: Vec3::Y,
+            left: Vec3::X,
+            parent: None,
+            width_base: 4.0,
+            width_tip: 4.0,
+            paint: grm_turtle::Paint::Palette(0),
+            module: 0,
+            origin: 0,
+        });
+        thick.bounds = grm_turtle::Aabb {
+            min: Vec3::ZERO,
+            max: Vec3::Y,
+        };
+        let grown = vec![
+            Grown {
+                modules: 1,
+                interpretation: Some(thick),
+                text: None,
+            },
+            tree(Vec3::ZERO, Vec3::Y),
+        ];
+        let l = Layout::new(None, None, &grown);
+        assert!((l.dx - 4.4).abs() < 1e-5, "{}", l.dx);
         let l = Layout::new(Some(10), Some(7.0), &flat);
         assert_eq!((l.columns, l.rows, l.dx, l.dz), (2, 1, 7.0, 7.0));
         assert_eq!(l.place(1), Vec3::new(3.5, 0.0, 0.0));

@@ -69,7 +69,7 @@ fn table(stdout: &str) -> Vec<Row> {
 #[test]
 fn stochastic_trees_are_the_plant_with_successive_seeds() {
     let file = "examples/stochastic_plant.grm";
-    for engine in [&[][..], &["--gpu"][..]] {
+    for engine in [&[][..], &["--gpu", "--cpu-prefix", "0"][..]] {
         let mut args = vec![file, "--trees", "5", "--seed", "40", "--print", "-n", "4"];
         args.insert(0, "forest");
         args.extend_from_slice(engine);
@@ -112,7 +112,7 @@ fn stochastic_trees_are_the_plant_with_successive_seeds() {
 #[test]
 fn a_mixed_forest_with_drawn_parameters_is_each_tree_alone() {
     let file = "examples/ternary_tree.grm";
-    let args = |engine: Option<&'static str>| {
+    let args = |engine: &[&'static str]| {
         let mut a = vec![
             "forest",
             file,
@@ -129,14 +129,22 @@ fn a_mixed_forest_with_drawn_parameters_is_each_tree_alone() {
             "--stats",
             "--print",
         ];
-        a.extend(engine);
+        a.extend_from_slice(engine);
         a
     };
-    let (cpu, _) = ok(&args(None));
-    let (again, _) = ok(&args(None));
+    let (cpu, _) = ok(&args(&[]));
+    let (again, _) = ok(&args(&[]));
     assert_eq!(cpu, again, "a forest is the same on every run");
-    let (gpu, _) = ok(&args(Some("--gpu")));
+    let (gpu, err) = ok(&args(&["--gpu", "--cpu-prefix", "0"]));
     assert_eq!(gpu, cpu, "the GPU forest is the CPU one");
+    assert!(err.contains("on the GPU in one derivation"), "{err}");
+    // Small enough for the CPU prefix: the CPU derives it, and says so.
+    let (prefixed, err) = ok(&args(&["--gpu"]));
+    assert_eq!(prefixed, cpu);
+    assert!(
+        err.contains("on the CPU (every string within --cpu-prefix"),
+        "{err}"
+    );
 
     let rows = table(&cpu);
     assert_eq!(rows.len(), 4, "{cpu}");
@@ -263,7 +271,11 @@ fn bad_forests_are_refused_with_the_reason() {
         2,
         "has no system `Nope`",
     );
-    refused(&["forest", f, "--spacing", "-1"], 2, "finite distance");
+    refused(
+        &["forest", f, "--spacing", "-1"],
+        2,
+        "is not a distance from 0",
+    );
     refused(&["forest", f, "-o", "forest.xyz"], 2, "R0406");
     refused(&["forest", "examples/calder_tree.grm"], 1, "R0210");
     refused(&["forest", f, "--cpu-fallback"], 2, "--gpu");
@@ -323,6 +335,8 @@ fn the_gpus_bones_are_the_models() {
         "-n",
         "4",
         "--gpu",
+        "--cpu-prefix",
+        "0",
     ];
     let (_, on_device) = ok(&base);
     let there = on_device
