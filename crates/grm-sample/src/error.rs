@@ -38,6 +38,9 @@ pub enum SampleError {
         limit: u64,
         /// The particles it kept.
         particles: usize,
+        /// The figures of the generations run, this one included (what
+        /// `grmc sample --stats` prints before the error).
+        generations: Vec<crate::GenerationStats>,
     },
     /// The run's [`crate::CancelToken`] was set: the caller asked it to
     /// stop (there is no model, not even a partial one).
@@ -169,7 +172,7 @@ impl SampleError {
                     .into(),
             ),
             SampleError::MemoryLimit { .. } => Some(
-                "sample fewer particles (`--particles`, or the `particles` setting) or fewer generations, or raise the limit (`--max-memory`)"
+                "sample fewer particles (`--particles`, or the `particles_start` and `particles_end` settings) or fewer generations, or raise the limit (`--max-memory`)"
                     .into(),
             ),
             SampleError::Options(_) | SampleError::Cancelled => None,
@@ -222,6 +225,7 @@ impl std::fmt::Display for SampleError {
                 bytes,
                 limit,
                 particles,
+                ..
             } => write!(
                 f,
                 "after generation {}, the search holds {} for its {particles} particles, over the limit of {}",

@@ -1263,13 +1263,14 @@ impl<'a> Sampler<'a> {
         // The bytes of every step in `layers` and `spare` (a recycled
         // step moves from one to the other with its capacity).
         let mut arena_bytes: u64 = layers.iter().flatten().map(|s| s.bytes() as u64).sum();
-        let check_memory = |g: u32, held: u64, particles: usize| {
+        let check_memory = |g: u32, held: u64, particles: usize, stats: &[GenerationStats]| {
             if held > opts.max_bytes {
                 Err(SampleError::MemoryLimit {
                     generation: g,
                     bytes: held,
                     limit: opts.max_bytes,
                     particles,
+                    generations: stats.to_vec(),
                 })
             } else {
                 Ok(())
@@ -1366,7 +1367,7 @@ impl<'a> Sampler<'a> {
                     st.survivors = distinct;
                     st.memory_bytes = held;
                 }
-                check_memory(g, held, next.len())?;
+                check_memory(g, held, next.len(), &stats)?;
                 last = next;
                 break;
             }
@@ -1404,7 +1405,7 @@ impl<'a> Sampler<'a> {
             if let Some(st) = stats.last_mut() {
                 st.memory_bytes = held;
             }
-            check_memory(g, held, pop.len())?;
+            check_memory(g, held, pop.len(), &stats)?;
         }
         drop(pop);
         cancel::check(cancel)?;

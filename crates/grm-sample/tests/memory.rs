@@ -89,6 +89,7 @@ fn a_bound_below_the_figure_stops_after_that_generation() {
             bytes,
             limit: l,
             particles,
+            ref generations,
         } = e
         else {
             panic!("{e:?}");
@@ -97,6 +98,8 @@ fn a_bound_below_the_figure_stops_after_that_generation() {
         assert_eq!(bytes, figures[first as usize]);
         assert_eq!(l, limit);
         assert!(particles > 0);
+        assert_eq!(generations.len() as u32, first + 1);
+        assert_eq!(generations.last().map(|g| g.memory_bytes), Some(bytes));
         assert_eq!(e.code(), grm_diag::Code::SampleMemoryLimit);
         assert!(
             e.to_string()

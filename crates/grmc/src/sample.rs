@@ -290,7 +290,15 @@ pub fn run(args: SampleArgs) -> Outcome {
     };
     let result = match sampler.sample(&opts) {
         Ok(r) => r,
-        Err(e) => return report(&loaded, &e),
+        Err(e) => {
+            // What ran before a memory stop: the table shows its growth.
+            if args.stats
+                && let SampleError::MemoryLimit { generations, .. } = &e
+            {
+                print_generations(generations);
+            }
+            return report(&loaded, &e);
+        }
     };
     let heuristic_text =
         if heuristic && schedule.heuristic_until > 0 && schedule.heuristic_scale > 0.0 {
@@ -329,34 +337,7 @@ pub fn run(args: SampleArgs) -> Outcome {
         schedule.particles_end,
     );
     if args.stats {
-        outln!(
-            "{:>10} {:>9} {:>9} {:>8} {:>8} {:>9} {:>10} {:>12} {:>8} {:>9}",
-            "generation",
-            "particles",
-            "expanding",
-            "ESS",
-            "beta",
-            "survivors",
-            "heuristic",
-            "best cost",
-            "bones",
-            "MiB"
-        );
-        for g in &result.generations {
-            outln!(
-                "{:>10} {:>9} {:>9} {:>8.2} {:>8.5} {:>9} {:>10.5} {:>12.1} {:>8.1} {:>9.2}",
-                g.generation,
-                g.particles,
-                g.expanding,
-                g.ess,
-                g.beta,
-                g.survivors,
-                g.heuristic_scale,
-                g.best_objective,
-                g.mean_bones,
-                g.memory_bytes as f64 / f64::from(1u32 << 20)
-            );
-        }
+        print_generations(&result.generations);
     }
     for (k, m) in result.models.iter().enumerate() {
         let b = &m.cost;
@@ -423,6 +404,38 @@ pub fn run(args: SampleArgs) -> Outcome {
         }
     }
     Outcome::Ok
+}
+
+/// The `--stats` table: a row per generation.
+fn print_generations(generations: &[grm_sample::GenerationStats]) {
+    outln!(
+        "{:>10} {:>9} {:>9} {:>8} {:>8} {:>9} {:>10} {:>12} {:>8} {:>9}",
+        "generation",
+        "particles",
+        "expanding",
+        "ESS",
+        "beta",
+        "survivors",
+        "heuristic",
+        "best cost",
+        "bones",
+        "MiB"
+    );
+    for g in generations {
+        outln!(
+            "{:>10} {:>9} {:>9} {:>8.2} {:>8.5} {:>9} {:>10.5} {:>12.1} {:>8.1} {:>9.2}",
+            g.generation,
+            g.particles,
+            g.expanding,
+            g.ess,
+            g.beta,
+            g.survivors,
+            g.heuristic_scale,
+            g.best_objective,
+            g.mean_bones,
+            g.memory_bytes as f64 / f64::from(1u32 << 20)
+        );
+    }
 }
 
 #[cfg(test)]
