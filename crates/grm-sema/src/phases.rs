@@ -269,6 +269,23 @@ pub(crate) fn check_groups(sys: &System, diags: &mut Vec<Diagnostic>, skip_reach
     }
     let roots: Vec<usize> = sys.axiom.iter().map(|m| m.symbol.index()).collect();
     let seen = reachable(n, &roots, &edges);
+    // The names a typo could have meant: reachable symbols that nothing
+    // rewrites (found once, not once per unreachable symbol: that was
+    // quadratic in the symbols).
+    let nothing_rewrites: Vec<&str> = sys
+        .symbols
+        .iter()
+        .enumerate()
+        .filter(|(t, o)| {
+            seen[*t]
+                && !o.is_terminal()
+                && o.groups.is_empty()
+                && o.wrapup_groups.is_empty()
+                // W0011 explains those (`FX` for `F X`).
+                && (sys.mode != Mode::Derive || run_together_split(sys, o).is_none())
+        })
+        .map(|(_, o)| o.name.as_str())
+        .collect();
     for (s, info) in sys.symbols.iter().enumerate() {
         if seen[s] {
             continue;
@@ -304,19 +321,10 @@ pub(crate) fn check_groups(sys: &System, diags: &mut Vec<Diagnostic>, skip_reach
         let short = info.name.chars().count() < 3;
         let near = suggest::best(
             &info.name,
-            sys.symbols
+            nothing_rewrites
                 .iter()
-                .enumerate()
-                .filter(|(t, o)| {
-                    seen[*t]
-                        && !o.is_terminal()
-                        && o.groups.is_empty()
-                        && o.wrapup_groups.is_empty()
-                        // W0011 explains those (`FX` for `F X`).
-                        && (sys.mode != Mode::Derive || run_together_split(sys, o).is_none())
-                        && (!short || o.name.to_lowercase() == info.name.to_lowercase())
-                })
-                .map(|(_, o)| o.name.as_str()),
+                .copied()
+                .filter(|o| !short || o.to_lowercase() == info.name.to_lowercase()),
         );
         let written = near.and_then(|near| {
             let modules = sys.axiom.iter().chain(
