@@ -264,7 +264,11 @@ impl Sys<'_, '_> {
             self.err(
                 Diagnostic::new(
                     Code::MissingAxiom,
-                    format!("system `{}` has no axiom", s.name.name),
+                    if s.name.name.is_empty() {
+                        "this system has no axiom".to_string()
+                    } else {
+                        format!("system `{}` has no axiom", s.name.name)
+                    },
                     file,
                     s.name.span,
                     "no `axiom` in this system",
