@@ -1,7 +1,7 @@
 //! Typed derivation errors, each with a stable code (`R02xx`) and a place.
 
 use grm_compile::vm::VmError;
-use grm_diag::{Code, Diagnostic, FileId, Span};
+use grm_diag::{Code, Diagnostic, FileId, Span, mib};
 
 /// Why a derivation stopped.
 #[derive(Clone, Debug, PartialEq)]
@@ -194,10 +194,6 @@ impl DeriveError {
 /// The help line of errors that only a bug in grm can cause.
 const INTERNAL: &str =
     "this is an internal error of grm; please report it with the file that caused it";
-
-fn mib(bytes: u64) -> String {
-    format!("{:.1} MiB", bytes as f64 / (1024.0 * 1024.0))
-}
 
 impl std::fmt::Display for DeriveError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {

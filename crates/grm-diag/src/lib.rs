@@ -107,6 +107,18 @@ fn line_starts(text: &str) -> Vec<u32> {
 }
 
 /// Whether `text` contains a line break (`\n`, `\r\n` or a lone `\r`).
+/// A byte count in MiB for a message, the one format every limit message
+/// uses: two decimals below 10 MiB (so 1 MiB and 0.01 MiB are told
+/// apart), whole MiB from there.
+pub fn mib(bytes: u64) -> String {
+    let m = bytes as f64 / f64::from(1u32 << 20);
+    if m < 10.0 {
+        format!("{m:.2} MiB")
+    } else {
+        format!("{m:.0} MiB")
+    }
+}
+
 pub fn has_line_break(text: &str) -> bool {
     text.bytes().any(|b| b == b'\n' || b == b'\r')
 }

@@ -220,7 +220,9 @@ impl fmt::Display for GpuError {
                 limit,
             } => write!(
                 f,
-                "iteration {iteration} would need {bytes} bytes of GPU memory, over the limit of {limit}"
+                "iteration {iteration} would need {} of GPU memory, over the limit of {}",
+                grm_diag::mib(*bytes),
+                grm_diag::mib(*limit)
             ),
             GpuError::Runtime {
                 iteration,

@@ -2,7 +2,7 @@
 //! there is one, the place in the source.
 
 use grm_compile::vm::VmError;
-use grm_diag::{Code, Diagnostic, FileId, Span};
+use grm_diag::{Code, Diagnostic, FileId, Span, mib};
 
 /// Why sampling stopped.
 #[derive(Clone, Debug, PartialEq)]
@@ -177,16 +177,6 @@ impl SampleError {
             ),
             SampleError::Options(_) | SampleError::Cancelled => None,
         }
-    }
-}
-
-/// Bytes in MiB for a message (two decimals below 10 MiB).
-fn mib(b: u64) -> String {
-    let m = b as f64 / f64::from(1u32 << 20);
-    if m < 10.0 {
-        format!("{m:.2} MiB")
-    } else {
-        format!("{m:.0} MiB")
     }
 }
 
