@@ -468,7 +468,11 @@ impl<'a> Driver<'a, '_> {
                 TokKind::RBrace if in_block => return i,
                 // `mesh`/`material` are also terminals inside module strings
                 // (`mesh(leaf)`); they start an item only as `mesh NAME =`.
-                _ if !first && starts_item_at(self.toks, i) => return i,
+                // A keyword in a declaration's name place (`const system =
+                // 1;`) is a misused name, not the next item.
+                _ if !first && starts_item_at(self.toks, i) && !self.keyword_as_name(i) => {
+                    return i;
+                }
                 _ => {}
             }
             first = false;
@@ -477,11 +481,49 @@ impl<'a> Driver<'a, '_> {
         i
     }
 
+    /// Whether token `i` is a keyword written where the declaration
+    /// starting just before it names what it declares: `const system = 1;`.
+    fn keyword_as_name(&self, i: usize) -> bool {
+        let kind = |j: usize| self.toks.get(j).map(|t| t.kind);
+        i == self.pos + 1
+            && matches!(kind(self.pos), Some(TokKind::Const | TokKind::Param))
+            && kind(i).is_some_and(TokKind::starts_top_item)
+            && kind(i + 1) == Some(TokKind::Assign)
+    }
+
     /// Parse one statement (tokens up to and including `;` if present).
     /// May yield two statements when a missing `;` is repaired.
     fn statement(&mut self, toks: &[Token<'a>], entry: Entry) -> Vec<Stmt> {
         if toks.is_empty() {
             return Vec::new();
+        }
+        // `const system = 1;`: one diagnostic saying so (the grammar would
+        // only say it expected a name).
+        if toks.len() >= 2
+            && matches!(toks[0].kind, TokKind::Const | TokKind::Param)
+            && toks[1].kind.starts_top_item()
+        {
+            let what = if toks[0].kind == TokKind::Const {
+                "a constant"
+            } else {
+                "a parameter"
+            };
+            self.diags.push(
+                Diagnostic::new(
+                    Code::UnexpectedToken,
+                    format!("`{}` is a keyword: it cannot name {what}", toks[1].text),
+                    self.file,
+                    toks[1].span,
+                    "a keyword here",
+                )
+                .with_help(format!("choose another name, e.g. `{}_`", toks[1].text)),
+            );
+            let span = toks[0].span.to(toks[toks.len() - 1].span);
+            return vec![match entry {
+                Entry::Top => Stmt::Item(Item::Error(span)),
+                Entry::Sys => Stmt::SysItem(SystemItem::Error(span)),
+                Entry::Mat => return Vec::new(),
+            }];
         }
         let terminated = toks.last().is_some_and(|t| t.kind == TokKind::Semi);
         let mut owned;
