@@ -1008,7 +1008,10 @@ impl<'a> Checker<'a> {
         let Some(root) = self.files.first() else {
             return;
         };
-        let root_has_system = root.ast.items.iter().any(|i| matches!(i, Item::System(_)));
+        // A system of an imported file runs from this one too (`grmc
+        // derive FILE` derives it): not "nothing to run".
+        let root_has_system = !self.program.systems.is_empty()
+            || root.ast.items.iter().any(|i| matches!(i, Item::System(_)));
         let root_has_holes =
             root.broken || root.ast.items.iter().any(|i| matches!(i, Item::Error(_)));
         // A file of shared definitions (constants, parameters, meshes,
@@ -1019,7 +1022,13 @@ impl<'a> Checker<'a> {
                 Item::Const(_) | Item::Param(_) | Item::Mesh(_) | Item::Material(_)
             )
         });
-        if !root_has_system && !root_defines && !root_has_holes {
+        // After an error (an import that failed) the file is to be fixed
+        // first: no warning on top.
+        let has_errors = self
+            .diags
+            .iter()
+            .any(|d| d.severity == grm_diag::Severity::Error);
+        if !root_has_system && !root_defines && !root_has_holes && !has_errors {
             self.diags.push(
                 Diagnostic::new(
                     Code::NoSystem,

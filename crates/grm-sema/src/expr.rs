@@ -289,7 +289,10 @@ impl Checker<'_> {
                         func.span,
                         "not a built-in function",
                     );
-                    if terminal_forms(&func.name).is_some() {
+                    if func.name == "not" {
+                        // `not (x > 2)`, from other tools' notation.
+                        d = d.with_help("write `!` for not: `!(x > 2)`");
+                    } else if terminal_forms(&func.name).is_some() {
                         d = d.with_help(format!(
                             "`{}` is a module: it can appear in a successor or axiom, not inside an expression",
                             func.name

@@ -287,7 +287,13 @@ pub(crate) fn check_groups(sys: &System, diags: &mut Vec<Diagnostic>, skip_reach
         .map(|(_, o)| o.name.as_str())
         .collect();
     for (s, info) in sys.symbols.iter().enumerate() {
-        if seen[s] {
+        // Productions for `[` and `]` are E0311 already.
+        if seen[s]
+            || matches!(
+                info.kind,
+                SymbolKind::Terminal(Terminal::Push | Terminal::Pop)
+            )
+        {
             continue;
         }
         let mut gids = info.groups.iter().chain(&info.wrapup_groups);

@@ -1086,6 +1086,10 @@ fn other_notation(t: &Token<'_>, at: usize, stmt: Option<&[Token<'_>]>) -> Optio
             rest.join(" ")
         ));
     }
+    // `not x > 2`: `not` read as a name, then the operand unexpected.
+    if i > 0 && s[i - 1].kind == TokKind::Ident && s[i - 1].text == "not" && colon_before {
+        return Some("write `!` for not: `!(x > 2)`".into());
+    }
     match t.kind {
         TokKind::Assign if colon_before && arrow_after => {
             Some("to compare, write `==` (`=` only gives a setting or a constant its value)".into())

@@ -313,8 +313,8 @@ pub fn run(args: SampleArgs) -> Outcome {
     let guided = args.cost == CostKind::Curves && opts.temperature.is_finite();
     let k = if guided { opts.candidates } else { 1 };
     // At an infinite temperature every particle weighs the same: there is
-    // nothing to temper.
-    let weights_text = if opts.ess_target > 0.0 && guided {
+    // nothing to temper. Either objective is tempered otherwise.
+    let weights_text = if opts.ess_target > 0.0 && opts.temperature.is_finite() {
         format!(
             ", {}, ESS >= {} N",
             crate::count(k, "candidate"),

@@ -156,9 +156,20 @@ fn candidates_are_an_option() {
     assert!(one.contains("1 candidate, untempered"), "{one}");
     assert!(cost(&one).is_finite() && cost(&default).is_finite());
     assert_ne!(cost(&one), cost(&default), "{one}\n{default}");
-    // The volume baseline has no candidates.
+    // The volume baseline has no candidates, and is tempered as the
+    // curves are (the summary said "untempered" while it was not).
     let volume = run(&["--cost", "volume"]);
-    assert!(volume.contains("1 candidate,"), "{volume}");
+    assert!(volume.contains("1 candidate, ESS >= 0.1 N"), "{volume}");
+    let untempered = run(&["--cost", "volume", "--ess-target", "0"]);
+    assert!(
+        untempered.contains("1 candidate, untempered"),
+        "{untempered}"
+    );
+    assert_ne!(
+        cost(&volume),
+        cost(&untempered),
+        "tempering changes the run"
+    );
     // 0 candidates is a usage error, not a silent 1.
     let o = grmc(&[
         "sample",
