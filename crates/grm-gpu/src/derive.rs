@@ -1606,7 +1606,12 @@ impl<'a> GpuSystem<'a> {
         // its input's ranges are the saved directory.
         self.check_status(st, 1, iteration - 1, None, previous)?;
         self.check_status(st, 0, iteration, Some(input), &self.tables)?;
-        if word(0) == u32::MAX || word(1) == u32::MAX {
+        // A saturated module count is over any module limit below it: the
+        // limit is reported, as the CPU reports it (R0201), before the
+        // indices that could not hold the string anyway.
+        if (word(0) == u32::MAX && opts.max_modules >= u64::from(u32::MAX))
+            || (word(0) != u32::MAX && word(1) == u32::MAX)
+        {
             return Err(GpuError::CountOverflow {
                 what: "derived modules or parameter words",
                 count: m.max(w),

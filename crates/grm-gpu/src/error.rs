@@ -4,6 +4,10 @@ use std::fmt;
 
 use grm_diag::{Code, Diagnostic, FileId, Span};
 
+/// A count the kernels' scan saturated at (`u32::MAX`): the real count is
+/// larger.
+const SATURATED: u64 = u32::MAX as u64;
+
 /// Everything that can go wrong on the GPU path. Library calls return this;
 /// they never panic on user input and never let a derivation outgrow the
 /// device (sizes are checked before each dispatch).
@@ -187,9 +191,16 @@ impl fmt::Display for GpuError {
                 "the {what} buffer would need {bytes} bytes, over the device's {limit_name} of \
                  {limit} bytes; derive fewer iterations or use the CPU engine"
             ),
+            // The kernels' counts saturate at u32::MAX: such a count is a
+            // lower bound.
+            GpuError::CountOverflow { what, count } if *count >= SATURATED => write!(
+                f,
+                "{what} (more than {}) do not fit 32-bit GPU indices; derive fewer iterations or use the CPU engine",
+                SATURATED - 1
+            ),
             GpuError::CountOverflow { what, count } => write!(
                 f,
-                "{what} ({count}) does not fit 32-bit GPU indices; derive fewer iterations or use the CPU engine"
+                "{what} ({count}) do not fit 32-bit GPU indices; derive fewer iterations or use the CPU engine"
             ),
             GpuError::TooManyWorkgroups {
                 what,
@@ -206,6 +217,15 @@ impl fmt::Display for GpuError {
             GpuError::UnbalancedBrackets { position: None } => {
                 write!(f, "unbalanced brackets: a `]` closes no `[`")
             }
+            GpuError::ModuleLimit {
+                iteration,
+                modules,
+                limit,
+            } if *modules >= SATURATED => write!(
+                f,
+                "iteration {iteration} would produce more than {} modules, over the limit of {limit}",
+                SATURATED - 1
+            ),
             GpuError::ModuleLimit {
                 iteration,
                 modules,
