@@ -79,6 +79,27 @@ fn a_count_past_32_bits_is_a_typed_error() {
             other.map(|d| d.string.len())
         ),
     }
+    // Under a module limit below 2^32 the same count is the limit's error
+    // (R0201, as the CPU reports it), saying the count is a lower bound.
+    let limited = GpuDeriveOptions {
+        max_modules: 50_000_000,
+        ..unlimited(2)
+    };
+    match derive(g, &sys, &limited) {
+        Err(e @ GpuError::ModuleLimit { .. }) => {
+            assert_eq!(e.code(), Code::ModuleLimit);
+            assert!(
+                e.to_string().contains("more than 4294967294 modules"),
+                "{e}"
+            );
+        }
+        other => panic!(
+            "expected ModuleLimit, got {:?}",
+            other.map(|d| d.string.len())
+        ),
+    }
+    let e = derive(g, &sys, &unlimited(2)).expect_err("overflows");
+    assert!(e.to_string().contains("(more than 4294967294)"), "{e}");
 }
 
 #[test]
