@@ -811,12 +811,7 @@ fn derive_gpu(
         Ok(r) => r,
         // The CPU engine finds the same error and names its source.
         Err(e @ GpuError::Runtime { .. }) => return GpuOutcome::Runtime(e),
-        Err(
-            e @ (GpuError::ModuleLimit { .. }
-            | GpuError::MemoryLimit { .. }
-            | GpuError::CountOverflow { .. }
-            | GpuError::UnbalancedBrackets { .. }),
-        ) => {
+        Err(e) if crate::gpu::input_limit(&e) => {
             emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));
             return GpuOutcome::Stop(Outcome::InputErrors);
         }

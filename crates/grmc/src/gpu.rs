@@ -37,6 +37,19 @@ pub(crate) fn device_problem(e: &GpuError) -> bool {
     )
 }
 
+/// Whether a GPU error is the derivation outgrowing a limit (the user's,
+/// or the 32-bit indices) or an unbalanced string: the input's fault
+/// (exit 1), reported as it is, never a reason to fall back to the CPU.
+pub(crate) fn input_limit(e: &GpuError) -> bool {
+    matches!(
+        e,
+        GpuError::ModuleLimit { .. }
+            | GpuError::MemoryLimit { .. }
+            | GpuError::CountOverflow { .. }
+            | GpuError::UnbalancedBrackets { .. }
+    )
+}
+
 /// The exit outcome of a GPU error that stops the run: a derivation that
 /// outgrows the device is a limit, like the CPU's R0201/R0202 (exit 1); no
 /// device or a failing one is the environment (exit 2).
@@ -133,12 +146,7 @@ pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
                 }
             });
         }
-        Err(
-            e @ (GpuError::ModuleLimit { .. }
-            | GpuError::MemoryLimit { .. }
-            | GpuError::CountOverflow { .. }
-            | GpuError::UnbalancedBrackets { .. }),
-        ) => {
+        Err(e) if input_limit(&e) => {
             emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));
             return Some(Outcome::InputErrors);
         }

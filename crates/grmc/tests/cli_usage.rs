@@ -465,13 +465,35 @@ fn printed_strings_read_back_as_an_axiom() {
     assert_eq!(text(&out.stdout).trim_end(), printed);
 }
 
+/// An LSP message framed for the wire.
+fn lsp_frame(body: &[u8]) -> Vec<u8> {
+    let mut f = format!("Content-Length: {}\r\n\r\n", body.len()).into_bytes();
+    f.extend_from_slice(body);
+    f
+}
+
+/// The next message `grmc lsp` writes, as text.
+fn lsp_read(stdout: &mut impl std::io::BufRead) -> String {
+    let mut len = 0;
+    let mut line = String::new();
+    while stdout.read_line(&mut line).expect("read") > 2 {
+        if let Some(n) = line.trim().strip_prefix("Content-Length: ") {
+            len = n.parse().expect("a length");
+        }
+        line.clear();
+    }
+    let mut body = vec![0; len];
+    stdout.read_exact(&mut body).expect("a message");
+    String::from_utf8_lossy(&body).into_owned()
+}
+
 /// `grmc lsp` exits 0 after `shutdown` then `exit`, and 1 after an `exit`
 /// with no `shutdown` before it (LSP's rule for the exit notification).
 #[test]
 fn lsp_exit_code_follows_shutdown() {
-    use std::io::{BufRead, BufReader, Read, Write};
+    use std::io::{BufReader, Write};
     use std::process::{Command, Stdio};
-    let frame = |body: &str| format!("Content-Length: {}\r\n\r\n{body}", body.len());
+    let frame = |body: &str| lsp_frame(body.as_bytes());
     let init = r#"{"jsonrpc":"2.0","id":1,"method":"initialize","params":{"capabilities":{}}}"#;
     let shutdown = r#"{"jsonrpc":"2.0","id":2,"method":"shutdown"}"#;
     let exit = r#"{"jsonrpc":"2.0","method":"exit"}"#;
@@ -487,25 +509,11 @@ fn lsp_exit_code_follows_shutdown() {
         let mut stdout = BufReader::new(child.stdout.take().expect("stdout"));
         // Each request waits for its response, as a client does.
         for (id, m) in requests.iter().enumerate() {
-            stdin.write_all(frame(m).as_bytes()).expect("write");
+            stdin.write_all(&frame(m)).expect("write");
             stdin.flush().expect("flush");
-            loop {
-                let mut len = 0;
-                let mut line = String::new();
-                while stdout.read_line(&mut line).expect("read") > 2 {
-                    if let Some(n) = line.trim().strip_prefix("Content-Length: ") {
-                        len = n.parse().expect("a length");
-                    }
-                    line.clear();
-                }
-                let mut body = vec![0; len];
-                stdout.read_exact(&mut body).expect("a message");
-                if String::from_utf8_lossy(&body).contains(&format!("\"id\":{}", id + 1)) {
-                    break;
-                }
-            }
+            while !lsp_read(&mut stdout).contains(&format!("\"id\":{}", id + 1)) {}
         }
-        stdin.write_all(frame(exit).as_bytes()).expect("write");
+        stdin.write_all(&frame(exit)).expect("write");
         drop(stdin);
         let status = child.wait().expect("grmc lsp ends");
         assert_eq!(status.code(), Some(want), "{requests:?}");
@@ -518,13 +526,9 @@ fn lsp_exit_code_follows_shutdown() {
 /// end of stdin open.
 #[test]
 fn lsp_survives_malformed_messages() {
-    use std::io::{BufRead, BufReader, Read, Write};
+    use std::io::{BufReader, Write};
     use std::process::{Command, Stdio};
-    let frame = |body: &[u8]| {
-        let mut f = format!("Content-Length: {}\r\n\r\n", body.len()).into_bytes();
-        f.extend_from_slice(body);
-        f
-    };
+    let frame = lsp_frame;
     let mut child = Command::new(env!("CARGO_BIN_EXE_grmc"))
         .arg("lsp")
         .stdin(Stdio::piped())
@@ -534,19 +538,7 @@ fn lsp_survives_malformed_messages() {
         .expect("grmc lsp starts");
     let mut stdin = child.stdin.take().expect("stdin");
     let mut stdout = BufReader::new(child.stdout.take().expect("stdout"));
-    let mut read = move || -> String {
-        let mut len = 0;
-        let mut line = String::new();
-        while stdout.read_line(&mut line).expect("read") > 2 {
-            if let Some(n) = line.trim().strip_prefix("Content-Length: ") {
-                len = n.parse().expect("a length");
-            }
-            line.clear();
-        }
-        let mut body = vec![0; len];
-        stdout.read_exact(&mut body).expect("a message");
-        String::from_utf8_lossy(&body).into_owned()
-    };
+    let mut read = move || lsp_read(&mut stdout);
     let mut send = |bytes: &[u8]| {
         stdin.write_all(bytes).expect("write");
         stdin.flush().expect("flush");
