@@ -412,7 +412,9 @@ pub fn run(args: ForestArgs) -> Outcome {
     };
     let mut forest = Interpretation::default();
     let mut module_base = 0u64;
-    for (k, g) in grown.iter().enumerate() {
+    // Each tree's own interpretation is dropped once it is in the forest
+    // (not both held to the end).
+    for (k, g) in grown.into_iter().enumerate() {
         let Some(interp) = &g.interpretation else {
             continue;
         };
