@@ -465,6 +465,25 @@ fn printed_strings_read_back_as_an_axiom() {
     assert_eq!(text(&out.stdout).trim_end(), printed);
 }
 
+/// `grmc lsp` started with piped stdin and stdout.
+fn lsp_child() -> (
+    std::process::Child,
+    std::process::ChildStdin,
+    std::io::BufReader<std::process::ChildStdout>,
+) {
+    use std::process::{Command, Stdio};
+    let mut child = Command::new(env!("CARGO_BIN_EXE_grmc"))
+        .arg("lsp")
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("grmc lsp starts");
+    let stdin = child.stdin.take().expect("stdin");
+    let stdout = std::io::BufReader::new(child.stdout.take().expect("stdout"));
+    (child, stdin, stdout)
+}
+
 /// An LSP message framed for the wire.
 fn lsp_frame(body: &[u8]) -> Vec<u8> {
     let mut f = format!("Content-Length: {}\r\n\r\n", body.len()).into_bytes();
@@ -491,22 +510,13 @@ fn lsp_read(stdout: &mut impl std::io::BufRead) -> String {
 /// with no `shutdown` before it (LSP's rule for the exit notification).
 #[test]
 fn lsp_exit_code_follows_shutdown() {
-    use std::io::{BufReader, Write};
-    use std::process::{Command, Stdio};
+    use std::io::Write;
     let frame = |body: &str| lsp_frame(body.as_bytes());
     let init = r#"{"jsonrpc":"2.0","id":1,"method":"initialize","params":{"capabilities":{}}}"#;
     let shutdown = r#"{"jsonrpc":"2.0","id":2,"method":"shutdown"}"#;
     let exit = r#"{"jsonrpc":"2.0","method":"exit"}"#;
     for (requests, want) in [(vec![init, shutdown], 0), (vec![init], 1)] {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_grmc"))
-            .arg("lsp")
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("grmc lsp starts");
-        let mut stdin = child.stdin.take().expect("stdin");
-        let mut stdout = BufReader::new(child.stdout.take().expect("stdout"));
+        let (mut child, mut stdin, mut stdout) = lsp_child();
         // Each request waits for its response, as a client does.
         for (id, m) in requests.iter().enumerate() {
             stdin.write_all(&frame(m)).expect("write");
@@ -526,18 +536,9 @@ fn lsp_exit_code_follows_shutdown() {
 /// end of stdin open.
 #[test]
 fn lsp_survives_malformed_messages() {
-    use std::io::{BufReader, Write};
-    use std::process::{Command, Stdio};
+    use std::io::Write;
     let frame = lsp_frame;
-    let mut child = Command::new(env!("CARGO_BIN_EXE_grmc"))
-        .arg("lsp")
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("grmc lsp starts");
-    let mut stdin = child.stdin.take().expect("stdin");
-    let mut stdout = BufReader::new(child.stdout.take().expect("stdout"));
+    let (mut child, mut stdin, mut stdout) = lsp_child();
     let mut read = move || lsp_read(&mut stdout);
     let mut send = |bytes: &[u8]| {
         stdin.write_all(bytes).expect("write");
