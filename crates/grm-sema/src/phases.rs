@@ -296,6 +296,17 @@ pub(crate) fn check_groups(sys: &System, diags: &mut Vec<Diagnostic>, skip_reach
         {
             continue;
         }
+        // Productions whose every condition is already an error (ABoP's
+        // label `p1: F -> F F` reads as a predecessor `p1` whose condition
+        // is the unknown name `F`) say nothing more by being unreachable.
+        if info
+            .groups
+            .iter()
+            .chain(&info.wrapup_groups)
+            .all(|id| matches!(&sys.groups[id.index()].condition, Some(c) if c.ty == Ty::Error))
+        {
+            continue;
+        }
         let mut gids = info.groups.iter().chain(&info.wrapup_groups);
         let Some(first) = gids.next() else {
             continue;

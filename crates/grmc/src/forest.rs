@@ -542,7 +542,8 @@ fn derive_cpu(
     enum Failure {
         Derive(grm_derive::DeriveError),
         Turtle(grm_turtle::TurtleError),
-        /// The forest's total passed the limit (modules so far).
+        /// The forest's total passed the limit (modules so far) with
+        /// this tree.
         Forest(u64),
         /// Not derived: another tree stopped the forest.
         Skipped,
@@ -616,16 +617,34 @@ fn derive_cpu(
                     &e,
                 ));
             }
-            Err(Failure::Turtle(e)) => return Err(report_turtle(loaded, k, e)),
-            Err(Failure::Forest(sum)) => over = over.max(Some(sum)),
+            Err(Failure::Turtle(e)) => {
+                return Err(report_turtle(loaded, &compiled[trees[k].compiled], k, e));
+            }
+            Err(Failure::Forest(sum)) => {
+                if over.is_none_or(|(s, _)| sum > s) {
+                    over = Some((sum, k));
+                }
+            }
             Err(Failure::Skipped) => {}
         }
     }
-    if let Some(sum) = over {
-        eprintln!(
-            "error: the forest's strings hold {sum} modules or more together, over the limit of {} \
-             (--max-modules); plant fewer or smaller trees, or raise the limit",
-            lim.max_modules
+    if let Some((sum, k)) = over {
+        // R0201 as for one string: the forest's strings are bounded
+        // together, as on the GPU where they are one string.
+        let c = &compiled[trees[k].compiled];
+        emit(
+            &loaded.sources,
+            &grm_diag::Diagnostic::new(
+                grm_diag::Code::ModuleLimit,
+                format!(
+                    "the forest's strings would hold {sum} modules or more together, more than the limit of {}",
+                    lim.max_modules
+                ),
+                c.file,
+                c.span,
+                format!("tree {k} (seed {}) took the forest over the limit", trees[k].seed),
+            )
+            .with_help("plant fewer trees (`--trees`), derive fewer iterations (`-n`), or raise the limit (`--max-modules`)"),
         );
         return Err(Outcome::InputErrors);
     }
@@ -655,8 +674,12 @@ fn text(loaded: &Loaded, t: &Tree, s: &ModuleString) -> String {
 
 /// Report a tree's turtle error (a string its own system did not make:
 /// not expected of a checked system); the outcome to exit with.
-fn report_turtle(loaded: &Loaded, k: usize, e: grm_turtle::TurtleError) -> Outcome {
-    let c = &loaded.compiled;
+fn report_turtle(
+    loaded: &Loaded,
+    c: &CompiledSystem,
+    k: usize,
+    e: grm_turtle::TurtleError,
+) -> Outcome {
     eprintln!("error: tree {k}:");
     emit(
         &loaded.sources,
@@ -858,7 +881,9 @@ fn derive_gpu(
                 interpretation,
                 text: args.print.then(|| text(loaded, &trees[k], s)),
             }),
-            Err(e) => return GpuOutcome::Stop(report_turtle(loaded, k, e)),
+            Err(e) => {
+                return GpuOutcome::Stop(report_turtle(loaded, &compiled[trees[k].compiled], k, e));
+            }
         }
     }
     GpuOutcome::Done(Derived {

@@ -311,7 +311,9 @@ fn the_limit_bounds_the_forest_together() {
         "--max-modules",
         "5000",
     ];
-    refused(&args, 1, "over the limit of 5000 (--max-modules)");
+    refused(&args, 1, "[R0201]");
+    refused(&args, 1, "more than the limit of 5000");
+    refused(&args, 1, "took the forest over the limit");
     let mut gpu = args.to_vec();
     gpu.push("--gpu");
     refused(&gpu, 1, "R0201");
