@@ -40,6 +40,10 @@ pub(crate) struct Grammar<'a> {
     /// a bone-drawing terminal (`F`, `G`): the symbols whose expansions
     /// are drawn as several candidates (`SampleOptions::candidates`).
     pub can_bone: Vec<bool>,
+    /// Per symbol: a skeleton symbol with productions none of which can
+    /// ever lead to a bone or finish ([`System::skeleton_grows`], W0015).
+    /// A particle whose open symbols are all such is done searching.
+    pub dead: Vec<bool>,
     pub cfg: TurtleConfig,
 }
 
@@ -122,12 +126,20 @@ impl<'a> Grammar<'a> {
                 })
             })
             .collect();
+        let grows = system.skeleton_grows();
+        let dead = system
+            .symbols
+            .iter()
+            .zip(&grows)
+            .map(|(s, g)| s.phase == Phase::Skeleton && !s.groups.is_empty() && !g)
+            .collect();
         Grammar {
             sys,
             ops,
             phase,
             words,
             can_bone,
+            dead,
             cfg: TurtleConfig::from_settings(&sys.settings),
         }
     }

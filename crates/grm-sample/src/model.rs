@@ -114,7 +114,8 @@ pub struct GenerationStats {
     pub generation: u32,
     /// Particles expanded in this generation.
     pub particles: usize,
-    /// Of them, those that still had an open skeleton symbol.
+    /// Of them, those still searching: with an open skeleton symbol that
+    /// can lead to a bone or finish (not W0015's).
     pub expanding: usize,
     /// Effective sample size of the generation's weights (after
     /// tempering, the weights resampling uses), in `[1, particles]`.

@@ -194,6 +194,10 @@ pub(crate) struct Particle {
     pub score: f64,
     /// Skeleton bones scored so far.
     pub bones: u32,
+    /// Open symbols that can still lead to a bone or finish (not
+    /// `Grammar::dead`); at 0 the particle's search is over and wrap-up
+    /// closes what is open.
+    pub live: u32,
 }
 
 impl Particle {

@@ -727,6 +727,14 @@ impl<'a> Sampler<'a> {
         // symbol (one path copy instead of a removal and an append); the
         // others are appended, or the slot is removed when there are none.
         let n = local.spawns.len() as u32 - s0;
+        let live = |s: u32| !self.g.dead.get(s as usize).copied().unwrap_or(false);
+        let opened = local.spawns[s0 as usize..]
+            .iter()
+            .filter(|sp| live(sp.symbol))
+            .count() as u32;
+        // The expanded symbol (open at `slot`) is closed.
+        let closed = u32::from(slot.is_some() && live(symbol));
+        p.live = (p.live + opened).saturating_sub(closed);
         let mut first_new = 0;
         if let Some(i) = slot {
             let open = if n > 0 {
@@ -782,6 +790,7 @@ impl<'a> Sampler<'a> {
             heuristic: 0,
             score: 0.0,
             bones: 0,
+            live: 0,
         };
         self.add_bones(w, &mut p, &[], None);
         let mut step = Step::default();
@@ -949,7 +958,9 @@ impl<'a> Sampler<'a> {
         let compute_h = h_scale > 0.0;
         let mut k = 0;
         let mut correction = 0.0;
-        while !q.open.is_empty() && k < max_k {
+        // A particle whose open symbols can none lead to a bone (W0015)
+        // has nothing left to search: wrap-up closes them.
+        while q.live > 0 && k < max_k {
             let draws = skeleton_draws(seed, g, i, k);
             let idx = pick(&draws, self.g.sys.draws, q.open.len());
             k += 1;
@@ -1346,7 +1357,7 @@ impl<'a> Sampler<'a> {
             stats.push(GenerationStats {
                 generation: g,
                 particles: next.len(),
-                expanding: pop.iter().filter(|p| !p.open.is_empty()).count(),
+                expanding: pop.iter().filter(|p| p.live > 0).count(),
                 ess: resample::ess(&weights),
                 beta,
                 survivors: 0,

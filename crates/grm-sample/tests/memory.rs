@@ -108,3 +108,46 @@ fn a_bound_below_the_figure_stops_after_that_generation() {
         );
     }
 }
+
+/// A particle whose open symbols can none ever draw a bone or finish
+/// (W0015: `b -> +(10) b b;`) stops searching: before, each step expanded
+/// `b`s up to the per-step limit, doubling them, until the search ran out
+/// of memory (R0310). The bones drawn before `b` took over are kept.
+#[test]
+fn particles_left_with_symbols_that_never_draw_stop_searching() {
+    let p = program(
+        "never_draws.grm",
+        "system S {
+            mode = sample;
+            axiom A;
+            skeleton A, b;
+            A -> (1) F(1) A;
+            A -> (1) F(1) b;
+            b -> +(10) b b;
+            wrapup A -> ;
+            wrapup b -> ;
+        }",
+    );
+    let c = compile(&p, 0);
+    let curves = calder_curves();
+    let s = curves_sampler(&p, &c, &curves);
+    let r = s
+        .sample(&SampleOptions {
+            schedule: schedule(),
+            ..SampleOptions::default()
+        })
+        .expect("samples");
+    let last = r.generations.last().expect("generations");
+    assert_eq!(last.expanding, 0, "{last:?}");
+    assert_eq!(last.expansions, 0, "{last:?}");
+    // The whole run expanded about one symbol per bone.
+    let expansions: u64 = r.generations.iter().map(|g| g.expansions).sum();
+    let bones: f64 = r.generations.iter().map(|g| g.mean_bones).sum();
+    assert!(expansions < 20 * 60, "{expansions} expansions");
+    assert!(bones > 0.0);
+    assert!(last.memory_bytes < 4 << 20, "{} bytes", last.memory_bytes);
+    assert!(
+        r.models[0].skeleton_bones > 0,
+        "the bones drawn before `b` stay"
+    );
+}

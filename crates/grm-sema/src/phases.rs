@@ -622,37 +622,9 @@ pub(crate) fn check_sample(
         );
     }
 
-    // Skeleton symbols that can neither draw a bone nor finish: some
-    // alternative must draw one (`F`, `G`), emit a skeleton symbol that
-    // can, or emit no skeleton symbol at all (which ends that branch).
+    // Skeleton symbols that can neither draw a bone nor finish.
+    let grows = sys.skeleton_grows();
     let is_skeleton = |i: usize| sys.symbols[i].phase == Phase::Skeleton;
-    let draws = |i: usize| {
-        matches!(
-            sys.symbols[i].terminal(),
-            Some(Terminal::Forward | Terminal::ForwardNoVertex)
-        )
-    };
-    let mut grows = vec![false; sys.symbols.len()];
-    loop {
-        let mut changed = false;
-        for g in sys.groups.iter().filter(|g| !g.wrapup) {
-            let pred = g.pred.symbol.index();
-            if grows[pred] || !is_skeleton(pred) {
-                continue;
-            }
-            let way_out = g.alternatives.iter().any(|a| {
-                let succ = || a.successor.iter().map(|m| m.symbol.index());
-                succ().any(|m| draws(m) || (is_skeleton(m) && grows[m])) || !succ().any(is_skeleton)
-            });
-            if way_out {
-                grows[pred] = true;
-                changed = true;
-            }
-        }
-        if !changed {
-            break;
-        }
-    }
     for (i, info) in sys.symbols.iter().enumerate() {
         if !is_skeleton(i) || info.groups.is_empty() || grows[i] {
             continue;
@@ -666,7 +638,7 @@ pub(crate) fn check_sample(
                 "never grows",
             )
             .with_note(
-                "every production for it emits it again, or another skeleton symbol that never draws, without a bone: the search expands it until its per-step limit, and the model has nothing to score",
+                "every production for it emits it again, or another skeleton symbol that never draws, without a bone: the search can never score a bone from it, and stops expanding a particle left with only such symbols",
             )
             .with_help(format!(
                 "draw a bone in one of its productions (`{0} -> F(1) {0};`), or end it with one that emits no skeleton symbol",

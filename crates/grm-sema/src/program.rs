@@ -596,6 +596,45 @@ impl System {
             .map(|g| &self.groups[g.index()])
     }
 
+    /// Per symbol: whether it is a skeleton symbol that can draw a bone or
+    /// finish, i.e. some production (wrap-ups excluded) draws one (`F`,
+    /// `G`), emits a skeleton symbol that can, or emits no skeleton symbol
+    /// at all; conditions are not evaluated. A skeleton symbol with
+    /// productions that is `false` here can never lead to a bone (W0015),
+    /// and the guided sampler stops expanding a particle whose open
+    /// symbols are all such. `false` for every other symbol.
+    pub fn skeleton_grows(&self) -> Vec<bool> {
+        let is_skeleton = |i: usize| self.symbols[i].phase == Phase::Skeleton;
+        let draws = |i: usize| {
+            matches!(
+                self.symbols[i].terminal(),
+                Some(Terminal::Forward | Terminal::ForwardNoVertex)
+            )
+        };
+        let mut grows = vec![false; self.symbols.len()];
+        loop {
+            let mut changed = false;
+            for g in self.groups.iter().filter(|g| !g.wrapup) {
+                let pred = g.pred.symbol.index();
+                if grows[pred] || !is_skeleton(pred) {
+                    continue;
+                }
+                let way_out = g.alternatives.iter().any(|a| {
+                    let succ = || a.successor.iter().map(|m| m.symbol.index());
+                    succ().any(|m| draws(m) || (is_skeleton(m) && grows[m]))
+                        || !succ().any(is_skeleton)
+                });
+                if way_out {
+                    grows[pred] = true;
+                    changed = true;
+                }
+            }
+            if !changed {
+                return grows;
+            }
+        }
+    }
+
     /// The wrap-up groups for a symbol, in try order.
     pub fn wrapups_of(&self, id: SymbolId) -> impl Iterator<Item = &Group> {
         self.symbol(id)
