@@ -365,6 +365,12 @@ impl Lowerer<'_> {
     }
 
     fn symbols(&mut self) {
+        let mut ignored = vec![false; self.system.symbols.len()];
+        for id in &self.system.ignore {
+            if let Some(x) = ignored.get_mut(id.index()) {
+                *x = true;
+            }
+        }
         for (i, s) in self.system.symbols.iter().enumerate() {
             let words: u32 = s.params.iter().map(|t| width(*t)).sum();
             let mut flags = 0;
@@ -377,7 +383,7 @@ impl Lowerer<'_> {
                     flags |= SYM_POP;
                 }
             }
-            if self.system.ignore.iter().any(|id| id.index() == i) {
+            if ignored[i] {
                 flags |= SYM_IGNORED;
             }
             self.out.symbols.push(SymbolEntry {

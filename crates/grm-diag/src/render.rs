@@ -85,6 +85,9 @@ impl<'a> HumanRenderer<'a> {
 
     /// One diagnostic as text.
     pub fn render(&mut self, d: &Diagnostic) -> String {
+        if let Some((file, line, len)) = long_line(d, self.sources) {
+            return render_without_source(d, self.sources, file, line, len);
+        }
         let (sources, color) = (self.sources, self.color);
         let kind = match d.severity {
             Severity::Error => ReportKind::Error,
@@ -142,6 +145,76 @@ impl<'a> HumanRenderer<'a> {
         }
         String::from_utf8_lossy(&out).into_owned()
     }
+}
+
+/// Source lines longer than this (in bytes) are not shown under a
+/// diagnostic: ariadne prints a label's whole line and pads its caret line
+/// to the column, so two thousand diagnostics on one 11,000-character line
+/// (a generated grammar) printed 43 MB.
+pub const MAX_SHOWN_LINE: u32 = 1000;
+
+/// The first line a label of `d` covers that is longer than
+/// [`MAX_SHOWN_LINE`]: its file's path, zero-based number and length in
+/// characters.
+fn long_line<'s>(d: &Diagnostic, sources: &'s SourceMap) -> Option<(&'s str, u32, usize)> {
+    d.labels.iter().find_map(|l| {
+        let f = sources.get(l.file);
+        let (first, last) = (f.line_of(l.span.start), f.line_of(l.span.end));
+        // A label over many lines shows its first and last lines.
+        [first, last].into_iter().find_map(|line| {
+            let (s, e) = (f.line_start(line)?, f.line_end(line)?);
+            (e.saturating_sub(s) > MAX_SHOWN_LINE).then(|| {
+                let len = f
+                    .text
+                    .get(s as usize..e as usize)
+                    .map_or(0, |t| t.chars().count());
+                (f.path.as_str(), line, len)
+            })
+        })
+    })
+}
+
+/// A diagnostic whose source line is too long to show: its header, each
+/// label's place and message, its notes and help, in ariadne's frame.
+fn render_without_source(
+    d: &Diagnostic,
+    sources: &SourceMap,
+    path: &str,
+    line: u32,
+    len: usize,
+) -> String {
+    let kind = match d.severity {
+        Severity::Error => "Error",
+        Severity::Warning => "Warning",
+    };
+    let at = |l: &crate::Label| {
+        let f = sources.get(l.file);
+        let (line, col) = f.line_col(l.span.start);
+        format!("{}:{}:{}", f.path, line + 1, col + 1)
+    };
+    let mut out = format!("[{}] {kind}: {}\n", d.code, d.message);
+    out += &format!("   ╭─[ {} ]\n", at(d.primary()));
+    out += &format!(
+        "   │ ({path} line {} has {len} characters: not shown)\n",
+        line + 1
+    );
+    for l in &d.labels {
+        if l.message.is_empty() {
+            continue;
+        }
+        match l.primary {
+            true => out += &format!("   │ {}\n", l.message),
+            false => out += &format!("   │ {}: {}\n", at(l), l.message),
+        }
+    }
+    for n in &d.notes {
+        out += &format!("   │ Note: {n}\n");
+    }
+    if let Some(h) = &d.help {
+        out += &format!("   │ Help: {h}\n");
+    }
+    out += "───╯\n";
+    out
 }
 
 /// One line per diagnostic: `path:line:col: error[E0101]: message`.
@@ -266,6 +339,52 @@ mod tests {
             render_plain(&d, &sm),
             "t.grm:1:11: error[E0101]: unknown name `ü`"
         );
+    }
+
+    /// A label on a line too long to show gives its place, messages,
+    /// notes and help, without the line; a short line is still shown.
+    #[test]
+    fn a_line_too_long_is_not_shown() {
+        let mut sm = SourceMap::new();
+        let names: Vec<String> = (0..400).map(|i| format!("I{i}")).collect();
+        let text = format!("system A {{ ignore {}; }}\nconst é = q;\n", names.join(" "));
+        let f = sm.add("long.grm", text.as_str());
+        let at = text.find("I399").unwrap() as u32;
+        let d = Diagnostic::new(
+            Code::UnknownName,
+            "`I399` never occurs",
+            f,
+            Span::new(at, at + 4),
+            "unknown symbol",
+        )
+        .with_note("a note")
+        .with_help("remove it");
+        let out = render_human(&d, &sm, false);
+        let col = text[..at as usize].chars().count() + 1;
+        assert!(
+            out.starts_with("[E0101] Error: `I399` never occurs\n"),
+            "{out}"
+        );
+        assert!(out.contains(&format!("long.grm:1:{col} ]")), "{out}");
+        assert!(out.contains("line 1 has"), "{out}");
+        assert!(
+            out.contains("unknown symbol")
+                && out.contains("Note: a note")
+                && out.contains("Help: remove it"),
+            "{out}"
+        );
+        assert!(out.len() < 400, "{} bytes: {out}", out.len());
+        // The same diagnostic on the short line shows it.
+        let q = text.rfind('q').unwrap() as u32;
+        let d = Diagnostic::new(
+            Code::UnknownName,
+            "unknown `q`",
+            f,
+            Span::new(q, q + 1),
+            "here",
+        );
+        let out = render_human(&d, &sm, false);
+        assert!(out.contains("const é = q;"), "{out}");
     }
 
     /// A renderer that keeps each file's prepared text renders every

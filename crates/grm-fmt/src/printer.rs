@@ -49,12 +49,16 @@ pub(crate) fn print(parsed: &Parsed, text: &str) -> String {
 }
 
 /// A comment as printed: line comments lose trailing whitespace (a `\r`
-/// before the newline included); block comments are kept byte for byte.
-pub(crate) fn comment_text(text: &str) -> &str {
+/// before the newline included); block comments are kept byte for byte
+/// except their line breaks, which become `\n` as everywhere in the
+/// output (a CRLF file's block comment kept its `\r\n` among `\n`s).
+pub(crate) fn comment_text(text: &str) -> std::borrow::Cow<'_, str> {
     if is_line_comment(text) {
-        text.trim_end()
+        text.trim_end().into()
+    } else if text.contains('\r') {
+        text.replace("\r\n", "\n").replace('\r', "\n").into()
     } else {
-        text
+        text.into()
     }
 }
 
@@ -204,11 +208,11 @@ impl<'a> Printer<'a> {
     fn inline_comment(&mut self, c: &Comment) {
         let t = comment_text(&c.text);
         // `f(/* a */ x)`, but `f( // a`.
-        if !self.line_empty && (is_line_comment(t) || !self.out.ends_with('(')) {
+        if !self.line_empty && (is_line_comment(&t) || !self.out.ends_with('(')) {
             self.out.push(' ');
         }
-        self.push(t);
-        if is_line_comment(t) {
+        self.push(&t);
+        if is_line_comment(&t) {
             self.nl();
             self.pad(self.hang);
         } else {
@@ -318,7 +322,7 @@ impl<'a> Printer<'a> {
             }
             self.next += 1;
             self.out.push(' ');
-            self.push(comment_text(&c.text));
+            self.push(&comment_text(&c.text));
             st.prev_end = c.span.end;
             st.wrote = true;
         }
@@ -327,9 +331,9 @@ impl<'a> Printer<'a> {
     fn standalone(&mut self, st: &mut BlockState, c: &Comment, next_kind: Option<Kind>) {
         self.separate(st, c.span.start, next_kind);
         let t = comment_text(&c.text);
-        self.push(t);
+        self.push(&t);
         st.prev_end = c.span.end;
-        st.join = !is_line_comment(t);
+        st.join = !is_line_comment(&t);
         st.after_item = None;
     }
 

@@ -173,6 +173,16 @@ fn crlf_and_trailing_whitespace() {
     );
 }
 
+/// A block comment's own line breaks become `\n` like every other one
+/// (a CRLF file's block comment kept its `\r\n`s: mixed line endings).
+#[test]
+fn line_breaks_inside_block_comments_become_newlines() {
+    fmt(
+        "system S {\r\n    /* a\r\n    b\r    c */\r\n    A -> B;\r\n}\r\n",
+        "system S {\n    /* a\n    b\n    c */\n    A -> B;\n}\n",
+    );
+}
+
 /// Old Mac (lone `\r`) and mixed line endings format as `\n` ones do:
 /// comments end at the line break, blank lines are kept, statements and
 /// the line breaks of a module string stay on their lines.

@@ -142,6 +142,22 @@ impl Loader<'_> {
         if overlaps_any(&self.files[idx].error_spans, imp.path.span) {
             return None; // a garbled path was reported by the parser
         }
+        if written.trim().is_empty() {
+            // Joined to the importing file's directory, it would name that
+            // directory ("it is a directory").
+            self.files[idx].failed_import = true;
+            self.diags.push(
+                Diagnostic::new(
+                    Code::ImportNotFound,
+                    "the import path is empty",
+                    id,
+                    imp.path.span,
+                    "empty path",
+                )
+                .with_help("write the path of a `.grm` file, relative to the directory of the importing file, e.g. `import \"common.grm\";`"),
+            );
+            return None;
+        }
         let target_real = self.loader.resolve(&real, written);
         if let Some(&t) = self.by_path.get(&target_real) {
             let to = self.files[t].id;
@@ -444,7 +460,18 @@ impl<'a> Checker<'a> {
                         if self.define(&m.name, fi, GlobalKind::Mesh(id)) {
                             let path = self.loader.resolve(&f.real, &m.path.value);
                             let garbled = overlaps_any(&f.error_spans, m.path.span);
-                            if !garbled && !self.loader.exists(&path) {
+                            if !garbled && m.path.value.trim().is_empty() {
+                                self.error(
+                                    Diagnostic::new(
+                                        Code::MeshNotFound,
+                                        "the mesh path is empty",
+                                        f.id,
+                                        m.path.span,
+                                        "empty path",
+                                    )
+                                    .with_help("write the path of an OBJ file, relative to the directory of the declaring file, e.g. `mesh leaf = \"leaf.obj\";`"),
+                                );
+                            } else if !garbled && !self.loader.exists(&path) {
                                 let why = self.loader.why_missing(&path);
                                 // A path that exists but is no file (a
                                 // directory, a device) is named as such.

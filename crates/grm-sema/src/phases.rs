@@ -74,7 +74,11 @@ pub fn reachable(n: usize, roots: &[usize], edges: &[Vec<usize>]) -> Vec<bool> {
 /// every letter is a drawing command (`F f G g`) or a one-letter symbol the
 /// system rewrites, and the name itself is never rewritten or declared.
 /// `None` for any other name.
-pub fn run_together_split(sys: &System, info: &SymbolInfo) -> Option<String> {
+/// `letters`: [`rewritten_letters`] of `sys`.
+pub fn run_together_split(
+    info: &SymbolInfo,
+    letters: &std::collections::HashSet<char>,
+) -> Option<String> {
     if info.is_terminal()
         || info.name.chars().count() < 2
         || info.arity != 0
@@ -90,13 +94,7 @@ pub fn run_together_split(sys: &System, info: &SymbolInfo) -> Option<String> {
             drawing = true;
             continue;
         }
-        let mut buf = [0u8; 4];
-        let one: &str = c.encode_utf8(&mut buf);
-        let rewritten = sys
-            .symbols
-            .iter()
-            .any(|o| !o.is_terminal() && o.name == one && !o.groups.is_empty());
-        if !rewritten {
+        if !letters.contains(&c) {
             return None;
         }
     }
@@ -108,11 +106,29 @@ pub fn run_together_split(sys: &System, info: &SymbolInfo) -> Option<String> {
     })
 }
 
+/// The one-letter names of the symbols `sys` rewrites (not terminals):
+/// what [`run_together_split`] may split a name into, found once per
+/// system (per name it was quadratic in the symbols).
+pub fn rewritten_letters(sys: &System) -> std::collections::HashSet<char> {
+    sys.symbols
+        .iter()
+        .filter(|o| !o.is_terminal() && !o.groups.is_empty())
+        .filter_map(|o| {
+            let mut cs = o.name.chars();
+            match (cs.next(), cs.next()) {
+                (Some(c), None) => Some(c),
+                _ => None,
+            }
+        })
+        .collect()
+}
+
 /// W0011: `FF` written as in the books is one symbol here, never rewritten
 /// and drawing nothing.
 fn check_run_together(sys: &System, diags: &mut Vec<Diagnostic>) {
+    let letters = rewritten_letters(sys);
     for info in &sys.symbols {
-        let Some(split) = run_together_split(sys, info) else {
+        let Some(split) = run_together_split(info, &letters) else {
             continue;
         };
         let name = &info.name;
@@ -272,6 +288,7 @@ pub(crate) fn check_groups(sys: &System, diags: &mut Vec<Diagnostic>, skip_reach
     // The names a typo could have meant: reachable symbols that nothing
     // rewrites (found once, not once per unreachable symbol: that was
     // quadratic in the symbols).
+    let letters = rewritten_letters(sys);
     let nothing_rewrites: Vec<&str> = sys
         .symbols
         .iter()
@@ -282,7 +299,7 @@ pub(crate) fn check_groups(sys: &System, diags: &mut Vec<Diagnostic>, skip_reach
                 && o.groups.is_empty()
                 && o.wrapup_groups.is_empty()
                 // W0011 explains those (`FX` for `F X`).
-                && (sys.mode != Mode::Derive || run_together_split(sys, o).is_none())
+                && (sys.mode != Mode::Derive || run_together_split(o, &letters).is_none())
         })
         .map(|(_, o)| o.name.as_str())
         .collect();
@@ -548,6 +565,7 @@ pub(crate) fn check_sample(
             .map(|s| s.name.as_str())
             .collect(),
     );
+    let letters = rewritten_letters(sys);
     for info in &sys.symbols {
         if info.is_terminal()
             || info.decl.is_some()
@@ -567,7 +585,7 @@ pub(crate) fn check_sample(
             "not declared, and no production rewrites it",
         );
         // Modules run together (`bF` for `b F`) before a near spelling.
-        d = match run_together_split(sys, info) {
+        d = match run_together_split(info, &letters) {
             Some(split) => d
                 .with_note("module names are whole identifiers: separate modules with spaces")
                 .with_help(format!("write `{split}`")),

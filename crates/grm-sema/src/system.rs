@@ -782,6 +782,8 @@ impl Sys<'_, '_> {
 
     fn ignore_list(&mut self, ignores: &[&ast::Ignore]) -> Vec<SymbolId> {
         let mut out: Vec<SymbolId> = Vec::new();
+        // What `out` holds (a list of thousands was quadratic to search).
+        let mut listed = std::collections::HashSet::new();
         // The system's symbols in the order they were first seen, prepared
         // once (on the first unknown entry) for every suggestion.
         let mut known: Option<suggest::Candidates<'_>> = None;
@@ -804,14 +806,14 @@ impl Sys<'_, '_> {
                 } else if let Some(forms) = terminal_forms(&s.name) {
                     for f in forms {
                         if let Some(&id) = self.tab.term.get(&f.terminal)
-                            && !out.contains(&id)
+                            && listed.insert(id)
                         {
                             out.push(id);
                             self.occurrences.push((s.span, id));
                         }
                     }
                 } else if let Some(&id) = self.tab.user.get(&s.name) {
-                    if !out.contains(&id) {
+                    if listed.insert(id) {
                         out.push(id);
                     }
                     self.occurrences.push((s.span, id));
@@ -1226,9 +1228,12 @@ impl Sys<'_, '_> {
             };
             let mut duplicate = false;
             if name.name != "_"
-                && let Some(prev) = bindings.iter().find(|b| b.name == name.name)
+                && let Some(prev) = bindings.iter_mut().find(|b| b.name == name.name)
             {
                 {
+                    // Uses of the name read the later binding: the first
+                    // is not reported again as unused either (W0001).
+                    prev.used = true;
                     let prev = prev.span;
                     self.err(
                         Diagnostic::new(

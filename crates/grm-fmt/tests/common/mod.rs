@@ -40,7 +40,8 @@ pub fn comments(text: &str) -> Vec<String> {
             if c.text.starts_with("//") {
                 c.text.trim_end().to_string()
             } else {
-                c.text.clone()
+                // Line breaks inside a block comment are written as `\n`.
+                c.text.replace("\r\n", "\n").replace('\r', "\n")
             }
         })
         .collect()
