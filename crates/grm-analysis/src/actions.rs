@@ -5,6 +5,7 @@
 use crate::{FileAnalysis, Span, TextEdit, clamp};
 use grm_diag::Code;
 use grm_syntax::ast::{Item, Phase, SystemItem};
+use grm_syntax::lexer::TokKind;
 
 /// A quick fix: edits of the analysed file that resolve one diagnostic.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -40,6 +41,47 @@ fn edit(span: Span, new_text: impl Into<String>) -> TextEdit {
 }
 
 impl FileAnalysis {
+    /// `not x > 2`, with the parser stopped at `x` (`operand`): the edits
+    /// that write `!(x > 2)`. The operand runs, as Python reads `not`, to
+    /// the first `&&`, `||`, `and`, `or`, `->`, `;` or unmatched `)` at its
+    /// own depth. `None` when no `not` precedes it.
+    fn not_operand(&self, operand: Span) -> Option<Vec<TextEdit>> {
+        let text = self.text();
+        let before = text.get(..operand.start as usize)?.trim_end();
+        let not_start = before.strip_suffix("not")?.len();
+        let boundary = before[..not_start]
+            .chars()
+            .next_back()
+            .is_none_or(|c| !(c.is_alphanumeric() || c == '_'));
+        if !boundary {
+            return None;
+        }
+        let rest = text.get(operand.start as usize..)?;
+        let lexed = grm_syntax::lexer::lex(grm_diag::FileId(0), rest);
+        let mut depth = 0i32;
+        let mut end = None;
+        for t in &lexed.tokens {
+            match t.kind {
+                TokKind::LParen => depth += 1,
+                TokKind::RParen if depth == 0 => break,
+                TokKind::RParen => depth -= 1,
+                TokKind::AndAnd | TokKind::OrOr | TokKind::Arrow | TokKind::Semi if depth == 0 => {
+                    break;
+                }
+                TokKind::Ident if depth == 0 && matches!(t.text, "and" | "or") => break,
+                TokKind::LBrace | TokKind::RBrace => break,
+                _ => {}
+            }
+            end = Some(t.span.end);
+        }
+        let end = operand.start + end?;
+        let inner = text.get(operand.start as usize..end as usize)?;
+        Some(vec![edit(
+            Span::new(not_start as u32, end),
+            format!("!({inner})"),
+        )])
+    }
+
     /// Quick fixes for the diagnostics of this file whose primary span
     /// touches `range`.
     pub fn code_actions(&self, range: Span) -> Vec<CodeAction> {
@@ -93,6 +135,16 @@ impl FileAnalysis {
                     if d.message.ends_with("is not an arrow in grm") =>
                 {
                     push("Replace with `->`".into(), vec![edit(span, "->")], true);
+                }
+                // `not x > 2` (other tools' notation): `!(x > 2)`.
+                Code::UnexpectedToken if help.starts_with("write `!` for not:") => {
+                    if let Some(edits) = self.not_operand(span) {
+                        push("Replace with `!(...)`".into(), edits, true);
+                    }
+                }
+                // `not (x > 2)`, read as a call of a function `not`.
+                Code::UnknownFunction if help.starts_with("write `!` for not") => {
+                    push("Replace with `!`".into(), vec![edit(span, "!")], true);
                 }
                 // `=` or `and` in a condition: the grm operator.
                 Code::UnexpectedToken

@@ -300,11 +300,33 @@ impl Analysis {
             .ok_or_else(|| RenameError("the file cannot be read".into()))?;
         fa.prepare_rename(offset)?;
         valid_identifier(new_name)?;
-        let (def, _, _) = fa
+        let (def, dpath, dspan) = fa
             .def_key(offset)
             .ok_or_else(|| RenameError("no renameable name here".into()))?;
         if let Some(why) = fa.rename_conflict(def, new_name) {
             return Err(RenameError(format!("cannot rename to `{new_name}`: {why}")));
+        }
+        // Every file that sees the definition (an importer of the file it
+        // is in) is checked as this one is: its own globals may already use
+        // the name, or its productions bind it.
+        if !matches!(def, Def::Binding { .. }) {
+            for doc in self.known_files() {
+                if grm_sema::normalize(path) == doc {
+                    continue;
+                }
+                let Some(other) = self.analyze(&doc) else {
+                    continue;
+                };
+                if let Some(d) = other.def_written_at(&dpath, dspan)
+                    && let Some(why) = other.rename_conflict(d, new_name)
+                {
+                    return Err(RenameError(format!(
+                        "cannot rename to `{new_name}`: {why} (in `{}`)",
+                        doc.file_name()
+                            .map_or(doc.display(), |n| Path::new(n).display())
+                    )));
+                }
+            }
         }
         let locs = self.references(path, offset, true);
         let mut out: Vec<FileEdits> = Vec::new();

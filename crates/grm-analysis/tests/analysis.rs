@@ -199,6 +199,33 @@ fn references_and_rename_across_open_documents() {
     );
 }
 
+/// A rename started in the imported file is checked in every importer
+/// as one started there is: a global of the new name there, or a
+/// production there binding it (which would capture the use), refuses it.
+#[test]
+fn rename_from_an_imported_file_is_checked_in_its_importers() {
+    let mut a = Analysis::new(Arc::new(MemLoader::new()));
+    let lib = "const K = 2;\n";
+    let main = "import \"lib.grm\";\nconst vr = 1;\nsystem S {\n    axiom A(1);\n    A(n) -> F(K * n);\n}\n";
+    a.set_document(Path::new("lib.grm"), 1, lib);
+    a.set_document(Path::new("main.grm"), 1, main);
+    let k = at(lib, "K", 0, 0);
+    let e = a.rename(Path::new("lib.grm"), k, "vr").unwrap_err();
+    assert!(
+        e.0.contains("already defined") && e.0.contains("main.grm"),
+        "{e}"
+    );
+    let e = a.rename(Path::new("lib.grm"), k, "n").unwrap_err();
+    assert!(e.0.contains("binds `n`"), "{e}");
+    // Started from the importer, the same refusals.
+    let use_k = at(main, "K *", 0, 0);
+    assert!(a.rename(Path::new("main.grm"), use_k, "vr").is_err());
+    assert!(a.rename(Path::new("main.grm"), use_k, "n").is_err());
+    // A free name renames both files.
+    let edits = a.rename(Path::new("lib.grm"), k, "Scale").unwrap();
+    assert_eq!(edits.len(), 2);
+}
+
 #[test]
 fn rename_validity() {
     let fa = analyze(PLANT);
@@ -579,6 +606,29 @@ fn code_actions_fix_their_diagnostics() {
     );
     assert!(t.contains("t > 0 && t < 5"), "{t}");
     assert!(c.is_empty(), "{c:?}");
+    // Python's `not`: its operand wrapped, up to `&&`/`||` or the arrow.
+    let (t, c) = fix(
+        "system S {\n    axiom X(1);\n    X(t) : not t > 5 -> F X(t + 1);\n}",
+        "E0001",
+        "`!(...)`",
+    );
+    assert!(t.contains("X(t) : !(t > 5) -> F"), "{t}");
+    assert!(c.is_empty(), "{c:?}\n{t}");
+    let (t, c) = fix(
+        "system S {\n    axiom X(1);\n    X(t) : t > 1 && not t > 5 && t < 9 -> F X(t + 1);\n}",
+        "E0001",
+        "`!(...)`",
+    );
+    assert!(t.contains("t > 1 && !(t > 5) && t < 9 ->"), "{t}");
+    assert!(c.is_empty(), "{c:?}\n{t}");
+    // `not (...)`, read as a call.
+    let (t, c) = fix(
+        "system S {\n    axiom X(1);\n    X(t) : t > 1 && not (t > 5) -> F X(t + 1);\n}",
+        "E0103",
+        "`!`",
+    );
+    assert!(t.contains("t > 1 && ! (t > 5) ->"), "{t}");
+    assert!(c.is_empty(), "{c:?}\n{t}");
     // Missing `;`.
     let (t, c) = fix("system S {\n    axiom F\n    F -> F F;\n}", "E0001", "`;`");
     assert!(t.contains("axiom F;"), "{t}");

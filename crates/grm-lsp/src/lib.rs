@@ -26,8 +26,9 @@
 //! - Diagnostics of an edit after a pause are computed at once; edits in
 //!   quick succession are debounced. Diagnostics carry the document version
 //!   they were computed for; a result is published only if its version is
-//!   still the document's current one and no newer result was published
-//!   before it (stale results never overwrite newer ones).
+//!   still the document's current one when it is published (stale results
+//!   never overwrite newer ones; a client whose versions go backwards
+//!   still gets the diagnostics of the text it sent).
 //! - No request can bring the server down: user input never panics, a
 //!   failed task becomes an error response, a poisoned lock is recovered.
 //!   Over stdio no message can either: [`stdio`] frames and checks every
@@ -394,13 +395,15 @@ async fn publish(shared: &Arc<Shared>, client: &Client, path: PathBuf, version: 
         return;
     };
     let mut published = shared.published.lock().await;
-    // Re-check under the publish lock: nothing newer is current or sent,
-    // and the same diagnostics are not sent twice for one version (they
-    // are sent again for the same version when an import changed them).
+    // Re-check under the publish lock: the text is still current (a task
+    // for an older version stops here), and the same diagnostics are not
+    // sent twice for one version (they are sent again for the same
+    // version when an import changed them). A version lower than one
+    // published before is still published when it is the document's: a
+    // client that counts backwards would otherwise keep the diagnostics of
+    // a text the server no longer holds.
     let last = published.get(&path);
-    if shared.version(&path) != Some(v)
-        || last.is_some_and(|(p, d)| *p > v || (*p == v && *d == diags))
-    {
+    if shared.version(&path) != Some(v) || last.is_some_and(|(p, d)| *p == v && *d == diags) {
         return;
     }
     published.insert(path, (v, diags.clone()));

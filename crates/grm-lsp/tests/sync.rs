@@ -342,3 +342,32 @@ async fn a_change_to_a_document_that_is_not_open_is_ignored() {
         "diagnostics published for a document that is not open"
     );
 }
+
+/// A client whose versions go backwards (against the protocol, but seen
+/// after a reconnect) still gets the diagnostics of the text it sent:
+/// the server holds that text, so the older-looking version is current.
+#[tokio::test]
+async fn diagnostics_follow_a_version_that_goes_backwards() {
+    let mut c = Client::start().await;
+    let p = root().join("tests/lsp/backwards.grm");
+    let u = uri(&p);
+    let bad = "system S {\n    axiom X;\n    X -> F(q) X;\n}\n";
+    c.notify(
+        "textDocument/didOpen",
+        json!({ "textDocument": { "uri": u, "languageId": "grm", "version": 50, "text": bad } }),
+    )
+    .await;
+    let d = c.diagnostics(&u, 50).await;
+    assert_eq!(codes(&d), ["E0101"], "{d}");
+    let good = bad.replace("F(q)", "F");
+    c.notify(
+        "textDocument/didChange",
+        json!({
+            "textDocument": { "uri": u, "version": 3 },
+            "contentChanges": [ { "text": good } ]
+        }),
+    )
+    .await;
+    let d = c.diagnostics(&u, 3).await;
+    assert_eq!(codes(&d), Vec::<String>::new(), "{d}");
+}
