@@ -115,6 +115,11 @@ pub const EXEMPT: &[(Code, &str)] = &[
     ),
     // Not internal, but not coverable by this CPU-only, file-based suite.
     (
+        Code::SampleOptions,
+        "grmc refuses a bad --volume-weight as a usage error, as it does every sampling \
+         option; library callers get it (grm-sample tests/sampler.rs)",
+    ),
+    (
         Code::SampleCancelled,
         "only a library caller cancels a run (the language server, for a superseded preview): \
          grm-sample tests/cancel.rs",

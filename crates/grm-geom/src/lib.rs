@@ -171,7 +171,7 @@ impl Model {
             |n: usize, one: &str, many: &str| format!("{n} {}", if n == 1 { one } else { many });
         let dropped_note = |n: usize| {
             format!(
-                "{} left out: an instance whose transform is singular or not finite (e.g. after `scale(0)`), or a polygon with fewer than three distinct vertices, has no triangles",
+                "{} left out: an instance whose transform is singular or not finite (e.g. after `scale(0)`), or a polygon with fewer than three distinct vertices or all of them on one line, has no triangles",
                 count(n, "shape was", "shapes were")
             )
         };

@@ -329,6 +329,26 @@ impl TokKind {
     /// Keywords that can start a top-level item. `mesh` and `material` are
     /// also terminals inside module strings (`mesh(leaf)`): ask
     /// [`starts_item_at`] whether a token really starts one.
+    /// A reserved word (docs/language.md): never a name.
+    pub fn is_keyword(self) -> bool {
+        self.starts_top_item()
+            || matches!(
+                self,
+                TokKind::Module
+                    | TokKind::Skeleton
+                    | TokKind::Geometry
+                    | TokKind::Wrapup
+                    | TokKind::Axiom
+                    | TokKind::Ignore
+                    | TokKind::In
+                    | TokKind::If
+                    | TokKind::Then
+                    | TokKind::Else
+                    | TokKind::True
+                    | TokKind::False
+            )
+    }
+
     pub fn starts_top_item(self) -> bool {
         matches!(
             self,

@@ -501,7 +501,9 @@ impl<'a> Driver<'a, '_> {
         // only say it expected a name).
         if toks.len() >= 2
             && matches!(toks[0].kind, TokKind::Const | TokKind::Param)
-            && toks[1].kind.starts_top_item()
+            && (toks[1].kind.starts_top_item()
+                || toks[1].kind.is_keyword()
+                    && toks.get(2).is_some_and(|t| t.kind == TokKind::Assign))
         {
             let what = if toks[0].kind == TokKind::Const {
                 "a constant"

@@ -296,7 +296,13 @@ pub fn run(args: ForestArgs) -> Outcome {
             let mut o = args.params.clone();
             o.push(format!("{}={end}", v.name));
             if let Err(m) = grm_compile::param_values(program, &o) {
-                eprintln!("error: {}", m.replacen("--param", "--vary", 1));
+                // Said of the flag as written, and of which end.
+                let written = format!("`--param {}={end}`:", v.name);
+                let flag = format!("`--vary {}={}..{}`:", v.name, v.lo, v.hi);
+                match m.strip_prefix(&written) {
+                    Some(rest) => eprintln!("error: {flag} {end} is{rest}"),
+                    None => eprintln!("error: {flag} {m}"),
+                }
                 return Outcome::Usage;
             }
         }

@@ -126,6 +126,7 @@ pub enum Outcome {
 }
 
 fn main() -> ExitCode {
+    quiet_headless_vulkan();
     // `--seed -1` is a value to refuse with its range, not a flag `-1`
     // (whose "use `-- -1`" tip would make it the FILE argument).
     let cmd = <Cli as clap::CommandFactory>::command()
@@ -168,5 +169,27 @@ pub fn write_stdout(args: std::fmt::Arguments<'_>) {
         }
         eprintln!("error: cannot write to stdout: {e}");
         std::process::exit(2);
+    }
+}
+
+/// Mesa's Vulkan loader layer `VK_LAYER_MESA_device_select` (which orders
+/// the devices by the display they drive) connects to a Wayland display
+/// while the GPU is opened; on a machine without one (CI, ssh, a server)
+/// that prints "error: XDG_RUNTIME_DIR is invalid or not set in the
+/// environment." twice on stderr for every `--gpu` run that succeeds. Where
+/// there is no runtime directory there is no display to order by, so the
+/// layer is switched off (`NODEVICE_SELECT=1`, unless the user set it);
+/// wgpu picks the adapter itself either way.
+fn quiet_headless_vulkan() {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none()
+        && std::env::var_os("NODEVICE_SELECT").is_none()
+    {
+        // SAFETY: the first call of `main`, before any thread exists (the
+        // runtime, the thread pools and the GPU are all started later), so
+        // nothing reads or writes the environment concurrently.
+        #[allow(unsafe_code)]
+        unsafe {
+            std::env::set_var("NODEVICE_SELECT", "1");
+        }
     }
 }

@@ -60,8 +60,9 @@ pub struct SampleArgs {
     /// What to minimize: the curve cost or the volume baseline.
     #[arg(long, value_enum, default_value_t = CostKind::Curves)]
     pub cost: CostKind,
-    /// Weight of the volume cost (likelihood exp(-weight * cost)).
-    #[arg(long, default_value_t = 20000.0)]
+    /// Weight of the volume cost (likelihood exp(-weight * cost); a
+    /// finite number > 0).
+    #[arg(long, default_value_t = 20000.0, value_parser = finite_positive)]
     pub volume_weight: f64,
     /// Turn the expected-direction heuristic off.
     #[arg(long)]
@@ -113,6 +114,14 @@ fn positive(s: &str) -> Result<f64, String> {
     match s.trim().parse::<f64>() {
         Ok(x) if x > 0.0 => Ok(x),
         _ => Err(format!("`{s}` is not a number > 0")),
+    }
+}
+
+/// A finite number > 0 (within 32-bit float), for `--volume-weight`.
+fn finite_positive(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(x) if x > 0.0 && x.is_finite() && x <= f64::from(f32::MAX) => Ok(x),
+        _ => Err(format!("`{s}` is not a finite number > 0")),
     }
 }
 

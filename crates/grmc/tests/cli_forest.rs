@@ -244,7 +244,7 @@ fn bad_forests_are_refused_with_the_reason() {
     refused(
         &["forest", f, "--vary", "a=10..100"],
         2,
-        "outside its range",
+        "`--vary a=10..100`: 100 is outside its range",
     );
     refused(
         &["forest", f, "--vary", "nope=1..2"],
@@ -355,4 +355,30 @@ fn the_gpus_bones_are_the_models() {
         "{there}: {built}"
     );
     assert!(there > 0);
+}
+
+/// A GPU run on a machine without a display says nothing on stderr
+/// about one: Mesa's device-select layer, which would connect to Wayland
+/// and print "XDG_RUNTIME_DIR is invalid" twice, is switched off there.
+#[test]
+fn a_headless_gpu_run_prints_no_display_errors() {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_grmc"))
+        .args([
+            "forest",
+            "examples/koch_island.grm",
+            "--trees",
+            "2",
+            "-n",
+            "5",
+            "--gpu",
+        ])
+        .current_dir(repo())
+        .env_remove("XDG_RUNTIME_DIR")
+        .env_remove("NODEVICE_SELECT")
+        .output()
+        .expect("grmc runs");
+    let err = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert!(!err.contains("XDG_RUNTIME_DIR"), "{err}");
+    assert!(err.contains("on the GPU in one derivation"), "{err}");
 }
