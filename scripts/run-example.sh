@@ -2,10 +2,20 @@
 # The main job on a shipped example: build grmc, check every example, and
 # grow one into a model file (glTF binary, opens in Blender or any viewer).
 #   ./scripts/run-example.sh [EXAMPLE.grm] [OUT.glb|.obj|.ply|.svg]
+# A classic L-system is derived (`grmc derive`); a file whose system has
+# `mode = sample;` is grown guided by its curves (`grmc sample`, with
+# EXAMPLE.curves.json beside it). Paths are relative to where it is run.
 set -euo pipefail
-cd "$(dirname "$0")/.."
+here="$(pwd)"
 example="${1:-examples/ternary_tree.grm}"
 out="${2:-$(basename "${example%.grm}").glb}"
+case "$example" in /*) ;; *) example="$here/$example" ;; esac
+case "$out" in /*) ;; *) out="$here/$out" ;; esac
+cd "$(dirname "$0")/.."
 cargo build --release -p grmc
 ./target/release/grmc check examples/*.grm
-./target/release/grmc derive "$example" --stats -o "$out"
+if grep -Eq '^[[:space:]]*mode[[:space:]]*=[[:space:]]*sample[[:space:]]*;' "$example"; then
+    ./target/release/grmc sample "$example" -o "$out"
+else
+    ./target/release/grmc derive "$example" --stats -o "$out"
+fi

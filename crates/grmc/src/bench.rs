@@ -151,8 +151,26 @@ fn derive_header(cpu: &str, available: usize, asked_runs: u32) -> String {
 // `grmc --threads` accepts exactly what the sampler starts too.
 const _: () = assert!(crate::MAX_THREADS == grm_sample::MAX_THREADS);
 
+/// The examples folder the scenes are read from, checked before any table
+/// is printed: run away from the repository root, the benchmark would
+/// print its header and then fail on the first scene.
+pub(crate) fn examples_folder(dir: &std::path::Path) -> Option<Outcome> {
+    if dir.join("koch_island.grm").is_file() {
+        return None;
+    }
+    eprintln!(
+        "error: the benchmark scenes are read from `{}`, which holds no koch_island.grm: \
+         run it from the repository root, or pass `--examples DIR` (the repository's examples/)",
+        dir.display()
+    );
+    Some(Outcome::Usage)
+}
+
 fn derive_bench(args: DeriveBench) -> Outcome {
     if let Some(o) = unknown_scenes(&args.scenes, SCENES.iter().map(|s| s.0)) {
+        return o;
+    }
+    if let Some(o) = examples_folder(&args.examples) {
         return o;
     }
     let threads = if args.threads == 0 {

@@ -265,6 +265,9 @@ pub fn bench(args: GpuBench) -> Outcome {
     if let Some(o) = crate::bench::unknown_scenes(&args.scenes, known) {
         return o;
     }
+    if let Some(o) = crate::bench::examples_folder(&args.examples) {
+        return o;
+    }
     let gpu = match grm_gpu::shared() {
         Ok(g) => g,
         Err(e) => {

@@ -610,3 +610,25 @@ fn lsp_survives_malformed_messages() {
     };
     assert_eq!(status.code(), Some(0));
 }
+
+/// A benchmark run away from the repository root says where the scenes
+/// are looked for before it prints any table.
+#[test]
+fn benchmarks_without_their_examples_say_so_first() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    for bench in ["derive", "gpu"] {
+        let out = Command::new(env!("CARGO_BIN_EXE_grmc"))
+            .args(["bench", bench, "--runs", "2"])
+            .current_dir(dir.path())
+            .output()
+            .expect("grmc runs");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{bench}: {err}");
+        assert!(err.contains("--examples DIR"), "{bench}: {err}");
+        assert!(
+            out.stdout.is_empty(),
+            "{bench}: {}",
+            String::from_utf8_lossy(&out.stdout)
+        );
+    }
+}
