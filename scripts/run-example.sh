@@ -4,14 +4,17 @@
 #   ./scripts/run-example.sh [EXAMPLE.grm] [OUT.glb|.obj|.ply|.svg]
 # A classic L-system is derived (`grmc derive`); a file whose system has
 # `mode = sample;` is grown guided by its curves (`grmc sample`, with
-# EXAMPLE.curves.json beside it). Paths are relative to where it is run.
+# EXAMPLE.curves.json beside it). EXAMPLE and OUT are relative to where
+# it is run (default: the repository's examples/ternary_tree.grm, written
+# to ternary_tree.glb here).
 set -euo pipefail
 here="$(pwd)"
-example="${1:-examples/ternary_tree.grm}"
+root="$(cd "$(dirname "$0")/.." && pwd)"
+example="${1:-$root/examples/ternary_tree.grm}"
 out="${2:-$(basename "${example%.grm}").glb}"
 case "$example" in /*) ;; *) example="$here/$example" ;; esac
 case "$out" in /*) ;; *) out="$here/$out" ;; esac
-cd "$(dirname "$0")/.."
+cd "$root"
 cargo build --release -p grmc
 ./target/release/grmc check examples/*.grm
 if grep -Eq '^[[:space:]]*mode[[:space:]]*=[[:space:]]*sample[[:space:]]*;' "$example"; then
