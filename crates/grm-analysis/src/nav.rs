@@ -271,20 +271,36 @@ impl Analysis {
         };
         push(fa.occurrences(def, include_decl), &mut locs);
         if !matches!(def, Def::Binding { .. }) {
-            for doc in self.known_files() {
-                if grm_sema::normalize(path) == doc {
-                    continue;
-                }
-                let Some(other) = self.analyze(&doc) else {
-                    continue;
-                };
-                if let Some(d) = other.def_written_at(&dpath, dspan) {
-                    push(other.occurrences(d, include_decl), &mut locs);
-                }
+            for (_, other, d) in self.others_seeing(path, &dpath, dspan) {
+                push(other.occurrences(d, include_decl), &mut locs);
             }
         }
         locs.sort_by(|a, b| (&a.path, a.span).cmp(&(&b.path, b.span)));
         locs
+    }
+
+    /// The open documents and known workspace files other than `path` that
+    /// see the definition written at (`dpath`, `dspan`), each with its
+    /// analysis and its own id of that definition.
+    fn others_seeing(
+        &mut self,
+        path: &Path,
+        dpath: &Path,
+        dspan: Span,
+    ) -> Vec<(PathBuf, std::sync::Arc<FileAnalysis>, Def)> {
+        let me = grm_sema::normalize(path);
+        let mut out = Vec::new();
+        for doc in self.known_files() {
+            if doc == me {
+                continue;
+            }
+            if let Some(other) = self.analyze(&doc)
+                && let Some(d) = other.def_written_at(dpath, dspan)
+            {
+                out.push((doc, other, d));
+            }
+        }
+        out
     }
 
     /// Rename the name under `offset` of `path` to `new_name` everywhere it
@@ -310,16 +326,8 @@ impl Analysis {
         // is in) is checked as this one is: its own globals may already use
         // the name, or its productions bind it.
         if !matches!(def, Def::Binding { .. }) {
-            for doc in self.known_files() {
-                if grm_sema::normalize(path) == doc {
-                    continue;
-                }
-                let Some(other) = self.analyze(&doc) else {
-                    continue;
-                };
-                if let Some(d) = other.def_written_at(&dpath, dspan)
-                    && let Some(why) = other.rename_conflict(d, new_name)
-                {
+            for (doc, other, d) in self.others_seeing(path, &dpath, dspan) {
+                if let Some(why) = other.rename_conflict(d, new_name) {
                     return Err(RenameError(format!(
                         "cannot rename to `{new_name}`: {why} (in `{}`)",
                         doc.file_name()
