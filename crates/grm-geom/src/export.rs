@@ -16,6 +16,10 @@
 //!   filled paths; y points up (the picture is flipped into SVG's y-down
 //!   space); the viewBox is the projected bounds plus a 2% margin.
 //!   Primitives and meshes are not drawn in SVG.
+//! - `.png`: a shaded picture of the whole model (surfaces, and bones
+//!   without a tube as lines) drawn by [`crate::render`], 1024 x 1024 from
+//!   [`crate::render::View::Auto`] by default; [`export_image`] takes the
+//!   size, view and background.
 //!
 //! Every write is atomic: the data goes to a temporary file in the target's
 //! directory, which is renamed over the target only when complete, so a
@@ -32,6 +36,7 @@ use grm_turtle::{Aabb, Paint};
 use serde_json::{Value as Json, json};
 
 use crate::Model;
+use crate::render::{self, RenderOptions};
 
 /// An output format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -41,6 +46,7 @@ pub enum ExportFormat {
     Ply,
     PlyAscii,
     Svg,
+    Png,
 }
 
 impl ExportFormat {
@@ -52,6 +58,7 @@ impl ExportFormat {
             "obj" => ExportFormat::Obj,
             "ply" => ExportFormat::Ply,
             "svg" => ExportFormat::Svg,
+            "png" => ExportFormat::Png,
             _ => return None,
         })
     }
@@ -93,7 +100,7 @@ impl ExportError {
     pub fn to_diagnostic(&self, file: FileId, span: Span) -> Diagnostic {
         let help = match self {
             ExportError::UnknownFormat { .. } => {
-                "name the output with the extension of its format: .glb, .obj, .ply or .svg"
+                "name the output with the extension of its format: .glb, .obj, .ply, .svg or .png"
             }
             ExportError::Io { .. } => {
                 "check that the output's directory exists and that you may write to it"
@@ -118,7 +125,7 @@ impl std::fmt::Display for ExportError {
         match self {
             ExportError::UnknownFormat { path } => write!(
                 f,
-                "cannot export {}: unknown format (use .glb, .obj, .ply or .svg)",
+                "cannot export {}: unknown format (use .glb, .obj, .ply, .svg or .png)",
                 path.display()
             ),
             ExportError::Io { path, source } => {
@@ -152,9 +159,11 @@ pub fn export(model: &Model, path: &Path) -> Result<(), ExportError> {
     export_as(model, path, format)
 }
 
-/// Export `model` to `path` in `format`.
+/// Export `model` to `path` in `format` (a `.png` with the default
+/// [`RenderOptions`]).
 pub fn export_as(model: &Model, path: &Path, format: ExportFormat) -> Result<(), ExportError> {
     match format {
+        ExportFormat::Png => export_image(model, path, &RenderOptions::default()),
         ExportFormat::Glb => {
             let (json_bytes, bin_len) = glb_layout(model).ok_or_else(|| ExportError::TooLarge {
                 path: path.to_path_buf(),
@@ -185,6 +194,25 @@ pub fn export_as(model: &Model, path: &Path, format: ExportFormat) -> Result<(),
             commit(tmp, path)
         }
     }
+}
+
+/// Draw `model` as `options` say and write the picture to `path` as PNG
+/// (whatever its extension). Options that [`RenderOptions::validate`]
+/// refuses are an [`ExportError::Io`] of kind `InvalidInput` (grmc checks
+/// its flags before it derives, so it never sees one).
+pub fn export_image(
+    model: &Model,
+    path: &Path,
+    options: &RenderOptions,
+) -> Result<(), ExportError> {
+    let image = render::render(model, options).map_err(|e| {
+        io_error(
+            path,
+            io::Error::new(io::ErrorKind::InvalidInput, e.to_string()),
+        )
+    })?;
+    let tmp = stage(path, |w| render::write_png(&image, w))?;
+    commit(tmp, path)
 }
 
 fn io_error(path: &Path, source: io::Error) -> ExportError {

@@ -6,7 +6,8 @@
 //! primitives (`cylinder cone sphere box disc`, [`mesh`]), OBJ meshes
 //! declared in the program ([`import`], read once each and instanced) and
 //! the `{ . }` polygons ([`polygon`]). [`export()`] writes the model as
-//! glTF 2.0 binary (`.glb`), OBJ + MTL, PLY or SVG ([`mod@export`]).
+//! glTF 2.0 binary (`.glb`), OBJ + MTL, PLY or SVG ([`mod@export`]), or
+//! draws it as a PNG picture with a software rasterizer ([`render`]).
 //!
 //! Inputs: the checked [`grm_sema::Program`] and one of its systems, the
 //! system's [`Settings`], the module string, and the meta-parameter values
@@ -29,6 +30,7 @@ pub mod export;
 pub mod import;
 pub mod mesh;
 pub mod polygon;
+pub mod render;
 pub mod tube;
 
 use std::collections::HashMap;
@@ -40,7 +42,7 @@ use grm_diag::{Code, Diagnostic, FileId, Span};
 use grm_sema::{MaterialProp, Program, Settings, System, Value};
 use grm_turtle::{Aabb, InstanceKind, Interpretation, Paint, TurtleError};
 
-pub use export::{ExportError, ExportFormat, export, export_as};
+pub use export::{ExportError, ExportFormat, export, export_as, export_image};
 pub use grm_turtle;
 pub use mesh::MeshData;
 

@@ -39,9 +39,12 @@ pub struct DeriveArgs {
     /// or `x,y,z` for a vec3). Repeatable.
     #[arg(long = "param", value_name = "NAME=VALUE")]
     pub params: Vec<String>,
-    /// Build the model and write it (format by extension: .glb .obj .ply .svg).
+    /// Build the model and write it (format by extension: .glb .obj .ply
+    /// .svg, or .png for a picture of it).
     #[arg(short = 'o', long = "output")]
     pub output: Option<PathBuf>,
+    #[command(flatten)]
+    pub image: ImageArgs,
     /// Print each iteration's string length, cumulative modules and time.
     #[arg(long)]
     pub stats: bool,
@@ -68,6 +71,123 @@ pub struct DeriveArgs {
     /// GPU; the string is the same either way).
     #[arg(long, requires = "gpu", value_name = "MODULES", default_value_t = grm_gpu::derive::CPU_PREFIX_MODULES)]
     pub cpu_prefix: u64,
+}
+
+/// How a `.png` output is drawn (`derive`, `forest` and `sample` share
+/// these flags; grm_geom::render says how the picture is made).
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct ImageArgs {
+    /// With a .png output: the picture's size in pixels (default
+    /// 1024x1024; each side 1 to 16384, at most 4096x4096 pixels in all).
+    #[arg(long, value_name = "WIDTHxHEIGHT", value_parser = parse_image_size)]
+    pub image_size: Option<ImageSize>,
+    /// With a .png output: look at the model from AZIMUTH,ELEVATION
+    /// degrees: azimuth about +y from +z towards +x, elevation above the
+    /// xz plane (default: from +z for a model flat in xy, else 35,20).
+    #[arg(long, value_name = "AZIMUTH,ELEVATION", value_parser = parse_view, allow_hyphen_values = true)]
+    pub view: Option<ViewAngles>,
+    /// With a .png output: a transparent background instead of the grey
+    /// gradient.
+    #[arg(long)]
+    pub transparent: bool,
+}
+
+/// `--image-size`'s value.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ImageSize {
+    pub width: u32,
+    pub height: u32,
+}
+
+/// `--view`'s value, in degrees.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ViewAngles {
+    pub azimuth: f32,
+    pub elevation: f32,
+}
+
+/// `--image-size WIDTHxHEIGHT` (or a single number for a square).
+fn parse_image_size(text: &str) -> Result<ImageSize, String> {
+    let bad = || {
+        format!(
+            "`{text}` is not a picture size: write WIDTHxHEIGHT, e.g. 1920x1080 (each side 1 to {})",
+            grm_geom::render::MAX_IMAGE_SIDE
+        )
+    };
+    let (w, h) = match text.split_once(['x', 'X']) {
+        Some((w, h)) => (w.trim(), h.trim()),
+        None => (text.trim(), text.trim()),
+    };
+    let (width, height) = match (w.parse::<u32>(), h.parse::<u32>()) {
+        (Ok(w), Ok(h)) => (w, h),
+        _ => return Err(bad()),
+    };
+    let options = grm_geom::render::RenderOptions {
+        width,
+        height,
+        ..Default::default()
+    };
+    match options.validate() {
+        Ok(()) => Ok(ImageSize { width, height }),
+        Err(grm_geom::render::RenderError::Size { .. })
+            if width == 0
+                || height == 0
+                || width.max(height) > grm_geom::render::MAX_IMAGE_SIDE =>
+        {
+            Err(bad())
+        }
+        Err(e) => Err(e.to_string()),
+    }
+}
+
+/// `--view AZIMUTH,ELEVATION` in degrees.
+fn parse_view(text: &str) -> Result<ViewAngles, String> {
+    let bad = || {
+        format!(
+            "`{text}` is not a view: write AZIMUTH,ELEVATION in degrees, e.g. 35,20 (elevation -90 to 90)"
+        )
+    };
+    let (a, e) = text.split_once(',').ok_or_else(bad)?;
+    let (azimuth, elevation) = match (a.trim().parse::<f32>(), e.trim().parse::<f32>()) {
+        (Ok(a), Ok(e)) => (a, e),
+        _ => return Err(bad()),
+    };
+    if !(azimuth.is_finite() && (-90.0..=90.0).contains(&elevation)) {
+        return Err(bad());
+    }
+    Ok(ViewAngles { azimuth, elevation })
+}
+
+impl ImageArgs {
+    /// The first picture flag given, as written on the command line.
+    fn given(&self) -> Option<&'static str> {
+        if self.image_size.is_some() {
+            Some("--image-size")
+        } else if self.view.is_some() {
+            Some("--view")
+        } else if self.transparent {
+            Some("--transparent")
+        } else {
+            None
+        }
+    }
+
+    /// The renderer's options.
+    pub fn options(&self) -> grm_geom::render::RenderOptions {
+        let mut o = grm_geom::render::RenderOptions::default();
+        if let Some(size) = self.image_size {
+            o.width = size.width;
+            o.height = size.height;
+        }
+        if let Some(v) = self.view {
+            o.view = grm_geom::render::View::Angles {
+                azimuth: v.azimuth,
+                elevation: v.elevation,
+            };
+        }
+        o.transparent = self.transparent;
+        o
+    }
 }
 
 /// A system loaded, checked and compiled, with what it came from.
@@ -195,7 +315,7 @@ pub fn run(args: DeriveArgs) -> Outcome {
         };
         return report_derive_error(&loaded.sources, &loaded.compiled, &e);
     }
-    if let Some(o) = check_output_format(&loaded, args.output.as_deref()) {
+    if let Some(o) = check_output_format(&loaded, args.output.as_deref(), &args.image) {
         return o;
     }
     if args.gpu
@@ -285,15 +405,31 @@ pub fn run(args: DeriveArgs) -> Outcome {
         );
     }
     if let Some(path) = &args.output {
-        return export_string(&loaded, &d.string, path);
+        return export_string(&loaded, &d.string, path, &args.image);
     }
     Outcome::Ok
 }
 
 /// `-o PATH` must name a format grm writes (R0406) in a directory that
-/// exists (R0407), checked before the work that the export would waste;
-/// `Some` is the outcome to exit with (the problem was printed).
-pub fn check_output_format(loaded: &Loaded, output: Option<&Path>) -> Option<Outcome> {
+/// exists (R0407), and the picture flags need a `.png` output; checked
+/// before the work that the export would waste. `Some` is the outcome to
+/// exit with (the problem was printed).
+pub fn check_output_format(
+    loaded: &Loaded,
+    output: Option<&Path>,
+    image: &ImageArgs,
+) -> Option<Outcome> {
+    if let Some(flag) = image.given() {
+        let png =
+            output.and_then(grm_geom::ExportFormat::from_path) == Some(grm_geom::ExportFormat::Png);
+        if !png {
+            eprintln!(
+                "error: {flag} draws a picture: it needs an output named -o FILE.png{}",
+                output.map_or(String::new(), |p| format!(" (not {})", p.display()))
+            );
+            return Some(Outcome::Usage);
+        }
+    }
     let path = output?;
     let e = if grm_geom::ExportFormat::from_path(path).is_none() {
         grm_geom::ExportError::UnknownFormat {
@@ -321,7 +457,12 @@ pub fn check_output_format(loaded: &Loaded, output: Option<&Path>) -> Option<Out
 
 /// Build the model of a derived string and write it to `path`; the
 /// outcome to exit with (errors were printed).
-pub fn export_string(loaded: &Loaded, string: &grm_derive::ModuleString, path: &Path) -> Outcome {
+pub fn export_string(
+    loaded: &Loaded,
+    string: &grm_derive::ModuleString,
+    path: &Path,
+    image: &ImageArgs,
+) -> Outcome {
     let c = &loaded.compiled;
     let model = match grm_geom::build_model(
         &loaded.program,
@@ -339,22 +480,46 @@ pub fn export_string(loaded: &Loaded, string: &grm_derive::ModuleString, path: &
             return Outcome::InputErrors;
         }
     };
-    export_model(loaded, &model, path)
+    export_model(loaded, &model, path, image)
 }
 
-/// Write a built model to `path`; the outcome to exit with.
-pub fn export_model(loaded: &Loaded, model: &grm_geom::Model, path: &Path) -> Outcome {
+/// Write a built model to `path` (a `.png` drawn as `image` says); the
+/// outcome to exit with.
+pub fn export_model(
+    loaded: &Loaded,
+    model: &grm_geom::Model,
+    path: &Path,
+    image: &ImageArgs,
+) -> Outcome {
     let c = &loaded.compiled;
-    let lines = grm_geom::ExportFormat::from_path(path) == Some(grm_geom::ExportFormat::Svg);
+    let format = grm_geom::ExportFormat::from_path(path);
+    let picture = format == Some(grm_geom::ExportFormat::Png);
+    // SVG and PNG draw bones without width as lines.
+    let lines = picture || format == Some(grm_geom::ExportFormat::Svg);
     for w in model.warnings(c.file, c.span, lines) {
         emit(&loaded.sources, &w);
     }
-    if let Err(e) = grm_geom::export(model, path) {
+    let options = image.options();
+    let written = if picture {
+        grm_geom::export_image(model, path, &options)
+    } else {
+        grm_geom::export(model, path)
+    };
+    if let Err(e) = written {
         emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));
         return Outcome::Usage;
     }
     let s = &model.stats;
-    if lines {
+    if picture {
+        eprintln!(
+            "wrote {} ({}x{} picture of {}, {})",
+            path.display(),
+            options.width,
+            options.height,
+            crate::count(s.triangles as u64, "triangle"),
+            crate::count(s.bones as u64, "bone"),
+        );
+    } else if lines {
         // An SVG draws the bones as lines and the polygons as paths; the
         // meshes are not in it.
         eprintln!(

@@ -70,9 +70,12 @@ pub struct ForestArgs {
     /// footprint plus 10%, so that no two trees overlap).
     #[arg(long, value_parser = parse_spacing)]
     pub spacing: Option<f32>,
-    /// Build the forest's model and write it (.glb .obj .ply .svg).
+    /// Build the forest's model and write it (.glb .obj .ply .svg, or
+    /// .png for a picture of it).
     #[arg(short = 'o', long = "output")]
     pub output: Option<PathBuf>,
+    #[command(flatten)]
+    pub image: crate::derive::ImageArgs,
     /// Print a line per tree: system, seed, iterations, modules, bones,
     /// place and drawn parameters.
     #[arg(long)]
@@ -260,7 +263,9 @@ pub fn run(args: ForestArgs) -> Outcome {
             return report_derive_error(&loaded.sources, &loaded.compiled, &e);
         }
     }
-    if let Some(o) = crate::derive::check_output_format(&loaded, args.output.as_deref()) {
+    if let Some(o) =
+        crate::derive::check_output_format(&loaded, args.output.as_deref(), &args.image)
+    {
         return o;
     }
     // Each range must be inside the parameter's own (checked as overrides).
@@ -453,7 +458,7 @@ pub fn run(args: ForestArgs) -> Outcome {
             return Outcome::InputErrors;
         }
     };
-    crate::derive::export_model(&loaded, &model, path)
+    crate::derive::export_model(&loaded, &model, path, &args.image)
 }
 
 /// Compile what the trees need (one system per `--system` without

@@ -222,7 +222,12 @@ pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
         );
     }
     if let Some(path) = &args.output {
-        return Some(crate::derive::export_string(loaded, &string, path));
+        return Some(crate::derive::export_string(
+            loaded,
+            &string,
+            path,
+            &args.image,
+        ));
     }
     Some(Outcome::Ok)
 }

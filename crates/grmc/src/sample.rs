@@ -104,9 +104,12 @@ pub struct SampleArgs {
     #[arg(long, value_name = "MIB", value_parser = clap::value_parser!(u64).range(1..=(u64::MAX >> 20)))]
     pub max_memory: Option<u64>,
     /// Build the best model and write it (format by extension: .glb .obj
-    /// .ply .svg); with --best K the others go to NAME-2.EXT, ...
+    /// .ply .svg, or .png for a picture of it); with --best K the others
+    /// go to NAME-2.EXT, ...
     #[arg(short = 'o', long = "output")]
     pub output: Option<PathBuf>,
+    #[command(flatten)]
+    pub image: crate::derive::ImageArgs,
 }
 
 /// A number > 0 (`inf` included), for `--temperature`.
@@ -231,7 +234,9 @@ pub fn run(args: SampleArgs) -> Outcome {
         };
         return report(&loaded, &e);
     }
-    if let Some(o) = crate::derive::check_output_format(&loaded, args.output.as_deref()) {
+    if let Some(o) =
+        crate::derive::check_output_format(&loaded, args.output.as_deref(), &args.image)
+    {
         return o;
     }
     let curves = match Curves::load(&curves_path) {
@@ -406,7 +411,7 @@ pub fn run(args: SampleArgs) -> Outcome {
                     return Outcome::InputErrors;
                 }
             };
-            let o = export_model(&loaded, &model, &nth_path(path, k));
+            let o = export_model(&loaded, &model, &nth_path(path, k), &args.image);
             if o != Outcome::Ok {
                 return o;
             }

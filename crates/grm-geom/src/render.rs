@@ -1,0 +1,625 @@
+//! A picture of a [`Model`]: a software rasterizer behind the `.png` export.
+//!
+//! Input: a built model and [`RenderOptions`] (size, view, samples,
+//! background). Output: an [`Image`] (8-bit sRGB RGBA, rows top to bottom)
+//! and its PNG encoding ([`write_png`]). No GPU and no window: it runs the
+//! same on a headless CI machine, for thumbnails, batch renders and
+//! comparing models by eye.
+//!
+//! How it draws:
+//! - **Camera**: orthographic, looking at the model from a direction given
+//!   by azimuth and elevation ([`View::Angles`]), with +y up on the
+//!   picture (the turtle's initial heading). [`View::Auto`] looks straight
+//!   down -z at a model that is flat in the xy plane (the classic 2D
+//!   L-systems, as the SVG export shows them) and from
+//!   [`AUTO_AZIMUTH`]/[`AUTO_ELEVATION`] at anything else. The projection
+//!   is fitted to the model's projected extent (every mesh vertex and every
+//!   drawn bone end) with a margin of [`MARGIN`] of the shorter side, so
+//!   the model fills the picture whatever its scale.
+//! - **Surfaces**: every triangle of every part, depth-buffered, lit per
+//!   vertex (a key light from the upper left, ambient and a little light
+//!   from the camera), two-sided (a triangle seen from behind is lit as
+//!   its front would be: `{ . }` polygons and discs have one face),
+//!   coloured by the part's material (base colour plus emissive; opacity
+//!   is not drawn, every surface is opaque).
+//! - **Bones as lines**: bare bones (no tube: zero width, as in the classic
+//!   2D systems) are drawn as one-pixel lines in their paint colour,
+//!   depth-tested against the surfaces, as the SVG export draws them as
+//!   hairlines. A bone with a tube also gets its line, under the
+//!   surfaces: a tube thinner than a pixel stays a continuous line, and a
+//!   thicker one hides it.
+//! - **Anti-aliasing**: `samples` x `samples` samples per pixel, averaged in
+//!   linear light, then encoded as sRGB.
+//!
+//! Invariants: the picture depends only on the model and the options (no
+//! threads, no clock: the same model gives the same bytes); non-finite
+//! coordinates never reach the buffers; the sample buffers never exceed
+//! [`MAX_SAMPLES_TOTAL`] samples (`samples` is lowered for a large
+//! picture, down to one sample per pixel); sizes outside
+//! 1..=[`MAX_IMAGE_SIDE`] or over [`MAX_PIXELS`] are a [`RenderError`],
+//! never a panic.
+
+use std::io::{self, Write};
+
+use glam::Vec3;
+
+use crate::{Model, PartSource};
+
+/// The longest side of a picture, in pixels.
+pub const MAX_IMAGE_SIDE: u32 = 16384;
+/// The most pixels of a picture (width x height): 4096 x 4096.
+pub const MAX_PIXELS: u64 = 1 << 24;
+/// The most samples (pixels x samples²) the buffers hold: about 330 MB.
+pub const MAX_SAMPLES_TOTAL: u64 = 1 << 25;
+/// The most samples per pixel along each axis.
+pub const MAX_SAMPLES: u32 = 4;
+/// [`View::Auto`]'s azimuth for a model that is not flat, in degrees.
+pub const AUTO_AZIMUTH: f32 = 35.0;
+/// [`View::Auto`]'s elevation for a model that is not flat, in degrees.
+pub const AUTO_ELEVATION: f32 = 20.0;
+/// The margin around the model, as a fraction of the picture's shorter side.
+pub const MARGIN: f32 = 0.04;
+
+/// Where the camera looks from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum View {
+    /// Down -z at a model flat in xy; otherwise
+    /// [`AUTO_AZIMUTH`]/[`AUTO_ELEVATION`].
+    Auto,
+    /// The camera's direction from the model, in degrees: `azimuth` about
+    /// +y, from +z (0: looking down -z) toward +x (90: looking down -x);
+    /// `elevation` above the xz plane (90: looking straight down, at most
+    /// ±89.9 is used so that +y can stay up).
+    Angles { azimuth: f32, elevation: f32 },
+}
+
+/// How to draw a picture.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderOptions {
+    pub width: u32,
+    pub height: u32,
+    pub view: View,
+    /// Samples per pixel along each axis, 1 to [`MAX_SAMPLES`] (3 = nine
+    /// samples a pixel); lowered when the picture would need more than
+    /// [`MAX_SAMPLES_TOTAL`].
+    pub samples: u32,
+    /// A transparent background (alpha = coverage) instead of the light
+    /// grey gradient.
+    pub transparent: bool,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        RenderOptions {
+            width: 1024,
+            height: 1024,
+            view: View::Auto,
+            samples: 3,
+            transparent: false,
+        }
+    }
+}
+
+impl RenderOptions {
+    /// Check the size and samples; the error says what is wrong.
+    pub fn validate(&self) -> Result<(), RenderError> {
+        let (w, h) = (self.width, self.height);
+        if w == 0 || h == 0 || w > MAX_IMAGE_SIDE || h > MAX_IMAGE_SIDE {
+            return Err(RenderError::Size {
+                width: w,
+                height: h,
+            });
+        }
+        if u64::from(w) * u64::from(h) > MAX_PIXELS {
+            return Err(RenderError::Size {
+                width: w,
+                height: h,
+            });
+        }
+        if !(1..=MAX_SAMPLES).contains(&self.samples) {
+            return Err(RenderError::Samples(self.samples));
+        }
+        if let View::Angles { azimuth, elevation } = self.view
+            && !(azimuth.is_finite() && elevation.is_finite())
+        {
+            return Err(RenderError::View);
+        }
+        Ok(())
+    }
+
+    /// The samples per axis actually used: `samples`, lowered until the
+    /// buffers fit [`MAX_SAMPLES_TOTAL`] (at least 1).
+    pub fn effective_samples(&self) -> u32 {
+        let pixels = u64::from(self.width) * u64::from(self.height);
+        let mut s = self.samples.clamp(1, MAX_SAMPLES);
+        while s > 1 && pixels * u64::from(s * s) > MAX_SAMPLES_TOTAL {
+            s -= 1;
+        }
+        s
+    }
+}
+
+/// Why a picture cannot be drawn.
+#[derive(Clone, Debug, PartialEq)]
+pub enum RenderError {
+    /// A side is 0 or over [`MAX_IMAGE_SIDE`], or the picture has more
+    /// than [`MAX_PIXELS`] pixels.
+    Size { width: u32, height: u32 },
+    /// Samples per axis outside 1..=[`MAX_SAMPLES`].
+    Samples(u32),
+    /// An angle of the view is not finite.
+    View,
+}
+
+impl std::fmt::Display for RenderError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            RenderError::Size { width, height } => write!(
+                f,
+                "a picture of {width}x{height} pixels cannot be drawn: each side must be 1 to \
+                 {MAX_IMAGE_SIDE} and the picture at most {MAX_PIXELS} pixels"
+            ),
+            RenderError::Samples(s) => {
+                write!(
+                    f,
+                    "{s} samples per pixel side: it must be 1 to {MAX_SAMPLES}"
+                )
+            }
+            RenderError::View => write!(f, "the view's angles must be finite numbers"),
+        }
+    }
+}
+
+impl std::error::Error for RenderError {}
+
+/// An 8-bit sRGB picture with alpha, rows top to bottom.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Image {
+    pub width: u32,
+    pub height: u32,
+    /// `width * height * 4` bytes: R, G, B, A per pixel.
+    pub rgba: Vec<u8>,
+}
+
+impl Image {
+    /// The pixel at column `x`, row `y` (0, 0 is the top left).
+    pub fn pixel(&self, x: u32, y: u32) -> [u8; 4] {
+        let i = (y as usize * self.width as usize + x as usize) * 4;
+        [
+            self.rgba[i],
+            self.rgba[i + 1],
+            self.rgba[i + 2],
+            self.rgba[i + 3],
+        ]
+    }
+
+    /// Whether every pixel is opaque.
+    pub fn is_opaque(&self) -> bool {
+        self.rgba.chunks_exact(4).all(|p| p[3] == 255)
+    }
+}
+
+/// The background gradient, top and bottom, linear RGB.
+const BACKGROUND_TOP: [f32; 3] = [0.913, 0.930, 0.955];
+const BACKGROUND_BOTTOM: [f32; 3] = [0.716, 0.745, 0.783];
+/// Light in camera space (x right, y up, z toward the camera).
+const KEY_LIGHT: Vec3 = Vec3::new(-0.42, 0.62, 0.66);
+const AMBIENT: f32 = 0.22;
+const KEY: f32 = 0.66;
+const HEAD: f32 = 0.18;
+/// The light of a tube's line (a tube thinner than a sample): its
+/// surface's light half way round.
+const LINE_LIGHT: f32 = AMBIENT + 0.5 * KEY + 0.5 * HEAD;
+
+/// The camera's frame: `right` and `up` span the picture, `toward` points
+/// from the model to the camera.
+#[derive(Clone, Copy, Debug)]
+struct Camera {
+    right: Vec3,
+    up: Vec3,
+    toward: Vec3,
+}
+
+impl Camera {
+    fn new(azimuth_deg: f32, elevation_deg: f32) -> Camera {
+        let az = azimuth_deg.to_radians();
+        let el = elevation_deg.clamp(-89.9, 89.9).to_radians();
+        let toward = Vec3::new(az.sin() * el.cos(), el.sin(), az.cos() * el.cos());
+        // |toward.y| < 1, so the cross product with +y is never zero.
+        let right = Vec3::Y.cross(toward).normalize();
+        let up = toward.cross(right);
+        Camera { right, up, toward }
+    }
+
+    #[inline]
+    fn project(&self, p: Vec3) -> Vec3 {
+        Vec3::new(p.dot(self.right), p.dot(self.up), p.dot(self.toward))
+    }
+}
+
+/// The view [`View::Auto`] picks for `model`: (azimuth, elevation). A
+/// model is flat when it has no primitives or meshes and its bone ends and
+/// polygon vertices keep one z (to 1e-4 of their extent in x and y): the
+/// classic 2D L-systems, whose tubes alone are not a third dimension.
+pub fn auto_angles(model: &Model) -> (f32, f32) {
+    let s = &model.skeleton;
+    let mut b = crate::Aabb::EMPTY;
+    for bone in &s.bones {
+        b.add(bone.base);
+        b.add(bone.tip);
+    }
+    for p in &s.polygon_vertices {
+        b.add(*p);
+    }
+    let size = b.size();
+    let flat = s.instances.is_empty() && !b.is_empty() && size.z <= 1e-4 * size.x.max(size.y);
+    if flat {
+        (0.0, 0.0)
+    } else {
+        (AUTO_AZIMUTH, AUTO_ELEVATION)
+    }
+}
+
+/// Which bones got a tube (from the parts' picks).
+fn tubed_bones(model: &Model) -> Vec<bool> {
+    let mut tubed = vec![false; model.skeleton.bones.len()];
+    for part in &model.parts {
+        for pick in &part.picks {
+            if let PartSource::Bone(b) = pick.source
+                && let Some(t) = tubed.get_mut(b as usize)
+            {
+                *t = true;
+            }
+        }
+    }
+    tubed
+}
+
+/// The sample buffers.
+struct Target {
+    width: usize,
+    height: usize,
+    depth: Vec<f32>,
+    /// Linear RGB in 1/65535 units.
+    color: Vec<[u16; 3]>,
+}
+
+#[inline]
+fn edge(a: Vec3, b: Vec3, px: f32, py: f32) -> f32 {
+    (b.x - a.x) * (py - a.y) - (b.y - a.y) * (px - a.x)
+}
+
+#[inline]
+fn quantize(c: Vec3) -> [u16; 3] {
+    let q = |x: f32| (x.clamp(0.0, 1.0) * 65535.0 + 0.5) as u16;
+    [q(c.x), q(c.y), q(c.z)]
+}
+
+impl Target {
+    fn new(width: usize, height: usize) -> Target {
+        Target {
+            width,
+            height,
+            depth: vec![f32::NEG_INFINITY; width * height],
+            color: vec![[0; 3]; width * height],
+        }
+    }
+
+    /// Fill a triangle in sample space (x right, y down, z larger =
+    /// nearer), colours interpolated across it.
+    fn triangle(&mut self, v: [Vec3; 3], c: [Vec3; 3]) {
+        let [a, mut b, mut c0] = v;
+        let [ca, mut cb, mut cc] = c;
+        let mut area = edge(a, b, c0.x, c0.y);
+        if !(area.is_finite() && area.abs() > 1e-12) {
+            return;
+        }
+        if area < 0.0 {
+            std::mem::swap(&mut b, &mut c0);
+            std::mem::swap(&mut cb, &mut cc);
+            area = -area;
+        }
+        let inv = 1.0 / area;
+        let (w, h) = (self.width as f32, self.height as f32);
+        let min_x = a.x.min(b.x).min(c0.x);
+        let max_x = a.x.max(b.x).max(c0.x);
+        let min_y = a.y.min(b.y).min(c0.y);
+        let max_y = a.y.max(b.y).max(c0.y);
+        if max_x < 0.0 || max_y < 0.0 || min_x >= w || min_y >= h {
+            return;
+        }
+        // Samples sit at pixel centres (i + 0.5).
+        let x0 = (min_x - 0.5).ceil().max(0.0) as usize;
+        let y0 = (min_y - 0.5).ceil().max(0.0) as usize;
+        let x1 = ((max_x - 0.5).floor().min(w - 1.0)) as isize;
+        let y1 = ((max_y - 0.5).floor().min(h - 1.0)) as isize;
+        if x1 < x0 as isize || y1 < y0 as isize {
+            return;
+        }
+        let (x1, y1) = (x1 as usize, y1 as usize);
+        for y in y0..=y1 {
+            let py = y as f32 + 0.5;
+            let row = y * self.width;
+            for x in x0..=x1 {
+                let px = x as f32 + 0.5;
+                let w0 = edge(b, c0, px, py);
+                let w1 = edge(c0, a, px, py);
+                let w2 = edge(a, b, px, py);
+                if w0 < 0.0 || w1 < 0.0 || w2 < 0.0 {
+                    continue;
+                }
+                let (l0, l1, l2) = (w0 * inv, w1 * inv, w2 * inv);
+                let z = l0 * a.z + l1 * b.z + l2 * c0.z;
+                let i = row + x;
+                if z > self.depth[i] {
+                    self.depth[i] = z;
+                    self.color[i] = quantize(ca * l0 + cb * l1 + cc * l2);
+                }
+            }
+        }
+    }
+
+    /// A line `thickness` samples wide in sample space, depth-tested;
+    /// `bias` lets it win a near tie with a surface it runs along.
+    fn line(&mut self, a: Vec3, b: Vec3, color: Vec3, thickness: usize, bias: bool) {
+        let d = b - a;
+        let steps = d.x.abs().max(d.y.abs()).ceil().max(1.0);
+        if !steps.is_finite() || steps > 1e7 {
+            return;
+        }
+        let q = quantize(color);
+        let along_x = d.x.abs() >= d.y.abs();
+        let half = thickness as f32 * 0.5;
+        let n = steps as usize;
+        for k in 0..=n {
+            let t = k as f32 / steps;
+            let p = a + d * t;
+            let (major, minor) = if along_x { (p.x, p.y) } else { (p.y, p.x) };
+            if major < 0.0 {
+                continue;
+            }
+            let m = major as usize;
+            let lo = (minor - half + 0.5).floor();
+            for j in 0..thickness {
+                let o = lo + j as f32;
+                if o < 0.0 {
+                    continue;
+                }
+                let o = o as usize;
+                let (x, y) = if along_x { (m, o) } else { (o, m) };
+                if x >= self.width || y >= self.height {
+                    continue;
+                }
+                let i = y * self.width + x;
+                let z = if bias {
+                    p.z + 1e-4 * p.z.abs().max(1.0)
+                } else {
+                    p.z
+                };
+                if z > self.depth[i] {
+                    self.depth[i] = p.z;
+                    self.color[i] = q;
+                }
+            }
+        }
+    }
+}
+
+fn srgb(linear: f32) -> u8 {
+    let x = linear.clamp(0.0, 1.0);
+    let s = if x <= 0.003_130_8 {
+        12.92 * x
+    } else {
+        1.055 * x.powf(1.0 / 2.4) - 0.055
+    };
+    (s * 255.0 + 0.5) as u8
+}
+
+/// Draw `model` as `options` say.
+pub fn render(model: &Model, options: &RenderOptions) -> Result<Image, RenderError> {
+    options.validate()?;
+    let s = options.effective_samples() as usize;
+    let (width, height) = (options.width as usize, options.height as usize);
+    let (sw, sh) = (width * s, height * s);
+    let (azimuth, elevation) = match options.view {
+        View::Auto => auto_angles(model),
+        View::Angles { azimuth, elevation } => (azimuth, elevation),
+    };
+    let cam = Camera::new(azimuth, elevation);
+    let tubed = tubed_bones(model);
+    // Every bone that is a segment is drawn as a line: those without a tube
+    // over the surfaces, those with one under them (a tube thinner than a
+    // sample would leave gaps; a thicker one hides its line).
+    let lines: Vec<usize> = model
+        .skeleton
+        .bones
+        .iter()
+        .enumerate()
+        .filter(|(_, b)| b.base.is_finite() && b.tip.is_finite() && b.base != b.tip)
+        .map(|(i, _)| i)
+        .collect();
+
+    // The projected extent of everything drawn.
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    let mut grow = |p: Vec3| {
+        if p.is_finite() {
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+    };
+    for part in &model.parts {
+        for p in &part.mesh.positions {
+            grow(cam.project(Vec3::from_array(*p)));
+        }
+    }
+    for &i in &lines {
+        let b = &model.skeleton.bones[i];
+        grow(cam.project(b.base));
+        grow(cam.project(b.tip));
+    }
+
+    let mut target = Target::new(sw, sh);
+    if lo.x <= hi.x {
+        let centre = (lo + hi) * 0.5;
+        let extent = hi - lo;
+        let magnitude = lo.abs().max(hi.abs()).max_element();
+        let tiny = (1e-6 * magnitude).max(f32::MIN_POSITIVE);
+        let margin = MARGIN * (sw.min(sh) as f32);
+        let scale_x = (sw as f32 - 2.0 * margin).max(1.0) / extent.x.max(tiny);
+        let scale_y = (sh as f32 - 2.0 * margin).max(1.0) / extent.y.max(tiny);
+        let scale = scale_x.min(scale_y);
+        let (half_w, half_h) = (sw as f32 * 0.5, sh as f32 * 0.5);
+        let to_screen = |q: Vec3| {
+            Vec3::new(
+                half_w + (q.x - centre.x) * scale,
+                half_h - (q.y - centre.y) * scale,
+                q.z - centre.z,
+            )
+        };
+        let line = |target: &mut Target, i: usize, light: f32, bias: bool| {
+            let b = &model.skeleton.bones[i];
+            let color = Vec3::from_array(model.paint_color(b.paint)) * light;
+            let (a, z) = (
+                to_screen(cam.project(b.base)),
+                to_screen(cam.project(b.tip)),
+            );
+            target.line(a, z, color, s, bias);
+        };
+        for &i in lines.iter().filter(|&&i| tubed[i]) {
+            line(&mut target, i, LINE_LIGHT, false);
+        }
+        let light = KEY_LIGHT.normalize();
+        let mut screen: Vec<Vec3> = Vec::new();
+        for part in &model.parts {
+            let Some(material) = model.materials.get(part.material) else {
+                continue;
+            };
+            let base = Vec3::from_array(material.color);
+            let emissive = Vec3::from_array(material.emissive);
+            let mesh = &part.mesh;
+            screen.clear();
+            screen.extend(
+                mesh.positions
+                    .iter()
+                    .map(|p| to_screen(cam.project(Vec3::from_array(*p)))),
+            );
+            let shade = |n: Vec3| {
+                let n = cam.project(n);
+                let lit = AMBIENT + KEY * n.dot(light).max(0.0) + HEAD * n.z.max(0.0);
+                base * lit + emissive
+            };
+            for tri in mesh.indices.chunks_exact(3) {
+                let [i0, i1, i2] = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
+                let (Some(&v0), Some(&v1), Some(&v2)) =
+                    (screen.get(i0), screen.get(i1), screen.get(i2))
+                else {
+                    continue;
+                };
+                if !(v0.is_finite() && v1.is_finite() && v2.is_finite()) {
+                    continue;
+                }
+                // Two-sided: seen from behind (clockwise on the picture,
+                // whose y points down), the normals are turned around.
+                let facing = edge(v0, v1, v2.x, v2.y) <= 0.0;
+                let normal = |i: usize| {
+                    let n = Vec3::from_array(mesh.normals[i]);
+                    if facing { n } else { -n }
+                };
+                target.triangle(
+                    [v0, v1, v2],
+                    [shade(normal(i0)), shade(normal(i1)), shade(normal(i2))],
+                );
+            }
+        }
+        for &i in lines.iter().filter(|&&i| !tubed[i]) {
+            line(&mut target, i, 1.0, true);
+        }
+    }
+    Ok(resolve(&target, width, height, s, options.transparent))
+}
+
+/// Average each pixel's samples (in linear light) and encode as sRGB.
+fn resolve(target: &Target, width: usize, height: usize, s: usize, transparent: bool) -> Image {
+    let mut rgba = Vec::with_capacity(width * height * 4);
+    let n = (s * s) as f32;
+    for y in 0..height {
+        let t = if height > 1 {
+            y as f32 / (height - 1) as f32
+        } else {
+            0.0
+        };
+        let bg = Vec3::from_array(BACKGROUND_TOP).lerp(Vec3::from_array(BACKGROUND_BOTTOM), t);
+        for x in 0..width {
+            let mut sum = Vec3::ZERO;
+            let mut covered = 0u32;
+            for sy in 0..s {
+                let row = (y * s + sy) * target.width + x * s;
+                for sx in 0..s {
+                    let i = row + sx;
+                    if target.depth[i] > f32::NEG_INFINITY {
+                        let c = target.color[i];
+                        sum += Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) / 65535.0;
+                        covered += 1;
+                    }
+                }
+            }
+            let (c, a) = if transparent {
+                if covered == 0 {
+                    (Vec3::ZERO, 0)
+                } else {
+                    let a = (covered as f32 / n * 255.0 + 0.5) as u8;
+                    (sum / covered as f32, a)
+                }
+            } else {
+                ((sum + bg * (n - covered as f32)) / n, 255)
+            };
+            rgba.extend_from_slice(&[srgb(c.x), srgb(c.y), srgb(c.z), a]);
+        }
+    }
+    Image {
+        width: width as u32,
+        height: height as u32,
+        rgba,
+    }
+}
+
+/// Write `image` as PNG: RGB when it is opaque, RGBA otherwise, tagged
+/// sRGB.
+pub fn write_png(image: &Image, w: &mut dyn Write) -> io::Result<()> {
+    let opaque = image.is_opaque();
+    let mut encoder = png::Encoder::new(w, image.width, image.height);
+    encoder.set_color(if opaque {
+        png::ColorType::Rgb
+    } else {
+        png::ColorType::Rgba
+    });
+    encoder.set_depth(png::BitDepth::Eight);
+    encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+    let mut writer = encoder.write_header().map_err(png_error)?;
+    if opaque {
+        let rgb: Vec<u8> = image
+            .rgba
+            .chunks_exact(4)
+            .flat_map(|p| [p[0], p[1], p[2]])
+            .collect();
+        writer.write_image_data(&rgb).map_err(png_error)?;
+    } else {
+        writer.write_image_data(&image.rgba).map_err(png_error)?;
+    }
+    writer.finish().map_err(png_error)
+}
+
+fn png_error(e: png::EncodingError) -> io::Error {
+    match e {
+        png::EncodingError::IoError(e) => e,
+        other => io::Error::other(other.to_string()),
+    }
+}
+
+/// `image` as PNG bytes (an error only for an [`Image`] whose `rgba` is
+/// not `width * height * 4` bytes).
+pub fn png_bytes(image: &Image) -> io::Result<Vec<u8>> {
+    let mut out = Vec::new();
+    write_png(image, &mut out)?;
+    Ok(out)
+}

@@ -1,0 +1,366 @@
+//! The `.png` export's rasterizer (`grm_geom::render`): what a picture
+//! shows (coverage, colour, occlusion, framing, hairlines), that it is
+//! repeatable and reads back as PNG, and that bad options are errors.
+
+mod common;
+
+use common::{axiom, build_with_defaults, derive, program};
+use grm_geom::render::{
+    Image, MARGIN, RenderError, RenderOptions, View, png_bytes, render, write_png,
+};
+use grm_geom::{ExportFormat, Model, export};
+
+/// The model of a one-system program's axiom (`iterations` > 0: derived).
+fn model(text: &str, iterations: u32) -> Model {
+    let p = program("mem.grm", text);
+    let s = &p.systems[0];
+    let string = if iterations == 0 {
+        axiom(s)
+    } else {
+        derive(&p, s, iterations)
+    };
+    build_with_defaults(&p, s, &string).expect("builds")
+}
+
+fn options(width: u32, height: u32, view: View) -> RenderOptions {
+    RenderOptions {
+        width,
+        height,
+        view,
+        samples: 2,
+        transparent: false,
+    }
+}
+
+const FRONT: View = View::Angles {
+    azimuth: 0.0,
+    elevation: 0.0,
+};
+
+fn draw(m: &Model, o: &RenderOptions) -> Image {
+    render(m, o).expect("renders")
+}
+
+/// The pixels where `image` differs from `background` (same options, an
+/// empty model), as a bounding box `(x0, y0, x1, y1)` inclusive, and their
+/// count.
+fn covered(image: &Image, background: &Image) -> (Option<(u32, u32, u32, u32)>, usize) {
+    let mut bbox: Option<(u32, u32, u32, u32)> = None;
+    let mut n = 0;
+    for y in 0..image.height {
+        for x in 0..image.width {
+            if image.pixel(x, y) != background.pixel(x, y) {
+                n += 1;
+                bbox = Some(match bbox {
+                    None => (x, y, x, y),
+                    Some((a, b, c, d)) => (a.min(x), b.min(y), c.max(x), d.max(y)),
+                });
+            }
+        }
+    }
+    (bbox, n)
+}
+
+fn empty() -> Model {
+    model("system E { axiom f; }", 0)
+}
+
+#[test]
+fn an_empty_model_is_the_background_gradient() {
+    let m = empty();
+    assert_eq!(m.stats.triangles, 0);
+    let img = draw(&m, &options(64, 48, View::Auto));
+    assert_eq!((img.width, img.height), (64, 48));
+    assert_eq!(img.rgba.len(), 64 * 48 * 4);
+    assert!(img.is_opaque());
+    // Lighter at the top, the same across a row.
+    let (top, bottom) = (img.pixel(10, 0), img.pixel(10, 47));
+    assert!(
+        top[0] > bottom[0] && top[2] > bottom[2],
+        "{top:?} {bottom:?}"
+    );
+    assert_eq!(img.pixel(0, 20), img.pixel(63, 20));
+
+    let clear = draw(
+        &m,
+        &RenderOptions {
+            transparent: true,
+            ..options(64, 48, View::Auto)
+        },
+    );
+    assert!(clear.rgba.chunks_exact(4).all(|p| p[3] == 0));
+}
+
+#[test]
+fn a_red_box_fills_the_frame_within_the_margin() {
+    let m = model("system B { axiom color(1, 0, 0) box(1, 1, 1); }", 0);
+    assert!(m.stats.triangles > 0);
+    let o = options(200, 200, FRONT);
+    let img = draw(&m, &o);
+    let bg = draw(&empty(), &o);
+    let centre = img.pixel(100, 100);
+    assert!(
+        centre[0] > 120 && centre[1] < 40 && centre[2] < 40,
+        "a lit red face: {centre:?}"
+    );
+    // Seen from the front, the 1 x 1 face is fitted to the picture less
+    // the margin on every side.
+    let (bbox, _) = covered(&img, &bg);
+    let (x0, y0, x1, y1) = bbox.expect("the box is drawn");
+    let m_px = (MARGIN * 200.0) as i64;
+    for (got, want) in [
+        (x0 as i64, m_px),
+        (y0 as i64, m_px),
+        (x1 as i64, 199 - m_px),
+        (y1 as i64, 199 - m_px),
+    ] {
+        assert!((got - want).abs() <= 1, "bbox {bbox:?}, margin {m_px}");
+    }
+    assert_eq!(img.pixel(2, 2), bg.pixel(2, 2));
+}
+
+#[test]
+fn the_nearer_surface_hides_the_farther() {
+    // A red box at the origin, a blue one 2 units along +z: the camera of
+    // azimuth 0 is on +z, that of azimuth 180 on -z.
+    let m = model(
+        "system O { axiom color(1, 0, 0) box(1, 1, 1) translate(0, 0, 2) color(0, 0, 1) box(1, 1, 1); }",
+        0,
+    );
+    let front = draw(&m, &options(100, 100, FRONT));
+    let back = draw(
+        &m,
+        &options(
+            100,
+            100,
+            View::Angles {
+                azimuth: 180.0,
+                elevation: 0.0,
+            },
+        ),
+    );
+    let f = front.pixel(50, 50);
+    let b = back.pixel(50, 50);
+    assert!(f[2] > f[0] + 60, "blue in front: {f:?}");
+    assert!(b[0] > b[2] + 60, "red in front from behind: {b:?}");
+}
+
+#[test]
+fn a_polygon_seen_from_behind_is_lit_like_its_front() {
+    // One quad in the xy plane; the front and the back view draw it with
+    // the same shading (two-sided lighting), mirrored.
+    let m = model(
+        "system P { angle = 90; axiom color(0.2, 0.8, 0.2) { . F + F + F + F }; }",
+        0,
+    );
+    assert_eq!(m.stats.polygons, 1);
+    let f = draw(&m, &options(60, 60, FRONT));
+    let b = draw(
+        &m,
+        &options(
+            60,
+            60,
+            View::Angles {
+                azimuth: 180.0,
+                elevation: 0.0,
+            },
+        ),
+    );
+    let (pf, pb) = (f.pixel(30, 30), b.pixel(30, 30));
+    assert!(pf[1] > pf[0] + 60, "green: {pf:?}");
+    for k in 0..3 {
+        assert!(
+            (pf[k] as i32 - pb[k] as i32).abs() <= 2,
+            "{pf:?} against {pb:?}"
+        );
+    }
+}
+
+#[test]
+fn the_picture_does_not_depend_on_the_models_scale() {
+    let small = model("system S { axiom box(1, 2, 0.5) sphere(0.4); }", 0);
+    let large = model(
+        "system S { axiom scale(1000) box(1, 2, 0.5) sphere(0.4); }",
+        0,
+    );
+    let tiny = model(
+        "system S { axiom scale(0.001) box(1, 2, 0.5) sphere(0.4); }",
+        0,
+    );
+    let o = options(120, 120, View::Auto);
+    let a = draw(&small, &o);
+    for other in [&large, &tiny] {
+        let b = draw(other, &o);
+        let differing = a
+            .rgba
+            .chunks_exact(4)
+            .zip(b.rgba.chunks_exact(4))
+            .filter(|(p, q)| p.iter().zip(q.iter()).any(|(x, y)| x.abs_diff(*y) > 8))
+            .count();
+        assert!(differing * 100 < 120 * 120, "{differing} pixels differ");
+    }
+}
+
+#[test]
+fn bones_without_width_are_hairlines() {
+    // Bones of width 0 (the Koch island): no triangles, but lines.
+    let m = model(
+        "system K { angle = 90; width = 0; axiom F - F - F - F; F -> F - F + F + F F - F - F + F; }",
+        1,
+    );
+    assert_eq!(m.stats.triangles, 0);
+    assert_eq!(m.stats.bare_bones, 32);
+    let o = options(128, 128, View::Auto);
+    let img = draw(&m, &o);
+    let bg = draw(&empty(), &o);
+    let (bbox, n) = covered(&img, &bg);
+    // Lines, not areas: a thin fraction of the picture, spanning the frame.
+    assert!(n > 128 && n < 128 * 128 / 4, "{n} pixels drawn");
+    let (x0, _, x1, _) = bbox.expect("lines drawn");
+    assert!(x0 <= 8 && x1 >= 119, "{bbox:?}");
+    // Transparent: the lines have alpha, the rest none.
+    let clear = draw(
+        &m,
+        &RenderOptions {
+            transparent: true,
+            ..o
+        },
+    );
+    let opaque_enough = clear.rgba.chunks_exact(4).filter(|p| p[3] > 64).count();
+    let zero = clear.rgba.chunks_exact(4).filter(|p| p[3] == 0).count();
+    assert!(opaque_enough > 100 && zero > 128 * 128 / 2);
+}
+
+#[test]
+fn a_tree_seen_from_the_auto_view_and_from_above() {
+    let m = model(
+        "system T { angle = 30; width = 0.1; axiom F A; A -> F [ + F A ] [ & F A ] [ - F A ]; }",
+        3,
+    );
+    assert!(m.stats.triangles > 100);
+    for view in [
+        View::Auto,
+        View::Angles {
+            azimuth: 10.0,
+            elevation: 90.0,
+        },
+        View::Angles {
+            azimuth: -30.0,
+            elevation: -90.0,
+        },
+    ] {
+        let o = options(96, 64, view);
+        let (_, n) = covered(&draw(&m, &o), &draw(&empty(), &o));
+        assert!(n > 50, "{view:?}: {n} pixels");
+    }
+}
+
+#[test]
+fn the_same_model_gives_the_same_png_bytes_and_they_read_back() {
+    let m = model(
+        "system T { angle = 25; width = 0.05; axiom F A; A -> F [ + F A ] [ - F A ] color(0.9, 0.2, 0.1) sphere(0.1); }",
+        3,
+    );
+    let o = options(80, 60, View::Auto);
+    let a = png_bytes(&draw(&m, &o)).expect("encodes");
+    let b = png_bytes(&draw(&m, &o)).expect("encodes");
+    assert_eq!(a, b);
+    assert_eq!(&a[..8], b"\x89PNG\r\n\x1a\n");
+
+    let img = draw(&m, &o);
+    let decoder = png::Decoder::new(std::io::Cursor::new(&a));
+    let mut reader = decoder.read_info().expect("a PNG");
+    let mut buf = vec![0; reader.output_buffer_size().expect("size")];
+    let info = reader.next_frame(&mut buf).expect("a frame");
+    assert_eq!((info.width, info.height), (80, 60));
+    assert_eq!(info.color_type, png::ColorType::Rgb);
+    let rgb: Vec<u8> = img
+        .rgba
+        .chunks_exact(4)
+        .flat_map(|p| [p[0], p[1], p[2]])
+        .collect();
+    assert_eq!(&buf[..info.buffer_size()], &rgb[..]);
+
+    // Transparent pictures are written with their alpha.
+    let clear = draw(
+        &m,
+        &RenderOptions {
+            transparent: true,
+            ..o
+        },
+    );
+    let bytes = png_bytes(&clear).expect("encodes");
+    let mut reader = png::Decoder::new(std::io::Cursor::new(&bytes))
+        .read_info()
+        .expect("a PNG");
+    let mut buf = vec![0; reader.output_buffer_size().expect("size")];
+    let info = reader.next_frame(&mut buf).expect("a frame");
+    assert_eq!(info.color_type, png::ColorType::Rgba);
+    assert_eq!(&buf[..info.buffer_size()], &clear.rgba[..]);
+}
+
+#[test]
+fn bad_options_are_errors_not_panics() {
+    let m = empty();
+    for (w, h) in [(0, 10), (10, 0), (16385, 10), (5000, 5000)] {
+        assert_eq!(
+            render(&m, &options(w, h, View::Auto)),
+            Err(RenderError::Size {
+                width: w,
+                height: h
+            })
+        );
+    }
+    for s in [0, 5] {
+        let o = RenderOptions {
+            samples: s,
+            ..options(8, 8, View::Auto)
+        };
+        assert_eq!(render(&m, &o), Err(RenderError::Samples(s)));
+    }
+    let o = options(
+        8,
+        8,
+        View::Angles {
+            azimuth: f32::NAN,
+            elevation: 0.0,
+        },
+    );
+    assert_eq!(render(&m, &o), Err(RenderError::View));
+    // A big picture keeps its buffers bounded by lowering the samples.
+    let big = RenderOptions {
+        samples: 4,
+        ..options(4096, 4096, View::Auto)
+    };
+    assert_eq!(big.validate(), Ok(()));
+    assert_eq!(big.effective_samples(), 1);
+    assert_eq!(options(1024, 1024, View::Auto).effective_samples(), 2);
+    // An Image whose bytes do not match its size is an encoding error.
+    let broken = Image {
+        width: 4,
+        height: 4,
+        rgba: vec![0; 10],
+    };
+    assert!(write_png(&broken, &mut Vec::new()).is_err());
+}
+
+#[test]
+fn export_writes_png_by_extension() {
+    assert_eq!(
+        ExportFormat::from_path(std::path::Path::new("a/tree.PNG")),
+        Some(ExportFormat::Png)
+    );
+    let m = model("system B { axiom box(1, 1, 1); }", 0);
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("box.png");
+    export(&m, &path).expect("exports");
+    let bytes = std::fs::read(&path).expect("written");
+    let reader = png::Decoder::new(std::io::Cursor::new(&bytes))
+        .read_info()
+        .expect("a PNG");
+    let d = RenderOptions::default();
+    assert_eq!(
+        (reader.info().width, reader.info().height),
+        (d.width, d.height)
+    );
+}
