@@ -357,7 +357,7 @@ impl Target {
                     hi = f32::NEG_INFINITY;
                 }
             }
-            if !(lo <= hi) {
+            if lo.partial_cmp(&hi).is_none_or(|o| o.is_gt()) {
                 continue;
             }
             // One sample of slack either side for rounding; the exact test
