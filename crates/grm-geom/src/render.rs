@@ -31,8 +31,13 @@
 //! - **Anti-aliasing**: `samples` x `samples` samples per pixel, averaged in
 //!   linear light, then encoded as sRGB.
 //!
+//! Drawing is parallel (rayon) over bands of [`BAND_ROWS`] sample rows:
+//! each band owns its rows and draws, in the model's order, the triangles
+//! and lines that overlap it.
+//!
 //! Invariants: the picture depends only on the model and the options (no
-//! threads, no clock: the same model gives the same bytes); non-finite
+//! clock; bands never share a sample, so any number of threads gives the
+//! same bytes); non-finite
 //! coordinates never reach the buffers; the sample buffers never exceed
 //! [`MAX_SAMPLES_TOTAL`] samples (`samples` is lowered for a large
 //! picture, down to one sample per pixel); sizes outside
@@ -42,6 +47,7 @@
 use std::io::{self, Write};
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 use crate::{Model, PartSource};
 
@@ -275,13 +281,79 @@ fn tubed_bones(model: &Model) -> Vec<bool> {
     tubed
 }
 
-/// The sample buffers.
-struct Target {
-    width: usize,
-    height: usize,
-    depth: Vec<f32>,
-    /// Linear RGB in 1/65535 units.
-    color: Vec<[u16; 3]>,
+/// Sample rows per band: the unit of parallel work. Each band owns its rows
+/// of the buffers and draws, in the model's order, what overlaps them.
+pub const BAND_ROWS: usize = 32;
+
+/// A line in sample space; `bias` lets it win a near tie with a surface it
+/// runs along.
+#[derive(Clone, Copy)]
+struct Line {
+    a: Vec3,
+    b: Vec3,
+    color: [u16; 3],
+    bias: bool,
+}
+
+/// A part's vertices in sample space (x right, y down, z larger = nearer)
+/// and their light, seen from the front and from behind.
+struct Prepared<'m> {
+    indices: &'m [u32],
+    screen: Vec<Vec3>,
+    front: Vec<Vec3>,
+    back: Vec<Vec3>,
+}
+
+/// What is drawn, in order: lines under the surfaces, the surfaces
+/// (part, triangle), lines over them (index into the lines).
+#[derive(Clone, Copy)]
+enum Item {
+    Tri(u32, u32),
+    Line(u32),
+}
+
+/// Everything a band draws from.
+struct Scene<'m> {
+    parts: Vec<Prepared<'m>>,
+    lines: Vec<Line>,
+    items: Vec<Item>,
+}
+
+impl Scene<'_> {
+    /// A triangle's vertices, and their colours as seen from the side the
+    /// camera is on (two-sided lighting: seen from behind, clockwise on the
+    /// picture whose y points down, the normals are turned around).
+    fn triangle(&self, part: u32, tri: u32) -> Option<([Vec3; 3], [Vec3; 3])> {
+        let p = self.parts.get(part as usize)?;
+        let t = p.indices.get(tri as usize * 3..tri as usize * 3 + 3)?;
+        let i = [t[0] as usize, t[1] as usize, t[2] as usize];
+        let v = [
+            *p.screen.get(i[0])?,
+            *p.screen.get(i[1])?,
+            *p.screen.get(i[2])?,
+        ];
+        let lit = if edge(v[0], v[1], v[2].x, v[2].y) <= 0.0 {
+            &p.front
+        } else {
+            &p.back
+        };
+        Some((v, [lit[i[0]], lit[i[1]], lit[i[2]]]))
+    }
+
+    /// The sample rows an item may touch (inclusive; may lie outside the
+    /// picture).
+    fn rows(&self, item: Item, thickness: f32) -> Option<(f32, f32)> {
+        match item {
+            Item::Tri(part, tri) => {
+                let ([a, b, c], _) = self.triangle(part, tri)?;
+                Some((a.y.min(b.y).min(c.y) - 1.0, a.y.max(b.y).max(c.y) + 1.0))
+            }
+            Item::Line(i) => {
+                let l = self.lines.get(i as usize)?;
+                Some((l.a.y.min(l.b.y) - thickness, l.a.y.max(l.b.y) + thickness))
+            }
+        }
+    }
 }
 
 #[inline]
@@ -295,21 +367,25 @@ fn quantize(c: Vec3) -> [u16; 3] {
     [q(c.x), q(c.y), q(c.z)]
 }
 
-impl Target {
-    fn new(width: usize, height: usize) -> Target {
-        Target {
-            width,
-            height,
-            depth: vec![f32::NEG_INFINITY; width * height],
-            color: vec![[0; 3]; width * height],
-        }
-    }
+/// The rows `y0 .. y0 + rows` of the sample buffers.
+struct Band<'a> {
+    y0: usize,
+    rows: usize,
+    width: usize,
+    depth: &'a mut [f32],
+    /// Linear RGB in 1/65535 units.
+    color: &'a mut [[u16; 3]],
+}
 
-    /// Fill a triangle in sample space (x right, y down, z larger =
-    /// nearer), colours interpolated across it.
+impl Band<'_> {
+    /// Fill a triangle's samples in this band, colours interpolated across
+    /// it.
     fn triangle(&mut self, v: [Vec3; 3], c: [Vec3; 3]) {
         let [a, mut b, mut c0] = v;
         let [ca, mut cb, mut cc] = c;
+        if !(a.is_finite() && b.is_finite() && c0.is_finite()) {
+            return;
+        }
         let mut area = edge(a, b, c0.x, c0.y);
         if !(area.is_finite() && area.abs() > 1e-12) {
             return;
@@ -320,23 +396,24 @@ impl Target {
             area = -area;
         }
         let inv = 1.0 / area;
-        let (w, h) = (self.width as f32, self.height as f32);
+        let w = self.width as f32;
+        let (top, bottom) = (self.y0 as f32, (self.y0 + self.rows) as f32);
         let min_x = a.x.min(b.x).min(c0.x);
         let max_x = a.x.max(b.x).max(c0.x);
         let min_y = a.y.min(b.y).min(c0.y);
         let max_y = a.y.max(b.y).max(c0.y);
-        if max_x < 0.0 || max_y < 0.0 || min_x >= w || min_y >= h {
+        if max_x < 0.0 || max_y < top || min_x >= w || min_y >= bottom {
             return;
         }
-        // Samples sit at pixel centres (i + 0.5).
-        let x0 = (min_x - 0.5).ceil().max(0.0) as usize;
-        let y0 = (min_y - 0.5).ceil().max(0.0) as usize;
-        let x1 = ((max_x - 0.5).floor().min(w - 1.0)) as isize;
-        let y1 = ((max_y - 0.5).floor().min(h - 1.0)) as isize;
-        if x1 < x0 as isize || y1 < y0 as isize {
+        // Samples sit at pixel centres (i + 0.5); both bounds are >= 0
+        // here, so `as` rounds down.
+        let x0 = (min_x - 0.5).max(0.0) as usize;
+        let x1 = ((max_x - 0.5).max(0.0) as usize).min(self.width - 1);
+        let y0 = ((min_y - 0.5).max(top)) as usize;
+        let y1 = ((max_y - 0.5).max(0.0) as usize).min(self.y0 + self.rows - 1);
+        if x1 < x0 || y1 < y0 {
             return;
         }
-        let (x1, y1) = (x1 as usize, y1 as usize);
         // Each edge function is linear in x along a row: the samples inside
         // all three form one span, found per row, so a long thin triangle
         // (a tube's side seen at an angle) costs its samples, not its
@@ -364,7 +441,7 @@ impl Target {
             // below decides. (Both are >= 0, so `as` rounds down.)
             let xs = (lo - 1.5).max(x0 as f32) as usize;
             let xe = (hi + 0.5).min(x1 as f32) as usize;
-            let row = y * self.width;
+            let row = (y - self.y0) * self.width;
             for x in xs..=xe {
                 let px = x as f32 + 0.5;
                 let w0 = edge(b, c0, px, py);
@@ -384,19 +461,41 @@ impl Target {
         }
     }
 
-    /// A line `thickness` samples wide in sample space, depth-tested;
-    /// `bias` lets it win a near tie with a surface it runs along.
-    fn line(&mut self, a: Vec3, b: Vec3, color: Vec3, thickness: usize, bias: bool) {
+    /// A line's samples in this band, `thickness` samples wide across its
+    /// major axis, depth-tested.
+    fn line(&mut self, l: &Line, thickness: usize) {
+        let (a, b) = (l.a, l.b);
         let d = b - a;
         let steps = d.x.abs().max(d.y.abs()).ceil().max(1.0);
         if !steps.is_finite() || steps > 1e7 {
             return;
         }
-        let q = quantize(color);
-        let along_x = d.x.abs() >= d.y.abs();
-        let half = thickness as f32 * 0.5;
         let n = steps as usize;
-        for k in 0..=n {
+        let half = thickness as f32 * 0.5;
+        // The steps whose samples can fall in this band.
+        let (top, bottom) = (
+            self.y0 as f32 - half - 1.0,
+            (self.y0 + self.rows) as f32 + half + 1.0,
+        );
+        let (k0, k1) = if d.y == 0.0 {
+            if a.y < top || a.y > bottom {
+                return;
+            }
+            (0, n)
+        } else {
+            let t0 = (top - a.y) / d.y;
+            let t1 = (bottom - a.y) / d.y;
+            let (t0, t1) = (t0.min(t1).max(0.0), t0.max(t1).min(1.0));
+            if t0 > t1 {
+                return;
+            }
+            (
+                ((t0 * steps).floor().max(0.0) as usize).min(n),
+                ((t1 * steps).ceil().max(0.0) as usize).min(n),
+            )
+        };
+        let along_x = d.x.abs() >= d.y.abs();
+        for k in k0..=k1 {
             let t = k as f32 / steps;
             let p = a + d * t;
             let (major, minor) = if along_x { (p.x, p.y) } else { (p.y, p.x) };
@@ -412,21 +511,94 @@ impl Target {
                 }
                 let o = o as usize;
                 let (x, y) = if along_x { (m, o) } else { (o, m) };
-                if x >= self.width || y >= self.height {
+                if x >= self.width || y < self.y0 || y >= self.y0 + self.rows {
                     continue;
                 }
-                let i = y * self.width + x;
-                let z = if bias {
+                let i = (y - self.y0) * self.width + x;
+                let z = if l.bias {
                     p.z + 1e-4 * p.z.abs().max(1.0)
                 } else {
                     p.z
                 };
                 if z > self.depth[i] {
                     self.depth[i] = p.z;
-                    self.color[i] = q;
+                    self.color[i] = l.color;
                 }
             }
         }
+    }
+}
+
+/// The sample buffers, drawn band by band in parallel.
+struct Target {
+    width: usize,
+    height: usize,
+    depth: Vec<f32>,
+    /// Linear RGB in 1/65535 units.
+    color: Vec<[u16; 3]>,
+}
+
+impl Target {
+    fn new(width: usize, height: usize) -> Target {
+        Target {
+            width,
+            height,
+            depth: vec![f32::NEG_INFINITY; width * height],
+            color: vec![[0; 3]; width * height],
+        }
+    }
+
+    /// Draw the scene's items in order. Each band draws the items that
+    /// overlap it, in the same order, into rows no other band touches: the
+    /// result is the same for any number of threads.
+    fn draw(&mut self, scene: &Scene<'_>, thickness: usize) {
+        let bands = self.height.div_ceil(BAND_ROWS);
+        let mut bins: Vec<Vec<u32>> = vec![Vec::new(); bands];
+        let last = bands as f32 - 1.0;
+        for (i, &item) in scene.items.iter().enumerate() {
+            let Some((lo, hi)) = scene.rows(item, thickness as f32) else {
+                continue;
+            };
+            if !(lo.is_finite() && hi.is_finite()) || hi < 0.0 || lo > self.height as f32 {
+                continue;
+            }
+            let b0 = (lo.max(0.0) / BAND_ROWS as f32).min(last) as usize;
+            let b1 = (hi.max(0.0) / BAND_ROWS as f32).min(last) as usize;
+            for bin in &mut bins[b0..=b1] {
+                bin.push(i as u32);
+            }
+        }
+        let width = self.width;
+        let height = self.height;
+        self.depth
+            .par_chunks_mut(BAND_ROWS * width)
+            .zip(self.color.par_chunks_mut(BAND_ROWS * width))
+            .zip(bins.par_iter())
+            .enumerate()
+            .for_each(|(k, ((depth, color), bin))| {
+                let y0 = k * BAND_ROWS;
+                let mut band = Band {
+                    y0,
+                    rows: BAND_ROWS.min(height - y0),
+                    width,
+                    depth,
+                    color,
+                };
+                for &i in bin {
+                    match scene.items[i as usize] {
+                        Item::Tri(part, tri) => {
+                            if let Some((v, c)) = scene.triangle(part, tri) {
+                                band.triangle(v, c);
+                            }
+                        }
+                        Item::Line(l) => {
+                            if let Some(l) = scene.lines.get(l as usize) {
+                                band.line(l, thickness);
+                            }
+                        }
+                    }
+                }
+            });
     }
 }
 
@@ -508,20 +680,25 @@ pub fn render(model: &Model, options: &RenderOptions) -> Result<Image, RenderErr
                 q.z - centre.z,
             )
         };
-        let line = |target: &mut Target, i: usize, light: f32, bias: bool| {
+        let line = |i: usize, light: f32, bias: bool| {
             let b = &model.skeleton.bones[i];
-            let color = Vec3::from_array(model.paint_color(b.paint)) * light;
-            let (a, z) = (
-                to_screen(cam.project(b.base)),
-                to_screen(cam.project(b.tip)),
-            );
-            target.line(a, z, color, s, bias);
+            Line {
+                a: to_screen(cam.project(b.base)),
+                b: to_screen(cam.project(b.tip)),
+                color: quantize(Vec3::from_array(model.paint_color(b.paint)) * light),
+                bias,
+            }
+        };
+        let mut scene = Scene {
+            parts: Vec::with_capacity(model.parts.len()),
+            lines: Vec::with_capacity(lines.len()),
+            items: Vec::new(),
         };
         for &i in lines.iter().filter(|&&i| tubed[i]) {
-            line(&mut target, i, LINE_LIGHT, false);
+            scene.items.push(Item::Line(scene.lines.len() as u32));
+            scene.lines.push(line(i, LINE_LIGHT, false));
         }
         let light = KEY_LIGHT.normalize();
-        let mut screen: Vec<Vec3> = Vec::new();
         for part in &model.parts {
             let Some(material) = model.materials.get(part.material) else {
                 continue;
@@ -529,43 +706,37 @@ pub fn render(model: &Model, options: &RenderOptions) -> Result<Image, RenderErr
             let base = Vec3::from_array(material.color);
             let emissive = Vec3::from_array(material.emissive);
             let mesh = &part.mesh;
-            screen.clear();
-            screen.extend(
-                mesh.positions
-                    .iter()
-                    .map(|p| to_screen(cam.project(Vec3::from_array(*p)))),
-            );
             let shade = |n: Vec3| {
                 let n = cam.project(n);
                 let lit = AMBIENT + KEY * n.dot(light).max(0.0) + HEAD * n.z.max(0.0);
                 base * lit + emissive
             };
-            for tri in mesh.indices.chunks_exact(3) {
-                let [i0, i1, i2] = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
-                let (Some(&v0), Some(&v1), Some(&v2)) =
-                    (screen.get(i0), screen.get(i1), screen.get(i2))
-                else {
-                    continue;
-                };
-                if !(v0.is_finite() && v1.is_finite() && v2.is_finite()) {
-                    continue;
-                }
-                // Two-sided: seen from behind (clockwise on the picture,
-                // whose y points down), the normals are turned around.
-                let facing = edge(v0, v1, v2.x, v2.y) <= 0.0;
-                let normal = |i: usize| {
-                    let n = Vec3::from_array(mesh.normals[i]);
-                    if facing { n } else { -n }
-                };
-                target.triangle(
-                    [v0, v1, v2],
-                    [shade(normal(i0)), shade(normal(i1)), shade(normal(i2))],
-                );
-            }
+            let k = scene.parts.len() as u32;
+            let n = mesh.positions.len().min(mesh.normals.len());
+            scene.parts.push(Prepared {
+                indices: &mesh.indices,
+                screen: mesh.positions[..n]
+                    .iter()
+                    .map(|p| to_screen(cam.project(Vec3::from_array(*p))))
+                    .collect(),
+                front: mesh.normals[..n]
+                    .iter()
+                    .map(|v| shade(Vec3::from_array(*v)))
+                    .collect(),
+                back: mesh.normals[..n]
+                    .iter()
+                    .map(|v| shade(-Vec3::from_array(*v)))
+                    .collect(),
+            });
+            scene
+                .items
+                .extend((0..mesh.triangle_count() as u32).map(|t| Item::Tri(k, t)));
         }
         for &i in lines.iter().filter(|&&i| !tubed[i]) {
-            line(&mut target, i, 1.0, true);
+            scene.items.push(Item::Line(scene.lines.len() as u32));
+            scene.lines.push(line(i, 1.0, true));
         }
+        target.draw(&scene, s);
     }
     Ok(resolve(&target, width, height, s, options.transparent))
 }

@@ -364,3 +364,28 @@ fn export_writes_png_by_extension() {
         (d.width, d.height)
     );
 }
+
+#[test]
+fn any_number_of_threads_draws_the_same_picture() {
+    // Taller than a few bands, with tubes, lines and a polygon.
+    let m = model(
+        "system T { angle = 25; width = 0.05; axiom F A; A -> F [ + F A ] [ - ! (0) F A ] { . f + f + f };  }",
+        4,
+    );
+    assert!(m.stats.triangles > 0 && m.stats.bare_bones > 0);
+    let o = RenderOptions {
+        samples: 3,
+        ..options(150, 170, View::Auto)
+    };
+    let on = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("a pool")
+            .install(|| draw(&m, &o))
+    };
+    let one = on(1);
+    assert!((o.height * 3) as usize > 4 * grm_geom::render::BAND_ROWS);
+    assert_eq!(one, on(3));
+    assert_eq!(one, on(8));
+}

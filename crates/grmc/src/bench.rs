@@ -1,5 +1,6 @@
 //! `grmc bench derive`: CPU derivation throughput on the ABoP scenes, with
-//! a naive rewriter measured in the same run as the baseline.
+//! a naive rewriter measured in the same run as the baseline; `grmc bench
+//! render`: drawing `.png` pictures against writing glTF binary.
 //!
 //! Figure: modules per microsecond, Lipp's count (the sum over the
 //! iterations of the length of the string each one produces) divided by the
@@ -30,7 +31,35 @@ pub enum BenchWhat {
     Derive(DeriveBench),
     /// GPU derivation and interpretation against the CPU engines.
     Gpu(crate::gpu::GpuBench),
+    /// Drawing `.png` pictures (grm_geom::render) against writing the same
+    /// models as glTF binary.
+    Render(RenderBench),
 }
+
+#[derive(clap::Args, Debug)]
+pub struct RenderBench {
+    /// The examples folder.
+    #[arg(long, default_value = "examples")]
+    pub examples: PathBuf,
+    /// Timed runs per scene (the best is printed).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    pub runs: u32,
+    /// Only these scenes (by name, e.g. `ternary_tree_8`).
+    #[arg(long = "scene")]
+    pub scenes: Vec<String>,
+    #[command(flatten)]
+    pub image: crate::derive::ImageArgs,
+}
+
+/// The picture scenes: name, example file, iterations (the file's first
+/// system).
+const RENDER_SCENES: &[(&str, &str, u32)] = &[
+    ("hilbert3d_4", "hilbert3d", 4),
+    ("koch_island_4", "koch_island", 4),
+    ("bracketed_plant_5", "bracketed_plant", 5),
+    ("ternary_tree_6", "ternary_tree", 6),
+    ("ternary_tree_8", "ternary_tree", 8),
+];
 
 #[derive(clap::Args, Debug)]
 pub struct DeriveBench {
@@ -66,7 +95,137 @@ pub fn run(args: BenchArgs) -> Outcome {
     match args.what {
         BenchWhat::Derive(a) => derive_bench(a),
         BenchWhat::Gpu(a) => crate::gpu::bench(a),
+        BenchWhat::Render(a) => render_bench(a),
     }
+}
+
+/// `grmc bench render`: per scene, the model is built (timed), written as
+/// glTF binary in memory (the baseline: what exporting the model costs
+/// anyway), drawn and encoded as PNG; the best of `--runs` of each.
+fn render_bench(args: RenderBench) -> Outcome {
+    if let Some(o) = unknown_scenes(&args.scenes, RENDER_SCENES.iter().map(|s| s.0)) {
+        return o;
+    }
+    if let Some(o) = examples_folder(&args.examples) {
+        return o;
+    }
+    let options = args.image.options();
+    if let Err(e) = options.validate() {
+        eprintln!("error: {e}");
+        return Outcome::Usage;
+    }
+    outln!(
+        "grmc bench render: {} ({} threads available), {}x{} pixels, {}x{} samples per pixel, best of {} run{}",
+        cpu_model(),
+        std::thread::available_parallelism().map_or(1, |n| n.get()),
+        options.width,
+        options.height,
+        options.effective_samples(),
+        options.effective_samples(),
+        args.runs,
+        if args.runs == 1 { "" } else { "s" },
+    );
+    outln!(
+        "{:<18} {:>9} {:>7} | {:>9} {:>8} | {:>9} {:>8} {:>9} | {:>8}",
+        "scene",
+        "triangles",
+        "bones",
+        "build ms",
+        "glb ms",
+        "render ms",
+        "png ms",
+        "png KiB",
+        "pic/glb",
+    );
+    let ms = |d: Duration| d.as_secs_f64() * 1e3;
+    for &(name, file, n) in RENDER_SCENES {
+        if !args.scenes.is_empty() && !args.scenes.iter().any(|s| s == name) {
+            continue;
+        }
+        let path = args.examples.join(format!("{file}.grm"));
+        let loaded = match load(&path, None, &[]) {
+            Ok(l) => l,
+            Err(o) => return o,
+        };
+        let c = &loaded.compiled;
+        let opts = DeriveOptions {
+            iterations: n,
+            ..DeriveOptions::from_system(c)
+        };
+        let derived = Engine::new(c, 0).and_then(|e| e.derive(&opts, &mut |_| {}));
+        let string = match derived {
+            Ok(d) => d.string,
+            Err(e) => return report_derive_error(&loaded.sources, c, &e),
+        };
+        let build = || {
+            grm_geom::build_model(
+                &loaded.program,
+                loaded.system(),
+                &string,
+                &c.settings,
+                &c.param_values,
+            )
+        };
+        let mut model = None;
+        let mut png_len = 0;
+        let mut times = [Duration::MAX; 4];
+        for _ in 0..args.runs {
+            let t = Instant::now();
+            let m = match build() {
+                Ok(m) => m,
+                Err(e) => {
+                    crate::derive::emit(
+                        &loaded.sources,
+                        &e.to_diagnostic(&loaded.program, c.file, c.span),
+                    );
+                    return Outcome::InputErrors;
+                }
+            };
+            let t_build = t.elapsed();
+            let t = Instant::now();
+            std::hint::black_box(grm_geom::export::glb_bytes(&m));
+            let t_glb = t.elapsed();
+            let t = Instant::now();
+            let img = match grm_geom::render::render(&m, &options) {
+                Ok(i) => i,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return Outcome::Usage;
+                }
+            };
+            let t_render = t.elapsed();
+            let t = Instant::now();
+            png_len = match grm_geom::render::png_bytes(&img) {
+                Ok(b) => b.len(),
+                Err(e) => {
+                    eprintln!("error: {name}: the picture could not be encoded: {e}");
+                    return Outcome::InputErrors;
+                }
+            };
+            let t_png = t.elapsed();
+            for (best, t) in times.iter_mut().zip([t_build, t_glb, t_render, t_png]) {
+                *best = (*best).min(t);
+            }
+            model = Some(m);
+        }
+        let Some(m) = model else {
+            continue;
+        };
+        let [t_build, t_glb, t_render, t_png] = times;
+        outln!(
+            "{:<18} {:>9} {:>7} | {:>9.2} {:>8.2} | {:>9.2} {:>8.2} {:>9.0} | {:>7.1}x",
+            name,
+            m.stats.triangles,
+            m.stats.bones,
+            ms(t_build),
+            ms(t_glb),
+            ms(t_render),
+            ms(t_png),
+            png_len as f64 / 1024.0,
+            (t_render + t_png).as_secs_f64() / t_glb.as_secs_f64().max(1e-9),
+        );
+    }
+    Outcome::Ok
 }
 
 /// `--scene` names that are not among `known` are a usage error (a typo

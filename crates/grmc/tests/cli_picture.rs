@@ -195,3 +195,29 @@ fn bad_picture_flags_are_usage_errors_before_any_work() {
     }
     assert!(!png.exists() && !glb.exists());
 }
+
+#[test]
+fn bench_render_prints_a_row_per_scene() {
+    let o = common::grmc_at_root(&[
+        "bench",
+        "render",
+        "--scene",
+        "hilbert3d_4",
+        "--runs",
+        "1",
+        "--image-size",
+        "64x48",
+    ]);
+    let out = text(&o.stdout);
+    assert_eq!(o.status.code(), Some(0), "{out}{}", text(&o.stderr));
+    assert!(out.contains("64x48 pixels, 3x3 samples"), "{out}");
+    let row = out
+        .lines()
+        .find(|l| l.starts_with("hilbert3d_4"))
+        .expect("the scene's row");
+    // triangles, bones, then the times: the Hilbert curve at 4 has 4095 bones.
+    let cols: Vec<&str> = row.split_whitespace().collect();
+    assert_eq!(cols[2], "4095", "{row}");
+    let o = common::grmc_at_root(&["bench", "render", "--scene", "nope"]);
+    assert_eq!(o.status.code(), Some(2));
+}
