@@ -139,19 +139,14 @@ fn render_bench(args: RenderBench) -> Outcome {
     );
     let ms = |d: Duration| d.as_secs_f64() * 1e3;
     for &(name, file, n) in RENDER_SCENES {
-        if !args.scenes.is_empty() && !args.scenes.iter().any(|s| s == name) {
+        if !wanted(&args.scenes, name) {
             continue;
         }
-        let path = args.examples.join(format!("{file}.grm"));
-        let loaded = match load(&path, None, &[]) {
-            Ok(l) => l,
+        let (loaded, opts) = match load_scene(&args.examples, file, None, n) {
+            Ok(r) => r,
             Err(o) => return o,
         };
         let c = &loaded.compiled;
-        let opts = DeriveOptions {
-            iterations: n,
-            ..DeriveOptions::from_system(c)
-        };
         let derived = Engine::new(c, 0).and_then(|e| e.derive(&opts, &mut |_| {}));
         let string = match derived {
             Ok(d) => d.string,
@@ -226,6 +221,27 @@ fn render_bench(args: RenderBench) -> Outcome {
         );
     }
     Outcome::Ok
+}
+
+/// Whether a scene is run: every one when no `--scene` is given.
+fn wanted(scenes: &[String], name: &str) -> bool {
+    scenes.is_empty() || scenes.iter().any(|s| s == name)
+}
+
+/// Load `examples/FILE.grm` (its `system`, or its first) and the options
+/// that derive it `n` times.
+fn load_scene(
+    examples: &std::path::Path,
+    file: &str,
+    system: Option<&str>,
+    n: u32,
+) -> Result<(crate::derive::Loaded, DeriveOptions), Outcome> {
+    let loaded = load(&examples.join(format!("{file}.grm")), system, &[])?;
+    let opts = DeriveOptions {
+        iterations: n,
+        ..DeriveOptions::from_system(&loaded.compiled)
+    };
+    Ok((loaded, opts))
 }
 
 /// `--scene` names that are not among `known` are a usage error (a typo
@@ -365,19 +381,14 @@ fn derive_bench(args: DeriveBench) -> Outcome {
     );
     let mut failed = false;
     for &(file, system, n) in SCENES {
-        if !args.scenes.is_empty() && !args.scenes.iter().any(|s| s == file) {
+        if !wanted(&args.scenes, file) {
             continue;
         }
-        let path = args.examples.join(format!("{file}.grm"));
-        let loaded = match load(&path, Some(system), &[]) {
-            Ok(l) => l,
+        let (loaded, opts) = match load_scene(&args.examples, file, Some(system), n) {
+            Ok(r) => r,
             Err(o) => return o,
         };
         let c = &loaded.compiled;
-        let opts = DeriveOptions {
-            iterations: n,
-            ..DeriveOptions::from_system(c)
-        };
         let mut final_len = 0u64;
         // Best of `timed_runs(runs)` (at least 2) with one engine (buffers
         // recycled between runs, as a preview regrowing a model does), and

@@ -32,21 +32,27 @@ fn distinct(pixels: &[u8], channels: usize) -> usize {
         .len()
 }
 
-#[test]
-fn derive_draws_a_tree_at_the_asked_size_and_view() {
-    let dir = tempfile::tempdir().expect("tempdir");
+/// `grmc derive ternary_tree.grm -n 4 --image-size 320x240 EXTRA -o OUT`.
+fn draw_tree(out: &Path, extra: &[&str]) -> std::process::Output {
     let tree = example("ternary_tree.grm");
-    let a = dir.path().join("a.png");
-    let o = grmc(&[
+    let mut args = vec![
         "derive",
-        &tree,
+        tree.as_str(),
         "-n",
         "4",
         "--image-size",
         "320x240",
-        "-o",
-        path(&a),
-    ]);
+    ];
+    args.extend_from_slice(extra);
+    args.extend_from_slice(&["-o", path(out)]);
+    grmc(&args)
+}
+
+#[test]
+fn derive_draws_a_tree_at_the_asked_size_and_view() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let a = dir.path().join("a.png");
+    let o = draw_tree(&a, &[]);
     let err = text(&o.stderr);
     assert_eq!(o.status.code(), Some(0), "{err}");
     assert!(err.contains("a.png (320x240 picture of"), "{err}");
@@ -57,31 +63,10 @@ fn derive_draws_a_tree_at_the_asked_size_and_view() {
 
     // The same command draws the same bytes; another view, others.
     let b = dir.path().join("b.png");
-    let o = grmc(&[
-        "derive",
-        &tree,
-        "-n",
-        "4",
-        "--image-size",
-        "320x240",
-        "-o",
-        path(&b),
-    ]);
-    assert_eq!(o.status.code(), Some(0));
+    assert_eq!(draw_tree(&b, &[]).status.code(), Some(0));
     assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
     let c = dir.path().join("c.png");
-    let o = grmc(&[
-        "derive",
-        &tree,
-        "-n",
-        "4",
-        "--image-size",
-        "320x240",
-        "--view",
-        "-90,-10",
-        "-o",
-        path(&c),
-    ]);
+    let o = draw_tree(&c, &["--view", "-90,-10"]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     assert_ne!(read_png(&a).3, read_png(&c).3);
 }
