@@ -153,6 +153,8 @@ interface Grm {
   supersededAnswers: number;
   lastShownAt: number | null;
   objective: number | null;
+  lastView: { uri: string; azimuth: number; elevation: number; width: number; height: number } | null;
+  views: number;
 }
 
 const grm = (page: Page): Promise<Grm> =>
@@ -308,6 +310,38 @@ test('derive mode: the model renders, a slider regrows it, a pick names the rule
   await page.waitForFunction(() => (globalThis as unknown as { __grm: Grm }).__grm.spreadBones > 0, undefined, { timeout: 30_000 });
   assert.match(await page.textContent('#rule-info') ?? '', new RegExp(`F \\(line ${fLine + 1}\\)`));
   await page.screenshot({ path: join(artifacts, 'derive-pick.png') });
+
+  // The page tells its host where the camera looks from once it rests (the extension exports pictures from
+  // there): the first framing looks from (0.45, 0.35, 1) (scene.ts), the canvas' size comes with it.
+  await page.waitForFunction(() => (globalThis as unknown as { __grm: Grm }).__grm.lastView !== null, undefined, { timeout: 10_000 });
+  const before = await grm(page);
+  const v0 = before.lastView!;
+  assert.equal(v0.uri, uri);
+  const deg = 180 / Math.PI;
+  assert.ok(Math.abs(v0.azimuth - Math.atan2(0.45, 1) * deg) < 0.01, `azimuth ${v0.azimuth}`);
+  assert.ok(Math.abs(v0.elevation - Math.asin(0.35 / Math.hypot(0.45, 0.35, 1)) * deg) < 0.01, `elevation ${v0.elevation}`);
+  const box = (await page.locator('#view').boundingBox())!;
+  assert.ok(Math.abs(v0.width - box.width) < 1 && Math.abs(v0.height - box.height) < 1, `${v0.width}x${v0.height} for a canvas of ${box.width}x${box.height}`);
+  // Orbiting 200 pixels to the right turns the camera 360 * 200 / height degrees about +y, clockwise seen from above;
+  // the page tells the view where the drag ends, not on each move.
+  const [cx, cy] = [box.x + box.width / 2, box.y + box.height / 2];
+  await page.mouse.move(cx, cy);
+  await page.mouse.down();
+  for (let i = 1; i <= 10; i++) await page.mouse.move(cx + i * 20, cy);
+  await page.mouse.up();
+  const turned = v0.azimuth - (360 * 200) / v0.height;
+  const expected = turned <= -180 ? turned + 360 : turned;
+  await page.waitForFunction(
+    (az) => {
+      const v = (globalThis as unknown as { __grm: Grm }).__grm.lastView;
+      return v !== null && Math.abs(v.azimuth - az) < 0.5;
+    },
+    expected,
+    { timeout: 10_000 },
+  );
+  const after = await grm(page);
+  assert.ok(Math.abs(after.lastView!.elevation - v0.elevation) < 0.5, `elevation ${after.lastView!.elevation} after a horizontal drag`);
+  assert.ok(after.views - before.views < 10, `${after.views - before.views} views told for 10 moves`);
   assert.deepEqual(pageErrors(page), []);
   await page.close();
 });

@@ -3,7 +3,7 @@ import assert from 'node:assert/strict';
 import { readFileSync } from 'node:fs';
 import { join } from 'node:path';
 import { test } from 'node:test';
-import { defaultOutput, exportArgs, firstSystemMode } from '../vscode/src/exportArgs.js';
+import { defaultOutput, exportArgs, firstSystemMode, pictureSize } from '../vscode/src/exportArgs.js';
 import { makeNonce, webviewHtml } from '../vscode/src/webviewHtml.js';
 
 test('export: derive systems use grmc derive with the preview seed and parameters', () => {
@@ -18,6 +18,42 @@ test('export: sample systems use grmc sample with the curves file', () => {
   ]);
   assert.equal(defaultOutput('/w/calder_tree.grm', 'glb'), '/w/calder_tree.glb');
   assert.equal(defaultOutput('/w/calder_tree.grm', 'obj'), '/w/calder_tree.obj');
+});
+
+test("export as a picture: the preview's view and shape, rounded, only for a .png output", () => {
+  const view = { azimuth: -24.2277, elevation: 17.7016 };
+  const imageSize = { width: 1024, height: 640 };
+  assert.deepEqual(exportArgs({ grammar: '/w/t.grm', output: '/w/T.PNG', mode: 'derive', seed: 4, view, imageSize }), [
+    'derive', '/w/t.grm', '--seed', '4', '--view=-24.23,17.7', '--image-size=1024x640', '-o', '/w/T.PNG',
+  ]);
+  // grmc refuses the picture flags for a model file.
+  for (const output of ['/w/t.glb', '/w/t.obj', '/w/t.png.glb']) {
+    assert.deepEqual(exportArgs({ grammar: '/w/t.grm', output, mode: 'derive', view, imageSize }), ['derive', '/w/t.grm', '-o', output]);
+  }
+  // Elevation within -90..90; -0 is 0; no view that is not a number; no size grmc would refuse.
+  const png = (v: { azimuth: number; elevation: number }, size?: { width: number; height: number }) =>
+    exportArgs({ grammar: '/w/t.grm', output: '/w/t.png', mode: 'sample', view: v, imageSize: size }).filter((a) => a.startsWith('--view') || a.startsWith('--image-size'));
+  assert.deepEqual(png({ azimuth: 180, elevation: 95 }), ['--view=180,90']);
+  assert.deepEqual(png({ azimuth: -0.001, elevation: -90.5 }), ['--view=0,-90']);
+  assert.deepEqual(png({ azimuth: Number.NaN, elevation: 0 }), []);
+  assert.deepEqual(png({ azimuth: 0, elevation: Number.POSITIVE_INFINITY }), []);
+  for (const size of [{ width: 0, height: 10 }, { width: 10.5, height: 10 }, { width: 16385, height: 1 }, { width: 4097, height: 4096 }]) {
+    assert.deepEqual(png({ azimuth: 1, elevation: 2 }, size), ['--view=1,2'], JSON.stringify(size));
+  }
+  assert.deepEqual(png({ azimuth: 1, elevation: 2 }, { width: 16384, height: 1024 }), ['--view=1,2', '--image-size=16384x1024']);
+  // Without a preview: grmc's own view and size.
+  assert.deepEqual(exportArgs({ grammar: '/w/t.grm', output: '/w/t.png', mode: 'derive' }), ['derive', '/w/t.grm', '-o', '/w/t.png']);
+  assert.equal(defaultOutput('/w/Calder_Tree.GRM', 'png'), '/w/Calder_Tree.png');
+});
+
+test("a picture has the preview canvas' shape, 1024 pixels on the longer side", () => {
+  assert.deepEqual(pictureSize(800, 500), { width: 1024, height: 640 });
+  assert.deepEqual(pictureSize(300.5, 901.5), { width: 341, height: 1024 });
+  assert.deepEqual(pictureSize(640, 640), { width: 1024, height: 1024 });
+  assert.deepEqual(pictureSize(5000, 1), { width: 1024, height: 1 });
+  assert.deepEqual(pictureSize(400, 300, 2048), { width: 2048, height: 1536 });
+  assert.equal(pictureSize(0, 300), undefined);
+  assert.equal(pictureSize(300, Number.NaN), undefined);
 });
 
 test('export without a preview: the mode of the file\'s first system, the one grmc exports', () => {

@@ -2,7 +2,7 @@
 // together: the page's webview transport talking to the extension's host.
 import assert from 'node:assert/strict';
 import { test } from 'node:test';
-import type { HostToPage } from '../preview/src/messages.js';
+import { type HostToPage, viewAngles } from '../preview/src/messages.js';
 import { VsCodeTransport, isSuperseded } from '../preview/src/transport.js';
 import { type HostDeps, PreviewHost, curvesPathFor } from '../vscode/src/host.js';
 
@@ -175,11 +175,67 @@ test('requests about another document, unsaved documents and server failures ans
 
 test('malformed messages are ignored', async () => {
   const { host, posted, requests } = fakeHost();
-  for (const m of [null, 'x', { type: 'request', id: 'a', method: 'preview' }, { type: 'request', id: 1, method: 'rm -rf' }, { type: 'response', id: 1 }]) {
+  for (const m of [
+    null,
+    'x',
+    { type: 'request', id: 'a', method: 'preview' },
+    { type: 'request', id: 1, method: 'rm -rf' },
+    { type: 'response', id: 1 },
+    { type: 'notify', method: 'preview', params: {} },
+  ]) {
     await host.handle(m);
   }
   assert.equal(posted.length, 0);
   assert.equal(requests.length, 0);
+});
+
+test("the page's view is kept for the shown document only, and only a valid one", async () => {
+  const { host, posted } = fakeHost();
+  host.setDocument('file:///w/a.grm', 'a.grm');
+  await host.handle({ type: 'ready' });
+  const view = { uri: 'file:///w/a.grm', azimuth: 24.2, elevation: -17.7, width: 800, height: 500 };
+  await host.handle({ type: 'notify', method: 'view', params: view });
+  assert.deepEqual(host.lastView('file:///w/a.grm'), view);
+  assert.equal(host.lastView('file:///w/b.grm'), undefined);
+  // Nothing is answered: a notification.
+  assert.equal(posted.length, 1);
+  for (const bad of [
+    { ...view, uri: 'file:///w/b.grm' },
+    { ...view, azimuth: null },
+    { ...view, elevation: Number.NaN },
+    { ...view, width: 0 },
+    { ...view, height: '500' },
+    null,
+  ]) {
+    await host.handle({ type: 'notify', method: 'view', params: bad });
+    assert.deepEqual(host.lastView('file:///w/a.grm'), view, JSON.stringify(bad));
+  }
+  await host.handle({ type: 'notify', method: 'view', params: { ...view, azimuth: -90 } });
+  assert.equal(host.lastView('file:///w/a.grm')?.azimuth, -90);
+  // Another document: the old view is stale, and the page tells the new one.
+  host.setDocument('file:///w/b.grm', 'b.grm');
+  assert.equal(host.lastView('file:///w/a.grm'), undefined);
+  assert.equal(host.lastView('file:///w/b.grm'), undefined);
+  await host.handle({ type: 'notify', method: 'view', params: view });
+  assert.equal(host.lastView('file:///w/a.grm'), undefined);
+});
+
+test('view angles: azimuth about +y from +z towards +x, elevation above the xz plane, in degrees', () => {
+  const near = (a: { azimuth: number; elevation: number } | null, azimuth: number, elevation: number) => {
+    assert.ok(a, 'no angles');
+    assert.ok(Math.abs(a.azimuth - azimuth) < 1e-9 && Math.abs(a.elevation - elevation) < 1e-9, `${JSON.stringify(a)} is not ${azimuth},${elevation}`);
+  };
+  near(viewAngles(0, 0, 5), 0, 0);
+  near(viewAngles(3, 0, 0), 90, 0);
+  near(viewAngles(-3, 0, 0), -90, 0);
+  near(viewAngles(0, 0, -1), 180, 0);
+  near(viewAngles(1, Math.SQRT2, 1), 45, 45);
+  near(viewAngles(0, -2, 0), 0, -90);
+  // The preview's first framing (scene.ts): from (0.45, 0.35, 1).
+  near(viewAngles(0.45, 0.35, 1), Math.atan2(0.45, 1) * (180 / Math.PI), Math.asin(0.35 / Math.hypot(0.45, 0.35, 1)) * (180 / Math.PI));
+  assert.equal(viewAngles(0, 0, 0), null);
+  assert.equal(viewAngles(Number.NaN, 0, 1), null);
+  assert.equal(viewAngles(Number.POSITIVE_INFINITY, 0, 1), null);
 });
 
 test('page and extension end to end: the page transport talks to the host', async () => {
@@ -202,6 +258,9 @@ test('page and extension end to end: the page transport talks to the host', asyn
   const r = (await page.request('preview', { textDocument: { uri: 'file:///w/tree.grm' } })) as { seed: number };
   assert.equal(r.seed, 9);
   await assert.rejects(page.request('saveCurves', { uri: 'file:///w/tree.grm', text: '{' }), /invalid JSON/);
+  page.notify('view', { uri: 'file:///w/tree.grm', azimuth: 10, elevation: 20, width: 300, height: 200 });
+  await Promise.all(pending);
+  assert.deepEqual(host.lastView('file:///w/tree.grm'), { uri: 'file:///w/tree.grm', azimuth: 10, elevation: 20, width: 300, height: 200 });
 });
 
 test('the curves file is named after the grammar', () => {

@@ -15,6 +15,12 @@ test('every contributed command is registered, and every registered command cont
   assert.deepEqual(registered, contributed);
 });
 
+test('the export command names the formats its quick pick offers', () => {
+  const exportCommand = manifest.contributes.commands.find((c: { command: string }) => c.command === 'grm.exportModel');
+  assert.equal(exportCommand.title, 'Export Model (glTF/OBJ/PNG)');
+  assert.deepEqual([...source.matchAll(/format: '(\w+)' as ExportFormat/g)].map((m) => m[1]), ['glb', 'obj', 'png']);
+});
+
 test('the language, its configuration and grammar files exist; .grm files are grm', () => {
   const [lang] = manifest.contributes.languages;
   assert.equal(lang.id, 'grm');

@@ -59,6 +59,24 @@ test('webview transport: dispose rejects what is pending and stops listening', a
   assert.equal(win.listeners.length, 0);
 });
 
+test("the page's notifications: posted to the extension, not sent to grmc view (it exports nothing)", () => {
+  const sent: PageToHost[] = [];
+  const win = new FakeWindow();
+  const t = new VsCodeTransport({ postMessage: (m) => sent.push(m) }, win);
+  t.start();
+  const view = { uri: 'u', azimuth: 24.2, elevation: 17.7, width: 800, height: 500 };
+  t.notify('view', view);
+  assert.deepEqual(sent, [{ type: 'ready' }, { type: 'notify', method: 'view', params: view }]);
+  assert.equal(t.pendingCount, 0);
+  const urls: string[] = [];
+  const http = new HttpTransport('http://h', async (url) => {
+    urls.push(url);
+    return { ok: true, status: 200, json: async () => ({ result: {} }), text: async () => '' };
+  });
+  http.notify('view', view);
+  assert.deepEqual(urls, []);
+});
+
 test('http transport: POST JSON per method, result or error', async () => {
   const calls: Array<{ url: string; body?: string; method?: string }> = [];
   const fetchFn: FetchFn = async (url, init) => {

@@ -5,7 +5,7 @@
 import type { V3 } from './bezier.js';
 import { Coalescer, type Delivery } from './coalesce.js';
 import { PARAM_KEYS, PARAM_RANGES, type ParamKey, checkParam, cloneSet, setProblem } from './curves.js';
-import type { NotificationMethod } from './messages.js';
+import { type NotificationMethod, type ViewParams, viewAngles } from './messages.js';
 import {
   type Origin,
   type PickParams,
@@ -91,7 +91,13 @@ interface DebugInfo {
   /** Times the guiding curves were redrawn, and the shader programs held (ids). */
   readonly curveDraws: number;
   programs: () => number[];
+  /** The last view the page told the host (where the camera looks from, once it rested), and how many it told. */
+  lastView: ViewParams | null;
+  views: number;
 }
+
+/** How long the camera must rest before the page tells the host its view (not on every frame of a drag). */
+const VIEW_REST_MS = 200;
 
 const $ = <T extends HTMLElement>(id: string): T => {
   const el = document.getElementById(id);
@@ -123,6 +129,9 @@ class App {
   /** The document version whose meta-parameters the sliders show. */
   private symbolsFor = '';
   private readonly debug: DebugInfo;
+  private viewTimer: ReturnType<typeof setTimeout> | undefined;
+  /** The last view told to the host (as JSON): an unchanged view is not told again. */
+  private viewSent = '';
 
   constructor(private readonly transport: Transport) {
     this.scene = new PreviewScene($<HTMLCanvasElement>('view'));
@@ -192,10 +201,13 @@ class App {
         return scene.curveDraws;
       },
       programs: () => this.scene.programIds(),
+      lastView: null,
+      views: 0,
     };
     (globalThis as unknown as { __grm: DebugInfo }).__grm = this.debug;
     this.wireUi();
     this.transport.onNotification((m, p) => this.notified(m, p));
+    this.scene.onViewChange = () => this.viewChanged();
     new ResizeObserver(() => this.scene.resize()).observe($('viewport'));
   }
 
@@ -215,6 +227,8 @@ class App {
         this.paramSignature = '';
         this.curvesLoadedFor = '';
         this.symbolsFor = '';
+        // The host keeps a view per shown document: tell it for this one (and again once its model is framed).
+        this.viewChanged();
       }
       if (typeof p.title === 'string') document.title = `grm preview: ${p.title}`;
       this.regrow();
@@ -240,6 +254,28 @@ class App {
     } else if (method === 'cursor' && typeof p.line === 'number') {
       this.setFocus({ line: p.line, character: typeof p.character === 'number' ? p.character : 0 });
     }
+  }
+
+  /** The camera moved or the canvas changed size: tell the host once the camera has rested. */
+  private viewChanged(): void {
+    clearTimeout(this.viewTimer);
+    this.viewTimer = setTimeout(() => this.tellView(), VIEW_REST_MS);
+  }
+
+  /** Tell the host where the camera looks from and the canvas' size: the extension exports pictures from this view. */
+  private tellView(): void {
+    const uri = this.state.uri;
+    const v = this.scene.view();
+    const angles = viewAngles(...v.direction);
+    // A hidden panel's canvas has no size: the last view told stands.
+    if (!uri || !angles || v.width <= 0 || v.height <= 0) return;
+    const params: ViewParams = { uri, ...angles, width: v.width, height: v.height };
+    const key = JSON.stringify(params);
+    if (key === this.viewSent) return;
+    this.viewSent = key;
+    this.debug.lastView = params;
+    this.debug.views++;
+    this.transport.notify('view', params);
   }
 
   /** Ask for the preview of the current state. The mode is the first system's (from the document's symbols); a sample system's curves are loaded first. */

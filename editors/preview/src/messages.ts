@@ -30,6 +30,39 @@ export type NotificationMethod =
   /** The curves file was changed outside the page: `{ uri }`. The page reloads it. */
   | 'curvesChanged';
 
+/** What the page tells the host without being asked (no answer comes back). */
+export type PageNotificationMethod =
+  /** Where the orbit camera looks from, once it rests: `ViewParams`. The extension exports pictures from there. */
+  'view';
+
+export const PAGE_NOTIFICATIONS: readonly PageNotificationMethod[] = ['view'];
+
+/** The `view` notification's params. */
+export interface ViewParams {
+  /** The document shown. */
+  uri: string;
+  /** The camera's direction from the point it orbits, in degrees: `grmc --view AZIMUTH,ELEVATION` (see `viewAngles`). */
+  azimuth: number;
+  elevation: number;
+  /** The canvas' size in CSS pixels (its aspect ratio is the picture's). */
+  width: number;
+  height: number;
+}
+
+/**
+ * The azimuth and elevation, in degrees, of a direction (camera position
+ * minus the point it looks at), as `grmc --view` takes them: azimuth about
+ * +y from +z towards +x, in [-180, 180]; elevation above the xz plane, in
+ * [-90, 90]. Null for a zero or non-finite vector.
+ */
+export function viewAngles(x: number, y: number, z: number): { azimuth: number; elevation: number } | null {
+  const len = Math.hypot(x, y, z);
+  if (!(len > 0) || !Number.isFinite(len)) return null;
+  const deg = 180 / Math.PI;
+  // Straight up or down the azimuth is undefined; atan2(0, 0) = 0 says "from +z".
+  return { azimuth: Math.atan2(x, z) * deg, elevation: Math.asin(Math.max(-1, Math.min(1, y / len))) * deg };
+}
+
 export interface RequestMessage {
   type: 'request';
   id: number;
@@ -67,7 +100,13 @@ export interface ReadyMessage {
   type: 'ready';
 }
 
-export type PageToHost = RequestMessage | ReadyMessage;
+export interface PageNotificationMessage {
+  type: 'notify';
+  method: PageNotificationMethod;
+  params: unknown;
+}
+
+export type PageToHost = RequestMessage | ReadyMessage | PageNotificationMessage;
 export type HostToPage = ResponseMessage | NotificationMessage;
 
 function isObject(v: unknown): v is Record<string, unknown> {
@@ -78,10 +117,23 @@ function isObject(v: unknown): v is Record<string, unknown> {
 export function parsePageMessage(v: unknown): PageToHost | null {
   if (!isObject(v)) return null;
   if (v.type === 'ready') return { type: 'ready' };
+  if (v.type === 'notify') {
+    if (typeof v.method !== 'string' || !(PAGE_NOTIFICATIONS as readonly string[]).includes(v.method)) return null;
+    return { type: 'notify', method: v.method as PageNotificationMethod, params: v.params };
+  }
   if (v.type !== 'request') return null;
   if (typeof v.id !== 'number' || !Number.isSafeInteger(v.id)) return null;
   if (typeof v.method !== 'string' || !(METHODS as readonly string[]).includes(v.method)) return null;
   return { type: 'request', id: v.id, method: v.method as Method, params: v.params };
+}
+
+/** Validate a `view` notification's params: finite angles and a canvas of positive size. */
+export function parseViewParams(v: unknown): ViewParams | null {
+  if (!isObject(v) || typeof v.uri !== 'string') return null;
+  const { azimuth, elevation, width, height } = v;
+  if (typeof azimuth !== 'number' || typeof elevation !== 'number' || !Number.isFinite(azimuth) || !Number.isFinite(elevation)) return null;
+  if (typeof width !== 'number' || typeof height !== 'number' || !(width > 0 && height > 0 && Number.isFinite(width) && Number.isFinite(height))) return null;
+  return { uri: v.uri, azimuth, elevation, width, height };
 }
 
 /** Validate a message from the host. */

@@ -180,6 +180,9 @@ export class PreviewScene {
   private handleRadius = 0.06;
   private readonly raycaster = new THREE.Raycaster();
 
+  /** Called when the camera moves (a drag: on every frame; `frame`: through the controls' `change`) or the canvas changes size. */
+  onViewChange: () => void = () => {};
+
   /** The WebGL renderer's name, and whether frames are multisampled (not on a software renderer). */
   readonly rendererName: string;
   readonly antialias: boolean;
@@ -194,7 +197,10 @@ export class PreviewScene {
     this.camera.position.set(6, 4, 8);
     this.controls = new OrbitControls(this.camera, canvas);
     this.controls.target.set(0, 2, 0);
-    this.controls.addEventListener('change', () => this.requestRender());
+    this.controls.addEventListener('change', () => {
+      this.requestRender();
+      this.onViewChange();
+    });
     this.grid = new THREE.GridHelper(20, 20, 0x666666, 0x3a3a3a);
     this.scene.add(this.grid);
     addLights(this.scene);
@@ -214,6 +220,13 @@ export class PreviewScene {
     this.camera.aspect = w / h;
     this.camera.updateProjectionMatrix();
     this.requestRender();
+    this.onViewChange();
+  }
+
+  /** The camera's direction from the point it orbits (not normalised), and the canvas' size in CSS pixels (0 while hidden). */
+  view(): { direction: V3; width: number; height: number } {
+    const d = this.camera.position.clone().sub(this.controls.target);
+    return { direction: [d.x, d.y, d.z], width: this.canvas.clientWidth, height: this.canvas.clientHeight };
   }
 
   /** Render at the next animation frame; `then` runs right after that render. */

@@ -6,6 +6,7 @@ import {
   type HostToPage,
   type Method,
   type NotificationMethod,
+  type PageNotificationMethod,
   type PageToHost,
   isCancelledCode,
   parseHostMessage,
@@ -23,6 +24,8 @@ export interface Transport {
   readonly kind: 'vscode' | 'http';
   /** Ask the host; rejects with the host's error message. `timing` is filled where the host says more. */
   request(method: Method, params: unknown, timing?: RequestTiming): Promise<unknown>;
+  /** Tell the host something it does not answer (dropped where the host has no use for it). */
+  notify(method: PageNotificationMethod, params: unknown): void;
   /** Receive the host's notifications (one handler; a later call replaces it). */
   onNotification(handler: NotificationHandler): void;
   /** Start listening and tell the host the page is ready. */
@@ -92,6 +95,10 @@ export class VsCodeTransport implements Transport {
       this.pending.set(id, { resolve, reject });
       this.api.postMessage({ type: 'request', id, method, params });
     });
+  }
+
+  notify(method: PageNotificationMethod, params: unknown): void {
+    this.api.postMessage({ type: 'notify', method, params });
   }
 
   /** Number of requests still waiting for an answer (for tests). */
@@ -193,6 +200,9 @@ export class HttpTransport implements Transport {
     if (!obj || !('result' in obj)) throw new TransportError(`${method}: the answer has no result`);
     return obj.result;
   }
+
+  /** `grmc view` exports nothing, so what the page tells it (the camera's view) has no use there and is not sent. */
+  notify(_method: PageNotificationMethod, _params: unknown): void {}
 
   private async poll(): Promise<void> {
     while (!this.stopped) {

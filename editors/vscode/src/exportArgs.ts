@@ -1,8 +1,14 @@
 // The `grmc` command line that exports what the preview shows: `grmc derive`
 // for derived systems, `grmc sample --curves` for guided ones, with the
-// preview's seed and meta-parameters. Pure, unit-tested.
+// preview's seed and meta-parameters, and for a picture the preview's view.
+// Pure, unit-tested.
 
-export type ExportFormat = 'glb' | 'obj';
+export type ExportFormat = 'glb' | 'obj' | 'png';
+
+/** Within `grmc --image-size`'s limits: whole sides of 1 to 16384 pixels, at most 4096 x 4096 pixels in all. */
+function validImageSize(width: number, height: number): boolean {
+  return Number.isInteger(width) && Number.isInteger(height) && width >= 1 && height >= 1 && width <= 16384 && height <= 16384 && width * height <= 4096 * 4096;
+}
 
 export interface ExportRequest {
   grammar: string;
@@ -13,6 +19,15 @@ export interface ExportRequest {
   /** The curves file (sample mode). */
   curves?: string;
   system?: string;
+  /** With a .png output: where the camera looks from, in degrees (`--view`); none: grmc's own choice. */
+  view?: { azimuth: number; elevation: number };
+  /** With a .png output: the picture's size in pixels (`--image-size`); none: grmc's 1024x1024. */
+  imageSize?: { width: number; height: number };
+}
+
+/** Two decimals are plenty for degrees; -0 is written 0. */
+function round2(x: number): number {
+  return Math.round(x * 100) / 100 || 0;
 }
 
 export function exportArgs(r: ExportRequest): string[] {
@@ -22,6 +37,16 @@ export function exportArgs(r: ExportRequest): string[] {
   if (r.seed !== undefined && Number.isInteger(r.seed) && r.seed >= 0) args.push('--seed', String(r.seed));
   for (const [name, value] of Object.entries(r.params ?? {}).sort(([a], [b]) => (a < b ? -1 : a > b ? 1 : 0))) {
     if (typeof value === 'number' && Number.isFinite(value)) args.push('--param', `${name}=${value}`);
+  }
+  // The picture flags: grmc refuses them for any other output.
+  if (/\.png$/i.test(r.output)) {
+    const v = r.view;
+    if (v && Number.isFinite(v.azimuth) && Number.isFinite(v.elevation)) {
+      // One argument with `=`: a negative azimuth is not taken for a flag.
+      args.push(`--view=${round2(v.azimuth)},${round2(Math.max(-90, Math.min(90, v.elevation)))}`);
+    }
+    const s = r.imageSize;
+    if (s && validImageSize(s.width, s.height)) args.push(`--image-size=${s.width}x${s.height}`);
   }
   args.push('-o', r.output);
   return args;
@@ -51,5 +76,16 @@ export function firstSystemMode(text: string): 'derive' | 'sample' {
 
 /** The default output path: the grammar's name with the format's extension. */
 export function defaultOutput(grammar: string, format: ExportFormat): string {
-  return grammar.replace(/\.grm$/i, '') + (format === 'glb' ? '.glb' : '.obj');
+  return `${grammar.replace(/\.grm$/i, '')}.${format}`;
+}
+
+/**
+ * A picture of the preview canvas' shape: `width` by `height` (any unit)
+ * scaled so the longer side is `longest` pixels, the shorter at least 1.
+ * Undefined for a canvas without a size.
+ */
+export function pictureSize(width: number, height: number, longest = 1024): { width: number; height: number } | undefined {
+  if (!(width > 0 && height > 0 && Number.isFinite(width) && Number.isFinite(height))) return undefined;
+  const scale = longest / Math.max(width, height);
+  return { width: Math.max(1, Math.round(width * scale)), height: Math.max(1, Math.round(height * scale)) };
 }

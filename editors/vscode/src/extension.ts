@@ -1,5 +1,6 @@
 // The grm extension: starts `grmc lsp` as the language server, shows the
-// preview page in a webview beside the editor, exports models with `grmc`.
+// preview page in a webview beside the editor, exports models and pictures
+// with `grmc`.
 
 import { execFile } from 'node:child_process';
 import { randomBytes } from 'node:crypto';
@@ -8,7 +9,7 @@ import * as os from 'node:os';
 import * as path from 'node:path';
 import * as vscode from 'vscode';
 import { LanguageClient, type LanguageClientOptions, type ServerOptions } from 'vscode-languageclient/node';
-import { defaultOutput, type ExportFormat, exportArgs, firstSystemMode } from './exportArgs.js';
+import { defaultOutput, type ExportFormat, exportArgs, firstSystemMode, pictureSize } from './exportArgs.js';
 import { PreviewHost, curvesPathFor } from './host.js';
 import { resolveServerPath } from './serverPath.js';
 import { makeNonce, webviewHtml } from './webviewHtml.js';
@@ -208,17 +209,21 @@ async function exportModel(): Promise<void> {
     [
       { label: 'glTF binary (.glb)', format: 'glb' as ExportFormat },
       { label: 'Wavefront OBJ + MTL (.obj)', format: 'obj' as ExportFormat },
+      { label: 'PNG picture (.png)', format: 'png' as ExportFormat, description: "from the preview's view" },
     ],
     { placeHolder: 'Export the model as' },
   );
   if (!pickFormat) return;
   const grammar = doc.uri.fsPath;
+  const filters: Record<ExportFormat, Record<string, string[]>> = { glb: { glTF: ['glb'] }, obj: { OBJ: ['obj'] }, png: { 'PNG picture': ['png'] } };
   const target = await vscode.window.showSaveDialog({
     defaultUri: vscode.Uri.file(defaultOutput(grammar, pickFormat.format)),
-    filters: pickFormat.format === 'glb' ? { glTF: ['glb'] } : { OBJ: ['obj'] },
+    filters: filters[pickFormat.format],
   });
   if (!target) return;
   const last = preview?.host.lastPreview(doc.uri.toString());
+  // A picture from where the preview's camera looks, of the canvas' shape; without a preview, grmc's own view and size.
+  const view = preview?.host.lastView(doc.uri.toString());
   const mode = last ? (last.mode === 'sample' ? 'sample' : 'derive') : firstSystemMode(doc.getText());
   const args = exportArgs({
     grammar,
@@ -228,6 +233,8 @@ async function exportModel(): Promise<void> {
     params: last?.params,
     curves: curvesPathFor(grammar),
     system: last?.system,
+    view,
+    imageSize: view && pictureSize(view.width, view.height),
   });
   const exe = serverPath;
   output.appendLine(`grm: ${exe} ${args.join(' ')}`);

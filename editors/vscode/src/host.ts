@@ -1,12 +1,14 @@
 // The extension's side of the preview page's messages (see
 // preview/src/messages.ts): answers the page's requests by asking the
 // language server (`grm/preview`, `grm/pick`, docs/lsp-extensions.md) or the
-// editor (read and save the curves file, reveal a rule), and forwards the
-// server's `grm/previewUpdated` and the editor's cursor as notifications. Free of the `vscode` module: the editor and the server are
+// editor (read and save the curves file, reveal a rule), forwards the
+// server's `grm/previewUpdated` and the editor's cursor as notifications,
+// and keeps the camera view the page last told (pictures are exported from
+// it). Free of the `vscode` module: the editor and the server are
 // passed in, so the message handling is unit-tested under node.
 
 import { parseCurves } from '../../preview/src/curves.js';
-import { type HostToPage, type Method, type NotificationMethod, parsePageMessage } from '../../preview/src/messages.js';
+import { type HostToPage, type Method, type NotificationMethod, type ViewParams, parsePageMessage, parseViewParams } from '../../preview/src/messages.js';
 
 export interface HostDeps {
   /** Ask the language server (method is the LSP method, e.g. `grm/preview`). */
@@ -54,6 +56,8 @@ export class PreviewHost {
   private queued: HostToPage[] = [];
   private documentUri: string | null = null;
   private readonly last = new Map<string, LastPreview>();
+  /** The page's camera view, told once the camera rests; of the shown document only. */
+  private view: ViewParams | null = null;
 
   constructor(private readonly deps: HostDeps) {}
 
@@ -70,10 +74,17 @@ export class PreviewHost {
     return this.last.get(uri);
   }
 
+  /** Where the page's camera looks from, if the page shows this document and has told it (for a picture from the same side). */
+  lastView(uri: string): ViewParams | undefined {
+    return this.view?.uri === uri ? this.view : undefined;
+  }
+
   /** Show another document in the page. */
   setDocument(uri: string, title: string): void {
     if (uri === this.documentUri) return;
     this.documentUri = uri;
+    // The page frames the new model and tells its view again.
+    this.view = null;
     this.notify('document', { uri, title });
   }
 
@@ -121,6 +132,14 @@ export class PreviewHost {
       const q = this.queued;
       this.queued = [];
       for (const m of q) this.deps.post(m);
+      return;
+    }
+    if (msg.type === 'notify') {
+      if (msg.method === 'view') {
+        // A view of a document the page no longer shows is stale.
+        const view = parseViewParams(msg.params);
+        if (view && view.uri === this.documentUri) this.view = view;
+      }
       return;
     }
     try {
