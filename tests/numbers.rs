@@ -7,9 +7,10 @@
 //! whole numbers past the limits of counts). A mutant that the checker
 //! refuses must be refused with diagnostics; one that it accepts is
 //! compiled, derived on the CPU (at most 10 iterations, 50,000 modules),
-//! interpreted and meshed, or for a sample-mode system grown by the guided
-//! sampler with its guiding curves file (a tiny schedule). Nothing may
-//! panic: every failure comes back as a typed error.
+//! interpreted, meshed and drawn as a small picture, or for a sample-mode
+//! system grown by the guided sampler with its guiding curves file (a tiny
+//! schedule) and its best model drawn. Nothing may panic: every failure
+//! comes back as a typed error.
 
 use grm_derive::{DeriveLimits, Engine};
 use grm_sample::{ExpectedOptions, FinishLimits, Objective, SampleOptions, Sampler, Schedule};
@@ -143,9 +144,35 @@ fn grow(path: &Path, text: &str, t: &mut Tally) {
             continue;
         }
         match grm_geom::build_model(program, sys, &s, settings, &compiled.param_values) {
-            Ok(_) => t.derived += 1,
+            Ok(model) => {
+                picture(&model);
+                t.derived += 1;
+            }
             Err(_) => t.failed_typed += 1,
         }
+    }
+}
+
+/// A model built from edge numbers is drawn too (`-o x.png`): small, from
+/// the automatic view and from straight above; it must draw, not panic.
+fn picture(model: &grm_geom::Model) {
+    use grm_geom::render::{RenderOptions, View, render};
+    for view in [
+        View::Auto,
+        View::Angles {
+            azimuth: 30.0,
+            elevation: 90.0,
+        },
+    ] {
+        let o = RenderOptions {
+            width: 24,
+            height: 16,
+            view,
+            samples: 2,
+            transparent: false,
+        };
+        let image = render(model, &o).expect("valid options draw");
+        assert_eq!(image.rgba.len(), 24 * 16 * 4);
     }
 }
 
@@ -192,8 +219,10 @@ fn sample(
     };
     match sampler.sample(&opts) {
         Ok(run) => {
-            if let Some(best) = run.best() {
-                let _ = best.build(program, &grm_geom::BuildOptions::default());
+            if let Some(best) = run.best()
+                && let Ok(model) = best.build(program, &grm_geom::BuildOptions::default())
+            {
+                picture(&model);
             }
             t.sampled += 1;
         }

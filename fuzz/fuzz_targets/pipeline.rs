@@ -8,9 +8,10 @@
 //!
 //! - derive mode: the CPU engine for at most 6 iterations and 20,000
 //!   modules (one thread, then two, which must give the same string), then
-//!   the turtle and the meshes (`grm_geom::build_model`);
+//!   the turtle and the meshes (`grm_geom::build_model`), then a small
+//!   picture of the model (`grm_geom::render`);
 //! - sample mode: the guided sampler with one curve, 4 particles and at most
-//!   4 generations, then the meshes of its best model.
+//!   4 generations, then the meshes and a picture of its best model.
 //!
 //! Nothing may panic. Every failure must come back as a typed error (a
 //! limit, a run-time error of the program): those are fine.
@@ -97,7 +98,22 @@ fn derive(
     let Some(one) = grow(1) else { return };
     let two = grow(2).expect("two threads fail where one succeeds");
     assert_eq!(one, two, "two threads derive another string");
-    let _ = grm_geom::build_model(program, sys, &one, settings, &compiled.param_values);
+    if let Ok(model) = grm_geom::build_model(program, sys, &one, settings, &compiled.param_values)
+    {
+        picture(&model);
+    }
+}
+
+/// The model drawn as `-o x.png` draws it, small: it must not panic.
+fn picture(model: &grm_geom::Model) {
+    let o = grm_geom::render::RenderOptions {
+        width: 16,
+        height: 12,
+        samples: 2,
+        ..Default::default()
+    };
+    let image = grm_geom::render::render(model, &o).expect("valid options draw");
+    assert_eq!(image.rgba.len(), 16 * 12 * 4);
 }
 
 fn sample(
@@ -131,8 +147,10 @@ fn sample(
         ..SampleOptions::default()
     };
     if let Ok(run) = sampler.sample(&opts) {
-        if let Some(best) = run.best() {
-            let _ = best.build(program, &grm_geom::BuildOptions::default());
+        if let Some(best) = run.best()
+            && let Ok(model) = best.build(program, &grm_geom::BuildOptions::default())
+        {
+            picture(&model);
         }
     }
 }
