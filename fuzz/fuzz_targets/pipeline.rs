@@ -98,8 +98,7 @@ fn derive(
     let Some(one) = grow(1) else { return };
     let two = grow(2).expect("two threads fail where one succeeds");
     assert_eq!(one, two, "two threads derive another string");
-    if let Ok(model) = grm_geom::build_model(program, sys, &one, settings, &compiled.param_values)
-    {
+    if let Ok(model) = grm_geom::build_model(program, sys, &one, settings, &compiled.param_values) {
         picture(&model);
     }
 }
