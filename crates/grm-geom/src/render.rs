@@ -46,7 +46,7 @@
 
 use std::io::{self, Write};
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::{Model, PartSource};
@@ -185,18 +185,23 @@ pub struct Image {
     pub height: u32,
     /// `width * height * 4` bytes: R, G, B, A per pixel.
     pub rgba: Vec<u8>,
+    /// Drawn on a transparent background: written as RGBA even when every
+    /// pixel happens to be covered (else RGB when every pixel is opaque).
+    pub transparent: bool,
 }
 
 impl Image {
-    /// The pixel at column `x`, row `y` (0, 0 is the top left).
-    pub fn pixel(&self, x: u32, y: u32) -> [u8; 4] {
-        let i = (y as usize * self.width as usize + x as usize) * 4;
-        [
-            self.rgba[i],
-            self.rgba[i + 1],
-            self.rgba[i + 2],
-            self.rgba[i + 3],
-        ]
+    /// The pixel at column `x`, row `y` (0, 0 is the top left); `None`
+    /// outside the picture (or past the end of `rgba`).
+    pub fn pixel(&self, x: u32, y: u32) -> Option<[u8; 4]> {
+        if x >= self.width || y >= self.height {
+            return None;
+        }
+        // x < width and y < height, both u32: the index fits in u64.
+        let i = (u64::from(y) * u64::from(self.width) + u64::from(x)) * 4;
+        let i = usize::try_from(i).ok()?;
+        let p = self.rgba.get(i..i.checked_add(4)?)?;
+        Some([p[0], p[1], p[2], p[3]])
     }
 
     /// Whether every pixel is opaque.
@@ -218,28 +223,34 @@ const HEAD: f32 = 0.18;
 const LINE_LIGHT: f32 = AMBIENT + 0.5 * KEY + 0.5 * HEAD;
 
 /// The camera's frame: `right` and `up` span the picture, `toward` points
-/// from the model to the camera.
+/// from the model to the camera. In f64: the fit projects the model's
+/// points with it, and a model far from the origin (or one with
+/// coordinates near f32's limits) keeps its detail and its extent.
 #[derive(Clone, Copy, Debug)]
 struct Camera {
-    right: Vec3,
-    up: Vec3,
-    toward: Vec3,
+    right: DVec3,
+    up: DVec3,
+    toward: DVec3,
 }
 
 impl Camera {
     fn new(azimuth_deg: f32, elevation_deg: f32) -> Camera {
-        let az = azimuth_deg.to_radians();
-        let el = elevation_deg.clamp(-89.9, 89.9).to_radians();
-        let toward = Vec3::new(az.sin() * el.cos(), el.sin(), az.cos() * el.cos());
+        // Whole turns taken off first (exactly: `rem_euclid` of a float is
+        // exact), so 360 draws as 0 and a huge azimuth is still the angle
+        // it names, not the rounding error of its radians.
+        let az = f64::from(azimuth_deg).rem_euclid(360.0).to_radians();
+        let el = f64::from(elevation_deg.clamp(-89.9, 89.9)).to_radians();
+        let toward = DVec3::new(az.sin() * el.cos(), el.sin(), az.cos() * el.cos());
         // |toward.y| < 1, so the cross product with +y is never zero.
-        let right = Vec3::Y.cross(toward).normalize();
+        let right = DVec3::Y.cross(toward).normalize();
         let up = toward.cross(right);
         Camera { right, up, toward }
     }
 
     #[inline]
-    fn project(&self, p: Vec3) -> Vec3 {
-        Vec3::new(p.dot(self.right), p.dot(self.up), p.dot(self.toward))
+    fn project(&self, p: Vec3) -> DVec3 {
+        let p = p.as_dvec3();
+        DVec3::new(p.dot(self.right), p.dot(self.up), p.dot(self.toward))
     }
 }
 
@@ -285,17 +296,18 @@ fn tubed_bones(model: &Model) -> Vec<bool> {
 /// of the buffers and draws, in the model's order, what overlaps them.
 pub const BAND_ROWS: usize = 32;
 
-/// A line in sample space; `bias` lets it win a near tie with a surface it
-/// runs along.
+/// A line in sample space; `bias` (in sample units, like the depth) lets
+/// it win a near tie with a surface it runs along.
 #[derive(Clone, Copy)]
 struct Line {
     a: Vec3,
     b: Vec3,
     color: [u16; 3],
-    bias: bool,
+    bias: f32,
 }
 
-/// A part's vertices in sample space (x right, y down, z larger = nearer)
+/// A part's vertices in sample space (x right, y down, z larger = nearer,
+/// all three in samples)
 /// and their light, seen from the front and from behind.
 struct Prepared<'m> {
     indices: &'m [u32],
@@ -515,12 +527,7 @@ impl Band<'_> {
                     continue;
                 }
                 let i = (y - self.y0) * self.width + x;
-                let z = if l.bias {
-                    p.z + 1e-4 * p.z.abs().max(1.0)
-                } else {
-                    p.z
-                };
-                if z > self.depth[i] {
+                if p.z + l.bias > self.depth[i] {
                     self.depth[i] = p.z;
                     self.color[i] = l.color;
                 }
@@ -643,48 +650,60 @@ pub fn render(model: &Model, options: &RenderOptions) -> Result<Image, RenderErr
         .map(|(i, _)| i)
         .collect();
 
-    // The projected extent of everything drawn.
-    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    // The projected extent of everything drawn (in f64: no overflow for
+    // coordinates near f32's limits, no loss for a model far from the
+    // origin).
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
     let mut grow = |p: Vec3| {
         if p.is_finite() {
-            lo = lo.min(p);
-            hi = hi.max(p);
+            let q = cam.project(p);
+            lo = lo.min(q);
+            hi = hi.max(q);
         }
     };
     for part in &model.parts {
         for p in &part.mesh.positions {
-            grow(cam.project(Vec3::from_array(*p)));
+            grow(Vec3::from_array(*p));
         }
     }
     for &i in &lines {
         let b = &model.skeleton.bones[i];
-        grow(cam.project(b.base));
-        grow(cam.project(b.tip));
+        grow(b.base);
+        grow(b.tip);
     }
 
     let mut target = Target::new(sw, sh);
     if lo.x <= hi.x {
         let centre = (lo + hi) * 0.5;
         let extent = hi - lo;
-        let magnitude = lo.abs().max(hi.abs()).max_element();
-        let tiny = (1e-6 * magnitude).max(f32::MIN_POSITIVE);
-        let margin = MARGIN * (sw.min(sh) as f32);
-        let scale_x = (sw as f32 - 2.0 * margin).max(1.0) / extent.x.max(tiny);
-        let scale_y = (sh as f32 - 2.0 * margin).max(1.0) / extent.y.max(tiny);
+        // A side the model does not extend along (a line seen end on, a
+        // single point) counts as a millionth of the model's size, so the
+        // scale stays finite: sample coordinates, depth included, stay
+        // within about 1e6 picture widths.
+        let size = extent.max_element();
+        let floor = if size > 0.0 { 1e-6 * size } else { 1.0 };
+        let margin = f64::from(MARGIN) * (sw.min(sh) as f64);
+        let scale_x = (sw as f64 - 2.0 * margin).max(1.0) / extent.x.max(floor);
+        let scale_y = (sh as f64 - 2.0 * margin).max(1.0) / extent.y.max(floor);
         let scale = scale_x.min(scale_y);
-        let (half_w, half_h) = (sw as f32 * 0.5, sh as f32 * 0.5);
-        let to_screen = |q: Vec3| {
+        let (half_w, half_h) = (sw as f64 * 0.5, sh as f64 * 0.5);
+        // Depth is in samples too, so a near tie means the same at any
+        // scale: a bare bone wins against a surface less than 1e-4 of the
+        // model's size in front of it (one it lies on, up to rounding).
+        let bias = (1e-4 * size.max(floor) * scale) as f32;
+        let to_screen = |p: Vec3| {
+            let q = cam.project(p);
             Vec3::new(
-                half_w + (q.x - centre.x) * scale,
-                half_h - (q.y - centre.y) * scale,
-                q.z - centre.z,
+                (half_w + (q.x - centre.x) * scale) as f32,
+                (half_h - (q.y - centre.y) * scale) as f32,
+                ((q.z - centre.z) * scale) as f32,
             )
         };
-        let line = |i: usize, light: f32, bias: bool| {
+        let line = |i: usize, light: f32, bias: f32| {
             let b = &model.skeleton.bones[i];
             Line {
-                a: to_screen(cam.project(b.base)),
-                b: to_screen(cam.project(b.tip)),
+                a: to_screen(b.base),
+                b: to_screen(b.tip),
                 color: quantize(Vec3::from_array(model.paint_color(b.paint)) * light),
                 bias,
             }
@@ -696,7 +715,7 @@ pub fn render(model: &Model, options: &RenderOptions) -> Result<Image, RenderErr
         };
         for &i in lines.iter().filter(|&&i| tubed[i]) {
             scene.items.push(Item::Line(scene.lines.len() as u32));
-            scene.lines.push(line(i, LINE_LIGHT, false));
+            scene.lines.push(line(i, LINE_LIGHT, 0.0));
         }
         let light = KEY_LIGHT.normalize();
         for part in &model.parts {
@@ -707,7 +726,7 @@ pub fn render(model: &Model, options: &RenderOptions) -> Result<Image, RenderErr
             let emissive = Vec3::from_array(material.emissive);
             let mesh = &part.mesh;
             let shade = |n: Vec3| {
-                let n = cam.project(n);
+                let n = cam.project(n).as_vec3();
                 let lit = AMBIENT + KEY * n.dot(light).max(0.0) + HEAD * n.z.max(0.0);
                 base * lit + emissive
             };
@@ -717,7 +736,7 @@ pub fn render(model: &Model, options: &RenderOptions) -> Result<Image, RenderErr
                 indices: &mesh.indices,
                 screen: mesh.positions[..n]
                     .iter()
-                    .map(|p| to_screen(cam.project(Vec3::from_array(*p))))
+                    .map(|p| to_screen(Vec3::from_array(*p)))
                     .collect(),
                 front: mesh.normals[..n]
                     .iter()
@@ -734,7 +753,7 @@ pub fn render(model: &Model, options: &RenderOptions) -> Result<Image, RenderErr
         }
         for &i in lines.iter().filter(|&&i| !tubed[i]) {
             scene.items.push(Item::Line(scene.lines.len() as u32));
-            scene.lines.push(line(i, 1.0, true));
+            scene.lines.push(line(i, 1.0, bias));
         }
         target.draw(&scene, s);
     }
@@ -797,13 +816,14 @@ fn resolve(target: &Target, width: usize, height: usize, s: usize, transparent: 
         width: width as u32,
         height: height as u32,
         rgba,
+        transparent,
     }
 }
 
-/// Write `image` as PNG: RGB when it is opaque, RGBA otherwise, tagged
-/// sRGB.
+/// Write `image` as PNG, tagged sRGB: RGBA for a picture drawn on a
+/// transparent background or with any pixel not opaque, else RGB.
 pub fn write_png(image: &Image, w: &mut dyn Write) -> io::Result<()> {
-    let opaque = image.is_opaque();
+    let opaque = !image.transparent && image.is_opaque();
     let mut encoder = png::Encoder::new(w, image.width, image.height);
     encoder.set_color(if opaque {
         png::ColorType::Rgb

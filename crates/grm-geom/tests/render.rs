@@ -49,7 +49,7 @@ fn covered(image: &Image, background: &Image) -> (Option<(u32, u32, u32, u32)>, 
     let mut n = 0;
     for y in 0..image.height {
         for x in 0..image.width {
-            if image.pixel(x, y) != background.pixel(x, y) {
+            if px(image, x, y) != px(background, x, y) {
                 n += 1;
                 bbox = Some(match bbox {
                     None => (x, y, x, y),
@@ -74,12 +74,12 @@ fn an_empty_model_is_the_background_gradient() {
     assert_eq!(img.rgba.len(), 64 * 48 * 4);
     assert!(img.is_opaque());
     // Lighter at the top, the same across a row.
-    let (top, bottom) = (img.pixel(10, 0), img.pixel(10, 47));
+    let (top, bottom) = (px(&img, 10, 0), px(&img, 10, 47));
     assert!(
         top[0] > bottom[0] && top[2] > bottom[2],
         "{top:?} {bottom:?}"
     );
-    assert_eq!(img.pixel(0, 20), img.pixel(63, 20));
+    assert_eq!(px(&img, 0, 20), px(&img, 63, 20));
 
     let clear = draw(
         &m,
@@ -98,7 +98,7 @@ fn a_red_box_fills_the_frame_within_the_margin() {
     let o = options(200, 200, FRONT);
     let img = draw(&m, &o);
     let bg = draw(&empty(), &o);
-    let centre = img.pixel(100, 100);
+    let centre = px(&img, 100, 100);
     assert!(
         centre[0] > 120 && centre[1] < 40 && centre[2] < 40,
         "a lit red face: {centre:?}"
@@ -116,7 +116,7 @@ fn a_red_box_fills_the_frame_within_the_margin() {
     ] {
         assert!((got - want).abs() <= 1, "bbox {bbox:?}, margin {m_px}");
     }
-    assert_eq!(img.pixel(2, 2), bg.pixel(2, 2));
+    assert_eq!(px(&img, 2, 2), px(&bg, 2, 2));
 }
 
 #[test]
@@ -139,8 +139,8 @@ fn the_nearer_surface_hides_the_farther() {
             },
         ),
     );
-    let f = front.pixel(50, 50);
-    let b = back.pixel(50, 50);
+    let f = px(&front, 50, 50);
+    let b = px(&back, 50, 50);
     assert!(f[2] > f[0] + 60, "blue in front: {f:?}");
     assert!(b[0] > b[2] + 60, "red in front from behind: {b:?}");
 }
@@ -166,7 +166,7 @@ fn a_polygon_seen_from_behind_is_lit_like_its_front() {
             },
         ),
     );
-    let (pf, pb) = (f.pixel(30, 30), b.pixel(30, 30));
+    let (pf, pb) = (px(&f, 30, 30), px(&b, 30, 30));
     assert!(pf[1] > pf[0] + 60, "green: {pf:?}");
     for k in 0..3 {
         assert!(
@@ -340,6 +340,7 @@ fn bad_options_are_errors_not_panics() {
         width: 4,
         height: 4,
         rgba: vec![0; 10],
+        transparent: false,
     };
     assert!(write_png(&broken, &mut Vec::new()).is_err());
 }
@@ -388,4 +389,167 @@ fn any_number_of_threads_draws_the_same_picture() {
     assert!((o.height * 3) as usize > 4 * grm_geom::render::BAND_ROWS);
     assert_eq!(one, on(3));
     assert_eq!(one, on(8));
+}
+
+/// The pixel at column `x`, row `y` of a picture the test drew.
+fn px(image: &Image, x: u32, y: u32) -> [u8; 4] {
+    image.pixel(x, y).expect("a pixel of the picture")
+}
+
+#[test]
+fn a_bare_bone_behind_a_surface_is_hidden_at_any_scale() {
+    // A green unit square in the xy plane, seen from the front (+z), and a
+    // red bone of width 0 across it: on its plane (a tie: the line shows)
+    // or 0.02 behind it (hidden). The depth bias that settles the tie is
+    // relative to the model's size, so the picture is the same at any
+    // scale (it was 1e-4 world units: at scale 0.001 the bone showed
+    // through the square).
+    for s in ["0.001", "1", "1000"] {
+        for (dz, shows) in [("0", true), ("-0.02", false)] {
+            let m = model(
+                &format!(
+                    "system S {{ angle = 90; width = 0; axiom scale({s}) color(0, 0.6, 0) \
+                     [ {{ . f + f + f + f }} ] \
+                     [ translate(0.5, 0.1, {dz}) color(1, 0, 0) F(0.8) ]; }}"
+                ),
+                0,
+            );
+            assert_eq!((m.stats.polygons, m.stats.bare_bones), (1, 1));
+            let img = draw(&m, &options(60, 60, FRONT));
+            // The bone runs down the middle, between columns 29 and 30.
+            let mid = [px(&img, 29, 30), px(&img, 30, 30)];
+            let red = mid.iter().any(|p| p[0] > p[1]);
+            assert_eq!(red, shows, "scale {s}, bone at z {dz}: {mid:?}");
+            // Left of it, the square.
+            let side = px(&img, 15, 30);
+            assert!(side[1] > side[0] + 60, "{side:?}");
+        }
+    }
+}
+
+/// The bounding box of what `m` draws from the front in a 64 x 64 picture.
+fn front_bbox(m: &Model) -> Option<(u32, u32, u32, u32)> {
+    let o = options(64, 64, FRONT);
+    covered(&draw(m, &o), &draw(&empty(), &o)).0
+}
+
+/// `m` with its bones replaced by these (base, tip) pairs, and no parts.
+fn with_bones(m: &Model, bones: &[(glam::Vec3, glam::Vec3)]) -> Model {
+    let mut m = m.clone();
+    m.parts.clear();
+    let first = m.skeleton.bones[0];
+    m.skeleton.bones = bones
+        .iter()
+        .map(|&(base, tip)| grm_turtle::Bone { base, tip, ..first })
+        .collect();
+    m
+}
+
+#[test]
+fn models_far_from_the_origin_tiny_or_huge_fill_the_frame() {
+    use glam::Vec3;
+    // An L of width-0 bones: seen from the front it fills the 64 x 64
+    // frame less the margin of 2 pixels (64 * 0.04) on every side.
+    let l = "width = 0; angle = 90; axiom F F - F F;";
+    let near = model(&format!("system L {{ {l} }}"), 0);
+    let fitted = front_bbox(&near);
+    assert_eq!(fitted, Some((2, 2, 61, 61)));
+    // Ten million units from the origin (the fit was in f32 with a floor
+    // of 1e-6 of the distance: a fifth of the frame).
+    let far = model(
+        &format!(
+            "system L {{ {} }}",
+            l.replace("axiom", "axiom translate(1e7, 1e7, 0)")
+        ),
+        0,
+    );
+    assert_eq!(front_bbox(&far), fitted);
+    // From a program: 1e-37 units across (the scale overflowed f32:
+    // nothing was drawn), and a bone from -f32::MAX to f32::MAX (its
+    // extent overflowed: one dot).
+    let tiny = with_bones(
+        &near,
+        &[
+            (Vec3::ZERO, Vec3::Y * 2e-37),
+            (Vec3::Y * 2e-37, Vec3::new(2e-37, 2e-37, 0.0)),
+        ],
+    );
+    assert_eq!(front_bbox(&tiny), fitted);
+    let huge = with_bones(&near, &[(Vec3::splat(-f32::MAX), Vec3::splat(f32::MAX))]);
+    let (x0, y0, x1, y1) = front_bbox(&huge).expect("a diagonal line");
+    assert!(
+        x0 <= 3 && y0 <= 3 && x1 >= 60 && y1 >= 60,
+        "{x0} {y0} {x1} {y1}"
+    );
+}
+
+#[test]
+fn azimuths_a_whole_turn_apart_draw_the_same_picture() {
+    let m = model(
+        "system T { angle = 30; width = 0.1; axiom F A; A -> F [ + F A ] [ & F A ] [ - F A ]; }",
+        3,
+    );
+    let at = |azimuth: f32| {
+        draw(
+            &m,
+            &options(
+                96,
+                96,
+                View::Angles {
+                    azimuth,
+                    elevation: 20.0,
+                },
+            ),
+        )
+    };
+    let a = at(35.0);
+    for turns in [35.0 + 360.0, 35.0 - 720.0, 35.0 + 3.6e6] {
+        assert_eq!(a, at(turns), "azimuth {turns}");
+    }
+    // A huge azimuth is the angle it names (whole turns off), not the
+    // rounding error of its radians.
+    let big = 1e30_f32;
+    assert_eq!(at(big), at(big.rem_euclid(360.0)));
+}
+
+#[test]
+fn a_pixel_outside_the_picture_is_none() {
+    let img = draw(&empty(), &options(3, 2, FRONT));
+    assert!(img.pixel(2, 1).is_some());
+    assert_eq!(img.pixel(3, 0), None);
+    assert_eq!(img.pixel(0, 2), None);
+    assert_eq!(img.pixel(u32::MAX, u32::MAX), None);
+    // An Image built by hand with too few bytes.
+    let short = Image {
+        width: 4,
+        height: 4,
+        rgba: vec![0; 10],
+        transparent: false,
+    };
+    assert_eq!(short.pixel(3, 3), None);
+    assert_eq!(short.pixel(1, 0), Some([0; 4]));
+}
+
+#[test]
+fn a_transparent_picture_keeps_its_alpha_channel_when_fully_covered() {
+    // A box seen face on, in a picture so small that the margin is less
+    // than a pixel: every pixel is covered, yet the file is RGBA as asked.
+    let m = model("system B { axiom box(1, 1, 1); }", 0);
+    let o = RenderOptions {
+        transparent: true,
+        ..options(4, 4, FRONT)
+    };
+    let img = draw(&m, &o);
+    assert!(img.is_opaque(), "every pixel covered: {:?}", img.rgba);
+    let bytes = png_bytes(&img).expect("encodes");
+    let reader = png::Decoder::new(std::io::Cursor::new(&bytes))
+        .read_info()
+        .expect("a PNG");
+    assert_eq!(reader.info().color_type, png::ColorType::Rgba);
+    // Opaque ones stay RGB.
+    let bytes = png_bytes(&draw(&m, &options(4, 4, FRONT))).expect("encodes");
+    let reader = png::Decoder::new(std::io::Cursor::new(&bytes))
+        .read_info()
+        .expect("a PNG");
+    assert_eq!(reader.info().color_type, png::ColorType::Rgb);
 }

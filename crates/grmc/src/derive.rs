@@ -152,8 +152,17 @@ fn parse_view(text: &str) -> Result<ViewAngles, String> {
         (Ok(a), Ok(e)) => (a, e),
         _ => return Err(bad()),
     };
-    if !(azimuth.is_finite() && (-90.0..=90.0).contains(&elevation)) {
-        return Err(bad());
+    // Numbers, but not angles to draw from (`1e400` reads as infinity):
+    // say which one is wrong.
+    if !azimuth.is_finite() {
+        return Err(format!(
+            "`{text}` is not a view: the azimuth must be a finite number of degrees"
+        ));
+    }
+    if !(-90.0..=90.0).contains(&elevation) {
+        return Err(format!(
+            "`{text}` is not a view: the elevation must be -90 to 90 degrees"
+        ));
     }
     Ok(ViewAngles { azimuth, elevation })
 }
@@ -411,9 +420,9 @@ pub fn run(args: DeriveArgs) -> Outcome {
 }
 
 /// `-o PATH` must name a format grm writes (R0406) in a directory that
-/// exists (R0407), and the picture flags need a `.png` output; checked
-/// before the work that the export would waste. `Some` is the outcome to
-/// exit with (the problem was printed).
+/// exists and not be a directory itself (R0407), and the picture flags
+/// need a `.png` output; checked before the work that the export would
+/// waste. `Some` is the outcome to exit with (the problem was printed).
 pub fn check_output_format(
     loaded: &Loaded,
     output: Option<&Path>,
@@ -434,6 +443,13 @@ pub fn check_output_format(
     let e = if grm_geom::ExportFormat::from_path(path).is_none() {
         grm_geom::ExportError::UnknownFormat {
             path: path.to_path_buf(),
+        }
+    } else if path.is_dir() {
+        // A directory named like a file (`-o out.png` where out.png is a
+        // folder): the export could only fail, after all the work.
+        grm_geom::ExportError::Io {
+            path: path.to_path_buf(),
+            source: std::io::ErrorKind::IsADirectory.into(),
         }
     } else {
         let dir = path

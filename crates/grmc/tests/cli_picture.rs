@@ -148,6 +148,15 @@ fn bad_picture_flags_are_usage_errors_before_any_work() {
         (vec!["--view", "10"], "is not a view"),
         (vec!["--view", "0,91"], "is not a view"),
         (vec!["--view", "nan,0"], "is not a view"),
+        // Numbers, but not angles: the message says which is wrong.
+        (
+            vec!["--view", "1e400,0"],
+            "`1e400,0` is not a view: the azimuth must be a finite number",
+        ),
+        (
+            vec!["--view=-0,-90.5"],
+            "`-0,-90.5` is not a view: the elevation must be -90 to 90",
+        ),
     ];
     for (flags, says) in cases {
         let mut args = vec!["derive", tree.as_str()];
@@ -205,4 +214,28 @@ fn bench_render_prints_a_row_per_scene() {
     assert_eq!(cols[2], "4095", "{row}");
     let o = common::grmc_at_root(&["bench", "render", "--scene", "nope"]);
     assert_eq!(o.status.code(), Some(2));
+}
+
+#[test]
+fn an_output_that_is_a_directory_is_refused_before_any_work() {
+    // `-o out.png` where out.png is a folder: R0407 before the derivation
+    // (it used to fail only when writing, after all the work).
+    let dir = tempfile::tempdir().expect("tempdir");
+    let folder = dir.path().join("out.png");
+    std::fs::create_dir(&folder).expect("a folder");
+    let tree = example("ternary_tree.grm");
+    for flags in [vec![], vec!["--view", "0,0"]] {
+        let mut args = vec!["derive", tree.as_str(), "-n", "2"];
+        args.extend_from_slice(&flags);
+        args.extend_from_slice(&["-o", path(&folder)]);
+        let o = grmc(&args);
+        let err = text(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(
+            err.contains("R0407") && err.contains("is a directory"),
+            "{err}"
+        );
+        assert!(!err.contains("iterations:"), "nothing derived: {err}");
+    }
+    assert!(folder.is_dir());
 }
