@@ -268,7 +268,8 @@ pub fn auto_angles(model: &Model) -> (f32, f32) {
     for p in &s.polygon_vertices {
         b.add(*p);
     }
-    let size = b.size();
+    // In f64: the extent of a model spanning f32's range overflows f32.
+    let size = b.max.as_dvec3() - b.min.as_dvec3();
     let flat = s.instances.is_empty() && !b.is_empty() && size.z <= 1e-4 * size.x.max(size.y);
     if flat {
         (0.0, 0.0)

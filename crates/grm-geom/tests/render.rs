@@ -553,3 +553,31 @@ fn a_transparent_picture_keeps_its_alpha_channel_when_fully_covered() {
         .expect("a PNG");
     assert_eq!(reader.info().color_type, png::ColorType::Rgb);
 }
+
+#[test]
+fn the_auto_view_of_a_model_spanning_f32s_range_in_depth_is_not_flat() {
+    use glam::Vec3;
+    // Bones along x and along z, both from -f32::MAX to f32::MAX: the z
+    // extent (inf in f32) is not negligible against the x extent.
+    let near = model("system S { width = 0; axiom F; }", 0);
+    let m = with_bones(
+        &near,
+        &[
+            (
+                Vec3::new(-f32::MAX, 0.0, 0.0),
+                Vec3::new(f32::MAX, 0.0, 0.0),
+            ),
+            (
+                Vec3::new(0.0, 0.0, -f32::MAX),
+                Vec3::new(0.0, 0.0, f32::MAX),
+            ),
+        ],
+    );
+    assert_eq!(
+        grm_geom::render::auto_angles(&m),
+        (
+            grm_geom::render::AUTO_AZIMUTH,
+            grm_geom::render::AUTO_ELEVATION
+        )
+    );
+}
