@@ -432,6 +432,10 @@ impl Band<'_> {
         // (a tube's side seen at an angle) costs its samples, not its
         // bounding box.
         let edges = [(b, c0), (c0, a), (a, b)];
+        // Along a row each edge function and the depth change by a constant
+        // per sample: stepped, not recomputed.
+        let dw = [-(c0.y - b.y), -(a.y - c0.y), -(b.y - a.y)];
+        let dz = (dw[0] * a.z + dw[1] * b.z + dw[2] * c0.z) * inv;
         for y in y0..=y1 {
             let py = y as f32 + 0.5;
             let (mut lo, mut hi) = (x0 as f32 + 0.5, x1 as f32 + 0.5);
@@ -450,26 +454,29 @@ impl Band<'_> {
             if lo.partial_cmp(&hi).is_none_or(|o| o.is_gt()) {
                 continue;
             }
-            // One sample of slack either side for rounding; the exact test
+            // One sample of slack either side for rounding; the edge test
             // below decides. (Both are >= 0, so `as` rounds down.)
             let xs = (lo - 1.5).max(x0 as f32) as usize;
             let xe = (hi + 0.5).min(x1 as f32) as usize;
+            let px = xs as f32 + 0.5;
+            let mut w0 = edge(b, c0, px, py);
+            let mut w1 = edge(c0, a, px, py);
+            let mut w2 = edge(a, b, px, py);
+            let mut z = (w0 * a.z + w1 * b.z + w2 * c0.z) * inv;
             let row = (y - self.y0) * self.width;
-            for x in xs..=xe {
-                let px = x as f32 + 0.5;
-                let w0 = edge(b, c0, px, py);
-                let w1 = edge(c0, a, px, py);
-                let w2 = edge(a, b, px, py);
-                if w0 < 0.0 || w1 < 0.0 || w2 < 0.0 {
-                    continue;
+            for (depth, color) in self.depth[row + xs..=row + xe]
+                .iter_mut()
+                .zip(&mut self.color[row + xs..=row + xe])
+            {
+                if w0 >= 0.0 && w1 >= 0.0 && w2 >= 0.0 && z > *depth {
+                    *depth = z;
+                    let (l0, l1, l2) = (w0 * inv, w1 * inv, w2 * inv);
+                    *color = quantize(ca * l0 + cb * l1 + cc * l2);
                 }
-                let (l0, l1, l2) = (w0 * inv, w1 * inv, w2 * inv);
-                let z = l0 * a.z + l1 * b.z + l2 * c0.z;
-                let i = row + x;
-                if z > self.depth[i] {
-                    self.depth[i] = z;
-                    self.color[i] = quantize(ca * l0 + cb * l1 + cc * l2);
-                }
+                w0 += dw[0];
+                w1 += dw[1];
+                w2 += dw[2];
+                z += dz;
             }
         }
     }
