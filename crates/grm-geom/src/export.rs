@@ -211,7 +211,13 @@ pub fn export_image(
             io::Error::new(io::ErrorKind::InvalidInput, e.to_string()),
         )
     })?;
-    let tmp = stage(path, |w| render::write_png(&image, w))?;
+    write_image(&image, path)
+}
+
+/// Write a drawn picture to `path` as PNG (whatever its extension), as
+/// every export is written: to a temporary file renamed into place.
+pub fn write_image(image: &render::Image, path: &Path) -> Result<(), ExportError> {
+    let tmp = stage(path, |w| render::write_png(image, w))?;
     commit(tmp, path)
 }
 

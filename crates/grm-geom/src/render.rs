@@ -634,33 +634,64 @@ fn srgb_table() -> Vec<u8> {
         .collect()
 }
 
-/// Draw `model` as `options` say.
-pub fn render(model: &Model, options: &RenderOptions) -> Result<Image, RenderError> {
-    options.validate()?;
-    let s = options.effective_samples() as usize;
-    let (width, height) = (options.width as usize, options.height as usize);
-    let (sw, sh) = (width * s, height * s);
-    let (azimuth, elevation) = match options.view {
-        View::Auto => auto_angles(model),
-        View::Angles { azimuth, elevation } => (azimuth, elevation),
-    };
-    let cam = Camera::new(azimuth, elevation);
-    let tubed = tubed_bones(model);
-    // Every bone that is a segment is drawn as a line: those without a tube
-    // over the surfaces, those with one under them (a tube thinner than a
-    // sample would leave gaps; a thicker one hides its line).
-    let lines: Vec<usize> = model
+/// What a picture shows: the view it looks from (resolved: never
+/// [`View::Auto`]) and the box it fits to the picture, in camera space (x
+/// right, y up, z toward the camera). [`framing`] computes it for one
+/// model; several models drawn with one framing ([`render_framed`], with
+/// the [`Framing::union`] of theirs) keep their places and scale, as the
+/// iterations of a derivation do in `grmc derive --frames`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Framing {
+    pub azimuth: f32,
+    pub elevation: f32,
+    lo: DVec3,
+    hi: DVec3,
+}
+
+impl Framing {
+    /// Whether nothing is framed (a model with nothing to draw).
+    pub fn is_empty(&self) -> bool {
+        self.lo.x.partial_cmp(&self.hi.x).is_none_or(|o| o.is_gt())
+    }
+
+    /// The framing of both: `self`'s view, the box holding both boxes.
+    /// Boxes of different views are not comparable: `other` must have the
+    /// same angles (else `self` is returned unchanged).
+    pub fn union(&self, other: &Framing) -> Framing {
+        if (self.azimuth, self.elevation) != (other.azimuth, other.elevation) {
+            return *self;
+        }
+        Framing {
+            lo: self.lo.min(other.lo),
+            hi: self.hi.max(other.hi),
+            ..*self
+        }
+    }
+}
+
+/// Every bone that is a segment (finite ends, not a point): drawn as a
+/// line.
+fn line_bones(model: &Model) -> Vec<usize> {
+    model
         .skeleton
         .bones
         .iter()
         .enumerate()
         .filter(|(_, b)| b.base.is_finite() && b.tip.is_finite() && b.base != b.tip)
         .map(|(i, _)| i)
-        .collect();
+        .collect()
+}
 
-    // The projected extent of everything drawn (in f64: no overflow for
-    // coordinates near f32's limits, no loss for a model far from the
-    // origin).
+/// The framing of `model` seen from `view` ([`View::Auto`] picks by the
+/// model, [`auto_angles`]): the projected extent of everything drawn, every
+/// mesh vertex and every line's ends, in f64 (no overflow for coordinates
+/// near f32's limits, no loss for a model far from the origin).
+pub fn framing(model: &Model, view: View) -> Framing {
+    let (azimuth, elevation) = match view {
+        View::Auto => auto_angles(model),
+        View::Angles { azimuth, elevation } => (azimuth, elevation),
+    };
+    let cam = Camera::new(azimuth, elevation);
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
     let mut grow = |p: Vec3| {
         if p.is_finite() {
@@ -674,14 +705,50 @@ pub fn render(model: &Model, options: &RenderOptions) -> Result<Image, RenderErr
             grow(Vec3::from_array(*p));
         }
     }
-    for &i in &lines {
+    for i in line_bones(model) {
         let b = &model.skeleton.bones[i];
         grow(b.base);
         grow(b.tip);
     }
+    Framing {
+        azimuth,
+        elevation,
+        lo,
+        hi,
+    }
+}
+
+/// Draw `model` as `options` say, fitted to the picture.
+pub fn render(model: &Model, options: &RenderOptions) -> Result<Image, RenderError> {
+    options.validate()?;
+    render_framed(model, options, &framing(model, options.view))
+}
+
+/// Draw `model` as `options` say (their view is not used) with `framing`'s
+/// view and fit: the model keeps the place and scale of whatever the
+/// framing was made from.
+pub fn render_framed(
+    model: &Model,
+    options: &RenderOptions,
+    framing: &Framing,
+) -> Result<Image, RenderError> {
+    options.validate()?;
+    if !(framing.azimuth.is_finite() && framing.elevation.is_finite()) {
+        return Err(RenderError::View);
+    }
+    let s = options.effective_samples() as usize;
+    let (width, height) = (options.width as usize, options.height as usize);
+    let (sw, sh) = (width * s, height * s);
+    let cam = Camera::new(framing.azimuth, framing.elevation);
+    let tubed = tubed_bones(model);
+    // Every bone that is a segment is drawn as a line: those without a tube
+    // over the surfaces, those with one under them (a tube thinner than a
+    // sample would leave gaps; a thicker one hides its line).
+    let lines = line_bones(model);
+    let (lo, hi) = (framing.lo, framing.hi);
 
     let mut target = Target::new(sw, sh);
-    if lo.x <= hi.x {
+    if !framing.is_empty() {
         let centre = (lo + hi) * 0.5;
         let extent = hi - lo;
         // A side the model does not extend along (a line seen end on, a

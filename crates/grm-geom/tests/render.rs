@@ -581,3 +581,47 @@ fn the_auto_view_of_a_model_spanning_f32s_range_in_depth_is_not_flat() {
         )
     );
 }
+
+#[test]
+fn a_shared_framing_keeps_models_in_place() {
+    use grm_geom::render::{framing, render_framed};
+    // A stalk of 1 and of 4 bones: drawn with the taller one's framing,
+    // the short one keeps its place and scale (the bottom quarter), where
+    // alone it fills the frame.
+    let stalk = |n: u32| model("system S { width = 0; axiom A; A -> F A; }", n);
+    let (short, tall) = (stalk(1), stalk(4));
+    assert_eq!((short.stats.bones, tall.stats.bones), (1, 4));
+    let o = options(64, 64, FRONT);
+    let f = framing(&tall, FRONT).union(&framing(&short, FRONT));
+    assert_eq!(f, framing(&tall, FRONT), "the tall one holds the short one");
+    let bg = draw(&empty(), &o);
+    let alone = covered(&draw(&short, &o), &bg).0.expect("drawn");
+    let framed = covered(&render_framed(&short, &o, &f).expect("draws"), &bg)
+        .0
+        .expect("drawn");
+    let tall_box = covered(&draw(&tall, &o), &bg).0.expect("drawn");
+    // Alone: from the top margin to the bottom one.
+    assert!(alone.1 <= 3 && alone.3 >= 60, "{alone:?}");
+    // Framed: the bottom quarter of the tall stalk's height.
+    assert_eq!(framed.3, tall_box.3, "{framed:?} {tall_box:?}");
+    let quarter = (tall_box.3 - tall_box.1) / 4;
+    assert!(
+        (framed.3 - framed.1).abs_diff(quarter) <= 2,
+        "{framed:?} against a quarter of {tall_box:?}"
+    );
+    // The same framing draws the tall one as render() does.
+    assert_eq!(
+        render_framed(&tall, &o, &f).expect("draws"),
+        draw(&tall, &o)
+    );
+    // Nothing to draw: an empty framing, and the background.
+    let none = framing(&empty(), FRONT);
+    assert!(none.is_empty() && !f.is_empty());
+    assert_eq!(none.union(&f), f);
+    // Framings from other views do not mix.
+    let side = View::Angles {
+        azimuth: 90.0,
+        elevation: 0.0,
+    };
+    assert_eq!(f.union(&framing(&tall, side)), f);
+}

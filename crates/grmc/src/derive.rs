@@ -45,6 +45,11 @@ pub struct DeriveArgs {
     pub output: Option<PathBuf>,
     #[command(flatten)]
     pub image: ImageArgs,
+    /// With -o: write the model of every iteration, 0 to N, as NAME-K.EXT
+    /// (K zero-padded); pictures share one view and framing, so the growth
+    /// stays in place from frame to frame.
+    #[arg(long, requires = "output", conflicts_with = "gpu")]
+    pub frames: bool,
     /// Print each iteration's string length, cumulative modules and time.
     #[arg(long)]
     pub stats: bool,
@@ -414,9 +419,114 @@ pub fn run(args: DeriveArgs) -> Outcome {
         );
     }
     if let Some(path) = &args.output {
+        if args.frames {
+            return export_frames(&loaded, &engine, &opts, &d.string, path, &args.image);
+        }
         return export_string(&loaded, &d.string, path, &args.image);
     }
     Outcome::Ok
+}
+
+/// `NAME-K.EXT` for frame `k` of `0..=last`, K zero-padded to the width of
+/// `last`.
+pub fn frame_path(path: &Path, k: u32, last: u32) -> PathBuf {
+    let width = last.to_string().len();
+    let stem = path
+        .file_stem()
+        .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
+    let name = match path.extension() {
+        Some(ext) => format!("{stem}-{k:0width$}.{}", ext.to_string_lossy()),
+        None => format!("{stem}-{k:0width$}"),
+    };
+    path.with_file_name(name)
+}
+
+/// `--frames`: the model of every iteration `0..=opts.iterations`, each
+/// written to [`frame_path`]. The strings are derived again, one at a
+/// time (the same seed gives the same strings; only one is held). A
+/// picture's view is the final model's (`--view`, or the automatic view
+/// of the final model) and its framing holds every frame, so the frames
+/// line up; that takes one more pass, which builds each model without
+/// drawing it.
+fn export_frames(
+    loaded: &Loaded,
+    engine: &Engine<'_>,
+    opts: &DeriveOptions,
+    last: &grm_derive::ModuleString,
+    path: &Path,
+    image: &ImageArgs,
+) -> Outcome {
+    let c = &loaded.compiled;
+    let build = |string: &grm_derive::ModuleString| {
+        grm_geom::build_model(
+            &loaded.program,
+            loaded.system(),
+            string,
+            &c.settings,
+            &c.param_values,
+        )
+        .map_err(|e| {
+            emit(
+                &loaded.sources,
+                &e.to_diagnostic(&loaded.program, c.file, c.span),
+            );
+            Outcome::InputErrors
+        })
+    };
+    // Every iteration's string in turn, handed to `f`.
+    let each = |f: &mut dyn FnMut(u32, &grm_derive::ModuleString) -> Result<(), Outcome>| {
+        let fail = |e: DeriveError| report_derive_error(&loaded.sources, c, &e);
+        let mut s = engine.axiom(opts.seed).map_err(fail)?;
+        f(0, &s)?;
+        for it in 1..=opts.iterations {
+            let next = engine.step(&s, it, opts.seed, &opts.limits).map_err(fail)?;
+            engine.recycle(std::mem::replace(&mut s, next));
+            f(it, &s)?;
+        }
+        Ok(())
+    };
+    let picture = grm_geom::ExportFormat::from_path(path) == Some(grm_geom::ExportFormat::Png);
+    let framing = if picture {
+        let view = match build(last) {
+            Ok(m) => match image.options().view {
+                grm_geom::render::View::Auto => {
+                    let (azimuth, elevation) = grm_geom::render::auto_angles(&m);
+                    grm_geom::render::View::Angles { azimuth, elevation }
+                }
+                v => v,
+            },
+            Err(o) => return o,
+        };
+        let mut all: Option<grm_geom::render::Framing> = None;
+        let framed = each(&mut |_, s| {
+            let f = grm_geom::render::framing(&build(s)?, view);
+            all = Some(all.map_or(f, |a| a.union(&f)));
+            Ok(())
+        });
+        if let Err(o) = framed {
+            return o;
+        }
+        all
+    } else {
+        None
+    };
+    let written = each(&mut |k, s| {
+        let model = build(s)?;
+        match export_model_framed(
+            loaded,
+            &model,
+            &frame_path(path, k, opts.iterations),
+            image,
+            framing.as_ref(),
+        ) {
+            Outcome::Ok => Ok(()),
+            o => Err(o),
+        }
+    });
+    match written {
+        Ok(()) => Outcome::Ok,
+        Err(o) => o,
+    }
 }
 
 /// `-o PATH` must name a format grm writes (R0406) in a directory that
@@ -507,6 +617,18 @@ pub fn export_model(
     path: &Path,
     image: &ImageArgs,
 ) -> Outcome {
+    export_model_framed(loaded, model, path, image, None)
+}
+
+/// [`export_model`], a picture drawn with `framing` when one is given
+/// (`--frames`), else fitted to the model.
+fn export_model_framed(
+    loaded: &Loaded,
+    model: &grm_geom::Model,
+    path: &Path,
+    image: &ImageArgs,
+    framing: Option<&grm_geom::render::Framing>,
+) -> Outcome {
     let c = &loaded.compiled;
     let format = grm_geom::ExportFormat::from_path(path);
     let picture = format == Some(grm_geom::ExportFormat::Png);
@@ -516,10 +638,16 @@ pub fn export_model(
         emit(&loaded.sources, &w);
     }
     let options = image.options();
-    let written = if picture {
-        grm_geom::export_image(model, path, &options)
-    } else {
-        grm_geom::export(model, path)
+    let written = match (picture, framing) {
+        (true, Some(f)) => match grm_geom::render::render_framed(model, &options, f) {
+            Ok(img) => grm_geom::write_image(&img, path),
+            Err(e) => Err(grm_geom::ExportError::Io {
+                path: path.to_path_buf(),
+                source: std::io::Error::new(std::io::ErrorKind::InvalidInput, e.to_string()),
+            }),
+        },
+        (true, None) => grm_geom::export_image(model, path, &options),
+        (false, _) => grm_geom::export(model, path),
     };
     if let Err(e) = written {
         emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));

@@ -239,3 +239,92 @@ fn an_output_that_is_a_directory_is_refused_before_any_work() {
     }
     assert!(folder.is_dir());
 }
+
+#[test]
+fn frames_write_every_iteration_in_one_framing() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    // A stalk growing one bone per iteration: every frame lies inside the
+    // last, so the last frame is the picture of the final model alone.
+    let grammar = dir.path().join("stalk.grm");
+    std::fs::write(
+        &grammar,
+        "system Stalk { iterations = 10; width = 0.05; axiom A; A -> F A; }\n",
+    )
+    .unwrap();
+    let out = dir.path().join("stalk.png");
+    let o = grmc(&[
+        "derive",
+        path(&grammar),
+        "--frames",
+        "--image-size",
+        "48x64",
+        "-o",
+        path(&out),
+    ]);
+    let err = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    // 0 to 10: zero-padded to two digits, in order.
+    let names: Vec<String> = (0..=10).map(|k| format!("stalk-{k:02}.png")).collect();
+    for name in &names {
+        assert!(dir.path().join(name).exists(), "{name}: {err}");
+    }
+    assert!(!out.exists(), "no unnumbered picture");
+    let single = dir.path().join("single.png");
+    let o = grmc(&[
+        "derive",
+        path(&grammar),
+        "--image-size",
+        "48x64",
+        "-o",
+        path(&single),
+    ]);
+    assert_eq!(o.status.code(), Some(0));
+    let frame = |k: usize| std::fs::read(dir.path().join(&names[k])).unwrap();
+    assert_eq!(frame(10), std::fs::read(&single).unwrap());
+    // Each earlier frame draws less of the same picture.
+    let drawn = |k: usize| {
+        let (_, _, _, px) = read_png(&dir.path().join(&names[k]));
+        let (_, _, _, bg) = read_png(&dir.path().join(&names[0]));
+        px.chunks_exact(3)
+            .zip(bg.chunks_exact(3))
+            .filter(|(a, b)| a != b)
+            .count()
+    };
+    assert!(drawn(3) > 0 && drawn(3) < drawn(6) && drawn(6) < drawn(10));
+
+    // Other formats: a file per iteration.
+    let svg = dir.path().join("s.svg");
+    let o = grmc(&[
+        "derive",
+        path(&grammar),
+        "-n",
+        "2",
+        "--frames",
+        "-o",
+        path(&svg),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    for k in 0..=2 {
+        let written = std::fs::read_to_string(dir.path().join(format!("s-{k}.svg")))
+            .expect("an svg per iteration");
+        assert_eq!(written.matches("<line").count(), k, "frame {k}");
+    }
+
+    // --frames needs -o, and is a CPU derivation.
+    let o = grmc(&["derive", path(&grammar), "--frames"]);
+    assert_eq!(o.status.code(), Some(2));
+    let o = grmc(&[
+        "derive",
+        path(&grammar),
+        "--frames",
+        "--gpu",
+        "-o",
+        path(&out),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        text(&o.stderr).contains("cannot be used with"),
+        "{}",
+        text(&o.stderr)
+    );
+}
