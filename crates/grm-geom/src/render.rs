@@ -15,7 +15,9 @@
 //!   [`AUTO_AZIMUTH`]/[`AUTO_ELEVATION`] at anything else. The projection
 //!   is fitted to the model's projected extent (every mesh vertex and every
 //!   drawn bone end) with a margin of [`MARGIN`] of the shorter side, so
-//!   the model fills the picture whatever its scale.
+//!   the model fills the picture whatever its scale; or to a [`Framing`]
+//!   shared by several models ([`render_framed`]), which then keep their
+//!   places (the frames of `grmc derive --frames`).
 //! - **Surfaces**: every triangle of every part, depth-buffered, lit per
 //!   vertex (a key light from the upper left, ambient and a little light
 //!   from the camera), two-sided (a triangle seen from behind is lit as
@@ -35,12 +37,12 @@
 //! each band owns its rows and draws, in the model's order, the triangles
 //! and lines that overlap it.
 //!
-//! Invariants: the picture depends only on the model and the options (no
-//! clock; bands never share a sample, so any number of threads gives the
-//! same bytes); non-finite
-//! coordinates never reach the buffers; the sample buffers never exceed
-//! [`MAX_SAMPLES_TOTAL`] samples (`samples` is lowered for a large
-//! picture, down to one sample per pixel); sizes outside
+//! Invariants: the picture depends only on the model, the options and the
+//! framing (no clock; bands never share a sample, so any number of threads
+//! gives the same bytes); non-finite coordinates never reach the buffers
+//! (the fit is computed in f64, depth is in samples); the sample buffers
+//! never exceed [`MAX_SAMPLES_TOTAL`] samples (`samples` is lowered for a
+//! large picture, down to one sample per pixel); sizes outside
 //! 1..=[`MAX_IMAGE_SIDE`] or over [`MAX_PIXELS`] are a [`RenderError`],
 //! never a panic.
 
