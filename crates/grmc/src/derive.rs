@@ -46,8 +46,8 @@ pub struct DeriveArgs {
     #[command(flatten)]
     pub image: ImageArgs,
     /// With -o: write the model of every iteration, 0 to N, as NAME-K.EXT
-    /// (K zero-padded); pictures share one view and framing, so the growth
-    /// stays in place from frame to frame.
+    /// (K zero-padded; at most 1,000 files); pictures share one view and
+    /// framing, so the growth stays in place from frame to frame.
     #[arg(long, requires = "output", conflicts_with = "gpu")]
     pub frames: bool,
     /// Print each iteration's string length, cumulative modules and time.
@@ -332,6 +332,16 @@ pub fn run(args: DeriveArgs) -> Outcome {
     if let Some(o) = check_output_format(&loaded, args.output.as_deref(), &args.image) {
         return o;
     }
+    let iterations = args
+        .iterations
+        .unwrap_or(loaded.compiled.settings.iterations);
+    if args.frames && u64::from(iterations) + 1 > MAX_FRAMES {
+        eprintln!(
+            "error: --frames writes a file per iteration, 0 to {iterations}: at most {MAX_FRAMES} \
+             files (derive fewer iterations with -n)"
+        );
+        return Outcome::Usage;
+    }
     if args.gpu
         && let Some(o) = crate::gpu::derive(&args, &loaded)
     {
@@ -426,6 +436,9 @@ pub fn run(args: DeriveArgs) -> Outcome {
     }
     Outcome::Ok
 }
+
+/// The most files `--frames` writes (iterations 0 to 999).
+pub const MAX_FRAMES: u64 = 1000;
 
 /// `NAME-K.EXT` for frame `k` of `0..=last`, K zero-padded to the width of
 /// `last`.

@@ -310,6 +310,23 @@ fn frames_write_every_iteration_in_one_framing() {
         assert_eq!(written.matches("<line").count(), k, "frame {k}");
     }
 
+    // At most 1,000 files, refused before any work.
+    let o = grmc(&[
+        "derive",
+        path(&grammar),
+        "-n",
+        "1000",
+        "--frames",
+        "-o",
+        path(&svg),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        text(&o.stderr).contains("at most 1000 files"),
+        "{}",
+        text(&o.stderr)
+    );
+    assert!(!dir.path().join("s-0000.svg").exists());
     // --frames needs -o, and is a CPU derivation.
     let o = grmc(&["derive", path(&grammar), "--frames"]);
     assert_eq!(o.status.code(), Some(2));
