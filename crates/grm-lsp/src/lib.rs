@@ -4,8 +4,8 @@
 //! the open documents in a [`grm_analysis::Analysis`], answers the editor's
 //! requests with its plain results converted to LSP types ([`convert`]),
 //! publishes diagnostics as the user types, and serves the live-preview
-//! extension (`grm/preview`, `grm/previewUpdated`, `grm/pick`; see
-//! docs/lsp-extensions.md). Built on `tower-lsp-server`, the maintained
+//! extension (`grm/preview`, `grm/previewUpdated`, `grm/pick`,
+//! `grm/picture`; see docs/lsp-extensions.md). Built on `tower-lsp-server`, the maintained
 //! community fork of `tower-lsp`. Started by `grmc lsp` over stdio
 //! ([`run_stdio`]).
 //!
@@ -36,6 +36,7 @@
 //!   (tower-lsp-server's reader ends the session at the first).
 
 pub mod convert;
+pub mod picture;
 pub mod preview;
 pub mod stdio;
 pub mod uris;
@@ -250,6 +251,7 @@ fn build(
     LspService::build(|client| Backend::new(client, config, shut_down))
         .custom_method("grm/preview", Backend::preview)
         .custom_method("grm/pick", Backend::pick)
+        .custom_method("grm/picture", Backend::picture)
         .finish()
 }
 
@@ -483,7 +485,7 @@ impl LanguageServer for Backend {
                 inlay_hint_provider: Some(OneOf::Left(true)),
                 folding_range_provider: Some(FoldingRangeProviderCapability::Simple(true)),
                 experimental: Some(serde_json::json!({
-                    "grmPreview": { "version": preview::PROTOCOL_VERSION }
+                    "grmPreview": { "version": preview::PROTOCOL_VERSION, "picture": true }
                 })),
                 ..ServerCapabilities::default()
             },

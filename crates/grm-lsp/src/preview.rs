@@ -752,6 +752,17 @@ pub(crate) fn build(
     p: &PreviewParams,
     cancel: Option<&CancelToken>,
 ) -> std::result::Result<(PreviewResult, PickTable), Failure> {
+    build_with_model(fa, uri, uris, p, cancel).map(|(r, t, _)| (r, t))
+}
+
+/// [`build`], and the model it was made from (`grm/picture` draws it).
+pub(crate) fn build_with_model(
+    fa: &FileAnalysis,
+    uri: &Uri,
+    uris: &crate::uris::Uris,
+    p: &PreviewParams,
+    cancel: Option<&CancelToken>,
+) -> std::result::Result<(PreviewResult, PickTable, grm_geom::Model), Failure> {
     check(cancel)?;
     if fa.checked.has_errors() {
         let n = fa
@@ -1036,7 +1047,7 @@ pub(crate) fn build(
         },
         warnings,
     };
-    Ok((result, table))
+    Ok((result, table, model))
 }
 
 /// Compute a preview off the executor.

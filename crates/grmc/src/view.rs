@@ -21,6 +21,7 @@
 //! |---|---|
 //! | `GET /`, `/preview.js`, `/preview.css` | the page |
 //! | `POST /api/preview`, `/api/pick` | 200 with `{"result": ...}` or `{"error": "...", "code": N}` (`code`: the language server's JSON-RPC error code, where it gave one: a preview a newer one superseded is -32802, a cancelled one -32800); every call that reached the server is answered 200, as a JSON-RPC reply is, since a grammar that cannot be previewed is no HTTP failure (browsers log every 4xx answer in the console); 4xx only for a request that is not a call (bad JSON, too large, another origin) |
+//! | `POST /api/picture` | `grm/picture`: the preview's model drawn as a PNG (base64 in the JSON), for the page's "Save picture" |
 //! | `POST /api/symbols` | `textDocument/documentSymbol` (the page reads the meta-parameters' ranges) |
 //! | `POST /api/loadCurves`, `/api/saveCurves` | the curves file next to the grammar (`tree.grm` -> `tree.curves.json`); saved only if `grm-guide` accepts it |
 //! | `GET /api/events?after=N[&wait=MS]` | long poll (20 s at most): `{"seq": M, "events": [{"method", "params"}]}` |
@@ -451,6 +452,7 @@ impl State {
         match method {
             "preview" => self.lsp.request("grm/preview", params),
             "pick" => self.lsp.request("grm/pick", params),
+            "picture" => self.lsp.request("grm/picture", params),
             "symbols" => self.lsp.request(
                 "textDocument/documentSymbol",
                 json!({ "textDocument": { "uri": self.uri } }),
@@ -993,6 +995,28 @@ mod tests {
         );
         assert_eq!(status, 200, "{p}");
         assert_eq!(p["result"]["symbol"], "F");
+
+        // The page's "Save picture": the same model, drawn as a PNG.
+        let (status, p) = post(
+            addr,
+            "/api/picture",
+            &json!({ "textDocument": { "uri": uri }, "width": 64, "height": 48 }),
+        );
+        assert_eq!(status, 200, "{p}");
+        assert_eq!(
+            (
+                p["result"]["width"].as_u64(),
+                p["result"]["height"].as_u64()
+            ),
+            (Some(64), Some(48))
+        );
+        assert_eq!(p["result"]["bones"], 256);
+        let png = base64::Engine::decode(
+            &base64::engine::general_purpose::STANDARD,
+            p["result"]["png"].as_str().expect("png"),
+        )
+        .expect("base64");
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
 
         let (status, e) = post(
             addr,

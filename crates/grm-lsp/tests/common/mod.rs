@@ -20,6 +20,8 @@ pub struct Client {
     /// Notifications received and not yet consumed.
     pub seen: Vec<Request>,
     id: i64,
+    /// The server's answer to `initialize`.
+    pub initialized: Value,
 }
 
 /// The repository root.
@@ -99,9 +101,11 @@ impl Client {
             notes: rx,
             seen: Vec::new(),
             id: 0,
+            initialized: Value::Null,
         };
         let init = c.request("initialize", init).await;
         assert!(init.is_ok(), "{init:?}");
+        c.initialized = init.unwrap_or_default();
         c.notify("initialized", json!({})).await;
         c
     }

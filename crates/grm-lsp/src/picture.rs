@@ -1,0 +1,167 @@
+//! `grm/picture` (docs/lsp-extensions.md): the model a `grm/preview` with
+//! the same parameters would show, drawn as a PNG picture by
+//! `grm_geom::render` (the picture `grmc derive -o x.png` writes), for
+//! clients that save what the user sees: the preview page under `grmc
+//! view`, or any editor.
+//!
+//! Input: a preview's parameters (document, version, system, seed,
+//! meta-parameters, curves; `live` and `focus` are ignored) plus the
+//! picture's size, view and background. Output: the PNG, base64, with its
+//! size and what it shows. Computed on a blocking thread; a request the
+//! client cancels stops at the preview's next check.
+
+use base64::Engine as _;
+use serde::{Deserialize, Serialize};
+use tower_lsp_server::jsonrpc::{Error, ErrorCode, Result};
+use tower_lsp_server::ls_types::Uri;
+
+use crate::preview::{Failure, PreviewParams, Ticket, build_with_model};
+use crate::{Backend, convert, failed};
+
+/// Where the picture is taken from, in degrees (as `grmc --view`).
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+pub struct PictureView {
+    /// About +y, from +z towards +x.
+    pub azimuth: f32,
+    /// Above the xz plane, -90 to 90.
+    pub elevation: f32,
+}
+
+/// `grm/picture` parameters.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase")]
+pub struct PictureParams {
+    /// What to grow, as for `grm/preview`.
+    #[serde(flatten)]
+    pub preview: PreviewParams,
+    /// Default: the automatic view (face on for a flat model, else 35, 20).
+    #[serde(default)]
+    pub view: Option<PictureView>,
+    /// Pixels (default 1024 each; each side 1 to 16384, at most 4096 x
+    /// 4096 in all).
+    #[serde(default)]
+    pub width: Option<u32>,
+    #[serde(default)]
+    pub height: Option<u32>,
+    /// A transparent background (an RGBA PNG) instead of the grey gradient.
+    #[serde(default)]
+    pub transparent: bool,
+}
+
+/// `grm/picture` result.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(rename_all = "camelCase")]
+pub struct PictureResult {
+    pub uri: Uri,
+    /// The document version the picture was made from.
+    pub version: i32,
+    pub system: String,
+    pub seed: u32,
+    pub width: u32,
+    pub height: u32,
+    /// The view it was taken from (the automatic one resolved).
+    pub view: PictureView,
+    /// `image/png`, base64.
+    pub png: String,
+    pub triangles: usize,
+    pub bones: usize,
+}
+
+/// The renderer's options for `p`, or why they cannot be drawn.
+fn options(p: &PictureParams) -> std::result::Result<grm_geom::render::RenderOptions, String> {
+    let d = grm_geom::render::RenderOptions::default();
+    let o = grm_geom::render::RenderOptions {
+        width: p.width.unwrap_or(d.width),
+        height: p.height.unwrap_or(d.height),
+        view: p.view.map_or(grm_geom::render::View::Auto, |v| {
+            grm_geom::render::View::Angles {
+                azimuth: v.azimuth,
+                elevation: v.elevation,
+            }
+        }),
+        transparent: p.transparent,
+        ..d
+    };
+    o.validate().map_err(|e| e.to_string())?;
+    if let Some(v) = p.view
+        && !(-90.0..=90.0).contains(&v.elevation)
+    {
+        return Err(format!(
+            "the view's elevation {} is not -90 to 90 degrees",
+            v.elevation
+        ));
+    }
+    Ok(o)
+}
+
+impl Backend {
+    /// `grm/picture`.
+    pub async fn picture(&self, params: PictureParams) -> Result<PictureResult> {
+        let uri = params.preview.text_document.uri.clone();
+        let path = convert::path_of(&uri).ok_or_else(|| failed("not a file URI"))?;
+        let opts = options(&params).map_err(|m| Error {
+            code: ErrorCode::InvalidParams,
+            message: m.into(),
+            data: None,
+        })?;
+        let mut preview = params.preview;
+        // A picture is a one-off: it neither registers nor supersedes the
+        // live preview, and marks no rule.
+        preview.live = false;
+        preview.focus = None;
+        let ticket = Ticket::begin(&self.shared, &path, false);
+        let token = ticket.token.clone();
+        let s = self.shared.clone();
+        let made = tokio::task::spawn_blocking(move || {
+            let fa = s
+                .analyze(&path)
+                .ok_or_else(|| Failure::Msg("the document is not open".into()))?;
+            if let Some(v) = preview.version
+                && v != fa.version
+            {
+                return Err(Failure::Stale(fa.version));
+            }
+            let (r, _, model) = build_with_model(&fa, &uri, &s.uris(), &preview, Some(&token))?;
+            if token.is_cancelled() {
+                return Err(Failure::Cancelled);
+            }
+            let framing = grm_geom::render::framing(&model, opts.view);
+            let image = grm_geom::render::render_framed(&model, &opts, &framing)
+                .map_err(|e| Failure::Msg(e.to_string()))?;
+            let png = grm_geom::render::png_bytes(&image)
+                .map_err(|e| Failure::Msg(format!("the picture could not be encoded: {e}")))?;
+            Ok(PictureResult {
+                uri: r.uri,
+                version: r.version,
+                system: r.system,
+                seed: r.seed,
+                width: image.width,
+                height: image.height,
+                view: PictureView {
+                    azimuth: framing.azimuth,
+                    elevation: framing.elevation,
+                },
+                png: base64::engine::general_purpose::STANDARD.encode(png),
+                triangles: model.stats.triangles,
+                bones: model.stats.bones,
+            })
+        })
+        .await
+        .map_err(|e| Error {
+            code: ErrorCode::InternalError,
+            message: e.to_string().into(),
+            data: None,
+        })?;
+        drop(ticket);
+        match made {
+            Ok(r) => Ok(r),
+            Err(Failure::Cancelled) => Err(Error::request_cancelled()),
+            Err(stale @ Failure::Stale(_)) => Err(Error {
+                code: ErrorCode::ContentModified,
+                message: stale.to_string().into(),
+                data: None,
+            }),
+            Err(Failure::Msg(m)) => Err(failed(m)),
+        }
+    }
+}
