@@ -6,6 +6,8 @@
 // model on screen is measured, also for a drag released while a request for
 // an older position is in flight (the page sends the final position at once,
 // the server supersedes the stale request, its answer is never shown).
+// "Save picture" downloads the server's PNG of the model from the view, in
+// the canvas' shape (derive mode).
 //
 // Needs: `cargo build -p grmc` (or GRMC=path), Debian's chromium
 // (CHROMIUM=path, default /usr/bin/chromium). Screenshots and the measured
@@ -20,6 +22,7 @@ import { tmpdir } from 'node:os';
 import { join } from 'node:path';
 import { after, before, test } from 'node:test';
 import { type Browser, type Page, chromium } from 'playwright-core';
+import { pictureSize } from '../preview/src/picture.js';
 
 const root = join(import.meta.dirname, '../../..');
 const examples = join(root, 'examples');
@@ -155,6 +158,9 @@ interface Grm {
   objective: number | null;
   lastView: { uri: string; azimuth: number; elevation: number; width: number; height: number } | null;
   views: number;
+  pictures: number;
+  lastPicture: { name: string; width: number; height: number } | null;
+  pictureError: string | null;
 }
 
 const grm = (page: Page): Promise<Grm> =>
@@ -342,6 +348,91 @@ test('derive mode: the model renders, a slider regrows it, a pick names the rule
   const after = await grm(page);
   assert.ok(Math.abs(after.lastView!.elevation - v0.elevation) < 0.5, `elevation ${after.lastView!.elevation} after a horizontal drag`);
   assert.ok(after.views - before.views < 10, `${after.views - before.views} views told for 10 moves`);
+  assert.deepEqual(pageErrors(page), []);
+  await page.close();
+});
+
+test('derive mode: Save picture downloads a PNG of the model from the view, in the canvas shape; a refused picture is said', async () => {
+  const dir = scratch(['bracketed_plant.grm']);
+  const file = join(dir, 'bracketed_plant.grm');
+  const url = await view(file);
+  const page = await openPage(url);
+  const g0 = await waitRegrows(page, 1, 'first model');
+  // A slider moved and the camera turned: the picture must have both.
+  const slider = page.locator('input[type=range][data-param=delta]');
+  await slider.waitFor();
+  await slider.evaluate((el: HTMLInputElement) => {
+    el.value = '40';
+    el.dispatchEvent(new Event('input', { bubbles: true }));
+    el.dispatchEvent(new Event('change', { bubbles: true }));
+  });
+  await waitRegrows(page, g0.regrows + 1, 'after the slider');
+  const box = (await page.locator('#view').boundingBox())!;
+  const [cx, cy] = [box.x + box.width / 2, box.y + box.height / 2];
+  await page.mouse.move(cx, cy);
+  await page.mouse.down();
+  for (let i = 1; i <= 5; i++) await page.mouse.move(cx + i * 20, cy - i * 6);
+  await page.mouse.up();
+  // Wait for the camera to rest (the page tells its view then).
+  await page.waitForFunction(() => (globalThis as unknown as { __grm: Grm }).__grm.views >= 2, undefined, { timeout: 10_000 });
+  await page.waitForTimeout(400);
+  const rested = (await grm(page)).lastView!;
+
+  const sent = page.waitForRequest((r) => r.url().endsWith('/api/picture') && r.method() === 'POST');
+  const downloaded = page.waitForEvent('download', { timeout: 60_000 });
+  await page.click('#save-picture');
+  const request = await sent;
+  const download = await downloaded;
+  assert.equal(download.suggestedFilename(), 'bracketed_plant.png');
+  const saved = join(artifacts, 'save-picture.png');
+  await download.saveAs(saved);
+  const png = readFileSync(saved);
+  assert.deepEqual([...png.subarray(0, 4)], [0x89, 0x50, 0x4e, 0x47], 'a PNG file');
+  const [w, h] = [png.readUInt32BE(16), png.readUInt32BE(20)];
+  // The canvas' shape, 1024 pixels on the longer side.
+  assert.equal(Math.max(w, h), 1024, `${w}x${h}`);
+  assert.deepEqual({ width: w, height: h }, pictureSize(box.width, box.height), `${w}x${h} for a canvas of ${box.width}x${box.height}`);
+  assert.ok(Math.abs(w / h - box.width / box.height) < 2 / 1024 * Math.max(1, box.width / box.height), `aspect ${w / h} vs ${box.width / box.height}`);
+
+  // What the page asked: its preview's parameters (the slider's value, the seed, the mode) from where the camera rests.
+  const body = JSON.parse(request.postData() ?? 'null') as Record<string, unknown> & { view: { azimuth: number; elevation: number }; params: Record<string, number> };
+  const uri = `file://${file}`;
+  assert.deepEqual(body.textDocument, { uri });
+  assert.equal(body.mode, 'derive');
+  assert.equal(body.seed, (await grm(page)).seed);
+  assert.deepEqual(body.params, { delta: 40 });
+  assert.deepEqual([body.width, body.height], [w, h]);
+  assert.ok(Math.abs(body.view.azimuth - rested.azimuth) < 1e-6 && Math.abs(body.view.elevation - rested.elevation) < 1e-6, `${JSON.stringify(body.view)} vs ${JSON.stringify(rested)}`);
+  assert.equal('live' in body, false, 'a picture does not register the live preview');
+  // The download is the server's picture for those parameters, byte for byte.
+  const direct = (await (await fetch(`${url}api/picture`, { method: 'POST', body: JSON.stringify(body) })).json()) as { result: { png: string; width: number; height: number } };
+  assert.ok(Buffer.from(direct.result.png, 'base64').equals(png), 'the downloaded file is the PNG the server drew');
+  // ... and another view gives another picture.
+  const turned = (await (await fetch(`${url}api/picture`, { method: 'POST', body: JSON.stringify({ ...body, view: { azimuth: body.view.azimuth + 90, elevation: 0 } }) })).json()) as { result: { png: string } };
+  assert.ok(!Buffer.from(turned.result.png, 'base64').equals(png), 'the view matters');
+  const g1 = await grm(page);
+  assert.equal(g1.pictures, 1);
+  assert.deepEqual(g1.lastPicture, { name: 'bracketed_plant.png', width: w, height: h });
+  assert.equal(g1.pictureError, null);
+  assert.match((await page.textContent('#status-text')) ?? '', /picture bracketed_plant\.png \(\d+×\d+, seed \d+\) downloaded/);
+  assert.equal(await page.isDisabled('#save-picture'), false);
+
+  // Saved with errors: the server refuses the picture, the status says why, nothing is downloaded.
+  const good = readFileSync(file, 'utf8');
+  writeFileSync(file, good.replace(/^(\s*)F\s*->/m, '$1F -> [ ->'));
+  await page.waitForFunction(() => /error/.test((globalThis as unknown as { __grm: Grm }).__grm.lastError ?? ''), undefined, { timeout: 20_000 });
+  let downloads = 0;
+  page.on('download', () => downloads++);
+  await page.click('#save-picture');
+  await page.waitForFunction(() => (globalThis as unknown as { __grm: Grm }).__grm.pictureError !== null, undefined, { timeout: 20_000 });
+  const g2 = await grm(page);
+  assert.match(g2.pictureError ?? '', /error/);
+  assert.match((await page.textContent('#status-text')) ?? '', /^no picture: .*error/);
+  assert.match((await page.getAttribute('#status', 'class')) ?? '', /error/);
+  assert.equal(g2.pictures, 1);
+  await page.waitForTimeout(200);
+  assert.equal(downloads, 0);
+  await page.screenshot({ path: join(artifacts, 'save-picture-refused.png') });
   assert.deepEqual(pageErrors(page), []);
   await page.close();
 });

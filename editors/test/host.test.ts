@@ -3,27 +3,49 @@
 import assert from 'node:assert/strict';
 import { test } from 'node:test';
 import { type HostToPage, viewAngles } from '../preview/src/messages.js';
+import { pngSize } from '../preview/src/picture.js';
+import { bytesToBase64, decodePicture } from '../preview/src/protocol.js';
 import { VsCodeTransport, isSuperseded } from '../preview/src/transport.js';
 import { type HostDeps, PreviewHost, curvesPathFor } from '../vscode/src/host.js';
 
 const CURVES = JSON.stringify({ version: 1, curves: [{ name: 'a', points: [[0, 0, 0], [0, 1, 0], [0, 2, 0], [0, 3, 0]] }] });
+
+/** The first 24 bytes of a PNG of this size (signature and IHDR): all that is read of it here. */
+function pngHeader(width: number, height: number): Uint8Array {
+  const b = new Uint8Array(33);
+  b.set([0x89, 0x50, 0x4e, 0x47, 0x0d, 0x0a, 0x1a, 0x0a, 0, 0, 0, 13, 0x49, 0x48, 0x44, 0x52]);
+  new DataView(b.buffer).setUint32(16, width);
+  new DataView(b.buffer).setUint32(20, height);
+  return b;
+}
 
 function fakeHost(overrides: Partial<HostDeps> = {}) {
   const posted: HostToPage[] = [];
   const requests: Array<[string, unknown]> = [];
   const writes: Array<[string, string]> = [];
   const reveals: Array<[string, number, number]> = [];
+  const pictures: Array<[string, Uint8Array]> = [];
   const deps: HostDeps = {
     request: async (method, params) => {
       requests.push([method, params]);
       if (method === 'grm/preview') return { uri: (params as { textDocument: { uri: string } }).textDocument.uri, mode: 'sample', seed: 9, system: 'Tree' };
       if (method === 'textDocument/documentSymbol') return [{ name: 'spread', kind: 13, detail: '30 in 10 .. 60' }];
+      if (method === 'grm/picture') {
+        const p = params as { width?: number; height?: number; seed?: number };
+        const [width, height] = [p.width ?? 1024, p.height ?? 1024];
+        return { uri: 'file:///w/tree.grm', version: 1, system: 'Tree', seed: p.seed ?? 0, width, height, view: { azimuth: 0, elevation: 0 }, png: bytesToBase64(pngHeader(width, height)), triangles: 10, bones: 2 };
+      }
       if (method === 'grm/pick') return { uri: 'file:///t.grm', range: { start: { line: 41, character: 4 }, end: { line: 42, character: 0 } }, symbol: 'branch', version: 1, module: 3 };
       throw new Error(`unexpected ${method}`);
     },
     readFile: async (p) => (p === '/w/tree.curves.json' ? CURVES : null),
     writeFile: async (p, t) => {
       writes.push([p, t]);
+    },
+    // The user accepts the suggested place.
+    savePicture: async (suggested, png) => {
+      pictures.push([suggested, png]);
+      return suggested;
     },
     reveal: async (u, l, c) => {
       reveals.push([u, l, c]);
@@ -32,7 +54,7 @@ function fakeHost(overrides: Partial<HostDeps> = {}) {
     post: (m) => posted.push(m),
     ...overrides,
   };
-  return { host: new PreviewHost(deps), posted, requests, writes, reveals };
+  return { host: new PreviewHost(deps), posted, requests, writes, reveals, pictures };
 }
 
 test('notifications wait for the page to be ready; only the latest document is kept', async () => {
@@ -261,6 +283,71 @@ test('page and extension end to end: the page transport talks to the host', asyn
   page.notify('view', { uri: 'file:///w/tree.grm', azimuth: 10, elevation: 20, width: 300, height: 200 });
   await Promise.all(pending);
   assert.deepEqual(host.lastView('file:///w/tree.grm'), { uri: 'file:///w/tree.grm', azimuth: 10, elevation: 20, width: 300, height: 200 });
+});
+
+test('a picture is drawn by grm/picture and saved by the extension where the user says; the PNG does not travel back', async () => {
+  const { host, posted, requests, pictures } = fakeHost();
+  host.setDocument('file:///w/tree.grm', 'tree.grm');
+  await host.handle({ type: 'ready' });
+  const params = { textDocument: { uri: 'file:///w/tree.grm' }, mode: 'derive', seed: 3, params: { spread: 40 }, view: { azimuth: 24, elevation: 17 }, width: 1024, height: 640 };
+  await host.handle({ type: 'request', id: 5, method: 'picture', params });
+  // Forwarded as it is, like a preview.
+  assert.deepEqual(requests, [['grm/picture', params]]);
+  // Offered beside the grammar, under its name; the bytes are the PNG's.
+  assert.equal(pictures.length, 1);
+  assert.equal(pictures[0][0], '/w/tree.png');
+  assert.deepEqual(pngSize(pictures[0][1]), { width: 1024, height: 640 });
+  const answer = posted.at(-1) as { type: string; id: number; result: Record<string, unknown> };
+  assert.equal(answer.id, 5);
+  assert.equal('png' in answer.result, false);
+  assert.equal(answer.result.saved, '/w/tree.png');
+  // What the page makes of it: saved, nothing to download.
+  assert.deepEqual(decodePicture(answer.result), { system: 'Tree', seed: 3, width: 1024, height: 640, png: null, saved: '/w/tree.png' });
+  // A picture is no preview: the export's seed and parameters stay the last preview's.
+  assert.equal(host.lastPreview('file:///w/tree.grm'), undefined);
+});
+
+test('a picture the user does not save, of an unsaved document, of another document, or refused by the server', async () => {
+  const cancelled = fakeHost({ savePicture: async () => null });
+  cancelled.host.setDocument('untitled:Untitled-1', 'Untitled-1');
+  await cancelled.host.handle({ type: 'ready' });
+  await cancelled.host.handle({ type: 'request', id: 1, method: 'picture', params: { textDocument: { uri: 'untitled:Untitled-1' } } });
+  assert.deepEqual((cancelled.posted.at(-1) as { result: { saved: unknown } }).result.saved, null);
+  // Not a file: a bare name, placed by the extension.
+  const named = fakeHost();
+  named.host.setDocument('untitled:Untitled-1', 'Untitled-1');
+  await named.host.handle({ type: 'ready' });
+  await named.host.handle({ type: 'request', id: 1, method: 'picture', params: { textDocument: { uri: 'untitled:Untitled-1' } } });
+  assert.equal(named.pictures[0][0], 'Untitled-1.png');
+  await named.host.handle({ type: 'request', id: 2, method: 'picture', params: { textDocument: { uri: 'file:///w/other.grm' } } });
+  assert.match((named.posted.at(-1) as { error: string }).error, /not file:\/\/\/w\/other.grm/);
+  assert.equal(named.pictures.length, 1);
+  // The server's refusal (errors in the program) reaches the page with its code; nothing is asked or saved.
+  class ResponseError extends Error {
+    constructor(
+      readonly code: number,
+      message: string,
+    ) {
+      super(message);
+    }
+  }
+  const refused = fakeHost({
+    request: async () => {
+      throw new ResponseError(-32803, 'the program has 1 error: fix it to preview');
+    },
+  });
+  refused.host.setDocument('file:///w/tree.grm', 'tree.grm');
+  await refused.host.handle({ type: 'ready' });
+  await refused.host.handle({ type: 'request', id: 3, method: 'picture', params: { textDocument: { uri: 'file:///w/tree.grm' } } });
+  assert.deepEqual(refused.posted.at(-1), { type: 'response', id: 3, error: 'the program has 1 error: fix it to preview', code: -32803 });
+  assert.equal(refused.pictures.length, 0);
+  // An answer without a picture is an error, not an empty file.
+  const empty = fakeHost({ request: async () => ({ width: 1, height: 1 }) });
+  empty.host.setDocument('file:///w/tree.grm', 'tree.grm');
+  await empty.host.handle({ type: 'ready' });
+  await empty.host.handle({ type: 'request', id: 4, method: 'picture', params: { textDocument: { uri: 'file:///w/tree.grm' } } });
+  assert.match((empty.posted.at(-1) as { error: string }).error, /no png/);
+  assert.equal(empty.pictures.length, 0);
 });
 
 test('the curves file is named after the grammar', () => {

@@ -6,6 +6,7 @@ import type { V3 } from './bezier.js';
 import { Coalescer, type Delivery } from './coalesce.js';
 import { PARAM_KEYS, PARAM_RANGES, type ParamKey, checkParam, cloneSet, setProblem } from './curves.js';
 import { type NotificationMethod, type ViewParams, viewAngles } from './messages.js';
+import { pictureFileName, pictureParams } from './picture.js';
 import {
   type Origin,
   type PickParams,
@@ -13,6 +14,7 @@ import {
   type PreviewResult,
   type SceneModel,
   decodePick,
+  decodePicture,
   decodePreview,
   decodePreviewUpdated,
   modeFromSymbols,
@@ -94,6 +96,10 @@ interface DebugInfo {
   /** The last view the page told the host (where the camera looks from, once it rested), and how many it told. */
   lastView: ViewParams | null;
   views: number;
+  /** Pictures made with "Save picture", the last one (its file name, size, and where the host saved it), and why the last attempt failed. */
+  pictures: number;
+  lastPicture: { name: string; width: number; height: number; saved?: string | null } | null;
+  pictureError: string | null;
 }
 
 /** How long the camera must rest before the page tells the host its view (not on every frame of a drag). */
@@ -203,6 +209,9 @@ class App {
       programs: () => this.scene.programIds(),
       lastView: null,
       views: 0,
+      pictures: 0,
+      lastPicture: null,
+      pictureError: null,
     };
     (globalThis as unknown as { __grm: DebugInfo }).__grm = this.debug;
     this.wireUi();
@@ -283,9 +292,14 @@ class App {
     $('params-skipped').textContent = names.length ? `No slider for ${names.join(', ')}: give it a range of numbers (param x = 1 in 0 .. 2).` : '';
   }
 
-  private async fetchPreview(): Promise<Fetched> {
+  /** Before a request from the state: the mode (from the document's symbols) is known and a sample system's curves are loaded. */
+  private async prepareRequest(): Promise<void> {
     if (!this.symbolsFor.startsWith(`${this.state.uri}@`)) await this.loadSymbols('first');
     if (this.state.mode === 'sample') await this.ensureCurves();
+  }
+
+  private async fetchPreview(): Promise<Fetched> {
+    await this.prepareRequest();
     try {
       const t0 = performance.now();
       const timing: RequestTiming = {};
@@ -304,6 +318,46 @@ class App {
         return { result: decodePreview(await this.transport.request('preview', this.state.previewParams())), breakdown: {} };
       }
       throw e;
+    }
+  }
+
+  /**
+   * "Save picture": the model of the current state (the parameters of the
+   * preview request, so the picture is what the view shows), drawn by the
+   * server from the camera's direction in the canvas' shape, longer side
+   * 1024 pixels. In a browser the page downloads the PNG; in VS Code the
+   * extension has asked where to save it and saved it (a webview cannot
+   * download), and says where.
+   */
+  private async savePicture(): Promise<void> {
+    const uri = this.state.uri;
+    const button = $<HTMLButtonElement>('save-picture');
+    if (!uri || button.disabled) return;
+    button.disabled = true;
+    this.debug.pictureError = null;
+    this.setStatus('making the picture…');
+    try {
+      await this.prepareRequest();
+      const v = this.scene.view();
+      const params = pictureParams(this.state.previewParams(), viewAngles(...v.direction), v);
+      const r = decodePicture(await this.transport.request('picture', params));
+      const name = pictureFileName(uri);
+      if (r.png) {
+        download(r.png, name);
+        this.setStatus(`picture ${name} (${r.width}×${r.height}, seed ${r.seed}) downloaded`);
+      } else {
+        this.setStatus(r.saved ? `picture saved to ${r.saved} (${r.width}×${r.height}, seed ${r.seed})` : 'picture not saved');
+      }
+      this.debug.pictures++;
+      this.debug.lastPicture = { name, width: r.width, height: r.height, ...(r.png ? {} : { saved: r.saved }) };
+    } catch (e) {
+      // Refused (e.g. the program has errors): said in the status line; the model on screen stays as it is.
+      const msg = String((e as Error).message ?? e);
+      this.debug.pictureError = msg;
+      this.setStatus(`no picture: ${msg.split('\n')[0]}`, true);
+      $('status-text').title = msg;
+    } finally {
+      button.disabled = false;
     }
   }
 
@@ -471,6 +525,13 @@ class App {
     $('frame').addEventListener('click', () => {
       if (this.last?.model.bounds) this.scene.frame(this.last.model.bounds);
     });
+    const picture = $<HTMLButtonElement>('save-picture');
+    // Where the PNG goes differs: a browser downloads it, VS Code asks where to save it.
+    picture.title =
+      this.transport.kind === 'vscode'
+        ? 'Save a PNG of the model as the view shows it (longer side 1024 px); asks where to save it'
+        : 'Download a PNG of the model as the view shows it (longer side 1024 px)';
+    picture.addEventListener('click', () => void this.savePicture());
     $('gallery-open').addEventListener('click', () => this.openGallery(this.state.seed ?? 0));
     $('gallery-more').addEventListener('click', () => this.openGallery(this.galleryStart + 9));
     $('gallery-close').addEventListener('click', () => this.closeGallery());
@@ -992,6 +1053,21 @@ class App {
     this.galleryToken++;
     $('gallery').hidden = true;
   }
+}
+
+/** Download bytes as a file: a click on a link to a blob with `download` set (browsers; not in a VS Code webview). */
+function download(bytes: Uint8Array, name: string): void {
+  // A copy into a fresh ArrayBuffer: Blob takes no view of a buffer that could be shared.
+  const url = URL.createObjectURL(new Blob([new Uint8Array(bytes)], { type: 'image/png' }));
+  const a = document.createElement('a');
+  a.href = url;
+  a.download = name;
+  a.hidden = true;
+  document.body.append(a);
+  a.click();
+  a.remove();
+  // Revoked later, not at once: the browser reads the blob after the click returns.
+  setTimeout(() => URL.revokeObjectURL(url), 60_000);
 }
 
 /** Run `f` in a task of its own, after the current one (a message, not a timer: timers may be clamped). */

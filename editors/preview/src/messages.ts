@@ -8,6 +8,14 @@ export type Method =
   | 'preview'
   /** Which rule made a part: `PickParams` -> `PickResult | null` (LSP `grm/pick`). */
   | 'pick'
+  /**
+   * A PNG of the model: `PictureParams` -> the `grm/picture` result, whose
+   * `png` (base64) the page downloads. A VS Code webview cannot download:
+   * there the extension asks where to save the PNG, writes it, and answers
+   * the result with `saved` (the path, null if the user cancelled) in place
+   * of `png`.
+   */
+  | 'picture'
   /** The document's symbols (LSP `textDocument/documentSymbol`): `{ uri }` -> `DocumentSymbol[]`; the page reads the meta-parameters from them. */
   | 'symbols'
   /** Read the grammar's curves file: `{ uri }` -> `{ path, text }` (`text` null: no file yet). */
@@ -17,7 +25,7 @@ export type Method =
   /** Show a rule in the editor: `{ uri, line, character }` -> `{}`. */
   | 'reveal';
 
-export const METHODS: readonly Method[] = ['preview', 'pick', 'symbols', 'loadCurves', 'saveCurves', 'reveal'];
+export const METHODS: readonly Method[] = ['preview', 'pick', 'picture', 'symbols', 'loadCurves', 'saveCurves', 'reveal'];
 
 /** What the host tells the page without being asked. */
 export type NotificationMethod =

@@ -8,6 +8,7 @@
 // format is a change here only.
 
 import type { V3 } from './bezier.js';
+import { pngSize } from './picture.js';
 
 // ---------------------------------------------------------------- requests
 
@@ -49,6 +50,21 @@ export interface PickParams {
   part?: number;
   triangle?: number;
   bone?: number;
+}
+
+/**
+ * Parameters of a picture (LSP `grm/picture`, HTTP POST /api/picture): the
+ * preview's parameters (the server ignores `live` and `focus`), where the
+ * camera looks from and the picture's size.
+ */
+export interface PictureParams extends PreviewParams {
+  /** Degrees, as `grmc --view`; omitted: the server's automatic view. */
+  view?: { azimuth: number; elevation: number };
+  /** Pixels; omitted: 1024 each. */
+  width?: number;
+  height?: number;
+  /** An RGBA picture on a transparent background. */
+  transparent?: boolean;
 }
 
 // ---------------------------------------------------------------- results
@@ -184,6 +200,22 @@ export interface PickResult {
   symbol: string;
   version: number;
   module: number;
+}
+
+/**
+ * A picture's answer. From the server (`grmc view`) it holds the PNG; in VS
+ * Code the extension saves the PNG itself (a webview cannot download) and
+ * says where instead.
+ */
+export interface PictureResult {
+  system: string;
+  seed: number;
+  width: number;
+  height: number;
+  /** The PNG file's bytes; null where the host saved it (`saved`). */
+  png: Uint8Array | null;
+  /** Where the host saved the picture; null: the user cancelled the save dialog; undefined: the page has `png` to save. */
+  saved?: string | null;
 }
 
 // ---------------------------------------------------------------- decoding
@@ -474,6 +506,31 @@ export function decodePick(v: unknown): PickResult | null {
   if (v === null || v === undefined) return null;
   if (!isObject(v)) throw new ProtocolError('pick: expected an object or null');
   return { uri: str(v.uri), range: decodeRange(v.range, 'range'), symbol: str(v.symbol), version: optNum(v.version, 0), module: optNum(v.module, 0) };
+}
+
+/** Decode a `picture` answer: a PNG of the size it says (base64 on the wire), or where the host saved it. */
+export function decodePicture(v: unknown): PictureResult {
+  if (!isObject(v)) throw new ProtocolError('picture: expected an object');
+  const out: PictureResult = { system: str(v.system), seed: optNum(v.seed, 0), width: num(v.width, 'width'), height: num(v.height, 'height'), png: null };
+  if (typeof v.png === 'string') {
+    let bytes: Uint8Array;
+    try {
+      bytes = base64ToBytes(v.png);
+    } catch {
+      throw new ProtocolError('picture: png is not base64');
+    }
+    const size = pngSize(bytes);
+    if (!size) throw new ProtocolError('picture: png is not a PNG file');
+    if (size.width !== out.width || size.height !== out.height) {
+      throw new ProtocolError(`picture: the PNG is ${size.width}x${size.height}, the answer says ${out.width}x${out.height}`);
+    }
+    out.png = bytes;
+  } else if (typeof v.saved === 'string' || v.saved === null) {
+    out.saved = v.saved;
+  } else {
+    throw new ProtocolError('picture: the answer has neither a png nor where it was saved');
+  }
+  return out;
 }
 
 /** LSP SymbolKind.Variable: how the server lists a meta-parameter (`param`). */

@@ -3,6 +3,9 @@
 // preview's seed and meta-parameters, and for a picture the preview's view.
 // Pure, unit-tested.
 
+// The picture's size from the preview canvas' (the page's "Save picture" sizes its pictures the same way).
+export { pictureSize } from '../../preview/src/picture.js';
+
 export type ExportFormat = 'glb' | 'obj' | 'png';
 
 /** Within `grmc --image-size`'s limits: whole sides of 1 to 16384 pixels, at most 4096 x 4096 pixels in all. */
@@ -77,15 +80,4 @@ export function firstSystemMode(text: string): 'derive' | 'sample' {
 /** The default output path: the grammar's name with the format's extension. */
 export function defaultOutput(grammar: string, format: ExportFormat): string {
   return `${grammar.replace(/\.grm$/i, '')}.${format}`;
-}
-
-/**
- * A picture of the preview canvas' shape: `width` by `height` (any unit)
- * scaled so the longer side is `longest` pixels, the shorter at least 1.
- * Undefined for a canvas without a size.
- */
-export function pictureSize(width: number, height: number, longest = 1024): { width: number; height: number } | undefined {
-  if (!(width > 0 && height > 0 && Number.isFinite(width) && Number.isFinite(height))) return undefined;
-  const scale = longest / Math.max(width, height);
-  return { width: Math.max(1, Math.round(width * scale)), height: Math.max(1, Math.round(height * scale)) };
 }

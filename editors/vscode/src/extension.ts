@@ -120,6 +120,15 @@ class PreviewPanel {
       writeFile: async (file, text) => {
         await vscode.workspace.fs.writeFile(vscode.Uri.file(file), Buffer.from(text, 'utf8'));
       },
+      savePicture: async (suggested, png) => {
+        // A bare name (a document that is not a file) starts in the first workspace folder, if any.
+        const folder = vscode.workspace.workspaceFolders?.[0]?.uri;
+        const defaultUri = path.isAbsolute(suggested) ? vscode.Uri.file(suggested) : folder && vscode.Uri.joinPath(folder, suggested);
+        const target = await vscode.window.showSaveDialog({ defaultUri, filters: { 'PNG picture': ['png'] }, title: 'Save picture' });
+        if (!target) return null;
+        await vscode.workspace.fs.writeFile(target, png);
+        return target.scheme === 'file' ? target.fsPath : target.toString();
+      },
       reveal: async (uri, line, character) => {
         const doc = await vscode.workspace.openTextDocument(vscode.Uri.parse(uri));
         const pos = new vscode.Position(line, character);

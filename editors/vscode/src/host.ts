@@ -1,7 +1,8 @@
 // The extension's side of the preview page's messages (see
 // preview/src/messages.ts): answers the page's requests by asking the
 // language server (`grm/preview`, `grm/pick`, docs/lsp-extensions.md) or the
-// editor (read and save the curves file, reveal a rule), forwards the
+// editor (read and save the curves file, reveal a rule, save a picture:
+// `grm/picture`'s PNG, which a webview cannot download), forwards the
 // server's `grm/previewUpdated` and the editor's cursor as notifications,
 // and keeps the camera view the page last told (pictures are exported from
 // it). Free of the `vscode` module: the editor and the server are
@@ -9,6 +10,9 @@
 
 import { parseCurves } from '../../preview/src/curves.js';
 import { type HostToPage, type Method, type NotificationMethod, type ViewParams, parsePageMessage, parseViewParams } from '../../preview/src/messages.js';
+import { pictureFileName } from '../../preview/src/picture.js';
+import { base64ToBytes } from '../../preview/src/protocol.js';
+import { defaultOutput } from './exportArgs.js';
 
 export interface HostDeps {
   /** Ask the language server (method is the LSP method, e.g. `grm/preview`). */
@@ -17,6 +21,13 @@ export interface HostDeps {
   readFile(path: string): Promise<string | null>;
   /** Write a file (the curves file). */
   writeFile(path: string, text: string): Promise<void>;
+  /**
+   * Ask the user where to save a picture (starting at `suggested`: a path
+   * beside the grammar, or a bare file name for a document that is not a
+   * file) and write `png` there. The path written, or null if the user
+   * cancelled.
+   */
+  savePicture(suggested: string, png: Uint8Array): Promise<string | null>;
   /** Show a place in the editor (0-based line and character). */
   reveal(uri: string, line: number, character: number): Promise<void>;
   /** The file path of a document URI, or null for a document that is not a file. */
@@ -194,6 +205,17 @@ export class PreviewHost {
           }
         }
         return result;
+      }
+      case 'picture': {
+        const uri = this.checkUri(params);
+        // Drawn first: a program with errors is refused before the user is asked where to save.
+        const result = await this.deps.request('grm/picture', params);
+        if (!isObject(result) || typeof result.png !== 'string') throw new Error('grm/picture: the answer has no png');
+        const { png, ...rest } = result;
+        const file = this.deps.fsPath(uri);
+        const saved = await this.deps.savePicture(file ? defaultOutput(file, 'png') : pictureFileName(uri), base64ToBytes(png));
+        // The page needs only where it went: the PNG (up to megabytes of base64) does not travel back.
+        return { ...rest, saved };
       }
       case 'symbols': {
         const uri = this.checkUri(params);
