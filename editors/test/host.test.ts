@@ -7,17 +7,10 @@ import { pngSize } from '../preview/src/picture.js';
 import { bytesToBase64, decodePicture } from '../preview/src/protocol.js';
 import { VsCodeTransport, isSuperseded } from '../preview/src/transport.js';
 import { type HostDeps, PreviewHost, curvesPathFor } from '../vscode/src/host.js';
+import { pngHeader } from './png.js';
 
 const CURVES = JSON.stringify({ version: 1, curves: [{ name: 'a', points: [[0, 0, 0], [0, 1, 0], [0, 2, 0], [0, 3, 0]] }] });
 
-/** The first 24 bytes of a PNG of this size (signature and IHDR): all that is read of it here. */
-function pngHeader(width: number, height: number): Uint8Array {
-  const b = new Uint8Array(33);
-  b.set([0x89, 0x50, 0x4e, 0x47, 0x0d, 0x0a, 0x1a, 0x0a, 0, 0, 0, 13, 0x49, 0x48, 0x44, 0x52]);
-  new DataView(b.buffer).setUint32(16, width);
-  new DataView(b.buffer).setUint32(20, height);
-  return b;
-}
 
 function fakeHost(overrides: Partial<HostDeps> = {}) {
   const posted: HostToPage[] = [];

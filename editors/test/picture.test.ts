@@ -6,15 +6,7 @@ import { METHODS, parsePageMessage } from '../preview/src/messages.js';
 import { pictureFileName, pictureParams, pictureSize, pngSize } from '../preview/src/picture.js';
 import { ProtocolError, base64ToBytes, bytesToBase64, decodePicture } from '../preview/src/protocol.js';
 import { PageState } from '../preview/src/state.js';
-
-/** The first bytes of a PNG of this size: the signature and the IHDR chunk's start. */
-function pngHeader(width: number, height: number): Uint8Array {
-  const b = new Uint8Array(33);
-  b.set([0x89, 0x50, 0x4e, 0x47, 0x0d, 0x0a, 0x1a, 0x0a, 0, 0, 0, 13, 0x49, 0x48, 0x44, 0x52]);
-  new DataView(b.buffer).setUint32(16, width);
-  new DataView(b.buffer).setUint32(20, height);
-  return b;
-}
+import { pngHeader } from './png.js';
 
 test('picture is a page request method', () => {
   assert.ok(METHODS.includes('picture'));
