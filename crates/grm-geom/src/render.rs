@@ -9,7 +9,11 @@
 //! How it draws:
 //! - **Camera**: orthographic, looking at the model from a direction given
 //!   by azimuth and elevation ([`View::Angles`]), with +y up on the
-//!   picture (the turtle's initial heading). [`View::Auto`] looks straight
+//!   picture (the turtle's initial heading); or perspective, from a point
+//!   toward a point with a vertical field of view ([`View::Camera`], the
+//!   preview's orbit camera: what the preview shows, zoom and pan
+//!   included), clipped at a near plane a thousandth of the way to the
+//!   target. [`View::Auto`] looks straight
 //!   down -z at a model that is flat in the xy plane (the classic 2D
 //!   L-systems, as the SVG export shows them) and from
 //!   [`AUTO_AZIMUTH`]/[`AUTO_ELEVATION`] at anything else. The projection
@@ -46,6 +50,7 @@
 //! 1..=[`MAX_IMAGE_SIDE`] or over [`MAX_PIXELS`] are a [`RenderError`],
 //! never a panic.
 
+use std::borrow::Cow;
 use std::io::{self, Write};
 
 use glam::{DVec3, Vec3};
@@ -79,7 +84,20 @@ pub enum View {
     /// `elevation` above the xz plane (90: looking straight down, at most
     /// ±89.9 is used so that +y can stay up).
     Angles { azimuth: f32, elevation: f32 },
+    /// A perspective camera at `eye` looking at `target`, +y up on the
+    /// picture (as the preview's orbit camera keeps it), with a vertical
+    /// field of view of `fov` degrees (more than 0, less than 180). Not
+    /// fitted: what the camera sees is drawn, at the scale it sees it.
+    /// Geometry nearer than [`NEAR_FRACTION`] of the eye's distance to
+    /// the target, or behind the eye, is clipped.
+    Camera { eye: DVec3, target: DVec3, fov: f32 },
 }
+
+/// [`View::Camera`]'s near plane, as a fraction of the distance from the
+/// eye to the target.
+pub const NEAR_FRACTION: f64 = 1e-3;
+/// The largest field of view [`View::Camera`] takes, in degrees.
+pub const MAX_FOV: f32 = 179.0;
 
 /// How to draw a picture.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -127,12 +145,7 @@ impl RenderOptions {
         if !(1..=MAX_SAMPLES).contains(&self.samples) {
             return Err(RenderError::Samples(self.samples));
         }
-        if let View::Angles { azimuth, elevation } = self.view
-            && !(azimuth.is_finite() && elevation.is_finite())
-        {
-            return Err(RenderError::View);
-        }
-        Ok(())
+        self.view.validate()
     }
 
     /// The samples per axis actually used: `samples`, lowered until the
@@ -147,6 +160,42 @@ impl RenderOptions {
     }
 }
 
+impl View {
+    /// Check the view's numbers: finite angles; a camera whose eye and
+    /// target are finite and apart (their distance too) and whose field
+    /// of view is in `(0, MAX_FOV]`.
+    pub fn validate(&self) -> Result<(), RenderError> {
+        match *self {
+            View::Auto => Ok(()),
+            View::Angles { azimuth, elevation } => {
+                if azimuth.is_finite() && elevation.is_finite() {
+                    Ok(())
+                } else {
+                    Err(RenderError::View)
+                }
+            }
+            View::Camera { eye, target, fov } => {
+                let distance = (target - eye).length();
+                if !(eye.is_finite() && target.is_finite() && distance.is_finite()) {
+                    Err(RenderError::Camera(
+                        "its position and target must be finite numbers",
+                    ))
+                } else if distance == 0.0 {
+                    Err(RenderError::Camera(
+                        "its position and target must be different points",
+                    ))
+                } else if !(fov > 0.0 && fov <= MAX_FOV) {
+                    Err(RenderError::Camera(
+                        "its field of view must be more than 0 and at most 179 degrees",
+                    ))
+                } else {
+                    Ok(())
+                }
+            }
+        }
+    }
+}
+
 /// Why a picture cannot be drawn.
 #[derive(Clone, Debug, PartialEq)]
 pub enum RenderError {
@@ -157,6 +206,8 @@ pub enum RenderError {
     Samples(u32),
     /// An angle of the view is not finite.
     View,
+    /// A [`View::Camera`] that cannot look: why.
+    Camera(&'static str),
 }
 
 impl std::fmt::Display for RenderError {
@@ -174,6 +225,7 @@ impl std::fmt::Display for RenderError {
                 )
             }
             RenderError::View => write!(f, "the view's angles must be finite numbers"),
+            RenderError::Camera(why) => write!(f, "the camera cannot be used: {why}"),
         }
     }
 }
@@ -249,11 +301,46 @@ impl Camera {
         Camera { right, up, toward }
     }
 
+    /// The frame of a camera at `eye` looking at `target` (different
+    /// points), +y up on the picture; straight up or down, +x is right.
+    fn looking(eye: DVec3, target: DVec3) -> Camera {
+        let toward = (eye - target).normalize();
+        let right = DVec3::Y.cross(toward);
+        let right = if right.length() > 1e-9 {
+            right.normalize()
+        } else {
+            DVec3::X
+        };
+        let up = toward.cross(right);
+        Camera { right, up, toward }
+    }
+
+    /// The direction the camera looks from, as (azimuth, elevation) in
+    /// degrees ([`View::Angles`]' convention).
+    fn angles(&self) -> (f32, f32) {
+        let t = self.toward;
+        let azimuth = t.x.atan2(t.z).to_degrees();
+        let elevation = t.y.clamp(-1.0, 1.0).asin().to_degrees();
+        (azimuth as f32, elevation as f32)
+    }
+
     #[inline]
     fn project(&self, p: Vec3) -> DVec3 {
-        let p = p.as_dvec3();
+        self.project_d(p.as_dvec3())
+    }
+
+    #[inline]
+    fn project_d(&self, p: DVec3) -> DVec3 {
         DVec3::new(p.dot(self.right), p.dot(self.up), p.dot(self.toward))
     }
+}
+
+/// A [`View::Camera`] set up for a picture.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Perspective {
+    eye: DVec3,
+    target: DVec3,
+    fov: f32,
 }
 
 /// The view [`View::Auto`] picks for `model`: (azimuth, elevation). A
@@ -313,7 +400,7 @@ struct Line {
 /// all three in samples)
 /// and their light, seen from the front and from behind.
 struct Prepared<'m> {
-    indices: &'m [u32],
+    indices: Cow<'m, [u32]>,
     screen: Vec<Vec3>,
     front: Vec<Vec3>,
     back: Vec<Vec3>,
@@ -641,13 +728,16 @@ fn srgb_table() -> Vec<u8> {
 /// right, y up, z toward the camera). [`framing`] computes it for one
 /// model; several models drawn with one framing ([`render_framed`], with
 /// the [`Framing::union`] of theirs) keep their places and scale, as the
-/// iterations of a derivation do in `grmc derive --frames`.
+/// iterations of a derivation do in `grmc derive --frames`. A
+/// [`View::Camera`] is not fitted: its framing is the camera, and
+/// `azimuth` and `elevation` are the direction it looks from.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Framing {
     pub azimuth: f32,
     pub elevation: f32,
     lo: DVec3,
     hi: DVec3,
+    perspective: Option<Perspective>,
 }
 
 impl Framing {
@@ -658,15 +748,29 @@ impl Framing {
 
     /// The framing of both: `self`'s view, the box holding both boxes.
     /// Boxes of different views are not comparable: `other` must have the
-    /// same angles (else `self` is returned unchanged).
+    /// same view (else `self` is returned unchanged).
     pub fn union(&self, other: &Framing) -> Framing {
-        if (self.azimuth, self.elevation) != (other.azimuth, other.elevation) {
+        if (self.azimuth, self.elevation, self.perspective)
+            != (other.azimuth, other.elevation, other.perspective)
+        {
             return *self;
         }
         Framing {
             lo: self.lo.min(other.lo),
             hi: self.hi.max(other.hi),
             ..*self
+        }
+    }
+
+    /// The view this framing draws from ([`View::Angles`] or
+    /// [`View::Camera`]).
+    pub fn view(&self) -> View {
+        match self.perspective {
+            Some(Perspective { eye, target, fov }) => View::Camera { eye, target, fov },
+            None => View::Angles {
+                azimuth: self.azimuth,
+                elevation: self.elevation,
+            },
         }
     }
 }
@@ -689,11 +793,28 @@ fn line_bones(model: &Model) -> Vec<usize> {
 /// mesh vertex and every line's ends, in f64 (no overflow for coordinates
 /// near f32's limits, no loss for a model far from the origin).
 pub fn framing(model: &Model, view: View) -> Framing {
-    let (azimuth, elevation) = match view {
-        View::Auto => auto_angles(model),
-        View::Angles { azimuth, elevation } => (azimuth, elevation),
+    let (cam, azimuth, elevation, perspective) = match view {
+        View::Auto => {
+            let (a, e) = auto_angles(model);
+            (Camera::new(a, e), a, e, None)
+        }
+        View::Angles { azimuth, elevation } => {
+            (Camera::new(azimuth, elevation), azimuth, elevation, None)
+        }
+        View::Camera { eye, target, fov } if eye != target => {
+            let cam = Camera::looking(eye, target);
+            let (a, e) = cam.angles();
+            (cam, a, e, Some(Perspective { eye, target, fov }))
+        }
+        // The same point: no direction (`validate` refuses it before any
+        // drawing); framed from the front so the framing stays finite.
+        View::Camera { eye, target, fov } => (
+            Camera::new(0.0, 0.0),
+            0.0,
+            0.0,
+            Some(Perspective { eye, target, fov }),
+        ),
     };
-    let cam = Camera::new(azimuth, elevation);
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
     let mut grow = |p: Vec3| {
         if p.is_finite() {
@@ -717,6 +838,7 @@ pub fn framing(model: &Model, view: View) -> Framing {
         elevation,
         lo,
         hi,
+        perspective,
     }
 }
 
@@ -724,6 +846,192 @@ pub fn framing(model: &Model, view: View) -> Framing {
 pub fn render(model: &Model, options: &RenderOptions) -> Result<Image, RenderError> {
     options.validate()?;
     render_framed(model, options, &framing(model, options.view))
+}
+
+/// How model points reach sample space: `cam` takes a point to camera
+/// space (x right, y up, in samples from the picture's centre for the
+/// orthographic view; the perspective one keeps world units with z the
+/// distance in front of the eye), `screen` to samples (x right, y down,
+/// z larger = nearer).
+#[derive(Clone, Copy)]
+enum Projection {
+    Ortho {
+        cam: Camera,
+        centre: DVec3,
+        scale: f64,
+        half_w: f64,
+        half_h: f64,
+        /// A bare bone's depth bias, in samples.
+        bias: f32,
+    },
+    Persp {
+        cam: Camera,
+        eye: DVec3,
+        /// Samples per unit of `x / z` (the focal length in samples).
+        focal: f64,
+        near: f64,
+        half_w: f64,
+        half_h: f64,
+        /// 1e-4 of the model's size, in world units: a bare bone's bias
+        /// before perspective.
+        size: f64,
+    },
+}
+
+impl Projection {
+    fn camera(&self) -> &Camera {
+        match self {
+            Projection::Ortho { cam, .. } | Projection::Persp { cam, .. } => cam,
+        }
+    }
+
+    #[inline]
+    fn cam(&self, p: Vec3) -> DVec3 {
+        match *self {
+            Projection::Ortho {
+                cam, centre, scale, ..
+            } => {
+                let q = cam.project(p);
+                DVec3::new(
+                    (q.x - centre.x) * scale,
+                    (q.y - centre.y) * scale,
+                    (q.z - centre.z) * scale,
+                )
+            }
+            Projection::Persp { cam, eye, .. } => {
+                let q = cam.project_d(p.as_dvec3() - eye);
+                DVec3::new(q.x, q.y, -q.z)
+            }
+        }
+    }
+
+    /// Whether a camera-space point is on the drawn side of the near
+    /// plane (always, orthographic).
+    #[inline]
+    fn visible(&self, c: DVec3) -> bool {
+        match *self {
+            Projection::Ortho { .. } => true,
+            Projection::Persp { near, .. } => c.z >= near,
+        }
+    }
+
+    /// The point where the segment from `a` (visible) to `b` (not)
+    /// crosses the near plane, and how far along it is.
+    fn clip(&self, a: DVec3, b: DVec3) -> (DVec3, f64) {
+        match *self {
+            Projection::Ortho { .. } => (b, 1.0),
+            Projection::Persp { near, .. } => {
+                // a.z >= near > b.z: the denominator is not 0.
+                let t = ((near - a.z) / (b.z - a.z)).clamp(0.0, 1.0);
+                let mut p = a + (b - a) * t;
+                p.z = near;
+                (p, t)
+            }
+        }
+    }
+
+    #[inline]
+    fn screen(&self, c: DVec3) -> Vec3 {
+        match *self {
+            Projection::Ortho { half_w, half_h, .. } => {
+                Vec3::new((half_w + c.x) as f32, (half_h - c.y) as f32, c.z as f32)
+            }
+            Projection::Persp {
+                focal,
+                half_w,
+                half_h,
+                ..
+            } => {
+                let k = focal / c.z;
+                Vec3::new(
+                    (half_w + c.x * k) as f32,
+                    (half_h - c.y * k) as f32,
+                    k as f32,
+                )
+            }
+        }
+    }
+
+    /// The depth bias of a bare bone from `a` to `b` (camera space): a
+    /// surface 1e-4 of the model's size behind it does not hide it.
+    fn bias(&self, a: DVec3, b: DVec3) -> f32 {
+        match *self {
+            Projection::Ortho { bias, .. } => bias,
+            Projection::Persp { focal, size, .. } => {
+                // Depth is focal / z: a step dz in z moves it focal dz / z².
+                let z = 0.5 * (a.z + b.z);
+                (focal * size / (z * z)) as f32
+            }
+        }
+    }
+}
+
+/// A part's vertices in camera space and light, clipped at the near plane:
+/// the triangles with a vertex behind it are cut there (new vertices after
+/// the mesh's), those wholly behind dropped.
+fn prepare<'m>(
+    proj: &Projection,
+    indices: &'m [u32],
+    cam: Vec<DVec3>,
+    mut front: Vec<Vec3>,
+    mut back: Vec<Vec3>,
+) -> Prepared<'m> {
+    let n = cam.len();
+    let mut screen: Vec<Vec3> = cam.iter().map(|c| proj.screen(*c)).collect();
+    if cam.iter().all(|c| proj.visible(*c)) {
+        return Prepared {
+            indices: Cow::Borrowed(indices),
+            screen,
+            front,
+            back,
+        };
+    }
+    let mut kept = Vec::with_capacity(indices.len());
+    for t in indices.chunks_exact(3) {
+        let i = [t[0] as usize, t[1] as usize, t[2] as usize];
+        if i.iter().any(|&k| k >= n) {
+            continue;
+        }
+        let vis = i.map(|k| proj.visible(cam[k]));
+        if vis.iter().all(|&v| v) {
+            kept.extend_from_slice(t);
+            continue;
+        }
+        if !vis.iter().any(|&v| v) {
+            continue;
+        }
+        // Sutherland-Hodgman against the near plane: a triangle with one or
+        // two vertices in front becomes a triangle or a quadrilateral.
+        let mut poly = [0u32; 4];
+        let mut len = 0;
+        for e in 0..3 {
+            let (a, b) = (i[e], i[(e + 1) % 3]);
+            if vis[e] {
+                poly[len] = a as u32;
+                len += 1;
+            }
+            if vis[e] != vis[(e + 1) % 3] {
+                let (from, to) = if vis[e] { (a, b) } else { (b, a) };
+                let (p, t) = proj.clip(cam[from], cam[to]);
+                let t = t as f32;
+                poly[len] = screen.len() as u32;
+                len += 1;
+                screen.push(proj.screen(p));
+                front.push(front[from].lerp(front[to], t));
+                back.push(back[from].lerp(back[to], t));
+            }
+        }
+        kept.extend_from_slice(&[poly[0], poly[1], poly[2]]);
+        if len == 4 {
+            kept.extend_from_slice(&[poly[0], poly[2], poly[3]]);
+        }
+    }
+    Prepared {
+        indices: Cow::Owned(kept),
+        screen,
+        front,
+        back,
+    }
 }
 
 /// Draw `model` as `options` say (their view is not used) with `framing`'s
@@ -738,10 +1046,10 @@ pub fn render_framed(
     if !(framing.azimuth.is_finite() && framing.elevation.is_finite()) {
         return Err(RenderError::View);
     }
+    framing.view().validate()?;
     let s = options.effective_samples() as usize;
     let (width, height) = (options.width as usize, options.height as usize);
     let (sw, sh) = (width * s, height * s);
-    let cam = Camera::new(framing.azimuth, framing.elevation);
     let tubed = tubed_bones(model);
     // Every bone that is a segment is drawn as a line: those without a tube
     // over the surfaces, those with one under them (a tube thinner than a
@@ -759,31 +1067,54 @@ pub fn render_framed(
         // within about 1e6 picture widths.
         let size = extent.max_element();
         let floor = if size > 0.0 { 1e-6 * size } else { 1.0 };
-        let margin = f64::from(MARGIN) * (sw.min(sh) as f64);
-        let scale_x = (sw as f64 - 2.0 * margin).max(1.0) / extent.x.max(floor);
-        let scale_y = (sh as f64 - 2.0 * margin).max(1.0) / extent.y.max(floor);
-        let scale = scale_x.min(scale_y);
         let (half_w, half_h) = (sw as f64 * 0.5, sh as f64 * 0.5);
-        // Depth is in samples too, so a near tie means the same at any
-        // scale: a bare bone wins against a surface less than 1e-4 of the
-        // model's size in front of it (one it lies on, up to rounding).
-        let bias = (1e-4 * size.max(floor) * scale) as f32;
-        let to_screen = |p: Vec3| {
-            let q = cam.project(p);
-            Vec3::new(
-                (half_w + (q.x - centre.x) * scale) as f32,
-                (half_h - (q.y - centre.y) * scale) as f32,
-                ((q.z - centre.z) * scale) as f32,
-            )
-        };
-        let line = |i: usize, light: f32, bias: f32| {
-            let b = &model.skeleton.bones[i];
-            Line {
-                a: to_screen(b.base),
-                b: to_screen(b.tip),
-                color: quantize(Vec3::from_array(model.paint_color(b.paint)) * light),
-                bias,
+        let proj = match framing.perspective {
+            None => {
+                let margin = f64::from(MARGIN) * (sw.min(sh) as f64);
+                let scale_x = (sw as f64 - 2.0 * margin).max(1.0) / extent.x.max(floor);
+                let scale_y = (sh as f64 - 2.0 * margin).max(1.0) / extent.y.max(floor);
+                let scale = scale_x.min(scale_y);
+                Projection::Ortho {
+                    cam: Camera::new(framing.azimuth, framing.elevation),
+                    centre,
+                    scale,
+                    half_w,
+                    half_h,
+                    // Depth is in samples too, so a near tie means the same
+                    // at any scale: a bare bone wins against a surface less
+                    // than 1e-4 of the model's size in front of it (one it
+                    // lies on, up to rounding).
+                    bias: (1e-4 * size.max(floor) * scale) as f32,
+                }
             }
+            Some(Perspective { eye, target, fov }) => {
+                let half_fov = (f64::from(fov) * 0.5).to_radians();
+                Projection::Persp {
+                    cam: Camera::looking(eye, target),
+                    eye,
+                    focal: half_h / half_fov.tan(),
+                    near: NEAR_FRACTION * (target - eye).length(),
+                    half_w,
+                    half_h,
+                    size: 1e-4 * size.max(floor),
+                }
+            }
+        };
+        let line = |i: usize, light: f32, biased: bool| {
+            let b = &model.skeleton.bones[i];
+            let (mut a, mut c) = (proj.cam(b.base), proj.cam(b.tip));
+            match (proj.visible(a), proj.visible(c)) {
+                (false, false) => return None,
+                (true, false) => c = proj.clip(a, c).0,
+                (false, true) => a = proj.clip(c, a).0,
+                (true, true) => {}
+            }
+            Some(Line {
+                a: proj.screen(a),
+                b: proj.screen(c),
+                color: quantize(Vec3::from_array(model.paint_color(b.paint)) * light),
+                bias: if biased { proj.bias(a, c) } else { 0.0 },
+            })
         };
         let mut scene = Scene {
             parts: Vec::with_capacity(model.parts.len()),
@@ -791,10 +1122,13 @@ pub fn render_framed(
             items: Vec::new(),
         };
         for &i in lines.iter().filter(|&&i| tubed[i]) {
-            scene.items.push(Item::Line(scene.lines.len() as u32));
-            scene.lines.push(line(i, LINE_LIGHT, 0.0));
+            if let Some(l) = line(i, LINE_LIGHT, false) {
+                scene.items.push(Item::Line(scene.lines.len() as u32));
+                scene.lines.push(l);
+            }
         }
         let light = KEY_LIGHT.normalize();
+        let cam = proj.camera();
         for part in &model.parts {
             let Some(material) = model.materials.get(part.material) else {
                 continue;
@@ -809,28 +1143,31 @@ pub fn render_framed(
             };
             let k = scene.parts.len() as u32;
             let n = mesh.positions.len().min(mesh.normals.len());
-            scene.parts.push(Prepared {
-                indices: &mesh.indices,
-                screen: mesh.positions[..n]
+            let prepared = prepare(
+                &proj,
+                &mesh.indices,
+                mesh.positions[..n]
                     .iter()
-                    .map(|p| to_screen(Vec3::from_array(*p)))
+                    .map(|p| proj.cam(Vec3::from_array(*p)))
                     .collect(),
-                front: mesh.normals[..n]
+                mesh.normals[..n]
                     .iter()
                     .map(|v| shade(Vec3::from_array(*v)))
                     .collect(),
-                back: mesh.normals[..n]
+                mesh.normals[..n]
                     .iter()
                     .map(|v| shade(-Vec3::from_array(*v)))
                     .collect(),
-            });
-            scene
-                .items
-                .extend((0..mesh.triangle_count() as u32).map(|t| Item::Tri(k, t)));
+            );
+            let triangles = (prepared.indices.len() / 3) as u32;
+            scene.parts.push(prepared);
+            scene.items.extend((0..triangles).map(|t| Item::Tri(k, t)));
         }
         for &i in lines.iter().filter(|&&i| !tubed[i]) {
-            scene.items.push(Item::Line(scene.lines.len() as u32));
-            scene.lines.push(line(i, 1.0, bias));
+            if let Some(l) = line(i, 1.0, true) {
+                scene.items.push(Item::Line(scene.lines.len() as u32));
+                scene.lines.push(l);
+            }
         }
         target.draw(&scene, s);
     }

@@ -5,8 +5,10 @@
 mod common;
 
 use common::{axiom, build_with_defaults, derive, program};
+use glam::DVec3;
 use grm_geom::render::{
-    Image, MARGIN, RenderError, RenderOptions, View, png_bytes, render, write_png,
+    Image, MARGIN, RenderError, RenderOptions, View, framing, png_bytes, render, render_framed,
+    write_png,
 };
 use grm_geom::{ExportFormat, Model, export};
 
@@ -584,7 +586,6 @@ fn the_auto_view_of_a_model_spanning_f32s_range_in_depth_is_not_flat() {
 
 #[test]
 fn a_shared_framing_keeps_models_in_place() {
-    use grm_geom::render::{framing, render_framed};
     // A stalk of 1 and of 4 bones: drawn with the taller one's framing,
     // the short one keeps its place and scale (the bottom quarter), where
     // alone it fills the frame.
@@ -624,4 +625,179 @@ fn a_shared_framing_keeps_models_in_place() {
         elevation: 0.0,
     };
     assert_eq!(f.union(&framing(&tall, side)), f);
+}
+
+/// A perspective camera at `eye` looking at `target`.
+fn camera(eye: [f64; 3], target: [f64; 3], fov: f32) -> View {
+    View::Camera {
+        eye: DVec3::from_array(eye),
+        target: DVec3::from_array(target),
+        fov,
+    }
+}
+
+#[test]
+fn a_perspective_camera_draws_at_the_scale_it_sees() {
+    // A sphere of radius 0.5 at the origin seen from 2 and from 4 units
+    // along +z with a 90 degree field of view: its outline is a circle of
+    // angular radius asin(r / d), r / sqrt(d² - r²) of the half height on
+    // the picture, centred (not fitted to the frame, as the orthographic
+    // views are).
+    let m = model("system S { axiom color(1, 0, 0) sphere(0.5); }", 0);
+    for d in [2.0f64, 4.0] {
+        let o = options(200, 200, camera([0.0, 0.0, d], [0.0, 0.0, 0.0], 90.0));
+        let img = draw(&m, &o);
+        let (bbox, _) = covered(&img, &draw(&empty(), &o));
+        let (x0, y0, x1, y1) = bbox.expect("the sphere is drawn");
+        let want = 100.0 * 0.5 / (d * d - 0.25).sqrt();
+        for (lo, hi) in [(x0, x1), (y0, y1)] {
+            let radius = f64::from(hi - lo + 1) / 2.0;
+            let centre = f64::from(lo + hi + 1) / 2.0;
+            assert!(
+                (radius - want).abs() <= 2.0,
+                "d = {d}: radius {radius} px, expected {want}"
+            );
+            assert!((centre - 100.0).abs() <= 1.0, "d = {d}: centre {centre}");
+        }
+    }
+}
+
+#[test]
+fn a_perspective_camera_shows_the_nearer_of_two_equal_spheres_larger() {
+    // Two spheres of radius 0.3, at x = -1 (z = 0) and x = +1 (z = -3),
+    // seen from +z: the left one is nearer, so wider on the picture.
+    let m = model(
+        "system S { axiom [ translate(-1, 0, 0) sphere(0.3) ] translate(1, 0, -3) sphere(0.3); }",
+        0,
+    );
+    let o = options(240, 120, camera([0.0, 0.0, 3.0], [0.0, 0.0, -1.0], 60.0));
+    let img = draw(&m, &o);
+    let bg = draw(&empty(), &o);
+    let row: Vec<bool> = (0..240)
+        .map(|x| px(&img, x, 60) != px(&bg, x, 60))
+        .collect();
+    let left = row[..120].iter().filter(|&&c| c).count();
+    let right = row[120..].iter().filter(|&&c| c).count();
+    assert!(left > 0 && right > 0, "both drawn: {left} {right}");
+    // 3 and 6 units away: twice as wide, up to a pixel or two.
+    let ratio = left as f64 / right as f64;
+    assert!((1.7..=2.3).contains(&ratio), "{left} px against {right} px");
+}
+
+#[test]
+fn geometry_behind_the_camera_is_clipped_at_the_near_plane() {
+    // A floor 100 wide (x and z, 0.01 high) and the camera 1 above it
+    // looking along -z: the floor's far corners are in front, its near
+    // ones behind the eye. The lower half of the picture is floor up to
+    // the horizon (the floor's far edge, 50 away, 1 below: about a pixel
+    // under the middle), the upper half background; a triangle
+    // projected through the eye without clipping would cover both.
+    let m = model(
+        "system F { axiom color(0.2, 0.6, 0.2) box(100, 0.01, 100); }",
+        0,
+    );
+    let o = options(200, 200, camera([0.0, 1.0, 0.0], [0.0, 1.0, -10.0], 90.0));
+    let img = draw(&m, &o);
+    let bg = draw(&empty(), &o);
+    for y in [0, 40, 90] {
+        for x in [0, 100, 199] {
+            assert_eq!(px(&img, x, y), px(&bg, x, y), "sky at {x},{y}");
+        }
+    }
+    for y in [110, 150, 199] {
+        for x in [0, 100, 199] {
+            let p = px(&img, x, y);
+            assert!(
+                i32::from(p[1]) > i32::from(p[0]) + 30,
+                "green floor at {x},{y}: {p:?}"
+            );
+        }
+    }
+    // The same from straight above (no up direction from +y: +x is right).
+    let above = camera([0.0, 10.0, 0.0], [0.0, 0.0, 0.0], 60.0);
+    let o = options(64, 64, above);
+    let img = draw(&m, &o);
+    assert!(
+        (0..64).all(|x| px(&img, x, 32)[1] > px(&img, x, 32)[0]),
+        "the floor fills the view from above"
+    );
+}
+
+#[test]
+fn lines_crossing_the_near_plane_are_clipped() {
+    // Hairlines (width 0) from behind the camera to in front of it: drawn
+    // from the near plane on, the part behind never folded onto the
+    // picture.
+    let m = model(
+        "system L { angle = 90; width = 0; axiom F F F F F F F F F F; }",
+        0,
+    );
+    // The line runs along +y from 0 to 10; the camera at y = 5 beside it
+    // looks along +y, so half the line is behind the eye.
+    let o = options(100, 100, camera([0.2, 5.0, 0.0], [0.2, 15.0, 0.0], 90.0));
+    let img = draw(&m, &o);
+    let bg = draw(&empty(), &o);
+    let (bbox, n) = covered(&img, &bg);
+    assert!(n > 0, "the part in front is drawn");
+    // The drawn part runs from the picture's edge (the near plane) to the
+    // vanishing point at the centre; unclipped, the part behind the eye
+    // would fold back onto the picture around the centre instead.
+    let (x0, y0, x1, y1) = bbox.expect("drawn");
+    assert!(
+        x0.min(y0) <= 1 || x1.max(y1) >= 98,
+        "reaches an edge: {bbox:?}"
+    );
+    assert!(
+        (45..=55).contains(&x0)
+            || (45..=55).contains(&x1)
+            || (45..=55).contains(&y0)
+            || (45..=55).contains(&y1),
+        "ends at the vanishing point: {bbox:?}"
+    );
+}
+
+#[test]
+fn a_camera_framing_is_the_camera_and_its_direction() {
+    let m = model("system S { axiom sphere(0.5); }", 0);
+    let v = camera([3.0, 0.0, 0.0], [0.0, 0.0, 0.0], 40.0);
+    let f = framing(&m, v);
+    assert_eq!(f.view(), v);
+    assert!(
+        (f.azimuth - 90.0).abs() < 1e-4 && f.elevation.abs() < 1e-4,
+        "{f:?}"
+    );
+    let up = framing(&m, camera([0.0, 2.0, 2.0], [0.0, 0.0, 0.0], 40.0));
+    assert!(
+        up.azimuth.abs() < 1e-4 && (up.elevation - 45.0).abs() < 1e-4,
+        "{up:?}"
+    );
+    // Cameras that differ do not mix; the same one keeps itself.
+    assert_eq!(f.union(&up), f);
+    assert_eq!(f.union(&f), f);
+    // An angles framing reports its angles as its view.
+    let front = framing(&m, FRONT);
+    assert_eq!(front.view(), FRONT);
+}
+
+#[test]
+fn a_camera_that_cannot_look_is_an_error() {
+    let m = model("system S { axiom sphere(0.5); }", 0);
+    for (v, why) in [
+        (camera([1.0, 1.0, 1.0], [1.0, 1.0, 1.0], 45.0), "different"),
+        (camera([0.0, 0.0, f64::NAN], [0.0; 3], 45.0), "finite"),
+        (
+            camera([1e308, 0.0, 0.0], [-1e308, 0.0, 0.0], 45.0),
+            "finite",
+        ),
+        (camera([0.0, 0.0, 2.0], [0.0; 3], 0.0), "field of view"),
+        (camera([0.0, 0.0, 2.0], [0.0; 3], 180.0), "field of view"),
+        (camera([0.0, 0.0, 2.0], [0.0; 3], f32::NAN), "field of view"),
+    ] {
+        let e = render(&m, &options(8, 8, v)).expect_err("refused");
+        assert!(matches!(e, RenderError::Camera(_)), "{v:?}: {e:?}");
+        assert!(e.to_string().contains(why), "{v:?}: {e}");
+        // render_framed with such a framing refuses it too.
+        let f = framing(&m, v);
+        assert!(render_framed(&m, &options(8, 8, FRONT), &f).is_err());
+    }
 }
