@@ -109,8 +109,15 @@ fn render_bench(args: RenderBench) -> Outcome {
     if let Some(o) = examples_folder(&args.examples) {
         return o;
     }
-    let options = args.image.options();
-    if let Err(e) = options.validate() {
+    // The size and samples, checked once (a camera's default target is
+    // each scene's own centre).
+    let options = args.image.options(&grm_geom::Model::default());
+    if let Err(e) = (grm_geom::render::RenderOptions {
+        view: grm_geom::render::View::Auto,
+        ..options
+    })
+    .validate()
+    {
         eprintln!("error: {e}");
         return Outcome::Usage;
     }
@@ -181,7 +188,7 @@ fn render_bench(args: RenderBench) -> Outcome {
             std::hint::black_box(grm_geom::export::glb_bytes(&m));
             let t_glb = t.elapsed();
             let t = Instant::now();
-            let img = match grm_geom::render::render(&m, &options) {
+            let img = match grm_geom::render::render(&m, &args.image.options(&m)) {
                 Ok(i) => i,
                 Err(e) => {
                     eprintln!("error: {e}");

@@ -91,6 +91,19 @@ pub struct ImageArgs {
     /// xz plane (default: from +z for a model flat in xy, else 35,20).
     #[arg(long, value_name = "AZIMUTH,ELEVATION", value_parser = parse_view, allow_hyphen_values = true)]
     pub view: Option<ViewAngles>,
+    /// With a .png output: a perspective camera at X,Y,Z (the preview's:
+    /// +y up, not fitted to the model) instead of the fitted orthographic
+    /// view.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true, conflicts_with = "view")]
+    pub camera: Option<[f64; 3]>,
+    /// With --camera: the point it looks at (default: the centre of the
+    /// model's bounds).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true, requires = "camera")]
+    pub look_at: Option<[f64; 3]>,
+    /// With --camera: its vertical field of view in degrees, more than 0
+    /// and at most 179 (default 45, the preview's).
+    #[arg(long, value_name = "DEGREES", value_parser = parse_fov, requires = "camera")]
+    pub fov: Option<f32>,
     /// With a .png output: a transparent background instead of the grey
     /// gradient.
     #[arg(long)]
@@ -172,6 +185,40 @@ fn parse_view(text: &str) -> Result<ViewAngles, String> {
     Ok(ViewAngles { azimuth, elevation })
 }
 
+/// `--camera` and `--look-at`: X,Y,Z, three finite numbers.
+fn parse_point(text: &str) -> Result<[f64; 3], String> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    let numbers: Vec<f64> = parts.iter().filter_map(|p| p.parse().ok()).collect();
+    match numbers[..] {
+        [x, y, z] if parts.len() == 3 => {
+            if x.is_finite() && y.is_finite() && z.is_finite() {
+                Ok([x, y, z])
+            } else {
+                Err(format!(
+                    "`{text}` is not a point: its coordinates must be finite numbers"
+                ))
+            }
+        }
+        _ => Err(format!(
+            "`{text}` is not a point: write X,Y,Z, three numbers, e.g. 6,4,8"
+        )),
+    }
+}
+
+/// `--fov DEGREES`: more than 0, at most [`grm_geom::render::MAX_FOV`].
+fn parse_fov(text: &str) -> Result<f32, String> {
+    match text.trim().parse::<f32>() {
+        Ok(f) if f > 0.0 && f <= grm_geom::render::MAX_FOV => Ok(f),
+        _ => Err(format!(
+            "`{text}` is not a field of view: write degrees, more than 0 and at most {}",
+            grm_geom::render::MAX_FOV
+        )),
+    }
+}
+
+/// `--fov`'s default: the preview's camera.
+pub const DEFAULT_FOV: f32 = 45.0;
+
 impl ImageArgs {
     /// The first picture flag given, as written on the command line.
     fn given(&self) -> Option<&'static str> {
@@ -179,6 +226,8 @@ impl ImageArgs {
             Some("--image-size")
         } else if self.view.is_some() {
             Some("--view")
+        } else if self.camera.is_some() {
+            Some("--camera")
         } else if self.transparent {
             Some("--transparent")
         } else {
@@ -186,8 +235,10 @@ impl ImageArgs {
         }
     }
 
-    /// The renderer's options.
-    pub fn options(&self) -> grm_geom::render::RenderOptions {
+    /// The renderer's options for a picture of `model` (`--camera`
+    /// without `--look-at` looks at the centre of its bounds, or at the
+    /// origin when it has none).
+    pub fn options(&self, model: &grm_geom::Model) -> grm_geom::render::RenderOptions {
         let mut o = grm_geom::render::RenderOptions::default();
         if let Some(size) = self.image_size {
             o.width = size.width;
@@ -197,6 +248,25 @@ impl ImageArgs {
             o.view = grm_geom::render::View::Angles {
                 azimuth: v.azimuth,
                 elevation: v.elevation,
+            };
+        }
+        if let Some(eye) = self.camera {
+            let target = match self.look_at {
+                Some(t) => glam::DVec3::from_array(t),
+                None => {
+                    let b = &model.stats.bounds;
+                    if b.is_empty() {
+                        glam::DVec3::ZERO
+                    } else {
+                        // In f64: the mean of two f32 extremes may overflow f32.
+                        (b.min.as_dvec3() + b.max.as_dvec3()) * 0.5
+                    }
+                }
+            };
+            o.view = grm_geom::render::View::Camera {
+                eye: glam::DVec3::from_array(eye),
+                target,
+                fov: self.fov.unwrap_or(DEFAULT_FOV),
             };
         }
         o.transparent = self.transparent;
@@ -501,7 +571,7 @@ fn export_frames(
     let picture = grm_geom::ExportFormat::from_path(path) == Some(grm_geom::ExportFormat::Png);
     let framing = if picture {
         let view = match build(last) {
-            Ok(m) => match image.options().view {
+            Ok(m) => match image.options(&m).view {
                 grm_geom::render::View::Auto => {
                     let (azimuth, elevation) = grm_geom::render::auto_angles(&m);
                     grm_geom::render::View::Angles { azimuth, elevation }
@@ -551,6 +621,12 @@ pub fn check_output_format(
     output: Option<&Path>,
     image: &ImageArgs,
 ) -> Option<Outcome> {
+    if let (Some(eye), Some(target)) = (image.camera, image.look_at)
+        && eye == target
+    {
+        eprintln!("error: --camera and --look-at name the same point: the camera has no direction");
+        return Some(Outcome::Usage);
+    }
     if let Some(flag) = image.given() {
         let png =
             output.and_then(grm_geom::ExportFormat::from_path) == Some(grm_geom::ExportFormat::Png);
@@ -650,7 +726,7 @@ fn export_model_framed(
     for w in model.warnings(c.file, c.span, lines) {
         emit(&loaded.sources, &w);
     }
-    let options = image.options();
+    let options = image.options(model);
     let written = match (picture, framing) {
         (true, Some(f)) => match grm_geom::render::render_framed(model, &options, f) {
             Ok(img) => grm_geom::write_image(&img, path),
