@@ -27,6 +27,24 @@ pub struct PictureView {
     pub elevation: f32,
 }
 
+/// A perspective camera (the preview's orbit camera), as `grmc
+/// --camera/--look-at/--fov`: +y up, not fitted to the model.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+pub struct PictureCamera {
+    /// Where the camera is.
+    pub position: [f64; 3],
+    /// The point it looks at (a different point).
+    pub target: [f64; 3],
+    /// The vertical field of view in degrees, more than 0 and at most 179
+    /// (default 45, the preview's).
+    #[serde(default = "default_fov")]
+    pub fov: f32,
+}
+
+fn default_fov() -> f32 {
+    45.0
+}
+
 /// `grm/picture` parameters.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase")]
@@ -37,6 +55,10 @@ pub struct PictureParams {
     /// Default: the automatic view (face on for a flat model, else 35, 20).
     #[serde(default)]
     pub view: Option<PictureView>,
+    /// A perspective camera instead of the fitted orthographic view (not
+    /// with `view`).
+    #[serde(default)]
+    pub camera: Option<PictureCamera>,
     /// Pixels (default 1024 each; each side 1 to 16384, at most 4096 x
     /// 4096 in all).
     #[serde(default)]
@@ -59,8 +81,12 @@ pub struct PictureResult {
     pub seed: u32,
     pub width: u32,
     pub height: u32,
-    /// The view it was taken from (the automatic one resolved).
+    /// The view it was taken from (the automatic one resolved; a camera's
+    /// direction from its target).
     pub view: PictureView,
+    /// The camera it was taken with, when one was given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera: Option<PictureCamera>,
     /// `image/png`, base64.
     pub png: String,
     pub triangles: usize,
@@ -81,6 +107,20 @@ fn options(p: &PictureParams) -> std::result::Result<grm_geom::render::RenderOpt
         }),
         transparent: p.transparent,
         ..d
+    };
+    let o = match p.camera {
+        Some(_) if p.view.is_some() => {
+            return Err("give the picture a view or a camera, not both".into());
+        }
+        Some(c) => grm_geom::render::RenderOptions {
+            view: grm_geom::render::View::Camera {
+                eye: glam::DVec3::from_array(c.position),
+                target: glam::DVec3::from_array(c.target),
+                fov: c.fov,
+            },
+            ..o
+        },
+        None => o,
     };
     o.validate().map_err(|e| e.to_string())?;
     if let Some(v) = p.view
@@ -104,6 +144,7 @@ impl Backend {
             message: m.into(),
             data: None,
         })?;
+        let params_camera = params.camera;
         let mut preview = params.preview;
         // A picture is a one-off: it neither registers nor supersedes the
         // live preview, and marks no rule.
@@ -141,6 +182,7 @@ impl Backend {
                     azimuth: framing.azimuth,
                     elevation: framing.elevation,
                 },
+                camera: params_camera,
                 png: base64::engine::general_purpose::STANDARD.encode(png),
                 triangles: model.stats.triangles,
                 bones: model.stats.bones,

@@ -125,3 +125,73 @@ async fn the_server_announces_pictures() {
         json!({ "version": 1, "picture": true })
     );
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_picture_through_the_previews_camera() {
+    let mut c = Client::start().await;
+    let path = std::env::temp_dir().join(format!("grm-picture-cam-{}.grm", std::process::id()));
+    let u = c.open(&path, TREE).await;
+    let doc = json!({ "uri": u.as_str() });
+    let camera = json!({ "position": [0.0, 2.0, 6.0], "target": [0.0, 2.0, 0.0], "fov": 45.0 });
+    let r = c
+        .ok(
+            "grm/picture",
+            json!({ "textDocument": doc, "width": 80, "height": 60, "camera": camera }),
+        )
+        .await;
+    // The camera is echoed; the view is its direction from the target (+z).
+    assert_eq!(r["camera"], camera);
+    assert_eq!(r["view"], json!({ "azimuth": 0.0, "elevation": 0.0 }));
+    let (w, h, _, pixels) = decode(&r);
+    assert_eq!((w, h), (80, 60));
+    // Not the fitted front view: the camera sees the tree at its own scale.
+    let front = c
+        .ok(
+            "grm/picture",
+            json!({ "textDocument": doc, "width": 80, "height": 60,
+                    "view": { "azimuth": 0.0, "elevation": 0.0 } }),
+        )
+        .await;
+    assert_ne!(decode(&front).3, pixels);
+    // A picture from farther away covers fewer pixels; the field of view
+    // defaults to 45 degrees.
+    let background = pixels[..3].to_vec();
+    let covered = |p: &[u8]| {
+        p.chunks_exact(3)
+            .filter(|q| *q != background.as_slice())
+            .count()
+    };
+    let far = c
+        .ok(
+            "grm/picture",
+            json!({ "textDocument": doc, "width": 80, "height": 60,
+                    "camera": { "position": [0.0, 2.0, 30.0], "target": [0.0, 2.0, 0.0] } }),
+        )
+        .await;
+    assert_eq!(far["camera"]["fov"], 45.0);
+    let (near_n, far_n) = (covered(&pixels), covered(&decode(&far).3));
+    assert!(far_n > 0 && far_n < near_n, "{far_n} against {near_n}");
+
+    // A view and a camera, or a camera that cannot look: invalid params.
+    for (params, says) in [
+        (
+            json!({ "textDocument": doc, "camera": camera, "view": { "azimuth": 0.0, "elevation": 0.0 } }),
+            "not both",
+        ),
+        (
+            json!({ "textDocument": doc, "camera": { "position": [1.0, 1.0, 1.0], "target": [1.0, 1.0, 1.0] } }),
+            "different points",
+        ),
+        (
+            json!({ "textDocument": doc, "camera": { "position": [0.0, 0.0, 1.0], "target": [0.0, 0.0, 0.0], "fov": 0.0 } }),
+            "field of view",
+        ),
+    ] {
+        let e = c.request("grm/picture", params).await.expect_err("refused");
+        assert_eq!(e["code"], -32602, "{e}");
+        assert!(
+            e["message"].as_str().is_some_and(|m| m.contains(says)),
+            "{e}"
+        );
+    }
+}
