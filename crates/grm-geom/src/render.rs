@@ -586,23 +586,34 @@ impl Band<'_> {
             self.y0 as f32 - half - 1.0,
             (self.y0 + self.rows) as f32 + half + 1.0,
         );
-        let (k0, k1) = if d.y == 0.0 {
-            if a.y < top || a.y > bottom {
-                return;
+        // The part of the line (0..1 along it) within [lo, hi] on one axis.
+        let within = |start: f32, delta: f32, lo: f32, hi: f32| -> Option<(f32, f32)> {
+            if delta == 0.0 {
+                (start >= lo && start <= hi).then_some((0.0, 1.0))
+            } else {
+                let t0 = (lo - start) / delta;
+                let t1 = (hi - start) / delta;
+                Some((t0.min(t1), t0.max(t1)))
             }
-            (0, n)
-        } else {
-            let t0 = (top - a.y) / d.y;
-            let t1 = (bottom - a.y) / d.y;
-            let (t0, t1) = (t0.min(t1).max(0.0), t0.max(t1).min(1.0));
-            if t0 > t1 {
-                return;
-            }
-            (
-                ((t0 * steps).floor().max(0.0) as usize).min(n),
-                ((t1 * steps).ceil().max(0.0) as usize).min(n),
-            )
         };
+        // Rows of this band, columns of the picture: a line running far
+        // outside the picture (one clipped at a perspective camera's near
+        // plane reaches a thousand picture widths) costs only the steps
+        // that can land in it.
+        let (Some((ty0, ty1)), Some((tx0, tx1))) = (
+            within(a.y, d.y, top, bottom),
+            within(a.x, d.x, -half - 1.0, self.width as f32 + half + 1.0),
+        ) else {
+            return;
+        };
+        let (t0, t1) = (ty0.max(tx0).max(0.0), ty1.min(tx1).min(1.0));
+        if t0.partial_cmp(&t1).is_none_or(|o| o.is_gt()) {
+            return;
+        }
+        let (k0, k1) = (
+            ((t0 * steps).floor().max(0.0) as usize).min(n),
+            ((t1 * steps).ceil().max(0.0) as usize).min(n),
+        );
         let along_x = d.x.abs() >= d.y.abs();
         for k in k0..=k1 {
             let t = k as f32 / steps;
