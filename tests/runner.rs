@@ -514,6 +514,7 @@ fn sample(
             .map_err(Stop::Usage)?
             .map_or(grm_sample::DEFAULT_MAX_BYTES, |m| m.saturating_mul(1 << 20)),
         cancel: None,
+        frames: false,
     };
     let result = sampler.sample(&opts).map_err(at)?;
     if let Some(path) = o.get("--output") {

@@ -158,6 +158,11 @@ pub struct SampleResult {
     pub stopped_early: bool,
     /// Wall time of the whole run (search, wrap-up, geometry phase).
     pub elapsed: Duration,
+    /// With [`crate::SampleOptions::frames`]: a model per generation run,
+    /// what the search would have returned had it stopped after it (the
+    /// generation's best particle wrapped up and built); the last is the
+    /// best model. Empty otherwise.
+    pub frames: Vec<SampledModel>,
 }
 
 impl SampleResult {

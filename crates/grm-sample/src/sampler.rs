@@ -146,6 +146,11 @@ pub struct SampleOptions {
     /// and returns [`SampleError::Cancelled`]. A token that is never set
     /// changes nothing: the result is the same as without one.
     pub cancel: Option<CancelToken>,
+    /// Keep a model per generation ([`SampleResult::frames`]): what the
+    /// search would return had it stopped there. Costs a wrap-up and a
+    /// geometry phase of one particle per generation; the search itself
+    /// (its draws, weights and result) is the same with or without.
+    pub frames: bool,
 }
 
 impl Default for SampleOptions {
@@ -164,6 +169,7 @@ impl Default for SampleOptions {
             limits: FinishLimits::default(),
             max_bytes: DEFAULT_MAX_BYTES,
             cancel: None,
+            frames: false,
         }
     }
 }
@@ -1268,6 +1274,7 @@ impl<'a> Sampler<'a> {
         let mut ancestors = Vec::new();
         let mut stopped_early = false;
         let mut last: Vec<Arc<Particle>> = Vec::new();
+        let mut frames = Vec::new();
         // Steps of particles that were not resampled, emptied for reuse.
         let mut spare: Vec<Step> = Vec::new();
         let mut used = Vec::new();
@@ -1369,6 +1376,10 @@ impl<'a> Sampler<'a> {
                 memory_bytes: 0,
             });
             let out_of_time = opts.budget.is_some_and(|b| start.elapsed() >= b);
+            if opts.frames && !(g + 1 == gens || out_of_time) {
+                // The last generation's frame is the returned model.
+                frames.push(self.frame(&mut w, &mut layers, &next, seed, opts)?);
+            }
             if g + 1 == gens || out_of_time {
                 stopped_early = g + 1 < gens;
                 let mut seen = std::collections::HashSet::new();
@@ -1461,13 +1472,57 @@ impl<'a> Sampler<'a> {
         for c in order {
             models.push(self.build_model(&mut w, &layers, &done[c], seed, c as u32, opts)?);
         }
+        if opts.frames
+            && let Some(best) = models.first()
+        {
+            frames.push(best.clone());
+        }
         Ok(SampleResult {
+            frames,
             models,
             generations: stats,
             candidates,
             stopped_early,
             elapsed: start.elapsed(),
         })
+    }
+
+    /// A frame of [`SampleOptions::frames`]: the generation's particle of
+    /// lowest objective (the first of equals; NaN last), wrapped up and
+    /// built as the run's result would be. The wrap-up's nodes live in a
+    /// layer pushed for the build and dropped after it: the search never
+    /// sees them.
+    fn frame(
+        &self,
+        w: &mut Worker,
+        layers: &mut Vec<Vec<Step>>,
+        particles: &[Arc<Particle>],
+        seed: u32,
+        opts: &SampleOptions,
+    ) -> Result<SampledModel, SampleError> {
+        let mut best: Option<(usize, f64)> = None;
+        for (i, p) in particles.iter().enumerate() {
+            let v = self.objective_of(p);
+            let better = match best {
+                None => true,
+                Some((_, b)) => v < b || (b.is_nan() && !v.is_nan()),
+            };
+            if better {
+                best = Some((i, v));
+            }
+        }
+        let Some((i, _)) = best else {
+            // A generation has at least one particle (`Schedule`).
+            return Err(SampleError::Options(
+                "a generation without particles has no frame".into(),
+            ));
+        };
+        let l = layers.len() as u32;
+        let (q, step) = self.wrap_up(w, layers, (l, 0), &particles[i], seed, opts)?;
+        layers.push(vec![step]);
+        let model = self.build_model(w, layers, &q, seed, 0, opts);
+        layers.pop();
+        model
     }
 
     // ---- the complete model ------------------------------------------------

@@ -612,6 +612,50 @@ fn export_frames(
     }
 }
 
+/// Write `models` (the frames of a run, in order) to [`frame_path`]s;
+/// pictures share the last model's view (`--view`, `--camera`, or its
+/// automatic view) and a framing that holds every frame, as
+/// [`export_frames`] draws a derivation's.
+pub fn export_frame_models(
+    loaded: &Loaded,
+    models: &[grm_geom::Model],
+    path: &Path,
+    image: &ImageArgs,
+) -> Outcome {
+    let Some(last) = models.last() else {
+        return Outcome::Ok;
+    };
+    let picture = grm_geom::ExportFormat::from_path(path) == Some(grm_geom::ExportFormat::Png);
+    let framing = picture.then(|| {
+        let view = match image.options(last).view {
+            grm_geom::render::View::Auto => {
+                let (azimuth, elevation) = grm_geom::render::auto_angles(last);
+                grm_geom::render::View::Angles { azimuth, elevation }
+            }
+            v => v,
+        };
+        let mut all = grm_geom::render::framing(last, view);
+        for m in models {
+            all = all.union(&grm_geom::render::framing(m, view));
+        }
+        all
+    });
+    let n = models.len() as u32 - 1;
+    for (k, m) in models.iter().enumerate() {
+        let o = export_model_framed(
+            loaded,
+            m,
+            &frame_path(path, k as u32, n),
+            image,
+            framing.as_ref(),
+        );
+        if o != Outcome::Ok {
+            return o;
+        }
+    }
+    Outcome::Ok
+}
+
 /// `-o PATH` must name a format grm writes (R0406) in a directory that
 /// exists and not be a directory itself (R0407), and the picture flags
 /// need a `.png` output; checked before the work that the export would

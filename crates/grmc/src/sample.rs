@@ -108,6 +108,13 @@ pub struct SampleArgs {
     /// go to NAME-2.EXT, ...
     #[arg(short = 'o', long = "output")]
     pub output: Option<PathBuf>,
+    /// With -o: write a model per generation, 0 to G-1, as NAME-K.EXT (K
+    /// zero-padded; at most 1,000 files): what the search would return had
+    /// it stopped after generation K (its best particle wrapped up); the
+    /// last is the result. Pictures share one view and framing. Not with
+    /// --best.
+    #[arg(long, requires = "output")]
+    pub frames: bool,
     #[command(flatten)]
     pub image: crate::derive::ImageArgs,
 }
@@ -255,6 +262,22 @@ pub fn run(args: SampleArgs) -> Outcome {
     if let Some(g) = args.generations {
         schedule = schedule.with_generations(g);
     }
+    if args.frames {
+        if args.best > 1 {
+            eprintln!(
+                "error: --frames writes NAME-K.EXT per generation and --best K writes NAME-K.EXT per model: use one of them"
+            );
+            return Outcome::Usage;
+        }
+        if u64::from(schedule.generations) > crate::derive::MAX_FRAMES {
+            eprintln!(
+                "error: --frames writes a file per generation, {}: at most {} files (run fewer generations with --generations)",
+                schedule.generations,
+                crate::derive::MAX_FRAMES
+            );
+            return Outcome::Usage;
+        }
+    }
     if let Some((a, b)) = particles {
         schedule.particles_start = a;
         schedule.particles_end = b;
@@ -301,6 +324,7 @@ pub fn run(args: SampleArgs) -> Outcome {
             .max_memory
             .map_or(grm_sample::DEFAULT_MAX_BYTES, |m| m << 20),
         cancel: None,
+        frames: args.frames,
     };
     let result = match sampler.sample(&opts) {
         Ok(r) => r,
@@ -399,6 +423,24 @@ pub fn run(args: SampleArgs) -> Outcome {
         ms(result.elapsed),
         100.0 * min_share,
     );
+    if let Some(path) = &args.output
+        && args.frames
+    {
+        let mut models = Vec::with_capacity(result.frames.len());
+        for m in &result.frames {
+            match m.build(&loaded.program, &BuildOptions::default()) {
+                Ok(model) => models.push(model),
+                Err(e) => {
+                    emit(
+                        &loaded.sources,
+                        &e.to_diagnostic(&loaded.program, c.file, c.span),
+                    );
+                    return Outcome::InputErrors;
+                }
+            }
+        }
+        return crate::derive::export_frame_models(&loaded, &models, path, &args.image);
+    }
     if let Some(path) = &args.output {
         for (k, m) in result.models.iter().enumerate() {
             let model = match m.build(&loaded.program, &BuildOptions::default()) {

@@ -235,3 +235,89 @@ fn errors_and_exit_codes() {
     let o = grmc(&["sample", &example("calder_tree.grm"), "--particles", "0..3"]);
     assert_eq!(o.status.code(), Some(2));
 }
+
+#[test]
+fn frames_write_a_model_per_generation_and_the_last_is_the_result() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let tree = example("calder_tree.grm");
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "sample",
+            tree.as_str(),
+            "--seed",
+            "2",
+            "--generations",
+            "12",
+            "--particles",
+            "12..4",
+        ];
+        args.extend_from_slice(extra);
+        grmc(&args)
+    };
+    let framed = dir.path().join("t.glb");
+    let o = run(&["--frames", "-o", framed.to_str().expect("utf-8")]);
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let mut names: Vec<String> = std::fs::read_dir(dir.path())
+        .expect("dir")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    let want: Vec<String> = (0..12).map(|k| format!("t-{k:02}.glb")).collect();
+    assert_eq!(names, want);
+    // The last frame is the model a run without --frames writes.
+    let plain = dir.path().join("plain.glb");
+    let o = run(&["-o", plain.to_str().expect("utf-8")]);
+    assert_eq!(o.status.code(), Some(0));
+    let last = std::fs::read(dir.path().join("t-11.glb")).expect("last frame");
+    assert_eq!(last, std::fs::read(&plain).expect("plain"));
+    // The search moved: the first frame is another model.
+    assert_ne!(
+        std::fs::read(dir.path().join("t-00.glb")).expect("first frame"),
+        last
+    );
+
+    // Pictures: one per generation, all the same size.
+    let pics = dir.path().join("pics");
+    std::fs::create_dir(&pics).expect("mkdir");
+    let o = run(&[
+        "--frames",
+        "--image-size",
+        "64x48",
+        "-o",
+        pics.join("t.png").to_str().expect("utf-8"),
+    ]);
+    assert_eq!(o.status.code(), Some(0));
+    assert_eq!(std::fs::read_dir(&pics).expect("dir").count(), 12);
+
+    // Refused before any work: with --best, without -o, over 1,000 files.
+    for (extra, says) in [
+        (
+            vec!["--frames", "--best", "2", "-o", "x.glb"],
+            "use one of them",
+        ),
+        (vec!["--frames"], "--output <OUTPUT>"),
+    ] {
+        let o = run(&extra);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{extra:?}: {err}");
+        assert!(err.contains(says), "{extra:?}: {err}");
+        assert!(!err.contains("cost"), "nothing sampled: {err}");
+    }
+    let o = grmc(&[
+        "sample",
+        &tree,
+        "--generations",
+        "1001",
+        "--frames",
+        "-o",
+        "x.glb",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("at most 1000 files"), "{err}");
+}
