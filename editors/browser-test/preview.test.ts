@@ -6,8 +6,10 @@
 // model on screen is measured, also for a drag released while a request for
 // an older position is in flight (the page sends the final position at once,
 // the server supersedes the stale request, its answer is never shown).
-// "Save picture" downloads the server's PNG of the model from the view, in
-// the canvas' shape (derive mode).
+// "Save picture" downloads the server's PNG of the model through the
+// preview's camera, in the canvas' shape (derive mode); the extension's PNG
+// export, from the camera the page tells it, draws the same picture, and a
+// zoom changes both.
 //
 // Needs: `cargo build -p grmc` (or GRMC=path), Debian's chromium
 // (CHROMIUM=path, default /usr/bin/chromium). Screenshots and the measured
@@ -16,13 +18,14 @@
 // changes without rebuilding grmc).
 
 import assert from 'node:assert/strict';
-import { type ChildProcess, spawn } from 'node:child_process';
+import { type ChildProcess, execFileSync, spawn } from 'node:child_process';
 import { copyFileSync, existsSync, mkdirSync, mkdtempSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join } from 'node:path';
 import { after, before, test } from 'node:test';
 import { type Browser, type Page, chromium } from 'playwright-core';
 import { pictureSize } from '../preview/src/picture.js';
+import { exportArgs } from '../vscode/src/exportArgs.js';
 
 const root = join(import.meta.dirname, '../../..');
 const examples = join(root, 'examples');
@@ -126,6 +129,13 @@ async function view(file: string): Promise<string> {
   });
 }
 
+/** A perspective camera, as the page tells it and `/api/picture` takes it. */
+interface Camera {
+  position: [number, number, number];
+  target: [number, number, number];
+  fov: number;
+}
+
 interface Grm {
   ready: boolean;
   warnings: string[];
@@ -156,7 +166,7 @@ interface Grm {
   supersededAnswers: number;
   lastShownAt: number | null;
   objective: number | null;
-  lastView: { uri: string; azimuth: number; elevation: number; width: number; height: number } | null;
+  lastView: { uri: string; azimuth: number; elevation: number; width: number; height: number; camera?: Camera } | null;
   views: number;
   pictures: number;
   lastPicture: { name: string; width: number; height: number } | null;
@@ -229,6 +239,13 @@ async function openPage(url: string): Promise<Page> {
 }
 
 const pageErrors = (page: Page): string[] => (page as unknown as { errors: string[] }).errors;
+
+/** Ask `grmc view` for a picture directly (POST /api/picture), as the page does. */
+async function picture(url: string, params: unknown): Promise<{ png: string; width: number; height: number; camera?: Camera }> {
+  const r = (await (await fetch(`${url}api/picture`, { method: 'POST', body: JSON.stringify(params) })).json()) as { result?: { png: string; width: number; height: number; camera?: Camera }; error?: unknown };
+  assert.ok(r.result, `no picture: ${JSON.stringify(r.error)}`);
+  return r.result;
+}
 
 test('derive mode: the model renders, a slider regrows it, a pick names the rule, the rule focus highlights', async () => {
   const dir = scratch(['bracketed_plant.grm']);
@@ -328,6 +345,12 @@ test('derive mode: the model renders, a slider regrows it, a pick names the rule
   assert.ok(Math.abs(v0.elevation - Math.asin(0.35 / Math.hypot(0.45, 0.35, 1)) * deg) < 0.01, `elevation ${v0.elevation}`);
   const box = (await page.locator('#view').boundingBox())!;
   assert.ok(Math.abs(v0.width - box.width) < 1 && Math.abs(v0.height - box.height) < 1, `${v0.width}x${v0.height} for a canvas of ${box.width}x${box.height}`);
+  // The camera comes with it (the extension draws the picture through it): the preview's 45 degrees, looking along the told direction.
+  const c0 = v0.camera!;
+  assert.ok(c0, 'the view carries the camera');
+  assert.equal(c0.fov, 45);
+  const d0 = c0.position.map((x, i) => x - c0.target[i]);
+  assert.ok(Math.abs(Math.atan2(d0[0], d0[2]) * deg - v0.azimuth) < 1e-9, `camera ${JSON.stringify(c0)} vs azimuth ${v0.azimuth}`);
   // Orbiting 200 pixels to the right turns the camera 360 * 200 / height degrees about +y, clockwise seen from above;
   // the page tells the view where the drag ends, not on each move.
   const [cx, cy] = [box.x + box.width / 2, box.y + box.height / 2];
@@ -352,7 +375,7 @@ test('derive mode: the model renders, a slider regrows it, a pick names the rule
   await page.close();
 });
 
-test('derive mode: Save picture downloads a PNG of the model from the view, in the canvas shape; a refused picture is said', async () => {
+test("derive mode: Save picture downloads a PNG of the model through the preview's camera, in the canvas shape, zoom included; a refused picture is said", async () => {
   const dir = scratch(['bracketed_plant.grm']);
   const file = join(dir, 'bracketed_plant.grm');
   const url = await view(file);
@@ -394,24 +417,61 @@ test('derive mode: Save picture downloads a PNG of the model from the view, in t
   assert.deepEqual({ width: w, height: h }, pictureSize(box.width, box.height), `${w}x${h} for a canvas of ${box.width}x${box.height}`);
   assert.ok(Math.abs(w / h - box.width / box.height) < 2 / 1024 * Math.max(1, box.width / box.height), `aspect ${w / h} vs ${box.width / box.height}`);
 
-  // What the page asked: its preview's parameters (the slider's value, the seed, the mode) from where the camera rests.
-  const body = JSON.parse(request.postData() ?? 'null') as Record<string, unknown> & { view: { azimuth: number; elevation: number }; params: Record<string, number> };
+  // What the page asked: its preview's parameters (the slider's value, the seed, the mode) through its camera where it rests.
+  const body = JSON.parse(request.postData() ?? 'null') as Record<string, unknown> & { camera: Camera; params: Record<string, number> };
   const uri = `file://${file}`;
   assert.deepEqual(body.textDocument, { uri });
   assert.equal(body.mode, 'derive');
   assert.equal(body.seed, (await grm(page)).seed);
   assert.deepEqual(body.params, { delta: 40 });
   assert.deepEqual([body.width, body.height], [w, h]);
-  assert.ok(Math.abs(body.view.azimuth - rested.azimuth) < 1e-6 && Math.abs(body.view.elevation - rested.elevation) < 1e-6, `${JSON.stringify(body.view)} vs ${JSON.stringify(rested)}`);
+  // The camera itself (position, the point it orbits, field of view), not only its direction: zoom, pan and
+  // perspective are the view's. Never with a view: the server refuses both.
+  assert.ok(rested.camera, 'the rested view carries the camera');
+  assert.deepEqual(body.camera, rested.camera);
+  assert.equal('view' in body, false, 'a camera, not a view');
   assert.equal('live' in body, false, 'a picture does not register the live preview');
-  // The download is the server's picture for those parameters, byte for byte.
-  const direct = (await (await fetch(`${url}api/picture`, { method: 'POST', body: JSON.stringify(body) })).json()) as { result: { png: string; width: number; height: number } };
-  assert.ok(Buffer.from(direct.result.png, 'base64').equals(png), 'the downloaded file is the PNG the server drew');
-  // ... and another view gives another picture.
-  const turned = (await (await fetch(`${url}api/picture`, { method: 'POST', body: JSON.stringify({ ...body, view: { azimuth: body.view.azimuth + 90, elevation: 0 } }) })).json()) as { result: { png: string } };
-  assert.ok(!Buffer.from(turned.result.png, 'base64').equals(png), 'the view matters');
+  // The download is the server's picture for those parameters, byte for byte, taken with that camera.
+  const direct = await picture(url, body);
+  assert.ok(Buffer.from(direct.png, 'base64').equals(png), 'the downloaded file is the PNG the server drew');
+  assert.deepEqual(direct.camera, body.camera);
+  // ... and another camera gives another picture: the same distance, a quarter turn about the point it orbits.
+  const [p, t] = [body.camera.position, body.camera.target];
+  const turned = await picture(url, { ...body, camera: { ...body.camera, position: [t[0] + (p[2] - t[2]), p[1], t[2] - (p[0] - t[0])] } });
+  assert.ok(!Buffer.from(turned.png, 'base64').equals(png), 'the camera matters');
+  // The extension's export, from the view the page told it: grmc draws the same picture.
+  const exported = join(dir, 'exported.png');
+  const args = exportArgs({ grammar: file, output: exported, mode: 'derive', seed: body.seed as number, params: body.params, view: rested, camera: rested.camera, imageSize: pictureSize(rested.width, rested.height) });
+  assert.ok(args.some((a) => a.startsWith('--camera=')) && !args.some((a) => a.startsWith('--view')), args.join(' '));
+  execFileSync(grmc, args, { cwd: dir, stdio: 'pipe' });
+  assert.ok(readFileSync(exported).equals(png), `grmc ${args.join(' ')} draws the picture Save picture downloaded`);
+
+  // Zoomed in (the wheel over the canvas dollies the camera towards the point it orbits): the direction stays, the
+  // camera does not. The page tells the new camera, and the next picture is taken with it.
+  const told = (await grm(page)).views;
+  await page.mouse.move(cx, cy);
+  await page.mouse.wheel(0, -500);
+  await page.waitForFunction((n) => (globalThis as unknown as { __grm: Grm }).__grm.views > n, told, { timeout: 10_000 });
+  await page.waitForTimeout(400);
+  const zoomed = (await grm(page)).lastView!;
+  const dist = (c: Camera) => Math.hypot(...c.position.map((x, i) => x - c.target[i]));
+  assert.ok(dist(zoomed.camera!) < 0.9 * dist(rested.camera!), `zoomed in: ${dist(zoomed.camera!)} from the target, was ${dist(rested.camera!)}`);
+  assert.deepEqual(zoomed.camera!.target, rested.camera!.target);
+  assert.ok(Math.abs(zoomed.azimuth - rested.azimuth) < 1e-6 && Math.abs(zoomed.elevation - rested.elevation) < 1e-6, 'a zoom keeps the direction');
+  const sent2 = page.waitForRequest((r) => r.url().endsWith('/api/picture') && r.method() === 'POST');
+  const downloaded2 = page.waitForEvent('download', { timeout: 60_000 });
+  await page.click('#save-picture');
+  const body2 = JSON.parse((await sent2).postData() ?? 'null') as Record<string, unknown> & { camera: Camera };
+  const saved2 = join(artifacts, 'save-picture-zoomed.png');
+  await (await downloaded2).saveAs(saved2);
+  const png2 = readFileSync(saved2);
+  assert.deepEqual(body2.camera, zoomed.camera);
+  assert.deepEqual({ ...body2, camera: body.camera }, body, 'only the camera changed');
+  assert.deepEqual([png2.readUInt32BE(16), png2.readUInt32BE(20)], [w, h]);
+  assert.ok(!png2.equals(png), 'the zoomed picture differs');
+  assert.ok(Buffer.from((await picture(url, body2)).png, 'base64').equals(png2), 'the zoomed download is the PNG the server drew');
   const g1 = await grm(page);
-  assert.equal(g1.pictures, 1);
+  assert.equal(g1.pictures, 2);
   assert.deepEqual(g1.lastPicture, { name: 'bracketed_plant.png', width: w, height: h });
   assert.equal(g1.pictureError, null);
   assert.match((await page.textContent('#status-text')) ?? '', /picture bracketed_plant\.png \(\d+×\d+, seed \d+\) downloaded/);
@@ -429,7 +489,7 @@ test('derive mode: Save picture downloads a PNG of the model from the view, in t
   assert.match(g2.pictureError ?? '', /error/);
   assert.match((await page.textContent('#status-text')) ?? '', /^no picture: .*error/);
   assert.match((await page.getAttribute('#status', 'class')) ?? '', /error/);
-  assert.equal(g2.pictures, 1);
+  assert.equal(g2.pictures, 2);
   await page.waitForTimeout(200);
   assert.equal(downloads, 0);
   await page.screenshot({ path: join(artifacts, 'save-picture-refused.png') });

@@ -46,6 +46,46 @@ test("export as a picture: the preview's view and shape, rounded, only for a .pn
   assert.equal(defaultOutput('/w/Calder_Tree.GRM', 'png'), '/w/Calder_Tree.png');
 });
 
+test("export as a picture through the preview's camera: --camera, --look-at, --fov in full, else the view", () => {
+  const view = { azimuth: -24.2277, elevation: 17.7016 };
+  const imageSize = { width: 1024, height: 640 };
+  const camera = { position: [-3.0517578125e-5, 2.4, 6.123456789] as [number, number, number], target: [0.1 + 0.2, 1.5, -0] as [number, number, number], fov: 45 };
+  assert.deepEqual(exportArgs({ grammar: '/w/t.grm', output: '/w/t.png', mode: 'derive', seed: 4, view, camera, imageSize }), [
+    'derive', '/w/t.grm', '--seed', '4',
+    // `=` keeps a negative coordinate from being taken for a flag; every digit, so grmc reads the very numbers back.
+    '--camera=-0.000030517578125,2.4,6.123456789', '--look-at=0.30000000000000004,1.5,0', '--fov=45',
+    '--image-size=1024x640', '-o', '/w/t.png',
+  ]);
+  const png = (c: unknown, v?: { azimuth: number; elevation: number }) =>
+    exportArgs({ grammar: '/w/t.grm', output: '/w/t.png', mode: 'sample', view: v, camera: c as typeof camera }).filter((a) => /^--(view|camera|look-at|fov)/.test(a));
+  // Whatever the numbers, each one reads back as itself (an exponent is one Rust's parser takes), and none is NaN or infinite.
+  const odd = { position: [1e-7, -1e21, 123456.789], target: [5e-324, 0, -1.7976931348623157e308], fov: 0.5 };
+  const args = png(odd);
+  assert.deepEqual(args, ['--camera=1e-7,-1e+21,123456.789', '--look-at=5e-324,0,-1.7976931348623157e+308', '--fov=0.5']);
+  const numbers = args.flatMap((a) => a.replace(/^--[a-z-]+=/, '').split(',')).map(Number);
+  assert.deepEqual(numbers, [...odd.position, ...odd.target, odd.fov]);
+  for (const a of args) assert.match(a, /^--[a-z-]+=[-+.e\d,]+$/, a);
+  // A camera grmc cannot draw through: the view's angles as before; neither: grmc's own view.
+  for (const bad of [
+    { ...camera, position: [Number.NaN, 0, 1] },
+    { ...camera, target: [0, Number.NEGATIVE_INFINITY, 0] },
+    { ...camera, target: [...camera.position] },
+    { ...camera, fov: 0 },
+    { ...camera, fov: 179.5 },
+    { ...camera, fov: Number.POSITIVE_INFINITY },
+    { ...camera, position: [1, 2] },
+    null,
+  ]) {
+    assert.deepEqual(png(bad, view), ['--view=-24.23,17.7'], JSON.stringify(bad));
+    assert.deepEqual(png(bad), [], JSON.stringify(bad));
+  }
+  assert.deepEqual(png({ ...camera, fov: 179 }), ['--camera=-0.000030517578125,2.4,6.123456789', '--look-at=0.30000000000000004,1.5,0', '--fov=179']);
+  // grmc refuses the picture flags for a model file.
+  for (const output of ['/w/t.glb', '/w/t.obj']) {
+    assert.deepEqual(exportArgs({ grammar: '/w/t.grm', output, mode: 'derive', view, camera, imageSize }), ['derive', '/w/t.grm', '-o', output]);
+  }
+});
+
 test("a picture has the preview canvas' shape, 1024 pixels on the longer side", () => {
   assert.deepEqual(pictureSize(800, 500), { width: 1024, height: 640 });
   assert.deepEqual(pictureSize(300.5, 901.5), { width: 341, height: 1024 });

@@ -227,6 +227,14 @@ test("the page's view is kept for the shown document only, and only a valid one"
   }
   await host.handle({ type: 'notify', method: 'view', params: { ...view, azimuth: -90 } });
   assert.equal(host.lastView('file:///w/a.grm')?.azimuth, -90);
+  // With the camera itself (the export draws through it); one that cannot be drawn through is dropped, the view's angles stay.
+  const camera = { position: [-2, 1.5, 4.25], target: [0, 1, 0], fov: 45 };
+  await host.handle({ type: 'notify', method: 'view', params: { ...view, camera } });
+  assert.deepEqual(host.lastView('file:///w/a.grm'), { ...view, camera });
+  for (const bad of [{ ...camera, fov: 0 }, { ...camera, target: camera.position }, { ...camera, position: [null, 1, 2] }, 'camera']) {
+    await host.handle({ type: 'notify', method: 'view', params: { ...view, azimuth: 12, camera: bad } });
+    assert.deepEqual(host.lastView('file:///w/a.grm'), { ...view, azimuth: 12 }, JSON.stringify(bad));
+  }
   // Another document: the old view is stale, and the page tells the new one.
   host.setDocument('file:///w/b.grm', 'b.grm');
   assert.equal(host.lastView('file:///w/a.grm'), undefined);
@@ -276,13 +284,20 @@ test('page and extension end to end: the page transport talks to the host', asyn
   page.notify('view', { uri: 'file:///w/tree.grm', azimuth: 10, elevation: 20, width: 300, height: 200 });
   await Promise.all(pending);
   assert.deepEqual(host.lastView('file:///w/tree.grm'), { uri: 'file:///w/tree.grm', azimuth: 10, elevation: 20, width: 300, height: 200 });
+  // The camera travels with the view, every digit of it.
+  const camera = { position: [0.1 + 0.2, 2.000001, -7.5], target: [0, 1.25, 1 / 3], fov: 45 };
+  page.notify('view', { uri: 'file:///w/tree.grm', azimuth: 10, elevation: 20, width: 300, height: 200, camera });
+  await Promise.all(pending);
+  assert.deepEqual(host.lastView('file:///w/tree.grm')?.camera, camera);
 });
 
 test('a picture is drawn by grm/picture and saved by the extension where the user says; the PNG does not travel back', async () => {
   const { host, posted, requests, pictures } = fakeHost();
   host.setDocument('file:///w/tree.grm', 'tree.grm');
   await host.handle({ type: 'ready' });
-  const params = { textDocument: { uri: 'file:///w/tree.grm' }, mode: 'derive', seed: 3, params: { spread: 40 }, view: { azimuth: 24, elevation: 17 }, width: 1024, height: 640 };
+  // What the page sends: through its camera (zoom, pan and perspective as shown).
+  const camera = { position: [-2, 1.5, 4.25], target: [0, 1, 0], fov: 45 };
+  const params = { textDocument: { uri: 'file:///w/tree.grm' }, mode: 'derive', seed: 3, params: { spread: 40 }, camera, width: 1024, height: 640 };
   await host.handle({ type: 'request', id: 5, method: 'picture', params });
   // Forwarded as it is, like a preview.
   assert.deepEqual(requests, [['grm/picture', params]]);

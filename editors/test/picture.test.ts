@@ -2,7 +2,7 @@
 // file name, the PNG header check, and the decoding of both kinds of answer.
 import assert from 'node:assert/strict';
 import { test } from 'node:test';
-import { METHODS, parsePageMessage } from '../preview/src/messages.js';
+import { MAX_FOV, METHODS, parsePageMessage, usableCamera } from '../preview/src/messages.js';
 import { pictureFileName, pictureParams, pictureSize, pngSize } from '../preview/src/picture.js';
 import { ProtocolError, base64ToBytes, bytesToBase64, decodePicture } from '../preview/src/protocol.js';
 import { PageState } from '../preview/src/state.js';
@@ -49,6 +49,51 @@ test("the picture request is the preview request's, with the camera's view and t
   assert.deepEqual(pictureParams(bare, { azimuth: 0, elevation: 90.0000001 }, { width: 1, height: 1 }).view, { azimuth: 0, elevation: 90 });
   assert.equal(pictureParams(bare, { azimuth: Number.NaN, elevation: 0 }, { width: 1, height: 1 }).view, undefined);
   assert.deepEqual(pictureSize(1100, 677), { width: 1024, height: 630 });
+});
+
+test("the picture request takes the preview's camera (zoom, pan, perspective) in place of its direction", () => {
+  const preview = { textDocument: { uri: 'file:///w/tree.grm' }, mode: 'derive' as const, seed: 3, live: true };
+  const view = { azimuth: 24.2, elevation: 17.7 };
+  const camera = { position: [-1.5, 2.25, 6] as [number, number, number], target: [0, 1.75, -0.5] as [number, number, number], fov: 45 };
+  const p = pictureParams(preview, view, { width: 800, height: 500 }, camera);
+  // The camera alone: the server refuses a view and a camera together. The canvas' shape stays.
+  assert.deepEqual(p, { textDocument: { uri: 'file:///w/tree.grm' }, mode: 'derive', seed: 3, camera, width: 1024, height: 640 });
+  assert.equal('view' in p, false);
+  // A copy: moving the camera later does not change a request already made.
+  assert.notEqual(p.camera?.position, camera.position);
+  camera.position[0] = 99;
+  assert.equal(p.camera?.position[0], -1.5);
+  camera.position[0] = -1.5;
+  // Any field of view the server takes: narrow (a zoom) or wide, up to 179 degrees.
+  for (const fov of [1e-3, 12.5, 179]) assert.equal(pictureParams(preview, view, { width: 1, height: 1 }, { ...camera, fov }).camera?.fov, fov);
+  // A camera the server cannot draw through: the view's direction, fitted to the model, as before cameras.
+  for (const bad of [
+    { ...camera, position: [Number.NaN, 2, 6] },
+    { ...camera, target: [0, Number.POSITIVE_INFINITY, 0] },
+    { ...camera, position: [0, 1.75, -0.5] },
+    { ...camera, position: [-0, 1.75, -0.5] },
+    { ...camera, position: [1, 2] },
+    { ...camera, fov: 0 },
+    { ...camera, fov: -45 },
+    { ...camera, fov: 180 },
+    { ...camera, fov: Number.NaN },
+  ] as (typeof camera)[]) {
+    const q = pictureParams(preview, view, { width: 800, height: 500 }, bad);
+    assert.deepEqual(q, { textDocument: { uri: 'file:///w/tree.grm' }, mode: 'derive', seed: 3, view, width: 1024, height: 640 }, JSON.stringify(bad));
+  }
+  // No camera at all (as before): the view; neither: the server's automatic view.
+  assert.deepEqual(pictureParams(preview, view, { width: 0, height: 0 }, null), { textDocument: { uri: 'file:///w/tree.grm' }, mode: 'derive', seed: 3, view });
+  assert.deepEqual(pictureParams(preview, null, { width: 0, height: 0 }, { ...camera, fov: 0 }), { textDocument: { uri: 'file:///w/tree.grm' }, mode: 'derive', seed: 3 });
+});
+
+test('a usable camera: finite, two different points, a field of view the server takes', () => {
+  const camera = { position: [1, 2, 3], target: [0, 0, 0], fov: 45 };
+  assert.deepEqual(usableCamera(camera), camera);
+  assert.deepEqual(usableCamera({ ...camera, extra: 1 }), camera);
+  assert.equal(MAX_FOV, 179);
+  for (const bad of [null, undefined, 1, [1, 2, 3], {}, { ...camera, fov: undefined }, { ...camera, fov: '45' }, { ...camera, position: '1,2,3' }, { ...camera, target: [0, 0, '0'] }, { ...camera, target: [0, 0, 0, 0] }, { ...camera, target: [1, 2, 3] }]) {
+    assert.equal(usableCamera(bad), null, JSON.stringify(bad));
+  }
 });
 
 test('the picture file is named after the grammar', () => {

@@ -5,7 +5,7 @@
 import type { V3 } from './bezier.js';
 import { Coalescer, type Delivery } from './coalesce.js';
 import { PARAM_KEYS, PARAM_RANGES, type ParamKey, checkParam, cloneSet, setProblem } from './curves.js';
-import { type NotificationMethod, type ViewParams, viewAngles } from './messages.js';
+import { type NotificationMethod, type ViewParams, usableCamera, viewAngles } from './messages.js';
 import { pictureFileName, pictureParams } from './picture.js';
 import {
   type Origin,
@@ -93,7 +93,7 @@ interface DebugInfo {
   /** Times the guiding curves were redrawn, and the shader programs held (ids). */
   readonly curveDraws: number;
   programs: () => number[];
-  /** The last view the page told the host (where the camera looks from, once it rested), and how many it told. */
+  /** The last view the page told the host (where the camera looks from, and the camera, once it rested), and how many it told. */
   lastView: ViewParams | null;
   views: number;
   /** Pictures made with "Save picture", the last one (its file name, size, and where the host saved it), and why the last attempt failed. */
@@ -271,14 +271,20 @@ class App {
     this.viewTimer = setTimeout(() => this.tellView(), VIEW_REST_MS);
   }
 
-  /** Tell the host where the camera looks from and the canvas' size: the extension exports pictures from this view. */
+  /**
+   * Tell the host where the camera looks from, the camera itself and the
+   * canvas' size: the extension exports pictures through this camera (or
+   * from its direction, where the camera is not usable).
+   */
   private tellView(): void {
     const uri = this.state.uri;
     const v = this.scene.view();
     const angles = viewAngles(...v.direction);
     // A hidden panel's canvas has no size: the last view told stands.
     if (!uri || !angles || v.width <= 0 || v.height <= 0) return;
-    const params: ViewParams = { uri, ...angles, width: v.width, height: v.height };
+    const camera = usableCamera(v.camera);
+    // A zoom or a pan changes the camera, not its direction: it is a new view too.
+    const params: ViewParams = { uri, ...angles, width: v.width, height: v.height, ...(camera ? { camera } : {}) };
     const key = JSON.stringify(params);
     if (key === this.viewSent) return;
     this.viewSent = key;
@@ -324,10 +330,10 @@ class App {
   /**
    * "Save picture": the model of the current state (the parameters of the
    * preview request, so the picture is what the view shows), drawn by the
-   * server from the camera's direction in the canvas' shape, longer side
-   * 1024 pixels. In a browser the page downloads the PNG; in VS Code the
-   * extension has asked where to save it and saved it (a webview cannot
-   * download), and says where.
+   * server through the preview's camera (zoom, pan and perspective as
+   * shown) in the canvas' shape, longer side 1024 pixels. In a browser the
+   * page downloads the PNG; in VS Code the extension has asked where to save
+   * it and saved it (a webview cannot download), and says where.
    */
   private async savePicture(): Promise<void> {
     const uri = this.state.uri;
@@ -339,7 +345,7 @@ class App {
     try {
       await this.prepareRequest();
       const v = this.scene.view();
-      const params = pictureParams(this.state.previewParams(), viewAngles(...v.direction), v);
+      const params = pictureParams(this.state.previewParams(), viewAngles(...v.direction), v, v.camera);
       const r = decodePicture(await this.transport.request('picture', params));
       const name = pictureFileName(uri);
       if (r.png) {

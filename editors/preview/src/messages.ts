@@ -40,10 +40,25 @@ export type NotificationMethod =
 
 /** What the page tells the host without being asked (no answer comes back). */
 export type PageNotificationMethod =
-  /** Where the orbit camera looks from, once it rests: `ViewParams`. The extension exports pictures from there. */
+  /** Where the orbit camera is and looks from, once it rests: `ViewParams`. The extension exports pictures through that camera. */
   'view';
 
 export const PAGE_NOTIFICATIONS: readonly PageNotificationMethod[] = ['view'];
+
+/**
+ * A perspective camera, as `grm/picture`'s `camera` and `grmc --camera X,Y,Z
+ * --look-at X,Y,Z --fov DEGREES` take it: where it is, the point it looks at
+ * (+y up) and its vertical field of view in degrees. Not fitted to the
+ * model: a picture through it frames what the preview's camera frames.
+ */
+export interface CameraParams {
+  position: [number, number, number];
+  target: [number, number, number];
+  fov: number;
+}
+
+/** The widest vertical field of view the server and grmc draw (degrees; more than 0, at most this). */
+export const MAX_FOV = 179;
 
 /** The `view` notification's params. */
 export interface ViewParams {
@@ -55,6 +70,8 @@ export interface ViewParams {
   /** The canvas' size in CSS pixels (its aspect ratio is the picture's). */
   width: number;
   height: number;
+  /** The camera itself (with its distance, the point it orbits and its field of view): `grmc --camera`; absent where it is not usable. */
+  camera?: CameraParams;
 }
 
 /**
@@ -135,13 +152,38 @@ export function parsePageMessage(v: unknown): PageToHost | null {
   return { type: 'request', id: v.id, method: v.method as Method, params: v.params };
 }
 
-/** Validate a `view` notification's params: finite angles and a canvas of positive size. */
+function finite3(v: unknown): [number, number, number] | null {
+  return Array.isArray(v) && v.length === 3 && v.every((x) => typeof x === 'number' && Number.isFinite(x)) ? [v[0], v[1], v[2]] : null;
+}
+
+/**
+ * A copy of `v` if it is a camera the server and grmc draw through: finite
+ * position and target that are different points (else the camera has no
+ * direction), a field of view more than 0 and at most `MAX_FOV` degrees.
+ * Null otherwise: the caller falls back to the view's angles.
+ */
+export function usableCamera(v: unknown): CameraParams | null {
+  if (!isObject(v)) return null;
+  const position = finite3(v.position);
+  const target = finite3(v.target);
+  const fov = v.fov;
+  if (!position || !target || position.every((x, i) => x === target[i])) return null;
+  if (typeof fov !== 'number' || !(fov > 0 && fov <= MAX_FOV)) return null;
+  return { position, target, fov };
+}
+
+/**
+ * Validate a `view` notification's params: finite angles and a canvas of
+ * positive size. A camera that is not usable is dropped, not the view: the
+ * export then takes the picture from the angles, as before cameras.
+ */
 export function parseViewParams(v: unknown): ViewParams | null {
   if (!isObject(v) || typeof v.uri !== 'string') return null;
   const { azimuth, elevation, width, height } = v;
   if (typeof azimuth !== 'number' || typeof elevation !== 'number' || !Number.isFinite(azimuth) || !Number.isFinite(elevation)) return null;
   if (typeof width !== 'number' || typeof height !== 'number' || !(width > 0 && height > 0 && Number.isFinite(width) && Number.isFinite(height))) return null;
-  return { uri: v.uri, azimuth, elevation, width, height };
+  const camera = usableCamera(v.camera);
+  return { uri: v.uri, azimuth, elevation, width, height, ...(camera ? { camera } : {}) };
 }
 
 /** Validate a message from the host. */

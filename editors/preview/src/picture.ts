@@ -1,8 +1,9 @@
 // The page's "Save picture", without any DOM: what it asks the host for (the
-// current preview's parameters, seen from the camera's direction, in the
+// current preview's parameters, through the preview's camera, in the
 // canvas' shape) and what the picture file is called. Shared with the
 // extension (its PNG export sizes pictures the same way). Unit-tested.
 
+import { type CameraParams, usableCamera } from './messages.js';
 import type { PictureParams, PreviewParams } from './protocol.js';
 
 /** The longer side of a saved picture, in pixels (the extension's PNG export uses the same). */
@@ -22,20 +23,30 @@ export function pictureSize(width: number, height: number, longest = PICTURE_LON
 /**
  * The `picture` request for what the page shows: the parameters of its
  * preview request (seed, meta-parameters, mode, system, curves) with the
- * camera's direction (degrees, as `viewAngles` gives them; null: the
- * server's automatic view) and the picture's size from the canvas' (CSS
- * pixels; no size, a hidden canvas: the server's default). `live` and
- * `focus` are dropped: the server ignores them for a picture, and a picture
- * must not look as if it registered the live preview or highlighted a rule.
+ * preview's camera (position, the point it orbits, vertical field of view)
+ * and the picture's size from the canvas' (CSS pixels; no size, a hidden
+ * canvas: the server's default). Through the same camera and of the same
+ * aspect as the canvas, the picture frames what the user sees, zoom and pan
+ * included. A camera the server cannot draw through (not finite, no
+ * direction, a field of view out of range) falls back to the camera's
+ * direction, `view` (degrees, as `viewAngles` gives them; null: the server's
+ * automatic view), which the server fits to the model. Never both: the
+ * server refuses that. `live` and `focus` are dropped: the server ignores
+ * them for a picture, and a picture must not look as if it registered the
+ * live preview or highlighted a rule.
  */
 export function pictureParams(
   preview: PreviewParams,
   view: { azimuth: number; elevation: number } | null,
   canvas: { width: number; height: number },
+  camera: CameraParams | null = null,
 ): PictureParams {
   const { live: _live, focus: _focus, spreadSeeds: _spread, ...rest } = preview;
   const out: PictureParams = { ...rest };
-  if (view && Number.isFinite(view.azimuth) && Number.isFinite(view.elevation)) {
+  const usable = usableCamera(camera);
+  if (usable) {
+    out.camera = usable;
+  } else if (view && Number.isFinite(view.azimuth) && Number.isFinite(view.elevation)) {
     // The server takes the elevation in [-90, 90]; rounding error at the poles must not make it refuse.
     out.view = { azimuth: view.azimuth, elevation: Math.max(-90, Math.min(90, view.elevation)) };
   }

@@ -8,6 +8,7 @@
 // format is a change here only.
 
 import type { V3 } from './bezier.js';
+import type { CameraParams } from './messages.js';
 import { pngSize } from './picture.js';
 
 // ---------------------------------------------------------------- requests
@@ -54,12 +55,15 @@ export interface PickParams {
 
 /**
  * Parameters of a picture (LSP `grm/picture`, HTTP POST /api/picture): the
- * preview's parameters (the server ignores `live` and `focus`), where the
- * camera looks from and the picture's size.
+ * preview's parameters (the server ignores `live` and `focus`), the camera
+ * (a perspective one, or the direction of a fitted view) and the picture's
+ * size.
  */
 export interface PictureParams extends PreviewParams {
-  /** Degrees, as `grmc --view`; omitted: the server's automatic view. */
+  /** Degrees, as `grmc --view`: a view fitted to the model; omitted: the server's automatic view. */
   view?: { azimuth: number; elevation: number };
+  /** A perspective camera, as `grmc --camera/--look-at/--fov`, not fitted to the model; never with `view` (the server refuses both). */
+  camera?: CameraParams;
   /** Pixels; omitted: 1024 each. */
   width?: number;
   height?: number;

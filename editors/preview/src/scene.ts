@@ -223,10 +223,22 @@ export class PreviewScene {
     this.onViewChange();
   }
 
-  /** The camera's direction from the point it orbits (not normalised), and the canvas' size in CSS pixels (0 while hidden). */
-  view(): { direction: V3; width: number; height: number } {
-    const d = this.camera.position.clone().sub(this.controls.target);
-    return { direction: [d.x, d.y, d.z], width: this.canvas.clientWidth, height: this.canvas.clientHeight };
+  /**
+   * The camera's direction from the point it orbits (not normalised), the
+   * camera itself (where it is, the point it orbits, its vertical field of
+   * view in degrees: a picture through it frames what the canvas shows), and
+   * the canvas' size in CSS pixels (0 while hidden).
+   */
+  view(): { direction: V3; camera: { position: V3; target: V3; fov: number }; width: number; height: number } {
+    const p = this.camera.position;
+    const t = this.controls.target;
+    return {
+      direction: [p.x - t.x, p.y - t.y, p.z - t.z],
+      // The effective field of view: a camera zoom narrows it (the orbit controls dolly instead, but a zoom must not be lost).
+      camera: { position: [p.x, p.y, p.z], target: [t.x, t.y, t.z], fov: this.camera.getEffectiveFOV() },
+      width: this.canvas.clientWidth,
+      height: this.canvas.clientHeight,
+    };
   }
 
   /** Render at the next animation frame; `then` runs right after that render. */

@@ -1,7 +1,9 @@
 // The `grmc` command line that exports what the preview shows: `grmc derive`
 // for derived systems, `grmc sample --curves` for guided ones, with the
-// preview's seed and meta-parameters, and for a picture the preview's view.
-// Pure, unit-tested.
+// preview's seed and meta-parameters, and for a picture the preview's camera
+// (or its view's direction). Pure, unit-tested.
+
+import { type CameraParams, usableCamera } from '../../preview/src/messages.js';
 
 // The picture's size from the preview canvas' (the page's "Save picture" sizes its pictures the same way).
 export { pictureSize } from '../../preview/src/picture.js';
@@ -24,6 +26,8 @@ export interface ExportRequest {
   system?: string;
   /** With a .png output: where the camera looks from, in degrees (`--view`); none: grmc's own choice. */
   view?: { azimuth: number; elevation: number };
+  /** With a .png output: the preview's camera (`--camera`, `--look-at`, `--fov`), in place of `view` where it is usable. */
+  camera?: CameraParams;
   /** With a .png output: the picture's size in pixels (`--image-size`); none: grmc's 1024x1024. */
   imageSize?: { width: number; height: number };
 }
@@ -31,6 +35,16 @@ export interface ExportRequest {
 /** Two decimals are plenty for degrees; -0 is written 0. */
 function round2(x: number): number {
   return Math.round(x * 100) / 100 || 0;
+}
+
+/**
+ * A finite number as grmc reads it back exactly: JavaScript's shortest
+ * round-trip form (an exponent such as `1e-7` or `1e+21` is one Rust's
+ * parser takes; -0 is written 0). Rounded coordinates could make a camera
+ * and the point it looks at one point, which grmc refuses.
+ */
+function exact(x: number): string {
+  return String(x);
 }
 
 export function exportArgs(r: ExportRequest): string[] {
@@ -44,7 +58,12 @@ export function exportArgs(r: ExportRequest): string[] {
   // The picture flags: grmc refuses them for any other output.
   if (/\.png$/i.test(r.output)) {
     const v = r.view;
-    if (v && Number.isFinite(v.azimuth) && Number.isFinite(v.elevation)) {
+    // Only numbers grmc draws through (finite, two points, a field of view it takes); else the view's angles.
+    const c = usableCamera(r.camera);
+    if (c) {
+      // One argument each with `=`: a negative coordinate is not taken for a flag.
+      args.push(`--camera=${c.position.map(exact).join(',')}`, `--look-at=${c.target.map(exact).join(',')}`, `--fov=${exact(c.fov)}`);
+    } else if (v && Number.isFinite(v.azimuth) && Number.isFinite(v.elevation)) {
       // One argument with `=`: a negative azimuth is not taken for a flag.
       args.push(`--view=${round2(v.azimuth)},${round2(Math.max(-90, Math.min(90, v.elevation)))}`);
     }

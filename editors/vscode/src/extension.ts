@@ -218,7 +218,7 @@ async function exportModel(): Promise<void> {
     [
       { label: 'glTF binary (.glb)', format: 'glb' as ExportFormat },
       { label: 'Wavefront OBJ + MTL (.obj)', format: 'obj' as ExportFormat },
-      { label: 'PNG picture (.png)', format: 'png' as ExportFormat, description: "from the preview's view" },
+      { label: 'PNG picture (.png)', format: 'png' as ExportFormat, description: "through the preview's camera" },
     ],
     { placeHolder: 'Export the model as' },
   );
@@ -231,7 +231,7 @@ async function exportModel(): Promise<void> {
   });
   if (!target) return;
   const last = preview?.host.lastPreview(doc.uri.toString());
-  // A picture from where the preview's camera looks, of the canvas' shape; without a preview, grmc's own view and size.
+  // A picture through the preview's camera (else from where it looks), of the canvas' shape; without a preview, grmc's own view and size.
   const view = preview?.host.lastView(doc.uri.toString());
   const mode = last ? (last.mode === 'sample' ? 'sample' : 'derive') : firstSystemMode(doc.getText());
   const args = exportArgs({
@@ -243,6 +243,7 @@ async function exportModel(): Promise<void> {
     curves: curvesPathFor(grammar),
     system: last?.system,
     view,
+    camera: view?.camera,
     imageSize: view && pictureSize(view.width, view.height),
   });
   const exe = serverPath;

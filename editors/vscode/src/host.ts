@@ -4,9 +4,9 @@
 // editor (read and save the curves file, reveal a rule, save a picture:
 // `grm/picture`'s PNG, which a webview cannot download), forwards the
 // server's `grm/previewUpdated` and the editor's cursor as notifications,
-// and keeps the camera view the page last told (pictures are exported from
-// it). Free of the `vscode` module: the editor and the server are
-// passed in, so the message handling is unit-tested under node.
+// and keeps the camera view the page last told (pictures are exported
+// through its camera). Free of the `vscode` module: the editor and the
+// server are passed in, so the message handling is unit-tested under node.
 
 import { parseCurves } from '../../preview/src/curves.js';
 import { type HostToPage, type Method, type NotificationMethod, type ViewParams, parsePageMessage, parseViewParams } from '../../preview/src/messages.js';
