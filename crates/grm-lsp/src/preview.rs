@@ -148,6 +148,12 @@ pub struct PreviewParams {
     /// 5,000 ms; the result then says `stoppedEarly`).
     #[serde(default)]
     pub budget_ms: Option<u64>,
+    /// Sample mode: show the model the search held after this generation
+    /// (0-based: its best particle wrapped up; `grmc sample --frames`)
+    /// instead of the result; past the last generation run, the result.
+    /// Ignored in derive mode.
+    #[serde(default)]
+    pub generation: Option<u32>,
 }
 
 /// A run of triangles of a part and what made it.
@@ -316,6 +322,10 @@ pub struct SampleOut {
     pub stopped_early: bool,
     /// Where the curves came from (`request` or a file path).
     pub curves: String,
+    /// The generation whose model is shown, when the request asked for one
+    /// (the last generation run: the result); else absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub generation: Option<usize>,
 }
 
 /// `grm/previewUpdated` parameters: a new model, or why there is none.
@@ -696,13 +706,22 @@ fn sample_model(
             p.budget_ms.unwrap_or(5000).min(600_000),
         )),
         cancel: cancel.cloned(),
+        frames: p.generation.is_some(),
         ..grm_sample::SampleOptions::default()
     };
     let run = sampler.sample(&opts).map_err(|e| match e {
         grm_sample::SampleError::Cancelled => Failure::Cancelled,
         e => Failure::Msg(e.to_string()),
     })?;
-    let best = run.best().ok_or("the sampler returned no model")?;
+    // The frame asked for (the last one past the end: the result).
+    let shown = p
+        .generation
+        .map(|g| (g as usize).min(run.frames.len().saturating_sub(1)));
+    let best = match shown {
+        Some(g) => run.frames.get(g),
+        None => run.best(),
+    }
+    .ok_or("the sampler returned no model")?;
     let derive_ms = t0.elapsed().as_secs_f64() * 1e3;
     let t1 = Instant::now();
     let model = best
@@ -740,6 +759,7 @@ fn sample_model(
             candidates: run.candidates.len(),
             stopped_early: run.stopped_early,
             curves: from,
+            generation: shown,
         }),
     })
 }

@@ -597,6 +597,44 @@ async fn preview_sample_mode() {
     });
 }
 
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn preview_sample_generation_shows_the_search_after_it() {
+    let mut c = Client::start().await;
+    let (p, text) = fixture("guided.grm");
+    let u = c.open(&p, &text).await;
+    let _ = c.diagnostics(&u, 1).await;
+    let at = |g: Option<u32>| {
+        let mut req = json!({ "textDocument": { "uri": u }, "budgetMs": 60000 });
+        if let Some(g) = g {
+            req["generation"] = json!(g);
+        }
+        req
+    };
+    let result = c.ok("grm/preview", at(None)).await;
+    assert!(result["sample"].get("generation").is_none());
+    let generations = result["sample"]["generations"].as_u64().expect("count") as u32;
+    assert!(generations > 2);
+    // The last generation, and any past it, is the result.
+    for g in [generations - 1, generations + 5] {
+        let r = c.ok("grm/preview", at(Some(g))).await;
+        assert_eq!(r["sample"]["generation"], u64::from(generations - 1));
+        assert_eq!(r["parts"], result["parts"], "generation {g}");
+        assert_eq!(r["sample"]["objective"], result["sample"]["objective"]);
+    }
+    // The first generation: an earlier, smaller tree, the same on every run.
+    let first = c.ok("grm/preview", at(Some(0))).await;
+    assert_eq!(first["sample"]["generation"], 0);
+    assert_ne!(first["parts"], result["parts"]);
+    assert!(
+        first["stats"]["bones"].as_u64() < result["stats"]["bones"].as_u64(),
+        "{} bones after generation 0, {} at the end",
+        first["stats"]["bones"],
+        result["stats"]["bones"]
+    );
+    let again = c.ok("grm/preview", at(Some(0))).await;
+    assert_eq!(again["parts"], first["parts"]);
+}
+
 /// The answer of a spawned request, within `limit`.
 async fn answer_within(
     task: tokio::task::JoinHandle<Option<tower_lsp_server::jsonrpc::Response>>,
