@@ -9,7 +9,10 @@
 // "Save picture" downloads the server's PNG of the model through the
 // preview's camera, in the canvas' shape (derive mode); the extension's PNG
 // export, from the camera the page tells it, draws the same picture, and a
-// zoom changes both.
+// zoom changes both. The generation scrubber of a sample system shows the
+// model the search held after an earlier generation (and Save picture takes
+// it), goes back to the result at its end, after another seed and after an
+// edit of the grammar; derived systems have none.
 //
 // Needs: `cargo build -p grmc` (or GRMC=path), Debian's chromium
 // (CHROMIUM=path, default /usr/bin/chromium). Screenshots and the measured
@@ -166,10 +169,12 @@ interface Grm {
   supersededAnswers: number;
   lastShownAt: number | null;
   objective: number | null;
+  generation: number | null;
+  generations: number | null;
   lastView: { uri: string; azimuth: number; elevation: number; width: number; height: number; camera?: Camera } | null;
   views: number;
   pictures: number;
-  lastPicture: { name: string; width: number; height: number } | null;
+  lastPicture: { name: string; width: number; height: number; generation?: number } | null;
   pictureError: string | null;
 }
 
@@ -253,6 +258,9 @@ test('derive mode: the model renders, a slider regrows it, a pick names the rule
   const page = await openPage(url);
   const g0 = await waitRegrows(page, 1, 'first model');
   assert.equal(g0.mode, 'derive');
+  // A derived system has no search to scrub.
+  assert.equal(await page.isHidden('#generation-section'), true, 'no generation scrubber in derive mode');
+  assert.equal(g0.generations, null);
   // Without a GPU (SwiftShader here) the view is not multisampled: it would make each frame several times slower.
   assert.ok(g0.renderer.length > 0, 'the page knows its WebGL renderer');
   assert.equal(g0.antialias, !/swiftshader|llvmpipe|softpipe|lavapipe|software|basic render/i.test(g0.renderer), g0.renderer);
@@ -762,6 +770,158 @@ test('sample mode: drawing a curve and dragging its control point regrow the Cal
 
   const median = record('sample', 'examples/calder_tree.grm', 'a control point drag (mouse release)', g0, latencies, parts);
   assert.ok(Number.isFinite(median));
+  assert.deepEqual(pageErrors(page), []);
+  await page.close();
+});
+
+/** Move the generation scrubber to `value` as a drag ends there (its input, then its change). */
+async function scrub(page: Page, value: number): Promise<void> {
+  await page.locator('#generation').evaluate((el: HTMLInputElement, v: number) => {
+    el.value = String(v);
+    el.dispatchEvent(new Event('input', { bubbles: true }));
+    el.dispatchEvent(new Event('change', { bubbles: true }));
+  }, value);
+}
+
+/** The next `POST /api/preview` the page sends, and its parameters. */
+function nextPreviewRequest(page: Page): Promise<Record<string, unknown>> {
+  return page
+    .waitForRequest((r) => r.url().endsWith('/api/preview') && r.method() === 'POST', { timeout: 30_000 })
+    .then((r) => JSON.parse(r.postData() ?? 'null') as Record<string, unknown>);
+}
+
+/** Wait until the page has shown a model after `n` and nothing is on its way. */
+async function settled(page: Page, n: number, what: string): Promise<Grm> {
+  try {
+    await page.waitForFunction(
+      (k) => {
+        const g = (globalThis as unknown as { __grm: Grm }).__grm;
+        return (g.regrows > k && !g.busy && g.regrows === g.delivered) || g.lastError !== null;
+      },
+      n,
+      { timeout: 30_000, polling: 20 },
+    );
+  } catch (e) {
+    throw new Error(`${what}: no model in 30 s (${JSON.stringify(await grm(page))})`, { cause: e });
+  }
+  const g = await grm(page);
+  assert.equal(g.lastError, null, what);
+  return g;
+}
+
+test('sample mode: the generation scrubber shows the model the search held after an earlier generation, Save picture takes it, the end is the result', async () => {
+  const dir = scratch(['calder_tree.grm', 'calder_tree.curves.json', 'leaf.obj', 'trunk.obj']);
+  const grammar = join(dir, 'calder_tree.grm');
+  const url = await view(grammar);
+  const page = await openPage(url);
+  const g0 = await settled(page, 0, 'first model');
+  assert.equal(g0.mode, 'sample');
+  // The Calder tree runs 100 generations: the scrubber spans them and stands at the end, the result.
+  assert.deepEqual([g0.generations, g0.generation], [100, null]);
+  assert.equal(await page.isVisible('#generation-section'), true, 'the scrubber is shown in sample mode');
+  assert.deepEqual(
+    await page.locator('#generation').evaluate((el: HTMLInputElement) => [el.min, el.max, el.value, el.disabled]),
+    ['0', '99', '99', false],
+  );
+  assert.equal(await page.textContent('#generation-value'), '100 / 100 (result)');
+
+  // To the first generation: the request asks for it, and the model shown is the one the search held then.
+  const sent0 = nextPreviewRequest(page);
+  await scrub(page, 0);
+  const req0 = await sent0;
+  assert.equal(req0.generation, 0);
+  const g1 = await settled(page, g0.regrows, 'generation 0');
+  assert.equal(g1.generation, 0);
+  assert.equal(g1.generations, 100, 'the range is still the whole search');
+  // Calder's tree grows a bone per generation: one bone after the first.
+  assert.ok(g1.bones < g0.bones, `${g1.bones} bones after generation 0, ${g0.bones} in the result`);
+  assert.notEqual(g1.objective, g0.objective);
+  assert.equal(await page.textContent('#generation-value'), '1 / 100');
+  assert.match((await page.textContent('#status-text')) ?? '', /generation 1 of 100: cost /);
+  // It is the server's model for the page's parameters (which carry the generation).
+  const params = (await page.evaluate(() => (globalThis as unknown as { __grm: { previewParams(): unknown } }).__grm.previewParams())) as Record<string, unknown>;
+  assert.equal(params.generation, 0);
+  const direct = (await (await fetch(`${url}api/preview`, { method: 'POST', body: JSON.stringify(params) })).json()) as {
+    result: { stats: { bones: number }; sample: { objective: number; generation: number } };
+  };
+  assert.deepEqual([direct.result.stats.bones, direct.result.sample.objective, direct.result.sample.generation], [g1.bones, g1.objective, 0]);
+  await page.screenshot({ path: join(artifacts, 'sample-generation-0.png') });
+
+  // Save picture takes what is shown: the generation is in the picture request, and the PNG is not the result's.
+  const sentPicture = page.waitForRequest((r) => r.url().endsWith('/api/picture') && r.method() === 'POST');
+  const downloaded = page.waitForEvent('download', { timeout: 60_000 });
+  await page.click('#save-picture');
+  const body = JSON.parse((await sentPicture).postData() ?? 'null') as Record<string, unknown>;
+  const saved = join(artifacts, 'sample-generation-0-picture.png');
+  await (await downloaded).saveAs(saved);
+  assert.equal(body.generation, 0);
+  assert.equal('live' in body, false);
+  const png = readFileSync(saved);
+  assert.ok(Buffer.from((await picture(url, body)).png, 'base64').equals(png), 'the download is the PNG the server drew for generation 0');
+  const { generation: _g, ...atEnd } = body;
+  assert.ok(!Buffer.from((await picture(url, atEnd)).png, 'base64').equals(png), "the result's picture differs");
+  assert.equal((await grm(page)).lastPicture?.generation, 0);
+  assert.match((await page.textContent('#status-text')) ?? '', /picture calder_tree\.png \(\d+×\d+, seed \d+, generation 1\) downloaded/);
+
+  // Back to the end: no generation asked, the result again.
+  const g1b = await grm(page);
+  const sentEnd = nextPreviewRequest(page);
+  await scrub(page, 99);
+  assert.equal('generation' in (await sentEnd), false, 'the end asks for the result');
+  const g2 = await settled(page, g1b.regrows, 'back to the end');
+  assert.deepEqual([g2.generation, g2.bones, g2.objective, g2.triangles], [null, g0.bones, g0.objective, g0.triangles]);
+  assert.equal(await page.textContent('#generation-value'), '100 / 100 (result)');
+
+  // A drag of the scrubber: its moves are merged while a model is on its way (as the sliders' are), and where it
+  // is released is what is shown.
+  const asked: unknown[] = [];
+  const onRequest = (r: { url(): string; method(): string; postData(): string | null }) => {
+    if (r.url().endsWith('/api/preview') && r.method() === 'POST') asked.push((JSON.parse(r.postData() ?? 'null') as { generation?: number }).generation);
+  };
+  page.on('request', onRequest);
+  await page.locator('#generation').evaluate((el: HTMLInputElement) => {
+    for (const v of [5, 10, 15, 20, 25, 30, 35, 40]) {
+      el.value = String(v);
+      el.dispatchEvent(new Event('input', { bubbles: true }));
+    }
+    el.dispatchEvent(new Event('change', { bubbles: true }));
+  });
+  const g3 = await settled(page, g2.regrows, 'generation 40');
+  page.off('request', onRequest);
+  assert.equal(g3.generation, 40);
+  assert.equal(await page.textContent('#generation-value'), '41 / 100');
+  // A request reads the page's state when it goes, after the moves of its task: the first asks for 40 already, and
+  // the release, asking the same, shares its answer rather than racing it to the server (which may take the two in
+  // either order, and the later to arrive supersedes the other).
+  assert.deepEqual(asked, [40], `the requests for 8 moves and the release: ${JSON.stringify(asked)}`);
+  assert.equal(g3.regrows - g2.regrows, 1);
+
+  // Another seed is another search: the scrubber goes back to the end and the new search's result is shown.
+  const sentSeed = nextPreviewRequest(page);
+  await page.click('#next-variation');
+  const reqSeed = await sentSeed;
+  assert.equal(reqSeed.seed, (g3.seed ?? 0) + 1);
+  assert.equal('generation' in reqSeed, false, 'a new seed asks for its result');
+  const g4 = await settled(page, g3.regrows, 'next variation');
+  assert.deepEqual([g4.generation, g4.seed], [null, (g3.seed ?? 0) + 1]);
+  assert.equal(await page.locator('#generation').inputValue(), '99');
+
+  // The grammar edited while scrubbed: the server regrows the live request (a generation's model), the page
+  // does not show it and asks for the new search's result.
+  const sent10 = nextPreviewRequest(page);
+  await scrub(page, 10);
+  assert.equal((await sent10).generation, 10);
+  const g5 = await settled(page, g4.regrows, 'generation 10');
+  assert.equal(g5.generation, 10);
+  const sentAfterEdit = nextPreviewRequest(page);
+  writeFileSync(grammar, readFileSync(grammar, 'utf8') + '\n// edited\n');
+  const reqAfterEdit = await sentAfterEdit;
+  assert.equal('generation' in reqAfterEdit, false, 'after an edit the page asks for the result');
+  const g6 = await settled(page, g5.regrows, 'after the edit');
+  assert.equal(g6.generation, null);
+  assert.equal(g6.bones, g4.bones, 'the same search: the same result');
+  assert.equal(g6.regrows - g5.regrows, 1, "the generation's model of the edited grammar was not shown");
+  assert.equal(await page.textContent('#generation-value'), '100 / 100 (result)');
   assert.deepEqual(pageErrors(page), []);
   await page.close();
 });

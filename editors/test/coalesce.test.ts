@@ -3,7 +3,7 @@
 // shown or reported, never more than one stale and one current request.
 import assert from 'node:assert/strict';
 import { test } from 'node:test';
-import { Coalescer, type Delivery } from '../preview/src/coalesce.js';
+import { Coalescer, type Delivery, SharedRequest } from '../preview/src/coalesce.js';
 import { REQUEST_CANCELLED, SERVER_CANCELLED } from '../preview/src/messages.js';
 import { TransportError, isSuperseded } from '../preview/src/transport.js';
 
@@ -176,4 +176,53 @@ test('superseded errors are recognised by their code only', () => {
   assert.equal(isSuperseded(new TransportError('superseded', -32801)), false, 'ContentModified is another matter');
   assert.equal(isSuperseded(new TransportError('superseded')), false);
   assert.equal(isSuperseded(new Error('superseded')), false);
+});
+
+test('shared request: a request for the key on its way shares its answer; once answered, or forgotten, it is sent again', async () => {
+  const shared = new SharedRequest<string>();
+  const sent: string[] = [];
+  const pending: Array<{ resolve: (r: string) => void; reject: (e: unknown) => void }> = [];
+  const send = (key: string) => () => {
+    sent.push(key);
+    return new Promise<string>((resolve, reject) => pending.push({ resolve, reject }));
+  };
+  const a1 = shared.run('a', send('a'));
+  const a2 = shared.run('a', send('a'));
+  assert.equal(a2, a1, 'the same answer');
+  assert.deepEqual(sent, ['a']);
+  // Another key is another request, and the one on its way from then on.
+  const b = shared.run('b', send('b'));
+  assert.deepEqual(sent, ['a', 'b']);
+  const a3 = shared.run('a', send('a'));
+  assert.notEqual(a3, a1);
+  assert.deepEqual(sent, ['a', 'b', 'a']);
+  pending[0].resolve('A1');
+  pending[1].resolve('B');
+  pending[2].resolve('A3');
+  assert.deepEqual(await Promise.all([a1, a2, b, a3]), ['A1', 'A1', 'B', 'A3']);
+  // Answered: the next request for the key goes.
+  void shared.run('a', send('a'));
+  assert.equal(sent.length, 4);
+  // A failure is shared too, and the key is free again after it.
+  const f1 = shared.run('f', send('f'));
+  const f2 = shared.run('f', send('f'));
+  pending[4].reject(new Error('refused'));
+  await assert.rejects(f1, /refused/);
+  await assert.rejects(f2, /refused/);
+  void shared.run('f', send('f'));
+  assert.deepEqual(sent.slice(4), ['f', 'f']);
+  // Forgotten (the host changed): sent again though one is on its way.
+  shared.forget();
+  void shared.run('f', send('f'));
+  assert.deepEqual(sent.slice(4), ['f', 'f', 'f']);
+  // A send that throws is a failed answer, not an exception of run.
+  await assert.rejects(
+    shared.run('t', () => {
+      throw new Error('no host');
+    }),
+    /no host/,
+  );
+  void shared.run('t', send('t'));
+  assert.equal(sent[sent.length - 1], 't');
+  for (const p of pending.slice(5)) p.resolve('');
 });

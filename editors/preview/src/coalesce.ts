@@ -150,3 +150,45 @@ export class Coalescer<S, R> {
     if (!this.dirty) this.fail(e);
   }
 }
+
+/**
+ * A request for the same thing as the one still on its way is that request:
+ * its answer is shared, nothing is sent again. The page reads its state
+ * when a request goes, so a release right after the move that sent it (a
+ * scrubber or slider moved and let go in one task) asks for what the
+ * request in flight asks for already. Sent twice, the two would race to the
+ * host, which may take them in either order (`grmc view` answers each
+ * connection in a thread of its own): the later to arrive supersedes the
+ * other, and if that is the older one, the only model built answers a
+ * request the coalescer counts as stale, and nothing would be shown.
+ */
+export class SharedRequest<R> {
+  private current: { key: string; answer: Promise<R> } | null = null;
+
+  /** `send()`'s answer, or the answer of the request in flight for the same `key`. */
+  run(key: string, send: () => Promise<R>): Promise<R> {
+    if (this.current?.key === key) return this.current.answer;
+    let answer: Promise<R>;
+    try {
+      answer = send();
+    } catch (e) {
+      answer = Promise.reject(e);
+    }
+    const entry = { key, answer };
+    this.current = entry;
+    const done = () => {
+      if (this.current === entry) this.current = null;
+    };
+    answer.then(done, done);
+    return answer;
+  }
+
+  /**
+   * The host's side changed (another document shown, the document edited,
+   * the server restarted): the next request is sent even for the same
+   * key, since the answer on its way may be of the old state (or never come).
+   */
+  forget(): void {
+    this.current = null;
+  }
+}

@@ -3,15 +3,18 @@
 // browser served by `grmc view`.
 
 import type { V3 } from './bezier.js';
-import { Coalescer, type Delivery } from './coalesce.js';
+import { Coalescer, type Delivery, SharedRequest } from './coalesce.js';
 import { PARAM_KEYS, PARAM_RANGES, type ParamKey, checkParam, cloneSet, setProblem } from './curves.js';
+import { isSearchResult, scrubberView, showsUpdate } from './generation.js';
 import { type NotificationMethod, type ViewParams, usableCamera, viewAngles } from './messages.js';
 import { pictureFileName, pictureParams } from './picture.js';
 import {
   type Origin,
   type PickParams,
   type PickResult,
+  type PreviewParams,
   type PreviewResult,
+  type SampleInfo,
   type SceneModel,
   decodePick,
   decodePicture,
@@ -51,6 +54,10 @@ interface DebugInfo {
   lastShownAt: number | null;
   /** The sampler's objective of the model shown (sample mode). */
   objective: number | null;
+  /** The generation whose model is shown (sample mode, 0-based; null: the search's result or a derived model). */
+  generation: number | null;
+  /** Generations the shown model's search ran (sample mode; null: a derived model). */
+  generations: number | null;
   /** The parameters of the page's next preview request (for tests that ask the server themselves). */
   previewParams: () => unknown;
   /** Models shown so far. */
@@ -98,7 +105,7 @@ interface DebugInfo {
   views: number;
   /** Pictures made with "Save picture", the last one (its file name, size, and where the host saved it), and why the last attempt failed. */
   pictures: number;
-  lastPicture: { name: string; width: number; height: number; saved?: string | null } | null;
+  lastPicture: { name: string; width: number; height: number; generation?: number; saved?: string | null } | null;
   pictureError: string | null;
 }
 
@@ -115,6 +122,8 @@ class App {
   private readonly state = new PageState();
   private readonly scene: PreviewScene;
   private readonly coalescer: Coalescer<null, Fetched>;
+  /** The preview request on its way, shared by a request for the same parameters. */
+  private readonly previewRequest = new SharedRequest<Fetched>();
   private last: PreviewResult | null = null;
   private framed = false;
   private tool: 'orbit' | 'draw' = 'orbit';
@@ -179,6 +188,8 @@ class App {
       },
       lastShownAt: null,
       objective: null,
+      generation: null,
+      generations: null,
       previewParams: () => this.state.previewParams(),
       regrows: 0,
       latencies: [],
@@ -229,6 +240,8 @@ class App {
 
   private notified(method: NotificationMethod, params: unknown): void {
     const p = (params ?? {}) as Record<string, unknown>;
+    // The host's side changed: a request for the page's (same) state is sent anew, not shared with one on its way.
+    if (method !== 'cursor') this.previewRequest.forget();
     if (method === 'document' && typeof p.uri === 'string') {
       if (p.uri !== this.state.uri) {
         this.state.setDocument(p.uri);
@@ -251,9 +264,14 @@ class App {
         return;
       }
       if (u.uri !== this.state.uri) return;
+      // The document was edited: the same parameters run a new search, whose result the scrubber shows.
+      this.state.showResult();
+      this.refreshScrubber();
       // Only a model of the state the page shows (not of a gallery or spread request).
       if (u.result && this.state.seed !== null && u.result.seed !== this.state.seed) return;
-      if (u.result) this.show({ result: u.result, editedAt: performance.now(), final: true });
+      // A generation's model: the server regrew a scrubbed live request; the new search's result is asked for.
+      if (u.result && !showsUpdate(u.result)) this.regrow();
+      else if (u.result) this.show({ result: u.result, editedAt: performance.now(), final: true });
       else if (u.error) this.showError(u.error);
     } else if (method === 'curvesChanged') {
       if (p.uri !== this.state.uri || this.state.mode !== 'sample' || this.gesture.kind !== 'none') return;
@@ -306,10 +324,16 @@ class App {
 
   private async fetchPreview(): Promise<Fetched> {
     await this.prepareRequest();
+    const params = this.state.previewParams();
+    // The state of the request on its way (read when it went, after the edits of its task): its answer is this one's.
+    return this.previewRequest.run(JSON.stringify(params), () => this.requestPreview(params));
+  }
+
+  private async requestPreview(params: PreviewParams): Promise<Fetched> {
     try {
       const t0 = performance.now();
       const timing: RequestTiming = {};
-      const raw = await this.transport.request('preview', this.state.previewParams(), timing);
+      const raw = await this.transport.request('preview', params, timing);
       const t1 = performance.now();
       const result = decodePreview(raw);
       const breakdown: Record<string, number> = { host: t1 - t0, decode: performance.now() - t1 };
@@ -348,14 +372,17 @@ class App {
       const params = pictureParams(this.state.previewParams(), viewAngles(...v.direction), v, v.camera);
       const r = decodePicture(await this.transport.request('picture', params));
       const name = pictureFileName(uri);
+      // A scrubbed search: the picture is of the generation shown, and says so.
+      const generation = params.generation;
+      const at = generation !== undefined ? `, generation ${generation + 1}` : '';
       if (r.png) {
         download(r.png, name);
-        this.setStatus(`picture ${name} (${r.width}×${r.height}, seed ${r.seed}) downloaded`);
+        this.setStatus(`picture ${name} (${r.width}×${r.height}, seed ${r.seed}${at}) downloaded`);
       } else {
-        this.setStatus(r.saved ? `picture saved to ${r.saved} (${r.width}×${r.height}, seed ${r.seed})` : 'picture not saved');
+        this.setStatus(r.saved ? `picture saved to ${r.saved} (${r.width}×${r.height}, seed ${r.seed}${at})` : 'picture not saved');
       }
       this.debug.pictures++;
-      this.debug.lastPicture = { name, width: r.width, height: r.height, ...(r.png ? {} : { saved: r.saved }) };
+      this.debug.lastPicture = { name, width: r.width, height: r.height, ...(generation !== undefined ? { generation } : {}), ...(r.png ? {} : { saved: r.saved }) };
     } catch (e) {
       // Refused (e.g. the program has errors): said in the status line; the model on screen stays as it is.
       const msg = String((e as Error).message ?? e);
@@ -383,6 +410,8 @@ class App {
    */
   private regrow(editedAt = performance.now(), final = true): void {
     if (!this.state.uri) return;
+    // After an edit of the seed, a meta-parameter or the curves the scrubber is back at the end: shown at once.
+    this.refreshScrubber();
     this.setStatus('growing…');
     this.coalescer.trigger(editedAt, final);
   }
@@ -424,6 +453,8 @@ class App {
         this.debug.regrows++;
         this.debug.lastShownAt = now;
         this.debug.objective = r.sample?.objective ?? null;
+        this.debug.generation = r.sample && !isSearchResult(r.sample) ? r.sample.generation : null;
+        this.debug.generations = r.sample?.generations ?? null;
         this.debug.lastLatencyMs = ms;
         this.debug.latencies.push(ms);
         this.debug.meshCount = this.scene.meshCount;
@@ -489,7 +520,12 @@ class App {
       .join(', ');
     if (t) parts.push(t);
     if (r.sample) {
-      parts.push(`cost ${r.sample.objective.toFixed(1)} after ${r.sample.generations} generations${r.sample.stoppedEarly ? ' (stopped by the time budget)' : ''}`);
+      const s = r.sample;
+      parts.push(
+        isSearchResult(s) || s.generation === null
+          ? `cost ${s.objective.toFixed(1)} after ${s.generations} generations${s.stoppedEarly ? ' (stopped by the time budget)' : ''}`
+          : `generation ${s.generation + 1} of ${s.generations}: cost ${s.objective.toFixed(1)}`,
+      );
     }
     if (ms !== null) parts.push(`on screen in ${ms.toFixed(0)} ms`);
     // The model's own warnings (why a preview is empty or lacks shapes); the help is in the tooltip.
@@ -528,6 +564,20 @@ class App {
       this.regrow();
     });
     $('next-variation').addEventListener('click', () => this.nextVariation());
+    const scrubber = $<HTMLInputElement>('generation');
+    scrubber.addEventListener('input', () => {
+      this.state.setGeneration(Number(scrubber.value), this.shownSample()?.generations ?? 0);
+      // A move of the scrubber: merged with the next ones while a model is on its way, as the sliders' are.
+      this.regrow(performance.now(), false);
+    });
+    // Released: the last position does not wait for a stale model.
+    scrubber.addEventListener('change', () => this.released(performance.now(), false));
+    // Back to the end, the search's result.
+    scrubber.addEventListener('dblclick', () => {
+      if (this.state.generation === null) return;
+      this.state.showResult();
+      this.regrow();
+    });
     $('frame').addEventListener('click', () => {
       if (this.last?.model.bounds) this.scene.frame(this.last.model.bounds);
     });
@@ -846,10 +896,29 @@ class App {
 
   private refreshPanel(): void {
     $<HTMLInputElement>('seed').value = String(this.state.seed ?? 0);
+    this.refreshScrubber();
     this.refreshParams();
     this.refreshCurves();
     this.refreshCurveList();
     this.refreshRules();
+  }
+
+  /** The last search's sample info (its number of generations), if the last model is a sample system's. */
+  private shownSample(): SampleInfo | null {
+    return this.last?.mode === 'sample' ? this.last.sample : null;
+  }
+
+  /** The generation scrubber: hidden in derive mode; its range is the last search's generations, its position the state's. */
+  private refreshScrubber(): void {
+    const v = scrubberView(this.state.mode, this.shownSample(), this.state.generation);
+    $('generation-section').hidden = v.hidden;
+    const slider = $<HTMLInputElement>('generation');
+    // The range first: a value past the old maximum would be clamped.
+    slider.max = String(v.max);
+    slider.value = String(v.value);
+    slider.disabled = v.disabled;
+    slider.title = v.title;
+    $('generation-value').textContent = v.label;
   }
 
   private refreshParams(): void {
@@ -1043,7 +1112,8 @@ class App {
       const fig = grid.children[i] as HTMLElement;
       const cap = fig.querySelector('figcaption') as HTMLElement;
       try {
-        const r = decodePreview(await this.transport.request('preview', { ...this.state.previewParams(), seed, focus: undefined, live: false }));
+        // Other seeds are other searches: their results, not the scrubbed generation.
+        const r = decodePreview(await this.transport.request('preview', { ...this.state.previewParams(), seed, focus: undefined, generation: undefined, live: false }));
         if (token !== this.galleryToken) return;
         (fig.querySelector('img') as HTMLImageElement).src = this.thumbs.render(r.model, [cam.x, cam.y, cam.z]);
         cap.textContent = `seed ${seed}`;

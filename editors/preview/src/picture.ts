@@ -22,7 +22,8 @@ export function pictureSize(width: number, height: number, longest = PICTURE_LON
 
 /**
  * The `picture` request for what the page shows: the parameters of its
- * preview request (seed, meta-parameters, mode, system, curves) with the
+ * preview request (seed, meta-parameters, mode, system, curves, and the
+ * generation the scrubber shows of a sample system's search) with the
  * preview's camera (position, the point it orbits, vertical field of view)
  * and the picture's size from the canvas' (CSS pixels; no size, a hidden
  * canvas: the server's default). Through the same camera and of the same

@@ -43,6 +43,12 @@ export interface PreviewParams {
   spreadSeeds?: number;
   /** Ask the server to send `grm/previewUpdated` after edits. */
   live?: boolean;
+  /**
+   * Sample mode: show the model the search held after this generation
+   * (0-based, as `grmc sample --frames` numbers them) instead of its result;
+   * at or past the last generation run, the result. Ignored in derive mode.
+   */
+  generation?: number;
 }
 
 /** Parameters of a pick (LSP `grm/pick`, HTTP POST /api/pick): a triangle of a part, or a bone. */
@@ -158,6 +164,8 @@ export interface SampleInfo {
   stoppedEarly: boolean;
   /** Where the curves came from: `request` or a file path. */
   curves: string;
+  /** The generation whose model this is (0-based), when the request asked for one; null: the search's result. */
+  generation: number | null;
 }
 
 /** A warning about the model itself (W0013 no triangles, W0014 geometry left out). */
@@ -457,6 +465,7 @@ export function decodePreview(v: unknown): PreviewResult {
       candidates: optNum(v.sample.candidates, 0),
       stoppedEarly: v.sample.stoppedEarly === true,
       curves: str(v.sample.curves),
+      generation: typeof v.sample.generation === 'number' && Number.isInteger(v.sample.generation) && v.sample.generation >= 0 ? v.sample.generation : null,
     };
   }
   const stats = numberRecord(v.stats);

@@ -4,6 +4,7 @@
 
 import { type Bezier, type V3, fitCubicBezier } from './bezier.js';
 import { type Curve, type CurveParams, type CurveSet, DEFAULT_PARAMS, cloneSet, freshName, parseCurves, serializeCurves } from './curves.js';
+import { GenerationScrub, searchKey } from './generation.js';
 import type { ParamInfo, Position, PreviewParams, PreviewResult } from './protocol.js';
 
 export class PageState {
@@ -28,15 +29,56 @@ export class PageState {
   private redoStack: CurveSet[] = [];
   /** The set when the current edit (a drag, a stroke) began. */
   private editBase: CurveSet | null = null;
+  /** Sample mode: the generation scrubber's position in the current search. */
+  private readonly scrub = new GenerationScrub();
 
-  /** The parameters of the next preview request (live: the server regrows it after edits). */
+  /**
+   * The parameters of the next preview request (live: the server regrows it
+   * after edits), with the generation the scrubber shows (sample mode; none:
+   * the search's result).
+   */
   previewParams(): PreviewParams {
+    const p = this.searchParams();
+    const g = this.generationOf(p);
+    if (g !== null) p.generation = g;
+    return p;
+  }
+
+  /** The preview parameters without the generation. */
+  private searchParams(): PreviewParams {
     const p: PreviewParams = { textDocument: { uri: this.uri }, mode: this.mode, live: true };
     if (this.seed !== null) p.seed = this.seed;
     if (Object.keys(this.params).length > 0) p.params = { ...this.params };
     if (this.mode === 'sample' && this.curves && this.curves.curves.length > 0) p.curves = JSON.parse(serializeCurves(this.curves));
     if (this.focus) p.focus = { ...this.focus };
     return p;
+  }
+
+  /** The scrubber's generation for the search `p` asks for: none in derive mode, and none once anything that decides the search changed. */
+  private generationOf(p: PreviewParams): number | null {
+    // Asked in derive mode too: the mode is part of the search, so a change of it puts the scrubber back at the end.
+    const g = this.scrub.current(searchKey(p));
+    return this.mode === 'sample' ? g : null;
+  }
+
+  /**
+   * The generation the scrubber shows (0-based; null: the search's result).
+   * Back to null for good once the seed, a meta-parameter, the curves, the
+   * mode or the document changed (a new search).
+   */
+  get generation(): number | null {
+    return this.generationOf(this.searchParams());
+  }
+
+  /** Move the scrubber to `position` (0-based) of a search of `generations` generations; the last one is the result. */
+  setGeneration(position: number, generations: number): void {
+    if (this.mode !== 'sample') return;
+    this.scrub.set(position, generations, searchKey(this.searchParams()));
+  }
+
+  /** The scrubber back to the end: the document was edited, so the same parameters run a new search, whose result is shown. */
+  showResult(): void {
+    this.scrub.reset();
   }
 
   /** Switch to another document: everything document-specific is reset. */
@@ -52,6 +94,7 @@ export class PageState {
     this.curvesError = null;
     this.mode = 'derive';
     this.focus = null;
+    this.scrub.reset();
   }
 
   /** Take what a preview result says about the grammar (mode, system, seed, parameters). */
