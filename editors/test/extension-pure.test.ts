@@ -16,6 +16,15 @@ test('export: sample systems use grmc sample with the curves file', () => {
   assert.deepEqual(exportArgs({ grammar: '/w/t.grm', output: '/w/t.obj', mode: 'sample', curves: '/w/t.curves.json', system: 'Tree' }), [
     'sample', '/w/t.grm', '--system', 'Tree', '--curves', '/w/t.curves.json', '-o', '/w/t.obj',
   ]);
+  // A scrubbed search: the generation shown; a result (none), or a bad number, adds nothing; derive mode never.
+  const base = { grammar: '/w/t.grm', output: '/w/t.glb', curves: '/w/t.curves.json' };
+  assert.deepEqual(exportArgs({ ...base, mode: 'sample', generation: 12 }), [
+    'sample', '/w/t.grm', '--curves', '/w/t.curves.json', '--generation', '12', '-o', '/w/t.glb',
+  ]);
+  for (const generation of [undefined, -1, 1.5, Number.NaN]) {
+    assert.ok(!exportArgs({ ...base, mode: 'sample', generation }).includes('--generation'), String(generation));
+  }
+  assert.ok(!exportArgs({ ...base, mode: 'derive', generation: 3 }).includes('--generation'));
   assert.equal(defaultOutput('/w/calder_tree.grm', 'glb'), '/w/calder_tree.glb');
   assert.equal(defaultOutput('/w/calder_tree.grm', 'obj'), '/w/calder_tree.obj');
 });

@@ -21,7 +21,11 @@ function fakeHost(overrides: Partial<HostDeps> = {}) {
   const deps: HostDeps = {
     request: async (method, params) => {
       requests.push([method, params]);
-      if (method === 'grm/preview') return { uri: (params as { textDocument: { uri: string } }).textDocument.uri, mode: 'sample', seed: 9, system: 'Tree' };
+      if (method === 'grm/preview') {
+        const p = params as { textDocument: { uri: string }; generation?: number };
+        // A scrubbed search says which generation it shows.
+        return { uri: p.textDocument.uri, mode: 'sample', seed: 9, system: 'Tree', ...(p.generation !== undefined ? { sample: { generation: p.generation } } : {}) };
+      }
       if (method === 'textDocument/documentSymbol') return [{ name: 'spread', kind: 13, detail: '30 in 10 .. 60' }];
       if (method === 'grm/picture') {
         const p = params as { width?: number; height?: number; seed?: number };
@@ -99,6 +103,9 @@ test('preview requests go to grm/preview and the answer comes back with the same
   assert.deepEqual(requests, [['grm/preview', params]]);
   assert.deepEqual(posted.at(-1), { type: 'response', id: 7, result: { uri: 'file:///t.grm', mode: 'sample', seed: 9, system: 'Tree' } });
   assert.deepEqual(host.lastPreview('file:///t.grm'), { params: { spread: 40 }, mode: 'sample', seed: 9, system: 'Tree' });
+  // A scrubbed search: the export writes the generation shown.
+  await host.handle({ type: 'request', id: 8, method: 'preview', params: { ...params, generation: 4 } });
+  assert.equal(host.lastPreview('file:///t.grm')?.generation, 4);
 });
 
 test('symbols come from textDocument/documentSymbol of the shown document', async () => {

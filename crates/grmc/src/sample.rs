@@ -115,6 +115,12 @@ pub struct SampleArgs {
     /// --best.
     #[arg(long, requires = "output")]
     pub frames: bool,
+    /// Report and write the model the search held after generation K
+    /// (0-based; its best particle wrapped up, the preview's generation
+    /// scrubber) instead of the result; past the last generation run, the
+    /// result. Not with --frames or --best.
+    #[arg(long, value_name = "K", conflicts_with_all = ["frames", "best"])]
+    pub generation: Option<u32>,
     #[command(flatten)]
     pub image: crate::derive::ImageArgs,
 }
@@ -324,7 +330,7 @@ pub fn run(args: SampleArgs) -> Outcome {
             .max_memory
             .map_or(grm_sample::DEFAULT_MAX_BYTES, |m| m << 20),
         cancel: None,
-        frames: args.frames,
+        frames: args.frames || args.generation.is_some(),
     };
     let result = match sampler.sample(&opts) {
         Ok(r) => r,
@@ -377,10 +383,24 @@ pub fn run(args: SampleArgs) -> Outcome {
     if args.stats {
         print_generations(&result.generations);
     }
-    for (k, m) in result.models.iter().enumerate() {
+    // --generation: that generation's model stands for the result.
+    let shown = args
+        .generation
+        .map(|g| (g as usize).min(result.frames.len().saturating_sub(1)));
+    let reported: &[grm_sample::SampledModel] = match shown {
+        Some(g) => {
+            outln!(
+                "generation {g} of 0..{} (the model the search held after it):",
+                result.frames.len().saturating_sub(1)
+            );
+            result.frames.get(g..=g).unwrap_or(&[])
+        }
+        None => &result.models,
+    };
+    for (k, m) in reported.iter().enumerate() {
         let b = &m.cost;
         let (_, skeleton, wrapup, geometry) = m.tree.counts();
-        let rank = if result.models.len() > 1 {
+        let rank = if reported.len() > 1 {
             format!("model {}: ", k + 1)
         } else {
             String::new()
@@ -442,7 +462,7 @@ pub fn run(args: SampleArgs) -> Outcome {
         return crate::derive::export_frame_models(&loaded, &models, path, &args.image);
     }
     if let Some(path) = &args.output {
-        for (k, m) in result.models.iter().enumerate() {
+        for (k, m) in reported.iter().enumerate() {
             let model = match m.build(&loaded.program, &BuildOptions::default()) {
                 Ok(model) => model,
                 Err(e) => {

@@ -281,6 +281,23 @@ fn frames_write_a_model_per_generation_and_the_last_is_the_result() {
         last
     );
 
+    // --generation K writes frame K; past the last, the result.
+    let g0 = dir.path().join("g0.glb");
+    let o = run(&["--generation", "0", "-o", g0.to_str().expect("utf-8")]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(0), "{out}");
+    assert!(out.contains("generation 0 of 0..11"), "{out}");
+    assert_eq!(
+        std::fs::read(&g0).expect("g0"),
+        std::fs::read(dir.path().join("t-00.glb")).expect("first frame")
+    );
+    std::fs::remove_file(&g0).expect("rm");
+    let past = dir.path().join("past.glb");
+    let o = run(&["--generation", "50", "-o", past.to_str().expect("utf-8")]);
+    assert_eq!(o.status.code(), Some(0));
+    assert_eq!(std::fs::read(&past).expect("past"), last);
+    std::fs::remove_file(&past).expect("rm");
+
     // Pictures: one per generation, all the same size.
     let pics = dir.path().join("pics");
     std::fs::create_dir(&pics).expect("mkdir");
@@ -301,6 +318,14 @@ fn frames_write_a_model_per_generation_and_the_last_is_the_result() {
             "use one of them",
         ),
         (vec!["--frames"], "--output <OUTPUT>"),
+        (
+            vec!["--generation", "1", "--frames", "-o", "x.glb"],
+            "cannot be used with",
+        ),
+        (
+            vec!["--generation", "1", "--best", "2"],
+            "cannot be used with",
+        ),
     ] {
         let o = run(&extra);
         let err = String::from_utf8_lossy(&o.stderr);

@@ -23,6 +23,8 @@ export interface ExportRequest {
   params?: Record<string, unknown>;
   /** The curves file (sample mode). */
   curves?: string;
+  /** Sample mode: the generation of the search the preview shows (`--generation`); none: the result. */
+  generation?: number;
   system?: string;
   /** With a .png output: where the camera looks from, in degrees (`--view`); none: grmc's own choice. */
   view?: { azimuth: number; elevation: number };
@@ -51,6 +53,9 @@ export function exportArgs(r: ExportRequest): string[] {
   const args = [r.mode === 'sample' ? 'sample' : 'derive', r.grammar];
   if (r.system) args.push('--system', r.system);
   if (r.mode === 'sample' && r.curves) args.push('--curves', r.curves);
+  if (r.mode === 'sample' && r.generation !== undefined && Number.isInteger(r.generation) && r.generation >= 0) {
+    args.push('--generation', String(r.generation));
+  }
   if (r.seed !== undefined && Number.isInteger(r.seed) && r.seed >= 0) args.push('--seed', String(r.seed));
   for (const [name, value] of Object.entries(r.params ?? {}).sort(([a], [b]) => (a < b ? -1 : a > b ? 1 : 0))) {
     if (typeof value === 'number' && Number.isFinite(value)) args.push('--param', `${name}=${value}`);

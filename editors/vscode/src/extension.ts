@@ -242,6 +242,7 @@ async function exportModel(): Promise<void> {
     params: last?.params,
     curves: curvesPathFor(grammar),
     system: last?.system,
+    generation: last?.generation,
     view,
     camera: view?.camera,
     imageSize: view && pictureSize(view.width, view.height),

@@ -46,6 +46,14 @@ export interface LastPreview {
   mode: string | undefined;
   seed: number | undefined;
   system: string | undefined;
+  /** The generation of a scrubbed search shown (sample mode, `sample.generation`); undefined: the result. */
+  generation?: number;
+}
+
+/** `{ generation }` when a preview result shows a generation of its search (`sample.generation`), else nothing. */
+function generationShown(r: Record<string, unknown>): { generation?: number } {
+  const g = isObject(r.sample) ? r.sample.generation : undefined;
+  return typeof g === 'number' && Number.isInteger(g) && g >= 0 ? { generation: g } : {};
 }
 
 /** Two document URIs name the same file (clients and servers escape differently). */
@@ -191,6 +199,7 @@ export class PreviewHost {
           mode: typeof r.mode === 'string' ? r.mode : typeof p.mode === 'string' ? p.mode : undefined,
           seed: typeof r.seed === 'number' ? r.seed : typeof p.seed === 'number' ? p.seed : undefined,
           system: typeof r.system === 'string' ? r.system : undefined,
+          ...generationShown(r),
         });
         return result;
       }
