@@ -13,7 +13,11 @@
 //!   toward a point with a vertical field of view ([`View::Camera`], the
 //!   preview's orbit camera: what the preview shows, zoom and pan
 //!   included), clipped at a near plane a thousandth of the way to the
-//!   target. [`View::Auto`] looks straight
+//!   target and at a guard band a picture size around the picture (so
+//!   what the rasterizer gets keeps f32's precision, however narrow the
+//!   view or near the plane), with depth relative to the model's far end
+//!   (so it keeps its precision however far the camera stands).
+//!   [`View::Auto`] looks straight
 //!   down -z at a model that is flat in the xy plane (the classic 2D
 //!   L-systems, as the SVG export shows them) and from
 //!   [`AUTO_AZIMUTH`]/[`AUTO_ELEVATION`] at anything else. The projection
@@ -44,7 +48,8 @@
 //! Invariants: the picture depends only on the model, the options and the
 //! framing (no clock; bands never share a sample, so any number of threads
 //! gives the same bytes); non-finite coordinates never reach the buffers
-//! (the fit is computed in f64, depth is in samples); the sample buffers
+//! (the fit and the clipping are computed in f64, depth is in samples or
+//! relative to the far end); the sample buffers
 //! never exceed [`MAX_SAMPLES_TOTAL`] samples (`samples` is lowered for a
 //! large picture, down to one sample per pixel); sizes outside
 //! 1..=[`MAX_IMAGE_SIDE`] or over [`MAX_PIXELS`] are a [`RenderError`],
@@ -175,12 +180,14 @@ impl View {
                 }
             }
             View::Camera { eye, target, fov } => {
-                let distance = (target - eye).length();
+                let distance = length(target - eye);
                 if !(eye.is_finite() && target.is_finite() && distance.is_finite()) {
                     Err(RenderError::Camera(
                         "its position and target must be finite numbers",
                     ))
-                } else if distance == 0.0 {
+                } else if NEAR_FRACTION * distance == 0.0 {
+                    // Zero, or so close that the near plane would be at
+                    // the eye (about 5e-321 apart).
                     Err(RenderError::Camera(
                         "its position and target must be different points",
                     ))
@@ -304,7 +311,10 @@ impl Camera {
     /// The frame of a camera at `eye` looking at `target` (different
     /// points), +y up on the picture; straight up or down, +x is right.
     fn looking(eye: DVec3, target: DVec3) -> Camera {
-        let toward = (eye - target).normalize();
+        // Scaled first: the square of a distance of 1e-300 (or 1e160)
+        // underflows (overflows), and `normalize` would give NaN.
+        let d = eye - target;
+        let toward = (d / d.abs().max_element()).normalize();
         let right = DVec3::Y.cross(toward);
         let right = if right.length() > 1e-9 {
             right.normalize()
@@ -332,6 +342,18 @@ impl Camera {
     #[inline]
     fn project_d(&self, p: DVec3) -> DVec3 {
         DVec3::new(p.dot(self.right), p.dot(self.up), p.dot(self.toward))
+    }
+}
+
+/// The length of `v`, without squaring its components first (which
+/// underflows to 0 for 1e-300, overflows for 1e160): a camera's eye and
+/// target may be any two different finite points.
+fn length(v: DVec3) -> f64 {
+    let m = v.abs().max_element();
+    if m > 0.0 && m.is_finite() {
+        m * (v / m).length()
+    } else {
+        m
     }
 }
 
@@ -386,14 +408,14 @@ fn tubed_bones(model: &Model) -> Vec<bool> {
 /// of the buffers and draws, in the model's order, what overlaps them.
 pub const BAND_ROWS: usize = 32;
 
-/// A line in sample space; `bias` (in sample units, like the depth) lets
-/// it win a near tie with a surface it runs along.
+/// A line in sample space; `bias` (in depth units) lets it win a near tie
+/// with a surface it runs along.
 #[derive(Clone, Copy)]
 struct Line {
     a: Vec3,
     b: Vec3,
     color: [u16; 3],
-    bias: f32,
+    bias: Bias,
 }
 
 /// A part's vertices in sample space (x right, y down, z larger = nearer,
@@ -597,9 +619,9 @@ impl Band<'_> {
             }
         };
         // Rows of this band, columns of the picture: a line running far
-        // outside the picture (one clipped at a perspective camera's near
-        // plane reaches a thousand picture widths) costs only the steps
-        // that can land in it.
+        // outside the picture (a perspective camera's reaches the guard
+        // band, a picture size beyond it) costs only the steps that can
+        // land in it.
         let (Some((ty0, ty1)), Some((tx0, tx1))) = (
             within(a.y, d.y, top, bottom),
             within(a.x, d.x, -half - 1.0, self.width as f32 + half + 1.0),
@@ -615,6 +637,9 @@ impl Band<'_> {
             ((t1 * steps).ceil().max(0.0) as usize).min(n),
         );
         let along_x = d.x.abs() >= d.y.abs();
+        // Depth per sample along the major axis (0 for a line seen end on).
+        let d_major = if along_x { d.x } else { d.y };
+        let slope = if d_major == 0.0 { 0.0 } else { d.z / d_major };
         for k in k0..=k1 {
             let t = k as f32 / steps;
             let p = a + d * t;
@@ -623,6 +648,13 @@ impl Band<'_> {
                 continue;
             }
             let m = major as usize;
+            let (z, bias) = match l.bias {
+                Bias::Flat(b) => (p.z, b),
+                Bias::Perspective(scale) => {
+                    let z = p.z + slope * (m as f32 + 0.5 - major);
+                    (z, scale * (z + 1.0) * (z + 1.0))
+                }
+            };
             let lo = (minor - half + 0.5).floor();
             for j in 0..thickness {
                 let o = lo + j as f32;
@@ -635,8 +667,8 @@ impl Band<'_> {
                     continue;
                 }
                 let i = (y - self.y0) * self.width + x;
-                if p.z + l.bias > self.depth[i] {
-                    self.depth[i] = p.z;
+                if z + bias > self.depth[i] {
+                    self.depth[i] = z;
                     self.color[i] = l.color;
                 }
             }
@@ -883,11 +915,49 @@ enum Projection {
         near: f64,
         half_w: f64,
         half_h: f64,
-        /// 1e-4 of the model's size, in world units: a bare bone's bias
-        /// before perspective.
-        size: f64,
+        /// The guard band's half width and half height, in samples from
+        /// the picture's centre: what reaches the rasterizer lies within
+        /// it (see [`Projection::side`]).
+        guard_w: f64,
+        guard_h: f64,
+        /// The distance of the framed model's far end (at least `near`):
+        /// depth is `reference / z - 1`, so it is 0 there and the model's
+        /// depths keep f32's precision however far the camera stands
+        /// (`1 / z` alone loses them: a model 1e7 away spans 1e-8 of it).
+        /// It overflows f32 only for geometry within 1e-38 `reference`
+        /// of the eye (a target 1e35 times nearer than the model's far
+        /// end), which is then not drawn.
+        reference: f64,
+        /// A bare bone's bias: `bias (depth + 1)²` in depth units is 1e-4
+        /// of the model's size in z, wherever along the line
+        /// ([`Bias::Perspective`]).
+        bias: f32,
     },
 }
+
+/// A line's depth bias (see [`Line`]).
+#[derive(Clone, Copy)]
+enum Bias {
+    /// The same along the line (orthographic: depth is linear in z, in
+    /// samples). The depth is the step's, as it always was, so a surface
+    /// seen at a grazing angle (a few degrees) can still hide a bone
+    /// lying on it: taking it at the sample's centre, as
+    /// [`Bias::Perspective`] does, would change orthographic pictures.
+    Flat(f32),
+    /// `scale (depth + 1)²` at each of its samples (perspective: a step in z
+    /// moves depth `reference / z²`, `(depth + 1)² / reference`), so a
+    /// line running from the near plane to the horizon ties with the
+    /// surface it lies on all along, and shows through nothing in front
+    /// of it. The line's depth is taken at the sample's centre along it,
+    /// as a surface's is: a line receding at a grazing angle (a bone on
+    /// the floor the camera stands on) changes depth by far more than the
+    /// bias within the half sample between its step and the centre.
+    Perspective(f32),
+}
+
+/// The planes a perspective camera clips at: the near plane, then the four
+/// sides of the guard band (see [`Projection::side`]).
+const PLANES: usize = 5;
 
 impl Projection {
     fn camera(&self) -> &Camera {
@@ -916,29 +986,89 @@ impl Projection {
         }
     }
 
-    /// Whether a camera-space point is on the drawn side of the near
-    /// plane (always, orthographic).
-    #[inline]
-    fn visible(&self, c: DVec3) -> bool {
-        match *self {
-            Projection::Ortho { .. } => true,
-            Projection::Persp { near, .. } => c.z >= near,
+    /// How many planes geometry is clipped at (none, orthographic: the fit
+    /// keeps the model in the picture).
+    fn planes(&self) -> usize {
+        match self {
+            Projection::Ortho { .. } => 0,
+            Projection::Persp { .. } => PLANES,
         }
     }
 
-    /// The point where the segment from `a` (visible) to `b` (not)
-    /// crosses the near plane, and how far along it is.
-    fn clip(&self, a: DVec3, b: DVec3) -> (DVec3, f64) {
+    /// Where a camera-space point is against clip plane `plane`: >= 0 on
+    /// the kept side. Plane 0 is the near plane; 1 to 4 bound the picture
+    /// plus a guard band a picture size wide on each side. They are planes
+    /// through the eye (`|focal x / z| <= guard_w` times `z > 0`), so
+    /// clipping at them needs no division: a point at the near plane,
+    /// whose projection can reach beyond f32's range (a tiny field of
+    /// view, a near plane close to the eye), is cut back to a few picture
+    /// widths first, and the rasterizer's f32 edge functions keep their
+    /// precision (floors with holes, lines dropped as too long).
+    #[inline]
+    fn side(&self, plane: usize, c: DVec3) -> f64 {
         match *self {
-            Projection::Ortho { .. } => (b, 1.0),
-            Projection::Persp { near, .. } => {
-                // a.z >= near > b.z: the denominator is not 0.
-                let t = ((near - a.z) / (b.z - a.z)).clamp(0.0, 1.0);
-                let mut p = a + (b - a) * t;
-                p.z = near;
-                (p, t)
-            }
+            Projection::Ortho { .. } => 1.0,
+            Projection::Persp {
+                focal,
+                near,
+                guard_w,
+                guard_h,
+                ..
+            } => match plane {
+                0 => c.z - near,
+                1 => guard_w * c.z + focal * c.x,
+                2 => guard_w * c.z - focal * c.x,
+                3 => guard_h * c.z + focal * c.y,
+                _ => guard_h * c.z - focal * c.y,
+            },
         }
+    }
+
+    /// The clip planes `c` is outside of, one bit each (a non-finite point
+    /// is outside all).
+    fn outside(&self, c: DVec3) -> u8 {
+        (0..self.planes())
+            .filter(|&k| self.side(k, c).partial_cmp(&0.0).is_none_or(|o| o.is_lt()))
+            .fold(0, |m, k| m | 1 << k)
+    }
+
+    /// The point where the segment from `a` (inside `plane`) to `b` (not)
+    /// crosses it, and how far along it is on the picture (what the
+    /// colours are interpolated by: the rasterizer interpolates them
+    /// linearly on the picture, so a vertex cut at the guard band leaves
+    /// the colours inside unchanged). At the near plane, whose other end
+    /// has no place on the picture, that is how far along it is in space.
+    fn clip(&self, plane: usize, a: DVec3, b: DVec3) -> (DVec3, f32) {
+        let (fa, fb) = (self.side(plane, a), self.side(plane, b));
+        // fa >= 0 > fb: the denominator is not 0. Measured from the end
+        // inside, so a far end (1e30 behind the eye) costs no precision.
+        let t = (fa / (fa - fb)).clamp(0.0, 1.0);
+        let mut p = a + (b - a) * t;
+        let Projection::Persp {
+            focal,
+            near,
+            guard_w,
+            guard_h,
+            ..
+        } = *self
+        else {
+            return (p, t as f32);
+        };
+        // Put on the plane: the rounding of a point between far-off ends
+        // then moves it along the plane, outside the picture, not across.
+        match plane {
+            0 => {
+                p.z = near;
+                return (p, t as f32);
+            }
+            1 => p.x = -guard_w * p.z / focal,
+            2 => p.x = guard_w * p.z / focal,
+            3 => p.y = -guard_h * p.z / focal,
+            _ => p.y = guard_h * p.z / focal,
+        }
+        // Both ends in front of the eye: a point t along in space is
+        // t z_b / z_p along on the picture.
+        (p, (t * b.z / p.z).clamp(0.0, 1.0) as f32)
     }
 
     #[inline]
@@ -951,35 +1081,36 @@ impl Projection {
                 focal,
                 half_w,
                 half_h,
+                reference,
                 ..
             } => {
                 let k = focal / c.z;
                 Vec3::new(
                     (half_w + c.x * k) as f32,
                     (half_h - c.y * k) as f32,
-                    k as f32,
+                    // reference / z - 1, linear on the picture as 1 / z is
+                    // (the difference taken in f64, before rounding).
+                    ((reference - c.z) / c.z) as f32,
                 )
             }
         }
     }
 
-    /// The depth bias of a bare bone from `a` to `b` (camera space): a
-    /// surface 1e-4 of the model's size behind it does not hide it.
-    fn bias(&self, a: DVec3, b: DVec3) -> f32 {
+    /// The depth bias of a bare bone: a surface 1e-4 of the model's size
+    /// behind it does not hide it.
+    fn bias(&self) -> Bias {
         match *self {
-            Projection::Ortho { bias, .. } => bias,
-            Projection::Persp { focal, size, .. } => {
-                // Depth is focal / z: a step dz in z moves it focal dz / z².
-                let z = 0.5 * (a.z + b.z);
-                (focal * size / (z * z)) as f32
-            }
+            Projection::Ortho { bias, .. } => Bias::Flat(bias),
+            Projection::Persp { bias, .. } => Bias::Perspective(bias),
         }
     }
 }
 
-/// A part's vertices in camera space and light, clipped at the near plane:
-/// the triangles with a vertex behind it are cut there (new vertices after
-/// the mesh's), those wholly behind dropped.
+/// A part's vertices in camera space and light, clipped (perspective) at
+/// the near plane and the guard band: the triangles that cross a plane are
+/// cut there (Sutherland-Hodgman; each becomes a convex polygon of new
+/// vertices after the mesh's, drawn as a fan, so its triangles keep its
+/// orientation), those wholly outside one dropped.
 fn prepare<'m>(
     proj: &Projection,
     indices: &'m [u32],
@@ -989,7 +1120,8 @@ fn prepare<'m>(
 ) -> Prepared<'m> {
     let n = cam.len();
     let mut screen: Vec<Vec3> = cam.iter().map(|c| proj.screen(*c)).collect();
-    if cam.iter().all(|c| proj.visible(*c)) {
+    let out: Vec<u8> = cam.iter().map(|c| proj.outside(*c)).collect();
+    if out.iter().all(|&o| o == 0) {
         return Prepared {
             indices: Cow::Borrowed(indices),
             screen,
@@ -998,43 +1130,52 @@ fn prepare<'m>(
         };
     }
     let mut kept = Vec::with_capacity(indices.len());
+    // A polygon's vertices: camera space, light from the front and back.
+    let (mut poly, mut next) = (Vec::new(), Vec::new());
     for t in indices.chunks_exact(3) {
         let i = [t[0] as usize, t[1] as usize, t[2] as usize];
         if i.iter().any(|&k| k >= n) {
             continue;
         }
-        let vis = i.map(|k| proj.visible(cam[k]));
-        if vis.iter().all(|&v| v) {
+        let o = i.map(|k| out[k]);
+        if o == [0; 3] {
             kept.extend_from_slice(t);
             continue;
         }
-        if !vis.iter().any(|&v| v) {
+        if o[0] & o[1] & o[2] != 0 || !i.iter().all(|&k| cam[k].is_finite()) {
             continue;
         }
-        // Sutherland-Hodgman against the near plane: a triangle with one or
-        // two vertices in front becomes a triangle or a quadrilateral.
-        let mut poly = [0u32; 4];
-        let mut len = 0;
-        for e in 0..3 {
-            let (a, b) = (i[e], i[(e + 1) % 3]);
-            if vis[e] {
-                poly[len] = a as u32;
-                len += 1;
+        poly.clear();
+        poly.extend(i.map(|k| (cam[k], front[k], back[k])));
+        // Only the planes a vertex is outside of: the polygon's points are
+        // on its edges, inside the others.
+        for plane in (0..PLANES).filter(|&k| (o[0] | o[1] | o[2]) & 1 << k != 0) {
+            next.clear();
+            for e in 0..poly.len() {
+                let (a, b) = (poly[e], poly[(e + 1) % poly.len()]);
+                let (a_in, b_in) = (proj.side(plane, a.0) >= 0.0, proj.side(plane, b.0) >= 0.0);
+                if a_in {
+                    next.push(a);
+                }
+                if a_in != b_in {
+                    let (from, to) = if a_in { (a, b) } else { (b, a) };
+                    let (p, s) = proj.clip(plane, from.0, to.0);
+                    next.push((p, from.1.lerp(to.1, s), from.2.lerp(to.2, s)));
+                }
             }
-            if vis[e] != vis[(e + 1) % 3] {
-                let (from, to) = if vis[e] { (a, b) } else { (b, a) };
-                let (p, t) = proj.clip(cam[from], cam[to]);
-                let t = t as f32;
-                poly[len] = screen.len() as u32;
-                len += 1;
-                screen.push(proj.screen(p));
-                front.push(front[from].lerp(front[to], t));
-                back.push(back[from].lerp(back[to], t));
-            }
+            std::mem::swap(&mut poly, &mut next);
         }
-        kept.extend_from_slice(&[poly[0], poly[1], poly[2]]);
-        if len == 4 {
-            kept.extend_from_slice(&[poly[0], poly[2], poly[3]]);
+        if poly.len() < 3 {
+            continue;
+        }
+        let first = screen.len() as u32;
+        for &(c, f, b) in &poly {
+            screen.push(proj.screen(c));
+            front.push(f);
+            back.push(b);
+        }
+        for k in 1..poly.len() as u32 - 1 {
+            kept.extend_from_slice(&[first, first + k, first + k + 1]);
         }
     }
     Prepared {
@@ -1054,9 +1195,9 @@ pub fn render_framed(
     framing: &Framing,
 ) -> Result<Image, RenderError> {
     options.validate()?;
-    if !(framing.azimuth.is_finite() && framing.elevation.is_finite()) {
-        return Err(RenderError::View);
-    }
+    // The framing's view first: a camera that cannot look is a
+    // `RenderError::Camera` (its direction's angles are then not finite
+    // either), and finite angles are what an orthographic one needs.
     framing.view().validate()?;
     let s = options.effective_samples() as usize;
     let (width, height) = (options.width as usize, options.height as usize);
@@ -1100,31 +1241,42 @@ pub fn render_framed(
             }
             Some(Perspective { eye, target, fov }) => {
                 let half_fov = (f64::from(fov) * 0.5).to_radians();
+                let cam = Camera::looking(eye, target);
+                let near = NEAR_FRACTION * length(target - eye);
+                // The model's far end (`lo.z` is its least `p . toward`).
+                let reference = (eye.dot(cam.toward) - lo.z).max(near);
+                let guard = sw.max(sh) as f64;
                 Projection::Persp {
-                    cam: Camera::looking(eye, target),
+                    cam,
                     eye,
                     focal: half_h / half_fov.tan(),
-                    near: NEAR_FRACTION * (target - eye).length(),
+                    near,
                     half_w,
                     half_h,
-                    size: 1e-4 * size.max(floor),
+                    guard_w: half_w + guard,
+                    guard_h: half_h + guard,
+                    reference,
+                    bias: (1e-4 * size.max(floor) / reference).min(f64::from(f32::MAX)) as f32,
                 }
             }
         };
         let line = |i: usize, light: f32, biased: bool| {
             let b = &model.skeleton.bones[i];
             let (mut a, mut c) = (proj.cam(b.base), proj.cam(b.tip));
-            match (proj.visible(a), proj.visible(c)) {
-                (false, false) => return None,
-                (true, false) => c = proj.clip(a, c).0,
-                (false, true) => a = proj.clip(c, a).0,
-                (true, true) => {}
+            // Cut at each clip plane in turn (none, orthographic).
+            for plane in 0..proj.planes() {
+                match (proj.side(plane, a) >= 0.0, proj.side(plane, c) >= 0.0) {
+                    (false, false) => return None,
+                    (true, false) => c = proj.clip(plane, a, c).0,
+                    (false, true) => a = proj.clip(plane, c, a).0,
+                    (true, true) => {}
+                }
             }
             Some(Line {
                 a: proj.screen(a),
                 b: proj.screen(c),
                 color: quantize(Vec3::from_array(model.paint_color(b.paint)) * light),
-                bias: if biased { proj.bias(a, c) } else { 0.0 },
+                bias: if biased { proj.bias() } else { Bias::Flat(0.0) },
             })
         };
         let mut scene = Scene {

@@ -796,8 +796,310 @@ fn a_camera_that_cannot_look_is_an_error() {
         let e = render(&m, &options(8, 8, v)).expect_err("refused");
         assert!(matches!(e, RenderError::Camera(_)), "{v:?}: {e:?}");
         assert!(e.to_string().contains(why), "{v:?}: {e}");
-        // render_framed with such a framing refuses it too.
+        // render_framed with such a framing refuses it too, for the same
+        // reason (it said "the view's angles must be finite numbers" for a
+        // camera at NaN or 2e308 from its target: its direction's angles).
         let f = framing(&m, v);
-        assert!(render_framed(&m, &options(8, 8, FRONT), &f).is_err());
+        assert_eq!(render_framed(&m, &options(8, 8, FRONT), &f).err(), Some(e));
+    }
+}
+
+#[test]
+fn a_camera_may_stand_any_finite_distance_from_its_target() {
+    // The distance was the root of the sum of squares: 1e-300 squared is
+    // 0 ("must be different points"), 1e160 squared infinite ("must be
+    // finite numbers"). The target only gives the direction (and the near
+    // plane, a thousandth of the way): from the origin along -z, a sphere
+    // 2 away is drawn the same whatever the target's distance.
+    let m = model(
+        "system S { axiom translate(0, 0, -2) color(1, 0, 0) sphere(0.5); }",
+        0,
+    );
+    let o = |d: f64| options(40, 40, camera([0.0; 3], [0.0, 0.0, -d], 50.0));
+    let seen = draw(&m, &o(1.0));
+    assert!(covered(&seen, &draw(&empty(), &o(1.0))).1 > 100);
+    assert_eq!(render(&m, &o(1e-300)), Ok(seen));
+    assert_eq!(o(1e160).validate(), Ok(()));
+}
+
+/// `img`'s rows (0 at the top) with a pixel where `pick` holds.
+fn rows_where(img: &Image, pick: impl Fn([u8; 4]) -> bool) -> Vec<u32> {
+    (0..img.height)
+        .filter(|&y| (0..img.width).any(|x| pick(px(img, x, y))))
+        .collect()
+}
+
+fn reddish(p: [u8; 4]) -> bool {
+    i32::from(p[0]) > i32::from(p[1]) + 30 && i32::from(p[0]) > i32::from(p[2]) + 30
+}
+
+#[test]
+fn a_line_through_a_narrow_field_of_view_is_drawn() {
+    // A bare bone from y = -1 to 1 through the target, 10 away. With a
+    // field of view of 1e-4 degrees its ends are 1e5 picture heights
+    // apart: the line was dropped as too long (over 1e7 samples), though
+    // its middle crosses the picture top to bottom.
+    let m = model("system L { width = 0; axiom translate(0, -1, 0) F(2); }", 0);
+    for fov in [1.0, 1e-4, 1e-6] {
+        let o = options(100, 100, camera([0.0, 0.0, 10.0], [0.0; 3], fov));
+        let (bbox, n) = covered(&draw(&m, &o), &draw(&empty(), &o));
+        assert_eq!((bbox, n), (Some((49, 0, 50, 99)), 200), "fov {fov}");
+    }
+}
+
+#[test]
+fn a_floor_seen_from_close_to_the_target_has_no_holes() {
+    // A floor 2000 wide, the camera 1 above it looking along -z at a
+    // target 1e-3, 1e-6 or 1e-300 away: the near plane is a thousandth of
+    // that from the eye, and the floor's triangles cut there reached 1e9
+    // samples and more, where f32 has no precision left (a sample's edge
+    // function rounded to nothing: holes, or no floor at all). Below the
+    // horizon (the middle row) floor, above it sky.
+    let m = model(
+        "system F { axiom color(0.2, 0.6, 0.2) box(2000, 0.01, 2000); }",
+        0,
+    );
+    for d in [1e-3, 1e-6, 1e-300] {
+        let o = options(100, 100, camera([0.0, 1.0, 0.0], [0.0, 1.0, -d], 90.0));
+        let (img, bg) = (draw(&m, &o), draw(&empty(), &o));
+        for y in 0..100 {
+            for x in 0..100 {
+                let p = px(&img, x, y);
+                if y < 48 {
+                    assert_eq!(p, px(&bg, x, y), "sky at {x},{y}, d {d}");
+                } else if y > 52 {
+                    assert!(
+                        i32::from(p[1]) > i32::from(p[0]) + 30,
+                        "floor at {x},{y}, d {d}: {p:?}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn depth_keeps_its_precision_at_any_distance_and_field_of_view() {
+    // A red plate 0.05 in front of a blue box, seen from 10 to 1e9 away
+    // with the field of view that frames the box: depth was focal / z in
+    // f32, whose 24 bits cannot tell 1e7 from 1e7 - 0.05 (the box showed
+    // through the plate); it is now relative to the model's far end.
+    let m = model(
+        "system O { axiom color(0, 0, 1) box(1, 1, 1) translate(0, 0, 0.55) color(1, 0, 0) box(0.5, 0.5, 0.05); }",
+        0,
+    );
+    for d in [10.0f64, 1e5, 1e7, 1e9] {
+        let fov = (2.0 * (1.0 / d).atan()).to_degrees() as f32;
+        let o = options(50, 50, camera([0.0, 0.5, d], [0.0, 0.5, 0.0], fov));
+        let c = px(&draw(&m, &o), 25, 25);
+        assert!(reddish(c), "{d} away: {c:?}");
+    }
+    // A tiny field of view: the focal length (1e23 samples at 1e-20
+    // degrees) overflowed f32 in the triangles' edge functions and depth,
+    // and nothing was drawn. The view's axis is off the face's diagonal
+    // (what it sees of the face is all one triangle).
+    let m = model(
+        "system B { axiom color(1, 0, 0) translate(0, -0.5, 0) box(1, 1, 1); }",
+        0,
+    );
+    for fov in [1e-3, 1e-20, 1e-38] {
+        let o = options(20, 20, camera([0.1, 0.2, 10.0], [0.1, 0.2, 0.0], fov));
+        let img = draw(&m, &o);
+        assert!(
+            img.rgba
+                .chunks_exact(4)
+                .all(|p| reddish([p[0], p[1], p[2], p[3]])),
+            "fov {fov}: the face fills the picture"
+        );
+    }
+}
+
+/// A green floor 400 wide (its top at y = 0.01), maybe a blue box 1.5
+/// high standing on it 2.5 to 3.5 along -z, and a red bare bone along -z
+/// at height `y` from 5 behind the origin to `far` in front.
+fn floor_and_bone(y: f32, far: f32, with_box: bool) -> Model {
+    let blue = if with_box {
+        "[ translate(0, 0, -3) color(0, 0, 1) box(1, 1.5, 1) ]"
+    } else {
+        ""
+    };
+    let mut m = model(
+        &format!(
+            "system S {{ width = 0; axiom color(0, 0.6, 0) box(400, 0.01, 400) {blue} \
+             color(1, 0, 0) F; }}"
+        ),
+        0,
+    );
+    let bone = &mut m.skeleton.bones[0];
+    bone.base = glam::Vec3::new(0.0, y, 5.0);
+    bone.tip = glam::Vec3::new(0.0, y, -far);
+    m
+}
+
+#[test]
+fn a_bare_bone_on_a_floor_shows_all_along_and_not_through_what_is_in_front() {
+    // The camera stands `h` above the floor looking along -z (fov 90:
+    // the horizon is the middle row, a point d away on the floor h (100
+    // / d) pixels below it). The bone lies on the floor (a tie: it
+    // shows) from behind the camera to the horizon, so every row from
+    // the horizon down has its red pixels. Its depth was the step's, up
+    // to half a sample off the sample's (at a grazing angle, far more
+    // than the bias): a bone to 1000 away showed in 1 row of 100, from
+    // 0.1 above the floor in none. And its bias was one number for the
+    // whole line, taken half way along (its near end needs a million
+    // times that): from 0.05 above, 74 rows lacked the line.
+    for (h, far) in [(1.0, 1000.0f32), (0.05, 1000.0), (0.1, 100.0), (1.0, 10.0)] {
+        let m = floor_and_bone(0.01, far, false);
+        let o = options(200, 200, camera([0.0, h, 0.0], [0.0, h, -10.0], 90.0));
+        let img = draw(&m, &o);
+        // From the horizon, or the row of its far end, down: the line's
+        // two pixels (two samples wide, on the middle columns) red.
+        let top = 100 + ((h - 0.01) * 100.0 / f64::from(far)).floor() as u32;
+        for y in top + 2..200 {
+            let red = (0..200).filter(|&x| reddish(px(&img, x, y))).count();
+            assert!(red >= 2, "h {h}, to {far}: row {y} has {red} red");
+        }
+    }
+    // 0.5 under the floor (well past the bias, 1e-4 of the model's
+    // size): hidden all along.
+    let m = floor_and_bone(-0.5, 1000.0, false);
+    let o = options(200, 200, camera([0.0, 1.0, 0.0], [0.0, 1.0, -10.0], 90.0));
+    assert_eq!(rows_where(&draw(&m, &o), reddish), Vec::<u32>::new());
+    // A box taller than the eye in front of it hides it from the box's
+    // foot (2.5 away: row 100 + 99 / 2.5) to the horizon.
+    let m = floor_and_bone(0.01, 1000.0, true);
+    let red = rows_where(&draw(&m, &o), reddish);
+    assert!(
+        red.first().is_some_and(|&y| (138..=141).contains(&y)) && red.len() >= 58,
+        "red rows {red:?}"
+    );
+}
+
+#[test]
+fn a_bare_bone_on_a_surface_shows_from_far_away() {
+    // The bone on the square of `a_bare_bone_behind_a_surface_is_hidden_
+    // at_any_scale`, seen from 1e4 and 1e7 away through a narrow field of
+    // view that frames the square: a tie up to f32's precision of 1 / z,
+    // which the bias (1e-4 of the square's size) was far below.
+    for (dz, shows) in [("0", true), ("-0.02", false)] {
+        let m = model(
+            &format!(
+                "system S {{ angle = 90; width = 0; axiom translate(-0.5, -0.5, 0) \
+                 color(0, 0.6, 0) [ {{ . f + f + f + f }} ] \
+                 [ translate(0.5, 0.1, {dz}) color(1, 0, 0) F(0.8) ]; }}"
+            ),
+            0,
+        );
+        for d in [2.0f64, 1e4, 1e7] {
+            let fov = (2.0 * (0.6 / d).atan()).to_degrees() as f32;
+            let img = draw(&m, &options(60, 60, camera([0.0, 0.0, d], [0.0; 3], fov)));
+            let mid = [px(&img, 29, 30), px(&img, 30, 30)];
+            assert_eq!(
+                mid.iter().any(|p| p[0] > p[1]),
+                shows,
+                "{d} away, bone at z {dz}: {mid:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn camera_pictures_are_the_same_on_any_threads_and_in_a_shared_framing() {
+    // A tree seen from inside it (its tubes cut at the near plane and the
+    // guard band), on 1 and 4 threads; and each stage of its growth drawn
+    // with the framing of all of them (`grmc derive --frames`) as alone:
+    // a camera is not fitted, so nothing moves. Behind the camera, nothing.
+    let text = "system T { angle = 25; width = 0.05; axiom F A; A -> F [ + F A ] [ - ! (0) F A ] { . f + f + f }; }";
+    let stages: Vec<Model> = (1..5).map(|i| model(text, i)).collect();
+    let v = camera([0.1, 0.5, 0.3], [0.0, 2.0, -1.0], 100.0);
+    let o = RenderOptions {
+        samples: 3,
+        ..options(90, 110, v)
+    };
+    let on = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("a pool")
+            .install(|| draw(&stages[3], &o))
+    };
+    let one = on(1);
+    assert!(covered(&one, &draw(&empty(), &o)).1 > 500);
+    assert_eq!(one, on(4));
+    let all = stages
+        .iter()
+        .fold(framing(&stages[0], v), |f, m| f.union(&framing(m, v)));
+    for m in &stages {
+        assert_eq!(render_framed(m, &o, &all), render(m, &o));
+    }
+    let away = options(90, 110, camera([0.0, -1.0, 0.0], [0.0, -2.0, 0.0], 100.0));
+    assert_eq!(draw(&stages[3], &away), draw(&empty(), &away));
+}
+
+#[test]
+fn a_polygon_cut_at_the_near_plane_keeps_its_side() {
+    // A flat quad 100 wide (one face, lit two-sided) in the xy plane, seen
+    // from either side 1e-3 or 3 away, looking into it obliquely (it
+    // fills the picture): it is cut at the near plane and the guard band
+    // into polygons drawn as fans, and every triangle of them is lit as
+    // the side the camera sees, so the picture is one colour, the same
+    // from both distances.
+    let m = model(
+        "system P { angle = 90; axiom translate(-50, -50, 0) color(0.2, 0.8, 0.2) { . f(100) + f(100) + f(100) + f(100) }; }",
+        0,
+    );
+    for side in [1.0, -1.0] {
+        let colours = [1e-3, 3.0].map(|z| {
+            let eye = [0.0, 0.0, side * z];
+            let o = options(60, 60, camera(eye, [0.03, 0.02, side * (z - 0.1)], 120.0));
+            let img = draw(&m, &o);
+            let first = px(&img, 0, 0);
+            assert!(first[1] > first[0].saturating_add(60), "green: {first:?}");
+            for p in img.rgba.chunks_exact(4) {
+                assert!(
+                    (0..3).all(|k| p[k].abs_diff(first[k]) <= 1),
+                    "side {side}, {z} away: {p:?} and {first:?}"
+                );
+            }
+            first
+        });
+        assert!(
+            (0..3).all(|k| colours[0][k].abs_diff(colours[1][k]) <= 1),
+            "side {side}: {colours:?}"
+        );
+    }
+}
+
+#[test]
+fn cutting_at_the_guard_band_leaves_the_picture_as_it_was() {
+    // A picture 20 wide is the middle of one 300 wide (the same height
+    // and vertical field of view: the same scale). The long sides of a
+    // cylinder seen along it reach past the narrow picture's guard band
+    // (a picture size beyond each side), not the wide one's, and are cut
+    // there; the colours of the cut were taken at the distance along the
+    // edge in space rather than on the picture, which the rasterizer
+    // interpolates over (up to 9 levels off). Now they match, up to the
+    // rounding of the cut and of the near plane's (2 levels).
+    let m = model(
+        "system S { axiom color(0.9, 0.5, 0.2) cylinder(3, 100); }",
+        0,
+    );
+    for (eye, target, fov) in [
+        ([1.0, 2.0, 0.0], [0.0, 50.0, 2.0], 120.0),
+        ([0.0, 5.0, 8.0], [0.0, 50.0, 0.0], 60.0),
+        ([4.0, 0.0, 4.0], [0.0, 30.0, 0.0], 90.0),
+    ] {
+        let v = camera(eye, target, fov);
+        let narrow = draw(&m, &options(20, 40, v));
+        let wide = draw(&m, &options(300, 40, v));
+        for y in 0..40 {
+            for x in 0..20 {
+                let (p, q) = (px(&narrow, x, y), px(&wide, x + 140, y));
+                assert!(
+                    (0..3).all(|k| p[k].abs_diff(q[k]) <= 2),
+                    "from {eye:?}, at {x},{y}: {p:?} against {q:?}"
+                );
+            }
+        }
     }
 }

@@ -96,12 +96,12 @@ pub struct ImageArgs {
     /// view.
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true, conflicts_with = "view")]
     pub camera: Option<[f64; 3]>,
-    /// With --camera: the point it looks at (default: the centre of the
-    /// model's bounds).
+    /// The point --camera looks at (default: the centre of the model's
+    /// bounds).
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true, requires = "camera")]
     pub look_at: Option<[f64; 3]>,
-    /// With --camera: its vertical field of view in degrees, more than 0
-    /// and at most 179 (default 45, the preview's).
+    /// The vertical field of view of --camera in degrees, more than 0 and
+    /// at most 179 (default 45, the preview's).
     #[arg(long, value_name = "DEGREES", value_parser = parse_fov, requires = "camera")]
     pub fov: Option<f32>,
     /// With a .png output: a transparent background instead of the grey
