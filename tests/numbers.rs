@@ -154,16 +154,30 @@ fn grow(path: &Path, text: &str, t: &mut Tally) {
 }
 
 /// A model built from edge numbers is drawn too (`-o x.png`): small, from
-/// the automatic view and from straight above; it must draw, not panic.
+/// the automatic view, from straight above, and through perspective
+/// cameras at a corner of its bounds (geometry around and behind the eye:
+/// clipping) and far off; it must draw, not panic, whenever the view is
+/// one the renderer takes (a camera of non-finite numbers is an error).
 fn picture(model: &grm_geom::Model) {
-    use grm_geom::render::{RenderOptions, View, render};
+    use grm_geom::render::{DVec3, RenderOptions, View, render};
+    let b = model.stats.bounds;
+    let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
+    let centre = (lo + hi) * 0.5;
+    let cameras = [lo, centre + (hi - lo) * 3.0 + DVec3::ONE].map(|eye| View::Camera {
+        eye,
+        target: centre,
+        fov: 60.0,
+    });
     for view in [
         View::Auto,
         View::Angles {
             azimuth: 30.0,
             elevation: 90.0,
         },
-    ] {
+    ]
+    .into_iter()
+    .chain(cameras.into_iter().filter(|v| v.validate().is_ok()))
+    {
         let o = RenderOptions {
             width: 24,
             height: 16,

@@ -103,16 +103,32 @@ fn derive(
     }
 }
 
-/// The model drawn as `-o x.png` draws it, small: it must not panic.
+/// The model drawn as `-o x.png` draws it, small, fitted and through a
+/// perspective camera at a corner of its bounds (clipping): it must not
+/// panic, and a view the renderer takes must draw.
 fn picture(model: &grm_geom::Model) {
-    let o = grm_geom::render::RenderOptions {
-        width: 16,
-        height: 12,
-        samples: 2,
-        ..Default::default()
+    use grm_geom::render::{RenderOptions, View, render};
+    let b = model.stats.bounds;
+    let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
+    let camera = View::Camera {
+        eye: lo,
+        target: (lo + hi) * 0.5,
+        fov: 60.0,
     };
-    let image = grm_geom::render::render(model, &o).expect("valid options draw");
-    assert_eq!(image.rgba.len(), 16 * 12 * 4);
+    for view in [View::Auto, camera] {
+        let o = RenderOptions {
+            width: 16,
+            height: 12,
+            samples: 2,
+            view,
+            ..Default::default()
+        };
+        if view.validate().is_err() {
+            continue;
+        }
+        let image = render(model, &o).expect("valid options draw");
+        assert_eq!(image.rgba.len(), 16 * 12 * 4);
+    }
 }
 
 fn sample(

@@ -58,7 +58,8 @@
 use std::borrow::Cow;
 use std::io::{self, Write};
 
-use glam::{DVec3, Vec3};
+pub use glam::DVec3;
+use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::{Model, PartSource};
