@@ -30,8 +30,17 @@
 //!   vertex (a key light from the upper left, ambient and a little light
 //!   from the camera), two-sided (a triangle seen from behind is lit as
 //!   its front would be: `{ . }` polygons and discs have one face),
-//!   coloured by the part's material (base colour plus emissive; opacity
-//!   is not drawn, every surface is opaque).
+//!   coloured by the part's material (base colour plus emissive).
+//! - **Opacity**: a material of opacity below 1 is translucent. Its
+//!   triangles are drawn after everything opaque, farthest first (by the
+//!   depth of each triangle's centroid), each blended over what is there
+//!   without hiding what comes after; over the background the colour is
+//!   kept premultiplied with the coverage, so a transparent picture's alpha
+//!   is what the surfaces stop. A sheet counts once (a disc's back face
+//!   lies on its front face); a closed surface counts twice, front and
+//!   back. Opacity 0 is not drawn. Triangles that cross each other are not
+//!   split, so where translucent surfaces intersect the order is the
+//!   centroids'.
 //! - **Bones as lines**: bare bones (no tube: zero width, as in the classic
 //!   2D systems) are drawn as one-pixel lines in their paint colour,
 //!   depth-tested against the surfaces, as the SVG export draws them as
@@ -405,6 +414,33 @@ fn tubed_bones(model: &Model) -> Vec<bool> {
     tubed
 }
 
+/// A material's opacity as drawn: 0 to 1 (not a number: opaque).
+fn opacity(o: f32) -> f32 {
+    if o.is_nan() { 1.0 } else { o.clamp(0.0, 1.0) }
+}
+
+/// Which bones got a tube of a translucent material.
+fn glassy_bones(model: &Model) -> Vec<bool> {
+    let mut glassy = vec![false; model.skeleton.bones.len()];
+    for part in &model.parts {
+        let translucent = model
+            .materials
+            .get(part.material)
+            .is_some_and(|m| opacity(m.opacity) < 1.0);
+        if !translucent {
+            continue;
+        }
+        for pick in &part.picks {
+            if let PartSource::Bone(b) = pick.source
+                && let Some(g) = glassy.get_mut(b as usize)
+            {
+                *g = true;
+            }
+        }
+    }
+    glassy
+}
+
 /// Sample rows per band: the unit of parallel work. Each band owns its rows
 /// of the buffers and draws, in the model's order, what overlaps them.
 pub const BAND_ROWS: usize = 32;
@@ -427,6 +463,9 @@ struct Prepared<'m> {
     screen: Vec<Vec3>,
     front: Vec<Vec3>,
     back: Vec<Vec3>,
+    /// The material's opacity: 1 drawn opaque, less blended over what is
+    /// behind (set after [`prepare`]).
+    alpha: f32,
 }
 
 /// What is drawn, in order: lines under the surfaces, the surfaces
@@ -448,7 +487,7 @@ impl Scene<'_> {
     /// A triangle's vertices, and their colours as seen from the side the
     /// camera is on (two-sided lighting: seen from behind, clockwise on the
     /// picture whose y points down, the normals are turned around).
-    fn triangle(&self, part: u32, tri: u32) -> Option<([Vec3; 3], [Vec3; 3])> {
+    fn triangle(&self, part: u32, tri: u32) -> Option<([Vec3; 3], [Vec3; 3], f32)> {
         let p = self.parts.get(part as usize)?;
         let t = p.indices.get(tri as usize * 3..tri as usize * 3 + 3)?;
         let i = [t[0] as usize, t[1] as usize, t[2] as usize];
@@ -462,7 +501,7 @@ impl Scene<'_> {
         } else {
             &p.back
         };
-        Some((v, [lit[i[0]], lit[i[1]], lit[i[2]]]))
+        Some((v, [lit[i[0]], lit[i[1]], lit[i[2]]], p.alpha))
     }
 
     /// The sample rows an item may touch (inclusive; may lie outside the
@@ -470,7 +509,7 @@ impl Scene<'_> {
     fn rows(&self, item: Item, thickness: f32) -> Option<(f32, f32)> {
         match item {
             Item::Tri(part, tri) => {
-                let ([a, b, c], _) = self.triangle(part, tri)?;
+                let ([a, b, c], _, _) = self.triangle(part, tri)?;
                 Some((a.y.min(b.y).min(c.y) - 1.0, a.y.max(b.y).max(c.y) + 1.0))
             }
             Item::Line(i) => {
@@ -498,14 +537,24 @@ struct Band<'a> {
     rows: usize,
     width: usize,
     depth: &'a mut [f32],
-    /// Linear RGB in 1/65535 units.
+    /// Linear RGB in 1/65535 units (premultiplied by `cover` where no
+    /// opaque surface is: what translucent ones leave over the background).
     color: &'a mut [[u16; 3]],
+    /// How much of the sample translucent surfaces cover, in 1/65535, where
+    /// no opaque one does (empty when the scene has no translucent part).
+    cover: &'a mut [u16],
+    /// The depth and part (+1; 0 none) of the last translucent surface
+    /// blended into the sample: a surface of the same part at the same
+    /// depth (a disc's back face, which lies on its front face) is the
+    /// same sheet and is not blended twice. Empty as `cover` is.
+    last: &'a mut [(f32, u16)],
 }
 
 impl Band<'_> {
     /// Fill a triangle's samples in this band, colours interpolated across
-    /// it.
-    fn triangle(&mut self, v: [Vec3; 3], c: [Vec3; 3]) {
+    /// it; `alpha` below 1 blends them over what is there (drawn after
+    /// every opaque item, farthest first) and leaves the depth as it is.
+    fn triangle(&mut self, v: [Vec3; 3], c: [Vec3; 3], alpha: f32, part: u32) {
         let [a, mut b, mut c0] = v;
         let [ca, mut cb, mut cc] = c;
         if !(a.is_finite() && b.is_finite() && c0.is_finite()) {
@@ -576,6 +625,25 @@ impl Band<'_> {
             let mut w2 = edge(a, b, px, py);
             let mut z = (w0 * a.z + w1 * b.z + w2 * c0.z) * inv;
             let row = (y - self.y0) * self.width;
+            if alpha < 1.0 {
+                // A sample on the edge two triangles share can fall just
+                // outside both by rounding: harmless when opaque (what is
+                // behind shows at one sample), a missing layer when not.
+                // Translucent triangles take a sliver more (a 1e-4 of
+                // their size); the same sheet is blended once (`blend`).
+                let slack = -1e-4 * area;
+                for k in row + xs..=row + xe {
+                    if w0 >= slack && w1 >= slack && w2 >= slack && z > self.depth[k] {
+                        let (l0, l1, l2) = (w0 * inv, w1 * inv, w2 * inv);
+                        self.blend(k, ca * l0 + cb * l1 + cc * l2, alpha, (z, part));
+                    }
+                    w0 += dw[0];
+                    w1 += dw[1];
+                    w2 += dw[2];
+                    z += dz;
+                }
+                continue;
+            }
             for (depth, color) in self.depth[row + xs..=row + xe]
                 .iter_mut()
                 .zip(&mut self.color[row + xs..=row + xe])
@@ -590,6 +658,29 @@ impl Band<'_> {
                 w2 += dw[2];
                 z += dz;
             }
+        }
+    }
+
+    /// Sample `k` seen through a translucent surface of colour `src` and
+    /// opacity `alpha` (`src` over what is there; over the background,
+    /// the colour stays premultiplied by the coverage it adds to).
+    #[inline]
+    fn blend(&mut self, k: usize, src: Vec3, alpha: f32, (z, part): (f32, u32)) {
+        // Part + 1 (0: none); parts past u16 are not told apart.
+        let tag = u16::try_from(part.saturating_add(1)).unwrap_or(u16::MAX);
+        if let Some(last) = self.last.get_mut(k) {
+            let same_sheet = last.1 == tag && (z - last.0).abs() <= 1e-5 * z.abs().max(1.0);
+            if same_sheet {
+                return;
+            }
+            *last = (z, tag);
+        }
+        let old = self.color[k].map(|c| f32::from(c) / 65535.0);
+        let old = Vec3::from_array(old);
+        self.color[k] = quantize(src * alpha + old * (1.0 - alpha));
+        if let Some(c) = self.cover.get_mut(k) {
+            let old = f32::from(*c) / 65535.0;
+            *c = ((alpha + old * (1.0 - alpha)).clamp(0.0, 1.0) * 65535.0 + 0.5) as u16;
         }
     }
 
@@ -677,6 +768,9 @@ impl Band<'_> {
     }
 }
 
+/// A band's rows of [`Band::cover`] and [`Band::last`].
+type TranslucentRows<'a> = (&'a mut [u16], &'a mut [(f32, u16)]);
+
 /// The sample buffers, drawn band by band in parallel.
 struct Target {
     width: usize,
@@ -684,6 +778,10 @@ struct Target {
     depth: Vec<f32>,
     /// Linear RGB in 1/65535 units.
     color: Vec<[u16; 3]>,
+    /// [`Band::cover`]: empty until a translucent part is drawn.
+    cover: Vec<u16>,
+    /// [`Band::last`]: as `cover`.
+    last: Vec<(f32, u16)>,
 }
 
 impl Target {
@@ -693,6 +791,8 @@ impl Target {
             height,
             depth: vec![f32::NEG_INFINITY; width * height],
             color: vec![[0; 3]; width * height],
+            cover: Vec::new(),
+            last: Vec::new(),
         }
     }
 
@@ -718,12 +818,26 @@ impl Target {
         }
         let width = self.width;
         let height = self.height;
+        if scene.parts.iter().any(|p| p.alpha < 1.0) {
+            self.cover = vec![0; width * height];
+            self.last = vec![(0.0, 0); width * height];
+        }
+        // Without translucent parts each band gets empty slices.
+        let translucent: Vec<TranslucentRows<'_>> = if self.cover.is_empty() {
+            (0..bands).map(|_| Default::default()).collect()
+        } else {
+            self.cover
+                .chunks_mut(BAND_ROWS * width)
+                .zip(self.last.chunks_mut(BAND_ROWS * width))
+                .collect()
+        };
         self.depth
             .par_chunks_mut(BAND_ROWS * width)
             .zip(self.color.par_chunks_mut(BAND_ROWS * width))
+            .zip(translucent)
             .zip(bins.par_iter())
             .enumerate()
-            .for_each(|(k, ((depth, color), bin))| {
+            .for_each(|(k, (((depth, color), (cover, last)), bin))| {
                 let y0 = k * BAND_ROWS;
                 let mut band = Band {
                     y0,
@@ -731,12 +845,14 @@ impl Target {
                     width,
                     depth,
                     color,
+                    cover,
+                    last,
                 };
                 for &i in bin {
                     match scene.items[i as usize] {
                         Item::Tri(part, tri) => {
-                            if let Some((v, c)) = scene.triangle(part, tri) {
-                                band.triangle(v, c);
+                            if let Some((v, c, alpha)) = scene.triangle(part, tri) {
+                                band.triangle(v, c, alpha, part);
                             }
                         }
                         Item::Line(l) => {
@@ -1128,6 +1244,7 @@ fn prepare<'m>(
             screen,
             front,
             back,
+            alpha: 1.0,
         };
     }
     let mut kept = Vec::with_capacity(indices.len());
@@ -1184,6 +1301,7 @@ fn prepare<'m>(
         screen,
         front,
         back,
+        alpha: 1.0,
     }
 }
 
@@ -1285,7 +1403,9 @@ pub fn render_framed(
             lines: Vec::with_capacity(lines.len()),
             items: Vec::new(),
         };
-        for &i in lines.iter().filter(|&&i| tubed[i]) {
+        // A translucent tube's line would show through it as a core: none.
+        let glassy = glassy_bones(model);
+        for &i in lines.iter().filter(|&&i| tubed[i] && !glassy[i]) {
             if let Some(l) = line(i, LINE_LIGHT, false) {
                 scene.items.push(Item::Line(scene.lines.len() as u32));
                 scene.lines.push(l);
@@ -1293,10 +1413,17 @@ pub fn render_framed(
         }
         let light = KEY_LIGHT.normalize();
         let cam = proj.camera();
+        // Translucent triangles: drawn after everything opaque.
+        let mut translucent = Vec::new();
         for part in &model.parts {
             let Some(material) = model.materials.get(part.material) else {
                 continue;
             };
+            let alpha = opacity(material.opacity);
+            if alpha <= 0.0 {
+                // Invisible (as a glTF viewer shows an alpha of 0).
+                continue;
+            }
             let base = Vec3::from_array(material.color);
             let emissive = Vec3::from_array(material.emissive);
             let mesh = &part.mesh;
@@ -1324,8 +1451,13 @@ pub fn render_framed(
                     .collect(),
             );
             let triangles = (prepared.indices.len() / 3) as u32;
-            scene.parts.push(prepared);
-            scene.items.extend((0..triangles).map(|t| Item::Tri(k, t)));
+            scene.parts.push(Prepared { alpha, ..prepared });
+            let items = (0..triangles).map(|t| Item::Tri(k, t));
+            if alpha < 1.0 {
+                translucent.extend(items);
+            } else {
+                scene.items.extend(items);
+            }
         }
         for &i in lines.iter().filter(|&&i| !tubed[i]) {
             if let Some(l) = line(i, 1.0, true) {
@@ -1333,6 +1465,17 @@ pub fn render_framed(
                 scene.lines.push(l);
             }
         }
+        // Farthest first (z larger = nearer), by the centroid's depth; the
+        // sort is stable, so equal depths keep the model's order.
+        let depth_of = |item: &Item| match *item {
+            Item::Tri(part, tri) => scene
+                .triangle(part, tri)
+                .map_or(f32::NEG_INFINITY, |(v, _, _)| v[0].z + v[1].z + v[2].z),
+            Item::Line(_) => f32::NEG_INFINITY,
+        };
+        let mut keyed: Vec<(f32, Item)> = translucent.iter().map(|t| (depth_of(t), *t)).collect();
+        keyed.sort_by(|a, b| a.0.total_cmp(&b.0));
+        scene.items.extend(keyed.into_iter().map(|(_, t)| t));
         target.draw(&scene, s);
     }
     Ok(resolve(&target, width, height, s, options.transparent))
@@ -1356,20 +1499,43 @@ fn resolve(target: &Target, width: usize, height: usize, s: usize, transparent: 
         for x in 0..width {
             let mut sum = [0u32; 3];
             let mut covered = 0u32;
+            // Samples only translucent surfaces cover: their premultiplied
+            // colour and their coverage (1/65535), summed.
+            let mut part = [0u64; 3];
+            let mut part_cover = 0u64;
+            let mut part_samples = 0u32;
             for sy in 0..s {
                 let row = (y * s + sy) * target.width + x * s;
                 for i in row..row + s {
+                    let c = target.color[i];
                     if target.depth[i] > f32::NEG_INFINITY {
-                        let c = target.color[i];
                         sum[0] += u32::from(c[0]);
                         sum[1] += u32::from(c[1]);
                         sum[2] += u32::from(c[2]);
                         covered += 1;
+                    } else if let Some(&k) = target.cover.get(i)
+                        && k > 0
+                    {
+                        for (p, c) in part.iter_mut().zip(c) {
+                            *p += u64::from(c);
+                        }
+                        part_cover += u64::from(k);
+                        part_samples += 1;
                     }
                 }
             }
             // Rounded averages, in the buffers' 1/65535 units.
-            let px = if transparent {
+            let px = if part_samples > 0 {
+                resolve_translucent(
+                    (sum, covered),
+                    (part, part_cover, part_samples),
+                    n,
+                    bg,
+                    transparent,
+                )
+                .map(|(rgb, a)| [encode(rgb[0]), encode(rgb[1]), encode(rgb[2]), a])
+                .unwrap_or([0; 4])
+            } else if transparent {
                 if covered == 0 {
                     [0, 0, 0, 0]
                 } else {
@@ -1395,6 +1561,41 @@ fn resolve(target: &Target, width: usize, height: usize, s: usize, transparent: 
         height: height as u32,
         rgba,
         transparent,
+    }
+}
+
+/// A pixel some of whose samples only translucent surfaces cover: its
+/// linear colour (1/65535 units) and alpha, from the opaque samples'
+/// colour sum and count, the translucent ones' premultiplied colour sum,
+/// coverage sum (1/65535 each) and count, out of `n` samples. Over the
+/// background `bg`, or with `transparent` unpremultiplied with the alpha
+/// the coverage gives (`None`: nothing covers the pixel).
+fn resolve_translucent(
+    (sum, covered): ([u32; 3], u32),
+    (part, part_cover, part_samples): ([u64; 3], u64, u32),
+    n: u32,
+    bg: [u32; 3],
+    transparent: bool,
+) -> Option<([u32; 3], u8)> {
+    const ONE: u64 = 65535;
+    let n = u64::from(n);
+    // Premultiplied colour and coverage over all samples, in 1/65535².
+    let colour = |k: usize| u64::from(sum[k]) * ONE + part[k] * ONE;
+    let cover = u64::from(covered) * ONE + part_cover;
+    if transparent {
+        if cover == 0 {
+            return None;
+        }
+        let avg = |k: usize| ((colour(k) + cover / 2) / cover) as u32;
+        let a = ((cover * 255 + n * ONE / 2) / (n * ONE)) as u8;
+        Some(([avg(0), avg(1), avg(2)], a))
+    } else {
+        // The background shows through what the samples leave uncovered.
+        let empty = n - u64::from(covered) - u64::from(part_samples);
+        let through = empty * ONE + (u64::from(part_samples) * ONE - part_cover);
+        let avg =
+            |k: usize| ((colour(k) + u64::from(bg[k]) * through + n * ONE / 2) / (n * ONE)) as u32;
+        Some(([avg(0), avg(1), avg(2)], 255))
     }
 }
 

@@ -1103,3 +1103,124 @@ fn cutting_at_the_guard_band_leaves_the_picture_as_it_was() {
         }
     }
 }
+
+/// Materials of opacity 0.5 (`glass`), 0 (`ghost`), opaque red and blue.
+const MATERIALS: &str = "material glass { color = rgb(1, 0, 0); opacity = 0.5; }\n\
+    material ghost { color = rgb(0, 1, 0); opacity = 0; }\n\
+    material red { color = rgb(1, 0, 0); }\n\
+    material blue { color = rgb(0, 0, 1); }\n";
+
+#[test]
+fn a_translucent_surface_shows_what_is_behind_it() {
+    // A red disc facing +z in front of a blue box.
+    let scene = |front: &str| {
+        model(
+            &format!(
+                "{MATERIALS}system S {{ axiom material(blue) box(1, 1, 1) translate(0, 0.5, 2) &(90) material({front}) disc(0.4); }}"
+            ),
+            0,
+        )
+    };
+    let o = options(80, 80, FRONT);
+    let at_centre = |m: &Model| px(&draw(m, &o), 40, 40);
+    let opaque = at_centre(&scene("red"));
+    let glass = at_centre(&scene("glass"));
+    let ghost = at_centre(&scene("ghost"));
+    assert!(opaque[0] > 100 && opaque[2] < 20, "opaque red: {opaque:?}");
+    assert!(
+        ghost[2] > 100 && ghost[0] < 20,
+        "opacity 0 is not drawn: {ghost:?}"
+    );
+    // Half red, half the blue behind.
+    assert!(
+        glass[0] > 60 && glass[2] > 60,
+        "red over blue, both showing: {glass:?}"
+    );
+    // Drawn after everything opaque, whatever the model's order: the
+    // same picture with the disc first.
+    let first = model(
+        &format!(
+            "{MATERIALS}system S {{ axiom [ translate(0, 0.5, 2) &(90) material(glass) disc(0.4) ] material(blue) box(1, 1, 1); }}"
+        ),
+        0,
+    );
+    assert_eq!(draw(&first, &o), draw(&scene("glass"), &o));
+}
+
+#[test]
+fn a_translucent_surface_alone_has_partial_alpha() {
+    let disc = |material: &str| {
+        model(
+            &format!("{MATERIALS}system S {{ axiom &(90) material({material}) disc(1); }}"),
+            0,
+        )
+    };
+    let o = RenderOptions {
+        transparent: true,
+        ..options(40, 40, FRONT)
+    };
+    let glass = px(&draw(&disc("glass"), &o), 20, 20);
+    assert!(
+        (i32::from(glass[3]) - 128).abs() <= 1,
+        "alpha of opacity 0.5: {glass:?}"
+    );
+    // A disc is one sheet (its back face lies on its front face and
+    // counts once); a box has two surfaces in line, a front and a back:
+    // 1 - 0.5² of the light is stopped.
+    let glass_box = model(
+        &format!("{MATERIALS}system S {{ axiom material(glass) box(2, 2, 2); }}"),
+        0,
+    );
+    let img = draw(&glass_box, &o);
+    // Every pixel inside: the triangles' shared edges (the faces'
+    // diagonals cross at the centre) lose no layer.
+    for y in 3..37 {
+        for x in 3..37 {
+            let a = px(&img, x, y)[3];
+            assert!(
+                (i32::from(a) - 191).abs() <= 1,
+                "two layers at {x},{y}: {a}"
+            );
+        }
+    }
+    // Its colour is the surface's, not darkened by the coverage (the
+    // picture is not premultiplied): as bright as the opaque disc's.
+    let red = px(&draw(&disc("red"), &o), 20, 20);
+    assert_eq!(red[3], 255);
+    assert!(
+        (i32::from(glass[0]) - i32::from(red[0])).abs() <= 2,
+        "{glass:?} against {red:?}"
+    );
+    // On the background: between the background and the opaque red.
+    let o = options(40, 40, FRONT);
+    let bg = px(&draw(&empty(), &o), 20, 20);
+    let on_bg = px(&draw(&disc("glass"), &o), 20, 20);
+    let red = px(&draw(&disc("red"), &o), 20, 20);
+    assert!(
+        on_bg[1] < bg[1] && on_bg[1] > red[1],
+        "{on_bg:?} between {bg:?} and {red:?}"
+    );
+    // Opacity 0 draws nothing at all.
+    assert_eq!(draw(&disc("ghost"), &o), draw(&empty(), &o));
+}
+
+#[test]
+fn translucent_surfaces_are_drawn_farthest_first() {
+    // Two translucent discs, one red (nearer the camera on +z) and one
+    // green; whichever the model lists first, the nearer one's colour
+    // dominates, and the two orders draw the same picture.
+    let text = |first: (&str, f32), second: (&str, f32)| {
+        format!(
+            "material r {{ color = rgb(1, 0, 0); opacity = 0.6; }}\n\
+             material g {{ color = rgb(0, 1, 0); opacity = 0.6; }}\n\
+             system S {{ axiom [ translate(0, 0, {}) &(90) material({}) disc(1) ] translate(0, 0, {}) &(90) material({}) disc(1); }}",
+            first.1, first.0, second.1, second.0
+        )
+    };
+    let o = options(40, 40, FRONT);
+    let a = draw(&model(&text(("r", 1.0), ("g", 0.0)), 0), &o);
+    let b = draw(&model(&text(("g", 0.0), ("r", 1.0)), 0), &o);
+    assert_eq!(a, b);
+    let p = px(&a, 20, 20);
+    assert!(p[0] > p[1] && p[1] > 30, "red over green: {p:?}");
+}
