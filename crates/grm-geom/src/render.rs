@@ -399,6 +399,29 @@ pub fn auto_angles(model: &Model) -> (f32, f32) {
     }
 }
 
+/// The perspective camera that frames `model` as the preview does when a
+/// model first appears: looking at the centre of its bounds from
+/// `azimuth`/`elevation` (degrees, [`View::Angles`]' convention), far
+/// enough that the sphere around the bounds fits a vertical field of view
+/// of `fov` degrees (with 5% to spare). `None` for a model with nothing in
+/// its bounds, or bounds past f64's reach.
+pub fn orbit_camera(model: &Model, azimuth: f32, elevation: f32, fov: f32) -> Option<View> {
+    let b = &model.stats.bounds;
+    if b.is_empty() {
+        return None;
+    }
+    let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
+    let target = (lo + hi) * 0.5;
+    let radius = (length(hi - lo) * 0.5)
+        .max(1e-6 * target.abs().max_element())
+        .max(1e-30);
+    let half = (f64::from(fov) * 0.5).to_radians();
+    let distance = radius / half.sin() * 1.05;
+    let eye = target + Camera::new(azimuth, elevation).toward * distance;
+    let view = View::Camera { eye, target, fov };
+    view.validate().is_ok().then_some(view)
+}
+
 /// Which bones got a tube (from the parts' picks).
 fn tubed_bones(model: &Model) -> Vec<bool> {
     let mut tubed = vec![false; model.skeleton.bones.len()];

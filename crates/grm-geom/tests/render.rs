@@ -1224,3 +1224,37 @@ fn translucent_surfaces_are_drawn_farthest_first() {
     let p = px(&a, 20, 20);
     assert!(p[0] > p[1] && p[1] > 30, "red over green: {p:?}");
 }
+
+#[test]
+fn the_orbit_camera_frames_the_model_as_the_preview_does() {
+    use grm_geom::render::orbit_camera;
+    // A box far from the origin: the camera looks at its centre from the
+    // direction asked, and the box is whole and centred in the picture.
+    let m = model(
+        "system S { axiom translate(1000, 50, -20) color(1, 0, 0) box(4, 2, 3); }",
+        0,
+    );
+    let v = orbit_camera(&m, 35.0, 20.0, 45.0).expect("a camera");
+    let View::Camera { eye, target, fov } = v else {
+        panic!("{v:?}")
+    };
+    assert_eq!(fov, 45.0);
+    assert!(
+        (target - DVec3::new(1000.0, 51.0, -20.0)).length() < 1e-3,
+        "{target}"
+    );
+    let f = framing(&m, v);
+    assert!(
+        (f.azimuth - 35.0).abs() < 1e-3 && (f.elevation - 20.0).abs() < 1e-3,
+        "{f:?}"
+    );
+    assert!((eye - target).length() > 2.0);
+    let o = options(100, 100, v);
+    let (bbox, _) = covered(&draw(&m, &o), &draw(&empty(), &o));
+    let (x0, y0, x1, y1) = bbox.expect("drawn");
+    assert!(x0 > 5 && y0 > 5 && x1 < 95 && y1 < 95, "whole: {bbox:?}");
+    assert!(x1 - x0 > 30, "not a speck: {bbox:?}");
+    assert!((i64::from(x0 + x1) - 100).abs() <= 6, "centred: {bbox:?}");
+    // Nothing to frame: no camera.
+    assert_eq!(orbit_camera(&empty(), 0.0, 0.0, 45.0), None);
+}

@@ -133,7 +133,7 @@ fn render_bench(args: RenderBench) -> Outcome {
         if args.runs == 1 { "" } else { "s" },
     );
     outln!(
-        "{:<18} {:>9} {:>7} | {:>9} {:>8} | {:>9} {:>8} {:>9} | {:>8}",
+        "{:<18} {:>9} {:>7} | {:>9} {:>8} | {:>9} {:>8} {:>9} | {:>8} | {:>8} {:>9}",
         "scene",
         "triangles",
         "bones",
@@ -143,6 +143,8 @@ fn render_bench(args: RenderBench) -> Outcome {
         "png ms",
         "png KiB",
         "pic/glb",
+        "persp ms",
+        "glass ms",
     );
     let ms = |d: Duration| d.as_secs_f64() * 1e3;
     for &(name, file, n) in RENDER_SCENES {
@@ -170,7 +172,7 @@ fn render_bench(args: RenderBench) -> Outcome {
         };
         let mut model = None;
         let mut png_len = 0;
-        let mut times = [Duration::MAX; 4];
+        let mut times = [Duration::MAX; 6];
         for _ in 0..args.runs {
             let t = Instant::now();
             let m = match build() {
@@ -205,7 +207,32 @@ fn render_bench(args: RenderBench) -> Outcome {
                 }
             };
             let t_png = t.elapsed();
-            for (best, t) in times.iter_mut().zip([t_build, t_glb, t_render, t_png]) {
+            // The same picture through the perspective camera the preview
+            // frames the model with (from the same direction), and with
+            // every material at opacity 0.5 (the translucent pass).
+            let options = args.image.options(&m);
+            let f = grm_geom::render::framing(&m, options.view);
+            let (az, el) = (f.azimuth, f.elevation);
+            let t = Instant::now();
+            if let Some(camera) = grm_geom::render::orbit_camera(&m, az, el, 45.0) {
+                let o = grm_geom::render::RenderOptions {
+                    view: camera,
+                    ..options
+                };
+                std::hint::black_box(grm_geom::render::render(&m, &o).ok());
+            }
+            let t_persp = t.elapsed();
+            let mut glass = m.clone();
+            for material in &mut glass.materials {
+                material.opacity = 0.5;
+            }
+            let t = Instant::now();
+            std::hint::black_box(grm_geom::render::render(&glass, &options).ok());
+            let t_glass = t.elapsed();
+            for (best, t) in times
+                .iter_mut()
+                .zip([t_build, t_glb, t_render, t_png, t_persp, t_glass])
+            {
                 *best = (*best).min(t);
             }
             model = Some(m);
@@ -213,9 +240,9 @@ fn render_bench(args: RenderBench) -> Outcome {
         let Some(m) = model else {
             continue;
         };
-        let [t_build, t_glb, t_render, t_png] = times;
+        let [t_build, t_glb, t_render, t_png, t_persp, t_glass] = times;
         outln!(
-            "{:<18} {:>9} {:>7} | {:>9.2} {:>8.2} | {:>9.2} {:>8.2} {:>9.0} | {:>7.1}x",
+            "{:<18} {:>9} {:>7} | {:>9.2} {:>8.2} | {:>9.2} {:>8.2} {:>9.0} | {:>7.1}x | {:>8.2} {:>9.2}",
             name,
             m.stats.triangles,
             m.stats.bones,
@@ -225,6 +252,8 @@ fn render_bench(args: RenderBench) -> Outcome {
             ms(t_png),
             png_len as f64 / 1024.0,
             (t_render + t_png).as_secs_f64() / t_glb.as_secs_f64().max(1e-9),
+            ms(t_persp),
+            ms(t_glass),
         );
     }
     Outcome::Ok
