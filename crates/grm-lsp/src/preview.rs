@@ -148,10 +148,11 @@ pub struct PreviewParams {
     /// 5,000 ms; the result then says `stoppedEarly`).
     #[serde(default)]
     pub budget_ms: Option<u64>,
-    /// Sample mode: show the model the search held after this generation
-    /// (0-based: its best particle wrapped up; `grmc sample --frames`)
-    /// instead of the result; past the last generation run, the result.
-    /// Ignored in derive mode.
+    /// Sample mode: show the model the search returns when stopped after
+    /// this generation (0-based; `grmc sample --generation`) instead of
+    /// the result; past the last generation run, the result. Costs one
+    /// frame of the search (`grm_sample::Sampler::sample_frame`). Ignored
+    /// in derive mode.
     #[serde(default)]
     pub generation: Option<u32>,
 }
@@ -706,22 +707,30 @@ fn sample_model(
             p.budget_ms.unwrap_or(5000).min(600_000),
         )),
         cancel: cancel.cloned(),
-        frames: p.generation.is_some(),
         ..grm_sample::SampleOptions::default()
     };
-    let run = sampler.sample(&opts).map_err(|e| match e {
+    // The one frame shown, not one per generation.
+    let sampled = match p.generation {
+        Some(k) => sampler.sample_frame(&opts, k),
+        None => sampler.sample(&opts),
+    };
+    let run = sampled.map_err(|e| match e {
         grm_sample::SampleError::Cancelled => Failure::Cancelled,
         e => Failure::Msg(e.to_string()),
     })?;
     // The frame asked for (the last one past the end: the result).
-    let shown = p
-        .generation
-        .map(|g| (g as usize).min(run.frames.len().saturating_sub(1)));
-    let best = match shown {
-        Some(g) => run.frames.get(g),
-        None => run.best(),
-    }
-    .ok_or("the sampler returned no model")?;
+    let (shown, best) = match p.generation {
+        Some(k) => match run.frame(k) {
+            Some((g, Ok(m))) => (Some(g as usize), m),
+            Some((g, Err(e))) => {
+                return Err(Failure::Msg(format!(
+                    "the model of generation {g} cannot be finished: {e} (a search stopped after it ends so; the full search finished)"
+                )));
+            }
+            None => return Err(format!("the sampler kept no model of generation {k}").into()),
+        },
+        None => (None, run.best().ok_or("the sampler returned no model")?),
+    };
     let derive_ms = t0.elapsed().as_secs_f64() * 1e3;
     let t1 = Instant::now();
     let model = best

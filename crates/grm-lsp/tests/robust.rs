@@ -926,3 +926,153 @@ async fn preview_materials_follow_the_sliders() {
     let (r, m) = color(&moved);
     assert!((r - 0.9).abs() < 1e-6 && (m - 0.1).abs() < 1e-6, "{r} {m}");
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn preview_generation_edge_cases() {
+    let mut c = Client::start().await;
+    // Derive mode ignores it.
+    let (p, text) = fixture("plant.grm");
+    let u = c.open(&p, &text).await;
+    let _ = c.diagnostics(&u, 1).await;
+    let req = |extra: Value| {
+        let mut r = json!({ "textDocument": { "uri": u }, "seed": 1 });
+        if let (Some(r), Some(e)) = (r.as_object_mut(), extra.as_object()) {
+            r.extend(e.clone());
+        }
+        r
+    };
+    let plain = c.ok("grm/preview", req(json!({}))).await;
+    let with = c.ok("grm/preview", req(json!({ "generation": 3 }))).await;
+    assert_eq!(with["parts"], plain["parts"]);
+    assert!(with["sample"].is_null());
+    // Not a whole number from 0 to 2^32 - 1: InvalidParams, in either mode.
+    for bad in [json!(-1), json!(1.5), json!(4_294_967_296u64), json!("3")] {
+        let e = c
+            .request("grm/preview", req(json!({ "generation": bad })))
+            .await
+            .expect_err("refused");
+        assert_eq!(e["code"], -32602, "generation {bad}: {e}");
+    }
+
+    // Sample mode.
+    let (p, text) = fixture("guided.grm");
+    let u = c.open(&p, &text).await;
+    let _ = c.diagnostics(&u, 1).await;
+    let at = |extra: Value| {
+        let mut r = json!({ "textDocument": { "uri": u }, "budgetMs": 60000 });
+        if let (Some(r), Some(e)) = (r.as_object_mut(), extra.as_object()) {
+            r.extend(e.clone());
+        }
+        r
+    };
+    let result = c.ok("grm/preview", at(json!({}))).await;
+    let last = result["sample"]["generations"].as_u64().expect("count") - 1;
+    let e = c
+        .request("grm/preview", at(json!({ "generation": -1 })))
+        .await
+        .expect_err("refused");
+    assert_eq!(e["code"], -32602, "{e}");
+    let r = c
+        .ok("grm/preview", at(json!({ "generation": u32::MAX })))
+        .await;
+    assert_eq!(r["sample"]["generation"], last);
+    assert_eq!(r["parts"], result["parts"]);
+    // Focus marks what the focused production made in the frame shown.
+    let focus = pos(&text, "tip -> sphere", 0, 0);
+    let f0 = c
+        .ok(
+            "grm/preview",
+            at(json!({ "generation": 0, "focus": focus })),
+        )
+        .await;
+    let fr = c.ok("grm/preview", at(json!({ "focus": focus }))).await;
+    let origin = f0["focus"]["origin"].clone();
+    assert_eq!(origin, fr["focus"]["origin"]);
+    let mut focused = std::collections::HashSet::new();
+    for part in f0["parts"].as_array().expect("parts") {
+        for pk in part["picks"].as_array().expect("picks") {
+            assert_eq!(pk["focus"], json!(pk["origin"] == origin), "{pk}");
+            if pk["focus"] == true && pk["kind"] == "instance" {
+                focused.insert(pk["index"].as_u64());
+            }
+        }
+    }
+    assert_eq!(
+        Some(focused.len() as u64),
+        f0["focus"]["instances"].as_u64()
+    );
+    assert!(
+        f0["focus"]["instances"].as_u64() <= fr["focus"]["instances"].as_u64(),
+        "{} tips after generation 0, {} at the end",
+        f0["focus"]["instances"],
+        fr["focus"]["instances"]
+    );
+
+    // A budget that stops the search: a generation past it shows the last
+    // one run, the result.
+    let (p, text, curves) = endless_guided();
+    let u = c.open(&p, &text).await;
+    let _ = c.diagnostics(&u, 1).await;
+    let r = c
+        .ok(
+            "grm/preview",
+            json!({ "textDocument": { "uri": u }, "curves": curves, "budgetMs": 50, "generation": 99_999 }),
+        )
+        .await;
+    assert_eq!(r["sample"]["stoppedEarly"], true);
+    let run = r["sample"]["generations"].as_u64().expect("count");
+    assert!(run < 100_000);
+    assert_eq!(r["sample"]["generation"], run - 1);
+}
+
+/// A sample system whose early particles cannot be wrapped up (`sqrt` of
+/// a negative number) though the last generation's can.
+const SHOOT: &str = r#"
+system Shoot {
+    mode = sample;
+    generations = 8;
+    particles_start = 4;
+    particles_end = 4;
+    axiom grow(0);
+    skeleton grow;
+    geometry leaf;
+    grow(k) : k < 5 -> F(1) grow(k + 1);
+    grow(k) : k >= 5 -> F(1);
+    wrapup grow(k) -> leaf(sqrt(k - 3));
+    leaf(s) -> sphere(0.1 + s);
+}
+"#;
+
+/// A generation whose model cannot be finished is that request's error,
+/// saying which; the others, and the result, are shown.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn preview_of_a_generation_that_cannot_be_finished() {
+    let mut c = Client::start().await;
+    let (p, _) = fixture("guided.grm");
+    let curves: Value =
+        serde_json::from_str(&std::fs::read_to_string(p.with_extension("curves.json")).unwrap())
+            .unwrap();
+    let u = c.open(&p.with_file_name("shoot.grm"), SHOOT).await;
+    let _ = c.diagnostics(&u, 1).await;
+    let at = |g: Option<u32>| {
+        let mut r = json!({ "textDocument": { "uri": u }, "curves": curves, "budgetMs": 60000 });
+        if let Some(g) = g {
+            r["generation"] = json!(g);
+        }
+        r
+    };
+    let result = c.ok("grm/preview", at(None)).await;
+    assert_eq!(result["sample"]["generations"], 8);
+    let e = c
+        .request("grm/preview", at(Some(1)))
+        .await
+        .expect_err("generation 1 cannot be wrapped up");
+    let m = e["message"].as_str().unwrap_or_default();
+    assert!(m.contains("generation 1 cannot be finished"), "{e}");
+    assert!(m.contains("NaN"), "{e}");
+    let r = c.ok("grm/preview", at(Some(3))).await;
+    assert_eq!(r["sample"]["generation"], 3);
+    assert!(r["stats"]["bones"].as_u64() < result["stats"]["bones"].as_u64());
+    let r = c.ok("grm/preview", at(Some(7))).await;
+    assert_eq!(r["parts"], result["parts"]);
+}

@@ -10,6 +10,8 @@ use grm_guide::{CostBreakdown, VolumeCost};
 use grm_sema::{Program, Value};
 use grm_turtle::Interpretation;
 
+use crate::SampleError;
+
 pub use crate::particle::NodeKind;
 
 /// One expansion of a complete derivation tree.
@@ -96,6 +98,30 @@ impl SampledModel {
             .collect()
     }
 
+    /// The bytes it holds on the heap (its interpretation, string,
+    /// origins and tree): what a kept frame adds to
+    /// [`GenerationStats::memory_bytes`].
+    pub fn heap_bytes(&self) -> usize {
+        fn vec<T>(v: &Vec<T>) -> usize {
+            v.capacity() * std::mem::size_of::<T>()
+        }
+        let i = &self.interpretation;
+        vec(&i.bones)
+            + vec(&i.instances)
+            + vec(&i.polygons)
+            + vec(&i.polygon_vertices)
+            + self.string.heap_bytes()
+            + vec(&self.origins)
+            + vec(&self.tree.nodes)
+            + self
+                .tree
+                .nodes
+                .iter()
+                .map(|n| vec(&n.params))
+                .sum::<usize>()
+            + vec(&self.param_values)
+    }
+
     /// Build the meshes (tubes, primitives, OBJ meshes) for export.
     pub fn build(&self, program: &Program, options: &BuildOptions) -> Result<Model, GeomError> {
         grm_geom::build_from_interpretation(
@@ -138,7 +164,8 @@ pub struct GenerationStats {
     pub expansions: u64,
     /// Bytes the search holds after the generation: the arena of every
     /// expansion the kept particles descend from, the recycled buffers,
-    /// and the kept particles' own state (what
+    /// and the kept particles' own state, and the frames kept so far
+    /// ([`crate::SampleOptions::frames`]; what
     /// [`crate::SampleOptions::max_bytes`] bounds).
     pub memory_bytes: u64,
 }
@@ -158,17 +185,36 @@ pub struct SampleResult {
     pub stopped_early: bool,
     /// Wall time of the whole run (search, wrap-up, geometry phase).
     pub elapsed: Duration,
-    /// With [`crate::SampleOptions::frames`]: a model per generation run,
-    /// what the search would have returned had it stopped after it (the
-    /// generation's best particle wrapped up and built); the last is the
-    /// best model. Empty otherwise.
-    pub frames: Vec<SampledModel>,
+    /// With [`crate::SampleOptions::frames`] (or
+    /// [`crate::Sampler::sample_frame`]): the frames
+    /// kept, in generation order, each with its generation (0-based): the
+    /// model this run returns when its budget stops it after that
+    /// generation, or the error that such a run would end with (a wrap-up
+    /// or geometry-phase limit, or a production that fails on that
+    /// generation's particles alone: the search goes on, and the run's own
+    /// result may well be fine). The last generation's frame is the best
+    /// model. Empty otherwise.
+    pub frames: Vec<(u32, Result<SampledModel, SampleError>)>,
 }
 
 impl SampleResult {
     /// The best model.
     pub fn best(&self) -> Option<&SampledModel> {
         self.models.first()
+    }
+
+    /// The frame kept for generation `generation` (0-based), or past the
+    /// last generation run, the last one (the result's): its generation
+    /// and its model (or why it could not be finished). `None` when that
+    /// frame was not kept ([`crate::SampleOptions::frames`],
+    /// [`crate::Sampler::sample_frame`]).
+    pub fn frame(&self, generation: u32) -> Option<(u32, &Result<SampledModel, SampleError>)> {
+        let last = self.generations.len().checked_sub(1)? as u32;
+        let g = generation.min(last);
+        self.frames
+            .iter()
+            .find(|(k, _)| *k == g)
+            .map(|(k, m)| (*k, m))
     }
 
     /// Effective sample sizes, one per generation.

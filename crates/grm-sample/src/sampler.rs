@@ -91,6 +91,37 @@ const CANCEL_EVERY: u32 = 4096;
 /// `threads: 0` (all cores) uses at most this many too.
 pub const MAX_THREADS: usize = grm_derive::MAX_THREADS;
 
+/// Which frames a run keeps ([`SampleOptions::frames`],
+/// [`Sampler::sample_frame`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Keep {
+    None,
+    All,
+    /// This generation's alone (past the last generation run: the last).
+    One(u32),
+}
+
+impl Keep {
+    /// Whether generation `g`'s frame is kept, were it not the last.
+    fn wants(self, g: u32) -> bool {
+        match self {
+            Keep::None => false,
+            Keep::All => true,
+            Keep::One(k) => k == g,
+        }
+    }
+
+    /// Whether the last generation run, `g`, has its frame kept (the
+    /// result).
+    fn wants_last(self, g: u32) -> bool {
+        match self {
+            Keep::None => false,
+            Keep::All => true,
+            Keep::One(k) => k >= g,
+        }
+    }
+}
+
 /// How one run samples.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SampleOptions {
@@ -117,6 +148,9 @@ pub struct SampleOptions {
     /// Stop the search after the generation during which this much wall
     /// time has passed (then wrap up and finish as usual). The one
     /// non-deterministic option: where it stops depends on the machine.
+    /// The time spent on frames ([`SampleOptions::frames`]) does not
+    /// count: they finish models beside the search, and must not make a
+    /// budget stop it sooner than it would without them.
     pub budget: Option<Duration>,
     /// How many of the best distinct final models to return (at least 1).
     pub best: usize,
@@ -136,9 +170,9 @@ pub struct SampleOptions {
     /// Stop with [`SampleError::MemoryLimit`] after a generation that
     /// leaves the search holding more than this many bytes
     /// ([`crate::GenerationStats::memory_bytes`]: the arena, recycled
-    /// buffers, the kept particles). Checked between generations, so a run
-    /// ends at most one generation's growth past it. Default
-    /// [`DEFAULT_MAX_BYTES`].
+    /// buffers, the kept particles, and the frames kept so far). Checked
+    /// between generations, so a run ends at most one generation's growth
+    /// past it. Default [`DEFAULT_MAX_BYTES`].
     pub max_bytes: u64,
     /// Cooperative cancellation: when another thread sets the token, the
     /// run stops at its next check (between generations, before wrap-up
@@ -146,10 +180,14 @@ pub struct SampleOptions {
     /// and returns [`SampleError::Cancelled`]. A token that is never set
     /// changes nothing: the result is the same as without one.
     pub cancel: Option<CancelToken>,
-    /// Keep a model per generation ([`SampleResult::frames`]): what the
-    /// search would return had it stopped there. Costs a wrap-up and a
-    /// geometry phase of one particle per generation; the search itself
-    /// (its draws, weights and result) is the same with or without.
+    /// Keep a frame per generation ([`SampleResult::frames`]): the model
+    /// this run returns when its budget stops it after that generation
+    /// (the generation's distinct particles wrapped up, the best one
+    /// built, with the draws the end of the run gives them). Costs the
+    /// end of a run per generation; the search itself (its draws,
+    /// weights, resampling and result) is the same with or without. The
+    /// frames kept count towards [`SampleOptions::max_bytes`].
+    /// [`Sampler::sample_frame`] keeps one frame alone.
     pub frames: bool,
 }
 
@@ -1184,6 +1222,34 @@ impl<'a> Sampler<'a> {
     /// A set [`SampleOptions::cancel`] token stops it with
     /// [`SampleError::Cancelled`].
     pub fn sample(&self, opts: &SampleOptions) -> Result<SampleResult, SampleError> {
+        let keep = if opts.frames { Keep::All } else { Keep::None };
+        self.sample_keeping(opts, keep)
+    }
+
+    /// [`Self::sample`], keeping the frame of `generation` alone (0-based;
+    /// past the last generation run, the last one: the result's) in
+    /// [`SampleResult::frames`] ([`SampleResult::frame`] finds it): what
+    /// `grmc sample --generation K` and the preview's generation scrubber
+    /// show, for the price of one frame rather than one per generation.
+    /// With [`SampleOptions::frames`] every frame is kept anyway.
+    pub fn sample_frame(
+        &self,
+        opts: &SampleOptions,
+        generation: u32,
+    ) -> Result<SampleResult, SampleError> {
+        let keep = if opts.frames {
+            Keep::All
+        } else {
+            Keep::One(generation)
+        };
+        self.sample_keeping(opts, keep)
+    }
+
+    fn sample_keeping(
+        &self,
+        opts: &SampleOptions,
+        keep: Keep,
+    ) -> Result<SampleResult, SampleError> {
         let threads = match opts.threads {
             0 => std::thread::available_parallelism().map_or(1, |n| n.get().min(MAX_THREADS)),
             t if t > MAX_THREADS => {
@@ -1220,16 +1286,21 @@ impl<'a> Sampler<'a> {
         }
         cancel::check(opts.cancel.as_ref())?;
         if threads <= 1 {
-            return self.run(opts, false);
+            return self.run(opts, keep, false);
         }
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .map_err(|e| SampleError::ThreadPool(e.to_string()))?;
-        pool.install(|| self.run(opts, true))
+        pool.install(|| self.run(opts, keep, true))
     }
 
-    fn run(&self, opts: &SampleOptions, parallel: bool) -> Result<SampleResult, SampleError> {
+    fn run(
+        &self,
+        opts: &SampleOptions,
+        keep: Keep,
+        parallel: bool,
+    ) -> Result<SampleResult, SampleError> {
         let start = Instant::now();
         let sched = opts.schedule;
         let gens = sched.generations.max(1);
@@ -1274,7 +1345,12 @@ impl<'a> Sampler<'a> {
         let mut ancestors = Vec::new();
         let mut stopped_early = false;
         let mut last: Vec<Arc<Particle>> = Vec::new();
-        let mut frames = Vec::new();
+        let mut frames: Vec<(u32, Result<SampledModel, SampleError>)> = Vec::new();
+        // The bytes of the frames kept (what `max_bytes` bounds with the
+        // search: a frame per generation of a long run is many models).
+        let mut frame_bytes: u64 = 0;
+        // Wall time spent on frames, which the budget does not count.
+        let mut frame_time = Duration::ZERO;
         // Steps of particles that were not resampled, emptied for reuse.
         let mut spare: Vec<Step> = Vec::new();
         let mut used = Vec::new();
@@ -1375,16 +1451,24 @@ impl<'a> Sampler<'a> {
                 expansions,
                 memory_bytes: 0,
             });
-            let out_of_time = opts.budget.is_some_and(|b| start.elapsed() >= b);
-            if opts.frames && !(g + 1 == gens || out_of_time) {
+            let out_of_time = opts
+                .budget
+                .is_some_and(|b| start.elapsed().saturating_sub(frame_time) >= b);
+            if keep.wants(g) && !(g + 1 == gens || out_of_time) {
                 // The last generation's frame is the returned model.
-                frames.push(self.frame(&mut w, &mut layers, &next, seed, opts)?);
+                let t = Instant::now();
+                let f = self.frame(&mut w, &mut layers, &next, seed, opts, parallel)?;
+                frame_bytes += f.as_ref().map_or(0, |m| m.heap_bytes() as u64);
+                frames.push((g, f));
+                frame_time += t.elapsed();
             }
             if g + 1 == gens || out_of_time {
                 stopped_early = g + 1 < gens;
                 let mut seen = std::collections::HashSet::new();
                 let distinct = next.iter().filter(|p| seen.insert(p.head)).count();
-                let held = arena_bytes + next.iter().map(|p| p.own_bytes() as u64).sum::<u64>();
+                let held = arena_bytes
+                    + frame_bytes
+                    + next.iter().map(|p| p.own_bytes() as u64).sum::<u64>();
                 if let Some(st) = stats.last_mut() {
                     st.survivors = distinct;
                     st.memory_bytes = held;
@@ -1418,6 +1502,7 @@ impl<'a> Sampler<'a> {
                 }
             }
             let held = arena_bytes
+                + frame_bytes
                 + next
                     .iter()
                     .zip(&used)
@@ -1431,51 +1516,21 @@ impl<'a> Sampler<'a> {
         }
         drop(pop);
         cancel::check(cancel)?;
-
-        // Distinct final particles (copies share their head node).
-        let mut seen = std::collections::HashSet::new();
-        let finals: Vec<&Arc<Particle>> = last.iter().filter(|p| seen.insert(p.head)).collect();
-        let wl = layers.len() as u32;
-        let lay: &[Vec<Step>] = &layers;
-        let wrap = |w: &mut Worker, (c, p): (usize, &&Arc<Particle>)| {
-            self.wrap_up(w, lay, (wl, c as u32), p, seed, opts)
-        };
-        let wrapped: Vec<Result<(Particle, Step), SampleError>> = if parallel {
-            finals
-                .par_iter()
-                .enumerate()
-                .map_init(|| self.g.worker(), wrap)
-                .collect()
-        } else {
-            finals.iter().enumerate().map(|x| wrap(&mut w, x)).collect()
-        };
-        let mut done = Vec::with_capacity(wrapped.len());
-        let mut layer = Vec::with_capacity(wrapped.len());
-        for r in wrapped {
-            let (q, st) = r?;
-            done.push(q);
-            layer.push(st);
-        }
-        cancel::check(cancel)?;
-        layers.push(layer);
-        let candidates: Vec<f64> = done.iter().map(|q| self.objective_of(q)).collect();
-        // Lowest objective first; NaN last; ties by particle index.
-        let mut order: Vec<usize> = (0..done.len()).collect();
-        order.sort_by(|&a, &b| {
-            let (x, y) = (candidates[a], candidates[b]);
-            x.partial_cmp(&y)
-                .unwrap_or_else(|| x.is_nan().cmp(&y.is_nan()))
-                .then(a.cmp(&b))
-        });
-        order.truncate(opts.best.max(1));
-        let mut models = Vec::with_capacity(order.len());
-        for c in order {
-            models.push(self.build_model(&mut w, &layers, &done[c], seed, c as u32, opts)?);
-        }
-        if opts.frames
+        let (models, candidates) = self.finish(
+            &mut w,
+            &mut layers,
+            &last,
+            seed,
+            opts,
+            parallel,
+            opts.best.max(1),
+        )?;
+        // The last generation's frame: the returned model.
+        let ran = stats.len().saturating_sub(1) as u32;
+        if keep.wants_last(ran)
             && let Some(best) = models.first()
         {
-            frames.push(best.clone());
+            frames.push((ran, Ok(best.clone())));
         }
         Ok(SampleResult {
             frames,
@@ -1487,11 +1542,75 @@ impl<'a> Sampler<'a> {
         })
     }
 
-    /// A frame of [`SampleOptions::frames`]: the generation's particle of
-    /// lowest objective (the first of equals; NaN last), wrapped up and
-    /// built as the run's result would be. The wrap-up's nodes live in a
-    /// layer pushed for the build and dropped after it: the search never
-    /// sees them.
+    /// The end of a run from `last` (its final generation's particles):
+    /// wrap up the distinct ones (copies share their head node), each with
+    /// the draws of its index among them; rank them by objective (lowest
+    /// first; NaN last; ties by index) and build the first `best`. The
+    /// wrap-ups' nodes go into a new layer of `layers`, which the caller
+    /// may drop once the models are built. Returns the models and the
+    /// objective of every distinct particle after wrap-up, in particle
+    /// order.
+    #[allow(clippy::too_many_arguments)]
+    fn finish(
+        &self,
+        w: &mut Worker,
+        layers: &mut Vec<Vec<Step>>,
+        last: &[Arc<Particle>],
+        seed: u32,
+        opts: &SampleOptions,
+        parallel: bool,
+        best: usize,
+    ) -> Result<(Vec<SampledModel>, Vec<f64>), SampleError> {
+        let cancel = opts.cancel.as_ref();
+        let mut seen = std::collections::HashSet::new();
+        let finals: Vec<&Arc<Particle>> = last.iter().filter(|p| seen.insert(p.head)).collect();
+        let wl = layers.len() as u32;
+        let lay: &[Vec<Step>] = layers;
+        let wrap = |w: &mut Worker, (c, p): (usize, &&Arc<Particle>)| {
+            self.wrap_up(w, lay, (wl, c as u32), p, seed, opts)
+        };
+        let wrapped: Vec<Result<(Particle, Step), SampleError>> = if parallel {
+            finals
+                .par_iter()
+                .enumerate()
+                .map_init(|| self.g.worker(), wrap)
+                .collect()
+        } else {
+            finals.iter().enumerate().map(|x| wrap(w, x)).collect()
+        };
+        let mut done = Vec::with_capacity(wrapped.len());
+        let mut layer = Vec::with_capacity(wrapped.len());
+        for r in wrapped {
+            let (q, st) = r?;
+            done.push(q);
+            layer.push(st);
+        }
+        cancel::check(cancel)?;
+        layers.push(layer);
+        let candidates: Vec<f64> = done.iter().map(|q| self.objective_of(q)).collect();
+        let mut order: Vec<usize> = (0..done.len()).collect();
+        order.sort_by(|&a, &b| {
+            let (x, y) = (candidates[a], candidates[b]);
+            x.partial_cmp(&y)
+                .unwrap_or_else(|| x.is_nan().cmp(&y.is_nan()))
+                .then(a.cmp(&b))
+        });
+        order.truncate(best);
+        let mut models = Vec::with_capacity(order.len());
+        for c in order {
+            models.push(self.build_model(w, layers, &done[c], seed, c as u32, opts)?);
+        }
+        Ok((models, candidates))
+    }
+
+    /// A frame of [`SampleOptions::frames`]: [`Self::finish`] of a
+    /// generation's particles, as if the run stopped there (the same
+    /// draws, so exactly the model a budget stopping it there returns).
+    /// The wrap-ups' layer is dropped once the model is built: the search
+    /// never sees it. A frame that cannot be finished (a wrap-up or
+    /// geometry-phase limit or a failing production that the run's own
+    /// end need not meet) is that error, and the search goes on; only a
+    /// cancellation stops the run.
     fn frame(
         &self,
         w: &mut Worker,
@@ -1499,30 +1618,19 @@ impl<'a> Sampler<'a> {
         particles: &[Arc<Particle>],
         seed: u32,
         opts: &SampleOptions,
-    ) -> Result<SampledModel, SampleError> {
-        let mut best: Option<(usize, f64)> = None;
-        for (i, p) in particles.iter().enumerate() {
-            let v = self.objective_of(p);
-            let better = match best {
-                None => true,
-                Some((_, b)) => v < b || (b.is_nan() && !v.is_nan()),
-            };
-            if better {
-                best = Some((i, v));
-            }
+        parallel: bool,
+    ) -> Result<Result<SampledModel, SampleError>, SampleError> {
+        let n = layers.len();
+        let made = self.finish(w, layers, particles, seed, opts, parallel, 1);
+        layers.truncate(n);
+        match made {
+            Err(SampleError::Cancelled) => Err(SampleError::Cancelled),
+            Err(e) => Ok(Err(e)),
+            Ok((models, _)) => Ok(models.into_iter().next().ok_or_else(|| {
+                // A generation has at least one particle (`Schedule`).
+                SampleError::Options("a generation without particles has no frame".into())
+            })),
         }
-        let Some((i, _)) = best else {
-            // A generation has at least one particle (`Schedule`).
-            return Err(SampleError::Options(
-                "a generation without particles has no frame".into(),
-            ));
-        };
-        let l = layers.len() as u32;
-        let (q, step) = self.wrap_up(w, layers, (l, 0), &particles[i], seed, opts)?;
-        layers.push(vec![step]);
-        let model = self.build_model(w, layers, &q, seed, 0, opts);
-        layers.pop();
-        model
     }
 
     // ---- the complete model ------------------------------------------------

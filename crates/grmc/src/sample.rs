@@ -5,6 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
+use grm_diag::Diagnostic;
 use grm_geom::BuildOptions;
 use grm_guide::{Curves, VolumeOptions};
 use grm_sample::{
@@ -109,16 +110,16 @@ pub struct SampleArgs {
     #[arg(short = 'o', long = "output")]
     pub output: Option<PathBuf>,
     /// With -o: write a model per generation, 0 to G-1, as NAME-K.EXT (K
-    /// zero-padded; at most 1,000 files): what the search would return had
-    /// it stopped after generation K (its best particle wrapped up); the
-    /// last is the result. Pictures share one view and framing. Not with
-    /// --best.
+    /// zero-padded; at most 1,000 files): what the search returns when
+    /// stopped after generation K (its particles wrapped up, the best
+    /// built); the last is the result. Pictures share one view and
+    /// framing. Not with --best.
     #[arg(long, requires = "output")]
     pub frames: bool,
-    /// Report and write the model the search held after generation K
-    /// (0-based; its best particle wrapped up, the preview's generation
-    /// scrubber) instead of the result; past the last generation run, the
-    /// result. Not with --frames or --best.
+    /// Report and write the model the search returns when stopped after
+    /// generation K (0-based; the preview's generation scrubber) instead
+    /// of the result; past the last generation run, the result. Costs one
+    /// frame. Not with --frames or --best.
     #[arg(long, value_name = "K", conflicts_with_all = ["frames", "best"])]
     pub generation: Option<u32>,
     #[command(flatten)]
@@ -209,7 +210,12 @@ fn ms(d: Duration) -> f64 {
 
 fn report(loaded: &crate::derive::Loaded, e: &SampleError) -> Outcome {
     let c = &loaded.compiled;
-    emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));
+    report_with(loaded, e, e.to_diagnostic(c.file, c.span))
+}
+
+/// Print `d`, the diagnostic of `e`, and exit as `e` asks.
+fn report_with(loaded: &crate::derive::Loaded, e: &SampleError, d: Diagnostic) -> Outcome {
+    emit(&loaded.sources, &d);
     match e {
         // (grmc never cancels a run; a cancelled one would not be the input's fault.)
         SampleError::ThreadPool(_) | SampleError::Options(_) | SampleError::Cancelled => {
@@ -217,6 +223,17 @@ fn report(loaded: &crate::derive::Loaded, e: &SampleError) -> Outcome {
         }
         _ => Outcome::InputErrors,
     }
+}
+
+/// A frame that cannot be finished: what a search stopped after
+/// generation `g` ends with (the search itself went on; its result is the
+/// one a run without frames reports).
+fn report_frame(loaded: &crate::derive::Loaded, g: u32, e: &SampleError) -> Outcome {
+    let c = &loaded.compiled;
+    let d = e.to_diagnostic(c.file, c.span).with_note(format!(
+        "in the model of generation {g}: a search stopped after it ends with this error (the full search finished; run without --frames or --generation for its result)"
+    ));
+    report_with(loaded, e, d)
 }
 
 pub fn run(args: SampleArgs) -> Outcome {
@@ -330,9 +347,14 @@ pub fn run(args: SampleArgs) -> Outcome {
             .max_memory
             .map_or(grm_sample::DEFAULT_MAX_BYTES, |m| m << 20),
         cancel: None,
-        frames: args.frames || args.generation.is_some(),
+        frames: args.frames,
     };
-    let result = match sampler.sample(&opts) {
+    // --generation: the one frame asked for, not one per generation.
+    let sampled = match args.generation {
+        Some(k) => sampler.sample_frame(&opts, k),
+        None => sampler.sample(&opts),
+    };
+    let result = match sampled {
         Ok(r) => r,
         Err(e) => {
             // What ran before a memory stop: the table shows its growth.
@@ -340,6 +362,14 @@ pub fn run(args: SampleArgs) -> Outcome {
                 && let SampleError::MemoryLimit { generations, .. } = &e
             {
                 print_generations(generations);
+            }
+            if args.frames && matches!(e, SampleError::MemoryLimit { .. }) {
+                // The figure counts the frames kept: say so, or "for its
+                // particles" sends the user after the wrong setting.
+                let d = e.to_diagnostic(c.file, c.span).with_note(
+                    "with --frames the models of the generations run so far count too (--stats shows the figure)",
+                );
+                return report_with(&loaded, &e, d);
             }
             return report(&loaded, &e);
         }
@@ -384,17 +414,21 @@ pub fn run(args: SampleArgs) -> Outcome {
         print_generations(&result.generations);
     }
     // --generation: that generation's model stands for the result.
-    let shown = args
-        .generation
-        .map(|g| (g as usize).min(result.frames.len().saturating_sub(1)));
-    let reported: &[grm_sample::SampledModel] = match shown {
-        Some(g) => {
-            outln!(
-                "generation {g} of 0..{} (the model the search held after it):",
-                result.frames.len().saturating_sub(1)
-            );
-            result.frames.get(g..=g).unwrap_or(&[])
-        }
+    let reported: &[grm_sample::SampledModel] = match args.generation {
+        Some(k) => match result.frame(k) {
+            Some((g, Ok(m))) => {
+                outln!(
+                    "generation {g} of 0..{} (the model the search returns when stopped after it):",
+                    result.generations.len().saturating_sub(1)
+                );
+                std::slice::from_ref(m)
+            }
+            Some((g, Err(e))) => return report_frame(&loaded, g, e),
+            None => {
+                eprintln!("error: the sampler kept no model of generation {k}");
+                return Outcome::InputErrors;
+            }
+        },
         None => &result.models,
     };
     for (k, m) in reported.iter().enumerate() {
@@ -446,8 +480,30 @@ pub fn run(args: SampleArgs) -> Outcome {
     if let Some(path) = &args.output
         && args.frames
     {
+        // Every frame or none: a sequence with holes would be numbered
+        // wrong, and the framing of pictures needs them all.
+        let failed: Vec<(u32, &SampleError)> = result
+            .frames
+            .iter()
+            .filter_map(|(g, f)| f.as_ref().err().map(|e| (*g, e)))
+            .collect();
+        if let Some(&(g, e)) = failed.first() {
+            let o = report_frame(&loaded, g, e);
+            let mut which: Vec<String> =
+                failed.iter().take(10).map(|(g, _)| g.to_string()).collect();
+            if failed.len() > which.len() {
+                which.push("...".into());
+            }
+            eprintln!(
+                "error: --frames wrote nothing: {} of {} frames cannot be finished (generations {}); --generation K writes one that can",
+                failed.len(),
+                result.frames.len(),
+                which.join(", ")
+            );
+            return o;
+        }
         let mut models = Vec::with_capacity(result.frames.len());
-        for m in &result.frames {
+        for m in result.frames.iter().filter_map(|(_, f)| f.as_ref().ok()) {
             match m.build(&loaded.program, &BuildOptions::default()) {
                 Ok(model) => models.push(model),
                 Err(e) => {

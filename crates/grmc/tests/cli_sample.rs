@@ -346,3 +346,159 @@ fn frames_write_a_model_per_generation_and_the_last_is_the_result() {
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(err.contains("at most 1000 files"), "{err}");
 }
+
+/// A sample system whose early generations' particles cannot be wrapped
+/// up (`sqrt` of a negative number) though the last generation's can: its
+/// skeleton is complete by then.
+const SHOOT: &str = r#"
+system Shoot {
+    mode = sample;
+    generations = 8;
+    particles_start = 4;
+    particles_end = 4;
+    axiom grow(0);
+    skeleton grow;
+    geometry leaf;
+    grow(k) : k < 5 -> F(1) grow(k + 1);
+    grow(k) : k >= 5 -> F(1);
+    wrapup grow(k) -> leaf(sqrt(k - 3));
+    leaf(s) -> sphere(0.1 + s);
+}
+"#;
+
+/// Frames that cannot be finished do not fail the search: it finishes and
+/// reports its result; --generation K of such a frame is that frame's
+/// error (R0302, saying which generation), of another one its model;
+/// --frames writes every frame or none, and says which cannot be made.
+#[test]
+fn frames_that_cannot_be_finished_leave_the_search_alone() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let grammar = dir.path().join("shoot.grm");
+    std::fs::write(&grammar, SHOOT).expect("write");
+    let curves = example("calder_tree.curves.json");
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "sample",
+            grammar.to_str().expect("utf-8"),
+            "--curves",
+            &curves,
+        ];
+        args.extend_from_slice(extra);
+        grmc(&args)
+    };
+    let out = dir.path().join("out");
+    std::fs::create_dir(&out).expect("mkdir");
+    let path = |name: &str| out.join(name).to_str().expect("utf-8").to_string();
+
+    let plain = run(&["-o", &path("plain.glb")]);
+    assert_eq!(plain.status.code(), Some(0), "{}", text(&plain.stderr));
+    let result_cost = text(&plain.stdout)
+        .lines()
+        .find(|l| l.starts_with("cost "))
+        .expect("a cost line")
+        .to_string();
+
+    // --generation 1: generation 1's particles cannot be wrapped up.
+    let o = run(&["--generation", "1", "-o", &path("g1.glb")]);
+    let err = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("R0302"), "{err}");
+    assert!(err.contains("in the model of generation 1"), "{err}");
+    assert!(!out.join("g1.glb").exists());
+    // --generation 3: they can.
+    let o = run(&["--generation", "3", "-o", &path("g3.glb")]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert!(text(&o.stdout).contains("generation 3 of 0..7"));
+    assert!(out.join("g3.glb").is_file());
+
+    // --frames: the search finished (its result is reported), but
+    // generations 0 and 1 have no model: nothing is written.
+    let o = run(&["--frames", "-o", &path("f.glb")]);
+    let (stdout, err) = (text(&o.stdout), text(&o.stderr));
+    assert_eq!(o.status.code(), Some(1), "{stdout}\n{err}");
+    assert!(stdout.contains(&result_cost), "{stdout}");
+    assert!(err.contains("R0302"), "{err}");
+    assert!(
+        err.contains("2 of 8 frames cannot be finished (generations 0, 1)"),
+        "{err}"
+    );
+    let mut names: Vec<String> = std::fs::read_dir(&out)
+        .expect("dir")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["g3.glb", "plain.glb"]);
+}
+
+/// The frames kept count towards --max-memory: a bound the search alone
+/// stays within stops the run with frames (R0310, saying why), before
+/// any file is written.
+#[test]
+fn frames_count_towards_the_memory_bound() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let tree = example("calder_tree.grm");
+    let out = dir.path().join("t.glb");
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "sample",
+            tree.as_str(),
+            "--generations",
+            "60",
+            "--max-memory",
+            "3",
+        ];
+        args.extend_from_slice(extra);
+        grmc(&args)
+    };
+    let o = run(&[]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let o = run(&["--frames", "-o", out.to_str().expect("utf-8")]);
+    let err = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("R0310"), "{err}");
+    assert!(err.contains("with --frames the models"), "{err}");
+    assert_eq!(std::fs::read_dir(dir.path()).expect("dir").count(), 0);
+}
+
+/// --generation K where the search ran fewer generations (a budget
+/// stop, or a run of one): the last one run, the result, said so.
+#[test]
+fn generation_past_the_generations_run_is_the_result() {
+    let tree = example("calder_tree.grm");
+    let run = |extra: &[&str]| {
+        let mut args = vec!["sample", tree.as_str(), "--particles", "6"];
+        args.extend_from_slice(extra);
+        grmc(&args)
+    };
+    for extra in [
+        vec![
+            "--generations",
+            "12",
+            "--budget-ms",
+            "0",
+            "--generation",
+            "5",
+        ],
+        vec!["--generations", "1", "--generation", "0"],
+        vec!["--generations", "1", "--generation", "4294967295"],
+    ] {
+        let o = run(&extra);
+        let out = text(&o.stdout);
+        assert_eq!(o.status.code(), Some(0), "{extra:?}: {}", text(&o.stderr));
+        assert!(out.contains("generation 0 of 0..0"), "{extra:?}: {out}");
+        let plain: Vec<&str> = extra[..extra.len() - 2].to_vec();
+        let p = run(&plain);
+        let cost = |s: &str| {
+            s.lines()
+                .find(|l| l.starts_with("cost "))
+                .map(str::to_string)
+        };
+        assert_eq!(cost(&out), cost(&text(&p.stdout)), "{extra:?}");
+    }
+    // Not a whole number from 0 to 2^32 - 1: a usage error.
+    for bad in ["-1", "4294967296", "x"] {
+        let o = run(&["--generation", bad]);
+        assert_eq!(o.status.code(), Some(2), "{bad}");
+        assert!(text(&o.stdout).is_empty(), "{bad}");
+    }
+}
