@@ -1025,23 +1025,9 @@ async fn preview_generation_edge_cases() {
     assert_eq!(r["sample"]["generation"], run - 1);
 }
 
-/// A sample system whose early particles cannot be wrapped up (`sqrt` of
-/// a negative number) though the last generation's can.
-const SHOOT: &str = r#"
-system Shoot {
-    mode = sample;
-    generations = 8;
-    particles_start = 4;
-    particles_end = 4;
-    axiom grow(0);
-    skeleton grow;
-    geometry leaf;
-    grow(k) : k < 5 -> F(1) grow(k + 1);
-    grow(k) : k >= 5 -> F(1);
-    wrapup grow(k) -> leaf(sqrt(k - 3));
-    leaf(s) -> sphere(0.1 + s);
-}
-"#;
+/// A sample system whose early particles cannot be wrapped up (the frames
+/// tests' shared fixture).
+const SHOOT: &str = include_str!("../../../tests/lsp/shoot.grm");
 
 /// A generation whose model cannot be finished is that request's error,
 /// saying which; the others, and the result, are shown.

@@ -315,21 +315,9 @@ fn one_frame_alone_is_the_same_as_among_all() {
     assert_eq!(run(true, Some(3)).frames.len(), 30);
 }
 
-/// A sample system whose early particles cannot be wrapped up (`sqrt` of a
-/// negative number is NaN) though its last generation's can (its skeleton
-/// is complete by then: nothing to wrap up).
-const SHOOT: &str = r#"
-system Shoot {
-    mode = sample;
-    axiom grow(0);
-    skeleton grow;
-    geometry leaf;
-    grow(k) : k < 5 -> F(1) grow(k + 1);
-    grow(k) : k >= 5 -> F(1);
-    wrapup grow(k) -> leaf(sqrt(k - 3));
-    leaf(s) -> sphere(0.1 + s);
-}
-"#;
+/// A sample system whose early generations' particles cannot be wrapped
+/// up (the frames tests' shared fixture; its schedule is the test's).
+const SHOOT: &str = include_str!("../../../tests/lsp/shoot.grm");
 
 /// A frame that cannot be finished is that frame's error, not the run's:
 /// the run with frames returns what the run without them returns.

@@ -348,23 +348,8 @@ fn frames_write_a_model_per_generation_and_the_last_is_the_result() {
 }
 
 /// A sample system whose early generations' particles cannot be wrapped
-/// up (`sqrt` of a negative number) though the last generation's can: its
-/// skeleton is complete by then.
-const SHOOT: &str = r#"
-system Shoot {
-    mode = sample;
-    generations = 8;
-    particles_start = 4;
-    particles_end = 4;
-    axiom grow(0);
-    skeleton grow;
-    geometry leaf;
-    grow(k) : k < 5 -> F(1) grow(k + 1);
-    grow(k) : k >= 5 -> F(1);
-    wrapup grow(k) -> leaf(sqrt(k - 3));
-    leaf(s) -> sphere(0.1 + s);
-}
-"#;
+/// up (the frames tests' shared fixture).
+const SHOOT: &str = include_str!("../../../tests/lsp/shoot.grm");
 
 /// Frames that cannot be finished do not fail the search: it finishes and
 /// reports its result; --generation K of such a frame is that frame's
