@@ -442,26 +442,36 @@ fn opacity(o: f32) -> f32 {
     if o.is_nan() { 1.0 } else { o.clamp(0.0, 1.0) }
 }
 
-/// Which bones got a tube of a translucent material.
-fn glassy_bones(model: &Model) -> Vec<bool> {
-    let mut glassy = vec![false; model.skeleton.bones.len()];
+/// The opacity of each bone's tube (1 for a bone without one): a
+/// translucent tube gets no line under it, an invisible one (0) is not
+/// framed either.
+fn tube_opacity(model: &Model) -> Vec<f32> {
+    let mut of = vec![1.0f32; model.skeleton.bones.len()];
     for part in &model.parts {
-        let translucent = model
+        let alpha = model
             .materials
             .get(part.material)
-            .is_some_and(|m| opacity(m.opacity) < 1.0);
-        if !translucent {
+            .map_or(1.0, |m| opacity(m.opacity));
+        if alpha >= 1.0 {
             continue;
         }
         for pick in &part.picks {
             if let PartSource::Bone(b) = pick.source
-                && let Some(g) = glassy.get_mut(b as usize)
+                && let Some(o) = of.get_mut(b as usize)
             {
-                *g = true;
+                *o = o.min(alpha);
             }
         }
     }
-    glassy
+    of
+}
+
+/// Whether a part is drawn at all (its material's opacity is not 0).
+fn visible(model: &Model, part: &crate::Part) -> bool {
+    model
+        .materials
+        .get(part.material)
+        .is_none_or(|m| opacity(m.opacity) > 0.0)
 }
 
 /// Sample rows per band: the unit of parallel work. Each band owns its rows
@@ -1006,12 +1016,17 @@ pub fn framing(model: &Model, view: View) -> Framing {
             hi = hi.max(q);
         }
     };
-    for part in &model.parts {
+    // What is drawn: not the parts of opacity 0, nor their bones' lines.
+    for part in model.parts.iter().filter(|p| visible(model, p)) {
         for p in &part.mesh.positions {
             grow(Vec3::from_array(*p));
         }
     }
+    let tubes = tube_opacity(model);
     for i in line_bones(model) {
+        if tubes[i] <= 0.0 {
+            continue;
+        }
         let b = &model.skeleton.bones[i];
         grow(b.base);
         grow(b.tip);
@@ -1427,8 +1442,8 @@ pub fn render_framed(
             items: Vec::new(),
         };
         // A translucent tube's line would show through it as a core: none.
-        let glassy = glassy_bones(model);
-        for &i in lines.iter().filter(|&&i| tubed[i] && !glassy[i]) {
+        let tubes = tube_opacity(model);
+        for &i in lines.iter().filter(|&&i| tubed[i] && tubes[i] >= 1.0) {
             if let Some(l) = line(i, LINE_LIGHT, false) {
                 scene.items.push(Item::Line(scene.lines.len() as u32));
                 scene.lines.push(l);

@@ -1258,3 +1258,21 @@ fn the_orbit_camera_frames_the_model_as_the_preview_does() {
     // Nothing to frame: no camera.
     assert_eq!(orbit_camera(&empty(), 0.0, 0.0, 45.0), None);
 }
+
+#[test]
+fn what_is_not_drawn_is_not_framed() {
+    // A red box, and a tube of opacity 0 far to its right: the picture
+    // frames the box as if the tube were not there (it is not drawn).
+    let with = model(
+        &format!(
+            "{MATERIALS}system S {{ width = 0.5; axiom [ material(red) box(1, 1, 1) ] translate(20, 0, 0) material(ghost) F(1); }}"
+        ),
+        0,
+    );
+    let without = model(
+        &format!("{MATERIALS}system S {{ axiom material(red) box(1, 1, 1); }}"),
+        0,
+    );
+    let o = options(60, 60, FRONT);
+    assert_eq!(draw(&with, &o), draw(&without, &o));
+}

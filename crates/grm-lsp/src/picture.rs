@@ -33,8 +33,10 @@ pub struct PictureView {
 pub struct PictureCamera {
     /// Where the camera is.
     pub position: [f64; 3],
-    /// The point it looks at (a different point).
-    pub target: [f64; 3],
+    /// The point it looks at (a different point; default the centre of
+    /// the model's bounds, as `--look-at`'s).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target: Option<[f64; 3]>,
     /// The vertical field of view in degrees, more than 0 and at most 179
     /// (default 45, the preview's).
     #[serde(default = "default_fov")]
@@ -84,9 +86,14 @@ pub struct PictureResult {
     /// The view it was taken from (the automatic one resolved; a camera's
     /// direction from its target).
     pub view: PictureView,
-    /// The camera it was taken with, when one was given.
+    /// The camera it was taken with, when one was given (its target
+    /// resolved).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub camera: Option<PictureCamera>,
+    /// Sample mode, when the request asked for a `generation`: the one
+    /// drawn (as `grm/preview`'s `sample.generation`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub generation: Option<usize>,
     /// `image/png`, base64.
     pub png: String,
     pub triangles: usize,
@@ -113,11 +120,11 @@ fn options(p: &PictureParams) -> std::result::Result<grm_geom::render::RenderOpt
             return Err("give the picture a view or a camera, not both".into());
         }
         Some(c) => grm_geom::render::RenderOptions {
-            view: grm_geom::render::View::Camera {
-                eye: glam::DVec3::from_array(c.position),
-                target: glam::DVec3::from_array(c.target),
-                fov: c.fov,
-            },
+            // Without a target, checked here looking from the position at
+            // a point beside it (the position and field of view are what
+            // can be wrong before the model is built); the model's centre
+            // replaces it.
+            view: camera_view(&c, glam::DVec3::from_array(c.position) + glam::DVec3::ONE),
             ..o
         },
         None => o,
@@ -132,6 +139,25 @@ fn options(p: &PictureParams) -> std::result::Result<grm_geom::render::RenderOpt
         ));
     }
     Ok(o)
+}
+
+/// The view of camera `c`, looking at `centre` when it names no target.
+fn camera_view(c: &PictureCamera, centre: glam::DVec3) -> grm_geom::render::View {
+    grm_geom::render::View::Camera {
+        eye: glam::DVec3::from_array(c.position),
+        target: c.target.map_or(centre, glam::DVec3::from_array),
+        fov: c.fov,
+    }
+}
+
+/// The centre of `model`'s bounds (the origin when it has none), in f64.
+fn centre(model: &grm_geom::Model) -> glam::DVec3 {
+    let b = &model.stats.bounds;
+    if b.is_empty() {
+        glam::DVec3::ZERO
+    } else {
+        (b.min.as_dvec3() + b.max.as_dvec3()) * 0.5
+    }
 }
 
 impl Backend {
@@ -166,6 +192,19 @@ impl Backend {
             if token.is_cancelled() {
                 return Err(Failure::Cancelled);
             }
+            // A camera without a target looks at the model's centre.
+            let mut camera = params_camera;
+            let opts = match &mut camera {
+                Some(c) => {
+                    let view = camera_view(c, centre(&model));
+                    if let grm_geom::render::View::Camera { target, .. } = view {
+                        c.target = Some(target.to_array());
+                    }
+                    grm_geom::render::RenderOptions { view, ..opts }
+                }
+                None => opts,
+            };
+            opts.validate().map_err(|e| Failure::Msg(e.to_string()))?;
             let framing = grm_geom::render::framing(&model, opts.view);
             let image = grm_geom::render::render_framed(&model, &opts, &framing)
                 .map_err(|e| Failure::Msg(e.to_string()))?;
@@ -182,7 +221,8 @@ impl Backend {
                     azimuth: framing.azimuth,
                     elevation: framing.elevation,
                 },
-                camera: params_camera,
+                camera,
+                generation: r.sample.as_ref().and_then(|s| s.generation),
                 png: base64::engine::general_purpose::STANDARD.encode(png),
                 triangles: model.stats.triangles,
                 bones: model.stats.bones,

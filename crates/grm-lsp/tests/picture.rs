@@ -169,6 +169,28 @@ async fn a_picture_through_the_previews_camera() {
         )
         .await;
     assert_eq!(far["camera"]["fov"], 45.0);
+    // Without a target the camera looks at the model's centre, and says so.
+    let centred = c
+        .ok(
+            "grm/picture",
+            json!({ "textDocument": doc, "width": 80, "height": 60,
+                    "camera": { "position": [0.0, 2.0, 30.0] } }),
+        )
+        .await;
+    let preview = c.ok("grm/preview", json!({ "textDocument": doc })).await;
+    let (lo, hi) = (
+        &preview["stats"]["boundsMin"],
+        &preview["stats"]["boundsMax"],
+    );
+    for k in 0..3 {
+        let want = (lo[k].as_f64().unwrap() + hi[k].as_f64().unwrap()) / 2.0;
+        let got = centred["camera"]["target"][k].as_f64().unwrap();
+        assert!(
+            (got - want).abs() < 1e-4,
+            "target {k}: {got} against {want}"
+        );
+    }
+    assert!(centred.get("generation").is_none());
     let (near_n, far_n) = (covered(&pixels), covered(&decode(&far).3));
     assert!(far_n > 0 && far_n < near_n, "{far_n} against {near_n}");
 

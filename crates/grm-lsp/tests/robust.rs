@@ -633,6 +633,15 @@ async fn preview_sample_generation_shows_the_search_after_it() {
     );
     let again = c.ok("grm/preview", at(Some(0))).await;
     assert_eq!(again["parts"], first["parts"]);
+    // A picture of a generation says which it drew, and draws that model.
+    let mut req = at(Some(0));
+    req["width"] = json!(32);
+    req["height"] = json!(32);
+    let picture = c.ok("grm/picture", req).await;
+    assert_eq!(picture["generation"], 0);
+    assert_eq!(picture["bones"], first["stats"]["bones"]);
+    let whole = c.ok("grm/picture", at(None)).await;
+    assert!(whole.get("generation").is_none());
 }
 
 /// The answer of a spawned request, within `limit`.
