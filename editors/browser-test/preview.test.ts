@@ -12,7 +12,10 @@
 // zoom changes both. The generation scrubber of a sample system shows the
 // model the search held after an earlier generation (and Save picture takes
 // it), goes back to the result at its end, after another seed and after an
-// edit of the grammar; derived systems have none.
+// edit of the grammar; derived systems have none. Its Play button replays
+// the search one generation after another, each asked for once the last is
+// on screen, to the result; Pause, Space on the slider and a new search
+// stop it where it is.
 //
 // Needs: `cargo build -p grmc` (or GRMC=path), Debian's chromium
 // (CHROMIUM=path, default /usr/bin/chromium). Screenshots and the measured
@@ -171,6 +174,8 @@ interface Grm {
   objective: number | null;
   generation: number | null;
   generations: number | null;
+  playing: boolean;
+  playSteps: { position: number; askedAt: number; shownAt: number | null }[];
   lastView: { uri: string; azimuth: number; elevation: number; width: number; height: number; camera?: Camera } | null;
   views: number;
   pictures: number;
@@ -922,6 +927,185 @@ test('sample mode: the generation scrubber shows the model the search held after
   assert.equal(g6.bones, g4.bones, 'the same search: the same result');
   assert.equal(g6.regrows - g5.regrows, 1, "the generation's model of the edited grammar was not shown");
   assert.equal(await page.textContent('#generation-value'), '100 / 100 (result)');
+  assert.deepEqual(pageErrors(page), []);
+  await page.close();
+});
+
+/** Wait until nothing of the page's is on its way and every model delivered is on screen (a paused or finished replay). */
+async function idle(page: Page, what: string): Promise<Grm> {
+  try {
+    await page.waitForFunction(
+      () => {
+        const g = (globalThis as unknown as { __grm: Grm }).__grm;
+        return (!g.busy && !g.playing && g.regrows === g.delivered) || g.lastError !== null;
+      },
+      undefined,
+      { timeout: 60_000, polling: 20 },
+    );
+  } catch (e) {
+    throw new Error(`${what}: still busy after 60 s (${JSON.stringify(await grm(page))})`, { cause: e });
+  }
+  const g = await grm(page);
+  assert.equal(g.lastError, null, what);
+  return g;
+}
+
+/** The `generation` of each `POST /api/preview` the page sends from now on (undefined: the result), until `stop()`. */
+function recordAsked(page: Page): { asked: (number | undefined)[]; stop(): void } {
+  const asked: (number | undefined)[] = [];
+  const onRequest = (r: { url(): string; method(): string; postData(): string | null }) => {
+    if (r.url().endsWith('/api/preview') && r.method() === 'POST') asked.push((JSON.parse(r.postData() ?? 'null') as { generation?: number }).generation);
+  };
+  page.on('request', onRequest);
+  return { asked, stop: () => page.off('request', onRequest) };
+}
+
+/** From now on, the page records each generation it shows (`__grm.generation` as it changes; null: a result) in `__shown`. */
+async function watchShown(page: Page): Promise<void> {
+  await page.evaluate(() => {
+    const w = globalThis as unknown as { __grm: Grm; __shown: (number | null)[]; __watch?: ReturnType<typeof setInterval> };
+    clearInterval(w.__watch);
+    w.__shown = [w.__grm.generation];
+    let seen = w.__grm.regrows;
+    w.__watch = setInterval(() => {
+      if (w.__grm.regrows === seen) return;
+      seen = w.__grm.regrows;
+      w.__shown.push(w.__grm.generation);
+    }, 2);
+  });
+}
+
+const shownGenerations = (page: Page): Promise<(number | null)[]> => page.evaluate(() => (globalThis as unknown as { __shown: (number | null)[] }).__shown);
+
+/**
+ * What must hold of a replay's steps whatever the machine: consecutive
+ * positions from `from`, each asked only once the last one's model was on
+ * screen, and no sooner than the page's interval (80 ms) after the last was
+ * asked.
+ */
+function checkSteps(steps: Grm['playSteps'], from: number, what: string): void {
+  assert.deepEqual(
+    steps.map((s) => s.position),
+    steps.map((_, k) => from + k),
+    `${what}: consecutive positions`,
+  );
+  for (let k = 1; k < steps.length; k++) {
+    const [a, b] = [steps[k - 1], steps[k]];
+    assert.ok(a.shownAt !== null && b.askedAt >= a.shownAt, `${what}: step ${k} asked before step ${k - 1} was on screen: ${JSON.stringify([a, b])}`);
+    // Timers and performance.now() are coarse (and may be a little early): a millisecond of slack.
+    assert.ok(b.askedAt - a.askedAt >= 79, `${what}: steps ${k - 1} and ${k} asked ${b.askedAt - a.askedAt} ms apart`);
+  }
+}
+
+test('sample mode: Play replays the search generation by generation to the result; Pause, Space and a new search stop it where it is', async () => {
+  const dir = scratch(['calder_tree.grm', 'calder_tree.curves.json', 'leaf.obj', 'trunk.obj']);
+  const grammar = join(dir, 'calder_tree.grm');
+  const url = await view(grammar);
+  const page = await openPage(url);
+  const g0 = await settled(page, 0, 'first model');
+  assert.deepEqual([g0.mode, g0.generations, g0.generation, g0.playing], ['sample', 100, null, false]);
+  const play = page.locator('#generation-play');
+  assert.deepEqual([await play.textContent(), await play.isEnabled()], ['Play', true]);
+
+  // Play at the end: the replay starts at the first generation and steps on, one generation a step.
+  await watchShown(page);
+  const rec = recordAsked(page);
+  await play.click();
+  assert.equal(await play.textContent(), 'Pause');
+  assert.equal((await grm(page)).playing, true);
+  await page.waitForFunction(
+    () => (globalThis as unknown as { __grm: Grm }).__grm.playSteps.filter((s) => s.shownAt !== null).length >= 4 || (globalThis as unknown as { __grm: Grm }).__grm.lastError !== null,
+    undefined,
+    { timeout: 60_000, polling: 20 },
+  );
+  // Pause: the replay stops where it is; a step on its way is still shown, and nothing is asked after it.
+  await play.click();
+  assert.equal(await play.textContent(), 'Play');
+  const g1 = await idle(page, 'paused');
+  assert.equal(g1.playing, false);
+  const last = g1.playSteps.at(-1)!.position;
+  assert.ok(last >= 3 && last < 99, `paused at ${last}`);
+  checkSteps(g1.playSteps, 0, 'from the end');
+  assert.deepEqual(rec.asked, g1.playSteps.map((s) => s.position), 'one request per step, for its generation');
+  assert.equal(g1.generation, last, 'the model of the last step asked is shown');
+  assert.equal(await page.locator('#generation').inputValue(), String(last));
+  assert.equal(await page.textContent('#generation-value'), `${last + 1} / 100`);
+  // Each step's model came on screen in turn: generations in increasing order, none skipped (the first the result).
+  const shown = await shownGenerations(page);
+  assert.deepEqual(shown, [null, ...g1.playSteps.map((s) => s.position)], `the generations shown: ${JSON.stringify(shown)}`);
+  // And it stays there.
+  await page.waitForTimeout(400);
+  const g2 = await grm(page);
+  assert.deepEqual([g2.regrows, g2.generation, g2.playing, rec.asked.length], [g1.regrows, last, false, g1.playSteps.length]);
+  rec.stop();
+
+  // A shorter search (the grammar edited to 12 generations): the page shows its result, and Play at the end
+  // replays all of it, to the result.
+  writeFileSync(grammar, readFileSync(grammar, 'utf8').replace('generations = 100;', 'generations = 12;'));
+  await page.waitForFunction(
+    () => {
+      const g = (globalThis as unknown as { __grm: Grm }).__grm;
+      return (g.generations === 12 && !g.busy && g.regrows === g.delivered) || g.lastError !== null;
+    },
+    undefined,
+    { timeout: 30_000, polling: 20 },
+  );
+  const g3 = await grm(page);
+  assert.deepEqual([g3.lastError, g3.generation], [null, null]);
+  assert.equal(await page.textContent('#generation-value'), '12 / 12 (result)');
+  await watchShown(page);
+  const rec2 = recordAsked(page);
+  await play.click();
+  const g4 = await idle(page, 'replay to the end');
+  rec2.stop();
+  assert.deepEqual([g4.playing, g4.generation, g4.generations], [false, null, 12], 'the replay ended at the result');
+  checkSteps(g4.playSteps, 0, 'the whole search');
+  assert.equal(g4.playSteps.length, 12);
+  assert.ok(g4.playSteps.every((s) => s.shownAt !== null), 'every step was on screen');
+  // Every generation asked in turn, the last as the result (no generation).
+  assert.deepEqual(rec2.asked, [0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, undefined]);
+  assert.deepEqual(await shownGenerations(page), [null, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, null]);
+  assert.deepEqual([g4.bones, g4.objective], [g3.bones, g3.objective], "the search's result again");
+  assert.equal(await play.textContent(), 'Play');
+  assert.equal(await page.textContent('#generation-value'), '12 / 12 (result)');
+  assert.equal(await page.locator('#generation').inputValue(), '11');
+
+  // Space on the slider plays from where it stands; a new search (the next seed) stops the replay, whose
+  // scrubber is back at the end: the new search's result is shown, nothing more is stepped.
+  await scrub(page, 3);
+  const g5 = await settled(page, g4.regrows, 'generation 3');
+  assert.equal(g5.generation, 3);
+  const rec3 = recordAsked(page);
+  await page.focus('#generation');
+  await page.keyboard.press('Space');
+  assert.equal((await grm(page)).playing, true);
+  assert.equal(await play.textContent(), 'Pause');
+  await page.click('#next-variation');
+  // The steps taken when the click came (the replay may have gone on a step or two while it was on its way).
+  const atClick = await grm(page);
+  assert.equal(atClick.playing, false);
+  assert.equal(await play.textContent(), 'Play');
+  const steps = atClick.playSteps.map((s) => s.position);
+  assert.equal(steps[0], 4, 'from generation 3, the replay starts at the next one');
+  const g6 = await idle(page, 'next variation while playing');
+  await page.waitForTimeout(300);
+  rec3.stop();
+  assert.deepEqual([g6.generation, g6.seed, g6.playSteps.map((s) => s.position)], [null, (g5.seed ?? 0) + 1, steps]);
+  // The replay's steps, then the new seed's result (a step on its way when the click came may make the
+  // page ask it twice, see the coalescer), and no step after.
+  assert.deepEqual(rec3.asked.filter((g) => g !== undefined), steps, JSON.stringify(rec3.asked));
+  assert.equal(rec3.asked.at(-1), undefined, JSON.stringify(rec3.asked));
+  assert.equal((await grm(page)).regrows, g6.regrows);
+  assert.equal(await page.textContent('#generation-value'), '12 / 12 (result)');
+
+  // Space again, from the end: the replay starts at the first generation; Space pauses it.
+  await page.focus('#generation');
+  await page.keyboard.press('Space');
+  assert.equal((await grm(page)).playSteps[0]?.position, 0);
+  await page.keyboard.press('Space');
+  const g7 = await idle(page, 'paused with Space');
+  assert.equal(g7.playing, false);
+  assert.equal(g7.generation, g7.playSteps.at(-1)!.position);
   assert.deepEqual(pageErrors(page), []);
   await page.close();
 });

@@ -1,6 +1,8 @@
 // The coalescer's final edits: sent at once while a stale request is in
 // flight (which the host supersedes), the stale answer dropped without being
-// shown or reported, never more than one stale and one current request.
+// shown or reported, never more than one stale and one current request; a
+// current request the stale one superseded (reaching the host after it) is
+// sent again, once.
 import assert from 'node:assert/strict';
 import { test } from 'node:test';
 import { Coalescer, type Delivery, SharedRequest } from '../preview/src/coalesce.js';
@@ -168,6 +170,56 @@ test('coalescer: real failures of the current request are reported; a request su
   assert.equal(h.c.staleAnswers, 0);
   assert.equal(h.c.supersededAnswers, 2);
   assert.equal(h.c.busy, false);
+});
+
+test('coalescer: a current request its own stale request superseded (they reached the host in the other order) is sent again, once', async () => {
+  // The stale request still in flight when the current one is answered "superseded".
+  const h = harness();
+  h.edit(1, 10);
+  h.edit(2, 20, true);
+  assert.deepEqual(h.sent, [1, 2]);
+  h.answers[1].reject(superseded());
+  await settle();
+  assert.deepEqual(h.sent, [1, 2, 2], 'the current state again, after the stale request');
+  assert.equal(h.c.resends, 1);
+  h.answers[0].reject(superseded()); // the resend superseded the stale one in turn
+  h.answers[2].resolve(20);
+  await settle();
+  assert.deepEqual(h.delivered, [{ result: 20, editedAt: 20, final: true }]);
+  assert.deepEqual([h.failures, h.elsewhere(), h.c.busy], [[], 0, false]);
+
+  // The stale request built to the end and answered first: it was not superseded, so it superseded the current one.
+  const k = harness();
+  k.edit(1, 10);
+  k.edit(2, 20, true);
+  k.answers[0].resolve(10);
+  await settle();
+  k.answers[1].reject(superseded());
+  await settle();
+  assert.deepEqual(k.sent, [1, 2, 2]);
+  // Superseded again (by someone else this time): not sent a third time.
+  k.answers[2].reject(superseded());
+  await settle();
+  assert.deepEqual(k.sent, [1, 2, 2]);
+  assert.deepEqual([k.delivered, k.failures, k.elsewhere(), k.c.resends, k.c.busy], [[], [], 1, 1, false]);
+  // The next edit may be sent again once more.
+  k.edit(3, 30, true);
+  k.edit(4, 40, true);
+  k.answers[4].reject(superseded());
+  await settle();
+  assert.deepEqual(k.sent, [1, 2, 2, 3, 4, 4]);
+});
+
+test('coalescer: the stale request superseded by the current one, which someone else supersedes: not sent again', async () => {
+  const h = harness();
+  h.edit(1, 10);
+  h.edit(2, 20, true);
+  h.answers[0].reject(superseded());
+  await settle();
+  h.answers[1].reject(superseded());
+  await settle();
+  assert.deepEqual(h.sent, [1, 2]);
+  assert.deepEqual([h.c.resends, h.elsewhere(), h.c.busy], [0, 1, false]);
 });
 
 test('superseded errors are recognised by their code only', () => {

@@ -1,10 +1,22 @@
 // The generation scrubber of sample systems without a browser: the request's
 // `generation` for a position, the slider and its label, when it goes back to
-// the end (the result), the decoding of the result's `sample.generation`, and
-// that "Save picture" asks for the generation shown.
+// the end (the result), the decoding of the result's `sample.generation`,
+// that "Save picture" asks for the generation shown, and the Play button's
+// replay of the search (its steps, their pacing, when it stops, the button).
 import assert from 'node:assert/strict';
 import { test } from 'node:test';
-import { GenerationScrub, generationParam, isSearchResult, scrubberView, searchKey, showsUpdate } from '../preview/src/generation.js';
+import {
+  GenerationScrub,
+  PLAY_INTERVAL_MS,
+  type PlayAt,
+  SearchPlayer,
+  generationParam,
+  isSearchResult,
+  playButtonView,
+  scrubberView,
+  searchKey,
+  showsUpdate,
+} from '../preview/src/generation.js';
 import { pictureParams } from '../preview/src/picture.js';
 import { type SampleInfo, decodePreview } from '../preview/src/protocol.js';
 import { PageState } from '../preview/src/state.js';
@@ -208,4 +220,154 @@ test('Save picture asks for the generation shown, from the same state as the pre
   // At the end: the result, no generation.
   s.setGeneration(99, 100);
   assert.equal('generation' in pictureParams(s.previewParams(), null, { width: 1, height: 1 }), false);
+});
+
+const at = (generation: number | null, key = 'A'): PlayAt => ({ generation, key });
+
+test('Play starts after the scrubber, or at the first generation from the end; a search of one generation has nothing to play', () => {
+  const p = new SearchPlayer();
+  assert.equal(p.playing, false);
+  assert.equal(p.play(at(null), 100, 0), 0, 'from the end (the result): the whole search');
+  assert.deepEqual([p.playing, p.position, p.generations], [true, 0, 100]);
+  assert.equal(p.play(at(12), 100, 0), 13, 'from generation 12 (its model on screen): the next one');
+  assert.equal(p.play(at(98), 100, 0), 99, 'the step after the last generation before the end is the result');
+  assert.equal(p.play(at(99), 100, 0), 0, 'the last generation is the end');
+  for (const n of [1, 0, Number.NaN]) {
+    assert.equal(p.play(at(null), n, 0), null, String(n));
+    assert.equal(p.playing, false, String(n));
+  }
+});
+
+test('a replay asks for the next position only once the last one is on screen, no sooner than the interval after it was asked', () => {
+  const p = new SearchPlayer(80);
+  assert.equal(p.play(at(null), 100, 1000), 0);
+  // The page set its scrubber to 0 and asked; the result still on screen (an older model) is not the step's.
+  assert.deepEqual(p.shown(null, at(0), 1010), { kind: 'wait' });
+  assert.deepEqual(p.shown(7, at(0), 1010), { kind: 'wait' });
+  // Generation 0 on screen 30 ms after it was asked: the next in 50 ms.
+  assert.deepEqual(p.shown(0, at(0), 1030), { kind: 'next', position: 1, delayMs: 50 });
+  // The same model again (a second answer for the same state) does not step twice.
+  assert.deepEqual(p.shown(0, at(0), 1040), { kind: 'wait' });
+  assert.equal(p.position, 0, 'nothing asked before the wait is over');
+  assert.equal(p.advance(at(0), 1080), 1);
+  assert.equal(p.position, 1);
+  // Nothing waits now: a second advance asks nothing.
+  assert.equal(p.advance(at(1), 1081), null);
+  assert.equal(p.playing, true);
+  // A slow server: on screen 300 ms after it was asked, the next at once.
+  assert.deepEqual(p.shown(1, at(1), 1380), { kind: 'next', position: 2, delayMs: 0 });
+  assert.equal(PLAY_INTERVAL_MS, new SearchPlayer().intervalMs);
+});
+
+/** A replay of a `generations`-generation search as the page runs it: the positions asked, in order, and how it ended. */
+function replay(p: SearchPlayer, from: number | null, generations: number): { asked: number[]; end: string } {
+  const asked: number[] = [];
+  let t = 0;
+  let position = p.play(at(from), generations, t);
+  while (position !== null) {
+    asked.push(position);
+    // The page's scrubber: the position asked (its last one is the result).
+    const shownAt = at(generationParam(position, generations) ?? null);
+    t += 25;
+    const a = p.shown(shownAt.generation, shownAt, t);
+    if (a.kind !== 'next') return { asked, end: a.kind };
+    assert.equal(a.position, position + 1);
+    t += a.delayMs;
+    position = p.advance(shownAt, t);
+    assert.equal(position, a.position);
+    if (asked.length > generations) break;
+  }
+  return { asked, end: 'stuck' };
+}
+
+test('a replay steps through every generation in order and ends at the result', () => {
+  const p = new SearchPlayer();
+  assert.deepEqual(replay(p, null, 5), { asked: [0, 1, 2, 3, 4], end: 'done' });
+  assert.equal(p.playing, false);
+  assert.deepEqual(replay(p, 2, 5), { asked: [3, 4], end: 'done' });
+  assert.deepEqual(replay(p, 3, 5), { asked: [4], end: 'done' }, 'from the last generation before the end: the result');
+  assert.deepEqual(replay(p, null, 2), { asked: [0, 1], end: 'done' });
+});
+
+test('a replay stops on Pause, when the scrubber is moved or the search changes, and asks nothing after', () => {
+  // Pause while a step's model is on its way: it stays where it is; its model, once shown, asks for nothing.
+  const p = new SearchPlayer();
+  p.play(at(null), 100, 0);
+  p.stop();
+  assert.deepEqual([p.playing, p.position], [false, null]);
+  assert.deepEqual(p.shown(0, at(0), 30), { kind: 'stop' });
+  assert.equal(p.advance(at(0), 100), null);
+
+  // Pause during the wait for the next step: the timer's advance asks nothing.
+  p.play(at(null), 100, 0);
+  assert.equal(p.shown(0, at(0), 30).kind, 'next');
+  p.stop();
+  assert.equal(p.advance(at(0), 80), null);
+
+  const moves: [string, PlayAt][] = [
+    ['the scrubber moved by hand', at(40)],
+    ['the scrubber back at the end (an edit of the document: a new search, same parameters)', at(null)],
+    ['another search (seed, parameters, curves: its scrubber at the end)', at(null, 'B')],
+    ['another search, the same generation asked', at(0, 'B')],
+  ];
+  for (const [what, moved] of moves) {
+    // Noticed when a model is on screen...
+    const a = new SearchPlayer();
+    a.play(at(null), 100, 0);
+    assert.equal(a.stillAt(at(0)), true, what);
+    assert.equal(a.stillAt(moved), false, what);
+    assert.deepEqual(a.shown(0, moved, 30), { kind: 'stop' }, what);
+    assert.equal(a.playing, false, what);
+    // ...or when the wait for the next step is over.
+    const b = new SearchPlayer();
+    b.play(at(null), 100, 0);
+    assert.equal(b.shown(0, at(0), 30).kind, 'next', what);
+    assert.equal(b.advance(moved, 80), null, what);
+    assert.equal(b.playing, false, what);
+  }
+});
+
+test("a replay of the page state's search: it follows the scrubber, a new search stops it", () => {
+  const s = sampleState();
+  const p = new SearchPlayer();
+  const here = (): PlayAt => ({ generation: s.generation, key: s.searchKey });
+  // The page: Play, then set the scrubber to each position the player asks for.
+  const first = p.play(here(), 100, 0);
+  assert.equal(first, 0);
+  s.setGeneration(0, 100);
+  assert.equal(s.previewParams().generation, 0);
+  assert.equal(p.stillAt(here()), true);
+  assert.equal(p.shown(0, here(), 40).kind, 'next');
+  s.setGeneration(p.advance(here(), 80) ?? -1, 100);
+  assert.equal(s.previewParams().generation, 1);
+  assert.equal(p.stillAt(here()), true);
+  // The focus highlight does not change the search: the replay goes on.
+  s.focus = { line: 2, character: 0 };
+  assert.equal(p.stillAt(here()), true);
+  // A meta-parameter moved: a new search, the scrubber at its end; the replay stops.
+  s.setParam('spread', 45);
+  assert.equal(p.stillAt(here()), false);
+  assert.deepEqual(p.shown(1, here(), 200), { kind: 'stop' });
+  // Played again from the end: from the first generation of the new search.
+  assert.equal(p.play(here(), 100, 300), 0);
+  s.setGeneration(0, 100);
+  // The document edited: the same parameters, a new search; the replay stops.
+  s.showResult();
+  assert.equal(p.stillAt(here()), false);
+});
+
+test('the Play button: Play at rest (from the first generation at the end), Pause while playing, disabled with nothing to replay', () => {
+  const end = scrubberView('sample', sample(), null);
+  const mid = scrubberView('sample', sample(), 12);
+  assert.deepEqual([playButtonView(end, false).label, playButtonView(end, false).disabled], ['Play', false]);
+  assert.match(playButtonView(end, false).title, /from the first to the result/);
+  assert.match(playButtonView(mid, false).title, /from here/);
+  assert.deepEqual([playButtonView(mid, true).label, playButtonView(mid, true).disabled], ['Pause', false]);
+  assert.match(playButtonView(mid, true).title, /Pause/);
+  // One generation, derive mode, no search yet: nothing to replay.
+  assert.equal(playButtonView(scrubberView('sample', sample({ generations: 1 }), null), false).disabled, true);
+  assert.equal(playButtonView(scrubberView('derive', sample(), null), false).disabled, true);
+  assert.equal(playButtonView(scrubberView('sample', null, null), false).disabled, true);
+  // A replay can always be paused.
+  assert.equal(playButtonView(scrubberView('derive', null, null), true).disabled, false);
 });

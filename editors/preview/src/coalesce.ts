@@ -16,6 +16,14 @@
 // is delivered or reported. At most two requests are in flight (the stale
 // one and the current one); a final edit made while two are in flight is
 // sent when one of them answers.
+//
+// Sent a few milliseconds apart, the two may reach the host in the other
+// order (`grmc view` takes each HTTP connection in a thread of its own):
+// then the stale request supersedes the current one. When the current
+// request is answered "superseded" while the stale one is still in flight,
+// or after the host built the stale one to the end (so it was not the one
+// superseded), the coalescer sends the current state once more; otherwise
+// the page would be left with no model for its state.
 
 export interface Delivery<R> {
   result: R;
@@ -50,6 +58,12 @@ export class Coalescer<S, R> {
   supersededAnswers = 0;
   /** Requests sent while another was in flight (each supersedes it). */
   supersedes = 0;
+  /** Current requests sent again after this coalescer's own stale request reached the host after them and superseded them. */
+  resends = 0;
+  /** Since the last request went, an older one was answered with something other than "superseded" (the host built it to the end). */
+  private olderFinished = false;
+  /** The current state was sent again once already (reset by the next edit): never more. */
+  private resent = false;
 
   constructor(
     private readonly state: () => S,
@@ -69,6 +83,7 @@ export class Coalescer<S, R> {
     if (this.disposed) return;
     if (!this.dirty) this.firstDirtyAt = editedAt;
     this.dirty = true;
+    this.resent = false;
     if (final) this.urgent = true;
     this.pump();
   }
@@ -109,6 +124,7 @@ export class Coalescer<S, R> {
       this.dirty = false;
       this.urgent = false;
       this.inFlight++;
+      this.olderFinished = false;
       const seq = ++this.sent;
       const editedAt = this.firstDirtyAt;
       let request: Promise<R>;
@@ -119,12 +135,12 @@ export class Coalescer<S, R> {
       }
       request.then(
         (result) => this.settled(seq, () => this.deliver({ result, editedAt, final: !this.dirty })),
-        (e: unknown) => this.settled(seq, () => this.failed(e), e),
+        (e: unknown) => this.settled(seq, () => this.failed(e), e, editedAt),
       );
     }
   }
 
-  private settled(seq: number, use: () => void, error?: unknown): void {
+  private settled(seq: number, use: () => void, error?: unknown, editedAt = 0): void {
     this.inFlight--;
     if (this.disposed) return;
     const superseded = error !== undefined && (this.options.isSuperseded?.(error) ?? false);
@@ -132,6 +148,15 @@ export class Coalescer<S, R> {
     if (seq < this.sent) {
       // A newer request was sent: this answer is stale, whatever it says.
       this.staleAnswers++;
+      if (!superseded) this.olderFinished = true;
+    } else if (superseded && !this.dirty && !this.resent && (this.inFlight > 0 || this.olderFinished)) {
+      // Likely superseded by this coalescer's own older request, which reached the host after it: the current
+      // state again (it goes after the older one), once.
+      this.resent = true;
+      this.resends++;
+      this.dirty = true;
+      this.urgent = true;
+      this.firstDirtyAt = editedAt;
     } else if (superseded) {
       // Superseded by someone else's request: nothing to show or report.
       if (!this.dirty) this.options.supersededElsewhere?.();

@@ -1,7 +1,8 @@
 // The generation scrubber of a sample system, without any DOM: which
 // generation's model the next preview request asks for, what the slider and
-// its label show, and when it goes back to the end (the search's result).
-// Unit-tested under node.
+// its label show, when it goes back to the end (the search's result), and
+// the Play button's replay of the search, step by step. Unit-tested under
+// node.
 //
 // The guided search is deterministic for its inputs (the document, system,
 // mode, seed, meta-parameters and curves), so the model it held after
@@ -124,7 +125,7 @@ export function scrubberView(mode: 'derive' | 'sample', sample: SampleInfo | nul
     max,
     value: g,
     label: `${g + 1} / ${n}`,
-    title: `The model the search held after generation ${g + 1} of ${n} (its best particle, wrapped up; frame ${g} of grmc sample --frames). The end is the result.`,
+    title: `What the search returns when stopped after generation ${g + 1} of ${n} (frame ${g} of grmc sample --frames). The end is the result.`,
   };
 }
 
@@ -136,4 +137,152 @@ export function scrubberView(mode: 'derive' | 'sample', sample: SampleInfo | nul
  */
 export function showsUpdate(r: PreviewResult): boolean {
   return isSearchResult(r.sample);
+}
+
+// ------------------------------------------------------------- replay
+
+/** The least time between two steps of a replay (ms): a fast server does not make it a blur. */
+export const PLAY_INTERVAL_MS = 80;
+
+/** Where the page's scrubber is now: the generation it asks for (null: the result) in the search `key` (its `searchKey`). */
+export interface PlayAt {
+  generation: number | null;
+  key: string;
+}
+
+/** What the page does after a model is on screen during a replay. */
+export type PlayAction =
+  /** Not the model of the step asked (nor a sign the page moved): keep waiting for it. */
+  | { kind: 'wait' }
+  /** The step's model is on screen: ask for `position` after `delayMs` (then {@link SearchPlayer.advance}). */
+  | { kind: 'next'; position: number; delayMs: number }
+  /** The result is on screen: the replay is over. */
+  | { kind: 'done' }
+  /** The page is no longer where the replay left it (another position, another search): the replay stopped. */
+  | { kind: 'stop' };
+
+/**
+ * The Play button's replay of a search, without any DOM or timer: which
+ * position to ask for first and next, and when it stops. One step at a
+ * time: the next position is asked for only once the model of the last one
+ * is on screen (so a replay never queues requests and goes as fast as the
+ * server answers), and not sooner than `intervalMs` after the last one was
+ * asked (so the steps are about that far apart on screen when the server
+ * is faster). It stops at the result, on Pause, and as soon as the page's
+ * scrubber is anywhere else than where the replay put it: moved by hand,
+ * or put back at the end by anything that starts a new search (which the
+ * page's state does already), so the player needs no list of what does.
+ */
+export class SearchPlayer {
+  private run: {
+    key: string;
+    generations: number;
+    /** The position asked for last (0-based; `generations - 1`: the result). */
+    position: number;
+    askedAt: number;
+    /** Its model is on screen and the next step waits for its time. */
+    shown: boolean;
+  } | null = null;
+
+  constructor(readonly intervalMs: number = PLAY_INTERVAL_MS) {}
+
+  get playing(): boolean {
+    return this.run !== null;
+  }
+
+  /** The generations of the search being replayed (0 when not playing). */
+  get generations(): number {
+    return this.run?.generations ?? 0;
+  }
+
+  /** The position asked for last (0-based; the last one is the result); null when not playing. */
+  get position(): number | null {
+    return this.run?.position ?? null;
+  }
+
+  /**
+   * Play from where the scrubber is: the first position to ask for (now),
+   * the one after the scrubber's, or the first generation when it is at the
+   * end (a replay of the whole search). Null, and not playing, when the
+   * search has nothing to replay (one generation, or none known).
+   */
+  play(at: PlayAt, generations: number, now: number): number | null {
+    const n = Number.isFinite(generations) ? Math.floor(generations) : 0;
+    this.run = null;
+    if (n < 2) return null;
+    const g = generationParam(at.generation, n);
+    const position = g === undefined ? 0 : g + 1;
+    this.run = { key: at.key, generations: n, position, askedAt: now, shown: false };
+    return position;
+  }
+
+  /** Whether the page's scrubber is where the replay put it (the position asked for last, in the replay's search). */
+  stillAt(at: PlayAt): boolean {
+    const r = this.run;
+    return r !== null && at.key === r.key && at.generation === (generationParam(r.position, r.generations) ?? null);
+  }
+
+  /**
+   * A model is on screen: `model` is the generation it is of (null: a
+   * search's result), `at` where the page's scrubber is now.
+   */
+  shown(model: number | null, at: PlayAt, now: number): PlayAction {
+    const r = this.run;
+    if (!r) return { kind: 'stop' };
+    if (!this.stillAt(at)) {
+      this.run = null;
+      return { kind: 'stop' };
+    }
+    // Another model (a second answer for the step already shown, or an older one): the step's is still to come.
+    if (r.shown || model !== (generationParam(r.position, r.generations) ?? null)) return { kind: 'wait' };
+    if (r.position >= r.generations - 1) {
+      this.run = null;
+      return { kind: 'done' };
+    }
+    r.shown = true;
+    return { kind: 'next', position: r.position + 1, delayMs: Math.max(0, this.intervalMs - (now - r.askedAt)) };
+  }
+
+  /**
+   * The wait of a `next` step is over: the position to ask for now, or null
+   * (and the replay stopped) when the page moved meanwhile or no step waits.
+   */
+  advance(at: PlayAt, now: number): number | null {
+    const r = this.run;
+    if (!r || !r.shown) return null;
+    if (!this.stillAt(at)) {
+      this.run = null;
+      return null;
+    }
+    r.position += 1;
+    r.askedAt = now;
+    r.shown = false;
+    return r.position;
+  }
+
+  /** Pause, a failed step, or anything else that ends the replay; the scrubber stays where it is. */
+  stop(): void {
+    this.run = null;
+  }
+}
+
+/** What the Play button shows. */
+export interface PlayButtonView {
+  label: 'Play' | 'Pause';
+  title: string;
+  /** Nothing to replay (the scrubber is hidden or disabled); never while playing, so a replay can always be paused. */
+  disabled: boolean;
+}
+
+/** The Play button next to the scrubber `scrubber`, playing or not. */
+export function playButtonView(scrubber: ScrubberView, playing: boolean): PlayButtonView {
+  if (playing) return { label: 'Pause', title: 'Pause the replay; the scrubber stays at the generation shown (Space on the slider)', disabled: false };
+  const atEnd = scrubber.value >= scrubber.max;
+  return {
+    label: 'Play',
+    title: atEnd
+      ? "Replay the search: each generation's model in turn, from the first to the result (Space on the slider)"
+      : "Replay the search from here: each next generation's model in turn, to the result (Space on the slider)",
+    disabled: scrubber.hidden || scrubber.disabled,
+  };
 }

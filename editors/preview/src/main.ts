@@ -5,7 +5,7 @@
 import type { V3 } from './bezier.js';
 import { Coalescer, type Delivery, SharedRequest } from './coalesce.js';
 import { PARAM_KEYS, PARAM_RANGES, type ParamKey, checkParam, cloneSet, setProblem } from './curves.js';
-import { isSearchResult, scrubberView, showsUpdate } from './generation.js';
+import { type PlayAt, SearchPlayer, isSearchResult, playButtonView, scrubberView, showsUpdate } from './generation.js';
 import { type NotificationMethod, type ViewParams, usableCamera, viewAngles } from './messages.js';
 import { pictureFileName, pictureParams } from './picture.js';
 import {
@@ -58,6 +58,13 @@ interface DebugInfo {
   generation: number | null;
   /** Generations the shown model's search ran (sample mode; null: a derived model). */
   generations: number | null;
+  /** The Play button is replaying the search. */
+  readonly playing: boolean;
+  /**
+   * The steps of the last replay, in order: the scrubber position asked for (0-based; the last one is the
+   * result), when it was asked and when its model was on screen (`performance.now()`; null: not yet, or never).
+   */
+  playSteps: { position: number; askedAt: number; shownAt: number | null }[];
   /** The parameters of the page's next preview request (for tests that ask the server themselves). */
   previewParams: () => unknown;
   /** Models shown so far. */
@@ -147,6 +154,9 @@ class App {
   private viewTimer: ReturnType<typeof setTimeout> | undefined;
   /** The last view told to the host (as JSON): an unchanged view is not told again. */
   private viewSent = '';
+  /** The Play button's replay of the search, and the wait before its next step. */
+  private readonly player = new SearchPlayer();
+  private playTimer: ReturnType<typeof setTimeout> | undefined;
 
   constructor(private readonly transport: Transport) {
     this.scene = new PreviewScene($<HTMLCanvasElement>('view'));
@@ -154,17 +164,26 @@ class App {
       () => null,
       () => this.fetchPreview(),
       (d) => this.show({ ...d, result: d.result.result }, d.result.breakdown),
-      (e) => this.showError(String((e as Error).message ?? e)),
+      (e) => {
+        // A replay's step failed: it stops there, the error shown as any other.
+        this.stopPlay();
+        this.showError(String((e as Error).message ?? e));
+      },
       () => performance.now(),
       {
         // A newer request superseded it: its answer is not an error to show.
         isSuperseded,
-        // Superseded by a request that is not this page's (another page on the same document).
-        supersededElsewhere: () => this.setStatus('another preview request for this document replaced this one'),
+        // Superseded by a request that is not this page's (another page on the same document); a replay's step
+        // would wait for it for ever.
+        supersededElsewhere: () => {
+          this.stopPlay();
+          this.setStatus('another preview request for this document replaced this one');
+        },
       },
     );
     const coalescer = this.coalescer;
     const scene = this.scene;
+    const player = this.player;
     this.debug = {
       ready: false,
       get busy() {
@@ -190,6 +209,10 @@ class App {
       objective: null,
       generation: null,
       generations: null,
+      get playing() {
+        return player.playing;
+      },
+      playSteps: [],
       previewParams: () => this.state.previewParams(),
       regrows: 0,
       latencies: [],
@@ -462,6 +485,8 @@ class App {
         $('status-text').title = r.warnings
           .map((w) => [`${w.code}: ${w.message}`, ...w.notes.map((n) => `note: ${n}`), ...(w.help ? [`help: ${w.help}`] : [])].join('\n'))
           .join('\n');
+        // On screen now: a replay asks for its next step.
+        this.playShown(r, now);
       });
     });
     const built = performance.now();
@@ -566,6 +591,8 @@ class App {
     $('next-variation').addEventListener('click', () => this.nextVariation());
     const scrubber = $<HTMLInputElement>('generation');
     scrubber.addEventListener('input', () => {
+      // Moved by hand: a replay stops, the scrubber is where it was put.
+      this.stopPlay();
       this.state.setGeneration(Number(scrubber.value), this.shownSample()?.generations ?? 0);
       // A move of the scrubber: merged with the next ones while a model is on its way, as the sliders' are.
       this.regrow(performance.now(), false);
@@ -574,9 +601,18 @@ class App {
     scrubber.addEventListener('change', () => this.released(performance.now(), false));
     // Back to the end, the search's result.
     scrubber.addEventListener('dblclick', () => {
+      this.stopPlay();
       if (this.state.generation === null) return;
       this.state.showResult();
       this.regrow();
+    });
+    $('generation-play').addEventListener('click', () => this.togglePlay());
+    // Space on the slider (which does nothing with it) plays and pauses, as in a video player.
+    scrubber.addEventListener('keydown', (e) => {
+      if (e.key !== ' ' || e.ctrlKey || e.metaKey || e.altKey) return;
+      e.preventDefault();
+      // Held down: one toggle, not one per repeat.
+      if (!e.repeat) this.togglePlay();
     });
     $('frame').addEventListener('click', () => {
       if (this.last?.model.bounds) this.scene.frame(this.last.model.bounds);
@@ -910,6 +946,8 @@ class App {
 
   /** The generation scrubber: hidden in derive mode; its range is the last search's generations, its position the state's. */
   private refreshScrubber(): void {
+    // Anything that moved the scrubber (a new search puts it back at the end) ends a replay.
+    if (this.player.playing && !this.player.stillAt(this.playAt())) this.stopPlay();
     const v = scrubberView(this.state.mode, this.shownSample(), this.state.generation);
     $('generation-section').hidden = v.hidden;
     const slider = $<HTMLInputElement>('generation');
@@ -919,6 +957,75 @@ class App {
     slider.disabled = v.disabled;
     slider.title = v.title;
     $('generation-value').textContent = v.label;
+    this.refreshPlayButton();
+  }
+
+  private refreshPlayButton(): void {
+    const v = playButtonView(scrubberView(this.state.mode, this.shownSample(), this.state.generation), this.player.playing);
+    const button = $<HTMLButtonElement>('generation-play');
+    button.textContent = v.label;
+    button.title = v.title;
+    button.disabled = v.disabled;
+  }
+
+  // ------------------------------------------------------------- replay
+
+  /** Where the scrubber is, for the replay. */
+  private playAt(): PlayAt {
+    return { generation: this.state.generation, key: this.state.searchKey };
+  }
+
+  /** Play: replay the search from the scrubber's position (from the first generation at the end); Pause: stop where it is. */
+  private togglePlay(): void {
+    if (this.player.playing) {
+      this.stopPlay();
+      return;
+    }
+    if (this.state.mode !== 'sample' || !this.state.uri) return;
+    const n = this.shownSample()?.generations ?? 0;
+    const first = this.player.play(this.playAt(), n, performance.now());
+    if (first === null) return;
+    this.debug.playSteps = [];
+    this.playStep(first, n);
+  }
+
+  /** Ask for the model of scrubber position `position` of a search of `generations` (the player has marked it asked). */
+  private playStep(position: number, generations: number): void {
+    this.state.setGeneration(position, generations);
+    this.debug.playSteps.push({ position, askedAt: performance.now(), shownAt: null });
+    // A final edit, sent at once: after the first step the last one's model is on screen, so nothing of this
+    // page's is on its way; for the first, one on its way is for an older state.
+    this.regrow();
+  }
+
+  /** A model is on screen (at `now`): during a replay, the next step after its wait, or the end. */
+  private playShown(r: PreviewResult, now: number): void {
+    if (!this.player.playing) return;
+    const model = r.sample && !isSearchResult(r.sample) ? r.sample.generation : null;
+    const a = this.player.shown(model, this.playAt(), now);
+    if (a.kind === 'wait') return;
+    if (a.kind === 'next' || a.kind === 'done') {
+      const step = this.debug.playSteps.at(-1);
+      if (step) step.shownAt = now;
+    }
+    if (a.kind === 'next') {
+      clearTimeout(this.playTimer);
+      this.playTimer = setTimeout(() => {
+        const position = this.player.advance(this.playAt(), performance.now());
+        if (position === null) this.stopPlay();
+        else this.playStep(position, this.player.generations);
+      }, a.delayMs);
+    } else {
+      this.stopPlay();
+    }
+  }
+
+  /** The replay ends (Pause, the end, a failure, the page moved): the scrubber stays at the generation shown or asked for. */
+  private stopPlay(): void {
+    clearTimeout(this.playTimer);
+    this.playTimer = undefined;
+    this.player.stop();
+    this.refreshPlayButton();
   }
 
   private refreshParams(): void {

@@ -44,7 +44,7 @@ export interface PreviewParams {
   /** Ask the server to send `grm/previewUpdated` after edits. */
   live?: boolean;
   /**
-   * Sample mode: show the model the search held after this generation
+   * Sample mode: show what the search returns when stopped after this generation
    * (0-based, as `grmc sample --frames` numbers them) instead of its result;
    * at or past the last generation run, the result. Ignored in derive mode.
    */

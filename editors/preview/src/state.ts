@@ -70,6 +70,11 @@ export class PageState {
     return this.generationOf(this.searchParams());
   }
 
+  /** What decides the search the next request runs (`searchKey`): a replay of it stops when this changes. */
+  get searchKey(): string {
+    return searchKey(this.searchParams());
+  }
+
   /** Move the scrubber to `position` (0-based) of a search of `generations` generations; the last one is the result. */
   setGeneration(position: number, generations: number): void {
     if (this.mode !== 'sample') return;
