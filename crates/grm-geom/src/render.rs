@@ -773,12 +773,11 @@ impl Band<'_> {
                 continue;
             }
             let m = major as usize;
-            let (z, bias) = match l.bias {
-                Bias::Flat(b) => (p.z, b),
-                Bias::Perspective(scale) => {
-                    let z = p.z + slope * (m as f32 + 0.5 - major);
-                    (z, scale * (z + 1.0) * (z + 1.0))
-                }
+            // The depth at the sample's centre along the major axis.
+            let z = p.z + slope * (m as f32 + 0.5 - major);
+            let bias = match l.bias {
+                Bias::Flat(b) => b,
+                Bias::Perspective(scale) => scale * (z + 1.0) * (z + 1.0),
             };
             let lo = (minor - half + 0.5).floor();
             for j in 0..thickness {
@@ -1094,10 +1093,11 @@ enum Projection {
 #[derive(Clone, Copy)]
 enum Bias {
     /// The same along the line (orthographic: depth is linear in z, in
-    /// samples). The depth is the step's, as it always was, so a surface
-    /// seen at a grazing angle (a few degrees) can still hide a bone
-    /// lying on it: taking it at the sample's centre, as
-    /// [`Bias::Perspective`] does, would change orthographic pictures.
+    /// samples). The line's depth is taken at the sample's centre along
+    /// it, as [`Bias::Perspective`]'s: at a grazing angle (a floor seen
+    /// from a few degrees above) the half sample between a step and the
+    /// centre changes depth by more than the bias, and a bone lying on
+    /// the surface was hidden.
     Flat(f32),
     /// `scale (depth + 1)²` at each of its samples (perspective: a step in z
     /// moves depth `reference / z²`, `(depth + 1)² / reference`), so a

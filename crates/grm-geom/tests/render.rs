@@ -1276,3 +1276,40 @@ fn what_is_not_drawn_is_not_framed() {
     let o = options(60, 60, FRONT);
     assert_eq!(draw(&with, &o), draw(&without, &o));
 }
+
+#[test]
+fn a_bare_bone_on_a_floor_shows_all_along_from_a_grazing_orthographic_view() {
+    // A floor and a bone along it, seen from 5 degrees above the floor,
+    // fitted: the bone lying on the floor shows
+    // in as many rows as one lifted well above it (which nothing hides).
+    // Its depth was the step's, up to half a sample off the sample's: at
+    // a grazing angle more than the bias, so it showed in about half its
+    // rows.
+    let o = options(
+        200,
+        200,
+        View::Angles {
+            azimuth: 0.0,
+            elevation: 5.0,
+        },
+    );
+    let scene = |y: f32| {
+        let mut m = model(
+            "system S { width = 0; axiom color(0, 0.6, 0) box(20, 0.01, 20) color(1, 0, 0) F; }",
+            0,
+        );
+        let bone = &mut m.skeleton.bones[0];
+        bone.base = glam::Vec3::new(0.0, y, 9.0);
+        bone.tip = glam::Vec3::new(0.0, y, -9.0);
+        m
+    };
+    let on = rows_where(&draw(&scene(0.01), &o), reddish);
+    let above = rows_where(&draw(&scene(0.3), &o), reddish);
+    assert!(above.len() > 8, "the lifted bone spans rows: {above:?}");
+    assert!(
+        on.len() + 1 >= above.len(),
+        "on the floor {} rows, lifted {} rows: {on:?}",
+        on.len(),
+        above.len()
+    );
+}
