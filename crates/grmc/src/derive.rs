@@ -82,18 +82,18 @@ pub struct DeriveArgs {
 /// these flags; grm_geom::render says how the picture is made).
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct ImageArgs {
-    /// With a .png output: the picture's size in pixels (default
-    /// 1024x1024; each side 1 to 16384, at most 4096x4096 pixels in all).
+    /// For a picture (-o FILE.png): its size in pixels (default 1024x1024;
+    /// each side 1 to 16384, at most 16,777,216 pixels in all).
     #[arg(long, value_name = "WIDTHxHEIGHT", value_parser = parse_image_size)]
     pub image_size: Option<ImageSize>,
-    /// With a .png output: look at the model from AZIMUTH,ELEVATION
+    /// For a picture (-o FILE.png): look at the model from AZIMUTH,ELEVATION
     /// degrees: azimuth about +y from +z towards +x, elevation above the
     /// xz plane (default: from +z for a model flat in xy, else 35,20).
     #[arg(long, value_name = "AZIMUTH,ELEVATION", value_parser = parse_view, allow_hyphen_values = true)]
     pub view: Option<ViewAngles>,
-    /// With a .png output: a perspective camera at X,Y,Z (the preview's:
-    /// +y up, not fitted to the model) instead of the fitted orthographic
-    /// view.
+    /// For a picture (-o FILE.png): a perspective camera at X,Y,Z (the
+    /// preview's: +y up, not fitted to the model) instead of the fitted
+    /// orthographic view.
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_point, allow_hyphen_values = true, conflicts_with = "view")]
     pub camera: Option<[f64; 3]>,
     /// The point --camera looks at (default: the centre of the model's
@@ -104,8 +104,8 @@ pub struct ImageArgs {
     /// at most 179 (default 45, the preview's).
     #[arg(long, value_name = "DEGREES", value_parser = parse_fov, requires = "camera")]
     pub fov: Option<f32>,
-    /// With a .png output: a transparent background instead of the grey
-    /// gradient.
+    /// For a picture (-o FILE.png): a transparent background instead of
+    /// the grey gradient.
     #[arg(long)]
     pub transparent: bool,
 }

@@ -73,7 +73,7 @@ enum Command {
     Sample(sample::SampleArgs),
     /// Print a system's compiled tables and bytecode.
     Disasm(disasm::DisasmArgs),
-    /// Benchmarks (`grmc bench derive`, `grmc bench gpu`).
+    /// Benchmarks (`grmc bench derive`, `grmc bench gpu`, `grmc bench render`).
     Bench(bench::BenchArgs),
 }
 
