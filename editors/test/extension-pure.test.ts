@@ -3,7 +3,7 @@ import assert from 'node:assert/strict';
 import { readFileSync } from 'node:fs';
 import { join } from 'node:path';
 import { test } from 'node:test';
-import { defaultOutput, exportArgs, firstSystemMode, pictureSize } from '../vscode/src/exportArgs.js';
+import { defaultOutput, exportArgs, firstSystemMode, framesSummary, framesWritten, isFrameOf, pictureSize } from '../vscode/src/exportArgs.js';
 import { makeNonce, webviewHtml } from '../vscode/src/webviewHtml.js';
 
 test('export: derive systems use grmc derive with the preview seed and parameters', () => {
@@ -93,6 +93,69 @@ test("export as a picture through the preview's camera: --camera, --look-at, --f
   for (const output of ['/w/t.glb', '/w/t.obj']) {
     assert.deepEqual(exportArgs({ grammar: '/w/t.grm', output, mode: 'derive', view, camera, imageSize }), ['derive', '/w/t.grm', '-o', output]);
   }
+});
+
+test('export frames: --frames with the preview\'s seed, parameters, camera and size; never --generation', () => {
+  const camera = { position: [0, 2, 6] as [number, number, number], target: [0, 1, 0] as [number, number, number], fov: 45 };
+  const view = { azimuth: 10, elevation: 20, camera };
+  const imageSize = { width: 1024, height: 640 };
+  // Derive, pictures: every iteration through the preview's camera, in its shape.
+  assert.deepEqual(exportArgs({ grammar: '/w/t.grm', output: '/w/f/t.png', mode: 'derive', seed: 4, params: { a: 1 }, frames: true, view, camera, imageSize }), [
+    'derive', '/w/t.grm', '--frames', '--seed', '4', '--param', 'a=1',
+    '--camera=0,2,6', '--look-at=0,1,0', '--fov=45', '--image-size=1024x640', '-o', '/w/f/t.png',
+  ]);
+  // Derive, glTF: no picture flags.
+  assert.deepEqual(exportArgs({ grammar: '/w/t.grm', output: '/w/t.glb', mode: 'derive', system: 'Tree', frames: true, view, camera, imageSize }), [
+    'derive', '/w/t.grm', '--system', 'Tree', '--frames', '-o', '/w/t.glb',
+  ]);
+  // Sample: the curves, every generation; the generation the preview shows is left out (grmc refuses both).
+  const sample = { grammar: '/w/t.grm', mode: 'sample' as const, curves: '/w/t.curves.json', seed: 7, generation: 12, frames: true };
+  assert.deepEqual(exportArgs({ ...sample, output: '/w/t.glb' }), [
+    'sample', '/w/t.grm', '--curves', '/w/t.curves.json', '--frames', '--seed', '7', '-o', '/w/t.glb',
+  ]);
+  assert.deepEqual(exportArgs({ ...sample, output: '/w/t.png', view: { azimuth: -30, elevation: 15 }, imageSize }), [
+    'sample', '/w/t.grm', '--curves', '/w/t.curves.json', '--frames', '--seed', '7', '--view=-30,15', '--image-size=1024x640', '-o', '/w/t.png',
+  ]);
+  for (const mode of ['derive', 'sample'] as const) {
+    for (const output of ['/w/t.png', '/w/t.glb', '/w/t.obj']) {
+      for (const generation of [undefined, 0, 12]) {
+        const args = exportArgs({ grammar: '/w/t.grm', output, mode, generation, frames: true });
+        assert.ok(args.includes('--frames'), `${mode} ${output} ${generation}`);
+        assert.ok(!args.includes('--generation'), `${mode} ${output} ${generation}`);
+      }
+    }
+  }
+  // Without frames, as before: no --frames, the generation shown.
+  assert.ok(!exportArgs({ ...sample, output: '/w/t.glb', frames: false }).includes('--frames'));
+  assert.ok(exportArgs({ ...sample, output: '/w/t.glb', frames: false }).includes('--generation'));
+});
+
+test('export frames: the files grmc says it wrote, and what the command says', () => {
+  assert.ok(isFrameOf('/w/f/tree.png', '/w/f/tree-0.png'));
+  assert.ok(isFrameOf('/w/f/tree.png', '/w/f/tree-099.png'));
+  assert.ok(isFrameOf('C:\\w\\my tree (2).v1.obj', 'C:\\w\\my tree (2).v1-12.obj'));
+  for (const other of ['/w/f/tree.png', '/w/f/tree-0.mtl', '/w/f/tree-a.png', '/w/g/tree-0.png', '/w/f/treex-0.png', '/w/f/tree-0.png.png']) {
+    assert.ok(!isFrameOf('/w/f/tree.png', other), other);
+  }
+  // grmc's stderr for `derive --frames -o /w/f (1)/tree.obj`: the statistics line, one `wrote` line per frame.
+  const log = [
+    'TernaryTree: 2 iterations: 44 modules (61 produced in all) in 0.3 ms, 20 modules/us',
+    'wrote /w/f (1)/tree-0.obj (32 triangles, 1 bone)',
+    'wrote /w/f (1)/tree-1.obj (128 triangles, 5 bones)',
+    'wrote /w/f (1)/tree-2.obj (416 triangles, 17 bones)',
+    'wrote /w/f (1)/tree.mtl',
+    '',
+  ].join('\n');
+  const files = framesWritten(log, '/w/f (1)/tree.obj');
+  assert.deepEqual(files, ['/w/f (1)/tree-0.obj', '/w/f (1)/tree-1.obj', '/w/f (1)/tree-2.obj']);
+  assert.equal(framesSummary(files, '/w/f (1)/tree.obj'), 'Wrote 3 frames (tree-0.obj ... tree-2.obj, each with its .mtl) in /w/f (1)');
+  // Pictures, Windows line ends, zero-padded.
+  const pictures = framesWritten('wrote /w/s-00.png (200x200 picture of 68 triangles, 1 bone)\r\nwrote /w/s-01.png (200x200 picture of 120 triangles, 2 bones)\r\n', '/w/s.png');
+  assert.deepEqual(pictures, ['/w/s-00.png', '/w/s-01.png']);
+  assert.equal(framesSummary(['/w/s-0.png'], '/w/s.png'), 'Wrote 1 frame (s-0.png) in /w');
+  assert.equal(framesSummary([], '/w/s.png'), 'grmc wrote no frames in /w');
+  assert.equal(framesSummary(['/w/s-0.obj'], '/w/s.obj'), 'Wrote 1 frame (s-0.obj, with its .mtl) in /w');
+  assert.deepEqual(framesWritten('error: something\n', '/w/s.png'), []);
 });
 
 test("a picture has the preview canvas' shape, 1024 pixels on the longer side", () => {

@@ -11,7 +11,7 @@ const source = readFileSync(join(vscodeDir, 'src/extension.ts'), 'utf8');
 test('every contributed command is registered, and every registered command contributed', () => {
   const contributed = manifest.contributes.commands.map((c: { command: string }) => c.command).sort();
   const registered = [...source.matchAll(/registerCommand\('([^']+)'/g)].map((m) => m[1]).sort();
-  assert.deepEqual(contributed, ['grm.exportModel', 'grm.openPreview', 'grm.restartServer']);
+  assert.deepEqual(contributed, ['grm.exportFrames', 'grm.exportModel', 'grm.openPreview', 'grm.restartServer']);
   assert.deepEqual(registered, contributed);
 });
 
@@ -19,6 +19,16 @@ test('the export command names the formats its quick pick offers', () => {
   const exportCommand = manifest.contributes.commands.find((c: { command: string }) => c.command === 'grm.exportModel');
   assert.equal(exportCommand.title, 'Export Model (glTF/OBJ/PNG)');
   assert.deepEqual([...source.matchAll(/format: '(\w+)' as ExportFormat/g)].map((m) => m[1]), ['glb', 'obj', 'png']);
+});
+
+test('the frames command: the same formats, beside the export command, for .grm files only', () => {
+  const frames = manifest.contributes.commands.find((c: { command: string }) => c.command === 'grm.exportFrames');
+  assert.equal(frames.title, 'Export Frames (PNG/glTF/OBJ)');
+  assert.equal(frames.category, 'grm');
+  const palette = manifest.contributes.menus.commandPalette.find((m: { command: string }) => m.command === 'grm.exportFrames');
+  assert.equal(palette.when, 'editorLangId == grm');
+  // One quick pick serves both commands; the frames export runs grmc with --frames.
+  assert.match(source, /registerCommand\('grm\.exportFrames', \(\) => exportModel\(true\)\)/);
 });
 
 test('the language, its configuration and grammar files exist; .grm files are grm', () => {

@@ -1,7 +1,8 @@
 // The `grmc` command line that exports what the preview shows: `grmc derive`
 // for derived systems, `grmc sample --curves` for guided ones, with the
 // preview's seed and meta-parameters, and for a picture the preview's camera
-// (or its view's direction). Pure, unit-tested.
+// (or its view's direction); with `--frames`, every iteration (derive) or
+// generation (sample) as NAME-K.EXT beside the output. Pure, unit-tested.
 
 import { type CameraParams, usableCamera } from '../../preview/src/messages.js';
 
@@ -23,8 +24,15 @@ export interface ExportRequest {
   params?: Record<string, unknown>;
   /** The curves file (sample mode). */
   curves?: string;
-  /** Sample mode: the generation of the search the preview shows (`--generation`); none: the result. */
+  /** Sample mode: the generation of the search the preview shows (`--generation`); none: the result. Never with `frames`. */
   generation?: number;
+  /**
+   * `--frames`: the model (or picture) of every iteration 0..N (derive), or
+   * what the search returns when stopped after each generation (sample), as
+   * NAME-K.EXT beside `output`. grmc refuses `--generation` with it, so the
+   * generation is left out.
+   */
+  frames?: boolean;
   system?: string;
   /** With a .png output: where the camera looks from, in degrees (`--view`); none: grmc's own choice. */
   view?: { azimuth: number; elevation: number };
@@ -53,7 +61,8 @@ export function exportArgs(r: ExportRequest): string[] {
   const args = [r.mode === 'sample' ? 'sample' : 'derive', r.grammar];
   if (r.system) args.push('--system', r.system);
   if (r.mode === 'sample' && r.curves) args.push('--curves', r.curves);
-  if (r.mode === 'sample' && r.generation !== undefined && Number.isInteger(r.generation) && r.generation >= 0) {
+  if (r.frames) args.push('--frames');
+  else if (r.mode === 'sample' && r.generation !== undefined && Number.isInteger(r.generation) && r.generation >= 0) {
     args.push('--generation', String(r.generation));
   }
   if (r.seed !== undefined && Number.isInteger(r.seed) && r.seed >= 0) args.push('--seed', String(r.seed));
@@ -104,4 +113,52 @@ export function firstSystemMode(text: string): 'derive' | 'sample' {
 /** The default output path: the grammar's name with the format's extension. */
 export function defaultOutput(grammar: string, format: ExportFormat): string {
   return `${grammar.replace(/\.grm$/i, '')}.${format}`;
+}
+
+/** A path's folder and file name, at its last `/` or `\\` (grmc's paths are the platform's). */
+function splitPath(p: string): { dir: string; base: string } {
+  const i = Math.max(p.lastIndexOf('/'), p.lastIndexOf('\\'));
+  return { dir: i < 0 ? '' : i === 0 ? p[0]! : p.slice(0, i), base: p.slice(i + 1) };
+}
+
+function escapeRegExp(s: string): string {
+  return s.replace(/[.*+?^${}()|[\]\\]/g, '\\$&');
+}
+
+/**
+ * Whether `file` is one of the frames `grmc --frames -o output` writes:
+ * NAME-K.EXT (K in decimal, zero-padded) in output's folder.
+ */
+export function isFrameOf(output: string, file: string): boolean {
+  const o = splitPath(output);
+  const f = splitPath(file);
+  if (f.dir !== o.dir && f.dir !== '') return false;
+  const dot = o.base.lastIndexOf('.');
+  const [stem, ext] = dot > 0 ? [o.base.slice(0, dot), o.base.slice(dot)] : [o.base, ''];
+  return new RegExp(`^${escapeRegExp(stem)}-\\d+${escapeRegExp(ext)}$`).test(f.base);
+}
+
+/**
+ * The frames grmc says it wrote (its `wrote PATH (what)` lines on stderr),
+ * in order; other files it names (an OBJ's materials) and other lines do
+ * not count.
+ */
+export function framesWritten(log: string, output: string): string[] {
+  const files: string[] = [];
+  for (const line of log.split(/\r?\n/)) {
+    const m = /^wrote (.+?)(?: \([^()]*\))?$/.exec(line);
+    if (m && isFrameOf(output, m[1]!)) files.push(m[1]!);
+  }
+  return files;
+}
+
+/** What the frames export says when done: how many files, the first and last, and the folder. */
+export function framesSummary(files: string[], output: string): string {
+  const dir = splitPath(output).dir || '.';
+  if (files.length === 0) return `grmc wrote no frames in ${dir}`;
+  const first = splitPath(files[0]!).base;
+  // An OBJ's materials are written beside it (NAME-K.mtl).
+  const mtl = /\.obj$/i.test(output) ? (files.length === 1 ? ', with its .mtl' : ', each with its .mtl') : '';
+  if (files.length === 1) return `Wrote 1 frame (${first}${mtl}) in ${dir}`;
+  return `Wrote ${files.length} frames (${first} ... ${splitPath(files[files.length - 1]!).base}${mtl}) in ${dir}`;
 }

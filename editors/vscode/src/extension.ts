@@ -1,6 +1,6 @@
 // The grm extension: starts `grmc lsp` as the language server, shows the
 // preview page in a webview beside the editor, exports models and pictures
-// with `grmc`.
+// (one, or every frame of the growth or search) with `grmc`.
 
 import { execFile } from 'node:child_process';
 import { randomBytes } from 'node:crypto';
@@ -9,7 +9,7 @@ import * as os from 'node:os';
 import * as path from 'node:path';
 import * as vscode from 'vscode';
 import { LanguageClient, type LanguageClientOptions, type ServerOptions } from 'vscode-languageclient/node';
-import { defaultOutput, type ExportFormat, exportArgs, firstSystemMode, pictureSize } from './exportArgs.js';
+import { defaultOutput, type ExportFormat, exportArgs, firstSystemMode, framesSummary, framesWritten, pictureSize } from './exportArgs.js';
 import { PreviewHost, curvesPathFor } from './host.js';
 import { resolveServerPath } from './serverPath.js';
 import { makeNonce, webviewHtml } from './webviewHtml.js';
@@ -203,10 +203,15 @@ function openPreview(context: vscode.ExtensionContext): void {
   preview.show(doc);
 }
 
-async function exportModel(): Promise<void> {
+/**
+ * `grm.exportModel` (`frames` false): what the preview shows, to one file.
+ * `grm.exportFrames` (`frames` true): every iteration (derive) or generation
+ * (sample) of it, as NAME-K.EXT files beside the name chosen (`grmc --frames`).
+ */
+async function exportModel(frames: boolean): Promise<void> {
   const doc = vscode.window.activeTextEditor?.document;
   if (!isGrm(doc) || doc.uri.scheme !== 'file') {
-    void vscode.window.showInformationMessage('Open a saved .grm file to export its model.');
+    void vscode.window.showInformationMessage(`Open a saved .grm file to export its ${frames ? 'frames' : 'model'}.`);
     return;
   }
   if (!serverPath) {
@@ -214,26 +219,30 @@ async function exportModel(): Promise<void> {
     return;
   }
   if (doc.isDirty) await doc.save();
-  const pickFormat = await vscode.window.showQuickPick(
-    [
-      { label: 'glTF binary (.glb)', format: 'glb' as ExportFormat },
-      { label: 'Wavefront OBJ + MTL (.obj)', format: 'obj' as ExportFormat },
-      { label: 'PNG picture (.png)', format: 'png' as ExportFormat, description: "through the preview's camera" },
-    ],
-    { placeHolder: 'Export the model as' },
-  );
+  const formats = [
+    { label: 'glTF binary (.glb)', format: 'glb' as ExportFormat },
+    { label: 'Wavefront OBJ + MTL (.obj)', format: 'obj' as ExportFormat },
+    { label: frames ? 'PNG pictures (.png)' : 'PNG picture (.png)', format: 'png' as ExportFormat, description: "through the preview's camera" },
+  ];
+  // Frames are mostly pictures: PNG first.
+  if (frames) formats.unshift(formats.pop()!);
+  const pickFormat = await vscode.window.showQuickPick(formats, { placeHolder: frames ? 'Export every frame as' : 'Export the model as' });
   if (!pickFormat) return;
   const grammar = doc.uri.fsPath;
+  const last = preview?.host.lastPreview(doc.uri.toString());
+  const mode = last ? (last.mode === 'sample' ? 'sample' : 'derive') : firstSystemMode(doc.getText());
+  const ext = pickFormat.format;
   const filters: Record<ExportFormat, Record<string, string[]>> = { glb: { glTF: ['glb'] }, obj: { OBJ: ['obj'] }, png: { 'PNG picture': ['png'] } };
   const target = await vscode.window.showSaveDialog({
-    defaultUri: vscode.Uri.file(defaultOutput(grammar, pickFormat.format)),
-    filters: filters[pickFormat.format],
+    defaultUri: vscode.Uri.file(defaultOutput(grammar, ext)),
+    filters: filters[ext],
+    title: frames
+      ? `Export frames: NAME.${ext} writes NAME-0.${ext}, NAME-1.${ext}, ... (one per ${mode === 'sample' ? 'generation' : 'iteration'}) in the folder chosen`
+      : undefined,
   });
   if (!target) return;
-  const last = preview?.host.lastPreview(doc.uri.toString());
   // A picture through the preview's camera (else from where it looks), of the canvas' shape; without a preview, grmc's own view and size.
   const view = preview?.host.lastView(doc.uri.toString());
-  const mode = last ? (last.mode === 'sample' ? 'sample' : 'derive') : firstSystemMode(doc.getText());
   const args = exportArgs({
     grammar,
     output: target.fsPath,
@@ -243,26 +252,52 @@ async function exportModel(): Promise<void> {
     curves: curvesPathFor(grammar),
     system: last?.system,
     generation: last?.generation,
+    frames,
     view,
     camera: view?.camera,
     imageSize: view && pictureSize(view.width, view.height),
   });
   const exe = serverPath;
+  if (frames) {
+    // grmc writes into an existing folder only.
+    try {
+      await vscode.workspace.fs.createDirectory(vscode.Uri.file(path.dirname(target.fsPath)));
+    } catch {
+      // Said by grmc.
+    }
+  }
   output.appendLine(`grm: ${exe} ${args.join(' ')}`);
-  await vscode.window.withProgress({ location: vscode.ProgressLocation.Notification, title: `Exporting ${path.basename(target.fsPath)}` }, () =>
+  const title = frames ? `Exporting the frames of ${path.basename(grammar)}` : `Exporting ${path.basename(target.fsPath)}`;
+  await vscode.window.withProgress({ location: vscode.ProgressLocation.Notification, title, cancellable: frames }, (_progress, token) =>
     new Promise<void>((resolve) => {
-      execFile(exe, args, { cwd: path.dirname(grammar), maxBuffer: 16 << 20 }, (err, stdout, stderr) => {
+      const child = execFile(exe, args, { cwd: path.dirname(grammar), maxBuffer: 16 << 20 }, (err, stdout, stderr) => {
         if (stdout) output.append(stdout);
         if (stderr) output.append(stderr);
-        if (err) {
+        if (token.isCancellationRequested) {
+          output.appendLine('grm: export cancelled');
+        } else if (err) {
           void vscode.window.showErrorMessage(`grmc failed: ${(stderr || err.message).split('\n')[0]}`, 'Show output').then((c) => {
             if (c) output.show();
           });
+        } else if (frames) {
+          const written = framesWritten(stderr, target.fsPath);
+          const summary = framesSummary(written, target.fsPath);
+          if (written.length === 0) {
+            void vscode.window.showWarningMessage(summary, 'Show output').then((c) => {
+              if (c) output.show();
+            });
+          } else {
+            void vscode.window.showInformationMessage(summary, 'Reveal in folder').then((c) => {
+              // The first frame, selected in its folder.
+              if (c) void vscode.commands.executeCommand('revealFileInOS', vscode.Uri.file(written[0]!));
+            });
+          }
         } else {
           void vscode.window.showInformationMessage(`Exported ${target.fsPath}`);
         }
         resolve();
       });
+      token.onCancellationRequested(() => child.kill());
     }),
   );
 }
@@ -272,7 +307,8 @@ export async function activate(context: vscode.ExtensionContext): Promise<void> 
   context.subscriptions.push(
     output,
     vscode.commands.registerCommand('grm.openPreview', () => openPreview(context)),
-    vscode.commands.registerCommand('grm.exportModel', () => exportModel()),
+    vscode.commands.registerCommand('grm.exportModel', () => exportModel(false)),
+    vscode.commands.registerCommand('grm.exportFrames', () => exportModel(true)),
     vscode.commands.registerCommand('grm.restartServer', async () => {
       await stopClient();
       await startClient(context);
