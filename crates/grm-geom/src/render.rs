@@ -1275,7 +1275,12 @@ fn prepare<'m>(
 ) -> Prepared<'m> {
     let n = cam.len();
     let mut screen: Vec<Vec3> = cam.iter().map(|c| proj.screen(*c)).collect();
-    let out: Vec<u8> = cam.iter().map(|c| proj.outside(*c)).collect();
+    // Orthographic: no clip planes, nothing to classify per vertex.
+    let out: Vec<u8> = if proj.planes() == 0 {
+        Vec::new()
+    } else {
+        cam.iter().map(|c| proj.outside(*c)).collect()
+    };
     if out.iter().all(|&o| o == 0) {
         return Prepared {
             indices: Cow::Borrowed(indices),
