@@ -6,7 +6,7 @@
 //!   material a `pbrMetallicRoughness` with `baseColorFactor`. Buffer views
 //!   are 4-byte aligned, the JSON chunk is padded with spaces and the BIN
 //!   chunk with zeros.
-//! - `.obj`: Wavefront OBJ plus `NAME.mtl` beside it (`mtllib`, one group
+//! - `.obj`: Wavefront OBJ plus `NAME.mtl` beside it (spaces in NAME as `_`; `mtllib`, one group
 //!   and `usemtl` per part, `v`/`vn`/`f v//vn`).
 //! - `.ply`: binary little-endian PLY with normals and 8-bit vertex
 //!   colours (the part's material colour); [`ExportFormat::PlyAscii`] via
@@ -172,11 +172,8 @@ pub fn export_as(model: &Model, path: &Path, format: ExportFormat) -> Result<(),
             commit(tmp, path)
         }
         ExportFormat::Obj => {
-            let mtl_path = path.with_extension("mtl");
-            let mtl_name = mtl_path
-                .file_name()
-                .map(|n| n.to_string_lossy().into_owned())
-                .unwrap_or_else(|| "model.mtl".to_string());
+            let mtl_name = mtl_file_name(path);
+            let mtl_path = path.with_file_name(&mtl_name);
             let mtl = stage(&mtl_path, |w| write_mtl(model, w))?;
             let obj = stage(path, |w| write_obj(model, &mtl_name, w))?;
             commit(mtl, &mtl_path)?;
@@ -436,6 +433,18 @@ pub fn glb_bytes(model: &Model) -> Option<Vec<u8>> {
     // Writing to a Vec cannot fail.
     write_glb(model, &json_bytes, bin_len, &mut out).ok()?;
     Some(out)
+}
+
+/// The name of an OBJ's material library: the OBJ's stem with `.mtl`,
+/// white space replaced by `_` (`mtllib` takes a list of names separated by
+/// spaces: `my model.obj` gets `my_model.mtl`).
+pub fn mtl_file_name(obj: &Path) -> String {
+    let stem = obj
+        .file_stem()
+        .map(|n| n.to_string_lossy().into_owned())
+        .filter(|n| !n.is_empty())
+        .unwrap_or_else(|| "model".to_string());
+    format!("{}.mtl", stem.replace(char::is_whitespace, "_"))
 }
 
 fn write_mtl(model: &Model, w: &mut dyn Write) -> io::Result<()> {

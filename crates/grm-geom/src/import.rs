@@ -31,7 +31,9 @@ pub fn parse_obj(name: &str, path: &Path, bytes: &[u8]) -> Result<MeshData, Geom
     check_indices(bytes).map_err(malformed)?;
     let opts = tobj::LoadOptions {
         single_index: true,
-        triangulate: true,
+        // Polygons are triangulated here (ear clipping, as `{ . }`
+        // polygons): tobj fans them, which is wrong for concave faces.
+        triangulate: false,
         ignore_points: true,
         ignore_lines: true,
     };
@@ -43,7 +45,11 @@ pub fn parse_obj(name: &str, path: &Path, bytes: &[u8]) -> Result<MeshData, Geom
     let mut all_normals = true;
     for model in &models {
         let m = &model.mesh;
-        if m.positions.len() % 3 != 0 || m.indices.len() % 3 != 0 {
+        let arities_total: usize = m.face_arities.iter().map(|&k| k as usize).sum();
+        if m.positions.len() % 3 != 0
+            || (m.face_arities.is_empty() && m.indices.len() % 3 != 0)
+            || (!m.face_arities.is_empty() && arities_total != m.indices.len())
+        {
             return Err(malformed(format!(
                 "object `{}` is not a triangle mesh",
                 model.name
@@ -71,8 +77,14 @@ pub fn parse_obj(name: &str, path: &Path, bytes: &[u8]) -> Result<MeshData, Geom
                     i + 1
                 )));
             }
-            out.indices.push(base + i);
         }
+        triangulate_faces(
+            &m.positions,
+            &m.indices,
+            &m.face_arities,
+            base,
+            &mut out.indices,
+        );
         if all_normals {
             for n in m.normals.chunks_exact(3) {
                 let v = glam::Vec3::new(n[0], n[1], n[2]);
@@ -89,6 +101,50 @@ pub fn parse_obj(name: &str, path: &Path, bytes: &[u8]) -> Result<MeshData, Geom
     Ok(out)
 }
 
+/// Append the triangles of the faces `indices` (vertex indices, checked
+/// against `positions`) to `out`, offset by `base`. `arities` gives each
+/// face's vertex count (empty: all triangles). A face of more than three
+/// vertices is triangulated by ear clipping in its plane
+/// ([`crate::polygon::triangulate`]), so a concave face covers exactly its
+/// own area, wound as the face was; a face with no area gives nothing.
+fn triangulate_faces(
+    positions: &[f32],
+    indices: &[u32],
+    arities: &[u32],
+    base: u32,
+    out: &mut Vec<u32>,
+) {
+    if arities.is_empty() {
+        out.extend(indices.iter().map(|&i| base + i));
+        return;
+    }
+    let at = |i: u32| {
+        let k = 3 * i as usize;
+        glam::Vec3::new(positions[k], positions[k + 1], positions[k + 2])
+    };
+    let mut tris = Vec::new();
+    let mut vs = Vec::new();
+    let mut next = 0usize;
+    for &k in arities {
+        let face = &indices[next..next + k as usize];
+        next += k as usize;
+        if face.len() == 3 {
+            out.extend(face.iter().map(|&i| base + i));
+            continue;
+        }
+        vs.clear();
+        vs.extend(face.iter().map(|&i| at(i)));
+        // No area (or a non-finite one): no triangle.
+        let Some(normal) = crate::polygon::newell_normal(&vs).try_normalize() else {
+            continue;
+        };
+        crate::polygon::triangulate(&vs, normal, &mut tris);
+        for t in &tris {
+            out.extend(t.iter().map(|&j| base + face[j as usize]));
+        }
+    }
+}
+
 /// Check every index of every `f` and `l` line before `tobj` sees the file:
 /// each position, texture coordinate and normal index must name an
 /// element defined above it (1-based, or negative counting back from the
@@ -99,6 +155,7 @@ fn check_indices(bytes: &[u8]) -> Result<(), String> {
     let text = String::from_utf8_lossy(bytes);
     let mut counts = [0usize; 3];
     const WHAT: [&str; 3] = ["vertex", "texture coordinate", "normal"];
+    const WHATS: [&str; 3] = ["vertices", "texture coordinates", "normals"];
     for (n, line) in text.lines().enumerate() {
         let mut words = line.split_whitespace();
         match words.next() {
@@ -124,10 +181,14 @@ fn check_indices(bytes: &[u8]) -> Result<(), String> {
                                     n + 1
                                 ),
                                 _ => format!(
-                                    "line {}: {what} index {x}, but only {count} {what}{} defined above it \
+                                    "line {}: {what} index {x}, but only {count} {} defined above it \
                                      (indices run from 1 to {count}, or from -1 back to -{count})",
                                     n + 1,
-                                    if count == 1 { " is" } else { "s are" }
+                                    if count == 1 {
+                                        format!("{what} is")
+                                    } else {
+                                        format!("{} are", WHATS[k])
+                                    }
                                 ),
                             });
                         }

@@ -140,6 +140,30 @@ fn obj_and_mtl_read_back_with_tobj() {
     assert_eq!(red.dissolve, Some(0.5));
 }
 
+/// `mtllib` takes names separated by spaces: an OBJ whose name has spaces
+/// gets a material library without them, and names it on one word.
+#[test]
+fn obj_with_spaces_in_its_name_names_a_loadable_mtl() {
+    let model = sample_model();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("my koch\tisland.obj");
+    export(&model, &path).expect("exports");
+    assert_eq!(
+        files_in(dir.path()),
+        vec![
+            "my koch\tisland.obj".to_string(),
+            "my_koch_island.mtl".to_string()
+        ]
+    );
+    let text = std::fs::read_to_string(&path).expect("written");
+    assert!(
+        text.lines().any(|l| l == "mtllib my_koch_island.mtl"),
+        "{text}"
+    );
+    let (_, materials) = tobj::load_obj(&path, &tobj::LoadOptions::default()).expect("obj loads");
+    assert_eq!(materials.expect("mtl loads").len(), model.materials.len());
+}
+
 #[test]
 fn ply_header_and_size() {
     let model = sample_model();
@@ -355,6 +379,48 @@ fn missing_or_malformed_obj_is_a_typed_error() {
     assert_eq!(
         e.to_string(),
         "mesh `rel` in rel.obj is not a valid OBJ file: line 2: normal index -1, but no normal is defined above it"
+    );
+}
+
+/// Faces of more than three vertices are ear-clipped, not fanned: a
+/// concave face covers exactly its own area with every triangle wound as
+/// the face (tobj's fan put a reversed triangle over the notch).
+#[test]
+fn concave_obj_faces_cover_their_own_area() {
+    let path = Path::new("concave.obj");
+    // The 2 x 2 square with a notch cut into its top edge down to
+    // (1, 0.5): area 4 - 1.5 = 2.5.
+    let concave = b"v 0 0 0\nv 2 0 0\nv 2 2 0\nv 1 0.5 0\nv 0 2 0\nf 1 2 3 4 5\n";
+    // The same with a triangle after it (faces of mixed sizes): + 2.
+    let mixed = b"v 0 0 0\nv 2 0 0\nv 2 2 0\nv 1 0.5 0\nv 0 2 0\nf 1 2 3 4 5\nf 1 2 3\n";
+    for (bytes, area, tris) in [(&concave[..], 2.5f32, 3), (&mixed[..], 4.5, 4)] {
+        let mesh = grm_geom::import::parse_obj("concave", path, bytes).expect("loads");
+        assert_eq!(mesh.triangle_count(), tris);
+        let mut total = 0.0;
+        for t in mesh.indices.chunks_exact(3) {
+            let [a, b, c] =
+                [t[0], t[1], t[2]].map(|i| glam::Vec3::from(mesh.positions[i as usize]));
+            let n = (b - a).cross(c - a);
+            // Wound like the face (counter-clockwise about +z), none reversed.
+            assert!(n.z > 0.0, "{t:?} is reversed or flat: {n}");
+            total += n.z / 2.0;
+        }
+        assert!((total - area).abs() < 1e-5, "area {total}, expected {area}");
+    }
+    // A quad with no area gives no triangle, a plain quad two.
+    let flat = b"v 0 0 0\nv 1 0 0\nv 2 0 0\nv 3 0 0\nf 1 2 3 4\nv 0 1 0\nf 1 2 5\n";
+    assert_eq!(
+        grm_geom::import::parse_obj("f", path, flat)
+            .expect("loads")
+            .triangle_count(),
+        1
+    );
+    let quad = b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n";
+    assert_eq!(
+        grm_geom::import::parse_obj("q", path, quad)
+            .expect("loads")
+            .triangle_count(),
+        2
     );
 }
 
