@@ -44,7 +44,10 @@ fn read_source(path: &std::path::Path) -> std::io::Result<Vec<u8>> {
         .take(max + 1)
         .read_to_end(&mut bytes)?;
     if bytes.len() as u64 > max {
-        return Err(too_big());
+        return Err(std::io::Error::other(format!(
+            "it is not a regular file, and it gave more than {} MiB, the most a grammar file may be",
+            max >> 20
+        )));
     }
     Ok(bytes)
 }

@@ -76,6 +76,19 @@ fn missing_file_and_bad_usage_exit_2() {
     assert_eq!(out.status.code(), Some(2));
     let out = grmc(&["frobnicate"]);
     assert_eq!(out.status.code(), Some(2));
+    // A device that never ends is read up to the limit, and said to be
+    // no regular file (not "larger than" a size it does not have).
+    if Path::new("/dev/zero").exists() {
+        let out = grmc(&["check", "/dev/zero"]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert!(
+            err.contains(
+                "cannot read /dev/zero: it is not a regular file, and it gave more than 16 MiB"
+            ),
+            "{err}"
+        );
+    }
 }
 
 #[test]
