@@ -1,21 +1,23 @@
 //! Folded and run-time values agree: the same expression, once folded by
-//! the checker (`grm_sema::eval`, in f64, rounded to f32 once) as a
-//! `const`, and once computed by the engine while rewriting (the bytecode
-//! VM and the engine's fast paths, in f32), over random expressions.
+//! the checker (`grm_sema::eval`, in 32-bit float arithmetic:
+//! `grm_sema::scalar`) as a `const`, and once computed by the engine while
+//! rewriting (the bytecode VM and the engine's fast paths, in f32), over
+//! random expressions. Both compute in f32 with the same definitions, so
+//! they must give the same bits (NaN for NaN).
 //!
-//! Two groups:
+//! Three groups:
 //!
 //! - **exact**: whole numbers and small binary fractions, the operators and
 //!   the piecewise functions (`floor ceil round fract sign abs min max
 //!   clamp step mix %`, comparisons, `&& || !`, `if`), magnitudes kept
-//!   small. Every intermediate value is exactly representable in f32, and
-//!   the one inexact step (the quotient inside `%`) is far from a whole
-//!   number, so f32 and f64 give the same result: it must be bit for bit the
-//!   same (up to the sign of zero). This is where the two definitions of an
-//!   operator's meaning (grm-sema's evaluator, grm-compile's VM) can differ.
+//!   small.
 //! - **continuous**: one transcendental or vector function of exact
-//!   arguments in its well-conditioned range, compared with a relative
-//!   tolerance of 1e-5 (f32 rounding of the argument and the result).
+//!   arguments.
+//! - **general**: both of those nested in each other, with literals that
+//!   f32 cannot hold exactly (`0.1`, `16777217`, `1e-7`) and divisions by
+//!   3 and 0.3: where a fold in f64 gave other
+//!   answers than the engine (`0.1 + 0.2 == 0.3` is true in f32, false in
+//!   f64).
 
 use grm_derive::{DeriveLimits, Engine};
 use grm_tests::Rng;
@@ -32,7 +34,7 @@ fn inline(src: &str) -> grm_compile::CompiledSystem {
     assert!(errors.is_empty(), "{src}\n{errors:?}");
     let p = &checked.program;
     let sys = p.default_system().expect("a system");
-    grm_compile::compile(p, sys, &p.default_params()).expect("compiles")
+    grm_compile::compile(p, sys, &p.default_params()).unwrap_or_else(|e| panic!("{src}\n{e:?}"))
 }
 
 /// The string of one rewriting step of `c`'s axiom.
@@ -219,21 +221,112 @@ fn exact_expressions_fold_and_run_to_the_same_value() {
     assert_eq!(checked, 1200);
 }
 
+/// The same bits, or NaN for NaN.
+fn same(a: f32, b: f32) -> bool {
+    a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
+}
+
 #[test]
-fn continuous_functions_fold_and_run_within_tolerance() {
+fn continuous_functions_fold_and_run_to_the_same_value() {
     let mut r = Rng::seeded(0x2545_f491_4f6c_dd1d);
     for round in 0..20 {
         let x = r.int(-16, 16) as f64 / 4.0;
         let y = r.int(-16, 16) as f64 / 4.0;
         let exprs: Vec<String> = (0..18).map(|_| continuous(&mut r)).collect();
         for (e, folded, run) in both(&exprs, x, y) {
-            let tol = 1e-5 * folded.abs().max(1.0);
             assert!(
-                (folded - run).abs() <= tol,
+                same(folded, run),
                 "round {round}, x = {x}, y = {y}: `{e}` folds to {folded} but runs to {run}"
             );
         }
     }
+}
+
+/// A float expression of the general group over `x` and `y`.
+fn general(r: &mut Rng, depth: u32) -> String {
+    if depth == 0 || r.below(5) == 0 {
+        return match r.below(6) {
+            0 => "x".into(),
+            1 => "y".into(),
+            _ => lit([0.1, 0.2, 0.3, 0.7, 1.1, 16777217.0, 1e-7, 2.5][r.below(8)]),
+        };
+    }
+    let d = depth - 1;
+    macro_rules! g {
+        () => {
+            general(r, d)
+        };
+    }
+    match r.below(14) {
+        0 => format!("{} + {}", g!(), g!()),
+        1 => format!("{} - {}", g!(), g!()),
+        2 => format!(
+            "({}) * {}",
+            g!(),
+            ["0.1", "0.3", "7", "1.1", "y"][r.below(5)]
+        ),
+        3 => format!("({}) / {}", g!(), ["3", "0.3", "7", "x"][r.below(4)]),
+        4 => format!("({}) % {}", g!(), ["0.3", "3", "1.7"][r.below(3)]),
+        5 => format!("sin({})", g!()),
+        6 => format!(
+            "pow(abs({}) % 10 + 0.5, {})",
+            g!(),
+            ["0.5", "1.5", "y"][r.below(3)]
+        ),
+        7 => format!("sqrt(abs({}))", g!()),
+        8 => format!("atan2({}, {})", g!(), g!()),
+        9 => format!("mix({}, {}, 0.3)", g!(), g!()),
+        10 => format!("smoothstep(0.1, 0.7, {})", g!()),
+        11 => format!("length(vec3({}, {}, 0.1))", g!(), g!()),
+        12 => format!("(if {} == {} then 1 else 0)", g!(), g!()),
+        _ => format!("spline({}, 0.1, 0.3, 0.7, 1.1, 0.2)", g!()),
+    }
+}
+
+#[test]
+fn any_expression_folds_and_runs_to_the_same_bits() {
+    let mut r = Rng::seeded(0x51_7cc1_b727_220a);
+    let mut checked = 0;
+    for round in 0..30 {
+        let x = [0.1, -0.3, 1.1, 7.0, 16777217.0][r.below(5)];
+        let y = [0.2, 2.5, -1.7, 0.0][r.below(4)];
+        let exprs: Vec<String> = (0..25).map(|_| general(&mut r, 4)).collect();
+        for (e, folded, run) in both(&exprs, x, y) {
+            assert!(
+                same(folded, run),
+                "round {round}, x = {x}, y = {y}: `{e}` folds to {folded} but runs to {run}"
+            );
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 750);
+}
+
+/// The cases that showed the f64 fold: a constant condition, a literal
+/// beyond f32's whole numbers and an inexact remainder give what the same
+/// arithmetic gives at run time.
+#[test]
+fn f32_arithmetic_in_constants_and_at_run_time() {
+    let c = inline(
+        "system S {\n    axiom A(0.1) B A(16777217) F(16777217 - 16777216) G(5 % 0.3);\n    \
+         A(x) : x + 0.2 == 0.3 -> X(x - 16777216);\n    B : 0.1 + 0.2 == 0.3 -> Y(1);\n    \
+         G(x) -> G(x - 5 % 0.3);\n}\n",
+    );
+    let s = step_once(&c);
+    let params: Vec<Vec<f32>> = (0..s.len()).map(|i| s.get(i).1.to_vec()).collect();
+    // A(0.1) -> X(0.1 - 16777216): the condition holds in f32. B -> Y(1):
+    // so does the constant one. A(16777217) is A(16777216): its condition
+    // fails, it stays. 16777217 - 16777216 is 0, as is 5 % 0.3 - 5 % 0.3.
+    assert_eq!(
+        params,
+        [
+            vec![-16777216.0],
+            vec![1.0],
+            vec![16777216.0],
+            vec![0.0],
+            vec![0.0]
+        ]
+    );
 }
 
 /// The generator's substitution itself: names and fields keep their `x`.

@@ -77,7 +77,7 @@ impl CompileError {
             ),
             CompileErrorKind::NonFiniteConstant { value } if value.is_infinite() => (
                 "this is infinite",
-                "the expression is infinite whatever the precision (a division by zero, `ln(0)` or `log10(0)`, an `exp` or `pow` past the f64 range): change it",
+                "the value is past the largest 32-bit float (about 3.4e38), or infinite (a division by zero, `ln(0)` or `log10(0)`): change the expression",
             ),
             CompileErrorKind::NonFiniteConstant { .. } => (
                 "this is not finite in 32-bit float",

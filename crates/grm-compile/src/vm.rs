@@ -90,36 +90,8 @@ fn b2f(b: bool) -> f32 {
     if b { 1.0 } else { 0.0 }
 }
 
-const DEG: f32 = std::f32::consts::PI / 180.0;
-
-/// `x - y * floor(x / y)`: the sign of the divisor.
-#[inline]
-pub fn floored_rem(x: f32, y: f32) -> f32 {
-    x - y * (x / y).floor()
-}
-
-#[inline]
-fn sign(x: f32) -> f32 {
-    if x > 0.0 {
-        1.0
-    } else if x < 0.0 {
-        -1.0
-    } else {
-        0.0
-    }
-}
-
-#[inline]
-fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
-    let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
-    t * t * (3.0 - 2.0 * t)
-}
-
-/// `clamp` that never panics (`f32::clamp` asserts `lo <= hi`).
-#[inline]
-fn clamp(x: f32, lo: f32, hi: f32) -> f32 {
-    x.max(lo).min(hi)
-}
+pub use grm_sema::scalar::floored_rem;
+use grm_sema::scalar::{self, clamp};
 
 /// `randint` on a uniform draw `u`; see [`Op::RandInt`]. Bounds whose
 /// span passes the f32 range (`randint(-2e38, 2e38)`) draw between them
@@ -257,8 +229,8 @@ impl Vm {
                 Op::Floor => unary(&mut st[base..base + a], f32::floor),
                 Op::Ceil => unary(&mut st[base..base + a], f32::ceil),
                 Op::Round => unary(&mut st[base..base + a], f32::round),
-                Op::Fract => unary(&mut st[base..base + a], |x| x - x.floor()),
-                Op::Sign => unary(&mut st[base..base + a], sign),
+                Op::Fract => unary(&mut st[base..base + a], scalar::fract),
+                Op::Sign => unary(&mut st[base..base + a], scalar::sign),
                 Op::Add => binary(st, base, a, |x, y| x + y),
                 Op::Sub => binary(st, base, a, |x, y| x - y),
                 Op::Mul => binary(st, base, a, |x, y| x * y),
@@ -266,7 +238,7 @@ impl Vm {
                 Op::Rem => binary(st, base, a, floored_rem),
                 Op::Min => binary(st, base, a, f32::min),
                 Op::Max => binary(st, base, a, f32::max),
-                Op::Step => binary(st, base, a, |e, x| if x < e { 0.0 } else { 1.0 }),
+                Op::Step => binary(st, base, a, scalar::step),
                 Op::Eq | Op::Ne => {
                     let eq = (0..a).all(|k| st[base + k] == st[base + a + k]);
                     st[base] = b2f(eq == (op == Op::Eq));
@@ -286,50 +258,37 @@ impl Vm {
                     };
                     st.copy_within(from..from + a, base);
                 }
-                Op::Sin => st[base] = (st[base] * DEG).sin(),
-                Op::Cos => st[base] = (st[base] * DEG).cos(),
-                Op::Tan => st[base] = (st[base] * DEG).tan(),
-                Op::Asin => st[base] = st[base].asin().to_degrees(),
-                Op::Acos => st[base] = st[base].acos().to_degrees(),
-                Op::Atan => st[base] = st[base].atan().to_degrees(),
-                Op::Atan2 => st[base] = st[base].atan2(st[base + 1]).to_degrees(),
+                Op::Sin => st[base] = scalar::sin_deg(st[base]),
+                Op::Cos => st[base] = scalar::cos_deg(st[base]),
+                Op::Tan => st[base] = scalar::tan_deg(st[base]),
+                Op::Asin => st[base] = scalar::asin_deg(st[base]),
+                Op::Acos => st[base] = scalar::acos_deg(st[base]),
+                Op::Atan => st[base] = scalar::atan_deg(st[base]),
+                Op::Atan2 => st[base] = scalar::atan2_deg(st[base], st[base + 1]),
                 Op::Sqrt => st[base] = st[base].sqrt(),
                 Op::Exp => st[base] = st[base].exp(),
                 Op::Ln => st[base] = st[base].ln(),
                 Op::Log10 => st[base] = st[base].log10(),
                 Op::Pow => st[base] = st[base].powf(st[base + 1]),
                 Op::Clamp => ternary(st, base, a, clamp),
-                Op::Mix => ternary(st, base, a, |x, y, t| x * (1.0 - t) + y * t),
-                Op::Smoothstep => ternary(st, base, a, smoothstep),
+                Op::Mix => ternary(st, base, a, scalar::mix),
+                Op::Smoothstep => ternary(st, base, a, scalar::smoothstep),
                 Op::Dot => {
                     let (u, v) = vec2(st, base);
-                    st[base] = u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+                    st[base] = scalar::dot(u, v);
                 }
                 Op::Cross => {
                     let (u, v) = vec2(st, base);
-                    st[base] = u[1] * v[2] - u[2] * v[1];
-                    st[base + 1] = u[2] * v[0] - u[0] * v[2];
-                    st[base + 2] = u[0] * v[1] - u[1] * v[0];
+                    st[base..base + 3].copy_from_slice(&scalar::cross(u, v));
                 }
-                Op::Length => {
-                    let (x, y, z) = (st[base], st[base + 1], st[base + 2]);
-                    st[base] = (x * x + y * y + z * z).sqrt();
-                }
+                Op::Length => st[base] = scalar::length(vec1(st, base)),
                 Op::Normalize => {
-                    let (x, y, z) = (st[base], st[base + 1], st[base + 2]);
-                    let l = (x * x + y * y + z * z).sqrt();
-                    if l > 0.0 {
-                        st[base] = x / l;
-                        st[base + 1] = y / l;
-                        st[base + 2] = z / l;
-                    } else {
-                        st[base..base + 3].fill(0.0);
-                    }
+                    let u = scalar::normalize(vec1(st, base));
+                    st[base..base + 3].copy_from_slice(&u);
                 }
                 Op::Distance => {
                     let (u, v) = vec2(st, base);
-                    let d = [u[0] - v[0], u[1] - v[1], u[2] - v[2]];
-                    st[base] = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                    st[base] = scalar::distance(u, v);
                 }
                 Op::Spline => spline(st, base, a & 0xFFFF, a >> 16),
                 Op::RandUniform => {
@@ -398,23 +357,16 @@ fn vec2(st: &[f32; STACK_SIZE], base: usize) -> ([f32; 3], [f32; 3]) {
     )
 }
 
+#[inline]
+fn vec1(st: &[f32; STACK_SIZE], base: usize) -> [f32; 3] {
+    [st[base], st[base + 1], st[base + 2]]
+}
+
 /// Uniform cubic B-spline over `n >= 4` control values of width `w`
-/// following `t` at `base` (the same formula as `grm_sema::eval::spline`,
-/// in f32). The result overwrites `base .. base + w`.
+/// following `t` at `base` ([`scalar::spline_weights`], as
+/// `grm_sema::eval::spline`). The result overwrites `base .. base + w`.
 fn spline(st: &mut [f32; STACK_SIZE], base: usize, n: usize, w: usize) {
-    let t = st[base];
-    let segments = (n - 3) as f32;
-    let u = if t.is_nan() { 0.0 } else { t.clamp(0.0, 1.0) } * segments;
-    let i = (u.floor() as usize).min(n - 4);
-    let s = u - i as f32;
-    let s2 = s * s;
-    let s3 = s2 * s;
-    let b = [
-        (1.0 - 3.0 * s + 3.0 * s2 - s3) / 6.0,
-        (4.0 - 6.0 * s2 + 3.0 * s3) / 6.0,
-        (1.0 + 3.0 * s + 3.0 * s2 - 3.0 * s3) / 6.0,
-        s3 / 6.0,
-    ];
+    let (i, b) = scalar::spline_weights(st[base], n);
     let mut acc = [0.0f32; 3];
     for (k, bk) in b.iter().enumerate() {
         let c = base + 1 + (i + k) * w;

@@ -32,8 +32,9 @@
 //!   types, every weight and condition has its type, and all constant
 //!   subexpressions are folded. With errors the program is best-effort
 //!   (for the language server) and must not be lowered.
-//! - Floats are folded in f64 with the semantics of [`eval`], which the
-//!   engines share; the run-time type is 32-bit float.
+//! - Floats are 32-bit: constants are folded by [`eval`] with the f32
+//!   operations of [`scalar`], which the engines' bytecode VM calls too, so
+//!   a folded value has the bits the same expression has at run time.
 //!
 //! Decisions the language spec leaves open (the diagnostics they lead to are
 //! in `docs/diagnostics.md`):
@@ -79,6 +80,7 @@ mod infer;
 mod loader;
 pub mod phases;
 mod program;
+pub mod scalar;
 mod suggest;
 mod system;
 mod unit;

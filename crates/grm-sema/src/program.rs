@@ -176,8 +176,11 @@ impl Value {
 impl std::fmt::Display for Value {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            Value::Float(x) => write!(f, "{x}"),
-            Value::Vec3([x, y, z]) => write!(f, "vec3({x}, {y}, {z})"),
+            // Floats are 32-bit at run time: shown as the f32 they are.
+            Value::Float(x) => write!(f, "{}", *x as f32),
+            Value::Vec3([x, y, z]) => {
+                write!(f, "vec3({}, {}, {})", *x as f32, *y as f32, *z as f32)
+            }
             Value::Bool(b) => write!(f, "{b}"),
             Value::Mesh(m) => write!(f, "mesh#{}", m.0),
             Value::Material(m) => write!(f, "material#{}", m.0),
@@ -664,7 +667,8 @@ impl System {
         };
         let mut s = Settings::default();
         for se in &self.setting_exprs {
-            let v = crate::eval::eval(&se.value, &env).map_err(|e| (e.to_string(), se.span))?;
+            let v =
+                crate::eval::eval_setting(&se.value, &env).map_err(|e| (e.to_string(), se.span))?;
             se.key.apply(&mut s, v).map_err(|m| (m, se.span))?;
         }
         Ok(s)
