@@ -115,6 +115,10 @@ struct Sys<'c, 'a> {
     file: FileId,
     sid: SystemId,
     mode: Mode,
+    /// The `mode` setting is broken (a bad value, or a misspelt name such as
+    /// `mod = sample`; reported once): the mode is guessed from the
+    /// system's contents, and nothing is reported for not fitting it.
+    mode_unsure: bool,
     tab: SymTab,
     occurrences: Vec<(Span, SymbolId)>,
     /// Terminals named in a phase declaration (E0102 reported): rewriting
@@ -158,6 +162,7 @@ pub(crate) fn check_system(
         file,
         sid,
         mode: Mode::Derive,
+        mode_unsure: false,
         tab: SymTab::default(),
         occurrences: Vec::new(),
         declared_terminals: Vec::new(),
@@ -192,6 +197,15 @@ impl Sys<'_, '_> {
             }
         }
         holes |= prods.iter().any(|p| prod_has_error(p));
+
+        // A broken `mode` setting: sample if the system uses what only
+        // sample systems have.
+        if settings_ast.iter().any(|set| mode_setting_broken(set)) {
+            self.mode_unsure = true;
+            if decls.iter().any(|d| d.phase != Phase::None) || prods.iter().any(|p| p.wrapup) {
+                self.mode = Mode::Sample;
+            }
+        }
 
         // Settings.
         let settings = self.settings(&settings_ast);
@@ -435,7 +449,7 @@ impl Sys<'_, '_> {
             bindings: &[],
         };
         for (key, v, span, name_span) in typed {
-            if key.sample_only() && self.mode == Mode::Derive {
+            if key.sample_only() && self.mode == Mode::Derive && !self.mode_unsure {
                 self.cx.error(
                     Diagnostic::new(
                         Code::UnknownSetting,
@@ -448,7 +462,10 @@ impl Sys<'_, '_> {
                 );
                 continue;
             }
-            if key == crate::builtins::SettingKey::Iterations && self.mode == Mode::Sample {
+            if key == crate::builtins::SettingKey::Iterations
+                && self.mode == Mode::Sample
+                && !self.mode_unsure
+            {
                 self.cx.error(
                     Diagnostic::new(
                         Code::UnknownSetting,
@@ -465,7 +482,7 @@ impl Sys<'_, '_> {
                 continue;
             }
             if v.ty != Ty::Error
-                && let Ok(val) = crate::eval::eval(&v, &env)
+                && let Ok(val) = crate::eval::eval_setting(&v, &env)
                 && let Err(msg) = key.apply(&mut out, val)
             {
                 let mut d = Diagnostic::new(
@@ -512,7 +529,7 @@ impl Sys<'_, '_> {
     fn declarations(&mut self, decls: &[&ast::ModuleDecl]) {
         let file = self.file;
         for d in decls {
-            if d.phase != Phase::None && self.mode == Mode::Derive {
+            if d.phase != Phase::None && self.mode == Mode::Derive && !self.mode_unsure {
                 let kw = if d.phase == Phase::Skeleton {
                     "skeleton"
                 } else {
@@ -1398,13 +1415,21 @@ impl Sys<'_, '_> {
                     && (x.is_nan() || x <= 0.0 || x.is_infinite())
                 {
                     {
+                        let (what, label) = if x.is_infinite() {
+                            ("finite ", "past the largest float")
+                        } else {
+                            ("", "not positive")
+                        };
                         self.err(
                             Diagnostic::new(
                                 Code::NonPositiveWeight,
-                                format!("a weight must be a positive number, but this is {x}"),
+                                format!(
+                                    "a weight must be a {what}positive number, but this is {}",
+                                    x as f32
+                                ),
                                 file,
                                 t.span,
-                                "not positive",
+                                label,
                             )
                             .with_help("use a weight > 0; to disable an alternative, remove it"),
                         );
@@ -1457,7 +1482,7 @@ impl Sys<'_, '_> {
             }
         }
 
-        if p.wrapup && self.mode == Mode::Derive {
+        if p.wrapup && self.mode == Mode::Derive && !self.mode_unsure {
             let kw = Span::new(
                 p.span.start,
                 p.span
@@ -1564,4 +1589,21 @@ fn hash_cond(c: Option<&TExpr>) -> u64 {
         c.structural_hash(&mut h);
     }
     h.finish()
+}
+
+/// Whether a setting is a broken `mode`: `mode` with a value other than
+/// `derive` or `sample`, or an unknown name that `mode` is the nearest
+/// setting to (`mod`, `Mode`) or whose value is `derive` or `sample`.
+fn mode_setting_broken(set: &ast::Setting) -> bool {
+    let name = set.name.name.as_str();
+    let value_is_mode =
+        matches!(&set.value.kind, ExprKind::Name(n) if n.name == "derive" || n.name == "sample");
+    match SettingKey::from_name(name) {
+        Some(SettingKey::Mode) => !value_is_mode,
+        Some(_) => false,
+        None => {
+            value_is_mode
+                || suggest::best(name, SettingKey::ALL.iter().map(|k| k.name())) == Some("mode")
+        }
+    }
 }

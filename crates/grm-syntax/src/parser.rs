@@ -102,7 +102,9 @@ pub(crate) fn number(text: &str) -> (f64, Option<String>) {
         .bytes()
         .all(|b| b.is_ascii_digit() || matches!(b, b'.' | b'e' | b'E' | b'+' | b'-'));
     match text.parse::<f64>() {
-        Ok(v) if v.is_finite() && (v == 0.0 || v.abs() <= f32::MAX as f64) => (v, None),
+        // Any literal that rounds to a finite 32-bit float (`3.4028235e38`,
+        // how f32::MAX prints, is just above it and rounds down to it).
+        Ok(v) if (v as f32).is_finite() => (v, None),
         Err(_) if !well_formed => (
             0.0,
             Some(format!(
@@ -282,6 +284,116 @@ fn item_keyword_for(word: &str) -> Option<&'static str> {
     KEYWORDS
         .into_iter()
         .find(|kw| lower == *kw || (word.chars().count() >= 4 && within_one_edit(&lower, kw)))
+}
+
+/// A statement inside a system whose first word nearly spells a statement
+/// keyword (`axion F;`, `Axiom F;`, `skeleon a;`, `geometri leaf, stem;`,
+/// `wrapUp a -> ;`) and that could not parse otherwise (no arrow, not a
+/// setting; or, for `wrapup`, two patterns before the arrow with no left
+/// context) is read as that keyword's statement, with one E0001: the
+/// declaration takes effect, so nothing that depends on it is reported
+/// too. Returns the relabelled tokens.
+///
+/// The axiom in ABoP's notation (`ω: F;`, `w: F;`, `axiom: F;`) is read
+/// as `axiom F;` the same way, its E0001 on the `ω:`.
+fn misspelt_statement_keyword<'a>(
+    file: FileId,
+    text: &str,
+    toks: &[Token<'a>],
+    diags: &mut Vec<Diagnostic>,
+) -> Option<Vec<Token<'a>>> {
+    let first = toks.first()?;
+    let second = toks.get(1)?;
+    let no_arrow = !toks.iter().any(|t| t.kind == TokKind::Arrow);
+    if second.kind == TokKind::Colon
+        && (first.kind == TokKind::Axiom || matches!(first.text, "w" | "ω" | "omega"))
+        && no_arrow
+        && toks.len() > 2
+    {
+        let last = toks[toks.len() - 1];
+        let end = if last.kind == TokKind::Semi {
+            last.span.start
+        } else {
+            last.span.end
+        };
+        let rest = text
+            .get(toks[2].span.start as usize..end as usize)
+            .unwrap_or("")
+            .trim();
+        diags.push(
+            Diagnostic::new(
+                Code::UnexpectedToken,
+                if first.kind == TokKind::Axiom {
+                    "`axiom:`: the axiom is written without `:`".to_string()
+                } else {
+                    format!(
+                        "`{}:` is ABoP's notation for the axiom; read as `axiom`",
+                        first.text
+                    )
+                },
+                file,
+                first.span.to(second.span),
+                "not grm's notation",
+            )
+            .with_help(format!("the axiom is written without `:`: `axiom {rest};`")),
+        );
+        let mut out = Vec::with_capacity(toks.len() - 1);
+        out.push(Token {
+            kind: TokKind::Axiom,
+            ..*first
+        });
+        out.extend_from_slice(&toks[2..]);
+        return Some(out);
+    }
+    if first.kind != TokKind::Ident {
+        return None;
+    }
+    if matches!(second.kind, TokKind::Assign | TokKind::Semi) {
+        return None;
+    }
+    let arrow = toks.iter().position(|t| t.kind == TokKind::Arrow);
+    let lower = first.text.to_lowercase();
+    let near =
+        |kw: &str| lower == kw || (first.text.chars().count() >= 4 && within_one_edit(&lower, kw));
+    let symbol_like = |t: &Token<'_>| {
+        t.kind == TokKind::Ident
+            || matches!(
+                t.text,
+                "+" | "-" | "&" | "^" | "\\" | "/" | "|" | "$" | "%" | "!" | "'" | "." | "{" | "}"
+            )
+    };
+    let (kw, kind) = match arrow {
+        None => [
+            ("axiom", TokKind::Axiom),
+            ("skeleton", TokKind::Skeleton),
+            ("geometry", TokKind::Geometry),
+            ("module", TokKind::Module),
+            ("ignore", TokKind::Ignore),
+        ]
+        .into_iter()
+        .find(|(kw, _)| near(kw))?,
+        Some(at) => {
+            let plain_lhs =
+                symbol_like(second) && !toks[..at].iter().any(|t| t.kind == TokKind::Lt);
+            if !(plain_lhs && (near("wrapup") || lower == "wrap_up")) {
+                return None;
+            }
+            ("wrapup", TokKind::Wrapup)
+        }
+    };
+    diags.push(
+        Diagnostic::new(
+            Code::UnexpectedToken,
+            format!("`{}` is not a keyword; read as `{kw}`", first.text),
+            file,
+            first.span,
+            "not a keyword",
+        )
+        .with_help(format!("did you mean `{kw}`?")),
+    );
+    let mut out = toks.to_vec();
+    out[0].kind = kind;
+    Some(out)
 }
 
 /// Whether `a` becomes `b` by one insertion, deletion, substitution or swap
@@ -854,6 +966,15 @@ impl<'a> Driver<'a, '_> {
                 let all = self.toks;
                 let toks = &all[self.pos..end];
                 self.pos = end;
+                let relabelled;
+                let toks =
+                    match misspelt_statement_keyword(self.file, self.text, toks, &mut self.diags) {
+                        Some(fixed) => {
+                            relabelled = fixed;
+                            &relabelled[..]
+                        }
+                        None => toks,
+                    };
                 for s in self.statement(toks, Entry::Sys) {
                     if let Stmt::SysItem(i) = s {
                         items.push(i);

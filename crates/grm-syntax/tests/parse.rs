@@ -200,6 +200,23 @@ fn mesh_terminal_on_its_own_line_stays_in_the_successor() {
 #[test]
 fn invalid_number_is_reported() {
     assert_eq!(codes("const X = 1e999;"), ["E0006"]);
+    // Just past the f32 range (half an ulp above f32::MAX rounds up).
+    assert_eq!(codes("const X = 3.4028236e38;"), ["E0006"]);
+}
+
+/// Every literal that rounds to a finite 32-bit float is a number: the
+/// largest float as Rust prints it (`3.4028235e38`, just above f32::MAX)
+/// and as `grmc derive --print` writes it in full.
+#[test]
+fn the_largest_float_is_a_literal_in_every_spelling() {
+    for text in [
+        "3.4028235e38",
+        "340282350000000000000000000000000000000",
+        "-3.4028235e38",
+        "1e-50",
+    ] {
+        assert!(codes(&format!("const X = {text};")).is_empty(), "{text}");
+    }
 }
 
 #[test]
