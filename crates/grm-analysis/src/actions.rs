@@ -154,6 +154,14 @@ impl FileAnalysis {
                         push(format!("Replace with `{op}`"), vec![edit(span, op)], true);
                     }
                 }
+                // `ω: F;` / `axiom: F;`, read as the axiom: `axiom F;`.
+                Code::UnexpectedToken if help.starts_with("the axiom is written without `:`") => {
+                    push(
+                        "Replace with `axiom`".into(),
+                        vec![edit(span, "axiom")],
+                        true,
+                    );
+                }
                 Code::UnexpectedToken if d.message == "expected `;`" => {
                     push(
                         "Insert `;`".into(),

@@ -753,6 +753,23 @@ fn code_actions_fix_their_diagnostics() {
         assert!(t.contains("F -> F F;"), "{t}");
         assert!(c.is_empty(), "{c:?}");
     }
+    // A misspelt statement keyword inside a system, and ABoP's axiom.
+    let (t, c) = fix(
+        "system S {\n    mode = sample;\n    axiom a;\n    skeleon a;\n    a -> F a;\n    wrapup a -> ;\n}",
+        "E0001",
+        "Replace",
+    );
+    assert!(t.contains("    skeleton a;"), "{t}");
+    assert!(c.is_empty(), "{c:?}");
+    for axiom in ["\u{3c9}:", "axiom:", "w:"] {
+        let (t, c) = fix(
+            &format!("system S {{\n    {axiom} F A(1);\n    F -> F F;\n}}"),
+            "E0001",
+            "axiom",
+        );
+        assert!(t.contains("    axiom F A(1);"), "{t}");
+        assert!(c.is_empty(), "{c:?}");
+    }
     // A declaration written inside a system: moved above it, dedented.
     let (t, c) = fix(
         "system S {\n    param size = 2;\n    axiom F(size);\n    material m {\n        roughness = 1;\n    }\n}\n",
