@@ -191,8 +191,10 @@ fn fit<T: Copy + Default>(v: &mut Vec<T>, n: usize) {
     } else if v.capacity() >= n {
         v.resize(n, T::default());
     } else {
-        // Fresh zeroed memory (lazily zeroed by the OS for large sizes).
+        // Fresh zeroed memory (lazily zeroed by the OS for large sizes),
+        // backed by huge pages where the OS offers them on request.
         *v = vec![T::default(); n];
+        crate::pages::advise_huge(v);
     }
 }
 

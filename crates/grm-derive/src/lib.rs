@@ -25,6 +25,7 @@
 mod brackets;
 pub mod engine;
 mod error;
+mod pages;
 pub mod string;
 
 pub use engine::{
