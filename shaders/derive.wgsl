@@ -262,6 +262,44 @@ fn write_param(i: u32, pe: ParamExpr, d: Draws, dst: u32) {
     }
 }
 
+// The axiom (string 0), one thread per output module `o` (whatever the
+// axioms' lengths, no thread writes more than one module: Mesa's lavapipe
+// stops an invocation's loops after 65,535 iterations in all, and a thread
+// writing a whole long axiom ran past that). `counts` holds the host's
+// offsets of each system's axiom (P.n systems), and their totals at P.n.
+// Every axiom is evaluated at iteration 0, position 0 (the CPU's
+// `Engine::axiom`); an error is reported at the system's index.
+fn write_axiom_module(o: u32) {
+    if (o >= out_offset(P.n).x) {
+        return;
+    }
+    // The last system whose axiom starts at or before o (the systems
+    // before it with the same offset have empty axioms).
+    var lo = 0u;
+    var hi = P.n;
+    while (hi - lo > 1u) {
+        let mid = (lo + hi) / 2u;
+        if (out_offset(mid).x <= o) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    select_system(lo);
+    let off = out_offset(lo);
+    let a = alt_at(TAB.axiom_alt);
+    let m = succ_at(a.succ_offset + (o - off.x));
+    out_syms[o] = m.symbol | (SYS_ID << SYS_SHIFT);
+    var dst = off.y + m.word_offset;
+    out_starts[o] = dst;
+    let d = Draws(SYS.seed, 0u, 0u);
+    for (var q = m.first_param; q < m.first_param + m.param_count; q = q + 1u) {
+        let pe = param_at(q);
+        write_param(lo, pe, d, dst);
+        dst = dst + pe.words;
+    }
+}
+
 @compute @workgroup_size(WORKGROUP)
 fn rewrite(
     @builtin(workgroup_id) wid: vec3<u32>,
@@ -269,7 +307,11 @@ fn rewrite(
     @builtin(local_invocation_index) lid: u32,
 ) {
     let i = wg_linear(wid, nwg) * WORKGROUP + lid;
-    if (i > P.n || (i == P.n && P.axiom != 0u)) {
+    if (P.axiom != 0u) {
+        write_axiom_module(i);
+        return;
+    }
+    if (i > P.n) {
         return;
     }
     if (i == P.n) {
@@ -279,32 +321,24 @@ fn rewrite(
         out_starts[t.x] = t.y;
         return;
     }
-    // The axiom: one thread per system writes its axiom at the offsets the
-    // host put in `counts`.
     let off = out_offset(i);
-    var o = off.x;
-    var wo = off.y;
-    var alt = 0u;
-    if (P.axiom != 0u) {
-        select_system(i);
-        alt = TAB.axiom_alt;
-    } else {
-        select_system(in_syms[i] >> SYS_SHIFT);
-        alt = choice[i];
-        if (alt == COPY) {
-            out_syms[o] = in_syms[i];
-            out_starts[o] = wo;
-            let s = in_starts[i];
-            let e = in_starts[i + 1u];
-            for (var k = 0u; k < e - s; k = k + 1u) {
-                out_params[wo + k] = in_params[s + k];
-            }
-            return;
+    let o = off.x;
+    let wo = off.y;
+    select_system(in_syms[i] >> SYS_SHIFT);
+    let alt = choice[i];
+    if (alt == COPY) {
+        out_syms[o] = in_syms[i];
+        out_starts[o] = wo;
+        let s = in_starts[i];
+        let e = in_starts[i + 1u];
+        for (var k = 0u; k < e - s; k = k + 1u) {
+            out_params[wo + k] = in_params[s + k];
         }
-        // Bind again (the decision is a pure function of the input, so the
-        // chosen group matches again and binds the same words).
-        bind_group(i, group_at(alt_at(alt).group));
+        return;
     }
+    // Bind again (the decision is a pure function of the input, so the
+    // chosen group matches again and binds the same words).
+    bind_group(i, group_at(alt_at(alt).group));
     let a = alt_at(alt);
     let d = draws_at(i);
     for (var k = 0u; k < a.succ_len; k = k + 1u) {

@@ -188,6 +188,25 @@ impl DeviceString {
             params,
         };
         if !s.is_well_formed() {
+            if std::env::var_os("GRM_DEBUG_STRING").is_some() {
+                let bad = (0..s.syms.len())
+                    .find(|&i| s.starts[i + 1] < s.starts[i])
+                    .unwrap_or(0);
+                let lo = bad.saturating_sub(3);
+                eprintln!(
+                    "DEBUG len {} words {} first bad {bad}: syms {:?} starts {:?} params {:?}",
+                    s.syms.len(),
+                    s.params.len(),
+                    &s.syms[lo..(bad + 4).min(s.syms.len())],
+                    &s.starts[lo..(bad + 5).min(s.starts.len())],
+                    &s.params
+                        [s.starts[lo] as usize..(s.starts[lo] as usize + 6).min(s.params.len())]
+                );
+                eprintln!(
+                    "DEBUG tail starts {:?}",
+                    &s.starts[s.starts.len().saturating_sub(4)..]
+                );
+            }
             return Err(GpuError::Readback(
                 "the derived string breaks its invariant".into(),
             ));
@@ -1178,7 +1197,7 @@ impl<'a> GpuSystem<'a> {
         match prefix {
             Some(p) => write_string(gpu, &strings[0], &p.string),
             None => {
-                self.record_axiom(&mut enc, &offsets, &strings[0], &status)?;
+                self.record_axiom(&mut enc, &offsets, (m0, w0), &strings[0], &status)?;
                 gpu.queue().write_buffer(
                     &strings[0].starts,
                     4 * m0,
@@ -1386,9 +1405,16 @@ impl<'a> GpuSystem<'a> {
     /// The rewrite kernel: one thread per output module (`rewrite_out`),
     /// or per input module (`rewrite`) for context-sensitive systems,
     /// whose binding would otherwise match the contexts again for every
-    /// output module.
+    /// output module, unless one of their successors is longer than
+    /// [`kernels::LONG_SUCCESSOR`].
     fn rewrite_kernel(&self) -> &'static crate::shader::Kernel {
-        if self.has_context {
+        // (The axiom is written one module per thread anyway.)
+        let long = self.jobs.iter().any(|j| {
+            let sys = j.system;
+            (sys.alts.iter().enumerate())
+                .any(|(k, a)| k != sys.axiom_alt as usize && a.succ_len > kernels::LONG_SUCCESSOR)
+        });
+        if self.has_context && !long {
             self.kernels.rewrite
         } else {
             self.kernels.rewrite_out
@@ -1457,16 +1483,26 @@ impl<'a> GpuSystem<'a> {
     }
 
     /// Record the axiom kernel writing string 0 into `out` (one thread
-    /// per system, at `offsets`; errors in `status` slot 1). The last
-    /// start is not written.
+    /// per output module; each system's axiom at its `offsets`; errors in
+    /// `status` slot 1, at the system's index). The last start is not
+    /// written.
     fn record_axiom(
         &self,
         enc: &mut wgpu::CommandEncoder,
         offsets: &[[u32; 2]],
+        (modules, words): (u64, u64),
         out: &DeviceString,
         status: &wgpu::Buffer,
     ) -> Result<(), GpuError> {
-        let counts = self.gpu.upload("axiom offsets", offsets)?;
+        // The kernel finds each output module's system by its offset, and
+        // reads the totals after the last system's (both fit u32: checked
+        // by `axiom_offsets`). Empty axioms: nothing to write.
+        if modules == 0 {
+            return Ok(());
+        }
+        let mut with_totals = offsets.to_vec();
+        with_totals.push([modules as u32, words as u32]);
+        let counts = self.gpu.upload("axiom offsets", &with_totals)?;
         let (mate, choice) = (
             self.gpu.storage("unused", 16)?,
             self.gpu.storage("unused", 16)?,
@@ -1493,13 +1529,7 @@ impl<'a> GpuSystem<'a> {
             out,
             status,
         };
-        self.dispatch_derive(
-            enc,
-            self.kernels.rewrite,
-            &params,
-            &pass,
-            self.jobs.len() as u64,
-        )?;
+        self.dispatch_derive(enc, self.kernels.rewrite, &params, &pass, modules)?;
         let mut done = vec![mate, choice];
         done.extend(empty.into_buffers());
         self.gpu.recycle(done);
@@ -1507,7 +1537,7 @@ impl<'a> GpuSystem<'a> {
     }
 
     /// String 0: every system's axiom, evaluated on the device (one thread
-    /// per system, writing at offsets computed here).
+    /// per module, writing at offsets computed here).
     fn axiom(&self) -> Result<DeviceString, GpuError> {
         let (offsets, m, w) = self.axiom_offsets()?;
         let out = self.alloc_string(m, w)?;
@@ -1515,7 +1545,7 @@ impl<'a> GpuSystem<'a> {
             .gpu
             .storage_zeroed("axiom status", u64::from(STATUS_WORDS) * 4)?;
         let mut enc = self.gpu.encoder();
-        self.record_axiom(&mut enc, &offsets, &out, &status)?;
+        self.record_axiom(&mut enc, &offsets, (m, w), &out, &status)?;
         self.gpu
             .queue()
             .write_buffer(&out.starts, 4 * m, bytemuck::bytes_of(&(w as u32)));

@@ -229,6 +229,35 @@ derive_kernel!(
     [HOST_PARAMS, GLOBAL_OFFSETS, NO_VM, NO_CTX]
 );
 
+derive_kernel!(
+    /// [`REWRITE_OUT`] with context matching: context-sensitive systems
+    /// whose successors are too long for one thread to write
+    /// ([`LONG_SUCCESSOR`]).
+    REWRITE_OUT_CTX,
+    "rewrite_out_ctx",
+    "derive.wgsl",
+    "rewrite_out",
+    DERIVE_BINDS,
+    [HOST_PARAMS, GLOBAL_OFFSETS, VM, CTX]
+);
+derive_kernel!(
+    /// [`REWRITE_OUT_CTX`] without the interpreter.
+    REWRITE_OUT_CTX_PLAIN,
+    "rewrite_out_ctx_plain",
+    "derive.wgsl",
+    "rewrite_out",
+    DERIVE_BINDS,
+    [HOST_PARAMS, GLOBAL_OFFSETS, NO_VM, CTX]
+);
+
+/// Successors longer than this (in modules) are not written by one thread
+/// (`rewrite`): a context-sensitive system with one is rewritten by output
+/// module (`rewrite_out` with context matching). Besides spreading the
+/// work, this keeps each invocation's loops short: Mesa's lavapipe stops
+/// an invocation's loops after 65,535 iterations in all, and a thread
+/// writing a successor of about 1,500 one-parameter modules ran past that.
+pub const LONG_SUCCESSOR: u32 = 64;
+
 const DERIVE_DEV_BINDS: &[Bind] = &derive_binds::<13>(Bind::Read);
 /// The batched derive kernels (parameters from the device, offsets from
 /// block sums at binding 12; no contexts: batched derivations are
@@ -283,7 +312,8 @@ pub struct DeriveKernels {
     pub count: &'static Kernel,
     /// By input module: context-sensitive systems and the axiom.
     pub rewrite: &'static Kernel,
-    /// By output module: context-free systems.
+    /// By output module: context-free systems, and context-sensitive ones
+    /// with long successors.
     pub rewrite_out: &'static Kernel,
     pub count_scan_dev: &'static Kernel,
     pub rewrite_out_dev: &'static Kernel,
@@ -293,7 +323,7 @@ pub struct DeriveKernels {
 pub static DERIVE_WITH_VM: DeriveKernels = DeriveKernels {
     count: &COUNT,
     rewrite: &REWRITE,
-    rewrite_out: &REWRITE_OUT,
+    rewrite_out: &REWRITE_OUT_CTX,
     count_scan_dev: &COUNT_SCAN_DEV,
     rewrite_out_dev: &REWRITE_OUT_DEV,
 };
@@ -301,18 +331,20 @@ pub static DERIVE_WITH_VM: DeriveKernels = DeriveKernels {
 pub static DERIVE_PLAIN: DeriveKernels = DeriveKernels {
     count: &COUNT_PLAIN,
     rewrite: &REWRITE_PLAIN,
-    rewrite_out: &REWRITE_OUT_PLAIN,
+    rewrite_out: &REWRITE_OUT_CTX_PLAIN,
     count_scan_dev: &COUNT_SCAN_DEV_PLAIN,
     rewrite_out_dev: &REWRITE_OUT_DEV_PLAIN,
 };
 /// Code, no contexts (`match_contexts` faults in the count).
 pub static DERIVE_FREE: DeriveKernels = DeriveKernels {
     count: &COUNT_FREE,
+    rewrite_out: &REWRITE_OUT,
     ..DERIVE_WITH_VM
 };
 /// Neither.
 pub static DERIVE_PLAIN_FREE: DeriveKernels = DeriveKernels {
     count: &COUNT_PLAIN_FREE,
+    rewrite_out: &REWRITE_OUT_PLAIN,
     ..DERIVE_PLAIN
 };
 
@@ -538,6 +570,8 @@ pub static ALL: &[&Kernel] = &[
     &COUNT_PLAIN_FREE,
     &REWRITE_PLAIN,
     &REWRITE_OUT_PLAIN,
+    &REWRITE_OUT_CTX,
+    &REWRITE_OUT_CTX_PLAIN,
     &COUNT_SCAN_DEV_PLAIN,
     &REWRITE_OUT_DEV_PLAIN,
     &BRACKET_FLAGS,

@@ -1,0 +1,105 @@
+//! Long axioms and long successors: no kernel invocation writes one of
+//! them alone. On Mesa's lavapipe (the CI's device) an invocation's loops
+//! stop after 65,535 iterations in all; a thread writing a whole axiom of
+//! about 1,500 one-parameter modules, or a context-sensitive successor as
+//! long, stopped part-way, and the strings were wrong or the engine
+//! reported internal faults. Each case here failed that way before the
+//! axiom was written one module per thread and long successors of
+//! context-sensitive systems by output module.
+
+mod common;
+use common::*;
+use grm_gpu::{GpuDeriveOptions, GpuJob, derive, derive_many};
+
+fn opts(sys: &grm_compile::CompiledSystem, iterations: u32, seed: u32) -> GpuDeriveOptions {
+    GpuDeriveOptions {
+        iterations,
+        seed,
+        cpu_prefix: 0,
+        ..GpuDeriveOptions::from_system(sys)
+    }
+}
+
+fn modules(f: impl Fn(usize) -> String, n: usize) -> String {
+    (0..n).map(f).collect::<Vec<_>>().join(" ")
+}
+
+fn check(what: &str, src: &str, iterations: u32) {
+    let sys = inline(src).unwrap_or_else(|| panic!("{what}: compiles"));
+    let g = gpu();
+    for seed in [0, 7] {
+        let want = cpu_derive(&sys, iterations, seed).expect("cpu derives");
+        let got = derive(g, &sys, &opts(&sys, iterations, seed))
+            .unwrap_or_else(|e| panic!("{what}: gpu derives: {e}"));
+        assert_same(&format!("{what}, seed {seed}"), &want, &got.string);
+    }
+}
+
+#[test]
+fn long_axioms_are_written_whole() {
+    // Conditions, weights and computed parameters read every axiom module.
+    let ones = modules(|i| format!("A({})", i % 7 + 1), 2_000);
+    check(
+        "condition over 2,000 one-parameter modules",
+        &format!("system S {{ axiom {ones}; A(x) : x > 3 -> E(x + 1); }}"),
+        1,
+    );
+    check(
+        "stochastic over 2,000 modules",
+        &format!("system S {{ axiom {ones}; A(x) -> (1) E(x + 1); A(x) -> (2) E(x * 3); }}"),
+        1,
+    );
+    let threes = modules(|i| format!("A({i}, 2, {})", i % 5), 900);
+    check(
+        "900 three-parameter modules",
+        &format!("system S {{ axiom {threes}; A(x, y, z) : z > 1 -> E(x + y + z); }}"),
+        1,
+    );
+    let plain = modules(|_| "B".to_string(), 4_000);
+    check(
+        "4,000 modules without parameters, then parametric ones",
+        &format!("system S {{ axiom {plain} A(1) A(2) A(3); A(x) : x > 0 -> E(x + 1); }}"),
+        1,
+    );
+    // A context-sensitive system reads its axiom's neighbours too.
+    let pairs = modules(|i| format!("A({i}) B"), 1_100);
+    check(
+        "1,100 context pairs",
+        &format!("system S {{ axiom {pairs}; B < A(x) -> E(x + 1); }}"),
+        1,
+    );
+}
+
+#[test]
+fn long_successors_of_context_sensitive_systems_are_written_whole() {
+    let succ = modules(|i| format!("A({})", i % 7), 2_000);
+    check(
+        "a 2,000-module successor with a parametric left context",
+        &format!("system S {{ axiom T T; T -> {succ}; A(v) < A(x) -> E(x + v); }}"),
+        2,
+    );
+}
+
+/// Every system's axiom is evaluated at iteration 0, position 0, as the
+/// CPU does, now that its modules are written by threads of their own: a
+/// forest whose axioms draw gets the CPU's trees.
+#[test]
+fn drawn_axioms_of_a_forest_match_the_cpu() {
+    let sys = inline(
+        "system R { axiom A(uniform(1, 2)) B(normal(0, 1)); \
+         A(x) -> F(x) [ + A(x * 0.7) ] A(x * 0.9); B(y) -> F(y + 1) B(y); }",
+    )
+    .expect("compiles");
+    let jobs: Vec<GpuJob> = (0..5)
+        .map(|k| GpuJob {
+            system: &sys,
+            iterations: 2,
+            seed: 11 * k + 1,
+        })
+        .collect();
+    let out = derive_many(gpu(), &jobs, &opts(&sys, 2, 0)).expect("derives");
+    for (k, (job, got)) in jobs.iter().zip(&out.strings).enumerate() {
+        let want = cpu_derive(job.system, job.iterations, job.seed).expect("cpu derives");
+        assert_same(&format!("tree {k}"), &want, got);
+    }
+}
