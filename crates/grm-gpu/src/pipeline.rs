@@ -203,6 +203,12 @@ fn read_status(gpu: &Gpu, status: &wgpu::Buffer) -> Result<bool, GpuError> {
 pub struct GpuManyRun {
     /// The combined string's figures (the axioms, then each step).
     pub stats: Vec<GpuIterationStats>,
+    /// Each job's final string length (module count), in job order.
+    pub job_modules: Vec<u64>,
+    /// Lipp's figure for the forest: the modules each job produced over its
+    /// own iterations, summed (a job that has done its iterations is copied
+    /// along in the combined string, but produces nothing more).
+    pub produced: u64,
     /// How the derivation ran.
     pub path: DerivePath,
     pub derive_elapsed: Duration,
@@ -276,7 +282,16 @@ pub fn run_many(
             strings = Some(split_string(&all, &dir)?);
         }
         gpu.recycle(string.into_buffers());
+        let job_modules: Vec<u64> = ranges.iter().map(|&(a, b)| b - a).collect();
+        let copied: u64 = jobs
+            .iter()
+            .zip(&job_modules)
+            .map(|(j, &m)| m.saturating_mul(u64::from(iterations - j.iterations)))
+            .sum();
+        let combined: u64 = stats.iter().skip(1).map(|s| s.modules).sum();
         Ok(GpuManyRun {
+            produced: combined.saturating_sub(copied),
+            job_modules,
             stats,
             path,
             derive_elapsed,

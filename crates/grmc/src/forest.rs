@@ -172,6 +172,26 @@ struct Grown {
     text: Option<String>,
 }
 
+/// The trees' seeds for the summary line: `seed 5`, `seeds 0-255` when
+/// they count up by one, else the list (`seeds 5, 1, 2, 3, 9, 5`; the
+/// first eight and a count past that).
+fn seeds_text(seeds: &[u32]) -> String {
+    match seeds {
+        [] => String::new(),
+        [a] => format!("seed {a}"),
+        [a, .., b] if seeds.windows(2).all(|w| w[0].checked_add(1) == Some(w[1])) => {
+            format!("seeds {a}-{b}")
+        }
+        _ => {
+            let shown: Vec<String> = seeds.iter().take(8).map(u32::to_string).collect();
+            match seeds.len() {
+                n if n > 8 => format!("seeds {}, ... ({n} in all)", shown.join(", ")),
+                _ => format!("seeds {}", shown.join(", ")),
+            }
+        }
+    }
+}
+
 /// A derived forest: each tree, the modules produced over the
 /// derivation, and how it ran (for the summary).
 struct Derived {
@@ -358,11 +378,7 @@ pub fn run(args: ForestArgs) -> Outcome {
             names.push(n);
         }
     }
-    let seeds = match (trees.first(), trees.last()) {
-        (Some(a), Some(b)) if trees.len() > 1 => format!("seeds {}-{}", a.seed, b.seed),
-        (Some(a), _) => format!("seed {}", a.seed),
-        _ => String::new(),
-    };
+    let seeds = seeds_text(&trees.iter().map(|t| t.seed).collect::<Vec<_>>());
     let per_us = if elapsed.as_secs_f64() > 0.0 {
         format!(
             ", {} modules/us",
@@ -853,7 +869,7 @@ fn derive_gpu(
         }
         Err(e) => return fallback(&e),
     };
-    let produced: u64 = r.stats.iter().skip(1).map(|s| s.modules).sum();
+    let produced = r.produced;
     let modules = r.stats.last().map_or(0, |s| s.modules);
     let gpu_ms = ms(r.derive_elapsed
         + r.interpretation
@@ -909,6 +925,21 @@ fn derive_gpu(
 mod tests {
     use super::*;
     use glam::Vec3;
+
+    #[test]
+    fn the_summary_names_the_seeds_the_trees_have() {
+        assert_eq!(seeds_text(&[]), "");
+        assert_eq!(seeds_text(&[7]), "seed 7");
+        assert_eq!(seeds_text(&[0, 1, 2, 3]), "seeds 0-3");
+        // Mixed systems with seeds of their own (`seed = 5`).
+        assert_eq!(seeds_text(&[5, 1, 2, 3, 9, 5]), "seeds 5, 1, 2, 3, 9, 5");
+        assert_eq!(seeds_text(&[5, 5]), "seeds 5, 5");
+        assert_eq!(
+            seeds_text(&(0..20).map(|k| k * 2).collect::<Vec<_>>()),
+            "seeds 0, 2, 4, 6, 8, 10, 12, 14, ... (20 in all)"
+        );
+        assert_eq!(seeds_text(&[u32::MAX, 0]), "seeds 4294967295, 0");
+    }
 
     fn tree(min: Vec3, max: Vec3) -> Grown {
         Grown {

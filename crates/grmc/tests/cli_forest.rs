@@ -177,6 +177,36 @@ fn a_mixed_forest_with_drawn_parameters_is_each_tree_alone() {
     assert_eq!(drawn_a.len(), 4, "every tree draws its own value");
 }
 
+/// Lipp's "produced" figure counts what each tree produced over its own
+/// iterations: a tree that has done its iterations is carried along in the
+/// combined GPU string but produces nothing more (the GPU summed the
+/// combined strings: 70 here instead of 30 + 10).
+#[test]
+fn trees_of_different_iteration_counts_count_what_they_produced() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let file = dir.path().join("two.grm");
+    std::fs::write(
+        &file,
+        "system Long { iterations = 4; axiom A; A -> A A; }\n\
+         system Short { iterations = 1; axiom B B B B B B B B B B; B -> B; }\n",
+    )
+    .expect("write");
+    let file = file.to_str().expect("utf-8 path");
+    let base = [
+        "forest", file, "--system", "Long", "--system", "Short", "--trees", "2",
+    ];
+    for engine in [&[][..], &["--gpu"][..], &["--gpu", "--cpu-prefix", "0"][..]] {
+        let args: Vec<&str> = base.iter().chain(engine).copied().collect();
+        let (_, err) = ok(&args);
+        // Long: 2 + 4 + 8 + 16 = 30; Short: 10.
+        assert!(
+            err.contains("26 modules (40 produced in all)"),
+            "{engine:?}: {err}"
+        );
+        assert!(err.contains("(seeds 0-1)"), "{engine:?}: {err}");
+    }
+}
+
 /// The model holds every tree: its bone count is the sum of the trees'
 /// (each derived alone), and neighbours are placed apart.
 #[test]
