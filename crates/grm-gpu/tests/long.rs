@@ -103,3 +103,38 @@ fn drawn_axioms_of_a_forest_match_the_cpu() {
         assert_same(&format!("tree {k}"), &want, got);
     }
 }
+
+/// A long axiom interpreted on the GPU (from the expansion tables where
+/// the derivation is direct, from the string otherwise): the CPU turtle's
+/// bones.
+#[test]
+fn long_axioms_are_interpreted_whole() {
+    for (what, body) in [
+        ("direct", "F(x) -> F(x * 0.5) F(x * 0.5);"),
+        ("stepwise", "F(x) : x > 0 -> F(x * 0.5) F(x * 0.5);"),
+    ] {
+        let units = modules(|i| format!("F({}) + F(2) [ - F(1) ]", i % 3 + 1), 1_500);
+        let src = format!("system R {{ angle = 30; axiom {units}; {body} }}");
+        let (_, checked) = grm_sema::check_with("long.grm", &src, &grm_sema::MemLoader::new());
+        assert!(!checked.has_errors(), "{what}");
+        let p = &checked.program;
+        let sys = p.default_system().expect("system");
+        let c = grm_compile::compile(p, sys, &p.default_params()).expect("compiles");
+        let run = grm_gpu::GpuRunOptions {
+            derive: opts(&c, 2, 0),
+            interpret: true,
+            read_string: true,
+            read_bones: true,
+            strategy: grm_gpu::DeriveStrategy::Auto,
+            branch_scan: grm_gpu::interp::BranchScan::Auto,
+            pipelined: false,
+        };
+        let turtle = grm_gpu::TurtleProgram::new(sys, &c.settings);
+        let mut r = grm_gpu::run(gpu(), &c, &turtle, &run, &mut |_| {}).expect("runs");
+        let bones = std::mem::take(&mut r.interpretation.as_mut().expect("interpreted").bones);
+        let string = cpu_derive(&c, 2, 0).expect("cpu derives");
+        assert_same(what, &string, r.string.as_ref().expect("read"));
+        let cpu = grm_turtle::interpret(sys, &c.settings, &string).expect("cpu interprets");
+        assert_bones_match(what, &cpu, &bones);
+    }
+}
