@@ -1071,3 +1071,62 @@ async fn preview_of_a_generation_that_cannot_be_finished() {
     let r = c.ok("grm/preview", at(Some(7))).await;
     assert_eq!(r["parts"], result["parts"]);
 }
+
+/// The first workspace-wide request analyses every workspace file; it does
+/// so one file at a time without holding the server, so a hover on an open
+/// document is answered while it runs (a chain of files importing each
+/// other held every other request until all were analysed).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_workspace_search_does_not_stall_other_requests() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let n = 300;
+    for k in 0..n {
+        let import = if k + 1 < n {
+            format!("import \"f{}.grm\";\n", k + 1)
+        } else {
+            String::new()
+        };
+        std::fs::write(
+            dir.path().join(format!("f{k}.grm")),
+            format!("{import}const c{k} = {k};\nsystem S{k} {{ axiom F(c{k}); }}\n"),
+        )
+        .expect("write");
+    }
+    let mut c = Client::with_init(
+        Config::default(),
+        json!({ "capabilities": {}, "rootUri": uri(dir.path()) }),
+    )
+    .await;
+    let (lp, ltext) = fixture("lib.grm");
+    let u = c.open(&lp, &ltext).await;
+    let _ = c.diagnostics(&u, 1).await;
+    let search = c
+        .spawn_request("workspace/symbol", json!({ "query": "c1" }))
+        .await;
+    let h = c
+        .ok("textDocument/hover", at(&u, pos(&ltext, "GOLDEN", 0, 0)))
+        .await;
+    assert!(h["contents"]["value"].as_str().is_some(), "{h}");
+    assert!(
+        !search.is_finished(),
+        "the hover was answered only after the workspace search"
+    );
+    let r = search.await.expect("task").expect("answered");
+    let (_, body) = r.into_parts();
+    let found = body.expect("symbols");
+    let mut names: Vec<&str> = found
+        .as_array()
+        .expect("a list")
+        .iter()
+        .map(|s| s["name"].as_str().expect("a name"))
+        .collect();
+    let all = names.len();
+    names.sort_unstable();
+    names.dedup();
+    // Each constant once, though every file before it in the chain
+    // imports it (the query is fuzzy: c1, c21, c150, ...).
+    assert_eq!(names.len(), all, "{names:?}");
+    for name in ["c1", "c150", "c291"] {
+        assert!(names.contains(&name), "{name}: {names:?}");
+    }
+}
