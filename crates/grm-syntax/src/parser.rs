@@ -246,16 +246,7 @@ fn misspelt_item_keywords(file: FileId, toks: &mut [Token<'_>], diags: &mut Vec<
             });
             if let Some((kw, kind)) = kind {
                 let t = &mut toks[i];
-                diags.push(
-                    Diagnostic::new(
-                        Code::UnexpectedToken,
-                        format!("`{}` is not a keyword; read as `{kw}`", t.text),
-                        file,
-                        t.span,
-                        "not a keyword",
-                    )
-                    .with_help(format!("did you mean `{kw}`?")),
-                );
+                diags.push(read_as_keyword(file, t, kw));
                 t.kind = kind;
             }
         }
@@ -266,6 +257,19 @@ fn misspelt_item_keywords(file: FileId, toks: &mut [Token<'_>], diags: &mut Vec<
         }
         at_start = depth == 0 && matches!(k, TokKind::Semi | TokKind::RBrace);
     }
+}
+
+/// E0001 for a name read as the keyword `kw` it nearly spells (the quick
+/// fix reads the help's "did you mean").
+fn read_as_keyword(file: FileId, t: &Token<'_>, kw: &str) -> Diagnostic {
+    Diagnostic::new(
+        Code::UnexpectedToken,
+        format!("`{}` is not a keyword; read as `{kw}`", t.text),
+        file,
+        t.span,
+        "not a keyword",
+    )
+    .with_help(format!("did you mean `{kw}`?"))
 }
 
 /// The item keyword a name at the start of an item probably means: a
@@ -381,16 +385,7 @@ fn misspelt_statement_keyword<'a>(
             ("wrapup", TokKind::Wrapup)
         }
     };
-    diags.push(
-        Diagnostic::new(
-            Code::UnexpectedToken,
-            format!("`{}` is not a keyword; read as `{kw}`", first.text),
-            file,
-            first.span,
-            "not a keyword",
-        )
-        .with_help(format!("did you mean `{kw}`?")),
-    );
+    diags.push(read_as_keyword(file, first, kw));
     let mut out = toks.to_vec();
     out[0].kind = kind;
     Some(out)
