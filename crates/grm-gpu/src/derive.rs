@@ -340,11 +340,7 @@ pub fn derive_many(
 ) -> Result<GpuManyDerivation, GpuError> {
     gpu.run(|| {
         let g = GpuSystem::load(gpu, jobs)?;
-        let iterations = jobs.iter().map(|j| j.iterations).max().unwrap_or(0);
-        let o = GpuDeriveOptions {
-            iterations,
-            ..*opts
-        };
+        let o = many_options(jobs, opts);
         let (s, stats) = g.derive(&o, &mut |_| {})?;
         let all = s.read(gpu)?;
         let dir = g.read_directory()?;
@@ -354,6 +350,21 @@ pub fn derive_many(
             stats,
         })
     })
+}
+
+/// The options of a derivation of `jobs`: the most iterations of any
+/// job; and, for one job, its own seed (a derivation of one system takes
+/// the options' seed, and a forest of one tree was derived with seed 0
+/// whatever its own).
+pub(crate) fn many_options(jobs: &[GpuJob<'_>], opts: &GpuDeriveOptions) -> GpuDeriveOptions {
+    GpuDeriveOptions {
+        iterations: jobs.iter().map(|j| j.iterations).max().unwrap_or(0),
+        seed: match jobs {
+            [one] => one.seed,
+            _ => opts.seed,
+        },
+        ..*opts
+    }
 }
 
 /// Cut a combined string into its systems' strings (symbols without the

@@ -240,11 +240,8 @@ pub fn run_many(
     gpu.run(|| {
         let t = Instant::now();
         let g = GpuSystem::load(gpu, jobs)?;
-        let iterations = jobs.iter().map(|j| j.iterations).max().unwrap_or(0);
-        let d = GpuDeriveOptions {
-            iterations,
-            ..opts.derive
-        };
+        let d = crate::derive::many_options(jobs, &opts.derive);
+        let iterations = d.iterations;
         let (string, stats, path) = g.derive_with(&d, opts.strategy, progress)?;
         let dir = g.read_directory()?;
         let derive_elapsed = t.elapsed();

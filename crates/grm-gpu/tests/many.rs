@@ -219,3 +219,48 @@ fn forest(
         }
     }
 }
+
+/// A forest of one tree is derived with that tree's seed, not the
+/// options' (a derivation of one system takes the options' seed, and
+/// `grmc forest --trees 1 --gpu` grew the seed-0 tree whatever its seed).
+#[test]
+fn a_forest_of_one_tree_uses_its_own_seed() {
+    let g = gpu();
+    let sys = example("stochastic_plant.grm", None);
+    let jobs = [GpuJob {
+        system: &sys,
+        iterations: 5,
+        seed: 7,
+    }];
+    let opts = GpuDeriveOptions {
+        cpu_prefix: 0,
+        seed: 0,
+        ..GpuDeriveOptions::from_system(&sys)
+    };
+    let want = cpu_derive(&sys, 5, 7).expect("cpu derives");
+    assert_ne!(
+        want.syms,
+        cpu_derive(&sys, 5, 0).expect("cpu derives").syms,
+        "the seeds give different plants"
+    );
+    let out = derive_many(g, &jobs, &opts).expect("derives");
+    assert_same("derive_many", &want, &out.strings[0]);
+    let turtle = grm_gpu::TurtleProgram::new(
+        example_program("stochastic_plant.grm", None)
+            .0
+            .default_system()
+            .expect("system"),
+        &sys.settings,
+    );
+    let run = grm_gpu::GpuRunOptions {
+        derive: opts,
+        interpret: false,
+        read_string: true,
+        read_bones: false,
+        strategy: grm_gpu::DeriveStrategy::Auto,
+        branch_scan: grm_gpu::interp::BranchScan::Auto,
+        pipelined: false,
+    };
+    let r = grm_gpu::run_many(g, &jobs, &[&turtle], &run, &mut |_| {}).expect("runs");
+    assert_same("run_many", &want, &r.strings.expect("read")[0]);
+}
