@@ -435,6 +435,15 @@ pub struct GpuInterpretation {
     pub elapsed: Duration,
 }
 
+/// The longest string whose branches a software device (Mesa's lavapipe)
+/// may walk (tropism, `$`, `%`: one thread per branch, about one loop
+/// iteration per module): llvmpipe stops an invocation's loops after
+/// 65,535 iterations in all and leaves the rest of the branch without
+/// bones. Longer strings are refused there with the reason
+/// (`GpuError::Unsupported`: `--cpu-fallback` interprets them on the CPU);
+/// a GPU has no such limit.
+pub const SOFTWARE_WALK_MAX: u64 = 60_000;
+
 /// Histogram entries (chunks x depths) to aim for.
 const HIST_BUDGET: u64 = 1 << 24;
 
@@ -581,6 +590,15 @@ pub(crate) fn interpret_device(
             what: "modules to interpret",
             count: n,
         });
+    }
+    if walked && gpu.is_software() && n > SOFTWARE_WALK_MAX {
+        return Err(GpuError::Unsupported(format!(
+            "interpreting {n} modules with tropism, `$` or `%` on a software device ({}): it walks \
+             each branch with one thread and stops a thread's loops after 65,535 steps, so a \
+             branch longer than that would lose its bones (strings of at most {SOFTWARE_WALK_MAX} \
+             modules are interpreted there)",
+            gpu.describe()
+        )));
     }
     // 1. Depths. A string of systems without brackets is straight: depth
     // 0 everywhere, already in depth order; nothing to match, read or sort.

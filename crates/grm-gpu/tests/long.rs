@@ -138,3 +138,45 @@ fn long_axioms_are_interpreted_whole() {
         assert_bones_match(what, &cpu, &bones);
     }
 }
+
+/// A long string that must be walked (tropism) is refused on a software
+/// device, whose loop limit would cut a long branch short, and interpreted
+/// on a GPU.
+#[test]
+fn a_long_walked_string_is_refused_on_a_software_device() {
+    let src = "system R { tropism = vec3(0, -1, 0); elasticity = 0.2; axiom F; F -> F F; }";
+    let (_, checked) = grm_sema::check_with("walk.grm", src, &grm_sema::MemLoader::new());
+    assert!(!checked.has_errors(), "{:?}", checked.diagnostics);
+    let p = &checked.program;
+    let sys = p.default_system().expect("system");
+    let c = grm_compile::compile(p, sys, &p.default_params()).expect("compiles");
+    let turtle = grm_gpu::TurtleProgram::new(sys, &c.settings);
+    assert!(turtle.walks());
+    let n = 17; // 131,072 modules in one branch
+    let run = grm_gpu::GpuRunOptions {
+        derive: opts(&c, n, 0),
+        interpret: true,
+        read_string: false,
+        read_bones: true,
+        strategy: grm_gpu::DeriveStrategy::Auto,
+        branch_scan: grm_gpu::interp::BranchScan::Auto,
+        pipelined: false,
+    };
+    let g = gpu();
+    match grm_gpu::run(g, &c, &turtle, &run, &mut |_| {}) {
+        Err(grm_gpu::GpuError::Unsupported(why)) if g.is_software() => {
+            assert!(why.contains("65,535"), "{why}");
+        }
+        Ok(mut r) if !g.is_software() => {
+            let bones = std::mem::take(&mut r.interpretation.as_mut().expect("interpreted").bones);
+            let string = cpu_derive(&c, n, 0).expect("cpu derives");
+            let cpu = grm_turtle::interpret(sys, &c.settings, &string).expect("cpu interprets");
+            assert_bones_match("walked", &cpu, &bones);
+        }
+        other => panic!(
+            "software device: {}, got {:?}",
+            g.is_software(),
+            other.map(|r| r.path)
+        ),
+    }
+}
