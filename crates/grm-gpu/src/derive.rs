@@ -273,6 +273,9 @@ pub struct GpuSystem<'a> {
     /// The directory as uploaded (string 0's ranges).
     directory: Vec<SystemEntry>,
     has_context: bool,
+    /// Some successor other than an axiom is longer than
+    /// [`kernels::LONG_SUCCESSOR`] modules.
+    long_successors: bool,
     /// The count and rewrite kernels: compiled without the bytecode
     /// interpreter when no system's tables hold code (computed weights,
     /// conditions or successor parameters), without context matching
@@ -441,9 +444,16 @@ impl<'a> GpuSystem<'a> {
         let tables = gpu.upload("tables", &words)?;
         let has_code = jobs.iter().any(|j| !j.system.code.is_empty());
         let has_context = jobs.iter().any(|j| j.system.has_context());
+        // (The axiom is written one module per thread anyway.)
+        let long_successors = jobs.iter().any(|j| {
+            let sys = j.system;
+            (sys.alts.iter().enumerate())
+                .any(|(k, a)| k != sys.axiom_alt as usize && a.succ_len > kernels::LONG_SUCCESSOR)
+        });
         Ok(GpuSystem {
             gpu,
             has_context,
+            long_successors,
             kernels: kernels::DeriveKernels::pick(has_code, has_context),
             jobs: jobs.to_vec(),
             tables,
@@ -1419,13 +1429,7 @@ impl<'a> GpuSystem<'a> {
     /// output module, unless one of their successors is longer than
     /// [`kernels::LONG_SUCCESSOR`].
     fn rewrite_kernel(&self) -> &'static crate::shader::Kernel {
-        // (The axiom is written one module per thread anyway.)
-        let long = self.jobs.iter().any(|j| {
-            let sys = j.system;
-            (sys.alts.iter().enumerate())
-                .any(|(k, a)| k != sys.axiom_alt as usize && a.succ_len > kernels::LONG_SUCCESSOR)
-        });
-        if self.has_context && !long {
+        if self.has_context && !self.long_successors {
             self.kernels.rewrite
         } else {
             self.kernels.rewrite_out

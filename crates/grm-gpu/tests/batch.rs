@@ -9,16 +9,6 @@ mod common;
 use common::*;
 use grm_gpu::{DerivePath, DeriveStrategy, GpuDeriveOptions, derive_with};
 
-fn opts(sys: &grm_compile::CompiledSystem, iterations: u32, seed: u32) -> GpuDeriveOptions {
-    GpuDeriveOptions {
-        iterations,
-        seed,
-        // Every iteration on the GPU: these tests are about its kernels.
-        cpu_prefix: 0,
-        ..GpuDeriveOptions::from_system(sys)
-    }
-}
-
 #[test]
 fn example_scenes_batched_equal_per_iteration() {
     let g = gpu();
@@ -39,7 +29,7 @@ fn example_scenes_batched_equal_per_iteration() {
     for &(file, system, iterations) in cases {
         let sys = example(file, system);
         for seed in [sys.settings.seed, 12345] {
-            let o = opts(&sys, iterations, seed);
+            let o = gpu_opts(&sys, iterations, seed);
             let what = format!("{file} {system:?} seed {seed}");
             // Stepwise: the direct path would take the deterministic
             // context-free scenes (tests/direct.rs).
@@ -79,7 +69,7 @@ fn random_grammars_batched_equal_per_iteration() {
         let seed = rng.below(1000) as u32;
         let o = GpuDeriveOptions {
             max_modules: 200_000,
-            ..opts(&sys, iterations, seed)
+            ..gpu_opts(&sys, iterations, seed)
         };
         let a = derive_with(g, &sys, &o, DeriveStrategy::Stepwise);
         let b = derive_with(g, &sys, &o, DeriveStrategy::PerIteration);
@@ -117,7 +107,7 @@ fn a_device_overflow_falls_back_to_per_iteration() {
     let g = gpu();
     for (file, iterations) in [("hilbert3d.grm", 3), ("stochastic_plant.grm", 4)] {
         let sys = example(file, None);
-        let o = opts(&sys, iterations, sys.settings.seed);
+        let o = gpu_opts(&sys, iterations, sys.settings.seed);
         let (a, pa) = derive_with(g, &sys, &o, DeriveStrategy::AutoShrunkCaps).expect("derives");
         assert_eq!(pa, DerivePath::BatchedThenPerIteration, "{file}");
         let (b, _) = derive_with(g, &sys, &o, DeriveStrategy::PerIteration).expect("derives");
@@ -136,7 +126,7 @@ fn a_bound_over_a_limit_falls_back_to_per_iteration() {
     let sys = inline(src).expect("checks");
     let o = GpuDeriveOptions {
         max_modules: 100,
-        ..opts(&sys, 6, 0)
+        ..gpu_opts(&sys, 6, 0)
     };
     let (a, pa) = derive_with(g, &sys, &o, DeriveStrategy::Auto).expect("derives");
     assert_eq!(pa, DerivePath::PerIteration);
@@ -158,7 +148,7 @@ fn a_bound_over_a_limit_falls_back_to_per_iteration() {
     let sys = inline(src).expect("checks");
     let o = GpuDeriveOptions {
         max_modules: 100,
-        ..opts(&sys, 8, 0)
+        ..gpu_opts(&sys, 8, 0)
     };
     let ea = derive_with(g, &sys, &o, DeriveStrategy::Auto).map(|(_, p)| p);
     let eb = derive_with(g, &sys, &o, DeriveStrategy::PerIteration).map(|(_, p)| p);
@@ -181,7 +171,7 @@ fn an_input_past_a_million_modules_scans_three_levels() {
     // 2,178,309.
     let o = GpuDeriveOptions {
         max_modules: 4_000_000,
-        ..opts(&sys, 30, 0)
+        ..gpu_opts(&sys, 30, 0)
     };
     let (d, path) = derive_with(g, &sys, &o, DeriveStrategy::Stepwise).expect("derives");
     assert_eq!(path, DerivePath::Batched);
@@ -206,7 +196,7 @@ fn a_loose_bound_is_batched_from_the_expected_sizes_after_a_cpu_prefix() {
         let o = GpuDeriveOptions {
             cpu_prefix: 20_000,
             max_modules: 1 << 30,
-            ..opts(&sys, 14, seed)
+            ..gpu_opts(&sys, 14, seed)
         };
         let (a, pa) = derive_with(g, &sys, &o, DeriveStrategy::Stepwise).expect("derives");
         assert_eq!(pa, DerivePath::Batched, "seed {seed}");
@@ -249,7 +239,7 @@ fn a_long_batched_derivation_crosses_submission_chunks() {
     )
     .expect("checks");
     let iterations = 2_500;
-    let o = opts(&sys, iterations, 9);
+    let o = gpu_opts(&sys, iterations, 9);
     let (d, path) = derive_with(g, &sys, &o, DeriveStrategy::Stepwise).expect("derives");
     assert_eq!(path, DerivePath::Batched);
     let cpu = cpu_derive(&sys, iterations, 9).expect("CPU derives");

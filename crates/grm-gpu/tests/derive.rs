@@ -5,17 +5,7 @@
 
 mod common;
 use common::*;
-use grm_gpu::{GpuDeriveOptions, derive};
-
-fn opts(sys: &grm_compile::CompiledSystem, iterations: u32, seed: u32) -> GpuDeriveOptions {
-    GpuDeriveOptions {
-        iterations,
-        seed,
-        // Every iteration on the GPU: these tests are about its kernels.
-        cpu_prefix: 0,
-        ..GpuDeriveOptions::from_system(sys)
-    }
-}
+use grm_gpu::derive;
 
 /// Every derive-mode system of the examples, at iteration counts that keep
 /// the strings small (lavapipe is slow), against the CPU.
@@ -39,7 +29,7 @@ fn example_scenes_match_the_cpu() {
         let sys = example(file, system);
         for seed in [sys.settings.seed, 12345] {
             let cpu = cpu_derive(&sys, iterations, seed).expect("cpu derives");
-            let gpu = derive(g, &sys, &opts(&sys, iterations, seed)).expect("gpu derives");
+            let gpu = derive(g, &sys, &gpu_opts(&sys, iterations, seed)).expect("gpu derives");
             assert_same(&format!("{file} {system:?} seed {seed}"), &cpu, &gpu.string);
             assert_eq!(gpu.stats.len(), iterations as usize + 1);
             assert_eq!(gpu.stats.last().map(|s| s.modules), Some(cpu.len() as u64));
@@ -67,7 +57,7 @@ fn weights_past_the_float_range_draw_fairly_on_both_engines() {
     for (what, sys) in [("constant", &constant), ("computed", &computed)] {
         for seed in [1, 77] {
             let cpu = cpu_derive(sys, 1, seed).expect("cpu derives");
-            let gpu = derive(g, sys, &opts(sys, 1, seed)).expect("gpu derives");
+            let gpu = derive(g, sys, &gpu_opts(sys, 1, seed)).expect("gpu derives");
             assert_same(&format!("{what} seed {seed}"), &cpu, &gpu.string);
             let f = cpu.syms.iter().filter(|&&s| s == cpu.syms[0]).count();
             let distinct: std::collections::HashSet<_> = cpu.syms.iter().collect();
@@ -91,7 +81,7 @@ fn draws_between_huge_bounds_stay_between_them() {
     )
     .expect("compiles");
     let cpu = cpu_derive(&sys, 1, 5).expect("cpu derives");
-    let gpu = derive(g, &sys, &opts(&sys, 1, 5)).expect("gpu derives");
+    let gpu = derive(g, &sys, &gpu_opts(&sys, 1, 5)).expect("gpu derives");
     assert_same("huge bounds", &cpu, &gpu.string);
     let mut signs = [0, 0];
     let mut chosen = [0, 0];
@@ -125,7 +115,7 @@ fn hand_derived_context_cases_match_the_cpu() {
         let sys = inline(src).unwrap_or_else(|| panic!("case grammar checks: {src}"));
         for it in 0..=iterations {
             let cpu = cpu_derive(&sys, it, 0).expect("cpu derives");
-            let gpu = derive(g, &sys, &opts(&sys, it, 0)).expect("gpu derives");
+            let gpu = derive(g, &sys, &gpu_opts(&sys, it, 0)).expect("gpu derives");
             assert_same(&format!("{src} (str {it})"), &cpu, &gpu.string);
         }
     };
@@ -343,7 +333,7 @@ fn random_grammars_match_the_cpu() {
                 break;
             }
         }
-        let gpu = derive(g, &sys, &opts(&sys, iterations, seed));
+        let gpu = derive(g, &sys, &gpu_opts(&sys, iterations, seed));
         match (&cpu, &gpu) {
             (Ok(c), Ok(d)) => assert_same(&src, c, &d.string),
             (

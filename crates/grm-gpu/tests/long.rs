@@ -9,16 +9,7 @@
 
 mod common;
 use common::*;
-use grm_gpu::{GpuDeriveOptions, GpuJob, derive, derive_many};
-
-fn opts(sys: &grm_compile::CompiledSystem, iterations: u32, seed: u32) -> GpuDeriveOptions {
-    GpuDeriveOptions {
-        iterations,
-        seed,
-        cpu_prefix: 0,
-        ..GpuDeriveOptions::from_system(sys)
-    }
-}
+use grm_gpu::{GpuJob, derive, derive_many};
 
 fn modules(f: impl Fn(usize) -> String, n: usize) -> String {
     (0..n).map(f).collect::<Vec<_>>().join(" ")
@@ -29,7 +20,7 @@ fn check(what: &str, src: &str, iterations: u32) {
     let g = gpu();
     for seed in [0, 7] {
         let want = cpu_derive(&sys, iterations, seed).expect("cpu derives");
-        let got = derive(g, &sys, &opts(&sys, iterations, seed))
+        let got = derive(g, &sys, &gpu_opts(&sys, iterations, seed))
             .unwrap_or_else(|e| panic!("{what}: gpu derives: {e}"));
         assert_same(&format!("{what}, seed {seed}"), &want, &got.string);
     }
@@ -97,7 +88,7 @@ fn drawn_axioms_of_a_forest_match_the_cpu() {
             seed: 11 * k + 1,
         })
         .collect();
-    let out = derive_many(gpu(), &jobs, &opts(&sys, 2, 0)).expect("derives");
+    let out = derive_many(gpu(), &jobs, &gpu_opts(&sys, 2, 0)).expect("derives");
     for (k, (job, got)) in jobs.iter().zip(&out.strings).enumerate() {
         let want = cpu_derive(job.system, job.iterations, job.seed).expect("cpu derives");
         assert_same(&format!("tree {k}"), &want, got);
@@ -121,7 +112,7 @@ fn long_axioms_are_interpreted_whole() {
         let sys = p.default_system().expect("system");
         let c = grm_compile::compile(p, sys, &p.default_params()).expect("compiles");
         let run = grm_gpu::GpuRunOptions {
-            derive: opts(&c, 2, 0),
+            derive: gpu_opts(&c, 2, 0),
             interpret: true,
             read_string: true,
             read_bones: true,
@@ -154,7 +145,7 @@ fn a_long_walked_string_is_refused_on_a_software_device() {
     assert!(turtle.walks());
     let n = 17; // 131,072 modules in one branch
     let run = grm_gpu::GpuRunOptions {
-        derive: opts(&c, n, 0),
+        derive: gpu_opts(&c, n, 0),
         interpret: true,
         read_string: false,
         read_bones: true,

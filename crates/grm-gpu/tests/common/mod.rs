@@ -241,3 +241,18 @@ pub fn figures(d: &grm_gpu::GpuDerivation) -> Vec<(u32, u64, u64)> {
         .map(|s| (s.iteration, s.modules, s.param_words))
         .collect()
 }
+
+/// Derive options for kernel tests: every iteration on the GPU (no CPU
+/// prefix).
+pub fn gpu_opts(
+    sys: &grm_compile::CompiledSystem,
+    iterations: u32,
+    seed: u32,
+) -> grm_gpu::GpuDeriveOptions {
+    grm_gpu::GpuDeriveOptions {
+        iterations,
+        seed,
+        cpu_prefix: 0,
+        ..grm_gpu::GpuDeriveOptions::from_system(sys)
+    }
+}
