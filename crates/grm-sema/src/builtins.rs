@@ -537,7 +537,10 @@ impl SettingKey {
         }
         fn finite(key: SettingKey, v: Value, min: Option<f64>) -> Result<f32, String> {
             let x = v.as_float().unwrap_or(f64::NAN);
-            let ok = x.is_finite() && min.is_none_or(|m| x >= m) && x.abs() <= f64::from(f32::MAX);
+            // The engines read the setting as the 32-bit float nearest to
+            // it: a value that rounds to f32::MAX (3.4028235e38, as f32
+            // prints it) is finite there, one that rounds to infinity not.
+            let ok = fits_f32(x) && min.is_none_or(|m| x >= m);
             if ok {
                 Ok(x as f32)
             } else if let Some(m) = min {
@@ -552,6 +555,10 @@ impl SettingKey {
                 ))
             }
         }
+        /// Whether `x` is a finite number whose nearest 32-bit float is finite.
+        fn fits_f32(x: f64) -> bool {
+            (x as f32).is_finite()
+        }
         match self {
             SettingKey::Mode => {}
             SettingKey::Iterations => s.iterations = whole(self, v, 0.0)?,
@@ -565,9 +572,7 @@ impl SettingKey {
             SettingKey::Elasticity => s.elasticity = finite(self, v, None)?,
             SettingKey::Tropism => {
                 let t = v.as_vec3().unwrap_or([f64::NAN; 3]);
-                if t.iter()
-                    .all(|x| x.is_finite() && x.abs() <= f64::from(f32::MAX))
-                {
+                if t.iter().all(|&x| fits_f32(x)) {
                     s.tropism = Some([t[0] as f32, t[1] as f32, t[2] as f32]);
                 } else {
                     return Err(format!("`tropism` must be a finite vector, found {v}"));

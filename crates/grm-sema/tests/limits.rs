@@ -73,3 +73,24 @@ fn whole_number_settings_are_bounded() {
     // `seed` takes every 32-bit value.
     assert!(codes("system S { seed = 4294967295; axiom F; }").is_empty());
 }
+
+/// A setting of the largest 32-bit float, written as f32 prints it
+/// (`3.4028235e38`, a little over f32::MAX as an f64), is finite: it was
+/// refused with E0208 while `3.4028234e38` was accepted. A value that
+/// rounds past it is still refused.
+#[test]
+fn a_setting_of_f32_max_is_finite() {
+    for key in ["angle", "step", "width", "elasticity"] {
+        for v in ["3.4028235e38", "3.4028234e38", "-3.4028235e38"] {
+            if key == "width" && v.starts_with('-') {
+                continue;
+            }
+            let src = format!("system S {{ {key} = {v}; axiom F; }}");
+            assert!(codes(&src).is_empty(), "{key} = {v}: {:?}", codes(&src));
+        }
+        let src = format!("system S {{ {key} = 3.4028235e38 * 2; axiom F; }}");
+        assert!(codes(&src).contains(&"E0208"), "{key}: {:?}", codes(&src));
+    }
+    let src = "system S { tropism = vec3(3.4028235e38, -3.4028235e38, 0); axiom F; }";
+    assert!(codes(src).is_empty(), "{:?}", codes(src));
+}
