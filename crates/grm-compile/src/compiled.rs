@@ -83,6 +83,31 @@ impl CompiledSystem {
         self.groups.iter().any(|g| g.flags & GROUP_CONTEXT != 0)
     }
 
+    /// The root key of a derivation with `seed` ([`crate::rng::root_key`]
+    /// of the system's name): the parent key of the axiom's modules.
+    pub fn root_key(&self, seed: u32) -> u32 {
+        crate::rng::root_key(seed, crate::rng::name_hash(&self.name))
+    }
+
+    /// Whether a derivation draws random numbers at all: a group with
+    /// several alternatives, or a random call in the code. A system that
+    /// draws nothing derives the same string whatever its modules' keys,
+    /// so the engines may skip carrying keys for it.
+    pub fn draws_randomly(&self) -> bool {
+        if self.groups.iter().any(|g| g.alt_count > 1) {
+            return true;
+        }
+        let mut pc = 0usize;
+        while let Some(&w) = self.code.get(pc) {
+            let op = Op::from_code(w & 0xFF);
+            if op.is_some_and(|o| o.is_random()) {
+                return true;
+            }
+            pc += 1 + op.map_or(0, |o| o.extra_words() as usize);
+        }
+        false
+    }
+
     /// Whether any module can carry parameters.
     pub fn has_params(&self) -> bool {
         self.symbols.iter().any(|s| s.param_words > 0)

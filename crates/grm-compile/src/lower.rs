@@ -283,16 +283,20 @@ fn lower(
         slot_words: Vec::new(),
         bind_words: 0,
         deferred,
+        group_ordinal: 0,
+        local_draw: 1,
     };
     lw.symbols();
     for (i, sym) in system.symbols.iter().enumerate() {
         let first = lw.out.groups.len() as u32;
         for g in &sym.groups {
+            lw.group_ordinal = lw.out.groups.len() as u32 - first;
             lw.group(g.index(), &system.groups[g.index()])?;
         }
         let count = lw.out.groups.len() as u32 - first;
         let first_wrapup = lw.out.groups.len() as u32;
         for g in &sym.wrapup_groups {
+            lw.group_ordinal = lw.out.groups.len() as u32 - first;
             lw.group(g.index(), &system.groups[g.index()])?;
         }
         let wrapups = lw.out.groups.len() as u32 - first_wrapup;
@@ -302,15 +306,18 @@ fn lower(
         e.first_wrapup = first_wrapup;
         e.wrapup_count = wrapups;
     }
-    // The axiom: one more alternative, with no bindings.
+    // The axiom: one more alternative, with no bindings; its draws are
+    // ordinal 0 of the root key.
     lw.slot_words.clear();
     lw.bind_words = 0;
+    lw.group_ordinal = 0;
+    lw.local_draw = 1;
     let axiom_span = system
         .axiom
         .first()
         .map(|m| m.span.to(system.axiom.last().map_or(m.span, |l| l.span)))
         .unwrap_or(system.loc.span);
-    let (succ_offset, succ_len, succ_words, no_code) = lw.successor(&system.axiom, true)?;
+    let (succ_offset, succ_len, succ_words, no_code) = lw.successor(&system.axiom, true, 0)?;
     lw.out.axiom_alt = lw.out.alts.len() as u32;
     lw.out.alts.push(AltHeader {
         group: NONE,
@@ -353,6 +360,10 @@ struct Lowerer<'a> {
     /// Errors that do not stop lowering (module parameters that are not
     /// finite), in the order found.
     deferred: &'a mut Vec<CompileError>,
+    /// The group being lowered: its ordinal among its symbol's groups and
+    /// its next local draw index (`crate::rng::draw_index`).
+    group_ordinal: u32,
+    local_draw: u32,
 }
 
 impl Lowerer<'_> {
@@ -453,6 +464,7 @@ impl Lowerer<'_> {
     fn group(&mut self, sema_index: usize, g: &Group) -> Result<(), CompileError> {
         self.slot_words.clear();
         self.bind_words = 0;
+        self.local_draw = 1;
         let (left_offset, left_len) = self.context(&g.left, true)?;
         let (pred_bind_words, pred_bind_offset) = self.bind_pattern(&g.pred);
         let (right_offset, right_len) = self.context(&g.right, false)?;
@@ -465,7 +477,7 @@ impl Lowerer<'_> {
         let group_index = self.out.groups.len() as u32;
         let mut all_const = true;
         let mut total = 0.0f32;
-        for alt in &g.alternatives {
+        for (alt_index, alt) in g.alternatives.iter().enumerate() {
             let (weight_code, weight) = match alt.weight.constant() {
                 Some(v) => {
                     let w = v.as_float().unwrap_or(f64::NAN);
@@ -484,7 +496,7 @@ impl Lowerer<'_> {
             };
             total += weight;
             let (succ_offset, succ_len, succ_words, no_code) =
-                self.successor(&alt.successor, false)?;
+                self.successor(&alt.successor, false, alt_index as u32)?;
             self.out.alts.push(AltHeader {
                 group: group_index,
                 weight_code,
@@ -549,16 +561,28 @@ impl Lowerer<'_> {
         Ok(())
     }
 
-    /// Lower a successor (or the axiom): (offset, modules, words, no code).
+    /// Lower a successor (or the axiom), the `alternative`-th of its group
+    /// (0 for the axiom): (offset, modules, words, no code).
     fn successor(
         &mut self,
         modules: &[TModule],
         axiom: bool,
+        alternative: u32,
     ) -> Result<(u32, u32, u32, bool), CompileError> {
         let offset = self.out.succ.len() as u32;
         let mut words = 0u32;
         let mut no_code = true;
+        // Per symbol: modules of it seen so far in this successor.
+        let mut seen: HashMap<u32, u32> = HashMap::new();
         for m in modules {
+            let occurrence = seen.entry(m.symbol.0).or_insert(0);
+            let name = self
+                .system
+                .symbols
+                .get(m.symbol.index())
+                .map_or("", |s| s.name.as_str());
+            let salt = crate::rng::salt(crate::rng::name_hash(name), *occurrence, alternative);
+            *occurrence += 1;
             let first_param = self.out.params.len() as u32;
             let word_offset = words;
             for arg in &m.args {
@@ -575,6 +599,7 @@ impl Lowerer<'_> {
                 first_param,
                 param_count: m.args.len() as u32,
                 word_offset,
+                salt,
             });
         }
         Ok((offset, modules.len() as u32, words, no_code))
@@ -728,9 +753,16 @@ impl Lowerer<'_> {
         Ok(())
     }
 
+    /// The next `n` draw indices of the group being lowered
+    /// ([`crate::rng::draw_index`]: local to the group, above its ordinal).
     fn draw(&mut self, n: u32, span: Span) -> Result<u32, CompileError> {
-        let d = self.check_operand(self.out.draws, span)?;
-        self.out.draws += n;
+        if self.local_draw + n > 0x1_0000 || self.group_ordinal > 0xFF {
+            return Err(self.err(CompileErrorKind::TooLarge { what: "random draws" }, span));
+        }
+        let d = crate::rng::draw_index(self.group_ordinal, self.local_draw);
+        let d = self.check_operand(d, span)?;
+        self.local_draw += n;
+        self.out.draws = self.out.draws.max(d + n);
         Ok(d)
     }
 

@@ -3,12 +3,38 @@
 //! Every random number in a derivation is a pure function of four `u32`s:
 //! the run's **seed**, the **iteration** (the index of the string being
 //! produced: 0 for the axiom, `k` for the string after `k` rewriting steps),
-//! the **position** (the index of the module being rewritten in the input
-//! string; 0 for the axiom) and the **draw index** (0 is the choice among a
-//! group's stochastic alternatives; each random call site of a compiled
-//! system has its own index from 1 up, `normal` uses two consecutive ones).
-//! Nothing depends on evaluation order or on threads, so the CPU engine with
-//! any number of threads and the GPU kernels draw the same numbers.
+//! the **key** of the module being rewritten (its stable identity, below;
+//! the system's root key for the axiom) and the **draw index** (0 is the
+//! choice among a group's stochastic alternatives; each random call site
+//! has its own index, see [`draw_index`]). Nothing depends on evaluation
+//! order, on threads or on a module's position in the string, so the CPU
+//! engine with any number of threads and the GPU kernels draw the same
+//! numbers, and a module that is inserted upstream re-rolls nothing else.
+//!
+//! # Identity keys
+//!
+//! Every module carries a 32-bit **key** minted from the structure of the
+//! derivation, never from positions or creation order:
+//!
+//! - the system's **root key** is `hash(seed, ROOT_TAG, name_hash(system
+//!   name), 0)` ([`root_key`]);
+//! - each successor module (and each axiom module) has a compile-time
+//!   **salt**, `hash(name_hash(symbol name), occurrence, alternative,
+//!   SALT_TAG)` ([`salt`]): `occurrence` counts the modules of the same
+//!   symbol before it in that successor, `alternative` is the production's
+//!   index among its group's alternatives (0 for the axiom);
+//! - a module written by a rewrite gets `child_key(parent key, salt)`
+//!   ([`child_key`]: MurmurHash3 of the 4-byte key `salt` with the
+//!   parent's key as the seed); an axiom module's parent is the root key;
+//!   a module that no production rewrites keeps its key.
+//!
+//! So a module's key depends on its ancestry only (the chain of symbols,
+//! occurrence indices and alternatives from the axiom, the system's name
+//! and the seed): inserting a module that draws nothing changes no other
+//! key, and editing one production changes only the keys (and so the
+//! draws) of what descends from its applications. Keys are not unique by
+//! construction (32 bits); two modules that share one draw the same
+//! numbers, which is all a collision can do.
 //!
 //! # Formula
 //!
@@ -42,6 +68,69 @@
 //! `sqrt` and `cos`, which are not correctly rounded: CPU and GPU agree to a
 //! few ulps there, not bit for bit (the GPU computes `ln` near 1 itself, as
 //! WGSL's `log` has no relative accuracy there: docs/gpu.md).
+
+/// The tag word of [`root_key`].
+pub const ROOT_TAG: u32 = 0x726f_6f74;
+/// The tag word of [`salt`].
+pub const SALT_TAG: u32 = 0x7361_6c74;
+
+/// MurmurHash3 x86_32 of a name's UTF-8 bytes with seed 0: how a system or
+/// symbol name enters a key (names, not ids, so renumbering symbols
+/// re-rolls nothing).
+pub fn name_hash(name: &str) -> u32 {
+    let bytes = name.as_bytes();
+    let mut h = 0u32;
+    let mut chunks = bytes.chunks_exact(4);
+    for c in &mut chunks {
+        h = mix(h, u32::from_le_bytes([c[0], c[1], c[2], c[3]]));
+    }
+    let tail = chunks.remainder();
+    if !tail.is_empty() {
+        let mut k = 0u32;
+        for (i, b) in tail.iter().enumerate() {
+            k |= u32::from(*b) << (8 * i);
+        }
+        h ^= k
+            .wrapping_mul(0xcc9e_2d51)
+            .rotate_left(15)
+            .wrapping_mul(0x1b87_3593);
+    }
+    fmix(h ^ bytes.len() as u32)
+}
+
+/// The root key of a system's derivation with `seed`: the parent of its
+/// axiom's modules, and the key the axiom's own draws use.
+#[inline]
+pub const fn root_key(seed: u32, system_name_hash: u32) -> u32 {
+    hash(seed, ROOT_TAG, system_name_hash, 0)
+}
+
+/// The compile-time salt of a successor module: its symbol's
+/// [`name_hash`], its occurrence index among the successor's modules of
+/// that symbol, and its production's index among its group's alternatives.
+#[inline]
+pub const fn salt(symbol_name_hash: u32, occurrence: u32, alternative: u32) -> u32 {
+    hash(symbol_name_hash, occurrence, alternative, SALT_TAG)
+}
+
+/// The key of a module written by a rewrite: MurmurHash3 x86_32 of the
+/// 4-byte key `salt` with the parent's key as the seed.
+#[inline]
+pub const fn child_key(parent: u32, salt: u32) -> u32 {
+    fmix(mix(parent, salt) ^ 4)
+}
+
+/// The draw index of the `local`-th draw (from 1; 0 is the choice) of the
+/// group at `ordinal` among its symbol's groups (normal groups, then
+/// wrap-up groups): `ordinal << 16 | local`. Indices are local to a group
+/// so that adding a random call to one production moves no other
+/// production's draws; the ordinal keeps two groups of one symbol (a
+/// condition tried, then the next group) from sharing a number. The
+/// axiom's draws are ordinal 0 with the root key.
+#[inline]
+pub const fn draw_index(ordinal: u32, local: u32) -> u32 {
+    ordinal << 16 | local
+}
 
 /// MurmurHash3 x86_32 of the key `iteration, position, draw` (three
 /// little-endian words) with `seed`. See the module documentation.
@@ -95,6 +184,8 @@ pub fn uniform(seed: u32, iteration: u32, position: u32, draw: u32) -> f32 {
 pub struct DrawCtx {
     pub seed: u32,
     pub iteration: u32,
+    /// The key of the module whose rewrite draws (see the module
+    /// documentation; named `position` in the hash formula's history).
     pub position: u32,
 }
 
@@ -207,6 +298,34 @@ mod tests {
         assert_ne!(base, hash(1, 0, 3, 4));
         assert_ne!(base, hash(1, 2, 0, 4));
         assert_ne!(base, hash(1, 2, 3, 0));
+    }
+
+    #[test]
+    fn name_hash_is_murmur3_of_the_bytes() {
+        for name in ["", "F", "Fo", "Foo", "Tree", "Branch", "ω", "KochIsland"] {
+            assert_eq!(name_hash(name), murmur3_bytes(name.as_bytes(), 0), "{name}");
+        }
+    }
+
+    #[test]
+    fn child_key_is_murmur3_of_the_salt() {
+        for (p, s) in [(0, 0), (1, 2), (u32::MAX, 7), (0xdead_beef, 0x1234_5678)] {
+            assert_eq!(child_key(p, s), murmur3_bytes(&s.to_le_bytes(), p));
+        }
+    }
+
+    #[test]
+    fn keys_differ_by_each_coordinate() {
+        let f = name_hash("F");
+        assert_ne!(f, name_hash("G"));
+        assert_ne!(salt(f, 0, 0), salt(f, 1, 0));
+        assert_ne!(salt(f, 0, 0), salt(f, 0, 1));
+        assert_ne!(salt(f, 0, 0), salt(name_hash("G"), 0, 0));
+        assert_ne!(root_key(1, f), root_key(2, f));
+        assert_ne!(child_key(1, 5), child_key(2, 5));
+        assert_ne!(child_key(1, 5), child_key(1, 6));
+        assert_eq!(draw_index(0, 3), 3);
+        assert_eq!(draw_index(2, 3), 0x2_0003);
     }
 
     #[test]

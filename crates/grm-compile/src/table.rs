@@ -178,6 +178,9 @@ pub struct SuccModule {
     pub param_count: u32,
     /// Offset of its first parameter word within the successor's words.
     pub word_offset: u32,
+    /// Its identity salt ([`crate::rng::salt`]): the key of the module it
+    /// writes is `child_key(parent key, salt)`.
+    pub salt: u32,
 }
 
 /// `ParamExpr::kind`: a constant: `consts[a .. a + words]`.
@@ -256,7 +259,7 @@ mod tests {
         assert_eq!(size_of::<GroupHeader>(), 14 * 4);
         assert_eq!(size_of::<AltHeader>(), 8 * 4);
         assert_eq!(size_of::<ContextItem>(), 4 * 4);
-        assert_eq!(size_of::<SuccModule>(), 4 * 4);
+        assert_eq!(size_of::<SuccModule>(), 5 * 4);
         assert_eq!(size_of::<ParamExpr>(), 4 * 4);
         assert_eq!(size_of::<SpanEntry>(), 3 * 4);
         assert_eq!(size_of::<PackedHeader>(), 20 * 4);

@@ -159,6 +159,12 @@ pub struct Engine<'a> {
     /// zeros): symbol, word offset.
     succ_syms: Vec<u32>,
     succ_words: Vec<u32>,
+    /// Per successor module (parallel to `sys.succ`): its identity salt.
+    succ_salts: Vec<u32>,
+    /// Whether strings carry identity keys (`ModuleString::keys`): always
+    /// when the system draws random numbers (the draws are keyed by
+    /// them), else when asked for ([`Engine::with_keys`]).
+    keyed: bool,
     /// Per alternative: its parameter words with the constants filled in
     /// (`tpl[plan.tpl ..][.. plan.words]`), then `PAD` zeros.
     tpl: Vec<f32>,
@@ -232,6 +238,8 @@ struct Plan {
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Unit {
     sym: u32,
+    /// Its successor module (index into `succ_salts`).
+    succ: u32,
     /// The patch, `x * m + a` ([`Patch::Arith`]).
     m: f32,
     a: f32,
@@ -375,10 +383,25 @@ struct Worker {
 /// Everything one iteration reads.
 struct Step<'s> {
     input: &'s ModuleString,
+    /// The input's keys (empty when the engine is not keyed).
+    keys: &'s [u32],
     /// Bracket partners (context-sensitive systems only).
     mate: &'s [u32],
     seed: u32,
     iteration: u32,
+}
+
+impl Step<'_> {
+    /// The draws of module `i`'s rewrite: keyed by its identity (by its
+    /// position in an engine without keys, whose system draws nothing).
+    #[inline]
+    fn draws(&self, i: usize) -> DrawCtx {
+        DrawCtx {
+            seed: self.seed,
+            iteration: self.iteration,
+            position: self.keys.get(i).copied().unwrap_or(i as u32),
+        }
+    }
 }
 
 /// Where a successor is written: a chunk's output slices and the module
@@ -396,6 +419,8 @@ struct Out<'o> {
 struct ChunkOut<'o> {
     range: Range<usize>,
     syms: &'o mut [u32],
+    /// The chunk's output keys (empty when the engine is not keyed).
+    keys: &'o mut [u32],
     starts: &'o mut [u32],
     params: &'o mut [f32],
     word_base: u32,
@@ -476,6 +501,7 @@ impl<'a> Engine<'a> {
                 .collect()
         });
         let succ_syms: Vec<u32> = sys.succ.iter().map(|m| m.symbol).collect();
+        let succ_salts: Vec<u32> = sys.succ.iter().map(|m| m.salt).collect();
         let succ_words: Vec<u32> = sys.succ.iter().map(|m| m.word_offset).collect();
         let mut tpl = Vec::new();
         let mut patches = Vec::new();
@@ -535,6 +561,7 @@ impl<'a> Engine<'a> {
                 {
                     return Act::Unit(Unit {
                         sym: succ_syms[plan.succ as usize],
+                        succ: plan.succ,
                         m,
                         a,
                         span,
@@ -593,6 +620,8 @@ impl<'a> Engine<'a> {
             succ_hist,
             succ_syms,
             succ_words,
+            succ_salts,
+            keyed: sys.draws_randomly(),
             tpl,
             patches,
             ariths,
@@ -639,16 +668,17 @@ impl<'a> Engine<'a> {
             });
         let mut s = match pick {
             Some(i) => spare.swap_remove(i),
-            None => ModuleString {
-                syms: Vec::new(),
-                starts: Vec::new(),
-                params: Vec::new(),
-            },
+            None => ModuleString::new(),
         };
         drop(spare);
         fit(&mut s.syms, m);
         fit(&mut s.starts, m + 1);
         fit(&mut s.params, w);
+        if self.keyed {
+            fit(&mut s.keys, m);
+        } else {
+            s.keys.clear();
+        }
         s
     }
 
@@ -657,6 +687,20 @@ impl<'a> Engine<'a> {
     pub fn with_min_chunk(mut self, modules: usize) -> Engine<'a> {
         self.min_chunk = modules.max(1);
         self
+    }
+
+    /// Carry identity keys in every string even when the system draws
+    /// nothing (`true`), for callers that name parts (derivation trees,
+    /// part ids). A system that draws random numbers always carries them:
+    /// `false` changes nothing there.
+    pub fn with_keys(mut self, keys: bool) -> Engine<'a> {
+        self.keyed = keys || self.sys.draws_randomly();
+        self
+    }
+
+    /// Whether the strings this engine derives carry identity keys.
+    pub fn keyed(&self) -> bool {
+        self.keyed
     }
 
     /// The compiled system.
@@ -705,20 +749,31 @@ impl<'a> Engine<'a> {
     }
 
     /// The axiom (string 0): its parameters evaluated with iteration 0 and
-    /// position 0.
+    /// the system's root key ([`CompiledSystem::root_key`]); its modules'
+    /// keys are children of the root key.
     pub fn axiom(&self, seed: u32) -> Result<ModuleString, DeriveError> {
         let sys = self.sys;
         let alt = &sys.alts[sys.axiom_alt as usize];
         let n = alt.succ_len as usize;
         let w = alt.succ_words as usize;
+        let root = sys.root_key(seed);
         let mut out = ModuleString {
             syms: vec![0; n],
             starts: vec![0; n + 1],
             params: vec![0.0; w],
+            keys: Vec::new(),
         };
+        if self.keyed {
+            let salts = &self.succ_salts[alt.succ_offset as usize..][..n];
+            out.keys = salts.iter().map(|&s| rng::child_key(root, s)).collect();
+        }
+        // The axiom's draws use the root key (as module 0 of a one-module
+        // string keyed by it).
         let empty = ModuleString::new();
+        let root_keys = [root];
         let step = Step {
             input: &empty,
+            keys: &root_keys,
             mate: &[],
             seed,
             iteration: 0,
@@ -728,6 +783,7 @@ impl<'a> Engine<'a> {
             syms,
             starts,
             params,
+            ..
         } = &mut out;
         self.emit(
             &step,
@@ -768,6 +824,12 @@ impl<'a> Engine<'a> {
         }
         if s.len() >= u32::MAX as usize {
             return Err(DeriveError::InvalidInput("too many modules".into()));
+        }
+        if self.keyed && !s.has_keys() {
+            return Err(DeriveError::InvalidInput(
+                "the string carries no identity keys, and this engine's draws are keyed by them"
+                    .into(),
+            ));
         }
         for i in 0..s.len() {
             let sym = s.syms[i] as usize;
@@ -862,6 +924,7 @@ impl<'a> Engine<'a> {
         };
         let step = Step {
             input,
+            keys: if self.keyed { &input.keys } else { &[] },
             mate: &mate,
             seed,
             iteration,
@@ -912,9 +975,12 @@ impl<'a> Engine<'a> {
             let mut parts = Vec::with_capacity(chunks.len());
             let (mut syms, mut starts, mut params) =
                 (&mut out.syms[..], &mut out.starts[..m], &mut out.params[..]);
+            let mut keys = &mut out.keys[..];
             for ((r, &(cm, cw)), &(_, word_base)) in chunks.iter().zip(&totals).zip(&offsets) {
                 let (s, rest) = syms.split_at_mut(cm as usize);
                 syms = rest;
+                let (k, rest) = keys.split_at_mut(if self.keyed { cm as usize } else { 0 });
+                keys = rest;
                 let (st, rest) = starts.split_at_mut(cm as usize);
                 starts = rest;
                 let (p, rest) = params.split_at_mut(cw as usize);
@@ -922,12 +988,19 @@ impl<'a> Engine<'a> {
                 parts.push(ChunkOut {
                     range: r.clone(),
                     syms: s,
+                    keys: k,
                     starts: st,
                     params: p,
                     word_base: word_base as u32,
                 });
             }
-            let work = |out: ChunkOut<'_>| self.rewrite_chunk(&step, out);
+            let work = |out: ChunkOut<'_>| {
+                if self.keyed {
+                    self.rewrite_chunk::<true>(&step, out)
+                } else {
+                    self.rewrite_chunk::<false>(&step, out)
+                }
+            };
             let results: Vec<Result<(), RuntimeError>> = if parallel {
                 self.in_pool(|| parts.into_par_iter().map(work).collect())
             } else {
@@ -975,7 +1048,8 @@ impl<'a> Engine<'a> {
                 span,
             });
         }
-        let out_bytes = 4 * m + 4 * (m + 1) + 4 * w;
+        let key_bytes = if self.keyed { 4 * m } else { 0 };
+        let out_bytes = 4 * m + 4 * (m + 1) + 4 * w + key_bytes;
         let bytes = input.heap_bytes() as u64 + 4 * mate.len() as u64 + out_bytes;
         if bytes > limits.max_bytes {
             return Err(DeriveError::MemoryLimit {
@@ -1023,10 +1097,18 @@ impl<'a> Engine<'a> {
         Ok((m, w))
     }
 
-    fn rewrite_chunk(&self, step: &Step<'_>, out: ChunkOut<'_>) -> Result<(), RuntimeError> {
+    /// Rewrite one chunk; `K`: the engine is keyed (write every output
+    /// module's identity key: a copied module keeps its key, a successor
+    /// module gets `child_key(parent key, salt)`).
+    fn rewrite_chunk<const K: bool>(
+        &self,
+        step: &Step<'_>,
+        out: ChunkOut<'_>,
+    ) -> Result<(), RuntimeError> {
         let ChunkOut {
             range,
             syms: osyms,
+            keys: okeys,
             starts: ostarts,
             params: oparams,
             word_base,
@@ -1042,6 +1124,9 @@ impl<'a> Engine<'a> {
         // behind `self` after every store otherwise).
         let (acts, plans, sym_words) = (&self.acts[..], &self.plans[..], &self.sym_words[..]);
         let (ariths, tpls) = (&self.ariths[..], &self.tpl[..]);
+        let (ikeys, salts) = (step.keys, &self.succ_salts[..]);
+        /// `ksucc`: the module was copied (keeps its key).
+        const KCOPY: u32 = u32::MAX;
         // Where the next successor goes: the chunk's slices, reborrowed.
         macro_rules! out_at {
             ($o:expr, $wo:expr) => {
@@ -1058,6 +1143,10 @@ impl<'a> Engine<'a> {
         for i in range {
             let sym = input.syms[i];
             let s = sym as usize;
+            // Keyed: the output position of this module's successor and its
+            // first successor module (or `KCOPY`).
+            let o0 = o;
+            let mut ksucc = KCOPY;
             match acts[s] {
                 Act::Copy0 => {
                     // The common case first: copied, no parameters.
@@ -1094,23 +1183,23 @@ impl<'a> Engine<'a> {
                     o += 1;
                     wo += 1;
                     wi += 1;
+                    ksucc = u.succ;
                 }
                 Act::Plan(alt) => {
                     let plan = plans[alt as usize];
                     let n = sym_words[s] as usize;
                     let mut out = out_at!(o, wo);
+                    ksucc = plan.succ;
                     if plan.words == 0 {
                         // Symbols only (Koch curves, Hilbert curves).
                         self.emit_syms(plan, &mut out);
-                        o += plan.len as usize;
-                        wi += n;
-                        continue;
-                    }
-                    let bind = &input.params[wi..wi + n];
-                    if plan.arith {
-                        self.emit_arith(step, plan, bind, i, &mut out)?;
                     } else {
-                        self.emit(step, &mut worker, alt, bind, i, &mut out)?;
+                        let bind = &input.params[wi..wi + n];
+                        if plan.arith {
+                            self.emit_arith(step, plan, bind, i, &mut out)?;
+                        } else {
+                            self.emit(step, &mut worker, alt, bind, i, &mut out)?;
+                        }
                     }
                     o += plan.len as usize;
                     wo += plan.words as usize;
@@ -1118,6 +1207,7 @@ impl<'a> Engine<'a> {
                 }
                 Act::Small(alt) => {
                     let plan = plans[alt as usize];
+                    ksucc = plan.succ;
                     let n = sym_words[s] as usize;
                     let mut spare = [0.0f32; PAD];
                     let b: &[f32; PAD] = match input.params.get(wi..wi + PAD) {
@@ -1197,9 +1287,21 @@ impl<'a> Engine<'a> {
                             let plan = plans[alt as usize];
                             o += plan.len as usize;
                             wo += plan.words as usize;
+                            ksucc = plan.succ;
                         }
                     }
                     wi += n;
+                }
+            }
+            if K {
+                let key = ikeys[i];
+                if ksucc == KCOPY {
+                    okeys[o0] = key;
+                } else {
+                    let salts = &salts[ksucc as usize..][..o - o0];
+                    for (k, &salt) in okeys[o0..o].iter_mut().zip(salts) {
+                        *k = rng::child_key(key, salt);
+                    }
                 }
             }
         }
@@ -1358,11 +1460,7 @@ impl<'a> Engine<'a> {
                     words,
                     span,
                 } => {
-                    let draws = DrawCtx {
-                        seed: step.seed,
-                        iteration: step.iteration,
-                        position: position as u32,
-                    };
+                    let draws = step.draws(position);
                     let v = worker
                         .vm
                         .run(&sys.code, &sys.consts, entry, bind, &draws)
@@ -1436,11 +1534,7 @@ impl<'a> Engine<'a> {
         let input = step.input;
         let sym = input.syms[i];
         let (ps, pe) = (input.starts[i] as usize, input.starts[i + 1] as usize);
-        let draws = DrawCtx {
-            seed: step.seed,
-            iteration: step.iteration,
-            position: i as u32,
-        };
+        let draws = step.draws(i);
         for g in sys.groups_of(sym) {
             let direct = g.pred_bind_offset == 0 && g.bind_words == g.pred_bind_words;
             if g.flags & GROUP_CONTEXT != 0 {
@@ -1474,7 +1568,7 @@ impl<'a> Engine<'a> {
             if g.alt_count == 1 {
                 return Ok(Some((g.first_alt, binds)));
             }
-            let u = rng::uniform(step.seed, step.iteration, i as u32, 0);
+            let u = draws.uniform(0);
             let alt = select::choose_alternative(
                 sys,
                 g,
@@ -1714,6 +1808,7 @@ mod tests {
             syms,
             starts,
             params,
+            keys: Vec::new(),
         }
     }
 

@@ -9,13 +9,20 @@
 /// as usize]`. A `vec3` parameter takes three consecutive floats, a `bool`
 /// one float (0.0 or 1.0).
 ///
+/// Module `i`'s identity key is `keys[i]` (`grm_compile::rng`, "Identity
+/// keys") when the string carries keys: a derivation carries them when its
+/// system draws random numbers (the draws are keyed by them) or when they
+/// are asked for ([`crate::Engine::with_keys`]); otherwise `keys` is empty.
+///
 /// Invariant: `starts.len() == syms.len() + 1`, `starts[0] == 0`, `starts`
-/// is non-decreasing and `starts[len] == params.len()`.
+/// is non-decreasing and `starts[len] == params.len()`; `keys` is empty or
+/// as long as `syms`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ModuleString {
     pub syms: Vec<u32>,
     pub starts: Vec<u32>,
     pub params: Vec<f32>,
+    pub keys: Vec<u32>,
 }
 
 impl Default for ModuleString {
@@ -30,6 +37,7 @@ impl ModuleString {
             syms: Vec::new(),
             starts: vec![0],
             params: Vec::new(),
+            keys: Vec::new(),
         }
     }
 
@@ -40,14 +48,36 @@ impl ModuleString {
             syms: Vec::with_capacity(modules),
             starts,
             params: Vec::with_capacity(params),
+            keys: Vec::new(),
         }
     }
 
-    /// Append a module.
+    /// Append a module (to a string without keys).
     pub fn push(&mut self, sym: u32, params: &[f32]) {
         self.syms.push(sym);
         self.params.extend_from_slice(params);
         self.starts.push(self.params.len() as u32);
+    }
+
+    /// Append a module with its identity key (to a string with keys, or
+    /// an empty one).
+    pub fn push_keyed(&mut self, sym: u32, params: &[f32], key: u32) {
+        self.push(sym, params);
+        self.keys.push(key);
+    }
+
+    /// Whether the string carries identity keys (an empty string does).
+    pub fn has_keys(&self) -> bool {
+        self.keys.len() == self.syms.len()
+    }
+
+    /// The identity key of module `i`, if the string carries keys.
+    pub fn key(&self, i: usize) -> Option<u32> {
+        if self.has_keys() {
+            self.keys.get(i).copied()
+        } else {
+            None
+        }
     }
 
     /// Number of modules.
@@ -70,8 +100,14 @@ impl ModuleString {
         (0..self.len()).map(move |i| self.get(i))
     }
 
-    /// Append all modules of `other`.
+    /// Append all modules of `other` (keys are kept when both strings carry
+    /// them, and dropped otherwise).
     pub fn extend_from(&mut self, other: &ModuleString) {
+        if self.has_keys() && other.has_keys() {
+            self.keys.extend_from_slice(&other.keys);
+        } else {
+            self.keys.clear();
+        }
         let base = self.params.len() as u32;
         self.syms.extend_from_slice(&other.syms);
         self.params.extend_from_slice(&other.params);
@@ -85,6 +121,7 @@ impl ModuleString {
             && self.starts.first() == Some(&0)
             && self.starts.windows(2).all(|w| w[0] <= w[1])
             && self.starts.last().map(|&l| l as usize) == Some(self.params.len())
+            && (self.keys.is_empty() || self.keys.len() == self.syms.len())
     }
 
     /// The invariant as far as the modules in `range` need it: the parameter
@@ -105,7 +142,8 @@ impl ModuleString {
 
     /// Bytes used by the three arrays (for memory limits and statistics).
     pub fn heap_bytes(&self) -> usize {
-        self.syms.capacity() * 4 + self.starts.capacity() * 4 + self.params.capacity() * 4
+        (self.syms.capacity() + self.starts.capacity() + self.params.capacity() + self.keys.capacity())
+            * 4
     }
 
     /// The string as grm source text: modules separated by one space,

@@ -6,13 +6,16 @@
 //! (copies, one-word units, short arithmetic successors written in
 //! fixed-size blocks, the general writer) must reproduce bit for bit, on
 //! random deterministic grammars whose successors are empty, short, and
-//! longer than the engine's blocks, with one, two or three threads.
+//! longer than the engine's blocks, with one, two or three threads. The
+//! reference also mints every module's identity key from the rule of
+//! docs/engine.md ("Identity"), from symbol names and occurrence indices,
+//! not from the compiled salts, and draws by it.
 
 mod common;
 
 use common::*;
 use grm_compile::CompiledSystem;
-use grm_compile::rng::DrawCtx;
+use grm_compile::rng::{self, DrawCtx};
 use grm_compile::table::{NONE, PARAM_CODE, PARAM_CONST, PARAM_COPY};
 use grm_compile::vm::Vm;
 use grm_derive::{DeriveError, DeriveLimits, Engine, ModuleString};
@@ -42,7 +45,7 @@ fn reference_step(
     let draws = |i: usize| DrawCtx {
         seed,
         iteration,
-        position: i as u32,
+        position: input.keys[i],
     };
     // Decide: per module, the alternative and its bound words.
     let mut decided = Vec::with_capacity(input.len());
@@ -66,10 +69,10 @@ fn reference_step(
                     continue;
                 }
             }
-            applied = Some((g.first_alt, bind.to_vec()));
+            applied = Some((g.first_alt, g.first_alt, bind.to_vec()));
             break;
         }
-        len += applied.as_ref().map_or(1, |(alt, _)| {
+        len += applied.as_ref().map_or(1, |(alt, _, _)| {
             c.successor(&c.alts[*alt as usize]).len() as u64
         });
         decided.push(applied);
@@ -81,11 +84,13 @@ fn reference_step(
     let mut out = ModuleString::new();
     for (i, applied) in decided.into_iter().enumerate() {
         let (sym, params) = input.get(i);
-        let Some((alt, bind)) = applied else {
-            out.push(sym, params);
+        let key = input.keys[i];
+        let Some((alt, first_alt, bind)) = applied else {
+            out.push_keyed(sym, params, key);
             continue;
         };
-        for m in c.successor(&c.alts[alt as usize]) {
+        let succ = c.successor(&c.alts[alt as usize]);
+        for (j, m) in succ.iter().enumerate() {
             let mut words = Vec::new();
             for p in c.module_params(m) {
                 let w = p.words as usize;
@@ -104,10 +109,34 @@ fn reference_step(
                     k => panic!("parameter kind {k}"),
                 }
             }
-            out.push(m.symbol, &words);
+            out.push_keyed(m.symbol, &words, key_of(c, succ, j, alt - first_alt, key));
         }
     }
     Ok(out)
+}
+
+/// The key of successor module `j` of the `alternative`-th production of
+/// its group, rewriting a module keyed `parent`: from the symbol's name and
+/// its occurrence among the successor's modules of that symbol.
+fn key_of(
+    c: &CompiledSystem,
+    succ: &[grm_compile::table::SuccModule],
+    j: usize,
+    alternative: u32,
+    parent: u32,
+) -> u32 {
+    let sym = succ[j].symbol;
+    let occurrence = succ[..j].iter().filter(|m| m.symbol == sym).count() as u32;
+    let name = rng::name_hash(&c.symbol_names[sym as usize]);
+    rng::child_key(parent, rng::salt(name, occurrence, alternative))
+}
+
+/// The reference's axiom keys: children of the root key of (seed, system
+/// name), alternative 0.
+fn axiom_keys(c: &CompiledSystem, seed: u32) -> Vec<u32> {
+    let root = rng::root_key(seed, rng::name_hash(&c.name));
+    let succ = c.successor(&c.alts[c.axiom_alt as usize]);
+    (0..succ.len()).map(|j| key_of(c, succ, j, 0, root)).collect()
 }
 
 /// A random deterministic grammar over `F(x)`, `P(x, y)`, `V(v)` (a
@@ -190,13 +219,26 @@ fn the_engine_rewrites_as_the_reference_does() {
         let src = grammar(&mut rng);
         let c = inline(&src);
         // One thread (one chunk), and several small chunks in parallel.
+        // Keyed (the generator's grammars draw nothing, so keys are asked
+        // for), and one engine without keys, whose strings must be the same
+        // but for the keys.
         let engines = [
-            Engine::new(&c, 1).expect("engine"),
-            Engine::new(&c, 2).expect("engine").with_min_chunk(7),
-            Engine::new(&c, 3).expect("engine").with_min_chunk(1),
+            Engine::new(&c, 1).expect("engine").with_keys(true),
+            Engine::new(&c, 2)
+                .expect("engine")
+                .with_min_chunk(7)
+                .with_keys(true),
+            Engine::new(&c, 3)
+                .expect("engine")
+                .with_min_chunk(1)
+                .with_keys(true),
+            Engine::new(&c, 2).expect("engine").with_min_chunk(5),
         ];
+        assert!(!engines[3].keyed());
         let mut want = engines[0].axiom(case).expect("axiom");
+        assert_eq!(want.keys, axiom_keys(&c, case), "case {case} axiom\n{src}");
         let mut got: Vec<ModuleString> = engines.iter().map(|_| want.clone()).collect();
+        got[3].keys.clear();
         for it in 1..=6 {
             let next = reference_step(&c, &want, it, case, limits.max_modules);
             for (e, g) in engines.iter().zip(&mut got) {
@@ -248,4 +290,7 @@ fn same_bits(what: &str, a: &ModuleString, b: &ModuleString) {
     assert_eq!(a.starts, b.starts, "{what}: starts");
     let bits = |s: &ModuleString| s.params.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     assert_eq!(bits(a), bits(b), "{what}: parameters");
+    if !b.keys.is_empty() {
+        assert_eq!(a.keys, b.keys, "{what}: keys");
+    }
 }

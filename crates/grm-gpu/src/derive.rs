@@ -186,6 +186,7 @@ impl DeviceString {
             syms,
             starts,
             params,
+            keys: Vec::new(),
         };
         if !s.is_well_formed() {
             if std::env::var_os("GRM_DEBUG_STRING").is_some() {

@@ -164,7 +164,7 @@ pub fn mirrors() -> Vec<Mirror> {
             kind: u32, symbol: u32, bind_words: u32, bind_offset: u32,
         }),
         mirror_struct!(t::SuccModule as SuccModule {
-            symbol: u32, first_param: u32, param_count: u32, word_offset: u32,
+            symbol: u32, first_param: u32, param_count: u32, word_offset: u32, salt: u32,
         }),
         mirror_struct!(t::ParamExpr as ParamExpr {
             kind: u32, a: u32, words: u32, span: u32,
