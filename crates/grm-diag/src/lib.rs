@@ -24,7 +24,9 @@ pub mod codes;
 mod render;
 
 pub use codes::Code;
-pub use render::{HumanRenderer, render_human, render_json, render_plain, to_json};
+pub use render::{
+    HumanRenderer, is_bidi_control, render_human, render_json, render_plain, to_json,
+};
 
 use serde::Serialize;
 

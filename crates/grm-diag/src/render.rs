@@ -28,15 +28,64 @@ fn clamp(span: Span, text: &str) -> std::ops::Range<usize> {
 /// The text as ariadne gets it. ariadne breaks lines where grm does (at
 /// `\n`, `\r\n` as one break, and a lone `\r`), and also at a vertical
 /// tab, form feed, U+0085, U+2028 and U+2029, which are no line breaks for
-/// grm (nor for the JSON and LSP positions). Each of those is shown as a
-/// space, which keeps every character offset and the line numbers.
+/// grm (nor for the JSON and LSP positions). U+2028 and U+2029 are shown
+/// as a space; every other control character (see [`shown_char`]) as a
+/// visible stand-in, so a terminal never acts on one. Each character stays
+/// one character, which keeps every character offset and the line numbers.
 fn lines_at_newlines(text: &str) -> String {
     text.chars()
         .map(|c| match c {
-            '\x0B' | '\x0C' | '\u{85}' | '\u{2028}' | '\u{2029}' => ' ',
-            c => c,
+            '\u{2028}' | '\u{2029}' => ' ',
+            c => shown_char(c),
         })
         .collect()
+}
+
+/// Whether `c` is a bidirectional formatting character (U+202A to U+202E,
+/// U+2066 to U+2069): one in a comment or string can make a line read
+/// differently from how it is parsed ("Trojan Source", CVE-2021-42574).
+/// The lexer warns of each (W0017); the human rendering never prints one.
+pub fn is_bidi_control(c: char) -> bool {
+    matches!(c, '\u{202A}'..='\u{202E}' | '\u{2066}'..='\u{2069}')
+}
+
+/// Whether the human rendering must not print `c` as it is: a C0 or C1
+/// control character other than tab and the line breaks (an escape
+/// sequence in a source line, `ESC ] 0;title BEL`, retitled the terminal
+/// or worse), DEL, or a bidirectional formatting character.
+fn is_hidden(c: char) -> bool {
+    (c.is_control() && !matches!(c, '\t' | '\n' | '\r')) || is_bidi_control(c)
+}
+
+/// A source character as the human rendering shows it: a C0 control
+/// character as its Unicode control picture (ESC as `␛`), DEL as `␡`, a
+/// C1 control or bidirectional formatting character as U+FFFD; any other
+/// character as it is. One character for one, so the carets stay right.
+fn shown_char(c: char) -> char {
+    match c {
+        '\0'..='\x1f' if is_hidden(c) => char::from_u32(0x2400 + c as u32).unwrap_or('\u{FFFD}'),
+        '\x7f' => '\u{2421}',
+        c if is_hidden(c) => '\u{FFFD}',
+        c => c,
+    }
+}
+
+/// Message text (a message, label, note, help or file name) as the human
+/// rendering prints it: each character of [`is_hidden`] but a line break
+/// written as a Rust-style escape, `\u{1b}`.
+fn escaped(text: &str) -> std::borrow::Cow<'_, str> {
+    if !text.chars().any(|c| is_hidden(c) || c == '\r') {
+        return text.into();
+    }
+    let mut out = String::with_capacity(text.len() + 8);
+    for c in text.chars() {
+        if is_hidden(c) || c == '\r' {
+            out += &format!("\\u{{{:x}}}", c as u32);
+        } else {
+            out.push(c);
+        }
+    }
+    out.into()
 }
 
 /// Render one diagnostic as text, with colour if `color` is set (for
@@ -72,7 +121,7 @@ impl<'a> HumanRenderer<'a> {
         let fetch: Fetch<'a> = Box::new(move |path: &String| {
             sources
                 .iter()
-                .find(|(_, f)| &f.path == path)
+                .find(|(_, f)| escaped(&f.path) == path.as_str())
                 .map(|(_, f)| lines_at_newlines(&f.text))
                 .ok_or_else(|| format!("no source file {path}"))
         });
@@ -95,16 +144,15 @@ impl<'a> HumanRenderer<'a> {
         };
         let primary = d.primary();
         let pfile = sources.get(primary.file);
-        let id = |f: crate::FileId| sources.get(f).path.clone();
-        let mut report =
-            Report::build(kind, (pfile.path.clone(), clamp(primary.span, &pfile.text)))
-                .with_config(
-                    Config::default()
-                        .with_index_type(IndexType::Char)
-                        .with_color(color),
-                )
-                .with_code(d.code.as_str())
-                .with_message(&d.message);
+        let id = |f: crate::FileId| escaped(&sources.get(f).path).into_owned();
+        let mut report = Report::build(kind, (id(primary.file), clamp(primary.span, &pfile.text)))
+            .with_config(
+                Config::default()
+                    .with_index_type(IndexType::Char)
+                    .with_color(color),
+            )
+            .with_code(d.code.as_str())
+            .with_message(escaped(&d.message));
         // ariadne starts a new source group (with a header repeating the
         // primary's line:col) whenever a label comes before the previous one in
         // the file; ordered by file (the primary's first) and position, each
@@ -124,7 +172,7 @@ impl<'a> HumanRenderer<'a> {
             let text = &sources.get(l.file).text;
             let mut label = ALabel::new((id(l.file), clamp(l.span, text))).with_order(order as i32);
             if !l.message.is_empty() {
-                label = label.with_message(&l.message);
+                label = label.with_message(escaped(&l.message));
             }
             if l.primary {
                 label = label.with_priority(1);
@@ -132,10 +180,10 @@ impl<'a> HumanRenderer<'a> {
             report = report.with_label(label);
         }
         for n in &d.notes {
-            report = report.with_note(n);
+            report = report.with_note(escaped(n));
         }
         if let Some(h) = &d.help {
-            report = report.with_help(h);
+            report = report.with_help(escaped(h));
         }
         let mut out = Vec::new();
         // Writing into a Vec<u8> cannot fail for I/O reasons; if ariadne reports
@@ -190,9 +238,10 @@ fn render_without_source(
     let at = |l: &crate::Label| {
         let f = sources.get(l.file);
         let (line, col) = f.line_col(l.span.start);
-        format!("{}:{}:{}", f.path, line + 1, col + 1)
+        format!("{}:{}:{}", escaped(&f.path), line + 1, col + 1)
     };
-    let mut out = format!("[{}] {kind}: {}\n", d.code, d.message);
+    let path = escaped(path);
+    let mut out = format!("[{}] {kind}: {}\n", d.code, escaped(&d.message));
     out += &format!("   ╭─[ {} ]\n", at(d.primary()));
     out += &format!(
         "   │ ({path} line {} has {len} characters: not shown)\n",
@@ -203,15 +252,15 @@ fn render_without_source(
             continue;
         }
         match l.primary {
-            true => out += &format!("   │ {}\n", l.message),
-            false => out += &format!("   │ {}: {}\n", at(l), l.message),
+            true => out += &format!("   │ {}\n", escaped(&l.message)),
+            false => out += &format!("   │ {}: {}\n", at(l), escaped(&l.message)),
         }
     }
     for n in &d.notes {
-        out += &format!("   │ Note: {n}\n");
+        out += &format!("   │ Note: {}\n", escaped(n));
     }
     if let Some(h) = &d.help {
-        out += &format!("   │ Help: {h}\n");
+        out += &format!("   │ Help: {}\n", escaped(h));
     }
     out += "───╯\n";
     out
@@ -228,12 +277,12 @@ pub fn render_plain(d: &Diagnostic, sources: &SourceMap) -> String {
     };
     format!(
         "{}:{}:{}: {}[{}]: {}",
-        f.path,
+        escaped(&f.path),
         line + 1,
         col + 1,
         sev,
         d.code,
-        d.message
+        escaped(&d.message)
     )
 }
 
@@ -532,6 +581,84 @@ mod tests {
                 "{nl:?}: {j}"
             );
         }
+    }
+
+    /// A terminal escape sequence or any other control character in a
+    /// source line, a message or a file name is never printed raw: the
+    /// source shows control pictures (carets still under the right
+    /// characters), the messages `\u{..}` escapes. `ESC ] 0;title BEL`
+    /// retitled the terminal that ran `grmc check`.
+    #[test]
+    fn control_characters_are_never_printed_raw() {
+        let text = "// \x1b]0;pwned\x07 \u{9b}2J \x7f \u{202e}x\u{2066}\nconst x = y;\n";
+        let mut sm = SourceMap::new();
+        let f = sm.add("t\x1b[31m.grm", text);
+        let at = text.find('y').unwrap() as u32;
+        let esc = text.find('\x1b').unwrap() as u32;
+        let d = Diagnostic::new(
+            Code::UnknownName,
+            "unknown `\x1b[2J`",
+            f,
+            Span::new(at, at + 1),
+            "here \x07",
+        )
+        .with_label(f, Span::new(esc, esc + 1), "escape \u{202e}")
+        .with_note("a note \x1b")
+        .with_help("help \u{9b}");
+        let raw = |s: &str| {
+            s.chars()
+                .find(|&c| (c.is_control() && c != '\n') || crate::is_bidi_control(c))
+        };
+        for color in [false, true] {
+            let out = render_human(&d, &sm, color);
+            // With colour, ariadne's own SGR sequences are the only escapes.
+            let stripped = out.replace("\x1b[0m", "");
+            let stripped: String = if color {
+                let mut s = String::new();
+                let mut it = stripped.chars().peekable();
+                while let Some(c) = it.next() {
+                    if c == '\x1b' && it.peek() == Some(&'[') {
+                        for c in it.by_ref() {
+                            if c == 'm' {
+                                break;
+                            }
+                        }
+                    } else {
+                        s.push(c);
+                    }
+                }
+                s
+            } else {
+                stripped
+            };
+            assert_eq!(raw(&stripped), None, "{out:?}");
+            assert!(
+                stripped.contains("// ␛]0;pwned␇ \u{FFFD}2J ␡ \u{FFFD}x\u{FFFD}"),
+                "{out}"
+            );
+            assert!(stripped.contains("t\\u{1b}[31m.grm:2:11"), "{out}");
+            for m in [
+                "unknown `\\u{1b}[2J`",
+                "here \\u{7}",
+                "escape \\u{202e}",
+                "a note \\u{1b}",
+                "help \\u{9b}",
+            ] {
+                assert!(stripped.contains(m), "{m}: {out}");
+            }
+        }
+        assert_eq!(
+            render_plain(&d, &sm),
+            "t\\u{1b}[31m.grm:2:11: error[E0101]: unknown `\\u{1b}[2J`"
+        );
+        // A line too long to show: the same escapes.
+        let long = format!("// \x1b]0;t\x07{}\nconst x = y;\n", "a".repeat(2000));
+        let mut sm = SourceMap::new();
+        let f = sm.add("l.grm", long.as_str());
+        let d = Diagnostic::new(Code::UnknownName, "m \x1b", f, Span::new(3, 4), "l \x1b");
+        let out = render_human(&d, &sm, false);
+        assert!(out.contains("line 1 has"), "{out}");
+        assert_eq!(raw(&out), None, "{out:?}");
     }
 
     #[test]
