@@ -176,6 +176,10 @@ codes! {
     SkeletonNeverGrows = "W0015", Warning, "skeleton symbol never draws a bone";
     /// A weight written on the only production of its group (it always applies).
     LoneWeight = "W0016", Warning, "weight of an only production";
+    /// A bidirectional formatting character (U+202A to U+202E, U+2066 to
+    /// U+2069) in a comment or string: the line may display in another
+    /// order than it is read ("Trojan Source").
+    BidiControl = "W0017", Warning, "bidirectional control character";
 
     // ---- R0xxx: run time -------------------------------------------------
     // Reported by the engines after a clean check (`grmc derive`, `sample`,

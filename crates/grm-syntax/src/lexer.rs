@@ -516,23 +516,28 @@ pub fn lex(file: FileId, text: &str) -> Lexed<'_> {
                                 .with_help("close it with `*/`"),
                             );
                         }
+                        bidi_controls(file, slice, span, "comment", &mut out.diagnostics);
                         out.comments.push(crate::ast::Comment {
                             text: slice.to_string(),
                             span,
                         });
                     }
-                    Raw::Str(false) => {
-                        out.diagnostics.push(
-                            Diagnostic::new(
-                                Code::UnterminatedString,
-                                "unterminated string",
-                                file,
-                                span,
-                                "this string has no closing quote",
-                            )
-                            .with_help("add a `\"` before the end of the line"),
-                        );
-                        // Keep it as a string token so the item still parses.
+                    Raw::Str(terminated) => {
+                        bidi_controls(file, slice, span, "string", &mut out.diagnostics);
+                        if !terminated {
+                            out.diagnostics.push(
+                                Diagnostic::new(
+                                    Code::UnterminatedString,
+                                    "unterminated string",
+                                    file,
+                                    span,
+                                    "this string has no closing quote",
+                                )
+                                .with_help("add a `\"` before the end of the line"),
+                            );
+                        }
+                        // An unterminated one is kept as a string token too,
+                        // so the item still parses.
                         out.tokens.push(Token {
                             kind: TokKind::Str,
                             text: slice,
@@ -579,6 +584,60 @@ pub fn lex(file: FileId, text: &str) -> Lexed<'_> {
     out
 }
 
+/// The W0017 warning of a comment or string (`what`) at `span` whose text
+/// `slice` holds bidirectional formatting characters: one warning, a label
+/// on each character (the first primary). Such a character can make the
+/// line display in another order than grm reads it (CVE-2021-42574,
+/// "Trojan Source"), as rustc warns.
+fn bidi_controls(file: FileId, slice: &str, span: Span, what: &str, diags: &mut Vec<Diagnostic>) {
+    let mut found = slice
+        .char_indices()
+        .filter(|&(_, c)| grm_diag::is_bidi_control(c));
+    let Some(first) = found.next() else {
+        return;
+    };
+    let at = |(i, c): (usize, char)| {
+        let start = span.start + i as u32;
+        (Span::new(start, start + c.len_utf8() as u32), bidi_name(c))
+    };
+    let (s, name) = at(first);
+    let mut d = Diagnostic::new(
+        Code::BidiControl,
+        format!("bidirectional control character in a {what}"),
+        file,
+        s,
+        name,
+    );
+    for c in found {
+        let (s, name) = at(c);
+        d = d.with_label(file, s, name);
+    }
+    diags.push(
+        d.with_note(
+            "this character can make the line display in another order than grm reads it \
+             (\"Trojan Source\")",
+        )
+        .with_help("remove it"),
+    );
+}
+
+/// The Unicode name of a bidirectional formatting character, with its
+/// code point.
+fn bidi_name(c: char) -> &'static str {
+    match c {
+        '\u{202A}' => "U+202A LEFT-TO-RIGHT EMBEDDING",
+        '\u{202B}' => "U+202B RIGHT-TO-LEFT EMBEDDING",
+        '\u{202C}' => "U+202C POP DIRECTIONAL FORMATTING",
+        '\u{202D}' => "U+202D LEFT-TO-RIGHT OVERRIDE",
+        '\u{202E}' => "U+202E RIGHT-TO-LEFT OVERRIDE",
+        '\u{2066}' => "U+2066 LEFT-TO-RIGHT ISOLATE",
+        '\u{2067}' => "U+2067 RIGHT-TO-LEFT ISOLATE",
+        '\u{2068}' => "U+2068 FIRST STRONG ISOLATE",
+        '\u{2069}' => "U+2069 POP DIRECTIONAL ISOLATE",
+        _ => "a bidirectional control character",
+    }
+}
+
 /// Inside a module string (after `->`, `axiom` or `ignore`, up to `;`), a
 /// `{` is the polygon turtle command, and so is a `}` that closes one. A
 /// `}` with no open polygon ends the module string: it closes the block, so
@@ -620,6 +679,59 @@ mod tests {
 
     fn kinds(s: &str) -> Vec<TokKind> {
         lex(FileId(0), s).tokens.iter().map(|t| t.kind).collect()
+    }
+
+    /// A bidirectional formatting character in a comment or a string
+    /// (terminated or not) is one W0017 per comment or string, labelled at
+    /// each character; elsewhere it is an invalid character, and text
+    /// without one has no warning.
+    #[test]
+    fn bidi_controls_in_comments_and_strings_warn() {
+        let codes = |t: &str| -> Vec<Code> {
+            let mut c: Vec<Code> = lex(FileId(0), t)
+                .diagnostics
+                .iter()
+                .map(|d| d.code)
+                .collect();
+            c.sort();
+            c
+        };
+        for c in [
+            '\u{202A}', '\u{202B}', '\u{202C}', '\u{202D}', '\u{202E}', '\u{2066}', '\u{2067}',
+            '\u{2068}', '\u{2069}',
+        ] {
+            assert_eq!(codes(&format!("// a{c}b\nF")), [Code::BidiControl], "{c:?}");
+            assert_eq!(codes(&format!("/* {c} */ F")), [Code::BidiControl], "{c:?}");
+            assert_eq!(
+                codes(&format!("mesh m = \"a{c}.obj\";")),
+                [Code::BidiControl],
+                "{c:?}"
+            );
+            assert_eq!(
+                codes(&format!("mesh m = \"a{c}.obj\n")),
+                [Code::UnterminatedString, Code::BidiControl],
+                "{c:?}"
+            );
+            assert_eq!(
+                codes(&format!("F {c} F")),
+                [Code::InvalidCharacter],
+                "{c:?}"
+            );
+        }
+        let text = "axiom F; // \u{202E} x \u{2066}y\u{2069}\n";
+        let l = lex(FileId(0), text);
+        assert_eq!(l.diagnostics.len(), 1);
+        let d = &l.diagnostics[0];
+        assert_eq!(d.code, Code::BidiControl);
+        assert_eq!(d.severity, grm_diag::Severity::Warning);
+        let at: Vec<(usize, &str)> = d
+            .labels
+            .iter()
+            .map(|l| (l.span.start as usize, &text[l.span.range()]))
+            .collect();
+        assert_eq!(at, [(12, "\u{202E}"), (18, "\u{2066}"), (22, "\u{2069}")],);
+        assert!(d.labels[0].message.contains("RIGHT-TO-LEFT OVERRIDE"));
+        assert!(codes("// \u{200F} right-to-left mark, é, עברית\nF").is_empty());
     }
 
     #[test]
