@@ -818,6 +818,51 @@ impl<'a> Engine<'a> {
         self.step_counted(input, iteration, seed, limits, None)
     }
 
+    /// The productions applied by step `iteration` to `input`: per input
+    /// module, the global index of the alternative that rewrites it
+    /// (into `CompiledSystem::alts`), or `None` where the module is copied
+    /// unchanged. The same decisions [`Engine::step`] makes (a pure
+    /// function of the input, seed and iteration), taken on one thread,
+    /// for callers that build the derivation tree: module `i`'s successor
+    /// is the next `succ_len` modules of the output (one for a copy).
+    pub fn decisions(
+        &self,
+        input: &ModuleString,
+        iteration: u32,
+        seed: u32,
+    ) -> Result<Vec<Option<u32>>, DeriveError> {
+        self.check_input(input)?;
+        let n = input.len();
+        let mate = if self.has_context {
+            let bracket = &self.bracket;
+            let kind = |s: u32| bracket.get(s as usize).copied().unwrap_or(0);
+            brackets::mates(kind, &input.syms, n, false)
+        } else {
+            Vec::new()
+        };
+        let step = Step {
+            input,
+            keys: if self.keyed { &input.keys } else { &[] },
+            mate: &mate,
+            seed,
+            iteration,
+        };
+        let mut worker = self.worker();
+        let mut out = Vec::with_capacity(n);
+        for i in 0..n {
+            let (f, _, _) = self.counts[input.syms[i] as usize];
+            out.push(match f {
+                COPY => None,
+                SLOW => self
+                    .decide(&step, &mut worker, i)
+                    .map_err(DeriveError::Runtime)?
+                    .map(|(alt, _)| alt),
+                alt => Some(alt),
+            });
+        }
+        Ok(out)
+    }
+
     fn check_input(&self, s: &ModuleString) -> Result<(), DeriveError> {
         if !s.is_well_formed() {
             return Err(DeriveError::InvalidInput("offsets are inconsistent".into()));

@@ -142,7 +142,10 @@ impl ModuleString {
 
     /// Bytes used by the three arrays (for memory limits and statistics).
     pub fn heap_bytes(&self) -> usize {
-        (self.syms.capacity() + self.starts.capacity() + self.params.capacity() + self.keys.capacity())
+        (self.syms.capacity()
+            + self.starts.capacity()
+            + self.params.capacity()
+            + self.keys.capacity())
             * 4
     }
 

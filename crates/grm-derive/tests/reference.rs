@@ -136,7 +136,9 @@ fn key_of(
 fn axiom_keys(c: &CompiledSystem, seed: u32) -> Vec<u32> {
     let root = rng::root_key(seed, rng::name_hash(&c.name));
     let succ = c.successor(&c.alts[c.axiom_alt as usize]);
-    (0..succ.len()).map(|j| key_of(c, succ, j, 0, root)).collect()
+    (0..succ.len())
+        .map(|j| key_of(c, succ, j, 0, root))
+        .collect()
 }
 
 /// A random deterministic grammar over `F(x)`, `P(x, y)`, `V(v)` (a
