@@ -14,13 +14,21 @@
 // grm_compile's, read through the generated loaders.
 //
 // Several systems at once (Lipp 5.4): `tables` starts with a directory of
-// SystemEntry records (each system's packed tables, iterations, seed and
-// its range in the current string); a module's symbol carries its system's
-// index above SYS_SHIFT. A module reads its own system's tables, draws
-// with its system's seed and its position within its system's range,
-// matches contexts only inside that range, and is copied unchanged once
-// its system has done its iterations. One system is the same with one
-// directory entry.
+// SystemEntry records (each system's packed tables, iterations, seed, root
+// key and its range in the current string); a module's symbol carries its
+// system's index above SYS_SHIFT. A module reads its own system's tables,
+// draws with its system's seed and its own identity key, matches contexts
+// only inside that range, and is copied unchanged once its system has done
+// its iterations. One system is the same with one directory entry.
+//
+// Identity keys (grm_compile::rng, "Identity keys"; P.keyed: some system
+// draws): every module has a key (`in_keys`), and its draws are keyed by
+// it, never by its position. The rewrite writes the output's keys
+// (`out_keys`): a copied module keeps its key, a successor module gets
+// child_key(the rewritten module's key, its salt); an axiom module gets
+// child_key(its system's root key, its salt), and the axiom's draws use
+// the root key. Without P.keyed nothing draws, and the key buffers are
+// neither read nor written.
 //!include grid.wgsl
 
 // PARAM_SPACE: `uniform` (parameters written by the host) or `storage, read`
@@ -37,9 +45,11 @@
 @group(0) @binding(9) var<storage, read_write> out_starts: array<u32>;
 @group(0) @binding(10) var<storage, read_write> out_params: array<f32>;
 @group(0) @binding(11) var<storage, read_write> status: array<atomic<u32>, STATUS_WORDS>;
+@group(0) @binding(12) var<storage, read> in_keys: array<u32>;
+@group(0) @binding(13) var<storage, read_write> out_keys: array<u32>;
 // `out_offset(i)`: module i's output offsets (modules, parameter words),
 // from `counts` alone (offsets_global.wgsl) or from block-local offsets and
-// block sums (offsets_blocks.wgsl, the batched kernels' binding 12).
+// block sums (offsets_blocks.wgsl, the batched kernels' binding 14).
 //!include OFFSETS
 //!include generated_tables
 //!include vm.wgsl
@@ -122,9 +132,18 @@ fn bind_group(i: u32, g: GroupHeader) -> bool {
     return true;
 }
 
-// Draws use the position within the module's own system.
+// Input module i's identity key (its position within its system where no
+// system draws: nothing reads it then).
+fn key_at(i: u32) -> u32 {
+    if (P.keyed != 0u) {
+        return in_keys[i];
+    }
+    return i - SYS.start;
+}
+
+// Draws are keyed by the module's identity key.
 fn draws_at(i: u32) -> Draws {
-    return Draws(SYS.seed, P.iteration, i - SYS.start);
+    return Draws(SYS.seed, P.iteration, key_at(i));
 }
 
 // The weight of alternative `a` (constant or computed); NaN on a fault.
@@ -267,8 +286,9 @@ fn write_param(i: u32, pe: ParamExpr, d: Draws, dst: u32) {
 // stops an invocation's loops after 65,535 iterations in all, and a thread
 // writing a whole long axiom ran past that). `counts` holds the host's
 // offsets of each system's axiom (P.n systems), and their totals at P.n.
-// Every axiom is evaluated at iteration 0, position 0 (the CPU's
-// `Engine::axiom`); an error is reported at the system's index.
+// Every axiom is evaluated at iteration 0 with its system's root key (the
+// CPU's `Engine::axiom`), and its modules' keys are children of the root
+// key; an error is reported at the system's index.
 fn write_axiom_module(o: u32) {
     if (o >= out_offset(P.n).x) {
         return;
@@ -292,7 +312,10 @@ fn write_axiom_module(o: u32) {
     out_syms[o] = m.symbol | (SYS_ID << SYS_SHIFT);
     var dst = off.y + m.word_offset;
     out_starts[o] = dst;
-    let d = Draws(SYS.seed, 0u, 0u);
+    if (P.keyed != 0u) {
+        out_keys[o] = child_key(SYS.root_key, m.salt);
+    }
+    let d = Draws(SYS.seed, 0u, SYS.root_key);
     for (var q = m.first_param; q < m.first_param + m.param_count; q = q + 1u) {
         let pe = param_at(q);
         write_param(lo, pe, d, dst);
@@ -329,6 +352,9 @@ fn rewrite(
     if (alt == COPY) {
         out_syms[o] = in_syms[i];
         out_starts[o] = wo;
+        if (P.keyed != 0u) {
+            out_keys[o] = in_keys[i];
+        }
         let s = in_starts[i];
         let e = in_starts[i + 1u];
         for (var k = 0u; k < e - s; k = k + 1u) {
@@ -346,6 +372,9 @@ fn rewrite(
         out_syms[o + k] = m.symbol | (SYS_ID << SYS_SHIFT);
         var dst = wo + m.word_offset;
         out_starts[o + k] = dst;
+        if (P.keyed != 0u) {
+            out_keys[o + k] = child_key(d.position, m.salt);
+        }
         for (var q = m.first_param; q < m.first_param + m.param_count; q = q + 1u) {
             let pe = param_at(q);
             write_param(i, pe, d, dst);
@@ -372,7 +401,7 @@ var<workgroup> wg_bind: array<u32, WORKGROUP>;
 // threads stride over that range, each output position finding its input
 // module by binary search over the offsets in workgroup memory, then
 // writing that one successor module (symbol, start, parameters evaluated
-// with the same code and draws as `rewrite`). Writes are coalesced and the
+// with the same code and draws as `rewrite`, and its identity key). Writes are coalesced and the
 // work is spread evenly however long the successors are. What an input
 // module's outputs share (its production, system, offsets) is read from
 // the tables once per input module, into workgroup memory, not once per
@@ -461,6 +490,9 @@ fn rewrite_out(
         if (alt == COPY) {
             out_syms[o] = in_syms[i];
             out_starts[o] = wo;
+            if (P.keyed != 0u) {
+                out_keys[o] = in_keys[i];
+            }
             let s = in_starts[i];
             let e = in_starts[i + 1u];
             for (var c = 0u; c < e - s; c = c + 1u) {
@@ -472,6 +504,10 @@ fn rewrite_out(
         out_syms[o] = sm.symbol | (SYS_ID << SYS_SHIFT);
         var dst = wo + sm.word_offset;
         out_starts[o] = dst;
+        if (P.keyed != 0u) {
+            // d.position: the input module's key (draws_at).
+            out_keys[o] = child_key(d.position, sm.salt);
+        }
         for (var q = sm.first_param; q < sm.first_param + sm.param_count; q = q + 1u) {
             let pe = param_at(q);
             write_param(i, pe, d, dst);

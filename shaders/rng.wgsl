@@ -1,7 +1,9 @@
 // The counter-based random draws of grm_compile::rng, bit for bit:
 // MurmurHash3 x86_32 of the key (iteration, position, draw) with the seed,
-// and the uniform float f32(h >> 8) * 2^-24. u32 arithmetic wraps in WGSL
-// as in Rust's wrapping ops.
+// and the uniform float f32(h >> 8) * 2^-24; and the identity keys'
+// `child_key`. u32 arithmetic wraps in WGSL as in Rust's wrapping ops.
+// (`position` is the drawing module's identity key: grm_compile::rng,
+// "Identity keys".)
 
 fn rotl32(x: u32, r: u32) -> u32 {
     return (x << r) | (x >> (32u - r));
@@ -16,17 +18,29 @@ fn mm3_mix(h: u32, k0: u32) -> u32 {
     return x * 5u + 0xe6546b64u;
 }
 
-fn rng_hash(seed: u32, iteration: u32, position: u32, draw: u32) -> u32 {
-    var h = seed;
-    h = mm3_mix(h, iteration);
-    h = mm3_mix(h, position);
-    h = mm3_mix(h, draw);
-    h = h ^ 12u;
+// The MurmurHash3 finalizer.
+fn mm3_fmix(h0: u32) -> u32 {
+    var h = h0;
     h = h ^ (h >> 16u);
     h = h * 0x85ebca6bu;
     h = h ^ (h >> 13u);
     h = h * 0xc2b2ae35u;
     return h ^ (h >> 16u);
+}
+
+fn rng_hash(seed: u32, iteration: u32, position: u32, draw: u32) -> u32 {
+    var h = seed;
+    h = mm3_mix(h, iteration);
+    h = mm3_mix(h, position);
+    h = mm3_mix(h, draw);
+    return mm3_fmix(h ^ 12u);
+}
+
+// The key of a module written by a rewrite (grm_compile::rng::child_key):
+// MurmurHash3 x86_32 of the 4-byte key `salt` (its successor module's
+// compile-time salt) with the parent's key as the seed.
+fn child_key(parent: u32, salt: u32) -> u32 {
+    return mm3_fmix(mm3_mix(parent, salt) ^ 4u);
 }
 
 fn rng_unit(h: u32) -> f32 {

@@ -122,6 +122,9 @@ pub struct DeviceString {
     pub(crate) syms: wgpu::Buffer,
     pub(crate) starts: wgpu::Buffer,
     pub(crate) params: wgpu::Buffer,
+    /// The modules' identity keys, where the derivation carries them (some
+    /// system draws random numbers; `grm_compile::rng`, "Identity keys").
+    pub(crate) keys: Option<wgpu::Buffer>,
     pub(crate) len: u64,
     pub(crate) words: u64,
 }
@@ -139,40 +142,61 @@ impl DeviceString {
         self.words
     }
 
-    /// The three buffers (to recycle them).
-    pub(crate) fn into_buffers(self) -> [wgpu::Buffer; 3] {
+    /// The buffers (to recycle them).
+    pub(crate) fn into_buffers(self) -> impl IntoIterator<Item = wgpu::Buffer> {
         [self.syms, self.starts, self.params]
+            .into_iter()
+            .chain(self.keys)
     }
 
-    /// Device bytes of the three arrays.
+    /// Whether the string carries identity keys.
+    pub fn has_keys(&self) -> bool {
+        self.keys.is_some()
+    }
+
+    /// Device bytes of the arrays (the keys included).
     pub fn bytes(&self) -> u64 {
-        string_bytes(self.len, self.words)
+        string_bytes(self.len, self.words) + key_bytes(self.len, self.keys.is_some())
     }
 
     /// Upload a host string (checked against the system: symbols in range,
-    /// parameter words as the symbols declare).
+    /// parameter words as the symbols declare), with its identity keys
+    /// where it carries them.
     pub fn upload(
         gpu: &Gpu,
         sys: &CompiledSystem,
         s: &ModuleString,
     ) -> Result<DeviceString, GpuError> {
         check_string(sys, s)?;
+        let keys = if s.has_keys() && !s.is_empty() {
+            Some(gpu.upload("identity keys", &s.keys)?)
+        } else {
+            None
+        };
         Ok(DeviceString {
             syms: gpu.upload("symbols", &s.syms)?,
             starts: gpu.upload("parameter starts", &s.starts)?,
             params: gpu.upload("parameters", &s.params)?,
+            keys,
             len: s.len() as u64,
             words: s.params.len() as u64,
         })
     }
 
-    /// Read the string back (records the copies into a fresh submission).
+    /// Read the string back (records the copies into a fresh submission),
+    /// its identity keys with it where it carries them.
     pub(crate) fn read(&self, gpu: &Gpu) -> Result<ModuleString, GpuError> {
         let enc = gpu.encoder();
-        let mut u = gpu.read::<u32>(
-            enc,
-            &[(&self.syms, 0, self.len), (&self.starts, 0, self.len + 1)],
-        )?;
+        let mut ranges = vec![(&self.syms, 0, self.len), (&self.starts, 0, self.len + 1)];
+        if let Some(k) = &self.keys {
+            ranges.push((k, 0, self.len));
+        }
+        let mut u = gpu.read::<u32>(enc, &ranges)?;
+        let keys = if self.keys.is_some() {
+            u.pop().unwrap_or_default()
+        } else {
+            Vec::new()
+        };
         let starts = u.pop().unwrap_or_default();
         let syms = u.pop().unwrap_or_default();
         let params = if self.words > 0 {
@@ -186,7 +210,7 @@ impl DeviceString {
             syms,
             starts,
             params,
-            keys: Vec::new(),
+            keys,
         };
         if !s.is_well_formed() {
             if std::env::var_os("GRM_DEBUG_STRING").is_some() {
@@ -218,6 +242,11 @@ impl DeviceString {
 
 fn string_bytes(modules: u64, words: u64) -> u64 {
     4 * modules + 4 * (modules + 1) + 4 * words
+}
+
+/// Device bytes of a string's identity keys (`keyed`: it carries them).
+fn key_bytes(modules: u64, keyed: bool) -> u64 {
+    if keyed { 4 * modules } else { 0 }
 }
 
 /// Check a host string against the system.
@@ -274,6 +303,16 @@ pub struct GpuSystem<'a> {
     /// The directory as uploaded (string 0's ranges).
     directory: Vec<SystemEntry>,
     has_context: bool,
+    /// The strings carry identity keys: some job's system draws random
+    /// numbers (`CompiledSystem::draws_randomly`; every module of the
+    /// combined string then has its key, the draws are keyed by them).
+    keyed: bool,
+    /// Per job: its string read back carries keys (its system draws, as
+    /// the CPU engine's strings do).
+    job_keyed: Vec<bool>,
+    /// Bound in place of the key buffers of a derivation without keys
+    /// (input, output: one buffer may not be bound both ways).
+    no_keys: [wgpu::Buffer; 2],
     /// Some successor other than an axiom is longer than
     /// [`kernels::LONG_SUCCESSOR`] modules.
     long_successors: bool,
@@ -350,7 +389,7 @@ pub fn derive_many(
         let dir = g.read_directory()?;
         gpu.recycle(s.into_buffers());
         Ok(GpuManyDerivation {
-            strings: split_string(&all, &dir)?,
+            strings: split_string(&all, &dir, &g.job_keyed)?,
             stats,
         })
     })
@@ -372,13 +411,16 @@ pub(crate) fn many_options(jobs: &[GpuJob<'_>], opts: &GpuDeriveOptions) -> GpuD
 }
 
 /// Cut a combined string into its systems' strings (symbols without the
-/// system bits).
+/// system bits); a system's string carries its modules' identity keys
+/// where `keyed[k]` says so (and the combined string has them).
 pub(crate) fn split_string(
     all: &ModuleString,
     dir: &[SystemEntry],
+    keyed: &[bool],
 ) -> Result<Vec<ModuleString>, GpuError> {
     let mut strings = Vec::with_capacity(dir.len());
-    for e in dir {
+    let with_keys = all.has_keys() && !all.keys.is_empty();
+    for (k, e) in dir.iter().enumerate() {
         let (a, b) = (e.start as usize, e.end as usize);
         if a > b || b > all.len() {
             return Err(GpuError::Readback(
@@ -390,6 +432,9 @@ pub(crate) fn split_string(
         for i in a..b {
             let (sym, p) = all.get(i);
             one.push(sym & SYM_MASK, p);
+        }
+        if with_keys && keyed.get(k).copied().unwrap_or(false) {
+            one.keys = all.keys[a..b].to_vec();
         }
         strings.push(one);
     }
@@ -434,6 +479,7 @@ impl<'a> GpuSystem<'a> {
                 base: words.len() as u32,
                 iterations: job.iterations,
                 seed: job.seed,
+                root_key: sys.root_key(job.seed),
                 start: start as u32,
                 end: end as u32,
                 ..SystemEntry::default()
@@ -451,9 +497,13 @@ impl<'a> GpuSystem<'a> {
             (sys.alts.iter().enumerate())
                 .any(|(k, a)| k != sys.axiom_alt as usize && a.succ_len > kernels::LONG_SUCCESSOR)
         });
+        let job_keyed: Vec<bool> = jobs.iter().map(|j| j.system.draws_randomly()).collect();
         Ok(GpuSystem {
             gpu,
             has_context,
+            keyed: job_keyed.iter().any(|&k| k),
+            job_keyed,
+            no_keys: [gpu.storage("unused", 16)?, gpu.storage("unused", 16)?],
             long_successors,
             kernels: kernels::DeriveKernels::pick(has_code, has_context),
             jobs: jobs.to_vec(),
@@ -625,7 +675,9 @@ impl<'a> GpuSystem<'a> {
                 Some(k) => k,
                 None => {
                     let sys = job.system;
-                    engines.push(grm_derive::Engine::new(sys, 1).ok()?);
+                    // Every module of a keyed combined string has its
+                    // key, a system that draws nothing too.
+                    engines.push(grm_derive::Engine::new(sys, 1).ok()?.with_keys(self.keyed));
                     rows.push(
                         (0..sys.symbols.len())
                             .map(|s| growth_row(sys, s))
@@ -682,7 +734,8 @@ impl<'a> GpuSystem<'a> {
                 }
             }
             let (n, nw) = stats.last().map_or((0, 0), |s| (s.modules, s.param_words));
-            let bytes = string_bytes(n, nw) + 8 * (n + 1) + 4 * n + string_bytes(next.0, next.1);
+            let bytes =
+                self.string_bytes(n, nw) + 8 * (n + 1) + 4 * n + self.string_bytes(next.0, next.1);
             if next.0 > opts.cpu_prefix || next.0 > opts.max_modules || bytes > opts.max_bytes {
                 break;
             }
@@ -705,9 +758,17 @@ impl<'a> GpuSystem<'a> {
         for (j, one) in strings.iter().enumerate() {
             let start = string.len() as u32;
             let mut h = vec![0u64; self.jobs[j].system.symbols.len()];
-            for (sym, p) in one.iter() {
+            if self.keyed && !one.has_keys() {
+                return None;
+            }
+            for (i, (sym, p)) in one.iter().enumerate() {
                 *h.get_mut(sym as usize)? += 1;
-                string.push(sym | ((j as u32) << SYS_SHIFT), p);
+                let tagged = sym | ((j as u32) << SYS_SHIFT);
+                if self.keyed {
+                    string.push_keyed(tagged, p, one.keys[i]);
+                } else {
+                    string.push(tagged, p);
+                }
             }
             hist.push(h);
             directory[j].start = start;
@@ -726,12 +787,39 @@ impl<'a> GpuSystem<'a> {
     fn reset_directory(&self, opts: &GpuDeriveOptions, prefix: Option<&Prefix>) {
         let mut dir = prefix.map_or_else(|| self.directory.clone(), |p| p.directory.clone());
         if let [one] = &mut dir[..] {
-            one.iterations = opts.iterations;
-            one.seed = opts.seed;
+            *one = self.single_entry(one, opts);
         }
         self.gpu
             .queue()
             .write_buffer(&self.tables, 0, bytemuck::cast_slice(&dir));
+    }
+
+    /// The directory entry of a derivation of one system: `e` with the
+    /// options' iterations, seed and that seed's root key.
+    pub(crate) fn single_entry(&self, e: &SystemEntry, opts: &GpuDeriveOptions) -> SystemEntry {
+        SystemEntry {
+            iterations: opts.iterations,
+            seed: opts.seed,
+            root_key: self.jobs[0].system.root_key(opts.seed),
+            ..*e
+        }
+    }
+
+    /// Device bytes of a string of this derivation (its identity keys
+    /// included where it carries them).
+    pub(crate) fn string_bytes(&self, modules: u64, words: u64) -> u64 {
+        string_bytes(modules, words) + key_bytes(modules, self.keyed)
+    }
+
+    /// Whether the strings carry identity keys (some system draws).
+    pub fn carries_keys(&self) -> bool {
+        self.keyed
+    }
+
+    /// Per job, whether its string read back carries identity keys (its
+    /// system draws random numbers, as `CompiledSystem::draws_randomly`).
+    pub(crate) fn job_keyed(&self) -> &[bool] {
+        &self.job_keyed
     }
 
     /// Each job's iterations in this derivation.
@@ -1019,15 +1107,16 @@ impl<'a> GpuSystem<'a> {
             if k > k0 {
                 let (n, nw) = bounds[k - 1];
                 max_in = max_in.max(n);
-                let bytes = string_bytes(n, nw) + 8 * (n + 1) + 4 * n + string_bytes(m, w);
+                let bytes =
+                    self.string_bytes(n, nw) + 8 * (n + 1) + 4 * n + self.string_bytes(m, w);
                 if m > opts.max_modules || bytes > opts.max_bytes {
                     return None;
                 }
             }
         }
         let levels = scan_levels(max_in);
-        let total = string_bytes(caps[0].0, caps[0].1)
-            + string_bytes(caps[1].0, caps[1].1)
+        let total = self.string_bytes(caps[0].0, caps[0].1)
+            + self.string_bytes(caps[1].0, caps[1].1)
             + 12 * (max_in + 1);
         let gpu = self.gpu;
         let fits = |what, b| gpu.check_storage(what, b).is_ok();
@@ -1044,6 +1133,7 @@ impl<'a> GpuSystem<'a> {
                 fits("output symbols", 4 * m)
                     && fits("output parameter starts", 4 * (m + 1))
                     && fits("output parameters", 4 * w)
+                    && (!self.keyed || fits("output identity keys", 4 * m))
             })
             && fits("output counts", 8 * (max_in + 1))
             && gpu.grid("count", groups_for(max_in + 1)).is_ok();
@@ -1107,6 +1197,7 @@ impl<'a> GpuSystem<'a> {
             &[DeriveParams {
                 systems: self.jobs.len() as u32,
                 iteration: k0 as u32,
+                keyed: u32::from(self.keyed),
                 ..DeriveParams::default()
             }],
         )?;
@@ -1175,6 +1266,8 @@ impl<'a> GpuSystem<'a> {
                         &o.starts,
                         &o.params,
                         &status,
+                        self.keys_of(i, 0),
+                        self.keys_of(o, 1),
                         &sums[0],
                     ],
                 )
@@ -1339,9 +1432,7 @@ impl<'a> GpuSystem<'a> {
             let e = SystemEntry {
                 start: 0,
                 end: len as u32,
-                iterations: opts.iterations,
-                seed: opts.seed,
-                ..*one
+                ..self.single_entry(one, opts)
             };
             gpu.queue()
                 .write_buffer(&self.tables, 0, bytemuck::bytes_of(&e));
@@ -1437,6 +1528,8 @@ impl<'a> GpuSystem<'a> {
         }
     }
 
+    /// A string's buffers (with identity keys where the derivation
+    /// carries them).
     fn alloc_string(&self, modules: u64, words: u64) -> Result<DeviceString, GpuError> {
         Ok(DeviceString {
             syms: self.gpu.storage("output symbols", 4 * modules)?,
@@ -1444,9 +1537,20 @@ impl<'a> GpuSystem<'a> {
                 .gpu
                 .storage("output parameter starts", 4 * (modules + 1))?,
             params: self.gpu.storage("output parameters", 4 * words)?,
+            keys: if self.keyed {
+                Some(self.gpu.storage("output identity keys", 4 * modules)?)
+            } else {
+                None
+            },
             len: modules,
             words,
         })
+    }
+
+    /// The key buffer of `s` to bind, or a placeholder (`side` 0 for an
+    /// input, 1 for an output).
+    fn keys_of<'s>(&'s self, s: &'s DeviceString, side: usize) -> &'s wgpu::Buffer {
+        s.keys.as_ref().unwrap_or(&self.no_keys[side])
     }
 
     fn dispatch_derive(
@@ -1474,6 +1578,8 @@ impl<'a> GpuSystem<'a> {
                 &pass.out.starts,
                 &pass.out.params,
                 pass.status,
+                self.keys_of(pass.input, 0),
+                self.keys_of(pass.out, 1),
             ],
             groups_for(threads),
         )
@@ -1527,6 +1633,7 @@ impl<'a> GpuSystem<'a> {
             syms: self.gpu.storage("unused", 16)?,
             starts: self.gpu.storage("unused", 16)?,
             params: self.gpu.storage("unused", 16)?,
+            keys: None,
             len: 0,
             words: 0,
         };
@@ -1535,6 +1642,7 @@ impl<'a> GpuSystem<'a> {
             systems: self.jobs.len() as u32,
             iteration: 0,
             axiom: 1,
+            keyed: u32::from(self.keyed),
             ..DeriveParams::default()
         };
         let pass = Pass {
@@ -1625,6 +1733,7 @@ impl<'a> GpuSystem<'a> {
             })?,
             systems: self.jobs.len() as u32,
             iteration,
+            keyed: u32::from(self.keyed),
             ..DeriveParams::default()
         };
         let pass = Pass {
@@ -1670,7 +1779,7 @@ impl<'a> GpuSystem<'a> {
                 limit: opts.max_modules,
             });
         }
-        let bytes = input.bytes() + scratch + string_bytes(m, w);
+        let bytes = input.bytes() + scratch + self.string_bytes(m, w);
         if bytes > opts.max_bytes {
             return Err(GpuError::MemoryLimit {
                 iteration,
@@ -1878,11 +1987,17 @@ pub(crate) struct Prefix {
 }
 
 /// Write a host string into device buffers that hold at least its length
-/// (all three arrays, the last start included).
+/// (all three arrays, the last start included; the keys where both carry
+/// them).
 fn write_string(gpu: &Gpu, out: &DeviceString, s: &ModuleString) {
     let q = gpu.queue();
     if !s.syms.is_empty() {
         q.write_buffer(&out.syms, 0, bytemuck::cast_slice(&s.syms));
+        if let Some(k) = &out.keys
+            && s.has_keys()
+        {
+            q.write_buffer(k, 0, bytemuck::cast_slice(&s.keys));
+        }
     }
     q.write_buffer(&out.starts, 0, bytemuck::cast_slice(&s.starts));
     if !s.params.is_empty() {

@@ -22,8 +22,9 @@ const MIN_BUFFER: u64 = 256;
 pub const POOL_BYTES: u64 = 2 << 30;
 
 /// Storage buffers the largest kernel binds (`shaders/count_scan.wgsl`
-/// and the batched `rewrite_out`: 13 with their parameters).
-pub const MIN_STORAGE_BUFFERS: u32 = 13;
+/// and the batched `rewrite_out`: 15 with their parameters and the
+/// identity keys).
+pub const MIN_STORAGE_BUFFERS: u32 = 15;
 
 /// The shared GPU: adapter facts, device, queue, compiled pipelines.
 #[derive(Debug)]

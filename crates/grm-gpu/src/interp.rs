@@ -502,6 +502,7 @@ pub fn interpret_with(
             syms: gpu.upload("symbols", &string.syms)?,
             starts: gpu.upload("parameter starts", &string.starts)?,
             params: gpu.upload("parameters", &string.params)?,
+            keys: None,
             len: string.len() as u64,
             words: string.params.len() as u64,
         };

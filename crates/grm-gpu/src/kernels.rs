@@ -15,7 +15,7 @@ const DEVICE_PARAMS: (&str, &str) = ("PARAM_SPACE", "storage, read");
 /// from fully scanned counts (the per-iteration path) ...
 const GLOBAL_OFFSETS: (&str, &str) = ("OFFSETS", "offsets_global.wgsl");
 /// ... or from block-local offsets and block sums (`count_scan`, the
-/// batched kernels), with `block_sums` at the kernel's binding 12.
+/// batched kernels), with `block_sums` at the kernel's binding 14.
 const BLOCK_OFFSETS: (&str, &str) = ("OFFSETS", "offsets_blocks.wgsl");
 /// The scan operator's element in the kernels that include
 /// `offsets_blocks.wgsl` (saturating sums of pairs).
@@ -122,13 +122,17 @@ const fn binds<const N: usize>(params: Bind, reads: usize) -> [Bind; N] {
 
 /// The bindings of derive.wgsl: the parameters (`params`: a uniform the
 /// host wrote, or storage `batch_next` wrote), five read-only buffers
-/// (tables, the input string, bracket partners), the read-write rest;
-/// `N` = 13 adds the batched kernels' block sums (offsets_blocks.wgsl).
+/// (tables, the input string, bracket partners), six read-write ones
+/// (counts, choices, the output string, status), then the input's identity
+/// keys (read) and the output's (read-write); `N` = 15 adds the batched
+/// kernels' block sums (offsets_blocks.wgsl).
 const fn derive_binds<const N: usize>(params: Bind) -> [Bind; N] {
-    binds::<N>(params, 5)
+    let mut b = binds::<N>(params, 5);
+    b[12] = Bind::Read;
+    b
 }
 
-const DERIVE_BINDS: &[Bind] = &derive_binds::<12>(Bind::Uniform);
+const DERIVE_BINDS: &[Bind] = &derive_binds::<14>(Bind::Uniform);
 
 /// `CONTEXT_MATCH` of `derive.wgsl`: the bracket-aware context matching,
 /// in the kernels that context-sensitive systems use ...
@@ -258,11 +262,11 @@ derive_kernel!(
 /// writing a successor of about 1,500 one-parameter modules ran past that.
 pub const LONG_SUCCESSOR: u32 = 64;
 
-const DERIVE_DEV_BINDS: &[Bind] = &derive_binds::<13>(Bind::Read);
+const DERIVE_DEV_BINDS: &[Bind] = &derive_binds::<15>(Bind::Read);
 /// The batched derive kernels (parameters from the device, offsets from
-/// block sums at binding 12; no contexts: batched derivations are
+/// block sums at binding 14; no contexts: batched derivations are
 /// context-free).
-const BLOCK_SUMS_12: (&str, &str) = ("BLOCK_SUMS_BINDING", "12");
+const BLOCK_SUMS_14: (&str, &str) = ("BLOCK_SUMS_BINDING", "14");
 
 derive_kernel!(
     /// The batched derivation's count and first scan level in one dispatch
@@ -272,7 +276,7 @@ derive_kernel!(
     "count_scan.wgsl",
     "count_scan",
     DERIVE_DEV_BINDS,
-    [DEVICE_PARAMS, BLOCK_OFFSETS, BLOCK_SUMS_12, PAIRS, VM, NO_CTX]
+    [DEVICE_PARAMS, BLOCK_OFFSETS, BLOCK_SUMS_14, PAIRS, VM, NO_CTX]
 );
 derive_kernel!(
     /// [`COUNT_SCAN_DEV`] without the interpreter.
@@ -281,7 +285,7 @@ derive_kernel!(
     "count_scan.wgsl",
     "count_scan",
     DERIVE_DEV_BINDS,
-    [DEVICE_PARAMS, BLOCK_OFFSETS, BLOCK_SUMS_12, PAIRS, NO_VM, NO_CTX]
+    [DEVICE_PARAMS, BLOCK_OFFSETS, BLOCK_SUMS_14, PAIRS, NO_VM, NO_CTX]
 );
 derive_kernel!(
     /// [`REWRITE_OUT`] with its parameters written on the device and its
@@ -291,7 +295,7 @@ derive_kernel!(
     "derive.wgsl",
     "rewrite_out",
     DERIVE_DEV_BINDS,
-    [DEVICE_PARAMS, BLOCK_OFFSETS, BLOCK_SUMS_12, PAIRS, VM, NO_CTX]
+    [DEVICE_PARAMS, BLOCK_OFFSETS, BLOCK_SUMS_14, PAIRS, VM, NO_CTX]
 );
 derive_kernel!(
     /// [`REWRITE_OUT_DEV`] without the interpreter.
@@ -300,7 +304,7 @@ derive_kernel!(
     "derive.wgsl",
     "rewrite_out",
     DERIVE_DEV_BINDS,
-    [DEVICE_PARAMS, BLOCK_OFFSETS, BLOCK_SUMS_12, PAIRS, NO_VM, NO_CTX]
+    [DEVICE_PARAMS, BLOCK_OFFSETS, BLOCK_SUMS_14, PAIRS, NO_VM, NO_CTX]
 );
 
 /// The kernels of one derivation that evaluate the tables' code and match

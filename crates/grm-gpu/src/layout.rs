@@ -110,7 +110,10 @@ pub struct SystemEntry {
     pub start: u32,
     /// One past its last module.
     pub end: u32,
-    pub pad0: u32,
+    /// The root key of its derivation (`CompiledSystem::root_key(seed)`):
+    /// the parent key of its axiom's modules and the key of the axiom's
+    /// draws (`grm_compile::rng`, "Identity keys").
+    pub root_key: u32,
     pub pad1: u32,
     pub pad2: u32,
 }
@@ -125,7 +128,7 @@ pub const MAX_SYSTEMS: usize = 1 << (32 - SYS_SHIFT);
 /// The system directory record.
 pub fn directory_mirror() -> Mirror {
     mirror_struct!(SystemEntry as SystemEntry {
-        base: u32, iterations: u32, seed: u32, start: u32, end: u32, pad0: u32, pad1: u32, pad2: u32,
+        base: u32, iterations: u32, seed: u32, start: u32, end: u32, root_key: u32, pad1: u32, pad2: u32,
     })
 }
 
@@ -278,7 +281,10 @@ gpu_struct! {
         pub iteration: u32 => "u32",
         /// 1: write the axiom instead of rewriting the input.
         pub axiom: u32 => "u32",
-        pub pad0: u32 => "u32",
+        /// 1: the strings carry identity keys (`in_keys`, `out_keys`):
+        /// draws are keyed by them and the rewrite writes them; 0: no
+        /// system draws, the key buffers are not read or written.
+        pub keyed: u32 => "u32",
         pub pad1: u32 => "u32",
         pub pad2: u32 => "u32",
     }

@@ -276,7 +276,7 @@ pub fn run_many(
             let t = Instant::now();
             let all = string.read(gpu)?;
             readback_elapsed += t.elapsed();
-            strings = Some(split_string(&all, &dir)?);
+            strings = Some(split_string(&all, &dir, g.job_keyed())?);
         }
         gpu.recycle(string.into_buffers());
         let job_modules: Vec<u64> = ranges.iter().map(|&(a, b)| b - a).collect();

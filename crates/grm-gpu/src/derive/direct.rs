@@ -533,7 +533,9 @@ impl GpuSystem<'_> {
     /// string of the stepwise derivation would be over a limit (the
     /// stepwise path then reports it exactly).
     pub(crate) fn direct_plan(&self, opts: &GpuDeriveOptions) -> Option<DirectPlan> {
-        if opts.iterations == 0 {
+        // A system that draws (its axiom, say) carries identity keys,
+        // which the walks do not compute: it is derived stepwise.
+        if opts.iterations == 0 || self.keyed {
             return None;
         }
         let its = self.job_iterations(opts);
@@ -713,8 +715,7 @@ impl GpuSystem<'_> {
             e.end = start as u32;
         }
         if let [one] = &mut dir[..] {
-            one.iterations = opts.iterations;
-            one.seed = opts.seed;
+            *one = self.single_entry(one, opts);
         }
         gpu.queue()
             .write_buffer(&self.tables, 0, bytemuck::cast_slice(&dir));

@@ -60,13 +60,34 @@ pub fn cpu_derive(
     grm_derive::derive(sys, &opts, 1, &mut |_| {}).map(|d| d.string)
 }
 
+/// The two strings carry the same identity keys (`grm_compile::rng`,
+/// "Identity keys"), or neither carries any.
+pub fn assert_same_keys(what: &str, a: &grm_derive::ModuleString, b: &grm_derive::ModuleString) {
+    assert_eq!(
+        a.keys.is_empty(),
+        b.keys.is_empty(),
+        "{what}: one string carries identity keys ({} and {} keys)",
+        a.keys.len(),
+        b.keys.len()
+    );
+    if let Some(i) = (0..a.keys.len().min(b.keys.len())).find(|&i| a.keys[i] != b.keys[i]) {
+        panic!(
+            "{what}: module {i}: identity key {:#010x}, then {:#010x}",
+            a.keys[i], b.keys[i]
+        );
+    }
+    assert_eq!(a.keys.len(), b.keys.len(), "{what}: identity keys");
+}
+
 /// Relative tolerance of GPU parameters against the CPU's (see the crate
 /// docs: arithmetic agrees exactly; transcendental functions to a few ulps,
 /// which iterated expressions can grow).
 pub const PARAM_TOLERANCE: f32 = 1e-4;
 
-/// Assert that two derived strings are the same: symbols and starts
-/// exactly, parameters within [`PARAM_TOLERANCE`].
+/// Assert that two derived strings are the same: symbols, starts and
+/// identity keys exactly (both carry keys or neither does: a string of a
+/// system that draws carries them on both engines), parameters within
+/// [`PARAM_TOLERANCE`].
 pub fn assert_same(what: &str, cpu: &grm_derive::ModuleString, gpu: &grm_derive::ModuleString) {
     assert_eq!(cpu.len(), gpu.len(), "{what}: lengths");
     if let Some(i) = (0..cpu.len()).find(|&i| cpu.syms[i] != gpu.syms[i]) {
@@ -76,6 +97,7 @@ pub fn assert_same(what: &str, cpu: &grm_derive::ModuleString, gpu: &grm_derive:
         );
     }
     assert_eq!(cpu.starts, gpu.starts, "{what}: parameter starts");
+    assert_same_keys(what, cpu, gpu);
     for (k, (c, g)) in cpu.params.iter().zip(&gpu.params).enumerate() {
         let ok = c.to_bits() == g.to_bits() || (c - g).abs() <= PARAM_TOLERANCE * c.abs().max(1.0);
         assert!(
@@ -119,10 +141,12 @@ pub fn inline_program(src: &str) -> Option<(grm_sema::Program, grm_compile::Comp
     Some((p, c))
 }
 
-/// The two strings are identical, parameters bit for bit.
+/// The two strings are identical, parameters bit for bit, identity keys
+/// included.
 pub fn same_bits(what: &str, a: &grm_derive::ModuleString, b: &grm_derive::ModuleString) {
     assert_eq!(a.syms, b.syms, "{what}: symbols");
     assert_eq!(a.starts, b.starts, "{what}: starts");
+    assert_same_keys(what, a, b);
     let bits =
         |s: &grm_derive::ModuleString| s.params.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     assert_eq!(bits(a), bits(b), "{what}: parameters");
