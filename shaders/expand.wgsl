@@ -17,7 +17,10 @@
 // the slot's constants, or the axiom module's own parameters when no step
 // was taken; expand_vm.wgsl evaluates the chain of computed parameters
 // from the last slot with constant ones down to the module, with the
-// bytecode interpreter). Module writes are coalesced; there is no scan,
+// bytecode interpreter). Its identity key (E.keyed: some system draws) is
+// the axiom module's key with child_key(key, slot salt) applied at each
+// step taken, as the stepwise rewrites derive it (a module that stays
+// itself keeps its key). Module writes are coalesced; there is no scan,
 // no atomic (but on the error path), and nothing is read but the small
 // tables: the derivation costs one pass over the output.
 //!include grid.wgsl
@@ -35,8 +38,10 @@
 @group(0) @binding(7) var<storage, read_write> out_syms: array<u32>;
 @group(0) @binding(8) var<storage, read_write> out_starts: array<u32>;
 @group(0) @binding(9) var<storage, read_write> out_params: array<f32>;
-// walk_begin(), walk_step(slot), write_params(job, input module, first word).
+// walk_begin(), walk_step(slot), write_params(job, input module, first word);
+// the key bindings `in_keys` (per axiom module) and `out_keys`.
 //!include EXPAND_PARAMS
+//!include rng.wgsl
 
 @compute @workgroup_size(WORKGROUP)
 fn expand(
@@ -70,6 +75,10 @@ fn expand(
     var rest = o - in_offs[lo].x;
     var wo = in_offs[lo].y;
     walk_begin();
+    var key = 0u;
+    if (E.keyed != 0u) {
+        key = in_keys[lo];
+    }
     var r = j.steps;
     while (r > 0u) {
         let first = xt[j.symbols + 2u * s];
@@ -92,10 +101,14 @@ fn expand(
         wo = wo + xt[row + 2u * a + 1u];
         let slot = j.slots + EXPAND_SLOT_WORDS * (first + a);
         walk_step(slot);
+        key = child_key(key, xt[slot + 7u]);
         s = xt[slot];
         r = r - 1u;
     }
     out_syms[o] = s | (job << SYS_SHIFT);
     out_starts[o] = wo;
+    if (E.keyed != 0u) {
+        out_keys[o] = key;
+    }
     write_params(job, lo, wo);
 }

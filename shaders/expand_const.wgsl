@@ -1,6 +1,9 @@
 // The direct derivation's parameters (expand.wgsl) where every successor
 // slot's parameters are constants: a module's parameters are those of the
 // slot it came from, or the axiom module's own when no step was taken.
+// Bindings 10 and 11: the axiom modules' identity keys and the output's.
+@group(0) @binding(10) var<storage, read> in_keys: array<u32>;
+@group(0) @binding(11) var<storage, read_write> out_keys: array<u32>;
 
 var<private> last_slot: u32;
 

@@ -10,6 +10,9 @@
 // derives stepwise, which reports the error exactly.
 @group(0) @binding(10) var<storage, read> tables: array<u32>;
 @group(0) @binding(11) var<storage, read_write> status: array<atomic<u32>>;
+// The axiom modules' identity keys and the output's.
+@group(0) @binding(12) var<storage, read> in_keys: array<u32>;
+@group(0) @binding(13) var<storage, read_write> out_keys: array<u32>;
 //!include generated_tables
 //!include vm.wgsl
 

@@ -503,34 +503,43 @@ pub static BATCH_NEXT: Kernel = Kernel {
 
 const EXPAND_BINDS: [Bind; 10] = binds::<10>(Bind::Uniform, 6);
 
+/// [`EXPAND_BINDS`], then (read, read-write) pairs from binding 10: `N` =
+/// 12 the identity keys (axiom modules', output's); 14 the packed tables
+/// and the status, then the keys.
+const fn expand_binds<const N: usize>() -> [Bind; N] {
+    let mut b = [Bind::ReadWrite; N];
+    let mut i = 0;
+    while i < 10 {
+        b[i] = EXPAND_BINDS[i];
+        i += 1;
+    }
+    while i < N {
+        b[i] = Bind::Read;
+        i += 2;
+    }
+    b
+}
+
 /// The direct derivation (`expand.wgsl`): the final string of
 /// deterministic, context-free systems in one pass, where every successor
-/// parameter is a constant.
+/// parameter is a constant; the identity keys at bindings 10 and 11.
 pub static EXPAND: Kernel = Kernel {
     name: "expand",
     file: "expand.wgsl",
     entry: "expand",
-    bindings: &EXPAND_BINDS,
+    bindings: &expand_binds::<12>(),
     subst: &[("EXPAND_PARAMS", "expand_const.wgsl")],
 };
 
 /// [`EXPAND`] where some successor parameters are computed: the chain of
 /// computed parameters is evaluated with the bytecode interpreter, which
-/// reads the systems' packed tables (binding 10); errors in binding 11.
+/// reads the systems' packed tables (binding 10); errors in binding 11;
+/// the identity keys at 12 and 13.
 pub static EXPAND_VM: Kernel = Kernel {
     name: "expand_vm",
     file: "expand.wgsl",
     entry: "expand",
-    bindings: &{
-        let mut b = [Bind::ReadWrite; 12];
-        let mut i = 0;
-        while i < 10 {
-            b[i] = EXPAND_BINDS[i];
-            i += 1;
-        }
-        b[10] = Bind::Read;
-        b
-    },
+    bindings: &expand_binds::<14>(),
     subst: &[("EXPAND_PARAMS", "expand_vm.wgsl"), VM],
 };
 

@@ -316,16 +316,19 @@ gpu_struct! {
         pub total: u32 => "u32",
         /// Parameter words of the final string.
         pub total_words: u32 => "u32",
-        pub pad0: u32 => "u32",
+        /// 1: write the final string's identity keys (from the axiom
+        /// modules' keys and the slots' salts); 0: no system draws.
+        pub keyed: u32 => "u32",
     }
 }
 
 /// Words of one successor slot in the expansion tables: its symbol, its
 /// parameter words, where its constant parameters are in the expansion
 /// tables (`NONE`: computed), its first parameter expression and their
-/// count in its system's parameter table, and where its predecessor's
-/// parameters are bound for them (binding word, words).
-pub const EXPAND_SLOT_WORDS: u32 = 7;
+/// count in its system's parameter table, where its predecessor's
+/// parameters are bound for them (binding word, words), and its identity
+/// salt (`SuccModule::salt`).
+pub const EXPAND_SLOT_WORDS: u32 = 8;
 
 /// The most rewriting steps a direct derivation takes: each output module
 /// walks down one tree level per step, so a long derivation of a slowly

@@ -36,6 +36,7 @@ use std::time::Instant;
 
 use grm_compile::CompiledSystem;
 use grm_compile::op::{Op, decode};
+use grm_compile::rng::child_key;
 use grm_compile::table::{NONE, PARAM_CODE, PARAM_CONST, SuccModule};
 use grm_derive::ModuleString;
 
@@ -236,6 +237,7 @@ fn expansion(sys: &CompiledSystem, steps: u32, words: &mut Vec<u32>) -> Option<E
                 m.param_count,
                 g.pred_bind_offset,
                 g.pred_bind_words,
+                m.salt,
             ]);
             k += 1;
         }
@@ -428,6 +430,7 @@ impl DirectPlan {
         its: &[u32],
         seeds: &[u32],
         k_max: usize,
+        keyed: bool,
     ) -> Option<DirectPlan> {
         let mut words = Vec::new();
         let mut headers = Vec::with_capacity(jobs.len());
@@ -485,9 +488,21 @@ impl DirectPlan {
                 }
             };
             let start = pos;
-            for (sym, p) in axiom.iter() {
+            // The axiom modules' identity keys (the CPU engine's: children
+            // of the root key), where the derivation carries keys.
+            let salts = succ_of(sys, sys.alts.get(sys.axiom_alt as usize)?)?;
+            if keyed && salts.len() != axiom.len() {
+                return None;
+            }
+            let root = sys.root_key(seed);
+            for (i, (sym, p)) in axiom.iter().enumerate() {
                 let s = sym as usize;
-                axioms.push(sym | ((j as u32) << SYS_SHIFT), p);
+                let tagged = sym | ((j as u32) << SYS_SHIFT);
+                if keyed {
+                    axioms.push_keyed(tagged, p, child_key(root, salts[i].salt));
+                } else {
+                    axioms.push(tagged, p);
+                }
                 in_offs.push([u32::try_from(pos).ok()?, u32::try_from(wpos).ok()?]);
                 let (m, w) = *size.get(steps as usize)?.get(s)?;
                 walk_evals = walk_evals.saturating_add(x.walk_evals[steps as usize][s]);
@@ -533,9 +548,7 @@ impl GpuSystem<'_> {
     /// string of the stepwise derivation would be over a limit (the
     /// stepwise path then reports it exactly).
     pub(crate) fn direct_plan(&self, opts: &GpuDeriveOptions) -> Option<DirectPlan> {
-        // A system that draws (its axiom, say) carries identity keys,
-        // which the walks do not compute: it is derived stepwise.
-        if opts.iterations == 0 || self.keyed {
+        if opts.iterations == 0 {
             return None;
         }
         let its = self.job_iterations(opts);
@@ -544,7 +557,13 @@ impl GpuSystem<'_> {
         } else {
             self.jobs.iter().map(|j| j.seed).collect()
         };
-        let plan = DirectPlan::new(&self.jobs, &its, &seeds, opts.iterations as usize)?;
+        let plan = DirectPlan::new(
+            &self.jobs,
+            &its,
+            &seeds,
+            opts.iterations as usize,
+            self.keyed,
+        )?;
         let (total, total_words) = plan.total();
         if opts.cpu_prefix > 0 && total <= opts.cpu_prefix {
             return None;
@@ -596,13 +615,15 @@ impl GpuSystem<'_> {
         // Everything the kernel reads, in one upload: each part at an
         // aligned offset of one pooled buffer (one write, one binding
         // range each).
-        let parts: [&[u8]; 6] = [
+        let parts: [&[u8]; 7] = [
             bytemuck::cast_slice(&plan.jobs),
             bytemuck::cast_slice(&plan.words),
             bytemuck::cast_slice(&ax.syms),
             bytemuck::cast_slice(&ax.starts),
             bytemuck::cast_slice(&ax.params),
             bytemuck::cast_slice(&plan.in_offs),
+            // The axiom modules' identity keys (empty without keys).
+            bytemuck::cast_slice(&ax.keys),
         ];
         let align = gpu.storage_offset_alignment() as usize;
         let mut packed: Vec<u8> = Vec::new();
@@ -626,11 +647,11 @@ impl GpuSystem<'_> {
                 n_in: ax.len() as u32,
                 total: total as u32,
                 total_words: total_words as u32,
-                ..ExpandParams::default()
+                keyed: u32::from(self.keyed),
             },
         );
         let mut bufs: Vec<(&wgpu::Buffer, u64, Option<u64>)> = vec![(&params, 0, None)];
-        bufs.extend(at.iter().map(|&(o, n)| (&input, o, n)));
+        bufs.extend(at[..6].iter().map(|&(o, n)| (&input, o, n)));
         bufs.extend([
             (&out.syms, 0, None),
             (&out.starts, 0, None),
@@ -642,6 +663,7 @@ impl GpuSystem<'_> {
         } else {
             &kernels::EXPAND
         };
+        bufs.extend([(&input, at[6].0, at[6].1), (self.keys_of(&out, 1), 0, None)]);
         let bound = gpu.bound_ranges(kernel, &bufs)?;
         let grid = gpu.grid("expand", groups_for(total + 1))?;
         // Profiling: one pass; the kernel is the "rewrite" stage (the
