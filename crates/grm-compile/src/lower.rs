@@ -757,7 +757,12 @@ impl Lowerer<'_> {
     /// ([`crate::rng::draw_index`]: local to the group, above its ordinal).
     fn draw(&mut self, n: u32, span: Span) -> Result<u32, CompileError> {
         if self.local_draw + n > 0x1_0000 || self.group_ordinal > 0xFF {
-            return Err(self.err(CompileErrorKind::TooLarge { what: "random draws" }, span));
+            return Err(self.err(
+                CompileErrorKind::TooLarge {
+                    what: "random draws",
+                },
+                span,
+            ));
         }
         let d = crate::rng::draw_index(self.group_ordinal, self.local_draw);
         let d = self.check_operand(d, span)?;

@@ -275,6 +275,21 @@ fn commit(tmp: tempfile::NamedTempFile, path: &Path) -> Result<(), ExportError> 
     Ok(())
 }
 
+/// Write a file the way every export is written: `write` fills a temporary
+/// file beside `path` (private while written), which then gets the
+/// permissions of the file it replaces (or 0644) and is renamed over
+/// `path`. Any failure leaves no file behind and `path` as it was. For
+/// the other files the tools write beside a model (`--tree`).
+pub fn write_atomic(
+    path: &Path,
+    write: impl FnOnce(&mut dyn Write) -> io::Result<()>,
+) -> Result<(), ExportError> {
+    if path.is_dir() {
+        return Err(io_error(path, io::ErrorKind::IsADirectory.into()));
+    }
+    commit(stage(path, write)?, path)
+}
+
 /// Write `[f32; 3]`s little-endian, in chunks.
 fn write_f32s(w: &mut dyn Write, vs: &[[f32; 3]]) -> io::Result<()> {
     let mut buf = [0u8; 12 * 1024];

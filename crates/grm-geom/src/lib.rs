@@ -42,7 +42,9 @@ use grm_diag::{Code, Diagnostic, FileId, Span};
 use grm_sema::{MaterialProp, Program, Settings, System, Value};
 use grm_turtle::{Aabb, InstanceKind, Interpretation, Paint, TurtleError};
 
-pub use export::{ExportError, ExportFormat, export, export_as, export_image, write_image};
+pub use export::{
+    ExportError, ExportFormat, export, export_as, export_image, write_atomic, write_image,
+};
 pub use grm_turtle;
 pub use mesh::MeshData;
 

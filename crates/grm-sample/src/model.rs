@@ -21,6 +21,12 @@ pub struct TreeNode {
     /// non-terminal's ordinal among those the turtle met in that node's
     /// successor; `None` for the axiom.
     pub parent: Option<(u32, u32)>,
+    /// The expanded module's identity key (`grm_compile::rng`, "Identity
+    /// keys"): the run's root key for the axiom, else `child_key(the
+    /// parent's key, the module's salt)`, as in a derivation. The model's
+    /// string carries the keys of all its modules
+    /// ([`SampledModel::string`]`.keys`).
+    pub key: u32,
     pub kind: NodeKind,
     /// The expanded symbol (`u32::MAX` for the axiom).
     pub symbol: u32,

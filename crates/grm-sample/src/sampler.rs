@@ -1672,6 +1672,9 @@ impl<'a> Sampler<'a> {
             turtle: Turtle,
             parent: Option<(u32, u32)>,
             depth: u32,
+            /// The expanded module's identity key (the root key for the
+            /// axiom).
+            key: u32,
         }
         let mut interp = Interpreter::from_parts(self.g.ops.clone(), self.g.cfg);
         let mut string = ModuleString::new();
@@ -1683,6 +1686,7 @@ impl<'a> Sampler<'a> {
             turtle: self.g.initial_turtle(),
             parent: None,
             depth: 0,
+            key: sys.root_key(seed),
         }];
         let mut geometry = 0u64;
         while let Some(item) = stack.pop() {
@@ -1703,7 +1707,8 @@ impl<'a> Sampler<'a> {
                 for m in sys.successor(a) {
                     let n = self.g.words[m.symbol as usize] as usize;
                     let o = m.word_offset as usize;
-                    string.push(m.symbol, params.get(o..o + n).unwrap_or(&[]));
+                    let key = grm_compile::rng::child_key(item.key, m.salt);
+                    string.push_keyed(m.symbol, params.get(o..o + n).unwrap_or(&[]), key);
                     origins.push(alt);
                 }
             }
@@ -1717,6 +1722,7 @@ impl<'a> Sampler<'a> {
             let b1 = interp.output().bones.len() as u32;
             tree.nodes.push(TreeNode {
                 parent: item.parent,
+                key: item.key,
                 kind,
                 symbol,
                 alt: (alt != INERT).then_some(alt),
@@ -1734,6 +1740,7 @@ impl<'a> Sampler<'a> {
                         turtle: t,
                         parent,
                         depth: 0,
+                        key: string.keys[i],
                     });
                     continue;
                 }
@@ -1780,6 +1787,7 @@ impl<'a> Sampler<'a> {
                         turtle: t,
                         parent,
                         depth,
+                        key: string.keys[i],
                     });
                 }
             }

@@ -574,16 +574,26 @@ fn vine_wall_example_samples() {
     // runner(k) grows up its frame.
     let e = s.expected_direction("runner").expect("runner");
     assert!(e.y > 0.1, "{e}");
-    let r = s
-        .sample(&SampleOptions {
-            seed: 3,
-            schedule: small(),
-            ..SampleOptions::default()
-        })
-        .expect("samples");
-    let m = r.best().expect("model");
-    assert!(m.cost.total() < 0.0, "{}", m.cost.total());
-    assert!(!m.interpretation.instances.is_empty());
+    // Over several seeds (one seed of a small search can land far from a
+    // curve): most models lie along the curves (negative cost).
+    let mut costs = Vec::new();
+    let mut best = None;
+    for seed in 1..=5 {
+        let r = s
+            .sample(&SampleOptions {
+                seed,
+                schedule: small(),
+                ..SampleOptions::default()
+            })
+            .expect("samples");
+        let m = r.best().expect("model").clone();
+        costs.push(m.cost.total());
+        assert!(!m.interpretation.instances.is_empty());
+        best = Some(m);
+    }
+    let below = costs.iter().filter(|&&c| c < 0.0).count();
+    assert!(below >= 4, "{costs:?}");
+    let m = best.expect("a model");
     let model = m
         .build(&p, &grm_geom::BuildOptions::default())
         .expect("builds");
