@@ -67,6 +67,12 @@ pub struct DeriveArgs {
     /// Derive (and interpret) on the GPU (grm-gpu; docs/gpu.md).
     #[arg(long)]
     pub gpu: bool,
+    /// Write the derivation tree as JSON: every module that existed, its
+    /// identity key, parent, symbol, the production that rewrote it (with
+    /// its source range) and what the final string's modules drew
+    /// (docs/engine.md, "Identity"). Not with --gpu.
+    #[arg(long, value_name = "FILE.json", conflicts_with = "gpu")]
+    pub tree: Option<PathBuf>,
     /// With `--gpu`: derive on the CPU when no GPU can be used or the
     /// derivation outgrows the device.
     #[arg(long, requires = "gpu")]
@@ -402,6 +408,13 @@ pub fn run(args: DeriveArgs) -> Outcome {
     if let Some(o) = check_output_format(&loaded, args.output.as_deref(), &args.image) {
         return o;
     }
+    if let Some(o) = args
+        .tree
+        .as_deref()
+        .and_then(|p| crate::tree::check_path(&loaded, p))
+    {
+        return o;
+    }
     let iterations = args
         .iterations
         .unwrap_or(loaded.compiled.settings.iterations);
@@ -423,10 +436,15 @@ pub fn run(args: DeriveArgs) -> Outcome {
         seed: args.seed.unwrap_or(c.settings.seed),
         limits: limits(args.max_modules, args.max_memory),
     };
-    let engine = match Engine::new(c, args.threads) {
-        Ok(e) => e,
+    let record = grm_grow::Record {
+        tree: args.tree.is_some(),
+        ..grm_grow::Record::default()
+    };
+    let grower = match grm_grow::Grower::new(c, args.threads, record) {
+        Ok(g) => g,
         Err(e) => return report_derive_error(&loaded.sources, c, &e),
     };
+    let engine = grower.engine();
     let bar = (!args.stats && std::io::stderr().is_terminal() && opts.iterations > 0).then(|| {
         let b = indicatif::ProgressBar::new(u64::from(opts.iterations));
         b.set_style(
@@ -464,7 +482,7 @@ pub fn run(args: DeriveArgs) -> Outcome {
             b.set_message(format!("{} modules", s.modules));
         }
     };
-    let result = engine.derive(&opts, &mut progress);
+    let result = grower.derive(&opts, &mut progress);
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
@@ -498,9 +516,22 @@ pub fn run(args: DeriveArgs) -> Outcome {
             grm_compile::text::string_text(&loaded.program, loaded.system(), d.string.iter())
         );
     }
+    if let (Some(path), Some(tree)) = (&args.tree, &d.tree) {
+        let interp = match grm_geom::grm_turtle::interpret(loaded.system(), &c.settings, &d.string) {
+            Ok(i) => Some(i),
+            Err(e) => {
+                eprintln!("warning: the tree's bones are left out: {e}");
+                None
+            }
+        };
+        let o = crate::tree::write(&loaded, tree, interp.as_ref(), path);
+        if o != Outcome::Ok {
+            return o;
+        }
+    }
     if let Some(path) = &args.output {
         if args.frames {
-            return export_frames(&loaded, &engine, &opts, &d.string, path, &args.image);
+            return export_frames(&loaded, engine, &opts, &d.string, path, &args.image);
         }
         return export_string(&loaded, &d.string, path, &args.image);
     }

@@ -32,6 +32,7 @@ mod forest;
 mod gpu;
 mod lsp;
 mod sample;
+mod tree;
 mod view;
 
 use clap::{Parser, Subcommand, ValueEnum};

@@ -122,6 +122,12 @@ pub struct SampleArgs {
     /// frame. Not with --frames or --best.
     #[arg(long, value_name = "K", conflicts_with_all = ["frames", "best"])]
     pub generation: Option<u32>,
+    /// Write the best model's derivation tree as JSON: every expansion,
+    /// its identity key, parent, symbol, the production applied (with its
+    /// source range), its modules, bones and instances (docs/engine.md,
+    /// "Identity").
+    #[arg(long, value_name = "FILE.json")]
+    pub tree: Option<PathBuf>,
     #[command(flatten)]
     pub image: crate::derive::ImageArgs,
 }
@@ -265,7 +271,13 @@ pub fn run(args: SampleArgs) -> Outcome {
         return report(&loaded, &e);
     }
     if let Some(o) =
-        crate::derive::check_output_format(&loaded, args.output.as_deref(), &args.image)
+        crate::derive::check_output_format(&loaded, args.output.as_deref(), &args.image).or_else(
+            || {
+                args.tree
+                    .as_deref()
+                    .and_then(|p| crate::tree::check_path(&loaded, p))
+            },
+        )
     {
         return o;
     }
@@ -477,6 +489,13 @@ pub fn run(args: SampleArgs) -> Outcome {
         ms(result.elapsed),
         100.0 * min_share,
     );
+    if let (Some(path), Some(m)) = (&args.tree, reported.first()) {
+        let tree = grm_grow::Tree::from_sampled(m, opts.seed, c.root_key(opts.seed));
+        let o = crate::tree::write(&loaded, &tree, Some(&m.interpretation), path);
+        if o != Outcome::Ok {
+            return o;
+        }
+    }
     if let Some(path) = &args.output
         && args.frames
     {
