@@ -141,6 +141,10 @@ codes! {
     ImportCycle = "E0403", Error, "import cycle";
     /// A file that could not be read as UTF-8 text.
     InvalidEncoding = "E0404", Error, "file is not valid UTF-8";
+    /// A grammar file named on the command line that cannot be read: it
+    /// does not exist, is no regular file (a directory, device or pipe), is
+    /// too large, or reading it failed.
+    FileUnreadable = "E0405", Error, "file cannot be read";
 
     // ---- W0xxx: warnings -------------------------------------------------
     /// A parameter bound in a predecessor and never used.
@@ -303,6 +307,11 @@ codes! {
     GpuDeviceLost = "R0610", Error, "GPU device lost";
     /// Internal (environment): reading results back from the GPU failed.
     GpuReadback = "R0611", Error, "GPU read-back failed";
+
+    // R07xx: choosing what to run (`grmc derive`, `forest`, `sample`, `disasm`)
+    /// No system to run: the file (with its imports) defines none, or none
+    /// of the name given with `--system`.
+    NoSystemToRun = "R0701", Error, "no system to run";
 }
 
 impl std::fmt::Display for Code {

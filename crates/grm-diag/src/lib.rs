@@ -21,6 +21,7 @@
 //!   LSP positions alike.
 
 pub mod codes;
+pub mod input;
 mod render;
 
 pub use codes::Code;

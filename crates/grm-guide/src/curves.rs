@@ -35,6 +35,11 @@ pub const MAX_COORDINATE: f64 = 1e6;
 /// particle carries one counter per segment).
 pub const MAX_SEGMENTS_TOTAL: usize = 8192;
 
+/// The largest curves file [`Curves::load`] reads: far more than guiding
+/// curves need (the examples' files are under 1 KiB); a larger file is
+/// refused unread.
+pub const MAX_CURVES_BYTES: u64 = 16 << 20;
+
 /// Per-curve cost parameters (Calder section 3.3).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CurveParams {
@@ -246,10 +251,14 @@ impl std::error::Error for CurvesError {
 impl Curves {
     /// Reads and validates a curves file. Errors name the file by the path
     /// as given.
+    ///
+    /// Only a regular file of at most [`MAX_CURVES_BYTES`] is read
+    /// (`grm_diag::input::read_bounded`): `--curves /dev/zero` read without
+    /// end, and a named pipe waited forever.
     pub fn load(path: impl AsRef<Path>) -> Result<Curves, CurvesError> {
         let path = path.as_ref();
         let file = path.display().to_string();
-        match std::fs::read_to_string(path) {
+        match grm_diag::input::read_bounded_string(path, MAX_CURVES_BYTES, "a curves file") {
             Ok(text) => Self::from_json_str(&file, &text),
             Err(e) => Err(CurvesError {
                 file,

@@ -58,6 +58,6 @@ pub use cost::{
 };
 pub use curves::{
     CurveParams, Curves, CurvesError, CurvesErrorKind, DensityParams, FORMAT_VERSION, GuideCurve,
-    Location, MAX_SEGMENTS_PER_CURVE, MAX_SEGMENTS_TOTAL,
+    Location, MAX_CURVES_BYTES, MAX_SEGMENTS_PER_CURVE, MAX_SEGMENTS_TOTAL,
 };
 pub use volume::{VolumeCost, VolumeError, VolumeOptions, VolumeState, VolumeTarget};

@@ -48,41 +48,16 @@ pub struct FsLoader;
 pub const MAX_SOURCE_BYTES: u64 = 16 << 20;
 
 impl FileLoader for FsLoader {
-    /// Only regular files are read: an `import` of `/dev/zero` would read
-    /// forever, and one of `/dev/stdin` in the language server would eat
-    /// its protocol stream.
+    /// Only regular files are read (`grm_diag::input::read_bounded`, as
+    /// for every file a user names): an `import` of `/dev/zero` would read
+    /// forever, one of a named pipe wait forever, and one of `/dev/stdin`
+    /// in the language server would eat its protocol stream.
     fn read(&self, path: &Path) -> Result<String, LoadError> {
-        use std::io::Read;
-        let io = |e: std::io::Error| match e.kind() {
-            std::io::ErrorKind::NotFound => LoadError::NotFound,
-            _ => LoadError::Other(e.to_string()),
-        };
-        let meta = std::fs::metadata(path).map_err(io)?;
-        if !meta.is_file() {
-            return Err(LoadError::Other(if meta.is_dir() {
-                "it is a directory".to_string()
-            } else {
-                "it is not a regular file".to_string()
-            }));
-        }
-        let too_big = || {
-            LoadError::Other(format!(
-                "it is larger than {} MiB, the most a grammar file may be",
-                MAX_SOURCE_BYTES >> 20
-            ))
-        };
-        if meta.len() > MAX_SOURCE_BYTES {
-            return Err(too_big());
-        }
-        let file = std::fs::File::open(path).map_err(io)?;
-        let mut bytes = Vec::with_capacity(meta.len() as usize);
-        // A file that grows while it is read stops at the limit too.
-        file.take(MAX_SOURCE_BYTES + 1)
-            .read_to_end(&mut bytes)
-            .map_err(io)?;
-        if bytes.len() as u64 > MAX_SOURCE_BYTES {
-            return Err(too_big());
-        }
+        let bytes = grm_diag::input::read_bounded(path, MAX_SOURCE_BYTES, "a grammar file")
+            .map_err(|e| match e.kind() {
+                std::io::ErrorKind::NotFound => LoadError::NotFound,
+                _ => LoadError::Other(e.to_string()),
+            })?;
         String::from_utf8(bytes).map_err(|_| LoadError::NotUtf8)
     }
 

@@ -400,6 +400,52 @@ impl Program {
             .or_else(|| self.systems.first())
     }
 
+    /// The index of the system a run derives: the one named `name`, or
+    /// without a name the [default](Program::default_system). `Err` is the
+    /// R0701 diagnostic (no system at all, or none of that name), on the
+    /// start of the root file.
+    pub fn pick_system(&self, name: Option<&str>) -> Result<usize, grm_diag::Diagnostic> {
+        let found = match name {
+            Some(name) => self.systems.iter().position(|s| s.name == name),
+            None => self
+                .default_system()
+                .and_then(|d| self.systems.iter().position(|s| std::ptr::eq(s, d))),
+        };
+        found.ok_or_else(|| {
+            let code = grm_diag::Code::NoSystemToRun;
+            let at = Span::new(0, 0);
+            match name {
+                None => grm_diag::Diagnostic::new(
+                    code,
+                    "this file defines no system to run",
+                    self.root,
+                    at,
+                    "no `system NAME { ... }` in this file or its imports",
+                )
+                .with_help("add a `system NAME { ... }` block; see docs/language.md"),
+                Some(name) => {
+                    let names: Vec<String> = self
+                        .systems
+                        .iter()
+                        .map(|s| format!("`{}`", s.name))
+                        .collect();
+                    let d = grm_diag::Diagnostic::new(
+                        code,
+                        format!("this file has no system `{name}`"),
+                        self.root,
+                        at,
+                        format!("no system `{name}` in this file or its imports"),
+                    );
+                    if names.is_empty() {
+                        d.with_note("this file defines no system")
+                    } else {
+                        d.with_help(format!("the systems are {}", names.join(", ")))
+                    }
+                }
+            }
+        })
+    }
+
     pub fn system(&self, name: &str) -> Option<&System> {
         self.systems.iter().find(|s| s.name == name)
     }

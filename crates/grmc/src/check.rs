@@ -3,7 +3,7 @@
 use crate::{Outcome, OutputFormat};
 use grm_diag::{Diagnostic, Severity, SourceMap};
 use std::io::{IsTerminal, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(clap::Args, Debug)]
 pub struct CheckArgs {
@@ -20,41 +20,64 @@ pub struct CheckArgs {
 
 /// The bytes of a grammar file named on the command line, by the rules
 /// imports follow (`grm_sema::FsLoader`): a regular file of at most
-/// `MAX_SOURCE_BYTES` (`grmc check /dev/zero` read until memory ran out).
-fn read_source(path: &std::path::Path) -> std::io::Result<Vec<u8>> {
-    use std::io::Read;
-    let max = grm_sema::MAX_SOURCE_BYTES;
-    let meta = std::fs::metadata(path)?;
-    if meta.is_dir() {
-        return Err(std::io::Error::other("it is a directory"));
-    }
-    let too_big = || {
-        std::io::Error::other(format!(
-            "it is larger than {} MiB, the most a grammar file may be",
-            max >> 20
-        ))
-    };
-    if meta.is_file() && meta.len() > max {
-        return Err(too_big());
-    }
-    // Not a regular file (a pipe, `/dev/stdin`, process substitution): read
-    // it, but no more than a file may hold.
-    let mut bytes = Vec::new();
-    std::fs::File::open(path)?
-        .take(max + 1)
-        .read_to_end(&mut bytes)?;
-    if bytes.len() as u64 > max {
-        return Err(std::io::Error::other(format!(
-            "it is not a regular file, and it gave more than {} MiB, the most a grammar file may be",
-            max >> 20
-        )));
-    }
-    Ok(bytes)
+/// `MAX_SOURCE_BYTES`, read through the one bounded reader
+/// (`grm_diag::input`): `grmc check /dev/zero` read until memory ran out,
+/// `grmc fmt /dev/zero` 6.5 GB, and `grmc check FIFO` waited forever.
+pub fn read_source(path: &Path) -> std::io::Result<Vec<u8>> {
+    grm_diag::input::read_bounded(path, grm_sema::MAX_SOURCE_BYTES, "a grammar file")
 }
 
-/// Load and check one file. `Err` is an I/O problem with the file itself.
-pub fn load_and_check(path: &std::path::Path) -> Result<(SourceMap, grm_sema::Checked), String> {
-    let bytes = read_source(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+/// A grammar file named on the command line that could not be read: its
+/// E0405 diagnostic, in a source map of its own (the file, empty).
+#[derive(Debug)]
+pub struct Unreadable {
+    pub sources: SourceMap,
+    pub diagnostic: Diagnostic,
+}
+
+impl Unreadable {
+    pub fn new(path: &Path, e: &std::io::Error) -> Unreadable {
+        let mut sources = SourceMap::new();
+        let file = sources.add(path.display().to_string(), String::new());
+        let mut d = Diagnostic::new(
+            grm_diag::Code::FileUnreadable,
+            format!("cannot read {}: {e}", path.display()),
+            file,
+            grm_diag::Span::new(0, 0),
+            "named on the command line",
+        );
+        d = match e.kind() {
+            std::io::ErrorKind::NotFound => d.with_help("check the path"),
+            std::io::ErrorKind::IsADirectory | std::io::ErrorKind::InvalidInput => d.with_help(
+                "name a .grm file: grm reads only regular files (not a directory, device or pipe)",
+            ),
+            std::io::ErrorKind::FileTooLarge => d.with_note(format!(
+                "grm reads grammar files of at most {} MiB",
+                grm_sema::MAX_SOURCE_BYTES >> 20
+            )),
+            _ => d,
+        };
+        Unreadable {
+            sources,
+            diagnostic: d,
+        }
+    }
+
+    /// The diagnostic as `grmc` prints it on stderr.
+    pub fn render(&self, color: bool) -> String {
+        grm_diag::render_human(&self.diagnostic, &self.sources, color)
+    }
+
+    /// The diagnostic as one JSON object (`--format json`).
+    pub fn json(&self) -> String {
+        grm_diag::render_json(&self.diagnostic, &self.sources)
+    }
+}
+
+/// Load and check one file. `Err` is an I/O problem with the file itself
+/// (E0405).
+pub fn load_and_check(path: &Path) -> Result<(SourceMap, grm_sema::Checked), Box<Unreadable>> {
+    let bytes = read_source(path).map_err(|e| Box::new(Unreadable::new(path, &e)))?;
     let mut sources = SourceMap::new();
     let (text, bad_utf8) = match String::from_utf8(bytes) {
         Ok(t) => (t, None),
@@ -110,8 +133,13 @@ pub fn run(args: CheckArgs) -> Outcome {
     for path in &args.files {
         let (sources, mut checked) = match load_and_check(path) {
             Ok(r) => r,
-            Err(msg) => {
-                let _ = writeln!(stderr.lock(), "error: {msg}");
+            Err(u) => {
+                match args.format {
+                    OutputFormat::Human => {
+                        let _ = write!(stderr.lock(), "{}", u.render(color));
+                    }
+                    OutputFormat::Json => json_items.push(u.json()),
+                }
                 unreadable += 1;
                 continue;
             }

@@ -304,8 +304,8 @@ fn color() -> bool {
 pub fn load(path: &Path, system: Option<&str>, params: &[String]) -> Result<Loaded, Outcome> {
     let (sources, checked) = match crate::check::load_and_check(path) {
         Ok(r) => r,
-        Err(msg) => {
-            eprintln!("error: {msg}");
+        Err(u) => {
+            eprint!("{}", u.render(color()));
             return Err(Outcome::Usage);
         }
     };
@@ -323,23 +323,13 @@ pub fn load(path: &Path, system: Option<&str>, params: &[String]) -> Result<Load
         return Err(Outcome::InputErrors);
     }
     let program = checked.program;
-    let index = match system {
-        Some(name) => program.systems.iter().position(|s| s.name == name),
-        None => program
-            .default_system()
-            .and_then(|d| program.systems.iter().position(|s| s.name == d.name)),
-    };
-    let Some(index) = index else {
-        let names: Vec<&str> = program.systems.iter().map(|s| s.name.as_str()).collect();
-        match system {
-            Some(name) => eprintln!(
-                "error: {} has no system `{name}`; it has: {}",
-                path.display(),
-                names.join(", ")
-            ),
-            None => eprintln!("error: {} defines no system", path.display()),
+    // R0701: no system to run (exit 2: the command names what to run).
+    let index = match program.pick_system(system) {
+        Ok(i) => i,
+        Err(d) => {
+            emit(&sources, &d);
+            return Err(Outcome::Usage);
         }
-        return Err(Outcome::Usage);
     };
     let values = grm_compile::param_values(&program, params).map_err(|m| {
         eprintln!("error: {m}");

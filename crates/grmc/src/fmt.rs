@@ -48,10 +48,11 @@ pub fn run(args: FmtArgs) -> Outcome {
 
 fn one(args: &FmtArgs, path: &Path, color: bool) -> Done {
     let mut err = std::io::stderr().lock();
-    let bytes = match std::fs::read(path) {
+    let bytes = match crate::check::read_source(path) {
         Ok(b) => b,
         Err(e) => {
-            let _ = writeln!(err, "error: cannot read {}: {e}", path.display());
+            let u = crate::check::Unreadable::new(path, &e);
+            let _ = write!(err, "{}", u.render(color));
             return Done::Io;
         }
     };

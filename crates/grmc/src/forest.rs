@@ -264,14 +264,12 @@ pub fn run(args: ForestArgs) -> Outcome {
     let program = &loaded.program;
     let mut systems = vec![loaded.system];
     for name in args.systems.iter().skip(1) {
-        let Some(i) = program.systems.iter().position(|s| &s.name == name) else {
-            let names: Vec<&str> = program.systems.iter().map(|s| s.name.as_str()).collect();
-            eprintln!(
-                "error: {} has no system `{name}`; it has: {}",
-                args.file.display(),
-                names.join(", ")
-            );
-            return Outcome::Usage;
+        let i = match program.pick_system(Some(name)) {
+            Ok(i) => i,
+            Err(d) => {
+                crate::derive::emit(&loaded.sources, &d);
+                return Outcome::Usage;
+            }
         };
         systems.push(i);
     }

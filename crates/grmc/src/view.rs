@@ -307,6 +307,17 @@ impl std::fmt::Debug for Server {
     }
 }
 
+/// The served grammar's text, read as every grammar file is
+/// (`check::read_source`: a regular file, bounded).
+fn read_grammar(path: &Path) -> std::io::Result<String> {
+    String::from_utf8(crate::check::read_source(path)?).map_err(|_| {
+        std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            "it is not valid UTF-8 text",
+        )
+    })
+}
+
 /// `tree.grm` -> `tree.curves.json` beside it (docs/curves.md).
 pub fn curves_path_for(grammar: &Path) -> PathBuf {
     grammar.with_extension("curves.json")
@@ -323,8 +334,8 @@ impl Server {
     /// Open `path` in an in-process language server and serve the page on
     /// `listener`, in background threads.
     pub fn start(path: &Path, listener: TcpListener) -> Result<Server, String> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+        let text =
+            read_grammar(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
         let uri = grm_lsp::convert::uri_of(path)
             .ok_or_else(|| format!("{} has no file URI", path.display()))?;
         let uri_json = serde_json::to_value(&uri).map_err(|e| e.to_string())?;
@@ -417,7 +428,7 @@ impl State {
         if (modified, len) == (seen.0, seen.1) {
             return;
         }
-        let Ok(text) = std::fs::read_to_string(&self.path) else {
+        let Ok(text) = read_grammar(&self.path) else {
             return;
         };
         seen.0 = modified;
@@ -458,7 +469,11 @@ impl State {
                 json!({ "textDocument": { "uri": self.uri } }),
             ),
             "loadCurves" => {
-                let text = match std::fs::read_to_string(&self.curves_path) {
+                let text = match grm_diag::input::read_bounded_string(
+                    &self.curves_path,
+                    grm_guide::MAX_CURVES_BYTES,
+                    "a curves file",
+                ) {
                     Ok(t) => Value::String(t),
                     Err(e) if e.kind() == std::io::ErrorKind::NotFound => Value::Null,
                     Err(e) => return Err(format!("{}: {e}", self.curves_path.display()).into()),

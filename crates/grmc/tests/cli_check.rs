@@ -76,19 +76,187 @@ fn missing_file_and_bad_usage_exit_2() {
     assert_eq!(out.status.code(), Some(2));
     let out = grmc(&["frobnicate"]);
     assert_eq!(out.status.code(), Some(2));
-    // A device that never ends is read up to the limit, and said to be
-    // no regular file (not "larger than" a size it does not have).
+    // A device that never ends is refused unread, as no regular file (not
+    // "larger than" a size it does not have), with its code.
     if Path::new("/dev/zero").exists() {
         let out = grmc(&["check", "/dev/zero"]);
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(2), "{err}");
         assert!(
-            err.contains(
-                "cannot read /dev/zero: it is not a regular file, and it gave more than 16 MiB"
-            ),
+            err.contains("[E0405] Error: cannot read /dev/zero: it is not a regular file"),
             "{err}"
         );
     }
+}
+
+/// `grmc ARGS` with a time limit: `None` if it did not finish in time
+/// (it is killed).
+fn grmc_within(args: &[&str], secs: u64) -> Option<std::process::Output> {
+    use std::process::{Command, Stdio};
+    let mut child = Command::new(env!("CARGO_BIN_EXE_grmc"))
+        .args(args)
+        .env("NO_COLOR", "1")
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("grmc runs");
+    let start = std::time::Instant::now();
+    while start.elapsed() < std::time::Duration::from_secs(secs) {
+        if child.try_wait().expect("wait").is_some() {
+            return Some(child.wait_with_output().expect("output"));
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let _ = child.kill();
+    let _ = child.wait();
+    None
+}
+
+/// Every file grmc reads is read as a regular file with a bound, and
+/// anything else is refused with E0405 (or R0501 for curves) at once:
+/// `grmc check` on a named pipe blocked forever, `grmc fmt /dev/zero`
+/// read 6.5 GB, and `--curves /dev/zero` read without end.
+#[cfg(unix)]
+#[test]
+fn pipes_and_devices_are_refused_unread() {
+    let d = temp_dir("fifo");
+    let fifo = d.join("pipe.grm");
+    let made = std::process::Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .is_ok_and(|s| s.success());
+    let fifo = fifo.to_str().expect("utf8 path");
+    let mut cases: Vec<(Vec<&str>, &str)> = Vec::new();
+    if made {
+        for cmd in ["check", "fmt", "derive", "disasm"] {
+            cases.push((vec![cmd, fifo], "E0405"));
+        }
+        cases.push((vec!["fmt", "--check", fifo], "E0405"));
+    }
+    let calder = example("calder_tree.grm");
+    if Path::new("/dev/zero").exists() {
+        cases.push((vec!["fmt", "/dev/zero"], "E0405"));
+        cases.push((vec!["fmt", "--stdout", "/dev/zero"], "E0405"));
+        cases.push((vec!["derive", "/dev/zero"], "E0405"));
+        cases.push((
+            vec!["sample", &calder, "--curves", "/dev/zero", "-o", "x.glb"],
+            "R0501",
+        ));
+        if made {
+            cases.push((
+                vec!["sample", &calder, "--curves", fifo, "-o", "x.glb"],
+                "R0501",
+            ));
+        }
+    }
+    for (args, code) in cases {
+        let out = grmc_within(&args, 60)
+            .unwrap_or_else(|| panic!("grmc {args:?} did not finish within 60 s"));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(&format!("[{code}]")), "{args:?}: {err}");
+        assert!(err.contains("it is not a regular file"), "{args:?}: {err}");
+    }
+}
+
+/// A curves file larger than the limit is refused before it is parsed.
+#[test]
+fn a_curves_file_over_the_limit_is_refused() {
+    let d = temp_dir("bigcurves");
+    let f = d.join("big.curves.json");
+    let file = std::fs::File::create(&f).expect("create");
+    // One byte over `grm_guide::MAX_CURVES_BYTES` (16 MiB), sparse.
+    file.set_len((16 << 20) + 1).expect("grow");
+    let calder = example("calder_tree.grm");
+    let out = grmc(&[
+        "sample",
+        &calder,
+        "--curves",
+        f.to_str().expect("utf8"),
+        "-o",
+        "x.glb",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("[R0501]"), "{err}");
+    assert!(
+        err.contains("it is larger than 16 MiB, the most a curves file may be"),
+        "{err}"
+    );
+}
+
+/// A file that cannot be read is a coded diagnostic (E0405) in both
+/// formats: `--format json` printed `[]` for a missing file.
+#[test]
+fn an_unreadable_file_is_a_coded_diagnostic_in_json_too() {
+    let d = temp_dir("unreadable");
+    let missing = d.join("missing.grm");
+    let missing = missing.to_str().expect("utf8 path");
+    let out = grmc(&["check", "--format", "json", missing]);
+    assert_eq!(out.status.code(), Some(2));
+    let json = String::from_utf8_lossy(&out.stdout);
+    assert!(json.contains("\"code\":\"E0405\""), "{json}");
+    assert!(json.contains("\"severity\":\"error\""), "{json}");
+    assert!(json.contains(&format!("cannot read {missing}")), "{json}");
+    let out = grmc(&[
+        "check",
+        "--format",
+        "json",
+        d.to_str().expect("utf8"),
+        &example("koch_island.grm"),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    let json = String::from_utf8_lossy(&out.stdout);
+    assert!(json.contains("it is a directory"), "{json}");
+    for args in [
+        vec!["check", missing],
+        vec!["fmt", missing],
+        vec!["derive", missing],
+        vec!["sample", missing],
+        vec!["disasm", missing],
+        vec!["forest", missing],
+    ] {
+        let out = grmc(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(
+            err.contains(&format!("[E0405] Error: cannot read {missing}")),
+            "{args:?}: {err}"
+        );
+    }
+}
+
+/// A file without a system, or `--system` naming none, is R0701 (it was
+/// a plain `error:` line without a code).
+#[test]
+fn no_system_to_run_is_coded() {
+    let d = temp_dir("nosystem");
+    let f = d.join("empty.grm");
+    std::fs::write(&f, "// only a comment\n").expect("write");
+    let f = f.to_str().expect("utf8 path");
+    for args in [
+        vec!["derive", f],
+        vec!["disasm", f],
+        vec!["sample", f],
+        vec!["forest", f],
+    ] {
+        let out = grmc(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(
+            err.contains("[R0701] Error: this file defines no system to run"),
+            "{args:?}: {err}"
+        );
+    }
+    let koch = example("koch_island.grm");
+    let out = grmc(&["derive", &koch, "--system", "Nope"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("[R0701] Error: this file has no system `Nope`"),
+        "{err}"
+    );
 }
 
 #[test]
