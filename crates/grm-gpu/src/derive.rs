@@ -441,6 +441,15 @@ pub(crate) fn split_string(
     Ok(strings)
 }
 
+impl Drop for GpuSystem<'_> {
+    /// The placeholder key buffers go back to the pool (taken from it
+    /// at every load, they would otherwise take a pooled buffer another
+    /// request of a repeated run needs).
+    fn drop(&mut self) {
+        self.gpu.recycle(self.no_keys.iter().cloned());
+    }
+}
+
 impl<'a> GpuSystem<'a> {
     /// Validate and upload the tables of `jobs`. Must run inside `Gpu::run`.
     pub fn load(gpu: &'a Gpu, jobs: &[GpuJob<'a>]) -> Result<GpuSystem<'a>, GpuError> {
