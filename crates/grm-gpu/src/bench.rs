@@ -146,8 +146,8 @@ fn best<T>(
     out.ok_or_else(|| "no run".to_string())
 }
 
-/// Compare two derived strings: symbols and starts exactly, parameters
-/// within a relative 1e-4.
+/// Compare two derived strings: symbols, starts and identity keys
+/// exactly, parameters within a relative 1e-4.
 pub fn same_string(cpu: &ModuleString, gpu: &ModuleString) -> Result<(), String> {
     if cpu.syms != gpu.syms || cpu.starts != gpu.starts {
         let at = cpu.syms.iter().zip(&gpu.syms).position(|(a, b)| a != b);
@@ -161,6 +161,14 @@ pub fn same_string(cpu: &ModuleString, gpu: &ModuleString) -> Result<(), String>
         if a.to_bits() != b.to_bits() && (a - b).abs() > 1e-4 * a.abs().max(1.0) {
             return Err(format!("parameter word {k}: CPU {a}, GPU {b}"));
         }
+    }
+    if cpu.keys != gpu.keys {
+        let at = cpu.keys.iter().zip(&gpu.keys).position(|(a, b)| a != b);
+        return Err(format!(
+            "the GPU's identity keys differ from the CPU's ({} vs {} keys, first difference at {at:?})",
+            gpu.keys.len(),
+            cpu.keys.len()
+        ));
     }
     Ok(())
 }
