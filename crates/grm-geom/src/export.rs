@@ -165,10 +165,13 @@ pub fn export_as(model: &Model, path: &Path, format: ExportFormat) -> Result<(),
     match format {
         ExportFormat::Png => export_image(model, path, &RenderOptions::default()),
         ExportFormat::Glb => {
-            let (json_bytes, bin_len) = glb_layout(model).ok_or_else(|| ExportError::TooLarge {
-                path: path.to_path_buf(),
-            })?;
-            let tmp = stage(path, |w| write_glb(model, &json_bytes, bin_len, w))?;
+            // Exported models name their parts (`_PART`, `extras.grm`).
+            let ids = crate::parts::part_ids(model);
+            let (json_bytes, bin_len) =
+                glb_layout(model, ids.as_ref()).ok_or_else(|| ExportError::TooLarge {
+                    path: path.to_path_buf(),
+                })?;
+            let tmp = stage(path, |w| write_glb(model, ids.as_ref(), &json_bytes, bin_len, w))?;
             commit(tmp, path)
         }
         ExportFormat::Obj => {
@@ -319,7 +322,7 @@ fn write_u32s(w: &mut dyn Write, vs: &[u32]) -> io::Result<()> {
 /// past the format's 4 GiB limit. The BIN chunk holds, per non-empty part
 /// in order, its positions, normals and indices (all 4-byte data, so every
 /// view stays 4-byte aligned).
-fn glb_layout(model: &Model) -> Option<(Vec<u8>, usize)> {
+fn glb_layout(model: &Model, ids: Option<&crate::parts::PartIds>) -> Option<(Vec<u8>, usize)> {
     let mut offset = 0usize;
     let mut views: Vec<Json> = Vec::new();
     let mut accessors: Vec<Json> = Vec::new();
@@ -339,6 +342,8 @@ fn glb_layout(model: &Model) -> Option<(Vec<u8>, usize)> {
         let pv = view(m.positions.len() * 12, 34962);
         let nv = view(m.normals.len() * 12, 34962);
         let iv = view(m.indices.len() * 4, 34963);
+        // `_PART`: after the indices, one float per vertex.
+        let part_view = ids.map(|_| view(m.positions.len() * 4, 34962));
         let mut bounds = Aabb::EMPTY;
         for p in &m.positions {
             bounds.add(Vec3::from_array(*p));
@@ -364,8 +369,21 @@ fn glb_layout(model: &Model) -> Option<(Vec<u8>, usize)> {
             "type": "SCALAR",
         }));
         let a = accessors.len();
+        let mut attributes = json!({ "POSITION": a - 3, "NORMAL": a - 2 });
+        if let (Some(pv), Some(ids)) = (part_view, ids) {
+            let n = ids.modules.len().saturating_sub(1) as f32;
+            accessors.push(json!({
+                "bufferView": pv,
+                "componentType": 5126,
+                "count": m.positions.len(),
+                "type": "SCALAR",
+                "min": [0.0],
+                "max": [n],
+            }));
+            attributes["_PART"] = json!(accessors.len() - 1);
+        }
         primitives.push(json!({
-            "attributes": { "POSITION": a - 3, "NORMAL": a - 2 },
+            "attributes": attributes,
             "indices": a - 1,
             "material": part.material,
             "mode": 4,
@@ -403,6 +421,9 @@ fn glb_layout(model: &Model) -> Option<(Vec<u8>, usize)> {
         doc["accessors"] = json!(accessors);
         doc["bufferViews"] = json!(views);
         doc["buffers"] = json!([ { "byteLength": offset } ]);
+        if let Some(ids) = ids {
+            doc["extras"] = crate::parts::parts_table(model, ids);
+        }
     }
     // Serialising a `Value` of plain data cannot fail.
     let mut json_bytes = serde_json::to_vec(&doc).unwrap_or_default();
@@ -415,6 +436,7 @@ fn glb_layout(model: &Model) -> Option<(Vec<u8>, usize)> {
 /// Write the glb of `model` laid out by [`glb_layout`].
 fn write_glb(
     model: &Model,
+    ids: Option<&crate::parts::PartIds>,
     json_bytes: &[u8],
     bin_len: usize,
     w: &mut dyn Write,
@@ -431,10 +453,14 @@ fn write_glb(
     if bin_len > 0 {
         w.write_all(&len32(bin_len))?;
         w.write_all(b"BIN\0")?;
-        for part in model.parts.iter().filter(|p| !p.mesh.is_empty()) {
+        for (k, part) in model.parts.iter().filter(|p| !p.mesh.is_empty()).enumerate() {
             write_f32s(w, &part.mesh.positions)?;
             write_f32s(w, &part.mesh.normals)?;
             write_u32s(w, &part.mesh.indices)?;
+            if let Some(v) = ids.and_then(|ids| ids.vertex_ids.get(k)) {
+                let bits: Vec<u32> = v.iter().map(|x| x.to_bits()).collect();
+                write_u32s(w, &bits)?;
+            }
         }
     }
     Ok(())
@@ -443,10 +469,11 @@ fn write_glb(
 /// The model as a glTF 2.0 binary (`.glb`) file in memory; `None` when it
 /// exceeds the format's 4 GiB limit.
 pub fn glb_bytes(model: &Model) -> Option<Vec<u8>> {
-    let (json_bytes, bin_len) = glb_layout(model)?;
+    let ids = crate::parts::part_ids(model);
+    let (json_bytes, bin_len) = glb_layout(model, ids.as_ref())?;
     let mut out = Vec::with_capacity(28 + json_bytes.len() + bin_len);
     // Writing to a Vec cannot fail.
-    write_glb(model, &json_bytes, bin_len, &mut out).ok()?;
+    write_glb(model, ids.as_ref(), &json_bytes, bin_len, &mut out).ok()?;
     Some(out)
 }
 

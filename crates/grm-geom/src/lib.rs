@@ -27,6 +27,7 @@
 //! typed and leave no partial model.
 
 pub mod export;
+pub mod parts;
 pub mod import;
 pub mod mesh;
 pub mod polygon;
@@ -145,6 +146,10 @@ pub struct Model {
     pub declared_materials: Vec<ModelMaterial>,
     pub parts: Vec<Part>,
     pub stats: Stats,
+    /// Per module of the string it was built from: the module's identity
+    /// key (`grm_derive::ModuleString::keys`); empty when the string
+    /// carried none. Exports name parts by it ([`parts`]).
+    pub module_keys: Vec<u32>,
 }
 
 impl Model {
@@ -404,7 +409,9 @@ pub fn build_model(
     params: &[Value],
 ) -> Result<Model, GeomError> {
     let skeleton = grm_turtle::interpret(system, settings, string)?;
-    build_from_interpretation(program, skeleton, &BuildOptions::default(), params)
+    let mut model = build_from_interpretation(program, skeleton, &BuildOptions::default(), params)?;
+    model.module_keys = string.keys.clone();
+    Ok(model)
 }
 
 /// Build the meshes of an interpretation made elsewhere (e.g. by the
@@ -777,6 +784,7 @@ impl<'a> Builder<'a> {
             declared_materials: self.declared,
             parts: self.parts,
             stats,
+            module_keys: Vec::new(),
         }
     }
 }

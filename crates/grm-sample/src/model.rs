@@ -130,12 +130,16 @@ impl SampledModel {
 
     /// Build the meshes (tubes, primitives, OBJ meshes) for export.
     pub fn build(&self, program: &Program, options: &BuildOptions) -> Result<Model, GeomError> {
-        grm_geom::build_from_interpretation(
+        let mut model = grm_geom::build_from_interpretation(
             program,
             self.interpretation.clone(),
             options,
             &self.param_values,
-        )
+        )?;
+        // The string carries the expansions' identity keys: exports name
+        // parts by them.
+        model.module_keys = self.string.keys.clone();
+        Ok(model)
     }
 }
 

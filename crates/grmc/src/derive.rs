@@ -426,8 +426,13 @@ pub fn run(args: DeriveArgs) -> Outcome {
         seed: args.seed.unwrap_or(c.settings.seed),
         limits: limits(args.max_modules, args.max_memory),
     };
+    // A glb names its parts by their identity keys (`_PART`): the strings
+    // carry keys then, whether the system draws or not.
+    let glb = args.output.as_deref().and_then(grm_geom::ExportFormat::from_path)
+        == Some(grm_geom::ExportFormat::Glb);
     let record = grm_grow::Record {
         tree: args.tree.is_some(),
+        keys: glb,
         ..grm_grow::Record::default()
     };
     let grower = match grm_grow::Grower::new(c, args.threads, record) {
