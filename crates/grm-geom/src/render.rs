@@ -898,7 +898,7 @@ impl Target {
     }
 }
 
-fn srgb(linear: f32) -> u8 {
+pub(crate) fn srgb(linear: f32) -> u8 {
     let x = linear.clamp(0.0, 1.0);
     let s = if x <= 0.003_130_8 {
         12.92 * x

@@ -609,3 +609,145 @@ fn export_errors_have_codes() {
     assert_eq!(d.primary().span, Span::new(4, 5));
     assert!(d.help.is_some());
 }
+
+/// The binary PLY's header and body after `end_header`.
+fn ply_parts(bytes: &[u8]) -> (String, &[u8]) {
+    let end = b"end_header\n";
+    let at = bytes
+        .windows(end.len())
+        .position(|w| w == end)
+        .expect("header end")
+        + end.len();
+    let header = std::str::from_utf8(&bytes[..at]).expect("ascii header");
+    (header.to_string(), &bytes[at..])
+}
+
+/// PLY vertex colours are 8-bit sRGB, as the PNG and glb show them:
+/// `rgb(0.45, 0.32, 0.2)` (179, 153, 124) was written as (115, 82, 51), linear values
+/// scaled, a darker colour than the material's. And the model stands up
+/// in Blender: grm's +y (the turtle's heading) is PLY's +z.
+#[test]
+fn ply_colours_are_srgb_and_up_is_z() {
+    let program = program(
+        "mem.grm",
+        "material bark { color = rgb(0.45, 0.32, 0.2); }\n\
+         system S { width = 0.1; axiom material(bark) F(2); }",
+    );
+    let system = &program.systems[0];
+    let model = build_with_defaults(&program, system, &axiom(system)).expect("builds");
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("stem.ply");
+    export(&model, &path).expect("exports");
+    let bytes = std::fs::read(&path).expect("written");
+    let (header, body) = ply_parts(&bytes);
+    assert!(header.contains("z up"), "{header}");
+    let f = |v: &[u8], i: usize| f32::from_le_bytes(v[4 * i..4 * i + 4].try_into().unwrap());
+    let (mut lo, mut hi) = ([f32::MAX; 3], [f32::MIN; 3]);
+    for v in body[..model.stats.vertices * 27].chunks_exact(27) {
+        assert_eq!(&v[24..27], &[179, 153, 124]);
+        for i in 0..3 {
+            lo[i] = lo[i].min(f(v, i));
+            hi[i] = hi[i].max(f(v, i));
+        }
+        // Normals turn with the points: level on the tube's side, along
+        // z on its caps.
+        let n = [f(v, 3), f(v, 4), f(v, 5)];
+        assert!(
+            n[2].abs() < 1e-5 || (n[2].abs() - 1.0).abs() < 1e-5,
+            "normal {n:?}"
+        );
+    }
+    // The 2-long stem runs along +z, 0.1 thick in x and y.
+    assert!(
+        (hi[2] - 2.0).abs() < 1e-4 && lo[2].abs() < 1e-4,
+        "{lo:?} {hi:?}"
+    );
+    assert!(
+        hi[1] - lo[1] < 0.11 && hi[0] - lo[0] < 0.11,
+        "{lo:?} {hi:?}"
+    );
+}
+
+/// An empty model's PLY is one Blender reads: Blender 4.5 refuses a PLY
+/// without vertices, so it holds one vertex at the origin and no faces.
+#[test]
+fn an_empty_model_is_a_ply_with_one_vertex_and_no_faces() {
+    let program = program("mem.grm", "system S { axiom +; }");
+    let system = &program.systems[0];
+    let model = build_with_defaults(&program, system, &axiom(system)).expect("builds");
+    assert_eq!(model.stats.vertices, 0);
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("empty.ply");
+    export(&model, &path).expect("exports");
+    let bytes = std::fs::read(&path).expect("written");
+    let (header, body) = ply_parts(&bytes);
+    assert!(header.contains("element vertex 1\n"), "{header}");
+    assert!(header.contains("element face 0\n"), "{header}");
+    assert_eq!(body.len(), 27);
+    assert!(body[..12].iter().all(|&b| b == 0), "at the origin");
+    let ascii = dir.path().join("empty_ascii.ply");
+    export_as(&model, &ascii, ExportFormat::PlyAscii).expect("exports");
+    let text = std::fs::read_to_string(&ascii).expect("written");
+    let body = text.split("end_header\n").nth(1).expect("body");
+    assert_eq!(body, "0 0 0 0 0 1 204 204 204\n");
+}
+
+/// SVG colours are sRGB too (`#735233` was the linear bark colour scaled).
+#[test]
+fn svg_colours_are_srgb() {
+    let program = program(
+        "mem.grm",
+        "material bark { color = rgb(0.45, 0.32, 0.2); }\n\
+         system S { axiom material(bark) F; }",
+    );
+    let system = &program.systems[0];
+    let model = build_with_defaults(&program, system, &axiom(system)).expect("builds");
+    let svg = grm_geom::export::svg_string(&model);
+    assert!(svg.contains("stroke=\"#b3997c\""), "{svg}");
+    assert!(!svg.contains("#735233"), "{svg}");
+}
+
+/// `mtllib` names the library the export wrote, whatever the OBJ's name:
+/// `#` starts a comment in OBJ (`mtllib a#b.mtl` named `a`), and names
+/// that are not UTF-8 all got the same library (their bytes replaced with
+/// U+FFFD), each export overwriting the last one's.
+#[test]
+fn mtllib_names_the_library_written_for_any_name() {
+    let model = sample_model();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut names: Vec<(std::ffi::OsString, &str)> = vec![
+        ("a#b.obj".into(), "a%23b.mtl"),
+        ("50%.obj".into(), "50%25.mtl"),
+        ("é.obj".into(), "é.mtl"),
+    ];
+    #[cfg(unix)]
+    {
+        use std::os::unix::ffi::OsStringExt;
+        names.push((
+            std::ffi::OsString::from_vec(b"x\xff.obj".to_vec()),
+            "x%FF.mtl",
+        ));
+        names.push((
+            std::ffi::OsString::from_vec(b"x\xfe.obj".to_vec()),
+            "x%FE.mtl",
+        ));
+    }
+    for (name, mtl) in &names {
+        let path = dir.path().join(name);
+        export(&model, &path).expect("exports");
+        assert_eq!(grm_geom::export::mtl_file_name(&path), *mtl);
+        assert!(dir.path().join(mtl).is_file(), "{mtl} written");
+        let text = std::fs::read_to_string(&path).expect("written");
+        assert!(
+            text.lines().any(|l| l == format!("mtllib {mtl}")),
+            "{name:?}: {text:.200}"
+        );
+        let (_, materials) =
+            tobj::load_obj(&path, &tobj::LoadOptions::default()).expect("obj loads");
+        assert_eq!(
+            materials.expect("its own mtl loads").len(),
+            model.materials.len(),
+            "{name:?}"
+        );
+    }
+}

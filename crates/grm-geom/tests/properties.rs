@@ -602,13 +602,26 @@ fn random_models_read_back_from_every_format() {
             let (vertices, faces) = read_ply(&bytes).unwrap_or_else(|e| panic!("{}", ctx(&e)));
             let mut want_v = Vec::new();
             let mut want_f = Vec::new();
+            // sRGB-encoded colours; +y up turned to PLY's +z up.
+            let srgb = |x: f32| {
+                let x = x.clamp(0.0, 1.0);
+                let s = if x <= 0.003_130_8 {
+                    12.92 * x
+                } else {
+                    1.055 * x.powf(1.0 / 2.4) - 0.055
+                };
+                (s * 255.0 + 0.5) as u8
+            };
+            let z_up = |[x, y, z]: [f32; 3]| [x, -z, y];
+            if model.parts.iter().all(|p| p.mesh.positions.is_empty()) {
+                // An empty model: one vertex, no faces (Blender needs one).
+                want_v.push(([0.0; 3], [0.0, 0.0, 1.0], [204; 3]));
+            }
             for part in &model.parts {
                 let base = want_v.len() as u32;
-                let c = model.materials[part.material]
-                    .color
-                    .map(|x| (x.clamp(0.0, 1.0) * 255.0).round() as u8);
+                let c = model.materials[part.material].color.map(srgb);
                 for (p, n) in part.mesh.positions.iter().zip(&part.mesh.normals) {
-                    want_v.push((*p, *n, c));
+                    want_v.push((z_up(*p), z_up(*n), c));
                 }
                 for t in part.mesh.indices.chunks_exact(3) {
                     want_f.push([t[0] + base, t[1] + base, t[2] + base]);
