@@ -46,10 +46,13 @@ pub struct Record {
     pub origins: bool,
     /// Identity keys in the string even when the system draws nothing.
     pub keys: bool,
+    /// Per module of the final string, whether it descends from an
+    /// application of this compiled alternative (the preview's focus).
+    pub focus: Option<u32>,
 }
 
 /// A grown string and what was recorded with it.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct Grown {
     /// The final string; it carries keys when the system draws or when
     /// keys or a tree were asked for.
@@ -61,6 +64,9 @@ pub struct Grown {
     /// Per module of the final string: the compiled alternative that
     /// wrote it ([`Record::origins`]).
     pub origins: Option<Vec<u32>>,
+    /// Per module of the final string: it descends from an application of
+    /// [`Record::focus`].
+    pub focus: Option<Vec<bool>>,
 }
 
 /// The CPU engine prepared for one system, with what to record.
@@ -93,14 +99,35 @@ impl<'a> Grower<'a> {
         opts: &DeriveOptions,
         progress: &mut dyn FnMut(&IterationStats),
     ) -> Result<Grown, DeriveError> {
-        if !self.record.tree && !self.record.origins {
+        let never = || false;
+        // Never stopped: always grown.
+        self.derive_until(opts, progress, &never)
+            .map(Option::unwrap_or_default)
+    }
+
+    /// [`Grower::derive`], asking `stop` before each step (and before the
+    /// tree or origins are recorded): `Ok(None)` when it said stop (a
+    /// preview superseded by a newer one). Without anything to record the
+    /// whole derivation is the engine's, and `stop` is asked once.
+    pub fn derive_until(
+        &self,
+        opts: &DeriveOptions,
+        progress: &mut dyn FnMut(&IterationStats),
+        stop: &dyn Fn() -> bool,
+    ) -> Result<Option<Grown>, DeriveError> {
+        let r = self.record;
+        if !r.tree && !r.origins && r.focus.is_none() {
+            if stop() {
+                return Ok(None);
+            }
             let d = self.engine.derive(opts, progress)?;
-            return Ok(Grown {
+            return Ok(Some(Grown {
                 string: d.string,
                 stats: d.stats,
                 tree: None,
                 origins: None,
-            });
+                focus: None,
+            }));
         }
         let sys = self.engine.system();
         let t = Instant::now();
@@ -115,8 +142,12 @@ impl<'a> Grower<'a> {
             .record
             .origins
             .then(|| vec![sys.axiom_alt; string.len()]);
+        let mut focus = r.focus.map(|f| vec![f == sys.axiom_alt; string.len()]);
         let (mut cumulative, mut processed) = (0u64, 0u64);
         for iteration in 1..=opts.iterations {
+            if stop() {
+                return Ok(None);
+            }
             let t = Instant::now();
             let decided = self.engine.decisions(&string, iteration, opts.seed)?;
             let next = self
@@ -154,6 +185,19 @@ impl<'a> Grower<'a> {
                 }
                 *o = out;
             }
+            if let (Some(f), Some(alt)) = (&mut focus, r.focus) {
+                let mut out = Vec::with_capacity(next.len());
+                for (i, d) in decided.iter().enumerate() {
+                    match *d {
+                        None => out.push(f[i]),
+                        Some(a) => {
+                            let n = sys.alts[a as usize].succ_len as usize;
+                            out.extend(std::iter::repeat_n(f[i] || a == alt, n));
+                        }
+                    }
+                }
+                *f = out;
+            }
             processed += string.len() as u64;
             self.engine.recycle(std::mem::replace(&mut string, next));
             cumulative += string.len() as u64;
@@ -164,12 +208,13 @@ impl<'a> Grower<'a> {
         if let Some(tree) = &mut tree {
             tree.finish(&string);
         }
-        Ok(Grown {
+        Ok(Some(Grown {
             string,
             stats,
             tree,
             origins,
-        })
+            focus,
+        }))
     }
 }
 

@@ -9,13 +9,19 @@ use grm_grow::{Grower, Record};
 
 #[test]
 fn every_vertex_of_a_glb_names_its_part_and_identity() {
-    let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/ternary_tree.grm"));
+    let path = Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../examples/ternary_tree.grm"
+    ));
     let text = std::fs::read_to_string(path).expect("example");
     let (_, checked) = grm_sema::check_text(&path.display().to_string(), &text);
     let p = &checked.program;
     let sys = p.default_system().expect("system");
     let c = grm_compile::compile(p, sys, &p.default_params()).expect("compiles");
-    assert!(!c.draws_randomly(), "keys asked for, not needed by the draws");
+    assert!(
+        !c.draws_randomly(),
+        "keys asked for, not needed by the draws"
+    );
     let record = Record {
         tree: true,
         keys: true,
@@ -30,8 +36,8 @@ fn every_vertex_of_a_glb_names_its_part_and_identity() {
         .expect("engine")
         .derive(&opts, &mut |_| {})
         .expect("derives");
-    let model = grm_geom::build_model(p, sys, &g.string, &c.settings, &c.param_values)
-        .expect("model");
+    let model =
+        grm_geom::build_model(p, sys, &g.string, &c.settings, &c.param_values).expect("model");
     assert_eq!(model.module_keys, g.string.keys);
     let bytes = grm_geom::export::glb_bytes(&model).expect("fits");
     // `from_slice` validates the document, the custom attribute included.
@@ -41,7 +47,9 @@ fn every_vertex_of_a_glb_names_its_part_and_identity() {
     // extras are ours).
     let json_len = u32::from_le_bytes(bytes[12..16].try_into().expect("len")) as usize;
     let doc: serde_json::Value = serde_json::from_slice(&bytes[20..20 + json_len]).expect("json");
-    let parts = doc["extras"]["grm"]["parts"].as_array().expect("parts table");
+    let parts = doc["extras"]["grm"]["parts"]
+        .as_array()
+        .expect("parts table");
     assert!(parts.len() > 10);
     let tree = g.tree.as_ref().expect("tree");
     for part in parts {
@@ -51,11 +59,15 @@ fn every_vertex_of_a_glb_names_its_part_and_identity() {
         let node = tree.node_of_module(m).expect("a node");
         assert_eq!(tree.nodes[node as usize].key, key);
     }
-    let prims = doc["meshes"][0]["primitives"].as_array().expect("primitives");
+    let prims = doc["meshes"][0]["primitives"]
+        .as_array()
+        .expect("primitives");
     assert_eq!(prims.len(), model.parts.len());
     let mut labelled = 0usize;
     for (prim, part) in prims.iter().zip(&model.parts) {
-        let a = prim["attributes"]["_PART"].as_u64().expect("_PART attribute") as usize;
+        let a = prim["attributes"]["_PART"]
+            .as_u64()
+            .expect("_PART attribute") as usize;
         let acc = &doc["accessors"][a];
         assert_eq!(acc["componentType"], 5126);
         assert_eq!(acc["type"], "SCALAR");
@@ -89,7 +101,11 @@ fn every_vertex_of_a_glb_names_its_part_and_identity() {
         }
         for (v, u) in users.iter().enumerate() {
             if !u.is_empty() {
-                assert!(u.contains(&ids[v]), "vertex {v}: {} not among {u:?}", ids[v]);
+                assert!(
+                    u.contains(&ids[v]),
+                    "vertex {v}: {} not among {u:?}",
+                    ids[v]
+                );
             }
         }
     }

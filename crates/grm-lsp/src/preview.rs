@@ -17,24 +17,22 @@
 //! client's `$/cancelRequest`, answered RequestCancelled by
 //! tower-lsp-server) sets its token too, so its work stops as well.
 //!
-//! Provenance: the derivation engine reports strings, not who made each
-//! module, so `origins` recovers it step by step: the string after a
-//! step is the concatenation of each input module's successor, so aligning
-//! it against the compiled successors of each input symbol tells, for
-//! every module, the production (alternative) that made it; a module no
-//! production rewrote keeps its origin. When two alternatives of one group
-//! emit the same symbols the first is reported and the module is counted
-//! as ambiguous.
+//! Provenance and identity: the preview grows its model through
+//! `grm_grow` (the road `grmc` takes too), which records the engine's own
+//! decisions: the production that made every module (exact, never
+//! guessed, so `ambiguousOrigins` is always 0), what descends from the
+//! focused production, and the derivation tree, from which `grm/pick`
+//! answers the picked part's identity key and its ancestry.
 
 use crate::{Backend, Shared, convert, failed};
 use base64::Engine as _;
 use grm_analysis::FileAnalysis;
 use grm_compile::CompiledSystem;
-use grm_derive::{DeriveLimits, Engine, ModuleString};
+use grm_derive::{DeriveLimits, ModuleString};
 use grm_sample::CancelToken;
 use grm_sema::{Mode, Value};
 use serde::{Deserialize, Serialize};
-use std::collections::{BTreeMap, HashSet};
+use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
@@ -238,7 +236,9 @@ pub struct StatsOut {
     pub dropped: usize,
     pub bounds_min: [f32; 3],
     pub bounds_max: [f32; 3],
-    /// Modules whose origin was one of several identical alternatives.
+    /// Always 0: origins come from the engine's own decisions (kept for
+    /// clients of protocol version 1, where origins were aligned after the
+    /// fact and could tie).
     pub ambiguous_origins: usize,
     pub derive_ms: f64,
     pub build_ms: f64,
@@ -371,6 +371,31 @@ pub struct PickResult {
     /// The version of the preview the pick refers to.
     pub version: i32,
     pub module: u32,
+    /// The picked part's identity key (8 hex digits; docs/engine.md,
+    /// "Identity"): the same part has the same key after the model is
+    /// regrown with other parameters, a new seed for the rest, or an edit
+    /// to a production it does not descend from.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub key: Option<String>,
+    /// Its ancestry, from the axiom (first) down to the part (last).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub ancestry: Vec<AncestryOut>,
+}
+
+/// One step of a part's ancestry.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(rename_all = "camelCase")]
+pub struct AncestryOut {
+    /// The node's identity key (8 hex digits).
+    pub key: String,
+    /// Its symbol (`null` for the axiom).
+    pub symbol: Option<String>,
+    /// Its place among its parent's children (its module's index in the
+    /// parent's successor); `null` for the axiom.
+    pub child: Option<u32>,
+    /// The production that rewrote it (an index into the preview's
+    /// origins); `null` where none did (the part itself, in derive mode).
+    pub production: Option<u32>,
 }
 
 /// What `grm/pick` needs from the last preview of a document.
@@ -382,6 +407,10 @@ pub(crate) struct PickTable {
     /// Per bone: (module, origin).
     bones: Vec<(u32, u32)>,
     origins: Vec<OriginOut>,
+    /// The compiled system's symbol names.
+    symbols: Vec<String>,
+    /// The derivation tree and each node's place among its siblings.
+    tree: Option<Arc<(grm_grow::Tree, Vec<u32>)>>,
 }
 
 fn b64<T: Copy>(xs: &[T], to: fn(T) -> [u8; 4]) -> String {
@@ -404,157 +433,50 @@ fn i32s(xs: &[i32]) -> String {
     b64(xs, i32::to_le_bytes)
 }
 
-/// The candidates of one input symbol: (alternative or copy, successor symbols).
-fn candidates(sys: &CompiledSystem) -> Vec<Vec<(Option<u32>, Vec<u32>)>> {
-    (0..sys.symbols.len() as u32)
-        .map(|s| {
-            let groups = sys.groups_of(s);
-            let mut c = Vec::new();
-            for g in groups {
-                for a in g.first_alt..g.first_alt + g.alt_count {
-                    if let Some(alt) = sys.alts.get(a as usize) {
-                        c.push((
-                            Some(a),
-                            sys.successor(alt).iter().map(|m| m.symbol).collect(),
-                        ));
-                    }
-                }
-            }
-            // A module no group rewrites is copied; impossible when a group
-            // always applies (no condition, no context).
-            let always = groups.iter().any(|g| {
-                g.cond_code == grm_compile::table::NONE
-                    && g.flags & grm_compile::table::GROUP_CONTEXT == 0
-            });
-            if !always {
-                c.push((None, vec![s]));
-            }
-            c
-        })
-        .collect()
-}
-
-/// Origins and focus flags of `output`, one step after `input`; `None` when
-/// the output cannot be explained (then provenance is dropped, never guessed).
-#[allow(clippy::type_complexity)]
-pub(crate) fn origins(
-    cands: &[Vec<(Option<u32>, Vec<u32>)>],
-    input: &ModuleString,
-    in_origin: &[u32],
-    in_focus: &[bool],
-    output: &ModuleString,
-    focus: Option<u32>,
-) -> Option<(Vec<u32>, Vec<bool>, usize)> {
-    let n = input.syms.len();
-    let out = &output.syms;
-    // Depth-first search with a dead-state set: each (input, output
-    // position) state is explored at most once.
-    let mut dead: HashSet<(u32, u32)> = HashSet::new();
-    let mut stack: Vec<(usize, usize, usize)> = Vec::with_capacity(n);
-    let (mut i, mut pos, mut from) = (0usize, 0usize, 0usize);
-    loop {
-        if i == n {
-            if pos == out.len() {
-                break;
-            }
-        } else {
-            let cs = cands.get(input.syms[i] as usize)?;
-            let found = (from..cs.len()).find(|&c| {
-                let seq = &cs[c].1;
-                out.get(pos..pos + seq.len()) == Some(seq.as_slice())
-                    && !dead.contains(&((i + 1) as u32, (pos + seq.len()) as u32))
-            });
-            if let Some(c) = found {
-                stack.push((i, pos, c));
-                pos += cs[c].1.len();
-                i += 1;
-                from = 0;
-                continue;
-            }
-        }
-        dead.insert((i as u32, pos as u32));
-        // A pathological grammar could make the search long: give up
-        // (provenance unknown) rather than stall the preview.
-        if dead.len() > 1 << 20 {
-            return None;
-        }
-        let (pi, pp, pc) = stack.pop()?;
-        (i, pos, from) = (pi, pp, pc + 1);
-    }
-    let mut org = vec![NO_ORIGIN; out.len()];
-    let mut foc = vec![false; out.len()];
-    let mut ambiguous = 0;
-    for &(i, pos, c) in &stack {
-        let cs = &cands[input.syms[i] as usize];
-        let (alt, seq) = &cs[c];
-        let (o, f) = match alt {
-            Some(a) => (*a, in_focus[i] || focus == Some(*a)),
-            None => (in_origin[i], in_focus[i]),
-        };
-        if cs.iter().enumerate().any(|(k, x)| k != c && x.1 == *seq) {
-            ambiguous += seq.len();
-        }
-        for j in pos..pos + seq.len() {
-            org[j] = o;
-            foc[j] = f;
-        }
-    }
-    Some((org, foc, ambiguous))
-}
-
 /// A derived string with provenance.
 struct Grown {
     string: ModuleString,
     origin: Option<Vec<u32>>,
     focus: Vec<bool>,
-    ambiguous: usize,
+    tree: Option<grm_grow::Tree>,
 }
 
+/// Derive `sys` through `grm_grow`, recording origins, the focus flags
+/// and (`tree`) the derivation tree; stops when `cancel` is set.
 fn grow(
     sys: &CompiledSystem,
     iterations: u32,
     seed: u32,
     max_modules: u64,
     focus: Option<u32>,
+    tree: bool,
     cancel: Option<&CancelToken>,
 ) -> std::result::Result<Grown, Failure> {
-    let engine = Engine::new(sys, 1).map_err(|e| e.to_string())?;
-    let limits = DeriveLimits {
-        max_modules,
-        max_bytes: 1 << 30,
+    let record = grm_grow::Record {
+        tree,
+        origins: true,
+        keys: true,
+        focus: Some(focus.unwrap_or(NO_ORIGIN)),
     };
-    let mut s = engine.axiom(seed).map_err(|e| e.to_string())?;
-    let mut origin = Some(vec![sys.axiom_alt; s.len()]);
-    let mut foc = vec![focus == Some(sys.axiom_alt); s.len()];
-    let cands = candidates(sys);
-    let mut ambiguous = 0;
-    for it in 1..=iterations {
-        // Between steps (the engine itself takes no token).
-        check(cancel)?;
-        let next = engine
-            .step(&s, it, seed, &limits)
-            .map_err(|e| e.to_string())?;
-        match origin
-            .as_ref()
-            .and_then(|o| origins(&cands, &s, o, &foc, &next, focus))
-        {
-            Some((o, f, a)) => {
-                origin = Some(o);
-                foc = f;
-                ambiguous += a;
-            }
-            None => {
-                origin = None;
-                foc = vec![false; next.len()];
-            }
-        }
-        s = next;
-    }
+    let grower = grm_grow::Grower::new(sys, 1, record).map_err(|e| e.to_string())?;
+    let opts = grm_derive::DeriveOptions {
+        iterations,
+        seed,
+        limits: DeriveLimits {
+            max_modules,
+            max_bytes: 1 << 30,
+        },
+    };
+    let stop = || cancel.is_some_and(CancelToken::is_cancelled);
+    let g = grower
+        .derive_until(&opts, &mut |_| {}, &stop)
+        .map_err(|e| e.to_string())?
+        .ok_or(Failure::Cancelled)?;
     Ok(Grown {
-        string: s,
-        origin,
-        focus: foc,
-        ambiguous,
+        focus: g.focus.unwrap_or_default(),
+        origin: g.origins,
+        tree: g.tree,
+        string: g.string,
     })
 }
 
@@ -565,15 +487,16 @@ struct Made {
     modules: usize,
     /// Per module: grown by the focused production.
     focus_flags: Vec<bool>,
-    ambiguous: usize,
+    /// The derivation tree (identity and ancestry for `grm/pick`).
+    tree: Option<grm_grow::Tree>,
     derive_ms: f64,
     build_ms: f64,
     focus_out: Option<FocusOut>,
     sample: Option<SampleOut>,
 }
 
-/// Derive mode: the CPU engine, provenance by alignment, focus spread
-/// over seeds.
+/// Derive mode: the CPU engine through `grm_grow`, exact provenance,
+/// focus spread over seeds.
 fn derive_model(
     prog: &grm_sema::Program,
     sys: &grm_sema::System,
@@ -591,6 +514,7 @@ fn derive_model(
         settings.seed,
         max_modules,
         focus,
+        true,
         cancel,
     )?;
     let derive_ms = t0.elapsed().as_secs_f64() * 1e3;
@@ -630,6 +554,7 @@ fn derive_model(
                 seed,
                 max_modules,
                 focus,
+                false,
                 cancel,
             )?;
             let mut st = settings.clone();
@@ -648,7 +573,7 @@ fn derive_model(
     Ok(Made {
         modules: grown.string.len(),
         focus_flags: grown.focus,
-        ambiguous: grown.ambiguous,
+        tree: grown.tree,
         model,
         derive_ms,
         build_ms,
@@ -757,7 +682,11 @@ fn sample_model(
     Ok(Made {
         modules: best.string.len(),
         focus_flags,
-        ambiguous: 0,
+        tree: Some(grm_grow::Tree::from_sampled(
+            best,
+            settings.seed,
+            compiled.root_key(settings.seed),
+        )),
         model,
         derive_ms,
         build_ms,
@@ -924,7 +853,7 @@ pub(crate) fn build_with_model(
         model,
         modules,
         focus_flags,
-        ambiguous,
+        tree,
         derive_ms,
         build_ms,
         focus_out,
@@ -950,6 +879,16 @@ pub(crate) fn build_with_model(
     let mut table = PickTable {
         version: fa.version,
         origins: origin_table.clone(),
+        symbols: compiled.symbol_names.clone(),
+        tree: tree.map(|t| {
+            let mut place = vec![0u32; t.nodes.len()];
+            for kids in t.children() {
+                for (k, &c) in kids.iter().enumerate() {
+                    place[c as usize] = k as u32;
+                }
+            }
+            Arc::new((t, place))
+        }),
         ..PickTable::default()
     };
     let parts: Vec<PartOut> = model
@@ -1069,7 +1008,7 @@ pub(crate) fn build_with_model(
             dropped: st.dropped,
             bounds_min: finite(st.bounds.min.to_array()),
             bounds_max: finite(st.bounds.max.to_array()),
-            ambiguous_origins: ambiguous,
+            ambiguous_origins: 0,
             derive_ms,
             build_ms,
             encode_ms: t2.elapsed().as_secs_f64() * 1e3,
@@ -1238,15 +1177,53 @@ impl Backend {
         };
         Ok(found.and_then(|(module, origin)| {
             let o = t.origins.get(origin as usize)?;
+            let (key, ancestry) = match &t.tree {
+                Some(tp) => identity(&tp.0, &tp.1, &t.symbols, module),
+                None => (None, Vec::new()),
+            };
             Some(PickResult {
                 uri: o.uri.clone(),
                 range: o.range,
                 symbol: o.symbol.clone(),
                 version: t.version,
                 module,
+                key,
+                ancestry,
             })
         }))
     }
+}
+
+/// The identity key and ancestry of module `module` of the final string.
+fn identity(
+    tree: &grm_grow::Tree,
+    place: &[u32],
+    symbols: &[String],
+    module: u32,
+) -> (Option<String>, Vec<AncestryOut>) {
+    let Some(node) = tree.node_of_module(module) else {
+        return (None, Vec::new());
+    };
+    let key = tree
+        .nodes
+        .get(node as usize)
+        .map(|n| grm_grow::json::key_text(n.key));
+    let ancestry = tree
+        .ancestry(node)
+        .into_iter()
+        .filter_map(|i| {
+            let n = tree.nodes.get(i as usize)?;
+            Some(AncestryOut {
+                key: grm_grow::json::key_text(n.key),
+                symbol: n.symbol.and_then(|s| symbols.get(s as usize)).cloned(),
+                child: n
+                    .parent
+                    .map(|_| place.get(i as usize).copied().unwrap_or(0)),
+                production: n.production,
+            })
+        })
+        .collect();
+    (key, ancestry)
 }
 
 fn store(shared: &Shared, path: PathBuf, table: PickTable) {
@@ -1363,33 +1340,41 @@ mod tests {
         // its maker; X is copied from the axiom.
         let (_, c) =
             compiled("system S { iterations = 2; axiom X A; A -> F B; B -> (1) G; B -> (1) f; }");
-        let g = grow(&c, 2, 3, 1000, None, None).unwrap();
+        let g = grow(&c, 2, 3, 1000, None, true, None).unwrap();
         let m = makers(&c, &g);
         assert_eq!(m.len(), 3);
         assert_eq!(m[0], "X<axiom:X");
         assert_eq!(m[1], "F<A:F");
         assert!(m[2] == "G<B:G" || m[2] == "f<B:f", "{m:?}");
-        assert_eq!(g.ambiguous, 0);
     }
 
     #[test]
-    fn alignment_backtracks_and_flags_ties() {
-        // `A -> F` and `A -> F A` share a prefix: only a full alignment
-        // explains `F F A`-like strings. `C -> (1) G; C -> (1) G;` tie.
+    fn origins_are_the_decisions_even_when_alternatives_tie() {
+        // `C -> (1) G; C -> (1) G;` write the same symbols: the origin is
+        // the alternative the engine chose (the tree's record of it), not
+        // a guess; both are chosen over the seeds.
         let (_, c) = compiled(
             "system S { iterations = 3; axiom A C; A -> (1) F; A -> (1) F A; C -> (1) G; C -> (1) G; }",
         );
+        let mut seen = std::collections::BTreeSet::new();
         for seed in 0..20 {
-            let g = grow(&c, 3, seed, 1000, None, None).unwrap();
-            let m = makers(&c, &g);
-            for x in &m {
-                assert!(
-                    x == "F<A:F" || x == "A<A:F" || x == "G<C:G",
-                    "seed {seed}: {m:?}"
+            let g = grow(&c, 3, seed, 1000, None, true, None).unwrap();
+            let tree = g.tree.as_ref().expect("tree");
+            let o = g.origin.as_ref().expect("origins");
+            for (m, &a) in o.iter().enumerate() {
+                let n = tree.node_of_module(m as u32).expect("node");
+                let parent = tree.nodes[n as usize].parent.expect("parent");
+                assert_eq!(
+                    tree.nodes[parent as usize].production,
+                    Some(a),
+                    "seed {seed}"
                 );
+                if c.symbol_names[g.string.syms[m] as usize] == "G" {
+                    seen.insert(a);
+                }
             }
-            assert_eq!(g.ambiguous, 1, "the tied G is counted once");
         }
+        assert_eq!(seen.len(), 2, "both tied alternatives are told apart");
     }
 
     #[test]
@@ -1403,7 +1388,7 @@ mod tests {
                 a != c.axiom_alt && c.symbol_names[g.pred as usize] == "B"
             })
             .unwrap();
-        let g = grow(&c, 3, 0, 1000, Some(b_alt), None).unwrap();
+        let g = grow(&c, 3, 0, 1000, Some(b_alt), false, None).unwrap();
         let names: Vec<&str> = g
             .string
             .syms

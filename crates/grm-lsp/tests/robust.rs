@@ -417,6 +417,17 @@ async fn preview_pick_and_live_updates() {
         range_str(&pk["range"]),
         pk["module"]
     );
+    // Its identity: the key, and the ancestry from the axiom down to it
+    // (symbol, place among its parent's children, production applied).
+    let ancestry = pk["ancestry"].as_array().expect("ancestry");
+    assert_eq!(ancestry.first().map(|a| &a["symbol"]), Some(&Value::Null));
+    assert_eq!(ancestry.last().map(|a| &a["key"]), Some(&pk["key"]));
+    assert_eq!(pk["key"].as_str().map(str::len), Some(8));
+    let chain: Vec<String> = ancestry
+        .iter()
+        .map(|a| format!("{}@{}/{}", a["symbol"], a["child"], a["production"]))
+        .collect();
+    let _ = writeln!(out, "pick bone 3 ancestry: {}", chain.join(" > "));
     let none = c
         .ok(
             "grm/pick",
