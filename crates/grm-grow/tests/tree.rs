@@ -83,7 +83,7 @@ fn the_tree_of_a_derivation_is_keyed_by_the_rule() {
         let record = Record {
             tree: true,
             origins: true,
-            keys: false,
+            ..Record::default()
         };
         let g = Grower::new(&c, 2, record)
             .expect("engine")
