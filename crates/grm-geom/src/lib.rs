@@ -27,9 +27,9 @@
 //! typed and leave no partial model.
 
 pub mod export;
-pub mod parts;
 pub mod import;
 pub mod mesh;
+pub mod parts;
 pub mod polygon;
 pub mod render;
 pub mod tube;

@@ -428,7 +428,10 @@ pub fn run(args: DeriveArgs) -> Outcome {
     };
     // A glb names its parts by their identity keys (`_PART`): the strings
     // carry keys then, whether the system draws or not.
-    let glb = args.output.as_deref().and_then(grm_geom::ExportFormat::from_path)
+    let glb = args
+        .output
+        .as_deref()
+        .and_then(grm_geom::ExportFormat::from_path)
         == Some(grm_geom::ExportFormat::Glb);
     let record = grm_grow::Record {
         tree: args.tree.is_some(),
@@ -512,7 +515,8 @@ pub fn run(args: DeriveArgs) -> Outcome {
         );
     }
     if let (Some(path), Some(tree)) = (&args.tree, &d.tree) {
-        let interp = match grm_geom::grm_turtle::interpret(loaded.system(), &c.settings, &d.string) {
+        let interp = match grm_geom::grm_turtle::interpret(loaded.system(), &c.settings, &d.string)
+        {
             Ok(i) => Some(i),
             Err(e) => {
                 eprintln!("warning: the tree's bones are left out: {e}");

@@ -3,11 +3,11 @@
 
 use std::path::Path;
 
-use grm_grow::Tree;
 use grm_geom::grm_turtle::Interpretation;
+use grm_grow::Tree;
 
-use crate::derive::{Loaded, emit};
 use crate::Outcome;
+use crate::derive::{Loaded, emit};
 
 /// Refuse a tree path that cannot be written before any work: a folder in
 /// its place, or a folder that does not exist (R0407, exit 2).
@@ -36,15 +36,16 @@ pub fn check_path(loaded: &Loaded, path: &Path) -> Option<Outcome> {
 
 /// Write `tree` to `path` (whole or not at all); `interp` is the final
 /// string's interpretation (for each node's bones and instances).
-pub fn write(loaded: &Loaded, tree: &Tree, interp: Option<&Interpretation>, path: &Path) -> Outcome {
+pub fn write(
+    loaded: &Loaded,
+    tree: &Tree,
+    interp: Option<&Interpretation>,
+    path: &Path,
+) -> Outcome {
     let c = &loaded.compiled;
     match grm_grow::json::write(path, tree, c, &loaded.sources, interp) {
         Ok(()) => {
-            eprintln!(
-                "wrote {} ({} nodes)",
-                path.display(),
-                tree.nodes.len()
-            );
+            eprintln!("wrote {} ({} nodes)", path.display(), tree.nodes.len());
             Outcome::Ok
         }
         Err(e) => {

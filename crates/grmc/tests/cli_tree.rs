@@ -14,9 +14,19 @@ fn derive_writes_the_tree_with_every_node_keyed() {
     let dir = tempfile::tempdir().expect("tempdir");
     let tree = dir.path().join("plant.json");
     let plant = example("stochastic_plant.grm");
-    let out = grmc(&["derive", &plant, "--tree", tree.to_str().expect("utf-8"), "--print"]);
+    let out = grmc(&[
+        "derive",
+        &plant,
+        "--tree",
+        tree.to_str().expect("utf-8"),
+        "--print",
+    ]);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    assert!(text(&out.stderr).contains("nodes)"), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stderr).contains("nodes)"),
+        "{}",
+        text(&out.stderr)
+    );
     let v = json(&tree);
     assert_eq!(v["mode"], "derive");
     let nodes = v["nodes"].as_array().expect("nodes");
@@ -76,7 +86,10 @@ fn a_tree_path_that_cannot_be_written_is_r0407_before_any_work() {
     let dir = tempfile::tempdir().expect("tempdir");
     let missing = dir.path().join("no/such/folder/tree.json");
     let model = dir.path().join("model.glb");
-    for bad in [missing.to_str().expect("utf-8"), dir.path().to_str().expect("utf-8")] {
+    for bad in [
+        missing.to_str().expect("utf-8"),
+        dir.path().to_str().expect("utf-8"),
+    ] {
         let out = grmc(&[
             "derive",
             &example("stochastic_plant.grm"),
