@@ -425,3 +425,39 @@ fn the_camera_looks_at_the_models_centre_by_default() {
     assert_eq!(default, draw("b.png", &["--look-at", "10,0,0"]));
     assert_ne!(default, draw("c.png", &["--look-at", "0,0,0"]));
 }
+
+/// `examples/row_of_trees.grm` draws the book's line figure (ABoP fig.
+/// 1.37a), not a solid wedge: at its 7 iterations no segment is longer
+/// than 0.08, and it was drawn with the default width 0.1, so the tubes
+/// filled the outline in. Now most of the wedge is background between
+/// the lines (counting pixels more than half covered).
+#[test]
+fn the_row_of_trees_is_a_line_figure() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().join("row.png");
+    let o = grmc(&[
+        "derive",
+        &example("row_of_trees.grm"),
+        "--image-size",
+        "512",
+        "--transparent",
+        "-o",
+        path(&out),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let (w, _, colour, pixels) = read_png(&out);
+    assert_eq!(colour, png::ColorType::Rgba);
+    // The covered pixels against their bounding box.
+    let (mut n, mut lo, mut hi) = (0u32, [u32::MAX; 2], [0u32; 2]);
+    for (i, p) in pixels.chunks_exact(4).enumerate() {
+        if p[3] > 128 {
+            let (x, y) = (i as u32 % w, i as u32 / w);
+            n += 1;
+            lo = [lo[0].min(x), lo[1].min(y)];
+            hi = [hi[0].max(x), hi[1].max(y)];
+        }
+    }
+    let covered = f64::from(n) / f64::from((hi[0] + 1 - lo[0]) * (hi[1] + 1 - lo[1]));
+    // The solid wedge covered 57% of its box, the lines cover 22%.
+    assert!(covered < 0.35, "{covered:.3} of the box is covered");
+}
