@@ -109,6 +109,29 @@ pub struct IterationStats {
     pub elapsed: Duration,
 }
 
+impl IterationStats {
+    /// The figures of string `s`, number `iteration`, made in `elapsed`,
+    /// with the running totals `cumulative` (modules produced) and
+    /// `processed` (modules rewritten).
+    pub fn of(
+        s: &ModuleString,
+        iteration: u32,
+        cumulative: u64,
+        processed: u64,
+        elapsed: Duration,
+    ) -> IterationStats {
+        IterationStats {
+            iteration,
+            modules: s.len() as u64,
+            param_words: s.params.len() as u64,
+            cumulative_modules: cumulative,
+            processed_modules: processed,
+            bytes: s.heap_bytes() as u64,
+            elapsed,
+        }
+    }
+}
+
 /// The result of a derivation.
 #[derive(Clone, Debug)]
 pub struct Derivation {
@@ -720,7 +743,7 @@ impl<'a> Engine<'a> {
         // Not sized by `opts.iterations` (any u32): a string that stops
         // growing can run many steps, a limit can end it after a few.
         let mut stats = Vec::with_capacity(opts.iterations.min(64) as usize + 1);
-        let first = stat_of(&string, 0, 0, 0, t.elapsed());
+        let first = IterationStats::of(&string, 0, 0, 0, t.elapsed());
         progress(&first);
         stats.push(first);
         let mut cumulative = 0u64;
@@ -741,7 +764,7 @@ impl<'a> Engine<'a> {
             // input plus one output (and the spares).
             self.recycle(std::mem::replace(&mut string, next));
             cumulative += string.len() as u64;
-            let s = stat_of(&string, iteration, cumulative, processed, t.elapsed());
+            let s = IterationStats::of(&string, iteration, cumulative, processed, t.elapsed());
             progress(&s);
             stats.push(s);
         }
@@ -833,20 +856,8 @@ impl<'a> Engine<'a> {
     ) -> Result<Vec<Option<u32>>, DeriveError> {
         self.check_input(input)?;
         let n = input.len();
-        let mate = if self.has_context {
-            let bracket = &self.bracket;
-            let kind = |s: u32| bracket.get(s as usize).copied().unwrap_or(0);
-            brackets::mates(kind, &input.syms, n, false)
-        } else {
-            Vec::new()
-        };
-        let step = Step {
-            input,
-            keys: if self.keyed { &input.keys } else { &[] },
-            mate: &mate,
-            seed,
-            iteration,
-        };
+        let mate = self.mates(input, n, false);
+        let step = self.step_of(input, &mate, iteration, seed);
         let mut worker = self.worker();
         let mut out = Vec::with_capacity(n);
         for i in 0..n {
@@ -861,6 +872,34 @@ impl<'a> Engine<'a> {
             });
         }
         Ok(out)
+    }
+
+    /// The bracket partners of `input` (context-sensitive systems only;
+    /// empty otherwise), in chunks of `chunk` modules.
+    fn mates(&self, input: &ModuleString, chunk: usize, parallel: bool) -> Vec<u32> {
+        if !self.has_context {
+            return Vec::new();
+        }
+        let bracket = &self.bracket;
+        let kind = |s: u32| bracket.get(s as usize).copied().unwrap_or(0);
+        brackets::mates(kind, &input.syms, chunk, parallel)
+    }
+
+    /// What step `iteration` over `input` reads.
+    fn step_of<'s>(
+        &self,
+        input: &'s ModuleString,
+        mate: &'s [u32],
+        iteration: u32,
+        seed: u32,
+    ) -> Step<'s> {
+        Step {
+            input,
+            keys: if self.keyed { &input.keys } else { &[] },
+            mate,
+            seed,
+            iteration,
+        }
     }
 
     fn check_input(&self, s: &ModuleString) -> Result<(), DeriveError> {
@@ -959,21 +998,9 @@ impl<'a> Engine<'a> {
                 from_hist = Some((m, w));
             }
         }
-        let mate = if self.has_context {
-            let bracket = &self.bracket;
-            let kind = |s: u32| bracket.get(s as usize).copied().unwrap_or(0);
-            let chunk = chunks.first().map_or(n, |c| c.len());
-            self.in_pool(|| brackets::mates(kind, &input.syms, chunk, parallel))
-        } else {
-            Vec::new()
-        };
-        let step = Step {
-            input,
-            keys: if self.keyed { &input.keys } else { &[] },
-            mate: &mate,
-            seed,
-            iteration,
-        };
+        let chunk = chunks.first().map_or(n, |c| c.len());
+        let mate = self.in_pool(|| self.mates(input, chunk, parallel));
+        let step = self.step_of(input, &mate, iteration, seed);
 
         // 1. Count.
         let counts: Vec<Result<(u64, u64), RuntimeError>> = if let Some(t) = from_hist {
@@ -1798,24 +1825,6 @@ fn copy_small<T: Copy>(dst: &mut [T], src: &[T]) {
 fn keep_first(slot: &mut Option<RuntimeError>, e: RuntimeError) {
     if slot.as_ref().is_none_or(|f| e.position < f.position) {
         *slot = Some(e);
-    }
-}
-
-fn stat_of(
-    s: &ModuleString,
-    iteration: u32,
-    cumulative: u64,
-    processed: u64,
-    elapsed: Duration,
-) -> IterationStats {
-    IterationStats {
-        iteration,
-        modules: s.len() as u64,
-        param_words: s.params.len() as u64,
-        cumulative_modules: cumulative,
-        processed_modules: processed,
-        bytes: s.heap_bytes() as u64,
-        elapsed,
     }
 }
 

@@ -28,21 +28,7 @@ fn modules(c: &CompiledSystem, s: &ModuleString) -> Vec<(String, Vec<u32>, u32)>
 
 /// Strings 0 ..= n with keys (asked for where the system draws nothing).
 fn keyed_strings(c: &CompiledSystem, n: u32, seed: u32) -> Vec<ModuleString> {
-    let engine = Engine::new(c, 1).expect("engine").with_keys(true);
-    let mut out = vec![engine.axiom(seed).expect("axiom")];
-    for it in 1..=n {
-        let next = engine
-            .step(
-                out.last().expect("nonempty"),
-                it,
-                seed,
-                &DeriveLimits::default(),
-            )
-            .expect("step");
-        assert!(next.has_keys());
-        out.push(next);
-    }
-    out
+    strings_with(c, n, seed, 1, true)
 }
 
 fn compile_text(path: &str, text: &str) -> CompiledSystem {

@@ -29,7 +29,7 @@
 pub mod json;
 mod tree;
 
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use grm_compile::CompiledSystem;
 use grm_derive::{DeriveError, DeriveOptions, Engine, IterationStats, ModuleString};
@@ -132,7 +132,7 @@ impl<'a> Grower<'a> {
         let sys = self.engine.system();
         let t = Instant::now();
         let mut string = self.engine.axiom(opts.seed)?;
-        let mut stats = vec![stat(&string, 0, 0, 0, t.elapsed())];
+        let mut stats = vec![IterationStats::of(&string, 0, 0, 0, t.elapsed())];
         progress(&stats[0]);
         let mut tree = self
             .record
@@ -201,7 +201,7 @@ impl<'a> Grower<'a> {
             processed += string.len() as u64;
             self.engine.recycle(std::mem::replace(&mut string, next));
             cumulative += string.len() as u64;
-            let s = stat(&string, iteration, cumulative, processed, t.elapsed());
+            let s = IterationStats::of(&string, iteration, cumulative, processed, t.elapsed());
             progress(&s);
             stats.push(s);
         }
@@ -215,23 +215,5 @@ impl<'a> Grower<'a> {
             origins,
             focus,
         }))
-    }
-}
-
-fn stat(
-    s: &ModuleString,
-    iteration: u32,
-    cumulative: u64,
-    processed: u64,
-    elapsed: Duration,
-) -> IterationStats {
-    IterationStats {
-        iteration,
-        modules: s.len() as u64,
-        param_words: s.params.len() as u64,
-        cumulative_modules: cumulative,
-        processed_modules: processed,
-        bytes: s.heap_bytes() as u64,
-        elapsed,
     }
 }

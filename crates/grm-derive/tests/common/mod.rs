@@ -42,7 +42,19 @@ pub fn inline(src: &str) -> CompiledSystem {
 
 /// Strings 0 ..= n (the axiom first).
 pub fn strings(c: &CompiledSystem, n: u32, seed: u32, threads: usize) -> Vec<ModuleString> {
-    let engine = Engine::new(c, threads).expect("engine");
+    strings_with(c, n, seed, threads, false)
+}
+
+/// [`strings`], carrying identity keys where `keys` (they are carried
+/// anyway when the system draws).
+pub fn strings_with(
+    c: &CompiledSystem,
+    n: u32,
+    seed: u32,
+    threads: usize,
+    keys: bool,
+) -> Vec<ModuleString> {
+    let engine = Engine::new(c, threads).expect("engine").with_keys(keys);
     let mut out = vec![engine.axiom(seed).expect("axiom")];
     for it in 1..=n {
         let next = engine
