@@ -101,7 +101,9 @@ fn expand(
         wo = wo + xt[row + 2u * a + 1u];
         let slot = j.slots + EXPAND_SLOT_WORDS * (first + a);
         walk_step(slot);
-        key = child_key(key, xt[slot + 7u]);
+        if (E.keyed != 0u) {
+            key = child_key(key, xt[slot + 7u]);
+        }
         s = xt[slot];
         r = r - 1u;
     }

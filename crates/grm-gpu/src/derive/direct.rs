@@ -41,8 +41,7 @@ use grm_compile::table::{NONE, PARAM_CODE, PARAM_CONST, SuccModule};
 use grm_derive::ModuleString;
 
 use super::{
-    DeviceString, GpuDeriveOptions, GpuIterationStats, GpuJob, GpuSystem, exact_symbol,
-    string_bytes, succ_of,
+    DeviceString, GpuDeriveOptions, GpuIterationStats, GpuJob, GpuSystem, exact_symbol, succ_of,
 };
 use crate::device::groups_for;
 use crate::error::GpuError;
@@ -579,7 +578,7 @@ impl GpuSystem<'_> {
         // be longer than the final one: productions may erase).
         for (k, &(m, w)) in plan.totals.iter().enumerate().skip(1) {
             let (n, nw) = plan.totals[k - 1];
-            let bytes = string_bytes(n, nw) + 8 * (n + 1) + 4 * n + string_bytes(m, w);
+            let bytes = self.string_bytes(n, nw) + 8 * (n + 1) + 4 * n + self.string_bytes(m, w);
             if m > opts.max_modules || bytes > opts.max_bytes {
                 return None;
             }
@@ -589,6 +588,7 @@ impl GpuSystem<'_> {
         let ok = fits("output symbols", 4 * total)
             && fits("output parameter starts", 4 * (total + 1))
             && fits("output parameters", 4 * total_words)
+            && (!self.keyed || fits("output identity keys", 4 * total))
             && fits("expansion tables", 4 * plan.words.len() as u64)
             && gpu.grid("expand", groups_for(total + 1)).is_ok();
         ok.then_some(plan)
