@@ -178,7 +178,9 @@ pub fn export_as(model: &Model, path: &Path, format: ExportFormat) -> Result<(),
                 glb_layout(model, ids.as_ref()).ok_or_else(|| ExportError::TooLarge {
                     path: path.to_path_buf(),
                 })?;
-            let tmp = stage(path, |w| write_glb(model, ids.as_ref(), &json_bytes, bin_len, w))?;
+            let tmp = stage(path, |w| {
+                write_glb(model, ids.as_ref(), &json_bytes, bin_len, w)
+            })?;
             commit(tmp, path)
         }
         ExportFormat::Obj => {
@@ -460,7 +462,12 @@ fn write_glb(
     if bin_len > 0 {
         w.write_all(&len32(bin_len))?;
         w.write_all(b"BIN\0")?;
-        for (k, part) in model.parts.iter().filter(|p| !p.mesh.is_empty()).enumerate() {
+        for (k, part) in model
+            .parts
+            .iter()
+            .filter(|p| !p.mesh.is_empty())
+            .enumerate()
+        {
             write_f32s(w, &part.mesh.positions)?;
             write_f32s(w, &part.mesh.normals)?;
             write_u32s(w, &part.mesh.indices)?;

@@ -12,11 +12,19 @@ use crate::GeomError;
 use crate::mesh::{MeshData, compute_normals};
 
 /// Load one OBJ file. `name` is the mesh's name in the program (for errors).
+/// The largest OBJ file a `mesh` declaration may name.
+pub const MAX_OBJ_BYTES: u64 = 256 << 20;
+
 pub fn load_obj(name: &str, path: &Path) -> Result<MeshData, GeomError> {
-    let bytes = std::fs::read(path).map_err(|e| GeomError::MeshMissing {
-        mesh: name.to_string(),
-        path: path.to_path_buf(),
-        message: e.to_string(),
+    // A regular file, read with a bound (a device or a pipe named as a
+    // mesh is refused before a byte is read, like every input file).
+    let what = "it is larger than 256 MiB, the most a mesh file may be";
+    let bytes = grm_diag::input::read_bounded(path, MAX_OBJ_BYTES, what).map_err(|e| {
+        GeomError::MeshMissing {
+            mesh: name.to_string(),
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        }
     })?;
     parse_obj(name, path, &bytes)
 }
@@ -199,4 +207,21 @@ fn check_indices(bytes: &[u8]) -> Result<(), String> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A mesh declared as a device or a directory is refused before a byte
+    /// is read (`/dev/zero` never ends; a folder is not a mesh).
+    #[test]
+    fn a_mesh_that_is_not_a_regular_file_is_refused_unread() {
+        for path in ["/dev/zero", "/"] {
+            let t = std::time::Instant::now();
+            let e = load_obj("m", Path::new(path)).expect_err("refused");
+            assert!(matches!(e, GeomError::MeshMissing { .. }), "{path}: {e:?}");
+            assert!(t.elapsed().as_secs() < 5, "{path}: read instead of refused");
+        }
+    }
 }

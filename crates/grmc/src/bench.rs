@@ -80,6 +80,11 @@ pub struct DeriveBench {
     /// Skip the naive baseline.
     #[arg(long)]
     pub no_baseline: bool,
+    /// Carry identity keys in every string (as a derivation for a `.glb`,
+    /// a `--tree` or a system that draws does), to measure what keys cost
+    /// against the same run without them.
+    #[arg(long)]
+    pub keys: bool,
 }
 
 /// The scenes: example file, system, iterations (Lipp's where he has one).
@@ -89,6 +94,9 @@ const SCENES: &[(&str, &str, u32)] = &[
     ("bracketed_plant", "BracketedPlant", 7),
     ("row_of_trees", "RowOfTrees", 10),
     ("ternary_tree", "TernaryTreeB", 11),
+    // Stochastic: its strings carry identity keys (its draws are keyed by
+    // them); the naive baseline does not draw, so it has none here.
+    ("stochastic_plant", "StochasticPlant", 10),
 ];
 
 pub fn run(args: BenchArgs) -> Outcome {
@@ -397,6 +405,9 @@ fn derive_bench(args: DeriveBench) -> Outcome {
             args.runs
         )
     );
+    if args.keys {
+        outln!("every string carries identity keys (--keys)");
+    }
     let nt = format!("{threads}T");
     outln!(
         "{:<16} {:>3} {:>9} {:>9} | {:>9} {:>9} {:>9} {:>9} | {:>8} {:>8} {:>8} {:>8} | {:>7} {:>7}",
@@ -431,8 +442,9 @@ fn derive_bench(args: DeriveBench) -> Outcome {
         // the first run of a fresh engine (cold: every string in fresh
         // memory).
         let mut engine_run = |threads: usize| -> Result<(Duration, Duration, u64), Outcome> {
-            let engine =
-                Engine::new(c, threads).map_err(|e| report_derive_error(&loaded.sources, c, &e))?;
+            let engine = Engine::new(c, threads)
+                .map_err(|e| report_derive_error(&loaded.sources, c, &e))?
+                .with_keys(args.keys);
             let mut cold = None;
             let (warm, produced) = best(timed_runs(args.runs), || {
                 let t = Instant::now();
