@@ -103,6 +103,8 @@ pub(crate) struct Shared {
     pub(crate) running: Mutex<HashMap<PathBuf, RunningPreview>>,
     /// Ids of `grm/preview` requests, in the order they started.
     pub(crate) preview_seq: AtomicU64,
+    /// The latest `order` of a live `grm/preview` per (file, client).
+    pub(crate) live_orders: Mutex<HashMap<(PathBuf, String), u64>>,
     debounce: Duration,
     /// Workspace folders to scan for `.grm` files.
     roots: Mutex<Vec<PathBuf>>,
@@ -158,6 +160,7 @@ impl Shared {
             picks: Mutex::new(HashMap::new()),
             running: Mutex::new(HashMap::new()),
             preview_seq: AtomicU64::new(0),
+            live_orders: Mutex::new(HashMap::new()),
             debounce: config.debounce,
             roots: Mutex::new(Vec::new()),
             uris: Mutex::new(uris::Uris::default()),
@@ -214,6 +217,12 @@ impl Shared {
 
     pub(crate) fn previews(&self) -> MutexGuard<'_, HashMap<PathBuf, preview::PreviewParams>> {
         self.previews
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    pub(crate) fn live_orders(&self) -> MutexGuard<'_, HashMap<(PathBuf, String), u64>> {
+        self.live_orders
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner)
     }

@@ -139,6 +139,15 @@ pub struct PreviewParams {
     /// Send `grm/previewUpdated` after edits of this document.
     #[serde(default)]
     pub live: bool,
+    /// Live requests: who sends them (any string, the same for all of one
+    /// client's requests) and their order (growing with each one the client
+    /// sends). A live request whose client has begun a later one for the
+    /// document is answered ServerCancelled at once, whatever order they
+    /// arrive in.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub client: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub order: Option<u64>,
     /// Stop growing past this many modules (default 2,000,000).
     #[serde(default)]
     pub max_modules: Option<u64>,
@@ -1067,7 +1076,48 @@ pub(crate) struct Ticket {
     pub(crate) token: CancelToken,
 }
 
+/// Clients whose order of live requests is remembered (per document); past
+/// it the memory starts afresh.
+const MAX_ORDERED_CLIENTS: usize = 256;
+
 impl Ticket {
+    /// A `grm/preview`'s ticket. A live one registers as the document's live
+    /// preview (its options are `grm/previewUpdated`'s) unless its client
+    /// has begun a later one (`client`, `order`): then its ticket is
+    /// cancelled at once and it supersedes nothing. Two requests of a client
+    /// sent a moment apart may arrive in either order (`grmc view` answers
+    /// each connection in a thread of its own); the older never wins.
+    pub(crate) fn begin_preview(
+        shared: &Arc<Shared>,
+        path: &std::path::Path,
+        params: &PreviewParams,
+    ) -> Ticket {
+        if !params.live {
+            let ticket = Ticket::begin(shared, path, false);
+            shared.previews().remove(path);
+            return ticket;
+        }
+        // Held while registering: one client's requests register in its order.
+        let mut orders = shared.live_orders();
+        if let (Some(client), Some(order)) = (&params.client, params.order) {
+            let key = (path.to_path_buf(), client.clone());
+            if orders.get(&key).is_some_and(|&o| o > order) {
+                let ticket = Ticket::begin(shared, path, false);
+                ticket.token.cancel();
+                return ticket;
+            }
+            if orders.len() >= MAX_ORDERED_CLIENTS && !orders.contains_key(&key) {
+                orders.clear();
+            }
+            orders.insert(key, order);
+        }
+        // The ticket first: a refresh that sees the live registration below
+        // also sees this request running (and leaves the answer to it).
+        let ticket = Ticket::begin(shared, path, true);
+        shared.previews().insert(path.to_path_buf(), params.clone());
+        ticket
+    }
+
     pub(crate) fn begin(shared: &Arc<Shared>, path: &std::path::Path, live: bool) -> Ticket {
         let token = CancelToken::new();
         let id = shared.preview_seq.fetch_add(1, Ordering::Relaxed);
@@ -1118,16 +1168,10 @@ impl Backend {
     pub async fn preview(&self, params: PreviewParams) -> Result<PreviewResult> {
         let uri = params.text_document.uri.clone();
         let path = convert::path_of(&uri).ok_or_else(|| failed("not a file URI"))?;
-        // The ticket first: a refresh that sees the live registration below
-        // also sees this request running (and leaves the answer to it).
-        let ticket = Ticket::begin(&self.shared, &path, params.live);
-        {
-            let mut live = self.shared.previews();
-            if params.live {
-                live.insert(path.clone(), params.clone());
-            } else {
-                live.remove(&path);
-            }
+        let ticket = Ticket::begin_preview(&self.shared, &path, &params);
+        if ticket.token.is_cancelled() {
+            // Its client has begun a later live request for the document.
+            return Err(superseded());
         }
         let outcome = compute(
             &self.shared,
@@ -1253,6 +1297,7 @@ pub(crate) async fn refresh(shared: &Arc<Shared>, client: &Client, path: PathBuf
         return;
     }
     let uri = params.text_document.uri.clone();
+    let options = serde_json::to_value(&params).ok();
     let s = shared.clone();
     let (p, u) = (path.clone(), uri.clone());
     let built = tokio::task::spawn_blocking(move || {
@@ -1279,6 +1324,16 @@ pub(crate) async fn refresh(shared: &Arc<Shared>, client: &Client, path: PathBuf
         }
         Err(failure) => (None, Some(failure.to_string())),
     };
+    // A live request begun since with other options answers for this
+    // version (or a newer one) itself: a model of the older options, sent
+    // after its answer, would replace the client's current one.
+    let live_now = shared
+        .previews()
+        .get(&path)
+        .and_then(|p| serde_json::to_value(p).ok());
+    if live_now.is_none() || live_now != options {
+        return;
+    }
     let mut sent = shared.preview_sent.lock().await;
     if shared.version(&path) != Some(version)
         || sent
@@ -1425,6 +1480,51 @@ mod tests {
         assert!(tb.is_cancelled() && tonce.is_cancelled());
         assert!(shared.running().get(path).is_none());
         assert!(shared.running().get(other).is_some());
+    }
+
+    #[test]
+    fn a_clients_older_live_request_arriving_late_supersedes_nothing() {
+        let shared = Arc::new(Shared::new(crate::Config::default()));
+        let path = std::path::Path::new("/t/tree.grm");
+        let params = |client: &str, order: u64, seed: u32| -> PreviewParams {
+            serde_json::from_value(serde_json::json!({
+                "textDocument": { "uri": "file:///t/tree.grm" }, "live": true,
+                "client": client, "order": order, "seed": seed,
+            }))
+            .expect("params")
+        };
+        // The page sent 1 then 2; 2 arrives first.
+        let newer = Ticket::begin_preview(&shared, path, &params("page", 2, 2));
+        let older = Ticket::begin_preview(&shared, path, &params("page", 1, 1));
+        assert!(
+            older.token.is_cancelled(),
+            "the older one is answered superseded"
+        );
+        assert!(!newer.token.is_cancelled(), "and supersedes nothing");
+        // previewUpdated keeps the newer one's options.
+        assert_eq!(shared.previews().get(path).and_then(|p| p.seed), Some(2));
+        drop(older);
+        assert_eq!(shared.running().get(path).map(|r| r.0), Some(newer.id));
+        // Even after the newer one was answered.
+        drop(newer);
+        let late = Ticket::begin_preview(&shared, path, &params("page", 1, 1));
+        assert!(late.token.is_cancelled());
+        assert_eq!(shared.previews().get(path).and_then(|p| p.seed), Some(2));
+        // Another client's requests, and requests without an order, are taken as they come.
+        let other = Ticket::begin_preview(&shared, path, &params("other", 1, 3));
+        assert!(!other.token.is_cancelled());
+        let next = Ticket::begin_preview(&shared, path, &params("page", 3, 4));
+        assert!(
+            other.token.is_cancelled(),
+            "a later request supersedes another client's"
+        );
+        assert!(!next.token.is_cancelled());
+        let plain: PreviewParams = serde_json::from_value(serde_json::json!({
+            "textDocument": { "uri": "file:///t/tree.grm" }, "live": true,
+        }))
+        .expect("params");
+        let unordered = Ticket::begin_preview(&shared, path, &plain);
+        assert!(next.token.is_cancelled() && !unordered.token.is_cancelled());
     }
 
     #[test]
