@@ -1,0 +1,406 @@
+// The grm extension in a real VS Code: code-server 4.100.3 (VS Code 1.100.3,
+// installed by scripts/code-server-setup.sh from the npm registry alone) in
+// Debian's headless Chromium, driven by Playwright through the workbench's
+// own UI (Quick Open, the command palette, the keyboard), on a temporary
+// copy of examples/:
+//   - TextMate highlighting: `system` in a .grm file has the grammar's scope
+//     (keyword.declaration.system.grm, in the token inspector) and a colour
+//     of its own;
+//   - a hover of the language server (the documentation of `angle`);
+//   - an error typed into the file shows in the Problems panel (E0105), its
+//     quick fix (Ctrl+.) repairs it and the Problems panel empties;
+//   - grm: Open Preview shows the model in the webview (the page's status
+//     names the system, its bones are counted, its canvas is drawn);
+//   - grm: Export Model writes a glTF file (quick pick, then VS Code's own
+//     save dialog).
+//
+// Needs: `cargo build -p grmc` (or GRMC=path), the packaged extension
+// (`editors/vscode/scripts/package.sh --out target/grm.vsix`, or
+// GRM_VSIX=path), Debian's chromium (CHROMIUM=path). CODE_SERVER_DIR names
+// the install (else scripts/code-server-setup.sh is run, which installs it
+// once). Screenshots and code-server's log go to target/code-server-test/.
+//   node --test editors/code-server-test/
+
+import assert from 'node:assert/strict';
+import { execFileSync, spawn } from 'node:child_process';
+import { cpSync, existsSync, mkdirSync, mkdtempSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { join } from 'node:path';
+import { after, afterEach, before, test } from 'node:test';
+import { chromium } from 'playwright-core';
+
+const root = join(import.meta.dirname, '../..');
+const target = process.env.CARGO_TARGET_DIR ?? join(root, 'target');
+const grmc = process.env.GRMC ?? join(target, 'debug/grmc');
+const vsix = process.env.GRM_VSIX ?? join(target, 'grm.vsix');
+const chromiumPath = process.env.CHROMIUM ?? '/usr/bin/chromium';
+const artifacts = join(target, 'code-server-test');
+
+/** Generous bounds for a busy 2-core machine; every wait is for a condition. */
+const LONG = 90_000;
+const SHORT = 30_000;
+
+let server; // the code-server process, leader of its own process group
+let serverLog = '';
+let browser;
+let page;
+let temp; // workspace and code-server's data
+let ws; // the workspace folder: a copy of examples/
+let url;
+
+/** Stop code-server and everything it started (extension host, language server, watchers). */
+function killServer() {
+  if (!server || server.exitCode !== null || server.signalCode !== null) return;
+  try {
+    process.kill(-server.pid, 'SIGKILL');
+  } catch {
+    // Already gone.
+  }
+}
+process.on('exit', killServer);
+for (const sig of ['SIGINT', 'SIGTERM']) {
+  process.on(sig, () => {
+    killServer();
+    process.exit(130);
+  });
+}
+
+function log(msg) {
+  console.log(`[code-server-test ${new Date().toISOString().slice(11, 19)}] ${msg}`);
+}
+
+function codeServerDir() {
+  if (process.env.CODE_SERVER_DIR) return process.env.CODE_SERVER_DIR;
+  const out = execFileSync('bash', [join(root, 'scripts/code-server-setup.sh')], { encoding: 'utf8', stdio: ['ignore', 'pipe', 'inherit'] });
+  return out.trim().split('\n').pop();
+}
+
+before(async () => {
+  for (const [what, path] of [
+    ['grmc', grmc],
+    ['the extension', vsix],
+    ['chromium', chromiumPath],
+  ]) {
+    assert.ok(existsSync(path), `${what}: ${path} is missing`);
+  }
+  mkdirSync(artifacts, { recursive: true });
+  const dir = codeServerDir();
+  const entry = join(dir, 'node_modules/code-server/out/node/entry.js');
+  assert.ok(existsSync(entry), `code-server is not installed in ${dir}`);
+
+  temp = mkdtempSync(join(tmpdir(), 'grm-cs-'));
+  ws = join(temp, 'examples');
+  cpSync(join(root, 'examples'), ws, { recursive: true });
+  const data = join(temp, 'data');
+  mkdirSync(join(data, 'user/User'), { recursive: true });
+  mkdirSync(join(data, 'ext'), { recursive: true });
+  writeFileSync(join(data, 'config.yaml'), 'bind-addr: 127.0.0.1:0\nauth: none\ncert: false\n');
+  writeFileSync(
+    join(data, 'user/User/settings.json'),
+    JSON.stringify(
+      {
+        'grm.server.path': grmc,
+        'security.workspace.trust.enabled': false,
+        'workbench.startupEditor': 'none',
+        'workbench.tips.enabled': false,
+        'workbench.enableExperiments': false,
+        'telemetry.telemetryLevel': 'off',
+        'update.mode': 'none',
+        'extensions.autoUpdate': false,
+        'extensions.autoCheckUpdates': false,
+        'extensions.ignoreRecommendations': true,
+        'editor.minimap.enabled': false,
+        // The colours on screen are then the TextMate grammar's alone.
+        'editor.semanticHighlighting.enabled': false,
+        // Typing is typed: no completion accepted, nothing closed for us.
+        'editor.quickSuggestions': { other: false, comments: false, strings: false },
+        'editor.suggestOnTriggerCharacters': false,
+        'editor.acceptSuggestionOnEnter': 'off',
+        'editor.autoClosingBrackets': 'never',
+        'editor.formatOnType': false,
+        'files.autoSave': 'off',
+        'files.simpleDialog.enable': true,
+      },
+      null,
+      2,
+    ),
+  );
+  const common = ['--config', join(data, 'config.yaml'), '--user-data-dir', join(data, 'user'), '--extensions-dir', join(data, 'ext')];
+
+  log(`installing ${vsix}`);
+  const installed = execFileSync('node', [entry, ...common, '--install-extension', vsix], { encoding: 'utf8', timeout: 120_000 });
+  assert.match(installed, /successfully installed/i, installed);
+
+  server = spawn(
+    'node',
+    [entry, ...common, '--bind-addr', '127.0.0.1:0', '--auth', 'none', '--disable-telemetry', '--disable-update-check', '--disable-workspace-trust', '--disable-getting-started-override', ws],
+    { detached: true, stdio: ['ignore', 'pipe', 'pipe'], env: { ...process.env, GRM_TEST_CODE_SERVER: '1' } },
+  );
+  url = await new Promise((resolve, reject) => {
+    const timer = setTimeout(() => reject(new Error(`code-server did not listen in 60 s:\n${serverLog}`)), 60_000);
+    const onData = (d) => {
+      serverLog += d;
+      const m = /HTTP server listening on (http:\/\/127\.0\.0\.1:\d+\/)/.exec(serverLog);
+      if (m) {
+        clearTimeout(timer);
+        resolve(m[1]);
+      }
+    };
+    server.stdout.on('data', onData);
+    server.stderr.on('data', onData);
+    server.on('exit', (code, sig) => {
+      clearTimeout(timer);
+      reject(new Error(`code-server exited (${code ?? sig}):\n${serverLog}`));
+    });
+  });
+  log(`code-server on ${url}`);
+
+  browser = await chromium.launch({
+    executablePath: chromiumPath,
+    headless: true,
+    args: [
+      '--no-sandbox',
+      '--disable-gpu',
+      '--no-first-run',
+      '--disable-background-networking',
+      '--disable-component-update',
+      '--disable-sync',
+      // WebGL on the CPU (the preview's canvas): SwiftShader through ANGLE.
+      '--use-angle=swiftshader',
+      '--enable-unsafe-swiftshader',
+    ],
+  });
+  const context = await browser.newContext({ viewport: { width: 1400, height: 900 } });
+  page = await context.newPage();
+  page.setDefaultTimeout(LONG);
+  await page.goto(`${url}?folder=${encodeURIComponent(ws)}`);
+  // The workbench is up and the explorer lists the examples.
+  await page.locator('.monaco-workbench').waitFor();
+  await page.locator('.explorer-folders-view .monaco-list-row', { hasText: 'koch_island.grm' }).first().waitFor();
+});
+
+afterEach(async (t) => {
+  if (page && t.name) {
+    const name = t.name.replace(/[^a-z0-9]+/gi, '-').slice(0, 60);
+    await page.screenshot({ path: join(artifacts, `${name}.png`) }).catch(() => {});
+  }
+});
+
+after(async () => {
+  await browser?.close().catch(() => {});
+  killServer();
+  if (serverLog) writeFileSync(join(artifacts, 'code-server.log'), serverLog);
+  if (temp) rmSync(temp, { recursive: true, force: true });
+});
+
+/** The first step that failed: the steps build on each other, the later ones then fail at once. */
+let failedStep = null;
+
+/** A test that needs the steps before it. */
+function step(name, fn) {
+  test(name, { timeout: 300_000 }, async () => {
+    if (failedStep) throw new Error(`not run: "${failedStep}" failed before it`);
+    try {
+      await fn();
+    } catch (e) {
+      failedStep = name;
+      throw e;
+    }
+  });
+}
+
+/** Monaco's text of the visible lines (non-breaking spaces as spaces). */
+async function editorText() {
+  return ((await page.locator('.editor-group-container.active .monaco-editor .view-lines').innerText()) ?? '').replace(/\u00a0/g, ' ');
+}
+
+/** Run a command from the palette by its exact label. */
+async function command(label) {
+  await page.keyboard.press('F1');
+  const input = page.locator('.quick-input-widget input');
+  await input.waitFor({ state: 'visible' });
+  await input.fill(`>${label}`);
+  const row = page.locator('.quick-input-list .monaco-list-row', { has: page.locator('.label-name', { hasText: label }) }).first();
+  await row.waitFor();
+  await row.click();
+  await page.locator('.quick-input-widget').waitFor({ state: 'hidden' }).catch(() => {});
+}
+
+/** Put the cursor at LINE:COLUMN (1-based) with Go to Line. */
+async function goTo(line, column) {
+  await page.keyboard.press('Control+G');
+  const input = page.locator('.quick-input-widget input');
+  await input.waitFor({ state: 'visible' });
+  await input.fill(`:${line}:${column}`);
+  await input.press('Enter');
+  await page.locator('.quick-input-widget').waitFor({ state: 'hidden' });
+}
+
+/** The 1-based line of the first line of `file` (in the workspace) that contains `text`. */
+function lineOf(file, text) {
+  const i = readFileSync(join(ws, file), 'utf8').split('\n').findIndex((l) => l.includes(text));
+  assert.ok(i >= 0, `${file} has no line with ${text}`);
+  return i + 1;
+}
+
+step('a .grm file opens with TextMate highlighting (the grammar scope of `system` and its colour)', async () => {
+  await page.keyboard.press('Control+P');
+  const input = page.locator('.quick-input-widget input');
+  await input.waitFor({ state: 'visible' });
+  await input.fill('koch_island.grm');
+  await page.locator('.quick-input-list .monaco-list-row', { hasText: 'koch_island.grm' }).first().waitFor();
+  await input.press('Enter');
+  await page.locator('.tab.active', { hasText: 'koch_island.grm' }).waitFor();
+  await page.locator('.editor-group-container.active .view-line', { hasText: 'system KochIsland' }).waitFor();
+  // The language mode in the status bar.
+  await page.locator('#status\\.editor\\.mode', { hasText: 'grm' }).waitFor();
+
+  // Tokens: `system` is coloured otherwise than the name after it (read
+  // from the live DOM: Monaco re-renders lines as tokens arrive).
+  const colours = await page.waitForFunction(
+    () => {
+      // (Monaco renders spaces as U+00A0.)
+      const text = (e) => e.textContent.replace(/\u00a0/g, ' ');
+      const line = [...document.querySelectorAll('.editor-group-container.active .view-line')].find((l) => text(l).includes('system KochIsland'));
+      const spans = line ? [...line.querySelectorAll('span > span')] : [];
+      const kw = spans.find((s) => text(s).trim() === 'system');
+      const name = spans.find((s) => text(s).trim() === 'KochIsland');
+      if (!kw || !name) return null;
+      const [a, b] = [getComputedStyle(kw).color, getComputedStyle(name).color];
+      return a && b && a !== b ? { system: a, KochIsland: b, classes: kw.className } : null;
+    },
+    null,
+    { timeout: SHORT, polling: 100 },
+  );
+  log(`colours: ${JSON.stringify(await colours.jsonValue())}`);
+
+  // The token inspector names the TextMate scope of `system`.
+  const sysLine = lineOf('koch_island.grm', 'system KochIsland');
+  await goTo(sysLine, 2);
+  await command('Developer: Inspect Editor Tokens and Scopes');
+  const inspector = page.locator('.token-inspect-widget');
+  await inspector.waitFor();
+  await inspector.getByText('keyword.declaration.system.grm').first().waitFor({ timeout: SHORT });
+  await inspector.getByText('source.grm').first().waitFor({ timeout: SHORT });
+  await page.keyboard.press('Escape');
+  await inspector.waitFor({ state: 'hidden', timeout: SHORT }).catch(() => {});
+});
+
+step('a hover of the language server documents the setting `angle`', async () => {
+  await goTo(lineOf('koch_island.grm', 'angle = 90;'), 7);
+  await command('Show or Focus Hover');
+  const hover = page.locator('.monaco-hover', { hasText: 'default angle of' });
+  await hover.first().waitFor({ timeout: LONG });
+  log(`hover: ${(await hover.first().innerText()).replace(/\s+/g, ' ').slice(0, 120)}`);
+  await page.keyboard.press('Escape');
+});
+
+step('an error typed in shows in the Problems panel; its quick fix repairs it', async () => {
+  const line = lineOf('koch_island.grm', 'angle = 90;');
+  // Select `angle` (columns 5..10) and type a misspelling over it.
+  await goTo(line, 5);
+  await page.keyboard.press('Shift+End');
+  await page.keyboard.type('angel = 90;');
+  await page.locator('.editor-group-container.active .view-line', { hasText: 'angel = 90;' }).waitFor();
+
+  await command('View: Focus Problems (Errors, Warnings, Infos)');
+  const problem = page.locator('.markers-panel .monaco-list-row', { hasText: 'unknown setting' });
+  await problem.first().waitFor({ timeout: LONG });
+  const text = (await problem.first().innerText()).replace(/\s+/g, ' ');
+  log(`problem: ${text}`);
+  assert.match(text, /E0105/);
+
+  // The quick fix, from the editor: Ctrl+. on the misspelt name.
+  await page.locator('.tab', { hasText: 'koch_island.grm' }).first().click();
+  await goTo(line, 6);
+  await page.keyboard.press('Control+.');
+  const fix = page.locator('.action-widget .monaco-list-row', { hasText: 'angle' }).first();
+  await fix.waitFor({ timeout: LONG });
+  log(`quick fix: ${(await fix.innerText()).replace(/\s+/g, ' ')}`);
+  // The first fix is selected: Enter applies it.
+  await page.keyboard.press('Enter');
+  await page.locator('.editor-group-container.active .view-line', { hasText: 'angle = 90;' }).waitFor();
+  assert.ok(!(await editorText()).includes('angel'), 'the misspelling is gone');
+  // The Problems panel empties.
+  await page.locator('.markers-panel .monaco-list-row', { hasText: 'unknown setting' }).first().waitFor({ state: 'detached', timeout: LONG });
+  await page.keyboard.press('Control+S');
+  await page.locator('.tab.active.dirty').waitFor({ state: 'detached', timeout: SHORT });
+  assert.match(readFileSync(join(ws, 'koch_island.grm'), 'utf8'), /^ {4}angle = 90;$/m);
+});
+
+/** The preview page's frame (inside the webview's iframes), once it has a status line. */
+async function previewFrame() {
+  const deadline = Date.now() + LONG;
+  while (Date.now() < deadline) {
+    for (const f of page.frames()) {
+      const ok = await f.evaluate(() => !!document.getElementById('status-text') && !!document.getElementById('view')).catch(() => false);
+      if (ok) return f;
+    }
+    await page.waitForTimeout(250);
+  }
+  throw new Error('no preview page in any frame');
+}
+
+step('grm: Open Preview shows the model in the webview', async () => {
+  await page.locator('.tab', { hasText: 'koch_island.grm' }).first().click();
+  await command('grm: Open Preview');
+  await page.locator('.tab', { hasText: 'Preview koch_island.grm' }).waitFor();
+  const frame = await previewFrame();
+  await frame.waitForFunction(
+    () => {
+      const g = globalThis.__grm;
+      return !!g && (g.regrows >= 1 || (g.ready && g.lastError !== null));
+    },
+    null,
+    { timeout: LONG, polling: 100 },
+  );
+  const g = await frame.evaluate(() => JSON.parse(JSON.stringify(globalThis.__grm)));
+  assert.equal(g.lastError, null, `the preview: ${g.lastError}`);
+  assert.equal(g.mode, 'derive');
+  // 4 * 8^3 segments after 3 iterations.
+  assert.equal(g.bones, 2048);
+  const status = (await frame.locator('#status-text').innerText()).trim();
+  log(`preview status: ${status}`);
+  assert.match(status, /KochIsland/);
+  // The canvas is drawn: pixels that are not the grey background or grid.
+  const lit = await frame.evaluate(() => {
+    const src = document.getElementById('view');
+    const c = document.createElement('canvas');
+    c.width = src.width;
+    c.height = src.height;
+    const ctx = c.getContext('2d');
+    ctx.drawImage(src, 0, 0);
+    const d = ctx.getImageData(0, 0, c.width, c.height).data;
+    let n = 0;
+    for (let i = 0; i < d.length; i += 4) {
+      if (Math.abs(d[i] - d[i + 1]) >= 8 || Math.abs(d[i + 1] - d[i + 2]) >= 8) n++;
+    }
+    return n;
+  });
+  log(`preview: ${g.bones} bones, ${g.triangles} triangles, ${lit} lit pixels (${g.renderer})`);
+  assert.ok(lit > 500, `the model covers ${lit} pixels`);
+});
+
+step('grm: Export Model writes a glTF file', async () => {
+  const out = join(ws, 'koch_island.glb');
+  assert.ok(!existsSync(out));
+  // The command works on the active .grm editor.
+  await page.locator('.tab', { hasText: /^koch_island\.grm/ }).first().click();
+  await page.locator('.tab.active', { hasText: /^koch_island\.grm/ }).waitFor();
+  await command('grm: Export Model (glTF/OBJ/PNG)');
+  const input = page.locator('.quick-input-widget input');
+  await page.locator('.quick-input-list .monaco-list-row', { hasText: 'glTF binary (.glb)' }).first().click();
+  // VS Code's save dialog (a quick input holding the path), the grammar's name with .glb.
+  await page.waitForFunction(
+    (el) => el.value.endsWith('koch_island.glb'),
+    await input.elementHandle(),
+    { timeout: SHORT },
+  );
+  log(`save dialog: ${await input.inputValue()}`);
+  await input.press('Enter');
+  await page.locator('.notification-toast', { hasText: `Exported ${out}` }).first().waitFor({ timeout: LONG });
+  const glb = readFileSync(out);
+  assert.equal(glb.subarray(0, 4).toString('latin1'), 'glTF', 'a binary glTF');
+  assert.ok(glb.length > 1000, `${glb.length} bytes`);
+  log(`exported ${out}: ${glb.length} bytes`);
+});
