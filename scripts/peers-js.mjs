@@ -1,0 +1,60 @@
+// grm's one-shot derivation against the npm `lindenmayer` library 1.5.4
+// (JavaScript, string mode: one character per module, no parameters), on
+// the classic scenes, interleaved round by round. Run by scripts/peers-js.sh.
+//
+//   node scripts/peers-js.mjs GRMC ROUNDS LINDENMAYER_DIR
+//
+// A JavaScript run is a fresh LSystem instance, `iterate(n)` and one read
+// of the final string (`getString()`, which flattens it). A grm run is one
+// `grmc derive FILE -n N --threads 1` process: its own figure for the
+// derivation (fresh engine, fresh memory) and the whole process's wall time.
+import { spawnSync } from 'node:child_process';
+import { createRequire } from 'node:module';
+import path from 'node:path';
+
+const [grmc, roundsArg, libDir] = process.argv.slice(2);
+const rounds = Number(roundsArg ?? 15);
+const require = createRequire(path.join(path.resolve(libDir), 'index.js'));
+const LSystem = require('lindenmayer');
+
+const scenes = [
+  { name: 'koch_island', file: 'examples/koch_island.grm', n: 6,
+    axiom: 'F-F-F-F', productions: { F: 'F-F+F+FF-F-F+F' } },
+  { name: 'bracketed_plant', file: 'examples/bracketed_plant.grm', n: 6,
+    axiom: 'F', productions: { F: 'FF-[-F+F+F]+[+F-F-F]' } },
+  { name: 'hilbert3d', file: 'examples/hilbert3d.grm', n: 6,
+    axiom: 'A', productions: {
+      A: 'B-F+CFC+F-D&F^D-F+&&CFC+F+B//',
+      B: 'A&F^CFB^F^D^^-F-D^|F^B|FC^F^A//',
+      C: '|D^|F^B-F+C^F^A&&FA&F^C+F+B^F^D//',
+      D: '|CFB-F+B|FA&F^A&&FB-F+B|FC//',
+    } },
+];
+
+const median = (v) => { const s = [...v].sort((a, b) => a - b); return s[Math.floor(s.length / 2)]; };
+
+console.log(`grm against npm lindenmayer 1.5.4 (node ${process.version}), one thread, median of ${rounds} interleaved rounds (ms)`);
+console.log('scene              n     final |  js (derive+read)  grm derive  grm process | derive/js  process/js');
+for (const s of scenes) {
+  const js = [], derive = [], proc = [];
+  let len = 0;
+  for (let r = 0; r < rounds; r++) {
+    const t0 = process.hrtime.bigint();
+    const l = new LSystem({ axiom: s.axiom, productions: s.productions });
+    l.iterate(s.n);
+    const out = l.getString();
+    js.push(Number(process.hrtime.bigint() - t0) / 1e6);
+    len = out.length;
+
+    const t1 = process.hrtime.bigint();
+    const g = spawnSync(grmc, ['derive', s.file, '-n', String(s.n), '--threads', '1'], { encoding: 'utf8' });
+    proc.push(Number(process.hrtime.bigint() - t1) / 1e6);
+    if (g.status !== 0) throw new Error(`grmc failed: ${g.stderr}`);
+    const m = /: ([\d]+) modules? \(.* in ([\d.]+) ms/.exec(g.stderr);
+    if (!m) throw new Error(`unexpected grmc output: ${g.stderr}`);
+    if (Number(m[1]) !== len) throw new Error(`${s.name}: grm made ${m[1]} modules, lindenmayer ${len}`);
+    derive.push(Number(m[2]));
+  }
+  const [j, d, p] = [median(js), median(derive), median(proc)];
+  console.log(`${s.name.padEnd(16)} ${String(s.n).padStart(2)} ${String(len).padStart(9)} | ${j.toFixed(2).padStart(17)} ${d.toFixed(2).padStart(11)} ${p.toFixed(2).padStart(12)} | ${(d / j).toFixed(2).padStart(9)} ${(p / j).toFixed(2).padStart(11)}`);
+}
