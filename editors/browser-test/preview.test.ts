@@ -114,9 +114,14 @@ function scratch(files: string[]): string {
   return dir;
 }
 
-/** Start `grmc view FILE` and return the URL it prints. */
+/**
+ * Start `grmc view FILE` and return the URL it prints. Sample searches get
+ * the longest time budget: a search stopped by the budget (5 s by default)
+ * holds a model that depends on the machine's load, and the tests compare
+ * the page's models with the server's own answers for the same state.
+ */
 async function view(file: string): Promise<string> {
-  const proc = spawn(grmc, ['view', file], { stdio: ['ignore', 'pipe', 'pipe'] });
+  const proc = spawn(grmc, ['view', file, '--budget-ms', '600000'], { stdio: ['ignore', 'pipe', 'pipe'] });
   servers.push(proc);
   let out = '';
   let err = '';
@@ -170,6 +175,9 @@ interface Grm {
   supersedes: number;
   staleAnswers: number;
   supersededAnswers: number;
+  resends: number;
+  olderVersions: number;
+  shownParams: string | null;
   lastShownAt: number | null;
   objective: number | null;
   generation: number | null;
@@ -1194,8 +1202,14 @@ async function dragReleases(
       { timeout: 60_000 },
     );
     const done = await grm(page);
-    const what = JSON.stringify({ release, done: { ...done, lastBreakdown: undefined } });
+    const what = JSON.stringify({ release, done: { ...done, lastBreakdown: undefined, shownParams: undefined } });
     assert.equal(done.lastError, null, 'no error is shown');
+    // Whatever the timing, the model shown answers the request for the page's latest state.
+    const latest = await page.evaluate(() => JSON.stringify((globalThis as unknown as { __grm: { previewParams(): unknown } }).__grm.previewParams()));
+    assert.equal(done.shownParams, latest, `the model shown is not the answer for the latest state: ${what}`);
+    // The server takes the page's requests in the page's order (client, order): its own older request never
+    // supersedes its current one, so the current state is never sent again.
+    assert.equal(done.resends, 0, what);
     if (release.inFlight === 0) continue; // the moves' answers came before the release: not this case
     // One model after the release: the final one; the stale answer is dropped unseen.
     assert.equal(done.delivered - release.delivered, 1, `the stale model was shown: ${what}`);

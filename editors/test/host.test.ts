@@ -106,6 +106,11 @@ test('preview requests go to grm/preview and the answer comes back with the same
   // A scrubbed search: the export writes the generation shown.
   await host.handle({ type: 'request', id: 8, method: 'preview', params: { ...params, generation: 4 } });
   assert.equal(host.lastPreview('file:///t.grm')?.generation, 4);
+  // No seed picked in the page: the export leaves the seed to the file (whose `seed` setting may be edited since),
+  // not the seed of the last answer.
+  const { seed: _seed, ...fileSeed } = params;
+  await host.handle({ type: 'request', id: 9, method: 'preview', params: fileSeed });
+  assert.equal(host.lastPreview('file:///t.grm')?.seed, undefined);
 });
 
 test('symbols come from textDocument/documentSymbol of the shown document', async () => {

@@ -32,13 +32,43 @@ test('the first preview sets mode, seed and parameters; overrides are clamped an
   s.setDocument('file:///t.grm');
   assert.deepEqual(s.previewParams(), { textDocument: { uri: 'file:///t.grm' }, mode: 'derive', live: true });
   s.absorb(result());
-  assert.equal(s.seed, 5);
+  // The shown seed is the file's: shown, not picked (no seed in the next request).
+  assert.equal(s.seed, null);
+  assert.equal(s.currentSeed, 5);
   assert.equal(s.mode, 'sample');
   s.setParam('spread', 99);
   s.setParam('unknown', 1);
   s.nextVariation();
   s.focus = { line: 3, character: 1 };
   assert.deepEqual(s.previewParams(), { textDocument: { uri: 'file:///t.grm' }, mode: 'sample', live: true, seed: 6, params: { spread: 60 }, focus: { line: 3, character: 1 } });
+});
+
+test("the file's seed is followed until the user picks one in the page", () => {
+  const s = new PageState();
+  s.setDocument('file:///t.grm');
+  s.absorb(result({ seed: 1 }));
+  assert.equal(s.previewParams().seed, undefined);
+  // The grammar's `seed = 1;` edited to `seed = 2;`: the server's update (of the same request options) is the
+  // file's seed, and so is every later request.
+  s.absorb(result({ seed: 2 }));
+  assert.equal(s.currentSeed, 2);
+  assert.equal(s.previewParams().seed, undefined);
+  // Picked in the page: sent from now on, whatever the file says.
+  s.setSeed(7);
+  assert.equal(s.previewParams().seed, 7);
+  s.absorb(result({ seed: 7 }));
+  assert.equal(s.previewParams().seed, 7);
+  assert.equal(s.currentSeed, 7);
+  // Next variation goes on from the seed shown.
+  const t = new PageState();
+  t.setDocument('file:///t.grm');
+  t.absorb(result({ seed: 2 }));
+  t.nextVariation();
+  assert.equal(t.previewParams().seed, 3);
+  // Another document starts from its own file's seed.
+  t.setDocument('file:///u.grm');
+  assert.equal(t.currentSeed, null);
+  assert.equal(t.previewParams().seed, undefined);
 });
 
 test('sample systems send their curves, loaded from the file (or none yet)', () => {

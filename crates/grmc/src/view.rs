@@ -52,6 +52,26 @@ static INDEX_HTML: &str = include_str!("../../../editors/preview/dist/index.html
 static PREVIEW_JS: &str = include_str!("../../../editors/preview/dist/preview.js");
 static PREVIEW_CSS: &str = include_str!("../../../editors/preview/dist/preview.css");
 
+/// What the page may load and do (every answer carries it): its own
+/// script and stylesheet, calls to this server, pictures of its own making
+/// (`data:`, `blob:`), and nothing else: no inline or foreign script, no
+/// other server, no frame. The VS Code webview's policy is as strict
+/// (`editors/vscode/src/webviewHtml.ts`). `frame-ancestors` works only as a
+/// header, so the page's `<meta>` copy leaves it out.
+const CSP: &str = "default-src 'none'; script-src 'self'; style-src 'self' 'unsafe-inline'; img-src 'self' data: blob:; connect-src 'self'; base-uri 'none'; form-action 'none'";
+const CSP_FRAMES: &str = "frame-ancestors 'none'";
+
+/// The page with its policy in the `<!--CSP-->` slot.
+fn index_html() -> &'static str {
+    static HTML: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    HTML.get_or_init(|| {
+        INDEX_HTML.replace(
+            "<!--CSP-->",
+            &format!("<meta http-equiv=\"Content-Security-Policy\" content=\"{CSP}\">"),
+        )
+    })
+}
+
 /// Largest request body accepted (curves files and preview parameters are small).
 const MAX_BODY: usize = 16 << 20;
 /// Largest request head (request line and headers).
@@ -70,6 +90,12 @@ pub struct ViewArgs {
     /// Port on 127.0.0.1 (0: a free one, printed).
     #[arg(long, default_value_t = 0)]
     pub port: u16,
+    /// Sample mode: the preview's search time budget in milliseconds
+    /// (default 5000; a search stopped by it says so, and its model depends
+    /// on the machine's speed). For slow machines, and for tests that
+    /// compare models.
+    #[arg(long, value_name = "MS", value_parser = clap::value_parser!(u64).range(1..=600_000))]
+    pub budget_ms: Option<u64>,
 }
 
 pub fn run(args: ViewArgs) -> Outcome {
@@ -91,7 +117,7 @@ pub fn run(args: ViewArgs) -> Outcome {
             return Outcome::Usage;
         }
     };
-    let server = match Server::start(&path, listener) {
+    let server = match Server::start(&path, listener, args.budget_ms) {
         Ok(s) => s,
         Err(e) => {
             eprintln!("error: {e}");
@@ -292,6 +318,8 @@ struct State {
     curves_seen: Mutex<(Option<SystemTime>, u64)>,
     /// Where this server listens (the only `Host` it answers).
     addr: SocketAddr,
+    /// `--budget-ms`: the `budgetMs` of previews and pictures that name none.
+    budget_ms: Option<u64>,
 }
 
 /// A running `grmc view` server.
@@ -332,8 +360,13 @@ fn stat(path: &Path) -> (Option<SystemTime>, u64) {
 
 impl Server {
     /// Open `path` in an in-process language server and serve the page on
-    /// `listener`, in background threads.
-    pub fn start(path: &Path, listener: TcpListener) -> Result<Server, String> {
+    /// `listener`, in background threads; `budget_ms` is the search time
+    /// budget of the previews that name none (`--budget-ms`).
+    pub fn start(
+        path: &Path,
+        listener: TcpListener,
+        budget_ms: Option<u64>,
+    ) -> Result<Server, String> {
         let text =
             read_grammar(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
         let uri = grm_lsp::convert::uri_of(path)
@@ -374,6 +407,7 @@ impl Server {
             events,
             seen: Mutex::new((modified, len, 1)),
             addr,
+            budget_ms,
         });
         let watch = state.clone();
         std::thread::spawn(move || {
@@ -458,8 +492,13 @@ impl State {
         }
     }
 
-    fn api(&self, method: &str, params: Value) -> Result<Value, ApiError> {
+    fn api(&self, method: &str, mut params: Value) -> Result<Value, ApiError> {
         self.check_uri(&params)?;
+        if let (Some(budget), "preview" | "picture", Some(p)) =
+            (self.budget_ms, method, params.as_object_mut())
+        {
+            p.entry("budgetMs").or_insert(json!(budget));
+        }
         match method {
             "preview" => self.lsp.request("grm/preview", params),
             "pick" => self.lsp.request("grm/pick", params),
@@ -530,6 +569,21 @@ impl HttpRequest {
             .find(|(k, _)| k.eq_ignore_ascii_case(name))
             .map(|(_, v)| v.as_str())
     }
+
+    /// How many times the header `name` comes.
+    fn count(&self, name: &str) -> usize {
+        self.headers
+            .iter()
+            .filter(|(k, _)| k.eq_ignore_ascii_case(name))
+            .count()
+    }
+}
+
+/// An HTTP token (a header field name): visible characters but delimiters.
+fn is_token(s: &str) -> bool {
+    !s.is_empty()
+        && s.bytes()
+            .all(|b| b.is_ascii_alphanumeric() || b"!#$%&'*+-.^_`|~".contains(&b))
 }
 
 /// Read one request: request line, headers, a `Content-Length` body.
@@ -571,7 +625,13 @@ fn read_request(r: &mut impl BufRead) -> Result<HttpRequest, (u16, String)> {
             break;
         }
         let (k, v) = l.split_once(':').ok_or_else(|| bad("malformed header"))?;
-        headers.push((k.trim().to_string(), v.trim().to_string()));
+        // A field name is a token: no space before the colon, no folded
+        // continuation line (RFC 9112 5.1, 5.2: a server must refuse them;
+        // a proxy in front could read them otherwise).
+        if !is_token(k) {
+            return Err(bad("malformed header name"));
+        }
+        headers.push((k.to_string(), v.trim().to_string()));
     }
     let mut req = HttpRequest {
         method,
@@ -579,6 +639,14 @@ fn read_request(r: &mut impl BufRead) -> Result<HttpRequest, (u16, String)> {
         headers,
         body: Vec::new(),
     };
+    // One Host, one Content-Length, at most one Transfer-Encoding: two (the
+    // same or not) are how requests are smuggled past a proxy, and which
+    // one counts is ambiguous (RFC 9112 3.2, 6.3).
+    for name in ["host", "content-length", "transfer-encoding"] {
+        if req.count(name) > 1 {
+            return Err(bad(&format!("more than one {name} header")));
+        }
+    }
     if req
         .header("transfer-encoding")
         .is_some_and(|t| !t.eq_ignore_ascii_case("identity"))
@@ -586,6 +654,10 @@ fn read_request(r: &mut impl BufRead) -> Result<HttpRequest, (u16, String)> {
         return Err((411, "send a Content-Length".into()));
     }
     if let Some(len) = req.header("content-length") {
+        // Digits only (`+5`, `5, 5` and ` ` are not lengths).
+        if len.is_empty() || !len.bytes().all(|b| b.is_ascii_digit()) {
+            return Err(bad("bad Content-Length"));
+        }
         let len: usize = len.parse().map_err(|_| bad("bad Content-Length"))?;
         if len > MAX_BODY {
             return Err((413, "request body too large".into()));
@@ -628,7 +700,7 @@ fn respond_with(
     // One write for head and body: small writes on a socket would wait for
     // the client's delayed ACK (Nagle), about 40 ms each.
     let mut out = format!(
-        "HTTP/1.1 {status} {reason}\r\nContent-Type: {content_type}\r\nContent-Length: {}\r\nCache-Control: no-store\r\nX-Content-Type-Options: nosniff\r\n{extra}Connection: close\r\n\r\n",
+        "HTTP/1.1 {status} {reason}\r\nContent-Type: {content_type}\r\nContent-Length: {}\r\nCache-Control: no-store\r\nX-Content-Type-Options: nosniff\r\nContent-Security-Policy: {CSP}; {CSP_FRAMES}\r\n{extra}Connection: close\r\n\r\n",
         body.len()
     )
     .into_bytes();
@@ -679,7 +751,7 @@ fn handle(st: &State, stream: TcpStream) -> std::io::Result<()> {
             &mut w,
             200,
             "text/html; charset=utf-8",
-            INDEX_HTML.as_bytes(),
+            index_html().as_bytes(),
         ),
         ("GET", "/preview.js") => respond(
             &mut w,
@@ -800,6 +872,34 @@ mod tests {
     }
 
     #[test]
+    fn duplicate_conflicting_and_malformed_framing_headers_are_refused() {
+        let req = |headers: &str| format!("POST /api/pick HTTP/1.1\r\n{headers}\r\n{{}}\r\n");
+        let ok = "Host: 127.0.0.1:9\r\nContent-Length: 2\r\n";
+        assert_eq!(parse(&req(ok)).expect("one of each").body, b"{}");
+        for bad in [
+            // Two Hosts: which one was checked against DNS rebinding?
+            "Host: 127.0.0.1:9\r\nHost: evil.example\r\nContent-Length: 2\r\n",
+            "Host: 127.0.0.1:9\r\nhost: 127.0.0.1:9\r\nContent-Length: 2\r\n",
+            // Two lengths, conflicting or not: where does the next request begin?
+            "Host: 127.0.0.1:9\r\nContent-Length: 2\r\nContent-Length: 4\r\n",
+            "Host: 127.0.0.1:9\r\nContent-Length: 2\r\nContent-Length: 2\r\n",
+            "Host: 127.0.0.1:9\r\nContent-Length: 2, 2\r\n",
+            "Host: 127.0.0.1:9\r\nContent-Length: +2\r\n",
+            "Host: 127.0.0.1:9\r\nContent-Length: \r\n",
+            "Host: 127.0.0.1:9\r\nTransfer-Encoding: identity\r\nTransfer-Encoding: identity\r\nContent-Length: 2\r\n",
+            // A space before the colon, a folded line.
+            "Host : 127.0.0.1:9\r\nContent-Length: 2\r\n",
+            "Host: 127.0.0.1:9\r\nContent-Length: 2\r\nX-A: 1\r\n  folded\r\n",
+        ] {
+            assert_eq!(
+                parse(&req(bad)).map(|r| r.headers).unwrap_err().0,
+                400,
+                "{bad:?}"
+            );
+        }
+    }
+
+    #[test]
     fn host_and_origin_must_be_this_server() {
         let addr: SocketAddr = "127.0.0.1:4321".parse().expect("addr");
         let req = |h: &[(&str, &str)]| HttpRequest {
@@ -906,7 +1006,7 @@ mod tests {
         .expect("write");
         let grammar = grm_sema::normalize(&std::fs::canonicalize(&grammar).expect("canonical"));
         let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
-        let server = Server::start(&grammar, listener).expect("start");
+        let server = Server::start(&grammar, listener, None).expect("start");
         let addr = server.addr;
         let (_, ev) = exchange(
             addr,
@@ -955,7 +1055,7 @@ mod tests {
         .expect("write");
         let grammar = grm_sema::normalize(&std::fs::canonicalize(&grammar).expect("canonical"));
         let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
-        let server = Server::start(&grammar, listener).expect("start");
+        let server = Server::start(&grammar, listener, None).expect("start");
         let addr = server.addr;
 
         let (status, page) = exchange(addr, &format!("GET / HTTP/1.1\r\nHost: {addr}\r\n\r\n"));
@@ -963,6 +1063,28 @@ mod tests {
         assert!(page.as_str().is_some_and(|p| p.contains("preview.js")));
         let (status, _) = exchange(addr, "GET / HTTP/1.1\r\nHost: evil.example\r\n\r\n");
         assert_eq!(status, 403);
+        // A second Host after this server's own is no way in.
+        let (status, _) = exchange(
+            addr,
+            &format!("GET / HTTP/1.1\r\nHost: {addr}\r\nHost: evil.example\r\n\r\n"),
+        );
+        assert_eq!(status, 400);
+        // The page comes with its content security policy, in the header and in its slot.
+        let (head, html) = exchange_raw(addr, &format!("GET / HTTP/1.1\r\nHost: {addr}\r\n\r\n"));
+        assert!(
+            head.contains(&format!(
+                "\r\nContent-Security-Policy: {CSP}; frame-ancestors 'none'\r\n"
+            )),
+            "{head}"
+        );
+        assert!(!html.contains("<!--CSP-->"), "the placeholder is left in");
+        assert!(
+            html.contains(&format!(
+                "<meta http-equiv=\"Content-Security-Policy\" content=\"{CSP}\">"
+            )),
+            "{html}"
+        );
+        assert!(CSP.contains("script-src 'self';") && !CSP.contains("unsafe-eval"));
 
         // The document event names the URI the page must use.
         let (_, ev) = exchange(

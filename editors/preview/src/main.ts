@@ -27,10 +27,17 @@ import { PreviewScene, ThumbnailRenderer } from './scene.js';
 import { PageState } from './state.js';
 import { type RequestTiming, type Transport, detectTransport, isSuperseded } from './transport.js';
 
-/** A preview answer and where the time went on its way (ms). */
+/** A preview answer, the parameters asked (JSON) and where the time went on its way (ms). */
 interface Fetched {
   result: PreviewResult;
   breakdown: Record<string, number>;
+  params?: string;
+}
+
+/** An id for this page's live requests (`client`): random, so two pages on one document never share one. */
+function clientId(): string {
+  const c = (globalThis as { crypto?: { randomUUID?: () => string } }).crypto;
+  return c?.randomUUID?.() ?? `${Date.now().toString(36)}-${Math.random().toString(36).slice(2)}`;
 }
 
 /** What the page exposes for tests and for the curious (window.__grm). */
@@ -67,6 +74,15 @@ interface DebugInfo {
   playSteps: { position: number; askedAt: number; shownAt: number | null }[];
   /** The parameters of the page's next preview request (for tests that ask the server themselves). */
   previewParams: () => unknown;
+  /**
+   * The parameters (as JSON, without `client` and `order`) of the request whose answer is the model shown; null when
+   * the model came from the server's `grm/previewUpdated` (the options of the page's last live request).
+   */
+  shownParams: string | null;
+  /** Models not shown because one of a newer document version was shown already. */
+  olderVersions: number;
+  /** Current requests sent again because the page's own older request superseded them (the server orders them: 0). */
+  readonly resends: number;
   /** Models shown so far. */
   regrows: number;
   /** Milliseconds from an edit to the end of the frame that shows its model, per edit. */
@@ -157,13 +173,18 @@ class App {
   /** The Play button's replay of the search, and the wait before its next step. */
   private readonly player = new SearchPlayer();
   private playTimer: ReturnType<typeof setTimeout> | undefined;
+  /** This page's live requests: its id and the number of the last one (the server never lets an older one win). */
+  private readonly client = clientId();
+  private order = 0;
+  /** The document version of the model shown: a model of an older one (an answer that took longer than an update) is not shown. */
+  private shownVersion = -1;
 
   constructor(private readonly transport: Transport) {
     this.scene = new PreviewScene($<HTMLCanvasElement>('view'));
     this.coalescer = new Coalescer(
       () => null,
       () => this.fetchPreview(),
-      (d) => this.show({ ...d, result: d.result.result }, d.result.breakdown),
+      (d) => this.show({ ...d, result: d.result.result }, d.result.breakdown, d.result.params ?? null),
       (e) => {
         // A replay's step failed: it stops there, the error shown as any other.
         this.stopPlay();
@@ -205,6 +226,11 @@ class App {
       get supersededAnswers() {
         return coalescer.supersededAnswers;
       },
+      get resends() {
+        return coalescer.resends;
+      },
+      shownParams: null,
+      olderVersions: 0,
       lastShownAt: null,
       objective: null,
       generation: null,
@@ -266,6 +292,8 @@ class App {
     // The host's side changed: a request for the page's (same) state is sent anew, not shared with one on its way.
     if (method !== 'cursor') this.previewRequest.forget();
     if (method === 'document' && typeof p.uri === 'string') {
+      // Another document, or the same one after the host's server restarted: any version is news.
+      this.shownVersion = -1;
       if (p.uri !== this.state.uri) {
         this.state.setDocument(p.uri);
         this.framed = false;
@@ -346,17 +374,26 @@ class App {
   }
 
   private async fetchPreview(): Promise<Fetched> {
+    // Numbered when the coalescer sends it, before any wait: its order is the coalescer's.
+    const order = ++this.order;
     await this.prepareRequest();
     const params = this.state.previewParams();
+    const key = JSON.stringify(params);
     // The state of the request on its way (read when it went, after the edits of its task): its answer is this one's.
-    return this.previewRequest.run(JSON.stringify(params), () => this.requestPreview(params));
+    const fetched = await this.previewRequest.run(key, () => this.requestPreview(params, order));
+    return { ...fetched, params: key };
   }
 
-  private async requestPreview(params: PreviewParams): Promise<Fetched> {
+  /** A live request carries this page's id and its number (`order`, default the next one); other requests go as they are. */
+  private ordered(params: PreviewParams, order = ++this.order): PreviewParams {
+    return params.live ? { ...params, client: this.client, order } : params;
+  }
+
+  private async requestPreview(params: PreviewParams, order: number): Promise<Fetched> {
     try {
       const t0 = performance.now();
       const timing: RequestTiming = {};
-      const raw = await this.transport.request('preview', params, timing);
+      const raw = await this.transport.request('preview', this.ordered(params, order), timing);
       const t1 = performance.now();
       const result = decodePreview(raw);
       const breakdown: Record<string, number> = { host: t1 - t0, decode: performance.now() - t1 };
@@ -368,7 +405,7 @@ class App {
       if (this.state.mode === 'derive' && /is a sample system/.test(msg)) {
         this.state.mode = 'sample';
         await this.ensureCurves();
-        return { result: decodePreview(await this.transport.request('preview', this.state.previewParams())), breakdown: {} };
+        return { result: decodePreview(await this.transport.request('preview', this.ordered(this.state.previewParams()))), breakdown: {} };
       }
       throw e;
     }
@@ -452,8 +489,16 @@ class App {
     else if (regrowIfIdle) this.regrow(editedAt);
   }
 
-  private show(d: Delivery<PreviewResult>, breakdown: Record<string, number> = {}): void {
+  private show(d: Delivery<PreviewResult>, breakdown: Record<string, number> = {}, params: string | null = null): void {
     const r = d.result;
+    // The answer of a request that began before an edit, after the update the edit brought: the older text's model.
+    const current = r.uri === this.state.uri;
+    if (current && r.version < this.shownVersion) {
+      this.debug.olderVersions++;
+      return;
+    }
+    if (current) this.shownVersion = r.version;
+    this.debug.shownParams = params;
     this.debug.delivered++;
     this.last = r;
     this.state.absorb(r);
@@ -495,7 +540,7 @@ class App {
     this.debug.warnings = r.warnings.map((w) => w.code);
     this.debug.bones = r.model.bones.length;
     this.debug.mode = r.mode;
-    this.debug.seed = this.state.seed;
+    this.debug.seed = r.seed;
     this.debug.ready = true;
     this.debug.lastError = null;
     this.showFocus(r);
@@ -624,7 +669,7 @@ class App {
         ? 'Save a PNG of the model as the view shows it (longer side 1024 px); asks where to save it'
         : 'Download a PNG of the model as the view shows it (longer side 1024 px)';
     picture.addEventListener('click', () => void this.savePicture());
-    $('gallery-open').addEventListener('click', () => this.openGallery(this.state.seed ?? 0));
+    $('gallery-open').addEventListener('click', () => this.openGallery(this.state.currentSeed ?? 0));
     $('gallery-more').addEventListener('click', () => this.openGallery(this.galleryStart + 9));
     $('gallery-close').addEventListener('click', () => this.closeGallery());
     $('curve-delete').addEventListener('click', () => this.deleteSelected());
@@ -865,7 +910,7 @@ class App {
       // the page's own (live) request is on its way: it registers the live
       // preview itself, and this one would supersede it.
       if (this.coalescer.busy) return;
-      const again = decodePreview(await this.transport.request('preview', base));
+      const again = decodePreview(await this.transport.request('preview', this.ordered(base)));
       if (again.version !== r.version && token === this.spreadToken && !this.coalescer.busy) {
         this.show({ result: again, editedAt: performance.now(), final: true });
         return;
@@ -931,7 +976,7 @@ class App {
   // ------------------------------------------------------------- side panel
 
   private refreshPanel(): void {
-    $<HTMLInputElement>('seed').value = String(this.state.seed ?? 0);
+    $<HTMLInputElement>('seed').value = String(this.state.currentSeed ?? 0);
     this.refreshScrubber();
     this.refreshParams();
     this.refreshCurves();
@@ -1199,7 +1244,7 @@ class App {
     for (let i = 0; i < 9; i++) {
       const seed = start + i;
       const fig = document.createElement('figure');
-      fig.className = seed === this.state.seed ? 'current' : '';
+      fig.className = seed === this.state.currentSeed ? 'current' : '';
       fig.dataset.seed = String(seed);
       const img = document.createElement('img');
       img.alt = `seed ${seed}`;

@@ -44,6 +44,12 @@ export interface PreviewParams {
   /** Ask the server to send `grm/previewUpdated` after edits. */
   live?: boolean;
   /**
+   * Live requests: the page's id and the request's place among its live requests. The server answers a live
+   * request ServerCancelled when the same client has begun a later one, whatever order they arrive in.
+   */
+  client?: string;
+  order?: number;
+  /**
    * Sample mode: show what the search returns when stopped after this generation
    * (0-based, as `grmc sample --frames` numbers them) instead of its result;
    * at or past the last generation run, the result. Ignored in derive mode.

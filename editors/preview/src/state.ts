@@ -9,7 +9,14 @@ import type { ParamInfo, Position, PreviewParams, PreviewResult } from './protoc
 
 export class PageState {
   uri = '';
+  /**
+   * The seed the user picked in the page (the seed field, Next variation, a
+   * gallery thumbnail); null: the grammar's own (its `seed` setting), which
+   * the requests then leave to the file, so an edit of it is followed.
+   */
   seed: number | null = null;
+  /** The seed of the model shown (the file's, or the one picked). */
+  shownSeed: number | null = null;
   /** Meta-parameter overrides the user set (name -> value). */
   params: Record<string, number> = {};
   /** The meta-parameters the grammar declares (when the server lists them). */
@@ -91,6 +98,7 @@ export class PageState {
     if (uri === this.uri) return;
     this.uri = uri;
     this.seed = null;
+    this.shownSeed = null;
     this.params = {};
     this.paramInfo = [];
     this.curves = null;
@@ -106,7 +114,8 @@ export class PageState {
   absorb(r: PreviewResult): void {
     this.mode = r.mode;
     this.system = r.system;
-    if (this.seed === null) this.seed = r.seed;
+    // Shown, not picked: the next request still follows the file's seed.
+    this.shownSeed = r.seed;
     // A server that lists the meta-parameters in the result is taken at its word.
     if (r.params.length > 0 || r.paramsWithoutRange.length > 0) this.setParamInfo(r.params);
   }
@@ -149,8 +158,14 @@ export class PageState {
     this.params[name] = Math.min(info.max, Math.max(info.min, value));
   }
 
+  /** The seed the page shows in its seed field: the one picked, else the shown model's. */
+  get currentSeed(): number | null {
+    return this.seed ?? this.shownSeed;
+  }
+
+  /** The seed after the one shown: picked from now on. */
   nextVariation(): void {
-    this.seed = ((this.seed ?? 0) + 1) >>> 0;
+    this.seed = ((this.currentSeed ?? 0) + 1) >>> 0;
   }
 
   setSeed(seed: number): void {

@@ -44,6 +44,7 @@ export function curvesPathFor(grammarPath: string): string {
 export interface LastPreview {
   params: Record<string, unknown>;
   mode: string | undefined;
+  /** The seed the page asked for; undefined: the file's own (`seed` setting). */
   seed: number | undefined;
   system: string | undefined;
   /** The generation of a scrubbed search shown (sample mode, `sample.generation`); undefined: the result. */
@@ -197,7 +198,9 @@ export class PreviewHost {
         this.last.set(uri, {
           params: isObject(p.params) ? p.params : {},
           mode: typeof r.mode === 'string' ? r.mode : typeof p.mode === 'string' ? p.mode : undefined,
-          seed: typeof r.seed === 'number' ? r.seed : typeof p.seed === 'number' ? p.seed : undefined,
+          // The seed the page picked; none: the grammar's own `seed` setting, which the export leaves to the file
+          // (the page follows it: an edit of it must not leave the export at the old seed).
+          seed: typeof p.seed === 'number' ? p.seed : undefined,
           system: typeof r.system === 'string' ? r.system : undefined,
           ...generationShown(r),
         });
