@@ -26,6 +26,7 @@
 //! (a missing or malformed OBJ file, an id the program does not have) are
 //! typed and leave no partial model.
 
+pub mod budget;
 pub mod export;
 pub mod import;
 pub mod mesh;
@@ -43,6 +44,7 @@ use grm_diag::{Code, Diagnostic, FileId, Span};
 use grm_sema::{MaterialProp, Program, Settings, System, Value};
 use grm_turtle::{Aabb, InstanceKind, Interpretation, Paint, TurtleError};
 
+pub use budget::{DEFAULT_MAX_BYTES, Footprint, Output};
 pub use export::{
     ExportError, ExportFormat, export, export_as, export_image, write_atomic, write_image,
 };
@@ -56,6 +58,16 @@ pub struct BuildOptions {
     pub tube_sides: u32,
     /// Segments around cylinders, cones, discs and spheres (at least 3).
     pub segments: u32,
+    /// The most bytes building the model may need, with `held` and what
+    /// `output` needs to write it ([`budget`]); past it the build stops
+    /// with [`GeomError::MemoryLimit`] before the meshes are made.
+    /// Default [`DEFAULT_MAX_BYTES`] (2 GiB).
+    pub max_bytes: u64,
+    /// Bytes the caller holds while the model is built and written (e.g.
+    /// the module string), counted against `max_bytes`.
+    pub held: u64,
+    /// What the model is built for ([`Output::Model`]: held).
+    pub output: Output,
 }
 
 impl Default for BuildOptions {
@@ -63,6 +75,21 @@ impl Default for BuildOptions {
         BuildOptions {
             tube_sides: 8,
             segments: 16,
+            max_bytes: DEFAULT_MAX_BYTES,
+            held: 0,
+            output: Output::Model,
+        }
+    }
+}
+
+impl BuildOptions {
+    /// Default mesh settings with a memory limit of `max_bytes` for a
+    /// model built for `output`.
+    pub fn limited(max_bytes: u64, output: Output) -> BuildOptions {
+        BuildOptions {
+            max_bytes,
+            output,
+            ..BuildOptions::default()
         }
     }
 }
@@ -150,6 +177,10 @@ pub struct Model {
     /// key (`grm_derive::ModuleString::keys`); empty when the string
     /// carried none. Exports name parts by it ([`parts`]).
     pub module_keys: Vec<u32>,
+    /// What the builder counted before building it ([`budget`]): the
+    /// most vertices and triangles, and the bytes building it (and writing
+    /// it as its `BuildOptions::output` says) needs.
+    pub footprint: Footprint,
 }
 
 impl Model {
@@ -279,6 +310,14 @@ pub enum GeomError {
     /// Meta-parameter values that do not fit the program (wrong count or
     /// type): a caller's mistake, never the user's.
     Params(String),
+    /// Building the model (and writing it as `output` says) would need
+    /// `footprint.bytes`, more than `limit` ([`BuildOptions::max_bytes`]);
+    /// nothing was built. R0202, as a derivation over its memory limit.
+    MemoryLimit {
+        footprint: Footprint,
+        limit: u64,
+        output: Output,
+    },
 }
 
 impl std::fmt::Display for GeomError {
@@ -314,6 +353,11 @@ impl std::fmt::Display for GeomError {
                 path.display()
             ),
             GeomError::Params(m) => write!(f, "meta-parameter values do not fit: {m}"),
+            GeomError::MemoryLimit {
+                footprint,
+                limit,
+                output,
+            } => write!(f, "{}", footprint.message(*limit, *output)),
         }
     }
 }
@@ -328,6 +372,7 @@ impl GeomError {
             GeomError::MeshMissing { .. } => Code::MeshUnreadable,
             GeomError::MeshMalformed { .. } => Code::MeshMalformed,
             GeomError::Params(_) => Code::ParamValues,
+            GeomError::MemoryLimit { .. } => Code::MemoryLimit,
         }
     }
 
@@ -337,6 +382,16 @@ impl GeomError {
     /// built.
     pub fn to_diagnostic(&self, program: &Program, file: FileId, span: Span) -> Diagnostic {
         let (mesh, message, help) = match self {
+            GeomError::MemoryLimit { .. } => {
+                return Diagnostic::new(
+                    self.code(),
+                    self.to_string(),
+                    file,
+                    span,
+                    "while building the model of this system",
+                )
+                .with_help(MEMORY_HELP);
+            }
             GeomError::MeshMissing { mesh, message, .. } => (mesh, message, MESH_MISSING_HELP),
             GeomError::MeshMalformed { mesh, message, .. } => (mesh, message, MESH_MALFORMED_HELP),
             GeomError::Turtle(_)
@@ -379,6 +434,8 @@ const MESH_MISSING_HELP: &str = "mesh paths are relative to the directory of the
      declares them; make the file readable and run again";
 const MESH_MALFORMED_HELP: &str =
     "save the mesh as an OBJ file of triangles or polygons with at least one face";
+const MEMORY_HELP: &str = "derive fewer iterations (`-n`) or plant fewer trees, draw \
+     fewer bones (a coarser grammar), or raise the limit (`--max-memory MIB`)";
 const INTERNAL_HELP: &str =
     "this is an internal error of grm; please report it with the file that caused it";
 
@@ -397,7 +454,8 @@ impl From<TurtleError> for GeomError {
     }
 }
 
-/// Interpret `string` (a string of `system`) and build its meshes.
+/// Interpret `string` (a string of `system`) and build its meshes, within
+/// the default memory limit ([`DEFAULT_MAX_BYTES`], the string counted).
 /// `params` are the meta-parameter values of the run, by
 /// [`grm_sema::ParamId`] (`CompiledSystem::param_values`, or
 /// [`Program::default_params`]): declared materials are evaluated with them.
@@ -408,15 +466,64 @@ pub fn build_model(
     settings: &Settings,
     params: &[Value],
 ) -> Result<Model, GeomError> {
-    let skeleton = grm_turtle::interpret(system, settings, string)?;
-    let mut model = build_from_interpretation(program, skeleton, &BuildOptions::default(), params)?;
+    build_model_with(
+        program,
+        system,
+        string,
+        settings,
+        params,
+        &BuildOptions::default(),
+    )
+}
+
+/// [`build_model`] with `options`: the string's bytes are counted with
+/// `options.held`, and what its interpretation can hold is checked
+/// against `options.max_bytes` before it is interpreted ([`budget`]).
+pub fn build_model_with(
+    program: &Program,
+    system: &System,
+    string: &ModuleString,
+    settings: &Settings,
+    params: &[Value],
+    options: &BuildOptions,
+) -> Result<Model, GeomError> {
+    // The string, held throughout, and the model's copy of its keys.
+    let held = options
+        .held
+        .saturating_add(string.heap_bytes() as u64)
+        .saturating_add(4 * string.keys.len() as u64);
+    let mut pre = budget::count_string(system, string);
+    pre.bytes = pre.bytes.saturating_add(held);
+    if pre.bytes > options.max_bytes {
+        return Err(GeomError::MemoryLimit {
+            footprint: pre,
+            limit: options.max_bytes,
+            output: options.output,
+        });
+    }
+    let mut it = grm_turtle::Interpreter::new(system, settings);
+    {
+        // At most this much: reserved, the arrays never grow by doubling.
+        let out = &mut it.collector.out;
+        out.bones.reserve_exact(pre.bones as usize);
+        out.instances.reserve_exact(pre.instances as usize);
+        out.polygons.reserve_exact(pre.polygons as usize);
+        out.polygon_vertices
+            .reserve_exact(pre.polygon_vertices as usize);
+    }
+    it.run(string)?;
+    let skeleton = it.finish();
+    let options = BuildOptions { held, ..*options };
+    let mut model = build_from_interpretation(program, skeleton, &options, params)?;
     model.module_keys = string.keys.clone();
     Ok(model)
 }
 
 /// Build the meshes of an interpretation made elsewhere (e.g. by the
 /// guided sampler, expansion by expansion); `params` as for
-/// [`build_model`].
+/// [`build_model`]. The model's size is counted from the interpretation
+/// first and checked against `options.max_bytes` ([`budget`]); the
+/// meshes are then made in buffers of exactly that size.
 pub fn build_from_interpretation(
     program: &Program,
     skeleton: Interpretation,
@@ -424,6 +531,26 @@ pub fn build_from_interpretation(
     params: &[Value],
 ) -> Result<Model, GeomError> {
     let mut builder = Builder::new(program, options, params)?;
+    let too_large = |footprint: Footprint| GeomError::MemoryLimit {
+        footprint,
+        limit: options.max_bytes,
+        output: options.output,
+    };
+    let mut f = Footprint {
+        bones: skeleton.bones.len() as u64,
+        instances: skeleton.instances.len() as u64,
+        polygons: skeleton.polygons.len() as u64,
+        polygon_vertices: skeleton.polygon_vertices.len() as u64,
+        ..Footprint::default()
+    };
+    // The interpretation and the builder's tables, before they are made.
+    f.bytes = options
+        .held
+        .saturating_add(budget::interpretation_heap(&skeleton))
+        .saturating_add(f.bones.saturating_mul(budget::PLAN_BYTES_PER_BONE));
+    if f.bytes > options.max_bytes {
+        return Err(too_large(f));
+    }
     // Check ids and load every mesh used, once, before building anything.
     let mut meshes: Vec<Option<MeshData>> = vec![None; program.meshes.len()];
     for inst in &skeleton.instances {
@@ -435,16 +562,88 @@ pub fn build_from_interpretation(
                 });
             };
             if meshes[id.index()].is_none() {
-                meshes[id.index()] = Some(import::load_obj(&decl.name, &decl.path)?);
+                let m = import::load_obj(&decl.name, &decl.path)?;
+                f.bytes = f.bytes.saturating_add(
+                    m.vertex_count() as u64 * budget::VERTEX_BYTES
+                        + m.triangle_count() as u64 * budget::TRIANGLE_BYTES,
+                );
+                meshes[id.index()] = Some(m);
             }
         }
     }
     builder.check_paints(&skeleton)?;
+    let plan = tube::TubePlan::new(&skeleton.bones);
+    let unit = UnitShapes::new(options.segments);
+    let circle = tube::circle(options.tube_sides);
+
+    // Count every part's vertices, triangles and picks (the parts are made
+    // here, in the order the loops below use them), check, and reserve.
+    let mut sizes: Vec<(u64, u64, u64)> = Vec::new();
+    let add = |sizes: &mut Vec<(u64, u64, u64)>, part: usize, v: u64, t: u64| {
+        if sizes.len() <= part {
+            sizes.resize(part + 1, (0, 0, 0));
+        }
+        let s = &mut sizes[part];
+        *s = (s.0 + v, s.1 + t, s.2 + u64::from(t > 0));
+    };
+    for (i, bone) in skeleton.bones.iter().enumerate() {
+        if plan.dir[i].is_none() {
+            continue;
+        }
+        let part = builder.part(bone.paint);
+        let shared = plan.continues[i]
+            && bone.parent.is_some_and(|p| {
+                skeleton
+                    .bones
+                    .get(p as usize)
+                    .is_some_and(|pb| PaintKey::of(pb.paint) == PaintKey::of(bone.paint))
+            });
+        let (v, t) = tube::bone_size(&plan, i, circle.len() as u64, shared);
+        add(&mut sizes, part, v, t);
+    }
+    for inst in &skeleton.instances {
+        let Some(shape) = unit.of(inst.kind, &meshes) else {
+            continue;
+        };
+        let part = builder.part(inst.paint);
+        let (v, t) = (shape.vertex_count() as u64, shape.triangle_count() as u64);
+        add(&mut sizes, part, v, t);
+    }
+    for poly in &skeleton.polygons {
+        let part = builder.part(poly.paint);
+        let n = u64::from(poly.len);
+        if n >= 3 {
+            add(&mut sizes, part, 2 * n, 2 * (n - 2));
+        }
+    }
+    for &(v, t, p) in &sizes {
+        f.vertices += v;
+        f.triangles += t;
+        f.picks += p;
+    }
+    f.bytes = f
+        .bytes
+        .saturating_add(f.vertices.saturating_mul(budget::VERTEX_BYTES))
+        .saturating_add(f.triangles.saturating_mul(budget::TRIANGLE_BYTES))
+        .saturating_add(f.picks.saturating_mul(std::mem::size_of::<Pick>() as u64))
+        .saturating_add(budget::output_bytes(
+            &f,
+            options.output,
+            builder.materials.iter().any(|m| m.opacity < 1.0),
+        ));
+    if f.bytes > options.max_bytes {
+        return Err(too_large(f));
+    }
+    for (part, &(v, t, p)) in builder.parts.iter_mut().zip(&sizes) {
+        part.mesh.positions.reserve_exact(v as usize);
+        part.mesh.normals.reserve_exact(v as usize);
+        part.mesh.indices.reserve_exact(3 * t as usize);
+        part.picks.reserve_exact(p as usize);
+    }
+    builder.footprint = f;
 
     // Tubes.
-    let plan = tube::TubePlan::new(&skeleton.bones);
     let mut tip_rings: Vec<Option<(usize, u32)>> = vec![None; skeleton.bones.len()];
-    let circle = tube::circle(options.tube_sides);
     let mut scratch = Vec::with_capacity(circle.len());
     for (i, bone) in skeleton.bones.iter().enumerate() {
         if plan.dir[i].is_none() {
@@ -474,25 +673,18 @@ pub fn build_from_interpretation(
             bone.origin,
         );
     }
+    drop(tip_rings);
+    drop(plan);
     // Every part holds only tubes so far.
     for part in &mut builder.parts {
         tube::finish_normals(&mut part.mesh);
     }
 
     // Instances.
-    let unit = UnitShapes::new(options.segments);
     for (i, inst) in skeleton.instances.iter().enumerate() {
-        let shape = match inst.kind {
-            InstanceKind::Cylinder => &unit.cylinder,
-            InstanceKind::Cone => &unit.cone,
-            InstanceKind::Sphere => &unit.sphere,
-            InstanceKind::Box => &unit.cube,
-            InstanceKind::Disc => &unit.disc,
-            // Loaded above for every mesh instance.
-            InstanceKind::Mesh(id) => match meshes.get(id.index()).and_then(Option::as_ref) {
-                Some(m) => m,
-                None => continue,
-            },
+        // Loaded above for every mesh instance.
+        let Some(shape) = unit.of(inst.kind, &meshes) else {
+            continue;
         };
         let part = builder.part(inst.paint);
         let before = builder.parts[part].mesh.triangle_count();
@@ -553,6 +745,23 @@ impl UnitShapes {
             disc: mesh::unit_disc(segments),
         }
     }
+
+    /// The mesh an instance of `kind` draws (a mesh instance's from
+    /// `meshes`, `None` where it was not loaded).
+    fn of<'a>(
+        &'a self,
+        kind: InstanceKind,
+        meshes: &'a [Option<MeshData>],
+    ) -> Option<&'a MeshData> {
+        Some(match kind {
+            InstanceKind::Cylinder => &self.cylinder,
+            InstanceKind::Cone => &self.cone,
+            InstanceKind::Sphere => &self.sphere,
+            InstanceKind::Box => &self.cube,
+            InstanceKind::Disc => &self.disc,
+            InstanceKind::Mesh(id) => meshes.get(id.index())?.as_ref()?,
+        })
+    }
 }
 
 /// Paints that share a material.
@@ -590,6 +799,7 @@ struct Builder<'a> {
     by_key: HashMap<PaintKey, usize>,
     dropped: usize,
     bare_bones: usize,
+    footprint: Footprint,
 }
 
 impl<'a> Builder<'a> {
@@ -631,6 +841,7 @@ impl<'a> Builder<'a> {
             by_key: HashMap::new(),
             dropped: 0,
             bare_bones: 0,
+            footprint: Footprint::default(),
         };
         b.declared = program.materials.iter().map(|m| b.evaluate(m)).collect();
         Ok(b)
@@ -785,6 +996,7 @@ impl<'a> Builder<'a> {
             parts: self.parts,
             stats,
             module_keys: Vec::new(),
+            footprint: self.footprint,
         }
     }
 }

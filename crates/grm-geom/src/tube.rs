@@ -261,6 +261,28 @@ pub(crate) fn emit_bone(
     Some(tip_first)
 }
 
+/// The vertices and triangles [`emit_bone`] makes for bone `i` with
+/// `sides` ring vertices; `shared` when its base ring is its parent's tip
+/// ring in the same mesh.
+pub(crate) fn bone_size(plan: &TubePlan, i: usize, sides: u64, shared: bool) -> (u64, u64) {
+    if plan.dir.get(i).is_none_or(Option::is_none) {
+        return (0, 0);
+    }
+    let cap = (1 + sides, sides);
+    let (mut v, mut t) = (sides, 2 * sides); // the tip ring and the sides
+    if !plan.continues[i] {
+        v += sides + cap.0; // a ring and a cap at the base
+        t += cap.1;
+    } else if !shared {
+        v += sides;
+    }
+    if plan.next[i].is_none() {
+        v += cap.0;
+        t += cap.1;
+    }
+    (v, t)
+}
+
 /// Pushes a ring's vertices with zero normals, the sums its quads add to.
 fn push_ring(m: &mut MeshData, ring: &[Vec3]) -> u32 {
     let first = m.positions.len() as u32;
