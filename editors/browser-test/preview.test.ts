@@ -612,6 +612,49 @@ test('variations: next variation and the gallery of seeds (a stochastic grammar)
   await page.close();
 });
 
+test("the grammar's seed setting is followed (an edit of it regrows with the new seed) until a seed is picked in the page", async () => {
+  const dir = scratch(['stochastic_plant.grm']);
+  const file = join(dir, 'stochastic_plant.grm');
+  const text = readFileSync(file, 'utf8');
+  assert.match(text, /^ {4}seed = 1;$/m);
+  const url = await view(file);
+  const page = await openPage(url);
+  const g0 = await waitRegrows(page, 1, 'first model');
+  assert.equal(g0.seed, 1);
+  assert.equal(await page.inputValue('#seed'), '1');
+  const params = () => page.evaluate(() => (globalThis as unknown as { __grm: { previewParams(): Record<string, unknown> } }).__grm.previewParams());
+  assert.equal((await params()).seed, undefined, "the file's seed is not pinned in the requests");
+  const regrown = (n: number) =>
+    page.waitForFunction((k) => (globalThis as unknown as { __grm: Grm }).__grm.regrows > k, n, { timeout: 20_000 });
+  // Typed in an editor and saved on the way: `seed = ;` (an error), then `seed = 2;`.
+  writeFileSync(file, text.replace(/^ {4}seed = 1;$/m, '    seed = ;'));
+  await page.waitForFunction(() => /error/.test((globalThis as unknown as { __grm: Grm }).__grm.lastError ?? ''), undefined, { timeout: 20_000 });
+  writeFileSync(file, text.replace(/^ {4}seed = 1;$/m, '    seed = 2;'));
+  await regrown(g0.regrows);
+  const g1 = await grm(page);
+  assert.equal(g1.lastError, null, 'the error is gone');
+  assert.equal(g1.seed, 2, 'the seed-2 plant is shown');
+  assert.equal(await page.inputValue('#seed'), '2');
+  assert.equal((await params()).seed, undefined);
+  // It is the server's own model of seed 2 (what an export without --seed writes).
+  const direct = (await (await fetch(`${url}api/preview`, { method: 'POST', body: JSON.stringify({ ...(await params()), live: false }) })).json()) as {
+    result: { seed: number; stats: { bones: number } };
+  };
+  assert.deepEqual([direct.result.seed, direct.result.stats.bones], [2, g1.bones]);
+  // A seed picked in the page wins over the file's from then on.
+  await page.fill('#seed', '5');
+  await page.press('#seed', 'Enter');
+  await page.waitForFunction(() => (globalThis as unknown as { __grm: Grm }).__grm.seed === 5, undefined, { timeout: 20_000 });
+  const g2 = await grm(page);
+  assert.equal((await params()).seed, 5);
+  writeFileSync(file, text.replace(/^ {4}seed = 1;$/m, '    seed = 3;'));
+  await regrown(g2.regrows);
+  const g3 = await grm(page);
+  assert.deepEqual([g3.seed, g3.lastError, await page.inputValue('#seed')], [5, null, '5']);
+  assert.deepEqual(pageErrors(page), []);
+  await page.close();
+});
+
 test('sample mode: drawing a curve and dragging its control point regrow the Calder tree', async (t) => {
   const dir = scratch(['calder_tree.grm', 'calder_tree.curves.json', 'leaf.obj', 'trunk.obj']);
   const grammar = join(dir, 'calder_tree.grm');
