@@ -13,7 +13,9 @@
 //!
 //! **Outputs.** [`BoneCost`] per bone and [`CostBreakdown`] per model (lower
 //! is better, negative allowed), from a shared read-only [`CostModel`] and a
-//! per-particle [`CostState`]; [`VolumeCost`] for the baseline.
+//! per-particle [`CostState`]; [`VolumeCost`] for the baseline; per curve,
+//! the share of its arc length the model's bones follow and the gaps
+//! ([`coverage`]).
 //!
 //! **Invariants.**
 //! * A loaded [`Curves`] is valid: at least one curve, finite control
@@ -46,6 +48,7 @@
 
 pub mod bezier;
 pub mod cost;
+pub mod coverage;
 pub mod curves;
 mod density;
 mod fixed;
@@ -56,6 +59,7 @@ pub use cost::{
     BoneCost, BonePlan, CostBreakdown, CostModel, CostOptions, CostState, ExpectedDirection,
     alignment_cost, distance_cost, expected_direction, utilization_sum,
 };
+pub use coverage::{CoverageOptions, CurveCoverage, coverage};
 pub use curves::{
     CurveParams, Curves, CurvesError, CurvesErrorKind, DensityParams, FORMAT_VERSION, GuideCurve,
     Location, MAX_CURVES_BYTES, MAX_SEGMENTS_PER_CURVE, MAX_SEGMENTS_TOTAL,
