@@ -52,3 +52,13 @@ git diff --exit-code --stat -- editors/preview/dist
 bash editors/vscode/scripts/package.sh --out target/grm.vsix
 cargo build -p grmc --locked
 (cd editors && node --test out/browser-test/)
+
+# The extension in a real VS Code: code-server 4.100.3 (VS Code 1.100.3) from
+# the npm registry alone, installed once and cached by scripts/code-server-setup.sh
+# (in ~/.cache/grm, or GRM_CODE_SERVER_CACHE), driven by Playwright in
+# Debian's chromium: highlighting, Problems, a hover, a quick fix, the preview
+# and Export Model (editors/code-server-test/). A failed install fails here.
+echo "== editors: the extension in code-server (a real VS Code)"
+CODE_SERVER_DIR="$(bash scripts/code-server-setup.sh)"
+export CODE_SERVER_DIR
+node --test editors/code-server-test/

@@ -18,7 +18,9 @@
 // (`editors/vscode/scripts/package.sh --out target/grm.vsix`, or
 // GRM_VSIX=path), Debian's chromium (CHROMIUM=path). CODE_SERVER_DIR names
 // the install (else scripts/code-server-setup.sh is run, which installs it
-// once). Screenshots and code-server's log go to target/code-server-test/.
+// once). A screenshot after each step, code-server's log and VS Code's logs
+// (logs/, the extension's output channel among them) go to
+// target/code-server-test/.
 //   node --test editors/code-server-test/
 
 import assert from 'node:assert/strict';
@@ -61,6 +63,7 @@ process.on('exit', killServer);
 for (const sig of ['SIGINT', 'SIGTERM']) {
   process.on(sig, () => {
     killServer();
+    if (temp) rmSync(temp, { recursive: true, force: true });
     process.exit(130);
   });
 }
@@ -190,7 +193,13 @@ after(async () => {
   await browser?.close().catch(() => {});
   killServer();
   if (serverLog) writeFileSync(join(artifacts, 'code-server.log'), serverLog);
-  if (temp) rmSync(temp, { recursive: true, force: true });
+  if (temp) {
+    // VS Code's own logs (the extension host, the "grm" output channel, the language server's stderr).
+    const logs = join(temp, 'data/user/logs');
+    rmSync(join(artifacts, 'logs'), { recursive: true, force: true });
+    if (existsSync(logs)) cpSync(logs, join(artifacts, 'logs'), { recursive: true });
+    rmSync(temp, { recursive: true, force: true });
+  }
 });
 
 /** The first step that failed: the steps build on each other, the later ones then fail at once. */
@@ -391,11 +400,7 @@ step('grm: Export Model writes a glTF file', async () => {
   const input = page.locator('.quick-input-widget input');
   await page.locator('.quick-input-list .monaco-list-row', { hasText: 'glTF binary (.glb)' }).first().click();
   // VS Code's save dialog (a quick input holding the path), the grammar's name with .glb.
-  await page.waitForFunction(
-    (el) => el.value.endsWith('koch_island.glb'),
-    await input.elementHandle(),
-    { timeout: SHORT },
-  );
+  await page.waitForFunction(() => document.querySelector('.quick-input-widget input')?.value.endsWith('/koch_island.glb'), null, { timeout: SHORT, polling: 100 });
   log(`save dialog: ${await input.inputValue()}`);
   await input.press('Enter');
   await page.locator('.notification-toast', { hasText: `Exported ${out}` }).first().waitFor({ timeout: LONG });
