@@ -12,8 +12,9 @@
 # Debian packages it needs (ripgrep, libkrb5-dev, build-essential, python3)
 # are installed when missing (as root, CI's fresh machine).
 #
-# The install is cached, keyed by the version, the node ABI and the
-# architecture: a second run prints the folder and returns at once. It is
+# The install is cached, keyed by the version, the node ABI, the
+# architecture and this script's hash: a second run prints the folder and
+# returns at once. It is
 # built in a temporary folder beside it and moved into place only when
 # complete, under a lock (runs at the same time wait for each other).
 #
@@ -34,7 +35,11 @@ fi
 abi="$(node -p process.versions.modules)"
 arch="$(node -p process.arch)"
 cache="${GRM_CODE_SERVER_CACHE:-${XDG_CACHE_HOME:-$HOME/.cache}/grm}"
-dir="$cache/code-server-$version-node$abi-$arch"
+# This script's own hash: a changed recipe installs afresh (older folders stay
+# until deleted by hand).
+recipe="$(sha256sum "${BASH_SOURCE[0]}" | cut -c1-10)"
+name="code-server-$version-node$abi-$arch-$recipe"
+dir="$cache/$name"
 entry="$dir/node_modules/code-server/out/node/entry.js"
 
 if [ -f "$dir/.complete" ] && [ -f "$entry" ]; then
@@ -54,17 +59,23 @@ fi
 start=$SECONDS
 log() { echo "code-server-setup: [$((SECONDS - start)) s] $*" >&2; }
 # The build's output goes to a log, shown (its end) only when a step fails.
-setup_log="$cache/code-server-$version-setup.log"
+setup_log="$cache/$name.log"
 : > "$setup_log"
 trap 'echo "code-server-setup: failed; the end of $setup_log:" >&2; tail -n 40 "$setup_log" >&2' ERR
 
 # Debian packages: rg for the search, krb5 headers for kerberos, a C++
 # toolchain and python3 for node-gyp.
 missing=()
-command -v rg >/dev/null 2>&1 || missing+=(ripgrep)
-[ -f /usr/include/krb5.h ] || [ -f /usr/include/gssapi/gssapi.h ] || missing+=(libkrb5-dev)
-command -v g++ >/dev/null 2>&1 && command -v make >/dev/null 2>&1 || missing+=(build-essential)
-command -v python3 >/dev/null 2>&1 || missing+=(python3)
+if command -v dpkg-query >/dev/null 2>&1; then
+    for p in ripgrep libkrb5-dev build-essential python3; do
+        dpkg-query -W -f='${Status}\n' "$p" 2>/dev/null | grep -q '^install ok installed$' || missing+=("$p")
+    done
+else
+    command -v rg >/dev/null 2>&1 || missing+=(ripgrep)
+    [ -f /usr/include/krb5.h ] || missing+=(libkrb5-dev)
+    command -v g++ >/dev/null 2>&1 && command -v make >/dev/null 2>&1 || missing+=(build-essential)
+    command -v python3 >/dev/null 2>&1 || missing+=(python3)
+fi
 if [ ${#missing[@]} -gt 0 ]; then
     log "installing ${missing[*]}"
     if [ "$(id -u)" != 0 ]; then echo "code-server-setup: needs the Debian packages ${missing[*]} (run as root, or install them)" >&2; exit 1; fi
@@ -86,7 +97,7 @@ export npm_config_nodedir="$nodedir"
 jobs="$(nproc 2>/dev/null || echo 2)"
 npm_quiet=(--no-audit --no-fund --loglevel=error)
 
-tmp="$cache/.code-server-$version-node$abi-$arch.tmp"
+tmp="$cache/.$name.tmp"
 rm -rf "$tmp" "$dir"
 mkdir -p "$tmp"
 cd "$tmp"
