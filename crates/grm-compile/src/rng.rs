@@ -117,7 +117,29 @@ pub const fn salt(symbol_name_hash: u32, occurrence: u32, alternative: u32) -> u
 /// 4-byte key `salt` with the parent's key as the seed.
 #[inline]
 pub const fn child_key(parent: u32, salt: u32) -> u32 {
-    fmix(mix(parent, salt) ^ 4)
+    child_key_premixed(parent, premix(salt))
+}
+
+/// The half of [`child_key`] that depends on the salt alone (MurmurHash3's
+/// block scramble), for engines that compute it once per successor module
+/// instead of once per module written.
+#[inline]
+pub const fn premix(salt: u32) -> u32 {
+    salt.wrapping_mul(0xcc9e_2d51)
+        .rotate_left(15)
+        .wrapping_mul(0x1b87_3593)
+}
+
+/// [`child_key`] from the salt's [`premix`]: the same value.
+#[inline]
+pub const fn child_key_premixed(parent: u32, premixed: u32) -> u32 {
+    fmix(
+        (parent ^ premixed)
+            .rotate_left(13)
+            .wrapping_mul(5)
+            .wrapping_add(0xe654_6b64)
+            ^ 4,
+    )
 }
 
 /// The draw index of the `local`-th draw (from 1; 0 is the choice) of the
@@ -311,6 +333,7 @@ mod tests {
     fn child_key_is_murmur3_of_the_salt() {
         for (p, s) in [(0, 0), (1, 2), (u32::MAX, 7), (0xdead_beef, 0x1234_5678)] {
             assert_eq!(child_key(p, s), murmur3_bytes(&s.to_le_bytes(), p));
+            assert_eq!(child_key(p, s), fmix(mix(p, s) ^ 4));
         }
     }
 

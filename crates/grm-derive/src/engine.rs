@@ -182,7 +182,9 @@ pub struct Engine<'a> {
     /// zeros): symbol, word offset.
     succ_syms: Vec<u32>,
     succ_words: Vec<u32>,
-    /// Per successor module (parallel to `sys.succ`): its identity salt.
+    /// Per successor module (parallel to `sys.succ`): its identity salt,
+    /// premixed (`rng::premix`: the half of `child_key` that depends on
+    /// the salt alone, computed once here instead of per module written).
     succ_salts: Vec<u32>,
     /// Whether strings carry identity keys (`ModuleString::keys`): always
     /// when the system draws random numbers (the draws are keyed by
@@ -524,7 +526,7 @@ impl<'a> Engine<'a> {
                 .collect()
         });
         let succ_syms: Vec<u32> = sys.succ.iter().map(|m| m.symbol).collect();
-        let succ_salts: Vec<u32> = sys.succ.iter().map(|m| m.salt).collect();
+        let succ_salts: Vec<u32> = sys.succ.iter().map(|m| rng::premix(m.salt)).collect();
         let succ_words: Vec<u32> = sys.succ.iter().map(|m| m.word_offset).collect();
         let mut tpl = Vec::new();
         let mut patches = Vec::new();
@@ -788,7 +790,10 @@ impl<'a> Engine<'a> {
         };
         if self.keyed {
             let salts = &self.succ_salts[alt.succ_offset as usize..][..n];
-            out.keys = salts.iter().map(|&s| rng::child_key(root, s)).collect();
+            out.keys = salts
+                .iter()
+                .map(|&s| rng::child_key_premixed(root, s))
+                .collect();
         }
         // The axiom's draws use the root key (as module 0 of a one-module
         // string keyed by it).
@@ -1372,7 +1377,7 @@ impl<'a> Engine<'a> {
                 } else {
                     let salts = &salts[ksucc as usize..][..o - o0];
                     for (k, &salt) in okeys[o0..o].iter_mut().zip(salts) {
-                        *k = rng::child_key(key, salt);
+                        *k = rng::child_key_premixed(key, salt);
                     }
                 }
             }
