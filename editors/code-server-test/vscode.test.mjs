@@ -123,6 +123,7 @@ before(async () => {
         'editor.formatOnType': false,
         'files.autoSave': 'off',
         'files.simpleDialog.enable': true,
+        'remote.autoForwardPorts': false,
       },
       null,
       2,
@@ -371,23 +372,46 @@ step('grm: Open Preview shows the model in the webview', async () => {
   const status = (await frame.locator('#status-text').innerText()).trim();
   log(`preview status: ${status}`);
   assert.match(status, /KochIsland/);
-  // The canvas is drawn: pixels that are not the grey background or grid.
-  const lit = await frame.evaluate(() => {
-    const src = document.getElementById('view');
-    const c = document.createElement('canvas');
-    c.width = src.width;
-    c.height = src.height;
-    const ctx = c.getContext('2d');
-    ctx.drawImage(src, 0, 0);
-    const d = ctx.getImageData(0, 0, c.width, c.height).data;
-    let n = 0;
-    for (let i = 0; i < d.length; i += 4) {
-      if (Math.abs(d[i] - d[i + 1]) >= 8 || Math.abs(d[i + 1] - d[i + 2]) >= 8) n++;
-    }
-    return n;
-  });
+  // The canvas is drawn: pixels that are not the grey background or grid
+  // (polled: the first frame may follow the model by a moment).
+  const lit = await (
+    await frame.waitForFunction(
+      () => {
+        const src = document.getElementById('view');
+        const c = document.createElement('canvas');
+        c.width = src.width;
+        c.height = src.height;
+        const ctx = c.getContext('2d');
+        ctx.drawImage(src, 0, 0);
+        const d = ctx.getImageData(0, 0, c.width, c.height).data;
+        let n = 0;
+        for (let i = 0; i < d.length; i += 4) {
+          if (Math.abs(d[i] - d[i + 1]) >= 8 || Math.abs(d[i + 1] - d[i + 2]) >= 8) n++;
+        }
+        return n > 500 && n;
+      },
+      null,
+      { timeout: SHORT, polling: 250 },
+    )
+  ).jsonValue();
   log(`preview: ${g.bones} bones, ${g.triangles} triangles, ${lit} lit pixels (${g.renderer})`);
-  assert.ok(lit > 500, `the model covers ${lit} pixels`);
+
+  // An edit regrows it: 2 iterations, 4 * 8^2 segments; then 3 again.
+  await page.locator('.tab', { hasText: /^koch_island\.grm/ }).first().click();
+  const line = lineOf('koch_island.grm', 'iterations = 3;');
+  for (const [n, bones] of [
+    [2, 256],
+    [3, 2048],
+  ]) {
+    await goTo(line, 5);
+    await page.keyboard.press('Shift+End');
+    await page.keyboard.type(`iterations = ${n};`);
+    await page.locator('.editor-group-container.active .view-line', { hasText: `iterations = ${n};` }).waitFor();
+    await frame.waitForFunction((b) => globalThis.__grm.bones === b && globalThis.__grm.lastError === null, bones, { timeout: LONG, polling: 100 });
+    log(`after iterations = ${n}: ${(await frame.locator('#status-text').innerText()).trim()}`);
+  }
+  await page.keyboard.press('Control+S');
+  await page.locator('.tab.active.dirty').waitFor({ state: 'detached', timeout: SHORT });
 });
 
 step('grm: Export Model writes a glTF file', async () => {
