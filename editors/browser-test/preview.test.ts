@@ -5,7 +5,11 @@
 // examples/calder_tree.grm), and the time from a curve edit to the new
 // model on screen is measured, also for a drag released while a request for
 // an older position is in flight (the page sends the final position at once,
-// the server supersedes the stale request, its answer is never shown).
+// the server supersedes the stale request, its answer is never shown), once
+// more with a busy loop on every core. The model shown must be the answer
+// for the page's latest state whatever the timing; `grmc view` runs with the
+// longest search budget, so a search never stops early and a model can be
+// compared with the server's own answer for the same state.
 // "Save picture" downloads the server's PNG of the model through the
 // preview's camera, in the canvas' shape (derive mode); the extension's PNG
 // export, from the camera the page tells it, draws the same picture, and a

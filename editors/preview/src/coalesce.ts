@@ -18,12 +18,16 @@
 // sent when one of them answers.
 //
 // Sent a few milliseconds apart, the two may reach the host in the other
-// order (`grmc view` takes each HTTP connection in a thread of its own):
-// then the stale request supersedes the current one. When the current
-// request is answered "superseded" while the stale one is still in flight,
-// or after the host built the stale one to the end (so it was not the one
-// superseded), the coalescer sends the current state once more; otherwise
-// the page would be left with no model for its state.
+// order (`grmc view` takes each HTTP connection in a thread of its own).
+// The page numbers its live requests (`client`, `order`: main.ts), and the
+// language server never lets a client's older live request supersede a
+// later one, whatever order they arrive in (docs/lsp-extensions.md): the
+// stale one is answered "superseded" at once. For a host that does not
+// order them, the coalescer still checks: when the current request is
+// answered "superseded" while the stale one is still in flight, or after
+// the host built the stale one to the end (so it was not the one
+// superseded), it sends the current state once more; otherwise the page
+// would be left with no model for its state.
 
 export interface Delivery<R> {
   result: R;
