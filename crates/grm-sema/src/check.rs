@@ -14,6 +14,20 @@ use crate::loader::{FileLoader, LoadError, normalize};
 use crate::program::*;
 use crate::suggest;
 
+/// The body (items) of every system of `files`, in file and source
+/// order, each left empty in its tree: [`Checker::systems`] checks them
+/// one at a time and drops each after.
+pub(crate) fn take_system_bodies(files: &mut [LoadedFile]) -> Vec<Vec<ast::SystemItem>> {
+    files
+        .iter_mut()
+        .flat_map(|f| f.ast.items.iter_mut())
+        .filter_map(|item| match item {
+            Item::System(s) => Some(std::mem::take(&mut s.items)),
+            _ => None,
+        })
+        .collect()
+}
+
 /// One parsed file of the import closure.
 pub(crate) struct LoadedFile {
     pub id: FileId,
@@ -981,8 +995,12 @@ impl<'a> Checker<'a> {
     /// Check every system of every file. Of several systems with one name
     /// the first in load order is the first definition (as for globals,
     /// see `define`); all of them are checked.
-    pub(crate) fn systems(&mut self) {
+    ///
+    /// `bodies` are the systems' items ([`take_system_bodies`]), in the
+    /// same order; each is dropped once its system is checked.
+    pub(crate) fn systems(&mut self, bodies: Vec<Vec<ast::SystemItem>>) {
         let files = self.files;
+        let mut bodies = bodies.into_iter();
         let mut first: HashMap<&str, (usize, Span)> = HashMap::new();
         for (fi, f) in files.iter().enumerate() {
             for item in &f.ast.items {
@@ -1023,7 +1041,12 @@ impl<'a> Checker<'a> {
                     self.program
                         .index
                         .push(f.id, s.name.span, Def::System(id), true);
-                    let sys = crate::system::check_system(self, fi, s, id);
+                    let whole = ast::System {
+                        name: s.name.clone(),
+                        items: bodies.next().unwrap_or_default(),
+                        span: s.span,
+                    };
+                    let sys = crate::system::check_system(self, fi, &whole, id);
                     self.program.systems.push(sys);
                 }
             }

@@ -46,9 +46,13 @@ impl RefIndex {
     }
 
     pub(crate) fn finish(&mut self) {
+        // At its length before the sort takes its buffer (a list grown by
+        // pushes holds up to twice its length: issue 32).
+        self.refs.shrink_to_fit();
         self.refs
             .sort_by_key(|r| (r.loc.file, r.loc.span.start, r.loc.span.end));
         self.refs.dedup();
+        self.refs.shrink_to_fit();
     }
 
     /// The occurrence under a byte offset, if any.

@@ -113,7 +113,11 @@ impl Checked {
 /// Check the file `root` of `sources` and everything it imports.
 pub fn check(sources: &mut SourceMap, root: FileId, loader: &dyn FileLoader) -> Checked {
     let mut diags = Vec::new();
-    let files = check::load_all(sources, root, loader, &mut diags);
+    let mut files = check::load_all(sources, root, loader, &mut diags);
+    // The systems' bodies are taken out of the trees, and each is dropped
+    // once its system is checked: the file's syntax tree and its checked
+    // program are never both whole in memory (issue 32).
+    let bodies = check::take_system_bodies(&mut files);
     let mut cx = check::Checker::new(&files, loader, diags);
     cx.program.root = root;
     cx.program.imports = files
@@ -121,10 +125,11 @@ pub fn check(sources: &mut SourceMap, root: FileId, loader: &dyn FileLoader) -> 
         .flat_map(|f| f.edges.iter().map(|&(span, to)| (Loc::new(f.id, span), to)))
         .collect();
     cx.globals();
-    cx.systems();
+    cx.systems(bodies);
     cx.file_warnings();
     let mut program = cx.program;
     let mut diagnostics = cx.diags;
+    drop(files);
     program.index.finish();
     grm_diag::sort(&mut diagnostics);
     diagnostics.dedup();

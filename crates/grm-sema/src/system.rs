@@ -149,6 +149,32 @@ enum CtxKey {
     Pop,
 }
 
+/// Every list of a checked system at its length: lists grown by pushes
+/// hold up to twice their length (four elements for one), most of a large
+/// program's memory (issue 32).
+fn shrink_system(system: &mut System) {
+    system.setting_exprs.shrink_to_fit();
+    system.axiom.shrink_to_fit();
+    system.ignore.shrink_to_fit();
+    system.symbols.shrink_to_fit();
+    for s in &mut system.symbols {
+        s.params.shrink_to_fit();
+        s.param_names.shrink_to_fit();
+        s.groups.shrink_to_fit();
+        s.wrapup_groups.shrink_to_fit();
+    }
+    system.groups.shrink_to_fit();
+    for g in &mut system.groups {
+        g.left.shrink_to_fit();
+        g.right.shrink_to_fit();
+        g.alternatives.shrink_to_fit();
+        for a in &mut g.alternatives {
+            a.successor.shrink_to_fit();
+            a.bindings.shrink_to_fit();
+        }
+    }
+}
+
 pub(crate) fn check_system(
     cx: &mut Checker<'_>,
     fi: usize,
@@ -347,6 +373,8 @@ impl Sys<'_, '_> {
             symbols,
             groups,
         };
+        let mut system = system;
+        shrink_system(&mut system);
         let diags = &mut self.cx.diags;
         crate::phases::check_groups(&system, diags, holes || axiom_ast.is_none());
         if system.mode == Mode::Sample {

@@ -362,11 +362,28 @@ impl TokKind {
     }
 }
 
+/// A token's kind, whether or not it carries its text.
+pub trait Kind {
+    fn kind(&self) -> TokKind;
+}
+
+impl Kind for Token<'_> {
+    fn kind(&self) -> TokKind {
+        self.kind
+    }
+}
+
+impl Kind for Tok {
+    fn kind(&self) -> TokKind {
+        self.kind
+    }
+}
+
 /// Whether `tokens[i]` starts a top-level item: an item keyword, where
 /// `mesh` and `material` count only as `mesh NAME =` / `material NAME {`
 /// (followed by anything else, they are the module-string terminals).
-pub fn starts_item_at(tokens: &[Token<'_>], i: usize) -> bool {
-    let kind = |j: usize| tokens.get(j).map(|t| t.kind);
+pub fn starts_item_at<T: Kind>(tokens: &[T], i: usize) -> bool {
+    let kind = |j: usize| tokens.get(j).map(Kind::kind);
     match kind(i) {
         Some(TokKind::Mesh | TokKind::Material) => {
             kind(i + 1) == Some(TokKind::Ident)
@@ -385,10 +402,44 @@ pub struct Token<'a> {
     pub span: Span,
 }
 
+/// A token without its text, which is the source's text over `span`
+/// ([`Tok::text`]): 12 bytes where a [`Token`] takes 32. The parser keeps
+/// a whole file's tokens in this form (issue 32: the token list was the
+/// largest part of parsing's memory).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Tok {
+    pub kind: TokKind,
+    pub span: Span,
+}
+
+impl Tok {
+    /// The token's text in `source`, the text it was lexed from.
+    pub fn text(self, source: &str) -> &str {
+        source.get(self.span.range()).unwrap_or("")
+    }
+
+    /// The token with its text in `source`, the text it was lexed from.
+    pub fn with_text(self, source: &str) -> Token<'_> {
+        Token {
+            kind: self.kind,
+            text: self.text(source),
+            span: self.span,
+        }
+    }
+}
+
 /// The lexer's output.
 #[derive(Clone, Debug, Default)]
 pub struct Lexed<'a> {
     pub tokens: Vec<Token<'a>>,
+    pub comments: Vec<crate::ast::Comment>,
+    pub diagnostics: Vec<Diagnostic>,
+}
+
+/// The lexer's output with tokens in their compact form ([`Tok`]).
+#[derive(Clone, Debug, Default)]
+pub struct LexedToks {
+    pub tokens: Vec<Tok>,
     pub comments: Vec<crate::ast::Comment>,
     pub diagnostics: Vec<Diagnostic>,
 }
@@ -457,7 +508,18 @@ fn convert(raw: Raw) -> Option<TokKind> {
 
 /// Lex a whole file.
 pub fn lex(file: FileId, text: &str) -> Lexed<'_> {
-    let mut out = Lexed::default();
+    let l = lex_toks(file, text);
+    Lexed {
+        tokens: l.tokens.iter().map(|t| t.with_text(text)).collect(),
+        comments: l.comments,
+        diagnostics: l.diagnostics,
+    }
+}
+
+/// Lex a whole file into compact tokens ([`Tok`]), held at their number
+/// (no spare room).
+pub fn lex_toks(file: FileId, text: &str) -> LexedToks {
+    let mut out = LexedToks::default();
     let mut lexer = Raw::lexer(text);
     // A run of invalid characters is reported once.
     let mut bad_run: Option<Span> = None;
@@ -538,9 +600,8 @@ pub fn lex(file: FileId, text: &str) -> Lexed<'_> {
                         }
                         // An unterminated one is kept as a string token too,
                         // so the item still parses.
-                        out.tokens.push(Token {
+                        out.tokens.push(Tok {
                             kind: TokKind::Str,
-                            text: slice,
                             span,
                         });
                     }
@@ -560,19 +621,14 @@ pub fn lex(file: FileId, text: &str) -> Lexed<'_> {
                             )
                             .with_help("productions are written with `->`: `F -> F F;`"),
                         );
-                        out.tokens.push(Token {
+                        out.tokens.push(Tok {
                             kind: TokKind::Arrow,
-                            text: slice,
                             span,
                         });
                     }
                     _ => {
                         if let Some(kind) = convert(raw) {
-                            out.tokens.push(Token {
-                                kind,
-                                text: slice,
-                                span,
-                            });
+                            out.tokens.push(Tok { kind, span });
                         }
                     }
                 }
@@ -581,6 +637,8 @@ pub fn lex(file: FileId, text: &str) -> Lexed<'_> {
     }
     flush_bad(&mut bad_run, &mut out.diagnostics);
     mark_polygon_braces(&mut out.tokens);
+    out.tokens.shrink_to_fit();
+    out.comments.shrink_to_fit();
     out
 }
 
@@ -643,7 +701,7 @@ fn bidi_name(c: char) -> &'static str {
 /// `}` with no open polygon ends the module string: it closes the block, so
 /// a forgotten `;` before a system's closing brace is one diagnostic, not a
 /// broken system.
-fn mark_polygon_braces(tokens: &mut [Token<'_>]) {
+fn mark_polygon_braces(tokens: &mut [Tok]) {
     let mut in_string = false;
     let mut depth = 0u32;
     for i in 0..tokens.len() {

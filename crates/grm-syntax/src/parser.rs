@@ -14,7 +14,7 @@
 
 use crate::ast::*;
 use crate::grm;
-use crate::lexer::{self, TokKind, Token, starts_item_at};
+use crate::lexer::{self, Tok, TokKind, Token, starts_item_at};
 use grm_diag::{Code, Diagnostic, FileId};
 use lalrpop_util::ParseError;
 
@@ -35,9 +35,9 @@ impl Parsed {
 
 /// Parse a whole file.
 pub fn parse(file: FileId, text: &str) -> Parsed {
-    let mut lexed = lexer::lex(file, text);
-    let mut diags = lexed.diagnostics.clone();
-    misspelt_item_keywords(file, &mut lexed.tokens, &mut diags);
+    let mut lexed = lexer::lex_toks(file, text);
+    let mut diags = std::mem::take(&mut lexed.diagnostics);
+    misspelt_item_keywords(file, text, &mut lexed.tokens, &mut diags);
     let mut p = Driver {
         file,
         text,
@@ -46,7 +46,7 @@ pub fn parse(file: FileId, text: &str) -> Parsed {
         diags,
         hoisted: Vec::new(),
     };
-    let items = p.items();
+    let items = shrink(p.items());
     let mut diagnostics = p.diags;
     grm_diag::sort(&mut diagnostics);
     Parsed {
@@ -94,6 +94,13 @@ pub(crate) fn sym(text: &str, l: usize, r: usize) -> Symbol {
         name: text.to_string(),
         span: sp(l, r),
     }
+}
+
+/// A list at its length: lists grown by pushes hold up to twice their
+/// length (four elements for one), most of a large file's syntax tree.
+pub(crate) fn shrink<T>(mut v: Vec<T>) -> Vec<T> {
+    v.shrink_to_fit();
+    v
 }
 
 /// Parse a number literal; out-of-range literals are reported.
@@ -192,9 +199,9 @@ fn climb_from(
 
 // ---- the driver ---------------------------------------------------------------
 
-type Tok<'a> = Result<(usize, Token<'a>, usize), ()>;
+type Spanned<'a> = Result<(usize, Token<'a>, usize), ()>;
 
-fn stream<'a, 'b>(toks: &'b [Token<'a>]) -> impl Iterator<Item = Tok<'a>> + 'b {
+fn stream<'a, 'b>(toks: &'b [Token<'a>]) -> impl Iterator<Item = Spanned<'a>> + 'b {
     toks.iter()
         .map(|t| Ok((t.span.start as usize, *t, t.span.end as usize)))
 }
@@ -214,14 +221,14 @@ fn push_value_errors(file: FileId, diags: &mut Vec<Diagnostic>, errs: Vec<(Span,
 /// keyword it nearly spells (`sytem P {`, `Const x =`, `include "f.grm"`), is
 /// read as that keyword, with one E0001: the item parses, its names resolve,
 /// and nothing else is reported for it.
-fn misspelt_item_keywords(file: FileId, toks: &mut [Token<'_>], diags: &mut Vec<Diagnostic>) {
+fn misspelt_item_keywords(file: FileId, text: &str, toks: &mut [Tok], diags: &mut Vec<Diagnostic>) {
     let mut depth = 0i32;
     let mut at_start = true;
     for i in 0..toks.len() {
         let k = toks[i].kind;
         if depth == 0 && at_start && k == TokKind::Ident {
             let next = |j: usize| toks.get(i + j).map(|t| t.kind);
-            let kind = item_keyword_for(toks[i].text).and_then(|kw| {
+            let kind = item_keyword_for(toks[i].text(text)).and_then(|kw| {
                 let (kind, fits) = match kw {
                     "system" => (
                         TokKind::System,
@@ -246,7 +253,7 @@ fn misspelt_item_keywords(file: FileId, toks: &mut [Token<'_>], diags: &mut Vec<
             });
             if let Some((kw, kind)) = kind {
                 let t = &mut toks[i];
-                diags.push(read_as_keyword(file, t, kw));
+                diags.push(read_as_keyword(file, t.span, t.text(text), kw));
                 t.kind = kind;
             }
         }
@@ -261,12 +268,12 @@ fn misspelt_item_keywords(file: FileId, toks: &mut [Token<'_>], diags: &mut Vec<
 
 /// E0001 for a name read as the keyword `kw` it nearly spells (the quick
 /// fix reads the help's "did you mean").
-fn read_as_keyword(file: FileId, t: &Token<'_>, kw: &str) -> Diagnostic {
+fn read_as_keyword(file: FileId, span: Span, word: &str, kw: &str) -> Diagnostic {
     Diagnostic::new(
         Code::UnexpectedToken,
-        format!("`{}` is not a keyword; read as `{kw}`", t.text),
+        format!("`{word}` is not a keyword; read as `{kw}`"),
         file,
-        t.span,
+        span,
         "not a keyword",
     )
     .with_help(format!("did you mean `{kw}`?"))
@@ -385,7 +392,7 @@ fn misspelt_statement_keyword<'a>(
             ("wrapup", TokKind::Wrapup)
         }
     };
-    diags.push(read_as_keyword(file, first, kw));
+    diags.push(read_as_keyword(file, first.span, first.text, kw));
     let mut out = toks.to_vec();
     out[0].kind = kind;
     Some(out)
@@ -474,7 +481,9 @@ enum Stmt {
 struct Driver<'a, 't> {
     file: FileId,
     text: &'a str,
-    toks: &'t [Token<'a>],
+    /// The file's tokens; each statement's are given their text
+    /// ([`Driver::take_stmt`]) only for its own parse.
+    toks: &'t [Tok],
     pos: usize,
     diags: Vec<Diagnostic>,
     /// Top-level declarations written inside a system block (E0007): kept
@@ -484,8 +493,20 @@ struct Driver<'a, 't> {
 }
 
 impl<'a> Driver<'a, '_> {
-    fn peek(&self) -> Option<&Token<'a>> {
+    fn peek(&self) -> Option<&Tok> {
         self.toks.get(self.pos)
+    }
+
+    /// The tokens from `self.pos` up to `end`, with their text, and move
+    /// past them.
+    fn take_stmt(&mut self, end: usize) -> Vec<Token<'a>> {
+        let text = self.text;
+        let toks = self.toks[self.pos..end]
+            .iter()
+            .map(|t| t.with_text(text))
+            .collect();
+        self.pos = end;
+        toks
     }
 
     fn peek_kind(&self) -> Option<TokKind> {
@@ -503,10 +524,8 @@ impl<'a> Driver<'a, '_> {
             match t.kind {
                 TokKind::Import | TokKind::Const | TokKind::Param | TokKind::Mesh => {
                     let end = self.stmt_end(false);
-                    let all = self.toks;
-                    let toks = &all[self.pos..end];
-                    self.pos = end;
-                    for s in self.statement(toks, Entry::Top) {
+                    let toks = self.take_stmt(end);
+                    for s in self.statement(&toks, Entry::Top) {
                         if let Stmt::Item(i) = s {
                             items.push(i);
                         }
@@ -538,7 +557,9 @@ impl<'a> Driver<'a, '_> {
                     let mut d = Diagnostic::new(
                         Code::UnexpectedToken,
                         match t.kind {
-                            TokKind::Ident => format!("expected an item, found `{}`", t.text),
+                            TokKind::Ident => {
+                                format!("expected an item, found `{}`", t.text(self.text))
+                            }
                             k => format!("expected an item, found {}", k.describe()),
                         },
                         self.file,
@@ -546,7 +567,7 @@ impl<'a> Driver<'a, '_> {
                         "items start with `system`, `const`, `param`, `mesh`, `material` or `import`",
                     );
                     match (t.kind == TokKind::Ident)
-                        .then(|| item_keyword_for(t.text))
+                        .then(|| item_keyword_for(t.text(self.text)))
                         .flatten()
                     {
                         Some(kw) => d = d.with_help(format!("did you mean `{kw}`?")),
@@ -828,7 +849,7 @@ impl<'a> Driver<'a, '_> {
             Some(t) if t.kind == TokKind::Ident => {
                 self.pos += 1;
                 Ident {
-                    name: t.text.to_string(),
+                    name: t.text(self.text).to_string(),
                     span: t.span,
                 }
             }
@@ -958,19 +979,13 @@ impl<'a> Driver<'a, '_> {
                     break;
                 }
                 let end = self.stmt_end(true).max(self.pos + 1);
-                let all = self.toks;
-                let toks = &all[self.pos..end];
-                self.pos = end;
-                let relabelled;
-                let toks =
-                    match misspelt_statement_keyword(self.file, self.text, toks, &mut self.diags) {
-                        Some(fixed) => {
-                            relabelled = fixed;
-                            &relabelled[..]
-                        }
-                        None => toks,
-                    };
-                for s in self.statement(toks, Entry::Sys) {
+                let mut toks = self.take_stmt(end);
+                if let Some(fixed) =
+                    misspelt_statement_keyword(self.file, self.text, &toks, &mut self.diags)
+                {
+                    toks = fixed;
+                }
+                for s in self.statement(&toks, Entry::Sys) {
                     if let Stmt::SysItem(i) = s {
                         items.push(i);
                     }
@@ -984,7 +999,7 @@ impl<'a> Driver<'a, '_> {
         };
         Item::System(System {
             name,
-            items,
+            items: shrink(items),
             span: start.to(close),
         })
     }
@@ -1010,17 +1025,15 @@ impl<'a> Driver<'a, '_> {
     /// report it (E0007) and keep it as an item of the file.
     fn hoist(&mut self, system: &Ident) {
         let kw = self.toks[self.pos];
-        let what = kw.text;
+        let what = kw.text(self.text);
         let before = self.diags.len();
         if kw.kind == TokKind::Material {
             let item = self.material();
             self.hoisted.push(item);
         } else {
             let end = self.stmt_end(true).max(self.pos + 1);
-            let all = self.toks;
-            let toks = &all[self.pos..end];
-            self.pos = end;
-            for s in self.statement(toks, Entry::Top) {
+            let toks = self.take_stmt(end);
+            for s in self.statement(&toks, Entry::Top) {
                 if let Stmt::Item(i) = s {
                     self.hoisted.push(i);
                 }
@@ -1062,10 +1075,8 @@ impl<'a> Driver<'a, '_> {
                     break;
                 }
                 let end = self.stmt_end(true).max(self.pos + 1);
-                let all = self.toks;
-                let toks = &all[self.pos..end];
-                self.pos = end;
-                for s in self.statement(toks, Entry::Mat) {
+                let toks = self.take_stmt(end);
+                for s in self.statement(&toks, Entry::Mat) {
                     if let Stmt::Field(f) = s {
                         fields.push(f);
                     }
@@ -1079,7 +1090,7 @@ impl<'a> Driver<'a, '_> {
         };
         Item::Material(MaterialDecl {
             name,
-            fields,
+            fields: shrink(fields),
             span: start.to(close),
         })
     }
