@@ -233,7 +233,16 @@ async function command(label) {
   const row = page.locator('.quick-input-list .monaco-list-row', { has: page.locator('.label-name', { hasText: label }) }).first();
   await row.waitFor();
   await row.click();
-  await page.locator('.quick-input-widget').waitFor({ state: 'hidden' }).catch(() => {});
+  // The palette closes (or the command's own quick pick replaces it).
+  await page.waitForFunction(
+    () => {
+      const w = document.querySelector('.quick-input-widget');
+      const input = w?.querySelector('input');
+      return !w || getComputedStyle(w).display === 'none' || !input?.value.startsWith('>');
+    },
+    null,
+    { timeout: SHORT, polling: 50 },
+  );
 }
 
 /** Put the cursor at LINE:COLUMN (1-based) with Go to Line. */
