@@ -20,6 +20,9 @@
 //!    part ids and parts table, an SVG's text, a picture's sample buffers
 //!    and its per-vertex screen data.
 //!
+//! Each count includes [`BASELINE_BYTES`] for the process itself, so that
+//! a run's peak stays under the limit, not only its model.
+//!
 //! Past the limit, building stops with [`crate::GeomError::MemoryLimit`]
 //! (R0202, as a derivation over `--max-memory`), which says what the model
 //! would need, of what, and by how much it is over.
@@ -36,6 +39,11 @@ use crate::render::RenderOptions;
 /// The default of [`crate::BuildOptions::max_bytes`]: 2 GiB, as a
 /// derivation's (`grm_derive::DeriveLimits`).
 pub const DEFAULT_MAX_BYTES: u64 = 2 << 30;
+
+/// What the process holds besides the model: its code, the checked and
+/// compiled program, threads' stacks, the allocator's own (measured: 10
+/// to 12 MiB for `grmc derive`), counted with every model.
+pub const BASELINE_BYTES: u64 = 16 << 20;
 
 /// What a model is built for: what comes after it counts too.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -154,6 +162,7 @@ pub fn count_string(system: &System, string: &ModuleString) -> Footprint {
         .collect();
     let mut f = Footprint::default();
     let mut pushes = 0u64;
+    let mut starts = 0u64;
     for &s in &string.syms {
         match ops.get(s as usize).copied().flatten() {
             Some(T::Forward) => {
@@ -162,6 +171,7 @@ pub fn count_string(system: &System, string: &ModuleString) -> Footprint {
             }
             Some(T::ForwardNoVertex) => f.bones += 1,
             Some(T::Move | T::PolygonVertex) => f.polygon_vertices += 1,
+            Some(T::PolygonStart) => starts += 1,
             Some(T::PolygonEnd) => f.polygons += 1,
             Some(T::Push) => pushes += 1,
             Some(T::Cylinder | T::Cone | T::Sphere | T::Box | T::Disc | T::Mesh) => {
@@ -169,6 +179,11 @@ pub fn count_string(system: &System, string: &ModuleString) -> Footprint {
             }
             _ => {}
         }
+    }
+    if starts == 0 {
+        // Vertices are kept only inside `{ }`.
+        f.polygon_vertices = 0;
+        f.polygons = 0;
     }
     f.bytes = interpretation_bytes(f.bones, f.instances, f.polygons, f.polygon_vertices)
         // The turtle's stack, and the open polygons' vertices.
@@ -255,7 +270,7 @@ pub fn output_bytes(f: &Footprint, output: Output, translucent: bool) -> u64 {
 /// Per part of a glb: the id map's entry and the module list (grown by
 /// doubling), the parts table's JSON object (a map of two entries, its
 /// keys and the key's text) and its serialised text.
-const GLB_BYTES_PER_PART: u64 = 1024;
+const GLB_BYTES_PER_PART: u64 = 2048;
 
 /// What the rasterizer holds for a picture of `f` (`crate::render`): per
 /// vertex its camera-space position (f64), screen position and the light
@@ -269,7 +284,10 @@ fn picture_bytes(f: &Footprint, o: &RenderOptions, translucent: bool) -> u64 {
     let samples = pixels * s * s;
     f.vertices
         .saturating_mul(24 + 12 + 12 + 12)
-        .saturating_add(f.triangles.saturating_mul(2 * 12 + 2 * 8 + 12 + 16))
+        .saturating_add(
+            f.triangles
+                .saturating_mul(2 * 12 + 2 * 8 + 12 + if translucent { 16 } else { 0 }),
+        )
         .saturating_add(f.bones.saturating_mul(64))
         .saturating_add(samples * if translucent { 4 + 6 + 2 + 8 } else { 4 + 6 })
         .saturating_add(pixels * (4 + 4 + 4))

@@ -490,6 +490,7 @@ pub fn build_model_with(
     // The string, held throughout, and the model's copy of its keys.
     let held = options
         .held
+        .saturating_add(budget::BASELINE_BYTES)
         .saturating_add(string.heap_bytes() as u64)
         .saturating_add(4 * string.keys.len() as u64);
     let mut pre = budget::count_string(system, string);
@@ -513,6 +514,8 @@ pub fn build_model_with(
     }
     it.run(string)?;
     let skeleton = it.finish();
+    // The baseline is counted again by the interpretation's build.
+    let held = held - budget::BASELINE_BYTES;
     let options = BuildOptions { held, ..*options };
     let mut model = build_from_interpretation(program, skeleton, &options, params)?;
     model.module_keys = string.keys.clone();
@@ -546,6 +549,7 @@ pub fn build_from_interpretation(
     // The interpretation and the builder's tables, before they are made.
     f.bytes = options
         .held
+        .saturating_add(budget::BASELINE_BYTES)
         .saturating_add(budget::interpretation_heap(&skeleton))
         .saturating_add(f.bones.saturating_mul(budget::PLAN_BYTES_PER_BONE));
     if f.bytes > options.max_bytes {
