@@ -398,12 +398,16 @@ fn derive(program: &Program, args: &[String], warnings: &mut Vec<Diagnostic>) ->
     let derivation = engine.derive(&opts, &mut |_| {}).map_err(at)?;
     if let Some(path) = o.get("--output") {
         let system = &program.systems[index];
-        let model = grm_geom::build_model(
+        // grmc's `model_options`: the same limit, and what the format needs.
+        let format = grm_geom::ExportFormat::from_path(Path::new(path));
+        let output = grm_geom::Output::of(format, &grm_geom::render::RenderOptions::default());
+        let model = grm_geom::build_model_with(
             program,
             system,
             &derivation.string,
             &c.settings,
             &c.param_values,
+            &grm_geom::BuildOptions::limited(opts.limits.max_bytes, output),
         )
         .map_err(|e| Stop::from(e.to_diagnostic(program, c.file, c.span)))?;
         export(&c, &model, path, warnings)?;

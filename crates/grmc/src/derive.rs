@@ -530,11 +530,42 @@ pub fn run(args: DeriveArgs) -> Outcome {
     }
     if let Some(path) = &args.output {
         if args.frames {
-            return export_frames(&loaded, engine, &opts, &d.string, path, &args.image);
+            return export_frames(
+                &loaded,
+                engine,
+                &opts,
+                &d.string,
+                path,
+                &args.image,
+                args.max_memory,
+            );
         }
-        return export_string(&loaded, &d.string, path, &args.image);
+        // Only the final string is needed now: the engine's spare strings
+        // and the derivation tree go before the model is built.
+        let string = d.string;
+        drop(d.tree);
+        drop(grower);
+        return export_string(&loaded, &string, path, &args.image, args.max_memory);
     }
     Outcome::Ok
+}
+
+/// The model's limit: `--max-memory` MiB (default 2048, as a
+/// derivation's), counting what writing to `path` needs (a picture's
+/// size from `image`).
+pub fn model_options(
+    max_memory_mib: Option<u64>,
+    path: &Path,
+    image: &ImageArgs,
+) -> grm_geom::BuildOptions {
+    let max_bytes = limits(None, max_memory_mib).max_bytes;
+    let mut picture = grm_geom::render::RenderOptions::default();
+    if let Some(size) = image.image_size {
+        picture.width = size.width;
+        picture.height = size.height;
+    }
+    let format = grm_geom::ExportFormat::from_path(path);
+    grm_geom::BuildOptions::limited(max_bytes, grm_geom::Output::of(format, &picture))
 }
 
 /// The most files `--frames` writes (iterations 0 to 999).
@@ -568,15 +599,22 @@ fn export_frames(
     last: &grm_derive::ModuleString,
     path: &Path,
     image: &ImageArgs,
+    max_memory: Option<u64>,
 ) -> Outcome {
     let c = &loaded.compiled;
+    let options = model_options(max_memory, path, image);
+    // Each frame's model is built while the final string, the frame's and
+    // the engine's spare strings (at most three, none larger than the
+    // frame's) are held.
     let build = |string: &grm_derive::ModuleString| {
-        grm_geom::build_model(
+        let held = (last.heap_bytes() + 3 * string.heap_bytes()) as u64;
+        grm_geom::build_model_with(
             &loaded.program,
             loaded.system(),
             string,
             &c.settings,
             &c.param_values,
+            &grm_geom::BuildOptions { held, ..options },
         )
         .map_err(|e| {
             emit(
@@ -751,14 +789,16 @@ pub fn export_string(
     string: &grm_derive::ModuleString,
     path: &Path,
     image: &ImageArgs,
+    max_memory: Option<u64>,
 ) -> Outcome {
     let c = &loaded.compiled;
-    let model = match grm_geom::build_model(
+    let model = match grm_geom::build_model_with(
         &loaded.program,
         loaded.system(),
         string,
         &c.settings,
         &c.param_values,
+        &model_options(max_memory, path, image),
     ) {
         Ok(m) => m,
         Err(e) => {

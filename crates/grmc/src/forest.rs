@@ -436,6 +436,23 @@ pub fn run(args: ForestArgs) -> Outcome {
         return Outcome::Ok;
     };
     let mut forest = Interpretation::default();
+    {
+        // Exactly the trees' sizes: the forest's arrays never grow by
+        // doubling (the memory limit counted the trees, not twice that).
+        let sum = |f: fn(&Interpretation) -> usize| -> usize {
+            grown
+                .iter()
+                .filter_map(|g| g.interpretation.as_ref())
+                .map(f)
+                .sum()
+        };
+        forest.bones.reserve_exact(sum(|i| i.bones.len()));
+        forest.instances.reserve_exact(sum(|i| i.instances.len()));
+        forest.polygons.reserve_exact(sum(|i| i.polygons.len()));
+        forest
+            .polygon_vertices
+            .reserve_exact(sum(|i| i.polygon_vertices.len()));
+    }
     let mut module_base = 0u64;
     // Each tree's own interpretation is dropped once it is in the forest
     // (not both held to the end).
@@ -462,7 +479,7 @@ pub fn run(args: ForestArgs) -> Outcome {
     let model = match grm_geom::build_from_interpretation(
         program,
         forest,
-        &grm_geom::BuildOptions::default(),
+        &crate::derive::model_options(args.max_memory, path, &args.image),
         &loaded.compiled.param_values,
     ) {
         Ok(m) => m,
@@ -570,6 +587,10 @@ fn derive_cpu(
         /// The forest's total passed the limit (modules so far) with
         /// this tree.
         Forest(u64),
+        /// The trees' interpretations together passed the memory limit
+        /// with this tree (what they could hold, counted from the
+        /// strings).
+        Memory(grm_geom::Footprint),
         /// Not derived: another tree stopped the forest.
         Skipped,
     }
@@ -587,6 +608,10 @@ fn derive_cpu(
     } / workers)
         .max(1);
     let total = AtomicU64::new(0);
+    // What the trees' interpretations hold together (the forest's model is
+    // built from them all: `--max-memory` bounds them as it bounds one
+    // model's; grm_geom::budget).
+    let held = Mutex::new(grm_geom::Footprint::default());
     let stop = AtomicBool::new(false);
     let results = parallel_map(trees.len(), workers, |k| {
         if stop.load(Ordering::Relaxed) {
@@ -613,7 +638,30 @@ fn derive_cpu(
         }
         let produced = d.stats.last().map_or(0, |s| s.cumulative_modules);
         let interpretation = match need_model {
-            true => Some(interpret(loaded, t, c, &d.string).map_err(Failure::Turtle)?),
+            true => {
+                let f =
+                    grm_geom::budget::count_string(&loaded.program.systems[t.system], &d.string);
+                let over = {
+                    let mut h = held.lock().unwrap_or_else(|p| p.into_inner());
+                    h.bones += f.bones;
+                    h.instances += f.instances;
+                    h.polygons += f.polygons;
+                    h.polygon_vertices += f.polygon_vertices;
+                    h.bytes = h.bytes.saturating_add(f.bytes);
+                    (h.bytes > lim.max_bytes).then_some(*h)
+                };
+                if let Some(h) = over {
+                    stop.store(true, Ordering::Relaxed);
+                    return Err(Failure::Memory(h));
+                }
+                let mut i = interpret(loaded, t, c, &d.string).map_err(Failure::Turtle)?;
+                // Held to the end: no spare capacity.
+                i.bones.shrink_to_fit();
+                i.instances.shrink_to_fit();
+                i.polygons.shrink_to_fit();
+                i.polygon_vertices.shrink_to_fit();
+                Some(i)
+            }
             false => None,
         };
         Ok((
@@ -628,6 +676,7 @@ fn derive_cpu(
     let mut out = Vec::with_capacity(results.len());
     let mut produced = 0u64;
     let mut over = None;
+    let mut memory: Option<(grm_geom::Footprint, usize)> = None;
     for (k, r) in results.into_iter().enumerate() {
         match r {
             Ok((g, p)) => {
@@ -650,8 +699,31 @@ fn derive_cpu(
                     over = Some((sum, k));
                 }
             }
+            Err(Failure::Memory(f)) => {
+                if memory.is_none_or(|(m, _)| f.bytes > m.bytes) {
+                    memory = Some((f, k));
+                }
+            }
             Err(Failure::Skipped) => {}
         }
+    }
+    if let Some((footprint, k)) = memory {
+        // R0202: the trees' interpretations alone are over the limit the
+        // forest's model must keep.
+        let c = &compiled[trees[k].compiled];
+        let e = grm_geom::GeomError::MemoryLimit {
+            footprint,
+            limit: lim.max_bytes,
+            output: grm_geom::Output::Model,
+        };
+        emit(
+            &loaded.sources,
+            &e.to_diagnostic(&loaded.program, c.file, c.span).with_note(format!(
+                "counted from the trees' strings, before their meshes: tree {k} (seed {}) took the forest over the limit",
+                trees[k].seed
+            )),
+        );
+        return Err(Outcome::InputErrors);
     }
     if let Some((sum, k)) = over {
         // R0201 as for one string: the forest's strings are bounded

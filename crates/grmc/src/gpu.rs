@@ -227,6 +227,7 @@ pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
             &string,
             path,
             &args.image,
+            args.max_memory,
         ));
     }
     Some(Outcome::Ok)
