@@ -4,22 +4,94 @@
 use grm_syntax::ast::*;
 
 /// Whether two files have the same syntax tree, ignoring every span.
+/// Item by item: only one item of each is copied at a time.
 pub fn same_tree(a: &File, b: &File) -> bool {
-    let mut a = a.clone();
-    let mut b = b.clone();
-    file(&mut a);
-    file(&mut b);
-    a == b
+    a.items.len() == b.items.len()
+        && a.items.iter().zip(&b.items).all(|(x, y)| {
+            let (mut x, mut y) = (x.clone(), y.clone());
+            item(&mut x);
+            item(&mut y);
+            x == y
+        })
+}
+
+/// A fingerprint of a file's syntax tree with spans ignored, and of its
+/// comments' texts as printed: two files with the same tree and comments
+/// have the same fingerprint, and two that differ have the same one only
+/// by a 128-bit hash collision. It lets [`crate::format`] drop the tree it
+/// printed before it parses what it printed (issue 32: both trees at once,
+/// and a copy of each, were most of `grmc fmt`'s memory).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Fingerprint {
+    pub tree: [u64; 2],
+    pub comments: [u64; 2],
+}
+
+/// Two independent 64-bit hashes of what is written into it.
+struct Hash2([std::collections::hash_map::DefaultHasher; 2]);
+
+impl Hash2 {
+    fn new() -> Hash2 {
+        use std::hash::Hasher;
+        let mut h = [
+            std::collections::hash_map::DefaultHasher::new(),
+            std::collections::hash_map::DefaultHasher::new(),
+        ];
+        // The second hash starts from another state.
+        h[1].write_u64(0x9e37_79b9_7f4a_7c15);
+        Hash2(h)
+    }
+
+    fn bytes(&mut self, b: &[u8]) {
+        use std::hash::Hasher;
+        for h in &mut self.0 {
+            h.write(b);
+        }
+    }
+
+    fn finish(&self) -> [u64; 2] {
+        use std::hash::Hasher;
+        [self.0[0].finish(), self.0[1].finish()]
+    }
+}
+
+impl std::fmt::Write for Hash2 {
+    fn write_str(&mut self, s: &str) -> std::fmt::Result {
+        self.bytes(s.as_bytes());
+        Ok(())
+    }
+}
+
+impl Fingerprint {
+    /// The fingerprint of a parsed file. The tree is hashed item by item
+    /// through its `Debug` form with spans cleared (the `Debug` form shows
+    /// every field, numbers exactly); `comment_text` gives each comment's
+    /// text as printed.
+    pub(crate) fn of<'c>(
+        f: &File,
+        comments: impl Iterator<Item = std::borrow::Cow<'c, str>>,
+    ) -> Fingerprint {
+        use std::fmt::Write;
+        let mut t = Hash2::new();
+        let _ = write!(t, "{};", f.items.len());
+        for i in &f.items {
+            let mut i = i.clone();
+            item(&mut i);
+            let _ = write!(t, "{i:?};");
+        }
+        let mut c = Hash2::new();
+        for text in comments {
+            let _ = write!(c, "{}:", text.len());
+            c.bytes(text.as_bytes());
+        }
+        Fingerprint {
+            tree: t.finish(),
+            comments: c.finish(),
+        }
+    }
 }
 
 const Z: Span = Span::new(0, 0);
-
-fn file(f: &mut File) {
-    f.span = Z;
-    for i in &mut f.items {
-        item(i);
-    }
-}
 
 fn ident(i: &mut Ident) {
     i.span = Z;

@@ -103,8 +103,19 @@ pub fn format(text: &str) -> Result<String, FormatError> {
         ));
     }
     let out = format_file(&parsed, text);
-    check(&parsed, &out)?;
+    // Only a fingerprint of the tree is kept while the output is parsed
+    // again: never two trees at once (issue 32).
+    let before = fingerprint(&parsed);
+    drop(parsed);
+    check(before, &out)?;
     Ok(out)
+}
+
+fn fingerprint(p: &Parsed) -> equiv::Fingerprint {
+    equiv::Fingerprint::of(
+        &p.file,
+        p.comments.iter().map(|c| printer::comment_text(&c.text)),
+    )
 }
 
 /// Print an already parsed file.
@@ -118,8 +129,9 @@ pub fn format_file(parsed: &Parsed, text: &str) -> String {
 }
 
 /// The bug guard of [`format`]: `out` must parse cleanly to the same tree
-/// with the same comments.
-fn check(before: &Parsed, out: &str) -> Result<(), FormatError> {
+/// with the same comments (as the fingerprint `before` of the tree and
+/// comments it was printed from says).
+fn check(before: equiv::Fingerprint, out: &str) -> Result<(), FormatError> {
     let after = grm_syntax::parse(FileId(0), out);
     if let Some(d) = after.diagnostics.iter().find(|d| d.is_error()) {
         return Err(FormatError::Internal(format!(
@@ -129,18 +141,13 @@ fn check(before: &Parsed, out: &str) -> Result<(), FormatError> {
             d.primary().span.end
         )));
     }
-    if !same_tree(&before.file, &after.file) {
+    let after = fingerprint(&after);
+    if before.tree != after.tree {
         return Err(FormatError::Internal(
             "the formatted text parses to a different tree".into(),
         ));
     }
-    let texts = |p: &Parsed| -> Vec<String> {
-        p.comments
-            .iter()
-            .map(|c| printer::comment_text(&c.text).to_string())
-            .collect()
-    };
-    if texts(before) != texts(&after) {
+    if before.comments != after.comments {
         return Err(FormatError::Internal(
             "the formatted text lost or changed a comment".into(),
         ));

@@ -13,17 +13,18 @@
 use grm_diag::{FileId, count_line_breaks, has_line_break};
 use grm_syntax::Parsed;
 use grm_syntax::ast::*;
-use grm_syntax::lexer::{self, Token};
+use grm_syntax::lexer::{self, Tok};
 
 /// Spaces per indentation level.
 const INDENT: usize = 4;
 
 /// Print a parsed file in canonical style.
 pub(crate) fn print(parsed: &Parsed, text: &str) -> String {
-    let lexed = lexer::lex(FileId(0), text);
+    // Compact tokens (no text): where the unnamed tokens are.
+    let toks = lexer::lex_toks(FileId(0), text).tokens;
     let mut p = Printer {
         text,
-        toks: &lexed.tokens,
+        toks: &toks,
         comments: &parsed.comments,
         next: 0,
         out: String::with_capacity(text.len() + text.len() / 8),
@@ -129,7 +130,7 @@ struct BlockState {
 
 struct Printer<'a> {
     text: &'a str,
-    toks: &'a [Token<'a>],
+    toks: &'a [Tok],
     comments: &'a [Comment],
     /// Index of the first comment not yet written.
     next: usize,
@@ -233,7 +234,7 @@ impl<'a> Printer<'a> {
     fn at(&self, from: u32, s: &str) -> u32 {
         let i = self.toks.partition_point(|t| t.span.start < from);
         match self.toks.get(i) {
-            Some(t) if t.text == s => t.span.start,
+            Some(t) if t.text(self.text) == s => t.span.start,
             _ => from,
         }
     }
