@@ -196,6 +196,22 @@ impl Model {
         }
     }
 
+    /// The bytes the model holds on the heap: its interpretation, meshes,
+    /// picks and keys (capacities).
+    pub fn heap_bytes(&self) -> u64 {
+        let parts: u64 = self
+            .parts
+            .iter()
+            .map(|p| {
+                budget::VERTEX_BYTES / 2
+                    * (p.mesh.positions.capacity() + p.mesh.normals.capacity()) as u64
+                    + 4 * p.mesh.indices.capacity() as u64
+                    + (p.picks.capacity() * std::mem::size_of::<Pick>()) as u64
+            })
+            .sum();
+        budget::interpretation_heap(&self.skeleton) + parts + 4 * self.module_keys.capacity() as u64
+    }
+
     pub fn bones(&self) -> &[grm_turtle::Bone] {
         &self.skeleton.bones
     }

@@ -6,7 +6,6 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use grm_diag::Diagnostic;
-use grm_geom::BuildOptions;
 use grm_guide::{Curves, VolumeOptions};
 use grm_sample::{
     ExpectedOptions, FinishLimits, Objective, SampleError, SampleOptions, Sampler, Schedule,
@@ -522,9 +521,15 @@ pub fn run(args: SampleArgs) -> Outcome {
             return o;
         }
         let mut models = Vec::with_capacity(result.frames.len());
+        // Every frame's model is held until all are written: each is
+        // built within what the ones before it leave of the limit.
+        let mut options = crate::derive::model_options(args.max_memory, path, &args.image);
         for m in result.frames.iter().filter_map(|(_, f)| f.as_ref().ok()) {
-            match m.build(&loaded.program, &BuildOptions::default()) {
-                Ok(model) => models.push(model),
+            match m.build(&loaded.program, &options) {
+                Ok(model) => {
+                    options.held = options.held.saturating_add(model.heap_bytes());
+                    models.push(model);
+                }
                 Err(e) => {
                     emit(
                         &loaded.sources,
@@ -538,7 +543,8 @@ pub fn run(args: SampleArgs) -> Outcome {
     }
     if let Some(path) = &args.output {
         for (k, m) in reported.iter().enumerate() {
-            let model = match m.build(&loaded.program, &BuildOptions::default()) {
+            let options = crate::derive::model_options(args.max_memory, path, &args.image);
+            let model = match m.build(&loaded.program, &options) {
                 Ok(model) => model,
                 Err(e) => {
                     emit(
