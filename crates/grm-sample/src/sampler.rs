@@ -2,6 +2,7 @@
 //! geometry phase.
 
 use std::collections::HashMap;
+use std::mem::size_of;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -169,8 +170,10 @@ pub struct SampleOptions {
     pub limits: FinishLimits,
     /// Stop with [`SampleError::MemoryLimit`] after a generation that
     /// leaves the search holding more than this many bytes
-    /// ([`crate::GenerationStats::memory_bytes`]: the arena, recycled
-    /// buffers, the kept particles, and the frames kept so far). Checked
+    /// ([`crate::GenerationStats::memory_bytes`]: the arena's buffers and
+    /// its structure (a step per particle per generation, where it made
+    /// nodes), recycled buffers, the kept particles, the generation
+    /// records, the per-particle weights, and the frames kept so far). Checked
     /// between generations, so a run ends at most one generation's growth
     /// past it. Default [`DEFAULT_MAX_BYTES`].
     pub max_bytes: u64,
@@ -1339,7 +1342,9 @@ impl<'a> Sampler<'a> {
         let root = Arc::new(root);
         let mut pop: Vec<Arc<Particle>> =
             (0..sched.particles(0)).map(|_| Arc::clone(&root)).collect();
-        let mut stats = Vec::with_capacity(gens as usize);
+        // Grown as the generations run (a preallocated record per
+        // generation of a long schedule is memory the search may not use).
+        let mut stats: Vec<GenerationStats> = Vec::new();
         let mut log_w = Vec::new();
         let mut weights = Vec::new();
         let mut ancestors = Vec::new();
@@ -1357,6 +1362,26 @@ impl<'a> Sampler<'a> {
         // The bytes of every step in `layers` and `spare` (a recycled
         // step moves from one to the other with its capacity).
         let mut arena_bytes: u64 = layers.iter().flatten().map(|s| s.bytes() as u64).sum();
+        // The arena's own structure: a `Step` per particle per generation
+        // (its buffers are in `arena_bytes`), counted as layers are made.
+        let mut layer_bytes: u64 = layers
+            .iter()
+            .map(|l| (l.capacity() * size_of::<Step>() + size_of::<Vec<Step>>()) as u64)
+            .sum();
+        // Everything else the search holds that grows with it: the layers'
+        // list, the generation records, the spare steps, and per particle
+        // its weights, ancestors and flags.
+        let bookkeeping = |layers: &Vec<Vec<Step>>,
+                           stats: &Vec<GenerationStats>,
+                           spare: &Vec<Step>,
+                           particles: usize| {
+            (layers.capacity() * size_of::<Vec<Step>>()
+                + stats.capacity() * size_of::<GenerationStats>()
+                + spare.capacity() * size_of::<Step>()
+                + particles
+                    * (3 * size_of::<f64>() + size_of::<usize>() + 1 + 2 * size_of::<usize>()))
+                as u64
+        };
         let check_memory = |g: u32, held: u64, particles: usize, stats: &[GenerationStats]| {
             if held > opts.max_bytes {
                 Err(SampleError::MemoryLimit {
@@ -1412,6 +1437,7 @@ impl<'a> Sampler<'a> {
             // whatever capacity they have now.
             arena_bytes += layer.iter().map(|s| s.bytes() as u64).sum::<u64>();
             arena_bytes -= taken_bytes;
+            layer_bytes += (layer.capacity() * size_of::<Step>() + size_of::<Vec<Step>>()) as u64;
             layers.push(layer);
             log_w.clear();
             log_w.extend(
@@ -1467,6 +1493,8 @@ impl<'a> Sampler<'a> {
                 let mut seen = std::collections::HashSet::new();
                 let distinct = next.iter().filter(|p| seen.insert(p.head)).count();
                 let held = arena_bytes
+                    + layer_bytes
+                    + bookkeeping(&layers, &stats, &spare, next.len())
                     + frame_bytes
                     + next.iter().map(|p| p.own_bytes() as u64).sum::<u64>();
                 if let Some(st) = stats.last_mut() {
@@ -1500,8 +1528,26 @@ impl<'a> Sampler<'a> {
                     st.clear();
                     spare.push(st);
                 }
+                // Steps without nodes at the layer's end are never looked
+                // up (a node id names a node that exists): a search whose
+                // particles add nothing (all finished, or expanding
+                // nothing that lasts) keeps no `Step` per particle per
+                // generation for them.
+                let before = (layer.capacity() * size_of::<Step>()) as u64;
+                while layer.last().is_some_and(|s| s.nodes.is_empty()) {
+                    if let Some(st) = layer.pop()
+                        && st.bytes() > 0
+                    {
+                        spare.push(st);
+                    }
+                }
+                layer.shrink_to_fit();
+                layer_bytes -= before;
+                layer_bytes += (layer.capacity() * size_of::<Step>()) as u64;
             }
             let held = arena_bytes
+                + layer_bytes
+                + bookkeeping(&layers, &stats, &spare, next.len())
                 + frame_bytes
                 + next
                     .iter()
