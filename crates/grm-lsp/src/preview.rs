@@ -52,6 +52,32 @@ pub const NO_ORIGIN: u32 = u32::MAX;
 /// live one for the same document superseded.
 pub const SERVER_CANCELLED: i64 = -32802;
 
+/// The most bytes a preview's model may need to build
+/// ([`grm_geom::BuildOptions::max_bytes`]), as its derivation's limit.
+pub const PREVIEW_MAX_BYTES: u64 = 1 << 30;
+
+/// The largest `grm/preview` answer (and `grm/previewUpdated` payload):
+/// the transport's limit on a message ([`crate::stdio::MAX_BODY`]). A
+/// model whose answer would be larger is refused before it is encoded
+/// (R0408), so that every request is answered.
+pub const MAX_ANSWER_BYTES: u64 = crate::stdio::MAX_BODY as u64;
+
+/// What the answer for `model` takes, at most, as JSON: its buffers in
+/// base64 (4 characters per 3 bytes), a record per pick and per origin,
+/// and the rest.
+pub fn answer_bytes(model: &grm_geom::Model, origins: usize) -> u64 {
+    let b64 = |bytes: u64| bytes.div_ceil(3) * 4;
+    let mut n: u64 = 64 << 10;
+    for part in &model.parts {
+        let v = part.mesh.positions.len() as u64;
+        let t = part.mesh.indices.len() as u64 / 3;
+        n += 2 * b64(12 * v) + b64(12 * t) + 160 * part.picks.len() as u64 + 256;
+    }
+    let bones = model.skeleton.bones.len() as u64;
+    n += b64(32 * bones) + 2 * b64(4 * bones);
+    n + 512 * origins as u64
+}
+
 /// Why a preview was not built.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) enum Failure {
@@ -529,9 +555,15 @@ fn derive_model(
     let derive_ms = t0.elapsed().as_secs_f64() * 1e3;
     check(cancel)?;
     let t1 = Instant::now();
-    let mut model =
-        grm_geom::build_model(prog, sys, &grown.string, settings, &compiled.param_values)
-            .map_err(|e| e.to_string())?;
+    let mut model = grm_geom::build_model_with(
+        prog,
+        sys,
+        &grown.string,
+        settings,
+        &compiled.param_values,
+        &grm_geom::BuildOptions::limited(PREVIEW_MAX_BYTES, grm_geom::Output::Model),
+    )
+    .map_err(|e| too_large(&e))?;
     if let Some(o) = &grown.origin {
         model.fill_origins(o);
     }
@@ -668,8 +700,11 @@ fn sample_model(
     let derive_ms = t0.elapsed().as_secs_f64() * 1e3;
     let t1 = Instant::now();
     let model = best
-        .build(prog, &grm_geom::BuildOptions::default())
-        .map_err(|e| e.to_string())?;
+        .build(
+            prog,
+            &grm_geom::BuildOptions::limited(PREVIEW_MAX_BYTES, grm_geom::Output::Model),
+        )
+        .map_err(|e| too_large(&e))?;
     let build_ms = t1.elapsed().as_secs_f64() * 1e3;
     let focus_flags: Vec<bool> = best.origins.iter().map(|&o| Some(o) == focus).collect();
     let focus_out = focus.map(|fo| FocusOut {
@@ -709,6 +744,18 @@ fn sample_model(
             generation: shown,
         }),
     })
+}
+
+/// A model error as the preview says it: over the memory limit, with its
+/// code and what to lower.
+fn too_large(e: &grm_geom::GeomError) -> Failure {
+    match e {
+        grm_geom::GeomError::MemoryLimit { .. } => Failure::Msg(format!(
+            "{} (R0202): lower `maxModules` or the iterations to preview it",
+            e
+        )),
+        e => Failure::Msg(e.to_string()),
+    }
 }
 
 /// Build the preview of a checked file. Errors are messages for the user.
@@ -882,6 +929,20 @@ pub(crate) fn build_with_model(
             })
         })
         .collect();
+    // Refused before it is encoded: the transport drops a larger message,
+    // and the client would wait for its answer forever.
+    let answer = answer_bytes(&model, origin_table.len());
+    if answer > MAX_ANSWER_BYTES {
+        let st = &model.stats;
+        return Err(Failure::Msg(format!(
+            "the model is too large to preview (R0408): its answer would be {} ({} triangles, {} vertices, {} bones), over the limit of {} on a grm/preview answer; lower `maxModules` or the iterations",
+            grm_geom::budget::mib(answer),
+            st.triangles,
+            st.vertices,
+            st.bones,
+            grm_geom::budget::mib(MAX_ANSWER_BYTES)
+        )));
+    }
     let t2 = Instant::now();
     let is_focus = |module: u32| focus_flags.get(module as usize) == Some(&true);
     let origin_of = |o: u32| (o != NO_ORIGIN && (o as usize) < origin_table.len()).then_some(o);

@@ -433,14 +433,51 @@ pub async fn guard_input(
     let _ = server.shutdown().await;
 }
 
+/// The id of a response the server wrote (tower-lsp-server writes a
+/// response's `id` last: `..., "id": 7}`), read from its end alone.
+fn response_id(body: &[u8]) -> Option<Value> {
+    let tail = &body[body.len().saturating_sub(512)..];
+    let at = tail.windows(5).rposition(|w| w == b"\"id\":")?;
+    let rest = tail[at + 5..].strip_suffix(b"}")?;
+    let id: Value = serde_json::from_slice(rest).ok()?;
+    valid_id(&id).then_some(id)
+}
+
+/// What goes to the client for one of the server's messages: the message,
+/// or, for a response longer than [`MAX_BODY`] (which a client reading
+/// with the same limit would drop, and then wait for forever), an error
+/// answering its request (RequestFailed, -32803); a notification that long
+/// is dropped.
+pub fn outgoing(body: Vec<u8>) -> Option<Vec<u8>> {
+    outgoing_within(body, MAX_BODY)
+}
+
+/// [`outgoing`] with a limit of `max` bytes.
+fn outgoing_within(body: Vec<u8>, max: usize) -> Option<Vec<u8>> {
+    if body.len() <= max {
+        return Some(body);
+    }
+    let id = response_id(&body)?;
+    Some(error_response(
+        -32803,
+        format!(
+            "the answer would be {:.1} MiB, over the limit of {:.1} MiB on a message",
+            body.len() as f64 / f64::from(1 << 20),
+            max as f64 / f64::from(1 << 20)
+        ),
+        id,
+    ))
+}
+
 /// Copy the server's messages to `output`, with the guard's answers
-/// between them; ends when the server's output ends.
+/// between them; ends when the server's output ends. A message of the
+/// server's is never dropped unanswered ([`outgoing`]).
 pub async fn merge_output(
     mut server: impl AsyncRead + Unpin,
     mut output: impl AsyncWrite + Unpin,
     mut answers: tokio::sync::mpsc::UnboundedReceiver<Vec<u8>>,
 ) {
-    let mut d = Deframer::default();
+    let mut d = Deframer::with_max(usize::MAX);
     let mut buf = vec![0u8; 1 << 16];
     loop {
         tokio::select! {
@@ -452,6 +489,7 @@ pub async fn merge_output(
                 d.push(&buf[..n]);
                 while let Some(ev) = d.next_event() {
                     if let Event::Body(b) = ev
+                        && let Some(b) = outgoing(b)
                         && output.write_all(&frame(&b)).await.is_err()
                     {
                         return;
@@ -593,6 +631,39 @@ mod tests {
         assert!(String::from_utf8_lossy(&bad_utf8).contains("-32700"));
         let deep = "[".repeat(100_000);
         assert_eq!(err(&deep)["error"]["code"], -32700);
+    }
+
+    #[test]
+    fn an_answer_over_the_limit_becomes_an_error_for_its_request() {
+        let small = br#"{"jsonrpc":"2.0","result":{"a":1},"id":3}"#.to_vec();
+        assert_eq!(outgoing_within(small.clone(), 1000), Some(small));
+        let big = format!(
+            r#"{{"jsonrpc":"2.0","result":"{}","id":7}}"#,
+            "x".repeat(2000)
+        );
+        let answer = outgoing_within(big.into_bytes(), 1000).expect("answered");
+        let v: Value = serde_json::from_slice(&answer).expect("json");
+        assert_eq!(v["id"], 7);
+        assert_eq!(v["error"]["code"], -32803);
+        assert!(
+            v["error"]["message"]
+                .as_str()
+                .unwrap()
+                .contains("over the limit")
+        );
+        let named = format!(
+            r#"{{"jsonrpc":"2.0","result":"{}","id":"a"}}"#,
+            "x".repeat(2000)
+        );
+        let v: Value =
+            serde_json::from_slice(&outgoing_within(named.into_bytes(), 1000).unwrap()).unwrap();
+        assert_eq!(v["id"], "a");
+        // A notification has no request waiting for it.
+        let note = format!(
+            r#"{{"jsonrpc":"2.0","method":"m","params":["{}"]}}"#,
+            "x".repeat(2000)
+        );
+        assert_eq!(outgoing_within(note.into_bytes(), 1000), None);
     }
 
     #[test]
