@@ -3,7 +3,7 @@ import { test } from 'node:test';
 import { Coalescer } from '../preview/src/coalesce.js';
 import { parseCurves } from '../preview/src/curves.js';
 import { decodePreview } from '../preview/src/protocol.js';
-import { PageState } from '../preview/src/state.js';
+import { PageState, ShownVersion } from '../preview/src/state.js';
 
 const CURVES = JSON.stringify({ version: 1, defaults: { utilization_scale: 100 }, curves: [{ name: 'trunk', points: [[0, 0, 0], [0, 1, 0], [0, 2, 0], [0, 3, 0]] }] });
 
@@ -248,4 +248,22 @@ test('undo takes back an edit that was not finished yet', () => {
   s.moveControlPoint(0, 1, [5, 5, 5]);
   assert.equal(s.undo(), true);
   assert.deepEqual(s.curves!.curves[0].points[1], [0, 1, 0]);
+});
+
+test('a model of an older document version is never shown over a newer one or its errors', () => {
+  const v = new ShownVersion();
+  assert.equal(v.model(3), true);
+  // The update for version 4 came first; the answer of a request begun at version 3 after it.
+  assert.equal(v.model(4), true);
+  assert.equal(v.model(3), false);
+  assert.equal(v.model(4), true, 'the same version again (another request of the same text)');
+  // Version 5 has errors: the error stays on screen, not a model of version 4 still on its way.
+  v.error(5);
+  assert.equal(v.model(4), false);
+  assert.equal(v.model(6), true);
+  // Errors of an older version do not hold back the newer model's.
+  v.error(2);
+  assert.equal(v.model(6), true);
+  v.reset();
+  assert.equal(v.model(1), true);
 });

@@ -24,7 +24,7 @@ import {
   paramsFromSymbols,
 } from './protocol.js';
 import { PreviewScene, ThumbnailRenderer } from './scene.js';
-import { PageState } from './state.js';
+import { PageState, ShownVersion } from './state.js';
 import { type RequestTiming, type Transport, detectTransport, isSuperseded } from './transport.js';
 
 /** A preview answer, the parameters asked (JSON) and where the time went on its way (ms). */
@@ -176,8 +176,8 @@ class App {
   /** This page's live requests: its id and the number of the last one (the server never lets an older one win). */
   private readonly client = clientId();
   private order = 0;
-  /** The document version of the model shown: a model of an older one (an answer that took longer than an update) is not shown. */
-  private shownVersion = -1;
+  /** The document version shown: a model of an older one (an answer that took longer than an update) is not shown. */
+  private readonly shownVersion = new ShownVersion();
 
   constructor(private readonly transport: Transport) {
     this.scene = new PreviewScene($<HTMLCanvasElement>('view'));
@@ -293,7 +293,7 @@ class App {
     if (method !== 'cursor') this.previewRequest.forget();
     if (method === 'document' && typeof p.uri === 'string') {
       // Another document, or the same one after the host's server restarted: any version is news.
-      this.shownVersion = -1;
+      this.shownVersion.reset();
       if (p.uri !== this.state.uri) {
         this.state.setDocument(p.uri);
         this.framed = false;
@@ -323,7 +323,11 @@ class App {
       // A generation's model: the server regrew a scrubbed live request; the new search's result is asked for.
       if (u.result && !showsUpdate(u.result)) this.regrow();
       else if (u.result) this.show({ result: u.result, editedAt: performance.now(), final: true });
-      else if (u.error) this.showError(u.error);
+      else if (u.error) {
+        // The latest text has errors: an answer about an older text, still on its way, is not the state.
+        this.shownVersion.error(u.version);
+        this.showError(u.error);
+      }
     } else if (method === 'curvesChanged') {
       if (p.uri !== this.state.uri || this.state.mode !== 'sample' || this.gesture.kind !== 'none') return;
       // Edited by hand or by another tool: the file wins over the page's copy.
@@ -492,12 +496,10 @@ class App {
   private show(d: Delivery<PreviewResult>, breakdown: Record<string, number> = {}, params: string | null = null): void {
     const r = d.result;
     // The answer of a request that began before an edit, after the update the edit brought: the older text's model.
-    const current = r.uri === this.state.uri;
-    if (current && r.version < this.shownVersion) {
+    if (r.uri === this.state.uri && !this.shownVersion.model(r.version)) {
       this.debug.olderVersions++;
       return;
     }
-    if (current) this.shownVersion = r.version;
     this.debug.shownParams = params;
     this.debug.delivered++;
     this.last = r;

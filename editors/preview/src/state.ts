@@ -279,3 +279,30 @@ export class PageState {
     }
   }
 }
+
+/**
+ * The document version of what the page shows. A live request that began
+ * before an edit may answer after the server's update for the edit: its
+ * model, of the older text, is never shown over the newer one, nor over the
+ * newer text's errors.
+ */
+export class ShownVersion {
+  private version = -1;
+
+  /** A model of `version` came: whether to show it (it is then the version shown). */
+  model(version: number): boolean {
+    if (version < this.version) return false;
+    this.version = version;
+    return true;
+  }
+
+  /** The server said the text of `version` has errors (shown instead of a model). */
+  error(version: number): void {
+    this.version = Math.max(this.version, version);
+  }
+
+  /** Another document, or the same after the host's server restarted: any version is news. */
+  reset(): void {
+    this.version = -1;
+  }
+}
