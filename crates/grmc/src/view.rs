@@ -1046,6 +1046,44 @@ mod tests {
         );
     }
 
+    /// The page's older request reaching the server after its newer one
+    /// (two connections, two threads): answered superseded at once, and
+    /// the newer one is not stopped.
+    #[test]
+    fn a_pages_older_preview_arriving_late_supersedes_nothing() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let grammar = dir.path().join("endless.grm");
+        std::fs::write(
+            &grammar,
+            "system Endless {\n    mode = sample;\n    generations = 100000;\n    particles_start = 8;\n    particles_end = 4;\n    axiom branch;\n    skeleton branch, maybe;\n    geometry tip;\n    branch -> roty(uniform(0, 360)) rotz(uniform(0, 40)) F(1) maybe;\n    maybe -> (3) branch;\n    maybe -> (1) tip;\n    wrapup branch -> tip;\n    wrapup maybe -> tip;\n    tip -> sphere(0.1);\n}\n",
+        )
+        .expect("write");
+        let grammar = grm_sema::normalize(&std::fs::canonicalize(&grammar).expect("canonical"));
+        let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
+        let server = Server::start(&grammar, listener, None).expect("start");
+        let addr = server.addr;
+        let (_, ev) = exchange(
+            addr,
+            &format!("GET /api/events?after=0 HTTP/1.1\r\nHost: {addr}\r\n\r\n"),
+        );
+        let uri = ev["events"][0]["params"]["uri"].clone();
+        let curves = json!({ "version": 1, "curves": [{ "points": [[0,0,0],[0,1.3,0],[0,2.7,0],[0,4,0]] }] });
+        let req = |order: u64, budget: u64| json!({ "textDocument": { "uri": uri }, "curves": curves, "live": true, "client": "page", "order": order, "budgetMs": budget });
+        let newer_req = req(2, 1500);
+        let newer = std::thread::spawn(move || post(addr, "/api/preview", &newer_req));
+        std::thread::sleep(Duration::from_millis(300));
+        assert!(!newer.is_finished(), "the newer preview is being built");
+        let t = Instant::now();
+        let (status, older) = post(addr, "/api/preview", &req(1, 60_000));
+        assert_eq!(status, 200, "{older}");
+        assert_eq!(older["code"], -32802, "{older}");
+        assert!(t.elapsed() < Duration::from_secs(5), "{:?}", t.elapsed());
+        let (status, newer) = newer.join().expect("newer");
+        assert_eq!(status, 200, "{newer}");
+        // Built to its own budget, not stopped by the older request.
+        assert_eq!(newer["result"]["sample"]["stoppedEarly"], true, "{newer}");
+    }
+
     #[test]
     fn serves_the_page_and_the_language_servers_preview() {
         let dir = tempfile::tempdir().expect("tempdir");
