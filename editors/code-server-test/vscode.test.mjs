@@ -10,9 +10,10 @@
 //   - an error typed into the file shows in the Problems panel (E0105), its
 //     quick fix (Ctrl+.) repairs it and the Problems panel empties;
 //   - grm: Open Preview shows the model in the webview (the page's status
-//     names the system, its bones are counted, its canvas is drawn);
+//     names the system, its bones are counted, its canvas is drawn), and an
+//     edit of the grammar regrows it;
 //   - grm: Export Model writes a glTF file (quick pick, then VS Code's own
-//     save dialog).
+//     save dialog), the same bytes as `grmc derive` writes for the file.
 //
 // Needs: `cargo build -p grmc` (or GRMC=path), the packaged extension
 // (`editors/vscode/scripts/package.sh --out target/grm.vsix`, or
@@ -52,7 +53,8 @@ let url;
 
 /** Stop code-server and everything it started (extension host, language server, watchers). */
 function killServer() {
-  if (!server || server.exitCode !== null || server.signalCode !== null) return;
+  // The whole group, even when code-server itself has exited: its children may not have.
+  if (!server) return;
   try {
     process.kill(-server.pid, 'SIGKILL');
   } catch {
@@ -224,14 +226,39 @@ async function editorText() {
   return ((await page.locator('.editor-group-container.active .monaco-editor .view-lines').innerText()) ?? '').replace(/\u00a0/g, ' ');
 }
 
+/**
+ * Press KEY until the quick input is open and holds TEXT: on a busy machine a
+ * focus change that lands late (a click on a tab, a panel) can close it at once.
+ */
+async function quickInput(key, text) {
+  const input = page.locator('.quick-input-widget input');
+  for (let attempt = 1; ; attempt++) {
+    await page.keyboard.press(key);
+    try {
+      await input.waitFor({ state: 'visible', timeout: 10_000 });
+      await input.fill(text, { timeout: 10_000 });
+      await page.waitForFunction(
+        (t) => {
+          const w = document.querySelector('.quick-input-widget');
+          return !!w && getComputedStyle(w).display !== 'none' && w.querySelector('input')?.value === t;
+        },
+        text,
+        { timeout: 5_000, polling: 50 },
+      );
+      return input;
+    } catch (e) {
+      if (attempt === 4) throw e;
+      log(`${key} ${text}: the quick input did not stay open (attempt ${attempt}), again`);
+      await page.keyboard.press('Escape');
+    }
+  }
+}
+
 /** Run a command from the palette by its exact label. */
 async function command(label) {
-  await page.keyboard.press('F1');
-  const input = page.locator('.quick-input-widget input');
-  await input.waitFor({ state: 'visible' });
-  await input.fill(`>${label}`);
+  await quickInput('F1', `>${label}`);
   const row = page.locator('.quick-input-list .monaco-list-row', { has: page.locator('.label-name', { hasText: label }) }).first();
-  await row.waitFor();
+  await row.waitFor({ timeout: SHORT });
   await row.click();
   // The palette closes (or the command's own quick pick replaces it).
   await page.waitForFunction(
@@ -245,14 +272,29 @@ async function command(label) {
   );
 }
 
-/** Put the cursor at LINE:COLUMN (1-based) with Go to Line. */
+/** Focus the editor of FILE (its tab clicked, then the keyboard focus in its text). */
+async function focusEditor(file = 'koch_island.grm') {
+  await page.locator('.tab', { hasText: new RegExp(`^${file.replace('.', '\\.')}`) }).first().click();
+  await page.locator('.tab.active', { hasText: new RegExp(`^${file.replace('.', '\\.')}`) }).first().waitFor({ timeout: SHORT });
+  await page.waitForFunction(() => !!document.activeElement?.closest('.part.editor .monaco-editor'), null, { timeout: SHORT, polling: 50 });
+}
+
+/** Put the cursor at LINE:COLUMN (1-based) of the koch_island.grm editor with Go to Line; checked in the status bar. */
 async function goTo(line, column) {
-  await page.keyboard.press('Control+G');
-  const input = page.locator('.quick-input-widget input');
-  await input.waitFor({ state: 'visible' });
-  await input.fill(`:${line}:${column}`);
-  await input.press('Enter');
-  await page.locator('.quick-input-widget').waitFor({ state: 'hidden' });
+  const where = page.locator('#status\\.editor\\.selection', { hasText: new RegExp(`^Ln ${line}, Col ${column}$`) });
+  for (let attempt = 1; ; attempt++) {
+    await focusEditor();
+    const input = await quickInput('Control+G', `:${line}:${column}`);
+    await input.press('Enter');
+    try {
+      await where.waitFor({ timeout: 10_000 });
+      await page.waitForFunction(() => !!document.activeElement?.closest('.part.editor .monaco-editor'), null, { timeout: 10_000, polling: 50 });
+      return;
+    } catch (e) {
+      if (attempt === 3) throw e;
+      log(`go to ${line}:${column}: not there (attempt ${attempt}), again`);
+    }
+  }
 }
 
 /** The 1-based line of the first line of `file` (in the workspace) that contains `text`. */
@@ -263,10 +305,7 @@ function lineOf(file, text) {
 }
 
 step('a .grm file opens with TextMate highlighting (the grammar scope of `system` and its colour)', async () => {
-  await page.keyboard.press('Control+P');
-  const input = page.locator('.quick-input-widget input');
-  await input.waitFor({ state: 'visible' });
-  await input.fill('koch_island.grm');
+  const input = await quickInput('Control+P', 'koch_island.grm');
   await page.locator('.quick-input-list .monaco-list-row', { hasText: 'koch_island.grm' }).first().waitFor();
   await input.press('Enter');
   await page.locator('.tab.active', { hasText: 'koch_island.grm' }).waitFor();
@@ -330,7 +369,6 @@ step('an error typed in shows in the Problems panel; its quick fix repairs it', 
   assert.match(text, /E0105/);
 
   // The quick fix, from the editor: Ctrl+. on the misspelt name.
-  await page.locator('.tab', { hasText: 'koch_island.grm' }).first().click();
   await goTo(line, 6);
   await page.keyboard.press('Control+.');
   const fix = page.locator('.action-widget .monaco-list-row', { hasText: 'angle' }).first();
@@ -361,7 +399,7 @@ async function previewFrame() {
 }
 
 step('grm: Open Preview shows the model in the webview', async () => {
-  await page.locator('.tab', { hasText: 'koch_island.grm' }).first().click();
+  await focusEditor();
   await command('grm: Open Preview');
   await page.locator('.tab', { hasText: 'Preview koch_island.grm' }).waitFor();
   const frame = await previewFrame();
@@ -406,7 +444,6 @@ step('grm: Open Preview shows the model in the webview', async () => {
   log(`preview: ${g.bones} bones, ${g.triangles} triangles, ${lit} lit pixels (${g.renderer})`);
 
   // An edit regrows it: 2 iterations, 4 * 8^2 segments; then 3 again.
-  await page.locator('.tab', { hasText: /^koch_island\.grm/ }).first().click();
   const line = lineOf('koch_island.grm', 'iterations = 3;');
   for (const [n, bones] of [
     [2, 256],
@@ -427,8 +464,7 @@ step('grm: Export Model writes a glTF file', async () => {
   const out = join(ws, 'koch_island.glb');
   assert.ok(!existsSync(out));
   // The command works on the active .grm editor.
-  await page.locator('.tab', { hasText: /^koch_island\.grm/ }).first().click();
-  await page.locator('.tab.active', { hasText: /^koch_island\.grm/ }).waitFor();
+  await focusEditor();
   await command('grm: Export Model (glTF/OBJ/PNG)');
   const input = page.locator('.quick-input-widget input');
   await page.locator('.quick-input-list .monaco-list-row', { hasText: 'glTF binary (.glb)' }).first().click();
@@ -439,6 +475,9 @@ step('grm: Export Model writes a glTF file', async () => {
   await page.locator('.notification-toast', { hasText: `Exported ${out}` }).first().waitFor({ timeout: LONG });
   const glb = readFileSync(out);
   assert.equal(glb.subarray(0, 4).toString('latin1'), 'glTF', 'a binary glTF');
-  assert.ok(glb.length > 1000, `${glb.length} bytes`);
-  log(`exported ${out}: ${glb.length} bytes`);
+  // The model of the saved grammar (3 iterations, seed 0): what grmc itself writes.
+  const ref = join(temp, 'reference.glb');
+  execFileSync(grmc, ['derive', join(ws, 'koch_island.grm'), '-o', ref], { stdio: 'ignore', timeout: 60_000 });
+  assert.ok(glb.equals(readFileSync(ref)), `the export (${glb.length} bytes) is not grmc's model of the file (${readFileSync(ref).length} bytes)`);
+  log(`exported ${out}: ${glb.length} bytes, the same as grmc derive writes`);
 });
