@@ -1375,7 +1375,7 @@ impl<'a> Sampler<'a> {
                            stats: &Vec<GenerationStats>,
                            spare: &Vec<Step>,
                            particles: usize| {
-            (layers.capacity() * size_of::<Vec<Step>>()
+            (layers.len() * size_of::<Vec<Step>>()
                 + stats.capacity() * size_of::<GenerationStats>()
                 + spare.capacity() * size_of::<Step>()
                 + particles
