@@ -152,11 +152,19 @@ pub struct FileAnalysis {
 impl FileAnalysis {
     /// Parse and check `text` as the file `path`, reading imports through
     /// `loader`.
+    ///
+    /// A text larger than [`grm_sema::MAX_SOURCE_BYTES`] (16 MiB, the most
+    /// `grmc` reads of a grammar file) is not parsed: its analysis is of an
+    /// empty text, with the one E0405 `grmc check` gives such a file.
     pub fn new(path: &Path, version: i32, text: &str, loader: &dyn FileLoader) -> FileAnalysis {
         let display = path.to_string_lossy().replace('\\', "/");
         let mut sources = SourceMap::new();
-        let root = sources.add(display, text);
+        let too_large = text.len() as u64 > grm_sema::MAX_SOURCE_BYTES;
+        let root = sources.add(display, if too_large { "" } else { text });
         let mut checked = grm_sema::check(&mut sources, root, loader);
+        if too_large {
+            checked.diagnostics = vec![document_too_large(path, root)];
+        }
         // What compiling finds (R01xx), as `grmc check` reports it.
         checked.diagnostics.extend(grm_compile::check(&checked));
         let deps = sources
@@ -192,7 +200,7 @@ impl FileAnalysis {
     /// The analysed file's tokens: kind and span, in order.
     pub(crate) fn tokens(&self) -> &[(TokKind, Span)] {
         self.tokens.get_or_init(|| {
-            grm_syntax::lexer::lex(self.root, &self.sources.get(self.root).text)
+            grm_syntax::lexer::lex_toks(self.root, &self.sources.get(self.root).text)
                 .tokens
                 .iter()
                 .map(|t| (t.kind, t.span))
@@ -376,9 +384,40 @@ struct Overlay<'a> {
     base: &'a dyn FileLoader,
 }
 
+/// Why a text larger than [`grm_sema::MAX_SOURCE_BYTES`] is not read, in
+/// the words of `grmc` ("it is larger than 16 MiB, the most a grammar file
+/// may be").
+fn too_large_reason() -> String {
+    format!(
+        "it is larger than {} MiB, the most a grammar file may be",
+        grm_sema::MAX_SOURCE_BYTES >> 20
+    )
+}
+
+/// The E0405 of an open document larger than [`grm_sema::MAX_SOURCE_BYTES`]:
+/// what `grmc check` says of such a file.
+fn document_too_large(path: &Path, file: FileId) -> grm_diag::Diagnostic {
+    grm_diag::Diagnostic::new(
+        grm_diag::Code::FileUnreadable,
+        format!("cannot read {}: {}", path.display(), too_large_reason()),
+        file,
+        Span::new(0, 0),
+        "this document is not analysed",
+    )
+    .with_note(format!(
+        "grm reads grammar files of at most {} MiB",
+        grm_sema::MAX_SOURCE_BYTES >> 20
+    ))
+}
+
 impl FileLoader for Overlay<'_> {
+    /// An open document is read as its text, refused over
+    /// [`grm_sema::MAX_SOURCE_BYTES`] as the file would be.
     fn read(&self, path: &Path) -> Result<String, LoadError> {
         match self.docs.get(&normalize(path)) {
+            Some(d) if d.text.len() as u64 > grm_sema::MAX_SOURCE_BYTES => {
+                Err(LoadError::Other(too_large_reason()))
+            }
             Some(d) => Ok(d.text.to_string()),
             None => self.base.read(path),
         }

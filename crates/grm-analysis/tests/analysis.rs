@@ -1001,3 +1001,49 @@ fn a_lone_weight_is_removed_by_its_fix() {
     assert_eq!(t, "system S {\n    axiom A;\n    A -> F A;\n}");
     assert!(c.is_empty(), "{c:?}");
 }
+
+/// The language server refuses a document larger than a grammar file may
+/// be (`grm_sema::MAX_SOURCE_BYTES`, 16 MiB: `grmc check` and `grmc fmt`
+/// refuse such a file) with the CLI's E0405 and does not parse it; a
+/// document of exactly the limit is analysed. An import of an open
+/// document over the limit is refused as the file would be.
+#[test]
+fn documents_over_the_cli_limit_are_refused() {
+    let max = grm_sema::MAX_SOURCE_BYTES as usize;
+    assert_eq!(max, 16 << 20);
+    // A line comment: cheap to lex, one token.
+    let comment = |n: usize| format!("//{}", "x".repeat(n - 2));
+    let over = comment(max + 1);
+    let fa = analyze(&over);
+    let d = fa.diagnostics();
+    assert_eq!(d.len(), 1, "{d:?}");
+    assert_eq!(d[0].code, "E0405");
+    assert!(
+        d[0].message
+            .contains("it is larger than 16 MiB, the most a grammar file may be"),
+        "{}",
+        d[0].message
+    );
+    assert_eq!(d[0].span, Span::new(0, 0));
+    assert!(fa.semantic_tokens().is_empty());
+    assert!(fa.parsed().comments.is_empty());
+
+    let at_limit = comment(max);
+    let fa = analyze(&at_limit);
+    assert!(fa.diagnostics().iter().all(|d| d.code != "E0405"));
+    assert_eq!(fa.semantic_tokens().len(), 1);
+
+    let mut a = Analysis::new(Arc::new(MemLoader::new()));
+    a.set_document(Path::new("big.grm"), 1, over.as_str());
+    a.set_document(
+        Path::new("main.grm"),
+        1,
+        "import \"big.grm\";\nsystem S { axiom F; }\n",
+    );
+    let fa = a.analyze(Path::new("main.grm")).unwrap();
+    let d = fa.diagnostics();
+    assert!(
+        d.iter().any(|d| d.message.contains("larger than 16 MiB")),
+        "{d:?}"
+    );
+}
