@@ -13,7 +13,10 @@
 //     names the system, its bones are counted, its canvas is drawn), and an
 //     edit of the grammar regrows it;
 //   - grm: Export Model writes a glTF file (quick pick, then VS Code's own
-//     save dialog), the same bytes as `grmc derive` writes for the file.
+//     save dialog), the same bytes as `grmc derive` writes for the file;
+//   - the preview follows the active editor to calder_tree.grm (a sample
+//     system), and editing its `seed = 1;` to `seed = 2;` regrows it with
+//     seed 2, without an error (issue 32, item 7).
 //
 // Needs: `cargo build -p grmc` (or GRMC=path), the packaged extension
 // (`editors/vscode/scripts/package.sh --out target/grm.vsix`, or
@@ -279,11 +282,11 @@ async function focusEditor(file = 'koch_island.grm') {
   await page.waitForFunction(() => !!document.activeElement?.closest('.part.editor .monaco-editor'), null, { timeout: SHORT, polling: 50 });
 }
 
-/** Put the cursor at LINE:COLUMN (1-based) of the koch_island.grm editor with Go to Line; checked in the status bar. */
-async function goTo(line, column) {
+/** Put the cursor at LINE:COLUMN (1-based) of FILE's editor with Go to Line; checked in the status bar. */
+async function goTo(line, column, file = 'koch_island.grm') {
   const where = page.locator('#status\\.editor\\.selection', { hasText: new RegExp(`^Ln ${line}, Col ${column}$`) });
   for (let attempt = 1; ; attempt++) {
-    await focusEditor();
+    await focusEditor(file);
     const input = await quickInput('Control+G', `:${line}:${column}`);
     await input.press('Enter');
     try {
@@ -480,4 +483,44 @@ step('grm: Export Model writes a glTF file', async () => {
   execFileSync(grmc, ['derive', join(ws, 'koch_island.grm'), '-o', ref], { stdio: 'ignore', timeout: 60_000 });
   assert.ok(glb.equals(readFileSync(ref)), `the export (${glb.length} bytes) is not grmc's model of the file (${readFileSync(ref).length} bytes)`);
   log(`exported ${out}: ${glb.length} bytes, the same as grmc derive writes`);
+});
+
+step("an edit of the grammar's seed regrows the preview with that seed (a sample system, calder_tree.grm)", async () => {
+  const input = await quickInput('Control+P', 'calder_tree.grm');
+  await page.locator('.quick-input-list .monaco-list-row', { hasText: 'calder_tree.grm' }).first().waitFor();
+  await input.press('Enter');
+  await page.locator('.tab.active', { hasText: /^calder_tree\.grm/ }).waitFor();
+  // The open preview follows the active .grm editor.
+  await page.locator('.tab', { hasText: 'Preview calder_tree.grm' }).waitFor();
+  const frame = await previewFrame();
+  const grown = async (seed) => {
+    try {
+      await frame.waitForFunction(
+        (k) => {
+          const g = globalThis.__grm;
+          return g.mode === 'sample' && g.seed === k && g.lastError === null && g.bones > 0 && !g.busy;
+        },
+        seed,
+        { timeout: LONG, polling: 100 },
+      );
+    } catch (e) {
+      const g = await frame.evaluate(() => ({ seed: globalThis.__grm.seed, lastError: globalThis.__grm.lastError, status: document.getElementById('status-text')?.textContent }));
+      throw new Error(`no model of seed ${seed} in the preview: ${JSON.stringify(g)}`, { cause: e });
+    }
+  };
+  await grown(1);
+  log(`calder_tree, seed 1: ${(await frame.locator('#status-text').innerText()).trim()}`);
+  const before = await frame.evaluate(() => globalThis.__grm.bonesList?.().slice(0, 50));
+  const line = lineOf('calder_tree.grm', 'seed = 1;');
+  await goTo(line, 5, 'calder_tree.grm');
+  await page.keyboard.press('Shift+End');
+  await page.keyboard.type('seed = 2;');
+  await page.locator('.editor-group-container.active .view-line', { hasText: 'seed = 2;' }).waitFor();
+  await grown(2);
+  const status = (await frame.locator('#status-text').innerText()).trim();
+  log(`calder_tree, seed 2: ${status}`);
+  assert.match(status, /seed 2/);
+  assert.doesNotMatch(status, /error/);
+  const after = await frame.evaluate(() => globalThis.__grm.bonesList?.().slice(0, 50));
+  assert.notDeepEqual(after, before, 'another tree');
 });
