@@ -79,7 +79,11 @@ function log(msg) {
 
 function codeServerDir() {
   if (process.env.CODE_SERVER_DIR) return process.env.CODE_SERVER_DIR;
-  const out = execFileSync('bash', [join(root, 'scripts/code-server-setup.sh')], { encoding: 'utf8', stdio: ['ignore', 'pipe', 'inherit'] });
+  const out = execFileSync('bash', [join(root, 'scripts/code-server-setup.sh')], {
+    encoding: 'utf8',
+    stdio: ['ignore', 'pipe', 'inherit'],
+    timeout: 30 * 60_000,
+  });
   return out.trim().split('\n').pop();
 }
 
@@ -140,10 +144,29 @@ before(async () => {
   const installed = execFileSync('node', [entry, ...common, '--install-extension', vsix], { encoding: 'utf8', timeout: 120_000 });
   assert.match(installed, /successfully installed/i, installed);
 
+  // In a process group of its own, under a shell that kills the whole group
+  // when this process's end of its stdin closes: however this test ends
+  // (even killed with SIGKILL), code-server and its children go with it.
+  // Port 0: the system picks a free one, which code-server prints.
   server = spawn(
-    'node',
-    [entry, ...common, '--bind-addr', '127.0.0.1:0', '--auth', 'none', '--disable-telemetry', '--disable-update-check', '--disable-workspace-trust', '--disable-getting-started-override', ws],
-    { detached: true, stdio: ['ignore', 'pipe', 'pipe'], env: { ...process.env, GRM_TEST_CODE_SERVER: '1' } },
+    'bash',
+    [
+      '-c',
+      'node "$@" & read -r _; kill -KILL 0',
+      'code-server',
+      entry,
+      ...common,
+      '--bind-addr',
+      '127.0.0.1:0',
+      '--auth',
+      'none',
+      '--disable-telemetry',
+      '--disable-update-check',
+      '--disable-workspace-trust',
+      '--disable-getting-started-override',
+      ws,
+    ],
+    { detached: true, stdio: ['pipe', 'pipe', 'pipe'] },
   );
   url = await new Promise((resolve, reject) => {
     const timer = setTimeout(() => reject(new Error(`code-server did not listen in 60 s:\n${serverLog}`)), 60_000);
@@ -196,7 +219,7 @@ afterEach(async (t) => {
 });
 
 after(async () => {
-  await browser?.close().catch(() => {});
+  await Promise.race([browser?.close().catch(() => {}), new Promise((resolve) => setTimeout(resolve, 30_000))]);
   killServer();
   if (serverLog) writeFileSync(join(artifacts, 'code-server.log'), serverLog);
   if (temp) {
