@@ -322,6 +322,29 @@ struct State {
     addr: SocketAddr,
     /// `--budget-ms`: the `budgetMs` of previews and pictures that name none.
     budget_ms: Option<u64>,
+    /// Looks in a row that found the grammar empty (see [`settled`]).
+    empty_looks: std::sync::atomic::AtomicU32,
+}
+
+/// Looks that must find the grammar empty before it is taken as emptied
+/// (200 ms): a file saved in place is empty for a moment, truncated and
+/// not yet written (`fs.writeFileSync`, many editors), and a look then
+/// would show "the file defines no system" until the next one.
+const EMPTY_LOOKS: u32 = 4;
+
+/// Whether a changed grammar's `text` is taken now: any text at once, an
+/// empty one only after [`EMPTY_LOOKS`] looks in a row found it empty.
+fn settled(text: &str, empty_looks: &std::sync::atomic::AtomicU32) -> bool {
+    use std::sync::atomic::Ordering::Relaxed;
+    if !text.is_empty() {
+        empty_looks.store(0, Relaxed);
+        return true;
+    }
+    if empty_looks.fetch_add(1, Relaxed) + 1 < EMPTY_LOOKS {
+        return false;
+    }
+    empty_looks.store(0, Relaxed);
+    true
 }
 
 /// A running `grmc view` server.
@@ -410,6 +433,7 @@ impl Server {
             seen: Mutex::new((modified, len, 1)),
             addr,
             budget_ms,
+            empty_looks: std::sync::atomic::AtomicU32::new(0),
         });
         let watch = state.clone();
         std::thread::spawn(move || {
@@ -467,6 +491,9 @@ impl State {
         let Ok(text) = read_grammar(&self.path) else {
             return;
         };
+        if !settled(&text, &self.empty_looks) {
+            return;
+        }
         seen.0 = modified;
         seen.1 = len;
         seen.2 += 1;
@@ -951,6 +978,23 @@ mod tests {
         let late = q.after(0, Duration::ZERO);
         assert_eq!(late["events"][0]["method"], "document");
         assert_eq!(late["events"].as_array().map(Vec::len), Some(EVENT_LOG + 1));
+    }
+
+    #[test]
+    fn an_empty_grammar_is_taken_only_once_it_stays_empty() {
+        let looks = std::sync::atomic::AtomicU32::new(0);
+        // Saved in place: truncated (one look finds it empty), then written.
+        assert!(!settled("", &looks));
+        assert!(settled("system A { axiom F; }", &looks));
+        // Emptied for good: taken at the fourth look in a row, once.
+        assert_eq!(
+            (0..EMPTY_LOOKS)
+                .map(|_| settled("", &looks))
+                .collect::<Vec<_>>(),
+            [false, false, false, true]
+        );
+        assert!(settled("x", &looks));
+        assert!(!settled("", &looks), "counted afresh");
     }
 
     #[test]
