@@ -14,9 +14,9 @@
 #
 # The install is cached, keyed by the version, the node ABI, the
 # architecture and this script's hash: a second run prints the folder and
-# returns at once. It is
-# built in a temporary folder beside it and moved into place only when
-# complete, under a lock (runs at the same time wait for each other).
+# returns at once. It is built in a temporary folder beside it and moved
+# into place only when complete, under a lock (runs at the same time wait
+# for each other). A failed step prints the end of its log.
 #
 #   scripts/code-server-setup.sh          # prints the install folder (last line of stdout)
 # Environment: GRM_CODE_SERVER_CACHE     the parent of the install folders
