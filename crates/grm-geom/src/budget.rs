@@ -275,9 +275,11 @@ const GLB_BYTES_PER_PART: u64 = 2048;
 /// What the rasterizer holds for a picture of `f` (`crate::render`): per
 /// vertex its camera-space position (f64), screen position and the light
 /// from both sides; per triangle its draw item, its place in the bands'
-/// bins, a clipped copy of its indices and its depth key when
-/// translucent; per bone a line; and the sample buffers (depth, colour,
-/// the translucency buffers), the picture and its PNG.
+/// bins (two bands), a clipped copy of its indices and its depth key
+/// when translucent; per bone a line; and the sample buffers (depth,
+/// colour, the translucency buffers), the picture and its PNG. Measured:
+/// the Koch island at n = 6 (16.8 million triangles) was drawn in 1.25 GB,
+/// its model included, against 1.75 GiB counted.
 fn picture_bytes(f: &Footprint, o: &RenderOptions, translucent: bool) -> u64 {
     let pixels = u64::from(o.width) * u64::from(o.height);
     let s = u64::from(o.effective_samples());
@@ -286,7 +288,7 @@ fn picture_bytes(f: &Footprint, o: &RenderOptions, translucent: bool) -> u64 {
         .saturating_mul(24 + 12 + 12 + 12)
         .saturating_add(
             f.triangles
-                .saturating_mul(2 * 12 + 2 * 8 + 12 + if translucent { 16 } else { 0 }),
+                .saturating_mul(12 + 8 + 12 + if translucent { 16 } else { 0 }),
         )
         .saturating_add(f.bones.saturating_mul(64))
         .saturating_add(samples * if translucent { 4 + 6 + 2 + 8 } else { 4 + 6 })
