@@ -20,7 +20,7 @@ fn analysis_stays_under_the_budget() {
         .unwrap_or_else(std::sync::PoisonError::into_inner);
     let loader = grm_sema::MemLoader::new();
     let mut failed = Vec::new();
-    for (what, text) in inputs(1 << 20) {
+    for (what, text) in inputs(1 << 19) {
         let (b, fa) = peak_during(|| {
             let fa = FileAnalysis::new(Path::new("gen.grm"), 1, &text, &loader);
             let d = fa.diagnostics();

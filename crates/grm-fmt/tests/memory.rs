@@ -16,7 +16,7 @@ fn fmt_stays_under_the_budget() {
         .lock()
         .unwrap_or_else(std::sync::PoisonError::into_inner);
     let mut failed = Vec::new();
-    for (what, text) in inputs(1 << 20) {
+    for (what, text) in inputs(1 << 19) {
         let (b, out) = peak_during(|| grm_fmt::format(&text));
         let per = report(&format!("fmt, {what}"), &text, b);
         if what == "realistic" {

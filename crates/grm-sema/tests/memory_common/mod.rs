@@ -119,12 +119,12 @@ pub const BUDGET: f64 = 32.0;
 /// (docs/benchmarks.md, "Parsing memory (session 19)").
 pub const PATHOLOGICAL_CEILING: f64 = 256.0;
 
-/// The generated grammars the budget is checked on, about `size` bytes
-/// each (the realistic one twice that): realistic (many systems, productions, expressions and comments)
+/// The generated grammars the budget is checked on: a realistic one of
+/// 2 MiB and the others of about `size` bytes each: realistic (many systems, productions, expressions and comments)
 /// and pathological (one huge expression, one very long line, deep
 /// nesting, nesting past the parser's limit, comments only).
 pub fn inputs(size: usize) -> Vec<(&'static str, String)> {
-    let mut out = vec![("realistic", realistic(2 * size))];
+    let mut out = vec![("realistic", realistic(2 << 20))];
     let mut s = String::from("system S {\n    iterations = 1;\n    axiom F;\n    F -> F(");
     let mut i = 0usize;
     while s.len() < size {
