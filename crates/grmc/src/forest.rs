@@ -964,6 +964,35 @@ fn derive_gpu(
             note,
         });
     };
+    if need_model {
+        // The trees' interpretations are held together, as on the CPU:
+        // counted from the strings (which are held too) before any is made.
+        let mut f = grm_geom::Footprint::default();
+        for (k, s) in strings.iter().enumerate() {
+            let t = grm_geom::budget::count_string(&loaded.program.systems[trees[k].system], s);
+            f.bones += t.bones;
+            f.instances += t.instances;
+            f.polygons += t.polygons;
+            f.polygon_vertices += t.polygon_vertices;
+            f.bytes = f
+                .bytes
+                .saturating_add(t.bytes)
+                .saturating_add(s.heap_bytes() as u64);
+        }
+        if f.bytes > lim.max_bytes {
+            let e = grm_geom::GeomError::MemoryLimit {
+                footprint: f,
+                limit: lim.max_bytes,
+                output: grm_geom::Output::Model,
+            };
+            emit(
+                &loaded.sources,
+                &e.to_diagnostic(&loaded.program, c.file, c.span)
+                    .with_note("counted from the trees' strings, before their meshes"),
+            );
+            return GpuOutcome::Stop(crate::Outcome::InputErrors);
+        }
+    }
     let interpretations = parallel_map(strings.len(), args.threads, |k| {
         let t = &trees[k];
         need_model
