@@ -151,3 +151,40 @@ fn particles_left_with_symbols_that_never_draw_stop_searching() {
         "the bones drawn before `b` stay"
     );
 }
+
+/// Issue 32: a search whose generations add no bones held a 72-byte step
+/// per particle per generation and a record per generation that the
+/// figure did not count (1.4 GB under a bound of 16 MiB, the figure under
+/// 1 MiB). What it holds now is counted, and steps that made nothing are
+/// dropped: the figure covers every generation's record, and stays small.
+#[test]
+fn a_search_whose_generations_add_nothing_counts_what_it_holds() {
+    let p = program(
+        "nothing.grm",
+        "system S {\n    mode = sample;\n    axiom b;\n    skeleton b;\n    b -> F(1);\n    wrapup b -> ;\n}\n",
+    );
+    let c = compile(&p, 0);
+    let curves = calder_curves();
+    let s = curves_sampler(&p, &c, &curves);
+    let gens = 5000u32;
+    let r = s
+        .sample(&SampleOptions {
+            schedule: Schedule {
+                generations: gens,
+                particles_start: 20,
+                particles_end: 20,
+                heuristic_scale: 0.013,
+                heuristic_until: 0,
+            },
+            ..SampleOptions::default()
+        })
+        .expect("samples");
+    let last = r.generations.last().expect("generations").memory_bytes;
+    let records = u64::from(gens) * std::mem::size_of::<GenerationStats>() as u64;
+    assert!(
+        last >= records,
+        "{last} bytes counted, {records} of records"
+    );
+    // Not a step per particle per generation (72 bytes each: 7 MB here).
+    assert!(last < 4 * records, "{last}");
+}
