@@ -1124,8 +1124,21 @@ mod tests {
         assert!(t.elapsed() < Duration::from_secs(5), "{:?}", t.elapsed());
         let (status, newer) = newer.join().expect("newer");
         assert_eq!(status, 200, "{newer}");
-        // Built to its own budget, not stopped by the older request.
-        assert_eq!(newer["result"]["sample"]["stoppedEarly"], true, "{newer}");
+        // Not stopped by the older request: a model, built until its
+        // search ended or its own budget stopped it (which of the two
+        // depends on the machine's speed, not on the older request).
+        assert!(newer.get("code").is_none(), "{newer}");
+        let sample = &newer["result"]["sample"];
+        assert!(sample.is_object(), "{newer}");
+        if sample["stoppedEarly"] == true {
+            let ms = newer["result"]["stats"]["deriveMs"]
+                .as_f64()
+                .expect("deriveMs");
+            assert!(
+                ms >= 1400.0,
+                "stopped after {ms} ms, before its budget: {newer}"
+            );
+        }
     }
 
     #[test]
