@@ -201,6 +201,33 @@ fn climb_from(
 
 type Spanned<'a> = Result<(usize, Token<'a>, usize), ()>;
 
+/// A statement's compact tokens as the grammar reads them, each given its
+/// text on the way (no copy of the statement with its text: a statement
+/// can be most of a file).
+fn stream_toks<'a, 'b>(toks: &'b [Tok], text: &'a str) -> impl Iterator<Item = Spanned<'a>> + 'b
+where
+    'a: 'b,
+{
+    toks.iter().map(move |&t| {
+        let t = with_text(t, text);
+        Ok((t.span.start as usize, t, t.span.end as usize))
+    })
+}
+
+/// A compact token with its text; a `;` the driver added (an empty span)
+/// reads `;`.
+fn with_text(t: Tok, text: &str) -> Token<'_> {
+    if t.kind == TokKind::Semi && t.span.start == t.span.end {
+        Token {
+            kind: t.kind,
+            text: ";",
+            span: t.span,
+        }
+    } else {
+        t.with_text(text)
+    }
+}
+
 fn stream<'a, 'b>(toks: &'b [Token<'a>]) -> impl Iterator<Item = Spanned<'a>> + 'b {
     toks.iter()
         .map(|t| Ok((t.span.start as usize, *t, t.span.end as usize)))
@@ -307,13 +334,14 @@ fn item_keyword_for(word: &str) -> Option<&'static str> {
 ///
 /// The axiom in ABoP's notation (`ω: F;`, `w: F;`, `axiom: F;`) is read
 /// as `axiom F;` the same way, its E0001 on the `ω:`.
-fn misspelt_statement_keyword<'a>(
+fn misspelt_statement_keyword(
     file: FileId,
     text: &str,
-    toks: &[Token<'a>],
+    toks: &[Tok],
     diags: &mut Vec<Diagnostic>,
-) -> Option<Vec<Token<'a>>> {
-    let first = toks.first()?;
+) -> Option<Vec<Tok>> {
+    let first = with_text(*toks.first()?, text);
+    let first = &first;
     let second = toks.get(1)?;
     let no_arrow = !toks.iter().any(|t| t.kind == TokKind::Arrow);
     if second.kind == TokKind::Colon
@@ -349,9 +377,9 @@ fn misspelt_statement_keyword<'a>(
             .with_help(format!("the axiom is written without `:`: `axiom {rest};`")),
         );
         let mut out = Vec::with_capacity(toks.len() - 1);
-        out.push(Token {
+        out.push(Tok {
             kind: TokKind::Axiom,
-            ..*first
+            span: first.span,
         });
         out.extend_from_slice(&toks[2..]);
         return Some(out);
@@ -366,10 +394,10 @@ fn misspelt_statement_keyword<'a>(
     let lower = first.text.to_lowercase();
     let near =
         |kw: &str| lower == kw || (first.text.chars().count() >= 4 && within_one_edit(&lower, kw));
-    let symbol_like = |t: &Token<'_>| {
+    let symbol_like = |t: &Tok| {
         t.kind == TokKind::Ident
             || matches!(
-                t.text,
+                t.text(text),
                 "+" | "-" | "&" | "^" | "\\" | "/" | "|" | "$" | "%" | "!" | "'" | "." | "{" | "}"
             )
     };
@@ -492,19 +520,15 @@ struct Driver<'a, 't> {
     hoisted: Vec<Item>,
 }
 
-impl<'a> Driver<'a, '_> {
+impl<'a, 't> Driver<'a, 't> {
     fn peek(&self) -> Option<&Tok> {
         self.toks.get(self.pos)
     }
 
-    /// The tokens from `self.pos` up to `end`, with their text, and move
-    /// past them.
-    fn take_stmt(&mut self, end: usize) -> Vec<Token<'a>> {
-        let text = self.text;
-        let toks = self.toks[self.pos..end]
-            .iter()
-            .map(|t| t.with_text(text))
-            .collect();
+    /// The tokens from `self.pos` up to `end`, and move past them.
+    fn take_stmt(&mut self, end: usize) -> &'t [Tok] {
+        let all = self.toks;
+        let toks = &all[self.pos..end];
         self.pos = end;
         toks
     }
@@ -525,7 +549,7 @@ impl<'a> Driver<'a, '_> {
                 TokKind::Import | TokKind::Const | TokKind::Param | TokKind::Mesh => {
                     let end = self.stmt_end(false);
                     let toks = self.take_stmt(end);
-                    for s in self.statement(&toks, Entry::Top) {
+                    for s in self.statement(toks, Entry::Top) {
                         if let Stmt::Item(i) = s {
                             items.push(i);
                         }
@@ -621,7 +645,7 @@ impl<'a> Driver<'a, '_> {
 
     /// Parse one statement (tokens up to and including `;` if present).
     /// May yield two statements when a missing `;` is repaired.
-    fn statement(&mut self, toks: &[Token<'a>], entry: Entry) -> Vec<Stmt> {
+    fn statement(&mut self, toks: &[Tok], entry: Entry) -> Vec<Stmt> {
         if toks.is_empty() {
             return Vec::new();
         }
@@ -641,12 +665,18 @@ impl<'a> Driver<'a, '_> {
             self.diags.push(
                 Diagnostic::new(
                     Code::UnexpectedToken,
-                    format!("`{}` is a keyword: it cannot name {what}", toks[1].text),
+                    format!(
+                        "`{}` is a keyword: it cannot name {what}",
+                        toks[1].text(self.text)
+                    ),
                     self.file,
                     toks[1].span,
                     "a keyword here",
                 )
-                .with_help(format!("choose another name, e.g. `{}_`", toks[1].text)),
+                .with_help(format!(
+                    "choose another name, e.g. `{}_`",
+                    toks[1].text(self.text)
+                )),
             );
             let span = toks[0].span.to(toks[toks.len() - 1].span);
             return vec![match entry {
@@ -657,14 +687,13 @@ impl<'a> Driver<'a, '_> {
         }
         let terminated = toks.last().is_some_and(|t| t.kind == TokKind::Semi);
         let mut owned;
-        let full: &[Token<'a>] = if terminated {
+        let full: &[Tok] = if terminated {
             toks
         } else {
             owned = toks.to_vec();
             let end = toks[toks.len() - 1].span.end;
-            owned.push(Token {
+            owned.push(Tok {
                 kind: TokKind::Semi,
-                text: ";",
                 span: Span::new(end, end),
             });
             &owned
@@ -705,12 +734,15 @@ impl<'a> Driver<'a, '_> {
                     ParseError::UnrecognizedToken { token: (_, t, _), .. }
                         if t.kind == TokKind::Str && !(t.text.len() >= 2 && t.text.ends_with('"'))
                 );
-                let d = syntax_error(self.file, self.text, err, Some(toks));
+                // The statement with its text, for the messages.
+                let text = self.text;
+                let toks: Vec<Token<'a>> = toks.iter().map(|&t| with_text(t, text)).collect();
+                let d = syntax_error(self.file, self.text, err, Some(&toks));
                 if !at_open_string {
                     self.diags.push(d);
                 }
                 if entry == Entry::Top
-                    && let Some(item) = recover_decl(toks)
+                    && let Some(item) = recover_decl(&toks)
                 {
                     return vec![Stmt::Item(item)];
                 }
@@ -774,7 +806,7 @@ impl<'a> Driver<'a, '_> {
     #[allow(clippy::type_complexity)]
     fn repair(
         &self,
-        full: &[Token<'a>],
+        full: &[Tok],
         mut err: ParseError<usize, Token<'a>, ()>,
         entry: Entry,
     ) -> Option<Vec<(Stmt, Vec<(Span, String)>, Option<Span>)>> {
@@ -786,9 +818,8 @@ impl<'a> Driver<'a, '_> {
             let split = self.split_point(rest, &err)?;
             let mut head = rest[..split].to_vec();
             let after = rest[split - 1].span;
-            head.push(Token {
+            head.push(Tok {
                 kind: TokKind::Semi,
-                text: ";",
                 span: Span::new(after.end, after.end),
             });
             let (stmt, errs) = self.run(&head, entry).ok()?;
@@ -807,11 +838,7 @@ impl<'a> Driver<'a, '_> {
 
     /// The index of the first token of the last line break at or before
     /// the error token, if the error is past the first line of the statement.
-    fn split_point(
-        &self,
-        toks: &[Token<'a>],
-        err: &ParseError<usize, Token<'a>, ()>,
-    ) -> Option<usize> {
+    fn split_point(&self, toks: &[Tok], err: &ParseError<usize, Token<'a>, ()>) -> Option<usize> {
         let at = match err {
             ParseError::UnrecognizedToken {
                 token: (l, _, _), ..
@@ -829,14 +856,21 @@ impl<'a> Driver<'a, '_> {
     #[allow(clippy::type_complexity)]
     fn run(
         &self,
-        toks: &[Token<'a>],
+        toks: &[Tok],
         entry: Entry,
     ) -> Result<(Stmt, Vec<(Span, String)>), ParseError<usize, Token<'a>, ()>> {
         let mut errs = Vec::new();
+        let text = self.text;
         let stmt = match entry {
-            Entry::Top => Stmt::Item(*grm::TopDeclParser::new().parse(&mut errs, stream(toks))?),
-            Entry::Sys => Stmt::SysItem(*grm::SysStmtParser::new().parse(&mut errs, stream(toks))?),
-            Entry::Mat => Stmt::Field(grm::MatFieldParser::new().parse(&mut errs, stream(toks))?),
+            Entry::Top => {
+                Stmt::Item(*grm::TopDeclParser::new().parse(&mut errs, stream_toks(toks, text))?)
+            }
+            Entry::Sys => {
+                Stmt::SysItem(*grm::SysStmtParser::new().parse(&mut errs, stream_toks(toks, text))?)
+            }
+            Entry::Mat => {
+                Stmt::Field(grm::MatFieldParser::new().parse(&mut errs, stream_toks(toks, text))?)
+            }
         };
         Ok((stmt, errs))
     }
@@ -979,13 +1013,10 @@ impl<'a> Driver<'a, '_> {
                     break;
                 }
                 let end = self.stmt_end(true).max(self.pos + 1);
-                let mut toks = self.take_stmt(end);
-                if let Some(fixed) =
-                    misspelt_statement_keyword(self.file, self.text, &toks, &mut self.diags)
-                {
-                    toks = fixed;
-                }
-                for s in self.statement(&toks, Entry::Sys) {
+                let toks = self.take_stmt(end);
+                let relabelled =
+                    misspelt_statement_keyword(self.file, self.text, toks, &mut self.diags);
+                for s in self.statement(relabelled.as_deref().unwrap_or(toks), Entry::Sys) {
                     if let Stmt::SysItem(i) = s {
                         items.push(i);
                     }
@@ -1033,7 +1064,7 @@ impl<'a> Driver<'a, '_> {
         } else {
             let end = self.stmt_end(true).max(self.pos + 1);
             let toks = self.take_stmt(end);
-            for s in self.statement(&toks, Entry::Top) {
+            for s in self.statement(toks, Entry::Top) {
                 if let Stmt::Item(i) = s {
                     self.hoisted.push(i);
                 }
@@ -1076,7 +1107,7 @@ impl<'a> Driver<'a, '_> {
                 }
                 let end = self.stmt_end(true).max(self.pos + 1);
                 let toks = self.take_stmt(end);
-                for s in self.statement(&toks, Entry::Mat) {
+                for s in self.statement(toks, Entry::Mat) {
                     if let Stmt::Field(f) = s {
                         fields.push(f);
                     }

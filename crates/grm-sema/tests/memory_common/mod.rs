@@ -114,8 +114,8 @@ pub static LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
 pub const BUDGET: f64 = 32.0;
 
 /// The ceiling the pathological inputs are held to for now (a guard
-/// against regressions, not the budget): one very long line, one huge
-/// expression and deep nesting still take more than [`BUDGET`]
+/// against regressions, not the budget): one very long line and deep
+/// nesting still take more than [`BUDGET`]
 /// (docs/benchmarks.md, "Parsing memory (session 19)").
 pub const PATHOLOGICAL_CEILING: f64 = 256.0;
 
@@ -166,10 +166,11 @@ pub fn inputs(size: usize) -> Vec<(&'static str, String)> {
     out
 }
 
-/// What `what` is held to: [`BUDGET`] for the realistic grammar and the
-/// comments, [`PATHOLOGICAL_CEILING`] for the rest.
+/// What `what` is held to: [`BUDGET`] for the realistic grammar, the
+/// huge expression and the comments, [`PATHOLOGICAL_CEILING`] for the
+/// rest.
 pub fn limit(what: &str) -> f64 {
-    if matches!(what, "realistic" | "comments") {
+    if matches!(what, "realistic" | "one huge expression" | "comments") {
         BUDGET
     } else {
         PATHOLOGICAL_CEILING
