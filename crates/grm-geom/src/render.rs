@@ -68,7 +68,7 @@ use std::borrow::Cow;
 use std::io::{self, Write};
 
 pub use glam::DVec3;
-use glam::Vec3;
+use glam::{DVec2, Vec3};
 use rayon::prelude::*;
 
 use crate::{Model, PartSource};
@@ -364,6 +364,88 @@ fn length(v: DVec3) -> f64 {
         m * (v / m).length()
     } else {
         m
+    }
+}
+
+/// Why a picture through `view` (a [`View::Camera`]) of `model` will show
+/// nothing of it, said so rather than drawn as an empty picture: the model
+/// is behind the camera, outside what it sees, or, seen from so far (a
+/// position near or past f32's range), smaller than a pixel of a picture
+/// of `width` x `height` pixels. `None` when the model shows (or the view
+/// is not a camera, or the model is empty). Judged from the corners of
+/// the model's bounds, in f64.
+pub fn camera_warning(model: &Model, view: &View, width: u32, height: u32) -> Option<String> {
+    let View::Camera { eye, target, fov } = *view else {
+        return None;
+    };
+    let b = &model.stats.bounds;
+    if b.is_empty() || view.validate().is_err() {
+        return None;
+    }
+    let cam = Camera::looking(eye, target);
+    let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
+    let half = (f64::from(fov).to_radians() * 0.5).tan();
+    let scale = f64::from(height.max(1)) * 0.5 / half;
+    let (mut min, mut max) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+    let mut in_front = 0;
+    for k in 0..8 {
+        let c = DVec3::new(
+            if k & 1 == 0 { lo.x } else { hi.x },
+            if k & 2 == 0 { lo.y } else { hi.y },
+            if k & 4 == 0 { lo.z } else { hi.z },
+        );
+        // Relative to the eye, scaled down first so that a far eye does
+        // not overflow; the ratios below are unchanged by the scale.
+        let d = c - eye;
+        let m = d.abs().max_element().max(f64::MIN_POSITIVE);
+        let q = cam.project_d(d / m);
+        let depth = -q.z;
+        if depth > 0.0 {
+            in_front += 1;
+            let p = DVec2::new(q.x, q.y) / depth * scale;
+            min = min.min(p);
+            max = max.max(p);
+        }
+    }
+    let distance = length((lo + hi) * 0.5 - eye);
+    if in_front == 0 {
+        return Some(format!(
+            "the model is behind the camera ({} units from it): the picture shows nothing of it",
+            short(distance)
+        ));
+    }
+    let (half_w, half_h) = (
+        f64::from(width.max(1)) * 0.5,
+        f64::from(height.max(1)) * 0.5,
+    );
+    // Only when every corner is in front: a model around the eye is
+    // partly seen whatever its corners project to.
+    if in_front == 8 {
+        let size = (max - min).max_element();
+        if size < 1.0 {
+            return Some(format!(
+                "the model is smaller than a pixel from this camera ({} units from it, {} units across): \
+                 the picture shows nothing of it; move the camera closer",
+                short(distance),
+                short(length(hi - lo))
+            ));
+        }
+        if min.x > half_w || max.x < -half_w || min.y > half_h || max.y < -half_h {
+            return Some(
+                "the model is outside what the camera sees: the picture shows nothing of it"
+                    .to_string(),
+            );
+        }
+    }
+    None
+}
+
+/// A distance for a message: 3 significant digits, exponent past 1e6.
+fn short(x: f64) -> String {
+    if x.abs() >= 1e6 || (x != 0.0 && x.abs() < 1e-3) {
+        format!("{x:.2e}")
+    } else {
+        format!("{x:.3}")
     }
 }
 

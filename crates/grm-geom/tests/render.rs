@@ -1313,3 +1313,39 @@ fn a_bare_bone_on_a_floor_shows_all_along_from_a_grazing_orthographic_view() {
         above.len()
     );
 }
+
+/// A camera that shows nothing of the model says why instead of drawing an
+/// empty picture silently: so far that the model is under a pixel (a
+/// position near or past f32's range), behind it, or looking away; and
+/// one that shows the model says nothing.
+#[test]
+fn a_camera_that_shows_nothing_says_why() {
+    use grm_geom::render::camera_warning;
+    let m = model("system S { axiom color(1, 0, 0) sphere(0.5); }", 0);
+    let origin = [0.0, 0.0, 0.0];
+    let seen = camera([0.0, 0.0, 4.0], origin, 45.0);
+    assert_eq!(camera_warning(&m, &seen, 200, 200), None);
+    // Near the model, and around it: seen (partly).
+    assert_eq!(
+        camera_warning(&m, &camera([0.0, 0.0, 0.1], origin, 45.0), 200, 200),
+        None
+    );
+    for far in [1e39, 3.4e38, 1e30, 1e300] {
+        let w = camera_warning(&m, &camera([far, 0.0, 0.0], origin, 45.0), 200, 200)
+            .expect("under a pixel");
+        assert!(w.contains("smaller than a pixel"), "{far}: {w}");
+        // And the picture is indeed the background: nothing was lost.
+        let o = options(200, 200, camera([far, 0.0, 0.0], origin, 45.0));
+        let (_, n) = covered(&draw(&m, &o), &draw(&empty(), &o));
+        assert_eq!(n, 0, "{far}: {n} pixels drawn");
+    }
+    let behind = camera([0.0, 0.0, 4.0], [0.0, 0.0, 8.0], 45.0);
+    let w = camera_warning(&m, &behind, 200, 200).expect("behind");
+    assert!(w.contains("behind the camera"), "{w}");
+    let away = camera([0.0, 0.0, 4.0], [4.0, 0.0, 0.0], 45.0);
+    let w = camera_warning(&m, &away, 200, 200).expect("outside");
+    assert!(w.contains("outside what the camera sees"), "{w}");
+    // Views that are not a camera, and an empty model: nothing to say.
+    assert_eq!(camera_warning(&m, &FRONT, 200, 200), None);
+    assert_eq!(camera_warning(&empty(), &behind, 200, 200), None);
+}

@@ -98,6 +98,11 @@ pub struct PictureResult {
     pub png: String,
     pub triangles: usize,
     pub bones: usize,
+    /// Why the picture shows nothing of the model, when it does not (a
+    /// camera behind it, looking away, or so far that it is under a
+    /// pixel): `grm_geom::render::camera_warning`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub warning: Option<String>,
 }
 
 /// The renderer's options for `p`, or why they cannot be drawn.
@@ -205,6 +210,8 @@ impl Backend {
                 None => opts,
             };
             opts.validate().map_err(|e| Failure::Msg(e.to_string()))?;
+            let warning =
+                grm_geom::render::camera_warning(&model, &opts.view, opts.width, opts.height);
             let framing = grm_geom::render::framing(&model, opts.view);
             let image = grm_geom::render::render_framed(&model, &opts, &framing)
                 .map_err(|e| Failure::Msg(e.to_string()))?;
@@ -226,6 +233,7 @@ impl Backend {
                 png: base64::engine::general_purpose::STANDARD.encode(png),
                 triangles: model.stats.triangles,
                 bones: model.stats.bones,
+                warning,
             })
         })
         .await

@@ -193,6 +193,22 @@ async fn a_picture_through_the_previews_camera() {
     assert!(centred.get("generation").is_none());
     let (near_n, far_n) = (covered(&pixels), covered(&decode(&far).3));
     assert!(far_n > 0 && far_n < near_n, "{far_n} against {near_n}");
+    assert!(far.get("warning").is_none(), "{far}");
+    // Past f32's range the tree is under a pixel: the answer says why (the
+    // picture is the empty model's: crates/grm-geom/tests/render.rs).
+    let beyond = c
+        .ok(
+            "grm/picture",
+            json!({ "textDocument": doc, "width": 80, "height": 60,
+                    "camera": { "position": [0.0, 2.0, 1e39], "target": [0.0, 2.0, 0.0] } }),
+        )
+        .await;
+    assert!(
+        beyond["warning"]
+            .as_str()
+            .is_some_and(|w| w.contains("smaller than a pixel")),
+        "{beyond}"
+    );
 
     // A view and a camera, or a camera that cannot look: invalid params.
     for (params, says) in [

@@ -841,6 +841,12 @@ fn export_model_framed(
         emit(&loaded.sources, &w);
     }
     let options = image.options(model);
+    if picture
+        && let Some(w) =
+            grm_geom::render::camera_warning(model, &options.view, options.width, options.height)
+    {
+        eprintln!("warning: {w}");
+    }
     let written = match (picture, framing) {
         (true, Some(f)) => match grm_geom::render::render_framed(model, &options, f) {
             Ok(img) => grm_geom::write_image(&img, path),
