@@ -1041,12 +1041,12 @@ impl<'a> Checker<'a> {
                     self.program
                         .index
                         .push(f.id, s.name.span, Def::System(id), true);
-                    let whole = ast::System {
+                    let mut whole = ast::System {
                         name: s.name.clone(),
                         items: bodies.next().unwrap_or_default(),
                         span: s.span,
                     };
-                    let sys = crate::system::check_system(self, fi, &whole, id);
+                    let sys = crate::system::check_system(self, fi, &mut whole, id);
                     self.program.systems.push(sys);
                 }
             }

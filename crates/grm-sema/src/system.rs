@@ -175,10 +175,13 @@ fn shrink_system(system: &mut System) {
     }
 }
 
+/// Check one system. Its productions are taken out of `s` and each is
+/// dropped once typed: the system's tree and its checked groups are not
+/// both whole in memory (issue 32).
 pub(crate) fn check_system(
     cx: &mut Checker<'_>,
     fi: usize,
-    s: &ast::System,
+    s: &mut ast::System,
     sid: SystemId,
 ) -> System {
     let file = cx.file_id(fi);
@@ -204,7 +207,7 @@ impl Sys<'_, '_> {
         self.cx.error(d);
     }
 
-    fn run(&mut self, s: &ast::System) -> System {
+    fn run(&mut self, s: &mut ast::System) -> System {
         let file = self.file;
         let mut holes = false;
         let mut settings_ast = Vec::new();
@@ -317,11 +320,22 @@ impl Sys<'_, '_> {
             );
         }
 
-        // Productions and groups.
+        let no_axiom = axiom_ast.is_none();
+        drop((prods, settings_ast, axioms, ignores, decls));
+
+        // Productions and groups: each production's tree is dropped once
+        // it is typed.
         let mut groups: Vec<Group> = Vec::new();
         let mut by_key: HashMap<GroupKey, Vec<usize>> = HashMap::new();
-        for (p, r) in prods.iter().zip(&prod_res) {
-            let (key, group, alt) = self.production(p, r);
+        let productions = std::mem::take(&mut s.items)
+            .into_iter()
+            .filter_map(|item| match item {
+                SystemItem::Production(p) => Some(p),
+                _ => None,
+            });
+        for (p, r) in productions.zip(&prod_res) {
+            let (key, group, alt) = self.production(&p, r);
+            drop(p);
             let candidates = by_key.entry(key).or_default();
             let found = candidates.iter().copied().find(|&g| {
                 match (&groups[g].condition, &group.condition) {
@@ -376,7 +390,7 @@ impl Sys<'_, '_> {
         let mut system = system;
         shrink_system(&mut system);
         let diags = &mut self.cx.diags;
-        crate::phases::check_groups(&system, diags, holes || axiom_ast.is_none());
+        crate::phases::check_groups(&system, diags, holes || no_axiom);
         if system.mode == Mode::Sample {
             crate::phases::check_sample(&system, diags, holes, &self.declared_terminals);
         }
