@@ -30,7 +30,7 @@
 use std::mem::size_of;
 
 use grm_derive::ModuleString;
-use grm_sema::{SymbolKind, System, Terminal};
+use grm_sema::{System, Terminal};
 use grm_turtle::{Bone, Instance, Interpretation, Polygon, Turtle};
 
 use crate::export::ExportFormat;
@@ -152,14 +152,7 @@ fn bytes_of<T>(n: u64) -> u64 {
 /// once. `held` is not included.
 pub fn count_string(system: &System, string: &ModuleString) -> Footprint {
     use Terminal as T;
-    let ops: Vec<Option<Terminal>> = system
-        .symbols
-        .iter()
-        .map(|s| match s.kind {
-            SymbolKind::Terminal(t) => Some(t),
-            SymbolKind::User => None,
-        })
-        .collect();
+    let ops: Vec<Option<Terminal>> = system.terminals();
     let mut f = Footprint::default();
     let mut pushes = 0u64;
     let mut starts = 0u64;

@@ -93,14 +93,7 @@ fn ops_of(system: &System, sym: u32) -> Option<Terminal> {
 
 impl<'a> Grammar<'a> {
     pub fn new(system: &System, sys: &'a CompiledSystem) -> Grammar<'a> {
-        let ops = system
-            .symbols
-            .iter()
-            .map(|s| match s.kind {
-                SymbolKind::Terminal(t) => Some(t),
-                SymbolKind::User => None,
-            })
-            .collect();
+        let ops = system.terminals();
         let phase = system.symbols.iter().map(|s| s.phase).collect();
         let words = sys.symbols.iter().map(|s| s.param_words).collect();
         let can_bone = sys

@@ -626,6 +626,19 @@ pub struct System {
 }
 
 impl System {
+    /// Per symbol (by [`SymbolId`] index): its built-in terminal, or `None`
+    /// for a user symbol. The table the turtle, the sampler and the model
+    /// budget interpret strings with.
+    pub fn terminals(&self) -> Vec<Option<Terminal>> {
+        self.symbols
+            .iter()
+            .map(|s| match s.kind {
+                SymbolKind::Terminal(t) => Some(t),
+                SymbolKind::User => None,
+            })
+            .collect()
+    }
+
     pub fn symbol(&self, id: SymbolId) -> &SymbolInfo {
         &self.symbols[id.index()]
     }

@@ -45,7 +45,7 @@ use std::ops::Range;
 
 use glam::{Affine3A, Mat3A, Vec3, Vec3A};
 use grm_derive::ModuleString;
-use grm_sema::{MaterialId, MeshId, Settings, SymbolKind, System, Terminal};
+use grm_sema::{MaterialId, MeshId, Settings, System, Terminal};
 
 /// The `origin` of parts whose producing production is not known.
 pub const NO_ORIGIN: u32 = u32::MAX;
@@ -843,14 +843,7 @@ pub struct Interpreter {
 
 impl Interpreter {
     pub fn new(system: &System, settings: &Settings) -> Interpreter {
-        let ops = system
-            .symbols
-            .iter()
-            .map(|s| match s.kind {
-                SymbolKind::Terminal(t) => Some(t),
-                SymbolKind::User => None,
-            })
-            .collect();
+        let ops = system.terminals();
         Interpreter::from_parts(ops, TurtleConfig::from_settings(settings))
     }
 
