@@ -77,6 +77,15 @@ pub struct GpuDeriveOptions {
     /// (the engines agree module for module). [`CPU_PREFIX_MODULES`] by
     /// default.
     pub cpu_prefix: u64,
+    /// Carry every module's identity key even when no system draws random
+    /// numbers (a system that draws carries them anyway): the strings
+    /// read back then have the CPU engine's keys (`grm_derive::Engine::
+    /// with_keys`), e.g. for a glb's part table. Costs a key buffer beside
+    /// each string. The free functions ([`derive()`], [`derive_with`],
+    /// [`derive_many`], `run`, `run_many`) load the systems so; a
+    /// [`GpuSystem`] must be loaded with [`GpuSystem::load_with`] to derive
+    /// with it.
+    pub keys: bool,
 }
 
 /// The default [`GpuDeriveOptions::cpu_prefix`]: strings of up to 32,768
@@ -96,6 +105,7 @@ impl GpuDeriveOptions {
             max_bytes: cpu.max_bytes,
             sync_iterations: false,
             cpu_prefix: CPU_PREFIX_MODULES,
+            keys: false,
         }
     }
 }
@@ -353,7 +363,7 @@ pub fn derive(
             iterations: opts.iterations,
             seed: opts.seed,
         };
-        let g = GpuSystem::load(gpu, &[job])?;
+        let g = GpuSystem::load_with(gpu, &[job], opts.keys)?;
         let (s, stats) = g.derive(opts, &mut |_| {})?;
         Ok(GpuDerivation {
             string: s.read(gpu)?,
@@ -382,7 +392,7 @@ pub fn derive_many(
     opts: &GpuDeriveOptions,
 ) -> Result<GpuManyDerivation, GpuError> {
     gpu.run(|| {
-        let g = GpuSystem::load(gpu, jobs)?;
+        let g = GpuSystem::load_with(gpu, jobs, opts.keys)?;
         let o = many_options(jobs, opts);
         let (s, stats) = g.derive(&o, &mut |_| {})?;
         let all = s.read(gpu)?;
@@ -452,7 +462,20 @@ impl Drop for GpuSystem<'_> {
 
 impl<'a> GpuSystem<'a> {
     /// Validate and upload the tables of `jobs`. Must run inside `Gpu::run`.
+    /// The strings carry identity keys where some system draws random
+    /// numbers.
     pub fn load(gpu: &'a Gpu, jobs: &[GpuJob<'a>]) -> Result<GpuSystem<'a>, GpuError> {
+        Self::load_with(gpu, jobs, false)
+    }
+
+    /// [`GpuSystem::load`]; with `keys` every job's string carries its
+    /// modules' identity keys, whether its system draws or not
+    /// ([`GpuDeriveOptions::keys`]).
+    pub fn load_with(
+        gpu: &'a Gpu,
+        jobs: &[GpuJob<'a>],
+        keys: bool,
+    ) -> Result<GpuSystem<'a>, GpuError> {
         if jobs.is_empty() || jobs.len() > MAX_SYSTEMS {
             return Err(GpuError::InvalidInput(format!(
                 "{} systems: one derivation takes 1 to {MAX_SYSTEMS}",
@@ -506,7 +529,10 @@ impl<'a> GpuSystem<'a> {
             (sys.alts.iter().enumerate())
                 .any(|(k, a)| k != sys.axiom_alt as usize && a.succ_len > kernels::LONG_SUCCESSOR)
         });
-        let job_keyed: Vec<bool> = jobs.iter().map(|j| j.system.draws_randomly()).collect();
+        let job_keyed: Vec<bool> = jobs
+            .iter()
+            .map(|j| keys || j.system.draws_randomly())
+            .collect();
         Ok(GpuSystem {
             gpu,
             has_context,
@@ -597,6 +623,11 @@ impl<'a> GpuSystem<'a> {
         wait: bool,
         progress: &mut dyn FnMut(&GpuIterationStats),
     ) -> Result<(DeviceString, Vec<GpuIterationStats>, DerivePath, bool), GpuError> {
+        if opts.keys && !self.keyed {
+            return Err(GpuError::InvalidInput(
+                "identity keys asked of systems loaded without them (GpuSystem::load_with)".into(),
+            ));
+        }
         self.direct.replace(None);
         self.final_directory.replace(None);
         if let Some(b) = self.pending_status.replace(None) {
@@ -820,13 +851,15 @@ impl<'a> GpuSystem<'a> {
         string_bytes(modules, words) + key_bytes(modules, self.keyed)
     }
 
-    /// Whether the strings carry identity keys (some system draws).
+    /// Whether the strings carry identity keys (some system draws, or
+    /// keys were asked for).
     pub fn carries_keys(&self) -> bool {
         self.keyed
     }
 
     /// Per job, whether its string read back carries identity keys (its
-    /// system draws random numbers, as `CompiledSystem::draws_randomly`).
+    /// system draws random numbers, as `CompiledSystem::draws_randomly`,
+    /// or keys were asked for: [`GpuSystem::load_with`]).
     pub(crate) fn job_keyed(&self) -> &[bool] {
         &self.job_keyed
     }
@@ -1972,7 +2005,7 @@ pub fn derive_with(
             iterations: opts.iterations,
             seed: opts.seed,
         };
-        let g = GpuSystem::load(gpu, &[job])?;
+        let g = GpuSystem::load_with(gpu, &[job], opts.keys)?;
         let (s, stats, path) = g.derive_with(opts, strategy, &mut |_| {})?;
         let string = s.read(gpu)?;
         gpu.recycle(s.into_buffers());

@@ -122,7 +122,7 @@ fn run_once(
         iterations: opts.derive.iterations,
         seed: opts.derive.seed,
     };
-    let g = GpuSystem::load(gpu, &[job])?;
+    let g = GpuSystem::load_with(gpu, &[job], opts.derive.keys)?;
     let wait = !(opts.pipelined && opts.interpret);
     let (string, stats, path, derive_waited) =
         g.derive_then(&opts.derive, opts.strategy, wait, progress)?;
@@ -239,7 +239,7 @@ pub fn run_many(
     }
     gpu.run(|| {
         let t = Instant::now();
-        let g = GpuSystem::load(gpu, jobs)?;
+        let g = GpuSystem::load_with(gpu, jobs, opts.derive.keys)?;
         let d = crate::derive::many_options(jobs, &opts.derive);
         let iterations = d.iterations;
         let (string, stats, path) = g.derive_with(&d, opts.strategy, progress)?;

@@ -287,6 +287,7 @@ fn a_deterministic_forest_derives_directly() {
         max_bytes: u64::MAX,
         sync_iterations: false,
         cpu_prefix: 0,
+        keys: false,
     };
     let out = derive_many(g, &jobs, &o).expect("derives");
     assert_eq!(out.strings.len(), jobs.len());

@@ -4,7 +4,9 @@
 //! the CPU's keys, on every path (direct, batched, iteration by iteration,
 //! from the CPU prefix or from the axiom on the device), alone and in a
 //! forest with other systems; a system that draws nothing carries no keys
-//! on either engine.
+//! on either engine unless they are asked for (`GpuDeriveOptions::keys`,
+//! the CPU's `Engine::with_keys`), and then the same keys on both, on every
+//! path, the direct one included.
 
 mod common;
 use common::*;
@@ -196,4 +198,126 @@ fn a_mixed_forest_carries_each_systems_keys() {
             &r.strings.expect("read"),
         );
     }
+}
+
+/// `sys` derived with keys asked for: the CPU engine's string and keys
+/// (`Engine::with_keys`), on every path and prefix; returns the paths.
+fn check_asked(what: &str, sys: &CompiledSystem, iterations: u32, seed: u32) -> Vec<DerivePath> {
+    let g = gpu();
+    let cpu = grm_derive::Engine::new(sys, 1)
+        .expect("engine")
+        .with_keys(true)
+        .derive(
+            &grm_derive::DeriveOptions {
+                iterations,
+                seed,
+                limits: grm_derive::DeriveLimits::default(),
+            },
+            &mut |_| {},
+        )
+        .expect("cpu derives")
+        .string;
+    assert_eq!(
+        cpu.keys.len(),
+        cpu.len(),
+        "{what}: the CPU keys every module"
+    );
+    let mut paths = Vec::new();
+    for prefix in PREFIXES {
+        for strategy in [DeriveStrategy::Auto, DeriveStrategy::PerIteration] {
+            let w = format!("{what} seed {seed} prefix {prefix} {strategy:?}, keys asked for");
+            let o = GpuDeriveOptions {
+                keys: true,
+                ..opts(sys, iterations, seed, prefix)
+            };
+            let (d, path) = derive_with(g, sys, &o, strategy).expect("gpu derives");
+            assert_eq!(d.string.keys.len(), d.string.len(), "{w}: keys");
+            assert_same(&w, &cpu, &d.string);
+            paths.push(path);
+        }
+    }
+    paths
+}
+
+/// `grmc derive --gpu -o x.glb` names a deterministic system's parts by
+/// their keys: asked for, the GPU carries the CPU's keys, directly (the
+/// final string in one pass), batched and iteration by iteration; one run
+/// (`run`, as grm-grow calls it) and a forest (`derive_many`) too.
+#[test]
+fn deterministic_systems_carry_the_cpu_keys_when_asked() {
+    let mut paths = Vec::new();
+    for (file, n) in [
+        ("hilbert3d.grm", 2),
+        ("context_plant_b.grm", 12),
+        ("ternary_tree.grm", 4),
+    ] {
+        let sys = example(file, None);
+        assert!(!sys.draws_randomly(), "{file}");
+        paths.extend(check_asked(file, &sys, n, 3));
+    }
+    assert!(paths.contains(&DerivePath::Direct), "{paths:?}");
+    assert!(paths.contains(&DerivePath::PerIteration), "{paths:?}");
+    // One run, derived and interpreted, its string read back.
+    let (p, _, sys) = example_program("ternary_tree.grm", None);
+    let turtle = grm_gpu::TurtleProgram::new(p.default_system().expect("system"), &sys.settings);
+    let run = grm_gpu::GpuRunOptions {
+        derive: GpuDeriveOptions {
+            keys: true,
+            ..opts(&sys, 4, 0, 0)
+        },
+        interpret: true,
+        read_string: true,
+        read_bones: false,
+        strategy: DeriveStrategy::Auto,
+        branch_scan: grm_gpu::interp::BranchScan::Auto,
+        pipelined: true,
+    };
+    let r = grm_gpu::run(gpu(), &sys, &turtle, &run, &mut |_| {}).expect("runs");
+    let want = grm_derive::Engine::new(&sys, 1)
+        .expect("engine")
+        .with_keys(true)
+        .derive(
+            &grm_derive::DeriveOptions {
+                iterations: 4,
+                seed: 0,
+                limits: grm_derive::DeriveLimits::default(),
+            },
+            &mut |_| {},
+        )
+        .expect("cpu derives")
+        .string;
+    let got = r.string.expect("read");
+    assert!(!got.keys.is_empty());
+    assert_same("run, keys asked for", &want, &got);
+    // A forest of seeds: every tree keyed, as derived alone.
+    let jobs: Vec<GpuJob<'_>> = (0..3)
+        .map(|seed| GpuJob {
+            system: &sys,
+            iterations: 3,
+            seed,
+        })
+        .collect();
+    let o = GpuDeriveOptions {
+        keys: true,
+        ..opts(&sys, 0, 0, 0)
+    };
+    let out = derive_many(gpu(), &jobs, &o).expect("derives");
+    for (k, s) in out.strings.iter().enumerate() {
+        let (d, _) = derive_with(
+            gpu(),
+            &sys,
+            &GpuDeriveOptions {
+                keys: true,
+                ..opts(&sys, 3, k as u32, 0)
+            },
+            DeriveStrategy::PerIteration,
+        )
+        .expect("derives");
+        assert_eq!(s.keys.len(), s.len(), "tree {k}: keys");
+        assert_same(&format!("forest tree {k}, keys asked for"), &d.string, s);
+    }
+    // Without the option nothing changes: no keys.
+    let (d, _) =
+        derive_with(gpu(), &sys, &opts(&sys, 3, 0, 0), DeriveStrategy::Auto).expect("derives");
+    assert!(d.string.keys.is_empty());
 }

@@ -14,6 +14,7 @@ fn unlimited(iterations: u32) -> GpuDeriveOptions {
         max_bytes: u64::MAX,
         sync_iterations: false,
         cpu_prefix: 0,
+        keys: false,
     }
 }
 
@@ -113,6 +114,7 @@ fn module_and_memory_limits_stop_before_allocating() {
         max_bytes: u64::MAX,
         sync_iterations: false,
         cpu_prefix: 0,
+        keys: false,
     };
     let r = derive(g, &sys, &opts);
     if let Err(e @ GpuError::ModuleLimit { .. }) = &r {
@@ -137,6 +139,7 @@ fn module_and_memory_limits_stop_before_allocating() {
         max_bytes: 100_000,
         sync_iterations: false,
         cpu_prefix: 0,
+        keys: false,
     };
     let r = derive(g, &sys, &opts);
     if let Err(e @ GpuError::MemoryLimit { .. }) = &r {

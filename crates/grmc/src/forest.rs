@@ -918,6 +918,7 @@ fn derive_gpu(
             max_bytes: lim.max_bytes,
             sync_iterations: false,
             cpu_prefix: args.cpu_prefix,
+            keys: false,
         },
         // The model is built from the strings by the CPU turtle (shapes
         // and polygons too), so the GPU interprets only a forest that

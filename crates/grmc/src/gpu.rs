@@ -75,6 +75,7 @@ pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
             max_bytes: lim.max_bytes,
             sync_iterations: args.stats,
             cpu_prefix: args.cpu_prefix,
+            keys: false,
         },
         interpret: true,
         read_string: args.print || args.output.is_some(),
