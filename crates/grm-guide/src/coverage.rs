@@ -52,6 +52,13 @@ pub struct CurveCoverage {
     /// The uncovered stretches, as arc-length fractions `[from, to)`, in
     /// order along the curve.
     pub gaps: Vec<(f64, f64)>,
+    /// The covering radius used: the curve's thickness plus
+    /// [`CoverageOptions::radius`].
+    pub radius: f64,
+    /// How close the nearest bone comes to the curve (to its sample
+    /// points); `f64::INFINITY` without bones. A curve with coverage 0 has
+    /// this above [`Self::radius`]: how far the model stays from it.
+    pub nearest: f64,
 }
 
 /// Distance from `p` to the segment `a`-`b` (a point when they coincide).
@@ -90,6 +97,7 @@ pub fn coverage(
             let table = c.bezier.arc_length_table(fine);
             let length = table.last().copied().unwrap_or(0.0);
             let mut covered = Vec::with_capacity(n);
+            let mut nearest = f64::INFINITY;
             let mut j = 0usize;
             for i in 0..n {
                 // The middle of the i-th of n equal stretches.
@@ -101,11 +109,12 @@ pub fn coverage(
                 let f = if s1 > s0 { (s - s0) / (s1 - s0) } else { 0.0 };
                 let t = (j as f64 + f.clamp(0.0, 1.0)) / fine as f64;
                 let p = c.bezier.eval(t);
-                covered.push(
-                    bones
-                        .iter()
-                        .any(|&(a, b)| segment_distance(p, a, b) <= radius),
-                );
+                let d = bones
+                    .iter()
+                    .map(|&(a, b)| segment_distance(p, a, b))
+                    .fold(f64::INFINITY, f64::min);
+                nearest = nearest.min(d);
+                covered.push(d <= radius);
             }
             let mut gaps = Vec::new();
             let mut start = None;
@@ -125,9 +134,91 @@ pub fn coverage(
                 length,
                 fraction,
                 gaps,
+                radius,
+                nearest,
             }
         })
         .collect()
+}
+
+/// The share of a curve's length a model must cover for the curve to count
+/// as followed (the curve-coverage issue's measure; `grmc sample --stats`
+/// and the coverage benchmark use it).
+pub const FOLLOWED: f64 = 0.8;
+
+/// The coverage report of `grmc sample --stats`: a line per curve (its
+/// covered share and its gaps as arc-length percentages, or, for a curve
+/// no bone comes near, how far the nearest one stays), then, when some
+/// curve is followed over less than [`FOLLOWED`] of its length and the
+/// bones are too few to cover the curves even laid end to end along them
+/// (each bone covering at most its length plus the covering radius on
+/// either side), a line that says so: the grammar cannot reach every
+/// curve with the bones its schedule grows, whatever the search does.
+pub fn describe(curves: &Curves, bones: &[(Vec3, Vec3)], options: &CoverageOptions) -> Vec<String> {
+    let cov = coverage(curves, bones, options);
+    let names: Vec<String> = cov
+        .iter()
+        .enumerate()
+        .map(|(k, c)| match &c.name {
+            Some(n) => format!("`{n}`"),
+            None => format!("curve {k}"),
+        })
+        .collect();
+    let width = names.iter().map(String::len).max().unwrap_or(0);
+    let mut out = vec![format!(
+        "coverage (share of each curve's length with a bone within its thickness + {}):",
+        options.radius
+    )];
+    for (c, name) in cov.iter().zip(&names) {
+        let pct = 100.0 * c.fraction;
+        let tail = if c.fraction == 0.0 {
+            if c.nearest.is_finite() {
+                format!(
+                    "not reached: the nearest bone stays {:.2} from it (covering radius {:.2})",
+                    c.nearest, c.radius
+                )
+            } else {
+                "not reached: the model has no bones".to_string()
+            }
+        } else if c.gaps.is_empty() {
+            "no gaps".to_string()
+        } else {
+            let shown: Vec<String> = c
+                .gaps
+                .iter()
+                .take(6)
+                .map(|&(a, b)| format!("{:.0}-{:.0}%", 100.0 * a, 100.0 * b))
+                .collect();
+            let more = c.gaps.len() - shown.len();
+            format!(
+                "gaps at {}{}",
+                shown.join(", "),
+                if more > 0 {
+                    format!(" and {more} more")
+                } else {
+                    String::new()
+                }
+            )
+        };
+        out.push(format!("  {name:<width$} {pct:>5.1}%  {tail}"));
+    }
+    let curve_length: f64 = cov.iter().map(|c| c.length).sum();
+    let finite: Vec<(DVec3, DVec3)> = bones
+        .iter()
+        .filter(|(a, b)| a.is_finite() && b.is_finite())
+        .map(|&(a, b)| (a.as_dvec3(), b.as_dvec3()))
+        .collect();
+    let bone_length: f64 = finite.iter().map(|(a, b)| a.distance(*b)).sum();
+    let radius = cov.iter().map(|c| c.radius).fold(0.0, f64::max);
+    let reach = bone_length + 2.0 * radius * finite.len() as f64;
+    if cov.iter().any(|c| c.fraction < FOLLOWED) && reach < FOLLOWED * curve_length {
+        out.push(format!(
+            "  too few bones: {} bones, {bone_length:.2} long in all, cannot cover {:.0}% of the curves' {curve_length:.2} even laid along them (more generations grow more bones; fewer curves need fewer)",
+            finite.len(),
+            100.0 * FOLLOWED
+        ));
+    }
+    out
 }
 
 #[cfg(test)]
@@ -204,6 +295,48 @@ mod tests {
             coverage(&line(), &side, &CoverageOptions::default())[0].fraction,
             0.0
         );
+    }
+
+    #[test]
+    fn the_report_names_gaps_unreached_curves_and_too_few_bones() {
+        let two = curves(
+            r#"{ "version": 1, "curves": [
+                { "name": "trunk", "points": [[0,0,0], [0,1.3333333333333333,0], [0,2.6666666666666665,0], [0,4,0]] },
+                { "name": "far", "points": [[5,0,0], [5,1,0], [5,2,0], [5,3,0]] } ] }"#,
+        );
+        let bones = [(Vec3::new(0.0, 0.0, 0.0), Vec3::new(0.0, 2.0, 0.0))];
+        let lines = describe(&two, &bones, &CoverageOptions::default());
+        assert_eq!(lines.len(), 4, "{lines:#?}");
+        assert!(lines[1].contains("`trunk`"), "{}", lines[1]);
+        assert!(lines[1].contains(" 53.9%"), "{}", lines[1]);
+        assert!(lines[1].contains("gaps at 54-100%"), "{}", lines[1]);
+        assert!(
+            lines[2].contains("`far`")
+                && lines[2].contains("  0.0%")
+                && lines[2].contains("not reached: the nearest bone stays 5.00 from it"),
+            "{}",
+            lines[2]
+        );
+        assert!(
+            lines[3].contains("too few bones: 1 bones, 2.00 long"),
+            "{}",
+            lines[3]
+        );
+        // Enough bones (but badly placed): no such line.
+        let many: Vec<(Vec3, Vec3)> = (0..8)
+            .map(|k| {
+                (
+                    Vec3::new(0.0, k as f32 * 0.5, 0.0),
+                    Vec3::new(0.0, k as f32 * 0.5 + 0.5, 0.0),
+                )
+            })
+            .collect();
+        let lines = describe(&two, &many, &CoverageOptions::default());
+        assert_eq!(lines.len(), 3, "{lines:#?}");
+        assert!(lines[1].contains("100.0%  no gaps"), "{}", lines[1]);
+        // No bones at all.
+        let lines = describe(&two, &[], &CoverageOptions::default());
+        assert!(lines[1].contains("not reached: the model has no bones"));
     }
 
     #[test]

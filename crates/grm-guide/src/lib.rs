@@ -59,7 +59,9 @@ pub use cost::{
     BoneCost, BonePlan, CostBreakdown, CostModel, CostOptions, CostState, ExpectedDirection,
     alignment_cost, distance_cost, expected_direction, utilization_sum,
 };
-pub use coverage::{CoverageOptions, CurveCoverage, coverage};
+pub use coverage::{
+    CoverageOptions, CurveCoverage, FOLLOWED, coverage, describe as describe_coverage,
+};
 pub use curves::{
     CurveParams, Curves, CurvesError, CurvesErrorKind, DensityParams, FORMAT_VERSION, GuideCurve,
     Location, MAX_CURVES_BYTES, MAX_SEGMENTS_PER_CURVE, MAX_SEGMENTS_TOTAL,

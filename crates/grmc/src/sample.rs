@@ -472,6 +472,9 @@ pub fn run(args: SampleArgs) -> Outcome {
             m.skeleton_bones,
             m.interpretation.bones.len()
         );
+        if args.stats {
+            print_coverage(&curves, m, &rank);
+        }
     }
     let ess = result.ess();
     let mean = ess.iter().sum::<f64>() / ess.len().max(1) as f64;
@@ -561,6 +564,20 @@ pub fn run(args: SampleArgs) -> Outcome {
         }
     }
     Outcome::Ok
+}
+
+/// The `--stats` coverage of each curve by `m`'s bones (`grm_guide::describe_coverage`).
+fn print_coverage(curves: &Curves, m: &grm_sample::SampledModel, rank: &str) {
+    let bones: Vec<(glam::Vec3, glam::Vec3)> = m
+        .interpretation
+        .bones
+        .iter()
+        .map(|b| (b.base, b.tip))
+        .collect();
+    let options = grm_guide::CoverageOptions::default();
+    for line in grm_guide::describe_coverage(curves, &bones, &options) {
+        outln!("{rank}{line}");
+    }
 }
 
 /// The `--stats` table: a row per generation.
