@@ -158,6 +158,44 @@ fn weight_of(a: u32, d: Draws) -> f32 {
     return vm_st[0];
 }
 
+// The race's fixed-point logarithms (grm_compile::rng: log2_frac,
+// log2_fixed, log2_weight, race_score), bit for bit: integers only, the
+// table packed after the system's tables.
+fn log2_frac(x: u32) -> u32 {
+    let i = (x >> 23u) & 0xffu;
+    let t = (x >> 7u) & 0xffffu;
+    let a = tables[TAB_BASE + TAB.log2_offset + i];
+    let b = tables[TAB_BASE + TAB.log2_offset + i + 1u];
+    return a + (((b - a) * t + 0x8000u) >> 16u);
+}
+
+fn log2_fixed(v: u32) -> i32 {
+    if (v == 0u) {
+        return 0i;
+    }
+    let n = 31u - countLeadingZeros(v);
+    return i32((n << 16u) + log2_frac(v << (31u - n)));
+}
+
+fn log2_weight(w: f32) -> i32 {
+    let bits = bitcast<u32>(w) & 0x7fffffffu;
+    let e = i32(bits >> 23u);
+    let m = bits & 0x007fffffu;
+    if (e == 0i) {
+        return log2_fixed(m) - (149i << 16u);
+    }
+    return ((e - 127i) << 16u) + i32(log2_frac(0x80000000u | (m << 8u)));
+}
+
+fn race_score(h: u32, w: f32) -> i32 {
+    let v = (h >> 8u) + 1u;
+    let a = (24i << 16u) - log2_fixed(v);
+    if (a <= 0i) {
+        return i32(-2147483647i - 1i);
+    }
+    return log2_fixed(u32(a)) - log2_weight(w);
+}
+
 fn decide(i: u32) -> Decision {
     if (P.iteration > SYS.iterations) {
         return Decision(COPY, 0u);
@@ -180,46 +218,36 @@ fn decide(i: u32) -> Decision {
         if (g.alt_count == 1u) {
             return Decision(g.first_alt, 0u);
         }
-        let u = rng_uniform(d, 0u);
+        // The race among the alternatives (grm_compile::rng, "Choosing
+        // among weighted alternatives"; grm_compile::select): computed
+        // weights must all be positive and finite (checked before any
+        // draw, as the CPU does); each alternative scores its own draw
+        // and weight, the lowest score wins, the first on a tie.
         let last = g.first_alt + g.alt_count - 1u;
-        if ((g.flags & GROUP_CONST_WEIGHTS) != 0u) {
-            let goal = u * g.total_weight;
-            for (var a = g.first_alt; a < last; a = a + 1u) {
-                if (goal < alt_at(a).cum_weight) {
-                    return Decision(a, 0u);
+        let const_weights = (g.flags & GROUP_CONST_WEIGHTS) != 0u;
+        if (!const_weights) {
+            for (var a = g.first_alt; a <= last; a = a + 1u) {
+                let w = weight_of(a, d);
+                if (!(is_finite(w) && w > 0.0)) {
+                    return Decision(COPY, ERR_BAD_WEIGHT);
                 }
             }
-            return Decision(last, 0u);
         }
-        // Computed weights: all must be positive and finite (the CPU checks
-        // them all before drawing); then the first cumulative sum above the draw.
-        var total = 0.0;
+        var best = g.first_alt;
+        var best_score = 0x7fffffffi;
         for (var a = g.first_alt; a <= last; a = a + 1u) {
-            let w = weight_of(a, d);
-            if (!(is_finite(w) && w > 0.0)) {
-                return Decision(COPY, ERR_BAD_WEIGHT);
+            var w = alt_at(a).weight;
+            if (!const_weights) {
+                w = weight_of(a, d);
             }
-            total = total + w;
-        }
-        // Past the f32 range: every weight scaled by WEIGHT_SCALE (2^-64,
-        // exact), as the CPU does; times 1 otherwise.
-        var scale = 1.0;
-        if (!is_finite(total)) {
-            scale = WEIGHT_SCALE;
-            total = 0.0;
-            for (var a = g.first_alt; a <= last; a = a + 1u) {
-                total = total + weight_of(a, d) * scale;
+            let h = rng_hash(d.seed, d.iteration, d.position, 0x80000000u | (a - g.first_alt));
+            let score = race_score(h, w);
+            if (score < best_score) {
+                best_score = score;
+                best = a;
             }
         }
-        let goal = u * total;
-        var acc = 0.0;
-        for (var a = g.first_alt; a <= last; a = a + 1u) {
-            acc = acc + weight_of(a, d) * scale;
-            if (goal < acc) {
-                return Decision(a, 0u);
-            }
-        }
-        return Decision(last, 0u);
+        return Decision(best, 0u);
     }
     return Decision(COPY, 0u);
 }

@@ -307,9 +307,9 @@ impl CompiledSystem {
     }
 
     /// All tables in one `u32` buffer, as a GPU uploads them: a
-    /// [`PackedHeader`] (20 words) followed by the symbol, group,
+    /// [`PackedHeader`] (22 words) followed by the symbol, group,
     /// alternative, context, successor, parameter, code and constant
-    /// sections; the header gives each section's word offset and record
+    /// sections and the race's logarithm table ([`crate::rng::LOG2_TABLE`]); the header gives each section's word offset and record
     /// count. Constants are stored as their f32 bits.
     pub fn pack(&self) -> Vec<u32> {
         let mut h = PackedHeader::zeroed();
@@ -328,6 +328,7 @@ impl CompiledSystem {
         (h.params_offset, h.params_count) = section(&mut words, &self.params);
         (h.code_offset, h.code_count) = section(&mut words, &self.code);
         (h.consts_offset, h.consts_count) = section(&mut words, &self.consts);
+        (h.log2_offset, h.log2_count) = section(&mut words, &crate::rng::LOG2_TABLE);
         h.axiom_alt = self.axiom_alt;
         h.seed = self.settings.seed;
         h.iterations = self.settings.iterations;

@@ -4,9 +4,10 @@
 //! the run's **seed**, the **iteration** (the index of the string being
 //! produced: 0 for the axiom, `k` for the string after `k` rewriting steps),
 //! the **key** of the module being rewritten (its stable identity, below;
-//! the system's root key for the axiom) and the **draw index** (0 is the
-//! choice among a group's stochastic alternatives; each random call site
-//! has its own index, see [`draw_index`]). Nothing depends on evaluation
+//! the system's root key for the axiom) and the **draw index** (each
+//! random call site has its own index, see [`draw_index`]; each
+//! alternative of a stochastic group has its own race draw,
+//! [`choice_draw`]). Nothing depends on evaluation
 //! order, on threads or on a module's position in the string, so the CPU
 //! engine with any number of threads and the GPU kernels draw the same
 //! numbers, and a module that is inserted upstream re-rolls nothing else.
@@ -61,6 +62,27 @@
 //! `[0, 1)`. Both steps are exact in f32 (an integer below `2^24` converts
 //! exactly and the scale is a power of two), so `u` is bit-identical
 //! everywhere.
+//!
+//! # Choosing among weighted alternatives: a race
+//!
+//! A stochastic group does not compare one uniform against cumulative
+//! weights (that would let an edit of one production's weight change the
+//! choice between two *other* productions). Each alternative `k` draws
+//! its own number, `h_k = hash(seed, iteration, key, choice_draw(k))`, and
+//! runs an exponential race: its time is `-ln(u_k) / w_k` and the earliest
+//! wins (the first alternative on a tie). The winner is alternative `k`
+//! with probability `w_k / sum(w)`, exactly as before, and changing one
+//! weight `w_p` can only make `p` win where it lost or lose where it won:
+//! every module whose choice changes chose `p` before or chooses it now
+//! (the rule behind weighted rendezvous hashing).
+//!
+//! The race is decided on integers so that the CPU and the GPU agree bit
+//! for bit: [`race_score`] is `log2(-log2(u_k)) - log2(w_k)` in 16.16
+//! fixed point, from [`log2_fixed`] (a 257-entry table of `log2(1 + i/256)`,
+//! [`LOG2_TABLE`], and linear interpolation, rounded: within 1.5/65536 of
+//! the true logarithm) with `u_k = ((h_k >> 8) + 1) / 2^24` in `(0, 1]`; the lowest
+//! score wins. (The constant factors between `ln` and `log2` and the 16.16
+//! scale are the same for every alternative and drop out.)
 //!
 //! `normal(mean, sd)` is Box-Muller in f32 on `u1 = u(draw)` and
 //! `u2 = u(draw + 1)`: `mean + sd * sqrt(-2 ln(1 - u1)) * cos(2 PI u2)`
@@ -142,7 +164,7 @@ pub const fn child_key_premixed(parent: u32, premixed: u32) -> u32 {
     )
 }
 
-/// The draw index of the `local`-th draw (from 1; 0 is the choice) of the
+/// The draw index of the `local`-th draw (from 1; 0 is unused) of the
 /// group at `ordinal` among its symbol's groups (normal groups, then
 /// wrap-up groups): `ordinal << 16 | local`. Indices are local to a group
 /// so that adding a random call to one production moves no other
@@ -152,6 +174,91 @@ pub const fn child_key_premixed(parent: u32, premixed: u32) -> u32 {
 #[inline]
 pub const fn draw_index(ordinal: u32, local: u32) -> u32 {
     ordinal << 16 | local
+}
+
+/// The draw index of alternative `k`'s race draw in a stochastic group
+/// (module documentation, "a race"): the high bit set, so it is never a
+/// call site's [`draw_index`] (whose ordinal stays below `2^15`). `k` is
+/// the alternative's index among its group's alternatives, so an edit of
+/// one weight leaves every other alternative's draw as it was.
+#[inline]
+pub const fn choice_draw(k: u32) -> u32 {
+    0x8000_0000 | k
+}
+
+/// `round(log2(1 + i / 256) * 65536)` for `i` in `0..=256`: the table
+/// behind [`log2_fixed`]. The GPU kernels read this same table (packed
+/// after the system's tables, [`crate::CompiledSystem::pack`]).
+pub static LOG2_TABLE: [u32; 257] = [
+    0, 369, 736, 1102, 1466, 1829, 2190, 2551, 2909, 3267, 3623, 3978, 4331, 4683, 5034, 5384,
+    5732, 6079, 6425, 6769, 7112, 7454, 7795, 8134, 8473, 8810, 9146, 9480, 9814, 10146, 10477,
+    10807, 11136, 11464, 11791, 12116, 12440, 12764, 13086, 13407, 13727, 14046, 14363, 14680,
+    14996, 15310, 15624, 15937, 16248, 16559, 16868, 17177, 17484, 17791, 18096, 18401, 18704,
+    19007, 19308, 19609, 19909, 20207, 20505, 20802, 21098, 21393, 21687, 21980, 22272, 22564,
+    22854, 23144, 23433, 23720, 24007, 24293, 24579, 24863, 25146, 25429, 25711, 25992, 26272,
+    26551, 26830, 27108, 27384, 27660, 27936, 28210, 28484, 28757, 29029, 29300, 29571, 29840,
+    30109, 30378, 30645, 30912, 31178, 31443, 31707, 31971, 32234, 32496, 32758, 33019, 33279,
+    33538, 33797, 34055, 34312, 34569, 34825, 35080, 35334, 35588, 35841, 36094, 36346, 36597,
+    36847, 37097, 37346, 37595, 37842, 38090, 38336, 38582, 38827, 39072, 39316, 39559, 39802,
+    40044, 40286, 40527, 40767, 41006, 41246, 41484, 41722, 41959, 42196, 42432, 42667, 42902,
+    43137, 43370, 43603, 43836, 44068, 44300, 44530, 44761, 44990, 45220, 45448, 45676, 45904,
+    46131, 46357, 46583, 46809, 47034, 47258, 47482, 47705, 47928, 48150, 48372, 48593, 48813,
+    49034, 49253, 49472, 49691, 49909, 50127, 50344, 50560, 50776, 50992, 51207, 51422, 51636,
+    51850, 52063, 52276, 52488, 52700, 52911, 53122, 53332, 53542, 53751, 53960, 54169, 54377,
+    54584, 54791, 54998, 55204, 55410, 55615, 55820, 56025, 56229, 56432, 56635, 56838, 57040,
+    57242, 57443, 57644, 57845, 58045, 58245, 58444, 58643, 58841, 59039, 59237, 59434, 59631,
+    59827, 60023, 60219, 60414, 60609, 60803, 60997, 61190, 61384, 61576, 61769, 61961, 62152,
+    62343, 62534, 62725, 62915, 63104, 63294, 63483, 63671, 63859, 64047, 64234, 64421, 64608,
+    64794, 64980, 65166, 65351, 65536,
+];
+
+/// `log2(x / 2^31)` in 0.16 fixed point for `x` in `[2^31, 2^32)` (the top
+/// bit set): the table entry below and linear interpolation on the next 16
+/// bits, rounded. At most 65536.
+#[inline]
+pub fn log2_frac(x: u32) -> u32 {
+    let i = ((x >> 23) & 0xff) as usize;
+    let t = (x >> 7) & 0xffff;
+    let (a, b) = (LOG2_TABLE[i], LOG2_TABLE[i + 1]);
+    a + (((b - a) * t + 0x8000) >> 16)
+}
+
+/// `log2(v)` in 16.16 fixed point, for `v > 0` (0 for `v == 0`, which no
+/// caller passes).
+#[inline]
+pub fn log2_fixed(v: u32) -> i32 {
+    if v == 0 {
+        return 0;
+    }
+    let n = 31 - v.leading_zeros();
+    ((n << 16) + log2_frac(v << (31 - n))) as i32
+}
+
+/// `log2(w)` in 16.16 fixed point for a finite positive `f32` `w`, from its
+/// bits (subnormals included); exact in integers.
+#[inline]
+pub fn log2_weight(w: f32) -> i32 {
+    let bits = w.to_bits() & 0x7fff_ffff;
+    let e = (bits >> 23) as i32;
+    let m = bits & 0x007f_ffff;
+    if e == 0 {
+        log2_fixed(m) - (149 << 16)
+    } else {
+        ((e - 127) << 16) + log2_frac(0x8000_0000 | (m << 8)) as i32
+    }
+}
+
+/// An alternative's score in the race (module documentation): its draw's
+/// hash `h` and its weight `w` (finite and positive); the lowest score
+/// wins. `i32::MIN` when the draw is `u = 1` (time 0).
+#[inline]
+pub fn race_score(h: u32, w: f32) -> i32 {
+    let v = (h >> 8) + 1;
+    let a = (24 << 16) - log2_fixed(v);
+    if a <= 0 {
+        return i32::MIN;
+    }
+    log2_fixed(a as u32) - log2_weight(w)
 }
 
 /// MurmurHash3 x86_32 of the key `iteration, position, draw` (three
@@ -212,6 +319,12 @@ pub struct DrawCtx {
 }
 
 impl DrawCtx {
+    /// The hash behind draw `draw` (what [`race_score`] takes).
+    #[inline]
+    pub fn bits(&self, draw: u32) -> u32 {
+        hash(self.seed, self.iteration, self.position, draw)
+    }
+
     /// The uniform draw with this index.
     #[inline]
     pub fn uniform(&self, draw: u32) -> f32 {
@@ -370,5 +483,104 @@ mod tests {
         let var = s2 / f64::from(n) - mean * mean;
         assert!(mean.abs() < 0.02, "mean {mean}");
         assert!((var - 1.0).abs() < 0.03, "var {var}");
+    }
+
+    #[test]
+    fn log2_table_is_log2() {
+        for (i, &t) in LOG2_TABLE.iter().enumerate() {
+            let exact = (1.0 + i as f64 / 256.0).log2() * 65536.0;
+            assert!(
+                (f64::from(t) - exact).abs() <= 0.5,
+                "entry {i}: {t} vs {exact}"
+            );
+        }
+    }
+
+    #[test]
+    fn fixed_logarithms_are_within_a_unit() {
+        let mut v = 1u64;
+        while v < u64::from(u32::MAX) / 2 {
+            for w in [v, v + 1, v * 3 / 2 + 7].map(|w| w as u32) {
+                let exact = f64::from(w).log2() * 65536.0;
+                let got = f64::from(log2_fixed(w));
+                assert!((got - exact).abs() <= 1.5, "log2({w}): {got} vs {exact}");
+            }
+            v = v * 5 / 4 + 1;
+        }
+        for w in [
+            1e-45f32,
+            3e-39,
+            f32::MIN_POSITIVE,
+            0.1,
+            0.5,
+            1.0,
+            1.5,
+            3.0,
+            1e30,
+            f32::MAX,
+        ] {
+            let exact = f64::from(w).log2() * 65536.0;
+            let got = f64::from(log2_weight(w));
+            assert!((got - exact).abs() <= 1.5, "log2({w}): {got} vs {exact}");
+        }
+    }
+
+    /// The race picks each alternative with probability weight / total.
+    fn race(ctx: &DrawCtx, weights: &[f32]) -> usize {
+        let mut best = (i32::MAX, 0);
+        for (k, &w) in weights.iter().enumerate() {
+            let s = race_score(ctx.bits(choice_draw(k as u32)), w);
+            if s < best.0 {
+                best = (s, k);
+            }
+        }
+        best.1
+    }
+
+    #[test]
+    fn the_race_draws_in_proportion_to_the_weights() {
+        let weights = [1.0f32, 2.0, 3.0, 0.25, 1e-30];
+        let total: f64 = weights.iter().map(|&w| f64::from(w)).sum();
+        let n = 200_000u32;
+        let mut counts = [0u32; 5];
+        for p in 0..n {
+            let ctx = DrawCtx {
+                seed: 9,
+                iteration: 3,
+                position: p,
+            };
+            counts[race(&ctx, &weights)] += 1;
+        }
+        for (k, &c) in counts.iter().enumerate() {
+            let expected = f64::from(n) * f64::from(weights[k]) / total;
+            let sd = (expected * (1.0 - expected / f64::from(n))).sqrt().max(1.0);
+            assert!(
+                (f64::from(c) - expected).abs() < 5.0 * sd,
+                "alternative {k}: {c} draws, {expected:.0} expected"
+            );
+        }
+    }
+
+    #[test]
+    fn editing_one_weight_moves_choices_to_or_from_it_only() {
+        let before = [1.0f32, 2.0, 3.0, 0.5];
+        for (p, w) in [(1usize, 5.0f32), (1, 0.1), (3, 7.0), (0, 1e-3)] {
+            let mut after = before;
+            after[p] = w;
+            let mut moved = 0;
+            for key in 0..20_000u32 {
+                let ctx = DrawCtx {
+                    seed: 1,
+                    iteration: 2,
+                    position: key,
+                };
+                let (a, b) = (race(&ctx, &before), race(&ctx, &after));
+                if a != b {
+                    moved += 1;
+                    assert!(a == p || b == p, "key {key}: {a} -> {b}, edited {p}");
+                }
+            }
+            assert!(moved > 0, "editing alternative {p} moved nothing");
+        }
     }
 }

@@ -220,7 +220,7 @@ pub struct SpanEntry {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Pod, Zeroable)]
 pub struct PackedHeader {
-    /// `b"GRM1"` little-endian: layout version.
+    /// `b"GRM2"` little-endian: layout version.
     pub magic: u32,
     pub symbols_offset: u32,
     pub symbols_count: u32,
@@ -244,10 +244,14 @@ pub struct PackedHeader {
     pub seed: u32,
     /// The system's iterations setting.
     pub iterations: u32,
+    /// [`crate::rng::LOG2_TABLE`] (257 words), which the kernels' race
+    /// among weighted alternatives reads.
+    pub log2_offset: u32,
+    pub log2_count: u32,
 }
 
 /// The layout version in [`PackedHeader::magic`].
-pub const PACKED_MAGIC: u32 = u32::from_le_bytes(*b"GRM1");
+pub const PACKED_MAGIC: u32 = u32::from_le_bytes(*b"GRM2");
 
 #[cfg(test)]
 mod tests {
@@ -262,6 +266,6 @@ mod tests {
         assert_eq!(size_of::<SuccModule>(), 5 * 4);
         assert_eq!(size_of::<ParamExpr>(), 4 * 4);
         assert_eq!(size_of::<SpanEntry>(), 3 * 4);
-        assert_eq!(size_of::<PackedHeader>(), 20 * 4);
+        assert_eq!(size_of::<PackedHeader>(), 22 * 4);
     }
 }

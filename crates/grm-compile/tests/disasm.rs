@@ -75,13 +75,19 @@ fn every_example_system_compiles() {
                 .unwrap_or_else(|e| panic!("{}: {}: {e}", path.display(), sys.name));
             c.validate().expect("valid");
             let words = c.pack();
-            let header: &grm_compile::table::PackedHeader =
-                bytemuck::from_bytes(bytemuck::cast_slice(&words[..20]));
+            let header: &grm_compile::table::PackedHeader = bytemuck::from_bytes(
+                bytemuck::cast_slice(&words[..size_of::<grm_compile::table::PackedHeader>() / 4]),
+            );
             assert_eq!(header.magic, grm_compile::table::PACKED_MAGIC);
             assert_eq!(header.code_count as usize, c.code.len());
             let code = &words[header.code_offset as usize..][..c.code.len()];
             assert_eq!(code, &c.code[..]);
-            assert_eq!(header.consts_offset as usize + c.consts.len(), words.len());
+            assert_eq!(
+                header.consts_offset as usize + c.consts.len(),
+                header.log2_offset as usize
+            );
+            let table = &words[header.log2_offset as usize..];
+            assert_eq!(table, &grm_compile::rng::LOG2_TABLE[..]);
             n += 1;
         }
     }

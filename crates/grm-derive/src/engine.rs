@@ -1645,14 +1645,12 @@ impl<'a> Engine<'a> {
             if g.alt_count == 1 {
                 return Ok(Some((g.first_alt, binds)));
             }
-            let u = draws.uniform(0);
             let alt = select::choose_alternative(
                 sys,
                 g,
                 &mut worker.vm,
                 bind,
                 &draws,
-                u,
                 &mut worker.weights,
             )
             .map_err(|e| match e {

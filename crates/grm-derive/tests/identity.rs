@@ -194,33 +194,6 @@ impl Grammar {
     }
 }
 
-/// Which modules of each string descend from an application of
-/// alternative `alt` (per string, per module), from the engine's own
-/// decisions.
-fn descendants(c: &CompiledSystem, s: &[ModuleString], seed: u32, alt: u32) -> Vec<Vec<bool>> {
-    let engine = Engine::new(c, 1).expect("engine").with_keys(true);
-    let mut out = vec![vec![false; s[0].len()]];
-    for (it, w) in s.windows(2).enumerate() {
-        let d = engine
-            .decisions(&w[0], it as u32 + 1, seed)
-            .expect("decisions");
-        let prev = out.last().expect("nonempty");
-        let mut next = Vec::with_capacity(w[1].len());
-        for (i, d) in d.iter().enumerate() {
-            match *d {
-                None => next.push(prev[i]),
-                Some(a) => {
-                    let n = c.alts[a as usize].succ_len as usize;
-                    next.extend(std::iter::repeat_n(prev[i] || a == alt, n));
-                }
-            }
-        }
-        assert_eq!(next.len(), w[1].len(), "decisions match the string");
-        out.push(next);
-    }
-    out
-}
-
 /// Edit production `alt` of `text`: its first float parameter expression
 /// `e` becomes `(e) * 1.25 + 0.5`, or, without one, its first successor
 /// module is written twice. `None` if the production is not in the root
@@ -257,6 +230,81 @@ fn edit_production(path: &str, text: &str, c: &CompiledSystem, alt: u32) -> Opti
         }
     }
     Some(out)
+}
+
+/// Compare the derivations of the original system `c` (its strings
+/// `orig`, 0 ..= n) and the edited one `e` after an edit of alternative
+/// `alt`, from the engines' own decisions. A module is *touched* when it
+/// descends from an application of `alt` in either derivation; the
+/// untouched modules of both strings are walked in step, iteration by
+/// iteration: they must be the same modules (symbol, parameters, key) in
+/// the same order, and make the same decision (both copied, or both
+/// rewritten by the same production) unless one of the two decisions is
+/// `alt` (then both subtrees are touched). Returns (modules untouched, modules
+/// in the original final string, whether anything changed).
+fn compare_edit(
+    c: &CompiledSystem,
+    e: &CompiledSystem,
+    orig: &[ModuleString],
+    n: u32,
+    seed: u32,
+    alt: u32,
+) -> Result<(usize, usize, bool), String> {
+    let new = keyed_strings(e, n, seed);
+    let (ec, ee) = (
+        Engine::new(c, 1).expect("engine").with_keys(true),
+        Engine::new(e, 1).expect("engine").with_keys(true),
+    );
+    let width = |cs: &CompiledSystem, d: Option<u32>| {
+        d.map_or(1, |a| cs.alts[a as usize].succ_len as usize)
+    };
+    // Touched flags of the current strings.
+    let (mut ta, mut tb) = (vec![false; orig[0].len()], vec![false; new[0].len()]);
+    for it in 0..=n as usize {
+        let (ma, mb) = (modules(c, &orig[it]), modules(e, &new[it]));
+        let (ua, ub): (Vec<_>, Vec<_>) = (
+            (0..ma.len()).filter(|&i| !ta[i]).collect(),
+            (0..mb.len()).filter(|&i| !tb[i]).collect(),
+        );
+        if ua.len() != ub.len() || ua.iter().zip(&ub).any(|(&i, &j)| ma[i] != mb[j]) {
+            return Err(format!(
+                "editing production {alt} changed modules that do not descend from it (string {it})"
+            ));
+        }
+        if it == n as usize {
+            let changed = ma != mb;
+            return Ok((ua.len(), ma.len(), changed));
+        }
+        let step = it as u32 + 1;
+        let da = ec.decisions(&orig[it], step, seed).expect("decisions");
+        let db = ee.decisions(&new[it], step, seed).expect("decisions");
+        // Untouched pairs whose decision involves `alt` become touched.
+        let (mut hit_a, mut hit_b) = (ta.clone(), tb.clone());
+        for (&i, &j) in ua.iter().zip(&ub) {
+            let (x, y) = (da[i], db[j]);
+            if x == Some(alt) || y == Some(alt) {
+                hit_a[i] = true;
+                hit_b[j] = true;
+            } else if x != y {
+                return Err(format!(
+                    "editing production {alt} changed the choice of a module that does not descend from it (string {it}: {x:?} -> {y:?})"
+                ));
+            }
+        }
+        ta = da
+            .iter()
+            .zip(&hit_a)
+            .flat_map(|(&d, &t)| std::iter::repeat_n(t, width(c, d)))
+            .collect();
+        tb = db
+            .iter()
+            .zip(&hit_b)
+            .flat_map(|(&d, &t)| std::iter::repeat_n(t, width(e, d)))
+            .collect();
+        assert_eq!(ta.len(), orig[it + 1].len(), "decisions match the string");
+        assert_eq!(tb.len(), new[it + 1].len(), "decisions match the string");
+    }
+    unreachable!("the loop returns at the last string")
 }
 
 /// Every production of every context-free derive-mode example, edited one
@@ -299,45 +347,85 @@ fn editing_one_production_re_rolls_only_its_descendants() {
             };
             let e = compile_text(&path, &edited);
             assert_eq!(e.alts.len(), c.alts.len());
-            let new = keyed_strings(&e, n, seed);
-            let (ta, tb) = (
-                descendants(&c, &orig, seed, alt),
-                descendants(&e, &new, seed, alt),
-            );
-            let keep = |cs: &CompiledSystem, s: &ModuleString, t: &[bool]| {
-                modules(cs, s)
-                    .into_iter()
-                    .zip(t)
-                    .filter(|(_, t)| !**t)
-                    .map(|(m, _)| m)
-                    .collect::<Vec<_>>()
-            };
-            let last = n as usize;
-            let kept_a = keep(&c, &orig[last], &ta[last]);
-            let kept_b = keep(&e, &new[last], &tb[last]);
-            assert!(
-                kept_a == kept_b,
-                "{file}: editing production {alt} changed modules that do not descend from it"
-            );
+            let (kept, total, changed) =
+                compare_edit(&c, &e, &orig, n, seed, alt).unwrap_or_else(|m| panic!("{file}: {m}"));
             // The edit did change something (else the test shows nothing).
-            assert!(
-                modules(&c, &orig[last]) != modules(&e, &new[last]),
-                "{file}: production {alt}'s edit changed nothing"
-            );
-            kept_total.0 += kept_a.len() as u64;
-            kept_total.1 += orig[last].len() as u64;
+            assert!(changed, "{file}: production {alt}'s edit changed nothing");
+            kept_total.0 += kept as u64;
+            kept_total.1 += total as u64;
             edits += 1;
             eprintln!(
-                "{file}: production {alt}: {} of {} modules ({:.1}%) untouched",
-                kept_a.len(),
-                orig[last].len(),
-                100.0 * kept_a.len() as f64 / orig[last].len().max(1) as f64
+                "{file}: production {alt}: {kept} of {total} modules ({:.1}%) untouched",
+                100.0 * kept as f64 / total.max(1) as f64
             );
         }
     }
     assert!(edits >= 12, "only {edits} edits");
     eprintln!(
         "{edits} edits: {:.1}% of the final modules untouched on average",
+        100.0 * kept_total.0 as f64 / kept_total.1.max(1) as f64
+    );
+}
+
+/// The weight of one production of a stochastic group multiplied by 3 or
+/// by 0.2, one production at a time, in the stochastic plant and in random
+/// grammars with constant and computed weights: the choice between two
+/// other productions never changes (the race of grm_compile::rng), so the
+/// modules that descend from no application of the edited production, in
+/// either derivation, are unchanged, keys and parameters included.
+#[test]
+fn editing_one_weight_re_rolls_only_its_descendants() {
+    let mut cases: Vec<(String, String)> = Vec::new();
+    let plant = repo().join("examples").join("stochastic_plant.grm");
+    cases.push((
+        plant.display().to_string(),
+        std::fs::read_to_string(&plant).expect("example"),
+    ));
+    let mut rng = Rng::seeded(0x1D_0002);
+    for case in 0..40 {
+        let g = Grammar::random(&mut rng);
+        cases.push((
+            format!("random{case}.grm"),
+            g.text(&mut Rng::seeded(case), 0.0),
+        ));
+    }
+    let (mut edits, mut changed_edits) = (0, 0);
+    let mut kept_total = (0u64, 0u64);
+    for (path, text) in &cases {
+        let c = compile_text(path, text);
+        let seed = c.settings.seed;
+        let mut n = 5;
+        while n > 1 && keyed_strings(&c, n, seed).last().expect("final").len() > 20_000 {
+            n -= 1;
+        }
+        let orig = keyed_strings(&c, n, seed);
+        for alt in 0..c.axiom_alt {
+            let g = &c.groups[c.alts[alt as usize].group as usize];
+            let span = c.weight_spans[alt as usize];
+            if g.alt_count < 2 || span == c.alt_spans[alt as usize] {
+                continue;
+            }
+            for factor in ["3", "0.2"] {
+                let (s, t) = (span.start as usize, span.end as usize);
+                let mut edited = text.clone();
+                edited.replace_range(s..t, &format!("({} * {factor})", &text[s..t]));
+                let e = compile_text(path, &edited);
+                let (kept, total, changed) = compare_edit(&c, &e, &orig, n, seed, alt)
+                    .unwrap_or_else(|m| panic!("{path} (weight x {factor}): {m}\n{edited}"));
+                edits += 1;
+                changed_edits += usize::from(changed);
+                kept_total.0 += kept as u64;
+                kept_total.1 += total as u64;
+            }
+        }
+    }
+    assert!(edits >= 60, "only {edits} weight edits");
+    assert!(
+        changed_edits * 4 >= edits,
+        "only {changed_edits} of {edits} weight edits changed anything"
+    );
+    eprintln!(
+        "{edits} weight edits ({changed_edits} changed the string): {:.1}% of the final modules untouched on average",
         100.0 * kept_total.0 as f64 / kept_total.1.max(1) as f64
     );
 }

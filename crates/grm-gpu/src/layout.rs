@@ -149,6 +149,7 @@ pub fn mirrors() -> Vec<Mirror> {
             context_count: u32, succ_offset: u32, succ_count: u32, params_offset: u32,
             params_count: u32, code_offset: u32, code_count: u32, consts_offset: u32,
             consts_count: u32, axiom_alt: u32, seed: u32, iterations: u32,
+            log2_offset: u32, log2_count: u32,
         }),
         mirror_struct!(t::SymbolEntry as SymbolEntry {
             first_group: u32, group_count: u32, first_wrapup: u32, wrapup_count: u32,

@@ -264,8 +264,7 @@ impl<'a> Grammar<'a> {
             if g.alt_count == 1 {
                 return Ok(Some(g.first_alt));
             }
-            let u = draws.uniform(0);
-            let alt = select::choose_alternative(sys, g, &mut w.vm, &w.bind, draws, u, &mut w.cum)
+            let alt = select::choose_alternative(sys, g, &mut w.vm, &w.bind, draws, &mut w.cum)
                 .map_err(|e| match e {
                     AltError::Fault(e) => self.fault(phase, sym, e),
                     AltError::BadWeight { value, alt } => self.error(
