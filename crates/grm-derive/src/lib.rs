@@ -32,4 +32,5 @@ pub use engine::{
     Derivation, DeriveLimits, DeriveOptions, Engine, IterationStats, MAX_THREADS, derive,
 };
 pub use error::{DeriveError, RuntimeError, RuntimeErrorKind};
+pub use pages::{HugePageAlloc, LARGE_BYTES};
 pub use string::ModuleString;

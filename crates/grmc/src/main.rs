@@ -126,6 +126,12 @@ pub enum Outcome {
     Usage,
 }
 
+/// Large buffers (a derivation's strings) in whole huge pages: a one-shot
+/// `grmc derive` spent most of its time faulting them in 4 KiB at a time
+/// (`grm_derive::HugePageAlloc`; docs/benchmarks.md).
+#[global_allocator]
+static ALLOC: grm_derive::HugePageAlloc = grm_derive::HugePageAlloc;
+
 fn main() -> ExitCode {
     quiet_headless_vulkan();
     // `--seed -1` is a value to refuse with its range, not a flag `-1`
