@@ -97,14 +97,14 @@ impl FileAnalysis {
                     i.path.span,
                 )),
                 Item::Const(c) => out.push(leaf(
-                    c.name.name.clone(),
+                    c.name.name.to_string(),
                     Some(squash(self.slice(c.value.span), 40)),
                     SymbolKind::Const,
                     c.span,
                     c.name.span,
                 )),
                 Item::Param(p) => out.push(leaf(
-                    p.name.name.clone(),
+                    p.name.name.to_string(),
                     Some(squash(
                         self.slice(Span::new(p.default.span.start, p.span.end))
                             .trim_end_matches(';'),
@@ -115,7 +115,7 @@ impl FileAnalysis {
                     p.name.span,
                 )),
                 Item::Mesh(m) => out.push(leaf(
-                    m.name.name.clone(),
+                    m.name.name.to_string(),
                     Some(m.path.value.clone()),
                     SymbolKind::Mesh,
                     m.span,
@@ -123,7 +123,7 @@ impl FileAnalysis {
                 )),
                 Item::Material(m) => {
                     let mut node = leaf(
-                        m.name.name.clone(),
+                        m.name.name.to_string(),
                         None,
                         SymbolKind::Material,
                         m.span,
@@ -131,7 +131,7 @@ impl FileAnalysis {
                     );
                     for f in &m.fields {
                         node.children.push(leaf(
-                            f.name.name.clone(),
+                            f.name.name.to_string(),
                             Some(squash(self.slice(f.value.span), 40)),
                             SymbolKind::Setting,
                             f.span,
@@ -152,7 +152,7 @@ impl FileAnalysis {
                             grm_sema::Mode::Sample => "sample",
                         });
                     let mut node = leaf(
-                        s.name.name.clone(),
+                        s.name.name.to_string(),
                         mode.map(|m| format!("system ({m})")),
                         SymbolKind::System,
                         s.span,
@@ -195,7 +195,7 @@ impl FileAnalysis {
                 )
             }
             SystemItem::Setting(s) => node(
-                s.name.name.clone(),
+                s.name.name.to_string(),
                 Some(squash(self.slice(s.value.span), 40)),
                 SymbolKind::Setting,
                 s.span,

@@ -450,7 +450,7 @@ impl<'a> Checker<'a> {
                         if self.define(&p.name, fi, GlobalKind::Value(self.values.len())) {
                             let id = ParamId(self.program.params.len() as u32);
                             self.program.params.push(MetaParam {
-                                name: p.name.name.clone(),
+                                name: p.name.name.to_string(),
                                 loc,
                                 ty: Ty::Float,
                                 default: Value::Float(0.0),
@@ -512,7 +512,7 @@ impl<'a> Checker<'a> {
                                 .index
                                 .push(f.id, m.name.span, Def::Mesh(id), true);
                             self.program.meshes.push(Mesh {
-                                name: m.name.name.clone(),
+                                name: m.name.name.to_string(),
                                 loc: Loc::new(f.id, m.name.span),
                                 written: m.path.value.clone(),
                                 path,
@@ -526,7 +526,7 @@ impl<'a> Checker<'a> {
                                 .index
                                 .push(f.id, m.name.span, Def::Material(id), true);
                             self.program.materials.push(Material {
-                                name: m.name.name.clone(),
+                                name: m.name.name.to_string(),
                                 loc: Loc::new(f.id, m.name.span),
                                 fields: Vec::new(),
                             });
@@ -783,7 +783,7 @@ impl<'a> Checker<'a> {
                     broken,
                 };
                 self.program.consts.push(Const {
-                    name: c.name.name.clone(),
+                    name: c.name.name.to_string(),
                     loc: Loc::new(file, c.name.span),
                     ty,
                     value,

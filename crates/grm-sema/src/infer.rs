@@ -313,7 +313,7 @@ mod tests {
         Expr {
             kind: ExprKind::Number {
                 value: v,
-                text: v.to_string(),
+                text: v.to_string().into(),
             },
             span: sp(),
         }

@@ -375,7 +375,7 @@ impl Sys<'_, '_> {
         }
 
         let system = System {
-            name: s.name.name.clone(),
+            name: s.name.name.to_string(),
             loc: Loc::new(file, s.name.span),
             file,
             span: s.span,
@@ -669,7 +669,7 @@ impl Sys<'_, '_> {
                             seen.insert(&p.name.name, p.name.span);
                         }
                         let ty = p.ty.as_ref().map(|t| self.cx.resolve_type(self.fi, t));
-                        names.push(Some(p.name.name.clone()));
+                        names.push(Some(p.name.name.to_string()));
                         tys.push(ty);
                     }
                     let info = &mut self.tab.infos[id.index()];
@@ -871,7 +871,7 @@ impl Sys<'_, '_> {
                             self.occurrences.push((s.span, id));
                         }
                     }
-                } else if let Some(&id) = self.tab.user.get(&s.name) {
+                } else if let Some(&id) = self.tab.user.get(s.name.as_str()) {
                     if listed.insert(id) {
                         out.push(id);
                     }
@@ -1319,7 +1319,7 @@ impl Sys<'_, '_> {
                 true,
             );
             bindings.push(ScopeBinding {
-                name: name.name.clone(),
+                name: name.name.to_string(),
                 span: name.span,
                 slot: *slot,
                 ty,

@@ -8,6 +8,12 @@
 
 pub use grm_diag::Span;
 
+/// The text of a name, symbol or number as written: kept inline up to 24
+/// bytes (every name of a real grammar), on the heap only past that. A
+/// `String` each was a heap block of a few bytes, which the allocator
+/// rounds up to 32: a large file's tree held one per name (issue 32).
+pub type Name = compact_str::CompactString;
+
 /// A whole file.
 #[derive(Clone, Debug, PartialEq)]
 pub struct File {
@@ -18,7 +24,7 @@ pub struct File {
 /// A name as written, with its span.
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub struct Ident {
-    pub name: String,
+    pub name: Name,
     pub span: Span,
 }
 
@@ -211,7 +217,7 @@ pub struct ParamSig {
 /// turtle punctuation symbols (`+ - & ^ \ / | [ ] ! ' { . } $ %`).
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub struct Symbol {
-    pub name: String,
+    pub name: Name,
     pub span: Span,
 }
 
@@ -317,7 +323,7 @@ pub enum ExprKind {
     /// A number literal; `text` is as written (the formatter keeps it).
     Number {
         value: f64,
-        text: String,
+        text: Name,
     },
     Bool(bool),
     /// A constant, meta-parameter, module parameter, mesh or material name.

@@ -91,7 +91,7 @@ pub(crate) fn sp(l: usize, r: usize) -> Span {
 
 pub(crate) fn sym(text: &str, l: usize, r: usize) -> Symbol {
     Symbol {
-        name: text.to_string(),
+        name: text.into(),
         span: sp(l, r),
     }
 }
@@ -453,7 +453,7 @@ fn recover_decl(toks: &[Token<'_>]) -> Option<Item> {
     let kw = toks.first()?;
     let name = toks.get(1).filter(|t| t.kind == TokKind::Ident)?;
     let name = Ident {
-        name: name.text.to_string(),
+        name: name.text.into(),
         span: name.span,
     };
     let assign = toks.iter().position(|t| t.kind == TokKind::Assign)?;
@@ -461,7 +461,7 @@ fn recover_decl(toks: &[Token<'_>]) -> Option<Item> {
         [] => None,
         [c, t] if c.kind == TokKind::Colon && t.kind == TokKind::Ident => Some(TypeAnn {
             name: Ident {
-                name: t.text.to_string(),
+                name: t.text.into(),
                 span: t.span,
             },
         }),
@@ -883,7 +883,7 @@ impl<'a, 't> Driver<'a, 't> {
             Some(t) if t.kind == TokKind::Ident => {
                 self.pos += 1;
                 Ident {
-                    name: t.text(self.text).to_string(),
+                    name: t.text(self.text).into(),
                     span: t.span,
                 }
             }
@@ -920,7 +920,7 @@ impl<'a, 't> Driver<'a, 't> {
                     self.pos += 1;
                 }
                 Ident {
-                    name: String::new(),
+                    name: Name::default(),
                     span: Span::new(kw.span.end, kw.span.end),
                 }
             }

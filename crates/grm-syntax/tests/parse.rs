@@ -366,8 +366,8 @@ fn operator_precedence_and_associativity() {
                 format!("({} {} {})", show(lhs), op.as_str(), show(rhs))
             }
             ExprKind::Unary { op, operand } => format!("({}{})", op.as_str(), show(operand)),
-            ExprKind::Number { text, .. } => text.clone(),
-            ExprKind::Name(n) => n.name.clone(),
+            ExprKind::Number { text, .. } => text.to_string(),
+            ExprKind::Name(n) => n.name.to_string(),
             ExprKind::Paren(e) => format!("[{}]", show(e)),
             _ => "?".into(),
         }
