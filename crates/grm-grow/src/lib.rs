@@ -1,61 +1,133 @@
 //! `grm-grow`: one road from a checked program to a grown model.
 //!
 //! Role: the library call that front-ends (`grmc`, the language server)
-//! make to grow a system, instead of each assembling engine calls. It
-//! derives with the CPU engine ([`Grower`]), records what names the parts
-//! of the result (the modules' identity keys, the production that made
-//! each module, the derivation tree), and writes the tree as JSON
-//! ([`json`]). Sample-mode results (`grm_sample`) come in through
-//! [`Tree::from_sampled`], so both modes give one tree type.
+//! make to grow a system, instead of each assembling engine calls (as
+//! rust-analyzer's `ide` crate serves its LSP). Every mode plugs in here
+//! once, and the identity of the parts (the modules' keys, the production
+//! that made each module, the derivation tree) is recorded here once:
 //!
-//! Inputs: a compiled system (`grm_compile`), [`grm_derive::DeriveOptions`]
-//! (iterations, seed, limits), a thread count and a [`Record`] (what to
-//! record besides the string). Outputs: [`Grown`]: the final string (with
-//! keys where asked or needed), per-iteration statistics, and optionally
-//! the derivation [`Tree`] and the per-module origins.
+//! - derive mode, one tree ([`Grower`]): the CPU engine (`grm_derive`) or,
+//!   behind the same call, the GPU engine (`grm_gpu`, [`Backend::Gpu`],
+//!   with the `gpu` feature), with the fall back to the CPU and the CPU's
+//!   report of a production's run-time error;
+//! - sample mode ([`sample::sample`]): the guided sampler (`grm_sample`)
+//!   with curves, particle schedule, budget, cancellation and limits, the
+//!   model shown (the result or one generation's frame) and its tree;
+//! - a forest ([`forest::grow`]): many trees (systems, seeds, parameter
+//!   values) on the CPU, one tree per worker, or as one GPU derivation,
+//!   each tree interpreted, held to the forest's module and memory limits.
+//!
+//! The derivation tree is one type for both modes ([`Tree`]), written as
+//! JSON by [`json`] (`--tree`).
+//!
+//! Inputs: a compiled system (`grm_compile`; its `param_values` are the
+//! run's parameters) and the checked system it came from, the options of
+//! the mode (iterations, seed, limits; curves and the sampler's options;
+//! the trees of a forest), a [`Backend`] and a [`Record`] (what to record
+//! besides the string). Outputs: [`Grown`] (the final string, with keys
+//! where asked or needed, per-string statistics, optionally the tree, the
+//! per-module origins and focus flags, and the GPU's report of its run),
+//! [`sample::Sampled`] (the search's result, the models shown, the tree),
+//! [`forest::Forest`] (each tree's modules, interpretation and whatever the
+//! caller kept of its string). Errors are typed ([`GrowError`],
+//! `grm_sample::SampleError`, [`forest::ForestError`]); how they are shown
+//! and which exit code they give is the front-end's.
 //!
 //! Invariants:
 //! - Identity is the engines' (`grm_compile::rng`, "Identity keys"): a
 //!   node's key is the key its module carries in the string; the tree is
 //!   built from the engine's own decisions ([`grm_derive::Engine::
-//!   decisions`]), never by aligning strings after the fact.
+//!   decisions`]), never by aligning strings after the fact. Keys asked for
+//!   ([`Record::keys`]) are the same on either engine (the GPU is asked to
+//!   carry them: `grm_gpu::GpuDeriveOptions::keys`).
 //! - Recording costs nothing when not asked for: without a tree or
 //!   origins, [`Grower::derive`] is the engine's own derivation.
 //! - The tree is held to the run's memory limit with the strings (a tree
 //!   that would pass it stops the run with the engine's own
 //!   `DeriveError::MemoryLimit`, R0202); its file is written whole or not
 //!   at all.
+//! - Either backend gives the same string (the engines agree module for
+//!   module; docs/gpu.md): the choice changes the time, never the model.
 
+mod derive;
+pub mod forest;
+#[cfg(feature = "gpu")]
+pub mod gpu;
 pub mod json;
+pub mod sample;
 mod tree;
 
-use std::time::Instant;
+use grm_derive::{DeriveError, IterationStats, ModuleString};
+use grm_diag::{Diagnostic, FileId, Span};
 
-use grm_compile::CompiledSystem;
-use grm_derive::{DeriveError, DeriveOptions, Engine, IterationStats, ModuleString};
-
+pub use derive::Grower;
 pub use tree::{Tree, TreeMode, TreeNode};
 
 /// What to record besides the final string.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Record {
-    /// The derivation tree (implies keys).
+    /// The derivation tree (implies keys; the CPU engine only).
     pub tree: bool,
     /// Per module of the final string, the compiled alternative that
-    /// wrote it (the axiom's for the axiom's modules).
+    /// wrote it (the axiom's for the axiom's modules; the CPU engine only).
     pub origins: bool,
-    /// Identity keys in the string even when the system draws nothing.
+    /// Identity keys in the string even when the system draws nothing
+    /// (either engine).
     pub keys: bool,
     /// Per module of the final string, whether it descends from an
-    /// application of this compiled alternative (the preview's focus).
+    /// application of this compiled alternative (the preview's focus; the
+    /// CPU engine only).
     pub focus: Option<u32>,
+}
+
+impl Record {
+    /// Whether anything is asked for that only the CPU engine records
+    /// (the engine's decisions, step by step).
+    pub fn needs_decisions(&self) -> bool {
+        self.tree || self.origins || self.focus.is_some()
+    }
+}
+
+/// Which engine derives.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Backend {
+    /// The CPU engine (`grm_derive`).
+    #[default]
+    Cpu,
+    /// The GPU engine (`grm_gpu`), with what to do when it cannot.
+    #[cfg(feature = "gpu")]
+    Gpu(gpu::GpuChoice),
+}
+
+/// What a growth reports while it runs.
+#[derive(Debug)]
+pub enum Event<'e> {
+    /// The CPU engine starts deriving (also after a fall back from the
+    /// GPU).
+    Cpu,
+    /// The GPU engine starts deriving on this device.
+    #[cfg(feature = "gpu")]
+    Gpu(&'e grm_gpu::Gpu),
+    /// The GPU cannot derive this (no device, or the derivation outgrows
+    /// it): the CPU derives instead ([`gpu::GpuChoice::fallback`]).
+    #[cfg(feature = "gpu")]
+    FellBack(&'e grm_gpu::GpuError),
+    /// A string is complete (the axiom's first): its figures, and whether
+    /// the GPU made it (a GPU run derives its first, small strings on the
+    /// CPU).
+    Step {
+        stats: &'e IterationStats,
+        on_gpu: bool,
+    },
 }
 
 /// A grown string and what was recorded with it.
 #[derive(Clone, Debug, Default)]
 pub struct Grown {
     /// The final string; it carries keys when the system draws or when
-    /// keys or a tree were asked for.
+    /// keys or a tree were asked for. Empty when a GPU run left it on the
+    /// device ([`gpu::GpuChoice::read_string`] false; `stats` has its
+    /// size).
     pub string: ModuleString,
     /// One entry per string: the axiom, then each step.
     pub stats: Vec<IterationStats>,
@@ -67,153 +139,60 @@ pub struct Grown {
     /// Per module of the final string: it descends from an application of
     /// [`Record::focus`].
     pub focus: Option<Vec<bool>>,
+    /// The GPU's run (its path, timings, interpretation; the string moved
+    /// to [`Grown::string`]) when the GPU derived it.
+    #[cfg(feature = "gpu")]
+    pub gpu: Option<grm_gpu::GpuRun>,
 }
 
-/// The CPU engine prepared for one system, with what to record.
-#[derive(Debug)]
-pub struct Grower<'a> {
-    engine: Engine<'a>,
-    record: Record,
+/// Why a growth stopped.
+#[derive(Clone, Debug, PartialEq)]
+pub enum GrowError {
+    /// The CPU engine's error (a limit, a production's run-time error,
+    /// threads), also the CPU's report of a run-time error the GPU met.
+    Derive(DeriveError),
+    /// The GPU's error, where the CPU did not take over.
+    #[cfg(feature = "gpu")]
+    Gpu(grm_gpu::GpuError),
+    /// Something was asked that the backend does not record (a tree,
+    /// origins or focus flags of a GPU run).
+    Unsupported(&'static str),
 }
 
-impl<'a> Grower<'a> {
-    /// `threads` as [`Engine::new`] takes it.
-    pub fn new(
-        sys: &'a CompiledSystem,
-        threads: usize,
-        record: Record,
-    ) -> Result<Self, DeriveError> {
-        let engine = Engine::new(sys, threads)?.with_keys(record.keys || record.tree);
-        Ok(Grower { engine, record })
+impl From<DeriveError> for GrowError {
+    fn from(e: DeriveError) -> Self {
+        GrowError::Derive(e)
     }
+}
 
-    /// The engine (for callers that derive again, such as frames).
-    pub fn engine(&self) -> &Engine<'a> {
-        &self.engine
+impl std::fmt::Display for GrowError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            GrowError::Derive(e) => e.fmt(f),
+            #[cfg(feature = "gpu")]
+            GrowError::Gpu(e) => e.fmt(f),
+            GrowError::Unsupported(what) => write!(f, "{what}"),
+        }
     }
+}
 
-    /// Derive `opts.iterations` steps; `progress` sees each string's
-    /// figures (the axiom's first) as soon as it is complete.
-    pub fn derive(
-        &self,
-        opts: &DeriveOptions,
-        progress: &mut dyn FnMut(&IterationStats),
-    ) -> Result<Grown, DeriveError> {
-        let never = || false;
-        // Never stopped: always grown.
-        self.derive_until(opts, progress, &never)
-            .map(Option::unwrap_or_default)
-    }
+impl std::error::Error for GrowError {}
 
-    /// [`Grower::derive`], asking `stop` before each step (and before the
-    /// tree or origins are recorded): `Ok(None)` when it said stop (a
-    /// preview superseded by a newer one). Without anything to record the
-    /// whole derivation is the engine's, and `stop` is asked once.
-    pub fn derive_until(
-        &self,
-        opts: &DeriveOptions,
-        progress: &mut dyn FnMut(&IterationStats),
-        stop: &dyn Fn() -> bool,
-    ) -> Result<Option<Grown>, DeriveError> {
-        let r = self.record;
-        if !r.tree && !r.origins && r.focus.is_none() {
-            if stop() {
-                return Ok(None);
-            }
-            let d = self.engine.derive(opts, progress)?;
-            return Ok(Some(Grown {
-                string: d.string,
-                stats: d.stats,
-                tree: None,
-                origins: None,
-                focus: None,
-            }));
+impl GrowError {
+    /// The error as a diagnostic; those that name no place point at
+    /// `span` of `file` (the system).
+    pub fn to_diagnostic(&self, file: FileId, span: Span) -> Diagnostic {
+        match self {
+            GrowError::Derive(e) => e.to_diagnostic(file, span),
+            #[cfg(feature = "gpu")]
+            GrowError::Gpu(e) => e.to_diagnostic(file, span),
+            GrowError::Unsupported(what) => Diagnostic::new(
+                grm_diag::Code::GpuUnsupported,
+                (*what).to_string(),
+                file,
+                span,
+                "in this system",
+            ),
         }
-        let sys = self.engine.system();
-        let t = Instant::now();
-        let mut string = self.engine.axiom(opts.seed)?;
-        let mut stats = vec![IterationStats::of(&string, 0, 0, 0, t.elapsed())];
-        progress(&stats[0]);
-        let mut tree = self
-            .record
-            .tree
-            .then(|| Tree::axiom(sys, opts.seed, &string));
-        let mut origins = self
-            .record
-            .origins
-            .then(|| vec![sys.axiom_alt; string.len()]);
-        let mut focus = r.focus.map(|f| vec![f == sys.axiom_alt; string.len()]);
-        let (mut cumulative, mut processed) = (0u64, 0u64);
-        for iteration in 1..=opts.iterations {
-            if stop() {
-                return Ok(None);
-            }
-            let t = Instant::now();
-            let decided = self.engine.decisions(&string, iteration, opts.seed)?;
-            let next = self
-                .engine
-                .step(&string, iteration, opts.seed, &opts.limits)?;
-            if let Some(tree) = &mut tree {
-                // The tree grows by the new string's rewritten modules.
-                let grown = tree.nodes.len() as u64 + next.len() as u64;
-                let bytes = grown * tree::NODE_BYTES
-                    + string.heap_bytes() as u64
-                    + next.heap_bytes() as u64;
-                if bytes > opts.limits.max_bytes {
-                    return Err(DeriveError::MemoryLimit {
-                        iteration,
-                        bytes,
-                        limit: opts.limits.max_bytes,
-                        modules: next.len() as u64,
-                        words: next.params.len() as u64,
-                        file: sys.file,
-                        span: sys.span,
-                    });
-                }
-                tree.advance(sys, iteration, &decided, &next);
-            }
-            if let Some(o) = &mut origins {
-                let mut out = Vec::with_capacity(next.len());
-                for (i, d) in decided.iter().enumerate() {
-                    match *d {
-                        None => out.push(o[i]),
-                        Some(a) => {
-                            let n = sys.alts[a as usize].succ_len as usize;
-                            out.extend(std::iter::repeat_n(a, n));
-                        }
-                    }
-                }
-                *o = out;
-            }
-            if let (Some(f), Some(alt)) = (&mut focus, r.focus) {
-                let mut out = Vec::with_capacity(next.len());
-                for (i, d) in decided.iter().enumerate() {
-                    match *d {
-                        None => out.push(f[i]),
-                        Some(a) => {
-                            let n = sys.alts[a as usize].succ_len as usize;
-                            out.extend(std::iter::repeat_n(f[i] || a == alt, n));
-                        }
-                    }
-                }
-                *f = out;
-            }
-            processed += string.len() as u64;
-            self.engine.recycle(std::mem::replace(&mut string, next));
-            cumulative += string.len() as u64;
-            let s = IterationStats::of(&string, iteration, cumulative, processed, t.elapsed());
-            progress(&s);
-            stats.push(s);
-        }
-        if let Some(tree) = &mut tree {
-            tree.finish(&string);
-        }
-        Ok(Some(Grown {
-            string,
-            stats,
-            tree,
-            origins,
-            focus,
-        }))
     }
 }

@@ -206,7 +206,10 @@ fn a_tree_over_the_memory_limit_stops_the_run() {
         .derive(&opts, &mut |_| {})
     {
         Err(e) => assert!(
-            matches!(e, grm_derive::DeriveError::MemoryLimit { .. }),
+            matches!(
+                e,
+                grm_grow::GrowError::Derive(grm_derive::DeriveError::MemoryLimit { .. })
+            ),
             "{e}"
         ),
         Ok(g) => panic!(

@@ -1,5 +1,7 @@
 //! `grmc derive FILE`: check, compile and derive one system; print
-//! statistics or the string, or build and export the model.
+//! statistics or the string, or build and export the model. The system
+//! grows through `grm_grow::Grower`, on the CPU or (`--gpu`) the GPU
+//! behind the same call; this front-end prints and exports.
 //!
 //! Also the helpers `grmc disasm`, `grmc sample` and `grmc bench` share:
 //! loading and compiling a system with `--param` overrides, and rendering
@@ -11,7 +13,7 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use grm_compile::CompiledSystem;
-use grm_derive::{DeriveError, DeriveLimits, DeriveOptions, Engine, IterationStats};
+use grm_derive::{DeriveError, DeriveLimits, DeriveOptions, Engine};
 use grm_diag::{Diagnostic, Severity, SourceMap};
 use grm_sema::Program;
 
@@ -415,11 +417,6 @@ pub fn run(args: DeriveArgs) -> Outcome {
         );
         return Outcome::Usage;
     }
-    if args.gpu
-        && let Some(o) = crate::gpu::derive(&args, &loaded)
-    {
-        return o;
-    }
     let c = &loaded.compiled;
     let opts = DeriveOptions {
         iterations: args.iterations.unwrap_or(c.settings.iterations),
@@ -427,7 +424,7 @@ pub fn run(args: DeriveArgs) -> Outcome {
         limits: limits(args.max_modules, args.max_memory),
     };
     // A glb names its parts by their identity keys (`_PART`): the strings
-    // carry keys then, whether the system draws or not.
+    // carry keys then, on either engine, whether the system draws or not.
     let glb = args
         .output
         .as_deref()
@@ -438,59 +435,105 @@ pub fn run(args: DeriveArgs) -> Outcome {
         keys: glb,
         ..grm_grow::Record::default()
     };
-    let grower = match grm_grow::Grower::new(c, args.threads, record) {
-        Ok(g) => g,
-        Err(e) => return report_derive_error(&loaded.sources, c, &e),
+    let backend = if args.gpu {
+        grm_grow::Backend::Gpu(grm_grow::gpu::GpuChoice {
+            cpu_prefix: args.cpu_prefix,
+            fallback: args.cpu_fallback,
+            interpret: true,
+            read_string: args.print || args.output.is_some(),
+            sync_iterations: args.stats,
+        })
+    } else {
+        grm_grow::Backend::Cpu
     };
-    let engine = grower.engine();
-    let bar = (!args.stats && std::io::stderr().is_terminal() && opts.iterations > 0).then(|| {
-        let b = indicatif::ProgressBar::new(u64::from(opts.iterations));
-        b.set_style(
-            indicatif::ProgressStyle::with_template(
-                "{spinner} iteration {pos}/{len} [{bar:30}] {msg}",
-            )
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        b
-    });
-    if args.stats {
-        outln!(
-            "{:>9} {:>14} {:>16} {:>12} {:>10}",
-            "iteration",
-            "modules",
-            "cumulative",
-            "params",
-            "ms"
-        );
-    }
-    let start = Instant::now();
-    let mut progress = |s: &IterationStats| {
-        if args.stats {
-            outln!(
-                "{:>9} {:>14} {:>16} {:>12} {:>10.3}",
-                s.iteration,
-                s.modules,
-                s.cumulative_modules,
-                s.param_words,
-                ms(s.elapsed)
+    let grower =
+        match grm_grow::Grower::with_backend(c, loaded.system(), args.threads, record, backend) {
+            Ok(g) => g,
+            Err(e) => return report_grow_error(&loaded.sources, c, &e),
+        };
+    let mut bar: Option<indicatif::ProgressBar> = None;
+    let mut start = Instant::now();
+    // Which engine makes the strings (the table's columns differ).
+    let mut on_gpu = false;
+    let mut progress = |e: grm_grow::Event<'_>| match e {
+        grm_grow::Event::Cpu => {
+            on_gpu = false;
+            bar = (!args.stats && std::io::stderr().is_terminal() && opts.iterations > 0).then(
+                || {
+                    let b = indicatif::ProgressBar::new(u64::from(opts.iterations));
+                    b.set_style(
+                        indicatif::ProgressStyle::with_template(
+                            "{spinner} iteration {pos}/{len} [{bar:30}] {msg}",
+                        )
+                        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+                    );
+                    b
+                },
             );
+            if args.stats {
+                outln!(
+                    "{:>9} {:>14} {:>16} {:>12} {:>10}",
+                    "iteration",
+                    "modules",
+                    "cumulative",
+                    "params",
+                    "ms"
+                );
+            }
+            start = Instant::now();
         }
-        if let Some(b) = &bar {
-            b.set_position(u64::from(s.iteration));
-            b.set_message(format!("{} modules", s.modules));
+        grm_grow::Event::Gpu(gpu) => {
+            on_gpu = true;
+            if args.stats {
+                crate::gpu::header(gpu);
+            }
+            start = Instant::now();
+        }
+        grm_grow::Event::FellBack(e) => {
+            eprintln!("note: GPU: {e}; deriving on the CPU (--cpu-fallback)");
+        }
+        grm_grow::Event::Step {
+            stats: s,
+            on_gpu: g,
+        } => {
+            if on_gpu {
+                if args.stats {
+                    crate::gpu::row(s, g);
+                }
+                return;
+            }
+            if args.stats {
+                outln!(
+                    "{:>9} {:>14} {:>16} {:>12} {:>10.3}",
+                    s.iteration,
+                    s.modules,
+                    s.cumulative_modules,
+                    s.param_words,
+                    ms(s.elapsed)
+                );
+            }
+            if let Some(b) = &bar {
+                b.set_position(u64::from(s.iteration));
+                b.set_message(format!("{} modules", s.modules));
+            }
         }
     };
     let result = grower.derive(&opts, &mut progress);
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
-    let d = match result {
+    let mut d = match result {
         Ok(d) => d,
-        Err(e) => return report_derive_error(&loaded.sources, c, &e),
+        Err(e) => return report_grow_error(&loaded.sources, c, &e),
     };
     let total = start.elapsed();
-    let last = d.stats.last().copied();
-    if let Some(s) = last {
+    if let Some(r) = d.gpu.take() {
+        // The GPU's report: its engines, path and timings.
+        crate::gpu::summary(c, &opts, &r, total, args.stats);
+        if !args.print && args.output.is_none() {
+            return Outcome::Ok;
+        }
+    } else if let Some(s) = d.stats.last().copied() {
         let rate = if total.as_secs_f64() > 0.0 {
             format!(
                 ", {} modules/us",
@@ -529,7 +572,9 @@ pub fn run(args: DeriveArgs) -> Outcome {
         }
     }
     if let Some(path) = &args.output {
-        if args.frames {
+        if args.frames
+            && let Some(engine) = grower.engine()
+        {
             return export_frames(
                 &loaded,
                 engine,
@@ -548,6 +593,27 @@ pub fn run(args: DeriveArgs) -> Outcome {
         return export_string(&loaded, &string, path, &args.image, args.max_memory);
     }
     Outcome::Ok
+}
+
+/// Render a growth's error (where errors that name no place point: the
+/// system); returns the outcome to exit with: the CPU engine's as
+/// [`report_derive_error`], the GPU's as [`crate::gpu::error_outcome`].
+pub fn report_grow_error(
+    sources: &SourceMap,
+    system: &CompiledSystem,
+    e: &grm_grow::GrowError,
+) -> Outcome {
+    match e {
+        grm_grow::GrowError::Derive(e) => report_derive_error(sources, system, e),
+        grm_grow::GrowError::Gpu(g) => {
+            emit(sources, &e.to_diagnostic(system.file, system.span));
+            crate::gpu::error_outcome(g)
+        }
+        grm_grow::GrowError::Unsupported(_) => {
+            emit(sources, &e.to_diagnostic(system.file, system.span));
+            Outcome::Usage
+        }
+    }
 }
 
 /// The model's limit: `--max-memory` MiB (default 2048, as a

@@ -5,25 +5,25 @@
 //! Tree `k` is system `--system[k % len]` (default: the file's first
 //! system) with seed `SEED + k`, its own iteration count, the `--param`
 //! values, and for each `--vary NAME=LO..HI` a value drawn for it from the
-//! project's counter-based hash (`grm_compile::rng`). With `--gpu` the
-//! whole forest is one derivation and one interpretation on the device
-//! (`grm_gpu::run_many`, Lipp 5.4: one count / scan / rewrite per
-//! iteration for every tree); without it the trees are derived on the CPU
-//! engine, one tree per worker thread. Either way every tree's string is
-//! exactly what `grmc derive --system S --seed SEED+k` gives. The model is
-//! built from the strings (the CPU turtle, as `grmc derive -o` does): each
-//! tree interpreted alone, moved to its grid cell
+//! project's counter-based hash (`grm_compile::rng`). The forest grows
+//! through `grm_grow::forest::grow`: with `--gpu` the whole forest is one
+//! derivation and one interpretation on the device (Lipp 5.4: one count /
+//! scan / rewrite per iteration for every tree); without it the trees are
+//! derived on the CPU engine, one tree per worker thread. Either way every
+//! tree's string is exactly what `grmc derive --system S --seed SEED+k`
+//! gives. This front-end plans the trees (systems, seeds, drawn
+//! parameters), reports the forest's errors, lays the trees out and builds
+//! the model from the strings (the CPU turtle, as `grmc derive -o` does):
+//! each tree interpreted alone, moved to its grid cell
 //! (`Interpretation::append_translated`) and meshed once.
 
 use std::path::PathBuf;
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 use grm_compile::CompiledSystem;
-use grm_derive::{DeriveOptions, Engine, ModuleString};
+use grm_derive::ModuleString;
 use grm_geom::grm_turtle::{self, Interpretation};
-use grm_gpu::{GpuDeriveOptions, GpuError, GpuJob, GpuRunOptions, TurtleProgram};
+use grm_grow::forest::{Forest, ForestError, ForestOptions, ForestTree, GrownTree, Ran};
 
 use crate::Outcome;
 use crate::derive::{Loaded, emit, limits, report_derive_error};
@@ -164,14 +164,6 @@ struct Tree {
     drawn: Vec<f64>,
 }
 
-/// What deriving (and interpreting) a tree gave.
-struct Grown {
-    modules: u64,
-    interpretation: Option<Interpretation>,
-    /// The string as grm source text (`--print`).
-    text: Option<String>,
-}
-
 /// The trees' seeds for the summary line: `seed 5`, `seeds 0-255` when
 /// they count up by one, else the list (`seeds 5, 1, 2, 3, 9, 5`; the
 /// first eight and a count past that).
@@ -190,53 +182,6 @@ fn seeds_text(seeds: &[u32]) -> String {
             }
         }
     }
-}
-
-/// A derived forest: each tree, the modules produced over the
-/// derivation, and how it ran (for the summary).
-struct Derived {
-    /// Every tree, in order; empty where nothing per tree was asked for
-    /// (a GPU forest whose strings stay on the device).
-    trees: Vec<Grown>,
-    /// The final strings' modules, all trees together.
-    modules: u64,
-    produced: u64,
-    note: String,
-}
-
-/// Run `f(i)` for `i` in `0..n` on up to `threads` threads (0: all
-/// cores), results in order.
-fn parallel_map<R: Send>(n: usize, threads: usize, f: impl Fn(usize) -> R + Sync) -> Vec<R> {
-    let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
-    let workers = if threads == 0 { cores } else { threads }.clamp(1, n.max(1));
-    if workers == 1 {
-        return (0..n).map(f).collect();
-    }
-    let next = AtomicUsize::new(0);
-    let out: Mutex<Vec<Option<R>>> = Mutex::new((0..n).map(|_| None).collect());
-    std::thread::scope(|s| {
-        for _ in 0..workers {
-            s.spawn(|| {
-                loop {
-                    let i = next.fetch_add(1, Ordering::Relaxed);
-                    if i >= n {
-                        break;
-                    }
-                    let r = f(i);
-                    // A poisoned lock means another worker panicked, which
-                    // the scope re-raises anyway.
-                    if let Ok(mut o) = out.lock() {
-                        o[i] = Some(r);
-                    }
-                }
-            });
-        }
-    });
-    out.into_inner()
-        .unwrap_or_default()
-        .into_iter()
-        .flatten()
-        .collect()
 }
 
 fn ms(d: Duration) -> f64 {
@@ -336,38 +281,76 @@ pub fn run(args: ForestArgs) -> Outcome {
         Err(o) => return o,
     };
     let need_model = args.output.is_some() || args.stats;
-    let start = Instant::now();
-    let mut gpu_error = None;
-    let mut derived = None;
-    if args.gpu {
-        match derive_gpu(&args, &loaded, &compiled, &trees, need_model) {
-            GpuOutcome::Done(d) => derived = Some(d),
-            GpuOutcome::Stop(o) => return o,
-            GpuOutcome::OnCpu => {}
-            GpuOutcome::Runtime(e) => gpu_error = Some(e),
-        }
-    }
-    let derived = match derived {
-        Some(d) => d,
-        None => match derive_cpu(&args, &loaded, &compiled, &trees, need_model) {
-            Ok(d) => d,
-            Err(o) => return o,
-        },
+    let forest: Vec<ForestTree<'_>> = trees
+        .iter()
+        .map(|t| ForestTree {
+            system: &program.systems[t.system],
+            compiled: &compiled[t.compiled],
+            iterations: t.iterations,
+            seed: t.seed,
+        })
+        .collect();
+    let backend = if args.gpu {
+        grm_grow::Backend::Gpu(grm_grow::gpu::GpuChoice {
+            cpu_prefix: args.cpu_prefix,
+            fallback: args.cpu_fallback,
+            // The model is built from the strings by the CPU turtle (shapes
+            // and polygons too), so the GPU interprets only a forest that
+            // stays there: the summary's bone count.
+            interpret: !need_model,
+            read_string: need_model || args.print,
+            sync_iterations: false,
+        })
+    } else {
+        grm_grow::Backend::Cpu
     };
-    if let Some(e) = gpu_error {
-        // The GPU failed a value the CPU engine computed: report the GPU's
-        // error rather than a forest the engines disagree on.
-        let c = &loaded.compiled;
-        emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));
-        return Outcome::InputErrors;
-    }
+    let opts = ForestOptions {
+        limits: limits(args.max_modules, args.max_memory),
+        threads: args.threads,
+        interpret: need_model,
+        backend,
+    };
+    // What is kept of each tree's string: its text (`--print`).
+    let keep = |k: usize, s: &ModuleString| args.print.then(|| text(&loaded, &trees[k], s));
+    let start = Instant::now();
+    let grown = grm_grow::forest::grow(&forest, &opts, &keep, &mut |e| {
+        if let grm_grow::Event::FellBack(e) = e {
+            eprintln!("note: GPU: {e}; deriving on the CPU (--cpu-fallback)");
+        }
+    });
+    let grown = match grown {
+        Ok(g) => g,
+        Err(e) => return report_forest_error(&loaded, &compiled, &trees, &e),
+    };
     let elapsed = start.elapsed();
-    let Derived {
+    let engine_note = match &grown.ran {
+        Ran::Cpu { workers } => format!("on the CPU ({})", crate::count(*workers as u64, "thread")),
+        Ran::Gpu {
+            stats,
+            bones,
+            elapsed,
+        } => {
+            let gpu_ms = ms(*elapsed);
+            let all_on_cpu = stats.iter().skip(1).all(|s| s.on_cpu) && stats.len() > 1;
+            match bones {
+                _ if all_on_cpu => {
+                    "on the CPU (every string within --cpu-prefix; --cpu-prefix 0 for the GPU)"
+                        .to_string()
+                }
+                Some(b) => format!(
+                    "on the GPU in one derivation and interpretation ({} there, {gpu_ms:.3} ms)",
+                    crate::count(*b, "bone")
+                ),
+                None => format!("on the GPU in one derivation ({gpu_ms:.3} ms)"),
+            }
+        }
+    };
+    let Forest {
         trees: grown,
         modules,
         produced,
-        note: engine_note,
-    } = derived;
+        ..
+    } = grown;
 
     let mut names: Vec<&str> = Vec::new();
     for &i in &systems {
@@ -395,7 +378,7 @@ pub fn run(args: ForestArgs) -> Outcome {
     );
     if args.print {
         for g in &grown {
-            outln!("{}", g.text.as_deref().unwrap_or_default());
+            outln!("{}", g.kept.as_deref().unwrap_or_default());
         }
     }
     if !need_model {
@@ -566,203 +549,6 @@ fn plan(
     Ok((compiled, trees))
 }
 
-/// The forest on the CPU: trees in parallel, one per worker thread (each
-/// tree's engine gets the threads left over when there are fewer trees
-/// than workers). `--max-modules` bounds each tree's strings and the
-/// forest's final strings together (as on the GPU, where they are one
-/// string): a worker whose tree takes the total over it stops the rest.
-/// `Err` is the outcome to exit with (the first failing tree's error, in
-/// tree order, was printed).
-fn derive_cpu(
-    args: &ForestArgs,
-    loaded: &Loaded,
-    compiled: &[CompiledSystem],
-    trees: &[Tree],
-    need_model: bool,
-) -> Result<Derived, Outcome> {
-    let lim = limits(args.max_modules, args.max_memory);
-    enum Failure {
-        Derive(grm_derive::DeriveError),
-        Turtle(grm_turtle::TurtleError),
-        /// The forest's total passed the limit (modules so far) with
-        /// this tree.
-        Forest(u64),
-        /// The trees' interpretations together passed the memory limit
-        /// with this tree (what they could hold, counted from the
-        /// strings).
-        Memory(grm_geom::Footprint),
-        /// Not derived: another tree stopped the forest.
-        Skipped,
-    }
-    let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
-    let workers = if args.threads == 0 {
-        cores
-    } else {
-        args.threads
-    };
-    let workers = workers.clamp(1, trees.len().max(1));
-    let engine_threads = (if args.threads == 0 {
-        cores
-    } else {
-        args.threads
-    } / workers)
-        .max(1);
-    let total = AtomicU64::new(0);
-    // What the trees' interpretations hold together (the forest's model is
-    // built from them all: `--max-memory` bounds them as it bounds one
-    // model's; grm_geom::budget).
-    let held = Mutex::new(grm_geom::Footprint::default());
-    let stop = AtomicBool::new(false);
-    let results = parallel_map(trees.len(), workers, |k| {
-        if stop.load(Ordering::Relaxed) {
-            return Err(Failure::Skipped);
-        }
-        let t = &trees[k];
-        let c = &compiled[t.compiled];
-        let opts = DeriveOptions {
-            iterations: t.iterations,
-            seed: t.seed,
-            limits: lim,
-        };
-        let d = Engine::new(c, engine_threads)
-            .and_then(|e| e.derive(&opts, &mut |_| {}))
-            .map_err(|e| {
-                stop.store(true, Ordering::Relaxed);
-                Failure::Derive(e)
-            })?;
-        let modules = d.string.len() as u64;
-        let sum = total.fetch_add(modules, Ordering::Relaxed) + modules;
-        if sum > lim.max_modules {
-            stop.store(true, Ordering::Relaxed);
-            return Err(Failure::Forest(sum));
-        }
-        let produced = d.stats.last().map_or(0, |s| s.cumulative_modules);
-        let interpretation = match need_model {
-            true => {
-                let f =
-                    grm_geom::budget::count_string(&loaded.program.systems[t.system], &d.string);
-                let over = {
-                    let mut h = held.lock().unwrap_or_else(|p| p.into_inner());
-                    h.bones += f.bones;
-                    h.instances += f.instances;
-                    h.polygons += f.polygons;
-                    h.polygon_vertices += f.polygon_vertices;
-                    h.bytes = h.bytes.saturating_add(f.bytes);
-                    (h.bytes > lim.max_bytes).then_some(*h)
-                };
-                if let Some(h) = over {
-                    stop.store(true, Ordering::Relaxed);
-                    return Err(Failure::Memory(h));
-                }
-                let mut i = interpret(loaded, t, c, &d.string).map_err(Failure::Turtle)?;
-                // Held to the end: no spare capacity.
-                i.bones.shrink_to_fit();
-                i.instances.shrink_to_fit();
-                i.polygons.shrink_to_fit();
-                i.polygon_vertices.shrink_to_fit();
-                Some(i)
-            }
-            false => None,
-        };
-        Ok((
-            Grown {
-                modules,
-                interpretation,
-                text: args.print.then(|| text(loaded, t, &d.string)),
-            },
-            produced,
-        ))
-    });
-    let mut out = Vec::with_capacity(results.len());
-    let mut produced = 0u64;
-    let mut over = None;
-    let mut memory: Option<(grm_geom::Footprint, usize)> = None;
-    for (k, r) in results.into_iter().enumerate() {
-        match r {
-            Ok((g, p)) => {
-                out.push(g);
-                produced = produced.saturating_add(p);
-            }
-            Err(Failure::Derive(e)) => {
-                eprintln!("error: tree {k} (seed {}):", trees[k].seed);
-                return Err(report_derive_error(
-                    &loaded.sources,
-                    &compiled[trees[k].compiled],
-                    &e,
-                ));
-            }
-            Err(Failure::Turtle(e)) => {
-                return Err(report_turtle(loaded, &compiled[trees[k].compiled], k, e));
-            }
-            Err(Failure::Forest(sum)) => {
-                if over.is_none_or(|(s, _)| sum > s) {
-                    over = Some((sum, k));
-                }
-            }
-            Err(Failure::Memory(f)) => {
-                if memory.is_none_or(|(m, _)| f.bytes > m.bytes) {
-                    memory = Some((f, k));
-                }
-            }
-            Err(Failure::Skipped) => {}
-        }
-    }
-    if let Some((footprint, k)) = memory {
-        // R0202: the trees' interpretations alone are over the limit the
-        // forest's model must keep.
-        let c = &compiled[trees[k].compiled];
-        let e = grm_geom::GeomError::MemoryLimit {
-            footprint,
-            limit: lim.max_bytes,
-            output: grm_geom::Output::Model,
-        };
-        emit(
-            &loaded.sources,
-            &e.to_diagnostic(&loaded.program, c.file, c.span).with_note(format!(
-                "counted from the trees' strings, before their meshes: tree {k} (seed {}) took the forest over the limit",
-                trees[k].seed
-            )),
-        );
-        return Err(Outcome::InputErrors);
-    }
-    if let Some((sum, k)) = over {
-        // R0201 as for one string: the forest's strings are bounded
-        // together, as on the GPU where they are one string.
-        let c = &compiled[trees[k].compiled];
-        emit(
-            &loaded.sources,
-            &grm_diag::Diagnostic::new(
-                grm_diag::Code::ModuleLimit,
-                format!(
-                    "the forest's strings would hold {sum} modules or more together, more than the limit of {}",
-                    lim.max_modules
-                ),
-                c.file,
-                c.span,
-                format!("tree {k} (seed {}) took the forest over the limit", trees[k].seed),
-            )
-            .with_help("plant fewer trees (`--trees`), derive fewer iterations (`-n`), or raise the limit (`--max-modules`)"),
-        );
-        return Err(Outcome::InputErrors);
-    }
-    Ok(Derived {
-        modules: out.iter().map(|g| g.modules).sum(),
-        trees: out,
-        produced,
-        note: format!("on the CPU ({})", crate::count(workers as u64, "thread")),
-    })
-}
-
-/// Interpret one tree's string with its own system and settings.
-fn interpret(
-    loaded: &Loaded,
-    t: &Tree,
-    c: &CompiledSystem,
-    s: &ModuleString,
-) -> Result<Interpretation, grm_turtle::TurtleError> {
-    grm_turtle::interpret(&loaded.program.systems[t.system], &c.settings, s)
-}
-
 /// A tree's string as grm source text.
 fn text(loaded: &Loaded, t: &Tree, s: &ModuleString) -> String {
     let p = &loaded.program;
@@ -783,6 +569,84 @@ fn report_turtle(
         &grm_geom::GeomError::Turtle(e).to_diagnostic(&loaded.program, c.file, c.span),
     );
     Outcome::InputErrors
+}
+
+/// Report why the forest stopped: a tree's error (said of that tree, at
+/// its system), or the forest's limits; the outcome to exit with.
+fn report_forest_error(
+    loaded: &Loaded,
+    compiled: &[CompiledSystem],
+    trees: &[Tree],
+    e: &ForestError,
+) -> Outcome {
+    let of = |k: usize| &compiled[trees[k].compiled];
+    match e {
+        ForestError::Derive { tree: k, error } => {
+            eprintln!("error: tree {k} (seed {}):", trees[*k].seed);
+            report_derive_error(&loaded.sources, of(*k), error)
+        }
+        ForestError::Turtle { tree: k, error } => report_turtle(loaded, of(*k), *k, error.clone()),
+        ForestError::MemoryLimit {
+            tree,
+            footprint,
+            limit,
+        } => {
+            // R0202: the trees' interpretations alone are over the limit
+            // the forest's model must keep.
+            let e = grm_geom::GeomError::MemoryLimit {
+                footprint: *footprint,
+                limit: *limit,
+                output: grm_geom::Output::Model,
+            };
+            let d = match *tree {
+                Some(k) => {
+                    let c = of(k);
+                    e.to_diagnostic(&loaded.program, c.file, c.span).with_note(format!(
+                        "counted from the trees' strings, before their meshes: tree {k} (seed {}) took the forest over the limit",
+                        trees[k].seed
+                    ))
+                }
+                None => {
+                    let c = &loaded.compiled;
+                    e.to_diagnostic(&loaded.program, c.file, c.span)
+                        .with_note("counted from the trees' strings, before their meshes")
+                }
+            };
+            emit(&loaded.sources, &d);
+            Outcome::InputErrors
+        }
+        ForestError::ModuleLimit {
+            tree: k,
+            modules,
+            limit,
+        } => {
+            // R0201 as for one string: the forest's strings are bounded
+            // together, as on the GPU where they are one string.
+            let c = of(*k);
+            emit(
+                &loaded.sources,
+                &grm_diag::Diagnostic::new(
+                    grm_diag::Code::ModuleLimit,
+                    format!(
+                        "the forest's strings would hold {modules} modules or more together, more than the limit of {limit}"
+                    ),
+                    c.file,
+                    c.span,
+                    format!("tree {k} (seed {}) took the forest over the limit", trees[*k].seed),
+                )
+                .with_help("plant fewer trees (`--trees`), derive fewer iterations (`-n`), or raise the limit (`--max-modules`)"),
+            );
+            Outcome::InputErrors
+        }
+        ForestError::Gpu(g) => {
+            // The GPU's error where the CPU did not take over, or a value
+            // the GPU failed that the CPU engine computed (not a forest
+            // the engines disagree on).
+            let c = &loaded.compiled;
+            emit(&loaded.sources, &g.to_diagnostic(c.file, c.span));
+            crate::gpu::error_outcome(g)
+        }
+    }
 }
 
 /// What a tree's meshes can cover: its skeleton's bounds (bone ends,
@@ -816,7 +680,7 @@ struct Layout {
 }
 
 impl Layout {
-    fn new(columns: Option<u32>, spacing: Option<f32>, grown: &[Grown]) -> Layout {
+    fn new<T>(columns: Option<u32>, spacing: Option<f32>, grown: &[GrownTree<T>]) -> Layout {
         let n = grown.len().max(1) as u32;
         let columns = columns
             .unwrap_or_else(|| (f64::from(n).sqrt().ceil()) as u32)
@@ -858,169 +722,6 @@ impl Layout {
     }
 }
 
-enum GpuOutcome {
-    Done(Derived),
-    /// Exit with this (the problem was printed).
-    Stop(Outcome),
-    /// Derive on the CPU (`--cpu-fallback`, which was reported).
-    OnCpu,
-    /// A value failed: the CPU engine derives the forest to report it
-    /// with its source; this is the error should the CPU not fail.
-    Runtime(GpuError),
-}
-
-/// The forest as one GPU derivation (`run_many`).
-fn derive_gpu(
-    args: &ForestArgs,
-    loaded: &Loaded,
-    compiled: &[CompiledSystem],
-    trees: &[Tree],
-    need_model: bool,
-) -> GpuOutcome {
-    let c = &loaded.compiled;
-    let lim = limits(args.max_modules, args.max_memory);
-    let fallback = |e: &GpuError| -> GpuOutcome {
-        if args.cpu_fallback && crate::gpu::device_problem(e) {
-            eprintln!("note: GPU: {e}; deriving on the CPU (--cpu-fallback)");
-            GpuOutcome::OnCpu
-        } else {
-            emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));
-            GpuOutcome::Stop(crate::gpu::error_outcome(e))
-        }
-    };
-    let gpu = match grm_gpu::shared() {
-        Ok(g) => g,
-        Err(e) => return fallback(&e),
-    };
-    let turtles: Vec<TurtleProgram> = trees
-        .iter()
-        .map(|t| {
-            TurtleProgram::new(
-                &loaded.program.systems[t.system],
-                &compiled[t.compiled].settings,
-            )
-        })
-        .collect();
-    let turtle_refs: Vec<&TurtleProgram> = turtles.iter().collect();
-    let jobs: Vec<GpuJob<'_>> = trees
-        .iter()
-        .map(|t| GpuJob {
-            system: &compiled[t.compiled],
-            iterations: t.iterations,
-            seed: t.seed,
-        })
-        .collect();
-    let opts = GpuRunOptions {
-        derive: GpuDeriveOptions {
-            iterations: 0,
-            seed: 0,
-            max_modules: lim.max_modules,
-            max_bytes: lim.max_bytes,
-            sync_iterations: false,
-            cpu_prefix: args.cpu_prefix,
-            keys: false,
-        },
-        // The model is built from the strings by the CPU turtle (shapes
-        // and polygons too), so the GPU interprets only a forest that
-        // stays there: the summary's bone count.
-        interpret: !need_model,
-        read_string: need_model || args.print,
-        read_bones: false,
-        strategy: grm_gpu::DeriveStrategy::Auto,
-        branch_scan: grm_gpu::interp::BranchScan::Auto,
-        pipelined: true,
-    };
-    let r = match grm_gpu::run_many(gpu, &jobs, &turtle_refs, &opts, &mut |_| {}) {
-        Ok(r) => r,
-        // The CPU engine finds the same error and names its source.
-        Err(e @ GpuError::Runtime { .. }) => return GpuOutcome::Runtime(e),
-        Err(e) if crate::gpu::input_limit(&e) => {
-            emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));
-            return GpuOutcome::Stop(Outcome::InputErrors);
-        }
-        Err(e) => return fallback(&e),
-    };
-    let produced = r.produced;
-    let modules = r.stats.last().map_or(0, |s| s.modules);
-    let gpu_ms = ms(r.derive_elapsed
-        + r.interpretation
-            .as_ref()
-            .map_or(Duration::ZERO, |i| i.elapsed));
-    let all_on_cpu = r.stats.iter().skip(1).all(|s| s.on_cpu) && r.stats.len() > 1;
-    let note = match &r.interpretation {
-        _ if all_on_cpu => {
-            "on the CPU (every string within --cpu-prefix; --cpu-prefix 0 for the GPU)".to_string()
-        }
-        Some(i) => format!(
-            "on the GPU in one derivation and interpretation ({} there, {gpu_ms:.3} ms)",
-            crate::count(i.bone_count, "bone")
-        ),
-        None => format!("on the GPU in one derivation ({gpu_ms:.3} ms)"),
-    };
-    let Some(strings) = r.strings else {
-        return GpuOutcome::Done(Derived {
-            trees: Vec::new(),
-            modules,
-            produced,
-            note,
-        });
-    };
-    if need_model {
-        // The trees' interpretations are held together, as on the CPU:
-        // counted from the strings (which are held too) before any is made.
-        let mut f = grm_geom::Footprint::default();
-        for (k, s) in strings.iter().enumerate() {
-            let t = grm_geom::budget::count_string(&loaded.program.systems[trees[k].system], s);
-            f.bones += t.bones;
-            f.instances += t.instances;
-            f.polygons += t.polygons;
-            f.polygon_vertices += t.polygon_vertices;
-            f.bytes = f
-                .bytes
-                .saturating_add(t.bytes)
-                .saturating_add(s.heap_bytes() as u64);
-        }
-        if f.bytes > lim.max_bytes {
-            let e = grm_geom::GeomError::MemoryLimit {
-                footprint: f,
-                limit: lim.max_bytes,
-                output: grm_geom::Output::Model,
-            };
-            emit(
-                &loaded.sources,
-                &e.to_diagnostic(&loaded.program, c.file, c.span)
-                    .with_note("counted from the trees' strings, before their meshes"),
-            );
-            return GpuOutcome::Stop(crate::Outcome::InputErrors);
-        }
-    }
-    let interpretations = parallel_map(strings.len(), args.threads, |k| {
-        let t = &trees[k];
-        need_model
-            .then(|| interpret(loaded, t, &compiled[t.compiled], &strings[k]))
-            .transpose()
-    });
-    let mut grown = Vec::with_capacity(strings.len());
-    for (k, (s, i)) in strings.iter().zip(interpretations).enumerate() {
-        match i {
-            Ok(interpretation) => grown.push(Grown {
-                modules: s.len() as u64,
-                interpretation,
-                text: args.print.then(|| text(loaded, &trees[k], s)),
-            }),
-            Err(e) => {
-                return GpuOutcome::Stop(report_turtle(loaded, &compiled[trees[k].compiled], k, e));
-            }
-        }
-    }
-    GpuOutcome::Done(Derived {
-        trees: grown,
-        modules,
-        produced,
-        note,
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1041,14 +742,14 @@ mod tests {
         assert_eq!(seeds_text(&[u32::MAX, 0]), "seeds 4294967295, 0");
     }
 
-    fn tree(min: Vec3, max: Vec3) -> Grown {
-        Grown {
+    fn tree(min: Vec3, max: Vec3) -> GrownTree<()> {
+        GrownTree {
             modules: 1,
             interpretation: Some(Interpretation {
                 bounds: grm_turtle::Aabb { min, max },
                 ..Interpretation::default()
             }),
-            text: None,
+            kept: (),
         }
     }
 
@@ -1130,10 +831,10 @@ mod tests {
             max: Vec3::Y,
         };
         let grown = vec![
-            Grown {
+            GrownTree {
                 modules: 1,
                 interpretation: Some(thick),
-                text: None,
+                kept: (),
             },
             tree(Vec3::ZERO, Vec3::Y),
         ];
@@ -1154,14 +855,5 @@ mod tests {
         assert!(parse_vary("a=1..inf").is_err());
         let v = parse_vary("a=3..3").expect("one value");
         assert_eq!(v.lo, v.hi);
-    }
-
-    #[test]
-    fn parallel_map_keeps_the_order() {
-        for threads in [0, 1, 2, 7] {
-            let got = parallel_map(50, threads, |i| i * i);
-            assert_eq!(got, (0..50).map(|i| i * i).collect::<Vec<_>>());
-        }
-        assert!(parallel_map(0, 3, |i| i).is_empty());
     }
 }

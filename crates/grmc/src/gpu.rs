@@ -1,5 +1,7 @@
-//! The GPU engine (`grm-gpu`) from the command line: `grmc derive --gpu`
-//! and `grmc bench gpu`.
+//! The GPU engine (`grm-gpu`) from the command line: what `grmc derive
+//! --gpu` prints of a GPU run (the run itself is `grm_grow`'s, behind the
+//! same call as the CPU's: `grm_grow::Backend::Gpu`), the exit code of a
+//! GPU error, and `grmc bench gpu`.
 //!
 //! `--gpu` derives on the GPU and interprets the result there (bones);
 //! the string is read back only when it is printed or exported (the model
@@ -11,152 +13,71 @@
 //! engines stop at the same iteration and module).
 
 use std::path::PathBuf;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-use grm_gpu::{GpuDeriveOptions, GpuError, GpuRunOptions, TurtleProgram};
+use grm_gpu::GpuError;
 
 use crate::Outcome;
-use crate::derive::{DeriveArgs, Loaded, emit, limits, report_derive_error};
 
 fn ms(d: std::time::Duration) -> f64 {
     d.as_secs_f64() * 1e3
 }
 
-/// Whether the CPU may take over after this error (`--cpu-fallback`): no
-/// device, or the device cannot hold the derivation.
-pub(crate) fn device_problem(e: &GpuError) -> bool {
-    matches!(
-        e,
-        GpuError::NoAdapter(_)
-            | GpuError::RequestDevice(_)
-            | GpuError::BufferTooLarge { .. }
-            | GpuError::TooManyWorkgroups { .. }
-            | GpuError::Unsupported(_)
-            | GpuError::Device(_)
-            | GpuError::DeviceLost(_)
-    )
-}
-
-/// Whether a GPU error is the derivation outgrowing a limit (the user's,
-/// or the 32-bit indices) or an unbalanced string: the input's fault
-/// (exit 1), reported as it is, never a reason to fall back to the CPU.
-pub(crate) fn input_limit(e: &GpuError) -> bool {
-    matches!(
-        e,
-        GpuError::ModuleLimit { .. }
-            | GpuError::MemoryLimit { .. }
-            | GpuError::CountOverflow { .. }
-            | GpuError::UnbalancedBrackets { .. }
-    )
-}
-
-/// The exit outcome of a GPU error that stops the run: a derivation that
-/// outgrows the device is a limit, like the CPU's R0201/R0202 (exit 1); no
-/// device or a failing one is the environment (exit 2).
+/// The exit outcome of a GPU error that stops the run: a production's
+/// failing value, a derivation that outgrows a limit or the device, an
+/// unbalanced string are the input's (exit 1, like the CPU's R0201/R0202);
+/// no device or a failing one is the environment (exit 2).
 pub(crate) fn error_outcome(e: &GpuError) -> Outcome {
     match e {
-        GpuError::BufferTooLarge { .. }
+        GpuError::Runtime { .. }
+        | GpuError::BufferTooLarge { .. }
         | GpuError::CountOverflow { .. }
         | GpuError::TooManyWorkgroups { .. } => Outcome::InputErrors,
+        e if grm_grow::gpu::input_limit(e) => Outcome::InputErrors,
         _ => Outcome::Usage,
     }
 }
 
-/// `grmc derive --gpu`. Returns `None` when the CPU path should run
-/// instead (`--cpu-fallback` after a device problem, which was reported).
-pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
-    let c = &loaded.compiled;
-    let lim = limits(args.max_modules, args.max_memory);
-    let opts = GpuRunOptions {
-        derive: GpuDeriveOptions {
-            iterations: args.iterations.unwrap_or(c.settings.iterations),
-            seed: args.seed.unwrap_or(c.settings.seed),
-            max_modules: lim.max_modules,
-            max_bytes: lim.max_bytes,
-            sync_iterations: args.stats,
-            cpu_prefix: args.cpu_prefix,
-            keys: false,
-        },
-        interpret: true,
-        read_string: args.print || args.output.is_some(),
-        read_bones: false,
-        strategy: grm_gpu::DeriveStrategy::Auto,
-        branch_scan: grm_gpu::interp::BranchScan::Auto,
-        pipelined: true,
-    };
-    let fallback = |e: &GpuError| -> Option<Outcome> {
-        if args.cpu_fallback && device_problem(e) {
-            eprintln!("note: GPU: {e}; deriving on the CPU (--cpu-fallback)");
-            None
-        } else {
-            emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));
-            Some(error_outcome(e))
-        }
-    };
-    let gpu = match grm_gpu::shared() {
-        Ok(g) => g,
-        Err(e) => return fallback(&e),
-    };
-    let turtle = TurtleProgram::new(loaded.system(), &c.settings);
-    if args.stats {
-        eprintln!("GPU: {}", gpu.describe());
-        outln!(
-            "{:>9} {:>14} {:>16} {:>12} {:>10} {:>6}",
-            "iteration",
-            "modules",
-            "cumulative",
-            "params",
-            "ms",
-            "engine"
-        );
-    }
-    let start = Instant::now();
-    // Modules produced so far (strings 1 ..= iteration), as the CPU's
-    // `--stats` prints it.
-    let mut cumulative = 0u64;
-    let mut progress = |s: &grm_gpu::GpuIterationStats| {
-        if s.iteration > 0 {
-            cumulative = cumulative.saturating_add(s.modules);
-        }
-        if args.stats {
-            outln!(
-                "{:>9} {:>14} {:>16} {:>12} {:>10.3} {:>6}",
-                s.iteration,
-                s.modules,
-                cumulative,
-                s.param_words,
-                ms(s.elapsed),
-                if s.on_cpu { "CPU" } else { "GPU" }
-            );
-        }
-    };
-    let r = match grm_gpu::run(gpu, c, &turtle, &opts, &mut progress) {
-        Ok(r) => r,
-        Err(e @ GpuError::Runtime { .. }) => {
-            // The CPU engine stops at the same module and names the source.
-            let cpu = grm_derive::DeriveOptions {
-                iterations: opts.derive.iterations,
-                seed: opts.derive.seed,
-                limits: lim,
-            };
-            return Some(match grm_derive::derive(c, &cpu, 0, &mut |_| {}) {
-                Err(ce) => report_derive_error(&loaded.sources, c, &ce),
-                Ok(_) => {
-                    emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));
-                    Outcome::InputErrors
-                }
-            });
-        }
-        Err(e) if input_limit(&e) => {
-            emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));
-            return Some(Outcome::InputErrors);
-        }
-        Err(e) => return fallback(&e),
-    };
-    let total = start.elapsed();
+/// `--stats` of a GPU run, before its first string: the adapter and the
+/// table's header.
+pub(crate) fn header(gpu: &grm_gpu::Gpu) {
+    eprintln!("GPU: {}", gpu.describe());
+    outln!(
+        "{:>9} {:>14} {:>16} {:>12} {:>10} {:>6}",
+        "iteration",
+        "modules",
+        "cumulative",
+        "params",
+        "ms",
+        "engine"
+    );
+}
+
+/// `--stats` of a GPU run: a string's row (the engine that made it last).
+pub(crate) fn row(s: &grm_derive::IterationStats, on_gpu: bool) {
+    outln!(
+        "{:>9} {:>14} {:>16} {:>12} {:>10.3} {:>6}",
+        s.iteration,
+        s.modules,
+        s.cumulative_modules,
+        s.param_words,
+        ms(s.elapsed),
+        if on_gpu { "GPU" } else { "CPU" }
+    );
+}
+
+/// The summary of a GPU run of `c` (`total`: its wall time, read-backs
+/// included).
+pub(crate) fn summary(
+    c: &grm_compile::CompiledSystem,
+    opts: &grm_derive::DeriveOptions,
+    r: &grm_gpu::GpuRun,
+    total: Duration,
+    stats: bool,
+) {
     let interp = r.interpretation.as_ref();
     let on_cpu = r.stats.iter().skip(1).filter(|s| s.on_cpu).count();
-    let n = opts.derive.iterations as usize;
+    let n = opts.iterations as usize;
     let engines = match on_cpu {
         _ if r.path == grm_gpu::DerivePath::Direct => {
             "on the GPU, directly (the final string in one pass)".to_string()
@@ -178,7 +99,7 @@ pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
             "{}: {} {engines}: {} ({} produced in all) in {:.3} ms, {} modules/us; \
              {} on the GPU in {:.3} ms",
             c.name,
-            crate::count(opts.derive.iterations, "iteration"),
+            crate::count(opts.iterations, "iteration"),
             crate::count(r.modules(), "module"),
             r.produced_modules(),
             ms(r.derive_elapsed),
@@ -195,7 +116,7 @@ pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
              on the GPU in {:.3} ms, derivation and interpretation together \
              ({} produced and final modules/us)",
             c.name,
-            crate::count(opts.derive.iterations, "iteration"),
+            crate::count(opts.iterations, "iteration"),
             crate::count(r.modules(), "module"),
             r.produced_modules(),
             crate::count(bones, "bone"),
@@ -206,32 +127,13 @@ pub fn derive(args: &DeriveArgs, loaded: &Loaded) -> Option<Outcome> {
             )),
         );
     }
-    if args.stats {
+    if stats {
         eprintln!(
             "total {:.3} ms (with read-back {:.3} ms)",
             ms(total),
             ms(r.readback_elapsed)
         );
     }
-    let Some(string) = r.string else {
-        return Some(Outcome::Ok);
-    };
-    if args.print {
-        outln!(
-            "{}",
-            grm_compile::text::string_text(&loaded.program, loaded.system(), string.iter())
-        );
-    }
-    if let Some(path) = &args.output {
-        return Some(crate::derive::export_string(
-            loaded,
-            &string,
-            path,
-            &args.image,
-            args.max_memory,
-        ));
-    }
-    Some(Outcome::Ok)
 }
 
 #[derive(clap::Args, Debug)]

@@ -1,15 +1,14 @@
 //! `grmc sample FILE --curves CURVES.json`: grow a sample-mode system with
-//! the guided sampler (grm-sample) and print the model's cost by term, its
-//! bone count and the time; optionally export the model(s).
+//! the guided sampler (grm-sample, through `grm_grow::sample`, the road the
+//! preview takes too) and print the model's cost by term, its bone count
+//! and the time; optionally export the model(s) and the tree.
 
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use grm_diag::Diagnostic;
 use grm_guide::{Curves, VolumeOptions};
-use grm_sample::{
-    ExpectedOptions, FinishLimits, Objective, SampleError, SampleOptions, Sampler, Schedule,
-};
+use grm_sample::{FinishLimits, Objective, SampleError, SampleOptions, Schedule};
 
 use crate::Outcome;
 use crate::derive::{emit, export_model, load};
@@ -329,18 +328,6 @@ pub fn run(args: SampleArgs) -> Outcome {
             weight: args.volume_weight,
         },
     };
-    let t0 = Instant::now();
-    let sampler = match Sampler::new(
-        loaded.system(),
-        c,
-        &curves,
-        objective,
-        ExpectedOptions::default(),
-    ) {
-        Ok(s) => s,
-        Err(e) => return report(&loaded, &e),
-    };
-    let prepare = t0.elapsed();
     let heuristic = !args.no_heuristic && args.cost == CostKind::Curves;
     let opts = SampleOptions {
         seed: args.seed.unwrap_or(c.settings.seed),
@@ -359,13 +346,16 @@ pub fn run(args: SampleArgs) -> Outcome {
             .map_or(grm_sample::DEFAULT_MAX_BYTES, |m| m << 20),
         cancel: None,
         frames: args.frames,
+        ..SampleOptions::default()
     };
-    // --generation: the one frame asked for, not one per generation.
-    let sampled = match args.generation {
-        Some(k) => sampler.sample_frame(&opts, k),
-        None => sampler.sample(&opts),
+    let request = grm_grow::sample::SampleRequest {
+        objective,
+        // --generation: the one frame asked for, not one per generation.
+        generation: args.generation,
+        tree: args.tree.is_some(),
+        ..grm_grow::sample::SampleRequest::new(&curves, opts.clone())
     };
-    let result = match sampled {
+    let sampled = match grm_grow::sample::sample(loaded.system(), c, &request) {
         Ok(r) => r,
         Err(e) => {
             // What ran before a memory stop: the table shows its growth.
@@ -385,6 +375,7 @@ pub fn run(args: SampleArgs) -> Outcome {
             return report(&loaded, &e);
         }
     };
+    let result = &sampled.result;
     let heuristic_text =
         if heuristic && schedule.heuristic_until > 0 && schedule.heuristic_scale > 0.0 {
             format!(
@@ -425,22 +416,20 @@ pub fn run(args: SampleArgs) -> Outcome {
         print_generations(&result.generations);
     }
     // --generation: that generation's model stands for the result.
-    let reported: &[grm_sample::SampledModel] = match args.generation {
-        Some(k) => match result.frame(k) {
-            Some((g, Ok(m))) => {
-                outln!(
-                    "generation {g} of 0..{} (the model the search returns when stopped after it):",
-                    result.generations.len().saturating_sub(1)
-                );
-                std::slice::from_ref(m)
-            }
-            Some((g, Err(e))) => return report_frame(&loaded, g, e),
-            None => {
-                eprintln!("error: the sampler kept no model of generation {k}");
-                return Outcome::InputErrors;
-            }
-        },
-        None => &result.models,
+    let reported: &[grm_sample::SampledModel] = match sampled.shown() {
+        grm_grow::sample::Shown::Models(m) => m,
+        grm_grow::sample::Shown::Frame(g, m) => {
+            outln!(
+                "generation {g} of 0..{} (the model the search returns when stopped after it):",
+                result.generations.len().saturating_sub(1)
+            );
+            std::slice::from_ref(m)
+        }
+        grm_grow::sample::Shown::FrameFailed(g, e) => return report_frame(&loaded, g, e),
+        grm_grow::sample::Shown::NoFrame(k) => {
+            eprintln!("error: the sampler kept no model of generation {k}");
+            return Outcome::InputErrors;
+        }
     };
     for (k, m) in reported.iter().enumerate() {
         let b = &m.cost;
@@ -486,14 +475,13 @@ pub fn run(args: SampleArgs) -> Outcome {
         .fold(f64::INFINITY, f64::min);
     outln!(
         "time {:.2} ms (expected directions {:.2} ms, sampling {:.2} ms); ESS per generation: mean {mean:.2}, min {min:.2} ({:.0}% of the particles)",
-        ms(prepare + result.elapsed),
-        ms(sampler.expected_time()),
+        ms(sampled.prepare + result.elapsed),
+        ms(sampled.expected_time),
         ms(result.elapsed),
         100.0 * min_share,
     );
-    if let (Some(path), Some(m)) = (&args.tree, reported.first()) {
-        let tree = grm_grow::Tree::from_sampled(m, opts.seed, c.root_key(opts.seed));
-        let o = crate::tree::write(&loaded, &tree, Some(&m.interpretation), path);
+    if let (Some(path), Some(m), Some(tree)) = (&args.tree, reported.first(), &sampled.tree) {
+        let o = crate::tree::write(&loaded, tree, Some(&m.interpretation), path);
         if o != Outcome::Ok {
             return o;
         }

@@ -150,3 +150,51 @@ fn bench_gpu_times_a_forest() {
     );
     assert!(out.contains("one job after the other"), "{out}");
 }
+
+/// The part table of a glb (`extras.grm.parts`: each part's module and
+/// identity key).
+fn glb_parts(path: &std::path::Path) -> serde_json::Value {
+    let bytes = std::fs::read(path).expect("glb written");
+    let len = u32::from_le_bytes(bytes[12..16].try_into().expect("length")) as usize;
+    let doc: serde_json::Value = serde_json::from_slice(&bytes[20..20 + len]).expect("json");
+    doc["extras"]["grm"]["parts"].clone()
+}
+
+/// `--gpu -o x.glb` names the parts by the CPU's identity keys, a system
+/// that draws nothing too (the GPU is asked to carry keys; before, its
+/// glb had none), on every path.
+#[test]
+fn derive_gpu_glb_names_parts_by_the_cpus_keys() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    for (file, n) in [
+        ("examples/ternary_tree.grm", "3"),
+        ("examples/stochastic_plant.grm", "4"),
+    ] {
+        let cpu = dir.path().join("cpu.glb");
+        ok(&["derive", file, "-n", n, "-o", &cpu.display().to_string()]);
+        let want = glb_parts(&cpu);
+        let parts = want.as_array().expect("a part table");
+        assert!(!parts.is_empty(), "{file}");
+        assert!(
+            parts
+                .iter()
+                .all(|p| p["key"].as_str().is_some_and(|k| k.len() == 8)),
+            "{file}: every part keyed"
+        );
+        for prefix in ["0", "32768"] {
+            let gpu = dir.path().join(format!("gpu-{prefix}.glb"));
+            ok(&[
+                "derive",
+                file,
+                "-n",
+                n,
+                "--gpu",
+                "--cpu-prefix",
+                prefix,
+                "-o",
+                &gpu.display().to_string(),
+            ]);
+            assert_eq!(glb_parts(&gpu), want, "{file} --cpu-prefix {prefix}");
+        }
+    }
+}
