@@ -4,11 +4,11 @@
 //!
 //! On the CPU ([`Backend::Cpu`]) the trees derive in parallel, one tree
 //! per worker thread (each tree's engine gets the threads left over when
-//! there are fewer trees than workers). On the GPU ([`Backend::Gpu`]) the
+//! there are fewer trees than workers). On the GPU (`Backend::Gpu`) the
 //! whole forest is one derivation (`grm_gpu::run_many`, Lipp 5.4: one
 //! count / scan / rewrite per iteration for every tree), with the fall
 //! back to the CPU and the CPU's report of a production's run-time error
-//! as for one tree ([`crate::gpu`]). Either way every tree's string is
+//! as for one tree (`grm_grow::gpu`). Either way every tree's string is
 //! exactly what deriving it alone gives.
 //!
 //! Limits: [`ForestOptions::limits`]' module limit bounds each tree's

@@ -7,7 +7,7 @@
 //! that made each module, the derivation tree) is recorded here once:
 //!
 //! - derive mode, one tree ([`Grower`]): the CPU engine (`grm_derive`) or,
-//!   behind the same call, the GPU engine (`grm_gpu`, [`Backend::Gpu`],
+//!   behind the same call, the GPU engine (`grm_gpu`, `Backend::Gpu`,
 //!   with the `gpu` feature), with the fall back to the CPU and the CPU's
 //!   report of a production's run-time error;
 //! - sample mode ([`sample::sample`]): the guided sampler (`grm_sample`)
@@ -126,7 +126,7 @@ pub enum Event<'e> {
 pub struct Grown {
     /// The final string; it carries keys when the system draws or when
     /// keys or a tree were asked for. Empty when a GPU run left it on the
-    /// device ([`gpu::GpuChoice::read_string`] false; `stats` has its
+    /// device (`gpu::GpuChoice::read_string` false; `stats` has its
     /// size).
     pub string: ModuleString,
     /// One entry per string: the axiom, then each step.
