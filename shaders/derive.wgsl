@@ -158,9 +158,10 @@ fn weight_of(a: u32, d: Draws) -> f32 {
     return vm_st[0];
 }
 
-// The race's fixed-point logarithms (grm_compile::rng: log2_frac,
-// log2_fixed, log2_weight, race_score), bit for bit: integers only, the
-// table packed after the system's tables.
+// The race (grm_compile::rng, "Choosing among weighted alternatives"),
+// bit for bit: an alternative's time `-log2(u)` in 16.16 fixed point from
+// the logarithm table packed after the system's tables, and the exact
+// comparison `ta * wb < tb * wa` on 64-bit integers made of two u32s.
 fn log2_frac(x: u32) -> u32 {
     let i = (x >> 23u) & 0xffu;
     let t = (x >> 7u) & 0xffffu;
@@ -169,31 +170,87 @@ fn log2_frac(x: u32) -> u32 {
     return a + (((b - a) * t + 0x8000u) >> 16u);
 }
 
-fn log2_fixed(v: u32) -> i32 {
+fn log2_fixed(v: u32) -> u32 {
     if (v == 0u) {
-        return 0i;
+        return 0u;
     }
     let n = 31u - countLeadingZeros(v);
-    return i32((n << 16u) + log2_frac(v << (31u - n)));
+    return (n << 16u) + log2_frac(v << (31u - n));
 }
 
-fn log2_weight(w: f32) -> i32 {
+fn race_time(h: u32) -> u32 {
+    return (24u << 16u) - log2_fixed((h >> 8u) + 1u);
+}
+
+// A finite positive f32 as an integer mantissa and a power of two:
+// w = m * 2^e, m below 2^24 (e biased by 150 to stay unsigned: e + 150).
+fn weight_parts(w: f32) -> vec2<u32> {
     let bits = bitcast<u32>(w) & 0x7fffffffu;
-    let e = i32(bits >> 23u);
+    let e = bits >> 23u;
     let m = bits & 0x007fffffu;
-    if (e == 0i) {
-        return log2_fixed(m) - (149i << 16u);
+    if (e == 0u) {
+        return vec2<u32>(m, 1u);
     }
-    return ((e - 127i) << 16u) + i32(log2_frac(0x80000000u | (m << 8u)));
+    return vec2<u32>(m | 0x00800000u, e);
 }
 
-fn race_score(h: u32, w: f32) -> i32 {
-    let v = (h >> 8u) + 1u;
-    let a = (24i << 16u) - log2_fixed(v);
-    if (a <= 0i) {
-        return i32(-2147483647i - 1i);
+// t * m as (lo, hi) for t below 2^21 and m below 2^24.
+fn mul_wide(t: u32, m: u32) -> vec2<u32> {
+    let tl = t & 0xffffu;
+    let th = t >> 16u;
+    let ml = m & 0xffffu;
+    let mh = m >> 16u;
+    let ll = tl * ml;
+    let mid = tl * mh + th * ml;
+    let lo = ll + (mid << 16u);
+    let carry = select(0u, 1u, lo < ll);
+    let hi = th * mh + (mid >> 16u) + carry;
+    return vec2<u32>(lo, hi);
+}
+
+fn bit_length(x: vec2<u32>) -> u32 {
+    if (x.y != 0u) {
+        return 64u - countLeadingZeros(x.y);
     }
-    return log2_fixed(u32(a)) - log2_weight(w);
+    return 32u - countLeadingZeros(x.x);
+}
+
+fn shift_left(x: vec2<u32>, s: u32) -> vec2<u32> {
+    if (s == 0u) {
+        return x;
+    }
+    if (s >= 32u) {
+        return vec2<u32>(0u, x.x << (s - 32u));
+    }
+    return vec2<u32>(x.x << s, (x.y << s) | (x.x >> (32u - s)));
+}
+
+fn less_wide(a: vec2<u32>, b: vec2<u32>) -> bool {
+    return a.y < b.y || (a.y == b.y && a.x < b.x);
+}
+
+// ta / wa < tb / wb, exactly: ta * mb * 2^eb < tb * ma * 2^ea.
+fn race_earlier(ta: u32, wa: f32, tb: u32, wb: f32) -> bool {
+    let pa = weight_parts(wa);
+    let pb = weight_parts(wb);
+    let x = mul_wide(ta, pb.x);
+    let y = mul_wide(tb, pa.x);
+    let x_zero = x.x == 0u && x.y == 0u;
+    let y_zero = y.x == 0u && y.y == 0u;
+    if (x_zero || y_zero) {
+        return x_zero && !y_zero;
+    }
+    // Compare x * 2^(eb - ea) with y: first by the leading bit's place.
+    let lx = i32(bit_length(x)) + i32(pb.y);
+    let ly = i32(bit_length(y)) + i32(pa.y);
+    if (lx != ly) {
+        return lx < ly;
+    }
+    let d = i32(pb.y) - i32(pa.y);
+    if (d >= 0i) {
+        return less_wide(shift_left(x, u32(d)), y);
+    }
+    return less_wide(x, shift_left(y, u32(-d)));
 }
 
 fn decide(i: u32) -> Decision {
@@ -221,8 +278,8 @@ fn decide(i: u32) -> Decision {
         // The race among the alternatives (grm_compile::rng, "Choosing
         // among weighted alternatives"; grm_compile::select): computed
         // weights must all be positive and finite (checked before any
-        // draw, as the CPU does); each alternative scores its own draw
-        // and weight, the lowest score wins, the first on a tie.
+        // draw, as the CPU does); each alternative's time is its own
+        // draw over its weight, the earliest wins, the first on a tie.
         let last = g.first_alt + g.alt_count - 1u;
         let const_weights = (g.flags & GROUP_CONST_WEIGHTS) != 0u;
         if (!const_weights) {
@@ -234,17 +291,18 @@ fn decide(i: u32) -> Decision {
             }
         }
         var best = g.first_alt;
-        var best_score = 0x7fffffffi;
+        var best_time = 0u;
+        var best_w = 1.0;
         for (var a = g.first_alt; a <= last; a = a + 1u) {
             var w = alt_at(a).weight;
             if (!const_weights) {
                 w = weight_of(a, d);
             }
-            let h = rng_hash(d.seed, d.iteration, d.position, 0x80000000u | (a - g.first_alt));
-            let score = race_score(h, w);
-            if (score < best_score) {
-                best_score = score;
+            let t = race_time(rng_hash(d.seed, d.iteration, d.position, 0x80000000u | (a - g.first_alt)));
+            if (a == g.first_alt || race_earlier(t, w, best_time, best_w)) {
                 best = a;
+                best_time = t;
+                best_w = w;
             }
         }
         return Decision(best, 0u);

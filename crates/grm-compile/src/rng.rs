@@ -76,13 +76,16 @@
 //! every module whose choice changes chose `p` before or chooses it now
 //! (the rule behind weighted rendezvous hashing).
 //!
-//! The race is decided on integers so that the CPU and the GPU agree bit
-//! for bit: [`race_score`] is `log2(-log2(u_k)) - log2(w_k)` in 16.16
-//! fixed point, from [`log2_fixed`] (a 257-entry table of `log2(1 + i/256)`,
-//! [`LOG2_TABLE`], and linear interpolation, rounded: within 1.5/65536 of
-//! the true logarithm) with `u_k = ((h_k >> 8) + 1) / 2^24` in `(0, 1]`; the lowest
-//! score wins. (The constant factors between `ln` and `log2` and the 16.16
-//! scale are the same for every alternative and drop out.)
+//! The race is decided exactly so that the CPU and the GPU agree bit for
+//! bit: an alternative's time is [`race_time`], `-log2(u_k)` in 16.16
+//! fixed point (an integer from [`log2_fixed`]: a 257-entry table of
+//! `log2(1 + i/256)`, [`LOG2_TABLE`], and rounded linear interpolation,
+//! within 1.5/65536 of the true logarithm) for `u_k = ((h_k >> 8) + 1) /
+//! 2^24` in `(0, 1]`; alternative `a` is earlier than `b` when
+//! `time_a * w_b < time_b * w_a`, compared exactly ([`race_earlier`]); the
+//! earliest wins, the first alternative on a tie. (The constant factor
+//! between `ln` and `log2` is the same for every alternative and drops
+//! out.)
 //!
 //! `normal(mean, sd)` is Box-Muller in f32 on `u1 = u(draw)` and
 //! `u2 = u(draw + 1)`: `mean + sd * sqrt(-2 ln(1 - u1)) * cos(2 PI u2)`
@@ -234,31 +237,24 @@ pub fn log2_fixed(v: u32) -> i32 {
     ((n << 16) + log2_frac(v << (31 - n))) as i32
 }
 
-/// `log2(w)` in 16.16 fixed point for a finite positive `f32` `w`, from its
-/// bits (subnormals included); exact in integers.
+/// An alternative's time in the race (module documentation): `-log2(u)`
+/// in 16.16 fixed point for the draw `u = ((h >> 8) + 1) / 2^24` in
+/// `(0, 1]`, an integer in `0 ..= 24 * 2^16` (0 when `u = 1`). The time
+/// that the race compares is this over the alternative's weight.
 #[inline]
-pub fn log2_weight(w: f32) -> i32 {
-    let bits = w.to_bits() & 0x7fff_ffff;
-    let e = (bits >> 23) as i32;
-    let m = bits & 0x007f_ffff;
-    if e == 0 {
-        log2_fixed(m) - (149 << 16)
-    } else {
-        ((e - 127) << 16) + log2_frac(0x8000_0000 | (m << 8)) as i32
-    }
+pub fn race_time(h: u32) -> u32 {
+    ((24 << 16) - log2_fixed((h >> 8) + 1)) as u32
 }
 
-/// An alternative's score in the race (module documentation): its draw's
-/// hash `h` and its weight `w` (finite and positive); the lowest score
-/// wins. `i32::MIN` when the draw is `u = 1` (time 0).
+/// Whether time `ta` at weight `wa` is strictly earlier than time `tb` at
+/// weight `wb` (weights finite and positive): `ta / wa < tb / wb`, decided
+/// exactly as `ta * wb < tb * wa`. Both products are exact in `f64` (at
+/// most 21 + 24 significant bits, well inside its range), so this is the
+/// exact comparison of the real numbers; the GPU decides the same exact
+/// comparison on 64-bit integers built from `u32`s.
 #[inline]
-pub fn race_score(h: u32, w: f32) -> i32 {
-    let v = (h >> 8) + 1;
-    let a = (24 << 16) - log2_fixed(v);
-    if a <= 0 {
-        return i32::MIN;
-    }
-    log2_fixed(a as u32) - log2_weight(w)
+pub fn race_earlier(ta: u32, wa: f32, tb: u32, wb: f32) -> bool {
+    f64::from(ta) * f64::from(wb) < f64::from(tb) * f64::from(wa)
 }
 
 /// MurmurHash3 x86_32 of the key `iteration, position, draw` (three
@@ -319,7 +315,7 @@ pub struct DrawCtx {
 }
 
 impl DrawCtx {
-    /// The hash behind draw `draw` (what [`race_score`] takes).
+    /// The hash behind draw `draw` (what [`race_time`] takes).
     #[inline]
     pub fn bits(&self, draw: u32) -> u32 {
         hash(self.seed, self.iteration, self.position, draw)
@@ -507,34 +503,36 @@ mod tests {
             }
             v = v * 5 / 4 + 1;
         }
-        for w in [
-            1e-45f32,
-            3e-39,
-            f32::MIN_POSITIVE,
-            0.1,
-            0.5,
-            1.0,
-            1.5,
-            3.0,
-            1e30,
-            f32::MAX,
-        ] {
-            let exact = f64::from(w).log2() * 65536.0;
-            let got = f64::from(log2_weight(w));
-            assert!((got - exact).abs() <= 1.5, "log2({w}): {got} vs {exact}");
-        }
     }
 
     /// The race picks each alternative with probability weight / total.
     fn race(ctx: &DrawCtx, weights: &[f32]) -> usize {
-        let mut best = (i32::MAX, 0);
+        let mut best: Option<(u32, f32, usize)> = None;
         for (k, &w) in weights.iter().enumerate() {
-            let s = race_score(ctx.bits(choice_draw(k as u32)), w);
-            if s < best.0 {
-                best = (s, k);
+            let t = race_time(ctx.bits(choice_draw(k as u32)));
+            if best.is_none_or(|(bt, bw, _)| race_earlier(t, w, bt, bw)) {
+                best = Some((t, w, k));
             }
         }
-        best.1
+        best.map_or(0, |b| b.2)
+    }
+
+    #[test]
+    fn race_comparisons_are_exact() {
+        // Products that differ in the last of 45 bits, and weights at the
+        // ends of the f32 range.
+        let t = (24 << 16) - 1;
+        let w = f32::from_bits(0x3fff_ffff);
+        let w_next = f32::from_bits(0x4000_0000);
+        assert!(race_earlier(t, w_next, t, w));
+        assert!(!race_earlier(t, w, t, w));
+        assert!(race_earlier(t - 1, w, t, w));
+        assert!(race_earlier(0, 1e-45, 1, f32::MAX));
+        assert!(!race_earlier(1, f32::MAX, 0, 1e-45));
+        assert!(race_earlier(1, f32::MAX, 1_572_864, 1e-45));
+        assert!(!race_earlier(1_572_864, 1e-45, 1, f32::MAX));
+        assert_eq!(race_time(u32::MAX), 0);
+        assert_eq!(race_time(0), 24 << 16);
     }
 
     #[test]

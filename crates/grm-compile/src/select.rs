@@ -6,7 +6,7 @@
 //! the same rule and are tested against the CPU engine.
 
 use crate::CompiledSystem;
-use crate::rng::{DrawCtx, choice_draw, race_score};
+use crate::rng::{DrawCtx, choice_draw, race_earlier, race_time};
 use crate::table::{GROUP_CONST_WEIGHTS, GroupHeader, NONE};
 use crate::vm::{Vm, VmError};
 
@@ -33,9 +33,10 @@ impl From<VmError> for AltError {
 /// The exponential race of [`crate::rng`] ("Choosing among weighted
 /// alternatives"): every weight is taken first (the constant, or its
 /// bytecode run with `bind` and `draws`) and rejected unless finite and
-/// positive; then each alternative `k` scores
-/// [`race_score`]`(draws.bits(choice_draw(k)), w_k)` and the lowest score
-/// wins, the first alternative on a tie. `scratch` holds the weights.
+/// positive; then alternative `k`'s time is
+/// [`race_time`]`(draws.bits(choice_draw(k)))` over its weight, and the
+/// earliest ([`race_earlier`]) wins, the first alternative on a tie.
+/// `scratch` holds computed weights.
 pub fn choose_alternative(
     sys: &CompiledSystem,
     g: &GroupHeader,
@@ -51,10 +52,12 @@ pub fn choose_alternative(
         .alts
         .get(g.first_alt as usize..g.first_alt as usize + g.alt_count as usize)
         .unwrap_or(&[]);
-    scratch.clear();
-    if g.flags & GROUP_CONST_WEIGHTS != 0 {
+    let weights: &[f32] = if g.flags & GROUP_CONST_WEIGHTS != 0 {
+        scratch.clear();
         scratch.extend(alts.iter().map(|a| a.weight));
+        scratch
     } else {
+        scratch.clear();
         for (k, a) in alts.iter().enumerate() {
             let wgt = if a.weight_code == NONE {
                 a.weight
@@ -69,13 +72,18 @@ pub fn choose_alternative(
             }
             scratch.push(wgt);
         }
-    }
-    let mut best = (i32::MAX, 0u32);
-    for (k, &w) in scratch.iter().enumerate() {
-        let score = race_score(draws.bits(choice_draw(k as u32)), w);
-        if score < best.0 {
-            best = (score, k as u32);
+        scratch
+    };
+    let Some((&w0, rest)) = weights.split_first() else {
+        return Ok(g.first_alt);
+    };
+    let mut best = (race_time(draws.bits(choice_draw(0))), w0, 0u32);
+    for (k, &w) in rest.iter().enumerate() {
+        let k = k as u32 + 1;
+        let t = race_time(draws.bits(choice_draw(k)));
+        if race_earlier(t, w, best.0, best.1) {
+            best = (t, w, k);
         }
     }
-    Ok(g.first_alt + best.1)
+    Ok(g.first_alt + best.2)
 }

@@ -37,9 +37,10 @@ fn example_scenes_match_the_cpu() {
     }
 }
 
-/// Weights that add up past the f32 range (constant and computed): both
-/// engines scale them by `WEIGHT_SCALE` and draw a fair coin, not always
-/// the last alternative, and agree module for module.
+/// Weights that add up past the f32 range (constant and computed): the
+/// race needs no sum, so both engines draw a fair coin (2:3 for the
+/// computed pair), not always the last alternative, and agree module for
+/// module.
 #[test]
 fn weights_past_the_float_range_draw_fairly_on_both_engines() {
     let g = gpu();
@@ -64,6 +65,35 @@ fn weights_past_the_float_range_draw_fairly_on_both_engines() {
             assert_eq!(distinct.len(), 2, "{what}: both alternatives are drawn");
             // 200 fair (1:1) or 2:3 draws: far from all one way.
             assert!((20..=180).contains(&f), "{what} seed {seed}: {f} of 200");
+        }
+    }
+}
+
+/// The race's exact comparison (`t_a * w_b < t_b * w_a`: f64 on the CPU,
+/// 64-bit integers from u32s on the GPU) on weights from subnormals to
+/// the f32 limit, neighbouring floats and equal weights (ties go to the
+/// first): the same choice for every module on both engines.
+#[test]
+fn the_race_agrees_on_extreme_and_neighbouring_weights() {
+    let g = gpu();
+    let axiom = vec!["A(1)"; 3000].join(" ");
+    let sets = [
+        "(1e-45) F; A(x) -> (3e38) G; A(x) -> (1e-40) H",
+        "(1) F; A(x) -> (1.0000001) G; A(x) -> (0.99999994) H",
+        "(x) F; A(x) -> (x) G; A(x) -> (x) H",
+        "(x * 1e-44) F; A(x) -> (x * 2e-44) G; A(x) -> (x * 1e-38) H",
+        "(1e-38) F; A(x) -> (1.2e-38) G; A(x) -> (x * 5e-39) H",
+        "(3.4028235e38) F; A(x) -> (x * 3.4e38) G; A(x) -> (1e-30) H",
+    ];
+    for set in sets {
+        let sys = inline(&format!(
+            "system S {{ iterations = 1; axiom {axiom}; A(x) -> {set}; }}"
+        ))
+        .expect("compiles");
+        for seed in [1, 5, 900] {
+            let cpu = cpu_derive(&sys, 1, seed).expect("cpu derives");
+            let gpu = derive(g, &sys, &gpu_opts(&sys, 1, seed)).expect("gpu derives");
+            assert_same(&format!("{set} seed {seed}"), &cpu, &gpu.string);
         }
     }
 }
