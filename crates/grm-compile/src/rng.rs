@@ -261,11 +261,20 @@ pub fn race_earlier(ta: u32, wa: f32, tb: u32, wb: f32) -> bool {
 /// little-endian words) with `seed`. See the module documentation.
 #[inline]
 pub const fn hash(seed: u32, iteration: u32, position: u32, draw: u32) -> u32 {
-    let mut h = seed;
-    h = mix(h, iteration);
-    h = mix(h, position);
-    h = mix(h, draw);
-    fmix(h ^ 12)
+    hash_finish(hash_prefix(seed, iteration, position), draw)
+}
+
+/// The part of [`hash`] that does not depend on the draw index, for
+/// callers that take several draws of one module (the race).
+#[inline]
+pub const fn hash_prefix(seed: u32, iteration: u32, position: u32) -> u32 {
+    mix(mix(seed, iteration), position)
+}
+
+/// [`hash`] from its [`hash_prefix`]: the same value.
+#[inline]
+pub const fn hash_finish(prefix: u32, draw: u32) -> u32 {
+    fmix(mix(prefix, draw) ^ 12)
 }
 
 /// One MurmurHash3 block step.
@@ -319,6 +328,13 @@ impl DrawCtx {
     #[inline]
     pub fn bits(&self, draw: u32) -> u32 {
         hash(self.seed, self.iteration, self.position, draw)
+    }
+
+    /// [`hash_prefix`] of this context: with [`hash_finish`], the hash of
+    /// any of its draws.
+    #[inline]
+    pub fn prefix(&self) -> u32 {
+        hash_prefix(self.seed, self.iteration, self.position)
     }
 
     /// The uniform draw with this index.

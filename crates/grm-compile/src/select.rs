@@ -6,7 +6,7 @@
 //! the same rule and are tested against the CPU engine.
 
 use crate::CompiledSystem;
-use crate::rng::{DrawCtx, choice_draw, race_earlier, race_time};
+use crate::rng::{DrawCtx, choice_draw, hash_finish, race_earlier, race_time};
 use crate::table::{GROUP_CONST_WEIGHTS, GroupHeader, NONE};
 use crate::vm::{Vm, VmError};
 
@@ -52,38 +52,38 @@ pub fn choose_alternative(
         .alts
         .get(g.first_alt as usize..g.first_alt as usize + g.alt_count as usize)
         .unwrap_or(&[]);
-    let weights: &[f32] = if g.flags & GROUP_CONST_WEIGHTS != 0 {
-        scratch.clear();
-        scratch.extend(alts.iter().map(|a| a.weight));
-        scratch
-    } else {
-        scratch.clear();
-        for (k, a) in alts.iter().enumerate() {
-            let wgt = if a.weight_code == NONE {
-                a.weight
-            } else {
-                vm.run1(&sys.code, &sys.consts, a.weight_code, bind, draws)?
-            };
-            if !(wgt.is_finite() && wgt > 0.0) {
-                return Err(AltError::BadWeight {
-                    value: wgt,
-                    alt: g.first_alt + k as u32,
-                });
-            }
-            scratch.push(wgt);
+    if g.flags & GROUP_CONST_WEIGHTS != 0 {
+        return Ok(g.first_alt + race(draws, alts.iter().map(|a| a.weight)));
+    }
+    scratch.clear();
+    for (k, a) in alts.iter().enumerate() {
+        let wgt = if a.weight_code == NONE {
+            a.weight
+        } else {
+            vm.run1(&sys.code, &sys.consts, a.weight_code, bind, draws)?
+        };
+        if !(wgt.is_finite() && wgt > 0.0) {
+            return Err(AltError::BadWeight {
+                value: wgt,
+                alt: g.first_alt + k as u32,
+            });
         }
-        scratch
-    };
-    let Some((&w0, rest)) = weights.split_first() else {
-        return Ok(g.first_alt);
-    };
-    let mut best = (race_time(draws.bits(choice_draw(0))), w0, 0u32);
-    for (k, &w) in rest.iter().enumerate() {
-        let k = k as u32 + 1;
-        let t = race_time(draws.bits(choice_draw(k)));
-        if race_earlier(t, w, best.0, best.1) {
-            best = (t, w, k);
+        scratch.push(wgt);
+    }
+    Ok(g.first_alt + race(draws, scratch.iter().copied()))
+}
+
+/// The index of the race's winner among `weights` (finite, positive).
+#[inline]
+fn race(draws: &DrawCtx, weights: impl Iterator<Item = f32>) -> u32 {
+    let prefix = draws.prefix();
+    let mut best: Option<(u32, f32, u32)> = None;
+    for (k, w) in weights.enumerate() {
+        let k = k as u32;
+        let t = race_time(hash_finish(prefix, choice_draw(k)));
+        if best.is_none_or(|(bt, bw, _)| race_earlier(t, w, bt, bw)) {
+            best = Some((t, w, k));
         }
     }
-    Ok(g.first_alt + best.2)
+    best.map_or(0, |b| b.2)
 }
