@@ -2,7 +2,10 @@
 // (JavaScript, string mode: one character per module, no parameters), on
 // the classic scenes, interleaved round by round. Run by scripts/peers-js.sh.
 //
-//   node scripts/peers-js.mjs GRMC ROUNDS LINDENMAYER_DIR
+//   node scripts/peers-js.mjs GRMC ROUNDS LINDENMAYER_DIR [BASE_GRMC]
+//
+// With BASE_GRMC (an older build of grmc), each round also runs it, so the
+// before/after ratios come from the same run on a busy machine.
 //
 // A JavaScript run is a fresh LSystem instance, `iterate(n)` and one read
 // of the final string (`getString()`, which flattens it). A grm run is one
@@ -12,7 +15,7 @@ import { spawnSync } from 'node:child_process';
 import { createRequire } from 'node:module';
 import path from 'node:path';
 
-const [grmc, roundsArg, libDir] = process.argv.slice(2);
+const [grmc, roundsArg, libDir, baseGrmc] = process.argv.slice(2);
 const rounds = Number(roundsArg ?? 15);
 const require = createRequire(path.join(path.resolve(libDir), 'index.js'));
 const LSystem = require('lindenmayer');
@@ -33,10 +36,22 @@ const scenes = [
 
 const median = (v) => { const s = [...v].sort((a, b) => a - b); return s[Math.floor(s.length / 2)]; };
 
+const runGrm = (bin, s, len) => {
+  const t1 = process.hrtime.bigint();
+  const g = spawnSync(bin, ['derive', s.file, '-n', String(s.n), '--threads', '1'], { encoding: 'utf8' });
+  const proc = Number(process.hrtime.bigint() - t1) / 1e6;
+  if (g.status !== 0) throw new Error(`grmc failed: ${g.stderr}`);
+  const m = /: ([\d]+) modules? \(.* in ([\d.]+) ms/.exec(g.stderr);
+  if (!m) throw new Error(`unexpected grmc output: ${g.stderr}`);
+  if (Number(m[1]) !== len) throw new Error(`${s.name}: grm made ${m[1]} modules, lindenmayer ${len}`);
+  return [Number(m[2]), proc];
+};
+
 console.log(`grm against npm lindenmayer 1.5.4 (node ${process.version}), one thread, median of ${rounds} interleaved rounds (ms)`);
-console.log('scene              n     final |  js (derive+read)  grm derive  grm process | derive/js  process/js');
+console.log('scene              n     final |  js (derive+read)  grm derive  grm process | derive/js  process/js' +
+  (baseGrmc ? ' |  base derive base process | derive/base process/base' : ''));
 for (const s of scenes) {
-  const js = [], derive = [], proc = [];
+  const js = [], derive = [], proc = [], bderive = [], bproc = [], rd = [], rp = [];
   let len = 0;
   for (let r = 0; r < rounds; r++) {
     const t0 = process.hrtime.bigint();
@@ -45,16 +60,22 @@ for (const s of scenes) {
     const out = l.getString();
     js.push(Number(process.hrtime.bigint() - t0) / 1e6);
     len = out.length;
-
-    const t1 = process.hrtime.bigint();
-    const g = spawnSync(grmc, ['derive', s.file, '-n', String(s.n), '--threads', '1'], { encoding: 'utf8' });
-    proc.push(Number(process.hrtime.bigint() - t1) / 1e6);
-    if (g.status !== 0) throw new Error(`grmc failed: ${g.stderr}`);
-    const m = /: ([\d]+) modules? \(.* in ([\d.]+) ms/.exec(g.stderr);
-    if (!m) throw new Error(`unexpected grmc output: ${g.stderr}`);
-    if (Number(m[1]) !== len) throw new Error(`${s.name}: grm made ${m[1]} modules, lindenmayer ${len}`);
-    derive.push(Number(m[2]));
+    const [d, p] = runGrm(grmc, s, len);
+    derive.push(d);
+    proc.push(p);
+    if (baseGrmc) {
+      const [bd, bp] = runGrm(baseGrmc, s, len);
+      bderive.push(bd);
+      bproc.push(bp);
+      rd.push(d / bd);
+      rp.push(p / bp);
+    }
   }
   const [j, d, p] = [median(js), median(derive), median(proc)];
-  console.log(`${s.name.padEnd(16)} ${String(s.n).padStart(2)} ${String(len).padStart(9)} | ${j.toFixed(2).padStart(17)} ${d.toFixed(2).padStart(11)} ${p.toFixed(2).padStart(12)} | ${(d / j).toFixed(2).padStart(9)} ${(p / j).toFixed(2).padStart(11)}`);
+  let line = `${s.name.padEnd(16)} ${String(s.n).padStart(2)} ${String(len).padStart(9)} | ${j.toFixed(2).padStart(17)} ${d.toFixed(2).padStart(11)} ${p.toFixed(2).padStart(12)} | ${(d / j).toFixed(2).padStart(9)} ${(p / j).toFixed(2).padStart(11)}`;
+  if (baseGrmc) {
+    // Ratios pair by pair (round by round), then their median.
+    line += ` | ${median(bderive).toFixed(2).padStart(12)} ${median(bproc).toFixed(2).padStart(12)} | ${median(rd).toFixed(2).padStart(11)} ${median(rp).toFixed(2).padStart(12)}`;
+  }
+  console.log(line);
 }

@@ -3,7 +3,7 @@
 # string mode (JavaScript), interleaved (scripts/peers-js.mjs). Installs the
 # library from the npm registry into target/peers-js once. Not part of the
 # tests: a benchmark, docs/benchmarks.md records its figures.
-#   ./scripts/peers-js.sh [ROUNDS]
+#   ./scripts/peers-js.sh [ROUNDS [BASE_GRMC]]   (BASE_GRMC: an older grmc, run in the same rounds)
 # The Rust peers (symbios, lindenmayer-system): cargo bench -p grm-derive --bench peers
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -13,4 +13,4 @@ if [ ! -f "$dir/node_modules/lindenmayer/package.json" ]; then
     (cd "$dir" && npm init -y >/dev/null && npm install --no-audit --no-fund lindenmayer@1.5.4)
 fi
 cargo build --release -p grmc --locked
-node scripts/peers-js.mjs target/release/grmc "${1:-15}" "$dir"
+node scripts/peers-js.mjs target/release/grmc "${1:-15}" "$dir" ${2:+"$2"}

@@ -10,7 +10,9 @@
 //!
 //! Columns (medians of interleaved runs, milliseconds):
 //! - `grm fresh`: `Engine::new` and a whole derivation on one thread, fresh
-//!   memory every run (a user's one-shot derivation);
+//!   memory every run (a user's one-shot derivation: this bench installs
+//!   `grmc`'s allocator, [`grm_derive::HugePageAlloc`], whose large blocks
+//!   are fresh mappings every time, as in a new process);
 //! - `grm warm`: one engine deriving again and again, its strings handed
 //!   back (`Engine::recycle`), as a preview regrows a model;
 //! - `symbios`, `lsys`: a fresh system per run (rules parsed or built,
@@ -18,7 +20,9 @@
 //! - `memcpy`: copying the bytes of grm's final string once (symbols,
 //!   starts, parameters): the floor memory bandwidth sets for writing it;
 //! - ratios: grm's time over the best peer's (below 1: grm is faster), and
-//!   grm warm over the memcpy floor.
+//!   grm warm over the memcpy floor;
+//! - `warm/us`: modules produced (the sum of the lengths of strings 1..=n)
+//!   per microsecond of `grm warm`.
 //!
 //! The npm `lindenmayer` library (JavaScript) is timed by
 //! `scripts/peers-js.sh`.
@@ -30,6 +34,11 @@ use expression::cond::Cond;
 use expression_num::NumExpr as Expr;
 use grm_derive::{DeriveLimits, DeriveOptions, Engine};
 use lindenmayer_system::parametric::{PRule, PSym, PSystem, ParametricSymbol, ParametricSystem};
+
+/// The allocator `grmc` runs with, so `grm fresh` pays what a new process
+/// pays for fresh memory (the peers run with it too).
+#[global_allocator]
+static ALLOC: grm_derive::HugePageAlloc = grm_derive::HugePageAlloc;
 
 type SymExpr = PSym<char, Expr<f32>>;
 type SymR = PSym<char, f32>;
@@ -181,7 +190,7 @@ fn main() {
         "grm against Rust L-system crates, one thread, median of {rounds} interleaved rounds (ms)"
     );
     println!(
-        "{:<16} {:>2} {:>9} | {:>9} {:>9} {:>9} {:>9} {:>8} | {:>10} {:>10} {:>10}",
+        "{:<16} {:>2} {:>9} | {:>9} {:>9} {:>9} {:>9} {:>8} | {:>10} {:>10} {:>10} {:>8}",
         "scene",
         "n",
         "final",
@@ -192,7 +201,8 @@ fn main() {
         "memcpy",
         "fresh/best",
         "warm/best",
-        "warm/copy"
+        "warm/copy",
+        "warm/us"
     );
     for s in SCENES {
         let c = compile(s.file);
@@ -204,6 +214,8 @@ fn main() {
         let warm_engine = Engine::new(&c, 1).expect("engine");
         let mut times: [Vec<Duration>; 5] = Default::default();
         let mut len = 0usize;
+        let mut dst = None;
+        let mut produced = 0u64;
         for _ in 0..rounds {
             let (t, n) = time(|| {
                 let e = Engine::new(&c, 1).expect("engine");
@@ -213,13 +225,19 @@ fn main() {
             len = n;
             let (t, d) = time(|| warm_engine.derive(&opts, &mut |_| {}).expect("derives"));
             times[1].push(t);
-            // The memcpy floor: the final string's bytes, copied once.
+            produced = d.stats.last().map_or(0, |x| x.cumulative_modules);
+            // The memcpy floor: the final string's bytes, copied once into
+            // memory already written (as the warm engine's recycled
+            // strings are; a fresh destination would time its page
+            // faults, not the bandwidth).
             let st = &d.string;
-            let mut dst = (
-                vec![0u32; st.syms.len()],
-                vec![0u32; st.starts.len()],
-                vec![0f32; st.params.len()],
-            );
+            let dst = dst.get_or_insert_with(|| {
+                (
+                    vec![1u32; st.syms.len()],
+                    vec![1u32; st.starts.len()],
+                    vec![1f32; st.params.len()],
+                )
+            });
             let (t, ()) = time(|| {
                 dst.0.copy_from_slice(&st.syms);
                 dst.1.copy_from_slice(&st.starts);
@@ -242,7 +260,7 @@ fn main() {
         let [fresh, warm, sym, lsys, copy] = times.map(median);
         let best = sym.min(lsys);
         println!(
-            "{:<16} {:>2} {:>9} | {:>9.2} {:>9.2} {:>9.2} {:>9.2} {:>8.2} | {:>10.2} {:>10.2} {:>10.1}",
+            "{:<16} {:>2} {:>9} | {:>9.2} {:>9.2} {:>9.2} {:>9.2} {:>8.2} | {:>10.2} {:>10.2} {:>10.1} {:>8.0}",
             s.name,
             s.n,
             len,
@@ -253,7 +271,8 @@ fn main() {
             copy,
             fresh / best,
             warm / best,
-            warm / copy
+            warm / copy,
+            produced as f64 / (warm * 1e3)
         );
     }
 }
