@@ -85,7 +85,20 @@ pub struct DeriveBench {
     /// against the same run without them.
     #[arg(long)]
     pub keys: bool,
+    /// The scenes and iterations of the peer comparison instead
+    /// (`cargo bench -p grm-derive --bench peers`, `scripts/peers-js.sh`):
+    /// Koch island 6, bracketed plant 6, Hilbert 3D 6, row of trees 9.
+    #[arg(long)]
+    pub peers: bool,
 }
+
+/// The peer comparison's scenes (the same names as [`SCENES`]).
+const PEER_SCENES: &[(&str, &str, u32)] = &[
+    ("koch_island", "KochIsland", 6),
+    ("bracketed_plant", "BracketedPlant", 6),
+    ("hilbert3d", "Hilbert3D", 6),
+    ("row_of_trees", "RowOfTrees", 9),
+];
 
 /// The scenes: example file, system, iterations (Lipp's where he has one).
 const SCENES: &[(&str, &str, u32)] = &[
@@ -427,7 +440,8 @@ fn derive_bench(args: DeriveBench) -> Outcome {
         format!("{nt}/1T"),
     );
     let mut failed = false;
-    for &(file, system, n) in SCENES {
+    let scenes = if args.peers { PEER_SCENES } else { SCENES };
+    for &(file, system, n) in scenes {
         if !wanted(&args.scenes, file) {
             continue;
         }
