@@ -1,0 +1,245 @@
+//! Shape-grammar benchmark (DESIGN.md section 8): a 40-floor by 50-window
+//! facade (2,000 windows) and a four-sided tower of 8,000 windows, derived
+//! by grm-shape on one thread and on all of the machine's threads, and by
+//! `symbios-shape` 0.2 (the peer) on its one thread, in the same run; the
+//! ratio is the peer's time over ours on one thread (the target is 2.5).
+//!
+//! Both engines run the same grammar, derivation only (rules built once,
+//! outside the timing):
+//!
+//! ```text
+//! Facade   -> repeat(y) { 3: Floor }          tag floor
+//! Floor    -> repeat(x) { 2: Tile }           tag column
+//! Tile     -> split(x) { ~0.4: Wall | 1.2: WinStrip | ~0.4: Wall }
+//! WinStrip -> split(y) { ~1: Wall | 1.5: Window | ~0.5: Wall }
+//! Window   -> insert(window)      Wall -> insert(wall)
+//! Tower    -> extrude(120) comp(faces) { side: Facade | top: Roof }
+//! ```
+//!
+//! The facade is 100 by 120; the tower's lot 100 by 100. Run with
+//! `cargo bench -p grm-shape --bench facade`.
+
+use grm_shape::{
+    Axis, Comp, CompCase, CompTarget, Lot, Op, Options, Part, Program, ProgramBuilder, Scope,
+    Selector, Split, derive,
+};
+use std::hint::black_box;
+use std::time::{Duration, Instant};
+use symbios_shape::grammar::parse_ops;
+use symbios_shape::{Interpreter, Quat, Scope as PeerScope, Vec3 as PeerVec3};
+
+fn grm_program(tower: bool) -> Program {
+    let mut b = ProgramBuilder::new("bench");
+    let floor_tag = b.tag("floor");
+    let column_tag = b.tag("column");
+    let facade_tag = b.tag("facade");
+    let tower_s = b.symbol("Tower");
+    let facade = b.symbol("Facade");
+    let floor = b.symbol("Floor");
+    let tile = b.symbol("Tile");
+    let strip = b.symbol("WinStrip");
+    let window = b.symbol("Window");
+    let wall = b.symbol("Wall");
+    let roof = b.symbol("Roof");
+    let window_asset = b.asset("window");
+    let wall_asset = b.asset("wall");
+    let roof_asset = b.asset("roof");
+    b.rule(
+        tower_s,
+        vec![
+            Op::Extrude(120.0.into()),
+            Op::Comp(Comp {
+                target: CompTarget::Faces,
+                cases: vec![
+                    CompCase {
+                        selector: Selector::Side,
+                        target: Some(facade),
+                    },
+                    CompCase {
+                        selector: Selector::Top,
+                        target: Some(roof),
+                    },
+                ],
+                tag: Some(facade_tag),
+            }),
+        ],
+    );
+    b.rule(
+        facade,
+        vec![Op::Repeat(Split {
+            axis: Axis::Y,
+            parts: vec![Part::abs(3.0, Some(floor))],
+            tag: Some(floor_tag),
+        })],
+    );
+    b.rule(
+        floor,
+        vec![Op::Repeat(Split {
+            axis: Axis::X,
+            parts: vec![Part::abs(2.0, Some(tile))],
+            tag: Some(column_tag),
+        })],
+    );
+    b.rule(
+        tile,
+        vec![Op::Split(Split {
+            axis: Axis::X,
+            parts: vec![
+                Part::float(0.4, Some(wall)),
+                Part::abs(1.2, Some(strip)),
+                Part::float(0.4, Some(wall)),
+            ],
+            tag: None,
+        })],
+    );
+    b.rule(
+        strip,
+        vec![Op::Split(Split {
+            axis: Axis::Y,
+            parts: vec![
+                Part::float(1.0, Some(wall)),
+                Part::abs(1.5, Some(window)),
+                Part::float(0.5, Some(wall)),
+            ],
+            tag: None,
+        })],
+    );
+    b.rule(window, vec![Op::Insert(window_asset)]);
+    b.rule(wall, vec![Op::Insert(wall_asset)]);
+    b.rule(roof, vec![Op::Insert(roof_asset)]);
+    b.build(if tower { tower_s } else { facade })
+        .expect("bench program")
+}
+
+fn peer(tower: bool) -> Interpreter {
+    let mut i = Interpreter::new();
+    let rules = [
+        (
+            "Tower",
+            "Extrude(120) Comp(Faces) { Side: Facade | Top: Roof }",
+        ),
+        ("Facade", "Repeat(Y, 3) { Floor }"),
+        ("Floor", "Repeat(X, 2) { Tile }"),
+        (
+            "Tile",
+            "Split(X) { ~0.4: Wall | 1.2: WinStrip | ~0.4: Wall }",
+        ),
+        (
+            "WinStrip",
+            "Split(Y) { ~1: Wall | 1.5: Window | ~0.5: Wall }",
+        ),
+        ("Window", r#"I("window")"#),
+        ("Wall", r#"I("wall")"#),
+        ("Roof", r#"I("roof")"#),
+    ];
+    for (name, text) in rules {
+        if name == "Tower" && !tower {
+            continue;
+        }
+        i.add_rule(name, parse_ops(text).expect("peer rule"));
+    }
+    i
+}
+
+/// Median and minimum of `f`'s time, over at least 15 runs and 1.5 s.
+fn time(mut f: impl FnMut()) -> (Duration, Duration) {
+    f();
+    let mut v = Vec::new();
+    let start = Instant::now();
+    while v.len() < 15 || start.elapsed() < Duration::from_millis(1500) {
+        let t = Instant::now();
+        f();
+        v.push(t.elapsed());
+        if v.len() >= 2000 {
+            break;
+        }
+    }
+    v.sort();
+    (v[v.len() / 2], v[0])
+}
+
+fn ms(d: Duration) -> f64 {
+    d.as_secs_f64() * 1e3
+}
+
+fn main() {
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    println!("grm-shape bench: {threads} hardware threads; times are median (min) per derivation");
+    for (name, tower, windows) in [
+        ("facade 40x50", false, 2000usize),
+        ("tower 4x40x50", true, 8000),
+    ] {
+        let program = grm_program(tower);
+        let lot = if tower {
+            Lot::rectangle(100.0, 100.0)
+        } else {
+            Lot::face(Scope::new(
+                glam::Vec3::ZERO,
+                glam::Vec3::new(100.0, 120.0, 0.0),
+            ))
+        };
+        let window = program.symbol("Window").expect("Window");
+        let opts = |threads| Options {
+            threads,
+            ..Options::default()
+        };
+        let tree = derive(&program, &lot, &opts(1)).expect("derive");
+        let n_windows = tree
+            .nodes()
+            .iter()
+            .filter(
+                |n| matches!(n.kind, grm_shape::NodeKind::Shape { symbol, .. } if symbol == window),
+            )
+            .count();
+        assert_eq!(n_windows, windows, "{name}: windows");
+        assert_eq!(
+            derive(&program, &lot, &opts(threads)).expect("derive"),
+            tree,
+            "{name}: threads agree"
+        );
+
+        let interp = peer(tower);
+        let peer_scope = if tower {
+            PeerScope::new(
+                PeerVec3::ZERO,
+                Quat::IDENTITY,
+                PeerVec3::new(100.0, 0.0, 100.0),
+            )
+        } else {
+            PeerScope::new(
+                PeerVec3::ZERO,
+                Quat::IDENTITY,
+                PeerVec3::new(100.0, 120.0, 0.0),
+            )
+        };
+        let root = if tower { "Tower" } else { "Facade" };
+        let model = interp.derive(peer_scope, root).expect("peer derive");
+        let peer_windows = model
+            .terminals
+            .iter()
+            .filter(|t| t.mesh_id == "window")
+            .count();
+        assert_eq!(peer_windows, windows, "{name}: peer windows");
+
+        let (one, one_min) = time(|| {
+            black_box(derive(&program, &lot, &opts(1)).expect("derive"));
+        });
+        let (many, many_min) = time(|| {
+            black_box(derive(&program, &lot, &opts(threads)).expect("derive"));
+        });
+        let (p, p_min) = time(|| {
+            black_box(interp.derive(peer_scope, root).expect("peer"));
+        });
+        println!(
+            "{name}: {windows} windows, {} nodes | grm-shape 1 thread {:.3} ms ({:.3}) | {threads} threads {:.3} ms ({:.3}) | symbios-shape 0.2 {:.3} ms ({:.3}) | peer / grm-shape (1 thread) {:.2}x",
+            tree.len(),
+            ms(one),
+            ms(one_min),
+            ms(many),
+            ms(many_min),
+            ms(p),
+            ms(p_min),
+            p.as_secs_f64() / one.as_secs_f64(),
+        );
+    }
+}

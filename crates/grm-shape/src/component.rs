@@ -1,0 +1,350 @@
+//! Component split: a mass into its faces or edges, a face into its edges,
+//! each with its own scope and named by orientation (never by a raw face
+//! index).
+//!
+//! Frames (docs/shapes.md, "Component split"):
+//!
+//! - a **wall** (a side face of a mass, one per straight run of its
+//!   footprint's outline) has its origin at the run's start corner on the
+//!   ground, x along the run, y up (the mass's z) and z its outward normal;
+//!   its size is (run length, mass height, 0) and its geometry the
+//!   rectangle;
+//! - the **top** face is the footprint at the mass's height, axes as the
+//!   mass; the **bottom** face is the footprint seen from below (x as the
+//!   mass, y and z reversed, so z points down and out);
+//! - an **edge** has its origin at its start, x along it and z outward
+//!   (the wall's normal for a horizontal edge, the bisector of the two
+//!   walls' normals for a vertical one, the in-plane normal for a face's
+//!   edge); its size is (length, 0, 0).
+//!
+//! Orientation: a wall whose outward normal, in the mass's xy, points
+//! more along -y than along x is `front`, +y `back`, -x `left`, +x `right`
+//! (a tie at 45 degrees goes to front / back). Order: each ring of the
+//! outline (exteriors, then their holes) from its vertex of least (y, x),
+//! counter-clockwise around the solid; walls in that order, then the top,
+//! then the bottom; a case's components are numbered in this order.
+
+use crate::geometry::{Geometry, Outline};
+use crate::ir::{CompTarget, Selector};
+use crate::scope::Scope;
+use glam::{Mat3, Vec3};
+use std::sync::Arc;
+
+/// Which selectors (besides `all`) take a component: a bit per
+/// [`Selector`] variant.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Classes(u8);
+
+impl Classes {
+    fn bit(s: Selector) -> u8 {
+        match s {
+            Selector::Front => 1,
+            Selector::Back => 2,
+            Selector::Left => 4,
+            Selector::Right => 8,
+            Selector::Side => 16,
+            Selector::Top => 32,
+            Selector::Bottom => 64,
+            Selector::All => 0,
+        }
+    }
+
+    fn of(sel: &[Selector]) -> Classes {
+        Classes(sel.iter().fold(0, |a, &s| a | Self::bit(s)))
+    }
+
+    /// Whether `selector` takes this component.
+    pub fn matches(self, selector: Selector) -> bool {
+        selector == Selector::All || self.0 & Self::bit(selector) != 0
+    }
+
+    /// The orientation word among front / back / left / right / top / bottom.
+    pub fn facing(self) -> Option<Selector> {
+        [
+            Selector::Front,
+            Selector::Back,
+            Selector::Left,
+            Selector::Right,
+            Selector::Top,
+            Selector::Bottom,
+        ]
+        .into_iter()
+        .find(|&s| self.0 & Self::bit(s) != 0)
+    }
+}
+
+/// One component: its classes, scope and geometry.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Component {
+    pub classes: Classes,
+    pub scope: Scope,
+    pub geometry: Geometry,
+}
+
+/// Why a component split does not apply.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct NotApplicable;
+
+/// The components of a shape, in canonical order.
+pub fn components(
+    scope: &Scope,
+    geometry: &Geometry,
+    target: CompTarget,
+) -> Result<Vec<Component>, NotApplicable> {
+    let rings = rings_of(scope, geometry).ok_or(NotApplicable)?;
+    let mut out = Vec::new();
+    match (target, geometry.is_mass()) {
+        (CompTarget::Faces, true) => mass_faces(scope, geometry, &rings, &mut out),
+        (CompTarget::Edges, true) => mass_edges(scope, &rings, &mut out),
+        (CompTarget::Edges, false) => face_edges(scope, &rings, &mut out),
+        (CompTarget::Faces, false) => return Err(NotApplicable),
+    }
+    Ok(out)
+}
+
+/// The outline's rings in canonical order (each from its least (y, x)
+/// vertex, straight runs merged), or `None` for an edge.
+fn rings_of(scope: &Scope, geometry: &Geometry) -> Option<Vec<Vec<[f64; 2]>>> {
+    let raw: Vec<Vec<[f64; 2]>> = match geometry {
+        Geometry::Box | Geometry::Rect => {
+            let (x, y) = (f64::from(scope.size.x), f64::from(scope.size.y));
+            vec![vec![[0.0, 0.0], [x, 0.0], [x, y], [0.0, y]]]
+        }
+        Geometry::Prism(o) | Geometry::Polygon(o) => o.rings().collect(),
+        Geometry::Edge => return None,
+    };
+    let scale = f64::from(scope.size.x.max(scope.size.y)).max(1.0);
+    Some(
+        raw.into_iter()
+            .map(|r| canonical(r, scale))
+            .filter(|r| r.len() >= 3)
+            .collect(),
+    )
+}
+
+fn canonical(ring: Vec<[f64; 2]>, scale: f64) -> Vec<[f64; 2]> {
+    let tol = 1e-9 * scale * scale;
+    // Merge straight runs and drop repeated points.
+    let mut pts: Vec<[f64; 2]> = Vec::with_capacity(ring.len());
+    for p in ring {
+        if pts
+            .last()
+            .is_some_and(|q: &[f64; 2]| (q[0] - p[0]).abs() + (q[1] - p[1]).abs() <= 1e-12 * scale)
+        {
+            continue;
+        }
+        pts.push(p);
+    }
+    loop {
+        let n = pts.len();
+        if n < 3 {
+            return pts;
+        }
+        let straight = (0..n).find(|&i| {
+            let a = pts[(i + n - 1) % n];
+            let b = pts[i];
+            let c = pts[(i + 1) % n];
+            let cross = (b[0] - a[0]) * (c[1] - b[1]) - (b[1] - a[1]) * (c[0] - b[0]);
+            let dot = (b[0] - a[0]) * (c[0] - b[0]) + (b[1] - a[1]) * (c[1] - b[1]);
+            cross.abs() <= tol && dot >= 0.0
+        });
+        match straight {
+            Some(i) => {
+                pts.remove(i);
+            }
+            None => break,
+        }
+    }
+    let start = (0..pts.len())
+        .min_by(|&i, &j| {
+            pts[i][1]
+                .total_cmp(&pts[j][1])
+                .then(pts[i][0].total_cmp(&pts[j][0]))
+        })
+        .unwrap_or(0);
+    pts.rotate_left(start);
+    pts
+}
+
+/// Each edge of a ring: start, unit direction, length, outward normal.
+fn runs(ring: &[[f64; 2]]) -> impl Iterator<Item = ([f64; 2], Vec3, f32, Vec3)> + '_ {
+    let n = ring.len();
+    (0..n).filter_map(move |i| {
+        let a = ring[i];
+        let b = ring[(i + 1) % n];
+        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+        let len = (dx * dx + dy * dy).sqrt();
+        (len > 0.0).then(|| {
+            let d = Vec3::new((dx / len) as f32, (dy / len) as f32, 0.0);
+            (a, d, len as f32, Vec3::new(d.y, -d.x, 0.0))
+        })
+    })
+}
+
+fn wall_facing(n: Vec3) -> Selector {
+    if n.x.abs() > n.y.abs() {
+        if n.x > 0.0 {
+            Selector::Right
+        } else {
+            Selector::Left
+        }
+    } else if n.y < 0.0 {
+        Selector::Front
+    } else {
+        Selector::Back
+    }
+}
+
+fn local_frame(scope: &Scope, origin: Vec3, x: Vec3, y: Vec3, z: Vec3, size: Vec3) -> Scope {
+    Scope {
+        origin: scope.world(origin),
+        rotation: (scope.rotation * glam::Quat::from_mat3(&Mat3::from_cols(x, y, z))).normalize(),
+        size,
+    }
+}
+
+fn mass_faces(
+    scope: &Scope,
+    geometry: &Geometry,
+    rings: &[Vec<[f64; 2]>],
+    out: &mut Vec<Component>,
+) {
+    let h = scope.size.z;
+    for ring in rings {
+        for (a, d, len, n) in runs(ring) {
+            let facing = wall_facing(n);
+            out.push(Component {
+                classes: Classes::of(&[facing, Selector::Side]),
+                scope: local_frame(
+                    scope,
+                    Vec3::new(a[0] as f32, a[1] as f32, 0.0),
+                    d,
+                    Vec3::Z,
+                    n,
+                    Vec3::new(len, h, 0.0),
+                ),
+                geometry: Geometry::Rect,
+            });
+        }
+    }
+    let flat = Vec3::new(scope.size.x, scope.size.y, 0.0);
+    let (top, bottom) = match geometry {
+        Geometry::Prism(o) => (
+            Geometry::Polygon(Arc::clone(o)),
+            Geometry::Polygon(Arc::new(o.flipped_y(f64::from(scope.size.y)))),
+        ),
+        _ => (Geometry::Rect, Geometry::Rect),
+    };
+    out.push(Component {
+        classes: Classes::of(&[Selector::Top]),
+        scope: local_frame(
+            scope,
+            Vec3::new(0.0, 0.0, h),
+            Vec3::X,
+            Vec3::Y,
+            Vec3::Z,
+            flat,
+        ),
+        geometry: top,
+    });
+    out.push(Component {
+        classes: Classes::of(&[Selector::Bottom]),
+        scope: local_frame(
+            scope,
+            Vec3::new(0.0, scope.size.y, 0.0),
+            Vec3::X,
+            -Vec3::Y,
+            -Vec3::Z,
+            flat,
+        ),
+        geometry: bottom,
+    });
+}
+
+fn mass_edges(scope: &Scope, rings: &[Vec<[f64; 2]>], out: &mut Vec<Component>) {
+    let h = scope.size.z;
+    for ring in rings {
+        let walls: Vec<_> = runs(ring).collect();
+        for (level, z) in [(Selector::Bottom, 0.0), (Selector::Top, h)] {
+            for &(a, d, len, n) in &walls {
+                out.push(Component {
+                    classes: Classes::of(&[level, wall_facing(n)]),
+                    scope: local_frame(
+                        scope,
+                        Vec3::new(a[0] as f32, a[1] as f32, z),
+                        d,
+                        Vec3::Z,
+                        n,
+                        Vec3::new(len, 0.0, 0.0),
+                    ),
+                    geometry: Geometry::Edge,
+                });
+            }
+        }
+        for (i, &(a, _, _, n)) in walls.iter().enumerate() {
+            let prev = walls[(i + walls.len() - 1) % walls.len()].3;
+            let b = (prev + n).try_normalize().unwrap_or(n);
+            out.push(Component {
+                classes: Classes::of(&[Selector::Side]),
+                scope: local_frame(
+                    scope,
+                    Vec3::new(a[0] as f32, a[1] as f32, 0.0),
+                    Vec3::Z,
+                    b.cross(Vec3::Z),
+                    b,
+                    Vec3::new(h, 0.0, 0.0),
+                ),
+                geometry: Geometry::Edge,
+            });
+        }
+    }
+}
+
+fn face_edges(scope: &Scope, rings: &[Vec<[f64; 2]>], out: &mut Vec<Component>) {
+    for ring in rings {
+        for (a, d, len, n) in runs(ring) {
+            let classes = if n.x.abs() > n.y.abs() {
+                Classes::of(&[
+                    if n.x > 0.0 {
+                        Selector::Right
+                    } else {
+                        Selector::Left
+                    },
+                    Selector::Side,
+                ])
+            } else {
+                Classes::of(&[if n.y > 0.0 {
+                    Selector::Top
+                } else {
+                    Selector::Bottom
+                }])
+            };
+            out.push(Component {
+                classes,
+                scope: local_frame(
+                    scope,
+                    Vec3::new(a[0] as f32, a[1] as f32, 0.0),
+                    d,
+                    Vec3::Z.cross(d),
+                    Vec3::Z,
+                    Vec3::new(len, 0.0, 0.0),
+                ),
+                geometry: Geometry::Edge,
+            });
+        }
+    }
+}
+
+/// The outline of a mass's footprint or a face, for callers that want it
+/// as polygons whatever the geometry (a box's or rectangle's is its
+/// scope's rectangle).
+pub fn outline_of(scope: &Scope, geometry: &Geometry) -> Option<Outline> {
+    match geometry {
+        Geometry::Box | Geometry::Rect => Some(Outline::rect(
+            f64::from(scope.size.x),
+            f64::from(scope.size.y),
+        )),
+        Geometry::Prism(o) | Geometry::Polygon(o) => Some((**o).clone()),
+        Geometry::Edge => None,
+    }
+}

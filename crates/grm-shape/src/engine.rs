@@ -1,0 +1,844 @@
+//! The derivation: from a lot and a program to the whole tree.
+//!
+//! Shapes are expanded depth-first with an explicit stack (no recursion,
+//! so a deep grammar costs heap, not call stack). Expanding a shape runs
+//! its rule once: it picks an alternative (the race of `grm_compile::rng`
+//! keyed by the shape's identity), runs its operations in order and
+//! appends what they make, the shape's **block**, to the node array in one
+//! go: each node is written once, where it stays. A command's children
+//! follow it in the block; parents are backward offsets and blocks forward
+//! offsets, so the blocks of a subtree form a self-contained slice. With
+//! several threads the top of the tree is derived first, down to a depth
+//! where there are enough shapes to share out; each worker derives whole
+//! subtrees, and the slices are spliced in where the one-thread derivation
+//! would have written them. The result is the same bytes for any thread
+//! count.
+//!
+//! Errors (docs/shapes.md, "Limits and errors"): a rule that fails stops
+//! at the failing operation (what it made before stays) and the
+//! derivation goes on elsewhere, so every part of the tree is derived the
+//! same way whatever the scheduling; at the end the error reported is
+//! [`ShapeError::TooManyShapes`] if the tree passed the node limit, else
+//! the failure of the first failing shape in the tree's order.
+
+use crate::component::{NotApplicable, components};
+use crate::error::{ShapeError, SizeError};
+use crate::geometry::{Geometry, Outline};
+use crate::ir::{Axis, CompTarget, Op, Program, SymbolId};
+use crate::scope::Scope;
+use crate::split::{RepeatLayout, Span, SplitSize, repeat_into, split_into};
+use crate::tree::{Command, Node, NodeKind, ShapeTree};
+use glam::Vec3;
+use grm_compile::rng::{child_key, choice_draw, hash, race_earlier, race_time, root_key, salt};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+/// Bounds on a derivation's work and memory.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Limits {
+    /// The most nodes (shapes, commands and inserts) the tree may hold.
+    pub max_nodes: usize,
+    /// The deepest a node may be (the axiom is at depth 0).
+    pub max_depth: u32,
+}
+
+impl Default for Limits {
+    /// One million nodes (about 150 MB of tree) and depth 1,000.
+    fn default() -> Self {
+        Limits {
+            max_nodes: 1_000_000,
+            max_depth: 1_000,
+        }
+    }
+}
+
+/// How to derive.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Options {
+    /// The seed of every random draw.
+    pub seed: u32,
+    /// Worker threads: 1 derives on the calling thread; 0 uses the
+    /// machine's parallelism.
+    pub threads: usize,
+    pub limits: Limits,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            seed: 0,
+            threads: 1,
+            limits: Limits::default(),
+        }
+    }
+}
+
+/// The initial shape: its scope and geometry.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Lot {
+    pub scope: Scope,
+    pub geometry: Geometry,
+}
+
+impl Lot {
+    /// A footprint polygon in the world's xy plane (z = 0), as a face:
+    /// its scope is the polygon's bounding box, world-aligned.
+    pub fn footprint(points: &[[f64; 2]]) -> Result<Lot, ShapeError> {
+        let outline = Outline::from_ring(points).map_err(|why| ShapeError::BadLot { why })?;
+        let (lo, hi) = outline.bounds().ok_or_else(|| ShapeError::BadLot {
+            why: "empty polygon".into(),
+        })?;
+        let local = outline.translated(-lo[0], -lo[1]);
+        let size = Vec3::new((hi[0] - lo[0]) as f32, (hi[1] - lo[1]) as f32, 0.0);
+        Ok(Lot {
+            scope: Scope::new(Vec3::new(lo[0] as f32, lo[1] as f32, 0.0), size),
+            geometry: Geometry::from_outline(local, size.x, size.y, false),
+        })
+    }
+
+    /// A `width` by `depth` rectangular footprint at the origin.
+    pub fn rectangle(width: f32, depth: f32) -> Lot {
+        Lot {
+            scope: Scope::new(Vec3::ZERO, Vec3::new(width, depth, 0.0)),
+            geometry: Geometry::Rect,
+        }
+    }
+
+    /// A rectangular face filling `scope`'s xy (a facade, say).
+    pub fn face(scope: Scope) -> Lot {
+        Lot {
+            scope,
+            geometry: Geometry::Rect,
+        }
+    }
+
+    fn check(&self) -> Result<(), ShapeError> {
+        let s = &self.scope;
+        let finite = s.origin.is_finite()
+            && s.rotation.is_finite()
+            && s.rotation.is_normalized()
+            && s.size.is_finite();
+        if !finite || s.size.min_element() < 0.0 {
+            return Err(ShapeError::BadLot {
+                why: "the lot's scope is not finite and non-negative".into(),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Derive the tree of `program` from `lot`.
+pub fn derive(program: &Program, lot: &Lot, options: &Options) -> Result<ShapeTree, ShapeError> {
+    lot.check()?;
+    let threads = match options.threads {
+        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        n => n,
+    };
+    let engine = Engine {
+        program,
+        seed: options.seed,
+        limits: options.limits,
+    };
+    let root = engine.axiom(lot);
+    let max = options.limits.max_nodes;
+    let nodes = if threads <= 1 {
+        let job = engine
+            .run(root, None, max, &AtomicBool::new(false))
+            .map_err(|Overflow| ShapeError::TooManyShapes { max })?;
+        finish(job)?
+    } else {
+        engine.parallel(root, threads)?
+    };
+    Ok(ShapeTree {
+        nodes,
+        seed: options.seed,
+    })
+}
+
+/// A derived slice of the tree: its root (index 0) and the blocks of its
+/// subtree in expansion order, the failures by node index, and (top phase
+/// only) the shapes left for other jobs, `(index in nodes, position of the
+/// slice in nodes)`.
+struct Job {
+    nodes: Vec<Node>,
+    failures: Vec<(u32, ShapeError)>,
+    cut: Vec<(u32, u32)>,
+    /// The root's kind and block length, kept when its slice is spliced.
+    roots_kind: (NodeKind, u32),
+}
+
+/// The marker of "over the node limit" inside a job.
+struct Overflow;
+
+struct Engine<'p> {
+    program: &'p Program,
+    seed: u32,
+    limits: Limits,
+}
+
+/// A rule run's scratch space, reused from shape to shape.
+#[derive(Default)]
+struct Scratch {
+    spans: Vec<Span>,
+    layout: RepeatLayout,
+    sizes: Vec<SplitSize>,
+    stack: Vec<(Scope, Geometry)>,
+    occurrences: Vec<(u32, u32)>,
+    weights: Vec<f32>,
+    counts: Vec<u32>,
+}
+
+fn node(
+    kind: NodeKind,
+    scope: Scope,
+    geometry: Geometry,
+    key: u32,
+    edge: u32,
+    depth: u32,
+    parent_offset: u32,
+) -> Node {
+    Node {
+        kind,
+        scope,
+        geometry,
+        key,
+        edge,
+        case: 0,
+        selector: None,
+        index: edge,
+        count: 0,
+        depth,
+        parent_offset,
+        children_offset: 0,
+        children_len: 0,
+    }
+}
+
+impl Engine<'_> {
+    fn axiom(&self, lot: &Lot) -> Node {
+        let axiom = self.program.axiom;
+        let info = &self.program.symbols[axiom.0 as usize];
+        let root = root_key(self.seed, self.program.name_hash);
+        node(
+            NodeKind::Shape {
+                symbol: axiom,
+                alternative: None,
+            },
+            lot.scope,
+            lot.geometry.clone(),
+            child_key(root, salt(info.name_hash, 0, 0)),
+            0,
+            0,
+            0,
+        )
+    }
+
+    /// Derive the subtree of `root`. With `cut = Some(d)`, shapes at depth
+    /// `d` or deeper (but the root) are not expanded: they are listed in
+    /// `Job::cut` for other jobs, with the position their slice goes to.
+    /// Stops with `Overflow` past `budget` nodes or when `stop` is set.
+    fn run(
+        &self,
+        root: Node,
+        cut: Option<u32>,
+        budget: usize,
+        stop: &AtomicBool,
+    ) -> Result<Job, Overflow> {
+        let roots_kind = (root.kind, 0);
+        let mut job = Job {
+            nodes: vec![root],
+            failures: Vec::new(),
+            cut: Vec::new(),
+            roots_kind,
+        };
+        let mut stack: Vec<u32> = vec![0];
+        let mut scratch = Scratch::default();
+        while let Some(at) = stack.pop() {
+            if stop.load(Ordering::Relaxed) {
+                return Err(Overflow);
+            }
+            let shape = &job.nodes[at as usize];
+            let NodeKind::Shape { symbol, .. } = shape.kind else {
+                continue;
+            };
+            if at > 0 && cut.is_some_and(|d| shape.depth >= d) {
+                job.cut.push((at, job.nodes.len() as u32));
+                continue;
+            }
+            let start = job.nodes.len();
+            match self.expand(&mut job.nodes, at, symbol, budget, &mut scratch) {
+                Ok(()) => {}
+                Err(Some(e)) => job.failures.push((at, e)),
+                Err(None) => return Err(Overflow),
+            }
+            if job.nodes.len() > budget {
+                return Err(Overflow);
+            }
+            let end = job.nodes.len();
+            let n = &mut job.nodes[at as usize];
+            if end > start {
+                n.children_offset = (start - at as usize) as u32;
+                n.children_len = (end - start) as u32;
+            }
+            for j in (start..end).rev() {
+                if job.nodes[j].is_shape() {
+                    stack.push(j as u32);
+                }
+            }
+        }
+        Ok(job)
+    }
+
+    /// Run the rule of the shape at `at`, appending its block to `out`.
+    /// `Err(None)` is the node limit.
+    fn expand(
+        &self,
+        out: &mut Vec<Node>,
+        at: u32,
+        symbol: SymbolId,
+        budget: usize,
+        s: &mut Scratch,
+    ) -> Result<(), Option<ShapeError>> {
+        let program = self.program;
+        let Some(rule) = program.rule(symbol) else {
+            return Ok(());
+        };
+        let shape = &out[at as usize];
+        let key = shape.key;
+        let depth = shape.depth;
+        let base = shape.scope;
+        let mut scope = shape.scope;
+        let mut geometry = shape.geometry.clone();
+        let alt = if rule.alternatives.len() == 1 {
+            0
+        } else {
+            s.weights.clear();
+            s.weights.extend(rule.alternatives.iter().map(|a| a.weight));
+            // The race of `grm_compile::rng`: the earliest time over weight
+            // wins, the first alternative on a tie.
+            let time = |k: usize| race_time(hash(self.seed, 0, key, choice_draw(k as u32)));
+            let mut best = (time(0), s.weights[0], 0u32);
+            for (k, &w) in s.weights.iter().enumerate().skip(1) {
+                let t = time(k);
+                if race_earlier(t, w, best.0, best.1) {
+                    best = (t, w, k as u32);
+                }
+            }
+            best.2
+        };
+        out[at as usize].kind = NodeKind::Shape {
+            symbol,
+            alternative: Some(alt),
+        };
+        let name = || program.symbols[symbol.0 as usize].name.clone();
+        let fail = |e: ShapeError| Err(Some(e));
+        let finite = |what: &'static str, v: f32| -> Result<f32, Option<ShapeError>> {
+            if v.is_finite() {
+                Ok(v)
+            } else {
+                Err(Some(ShapeError::BadValue {
+                    symbol: name(),
+                    what,
+                    value: v,
+                }))
+            }
+        };
+        let max_depth = self.limits.max_depth;
+        let too_deep = |d: u32| -> Result<(), Option<ShapeError>> {
+            if d > max_depth {
+                Err(Some(ShapeError::TooDeep {
+                    max: max_depth,
+                    symbol: name(),
+                }))
+            } else {
+                Ok(())
+            }
+        };
+        s.stack.clear();
+        s.occurrences.clear();
+        let block = out.len();
+        let mut edge = 0u32;
+        // The ordinal of a child labelled `h` among this rule run's children
+        // with that label.
+        fn occurrence(occ: &mut Vec<(u32, u32)>, h: u32) -> u32 {
+            if let Some(e) = occ.iter_mut().find(|e| e.0 == h) {
+                e.1 += 1;
+                e.1
+            } else {
+                occ.push((h, 0));
+                0
+            }
+        }
+        let result = (|| {
+            for op in &rule.alternatives[alt as usize].ops {
+                match op {
+                    Op::Extrude(h) => {
+                        let h = finite("the extrusion height", h.value())?.max(0.0);
+                        geometry = match geometry {
+                            Geometry::Rect | Geometry::Box => Geometry::Box,
+                            Geometry::Polygon(o) | Geometry::Prism(o) => Geometry::Prism(o),
+                            Geometry::Edge => {
+                                return fail(ShapeError::WrongGeometry {
+                                    symbol: name(),
+                                    op: "extrude",
+                                    geometry: "an edge",
+                                });
+                            }
+                        };
+                        scope.size.z = h;
+                    }
+                    Op::Translate(v) => {
+                        let v = Vec3::new(
+                            finite("a translation", v[0].value())?,
+                            finite("a translation", v[1].value())?,
+                            finite("a translation", v[2].value())?,
+                        );
+                        scope = scope.translated(v);
+                    }
+                    Op::Rotate { axis, degrees } => {
+                        scope = scope.rotated(*axis, finite("a rotation angle", degrees.value())?);
+                    }
+                    Op::Size(sz) => {
+                        let mut f = [1.0f64; 3];
+                        for i in 0..3 {
+                            if let Some(p) = sz[i] {
+                                let v = finite("a size", p.value())?.max(0.0);
+                                let old = scope.size[i];
+                                f[i] = if old > 0.0 {
+                                    f64::from(v) / f64::from(old)
+                                } else {
+                                    1.0
+                                };
+                                scope.size[i] = v;
+                            }
+                        }
+                        if let Some(o) = geometry.outline()
+                            && (f[0] != 1.0 || f[1] != 1.0)
+                        {
+                            let scaled = o.scaled(f[0], f[1]);
+                            geometry = Geometry::from_outline(
+                                scaled,
+                                scope.size.x,
+                                scope.size.y,
+                                geometry.is_mass(),
+                            );
+                        }
+                    }
+                    Op::Center(axes) => {
+                        let reference = s.stack.last().map_or(base, |e| e.0);
+                        let delta = reference.center() - scope.center();
+                        for (i, &on) in axes.iter().enumerate() {
+                            if on {
+                                let a = scope.axis([Axis::X, Axis::Y, Axis::Z][i]);
+                                scope.origin += a * delta.dot(a);
+                            }
+                        }
+                    }
+                    Op::Push => s.stack.push((scope, geometry.clone())),
+                    Op::Pop => match s.stack.pop() {
+                        Some((sc, g)) => {
+                            scope = sc;
+                            geometry = g;
+                        }
+                        None => return fail(ShapeError::PopWithoutPush { symbol: name() }),
+                    },
+                    Op::Offset(d) => {
+                        let d = finite("an offset distance", d.value())?;
+                        let Some(outline) = crate::component::outline_of(&scope, &geometry) else {
+                            return fail(ShapeError::WrongGeometry {
+                                symbol: name(),
+                                op: "offset",
+                                geometry: "an edge",
+                            });
+                        };
+                        match outline.offset(f64::from(d)) {
+                            Some(o) => {
+                                geometry = Geometry::from_outline(
+                                    o,
+                                    scope.size.x,
+                                    scope.size.y,
+                                    geometry.is_mass(),
+                                );
+                            }
+                            // Nothing left: the shape makes nothing more.
+                            None => return Ok(()),
+                        }
+                    }
+                    Op::Insert(asset) => {
+                        too_deep(depth + 1)?;
+                        let h = program.assets[asset.0 as usize].1;
+                        edge += 1;
+                        let ord = occurrence(&mut s.occurrences, h);
+                        let here = out.len() as u32;
+                        out.push(node(
+                            NodeKind::Insert { asset: *asset },
+                            scope,
+                            geometry.clone(),
+                            child_key(key, salt(h, ord, alt)),
+                            edge,
+                            depth + 1,
+                            here - at,
+                        ));
+                    }
+                    Op::Emit(sym) => {
+                        too_deep(depth + 1)?;
+                        let h = program.symbols[sym.0 as usize].name_hash;
+                        edge += 1;
+                        let ord = occurrence(&mut s.occurrences, h);
+                        let here = out.len() as u32;
+                        out.push(node(
+                            NodeKind::Shape {
+                                symbol: *sym,
+                                alternative: None,
+                            },
+                            scope,
+                            geometry.clone(),
+                            child_key(key, salt(h, ord, alt)),
+                            edge,
+                            depth + 1,
+                            here - at,
+                        ));
+                    }
+                    Op::Split(sp) | Op::Repeat(sp) => {
+                        let is_repeat = matches!(op, Op::Repeat(_));
+                        too_deep(depth + 2)?;
+                        s.sizes.clear();
+                        s.sizes.extend(sp.parts.iter().map(|p| p.size.eval()));
+                        let extent = scope.size[sp.axis.index()];
+                        let size_err = |error| {
+                            Err(Some(ShapeError::Size {
+                                symbol: name(),
+                                error,
+                            }))
+                        };
+                        let (tiles, spans) = if is_repeat {
+                            match repeat_into(
+                                &s.sizes,
+                                extent,
+                                self.limits.max_nodes as u64,
+                                &mut s.layout,
+                            ) {
+                                Ok(()) => (s.layout.tiles, &s.layout.spans),
+                                Err(SizeError::TooManyTiles { .. }) => return Err(None),
+                                Err(e) => return size_err(e),
+                            }
+                        } else {
+                            match split_into(&s.sizes, extent, &mut s.spans) {
+                                Ok(()) => (1, &s.spans),
+                                Err(e) => return size_err(e),
+                            }
+                        };
+                        let (command, h) = if is_repeat {
+                            (Command::Repeat(sp.axis), program.commands.repeat)
+                        } else {
+                            (Command::Split(sp.axis), program.commands.split)
+                        };
+                        edge += 1;
+                        let ord = occurrence(&mut s.occurrences, h);
+                        let cmd_key = child_key(key, salt(h, ord, alt));
+                        let cmd_at = out.len();
+                        out.push(node(
+                            NodeKind::Command {
+                                command,
+                                tag: sp.tag,
+                            },
+                            scope,
+                            geometry.clone(),
+                            cmd_key,
+                            edge,
+                            depth + 1,
+                            cmd_at as u32 - at,
+                        ));
+                        let parts = sp.parts.len() as u32;
+                        let dir = scope.axis(sp.axis);
+                        for span in spans {
+                            let Some(target) = sp.parts[span.part as usize].target else {
+                                continue;
+                            };
+                            let Some(g) = geometry.slab(&scope, sp.axis, span.start, span.len)
+                            else {
+                                continue;
+                            };
+                            let number = span.tile * parts + span.part + 1;
+                            let th = program.symbols[target.0 as usize].name_hash;
+                            let here = out.len();
+                            let mut n = node(
+                                NodeKind::Shape {
+                                    symbol: target,
+                                    alternative: None,
+                                },
+                                scope.slab_along(dir, sp.axis, span.start, span.len),
+                                g,
+                                child_key(cmd_key, salt(th, number, 0)),
+                                number,
+                                depth + 2,
+                                (here - cmd_at) as u32,
+                            );
+                            (n.index, n.count) = if is_repeat {
+                                (span.tile + 1, tiles)
+                            } else {
+                                (span.part + 1, parts)
+                            };
+                            out.push(n);
+                            if out.len() > budget {
+                                return Err(None);
+                            }
+                        }
+                        let len = out.len() - cmd_at - 1;
+                        out[cmd_at].children_offset = 1;
+                        out[cmd_at].children_len = len as u32;
+                    }
+                    Op::Comp(c) => {
+                        too_deep(depth + 2)?;
+                        let comps = match components(&scope, &geometry, c.target) {
+                            Ok(v) => v,
+                            Err(NotApplicable) => {
+                                return fail(ShapeError::WrongGeometry {
+                                    symbol: name(),
+                                    op: match c.target {
+                                        CompTarget::Faces => "a component split into faces",
+                                        CompTarget::Edges => "a component split into edges",
+                                    },
+                                    geometry: geometry.describe(),
+                                });
+                            }
+                        };
+                        let h = program.commands.comp;
+                        edge += 1;
+                        let ord = occurrence(&mut s.occurrences, h);
+                        let cmd_key = child_key(key, salt(h, ord, alt));
+                        let cmd_at = out.len();
+                        out.push(node(
+                            NodeKind::Command {
+                                command: Command::Comp(c.target),
+                                tag: c.tag,
+                            },
+                            scope,
+                            geometry.clone(),
+                            cmd_key,
+                            edge,
+                            depth + 1,
+                            cmd_at as u32 - at,
+                        ));
+                        let case_of = |comp: &crate::component::Component| {
+                            c.cases
+                                .iter()
+                                .position(|k| comp.classes.matches(k.selector))
+                        };
+                        s.counts.clear();
+                        s.counts.resize(c.cases.len() * 2, 0);
+                        for comp in &comps {
+                            if let Some(k) = case_of(comp) {
+                                s.counts[k] += 1;
+                            }
+                        }
+                        for comp in comps {
+                            let Some(k) = case_of(&comp) else { continue };
+                            let seen = &mut s.counts[c.cases.len() + k];
+                            *seen += 1;
+                            let index = *seen;
+                            let Some(target) = c.cases[k].target else {
+                                continue;
+                            };
+                            let th = program.symbols[target.0 as usize].name_hash;
+                            let here = out.len();
+                            let mut n = node(
+                                NodeKind::Shape {
+                                    symbol: target,
+                                    alternative: None,
+                                },
+                                comp.scope,
+                                comp.geometry,
+                                child_key(cmd_key, salt(th, index, k as u32)),
+                                index,
+                                depth + 2,
+                                (here - cmd_at) as u32,
+                            );
+                            n.case = k as u32;
+                            n.selector = Some(c.cases[k].selector);
+                            n.count = s.counts[k];
+                            out.push(n);
+                            if out.len() > budget {
+                                return Err(None);
+                            }
+                        }
+                        let len = out.len() - cmd_at - 1;
+                        out[cmd_at].children_offset = 1;
+                        out[cmd_at].children_len = len as u32;
+                    }
+                }
+            }
+            Ok(())
+        })();
+        // A shape's direct children count its edges, for counting from the end.
+        let mut j = block;
+        while j < out.len() {
+            out[j].count = edge;
+            j += 1 + out[j].children_len as usize
+                * usize::from(matches!(out[j].kind, NodeKind::Command { .. }));
+        }
+        result
+    }
+
+    /// Derive with `threads` workers: the top of the tree here, deep
+    /// enough to give each worker several subtrees, then the subtrees on
+    /// the workers, then the slices spliced in, in the tree's order.
+    fn parallel(&self, root: Node, threads: usize) -> Result<Vec<Node>, ShapeError> {
+        let max = self.limits.max_nodes;
+        let never = AtomicBool::new(false);
+        let mut cut = 1;
+        let top = loop {
+            let top = self
+                .run(root.clone(), Some(cut), max, &never)
+                .map_err(|Overflow| ShapeError::TooManyShapes { max })?;
+            if top.cut.is_empty() || top.cut.len() >= 4 * threads || cut >= 32 {
+                break top;
+            }
+            cut += 1;
+        };
+        let budget = max.saturating_sub(top.nodes.len());
+        let roots: Vec<Node> = top
+            .cut
+            .iter()
+            .map(|&(i, _)| top.nodes[i as usize].clone())
+            .collect();
+        let next = AtomicUsize::new(0);
+        let stop = AtomicBool::new(false);
+        let workers = threads.min(roots.len()).max(1);
+        let done: Vec<Vec<(usize, Result<Job, Overflow>)>> = std::thread::scope(|sc| {
+            let handles: Vec<_> = (0..workers)
+                .map(|_| {
+                    sc.spawn(|| {
+                        let mut mine = Vec::new();
+                        loop {
+                            let j = next.fetch_add(1, Ordering::Relaxed);
+                            let Some(r) = roots.get(j) else { break };
+                            let mut r = r.clone();
+                            r.parent_offset = 0;
+                            let result = self.run(r, None, budget + 1, &stop);
+                            if result.is_err() {
+                                stop.store(true, Ordering::Relaxed);
+                            }
+                            mine.push((j, result));
+                        }
+                        mine
+                    })
+                })
+                .collect();
+            handles
+                .into_iter()
+                .map(|h| h.join().unwrap_or_default())
+                .collect()
+        });
+        let mut jobs: Vec<Option<Job>> = (0..roots.len()).map(|_| None).collect();
+        for (j, r) in done.into_iter().flatten() {
+            match r {
+                Ok(job) => jobs[j] = Some(job),
+                Err(Overflow) => return Err(ShapeError::TooManyShapes { max }),
+            }
+        }
+        let mut jobs: Vec<Job> = match jobs.into_iter().collect::<Option<Vec<Job>>>() {
+            Some(j) => j,
+            // A worker that died (it cannot: the engine does not panic).
+            None => return Err(ShapeError::TooManyShapes { max }),
+        };
+        let total = top.nodes.len() + jobs.iter().map(|j| j.nodes.len() - 1).sum::<usize>();
+        if total > max {
+            return Err(ShapeError::TooManyShapes { max });
+        }
+        // New index of each top node: shifted by the slices spliced before it.
+        let mut shift = vec![0u32; top.nodes.len() + 1];
+        {
+            let mut add = 0u32;
+            let mut c = 0;
+            for (i, s) in shift.iter_mut().enumerate() {
+                while c < top.cut.len() && top.cut[c].1 as usize == i {
+                    add += jobs[c].nodes.len() as u32 - 1;
+                    c += 1;
+                }
+                *s = add;
+            }
+        }
+        let new = |i: usize| i as u32 + shift[i];
+        let mut out: Vec<Node> = Vec::with_capacity(total);
+        let mut failures: Vec<(u32, ShapeError)> = Vec::new();
+        for (i, e) in top.failures {
+            failures.push((new(i as usize), e));
+        }
+        let mut c = 0;
+        let mut starts = vec![0u32; top.cut.len()];
+        for (i, mut n) in top.nodes.into_iter().enumerate() {
+            while c < top.cut.len() && top.cut[c].1 as usize == i {
+                starts[c] = splice(
+                    &mut out,
+                    &mut jobs[c],
+                    new(top.cut[c].0 as usize),
+                    &mut failures,
+                );
+                c += 1;
+            }
+            let here = new(i);
+            if i > 0 {
+                n.parent_offset = here - new(i - n.parent_offset as usize);
+            }
+            if n.children_len > 0 {
+                n.children_offset = new(i + n.children_offset as usize) - here;
+            }
+            out.push(n);
+        }
+        while c < top.cut.len() {
+            starts[c] = splice(
+                &mut out,
+                &mut jobs[c],
+                new(top.cut[c].0 as usize),
+                &mut failures,
+            );
+            c += 1;
+        }
+        // The cut shapes take their jobs' roots (the alternative applied,
+        // their blocks).
+        for (c, &(i, _)) in top.cut.iter().enumerate() {
+            let r = new(i as usize) as usize;
+            let root = &jobs[c].roots_kind;
+            out[r].kind = root.0;
+            out[r].children_len = root.1;
+            out[r].children_offset = if root.1 > 0 { starts[c] - r as u32 } else { 0 };
+        }
+        finish(Job {
+            nodes: out,
+            failures,
+            cut: Vec::new(),
+            roots_kind: (root.kind, 0),
+        })
+    }
+}
+
+/// Append a job's slice (its nodes but the root) to `out`; `root` is the
+/// cut shape's index in `out`'s numbering.
+/// Returns where the slice starts.
+fn splice(
+    out: &mut Vec<Node>,
+    job: &mut Job,
+    root: u32,
+    failures: &mut Vec<(u32, ShapeError)>,
+) -> u32 {
+    let base = out.len() as u32; // job index k goes to base + k - 1
+    job.roots_kind = (job.nodes[0].kind, job.nodes[0].children_len);
+    for (k, e) in job.failures.drain(..) {
+        failures.push((if k == 0 { root } else { base + k - 1 }, e));
+    }
+    for (k, mut n) in job.nodes.drain(..).enumerate().skip(1) {
+        if k as u32 == n.parent_offset {
+            n.parent_offset = base + k as u32 - 1 - root;
+        }
+        out.push(n);
+    }
+    base
+}
+
+/// A job's nodes, or its first failure in the tree's order.
+fn finish(job: Job) -> Result<Vec<Node>, ShapeError> {
+    match job.failures.into_iter().min_by_key(|(i, _)| *i) {
+        Some((_, e)) => Err(e),
+        None => Ok(job.nodes),
+    }
+}

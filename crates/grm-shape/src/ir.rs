@@ -1,0 +1,518 @@
+//! The shape-grammar program: what a `mode = shape` system lowers to.
+//!
+//! A [`Program`] is a table of symbols, each with at most one [`Rule`];
+//! a rule has one or more weighted [`Alternative`]s (chosen by the race of
+//! `grm_compile::rng`, keyed by the shape's identity); an alternative is a
+//! list of [`Op`]s run in order on the shape. A symbol without a rule is a
+//! terminal shape.
+//!
+//! Numbers are [`Param`]s: constants today, with room for an expression
+//! slot (`Param::Expr`) when the front-end lowers expressions; the engine
+//! reads them only through [`Param::value`].
+
+use crate::error::ProgramError;
+use crate::split::SplitSize;
+use grm_compile::rng::name_hash;
+
+/// A symbol of the program (an index into its symbol table).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct SymbolId(pub u32);
+
+/// A semantic tag (`floor`, `column`, `facade`), attached to a command.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct TagId(pub u32);
+
+/// The name of an inserted primitive or mesh.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct AssetId(pub u32);
+
+/// A number in an operation. Only constants exist yet; the expression
+/// front-end adds a variant evaluated per shape (with the shape's key for
+/// its random draws), and every reader goes through [`Param::value`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Param {
+    /// A constant.
+    Const(f32),
+}
+
+impl Param {
+    /// The value for one shape.
+    #[inline]
+    pub fn value(&self) -> f32 {
+        match *self {
+            Param::Const(v) => v,
+        }
+    }
+}
+
+impl From<f32> for Param {
+    fn from(v: f32) -> Self {
+        Param::Const(v)
+    }
+}
+
+/// A scope axis.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Axis {
+    X,
+    Y,
+    Z,
+}
+
+impl Axis {
+    /// 0, 1 or 2.
+    #[inline]
+    pub fn index(self) -> usize {
+        match self {
+            Axis::X => 0,
+            Axis::Y => 1,
+            Axis::Z => 2,
+        }
+    }
+
+    /// `x`, `y` or `z`.
+    pub fn name(self) -> &'static str {
+        ["x", "y", "z"][self.index()]
+    }
+}
+
+/// How a part is sized: the kinds of [`SplitSize`], with a [`Param`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PartSize {
+    /// A length in scope units.
+    Absolute(Param),
+    /// A fraction of the scope's extent along the axis (`25%` lowers to 0.25).
+    Relative(Param),
+    /// A floating weight (`~w`): shares the rest in proportion.
+    Floating(Param),
+}
+
+impl PartSize {
+    /// The size for one shape.
+    #[inline]
+    pub fn eval(&self) -> SplitSize {
+        match self {
+            PartSize::Absolute(p) => SplitSize::Absolute(p.value()),
+            PartSize::Relative(p) => SplitSize::Relative(p.value()),
+            PartSize::Floating(p) => SplitSize::Floating(p.value()),
+        }
+    }
+}
+
+/// One part of a split or of a repeated tile: its size and the symbol of
+/// the shape made there (`None`: the part is left empty, CGA's `NIL`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Part {
+    pub size: PartSize,
+    pub target: Option<SymbolId>,
+}
+
+impl Part {
+    /// An absolute part.
+    pub fn abs(len: f32, target: Option<SymbolId>) -> Self {
+        Part {
+            size: PartSize::Absolute(Param::Const(len)),
+            target,
+        }
+    }
+    /// A relative part (a fraction of the extent).
+    pub fn rel(fraction: f32, target: Option<SymbolId>) -> Self {
+        Part {
+            size: PartSize::Relative(Param::Const(fraction)),
+            target,
+        }
+    }
+    /// A floating part.
+    pub fn float(weight: f32, target: Option<SymbolId>) -> Self {
+        Part {
+            size: PartSize::Floating(Param::Const(weight)),
+            target,
+        }
+    }
+}
+
+/// A split (or a repeat: the same data, the parts forming one tile).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Split {
+    pub axis: Axis,
+    pub parts: Vec<Part>,
+    pub tag: Option<TagId>,
+}
+
+/// What a component split breaks a shape into.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum CompTarget {
+    /// The faces of a mass (its walls, top and bottom).
+    Faces,
+    /// The edges of a mass or of a face.
+    Edges,
+}
+
+impl CompTarget {
+    /// `faces` or `edges`.
+    pub fn name(self) -> &'static str {
+        match self {
+            CompTarget::Faces => "faces",
+            CompTarget::Edges => "edges",
+        }
+    }
+}
+
+/// Which components a case of a component split takes, by orientation
+/// (docs/shapes.md, "Component split"). A component goes to the first case
+/// whose selector matches it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Selector {
+    /// Facing the scope's -y (walls), or, for edges of a face, -x... see [`Selector::name`].
+    Front,
+    Back,
+    Left,
+    Right,
+    /// Every vertical wall (front, back, left, right); the vertical edges of a mass.
+    Side,
+    Top,
+    Bottom,
+    /// Everything.
+    All,
+}
+
+impl Selector {
+    /// The selector's name as written in a grammar.
+    pub fn name(self) -> &'static str {
+        match self {
+            Selector::Front => "front",
+            Selector::Back => "back",
+            Selector::Left => "left",
+            Selector::Right => "right",
+            Selector::Side => "side",
+            Selector::Top => "top",
+            Selector::Bottom => "bottom",
+            Selector::All => "all",
+        }
+    }
+}
+
+/// One case of a component split.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CompCase {
+    pub selector: Selector,
+    pub target: Option<SymbolId>,
+}
+
+/// A component split.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Comp {
+    pub target: CompTarget,
+    pub cases: Vec<CompCase>,
+    pub tag: Option<TagId>,
+}
+
+/// One operation of a rule, run in order on the current shape.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Op {
+    /// Extrude a face or footprint along its scope's z by the height (a
+    /// mass's height is set anew).
+    Extrude(Param),
+    /// Move the scope along its own axes.
+    Translate([Param; 3]),
+    /// Turn the scope about one of its own axes through its origin, in degrees.
+    Rotate { axis: Axis, degrees: Param },
+    /// Set the scope's size on the axes given (`None` keeps it); the
+    /// geometry is scaled with it.
+    Size([Option<Param>; 3]),
+    /// Centre the scope, on the axes set, in the scope saved by the last
+    /// `push` (or the shape's scope when nothing is pushed).
+    Center([bool; 3]),
+    /// Save the scope and geometry.
+    Push,
+    /// Restore the last saved scope and geometry.
+    Pop,
+    /// Offset the face or footprint outline by the distance (negative: inset).
+    Offset(Param),
+    /// Place a primitive or mesh fitted to the scope (a terminal in the tree).
+    Insert(AssetId),
+    /// A successor shape of this symbol with the current scope and geometry.
+    Emit(SymbolId),
+    /// Split the shape along an axis.
+    Split(Split),
+    /// Repeat the parts as a tile along an axis.
+    Repeat(Split),
+    /// Break the shape into faces or edges.
+    Comp(Comp),
+}
+
+/// One weighted way to rewrite a symbol.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Alternative {
+    pub weight: f32,
+    pub ops: Vec<Op>,
+}
+
+/// A symbol's rule.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Rule {
+    pub alternatives: Vec<Alternative>,
+}
+
+/// A symbol's entry in the program.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SymbolInfo {
+    pub name: String,
+    /// `grm_compile::rng::name_hash(name)`: how the symbol enters keys.
+    pub name_hash: u32,
+    pub rule: Option<Rule>,
+}
+
+/// Label hashes of the commands (for identity keys).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct CommandHashes {
+    pub split: u32,
+    pub repeat: u32,
+    pub comp: u32,
+}
+
+/// A checked shape-grammar program (build one with [`ProgramBuilder`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Program {
+    pub(crate) name: String,
+    pub(crate) name_hash: u32,
+    pub(crate) symbols: Vec<SymbolInfo>,
+    pub(crate) tags: Vec<String>,
+    pub(crate) assets: Vec<(String, u32)>,
+    pub(crate) axiom: SymbolId,
+    pub(crate) commands: CommandHashes,
+}
+
+impl Program {
+    /// The system's name (it enters the root key).
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+    /// The axiom symbol.
+    pub fn axiom(&self) -> SymbolId {
+        self.axiom
+    }
+    /// A symbol's name.
+    pub fn symbol_name(&self, s: SymbolId) -> &str {
+        self.symbols
+            .get(s.0 as usize)
+            .map_or("?", |i| i.name.as_str())
+    }
+    /// A symbol by name.
+    pub fn symbol(&self, name: &str) -> Option<SymbolId> {
+        self.symbols
+            .iter()
+            .position(|s| s.name == name)
+            .map(|i| SymbolId(i as u32))
+    }
+    /// A tag's name.
+    pub fn tag_name(&self, t: TagId) -> &str {
+        self.tags.get(t.0 as usize).map_or("?", String::as_str)
+    }
+    /// A tag by name.
+    pub fn tag(&self, name: &str) -> Option<TagId> {
+        self.tags
+            .iter()
+            .position(|s| s == name)
+            .map(|i| TagId(i as u32))
+    }
+    /// An asset's name.
+    pub fn asset_name(&self, a: AssetId) -> &str {
+        self.assets.get(a.0 as usize).map_or("?", |a| a.0.as_str())
+    }
+    /// The symbols, in id order.
+    pub fn symbols(&self) -> &[SymbolInfo] {
+        &self.symbols
+    }
+    /// A symbol's rule, if it has one.
+    pub fn rule(&self, s: SymbolId) -> Option<&Rule> {
+        self.symbols.get(s.0 as usize).and_then(|i| i.rule.as_ref())
+    }
+}
+
+/// Builds a [`Program`]: declare symbols, tags and assets, give rules,
+/// then [`build`](ProgramBuilder::build) checks every id and weight.
+#[derive(Debug)]
+pub struct ProgramBuilder {
+    name: String,
+    symbols: Vec<SymbolInfo>,
+    tags: Vec<String>,
+    assets: Vec<String>,
+    first_error: Option<ProgramError>,
+}
+
+impl ProgramBuilder {
+    /// A new program named `name` (the system's name: it enters the root key).
+    pub fn new(name: &str) -> Self {
+        ProgramBuilder {
+            name: name.to_owned(),
+            symbols: Vec::new(),
+            tags: Vec::new(),
+            assets: Vec::new(),
+            first_error: None,
+        }
+    }
+
+    /// The symbol named `name`, declared on first use.
+    pub fn symbol(&mut self, name: &str) -> SymbolId {
+        if let Some(i) = self.symbols.iter().position(|s| s.name == name) {
+            return SymbolId(i as u32);
+        }
+        self.symbols.push(SymbolInfo {
+            name: name.to_owned(),
+            name_hash: name_hash(name),
+            rule: None,
+        });
+        SymbolId(self.symbols.len() as u32 - 1)
+    }
+
+    /// The tag named `name`, declared on first use.
+    pub fn tag(&mut self, name: &str) -> TagId {
+        if let Some(i) = self.tags.iter().position(|s| s == name) {
+            return TagId(i as u32);
+        }
+        self.tags.push(name.to_owned());
+        TagId(self.tags.len() as u32 - 1)
+    }
+
+    /// The asset named `name`, declared on first use.
+    pub fn asset(&mut self, name: &str) -> AssetId {
+        if let Some(i) = self.assets.iter().position(|s| s == name) {
+            return AssetId(i as u32);
+        }
+        self.assets.push(name.to_owned());
+        AssetId(self.assets.len() as u32 - 1)
+    }
+
+    /// Give `symbol` a rule with one alternative.
+    pub fn rule(&mut self, symbol: SymbolId, ops: Vec<Op>) -> &mut Self {
+        self.rule_alternatives(symbol, vec![Alternative { weight: 1.0, ops }])
+    }
+
+    /// Give `symbol` a rule with weighted alternatives.
+    pub fn rule_alternatives(
+        &mut self,
+        symbol: SymbolId,
+        alternatives: Vec<Alternative>,
+    ) -> &mut Self {
+        let error = match self.symbols.get_mut(symbol.0 as usize) {
+            Some(info) if info.rule.is_some() => Some(ProgramError::DuplicateRule {
+                symbol: info.name.clone(),
+            }),
+            Some(info) => {
+                info.rule = Some(Rule { alternatives });
+                None
+            }
+            None => Some(ProgramError::UnknownId {
+                what: "symbol",
+                id: symbol.0,
+            }),
+        };
+        if self.first_error.is_none() {
+            self.first_error = error;
+        }
+        self
+    }
+
+    /// Check and finish the program, with `axiom` as its start symbol.
+    pub fn build(self, axiom: SymbolId) -> Result<Program, ProgramError> {
+        if let Some(e) = self.first_error {
+            return Err(e);
+        }
+        let n_sym = self.symbols.len() as u32;
+        let sym_ok = |s: SymbolId| {
+            if s.0 < n_sym {
+                Ok(())
+            } else {
+                Err(ProgramError::UnknownId {
+                    what: "symbol",
+                    id: s.0,
+                })
+            }
+        };
+        let target_ok = |t: Option<SymbolId>| t.map_or(Ok(()), sym_ok);
+        let tag_ok = |t: Option<TagId>| match t {
+            Some(t) if t.0 as usize >= self.tags.len() => Err(ProgramError::UnknownId {
+                what: "tag",
+                id: t.0,
+            }),
+            _ => Ok(()),
+        };
+        sym_ok(axiom)?;
+        for info in &self.symbols {
+            let Some(rule) = &info.rule else { continue };
+            if rule.alternatives.is_empty() {
+                return Err(ProgramError::NoAlternatives {
+                    symbol: info.name.clone(),
+                });
+            }
+            for (k, alt) in rule.alternatives.iter().enumerate() {
+                if !(alt.weight.is_finite() && alt.weight > 0.0) {
+                    return Err(ProgramError::BadWeight {
+                        symbol: info.name.clone(),
+                        alternative: k,
+                        weight: alt.weight,
+                    });
+                }
+                for op in &alt.ops {
+                    match op {
+                        Op::Emit(s) => sym_ok(*s)?,
+                        Op::Insert(a) if a.0 as usize >= self.assets.len() => {
+                            return Err(ProgramError::UnknownId {
+                                what: "asset",
+                                id: a.0,
+                            });
+                        }
+                        Op::Split(s) | Op::Repeat(s) => {
+                            if s.parts.is_empty() {
+                                let command = if matches!(op, Op::Split(_)) {
+                                    "split"
+                                } else {
+                                    "repeat"
+                                };
+                                return Err(ProgramError::EmptyCommand {
+                                    symbol: info.name.clone(),
+                                    command,
+                                });
+                            }
+                            tag_ok(s.tag)?;
+                            for p in &s.parts {
+                                target_ok(p.target)?;
+                            }
+                        }
+                        Op::Comp(c) => {
+                            if c.cases.is_empty() {
+                                return Err(ProgramError::EmptyCommand {
+                                    symbol: info.name.clone(),
+                                    command: "component split",
+                                });
+                            }
+                            tag_ok(c.tag)?;
+                            for case in &c.cases {
+                                target_ok(case.target)?;
+                            }
+                        }
+                        _ => {}
+                    }
+                }
+            }
+        }
+        let assets = self.assets.into_iter().map(|a| {
+            let h = name_hash(&a);
+            (a, h)
+        });
+        Ok(Program {
+            name_hash: name_hash(&self.name),
+            name: self.name,
+            symbols: self.symbols,
+            tags: self.tags,
+            assets: assets.collect(),
+            axiom,
+            commands: CommandHashes {
+                split: name_hash("split"),
+                repeat: name_hash("repeat"),
+                comp: name_hash("comp"),
+            },
+        })
+    }
+}

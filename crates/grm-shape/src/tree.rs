@@ -1,0 +1,222 @@
+//! The derivation tree: every shape, command and insert the rules made,
+//! with numbered edges, scopes, geometry and identity keys.
+//!
+//! Nodes are stored in **expansion order**: the axiom first, then each
+//! shape's block (everything its rule made: successor shapes, commands each
+//! followed by its children, inserts) in the order shapes were expanded,
+//! depth-first. So a command's children are contiguous, every parent comes
+//! before its children, and the order is the same for any thread count.
+
+use crate::geometry::Geometry;
+use crate::ir::{AssetId, Axis, CompTarget, Program, Selector, SymbolId, TagId};
+use crate::scope::Scope;
+use grm_compile::rng;
+
+/// A node's index in [`ShapeTree::nodes`] (expansion order; the axiom is 0).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct NodeId(pub u32);
+
+/// The command a command node ran.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Command {
+    Split(Axis),
+    Repeat(Axis),
+    Comp(CompTarget),
+}
+
+impl Command {
+    /// `split.x`, `repeat.y`, `comp.faces`...: the command's label in locators.
+    pub fn label(self) -> String {
+        match self {
+            Command::Split(a) => format!("split.{}", a.name()),
+            Command::Repeat(a) => format!("repeat.{}", a.name()),
+            Command::Comp(t) => format!("comp.{}", t.name()),
+        }
+    }
+}
+
+/// What a node is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum NodeKind {
+    /// A shape of `symbol`; `alternative` is the rule alternative applied
+    /// (`None`: the symbol has no rule, a terminal shape).
+    Shape {
+        symbol: SymbolId,
+        alternative: Option<u32>,
+    },
+    /// A split, repeat or component split; its children are the shapes it made.
+    Command {
+        command: Command,
+        tag: Option<TagId>,
+    },
+    /// An inserted primitive or mesh, fitted to the node's scope (a leaf).
+    Insert { asset: AssetId },
+}
+
+/// One node of the tree.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Node {
+    pub kind: NodeKind,
+    /// The shape's scope (a command's: the scope it divided; an insert's:
+    /// the scope it fills).
+    pub scope: Scope,
+    /// The shape's geometry (a command's: what it divided).
+    pub geometry: Geometry,
+    /// The identity key (docs/shapes.md, "Identity").
+    pub key: u32,
+    /// The number of the edge from the parent, from 1 (0 for the axiom):
+    /// a shape's outgoing edges are numbered in the order its rule made
+    /// them; a split's children by part (`part + 1`), a repeat's by
+    /// `tile * parts + part + 1`, a component split's within their case.
+    pub edge: u32,
+    /// For a component split's child: the index of the case (selector)
+    /// that took it; 0 otherwise.
+    pub case: u32,
+    /// For a component split's child: the selector of that case.
+    pub selector: Option<Selector>,
+    /// The child's semantic number, from 1: the part of a split, the tile
+    /// of a repeat, the component within its case; the edge otherwise.
+    pub index: u32,
+    /// How many of those there are (parts, tiles laid, components of the
+    /// case), for counting from the other end; the parent's edge count otherwise.
+    pub count: u32,
+    /// Depth: 0 for the axiom.
+    pub depth: u32,
+    pub(crate) parent_offset: u32,
+    /// Forward offset to the first node of the block (a shape) or to the
+    /// first child (a command); 0 when there is none.
+    pub(crate) children_offset: u32,
+    /// The block's length (a shape) or the number of children (a command).
+    pub(crate) children_len: u32,
+}
+
+impl Node {
+    /// Whether this node is a shape.
+    pub fn is_shape(&self) -> bool {
+        matches!(self.kind, NodeKind::Shape { .. })
+    }
+    /// Whether the node has children.
+    pub fn has_children(&self) -> bool {
+        self.children_len > 0
+    }
+}
+
+/// A derived building: the whole tree.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ShapeTree {
+    pub(crate) nodes: Vec<Node>,
+    pub(crate) seed: u32,
+}
+
+impl ShapeTree {
+    /// All nodes, in expansion order (module documentation).
+    pub fn nodes(&self) -> &[Node] {
+        &self.nodes
+    }
+
+    /// The number of nodes.
+    pub fn len(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Never true for a derived tree (the axiom is always there).
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+
+    /// One node.
+    pub fn node(&self, id: NodeId) -> Option<&Node> {
+        self.nodes.get(id.0 as usize)
+    }
+
+    /// A node's parent (`None` for the axiom).
+    pub fn parent(&self, id: NodeId) -> Option<NodeId> {
+        let n = self.nodes.get(id.0 as usize)?;
+        (id.0 > 0).then(|| NodeId(id.0 - n.parent_offset))
+    }
+
+    /// A node's children, in order.
+    pub fn children(&self, id: NodeId) -> impl Iterator<Item = NodeId> + '_ {
+        let (start, len, command) = match self.nodes.get(id.0 as usize) {
+            Some(n) if n.children_len > 0 => (
+                id.0 + n.children_offset,
+                n.children_len,
+                matches!(n.kind, NodeKind::Command { .. }),
+            ),
+            _ => (0, 0, false),
+        };
+        // A command's children are all of its range; a shape's block also
+        // holds its commands' children, which are skipped.
+        let mut next = start;
+        let end = start + len;
+        std::iter::from_fn(move || {
+            if next >= end {
+                return None;
+            }
+            let c = next;
+            let n = &self.nodes[c as usize];
+            next += if !command && matches!(n.kind, NodeKind::Command { .. }) {
+                1 + n.children_len
+            } else {
+                1
+            };
+            Some(NodeId(c))
+        })
+    }
+
+    /// The path from the axiom to `id`, both included.
+    pub fn path(&self, id: NodeId) -> Vec<NodeId> {
+        let mut path = vec![id];
+        let mut cur = id;
+        while let Some(p) = self.parent(cur) {
+            path.push(p);
+            cur = p;
+        }
+        path.reverse();
+        path
+    }
+
+    /// The shapes that no rule rewrote, and the inserts: what a model is
+    /// built from.
+    pub fn leaves(&self) -> impl Iterator<Item = NodeId> + '_ {
+        self.nodes
+            .iter()
+            .enumerate()
+            .filter(|(_, n)| n.children_len == 0 && !matches!(n.kind, NodeKind::Command { .. }))
+            .map(|(i, _)| NodeId(i as u32))
+    }
+
+    /// The inserts, in tree order.
+    pub fn inserts(&self) -> impl Iterator<Item = (NodeId, AssetId, &Scope)> + '_ {
+        self.nodes
+            .iter()
+            .enumerate()
+            .filter_map(|(i, n)| match n.kind {
+                NodeKind::Insert { asset } => Some((NodeId(i as u32), asset, &n.scope)),
+                _ => None,
+            })
+    }
+
+    /// The seed the tree was derived with.
+    pub fn seed(&self) -> u32 {
+        self.seed
+    }
+
+    /// The uniform draw `draw` of a node, in `[0, 1)`: keyed by its
+    /// identity (what expressions in rules will draw).
+    pub fn uniform(&self, id: NodeId, draw: u32) -> Option<f32> {
+        let n = self.node(id)?;
+        Some(rng::uniform(self.seed, 0, n.key, draw))
+    }
+
+    /// A node's label: its symbol, its command (`split.y`) or its asset
+    /// (`insert:window`).
+    pub fn label(&self, program: &Program, id: NodeId) -> String {
+        match self.node(id).map(|n| n.kind) {
+            Some(NodeKind::Shape { symbol, .. }) => program.symbol_name(symbol).to_owned(),
+            Some(NodeKind::Command { command, .. }) => command.label(),
+            Some(NodeKind::Insert { asset }) => format!("insert:{}", program.asset_name(asset)),
+            None => String::new(),
+        }
+    }
+}
