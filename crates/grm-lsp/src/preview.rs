@@ -18,11 +18,15 @@
 //! tower-lsp-server) sets its token too, so its work stops as well.
 //!
 //! Provenance and identity: the preview grows its model through
-//! `grm_grow` (the road `grmc` takes too), which records the engine's own
-//! decisions: the production that made every module (exact, never
-//! guessed, so `ambiguousOrigins` is always 0), what descends from the
-//! focused production, and the derivation tree, from which `grm/pick`
-//! answers the picked part's identity key and its ancestry.
+//! `grm_grow` (the road `grmc` takes too) in either mode: derive mode
+//! (`grm_grow::Grower`) records the engine's own decisions: the production
+//! that made every module (exact, never guessed, so `ambiguousOrigins` is
+//! always 0), what descends from the focused production, and the
+//! derivation tree; sample mode (`grm_grow::sample`) runs the guided
+//! search with the request's curves, budget and cancel token and gives
+//! the model shown (the result or a generation's frame) with its tree.
+//! From the tree `grm/pick` answers the picked part's identity key and its
+//! ancestry.
 
 use crate::{Backend, Shared, convert, failed};
 use base64::Engine as _;
@@ -623,9 +627,10 @@ fn derive_model(
     })
 }
 
-/// Sample mode: the guided sampler with the request's curves (or the
-/// file's `NAME.curves.json` next to it); the sampler reports provenance
-/// itself. Focus marks what the focused production made directly.
+/// Sample mode: the guided sampler through `grm_grow::sample` with the
+/// request's curves (or the file's `NAME.curves.json` next to it); the
+/// sampler reports provenance itself. Focus marks what the focused
+/// production made directly.
 fn sample_model(
     fa: &FileAnalysis,
     sys: &grm_sema::System,
@@ -657,14 +662,6 @@ fn sample_model(
         }
     };
     let t0 = Instant::now();
-    let sampler = grm_sample::Sampler::new(
-        sys,
-        compiled,
-        &curves,
-        grm_sample::Objective::Curves,
-        grm_sample::ExpectedOptions::default(),
-    )
-    .map_err(|e| e.to_string())?;
     let opts = grm_sample::SampleOptions {
         seed: settings.seed,
         schedule: grm_sample::Schedule::from_settings(settings),
@@ -675,27 +672,33 @@ fn sample_model(
         cancel: cancel.cloned(),
         ..grm_sample::SampleOptions::default()
     };
-    // The one frame shown, not one per generation.
-    let sampled = match p.generation {
-        Some(k) => sampler.sample_frame(&opts, k),
-        None => sampler.sample(&opts),
+    let request = grm_grow::sample::SampleRequest {
+        // The one frame shown, not one per generation.
+        generation: p.generation,
+        tree: true,
+        ..grm_grow::sample::SampleRequest::new(&curves, opts)
     };
-    let run = sampled.map_err(|e| match e {
+    let mut sampled = grm_grow::sample::sample(sys, compiled, &request).map_err(|e| match e {
         grm_sample::SampleError::Cancelled => Failure::Cancelled,
         e => Failure::Msg(e.to_string()),
     })?;
+    // The shown model's tree (identity and ancestry for `grm/pick`).
+    let tree = sampled.tree.take();
+    let run = &sampled.result;
     // The frame asked for (the last one past the end: the result).
-    let (shown, best) = match p.generation {
-        Some(k) => match run.frame(k) {
-            Some((g, Ok(m))) => (Some(g as usize), m),
-            Some((g, Err(e))) => {
-                return Err(Failure::Msg(format!(
-                    "the model of generation {g} cannot be finished: {e} (a search stopped after it ends so; the full search finished)"
-                )));
-            }
-            None => return Err(format!("the sampler kept no model of generation {k}").into()),
-        },
-        None => (None, run.best().ok_or("the sampler returned no model")?),
+    let (shown, best) = match sampled.shown() {
+        grm_grow::sample::Shown::Frame(g, m) => (Some(g as usize), m),
+        grm_grow::sample::Shown::FrameFailed(g, e) => {
+            return Err(Failure::Msg(format!(
+                "the model of generation {g} cannot be finished: {e} (a search stopped after it ends so; the full search finished)"
+            )));
+        }
+        grm_grow::sample::Shown::NoFrame(k) => {
+            return Err(format!("the sampler kept no model of generation {k}").into());
+        }
+        grm_grow::sample::Shown::Models(m) => {
+            (None, m.first().ok_or("the sampler returned no model")?)
+        }
     };
     let derive_ms = t0.elapsed().as_secs_f64() * 1e3;
     let t1 = Instant::now();
@@ -726,11 +729,7 @@ fn sample_model(
     Ok(Made {
         modules: best.string.len(),
         focus_flags,
-        tree: Some(grm_grow::Tree::from_sampled(
-            best,
-            settings.seed,
-            compiled.root_key(settings.seed),
-        )),
+        tree,
         model,
         derive_ms,
         build_ms,
