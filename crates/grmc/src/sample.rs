@@ -329,6 +329,8 @@ pub fn run(args: SampleArgs) -> Outcome {
         },
     };
     let heuristic = !args.no_heuristic && args.cost == CostKind::Curves;
+    // Options grm-sample adds take their defaults until a flag sets them.
+    #[allow(clippy::needless_update)]
     let opts = SampleOptions {
         seed: args.seed.unwrap_or(c.settings.seed),
         schedule,
