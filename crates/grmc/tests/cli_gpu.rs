@@ -198,3 +198,58 @@ fn derive_gpu_glb_names_parts_by_the_cpus_keys() {
         }
     }
 }
+
+/// `grmc args` from the repository root with no adapter to be had
+/// (`WGPU_ADAPTER_NAME` names none).
+fn without_adapter(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_grmc"))
+        .args(args)
+        .current_dir(repo())
+        .env("NO_COLOR", "1")
+        .env("WGPU_ADAPTER_NAME", "no adapter is named like this")
+        .output()
+        .expect("grmc runs")
+}
+
+/// Without a GPU, `--gpu` stops with R0601 (exit 2); with
+/// `--cpu-fallback` it says so and the CPU derives the same string (one
+/// tree and a forest), its `--stats` table the CPU's.
+#[test]
+fn without_a_gpu_cpu_fallback_derives_on_the_cpu() {
+    let file = "examples/stochastic_plant.grm";
+    let out = without_adapter(&["derive", file, "-n", "4", "--print", "--gpu"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("R0601"), "{err}");
+    assert!(out.stdout.is_empty());
+    for what in ["derive", "forest"] {
+        let cpu = ok(&[what, file, "-n", "4", "--print"]);
+        let out = without_adapter(&[what, file, "-n", "4", "--print", "--gpu", "--cpu-fallback"]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(0), "{what}: {err}");
+        assert!(
+            err.contains("note: GPU: ") && err.contains("deriving on the CPU (--cpu-fallback)"),
+            "{what}: {err}"
+        );
+        assert_eq!(String::from_utf8_lossy(&out.stdout), cpu, "{what}");
+    }
+    let out = without_adapter(&[
+        "derive",
+        file,
+        "-n",
+        "2",
+        "--stats",
+        "--gpu",
+        "--cpu-fallback",
+    ]);
+    let table = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(0));
+    assert!(
+        table
+            .lines()
+            .next()
+            .is_some_and(|h| h.trim_end().ends_with("ms")),
+        "the CPU's table, without the engine column: {table}"
+    );
+    assert_eq!(table.lines().count(), 4, "{table}");
+}
