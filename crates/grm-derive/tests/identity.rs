@@ -412,6 +412,12 @@ fn editing_one_weight_re_rolls_only_its_descendants() {
                 let e = compile_text(path, &edited);
                 let (kept, total, changed) = compare_edit(&c, &e, &orig, n, seed, alt)
                     .unwrap_or_else(|m| panic!("{path} (weight x {factor}): {m}\n{edited}"));
+                if !path.starts_with("random") {
+                    eprintln!(
+                        "{path}: weight of production {alt} x {factor}: {kept} of {total} modules ({:.1}%) untouched",
+                        100.0 * kept as f64 / total.max(1) as f64
+                    );
+                }
                 edits += 1;
                 changed_edits += usize::from(changed);
                 kept_total.0 += kept as u64;
