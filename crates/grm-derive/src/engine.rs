@@ -22,7 +22,8 @@
 //! the chunking.
 //!
 //! Hot-path rules: no allocation per module (per-chunk scratch is allocated
-//! once per chunk); every symbol has one precomputed action (`Act`: copy,
+//! once per chunk); a run of modules that are copied unchanged is moved
+//! whole; every symbol has one precomputed action (`Act`: copy,
 //! one-word unit, plan, short arithmetic plan, group search), so symbols
 //! with one unconditional, context-free production (or none) take a table
 //! lookup instead of the group search; constant and copied parameters skip
@@ -202,6 +203,9 @@ pub struct Engine<'a> {
     plans: Vec<Plan>,
     /// Per symbol: what the rewrite does with it ([`Act`]).
     acts: Vec<Act>,
+    /// Per symbol: its action is a copy ([`Act::Copy0`], [`Act::Copy`]).
+    /// The rewrite moves a run of such modules whole.
+    copies: Vec<bool>,
     has_context: bool,
     threads: usize,
     min_chunk: usize,
@@ -562,7 +566,7 @@ impl<'a> Engine<'a> {
                     .all(|p| matches!(p, Patch::Arith { .. })),
             });
         }
-        let acts = (0..n)
+        let acts: Vec<Act> = (0..n)
             .map(|i| {
                 let alt = fast[i];
                 match alt {
@@ -651,6 +655,10 @@ impl<'a> Engine<'a> {
             patches,
             ariths,
             plans,
+            copies: acts
+                .iter()
+                .map(|a| matches!(a, Act::Copy0 | Act::Copy(_)))
+                .collect(),
             acts,
             has_context: sys.has_context(),
             threads,
@@ -1217,16 +1225,63 @@ impl<'a> Engine<'a> {
                 }
             };
         }
-        for i in range {
-            let sym = input.syms[i];
+        let (isyms, istarts, iparams) = (&input.syms[..], &input.starts[..], &input.params[..]);
+        let copies = &self.copies[..];
+        let end = range.end;
+        let mut i = range.start;
+        while i < end {
+            let sym = isyms[i];
             let s = sym as usize;
+            if copies[s] {
+                // A run of copied modules, moved whole: one branch per run
+                // instead of a dispatch per module (Hilbert 3D's `F` and
+                // turns between its rewritten symbols).
+                let mut j = i + 1;
+                while j < end && copies[isyms[j] as usize] {
+                    j += 1;
+                }
+                let len = j - i;
+                let wj = istarts[j] as usize;
+                let words = wj - wi;
+                // The input's starts shifted to the output's words.
+                let delta = (word_base + wo as u32).wrapping_sub(istarts[i]);
+                if len <= PAD && i + PAD <= isyms.len() && o + PAD <= osyms.len() {
+                    // Fixed-size moves (see `PAD`; the chunk's `starts` is
+                    // as long as its `syms`, the input's one longer).
+                    osyms[o..o + PAD].copy_from_slice(&isyms[i..i + PAD]);
+                    for (d, &st) in ostarts[o..o + PAD].iter_mut().zip(&istarts[i..i + PAD]) {
+                        *d = st.wrapping_add(delta);
+                    }
+                } else {
+                    copy_small(&mut osyms[o..o + len], &isyms[i..j]);
+                    for (d, &st) in ostarts[o..o + len].iter_mut().zip(&istarts[i..j]) {
+                        *d = st.wrapping_add(delta);
+                    }
+                }
+                if words > 0 {
+                    if words <= PAD && wi + PAD <= iparams.len() && wo + PAD <= oparams.len() {
+                        oparams[wo..wo + PAD].copy_from_slice(&iparams[wi..wi + PAD]);
+                    } else {
+                        copy_small(&mut oparams[wo..wo + words], &iparams[wi..wj]);
+                    }
+                }
+                if K {
+                    copy_small(&mut okeys[o..o + len], &ikeys[i..j]);
+                }
+                o += len;
+                wo += words;
+                wi = wj;
+                i = j;
+                continue;
+            }
             // Keyed: the output position of this module's successor and its
             // first successor module (or `KCOPY`).
             let o0 = o;
             let mut ksucc = KCOPY;
             match acts[s] {
+                // Copies are moved as runs above; these two arms keep the
+                // per-module form of the same writes.
                 Act::Copy0 => {
-                    // The common case first: copied, no parameters.
                     osyms[o] = sym;
                     ostarts[o] = word_base + wo as u32;
                     o += 1;
@@ -1381,6 +1436,7 @@ impl<'a> Engine<'a> {
                     }
                 }
             }
+            i += 1;
         }
         Ok(())
     }
