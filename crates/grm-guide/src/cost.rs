@@ -95,6 +95,9 @@ pub struct BonePlan {
     curve: Option<usize>,
     distance: f64,
     alignment: f64,
+    /// Distance from the base to the curve's axis (eq. 2's
+    /// `|base - CLOSEST|`).
+    base_dist: f64,
     /// First and last utilization segment of the curve (inclusive), when
     /// the curve's utilization is on.
     segments: Option<(u32, u32)>,
@@ -111,6 +114,7 @@ impl BonePlan {
             curve: None,
             distance: f64::INFINITY,
             alignment: 0.0,
+            base_dist: f64::INFINITY,
             segments: None,
             tip_closest: None,
         }
@@ -180,6 +184,9 @@ impl CostBreakdown {
 #[derive(Clone, Debug)]
 pub struct CostState {
     uses: Vec<u16>,
+    /// Per utilization segment: whether a bone within the covering radius
+    /// of the curve spans it ([`CostModel::covered_segments`]).
+    covered: Vec<bool>,
     distance: i128,
     alignment: i128,
     utilization: i128,
@@ -193,7 +200,7 @@ impl CostState {
     /// Heap bytes this state owns (its segment counters; the density
     /// grid is shared between the states cloned from one another).
     pub fn heap_bytes(&self) -> usize {
-        self.uses.capacity() * std::mem::size_of::<u16>()
+        self.uses.capacity() * std::mem::size_of::<u16>() + self.covered.capacity()
     }
 
     /// Bones added so far.
@@ -241,6 +248,10 @@ impl CurveData {
 #[derive(Clone, Debug)]
 pub struct CostModel {
     curves: Vec<CurveData>,
+    /// Added to a curve's thickness: a bone with both ends within that
+    /// distance of the curve covers the segments it spans
+    /// ([`Self::covered_segments`]).
+    cover_radius: f64,
     total_segments: usize,
     density: Option<DensityParams>,
 }
@@ -306,6 +317,7 @@ impl CostModel {
             .collect();
         Self {
             curves: data,
+            cover_radius: crate::coverage::CoverageOptions::default().radius,
             total_segments: seg_offset,
             density: options.density,
         }
@@ -315,6 +327,7 @@ impl CostModel {
     pub fn new_state(&self) -> CostState {
         CostState {
             uses: vec![0; self.total_segments],
+            covered: vec![false; self.total_segments],
             distance: 0,
             alignment: 0,
             utilization: 0,
@@ -345,6 +358,99 @@ impl CostModel {
                 .unwrap_or(&[]),
             None => &[],
         }
+    }
+
+    /// Whether a planned bone covers the segments it spans: both its ends
+    /// within the curve's thickness plus the covering radius of the curve
+    /// (the measure of [`crate::coverage`], taken per utilization segment).
+    fn plan_covers(&self, plan: &BonePlan) -> bool {
+        let (Some(ci), Some(tip)) = (plan.curve, plan.tip_closest.as_ref()) else {
+            return false;
+        };
+        let Some(c) = self.curves.get(ci) else {
+            return false;
+        };
+        let r = c.params.thickness + self.cover_radius;
+        plan.base_dist <= r && tip.dist <= r
+    }
+
+    /// The covering radius added to each curve's thickness for
+    /// [`Self::covered_segments`] (default 0.15, `CoverageOptions`'s).
+    pub fn set_cover_radius(&mut self, radius: f64) {
+        self.cover_radius = radius;
+    }
+
+    /// How many of `curve`'s utilization segments `state` covers: spanned
+    /// (as eq. 7 spans them) by a bone whose base and tip both lie within
+    /// the curve's thickness plus the covering radius of its axis. A
+    /// per-segment stand-in for [`crate::coverage`] that the sampler can
+    /// keep per particle; needs the curve's utilization on (0 otherwise,
+    /// and for an index out of range). Returns (covered, segments).
+    pub fn covered_segments(&self, state: &CostState, curve: usize) -> (usize, usize) {
+        let Some(c) = self.curves.get(curve) else {
+            return (0, 0);
+        };
+        if c.params.utilization_scale <= 0.0 {
+            return (0, c.n_seg);
+        }
+        let k = state
+            .covered
+            .get(c.seg_offset..c.seg_offset + c.n_seg)
+            .map_or(0, |f| f.iter().filter(|&&x| x).count());
+        (k, c.n_seg)
+    }
+
+    /// How many segments of its curve `plan` would newly cover in `state`
+    /// ([`Self::covered_segments`]), and that curve; `None` when it covers
+    /// none.
+    pub fn cover_gain(&self, state: &CostState, plan: &BonePlan) -> Option<(usize, usize)> {
+        if !self.plan_covers(plan) {
+            return None;
+        }
+        let (ci, (s0, s1)) = (plan.curve?, plan.segments?);
+        let c = self.curves.get(ci)?;
+        let (a, b) = (c.seg_offset + s0 as usize, c.seg_offset + s1 as usize);
+        let new = state
+            .covered
+            .get(a..=b)
+            .map_or(0, |f| f.iter().filter(|&&x| !x).count());
+        (new > 0).then_some((ci, new))
+    }
+
+    /// Whether the segment of `curve` just past parameter `t` (in the
+    /// curve's direction) is covered in `state`; `true` past the last
+    /// segment (nothing left to cover there) and with utilization off.
+    pub fn covered_ahead(&self, state: &CostState, curve: usize, t: f64) -> bool {
+        let Some(c) = self.curves.get(curve) else {
+            return true;
+        };
+        if c.params.utilization_scale <= 0.0 {
+            return true;
+        }
+        let s = c.segment(t) + 1;
+        s >= c.n_seg || state.covered.get(c.seg_offset + s).copied().unwrap_or(true)
+    }
+
+    /// What the next bone would gain in utilization (eq. 7, so `<= 0`) by
+    /// using the segment of `curve` just past parameter `t` in the curve's
+    /// direction (the one after the segment holding `t`), given `state`'s
+    /// use counts: `-scale_u e^(-n)` for a segment used `n` times; 0 past
+    /// the curve's last segment, with utilization off, or for an index out
+    /// of range. A look-ahead for the sampler's expansion order: an open
+    /// symbol where a curve goes on unused is worth growing first.
+    pub fn utilization_ahead(&self, state: &CostState, curve: usize, t: f64) -> f64 {
+        let Some(c) = self.curves.get(curve) else {
+            return 0.0;
+        };
+        if c.params.utilization_scale <= 0.0 {
+            return 0.0;
+        }
+        let s = c.segment(t) + 1;
+        if s >= c.n_seg {
+            return 0.0;
+        }
+        let n = state.uses.get(c.seg_offset + s).copied().unwrap_or(0);
+        -to_f64(c.util(n.saturating_add(1)) - c.util(n))
     }
 
     /// Eq. 1 (with thickness): the curve whose tube is nearest to `p`, and
@@ -462,6 +568,7 @@ impl CostModel {
             curve: Some(curve),
             distance,
             alignment,
+            base_dist: closest.dist,
             segments,
             tip_closest,
         }
@@ -569,6 +676,11 @@ impl CostModel {
         if let Some((a, b)) = range {
             for n in state.uses.get_mut(a..=b).unwrap_or_default() {
                 *n = n.saturating_add(1);
+            }
+            if self.plan_covers(plan) {
+                for c in state.covered.get_mut(a..=b).unwrap_or_default() {
+                    *c = true;
+                }
             }
         }
         if plan.segments.is_some() {

@@ -1,9 +1,10 @@
-//! `cargo bench -p grm-sample --bench coverage [-- --seeds N --only NAME]`:
-//! does the guided sampler follow every curve the artist draws?
+//! `cargo bench -p grm-sample --bench coverage [-- --seeds N --only NAME
+//! --config NAME --with KEY=VALUE]`: does the guided sampler follow every
+//! curve the artist draws?
 //!
-//! For each scene (a sample-mode grammar and a curve set) and each seed
-//! `0 .. N` (default 50), one model is sampled on one thread with the
-//! system's own schedule (`Schedule::from_settings`) and default options;
+//! For each scene (a sample-mode grammar and a curve set), each sampler
+//! configuration and each seed `0 .. N` (default 50), one model is sampled
+//! on one thread with the system's own schedule (`Schedule::from_settings`);
 //! its bones' coverage of each curve is measured (`grm_guide::coverage`:
 //! the share of the curve's arc length with a bone within 0.15 units, plus
 //! the curve's thickness). Printed per scene: the median wall time per
@@ -11,6 +12,20 @@
 //! at 80% or more (the curve-coverage issue's target is 90% of them, at a
 //! median of at most 25 ms), and each curve's median coverage; a curve no
 //! model came near is named as unreached.
+//!
+//! Configurations, run one after another in the same process so that their
+//! times compare: `paper` (Calder's weights: one candidate, no tempering,
+//! uniform expansion order, the paper's equations alone), `before` (the
+//! defaults before the curve-coverage work: 3 candidates, ESS floor 0.1,
+//! the paper's cost and order) and `default` (`SampleOptions::default()`).
+//! `paper` and `before` run with the particle counts the grammars asked
+//! for before that work (Calder's 100 -> 15, the vine's 400 -> 60), the
+//! others with the grammars' own.
+//! `--config NAME` (repeatable) runs only those; `--with KEY=VALUE`
+//! (repeatable) adds a row `custom`: the defaults with those changes
+//! (keys: `particles=A..B`, `pscale` (the
+//! schedule's particle counts times this), `candidates`, `ess`, `order`, `cover`,
+//! `generations`), for trying a change before it is made a default.
 //!
 //! Scenes: the Calder tree with its own curves file (a trunk and two arms),
 //! and with three curve sets of this bench's own (a single S-curve, a fork
@@ -20,8 +35,8 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use grm_guide::{CoverageOptions, Curves, coverage};
-use grm_sample::{ExpectedOptions, Objective, SampleOptions, Sampler, Schedule};
+use grm_guide::{CoverageOptions, Curves, FOLLOWED, coverage};
+use grm_sample::{ExpectedOptions, Guide, Objective, SampleOptions, Sampler, Schedule};
 
 const S_CURVE: &str = r#"{ "version": 1, "defaults": { "utilization_scale": 100 }, "curves": [
   { "name": "s_curve", "points": [[0, 0, 0], [1.5, 1.5, 0], [-1.5, 3, 0], [0, 4.5, 0]] } ] }"#;
@@ -46,55 +61,136 @@ fn pct(xs: &[f64], p: f64) -> f64 {
     v[((p / 100.0) * (v.len() - 1) as f64).round() as usize]
 }
 
+/// The defaults before the curve-coverage work.
+fn before(mut o: SampleOptions) -> SampleOptions {
+    o.candidates = 3;
+    o.ess_target = 0.1;
+    o.guide = Guide::paper();
+    o
+}
+
+/// Calder's paper: one candidate, untempered weights, uniform order.
+fn paper(o: SampleOptions) -> SampleOptions {
+    SampleOptions {
+        candidates: 1,
+        ess_target: 0.0,
+        ..before(o)
+    }
+}
+
+/// The defaults with `--with` changes.
+fn custom(mut o: SampleOptions, with: &[(String, String)]) -> SampleOptions {
+    for (k, v) in with {
+        let f = || {
+            v.parse::<f64>()
+                .unwrap_or_else(|_| panic!("{k}={v}: a number"))
+        };
+        match k.as_str() {
+            "particles" => {
+                let (a, b) = v.split_once("..").unwrap_or((v, v));
+                o.schedule.particles_start = a.parse().expect("particles");
+                o.schedule.particles_end = b.parse().expect("particles");
+            }
+            "pscale" => {
+                let k = f();
+                o.schedule.particles_start =
+                    ((f64::from(o.schedule.particles_start) * k).round() as u32).max(1);
+                o.schedule.particles_end =
+                    ((f64::from(o.schedule.particles_end) * k).round() as u32).max(1);
+            }
+            "generations" => o.schedule = o.schedule.with_generations(f() as u32),
+            "candidates" => o.candidates = f() as u32,
+            "ess" => o.ess_target = f(),
+            "order" => o.guide.order = f() as u32,
+            "cover" => o.guide.cover = f(),
+            _ => panic!("unknown --with key {k}"),
+        }
+    }
+    o
+}
+
 fn main() {
     let mut seeds = 50u32;
     let mut only: Vec<String> = Vec::new();
+    let mut configs: Vec<String> = Vec::new();
+    let mut with: Vec<(String, String)> = Vec::new();
     let mut it = std::env::args().skip(1);
     while let Some(x) = it.next() {
         match x.as_str() {
             "--seeds" => seeds = it.next().and_then(|s| s.parse().ok()).unwrap_or(50),
             "--only" => only.extend(it.next()),
+            "--config" => configs.extend(it.next()),
+            "--with" => {
+                let kv = it.next().unwrap_or_default();
+                let (k, v) = kv.split_once('=').expect("--with KEY=VALUE");
+                with.push((k.to_string(), v.to_string()));
+            }
             // `cargo bench` passes `--bench`.
             _ => {}
         }
     }
+    let mut rows: Vec<&str> = vec!["paper", "before", "default"];
+    if !with.is_empty() {
+        rows.push("custom");
+    }
+    if !configs.is_empty() {
+        rows.retain(|r| configs.iter().any(|c| c == r));
+    }
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples");
     let file_curves = |name: &str| Curves::load(root.join(name)).expect("curves");
     let inline = |name: &str, json: &str| Curves::from_json_str(name, json).expect("curves");
-    let scenes: Vec<(&str, &str, Curves)> = vec![
+    // Per scene, the particle counts its grammar asked for before the
+    // curve-coverage work (Calder's 100 -> 15; the vine's 400 -> 60): the
+    // `paper` and `before` rows run with them, as they ran then.
+    let scenes: Vec<(&str, &str, Curves, (u32, u32))> = vec![
         (
             "calder_tree",
             "calder_tree.grm",
             file_curves("calder_tree.curves.json"),
+            (100, 15),
         ),
         (
             "calder_s_curve",
             "calder_tree.grm",
             inline("s_curve", S_CURVE),
+            (100, 15),
         ),
-        ("calder_fork4", "calder_tree.grm", inline("fork4", FORK)),
+        (
+            "calder_fork4",
+            "calder_tree.grm",
+            inline("fork4", FORK),
+            (100, 15),
+        ),
         (
             "calder_out_of_plane",
             "calder_tree.grm",
             inline("out_of_plane", OUT_OF_PLANE),
+            (100, 15),
         ),
         (
             "vine_wall",
             "vine_wall.grm",
             file_curves("vine_wall.curves.json"),
+            (400, 60),
         ),
     ];
-    println!(
-        "Curve coverage, {seeds} seeds, 1 thread, system schedules; load average {}",
+    let load = || {
         std::fs::read_to_string("/proc/loadavg")
             .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
             .unwrap_or_default()
-    );
+    };
     println!(
-        "{:<20} {:>9} {:>11} {:>12} | median coverage per curve",
-        "scene", "median ms", "median cost", "all >= 80%"
+        "Curve coverage, {seeds} seeds, 1 thread, system schedules; load average {}",
+        load()
     );
-    for (name, file, curves) in &scenes {
+    if !with.is_empty() {
+        println!("custom: the defaults with {with:?}");
+    }
+    println!(
+        "{:<20} {:<8} {:>9} {:>11} {:>12} | median coverage per curve",
+        "scene", "config", "median ms", "median cost", "all >= 80%"
+    );
+    for (name, file, curves, old_particles) in &scenes {
         if !only.is_empty() && !only.iter().any(|o| o == name) {
             continue;
         }
@@ -115,55 +211,67 @@ fn main() {
         )
         .expect("sampler");
         let n = curves.curves().len();
-        let (mut times, mut costs) = (Vec::new(), Vec::new());
-        let mut per_curve: Vec<Vec<f64>> = vec![Vec::new(); n];
-        let mut all80 = 0u32;
-        for seed in 0..seeds {
-            let opts = SampleOptions {
-                seed,
-                schedule: Schedule::from_settings(&compiled.settings),
-                threads: 1,
-                ..SampleOptions::default()
-            };
-            let t = Instant::now();
-            let r = sampler.sample(&opts).expect("samples");
-            times.push(t.elapsed().as_secs_f64() * 1e3);
-            let m = r.best().expect("a model");
-            costs.push(m.cost.total());
-            let bones: Vec<(glam::Vec3, glam::Vec3)> = m
-                .bone_list()
-                .into_iter()
-                .map(|(a, b)| (glam::Vec3::from_array(a), glam::Vec3::from_array(b)))
-                .collect();
-            let cov = coverage(curves, &bones, &CoverageOptions::default());
-            if cov.iter().all(|c| c.fraction >= 0.8) {
-                all80 += 1;
-            }
-            for (k, c) in cov.iter().enumerate() {
-                per_curve[k].push(c.fraction);
-            }
-        }
-        let curve_text: Vec<String> = curves
-            .curves()
-            .iter()
-            .zip(&per_curve)
-            .enumerate()
-            .map(|(k, (c, v))| {
-                let name = c.name.clone().unwrap_or_else(|| format!("curve {k}"));
-                if v.iter().all(|&x| x == 0.0) {
-                    format!("{name} unreached")
-                } else {
-                    format!("{name} {:.0}%", 100.0 * pct(v, 50.0))
+        for row in &rows {
+            let (mut times, mut costs) = (Vec::new(), Vec::new());
+            let mut per_curve: Vec<Vec<f64>> = vec![Vec::new(); n];
+            let mut all80 = 0u32;
+            for seed in 0..seeds {
+                let base = SampleOptions {
+                    seed,
+                    schedule: Schedule::from_settings(&compiled.settings),
+                    threads: 1,
+                    ..SampleOptions::default()
+                };
+                let mut old = base.clone();
+                (old.schedule.particles_start, old.schedule.particles_end) = *old_particles;
+                let opts = match *row {
+                    "paper" => paper(old),
+                    "before" => before(old),
+                    "custom" => custom(base, &with),
+                    _ => base,
+                };
+                let t = Instant::now();
+                let r = sampler.sample(&opts).expect("samples");
+                times.push(t.elapsed().as_secs_f64() * 1e3);
+                let m = r.best().expect("a model");
+                costs.push(m.cost.total());
+                let bones: Vec<(glam::Vec3, glam::Vec3)> = m
+                    .bone_list()
+                    .into_iter()
+                    .map(|(a, b)| (glam::Vec3::from_array(a), glam::Vec3::from_array(b)))
+                    .collect();
+                let cov = coverage(curves, &bones, &CoverageOptions::default());
+                if cov.iter().all(|c| c.fraction >= FOLLOWED) {
+                    all80 += 1;
                 }
-            })
-            .collect();
-        println!(
-            "{:<20} {:>9.1} {:>11.1} {:>11.0}% | {}",
-            name,
-            pct(&times, 50.0),
-            pct(&costs, 50.0),
-            100.0 * f64::from(all80) / f64::from(seeds.max(1)),
-            curve_text.join(", ")
-        );
+                for (k, c) in cov.iter().enumerate() {
+                    per_curve[k].push(c.fraction);
+                }
+            }
+            let curve_text: Vec<String> = curves
+                .curves()
+                .iter()
+                .zip(&per_curve)
+                .enumerate()
+                .map(|(k, (c, v))| {
+                    let name = c.name.clone().unwrap_or_else(|| format!("curve {k}"));
+                    if v.iter().all(|&x| x == 0.0) {
+                        format!("{name} unreached")
+                    } else {
+                        format!("{name} {:.0}%", 100.0 * pct(v, 50.0))
+                    }
+                })
+                .collect();
+            println!(
+                "{:<20} {:<8} {:>9.1} {:>11.1} {:>11.0}% | {}",
+                name,
+                row,
+                pct(&times, 50.0),
+                pct(&costs, 50.0),
+                100.0 * f64::from(all80) / f64::from(seeds.max(1)),
+                curve_text.join(", ")
+            );
+        }
     }
+    println!("load average at the end {}", load());
 }

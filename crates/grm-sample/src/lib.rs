@@ -84,7 +84,7 @@ pub use model::{
     DerivationTree, FinishLimits, GenerationStats, NodeKind, SampleResult, SampledModel, TreeNode,
 };
 pub use sampler::{
-    DEFAULT_CANDIDATES, DEFAULT_ESS_TARGET, DEFAULT_MAX_BYTES, ExpectedOptions, MAX_THREADS,
-    Objective, SampleOptions, Sampler,
+    DEFAULT_CANDIDATES, DEFAULT_COVER, DEFAULT_ESS_TARGET, DEFAULT_MAX_BYTES, DEFAULT_ORDER,
+    ExpectedOptions, Guide, MAX_THREADS, Objective, SampleOptions, Sampler,
 };
 pub use schedule::Schedule;

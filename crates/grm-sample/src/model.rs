@@ -71,8 +71,10 @@ pub struct SampledModel {
     pub cost: CostBreakdown,
     /// The volume baseline's cost, when that was the objective.
     pub volume: Option<VolumeCost>,
-    /// The objective it was ranked by: the curve cost's total, or the
-    /// volume cost times its weight.
+    /// The objective it was ranked by: the curve cost's total plus the
+    /// coverage term of [`crate::Guide::cover`] (0 with
+    /// [`crate::Guide::paper`]; `cost` never includes it), or the volume
+    /// cost times its weight.
     pub objective: f64,
     /// Skeleton bones scored.
     pub skeleton_bones: u32,

@@ -74,11 +74,71 @@ impl Default for ExpectedOptions {
 /// (`docs/sampling.md` section 4, `docs/benchmarks.md`).
 pub const DEFAULT_ESS_TARGET: f64 = 0.1;
 
-/// The default [`SampleOptions::candidates`]: 3 candidate expansions per
-/// bone-making expansion (with [`DEFAULT_ESS_TARGET`], a lower median final
-/// cost on the Calder tree than Calder's untempered weights with one, in
-/// about 1.6 times the time).
-pub const DEFAULT_CANDIDATES: u32 = 3;
+/// The default [`SampleOptions::candidates`]: 12 candidate expansions per
+/// bone-making expansion. With [`Guide::default`] a particle then does
+/// about four times the work of one with Calder's proposal, and a quarter
+/// of Calder's particles (the examples' schedules: 25 -> 4) covers the
+/// curves far more often at a lower cost in less time than 3 candidates
+/// with Calder's 100 -> 15 (`docs/sampling.md` section 4.3,
+/// `docs/benchmarks.md` "Curve coverage"). Before the curve-coverage work
+/// it was 3.
+pub const DEFAULT_CANDIDATES: u32 = 12;
+
+/// The default [`Guide::order`]: the most promising of 3 open symbols.
+pub const DEFAULT_ORDER: u32 = 3;
+
+/// The default [`Guide::cover`]: the coverage term at `W = 300`.
+pub const DEFAULT_COVER: f64 = 300.0;
+
+/// How the search steers towards covering every curve, beyond the paper
+/// (`docs/sampling.md` section 4.3). [`Guide::paper`] turns it all off:
+/// the stochastic order of Calder's method. The cost (eq. 1-8) is the
+/// same either way: these change which open symbol a step expands, not
+/// how a model is scored.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Guide {
+    /// Expansion order: each expansion draws this many open symbols
+    /// uniformly (with replacement) and expands the one whose position
+    /// promises the cheapest next bone (the distance cost there, eq. 10's
+    /// alignment for the symbol's expected direction, and the utilization
+    /// the curve's next segment would still give). 1 is the paper's
+    /// uniform order (the draw is then exactly the paper's).
+    pub order: u32,
+    /// Weight `W` of the coverage term of the search objective, in cost
+    /// units: a particle is searched (weighted, its candidates chosen and
+    /// the final models ranked) by `cost + T` with
+    /// `T = -W sum_curves n_c (1 - (1 - k_c / n_c)^2)`, `n_c` the curve's
+    /// utilization segments and `k_c` those covered (spanned by a bone
+    /// with both ends within the curve's thickness + 0.15 of it,
+    /// `CostModel::covered_segments`). A newly covered segment of a curve
+    /// covered over a share `s` gains about `2 W (1 - s)`: the
+    /// least-covered curve gains most. The reported cost is eq. 1-8 (plus
+    /// density) without it. 0 turns it off (the paper's objective); only
+    /// the curve objective uses it.
+    pub cover: f64,
+}
+
+impl Guide {
+    /// The paper's stochastic order (uniform over the open symbols).
+    pub fn paper() -> Guide {
+        Guide {
+            order: 1,
+            cover: 0.0,
+        }
+    }
+}
+
+impl Default for Guide {
+    /// The measured best (`docs/sampling.md` section 4.3): a tournament
+    /// of 3 for the order ([`DEFAULT_ORDER`]) and the coverage term at
+    /// `W = 300` ([`DEFAULT_COVER`]).
+    fn default() -> Self {
+        Guide {
+            order: DEFAULT_ORDER,
+            cover: DEFAULT_COVER,
+        }
+    }
+}
 
 /// Wrap-up and geometry expansions between two checks of the cancel token.
 const CANCEL_EVERY: u32 = 4096;
@@ -167,6 +227,9 @@ pub struct SampleOptions {
     /// Only the curve objective at a finite temperature uses candidates.
     /// Default [`DEFAULT_CANDIDATES`].
     pub candidates: u32,
+    /// How the expansion order steers towards every curve ([`Guide`];
+    /// [`Guide::paper`] is Calder's uniform order).
+    pub guide: Guide,
     pub limits: FinishLimits,
     /// Stop with [`SampleError::MemoryLimit`] after a generation that
     /// leaves the search holding more than this many bytes
@@ -207,6 +270,7 @@ impl Default for SampleOptions {
             best: 1,
             max_expansions_per_step: 1000,
             candidates: DEFAULT_CANDIDATES,
+            guide: Guide::default(),
             limits: FinishLimits::default(),
             max_bytes: DEFAULT_MAX_BYTES,
             cancel: None,
@@ -641,8 +705,45 @@ impl<'a> Sampler<'a> {
         }
     }
 
-    fn score(&self, p: &Particle, h_scale: f64) -> f64 {
-        let base = self.objective_of(p);
+    /// [`Guide::cover`]'s term `T` of `state` (0 when `w` is 0 or the
+    /// objective is not the curve cost).
+    fn cover_term(&self, state: &grm_guide::CostState, w: f64) -> f64 {
+        if w <= 0.0 || !matches!(self.objective, Objective::Curves) {
+            return 0.0;
+        }
+        let mut t = 0.0;
+        for c in 0..self.guides.len() {
+            let (k, n) = self.cost.covered_segments(state, c);
+            if n > 0 {
+                let u = 1.0 - k as f64 / n as f64;
+                t -= w * n as f64 * (1.0 - u * u);
+            }
+        }
+        t
+    }
+
+    /// The change of [`Self::cover_term`] were `plan` added to `state`.
+    fn cover_delta(&self, state: &grm_guide::CostState, plan: &BonePlan, w: f64) -> f64 {
+        if w <= 0.0 {
+            return 0.0;
+        }
+        let Some((c, new)) = self.cost.cover_gain(state, plan) else {
+            return 0.0;
+        };
+        let (k, n) = self.cost.covered_segments(state, c);
+        let n = n.max(1) as f64;
+        let (u0, u1) = (1.0 - k as f64 / n, 1.0 - (k + new) as f64 / n);
+        -w * n * (u0 * u0 - u1 * u1)
+    }
+
+    /// The objective the search follows: [`Self::objective_of`] plus the
+    /// coverage term of [`Guide::cover`] `w`.
+    fn searched(&self, p: &Particle, w: f64) -> f64 {
+        self.objective_of(p) + self.cover_term(&p.cost, w)
+    }
+
+    fn score(&self, p: &Particle, h_scale: f64, w: f64) -> f64 {
+        let base = self.searched(p, w);
         if h_scale == 0.0 {
             base
         } else {
@@ -811,6 +912,7 @@ impl<'a> Sampler<'a> {
         given: Option<&[f32]>,
         seed: u32,
         h_scale: f64,
+        cover: f64,
     ) -> Result<(Particle, Step), SampleError> {
         let alt = self.g.sys.axiom_alt;
         match given {
@@ -855,7 +957,7 @@ impl<'a> Sampler<'a> {
             None,
             &[],
         );
-        p.score = self.score(&p, h_scale);
+        p.score = self.score(&p, h_scale, cover);
         Ok((p, step))
     }
 
@@ -998,6 +1100,7 @@ impl<'a> Sampler<'a> {
         max_k: u32,
         kc: u32,
         temperature: f64,
+        guide: &Guide,
     ) -> Result<(Particle, Step, u32, f64), SampleError> {
         let mut q = p.clone();
         local.clear();
@@ -1009,24 +1112,53 @@ impl<'a> Sampler<'a> {
         // has nothing left to search: wrap-up closes them.
         while q.live > 0 && k < max_k {
             let draws = skeleton_draws(seed, g, i, k);
-            let idx = pick(&draws, self.g.sys.draws, q.open.len());
             k += 1;
-            let symbol = {
-                let arena = Arena {
-                    layers,
-                    local: &local,
-                    cur,
-                };
+            let arena = Arena {
+                layers,
+                local: &local,
+                cur,
+            };
+            let spawn_at = |idx: usize| {
                 q.open
                     .get(idx)
                     .and_then(|r| arena.get(r.node).map(|(st, n)| (r, st, n)))
-                    .and_then(|(r, st, n)| st.spawns(n).get(r.spawn as usize))
-                    .map(|sp| sp.symbol)
+                    .and_then(|(r, st, n)| st.spawns(n).get(r.spawn as usize).copied())
             };
+            let n_open = q.open.len();
+            let mut idx = pick(&draws, self.g.sys.draws, n_open);
+            if guide.order > 1 {
+                // A tournament: the most promising of `order` uniform
+                // draws (the first draw is the paper's).
+                let mut best =
+                    spawn_at(idx).map_or(f64::INFINITY, |sp| self.promise(&q, &sp, guide));
+                for j in 1..guide.order {
+                    let other = pick(&draws, self.g.sys.draws + j, n_open);
+                    if other == idx {
+                        continue;
+                    }
+                    let v =
+                        spawn_at(other).map_or(f64::INFINITY, |sp| self.promise(&q, &sp, guide));
+                    if v < best {
+                        best = v;
+                        idx = other;
+                    }
+                }
+            }
+            let symbol = spawn_at(idx).map(|sp| sp.symbol);
             let candidates = kc > 1 && symbol.is_some_and(|s| self.g.can_bone[s as usize]);
             let added = if candidates {
-                let (c, corr) =
-                    self.draw_candidates(w, layers, &local, cur, &q, idx, draws, kc, temperature)?;
+                let (c, corr) = self.draw_candidates(
+                    w,
+                    layers,
+                    &local,
+                    cur,
+                    &q,
+                    idx,
+                    draws,
+                    kc,
+                    temperature,
+                    guide.cover,
+                )?;
                 correction += corr;
                 // The chosen candidate's successor into the worker.
                 std::mem::swap(&mut w.params, &mut w.cand_params[c]);
@@ -1052,8 +1184,41 @@ impl<'a> Sampler<'a> {
                 break;
             }
         }
-        q.score = self.score(&q, h_scale);
+        q.score = self.score(&q, h_scale, guide.cover);
         Ok((q, local, k, correction))
+    }
+
+    /// How promising it is to expand open symbol `sp` of `q` next (lower
+    /// is better; [`Guide::order`]): the cost a bone grown from there in
+    /// the symbol's expected direction would get (eq. 3 at its position,
+    /// eq. 6 for its expected direction as in eq. 10) plus the utilization
+    /// the nearest curve's next segment would still give
+    /// (`CostModel::utilization_ahead`), and, with [`Guide::cover`], the
+    /// coverage term's gain for a first cover of that segment
+    /// (`2 W (1 - s)`, `s` the curve's covered share). A
+    /// symbol that never grows a bone, or at a non-finite position, is
+    /// least promising (`+inf`).
+    fn promise(&self, q: &Particle, sp: &Spawn, guide: &Guide) -> f64 {
+        let e = self
+            .expected
+            .get(sp.symbol as usize)
+            .copied()
+            .unwrap_or(Vec3::ZERO);
+        let Some(n) = sp.near else {
+            return f64::INFINITY;
+        };
+        if e == Vec3::ZERO {
+            return f64::INFINITY;
+        }
+        let (_, params) = &self.guides[n.curve];
+        let mut v = grm_guide::distance_cost(n.closest.dist, params)
+            + self.heuristic_near(&sp.turtle.frame, e, Some(n))
+            + self.cost.utilization_ahead(&q.cost, n.curve, n.closest.t);
+        if guide.cover > 0.0 && !self.cost.covered_ahead(&q.cost, n.curve, n.closest.t) {
+            let (k, m) = self.cost.covered_segments(&q.cost, n.curve);
+            v -= 2.0 * guide.cover * (1.0 - k as f64 / m.max(1) as f64);
+        }
+        if v.is_nan() { f64::INFINITY } else { v }
     }
 
     /// The candidates of one expansion: open symbol `idx` of `q` expanded
@@ -1079,6 +1244,7 @@ impl<'a> Sampler<'a> {
         draws: DrawCtx,
         kc: u32,
         temperature: f64,
+        cover: f64,
     ) -> Result<(usize, f64), SampleError> {
         let r = *q.open.get(idx).ok_or_else(missing_node)?;
         let (sp, _) = self.open_spawn(w, Arena { layers, local, cur }, r)?;
@@ -1136,7 +1302,8 @@ impl<'a> Sampler<'a> {
                             None => self.cost.plan_bone(b, t),
                         }
                     };
-                    cost += self.cost.peek(&q.cost, &plan);
+                    cost +=
+                        self.cost.peek(&q.cost, &plan) + self.cover_delta(&q.cost, &plan, cover);
                     plans.push(plan);
                 }
                 if w.non_finite {
@@ -1212,7 +1379,7 @@ impl<'a> Sampler<'a> {
             };
             self.expand_open(w, layers, &mut local, cur, &mut q, idx, how, false, &[])?;
         }
-        q.score = self.score(&q, 0.0);
+        q.score = self.score(&q, 0.0, opts.guide.cover);
         Ok((q, local))
     }
 
@@ -1334,7 +1501,8 @@ impl<'a> Sampler<'a> {
         };
         let cancel = opts.cancel.as_ref();
         let mut w = self.g.worker();
-        let (root, root_step) = self.root_particle(&mut w, None, seed, h_of(0))?;
+        let (root, root_step) =
+            self.root_particle(&mut w, None, seed, h_of(0), opts.guide.cover)?;
         // The arena: layer 0 the axiom, layer g + 1 generation g, then the
         // wrap-ups.
         let mut layers: Vec<Vec<Step>> = vec![vec![root_step]];
@@ -1406,7 +1574,20 @@ impl<'a> Sampler<'a> {
                 .collect();
             let taken_bytes: u64 = bufs.iter().map(|s| s.bytes() as u64).sum();
             let step = |w: &mut Worker, (i, (p, buf)): (usize, (&Arc<Particle>, Step))| {
-                self.advance(w, lay, buf, p, seed, g, i as u32, h, max_k, kc, temperature)
+                self.advance(
+                    w,
+                    lay,
+                    buf,
+                    p,
+                    seed,
+                    g,
+                    i as u32,
+                    h,
+                    max_k,
+                    kc,
+                    temperature,
+                    &opts.guide,
+                )
             };
             let results: Vec<Result<(Particle, Step, u32, f64), SampleError>> = if parallel {
                 pop.par_iter()
@@ -1633,7 +1814,11 @@ impl<'a> Sampler<'a> {
         }
         cancel::check(cancel)?;
         layers.push(layer);
-        let candidates: Vec<f64> = done.iter().map(|q| self.objective_of(q)).collect();
+        // Ranked by the objective searched (with the coverage term).
+        let candidates: Vec<f64> = done
+            .iter()
+            .map(|q| self.searched(q, opts.guide.cover))
+            .collect();
         let mut order: Vec<usize> = (0..done.len()).collect();
         order.sort_by(|&a, &b| {
             let (x, y) = (candidates[a], candidates[b]);
@@ -1846,7 +2031,7 @@ impl<'a> Sampler<'a> {
                 (Some(vt), Some(vs)) => Some(vt.cost(vs)),
                 _ => None,
             },
-            objective: self.objective_of(p),
+            objective: self.searched(p, opts.guide.cover),
             skeleton_bones: p.bones,
             interpretation,
             string,
@@ -1889,7 +2074,7 @@ impl<'a> Sampler<'a> {
             return Err(bad("node 0 does not fit the axiom"));
         }
         let mut w = self.g.worker();
-        let (mut p, root_step) = self.root_particle(&mut w, Some(&root.params), 0, 0.0)?;
+        let (mut p, root_step) = self.root_particle(&mut w, Some(&root.params), 0, 0.0, 0.0)?;
         let mut layers = vec![vec![root_step]];
         // Chain seq -> tree node.
         let mut tree_of = vec![0u32];

@@ -149,9 +149,10 @@ fn candidates_are_an_option() {
             .unwrap_or(f64::NAN)
     };
     let default = run(&[]);
-    assert!(default.contains("3 candidates, ESS >= 0.1 N"), "{default}");
-    let three = run(&["--candidates", "3"]);
-    assert_eq!(cost(&default), cost(&three));
+    // The default is 12 candidates (3 before the curve-coverage work).
+    assert!(default.contains("12 candidates, ESS >= 0.1 N"), "{default}");
+    let twelve = run(&["--candidates", "12"]);
+    assert_eq!(cost(&default), cost(&twelve));
     let one = run(&["--candidates", "1", "--ess-target", "0"]);
     assert!(one.contains("1 candidate, untempered"), "{one}");
     assert!(cost(&one).is_finite() && cost(&default).is_finite());
