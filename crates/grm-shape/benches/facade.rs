@@ -141,21 +141,46 @@ fn peer(tower: bool) -> Interpreter {
     i
 }
 
-/// Median and minimum of `f`'s time, over at least 15 runs and 1.5 s.
-fn time(mut f: impl FnMut()) -> (Duration, Duration) {
-    f();
-    let mut v = Vec::new();
+/// Time the three contenders in interleaved rounds (one run of each per
+/// round, so that all see the same load on a busy machine), for at least
+/// 20 rounds and 2 s. Returns, per contender, the median and minimum time,
+/// and the median over rounds of the peer's time over ours (one thread).
+fn rounds(
+    mut ours_one: impl FnMut(),
+    mut ours_many: impl FnMut(),
+    mut peer: impl FnMut(),
+) -> ([(Duration, Duration); 3], f64) {
+    ours_one();
+    ours_many();
+    peer();
+    let mut t: [Vec<Duration>; 3] = Default::default();
+    let mut ratios = Vec::new();
     let start = Instant::now();
-    while v.len() < 15 || start.elapsed() < Duration::from_millis(1500) {
-        let t = Instant::now();
-        f();
-        v.push(t.elapsed());
-        if v.len() >= 2000 {
+    while t[0].len() < 20 || start.elapsed() < Duration::from_secs(2) {
+        let a = Instant::now();
+        ours_one();
+        let b = Instant::now();
+        ours_many();
+        let c = Instant::now();
+        peer();
+        let d = Instant::now();
+        t[0].push(b - a);
+        t[1].push(c - b);
+        t[2].push(d - c);
+        ratios.push((d - c).as_secs_f64() / (b - a).as_secs_f64());
+        if t[0].len() >= 1000 {
             break;
         }
     }
-    v.sort();
-    (v[v.len() / 2], v[0])
+    ratios.sort_by(f64::total_cmp);
+    let stat = |v: &mut Vec<Duration>| {
+        v.sort();
+        (v[v.len() / 2], v[0])
+    };
+    (
+        [stat(&mut t[0]), stat(&mut t[1]), stat(&mut t[2])],
+        ratios[ratios.len() / 2],
+    )
 }
 
 fn ms(d: Duration) -> f64 {
@@ -164,7 +189,9 @@ fn ms(d: Duration) -> f64 {
 
 fn main() {
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    println!("grm-shape bench: {threads} hardware threads; times are median (min) per derivation");
+    println!(
+        "grm-shape bench: {threads} hardware threads; times are median (minimum) per derivation, contenders interleaved"
+    );
     for (name, tower, windows) in [
         ("facade 40x50", false, 2000usize),
         ("tower 4x40x50", true, 8000),
@@ -221,17 +248,19 @@ fn main() {
             .count();
         assert_eq!(peer_windows, windows, "{name}: peer windows");
 
-        let (one, one_min) = time(|| {
-            black_box(derive(&program, &lot, &opts(1)).expect("derive"));
-        });
-        let (many, many_min) = time(|| {
-            black_box(derive(&program, &lot, &opts(threads)).expect("derive"));
-        });
-        let (p, p_min) = time(|| {
-            black_box(interp.derive(peer_scope, root).expect("peer"));
-        });
+        let ([(one, one_min), (many, many_min), (p, p_min)], ratio) = rounds(
+            || {
+                black_box(derive(&program, &lot, &opts(1)).expect("derive"));
+            },
+            || {
+                black_box(derive(&program, &lot, &opts(threads)).expect("derive"));
+            },
+            || {
+                black_box(interp.derive(peer_scope, root).expect("peer"));
+            },
+        );
         println!(
-            "{name}: {windows} windows, {} nodes | grm-shape 1 thread {:.3} ms ({:.3}) | {threads} threads {:.3} ms ({:.3}) | symbios-shape 0.2 {:.3} ms ({:.3}) | peer / grm-shape (1 thread) {:.2}x",
+            "{name}: {windows} windows, {} nodes | grm-shape 1 thread {:.3} ms ({:.3}) | {threads} threads {:.3} ms ({:.3}) | symbios-shape 0.2 {:.3} ms ({:.3}) | symbios-shape / grm-shape 1 thread, median of rounds {:.2}x, of minima {:.2}x",
             tree.len(),
             ms(one),
             ms(one_min),
@@ -239,7 +268,8 @@ fn main() {
             ms(many_min),
             ms(p),
             ms(p_min),
-            p.as_secs_f64() / one.as_secs_f64(),
+            ratio,
+            p_min.as_secs_f64() / one_min.as_secs_f64(),
         );
     }
 }

@@ -24,7 +24,7 @@
 //! counter-clockwise around the solid; walls in that order, then the top,
 //! then the bottom; a case's components are numbered in this order.
 
-use crate::geometry::{Geometry, Outline};
+use crate::geometry::{Geom, Outline};
 use crate::ir::{CompTarget, Selector};
 use crate::scope::Scope;
 use glam::{Mat3, Vec3};
@@ -78,7 +78,7 @@ impl Classes {
 pub struct Component {
     pub classes: Classes,
     pub scope: Scope,
-    pub geometry: Geometry,
+    pub geometry: Geom,
 }
 
 /// Why a component split does not apply.
@@ -88,7 +88,7 @@ pub struct NotApplicable;
 /// The components of a shape, in canonical order.
 pub fn components(
     scope: &Scope,
-    geometry: &Geometry,
+    geometry: &Geom,
     target: CompTarget,
 ) -> Result<Vec<Component>, NotApplicable> {
     let rings = rings_of(scope, geometry).ok_or(NotApplicable)?;
@@ -104,14 +104,14 @@ pub fn components(
 
 /// The outline's rings in canonical order (each from its least (y, x)
 /// vertex, straight runs merged), or `None` for an edge.
-fn rings_of(scope: &Scope, geometry: &Geometry) -> Option<Vec<Vec<[f64; 2]>>> {
+fn rings_of(scope: &Scope, geometry: &Geom) -> Option<Vec<Vec<[f64; 2]>>> {
     let raw: Vec<Vec<[f64; 2]>> = match geometry {
-        Geometry::Box | Geometry::Rect => {
+        Geom::Box | Geom::Rect => {
             let (x, y) = (f64::from(scope.size.x), f64::from(scope.size.y));
             vec![vec![[0.0, 0.0], [x, 0.0], [x, y], [0.0, y]]]
         }
-        Geometry::Prism(o) | Geometry::Polygon(o) => o.rings().collect(),
-        Geometry::Edge => return None,
+        Geom::Prism(o) | Geom::Polygon(o) => o.rings().collect(),
+        Geom::Edge => return None,
     };
     let scale = f64::from(scope.size.x.max(scope.size.y)).max(1.0);
     Some(
@@ -196,19 +196,14 @@ fn wall_facing(n: Vec3) -> Selector {
 }
 
 fn local_frame(scope: &Scope, origin: Vec3, x: Vec3, y: Vec3, z: Vec3, size: Vec3) -> Scope {
-    Scope {
-        origin: scope.world(origin),
-        rotation: (scope.rotation * glam::Quat::from_mat3(&Mat3::from_cols(x, y, z))).normalize(),
+    Scope::with_rotation(
+        scope.world(origin),
+        scope.rotation() * glam::Quat::from_mat3(&Mat3::from_cols(x, y, z)),
         size,
-    }
+    )
 }
 
-fn mass_faces(
-    scope: &Scope,
-    geometry: &Geometry,
-    rings: &[Vec<[f64; 2]>],
-    out: &mut Vec<Component>,
-) {
+fn mass_faces(scope: &Scope, geometry: &Geom, rings: &[Vec<[f64; 2]>], out: &mut Vec<Component>) {
     let h = scope.size.z;
     for ring in rings {
         for (a, d, len, n) in runs(ring) {
@@ -223,17 +218,17 @@ fn mass_faces(
                     n,
                     Vec3::new(len, h, 0.0),
                 ),
-                geometry: Geometry::Rect,
+                geometry: Geom::Rect,
             });
         }
     }
     let flat = Vec3::new(scope.size.x, scope.size.y, 0.0);
     let (top, bottom) = match geometry {
-        Geometry::Prism(o) => (
-            Geometry::Polygon(Arc::clone(o)),
-            Geometry::Polygon(Arc::new(o.flipped_y(f64::from(scope.size.y)))),
+        Geom::Prism(o) => (
+            Geom::Polygon(Arc::clone(o)),
+            Geom::Polygon(Arc::new(o.flipped_y(f64::from(scope.size.y)))),
         ),
-        _ => (Geometry::Rect, Geometry::Rect),
+        _ => (Geom::Rect, Geom::Rect),
     };
     out.push(Component {
         classes: Classes::of(&[Selector::Top]),
@@ -277,7 +272,7 @@ fn mass_edges(scope: &Scope, rings: &[Vec<[f64; 2]>], out: &mut Vec<Component>) 
                         n,
                         Vec3::new(len, 0.0, 0.0),
                     ),
-                    geometry: Geometry::Edge,
+                    geometry: Geom::Edge,
                 });
             }
         }
@@ -294,7 +289,7 @@ fn mass_edges(scope: &Scope, rings: &[Vec<[f64; 2]>], out: &mut Vec<Component>) 
                     b,
                     Vec3::new(h, 0.0, 0.0),
                 ),
-                geometry: Geometry::Edge,
+                geometry: Geom::Edge,
             });
         }
     }
@@ -329,7 +324,7 @@ fn face_edges(scope: &Scope, rings: &[Vec<[f64; 2]>], out: &mut Vec<Component>) 
                     Vec3::Z,
                     Vec3::new(len, 0.0, 0.0),
                 ),
-                geometry: Geometry::Edge,
+                geometry: Geom::Edge,
             });
         }
     }
@@ -338,13 +333,13 @@ fn face_edges(scope: &Scope, rings: &[Vec<[f64; 2]>], out: &mut Vec<Component>) 
 /// The outline of a mass's footprint or a face, for callers that want it
 /// as polygons whatever the geometry (a box's or rectangle's is its
 /// scope's rectangle).
-pub fn outline_of(scope: &Scope, geometry: &Geometry) -> Option<Outline> {
+pub fn outline_of(scope: &Scope, geometry: &Geom) -> Option<Outline> {
     match geometry {
-        Geometry::Box | Geometry::Rect => Some(Outline::rect(
+        Geom::Box | Geom::Rect => Some(Outline::rect(
             f64::from(scope.size.x),
             f64::from(scope.size.y),
         )),
-        Geometry::Prism(o) | Geometry::Polygon(o) => Some((**o).clone()),
-        Geometry::Edge => None,
+        Geom::Prism(o) | Geom::Polygon(o) => Some((**o).clone()),
+        Geom::Edge => None,
     }
 }

@@ -23,13 +23,14 @@
 
 use crate::component::{NotApplicable, components};
 use crate::error::{ShapeError, SizeError};
-use crate::geometry::{Geometry, Outline};
+use crate::geometry::{Geom, Geometry, Outline, OutlineId};
 use crate::ir::{Axis, CompTarget, Op, Program, SymbolId};
 use crate::scope::Scope;
-use crate::split::{RepeatLayout, Span, SplitSize, repeat_into, split_into};
+use crate::split::{RepeatLayout, SplitSize, repeat_into, split_into};
 use crate::tree::{Command, Node, NodeKind, ShapeTree};
 use glam::Vec3;
 use grm_compile::rng::{child_key, choice_draw, hash, race_earlier, race_time, root_key, salt};
+use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// Bounds on a derivation's work and memory.
@@ -76,7 +77,7 @@ impl Default for Options {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Lot {
     pub scope: Scope,
-    pub geometry: Geometry,
+    pub geometry: Geom,
 }
 
 impl Lot {
@@ -91,7 +92,7 @@ impl Lot {
         let size = Vec3::new((hi[0] - lo[0]) as f32, (hi[1] - lo[1]) as f32, 0.0);
         Ok(Lot {
             scope: Scope::new(Vec3::new(lo[0] as f32, lo[1] as f32, 0.0), size),
-            geometry: Geometry::from_outline(local, size.x, size.y, false),
+            geometry: Geom::from_outline(local, size.x, size.y, false),
         })
     }
 
@@ -99,7 +100,7 @@ impl Lot {
     pub fn rectangle(width: f32, depth: f32) -> Lot {
         Lot {
             scope: Scope::new(Vec3::ZERO, Vec3::new(width, depth, 0.0)),
-            geometry: Geometry::Rect,
+            geometry: Geom::Rect,
         }
     }
 
@@ -107,15 +108,15 @@ impl Lot {
     pub fn face(scope: Scope) -> Lot {
         Lot {
             scope,
-            geometry: Geometry::Rect,
+            geometry: Geom::Rect,
         }
     }
 
     fn check(&self) -> Result<(), ShapeError> {
         let s = &self.scope;
         let finite = s.origin.is_finite()
-            && s.rotation.is_finite()
-            && s.rotation.is_normalized()
+            && s.rotation().is_finite()
+            && s.rotation().is_normalized()
             && s.size.is_finite();
         if !finite || s.size.min_element() < 0.0 {
             return Err(ShapeError::BadLot {
@@ -139,17 +140,19 @@ pub fn derive(program: &Program, lot: &Lot, options: &Options) -> Result<ShapeTr
         limits: options.limits,
     };
     let root = engine.axiom(lot);
+    let outline = lot.geometry.outline().map(|o| Arc::new(o.clone()));
     let max = options.limits.max_nodes;
-    let nodes = if threads <= 1 {
+    let (nodes, outlines) = if threads <= 1 {
         let job = engine
-            .run(root, None, max, &AtomicBool::new(false))
+            .run(root, outline, None, max, &AtomicBool::new(false))
             .map_err(|Overflow| ShapeError::TooManyShapes { max })?;
         finish(job)?
     } else {
-        engine.parallel(root, threads)?
+        engine.parallel(root, outline, threads)?
     };
     Ok(ShapeTree {
         nodes,
+        outlines,
         seed: options.seed,
     })
 }
@@ -160,6 +163,8 @@ pub fn derive(program: &Program, lot: &Lot, options: &Options) -> Result<ShapeTr
 /// slice in nodes)`.
 struct Job {
     nodes: Vec<Node>,
+    /// One outline per node with one, in node order.
+    outlines: Vec<Arc<Outline>>,
     failures: Vec<(u32, ShapeError)>,
     cut: Vec<(u32, u32)>,
     /// The root's kind and block length, kept when its slice is spliced.
@@ -175,13 +180,27 @@ struct Engine<'p> {
     limits: Limits,
 }
 
+/// How many layouts [`Scratch::memo`] keeps.
+const MEMO: usize = 8;
+
+/// One remembered layout.
+#[derive(Default)]
+struct Memo {
+    op: usize,
+    extent: u32,
+    sizes: Vec<SplitSize>,
+    layout: RepeatLayout,
+}
+
 /// A rule run's scratch space, reused from shape to shape.
 #[derive(Default)]
 struct Scratch {
-    spans: Vec<Span>,
-    layout: RepeatLayout,
     sizes: Vec<SplitSize>,
-    stack: Vec<(Scope, Geometry)>,
+    stack: Vec<(Scope, Geom)>,
+    /// Recent split and repeat layouts by (op, extent, sizes): a facade's
+    /// thousand equal tiles are divided once.
+    memo: Vec<Memo>,
+    memo_next: usize,
     occurrences: Vec<(u32, u32)>,
     weights: Vec<f32>,
     counts: Vec<u32>,
@@ -224,7 +243,13 @@ impl Engine<'_> {
                 alternative: None,
             },
             lot.scope,
-            lot.geometry.clone(),
+            match lot.geometry {
+                Geom::Box => Geometry::Box,
+                Geom::Rect => Geometry::Rect,
+                Geom::Prism(_) => Geometry::Prism(OutlineId(0)),
+                Geom::Polygon(_) => Geometry::Polygon(OutlineId(0)),
+                Geom::Edge => Geometry::Edge,
+            },
             child_key(root, salt(info.name_hash, 0, 0)),
             0,
             0,
@@ -238,13 +263,20 @@ impl Engine<'_> {
     /// Stops with `Overflow` past `budget` nodes or when `stop` is set.
     fn run(
         &self,
-        root: Node,
+        mut root: Node,
+        root_outline: Option<Arc<Outline>>,
         cut: Option<u32>,
         budget: usize,
         stop: &AtomicBool,
     ) -> Result<Job, Overflow> {
         let roots_kind = (root.kind, 0);
+        root.geometry = match (root.geometry, &root_outline) {
+            (Geometry::Prism(_), Some(_)) => Geometry::Prism(OutlineId(0)),
+            (Geometry::Polygon(_), Some(_)) => Geometry::Polygon(OutlineId(0)),
+            (g, _) => g,
+        };
         let mut job = Job {
+            outlines: root_outline.into_iter().collect(),
             nodes: vec![root],
             failures: Vec::new(),
             cut: Vec::new(),
@@ -265,7 +297,14 @@ impl Engine<'_> {
                 continue;
             }
             let start = job.nodes.len();
-            match self.expand(&mut job.nodes, at, symbol, budget, &mut scratch) {
+            match self.expand(
+                &mut job.nodes,
+                &mut job.outlines,
+                at,
+                symbol,
+                budget,
+                &mut scratch,
+            ) {
                 Ok(()) => {}
                 Err(Some(e)) => job.failures.push((at, e)),
                 Err(None) => return Err(Overflow),
@@ -293,6 +332,7 @@ impl Engine<'_> {
     fn expand(
         &self,
         out: &mut Vec<Node>,
+        outlines: &mut Vec<Arc<Outline>>,
         at: u32,
         symbol: SymbolId,
         budget: usize,
@@ -307,7 +347,7 @@ impl Engine<'_> {
         let depth = shape.depth;
         let base = shape.scope;
         let mut scope = shape.scope;
-        let mut geometry = shape.geometry.clone();
+        let mut geometry = resolve(outlines, shape.geometry);
         let alt = if rule.alternatives.len() == 1 {
             0
         } else {
@@ -374,9 +414,9 @@ impl Engine<'_> {
                     Op::Extrude(h) => {
                         let h = finite("the extrusion height", h.value())?.max(0.0);
                         geometry = match geometry {
-                            Geometry::Rect | Geometry::Box => Geometry::Box,
-                            Geometry::Polygon(o) | Geometry::Prism(o) => Geometry::Prism(o),
-                            Geometry::Edge => {
+                            Geom::Rect | Geom::Box => Geom::Box,
+                            Geom::Polygon(o) | Geom::Prism(o) => Geom::Prism(o),
+                            Geom::Edge => {
                                 return fail(ShapeError::WrongGeometry {
                                     symbol: name(),
                                     op: "extrude",
@@ -415,7 +455,7 @@ impl Engine<'_> {
                             && (f[0] != 1.0 || f[1] != 1.0)
                         {
                             let scaled = o.scaled(f[0], f[1]);
-                            geometry = Geometry::from_outline(
+                            geometry = Geom::from_outline(
                                 scaled,
                                 scope.size.x,
                                 scope.size.y,
@@ -452,7 +492,7 @@ impl Engine<'_> {
                         };
                         match outline.offset(f64::from(d)) {
                             Some(o) => {
-                                geometry = Geometry::from_outline(
+                                geometry = Geom::from_outline(
                                     o,
                                     scope.size.x,
                                     scope.size.y,
@@ -472,7 +512,7 @@ impl Engine<'_> {
                         out.push(node(
                             NodeKind::Insert { asset: *asset },
                             scope,
-                            geometry.clone(),
+                            intern(outlines, &geometry),
                             child_key(key, salt(h, ord, alt)),
                             edge,
                             depth + 1,
@@ -491,7 +531,7 @@ impl Engine<'_> {
                                 alternative: None,
                             },
                             scope,
-                            geometry.clone(),
+                            intern(outlines, &geometry),
                             child_key(key, salt(h, ord, alt)),
                             edge,
                             depth + 1,
@@ -510,23 +550,49 @@ impl Engine<'_> {
                                 error,
                             }))
                         };
-                        let (tiles, spans) = if is_repeat {
-                            match repeat_into(
-                                &s.sizes,
-                                extent,
-                                self.limits.max_nodes as u64,
-                                &mut s.layout,
-                            ) {
-                                Ok(()) => (s.layout.tiles, &s.layout.spans),
-                                Err(SizeError::TooManyTiles { .. }) => return Err(None),
-                                Err(e) => return size_err(e),
-                            }
-                        } else {
-                            match split_into(&s.sizes, extent, &mut s.spans) {
-                                Ok(()) => (1, &s.spans),
-                                Err(e) => return size_err(e),
+                        // The layout depends on the op, the extent and the
+                        // sizes only: look it up before laying it out.
+                        let op_id = std::ptr::from_ref(sp) as usize;
+                        let bits = extent.to_bits();
+                        let hit = s
+                            .memo
+                            .iter()
+                            .position(|m| m.op == op_id && m.extent == bits && m.sizes == s.sizes);
+                        let slot = match hit {
+                            Some(i) => i,
+                            None => {
+                                if s.memo.len() < MEMO {
+                                    s.memo.push(Memo::default());
+                                }
+                                let i = s.memo_next % MEMO.min(s.memo.len());
+                                s.memo_next = s.memo_next.wrapping_add(1);
+                                let m = &mut s.memo[i];
+                                m.op = usize::MAX;
+                                let laid = if is_repeat {
+                                    repeat_into(
+                                        &s.sizes,
+                                        extent,
+                                        self.limits.max_nodes as u64,
+                                        &mut m.layout,
+                                    )
+                                } else {
+                                    m.layout.tiles = 1;
+                                    split_into(&s.sizes, extent, &mut m.layout.spans)
+                                };
+                                match laid {
+                                    Ok(()) => {}
+                                    Err(SizeError::TooManyTiles { .. }) => return Err(None),
+                                    Err(e) => return size_err(e),
+                                }
+                                m.op = op_id;
+                                m.extent = bits;
+                                m.sizes.clear();
+                                m.sizes.extend_from_slice(&s.sizes);
+                                i
                             }
                         };
+                        let (tiles, spans) =
+                            (s.memo[slot].layout.tiles, &s.memo[slot].layout.spans);
                         let (command, h) = if is_repeat {
                             (Command::Repeat(sp.axis), program.commands.repeat)
                         } else {
@@ -542,7 +608,7 @@ impl Engine<'_> {
                                 tag: sp.tag,
                             },
                             scope,
-                            geometry.clone(),
+                            intern(outlines, &geometry),
                             cmd_key,
                             edge,
                             depth + 1,
@@ -567,7 +633,7 @@ impl Engine<'_> {
                                     alternative: None,
                                 },
                                 scope.slab_along(dir, sp.axis, span.start, span.len),
-                                g,
+                                intern(outlines, &g),
                                 child_key(cmd_key, salt(th, number, 0)),
                                 number,
                                 depth + 2,
@@ -613,7 +679,7 @@ impl Engine<'_> {
                                 tag: c.tag,
                             },
                             scope,
-                            geometry.clone(),
+                            intern(outlines, &geometry),
                             cmd_key,
                             edge,
                             depth + 1,
@@ -647,7 +713,7 @@ impl Engine<'_> {
                                     alternative: None,
                                 },
                                 comp.scope,
-                                comp.geometry,
+                                intern(outlines, &comp.geometry),
                                 child_key(cmd_key, salt(th, index, k as u32)),
                                 index,
                                 depth + 2,
@@ -682,13 +748,18 @@ impl Engine<'_> {
     /// Derive with `threads` workers: the top of the tree here, deep
     /// enough to give each worker several subtrees, then the subtrees on
     /// the workers, then the slices spliced in, in the tree's order.
-    fn parallel(&self, root: Node, threads: usize) -> Result<Vec<Node>, ShapeError> {
+    fn parallel(
+        &self,
+        root: Node,
+        root_outline: Option<Arc<Outline>>,
+        threads: usize,
+    ) -> Result<(Vec<Node>, Vec<Arc<Outline>>), ShapeError> {
         let max = self.limits.max_nodes;
         let never = AtomicBool::new(false);
         let mut cut = 1;
         let top = loop {
             let top = self
-                .run(root.clone(), Some(cut), max, &never)
+                .run(root, root_outline.clone(), Some(cut), max, &never)
                 .map_err(|Overflow| ShapeError::TooManyShapes { max })?;
             if top.cut.is_empty() || top.cut.len() >= 4 * threads || cut >= 32 {
                 break top;
@@ -696,10 +767,18 @@ impl Engine<'_> {
             cut += 1;
         };
         let budget = max.saturating_sub(top.nodes.len());
-        let roots: Vec<Node> = top
+        let roots: Vec<(Node, Option<Arc<Outline>>)> = top
             .cut
             .iter()
-            .map(|&(i, _)| top.nodes[i as usize].clone())
+            .map(|&(i, _)| {
+                let n = top.nodes[i as usize];
+                (
+                    n,
+                    n.geometry
+                        .outline_id()
+                        .and_then(|o| top.outlines.get(o.0 as usize).cloned()),
+                )
+            })
             .collect();
         let next = AtomicUsize::new(0);
         let stop = AtomicBool::new(false);
@@ -711,10 +790,10 @@ impl Engine<'_> {
                         let mut mine = Vec::new();
                         loop {
                             let j = next.fetch_add(1, Ordering::Relaxed);
-                            let Some(r) = roots.get(j) else { break };
-                            let mut r = r.clone();
+                            let Some((r, o)) = roots.get(j) else { break };
+                            let mut r = *r;
                             r.parent_offset = 0;
-                            let result = self.run(r, None, budget + 1, &stop);
+                            let result = self.run(r, o.clone(), None, budget + 1, &stop);
                             if result.is_err() {
                                 stop.store(true, Ordering::Relaxed);
                             }
@@ -760,22 +839,25 @@ impl Engine<'_> {
         }
         let new = |i: usize| i as u32 + shift[i];
         let mut out: Vec<Node> = Vec::with_capacity(total);
+        let mut outlines: Vec<Arc<Outline>> = Vec::new();
         let mut failures: Vec<(u32, ShapeError)> = Vec::new();
         for (i, e) in top.failures {
             failures.push((new(i as usize), e));
         }
         let mut c = 0;
         let mut starts = vec![0u32; top.cut.len()];
-        for (i, mut n) in top.nodes.into_iter().enumerate() {
+        for (i, mut n) in top.nodes.iter().copied().enumerate() {
             while c < top.cut.len() && top.cut[c].1 as usize == i {
                 starts[c] = splice(
                     &mut out,
+                    &mut outlines,
                     &mut jobs[c],
                     new(top.cut[c].0 as usize),
                     &mut failures,
                 );
                 c += 1;
             }
+            renumber(&mut n, &top.outlines, &mut outlines);
             let here = new(i);
             if i > 0 {
                 n.parent_offset = here - new(i - n.parent_offset as usize);
@@ -788,6 +870,7 @@ impl Engine<'_> {
         while c < top.cut.len() {
             starts[c] = splice(
                 &mut out,
+                &mut outlines,
                 &mut jobs[c],
                 new(top.cut[c].0 as usize),
                 &mut failures,
@@ -805,6 +888,7 @@ impl Engine<'_> {
         }
         finish(Job {
             nodes: out,
+            outlines,
             failures,
             cut: Vec::new(),
             roots_kind: (root.kind, 0),
@@ -817,6 +901,7 @@ impl Engine<'_> {
 /// Returns where the slice starts.
 fn splice(
     out: &mut Vec<Node>,
+    outlines: &mut Vec<Arc<Outline>>,
     job: &mut Job,
     root: u32,
     failures: &mut Vec<(u32, ShapeError)>,
@@ -827,6 +912,7 @@ fn splice(
         failures.push((if k == 0 { root } else { base + k - 1 }, e));
     }
     for (k, mut n) in job.nodes.drain(..).enumerate().skip(1) {
+        renumber(&mut n, &job.outlines, outlines);
         if k as u32 == n.parent_offset {
             n.parent_offset = base + k as u32 - 1 - root;
         }
@@ -835,10 +921,56 @@ fn splice(
     base
 }
 
+/// Move a node's outline from a job's table to the final one (the next
+/// entry: one per node, in node order).
+fn renumber(n: &mut Node, from: &[Arc<Outline>], to: &mut Vec<Arc<Outline>>) {
+    if let Some(o) = n.geometry.outline_id()
+        && let Some(a) = from.get(o.0 as usize)
+    {
+        n.geometry = intern(
+            to,
+            &match n.geometry {
+                Geometry::Prism(_) => Geom::Prism(Arc::clone(a)),
+                _ => Geom::Polygon(Arc::clone(a)),
+            },
+        );
+    }
+}
+
+/// A stored geometry with its outline in hand.
+fn resolve(outlines: &[Arc<Outline>], g: Geometry) -> Geom {
+    let get = |o: OutlineId| outlines.get(o.0 as usize).cloned();
+    match g {
+        Geometry::Box => Geom::Box,
+        Geometry::Rect => Geom::Rect,
+        Geometry::Edge => Geom::Edge,
+        Geometry::Prism(o) => get(o).map_or(Geom::Box, Geom::Prism),
+        Geometry::Polygon(o) => get(o).map_or(Geom::Rect, Geom::Polygon),
+    }
+}
+
+/// The geometry to store for a node written now: an outline gets the next
+/// entry of the table (one per node, in node order).
+fn intern(outlines: &mut Vec<Arc<Outline>>, g: &Geom) -> Geometry {
+    match g {
+        Geom::Box => Geometry::Box,
+        Geom::Rect => Geometry::Rect,
+        Geom::Edge => Geometry::Edge,
+        Geom::Prism(o) => {
+            outlines.push(Arc::clone(o));
+            Geometry::Prism(OutlineId(outlines.len() as u32 - 1))
+        }
+        Geom::Polygon(o) => {
+            outlines.push(Arc::clone(o));
+            Geometry::Polygon(OutlineId(outlines.len() as u32 - 1))
+        }
+    }
+}
+
 /// A job's nodes, or its first failure in the tree's order.
-fn finish(job: Job) -> Result<Vec<Node>, ShapeError> {
+fn finish(job: Job) -> Result<(Vec<Node>, Vec<Arc<Outline>>), ShapeError> {
     match job.failures.into_iter().min_by_key(|(i, _)| *i) {
         Some((_, e)) => Err(e),
-        None => Ok(job.nodes),
+        None => Ok((job.nodes, job.outlines)),
     }
 }

@@ -6,7 +6,7 @@
 //! slab is `geo`'s boolean intersection with the slab's rectangle, so a
 //! non-convex footprint (an L, a U, a courtyard) falls apart into the right
 //! pieces; an outline that is exactly its scope's rectangle is kept as
-//! [`Geometry::Box`] / [`Geometry::Rect`], which cut by arithmetic alone
+//! [`Geom::Box`] / [`Geom::Rect`], which cut by arithmetic alone
 //! (facades, floors and tiles never call into `geo`).
 
 use crate::ir::Axis;
@@ -20,9 +20,50 @@ use std::sync::Arc;
 /// "this piece has no area".
 const RECT_TOL: f64 = 1e-6;
 
-/// A shape's geometry, in scope-local coordinates.
-#[derive(Clone, Debug, PartialEq)]
+/// A shape's geometry as it is stored in the tree: small and `Copy`,
+/// outlines by index into the tree's outline table
+/// ([`crate::ShapeTree::outline`]); [`Geom`] is the same with the outline
+/// in hand.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Geometry {
+    /// A mass filling its scope box.
+    Box,
+    /// A face filling its scope's xy rectangle.
+    Rect,
+    /// A mass over the outline.
+    Prism(OutlineId),
+    /// A planar face with the outline.
+    Polygon(OutlineId),
+    /// An edge along the scope's x axis.
+    Edge,
+}
+
+impl Geometry {
+    /// What kind of geometry, in words.
+    pub fn describe(&self) -> &'static str {
+        match self {
+            Geometry::Box | Geometry::Prism(_) => "a mass",
+            Geometry::Rect | Geometry::Polygon(_) => "a face",
+            Geometry::Edge => "an edge",
+        }
+    }
+
+    /// The outline's index, where there is one.
+    pub fn outline_id(&self) -> Option<OutlineId> {
+        match *self {
+            Geometry::Prism(o) | Geometry::Polygon(o) => Some(o),
+            _ => None,
+        }
+    }
+}
+
+/// An index into a tree's outline table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct OutlineId(pub u32);
+
+/// A shape's geometry with its outline in hand, in scope-local coordinates.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Geom {
     /// A mass filling its scope box.
     Box,
     /// A face filling its scope's xy rectangle (`size.z` is 0).
@@ -35,30 +76,30 @@ pub enum Geometry {
     Edge,
 }
 
-impl Geometry {
+impl Geom {
     /// What kind of geometry, in words (for errors).
     pub fn describe(&self) -> &'static str {
         match self {
-            Geometry::Box | Geometry::Prism(_) => "a mass",
-            Geometry::Rect | Geometry::Polygon(_) => "a face",
-            Geometry::Edge => "an edge",
+            Geom::Box | Geom::Prism(_) => "a mass",
+            Geom::Rect | Geom::Polygon(_) => "a face",
+            Geom::Edge => "an edge",
         }
     }
 
     /// A 3D mass (box or prism).
     pub fn is_mass(&self) -> bool {
-        matches!(self, Geometry::Box | Geometry::Prism(_))
+        matches!(self, Geom::Box | Geom::Prism(_))
     }
 
     /// A 2D face (rectangle or outline).
     pub fn is_face(&self) -> bool {
-        matches!(self, Geometry::Rect | Geometry::Polygon(_))
+        matches!(self, Geom::Rect | Geom::Polygon(_))
     }
 
     /// The outline, where there is one (prisms and polygons).
     pub fn outline(&self) -> Option<&Outline> {
         match self {
-            Geometry::Prism(o) | Geometry::Polygon(o) => Some(o),
+            Geom::Prism(o) | Geom::Polygon(o) => Some(o),
             _ => None,
         }
     }
@@ -66,16 +107,16 @@ impl Geometry {
     /// The area of the face, or of a mass's footprint (0 for an edge).
     pub fn area(&self, scope: &Scope) -> f64 {
         match self {
-            Geometry::Box | Geometry::Rect => f64::from(scope.size.x) * f64::from(scope.size.y),
-            Geometry::Prism(o) | Geometry::Polygon(o) => o.area(),
-            Geometry::Edge => 0.0,
+            Geom::Box | Geom::Rect => f64::from(scope.size.x) * f64::from(scope.size.y),
+            Geom::Prism(o) | Geom::Polygon(o) => o.area(),
+            Geom::Edge => 0.0,
         }
     }
 
     /// The volume of a mass (0 for faces and edges).
     pub fn volume(&self, scope: &Scope) -> f64 {
         match self {
-            Geometry::Box | Geometry::Prism(_) => self.area(scope) * f64::from(scope.size.z),
+            Geom::Box | Geom::Prism(_) => self.area(scope) * f64::from(scope.size.z),
             _ => 0.0,
         }
     }
@@ -83,10 +124,10 @@ impl Geometry {
     /// The geometry of the slab `[start, start + len)` along `axis` of a
     /// shape with this geometry and `scope`, in the slab's own scope
     /// (`None`: the slab holds none of it).
-    pub fn slab(&self, scope: &Scope, axis: Axis, start: f32, len: f32) -> Option<Geometry> {
+    pub fn slab(&self, scope: &Scope, axis: Axis, start: f32, len: f32) -> Option<Geom> {
         match (self, axis) {
-            (Geometry::Prism(_) | Geometry::Polygon(_), Axis::Z) => Some(self.clone()),
-            (Geometry::Prism(o) | Geometry::Polygon(o), _) => {
+            (Geom::Prism(_) | Geom::Polygon(_), Axis::Z) => Some(self.clone()),
+            (Geom::Prism(o) | Geom::Polygon(o), _) => {
                 let piece = o.clip_slab(axis.index(), f64::from(start), f64::from(len))?;
                 let mut size = scope.size;
                 size[axis.index()] = len;
@@ -96,14 +137,14 @@ impl Geometry {
         }
     }
 
-    /// The face or mass with `outline`, simplified to [`Geometry::Rect`] or
-    /// [`Geometry::Box`] when it is exactly the `sx` by `sy` rectangle.
-    pub fn from_outline(outline: Outline, sx: f32, sy: f32, mass: bool) -> Geometry {
+    /// The face or mass with `outline`, simplified to [`Geom::Rect`] or
+    /// [`Geom::Box`] when it is exactly the `sx` by `sy` rectangle.
+    pub fn from_outline(outline: Outline, sx: f32, sy: f32, mass: bool) -> Geom {
         match (outline.is_rect(f64::from(sx), f64::from(sy)), mass) {
-            (true, true) => Geometry::Box,
-            (true, false) => Geometry::Rect,
-            (false, true) => Geometry::Prism(Arc::new(outline)),
-            (false, false) => Geometry::Polygon(Arc::new(outline)),
+            (true, true) => Geom::Box,
+            (true, false) => Geom::Rect,
+            (false, true) => Geom::Prism(Arc::new(outline)),
+            (false, false) => Geom::Polygon(Arc::new(outline)),
         }
     }
 }

@@ -47,7 +47,7 @@ mod tree;
 
 pub use engine::{Limits, Lot, Options, derive};
 pub use error::{ProgramError, ShapeError, SizeError};
-pub use geometry::{Geometry, Outline};
+pub use geometry::{Geom, Geometry, Outline, OutlineId};
 pub use ir::{
     Alternative, AssetId, Axis, Comp, CompCase, CompTarget, Op, Param, Part, PartSize, Program,
     ProgramBuilder, Rule, Selector, Split, SymbolId, SymbolInfo, TagId,

@@ -15,9 +15,10 @@ use glam::{Mat3, Quat, Vec3};
 pub struct Scope {
     /// The world position of the scope's local origin (a corner).
     pub origin: Vec3,
-    /// The scope's orientation: its x, y and z axes are the world's turned
-    /// by this unit quaternion.
-    pub rotation: Quat,
+    /// The scope's orientation as a unit quaternion's `x, y, z, w` (kept
+    /// as plain floats so a scope packs into 40 bytes; read it with
+    /// [`Scope::rotation`]).
+    rot: [f32; 4],
     /// The extent along each axis (never negative).
     pub size: Vec3,
 }
@@ -35,36 +36,48 @@ impl Scope {
     pub fn new(origin: Vec3, size: Vec3) -> Self {
         Scope {
             origin,
-            rotation: Quat::IDENTITY,
+            rot: Quat::IDENTITY.to_array(),
             size,
         }
+    }
+
+    /// A scope turned by `rotation` (normalized here).
+    pub fn with_rotation(origin: Vec3, rotation: Quat, size: Vec3) -> Self {
+        Scope {
+            origin,
+            rot: rotation.normalize().to_array(),
+            size,
+        }
+    }
+
+    /// The scope's orientation: its x, y and z axes are the world's turned
+    /// by this unit quaternion.
+    #[inline]
+    pub fn rotation(&self) -> Quat {
+        Quat::from_array(self.rot)
     }
 
     /// A scope whose x, y and z axes are the columns of `axes`
     /// (orthonormal, right-handed).
     pub fn with_axes(origin: Vec3, axes: Mat3, size: Vec3) -> Self {
-        Scope {
-            origin,
-            rotation: Quat::from_mat3(&axes).normalize(),
-            size,
-        }
+        Scope::with_rotation(origin, Quat::from_mat3(&axes), size)
     }
 
     /// The scope's axes in world coordinates, as a matrix's columns.
     pub fn axes(&self) -> Mat3 {
-        Mat3::from_quat(self.rotation)
+        Mat3::from_quat(self.rotation())
     }
 
     /// The world direction of `axis`.
     #[inline]
     pub fn axis(&self, axis: Axis) -> Vec3 {
-        self.rotation * unit(axis)
+        self.rotation() * unit(axis)
     }
 
     /// The world point of a scope-local point.
     #[inline]
     pub fn world(&self, local: Vec3) -> Vec3 {
-        self.origin + self.rotation * local
+        self.origin + self.rotation() * local
     }
 
     /// The scope's centre in world coordinates.
@@ -102,7 +115,7 @@ impl Scope {
     pub fn rotated(&self, axis: Axis, degrees: f32) -> Scope {
         let r = Quat::from_axis_angle(unit(axis), degrees.to_radians());
         Scope {
-            rotation: (self.rotation * r).normalize(),
+            rot: (self.rotation() * r).normalize().to_array(),
             ..*self
         }
     }

@@ -7,10 +7,11 @@
 //! depth-first. So a command's children are contiguous, every parent comes
 //! before its children, and the order is the same for any thread count.
 
-use crate::geometry::Geometry;
+use crate::geometry::{Geom, Geometry, Outline, OutlineId};
 use crate::ir::{AssetId, Axis, CompTarget, Program, Selector, SymbolId, TagId};
 use crate::scope::Scope;
 use grm_compile::rng;
+use std::sync::Arc;
 
 /// A node's index in [`ShapeTree::nodes`] (expansion order; the axiom is 0).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -54,13 +55,14 @@ pub enum NodeKind {
 }
 
 /// One node of the tree.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Node {
     pub kind: NodeKind,
     /// The shape's scope (a command's: the scope it divided; an insert's:
     /// the scope it fills).
     pub scope: Scope,
-    /// The shape's geometry (a command's: what it divided).
+    /// The shape's geometry (a command's: what it divided); its outline,
+    /// if any, is in [`ShapeTree::outline`].
     pub geometry: Geometry,
     /// The identity key (docs/shapes.md, "Identity").
     pub key: u32,
@@ -105,6 +107,7 @@ impl Node {
 #[derive(Clone, Debug, PartialEq)]
 pub struct ShapeTree {
     pub(crate) nodes: Vec<Node>,
+    pub(crate) outlines: Vec<Arc<Outline>>,
     pub(crate) seed: u32,
 }
 
@@ -112,6 +115,40 @@ impl ShapeTree {
     /// All nodes, in expansion order (module documentation).
     pub fn nodes(&self) -> &[Node] {
         &self.nodes
+    }
+
+    /// An outline of the tree's table.
+    pub fn outline(&self, id: OutlineId) -> Option<&Outline> {
+        self.outlines.get(id.0 as usize).map(|a| &**a)
+    }
+
+    /// A node's geometry with its outline in hand.
+    pub fn geom(&self, id: NodeId) -> Option<Geom> {
+        let n = self.node(id)?;
+        let get = |o: OutlineId| self.outlines.get(o.0 as usize).cloned();
+        Some(match n.geometry {
+            Geometry::Box => Geom::Box,
+            Geometry::Rect => Geom::Rect,
+            Geometry::Edge => Geom::Edge,
+            Geometry::Prism(o) => Geom::Prism(get(o)?),
+            Geometry::Polygon(o) => Geom::Polygon(get(o)?),
+        })
+    }
+
+    /// The area of a node's face, or of its mass's footprint.
+    pub fn area(&self, id: NodeId) -> f64 {
+        match (self.geom(id), self.node(id)) {
+            (Some(g), Some(n)) => g.area(&n.scope),
+            _ => 0.0,
+        }
+    }
+
+    /// The volume of a node's mass (0 for faces and edges).
+    pub fn volume(&self, id: NodeId) -> f64 {
+        match (self.geom(id), self.node(id)) {
+            (Some(g), Some(n)) => g.volume(&n.scope),
+            _ => 0.0,
+        }
     }
 
     /// The number of nodes.

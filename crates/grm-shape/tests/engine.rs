@@ -722,3 +722,82 @@ fn scope_operations() {
         .collect();
     assert_eq!(edges, vec![1, 2, 3]);
 }
+
+#[test]
+fn threads_agree_on_cut_footprints_too() {
+    // A U mass in 12 floors, each cut into 4 pieces along x (outlines made
+    // by geo inside the workers' subtrees), each piece broken into faces.
+    let mut b = ProgramBuilder::new("cut");
+    let lot = b.symbol("Lot");
+    let floor = b.symbol("Floor");
+    let piece = b.symbol("Piece");
+    let wall = b.symbol("Wall");
+    let roof = b.symbol("Roof");
+    let f = b.tag("floor");
+    b.rule(
+        lot,
+        vec![
+            Op::Extrude(36.0.into()),
+            Op::Repeat(Split {
+                axis: Axis::Z,
+                parts: vec![Part::abs(3.0, Some(floor))],
+                tag: Some(f),
+            }),
+        ],
+    );
+    b.rule(
+        floor,
+        vec![Op::Repeat(Split {
+            axis: Axis::X,
+            parts: vec![Part::float(3.0, Some(piece))],
+            tag: None,
+        })],
+    );
+    b.rule(
+        piece,
+        vec![Op::Comp(Comp {
+            target: CompTarget::Faces,
+            cases: vec![
+                CompCase {
+                    selector: Selector::Side,
+                    target: Some(wall),
+                },
+                CompCase {
+                    selector: Selector::Top,
+                    target: Some(roof),
+                },
+            ],
+            tag: None,
+        })],
+    );
+    let p = b.build(lot).unwrap();
+    let u = Lot::footprint(&[
+        [0.0, 0.0],
+        [12.0, 0.0],
+        [12.0, 8.0],
+        [8.0, 8.0],
+        [8.0, 3.0],
+        [4.0, 3.0],
+        [4.0, 8.0],
+        [0.0, 8.0],
+    ])
+    .unwrap();
+    let one = derive(&p, &u, &Options::default()).unwrap();
+    let roofs = of_symbol(&one, roof);
+    assert_eq!(roofs.len(), 12 * 4);
+    let roof_area: f64 = roofs.iter().take(4).map(|&r| one.area(r)).sum();
+    assert!((roof_area - 76.0).abs() < 1e-3, "{roof_area}");
+    let dump = format!("{one:?}");
+    for threads in [2, 3, 5, 8] {
+        let t = derive(
+            &p,
+            &u,
+            &Options {
+                threads,
+                ..Options::default()
+            },
+        )
+        .unwrap();
+        assert_eq!(format!("{t:?}"), dump, "{threads} threads");
+    }
+}

@@ -4,8 +4,8 @@
 
 use glam::Vec3;
 use grm_shape::{
-    Axis, Comp, CompCase, CompTarget, Geometry, Lot, NodeKind, Op, Options, Part, ProgramBuilder,
-    Selector, ShapeTree, Split, derive,
+    Axis, Comp, CompCase, CompTarget, Geom, Geometry, Lot, NodeId, NodeKind, Op, Options, Part,
+    ProgramBuilder, Selector, ShapeTree, Split, derive,
 };
 
 const L: [[f64; 2]; 6] = [
@@ -63,7 +63,8 @@ fn split_op(axis: Axis, parts: Vec<Part>) -> Op {
 /// Every vertex of a piece's footprint, in world coordinates.
 fn world_points(tree: &ShapeTree, i: usize) -> Vec<Vec3> {
     let n = &tree.nodes()[i];
-    let outline = grm_shape::component::outline_of(&n.scope, &n.geometry).unwrap();
+    let outline =
+        grm_shape::component::outline_of(&n.scope, &tree.geom(NodeId(i as u32)).unwrap()).unwrap();
     outline
         .rings()
         .flatten()
@@ -91,7 +92,7 @@ fn l_mass_split_along_x_tiles_the_volume_and_stays_in_slabs() {
     assert_eq!(pieces.len(), 3);
     let vols: Vec<f64> = pieces
         .iter()
-        .map(|&i| tree.nodes()[i].geometry.volume(&tree.nodes()[i].scope))
+        .map(|&i| tree.volume(NodeId(i as u32)))
         .collect();
     // Slab x in [0, 10/3]: the full 10-deep arm: 10/3 * 10 = 33.33;
     // [10/3, 4]: 2/3 * 10 = 6.67 plus... (4 - 10/3) * 10 = 6.667;
@@ -118,8 +119,13 @@ fn l_mass_split_along_x_tiles_the_volume_and_stays_in_slabs() {
     }
     // The last slab (x in [6.67, 10]) holds only the 4-deep arm: a box in
     // a 10-deep scope is a prism with a rectangular outline 4 deep.
-    let last = &tree.nodes()[pieces[2]];
-    let (lo, hi) = last.geometry.outline().unwrap().bounds().unwrap();
+    let (lo, hi) = tree
+        .geom(NodeId(pieces[2] as u32))
+        .unwrap()
+        .outline()
+        .unwrap()
+        .bounds()
+        .unwrap();
     assert!(close(lo[1], 0.0) && close(hi[1], 4.0), "{lo:?} {hi:?}");
 }
 
@@ -140,18 +146,16 @@ fn u_mass_split_along_y_separates_the_arms_into_one_piece() {
     assert_eq!(pieces.len(), 2);
     let areas: Vec<f64> = pieces
         .iter()
-        .map(|&i| tree.nodes()[i].geometry.area(&tree.nodes()[i].scope))
+        .map(|&i| tree.area(NodeId(i as u32)))
         .collect();
     assert!(close(areas[0], 52.0) && close(areas[1], 24.0), "{areas:?}");
-    let top = tree.nodes()[pieces[1]].geometry.outline().unwrap();
+    let top_geom = tree.geom(NodeId(pieces[1] as u32)).unwrap();
+    let top = top_geom.outline().unwrap();
     assert_eq!(top.polygons().0.len(), 2, "the two arms");
     for p in world_points(&tree, pieces[1]) {
         assert!(p.y >= 5.0 - 1e-4 && p.y <= 8.0 + 1e-4);
     }
-    let total: f64 = pieces
-        .iter()
-        .map(|&i| tree.nodes()[i].geometry.volume(&tree.nodes()[i].scope))
-        .sum();
+    let total: f64 = pieces.iter().map(|&i| tree.volume(NodeId(i as u32))).sum();
     assert!(close(total, 76.0 * 3.0));
 }
 
@@ -170,10 +174,7 @@ fn u_mass_repeat_along_x_and_z_split_add_up() {
         "Piece",
     );
     assert_eq!(pieces.len(), 8);
-    let total: f64 = pieces
-        .iter()
-        .map(|&i| tree.nodes()[i].geometry.volume(&tree.nodes()[i].scope))
-        .sum();
+    let total: f64 = pieces.iter().map(|&i| tree.volume(NodeId(i as u32))).sum();
     assert!(close(total, 76.0 * 9.0), "{total}");
     // A z split keeps the footprint and divides the height.
     let (tree, floors) = grow(
@@ -189,7 +190,7 @@ fn u_mass_repeat_along_x_and_z_split_add_up() {
     assert_eq!(floors.len(), 3);
     for (k, &i) in floors.iter().enumerate() {
         let n = &tree.nodes()[i];
-        assert!(close(n.geometry.area(&n.scope), 76.0));
+        assert!(close(tree.area(NodeId(i as u32)), 76.0));
         assert!(close(f64::from(n.scope.origin.z), 3.0 * k as f64));
         assert!(close(f64::from(n.scope.size.z), 3.0));
     }
@@ -257,13 +258,18 @@ fn l_mass_component_split_names_walls_by_orientation() {
     );
     let program = b.build(lot).unwrap();
     let tree = derive(&program, &Lot::footprint(&L).unwrap(), &Options::default()).unwrap();
-    let faces: Vec<(String, u32, u32, &grm_shape::Node)> = tree
+    let faces: Vec<(String, u32, u32, &grm_shape::Node, NodeId)> = tree
         .nodes()
         .iter()
-        .filter_map(|n| match n.kind {
-            NodeKind::Shape { symbol, .. } if ids.contains(&symbol) => {
-                Some((program.symbol_name(symbol).to_owned(), n.index, n.count, n))
-            }
+        .enumerate()
+        .filter_map(|(i, n)| match n.kind {
+            NodeKind::Shape { symbol, .. } if ids.contains(&symbol) => Some((
+                program.symbol_name(symbol).to_owned(),
+                n.index,
+                n.count,
+                n,
+                NodeId(i as u32),
+            )),
             _ => None,
         })
         .collect();
@@ -289,11 +295,7 @@ fn l_mass_component_split_names_walls_by_orientation() {
     let widths: Vec<f32> = faces.iter().take(6).map(|f| f.3.scope.size.x).collect();
     assert_eq!(widths, vec![10.0, 4.0, 6.0, 6.0, 4.0, 10.0]);
     // Wall area = perimeter * height = 40 * 6.
-    let wall_area: f64 = faces
-        .iter()
-        .take(6)
-        .map(|f| f.3.geometry.area(&f.3.scope))
-        .sum();
+    let wall_area: f64 = faces.iter().take(6).map(|f| tree.area(f.4)).sum();
     assert!(close(wall_area, 240.0));
     // The inner right wall: origin at its start corner (4, 4, 0), x along
     // it (+y), y up, z its outward normal (+x).
@@ -307,14 +309,12 @@ fn l_mass_component_split_names_walls_by_orientation() {
     assert!((faces[0].3.scope.axes().col(2) + Vec3::Y).length() < 1e-5);
     // Top at the roof, bottom facing down, both the L's area.
     let (top, bottom) = (faces[6].3, faces[7].3);
-    assert!(
-        close(f64::from(top.scope.origin.z), 6.0) && close(top.geometry.area(&top.scope), 64.0)
-    );
-    assert!(close(bottom.geometry.area(&bottom.scope), 64.0));
+    assert!(close(f64::from(top.scope.origin.z), 6.0) && close(tree.area(faces[6].4), 64.0));
+    assert!(close(tree.area(faces[7].4), 64.0));
+    let bottom_geom = tree.geom(faces[7].4).unwrap();
     assert!((bottom.scope.axes().col(2) + Vec3::Z).length() < 1e-5);
     // The bottom's outline, mapped to the world, is the L itself.
-    let mut pts: Vec<(i32, i32)> = bottom
-        .geometry
+    let mut pts: Vec<(i32, i32)> = bottom_geom
         .outline()
         .unwrap()
         .rings()
@@ -350,9 +350,9 @@ fn courtyard_walls_face_into_the_court() {
     let inset_node = tree
         .nodes()
         .iter()
-        .find(|n| matches!(n.kind, NodeKind::Shape { symbol, .. } if symbol == inset))
+        .position(|n| matches!(n.kind, NodeKind::Shape { symbol, .. } if symbol == inset))
         .unwrap();
-    assert!(close(inset_node.geometry.area(&inset_node.scope), 16.0));
+    assert!(close(tree.area(NodeId(inset_node as u32)), 16.0));
     // A courtyard: a footprint with a hole, made by geo from two rings.
     let ring =
         |r: &[[f64; 2]]| geo::LineString::from(r.iter().map(|p| (p[0], p[1])).collect::<Vec<_>>());
@@ -362,7 +362,7 @@ fn courtyard_walls_face_into_the_court() {
     );
     let outline = grm_shape::Outline::new(geo::MultiPolygon::new(vec![court]));
     let scope = grm_shape::Scope::new(Vec3::ZERO, Vec3::new(10.0, 10.0, 5.0));
-    let geometry = Geometry::Prism(std::sync::Arc::new(outline));
+    let geometry = Geom::Prism(std::sync::Arc::new(outline));
     let comps = grm_shape::component::components(&scope, &geometry, CompTarget::Faces).unwrap();
     assert_eq!(comps.len(), 10, "4 outer walls, 4 court walls, top, bottom");
     for c in &comps[4..8] {
@@ -377,8 +377,7 @@ fn courtyard_walls_face_into_the_court() {
 #[test]
 fn edges_of_a_box_and_of_a_face() {
     let scope = grm_shape::Scope::new(Vec3::ZERO, Vec3::new(4.0, 3.0, 2.0));
-    let edges =
-        grm_shape::component::components(&scope, &Geometry::Box, CompTarget::Edges).unwrap();
+    let edges = grm_shape::component::components(&scope, &Geom::Box, CompTarget::Edges).unwrap();
     assert_eq!(edges.len(), 12);
     let total: f32 = edges.iter().map(|e| e.scope.size.x).sum();
     assert!((total - 4.0 * (4.0 + 3.0 + 2.0)).abs() < 1e-5);
@@ -397,7 +396,7 @@ fn edges_of_a_box_and_of_a_face() {
         4
     );
     let face = grm_shape::Scope::new(Vec3::ZERO, Vec3::new(4.0, 3.0, 0.0));
-    let fe = grm_shape::component::components(&face, &Geometry::Rect, CompTarget::Edges).unwrap();
+    let fe = grm_shape::component::components(&face, &Geom::Rect, CompTarget::Edges).unwrap();
     let classes: Vec<_> = fe.iter().map(|e| e.classes.facing()).collect();
     assert_eq!(
         classes,
@@ -408,6 +407,6 @@ fn edges_of_a_box_and_of_a_face() {
             Some(Selector::Left)
         ]
     );
-    assert!(grm_shape::component::components(&face, &Geometry::Rect, CompTarget::Faces).is_err());
-    assert!(grm_shape::component::components(&face, &Geometry::Edge, CompTarget::Edges).is_err());
+    assert!(grm_shape::component::components(&face, &Geom::Rect, CompTarget::Faces).is_err());
+    assert!(grm_shape::component::components(&face, &Geom::Edge, CompTarget::Edges).is_err());
 }
