@@ -592,8 +592,8 @@ impl FileAnalysis {
                 for alt in &g.alternatives {
                     if alt.span.contains(offset) {
                         for b in &alt.bindings {
-                            if !out.contains(&b.name) {
-                                out.push(b.name.clone());
+                            if !out.iter().any(|n| n == b.name.as_str()) {
+                                out.push(b.name.to_string());
                             }
                         }
                     }

@@ -28,6 +28,73 @@ pub(crate) fn take_system_bodies(files: &mut [LoadedFile]) -> Vec<Vec<ast::Syste
         .collect()
 }
 
+/// How many names `files` write (declared names, module symbols,
+/// patterns' parameters, names in expressions): about as many as the
+/// references index will hold, which [`crate::check`] makes room for
+/// before checking.
+pub(crate) fn count_names(files: &[LoadedFile]) -> usize {
+    use ast::{ContextItem, SystemItem};
+    let mut n = 0usize;
+    let mut exprs: Vec<&Expr> = Vec::new();
+    for f in files {
+        for item in &f.ast.items {
+            n += 1;
+            match item {
+                Item::Import(_) | Item::Mesh(_) | Item::Error(_) => {}
+                Item::Const(c) => exprs.push(&c.value),
+                Item::Param(p) => {
+                    exprs.push(&p.default);
+                    if let Some((lo, hi)) = &p.range {
+                        exprs.extend([lo, hi]);
+                    }
+                }
+                Item::Material(m) => exprs.extend(m.fields.iter().map(|f| &f.value)),
+                Item::System(s) => {
+                    for si in &s.items {
+                        match si {
+                            SystemItem::Axiom(a) => {
+                                n += a.modules.len();
+                                exprs.extend(a.modules.iter().flat_map(|m| &m.args));
+                            }
+                            SystemItem::Setting(s) => exprs.push(&s.value),
+                            SystemItem::Ignore(i) => n += i.symbols.len(),
+                            SystemItem::ModuleDecl(d) => {
+                                n += d.modules.len();
+                            }
+                            SystemItem::Production(p) => {
+                                let pattern = |p: &ast::Pattern| 1 + p.params.len();
+                                n += pattern(&p.pred);
+                                for c in p.left.iter().chain(&p.right) {
+                                    if let ContextItem::Pattern(p) = c {
+                                        n += pattern(p);
+                                    }
+                                }
+                                exprs.extend(p.condition.iter().chain(&p.weight));
+                                n += p.successor.len();
+                                exprs.extend(p.successor.iter().flat_map(|m| &m.args));
+                            }
+                            SystemItem::Error(_) => {}
+                        }
+                    }
+                }
+            }
+            while let Some(e) = exprs.pop() {
+                match &e.kind {
+                    ExprKind::Name(_) => n += 1,
+                    ExprKind::Call { args, .. } => exprs.extend(args),
+                    ExprKind::Unary { operand: a, .. }
+                    | ExprKind::Field { base: a, .. }
+                    | ExprKind::Paren(a) => exprs.push(a),
+                    ExprKind::Binary { lhs, rhs, .. } => exprs.extend([&**lhs, &**rhs]),
+                    ExprKind::If { cond, then, els } => exprs.extend([&**cond, &**then, &**els]),
+                    ExprKind::Number { .. } | ExprKind::Bool(_) | ExprKind::Error => {}
+                }
+            }
+        }
+    }
+    n
+}
+
 /// One parsed file of the import closure.
 pub(crate) struct LoadedFile {
     pub id: FileId,
@@ -57,8 +124,10 @@ pub(crate) fn load_all(
 ) -> Vec<LoadedFile> {
     let root_file = sources.get(root);
     let root_display = root_file.path.clone();
-    let root_text = root_file.text.clone();
     let real = loader.resolve(Path::new(""), &root_display);
+    // The root is parsed from the source map's text, not a copy of it
+    // (a second copy of a large file while its tree is built: issue 32).
+    let parsed = grm_syntax::parse(root, &root_file.text);
     let mut l = Loader {
         sources,
         loader,
@@ -68,7 +137,7 @@ pub(crate) fn load_all(
         state: Vec::new(),
         stack: Vec::new(),
     };
-    l.load(root, real, &root_text);
+    l.load(root, real, parsed);
     l.files
 }
 
@@ -87,8 +156,8 @@ impl Loader<'_> {
     /// Load a file and, depth first, everything it imports. Iterative (an
     /// explicit stack of open files), so a long import chain cannot
     /// exhaust the call stack.
-    fn load(&mut self, id: FileId, real: PathBuf, text: &str) -> usize {
-        let root = self.open(id, real, text);
+    fn load(&mut self, id: FileId, real: PathBuf, parsed: grm_syntax::Parsed) -> usize {
+        let root = self.open(id, real, parsed);
         // Per open file: its imports and how many of them were handled.
         let mut open = vec![(root, self.imports_of(root), 0usize)];
         while let Some((idx, imports, next)) = open.last_mut() {
@@ -107,9 +176,8 @@ impl Loader<'_> {
         root
     }
 
-    /// Parse a file and put it on the stack of files being loaded.
-    fn open(&mut self, id: FileId, real: PathBuf, text: &str) -> usize {
-        let parsed = grm_syntax::parse(id, text);
+    /// Put a parsed file on the stack of files being loaded.
+    fn open(&mut self, id: FileId, real: PathBuf, parsed: grm_syntax::Parsed) -> usize {
         let broken = parsed.has_errors();
         let error_spans = parsed
             .diagnostics
@@ -220,7 +288,7 @@ impl Loader<'_> {
                     Some(f) => f,
                     None => self.sources.add(target_display, text.clone()),
                 };
-                let t = self.open(fid, target_real, &text);
+                let t = self.open(fid, target_real, grm_syntax::parse(fid, &text));
                 self.files[idx].imports.push(t);
                 self.files[idx].edges.push((imp.path.span, fid));
                 Some(t)

@@ -20,7 +20,7 @@ pub(crate) const MAX_DEPTH: u32 = grm_syntax::MAX_EXPR_DEPTH as u32;
 /// A name bound by a pattern, as seen by the expressions of its production.
 #[derive(Clone, Debug)]
 pub(crate) struct ScopeBinding {
-    pub name: String,
+    pub name: grm_syntax::ast::Name,
     pub span: Span,
     pub slot: u32,
     pub ty: Ty,

@@ -117,8 +117,10 @@ pub fn check(sources: &mut SourceMap, root: FileId, loader: &dyn FileLoader) -> 
     // The systems' bodies are taken out of the trees, and each is dropped
     // once its system is checked: the file's syntax tree and its checked
     // program are never both whole in memory (issue 32).
+    let names = check::count_names(&files);
     let bodies = check::take_system_bodies(&mut files);
     let mut cx = check::Checker::new(&files, loader, diags);
+    cx.program.index.reserve(names);
     cx.program.root = root;
     cx.program.imports = files
         .iter()

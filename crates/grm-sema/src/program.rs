@@ -875,7 +875,7 @@ pub struct Alternative {
 /// A name bound by a pattern.
 #[derive(Clone, Debug)]
 pub struct Binding {
-    pub name: String,
+    pub name: grm_syntax::ast::Name,
     pub span: Span,
     pub ty: Ty,
 }

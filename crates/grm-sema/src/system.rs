@@ -1319,7 +1319,7 @@ impl Sys<'_, '_> {
                 true,
             );
             bindings.push(ScopeBinding {
-                name: name.name.to_string(),
+                name: name.name.clone(),
                 span: name.span,
                 slot: *slot,
                 ty,
