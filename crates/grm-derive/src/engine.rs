@@ -192,7 +192,7 @@ pub struct Engine<'a> {
     /// them), else when asked for ([`Engine::with_keys`]).
     keyed: bool,
     /// Per alternative: its parameter words with the constants filled in
-    /// (`tpl[plan.tpl ..][.. plan.words]`), then `PAD` zeros.
+    /// (`tpl[plan.tpl ..][.. plan.words]`), then `2 * PAD` zeros.
     tpl: Vec<f32>,
     /// The parameters that are not constants, per alternative.
     patches: Vec<Patch>,
@@ -299,7 +299,7 @@ enum Act {
     Slow,
 }
 
-/// Padding after the template table (`PAD` words) and the successor
+/// Padding after the template table (`2 * PAD` words) and the successor
 /// tables (`2 * PAD` modules): a successor of at most `PAD` (or `2 * PAD`)
 /// modules or words is copied as `PAD` (`2 * PAD`) of them in fixed-size
 /// moves where the output has room. The words past its end land on
@@ -629,7 +629,7 @@ impl<'a> Engine<'a> {
         let mut succ_words = succ_words;
         succ_syms.extend([0; 2 * PAD]);
         succ_words.extend([0; 2 * PAD]);
-        tpl.extend([0.0; PAD]);
+        tpl.extend([0.0; 2 * PAD]);
         let pool = if threads > 1 {
             Some(
                 rayon::ThreadPoolBuilder::new()
@@ -1452,6 +1452,10 @@ impl<'a> Engine<'a> {
         }
         if words <= PAD && wo + PAD <= out.params.len() {
             out.params[wo..wo + PAD].copy_from_slice(&self.tpl[t..t + PAD]);
+        } else if words <= 2 * PAD && wo + 2 * PAD <= out.params.len() {
+            // The same in `2 * PAD` (the Koch island's 15 words, the
+            // bracketed plant's 12).
+            out.params[wo..wo + 2 * PAD].copy_from_slice(&self.tpl[t..t + 2 * PAD]);
         } else {
             copy_small(&mut out.params[wo..wo + words], &self.tpl[t..t + words]);
         }
