@@ -507,6 +507,7 @@ fn sample(
         temperature: 1.0,
         ess_target: grm_sample::DEFAULT_ESS_TARGET,
         candidates: grm_sample::DEFAULT_CANDIDATES,
+        guide: grm_sample::Guide::default(),
         threads: o.number("--threads").map_err(Stop::Usage)?.unwrap_or(1),
         budget: None,
         best: 1,
