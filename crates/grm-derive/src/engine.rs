@@ -1243,6 +1243,25 @@ impl<'a> Engine<'a> {
                 let len = j - i;
                 let wj = istarts[j] as usize;
                 let words = wj - wi;
+                if len == 1 {
+                    // One module (a turn between two rewritten `F`s):
+                    // three stores, not three block moves.
+                    osyms[o] = sym;
+                    ostarts[o] = word_base + wo as u32;
+                    if words == 1 {
+                        oparams[wo] = iparams[wi];
+                    } else {
+                        copy_small(&mut oparams[wo..wo + words], &iparams[wi..wj]);
+                    }
+                    if K {
+                        okeys[o] = ikeys[i];
+                    }
+                    o += 1;
+                    wo += words;
+                    wi = wj;
+                    i = j;
+                    continue;
+                }
                 // The input's starts shifted to the output's words.
                 let delta = (word_base + wo as u32).wrapping_sub(istarts[i]);
                 if len <= PAD && i + PAD <= isyms.len() && o + PAD <= osyms.len() {
