@@ -36,6 +36,7 @@
 //!   (tower-lsp-server's reader ends the session at the first).
 
 pub mod convert;
+pub mod coverage;
 pub mod picture;
 pub mod preview;
 pub mod stdio;

@@ -366,6 +366,10 @@ pub struct SampleOut {
     /// (the last generation run: the result); else absent.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub generation: Option<usize>,
+    /// How much of each curve the shown model follows, in the curves'
+    /// order (docs/curves.md 2.8; the page tints the gaps).
+    #[serde(default)]
+    pub coverage: Vec<crate::coverage::CoverageOut>,
 }
 
 /// `grm/previewUpdated` parameters: a new model, or why there is none.
@@ -709,6 +713,10 @@ fn sample_model(
         )
         .map_err(|e| too_large(&e))?;
     let build_ms = t1.elapsed().as_secs_f64() * 1e3;
+    let bones: Vec<(glam::Vec3, glam::Vec3)> = (best.interpretation.bones.iter())
+        .map(|b| (b.base, b.tip))
+        .collect();
+    let coverage = crate::coverage::coverage(&curves, &bones);
     let focus_flags: Vec<bool> = best.origins.iter().map(|&o| Some(o) == focus).collect();
     let focus_out = focus.map(|fo| FocusOut {
         origin: fo,
@@ -741,6 +749,7 @@ fn sample_model(
             stopped_early: run.stopped_early,
             curves: from,
             generation: shown,
+            coverage,
         }),
     })
 }

@@ -583,6 +583,60 @@ async fn preview_sample_mode() {
         .await;
     let _ = writeln!(out, "inline curves: {}", r["sample"]["curves"]);
     assert_eq!(r["stats"]["bones"], a["stats"]["bones"]);
+    // Coverage of each curve by the shown model (docs/curves.md 2.8).
+    let cov = a["sample"]["coverage"].as_array().expect("coverage");
+    assert_eq!(cov.len(), 1, "one entry per curve");
+    for c in cov {
+        let f = c["fraction"].as_f64().expect("fraction");
+        assert!((0.0..=1.0).contains(&f));
+        let gaps = c["gaps"].as_array().expect("gaps");
+        assert_eq!(c["gapPoints"].as_array().map(Vec::len), Some(gaps.len()));
+        let _ = writeln!(
+            out,
+            "coverage {}: {:.1}% unreached={} gaps={} note={}",
+            c["name"],
+            100.0 * f,
+            c["unreached"],
+            gaps.len(),
+            c["note"]
+        );
+    }
+    // A second curve far from anything the grammar can grow: not reached,
+    // said so, and its one gap drawn from its start to its end.
+    let mut far = curves.clone();
+    far["curves"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({ "name": "far", "points": [[40, 0, 0], [40, 1, 0], [40, 2, 0], [40, 3, 0]] }));
+    let r = c
+        .ok(
+            "grm/preview",
+            json!({ "textDocument": { "uri": u }, "curves": far, "budgetMs": 60000 }),
+        )
+        .await;
+    let cov = r["sample"]["coverage"].as_array().expect("coverage");
+    assert_eq!(cov.len(), 2);
+    let f = &cov[1];
+    assert_eq!(f["unreached"], true, "{f}");
+    assert_eq!(f["fraction"], 0.0);
+    assert_eq!(f["gaps"], json!([[0.0, 1.0]]));
+    let pts = f["gapPoints"][0].as_array().expect("points");
+    assert!(pts.len() >= 100, "{}", pts.len());
+    let xyz = |v: &Value| -> Vec<f64> {
+        v.as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect()
+    };
+    let (first, last) = (xyz(&pts[0]), xyz(pts.last().unwrap()));
+    assert!(
+        (first[0] - 40.0).abs() < 1e-4 && first[1].abs() < 1e-4,
+        "{first:?}"
+    );
+    assert!((last[1] - 3.0).abs() < 1e-4, "{last:?}");
+    assert!(f["nearest"].as_f64().unwrap() > 30.0);
+    let _ = writeln!(out, "far curve: note={}", f["note"]);
     let e = c
         .request(
             "grm/preview",
