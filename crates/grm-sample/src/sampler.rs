@@ -84,11 +84,11 @@ pub const DEFAULT_ESS_TARGET: f64 = 0.1;
 /// it was 3.
 pub const DEFAULT_CANDIDATES: u32 = 12;
 
-/// The default [`Guide::order`]: the most promising of 3 open symbols.
-pub const DEFAULT_ORDER: u32 = 3;
+/// The default [`Guide::order`]: the most promising of 4 open symbols.
+pub const DEFAULT_ORDER: u32 = 4;
 
-/// The default [`Guide::cover`]: the coverage term at `W = 300`.
-pub const DEFAULT_COVER: f64 = 300.0;
+/// The default [`Guide::cover`]: the coverage term at `W = 150`.
+pub const DEFAULT_COVER: f64 = 150.0;
 
 /// How the search steers towards covering every curve, beyond the paper
 /// (`docs/sampling.md` section 4.3). [`Guide::paper`] turns it all off:
@@ -130,8 +130,8 @@ impl Guide {
 
 impl Default for Guide {
     /// The measured best (`docs/sampling.md` section 4.3): a tournament
-    /// of 3 for the order ([`DEFAULT_ORDER`]) and the coverage term at
-    /// `W = 300` ([`DEFAULT_COVER`]).
+    /// of 4 for the order ([`DEFAULT_ORDER`]) and the coverage term at
+    /// `W = 150` ([`DEFAULT_COVER`]).
     fn default() -> Self {
         Guide {
             order: DEFAULT_ORDER,

@@ -153,9 +153,10 @@ fn adaptive_tempering_keeps_the_population_diverse() {
         let on = run(0.5);
         // Untempered: Calder's peaked weights keep a few particles (the
         // candidates make each particle's weight less peaked, but not
-        // enough).
+        // enough: with the default 12 about a fifth of them, below 0.2
+        // with the 3 of before).
         assert!(off.generations.iter().all(|g| g.beta == 1.0));
-        assert!(mean_share(&off) < 0.2, "off: {}", mean_share(&off));
+        assert!(mean_share(&off) < 0.3, "off: {}", mean_share(&off));
         // Tempered: every generation at (or, with beta = 1, above) half
         // the particles, within the bisection's tolerance.
         assert!(mean_share(&on) >= 0.45, "on: {}", mean_share(&on));

@@ -49,7 +49,7 @@ fn stats_report_coverage_gaps_and_unreachable_curves() {
     // deliberately).
     let expected = "\
 coverage (share of each curve's length with a bone within its thickness + 0.15):
-  `trunk`     91.4%  gaps at 91-100%
+  `trunk`     93.4%  gaps at 93-100%
   `far_away`   0.0%  not reached: the nearest bone stays 6.00 from it (covering radius 0.15)
   too few bones: 6 bones, 3.62 long in all, cannot cover 80% of the curves' 7.00 even laid along them (more generations grow more bones; fewer curves need fewer)";
     assert_eq!(coverage_block(&stdout), expected, "{stdout}");
