@@ -193,6 +193,8 @@ interface Grm {
   pictures: number;
   lastPicture: { name: string; width: number; height: number; generation?: number } | null;
   pictureError: string | null;
+  coverage: { name: string | null; fraction: number; unreached: boolean; gaps: number; note: string }[];
+  gapTubes: number;
 }
 
 const grm = (page: Page): Promise<Grm> =>
@@ -869,6 +871,51 @@ async function settled(page: Page, n: number, what: string): Promise<Grm> {
   assert.equal(g.lastError, null, what);
   return g;
 }
+
+test('sample mode: the preview says how much of each curve the model follows, tints the gaps, and names a curve no bone reaches', async () => {
+  const dir = scratch(['calder_tree.grm', 'leaf.obj', 'trunk.obj']);
+  const curves = JSON.parse(readFileSync(join(examples, 'calder_tree.curves.json'), 'utf8')) as { curves: unknown[] };
+  // A fourth curve far beside the tree: the grammar cannot reach it.
+  curves.curves.push({ name: 'far', points: [[12, 0, 0], [12, 1, 0], [12, 2, 0], [12, 3, 0]] });
+  writeFileSync(join(dir, 'calder_tree.curves.json'), JSON.stringify(curves));
+  const url = await view(join(dir, 'calder_tree.grm'));
+  const page = await openPage(url);
+  const g = await settled(page, 0, 'first model');
+  assert.equal(g.mode, 'sample');
+  assert.equal(g.lastError, null);
+  assert.equal(g.coverage.length, 4, JSON.stringify(g.coverage));
+  for (const c of g.coverage) assert.ok(c.fraction >= 0 && c.fraction <= 1, JSON.stringify(c));
+  const far = g.coverage[3];
+  assert.deepEqual([far.name, far.fraction, far.unreached, far.gaps], ['far', 0, true, 1]);
+  assert.match(far.note, /^not reached: the nearest bone stays \d+\.\d+ from it/);
+  // One tinted tube per gap of every curve.
+  assert.equal(g.gapTubes, g.coverage.reduce((n, c) => n + c.gaps, 0));
+  // The status line gives each curve's share and says which is not reached.
+  const status = (await page.textContent('#status-text')) ?? '';
+  assert.match(status, /curves followed: trunk \d+%, left_arm \d+%, right_arm \d+%, far 0%/);
+  assert.match(status, /⚠ far: not reached/);
+  // The far curve's gap is drawn in the tint: a reddish pixel where its middle projects.
+  const [x, y] = await page.evaluate(() => (globalThis as unknown as { __grm: { toScreen: (p: number[]) => [number, number] } }).__grm.toScreen([12, 1.5, 0]));
+  const tinted = await page.evaluate(
+    ([px, py]) => {
+      const src = document.getElementById('view') as HTMLCanvasElement;
+      const c = document.createElement('canvas');
+      c.width = src.width;
+      c.height = src.height;
+      const ctx = c.getContext('2d')!;
+      ctx.drawImage(src, 0, 0);
+      const scale = src.width / src.clientWidth;
+      const d = ctx.getImageData(Math.round(px * scale) - 4, Math.round(py * scale) - 4, 9, 9).data;
+      let n = 0;
+      for (let i = 0; i < d.length; i += 4) if (d[i] > 170 && d[i + 1] < 130 && d[i + 2] < 130) n++;
+      return n;
+    },
+    [x, y],
+  );
+  await page.screenshot({ path: join(artifacts, 'sample-coverage.png') });
+  assert.ok(tinted > 0, `no tinted pixel at the far curve's middle (${x.toFixed(0)}, ${y.toFixed(0)})`);
+  await page.close();
+});
 
 test('sample mode: the generation scrubber shows the model the search held after an earlier generation, Save picture takes it, the end is the result', async () => {
   const dir = scratch(['calder_tree.grm', 'calder_tree.curves.json', 'leaf.obj', 'trunk.obj']);

@@ -7,6 +7,7 @@ import { Coalescer, type Delivery, SharedRequest } from './coalesce.js';
 import { PARAM_KEYS, PARAM_RANGES, type ParamKey, checkParam, cloneSet, setProblem } from './curves.js';
 import { type PlayAt, SearchPlayer, isSearchResult, playButtonView, scrubberView, showsUpdate } from './generation.js';
 import { type NotificationMethod, type ViewParams, usableCamera, viewAngles } from './messages.js';
+import { coverageText } from './coverage.js';
 import { pictureFileName, pictureParams } from './picture.js';
 import {
   type Origin,
@@ -122,6 +123,9 @@ interface DebugInfo {
   antialias: boolean;
   /** Times the guiding curves were redrawn, and the shader programs held (ids). */
   readonly curveDraws: number;
+  /** Per guiding curve, how much of it the model shown follows (sample mode; [] otherwise), and the tinted gaps drawn. */
+  coverage: { name: string | null; fraction: number; unreached: boolean; gaps: number; note: string }[];
+  readonly gapTubes: number;
   programs: () => number[];
   /** The last view the page told the host (where the camera looks from, and the camera, once it rested), and how many it told. */
   lastView: ViewParams | null;
@@ -265,6 +269,10 @@ class App {
       antialias: this.scene.antialias,
       get curveDraws() {
         return scene.curveDraws;
+      },
+      coverage: [],
+      get gapTubes() {
+        return scene.gapTubes;
       },
       programs: () => this.scene.programIds(),
       lastView: null,
@@ -510,6 +518,8 @@ class App {
     }
     $('overlay-msg').textContent = this.state.curvesError ? `curves: ${this.state.curvesError}` : '';
     const tBuild = performance.now();
+    // The curves' stretches no bone follows, tinted (sample mode).
+    this.scene.setGaps((r.sample?.coverage ?? []).flatMap((c) => c.gapPoints));
     this.scene.setModel(r.model, !this.framed, () => {
       const rendered = performance.now();
       // The frame is done (and its pixels exist) when the task that ran
@@ -525,6 +535,7 @@ class App {
         this.debug.objective = r.sample?.objective ?? null;
         this.debug.generation = r.sample && !isSearchResult(r.sample) ? r.sample.generation : null;
         this.debug.generations = r.sample?.generations ?? null;
+        this.debug.coverage = (r.sample?.coverage ?? []).map((c) => ({ name: c.name, fraction: c.fraction, unreached: c.unreached, gaps: c.gaps.length, note: c.note }));
         this.debug.lastLatencyMs = ms;
         this.debug.latencies.push(ms);
         this.debug.meshCount = this.scene.meshCount;
@@ -598,6 +609,7 @@ class App {
           ? `cost ${s.objective.toFixed(1)} after ${s.generations} generations${s.stoppedEarly ? ' (stopped by the time budget)' : ''}`
           : `generation ${s.generation + 1} of ${s.generations}: cost ${s.objective.toFixed(1)}`,
       );
+      if (s.coverage.length > 0) parts.push(coverageText(s.coverage));
     }
     if (ms !== null) parts.push(`on screen in ${ms.toFixed(0)} ms`);
     // The model's own warnings (why a preview is empty or lacks shapes); the help is in the tooltip.

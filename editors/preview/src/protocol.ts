@@ -160,6 +160,25 @@ export interface Focus {
   spreadBones: number[];
 }
 
+/** How much of one guiding curve the shown model follows (docs/curves.md 2.8). */
+export interface CurveCoverage {
+  name: string | null;
+  /** The covered share of its arc length, in [0, 1]. */
+  fraction: number;
+  /** The covering radius: the curve's thickness plus 0.15. */
+  radius: number;
+  /** How close the nearest bone comes; null without bones. */
+  nearest: number | null;
+  /** No bone comes within the radius anywhere along it. */
+  unreached: boolean;
+  /** The uncovered stretches, as arc-length fractions [from, to). */
+  gaps: [number, number][];
+  /** Each gap as points along the curve (world space), for tinting. */
+  gapPoints: V3[][];
+  /** What `grmc sample --stats` says of it ("no gaps", "gaps at ...", or why it is not reached). */
+  note: string;
+}
+
 /** How a guided-sampler run went (sample mode). */
 export interface SampleInfo {
   /** The returned model's curve cost. */
@@ -172,6 +191,8 @@ export interface SampleInfo {
   curves: string;
   /** The generation whose model this is (0-based), when the request asked for one; null: the search's result. */
   generation: number | null;
+  /** Per curve, in the curves' order: how much of it the shown model follows. */
+  coverage: CurveCoverage[];
 }
 
 /** A warning about the model itself (W0013 no triangles, W0014 geometry left out). */
@@ -255,6 +276,28 @@ function optNum(v: unknown, fallback: number): number {
 
 function str(v: unknown, fallback = ''): string {
   return typeof v === 'string' ? v : fallback;
+}
+
+function parseCoverage(v: unknown, what: string): CurveCoverage {
+  if (!isObject(v)) throw new ProtocolError(`preview: ${what} is not an object`);
+  const pair = (g: unknown, i: number): [number, number] => {
+    if (!Array.isArray(g) || g.length !== 2) throw new ProtocolError(`preview: ${what}.gaps[${i}] is not a pair`);
+    return [num(g[0], `${what}.gaps[${i}][0]`), num(g[1], `${what}.gaps[${i}][1]`)];
+  };
+  const gaps = (Array.isArray(v.gaps) ? v.gaps : []).map(pair);
+  const gapPoints = (Array.isArray(v.gapPoints) ? v.gapPoints : []).map((line: unknown, i: number) =>
+    (Array.isArray(line) ? line : []).map((p: unknown, k: number) => vec3(p, `${what}.gapPoints[${i}][${k}]`)),
+  );
+  return {
+    name: typeof v.name === 'string' ? v.name : null,
+    fraction: Math.min(1, Math.max(0, optNum(v.fraction, 0))),
+    radius: optNum(v.radius, 0),
+    nearest: typeof v.nearest === 'number' && Number.isFinite(v.nearest) ? v.nearest : null,
+    unreached: v.unreached === true,
+    gaps,
+    gapPoints,
+    note: str(v.note),
+  };
 }
 
 function vec3(v: unknown, what: string): V3 {
@@ -472,6 +515,7 @@ export function decodePreview(v: unknown): PreviewResult {
       stoppedEarly: v.sample.stoppedEarly === true,
       curves: str(v.sample.curves),
       generation: typeof v.sample.generation === 'number' && Number.isInteger(v.sample.generation) && v.sample.generation >= 0 ? v.sample.generation : null,
+      coverage: (Array.isArray(v.sample.coverage) ? v.sample.coverage : []).map((c: unknown, i: number) => parseCoverage(c, `sample.coverage[${i}]`)),
     };
   }
   const stats = numberRecord(v.stats);

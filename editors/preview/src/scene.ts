@@ -18,6 +18,8 @@ import type { Bounds, PickRange, SceneModel } from './protocol.js';
 import { findPick } from './protocol.js';
 
 const CURVE_COLOR = 0x3a8dde;
+/** The tint of a curve's stretches that no bone follows (docs/curves.md 2.8). */
+const GAP_COLOR = 0xff5a4a;
 const CURVE_SELECTED = 0xff8c1a;
 const SKELETON_COLOR = 0xd04020;
 const HIGHLIGHT_COLOR = 0xffe14d;
@@ -160,6 +162,9 @@ export class PreviewScene {
   private readonly modelRoot = new THREE.Group();
   private readonly skeletonRoot = new THREE.Group();
   private readonly curvesRoot = new THREE.Group();
+  /** The uncovered stretches of the guiding curves, tinted. */
+  private readonly gapsRoot = new THREE.Group();
+  private gaps: V3[][] = [];
   private readonly overlayRoot = new THREE.Group();
   private readonly strokeLine: THREE.Line;
   private model: SceneModel | null = null;
@@ -204,7 +209,7 @@ export class PreviewScene {
     this.grid = new THREE.GridHelper(20, 20, 0x666666, 0x3a3a3a);
     this.scene.add(this.grid);
     addLights(this.scene);
-    this.scene.add(this.modelRoot, this.skeletonRoot, this.curvesRoot, this.overlayRoot);
+    this.scene.add(this.modelRoot, this.skeletonRoot, this.curvesRoot, this.gapsRoot, this.overlayRoot);
     const sg = new THREE.BufferGeometry();
     sg.setAttribute('position', new THREE.BufferAttribute(new Float32Array(0), 3));
     this.strokeLine = new THREE.Line(sg, new THREE.LineBasicMaterial({ color: 0xffffff, depthTest: false }));
@@ -321,6 +326,7 @@ export class PreviewScene {
     const gridSize = Math.max(10, Math.ceil(radius * 4));
     this.grid.scale.setScalar(gridSize / 20);
     this.drawCurves();
+    this.drawGaps();
     this.requestRender();
   }
 
@@ -382,6 +388,31 @@ export class PreviewScene {
         });
       }
     });
+    this.requestRender();
+  }
+
+  /** Tubes drawn along the curves' uncovered stretches (for tests). */
+  gapTubes = 0;
+
+  /** Tint the stretches of the guiding curves that the model does not follow (each a polyline along its curve); [] clears them. */
+  setGaps(gaps: V3[][]): void {
+    this.gaps = gaps;
+    this.drawGaps();
+  }
+
+  private drawGaps(): void {
+    clearGroup(this.gapsRoot);
+    this.gapTubes = 0;
+    const material = this.materials.get('gap', () => new THREE.MeshBasicMaterial({ color: GAP_COLOR, depthTest: false, transparent: true, opacity: 0.85 }));
+    for (const line of this.gaps) {
+      const pts = line.map((p) => new THREE.Vector3(...p));
+      if (pts.length < 2) continue;
+      const path = new THREE.CatmullRomCurve3(pts, false, 'centripetal');
+      const tube = new THREE.Mesh(new THREE.TubeGeometry(path, Math.max(2, pts.length), this.handleRadius * 0.5, 6, false), material);
+      tube.renderOrder = 3;
+      this.gapsRoot.add(tube);
+      this.gapTubes++;
+    }
     this.requestRender();
   }
 
