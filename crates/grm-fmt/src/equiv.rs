@@ -63,31 +63,66 @@ impl std::fmt::Write for Hash2 {
 }
 
 impl Fingerprint {
-    /// The fingerprint of a parsed file. The tree is hashed item by item
-    /// through its `Debug` form with spans cleared (the `Debug` form shows
-    /// every field, numbers exactly); `comment_text` gives each comment's
-    /// text as printed.
+    /// The fingerprint of a parsed file: its items through [`TreeHash`],
+    /// and its comments' texts as printed (`comment_text`).
     pub(crate) fn of<'c>(
         f: &File,
         comments: impl Iterator<Item = std::borrow::Cow<'c, str>>,
     ) -> Fingerprint {
-        use std::fmt::Write;
-        let mut t = Hash2::new();
-        let _ = write!(t, "{};", f.items.len());
+        let mut t = TreeHash::new();
         for i in &f.items {
-            let mut i = i.clone();
-            item(&mut i);
-            let _ = write!(t, "{i:?};");
+            t.add(i);
         }
+        Fingerprint::from_parts(t, comments)
+    }
+
+    /// The fingerprint of a tree hashed item by item, and of its comments.
+    pub(crate) fn from_parts<'c>(
+        tree: TreeHash,
+        comments: impl Iterator<Item = std::borrow::Cow<'c, str>>,
+    ) -> Fingerprint {
+        use std::fmt::Write;
         let mut c = Hash2::new();
         for text in comments {
             let _ = write!(c, "{}:", text.len());
             c.bytes(text.as_bytes());
         }
         Fingerprint {
-            tree: t.finish(),
+            tree: tree.finish(),
             comments: c.finish(),
         }
+    }
+}
+
+/// The hash of a file's items, given one at a time (so a tree read item by
+/// item, [`grm_syntax::parse_items`], is never whole): each item through
+/// its `Debug` form with spans cleared (the `Debug` form shows every
+/// field, numbers exactly), then their number.
+pub(crate) struct TreeHash {
+    hash: Hash2,
+    items: usize,
+}
+
+impl TreeHash {
+    pub(crate) fn new() -> TreeHash {
+        TreeHash {
+            hash: Hash2::new(),
+            items: 0,
+        }
+    }
+
+    pub(crate) fn add(&mut self, i: &Item) {
+        use std::fmt::Write;
+        let mut i = i.clone();
+        item(&mut i);
+        let _ = write!(self.hash, "{i:?};");
+        self.items += 1;
+    }
+
+    fn finish(mut self) -> [u64; 2] {
+        use std::fmt::Write;
+        let _ = write!(self.hash, "{};", self.items);
+        self.hash.finish()
     }
 }
 

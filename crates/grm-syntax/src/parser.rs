@@ -35,6 +35,27 @@ impl Parsed {
 
 /// Parse a whole file.
 pub fn parse(file: FileId, text: &str) -> Parsed {
+    let mut items = Vec::new();
+    let (comments, diagnostics) = parse_items(file, text, &mut |i| items.push(i));
+    Parsed {
+        file: File {
+            items: shrink(items),
+            span: Span::from_range(0..text.len()),
+        },
+        comments,
+        diagnostics,
+    }
+}
+
+/// [`parse`], each top-level item given to `sink` as soon as it is read
+/// rather than collected into a tree: a reader that needs one item at a
+/// time (the formatter's check of its own output) never holds the whole
+/// tree (issue 32). Returns the comments and the diagnostics (sorted).
+pub fn parse_items(
+    file: FileId,
+    text: &str,
+    sink: &mut dyn FnMut(Item),
+) -> (Vec<Comment>, Vec<Diagnostic>) {
     let mut lexed = lexer::lex_toks(file, text);
     let mut diags = std::mem::take(&mut lexed.diagnostics);
     misspelt_item_keywords(file, text, &mut lexed.tokens, &mut diags);
@@ -46,17 +67,10 @@ pub fn parse(file: FileId, text: &str) -> Parsed {
         diags,
         hoisted: Vec::new(),
     };
-    let items = shrink(p.items());
+    p.items(sink);
     let mut diagnostics = p.diags;
     grm_diag::sort(&mut diagnostics);
-    Parsed {
-        file: File {
-            items,
-            span: Span::from_range(0..text.len()),
-        },
-        comments: lexed.comments,
-        diagnostics,
-    }
+    (lexed.comments, diagnostics)
 }
 
 /// Parse a lone expression (for tests and tools). Returns `None` with
@@ -542,8 +556,8 @@ impl<'a, 't> Driver<'a, 't> {
         Span::new(n, n)
     }
 
-    fn items(&mut self) -> Vec<Item> {
-        let mut items = Vec::new();
+    /// Each top-level item, in order, to `sink`.
+    fn items(&mut self, sink: &mut dyn FnMut(Item)) {
         while let Some(t) = self.peek().copied() {
             match t.kind {
                 TokKind::Import | TokKind::Const | TokKind::Param | TokKind::Mesh => {
@@ -551,15 +565,21 @@ impl<'a, 't> Driver<'a, 't> {
                     let toks = self.take_stmt(end);
                     for s in self.statement(toks, Entry::Top) {
                         if let Stmt::Item(i) = s {
-                            items.push(i);
+                            sink(i);
                         }
                     }
                 }
                 TokKind::System => {
-                    items.push(self.system());
-                    items.append(&mut self.hoisted);
+                    let system = self.system();
+                    sink(system);
+                    for i in std::mem::take(&mut self.hoisted) {
+                        sink(i);
+                    }
                 }
-                TokKind::Material => items.push(self.material()),
+                TokKind::Material => {
+                    let material = self.material();
+                    sink(material);
+                }
                 _ => {
                     // Garbage between items: skip to the next item keyword at
                     // brace depth 0, one diagnostic for the whole run.
@@ -602,11 +622,10 @@ impl<'a, 't> Driver<'a, 't> {
                         }
                     }
                     self.diags.push(d);
-                    items.push(Item::Error(span));
+                    sink(Item::Error(span));
                 }
             }
         }
-        items
     }
 
     /// Index one past the end of the statement starting at `self.pos`: after
