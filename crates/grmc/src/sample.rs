@@ -87,6 +87,17 @@ pub struct SampleArgs {
     /// draws (Calder's proposal); at most 100,000.
     #[arg(long, value_name = "K", default_value_t = grm_sample::DEFAULT_CANDIDATES, value_parser = clap::value_parser!(u32).range(1..=i64::from(grm_sema::MAX_PARTICLES)))]
     pub candidates: u32,
+    /// Expansion order: of N open symbols drawn at random, expand the one
+    /// whose position promises the cheapest next bone along the curves; 1
+    /// is Calder's uniform order (docs/sampling.md 4.3).
+    #[arg(long, value_name = "N", default_value_t = grm_sample::DEFAULT_ORDER, value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub order: u32,
+    /// Weight W of the coverage term the search optimises besides the
+    /// curve cost (rewarding the least-covered curve most); 0 searches by
+    /// the paper's cost alone (docs/sampling.md 4.3). `--order 1 --cover 0
+    /// --candidates 1 --ess-target 0` is Calder's method.
+    #[arg(long, value_name = "W", default_value_t = grm_sample::DEFAULT_COVER, value_parser = finite_non_negative)]
+    pub cover: f64,
     /// Expansions per particle step: a step expands open symbols until one
     /// adds a bone, at most this many (1: one symbol per step).
     #[arg(long, default_value_t = 1000, value_parser = clap::value_parser!(u32).range(1..))]
@@ -338,6 +349,10 @@ pub fn run(args: SampleArgs) -> Outcome {
         temperature: args.temperature,
         ess_target: args.ess_target,
         candidates: args.candidates,
+        guide: grm_sample::Guide {
+            order: args.order,
+            cover: args.cover,
+        },
         threads: args.threads,
         budget: args.budget_ms.map(Duration::from_millis),
         best: args.best,

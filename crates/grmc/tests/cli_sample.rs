@@ -120,6 +120,48 @@ fn ess_target_tempers_the_weights() {
     assert!(default.iter().all(|&(ess, _)| ess >= 1.999), "{default:?}");
 }
 
+/// The search's expansion order and coverage term are options: the
+/// defaults spelt out give the same model; Calder's uniform order without
+/// the coverage term gives another; an order of 0 is refused.
+#[test]
+fn the_search_guide_is_an_option() {
+    let tree = example("calder_tree.grm");
+    let curves = example("calder_tree.curves.json");
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "sample",
+            tree.as_str(),
+            "--curves",
+            curves.as_str(),
+            "--generations",
+            "10",
+            "--particles",
+            "4",
+        ];
+        args.extend_from_slice(extra);
+        grmc(&args)
+    };
+    let cost = |o: &std::process::Output| -> f64 {
+        let s = String::from_utf8_lossy(&o.stdout);
+        assert_eq!(o.status.code(), Some(0), "{s}");
+        s.lines()
+            .find_map(|l| l.strip_prefix("cost "))
+            .and_then(|l| l.split_whitespace().next())
+            .and_then(|w| w.parse().ok())
+            .unwrap_or(f64::NAN)
+    };
+    let default = cost(&run(&[]));
+    let spelt = cost(&run(&["--order", "4", "--cover", "150"]));
+    assert_eq!(default, spelt);
+    let paper = cost(&run(&["--order", "1", "--cover", "0"]));
+    assert!(paper.is_finite() && default.is_finite());
+    assert_ne!(paper, default);
+    let bad = run(&["--order", "0"]);
+    assert_eq!(bad.status.code(), Some(2));
+    let bad = run(&["--cover", "-1"]);
+    assert_eq!(bad.status.code(), Some(2));
+}
+
 #[test]
 fn candidates_are_an_option() {
     let tree = example("calder_tree.grm");
