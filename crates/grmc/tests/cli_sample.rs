@@ -120,108 +120,82 @@ fn ess_target_tempers_the_weights() {
     assert!(default.iter().all(|&(ess, _)| ess >= 1.999), "{default:?}");
 }
 
+/// `grmc sample` of the Calder tree with its curves, 10 generations of
+/// `particles`, and `extra` flags.
+fn calder(particles: &str, extra: &[&str]) -> std::process::Output {
+    let (tree, curves) = (
+        example("calder_tree.grm"),
+        example("calder_tree.curves.json"),
+    );
+    let mut args = vec![
+        "sample",
+        tree.as_str(),
+        "--curves",
+        curves.as_str(),
+        "--generations",
+        "10",
+        "--particles",
+        particles,
+    ];
+    args.extend_from_slice(extra);
+    grmc(&args)
+}
+
+/// The `cost` line's figure of a successful run's output.
+fn cost(o: &std::process::Output) -> f64 {
+    let s = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(0), "{s}");
+    s.lines()
+        .find_map(|l| l.strip_prefix("cost "))
+        .and_then(|l| l.split_whitespace().next())
+        .and_then(|w| w.parse().ok())
+        .unwrap_or(f64::NAN)
+}
+
 /// The search's expansion order and coverage term are options: the
 /// defaults spelt out give the same model; Calder's uniform order without
 /// the coverage term gives another; an order of 0 is refused.
 #[test]
 fn the_search_guide_is_an_option() {
-    let tree = example("calder_tree.grm");
-    let curves = example("calder_tree.curves.json");
-    let run = |extra: &[&str]| {
-        let mut args = vec![
-            "sample",
-            tree.as_str(),
-            "--curves",
-            curves.as_str(),
-            "--generations",
-            "10",
-            "--particles",
-            "4",
-        ];
-        args.extend_from_slice(extra);
-        grmc(&args)
-    };
-    let cost = |o: &std::process::Output| -> f64 {
-        let s = String::from_utf8_lossy(&o.stdout);
-        assert_eq!(o.status.code(), Some(0), "{s}");
-        s.lines()
-            .find_map(|l| l.strip_prefix("cost "))
-            .and_then(|l| l.split_whitespace().next())
-            .and_then(|w| w.parse().ok())
-            .unwrap_or(f64::NAN)
-    };
-    let default = cost(&run(&[]));
-    let spelt = cost(&run(&["--order", "4", "--cover", "150"]));
+    let default = cost(&calder("4", &[]));
+    let spelt = cost(&calder("4", &["--order", "4", "--cover", "150"]));
     assert_eq!(default, spelt);
-    let paper = cost(&run(&["--order", "1", "--cover", "0"]));
+    let paper = cost(&calder("4", &["--order", "1", "--cover", "0"]));
     assert!(paper.is_finite() && default.is_finite());
     assert_ne!(paper, default);
-    let bad = run(&["--order", "0"]);
-    assert_eq!(bad.status.code(), Some(2));
-    let bad = run(&["--cover", "-1"]);
-    assert_eq!(bad.status.code(), Some(2));
+    assert_eq!(calder("4", &["--order", "0"]).status.code(), Some(2));
+    assert_eq!(calder("4", &["--cover", "-1"]).status.code(), Some(2));
 }
 
 #[test]
 fn candidates_are_an_option() {
-    let tree = example("calder_tree.grm");
-    let curves = example("calder_tree.curves.json");
     let run = |extra: &[&str]| {
-        let mut args = vec![
-            "sample",
-            tree.as_str(),
-            "--curves",
-            curves.as_str(),
-            "--generations",
-            "10",
-            "--particles",
-            "20",
-        ];
-        args.extend_from_slice(extra);
-        let o = grmc(&args);
+        let o = calder("20", extra);
         let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
         assert_eq!(o.status.code(), Some(0), "{stdout}");
-        stdout
+        (stdout, cost(&o))
     };
-    let cost = |s: &str| -> f64 {
-        s.lines()
-            .find_map(|l| l.strip_prefix("cost "))
-            .and_then(|l| l.split_whitespace().next())
-            .and_then(|w| w.parse().ok())
-            .unwrap_or(f64::NAN)
-    };
-    let default = run(&[]);
+    let (default, default_cost) = run(&[]);
     // The default is 12 candidates (3 before the curve-coverage work).
     assert!(default.contains("12 candidates, ESS >= 0.1 N"), "{default}");
-    let twelve = run(&["--candidates", "12"]);
-    assert_eq!(cost(&default), cost(&twelve));
-    let one = run(&["--candidates", "1", "--ess-target", "0"]);
+    let (_, twelve) = run(&["--candidates", "12"]);
+    assert_eq!(default_cost, twelve);
+    let (one, one_cost) = run(&["--candidates", "1", "--ess-target", "0"]);
     assert!(one.contains("1 candidate, untempered"), "{one}");
-    assert!(cost(&one).is_finite() && cost(&default).is_finite());
-    assert_ne!(cost(&one), cost(&default), "{one}\n{default}");
+    assert!(one_cost.is_finite() && default_cost.is_finite());
+    assert_ne!(one_cost, default_cost, "{one}\n{default}");
     // The volume baseline has no candidates, and is tempered as the
     // curves are (the summary said "untempered" while it was not).
-    let volume = run(&["--cost", "volume"]);
+    let (volume, volume_cost) = run(&["--cost", "volume"]);
     assert!(volume.contains("1 candidate, ESS >= 0.1 N"), "{volume}");
-    let untempered = run(&["--cost", "volume", "--ess-target", "0"]);
+    let (untempered, untempered_cost) = run(&["--cost", "volume", "--ess-target", "0"]);
     assert!(
         untempered.contains("1 candidate, untempered"),
         "{untempered}"
     );
-    assert_ne!(
-        cost(&volume),
-        cost(&untempered),
-        "tempering changes the run"
-    );
+    assert_ne!(volume_cost, untempered_cost, "tempering changes the run");
     // 0 candidates is a usage error, not a silent 1.
-    let o = grmc(&[
-        "sample",
-        tree.as_str(),
-        "--curves",
-        curves.as_str(),
-        "--candidates",
-        "0",
-    ]);
+    let o = calder("20", &["--candidates", "0"]);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("--candidates"), "{stderr}");
