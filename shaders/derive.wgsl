@@ -290,6 +290,7 @@ fn decide(i: u32) -> Decision {
                 }
             }
         }
+        let prefix = rng_prefix(d.seed, d.iteration, d.position);
         var best = g.first_alt;
         var best_time = 0u;
         var best_w = 1.0;
@@ -298,7 +299,7 @@ fn decide(i: u32) -> Decision {
             if (!const_weights) {
                 w = weight_of(a, d);
             }
-            let t = race_time(rng_hash(d.seed, d.iteration, d.position, 0x80000000u | (a - g.first_alt)));
+            let t = race_time(rng_finish(prefix, 0x80000000u | (a - g.first_alt)));
             if (a == g.first_alt || race_earlier(t, w, best_time, best_w)) {
                 best = a;
                 best_time = t;

@@ -29,11 +29,18 @@ fn mm3_fmix(h0: u32) -> u32 {
 }
 
 fn rng_hash(seed: u32, iteration: u32, position: u32, draw: u32) -> u32 {
-    var h = seed;
-    h = mm3_mix(h, iteration);
-    h = mm3_mix(h, position);
-    h = mm3_mix(h, draw);
-    return mm3_fmix(h ^ 12u);
+    return rng_finish(rng_prefix(seed, iteration, position), draw);
+}
+
+// The part of rng_hash that does not depend on the draw index
+// (grm_compile::rng::hash_prefix), for several draws of one module.
+fn rng_prefix(seed: u32, iteration: u32, position: u32) -> u32 {
+    return mm3_mix(mm3_mix(seed, iteration), position);
+}
+
+// rng_hash from its prefix (grm_compile::rng::hash_finish): the same value.
+fn rng_finish(prefix: u32, draw: u32) -> u32 {
+    return mm3_fmix(mm3_mix(prefix, draw) ^ 12u);
 }
 
 // The key of a module written by a rewrite (grm_compile::rng::child_key):
