@@ -18,13 +18,16 @@ case "$example" in /*) ;; *) example="$here/$example" ;; esac
 case "$out" in /*) ;; *) out="$here/$out" ;; esac
 cd "$root"
 cargo build --release -p grmc
-./target/release/grmc check examples/*.grm
+# Where cargo put it (CARGO_TARGET_DIR, when set, moves the target folder).
+grmc="${CARGO_TARGET_DIR:-$root/target}/release/grmc"
+case "$grmc" in /*) ;; *) grmc="$root/$grmc" ;; esac
+"$grmc" check examples/*.grm
 outputs=("$out")
 if [ $# -lt 2 ]; then outputs+=("${out%.*}.png"); fi
 for o in "${outputs[@]}"; do
     if grep -Eq '^[[:space:]]*mode[[:space:]]*=[[:space:]]*sample[[:space:]]*;' "$example"; then
-        ./target/release/grmc sample "$example" -o "$o"
+        "$grmc" sample "$example" -o "$o"
     else
-        ./target/release/grmc derive "$example" --stats -o "$o"
+        "$grmc" derive "$example" --stats -o "$o"
     fi
 done
