@@ -441,7 +441,8 @@ impl BinaryOp {
 /// A comment kept for the formatter and the language server.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Comment {
-    /// Including the `//` or `/* */` delimiters.
-    pub text: String,
+    /// Including the `//` or `/* */` delimiters. Inline up to 24 bytes
+    /// (most line comments), as a [`Name`] is.
+    pub text: Name,
     pub span: Span,
 }

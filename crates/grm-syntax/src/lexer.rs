@@ -525,10 +525,17 @@ pub fn lex_toks(file: FileId, text: &str) -> LexedToks {
     // heap (after the first large block it frees), which left holes of up
     // to half the list in `grmc fmt`'s second parse (issue 32). Lexing
     // twice costs a few percent of parsing.
-    let count = Raw::lexer(text)
-        .filter(|r| !matches!(r, Err(()) | Ok(Raw::LineComment | Raw::BlockComment(_))))
-        .count();
-    out.tokens.reserve_exact(count);
+    // The comments' list too.
+    let (mut tokens, mut comments) = (0, 0);
+    for r in Raw::lexer(text) {
+        match r {
+            Ok(Raw::LineComment | Raw::BlockComment(_)) => comments += 1,
+            Ok(_) => tokens += 1,
+            Err(()) => {}
+        }
+    }
+    out.tokens.reserve_exact(tokens);
+    out.comments.reserve_exact(comments);
     let mut lexer = Raw::lexer(text);
     // A run of invalid characters is reported once.
     let mut bad_run: Option<Span> = None;
@@ -589,7 +596,7 @@ pub fn lex_toks(file: FileId, text: &str) -> LexedToks {
                         }
                         bidi_controls(file, slice, span, "comment", &mut out.diagnostics);
                         out.comments.push(crate::ast::Comment {
-                            text: slice.to_string(),
+                            text: slice.into(),
                             span,
                         });
                     }
