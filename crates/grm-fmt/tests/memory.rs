@@ -29,3 +29,38 @@ fn fmt_stays_under_the_budget() {
     }
     assert!(failed.is_empty(), "bytes per source byte: {failed:?}");
 }
+
+/// The resident set of this test process (VmHWM) over the file named by
+/// `GRM_RSS_FILE` while it is fmted, beside the counted peak and that of
+/// glibc's chunks: where the three part, glibc's heap has holes (what
+/// `grmc`'s whole-process figure adds). `GRM_RSS_FILE=big.grm cargo test
+/// --release -p grm-fmt --test memory -- --ignored --nocapture --exact rss`
+#[test]
+#[ignore = "measurement: names its file in GRM_RSS_FILE"]
+fn rss() {
+    let path = std::env::var("GRM_RSS_FILE").expect("GRM_RSS_FILE");
+    let text = std::fs::read_to_string(&path).expect("read");
+    let n = text.len() as f64;
+    let hwm = || {
+        let s = std::fs::read_to_string("/proc/self/status").unwrap();
+        let l = s.lines().find(|l| l.starts_with("VmHWM:")).unwrap();
+        l.split_whitespace().nth(1).unwrap().parse::<f64>().unwrap() * 1024.0
+    };
+    let h0 = hwm();
+    use std::sync::atomic::Ordering;
+    let a0 = ALLOCS.load(Ordering::SeqCst);
+    let (_, c, out) = peaks_during(|| grm_fmt::format(&text));
+    let a1 = ALLOCS.load(Ordering::SeqCst);
+    let (_, c1, p) = peaks_during(|| grm_syntax::parse(grm_diag::FileId(0), &text));
+    drop(p);
+    eprintln!(
+        "VmHWM {:.1} B/B (before {:.1}), chunks peak {:.1} at {} of {} allocs, parse alone {:.1}, ok {}",
+        hwm() / n,
+        h0 / n,
+        c as f64 / n,
+        PEAK_AT.load(Ordering::SeqCst) - a0,
+        a1 - a0,
+        c1 as f64 / n,
+        out.is_ok()
+    );
+}

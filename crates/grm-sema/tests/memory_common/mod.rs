@@ -20,6 +20,30 @@ pub struct Counting;
 
 pub static CURRENT: AtomicUsize = AtomicUsize::new(0);
 pub static PEAK: AtomicUsize = AtomicUsize::new(0);
+/// What the blocks take in glibc's allocator: each rounded up to its chunk
+/// ([`chunk`]), at once and at peak.
+pub static CURRENT_CHUNKS: AtomicUsize = AtomicUsize::new(0);
+pub static PEAK_CHUNKS: AtomicUsize = AtomicUsize::new(0);
+/// Blocks live at once.
+pub static BLOCKS: AtomicUsize = AtomicUsize::new(0);
+
+/// The size of the chunk glibc's malloc gives a request of `size` bytes
+/// on a 64-bit machine: the size plus an 8-byte header, rounded up to 16,
+/// at least 32. Blocks of a few bytes take 32.
+pub fn chunk(size: usize) -> usize {
+    (size + 8).next_multiple_of(16).max(32)
+}
+
+pub static ALLOCS: AtomicUsize = AtomicUsize::new(0);
+pub static PEAK_AT: AtomicUsize = AtomicUsize::new(0);
+
+fn grow_chunks(by: usize) {
+    let now = CURRENT_CHUNKS.fetch_add(by, Ordering::Relaxed) + by;
+    let n = ALLOCS.fetch_add(1, Ordering::Relaxed);
+    if PEAK_CHUNKS.fetch_max(now, Ordering::Relaxed) < now {
+        PEAK_AT.store(n, Ordering::Relaxed);
+    }
+}
 
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
@@ -28,6 +52,8 @@ unsafe impl GlobalAlloc for Counting {
         if !p.is_null() {
             let now = CURRENT.fetch_add(layout.size(), Ordering::Relaxed) + layout.size();
             PEAK.fetch_max(now, Ordering::Relaxed);
+            grow_chunks(chunk(layout.size()));
+            BLOCKS.fetch_add(1, Ordering::Relaxed);
         }
         p
     }
@@ -36,6 +62,8 @@ unsafe impl GlobalAlloc for Counting {
         // SAFETY: `ptr` was allocated by `alloc` above with `layout`.
         unsafe { System.dealloc(ptr, layout) };
         CURRENT.fetch_sub(layout.size(), Ordering::Relaxed);
+        CURRENT_CHUNKS.fetch_sub(chunk(layout.size()), Ordering::Relaxed);
+        BLOCKS.fetch_sub(1, Ordering::Relaxed);
     }
 
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
@@ -49,6 +77,12 @@ unsafe impl GlobalAlloc for Counting {
             } else {
                 CURRENT.fetch_sub(layout.size() - new_size, Ordering::Relaxed);
             }
+            let (old, new) = (chunk(layout.size()), chunk(new_size));
+            if new >= old {
+                grow_chunks(new - old);
+            } else {
+                CURRENT_CHUNKS.fetch_sub(old - new, Ordering::Relaxed);
+            }
         }
         p
     }
@@ -61,10 +95,23 @@ pub static ALLOC: Counting = Counting;
 /// was allocated when it started, and its result. Tests in one binary run
 /// in parallel: the tests that measure hold [`LOCK`].
 pub fn peak_during<T>(f: impl FnOnce() -> T) -> (usize, T) {
+    let (b, _, out) = peaks_during(f);
+    (b, out)
+}
+
+/// [`peak_during`], and the peak of glibc's chunks ([`chunk`]) over those
+/// at the start.
+pub fn peaks_during<T>(f: impl FnOnce() -> T) -> (usize, usize, T) {
     let base = CURRENT.load(Ordering::SeqCst);
     PEAK.store(base, Ordering::SeqCst);
+    let base_chunks = CURRENT_CHUNKS.load(Ordering::SeqCst);
+    PEAK_CHUNKS.store(base_chunks, Ordering::SeqCst);
     let out = f();
-    (PEAK.load(Ordering::SeqCst) - base, out)
+    (
+        PEAK.load(Ordering::SeqCst) - base,
+        PEAK_CHUNKS.load(Ordering::SeqCst) - base_chunks,
+        out,
+    )
 }
 
 pub fn realistic(size: usize) -> String {
