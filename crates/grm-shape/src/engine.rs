@@ -180,6 +180,10 @@ struct Engine<'p> {
     limits: Limits,
 }
 
+/// The size past which the top of the tree is not derived deeper for
+/// more parallelism (each deepening derives the top again).
+const TOP_NODES: usize = 4096;
+
 /// How many layouts [`Scratch::memo`] keeps.
 const MEMO: usize = 8;
 
@@ -206,6 +210,7 @@ struct Scratch {
     counts: Vec<u32>,
 }
 
+#[inline]
 fn node(
     kind: NodeKind,
     scope: Scope,
@@ -761,7 +766,14 @@ impl Engine<'_> {
             let top = self
                 .run(root, root_outline.clone(), Some(cut), max, &never)
                 .map_err(|Overflow| ShapeError::TooManyShapes { max })?;
-            if top.cut.is_empty() || top.cut.len() >= 4 * threads || cut >= 32 {
+            // Deep enough for four subtrees per worker; but never derive a
+            // big top again and again (a narrow grammar): past `TOP_NODES`
+            // the top is what it is.
+            if top.cut.is_empty()
+                || top.cut.len() >= 4 * threads
+                || top.nodes.len() >= TOP_NODES
+                || cut >= 32
+            {
                 break top;
             }
             cut += 1;
@@ -938,6 +950,7 @@ fn renumber(n: &mut Node, from: &[Arc<Outline>], to: &mut Vec<Arc<Outline>>) {
 }
 
 /// A stored geometry with its outline in hand.
+#[inline]
 fn resolve(outlines: &[Arc<Outline>], g: Geometry) -> Geom {
     let get = |o: OutlineId| outlines.get(o.0 as usize).cloned();
     match g {
@@ -951,6 +964,7 @@ fn resolve(outlines: &[Arc<Outline>], g: Geometry) -> Geom {
 
 /// The geometry to store for a node written now: an outline gets the next
 /// entry of the table (one per node, in node order).
+#[inline]
 fn intern(outlines: &mut Vec<Arc<Outline>>, g: &Geom) -> Geometry {
     match g {
         Geom::Box => Geometry::Box,

@@ -124,6 +124,7 @@ impl Geom {
     /// The geometry of the slab `[start, start + len)` along `axis` of a
     /// shape with this geometry and `scope`, in the slab's own scope
     /// (`None`: the slab holds none of it).
+    #[inline]
     pub fn slab(&self, scope: &Scope, axis: Axis, start: f32, len: f32) -> Option<Geom> {
         match (self, axis) {
             (Geom::Prism(_) | Geom::Polygon(_), Axis::Z) => Some(self.clone()),
