@@ -94,10 +94,9 @@ impl Fingerprint {
     }
 }
 
-/// The hash of a file's items, given one at a time (so a tree read item by
-/// item, [`grm_syntax::parse_items`], is never whole): each item through
-/// its `Debug` form with spans cleared (the `Debug` form shows every
-/// field, numbers exactly), then their number.
+/// The hash of a file's items, given one at a time (each copied alone):
+/// each item through its `Debug` form with spans cleared (the `Debug`
+/// form shows every field, numbers exactly), then their number.
 pub(crate) struct TreeHash {
     hash: Hash2,
     items: usize,

@@ -33,7 +33,7 @@ lalrpop_util::lalrpop_mod!(
     grm
 );
 
-pub use parser::{MAX_EXPR_DEPTH, Parsed, expr_too_deep, parse, parse_expr, parse_items};
+pub use parser::{MAX_EXPR_DEPTH, Parsed, expr_too_deep, parse, parse_expr};
 
 /// The turtle punctuation symbols, each a module that may carry arguments.
 pub const PUNCT_SYMBOLS: &[&str] = &[

@@ -47,11 +47,12 @@ pub fn parse(file: FileId, text: &str) -> Parsed {
     }
 }
 
-/// [`parse`], each top-level item given to `sink` as soon as it is read
-/// rather than collected into a tree: a reader that needs one item at a
-/// time (the formatter's check of its own output) never holds the whole
-/// tree (issue 32). Returns the comments and the diagnostics (sorted).
-pub fn parse_items(
+/// [`parse`], each top-level item given to `sink` as it is read. Returns
+/// the comments and the diagnostics (sorted). Not public: a sink runs
+/// while the file's tokens are still held, so a reader that keeps only
+/// one item at a time gained little on real files and lost on a file of
+/// one large item (the tokens beside it; issue 32).
+fn parse_items(
     file: FileId,
     text: &str,
     sink: &mut dyn FnMut(Item),
