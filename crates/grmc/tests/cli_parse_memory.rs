@@ -9,7 +9,7 @@
 //! time: a loaded machine does not change it. Before session 20 the
 //! 4.2 MB grammar peaked at 37.5 bytes per source byte in both (every name
 //! a heap block of its own), 36 with the binary taken off; after, a
-//! release build: 30.6 (check) and 31.3 (fmt) whole, 29.0 and 29.8
+//! release build: 30.6 (check) and 31.6 (fmt) whole, 29.0 and 30.0
 //! without the binary (docs/benchmarks.md, "Parsing memory").
 
 #[path = "../../grm-sema/tests/memory_common/mod.rs"]
