@@ -13,7 +13,6 @@ mod common;
 
 use std::io::Read;
 use std::process::{Command, Stdio};
-use std::time::Duration;
 
 use common::*;
 
@@ -32,24 +31,7 @@ fn peak(args: &[&str]) -> (Option<i32>, String, u64) {
         let _ = stderr.read_to_string(&mut s);
         s
     });
-    let status = format!("/proc/{}/status", child.id());
-    let mut kib = 0u64;
-    let code = loop {
-        if let Ok(text) = std::fs::read_to_string(&status)
-            && let Some(line) = text.lines().find(|l| l.starts_with("VmHWM:"))
-        {
-            let n = line
-                .split_whitespace()
-                .nth(1)
-                .and_then(|n| n.parse().ok())
-                .unwrap_or(0);
-            kib = kib.max(n);
-        }
-        if let Some(s) = child.try_wait().expect("wait") {
-            break s.code();
-        }
-        std::thread::sleep(Duration::from_millis(2));
-    };
+    let (code, kib) = wait_peak_kib(&mut child);
     (code, reader.join().unwrap_or_default(), kib >> 10)
 }
 

@@ -3,7 +3,7 @@
 //! memory per source byte. The counting-allocator tests (grm-sema,
 //! grm-fmt, grm-analysis: `memory_common`) count the bytes asked for; this
 //! one runs `grmc` as a child and reads its peak resident memory (VmHWM,
-//! polled from /proc while it runs, as `cli_limits.rs` does), so what the
+//! polled from /proc while it runs: `common::wait_peak_kib`), so what the
 //! allocator rounds up, the holes it leaves and the file's text count too;
 //! what the binary holds for a file of one line is taken off. Memory, not
 //! time: a loaded machine does not change it. Before session 20 the
@@ -12,11 +12,12 @@
 //! release build: 30.6 (check) and 31.6 (fmt) whole, 29.0 and 30.0
 //! without the binary (docs/benchmarks.md, "Parsing memory").
 
+mod common;
 #[path = "../../grm-sema/tests/memory_common/mod.rs"]
 mod memory_common;
 
+use common::wait_peak_kib;
 use std::process::{Command, Stdio};
-use std::time::Duration;
 
 /// Run `grmc args`: exit code and peak resident memory in bytes.
 fn peak(args: &[&str]) -> (Option<i32>, u64) {
@@ -27,24 +28,7 @@ fn peak(args: &[&str]) -> (Option<i32>, u64) {
         .stderr(Stdio::null())
         .spawn()
         .expect("grmc runs");
-    let status = format!("/proc/{}/status", child.id());
-    let mut kib = 0u64;
-    let code = loop {
-        if let Ok(text) = std::fs::read_to_string(&status)
-            && let Some(line) = text.lines().find(|l| l.starts_with("VmHWM:"))
-        {
-            let n = line
-                .split_whitespace()
-                .nth(1)
-                .and_then(|n| n.parse().ok())
-                .unwrap_or(0);
-            kib = kib.max(n);
-        }
-        if let Some(s) = child.try_wait().expect("wait") {
-            break s.code();
-        }
-        std::thread::sleep(Duration::from_millis(1));
-    };
+    let (code, kib) = wait_peak_kib(&mut child);
     (code, kib << 10)
 }
 

@@ -39,3 +39,28 @@ pub fn example(name: &str) -> String {
 pub fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()
 }
+
+/// Wait for `child`, reading its peak resident memory (`VmHWM` in
+/// /proc/PID/status) every millisecond while it runs: its exit code and
+/// the highest peak read, in KiB.
+pub fn wait_peak_kib(child: &mut std::process::Child) -> (Option<i32>, u64) {
+    let status = format!("/proc/{}/status", child.id());
+    let mut kib = 0u64;
+    let code = loop {
+        if let Ok(text) = std::fs::read_to_string(&status)
+            && let Some(line) = text.lines().find(|l| l.starts_with("VmHWM:"))
+        {
+            let n = line
+                .split_whitespace()
+                .nth(1)
+                .and_then(|n| n.parse().ok())
+                .unwrap_or(0);
+            kib = kib.max(n);
+        }
+        if let Some(s) = child.try_wait().expect("wait") {
+            break s.code();
+        }
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    };
+    (code, kib)
+}
