@@ -4,7 +4,7 @@
 // no bone reaches named with the reason).
 import assert from 'node:assert/strict';
 import { test } from 'node:test';
-import { coverageText } from '../preview/src/coverage.js';
+import { coverageLabel } from '../preview/src/coverage.js';
 import { type CurveCoverage, ProtocolError, decodePreview } from '../preview/src/protocol.js';
 
 function result(coverage: unknown) {
@@ -48,11 +48,8 @@ test('a result without coverage has none; a malformed gap is refused', () => {
   assert.throws(() => decodePreview(result([{ ...trunk, gapPoints: [[[0, 'x', 0]]] }])), ProtocolError);
 });
 
-test("the status line gives each curve's share and says which curve is not reached", () => {
+test("the curve list's label gives a curve's share, and says why a curve is not reached", () => {
   const c = decodePreview(result([trunk, far])).sample?.coverage as CurveCoverage[];
-  assert.equal(
-    coverageText(c),
-    'curves followed: trunk 75%, curve 2 0% · ⚠ curve 2: not reached: the nearest bone stays 39.90 from it (covering radius 0.15)',
-  );
-  assert.equal(coverageText(c.slice(0, 1)), 'curves followed: trunk 75%');
+  assert.equal(coverageLabel(c[0]), '75%');
+  assert.equal(coverageLabel(c[1]), '⚠ 0%: not reached: the nearest bone stays 39.90 from it (covering radius 0.15)');
 });

@@ -7,7 +7,7 @@ import { Coalescer, type Delivery, SharedRequest } from './coalesce.js';
 import { PARAM_KEYS, PARAM_RANGES, type ParamKey, checkParam, cloneSet, setProblem } from './curves.js';
 import { type PlayAt, SearchPlayer, isSearchResult, playButtonView, scrubberView, showsUpdate } from './generation.js';
 import { type NotificationMethod, type ViewParams, usableCamera, viewAngles } from './messages.js';
-import { coverageText } from './coverage.js';
+import { coverageLabel } from './coverage.js';
 import { pictureFileName, pictureParams } from './picture.js';
 import {
   type Origin,
@@ -520,6 +520,7 @@ class App {
     const tBuild = performance.now();
     // The curves' stretches no bone follows, tinted (sample mode).
     this.scene.setGaps((r.sample?.coverage ?? []).flatMap((c) => c.gapPoints));
+    this.refreshCurveList();
     this.scene.setModel(r.model, !this.framed, () => {
       const rendered = performance.now();
       // The frame is done (and its pixels exist) when the task that ran
@@ -609,7 +610,6 @@ class App {
           ? `cost ${s.objective.toFixed(1)} after ${s.generations} generations${s.stoppedEarly ? ' (stopped by the time budget)' : ''}`
           : `generation ${s.generation + 1} of ${s.generations}: cost ${s.objective.toFixed(1)}`,
       );
-      if (s.coverage.length > 0) parts.push(coverageText(s.coverage));
     }
     if (ms !== null) parts.push(`on screen in ${ms.toFixed(0)} ms`);
     // The model's own warnings (why a preview is empty or lacks shapes); the help is in the tooltip.
@@ -1149,6 +1149,16 @@ class App {
       const el = document.createElement('div');
       el.className = 'curve' + (i === this.state.selected ? ' selected' : '');
       el.textContent = c.name ?? `curve ${i}`;
+      // How much of it the model shown follows (the last result's, when it was grown with these curves).
+      const cov = this.last?.sample?.coverage;
+      const cv = cov && cov.length === set.curves.length ? cov[i] : undefined;
+      if (cv) {
+        const tag = document.createElement('span');
+        tag.className = 'coverage' + (cv.unreached ? ' unreached' : '');
+        tag.textContent = coverageLabel(cv);
+        tag.title = cv.note;
+        el.append(' ', tag);
+      }
       el.addEventListener('click', () => {
         this.state.selected = i;
         this.refreshCurves();
