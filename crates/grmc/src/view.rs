@@ -1036,15 +1036,13 @@ mod tests {
         )
     }
 
-    /// Two overlapping previews of one document: the second is not queued
-    /// behind the first, supersedes it, and the first is answered at once
-    /// with the server's ServerCancelled code.
-    #[test]
-    fn a_newer_preview_supersedes_the_one_in_flight() {
+    /// A server for a sample grammar of a hundred thousand generations
+    /// (minutes, unless a budget or a newer request stops it), its
+    /// document's URI and one guiding curve; the folder lives as long as
+    /// the first value.
+    fn endless_server() -> (tempfile::TempDir, Server, Value, Value) {
         let dir = tempfile::tempdir().expect("tempdir");
         let grammar = dir.path().join("endless.grm");
-        // Ten million generations: minutes, unless the budget or a newer
-        // request stops it.
         std::fs::write(
             &grammar,
             "system Endless {\n    mode = sample;\n    generations = 100000;\n    particles_start = 8;\n    particles_end = 4;\n    axiom branch;\n    skeleton branch, maybe;\n    geometry tip;\n    branch -> roty(uniform(0, 360)) rotz(uniform(0, 40)) F(1) maybe;\n    maybe -> (3) branch;\n    maybe -> (1) tip;\n    wrapup branch -> tip;\n    wrapup maybe -> tip;\n    tip -> sphere(0.1);\n}\n",
@@ -1060,6 +1058,16 @@ mod tests {
         );
         let uri = ev["events"][0]["params"]["uri"].clone();
         let curves = json!({ "version": 1, "curves": [{ "points": [[0,0,0],[0,1.3,0],[0,2.7,0],[0,4,0]] }] });
+        (dir, server, uri, curves)
+    }
+
+    /// Two overlapping previews of one document: the second is not queued
+    /// behind the first, supersedes it, and the first is answered at once
+    /// with the server's ServerCancelled code.
+    #[test]
+    fn a_newer_preview_supersedes_the_one_in_flight() {
+        let (_dir, server, uri, curves) = endless_server();
+        let addr = server.addr;
         let req = |budget: u64| json!({ "textDocument": { "uri": uri }, "curves": curves, "live": true, "budgetMs": budget });
         let first_req = req(60_000);
         let first = std::thread::spawn(move || {
@@ -1095,23 +1103,8 @@ mod tests {
     /// the newer one is not stopped.
     #[test]
     fn a_pages_older_preview_arriving_late_supersedes_nothing() {
-        let dir = tempfile::tempdir().expect("tempdir");
-        let grammar = dir.path().join("endless.grm");
-        std::fs::write(
-            &grammar,
-            "system Endless {\n    mode = sample;\n    generations = 100000;\n    particles_start = 8;\n    particles_end = 4;\n    axiom branch;\n    skeleton branch, maybe;\n    geometry tip;\n    branch -> roty(uniform(0, 360)) rotz(uniform(0, 40)) F(1) maybe;\n    maybe -> (3) branch;\n    maybe -> (1) tip;\n    wrapup branch -> tip;\n    wrapup maybe -> tip;\n    tip -> sphere(0.1);\n}\n",
-        )
-        .expect("write");
-        let grammar = grm_sema::normalize(&std::fs::canonicalize(&grammar).expect("canonical"));
-        let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
-        let server = Server::start(&grammar, listener, None).expect("start");
+        let (_dir, server, uri, curves) = endless_server();
         let addr = server.addr;
-        let (_, ev) = exchange(
-            addr,
-            &format!("GET /api/events?after=0 HTTP/1.1\r\nHost: {addr}\r\n\r\n"),
-        );
-        let uri = ev["events"][0]["params"]["uri"].clone();
-        let curves = json!({ "version": 1, "curves": [{ "points": [[0,0,0],[0,1.3,0],[0,2.7,0],[0,4,0]] }] });
         let req = |order: u64, budget: u64| json!({ "textDocument": { "uri": uri }, "curves": curves, "live": true, "client": "page", "order": order, "budgetMs": budget });
         let newer_req = req(2, 1500);
         let newer = std::thread::spawn(move || post(addr, "/api/preview", &newer_req));
