@@ -30,19 +30,23 @@ fn stats_report_coverage_gaps_and_unreachable_curves() {
     )
     .expect("write curves");
     let tree = example("calder_tree.grm");
-    let o = grmc(&[
-        "sample",
-        &tree,
-        "--curves",
-        curves.to_str().expect("utf-8"),
-        "--seed",
-        "2",
-        "--generations",
-        "6",
-        "--particles",
-        "10",
-        "--stats",
-    ]);
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "sample",
+            &tree,
+            "--curves",
+            curves.to_str().expect("utf-8"),
+            "--seed",
+            "2",
+            "--generations",
+            "6",
+            "--particles",
+            "10",
+        ];
+        args.extend_from_slice(extra);
+        grmc(&args)
+    };
+    let o = run(&["--stats"]);
     let stdout = text(&o.stdout);
     assert_eq!(o.status.code(), Some(0), "{stdout}\n{}", text(&o.stderr));
     // A snapshot: it changes when the default search does (update it then,
@@ -54,18 +58,7 @@ coverage (share of each curve's length with a bone within its thickness + 0.15):
   too few bones: 6 bones, 3.62 long in all, cannot cover 80% of the curves' 7.00 even laid along them (more generations grow more bones; fewer curves need fewer)";
     assert_eq!(coverage_block(&stdout), expected, "{stdout}");
     // Without --stats: no coverage block.
-    let o = grmc(&[
-        "sample",
-        &tree,
-        "--curves",
-        curves.to_str().expect("utf-8"),
-        "--seed",
-        "2",
-        "--generations",
-        "6",
-        "--particles",
-        "10",
-    ]);
+    let o = run(&[]);
     assert_eq!(coverage_block(&text(&o.stdout)), "");
 }
 
