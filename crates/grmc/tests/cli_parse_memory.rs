@@ -3,7 +3,7 @@
 //! memory per source byte. The counting-allocator tests (grm-sema,
 //! grm-fmt, grm-analysis: `memory_common`) count the bytes asked for; this
 //! one runs `grmc` as a child and reads its peak resident memory (VmHWM,
-//! polled from /proc while it runs: `common::wait_peak_kib`), so what the
+//! as the kernel counts it when the process ends: `common::wait_peak_kib`), so what the
 //! allocator rounds up, the holes it leaves and the file's text count too;
 //! what the binary holds for a file of one line is taken off. Memory, not
 //! time: a loaded machine does not change it. Before session 20 the
