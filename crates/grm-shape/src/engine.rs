@@ -21,6 +21,7 @@
 //! [`ShapeError::TooManyShapes`] if the tree passed the node limit, else
 //! the failure of the first failing shape in the tree's order.
 
+use crate::attributes::{AttrId, AttrTable, Attributes, MAX_ATTRIBUTES};
 use crate::component::{NotApplicable, components};
 use crate::error::{ShapeError, SizeError};
 use crate::geometry::{Geom, Geometry, Outline, OutlineId};
@@ -30,8 +31,8 @@ use crate::split::{RepeatLayout, SplitSize, repeat_into, split_into};
 use crate::tree::{Command, Node, NodeKind, ShapeTree};
 use glam::Vec3;
 use grm_compile::rng::{child_key, choice_draw, hash, race_earlier, race_time, root_key, salt};
-use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
 
 /// Bounds on a derivation's work and memory.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -138,11 +139,12 @@ pub fn derive(program: &Program, lot: &Lot, options: &Options) -> Result<ShapeTr
         program,
         seed: options.seed,
         limits: options.limits,
+        attrs: Mutex::new(AttrTable::default()),
     };
     let root = engine.axiom(lot);
     let outline = lot.geometry.outline().map(|o| Arc::new(o.clone()));
     let max = options.limits.max_nodes;
-    let (nodes, outlines) = if threads <= 1 {
+    let (mut nodes, outlines) = if threads <= 1 {
         let job = engine
             .run(root, outline, None, max, &AtomicBool::new(false))
             .map_err(|Overflow| ShapeError::TooManyShapes { max })?;
@@ -150,9 +152,17 @@ pub fn derive(program: &Program, lot: &Lot, options: &Options) -> Result<ShapeTr
     } else {
         engine.parallel(root, outline, threads)?
     };
+    let attrs = engine.attrs.into_inner().unwrap_or_else(|e| e.into_inner());
+    if attrs.full {
+        return Err(ShapeError::TooManyAttributes {
+            max: MAX_ATTRIBUTES,
+        });
+    }
+    let attributes = attrs.canonical(nodes.iter_mut().map(|n| &mut n.attrs));
     Ok(ShapeTree {
         nodes,
         outlines,
+        attributes,
         seed: options.seed,
     })
 }
@@ -169,6 +179,9 @@ struct Job {
     cut: Vec<(u32, u32)>,
     /// The root's kind and block length, kept when its slice is spliced.
     roots_kind: (NodeKind, u32),
+    /// The root's attributes, kept likewise (a rule that makes nothing
+    /// sets its shape's).
+    root_attrs: AttrId,
 }
 
 /// The marker of "over the node limit" inside a job.
@@ -178,6 +191,9 @@ struct Engine<'p> {
     program: &'p Program,
     seed: u32,
     limits: Limits,
+    /// The distinct attribute sets, shared by the workers (numbered again
+    /// in node order at the end, so the ids do not depend on scheduling).
+    attrs: Mutex<AttrTable>,
 }
 
 /// The size past which the top of the tree is not derived deeper for
@@ -206,6 +222,11 @@ struct Scratch {
     memo: Vec<Memo>,
     memo_next: usize,
     occurrences: Vec<(u32, u32)>,
+    /// Where the rule run set attributes: (the block position from which
+    /// on, the attributes), in order.
+    attr_marks: Vec<(usize, AttrId)>,
+    /// The attributes saved by `push`.
+    attr_stack: Vec<AttrId>,
     weights: Vec<f32>,
     counts: Vec<u32>,
 }
@@ -228,6 +249,7 @@ fn node(
         edge,
         case: 0,
         selector: None,
+        attrs: AttrId(0),
         index: edge,
         count: 0,
         depth,
@@ -286,6 +308,7 @@ impl Engine<'_> {
             failures: Vec::new(),
             cut: Vec::new(),
             roots_kind,
+            root_attrs: AttrId(0),
         };
         let mut stack: Vec<u32> = vec![0];
         let mut scratch = Scratch::default();
@@ -351,6 +374,8 @@ impl Engine<'_> {
         let key = shape.key;
         let depth = shape.depth;
         let base = shape.scope;
+        let inherited = shape.attrs;
+        let mut attrs = inherited;
         let mut scope = shape.scope;
         let mut geometry = resolve(outlines, shape.geometry);
         let alt = if rule.alternatives.len() == 1 {
@@ -400,6 +425,8 @@ impl Engine<'_> {
         };
         s.stack.clear();
         s.occurrences.clear();
+        s.attr_marks.clear();
+        s.attr_stack.clear();
         let block = out.len();
         let mut edge = 0u32;
         // The ordinal of a child labelled `h` among this rule run's children
@@ -478,11 +505,19 @@ impl Engine<'_> {
                             }
                         }
                     }
-                    Op::Push => s.stack.push((scope, geometry.clone())),
+                    Op::Push => {
+                        s.stack.push((scope, geometry.clone()));
+                        s.attr_stack.push(attrs);
+                    }
                     Op::Pop => match s.stack.pop() {
                         Some((sc, g)) => {
                             scope = sc;
                             geometry = g;
+                            let saved = s.attr_stack.pop().unwrap_or(inherited);
+                            if saved != attrs {
+                                attrs = saved;
+                                s.attr_marks.push((out.len(), attrs));
+                            }
                         }
                         None => return fail(ShapeError::PopWithoutPush { symbol: name() }),
                     },
@@ -736,10 +771,55 @@ impl Engine<'_> {
                         out[cmd_at].children_offset = 1;
                         out[cmd_at].children_len = len as u32;
                     }
+                    Op::Material(_) | Op::Color(_) | Op::Texture(_) => {
+                        let mut table = self.attrs.lock().unwrap_or_else(|e| e.into_inner());
+                        let mut a: Attributes = table.get(attrs);
+                        match op {
+                            Op::Material(m) => a.material = Some(*m),
+                            Op::Texture(t) => a.texture = Some(*t),
+                            Op::Color(c) => {
+                                let mut rgb = [0.0f32; 3];
+                                for (x, p) in rgb.iter_mut().zip(c) {
+                                    *x = finite("a colour channel", p.value())?.clamp(0.0, 1.0);
+                                }
+                                a.color = Some(rgb);
+                            }
+                            _ => {}
+                        }
+                        let Some(id) = table.intern(a) else {
+                            return fail(ShapeError::TooManyAttributes {
+                                max: MAX_ATTRIBUTES,
+                            });
+                        };
+                        if id != attrs {
+                            attrs = id;
+                            s.attr_marks.push((out.len(), attrs));
+                        }
+                    }
                 }
             }
             Ok(())
         })();
+        // Attributes (crate::attributes): each node of the block takes
+        // those set before it was made; a shape whose rule made nothing
+        // keeps those its rule left.
+        if inherited != AttrId(0) || !s.attr_marks.is_empty() {
+            let mut current = inherited;
+            let mut marks = s.attr_marks.iter().peekable();
+            for (j, n) in out.iter_mut().enumerate().skip(block) {
+                while let Some(&&(from, a)) = marks.peek() {
+                    if from > j {
+                        break;
+                    }
+                    current = a;
+                    marks.next();
+                }
+                n.attrs = current;
+            }
+            if out.len() == block {
+                out[at as usize].attrs = attrs;
+            }
+        }
         // A shape's direct children count its edges, for counting from the end.
         let mut j = block;
         while j < out.len() {
@@ -895,6 +975,7 @@ impl Engine<'_> {
             let r = new(i as usize) as usize;
             let root = &jobs[c].roots_kind;
             out[r].kind = root.0;
+            out[r].attrs = jobs[c].root_attrs;
             out[r].children_len = root.1;
             out[r].children_offset = if root.1 > 0 { starts[c] - r as u32 } else { 0 };
         }
@@ -904,6 +985,7 @@ impl Engine<'_> {
             failures,
             cut: Vec::new(),
             roots_kind: (root.kind, 0),
+            root_attrs: root.attrs,
         })
     }
 }
@@ -920,6 +1002,7 @@ fn splice(
 ) -> u32 {
     let base = out.len() as u32; // job index k goes to base + k - 1
     job.roots_kind = (job.nodes[0].kind, job.nodes[0].children_len);
+    job.root_attrs = job.nodes[0].attrs;
     for (k, e) in job.failures.drain(..) {
         failures.push((if k == 0 { root } else { base + k - 1 }, e));
     }

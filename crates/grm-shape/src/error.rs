@@ -130,6 +130,9 @@ pub enum ShapeError {
     },
     /// `pop` with nothing pushed.
     PopWithoutPush { symbol: String },
+    /// The rules set more than `max` distinct attribute sets (material,
+    /// colour, texture; [`crate::attributes`]).
+    TooManyAttributes { max: usize },
 }
 
 impl fmt::Display for ShapeError {
@@ -166,6 +169,10 @@ impl fmt::Display for ShapeError {
             ShapeError::PopWithoutPush { symbol } => {
                 write!(f, "in the rule of `{symbol}`: pop without a matching push")
             }
+            ShapeError::TooManyAttributes { max } => write!(
+                f,
+                "the rules set more than {max} distinct materials, colours and textures (use fewer distinct colours)"
+            ),
         }
     }
 }

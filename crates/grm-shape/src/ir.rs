@@ -26,6 +26,16 @@ pub struct TagId(pub u32);
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct AssetId(pub u32);
 
+/// The name of a material (resolved by the exporter: a declared grm
+/// material of that name).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct MaterialId(pub u32);
+
+/// The name of a texture (an image; the exporter resolves the name to a
+/// file).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct TextureId(pub u32);
+
 /// A number in an operation. Only constants exist yet; the expression
 /// front-end adds a variant evaluated per shape (with the shape's key for
 /// its random draws), and every reader goes through [`Param::value`].
@@ -239,6 +249,13 @@ pub enum Op {
     Repeat(Split),
     /// Break the shape into faces or edges.
     Comp(Comp),
+    /// Draw the shape and everything made after this in the rule with a
+    /// material (an attribute, inherited: [`crate::attributes`]).
+    Material(MaterialId),
+    /// Draw with a linear RGB colour (each channel clamped to `[0, 1]`).
+    Color([Param; 3]),
+    /// Map a texture (an image) on the faces, by their UV coordinates.
+    Texture(TextureId),
 }
 
 /// One weighted way to rewrite a symbol.
@@ -279,6 +296,8 @@ pub struct Program {
     pub(crate) symbols: Vec<SymbolInfo>,
     pub(crate) tags: Vec<String>,
     pub(crate) assets: Vec<(String, u32)>,
+    pub(crate) materials: Vec<String>,
+    pub(crate) textures: Vec<String>,
     pub(crate) axiom: SymbolId,
     pub(crate) commands: CommandHashes,
 }
@@ -320,6 +339,26 @@ impl Program {
     pub fn asset_name(&self, a: AssetId) -> &str {
         self.assets.get(a.0 as usize).map_or("?", |a| a.0.as_str())
     }
+    /// A material's name.
+    pub fn material_name(&self, m: MaterialId) -> &str {
+        self.materials.get(m.0 as usize).map_or("?", String::as_str)
+    }
+    /// The materials' names, in id order.
+    pub fn materials(&self) -> &[String] {
+        &self.materials
+    }
+    /// A texture's name.
+    pub fn texture_name(&self, t: TextureId) -> &str {
+        self.textures.get(t.0 as usize).map_or("?", String::as_str)
+    }
+    /// The textures' names, in id order.
+    pub fn textures(&self) -> &[String] {
+        &self.textures
+    }
+    /// The assets' names, in id order.
+    pub fn asset_names(&self) -> impl Iterator<Item = &str> {
+        self.assets.iter().map(|a| a.0.as_str())
+    }
     /// The symbols, in id order.
     pub fn symbols(&self) -> &[SymbolInfo] {
         &self.symbols
@@ -338,6 +377,8 @@ pub struct ProgramBuilder {
     symbols: Vec<SymbolInfo>,
     tags: Vec<String>,
     assets: Vec<String>,
+    materials: Vec<String>,
+    textures: Vec<String>,
     first_error: Option<ProgramError>,
 }
 
@@ -349,6 +390,8 @@ impl ProgramBuilder {
             symbols: Vec::new(),
             tags: Vec::new(),
             assets: Vec::new(),
+            materials: Vec::new(),
+            textures: Vec::new(),
             first_error: None,
         }
     }
@@ -382,6 +425,16 @@ impl ProgramBuilder {
         }
         self.assets.push(name.to_owned());
         AssetId(self.assets.len() as u32 - 1)
+    }
+
+    /// The material named `name`, declared on first use.
+    pub fn material(&mut self, name: &str) -> MaterialId {
+        MaterialId(declare(&mut self.materials, name))
+    }
+
+    /// The texture named `name` (an image), declared on first use.
+    pub fn texture(&mut self, name: &str) -> TextureId {
+        TextureId(declare(&mut self.textures, name))
     }
 
     /// Give `symbol` a rule with one alternative.
@@ -463,6 +516,18 @@ impl ProgramBuilder {
                                 id: a.0,
                             });
                         }
+                        Op::Material(m) if m.0 as usize >= self.materials.len() => {
+                            return Err(ProgramError::UnknownId {
+                                what: "material",
+                                id: m.0,
+                            });
+                        }
+                        Op::Texture(t) if t.0 as usize >= self.textures.len() => {
+                            return Err(ProgramError::UnknownId {
+                                what: "texture",
+                                id: t.0,
+                            });
+                        }
                         Op::Split(s) | Op::Repeat(s) => {
                             if s.parts.is_empty() {
                                 let command = if matches!(op, Op::Split(_)) {
@@ -507,6 +572,8 @@ impl ProgramBuilder {
             symbols: self.symbols,
             tags: self.tags,
             assets: assets.collect(),
+            materials: self.materials,
+            textures: self.textures,
             axiom,
             commands: CommandHashes {
                 split: name_hash("split"),
@@ -514,5 +581,16 @@ impl ProgramBuilder {
                 comp: name_hash("comp"),
             },
         })
+    }
+}
+
+/// The index of `name` in `names`, appended on first use.
+fn declare(names: &mut Vec<String>, name: &str) -> u32 {
+    match names.iter().position(|s| s == name) {
+        Some(i) => i as u32,
+        None => {
+            names.push(name.to_owned());
+            names.len() as u32 - 1
+        }
     }
 }

@@ -35,6 +35,7 @@
 //!   levels a derivation stops with a typed [`ShapeError`]; library code
 //!   never panics on user input.
 
+pub mod attributes;
 pub mod component;
 mod engine;
 pub mod error;
@@ -45,12 +46,13 @@ pub mod scope;
 pub mod split;
 mod tree;
 
+pub use attributes::{AttrId, Attributes};
 pub use engine::{Limits, Lot, Options, derive};
 pub use error::{ProgramError, ShapeError, SizeError};
 pub use geometry::{Geom, Geometry, Outline, OutlineId};
 pub use ir::{
-    Alternative, AssetId, Axis, Comp, CompCase, CompTarget, Op, Param, Part, PartSize, Program,
-    ProgramBuilder, Rule, Selector, Split, SymbolId, SymbolInfo, TagId,
+    Alternative, AssetId, Axis, Comp, CompCase, CompTarget, MaterialId, Op, Param, Part, PartSize,
+    Program, ProgramBuilder, Rule, Selector, Split, SymbolId, SymbolInfo, TagId, TextureId,
 };
 pub use locator::{
     Anchor, EdgeRef, ExactLocator, Resolution, SemanticEntry, SemanticLocator, SemanticQuery,

@@ -7,6 +7,7 @@
 //! depth-first. So a command's children are contiguous, every parent comes
 //! before its children, and the order is the same for any thread count.
 
+use crate::attributes::{AttrId, Attributes};
 use crate::geometry::{Geom, Geometry, Outline, OutlineId};
 use crate::ir::{AssetId, Axis, CompTarget, Program, Selector, SymbolId, TagId};
 use crate::scope::Scope;
@@ -76,6 +77,9 @@ pub struct Node {
     pub case: u32,
     /// For a component split's child: the selector of that case.
     pub selector: Option<Selector>,
+    /// The attributes the node is drawn with ([`crate::attributes`]; read
+    /// them with [`ShapeTree::attributes`]).
+    pub attrs: AttrId,
     /// The child's semantic number, from 1: the part of a split, the tile
     /// of a repeat, the component within its case; the edge otherwise.
     pub index: u32,
@@ -109,12 +113,29 @@ pub struct ShapeTree {
     pub(crate) nodes: Vec<Node>,
     pub(crate) outlines: Vec<Arc<Outline>>,
     pub(crate) seed: u32,
+    /// The distinct attribute sets, numbered by first use in node order
+    /// (entry 0: none).
+    pub(crate) attributes: Vec<Attributes>,
 }
 
 impl ShapeTree {
     /// All nodes, in expansion order (module documentation).
     pub fn nodes(&self) -> &[Node] {
         &self.nodes
+    }
+
+    /// The attributes a node is drawn with (none for an unknown node).
+    pub fn attributes(&self, id: NodeId) -> Attributes {
+        self.node(id)
+            .and_then(|n| self.attributes.get(usize::from(n.attrs.0)))
+            .copied()
+            .unwrap_or_default()
+    }
+
+    /// The tree's distinct attribute sets (index: [`AttrId`]; entry 0 is
+    /// "none").
+    pub fn attribute_table(&self) -> &[Attributes] {
+        &self.attributes
     }
 
     /// An outline of the tree's table.
