@@ -197,6 +197,14 @@ fn module(m: &mut Module) {
     for a in &mut m.args {
         expr(a);
     }
+    if let Some(ps) = &mut m.parts {
+        for p in &mut ps.parts {
+            expr(&mut p.value);
+            symbol(&mut p.target);
+            p.span = Z;
+        }
+        ps.span = Z;
+    }
     m.span = Z;
 }
 

@@ -658,12 +658,86 @@ impl<'a> Printer<'a> {
             }
             self.sp();
             self.word(m.symbol.span.start, &m.symbol.name);
-            if !m.args.is_empty() {
+            if !m.args.is_empty() || m.parts.is_some() {
                 self.word(self.at(m.symbol.span.end, "("), "(");
                 self.args(&m.args);
-                self.word(m.span.end.saturating_sub(1), ")");
+                let close = match &m.parts {
+                    None => m.span.end.saturating_sub(1),
+                    Some(_) => {
+                        self.at(m.args.last().map_or(m.symbol.span.end, |a| a.span.end), ")")
+                    }
+                };
+                self.word(close, ")");
+            }
+            if let Some(parts) = &m.parts {
+                self.parts(parts);
             }
         }
+    }
+
+    /// A shape command's parts, ` { 4: Ground | ~3.5: Floor }`, on one
+    /// line; when the text broke the block across lines, one part a line,
+    /// the bars lined up under the statement's first indent step:
+    ///
+    /// ```text
+    /// Mass -> comp(faces) {
+    ///       front: Facade
+    ///     | side: Wall
+    /// };
+    /// ```
+    fn parts(&mut self, parts: &ShapeParts) {
+        let multi = self
+            .text
+            .get(parts.span.range())
+            .is_some_and(has_line_break);
+        self.sp();
+        self.word(parts.span.start, "{");
+        for (i, p) in parts.parts.iter().enumerate() {
+            if i > 0 {
+                let bar = self.at(parts.parts[i - 1].span.end, "|");
+                if multi {
+                    self.comments_before(bar);
+                    if !self.line_empty {
+                        self.nl();
+                    }
+                    self.pad(self.indent + INDENT);
+                }
+                self.sp();
+                self.word(bar, "|");
+            } else if multi {
+                self.comments_before(p.span.start);
+                if !self.line_empty {
+                    self.nl();
+                }
+                self.pad(self.indent + INDENT + 2);
+            }
+            self.sp();
+            match p.kind {
+                PartKind::Absolute => self.expr(&p.value, 0),
+                PartKind::Relative => {
+                    self.expr(&p.value, 0);
+                    self.word(self.at(p.value.span.end, "%"), "%");
+                }
+                PartKind::Floating => {
+                    self.word(p.span.start, "~");
+                    self.expr(&p.value, 0);
+                }
+            }
+            self.word(self.at(p.value.span.end, ":"), ":");
+            self.sp();
+            self.word(p.target.span.start, &p.target.name);
+        }
+        let close = parts.span.end.saturating_sub(1);
+        if multi {
+            self.comments_before(close);
+            if !self.line_empty {
+                self.nl();
+            }
+            self.pad(self.indent);
+        } else {
+            self.sp();
+        }
+        self.word(close, "}");
     }
 
     /// Comma-separated expressions (the parentheses are the caller's).

@@ -282,11 +282,48 @@ impl ContextItem {
     }
 }
 
-/// A module in a successor or axiom: `F(l * 0.5)`, `[`, `+`, `branch`.
+/// A module in a successor or axiom: `F(l * 0.5)`, `[`, `+`, `branch`;
+/// in a shape system also an operation, and a shape command with its
+/// parts: `split(y) { 4: Ground | ~3.5: Floor }`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Module {
     pub symbol: Symbol,
-    pub args: Vec<Expr>,
+    /// Held at their number (a boxed slice: a module stays 64 bytes with
+    /// the parts' slot beside it; issue 32).
+    pub args: Box<[Expr]>,
+    pub span: Span,
+    /// The parts of a shape command (`{ ... }` after its arguments).
+    pub parts: Option<Box<ShapeParts>>,
+}
+
+/// The parts of a shape command: `{ 4: Ground | 25%: Band | ~1: Floor }`,
+/// or the cases of a component split, `{ front: Facade | side: Wall }`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ShapeParts {
+    pub parts: Vec<ShapePart>,
+    /// From `{` to `}`.
+    pub span: Span,
+}
+
+/// How a part's size is written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum PartKind {
+    /// `4: A`: a length (for a component split, a selector name: `front: A`).
+    Absolute,
+    /// `25%: A`: a percentage of the scope.
+    Relative,
+    /// `~1: A`: a floating size, sharing what the others leave.
+    Floating,
+}
+
+/// One part: `~3.5: Floor`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ShapePart {
+    pub kind: PartKind,
+    /// The size (or the selector of a component split's case).
+    pub value: Expr,
+    /// The shape made there (`nil`: nothing).
+    pub target: Symbol,
     pub span: Span,
 }
 

@@ -122,6 +122,8 @@ enum Raw {
     Backslash,
     #[token("%")]
     Percent,
+    #[token("~")]
+    Tilde,
     #[token("!")]
     Bang,
     #[token("&")]
@@ -235,6 +237,15 @@ pub enum TokKind {
     PolyOpen,
     /// `}` turtle command: close a polygon.
     PolyClose,
+    /// `{` opening the parts of a shape command (`split(y) { 4: A | ~1: B }`):
+    /// a `{` in a module string whose block holds a `:` at its own depth.
+    PartsOpen,
+    /// `}` closing the parts of a shape command.
+    PartsClose,
+    /// `%` written right before a part's `:` (`25%: A`): a relative size.
+    PercentSize,
+    /// `~` before a part's size: a floating size.
+    Tilde,
     LBracket,
     RBracket,
     Arrow,
@@ -298,6 +309,10 @@ impl TokKind {
             RBrace => "`}`",
             PolyOpen => "`{`",
             PolyClose => "`}`",
+            PartsOpen => "`{`",
+            PartsClose => "`}`",
+            PercentSize => "`%`",
+            Tilde => "`~`",
             LBracket => "`[`",
             RBracket => "`]`",
             Arrow => "`->`",
@@ -495,6 +510,7 @@ fn convert(raw: Raw) -> Option<TokKind> {
         Raw::Slash => T::Slash,
         Raw::Backslash => T::Backslash,
         Raw::Percent => T::Percent,
+        Raw::Tilde => T::Tilde,
         Raw::Bang => T::Bang,
         Raw::Amp => T::Amp,
         Raw::Caret => T::Caret,
@@ -717,31 +733,55 @@ fn bidi_name(c: char) -> &'static str {
 /// `}` with no open polygon ends the module string: it closes the block, so
 /// a forgotten `;` before a system's closing brace is one diagnostic, not a
 /// broken system.
+///
+/// A brace pair whose block holds a `:` at its own depth is the parts of a
+/// shape command instead (`split(y) { 4: A | ~1: B }`; a polygon never
+/// holds a `:`): both braces become [`TokKind::PartsOpen`] and
+/// [`TokKind::PartsClose`]. A `%` right before a `:` in a module string is
+/// a relative part size ([`TokKind::PercentSize`]). One pass: an open
+/// brace is settled when its `}` is met, so nesting costs nothing extra.
 fn mark_polygon_braces(tokens: &mut [Tok]) {
     let mut in_string = false;
-    let mut depth = 0u32;
+    // Open braces of the module string: (token index, holds a `:`).
+    let mut open: Vec<(usize, bool)> = Vec::new();
     for i in 0..tokens.len() {
         let item = starts_item_at(tokens, i);
+        let next_is_colon = tokens.get(i + 1).is_some_and(|t| t.kind == TokKind::Colon);
         let t = &mut tokens[i];
         match t.kind {
             TokKind::Arrow | TokKind::Axiom | TokKind::Ignore => {
                 in_string = true;
-                depth = 0;
+                open.clear();
             }
-            TokKind::Semi => in_string = false,
+            TokKind::Semi => {
+                in_string = false;
+                open.clear();
+            }
             TokKind::LBrace if in_string => {
                 t.kind = TokKind::PolyOpen;
-                depth += 1;
+                open.push((i, false));
             }
-            TokKind::RBrace if in_string => {
-                if depth > 0 {
-                    t.kind = TokKind::PolyClose;
-                    depth -= 1;
-                } else {
-                    in_string = false;
+            TokKind::RBrace if in_string => match open.pop() {
+                Some((at, parts)) => {
+                    if parts {
+                        t.kind = TokKind::PartsClose;
+                        tokens[at].kind = TokKind::PartsOpen;
+                    } else {
+                        t.kind = TokKind::PolyClose;
+                    }
+                }
+                None => in_string = false,
+            },
+            TokKind::Colon if in_string => {
+                if let Some(top) = open.last_mut() {
+                    top.1 = true;
                 }
             }
-            _ if item => in_string = false,
+            TokKind::Percent if in_string && next_is_colon => t.kind = TokKind::PercentSize,
+            _ if item => {
+                in_string = false;
+                open.clear();
+            }
             _ => {}
         }
     }

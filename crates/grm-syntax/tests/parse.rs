@@ -400,3 +400,48 @@ fn parse_expr_refuses_absurdly_deep_expressions() {
     assert!(e.is_none());
     assert!(d.iter().any(|d| d.code == Code::ExprTooDeep), "{d:?}");
 }
+
+/// Shape commands read their parts: absolute, percentage and floating
+/// sizes, selectors, `nil`; a brace pair without a `:` stays a polygon.
+#[test]
+fn shape_command_parts() {
+    let src = "system H {\n    mode = shape;\n    axiom Lot;\n    \
+        F -> split(y, floor) { 4: A | 25%: B | ~ 2 * x: C } { . G . } comp(faces) { front: D | side: nil };\n}\n";
+    let parsed = parse(FileId(0), src);
+    assert!(parsed.diagnostics.is_empty(), "{:?}", parsed.diagnostics);
+    let Item::System(sys) = &parsed.file.items[0] else {
+        panic!("a system")
+    };
+    let prod = sys
+        .items
+        .iter()
+        .find_map(|i| match i {
+            SystemItem::Production(p) => Some(p),
+            _ => None,
+        })
+        .expect("a production");
+    let names: Vec<&str> = prod.successor.iter().map(|m| &*m.symbol.name).collect();
+    assert_eq!(names, ["split", "{", ".", "G", ".", "}", "comp"]);
+    let split = prod.successor[0].parts.as_ref().expect("split's parts");
+    let kinds: Vec<PartKind> = split.parts.iter().map(|p| p.kind).collect();
+    assert_eq!(
+        kinds,
+        [PartKind::Absolute, PartKind::Relative, PartKind::Floating]
+    );
+    let targets: Vec<&str> = split.parts.iter().map(|p| &*p.target.name).collect();
+    assert_eq!(targets, ["A", "B", "C"]);
+    assert_eq!(&src[split.span.range()], "{ 4: A | 25%: B | ~ 2 * x: C }");
+    assert_eq!(&src[split.parts[2].value.span.range()], "2 * x");
+    assert_eq!(prod.successor[0].args.len(), 2);
+    assert!(prod.successor[1].parts.is_none());
+    let comp = prod.successor[6].parts.as_ref().expect("comp's cases");
+    assert_eq!(comp.parts.len(), 2);
+    assert_eq!(&*comp.parts[1].target.name, "nil");
+    // `%` elsewhere is still the remainder, and a part with no size is one
+    // syntax error, the rest of the system read.
+    assert!(codes("system S { X -> F(a % 2) { . }; }").is_empty());
+    assert_eq!(
+        codes("system S { mode = shape; X -> split(y) { : A | 1: B }; Y -> Z; }").len(),
+        1
+    );
+}
