@@ -24,8 +24,10 @@
 use crate::attributes::{AttrId, AttrTable, Attributes, MAX_ATTRIBUTES};
 use crate::component::{NotApplicable, components};
 use crate::error::{ShapeError, SizeError};
+use crate::expr::{SITE_CONDITION, SITE_OPS, SITE_WEIGHT, Shape, Site};
 use crate::geometry::{Geom, Geometry, Outline, OutlineId};
-use crate::ir::{Axis, CompTarget, Op, Program, SymbolId};
+use crate::ir::{Axis, CompTarget, Op, Param, Program, SymbolId, TagId};
+use crate::query::Queries;
 use crate::scope::Scope;
 use crate::split::{RepeatLayout, SplitSize, repeat_into, split_into};
 use crate::tree::{Command, Node, NodeKind, ShapeTree};
@@ -135,23 +137,43 @@ pub fn derive(program: &Program, lot: &Lot, options: &Options) -> Result<ShapeTr
         0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
         n => n,
     };
-    let engine = Engine {
+    let engine = |queries| Engine {
         program,
         seed: options.seed,
         limits: options.limits,
         attrs: Mutex::new(AttrTable::default()),
+        queries,
     };
-    let root = engine.axiom(lot);
+    let root = engine(None).axiom(lot);
     let outline = lot.geometry.outline().map(|o| Arc::new(o.clone()));
     let max = options.limits.max_nodes;
-    let (mut nodes, outlines) = if threads <= 1 {
-        let job = engine
-            .run(root, outline, None, max, &AtomicBool::new(false))
-            .map_err(|Overflow| ShapeError::TooManyShapes { max })?;
-        finish(job)?
-    } else {
-        engine.parallel(root, outline, threads)?
+    let pass = |engine: &Engine| {
+        if threads <= 1 {
+            engine
+                .run(
+                    root,
+                    outline.clone(),
+                    None,
+                    max,
+                    &AtomicBool::new(false),
+                    &Ancestry::default(),
+                )
+                .map_err(|Overflow| ShapeError::TooManyShapes { max })
+        } else {
+            engine.parallel(root, outline.clone(), threads)
+        }
     };
+    // Context queries (docs/shapes.md): a first pass answers them all
+    // false; the second answers them against the first's shapes. The first
+    // pass's failures are not reported (the second pass's are).
+    let queries = if program.exprs.uses.queried.is_empty() {
+        None
+    } else {
+        let first = pass(&engine(None))?;
+        Some(Queries::build(program, &first.nodes))
+    };
+    let engine = engine(queries.as_ref());
+    let (mut nodes, outlines) = finish(pass(&engine)?)?;
     let attrs = engine.attrs.into_inner().unwrap_or_else(|e| e.into_inner());
     if attrs.full {
         return Err(ShapeError::TooManyAttributes {
@@ -184,11 +206,42 @@ struct Job {
     root_attrs: AttrId,
 }
 
+/// What expressions read of a job root's ancestors (the root's own
+/// path within its job stops at the root): the tagged commands above it,
+/// `(tag, index, count)`, and the ancestors' keys, innermost first.
+#[derive(Clone, Debug, Default)]
+struct Ancestry {
+    tags: Vec<(TagId, u32, u32)>,
+    keys: Vec<u32>,
+}
+
+/// Walk up from node `at` of `nodes` to node 0, adding the tagged
+/// commands crossed (with the index and count of the child below) and the
+/// keys of the ancestors.
+fn ancestry(nodes: &[Node], at: usize, tags: &mut Vec<(TagId, u32, u32)>, keys: &mut Vec<u32>) {
+    let mut cur = at;
+    while cur > 0 {
+        let up = nodes[cur].parent_offset as usize;
+        if up == 0 || up > cur {
+            break;
+        }
+        let p = cur - up;
+        if let NodeKind::Command { tag: Some(t), .. } = nodes[p].kind {
+            tags.push((t, nodes[cur].index, nodes[cur].count));
+        }
+        keys.push(nodes[p].key);
+        cur = p;
+    }
+}
+
 /// The marker of "over the node limit" inside a job.
 struct Overflow;
 
 struct Engine<'p> {
     program: &'p Program,
+    /// The first pass's shapes, in the second pass of a program with
+    /// context queries (`None`: every query is false).
+    queries: Option<&'p Queries>,
     seed: u32,
     limits: Limits,
     /// The distinct attribute sets, shared by the workers (numbered again
@@ -227,8 +280,15 @@ struct Scratch {
     attr_marks: Vec<(usize, AttrId)>,
     /// The attributes saved by `push`.
     attr_stack: Vec<AttrId>,
-    weights: Vec<f32>,
     counts: Vec<u32>,
+    /// The expression machine's stack.
+    eval: Vec<f32>,
+    /// The shape's tagged commands and path keys (for programs whose
+    /// expressions read them), innermost first.
+    tags: Vec<(TagId, u32, u32)>,
+    path: Vec<u32>,
+    /// The job root's ancestors.
+    prefix: Ancestry,
 }
 
 #[inline]
@@ -295,6 +355,7 @@ impl Engine<'_> {
         cut: Option<u32>,
         budget: usize,
         stop: &AtomicBool,
+        prefix: &Ancestry,
     ) -> Result<Job, Overflow> {
         let roots_kind = (root.kind, 0);
         root.geometry = match (root.geometry, &root_outline) {
@@ -311,7 +372,10 @@ impl Engine<'_> {
             root_attrs: AttrId(0),
         };
         let mut stack: Vec<u32> = vec![0];
-        let mut scratch = Scratch::default();
+        let mut scratch = Scratch {
+            prefix: prefix.clone(),
+            ..Scratch::default()
+        };
         while let Some(at) = stack.pop() {
             if stop.load(Ordering::Relaxed) {
                 return Err(Overflow);
@@ -378,22 +442,69 @@ impl Engine<'_> {
         let mut attrs = inherited;
         let mut scope = shape.scope;
         let mut geometry = resolve(outlines, shape.geometry);
-        let alt = if rule.alternatives.len() == 1 {
+        // What expressions read of the shape (docs/shapes.md, "Expressions").
+        s.tags.clear();
+        s.path.clear();
+        let uses = &program.exprs.uses;
+        if uses.tags || !uses.queried.is_empty() {
+            s.path.push(key);
+            ancestry(out, at as usize, &mut s.tags, &mut s.path);
+            s.tags.extend_from_slice(&s.prefix.tags);
+            s.path.extend_from_slice(&s.prefix.keys);
+        }
+        let cx = Shape {
+            seed: self.seed,
+            key,
+            index: shape.index,
+            count: shape.count,
+            depth,
+            tags: &s.tags,
+            path: &s.path,
+            queries: self.queries,
+        };
+        let exprs = &program.exprs;
+        let eval = &mut s.eval;
+        let mut num = |p: &Param, scope: &Scope, site: &mut Site| -> f32 {
+            match *p {
+                Param::Const(v) => v,
+                Param::Expr(e) => exprs.eval(e, &cx, scope, site, eval),
+            }
+        };
+        let alts = &rule.alternatives;
+        let alt = if alts.len() == 1 && alts[0].is_plain() {
             0
         } else {
-            s.weights.clear();
-            s.weights.extend(rule.alternatives.iter().map(|a| a.weight));
-            // The race of `grm_compile::rng`: the earliest time over weight
-            // wins, the first alternative on a tie.
+            // The race of `grm_compile::rng` among the alternatives whose
+            // condition holds and whose weight is positive: the earliest
+            // time over weight wins, the first alternative on a tie.
             let time = |k: usize| race_time(hash(self.seed, 0, key, choice_draw(k as u32)));
-            let mut best = (time(0), s.weights[0], 0u32);
-            for (k, &w) in s.weights.iter().enumerate().skip(1) {
+            let mut best: Option<(u32, f32, u32)> = None;
+            for (k, a) in alts.iter().enumerate() {
+                if let Some(c) = a.condition {
+                    let mut site = Site::new(k as u32, SITE_CONDITION);
+                    let v = num(&Param::Expr(c), &base, &mut site);
+                    if v == 0.0 || v.is_nan() {
+                        continue;
+                    }
+                }
+                let mut site = Site::new(k as u32, SITE_WEIGHT);
+                let w = match num(&a.weight, &base, &mut site) {
+                    f32::INFINITY => f32::MAX,
+                    w => w,
+                };
+                if !(w.is_finite() && w > 0.0) {
+                    continue;
+                }
                 let t = time(k);
-                if race_earlier(t, w, best.0, best.1) {
-                    best = (t, w, k as u32);
+                if best.is_none_or(|b| race_earlier(t, w, b.0, b.1)) {
+                    best = Some((t, w, k as u32));
                 }
             }
-            best.2
+            match best {
+                Some(b) => b.2,
+                // No alternative holds: a terminal shape.
+                None => return Ok(()),
+            }
         };
         out[at as usize].kind = NodeKind::Shape {
             symbol,
@@ -441,10 +552,13 @@ impl Engine<'_> {
             }
         }
         let result = (|| {
-            for op in &rule.alternatives[alt as usize].ops {
+            for (i, op) in rule.alternatives[alt as usize].ops.iter().enumerate() {
+                // Each operation's draws have their own site (the draw
+                // index: docs/shapes.md, "Identity").
+                let site = &mut Site::new(alt, SITE_OPS + i as u32);
                 match op {
                     Op::Extrude(h) => {
-                        let h = finite("the extrusion height", h.value())?.max(0.0);
+                        let h = finite("the extrusion height", num(h, &scope, site))?.max(0.0);
                         geometry = match geometry {
                             Geom::Rect | Geom::Box => Geom::Box,
                             Geom::Polygon(o) | Geom::Prism(o) => Geom::Prism(o),
@@ -460,20 +574,28 @@ impl Engine<'_> {
                     }
                     Op::Translate(v) => {
                         let v = Vec3::new(
-                            finite("a translation", v[0].value())?,
-                            finite("a translation", v[1].value())?,
-                            finite("a translation", v[2].value())?,
+                            finite("a translation", num(&v[0], &scope, site))?,
+                            finite("a translation", num(&v[1], &scope, site))?,
+                            finite("a translation", num(&v[2], &scope, site))?,
                         );
                         scope = scope.translated(v);
                     }
                     Op::Rotate { axis, degrees } => {
-                        scope = scope.rotated(*axis, finite("a rotation angle", degrees.value())?);
+                        let d = finite("a rotation angle", num(degrees, &scope, site))?;
+                        scope = scope.rotated(*axis, d);
                     }
                     Op::Size(sz) => {
+                        // All three read the scope before the operation.
+                        let mut v = [0.0f32; 3];
+                        for i in 0..3 {
+                            if let Some(p) = &sz[i] {
+                                v[i] = finite("a size", num(p, &scope, site))?.max(0.0);
+                            }
+                        }
                         let mut f = [1.0f64; 3];
                         for i in 0..3 {
-                            if let Some(p) = sz[i] {
-                                let v = finite("a size", p.value())?.max(0.0);
+                            if sz[i].is_some() {
+                                let v = v[i];
                                 let old = scope.size[i];
                                 f[i] = if old > 0.0 {
                                     f64::from(v) / f64::from(old)
@@ -522,7 +644,7 @@ impl Engine<'_> {
                         None => return fail(ShapeError::PopWithoutPush { symbol: name() }),
                     },
                     Op::Offset(d) => {
-                        let d = finite("an offset distance", d.value())?;
+                        let d = finite("an offset distance", num(d, &scope, site))?;
                         let Some(outline) = crate::component::outline_of(&scope, &geometry) else {
                             return fail(ShapeError::WrongGeometry {
                                 symbol: name(),
@@ -582,7 +704,11 @@ impl Engine<'_> {
                         let is_repeat = matches!(op, Op::Repeat(_));
                         too_deep(depth + 2)?;
                         s.sizes.clear();
-                        s.sizes.extend(sp.parts.iter().map(|p| p.size.eval()));
+                        s.sizes.extend(
+                            sp.parts
+                                .iter()
+                                .map(|p| p.size.eval(|p| num(p, &scope, site))),
+                        );
                         let extent = scope.size[sp.axis.index()];
                         let size_err = |error| {
                             Err(Some(ShapeError::Size {
@@ -780,7 +906,8 @@ impl Engine<'_> {
                             Op::Color(c) => {
                                 let mut rgb = [0.0f32; 3];
                                 for (x, p) in rgb.iter_mut().zip(c) {
-                                    *x = finite("a colour channel", p.value())?.clamp(0.0, 1.0);
+                                    *x = finite("a colour channel", num(p, &scope, site))?
+                                        .clamp(0.0, 1.0);
                                 }
                                 a.color = Some(rgb);
                             }
@@ -838,13 +965,20 @@ impl Engine<'_> {
         root: Node,
         root_outline: Option<Arc<Outline>>,
         threads: usize,
-    ) -> Result<(Vec<Node>, Vec<Arc<Outline>>), ShapeError> {
+    ) -> Result<Job, ShapeError> {
         let max = self.limits.max_nodes;
         let never = AtomicBool::new(false);
         let mut cut = 1;
         let top = loop {
             let top = self
-                .run(root, root_outline.clone(), Some(cut), max, &never)
+                .run(
+                    root,
+                    root_outline.clone(),
+                    Some(cut),
+                    max,
+                    &never,
+                    &Ancestry::default(),
+                )
                 .map_err(|Overflow| ShapeError::TooManyShapes { max })?;
             // Deep enough for four subtrees per worker; but never derive a
             // big top again and again (a narrow grammar): past `TOP_NODES`
@@ -859,16 +993,23 @@ impl Engine<'_> {
             cut += 1;
         };
         let budget = max.saturating_sub(top.nodes.len());
-        let roots: Vec<(Node, Option<Arc<Outline>>)> = top
+        let uses = &self.program.exprs.uses;
+        let needs_ancestry = uses.tags || !uses.queried.is_empty();
+        let roots: Vec<(Node, Option<Arc<Outline>>, Ancestry)> = top
             .cut
             .iter()
             .map(|&(i, _)| {
                 let n = top.nodes[i as usize];
+                let mut a = Ancestry::default();
+                if needs_ancestry {
+                    ancestry(&top.nodes, i as usize, &mut a.tags, &mut a.keys);
+                }
                 (
                     n,
                     n.geometry
                         .outline_id()
                         .and_then(|o| top.outlines.get(o.0 as usize).cloned()),
+                    a,
                 )
             })
             .collect();
@@ -882,10 +1023,10 @@ impl Engine<'_> {
                         let mut mine = Vec::new();
                         loop {
                             let j = next.fetch_add(1, Ordering::Relaxed);
-                            let Some((r, o)) = roots.get(j) else { break };
+                            let Some((r, o, a)) = roots.get(j) else { break };
                             let mut r = *r;
                             r.parent_offset = 0;
-                            let result = self.run(r, o.clone(), None, budget + 1, &stop);
+                            let result = self.run(r, o.clone(), None, budget + 1, &stop, a);
                             if result.is_err() {
                                 stop.store(true, Ordering::Relaxed);
                             }
@@ -979,7 +1120,7 @@ impl Engine<'_> {
             out[r].children_len = root.1;
             out[r].children_offset = if root.1 > 0 { starts[c] - r as u32 } else { 0 };
         }
-        finish(Job {
+        Ok(Job {
             nodes: out,
             outlines,
             failures,

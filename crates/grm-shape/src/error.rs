@@ -69,6 +69,21 @@ pub enum ProgramError {
         symbol: String,
         command: &'static str,
     },
+    /// An expression that cannot be compiled (`why` says how: ill-typed,
+    /// nested too deep).
+    BadExpr { why: String },
+    /// An expression of the wrong type where it is used (`what`: a
+    /// condition, a weight, a number of an operation).
+    ExprType {
+        symbol: String,
+        alternative: usize,
+        what: &'static str,
+        expected: &'static str,
+    },
+    /// An alternative whose random draws do not fit the draw index
+    /// (docs/shapes.md, "Identity": at most 2,047 draws per operation,
+    /// 4,094 operations and 256 alternatives with draws).
+    TooManyDraws { symbol: String, alternative: usize },
 }
 
 impl fmt::Display for ProgramError {
@@ -91,6 +106,25 @@ impl fmt::Display for ProgramError {
             ProgramError::EmptyCommand { symbol, command } => {
                 write!(f, "a {command} in the rule of `{symbol}` has no parts")
             }
+            ProgramError::BadExpr { why } => write!(f, "invalid expression: {why}"),
+            ProgramError::ExprType {
+                symbol,
+                alternative,
+                what,
+                expected,
+            } => write!(
+                f,
+                "in alternative {} of `{symbol}`: {what} must be a {expected}",
+                alternative + 1
+            ),
+            ProgramError::TooManyDraws {
+                symbol,
+                alternative,
+            } => write!(
+                f,
+                "alternative {} of `{symbol}` has more random draws than the draw index holds",
+                alternative + 1
+            ),
         }
     }
 }

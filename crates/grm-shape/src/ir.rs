@@ -6,11 +6,15 @@
 //! list of [`Op`]s run in order on the shape. A symbol without a rule is a
 //! terminal shape.
 //!
-//! Numbers are [`Param`]s: constants today, with room for an expression
-//! slot (`Param::Expr`) when the front-end lowers expressions; the engine
-//! reads them only through [`Param::value`].
+//! Numbers are [`Param`]s: constants, or expressions ([`Expr`], compiled
+//! by [`ProgramBuilder::expr`]) evaluated per shape; an alternative may
+//! have a condition and an expression weight (docs/shapes.md,
+//! "Expressions" and "Conditions").
 
 use crate::error::ProgramError;
+use crate::expr::{
+    CompileError, DRAW_ALTERNATIVES, DRAW_LOCALS, DRAW_SITES, Expr, ExprId, Exprs, SITE_OPS, Type,
+};
 use crate::split::SplitSize;
 use grm_compile::rng::name_hash;
 
@@ -36,22 +40,31 @@ pub struct MaterialId(pub u32);
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct TextureId(pub u32);
 
-/// A number in an operation. Only constants exist yet; the expression
-/// front-end adds a variant evaluated per shape (with the shape's key for
-/// its random draws), and every reader goes through [`Param::value`].
+/// A number in an operation: a constant, or an expression evaluated for
+/// each shape (with the shape's scope at that point of the rule, its
+/// index, tags and key for its random draws).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Param {
     /// A constant.
     Const(f32),
+    /// A number-typed expression of the program ([`ProgramBuilder::expr`]).
+    Expr(ExprId),
 }
 
 impl Param {
-    /// The value for one shape.
+    /// The constant, if this is one.
     #[inline]
-    pub fn value(&self) -> f32 {
+    pub fn constant(&self) -> Option<f32> {
         match *self {
-            Param::Const(v) => v,
+            Param::Const(v) => Some(v),
+            Param::Expr(_) => None,
         }
+    }
+}
+
+impl From<ExprId> for Param {
+    fn from(e: ExprId) -> Self {
+        Param::Expr(e)
     }
 }
 
@@ -98,13 +111,20 @@ pub enum PartSize {
 }
 
 impl PartSize {
-    /// The size for one shape.
+    /// The size for one shape, its number read by `value`.
     #[inline]
-    pub fn eval(&self) -> SplitSize {
+    pub(crate) fn eval(&self, mut value: impl FnMut(&Param) -> f32) -> SplitSize {
         match self {
-            PartSize::Absolute(p) => SplitSize::Absolute(p.value()),
-            PartSize::Relative(p) => SplitSize::Relative(p.value()),
-            PartSize::Floating(p) => SplitSize::Floating(p.value()),
+            PartSize::Absolute(p) => SplitSize::Absolute(value(p)),
+            PartSize::Relative(p) => SplitSize::Relative(value(p)),
+            PartSize::Floating(p) => SplitSize::Floating(value(p)),
+        }
+    }
+
+    /// The size's number.
+    pub fn param(&self) -> &Param {
+        match self {
+            PartSize::Absolute(p) | PartSize::Relative(p) | PartSize::Floating(p) => p,
         }
     }
 }
@@ -258,11 +278,74 @@ pub enum Op {
     Texture(TextureId),
 }
 
-/// One weighted way to rewrite a symbol.
+impl Op {
+    /// Every number of the operation, in the order the engine reads them
+    /// (the order of their random draws: docs/shapes.md, "Identity"). An
+    /// operation with numbers must list them here (the match is exhaustive
+    /// on purpose), so that [`ProgramBuilder::build`] checks their
+    /// expressions.
+    pub fn params(&self, mut f: impl FnMut(&Param)) {
+        match self {
+            Op::Extrude(p) | Op::Offset(p) | Op::Rotate { degrees: p, .. } => f(p),
+            Op::Translate(v) | Op::Color(v) => v.iter().for_each(f),
+            Op::Size(v) => v.iter().flatten().for_each(f),
+            Op::Split(s) | Op::Repeat(s) => s.parts.iter().for_each(|p| f(p.size.param())),
+            Op::Center(_)
+            | Op::Push
+            | Op::Pop
+            | Op::Insert(_)
+            | Op::Emit(_)
+            | Op::Comp(_)
+            | Op::Material(_)
+            | Op::Texture(_) => {}
+        }
+    }
+}
+
+/// One weighted way to rewrite a symbol: it competes for a shape when
+/// its condition holds there (docs/shapes.md, "Conditions").
 #[derive(Clone, Debug, PartialEq)]
 pub struct Alternative {
-    pub weight: f32,
+    /// The weight in the race: a constant must be finite and positive; an
+    /// expression that comes out NaN, infinite or not positive for a shape
+    /// drops the alternative there (`+inf` counts as `f32::MAX`).
+    pub weight: Param,
+    /// A boolean expression; `None` always holds.
+    pub condition: Option<ExprId>,
     pub ops: Vec<Op>,
+}
+
+impl Alternative {
+    /// An alternative of weight 1 with no condition.
+    pub fn new(ops: Vec<Op>) -> Self {
+        Alternative {
+            weight: Param::Const(1.0),
+            condition: None,
+            ops,
+        }
+    }
+
+    /// An alternative of weight `weight` (a constant or an expression).
+    pub fn weighted(weight: impl Into<Param>, ops: Vec<Op>) -> Self {
+        Alternative {
+            weight: weight.into(),
+            condition: None,
+            ops,
+        }
+    }
+
+    /// This alternative, competing only where `condition` holds.
+    pub fn when(mut self, condition: ExprId) -> Self {
+        self.condition = Some(condition);
+        self
+    }
+
+    /// Whether choosing among alternatives like this one needs no
+    /// expression (a constant weight, no condition).
+    #[inline]
+    pub(crate) fn is_plain(&self) -> bool {
+        self.condition.is_none() && matches!(self.weight, Param::Const(_))
+    }
 }
 
 /// A symbol's rule.
@@ -300,6 +383,7 @@ pub struct Program {
     pub(crate) textures: Vec<String>,
     pub(crate) axiom: SymbolId,
     pub(crate) commands: CommandHashes,
+    pub(crate) exprs: Exprs,
 }
 
 impl Program {
@@ -367,12 +451,48 @@ impl Program {
     pub fn rule(&self, s: SymbolId) -> Option<&Rule> {
         self.symbols.get(s.0 as usize).and_then(|i| i.rule.as_ref())
     }
+    /// The symbols that context queries ask about (a program with none is
+    /// derived in one pass).
+    pub fn queried_symbols(&self) -> &[SymbolId] {
+        &self.exprs.uses.queried
+    }
+    /// The type of an expression, if the program has it.
+    pub fn expr_type(&self, e: ExprId) -> Option<Type> {
+        self.exprs.entry(e).map(|e| e.ty)
+    }
 }
 
-/// Builds a [`Program`]: declare symbols, tags and assets, give rules,
-/// then [`build`](ProgramBuilder::build) checks every id and weight.
+/// Builds a [`Program`]: declare symbols, tags and assets, compile
+/// expressions, give rules, then [`build`](ProgramBuilder::build) checks
+/// every id, weight and expression type.
+///
+/// ```
+/// use grm_shape::{Alternative, Axis, Expr, Op, Part, PartSize, Param, ProgramBuilder, Split};
+/// let mut b = ProgramBuilder::new("facade");
+/// let floor = b.symbol("Floor");
+/// let (ground, upper) = (b.symbol("Ground"), b.symbol("Upper"));
+/// let facade = b.symbol("Facade");
+/// let floor_tag = b.tag("floor");
+/// // Floor -> case index == 1: Ground | else: Upper
+/// let first = b.expr(&Expr::Index.eq(Expr::Num(1.0)));
+/// let not_first = b.expr(&!Expr::Index.eq(Expr::Num(1.0)));
+/// b.rule_alternatives(floor, vec![
+///     Alternative::new(vec![Op::Emit(ground)]).when(first),
+///     Alternative::new(vec![Op::Emit(upper)]).when(not_first),
+/// ]);
+/// // Facade -> repeat(y) { uniform(2.8, 3.2): Floor } floor
+/// let h = b.expr(&Expr::uniform(Expr::Num(2.8), Expr::Num(3.2)));
+/// b.rule(facade, vec![Op::Repeat(Split {
+///     axis: Axis::Y,
+///     parts: vec![Part { size: PartSize::Absolute(Param::Expr(h)), target: Some(floor) }],
+///     tag: Some(floor_tag),
+/// })]);
+/// let program = b.build(facade).unwrap();
+/// # let _ = program;
+/// ```
 #[derive(Debug)]
 pub struct ProgramBuilder {
+    exprs: Exprs,
     name: String,
     symbols: Vec<SymbolInfo>,
     tags: Vec<String>,
@@ -392,8 +512,43 @@ impl ProgramBuilder {
             assets: Vec::new(),
             materials: Vec::new(),
             textures: Vec::new(),
+            exprs: Exprs::default(),
             first_error: None,
         }
+    }
+
+    /// Compile an expression (type-checked here; its tags and symbols must
+    /// be declared already). An ill-typed expression is reported by
+    /// [`build`](ProgramBuilder::build) (the id returned then is past the
+    /// program's expressions); use [`try_expr`](ProgramBuilder::try_expr)
+    /// to see the error at once.
+    pub fn expr(&mut self, e: &Expr) -> ExprId {
+        match self.try_expr(e) {
+            Ok(id) => id,
+            Err(err) => {
+                if self.first_error.is_none() {
+                    self.first_error = Some(err);
+                }
+                ExprId(u32::MAX)
+            }
+        }
+    }
+
+    /// [`expr`](ProgramBuilder::expr), with its error.
+    pub fn try_expr(&mut self, e: &Expr) -> Result<ExprId, ProgramError> {
+        self.exprs
+            .compile(e, self.tags.len(), self.symbols.len())
+            .map_err(|err| match err {
+                CompileError::Type(why) => ProgramError::BadExpr { why },
+                CompileError::TooDeep => ProgramError::BadExpr {
+                    why: format!(
+                        "the expression nests deeper than {}",
+                        crate::expr::MAX_EXPR_DEPTH
+                    ),
+                },
+                CompileError::UnknownTag(id) => ProgramError::UnknownId { what: "tag", id },
+                CompileError::UnknownSymbol(id) => ProgramError::UnknownId { what: "symbol", id },
+            })
     }
 
     /// The symbol named `name`, declared on first use.
@@ -439,7 +594,7 @@ impl ProgramBuilder {
 
     /// Give `symbol` a rule with one alternative.
     pub fn rule(&mut self, symbol: SymbolId, ops: Vec<Op>) -> &mut Self {
-        self.rule_alternatives(symbol, vec![Alternative { weight: 1.0, ops }])
+        self.rule_alternatives(symbol, vec![Alternative::new(ops)])
     }
 
     /// Give `symbol` a rule with weighted alternatives.
@@ -465,6 +620,75 @@ impl ProgramBuilder {
             self.first_error = error;
         }
         self
+    }
+
+    /// Check the expressions of alternative `k` of `symbol`'s rule: each
+    /// id known, numbers where numbers go and booleans as conditions, and
+    /// its draws within the draw index's fields (docs/shapes.md, "Identity").
+    fn check_exprs(&self, symbol: &str, k: usize, alt: &Alternative) -> Result<(), ProgramError> {
+        let mut draws_here = false;
+        let mut check = |e: ExprId, want: Type, what: &'static str| -> Result<u32, ProgramError> {
+            let entry = self.exprs.entry(e).ok_or(ProgramError::UnknownId {
+                what: "expression",
+                id: e.0,
+            })?;
+            if entry.ty != want {
+                return Err(ProgramError::ExprType {
+                    symbol: symbol.to_owned(),
+                    alternative: k,
+                    what,
+                    expected: want.name(),
+                });
+            }
+            draws_here |= entry.draws > 0;
+            Ok(entry.draws)
+        };
+        let too_many = || ProgramError::TooManyDraws {
+            symbol: symbol.to_owned(),
+            alternative: k,
+        };
+        let within = |n: u32| {
+            if n < DRAW_LOCALS {
+                Ok(())
+            } else {
+                Err(too_many())
+            }
+        };
+        if let Some(c) = alt.condition {
+            within(check(c, Type::Bool, "a condition")?)?;
+        }
+        if let Param::Expr(w) = alt.weight {
+            within(check(w, Type::Num, "a weight")?)?;
+        }
+        let mut last_drawing_op = None;
+        for (i, op) in alt.ops.iter().enumerate() {
+            let mut n = 0u32;
+            let mut first_err = None;
+            op.params(|p| {
+                if let Param::Expr(e) = p {
+                    match check(*e, Type::Num, "a number of an operation") {
+                        Ok(d) => n = n.saturating_add(d),
+                        Err(err) => {
+                            first_err.get_or_insert(err);
+                        }
+                    }
+                }
+            });
+            if let Some(err) = first_err {
+                return Err(err);
+            }
+            within(n)?;
+            if n > 0 {
+                last_drawing_op = Some(i as u32);
+            }
+        }
+        if draws_here
+            && (k as u32 >= DRAW_ALTERNATIVES
+                || last_drawing_op.is_some_and(|i| SITE_OPS + i >= DRAW_SITES))
+        {
+            return Err(too_many());
+        }
+        Ok(())
     }
 
     /// Check and finish the program, with `axiom` as its start symbol.
@@ -500,13 +724,16 @@ impl ProgramBuilder {
                 });
             }
             for (k, alt) in rule.alternatives.iter().enumerate() {
-                if !(alt.weight.is_finite() && alt.weight > 0.0) {
+                if let Param::Const(w) = alt.weight
+                    && !(w.is_finite() && w > 0.0)
+                {
                     return Err(ProgramError::BadWeight {
                         symbol: info.name.clone(),
                         alternative: k,
-                        weight: alt.weight,
+                        weight: w,
                     });
                 }
+                self.check_exprs(&info.name, k, alt)?;
                 for op in &alt.ops {
                     match op {
                         Op::Emit(s) => sym_ok(*s)?,
@@ -580,6 +807,7 @@ impl ProgramBuilder {
                 repeat: name_hash("repeat"),
                 comp: name_hash("comp"),
             },
+            exprs: self.exprs,
         })
     }
 }

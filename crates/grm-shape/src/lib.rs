@@ -39,9 +39,11 @@ pub mod attributes;
 pub mod component;
 mod engine;
 pub mod error;
+pub mod expr;
 pub mod geometry;
 pub mod ir;
 mod locator;
+mod query;
 pub mod scope;
 pub mod split;
 mod tree;
@@ -49,6 +51,7 @@ mod tree;
 pub use attributes::{AttrId, Attributes};
 pub use engine::{Limits, Lot, Options, derive};
 pub use error::{ProgramError, ShapeError, SizeError};
+pub use expr::{Binary, Expr, ExprId, Query, Type, Unary};
 pub use geometry::{Geom, Geometry, Outline, OutlineId};
 pub use ir::{
     Alternative, AssetId, Axis, Comp, CompCase, CompTarget, MaterialId, Op, Param, Part, PartSize,

@@ -134,14 +134,13 @@ fn attributes_are_the_same_for_any_thread_count() {
     b.rule_alternatives(
         tile,
         (0..3)
-            .map(|k| grm_shape::Alternative {
-                weight: 1.0,
-                ops: vec![
+            .map(|k| {
+                grm_shape::Alternative::new(vec![
                     rgb(0.2 * k as f32, 0.5, 0.5),
                     Op::Emit(window),
                     Op::Material(glass),
                     Op::Insert(asset),
-                ],
+                ])
             })
             .collect(),
     );

@@ -251,14 +251,8 @@ fn stochastic(weights: [f32; 2]) -> (Program, [SymbolId; 2]) {
     b.rule_alternatives(
         tile,
         vec![
-            Alternative {
-                weight: weights[0],
-                ops: vec![Op::Emit(a)],
-            },
-            Alternative {
-                weight: weights[1],
-                ops: vec![Op::Emit(c)],
-            },
+            Alternative::weighted(weights[0], vec![Op::Emit(a)]),
+            Alternative::weighted(weights[1], vec![Op::Emit(c)]),
         ],
     );
     (b.build(facade).unwrap(), [a, c])
@@ -659,13 +653,7 @@ fn bad_values_and_wrong_geometry_are_typed_errors() {
     ));
     let mut b = ProgramBuilder::new("p");
     let a = b.symbol("A");
-    b.rule_alternatives(
-        a,
-        vec![Alternative {
-            weight: 0.0,
-            ops: vec![],
-        }],
-    );
+    b.rule_alternatives(a, vec![Alternative::weighted(0.0, vec![])]);
     assert!(matches!(
         b.build(a),
         Err(grm_shape::ProgramError::BadWeight { .. })
