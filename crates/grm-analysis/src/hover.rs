@@ -156,10 +156,7 @@ impl FileAnalysis {
             Def::System(id) => {
                 let s = p.systems.get(id.index())?;
                 let mut md = code(&format!("system {}", s.name));
-                let mode = match s.mode {
-                    grm_sema::Mode::Derive => "derive",
-                    grm_sema::Mode::Sample => "sample",
-                };
+                let mode = s.mode.name();
                 let user = s.symbols.iter().filter(|x| !x.is_terminal()).count();
                 let prods: usize = s.groups.iter().map(|g| g.alternatives.len()).sum();
                 md.push_str(&format!(

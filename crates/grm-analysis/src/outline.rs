@@ -147,10 +147,7 @@ impl FileAnalysis {
                         .systems
                         .iter()
                         .find(|x| x.file == self.root && x.span == s.span)
-                        .map(|x| match x.mode {
-                            grm_sema::Mode::Derive => "derive",
-                            grm_sema::Mode::Sample => "sample",
-                        });
+                        .map(|x| x.mode.name());
                     let mut node = leaf(
                         s.name.name.to_string(),
                         mode.map(|m| format!("system ({m})")),

@@ -43,6 +43,9 @@ pub enum CompileErrorKind {
     LeftContextBracket,
     /// The axiom refers to a module parameter.
     AxiomBinding,
+    /// A shape system (`mode = shape`): it has no bytecode; `grm_grow::
+    /// shape` grows it.
+    ShapeSystem,
 }
 
 impl CompileError {
@@ -58,6 +61,7 @@ impl CompileError {
             CompileErrorKind::TooLarge { .. } => Code::TablesTooLarge,
             CompileErrorKind::LeftContextBracket => Code::LeftContextBracket,
             CompileErrorKind::AxiomBinding => Code::AxiomBinding,
+            CompileErrorKind::ShapeSystem => Code::NotShapeRunnable,
         }
     }
 
@@ -97,6 +101,10 @@ impl CompileError {
             ),
             CompileErrorKind::LeftContextBracket => ("this bracket", INTERNAL),
             CompileErrorKind::AxiomBinding => ("this refers to a module parameter", INTERNAL),
+            CompileErrorKind::ShapeSystem => (
+                "a shape system",
+                "grow it with `grmc derive FILE -o model.glb` (shape systems are run by the shape engine, not as bytecode)",
+            ),
         };
         Diagnostic::new(self.code(), self.to_string(), self.file, self.span, label).with_help(help)
     }
@@ -140,6 +148,9 @@ impl std::fmt::Display for CompileError {
                 f.write_str("brackets in a left context are not supported")
             }
             CompileErrorKind::AxiomBinding => f.write_str("the axiom refers to a module parameter"),
+            CompileErrorKind::ShapeSystem => {
+                f.write_str("a shape system (`mode = shape`) has no bytecode")
+            }
         }
     }
 }
@@ -171,7 +182,7 @@ pub fn check(checked: &grm_sema::Checked) -> Vec<Diagnostic> {
     program
         .systems
         .iter()
-        .filter(|s| s.file == program.root)
+        .filter(|s| s.file == program.root && s.mode != grm_sema::Mode::Shape)
         .filter_map(|s| compile_reporting_all(program, s, &params).err())
         .flatten()
         .map(|e| e.to_diagnostic())
@@ -220,6 +231,9 @@ fn lower(
 ) -> Result<CompiledSystem, CompileError> {
     let file = system.file;
     let err = |kind, span| CompileError { kind, file, span };
+    if system.mode == grm_sema::Mode::Shape {
+        return Err(err(CompileErrorKind::ShapeSystem, system.loc.span));
+    }
     if params.len() != program.params.len() {
         return Err(err(
             CompileErrorKind::Params(format!(
@@ -847,7 +861,11 @@ impl Lowerer<'_> {
             }
             TExprKind::Call(f, args) => self.call(*f, args, w, span)?,
             TExprKind::Random(r, args) => self.random(*r, args, w, span)?,
-            TExprKind::Error => return Err(self.err(CompileErrorKind::HasErrors, span)),
+            // Shape values exist only in shape systems, which are never
+            // lowered to bytecode.
+            TExprKind::Shape(_) | TExprKind::Error => {
+                return Err(self.err(CompileErrorKind::HasErrors, span));
+            }
         }
         Ok(w)
     }

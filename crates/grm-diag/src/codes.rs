@@ -146,6 +146,43 @@ codes! {
     /// too large, or reading it failed.
     FileUnreadable = "E0405", Error, "file cannot be read";
 
+    // ---- E05xx: shape systems (`mode = shape`, docs/language.md 8) -------
+    /// A name in a shape rule that is neither an operation nor a symbol
+    /// written without arguments (`extrud(3)`).
+    UnknownShapeOperation = "E0501", Error, "unknown shape operation";
+    /// A shape symbol written with arguments (`Floor(3)`), in a rule or a
+    /// pattern: shape symbols take none.
+    ShapeSymbolArguments = "E0502", Error, "shape symbol with arguments";
+    /// An operation with the wrong number of arguments (`extrude(1, 2)`).
+    ShapeOperationArity = "E0503", Error, "wrong number of operation arguments";
+    /// An axis, selector, roof kind, component target or asset name that
+    /// does not exist (`split(w)`, `comp(faces) { frnt: A }`).
+    UnknownShapeName = "E0504", Error, "unknown axis, selector or kind";
+    /// A parts block where none belongs: on an operation other than
+    /// `split`, `repeat` and `comp`, or in a derive or sample system.
+    MisplacedParts = "E0505", Error, "parts block where none belongs";
+    /// `split`, `repeat` or `comp` without parts.
+    MissingParts = "E0506", Error, "shape command without parts";
+    /// Sizes that can never be laid out: relative parts over 100%, a
+    /// repeated tile of length zero, a negative constant size.
+    SizesNeverFit = "E0507", Error, "sizes that can never fit";
+    /// A component split of a shape that has no faces (or edges) there.
+    CompWithoutFaces = "E0508", Error, "component split of a shape without faces";
+    /// A lot that is no usable footprint: a polygon with fewer than three
+    /// corners, no area, or crossing edges; a size that is not positive.
+    BadLot = "E0509", Error, "unusable lot";
+    /// A footprint file (`lot = "file.geojson";`) that cannot be read or
+    /// holds no polygon.
+    LotFileUnreadable = "E0510", Error, "lot file cannot be read";
+    /// A shape system's axiom that is not one symbol.
+    ShapeAxiom = "E0511", Error, "shape axiom is not one symbol";
+    /// What only derive and sample systems have (contexts, module
+    /// declarations, wrap-ups, an ignore list) in a shape system.
+    NotInShapeSystem = "E0512", Error, "not used by shape systems";
+    /// A function the shape engine does not evaluate (`atan`, `exp`, ...)
+    /// in a shape rule.
+    ShapeUnsupportedFunction = "E0513", Error, "function not available in shape rules";
+
     // ---- W0xxx: warnings -------------------------------------------------
     /// A parameter bound in a predecessor and never used.
     UnusedParameter = "W0001", Warning, "unused parameter";
@@ -184,6 +221,9 @@ codes! {
     /// U+2069) in a comment or string: the line may display in another
     /// order than it is read ("Trojan Source").
     BidiControl = "W0017", Warning, "bidirectional control character";
+    /// A tag used by two commands on one path of a shape system: the
+    /// semantic locator names the tag twice (`floor` inside `floor`).
+    TagTwiceOnPath = "W0501", Warning, "tag used twice on one path";
 
     // ---- R0xxx: run time -------------------------------------------------
     // Reported by the engines after a clean check (`grmc derive`, `sample`,
@@ -312,6 +352,25 @@ codes! {
     /// No system to run: the file (with its imports) defines none, or none
     /// of the name given with `--system`.
     NoSystemToRun = "R0701", Error, "no system to run";
+
+    // R08xx: growing shape systems (grm-shape `ShapeError`, through grm-grow)
+    /// The derivation made more shapes than the node limit (a rule that
+    /// splits forever, or a repeat of too many tiles).
+    TooManyShapes = "R0801", Error, "too many shapes";
+    /// A shape deeper than the depth limit (a rule that rewrites forever).
+    ShapeTooDeep = "R0802", Error, "shape derivation too deep";
+    /// A value a shape operation cannot use for some shape (a NaN or
+    /// infinite size, a split that cannot be laid out).
+    ShapeBadValue = "R0803", Error, "unusable value in a shape operation";
+    /// An operation on a shape of the wrong kind at run time (faces of a
+    /// face, extrusion of an edge), or `]` with nothing saved.
+    ShapeWrongGeometry = "R0804", Error, "operation on the wrong kind of shape";
+    /// Internal: a lowered shape program the engine refuses, or another
+    /// engine limit (distinct attribute sets).
+    ShapeInternal = "R0805", Error, "shape engine error";
+    /// A shape system given to a command that runs bytecode (`grmc
+    /// disasm`, `forest`, `sample`), or a derive system to the shape road.
+    NotShapeRunnable = "R0806", Error, "not runnable this way";
 }
 
 impl std::fmt::Display for Code {

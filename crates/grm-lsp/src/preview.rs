@@ -809,6 +809,12 @@ pub(crate) fn build_with_model(
     let mode = p.mode.unwrap_or(match sys.mode {
         Mode::Derive => PreviewMode::Derive,
         Mode::Sample => PreviewMode::Sample,
+        Mode::Shape => {
+            return Err(Failure::Msg(format!(
+                "system `{}` is a shape system: grow it with `grmc derive`",
+                sys.name
+            )));
+        }
     });
     match (mode, sys.mode) {
         (PreviewMode::Derive, Mode::Sample) => {
@@ -982,6 +988,7 @@ pub(crate) fn build_with_model(
                         grm_geom::PartSource::Bone(i) => ("bone", i),
                         grm_geom::PartSource::Instance(i) => ("instance", i),
                         grm_geom::PartSource::Polygon(i) => ("polygon", i),
+                        grm_geom::PartSource::Shape(i) => ("shape", i),
                     };
                     PickOut {
                         first_triangle: pk.first_triangle,

@@ -82,6 +82,7 @@ pub fn eval(e: &TExpr, env: &Env<'_>) -> Result<Value, EvalError> {
             call(*f, &vs)
         }
         TExprKind::Random(..) => return Err(EvalError::Random),
+        TExprKind::Shape(_) => return Err(EvalError::Unbound),
         TExprKind::Error => return Err(EvalError::Broken),
     })
 }

@@ -10,7 +10,19 @@ use crate::check::{Checker, GlobalKind, GlobalName, ValueInfo};
 use crate::eval;
 use crate::index::Def;
 use crate::program::{Loc, TExpr, TExprKind, Ty, Value};
+use crate::shape::{ShapeQuery, ShapeValue};
 use crate::suggest;
+
+/// A shape value read by name in a shape rule.
+fn shape_name(name: &str) -> Option<ShapeValue> {
+    match name {
+        "scope" => Some(ShapeValue::Scope),
+        "index" => Some(ShapeValue::Index),
+        "count" => Some(ShapeValue::Count),
+        "depth" => Some(ShapeValue::Depth),
+        _ => None,
+    }
+}
 
 /// How deep the checker follows nested expressions: the language's one
 /// limit ([`grm_syntax::MAX_EXPR_DEPTH`]), which the parser enforces
@@ -36,6 +48,9 @@ pub(crate) struct Scope {
     pub allow_params: bool,
     /// For messages: "a constant", "a setting", ...
     pub what: &'static str,
+    /// A shape rule: `scope`, `index`, `count`, `depth`, `tagged(t)` and
+    /// the context queries are values ([`crate::shape::ShapeValue`]).
+    pub shape: bool,
 }
 
 impl Scope {
@@ -47,6 +62,7 @@ impl Scope {
             allow_random: false,
             allow_params,
             what,
+            shape: false,
         }
     }
 }
@@ -144,7 +160,23 @@ impl Checker<'_> {
             ExprKind::Bool(b) => TExpr::lit(Value::Bool(*b), span),
             ExprKind::Paren(inner) => self.expr(inner, sc),
             ExprKind::Error => TExpr::error(span),
-            ExprKind::Name(id) => self.name(file, id, sc),
+            ExprKind::Name(id) => {
+                if sc.shape
+                    && let Some(v) = shape_name(&id.name)
+                {
+                    let ty = if v == ShapeValue::Scope {
+                        Ty::Vec3
+                    } else {
+                        Ty::Float
+                    };
+                    return TExpr {
+                        kind: TExprKind::Shape(v),
+                        ty,
+                        span,
+                    };
+                }
+                self.name(file, id, sc)
+            }
             ExprKind::Unary { op, operand } => {
                 let a = self.expr(operand, sc);
                 if a.ty == Ty::Error {
@@ -261,6 +293,12 @@ impl Checker<'_> {
                     }
                 }
             }
+            ExprKind::Call { func, args }
+                if sc.shape
+                    && (func.name == "tagged" || ShapeQuery::from_name(&func.name).is_some()) =>
+            {
+                self.shape_call(file, func, args, span)
+            }
             ExprKind::Call { func, args } => {
                 let targs: Vec<TExpr> = args.iter().map(|a| self.expr(a, sc)).collect();
                 if let Some(b) = Builtin::from_name(&func.name) {
@@ -304,6 +342,68 @@ impl Checker<'_> {
                     TExpr::error(span)
                 }
             }
+        }
+    }
+
+    /// `tagged(tag)`, `overlaps(Sym)`, `touches(Sym)`, `inside(Sym)` in a
+    /// shape rule: one plain name, not an expression.
+    fn shape_call(
+        &mut self,
+        file: FileId,
+        func: &grm_syntax::ast::Ident,
+        args: &[Expr],
+        span: Span,
+    ) -> TExpr {
+        let what = if func.name == "tagged" {
+            "a tag name"
+        } else {
+            "a shape symbol"
+        };
+        let name = match args {
+            [a] => match &a.kind {
+                ExprKind::Name(id) => Some(id.name.clone()),
+                _ => None,
+            },
+            _ => None,
+        };
+        let Some(name) = name else {
+            if args.len() != 1 {
+                self.error(
+                    Diagnostic::new(
+                        Code::FunctionArity,
+                        format!(
+                            "`{}` takes 1 argument, but {} were given",
+                            func.name,
+                            args.len()
+                        ),
+                        file,
+                        span,
+                        format!("{} arguments", args.len()),
+                    )
+                    .with_help(format!("write `{}(name)` with {what}", func.name)),
+                );
+            } else {
+                self.error(
+                    Diagnostic::new(
+                        Code::TypeMismatch,
+                        format!("`{}` takes {what}", func.name),
+                        file,
+                        args[0].span,
+                        "not a name",
+                    )
+                    .with_help(format!("write `{}(name)` with {what}", func.name)),
+                );
+            }
+            return TExpr::error(span);
+        };
+        let v = match ShapeQuery::from_name(&func.name) {
+            Some(q) => ShapeValue::Query(q, name),
+            None => ShapeValue::Tagged(name),
+        };
+        TExpr {
+            kind: TExprKind::Shape(v),
+            ty: Ty::Bool,
+            span,
         }
     }
 

@@ -81,6 +81,7 @@ mod loader;
 pub mod phases;
 mod program;
 pub mod scalar;
+pub mod shape;
 mod suggest;
 mod system;
 mod unit;
@@ -93,6 +94,7 @@ pub use grm_diag::{Diagnostic, FileId, SourceMap, Span};
 pub use index::{Def, Ref, RefIndex};
 pub use loader::{FileLoader, FsLoader, LoadError, MAX_SOURCE_BYTES, MemLoader, normalize};
 pub use program::*;
+pub use shape::{ShapeQuery, ShapeSystem, ShapeValue};
 
 /// The result of checking: the program and all diagnostics.
 #[derive(Clone, Debug)]

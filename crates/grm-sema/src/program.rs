@@ -221,6 +221,9 @@ pub enum TExprKind {
     Call(Builtin, Vec<TExpr>),
     /// A random draw (never folded).
     Random(RandomFn, Vec<TExpr>),
+    /// A value of the shape being rewritten (shape systems only; never
+    /// folded).
+    Shape(crate::shape::ShapeValue),
     /// Already reported; only in programs with errors.
     Error,
 }
@@ -273,6 +276,7 @@ impl TExpr {
             | TExprKind::Param(_)
             | TExprKind::Global(_)
             | TExprKind::ModuleParam(_)
+            | TExprKind::Shape(_)
             | TExprKind::Error => {}
         }
     }
@@ -306,6 +310,7 @@ impl TExpr {
             }
             (K::Call(f1, a1), K::Call(f2, a2)) => f1 == f2 && args_same(a1, a2),
             (K::Random(f1, a1), K::Random(f2, a2)) => f1 == f2 && args_same(a1, a2),
+            (K::Shape(a), K::Shape(b)) => a == b,
             (K::Error, K::Error) => true,
             _ => false,
         }
@@ -333,6 +338,7 @@ impl TExpr {
                     f.hash(h);
                     a.len().hash(h);
                 }
+                TExprKind::Shape(v) => v.hash(h),
                 TExprKind::If(..) | TExprKind::Error => {}
             }
         });
@@ -545,6 +551,20 @@ pub enum Mode {
     Derive,
     /// Guided SOSMC search, then wrap-up, then the geometry phase.
     Sample,
+    /// A split grammar for buildings (`mode = shape;`): rules rewrite
+    /// shapes from a lot ([`System::shape`]).
+    Shape,
+}
+
+impl Mode {
+    /// `derive`, `sample` or `shape`, as written.
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Derive => "derive",
+            Mode::Sample => "sample",
+            Mode::Shape => "shape",
+        }
+    }
 }
 
 /// A system's settings, evaluated with the meta-parameters' defaults.
@@ -621,8 +641,13 @@ pub struct System {
     pub ignore: Vec<SymbolId>,
     pub symbols: Vec<SymbolInfo>,
     /// Production groups in source order (by first production); wrap-up
-    /// groups are included with [`Group::wrapup`] set.
+    /// groups are included with [`Group::wrapup`] set. Empty in a shape
+    /// system.
     pub groups: Vec<Group>,
+    /// A shape system's lot and rules (`Some` exactly when
+    /// [`System::mode`] is [`Mode::Shape`]; then `axiom`, `symbols` and
+    /// `groups` are empty).
+    pub shape: Option<Box<crate::shape::ShapeSystem>>,
 }
 
 impl System {

@@ -211,12 +211,14 @@ impl Sys<'_, '_> {
         let file = self.file;
         let mut holes = false;
         let mut settings_ast = Vec::new();
+        let mut lots = Vec::new();
         let mut axioms = Vec::new();
         let mut ignores = Vec::new();
         let mut decls = Vec::new();
         let mut prods = Vec::new();
         for item in &s.items {
             match item {
+                SystemItem::Setting(x) if x.name.name == "lot" => lots.push(x),
                 SystemItem::Setting(x) => settings_ast.push(x),
                 SystemItem::Axiom(x) => axioms.push(x),
                 SystemItem::Ignore(x) => ignores.push(x),
@@ -233,11 +235,80 @@ impl Sys<'_, '_> {
             self.mode_unsure = true;
             if decls.iter().any(|d| d.phase != Phase::None) || prods.iter().any(|p| p.wrapup) {
                 self.mode = Mode::Sample;
+            } else if !lots.is_empty()
+                || prods
+                    .iter()
+                    .any(|p| p.successor.iter().any(|m| m.parts.is_some()))
+            {
+                self.mode = Mode::Shape;
             }
         }
 
         // Settings.
         let settings = self.settings(&settings_ast);
+        if self.mode == Mode::Shape {
+            let extra: Vec<Span> = decls
+                .iter()
+                .map(|d| d.span)
+                .chain(ignores.iter().map(|i| i.span))
+                .collect();
+            for extra in axioms.iter().skip(1) {
+                self.err(
+                    Diagnostic::new(
+                        Code::DuplicateSetting,
+                        format!("system `{}` has more than one axiom", s.name.name),
+                        file,
+                        extra.span,
+                        "second axiom",
+                    )
+                    .with_label(file, axioms[0].span, "first axiom")
+                    .with_help("a system has one start shape; remove one of them"),
+                );
+            }
+            let checker = crate::shape::check::ShapeCheck::new(self.cx, self.fi, self.sid);
+            let (shape, symbols) = checker.run(
+                &s.name,
+                &lots,
+                axioms.first().copied(),
+                &prods,
+                &extra,
+                holes,
+            );
+            let names: Vec<&str> = symbols.iter().map(|x| x.name.as_str()).collect();
+            crate::shape::analysis::analyse(
+                &shape,
+                symbols.len(),
+                file,
+                &names,
+                &mut self.cx.diags,
+            );
+            return System {
+                name: s.name.name.to_string(),
+                loc: Loc::new(file, s.name.span),
+                file,
+                span: s.span,
+                mode: Mode::Shape,
+                settings,
+                setting_exprs: std::mem::take(&mut self.setting_exprs),
+                axiom: Vec::new(),
+                ignore: Vec::new(),
+                symbols,
+                groups: Vec::new(),
+                shape: Some(Box::new(shape)),
+            };
+        }
+        for lot in &lots {
+            self.err(
+                Diagnostic::new(
+                    Code::UnknownSetting,
+                    "`lot` is a setting of shape systems",
+                    file,
+                    lot.name.span,
+                    format!("not used by a {} system", self.mode.name()),
+                )
+                .with_help("add `mode = shape;` or remove this setting"),
+            );
+        }
 
         // Axiom.
         let axiom_ast: Option<&ast::Axiom> = axioms.first().copied();
@@ -291,6 +362,7 @@ impl Sys<'_, '_> {
                 allow_random: true,
                 allow_params: true,
                 what: "the axiom",
+                shape: false,
             };
             for (m, r) in a.modules.iter().zip(&axiom_res) {
                 let tm = self.module(m, r, &mut sc);
@@ -386,6 +458,7 @@ impl Sys<'_, '_> {
             ignore,
             symbols,
             groups,
+            shape: None,
         };
         let mut system = system;
         shrink_system(&mut system);
@@ -457,16 +530,18 @@ impl Sys<'_, '_> {
                 match &set.value.kind {
                     ExprKind::Name(n) if n.name == "derive" => self.mode = Mode::Derive,
                     ExprKind::Name(n) if n.name == "sample" => self.mode = Mode::Sample,
+                    ExprKind::Name(n) if n.name == "shape" => self.mode = Mode::Shape,
                     _ => {
                         let mut d = Diagnostic::new(
                             Code::InvalidSettingValue,
-                            "`mode` must be `derive` or `sample`",
+                            "`mode` must be `derive`, `sample` or `shape`",
                             file,
                             set.value.span,
                             "not a mode",
                         );
                         if let ExprKind::Name(n) = &set.value.kind
-                            && let Some(h) = suggest::did_you_mean(&n.name, ["derive", "sample"])
+                            && let Some(h) =
+                                suggest::did_you_mean(&n.name, ["derive", "sample", "shape"])
                         {
                             d = d.with_help(h);
                         }
@@ -491,6 +566,20 @@ impl Sys<'_, '_> {
             bindings: &[],
         };
         for (key, v, span, name_span) in typed {
+            if self.mode == Mode::Shape && key != SettingKey::Seed {
+                self.cx.error(
+                    Diagnostic::new(
+                        Code::UnknownSetting,
+                        format!("`{}` is not a setting of shape systems", key.name()),
+                        file,
+                        name_span,
+                        "not used by a shape system",
+                    )
+                    .with_note("a shape system has a `lot` and a `seed`")
+                    .with_help("remove this setting"),
+                );
+                continue;
+            }
             if key.sample_only() && self.mode == Mode::Derive && !self.mode_unsure {
                 self.cx.error(
                     Diagnostic::new(
@@ -736,6 +825,19 @@ impl Sys<'_, '_> {
     }
 
     fn resolve_use(&mut self, m: &ast::Module) -> UseRes {
+        if let Some(parts) = &m.parts {
+            self.err(
+                Diagnostic::new(
+                    Code::MisplacedParts,
+                    format!("a parts block in a {} system", self.mode.name()),
+                    self.file,
+                    parts.span,
+                    "parts block",
+                )
+                .with_note("parts divide a shape: only shape systems have them")
+                .with_help("add `mode = shape;` to grow this system as a building"),
+            );
+        }
         let k = m.args.len();
         let name = &m.symbol.name;
         if let Some(forms) = terminal_forms(name) {
@@ -1390,6 +1492,7 @@ impl Sys<'_, '_> {
             allow_random: true,
             allow_params: true,
             what: "a production",
+            shape: false,
         };
         let diags_before = self.cx.diags.len();
 
