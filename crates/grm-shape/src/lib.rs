@@ -8,8 +8,10 @@
 //! can be named again after the building is regrown.
 //!
 //! **Input.** A [`Program`] (the IR a `.grm` front-end lowers to: symbols
-//! with weighted rule alternatives of [`Op`]s; numbers are [`Param`]s,
-//! constants for now), a [`Lot`] (the axiom's scope and geometry: a
+//! with weighted, possibly conditional rule alternatives of [`Op`]s;
+//! numbers are [`Param`]s, constants or [`Expr`]essions evaluated per
+//! shape, which may read its scope, index, tags and context queries), a
+//! [`Lot`] (the axiom's scope and geometry: a
 //! footprint polygon, possibly non-convex, or a face) and [`Options`]
 //! (seed, threads, [`Limits`]).
 //!
