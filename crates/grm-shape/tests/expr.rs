@@ -987,3 +987,160 @@ fn bad_expressions_are_program_errors() {
     b.rule(a, vec![]);
     assert!(matches!(b.build(a), Err(ProgramError::BadExpr { .. })));
 }
+
+/// A random expression of type number (`boolean: false`) or boolean, at
+/// most `depth` deep, over `tags` and `symbols`.
+fn random_expr(
+    rng: &mut grm_testkit::Rng,
+    boolean: bool,
+    depth: u32,
+    tags: &[grm_shape::TagId],
+    symbols: &[SymbolId],
+) -> Expr {
+    use grm_shape::Binary;
+    let leaf = depth == 0 || rng.below(3u32) == 0;
+    let k = rng.below(8u32);
+    let op = *rng.pick(&[
+        Binary::Add,
+        Binary::Sub,
+        Binary::Mul,
+        Binary::Div,
+        Binary::Rem,
+        Binary::Pow,
+    ]);
+    let mut sub = |b| random_expr(rng, b, depth.saturating_sub(1), tags, symbols);
+    match (boolean, leaf) {
+        (true, true) => match k % 4 {
+            0 => Expr::Bool(k < 4),
+            1 => Expr::Tagged(tags[k as usize % tags.len()]),
+            2 => Expr::Query(
+                [Query::Overlaps, Query::Touches, Query::Inside][k as usize % 3],
+                symbols[k as usize % symbols.len()],
+            ),
+            _ => Expr::chance(n(0.5)),
+        },
+        (true, false) => match k % 3 {
+            0 => sub(false).lt(sub(false)),
+            1 => sub(false).eq(sub(false)),
+            _ => (!sub(true)).and(sub(true)).or(sub(true)),
+        },
+        (false, true) => match k {
+            0 => n([0.0, -1.0, 1e30, f32::NAN, f32::INFINITY][op as usize % 5]),
+            1 => Expr::Size([Axis::X, Axis::Y, Axis::Z][op as usize % 3]),
+            2 => Expr::Position(Axis::X),
+            3 => Expr::Index,
+            4 => Expr::Count,
+            5 => Expr::Depth,
+            6 => Expr::TagIndex(tags[op as usize % tags.len()]),
+            _ => Expr::TagCount(tags[0]) + n(1.5),
+        },
+        (false, false) => match k {
+            0 => Expr::Binary(op, Box::new(sub(false)), Box::new(sub(false))),
+            1 => sub(false).apply(Unary::Sqrt),
+            2 => sub(true).then(sub(false), sub(false)),
+            3 => Expr::uniform(sub(false), sub(false)),
+            4 => Expr::randint(sub(false), sub(false)),
+            5 => Expr::normal(sub(false), sub(false)),
+            6 => Expr::Choose(vec![(sub(false), sub(false)), (sub(false), sub(false))]),
+            _ => sub(false).clamp(sub(false), sub(false)),
+        },
+    }
+}
+
+#[test]
+fn random_expressions_never_panic_and_agree_across_threads() {
+    let mut rng = grm_testkit::Rng::seeded(2026);
+    let mut trees = 0;
+    for case in 0..80 {
+        let mut b = ProgramBuilder::new("random-expr");
+        let tags = [b.tag("floor"), b.tag("column")];
+        let s: Vec<SymbolId> = (0..5).map(|i| b.symbol(&format!("S{i}"))).collect();
+        // Most numbers are clamped into a range (NaN clamps to its low
+        // end), so that most programs derive; one in six is raw.
+        let num = |b: &mut ProgramBuilder, rng: &mut grm_testkit::Rng| {
+            let mut e = random_expr(rng, false, 3, &tags, &s);
+            if rng.below(6u32) != 0 {
+                e = e.clamp(n(0.5), n(4.0));
+            }
+            Param::Expr(b.expr(&e))
+        };
+        // S0 -> repeat(y) { e: S1 } floor; S1 -> repeat(x) { e: S2 | ~1: S3 }
+        // column; S2, S3 -> random alternatives with conditions, weights
+        // and scope operations that read expressions.
+        let p0 = num(&mut b, &mut rng);
+        b.rule(
+            s[0],
+            vec![Op::Repeat(Split {
+                axis: Axis::Y,
+                parts: vec![part(p0, Some(s[1]))],
+                tag: Some(tags[0]),
+            })],
+        );
+        let p1 = num(&mut b, &mut rng);
+        b.rule(
+            s[1],
+            vec![Op::Repeat(Split {
+                axis: Axis::X,
+                parts: vec![
+                    part(p1, Some(s[2])),
+                    Part {
+                        size: PartSize::Floating(1.0.into()),
+                        target: Some(s[3]),
+                    },
+                ],
+                tag: Some(tags[1]),
+            })],
+        );
+        for &sym in &s[2..4] {
+            let mut alts = vec![];
+            for _ in 0..1 + rng.below(3u32) {
+                let c = random_expr(&mut rng, true, 2, &tags, &s);
+                let c = b.expr(&c);
+                let w = num(&mut b, &mut rng);
+                let (t, x, sz) = (
+                    num(&mut b, &mut rng),
+                    num(&mut b, &mut rng),
+                    num(&mut b, &mut rng),
+                );
+                let target = *rng.pick(&s[3..]);
+                alts.push(
+                    Alternative::weighted(
+                        w,
+                        vec![
+                            Op::Translate([t, 0.0.into(), 0.0.into()]),
+                            Op::Size([Some(x), None, Some(sz)]),
+                            Op::Emit(target),
+                        ],
+                    )
+                    .when(c),
+                );
+            }
+            b.rule_alternatives(sym, alts);
+        }
+        let program = b.build(s[0]).unwrap();
+        let limits = grm_shape::Limits {
+            max_nodes: 3_000,
+            max_depth: 14,
+        };
+        let lot = face(12.0, 9.0);
+        let run = |threads| {
+            derive(
+                &program,
+                &lot,
+                &Options {
+                    limits,
+                    threads,
+                    seed: case,
+                },
+            )
+        };
+        let one = run(1);
+        let three = run(3);
+        assert!(
+            one == three || format!("{one:?}") == format!("{three:?}"),
+            "case {case}"
+        );
+        trees += usize::from(one.is_ok());
+    }
+    assert!(trees > 20, "only {trees} programs derived without error");
+}
