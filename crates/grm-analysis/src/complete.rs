@@ -53,7 +53,7 @@ pub struct CompletionItem {
 }
 
 impl CompletionItem {
-    fn new(label: impl Into<String>, kind: CompletionKind) -> CompletionItem {
+    pub(crate) fn new(label: impl Into<String>, kind: CompletionKind) -> CompletionItem {
         CompletionItem {
             label: label.into(),
             kind,
@@ -64,17 +64,17 @@ impl CompletionItem {
         }
     }
 
-    fn detail(mut self, d: impl Into<String>) -> Self {
+    pub(crate) fn detail(mut self, d: impl Into<String>) -> Self {
         self.detail = Some(d.into());
         self
     }
 
-    fn doc(mut self, d: impl Into<String>) -> Self {
+    pub(crate) fn doc(mut self, d: impl Into<String>) -> Self {
         self.documentation = Some(d.into());
         self
     }
 
-    fn snippet(mut self, s: impl Into<String>) -> Self {
+    pub(crate) fn snippet(mut self, s: impl Into<String>) -> Self {
         self.insert_text = Some(s.into());
         self.snippet = true;
         self
@@ -100,7 +100,7 @@ pub struct SignatureHelp {
 
 /// Where the cursor is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Ctx {
+pub(crate) enum Ctx {
     /// Nothing to propose (in a comment or string).
     None,
     /// Start of a top-level item.
@@ -130,16 +130,16 @@ enum Ctx {
 }
 
 /// The statement tokens before the cursor and what encloses them.
-struct Around<'a> {
+pub(crate) struct Around<'a> {
     /// Tokens of the current statement up to the cursor (the partial word
     /// being typed excluded).
-    toks: &'a [(TokKind, Span)],
+    pub(crate) toks: &'a [(TokKind, Span)],
     system: Option<&'a grm_syntax::ast::System>,
     material: bool,
 }
 
 impl FileAnalysis {
-    fn around(&self, offset: u32) -> Around<'_> {
+    pub(crate) fn around(&self, offset: u32) -> Around<'_> {
         // Tokens entirely before the cursor, minus a word being typed.
         let mut end = self.tokens().partition_point(|(_, s)| s.end < offset);
         if let Some(&(k, s)) = self.tokens().get(end)
@@ -319,6 +319,9 @@ impl FileAnalysis {
     pub fn completion(&self, offset: u32) -> Vec<CompletionItem> {
         let offset = offset.min(self.text().len() as u32);
         let ctx = self.context(offset);
+        if let Some(items) = self.shape_completion(ctx, offset) {
+            return items;
+        }
         let mut out = Vec::new();
         match ctx {
             Ctx::None => {}
@@ -343,7 +346,8 @@ impl FileAnalysis {
                 }
             }
             Ctx::SystemStatement => {
-                for e in docs::of_kind(DocKind::Setting) {
+                // `lot` is a shape system's (offered there).
+                for e in docs::of_kind(DocKind::Setting).filter(|e| e.name != "lot") {
                     out.push(
                         CompletionItem::new(e.name, CompletionKind::Setting)
                             .detail(e.signatures.first().copied().unwrap_or(""))
@@ -385,35 +389,7 @@ impl FileAnalysis {
                 }
             }
             Ctx::Declaration(phase) => self.push_undeclared(offset, phase, &mut out),
-            Ctx::Expr | Ctx::GlobalExpr(_) => {
-                if ctx == Ctx::Expr {
-                    for b in self.bindings_before(offset) {
-                        out.push(
-                            CompletionItem::new(b, CompletionKind::Parameter).detail("parameter"),
-                        );
-                    }
-                }
-                // A constant's value may not use the constant itself, nor
-                // a global defined in terms of it (E0210).
-                let cyclic = match ctx {
-                    Ctx::GlobalExpr(Some(name)) => self.dependents_of(self.slice(name)),
-                    _ => HashSet::new(),
-                };
-                self.push_globals(&mut out, |n| !cyclic.contains(n));
-                for e in docs::of_kind(DocKind::Function)
-                    .chain(docs::of_kind(DocKind::Random).filter(|_| ctx == Ctx::Expr))
-                {
-                    out.push(
-                        CompletionItem::new(e.name, CompletionKind::Function)
-                            .detail(e.signatures.first().copied().unwrap_or(""))
-                            .doc(e.markdown())
-                            .snippet(format!("{}($1)", e.name)),
-                    );
-                }
-                for kw in ["if", "then", "else", "true", "false"] {
-                    out.push(keyword(kw));
-                }
-            }
+            Ctx::Expr | Ctx::GlobalExpr(_) => self.push_expr(ctx, offset, &mut out),
             Ctx::ModeValue => {
                 for e in docs::of_kind(DocKind::ModeValue) {
                     out.push(CompletionItem::new(e.name, CompletionKind::Value).doc(e.markdown()));
@@ -436,6 +412,37 @@ impl FileAnalysis {
             }
         }
         out
+    }
+
+    /// What an expression may hold: the production's parameters (in a
+    /// system), globals, functions (and random draws, in a system) and the
+    /// expression keywords.
+    pub(crate) fn push_expr(&self, ctx: Ctx, offset: u32, out: &mut Vec<CompletionItem>) {
+        if ctx == Ctx::Expr {
+            for b in self.bindings_before(offset) {
+                out.push(CompletionItem::new(b, CompletionKind::Parameter).detail("parameter"));
+            }
+        }
+        // A constant's value may not use the constant itself, nor
+        // a global defined in terms of it (E0210).
+        let cyclic = match ctx {
+            Ctx::GlobalExpr(Some(name)) => self.dependents_of(self.slice(name)),
+            _ => HashSet::new(),
+        };
+        self.push_globals(out, |n| !cyclic.contains(n));
+        for e in docs::of_kind(DocKind::Function)
+            .chain(docs::of_kind(DocKind::Random).filter(|_| ctx == Ctx::Expr))
+        {
+            out.push(
+                CompletionItem::new(e.name, CompletionKind::Function)
+                    .detail(e.signatures.first().copied().unwrap_or(""))
+                    .doc(e.markdown())
+                    .snippet(format!("{}($1)", e.name)),
+            );
+        }
+        for kw in ["if", "then", "else", "true", "false"] {
+            out.push(keyword(kw));
+        }
     }
 
     fn push_symbols(&self, offset: u32, out: &mut Vec<CompletionItem>) {
@@ -640,7 +647,14 @@ impl FileAnalysis {
             }
         }
         let module_pos = module_string && d == 0;
-        let entry = if module_pos {
+        let entry = if self.shape_system_at(offset).is_some() {
+            // A shape operation, a shape value or lot function, a function.
+            docs::lookup(name, DocKind::ShapeOp)
+                .filter(|_| module_pos)
+                .or_else(|| docs::lookup(name, DocKind::ShapeValue))
+                .or_else(|| docs::lookup(name, DocKind::Lot))
+                .or_else(|| docs::function(name).filter(|_| *ck == TokKind::Ident))
+        } else if module_pos {
             docs::lookup(name, DocKind::Terminal)
         } else if *ck == TokKind::Ident {
             docs::function(name)

@@ -20,8 +20,28 @@ pub enum DocKind {
     MaterialProp,
     /// A type name (`float`, `vec3`, `bool`).
     Type,
-    /// A value of the `mode` setting (`derive`, `sample`).
+    /// A value of the `mode` setting (`derive`, `sample`, `shape`).
     ModeValue,
+    /// An operation of a shape system's rule (`extrude`, `split`, ...).
+    ShapeOp,
+    /// An axis argument of a shape operation (`x`, `y`, `z`, `xy`, ...).
+    Axis,
+    /// What a component split breaks a shape into (`faces`, `edges`).
+    CompKind,
+    /// A component split's case selector (`front`, `side`, `slope`, ...).
+    Selector,
+    /// A roof's kind (`flat`, `gable`, `hip`, `shed`, `pyramid`).
+    RoofKind,
+    /// A primitive `insert` places (`box`, `cylinder`, ...).
+    Primitive,
+    /// A value of the shape being rewritten (`scope`, `index`, `tagged`, ...).
+    ShapeValue,
+    /// A lot's shape (`lot = rect(24, 10);`).
+    Lot,
+    /// How a part's size is written (`~` floating, `%` relative).
+    PartSize,
+    /// A semantic tag in common use (`floor`, `column`, `facade`).
+    Tag,
 }
 
 impl DocKind {
@@ -35,6 +55,16 @@ impl DocKind {
             DocKind::MaterialProp => "material property",
             DocKind::Type => "type",
             DocKind::ModeValue => "system mode",
+            DocKind::ShapeOp => "shape operation",
+            DocKind::Axis => "axis",
+            DocKind::CompKind => "component kind",
+            DocKind::Selector => "component selector",
+            DocKind::RoofKind => "roof kind",
+            DocKind::Primitive => "primitive",
+            DocKind::ShapeValue => "shape value",
+            DocKind::Lot => "lot",
+            DocKind::PartSize => "part size",
+            DocKind::Tag => "semantic tag",
         }
     }
 }
@@ -127,6 +157,7 @@ entries! {
     Keyword "false" [] "the boolean constant false.";
     ModeValue "derive" [] "`mode = derive;` (the default): parallel L-system rewriting for `iterations` steps.";
     ModeValue "sample" [] "`mode = sample;`: the guided sampler (SOSMC) grows the skeleton against guiding curves, then wrap-up and the geometry phase.";
+    ModeValue "shape" [] "`mode = shape;`: a split grammar for buildings: rules rewrite shapes (a symbol, a scope and geometry) from the lot by extruding, splitting, repeating and breaking masses into faces (docs/shapes.md).";
 
     // ---- types ------------------------------------------------------------
     Type "float" [] "a 32-bit floating-point number (constants are folded in 64 bits).";
@@ -212,7 +243,7 @@ entries! {
     Terminal "color" ["color(c: vec3)", "color(r: float, g: float, b: float)"] "set the colour of the geometry that follows.";
 
     // ---- settings ---------------------------------------------------------
-    Setting "mode" ["mode = derive | sample"] "how the system is run: `derive` (default, parallel rewriting) or `sample` (guided search).";
+    Setting "mode" ["mode = derive | sample | shape"] "how the system is run: `derive` (default, parallel rewriting), `sample` (guided search) or `shape` (a split grammar for buildings).";
     Setting "iterations" ["iterations = n"] "number of rewriting steps (whole number, default 1).";
     Setting "angle" ["angle = degrees"] "default angle of `+ - & ^ \\ /` and `rotx roty rotz` (default 90).";
     Setting "seed" ["seed = n"] "default random seed (whole number, default 0).";
@@ -223,6 +254,75 @@ entries! {
     Setting "generations" ["generations = n"] "sample systems: SOSMC generations (default 100).";
     Setting "particles_start" ["particles_start = n"] "sample systems: particles at the first generation (default 100).";
     Setting "particles_end" ["particles_end = n"] "sample systems: particles at the last generation (default 15).";
+    Setting "lot" ["lot = rect(w, d)", "lot = polygon(x0, y0, x1, y1, ...)", "lot = \"block.geojson\""] "shape systems: the axiom's footprint, in the xy plane (default `rect(10, 10)`); a GeoJSON file's holes are courtyards.";
+
+    // ---- shape systems (mode = shape) -------------------------------------
+    Lot "rect" ["rect(w: float, d: float)"] "a `w` by `d` rectangle, its corner at the origin.";
+    Lot "polygon" ["polygon(x0: float, y0: float, x1: float, y1: float, ...)"] "a simple polygon of three or more corners, in either winding.";
+    ShapeOp "extrude" ["extrude(h: float)"] "a footprint or face becomes a mass `h` high (along the scope's z).";
+    ShapeOp "taper" ["taper(h: float)"] "a footprint becomes a solid whose walls lean in to meet `h` above it.";
+    ShapeOp "roof" ["roof(kind, angle: float)", "roof(kind, angle: float, overhang: float)"] "a roof on the footprint or on a mass's top: `kind` is `flat`, `gable`, `hip`, `shed` or `pyramid`, `angle` the pitch in degrees; its faces are the components `slope` and `gable`, its edges `eave`, `ridge` and `hip`.";
+    ShapeOp "translate" ["translate(x: float, y: float, z: float)"] "moves the scope along its own axes.";
+    ShapeOp "rotate" ["rotate(axis, degrees: float)"] "turns the scope about its `x`, `y` or `z` axis.";
+    ShapeOp "size" ["size(x: float, y: float, z: float)"] "sets the scope's size; `_` keeps an axis.";
+    ShapeOp "center" ["center(axes)"] "centres the scope on `x`, `y`, `z`, `xy`, `xz`, `yz` or `xyz` in the scope saved by `[`.";
+    ShapeOp "[" ["["] "saves the scope and geometry (and the attributes).";
+    ShapeOp "]" ["]"] "restores the scope and geometry saved by the matching `[`.";
+    ShapeOp "offset" ["offset(d: float)"] "offsets the outline by `d` (negative: inset).";
+    ShapeOp "insert" ["insert(name)"] "places a primitive (`box`, `cylinder`, `cone`, `sphere`, `disc`) or a declared `mesh`, fitted to the scope.";
+    ShapeOp "material" ["material(name: material)"] "draws the shape and everything it makes with a declared material.";
+    ShapeOp "color" ["color(c: vec3)"] "draws the shape and everything it makes with a linear RGB colour.";
+    ShapeOp "texture" ["texture(file: string)"] "maps an image on the shape's faces by their UV coordinates.";
+    ShapeOp "split" ["split(axis) { size: Symbol | ... }", "split(axis, tag) { size: Symbol | ... }"] "divides the scope along `x`, `y` or `z` into parts: `4: A` is 4 units long, `25%: A` a quarter of the scope, `~1: A` floating (floating parts share what the others leave). A tag names the parts in the semantic locator.";
+    ShapeOp "repeat" ["repeat(axis) { size: Symbol | ... }", "repeat(axis, tag) { size: Symbol | ... }"] "lays the parts as one tile as many times as fit along `x`, `y` or `z` (`~w` means about `w`: the tiles stretch to fill the scope). A tag names the tiles in the semantic locator.";
+    ShapeOp "comp" ["comp(faces) { selector: Symbol | ... }", "comp(faces, tag) { selector: Symbol | ... }", "comp(edges) { selector: Symbol | ... }"] "breaks a mass, face or roof into faces or edges; each goes to the first case whose selector takes it, named by the selector and its index within the case. A tag names the components in the semantic locator.";
+    ShapeOp "nil" ["nil"] "makes nothing there (a part or case that leaves a gap).";
+    Axis "x" ["x"] "the scope's x axis (along a facade: its width).";
+    Axis "y" ["y"] "the scope's y axis (on a facade: up; on a footprint or mass: its depth).";
+    Axis "z" ["z"] "the scope's z axis (on a mass: up; on a facade: its outward normal).";
+    Axis "xy" ["xy"] "the scope's x and y axes.";
+    Axis "xz" ["xz"] "the scope's x and z axes.";
+    Axis "yz" ["yz"] "the scope's y and z axes.";
+    Axis "xyz" ["xyz"] "all three axes of the scope.";
+    Axis "_" ["_"] "keeps the scope's size on this axis.";
+    CompKind "faces" ["faces"] "the faces of a mass (a wall per straight run of the footprint, then the top, then the bottom), of a roof (its slopes and gable ends), or a face itself.";
+    CompKind "edges" ["edges"] "the edges of a mass (ground, roof and vertical edges), of a face (its outline) or of a roof (eaves, ridges, hips).";
+    Selector "front" ["front"] "the walls (or edges) facing -y.";
+    Selector "back" ["back"] "the walls (or edges) facing +y.";
+    Selector "left" ["left"] "the walls (or edges) facing -x.";
+    Selector "right" ["right"] "the walls (or edges) facing +x.";
+    Selector "side" ["side"] "every wall (of a mass's edges, the vertical ones; of a face's, left or right).";
+    Selector "top" ["top"] "the horizontal face (or edges) on top.";
+    Selector "bottom" ["bottom"] "the horizontal face (or edges) at the bottom.";
+    Selector "all" ["all"] "every component.";
+    Selector "slope" ["slope"] "a roof's sloped faces.";
+    Selector "gable" ["gable"] "a roof's vertical gable ends.";
+    Selector "eave" ["eave"] "a roof's lower horizontal edges.";
+    Selector "ridge" ["ridge"] "a roof's upper horizontal edges.";
+    Selector "hip" ["hip"] "a roof's sloped edges where two slopes meet.";
+    RoofKind "flat" ["flat"] "a flat roof (with its overhang).";
+    RoofKind "gable" ["gable"] "two slopes meeting at a ridge, with vertical gable ends.";
+    RoofKind "hip" ["hip"] "slopes on every side, on the footprint's straight skeleton.";
+    RoofKind "shed" ["shed"] "one slope over the whole footprint.";
+    RoofKind "pyramid" ["pyramid"] "slopes on every side meeting at one apex.";
+    Primitive "box" ["box"] "a box filling the scope.";
+    Primitive "cylinder" ["cylinder"] "a cylinder fitted to the scope (along its z).";
+    Primitive "cone" ["cone"] "a cone fitted to the scope (along its z).";
+    Primitive "sphere" ["sphere"] "a sphere (ellipsoid) fitted to the scope.";
+    Primitive "disc" ["disc"] "a disc in the scope's xy.";
+    ShapeValue "scope" ["scope: vec3"] "the shape's scope size (`scope.x`, `scope.y`, `scope.z`).";
+    ShapeValue "index" ["index: float"] "which part, tile or component the shape is, from 1.";
+    ShapeValue "count" ["count: float"] "how many parts, tiles or components its command made.";
+    ShapeValue "depth" ["depth: float"] "the shape's depth in the tree (the axiom is 0).";
+    ShapeValue "tagged" ["tagged(tag) -> bool"] "whether a command with this tag is above the shape.";
+    ShapeValue "overlaps" ["overlaps(Symbol) -> bool"] "whether the shape's box overlaps a shape of that symbol (a context query, evaluated in a second pass: the answer never depends on order or thread count).";
+    ShapeValue "touches" ["touches(Symbol) -> bool"] "whether the shape's box touches a shape of that symbol (a context query).";
+    ShapeValue "inside" ["inside(Symbol) -> bool"] "whether the shape's box lies inside a shape of that symbol (a context query).";
+    PartSize "~" ["~w: Symbol"] "a floating part: the floating parts share what the fixed parts leave, in proportion to their weights (in a repeat, `~w` means about `w`).";
+    PartSize "%" ["p%: Symbol"] "a relative part: `p` percent of the scope along the axis.";
+    Tag "floor" ["floor"] "the floors of a facade or mass: the parts of a split or repeat along the vertical axis.";
+    Tag "column" ["column"] "the columns of a facade: the parts of a split or repeat along its x axis.";
+    Tag "facade" ["facade"] "the faces of a mass's component split.";
 
     // ---- material properties ----------------------------------------------
     MaterialProp "roughness" ["roughness = r"] "roughness in [0, 1].";
@@ -331,6 +431,58 @@ mod tests {
         // The reserved words of docs/language.md.
         for kw in "import const param mesh material system module skeleton geometry wrapup axiom ignore in if then else true false".split(' ') {
             assert!(is_keyword(kw), "{kw}");
+        }
+    }
+
+    #[test]
+    fn every_shape_word_is_documented() {
+        use grm_sema::shape::{Primitive, RoofKind, Selector, ShapeQuery};
+        for s in Selector::ALL {
+            assert!(
+                lookup(s.name(), DocKind::Selector).is_some(),
+                "{}",
+                s.name()
+            );
+        }
+        for k in RoofKind::ALL {
+            assert!(
+                lookup(k.name(), DocKind::RoofKind).is_some(),
+                "{}",
+                k.name()
+            );
+        }
+        for p in Primitive::ALL {
+            assert!(
+                lookup(p.name(), DocKind::Primitive).is_some(),
+                "{}",
+                p.name()
+            );
+        }
+        for q in [
+            ShapeQuery::Overlaps,
+            ShapeQuery::Touches,
+            ShapeQuery::Inside,
+        ] {
+            assert!(
+                lookup(q.name(), DocKind::ShapeValue).is_some(),
+                "{}",
+                q.name()
+            );
+        }
+        for m in [
+            grm_sema::Mode::Derive,
+            grm_sema::Mode::Sample,
+            grm_sema::Mode::Shape,
+        ] {
+            assert!(
+                lookup(m.name(), DocKind::ModeValue).is_some(),
+                "{}",
+                m.name()
+            );
+        }
+        // The operations of docs/language.md section 8.
+        for op in "extrude taper roof translate rotate size center [ ] offset insert material color texture split repeat comp".split(' ') {
+            assert!(lookup(op, DocKind::ShapeOp).is_some(), "{op}");
         }
     }
 

@@ -61,6 +61,9 @@ impl FileAnalysis {
         {
             return None;
         }
+        if let Some(h) = self.shape_hover(offset) {
+            return Some(h);
+        }
         if let Some(r) = self.ref_at(offset) {
             let md = self.hover_def(r.def, r.loc.span, offset)?;
             return Some(Hover {
@@ -319,7 +322,7 @@ impl FileAnalysis {
         {
             return Some(e.markdown());
         }
-        if matches!(text, "derive" | "sample")
+        if matches!(text, "derive" | "sample" | "shape")
             && let Some(e) = docs::lookup(text, DocKind::ModeValue)
         {
             return Some(e.markdown());
@@ -337,6 +340,10 @@ impl FileAnalysis {
             }
             if self.in_material(span.start) {
                 return docs::lookup(text, DocKind::MaterialProp).map(|e| e.markdown());
+            }
+            // A shape system's own setting (`lot`).
+            if self.shape_system_at(span.start).is_some() {
+                return docs::lookup(text, DocKind::Setting).map(|e| e.markdown());
             }
         }
         None

@@ -37,6 +37,7 @@ mod hints;
 mod hover;
 mod nav;
 mod outline;
+mod shape;
 mod tokens;
 
 pub use actions::CodeAction;

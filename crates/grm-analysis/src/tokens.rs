@@ -4,6 +4,7 @@
 //! type annotation).
 
 use crate::docs::{self, DocKind};
+use crate::shape::Role;
 use crate::{FileAnalysis, Span};
 use grm_sema::{Def, SymbolKind};
 use grm_syntax::lexer::TokKind;
@@ -40,6 +41,14 @@ pub enum TokenKind {
     Punctuation,
     /// A name the checker could not resolve.
     Unresolved,
+    /// A word from a fixed set that an operation takes: an axis (`x`,
+    /// `xy`), a component kind or selector (`faces`, `front`), a roof kind
+    /// (`hip`), a primitive of `insert` (`box`).
+    EnumMember,
+    /// A semantic tag of a shape command (`split(y, floor)`, `tagged(floor)`).
+    Tag,
+    /// A value of the shape being rewritten (`scope`, `index`, `count`, `depth`).
+    ShapeValue,
 }
 
 /// Token modifiers.
@@ -72,6 +81,9 @@ impl FileAnalysis {
         // Refs of this file, in order: walk them alongside the tokens.
         let start = refs.partition_point(|r| r.loc.file < self.root);
         let mut ri = start;
+        // The words of shape systems, walked alongside the tokens too.
+        let sites = self.shape_sites();
+        let mut si = 0;
         for (i, &(kind, span)) in self.tokens().iter().enumerate() {
             while let Some(c) = comments.next_if(|c| c.span.start < span.start) {
                 out.push(tok(c.span, TokenKind::Comment, TokenModifier::default()));
@@ -87,9 +99,14 @@ impl FileAnalysis {
                 .filter(|r| r.loc.file == self.root && r.loc.span == span);
             let prev = i.checked_sub(1).map(|j| self.tokens()[j].0);
             let next = self.tokens().get(i + 1).map(|t| t.0);
-            let (k, m) = match r {
-                Some(r) => classify_def(p, r.def, r.is_def),
-                None => self.classify_plain(kind, span, prev, next),
+            while si < sites.len() && sites[si].span.start < span.start {
+                si += 1;
+            }
+            let site = sites.get(si).filter(|s| s.span == span).map(|s| s.role);
+            let (k, m) = match (site, r) {
+                (Some(role), r) if !role.weak() || r.is_none() => classify_site(role),
+                (_, Some(r)) => classify_def(p, r.def, r.is_def),
+                (_, None) => self.classify_plain(kind, span, prev, next),
             };
             out.push(tok(span, k, m));
         }
@@ -148,7 +165,7 @@ impl FileAnalysis {
                     && matches!(prev, Some(T::Semi | T::LBrace | T::RBrace) | None)
                 {
                     (TokenKind::Property, lib)
-                } else if matches!(text, "derive" | "sample") && prev == Some(T::Assign) {
+                } else if matches!(text, "derive" | "sample" | "shape") && prev == Some(T::Assign) {
                     (TokenKind::Keyword, none)
                 } else if docs::lookup(text, DocKind::Terminal).is_some() {
                     (TokenKind::Turtle, lib)
@@ -168,6 +185,39 @@ fn tok(span: Span, kind: TokenKind, modifiers: TokenModifier) -> SemanticToken {
         span,
         kind,
         modifiers,
+    }
+}
+
+/// A word of a shape system (see [`crate::shape`]).
+fn classify_site(role: Role) -> (TokenKind, TokenModifier) {
+    let lib = TokenModifier {
+        default_library: true,
+        ..TokenModifier::default()
+    };
+    match role {
+        Role::Op | Role::ValueFn | Role::Lot => (
+            if role == Role::Op {
+                TokenKind::Turtle
+            } else {
+                TokenKind::Function
+            },
+            lib,
+        ),
+        Role::Axis | Role::CompKind | Role::Selector | Role::RoofKind | Role::Primitive => {
+            (TokenKind::EnumMember, lib)
+        }
+        Role::Tag => (TokenKind::Tag, TokenModifier::default()),
+        Role::Nil => (TokenKind::Keyword, TokenModifier::default()),
+        Role::Tilde | Role::Percent => (TokenKind::Operator, TokenModifier::default()),
+        Role::PartPunct => (TokenKind::Punctuation, TokenModifier::default()),
+        Role::Value => (
+            TokenKind::ShapeValue,
+            TokenModifier {
+                readonly: true,
+                ..lib
+            },
+        ),
+        Role::Symbol => (TokenKind::Module, TokenModifier::default()),
     }
 }
 

@@ -116,6 +116,9 @@ pub const TOKEN_TYPES: &[(an::TokenKind, &str)] = &[
     (an::TokenKind::Type, "type"),
     (an::TokenKind::Punctuation, "punctuation"),
     (an::TokenKind::Unresolved, "variable"),
+    (an::TokenKind::EnumMember, "enumMember"),
+    (an::TokenKind::Tag, "decorator"),
+    (an::TokenKind::ShapeValue, "variable"),
 ];
 
 /// Token modifiers: bit 0 declaration, 1 readonly, 2 defaultLibrary.

@@ -226,3 +226,54 @@ impl Client {
 pub fn at(u: &Uri, p: Value) -> Value {
     json!({ "textDocument": { "uri": u }, "position": p })
 }
+
+/// Decode LSP semantic tokens into lines of `line:col len type [mods] text`.
+pub fn decode_tokens(text: &str, legend: &Value, data: &Value) -> String {
+    use std::fmt::Write as _;
+    let types: Vec<&str> = legend["tokenTypes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t.as_str().unwrap())
+        .collect();
+    let mods: Vec<&str> = legend["tokenModifiers"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t.as_str().unwrap())
+        .collect();
+    let d: Vec<u64> = data
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_u64().unwrap())
+        .collect();
+    let lines: Vec<Vec<u16>> = text
+        .split('\n')
+        .map(|l| l.encode_utf16().collect())
+        .collect();
+    let (mut line, mut col) = (0u64, 0u64);
+    let mut out = String::new();
+    for t in d.chunks(5) {
+        if t[0] > 0 {
+            line += t[0];
+            col = t[1];
+        } else {
+            col += t[1];
+        }
+        let l = &lines[line as usize];
+        let s = String::from_utf16_lossy(&l[col as usize..(col + t[2]) as usize]);
+        let m: Vec<&str> = (0..mods.len())
+            .filter(|b| t[4] & (1 << b) != 0)
+            .map(|b| mods[b])
+            .collect();
+        let _ = writeln!(
+            out,
+            "{line}:{col} {} {} [{}] {s}",
+            t[2],
+            types[t[3] as usize],
+            m.join(",")
+        );
+    }
+    out
+}
