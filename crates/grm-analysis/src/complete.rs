@@ -707,7 +707,7 @@ fn names_in(roots: Vec<&Expr>) -> Vec<&str> {
             ExprKind::Field { base, .. } => stack.push(base),
             ExprKind::If { cond, then, els } => stack.extend([&**cond, &**then, &**els]),
             ExprKind::Paren(inner) => stack.push(inner),
-            ExprKind::Number { .. } | ExprKind::Bool(_) | ExprKind::Error => {}
+            ExprKind::Number { .. } | ExprKind::Bool(_) | ExprKind::Str(_) | ExprKind::Error => {}
         }
     }
     out

@@ -272,7 +272,7 @@ fn sys_item(i: &mut SystemItem) {
 fn expr(e: &mut Expr) {
     e.span = Z;
     match &mut e.kind {
-        ExprKind::Number { .. } | ExprKind::Bool(_) | ExprKind::Error => {}
+        ExprKind::Number { .. } | ExprKind::Bool(_) | ExprKind::Str(_) | ExprKind::Error => {}
         ExprKind::Name(n) => ident(n),
         ExprKind::Call { func, args } => {
             ident(func);

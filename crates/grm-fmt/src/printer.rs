@@ -764,6 +764,10 @@ impl<'a> Printer<'a> {
         match &e.kind {
             ExprKind::Number { text, .. } => self.word(e.span.start, text),
             ExprKind::Bool(b) => self.word(e.span.start, if *b { "true" } else { "false" }),
+            ExprKind::Str(value) => self.strlit(&grm_syntax::ast::StrLit {
+                value: value.clone(),
+                span: e.span,
+            }),
             ExprKind::Name(n) => self.ident(n),
             ExprKind::Call { func, args } => {
                 self.ident(func);
@@ -832,6 +836,7 @@ fn level(e: &Expr) -> u8 {
         ExprKind::Field { .. } => POSTFIX,
         ExprKind::Number { .. }
         | ExprKind::Bool(_)
+        | ExprKind::Str(_)
         | ExprKind::Name(_)
         | ExprKind::Call { .. }
         | ExprKind::Paren(_)

@@ -87,7 +87,10 @@ pub(crate) fn count_names(files: &[LoadedFile]) -> usize {
                     | ExprKind::Paren(a) => exprs.push(a),
                     ExprKind::Binary { lhs, rhs, .. } => exprs.extend([&**lhs, &**rhs]),
                     ExprKind::If { cond, then, els } => exprs.extend([&**cond, &**then, &**els]),
-                    ExprKind::Number { .. } | ExprKind::Bool(_) | ExprKind::Error => {}
+                    ExprKind::Number { .. }
+                    | ExprKind::Bool(_)
+                    | ExprKind::Str(_)
+                    | ExprKind::Error => {}
                 }
             }
         }
@@ -1253,7 +1256,7 @@ fn names_rec<'e>(e: &'e Expr, out: &mut Vec<&'e ast::Ident>, depth: u32) {
             names_rec(els, out, d);
         }
         ExprKind::Paren(inner) => names_rec(inner, out, d),
-        ExprKind::Number { .. } | ExprKind::Bool(_) | ExprKind::Error => {}
+        ExprKind::Number { .. } | ExprKind::Bool(_) | ExprKind::Str(_) | ExprKind::Error => {}
     }
 }
 
@@ -1278,7 +1281,7 @@ fn error_rec(e: &Expr, depth: u32) -> bool {
             error_rec(cond, d) || error_rec(then, d) || error_rec(els, d)
         }
         ExprKind::Paren(inner) => error_rec(inner, d),
-        ExprKind::Number { .. } | ExprKind::Bool(_) | ExprKind::Name(_) => false,
+        ExprKind::Number { .. } | ExprKind::Bool(_) | ExprKind::Str(_) | ExprKind::Name(_) => false,
     }
 }
 

@@ -158,6 +158,20 @@ impl Checker<'_> {
         match &e.kind {
             ExprKind::Number { value, .. } => TExpr::lit(Value::Float(*value), span),
             ExprKind::Bool(b) => TExpr::lit(Value::Bool(*b), span),
+            ExprKind::Str(_) => {
+                self.error(
+                    Diagnostic::new(
+                        Code::TypeMismatch,
+                        "a string is not a value",
+                        file,
+                        span,
+                        "a string",
+                    )
+                    .with_note("strings name files: `import`, `mesh`, a shape system's `lot` and `texture`")
+                    .with_help("write a number, a vector or a name"),
+                );
+                TExpr::error(span)
+            }
             ExprKind::Paren(inner) => self.expr(inner, sc),
             ExprKind::Error => TExpr::error(span),
             ExprKind::Name(id) => {

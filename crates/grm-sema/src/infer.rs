@@ -186,7 +186,7 @@ impl Infer {
         match &e.kind {
             ExprKind::Number { .. } => It::K(Ty::Float),
             ExprKind::Bool(_) => It::K(Ty::Bool),
-            ExprKind::Error => It::Any,
+            ExprKind::Error | ExprKind::Str(_) => It::Any,
             ExprKind::Paren(inner) => self.expr_at(inner, lookup, d),
             ExprKind::Name(id) => lookup(&id.name),
             ExprKind::Unary { op, operand } => {

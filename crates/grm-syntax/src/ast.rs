@@ -341,7 +341,11 @@ impl Drop for Expr {
     fn drop(&mut self) {
         if matches!(
             self.kind,
-            ExprKind::Number { .. } | ExprKind::Bool(_) | ExprKind::Name(_) | ExprKind::Error
+            ExprKind::Number { .. }
+                | ExprKind::Bool(_)
+                | ExprKind::Str(_)
+                | ExprKind::Name(_)
+                | ExprKind::Error
         ) {
             return;
         }
@@ -363,6 +367,10 @@ pub enum ExprKind {
         text: Name,
     },
     Bool(bool),
+    /// A string literal, unescaped: a file name where one is taken (a
+    /// shape system's `lot = "block.geojson";`, `texture("brick.png")`);
+    /// not a value anywhere else.
+    Str(String),
     /// A constant, meta-parameter, module parameter, mesh or material name.
     Name(Ident),
     /// `f(a, b)`: built-in functions and random draws.
@@ -406,7 +414,11 @@ impl ExprKind {
             ExprKind::Field { base, .. } => out.push(*base),
             ExprKind::If { cond, then, els } => out.extend([*cond, *then, *els]),
             ExprKind::Paren(inner) => out.push(*inner),
-            ExprKind::Number { .. } | ExprKind::Bool(_) | ExprKind::Name(_) | ExprKind::Error => {}
+            ExprKind::Number { .. }
+            | ExprKind::Bool(_)
+            | ExprKind::Str(_)
+            | ExprKind::Name(_)
+            | ExprKind::Error => {}
         }
     }
 }

@@ -1215,9 +1215,11 @@ fn children(e: &Expr) -> Vec<&Expr> {
         ExprKind::Field { base, .. } => vec![base],
         ExprKind::If { cond, then, els } => vec![cond, then, els],
         ExprKind::Paren(inner) => vec![inner],
-        ExprKind::Number { .. } | ExprKind::Bool(_) | ExprKind::Name(_) | ExprKind::Error => {
-            Vec::new()
-        }
+        ExprKind::Number { .. }
+        | ExprKind::Bool(_)
+        | ExprKind::Str(_)
+        | ExprKind::Name(_)
+        | ExprKind::Error => Vec::new(),
     }
 }
 

@@ -234,10 +234,13 @@ impl<'c, 'a> ShapeCheck<'c, 'a> {
         };
         let v = &set.value;
         let span = v.span;
+        if let ExprKind::Str(written) = &v.kind {
+            return self.lot_file(written, span);
+        }
         let bad = |this: &mut Self, msg: String, label: &str| {
             this.err(
                 Diagnostic::new(Code::BadLot, msg, this.file, span, label.to_string()).with_help(
-                    "write `lot = rect(width, depth);` or `lot = polygon(x0, y0, x1, y1, x2, y2, ...);`",
+                    "write `lot = rect(width, depth);`, `lot = polygon(x0, y0, x1, y1, x2, y2, ...);` or `lot = \"footprint.geojson\";`",
                 ),
             );
         };
@@ -805,10 +808,13 @@ impl<'c, 'a> ShapeCheck<'c, 'a> {
             "insert" => OpKind::Insert(self.asset(&a[0])?),
             "material" => OpKind::Material(self.material(&a[0])?),
             "color" => OpKind::Color(self.color(a, span)),
-            "texture" => {
-                let id = self.plain_name(&a[0], "an image name")?;
-                OpKind::Texture(id.name.to_string())
-            }
+            "texture" => match &a[0].kind {
+                ExprKind::Str(path) => OpKind::Texture(path.clone()),
+                _ => {
+                    let id = self.plain_name(&a[0], "an image file name (`\"brick.png\"`)")?;
+                    OpKind::Texture(id.name.to_string())
+                }
+            },
             "split" | "repeat" => {
                 let axis = self.named(&a[0], "axis", Axis::from_name, ["x", "y", "z"].into_iter());
                 let tag = a.get(1).and_then(|t| self.tag(t));

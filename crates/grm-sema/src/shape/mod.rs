@@ -26,8 +26,9 @@ use grm_syntax::ast::Name;
 
 use crate::program::{MaterialId, MeshId, TExpr};
 
+pub use check::lot_rings;
 pub use grm_syntax::ast::PartKind;
-pub use lot::{LotKind, ShapeLot};
+pub use lot::{LotKind, Rings, ShapeLot, footprint_problem};
 
 /// A value of the shape being rewritten, read by an expression of a
 /// shape rule ([`crate::TExprKind::Shape`]).
