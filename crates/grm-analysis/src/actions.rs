@@ -7,11 +7,14 @@ use grm_diag::Code;
 use grm_syntax::ast::{Item, Phase, SystemItem};
 use grm_syntax::lexer::TokKind;
 
-/// A quick fix: edits of the analysed file that resolve one diagnostic.
+/// A quick fix: edits of the analysed file that resolve one diagnostic,
+/// or (with an empty `code`) a suggestion such as a shape command's
+/// semantic tag (`crate::tags`).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct CodeAction {
     pub title: String,
-    /// The code and primary span of the diagnostic it fixes.
+    /// The code and primary span of the diagnostic it fixes (empty, and
+    /// the span it is about, for a suggestion that fixes none).
     pub code: &'static str,
     pub diagnostic: Span,
     pub edits: Vec<TextEdit>,
@@ -419,6 +422,8 @@ impl FileAnalysis {
                 );
             }
         }
+        // Semantic tags for shape commands (no diagnostic).
+        out.extend(self.tag_actions(range));
         out
     }
 

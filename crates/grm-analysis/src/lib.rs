@@ -38,6 +38,7 @@ mod hover;
 mod nav;
 mod outline;
 mod shape;
+mod tags;
 mod tokens;
 
 pub use actions::CodeAction;
@@ -46,6 +47,7 @@ pub use hints::{InlayHint, InlayHintKind};
 pub use hover::Hover;
 pub use nav::RenameError;
 pub use outline::{FoldKind, FoldingRange, SymbolKind, SymbolNode, WorkspaceSymbol};
+pub use tags::{COLUMN_WIDTH, FLOOR_HEIGHT, TagSuggestion};
 pub use tokens::{SemanticToken, TokenKind, TokenModifier};
 
 use grm_diag::{FileId, SourceMap};

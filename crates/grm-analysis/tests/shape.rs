@@ -331,3 +331,154 @@ fn formatting_a_shape_system() {
     );
     assert!(analyze(&out).format().unwrap().is_none(), "idempotent");
 }
+
+/// The townhouse of docs/language.md without its tags.
+const UNTAGGED: &str = "system Townhouse {
+    mode = shape;
+    lot = rect(24, 10);
+    axiom Lot;
+    Lot -> extrude(12.8) Mass;
+    Mass -> comp(faces) { front: Facade | side: Wall | top: Roof };
+    Roof -> roof(hip, 30, 0.4);
+    Facade -> split(y) { 4: Ground | ~1: Upper };
+    Upper -> repeat(y) { 3.2: Floor };
+    Floor -> repeat(x) { ~3: Tile };
+    Tile -> split(x) { ~1: Wall | 1.2: Window | ~1: Wall };
+    Window -> split(y) { 0.9: Sill | ~1: Glass };
+}
+";
+
+fn suggested(text: &str) -> Vec<(String, &'static str)> {
+    analyze(text)
+        .tag_suggestions()
+        .into_iter()
+        .map(|s| (s.written, s.tag))
+        .collect()
+}
+
+/// Apply text edits (any order, not overlapping).
+fn apply(text: &str, edits: &[TextEdit]) -> String {
+    let mut es = edits.to_vec();
+    es.sort_by_key(|e| std::cmp::Reverse(e.span.start));
+    let mut s = text.to_string();
+    for e in es {
+        s.replace_range(e.span.range(), &e.new_text);
+    }
+    s
+}
+
+#[test]
+fn tags_are_suggested_by_lipps_heuristic() {
+    // The comp of the mass is the facades, the vertical repeat of single
+    // floors (not the ground/upper split above it) the floors, the
+    // repeat of 3-unit tiles along x the columns; the tile's split
+    // (1.2-unit window) and the window's (0.9-unit sill) are within one
+    // column and one floor.
+    assert_eq!(
+        suggested(UNTAGGED),
+        [
+            ("comp(faces)".to_string(), "facade"),
+            ("repeat(y)".to_string(), "floor"),
+            ("repeat(x)".to_string(), "column"),
+        ]
+    );
+}
+
+#[test]
+fn applying_every_suggestion_leaves_nothing_to_suggest_and_no_warning() {
+    let fa = analyze(UNTAGGED);
+    let before: Vec<&str> = fa.diagnostics().iter().map(|d| d.code).collect();
+    let all = fa.code_actions(Span::new(0, UNTAGGED.len() as u32));
+    let every = all
+        .iter()
+        .find(|a| a.title == "Add the 3 suggested semantic tags")
+        .expect("an action for all of them");
+    assert_eq!(every.code, "");
+    let tagged = apply(UNTAGGED, &every.edits);
+    assert!(tagged.contains("comp(faces, facade) {"), "{tagged}");
+    assert!(tagged.contains("repeat(y, floor) {"), "{tagged}");
+    assert!(tagged.contains("repeat(x, column) {"), "{tagged}");
+    let after = analyze(&tagged);
+    let codes: Vec<&str> = after.diagnostics().iter().map(|d| d.code).collect();
+    assert_eq!(
+        codes, before,
+        "no new diagnostic (W0501: a tag twice on one path)"
+    );
+    assert!(after.tag_suggestions().is_empty());
+    assert!(
+        after.format().unwrap().is_none(),
+        "formatted as the formatter writes it"
+    );
+}
+
+#[test]
+fn one_quick_fix_per_command_under_the_cursor() {
+    let fa = analyze(UNTAGGED);
+    let o = at(UNTAGGED, "repeat(y)", 0, 3);
+    let acts = fa.code_actions(Span::new(o, o));
+    let titles: Vec<&str> = acts.iter().map(|a| a.title.as_str()).collect();
+    assert_eq!(
+        titles,
+        [
+            "Tag `repeat(y)` as `floor`",
+            "Add the 3 suggested semantic tags"
+        ]
+    );
+    let fixed = apply(UNTAGGED, &acts[0].edits);
+    assert!(fixed.contains("Upper -> repeat(y, floor) { 3.2: Floor };"));
+    // Nothing on a command with no suggestion, nor on the rule's symbol.
+    let o = at(UNTAGGED, "split(x)", 0, 1);
+    assert!(fa.code_actions(Span::new(o, o)).is_empty());
+    // A derive system has none.
+    let d = "system D { axiom A; A -> F A; }";
+    assert!(
+        analyze(d)
+            .code_actions(Span::new(0, d.len() as u32))
+            .is_empty()
+    );
+}
+
+#[test]
+fn a_tag_is_never_suggested_twice_on_one_path() {
+    // Written above: the repeat below gets no second floor.
+    let t = UNTAGGED.replace("split(y) { 4:", "split(y, floor) { 4:");
+    assert_eq!(
+        suggested(&t),
+        [
+            ("comp(faces)".to_string(), "facade"),
+            ("repeat(x)".to_string(), "column")
+        ]
+    );
+    // Written below: the split above is not suggested either (nor is the
+    // repeat, already tagged).
+    let t = UNTAGGED.replace("repeat(y) {", "repeat(y, floor) {");
+    assert!(!suggested(&t).iter().any(|s| s.1 == "floor"));
+    // A command that reaches itself would carry its tag twice.
+    let t = "system S {\n    mode = shape;\n    axiom Lot;\n    Lot -> extrude(30) comp(faces) { side: Floors };\n    Floors -> split(y) { 3: Floor | ~1: Floors };\n}\n";
+    assert_eq!(suggested(t), [("comp(faces)".to_string(), "facade")]);
+}
+
+#[test]
+fn floors_of_a_mass_run_along_z() {
+    let t = "system S {\n    mode = shape;\n    axiom Lot;\n    Lot -> extrude(30) Mass;\n    Mass -> split(z) { 4: Base | ~1: Tower };\n    Tower -> repeat(z) { 3.5: Storey };\n    Storey -> comp(faces) { side: Wall | top: nil };\n    Base -> split(y) { 5: Wing | ~1: Court };\n}\n";
+    // The storeys (deepest), their facades; a mass's y split is no floor.
+    assert_eq!(
+        suggested(t),
+        [
+            ("repeat(z)".to_string(), "floor"),
+            ("comp(faces)".to_string(), "facade")
+        ]
+    );
+}
+
+#[test]
+fn kinds_that_disagree_get_no_tag() {
+    // `Part` is a wall (from the comp) and a footprint (the axiom's own
+    // split): its y axis is up on one path and not on the other.
+    let t = "system S {\n    mode = shape;\n    axiom Part;\n    Part -> split(y) { 4: Part2 | ~1: Mass };\n    Mass -> extrude(9) comp(faces) { side: Part };\n}\n";
+    let s = suggested(t);
+    assert!(!s.iter().any(|x| x.1 == "floor"), "{s:?}");
+    // Facade rules on their own count as a facade's.
+    let t = "system S {\n    mode = shape;\n    axiom F;\n    G -> repeat(y) { 3: Fl };\n}\n";
+    assert_eq!(suggested(t), [("repeat(y)".to_string(), "floor")]);
+}

@@ -333,34 +333,6 @@ async fn formatting() {
     snap!("formatting", out);
 }
 
-/// Apply LSP text edits to a text.
-fn apply(text: &str, edits: &[Value]) -> String {
-    let src = grm_diag::SourceFile::new("", text);
-    let mut es: Vec<(u32, u32, String)> = edits
-        .iter()
-        .map(|e| {
-            let r = &e["range"];
-            let o = |p: &Value| {
-                src.offset_of_utf16(
-                    p["line"].as_u64().unwrap() as u32,
-                    p["character"].as_u64().unwrap() as u32,
-                )
-            };
-            (
-                o(&r["start"]),
-                o(&r["end"]),
-                e["newText"].as_str().unwrap().to_string(),
-            )
-        })
-        .collect();
-    es.sort_by_key(|e| std::cmp::Reverse(e.0));
-    let mut s = text.to_string();
-    for (a, b, t) in es {
-        s.replace_range(a as usize..b as usize, &t);
-    }
-    s
-}
-
 #[tokio::test]
 async fn code_actions() {
     let mut c = Client::start().await;

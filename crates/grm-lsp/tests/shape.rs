@@ -143,3 +143,47 @@ async fn shape_formatting() {
     out.push_str(&formatted);
     snap!("shape_formatting", out);
 }
+
+#[tokio::test]
+async fn shape_code_actions() {
+    let mut c = Client::start().await;
+    let (p, text) = fixture("shape_untagged.grm");
+    let u = c.open(&p, &text).await;
+    let key = serde_json::to_value(&u).unwrap();
+    let key = key.as_str().unwrap().to_string();
+    let mut out = String::new();
+    for (what, needle) in [
+        ("the component split", "comp(faces)"),
+        ("the vertical repeat", "repeat(y)"),
+        ("the tile's split", "split(x)"),
+    ] {
+        let at = pos(&text, needle, 0, 1);
+        let r = c
+            .ok(
+                "textDocument/codeAction",
+                json!({ "textDocument": { "uri": u }, "range": { "start": at, "end": at }, "context": { "diagnostics": [] } }),
+            )
+            .await;
+        let _ = writeln!(out, "## {what}");
+        for a in r.as_array().unwrap() {
+            let edits = a["edit"]["changes"][&key].as_array().unwrap();
+            let fixed = apply(&text, edits);
+            let changed: Vec<String> = fixed
+                .lines()
+                .filter(|l| !text.lines().any(|o| o == *l))
+                .map(|l| format!("    + {l}"))
+                .collect();
+            let _ = writeln!(
+                out,
+                "{} [{}] preferred={} diagnostics={}\n{}",
+                a["title"].as_str().unwrap(),
+                a["kind"].as_str().unwrap(),
+                a["isPreferred"],
+                a["diagnostics"],
+                changed.join("\n")
+            );
+        }
+        out.push('\n');
+    }
+    snap!("shape_code_actions", out);
+}
