@@ -713,7 +713,7 @@ fn names_in(roots: Vec<&Expr>) -> Vec<&str> {
     out
 }
 
-fn keyword(kw: &str) -> CompletionItem {
+pub(crate) fn keyword(kw: &str) -> CompletionItem {
     let mut item = CompletionItem::new(kw, CompletionKind::Keyword);
     if let Some(e) = docs::lookup(kw, DocKind::Keyword) {
         item = item.doc(e.markdown());
