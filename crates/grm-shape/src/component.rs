@@ -26,17 +26,18 @@
 
 use crate::geometry::{Geom, Outline};
 use crate::ir::{CompTarget, Selector};
+use crate::roof::{FaceKind, Roof, newell};
 use crate::scope::Scope;
-use glam::{Mat3, Vec3};
+use glam::{DVec3, Mat3, Vec3};
 use std::sync::Arc;
 
 /// Which selectors (besides `all`) take a component: a bit per
 /// [`Selector`] variant.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Classes(u8);
+pub struct Classes(u16);
 
 impl Classes {
-    fn bit(s: Selector) -> u8 {
+    fn bit(s: Selector) -> u16 {
         match s {
             Selector::Front => 1,
             Selector::Back => 2,
@@ -46,11 +47,23 @@ impl Classes {
             Selector::Top => 32,
             Selector::Bottom => 64,
             Selector::All => 0,
+            Selector::Slope => 128,
+            Selector::Gable => 256,
+            Selector::Eave => 512,
+            Selector::Ridge => 1024,
+            Selector::Hip => 2048,
+            Selector::Valley => 4096,
+            Selector::Rake => 8192,
         }
     }
 
     fn of(sel: &[Selector]) -> Classes {
         Classes(sel.iter().fold(0, |a, &s| a | Self::bit(s)))
+    }
+
+    /// These and `s`, if any.
+    fn with(self, s: Option<Selector>) -> Classes {
+        Classes(self.0 | s.map_or(0, Self::bit))
     }
 
     /// Whether `selector` takes this component.
@@ -91,6 +104,15 @@ pub fn components(
     geometry: &Geom,
     target: CompTarget,
 ) -> Result<Vec<Component>, NotApplicable> {
+    if let Geom::Roof(o) = geometry {
+        let roof = o.roof().ok_or(NotApplicable)?;
+        let mut out = Vec::new();
+        match target {
+            CompTarget::Faces => roof_faces(scope, roof, &mut out),
+            CompTarget::Edges => roof_edges(scope, roof, &mut out),
+        }
+        return Ok(out);
+    }
     let rings = rings_of(scope, geometry).ok_or(NotApplicable)?;
     let mut out = Vec::new();
     match (target, geometry.is_mass()) {
@@ -111,7 +133,7 @@ fn rings_of(scope: &Scope, geometry: &Geom) -> Option<Vec<Vec<[f64; 2]>>> {
             vec![vec![[0.0, 0.0], [x, 0.0], [x, y], [0.0, y]]]
         }
         Geom::Prism(o) | Geom::Polygon(o) => o.rings().collect(),
-        Geom::Edge => return None,
+        Geom::Edge | Geom::Roof(_) => return None,
     };
     let scale = f64::from(scope.size.x.max(scope.size.y)).max(1.0);
     Some(
@@ -122,7 +144,7 @@ fn rings_of(scope: &Scope, geometry: &Geom) -> Option<Vec<Vec<[f64; 2]>>> {
     )
 }
 
-fn canonical(ring: Vec<[f64; 2]>, scale: f64) -> Vec<[f64; 2]> {
+pub(crate) fn canonical(ring: Vec<[f64; 2]>, scale: f64) -> Vec<[f64; 2]> {
     let tol = 1e-9 * scale * scale;
     // Merge straight runs and drop repeated points.
     let mut pts: Vec<[f64; 2]> = Vec::with_capacity(ring.len());
@@ -340,6 +362,191 @@ pub fn outline_of(scope: &Scope, geometry: &Geom) -> Option<Outline> {
             f64::from(scope.size.y),
         )),
         Geom::Prism(o) | Geom::Polygon(o) => Some((**o).clone()),
-        Geom::Edge => None,
+        Geom::Edge | Geom::Roof(_) => None,
+    }
+}
+
+fn v3(p: [f64; 3]) -> DVec3 {
+    DVec3::new(p[0], p[1], p[2])
+}
+
+/// A frame from f64 axes (orthonormal) at the roof-local point `origin`.
+fn roof_frame(scope: &Scope, origin: DVec3, x: DVec3, y: DVec3, z: DVec3, size: Vec3) -> Scope {
+    local_frame(
+        scope,
+        origin.as_vec3(),
+        x.as_vec3(),
+        y.as_vec3(),
+        z.as_vec3(),
+        size,
+    )
+}
+
+/// The facing of a horizontal direction (`None` when it has none).
+fn facing_of(d: DVec3) -> Option<Selector> {
+    let h = DVec3::new(d.x, d.y, 0.0);
+    (h.length() > 1e-6).then(|| wall_facing(h.normalize().as_vec3()))
+}
+
+/// A roof's faces, in its order (faces by footprint edge, then the
+/// bottom): a slope is `slope` and faces the way its outward normal leans;
+/// a gable end `gable`, `side` and its facing; a flat roof's face `top`; the
+/// underside `bottom`. A sloped or vertical face's scope has its origin at
+/// a corner, x along its eave (its first edge), y up the face and z its
+/// outward normal; a flat face's and the bottom's axes are as a mass's top
+/// and bottom.
+fn roof_faces(scope: &Scope, roof: &Roof, out: &mut Vec<Component>) {
+    for face in roof.faces() {
+        let pts: Vec<DVec3> = roof.face_points(face).into_iter().map(v3).collect();
+        let normal = v3(newell(&roof.face_points(face)));
+        let Some(z) = normal.try_normalize() else {
+            continue;
+        };
+        let (x, y, z) = match face.kind {
+            FaceKind::Flat => (DVec3::X, DVec3::Y, DVec3::Z),
+            FaceKind::Bottom => (DVec3::X, -DVec3::Y, -DVec3::Z),
+            FaceKind::Slope | FaceKind::Gable => {
+                let e = pts[1] - pts[0];
+                let Some(x) = (e - z * e.dot(z)).try_normalize() else {
+                    continue;
+                };
+                (x, z.cross(x), z)
+            }
+        };
+        let local: Vec<[f64; 2]> = pts
+            .iter()
+            .map(|p| [(*p - pts[0]).dot(x), (*p - pts[0]).dot(y)])
+            .collect();
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for p in &local {
+            for k in 0..2 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let moved: Vec<[f64; 2]> = local.iter().map(|p| [p[0] - lo[0], p[1] - lo[1]]).collect();
+        let Ok(outline) = Outline::from_ring(&moved) else {
+            continue;
+        };
+        let size = Vec3::new((hi[0] - lo[0]) as f32, (hi[1] - lo[1]) as f32, 0.0);
+        let facing = facing_of(z);
+        let classes = match face.kind {
+            FaceKind::Slope => Classes::of(&[Selector::Slope]).with(facing),
+            FaceKind::Gable => Classes::of(&[Selector::Gable, Selector::Side]).with(facing),
+            FaceKind::Flat => Classes::of(&[Selector::Top]),
+            FaceKind::Bottom => Classes::of(&[Selector::Bottom]),
+        };
+        out.push(Component {
+            classes,
+            scope: roof_frame(scope, pts[0] + x * lo[0] + y * lo[1], x, y, z, size),
+            geometry: Geom::from_outline(outline, size.x, size.y, false),
+        });
+    }
+}
+
+/// A roof's edges, each once, in the order the faces meet them: a
+/// horizontal edge at the eaves is `bottom` (and `eave` under a slope or a
+/// flat roof; and faces the way its face does); a horizontal edge above
+/// them `ridge`; an inclined edge beside a gable end `rake`, else `hip`
+/// where the two slopes meet convex and `valley` where they meet concave.
+/// An edge's scope: origin at its start, x along it, z the mean of its
+/// faces' outward normals.
+fn roof_edges(scope: &Scope, roof: &Roof, out: &mut Vec<Component>) {
+    let points = roof.points();
+    let (lo, hi) = roof.bounds();
+    let tol = 1e-6
+        * (hi[0] - lo[0])
+            .max(hi[1] - lo[1])
+            .max(hi[2] - lo[2])
+            .max(1.0);
+    // Each edge: its ends as first walked, and its faces.
+    let mut edges: Vec<(u32, u32, Vec<usize>)> = Vec::new();
+    let mut seen = std::collections::HashMap::new();
+    for (fi, face) in roof.faces().iter().enumerate() {
+        let n = face.vertices.len();
+        for k in 0..n {
+            let (a, b) = (face.vertices[k], face.vertices[(k + 1) % n]);
+            if a == b {
+                continue;
+            }
+            let key = (a.min(b), a.max(b));
+            match seen.get(&key) {
+                Some(&i) => {
+                    let e: &mut (u32, u32, Vec<usize>) = &mut edges[i];
+                    e.2.push(fi);
+                }
+                None => {
+                    seen.insert(key, edges.len());
+                    edges.push((a, b, vec![fi]));
+                }
+            }
+        }
+    }
+    let faces = roof.faces();
+    let normals: Vec<DVec3> = faces
+        .iter()
+        .map(|f| {
+            v3(newell(&roof.face_points(f)))
+                .try_normalize()
+                .unwrap_or(DVec3::Z)
+        })
+        .collect();
+    for (a, b, adjacent) in edges {
+        let (Some(&pa), Some(&pb)) = (points.get(a as usize), points.get(b as usize)) else {
+            continue;
+        };
+        let (pa, pb) = (v3(pa), v3(pb));
+        let Some(x) = (pb - pa).try_normalize() else {
+            continue;
+        };
+        let len = (pb - pa).length();
+        let upper: Vec<usize> = adjacent
+            .iter()
+            .copied()
+            .filter(|&f| faces[f].kind != FaceKind::Bottom)
+            .collect();
+        let kinds = |k: FaceKind| upper.iter().any(|&f| faces[f].kind == k);
+        let horizontal = (pa.z - pb.z).abs() <= tol;
+        let classes = if horizontal && pa.z.max(pb.z) <= lo[2] + tol {
+            let mut c = Classes::of(&[Selector::Bottom]);
+            if kinds(FaceKind::Slope) || kinds(FaceKind::Flat) {
+                c = c.with(Some(Selector::Eave));
+            }
+            // Outward: along the face, away from it (x cross its normal).
+            let outward = upper.first().map(|&f| x.cross(normals[f]));
+            c.with(outward.and_then(facing_of))
+        } else if horizontal {
+            Classes::of(&[Selector::Ridge])
+        } else if kinds(FaceKind::Gable) {
+            Classes::of(&[Selector::Rake])
+        } else {
+            let concave = match upper.as_slice() {
+                [f1, f2, ..] => {
+                    let c2 = roof
+                        .face_points(&faces[*f2])
+                        .into_iter()
+                        .map(v3)
+                        .fold(DVec3::ZERO, |s, p| s + p)
+                        / faces[*f2].vertices.len().max(1) as f64;
+                    (c2 - pa).dot(normals[*f1]) > tol
+                }
+                _ => false,
+            };
+            Classes::of(&[if concave {
+                Selector::Valley
+            } else {
+                Selector::Hip
+            }])
+        };
+        let mean = upper.iter().fold(DVec3::ZERO, |s, &f| s + normals[f]);
+        let z = (mean - x * mean.dot(x))
+            .try_normalize()
+            .or_else(|| x.any_orthonormal_vector().try_normalize())
+            .unwrap_or(DVec3::Z);
+        out.push(Component {
+            classes,
+            scope: roof_frame(scope, pa, x, z.cross(x), z, Vec3::new(len as f32, 0.0, 0.0)),
+            geometry: Geom::Edge,
+        });
     }
 }

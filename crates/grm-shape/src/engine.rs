@@ -145,7 +145,7 @@ pub fn derive(program: &Program, lot: &Lot, options: &Options) -> Result<ShapeTr
         queries,
     };
     let root = engine(None).axiom(lot);
-    let outline = lot.geometry.outline().map(|o| Arc::new(o.clone()));
+    let outline = lot.geometry.table_entry().cloned();
     let max = options.limits.max_nodes;
     let pass = |engine: &Engine| {
         if threads <= 1 {
@@ -336,6 +336,7 @@ impl Engine<'_> {
                 Geom::Prism(_) => Geometry::Prism(OutlineId(0)),
                 Geom::Polygon(_) => Geometry::Polygon(OutlineId(0)),
                 Geom::Edge => Geometry::Edge,
+                Geom::Roof(_) => Geometry::Roof(OutlineId(0)),
             },
             child_key(root, salt(info.name_hash, 0, 0)),
             0,
@@ -361,6 +362,7 @@ impl Engine<'_> {
         root.geometry = match (root.geometry, &root_outline) {
             (Geometry::Prism(_), Some(_)) => Geometry::Prism(OutlineId(0)),
             (Geometry::Polygon(_), Some(_)) => Geometry::Polygon(OutlineId(0)),
+            (Geometry::Roof(_), Some(_)) => Geometry::Roof(OutlineId(0)),
             (g, _) => g,
         };
         let mut job = Job {
@@ -562,11 +564,11 @@ impl Engine<'_> {
                         geometry = match geometry {
                             Geom::Rect | Geom::Box => Geom::Box,
                             Geom::Polygon(o) | Geom::Prism(o) => Geom::Prism(o),
-                            Geom::Edge => {
+                            Geom::Edge | Geom::Roof(_) => {
                                 return fail(ShapeError::WrongGeometry {
                                     symbol: name(),
                                     op: "extrude",
-                                    geometry: "an edge",
+                                    geometry: geometry.describe(),
                                 });
                             }
                         };
@@ -605,7 +607,16 @@ impl Engine<'_> {
                                 scope.size[i] = v;
                             }
                         }
-                        if let Some(o) = geometry.outline()
+                        if let Geom::Roof(o) = &geometry
+                            && let Some(r) = o.roof()
+                            && f != [1.0; 3]
+                        {
+                            let roof = r.scaled(f);
+                            geometry = Geom::Roof(Arc::new(Outline::with_roof(
+                                roof.base_polygons(),
+                                roof,
+                            )));
+                        } else if let Some(o) = geometry.outline()
                             && (f[0] != 1.0 || f[1] != 1.0)
                         {
                             let scaled = o.scaled(f[0], f[1]);
@@ -649,7 +660,7 @@ impl Engine<'_> {
                             return fail(ShapeError::WrongGeometry {
                                 symbol: name(),
                                 op: "offset",
-                                geometry: "an edge",
+                                geometry: geometry.describe(),
                             });
                         };
                         match outline.offset(f64::from(d)) {
@@ -818,6 +829,30 @@ impl Engine<'_> {
                         let len = out.len() - cmd_at - 1;
                         out[cmd_at].children_offset = 1;
                         out[cmd_at].children_len = len as u32;
+                    }
+                    Op::Roof {
+                        kind,
+                        angle,
+                        overhang,
+                    } => {
+                        let angle = f64::from(finite("a roof angle", num(angle, &scope, site))?);
+                        let d = f64::from(finite("a roof overhang", num(overhang, &scope, site))?);
+                        let kind = *kind;
+                        match crate::roof::on_shape(&scope, &geometry, true, |o| {
+                            crate::roof::build(o, kind, angle, d)
+                        }) {
+                            Ok((sc, g)) => (scope, geometry) = (sc, g),
+                            Err(e) => return fail(roof_error(name(), "roof", &geometry, e)),
+                        }
+                    }
+                    Op::Taper(h) => {
+                        let h = f64::from(finite("a taper height", num(h, &scope, site))?.max(0.0));
+                        match crate::roof::on_shape(&scope, &geometry, false, |o| {
+                            crate::roof::taper(o, h)
+                        }) {
+                            Ok((sc, g)) => (scope, geometry) = (sc, g),
+                            Err(e) => return fail(roof_error(name(), "taper", &geometry, e)),
+                        }
                     }
                     Op::Comp(c) => {
                         too_deep(depth + 2)?;
@@ -1159,6 +1194,24 @@ fn splice(
 
 /// Move a node's outline from a job's table to the final one (the next
 /// entry: one per node, in node order).
+/// The error of a roof or taper that could not be made: the roof's own
+/// reason, or the geometry that takes none.
+fn roof_error(
+    symbol: String,
+    op: &'static str,
+    geometry: &Geom,
+    e: Option<crate::roof::RoofError>,
+) -> ShapeError {
+    match e {
+        Some(error) => ShapeError::Roof { symbol, error },
+        None => ShapeError::WrongGeometry {
+            symbol,
+            op,
+            geometry: geometry.describe(),
+        },
+    }
+}
+
 fn renumber(n: &mut Node, from: &[Arc<Outline>], to: &mut Vec<Arc<Outline>>) {
     if let Some(o) = n.geometry.outline_id()
         && let Some(a) = from.get(o.0 as usize)
@@ -1167,6 +1220,7 @@ fn renumber(n: &mut Node, from: &[Arc<Outline>], to: &mut Vec<Arc<Outline>>) {
             to,
             &match n.geometry {
                 Geometry::Prism(_) => Geom::Prism(Arc::clone(a)),
+                Geometry::Roof(_) => Geom::Roof(Arc::clone(a)),
                 _ => Geom::Polygon(Arc::clone(a)),
             },
         );
@@ -1183,6 +1237,7 @@ fn resolve(outlines: &[Arc<Outline>], g: Geometry) -> Geom {
         Geometry::Edge => Geom::Edge,
         Geometry::Prism(o) => get(o).map_or(Geom::Box, Geom::Prism),
         Geometry::Polygon(o) => get(o).map_or(Geom::Rect, Geom::Polygon),
+        Geometry::Roof(o) => get(o).map_or(Geom::Box, Geom::Roof),
     }
 }
 
@@ -1201,6 +1256,10 @@ fn intern(outlines: &mut Vec<Arc<Outline>>, g: &Geom) -> Geometry {
         Geom::Polygon(o) => {
             outlines.push(Arc::clone(o));
             Geometry::Polygon(OutlineId(outlines.len() as u32 - 1))
+        }
+        Geom::Roof(o) => {
+            outlines.push(Arc::clone(o));
+            Geometry::Roof(OutlineId(outlines.len() as u32 - 1))
         }
     }
 }

@@ -164,6 +164,12 @@ pub enum ShapeError {
     },
     /// `pop` with nothing pushed.
     PopWithoutPush { symbol: String },
+    /// A roof or taper in the rule of `symbol` could not be built on the
+    /// shape's footprint ([`crate::roof`]).
+    Roof {
+        symbol: String,
+        error: crate::roof::RoofError,
+    },
     /// The rules set more than `max` distinct attribute sets (material,
     /// colour, texture; [`crate::attributes`]).
     TooManyAttributes { max: usize },
@@ -203,6 +209,7 @@ impl fmt::Display for ShapeError {
             ShapeError::PopWithoutPush { symbol } => {
                 write!(f, "in the rule of `{symbol}`: pop without a matching push")
             }
+            ShapeError::Roof { symbol, error } => write!(f, "in the rule of `{symbol}`: {error}"),
             ShapeError::TooManyAttributes { max } => write!(
                 f,
                 "the rules set more than {max} distinct materials, colours and textures (use fewer distinct colours)"
@@ -216,6 +223,7 @@ impl std::error::Error for ShapeError {
         match self {
             ShapeError::Program(e) => Some(e),
             ShapeError::Size { error, .. } => Some(error),
+            ShapeError::Roof { error, .. } => Some(error),
             _ => None,
         }
     }

@@ -10,6 +10,7 @@
 //! (facades, floors and tiles never call into `geo`).
 
 use crate::ir::Axis;
+use crate::roof::Roof;
 use crate::scope::Scope;
 use geo::algorithm::buffer::{BufferStyle, LineJoin};
 use geo::orient::{Direction, Orient};
@@ -36,6 +37,9 @@ pub enum Geometry {
     Polygon(OutlineId),
     /// An edge along the scope's x axis.
     Edge,
+    /// A roof or tapered solid: the table entry is its footprint with the
+    /// faces ([`Outline::roof`]).
+    Roof(OutlineId),
 }
 
 impl Geometry {
@@ -45,13 +49,14 @@ impl Geometry {
             Geometry::Box | Geometry::Prism(_) => "a mass",
             Geometry::Rect | Geometry::Polygon(_) => "a face",
             Geometry::Edge => "an edge",
+            Geometry::Roof(_) => "a roof",
         }
     }
 
     /// The outline's index, where there is one.
     pub fn outline_id(&self) -> Option<OutlineId> {
         match *self {
-            Geometry::Prism(o) | Geometry::Polygon(o) => Some(o),
+            Geometry::Prism(o) | Geometry::Polygon(o) | Geometry::Roof(o) => Some(o),
             _ => None,
         }
     }
@@ -74,6 +79,10 @@ pub enum Geom {
     Polygon(Arc<Outline>),
     /// An edge along the scope's x axis (`size.x` is its length).
     Edge,
+    /// A roof or tapered solid ([`crate::roof`]): its footprint outline in
+    /// the scope's xy, carrying the faces ([`Outline::roof`]) in
+    /// scope-local coordinates (eaves at z = 0).
+    Roof(Arc<Outline>),
 }
 
 impl Geom {
@@ -83,6 +92,24 @@ impl Geom {
             Geom::Box | Geom::Prism(_) => "a mass",
             Geom::Rect | Geom::Polygon(_) => "a face",
             Geom::Edge => "an edge",
+            Geom::Roof(_) => "a roof",
+        }
+    }
+
+    /// The roof's faces, for a roof.
+    pub fn roof(&self) -> Option<&Roof> {
+        match self {
+            Geom::Roof(o) => o.roof(),
+            _ => None,
+        }
+    }
+
+    /// The entry of the tree's outline table this geometry keeps, if any
+    /// (a prism's or polygon's outline, a roof's footprint and faces).
+    pub fn table_entry(&self) -> Option<&Arc<Outline>> {
+        match self {
+            Geom::Prism(o) | Geom::Polygon(o) | Geom::Roof(o) => Some(o),
+            _ => None,
         }
     }
 
@@ -108,7 +135,7 @@ impl Geom {
     pub fn area(&self, scope: &Scope) -> f64 {
         match self {
             Geom::Box | Geom::Rect => f64::from(scope.size.x) * f64::from(scope.size.y),
-            Geom::Prism(o) | Geom::Polygon(o) => o.area(),
+            Geom::Prism(o) | Geom::Polygon(o) | Geom::Roof(o) => o.area(),
             Geom::Edge => 0.0,
         }
     }
@@ -117,6 +144,7 @@ impl Geom {
     pub fn volume(&self, scope: &Scope) -> f64 {
         match self {
             Geom::Box | Geom::Prism(_) => self.area(scope) * f64::from(scope.size.z),
+            Geom::Roof(o) => o.roof().map_or(0.0, Roof::volume),
             _ => 0.0,
         }
     }
@@ -133,6 +161,15 @@ impl Geom {
                 let mut size = scope.size;
                 size[axis.index()] = len;
                 Some(Self::from_outline(piece, size.x, size.y, self.is_mass()))
+            }
+            (Geom::Roof(o), _) => {
+                let (start, len) = (f64::from(start), f64::from(len));
+                let roof = o.roof()?.clipped(axis.index(), start, start + len)?;
+                let footprint = match axis {
+                    Axis::Z => o.polygons().clone(),
+                    _ => o.clip_slab(axis.index(), start, len)?.polygons().clone(),
+                };
+                Some(Geom::Roof(Arc::new(Outline::with_roof(footprint, roof))))
             }
             _ => Some(self.clone()),
         }
@@ -151,9 +188,13 @@ impl Geom {
 }
 
 /// A planar outline: one or more polygons (with holes) in scope-local xy.
+/// An entry of a tree's outline table; a roof's entry is its footprint and
+/// carries the roof's faces ([`Outline::roof`]), so roofs are stored,
+/// shared and spliced exactly as outlines are.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Outline {
     polygons: MultiPolygon<f64>,
+    roof: Option<Arc<Roof>>,
 }
 
 impl Outline {
@@ -189,7 +230,21 @@ impl Outline {
     pub fn new(polygons: MultiPolygon<f64>) -> Outline {
         Outline {
             polygons: polygons.orient(Direction::Default),
+            roof: None,
         }
+    }
+
+    /// A roof's table entry: its footprint `polygons` and its faces.
+    pub fn with_roof(polygons: MultiPolygon<f64>, roof: Roof) -> Outline {
+        Outline {
+            polygons: polygons.orient(Direction::Default),
+            roof: Some(Arc::new(roof)),
+        }
+    }
+
+    /// The roof standing on this outline, for a roof's entry.
+    pub fn roof(&self) -> Option<&Roof> {
+        self.roof.as_deref()
     }
 
     /// The polygons.
@@ -331,6 +386,7 @@ impl Outline {
             .collect();
         Outline {
             polygons: MultiPolygon::new(polys),
+            roof: None,
         }
     }
 

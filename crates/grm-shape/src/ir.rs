@@ -15,6 +15,7 @@ use crate::error::ProgramError;
 use crate::expr::{
     CompileError, DRAW_ALTERNATIVES, DRAW_LOCALS, DRAW_SITES, Expr, ExprId, Exprs, SITE_OPS, Type,
 };
+use crate::roof::RoofKind;
 use crate::split::SplitSize;
 use grm_compile::rng::name_hash;
 
@@ -204,6 +205,20 @@ pub enum Selector {
     Bottom,
     /// Everything.
     All,
+    /// A roof's sloped faces (and a taper's leaning walls).
+    Slope,
+    /// A roof's vertical gable ends (and a shed's vertical walls).
+    Gable,
+    /// A roof's horizontal edges at its eaves under a slope.
+    Eave,
+    /// A roof's horizontal edges above its eaves.
+    Ridge,
+    /// A roof's inclined edges where two slopes meet in a convex corner.
+    Hip,
+    /// A roof's inclined edges where two slopes meet in a concave corner.
+    Valley,
+    /// A roof's inclined edges between a slope and a gable end.
+    Rake,
 }
 
 impl Selector {
@@ -218,6 +233,13 @@ impl Selector {
             Selector::Top => "top",
             Selector::Bottom => "bottom",
             Selector::All => "all",
+            Selector::Slope => "slope",
+            Selector::Gable => "gable",
+            Selector::Eave => "eave",
+            Selector::Ridge => "ridge",
+            Selector::Hip => "hip",
+            Selector::Valley => "valley",
+            Selector::Rake => "rake",
         }
     }
 }
@@ -269,6 +291,18 @@ pub enum Op {
     Repeat(Split),
     /// Break the shape into faces or edges.
     Comp(Comp),
+    /// Make a roof of `kind` on the shape (on a face: standing on it; on a
+    /// mass: on its top), its slopes at `angle` degrees, its outline
+    /// offset outward by `overhang` and its eaves lowered to match
+    /// ([`crate::roof`], docs/shapes.md "Roofs and taper").
+    Roof {
+        kind: RoofKind,
+        angle: Param,
+        overhang: Param,
+    },
+    /// Lean the walls of the face (or of the mass, from its bottom) in to
+    /// an apex this high over the centroid: a pyramid ([`crate::roof::taper`]).
+    Taper(Param),
     /// Draw the shape and everything made after this in the rule with a
     /// material (an attribute, inherited: [`crate::attributes`]).
     Material(MaterialId),
@@ -286,7 +320,13 @@ impl Op {
     /// expressions.
     pub fn params(&self, mut f: impl FnMut(&Param)) {
         match self {
-            Op::Extrude(p) | Op::Offset(p) | Op::Rotate { degrees: p, .. } => f(p),
+            Op::Extrude(p) | Op::Offset(p) | Op::Rotate { degrees: p, .. } | Op::Taper(p) => f(p),
+            Op::Roof {
+                angle, overhang, ..
+            } => {
+                f(angle);
+                f(overhang);
+            }
             Op::Translate(v) | Op::Color(v) => v.iter().for_each(f),
             Op::Size(v) => v.iter().flatten().for_each(f),
             Op::Split(s) | Op::Repeat(s) => s.parts.iter().for_each(|p| f(p.size.param())),

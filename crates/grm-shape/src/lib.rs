@@ -46,6 +46,7 @@ pub mod geometry;
 pub mod ir;
 mod locator;
 mod query;
+pub mod roof;
 pub mod scope;
 pub mod split;
 mod tree;
@@ -62,6 +63,7 @@ pub use ir::{
 pub use locator::{
     Anchor, EdgeRef, ExactLocator, Resolution, SemanticEntry, SemanticLocator, SemanticQuery,
 };
+pub use roof::{FaceKind, Roof, RoofError, RoofFace, RoofKind};
 pub use scope::Scope;
 pub use split::{RepeatLayout, Span, SplitSize};
 pub use tree::{Command, Node, NodeId, NodeKind, ShapeTree};

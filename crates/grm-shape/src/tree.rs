@@ -153,6 +153,7 @@ impl ShapeTree {
             Geometry::Edge => Geom::Edge,
             Geometry::Prism(o) => Geom::Prism(get(o)?),
             Geometry::Polygon(o) => Geom::Polygon(get(o)?),
+            Geometry::Roof(o) => Geom::Roof(get(o)?),
         })
     }
 
