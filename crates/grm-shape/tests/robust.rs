@@ -3,8 +3,8 @@
 //! (`GRM_TEST_SEED=n` draws other inputs: docs/ARCHITECTURE.md, invariant 10.)
 
 use grm_shape::{
-    Axis, Comp, CompCase, CompTarget, Limits, Lot, Op, Options, Part, ProgramBuilder, Selector,
-    Split, SymbolId, derive,
+    Axis, Comp, CompCase, CompTarget, Limits, Lot, Op, Options, Part, ProgramBuilder, RoofKind,
+    Selector, Split, SymbolId, derive,
 };
 use grm_testkit::Rng;
 
@@ -40,7 +40,7 @@ fn op(rng: &mut Rng, symbols: &[SymbolId]) -> Op {
             .map(|_| part(rng, symbols))
             .collect::<Vec<_>>()
     };
-    match rng.below(12u32) {
+    match rng.below(14u32) {
         0 => Op::Extrude(number(rng).into()),
         1 => Op::Translate([number(rng).into(), number(rng).into(), number(rng).into()]),
         2 => Op::Rotate {
@@ -63,6 +63,18 @@ fn op(rng: &mut Rng, symbols: &[SymbolId]) -> Op {
             parts: parts(rng),
             tag: None,
         }),
+        11 => Op::Roof {
+            kind: *rng.pick(&[
+                RoofKind::Flat,
+                RoofKind::Hip,
+                RoofKind::Gable,
+                RoofKind::Shed,
+                RoofKind::Pyramid,
+            ]),
+            angle: (number(rng) * 10.0).into(),
+            overhang: (number(rng) * 0.2).into(),
+        },
+        12 => Op::Taper(number(rng).into()),
         _ => Op::Comp(Comp {
             target: *rng.pick(&[CompTarget::Faces, CompTarget::Edges]),
             cases: vec![
@@ -72,6 +84,8 @@ fn op(rng: &mut Rng, symbols: &[SymbolId]) -> Op {
                         Selector::Side,
                         Selector::Top,
                         Selector::All,
+                        Selector::Slope,
+                        Selector::Ridge,
                     ]),
                     target: Some(*rng.pick(symbols)),
                 },
