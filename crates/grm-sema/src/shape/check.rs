@@ -6,7 +6,6 @@ use std::collections::HashMap;
 use grm_diag::{Code, Diagnostic, FileId, Span};
 use grm_syntax::ast::{self, ExprKind, Name, PartKind};
 
-use super::lot::{LotKind, ShapeLot, footprint_problem, geojson_rings};
 use super::*;
 use crate::builtins::Builtin;
 use crate::check::{Checker, GlobalKind, GlobalName};
@@ -90,7 +89,7 @@ impl<'c, 'a> ShapeCheck<'c, 'a> {
         }
     }
 
-    fn err(&mut self, d: Diagnostic) {
+    pub(super) fn err(&mut self, d: Diagnostic) {
         self.cx.error(d);
     }
 
@@ -210,190 +209,6 @@ impl<'c, 'a> ShapeCheck<'c, 'a> {
         let name = &p.pred.symbol.name;
         if op_counts(name).is_none() && name != "nil" {
             self.symbol(name, p.pred.symbol.span, true);
-        }
-    }
-
-    // ---- the lot ----------------------------------------------------------
-
-    fn lot(&mut self, lots: &[&ast::Setting]) -> ShapeLot {
-        for extra in lots.iter().skip(1) {
-            self.err(
-                Diagnostic::new(
-                    Code::DuplicateSetting,
-                    "`lot` is set twice",
-                    self.file,
-                    extra.name.span,
-                    "set again here",
-                )
-                .with_label(self.file, lots[0].name.span, "first set here")
-                .with_help("remove one of them"),
-            );
-        }
-        let Some(set) = lots.first() else {
-            return ShapeLot::default();
-        };
-        let v = &set.value;
-        let span = v.span;
-        if let ExprKind::Str(written) = &v.kind {
-            return self.lot_file(written, span);
-        }
-        let bad = |this: &mut Self, msg: String, label: &str| {
-            this.err(
-                Diagnostic::new(Code::BadLot, msg, this.file, span, label.to_string()).with_help(
-                    "write `lot = rect(width, depth);`, `lot = polygon(x0, y0, x1, y1, x2, y2, ...);` or `lot = \"footprint.geojson\";`",
-                ),
-            );
-        };
-        let ExprKind::Call { func, args } = &v.kind else {
-            bad(
-                self,
-                "the lot must be `rect(w, d)` or `polygon(x0, y0, ...)`".into(),
-                "not a lot",
-            );
-            return ShapeLot::default();
-        };
-        let mut values = Vec::with_capacity(args.len());
-        for a in args {
-            let mut sc = Scope::global(self.fi, true, "the lot");
-            let e = self.cx.expr(a, &mut sc);
-            let e = self
-                .cx
-                .expect(self.file, e, Ty::Float, "a lot's size or corner");
-            values.push(e);
-        }
-        let broken = values.iter().any(|e| e.ty == Ty::Error);
-        let kind = match func.name.as_str() {
-            "rect" if values.len() == 2 => {
-                let mut it = values.into_iter();
-                let (Some(width), Some(depth)) = (it.next(), it.next()) else {
-                    return ShapeLot::default();
-                };
-                LotKind::Rect { width, depth }
-            }
-            "rect" => {
-                bad(
-                    self,
-                    format!(
-                        "`rect` takes 2 arguments (width and depth), but {} {} given",
-                        args.len(),
-                        if args.len() == 1 { "was" } else { "were" }
-                    ),
-                    "not a rectangle",
-                );
-                return ShapeLot::default();
-            }
-            "polygon" if values.len() >= 6 && values.len() % 2 == 0 => LotKind::Polygon(values),
-            "polygon" => {
-                bad(
-                    self,
-                    format!(
-                        "`polygon` takes the x and y of three or more corners, but {} number{} {} given",
-                        args.len(),
-                        plural(args.len()),
-                        if args.len() == 1 { "was" } else { "were" }
-                    ),
-                    "not a polygon",
-                );
-                return ShapeLot::default();
-            }
-            other => {
-                let mut d = Diagnostic::new(
-                    Code::BadLot,
-                    format!("`{other}` is not a kind of lot"),
-                    self.file,
-                    func.span,
-                    "not `rect` or `polygon`",
-                );
-                d = match suggest::did_you_mean(other, ["rect", "polygon"]) {
-                    Some(h) => d.with_help(h),
-                    None => d.with_help("write `rect(width, depth)` or `polygon(x0, y0, ...)`"),
-                };
-                self.err(d);
-                return ShapeLot::default();
-            }
-        };
-        let lot = ShapeLot {
-            kind,
-            span: Some(span),
-        };
-        if !broken {
-            let params = self.cx.program.default_params();
-            let globals = self.cx.default_globals.clone();
-            match lot_rings(&lot, &params, &globals) {
-                Ok(rings) => {
-                    if let Some(why) = footprint_problem(&rings) {
-                        let mut d = Diagnostic::new(
-                            Code::BadLot,
-                            format!("the lot is not a usable footprint: {why}"),
-                            self.file,
-                            span,
-                            "this lot",
-                        )
-                        .with_help("a lot is a simple polygon with area: three or more corners, edges that do not cross");
-                        if !lot_is_constant(&lot) {
-                            d = d.with_note("evaluated with the meta-parameters' default values");
-                        }
-                        self.err(d);
-                    }
-                }
-                Err(why) => self.err(Diagnostic::new(
-                    Code::BadLot,
-                    format!("the lot cannot be evaluated: {why}"),
-                    self.file,
-                    span,
-                    "this lot",
-                )),
-            }
-        }
-        lot
-    }
-
-    /// `lot = "file.geojson";` (a string value is read as a path).
-    pub(crate) fn lot_file(&mut self, written: &str, span: Span) -> ShapeLot {
-        let from = self.cx.files[self.fi].real.clone();
-        let path = self.cx.loader.resolve(&from, written);
-        let fail = |this: &mut Self, why: String| {
-            this.err(
-                Diagnostic::new(
-                    Code::LotFileUnreadable,
-                    format!("the lot file `{written}` cannot be used: {why}"),
-                    this.file,
-                    span,
-                    "this file",
-                )
-                .with_help("name a GeoJSON file with a Polygon, relative to this .grm file"),
-            );
-            ShapeLot::default()
-        };
-        let text = match self.cx.loader.read(&path) {
-            Ok(t) => t,
-            Err(crate::LoadError::NotFound) => return fail(self, "no such file".into()),
-            Err(crate::LoadError::NotUtf8) => return fail(self, "it is not UTF-8 text".into()),
-            Err(crate::LoadError::Other(m)) => return fail(self, m),
-        };
-        let rings = match geojson_rings(&text) {
-            Ok(r) => r,
-            Err(why) => return fail(self, why),
-        };
-        if let Some(why) = footprint_problem(&rings) {
-            self.err(
-                Diagnostic::new(
-                    Code::BadLot,
-                    format!("the lot is not a usable footprint: {why}"),
-                    self.file,
-                    span,
-                    "this lot",
-                )
-                .with_help("a lot is a simple polygon with area: three or more corners, edges that do not cross"),
-            );
-        }
-        ShapeLot {
-            kind: LotKind::File {
-                written: written.to_string(),
-                path,
-                rings,
-            },
-            span: Some(span),
         }
     }
 
@@ -1141,50 +956,4 @@ pub(crate) fn builtin_supported(b: Builtin) -> bool {
             | Builtin::Log10
             | Builtin::Spline
     )
-}
-
-/// The footprint of a lot for the given meta-parameter values and
-/// constants: its rings, or why it cannot be evaluated.
-pub fn lot_rings(
-    lot: &ShapeLot,
-    params: &[Value],
-    globals: &[Value],
-) -> Result<super::lot::Rings, String> {
-    let env = crate::eval::Env {
-        params,
-        globals,
-        bindings: &[],
-    };
-    let num = |e: &TExpr| -> Result<f64, String> {
-        match crate::eval::eval(e, &env) {
-            Ok(Value::Float(x)) => Ok(x),
-            Ok(v) => Err(format!("`{v}` is not a number")),
-            Err(e) => Err(e.to_string()),
-        }
-    };
-    Ok(match &lot.kind {
-        LotKind::Default => vec![vec![[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]]],
-        LotKind::Rect { width, depth } => {
-            let (w, d) = (num(width)?, num(depth)?);
-            vec![vec![[0.0, 0.0], [w, 0.0], [w, d], [0.0, d]]]
-        }
-        LotKind::Polygon(vs) => {
-            let mut ring = Vec::with_capacity(vs.len() / 2);
-            for pair in vs.chunks(2) {
-                if let [x, y] = pair {
-                    ring.push([num(x)?, num(y)?]);
-                }
-            }
-            vec![ring]
-        }
-        LotKind::File { rings, .. } => rings.clone(),
-    })
-}
-
-fn lot_is_constant(lot: &ShapeLot) -> bool {
-    match &lot.kind {
-        LotKind::Default | LotKind::File { .. } => true,
-        LotKind::Rect { width, depth } => width.constant().is_some() && depth.constant().is_some(),
-        LotKind::Polygon(vs) => vs.iter().all(|v| v.constant().is_some()),
-    }
 }

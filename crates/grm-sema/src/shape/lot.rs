@@ -5,9 +5,13 @@
 
 use std::path::PathBuf;
 
-use grm_diag::Span;
+use grm_diag::{Code, Diagnostic, Span};
+use grm_syntax::ast::{self, ExprKind};
 
-use crate::program::TExpr;
+use super::check::ShapeCheck;
+use crate::expr::Scope;
+use crate::program::{TExpr, Ty, Value};
+use crate::suggest;
 
 /// The corners of a footprint: its exterior ring, then its holes.
 pub type Rings = Vec<Vec<[f64; 2]>>;
@@ -81,15 +85,24 @@ pub fn footprint_problem(rings: &Rings) -> Option<String> {
                 if distinct.len() == 1 { "" } else { "s" }
             ));
         }
-        if signed_area(&distinct).abs() <= 1e-9 * scale(&distinct).powi(2) {
-            return Some(format!("{what} has no area: its corners are on one line"));
-        }
-        if let Some((a, b)) = crossing(&distinct) {
-            return Some(format!(
+        // Edges that cross (a bow tie has no area either, but crossing
+        // says why), then no area (corners on a line), then neighbours
+        // that fold back on each other.
+        let crosses = |(a, b): (usize, usize)| {
+            format!(
                 "{what} crosses itself: its edges {} and {} meet",
                 a + 1,
                 b + 1
-            ));
+            )
+        };
+        if let Some(c) = crossing(&distinct, false) {
+            return Some(crosses(c));
+        }
+        if signed_area(&distinct).abs() <= 1e-9 * scale(&distinct).powi(2) {
+            return Some(format!("{what} has no area: its corners are on one line"));
+        }
+        if let Some(c) = crossing(&distinct, true) {
+            return Some(crosses(c));
         }
     }
     None
@@ -160,15 +173,20 @@ fn segments_meet(a: [f64; 2], b: [f64; 2], c: [f64; 2], d: [f64; 2]) -> bool {
 }
 
 /// Two edges of the ring that meet other than at a shared corner of
-/// neighbours: `(i, j)`, edge `i` from corner `i` to `i + 1`.
-fn crossing(ring: &[[f64; 2]]) -> Option<(usize, usize)> {
+/// neighbours: `(i, j)`, edge `i` from corner `i` to `i + 1`. With
+/// `neighbours`, only neighbouring edges that fold back on each other;
+/// without, only edges that are not neighbours.
+fn crossing(ring: &[[f64; 2]], neighbours: bool) -> Option<(usize, usize)> {
     let n = ring.len();
     let edge = |i: usize| (ring[i], ring[(i + 1) % n]);
     for i in 0..n {
         for j in i + 1..n {
-            let neighbours = j == i + 1 || (i == 0 && j == n - 1);
+            let adjacent = j == i + 1 || (i == 0 && j == n - 1);
+            if adjacent != neighbours {
+                continue;
+            }
             let ((a, b), (c, d)) = (edge(i), edge(j));
-            if neighbours {
+            if adjacent {
                 // Neighbours share one corner; they may not fold back on
                 // each other (collinear and overlapping).
                 let (p, q, r) = if j == i + 1 { (a, b, d) } else { (c, d, b) };
@@ -187,6 +205,260 @@ fn crossing(ring: &[[f64; 2]]) -> Option<(usize, usize)> {
         }
     }
     None
+}
+
+impl ShapeCheck<'_, '_> {
+    pub(super) fn lot(&mut self, lots: &[&ast::Setting]) -> ShapeLot {
+        for extra in lots.iter().skip(1) {
+            self.err(
+                Diagnostic::new(
+                    Code::DuplicateSetting,
+                    "`lot` is set twice",
+                    self.file,
+                    extra.name.span,
+                    "set again here",
+                )
+                .with_label(self.file, lots[0].name.span, "first set here")
+                .with_help("remove one of them"),
+            );
+        }
+        let Some(set) = lots.first() else {
+            return ShapeLot::default();
+        };
+        let v = &set.value;
+        let span = v.span;
+        if let ExprKind::Str(written) = &v.kind {
+            return self.lot_file(written, span);
+        }
+        let bad = |this: &mut Self, msg: String, label: &str| {
+            this.err(
+                Diagnostic::new(Code::BadLot, msg, this.file, span, label.to_string()).with_help(
+                    "write `lot = rect(width, depth);`, `lot = polygon(x0, y0, x1, y1, x2, y2, ...);` or `lot = \"footprint.geojson\";`",
+                ),
+            );
+        };
+        let ExprKind::Call { func, args } = &v.kind else {
+            bad(
+                self,
+                "the lot must be `rect(w, d)` or `polygon(x0, y0, ...)`".into(),
+                "not a lot",
+            );
+            return ShapeLot::default();
+        };
+        let mut values = Vec::with_capacity(args.len());
+        for a in args {
+            let mut sc = Scope::global(self.fi, true, "the lot");
+            let e = self.cx.expr(a, &mut sc);
+            let e = self
+                .cx
+                .expect(self.file, e, Ty::Float, "a lot's size or corner");
+            values.push(e);
+        }
+        let broken = values.iter().any(|e| e.ty == Ty::Error);
+        let kind = match func.name.as_str() {
+            "rect" if values.len() == 2 => {
+                let mut it = values.into_iter();
+                let (Some(width), Some(depth)) = (it.next(), it.next()) else {
+                    return ShapeLot::default();
+                };
+                LotKind::Rect { width, depth }
+            }
+            "rect" => {
+                bad(
+                    self,
+                    format!(
+                        "`rect` takes 2 arguments (width and depth), but {} {} given",
+                        args.len(),
+                        if args.len() == 1 { "was" } else { "were" }
+                    ),
+                    "not a rectangle",
+                );
+                return ShapeLot::default();
+            }
+            "polygon" if values.len() >= 6 && values.len() % 2 == 0 => LotKind::Polygon(values),
+            "polygon" => {
+                bad(
+                    self,
+                    format!(
+                        "`polygon` takes the x and y of three or more corners, but {} number{} {} given",
+                        args.len(),
+                        if args.len() == 1 { "" } else { "s" },
+                        if args.len() == 1 { "was" } else { "were" }
+                    ),
+                    "not a polygon",
+                );
+                return ShapeLot::default();
+            }
+            other => {
+                let mut d = Diagnostic::new(
+                    Code::BadLot,
+                    format!("`{other}` is not a kind of lot"),
+                    self.file,
+                    func.span,
+                    "not `rect` or `polygon`",
+                );
+                d = match suggest::did_you_mean(other, ["rect", "polygon"]) {
+                    Some(h) => d.with_help(h),
+                    None => d.with_help("write `rect(width, depth)` or `polygon(x0, y0, ...)`"),
+                };
+                self.err(d);
+                return ShapeLot::default();
+            }
+        };
+        let lot = ShapeLot {
+            kind,
+            span: Some(span),
+        };
+        if !broken {
+            let params = self.cx.program.default_params();
+            let globals = self.cx.default_globals.clone();
+            match lot_rings(&lot, &params, &globals) {
+                Ok(rings) => {
+                    if let Some(why) = footprint_problem(&rings) {
+                        let mut d = Diagnostic::new(
+                            Code::BadLot,
+                            format!("the lot is not a usable footprint: {why}"),
+                            self.file,
+                            span,
+                            "this lot",
+                        )
+                        .with_help("a lot is a simple polygon with area: three or more corners, edges that do not cross");
+                        if !lot_is_constant(&lot) {
+                            d = d.with_note("evaluated with the meta-parameters' default values");
+                        }
+                        self.err(d);
+                    }
+                }
+                Err(why) => {
+                    let mut d = Diagnostic::new(
+                        Code::BadLot,
+                        format!("the lot is not a usable footprint: {why}"),
+                        self.file,
+                        span,
+                        "this lot",
+                    );
+                    if !lot_is_constant(&lot) {
+                        d = d.with_note("evaluated with the meta-parameters' default values");
+                    }
+                    self.err(d);
+                }
+            }
+        }
+        lot
+    }
+
+    /// `lot = "file.geojson";` (a string value is read as a path).
+    pub(crate) fn lot_file(&mut self, written: &str, span: Span) -> ShapeLot {
+        let from = self.cx.files[self.fi].real.clone();
+        let path = self.cx.loader.resolve(&from, written);
+        let fail = |this: &mut Self, why: String| {
+            this.err(
+                Diagnostic::new(
+                    Code::LotFileUnreadable,
+                    format!("the lot file `{written}` cannot be used: {why}"),
+                    this.file,
+                    span,
+                    "this file",
+                )
+                .with_help("name a GeoJSON file with a Polygon, relative to this .grm file"),
+            );
+            ShapeLot::default()
+        };
+        let text = match self.cx.loader.read(&path) {
+            Ok(t) => t,
+            Err(crate::LoadError::NotFound) => return fail(self, "no such file".into()),
+            Err(crate::LoadError::NotUtf8) => return fail(self, "it is not UTF-8 text".into()),
+            Err(crate::LoadError::Other(m)) => return fail(self, m),
+        };
+        let rings = match geojson_rings(&text) {
+            Ok(r) => r,
+            Err(why) => return fail(self, why),
+        };
+        if let Some(why) = footprint_problem(&rings) {
+            self.err(
+                Diagnostic::new(
+                    Code::BadLot,
+                    format!("the lot is not a usable footprint: {why}"),
+                    self.file,
+                    span,
+                    "this lot",
+                )
+                .with_help("a lot is a simple polygon with area: three or more corners, edges that do not cross"),
+            );
+        }
+        ShapeLot {
+            kind: LotKind::File {
+                written: written.to_string(),
+                path,
+                rings,
+            },
+            span: Some(span),
+        }
+    }
+}
+
+/// The footprint of a lot for the given meta-parameter values and
+/// constants: its rings, or why it cannot be evaluated.
+pub fn lot_rings(
+    lot: &ShapeLot,
+    params: &[Value],
+    globals: &[Value],
+) -> Result<super::lot::Rings, String> {
+    let rings = lot_corners(lot, params, globals)?;
+    if let (LotKind::Rect { .. }, Some([_, [w, _], [_, d], _])) =
+        (&lot.kind, rings.first().map(Vec::as_slice))
+        && !(*w > 0.0 && *d > 0.0)
+    {
+        return Err(format!(
+            "a rectangle's width and depth must be more than 0, not {} by {}",
+            *w as f32, *d as f32
+        ));
+    }
+    Ok(rings)
+}
+
+fn lot_corners(
+    lot: &ShapeLot,
+    params: &[Value],
+    globals: &[Value],
+) -> Result<super::lot::Rings, String> {
+    let env = crate::eval::Env {
+        params,
+        globals,
+        bindings: &[],
+    };
+    let num = |e: &TExpr| -> Result<f64, String> {
+        match crate::eval::eval(e, &env) {
+            Ok(Value::Float(x)) => Ok(x),
+            Ok(v) => Err(format!("`{v}` is not a number")),
+            Err(e) => Err(e.to_string()),
+        }
+    };
+    Ok(match &lot.kind {
+        LotKind::Default => vec![vec![[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]]],
+        LotKind::Rect { width, depth } => {
+            let (w, d) = (num(width)?, num(depth)?);
+            vec![vec![[0.0, 0.0], [w, 0.0], [w, d], [0.0, d]]]
+        }
+        LotKind::Polygon(vs) => {
+            let mut ring = Vec::with_capacity(vs.len() / 2);
+            for pair in vs.chunks(2) {
+                if let [x, y] = pair {
+                    ring.push([num(x)?, num(y)?]);
+                }
+            }
+            vec![ring]
+        }
+        LotKind::File { rings, .. } => rings.clone(),
+    })
+}
+
+fn lot_is_constant(lot: &ShapeLot) -> bool {
+    match &lot.kind {
+        LotKind::Default | LotKind::File { .. } => true,
+        LotKind::Rect { width, depth } => width.constant().is_some() && depth.constant().is_some(),
+        LotKind::Polygon(vs) => vs.iter().all(|v| v.constant().is_some()),
+    }
 }
 
 /// The rings of the first polygon of a GeoJSON text: a `Polygon`, a

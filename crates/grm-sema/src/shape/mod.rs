@@ -26,9 +26,8 @@ use grm_syntax::ast::Name;
 
 use crate::program::{MaterialId, MeshId, TExpr};
 
-pub use check::lot_rings;
 pub use grm_syntax::ast::PartKind;
-pub use lot::{LotKind, Rings, ShapeLot, footprint_problem};
+pub use lot::{LotKind, Rings, ShapeLot, footprint_problem, lot_rings};
 
 /// A value of the shape being rewritten, read by an expression of a
 /// shape rule ([`crate::TExprKind::Shape`]).
@@ -203,6 +202,10 @@ pub enum Selector {
     Ridge,
     /// A roof's hips (edges).
     Hip,
+    /// A roof's valleys (edges, where two slopes meet inward).
+    Valley,
+    /// A roof's rakes (the sloped edges of a gable).
+    Rake,
 }
 
 impl Selector {
@@ -220,6 +223,8 @@ impl Selector {
         Selector::Eave,
         Selector::Ridge,
         Selector::Hip,
+        Selector::Valley,
+        Selector::Rake,
     ];
 
     pub fn name(self) -> &'static str {
@@ -237,6 +242,8 @@ impl Selector {
             Selector::Eave => "eave",
             Selector::Ridge => "ridge",
             Selector::Hip => "hip",
+            Selector::Valley => "valley",
+            Selector::Rake => "rake",
         }
     }
 
