@@ -172,8 +172,9 @@ pub fn export_as(model: &Model, path: &Path, format: ExportFormat) -> Result<(),
     match format {
         ExportFormat::Png => export_image(model, path, &RenderOptions::default()),
         ExportFormat::Glb => {
-            // Exported models name their parts (`_PART`, `extras.grm`).
-            let ids = crate::parts::part_ids(model);
+            // Exported models name their parts (`_PART`, `extras.grm`);
+            // shape-mode models their groups (glTF nodes).
+            let ids = part_ids(model);
             let (json_bytes, bin_len) =
                 glb_layout(model, ids.as_ref()).ok_or_else(|| ExportError::TooLarge {
                     path: path.to_path_buf(),
@@ -332,6 +333,9 @@ fn write_u32s(w: &mut dyn Write, vs: &[u32]) -> io::Result<()> {
 /// in order, its positions, normals and indices (all 4-byte data, so every
 /// view stays 4-byte aligned).
 fn glb_layout(model: &Model, ids: Option<&crate::parts::PartIds>) -> Option<(Vec<u8>, usize)> {
+    if !model.groups.is_empty() {
+        return shape_glb_layout(model);
+    }
     let mut offset = 0usize;
     let mut views: Vec<Json> = Vec::new();
     let mut accessors: Vec<Json> = Vec::new();
@@ -398,30 +402,13 @@ fn glb_layout(model: &Model, ids: Option<&crate::parts::PartIds>) -> Option<(Vec
             "mode": 4,
         }));
     }
-    let materials: Vec<Json> = model
-        .materials
-        .iter()
-        .map(|m| {
-            let mut j = json!({
-                "name": m.name,
-                "pbrMetallicRoughness": {
-                    "baseColorFactor": [m.color[0], m.color[1], m.color[2], m.opacity],
-                    "metallicFactor": m.metallic,
-                    "roughnessFactor": m.roughness,
-                },
-                "emissiveFactor": m.emissive,
-            });
-            if m.opacity < 1.0 {
-                j["alphaMode"] = json!("BLEND");
-            }
-            j
-        })
-        .collect();
+    let materials = materials_json(model);
     // An empty model is just the asset (a scene needs at least one node).
     let mut doc = json!({
         "asset": { "version": "2.0", "generator": "grm" },
     });
     if !primitives.is_empty() {
+        add_textures(model, &mut doc, &mut views, &mut offset);
         doc["scene"] = json!(0);
         doc["scenes"] = json!([ { "name": "grm", "nodes": [0] } ]);
         doc["nodes"] = json!([ { "name": "model", "mesh": 0 } ]);
@@ -442,6 +429,223 @@ fn glb_layout(model: &Model, ids: Option<&crate::parts::PartIds>) -> Option<(Vec
     Some((json_bytes, offset))
 }
 
+/// The glTF materials of the model's materials (a texture as the
+/// `baseColorTexture`, texture `i` being `model.textures[i]`).
+fn materials_json(model: &Model) -> Vec<Json> {
+    model
+        .materials
+        .iter()
+        .map(|m| {
+            let mut j = json!({
+                "name": m.name,
+                "pbrMetallicRoughness": {
+                    "baseColorFactor": [m.color[0], m.color[1], m.color[2], m.opacity],
+                    "metallicFactor": m.metallic,
+                    "roughnessFactor": m.roughness,
+                },
+                "emissiveFactor": m.emissive,
+            });
+            if m.opacity < 1.0 {
+                j["alphaMode"] = json!("BLEND");
+            }
+            if let Some(t) = m.texture.filter(|&t| t < model.textures.len()) {
+                j["pbrMetallicRoughness"]["baseColorTexture"] = json!({ "index": t });
+            }
+            j
+        })
+        .collect()
+}
+
+/// Part ids for a glb: none for a shape-mode model (its groups are nodes).
+fn part_ids(model: &Model) -> Option<crate::parts::PartIds> {
+    if model.groups.is_empty() {
+        crate::parts::part_ids(model)
+    } else {
+        None
+    }
+}
+
+/// The model's textures as glTF images (their bytes in buffer views after
+/// `offset`, each padded to 4 bytes), one sampler (linear, repeat) and a
+/// texture per image.
+fn add_textures(model: &Model, doc: &mut Json, views: &mut Vec<Json>, offset: &mut usize) {
+    if model.textures.is_empty() {
+        return;
+    }
+    let mut images = Vec::new();
+    let mut textures = Vec::new();
+    for (i, t) in model.textures.iter().enumerate() {
+        views.push(json!({
+            "buffer": 0,
+            "byteOffset": *offset,
+            "byteLength": t.bytes.len(),
+        }));
+        *offset += t.bytes.len().next_multiple_of(4);
+        images.push(json!({
+            "name": t.name,
+            "bufferView": views.len() - 1,
+            "mimeType": t.mime,
+        }));
+        textures.push(json!({ "sampler": 0, "source": i }));
+    }
+    doc["images"] = json!(images);
+    doc["textures"] = json!(textures);
+    doc["samplers"] = json!([{
+        "magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 10497
+    }]);
+}
+
+/// Write the textures' bytes as [`add_textures`] laid them out.
+fn write_textures(model: &Model, w: &mut dyn Write) -> io::Result<()> {
+    for t in &model.textures {
+        w.write_all(&t.bytes)?;
+        let pad = t.bytes.len().next_multiple_of(4) - t.bytes.len();
+        w.write_all(&[0u8; 3][..pad])?;
+    }
+    Ok(())
+}
+
+/// The vertices and triangles of one group span.
+fn span_data<'a>(model: &'a Model, s: &crate::shape::GroupSpan) -> Option<SpanData<'a>> {
+    let m = &model.parts.get(s.part)?.mesh;
+    let v = s.first_vertex as usize..(s.first_vertex + s.vertex_count) as usize;
+    let t = 3 * s.first_triangle as usize..3 * (s.first_triangle + s.triangle_count) as usize;
+    Some(SpanData {
+        positions: m.positions.get(v.clone())?,
+        normals: m.normals.get(v.clone())?,
+        uvs: if m.has_uvs() { m.uvs.get(v) } else { None },
+        indices: m.indices.get(t)?,
+        first: s.first_vertex,
+    })
+}
+
+struct SpanData<'a> {
+    positions: &'a [[f32; 3]],
+    normals: &'a [[f32; 3]],
+    uvs: Option<&'a [[f32; 2]]>,
+    indices: &'a [u32],
+    first: u32,
+}
+
+/// The glb layout of a shape-mode model: a root node `grm` whose children
+/// are the groups, each a node named as the group with its locators in
+/// `extras` and its own mesh, one primitive per part (material) it uses;
+/// each primitive's positions, normals, UVs (`TEXCOORD_0`) and indices
+/// (from 0) in the BIN chunk in group order, then the textures' images.
+fn shape_glb_layout(model: &Model) -> Option<(Vec<u8>, usize)> {
+    let mut offset = 0usize;
+    let mut views: Vec<Json> = Vec::new();
+    let mut accessors: Vec<Json> = Vec::new();
+    let mut meshes: Vec<Json> = Vec::new();
+    let mut nodes: Vec<Json> = vec![json!({ "name": "grm", "children": [] })];
+    for g in &model.groups {
+        let mut primitives = Vec::new();
+        for span in &g.spans {
+            let Some(d) = span_data(model, span) else {
+                continue;
+            };
+            let mut view = |len: usize, target: u32| {
+                views.push(json!({
+                    "buffer": 0,
+                    "byteOffset": offset,
+                    "byteLength": len,
+                    "target": target,
+                }));
+                offset += len;
+                views.len() - 1
+            };
+            let pv = view(d.positions.len() * 12, 34962);
+            let nv = view(d.normals.len() * 12, 34962);
+            let tv = d.uvs.map(|uv| view(uv.len() * 8, 34962));
+            let iv = view(d.indices.len() * 4, 34963);
+            let mut bounds = Aabb::EMPTY;
+            for p in d.positions {
+                bounds.add(Vec3::from_array(*p));
+            }
+            let mut accessor = |a: Json| {
+                accessors.push(a);
+                accessors.len() - 1
+            };
+            let pa = accessor(json!({
+                "bufferView": pv, "componentType": 5126, "count": d.positions.len(),
+                "type": "VEC3", "min": bounds.min.to_array(), "max": bounds.max.to_array(),
+            }));
+            let na = accessor(json!({
+                "bufferView": nv, "componentType": 5126, "count": d.normals.len(), "type": "VEC3",
+            }));
+            let mut attributes = json!({ "POSITION": pa, "NORMAL": na });
+            if let (Some(tv), Some(uv)) = (tv, d.uvs) {
+                attributes["TEXCOORD_0"] = json!(accessor(json!({
+                    "bufferView": tv, "componentType": 5126, "count": uv.len(), "type": "VEC2",
+                })));
+            }
+            let ia = accessor(json!({
+                "bufferView": iv, "componentType": 5125, "count": d.indices.len(), "type": "SCALAR",
+            }));
+            primitives.push(json!({
+                "attributes": attributes,
+                "indices": ia,
+                "material": model.parts[span.part].material,
+                "mode": 4,
+            }));
+        }
+        if primitives.is_empty() {
+            continue;
+        }
+        meshes.push(json!({ "name": g.name, "primitives": primitives }));
+        nodes.push(json!({ "name": g.name, "mesh": meshes.len() - 1, "extras": g.extras() }));
+    }
+    let children: Vec<usize> = (1..nodes.len()).collect();
+    nodes[0]["children"] = json!(children);
+    let mut doc = json!({
+        "asset": { "version": "2.0", "generator": "grm" },
+        "scene": 0,
+        "scenes": [ { "name": "grm", "nodes": [0] } ],
+    });
+    if children.is_empty() {
+        nodes[0] = json!({ "name": "grm" });
+    } else {
+        add_textures(model, &mut doc, &mut views, &mut offset);
+        doc["meshes"] = json!(meshes);
+        doc["materials"] = json!(materials_json(model));
+        doc["accessors"] = json!(accessors);
+        doc["bufferViews"] = json!(views);
+        doc["buffers"] = json!([ { "byteLength": offset } ]);
+    }
+    doc["nodes"] = json!(nodes);
+    let mut json_bytes = serde_json::to_vec(&doc).unwrap_or_default();
+    json_bytes.resize(json_bytes.len().next_multiple_of(4), b' ');
+    let total = 12 + 8 + json_bytes.len() + if offset > 0 { 8 + offset } else { 0 };
+    u32::try_from(total).ok()?;
+    Some((json_bytes, offset))
+}
+
+/// Write the BIN data [`shape_glb_layout`] laid out.
+fn write_shape_bin(model: &Model, w: &mut dyn Write) -> io::Result<()> {
+    let mut rebased: Vec<u32> = Vec::new();
+    for g in &model.groups {
+        for span in &g.spans {
+            let Some(d) = span_data(model, span) else {
+                continue;
+            };
+            write_f32s(w, d.positions)?;
+            write_f32s(w, d.normals)?;
+            if let Some(uv) = d.uvs {
+                let mut buf = Vec::with_capacity(uv.len() * 8);
+                for [u, v] in uv {
+                    buf.extend_from_slice(&u.to_le_bytes());
+                    buf.extend_from_slice(&v.to_le_bytes());
+                }
+                w.write_all(&buf)?;
+            }
+            rebased.clear();
+            rebased.extend(d.indices.iter().map(|&i| i.saturating_sub(d.first)));
+            write_u32s(w, &rebased)?;
+        }
+    }
+    write_textures(model, w)
+}
+
 /// Write the glb of `model` laid out by [`glb_layout`].
 fn write_glb(
     model: &Model,
@@ -459,7 +663,11 @@ fn write_glb(
     w.write_all(&len32(json_bytes.len()))?;
     w.write_all(b"JSON")?;
     w.write_all(json_bytes)?;
-    if bin_len > 0 {
+    if bin_len > 0 && !model.groups.is_empty() {
+        w.write_all(&len32(bin_len))?;
+        w.write_all(b"BIN\0")?;
+        write_shape_bin(model, w)?;
+    } else if bin_len > 0 {
         w.write_all(&len32(bin_len))?;
         w.write_all(b"BIN\0")?;
         for (k, part) in model
@@ -476,6 +684,7 @@ fn write_glb(
                 write_u32s(w, &bits)?;
             }
         }
+        write_textures(model, w)?;
     }
     Ok(())
 }
@@ -483,7 +692,7 @@ fn write_glb(
 /// The model as a glTF 2.0 binary (`.glb`) file in memory; `None` when it
 /// exceeds the format's 4 GiB limit.
 pub fn glb_bytes(model: &Model) -> Option<Vec<u8>> {
-    let ids = crate::parts::part_ids(model);
+    let ids = part_ids(model);
     let (json_bytes, bin_len) = glb_layout(model, ids.as_ref())?;
     let mut out = Vec::with_capacity(28 + json_bytes.len() + bin_len);
     // Writing to a Vec cannot fail.
@@ -538,6 +747,52 @@ fn write_mtl(model: &Model, w: &mut dyn Write) -> io::Result<()> {
         writeln!(w, "Pr {}", m.roughness)?;
         writeln!(w, "Pm {}", m.metallic)?;
         writeln!(w, "illum 2")?;
+        if let Some(t) = m.texture.and_then(|t| model.textures.get(t)) {
+            writeln!(w, "map_Kd {}", t.path.display())?;
+        }
+    }
+    Ok(())
+}
+
+/// A shape-mode model's OBJ: per group an object and a group of its name
+/// (`o`, `g`), then per part it uses the span's `v`, `vt`, `vn`, `usemtl`
+/// and faces `f v/vt/vn`.
+fn write_shape_obj(model: &Model, w: &mut dyn Write) -> io::Result<()> {
+    let mut base = 1usize;
+    for g in &model.groups {
+        writeln!(w, "o {}\ng {}", g.name, g.name)?;
+        for span in &g.spans {
+            let Some(d) = span_data(model, span) else {
+                continue;
+            };
+            for [x, y, z] in d.positions {
+                writeln!(w, "v {x} {y} {z}")?;
+            }
+            if let Some(uv) = d.uvs {
+                for [u, v] in uv {
+                    writeln!(w, "vt {u} {v}")?;
+                }
+            }
+            for [x, y, z] in d.normals {
+                writeln!(w, "vn {x} {y} {z}")?;
+            }
+            let name = model
+                .parts
+                .get(span.part)
+                .and_then(|p| model.materials.get(p.material))
+                .map_or("default", |m| m.name.as_str());
+            writeln!(w, "usemtl {name}")?;
+            for t in d.indices.chunks_exact(3) {
+                let [a, b, c] =
+                    [t[0], t[1], t[2]].map(|i| i.saturating_sub(d.first) as usize + base);
+                if d.uvs.is_some() {
+                    writeln!(w, "f {a}/{a}/{a} {b}/{b}/{b} {c}/{c}/{c}")?;
+                } else {
+                    writeln!(w, "f {a}//{a} {b}//{b} {c}//{c}")?;
+                }
+            }
+            base += d.positions.len();
+        }
     }
     Ok(())
 }
@@ -549,6 +804,9 @@ fn write_obj(model: &Model, mtl_name: &str, w: &mut dyn Write) -> io::Result<()>
         model.stats.vertices, model.stats.triangles
     )?;
     writeln!(w, "mtllib {mtl_name}")?;
+    if !model.groups.is_empty() {
+        return write_shape_obj(model, w);
+    }
     let mut base = 1usize;
     for (k, part) in model.parts.iter().enumerate() {
         let m = &part.mesh;

@@ -33,6 +33,7 @@ pub mod mesh;
 pub mod parts;
 pub mod polygon;
 pub mod render;
+pub mod shape;
 pub mod tube;
 
 use std::collections::HashMap;
@@ -107,6 +108,22 @@ pub struct ModelMaterial {
     pub emissive: [f32; 3],
     /// 1 = opaque.
     pub opacity: f32,
+    /// A base-colour texture: an index into [`Model::textures`] (shape
+    /// mode's `texture(name)`), multiplied by `color`.
+    pub texture: Option<usize>,
+}
+
+/// An image a material maps by the mesh's UV coordinates: the file's bytes
+/// (PNG or JPEG), embedded in a glb and named by path in an MTL.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModelTexture {
+    /// The texture's name in the program.
+    pub name: String,
+    /// The file it was read from.
+    pub path: PathBuf,
+    /// `image/png` or `image/jpeg`.
+    pub mime: &'static str,
+    pub bytes: std::sync::Arc<[u8]>,
 }
 
 /// What made a run of triangles.
@@ -118,6 +135,10 @@ pub enum PartSource {
     Instance(u32),
     /// A polygon (index into the skeleton's polygons).
     Polygon(u32),
+    /// A node of a shape-grammar derivation tree (index into
+    /// `grm_shape::ShapeTree::nodes`: a terminal shape or an insert;
+    /// [`shape`]).
+    Shape(u32),
 }
 
 /// Triangles `first_triangle .. first_triangle + triangle_count` of a part
@@ -177,6 +198,12 @@ pub struct Model {
     /// key (`grm_derive::ModuleString::keys`); empty when the string
     /// carried none. Exports name parts by it ([`parts`]).
     pub module_keys: Vec<u32>,
+    /// Shape mode ([`shape`]): the terminal shape groups, each exported
+    /// as a named glTF node (an OBJ object) with its locators; empty for
+    /// models built from a string.
+    pub groups: Vec<shape::ShapeGroup>,
+    /// The images the materials map ([`ModelMaterial::texture`]).
+    pub textures: Vec<ModelTexture>,
     /// What the builder counted before building it ([`budget`]): the
     /// most vertices and triangles, and the bytes building it (and writing
     /// it as its `BuildOptions::output` says) needs.
@@ -205,6 +232,7 @@ impl Model {
             .map(|p| {
                 budget::VERTEX_BYTES / 2
                     * (p.mesh.positions.capacity() + p.mesh.normals.capacity()) as u64
+                    + 8 * p.mesh.uvs.capacity() as u64
                     + 4 * p.mesh.indices.capacity() as u64
                     + (p.picks.capacity() * std::mem::size_of::<Pick>()) as u64
             })
@@ -334,6 +362,17 @@ pub enum GeomError {
         limit: u64,
         output: Output,
     },
+    /// Shape mode: a material, insert asset or texture name of the shape
+    /// program that the [`shape::ShapeAssets`] do not resolve (`what`:
+    /// `material`, `asset` or `texture`).
+    UnknownShapeName { what: &'static str, name: String },
+    /// Shape mode: a texture's image could not be read, or is not a PNG
+    /// or JPEG file.
+    TextureUnreadable {
+        texture: String,
+        path: PathBuf,
+        message: String,
+    },
 }
 
 impl std::fmt::Display for GeomError {
@@ -374,6 +413,21 @@ impl std::fmt::Display for GeomError {
                 limit,
                 output,
             } => write!(f, "{}", footprint.message(*limit, *output)),
+            GeomError::UnknownShapeName { what, name } => {
+                write!(
+                    f,
+                    "the shape grammar uses {what} `{name}`, which is not declared"
+                )
+            }
+            GeomError::TextureUnreadable {
+                texture,
+                path,
+                message,
+            } => write!(
+                f,
+                "cannot read texture `{texture}` from {}: {message}",
+                path.display()
+            ),
         }
     }
 }
@@ -389,6 +443,11 @@ impl GeomError {
             GeomError::MeshMalformed { .. } => Code::MeshMalformed,
             GeomError::Params(_) => Code::ParamValues,
             GeomError::MemoryLimit { .. } => Code::MemoryLimit,
+            GeomError::UnknownShapeName {
+                what: "material", ..
+            } => Code::UnknownMaterialId,
+            GeomError::UnknownShapeName { .. } => Code::UnknownMeshId,
+            GeomError::TextureUnreadable { .. } => Code::MeshUnreadable,
         }
     }
 
@@ -407,6 +466,24 @@ impl GeomError {
                     "while building the model of this system",
                 )
                 .with_help(MEMORY_HELP);
+            }
+            GeomError::UnknownShapeName { .. } | GeomError::TextureUnreadable { .. } => {
+                let help = match self {
+                    GeomError::TextureUnreadable { .. } => {
+                        "a texture names a PNG or JPEG image; make the file readable and run again"
+                    }
+                    _ => {
+                        "declare it (`material NAME { ... }`, `mesh NAME = \"file.obj\";`) or use one of the primitives box, cylinder, cone, sphere, disc"
+                    }
+                };
+                return Diagnostic::new(
+                    self.code(),
+                    self.to_string(),
+                    file,
+                    span,
+                    "while building the model of this system",
+                )
+                .with_help(help);
             }
             GeomError::MeshMissing { mesh, message, .. } => (mesh, message, MESH_MISSING_HELP),
             GeomError::MeshMalformed { mesh, message, .. } => (mesh, message, MESH_MALFORMED_HELP),
@@ -468,6 +545,17 @@ impl From<TurtleError> for GeomError {
     fn from(e: TurtleError) -> Self {
         GeomError::Turtle(e)
     }
+}
+
+/// The materials `program` declares, evaluated with the meta-parameter
+/// values `params` (as [`build_model`] evaluates them), in declaration
+/// order: what a shape-mode model's `material(name)` resolves to
+/// ([`shape::ShapeAssets::from_program`]).
+pub fn declared_materials(
+    program: &Program,
+    params: &[Value],
+) -> Result<Vec<ModelMaterial>, GeomError> {
+    Ok(Builder::new(program, &BuildOptions::default(), params)?.declared)
 }
 
 /// Interpret `string` (a string of `system`) and build its meshes, within
@@ -894,6 +982,7 @@ impl<'a> Builder<'a> {
             metallic: float(MaterialProp::Metallic).unwrap_or(d.metallic),
             emissive: vec3(MaterialProp::Emissive).unwrap_or(d.emissive),
             opacity: float(MaterialProp::Opacity).unwrap_or(d.opacity),
+            texture: None,
         }
     }
 
@@ -1016,6 +1105,8 @@ impl<'a> Builder<'a> {
             parts: self.parts,
             stats,
             module_keys: Vec::new(),
+            groups: Vec::new(),
+            textures: Vec::new(),
             footprint: self.footprint,
         }
     }
@@ -1032,6 +1123,7 @@ impl Default for ModelMaterial {
             metallic: 0.0,
             emissive: [0.0; 3],
             opacity: 1.0,
+            texture: None,
         }
     }
 }

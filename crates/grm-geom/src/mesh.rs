@@ -17,6 +17,10 @@ pub struct MeshData {
     pub normals: Vec<[f32; 3]>,
     /// Three per triangle, each `< positions.len()`.
     pub indices: Vec<u32>,
+    /// Texture coordinates: empty, or one per position (shape mode;
+    /// exported as glTF `TEXCOORD_0` and OBJ `vt` only when there is one
+    /// per position).
+    pub uvs: Vec<[f32; 2]>,
 }
 
 impl MeshData {
@@ -39,6 +43,19 @@ impl MeshData {
         self.positions.push(p.to_array());
         self.normals.push(n.to_array());
         i
+    }
+
+    /// Append a vertex with texture coordinates; returns its index. (Keep
+    /// a mesh's vertices all with or all without them.)
+    #[inline]
+    pub fn vertex_uv(&mut self, p: Vec3, n: Vec3, uv: [f32; 2]) -> u32 {
+        self.uvs.push(uv);
+        self.vertex(p, n)
+    }
+
+    /// Whether every vertex has texture coordinates (and there are vertices).
+    pub fn has_uvs(&self) -> bool {
+        !self.positions.is_empty() && self.uvs.len() == self.positions.len()
     }
 
     #[inline]

@@ -59,6 +59,63 @@ impl fmt::Display for ExactLocator {
     }
 }
 
+impl std::str::FromStr for EdgeRef {
+    type Err = String;
+
+    /// `3` or `front 2` (the [`fmt::Display`] form).
+    fn from_str(s: &str) -> Result<EdgeRef, String> {
+        let s = s.trim();
+        if let Ok(n) = s.parse::<u32>() {
+            return Ok(EdgeRef::Number(n));
+        }
+        let bad = || format!("`{s}` is not an edge (a number, or a selector and an index)");
+        let (name, index) = s.split_once(' ').ok_or_else(bad)?;
+        let selector = [
+            Selector::Front,
+            Selector::Back,
+            Selector::Left,
+            Selector::Right,
+            Selector::Side,
+            Selector::Top,
+            Selector::Bottom,
+            Selector::All,
+        ]
+        .into_iter()
+        .find(|x| x.name() == name)
+        .ok_or_else(bad)?;
+        let index = index.trim().parse::<u32>().map_err(|_| bad())?;
+        Ok(EdgeRef::Component { selector, index })
+    }
+}
+
+impl std::str::FromStr for ExactLocator {
+    type Err = String;
+
+    /// The [`fmt::Display`] form, `{Lot, 1, comp.faces, front 1, Facade}`:
+    /// labels and edges alternate, separated by `, ` (a label holding
+    /// `, ` does not read back).
+    fn from_str(s: &str) -> Result<ExactLocator, String> {
+        let inner = s
+            .trim()
+            .strip_prefix('{')
+            .and_then(|r| r.strip_suffix('}'))
+            .ok_or_else(|| format!("`{s}` is not a locator in braces"))?;
+        let mut labels = Vec::new();
+        let mut edges = Vec::new();
+        for (i, word) in inner.split(", ").enumerate() {
+            if i % 2 == 0 {
+                labels.push(word.to_owned());
+            } else {
+                edges.push(word.parse()?);
+            }
+        }
+        if labels.len() != edges.len() + 1 || labels.iter().any(String::is_empty) {
+            return Err(format!("`{s}` does not end with a label"));
+        }
+        Ok(ExactLocator { labels, edges })
+    }
+}
+
 /// Where an exact locator leads in a tree (Lipp's classes, 3.2.2).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Resolution {
