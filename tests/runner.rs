@@ -113,6 +113,11 @@ pub const EXEMPT: &[(Code, &str)] = &[
         Code::GpuReadback,
         "internal (environment): a wgpu or driver error",
     ),
+    (
+        Code::ShapeInternal,
+        "internal: the lowering makes only programs the shape engine accepts, and the attribute \
+         table's limit needs 65,536 distinct colours (grm-grow tests/shape.rs)",
+    ),
     // Not internal, but not coverable by this CPU-only, file-based suite.
     (
         Code::FileUnreadable,
@@ -324,29 +329,30 @@ fn output_format(c: &CompiledSystem, output: Option<&str>) -> Result<(), Stop> {
 /// grmc's `export_model` (its warnings, W0013 and W0014; R0407, R0408),
 /// refusing to write into the tree.
 fn export(
-    c: &CompiledSystem,
+    at: (grm_diag::FileId, grm_diag::Span),
     model: &grm_geom::Model,
     path: &str,
     warnings: &mut Vec<Diagnostic>,
 ) -> Result<(), Stop> {
+    let (file, span) = at;
     if let Some(name) = path.strip_prefix("$TMP/") {
         static NEXT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
         let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let dir = std::env::temp_dir().join(format!("grm-run-{}-{n}", std::process::id()));
         std::fs::create_dir_all(&dir).expect("a temporary directory");
-        let out = export(c, model, &dir.join(name).to_string_lossy(), warnings);
+        let out = export(at, model, &dir.join(name).to_string_lossy(), warnings);
         let _ = std::fs::remove_dir_all(&dir);
         return out;
     }
     let path = Path::new(path);
     let lines = grm_geom::ExportFormat::from_path(path) == Some(grm_geom::ExportFormat::Svg);
-    warnings.extend(model.warnings(c.file, c.span, lines));
+    warnings.extend(model.warnings(file, span, lines));
     assert!(
         path.is_absolute(),
         "run cases export only to absolute paths that cannot be written, not {}",
         path.display()
     );
-    grm_geom::export(model, path).map_err(|e| e.to_diagnostic(c.file, c.span).into())
+    grm_geom::export(model, path).map_err(|e| e.to_diagnostic(file, span).into())
 }
 
 /// `grmc derive` on the CPU.
@@ -366,6 +372,10 @@ fn derive(program: &Program, args: &[String], warnings: &mut Vec<Diagnostic>) ->
         ],
     )
     .map_err(Stop::Usage)?;
+    let index = program.pick_system(o.get("--system"))?;
+    if program.systems[index].mode == grm_sema::Mode::Shape {
+        return shape_derive(program, index, &o, warnings);
+    }
     let (index, c) = compile(program, &o)?;
     let at = |e: grm_derive::DeriveError| Stop::from(e.to_diagnostic(c.file, c.span));
     if program.systems[index].mode == grm_sema::Mode::Sample {
@@ -410,7 +420,54 @@ fn derive(program: &Program, args: &[String], warnings: &mut Vec<Diagnostic>) ->
             &grm_geom::BuildOptions::limited(opts.limits.max_bytes, output),
         )
         .map_err(|e| Stop::from(e.to_diagnostic(program, c.file, c.span)))?;
-        export(&c, &model, path, warnings)?;
+        export((c.file, c.span), &model, path, warnings)?;
+    }
+    Ok(())
+}
+
+/// `grmc derive` of a shape system: grm-grow's road, as grmc's shape
+/// module takes it (lower, derive, build and export the model).
+fn shape_derive(
+    program: &Program,
+    index: usize,
+    o: &Opts,
+    warnings: &mut Vec<Diagnostic>,
+) -> Result<(), Stop> {
+    let system = &program.systems[index];
+    let (file, span) = (system.file, system.loc.span);
+    let at = |e: grm_grow::shape::ShapeGrowError| Stop::from(e.to_diagnostic(program, file, span));
+    let values = grm_compile::param_values(program, &o.all("--param")).map_err(Stop::Usage)?;
+    if let Some(path) = o.get("--output")
+        && grm_geom::ExportFormat::from_path(Path::new(path)).is_none()
+    {
+        let e = grm_geom::ExportError::UnknownFormat {
+            path: PathBuf::from(path),
+        };
+        return Err(e.to_diagnostic(file, span).into());
+    }
+    let mut options = grm_grow::shape::ShapeOptions {
+        seed: o.number("--seed").map_err(Stop::Usage)?,
+        threads: o.number("--threads").map_err(Stop::Usage)?.unwrap_or(1),
+        ..Default::default()
+    };
+    if let Some(m) = o.number::<usize>("--max-modules").map_err(Stop::Usage)? {
+        options.limits.max_nodes = m;
+    }
+    let lowered = grm_grow::shape::lower(program, system, &values).map_err(|e| at(e.into()))?;
+    let seed = options.seed.unwrap_or(lowered.seed);
+    let tree = grm_grow::shape::derive(&lowered, seed, &options).map_err(at)?;
+    if let Some(path) = o.get("--output") {
+        let max_mib: Option<u64> = o.number("--max-memory").map_err(Stop::Usage)?;
+        let d = grm_derive::DeriveLimits::default();
+        let format = grm_geom::ExportFormat::from_path(Path::new(path));
+        let output = grm_geom::Output::of(format, &grm_geom::render::RenderOptions::default());
+        let build = grm_geom::BuildOptions::limited(
+            max_mib.map_or(d.max_bytes, |m| m.saturating_mul(1 << 20)),
+            output,
+        );
+        let model =
+            grm_grow::shape::model(program, &values, &lowered, &tree, None, &build).map_err(at)?;
+        export((file, span), &model, path, warnings)?;
     }
     Ok(())
 }
@@ -526,7 +583,7 @@ fn sample(
             let model = m
                 .build(program, &grm_geom::BuildOptions::default())
                 .map_err(|e| Stop::from(e.to_diagnostic(program, c.file, c.span)))?;
-            export(&c, &model, path, warnings)?;
+            export((c.file, c.span), &model, path, warnings)?;
         }
     }
     Ok(())

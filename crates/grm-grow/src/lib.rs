@@ -55,6 +55,7 @@ pub mod forest;
 pub mod gpu;
 pub mod json;
 pub mod sample;
+pub mod shape;
 mod tree;
 
 use grm_derive::{DeriveError, IterationStats, ModuleString};

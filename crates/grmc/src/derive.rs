@@ -304,6 +304,50 @@ fn color() -> bool {
 /// Load, check (printing diagnostics), pick the system, apply `--param`s
 /// and compile. `Err` is the outcome to exit with (the problem was printed).
 pub fn load(path: &Path, system: Option<&str>, params: &[String]) -> Result<Loaded, Outcome> {
+    load_checked(path, system, params)?.compile()
+}
+
+/// A system loaded and checked, with the run's meta-parameter values,
+/// not compiled yet (a shape system is not compiled: `crate::shape`).
+pub struct Checked {
+    pub sources: SourceMap,
+    pub program: Program,
+    /// Index into `program.systems`.
+    pub system: usize,
+    /// The `--param` values (by `ParamId`).
+    pub values: Vec<grm_sema::Value>,
+}
+
+impl Checked {
+    pub fn system(&self) -> &grm_sema::System {
+        &self.program.systems[self.system]
+    }
+
+    /// Compile the system (errors printed; the outcome to exit with).
+    pub fn compile(self) -> Result<Loaded, Outcome> {
+        let compiled = match grm_compile::compile(&self.program, self.system(), &self.values) {
+            Ok(c) => c,
+            Err(e) => {
+                emit(&self.sources, &e.to_diagnostic());
+                return Err(Outcome::InputErrors);
+            }
+        };
+        Ok(Loaded {
+            sources: self.sources,
+            program: self.program,
+            system: self.system,
+            compiled,
+        })
+    }
+}
+
+/// Load, check (printing diagnostics), pick the system and apply
+/// `--param`s. `Err` is the outcome to exit with (the problem was printed).
+pub fn load_checked(
+    path: &Path,
+    system: Option<&str>,
+    params: &[String],
+) -> Result<Checked, Outcome> {
     let (sources, checked) = match crate::check::load_and_check(path) {
         Ok(r) => r,
         Err(u) => {
@@ -337,18 +381,11 @@ pub fn load(path: &Path, system: Option<&str>, params: &[String]) -> Result<Load
         eprintln!("error: {m}");
         Outcome::Usage
     })?;
-    let compiled = match grm_compile::compile(&program, &program.systems[index], &values) {
-        Ok(c) => c,
-        Err(e) => {
-            emit(&sources, &e.to_diagnostic());
-            return Err(Outcome::InputErrors);
-        }
-    };
-    Ok(Loaded {
+    Ok(Checked {
         sources,
         program,
         system: index,
-        compiled,
+        values,
     })
 }
 
@@ -384,7 +421,14 @@ fn ms(d: Duration) -> f64 {
 }
 
 pub fn run(args: DeriveArgs) -> Outcome {
-    let loaded = match load(&args.file, args.system.as_deref(), &args.params) {
+    let checked = match load_checked(&args.file, args.system.as_deref(), &args.params) {
+        Ok(c) => c,
+        Err(o) => return o,
+    };
+    if checked.system().mode == grm_sema::Mode::Shape {
+        return crate::shape::run(&args, checked);
+    }
+    let loaded = match checked.compile() {
         Ok(l) => l,
         Err(o) => return o,
     };
@@ -799,6 +843,18 @@ pub fn check_output_format(
     output: Option<&Path>,
     image: &ImageArgs,
 ) -> Option<Outcome> {
+    let c = &loaded.compiled;
+    check_output_at(&loaded.sources, c.file, c.span, output, image)
+}
+
+/// [`check_output_format`], its errors pointing at `span` of `file`.
+pub fn check_output_at(
+    sources: &SourceMap,
+    file: grm_diag::FileId,
+    span: grm_diag::Span,
+    output: Option<&Path>,
+    image: &ImageArgs,
+) -> Option<Outcome> {
     if let (Some(eye), Some(target)) = (image.camera, image.look_at)
         && eye == target
     {
@@ -843,8 +899,7 @@ pub fn check_output_format(
             source,
         }
     };
-    let c = &loaded.compiled;
-    emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));
+    emit(sources, &e.to_diagnostic(file, span));
     Some(Outcome::Usage)
 }
 
@@ -899,12 +954,26 @@ fn export_model_framed(
     framing: Option<&grm_geom::render::Framing>,
 ) -> Outcome {
     let c = &loaded.compiled;
+    export_model_at(&loaded.sources, c.file, c.span, model, path, image, framing)
+}
+
+/// [`export_model_framed`], its errors and warnings pointing at `span`
+/// of `file`.
+pub fn export_model_at(
+    sources: &SourceMap,
+    file: grm_diag::FileId,
+    span: grm_diag::Span,
+    model: &grm_geom::Model,
+    path: &Path,
+    image: &ImageArgs,
+    framing: Option<&grm_geom::render::Framing>,
+) -> Outcome {
     let format = grm_geom::ExportFormat::from_path(path);
     let picture = format == Some(grm_geom::ExportFormat::Png);
     // SVG and PNG draw bones without width as lines.
     let lines = picture || format == Some(grm_geom::ExportFormat::Svg);
-    for w in model.warnings(c.file, c.span, lines) {
-        emit(&loaded.sources, &w);
+    for w in model.warnings(file, span, lines) {
+        emit(sources, &w);
     }
     let options = image.options(model);
     if picture
@@ -925,7 +994,7 @@ fn export_model_framed(
         (false, _) => grm_geom::export(model, path),
     };
     if let Err(e) = written {
-        emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));
+        emit(sources, &e.to_diagnostic(file, span));
         return Outcome::Usage;
     }
     let s = &model.stats;

@@ -32,6 +32,7 @@ mod forest;
 mod gpu;
 mod lsp;
 mod sample;
+mod shape;
 mod tree;
 mod view;
 

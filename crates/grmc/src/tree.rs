@@ -12,6 +12,17 @@ use crate::derive::{Loaded, emit};
 /// Refuse a tree path that cannot be written before any work: a folder in
 /// its place, or a folder that does not exist (R0407, exit 2).
 pub fn check_path(loaded: &Loaded, path: &Path) -> Option<Outcome> {
+    let c = &loaded.compiled;
+    check_path_at(&loaded.sources, c.file, c.span, path)
+}
+
+/// [`check_path`], the error pointing at `span` of `file`.
+pub fn check_path_at(
+    sources: &grm_diag::SourceMap,
+    file: grm_diag::FileId,
+    span: grm_diag::Span,
+    path: &Path,
+) -> Option<Outcome> {
     let source = if path.is_dir() {
         std::io::ErrorKind::IsADirectory.into()
     } else {
@@ -29,8 +40,7 @@ pub fn check_path(loaded: &Loaded, path: &Path) -> Option<Outcome> {
         path: path.to_path_buf(),
         source,
     };
-    let c = &loaded.compiled;
-    emit(&loaded.sources, &e.to_diagnostic(c.file, c.span));
+    emit(sources, &e.to_diagnostic(file, span));
     Some(Outcome::Usage)
 }
 

@@ -1,0 +1,285 @@
+//! Shape mode on the one road: a checked `mode = shape` system lowered to
+//! the shape engine's IR ([`lower`]), derived (`grm_shape::derive`: seed,
+//! threads, limits) and built into a model (`grm_geom::shape`: one glTF
+//! node per terminal shape group, with its locators), the tree returned
+//! beside it for `--tree` ([`json`]) and the preview's picking.
+//!
+//! Errors are typed ([`ShapeGrowError`]) and become coded diagnostics
+//! ([`ShapeGrowError::to_diagnostic`]): an unusable lot for the run's
+//! meta-parameter values (E0509), the engine's run-time errors (R0801
+//! too many shapes, R0802 too deep, R0803 a bad value, R0804 the wrong
+//! kind of shape, R0805 internal), each pointing at the first rule of the
+//! symbol the engine names, and the model's (`grm_geom::GeomError`).
+
+pub mod json;
+mod lower;
+
+use std::path::Path;
+
+use grm_diag::{Code, Diagnostic, FileId, Span};
+use grm_geom::{BuildOptions, GeomError, Model};
+use grm_sema::Value;
+use grm_shape::{Limits, ShapeError, ShapeTree};
+
+pub use lower::{Lowered, RuleSource, lower};
+
+/// How to grow a shape system.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShapeOptions {
+    /// The seed (default: the system's `seed` setting).
+    pub seed: Option<u32>,
+    /// Worker threads: 1 derives on the calling thread, 0 on every core;
+    /// the tree is the same for any number.
+    pub threads: usize,
+    /// Bounds on the tree (nodes, depth).
+    pub limits: Limits,
+}
+
+impl Default for ShapeOptions {
+    fn default() -> Self {
+        ShapeOptions {
+            seed: None,
+            threads: 1,
+            limits: Limits::default(),
+        }
+    }
+}
+
+/// A grown shape system.
+#[derive(Debug)]
+pub struct ShapeGrown {
+    /// The lowered program (names of symbols, tags and assets; the
+    /// source span of each rule).
+    pub lowered: Lowered,
+    /// The whole derivation tree (shapes, commands, inserts).
+    pub tree: ShapeTree,
+    /// The seed it was grown with.
+    pub seed: u32,
+    /// The model, when one was asked for.
+    pub model: Option<Model>,
+}
+
+/// Why lowering stopped.
+#[derive(Clone, Debug, PartialEq)]
+pub enum LowerError {
+    /// The system is not a shape system (R0806).
+    NotShape { system: String },
+    /// The lot is not a usable footprint for these meta-parameter values
+    /// (E0509); `span` is the `lot` setting's value.
+    Lot { why: String, span: Option<Span> },
+    /// The engine refused the lowered program (internal, R0805).
+    Program { error: String },
+    /// A checked system that is not what the checker promises (internal,
+    /// R0805).
+    Internal(String),
+}
+
+/// Why growing a shape system stopped.
+#[derive(Debug)]
+pub enum ShapeGrowError {
+    Lower(LowerError),
+    /// The engine's error; `span` is the first rule of the symbol it
+    /// names, where there is one.
+    Shape {
+        error: ShapeError,
+        span: Option<Span>,
+    },
+    /// Building the model.
+    Geom(GeomError),
+}
+
+impl std::fmt::Display for ShapeGrowError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ShapeGrowError::Lower(LowerError::NotShape { system }) => write!(
+                f,
+                "system `{system}` is not a shape system (it has no `mode = shape;`)"
+            ),
+            ShapeGrowError::Lower(LowerError::Lot { why, .. }) => {
+                write!(f, "the lot is not a usable footprint: {why}")
+            }
+            ShapeGrowError::Lower(LowerError::Program { error }) => {
+                write!(f, "the shape engine refused the program: {error}")
+            }
+            ShapeGrowError::Lower(LowerError::Internal(m)) => write!(f, "{m}"),
+            ShapeGrowError::Shape { error, .. } => error.fmt(f),
+            ShapeGrowError::Geom(e) => e.fmt(f),
+        }
+    }
+}
+
+impl std::error::Error for ShapeGrowError {}
+
+impl From<LowerError> for ShapeGrowError {
+    fn from(e: LowerError) -> Self {
+        ShapeGrowError::Lower(e)
+    }
+}
+
+/// The internal errors' help line.
+const INTERNAL: &str =
+    "this is an internal error of grm; please report it with the file that caused it";
+
+impl ShapeGrowError {
+    /// The error's code.
+    pub fn code(&self) -> Code {
+        match self {
+            ShapeGrowError::Lower(LowerError::NotShape { .. }) => Code::NotShapeRunnable,
+            ShapeGrowError::Lower(LowerError::Lot { .. }) => Code::BadLot,
+            ShapeGrowError::Lower(_) => Code::ShapeInternal,
+            ShapeGrowError::Shape { error, .. } => match error {
+                ShapeError::TooManyShapes { .. } => Code::TooManyShapes,
+                ShapeError::TooDeep { .. } => Code::ShapeTooDeep,
+                ShapeError::Size { .. } | ShapeError::BadValue { .. } | ShapeError::Roof { .. } => {
+                    Code::ShapeBadValue
+                }
+                ShapeError::WrongGeometry { .. } | ShapeError::PopWithoutPush { .. } => {
+                    Code::ShapeWrongGeometry
+                }
+                ShapeError::BadLot { .. } => Code::BadLot,
+                _ => Code::ShapeInternal,
+            },
+            ShapeGrowError::Geom(_) => Code::ExportIo,
+        }
+    }
+
+    /// The error as a diagnostic in `file`; errors that name no rule point
+    /// at `span` (the system's name). A model's error is the geometry
+    /// crate's own diagnostic (`program` resolves its names).
+    pub fn to_diagnostic(
+        &self,
+        program: &grm_sema::Program,
+        file: FileId,
+        span: Span,
+    ) -> Diagnostic {
+        let (at, label, help): (Span, &str, &str) = match self {
+            ShapeGrowError::Geom(e) => return e.to_diagnostic(program, file, span),
+            ShapeGrowError::Lower(LowerError::NotShape { .. }) => (
+                span,
+                "not a shape system",
+                "run derive and sample systems with `grmc derive` and `grmc sample`",
+            ),
+            ShapeGrowError::Lower(LowerError::Lot { span: at, .. }) => (
+                at.unwrap_or(span),
+                "this lot",
+                "choose meta-parameter values (`--param`) that make the lot a polygon with area",
+            ),
+            ShapeGrowError::Lower(_) => (span, "in this system", INTERNAL),
+            ShapeGrowError::Shape { error, span: at } => {
+                let at = at.unwrap_or(span);
+                match error {
+                    ShapeError::TooManyShapes { .. } => (
+                        at,
+                        "in this system",
+                        "bound the grammar (a rule that splits or repeats forever?), or raise the limit with `--max-shapes`",
+                    ),
+                    ShapeError::TooDeep { .. } => (
+                        at,
+                        "this rule goes too deep",
+                        "make the rule end: a symbol that rewrites to itself needs a condition that stops it",
+                    ),
+                    ShapeError::Size { .. }
+                    | ShapeError::BadValue { .. }
+                    | ShapeError::Roof { .. } => (
+                        at,
+                        "in this rule",
+                        "make the value a finite number for every shape (a condition can keep the rule from small scopes)",
+                    ),
+                    ShapeError::WrongGeometry { .. } => (
+                        at,
+                        "in this rule",
+                        "give the operation a shape it applies to: extrude a face before `comp(faces)`, split an edge rather than extrude it",
+                    ),
+                    ShapeError::PopWithoutPush { .. } => (
+                        at,
+                        "in this rule",
+                        "every `]` needs a `[` before it in the same rule",
+                    ),
+                    ShapeError::BadLot { .. } => {
+                        (at, "the lot", "make the lot a polygon with area")
+                    }
+                    ShapeError::TooManyAttributes { .. } => (
+                        at,
+                        "in this system",
+                        "use fewer distinct colours and materials",
+                    ),
+                    _ => (at, "in this system", INTERNAL),
+                }
+            }
+        };
+        Diagnostic::new(self.code(), self.to_string(), file, at, label).with_help(help)
+    }
+}
+
+/// The symbol an engine error names.
+fn error_symbol(e: &ShapeError) -> Option<&str> {
+    match e {
+        ShapeError::TooDeep { symbol, .. }
+        | ShapeError::Size { symbol, .. }
+        | ShapeError::BadValue { symbol, .. }
+        | ShapeError::WrongGeometry { symbol, .. }
+        | ShapeError::PopWithoutPush { symbol }
+        | ShapeError::Roof { symbol, .. } => Some(symbol),
+        _ => None,
+    }
+}
+
+/// Derive a lowered system.
+pub fn derive(
+    lowered: &Lowered,
+    seed: u32,
+    options: &ShapeOptions,
+) -> Result<ShapeTree, ShapeGrowError> {
+    let opts = grm_shape::Options {
+        seed,
+        threads: options.threads,
+        limits: options.limits,
+    };
+    grm_shape::derive(&lowered.program, &lowered.lot, &opts).map_err(|error| {
+        let span = error_symbol(&error).and_then(|s| lowered.rule_span(s));
+        ShapeGrowError::Shape { error, span }
+    })
+}
+
+/// Build the model of a grown tree: terminal shapes and inserts, with the
+/// program's declared materials and meshes (evaluated with `params`) and
+/// textures relative to `dir` (the grammar's directory).
+pub fn model(
+    program: &grm_sema::Program,
+    params: &[Value],
+    lowered: &Lowered,
+    tree: &ShapeTree,
+    dir: Option<&Path>,
+    build: &BuildOptions,
+) -> Result<Model, ShapeGrowError> {
+    let assets = grm_geom::shape::ShapeAssets::from_program(program, params, dir)
+        .map_err(ShapeGrowError::Geom)?;
+    grm_geom::shape::build_shape_model(tree, &lowered.program, &assets, build)
+        .map_err(ShapeGrowError::Geom)
+}
+
+/// Grow `system` of `program` (a shape system checked without errors)
+/// with the meta-parameter values `params`: lower, derive, and build the
+/// model when `build` is given. `dir` is the grammar's directory
+/// (textures).
+pub fn grow(
+    program: &grm_sema::Program,
+    system: &grm_sema::System,
+    params: &[Value],
+    options: &ShapeOptions,
+    build: Option<(&BuildOptions, Option<&Path>)>,
+) -> Result<ShapeGrown, ShapeGrowError> {
+    let lowered = lower(program, system, params)?;
+    let seed = options.seed.unwrap_or(lowered.seed);
+    let tree = derive(&lowered, seed, options)?;
+    let model = match build {
+        Some((b, dir)) => Some(model(program, params, &lowered, &tree, dir, b)?),
+        None => None,
+    };
+    Ok(ShapeGrown {
+        lowered,
+        tree,
+        seed,
+        model,
+    })
+}

@@ -1,0 +1,196 @@
+//! Shape mode on the one road (`grm_grow::shape`): a checked shape system
+//! lowered, derived and built; the same tree for any thread count;
+//! meta-parameters and expressions lowered with the run's values; the
+//! engine's errors as coded diagnostics at the rule; the tree's JSON.
+
+mod common;
+
+use common::*;
+use grm_diag::Code;
+use grm_grow::shape::{ShapeGrowError, ShapeOptions, derive, grow, json, lower};
+use grm_shape::NodeKind;
+
+fn system(c: &grm_sema::Checked) -> &grm_sema::System {
+    c.program.default_system().expect("a system")
+}
+
+#[test]
+fn the_townhouse_grows_into_a_model_with_a_group_per_drawn_shape() {
+    let c = checked("townhouse.grm");
+    let p = &c.program;
+    let build = grm_geom::BuildOptions::default();
+    let g = grow(
+        p,
+        system(&c),
+        &p.default_params(),
+        &ShapeOptions::default(),
+        Some((&build, None)),
+    )
+    .expect("grows");
+    assert_eq!(g.seed, 1);
+    let model = g.model.expect("a model");
+    assert!(model.stats.triangles > 500, "{}", model.stats.triangles);
+    // Three houses, each with a roof.
+    let roofs = g
+        .tree
+        .nodes()
+        .iter()
+        .filter(|n| matches!(n.kind, NodeKind::Shape { symbol, .. } if g.lowered.program.symbol_name(symbol) == "Roof"))
+        .count();
+    assert_eq!(roofs, 3);
+    // Every rewritten shape's rule is a rule of its symbol.
+    for n in g.tree.nodes() {
+        if let NodeKind::Shape {
+            symbol,
+            alternative: Some(a),
+        } = n.kind
+        {
+            let r = g.lowered.rule_of(symbol, a).expect("a rule") as usize;
+            assert_eq!(g.lowered.rules[r].symbol, symbol);
+        }
+    }
+}
+
+#[test]
+fn any_thread_count_gives_the_same_tree() {
+    let c = checked("townhouse.grm");
+    let p = &c.program;
+    let lowered = lower(p, system(&c), &p.default_params()).expect("lowers");
+    let one = derive(&lowered, 5, &ShapeOptions::default()).expect("derives");
+    for threads in [2, 3, 0] {
+        let opts = ShapeOptions {
+            threads,
+            ..ShapeOptions::default()
+        };
+        assert_eq!(
+            derive(&lowered, 5, &opts).expect("derives"),
+            one,
+            "{threads}"
+        );
+    }
+}
+
+#[test]
+fn parameters_and_expressions_are_lowered_with_the_runs_values() {
+    let c = inline(
+        "param h = 6 in 1 .. 20;\n\
+         const W = 2 * 3;\n\
+         system S {\n\
+             mode = shape;\n\
+             lot = rect(W * 2, 4);\n\
+             axiom A;\n\
+             A -> extrude(h) B;\n\
+             B -> comp(faces) { front: F };\n\
+             F : scope.x > 10 && index == 1 -> split(x) { 25%: G | ~1: H | length(vec3(1, 0, 0)) * 2: G };\n\
+         }\n",
+    );
+    let p = &c.program;
+    let mut values = p.default_params();
+    values[0] = grm_sema::Value::Float(9.0);
+    let lowered = lower(p, system(&c), &values).expect("lowers");
+    let tree = derive(&lowered, 0, &ShapeOptions::default()).expect("derives");
+    let sym = |name: &str| lowered.program.symbol(name).expect("symbol");
+    // The mass is 9 high (the parameter's run value) on a 12 by 4 lot.
+    let mass = tree
+        .nodes()
+        .iter()
+        .find(|n| matches!(n.kind, NodeKind::Shape { symbol, .. } if symbol == sym("B")))
+        .expect("the mass");
+    assert_eq!(mass.scope.size.to_array(), [12.0, 4.0, 9.0]);
+    // The front (12 wide) is split: 3, then 7, then 2.
+    let widths: Vec<f32> = tree
+        .nodes()
+        .iter()
+        .filter(|n| {
+            matches!(n.kind, NodeKind::Shape { symbol, .. } if symbol == sym("G") || symbol == sym("H"))
+        })
+        .map(|n| n.scope.size.x)
+        .collect();
+    assert_eq!(widths, [3.0, 7.0, 2.0]);
+}
+
+#[test]
+fn engine_errors_are_coded_at_the_rule() {
+    let c =
+        inline("system S {\n    mode = shape;\n    axiom A;\n    A -> translate(1, 0, 0) A;\n}\n");
+    let p = &c.program;
+    let sys = system(&c);
+    let e = grow(p, sys, &p.default_params(), &ShapeOptions::default(), None).unwrap_err();
+    assert_eq!(e.code(), Code::ShapeTooDeep);
+    let d = e.to_diagnostic(p, sys.file, sys.loc.span);
+    assert_eq!(d.code, Code::ShapeTooDeep);
+    let rule = "A -> translate(1, 0, 0) A;";
+    let text = "system S {\n    mode = shape;\n    axiom A;\n    A -> translate(1, 0, 0) A;\n}\n";
+    let start = text.find(rule).unwrap() as u32;
+    assert_eq!(
+        d.labels[0].span,
+        grm_diag::Span::new(start, start + rule.len() as u32)
+    );
+
+    let c = inline(
+        "system S {\n    mode = shape;\n    axiom A;\n    A -> split(x) { ~1: A | ~1: A };\n}\n",
+    );
+    let opts = ShapeOptions {
+        limits: grm_shape::Limits {
+            max_nodes: 2000,
+            ..Default::default()
+        },
+        ..ShapeOptions::default()
+    };
+    let p = &c.program;
+    let e = grow(p, system(&c), &p.default_params(), &opts, None).unwrap_err();
+    assert_eq!(e.code(), Code::TooManyShapes);
+    assert!(matches!(e, ShapeGrowError::Shape { .. }));
+}
+
+#[test]
+fn a_lot_the_runs_values_make_unusable_is_e0509() {
+    let c = inline(
+        "param w = 10 in 0 .. 20;\nsystem S {\n    mode = shape;\n    lot = rect(w, 5);\n    axiom A;\n}\n",
+    );
+    let p = &c.program;
+    let e = lower(p, system(&c), &[grm_sema::Value::Float(0.0)]).unwrap_err();
+    assert_eq!(ShapeGrowError::from(e).code(), Code::BadLot);
+}
+
+#[test]
+fn derive_systems_are_not_lowered() {
+    let c = inline("system S {\n    axiom F;\n}\n");
+    let p = &c.program;
+    let e = lower(p, system(&c), &p.default_params()).unwrap_err();
+    assert_eq!(ShapeGrowError::from(e).code(), Code::NotShapeRunnable);
+}
+
+#[test]
+fn the_tree_json_has_every_node_with_locators() {
+    let c = checked("townhouse.grm");
+    let p = &c.program;
+    let sys = system(&c);
+    let lowered = lower(p, sys, &p.default_params()).expect("lowers");
+    let tree = derive(&lowered, lowered.seed, &ShapeOptions::default()).expect("derives");
+    let path = example_path("townhouse.grm");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let mut sources = grm_diag::SourceMap::new();
+    let file = sources.add(path.display().to_string(), &text);
+    let v: serde_json::Value = serde_json::from_str(&json::to_json(
+        &lowered,
+        &tree,
+        lowered.seed,
+        file,
+        &sources,
+    ))
+    .unwrap();
+    assert_eq!(v["mode"], "shape");
+    let nodes = v["nodes"].as_array().unwrap();
+    assert_eq!(nodes.len(), tree.len());
+    assert_eq!(
+        v["productions"].as_array().unwrap().len(),
+        lowered.rules.len()
+    );
+    assert_eq!(nodes[0]["exact"], "{Lot}");
+    let children: usize = nodes
+        .iter()
+        .map(|n| n["children"].as_array().unwrap().len())
+        .sum();
+    assert_eq!(children, tree.len() - 1);
+}
