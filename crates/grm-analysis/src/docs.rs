@@ -300,6 +300,8 @@ entries! {
     Selector "eave" ["eave"] "a roof's lower horizontal edges.";
     Selector "ridge" ["ridge"] "a roof's upper horizontal edges.";
     Selector "hip" ["hip"] "a roof's sloped edges where two slopes meet.";
+    Selector "valley" ["valley"] "a roof's sloped edges where two slopes meet in a hollow (an inner corner of the footprint).";
+    Selector "rake" ["rake"] "a gable roof's sloped edges along its gable ends.";
     RoofKind "flat" ["flat"] "a flat roof (with its overhang).";
     RoofKind "gable" ["gable"] "two slopes meeting at a ridge, with vertical gable ends.";
     RoofKind "hip" ["hip"] "slopes on every side, on the footprint's straight skeleton.";
