@@ -39,6 +39,7 @@ pub mod convert;
 pub mod coverage;
 pub mod picture;
 pub mod preview;
+pub mod shape_preview;
 pub mod stdio;
 pub mod uris;
 

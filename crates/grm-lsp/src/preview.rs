@@ -116,7 +116,7 @@ impl std::fmt::Display for Failure {
 }
 
 /// `Err(Cancelled)` once `cancel` is set.
-fn check(cancel: Option<&CancelToken>) -> std::result::Result<(), Failure> {
+pub(crate) fn check(cancel: Option<&CancelToken>) -> std::result::Result<(), Failure> {
     match cancel {
         Some(t) if t.is_cancelled() => Err(Failure::Cancelled),
         _ => Ok(()),
@@ -132,6 +132,9 @@ pub enum PreviewMode {
     Derive,
     /// The guided sampler (needs curves).
     Sample,
+    /// A split grammar for buildings (`mode = shape`): the shape engine
+    /// through `grm_grow::shape` (`crate::shape_preview`).
+    Shape,
 }
 
 /// `grm/preview` parameters.
@@ -324,6 +327,9 @@ pub struct PreviewResult {
     /// them: these depend on the seed and the parameters, so they come
     /// with the model rather than with the file's diagnostics.
     pub warnings: Vec<WarningOut>,
+    /// Shape mode: the derivation tree's figures.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shape: Option<crate::shape_preview::ShapeOut>,
 }
 
 /// A model warning (`grm_geom::Model::warnings`).
@@ -423,6 +429,9 @@ pub struct PickResult {
     /// Its ancestry, from the axiom (first) down to the part (last).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub ancestry: Vec<AncestryOut>,
+    /// Shape mode: the picked shape's locators and its ancestors' scopes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shape: Option<crate::shape_preview::ShapePickOut>,
 }
 
 /// One step of a part's ancestry.
@@ -444,16 +453,18 @@ pub struct AncestryOut {
 /// What `grm/pick` needs from the last preview of a document.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct PickTable {
-    version: i32,
+    pub(crate) version: i32,
     /// Per part: (first triangle, count, module, origin).
-    parts: Vec<Vec<(u32, u32, u32, u32)>>,
+    pub(crate) parts: Vec<Vec<(u32, u32, u32, u32)>>,
     /// Per bone: (module, origin).
-    bones: Vec<(u32, u32)>,
-    origins: Vec<OriginOut>,
+    pub(crate) bones: Vec<(u32, u32)>,
+    pub(crate) origins: Vec<OriginOut>,
     /// The compiled system's symbol names.
-    symbols: Vec<String>,
+    pub(crate) symbols: Vec<String>,
     /// The derivation tree and each node's place among its siblings.
-    tree: Option<Arc<(grm_grow::Tree, Vec<u32>)>>,
+    pub(crate) tree: Option<Arc<(grm_grow::Tree, Vec<u32>)>>,
+    /// Shape mode: the shape tree and where its rules are written.
+    pub(crate) shape: Option<Arc<crate::shape_preview::ShapePicks>>,
 }
 
 fn b64<T: Copy>(xs: &[T], to: fn(T) -> [u8; 4]) -> String {
@@ -464,11 +475,11 @@ fn b64<T: Copy>(xs: &[T], to: fn(T) -> [u8; 4]) -> String {
     base64::engine::general_purpose::STANDARD.encode(bytes)
 }
 
-fn f32s(xs: &[f32]) -> String {
+pub(crate) fn f32s(xs: &[f32]) -> String {
     b64(xs, f32::to_le_bytes)
 }
 
-fn u32s(xs: &[u32]) -> String {
+pub(crate) fn u32s(xs: &[u32]) -> String {
     b64(xs, u32::to_le_bytes)
 }
 
@@ -756,7 +767,7 @@ fn sample_model(
 
 /// A model error as the preview says it: over the memory limit, with its
 /// code and what to lower.
-fn too_large(e: &grm_geom::GeomError) -> Failure {
+pub(crate) fn too_large(e: &grm_geom::GeomError) -> Failure {
     match e {
         grm_geom::GeomError::MemoryLimit { .. } => Failure::Msg(format!(
             "{} (R0202): lower `maxModules` or the iterations to preview it",
@@ -809,12 +820,7 @@ pub(crate) fn build_with_model(
     let mode = p.mode.unwrap_or(match sys.mode {
         Mode::Derive => PreviewMode::Derive,
         Mode::Sample => PreviewMode::Sample,
-        Mode::Shape => {
-            return Err(Failure::Msg(format!(
-                "system `{}` is a shape system: grow it with `grmc derive`",
-                sys.name
-            )));
-        }
+        Mode::Shape => PreviewMode::Shape,
     });
     match (mode, sys.mode) {
         (PreviewMode::Derive, Mode::Sample) => {
@@ -827,6 +833,19 @@ pub(crate) fn build_with_model(
             return Err(Failure::Msg(format!(
                 "system `{}` is a derive system: only sample systems are sampled",
                 sys.name
+            )));
+        }
+        (PreviewMode::Derive | PreviewMode::Sample, Mode::Shape) => {
+            return Err(Failure::Msg(format!(
+                "system `{}` is a shape system: only shape mode grows it",
+                sys.name
+            )));
+        }
+        (PreviewMode::Shape, Mode::Derive | Mode::Sample) => {
+            return Err(Failure::Msg(format!(
+                "system `{}` is a {} system: shape mode grows only shape systems",
+                sys.name,
+                sys.mode.name()
             )));
         }
         _ => {}
@@ -856,6 +875,9 @@ pub(crate) fn build_with_model(
             )));
         }
         values[id.index()] = Value::Float(*v);
+    }
+    if mode == PreviewMode::Shape {
+        return crate::shape_preview::build(fa, uri, uris, p, sys, values, cancel);
     }
     let globals = prog.global_values(&values).map_err(|e| e.to_string())?;
     let mut settings = sys.settings_with(&values, &globals)?;
@@ -915,8 +937,8 @@ pub(crate) fn build_with_model(
             .map(|a| a as u32)
     });
     let made = match mode {
-        PreviewMode::Derive => derive_model(prog, sys, &compiled, &settings, p, focus, cancel)?,
         PreviewMode::Sample => sample_model(fa, sys, &compiled, &settings, p, focus, cancel)?,
+        _ => derive_model(prog, sys, &compiled, &settings, p, focus, cancel)?,
     };
     check(cancel)?;
     let Made {
@@ -929,34 +951,8 @@ pub(crate) fn build_with_model(
         focus_out,
         sample,
     } = made;
-    let params_out: Vec<ParamOut> = prog
-        .params
-        .iter()
-        .zip(&values)
-        .filter_map(|(m, v)| {
-            Some(ParamOut {
-                name: m.name.clone(),
-                value: v.as_float()?,
-                default: m.default.as_float()?,
-                min: m.range.map(|r| r.0),
-                max: m.range.map(|r| r.1),
-            })
-        })
-        .collect();
-    // Refused before it is encoded: the transport drops a larger message,
-    // and the client would wait for its answer forever.
-    let answer = answer_bytes(&model, origin_table.len());
-    if answer > MAX_ANSWER_BYTES {
-        let st = &model.stats;
-        return Err(Failure::Msg(format!(
-            "the model is too large to preview (R0408): its answer would be {} ({} triangles, {} vertices, {} bones), over the limit of {} on a grm/preview answer; lower `maxModules` or the iterations",
-            grm_geom::budget::mib(answer),
-            st.triangles,
-            st.vertices,
-            st.bones,
-            grm_geom::budget::mib(MAX_ANSWER_BYTES)
-        )));
-    }
+    let params_out = params_out(prog, &values);
+    fits_answer(&model, origin_table.len())?;
     let t2 = Instant::now();
     let is_focus = |module: u32| focus_flags.get(module as usize) == Some(&true);
     let origin_of = |o: u32| (o != NO_ORIGIN && (o as usize) < origin_table.len()).then_some(o);
@@ -975,7 +971,107 @@ pub(crate) fn build_with_model(
         }),
         ..PickTable::default()
     };
-    let parts: Vec<PartOut> = model
+    let parts = parts_out(&model, &origin_of, &is_focus, &mut table.parts);
+    let bones = &model.skeleton.bones;
+    let mut bone_f = Vec::with_capacity(bones.len() * 8);
+    let mut parents = Vec::with_capacity(bones.len());
+    let mut bone_o = Vec::with_capacity(bones.len());
+    for b in bones {
+        bone_f.extend_from_slice(&b.base.to_array());
+        bone_f.extend_from_slice(&b.tip.to_array());
+        bone_f.push(b.width_base);
+        bone_f.push(b.width_tip);
+        parents.push(b.parent.map_or(-1, |p| i32::try_from(p).unwrap_or(-1)));
+        bone_o.push(origin_of(b.origin).unwrap_or(NO_ORIGIN));
+        table.bones.push((b.module, b.origin));
+    }
+    let skeleton = SkeletonOut {
+        bone_count: bones.len(),
+        bones: f32s(&bone_f),
+        parents: i32s(&parents),
+        origins: u32s(&bone_o),
+    };
+    let materials = materials_out(&model);
+    let warnings: Vec<WarningOut> = model
+        .warnings(compiled.file, compiled.span, false)
+        .into_iter()
+        .map(|d| WarningOut {
+            code: d.code.as_str().to_string(),
+            message: d.message,
+            notes: d.notes,
+            help: d.help,
+        })
+        .collect();
+    let result = PreviewResult {
+        uri: uri.clone(),
+        version: fa.version,
+        system: sys.name.clone(),
+        mode,
+        seed: settings.seed,
+        iterations: settings.iterations,
+        encoding: "base64-le".into(),
+        materials,
+        parts,
+        skeleton,
+        origins: origin_table,
+        focus: focus_out,
+        params: params_out,
+        sample,
+        stats: stats_out(&model, modules, derive_ms, build_ms, t2),
+        warnings,
+        shape: None,
+    };
+    Ok((result, table, model))
+}
+
+/// The meta-parameters with the values of a run (for the sliders).
+pub(crate) fn params_out(prog: &grm_sema::Program, values: &[Value]) -> Vec<ParamOut> {
+    prog.params
+        .iter()
+        .zip(values)
+        .filter_map(|(m, v)| {
+            Some(ParamOut {
+                name: m.name.clone(),
+                value: v.as_float()?,
+                default: m.default.as_float()?,
+                min: m.range.map(|r| r.0),
+                max: m.range.map(|r| r.1),
+            })
+        })
+        .collect()
+}
+
+/// Refuse a model before it is encoded when its answer would be too large:
+/// the transport drops a larger message, and the client would wait for
+/// its answer forever.
+pub(crate) fn fits_answer(
+    model: &grm_geom::Model,
+    origins: usize,
+) -> std::result::Result<(), Failure> {
+    let answer = answer_bytes(model, origins);
+    if answer > MAX_ANSWER_BYTES {
+        let st = &model.stats;
+        return Err(Failure::Msg(format!(
+            "the model is too large to preview (R0408): its answer would be {} ({} triangles, {} vertices, {} bones), over the limit of {} on a grm/preview answer; lower `maxModules` or the iterations",
+            grm_geom::budget::mib(answer),
+            st.triangles,
+            st.vertices,
+            st.bones,
+            grm_geom::budget::mib(MAX_ANSWER_BYTES)
+        )));
+    }
+    Ok(())
+}
+
+/// The model's parts on the wire, and for `grm/pick` each part's runs
+/// (first triangle, count, module, origin) pushed on `table`.
+pub(crate) fn parts_out(
+    model: &grm_geom::Model,
+    origin_of: &dyn Fn(u32) -> Option<u32>,
+    is_focus: &dyn Fn(u32) -> bool,
+    table: &mut Vec<Vec<(u32, u32, u32, u32)>>,
+) -> Vec<PartOut> {
+    model
         .parts
         .iter()
         .map(|part| {
@@ -1001,7 +1097,7 @@ pub(crate) fn build_with_model(
                     }
                 })
                 .collect();
-            table.parts.push(
+            table.push(
                 part.picks
                     .iter()
                     .map(|pk| (pk.first_triangle, pk.triangle_count, pk.module, pk.origin))
@@ -1017,27 +1113,12 @@ pub(crate) fn build_with_model(
                 picks,
             }
         })
-        .collect();
-    let bones = &model.skeleton.bones;
-    let mut bone_f = Vec::with_capacity(bones.len() * 8);
-    let mut parents = Vec::with_capacity(bones.len());
-    let mut bone_o = Vec::with_capacity(bones.len());
-    for b in bones {
-        bone_f.extend_from_slice(&b.base.to_array());
-        bone_f.extend_from_slice(&b.tip.to_array());
-        bone_f.push(b.width_base);
-        bone_f.push(b.width_tip);
-        parents.push(b.parent.map_or(-1, |p| i32::try_from(p).unwrap_or(-1)));
-        bone_o.push(origin_of(b.origin).unwrap_or(NO_ORIGIN));
-        table.bones.push((b.module, b.origin));
-    }
-    let skeleton = SkeletonOut {
-        bone_count: bones.len(),
-        bones: f32s(&bone_f),
-        parents: i32s(&parents),
-        origins: u32s(&bone_o),
-    };
-    let materials = model
+        .collect()
+}
+
+/// The model's materials on the wire.
+pub(crate) fn materials_out(model: &grm_geom::Model) -> Vec<MaterialOut> {
+    model
         .materials
         .iter()
         .map(|m| MaterialOut {
@@ -1048,17 +1129,17 @@ pub(crate) fn build_with_model(
             emissive: m.emissive,
             opacity: m.opacity,
         })
-        .collect();
-    let warnings: Vec<WarningOut> = model
-        .warnings(compiled.file, compiled.span, false)
-        .into_iter()
-        .map(|d| WarningOut {
-            code: d.code.as_str().to_string(),
-            message: d.message,
-            notes: d.notes,
-            help: d.help,
-        })
-        .collect();
+        .collect()
+}
+
+/// The model's figures; `encode` is when encoding began.
+pub(crate) fn stats_out(
+    model: &grm_geom::Model,
+    modules: usize,
+    derive_ms: f64,
+    build_ms: f64,
+    encode: Instant,
+) -> StatsOut {
     let st = &model.stats;
     let finite = |v: [f32; 3]| {
         if v.iter().all(|x| x.is_finite()) {
@@ -1067,40 +1148,22 @@ pub(crate) fn build_with_model(
             [0.0; 3]
         }
     };
-    let result = PreviewResult {
-        uri: uri.clone(),
-        version: fa.version,
-        system: sys.name.clone(),
-        mode,
-        seed: settings.seed,
-        iterations: settings.iterations,
-        encoding: "base64-le".into(),
-        materials,
-        parts,
-        skeleton,
-        origins: origin_table,
-        focus: focus_out,
-        params: params_out,
-        sample,
-        stats: StatsOut {
-            modules,
-            vertices: st.vertices,
-            triangles: st.triangles,
-            bones: st.bones,
-            instances: st.instances,
-            polygons: st.polygons,
-            parts: st.parts,
-            dropped: st.dropped,
-            bounds_min: finite(st.bounds.min.to_array()),
-            bounds_max: finite(st.bounds.max.to_array()),
-            ambiguous_origins: 0,
-            derive_ms,
-            build_ms,
-            encode_ms: t2.elapsed().as_secs_f64() * 1e3,
-        },
-        warnings,
-    };
-    Ok((result, table, model))
+    StatsOut {
+        modules,
+        vertices: st.vertices,
+        triangles: st.triangles,
+        bones: st.bones,
+        instances: st.instances,
+        polygons: st.polygons,
+        parts: st.parts,
+        dropped: st.dropped,
+        bounds_min: finite(st.bounds.min.to_array()),
+        bounds_max: finite(st.bounds.max.to_array()),
+        ambiguous_origins: 0,
+        derive_ms,
+        build_ms,
+        encode_ms: encode.elapsed().as_secs_f64() * 1e3,
+    }
 }
 
 /// Compute a preview off the executor.
@@ -1286,6 +1349,9 @@ impl Backend {
         let Some(t) = tables.get(&path) else {
             return Err(failed("no preview of this document yet"));
         };
+        if let Some(shape) = &t.shape {
+            return Ok(shape.pick(t, &params));
+        }
         let found = match (params.part, params.triangle, params.bone) {
             (Some(part), Some(tri), _) => t.parts.get(part).and_then(|ps| {
                 let i = ps.partition_point(|p| p.0 <= tri);
@@ -1309,6 +1375,7 @@ impl Backend {
                 module,
                 key,
                 ancestry,
+                shape: None,
             })
         }))
     }
