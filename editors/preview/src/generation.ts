@@ -11,7 +11,7 @@
 // and the scrubber goes back to the end, to show that search's result (a
 // position in the old search would show a model of the new one no one chose).
 
-import type { PreviewParams, PreviewResult, SampleInfo } from './protocol.js';
+import type { Mode, PreviewParams, PreviewResult, SampleInfo } from './protocol.js';
 
 /**
  * The `generation` of a preview request for scrubber position `position`
@@ -104,7 +104,7 @@ export interface ScrubberView {
  * generation is `1 / 100`, the result `100 / 100`), from 0 in the requests
  * and in `grmc sample --frames` (said in the tooltip).
  */
-export function scrubberView(mode: 'derive' | 'sample', sample: SampleInfo | null, generation: number | null): ScrubberView {
+export function scrubberView(mode: Mode, sample: SampleInfo | null, generation: number | null): ScrubberView {
   const n = sample ? Math.max(0, Math.floor(sample.generations)) : 0;
   if (mode !== 'sample' || n < 1) return { hidden: true, disabled: true, max: 0, value: 0, label: '', title: '' };
   const max = n - 1;

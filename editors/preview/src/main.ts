@@ -13,6 +13,7 @@ import {
   type Origin,
   type PickParams,
   type PickResult,
+  type ScopeBox,
   type PreviewParams,
   type PreviewResult,
   type SampleInfo,
@@ -25,6 +26,7 @@ import {
   paramsFromSymbols,
 } from './protocol.js';
 import { PreviewScene, ThumbnailRenderer } from './scene.js';
+import { scopeLines } from './scopes.js';
 import { PageState, ShownVersion } from './state.js';
 import { type RequestTiming, type Transport, detectTransport, isSuperseded } from './transport.js';
 
@@ -105,6 +107,8 @@ interface DebugInfo {
   seed: number | null;
   curves: number;
   lastPick: PickResult | null;
+  /** Shape mode: segments drawn for the picked shape's scopes (0 when the toggle is off or nothing is picked). */
+  readonly scopeSegments: number;
   lastError: string | null;
   saves: number;
   /** Screen position of a world point (for tests that aim at things). */
@@ -155,6 +159,10 @@ class App {
   private framed = false;
   private tool: 'orbit' | 'draw' = 'orbit';
   private showCurves = true;
+  /** Shape mode: draw the picked shape's ancestors' scopes and split planes. */
+  private showScopes = false;
+  /** The scopes of the last shape picked. */
+  private pickedScopes: ScopeBox[] | null = null;
   private paramSignature = '';
   private gesture:
     | { kind: 'none' }
@@ -256,6 +264,9 @@ class App {
       seed: null,
       curves: 0,
       lastPick: null,
+      get scopeSegments() {
+        return scene.scopeSegments;
+      },
       lastError: null,
       saves: 0,
       toScreen: (p) => this.scene.toScreen(p),
@@ -414,6 +425,10 @@ class App {
       return { result, breakdown };
     } catch (e) {
       const msg = (e as Error).message ?? '';
+      if (this.state.mode === 'derive' && /is a shape system/.test(msg)) {
+        this.state.mode = 'shape';
+        return { result: decodePreview(await this.transport.request('preview', this.ordered(this.state.previewParams()))), breakdown: {} };
+      }
       if (this.state.mode === 'derive' && /is a sample system/.test(msg)) {
         this.state.mode = 'sample';
         await this.ensureCurves();
@@ -555,6 +570,10 @@ class App {
     this.debug.bones = r.model.bones.length;
     this.debug.mode = r.mode;
     this.debug.seed = r.seed;
+    // The scopes toggle is shape mode's; a new model's shapes may have moved.
+    $('scopes-toggle').hidden = r.mode !== 'shape';
+    this.pickedScopes = null;
+    this.drawScopes();
     this.debug.ready = true;
     this.debug.lastError = null;
     this.showFocus(r);
@@ -639,6 +658,10 @@ class App {
     $('tool-draw').addEventListener('click', () => this.setTool('draw'));
     $<HTMLInputElement>('show-geometry').addEventListener('change', (e) => this.scene.setShowGeometry((e.target as HTMLInputElement).checked));
     $<HTMLInputElement>('show-skeleton').addEventListener('change', (e) => this.scene.setShowSkeleton((e.target as HTMLInputElement).checked));
+    $<HTMLInputElement>('show-scopes').addEventListener('change', (e) => {
+      this.showScopes = (e.target as HTMLInputElement).checked;
+      this.drawScopes();
+    });
     $<HTMLInputElement>('show-curves').addEventListener('change', (e) => {
       this.showCurves = (e.target as HTMLInputElement).checked;
       this.refreshCurves();
@@ -836,7 +859,13 @@ class App {
       const r = decodePick(await this.transport.request('pick', params));
       this.debug.lastPick = r;
       const info = $('rule-info');
-      if (r) {
+      if (r && r.shape) {
+        // Shape mode: the shape, where it was made, its locators; its path's scopes.
+        info.textContent = `${r.symbol} ${r.shape.semantic.replace(/ \S+$/, '')}: made by ${r.shape.madeBy} (line ${r.range.start.line + 1})`;
+        info.title = `${r.shape.exact}\nkey ${r.key ?? '?'}`;
+        this.pickedScopes = r.shape.scopes;
+        this.drawScopes();
+      } else if (r) {
         info.textContent = `${r.symbol} (line ${r.range.start.line + 1})`;
         this.setFocus(r.range.start);
       } else {
@@ -845,6 +874,11 @@ class App {
     } catch (e) {
       this.showError(`pick: ${(e as Error).message}`);
     }
+  }
+
+  /** Shape mode: the picked shape's path's scopes, when the toggle is on. */
+  private drawScopes(): void {
+    this.scene.setScopes(this.showScopes && this.pickedScopes ? scopeLines(this.pickedScopes) : null);
   }
 
   /** Highlight what the production at `pos` grows (null: none), with its spread over other seeds. */

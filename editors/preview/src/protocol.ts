@@ -24,11 +24,14 @@ export interface Range {
   end: Position;
 }
 
+/** How a system grows: parallel rewriting, the guided sampler, or a split grammar (shape systems). */
+export type Mode = 'derive' | 'sample' | 'shape';
+
 /** Parameters of a preview request (LSP `grm/preview`, HTTP POST /api/preview). */
 export interface PreviewParams {
   textDocument: { uri: string };
-  /** Parallel rewriting or the guided sampler. */
-  mode?: 'derive' | 'sample';
+  /** Parallel rewriting, the guided sampler, or a shape system's split grammar. */
+  mode?: Mode;
   /** The system to grow; omitted = the file's first system. */
   system?: string;
   /** Seed; omitted = the system's `seed` setting. */
@@ -208,7 +211,7 @@ export interface PreviewResult {
   uri: string;
   version: number;
   system: string;
-  mode: 'derive' | 'sample';
+  mode: Mode;
   seed: number;
   /** The meta-parameters with a numeric range, when the server lists them. */
   params: ParamInfo[];
@@ -239,6 +242,39 @@ export interface PickResult {
   symbol: string;
   version: number;
   module: number;
+  /** The picked part's identity key (8 hex digits), when the server sends it. */
+  key: string | null;
+  /** Shape mode: the picked shape's locators and its path's scopes. */
+  shape: ShapePick | null;
+}
+
+/** A scope of a picked shape's path (model frame): a box, and a split's or repeat's cuts. */
+export interface ScopeBox {
+  node: number;
+  /** A shape's symbol, or a command's label (`split.y`). */
+  label: string;
+  command: boolean;
+  origin: V3;
+  /** Unit x, y, z axes. */
+  axes: [V3, V3, V3];
+  size: V3;
+  /** The axis a split or repeat divides (0 x, 1 y, 2 z), or null. */
+  axis: number | null;
+  /** Where its parts begin and end along that axis: the split planes. */
+  cuts: number[];
+}
+
+/** What `grm/pick` says of a shape (shape mode). */
+export interface ShapePick {
+  node: number;
+  exact: string;
+  semantic: string;
+  /** The command's label (`split.x`), `successor`, `insert` or `axiom`. */
+  madeBy: string;
+  /** The rule that rewrote the shape itself, if one did. */
+  rule: Range | null;
+  /** From the axiom down to the shape (last). */
+  scopes: ScopeBox[];
 }
 
 /**
@@ -491,7 +527,7 @@ export function decodePreview(v: unknown): PreviewResult {
   if (!isObject(v)) throw new ProtocolError('preview: expected an object');
   if (v.encoding !== undefined && v.encoding !== 'base64-le') throw new ProtocolError(`preview: unknown encoding ${String(v.encoding)}`);
   const mode = str(v.mode, 'derive');
-  if (mode !== 'derive' && mode !== 'sample') throw new ProtocolError(`preview: unknown mode ${mode}`);
+  if (mode !== 'derive' && mode !== 'sample' && mode !== 'shape') throw new ProtocolError(`preview: unknown mode ${mode}`);
   // Meta-parameters as the server lists them; one without a numeric range
   // (the server's min/max are null) gets no slider.
   const params: ParamInfo[] = [];
@@ -568,7 +604,46 @@ export function decodePreviewUpdated(v: unknown): PreviewUpdated {
 export function decodePick(v: unknown): PickResult | null {
   if (v === null || v === undefined) return null;
   if (!isObject(v)) throw new ProtocolError('pick: expected an object or null');
-  return { uri: str(v.uri), range: decodeRange(v.range, 'range'), symbol: str(v.symbol), version: optNum(v.version, 0), module: optNum(v.module, 0) };
+  return {
+    uri: str(v.uri),
+    range: decodeRange(v.range, 'range'),
+    symbol: str(v.symbol),
+    version: optNum(v.version, 0),
+    module: optNum(v.module, 0),
+    key: typeof v.key === 'string' ? v.key : null,
+    shape: isObject(v.shape) ? decodeShapePick(v.shape) : null,
+  };
+}
+
+function decodeV3(v: unknown, what: string): V3 {
+  if (!Array.isArray(v) || v.length !== 3) throw new ProtocolError(`${what}: expected 3 numbers`);
+  return [num(v[0], what), num(v[1], what), num(v[2], what)];
+}
+
+function decodeShapePick(v: Record<string, unknown>): ShapePick {
+  const scopes = (Array.isArray(v.scopes) ? v.scopes : []).map((q: unknown, i: number): ScopeBox => {
+    const what = `shape.scopes[${i}]`;
+    if (!isObject(q)) throw new ProtocolError(`${what}: expected an object`);
+    if (!Array.isArray(q.axes) || q.axes.length !== 3) throw new ProtocolError(`${what}.axes: expected 3 axes`);
+    return {
+      node: optNum(q.node, 0),
+      label: str(q.label),
+      command: q.command === true,
+      origin: decodeV3(q.origin, `${what}.origin`),
+      axes: [decodeV3(q.axes[0], `${what}.axes`), decodeV3(q.axes[1], `${what}.axes`), decodeV3(q.axes[2], `${what}.axes`)],
+      size: decodeV3(q.size, `${what}.size`),
+      axis: typeof q.axis === 'number' ? q.axis : null,
+      cuts: (Array.isArray(q.cuts) ? q.cuts : []).map((c: unknown) => num(c, `${what}.cuts`)),
+    };
+  });
+  return {
+    node: optNum(v.node, 0),
+    exact: str(v.exact),
+    semantic: str(v.semantic),
+    madeBy: str(v.madeBy),
+    rule: isObject(v.rule) ? decodeRange(v.rule, 'shape.rule') : null,
+    scopes,
+  };
 }
 
 /** Decode a `picture` answer: a PNG of the size it says (base64 on the wire), or where the host saved it. */
@@ -625,16 +700,16 @@ export function paramsFromSymbols(symbols: unknown): { params: ParamInfo[]; skip
   return { params, skipped };
 }
 
-/** LSP SymbolKind.Class: how the server lists a system, with detail `system (derive)` or `system (sample)`. */
+/** LSP SymbolKind.Class: how the server lists a system, with detail `system (derive)`, `system (sample)` or `system (shape)`. */
 const SYMBOL_KIND_CLASS = 3;
 
 /** The mode of the document's first system (the one a preview grows by default), from its symbols. */
-export function modeFromSymbols(symbols: unknown): 'derive' | 'sample' | null {
+export function modeFromSymbols(symbols: unknown): Mode | null {
   if (!Array.isArray(symbols)) return null;
   for (const s of symbols) {
     if (!isObject(s) || s.kind !== SYMBOL_KIND_CLASS || typeof s.detail !== 'string') continue;
-    const m = /^system \((derive|sample)\)$/.exec(s.detail);
-    if (m) return m[1] as 'derive' | 'sample';
+    const m = /^system \((derive|sample|shape)\)$/.exec(s.detail);
+    if (m) return m[1] as Mode;
   }
   return null;
 }

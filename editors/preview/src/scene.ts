@@ -16,6 +16,7 @@ import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { type Bezier, type V3, sampleBezier } from './bezier.js';
 import type { Bounds, PickRange, SceneModel } from './protocol.js';
 import { findPick } from './protocol.js';
+import type { ScopeLines } from './scopes.js';
 
 const CURVE_COLOR = 0x3a8dde;
 /** The tint of a curve's stretches that no bone follows (docs/curves.md 2.8). */
@@ -24,6 +25,10 @@ const CURVE_SELECTED = 0xff8c1a;
 const SKELETON_COLOR = 0xd04020;
 const HIGHLIGHT_COLOR = 0xffe14d;
 const SPREAD_COLOR = 0xff40c0;
+/** Shape mode: the picked shape's ancestors' scopes, its own, and the split planes. */
+const SCOPE_COLOR = 0x7fb0ff;
+const SCOPE_PICKED_COLOR = 0xffe14d;
+const SCOPE_CUT_COLOR = 0xff8c1a;
 
 export interface PartHit {
   part: number;
@@ -166,6 +171,8 @@ export class PreviewScene {
   private readonly gapsRoot = new THREE.Group();
   private gaps: V3[][] = [];
   private readonly overlayRoot = new THREE.Group();
+  /** Shape mode: the scopes of the picked shape's path (wireframe). */
+  private readonly scopesRoot = new THREE.Group();
   private readonly strokeLine: THREE.Line;
   private model: SceneModel | null = null;
   /** The model's materials (pruned to the current model's after each new model is drawn). */
@@ -209,7 +216,7 @@ export class PreviewScene {
     this.grid = new THREE.GridHelper(20, 20, 0x666666, 0x3a3a3a);
     this.scene.add(this.grid);
     addLights(this.scene);
-    this.scene.add(this.modelRoot, this.skeletonRoot, this.curvesRoot, this.gapsRoot, this.overlayRoot);
+    this.scene.add(this.modelRoot, this.skeletonRoot, this.curvesRoot, this.gapsRoot, this.overlayRoot, this.scopesRoot);
     const sg = new THREE.BufferGeometry();
     sg.setAttribute('position', new THREE.BufferAttribute(new Float32Array(0), 3));
     this.strokeLine = new THREE.Line(sg, new THREE.LineBasicMaterial({ color: 0xffffff, depthTest: false }));
@@ -421,6 +428,31 @@ export class PreviewScene {
     const g = new THREE.BufferGeometry().setFromPoints(points.map((p) => new THREE.Vector3(...p)));
     this.strokeLine.geometry.dispose();
     this.strokeLine.geometry = g;
+    this.requestRender();
+  }
+
+  /** Segments drawn for the scopes (0: none shown). */
+  scopeSegments = 0;
+
+  /** Draw the scopes of a picked shape's path as wireframe boxes and split planes (null: none). */
+  setScopes(lines: ScopeLines | null): void {
+    clearGroup(this.scopesRoot);
+    this.scopeSegments = 0;
+    if (lines) {
+      const add = (pos: number[], key: string, color: number, opacity: number, order: number): void => {
+        if (pos.length === 0) return;
+        const g = new THREE.BufferGeometry();
+        g.setAttribute('position', new THREE.Float32BufferAttribute(pos, 3));
+        const m = this.materials.get(key, () => new THREE.LineBasicMaterial({ color, depthTest: false, transparent: opacity < 1, opacity }));
+        const l = new THREE.LineSegments(g, m);
+        l.renderOrder = order;
+        this.scopesRoot.add(l);
+        this.scopeSegments += pos.length / 6;
+      };
+      add(lines.boxes, 'scope', SCOPE_COLOR, 0.6, 6);
+      add(lines.cuts, 'scope cut', SCOPE_CUT_COLOR, 0.9, 7);
+      add(lines.picked, 'scope picked', SCOPE_PICKED_COLOR, 1, 8);
+    }
     this.requestRender();
   }
 

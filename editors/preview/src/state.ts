@@ -5,7 +5,7 @@
 import { type Bezier, type V3, fitCubicBezier } from './bezier.js';
 import { type Curve, type CurveParams, type CurveSet, DEFAULT_PARAMS, cloneSet, freshName, parseCurves, serializeCurves } from './curves.js';
 import { GenerationScrub, searchKey } from './generation.js';
-import type { ParamInfo, Position, PreviewParams, PreviewResult } from './protocol.js';
+import type { Mode, ParamInfo, Position, PreviewParams, PreviewResult } from './protocol.js';
 
 export class PageState {
   uri = '';
@@ -26,7 +26,7 @@ export class PageState {
   /** Where the curves file is. */
   curvesPath: string | null = null;
   selected: number | null = null;
-  mode: 'derive' | 'sample' = 'derive';
+  mode: Mode = 'derive';
   system = '';
   curvesError: string | null = null;
   /** The production whose growth is highlighted (a position in it). */
