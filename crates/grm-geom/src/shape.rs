@@ -690,11 +690,7 @@ impl Emitter<'_> {
 
     /// A quad `a b c d` (counter-clockwise seen from `normal`).
     fn quad(&mut self, corners: [Vec3; 4], normal: Vec3, uvs: [[f32; 2]; 4]) {
-        let i = corners
-            .iter()
-            .zip(uvs)
-            .map(|(p, uv)| self.vertex(*p, normal, uv))
-            .collect::<Vec<u32>>();
+        let i: [u32; 4] = std::array::from_fn(|k| self.vertex(corners[k], normal, uvs[k]));
         self.mesh.triangle(i[0], i[1], i[2]);
         self.mesh.triangle(i[0], i[2], i[3]);
     }
