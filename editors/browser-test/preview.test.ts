@@ -1417,3 +1417,74 @@ test('under load (a busy loop on every core): a drag released while a request is
   assert.deepEqual(pageErrors(page), []);
   await page.close();
 });
+
+test('shape mode: a building renders, a pick names the shape and what made it, the scopes toggle draws its path', async () => {
+  const dir = mkdtempSync(join(tmpdir(), 'grm-browser-'));
+  temps.push(dir);
+  const file = join(dir, 'row.grm');
+  const text = [
+    'system Row {',
+    '    mode = shape;',
+    '    lot = rect(24, 10);',
+    '    axiom Lot;',
+    '    Lot -> extrude(12.8) Mass;',
+    '    Mass -> comp(faces, facade) { front: Facade | side: Wall | top: Roof };',
+    '    Roof -> roof(hip, 30, 0.4);',
+    '    Facade -> split(y) { 4: Ground | ~1: Upper };',
+    '    Upper -> repeat(y, floor) { 3.2: Floor };',
+    '    Floor -> repeat(x, column) { ~3: Tile };',
+    '    Tile -> split(x) { ~1: Wall | 1.2: Window | ~1: Wall };',
+    '}',
+    '',
+  ].join('\n');
+  writeFileSync(file, text);
+  const tileLine = text.split('\n').findIndex((l) => l.startsWith('    Tile ->'));
+  const url = await view(file);
+  const page = await openPage(url);
+  const g0 = await waitRegrows(page, 1, 'first building');
+  assert.equal(g0.mode, 'shape', g0.lastError ?? '');
+  assert.equal(g0.bones, 0);
+  assert.ok(g0.triangles > 100, `${g0.triangles} triangles`);
+  assert.equal(await page.isHidden('#scopes-toggle'), false, 'the scopes toggle shows in shape mode');
+  assert.ok(g0.meshCount > 0, 'the building is drawn');
+  await page.screenshot({ path: join(artifacts, 'shape-building.png') });
+  // The front facade (world y = 0) faces the model's +z: a point on an upper floor's wall.
+  const [x, y] = await page.evaluate(() =>
+    (globalThis as unknown as { __grm: { toScreen: (p: number[]) => [number, number] } }).__grm.toScreen([0.45, 6, 0.01]),
+  );
+  await page.mouse.click(x, y);
+  await page.waitForFunction(() => (globalThis as unknown as { __grm: Grm }).__grm.lastPick !== null, undefined, { timeout: 10_000 });
+  const picked = (await grm(page)).lastPick as unknown as {
+    symbol: string;
+    range: { start: { line: number } };
+    shape: { semantic: string; madeBy: string; scopes: { label: string; cuts?: number[] }[] } | null;
+  };
+  assert.equal(picked.symbol, 'Wall');
+  assert.equal(picked.range.start.line, tileLine, 'the jump goes to the tile split that made the wall');
+  assert.ok(picked.shape, 'a shape pick');
+  assert.equal(picked.shape.madeBy, 'split.x');
+  assert.match(picked.shape.semantic, /facade = 1\/1, floor = 1\/2, column = 1\/8/);
+  assert.deepEqual(
+    picked.shape.scopes.map((s) => s.label),
+    ['Lot', 'Mass', 'comp.faces', 'Facade', 'split.y', 'Upper', 'repeat.y', 'Floor', 'repeat.x', 'Tile', 'split.x', 'Wall'],
+  );
+  assert.match(await page.textContent('#rule-info') ?? '', /Wall .*made by split\.x/);
+  // Off by default; on, the path's boxes and split planes are drawn over the model.
+  assert.equal((await page.evaluate(() => (globalThis as unknown as { __grm: { scopeSegments: number } }).__grm.scopeSegments)), 0);
+  const before = await litPixels(page);
+  await page.check('#show-scopes');
+  await page.waitForTimeout(100);
+  const segments = await page.evaluate(() => (globalThis as unknown as { __grm: { scopeSegments: number } }).__grm.scopeSegments);
+  // Boxes: the lot's rectangle (4), the mass (12), the facade, upper, floor and tile faces (4 each), the wall (4);
+  // planes: the split at 4 m, the repeat's 2 floors, the 8 columns, the tile's 2 cuts (a segment each on a face).
+  assert.equal(segments, 4 + 12 + 4 * 4 + 4 + (1 + 2 + 7 + 2));
+  const drawn = await litPixels(page);
+  // The building is grey (no material), the scopes coloured.
+  assert.ok(drawn > before + 500, `the scopes light more pixels (${drawn} > ${before})`);
+  await page.screenshot({ path: join(artifacts, 'shape-scopes.png') });
+  await page.uncheck('#show-scopes');
+  await page.waitForTimeout(50);
+  assert.equal((await page.evaluate(() => (globalThis as unknown as { __grm: { scopeSegments: number } }).__grm.scopeSegments)), 0);
+  assert.deepEqual(pageErrors(page), []);
+  await page.close();
+});

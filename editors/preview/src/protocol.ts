@@ -104,7 +104,7 @@ export interface SceneMaterial {
   opacity: number;
 }
 
-export type SourceKind = 'bone' | 'instance' | 'polygon';
+export type SourceKind = 'bone' | 'instance' | 'polygon' | 'shape';
 
 export interface PickRange {
   firstTriangle: number;
@@ -415,7 +415,7 @@ function optIndex(v: unknown): number | null {
 function decodePickRange(v: unknown, what: string): PickRange {
   if (!isObject(v)) throw new ProtocolError(`${what}: expected an object`);
   const kind = str(v.kind, 'bone');
-  if (kind !== 'bone' && kind !== 'instance' && kind !== 'polygon') throw new ProtocolError(`${what}: unknown kind ${kind}`);
+  if (kind !== 'bone' && kind !== 'instance' && kind !== 'polygon' && kind !== 'shape') throw new ProtocolError(`${what}: unknown kind ${kind}`);
   return {
     firstTriangle: num(v.firstTriangle, `${what}.firstTriangle`),
     triangleCount: num(v.triangleCount, `${what}.triangleCount`),
