@@ -114,7 +114,11 @@ impl<'a> Graph<'a> {
             for (pred, modules) in rules(sys) {
                 let start = match pred {
                     None => FACE,
-                    Some(p) => g.kinds[g.names[p.name.as_str()]],
+                    // (`nil` names no symbol: a rule for it makes nothing.)
+                    Some(p) => match g.names.get(p.name.as_str()) {
+                        Some(&s) => g.kinds[s],
+                        None => continue,
+                    },
                 };
                 if start == 0 {
                     continue;
@@ -138,15 +142,16 @@ impl<'a> Graph<'a> {
         // Edges and commands.
         for (pred, modules) in rules(sys) {
             let Some(p) = pred else { continue };
-            let owner = g.names[p.name.as_str()];
+            let Some(&owner) = g.names.get(p.name.as_str()) else {
+                continue;
+            };
             let start = g.kinds[owner];
-            let mut k = start;
-            let mut stack = Vec::new();
             for m in modules {
                 let name = m.symbol.name.as_str();
-                k = g.step(m, k, &mut stack);
-                if !is_op(name) && !m.symbol.is_punct() && name != "nil" {
-                    let s = g.names[name];
+                if !is_op(name)
+                    && !m.symbol.is_punct()
+                    && let Some(&s) = g.names.get(name)
+                {
                     g.succ[owner].push(s);
                 }
                 if matches!(name, "split" | "repeat" | "comp") {
@@ -155,7 +160,7 @@ impl<'a> Graph<'a> {
                         .iter()
                         .flat_map(|p| &p.parts)
                         .filter(|p| p.target.name != "nil")
-                        .map(|p| g.names[p.target.name.as_str()])
+                        .filter_map(|p| g.names.get(p.target.name.as_str()).copied())
                         .collect();
                     let kinds = g.kind_before(modules, m, start);
                     g.cmds_of[owner].push(g.cmds.len());

@@ -478,6 +478,15 @@ fn kinds_that_disagree_get_no_tag() {
     let t = "system S {\n    mode = shape;\n    axiom Part;\n    Part -> split(y) { 4: Part2 | ~1: Mass };\n    Mass -> extrude(9) comp(faces) { side: Part };\n}\n";
     let s = suggested(t);
     assert!(!s.iter().any(|x| x.1 == "floor"), "{s:?}");
+    // A rule for `nil` (which names no shape) is no symbol's.
+    let t = "system S {\n    mode = shape;\n    axiom A;\n    nil -> split(y) { 3: nil };\n    A -> extrude(9) comp(faces) { side: W };\n    W -> repeat(y) { 3: nil | 4: B };\n}\n";
+    assert_eq!(
+        suggested(t),
+        [
+            ("comp(faces)".to_string(), "facade"),
+            ("repeat(y)".to_string(), "floor")
+        ]
+    );
     // Facade rules on their own count as a facade's.
     let t = "system S {\n    mode = shape;\n    axiom F;\n    G -> repeat(y) { 3: Fl };\n}\n";
     assert_eq!(suggested(t), [("repeat(y)".to_string(), "floor")]);
