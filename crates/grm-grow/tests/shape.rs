@@ -194,3 +194,99 @@ fn the_tree_json_has_every_node_with_locators() {
         .sum();
     assert_eq!(children, tree.len() - 1);
 }
+
+/// The shapes of `symbol` in a grown tree, with their semantic locators.
+fn shapes_of(g: &grm_grow::shape::ShapeGrown, symbol: &str) -> Vec<(grm_shape::NodeId, String)> {
+    let program = &g.lowered.program;
+    (0..g.tree.len() as u32)
+        .map(grm_shape::NodeId)
+        .filter(|&id| {
+            matches!(g.tree.node(id).map(|n| n.kind), Some(NodeKind::Shape { symbol: s, .. })
+                if program.symbol_name(s) == symbol)
+        })
+        .map(|id| (id, g.tree.semantic_locator(program, id).to_string()))
+        .collect()
+}
+
+fn grown(file: &str) -> grm_grow::shape::ShapeGrown {
+    let c = checked(file);
+    let p = &c.program;
+    let build = grm_geom::BuildOptions::default();
+    let dir = example_path(file).parent().map(|d| d.to_path_buf());
+    grow(
+        p,
+        system(&c),
+        &p.default_params(),
+        &ShapeOptions::default(),
+        Some((&build, dir.as_deref())),
+    )
+    .expect("grows")
+}
+
+/// examples/office_tower.grm does what its header says: the L of
+/// office_tower.geojson (756 m²) with six facades of 16 floors each.
+#[test]
+fn the_office_tower_stands_on_its_footprint_file() {
+    let g = grown("office_tower.grm");
+    let lot = grm_shape::NodeId(0);
+    assert!(
+        (g.tree.area(lot) - 756.0).abs() < 1e-6,
+        "{}",
+        g.tree.area(lot)
+    );
+    let facades = shapes_of(&g, "Facade");
+    let names: Vec<&str> = facades.iter().map(|f| f.1.as_str()).collect();
+    assert_eq!(
+        names,
+        (1..=6)
+            .map(|k| format!("(facade = {k}/6) Facade"))
+            .collect::<Vec<_>>()
+    );
+    let floors = shapes_of(&g, "Floor");
+    assert_eq!(floors.len(), 6 * 16);
+    assert!(floors.iter().any(|f| f.1.contains("floor = 16/16")));
+    // The tower is 6 + 16 * 3.8 + 1.2 = 68 m tall.
+    assert_eq!(
+        g.tree.node(grm_shape::NodeId(1)).unwrap().scope.size.z,
+        68.0
+    );
+    assert!(g.model.expect("a model").stats.triangles > 2000);
+}
+
+/// examples/facade_variety.grm: the corner bays of every floor are blank,
+/// the others hold a window whose type is drawn by weight (5 : 3 : 2).
+#[test]
+fn the_facade_varies_its_windows_by_weight_and_blanks_its_corners() {
+    let g = grown("facade_variety.grm");
+    let program = &g.lowered.program;
+    let bays = shapes_of(&g, "Bay");
+    assert_eq!(bays.len(), 2 * 5 * 11, "two facades of 5 floors by 11 bays");
+    let mut types = [0usize; 3];
+    for (id, _) in &bays {
+        let n = g.tree.node(*id).unwrap();
+        let corner = n.index == 1 || n.index == n.count;
+        let made: Vec<String> = g
+            .tree
+            .children(*id)
+            .map(|c| g.tree.label(program, c))
+            .collect();
+        if corner {
+            assert_eq!(made, ["Wall"], "a corner bay is wall");
+        } else {
+            assert_eq!(made, ["split.x"], "a bay is split around its window");
+        }
+    }
+    for (id, _) in shapes_of(&g, "Window") {
+        if let Some(NodeKind::Shape {
+            alternative: Some(a),
+            ..
+        }) = g.tree.node(id).map(|n| n.kind)
+        {
+            types[a as usize] += 1;
+        }
+    }
+    assert_eq!(types.iter().sum::<usize>(), 2 * 5 * 9);
+    // 90 draws at 5 : 3 : 2: each type well represented, plain the most.
+    assert!(types.iter().all(|&t| t >= 8), "{types:?}");
+    assert!(types[0] > types[2], "{types:?}");
+}
