@@ -5,7 +5,9 @@
 //! its rule once: it picks an alternative (the race of `grm_compile::rng`
 //! keyed by the shape's identity), runs its operations in order and
 //! appends what they make, the shape's **block**, to the node array in one
-//! go: each node is written once, where it stays. A command's children
+//! go: each node is written once, where it stays (a shape whose rule made
+//! nothing then takes the scope and geometry its rule left, its final
+//! state: docs/shapes.md, "The tree"). A command's children
 //! follow it in the block; parents are backward offsets and blocks forward
 //! offsets, so the blocks of a subtree form a self-contained slice. With
 //! several threads the top of the tree is derived first, down to a depth
@@ -204,6 +206,10 @@ struct Job {
     /// The root's attributes, kept likewise (a rule that makes nothing
     /// sets its shape's).
     root_attrs: AttrId,
+    /// Whether `outlines` is one entry per node with one, in node order
+    /// (false when a shape whose rule made nothing took an outline where
+    /// it had none, or gave one up: [`finish`] orders it again).
+    ordered: bool,
 }
 
 /// What expressions read of a job root's ancestors (the root's own
@@ -289,6 +295,9 @@ struct Scratch {
     path: Vec<u32>,
     /// The job root's ancestors.
     prefix: Ancestry,
+    /// Set when a shape whose rule made nothing changed whether it has an
+    /// outline ([`Job::ordered`]).
+    unordered: bool,
 }
 
 #[inline]
@@ -372,6 +381,7 @@ impl Engine<'_> {
             cut: Vec::new(),
             roots_kind,
             root_attrs: AttrId(0),
+            ordered: true,
         };
         let mut stack: Vec<u32> = vec![0];
         let mut scratch = Scratch {
@@ -418,6 +428,7 @@ impl Engine<'_> {
                 }
             }
         }
+        job.ordered = !scratch.unordered;
         Ok(job)
     }
 
@@ -563,9 +574,9 @@ impl Engine<'_> {
                 match op {
                     Op::Extrude(h) => {
                         let h = finite("the extrusion height", num(h, &scope, site))?.max(0.0);
-                        geometry = match geometry {
+                        geometry = match &geometry {
                             Geom::Rect | Geom::Box => Geom::Box,
-                            Geom::Polygon(o) | Geom::Prism(o) => Geom::Prism(o),
+                            Geom::Polygon(o) | Geom::Prism(o) => Geom::Prism(Arc::clone(o)),
                             Geom::Edge | Geom::Roof(_) => {
                                 return fail(ShapeError::WrongGeometry {
                                     symbol: name(),
@@ -953,6 +964,15 @@ impl Engine<'_> {
             }
             Ok(())
         })();
+        // A shape whose rule made nothing (no successor, command or insert)
+        // is a leaf drawn as its rule left it: its node takes the final
+        // scope and geometry (docs/shapes.md, "The tree").
+        if out.len() == block
+            && let Some(n) = out.get_mut(at as usize)
+            && !finalize(n, outlines, scope, &geometry)
+        {
+            s.unordered = true;
+        }
         // Attributes (crate::attributes): each node of the block takes
         // those set before it was made; a shape whose rule made nothing
         // keeps those its rule left.
@@ -981,7 +1001,7 @@ impl Engine<'_> {
         let max = self.limits.max_nodes;
         let never = AtomicBool::new(false);
         let mut cut = 1;
-        let top = loop {
+        let mut top = loop {
             let top = self
                 .run(
                     root,
@@ -1082,6 +1102,19 @@ impl Engine<'_> {
                 *s = add;
             }
         }
+        // A cut shape whose rule made nothing takes its final state from
+        // its job's root before the top's outlines are renumbered (so the
+        // table stays in node order).
+        for (c, &(i, _)) in top.cut.iter().enumerate() {
+            let root = &jobs[c].nodes[0];
+            if root.children_len == 0
+                && let Some(n) = top.nodes.get_mut(i as usize)
+            {
+                let g = resolve(&jobs[c].outlines, root.geometry);
+                n.scope = root.scope;
+                set_geometry(n, &mut top.outlines, &g);
+            }
+        }
         let new = |i: usize| i as u32 + shift[i];
         let mut out: Vec<Node> = Vec::with_capacity(total);
         let mut outlines: Vec<Arc<Outline>> = Vec::new();
@@ -1139,6 +1172,7 @@ impl Engine<'_> {
             cut: Vec::new(),
             roots_kind: (root.kind, 0),
             root_attrs: root.attrs,
+            ordered: true,
         })
     }
 }
@@ -1298,10 +1332,58 @@ fn intern(outlines: &mut Vec<Arc<Outline>>, g: &Geom) -> Geometry {
     }
 }
 
-/// A job's nodes, or its first failure in the tree's order.
+/// A job's nodes and outlines (in node order), or its first failure in
+/// the tree's order.
 fn finish(job: Job) -> Result<(Vec<Node>, Vec<Arc<Outline>>), ShapeError> {
     match job.failures.into_iter().min_by_key(|(i, _)| *i) {
         Some((_, e)) => Err(e),
-        None => Ok((job.nodes, job.outlines)),
+        None if job.ordered => Ok((job.nodes, job.outlines)),
+        None => {
+            let mut nodes = job.nodes;
+            let mut outlines = Vec::with_capacity(job.outlines.len());
+            for n in &mut nodes {
+                renumber(n, &job.outlines, &mut outlines);
+            }
+            Ok((nodes, outlines))
+        }
+    }
+}
+
+/// Give the shape `n`, whose rule made nothing, the scope and geometry its
+/// rule left. Returns whether the outline table is still one entry per
+/// node in node order ([`set_geometry`]).
+#[cold]
+#[inline(never)]
+fn finalize(n: &mut Node, outlines: &mut Vec<Arc<Outline>>, scope: Scope, g: &Geom) -> bool {
+    n.scope = scope;
+    set_geometry(n, outlines, g)
+}
+
+/// Give node `n` the geometry `g`. An outline where the node had one
+/// replaces its entry (the table stays in node order); otherwise a new
+/// outline goes to the end of the table, or the node's entry is left
+/// unused, and the result is false: the table must be ordered again.
+fn set_geometry(n: &mut Node, outlines: &mut Vec<Arc<Outline>>, g: &Geom) -> bool {
+    match (n.geometry.outline_id(), g.table_entry()) {
+        (Some(o), Some(a)) if (o.0 as usize) < outlines.len() => {
+            let slot = &mut outlines[o.0 as usize];
+            if !Arc::ptr_eq(slot, a) {
+                *slot = Arc::clone(a);
+            }
+            n.geometry = match g {
+                Geom::Prism(_) => Geometry::Prism(o),
+                Geom::Roof(_) => Geometry::Roof(o),
+                _ => Geometry::Polygon(o),
+            };
+            true
+        }
+        (None, None) => {
+            n.geometry = intern(outlines, g);
+            true
+        }
+        _ => {
+            n.geometry = intern(outlines, g);
+            false
+        }
     }
 }

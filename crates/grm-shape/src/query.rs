@@ -2,7 +2,8 @@
 //! the first pass's shapes of each queried symbol, as oriented boxes in an
 //! R-tree (docs/shapes.md, "Context queries").
 //!
-//! A shape's box is its scope (the oriented box it was made with), not its
+//! A shape's box is its scope (the oriented box it was made with, or for a
+//! shape whose rule made nothing the one its rule left), not its
 //! exact geometry: a prism's footprint and a polygon's outline are
 //! answered by their scope's box. Boxes are compared with the separating
 //! axis test on the 15 axes of two oriented boxes, with a tolerance of

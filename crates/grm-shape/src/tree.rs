@@ -59,11 +59,13 @@ pub enum NodeKind {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Node {
     pub kind: NodeKind,
-    /// The shape's scope (a command's: the scope it divided; an insert's:
-    /// the scope it fills).
+    /// The shape's scope: the one it was made with, or for a shape whose
+    /// rule made nothing (no successor, command or insert) the one its
+    /// rule left, which it is drawn with (docs/shapes.md, "The tree"). A
+    /// command's: the scope it divided; an insert's: the scope it fills.
     pub scope: Scope,
-    /// The shape's geometry (a command's: what it divided); its outline,
-    /// if any, is in [`ShapeTree::outline`].
+    /// The shape's geometry, likewise (a command's: what it divided); its
+    /// outline, if any, is in [`ShapeTree::outline`].
     pub geometry: Geometry,
     /// The identity key (docs/shapes.md, "Identity").
     pub key: u32,
