@@ -788,6 +788,20 @@ pub(crate) fn build(
     build_with_model(fa, uri, uris, p, cancel).map(|(r, t, _)| (r, t))
 }
 
+/// The `grm/preview` answer for an analysed file, exactly as the request
+/// and `grm/previewUpdated` build it (without the pick table the server
+/// keeps): for benchmarks (`benches/shape_regrow.rs`) and tools. An error
+/// is the message the client would get.
+pub fn answer(
+    fa: &FileAnalysis,
+    uri: &Uri,
+    params: &PreviewParams,
+) -> std::result::Result<PreviewResult, String> {
+    build(fa, uri, &crate::uris::Uris::default(), params, None)
+        .map(|(r, _)| r)
+        .map_err(|f| f.to_string())
+}
+
 /// [`build`], and the model it was made from (`grm/picture` draws it).
 pub(crate) fn build_with_model(
     fa: &FileAnalysis,
