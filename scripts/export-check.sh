@@ -1,5 +1,7 @@
 #!/usr/bin/env bash
-# Export checks: every shipped example grown into a .glb, each checked by
+# Export checks: every shipped example grown into a .glb, and the shape
+# builder's test houses (grm-geom's tests/shape.rs: windows with boxes and
+# an OBJ each, and the same with an embedded PNG texture), each checked by
 # the Khronos glTF validator (npm `gltf-validator`, tests/export/) and
 # imported by Blender's own glTF importer (PyPI `bpy`, Blender as a Python
 # module, in a virtual environment cached in ~/.cache/grm or
@@ -43,9 +45,22 @@ for ex in examples/*.grm; do
     fi
     glbs+=("$glb")
 done
-node tests/export/validate.mjs "${glbs[@]}"
+mkdir "$out/houses"
+GRM_SHAPE_GLB_OUT="$out/houses" cargo test -q --locked -p grm-geom --test shape sample_glbs_for_the_validator >/dev/null
+node tests/export/validate.mjs "${glbs[@]}" "$out"/houses/*.glb
+# Blender's importer logs a line per step: only the summary (or the
+# failure) is shown; pipefail keeps the script's status.
+blender() { "$cache/bin/python" tests/export/blender_import.py "$@" 2>&1 | grep '^blender_import'; }
 for glb in "${glbs[@]}"; do
-    # Blender's importer logs a line per step: only the summary (or the
-    # failure) is shown; pipefail keeps the script's status.
-    "$cache/bin/python" tests/export/blender_import.py "$glb" 1 2>&1 | grep '^blender_import'
+    case "$(basename "$glb")" in
+        # Shape systems: one object per drawn shape, named by its semantic path.
+        townhouse.glb) blender "$glb" 300 Glass.house1 Roof.house3 ;;
+        office_tower.glb) blender "$glb" 2000 Glass.facade6 ;;
+        facade_variety.glb) blender "$glb" 400 Glass.facade1.floor5 ;;
+        *) blender "$glb" 1 ;;
+    esac
+done
+for glb in "$out"/houses/*.glb; do
+    # 40 groups: 3 side walls, the roof, 24 tile walls, 12 windows.
+    blender "$glb" 40 Window.facade1 Roof.facade1
 done

@@ -33,6 +33,17 @@ if [ -z "${XDG_RUNTIME_DIR:-}" ]; then export NODEVICE_SELECT=1; fi
 echo "== cargo test"
 cargo test --workspace --locked
 
+# Every example's .glb (and the shape builder's test houses) through the
+# Khronos glTF validator and Blender's own importer (bpy from PyPI, cached
+# in ~/.cache/grm by the script; a failed install fails here).
+echo "== export checks: glTF validator and Blender"
+if ! command -v python3.11 >/dev/null 2>&1 && ! python3 -c 'import sys; sys.exit(sys.version_info[:2] != (3, 11))'; then
+    echo "Blender's Python module (bpy 5.0) needs CPython 3.11" >&2
+    exit 1
+fi
+cargo build --release -p grmc --locked
+bash scripts/export-check.sh "${CARGO_TARGET_DIR:-target}/release/grmc"
+
 # The VS Code extension and the preview page (editors/): node unit tests,
 # then the page in headless Chromium against `grmc view` (Debian's chromium,
 # no browser download; packages from the npm registry only).

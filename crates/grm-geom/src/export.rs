@@ -340,7 +340,12 @@ fn glb_layout(model: &Model, ids: Option<&crate::parts::PartIds>) -> Option<(Vec
     let mut views: Vec<Json> = Vec::new();
     let mut accessors: Vec<Json> = Vec::new();
     let mut primitives: Vec<Json> = Vec::new();
-    for part in model.parts.iter().filter(|p| !p.mesh.is_empty()) {
+    for (k, part) in model
+        .parts
+        .iter()
+        .filter(|p| !p.mesh.is_empty())
+        .enumerate()
+    {
         let m = &part.mesh;
         let mut view = |len: usize, target: u32| {
             views.push(json!({
@@ -384,14 +389,19 @@ fn glb_layout(model: &Model, ids: Option<&crate::parts::PartIds>) -> Option<(Vec
         let a = accessors.len();
         let mut attributes = json!({ "POSITION": a - 3, "NORMAL": a - 2 });
         if let (Some(pv), Some(ids)) = (part_view, ids) {
-            let n = ids.modules.len().saturating_sub(1) as f32;
+            // The primitive's own range of part ids: a declared bound must
+            // be the data's (the Khronos validator checks it).
+            let own = ids.vertex_ids.get(k).map_or(&[][..], Vec::as_slice);
+            let lo = own.iter().copied().fold(f32::INFINITY, f32::min);
+            let hi = own.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+            let (lo, hi) = if lo <= hi { (lo, hi) } else { (0.0, 0.0) };
             accessors.push(json!({
                 "bufferView": pv,
                 "componentType": 5126,
                 "count": m.positions.len(),
                 "type": "SCALAR",
-                "min": [0.0],
-                "max": [n],
+                "min": [lo],
+                "max": [hi],
             }));
             attributes["_PART"] = json!(accessors.len() - 1);
         }

@@ -623,7 +623,7 @@ fn a_roof_draws_its_planar_faces() {
 }
 
 /// Writes the shape-mode glbs of this file's buildings (plain, textured)
-/// where `scripts/shape-export-check.sh` asks (`GRM_SHAPE_GLB_OUT`), for
+/// where `scripts/export-check.sh` asks (`GRM_SHAPE_GLB_OUT`), for
 /// the Khronos validator and Blender; always checks they re-read.
 #[test]
 fn sample_glbs_for_the_validator() {

@@ -79,6 +79,12 @@ fn every_vertex_of_a_glb_names_its_part_and_identity() {
             .chunks_exact(4)
             .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
             .collect();
+        // The declared bounds are the data's (glTF: a declared min/max
+        // must match; the Khronos validator refused 0..all-parts).
+        let lo = ids.iter().copied().fold(f32::INFINITY, f32::min);
+        let hi = ids.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+        assert_eq!(acc["min"][0].as_f64(), Some(f64::from(lo)));
+        assert_eq!(acc["max"][0].as_f64(), Some(f64::from(hi)));
         // Each pick's triangles' vertices carry its module's part id, but
         // for the rings a tube shares with the next bone's (a shared vertex
         // is the later part's): every pick owns a vertex, and every vertex's
@@ -110,4 +116,57 @@ fn every_vertex_of_a_glb_names_its_part_and_identity() {
         }
     }
     assert!(labelled > 0);
+}
+
+/// A model of several materials (one glb primitive each): each `_PART`
+/// accessor declares its own primitive's range of ids, not 0 to the
+/// model's last (which the Khronos validator refuses).
+#[test]
+fn each_primitive_declares_its_own_range_of_part_ids() {
+    let src = "material red { color = rgb(1, 0, 0); }\n\
+               material green { color = rgb(0, 1, 0); }\n\
+               system S {\n    iterations = 2;\n    axiom A;\n    \
+               A -> material(red) F [ + F ] material(green) F [ - F ] A;\n}\n";
+    let (_, checked) = grm_sema::check_with("two.grm", src, &grm_sema::MemLoader::new());
+    assert!(!checked.has_errors(), "{:?}", checked.diagnostics);
+    let p = &checked.program;
+    let sys = p.default_system().expect("system");
+    let c = grm_compile::compile(p, sys, &p.default_params()).expect("compiles");
+    let record = Record {
+        keys: true,
+        ..Record::default()
+    };
+    let opts = DeriveOptions {
+        iterations: 2,
+        seed: 0,
+        limits: DeriveLimits::default(),
+    };
+    let g = Grower::new(&c, 1, record)
+        .expect("engine")
+        .derive(&opts, &mut |_| {})
+        .expect("derives");
+    let model =
+        grm_geom::build_model(p, sys, &g.string, &c.settings, &c.param_values).expect("model");
+    let bytes = grm_geom::export::glb_bytes(&model).expect("fits");
+    let json_len = u32::from_le_bytes(bytes[12..16].try_into().expect("len")) as usize;
+    let doc: serde_json::Value = serde_json::from_slice(&bytes[20..20 + json_len]).expect("json");
+    let blob = &bytes[20 + json_len + 8..];
+    let prims = doc["meshes"][0]["primitives"]
+        .as_array()
+        .expect("primitives");
+    assert!(prims.len() >= 2, "one primitive per material");
+    for prim in prims {
+        let acc = &doc["accessors"][prim["attributes"]["_PART"].as_u64().expect("_PART") as usize];
+        let view = &doc["bufferViews"][acc["bufferView"].as_u64().expect("view") as usize];
+        let start = view["byteOffset"].as_u64().expect("offset") as usize;
+        let count = acc["count"].as_u64().expect("count") as usize;
+        let ids: Vec<f32> = blob[start..start + 4 * count]
+            .chunks_exact(4)
+            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect();
+        let lo = ids.iter().copied().fold(f32::INFINITY, f32::min);
+        let hi = ids.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+        assert_eq!(acc["min"][0].as_f64(), Some(f64::from(lo)));
+        assert_eq!(acc["max"][0].as_f64(), Some(f64::from(hi)));
+    }
 }
