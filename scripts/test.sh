@@ -41,8 +41,9 @@ if ! command -v python3.11 >/dev/null 2>&1 && ! python3 -c 'import sys; sys.exit
     echo "Blender's Python module (bpy 5.0) needs CPython 3.11" >&2
     exit 1
 fi
-cargo build --release -p grmc --locked
-bash scripts/export-check.sh "${CARGO_TARGET_DIR:-target}/release/grmc"
+# The debug grmc (built for the CLI tests already): no release build here.
+cargo build -p grmc --locked
+bash scripts/export-check.sh "${CARGO_TARGET_DIR:-target}/debug/grmc"
 
 # The VS Code extension and the preview page (editors/): node unit tests,
 # then the page in headless Chromium against `grmc view` (Debian's chromium,
