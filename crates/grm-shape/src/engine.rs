@@ -574,9 +574,9 @@ impl Engine<'_> {
                 match op {
                     Op::Extrude(h) => {
                         let h = finite("the extrusion height", num(h, &scope, site))?.max(0.0);
-                        geometry = match &geometry {
+                        geometry = match geometry {
                             Geom::Rect | Geom::Box => Geom::Box,
-                            Geom::Polygon(o) | Geom::Prism(o) => Geom::Prism(Arc::clone(o)),
+                            Geom::Polygon(o) | Geom::Prism(o) => Geom::Prism(o),
                             Geom::Edge | Geom::Roof(_) => {
                                 return fail(ShapeError::WrongGeometry {
                                     symbol: name(),
@@ -686,7 +686,7 @@ impl Engine<'_> {
                                 );
                             }
                             // Nothing left: the shape makes nothing more.
-                            None => return Ok(()),
+                            None => break,
                         }
                     }
                     Op::Insert(asset) => {
@@ -962,17 +962,17 @@ impl Engine<'_> {
                     }
                 }
             }
+            // A shape whose rule made nothing (no successor, command or
+            // insert) is a leaf drawn as its rule left it: its node takes
+            // the final scope and geometry (docs/shapes.md, "The tree").
+            if out.len() == block
+                && let Some(n) = out.get_mut(at as usize)
+                && !finalize(n, outlines, scope, &geometry)
+            {
+                s.unordered = true;
+            }
             Ok(())
         })();
-        // A shape whose rule made nothing (no successor, command or insert)
-        // is a leaf drawn as its rule left it: its node takes the final
-        // scope and geometry (docs/shapes.md, "The tree").
-        if out.len() == block
-            && let Some(n) = out.get_mut(at as usize)
-            && !finalize(n, outlines, scope, &geometry)
-        {
-            s.unordered = true;
-        }
         // Attributes (crate::attributes): each node of the block takes
         // those set before it was made; a shape whose rule made nothing
         // keeps those its rule left.
