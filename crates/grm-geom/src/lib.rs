@@ -69,6 +69,12 @@ pub struct BuildOptions {
     pub held: u64,
     /// What the model is built for ([`Output::Model`]: held).
     pub output: Output,
+    /// Shape mode: give each terminal shape group its name and locators
+    /// (`shape::ShapeGroup::{name, exact, semantic}`, what an export
+    /// writes). Default true; the preview, which draws the triangles and
+    /// finds a picked shape's locators in the tree, turns it off (the text
+    /// of 10,000 windows' locators is most of a building's model).
+    pub group_names: bool,
 }
 
 impl Default for BuildOptions {
@@ -79,6 +85,7 @@ impl Default for BuildOptions {
             max_bytes: DEFAULT_MAX_BYTES,
             held: 0,
             output: Output::Model,
+            group_names: true,
         }
     }
 }

@@ -134,7 +134,9 @@ pub struct ShapeGroup {
     /// Unique in the model and readable: the symbol, then each tagged
     /// command's tag and index (`Window.facade1.floor3.column5`); the key
     /// (`.1a2b3c4d`) is added where that is not unique, then a number.
-    /// ASCII letters, digits, `_`, `-` and `.` only.
+    /// ASCII letters, digits, `_`, `-` and `.` only. Empty, as are
+    /// `exact` and `semantic`, when the model was built without
+    /// `BuildOptions::group_names` (the preview).
     pub name: String,
     /// The shape's index in the tree.
     pub node: u32,
@@ -194,6 +196,9 @@ pub fn build_shape_model(
 ) -> Result<Model, GeomError> {
     let mut b = ShapeBuilder::new(program, assets, options)?;
     let nodes = tree.nodes();
+    // Reused per group: the parts' sizes before it, its inserts.
+    let mut before: Vec<(u32, u32)> = Vec::new();
+    let mut inserts: Vec<NodeId> = Vec::new();
     // The groups: shapes that draw (terminal) or whose rule made inserts.
     for (i, n) in nodes.iter().enumerate() {
         let id = NodeId(i as u32);
@@ -201,23 +206,27 @@ pub fn build_shape_model(
             continue;
         };
         let own = !n.has_children() && draws(&tree.geom(id));
-        let inserts: Vec<NodeId> = tree
-            .children(id)
-            .filter(|&c| matches!(nodes[c.0 as usize].kind, NodeKind::Insert { .. }))
-            .collect();
+        inserts.clear();
+        if n.has_children() {
+            inserts.extend(
+                tree.children(id)
+                    .filter(|&c| matches!(nodes[c.0 as usize].kind, NodeKind::Insert { .. })),
+            );
+        }
         if !own && inserts.is_empty() {
             continue;
         }
-        let before: Vec<(u32, u32)> = b
-            .parts
-            .iter()
-            .map(|p| (p.mesh.vertex_count() as u32, p.mesh.triangle_count() as u32))
-            .collect();
+        before.clear();
+        before.extend(
+            b.parts
+                .iter()
+                .map(|p| (p.mesh.vertex_count() as u32, p.mesh.triangle_count() as u32)),
+        );
         if own {
             let geom = tree.geom(id).unwrap_or(Geom::Edge);
             b.draw_shape(tree, id, &n.scope, &geom)?;
         }
-        for c in inserts {
+        for &c in &inserts {
             b.draw_insert(tree, c)?;
         }
         b.check_budget()?;
@@ -225,21 +234,32 @@ pub fn build_shape_model(
         if spans.is_empty() {
             continue;
         }
-        let semantic = tree.semantic_locator(program, id);
-        let mut name = program.symbol_name(symbol).to_owned();
-        for e in &semantic.entries {
-            name.push_str(&format!(".{}{}", e.tag, e.index));
-        }
+        let (name, exact, semantic) = if options.group_names {
+            let semantic = tree.semantic_locator(program, id);
+            let mut name = program.symbol_name(symbol).to_owned();
+            for e in &semantic.entries {
+                name.push_str(&format!(".{}{}", e.tag, e.index));
+            }
+            (
+                sanitize(&name),
+                tree.exact_locator(program, id).to_string(),
+                semantic.to_string(),
+            )
+        } else {
+            (String::new(), String::new(), String::new())
+        };
         b.groups.push(ShapeGroup {
-            name: sanitize(&name),
+            name,
             node: id.0,
             key: n.key,
-            exact: tree.exact_locator(program, id).to_string(),
-            semantic: semantic.to_string(),
+            exact,
+            semantic,
             spans,
         });
     }
-    unique_names(&mut b.groups);
+    if options.group_names {
+        unique_names(&mut b.groups);
+    }
     Ok(b.finish())
 }
 

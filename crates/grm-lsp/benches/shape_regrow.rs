@@ -122,6 +122,7 @@ fn main() {
     let mut derive_one = Vec::new();
     let mut derive_all = Vec::new();
     let mut building = Vec::new();
+    let mut building_named = Vec::new();
     let mut answers = Vec::new();
     let mut a_derive = Vec::new();
     let mut a_build = Vec::new();
@@ -149,10 +150,24 @@ fn main() {
         };
         black_box(derive(&lowered, lowered.seed, &many).expect("derive"));
         derive_all.push(ms(t));
+        // As the preview builds it (no group names or locators), and as
+        // an export does (with them).
+        let build = grm_geom::BuildOptions {
+            group_names: false,
+            ..grm_geom::BuildOptions::limited(PREVIEW_MAX_BYTES, grm_geom::Output::Model)
+        };
         let t = Instant::now();
-        let build = grm_geom::BuildOptions::limited(PREVIEW_MAX_BYTES, grm_geom::Output::Model);
         black_box(model(prog, &values, &lowered, &tree, None, &build).expect("model"));
         building.push(ms(t));
+        if r < 3 {
+            let named = grm_geom::BuildOptions {
+                group_names: true,
+                ..build
+            };
+            let t = Instant::now();
+            black_box(model(prog, &values, &lowered, &tree, None, &named).expect("model"));
+            building_named.push(ms(t));
+        }
         drop(tree);
 
         let t = Instant::now();
@@ -180,7 +195,11 @@ fn main() {
     row("lower", lowering);
     row("derive, 1 thread", derive_one);
     row(&format!("derive, {threads} threads"), derive_all);
-    row("model (meshes, groups, picks)", building);
+    row("model (meshes, picks, groups unnamed)", building);
+    row(
+        "model with group names (an export's; 3 rounds)",
+        building_named,
+    );
     println!("  the server's preview build (preview::answer):");
     row("  of which lower + derive (stats.deriveMs)", a_derive);
     row("  of which model (stats.buildMs)", a_build);

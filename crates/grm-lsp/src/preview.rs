@@ -203,8 +203,9 @@ pub struct PreviewParams {
 pub struct PickOut {
     pub first_triangle: u32,
     pub triangle_count: u32,
-    /// `bone`, `instance` or `polygon`.
-    pub kind: String,
+    /// `bone`, `instance`, `polygon` or `shape` (not a `String`: a
+    /// building's preview has tens of thousands of picks).
+    pub kind: std::borrow::Cow<'static, str>,
     /// Index into the skeleton's bones / instances / polygons.
     pub index: u32,
     /// The module of the derived string.
@@ -1103,7 +1104,7 @@ pub(crate) fn parts_out(
                     PickOut {
                         first_triangle: pk.first_triangle,
                         triangle_count: pk.triangle_count,
-                        kind: kind.into(),
+                        kind: std::borrow::Cow::Borrowed(kind),
                         index,
                         module: pk.module,
                         origin: origin_of(pk.origin),

@@ -127,20 +127,26 @@ impl ShapePicks {
     /// The rule that made `node` (an index into `rules`) and its operation
     /// there (what made the node, its range).
     fn maker(&self, node: NodeId) -> Option<(u32, String, Range)> {
+        let (rule, made, range) = self.made_by(node)?;
+        let what = match self.tree.node(made)?.kind {
+            NodeKind::Command { command, .. } => command.label(),
+            NodeKind::Insert { .. } => "insert".to_string(),
+            NodeKind::Shape { .. } => "successor".to_string(),
+        };
+        Some((rule, what, range))
+    }
+
+    /// The rule that made `node`, the node its operation made (`node`
+    /// itself, or the command whose child it is) and that operation's
+    /// range; nothing allocated (called for every pick of a preview).
+    fn made_by(&self, node: NodeId) -> Option<(u32, NodeId, Range)> {
         let n = self.tree.node(node)?;
         let parent = self.tree.parent(node)?;
         let p = self.tree.node(parent)?;
         // A command's child was made by the command, which its shape's rule ran.
-        let (made, what, shape) = match p.kind {
-            NodeKind::Command { command, .. } => (p, command.label(), self.tree.parent(parent)?),
-            NodeKind::Shape { .. } => (
-                n,
-                match n.kind {
-                    NodeKind::Insert { .. } => "insert".to_string(),
-                    _ => "successor".to_string(),
-                },
-                parent,
-            ),
+        let (made, made_id, shape) = match p.kind {
+            NodeKind::Command { .. } => (p, parent, self.tree.parent(parent)?),
+            NodeKind::Shape { .. } => (n, node, parent),
             NodeKind::Insert { .. } => return None,
         };
         let NodeKind::Shape {
@@ -153,7 +159,7 @@ impl ShapePicks {
         let rule = self.lowered.rule_of(symbol, alt)?;
         let (_, ops) = self.rules.get(rule as usize)?;
         let range = *ops.get((made.edge as usize).checked_sub(1)?)?;
-        Some((rule, what, range))
+        Some((rule, made_id, range))
     }
 
     /// The scope of a node of the path, with a split's or repeat's cuts.
@@ -326,8 +332,14 @@ pub(crate) fn build(
     let derive_ms = t0.elapsed().as_secs_f64() * 1e3;
     check(cancel)?;
     let t1 = Instant::now();
-    let build =
-        grm_geom::BuildOptions::limited(crate::preview::PREVIEW_MAX_BYTES, grm_geom::Output::Model);
+    // No group names or locators: a pick finds its shape's in the tree.
+    let build = grm_geom::BuildOptions {
+        group_names: false,
+        ..grm_geom::BuildOptions::limited(
+            crate::preview::PREVIEW_MAX_BYTES,
+            grm_geom::Output::Model,
+        )
+    };
     let model = grm_grow::shape::model(
         prog,
         &values,
@@ -388,12 +400,9 @@ pub(crate) fn build(
             .map(|r| r as u32)
     });
     let t2 = Instant::now();
-    let makers: Vec<Option<u32>> = (0..picks.tree.len() as u32)
-        .map(|i| picks.maker(NodeId(i)).map(|m| m.0))
-        .collect();
     // A pick's origin is the rule that made its node (the `origin` field
-    // is set to the node below).
-    let origin_of = |node: u32| makers.get(node as usize).copied().flatten();
+    // is set to the node below); found for the picked nodes only.
+    let origin_of = |node: u32| picks.made_by(NodeId(node)).map(|m| m.0);
     let is_focus = |node: u32| focus.is_some() && origin_of(node) == focus;
     let mut table = PickTable {
         version: fa.version,
