@@ -16,7 +16,12 @@
 //! Tower    -> extrude(120) comp(faces) { side: Facade | top: Roof }
 //! ```
 //!
-//! The facade is 100 by 120; the tower's lot 100 by 100. Run with
+//! The facade is 100 by 120; the tower's lot 100 by 100. Then the scaling
+//! with threads: grm-shape alone on 1, 2, 4, ... up to the machine's
+//! threads (interleaved rounds), on the tower and on a bigger one (a 200
+//! by 200 lot, 240 high: 80 floors of four 100-column facades, 32,000
+//! windows), each count's median time and its speed-up over one thread
+//! (the median over rounds of the one-thread time over its own). Run with
 //! `cargo bench -p grm-shape --bench facade`.
 
 use grm_shape::{
@@ -29,6 +34,11 @@ use symbios_shape::grammar::parse_ops;
 use symbios_shape::{Interpreter, Quat, Scope as PeerScope, Vec3 as PeerVec3};
 
 fn grm_program(tower: bool) -> Program {
+    grm_program_of(tower, 120.0)
+}
+
+/// The bench grammar with the tower `height` high.
+fn grm_program_of(tower: bool, height: f32) -> Program {
     let mut b = ProgramBuilder::new("bench");
     let floor_tag = b.tag("floor");
     let column_tag = b.tag("column");
@@ -47,7 +57,7 @@ fn grm_program(tower: bool) -> Program {
     b.rule(
         tower_s,
         vec![
-            Op::Extrude(120.0.into()),
+            Op::Extrude(height.into()),
             Op::Comp(Comp {
                 target: CompTarget::Faces,
                 cases: vec![
@@ -183,6 +193,49 @@ fn rounds(
     )
 }
 
+/// grm-shape alone on each of `counts` threads, interleaved rounds (at
+/// least 10 and 2 s): per count, the median time and the median over
+/// rounds of the one-thread time over its own (the speed-up).
+fn scaling(program: &Program, lot: &Lot, counts: &[usize]) -> Vec<(usize, Duration, f64)> {
+    let run = |threads: usize| {
+        let opts = Options {
+            threads,
+            ..Options::default()
+        };
+        black_box(derive(program, lot, &opts).expect("derive"));
+    };
+    for &k in counts {
+        run(k);
+    }
+    let mut t: Vec<Vec<Duration>> = vec![Vec::new(); counts.len()];
+    let mut speedups: Vec<Vec<f64>> = vec![Vec::new(); counts.len()];
+    let start = Instant::now();
+    while t[0].len() < 10 || start.elapsed() < Duration::from_secs(2) {
+        let mut round = Vec::with_capacity(counts.len());
+        for &k in counts {
+            let a = Instant::now();
+            run(k);
+            round.push(a.elapsed());
+        }
+        for (i, d) in round.iter().enumerate() {
+            t[i].push(*d);
+            speedups[i].push(round[0].as_secs_f64() / d.as_secs_f64());
+        }
+        if t[0].len() >= 200 {
+            break;
+        }
+    }
+    counts
+        .iter()
+        .enumerate()
+        .map(|(i, &k)| {
+            t[i].sort();
+            speedups[i].sort_by(f64::total_cmp);
+            (k, t[i][t[i].len() / 2], speedups[i][speedups[i].len() / 2])
+        })
+        .collect()
+}
+
 fn ms(d: Duration) -> f64 {
     d.as_secs_f64() * 1e3
 }
@@ -270,6 +323,60 @@ fn main() {
             ms(p_min),
             ratio,
             p_min.as_secs_f64() / one_min.as_secs_f64(),
+        );
+    }
+    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    println!(
+        "thread scaling (grm-shape alone; load average {}):",
+        load.split_whitespace()
+            .take(3)
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
+    let mut counts = vec![1usize];
+    while counts[counts.len() - 1] * 2 <= threads {
+        counts.push(counts[counts.len() - 1] * 2);
+    }
+    if counts[counts.len() - 1] != threads {
+        counts.push(threads);
+    }
+    if counts.len() == 1 {
+        counts.push(2); // one hardware thread: two still show the overhead
+    }
+    for (name, lot, height, windows) in [
+        (
+            "tower 4x40x50",
+            Lot::rectangle(100.0, 100.0),
+            120.0,
+            8000usize,
+        ),
+        ("tower 4x80x100", Lot::rectangle(200.0, 200.0), 240.0, 32000),
+    ] {
+        let program = grm_program_of(true, height);
+        let window = program.symbol("Window").expect("Window");
+        let tree = derive(&program, &lot, &Options::default()).expect("derive");
+        let n = tree
+            .nodes()
+            .iter()
+            .filter(
+                |n| matches!(n.kind, grm_shape::NodeKind::Shape { symbol, .. } if symbol == window),
+            )
+            .count();
+        assert_eq!(n, windows, "{name}: windows");
+        let line: Vec<String> = scaling(&program, &lot, &counts)
+            .into_iter()
+            .map(|(k, d, up)| {
+                format!(
+                    "{k} thread{}: {:.3} ms ({up:.2}x)",
+                    if k == 1 { "" } else { "s" },
+                    ms(d)
+                )
+            })
+            .collect();
+        println!(
+            "{name}: {windows} windows, {} nodes | {}",
+            tree.len(),
+            line.join(" | ")
         );
     }
 }
