@@ -34,7 +34,10 @@ use crate::scope::Scope;
 use crate::split::{RepeatLayout, SplitSize, repeat_into, split_into};
 use crate::tree::{Command, Node, NodeKind, ShapeTree};
 use glam::Vec3;
-use grm_compile::rng::{child_key, choice_draw, hash, race_earlier, race_time, root_key, salt};
+use grm_compile::rng::{
+    child_key, child_key_premixed, choice_draw, hash, premix, race_earlier, race_time, root_key,
+    salt,
+};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
@@ -139,8 +142,10 @@ pub fn derive(program: &Program, lot: &Lot, options: &Options) -> Result<ShapeTr
         0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
         n => n,
     };
+    let salts = op_salts(program);
     let engine = |queries| Engine {
         program,
+        salts: &salts,
         seed: options.seed,
         limits: options.limits,
         attrs: Mutex::new(AttrTable::default()),
@@ -240,11 +245,61 @@ fn ancestry(nodes: &[Node], at: usize, tags: &mut Vec<(TagId, u32, u32)>, keys: 
     }
 }
 
+/// The premixed salt (`premix(salt(label hash, ordinal, alternative))`)
+/// of the child node each operation of each rule alternative makes, by
+/// symbol, alternative and operation (0 for an operation that makes
+/// none). A child's ordinal among its rule run's children with its label
+/// depends on the operations before it alone, so it is counted here once
+/// per program instead of once per node (docs/shapes.md, "Identity").
+fn op_salts(program: &Program) -> Vec<Vec<Box<[u32]>>> {
+    program
+        .symbols
+        .iter()
+        .map(|info| {
+            let Some(rule) = &info.rule else {
+                return Vec::new();
+            };
+            (0u32..)
+                .zip(&rule.alternatives)
+                .map(|(alt, a)| {
+                    let mut seen: Vec<(u32, u32)> = Vec::new();
+                    a.ops
+                        .iter()
+                        .map(|op| {
+                            let label = match op {
+                                Op::Insert(asset) => program.assets[asset.0 as usize].1,
+                                Op::Emit(sym) => program.symbols[sym.0 as usize].name_hash,
+                                Op::Split(_) => program.commands.split,
+                                Op::Repeat(_) => program.commands.repeat,
+                                Op::Comp(_) => program.commands.comp,
+                                _ => return 0,
+                            };
+                            let ordinal = match seen.iter_mut().find(|e| e.0 == label) {
+                                Some(e) => {
+                                    e.1 += 1;
+                                    e.1
+                                }
+                                None => {
+                                    seen.push((label, 0));
+                                    0
+                                }
+                            };
+                            premix(salt(label, ordinal, alt))
+                        })
+                        .collect()
+                })
+                .collect()
+        })
+        .collect()
+}
+
 /// The marker of "over the node limit" inside a job.
 struct Overflow;
 
 struct Engine<'p> {
     program: &'p Program,
+    /// [`op_salts`] of the program.
+    salts: &'p [Vec<Box<[u32]>>],
     /// The first pass's shapes, in the second pass of a program with
     /// context queries (`None`: every query is false).
     queries: Option<&'p Queries>,
@@ -269,6 +324,23 @@ struct Memo {
     extent: u32,
     sizes: Vec<SplitSize>,
     layout: RepeatLayout,
+    /// The shapes the layout makes (its spans with a target).
+    kids: Vec<Kid>,
+}
+
+/// A shape a split or repeat makes, as far as the layout decides it.
+#[derive(Clone, Copy)]
+struct Kid {
+    /// Its interval along the axis.
+    start: f32,
+    len: f32,
+    target: SymbolId,
+    /// Its edge number, semantic index and count.
+    number: u32,
+    index: u32,
+    count: u32,
+    /// `premix(salt(target's name hash, number, 0))`.
+    salt: u32,
 }
 
 /// A rule run's scratch space, reused from shape to shape.
@@ -280,7 +352,6 @@ struct Scratch {
     /// thousand equal tiles are divided once.
     memo: Vec<Memo>,
     memo_next: usize,
-    occurrences: Vec<(u32, u32)>,
     /// Where the rule run set attributes: (the block position from which
     /// on, the attributes), in order.
     attr_marks: Vec<(usize, AttrId)>,
@@ -550,22 +621,12 @@ impl Engine<'_> {
             }
         };
         s.stack.clear();
-        s.occurrences.clear();
         s.attr_marks.clear();
         s.attr_stack.clear();
         let block = out.len();
         let mut edge = 0u32;
-        // The ordinal of a child labelled `h` among this rule run's children
-        // with that label.
-        fn occurrence(occ: &mut Vec<(u32, u32)>, h: u32) -> u32 {
-            if let Some(e) = occ.iter_mut().find(|e| e.0 == h) {
-                e.1 += 1;
-                e.1
-            } else {
-                occ.push((h, 0));
-                0
-            }
-        }
+        // The premixed salts of the children the operations make.
+        let salts = &self.salts[symbol.0 as usize][alt as usize];
         let result = (|| {
             for (i, op) in rule.alternatives[alt as usize].ops.iter().enumerate() {
                 // Each operation's draws have their own site (the draw
@@ -691,15 +752,13 @@ impl Engine<'_> {
                     }
                     Op::Insert(asset) => {
                         too_deep(depth + 1)?;
-                        let h = program.assets[asset.0 as usize].1;
                         edge += 1;
-                        let ord = occurrence(&mut s.occurrences, h);
                         let here = out.len() as u32;
                         out.push(node(
                             NodeKind::Insert { asset: *asset },
                             scope,
                             intern(outlines, &geometry),
-                            child_key(key, salt(h, ord, alt)),
+                            child_key_premixed(key, salts[i]),
                             edge,
                             depth + 1,
                             here - at,
@@ -707,9 +766,7 @@ impl Engine<'_> {
                     }
                     Op::Emit(sym) => {
                         too_deep(depth + 1)?;
-                        let h = program.symbols[sym.0 as usize].name_hash;
                         edge += 1;
-                        let ord = occurrence(&mut s.occurrences, h);
                         let here = out.len() as u32;
                         out.push(node(
                             NodeKind::Shape {
@@ -718,7 +775,7 @@ impl Engine<'_> {
                             },
                             scope,
                             intern(outlines, &geometry),
-                            child_key(key, salt(h, ord, alt)),
+                            child_key_premixed(key, salts[i]),
                             edge,
                             depth + 1,
                             here - at,
@@ -778,19 +835,39 @@ impl Engine<'_> {
                                 m.extent = bits;
                                 m.sizes.clear();
                                 m.sizes.extend_from_slice(&s.sizes);
+                                let parts = sp.parts.len() as u32;
+                                let tiles = m.layout.tiles;
+                                m.kids.clear();
+                                m.kids.extend(m.layout.spans.iter().filter_map(|span| {
+                                    let target = sp.parts[span.part as usize].target?;
+                                    let number = span.tile * parts + span.part + 1;
+                                    let th = program.symbols[target.0 as usize].name_hash;
+                                    let (index, count) = if is_repeat {
+                                        (span.tile + 1, tiles)
+                                    } else {
+                                        (span.part + 1, parts)
+                                    };
+                                    Some(Kid {
+                                        start: span.start,
+                                        len: span.len,
+                                        target,
+                                        number,
+                                        index,
+                                        count,
+                                        salt: premix(salt(th, number, 0)),
+                                    })
+                                }));
                                 i
                             }
                         };
-                        let (tiles, spans) =
-                            (s.memo[slot].layout.tiles, &s.memo[slot].layout.spans);
-                        let (command, h) = if is_repeat {
-                            (Command::Repeat(sp.axis), program.commands.repeat)
+                        let kids = &s.memo[slot].kids;
+                        let command = if is_repeat {
+                            Command::Repeat(sp.axis)
                         } else {
-                            (Command::Split(sp.axis), program.commands.split)
+                            Command::Split(sp.axis)
                         };
                         edge += 1;
-                        let ord = occurrence(&mut s.occurrences, h);
-                        let cmd_key = child_key(key, salt(h, ord, alt));
+                        let cmd_key = child_key_premixed(key, salts[i]);
                         let cmd_at = out.len();
                         out.push(node(
                             NodeKind::Command {
@@ -804,36 +881,25 @@ impl Engine<'_> {
                             depth + 1,
                             cmd_at as u32 - at,
                         ));
-                        let parts = sp.parts.len() as u32;
                         let dir = scope.axis(sp.axis);
-                        for span in spans {
-                            let Some(target) = sp.parts[span.part as usize].target else {
+                        for kid in kids {
+                            let Some(g) = geometry.slab(&scope, sp.axis, kid.start, kid.len) else {
                                 continue;
                             };
-                            let Some(g) = geometry.slab(&scope, sp.axis, span.start, span.len)
-                            else {
-                                continue;
-                            };
-                            let number = span.tile * parts + span.part + 1;
-                            let th = program.symbols[target.0 as usize].name_hash;
                             let here = out.len();
                             let mut n = node(
                                 NodeKind::Shape {
-                                    symbol: target,
+                                    symbol: kid.target,
                                     alternative: None,
                                 },
-                                scope.slab_along(dir, sp.axis, span.start, span.len),
+                                scope.slab_along(dir, sp.axis, kid.start, kid.len),
                                 intern(outlines, &g),
-                                child_key(cmd_key, salt(th, number, 0)),
-                                number,
+                                child_key_premixed(cmd_key, kid.salt),
+                                kid.number,
                                 depth + 2,
                                 (here - cmd_at) as u32,
                             );
-                            (n.index, n.count) = if is_repeat {
-                                (span.tile + 1, tiles)
-                            } else {
-                                (span.part + 1, parts)
-                            };
+                            (n.index, n.count) = (kid.index, kid.count);
                             out.push(n);
                             if out.len() > budget {
                                 return Err(None);
@@ -882,10 +948,8 @@ impl Engine<'_> {
                                 });
                             }
                         };
-                        let h = program.commands.comp;
                         edge += 1;
-                        let ord = occurrence(&mut s.occurrences, h);
-                        let cmd_key = child_key(key, salt(h, ord, alt));
+                        let cmd_key = child_key_premixed(key, salts[i]);
                         let cmd_at = out.len();
                         out.push(node(
                             NodeKind::Command {
