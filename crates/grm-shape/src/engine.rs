@@ -357,6 +357,11 @@ struct Scratch {
     attr_marks: Vec<(usize, AttrId)>,
     /// The attributes saved by `push`.
     attr_stack: Vec<AttrId>,
+    /// The rule run's attributes so far (those its shape inherited until
+    /// it sets one).
+    attrs: AttrId,
+    /// The outgoing edges the rule run has numbered so far.
+    edge: u32,
     counts: Vec<u32>,
     /// The expression machine's stack.
     eval: Vec<f32>,
@@ -472,14 +477,20 @@ impl Engine<'_> {
                 continue;
             }
             let start = job.nodes.len();
-            match self.expand(
+            let inherited = job.nodes[at as usize].attrs;
+            scratch.attrs = inherited;
+            scratch.edge = 0;
+            scratch.attr_marks.clear();
+            let result = self.expand(
                 &mut job.nodes,
                 &mut job.outlines,
                 at,
                 symbol,
                 budget,
                 &mut scratch,
-            ) {
+            );
+            close_block(&mut job.nodes, start, at, inherited, &scratch);
+            match result {
                 Ok(()) => {}
                 Err(Some(e)) => job.failures.push((at, e)),
                 Err(None) => return Err(Overflow),
@@ -525,7 +536,6 @@ impl Engine<'_> {
         let depth = shape.depth;
         let base = shape.scope;
         let inherited = shape.attrs;
-        let mut attrs = inherited;
         let mut scope = shape.scope;
         let mut geometry = resolve(outlines, shape.geometry);
         // What expressions read of the shape (docs/shapes.md, "Expressions").
@@ -621,13 +631,11 @@ impl Engine<'_> {
             }
         };
         s.stack.clear();
-        s.attr_marks.clear();
         s.attr_stack.clear();
         let block = out.len();
-        let mut edge = 0u32;
         // The premixed salts of the children the operations make.
         let salts = &self.salts[symbol.0 as usize][alt as usize];
-        let result = (|| {
+        {
             for (i, op) in rule.alternatives[alt as usize].ops.iter().enumerate() {
                 // Each operation's draws have their own site (the draw
                 // index: docs/shapes.md, "Identity").
@@ -714,16 +722,16 @@ impl Engine<'_> {
                     }
                     Op::Push => {
                         s.stack.push((scope, geometry.clone()));
-                        s.attr_stack.push(attrs);
+                        s.attr_stack.push(s.attrs);
                     }
                     Op::Pop => match s.stack.pop() {
                         Some((sc, g)) => {
                             scope = sc;
                             geometry = g;
                             let saved = s.attr_stack.pop().unwrap_or(inherited);
-                            if saved != attrs {
-                                attrs = saved;
-                                s.attr_marks.push((out.len(), attrs));
+                            if saved != s.attrs {
+                                s.attrs = saved;
+                                s.attr_marks.push((out.len(), saved));
                             }
                         }
                         None => return fail(ShapeError::PopWithoutPush { symbol: name() }),
@@ -752,21 +760,21 @@ impl Engine<'_> {
                     }
                     Op::Insert(asset) => {
                         too_deep(depth + 1)?;
-                        edge += 1;
+                        s.edge += 1;
                         let here = out.len() as u32;
                         out.push(node(
                             NodeKind::Insert { asset: *asset },
                             scope,
                             intern(outlines, &geometry),
                             child_key_premixed(key, salts[i]),
-                            edge,
+                            s.edge,
                             depth + 1,
                             here - at,
                         ));
                     }
                     Op::Emit(sym) => {
                         too_deep(depth + 1)?;
-                        edge += 1;
+                        s.edge += 1;
                         let here = out.len() as u32;
                         out.push(node(
                             NodeKind::Shape {
@@ -776,7 +784,7 @@ impl Engine<'_> {
                             scope,
                             intern(outlines, &geometry),
                             child_key_premixed(key, salts[i]),
-                            edge,
+                            s.edge,
                             depth + 1,
                             here - at,
                         ));
@@ -866,7 +874,7 @@ impl Engine<'_> {
                         } else {
                             Command::Split(sp.axis)
                         };
-                        edge += 1;
+                        s.edge += 1;
                         let cmd_key = child_key_premixed(key, salts[i]);
                         let cmd_at = out.len();
                         out.push(node(
@@ -877,7 +885,7 @@ impl Engine<'_> {
                             scope,
                             intern(outlines, &geometry),
                             cmd_key,
-                            edge,
+                            s.edge,
                             depth + 1,
                             cmd_at as u32 - at,
                         ));
@@ -948,7 +956,7 @@ impl Engine<'_> {
                                 });
                             }
                         };
-                        edge += 1;
+                        s.edge += 1;
                         let cmd_key = child_key_premixed(key, salts[i]);
                         let cmd_at = out.len();
                         out.push(node(
@@ -959,7 +967,7 @@ impl Engine<'_> {
                             scope,
                             intern(outlines, &geometry),
                             cmd_key,
-                            edge,
+                            s.edge,
                             depth + 1,
                             cmd_at as u32 - at,
                         ));
@@ -1018,10 +1026,10 @@ impl Engine<'_> {
                             }
                             rgb = Some(v);
                         }
-                        let id = self.set_attribute(op, rgb, attrs).map_err(Some)?;
-                        if id != attrs {
-                            attrs = id;
-                            s.attr_marks.push((out.len(), attrs));
+                        let id = self.set_attribute(op, rgb, s.attrs).map_err(Some)?;
+                        if id != s.attrs {
+                            s.attrs = id;
+                            s.attr_marks.push((out.len(), id));
                         }
                     }
                 }
@@ -1036,21 +1044,7 @@ impl Engine<'_> {
                 s.unordered = true;
             }
             Ok(())
-        })();
-        // Attributes (crate::attributes): each node of the block takes
-        // those set before it was made; a shape whose rule made nothing
-        // keeps those its rule left.
-        if inherited != AttrId(0) || !s.attr_marks.is_empty() {
-            apply_attributes(out, block, at, inherited, attrs, &s.attr_marks);
         }
-        // A shape's direct children count its edges, for counting from the end.
-        let mut j = block;
-        while j < out.len() {
-            out[j].count = edge;
-            j += 1 + out[j].children_len as usize
-                * usize::from(matches!(out[j].kind, NodeKind::Command { .. }));
-        }
-        result
     }
 
     /// Derive with `threads` workers: the top of the tree here, deep
@@ -1262,6 +1256,26 @@ impl Engine<'_> {
         table.intern(a).ok_or(ShapeError::TooManyAttributes {
             max: MAX_ATTRIBUTES,
         })
+    }
+}
+
+/// What the derivation loop does after a rule run, whether it failed or
+/// not, with the block `out[block..]` it wrote for the shape at `at`
+/// (`inherited`: the shape's attributes before the run).
+#[inline(always)]
+fn close_block(out: &mut [Node], block: usize, at: u32, inherited: AttrId, s: &Scratch) {
+    // Attributes (crate::attributes): each node of the block takes those
+    // set before it was made; a shape whose rule made nothing keeps those
+    // its rule left.
+    if inherited != AttrId(0) || !s.attr_marks.is_empty() {
+        apply_attributes(out, block, at, inherited, s.attrs, &s.attr_marks);
+    }
+    // A shape's direct children count its edges, for counting from the end.
+    let mut j = block;
+    while j < out.len() {
+        out[j].count = s.edge;
+        j += 1 + out[j].children_len as usize
+            * usize::from(matches!(out[j].kind, NodeKind::Command { .. }));
     }
 }
 
