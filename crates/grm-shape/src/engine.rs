@@ -890,9 +890,20 @@ impl Engine<'_> {
                             cmd_at as u32 - at,
                         ));
                         let dir = scope.axis(sp.axis);
+                        // A box, rectangle or edge is cut by arithmetic
+                        // alone: each part has the same geometry.
+                        let same = plain(&geometry);
                         for kid in kids {
-                            let Some(g) = geometry.slab(&scope, sp.axis, kid.start, kid.len) else {
-                                continue;
+                            let g = match same {
+                                Some(g) => g,
+                                None => {
+                                    let Some(g) =
+                                        geometry.slab(&scope, sp.axis, kid.start, kid.len)
+                                    else {
+                                        continue;
+                                    };
+                                    intern(outlines, &g)
+                                }
                             };
                             let here = out.len();
                             let mut n = node(
@@ -901,7 +912,7 @@ impl Engine<'_> {
                                     alternative: None,
                                 },
                                 scope.slab_along(dir, sp.axis, kid.start, kid.len),
-                                intern(outlines, &g),
+                                g,
                                 child_key_premixed(cmd_key, kid.salt),
                                 kid.number,
                                 depth + 2,
@@ -1389,8 +1400,29 @@ fn resolve(outlines: &[Arc<Outline>], g: Geometry) -> Geom {
 
 /// The geometry to store for a node written now: an outline gets the next
 /// entry of the table (one per node, in node order).
-#[inline]
+#[inline(always)]
 fn intern(outlines: &mut Vec<Arc<Outline>>, g: &Geom) -> Geometry {
+    match plain(g) {
+        Some(g) => g,
+        None => intern_outline(outlines, g),
+    }
+}
+
+/// The stored form of a geometry without an outline (a box, rectangle or
+/// edge), which takes no entry of the outline table.
+#[inline(always)]
+fn plain(g: &Geom) -> Option<Geometry> {
+    match g {
+        Geom::Box => Some(Geometry::Box),
+        Geom::Rect => Some(Geometry::Rect),
+        Geom::Edge => Some(Geometry::Edge),
+        _ => None,
+    }
+}
+
+/// [`intern`] of a geometry with an outline.
+#[inline(never)]
+fn intern_outline(outlines: &mut Vec<Arc<Outline>>, g: &Geom) -> Geometry {
     match g {
         Geom::Box => Geometry::Box,
         Geom::Rect => Geometry::Rect,
