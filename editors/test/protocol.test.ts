@@ -5,6 +5,7 @@ import {
   bytesToBase64,
   decodeF32,
   decodePick,
+  decodePicks,
   decodePreview,
   decodePreviewUpdated,
   decodeU32,
@@ -35,10 +36,9 @@ function wire(positions: number[], indices: number[], over: Record<string, unkno
         positions: b64f32(positions),
         normals: b64f32(positions.map(() => 0)),
         indices: b64u32(indices),
-        picks: [
-          { firstTriangle: 0, triangleCount: 1, kind: 'bone', index: 0, module: 3, origin: 1, focus: true },
-          { firstTriangle: 1, triangleCount: 1, kind: 'instance', index: 0, module: 5, origin: null, focus: false },
-        ],
+        // Six u32 per pick: first triangle, count, kind (+256 focus), index, module, origin.
+        pickCount: 2,
+        picks: b64u32([0, 1, 0 + 256, 0, 3, 1, 1, 1, 1, 0, 5, 0xffffffff]),
       },
     ],
     skeleton: {
@@ -104,6 +104,18 @@ test('picks find the range holding a triangle', () => {
   assert.equal(findPick(r.model.parts[0], 0)?.origin, 1);
   assert.equal(findPick(r.model.parts[0], 1)?.kind, 'instance');
   assert.equal(findPick(r.model.parts[0], 2), null);
+});
+
+test("picks: six u32 each (a bad length, kind or count is refused); an older server's objects still decode", () => {
+  assert.throws(() => decodePicks(b64u32([0, 1, 0, 0, 3]), 1, 'picks'), /whole number of picks/);
+  assert.throws(() => decodePicks(b64u32([0, 1, 7, 0, 3, 1]), 1, 'picks'), /unknown kind code 7/);
+  assert.throws(() => decodePicks(b64u32([0, 1, 3, 0, 3, 1]), 2, 'picks'), /pickCount says 2/);
+  assert.deepEqual(decodePicks(b64u32([4, 2, 3 + 256, 9, 9, 0xffffffff]), 1, 'picks'), [
+    { firstTriangle: 4, triangleCount: 2, kind: 'shape', index: 9, module: 9, origin: null, focus: true },
+  ]);
+  const old = [{ firstTriangle: 0, triangleCount: 1, kind: 'polygon', index: 2, module: 3, origin: 1, focus: false }];
+  assert.deepEqual(decodePicks(old, undefined, 'picks'), old);
+  assert.deepEqual(decodePicks(undefined, undefined, 'picks'), []);
 });
 
 test('an empty model (nothing drawn) has no bounds', () => {

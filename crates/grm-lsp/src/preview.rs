@@ -47,7 +47,8 @@ use tower_lsp_server::ls_types::notification::Notification;
 use tower_lsp_server::ls_types::{Position, Range, TextDocumentIdentifier, Uri};
 
 /// Bumped on any incompatible change of the messages below.
-pub const PROTOCOL_VERSION: u32 = 1;
+/// 2: picks are base64 of six `u32`s each, no longer one object per pick.
+pub const PROTOCOL_VERSION: u32 = 2;
 
 /// No origin (a module whose maker is unknown).
 pub const NO_ORIGIN: u32 = u32::MAX;
@@ -67,15 +68,15 @@ pub const PREVIEW_MAX_BYTES: u64 = 1 << 30;
 pub const MAX_ANSWER_BYTES: u64 = crate::stdio::MAX_BODY as u64;
 
 /// What the answer for `model` takes, at most, as JSON: its buffers in
-/// base64 (4 characters per 3 bytes), a record per pick and per origin,
-/// and the rest.
+/// base64 (4 characters per 3 bytes), the picks (24 bytes each, in
+/// base64 too), a record per origin, and the rest.
 pub fn answer_bytes(model: &grm_geom::Model, origins: usize) -> u64 {
     let b64 = |bytes: u64| bytes.div_ceil(3) * 4;
     let mut n: u64 = 64 << 10;
     for part in &model.parts {
         let v = part.mesh.positions.len() as u64;
         let t = part.mesh.indices.len() as u64 / 3;
-        n += 2 * b64(12 * v) + b64(12 * t) + 160 * part.picks.len() as u64 + 256;
+        n += 2 * b64(12 * v) + b64(12 * t) + b64(24 * part.picks.len() as u64) + 256;
     }
     let bones = model.skeleton.bones.len() as u64;
     n += b64(32 * bones) + 2 * b64(4 * bones);
@@ -197,14 +198,16 @@ pub struct PreviewParams {
     pub generation: Option<u32>,
 }
 
-/// A run of triangles of a part and what made it.
+/// A run of triangles of a part and what made it: one record of a part's
+/// `picks` buffer, decoded ([`decode_picks`]). On the wire a pick is
+/// [`PICK_WORDS`] little-endian `u32`s (a building's preview has tens of
+/// thousands of picks: one JSON object each was most of its answer).
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(rename_all = "camelCase")]
 pub struct PickOut {
     pub first_triangle: u32,
     pub triangle_count: u32,
-    /// `bone`, `instance`, `polygon` or `shape` (not a `String`: a
-    /// building's preview has tens of thousands of picks).
+    /// `bone`, `instance`, `polygon` or `shape`.
     pub kind: std::borrow::Cow<'static, str>,
     /// Index into the skeleton's bones / instances / polygons.
     pub index: u32,
@@ -214,6 +217,42 @@ pub struct PickOut {
     pub origin: Option<u32>,
     /// Grown by the focused production.
     pub focus: bool,
+}
+
+/// `u32`s per pick in a part's `picks` buffer: first triangle, triangle
+/// count, kind code (+ [`PICK_FOCUS`] when focused), index, module, origin
+/// (`0xFFFFFFFF` unknown).
+pub const PICK_WORDS: usize = 6;
+
+/// The kinds of a pick, by their code in the `picks` buffer.
+pub const PICK_KINDS: [&str; 4] = ["bone", "instance", "polygon", "shape"];
+
+/// Added to a pick's kind code when the focused production grew it.
+pub const PICK_FOCUS: u32 = 0x100;
+
+/// A part's `picks` buffer (base64 of [`PICK_WORDS`] little-endian `u32`s
+/// per pick) as records; `None` when it is not one.
+pub fn decode_picks(b64: &str) -> Option<Vec<PickOut>> {
+    let bytes = base64::engine::general_purpose::STANDARD.decode(b64).ok()?;
+    if bytes.len() % (4 * PICK_WORDS) != 0 {
+        return None;
+    }
+    bytes
+        .chunks_exact(4 * PICK_WORDS)
+        .map(|r| {
+            let w =
+                |i: usize| u32::from_le_bytes([r[4 * i], r[4 * i + 1], r[4 * i + 2], r[4 * i + 3]]);
+            Some(PickOut {
+                first_triangle: w(0),
+                triangle_count: w(1),
+                kind: std::borrow::Cow::Borrowed(PICK_KINDS.get((w(2) & 0xff) as usize)?),
+                index: w(3),
+                module: w(4),
+                origin: (w(5) != u32::MAX).then_some(w(5)),
+                focus: w(2) & PICK_FOCUS != 0,
+            })
+        })
+        .collect()
 }
 
 /// One material's triangles.
@@ -229,7 +268,11 @@ pub struct PartOut {
     pub normals: String,
     /// base64 of `u32` vertex indices, three per triangle.
     pub indices: String,
-    pub picks: Vec<PickOut>,
+    /// The number of picks (runs of triangles and what made them).
+    pub pick_count: usize,
+    /// base64 of [`PICK_WORDS`] `u32`s per pick, by first triangle
+    /// ([`PickOut`], [`decode_picks`]).
+    pub picks: String,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
@@ -1091,33 +1134,30 @@ pub(crate) fn parts_out(
         .iter()
         .map(|part| {
             let flat = |v: &[[f32; 3]]| -> Vec<f32> { v.iter().flatten().copied().collect() };
-            let picks: Vec<PickOut> = part
-                .picks
-                .iter()
-                .map(|pk| {
-                    let (kind, index) = match pk.source {
-                        grm_geom::PartSource::Bone(i) => ("bone", i),
-                        grm_geom::PartSource::Instance(i) => ("instance", i),
-                        grm_geom::PartSource::Polygon(i) => ("polygon", i),
-                        grm_geom::PartSource::Shape(i) => ("shape", i),
-                    };
-                    PickOut {
-                        first_triangle: pk.first_triangle,
-                        triangle_count: pk.triangle_count,
-                        kind: std::borrow::Cow::Borrowed(kind),
-                        index,
-                        module: pk.module,
-                        origin: origin_of(pk.origin),
-                        focus: is_focus(pk.module),
-                    }
-                })
-                .collect();
-            table.push(
-                part.picks
-                    .iter()
-                    .map(|pk| (pk.first_triangle, pk.triangle_count, pk.module, pk.origin))
-                    .collect(),
-            );
+            let mut picks = Vec::with_capacity(part.picks.len() * 4 * PICK_WORDS);
+            let mut runs = Vec::with_capacity(part.picks.len());
+            for pk in &part.picks {
+                let (kind, index) = match pk.source {
+                    grm_geom::PartSource::Bone(i) => (0, i),
+                    grm_geom::PartSource::Instance(i) => (1, i),
+                    grm_geom::PartSource::Polygon(i) => (2, i),
+                    grm_geom::PartSource::Shape(i) => (3, i),
+                };
+                let flags = kind | if is_focus(pk.module) { PICK_FOCUS } else { 0 };
+                let origin = origin_of(pk.origin).unwrap_or(u32::MAX);
+                for w in [
+                    pk.first_triangle,
+                    pk.triangle_count,
+                    flags,
+                    index,
+                    pk.module,
+                    origin,
+                ] {
+                    picks.extend_from_slice(&w.to_le_bytes());
+                }
+                runs.push((pk.first_triangle, pk.triangle_count, pk.module, pk.origin));
+            }
+            table.push(runs);
             PartOut {
                 material: part.material,
                 vertex_count: part.mesh.positions.len(),
@@ -1125,7 +1165,8 @@ pub(crate) fn parts_out(
                 positions: f32s(&flat(&part.mesh.positions)),
                 normals: f32s(&flat(&part.mesh.normals)),
                 indices: u32s(&part.mesh.indices),
-                picks,
+                pick_count: part.picks.len(),
+                picks: base64::engine::general_purpose::STANDARD.encode(picks),
             }
         })
         .collect()

@@ -13,9 +13,9 @@ use serde_json::json;
 async fn a_preview_too_large_to_send_is_refused_with_a_coded_error() {
     let mut c = Client::start().await;
     let path = std::env::temp_dir().join(format!("grm-preview-limits-{}.grm", std::process::id()));
-    // 2^18 boxes: 24 vertices and 12 triangles each, about 280 MiB of
-    // base64 in the answer (and under 256 MiB to build).
-    let text = "system Boxes {\n    iterations = 18;\n    axiom box(1, 1, 1);\n    box(x, y, z) -> box(x, y, z) box(x, y, z);\n}\n";
+    // 2^19 boxes: 24 vertices and 12 triangles each, about 500 MiB of
+    // base64 in the answer (and under the preview's 1 GiB to build).
+    let text = "system Boxes {\n    iterations = 19;\n    axiom box(1, 1, 1);\n    box(x, y, z) -> box(x, y, z) box(x, y, z);\n}\n";
     let u = c.open(&path, text).await;
     let e = c
         .request(
@@ -28,7 +28,7 @@ async fn a_preview_too_large_to_send_is_refused_with_a_coded_error() {
     let m = e["message"].as_str().unwrap_or_default();
     assert!(m.contains("R0408"), "{m}");
     assert!(m.contains("over the limit of 256 MiB"), "{m}");
-    assert!(m.contains("3145728 triangles"), "{m}");
+    assert!(m.contains("6291456 triangles"), "{m}");
     // A smaller one of the same file is answered.
     let r = c
         .ok(

@@ -373,7 +373,7 @@ async fn preview_pick_and_live_updates() {
         assert!(pos.iter().all(|b| f32::from_le_bytes(*b).is_finite()));
         triangles += nt;
         let mut by_origin = std::collections::BTreeMap::new();
-        for pk in part["picks"].as_array().unwrap() {
+        for pk in &picks(part) {
             *by_origin
                 .entry(format!("{}:{}", pk["kind"], pk["origin"]))
                 .or_insert(0) += pk["triangleCount"].as_u64().unwrap();
@@ -447,7 +447,7 @@ async fn preview_pick_and_live_updates() {
         .as_array()
         .unwrap()
         .iter()
-        .flat_map(|p| p["picks"].as_array().unwrap().iter())
+        .flat_map(picks)
         .filter(|pk| pk["focus"] == true)
         .map(|pk| pk["triangleCount"].as_u64().unwrap())
         .sum();
@@ -558,7 +558,7 @@ async fn preview_sample_mode() {
     // Every picked run of triangles names the production that made it.
     let mut by_origin = std::collections::BTreeMap::new();
     for part in a["parts"].as_array().unwrap() {
-        for pk in part["picks"].as_array().unwrap() {
+        for pk in &picks(part) {
             let o = pk["origin"].as_u64().expect("sampler provenance is exact");
             let sym = a["origins"][o as usize]["symbol"]
                 .as_str()
@@ -1064,7 +1064,7 @@ async fn preview_generation_edge_cases() {
     assert_eq!(origin, fr["focus"]["origin"]);
     let mut focused = std::collections::HashSet::new();
     for part in f0["parts"].as_array().expect("parts") {
-        for pk in part["picks"].as_array().expect("picks") {
+        for pk in &picks(part) {
             assert_eq!(pk["focus"], json!(pk["origin"] == origin), "{pk}");
             if pk["focus"] == true && pk["kind"] == "instance" {
                 focused.insert(pk["index"].as_u64());

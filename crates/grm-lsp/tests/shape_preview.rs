@@ -25,7 +25,7 @@ fn text_of<'a>(text: &'a str, r: &Value) -> &'a str {
 fn pick_made_by(r: &Value, symbol: &str) -> Option<(usize, u64)> {
     let origins = r["origins"].as_array().unwrap();
     for (i, part) in r["parts"].as_array().unwrap().iter().enumerate() {
-        for pk in part["picks"].as_array().unwrap() {
+        for pk in &picks(part) {
             let o = pk["origin"].as_u64()? as usize;
             if origins[o]["symbol"] == symbol {
                 return Some((i, pk["firstTriangle"].as_u64().unwrap()));
@@ -75,7 +75,7 @@ async fn shape_preview_and_pick() {
     for part in r["parts"].as_array().unwrap() {
         let nt = part["triangleCount"].as_u64().unwrap();
         let mut covered = 0;
-        for pk in part["picks"].as_array().unwrap() {
+        for pk in &picks(part) {
             assert_eq!(pk["kind"], "shape");
             assert_eq!(pk["index"], pk["module"]);
             assert!(pk["origin"].is_u64(), "{pk}");

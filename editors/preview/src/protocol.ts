@@ -427,6 +427,42 @@ function decodePickRange(v: unknown, what: string): PickRange {
   };
 }
 
+/** `u32`s per pick in a part's `picks` buffer (docs/lsp-extensions.md). */
+export const PICK_WORDS = 6;
+/** The kinds of a pick, by their code in the `picks` buffer. */
+const PICK_KINDS: readonly SourceKind[] = ['bone', 'instance', 'polygon', 'shape'];
+/** Added to a pick's kind code when the focused production grew it. */
+const PICK_FOCUS = 0x100;
+
+/**
+ * A part's picks: base64 of six little-endian `u32`s per pick (first
+ * triangle, triangle count, kind code + 256 when focused, index, module,
+ * origin with 0xFFFFFFFF unknown), or (older servers) an array of objects.
+ */
+export function decodePicks(v: unknown, count: unknown, what: string): PickRange[] {
+  if (v === undefined || v === null || v === '') return [];
+  if (Array.isArray(v)) return v.map((q: unknown, k: number) => decodePickRange(q, `${what}[${k}]`));
+  const w = decodeU32(v, what);
+  if (w.length % PICK_WORDS !== 0) throw new ProtocolError(`${what}: ${w.length} u32 is not a whole number of picks (${PICK_WORDS} each)`);
+  const n = w.length / PICK_WORDS;
+  if (count !== undefined && count !== n) throw new ProtocolError(`${what}: ${n} picks where pickCount says ${String(count)}`);
+  const out: PickRange[] = new Array(n);
+  for (let k = 0, i = 0; k < n; k++, i += PICK_WORDS) {
+    const kind = PICK_KINDS[w[i + 2] & 0xff];
+    if (kind === undefined) throw new ProtocolError(`${what}[${k}]: unknown kind code ${w[i + 2] & 0xff}`);
+    out[k] = {
+      firstTriangle: w[i],
+      triangleCount: w[i + 1],
+      kind,
+      index: w[i + 3],
+      module: w[i + 4],
+      origin: w[i + 5] === NO_ORIGIN ? null : w[i + 5],
+      focus: (w[i + 2] & PICK_FOCUS) !== 0,
+    };
+  }
+  return out;
+}
+
 /** Decode a model (materials, parts, skeleton) from a preview result on the wire. */
 export function decodeModel(v: Record<string, unknown>): SceneModel {
   const materials: SceneMaterial[] = (Array.isArray(v.materials) ? v.materials : []).map((m: unknown, i: number) => {
@@ -457,7 +493,7 @@ export function decodeModel(v: Record<string, unknown>): SceneModel {
       throw new ProtocolError(`parts[${i}].material ${material} is out of range`);
     }
     triangles += indices.length / 3;
-    const picks = (Array.isArray(p.picks) ? p.picks : []).map((q: unknown, k: number) => decodePickRange(q, `parts[${i}].picks[${k}]`));
+    const picks = decodePicks(p.picks, p.pickCount, `parts[${i}].picks`);
     return { material, positions, normals, indices, picks };
   });
   const bones: SceneBone[] = [];

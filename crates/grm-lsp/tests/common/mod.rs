@@ -305,3 +305,16 @@ pub fn apply(text: &str, edits: &[Value]) -> String {
     }
     s
 }
+
+/// A preview part's picks (base64 of six `u32`s each on the wire) as
+/// JSON records: `firstTriangle`, `triangleCount`, `kind`, `index`,
+/// `module`, `origin` (null: unknown), `focus`.
+pub fn picks(part: &Value) -> Vec<Value> {
+    let s = part["picks"].as_str().expect("picks: base64");
+    let picks = grm_lsp::preview::decode_picks(s).expect("picks: whole records");
+    assert_eq!(part["pickCount"].as_u64(), Some(picks.len() as u64));
+    picks
+        .iter()
+        .map(|p| serde_json::to_value(p).expect("json"))
+        .collect()
+}
