@@ -438,38 +438,24 @@ mod tests {
 
     #[test]
     fn every_shape_word_is_documented() {
-        use grm_sema::shape::{Primitive, RoofKind, Selector, ShapeQuery};
-        for s in Selector::ALL {
-            assert!(
-                lookup(s.name(), DocKind::Selector).is_some(),
-                "{}",
-                s.name()
-            );
-        }
-        for k in RoofKind::ALL {
-            assert!(
-                lookup(k.name(), DocKind::RoofKind).is_some(),
-                "{}",
-                k.name()
-            );
-        }
-        for p in Primitive::ALL {
-            assert!(
-                lookup(p.name(), DocKind::Primitive).is_some(),
-                "{}",
-                p.name()
-            );
-        }
-        for q in [
-            ShapeQuery::Overlaps,
-            ShapeQuery::Touches,
-            ShapeQuery::Inside,
-        ] {
-            assert!(
-                lookup(q.name(), DocKind::ShapeValue).is_some(),
-                "{}",
-                q.name()
-            );
+        use grm_sema::shape::{
+            Axis, CENTER_AXES, CompTarget, Primitive, RoofKind, Selector, ShapeQuery,
+        };
+        let words = [
+            (
+                DocKind::Axis,
+                Axis::names().chain(CENTER_AXES.iter().copied()).collect(),
+            ),
+            (DocKind::CompKind, CompTarget::names().collect()),
+            (DocKind::Selector, Selector::names().collect()),
+            (DocKind::RoofKind, RoofKind::names().collect()),
+            (DocKind::Primitive, Primitive::names().collect()),
+            (DocKind::ShapeValue, ShapeQuery::names().collect::<Vec<_>>()),
+        ];
+        for (kind, names) in words {
+            for n in names {
+                assert!(lookup(n, kind).is_some(), "{n}");
+            }
         }
         for m in [
             grm_sema::Mode::Derive,

@@ -10,6 +10,7 @@
 use crate::complete::{Ctx, keyword};
 use crate::docs::{self, DocEntry, DocKind};
 use crate::{CompletionItem, CompletionKind, FileAnalysis, Span};
+use grm_sema::shape::{Axis, CENTER_AXES, CompTarget, Primitive, RoofKind, Selector, ShapeQuery};
 use grm_syntax::ast::{Expr, ExprKind, Item, Module, PartKind, Symbol, System, SystemItem};
 use grm_syntax::lexer::TokKind;
 
@@ -97,7 +98,9 @@ pub(crate) fn is_op(name: &str) -> bool {
 const VALUES: &[&str] = &["scope", "index", "count", "depth"];
 /// Shape values called as functions: `tagged` takes a tag, the context
 /// queries a symbol.
-const VALUE_FNS: &[&str] = &["tagged", "overlaps", "touches", "inside"];
+fn is_value_fn(name: &str) -> bool {
+    name == "tagged" || ShapeQuery::from_name(name).is_some()
+}
 
 /// The name of an expression that is a bare name.
 fn name_of(e: &Expr) -> Option<(&str, Span)> {
@@ -248,7 +251,7 @@ impl FileAnalysis {
                             Some((n, sp))
                                 if comp
                                     && p.kind == PartKind::Absolute
-                                    && docs::lookup(n, DocKind::Selector).is_some() =>
+                                    && Selector::from_name(n).is_some() =>
                             {
                                 push(sp, Role::Selector)
                             }
@@ -286,7 +289,7 @@ impl FileAnalysis {
                 ExprKind::Name(id) if VALUES.contains(&id.name.as_str()) => {
                     push(id.span, Role::Value)
                 }
-                ExprKind::Call { func, args } if VALUE_FNS.contains(&func.name.as_str()) => {
+                ExprKind::Call { func, args } if is_value_fn(&func.name) => {
                     push(func.span, Role::ValueFn);
                     let role = if func.name == "tagged" {
                         Role::Tag
@@ -324,15 +327,13 @@ impl FileAnalysis {
 
 /// The role of a bare-name argument `n` at position `i` of operation `op`.
 pub(crate) fn arg_role(op: &str, i: usize, n: &str) -> Option<Role> {
-    let axis = |n: &str| docs::lookup(n, DocKind::Axis).is_some();
     match (op, i) {
-        ("split" | "repeat", 0) if matches!(n, "x" | "y" | "z") => Some(Role::Axis),
-        ("rotate", 0) if matches!(n, "x" | "y" | "z") => Some(Role::Axis),
-        ("center", 0) if axis(n) && n != "_" => Some(Role::Axis),
+        ("split" | "repeat" | "rotate", 0) if Axis::from_name(n).is_some() => Some(Role::Axis),
+        ("center", 0) if CENTER_AXES.contains(&n) => Some(Role::Axis),
         ("size", _) if n == "_" => Some(Role::Axis),
-        ("comp", 0) if matches!(n, "faces" | "edges") => Some(Role::CompKind),
-        ("roof", 0) if docs::lookup(n, DocKind::RoofKind).is_some() => Some(Role::RoofKind),
-        ("insert", 0) if docs::lookup(n, DocKind::Primitive).is_some() => Some(Role::Primitive),
+        ("comp", 0) if CompTarget::from_name(n).is_some() => Some(Role::CompKind),
+        ("roof", 0) if RoofKind::from_name(n).is_some() => Some(Role::RoofKind),
+        ("insert", 0) if Primitive::from_name(n).is_some() => Some(Role::Primitive),
         ("split" | "repeat" | "comp", 1) => Some(Role::Tag),
         _ => None,
     }
@@ -558,8 +559,8 @@ impl FileAnalysis {
             Spot::PartSize {
                 command: Some("comp"),
             } => {
-                for e in docs::of_kind(DocKind::Selector) {
-                    out.push(word(DocKind::Selector, e.name, CompletionKind::Value));
+                for n in Selector::names() {
+                    out.push(word(DocKind::Selector, n, CompletionKind::Value));
                 }
             }
             Spot::PartSize { .. } => self.push_shape_expr(offset, &mut out),
@@ -568,21 +569,14 @@ impl FileAnalysis {
                 arg,
                 module,
             } => {
-                let words: Option<(DocKind, &[&str])> = match (f, arg, module) {
-                    ("split" | "repeat", 0, true) => Some((DocKind::Axis, &["x", "y", "z"])),
-                    ("rotate", 0, true) => Some((DocKind::Axis, &["x", "y", "z"])),
-                    ("center", 0, true) => {
-                        Some((DocKind::Axis, &["x", "y", "z", "xy", "xz", "yz", "xyz"]))
+                let words: Option<(DocKind, Vec<&str>)> = match (f, arg, module) {
+                    ("split" | "repeat" | "rotate", 0, true) => {
+                        Some((DocKind::Axis, Axis::names().collect()))
                     }
-                    ("comp", 0, true) => Some((DocKind::CompKind, &["faces", "edges"])),
-                    ("roof", 0, true) => Some((
-                        DocKind::RoofKind,
-                        &["flat", "gable", "hip", "shed", "pyramid"],
-                    )),
-                    ("insert", 0, true) => Some((
-                        DocKind::Primitive,
-                        &["box", "cylinder", "cone", "sphere", "disc"],
-                    )),
+                    ("center", 0, true) => Some((DocKind::Axis, CENTER_AXES.to_vec())),
+                    ("comp", 0, true) => Some((DocKind::CompKind, CompTarget::names().collect())),
+                    ("roof", 0, true) => Some((DocKind::RoofKind, RoofKind::names().collect())),
+                    ("insert", 0, true) => Some((DocKind::Primitive, Primitive::names().collect())),
                     _ => None,
                 };
                 if let Some((kind, names)) = words {
@@ -601,7 +595,7 @@ impl FileAnalysis {
                     || (!module && f == "tagged" && arg == 0)
                 {
                     self.push_tags(offset, &mut out);
-                } else if !module && matches!(f, "overlaps" | "touches" | "inside") && arg == 0 {
+                } else if !module && ShapeQuery::from_name(f).is_some() && arg == 0 {
                     self.push_shape_symbols(sys, offset, &mut out);
                 } else if module && f == "material" {
                     for m in &self.checked.program.materials {
@@ -735,7 +729,7 @@ impl FileAnalysis {
             let mut item = CompletionItem::new(e.name, CompletionKind::Value)
                 .detail(e.signatures[0])
                 .doc(e.markdown());
-            if VALUE_FNS.contains(&e.name) {
+            if is_value_fn(e.name) {
                 item.kind = CompletionKind::Function;
                 item = item.snippet(format!("{}($1)", e.name));
             }

@@ -24,6 +24,11 @@ use grm_compile::rng;
 use grm_compile::table::WEIGHT_SCALE;
 use grm_compile::vm::{floored_rem, rand_int, rand_uniform};
 
+/// A context query: how the asking shape's box relates to the boxes of
+/// the first pass's shapes of a symbol (docs/shapes.md, "Context
+/// queries"); the language's word, `grm_sema::shape::ShapeQuery`.
+pub use grm_sema::shape::ShapeQuery as Query;
+
 /// An expression of a program (made by [`ProgramBuilder::expr`](crate::ProgramBuilder::expr)).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct ExprId(pub u32);
@@ -43,29 +48,6 @@ impl Type {
         match self {
             Type::Num => "number",
             Type::Bool => "boolean",
-        }
-    }
-}
-
-/// A context query: how the asking shape's box relates to the boxes of
-/// the first pass's shapes of a symbol (docs/shapes.md, "Context queries").
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Query {
-    /// The boxes share volume (or area, for flat boxes).
-    Overlaps,
-    /// The boxes meet, but only on their boundaries.
-    Touches,
-    /// The asking box lies inside one box.
-    Inside,
-}
-
-impl Query {
-    /// `overlaps`, `touches` or `inside`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Query::Overlaps => "overlaps",
-            Query::Touches => "touches",
-            Query::Inside => "inside",
         }
     }
 }

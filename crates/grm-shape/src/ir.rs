@@ -19,6 +19,10 @@ use crate::roof::RoofKind;
 use crate::split::SplitSize;
 use grm_compile::rng::name_hash;
 
+/// The shape-mode words (axes, component-split targets and selectors) are
+/// the language's, defined once in `grm_sema::shape::vocab`.
+pub use grm_sema::shape::{Axis, CompTarget, Selector};
+
 /// A symbol of the program (an index into its symbol table).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct SymbolId(pub u32);
@@ -72,31 +76,6 @@ impl From<ExprId> for Param {
 impl From<f32> for Param {
     fn from(v: f32) -> Self {
         Param::Const(v)
-    }
-}
-
-/// A scope axis.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Axis {
-    X,
-    Y,
-    Z,
-}
-
-impl Axis {
-    /// 0, 1 or 2.
-    #[inline]
-    pub fn index(self) -> usize {
-        match self {
-            Axis::X => 0,
-            Axis::Y => 1,
-            Axis::Z => 2,
-        }
-    }
-
-    /// `x`, `y` or `z`.
-    pub fn name(self) -> &'static str {
-        ["x", "y", "z"][self.index()]
     }
 }
 
@@ -168,80 +147,6 @@ pub struct Split {
     pub axis: Axis,
     pub parts: Vec<Part>,
     pub tag: Option<TagId>,
-}
-
-/// What a component split breaks a shape into.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum CompTarget {
-    /// The faces of a mass (its walls, top and bottom).
-    Faces,
-    /// The edges of a mass or of a face.
-    Edges,
-}
-
-impl CompTarget {
-    /// `faces` or `edges`.
-    pub fn name(self) -> &'static str {
-        match self {
-            CompTarget::Faces => "faces",
-            CompTarget::Edges => "edges",
-        }
-    }
-}
-
-/// Which components a case of a component split takes, by orientation
-/// (docs/shapes.md, "Component split"). A component goes to the first case
-/// whose selector matches it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Selector {
-    /// Facing the scope's -y (walls), or, for edges of a face, -x... see [`Selector::name`].
-    Front,
-    Back,
-    Left,
-    Right,
-    /// Every vertical wall (front, back, left, right); the vertical edges of a mass.
-    Side,
-    Top,
-    Bottom,
-    /// Everything.
-    All,
-    /// A roof's sloped faces (and a taper's leaning walls).
-    Slope,
-    /// A roof's vertical gable ends (and a shed's vertical walls).
-    Gable,
-    /// A roof's horizontal edges at its eaves under a slope.
-    Eave,
-    /// A roof's horizontal edges above its eaves.
-    Ridge,
-    /// A roof's inclined edges where two slopes meet in a convex corner.
-    Hip,
-    /// A roof's inclined edges where two slopes meet in a concave corner.
-    Valley,
-    /// A roof's inclined edges between a slope and a gable end.
-    Rake,
-}
-
-impl Selector {
-    /// The selector's name as written in a grammar.
-    pub fn name(self) -> &'static str {
-        match self {
-            Selector::Front => "front",
-            Selector::Back => "back",
-            Selector::Left => "left",
-            Selector::Right => "right",
-            Selector::Side => "side",
-            Selector::Top => "top",
-            Selector::Bottom => "bottom",
-            Selector::All => "all",
-            Selector::Slope => "slope",
-            Selector::Gable => "gable",
-            Selector::Eave => "eave",
-            Selector::Ridge => "ridge",
-            Selector::Hip => "hip",
-            Selector::Valley => "valley",
-            Selector::Rake => "rake",
-        }
-    }
 }
 
 /// One case of a component split.

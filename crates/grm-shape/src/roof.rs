@@ -27,37 +27,11 @@ use glam::Vec3;
 use std::fmt;
 use std::sync::Arc;
 
+/// What kind of roof: the language's word (`grm_sema::shape::vocab`).
+pub use grm_sema::shape::RoofKind;
+
 /// The most footprint vertices a roof is built on (per polygon).
 pub const MAX_VERTICES: usize = 256;
-
-/// What kind of roof.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum RoofKind {
-    /// A flat top face over the footprint (an overhang widens it).
-    Flat,
-    /// Every edge slopes at the angle (the straight skeleton roof).
-    Hip,
-    /// A hip roof whose wing ends are vertical gables ([`gable_edges`]).
-    Gable,
-    /// One plane rising from the front edge (outward normal most along -y);
-    /// the other edges are vertical.
-    Shed,
-    /// Every edge slopes to one apex over the centroid.
-    Pyramid,
-}
-
-impl RoofKind {
-    /// `flat`, `hip`, `gable`, `shed` or `pyramid`.
-    pub fn name(self) -> &'static str {
-        match self {
-            RoofKind::Flat => "flat",
-            RoofKind::Hip => "hip",
-            RoofKind::Gable => "gable",
-            RoofKind::Shed => "shed",
-            RoofKind::Pyramid => "pyramid",
-        }
-    }
-}
 
 /// Why a roof (or a taper) cannot be built on an outline.
 #[derive(Clone, Debug, PartialEq)]

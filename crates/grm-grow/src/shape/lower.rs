@@ -10,14 +10,11 @@
 //! degrees, the engine's radians: `sin(x)` lowers to `sin(x * pi / 180)`.
 
 use grm_diag::Span;
-use grm_sema::shape::{
-    Asset, Axis as SAxis, CompTarget as SCompTarget, LotKind, OpKind, PartKind, Primitive,
-    RoofKind as SRoofKind, Selector as SSelector, ShapeQuery, ShapeRule, ShapeValue, SplitT,
-};
+use grm_sema::shape::{Asset, LotKind, OpKind, PartKind, ShapeRule, ShapeValue, SplitT};
 use grm_sema::{BinaryOp, Builtin, RandomFn, TExpr, TExprKind, UnaryOp, Value};
 use grm_shape::{
-    Alternative, Axis, Binary, Comp, CompCase, CompTarget, Expr, Lot, Op, Param, Part, PartSize,
-    Program, ProgramBuilder, Query, RoofKind, Selector, Split, SymbolId, Unary,
+    Alternative, Axis, Binary, Comp, CompCase, Expr, Lot, Op, Param, Part, PartSize, Program,
+    ProgramBuilder, Split, SymbolId, Unary,
 };
 
 use super::LowerError;
@@ -193,48 +190,6 @@ fn internal(what: &str) -> LowerError {
     LowerError::Internal(format!("a checked shape system has {what}"))
 }
 
-fn axis(a: SAxis) -> Axis {
-    match a {
-        SAxis::X => Axis::X,
-        SAxis::Y => Axis::Y,
-        SAxis::Z => Axis::Z,
-    }
-}
-
-fn selector(s: SSelector) -> Selector {
-    match s {
-        SSelector::Front => Selector::Front,
-        SSelector::Back => Selector::Back,
-        SSelector::Left => Selector::Left,
-        SSelector::Right => Selector::Right,
-        SSelector::Side => Selector::Side,
-        SSelector::Top => Selector::Top,
-        SSelector::Bottom => Selector::Bottom,
-        SSelector::All => Selector::All,
-        SSelector::Slope => Selector::Slope,
-        SSelector::Gable => Selector::Gable,
-        SSelector::Eave => Selector::Eave,
-        SSelector::Ridge => Selector::Ridge,
-        SSelector::Hip => Selector::Hip,
-        SSelector::Valley => Selector::Valley,
-        SSelector::Rake => Selector::Rake,
-    }
-}
-
-fn roof_kind(k: SRoofKind) -> RoofKind {
-    match k {
-        SRoofKind::Flat => RoofKind::Flat,
-        SRoofKind::Gable => RoofKind::Gable,
-        SRoofKind::Hip => RoofKind::Hip,
-        SRoofKind::Shed => RoofKind::Shed,
-        SRoofKind::Pyramid => RoofKind::Pyramid,
-    }
-}
-
-fn primitive(p: Primitive) -> &'static str {
-    p.name()
-}
-
 const DEG: f32 = std::f32::consts::PI / 180.0;
 
 impl Cx<'_, '_> {
@@ -296,7 +251,7 @@ impl Cx<'_, '_> {
             });
         }
         Ok(Split {
-            axis: axis(s.axis),
+            axis: s.axis,
             parts,
             tag: s.tag.as_ref().map(|t| self.b.tag(&t.name)),
         })
@@ -312,7 +267,7 @@ impl Cx<'_, '_> {
                 angle,
                 overhang,
             } => Op::Roof {
-                kind: roof_kind(*kind),
+                kind: *kind,
                 angle: self.param(angle)?,
                 overhang: match overhang {
                     Some(o) => self.param(o)?,
@@ -323,7 +278,7 @@ impl Cx<'_, '_> {
                 Op::Translate([self.param(&v[0])?, self.param(&v[1])?, self.param(&v[2])?])
             }
             OpKind::Rotate { axis: a, degrees } => Op::Rotate {
-                axis: axis(*a),
+                axis: *a,
                 degrees: self.param(degrees)?,
             },
             OpKind::Size(v) => {
@@ -339,7 +294,7 @@ impl Cx<'_, '_> {
             OpKind::Push => Op::Push,
             OpKind::Pop => Op::Pop,
             OpKind::Offset(d) => Op::Offset(self.param(d)?),
-            OpKind::Insert(Asset::Primitive(p)) => Op::Insert(self.b.asset(primitive(*p))),
+            OpKind::Insert(Asset::Primitive(p)) => Op::Insert(self.b.asset(p.name())),
             OpKind::Insert(Asset::Mesh(m)) => {
                 let mesh = self
                     .program
@@ -370,15 +325,12 @@ impl Cx<'_, '_> {
             OpKind::Split(s) => Op::Split(self.split(s)?),
             OpKind::Repeat(s) => Op::Repeat(self.split(s)?),
             OpKind::Comp(c) => Op::Comp(Comp {
-                target: match c.target {
-                    SCompTarget::Faces => CompTarget::Faces,
-                    SCompTarget::Edges => CompTarget::Edges,
-                },
+                target: c.target,
                 cases: c
                     .cases
                     .iter()
                     .map(|k| CompCase {
-                        selector: selector(k.selector),
+                        selector: k.selector,
                         target: k.target.map(SymbolId),
                     })
                     .collect(),
@@ -492,13 +444,8 @@ impl Cx<'_, '_> {
                 ShapeValue::Depth => Val::S(Expr::Depth),
                 ShapeValue::Tagged(t) => Val::S(Expr::Tagged(self.b.tag(t))),
                 ShapeValue::Query(q, sym) => {
-                    let q = match q {
-                        ShapeQuery::Overlaps => Query::Overlaps,
-                        ShapeQuery::Touches => Query::Touches,
-                        ShapeQuery::Inside => Query::Inside,
-                    };
                     // Every symbol of the system is declared already.
-                    Val::S(Expr::Query(q, self.b.symbol(sym)))
+                    Val::S(Expr::Query(*q, self.b.symbol(sym)))
                 }
             },
         })

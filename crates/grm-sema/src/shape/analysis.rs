@@ -187,13 +187,7 @@ fn kinds(sys: &ShapeSystem, axiom: u32, n: usize, file: FileId, diags: &mut Vec<
                     CompTarget::Edges => cur & (MASS | ROOF | FACE) != 0,
                 };
                 if !ok {
-                    let (what, has) = (
-                        match c.target {
-                            CompTarget::Faces => "faces",
-                            CompTarget::Edges => "edges",
-                        },
-                        describe(cur),
-                    );
+                    let (what, has) = (c.target.name(), describe(cur));
                     diags.push(
                         Diagnostic::new(
                             Code::CompWithoutFaces,

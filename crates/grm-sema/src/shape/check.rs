@@ -579,12 +579,7 @@ impl<'c, 'a> ShapeCheck<'c, 'a> {
             "taper" => OpKind::Taper(self.num(&a[0], "a height")),
             "offset" => OpKind::Offset(self.num(&a[0], "a distance")),
             "roof" => {
-                let kind = self.named(
-                    &a[0],
-                    "roof kind",
-                    RoofKind::from_name,
-                    RoofKind::ALL.iter().map(|k| k.name()),
-                );
+                let kind = self.named(&a[0], "roof kind", RoofKind::from_name, RoofKind::names());
                 let angle = self.num(&a[1], "a roof's pitch");
                 let overhang = a.get(2).map(|o| self.num(o, "a roof's overhang"));
                 OpKind::Roof {
@@ -599,7 +594,7 @@ impl<'c, 'a> ShapeCheck<'c, 'a> {
                 self.num(&a[2], "a distance"),
             ]),
             "rotate" => {
-                let axis = self.named(&a[0], "axis", Axis::from_name, ["x", "y", "z"].into_iter());
+                let axis = self.named(&a[0], "axis", Axis::from_name, Axis::names());
                 let degrees = self.num(&a[1], "an angle");
                 OpKind::Rotate {
                     axis: axis?,
@@ -631,7 +626,7 @@ impl<'c, 'a> ShapeCheck<'c, 'a> {
                 }
             },
             "split" | "repeat" => {
-                let axis = self.named(&a[0], "axis", Axis::from_name, ["x", "y", "z"].into_iter());
+                let axis = self.named(&a[0], "axis", Axis::from_name, Axis::names());
                 let tag = a.get(1).and_then(|t| self.tag(t));
                 let parts = m
                     .parts
@@ -653,12 +648,8 @@ impl<'c, 'a> ShapeCheck<'c, 'a> {
                 let target = self.named(
                     &a[0],
                     "component",
-                    |s| match s {
-                        "faces" => Some(CompTarget::Faces),
-                        "edges" => Some(CompTarget::Edges),
-                        _ => None,
-                    },
-                    ["faces", "edges"].into_iter(),
+                    CompTarget::from_name,
+                    CompTarget::names(),
                 );
                 let tag = a.get(1).and_then(|t| self.tag(t));
                 let cases = m
@@ -766,7 +757,7 @@ impl<'c, 'a> ShapeCheck<'c, 'a> {
                 .push(self.file, id.span, Def::Mesh(m), false);
             return Some(Asset::Mesh(m));
         }
-        let prims = Primitive::ALL.iter().map(|p| p.name());
+        let prims = Primitive::names();
         let mut d = Diagnostic::new(
             Code::UnknownShapeName,
             format!("unknown primitive or mesh `{}`", id.name),
@@ -899,7 +890,7 @@ impl<'c, 'a> ShapeCheck<'c, 'a> {
                 &case.value,
                 "selector",
                 Selector::from_name,
-                Selector::ALL.iter().map(|s| s.name()),
+                Selector::names(),
             );
             if let Some(selector) = sel {
                 out.push(CaseT {
@@ -912,8 +903,6 @@ impl<'c, 'a> ShapeCheck<'c, 'a> {
         out
     }
 }
-
-const CENTER_AXES: &[&str] = &["x", "y", "z", "xy", "xz", "yz", "xyz"];
 
 fn center_axes(s: &str) -> Option<[bool; 3]> {
     if !CENTER_AXES.contains(&s) {

@@ -20,6 +20,7 @@
 pub(crate) mod analysis;
 pub(crate) mod check;
 pub(crate) mod lot;
+pub mod vocab;
 
 use grm_diag::Span;
 use grm_syntax::ast::Name;
@@ -28,6 +29,7 @@ use crate::program::{MaterialId, MeshId, TExpr};
 
 pub use grm_syntax::ast::PartKind;
 pub use lot::{LotKind, Rings, ShapeLot, footprint_problem, lot_rings};
+pub use vocab::{Axis, CENTER_AXES, CompTarget, Primitive, RoofKind, Selector, ShapeQuery};
 
 /// A value of the shape being rewritten, read by an expression of a
 /// shape rule ([`crate::TExprKind::Shape`]).
@@ -47,33 +49,6 @@ pub enum ShapeValue {
     /// against the shapes of a symbol (named; the checker makes sure it is
     /// a symbol of the system).
     Query(ShapeQuery, Name),
-}
-
-/// A context query's relation.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum ShapeQuery {
-    Overlaps,
-    Touches,
-    Inside,
-}
-
-impl ShapeQuery {
-    pub fn name(self) -> &'static str {
-        match self {
-            ShapeQuery::Overlaps => "overlaps",
-            ShapeQuery::Touches => "touches",
-            ShapeQuery::Inside => "inside",
-        }
-    }
-
-    pub fn from_name(s: &str) -> Option<ShapeQuery> {
-        match s {
-            "overlaps" => Some(ShapeQuery::Overlaps),
-            "touches" => Some(ShapeQuery::Touches),
-            "inside" => Some(ShapeQuery::Inside),
-            _ => None,
-        }
-    }
 }
 
 /// A shape system's lot and rules.
@@ -115,175 +90,6 @@ pub struct ShapeRule {
     pub arrow: Span,
     /// The whole rule.
     pub span: Span,
-}
-
-/// A scope axis.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Axis {
-    X,
-    Y,
-    Z,
-}
-
-impl Axis {
-    pub fn from_name(s: &str) -> Option<Axis> {
-        match s {
-            "x" => Some(Axis::X),
-            "y" => Some(Axis::Y),
-            "z" => Some(Axis::Z),
-            _ => None,
-        }
-    }
-
-    pub fn index(self) -> usize {
-        self as usize
-    }
-}
-
-/// The kind of a roof.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum RoofKind {
-    Flat,
-    Gable,
-    Hip,
-    Shed,
-    Pyramid,
-}
-
-impl RoofKind {
-    pub const ALL: &'static [RoofKind] = &[
-        RoofKind::Flat,
-        RoofKind::Gable,
-        RoofKind::Hip,
-        RoofKind::Shed,
-        RoofKind::Pyramid,
-    ];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            RoofKind::Flat => "flat",
-            RoofKind::Gable => "gable",
-            RoofKind::Hip => "hip",
-            RoofKind::Shed => "shed",
-            RoofKind::Pyramid => "pyramid",
-        }
-    }
-
-    pub fn from_name(s: &str) -> Option<RoofKind> {
-        RoofKind::ALL.iter().copied().find(|k| k.name() == s)
-    }
-}
-
-/// What a component split breaks a shape into.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum CompTarget {
-    Faces,
-    Edges,
-}
-
-/// Which components a case takes (docs/shapes.md, "Component split").
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Selector {
-    Front,
-    Back,
-    Left,
-    Right,
-    Side,
-    Top,
-    Bottom,
-    All,
-    /// A roof's sloped faces.
-    Slope,
-    /// A roof's gable ends.
-    Gable,
-    /// A roof's eaves (edges).
-    Eave,
-    /// A roof's ridge (edges).
-    Ridge,
-    /// A roof's hips (edges).
-    Hip,
-    /// A roof's valleys (edges, where two slopes meet inward).
-    Valley,
-    /// A roof's rakes (the sloped edges of a gable).
-    Rake,
-}
-
-impl Selector {
-    pub const ALL: &'static [Selector] = &[
-        Selector::Front,
-        Selector::Back,
-        Selector::Left,
-        Selector::Right,
-        Selector::Side,
-        Selector::Top,
-        Selector::Bottom,
-        Selector::All,
-        Selector::Slope,
-        Selector::Gable,
-        Selector::Eave,
-        Selector::Ridge,
-        Selector::Hip,
-        Selector::Valley,
-        Selector::Rake,
-    ];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Selector::Front => "front",
-            Selector::Back => "back",
-            Selector::Left => "left",
-            Selector::Right => "right",
-            Selector::Side => "side",
-            Selector::Top => "top",
-            Selector::Bottom => "bottom",
-            Selector::All => "all",
-            Selector::Slope => "slope",
-            Selector::Gable => "gable",
-            Selector::Eave => "eave",
-            Selector::Ridge => "ridge",
-            Selector::Hip => "hip",
-            Selector::Valley => "valley",
-            Selector::Rake => "rake",
-        }
-    }
-
-    pub fn from_name(s: &str) -> Option<Selector> {
-        Selector::ALL.iter().copied().find(|k| k.name() == s)
-    }
-}
-
-/// A primitive `insert` places.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Primitive {
-    Box,
-    Cylinder,
-    Cone,
-    Sphere,
-    Disc,
-}
-
-impl Primitive {
-    pub const ALL: &'static [Primitive] = &[
-        Primitive::Box,
-        Primitive::Cylinder,
-        Primitive::Cone,
-        Primitive::Sphere,
-        Primitive::Disc,
-    ];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Primitive::Box => "box",
-            Primitive::Cylinder => "cylinder",
-            Primitive::Cone => "cone",
-            Primitive::Sphere => "sphere",
-            Primitive::Disc => "disc",
-        }
-    }
-
-    pub fn from_name(s: &str) -> Option<Primitive> {
-        Primitive::ALL.iter().copied().find(|k| k.name() == s)
-    }
 }
 
 /// What `insert` places.
