@@ -1,23 +1,12 @@
 //! One snapshot per LSP feature, over the files in tests/lsp/, with the
 //! server driven in-process as a tower service.
 
+#[macro_use]
 mod common;
 
 use common::*;
 use serde_json::{Value, json};
 use std::fmt::Write;
-
-macro_rules! snap {
-    ($name:expr, $value:expr) => {
-        insta::with_settings!({
-            snapshot_path => concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/lsp/snapshots"),
-            prepend_module_to_snapshot => false,
-            omit_expression => true,
-        }, {
-            insta::assert_snapshot!($name, scrub(&$value));
-        });
-    };
-}
 
 /// The first line of each markdown hover, and the rest indented.
 fn md(v: &Value) -> String {
@@ -210,19 +199,8 @@ async fn completion_and_signature_help() {
         ("mesh name", "leaf) cyl", 0, 0),
         ("top level", "const", 0, 0),
     ] {
-        let r = c
-            .ok("textDocument/completion", at(&u, pos(text, needle, n, d)))
-            .await;
-        let labels: Vec<String> = r
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|i| {
-                let snippet = if i["insertTextFormat"] == 2 { "*" } else { "" };
-                format!("{}{snippet}", i["label"].as_str().unwrap())
-            })
-            .collect();
-        let _ = writeln!(out, "## {what}\n{}\n", labels.join(" "));
+        let labels = c.completion_labels(&u, pos(text, needle, n, d)).await;
+        let _ = writeln!(out, "## {what}\n{labels}\n");
     }
     for (what, needle, n, d) in [
         ("terminal, second argument", "2);", 0, 0),

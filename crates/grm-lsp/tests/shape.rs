@@ -2,23 +2,12 @@
 //! completion and formatting of tests/lsp/shape.grm and
 //! tests/lsp/shape_messy.grm, one snapshot each.
 
+#[macro_use]
 mod common;
 
 use common::*;
 use serde_json::{Value, json};
 use std::fmt::Write;
-
-macro_rules! snap {
-    ($name:expr, $value:expr) => {
-        insta::with_settings!({
-            snapshot_path => concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/lsp/snapshots"),
-            prepend_module_to_snapshot => false,
-            omit_expression => true,
-        }, {
-            insta::assert_snapshot!($name, scrub(&$value));
-        });
-    };
-}
 
 #[tokio::test]
 async fn shape_semantic_tokens() {
@@ -107,19 +96,8 @@ async fn shape_completion() {
         ("part target", "3:  }", 0, 3),
         ("statement", "    \n}", 0, 4),
     ] {
-        let r = c
-            .ok("textDocument/completion", at(&u, pos(text, needle, n, d)))
-            .await;
-        let labels: Vec<String> = r
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|i| {
-                let snippet = if i["insertTextFormat"] == 2 { "*" } else { "" };
-                format!("{}{snippet}", i["label"].as_str().unwrap())
-            })
-            .collect();
-        let _ = writeln!(out, "## {what}\n{}\n", labels.join(" "));
+        let labels = c.completion_labels(&u, pos(text, needle, n, d)).await;
+        let _ = writeln!(out, "## {what}\n{labels}\n");
     }
     snap!("shape_completion", out);
 }

@@ -14,6 +14,21 @@ use tower_lsp_server::LspService;
 use tower_lsp_server::jsonrpc::Request;
 use tower_lsp_server::ls_types::Uri;
 
+/// Asserts a snapshot (scrubbed of the machine's paths) in
+/// tests/lsp/snapshots, named `$name`.
+#[allow(unused_macros)]
+macro_rules! snap {
+    ($name:expr, $value:expr) => {
+        insta::with_settings!({
+            snapshot_path => concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/lsp/snapshots"),
+            prepend_module_to_snapshot => false,
+            omit_expression => true,
+        }, {
+            insta::assert_snapshot!($name, $crate::common::scrub(&$value));
+        });
+    };
+}
+
 pub struct Client {
     service: LspService<grm_lsp::Backend>,
     notes: tokio::sync::mpsc::UnboundedReceiver<Request>,
@@ -148,6 +163,22 @@ impl Client {
             Ok(v) => v,
             Err(e) => panic!("{method} failed: {e}"),
         }
+    }
+
+    /// The labels of a completion at `p` (a position), in order, with `*`
+    /// after a snippet's, separated by spaces.
+    pub async fn completion_labels(&mut self, u: &Uri, p: Value) -> String {
+        let r = self.ok("textDocument/completion", at(u, p)).await;
+        let labels: Vec<String> = r
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|i| {
+                let snippet = if i["insertTextFormat"] == 2 { "*" } else { "" };
+                format!("{}{snippet}", i["label"].as_str().unwrap())
+            })
+            .collect();
+        labels.join(" ")
     }
 
     pub async fn notify(&mut self, method: &'static str, params: Value) {
