@@ -70,19 +70,8 @@ impl std::str::FromStr for EdgeRef {
         }
         let bad = || format!("`{s}` is not an edge (a number, or a selector and an index)");
         let (name, index) = s.split_once(' ').ok_or_else(bad)?;
-        let selector = [
-            Selector::Front,
-            Selector::Back,
-            Selector::Left,
-            Selector::Right,
-            Selector::Side,
-            Selector::Top,
-            Selector::Bottom,
-            Selector::All,
-        ]
-        .into_iter()
-        .find(|x| x.name() == name)
-        .ok_or_else(bad)?;
+        // Every selector, the roof's included (`slope 2`, `eave 1`).
+        let selector = Selector::from_name(name).ok_or_else(bad)?;
         let index = index.trim().parse::<u32>().map_err(|_| bad())?;
         Ok(EdgeRef::Component { selector, index })
     }

@@ -711,6 +711,33 @@ mod derive {
         derive(p, lot, &Options::default()).unwrap()
     }
 
+    /// Every node's exact locator, roof faces and edges included (`slope
+    /// 2`, `eave 1`, `rake 3`), reads back from its text and finds the
+    /// node (the form glb extras and `--tree` carry).
+    #[test]
+    fn roof_components_locators_read_back() {
+        use grm_shape::{ExactLocator, Resolution};
+        for kind in [RoofKind::Hip, RoofKind::Gable] {
+            let p = house(kind, 0.3);
+            let tree = grow(&p, &Lot::footprint(&l_shape()).unwrap());
+            let mut roof_parts = 0;
+            for i in 0..tree.len() as u32 {
+                let id = NodeId(i);
+                let loc = tree.exact_locator(&p, id);
+                let text = loc.to_string();
+                let back: ExactLocator = text.parse().unwrap_or_else(|e| panic!("{text}: {e}"));
+                assert_eq!(back, loc, "{text}");
+                assert_eq!(tree.resolve(&p, &back), Resolution::Found(id), "{text}");
+                roof_parts += usize::from(
+                    ["slope ", "eave ", "rake ", "hip ", "gable "]
+                        .iter()
+                        .any(|s| text.contains(s)),
+                );
+            }
+            assert!(roof_parts > 5, "{kind:?}: {roof_parts} roof components");
+        }
+    }
+
     fn near(a: Vec3, b: Vec3) {
         assert!((a - b).length() < 1e-4, "{a} != {b}");
     }
