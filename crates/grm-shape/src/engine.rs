@@ -143,9 +143,11 @@ pub fn derive(program: &Program, lot: &Lot, options: &Options) -> Result<ShapeTr
         n => n,
     };
     let salts = op_salts(program);
+    let simple = simple_rules(program, &salts);
     let engine = |queries| Engine {
         program,
         salts: &salts,
+        simple: &simple,
         seed: options.seed,
         limits: options.limits,
         attrs: Mutex::new(AttrTable::default()),
@@ -293,6 +295,46 @@ fn op_salts(program: &Program) -> Vec<Vec<Box<[u32]>>> {
         .collect()
 }
 
+/// The children of a [`simple_rules`] rule: each one's kind and premixed salt.
+type SimpleRule = Box<[(NodeKind, u32)]>;
+
+/// By symbol, for a rule that is one plain alternative (no condition, a
+/// constant weight) of inserts and successors only: the kind and premixed
+/// salt of each child it makes, in order. Such a rule (a window's, a
+/// wall's: most shapes of a building) reads nothing of its shape but its
+/// key, scope and geometry, and [`Engine::run`] writes its block without
+/// [`Engine::expand`]'s set-up.
+fn simple_rules(program: &Program, salts: &[Vec<Box<[u32]>>]) -> Vec<Option<SimpleRule>> {
+    program
+        .symbols
+        .iter()
+        .zip(salts)
+        .map(|(info, salts)| {
+            let [alt] = info.rule.as_ref()?.alternatives.as_slice() else {
+                return None;
+            };
+            if !alt.is_plain() || alt.ops.is_empty() {
+                return None;
+            }
+            alt.ops
+                .iter()
+                .zip(salts.first()?.iter())
+                .map(|(op, &salt)| match *op {
+                    Op::Insert(asset) => Some((NodeKind::Insert { asset }, salt)),
+                    Op::Emit(symbol) => Some((
+                        NodeKind::Shape {
+                            symbol,
+                            alternative: None,
+                        },
+                        salt,
+                    )),
+                    _ => None,
+                })
+                .collect()
+        })
+        .collect()
+}
+
 /// The marker of "over the node limit" inside a job.
 struct Overflow;
 
@@ -300,6 +342,8 @@ struct Engine<'p> {
     program: &'p Program,
     /// [`op_salts`] of the program.
     salts: &'p [Vec<Box<[u32]>>],
+    /// [`simple_rules`] of the program.
+    simple: &'p [Option<SimpleRule>],
     /// The first pass's shapes, in the second pass of a program with
     /// context queries (`None`: every query is false).
     queries: Option<&'p Queries>,
@@ -481,14 +525,45 @@ impl Engine<'_> {
             scratch.attrs = inherited;
             scratch.edge = 0;
             scratch.attr_marks.clear();
-            let result = self.expand(
-                &mut job.nodes,
-                &mut job.outlines,
-                at,
-                symbol,
-                budget,
-                &mut scratch,
-            );
+            let simple = self.simple[symbol.0 as usize].as_deref();
+            let result = match simple {
+                // A rule of inserts and successors on a shape without an
+                // outline, within the depth limit: its children, each
+                // with the shape's scope and geometry (what expand writes).
+                Some(children)
+                    if shape.geometry.outline_id().is_none()
+                        && shape.depth < self.limits.max_depth =>
+                {
+                    let (key, depth, scope, geometry) =
+                        (shape.key, shape.depth, shape.scope, shape.geometry);
+                    job.nodes[at as usize].kind = NodeKind::Shape {
+                        symbol,
+                        alternative: Some(0),
+                    };
+                    for (edge, &(kind, salt)) in (1..).zip(children) {
+                        let here = job.nodes.len() as u32;
+                        job.nodes.push(node(
+                            kind,
+                            scope,
+                            geometry,
+                            child_key_premixed(key, salt),
+                            edge,
+                            depth + 1,
+                            here - at,
+                        ));
+                    }
+                    scratch.edge = children.len() as u32;
+                    Ok(())
+                }
+                _ => self.expand(
+                    &mut job.nodes,
+                    &mut job.outlines,
+                    at,
+                    symbol,
+                    budget,
+                    &mut scratch,
+                ),
+            };
             close_block(&mut job.nodes, start, at, inherited, &scratch);
             match result {
                 Ok(()) => {}
