@@ -196,6 +196,7 @@ pub fn build_shape_model(
 ) -> Result<Model, GeomError> {
     let mut b = ShapeBuilder::new(program, assets, options)?;
     let nodes = tree.nodes();
+    b.plan(tree);
     // Reused per group: the parts' sizes before it, its inserts.
     let mut before: Vec<(u32, u32)> = Vec::new();
     let mut inserts: Vec<NodeId> = Vec::new();
@@ -205,7 +206,12 @@ pub fn build_shape_model(
         let NodeKind::Shape { symbol, .. } = n.kind else {
             continue;
         };
-        let own = !n.has_children() && draws(&tree.geom(id));
+        let geom = if n.has_children() {
+            None
+        } else {
+            tree.geom(id)
+        };
+        let own = draws(&geom);
         inserts.clear();
         if n.has_children() {
             inserts.extend(
@@ -222,8 +228,7 @@ pub fn build_shape_model(
                 .iter()
                 .map(|p| (p.mesh.vertex_count() as u32, p.mesh.triangle_count() as u32)),
         );
-        if own {
-            let geom = tree.geom(id).unwrap_or(Geom::Edge);
+        if let Some(geom) = geom.filter(|_| own) {
             b.draw_shape(tree, id, &n.scope, &geom)?;
         }
         for &c in &inserts {
@@ -334,6 +339,12 @@ struct ShapeBuilder<'a> {
     /// Bytes of the loaded meshes and textures.
     loaded_bytes: u64,
     tris: Vec<[u32; 3]>,
+    /// Per attribute set of the tree (`AttrId`): its part, once made.
+    attr_parts: Vec<Option<usize>>,
+    /// Per attribute set: the vertices, triangles and picks its box and
+    /// rectangle shapes will draw at most (reserved when its part is
+    /// made).
+    attr_sizes: Vec<(usize, usize, usize)>,
 }
 
 impl<'a> ShapeBuilder<'a> {
@@ -358,7 +369,55 @@ impl<'a> ShapeBuilder<'a> {
             inserts: 0,
             loaded_bytes: 0,
             tris: Vec::new(),
+            attr_parts: Vec::new(),
+            attr_sizes: Vec::new(),
         })
+    }
+
+    /// Count what the terminal shapes will draw per attribute set (boxes
+    /// and rectangles, the common case; other geometry grows the meshes
+    /// as it goes), and reserve the groups.
+    fn plan(&mut self, tree: &ShapeTree) {
+        let table = tree.attribute_table().len();
+        self.attr_parts = vec![None; table];
+        self.attr_sizes = vec![(0, 0, 0); table];
+        let mut groups = 0;
+        for n in tree.nodes() {
+            if !matches!(n.kind, NodeKind::Shape { .. }) || n.has_children() {
+                continue;
+            }
+            let (v, t) = match n.geometry {
+                grm_shape::Geometry::Box => (24, 12),
+                grm_shape::Geometry::Rect => (4, 2),
+                grm_shape::Geometry::Edge => continue,
+                _ => (0, 0),
+            };
+            groups += 1;
+            if let Some(a) = self.attr_sizes.get_mut(usize::from(n.attrs.0)) {
+                *a = (a.0 + v, a.1 + t, a.2 + 1);
+            }
+        }
+        self.groups.reserve(groups);
+    }
+
+    /// The part a node is drawn in (by its attributes).
+    fn part_of(&mut self, tree: &ShapeTree, id: NodeId) -> Result<usize, GeomError> {
+        let attr = tree.node(id).map(|n| usize::from(n.attrs.0));
+        if let Some(Some(i)) = attr.and_then(|a| self.attr_parts.get(a)) {
+            return Ok(*i);
+        }
+        let i = self.part(tree.attributes(id))?;
+        if let Some(a) = attr.filter(|&a| a < self.attr_parts.len()) {
+            self.attr_parts[a] = Some(i);
+            let (v, t, k) = self.attr_sizes[a];
+            let p = &mut self.parts[i];
+            p.mesh.positions.reserve(v);
+            p.mesh.normals.reserve(v);
+            p.mesh.uvs.reserve(v);
+            p.mesh.indices.reserve(3 * t);
+            p.picks.reserve(k);
+        }
+        Ok(i)
     }
 
     /// The part for a node's attributes (made on first use).
@@ -547,7 +606,7 @@ impl<'a> ShapeBuilder<'a> {
             self.dropped += 1;
             return Ok(());
         }
-        let part = self.part(tree.attributes(id))?;
+        let part = self.part_of(tree, id)?;
         let before = self.parts[part].mesh.triangle_count();
         let mut tris = std::mem::take(&mut self.tris);
         let mut out = Emitter {
@@ -593,7 +652,7 @@ impl<'a> ShapeBuilder<'a> {
             return Ok(());
         };
         let scope = n.scope;
-        let part = self.part(tree.attributes(id))?;
+        let part = self.part_of(tree, id)?;
         self.load(asset)?;
         let Some(Asset::Mesh(m, lo, hi)) = self.meshes.get(asset.0 as usize) else {
             return Ok(());
@@ -701,16 +760,24 @@ struct Emitter<'m> {
 }
 
 impl Emitter<'_> {
+    /// A local normal in the model's frame (what each vertex with that
+    /// normal is given).
     #[inline]
-    fn vertex(&mut self, local: Vec3, normal: Vec3, uv: [f32; 2]) -> u32 {
+    fn normal(&self, normal: Vec3) -> Vec3 {
+        to_model(self.rot * normal).normalize_or(Vec3::Y)
+    }
+
+    /// A vertex with its normal already in the model's frame.
+    #[inline]
+    fn vertex(&mut self, local: Vec3, n: Vec3, uv: [f32; 2]) -> u32 {
         let p = to_model(self.scope.origin + self.rot * local);
-        let n = to_model(self.rot * normal).normalize_or(Vec3::Y);
         self.mesh.vertex_uv(p, n, uv)
     }
 
     /// A quad `a b c d` (counter-clockwise seen from `normal`).
     fn quad(&mut self, corners: [Vec3; 4], normal: Vec3, uvs: [[f32; 2]; 4]) {
-        let i: [u32; 4] = std::array::from_fn(|k| self.vertex(corners[k], normal, uvs[k]));
+        let n = self.normal(normal);
+        let i: [u32; 4] = std::array::from_fn(|k| self.vertex(corners[k], n, uvs[k]));
         self.mesh.triangle(i[0], i[1], i[2]);
         self.mesh.triangle(i[0], i[2], i[3]);
     }
@@ -792,8 +859,9 @@ impl Emitter<'_> {
                 continue;
             }
             let first = self.mesh.vertex_count() as u32;
+            let n = self.normal(normal);
             for p in &ring {
-                self.vertex(Vec3::new(p[0] as f32, p[1] as f32, z), normal, uv(*p));
+                self.vertex(Vec3::new(p[0] as f32, p[1] as f32, z), n, uv(*p));
             }
             for t in tris.iter() {
                 if down {
@@ -839,9 +907,10 @@ impl Emitter<'_> {
             }
         };
         let first = self.mesh.vertex_count() as u32;
+        let n = self.normal(normal);
         for p in &vs {
             let uv = [norm(p.dot(u), lo.x, ext.x), norm(p.dot(v), lo.y, ext.y)];
-            self.vertex(*p, normal, uv);
+            self.vertex(*p, n, uv);
         }
         for t in tris.iter() {
             self.mesh.triangle(first + t[0], first + t[1], first + t[2]);
