@@ -511,12 +511,23 @@ pub(crate) struct PickTable {
     pub(crate) shape: Option<Arc<crate::shape_preview::ShapePicks>>,
 }
 
+/// Base64 of 4-byte words, encoded straight from the slice in blocks of
+/// a whole number of 3-byte groups (no padding but at the end: the text
+/// is that of all the words' bytes encoded at once), without a copy of
+/// the whole as bytes.
 fn b64<T: Copy>(xs: &[T], to: fn(T) -> [u8; 4]) -> String {
-    let mut bytes = Vec::with_capacity(xs.len() * 4);
-    for &x in xs {
-        bytes.extend_from_slice(&to(x));
+    use base64::engine::general_purpose::STANDARD;
+    /// Words per block: 3,072 bytes.
+    const WORDS: usize = 768;
+    let mut out = String::with_capacity((xs.len() * 4).div_ceil(3) * 4);
+    let mut block = [0u8; WORDS * 4];
+    for chunk in xs.chunks(WORDS) {
+        for (b, &x) in block.chunks_exact_mut(4).zip(chunk) {
+            b.copy_from_slice(&to(x));
+        }
+        STANDARD.encode_string(&block[..chunk.len() * 4], &mut out);
     }
-    base64::engine::general_purpose::STANDARD.encode(bytes)
+    out
 }
 
 pub(crate) fn f32s(xs: &[f32]) -> String {
@@ -1133,7 +1144,6 @@ pub(crate) fn parts_out(
         .parts
         .iter()
         .map(|part| {
-            let flat = |v: &[[f32; 3]]| -> Vec<f32> { v.iter().flatten().copied().collect() };
             let mut picks = Vec::with_capacity(part.picks.len() * 4 * PICK_WORDS);
             let mut runs = Vec::with_capacity(part.picks.len());
             for pk in &part.picks {
@@ -1162,8 +1172,8 @@ pub(crate) fn parts_out(
                 material: part.material,
                 vertex_count: part.mesh.positions.len(),
                 triangle_count: part.mesh.indices.len() / 3,
-                positions: f32s(&flat(&part.mesh.positions)),
-                normals: f32s(&flat(&part.mesh.normals)),
+                positions: f32s(part.mesh.positions.as_flattened()),
+                normals: f32s(part.mesh.normals.as_flattened()),
                 indices: u32s(&part.mesh.indices),
                 pick_count: part.picks.len(),
                 picks: base64::engine::general_purpose::STANDARD.encode(picks),
@@ -1731,5 +1741,16 @@ mod tests {
         assert_eq!(f32s(&[1.0]), "AACAPw==");
         assert_eq!(u32s(&[1, 2]), "AQAAAAIAAAA=");
         assert_eq!(i32s(&[-1]), "/////w==");
+        // Across blocks: the same text as the bytes encoded at once.
+        let xs: Vec<u32> = (0..2_000u32)
+            .map(|i| i.wrapping_mul(2_654_435_761))
+            .collect();
+        for n in [0, 1, 2, 3, 767, 768, 769, 1536, 2000] {
+            let bytes: Vec<u8> = xs[..n].iter().flat_map(|x| x.to_le_bytes()).collect();
+            assert_eq!(
+                u32s(&xs[..n]),
+                base64::engine::general_purpose::STANDARD.encode(bytes)
+            );
+        }
     }
 }
