@@ -258,12 +258,15 @@ test('a model of an older document version is never shown over a newer one or it
   assert.equal(v.model(3), false);
   assert.equal(v.model(4), true, 'the same version again (another request of the same text)');
   // Version 5 has errors: the error stays on screen, not a model of version 4 still on its way.
-  v.error(5);
+  assert.equal(v.error(5), true);
   assert.equal(v.model(4), false);
   assert.equal(v.model(6), true);
-  // Errors of an older version do not hold back the newer model's.
-  v.error(2);
+  // Errors of an older version do not hold back the newer model's, and are not shown over it.
+  assert.equal(v.error(2), false);
   assert.equal(v.model(6), true);
+  assert.equal(v.error(6), true, 'errors of the text shown are shown');
+  assert.equal(v.error(7), true);
+  assert.equal(v.model(6), false);
   v.reset();
   assert.equal(v.model(1), true);
 });

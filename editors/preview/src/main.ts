@@ -342,9 +342,9 @@ class App {
       // A generation's model: the server regrew a scrubbed live request; the new search's result is asked for.
       if (u.result && !showsUpdate(u.result)) this.regrow();
       else if (u.result) this.show({ result: u.result, editedAt: performance.now(), final: true });
-      else if (u.error) {
-        // The latest text has errors: an answer about an older text, still on its way, is not the state.
-        this.shownVersion.error(u.version);
+      else if (u.error && this.shownVersion.error(u.version)) {
+        // The latest text has errors: an answer about an older text, still on its way, is not the state
+        // (nor are the errors of a text older than the model shown).
         this.showError(u.error);
       }
     } else if (method === 'curvesChanged') {

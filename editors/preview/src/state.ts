@@ -296,9 +296,17 @@ export class ShownVersion {
     return true;
   }
 
-  /** The server said the text of `version` has errors (shown instead of a model). */
-  error(version: number): void {
-    this.version = Math.max(this.version, version);
+  /**
+   * The server said the text of `version` has errors: whether to show them
+   * (instead of a model). Errors of a version older than the one shown are
+   * not the state: typing `seed = 2;` sends `seed = 2` (a missing `;`)
+   * first, and on a busy machine its update can come after the model of
+   * the finished text.
+   */
+  error(version: number): boolean {
+    if (version < this.version) return false;
+    this.version = version;
+    return true;
   }
 
   /** Another document, or the same after the host's server restarted: any version is news. */
