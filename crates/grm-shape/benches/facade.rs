@@ -24,132 +24,13 @@
 //! (the median over rounds of the one-thread time over its own). Run with
 //! `cargo bench -p grm-shape --bench facade`.
 
-use grm_shape::{
-    Axis, Comp, CompCase, CompTarget, Lot, Op, Options, Part, Program, ProgramBuilder, Scope,
-    Selector, Split, derive,
-};
+use grm_shape::{Lot, Options, Program, Scope, derive};
 use std::hint::black_box;
 use std::time::{Duration, Instant};
-use symbios_shape::grammar::parse_ops;
-use symbios_shape::{Interpreter, Quat, Scope as PeerScope, Vec3 as PeerVec3};
+use symbios_shape::{Quat, Scope as PeerScope, Vec3 as PeerVec3};
 
-fn grm_program(tower: bool) -> Program {
-    grm_program_of(tower, 120.0)
-}
-
-/// The bench grammar with the tower `height` high.
-fn grm_program_of(tower: bool, height: f32) -> Program {
-    let mut b = ProgramBuilder::new("bench");
-    let floor_tag = b.tag("floor");
-    let column_tag = b.tag("column");
-    let facade_tag = b.tag("facade");
-    let tower_s = b.symbol("Tower");
-    let facade = b.symbol("Facade");
-    let floor = b.symbol("Floor");
-    let tile = b.symbol("Tile");
-    let strip = b.symbol("WinStrip");
-    let window = b.symbol("Window");
-    let wall = b.symbol("Wall");
-    let roof = b.symbol("Roof");
-    let window_asset = b.asset("window");
-    let wall_asset = b.asset("wall");
-    let roof_asset = b.asset("roof");
-    b.rule(
-        tower_s,
-        vec![
-            Op::Extrude(height.into()),
-            Op::Comp(Comp {
-                target: CompTarget::Faces,
-                cases: vec![
-                    CompCase {
-                        selector: Selector::Side,
-                        target: Some(facade),
-                    },
-                    CompCase {
-                        selector: Selector::Top,
-                        target: Some(roof),
-                    },
-                ],
-                tag: Some(facade_tag),
-            }),
-        ],
-    );
-    b.rule(
-        facade,
-        vec![Op::Repeat(Split {
-            axis: Axis::Y,
-            parts: vec![Part::abs(3.0, Some(floor))],
-            tag: Some(floor_tag),
-        })],
-    );
-    b.rule(
-        floor,
-        vec![Op::Repeat(Split {
-            axis: Axis::X,
-            parts: vec![Part::abs(2.0, Some(tile))],
-            tag: Some(column_tag),
-        })],
-    );
-    b.rule(
-        tile,
-        vec![Op::Split(Split {
-            axis: Axis::X,
-            parts: vec![
-                Part::float(0.4, Some(wall)),
-                Part::abs(1.2, Some(strip)),
-                Part::float(0.4, Some(wall)),
-            ],
-            tag: None,
-        })],
-    );
-    b.rule(
-        strip,
-        vec![Op::Split(Split {
-            axis: Axis::Y,
-            parts: vec![
-                Part::float(1.0, Some(wall)),
-                Part::abs(1.5, Some(window)),
-                Part::float(0.5, Some(wall)),
-            ],
-            tag: None,
-        })],
-    );
-    b.rule(window, vec![Op::Insert(window_asset)]);
-    b.rule(wall, vec![Op::Insert(wall_asset)]);
-    b.rule(roof, vec![Op::Insert(roof_asset)]);
-    b.build(if tower { tower_s } else { facade })
-        .expect("bench program")
-}
-
-fn peer(tower: bool) -> Interpreter {
-    let mut i = Interpreter::new();
-    let rules = [
-        (
-            "Tower",
-            "Extrude(120) Comp(Faces) { Side: Facade | Top: Roof }",
-        ),
-        ("Facade", "Repeat(Y, 3) { Floor }"),
-        ("Floor", "Repeat(X, 2) { Tile }"),
-        (
-            "Tile",
-            "Split(X) { ~0.4: Wall | 1.2: WinStrip | ~0.4: Wall }",
-        ),
-        (
-            "WinStrip",
-            "Split(Y) { ~1: Wall | 1.5: Window | ~0.5: Wall }",
-        ),
-        ("Window", r#"I("window")"#),
-        ("Wall", r#"I("wall")"#),
-        ("Roof", r#"I("roof")"#),
-    ];
-    for (name, text) in rules {
-        if name == "Tower" && !tower {
-            continue;
-        }
-        i.add_rule(name, parse_ops(text).expect("peer rule"));
-    }
-    i
-}
+mod workloads;
+use workloads::{grm_program, grm_program_of, peer};
 
 /// Time the three contenders in interleaved rounds (one run of each per
 /// round, so that all see the same load on a busy machine), for at least
