@@ -371,6 +371,36 @@ codes! {
     /// A shape system given to a command that runs bytecode (`grmc
     /// disasm`, `forest`, `sample`), or a derive system to the shape road.
     NotShapeRunnable = "R0806", Error, "not runnable this way";
+
+    // R09xx: persistent-edits files (grm-edits, `EditsError`; docs/edits.md)
+    /// The edits file could not be read (a directory, a device, too large,
+    /// not UTF-8, or missing when named with `--edits`).
+    EditsIo = "R0901", Error, "cannot read the edits file";
+    /// The edits file is not JSON.
+    EditsSyntax = "R0902", Error, "edits file is not valid JSON";
+    /// The edits file's `version` is missing or not one this grm reads.
+    EditsVersion = "R0903", Error, "unsupported edits file version";
+    /// The file is not an object with an `edits` array, or an edit is not
+    /// an object.
+    EditsStructure = "R0904", Error, "malformed edits file";
+    /// A field no edit (or no edit of its operation) has, or one given twice.
+    EditsUnknownField = "R0905", Error, "unknown field in an edit";
+    /// An edit without a field it needs (`id`, `system`, `target`, `op`,
+    /// or its operation's own).
+    EditsMissingField = "R0906", Error, "missing field in an edit";
+    /// A field of the wrong JSON type (a string where a number belongs...).
+    EditsFieldType = "R0907", Error, "field of the wrong type in an edit";
+    /// An `op` that is none of the operations.
+    EditsUnknownOp = "R0908", Error, "unknown edit operation";
+    /// A target that is not exactly one of `exact`, `semantic` and `key`,
+    /// or whose locator text does not read.
+    EditsBadTarget = "R0909", Error, "invalid edit target";
+    /// Two edits with the same `id`.
+    EditsDuplicateId = "R0910", Error, "duplicate edit id";
+    /// A value out of its range: an `id` that is not a positive integer, a
+    /// `value` or `by` that is not finite, an `alternative` below 1, a
+    /// pinned key that is not 8 hex digits, an empty name.
+    EditsBadValue = "R0911", Error, "value out of range in an edit";
 }
 
 impl std::fmt::Display for Code {
