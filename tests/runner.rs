@@ -7,7 +7,9 @@
 //! the file: `// run: derive -n 30 --max-modules 1000`. Paths in the
 //! command are relative to this crate's directory (the working directory
 //! of cargo tests), as if `grmc` ran there: `--curves
-//! ../examples/calder_tree.curves.json`.
+//! ../examples/calder_tree.curves.json`. `// run: edits [--edits PATH]`
+//! reads the grammar's edits file (NAME.edits.json beside it) as the
+//! commands that grow a model read it, and reports its problems.
 //!
 //! Invariants: the driver makes the same library calls as grmc in the same
 //! order and stops at the first error, as grmc does; it never writes into
@@ -175,7 +177,7 @@ pub fn declared_command(text: &str) -> Option<Vec<String>> {
 /// Check and run a case (a path relative to this crate); the source with
 /// the rendered diagnostics as one snapshot body, and the codes produced.
 pub fn run_case(rel: &Path) -> (String, BTreeSet<String>) {
-    let (sources, checked) = crate::check_file(rel);
+    let (mut sources, checked) = crate::check_file(rel);
     let text = sources.get(grm_diag::FileId(0)).text.clone();
     let mut out = String::new();
     for (i, line) in text.lines().enumerate() {
@@ -187,7 +189,7 @@ pub fn run_case(rel: &Path) -> (String, BTreeSet<String>) {
     if !checked.has_errors() {
         let args = declared_command(&text).unwrap_or_default();
         let mut warnings = Vec::new();
-        let stop = run(rel, &checked.program, &args, &mut warnings);
+        let stop = run(rel, &mut sources, &checked.program, &args, &mut warnings);
         // The model's warnings come first, as grmc prints them before it
         // writes the file.
         diags.extend(warnings);
@@ -284,16 +286,18 @@ impl Opts {
 
 fn run(
     rel: &Path,
+    sources: &mut grm_diag::SourceMap,
     program: &Program,
     args: &[String],
     warnings: &mut Vec<Diagnostic>,
 ) -> Result<(), Stop> {
     let Some((command, rest)) = args.split_first() else {
         return Err(Stop::Usage(
-            "second line must be `// run: derive|sample|disasm ARGS`".into(),
+            "second line must be `// run: derive|sample|disasm|edits ARGS`".into(),
         ));
     };
     match command.as_str() {
+        "edits" => edits(rel, sources, program, rest, warnings),
         "derive" => derive(program, rest, warnings),
         "sample" => sample(rel, program, rest, warnings),
         "disasm" => {
@@ -302,6 +306,39 @@ fn run(
         }
         other => Err(Stop::Usage(format!("unknown command `{other}`"))),
     }
+}
+
+/// Reading the edits file (`grm_edits`, docs/edits.md) as every command
+/// that grows a model reads it: `NAME.edits.json` beside the grammar, or
+/// `--edits PATH`; a missing default file is no edits, a missing named
+/// one R0901 (at the system). The file joins the source map and each of
+/// its problems (R0902 to R0911) is a diagnostic in it; they are all
+/// reported (the valid edits would still be replayed), so they go with
+/// the warnings, before any stop.
+fn edits(
+    rel: &Path,
+    sources: &mut grm_diag::SourceMap,
+    program: &Program,
+    args: &[String],
+    diags: &mut Vec<Diagnostic>,
+) -> Result<(), Stop> {
+    let o = Opts::parse(args, &[], &["--edits", "--system"]).map_err(Stop::Usage)?;
+    let index = program.pick_system(o.get("--system"))?;
+    let system = &program.systems[index];
+    let (path, named) = match o.get("--edits") {
+        Some(p) => (PathBuf::from(p), true),
+        None => (grm_edits::edits_path(rel), false),
+    };
+    let text = match grm_edits::read(&path) {
+        Ok(text) => text,
+        Err(e) if e.is_not_found() && !named => return Ok(()),
+        Err(e) => return Err(e.to_diagnostic_at(system.file, system.loc.span).into()),
+    };
+    let shown = path.to_string_lossy().replace('\\', "/");
+    let file = sources.add(shown, text.clone());
+    let parsed = grm_edits::parse(&text);
+    diags.extend(parsed.errors.iter().map(|e| e.to_diagnostic(file)));
+    Ok(())
 }
 
 /// grmc's `load` after checking: pick the system (R0701), apply `--param`s,
