@@ -840,9 +840,10 @@ impl EditsFile {
             .sort_by(|a, b| (&a.system, a.id).cmp(&(&b.system, b.id)));
     }
 
-    /// Add an edit (the latest: id [`EditsFile::next_id`]) at its place in
-    /// the written order; its id. `u32::MAX` edits made before it (ids are
-    /// never reused) leave no id: then nothing is added and `None` comes back.
+    /// Add an edit (the latest: id [`EditsFile::next_id`], the largest
+    /// plus 1) at its place in the written order; its id. When the largest
+    /// id is `u32::MAX` there is no later id: nothing is added and `None`
+    /// comes back.
     pub fn add(&mut self, system: &str, target: Target, op: Op) -> Option<u32> {
         let id = self.next_id()?;
         let edit = Edit {

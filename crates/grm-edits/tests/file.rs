@@ -452,7 +452,7 @@ fn editor_helpers() {
     assert_eq!(f.retarget(9, Target::Key(0)), None);
     assert_eq!(f.remove(3).map(|e| e.id), Some(3));
     assert_eq!(f.remove(3), None);
-    // Ids are never reused: a new edit is later than every edit there.
+    // A new edit is later than every edit there (the largest id plus 1).
     assert_eq!(f.add("S", Target::Key(4), Op::Remove), Some(3));
     assert_eq!(f.remove(3).map(|e| e.id), Some(3));
     assert_eq!(f.next_id(), Some(3));
