@@ -754,7 +754,7 @@ pub fn write(file: &EditsFile) -> String {
     } else {
         let _ = writeln!(s, "  \"edits\": [");
         for (i, e) in order.iter().enumerate() {
-            write_edit(&mut s, e);
+            write_block(&mut s, e);
             let _ = writeln!(s, "{}", if i + 1 < order.len() { "," } else { "" });
         }
         let _ = writeln!(s, "  ]");
@@ -763,8 +763,17 @@ pub fn write(file: &EditsFile) -> String {
     s
 }
 
+/// One edit's canonical text as it stands in a written file, from its
+/// `{` to its `}` (its lines after the first indented for the list): what
+/// replaces [`Edit::span`] in a quick fix that changes one edit.
+pub fn write_edit(edit: &Edit) -> String {
+    let mut s = String::new();
+    write_block(&mut s, edit);
+    s.trim_start().to_owned()
+}
+
 /// One edit's block, at the list's indent, without the comma after it.
-fn write_edit(s: &mut String, e: &Edit) {
+fn write_block(s: &mut String, e: &Edit) {
     let mut fields: Vec<(&str, String)> = vec![
         ("id", e.id.to_string()),
         ("system", json_string(&e.system)),

@@ -32,7 +32,9 @@ pub mod scoping;
 
 pub use class::EditClass;
 pub use error::{EditsError, EditsErrorKind};
-pub use file::{Edit, EditsFile, Op, OpKind, Parsed, Target, key_text, parse, parse_key, write};
+pub use file::{
+    Edit, EditsFile, Op, OpKind, Parsed, Target, key_text, parse, parse_key, write, write_edit,
+};
 pub use locator::{Anchor, EdgeRef, ExactLocator, SemanticEntry, SemanticLocator, SemanticQuery};
 pub use scoping::{Scoping, Slot, scope};
 

@@ -127,6 +127,28 @@ fn every_kind_round_trips() {
     assert!(text.ends_with("  ]\n}\n"));
 }
 
+/// Replacing one edit's span with its new canonical text (a quick fix)
+/// changes that edit only, and the file stays canonical.
+#[test]
+fn one_edit_is_replaced_in_place() {
+    let text = write(&every_kind());
+    let p = parse(&text);
+    let mut e = p.file.get(5).unwrap().clone();
+    e.target = Target::Semantic("(floor = 2) Window".parse().unwrap());
+    e.note = Some("moved".into());
+    let r = e.span.range();
+    let fixed = format!(
+        "{}{}{}",
+        &text[..r.start],
+        grm_edits::write_edit(&e),
+        &text[r.end..]
+    );
+    let mut want = p.file.clone();
+    *want.edits.iter_mut().find(|x| x.id == 5).unwrap() = e;
+    assert_eq!(fixed, write(&want));
+    assert_eq!(parse(&fixed).file, want);
+}
+
 #[test]
 fn an_empty_file_writes_and_reads() {
     let text = write(&EditsFile::default());
