@@ -8,6 +8,7 @@ use crate::locator::{ExactLocator, SemanticQuery};
 use grm_diag::Span;
 use jsonc_parser::ast::{Object, ObjectProp, Value};
 use jsonc_parser::common::Ranged;
+use std::fmt;
 use std::fmt::Write as _;
 
 /// A whole edits file.
@@ -84,6 +85,31 @@ impl Target {
             Target::Exact(l) => l.to_string(),
             Target::Semantic(q) => q.to_string(),
             Target::Key(k) => key_text(*k),
+        }
+    }
+}
+
+impl fmt::Display for Target {
+    /// `exact {Lot, 1, Mass}`, `semantic (floor = 3) Window`, `key 0a1b2c3d`
+    /// (for listings; the file writes JSON).
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{} {}", self.kind(), self.text())
+    }
+}
+
+impl fmt::Display for Op {
+    /// `set width = 2.5`, `offset width by -0.25`, `force alternative 2`,
+    /// `pin 0a1b2c3d`, `material brick`, `mesh arched`, `remove` (for
+    /// listings).
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Op::Set { name, value } => write!(f, "set {name} = {value}"),
+            Op::Offset { name, by } => write!(f, "offset {name} by {by}"),
+            Op::Force { alternative } => write!(f, "force alternative {alternative}"),
+            Op::Pin { key } => write!(f, "pin {}", key_text(*key)),
+            Op::Material { name } => write!(f, "material {name}"),
+            Op::Mesh { name } => write!(f, "mesh {name}"),
+            Op::Remove => f.write_str("remove"),
         }
     }
 }

@@ -150,6 +150,28 @@ fn one_edit_is_replaced_in_place() {
 }
 
 #[test]
+fn targets_and_operations_list_in_one_line() {
+    let f = every_kind();
+    let lines: Vec<String> = f
+        .edits
+        .iter()
+        .map(|e| format!("{} {}: {} on {}", e.system, e.id, e.op, e.target))
+        .collect();
+    assert_eq!(
+        lines,
+        [
+            "Annex 2: offset angle by -12.5 on semantic (floor = 3, column = end 1, bay = centre -1) Window",
+            "Annex 4: pin 0a1b2c3d on exact {Lot, 1, comp.faces, side 2, Facade}",
+            "Annex 6: mesh window_arched on key deadbeef",
+            "Tower 1: set height = 3.25 on exact {Lot, 1, comp.faces, side 2, Facade}",
+            "Tower 3: force alternative 2 on key deadbeef",
+            "Tower 5: material brick on semantic (floor = 3, column = end 1, bay = centre -1) Window",
+            "Tower 7: remove on exact {Lot, 1, comp.faces, side 2, Facade}",
+        ]
+    );
+}
+
+#[test]
 fn an_empty_file_writes_and_reads() {
     let text = write(&EditsFile::default());
     assert_eq!(text, "{\n  \"version\": 1,\n  \"edits\": []\n}\n");
