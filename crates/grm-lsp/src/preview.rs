@@ -264,7 +264,9 @@ pub struct PartOut {
     pub triangle_count: usize,
     /// base64 of `f32` x, y, z per vertex.
     pub positions: String,
-    /// base64 of `f32` unit normals, one per vertex.
+    /// base64 of `f32` unit normals, one per vertex; empty when they are
+    /// the flat normals of the triangles (`grm_geom::MeshData::flat_normals`:
+    /// the client computes them, summing each vertex's face normals).
     pub normals: String,
     /// base64 of `u32` vertex indices, three per triangle.
     pub indices: String,
@@ -1132,6 +1134,11 @@ pub(crate) fn fits_answer(
     Ok(())
 }
 
+/// A part with at least this many vertices has its vertices encoded on a
+/// second thread (spawning one costs some tens of microseconds; encoding
+/// 64Ki vertices, about a millisecond).
+const PARALLEL_VERTICES: usize = 1 << 16;
+
 /// The model's parts on the wire, and for `grm/pick` each part's runs
 /// (first triangle, count, module, origin) pushed on `table`.
 pub(crate) fn parts_out(
@@ -1144,39 +1151,65 @@ pub(crate) fn parts_out(
         .parts
         .iter()
         .map(|part| {
-            let mut picks = Vec::with_capacity(part.picks.len() * 4 * PICK_WORDS);
-            let mut runs = Vec::with_capacity(part.picks.len());
-            for pk in &part.picks {
-                let (kind, index) = match pk.source {
-                    grm_geom::PartSource::Bone(i) => (0, i),
-                    grm_geom::PartSource::Instance(i) => (1, i),
-                    grm_geom::PartSource::Polygon(i) => (2, i),
-                    grm_geom::PartSource::Shape(i) => (3, i),
+            let mesh = &part.mesh;
+            // The vertices on a second thread (a large part: a building's
+            // walls), the picks and indices here; flat normals are left out
+            // (the client computes them, `MeshData::flat_normals`).
+            let vertices = || {
+                let normals = if mesh.flat_normals() {
+                    String::new()
+                } else {
+                    f32s(mesh.normals.as_flattened())
                 };
-                let flags = kind | if is_focus(pk.module) { PICK_FOCUS } else { 0 };
-                let origin = origin_of(pk.origin).unwrap_or(u32::MAX);
-                for w in [
-                    pk.first_triangle,
-                    pk.triangle_count,
-                    flags,
-                    index,
-                    pk.module,
-                    origin,
-                ] {
-                    picks.extend_from_slice(&w.to_le_bytes());
+                (f32s(mesh.positions.as_flattened()), normals)
+            };
+            let rest = || {
+                let mut picks = Vec::with_capacity(part.picks.len() * 4 * PICK_WORDS);
+                let mut runs = Vec::with_capacity(part.picks.len());
+                for pk in &part.picks {
+                    let (kind, index) = match pk.source {
+                        grm_geom::PartSource::Bone(i) => (0, i),
+                        grm_geom::PartSource::Instance(i) => (1, i),
+                        grm_geom::PartSource::Polygon(i) => (2, i),
+                        grm_geom::PartSource::Shape(i) => (3, i),
+                    };
+                    let flags = kind | if is_focus(pk.module) { PICK_FOCUS } else { 0 };
+                    let origin = origin_of(pk.origin).unwrap_or(u32::MAX);
+                    for w in [
+                        pk.first_triangle,
+                        pk.triangle_count,
+                        flags,
+                        index,
+                        pk.module,
+                        origin,
+                    ] {
+                        picks.extend_from_slice(&w.to_le_bytes());
+                    }
+                    runs.push((pk.first_triangle, pk.triangle_count, pk.module, pk.origin));
                 }
-                runs.push((pk.first_triangle, pk.triangle_count, pk.module, pk.origin));
-            }
+                let picks = base64::engine::general_purpose::STANDARD.encode(&picks);
+                (u32s(&mesh.indices), picks, runs)
+            };
+            let ((positions, normals), (indices, picks_b64, runs)) =
+                if mesh.positions.len() >= PARALLEL_VERTICES {
+                    std::thread::scope(|s| {
+                        let h = s.spawn(vertices);
+                        let r = rest();
+                        (h.join().unwrap_or_else(|_| vertices()), r)
+                    })
+                } else {
+                    (vertices(), rest())
+                };
             table.push(runs);
             PartOut {
                 material: part.material,
-                vertex_count: part.mesh.positions.len(),
-                triangle_count: part.mesh.indices.len() / 3,
-                positions: f32s(part.mesh.positions.as_flattened()),
-                normals: f32s(part.mesh.normals.as_flattened()),
-                indices: u32s(&part.mesh.indices),
+                vertex_count: mesh.positions.len(),
+                triangle_count: mesh.indices.len() / 3,
+                positions,
+                normals,
+                indices,
                 pick_count: part.picks.len(),
-                picks: base64::engine::general_purpose::STANDARD.encode(picks),
+                picks: picks_b64,
             }
         })
         .collect()

@@ -367,7 +367,12 @@ async fn preview_pick_and_live_updates() {
         let nor = b64(part["normals"].as_str().unwrap());
         let idx = b64(part["indices"].as_str().unwrap());
         assert_eq!(pos.len(), nv * 3);
-        assert_eq!(nor.len(), nv * 3);
+        // Flat normals are left out (the client computes them).
+        assert!(
+            nor.is_empty() || nor.len() == nv * 3,
+            "{} normals",
+            nor.len()
+        );
         assert_eq!(idx.len(), nt * 3);
         assert!(idx.iter().all(|b| (u32::from_le_bytes(*b) as usize) < nv));
         assert!(pos.iter().all(|b| f32::from_le_bytes(*b).is_finite()));
