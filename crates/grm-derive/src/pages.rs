@@ -64,8 +64,43 @@ pub(crate) fn advise_huge<T>(_v: &[T]) {}
 /// freeing it returns it to the OS at once, and growing it moves its pages
 /// (`mremap`) instead of copying them. Elsewhere than Linux it is the
 /// system allocator.
+///
+/// A long-running process that grows a model again and again (the
+/// language server, `grmc view`) is better served by the system
+/// allocator, which reuses the memory it freed: each fresh mapping here is
+/// zeroed by the kernel, and mapping and unmapping from several threads
+/// serialise on the process's address space (the shape preview's regrow
+/// was 1.4x slower, its two-thread derivation 4-20x). Such a process calls
+/// [`HugePageAlloc::serve`] first, before its first large allocation.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct HugePageAlloc;
+
+/// [`HugePageAlloc`]'s mode: undecided until the first large allocation
+/// (which makes it [`MAPPING`]) or [`HugePageAlloc::serve`] (which makes
+/// it [`SERVING`]); never changed after, so a block is freed the way it
+/// was made.
+static MODE: std::sync::atomic::AtomicU8 = std::sync::atomic::AtomicU8::new(UNDECIDED);
+const UNDECIDED: u8 = 0;
+const MAPPING: u8 = 1;
+const SERVING: u8 = 2;
+
+impl HugePageAlloc {
+    /// Give every allocation to the system allocator from now on (a
+    /// server: see the type's doc). Refused, returning `false`, once a
+    /// large block has been mapped (it must be unmapped as it was made).
+    pub fn serve() -> bool {
+        use std::sync::atomic::Ordering;
+        match MODE.compare_exchange(UNDECIDED, SERVING, Ordering::AcqRel, Ordering::Acquire) {
+            Ok(_) => true,
+            Err(m) => m == SERVING,
+        }
+    }
+
+    /// Whether large blocks are mapped in huge pages (not serving).
+    pub fn maps_huge_pages() -> bool {
+        MODE.load(std::sync::atomic::Ordering::Acquire) != SERVING
+    }
+}
 
 /// The smallest allocation [`HugePageAlloc`] maps itself. Zeroing a whole
 /// huge page costs about as much as faulting in a fifth of it 4 KiB at a
@@ -82,8 +117,27 @@ mod huge_alloc {
 
     const HUGE: usize = 2 << 20;
 
+    /// Whether a block of this layout is (or was) made by mapping: large,
+    /// and the allocator not serving (the first large block decides the
+    /// mode for good, `super::MODE`).
     fn large(size: usize, align: usize) -> bool {
-        size >= super::LARGE_BYTES && align <= HUGE
+        use std::sync::atomic::Ordering;
+        if size < super::LARGE_BYTES || align > HUGE {
+            return false;
+        }
+        match super::MODE.load(Ordering::Acquire) {
+            super::MAPPING => true,
+            super::SERVING => false,
+            _ => match super::MODE.compare_exchange(
+                super::UNDECIDED,
+                super::MAPPING,
+                Ordering::AcqRel,
+                Ordering::Acquire,
+            ) {
+                Ok(_) => true,
+                Err(m) => m == super::MAPPING,
+            },
+        }
     }
 
     /// `size` rounded up to whole huge pages (`None` past the address
@@ -278,6 +332,26 @@ mod tests {
         assert!(v.iter().all(|&x| x == 0));
         v[12345] = 7;
         assert_eq!(v.iter().map(|&x| u64::from(x)).sum::<u64>(), 7);
+    }
+
+    /// Once a large block is mapped, the allocator cannot start serving
+    /// (that block must be unmapped as it was made). (Serving itself is
+    /// not tested here: it would change the mode for every test of this
+    /// binary; the shape_regrow bench serves from its start.)
+    #[test]
+    #[allow(unsafe_code)]
+    fn serving_is_refused_after_a_block_was_mapped() {
+        use std::alloc::{GlobalAlloc, Layout};
+        let a = HugePageAlloc;
+        let layout = Layout::from_size_align(LARGE_BYTES, 8).expect("layout");
+        // SAFETY: a non-zero size; the block is freed with its layout.
+        let p = unsafe { a.alloc(layout) };
+        assert!(!p.is_null());
+        assert_eq!(p as usize % (2 << 20), 0, "a 2 MiB-aligned mapping");
+        assert!(!HugePageAlloc::serve());
+        assert!(HugePageAlloc::maps_huge_pages());
+        // SAFETY: made above with this layout.
+        unsafe { a.dealloc(p, layout) };
     }
 
     #[test]

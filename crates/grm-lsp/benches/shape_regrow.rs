@@ -22,6 +22,10 @@
 //! the same for a slider's `grm/preview` request. Each figure is the median
 //! of the rounds; the ratios are over the 50 ms target.
 //!
+//! The bench runs with grmc's allocator (`grm_derive::HugePageAlloc`) in
+//! the mode `grmc lsp` sets (`HugePageAlloc::serve`: the system
+//! allocator's reuse, no fresh huge-page mappings).
+//!
 //! Run: `cargo bench -p grm-lsp --bench shape_regrow [-- ROUNDS]`.
 
 #[path = "../tests/common/mod.rs"]
@@ -38,6 +42,12 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 const TARGET_MS: f64 = 50.0;
+
+/// The allocator the language server runs with (`grmc lsp`: grmc's
+/// global allocator), so that its large buffers cost here what they cost
+/// there.
+#[global_allocator]
+static ALLOC: grm_derive::HugePageAlloc = grm_derive::HugePageAlloc;
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -63,6 +73,7 @@ fn total(name: &str, m: f64) {
 }
 
 fn main() {
+    assert!(grm_derive::HugePageAlloc::serve(), "serving from the start");
     let rounds: usize = std::env::args()
         .skip(1)
         .find_map(|a| a.parse().ok())

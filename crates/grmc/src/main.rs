@@ -152,8 +152,16 @@ fn main() -> ExitCode {
     let outcome = match cli.command {
         Command::Check(a) => check::run(a),
         Command::Fmt(a) => fmt::run(a),
-        Command::Lsp(a) => lsp::run(a),
-        Command::View(a) => view::run(a),
+        // Servers grow models again and again: the system allocator, which
+        // reuses what they free (`HugePageAlloc::serve`).
+        Command::Lsp(a) => {
+            grm_derive::HugePageAlloc::serve();
+            lsp::run(a)
+        }
+        Command::View(a) => {
+            grm_derive::HugePageAlloc::serve();
+            view::run(a)
+        }
         Command::Derive(a) => derive::run(a),
         Command::Forest(a) => forest::run(a),
         Command::Sample(a) => sample::run(a),
