@@ -104,7 +104,15 @@ pub struct BonePlan {
     /// The closest point of the curve to the tip (searched for the
     /// utilization segments).
     tip_closest: Option<ClosestPoint>,
+    /// Other curves whose covering tube holds both ends (a bone at a fork
+    /// covers the branch it leaves along, not only eq. 1's curve): the
+    /// curve and the first and last segment spanned, for
+    /// [`CostModel::covered_segments`] (coverage only, no cost).
+    also: [Option<(u32, u32, u32)>; MAX_ALSO],
 }
+
+/// How many curves besides eq. 1's a bone plan records as covered.
+const MAX_ALSO: usize = 3;
 
 impl BonePlan {
     fn non_finite(base: Vec3, tip: Vec3) -> BonePlan {
@@ -117,6 +125,7 @@ impl BonePlan {
             base_dist: f64::INFINITY,
             segments: None,
             tip_closest: None,
+            also: [None; MAX_ALSO],
         }
     }
 
@@ -135,6 +144,30 @@ impl BonePlan {
     /// [`CostModel::nearest_curve_known`]'s `known` at the tip.
     pub fn tip_closest(&self) -> Option<(usize, &ClosestPoint)> {
         Some((self.curve?, self.tip_closest.as_ref()?))
+    }
+}
+
+/// The covering tubes that hold a point ([`CostModel::tubes_at`]): up to
+/// [`Tubes::MAX`] curves, each with the arc length of the point's closest
+/// point on it. Small and `Copy`, so that an open symbol can keep its own.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Tubes {
+    n: u8,
+    at: [(u32, f64); Tubes::MAX],
+}
+
+impl Tubes {
+    /// The most tubes recorded.
+    pub const MAX: usize = 3;
+
+    /// (curve, arc length) of each tube.
+    pub fn iter(&self) -> impl Iterator<Item = &(u32, f64)> {
+        self.at[..self.n as usize].iter()
+    }
+
+    /// Whether no tube holds the point.
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
     }
 }
 
@@ -228,12 +261,21 @@ impl CurveData {
     /// Utilization segment of parameter `t`: arc length from the start over
     /// the segment length, clamped to the last segment.
     fn segment(&self, t: f64) -> usize {
+        self.segment_at_arc(self.arc_at(t))
+    }
+
+    /// Arc length from the start to parameter `t` (linear in the table).
+    fn arc_at(&self, t: f64) -> f64 {
         let x = t.clamp(0.0, 1.0) * ARC_TABLE as f64;
         let i = (x.floor() as usize).min(ARC_TABLE - 1);
-        let s = self.arc[i] + (self.arc[i + 1] - self.arc[i]) * (x - i as f64);
+        self.arc[i] + (self.arc[i + 1] - self.arc[i]) * (x - i as f64)
+    }
+
+    /// Utilization segment holding arc length `s`, clamped to the last.
+    fn segment_at_arc(&self, s: f64) -> usize {
         let k = (s / self.params.segment_length).floor();
-        // Saturating cast; k >= 0 as s >= 0.
-        (k as usize).min(self.n_seg - 1)
+        // Saturating cast; k >= 0 as s >= 0 (NaN casts to 0).
+        (k.max(0.0) as usize).min(self.n_seg - 1)
     }
 
     #[inline]
@@ -417,6 +459,30 @@ impl CostModel {
         (new > 0).then_some((ci, new))
     }
 
+    /// Every curve whose segments `plan` would newly cover in `state`, with
+    /// how many: eq. 1's curve as [`Self::cover_gain`] gives it, and the
+    /// other curves whose covering tube holds both of the bone's ends (a
+    /// bone leaving a fork along a branch covers that branch). At most
+    /// four entries; `f` is called once per curve with a gain.
+    pub fn cover_gains(&self, state: &CostState, plan: &BonePlan, mut f: impl FnMut(usize, usize)) {
+        if let Some((c, new)) = self.cover_gain(state, plan) {
+            f(c, new);
+        }
+        for &(ci, s0, s1) in plan.also.iter().flatten() {
+            let Some(c) = self.curves.get(ci as usize) else {
+                continue;
+            };
+            let (a, b) = (c.seg_offset + s0 as usize, c.seg_offset + s1 as usize);
+            let new = state
+                .covered
+                .get(a..=b)
+                .map_or(0, |f| f.iter().filter(|&&x| !x).count());
+            if new > 0 {
+                f(ci as usize, new);
+            }
+        }
+    }
+
     /// Whether the segment of `curve` just past parameter `t` (in the
     /// curve's direction) is covered in `state`; `true` past the last
     /// segment (nothing left to cover there) and with utilization off.
@@ -429,6 +495,88 @@ impl CostModel {
         }
         let s = c.segment(t) + 1;
         s >= c.n_seg || state.covered.get(c.seg_offset + s).copied().unwrap_or(true)
+    }
+
+    /// The covering tubes that hold `p` (the reach look-ahead's places,
+    /// `docs/sampling.md` section 4.4): every curve whose covering tube
+    /// (its thickness plus the covering radius of
+    /// [`Self::covered_segments`]) holds `p`, with the arc length of `p`'s
+    /// closest point on it; at most [`Tubes::MAX`] (the nearest first are
+    /// not preferred: curves in index order). Empty for a non-finite `p`.
+    /// `known`: one curve's closest point to `p` when the caller has it
+    /// (eq. 1 at a spawn, a bone plan's tip), not searched again.
+    pub fn tubes_at(&self, p: DVec3, known: Option<(usize, &ClosestPoint)>) -> Tubes {
+        let mut out = Tubes::default();
+        if !p.is_finite() {
+            return out;
+        }
+        for (i, c) in self.curves.iter().enumerate() {
+            if out.n as usize == Tubes::MAX {
+                break;
+            }
+            if c.params.utilization_scale <= 0.0 {
+                continue;
+            }
+            let r = c.params.thickness + self.cover_radius;
+            if (p.clamp(c.lo, c.hi) - p).length() > r {
+                continue;
+            }
+            let cp = match known {
+                Some((k, cp)) if k == i => Some(*cp),
+                _ => c.bez.closest_point_within(&c.samples, p, r),
+            };
+            if let Some(cp) = cp.filter(|cp| cp.dist <= r) {
+                out.at[out.n as usize] = (i as u32, c.arc_at(cp.t));
+                out.n += 1;
+            }
+        }
+        out
+    }
+
+    /// [`Self::tubes_at`] given eq. 1 at `p` (`nearest`: the curve whose
+    /// tube surface is nearest to `p`, as [`Self::nearest_curve`] answers,
+    /// and its closest point): empty at once when that tube is beyond the
+    /// covering radius, since every other one is further.
+    pub fn tubes_near(&self, p: DVec3, nearest: (usize, &ClosestPoint)) -> Tubes {
+        let (i, cp) = nearest;
+        match self.curves.get(i) {
+            Some(c) if cp.dist - c.params.thickness <= self.cover_radius => {
+                self.tubes_at(p, Some(nearest))
+            }
+            _ => Tubes::default(),
+        }
+    }
+
+    /// The reach look-ahead: what a subtree grown from a place in `tubes`
+    /// ([`Self::tubes_at`]) could still cover, were it to reach `reach`
+    /// units of arc length along a curve. Per tube, the utilization
+    /// segments not yet covered in `state` after the one holding the place
+    /// (a bone that ends there covers that one) up to the one `reach`
+    /// further along the curve (in its direction), each counted as the
+    /// curve's uncovered share `1 - k_c / n_c` (the coverage term's gain
+    /// for one more segment is `2 W` times that); summed over the tubes (a
+    /// tip at a fork can grow along each). 0 without tubes or for
+    /// `reach <= 0`.
+    pub fn uncovered_within_reach(&self, state: &CostState, tubes: &Tubes, reach: f64) -> f64 {
+        if reach.is_nan() || reach <= 0.0 {
+            return 0.0;
+        }
+        let mut sum = 0.0;
+        for &(i, a) in tubes.iter() {
+            let Some(c) = self.curves.get(i as usize) else {
+                continue;
+            };
+            let Some(flags) = state.covered.get(c.seg_offset..c.seg_offset + c.n_seg) else {
+                continue;
+            };
+            let (s0, s1) = (c.segment_at_arc(a), c.segment_at_arc(a + reach));
+            let ahead = flags[s0 + 1..=s1.max(s0)].iter().filter(|&&x| !x).count();
+            if ahead > 0 {
+                let k = flags.iter().filter(|&&x| x).count();
+                sum += ahead as f64 * (1.0 - k as f64 / c.n_seg as f64);
+            }
+        }
+        sum
     }
 
     /// What the next bone would gain in utilization (eq. 7, so `<= 0`) by
@@ -562,6 +710,30 @@ impl CostModel {
         } else {
             (None, None)
         };
+        let mut also = [None; MAX_ALSO];
+        if segments.is_some() && self.curves.len() > 1 {
+            let mut n = 0;
+            for (i, o) in self.curves.iter().enumerate() {
+                if i == curve || n == MAX_ALSO || o.params.utilization_scale <= 0.0 {
+                    continue;
+                }
+                let r = o.params.thickness + self.cover_radius;
+                if (b.clamp(o.lo, o.hi) - b).length() > r || (t.clamp(o.lo, o.hi) - t).length() > r
+                {
+                    continue;
+                }
+                let near = |p: DVec3| {
+                    o.bez
+                        .closest_point_within(&o.samples, p, r)
+                        .filter(|cp| cp.dist <= r)
+                };
+                if let (Some(cb), Some(ct)) = (near(b), near(t)) {
+                    let (s0, s1) = (o.segment(cb.t), o.segment(ct.t));
+                    also[n] = Some((i as u32, s0.min(s1) as u32, s0.max(s1) as u32));
+                    n += 1;
+                }
+            }
+        }
         BonePlan {
             base: b,
             tip: t,
@@ -571,6 +743,7 @@ impl CostModel {
             base_dist: closest.dist,
             segments,
             tip_closest,
+            also,
         }
     }
 
@@ -680,6 +853,14 @@ impl CostModel {
             if self.plan_covers(plan) {
                 for c in state.covered.get_mut(a..=b).unwrap_or_default() {
                     *c = true;
+                }
+            }
+            for &(ci, s0, s1) in plan.also.iter().flatten() {
+                if let Some(c) = self.curves.get(ci as usize) {
+                    let (a, b) = (c.seg_offset + s0 as usize, c.seg_offset + s1 as usize);
+                    for f in state.covered.get_mut(a..=b).unwrap_or_default() {
+                        *f = true;
+                    }
                 }
             }
         }

@@ -56,7 +56,7 @@ pub mod volume;
 
 pub use bezier::{BRACKET_SAMPLES, Bezier3, BracketSamples, ClosestPoint};
 pub use cost::{
-    BoneCost, BonePlan, CostBreakdown, CostModel, CostOptions, CostState, ExpectedDirection,
+    BoneCost, BonePlan, CostBreakdown, CostModel, CostOptions, CostState, ExpectedDirection, Tubes,
     alignment_cost, distance_cost, expected_direction, utilization_sum,
 };
 pub use coverage::{

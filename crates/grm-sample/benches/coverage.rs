@@ -103,6 +103,9 @@ fn custom(mut o: SampleOptions, with: &[(String, String)]) -> SampleOptions {
             "ess" => o.ess_target = f(),
             "order" => o.guide.order = f() as u32,
             "cover" => o.guide.cover = f(),
+            "reach_c" => o.reach.candidates = f(),
+            "reach_o" => o.reach.order = f(),
+            "reach_s" => o.reach.scale = f(),
             _ => panic!("unknown --with key {k}"),
         }
     }

@@ -140,6 +140,38 @@ impl Default for Guide {
     }
 }
 
+/// The reach look-ahead (`docs/sampling.md` section 4.4): how far a
+/// subtree grown from an open symbol could still follow a curve, and how
+/// much that counts. Works with [`Guide::cover`] (its weight `W` sets the
+/// unit); all off with [`Reach::off`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Reach {
+    /// Weight of the look-ahead in the candidates' choice.
+    pub candidates: f64,
+    /// Weight of the look-ahead in the expansion order's promise (0: the
+    /// next segment's cover gain, as before).
+    pub order: f64,
+    /// Multiplier of the symbols' reach factors.
+    pub scale: f64,
+}
+
+impl Reach {
+    /// No look-ahead.
+    pub fn off() -> Reach {
+        Reach {
+            candidates: 0.0,
+            order: 0.0,
+            scale: 1.0,
+        }
+    }
+}
+
+impl Default for Reach {
+    fn default() -> Self {
+        Reach::off()
+    }
+}
+
 /// Wrap-up and geometry expansions between two checks of the cancel token.
 const CANCEL_EVERY: u32 = 4096;
 
@@ -230,6 +262,8 @@ pub struct SampleOptions {
     /// How the expansion order steers towards every curve ([`Guide`];
     /// [`Guide::paper`] is Calder's uniform order).
     pub guide: Guide,
+    /// The reach look-ahead ([`Reach`]).
+    pub reach: Reach,
     pub limits: FinishLimits,
     /// Stop with [`SampleError::MemoryLimit`] after a generation that
     /// leaves the search holding more than this many bytes
@@ -271,6 +305,7 @@ impl Default for SampleOptions {
             max_expansions_per_step: 1000,
             candidates: DEFAULT_CANDIDATES,
             guide: Guide::default(),
+            reach: Reach::default(),
             limits: FinishLimits::default(),
             max_bytes: DEFAULT_MAX_BYTES,
             cancel: None,
@@ -316,6 +351,11 @@ pub struct Sampler<'a> {
     /// Per symbol: EXPECTED (zero for non-skeleton symbols and for those
     /// that never grow a bone).
     expected: Vec<Vec3>,
+    /// Per symbol: its reach factor (the look-ahead of
+    /// [`SampleOptions::reach`]): the upper quartile, over sub-derivations
+    /// grown depth first from the symbol alone in the identity frame, of
+    /// the longest chain of bones (0 for symbols that grow none).
+    reach: Vec<f32>,
     expected_time: Duration,
     /// Per curve: its Bézier and parameters (as the cost model has them).
     guides: Vec<(grm_guide::Bezier3, grm_guide::CurveParams)>,
@@ -332,6 +372,10 @@ const STREAM_GEOMETRY: u32 = 5;
 const STREAM_EXPECTED: u32 = 6;
 const STREAM_ORDER: u32 = 7;
 const STREAM_CANDIDATE: u32 = 8;
+const STREAM_REACH: u32 = 9;
+
+/// Expansions of each depth-first sub-derivation of the reach factors.
+const REACH_EXPANSIONS: u32 = 96;
 
 /// Expansion `k` of particle `i`'s step in generation `g`.
 fn skeleton_draws(seed: u32, g: u32, i: u32, k: u32) -> DrawCtx {
@@ -385,6 +429,8 @@ struct Loose {
     symbol: u32,
     params: Vec<f32>,
     turtle: Turtle,
+    /// Length of the bones from the sub-derivation's root to here.
+    path: f32,
 }
 
 impl<'a> Sampler<'a> {
@@ -425,6 +471,7 @@ impl<'a> Sampler<'a> {
             objective,
             volume,
             expected: Vec::new(),
+            reach: Vec::new(),
             expected_time: Duration::ZERO,
             guides: curves
                 .curves()
@@ -433,7 +480,7 @@ impl<'a> Sampler<'a> {
                 .collect(),
         };
         let t = Instant::now();
-        s.expected = s.expected_directions(&expected)?;
+        (s.expected, s.reach) = s.expected_directions(&expected)?;
         s.expected_time = t.elapsed();
         Ok(s)
     }
@@ -464,6 +511,15 @@ impl<'a> Sampler<'a> {
         Some(self.heuristic_in_frame(frame, e))
     }
 
+    /// The reach factor of a symbol, by name ([`SampleOptions::reach`]):
+    /// the upper quartile of the longest chain of bones grown depth first
+    /// from it in the identity frame; `None` for a name the system does not
+    /// have.
+    pub fn reach_factor(&self, symbol: &str) -> Option<f32> {
+        let i = self.g.sys.symbol_names.iter().position(|n| n == symbol)?;
+        self.reach.get(i).copied()
+    }
+
     /// Time spent estimating the expected directions in [`Sampler::new`].
     pub fn expected_time(&self) -> Duration {
         self.expected_time
@@ -475,21 +531,31 @@ impl<'a> Sampler<'a> {
     /// none is left or `max` were expanded; the bones made are appended to
     /// `bones`, and `on_open` sees each skeleton symbol opened (symbol,
     /// parameters).
+    /// `lifo`: expand the newest open symbol first (depth first, for the
+    /// reach factors) instead of a random one. Returns the longest path
+    /// of bones from the root to a bone's tip.
+    #[allow(clippy::too_many_arguments)]
     fn grow_loose(
         &self,
         w: &mut Worker,
         open: &mut Vec<Loose>,
         max: u32,
+        lifo: bool,
         draws: impl Fn(u32) -> DrawCtx,
         bones: &mut Vec<(Vec3, Vec3)>,
         mut on_open: impl FnMut(u32, &[f32]),
-    ) -> Result<(), SampleError> {
+    ) -> Result<f32, SampleError> {
         let sys = self.g.sys;
         let mut k = 0;
+        let mut longest = 0.0f32;
         while !open.is_empty() && k < max {
             let ctx = draws(k);
             k += 1;
-            let idx = pick(&ctx, sys.draws, open.len());
+            let idx = if lifo {
+                open.len() - 1
+            } else {
+                pick(&ctx, sys.draws, open.len())
+            };
             let item = open.swap_remove(idx);
             let phase = "expected direction";
             let Some(alt) =
@@ -501,6 +567,13 @@ impl<'a> Sampler<'a> {
             self.g.eval_successor(w, item.symbol, alt, &ctx, phase)?;
             self.g.interpret(w, alt, &item.turtle)?;
             bones.extend_from_slice(&w.bones);
+            let path = item.path
+                + w.bones
+                    .iter()
+                    .map(|&(b, t)| b.distance(t))
+                    .filter(|l| l.is_finite())
+                    .sum::<f32>();
+            longest = longest.max(path);
             let a = &sys.alts[alt as usize];
             for &(m, t) in &w.users {
                 let sym = sys.succ[(a.succ_offset + m) as usize].symbol;
@@ -511,11 +584,12 @@ impl<'a> Sampler<'a> {
                         symbol: sym,
                         params,
                         turtle: t,
+                        path,
                     });
                 }
             }
         }
-        Ok(())
+        Ok(longest)
     }
 
     /// Eq. 9 for every skeleton symbol: the mean, over `opts.models`
@@ -524,7 +598,10 @@ impl<'a> Sampler<'a> {
     /// with parameter values it actually takes: those of its occurrences in
     /// forward samples from the axiom (a symbol never met there gets no
     /// heuristic).
-    fn expected_directions(&self, opts: &ExpectedOptions) -> Result<Vec<Vec3>, SampleError> {
+    fn expected_directions(
+        &self,
+        opts: &ExpectedOptions,
+    ) -> Result<(Vec<Vec3>, Vec<f32>), SampleError> {
         let n = self.g.phase.len();
         let mut w = self.g.worker();
         let mut params: Vec<Vec<Vec<f32>>> = vec![Vec::new(); n];
@@ -554,6 +631,7 @@ impl<'a> Sampler<'a> {
                     &mut w,
                     &mut open,
                     opts.expansions.max(1) * 4,
+                    false,
                     |k| tagged(opts.seed, STREAM_EXPECTED, u32::MAX - run, k),
                     &mut bones,
                     |sym, p| {
@@ -567,6 +645,7 @@ impl<'a> Sampler<'a> {
             }
         }
         let mut out = vec![Vec3::ZERO; n];
+        let mut reach = vec![0.0f32; n];
         let identity = self.g.initial_turtle();
         for s in 0..n {
             if !self.g.is_skeleton(s as u32) || params[s].is_empty() {
@@ -578,12 +657,14 @@ impl<'a> Sampler<'a> {
                     symbol: s as u32,
                     params: params[s][m % params[s].len()].clone(),
                     turtle: identity,
+                    path: 0.0,
                 }];
                 bones.clear();
                 self.grow_loose(
                     &mut w,
                     &mut open,
                     opts.expansions.max(1),
+                    false,
                     |k| {
                         let seed = rng::hash(opts.seed, s as u32, m as u32, k);
                         tagged(seed, STREAM_EXPECTED, 0, 0)
@@ -595,8 +676,35 @@ impl<'a> Sampler<'a> {
             }
             let e = acc.finish();
             out[s] = if e.is_finite() { e } else { Vec3::ZERO };
+            // The reach factor: the longest chain of bones of sub-derivations
+            // grown depth first from the symbol alone (draws of their own).
+            let mut longest = Vec::with_capacity(per);
+            for m in 0..per {
+                let mut open = vec![Loose {
+                    symbol: s as u32,
+                    params: params[s][m % params[s].len()].clone(),
+                    turtle: identity,
+                    path: 0.0,
+                }];
+                bones.clear();
+                let l = self.grow_loose(
+                    &mut w,
+                    &mut open,
+                    REACH_EXPANSIONS,
+                    true,
+                    |k| {
+                        let seed = rng::hash(opts.seed, s as u32, m as u32, k);
+                        tagged(seed, STREAM_REACH, 0, 0)
+                    },
+                    &mut bones,
+                    |_, _| {},
+                )?;
+                longest.push(l);
+            }
+            longest.sort_by(f32::total_cmp);
+            reach[s] = longest[(longest.len() * 3) / 4].max(0.0);
         }
-        Ok(out)
+        Ok((out, reach))
     }
 
     /// The axiom's skeleton symbols as loose open items (for the parameter
@@ -616,6 +724,7 @@ impl<'a> Sampler<'a> {
                     symbol: sym,
                     params: self.g.module_params(alt, m, &w.params).to_vec(),
                     turtle: t,
+                    path: 0.0,
                 });
             }
         }
@@ -727,13 +836,14 @@ impl<'a> Sampler<'a> {
         if w <= 0.0 {
             return 0.0;
         }
-        let Some((c, new)) = self.cost.cover_gain(state, plan) else {
-            return 0.0;
-        };
-        let (k, n) = self.cost.covered_segments(state, c);
-        let n = n.max(1) as f64;
-        let (u0, u1) = (1.0 - k as f64 / n, 1.0 - (k + new) as f64 / n);
-        -w * n * (u0 * u0 - u1 * u1)
+        let mut delta = 0.0;
+        self.cost.cover_gains(state, plan, |c, new| {
+            let (k, n) = self.cost.covered_segments(state, c);
+            let n = n.max(1) as f64;
+            let (u0, u1) = (1.0 - k as f64 / n, 1.0 - (k + new) as f64 / n);
+            delta -= w * n * (u0 * u0 - u1 * u1);
+        });
+        delta
     }
 
     /// The objective the search follows: [`Self::objective_of`] plus the
@@ -1101,6 +1211,7 @@ impl<'a> Sampler<'a> {
         kc: u32,
         temperature: f64,
         guide: &Guide,
+        reach: &Reach,
     ) -> Result<(Particle, Step, u32, f64), SampleError> {
         let mut q = p.clone();
         local.clear();
@@ -1130,14 +1241,14 @@ impl<'a> Sampler<'a> {
                 // A tournament: the most promising of `order` uniform
                 // draws (the first draw is the paper's).
                 let mut best =
-                    spawn_at(idx).map_or(f64::INFINITY, |sp| self.promise(&q, &sp, guide));
+                    spawn_at(idx).map_or(f64::INFINITY, |sp| self.promise(&q, &sp, guide, reach));
                 for j in 1..guide.order {
                     let other = pick(&draws, self.g.sys.draws + j, n_open);
                     if other == idx {
                         continue;
                     }
-                    let v =
-                        spawn_at(other).map_or(f64::INFINITY, |sp| self.promise(&q, &sp, guide));
+                    let v = spawn_at(other)
+                        .map_or(f64::INFINITY, |sp| self.promise(&q, &sp, guide, reach));
                     if v < best {
                         best = v;
                         idx = other;
@@ -1158,6 +1269,7 @@ impl<'a> Sampler<'a> {
                     kc,
                     temperature,
                     guide.cover,
+                    reach,
                 )?;
                 correction += corr;
                 // The chosen candidate's successor into the worker.
@@ -1198,7 +1310,7 @@ impl<'a> Sampler<'a> {
     /// (`2 W (1 - s)`, `s` the curve's covered share). A
     /// symbol that never grows a bone, or at a non-finite position, is
     /// least promising (`+inf`).
-    fn promise(&self, q: &Particle, sp: &Spawn, guide: &Guide) -> f64 {
+    fn promise(&self, q: &Particle, sp: &Spawn, guide: &Guide, reach: &Reach) -> f64 {
         let e = self
             .expected
             .get(sp.symbol as usize)
@@ -1214,11 +1326,77 @@ impl<'a> Sampler<'a> {
         let mut v = grm_guide::distance_cost(n.closest.dist, params)
             + self.heuristic_near(&sp.turtle.frame, e, Some(n))
             + self.cost.utilization_ahead(&q.cost, n.curve, n.closest.t);
-        if guide.cover > 0.0 && !self.cost.covered_ahead(&q.cost, n.curve, n.closest.t) {
+        if guide.cover > 0.0 && reach.order > 0.0 {
+            let tubes = self
+                .cost
+                .tubes_near(n.position.as_dvec3(), (n.curve, &n.closest));
+            if !tubes.is_empty() {
+                let r = self.reach_of(sp.symbol, &sp.turtle, reach);
+                let ahead = self.cost.uncovered_within_reach(&q.cost, &tubes, r);
+                v -= 2.0 * guide.cover * reach.order * ahead;
+            }
+        } else if guide.cover > 0.0 && !self.cost.covered_ahead(&q.cost, n.curve, n.closest.t) {
             let (k, m) = self.cost.covered_segments(&q.cost, n.curve);
             v -= 2.0 * guide.cover * (1.0 - k as f64 / m.max(1) as f64);
         }
         if v.is_nan() { f64::INFINITY } else { v }
+    }
+
+    /// How far a subtree of `symbol` grown from turtle state `t` could
+    /// reach along a curve: its reach factor times the frame's scale
+    /// (`|det|^(1/3)`) times [`Reach::scale`].
+    fn reach_of(&self, symbol: u32, t: &Turtle, reach: &Reach) -> f64 {
+        let f = self.reach.get(symbol as usize).copied().unwrap_or(0.0);
+        let s = t.frame.matrix3.determinant().abs().cbrt();
+        let r = f64::from(f * s) * reach.scale;
+        if r.is_finite() { r } else { 0.0 }
+    }
+
+    /// The reach look-ahead of the successor in `w` (just interpreted):
+    /// [`CostModel::uncovered_within_reach`] at each position where it
+    /// opens skeleton symbols (the largest reach of those there), summed.
+    fn lookahead(
+        &self,
+        w: &Worker,
+        alt: u32,
+        state: &grm_guide::CostState,
+        plans: &[BonePlan],
+        reach: &Reach,
+    ) -> f64 {
+        let sys = self.g.sys;
+        let a = &sys.alts[alt as usize];
+        let mut at: Option<(Vec3, f64)> = None;
+        let mut sum = 0.0;
+        let flush = |at: Option<(Vec3, f64)>, sum: &mut f64| {
+            if let Some((pos, r)) = at {
+                let p = pos.as_dvec3();
+                let known = plans
+                    .iter()
+                    .find(|pl| pl.ends().1 == p)
+                    .and_then(BonePlan::tip_closest);
+                if r > 0.0 {
+                    let tubes = self.cost.tubes_at(p, known);
+                    *sum += self.cost.uncovered_within_reach(state, &tubes, r);
+                }
+            }
+        };
+        for &(m, t) in &w.users {
+            let sym = sys.succ[(a.succ_offset + m) as usize].symbol;
+            if !self.g.is_skeleton(sym) {
+                continue;
+            }
+            let pos = Vec3::from(t.frame.translation);
+            let r = self.reach_of(sym, &t, reach);
+            match at {
+                Some((p, r0)) if p == pos => at = Some((p, r0.max(r))),
+                _ => {
+                    flush(at, &mut sum);
+                    at = Some((pos, r));
+                }
+            }
+        }
+        flush(at, &mut sum);
+        sum
     }
 
     /// The candidates of one expansion: open symbol `idx` of `q` expanded
@@ -1245,6 +1423,7 @@ impl<'a> Sampler<'a> {
         kc: u32,
         temperature: f64,
         cover: f64,
+        reach: &Reach,
     ) -> Result<(usize, f64), SampleError> {
         let r = *q.open.get(idx).ok_or_else(missing_node)?;
         let (sp, _) = self.open_spawn(w, Arena { layers, local, cur }, r)?;
@@ -1308,6 +1487,9 @@ impl<'a> Sampler<'a> {
                 }
                 if w.non_finite {
                     cost = f64::INFINITY;
+                } else if cover > 0.0 && reach.candidates > 0.0 {
+                    let ahead = self.lookahead(w, alt, &q.cost, &plans, reach);
+                    cost -= 2.0 * cover * reach.candidates * ahead;
                 }
             } else {
                 w.params.clear();
@@ -1587,6 +1769,7 @@ impl<'a> Sampler<'a> {
                     kc,
                     temperature,
                     &opts.guide,
+                    &opts.reach,
                 )
             };
             let results: Vec<Result<(Particle, Step, u32, f64), SampleError>> = if parallel {
