@@ -60,7 +60,7 @@ impl MeshData {
     /// (three.js `computeVertexNormals`) gets them back, so the preview
     /// leaves them out of its answer (a third of a building's bytes).
     pub fn flat_normals(&self) -> bool {
-        if self.normals.len() != self.positions.len() || self.indices.len() % 3 != 0 {
+        if self.normals.len() != self.positions.len() || !self.indices.len().is_multiple_of(3) {
             return false;
         }
         let (p, n) = (&self.positions, &self.normals);

@@ -27,6 +27,7 @@ mod bench;
 mod check;
 mod derive;
 mod disasm;
+mod edits;
 mod fmt;
 mod forest;
 mod gpu;
@@ -75,6 +76,9 @@ enum Command {
     Sample(sample::SampleArgs),
     /// Print a system's compiled tables and bytecode.
     Disasm(disasm::DisasmArgs),
+    /// The grammar's persistent edits (NAME.edits.json): `check`
+    /// classifies each against the model, `list` prints them.
+    Edits(edits::EditsArgs),
     /// Benchmarks (`grmc bench derive`, `grmc bench gpu`, `grmc bench render`).
     Bench(bench::BenchArgs),
 }
@@ -165,6 +169,7 @@ fn main() -> ExitCode {
         Command::Derive(a) => derive::run(a),
         Command::Forest(a) => forest::run(a),
         Command::Sample(a) => sample::run(a),
+        Command::Edits(a) => edits::run(a),
         Command::Disasm(a) => disasm::run(a),
         Command::Bench(a) => bench::run(a),
     };

@@ -1,0 +1,160 @@
+//! A shape system's persistent edits (`grm_edits`, docs/edits.md) against
+//! its derived tree: where each edit's target leads now and its class
+//! (Lipp, 3.2.2), what `grmc edits check` reports and the editor shows.
+//!
+//! - **exact** target: [`ShapeTree::resolve`]: found (valid), a path whose
+//!   edge number is past the children there (structurally invalid: its
+//!   place does not exist now, and may come back), or a path whose labels
+//!   do not fit the tree (semantically invalid);
+//! - **semantic** target: [`ShapeTree::select`]: the shapes it selects
+//!   (valid), or none (structurally invalid: the tagged places it names are
+//!   not there now);
+//! - **key** target: the nodes with that identity key: one (valid), none
+//!   (structurally invalid), several (ambiguous).
+//!
+//! An edit whose target is found is then **stale** when its operation
+//! names what is gone: a material, mesh, parameter or constant the
+//! program does not declare, an alternative past the target's rule's, or a
+//! rule's alternative on a node that is not a shape. Edits of a system the
+//! program does not have are stale too.
+
+use crate::shape::Lowered;
+use grm_edits::{Edit, EditClass, Op, Target};
+use grm_shape::{NodeId, NodeKind, Resolution, ShapeTree};
+use std::collections::HashMap;
+
+/// What became of one edit.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EditReport {
+    /// The edit's id.
+    pub id: u32,
+    pub class: EditClass,
+    /// The parts its target names now (empty unless found).
+    pub parts: Vec<NodeId>,
+    /// Why, in one line (`floor 12 of 10`, `no material \`gold\``).
+    pub detail: String,
+}
+
+/// Classify `edits` (those of one shape system) against `tree`, the
+/// system's derived tree (`lowered` its program). `program` is the checked
+/// program (its declared materials, meshes, parameters and constants).
+pub fn classify<'e>(
+    program: &grm_sema::Program,
+    lowered: &Lowered,
+    tree: &ShapeTree,
+    edits: impl IntoIterator<Item = &'e Edit>,
+) -> Vec<EditReport> {
+    let edits: Vec<&Edit> = edits.into_iter().collect();
+    // Nodes by key, only when a key target asks.
+    let by_key: HashMap<u32, Vec<NodeId>> =
+        if edits.iter().any(|e| matches!(e.target, Target::Key(_))) {
+            let mut m: HashMap<u32, Vec<NodeId>> = HashMap::new();
+            for (i, n) in tree.nodes().iter().enumerate() {
+                m.entry(n.key).or_default().push(NodeId(i as u32));
+            }
+            m
+        } else {
+            HashMap::new()
+        };
+    let shape_program = &lowered.program;
+    edits
+        .into_iter()
+        .map(|e| {
+            let (class, parts, detail) = match &e.target {
+                Target::Exact(loc) => match tree.resolve(shape_program, loc) {
+                    Resolution::Found(n) => (EditClass::Valid, vec![n], String::new()),
+                    Resolution::StructurallyInvalid { matched } => (
+                        EditClass::StructurallyInvalid,
+                        Vec::new(),
+                        format!(
+                            "the path's first {matched} labels are there, but the edge after `{}` is past the parts there now",
+                            loc.labels.get(matched.saturating_sub(1)).map_or("", String::as_str)
+                        ),
+                    ),
+                    Resolution::Invalid => (
+                        EditClass::SemanticallyInvalid,
+                        Vec::new(),
+                        "the path's labels do not fit the tree".to_owned(),
+                    ),
+                },
+                Target::Semantic(q) => {
+                    let found = tree.select(shape_program, q);
+                    if found.is_empty() {
+                        (
+                            EditClass::StructurallyInvalid,
+                            found,
+                            "the query selects no part now".to_owned(),
+                        )
+                    } else {
+                        (EditClass::Valid, found, String::new())
+                    }
+                }
+                Target::Key(k) => match by_key.get(k).map(Vec::as_slice) {
+                    None | Some([]) => (
+                        EditClass::StructurallyInvalid,
+                        Vec::new(),
+                        "no part has this key now".to_owned(),
+                    ),
+                    Some([one]) => (EditClass::Valid, vec![*one], String::new()),
+                    Some(many) => (
+                        EditClass::Ambiguous,
+                        many.to_vec(),
+                        format!("{} parts have this key", many.len()),
+                    ),
+                },
+            };
+            let (class, detail) = match stale(program, lowered, tree, &e.op, &parts) {
+                Some(why) if !parts.is_empty() => (EditClass::Stale, why),
+                _ => (class, detail),
+            };
+            EditReport {
+                id: e.id,
+                class,
+                parts,
+                detail,
+            }
+        })
+        .collect()
+}
+
+/// Why `op` on `parts` names what is gone, if it does.
+fn stale(
+    program: &grm_sema::Program,
+    lowered: &Lowered,
+    tree: &ShapeTree,
+    op: &Op,
+    parts: &[NodeId],
+) -> Option<String> {
+    match op {
+        Op::Material { name } => (!program.materials.iter().any(|m| m.name == *name))
+            .then(|| format!("the grammar declares no material `{name}`")),
+        Op::Mesh { name } => (!program.meshes.iter().any(|m| m.name == *name))
+            .then(|| format!("the grammar declares no mesh `{name}`")),
+        Op::Set { name, .. } | Op::Offset { name, .. } => {
+            (!program.params.iter().any(|p| p.name == *name)
+                && !program.consts.iter().any(|c| c.name == *name))
+            .then(|| format!("the grammar has no parameter or constant `{name}`"))
+        }
+        Op::Force { alternative } => parts.iter().find_map(|&n| {
+            let node = tree.node(n)?;
+            let NodeKind::Shape { symbol, .. } = node.kind else {
+                return Some(format!(
+                    "`{}` is not a shape: it has no rule to force",
+                    tree.label(&lowered.program, n)
+                ));
+            };
+            let count = lowered
+                .alternatives
+                .get(symbol.0 as usize)
+                .map_or(0, Vec::len);
+            (*alternative as usize > count).then(|| {
+                format!(
+                    "`{}` has {count} alternative{}, not {alternative}",
+                    lowered.program.symbol_name(symbol),
+                    if count == 1 { "" } else { "s" }
+                )
+            })
+        }),
+        Op::Pin { .. } | Op::Remove => None,
+    }
+}

@@ -1,0 +1,273 @@
+//! `grmc edits check|list FILE.grm`: the grammar's persistent edits
+//! (`NAME.edits.json` beside it, or `--edits PATH`; docs/edits.md).
+//!
+//! - `list` prints each edit (id, system, target, operation) after the
+//!   file's own problems (R0901-R0911, rendered in the edits file);
+//! - `check` also grows each shape system that has edits and classifies
+//!   every edit against its tree (`grm_grow::shape::edits`): valid,
+//!   structurally or semantically invalid, ambiguous, stale. Exit 0 when
+//!   the file has no problems and every edit is valid, 1 otherwise.
+//!
+//! `--format json` prints one JSON object instead of the table. Edits of
+//! derive- and sample-mode systems are listed, and `check` says they were
+//! not classified (their replay is not built yet).
+
+use std::path::PathBuf;
+
+use clap::{Args, Subcommand};
+use grm_edits::{Edit, EditClass};
+use grm_grow::shape::ShapeOptions;
+use serde_json::json;
+
+use crate::derive::emit;
+use crate::{Outcome, OutputFormat};
+
+#[derive(Debug, Args)]
+pub struct EditsArgs {
+    #[command(subcommand)]
+    pub command: EditsCommand,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum EditsCommand {
+    /// Classify every edit against the grammar's model now (exit 1 unless
+    /// every edit is valid).
+    Check(EditsFileArgs),
+    /// List the edits.
+    List(EditsFileArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct EditsFileArgs {
+    /// The grammar (.grm).
+    pub file: PathBuf,
+    /// The edits file (default: NAME.edits.json beside the grammar).
+    #[arg(long, value_name = "PATH")]
+    pub edits: Option<PathBuf>,
+    /// Grow with this seed instead of each system's own.
+    #[arg(long)]
+    pub seed: Option<u32>,
+    /// Meta-parameter values, `NAME=VALUE` (repeatable).
+    #[arg(long = "param", value_name = "NAME=VALUE")]
+    pub params: Vec<String>,
+    /// Output format.
+    #[arg(long, value_enum, default_value = "human")]
+    pub format: OutputFormat,
+}
+
+pub fn run(args: EditsArgs) -> Outcome {
+    match args.command {
+        EditsCommand::Check(a) => go(&a, true),
+        EditsCommand::List(a) => go(&a, false),
+    }
+}
+
+/// One edit's line of the report.
+struct Row<'a> {
+    edit: &'a Edit,
+    class: Option<EditClass>,
+    parts: usize,
+    detail: String,
+}
+
+fn go(a: &EditsFileArgs, check: bool) -> Outcome {
+    let checked = match crate::derive::load_checked(&a.file, None, &a.params) {
+        Ok(c) => c,
+        Err(o) => return o,
+    };
+    let mut sources = checked.sources;
+    let program = checked.program;
+    let values = checked.values;
+    let root = program.systems[checked.system].file;
+    let (path, named) = match &a.edits {
+        Some(p) => (p.clone(), true),
+        None => (grm_edits::edits_path(&a.file), false),
+    };
+    let text = match grm_edits::read(&path) {
+        Ok(t) => t,
+        Err(e) if e.is_not_found() && !named => {
+            if a.format == OutputFormat::Json {
+                outln!(
+                    "{}",
+                    json!({ "edits": path.display().to_string(), "found": false, "problems": [], "list": [] })
+                );
+            } else {
+                eprintln!("{}: no edits file ({})", a.file.display(), path.display());
+            }
+            return Outcome::Ok;
+        }
+        Err(e) => {
+            emit(&sources, &e.to_diagnostic(root));
+            return Outcome::Usage;
+        }
+    };
+    let file = sources.add(path.to_string_lossy().replace('\\', "/"), text.clone());
+    let parsed = grm_edits::parse(&text);
+    let problems: Vec<grm_diag::Diagnostic> = parsed
+        .errors
+        .iter()
+        .map(|e| e.to_diagnostic(file))
+        .collect();
+    let mut rows: Vec<Row> = parsed
+        .file
+        .edits
+        .iter()
+        .map(|edit| Row {
+            edit,
+            class: None,
+            parts: 0,
+            detail: String::new(),
+        })
+        .collect();
+    if check {
+        classify(&program, &values, a.seed, &mut rows);
+    }
+    let all_valid = problems.is_empty()
+        && rows
+            .iter()
+            .all(|r| r.class.is_none_or(EditClass::is_valid) && (!check || r.class.is_some()));
+    match a.format {
+        OutputFormat::Human => {
+            for d in &problems {
+                emit(&sources, d);
+            }
+            for r in &rows {
+                let class = r.class.map_or("-", EditClass::as_str);
+                let mut line = format!(
+                    "{:>4}  {:<12} {}  {}",
+                    r.edit.id, r.edit.system, r.edit.target, r.edit.op
+                );
+                if check {
+                    line.push_str(&format!("  [{class}"));
+                    if r.parts > 1 {
+                        line.push_str(&format!(", {} parts", r.parts));
+                    }
+                    line.push(']');
+                    if !r.detail.is_empty() {
+                        line.push_str(&format!(": {}", r.detail));
+                    }
+                }
+                outln!("{line}");
+            }
+            let invalid = rows
+                .iter()
+                .filter(|r| r.class.is_some_and(|c| !c.is_valid()))
+                .count();
+            if check {
+                eprintln!(
+                    "{}: {}, {} valid, {invalid} not, {} not classified; {}",
+                    path.display(),
+                    crate::count(rows.len() as u64, "edit"),
+                    rows.iter()
+                        .filter(|r| r.class == Some(EditClass::Valid))
+                        .count(),
+                    rows.iter().filter(|r| r.class.is_none()).count(),
+                    crate::count(problems.len() as u64, "problem"),
+                );
+            }
+        }
+        OutputFormat::Json => {
+            let list: Vec<serde_json::Value> = rows
+                .iter()
+                .map(|r| {
+                    json!({
+                        "id": r.edit.id,
+                        "system": r.edit.system,
+                        "target": { r.edit.target.kind(): r.edit.target.text() },
+                        "op": r.edit.op.to_string(),
+                        "class": r.class.map(EditClass::as_str),
+                        "parts": r.parts,
+                        "detail": r.detail,
+                    })
+                })
+                .collect();
+            let problems: Vec<serde_json::Value> = problems
+                .iter()
+                .map(|d| {
+                    serde_json::from_str(&grm_diag::render_json(d, &sources))
+                        .unwrap_or(serde_json::Value::Null)
+                })
+                .collect();
+            outln!(
+                "{}",
+                json!({
+                    "edits": path.display().to_string(),
+                    "found": true,
+                    "problems": problems,
+                    "list": list,
+                    "valid": all_valid,
+                })
+            );
+        }
+    }
+    let ok = if check {
+        all_valid
+    } else {
+        problems.is_empty()
+    };
+    if ok {
+        Outcome::Ok
+    } else {
+        Outcome::InputErrors
+    }
+}
+
+/// Grow each shape system with edits once and classify its edits.
+fn classify(
+    program: &grm_sema::Program,
+    values: &[grm_sema::Value],
+    seed: Option<u32>,
+    rows: &mut [Row],
+) {
+    let mut systems: Vec<&str> = rows.iter().map(|r| r.edit.system.as_str()).collect();
+    systems.sort_unstable();
+    systems.dedup();
+    for name in systems {
+        let mine = |r: &&mut Row| r.edit.system == name;
+        let Some(sys) = program.systems.iter().find(|s| s.name == name) else {
+            for r in rows.iter_mut().filter(|r| r.edit.system == name) {
+                r.class = Some(EditClass::Stale);
+                r.detail = format!("the grammar has no system `{name}`");
+            }
+            continue;
+        };
+        if sys.shape.is_none() {
+            for r in rows.iter_mut().filter(|r| r.edit.system == name) {
+                r.detail =
+                    "not classified: edits of derive- and sample-mode systems are not replayed yet"
+                        .to_owned();
+            }
+            continue;
+        }
+        let grown = grm_grow::shape::lower(program, sys, values)
+            .map_err(grm_grow::shape::ShapeGrowError::from)
+            .and_then(|lowered| {
+                let options = ShapeOptions::default();
+                let tree =
+                    grm_grow::shape::derive(&lowered, seed.unwrap_or(lowered.seed), &options)?;
+                Ok((lowered, tree))
+            });
+        let (lowered, tree) = match grown {
+            Ok(g) => g,
+            Err(e) => {
+                for r in rows.iter_mut().filter(|r| r.edit.system == name) {
+                    r.detail = format!("not classified: the system does not grow: {e}");
+                }
+                continue;
+            }
+        };
+        let reports = grm_grow::shape::edits::classify(
+            program,
+            &lowered,
+            &tree,
+            rows.iter()
+                .filter(|r| r.edit.system == name)
+                .map(|r| r.edit),
+        );
+        for (r, rep) in rows.iter_mut().filter(mine).zip(reports) {
+            r.class = Some(rep.class);
+            r.parts = rep.parts.len();
+            r.detail = rep.detail;
+        }
+    }
+}
