@@ -211,7 +211,8 @@ pub fn build_shape_model(
         } else {
             tree.geom(id)
         };
-        let own = draws(&geom);
+        // A shape a persistent edit removed draws nothing.
+        let own = draws(&geom) && !tree.is_removed(id);
         inserts.clear();
         if n.has_children() {
             inserts.extend(

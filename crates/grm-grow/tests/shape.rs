@@ -25,6 +25,7 @@ fn the_townhouse_grows_into_a_model_with_a_group_per_drawn_shape() {
         &p.default_params(),
         &ShapeOptions::default(),
         Some((&build, None)),
+        None,
     )
     .expect("grows");
     assert_eq!(g.seed, 1);
@@ -115,7 +116,15 @@ fn engine_errors_are_coded_at_the_rule() {
         inline("system S {\n    mode = shape;\n    axiom A;\n    A -> translate(1, 0, 0) A;\n}\n");
     let p = &c.program;
     let sys = system(&c);
-    let e = grow(p, sys, &p.default_params(), &ShapeOptions::default(), None).unwrap_err();
+    let e = grow(
+        p,
+        sys,
+        &p.default_params(),
+        &ShapeOptions::default(),
+        None,
+        None,
+    )
+    .unwrap_err();
     assert_eq!(e.code(), Code::ShapeTooDeep);
     let d = e.to_diagnostic(p, sys.file, sys.loc.span);
     assert_eq!(d.code, Code::ShapeTooDeep);
@@ -138,7 +147,7 @@ fn engine_errors_are_coded_at_the_rule() {
         ..ShapeOptions::default()
     };
     let p = &c.program;
-    let e = grow(p, system(&c), &p.default_params(), &opts, None).unwrap_err();
+    let e = grow(p, system(&c), &p.default_params(), &opts, None, None).unwrap_err();
     assert_eq!(e.code(), Code::TooManyShapes);
     assert!(matches!(e, ShapeGrowError::Shape { .. }));
 }
@@ -219,6 +228,7 @@ fn grown(file: &str) -> grm_grow::shape::ShapeGrown {
         &p.default_params(),
         &ShapeOptions::default(),
         Some((&build, dir.as_deref())),
+        None,
     )
     .expect("grows")
 }

@@ -327,7 +327,7 @@ pub(crate) fn build(
         },
     };
     let t0 = Instant::now();
-    let grown = grm_grow::shape::grow(prog, sys, &values, &options, None)
+    let grown = grm_grow::shape::grow(prog, sys, &values, &options, None, None)
         .map_err(|e| Failure::Msg(message(&e, fa, sys)))?;
     let derive_ms = t0.elapsed().as_secs_f64() * 1e3;
     check(cancel)?;

@@ -30,6 +30,7 @@ use crate::expr::{SITE_CONDITION, SITE_OPS, SITE_WEIGHT, Shape, Site};
 use crate::geometry::{Geom, Geometry, Outline, OutlineId};
 use crate::ir::{Axis, CompTarget, Op, Param, Program, SymbolId, TagId};
 use crate::query::Queries;
+use crate::replay::{self, EditPlan, Forced, Own};
 use crate::scope::Scope;
 use crate::split::{RepeatLayout, SplitSize, repeat_into, split_into};
 use crate::tree::{Command, Node, NodeKind, ShapeTree};
@@ -137,8 +138,23 @@ impl Lot {
 
 /// Derive the tree of `program` from `lot`.
 pub fn derive(program: &Program, lot: &Lot, options: &Options) -> Result<ShapeTree, ShapeError> {
+    derive_with_edits(program, lot, options, None)
+}
+
+/// [`derive`], replaying a system's persistent edits while deriving
+/// (`crate::replay`, docs/edits.md). A plan with edits derives on one
+/// thread (a node's edits are found from its path, which a parallel job
+/// holds only below its root).
+pub fn derive_with_edits(
+    program: &Program,
+    lot: &Lot,
+    options: &Options,
+    edits: Option<&EditPlan>,
+) -> Result<ShapeTree, ShapeError> {
     lot.check()?;
+    let edits = edits.filter(|p| !p.is_empty());
     let threads = match options.threads {
+        _ if edits.is_some() => 1,
         0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
         n => n,
     };
@@ -152,6 +168,7 @@ pub fn derive(program: &Program, lot: &Lot, options: &Options) -> Result<ShapeTr
         limits: options.limits,
         attrs: Mutex::new(AttrTable::default()),
         queries,
+        edits,
     };
     let root = engine(None).axiom(lot);
     let outline = lot.geometry.table_entry().cloned();
@@ -182,7 +199,7 @@ pub fn derive(program: &Program, lot: &Lot, options: &Options) -> Result<ShapeTr
         Some(Queries::build(program, &first.nodes))
     };
     let engine = engine(queries.as_ref());
-    let (mut nodes, outlines) = finish(pass(&engine)?)?;
+    let (mut nodes, outlines, removed) = finish(pass(&engine)?)?;
     let attrs = engine.attrs.into_inner().unwrap_or_else(|e| e.into_inner());
     if attrs.full {
         return Err(ShapeError::TooManyAttributes {
@@ -195,6 +212,7 @@ pub fn derive(program: &Program, lot: &Lot, options: &Options) -> Result<ShapeTr
         outlines,
         attributes,
         seed: options.seed,
+        removed,
     })
 }
 
@@ -204,6 +222,8 @@ pub fn derive(program: &Program, lot: &Lot, options: &Options) -> Result<ShapeTr
 /// slice in nodes)`.
 struct Job {
     nodes: Vec<Node>,
+    /// The shapes an edit removed (ascending).
+    removed: Vec<u32>,
     /// One outline per node with one, in node order.
     outlines: Vec<Arc<Outline>>,
     failures: Vec<(u32, ShapeError)>,
@@ -347,6 +367,8 @@ struct Engine<'p> {
     /// The first pass's shapes, in the second pass of a program with
     /// context queries (`None`: every query is false).
     queries: Option<&'p Queries>,
+    /// The persistent edits replayed (`None`: none; then one job only).
+    edits: Option<&'p EditPlan>,
     seed: u32,
     limits: Limits,
     /// The distinct attribute sets, shared by the workers (numbered again
@@ -418,6 +440,9 @@ struct Scratch {
     /// Set when a shape whose rule made nothing changed whether it has an
     /// outline ([`Job::ordered`]).
     unordered: bool,
+    /// The alternative a persistent edit forces on the shape being
+    /// expanded (from 0).
+    force: Option<u32>,
 }
 
 #[inline]
@@ -497,6 +522,7 @@ impl Engine<'_> {
         let mut job = Job {
             outlines: root_outline.into_iter().collect(),
             nodes: vec![root],
+            removed: Vec::new(),
             failures: Vec::new(),
             cut: Vec::new(),
             roots_kind,
@@ -508,6 +534,18 @@ impl Engine<'_> {
             prefix: prefix.clone(),
             ..Scratch::default()
         };
+        // Persistent edits (crate::replay): per node, its trie state and
+        // what its ancestors' edits force on it.
+        let mut replay = self.edits.map(|plan| Replay {
+            trie: if plan.has_exact() {
+                vec![plan.root_state(&job.nodes[0])]
+            } else {
+                Vec::new()
+            },
+            forced: vec![Forced::default()],
+            matched: Vec::new(),
+            tags: Vec::new(),
+        });
         while let Some(at) = stack.pop() {
             if stop.load(Ordering::Relaxed) {
                 return Err(Overflow);
@@ -521,6 +559,36 @@ impl Engine<'_> {
                 continue;
             }
             let start = job.nodes.len();
+            scratch.force = None;
+            let mut forced = Forced::default();
+            if let (Some(plan), Some(r)) = (self.edits, replay.as_mut()) {
+                let here = at as usize;
+                let state = r.trie.get(here).copied().unwrap_or(replay::NONE);
+                r.matched.clear();
+                plan.matches(&job.nodes, here, state, &mut r.tags, &mut r.matched);
+                let own = Own::of(&r.matched);
+                forced = r.forced.get(here).copied().unwrap_or_default();
+                if own.remove {
+                    job.removed.push(at);
+                    continue;
+                }
+                forced.material = own.material.or(forced.material);
+                forced.mesh = own.mesh.or(forced.mesh);
+                if let Some(f) = r.forced.get_mut(here) {
+                    *f = forced;
+                }
+                if let Some(k) = own.pin {
+                    job.nodes[here].key = k;
+                }
+                scratch.force = own.force;
+                if let Some(m) = forced.material {
+                    match self.set_attribute(&Op::Material(m), None, job.nodes[here].attrs) {
+                        Ok(a) => job.nodes[here].attrs = a,
+                        Err(e) => job.failures.push((at, e)),
+                    }
+                }
+            }
+            let shape = &job.nodes[at as usize];
             let inherited = job.nodes[at as usize].attrs;
             scratch.attrs = inherited;
             scratch.edge = 0;
@@ -532,7 +600,8 @@ impl Engine<'_> {
                 // with the shape's scope and geometry (what expand writes).
                 Some(children)
                     if shape.geometry.outline_id().is_none()
-                        && shape.depth < self.limits.max_depth =>
+                        && shape.depth < self.limits.max_depth
+                        && scratch.force.is_none() =>
                 {
                     let (key, depth, scope, geometry) =
                         (shape.key, shape.depth, shape.scope, shape.geometry);
@@ -578,6 +647,9 @@ impl Engine<'_> {
             if end > start {
                 n.children_offset = (start - at as usize) as u32;
                 n.children_len = (end - start) as u32;
+            }
+            if let (Some(plan), Some(r)) = (self.edits, replay.as_mut()) {
+                self.replay_block(plan, r, &mut job, at, start, forced);
             }
             for j in (start..end).rev() {
                 if job.nodes[j].is_shape() {
@@ -642,7 +714,10 @@ impl Engine<'_> {
             }
         };
         let alts = &rule.alternatives;
-        let alt = if alts.len() == 1 && alts[0].is_plain() {
+        let alt = if let Some(k) = s.force.filter(|&k| (k as usize) < alts.len()) {
+            // A persistent edit forces the alternative (crate::replay).
+            k
+        } else if alts.len() == 1 && alts[0].is_plain() {
             0
         } else {
             // The race of `grm_compile::rng` among the alternatives whose
@@ -1310,6 +1385,7 @@ impl Engine<'_> {
             out[r].children_offset = if root.1 > 0 { starts[c] - r as u32 } else { 0 };
         }
         Ok(Job {
+            removed: Vec::new(),
             nodes: out,
             outlines,
             failures,
@@ -1321,7 +1397,71 @@ impl Engine<'_> {
     }
 }
 
+/// The derivation loop's replay state (one job: a plan derives on one thread).
+struct Replay {
+    /// Per node, its state in the exact targets' trie (empty without exact
+    /// targets).
+    trie: Vec<u32>,
+    /// Per node, what the edits of it and its ancestors force on its subtree.
+    forced: Vec<Forced>,
+    /// Scratch: the edits of the shape at hand, the tags on its path.
+    matched: Vec<(u32, replay::Action)>,
+    tags: Vec<(TagId, u32, u32)>,
+}
+
 impl Engine<'_> {
+    /// After the shape at `at` made the block `job.nodes[start..]`: each
+    /// new node's trie state and inherited forcing, the forced material
+    /// on the block's nodes (over what the rule set) and the forced mesh
+    /// on its inserts; a shape whose rule made nothing keeps its forced
+    /// material too.
+    #[cold]
+    #[inline(never)]
+    fn replay_block(
+        &self,
+        plan: &EditPlan,
+        r: &mut Replay,
+        job: &mut Job,
+        at: u32,
+        start: usize,
+        forced: Forced,
+    ) {
+        let end = job.nodes.len();
+        if plan.has_exact() {
+            r.trie.resize(end, replay::NONE);
+        }
+        r.forced.resize(end, Forced::default());
+        let material = |attrs: AttrId, m, failures: &mut Vec<(u32, ShapeError)>| match self
+            .set_attribute(&Op::Material(m), None, attrs)
+        {
+            Ok(a) => a,
+            Err(e) => {
+                failures.push((at, e));
+                attrs
+            }
+        };
+        for j in start..end {
+            let p = j - job.nodes[j].parent_offset as usize;
+            if plan.has_exact() {
+                r.trie[j] = plan.step(r.trie[p], &job.nodes[j]);
+            }
+            let f = r.forced[p];
+            r.forced[j] = f;
+            if let Some(m) = f.material {
+                job.nodes[j].attrs = material(job.nodes[j].attrs, m, &mut job.failures);
+            }
+            if let (Some(a), NodeKind::Insert { .. }) = (f.mesh, job.nodes[j].kind) {
+                job.nodes[j].kind = NodeKind::Insert { asset: a };
+            }
+        }
+        if end == start
+            && let Some(m) = forced.material
+        {
+            let here = at as usize;
+            job.nodes[here].attrs = material(job.nodes[here].attrs, m, &mut job.failures);
+        }
+    }
+
     /// The attributes `current` with the attribute `op` sets (`rgb`: a
     /// colour's channels, evaluated), interned in the shared table.
     #[cold]
@@ -1519,17 +1659,22 @@ fn intern_outline(outlines: &mut Vec<Arc<Outline>>, g: &Geom) -> Geometry {
 
 /// A job's nodes and outlines (in node order), or its first failure in
 /// the tree's order.
-fn finish(job: Job) -> Result<(Vec<Node>, Vec<Arc<Outline>>), ShapeError> {
+/// A finished derivation: its nodes, outlines and removed shapes.
+type Finished = (Vec<Node>, Vec<Arc<Outline>>, Vec<u32>);
+
+fn finish(job: Job) -> Result<Finished, ShapeError> {
+    let mut removed = job.removed;
+    removed.sort_unstable();
     match job.failures.into_iter().min_by_key(|(i, _)| *i) {
         Some((_, e)) => Err(e),
-        None if job.ordered => Ok((job.nodes, job.outlines)),
+        None if job.ordered => Ok((job.nodes, job.outlines, removed)),
         None => {
             let mut nodes = job.nodes;
             let mut outlines = Vec::with_capacity(job.outlines.len());
             for n in &mut nodes {
                 renumber(n, &job.outlines, &mut outlines);
             }
-            Ok((nodes, outlines))
+            Ok((nodes, outlines, removed))
         }
     }
 }

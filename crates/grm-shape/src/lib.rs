@@ -46,13 +46,14 @@ pub mod geometry;
 pub mod ir;
 mod locator;
 mod query;
+pub mod replay;
 pub mod roof;
 pub mod scope;
 pub mod split;
 mod tree;
 
 pub use attributes::{AttrId, Attributes};
-pub use engine::{Limits, Lot, Options, derive};
+pub use engine::{Limits, Lot, Options, derive, derive_with_edits};
 pub use error::{ProgramError, ShapeError, SizeError};
 pub use expr::{Binary, Expr, ExprId, Query, Type, Unary};
 pub use geometry::{Geom, Geometry, Outline, OutlineId};
@@ -63,6 +64,7 @@ pub use ir::{
 pub use locator::{
     Anchor, EdgeRef, ExactLocator, Resolution, SemanticEntry, SemanticLocator, SemanticQuery,
 };
+pub use replay::EditPlan;
 pub use roof::{FaceKind, Roof, RoofError, RoofFace, RoofKind};
 pub use scope::Scope;
 pub use split::{RepeatLayout, Span, SplitSize};

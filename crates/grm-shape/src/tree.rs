@@ -118,9 +118,22 @@ pub struct ShapeTree {
     /// The distinct attribute sets, numbered by first use in node order
     /// (entry 0: none).
     pub(crate) attributes: Vec<Attributes>,
+    /// The shapes a persistent edit removed, ascending (`crate::replay`).
+    pub(crate) removed: Vec<u32>,
 }
 
 impl ShapeTree {
+    /// Whether a persistent edit removed the shape: it stays in the tree
+    /// (its locators resolve) but was not expanded and draws nothing.
+    pub fn is_removed(&self, id: NodeId) -> bool {
+        self.removed.binary_search(&id.0).is_ok()
+    }
+
+    /// The shapes persistent edits removed, ascending.
+    pub fn removed(&self) -> &[u32] {
+        &self.removed
+    }
+
     /// All nodes, in expansion order (module documentation).
     pub fn nodes(&self) -> &[Node] {
         &self.nodes

@@ -75,6 +75,13 @@ pub struct DeriveArgs {
     /// (docs/engine.md, "Identity"). Not with --gpu.
     #[arg(long, value_name = "FILE.json", conflicts_with = "gpu")]
     pub tree: Option<PathBuf>,
+    /// Shape systems: replay the persistent edits of this file instead of
+    /// NAME.edits.json beside the grammar (docs/edits.md).
+    #[arg(long, value_name = "FILE.edits.json", conflicts_with = "no_edits")]
+    pub edits: Option<PathBuf>,
+    /// Shape systems: grow without the persistent edits.
+    #[arg(long)]
+    pub no_edits: bool,
     /// With `--gpu`: derive on the CPU when no GPU can be used or the
     /// derivation outgrows the device.
     #[arg(long, requires = "gpu")]

@@ -68,6 +68,8 @@ struct Row<'a> {
     class: Option<EditClass>,
     parts: usize,
     detail: String,
+    /// Whether the derivation replayed it.
+    replayed: bool,
 }
 
 fn go(a: &EditsFileArgs, check: bool) -> Outcome {
@@ -117,15 +119,13 @@ fn go(a: &EditsFileArgs, check: bool) -> Outcome {
             class: None,
             parts: 0,
             detail: String::new(),
+            replayed: false,
         })
         .collect();
     if check {
-        classify(&program, &values, a.seed, &mut rows);
+        classify(&program, &values, a.seed, &parsed.file, &mut rows);
     }
-    let all_valid = problems.is_empty()
-        && rows
-            .iter()
-            .all(|r| r.class.is_none_or(EditClass::is_valid) && (!check || r.class.is_some()));
+    let all_valid = problems.is_empty() && rows.iter().all(|r| r.replayed);
     match a.format {
         OutputFormat::Human => {
             for d in &problems {
@@ -178,6 +178,7 @@ fn go(a: &EditsFileArgs, check: bool) -> Outcome {
                         "class": r.class.map(EditClass::as_str),
                         "parts": r.parts,
                         "detail": r.detail,
+                        "replayed": r.replayed,
                     })
                 })
                 .collect();
@@ -217,6 +218,7 @@ fn classify(
     program: &grm_sema::Program,
     values: &[grm_sema::Value],
     seed: Option<u32>,
+    file: &grm_edits::EditsFile,
     rows: &mut [Row],
 ) {
     let mut systems: Vec<&str> = rows.iter().map(|r| r.edit.system.as_str()).collect();
@@ -243,8 +245,10 @@ fn classify(
             .map_err(grm_grow::shape::ShapeGrowError::from)
             .and_then(|lowered| {
                 let options = ShapeOptions::default();
+                let plan = grm_grow::shape::edit_plan(&lowered, file);
+                let seed = seed.unwrap_or(lowered.seed);
                 let tree =
-                    grm_grow::shape::derive(&lowered, seed.unwrap_or(lowered.seed), &options)?;
+                    grm_grow::shape::derive_with_edits(&lowered, seed, &options, Some(&plan))?;
                 Ok((lowered, tree))
             });
         let (lowered, tree) = match grown {
@@ -266,6 +270,7 @@ fn classify(
         );
         for (r, rep) in rows.iter_mut().filter(mine).zip(reports) {
             r.class = Some(rep.class);
+            r.replayed = rep.replayed;
             r.parts = rep.parts.len();
             r.detail = rep.detail;
         }

@@ -13,7 +13,11 @@ use crate::Outcome;
 use crate::derive::{Checked, DeriveArgs, check_output_at, emit, export_model_at, model_options};
 
 /// Grow a checked shape system as `args` say.
-pub fn run(args: &DeriveArgs, checked: Checked) -> Outcome {
+pub fn run(args: &DeriveArgs, mut checked: Checked) -> Outcome {
+    let edits = match edits_of(args, &mut checked) {
+        Ok(e) => e,
+        Err(o) => return o,
+    };
     let sys = checked.system();
     let refused = [
         (args.iterations.is_some(), "-n/--iterations"),
@@ -69,11 +73,54 @@ pub fn run(args: &DeriveArgs, checked: Checked) -> Outcome {
         Err(e) => return fail(&e.into()),
     };
     let seed = options.seed.unwrap_or(lowered.seed);
-    let tree = match grm_grow::shape::derive(&lowered, seed, &options) {
+    let plan = edits
+        .as_ref()
+        .map(|(f, _)| grm_grow::shape::edit_plan(&lowered, f));
+    let tree = match grm_grow::shape::derive_with_edits(&lowered, seed, &options, plan.as_ref()) {
         Ok(t) => t,
         Err(e) => return fail(&e),
     };
     let elapsed = start.elapsed();
+    // What became of the edits (docs/edits.md, "Classes").
+    let mut edit_problems = false;
+    if let Some((f, problems)) = &edits {
+        let mine: Vec<&grm_edits::Edit> = f.of_system(&sys.name).collect();
+        let reports = grm_grow::shape::edits::classify(
+            &checked.program,
+            &lowered,
+            &tree,
+            mine.iter().copied(),
+        );
+        let replayed = reports.iter().filter(|r| r.replayed).count();
+        eprintln!(
+            "{}: replayed {} of {}{}",
+            sys.name,
+            replayed,
+            crate::count(reports.len() as u64, "edit"),
+            if replayed < reports.len() {
+                " (the others are listed by `grmc edits check`)"
+            } else {
+                ""
+            }
+        );
+        for r in reports.iter().filter(|r| !r.replayed) {
+            eprintln!(
+                "  edit {}: {}{}{}",
+                r.id,
+                r.class.as_str(),
+                if r.detail.is_empty() { "" } else { ": " },
+                r.detail
+            );
+        }
+        edit_problems = *problems;
+    }
+    let done = |o: Outcome| {
+        if o == Outcome::Ok && edit_problems {
+            Outcome::InputErrors
+        } else {
+            o
+        }
+    };
     let shapes = tree.nodes().iter().filter(|n| n.is_shape()).count();
     let leaves = tree.leaves().count();
     eprintln!(
@@ -132,7 +179,7 @@ pub fn run(args: &DeriveArgs, checked: Checked) -> Outcome {
             Err(e) => return fail(&e),
         };
         drop(tree);
-        return export_model_at(
+        return done(export_model_at(
             &checked.sources,
             file,
             span,
@@ -140,7 +187,45 @@ pub fn run(args: &DeriveArgs, checked: Checked) -> Outcome {
             path,
             &args.image,
             None,
-        );
+        ));
     }
-    Outcome::Ok
+    done(Outcome::Ok)
+}
+
+/// The edits file to replay (`--edits`, else NAME.edits.json beside the
+/// grammar; none with `--no-edits` or when the default file is missing),
+/// its problems printed (coded R09xx, in the file) and whether it had any.
+/// `Err`: a named file that cannot be read (exit 2).
+fn edits_of(
+    args: &DeriveArgs,
+    checked: &mut Checked,
+) -> Result<Option<(grm_edits::EditsFile, bool)>, Outcome> {
+    if args.no_edits {
+        return Ok(None);
+    }
+    let sys = checked.system();
+    let (file, span) = (sys.file, sys.loc.span);
+    let (path, named) = match &args.edits {
+        Some(p) => (p.clone(), true),
+        None => {
+            let grammar = Path::new(checked.sources.get(file).path.as_str());
+            (grm_edits::edits_path(grammar), false)
+        }
+    };
+    let text = match grm_edits::read(&path) {
+        Ok(t) => t,
+        Err(e) if e.is_not_found() && !named => return Ok(None),
+        Err(e) => {
+            emit(&checked.sources, &e.to_diagnostic_at(file, span));
+            return Err(Outcome::Usage);
+        }
+    };
+    let id = checked
+        .sources
+        .add(path.to_string_lossy().replace('\\', "/"), text.clone());
+    let parsed = grm_edits::parse(&text);
+    for e in &parsed.errors {
+        emit(&checked.sources, &e.to_diagnostic(id));
+    }
+    Ok(Some((parsed.file, !parsed.errors.is_empty())))
 }

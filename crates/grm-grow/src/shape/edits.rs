@@ -12,6 +12,10 @@
 //! - **key** target: the nodes with that identity key: one (valid), none
 //!   (structurally invalid), several (ambiguous).
 //!
+//! The tree is the one grown with the edits replayed
+//! ([`crate::shape::derive_with_edits`]): a removed part is still in it
+//! (its locators resolve), so its edit stays valid.
+//!
 //! An edit whose target is found is then **stale** when its operation
 //! names what is gone: a material, mesh, parameter or constant the
 //! program does not declare, an alternative past the target's rule's, or a
@@ -33,6 +37,9 @@ pub struct EditReport {
     pub parts: Vec<NodeId>,
     /// Why, in one line (`floor 12 of 10`, `no material \`gold\``).
     pub detail: String,
+    /// Whether the derivation replayed it: a valid edit, but for `set`
+    /// and `offset`, which shape mode does not replay.
+    pub replayed: bool,
 }
 
 /// Classify `edits` (those of one shape system) against `tree`, the
@@ -103,15 +110,23 @@ pub fn classify<'e>(
                     ),
                 },
             };
-            let (class, detail) = match stale(program, lowered, tree, &e.op, &parts) {
+            let (class, mut detail) = match stale(program, lowered, tree, &e.op, &parts) {
                 Some(why) if !parts.is_empty() => (EditClass::Stale, why),
                 _ => (class, detail),
             };
+            let unsupported = matches!(e.op, Op::Set { .. } | Op::Offset { .. });
+            if unsupported && class == EditClass::Valid {
+                detail = format!(
+                    "not replayed: `{}` is not replayed in shape mode yet (meta-parameters are numbers once lowered)",
+                    e.op.kind().as_str()
+                );
+            }
             EditReport {
                 id: e.id,
                 class,
                 parts,
                 detail,
+                replayed: class == EditClass::Valid && !unsupported,
             }
         })
         .collect()

@@ -125,6 +125,14 @@ pub fn lower(
     let axiom = shape
         .axiom
         .ok_or_else(|| LowerError::Internal("the system has no axiom".into()))?;
+    // Every declared material and mesh, after those the rules use (their
+    // ids unchanged): persistent edits may name any of them.
+    for m in &program.materials {
+        b.material(&m.name);
+    }
+    for m in &program.meshes {
+        b.asset(&m.name);
+    }
     let program = b.build(SymbolId(axiom)).map_err(|e| LowerError::Program {
         error: e.to_string(),
     })?;

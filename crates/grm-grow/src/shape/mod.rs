@@ -231,15 +231,35 @@ pub fn derive(
     seed: u32,
     options: &ShapeOptions,
 ) -> Result<ShapeTree, ShapeGrowError> {
+    derive_with_edits(lowered, seed, options, None)
+}
+
+/// [`derive`], replaying `edits` (a plan of the system's persistent
+/// edits, [`edit_plan`]) while deriving (docs/edits.md, "Replay").
+pub fn derive_with_edits(
+    lowered: &Lowered,
+    seed: u32,
+    options: &ShapeOptions,
+    edits: Option<&grm_shape::EditPlan>,
+) -> Result<ShapeTree, ShapeGrowError> {
     let opts = grm_shape::Options {
         seed,
         threads: options.threads,
         limits: options.limits,
     };
-    grm_shape::derive(&lowered.program, &lowered.lot, &opts).map_err(|error| {
+    grm_shape::derive_with_edits(&lowered.program, &lowered.lot, &opts, edits).map_err(|error| {
         let span = error_symbol(&error).and_then(|s| lowered.rule_span(s));
         ShapeGrowError::Shape { error, span }
     })
+}
+
+/// The replay plan of the edits of `file` that name the lowered system.
+pub fn edit_plan(lowered: &Lowered, file: &grm_edits::EditsFile) -> grm_shape::EditPlan {
+    let name = lowered.program.name();
+    grm_shape::EditPlan::new(
+        &lowered.program,
+        file.edits.iter().filter(|e| e.system == name),
+    )
 }
 
 /// Build the model of a grown tree: terminal shapes and inserts, with the
@@ -269,10 +289,12 @@ pub fn grow(
     params: &[Value],
     options: &ShapeOptions,
     build: Option<(&BuildOptions, Option<&Path>)>,
+    edits: Option<&grm_edits::EditsFile>,
 ) -> Result<ShapeGrown, ShapeGrowError> {
     let lowered = lower(program, system, params)?;
     let seed = options.seed.unwrap_or(lowered.seed);
-    let tree = derive(&lowered, seed, options)?;
+    let plan = edits.map(|f| edit_plan(&lowered, f));
+    let tree = derive_with_edits(&lowered, seed, options, plan.as_ref())?;
     let model = match build {
         Some((b, dir)) => Some(model(program, params, &lowered, &tree, dir, b)?),
         None => None,

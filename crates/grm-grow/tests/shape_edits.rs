@@ -1,0 +1,276 @@
+//! Persistent edits replayed while a shape system derives (issue 27;
+//! docs/edits.md, "Replay"): each operation's effect on the tree and the
+//! model, scoping (a deeper target over an ancestor's, a later edit over
+//! an earlier one), zero cost in shape when there are no edits, and the
+//! classification of the edited tree. Targets come from the unedited tree
+//! (ground truth by construction).
+
+mod common;
+
+use common::*;
+use grm_edits::{EditsFile, Op, Target};
+use grm_grow::shape::{ShapeOptions, derive, derive_with_edits, edit_plan, edits, lower};
+use grm_shape::{NodeId, NodeKind, ShapeTree};
+
+struct House {
+    checked: grm_sema::Checked,
+    lowered: grm_grow::shape::Lowered,
+    plain: ShapeTree,
+}
+
+fn house() -> House {
+    let checked = checked("townhouse.grm");
+    let p = &checked.program;
+    let sys = p.default_system().expect("a system");
+    let lowered = lower(p, sys, &p.default_params()).expect("lowers");
+    let plain = derive(&lowered, lowered.seed, &ShapeOptions::default()).expect("derives");
+    House {
+        checked,
+        lowered,
+        plain,
+    }
+}
+
+impl House {
+    fn symbol(&self, id: NodeId) -> &str {
+        match self.plain.node(id).map(|n| n.kind) {
+            Some(NodeKind::Shape { symbol, .. }) => self.lowered.program.symbol_name(symbol),
+            _ => "",
+        }
+    }
+
+    /// The shapes of `symbol` in the unedited tree.
+    fn shapes(&self, symbol: &str) -> Vec<NodeId> {
+        (0..self.plain.len() as u32)
+            .map(NodeId)
+            .filter(|&id| self.symbol(id) == symbol)
+            .collect()
+    }
+
+    fn exact(&self, id: NodeId) -> Target {
+        Target::Exact(self.plain.exact_locator(&self.lowered.program, id))
+    }
+
+    fn grow(&self, file: &EditsFile) -> ShapeTree {
+        let plan = edit_plan(&self.lowered, file);
+        derive_with_edits(
+            &self.lowered,
+            self.lowered.seed,
+            &ShapeOptions::default(),
+            Some(&plan),
+        )
+        .expect("derives with edits")
+    }
+
+    /// The node the unedited tree's `id` is in `tree`, by exact locator.
+    fn find(&self, tree: &ShapeTree, id: NodeId) -> NodeId {
+        let loc = self.plain.exact_locator(&self.lowered.program, id);
+        match tree.resolve(&self.lowered.program, &loc) {
+            grm_shape::Resolution::Found(n) => n,
+            r => panic!("{loc}: {r:?}"),
+        }
+    }
+}
+
+fn file(edits: &[(Target, Op)]) -> EditsFile {
+    let mut f = EditsFile {
+        version: 1,
+        edits: Vec::new(),
+    };
+    for (t, o) in edits {
+        f.add("Townhouse", t.clone(), o.clone()).expect("an id");
+    }
+    f
+}
+
+fn subtree_size(tree: &ShapeTree, id: NodeId) -> usize {
+    1 + tree
+        .children(id)
+        .map(|c| subtree_size(tree, c))
+        .sum::<usize>()
+}
+
+#[test]
+fn no_edits_grow_the_same_tree() {
+    let h = house();
+    let empty = file(&[]);
+    assert_eq!(h.grow(&empty), h.plain);
+    // Edits of another system are not this one's.
+    let mut other = file(&[(h.exact(h.shapes("Window")[0]), Op::Remove)]);
+    other.edits[0].system = "Elsewhere".into();
+    assert_eq!(h.grow(&other), h.plain);
+}
+
+#[test]
+fn remove_drops_the_subtree_and_draws_nothing() {
+    let h = house();
+    let window = h.shapes("Window")[0];
+    let before = subtree_size(&h.plain, window);
+    assert!(before > 1);
+    let tree = h.grow(&file(&[(h.exact(window), Op::Remove)]));
+    let w = h.find(&tree, window);
+    assert!(tree.is_removed(w));
+    assert_eq!(tree.children(w).count(), 0);
+    assert_eq!(tree.len(), h.plain.len() - (before - 1));
+    // The model has fewer triangles, and the classification says valid.
+    let p = &h.checked.program;
+    let b = grm_geom::BuildOptions::default();
+    let values = p.default_params();
+    let plain = grm_grow::shape::model(p, &values, &h.lowered, &h.plain, None, &b).unwrap();
+    let edited = grm_grow::shape::model(p, &values, &h.lowered, &tree, None, &b).unwrap();
+    assert!(edited.stats.triangles < plain.stats.triangles);
+    let f = file(&[(h.exact(window), Op::Remove)]);
+    let r = edits::classify(p, &h.lowered, &tree, &f.edits);
+    assert_eq!(r[0].class, grm_edits::EditClass::Valid);
+    assert!(r[0].replayed);
+}
+
+#[test]
+fn force_picks_the_alternative_and_pin_keeps_the_draws() {
+    let h = house();
+    // Window has two alternatives (a blank wall, weight 1; a framed
+    // window, weight 4): force each on every window in turn.
+    for alt in [1u32, 2] {
+        let windows = h.shapes("Window");
+        let f = file(
+            &windows
+                .iter()
+                .map(|&w| (h.exact(w), Op::Force { alternative: alt }))
+                .collect::<Vec<_>>(),
+        );
+        let tree = h.grow(&f);
+        for &w in &windows {
+            let n = tree.node(h.find(&tree, w)).unwrap();
+            assert!(
+                matches!(n.kind, NodeKind::Shape { alternative: Some(a), .. } if a == alt - 1),
+                "{:?}",
+                n.kind
+            );
+        }
+    }
+    // Pin: the part's key is the pinned one, and its children's keys
+    // follow from it.
+    let window = h.shapes("Window")[1];
+    let tree = h.grow(&file(&[(h.exact(window), Op::Pin { key: 0x1234_5678 })]));
+    let w = h.find(&tree, window);
+    assert_eq!(tree.node(w).unwrap().key, 0x1234_5678);
+    let kids: Vec<u32> = tree
+        .children(w)
+        .map(|c| tree.node(c).unwrap().key)
+        .collect();
+    let plain: Vec<u32> = h
+        .plain
+        .children(window)
+        .map(|c| h.plain.node(c).unwrap().key)
+        .collect();
+    if !kids.is_empty() {
+        assert_ne!(kids, plain);
+    }
+}
+
+#[test]
+fn material_reaches_the_subtree_over_the_rules_and_deeper_edits_win() {
+    let h = house();
+    let p = &h.lowered.program;
+    let floor = h.shapes("Floor")[0];
+    let material = |name: &str| {
+        p.materials()
+            .iter()
+            .position(|m| m == name)
+            .map(|i| grm_shape::MaterialId(i as u32))
+    };
+    let drawn = |tree: &ShapeTree, id: NodeId| -> Vec<Option<grm_shape::MaterialId>> {
+        fn leaves(t: &ShapeTree, id: NodeId, out: &mut Vec<NodeId>) {
+            if t.children(id).count() == 0 {
+                out.push(id);
+            }
+            for c in t.children(id) {
+                leaves(t, c, out);
+            }
+        }
+        let mut out = Vec::new();
+        leaves(tree, id, &mut out);
+        out.iter().map(|&l| tree.attributes(l).material).collect()
+    };
+    // The rules give the floor's parts glass, wood, plaster...: the edit
+    // makes every part of this floor wood, and no other floor's.
+    let tree = h.grow(&file(&[(
+        h.exact(floor),
+        Op::Material {
+            name: "wood".into(),
+        },
+    )]));
+    let f = h.find(&tree, floor);
+    let parts = drawn(&tree, f);
+    assert!(parts.len() > 3);
+    assert!(parts.iter().all(|&m| m == material("wood")), "{parts:?}");
+    let other = h.shapes("Floor")[1];
+    assert_eq!(drawn(&tree, h.find(&tree, other)), drawn(&h.plain, other));
+    // A window of that floor edited to glass: deeper wins, whatever the
+    // order of the edits' ids.
+    let window = h
+        .shapes("Window")
+        .into_iter()
+        .find(|&w| h.plain.path(w).contains(&floor))
+        .expect("a window on the floor");
+    for order in [false, true] {
+        let mut edits = vec![
+            (
+                h.exact(floor),
+                Op::Material {
+                    name: "wood".into(),
+                },
+            ),
+            (
+                h.exact(window),
+                Op::Material {
+                    name: "glass".into(),
+                },
+            ),
+        ];
+        if order {
+            edits.reverse();
+        }
+        let tree = h.grow(&file(&edits));
+        let w = h.find(&tree, window);
+        assert!(drawn(&tree, w).iter().all(|&m| m == material("glass")));
+        let f = h.find(&tree, floor);
+        assert!(drawn(&tree, f).contains(&material("wood")));
+    }
+    // On one part, the later edit wins.
+    let tree = h.grow(&file(&[
+        (
+            h.exact(window),
+            Op::Material {
+                name: "glass".into(),
+            },
+        ),
+        (
+            h.exact(window),
+            Op::Material {
+                name: "brick".into(),
+            },
+        ),
+    ]));
+    let w = h.find(&tree, window);
+    assert!(drawn(&tree, w).iter().all(|&m| m == material("brick")));
+}
+
+#[test]
+fn semantic_and_key_targets_replay_too() {
+    let h = house();
+    // Every window of the top upper floor, removed by a semantic query.
+    let q: grm_edits::SemanticQuery = "(floor = end 1) Window".parse().expect("a query");
+    let selected = h.plain.select(&h.lowered.program, &q);
+    assert!(selected.len() > 2);
+    let tree = h.grow(&file(&[(Target::Semantic(q), Op::Remove)]));
+    for &w in &selected {
+        assert!(tree.is_removed(h.find(&tree, w)));
+    }
+    assert_eq!(tree.removed().len(), selected.len());
+    // One window by its key.
+    let window = h.shapes("Window")[2];
+    let key = h.plain.node(window).unwrap().key;
+    let tree = h.grow(&file(&[(Target::Key(key), Op::Remove)]));
+    assert_eq!(tree.removed(), [h.find(&tree, window).0]);
+}
