@@ -296,6 +296,11 @@ pub struct CostModel {
     cover_radius: f64,
     total_segments: usize,
     density: Option<DensityParams>,
+    /// Curves that start in another curve's covering tube (an arm drawn
+    /// from a trunk): (the branch, the curve it starts on, the arc length
+    /// there), for the reach look-ahead's branches
+    /// ([`Self::uncovered_within_reach`]).
+    attached: Vec<(usize, usize, f64)>,
 }
 
 /// Eq. 4-6: `(d_bone . d_guide + offset) * scale` with
@@ -357,12 +362,34 @@ impl CostModel {
                 d
             })
             .collect();
-        Self {
+        let mut m = Self {
             curves: data,
             cover_radius: crate::coverage::CoverageOptions::default().radius,
             total_segments: seg_offset,
             density: options.density,
+            attached: Vec::new(),
+        };
+        m.attach();
+        m
+    }
+
+    /// Finds the curves that start in another curve's covering tube
+    /// (`attached`).
+    fn attach(&mut self) {
+        let mut attached = Vec::new();
+        for (j, b) in self.curves.iter().enumerate() {
+            let start = b.bez.eval(0.0);
+            for (c, on) in self.curves.iter().enumerate() {
+                if c == j || on.params.utilization_scale <= 0.0 {
+                    continue;
+                }
+                let cp = on.bez.closest_point_sampled(&on.samples, start);
+                if cp.dist <= on.params.thickness + self.cover_radius {
+                    attached.push((j, c, on.arc_at(cp.t)));
+                }
+            }
         }
+        self.attached = attached;
     }
 
     /// A fresh state: no bones.
@@ -420,6 +447,7 @@ impl CostModel {
     /// [`Self::covered_segments`] (default 0.15, `CoverageOptions`'s).
     pub fn set_cover_radius(&mut self, radius: f64) {
         self.cover_radius = radius;
+        self.attach();
     }
 
     /// How many of `curve`'s utilization segments `state` covers: spanned
@@ -555,28 +583,62 @@ impl CostModel {
     /// further along the curve (in its direction), each counted as the
     /// curve's uncovered share `1 - k_c / n_c` (the coverage term's gain
     /// for one more segment is `2 W` times that); summed over the tubes (a
-    /// tip at a fork can grow along each). 0 without tubes or for
-    /// `reach <= 0`.
-    pub fn uncovered_within_reach(&self, state: &CostState, tubes: &Tubes, reach: f64) -> f64 {
+    /// tip at a fork can grow along each). With `branches`, what is left
+    /// of `reach` where a curve that starts on this one (an arm drawn from
+    /// a trunk) leaves it is followed along that curve too (one level; a
+    /// curve whose tube holds the place is counted once). 0 without tubes
+    /// or for `reach <= 0`.
+    pub fn uncovered_within_reach(
+        &self,
+        state: &CostState,
+        tubes: &Tubes,
+        reach: f64,
+        branches: bool,
+    ) -> f64 {
         if reach.is_nan() || reach <= 0.0 {
             return 0.0;
         }
         let mut sum = 0.0;
         for &(i, a) in tubes.iter() {
-            let Some(c) = self.curves.get(i as usize) else {
+            sum += self.uncovered_along(state, i as usize, a, reach);
+            if !branches {
                 continue;
-            };
-            let Some(flags) = state.covered.get(c.seg_offset..c.seg_offset + c.n_seg) else {
-                continue;
-            };
-            let (s0, s1) = (c.segment_at_arc(a), c.segment_at_arc(a + reach));
-            let ahead = flags[s0 + 1..=s1.max(s0)].iter().filter(|&&x| !x).count();
-            if ahead > 0 {
-                let k = flags.iter().filter(|&&x| x).count();
-                sum += ahead as f64 * (1.0 - k as f64 / c.n_seg as f64);
+            }
+            for &(j, on, at) in &self.attached {
+                if on == i as usize
+                    && at > a
+                    && at - a < reach
+                    && !tubes.iter().any(|&(k, _)| k as usize == j)
+                {
+                    // From before the branch's first segment: it counts.
+                    sum += self.uncovered_along(state, j, -1.0, reach - (at - a));
+                }
             }
         }
         sum
+    }
+
+    /// The uncovered segments of curve `i` after the one holding arc
+    /// length `a` (before the start for `a < 0`) up to the one holding
+    /// `a + reach`, each counted as the curve's uncovered share.
+    fn uncovered_along(&self, state: &CostState, i: usize, a: f64, reach: f64) -> f64 {
+        let Some(c) = self.curves.get(i) else {
+            return 0.0;
+        };
+        let Some(flags) = state.covered.get(c.seg_offset..c.seg_offset + c.n_seg) else {
+            return 0.0;
+        };
+        let from = if a < 0.0 { 0 } else { c.segment_at_arc(a) + 1 };
+        let to = c.segment_at_arc(a.max(0.0) + reach);
+        if from > to {
+            return 0.0;
+        }
+        let ahead = flags[from..=to].iter().filter(|&&x| !x).count();
+        if ahead == 0 {
+            return 0.0;
+        }
+        let k = flags.iter().filter(|&&x| x).count();
+        ahead as f64 * (1.0 - k as f64 / c.n_seg as f64)
     }
 
     /// What the next bone would gain in utilization (eq. 7, so `<= 0`) by

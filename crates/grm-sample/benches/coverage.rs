@@ -8,7 +8,9 @@
 //! its bones' coverage of each curve is measured (`grm_guide::coverage`:
 //! the share of the curve's arc length with a bone within 0.15 units, plus
 //! the curve's thickness). Printed per scene: the median wall time per
-//! model, the median cost, the share of models that cover **every** curve
+//! model, the median CPU time per model (the thread's time on the CPU,
+//! from `/proc/thread-self/schedstat`: what a busy machine does not
+//! inflate), the median cost, the share of models that cover **every** curve
 //! at 80% or more (the curve-coverage issue's target is 90% of them, at a
 //! median of at most 25 ms), and each curve's median coverage; a curve no
 //! model came near is named as unreached.
@@ -51,6 +53,16 @@ const FORK: &str = r#"{ "version": 1, "defaults": { "utilization_scale": 100 }, 
 const OUT_OF_PLANE: &str = r#"{ "version": 1, "defaults": { "utilization_scale": 100 }, "curves": [
   { "name": "trunk", "points": [[0, 0, 0], [0, 1.2, 0], [0, 2.4, 0], [0, 3.2, 0]] },
   { "name": "helix_arm", "points": [[0, 3.2, 0], [1, 3.6, 1], [0, 4.2, 2], [-1, 4.6, 1.5]] } ] }"#;
+
+/// CPU time this thread has run, in ms (`/proc/thread-self/schedstat`,
+/// nanoseconds on the CPU): unlike the wall clock, not inflated by other
+/// processes on a busy machine. NaN where it cannot be read.
+fn cpu_ms() -> f64 {
+    std::fs::read_to_string("/proc/thread-self/schedstat")
+        .ok()
+        .and_then(|s| s.split_whitespace().next()?.parse::<f64>().ok())
+        .map_or(f64::NAN, |ns| ns / 1e6)
+}
 
 fn pct(xs: &[f64], p: f64) -> f64 {
     let mut v = xs.to_vec();
@@ -106,6 +118,10 @@ fn custom(mut o: SampleOptions, with: &[(String, String)]) -> SampleOptions {
             "reach_c" => o.reach.candidates = f(),
             "reach_o" => o.reach.order = f(),
             "reach_s" => o.reach.scale = f(),
+            "frontier" => o.reach.frontier = f() as u32,
+            "span" => o.reach.span = f(),
+            "branches" => o.reach.branches = f() != 0.0,
+            "recent" => o.reach.recent = f() as u32,
             _ => panic!("unknown --with key {k}"),
         }
     }
@@ -190,8 +206,8 @@ fn main() {
         println!("custom: the defaults with {with:?}");
     }
     println!(
-        "{:<20} {:<8} {:>9} {:>11} {:>12} | median coverage per curve",
-        "scene", "config", "median ms", "median cost", "all >= 80%"
+        "{:<20} {:<8} {:>9} {:>7} {:>11} {:>12} | median coverage per curve",
+        "scene", "config", "median ms", "cpu ms", "median cost", "all >= 80%"
     );
     for (name, file, curves, old_particles) in &scenes {
         if !only.is_empty() && !only.iter().any(|o| o == name) {
@@ -215,7 +231,7 @@ fn main() {
         .expect("sampler");
         let n = curves.curves().len();
         for row in &rows {
-            let (mut times, mut costs) = (Vec::new(), Vec::new());
+            let (mut times, mut costs, mut cpus) = (Vec::new(), Vec::new(), Vec::new());
             let mut per_curve: Vec<Vec<f64>> = vec![Vec::new(); n];
             let mut all80 = 0u32;
             for seed in 0..seeds {
@@ -233,9 +249,10 @@ fn main() {
                     "custom" => custom(base, &with),
                     _ => base,
                 };
-                let t = Instant::now();
+                let (t, c) = (Instant::now(), cpu_ms());
                 let r = sampler.sample(&opts).expect("samples");
                 times.push(t.elapsed().as_secs_f64() * 1e3);
+                cpus.push(cpu_ms() - c);
                 let m = r.best().expect("a model");
                 costs.push(m.cost.total());
                 let bones: Vec<(glam::Vec3, glam::Vec3)> = m
@@ -266,10 +283,11 @@ fn main() {
                 })
                 .collect();
             println!(
-                "{:<20} {:<8} {:>9.1} {:>11.1} {:>11.0}% | {}",
+                "{:<20} {:<8} {:>9.1} {:>7.1} {:>11.1} {:>11.0}% | {}",
                 name,
                 row,
                 pct(&times, 50.0),
+                pct(&cpus, 50.0),
                 pct(&costs, 50.0),
                 100.0 * f64::from(all80) / f64::from(seeds.max(1)),
                 curve_text.join(", ")

@@ -81,6 +81,10 @@ pub(crate) struct Worker {
     pub cand_non_finite: Vec<bool>,
     /// Per candidate: its log selection weight.
     pub cand_logv: Vec<f64>,
+    /// Whether an expansion's new open symbols all go to the end of the
+    /// open list (the expanded one's slot is removed), so that the newest
+    /// are last (`Reach::recent`); otherwise the first takes the slot.
+    pub append_spawns: bool,
 }
 
 /// The terminal of symbol `sym`, if it is one.
@@ -156,6 +160,7 @@ impl<'a> Grammar<'a> {
             cand_bones: Vec::new(),
             cand_non_finite: Vec::new(),
             cand_logv: Vec::new(),
+            append_spawns: false,
         }
     }
 

@@ -153,6 +153,23 @@ pub struct Reach {
     pub order: f64,
     /// Multiplier of the symbols' reach factors.
     pub scale: f64,
+    /// Candidates for an expansion of a symbol on a curve's frontier (0:
+    /// the same as elsewhere, [`SampleOptions::candidates`]): in a covering
+    /// tube, with segments not yet covered within [`Reach::span`] times its
+    /// frame's scale ahead of it.
+    pub frontier: u32,
+    /// How far ahead a frontier symbol has uncovered segments, in units
+    /// of its frame's scale (about the length of the bone it grows next);
+    /// 0: within its reach (the reach factor times the frame's scale).
+    pub span: f64,
+    /// Whether the candidates' look-ahead follows the curves that start
+    /// on a curve (an arm drawn from a trunk: a longer trunk bone reaches
+    /// further along the arms).
+    pub branches: bool,
+    /// The newest open symbols (this many, last opened first) enter every
+    /// expansion's tournament besides its [`Guide::order`] random draws,
+    /// so a chain that follows a curve can be grown on at once.
+    pub recent: u32,
 }
 
 impl Reach {
@@ -162,6 +179,10 @@ impl Reach {
             candidates: 0.0,
             order: 0.0,
             scale: 1.0,
+            frontier: 0,
+            span: 0.0,
+            branches: false,
+            recent: 0,
         }
     }
 }
@@ -397,6 +418,12 @@ fn tagged(seed: u32, tag: u32, a: u32, b: u32) -> DrawCtx {
 /// The uniform of generation `g`'s systematic resampling.
 fn resample_uniform(seed: u32, g: u32) -> f64 {
     f64::from(rng::uniform(seed, g, u32::MAX, STREAM_RESAMPLE))
+}
+
+/// The scale of a turtle's frame, `|det|^(1/3)` (the length a unit bone
+/// drawn there gets under a uniform scale).
+fn frame_scale(t: &Turtle) -> f64 {
+    f64::from(t.frame.matrix3.determinant().abs().cbrt())
 }
 
 /// Pick an index in `0 .. n` with draw `draw` of `ctx`.
@@ -995,7 +1022,7 @@ impl<'a> Sampler<'a> {
         p.live = (p.live + opened).saturating_sub(closed);
         let mut first_new = 0;
         if let Some(i) = slot {
-            let open = if n > 0 {
+            let open = if n > 0 && !w.append_spawns {
                 first_new = 1;
                 p.open.set(i, OpenRef { node: id, spawn: 0 })
             } else {
@@ -1217,6 +1244,7 @@ impl<'a> Sampler<'a> {
         local.clear();
         let cur = (g + 1, i);
         let compute_h = h_scale > 0.0;
+        w.append_spawns = reach.recent > 0;
         let mut k = 0;
         let mut correction = 0.0;
         // A particle whose open symbols can none lead to a bone (W0015)
@@ -1242,8 +1270,15 @@ impl<'a> Sampler<'a> {
                 // draws (the first draw is the paper's).
                 let mut best =
                     spawn_at(idx).map_or(f64::INFINITY, |sp| self.promise(&q, &sp, guide, reach));
-                for j in 1..guide.order {
-                    let other = pick(&draws, self.g.sys.draws + j, n_open);
+                // With `Reach::recent`, the newest open symbols (last in
+                // the list) enter too.
+                let recent = (reach.recent as usize).min(n_open);
+                for j in 1..guide.order + recent as u32 {
+                    let other = if j < guide.order {
+                        pick(&draws, self.g.sys.draws + j, n_open)
+                    } else {
+                        n_open - 1 - (j - guide.order) as usize
+                    };
                     if other == idx {
                         continue;
                     }
@@ -1255,7 +1290,17 @@ impl<'a> Sampler<'a> {
                     }
                 }
             }
-            let symbol = spawn_at(idx).map(|sp| sp.symbol);
+            let chosen = spawn_at(idx);
+            let symbol = chosen.map(|sp| sp.symbol);
+            // A symbol on the frontier of a curve (in a covering tube, with
+            // uncovered segments within its reach) may draw its own number
+            // of candidates.
+            let kc = match chosen {
+                Some(sp) if kc > 1 && reach.frontier > 0 && self.on_frontier(&q, &sp, reach) => {
+                    reach.frontier
+                }
+                _ => kc,
+            };
             let candidates = kc > 1 && symbol.is_some_and(|s| self.g.can_bone[s as usize]);
             let added = if candidates {
                 let (c, corr) = self.draw_candidates(
@@ -1296,6 +1341,8 @@ impl<'a> Sampler<'a> {
                 break;
             }
         }
+        // Only the search's steps append (wrap-up and replays do not).
+        w.append_spawns = false;
         q.score = self.score(&q, h_scale, guide.cover);
         Ok((q, local, k, correction))
     }
@@ -1332,7 +1379,7 @@ impl<'a> Sampler<'a> {
                 .tubes_near(n.position.as_dvec3(), (n.curve, &n.closest));
             if !tubes.is_empty() {
                 let r = self.reach_of(sp.symbol, &sp.turtle, reach);
-                let ahead = self.cost.uncovered_within_reach(&q.cost, &tubes, r);
+                let ahead = self.cost.uncovered_within_reach(&q.cost, &tubes, r, false);
                 v -= 2.0 * guide.cover * reach.order * ahead;
             }
         } else if guide.cover > 0.0 && !self.cost.covered_ahead(&q.cost, n.curve, n.closest.t) {
@@ -1342,13 +1389,29 @@ impl<'a> Sampler<'a> {
         if v.is_nan() { f64::INFINITY } else { v }
     }
 
+    /// Whether open symbol `sp` of `q` is on a curve's frontier: in a
+    /// covering tube, with segments not yet covered within its reach.
+    fn on_frontier(&self, q: &Particle, sp: &Spawn, reach: &Reach) -> bool {
+        let Some(n) = sp.near else {
+            return false;
+        };
+        let tubes = self
+            .cost
+            .tubes_near(n.position.as_dvec3(), (n.curve, &n.closest));
+        let r = if reach.span > 0.0 {
+            frame_scale(&sp.turtle) * reach.span
+        } else {
+            self.reach_of(sp.symbol, &sp.turtle, reach)
+        };
+        !tubes.is_empty() && self.cost.uncovered_within_reach(&q.cost, &tubes, r, false) > 0.0
+    }
+
     /// How far a subtree of `symbol` grown from turtle state `t` could
     /// reach along a curve: its reach factor times the frame's scale
     /// (`|det|^(1/3)`) times [`Reach::scale`].
     fn reach_of(&self, symbol: u32, t: &Turtle, reach: &Reach) -> f64 {
         let f = self.reach.get(symbol as usize).copied().unwrap_or(0.0);
-        let s = t.frame.matrix3.determinant().abs().cbrt();
-        let r = f64::from(f * s) * reach.scale;
+        let r = f64::from(f) * frame_scale(t) * reach.scale;
         if r.is_finite() { r } else { 0.0 }
     }
 
@@ -1376,7 +1439,9 @@ impl<'a> Sampler<'a> {
                     .and_then(BonePlan::tip_closest);
                 if r > 0.0 {
                     let tubes = self.cost.tubes_at(p, known);
-                    *sum += self.cost.uncovered_within_reach(state, &tubes, r);
+                    *sum += self
+                        .cost
+                        .uncovered_within_reach(state, &tubes, r, reach.branches);
                 }
             }
         };
@@ -1535,6 +1600,7 @@ impl<'a> Sampler<'a> {
         opts: &SampleOptions,
     ) -> Result<(Particle, Step), SampleError> {
         let (limits, cancel) = (&opts.limits, opts.cancel.as_ref());
+        w.append_spawns = false;
         let mut q = p.clone();
         let mut local = Step::default();
         let mut k = 0u32;
