@@ -607,6 +607,7 @@ fn sample(
         best: 1,
         max_expansions_per_step: 1000,
         limits: grm_sample::FinishLimits::default(),
+        reach: grm_sample::Reach::default(),
         max_bytes: o
             .number::<u64>("--max-memory")
             .map_err(Stop::Usage)?
