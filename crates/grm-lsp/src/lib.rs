@@ -37,6 +37,7 @@
 
 pub mod convert;
 pub mod coverage;
+pub mod edits;
 pub mod picture;
 pub mod preview;
 pub mod shape_preview;
@@ -82,9 +83,14 @@ impl Default for Config {
     }
 }
 
-/// A live `grm/preview` in progress: its ticket's id, its cancel token, and
-/// the document's version when it began.
-pub(crate) type RunningPreview = (u64, grm_sample::CancelToken, Option<i32>);
+/// A live `grm/preview` in progress: its ticket's id, its cancel token,
+/// the document's version when it began, and the edits files' generation
+/// then ([`Shared::edits_generation`]).
+pub(crate) type RunningPreview = (u64, grm_sample::CancelToken, Option<i32>, u64);
+
+/// What a preview was built from: the identity of the document's analysis
+/// and the edits files' generation ([`Shared::edits_generation`]).
+pub(crate) type PreviewKey = (usize, u64);
 
 /// State shared by the handlers and the background tasks.
 pub(crate) struct Shared {
@@ -95,8 +101,8 @@ pub(crate) struct Shared {
     /// Documents with a live preview: the options of the last request.
     pub(crate) previews: Mutex<HashMap<PathBuf, preview::PreviewParams>>,
     /// The last preview version sent per file (stale ones are dropped).
-    /// (version, identity of the analysis it was built from) per file.
-    pub(crate) preview_sent: tokio::sync::Mutex<HashMap<PathBuf, (i32, usize)>>,
+    /// (version, what it was built from) per file.
+    pub(crate) preview_sent: tokio::sync::Mutex<HashMap<PathBuf, (i32, PreviewKey)>>,
     /// Provenance of the last preview per file, for `grm/pick`.
     pub(crate) picks: Mutex<HashMap<PathBuf, preview::PickTable>>,
     /// The live `grm/preview` in progress per file (its ticket's id, cancel
@@ -116,6 +122,14 @@ pub(crate) struct Shared {
     last_edit: Mutex<HashMap<PathBuf, Instant>>,
     /// Per file: held while its analysis is computed.
     computing: Mutex<HashMap<PathBuf, Arc<Mutex<()>>>>,
+    /// The edits files: open buffers, what the previews made of them.
+    pub(crate) edits: Mutex<edits::EditsState>,
+    /// Bumped on every change of an edits file (buffer or disk).
+    pub(crate) edits_gen: AtomicU64,
+    /// The diagnostics last published per edits file (and its version).
+    pub(crate) edits_published: tokio::sync::Mutex<edits::Published>,
+    /// What the client can do with a workspace edit (from `initialize`).
+    pub(crate) edit_caps: Mutex<edits::EditCaps>,
 }
 
 /// The `.grm` files under `roots` (hidden directories, `target` and
@@ -168,6 +182,10 @@ impl Shared {
             uris: Mutex::new(uris::Uris::default()),
             last_edit: Mutex::new(HashMap::new()),
             computing: Mutex::new(HashMap::new()),
+            edits: Mutex::new(edits::EditsState::default()),
+            edits_gen: AtomicU64::new(0),
+            edits_published: tokio::sync::Mutex::new(HashMap::new()),
+            edit_caps: Mutex::new(edits::EditCaps::default()),
         }
     }
 
@@ -234,6 +252,23 @@ impl Shared {
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner)
     }
+
+    /// How long to wait before analysing an edit of `path` just made:
+    /// nothing after a pause (leading-edge debounce), the debounce after
+    /// an edit closer than it to the one before (all but the last of a
+    /// burst are then skipped by the version check).
+    pub(crate) fn edit_delay(&self, path: &Path) -> Duration {
+        let now = Instant::now();
+        let previous = self
+            .last_edit
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .insert(path.to_path_buf(), now);
+        match previous {
+            Some(t) if now.duration_since(t) < self.debounce => self.debounce,
+            _ => Duration::ZERO,
+        }
+    }
 }
 
 /// The language server.
@@ -263,6 +298,8 @@ fn build(
         .custom_method("grm/preview", Backend::preview)
         .custom_method("grm/pick", Backend::pick)
         .custom_method("grm/picture", Backend::picture)
+        .custom_method("grm/edit", Backend::edit)
+        .custom_method("grm/removeEdit", Backend::remove_edit)
         .finish()
 }
 
@@ -333,6 +370,9 @@ impl Backend {
         let Some(path) = convert::path_of(uri) else {
             return Ok(None);
         };
+        if edits::is_edits_path(&path) {
+            return Ok(None); // JSON, not grm
+        }
         let shared = self.shared.clone();
         tokio::task::spawn_blocking(move || {
             let fa = shared.analyze(&path)?;
@@ -466,6 +506,12 @@ impl LanguageServer for Backend {
         let roots = self.shared.uris_mut().set_roots(&folders);
         *self
             .shared
+            .edit_caps
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner) =
+            edits::EditCaps::of(&params.capabilities);
+        *self
+            .shared
             .roots
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner) = roots;
@@ -561,6 +607,11 @@ impl LanguageServer for Backend {
             return;
         };
         let version = params.text_document.version;
+        if edits::is_edits_path(&path) {
+            let d = params.text_document;
+            self.edits_opened(path, d.uri, version, d.text).await;
+            return;
+        }
         // Its spelling first: what is published for it is named so.
         self.shared
             .uris_mut()
@@ -568,7 +619,10 @@ impl LanguageServer for Backend {
         self.shared
             .analysis()
             .set_document(&path, version, params.text_document.text);
-        self.changed(path, version, Duration::ZERO).await;
+        self.changed(path.clone(), version, Duration::ZERO).await;
+        // The problems of its edits file (beside an open grammar).
+        let beside = grm_edits::edits_path(&path);
+        edits::publish(&self.shared, &self.client, &beside).await;
     }
 
     async fn did_change(&self, params: DidChangeTextDocumentParams) {
@@ -576,6 +630,10 @@ impl LanguageServer for Backend {
             return;
         };
         let version = params.text_document.version;
+        if edits::is_edits_path(&path) {
+            self.edits_edited(params, path).await;
+            return;
+        }
         let open = {
             // Applied before any await: edits are taken in arrival order.
             let mut a = self.shared.analysis();
@@ -606,17 +664,7 @@ impl LanguageServer for Backend {
         // Leading-edge debounce: an edit after a pause is analysed at once;
         // edits that follow each other closer than the debounce wait it out
         // (and all but the last are then skipped by the version check).
-        let now = Instant::now();
-        let previous = self
-            .shared
-            .last_edit
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner)
-            .insert(path.clone(), now);
-        let delay = match previous {
-            Some(t) if now.duration_since(t) < self.shared.debounce => self.shared.debounce,
-            _ => Duration::ZERO,
-        };
+        let delay = self.shared.edit_delay(&path);
         self.changed(path, version, delay).await;
     }
 
@@ -624,6 +672,10 @@ impl LanguageServer for Backend {
         let Some(path) = convert::path_of(&params.text_document.uri) else {
             return;
         };
+        if edits::is_edits_path(&path) {
+            self.edits_closed(path).await;
+            return;
+        }
         // Its importers now read the file on disk (the buffer may have had
         // unsaved edits): check them again.
         self.shared.uris_mut().close(&path);
@@ -649,11 +701,22 @@ impl LanguageServer for Backend {
         self.client
             .publish_diagnostics(params.text_document.uri, Vec::new(), None)
             .await;
+        // Its edits file's problems go with it, unless that file is open.
+        let beside = grm_edits::edits_path(&path);
+        edits::publish(&self.shared, &self.client, &beside).await;
     }
 
     async fn did_change_watched_files(&self, params: DidChangeWatchedFilesParams) {
         for c in params.changes {
             if let Some(p) = convert::path_of(&c.uri) {
+                if edits::is_edits_path(&p) {
+                    // Its buffer, when open, is what counts.
+                    if self.shared.edits_state_is_open(&p) {
+                        continue;
+                    }
+                    edits::changed(&self.shared, &self.client, p, Duration::ZERO);
+                    continue;
+                }
                 {
                     let mut a = self.shared.analysis();
                     if p.extension().is_some_and(|e| e == "grm") {
@@ -715,6 +778,9 @@ impl LanguageServer for Backend {
         let Some(path) = convert::path_of(&p.text_document.uri) else {
             return Ok(None);
         };
+        if edits::is_edits_path(&path) {
+            return Ok(None);
+        }
         let at = p.position;
         let include = params.context.include_declaration;
         self.warm_workspace().await?;
@@ -760,6 +826,9 @@ impl LanguageServer for Backend {
         let Some(path) = convert::path_of(&p.text_document.uri) else {
             return Ok(None);
         };
+        if edits::is_edits_path(&path) {
+            return Ok(None);
+        }
         let at = p.position;
         let new_name = params.new_name;
         self.warm_workspace().await?;
@@ -883,6 +952,11 @@ impl LanguageServer for Backend {
     }
 
     async fn code_action(&self, params: CodeActionParams) -> Result<Option<CodeActionResponse>> {
+        if let Some(path) = convert::path_of(&params.text_document.uri)
+            && edits::is_edits_path(&path)
+        {
+            return self.edits_code_actions(params, path).await;
+        }
         let uri = params.text_document.uri.clone();
         let r = params.range;
         let uris = self.shared.uris();

@@ -193,7 +193,9 @@ impl Backend {
             {
                 return Err(Failure::Stale(fa.version));
             }
-            let (r, _, model) = build_with_model(&fa, &uri, &s.uris(), &preview, Some(&token))?;
+            let edits = s.edits_source();
+            let (r, _, model) =
+                build_with_model(&fa, &uri, &s.uris(), &edits, &preview, Some(&token))?;
             if token.is_cancelled() {
                 return Err(Failure::Cancelled);
             }

@@ -376,6 +376,10 @@ pub struct PreviewResult {
     /// Shape mode: the derivation tree's figures.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub shape: Option<crate::shape_preview::ShapeOut>,
+    /// Shape mode: the edits file beside the system's grammar, replayed,
+    /// and what became of each of its edits.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub edits: Option<crate::edits::EditsOut>,
 }
 
 /// A model warning (`grm_geom::Model::warnings`).
@@ -839,22 +843,24 @@ pub(crate) fn build(
     fa: &FileAnalysis,
     uri: &Uri,
     uris: &crate::uris::Uris,
+    edits: &crate::edits::Source,
     p: &PreviewParams,
     cancel: Option<&CancelToken>,
 ) -> std::result::Result<(PreviewResult, PickTable), Failure> {
-    build_with_model(fa, uri, uris, p, cancel).map(|(r, t, _)| (r, t))
+    build_with_model(fa, uri, uris, edits, p, cancel).map(|(r, t, _)| (r, t))
 }
 
 /// The `grm/preview` answer for an analysed file, exactly as the request
 /// and `grm/previewUpdated` build it (without the pick table the server
 /// keeps): for benchmarks (`benches/shape_regrow.rs`) and tools. An error
-/// is the message the client would get.
+/// is the message the client would get. Edits files are read from disk.
 pub fn answer(
     fa: &FileAnalysis,
     uri: &Uri,
     params: &PreviewParams,
 ) -> std::result::Result<PreviewResult, String> {
-    build(fa, uri, &crate::uris::Uris::default(), params, None)
+    let edits = crate::edits::Source::default();
+    build(fa, uri, &crate::uris::Uris::default(), &edits, params, None)
         .map(|(r, _)| r)
         .map_err(|f| f.to_string())
 }
@@ -864,6 +870,7 @@ pub(crate) fn build_with_model(
     fa: &FileAnalysis,
     uri: &Uri,
     uris: &crate::uris::Uris,
+    edits: &crate::edits::Source,
     p: &PreviewParams,
     cancel: Option<&CancelToken>,
 ) -> std::result::Result<(PreviewResult, PickTable, grm_geom::Model), Failure> {
@@ -948,7 +955,7 @@ pub(crate) fn build_with_model(
         values[id.index()] = Value::Float(*v);
     }
     if mode == PreviewMode::Shape {
-        return crate::shape_preview::build(fa, uri, uris, p, sys, values, cancel);
+        return crate::shape_preview::build(fa, uri, uris, edits, p, sys, values, cancel);
     }
     let globals = prog.global_values(&values).map_err(|e| e.to_string())?;
     let mut settings = sys.settings_with(&values, &globals)?;
@@ -1091,6 +1098,7 @@ pub(crate) fn build_with_model(
         stats: stats_out(&model, modules, derive_ms, build_ms, t2),
         warnings,
         shape: None,
+        edits: None,
     };
     Ok((result, table, model))
 }
@@ -1287,13 +1295,17 @@ async fn compute(
             // This answer is the live preview of this analysis: a refresh
             // scheduled by the same edit (or the opening) need not build
             // and send it again.
-            let key = (fa.version, Arc::as_ptr(&fa) as usize);
+            let key = (
+                fa.version,
+                (Arc::as_ptr(&fa) as usize, s.edits_generation()),
+            );
             let mut sent = s.preview_sent.blocking_lock();
             if sent.get(&path).is_none_or(|&(v, _)| v <= fa.version) {
                 sent.insert(path.clone(), key);
             }
         }
-        build(&fa, &uri, &s.uris(), &params, Some(&cancel))
+        let edits = s.edits_source();
+        build(&fa, &uri, &s.uris(), &edits, &params, Some(&cancel))
     })
     .await
     .map_err(|e| Error {
@@ -1361,10 +1373,11 @@ impl Ticket {
         let id = shared.preview_seq.fetch_add(1, Ordering::Relaxed);
         if live {
             let version = shared.version(path);
+            let generation = shared.edits_generation();
             let old = shared
                 .running()
-                .insert(path.to_path_buf(), (id, token.clone(), version));
-            if let Some((_, old, _)) = old {
+                .insert(path.to_path_buf(), (id, token.clone(), version, generation));
+            if let Some((_, old, _, _)) = old {
                 old.cancel();
             }
         }
@@ -1385,7 +1398,7 @@ impl Drop for Ticket {
         let mut running = self.shared.running();
         if running
             .get(&self.path)
-            .is_some_and(|(id, _, _)| *id == self.id)
+            .is_some_and(|(id, _, _, _)| *id == self.id)
         {
             running.remove(&self.path);
         }
@@ -1423,6 +1436,7 @@ impl Backend {
             // Superseded while being built: a newer request answers.
             _ if ticket.token.is_cancelled() => Err(superseded()),
             Ok((r, table)) => {
+                crate::edits::after_preview(&self.shared, &self.client, &path, &table).await;
                 store(&self.shared, path, table);
                 Ok(r)
             }
@@ -1529,12 +1543,14 @@ pub(crate) async fn refresh(shared: &Arc<Shared>, client: &Client, path: PathBuf
     if shared.version(&path) != Some(version) {
         return;
     }
-    // A live request that began at this version or later answers with
-    // this analysis (or a newer one): not built twice.
+    // A live request that began at this version or later, and after the
+    // last change of an edits file, answers with this analysis (or a newer
+    // one) and those edits: not built twice.
+    let generation = shared.edits_generation();
     if shared
         .running()
         .get(&path)
-        .is_some_and(|&(_, _, v)| v >= Some(version))
+        .is_some_and(|&(_, _, v, g)| v >= Some(version) && g >= generation)
     {
         return;
     }
@@ -1547,13 +1563,15 @@ pub(crate) async fn refresh(shared: &Arc<Shared>, client: &Client, path: PathBuf
         if fa.version != version {
             return None; // a newer text has its own refresh
         }
-        // Built from this very analysis already (a second task for the same
-        // edit): nothing to send. A changed import makes a new analysis.
-        let key = Arc::as_ptr(&fa) as usize;
+        // Built from this very analysis and edits already (a second task
+        // for the same edit): nothing to send. A changed import makes a new
+        // analysis, a changed edits file a new generation.
+        let key = (Arc::as_ptr(&fa) as usize, s.edits_generation());
         if s.preview_sent.blocking_lock().get(&p) == Some(&(version, key)) {
             return None;
         }
-        Some((key, build(&fa, &u, &s.uris(), &params, None)))
+        let edits = s.edits_source();
+        Some((key, build(&fa, &u, &s.uris(), &edits, &params, None)))
     })
     .await;
     let Ok(Some((key, outcome))) = built else {
@@ -1561,6 +1579,7 @@ pub(crate) async fn refresh(shared: &Arc<Shared>, client: &Client, path: PathBuf
     };
     let (result, error) = match outcome {
         Ok((r, table)) => {
+            crate::edits::after_preview(shared, client, &path, &table).await;
             store(shared, path.clone(), table);
             (Some(r), None)
         }
@@ -1577,10 +1596,12 @@ pub(crate) async fn refresh(shared: &Arc<Shared>, client: &Client, path: PathBuf
         return;
     }
     let mut sent = shared.preview_sent.lock().await;
+    // Nor after one of a newer version, or of this version with the
+    // edits files of a later generation.
     if shared.version(&path) != Some(version)
-        || sent
-            .get(&path)
-            .is_some_and(|&(v, k)| v > version || (v, k) == (version, key))
+        || sent.get(&path).is_some_and(|&(v, k)| {
+            v > version || (v, k) == (version, key) || (v == version && k.1 > key.1)
+        })
     {
         return;
     }

@@ -106,6 +106,8 @@ pub(crate) struct ShapePicks {
     /// operation that makes a node (successor, command, insert) is, in
     /// order: a node's edge number `e` from its shape is the `e`-th.
     rules: Vec<(Range, Vec<Range>)>,
+    /// The edits file replayed, and what became of its edits.
+    pub(crate) edits: Option<crate::edits::EditsRun>,
 }
 
 /// A world point or direction in the model's frame.
@@ -295,11 +297,14 @@ fn makes_node(op: &OpKind) -> bool {
 }
 
 /// Grow a shape system for the preview (`values`: the run's
-/// meta-parameter values, the sliders' included).
+/// meta-parameter values, the sliders' included), replaying the edits file
+/// beside the system's grammar (`edits`: the client's buffers, else disk).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn build(
     fa: &FileAnalysis,
     uri: &Uri,
     uris: &crate::uris::Uris,
+    edits: &crate::edits::Source,
     p: &PreviewParams,
     sys: &grm_sema::System,
     values: Vec<Value>,
@@ -327,8 +332,26 @@ pub(crate) fn build(
         },
     };
     let t0 = Instant::now();
-    let grown = grm_grow::shape::grow(prog, sys, &values, &options, None, None)
+    let edits_path = grm_edits::edits_path(&sys_path);
+    let loaded = edits.load(&edits_path);
+    let replayed = loaded.text.is_some().then_some(&loaded.parsed.file);
+    let grown = grm_grow::shape::grow(prog, sys, &values, &options, None, replayed)
         .map_err(|e| Failure::Msg(message(&e, fa, sys)))?;
+    // What became of each edit (only when there is a file).
+    let (edits_out, edits_run) = match uris.uri_of(&edits_path) {
+        Some(edits_uri) if loaded.text.is_some() => {
+            let (o, r) = crate::edits::classify(
+                &loaded,
+                edits_uri,
+                prog,
+                &grown.lowered,
+                &grown.tree,
+                &sys.name,
+            );
+            (Some(o), Some(r))
+        }
+        _ => (None, None),
+    };
     let derive_ms = t0.elapsed().as_secs_f64() * 1e3;
     check(cancel)?;
     let t1 = Instant::now();
@@ -385,6 +408,7 @@ pub(crate) fn build(
         uri: sys_uri,
         system: convert::range(sys_file, sys.loc.span),
         rules,
+        edits: edits_run,
     };
     // The production under the focus position: the shapes its rule made.
     let focus = p.focus.and_then(|pos| {
@@ -458,6 +482,7 @@ pub(crate) fn build(
         stats: stats_out(&model, shapes, derive_ms, build_ms, t2),
         warnings,
         shape: Some(shape_out),
+        edits: edits_out,
     };
     Ok((result, table, model))
 }

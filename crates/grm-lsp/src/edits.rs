@@ -1,0 +1,1285 @@
+//! Persistent edits in the editor (issue 27; docs/edits.md, "In the
+//! editor"; docs/lsp-extensions.md, "Persistent edits").
+//!
+//! - The shape preview replays `NAME.edits.json` beside the system's
+//!   grammar: the client's buffer when it has the file open, else the file
+//!   on disk ([`Source`]); its answer lists each edit's class
+//!   ([`EditsOut`]).
+//! - The edits file gets diagnostics: its problems (R0901-R0911,
+//!   `grm_edits::EditsError::to_diagnostic`) and, after each shape
+//!   preview, a warning on every edit the derivation did not replay
+//!   ("never applied silently"). A quick fix deletes an edit.
+//! - A change to the edits file (its buffer, or the file on disk) refreshes
+//!   the live previews that read it, as a change to the grammar does.
+//! - `grm/edit` and `grm/removeEdit` change the file through a
+//!   `workspace/applyEdit` computed with grm-edits' canonical writer, so
+//!   the client's undo reverts them.
+//!
+//! The edits documents are kept here, not in the analysis host: they are
+//! JSON, not grm, and no grm request (hover, tokens, formatting) answers
+//! for them.
+
+use crate::{Backend, Shared, convert, failed};
+use grm_diag::{FileId, SourceFile, Span};
+use grm_edits::{Edit, EditClass, EditsError, Parsed};
+use serde::{Deserialize, Serialize};
+use std::collections::{BTreeMap, HashMap, HashSet};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use std::time::Duration;
+use tower_lsp_server::Client;
+use tower_lsp_server::jsonrpc::{Error, ErrorCode, Result};
+use tower_lsp_server::ls_types::*;
+
+/// The end of an edits file's name.
+const SUFFIX: &str = ".edits.json";
+
+/// Whether `path` names an edits file (`NAME.edits.json`).
+pub(crate) fn is_edits_path(path: &Path) -> bool {
+    path.file_name()
+        .and_then(|n| n.to_str())
+        .is_some_and(|n| n.len() > SUFFIX.len() && n.ends_with(SUFFIX))
+}
+
+/// The grammar an edits file belongs to: `x/NAME.edits.json` -> `x/NAME.grm`.
+pub(crate) fn grammar_of(path: &Path) -> Option<PathBuf> {
+    let name = path.file_name()?.to_str()?;
+    let stem = name.strip_suffix(SUFFIX).filter(|s| !s.is_empty())?;
+    Some(path.with_file_name(format!("{stem}.grm")))
+}
+
+/// The diagnostics last published per edits file, with its version.
+pub(crate) type Published = HashMap<PathBuf, (Option<i32>, Vec<Diagnostic>)>;
+
+/// The server's state of the edits files.
+#[derive(Debug, Default)]
+pub(crate) struct EditsState {
+    /// The edits files open in the client: version and text.
+    docs: HashMap<PathBuf, (i32, Arc<str>)>,
+    /// Per edits file, per system: what the last shape preview of the
+    /// system made of each edit (the edit as it was read, and its report).
+    reports: HashMap<PathBuf, BTreeMap<String, Vec<(Edit, EditOut)>>>,
+    /// Per previewed document: the edits file its last shape preview read.
+    read_by: HashMap<PathBuf, PathBuf>,
+}
+
+/// Where a preview reads edits files from: the client's buffers (a
+/// snapshot), else the disk.
+#[derive(Clone, Debug, Default)]
+pub struct Source {
+    open: HashMap<PathBuf, (i32, Arc<str>)>,
+}
+
+/// An edits file as a preview read it.
+#[derive(Debug)]
+pub(crate) struct Loaded {
+    pub(crate) path: PathBuf,
+    /// Its text; `None` when there is no such file (no edits).
+    pub(crate) text: Option<Arc<str>>,
+    pub(crate) parsed: Parsed,
+}
+
+impl Source {
+    /// The edits file at `path`: its buffer, or the file on disk; a file
+    /// that cannot be read is one R0901 problem and no edits.
+    pub(crate) fn load(&self, path: &Path) -> Loaded {
+        let (text, parsed) = match read(&self.open, path) {
+            Ok(Some((_, text))) => {
+                let parsed = grm_edits::parse(&text);
+                (Some(text), parsed)
+            }
+            Ok(None) => (None, Parsed::default()),
+            Err(e) => (
+                Some(Arc::from("")),
+                Parsed {
+                    errors: vec![e],
+                    ..Parsed::default()
+                },
+            ),
+        };
+        Loaded {
+            path: path.to_path_buf(),
+            text,
+            parsed,
+        }
+    }
+}
+
+/// An edits file's text, and its version when it is open in the client.
+type Text = (Option<i32>, Arc<str>);
+
+/// The text of the edits file at `path`: the open buffer (with its
+/// version), else the file on disk (`None` for the version); `Ok(None)`
+/// when neither exists.
+fn read(
+    open: &HashMap<PathBuf, (i32, Arc<str>)>,
+    path: &Path,
+) -> std::result::Result<Option<Text>, EditsError> {
+    if let Some((v, t)) = open.get(path) {
+        return Ok(Some((Some(*v), t.clone())));
+    }
+    match grm_edits::read(path) {
+        Ok(t) => Ok(Some((None, Arc::from(t)))),
+        Err(e) if e.is_not_found() => Ok(None),
+        Err(e) => Err(e),
+    }
+}
+
+/// What a shape preview made of the edits file (`PreviewResult::edits`).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(rename_all = "camelCase")]
+pub struct EditsOut {
+    /// The edits file, `NAME.edits.json` beside the system's grammar.
+    pub uri: Uri,
+    /// Whether it exists (open in the editor or on disk).
+    pub found: bool,
+    /// Its problems (R0901-R0911, the diagnostics on it): an edit with a
+    /// problem is skipped, the others replayed.
+    pub problems: usize,
+    /// The system's edits, and those of systems the grammar lacks, in
+    /// the file's order.
+    pub list: Vec<EditOut>,
+}
+
+/// One edit after a shape preview's derivation.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(rename_all = "camelCase")]
+pub struct EditOut {
+    pub id: u32,
+    pub system: String,
+    /// As in the file: `{ "exact": "{Lot, 1, Mass}" }`, `{ "semantic": ... }`
+    /// or `{ "key": ... }`.
+    pub target: serde_json::Value,
+    /// The operation in words: `remove`, `material brick`, `force
+    /// alternative 2` (`grm_edits::Op`'s `Display`).
+    pub op: String,
+    /// `valid`, `structurally_invalid`, `semantically_invalid`,
+    /// `ambiguous` or `stale` (docs/edits.md, "Classes").
+    pub class: String,
+    /// Why, in one line (empty for a valid edit that was replayed).
+    pub detail: String,
+    /// Whether the derivation applied it.
+    pub replayed: bool,
+    /// The tree nodes its target names now (`grm/pick`'s `shape.node`).
+    pub parts: Vec<u32>,
+}
+
+/// What a shape preview keeps of its edits for the diagnostics.
+#[derive(Debug)]
+pub(crate) struct EditsRun {
+    pub(crate) path: PathBuf,
+    pub(crate) system: String,
+    pub(crate) reports: Vec<(Edit, EditOut)>,
+}
+
+fn edit_out(
+    e: &Edit,
+    class: EditClass,
+    detail: String,
+    replayed: bool,
+    parts: Vec<u32>,
+) -> EditOut {
+    EditOut {
+        id: e.id,
+        system: e.system.clone(),
+        target: serde_json::json!({ e.target.kind(): e.target.text() }),
+        op: e.op.to_string(),
+        class: class.as_str().to_owned(),
+        detail,
+        replayed,
+        parts,
+    }
+}
+
+/// Classify the edits of `system` (and of systems the grammar lacks)
+/// against the tree a preview grew with them.
+pub(crate) fn classify(
+    loaded: &Loaded,
+    uri: Uri,
+    prog: &grm_sema::Program,
+    lowered: &grm_grow::shape::Lowered,
+    tree: &grm_shape::ShapeTree,
+    system: &str,
+) -> (EditsOut, EditsRun) {
+    let file = &loaded.parsed.file;
+    let mine: Vec<&Edit> = file.of_system(system).collect();
+    let mut by_id: HashMap<u32, EditOut> =
+        grm_grow::shape::edits::classify(prog, lowered, tree, mine.iter().copied())
+            .into_iter()
+            .zip(&mine)
+            .map(|(r, e)| {
+                let parts = r.parts.iter().map(|n| n.0).collect();
+                (r.id, edit_out(e, r.class, r.detail, r.replayed, parts))
+            })
+            .collect();
+    let mut reports = Vec::new();
+    for e in &file.edits {
+        let out = if e.system == system {
+            by_id.remove(&e.id)
+        } else if prog.system(&e.system).is_none() {
+            Some(edit_out(
+                e,
+                EditClass::Stale,
+                format!("the grammar has no system `{}`", e.system),
+                false,
+                Vec::new(),
+            ))
+        } else {
+            None
+        };
+        if let Some(o) = out {
+            reports.push((e.clone(), o));
+        }
+    }
+    let out = EditsOut {
+        uri,
+        found: loaded.text.is_some(),
+        problems: loaded.parsed.errors.len(),
+        list: reports.iter().map(|(_, o)| o.clone()).collect(),
+    };
+    let run = EditsRun {
+        path: loaded.path.clone(),
+        system: system.to_owned(),
+        reports,
+    };
+    (out, run)
+}
+
+/// A grm diagnostic in one file (the edits file) as LSP's: the message
+/// with its primary label, notes and help on their own lines, as the
+/// server writes the grammar's (`grm_analysis::FileAnalysis::diagnostics`).
+fn lsp_diagnostic(uri: &Uri, src: &SourceFile, d: &grm_diag::Diagnostic) -> Diagnostic {
+    let p = d.primary();
+    let mut message = d.message.clone();
+    if !p.message.is_empty() && p.message != d.message {
+        message.push_str(&format!("\n{}", p.message));
+    }
+    for n in &d.notes {
+        message.push_str(&format!("\nnote: {n}"));
+    }
+    if let Some(h) = &d.help {
+        message.push_str(&format!("\nhelp: {h}"));
+    }
+    let related: Vec<DiagnosticRelatedInformation> = d
+        .labels
+        .iter()
+        .skip(1)
+        .map(|l| DiagnosticRelatedInformation {
+            location: Location {
+                uri: uri.clone(),
+                range: convert::range(src, clamp(l.span, &src.text)),
+            },
+            message: l.message.clone(),
+        })
+        .collect();
+    Diagnostic {
+        range: convert::range(src, clamp(p.span, &src.text)),
+        severity: Some(match d.severity {
+            grm_diag::Severity::Error => DiagnosticSeverity::ERROR,
+            grm_diag::Severity::Warning => DiagnosticSeverity::WARNING,
+        }),
+        code: Some(NumberOrString::String(d.code.to_string())),
+        source: Some("grm".into()),
+        message,
+        related_information: (!related.is_empty()).then_some(related),
+        ..Diagnostic::default()
+    }
+}
+
+fn clamp(span: Span, text: &str) -> Span {
+    let n = u32::try_from(text.len()).unwrap_or(u32::MAX);
+    Span::new(span.start.min(n), span.end.min(n).max(span.start.min(n)))
+}
+
+/// The diagnostics of an edits file whose text is `text`: its problems,
+/// then a warning on each edit a preview did not replay (`reports`; an
+/// edit is matched by its id and must still read the same).
+fn diagnostics<'a>(
+    uri: &Uri,
+    path: &Path,
+    text: &str,
+    read_error: Option<&EditsError>,
+    reports: impl Iterator<Item = &'a (Edit, EditOut)>,
+) -> Vec<Diagnostic> {
+    let src = SourceFile::new(path.to_string_lossy(), text);
+    let parsed = match read_error {
+        Some(e) => Parsed {
+            errors: vec![e.clone()],
+            ..Parsed::default()
+        },
+        None => grm_edits::parse(text),
+    };
+    let mut out: Vec<Diagnostic> = parsed
+        .errors
+        .iter()
+        .map(|e| lsp_diagnostic(uri, &src, &e.to_diagnostic(FileId(0))))
+        .collect();
+    let mut seen = HashSet::new();
+    for (edit, r) in reports {
+        if r.replayed || !seen.insert(r.id) {
+            continue;
+        }
+        let Some(now) = parsed.file.get(r.id) else {
+            continue;
+        };
+        if now != edit {
+            continue; // changed since: the next preview says
+        }
+        let mut message = format!("edit {} ({}) is not applied: {}", r.id, r.op, r.class);
+        if !r.detail.is_empty() {
+            message.push_str(&format!(": {}", r.detail));
+        }
+        if let Some(c) = EditClass::from_name(&r.class)
+            && !c.is_valid()
+        {
+            message.push_str(&format!("\nnote: {}", c.explanation()));
+        }
+        message.push_str(
+            "\nhelp: retarget it, or delete it (quick fix); `grmc edits check` lists every edit's class",
+        );
+        out.push(Diagnostic {
+            range: convert::range(&src, clamp(now.span, text)),
+            severity: Some(DiagnosticSeverity::WARNING),
+            code: Some(NumberOrString::String(format!("edit.{}", r.class))),
+            source: Some("grm".into()),
+            message,
+            data: Some(serde_json::json!({ "edit": r.id, "class": r.class })),
+            ..Diagnostic::default()
+        });
+    }
+    out
+}
+
+// ---------------------------------------------------------------------
+// The layout of an edits file's text: where each element of `edits` is.
+
+/// Where the `edits` array and its elements are in a text (found by a
+/// tolerant scan: strings and nesting are followed, nothing else checked).
+#[derive(Debug, Default, PartialEq)]
+pub(crate) struct Layout {
+    /// After the array's `[` and at its `]`.
+    pub(crate) inside: Option<(usize, usize)>,
+    /// Each element's byte range.
+    pub(crate) elements: Vec<(usize, usize)>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Tok {
+    Open(u8),
+    Close(u8),
+    Colon,
+    Comma,
+    Str,
+    Other,
+}
+
+fn tokens(text: &str) -> Vec<(Tok, usize, usize)> {
+    let b = text.as_bytes();
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < b.len() {
+        let c = b[i];
+        let start = i;
+        let tok = match c {
+            b' ' | b'\t' | b'\r' | b'\n' => {
+                i += 1;
+                continue;
+            }
+            b'{' | b'[' => Tok::Open(c),
+            b'}' | b']' => Tok::Close(c),
+            b':' => Tok::Colon,
+            b',' => Tok::Comma,
+            b'"' => {
+                i += 1;
+                while i < b.len() && b[i] != b'"' {
+                    i += if b[i] == b'\\' { 2 } else { 1 };
+                }
+                out.push((Tok::Str, start, (i + 1).min(b.len())));
+                i += 1;
+                continue;
+            }
+            _ => {
+                while i < b.len() && !b" \t\r\n{}[]:,\"".contains(&b[i]) {
+                    i += 1;
+                }
+                out.push((Tok::Other, start, i));
+                continue;
+            }
+        };
+        i += 1;
+        out.push((tok, start, i));
+    }
+    out
+}
+
+/// The index after the value starting at token `i` (nested values
+/// followed to their close).
+fn skip_value(toks: &[(Tok, usize, usize)], i: usize) -> usize {
+    match toks.get(i) {
+        Some((Tok::Open(_), ..)) => {
+            let mut depth = 0usize;
+            let mut j = i;
+            while j < toks.len() {
+                match toks[j].0 {
+                    Tok::Open(_) => depth += 1,
+                    Tok::Close(_) => {
+                        depth -= 1;
+                        if depth == 0 {
+                            return j + 1;
+                        }
+                    }
+                    _ => {}
+                }
+                j += 1;
+            }
+            j
+        }
+        Some(_) => i + 1,
+        None => i,
+    }
+}
+
+/// The layout of an edits file's text.
+pub(crate) fn layout(text: &str) -> Layout {
+    let toks = tokens(text);
+    let mut out = Layout::default();
+    if !matches!(toks.first(), Some((Tok::Open(b'{'), ..))) {
+        return out;
+    }
+    let mut i = 1;
+    while i < toks.len() {
+        let (t, s, e) = toks[i];
+        if t == Tok::Comma {
+            i += 1;
+            continue;
+        }
+        if t != Tok::Str || toks.get(i + 1).map(|t| t.0) != Some(Tok::Colon) {
+            return out;
+        }
+        let key = &text[s..e];
+        let v = i + 2;
+        if key == "\"edits\"" && matches!(toks.get(v), Some((Tok::Open(b'['), ..))) {
+            let end = skip_value(&toks, v);
+            let close = toks
+                .get(end.saturating_sub(1))
+                .filter(|t| t.0 == Tok::Close(b']'))
+                .map_or(text.len(), |t| t.1);
+            out.inside = Some((toks[v].2, close));
+            let mut j = v + 1;
+            while j < end.saturating_sub(1) {
+                if toks[j].0 == Tok::Comma {
+                    j += 1;
+                    continue;
+                }
+                let k = skip_value(&toks, j).max(j + 1);
+                out.elements.push((toks[j].1, toks[k - 1].2));
+                j = k;
+            }
+            return out;
+        }
+        i = skip_value(&toks, v);
+    }
+    out
+}
+
+/// The text edit that removes element `at` of the `edits` array, with
+/// the comma and white space between it and its neighbour.
+fn remove_element(lay: &Layout, at: usize) -> Option<(Span, String)> {
+    let (s, e) = *lay.elements.get(at)?;
+    let span = if let Some(next) = lay.elements.get(at + 1) {
+        (s, next.0)
+    } else if let Some(prev) = at.checked_sub(1).and_then(|p| lay.elements.get(p)) {
+        (prev.1, e)
+    } else {
+        lay.inside.unwrap_or((s, e))
+    };
+    Some((Span::from_range(span.0..span.1), String::new()))
+}
+
+/// The smallest edit that turns `old` into `new`: their common start and
+/// end kept (on character boundaries).
+pub(crate) fn minimal_edit(old: &str, new: &str) -> (Span, String) {
+    let (a, b) = (old.as_bytes(), new.as_bytes());
+    let mut p = a.iter().zip(b).take_while(|(x, y)| x == y).count();
+    while !old.is_char_boundary(p) || !new.is_char_boundary(p) {
+        p -= 1;
+    }
+    let max = (a.len() - p).min(b.len() - p);
+    let mut s = a
+        .iter()
+        .rev()
+        .zip(b.iter().rev())
+        .take(max)
+        .take_while(|(x, y)| x == y)
+        .count();
+    while !old.is_char_boundary(a.len() - s) || !new.is_char_boundary(b.len() - s) {
+        s -= 1;
+    }
+    (
+        Span::from_range(p..a.len() - s),
+        new[p..b.len() - s].to_owned(),
+    )
+}
+
+/// The new text of the edits file `text` without edit `id`: written
+/// canonically when the file has no problems (`grm_edits::write`), else
+/// with just that edit's element taken out (a rewrite would drop the
+/// edits that have problems). `None` when there is no such edit.
+fn without_edit(text: &str, id: u32) -> Option<(Span, String)> {
+    let parsed = grm_edits::parse(text);
+    if parsed.errors.is_empty() {
+        let mut file = parsed.file;
+        file.remove(id)?;
+        return Some(minimal_edit(text, &grm_edits::write(&file)));
+    }
+    let span = parsed.file.get(id)?.span;
+    let lay = layout(text);
+    let at = lay
+        .elements
+        .iter()
+        .position(|&(s, e)| s == span.start as usize && e == span.end as usize)?;
+    remove_element(&lay, at)
+}
+
+// ---------------------------------------------------------------------
+// The server's side.
+
+impl Shared {
+    pub(crate) fn edits_state(&self) -> std::sync::MutexGuard<'_, EditsState> {
+        self.edits
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    /// The open edits files, for a preview.
+    pub(crate) fn edits_source(&self) -> Source {
+        Source {
+            open: self.edits_state().docs.clone(),
+        }
+    }
+
+    /// Whether the client has the edits file `path` open.
+    pub(crate) fn edits_state_is_open(&self, path: &Path) -> bool {
+        self.edits_state().docs.contains_key(path)
+    }
+
+    /// How many times an edits file changed (its buffer or on disk).
+    pub(crate) fn edits_generation(&self) -> u64 {
+        self.edits_gen.load(Ordering::SeqCst)
+    }
+
+    fn edits_changed(&self) {
+        self.edits_gen.fetch_add(1, Ordering::SeqCst);
+    }
+}
+
+/// After a preview of `doc` was built: keep what it made of the edits and
+/// publish the edits file's diagnostics.
+pub(crate) async fn after_preview(
+    shared: &Arc<Shared>,
+    client: &Client,
+    doc: &Path,
+    table: &crate::preview::PickTable,
+) {
+    let Some(run) = table.shape.as_ref().and_then(|s| s.edits.as_ref()) else {
+        return;
+    };
+    {
+        let mut st = shared.edits_state();
+        st.read_by.insert(doc.to_path_buf(), run.path.clone());
+        st.reports
+            .entry(run.path.clone())
+            .or_default()
+            .insert(run.system.clone(), run.reports.clone());
+    }
+    publish(shared, client, &run.path).await;
+}
+
+/// Publish the diagnostics of the edits file `path` when it is open, or
+/// beside (or read by the preview of) an open grammar; clear them
+/// otherwise.
+pub(crate) async fn publish(shared: &Arc<Shared>, client: &Client, path: &Path) {
+    let mut published = shared.edits_published.lock().await;
+    let (open, reports) = {
+        let st = shared.edits_state();
+        let beside = grammar_of(path).is_some_and(|g| shared.version(&g).is_some());
+        let read = st
+            .read_by
+            .iter()
+            .any(|(d, e)| e == path && shared.version(d).is_some());
+        let shown = st.docs.contains_key(path) || beside || read;
+        let reports: Vec<(Edit, EditOut)> = st
+            .reports
+            .get(path)
+            .map(|m| m.values().flatten().cloned().collect())
+            .unwrap_or_default();
+        let open = st.docs.clone();
+        (shown.then_some(open), reports)
+    };
+    let Some(uri) = shared.uris().uri_of(path) else {
+        return;
+    };
+    let (version, diags) = match open {
+        None => (None, Vec::new()),
+        Some(open) => {
+            let p = path.to_path_buf();
+            let u = uri.clone();
+            let computed = tokio::task::spawn_blocking(move || match read(&open, &p) {
+                Ok(Some((v, text))) => (v, diagnostics(&u, &p, &text, None, reports.iter())),
+                Ok(None) => (None, Vec::new()),
+                Err(e) => (None, diagnostics(&u, &p, "", Some(&e), reports.iter())),
+            })
+            .await;
+            match computed {
+                Ok(c) => c,
+                Err(_) => return,
+            }
+        }
+    };
+    // Sent when they differ from what was (nothing sent yet counts as
+    // empty diagnostics).
+    let changed = match published.get(path) {
+        Some(last) => *last != (version, diags.clone()),
+        None => !diags.is_empty(),
+    };
+    if !changed {
+        return;
+    }
+    published.insert(path.to_path_buf(), (version, diags.clone()));
+    client.publish_diagnostics(uri, diags, version).await;
+}
+
+/// The live previews that read the edits file `path` (or whose document
+/// is the grammar beside it), with their documents' versions.
+fn previews_reading(shared: &Shared, path: &Path) -> Vec<(PathBuf, i32)> {
+    let beside = grammar_of(path);
+    let docs: Vec<PathBuf> = shared.previews().keys().cloned().collect();
+    let st = shared.edits_state();
+    docs.into_iter()
+        .filter(|d| Some(d) == beside.as_ref() || st.read_by.get(d).is_some_and(|e| e == path))
+        .filter_map(|d| shared.version(&d).map(|v| (d, v)))
+        .collect()
+}
+
+/// After the edits file `path` changed (its buffer, or on disk): publish
+/// its diagnostics and regrow the live previews that read it.
+pub(crate) fn changed(shared: &Arc<Shared>, client: &Client, path: PathBuf, delay: Duration) {
+    shared.edits_changed();
+    let generation = shared.edits_generation();
+    let shared = shared.clone();
+    let client = client.clone();
+    tokio::spawn(async move {
+        if !delay.is_zero() {
+            tokio::time::sleep(delay).await;
+            if shared.edits_generation() != generation {
+                return; // a later change has its own task
+            }
+        }
+        publish(&shared, &client, &path).await;
+        for (doc, version) in previews_reading(&shared, &path) {
+            crate::preview::refresh(&shared, &client, doc, version).await;
+        }
+    });
+}
+
+impl Backend {
+    /// `didOpen` of an edits file.
+    pub(crate) async fn edits_opened(&self, path: PathBuf, uri: Uri, version: i32, text: String) {
+        self.shared.uris_mut().open(path.clone(), uri);
+        self.shared
+            .edits_state()
+            .docs
+            .insert(path.clone(), (version, Arc::from(text)));
+        changed(&self.shared, &self.client, path, Duration::ZERO);
+    }
+
+    /// `didChange` of an edits file (debounced as the grammar's edits are).
+    pub(crate) async fn edits_edited(&self, params: DidChangeTextDocumentParams, path: PathBuf) {
+        let version = params.text_document.version;
+        let applied = {
+            let mut st = self.shared.edits_state();
+            match st.docs.get(&path) {
+                Some((_, old)) => {
+                    let text = convert::apply_changes(old, &params.content_changes);
+                    st.docs.insert(path.clone(), (version, Arc::from(text)));
+                    true
+                }
+                None => false,
+            }
+        };
+        if !applied {
+            return;
+        }
+        let delay = self.shared.edit_delay(&path);
+        changed(&self.shared, &self.client, path, delay);
+    }
+
+    /// `didClose` of an edits file: the file on disk counts again.
+    pub(crate) async fn edits_closed(&self, path: PathBuf) {
+        self.shared.uris_mut().close(&path);
+        self.shared.edits_state().docs.remove(&path);
+        changed(&self.shared, &self.client, path, Duration::ZERO);
+    }
+
+    /// Quick fixes on an edits file: delete the edit a diagnostic is on.
+    pub(crate) async fn edits_code_actions(
+        &self,
+        params: CodeActionParams,
+        path: PathBuf,
+    ) -> Result<Option<CodeActionResponse>> {
+        let uri = params.text_document.uri.clone();
+        let open = self.shared.edits_source().open;
+        let p = path.clone();
+        let actions = tokio::task::spawn_blocking(move || {
+            let Ok(Some((_, text))) = read(&open, &p) else {
+                return Vec::new();
+            };
+            let src = SourceFile::new("", &*text);
+            let parsed = grm_edits::parse(&text);
+            let lay = layout(&text);
+            let mut done = HashSet::new();
+            let mut out = Vec::new();
+            for d in &params.context.diagnostics {
+                let at = convert::offset(&src, d.range.start) as usize;
+                let Some(el) = lay.elements.iter().position(|&(s, e)| s <= at && at < e) else {
+                    continue;
+                };
+                if !done.insert(el) {
+                    continue;
+                }
+                let (s, e) = lay.elements[el];
+                let id = parsed
+                    .file
+                    .edits
+                    .iter()
+                    .find(|x| x.span == Span::from_range(s..e))
+                    .map(|x| x.id);
+                let edit = match id {
+                    Some(id) => without_edit(&text, id),
+                    None => remove_element(&lay, el),
+                };
+                let Some((span, new_text)) = edit else {
+                    continue;
+                };
+                out.push(CodeActionOrCommand::CodeAction(CodeAction {
+                    title: match id {
+                        Some(id) => format!("Delete edit {id}"),
+                        None => "Delete this edit".to_owned(),
+                    },
+                    kind: Some(CodeActionKind::QUICKFIX),
+                    diagnostics: Some(vec![d.clone()]),
+                    edit: Some(WorkspaceEdit {
+                        changes: Some(HashMap::from([(
+                            uri.clone(),
+                            vec![TextEdit {
+                                range: convert::range(&src, span),
+                                new_text,
+                            }],
+                        )])),
+                        ..WorkspaceEdit::default()
+                    }),
+                    ..CodeAction::default()
+                }));
+            }
+            out
+        })
+        .await
+        .map_err(|e| failed(e.to_string()))?;
+        Ok(Some(actions))
+    }
+}
+
+// ---------------------------------------------------------------------
+// grm/edit and grm/removeEdit.
+
+/// `grm/edit` parameters.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase")]
+pub struct EditParams {
+    /// The grammar (an open document or a file).
+    pub uri: Uri,
+    /// The system (default: the file's first).
+    #[serde(default)]
+    pub system: Option<String>,
+    /// `{ "exact": "..." }`, `{ "semantic": "..." }`, `{ "key": "..." }`
+    /// as in the file, or the text alone: a key (8 hex digits), an exact
+    /// locator (`{...}`) or a semantic query (`(...) Label`).
+    pub target: serde_json::Value,
+    /// As in the file: `{ "op": "material", "name": "brick" }`; or
+    /// `"remove"`.
+    pub op: serde_json::Value,
+    /// An optional note, kept in the file.
+    #[serde(default)]
+    pub note: Option<String>,
+}
+
+/// `grm/removeEdit` parameters.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase")]
+pub struct RemoveEditParams {
+    /// The grammar, or the edits file itself.
+    pub uri: Uri,
+    /// The system whose grammar file's edits file holds it (default: the
+    /// edits file beside `uri`).
+    #[serde(default)]
+    pub system: Option<String>,
+    pub id: u32,
+}
+
+/// `grm/edit` and `grm/removeEdit` result.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(rename_all = "camelCase")]
+pub struct EditResult {
+    /// The edits file.
+    pub uri: Uri,
+    /// The edit added (or removed).
+    pub id: u32,
+    /// The change, as sent to the client in `workspace/applyEdit`.
+    pub edit: WorkspaceEdit,
+    /// Whether it was applied: the client's answer, or the server wrote
+    /// the file itself (`written`).
+    pub applied: bool,
+    /// Why the client did not apply it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub failure_reason: Option<String>,
+    /// The server wrote the file itself: the client cannot apply edits
+    /// (it did not declare `workspace.applyEdit`, as `grmc view`).
+    #[serde(default)]
+    pub written: bool,
+}
+
+/// What the client can do with a workspace edit.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct EditCaps {
+    apply: bool,
+    document_changes: bool,
+    create: bool,
+}
+
+impl EditCaps {
+    pub(crate) fn of(c: &ClientCapabilities) -> EditCaps {
+        let w = c.workspace.as_ref();
+        let we = w.and_then(|w| w.workspace_edit.as_ref());
+        EditCaps {
+            apply: w.and_then(|w| w.apply_edit).unwrap_or(false),
+            document_changes: we.and_then(|e| e.document_changes).unwrap_or(false),
+            create: we
+                .and_then(|e| e.resource_operations.as_ref())
+                .is_some_and(|r| r.contains(&ResourceOperationKind::Create)),
+        }
+    }
+}
+
+fn invalid(msg: impl Into<String>) -> Error {
+    Error {
+        code: ErrorCode::InvalidParams,
+        message: msg.into().into(),
+        data: None,
+    }
+}
+
+/// The target of a `grm/edit` as the file writes it.
+fn target_json(t: &serde_json::Value) -> Result<serde_json::Value> {
+    match t {
+        serde_json::Value::String(s) => {
+            let s = s.trim();
+            let kind = if grm_edits::file::parse_key(s).is_some() {
+                "key"
+            } else if s.starts_with('{') {
+                "exact"
+            } else if s.starts_with('(') {
+                "semantic"
+            } else {
+                return Err(invalid(format!(
+                    "target `{s}` is neither a key (8 hex digits), an exact locator (`{{...}}`) nor a semantic query (`(...) Label`)"
+                )));
+            };
+            Ok(serde_json::json!({ kind: s }))
+        }
+        serde_json::Value::Object(_) => Ok(t.clone()),
+        _ => Err(invalid(
+            "target: a locator's text, or an object as in the edits file",
+        )),
+    }
+}
+
+/// The edit a `grm/edit` asks for, read as the file would read it (so its
+/// problems are the file's: R0905-R0911).
+fn requested_edit(p: &EditParams, system: &str) -> Result<Edit> {
+    let mut obj = match &p.op {
+        serde_json::Value::String(op) => serde_json::json!({ "op": op }),
+        serde_json::Value::Object(o) => serde_json::Value::Object(o.clone()),
+        _ => {
+            return Err(invalid(
+                "op: an object as in the edits file ({ \"op\": \"material\", \"name\": \"brick\" }), or \"remove\"",
+            ));
+        }
+    };
+    for k in ["id", "system", "target"] {
+        if obj.get(k).is_some() {
+            return Err(invalid(format!(
+                "op: `{k}` is given apart from the operation"
+            )));
+        }
+    }
+    obj["id"] = 1.into();
+    obj["system"] = system.into();
+    obj["target"] = target_json(&p.target)?;
+    if let Some(n) = &p.note {
+        obj["note"] = n.clone().into();
+    }
+    let text = serde_json::json!({ "version": 1, "edits": [obj] }).to_string();
+    let parsed = grm_edits::parse(&text);
+    if let Some(e) = parsed.errors.first() {
+        return Err(invalid(format!("{} ({})", e, e.code())));
+    }
+    parsed
+        .file
+        .edits
+        .into_iter()
+        .next()
+        .ok_or_else(|| invalid("no edit"))
+}
+
+/// The edits file of `system` in the grammar at `uri` (the system's own
+/// file's, which an import may hold), and the system's name.
+async fn locate(
+    shared: &Arc<Shared>,
+    uri: &Uri,
+    system: Option<String>,
+) -> Result<(PathBuf, String)> {
+    let path = convert::path_of(uri).ok_or_else(|| invalid("not a file URI"))?;
+    if is_edits_path(&path) {
+        return Ok((path, system.unwrap_or_default()));
+    }
+    let s = shared.clone();
+    tokio::task::spawn_blocking(move || {
+        let fa = s
+            .analyze(&path)
+            .ok_or_else(|| failed("the grammar cannot be read"))?;
+        let prog = &fa.checked.program;
+        let sys = match &system {
+            Some(name) => prog
+                .system(name)
+                .ok_or_else(|| failed(format!("no system `{name}`")))?,
+            None => prog
+                .default_system()
+                .ok_or_else(|| failed("the file defines no system"))?,
+        };
+        let file = grm_sema::normalize(Path::new(&fa.sources.get(sys.file).path));
+        Ok((grm_edits::edits_path(&file), sys.name.clone()))
+    })
+    .await
+    .map_err(|e| failed(e.to_string()))?
+}
+
+impl Backend {
+    /// `grm/edit`: add an edit to the edits file.
+    pub async fn edit(&self, params: EditParams) -> Result<EditResult> {
+        let (path, system) = locate(&self.shared, &params.uri, params.system.clone()).await?;
+        if system.is_empty() {
+            return Err(invalid("give the grammar's URI (or a system) for grm/edit"));
+        }
+        let edit = requested_edit(&params, &system)?;
+        let current = read(&self.shared.edits_source().open, &path)
+            .map_err(|e| failed(format!("{e} ({})", e.code())))?;
+        let (version, old) = match &current {
+            Some((v, t)) => (*v, Some(t.clone())),
+            None => (None, None),
+        };
+        let mut file = match &old {
+            Some(t) => {
+                let parsed = grm_edits::parse(t);
+                if let Some(e) = parsed.errors.first() {
+                    return Err(failed(format!(
+                        "the edits file has {} problem{} (the first: {} ({})): fix {} first, it is rewritten whole",
+                        parsed.errors.len(),
+                        if parsed.errors.len() == 1 { "" } else { "s" },
+                        e,
+                        e.code(),
+                        if parsed.errors.len() == 1 {
+                            "it"
+                        } else {
+                            "them"
+                        },
+                    )));
+                }
+                parsed.file
+            }
+            None => grm_edits::EditsFile::default(),
+        };
+        let id = file
+            .add(&edit.system, edit.target, edit.op)
+            .ok_or_else(|| failed("no id is left after the largest"))?;
+        if let Some(n) = edit.note
+            && let Some(e) = file.edits.iter_mut().find(|e| e.id == id)
+        {
+            e.note = Some(n);
+        }
+        let new = grm_edits::write(&file);
+        self.apply(path, id, version, old.as_deref(), new, "grm: add edit")
+            .await
+    }
+
+    /// `grm/removeEdit`: delete an edit from the edits file.
+    pub async fn remove_edit(&self, params: RemoveEditParams) -> Result<EditResult> {
+        let (path, _) = locate(&self.shared, &params.uri, params.system.clone()).await?;
+        let current = read(&self.shared.edits_source().open, &path)
+            .map_err(|e| failed(format!("{e} ({})", e.code())))?;
+        let Some((version, old)) = current else {
+            return Err(failed("there is no edits file"));
+        };
+        let (span, text) = without_edit(&old, params.id)
+            .ok_or_else(|| failed(format!("the edits file has no edit {}", params.id)))?;
+        let mut new = old.to_string();
+        new.replace_range(span.range(), &text);
+        self.apply(
+            path,
+            params.id,
+            version,
+            Some(&old),
+            new,
+            "grm: remove edit",
+        )
+        .await
+    }
+
+    /// Change the edits file `path` from `old` (`None`: it does not exist)
+    /// to `new`: through the client's `workspace/applyEdit` when it can,
+    /// else by writing the file.
+    async fn apply(
+        &self,
+        path: PathBuf,
+        id: u32,
+        version: Option<i32>,
+        old: Option<&str>,
+        new: String,
+        label: &str,
+    ) -> Result<EditResult> {
+        let caps = *self
+            .shared
+            .edit_caps
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let uri = self
+            .shared
+            .uris()
+            .uri_of(&path)
+            .ok_or_else(|| failed("the edits file has no URI"))?;
+        let edit = workspace_edit(&uri, version, old, &new, caps);
+        if !caps.apply {
+            if version.is_some() {
+                return Err(failed(
+                    "the edits file is open in the editor, which cannot apply edits (workspace.applyEdit)",
+                ));
+            }
+            let p = path.clone();
+            tokio::task::spawn_blocking(move || write_file(&p, &new))
+                .await
+                .map_err(|e| failed(e.to_string()))?
+                .map_err(|e| failed(format!("cannot write {}: {e}", path.display())))?;
+            changed(&self.shared, &self.client, path, Duration::ZERO);
+            return Ok(EditResult {
+                uri,
+                id,
+                edit,
+                applied: true,
+                failure_reason: None,
+                written: true,
+            });
+        }
+        if old.is_none() && !(caps.document_changes && caps.create) {
+            return Err(failed(
+                "the edits file does not exist and the client cannot create files (workspaceEdit.resourceOperations)",
+            ));
+        }
+        let answer = tokio::time::timeout(
+            Duration::from_secs(60),
+            self.client
+                .send_request::<request::ApplyWorkspaceEdit>(ApplyWorkspaceEditParams {
+                    label: Some(label.to_owned()),
+                    edit: edit.clone(),
+                }),
+        )
+        .await
+        .map_err(|_| failed("the client did not answer workspace/applyEdit"))?
+        .map_err(|e| failed(format!("workspace/applyEdit: {}", e.message)))?;
+        Ok(EditResult {
+            uri,
+            id,
+            edit,
+            applied: answer.applied,
+            failure_reason: answer.failure_reason,
+            written: false,
+        })
+    }
+}
+
+/// Write `text` to `path` through a file beside it (renamed over it).
+fn write_file(path: &Path, text: &str) -> std::io::Result<()> {
+    let mut tmp = path.as_os_str().to_os_string();
+    tmp.push(".tmp");
+    let tmp = PathBuf::from(tmp);
+    std::fs::write(&tmp, text)?;
+    std::fs::rename(&tmp, path).inspect_err(|_| {
+        let _ = std::fs::remove_file(&tmp);
+    })
+}
+
+/// The workspace edit turning `old` into `new` in the file `uri` (created
+/// when `old` is `None`).
+fn workspace_edit(
+    uri: &Uri,
+    version: Option<i32>,
+    old: Option<&str>,
+    new: &str,
+    caps: EditCaps,
+) -> WorkspaceEdit {
+    let (range, text) = match old {
+        Some(old) => {
+            let (span, text) = minimal_edit(old, new);
+            (convert::range(&SourceFile::new("", old), span), text)
+        }
+        None => (Range::default(), new.to_owned()),
+    };
+    let text_edit = TextEdit {
+        range,
+        new_text: text,
+    };
+    if !caps.document_changes {
+        return WorkspaceEdit {
+            changes: Some(HashMap::from([(uri.clone(), vec![text_edit])])),
+            ..WorkspaceEdit::default()
+        };
+    }
+    let doc_edit = TextDocumentEdit {
+        text_document: OptionalVersionedTextDocumentIdentifier {
+            uri: uri.clone(),
+            version,
+        },
+        edits: vec![OneOf::Left(text_edit)],
+    };
+    let changes = if old.is_none() {
+        DocumentChanges::Operations(vec![
+            DocumentChangeOperation::Op(ResourceOp::Create(CreateFile {
+                uri: uri.clone(),
+                options: Some(CreateFileOptions {
+                    overwrite: Some(false),
+                    ignore_if_exists: Some(true),
+                }),
+                annotation_id: None,
+            })),
+            DocumentChangeOperation::Edit(doc_edit),
+        ])
+    } else {
+        DocumentChanges::Edits(vec![doc_edit])
+    };
+    WorkspaceEdit {
+        document_changes: Some(changes),
+        ..WorkspaceEdit::default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn edits_paths_and_their_grammars() {
+        assert!(is_edits_path(Path::new("/x/tower.edits.json")));
+        assert!(!is_edits_path(Path::new("/x/.edits.json")));
+        assert!(!is_edits_path(Path::new("/x/tower.grm")));
+        assert_eq!(
+            grammar_of(Path::new("/x/a.b.edits.json")),
+            Some(PathBuf::from("/x/a.b.grm"))
+        );
+        assert_eq!(
+            grm_edits::edits_path(&grammar_of(Path::new("/x/t.edits.json")).unwrap()),
+            Path::new("/x/t.edits.json")
+        );
+    }
+
+    #[test]
+    fn minimal_edits_keep_the_common_ends() {
+        for (a, b) in [
+            ("", "abc"),
+            ("abc", ""),
+            ("abc", "abc"),
+            ("abXc", "abc"),
+            ("aé", "aè"),
+            ("x\u{1F333}y", "x\u{1F332}y"),
+            ("aaa", "aaaa"),
+        ] {
+            let (span, text) = minimal_edit(a, b);
+            let mut s = a.to_string();
+            s.replace_range(span.range(), &text);
+            assert_eq!(s, b, "{a:?} -> {b:?}");
+        }
+        assert_eq!(minimal_edit("abXc", "abc").0, Span::new(2, 3));
+    }
+
+    fn file_of(n: u32) -> String {
+        let mut f = grm_edits::EditsFile::default();
+        for i in 0..n {
+            f.add(
+                "S",
+                grm_edits::Target::Key(i),
+                grm_edits::Op::Force { alternative: 1 },
+            );
+        }
+        grm_edits::write(&f)
+    }
+
+    #[test]
+    fn layout_finds_each_element_and_removal_leaves_json() {
+        for n in 1..4 {
+            let text = file_of(n);
+            let parsed = grm_edits::parse(&text);
+            let lay = layout(&text);
+            let spans: Vec<(usize, usize)> = parsed
+                .file
+                .edits
+                .iter()
+                .map(|e| (e.span.start as usize, e.span.end as usize))
+                .collect();
+            assert_eq!(lay.elements, spans);
+            for at in 0..n as usize {
+                let (span, t) = remove_element(&lay, at).unwrap();
+                let mut s = text.clone();
+                s.replace_range(span.range(), &t);
+                let p = grm_edits::parse(&s);
+                assert!(p.errors.is_empty(), "{s}");
+                assert_eq!(p.file.edits.len(), n as usize - 1);
+                assert!(p.file.get(at as u32 + 1).is_none());
+            }
+        }
+        // A broken element is found too (strings with braces, escapes).
+        let text = r#"{ "version": 1, "edits": [ { "id": "x{\"", "op": [1, {"a": 2}] }, 7 ] }"#;
+        let lay = layout(text);
+        assert_eq!(lay.elements.len(), 2);
+        assert_eq!(&text[lay.elements[1].0..lay.elements[1].1], "7");
+        assert!(text[lay.elements[0].0..lay.elements[0].1].ends_with("}] }"));
+        assert_eq!(layout("not json").elements, []);
+    }
+
+    #[test]
+    fn removing_an_edit_rewrites_or_cuts() {
+        let text = file_of(3);
+        let (span, t) = without_edit(&text, 2).unwrap();
+        let mut s = text.clone();
+        s.replace_range(span.range(), &t);
+        let mut f = grm_edits::parse(&text).file;
+        f.remove(2);
+        assert_eq!(s, grm_edits::write(&f), "canonical");
+        // With a problem in the file, the edit's element alone is cut out.
+        let bad = text.replacen("\"op\": \"force\"", "\"op\": \"forse\"", 1);
+        let (span, t) = without_edit(&bad, 3).unwrap();
+        let mut s = bad.clone();
+        s.replace_range(span.range(), &t);
+        let p = grm_edits::parse(&s);
+        assert_eq!(p.errors.len(), 1, "the broken edit stays");
+        assert_eq!(p.file.edits.len(), 1);
+        assert!(without_edit(&bad, 9).is_none());
+    }
+}
