@@ -604,6 +604,8 @@ impl CostModel {
             if !branches {
                 continue;
             }
+            // One chain follows one branch: the best of them counts.
+            let mut best = 0.0f64;
             for &(j, on, at) in &self.attached {
                 if on == i as usize
                     && at > a
@@ -611,9 +613,10 @@ impl CostModel {
                     && !tubes.iter().any(|&(k, _)| k as usize == j)
                 {
                     // From before the branch's first segment: it counts.
-                    sum += self.uncovered_along(state, j, -1.0, reach - (at - a));
+                    best = best.max(self.uncovered_along(state, j, -1.0, reach - (at - a)));
                 }
             }
+            sum += best;
         }
         sum
     }

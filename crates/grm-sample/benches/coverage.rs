@@ -8,8 +8,9 @@
 //! its bones' coverage of each curve is measured (`grm_guide::coverage`:
 //! the share of the curve's arc length with a bone within 0.15 units, plus
 //! the curve's thickness). Printed per scene: the median wall time per
-//! model, the median CPU time per model (the thread's time on the CPU,
-//! from `/proc/thread-self/schedstat`: what a busy machine does not
+//! model, the mean CPU time per model (the thread's time on the CPU,
+//! from `/proc/thread-self/schedstat`, which counts in scheduler ticks, so
+//! a mean over the seeds and not a median: what a busy machine does not
 //! inflate), the median cost, the share of models that cover **every** curve
 //! at 80% or more (the curve-coverage issue's target is 90% of them, at a
 //! median of at most 25 ms), and each curve's median coverage; a curve no
@@ -120,6 +121,9 @@ fn custom(mut o: SampleOptions, with: &[(String, String)]) -> SampleOptions {
             "reach_s" => o.reach.scale = f(),
             "frontier" => o.reach.frontier = f() as u32,
             "span" => o.reach.span = f(),
+            "spent" => o.reach.spent = f(),
+            "islands" => o.reach.islands = f() as u32,
+            "reach_w" => o.reach.weights = f(),
             "branches" => o.reach.branches = f() != 0.0,
             "recent" => o.reach.recent = f() as u32,
             _ => panic!("unknown --with key {k}"),
@@ -206,8 +210,8 @@ fn main() {
         println!("custom: the defaults with {with:?}");
     }
     println!(
-        "{:<20} {:<8} {:>9} {:>7} {:>11} {:>12} | median coverage per curve",
-        "scene", "config", "median ms", "cpu ms", "median cost", "all >= 80%"
+        "{:<20} {:<8} {:>9} {:>8} {:>11} {:>12} | median coverage per curve",
+        "scene", "config", "median ms", "mean cpu", "median cost", "all >= 80%"
     );
     for (name, file, curves, old_particles) in &scenes {
         if !only.is_empty() && !only.iter().any(|o| o == name) {
@@ -283,11 +287,11 @@ fn main() {
                 })
                 .collect();
             println!(
-                "{:<20} {:<8} {:>9.1} {:>7.1} {:>11.1} {:>11.0}% | {}",
+                "{:<20} {:<8} {:>9.1} {:>8.1} {:>11.1} {:>11.0}% | {}",
                 name,
                 row,
                 pct(&times, 50.0),
-                pct(&cpus, 50.0),
+                cpus.iter().sum::<f64>() / cpus.len().max(1) as f64,
                 pct(&costs, 50.0),
                 100.0 * f64::from(all80) / f64::from(seeds.max(1)),
                 curve_text.join(", ")

@@ -170,6 +170,19 @@ pub struct Reach {
     /// expansion's tournament besides its [`Guide::order`] random draws,
     /// so a chain that follows a curve can be grown on at once.
     pub recent: u32,
+    /// Added to the order's promise of a symbol in a covering tube that
+    /// has nothing left to cover within its reach (in units of `2 W`): a
+    /// shrunk chain's tip is grown only when nothing better is drawn.
+    pub spent: f64,
+    /// Islands: the population is split into this many contiguous groups,
+    /// each resampled on its own (1: one population), so that as many
+    /// lineages grow the model's first bones independently; the final
+    /// models of every island compete.
+    pub islands: u32,
+    /// Weight of the look-ahead at a particle's newest tip in its score
+    /// (so in the weights that resample the population): 0 leaves the
+    /// weights as without the look-ahead.
+    pub weights: f64,
 }
 
 impl Reach {
@@ -183,6 +196,9 @@ impl Reach {
             span: 0.0,
             branches: false,
             recent: 0,
+            spent: 0.0,
+            islands: 1,
+            weights: 0.0,
         }
     }
 }
@@ -1344,6 +1360,15 @@ impl<'a> Sampler<'a> {
         // Only the search's steps append (wrap-up and replays do not).
         w.append_spawns = false;
         q.score = self.score(&q, h_scale, guide.cover);
+        if guide.cover > 0.0 && reach.weights > 0.0 {
+            // The potential of the newest tip (what the look-ahead says
+            // its symbols could still cover): a heuristic term of the
+            // particle's score, taken back in the next generation's weight.
+            if let Some(node) = local.nodes.last() {
+                let ahead = self.spawns_lookahead(&q.cost, local.spawns(node), reach);
+                q.score -= 2.0 * guide.cover * reach.weights * ahead;
+            }
+        }
         Ok((q, local, k, correction))
     }
 
@@ -1381,6 +1406,11 @@ impl<'a> Sampler<'a> {
                 let r = self.reach_of(sp.symbol, &sp.turtle, reach);
                 let ahead = self.cost.uncovered_within_reach(&q.cost, &tubes, r, false);
                 v -= 2.0 * guide.cover * reach.order * ahead;
+                if ahead == 0.0 {
+                    // Spent: on a curve with nothing left to cover within
+                    // its reach (a chain's tip that has shrunk).
+                    v += 2.0 * guide.cover * reach.spent;
+                }
             }
         } else if guide.cover > 0.0 && !self.cost.covered_ahead(&q.cost, n.curve, n.closest.t) {
             let (k, m) = self.cost.covered_segments(&q.cost, n.curve);
@@ -1413,6 +1443,43 @@ impl<'a> Sampler<'a> {
         let f = self.reach.get(symbol as usize).copied().unwrap_or(0.0);
         let r = f64::from(f) * frame_scale(t) * reach.scale;
         if r.is_finite() { r } else { 0.0 }
+    }
+
+    /// The reach look-ahead of open symbols `spawns` (emitted by one
+    /// expansion) against `state`: [`CostModel::uncovered_within_reach`] at
+    /// each position where they sit (the largest reach of those there),
+    /// summed.
+    fn spawns_lookahead(
+        &self,
+        state: &grm_guide::CostState,
+        spawns: &[Spawn],
+        reach: &Reach,
+    ) -> f64 {
+        let mut sum = 0.0;
+        let mut i = 0;
+        while i < spawns.len() {
+            let sp = &spawns[i];
+            let mut r = self.reach_of(sp.symbol, &sp.turtle, reach);
+            let mut j = i + 1;
+            while j < spawns.len()
+                && spawns[j].turtle.frame.translation == sp.turtle.frame.translation
+            {
+                r = r.max(self.reach_of(spawns[j].symbol, &spawns[j].turtle, reach));
+                j += 1;
+            }
+            if let Some(n) = sp.near
+                && r > 0.0
+            {
+                let tubes = self
+                    .cost
+                    .tubes_near(n.position.as_dvec3(), (n.curve, &n.closest));
+                sum += self
+                    .cost
+                    .uncovered_within_reach(state, &tubes, r, reach.branches);
+            }
+            i = j;
+        }
+        sum
     }
 
     /// The reach look-ahead of the successor in `w` (just interpreted):
@@ -1764,6 +1831,7 @@ impl<'a> Sampler<'a> {
         let mut log_w = Vec::new();
         let mut weights = Vec::new();
         let mut ancestors = Vec::new();
+        let mut island = Vec::new();
         let mut stopped_early = false;
         let mut last: Vec<Arc<Particle>> = Vec::new();
         let mut frames: Vec<(u32, Result<SampledModel, SampleError>)> = Vec::new();
@@ -1935,12 +2003,36 @@ impl<'a> Sampler<'a> {
                 last = next;
                 break;
             }
-            resample::systematic(
-                &weights,
-                sched.particles(g + 1),
-                resample_uniform(seed, g),
-                &mut ancestors,
-            );
+            let n_next = sched.particles(g + 1) as usize;
+            let k = (opts.reach.islands.max(1) as usize)
+                .min(next.len())
+                .min(n_next);
+            if k <= 1 {
+                resample::systematic(&weights, n_next, resample_uniform(seed, g), &mut ancestors);
+            } else {
+                // Islands: contiguous ranges of the population, each
+                // resampled on its own to its share of the next generation
+                // (no lineage crosses from one to another).
+                ancestors.clear();
+                let share = |n: usize, j: usize| n / k + usize::from(j < n % k);
+                let mut from = 0;
+                for j in 0..k {
+                    let len = share(next.len(), j);
+                    let u = if j == 0 {
+                        resample_uniform(seed, g)
+                    } else {
+                        f64::from(rng::uniform(seed, g, u32::MAX - j as u32, STREAM_RESAMPLE))
+                    };
+                    resample::systematic(
+                        &weights[from..from + len],
+                        share(n_next, j),
+                        u,
+                        &mut island,
+                    );
+                    ancestors.extend(island.iter().map(|&a| from + a));
+                    from += len;
+                }
+            }
             pop = ancestors.iter().map(|&a| Arc::clone(&next[a])).collect();
             // A step that no resampled particle descends from is never
             // read again: recycle its buffers.
