@@ -99,6 +99,28 @@ test('malformed models are refused, not drawn', () => {
   assert.throws(() => decodeF32([0, 'x'], 'x'), ProtocolError);
 });
 
+test("a part in the quads layout is rebuilt: the fourth corner a + c - b, triangles a b c and a c d, flat normals computed", () => {
+  // Two quads: a unit square, and a sheared one far from the origin.
+  const corners = [0, 0, 0, 1, 0, 0, 1, 1, 0, 1000, -2000, 5, 1002, -1999.5, 5, 1002.25, -1996.5, 5];
+  const r = decodePreview(
+    wire([], [], {
+      parts: [{ material: 0, vertexCount: 8, triangleCount: 4, positions: b64f32(corners), normals: '', indices: '', layout: 'quads', pickCount: 0, picks: '' }],
+    }),
+  );
+  const part = r.model.parts[0];
+  assert.equal(r.model.triangles, 4);
+  assert.equal(part.normals, null);
+  assert.deepEqual(Array.from(part.indices), [0, 1, 2, 0, 2, 3, 4, 5, 6, 4, 6, 7]);
+  const p = Array.from(part.positions);
+  assert.deepEqual(p.slice(0, 12), [0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0]);
+  assert.deepEqual(p.slice(21, 24), [1000.25, -1997, 5]);
+  assert.throws(
+    () => decodePreview(wire([], [], { parts: [{ material: 0, positions: b64f32([0, 0, 0, 1]), indices: '', layout: 'quads', pickCount: 0, picks: '' }] })),
+    /multiple of 9/,
+  );
+  assert.throws(() => decodePreview(wire([], [], { parts: [{ material: 0, positions: '', indices: '', layout: 'strips' }] })), /unknown layout/);
+});
+
 test('picks find the range holding a triangle', () => {
   const r = decodePreview(wire([0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0], [0, 1, 2, 2, 1, 3]));
   assert.equal(findPick(r.model.parts[0], 0)?.origin, 1);

@@ -77,6 +77,38 @@ impl MeshData {
         })
     }
 
+    /// Whether the mesh is parallelogram quads, each as [`MeshData::quad`]
+    /// writes one: four vertices `a b c d` of their own, triangles `a b c`
+    /// and `a c d`, `d = a + c - b` (to within 1e-5 of the coordinates'
+    /// size), and flat normals ([`MeshData::flat_normals`]). Then three
+    /// corners per quad say it all: the preview sends them alone (a
+    /// building's walls, windows and boxes; a third of its bytes).
+    pub fn is_quads(&self) -> bool {
+        let q = self.positions.len() / 4;
+        if q == 0 || self.positions.len() != 4 * q || self.indices.len() != 6 * q {
+            return false;
+        }
+        let pattern = self.indices.chunks_exact(6).enumerate().all(|(k, t)| {
+            let b = 4 * k as u32;
+            t == [b, b + 1, b + 2, b, b + 2, b + 3]
+        });
+        pattern
+            && self.positions.chunks_exact(4).all(|c| {
+                let [a, b, c, d] = [c[0], c[1], c[2], c[3]].map(Vec3::from_array);
+                let size = a.abs().max(c.abs()).max_element().max(1.0);
+                (a + c - b - d).abs().max_element() <= 1e-5 * size
+            })
+            && self.flat_normals()
+    }
+
+    /// Append the quad `a b c d` (counter-clockwise seen from `n`), as
+    /// [`MeshData::is_quads`] reads it.
+    pub fn quad(&mut self, corners: [Vec3; 4], n: Vec3) {
+        let i = corners.map(|p| self.vertex(p, n));
+        self.triangle(i[0], i[1], i[2]);
+        self.triangle(i[0], i[2], i[3]);
+    }
+
     /// Whether every vertex has texture coordinates (and there are vertices).
     pub fn has_uvs(&self) -> bool {
         !self.positions.is_empty() && self.uvs.len() == self.positions.len()
@@ -350,5 +382,37 @@ mod tests {
         m.triangle(0, 1, 2);
         assert!(!m.flat_normals());
         assert!(MeshData::default().flat_normals());
+    }
+
+    #[test]
+    fn parallelogram_quads_are_told_from_other_meshes() {
+        let mut m = MeshData::default();
+        m.quad(
+            [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y],
+            Vec3::Z,
+        );
+        // A sheared one far from the origin.
+        let o = Vec3::new(1000.0, -2000.0, 5.0);
+        let (u, v) = (Vec3::new(2.0, 0.5, 0.0), Vec3::new(0.25, 3.0, 0.0));
+        m.quad([o, o + u, o + u + v, o + v], Vec3::Z);
+        assert!(m.is_quads());
+        assert!(square(Vec3::Z).is_quads());
+        // Not a parallelogram, another index order, a triangle, no quad.
+        let mut kite = square(Vec3::Z);
+        kite.positions[3] = [0.0, 1.5, 0.0];
+        assert!(!kite.is_quads());
+        let mut order = square(Vec3::Z);
+        order.indices = vec![0, 1, 3, 1, 2, 3];
+        assert!(!order.is_quads());
+        let mut tri = MeshData::default();
+        tri.vertex(Vec3::ZERO, Vec3::Z);
+        tri.vertex(Vec3::X, Vec3::Z);
+        tri.vertex(Vec3::Y, Vec3::Z);
+        tri.vertex(Vec3::ONE, Vec3::Z);
+        tri.triangle(0, 1, 2);
+        assert!(!tri.is_quads());
+        assert!(!MeshData::default().is_quads());
+        // Normals that are not the faces' own.
+        assert!(!square(-Vec3::Z).is_quads());
     }
 }

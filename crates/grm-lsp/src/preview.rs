@@ -268,13 +268,23 @@ pub struct PartOut {
     /// the flat normals of the triangles (`grm_geom::MeshData::flat_normals`:
     /// the client computes them, summing each vertex's face normals).
     pub normals: String,
-    /// base64 of `u32` vertex indices, three per triangle.
+    /// base64 of `u32` vertex indices, three per triangle (empty in the
+    /// `quads` layout).
     pub indices: String,
     /// The number of picks (runs of triangles and what made them).
     pub pick_count: usize,
     /// base64 of [`PICK_WORDS`] `u32`s per pick, by first triangle
     /// ([`PickOut`], [`decode_picks`]).
     pub picks: String,
+    /// `quads` when the part is parallelogram quads
+    /// (`grm_geom::MeshData::is_quads`): `positions` holds the corners
+    /// `a b c` of each quad (nine floats), the fourth being `a + c - b`,
+    /// and `indices` and `normals` are empty; the client rebuilds the mesh
+    /// (vertices `a b c d`, triangles `a b c` and `a c d`, flat normals).
+    /// `vertexCount` and `triangleCount` (and the picks' triangles) count
+    /// the rebuilt mesh. Absent: triangles as above.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub layout: Option<String>,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
@@ -517,23 +527,43 @@ pub(crate) struct PickTable {
     pub(crate) shape: Option<Arc<crate::shape_preview::ShapePicks>>,
 }
 
-/// Base64 of 4-byte words, encoded straight from the slice in blocks of
-/// a whole number of 3-byte groups (no padding but at the end: the text
-/// is that of all the words' bytes encoded at once), without a copy of
-/// the whole as bytes.
-fn b64<T: Copy>(xs: &[T], to: fn(T) -> [u8; 4]) -> String {
+/// Base64 of 4-byte words, encoded as they come in blocks of a whole
+/// number of 3-byte groups (no padding but at the end: the text is that
+/// of all the words' bytes encoded at once), without a copy of the whole
+/// as bytes. `len`: how many words (the text's capacity).
+fn b64_words(len: usize, words: impl Iterator<Item = [u8; 4]>) -> String {
     use base64::engine::general_purpose::STANDARD;
     /// Words per block: 3,072 bytes.
     const WORDS: usize = 768;
-    let mut out = String::with_capacity((xs.len() * 4).div_ceil(3) * 4);
+    let mut out = String::with_capacity((len * 4).div_ceil(3) * 4);
     let mut block = [0u8; WORDS * 4];
-    for chunk in xs.chunks(WORDS) {
-        for (b, &x) in block.chunks_exact_mut(4).zip(chunk) {
-            b.copy_from_slice(&to(x));
+    let mut n = 0;
+    for w in words {
+        block[4 * n..4 * n + 4].copy_from_slice(&w);
+        n += 1;
+        if n == WORDS {
+            STANDARD.encode_string(&block[..], &mut out);
+            n = 0;
         }
-        STANDARD.encode_string(&block[..chunk.len() * 4], &mut out);
+    }
+    if n > 0 {
+        STANDARD.encode_string(&block[..n * 4], &mut out);
     }
     out
+}
+
+fn b64<T: Copy>(xs: &[T], to: fn(T) -> [u8; 4]) -> String {
+    b64_words(xs.len(), xs.iter().map(|&x| to(x)))
+}
+
+/// A quads mesh's positions on the wire (`layout: "quads"`): the first
+/// three corners of each quad (the fourth is `a + c - b`).
+fn quad_corners(mesh: &grm_geom::MeshData) -> String {
+    let words = mesh
+        .positions
+        .chunks_exact(4)
+        .flat_map(|q| q[..3].iter().flatten().map(|x| x.to_le_bytes()));
+    b64_words(mesh.positions.len() / 4 * 9, words)
 }
 
 pub(crate) fn f32s(xs: &[f32]) -> String {
@@ -1160,10 +1190,17 @@ pub(crate) fn parts_out(
         .iter()
         .map(|part| {
             let mesh = &part.mesh;
+            // Parallelogram quads (walls, windows, boxes) go as three
+            // corners each, without indices or normals (`layout: "quads"`,
+            // `MeshData::is_quads`); other meshes' flat normals are left
+            // out (`MeshData::flat_normals`): the client computes both.
+            let quads = mesh.is_quads();
             // The vertices on a second thread (a large part: a building's
-            // walls), the picks and indices here; flat normals are left out
-            // (the client computes them, `MeshData::flat_normals`).
+            // walls), the picks and indices here.
             let vertices = || {
+                if quads {
+                    return (quad_corners(mesh), String::new());
+                }
                 let normals = if mesh.flat_normals() {
                     String::new()
                 } else {
@@ -1196,7 +1233,12 @@ pub(crate) fn parts_out(
                     runs.push((pk.first_triangle, pk.triangle_count, pk.module, pk.origin));
                 }
                 let picks = base64::engine::general_purpose::STANDARD.encode(&picks);
-                (u32s(&mesh.indices), picks, runs)
+                let indices = if quads {
+                    String::new()
+                } else {
+                    u32s(&mesh.indices)
+                };
+                (indices, picks, runs)
             };
             let ((positions, normals), (indices, picks_b64, runs)) =
                 if mesh.positions.len() >= PARALLEL_VERTICES {
@@ -1218,6 +1260,7 @@ pub(crate) fn parts_out(
                 indices,
                 pick_count: part.picks.len(),
                 picks: picks_b64,
+                layout: quads.then(|| "quads".to_owned()),
             }
         })
         .collect()
@@ -1788,6 +1831,40 @@ mod tests {
         .expect("params");
         let unordered = Ticket::begin_preview(&shared, path, &plain);
         assert!(next.token.is_cancelled() && !unordered.token.is_cancelled());
+    }
+
+    #[test]
+    fn quads_go_as_three_corners_each() {
+        use base64::Engine as _;
+        let mut m = grm_geom::MeshData::default();
+        let o = glam::Vec3::new(3.0, -1.0, 2.5);
+        let (u, v) = (
+            glam::Vec3::new(2.0, 0.0, 0.5),
+            glam::Vec3::new(0.0, 1.5, 0.0),
+        );
+        m.quad([o, o + u, o + u + v, o + v], u.cross(v).normalize());
+        m.quad(
+            [o + v, o + u + v, o + u + 2.0 * v, o + 2.0 * v],
+            u.cross(v).normalize(),
+        );
+        assert!(m.is_quads());
+        let bytes = base64::engine::general_purpose::STANDARD
+            .decode(quad_corners(&m))
+            .unwrap();
+        let floats: Vec<f32> = bytes
+            .chunks_exact(4)
+            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect();
+        assert_eq!(floats.len(), 18);
+        for (q, c) in floats.chunks_exact(9).enumerate() {
+            let corner = |k: usize| glam::Vec3::new(c[3 * k], c[3 * k + 1], c[3 * k + 2]);
+            // The fourth corner, rebuilt as the client does.
+            let d = corner(0) + corner(2) - corner(1);
+            assert!((d - glam::Vec3::from_array(m.positions[4 * q + 3])).length() < 1e-5);
+            for k in 0..3 {
+                assert_eq!(corner(k).to_array(), m.positions[4 * q + k]);
+            }
+        }
     }
 
     #[test]

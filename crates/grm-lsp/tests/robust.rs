@@ -366,15 +366,22 @@ async fn preview_pick_and_live_updates() {
         let pos = b64(part["positions"].as_str().unwrap());
         let nor = b64(part["normals"].as_str().unwrap());
         let idx = b64(part["indices"].as_str().unwrap());
-        assert_eq!(pos.len(), nv * 3);
-        // Flat normals are left out (the client computes them).
-        assert!(
-            nor.is_empty() || nor.len() == nv * 3,
-            "{} normals",
-            nor.len()
-        );
-        assert_eq!(idx.len(), nt * 3);
-        assert!(idx.iter().all(|b| (u32::from_le_bytes(*b) as usize) < nv));
+        if part["layout"] == "quads" {
+            // Three corners per quad, nothing else (the client rebuilds).
+            assert_eq!((nv % 4, nt), (0, nv / 2));
+            assert_eq!(pos.len(), nv / 4 * 9);
+            assert!(nor.is_empty() && idx.is_empty());
+        } else {
+            assert_eq!(pos.len(), nv * 3);
+            // Flat normals are left out (the client computes them).
+            assert!(
+                nor.is_empty() || nor.len() == nv * 3,
+                "{} normals",
+                nor.len()
+            );
+            assert_eq!(idx.len(), nt * 3);
+            assert!(idx.iter().all(|b| (u32::from_le_bytes(*b) as usize) < nv));
+        }
         assert!(pos.iter().all(|b| f32::from_le_bytes(*b).is_finite()));
         triangles += nt;
         let mut by_origin = std::collections::BTreeMap::new();

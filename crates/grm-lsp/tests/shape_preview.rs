@@ -5,6 +5,7 @@
 
 mod common;
 
+use base64::Engine as _;
 use common::*;
 use serde_json::{Value, json};
 use std::fmt::Write;
@@ -85,7 +86,6 @@ async fn shape_preview_and_pick() {
         triangles += nt;
     }
     assert_eq!(triangles, r["stats"]["triangles"].as_u64().unwrap());
-
     // A wall of a tile: made by the tile's split, below a floor and a facade.
     let (part, tri) = pick_made_by(&r, "Tile").expect("a tile's part");
     let pk = c
@@ -278,4 +278,51 @@ async fn shape_preview_follows_sliders_seeds_and_edits() {
         .unwrap_err();
     let m = e["message"].as_str().unwrap();
     assert!(m.contains("R08"), "{m}");
+}
+
+/// A building of walls and windows only (no roof, no inserted asset):
+/// every part is parallelogram quads, sent as three corners each with no
+/// indices or normals (`layout: "quads"`, docs/lsp-extensions.md); its
+/// triangle counts and picks count the rebuilt mesh.
+#[tokio::test]
+async fn quads_go_as_three_corners() {
+    let mut c = Client::start().await;
+    let (dir, _) = fixture("shape.grm");
+    let p = dir.with_file_name("quads_only.grm");
+    let text = "material glass { color = rgb(0.3, 0.4, 0.5); }\n\
+        system Block {\n mode = shape;\n lot = rect(12, 8);\n axiom Lot;\n\
+        Lot -> extrude(9) Mass;\n\
+        Mass -> comp(faces) { front: Facade | side: Wall | top: Wall };\n\
+        Facade -> repeat(y) { 3: Floor };\n\
+        Floor -> repeat(x) { ~3: Tile };\n\
+        Tile -> split(x) { ~1: Wall | 1.2: Window | ~1: Wall };\n\
+        Window -> material(glass);\n}\n";
+    let u = c.open(&p, text).await;
+    let r = c
+        .ok("grm/preview", json!({ "textDocument": { "uri": u } }))
+        .await;
+    let parts = r["parts"].as_array().unwrap();
+    assert_eq!(parts.len(), 2, "{r}");
+    let mut triangles = 0;
+    for p in parts {
+        assert_eq!(p["layout"], "quads", "{p}");
+        let nv = p["vertexCount"].as_u64().unwrap() as usize;
+        let nt = p["triangleCount"].as_u64().unwrap() as usize;
+        assert_eq!((nv % 4, nt), (0, nv / 2));
+        let corners = base64::engine::general_purpose::STANDARD
+            .decode(p["positions"].as_str().unwrap())
+            .unwrap();
+        assert_eq!(corners.len(), nv / 4 * 9 * 4);
+        assert_eq!(
+            (p["indices"].as_str(), p["normals"].as_str()),
+            (Some(""), Some(""))
+        );
+        let covered: u64 = picks(p)
+            .iter()
+            .map(|pk| pk["triangleCount"].as_u64().unwrap())
+            .sum();
+        assert_eq!(covered as usize, nt);
+        triangles += nt;
+    }
+    assert_eq!(triangles as u64, r["stats"]["triangles"].as_u64().unwrap());
 }

@@ -463,6 +463,28 @@ export function decodePicks(v: unknown, count: unknown, what: string): PickRange
   return out;
 }
 
+/**
+ * A part in the `quads` layout rebuilt: three corners `a b c` per quad on
+ * the wire, the fourth `d = a + c - b`; vertices `a b c d`, triangles
+ * `a b c` and `a c d` (the server's `MeshData::quad`). Normals are the
+ * faces' own, computed by the scene.
+ */
+export function expandQuads(corners: Float32Array, what: string): { positions: Float32Array; indices: Uint32Array } {
+  if (corners.length % 9 !== 0) throw new ProtocolError(`${what}: length ${corners.length} is not a multiple of 9 (three corners per quad)`);
+  const quads = corners.length / 9;
+  const positions = new Float32Array(quads * 12);
+  const indices = new Uint32Array(quads * 6);
+  for (let q = 0; q < quads; q++) {
+    const c = q * 9;
+    const o = q * 12;
+    for (let k = 0; k < 9; k++) positions[o + k] = corners[c + k];
+    for (let k = 0; k < 3; k++) positions[o + 9 + k] = corners[c + k] + corners[c + 6 + k] - corners[c + 3 + k];
+    const b = q * 4;
+    indices.set([b, b + 1, b + 2, b, b + 2, b + 3], q * 6);
+  }
+  return { positions, indices };
+}
+
 /** Decode a model (materials, parts, skeleton) from a preview result on the wire. */
 export function decodeModel(v: Record<string, unknown>): SceneModel {
   const materials: SceneMaterial[] = (Array.isArray(v.materials) ? v.materials : []).map((m: unknown, i: number) => {
@@ -478,11 +500,21 @@ export function decodeModel(v: Record<string, unknown>): SceneModel {
   let triangles = 0;
   const parts: ScenePart[] = (Array.isArray(v.parts) ? v.parts : []).map((p: unknown, i: number) => {
     if (!isObject(p)) throw new ProtocolError(`parts[${i}]: expected an object`);
-    const positions = decodeF32(p.positions, `parts[${i}].positions`);
-    if (positions.length % 3 !== 0) throw new ProtocolError(`parts[${i}].positions: length ${positions.length} is not a multiple of 3`);
-    const normals = p.normals === undefined || p.normals === null || p.normals === '' ? null : decodeF32(p.normals, `parts[${i}].normals`);
-    if (normals && normals.length !== positions.length) throw new ProtocolError(`parts[${i}].normals: length differs from positions`);
-    const indices = decodeU32(p.indices, `parts[${i}].indices`);
+    let positions: Float32Array;
+    let normals: Float32Array | null;
+    let indices: Uint32Array;
+    if (p.layout === 'quads') {
+      ({ positions, indices } = expandQuads(decodeF32(p.positions, `parts[${i}].positions`), `parts[${i}].positions`));
+      normals = null;
+    } else if (p.layout === undefined || p.layout === null) {
+      positions = decodeF32(p.positions, `parts[${i}].positions`);
+      if (positions.length % 3 !== 0) throw new ProtocolError(`parts[${i}].positions: length ${positions.length} is not a multiple of 3`);
+      normals = p.normals === undefined || p.normals === null || p.normals === '' ? null : decodeF32(p.normals, `parts[${i}].normals`);
+      if (normals && normals.length !== positions.length) throw new ProtocolError(`parts[${i}].normals: length differs from positions`);
+      indices = decodeU32(p.indices, `parts[${i}].indices`);
+    } else {
+      throw new ProtocolError(`parts[${i}].layout: unknown layout ${JSON.stringify(p.layout)}`);
+    }
     if (indices.length % 3 !== 0) throw new ProtocolError(`parts[${i}].indices: length ${indices.length} is not a multiple of 3`);
     const nv = positions.length / 3;
     for (let k = 0; k < indices.length; k++) {
