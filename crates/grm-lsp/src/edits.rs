@@ -132,7 +132,8 @@ fn read(
 pub struct EditsOut {
     /// The edits file, `NAME.edits.json` beside the system's grammar.
     pub uri: Uri,
-    /// Whether it exists (open in the editor or on disk).
+    /// Whether it exists (open in the editor or on disk); without it
+    /// there are no edits.
     pub found: bool,
     /// Its problems (R0901-R0911, the diagnostics on it): an edit with a
     /// problem is skipped, the others replayed.

@@ -337,9 +337,9 @@ pub(crate) fn build(
     let replayed = loaded.text.is_some().then_some(&loaded.parsed.file);
     let grown = grm_grow::shape::grow(prog, sys, &values, &options, None, replayed)
         .map_err(|e| Failure::Msg(message(&e, fa, sys)))?;
-    // What became of each edit (only when there is a file).
+    // What became of each edit.
     let (edits_out, edits_run) = match uris.uri_of(&edits_path) {
-        Some(edits_uri) if loaded.text.is_some() => {
+        Some(edits_uri) => {
             let (o, r) = crate::edits::classify(
                 &loaded,
                 edits_uri,
@@ -350,7 +350,7 @@ pub(crate) fn build(
             );
             (Some(o), Some(r))
         }
-        _ => (None, None),
+        None => (None, None),
     };
     let derive_ms = t0.elapsed().as_secs_f64() * 1e3;
     check(cancel)?;

@@ -253,7 +253,12 @@ async fn the_preview_replays_the_open_edits_file_and_says_what_became_of_each_ed
             json!({ "textDocument": { "uri": u }, "live": true }),
         )
         .await;
-    assert!(base.get("edits").is_none(), "no edits file: no list");
+    assert_eq!(
+        (base["edits"]["found"].clone(), classes(&base)),
+        (json!(false), String::new()),
+        "no edits file: none replayed"
+    );
+    assert_eq!(base["edits"]["uri"], json!(uri(&edits_path(&p))));
     let exact = first_exact(&mut c, &u).await;
 
     // The edits file opened with one removal: the live preview regrows
@@ -263,7 +268,7 @@ async fn the_preview_replays_the_open_edits_file_and_says_what_became_of_each_ed
         { "id": 1, "system": "Townhouse", "target": { "exact": exact }, "op": "remove" }
     ]));
     let eu = c.open(&ep, &one, 1).await;
-    let r = c.updated(|r| r["edits"]["list"].is_array()).await;
+    let r = c.updated(|r| r["edits"]["found"] == true).await;
     assert!(
         triangles(&r) < triangles(&base),
         "{} !< {}",
@@ -419,7 +424,7 @@ async fn the_preview_replays_the_open_edits_file_and_says_what_became_of_each_ed
         json!({ "textDocument": { "uri": eu } }),
     )
     .await;
-    let r = c.updated(|r| r.get("edits").is_none()).await;
+    let r = c.updated(|r| r["edits"]["found"] == false).await;
     assert_eq!(triangles(&r), triangles(&base));
     c.diagnostics(&eu, <[Value]>::is_empty).await;
 }
@@ -635,7 +640,7 @@ async fn a_client_that_cannot_apply_edits_gets_the_file_written() {
         .wait_for(|r| {
             r.method() == "grm/previewUpdated"
                 && r.params()
-                    .is_some_and(|p| p["result"]["edits"]["list"].is_array())
+                    .is_some_and(|p| p["result"]["edits"]["found"] == true)
         })
         .await;
     let r = &up.params().unwrap()["result"];
