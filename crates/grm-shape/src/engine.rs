@@ -380,6 +380,9 @@ struct Engine<'p> {
 /// more parallelism (each deepening derives the top again).
 const TOP_NODES: usize = 4096;
 
+/// How many attribute operations [`Scratch::attr_memo`] keeps.
+const ATTR_MEMO: usize = 8;
+
 /// How many layouts [`Scratch::memo`] keeps.
 const MEMO: usize = 8;
 
@@ -443,6 +446,11 @@ struct Scratch {
     /// The alternative a persistent edit forces on the shape being
     /// expanded (from 0).
     force: Option<u32>,
+    /// Recent attribute operations: (the attributes before, the operation
+    /// (kind, value bits), the attributes after), at most [`ATTR_MEMO`]
+    /// (the attribute table only grows, so an entry stays true).
+    attr_memo: Vec<(AttrId, (u8, [u32; 3]), AttrId)>,
+    attr_memo_next: usize,
 }
 
 #[inline]
@@ -1187,7 +1195,27 @@ impl Engine<'_> {
                             }
                             rgb = Some(v);
                         }
-                        let id = self.set_attribute(op, rgb, s.attrs).map_err(Some)?;
+                        // The same attribute set on the same attributes
+                        // (every window of a facade setting its glass):
+                        // remembered, without the shared table's lock.
+                        let key = match (op, rgb) {
+                            (Op::Material(m), _) => (0, [m.0, 0, 0]),
+                            (Op::Texture(t), _) => (1, [t.0, 0, 0]),
+                            (_, c) => (2, c.unwrap_or_default().map(f32::to_bits)),
+                        };
+                        let id = match s.attr_memo.iter().find(|m| m.0 == s.attrs && m.1 == key) {
+                            Some(m) => m.2,
+                            None => {
+                                let id = self.set_attribute(op, rgb, s.attrs).map_err(Some)?;
+                                if s.attr_memo.len() < ATTR_MEMO {
+                                    s.attr_memo.push((s.attrs, key, id));
+                                } else {
+                                    s.attr_memo[s.attr_memo_next] = (s.attrs, key, id);
+                                    s.attr_memo_next = (s.attr_memo_next + 1) % ATTR_MEMO;
+                                }
+                                id
+                            }
+                        };
                         if id != s.attrs {
                             s.attrs = id;
                             s.attr_marks.push((out.len(), id));
