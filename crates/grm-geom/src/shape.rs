@@ -146,8 +146,9 @@ pub struct ShapeGroup {
     pub exact: String,
     /// Its semantic locator, `SemanticLocator`'s text form.
     pub semantic: String,
-    /// Its triangles, per part.
-    pub spans: Vec<GroupSpan>,
+    /// Its triangles, per part (inline for one: most groups draw in one
+    /// part, and a building has tens of thousands of groups).
+    pub spans: smallvec::SmallVec<[GroupSpan; 1]>,
 }
 
 /// A group's vertices and triangles in one part (contiguous; the
@@ -521,7 +522,7 @@ impl<'a> ShapeBuilder<'a> {
 
     /// The parts' triangles and vertices added since `before` (per part;
     /// parts made since count from 0).
-    fn spans_since(&self, before: &[(u32, u32)]) -> Vec<GroupSpan> {
+    fn spans_since(&self, before: &[(u32, u32)]) -> smallvec::SmallVec<[GroupSpan; 1]> {
         self.parts
             .iter()
             .enumerate()

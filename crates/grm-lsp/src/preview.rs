@@ -877,7 +877,20 @@ pub(crate) fn build(
     p: &PreviewParams,
     cancel: Option<&CancelToken>,
 ) -> std::result::Result<(PreviewResult, PickTable), Failure> {
-    build_with_model(fa, uri, uris, edits, p, cancel).map(|(r, t, _)| (r, t))
+    build_with_model(fa, uri, uris, edits, p, cancel).map(|(r, t, model)| {
+        drop_later(model);
+        (r, t)
+    })
+}
+
+/// Free a large value on a thread of its own, off the answer's path (a
+/// building's model is tens of thousands of groups: freeing them took
+/// as long as encoding its positions).
+pub(crate) fn drop_later<T: Send + 'static>(x: T) {
+    // A failed spawn (no threads left) drops it here.
+    let _ = std::thread::Builder::new()
+        .name("grm-drop".into())
+        .spawn(move || drop(x));
 }
 
 /// The `grm/preview` answer for an analysed file, exactly as the request
@@ -891,7 +904,12 @@ pub fn answer(
 ) -> std::result::Result<PreviewResult, String> {
     let edits = crate::edits::Source::default();
     build(fa, uri, &crate::uris::Uris::default(), &edits, params, None)
-        .map(|(r, _)| r)
+        .map(|(r, table)| {
+            // The server keeps the table (and frees the one it replaces
+            // off the answer's path, `store`).
+            drop_later(table);
+            r
+        })
         .map_err(|f| f.to_string())
 }
 
@@ -1570,11 +1588,16 @@ fn identity(
 }
 
 fn store(shared: &Shared, path: PathBuf, table: PickTable) {
-    shared
+    let old = shared
         .picks
         .lock()
         .unwrap_or_else(std::sync::PoisonError::into_inner)
         .insert(path, table);
+    // The table replaced (a building's tree) is freed off the lock and
+    // the answer's path.
+    if let Some(old) = old {
+        drop_later(old);
+    }
 }
 
 /// After an edit: recompute a live preview of `path` at `version` and send
