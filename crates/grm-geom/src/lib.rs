@@ -75,6 +75,12 @@ pub struct BuildOptions {
     /// finds a picked shape's locators in the tree, turns it off (the text
     /// of 10,000 windows' locators is most of a building's model).
     pub group_names: bool,
+    /// Shape mode: threads building the meshes (1: the calling thread's
+    /// alone, the default; 0: the machine's parallelism). A model whose
+    /// size the tree predicts (boxes and rectangles only, well within
+    /// `max_bytes`) is built in halves on two threads and joined; the
+    /// model is the same as one thread's, byte for byte.
+    pub threads: usize,
 }
 
 impl Default for BuildOptions {
@@ -86,6 +92,7 @@ impl Default for BuildOptions {
             held: 0,
             output: Output::Model,
             group_names: true,
+            threads: 1,
         }
     }
 }

@@ -195,80 +195,56 @@ pub fn build_shape_model(
     assets: &ShapeAssets,
     options: &BuildOptions,
 ) -> Result<Model, GeomError> {
-    let mut b = ShapeBuilder::new(program, assets, options)?;
     let nodes = tree.nodes();
-    b.plan(tree);
-    // Reused per group: the parts' sizes before it, its inserts.
-    let mut before: Vec<(u32, u32)> = Vec::new();
-    let mut inserts: Vec<NodeId> = Vec::new();
-    // The groups: shapes that draw (terminal) or whose rule made inserts.
-    for (i, n) in nodes.iter().enumerate() {
-        let id = NodeId(i as u32);
-        let NodeKind::Shape { symbol, .. } = n.kind else {
-            continue;
-        };
-        let geom = if n.has_children() {
-            None
-        } else {
-            tree.geom(id)
-        };
-        // A shape a persistent edit removed draws nothing.
-        let own = draws(&geom) && !tree.is_removed(id);
-        inserts.clear();
-        if n.has_children() {
-            inserts.extend(
-                tree.children(id)
-                    .filter(|&c| matches!(nodes[c.0 as usize].kind, NodeKind::Insert { .. })),
-            );
-        }
-        if !own && inserts.is_empty() {
-            continue;
-        }
-        before.clear();
-        before.extend(
-            b.parts
-                .iter()
-                .map(|p| (p.mesh.vertex_count() as u32, p.mesh.triangle_count() as u32)),
-        );
-        if let Some(geom) = geom.filter(|_| own) {
-            b.draw_shape(tree, id, &n.scope, &geom)?;
-        }
-        for &c in &inserts {
-            b.draw_insert(tree, c)?;
-        }
-        b.check_budget()?;
-        let spans = b.spans_since(&before);
-        if spans.is_empty() {
-            continue;
-        }
-        let (name, exact, semantic) = if options.group_names {
-            let semantic = tree.semantic_locator(program, id);
-            let mut name = program.symbol_name(symbol).to_owned();
-            for e in &semantic.entries {
-                name.push_str(&format!(".{}{}", e.tag, e.index));
-            }
-            (
-                sanitize(&name),
-                tree.exact_locator(program, id).to_string(),
-                semantic.to_string(),
-            )
-        } else {
-            (String::new(), String::new(), String::new())
-        };
-        b.groups.push(ShapeGroup {
-            name,
-            node: id.0,
-            key: n.key,
-            exact,
-            semantic,
-            spans,
+    let threads = match options.threads {
+        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        n => n,
+    };
+    let mut b = ShapeBuilder::new(program, assets, options)?;
+    let whole = 0..nodes.len();
+    let (predicted, groups) = b.plan(tree, whole.clone());
+    // In halves: when the tree says what will be drawn (boxes and
+    // rectangles only) and that fits the budget (so neither half can pass
+    // it), and there is enough of it to be worth a thread.
+    let halves = threads > 1
+        && groups >= PARALLEL_GROUPS
+        && predicted.is_some_and(|f| b.predicted_bytes(&f) <= options.max_bytes);
+    if !halves {
+        b.build_range(tree, whole)?;
+    } else {
+        let mid = nodes.len() / 2;
+        let mut second = ShapeBuilder::new(program, assets, options)?;
+        // This builder's parts are reserved for the whole (the other's
+        // join them without moving), the other's for its half.
+        second.plan(tree, mid..nodes.len());
+        let (first, other) = std::thread::scope(|s| {
+            let h = s.spawn(|| second.build_range(tree, mid..nodes.len()).map(|()| second));
+            let first = b.build_range(tree, 0..mid);
+            (first, h.join())
         });
+        first?;
+        let other = match other {
+            Ok(r) => r?,
+            // A panic in the second half: build it here instead.
+            Err(_) => {
+                let mut again = ShapeBuilder::new(program, assets, options)?;
+                again.plan(tree, mid..nodes.len());
+                again.build_range(tree, mid..nodes.len())?;
+                again
+            }
+        };
+        b.join(other)?;
+        b.check_budget()?;
     }
     if options.group_names {
         unique_names(&mut b.groups);
     }
     Ok(b.finish())
 }
+
+/// Groups from which a shape model is built on two threads
+/// ([`BuildOptions::threads`]): below, a thread costs more than it saves.
+const PARALLEL_GROUPS: usize = 4096;
 
 /// Make the groups' names unique: the key where a name is taken, then a
 /// number.
@@ -347,6 +323,9 @@ struct ShapeBuilder<'a> {
     /// rectangle shapes will draw at most (reserved when its part is
     /// made).
     attr_sizes: Vec<(usize, usize, usize)>,
+    /// The attributes each part was made for (a joined builder makes the
+    /// other's new parts from them, [`ShapeBuilder::join`]).
+    attrs_of: HashMap<MatKey, Attributes>,
 }
 
 impl<'a> ShapeBuilder<'a> {
@@ -373,18 +352,31 @@ impl<'a> ShapeBuilder<'a> {
             tris: Vec::new(),
             attr_parts: Vec::new(),
             attr_sizes: Vec::new(),
+            attrs_of: HashMap::new(),
         })
     }
 
-    /// Count what the terminal shapes will draw per attribute set (boxes
-    /// and rectangles, the common case; other geometry grows the meshes
-    /// as it goes), and reserve the groups.
-    fn plan(&mut self, tree: &ShapeTree) {
-        let table = tree.attribute_table().len();
-        self.attr_parts = vec![None; table];
-        self.attr_sizes = vec![(0, 0, 0); table];
+    /// Count what the terminal shapes of `range` will draw per attribute
+    /// set (boxes and rectangles, the common case; other geometry grows
+    /// the meshes as it goes), and reserve the groups. Returns the
+    /// footprint of the whole (an upper bound: faces without area are
+    /// left out) when the range draws boxes and rectangles alone (no
+    /// other geometry, no insert, no texture), and the number of groups.
+    fn plan(
+        &mut self,
+        tree: &ShapeTree,
+        range: std::ops::Range<usize>,
+    ) -> (Option<Footprint>, usize) {
+        let table = tree.attribute_table();
+        self.attr_parts = vec![None; table.len()];
+        self.attr_sizes = vec![(0, 0, 0); table.len()];
         let mut groups = 0;
-        for n in tree.nodes() {
+        let mut known = true;
+        let mut f = Footprint::default();
+        for n in tree.nodes().iter().take(range.end).skip(range.start) {
+            if matches!(n.kind, NodeKind::Insert { .. }) {
+                known = false;
+            }
             if !matches!(n.kind, NodeKind::Shape { .. }) || n.has_children() {
                 continue;
             }
@@ -392,14 +384,156 @@ impl<'a> ShapeBuilder<'a> {
                 grm_shape::Geometry::Box => (24, 12),
                 grm_shape::Geometry::Rect => (4, 2),
                 grm_shape::Geometry::Edge => continue,
-                _ => (0, 0),
+                _ => {
+                    known = false;
+                    (0, 0)
+                }
             };
             groups += 1;
             if let Some(a) = self.attr_sizes.get_mut(usize::from(n.attrs.0)) {
                 *a = (a.0 + v, a.1 + t, a.2 + 1);
             }
+            f.vertices += v as u64;
+            f.triangles += t as u64;
+            f.picks += 1;
+            f.polygons += 1;
         }
+        known &= table.iter().all(|a| a.texture.is_none());
         self.groups.reserve(groups);
+        (known.then_some(f), groups)
+    }
+
+    /// Draw the groups of the nodes in `range` (in node order).
+    fn build_range(
+        &mut self,
+        tree: &ShapeTree,
+        range: std::ops::Range<usize>,
+    ) -> Result<(), GeomError> {
+        let program = self.program;
+        let nodes = tree.nodes();
+        // Reused per group: the parts' sizes before it, its inserts.
+        let mut before: Vec<(u32, u32)> = Vec::new();
+        let mut inserts: Vec<NodeId> = Vec::new();
+        // The groups: shapes that draw (terminal) or whose rule made inserts.
+        for (i, n) in nodes.iter().enumerate().take(range.end).skip(range.start) {
+            let id = NodeId(i as u32);
+            let NodeKind::Shape { symbol, .. } = n.kind else {
+                continue;
+            };
+            let geom = if n.has_children() {
+                None
+            } else {
+                tree.geom(id)
+            };
+            // A shape a persistent edit removed draws nothing.
+            let own = draws(&geom) && !tree.is_removed(id);
+            inserts.clear();
+            if n.has_children() {
+                inserts.extend(
+                    tree.children(id)
+                        .filter(|&c| matches!(nodes[c.0 as usize].kind, NodeKind::Insert { .. })),
+                );
+            }
+            if !own && inserts.is_empty() {
+                continue;
+            }
+            before.clear();
+            before.extend(
+                self.parts
+                    .iter()
+                    .map(|p| (p.mesh.vertex_count() as u32, p.mesh.triangle_count() as u32)),
+            );
+            if let Some(geom) = geom.filter(|_| own) {
+                self.draw_shape(tree, id, &n.scope, &geom)?;
+            }
+            for &c in &inserts {
+                self.draw_insert(tree, c)?;
+            }
+            self.check_budget()?;
+            let spans = self.spans_since(&before);
+            if spans.is_empty() {
+                continue;
+            }
+            let (name, exact, semantic) = if self.options.group_names {
+                let semantic = tree.semantic_locator(program, id);
+                let mut name = program.symbol_name(symbol).to_owned();
+                for e in &semantic.entries {
+                    name.push_str(&format!(".{}{}", e.tag, e.index));
+                }
+                (
+                    sanitize(&name),
+                    tree.exact_locator(program, id).to_string(),
+                    semantic.to_string(),
+                )
+            } else {
+                (String::new(), String::new(), String::new())
+            };
+            self.groups.push(ShapeGroup {
+                name,
+                node: id.0,
+                key: n.key,
+                exact,
+                semantic,
+                spans,
+            });
+        }
+        Ok(())
+    }
+
+    /// Append `other`, built from the nodes after this builder's, as one
+    /// builder would have built them all: its parts joined to the parts of
+    /// the same attributes (new ones after these, in its order of first
+    /// use), its vertices, triangles, picks and groups moved past these,
+    /// its materials and textures numbered after these.
+    fn join(&mut self, other: ShapeBuilder<'a>) -> Result<(), GeomError> {
+        // The other's parts in its order of first use.
+        let mut keys: Vec<(MatKey, usize)> = other.by_key.iter().map(|(k, &i)| (*k, i)).collect();
+        keys.sort_by_key(|&(_, i)| i);
+        // Per part of the other: (this builder's part, vertex and triangle
+        // offsets).
+        let mut moved = vec![(0usize, 0u32, 0u32); other.parts.len()];
+        for (key, i) in keys {
+            let Some(part) = other.parts.get(i) else {
+                continue;
+            };
+            let mine = match self.by_key.get(&key) {
+                Some(&j) => j,
+                // A part first used in the other half: made as this
+                // builder would have made it, from the same attributes.
+                None => {
+                    let attrs = other.attrs_of.get(&key).copied().unwrap_or_default();
+                    self.part(attrs)?
+                }
+            };
+            let p = &mut self.parts[mine];
+            let (v0, t0) = (p.mesh.vertex_count() as u32, p.mesh.triangle_count() as u32);
+            p.mesh.positions.extend_from_slice(&part.mesh.positions);
+            p.mesh.normals.extend_from_slice(&part.mesh.normals);
+            p.mesh.uvs.extend_from_slice(&part.mesh.uvs);
+            p.mesh
+                .indices
+                .extend(part.mesh.indices.iter().map(|&k| k + v0));
+            p.picks.extend(part.picks.iter().map(|pk| Pick {
+                first_triangle: pk.first_triangle + t0,
+                ..*pk
+            }));
+            moved[i] = (mine, v0, t0);
+        }
+        self.groups.reserve(other.groups.len());
+        for mut g in other.groups {
+            for span in &mut g.spans {
+                let (mine, v0, t0) = moved[span.part];
+                span.part = mine;
+                span.first_vertex += v0;
+                span.first_triangle += t0;
+            }
+            self.groups.push(g);
+        }
+        self.dropped += other.dropped;
+        self.shapes += other.shapes;
+        self.inserts += other.inserts;
+        self.loaded_bytes += other.loaded_bytes;
+        Ok(())
     }
 
     /// The part a node is drawn in (by its attributes).
@@ -475,6 +609,7 @@ impl<'a> ShapeBuilder<'a> {
             ..Part::default()
         });
         self.by_key.insert(key, i);
+        self.attrs_of.insert(key, a);
         Ok(i)
     }
 
@@ -566,9 +701,18 @@ impl<'a> ShapeBuilder<'a> {
             f.triangles += p.mesh.triangle_count() as u64;
             f.picks += p.picks.len() as u64;
         }
-        let groups = self.groups.len() as u64;
-        f.bytes = self
-            .options
+        f.bytes = self.bytes_of(
+            &f,
+            self.groups.len() as u64,
+            self.materials.iter().any(|m| m.opacity < 1.0),
+        );
+        f
+    }
+
+    /// The bytes a model of these counts holds, counted against the limit
+    /// (one group per picked run).
+    fn bytes_of(&self, f: &Footprint, groups: u64, transparent: bool) -> u64 {
+        self.options
             .held
             .saturating_add(budget::BASELINE_BYTES)
             .saturating_add(self.loaded_bytes)
@@ -576,12 +720,14 @@ impl<'a> ShapeBuilder<'a> {
             .saturating_add(f.triangles.saturating_mul(budget::TRIANGLE_BYTES))
             .saturating_add(f.picks.saturating_mul(std::mem::size_of::<Pick>() as u64))
             .saturating_add(groups.saturating_mul(512))
-            .saturating_add(budget::output_bytes(
-                &f,
-                self.options.output,
-                self.materials.iter().any(|m| m.opacity < 1.0),
-            ));
-        f
+            .saturating_add(budget::output_bytes(f, self.options.output, transparent))
+    }
+
+    /// [`ShapeBuilder::bytes_of`] a predicted model (one group per pick,
+    /// its materials' opacity unknown: the larger of the two).
+    fn predicted_bytes(&self, f: &Footprint) -> u64 {
+        let g = f.picks;
+        self.bytes_of(f, g, true).max(self.bytes_of(f, g, false))
     }
 
     fn check_budget(&self) -> Result<(), GeomError> {

@@ -648,3 +648,114 @@ fn sample_glbs_for_the_validator() {
         gltf::Gltf::from_slice(&bytes).expect("valid glb");
     }
 }
+
+/// A facade of 6,000 rectangles: the lower floors' windows glass, the
+/// upper floors' red (a part first used in the second half of the tree),
+/// the walls plain; the side walls painted.
+fn big_facade() -> (Program, ShapeTree) {
+    let mut b = ProgramBuilder::new("tower");
+    let (lot, facade, lower, upper, floor, floor2, tile, tile2) = (
+        b.symbol("Lot"),
+        b.symbol("Facade"),
+        b.symbol("Lower"),
+        b.symbol("Upper"),
+        b.symbol("Floor"),
+        b.symbol("Floor2"),
+        b.symbol("Tile"),
+        b.symbol("Tile2"),
+    );
+    let (window, window2, wall, side) = (
+        b.symbol("Window"),
+        b.symbol("Window2"),
+        b.symbol("Wall"),
+        b.symbol("Side"),
+    );
+    let glass = b.material("glass");
+    let case = |selector, target| CompCase {
+        selector,
+        target: Some(target),
+    };
+    b.rule(
+        lot,
+        vec![
+            Op::Extrude(Param::Const(60.0)),
+            Op::Comp(Comp {
+                target: CompTarget::Faces,
+                cases: vec![case(Selector::Front, facade), case(Selector::Side, side)],
+                tag: None,
+            }),
+        ],
+    );
+    b.rule(
+        facade,
+        vec![Op::Split(Split {
+            axis: Axis::Y,
+            parts: vec![Part::float(1.0, Some(lower)), Part::abs(15.0, Some(upper))],
+            tag: None,
+        })],
+    );
+    let floors = |f| {
+        Op::Repeat(Split {
+            axis: Axis::Y,
+            parts: vec![Part::abs(3.0, Some(f))],
+            tag: None,
+        })
+    };
+    let tiles = |t| {
+        Op::Repeat(Split {
+            axis: Axis::X,
+            parts: vec![Part::abs(3.0, Some(t))],
+            tag: None,
+        })
+    };
+    let split = |w| {
+        Op::Split(Split {
+            axis: Axis::X,
+            parts: vec![
+                Part::float(1.0, Some(wall)),
+                Part::abs(1.2, Some(w)),
+                Part::float(1.0, Some(wall)),
+            ],
+            tag: None,
+        })
+    };
+    b.rule(lower, vec![floors(floor)]);
+    b.rule(upper, vec![floors(floor2)]);
+    b.rule(floor, vec![tiles(tile)]);
+    b.rule(floor2, vec![tiles(tile2)]);
+    b.rule(tile, vec![split(window)]);
+    b.rule(tile2, vec![split(window2)]);
+    b.rule(window, vec![Op::Material(glass)]);
+    b.rule(window2, vec![rgb(0.8, 0.1, 0.1)]);
+    b.rule(side, vec![rgb(0.5, 0.5, 0.45)]);
+    let program = b.build(lot).expect("program");
+    let tree = derive(&program, &Lot::rectangle(300.0, 40.0), &Options::default()).expect("tree");
+    (program, tree)
+}
+
+/// A model built in halves on two threads is the one thread's, byte for
+/// byte: parts and materials in order of first use (one first used in
+/// the second half), vertices, picks and groups; and so is a model whose
+/// size the tree cannot predict (an insert), which one thread builds.
+#[test]
+fn two_threads_build_the_same_model() {
+    let (program, tree) = big_facade();
+    let one = build_shape_model(&tree, &program, &assets(), &BuildOptions::default()).unwrap();
+    assert!(one.groups.len() > 6000, "{} groups", one.groups.len());
+    assert_eq!(one.parts.len(), 4, "{:?}", one.materials);
+    for threads in [2, 3, 0] {
+        let options = BuildOptions {
+            threads,
+            ..BuildOptions::default()
+        };
+        let many = build_shape_model(&tree, &program, &assets(), &options).unwrap();
+        assert!(many == one, "{threads} threads: another model");
+    }
+    let (program, tree) = building(None);
+    let one = build_shape_model(&tree, &program, &assets(), &BuildOptions::default()).unwrap();
+    let options = BuildOptions {
+        threads: 2,
+        ..BuildOptions::default()
+    };
+    assert!(build_shape_model(&tree, &program, &assets(), &options).unwrap() == one);
+}

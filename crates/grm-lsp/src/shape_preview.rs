@@ -356,8 +356,11 @@ pub(crate) fn build(
     check(cancel)?;
     let t1 = Instant::now();
     // No group names or locators: a pick finds its shape's in the tree.
+    // On every core (a large building of boxes and rectangles is built in
+    // halves; the model is the same).
     let build = grm_geom::BuildOptions {
         group_names: false,
+        threads: 0,
         ..grm_geom::BuildOptions::limited(
             crate::preview::PREVIEW_MAX_BYTES,
             grm_geom::Output::Model,
