@@ -92,13 +92,28 @@ impl MeshData {
             let b = 4 * k as u32;
             t == [b, b + 1, b + 2, b, b + 2, b + 3]
         });
+        // Per quad: a parallelogram, one normal for its four vertices, and
+        // that normal its face's (what `flat_normals` asks of each
+        // triangle: both triangles of a parallelogram share the face's
+        // normal), compared squared (no root per quad).
         pattern
-            && self.positions.chunks_exact(4).all(|c| {
-                let [a, b, c, d] = [c[0], c[1], c[2], c[3]].map(Vec3::from_array);
-                let size = a.abs().max(c.abs()).max_element().max(1.0);
-                (a + c - b - d).abs().max_element() <= 1e-5 * size
-            })
-            && self.flat_normals()
+            && self.normals.len() == self.positions.len()
+            && self
+                .positions
+                .chunks_exact(4)
+                .zip(self.normals.chunks_exact(4))
+                .all(|(p, n)| {
+                    let [a, b, c, d] = [p[0], p[1], p[2], p[3]].map(Vec3::from_array);
+                    let size = a.abs().max(c.abs()).max_element().max(1.0);
+                    let face = (b - a).cross(c - a);
+                    let normal = Vec3::from_array(n[0]);
+                    let along = face.dot(normal);
+                    (a + c - b - d).abs().max_element() <= 1e-5 * size
+                        && n[1..].iter().all(|m| *m == n[0])
+                        && along > 0.0
+                        && along * along > 0.9998 * face.length_squared() * normal.length_squared()
+                        && (normal.length_squared() - 1.0).abs() < 1e-3
+                })
     }
 
     /// Append the quad `a b c d` (counter-clockwise seen from `n`), as
@@ -412,7 +427,14 @@ mod tests {
         tri.triangle(0, 1, 2);
         assert!(!tri.is_quads());
         assert!(!MeshData::default().is_quads());
-        // Normals that are not the faces' own.
+        // Normals that are not the faces' own, or not one per quad.
         assert!(!square(-Vec3::Z).is_quads());
+        let mut bent = square(Vec3::Z);
+        bent.normals[2] = Vec3::new(0.0, 0.1, 1.0).normalize().to_array();
+        assert!(!bent.is_quads());
+        // No area.
+        let mut flat = MeshData::default();
+        flat.quad([Vec3::ZERO, Vec3::X, Vec3::X, Vec3::ZERO], Vec3::Z);
+        assert!(!flat.is_quads());
     }
 }
