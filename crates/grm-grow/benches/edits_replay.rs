@@ -56,6 +56,7 @@ use grm_edits::{EditsFile, Op, SemanticQuery, Target};
 use grm_grow::shape::{Lowered, ShapeOptions, derive, derive_with_edits, edit_plan, edits, lower};
 use grm_shape::{EditPlan, NodeId, NodeKind, ShapeTree};
 use grm_testkit::Rng;
+use std::collections::HashMap;
 use std::hint::black_box;
 use std::path::Path;
 use std::process::Command;
@@ -403,9 +404,67 @@ fn main() {
             None => classes.push((r.class.as_str(), 1)),
         }
     }
+    // The edits not valid: their targets by kind, and whether another
+    // edit of the mix (exact or key) removes an ancestor of the part or
+    // pins it or an ancestor (which changes the keys below), in the
+    // unedited tree.
+    let by_key: HashMap<u32, NodeId> = b
+        .plain
+        .nodes()
+        .iter()
+        .enumerate()
+        .map(|(i, n)| (n.key, NodeId(i as u32)))
+        .collect();
+    let node_of = |t: &Target| match t {
+        Target::Exact(l) => match b.plain.resolve(&b.lowered.program, l) {
+            grm_shape::Resolution::Found(n) => Some(n),
+            _ => None,
+        },
+        Target::Key(k) => by_key.get(k).copied(),
+        Target::Semantic(_) => None,
+    };
+    let hiding: Vec<(NodeId, bool)> = file
+        .edits
+        .iter()
+        .filter_map(|e| match e.op {
+            Op::Remove => Some((node_of(&e.target)?, false)),
+            Op::Pin { .. } => Some((node_of(&e.target)?, true)),
+            _ => None,
+        })
+        .collect();
+    let shared = b.plain.len() - by_key.len();
     println!(
-        "  classified after replay: {valid} of 1000 valid ({}; the others are parts under a removed or pinned window, which the mix's other edits took away)",
+        "  identity keys: {shared} of the {} nodes share their 32-bit key with another (a key target there is ambiguous)",
+        b.plain.len()
+    );
+    let mut explained = 0;
+    let mut invalid: Vec<(&str, usize)> = Vec::new();
+    for (e, r) in file.edits.iter().zip(&reports) {
+        if r.class == grm_edits::EditClass::Valid {
+            continue;
+        }
+        let kind = e.target.kind();
+        match invalid.iter_mut().find(|(k, _)| *k == kind) {
+            Some(c) => c.1 += 1,
+            None => invalid.push((kind, 1)),
+        }
+        if let Some(n) = node_of(&e.target) {
+            let path = b.plain.path(n);
+            let under = hiding.iter().any(|&(h, pin)| {
+                (h != n && path.contains(&h))
+                    || (pin && h == n && matches!(e.target, Target::Key(_)))
+            });
+            explained += usize::from(under);
+        }
+    }
+    println!(
+        "  classified after replay: {valid} of 1000 valid ({}); not valid by target: {}; {explained} of them inside a part another edit removes or pins, or a key another edit pins (edit interactions, not misses)",
         classes
+            .iter()
+            .map(|(c, n)| format!("{n} {c}"))
+            .collect::<Vec<_>>()
+            .join(", "),
+        invalid
             .iter()
             .map(|(c, n)| format!("{n} {c}"))
             .collect::<Vec<_>>()
