@@ -206,9 +206,8 @@ pub fn build_shape_model(
     // In halves: when the tree says what will be drawn (boxes and
     // rectangles only) and that fits the budget (so neither half can pass
     // it), and there is enough of it to be worth a thread.
-    let halves = threads > 1
-        && groups >= PARALLEL_GROUPS
-        && predicted.is_some_and(|f| b.predicted_bytes(&f) <= options.max_bytes);
+    b.within_budget = predicted.is_some_and(|f| b.predicted_bytes(&f) <= options.max_bytes);
+    let halves = threads > 1 && groups >= PARALLEL_GROUPS && b.within_budget;
     if !halves {
         b.build_range(tree, whole)?;
     } else {
@@ -217,6 +216,7 @@ pub fn build_shape_model(
         // This builder's parts are reserved for the whole (the other's
         // join them without moving), the other's for its half.
         second.plan(tree, mid..nodes.len());
+        second.within_budget = true;
         let (first, other) = std::thread::scope(|s| {
             let h = s.spawn(|| second.build_range(tree, mid..nodes.len()).map(|()| second));
             let first = b.build_range(tree, 0..mid);
@@ -326,6 +326,9 @@ struct ShapeBuilder<'a> {
     /// The attributes each part was made for (a joined builder makes the
     /// other's new parts from them, [`ShapeBuilder::join`]).
     attrs_of: HashMap<MatKey, Attributes>,
+    /// Set when the tree predicted the whole model's size within the
+    /// limit: no group's check is needed.
+    within_budget: bool,
 }
 
 impl<'a> ShapeBuilder<'a> {
@@ -353,6 +356,7 @@ impl<'a> ShapeBuilder<'a> {
             attr_parts: Vec::new(),
             attr_sizes: Vec::new(),
             attrs_of: HashMap::new(),
+            within_budget: false,
         })
     }
 
@@ -437,20 +441,34 @@ impl<'a> ShapeBuilder<'a> {
             if !own && inserts.is_empty() {
                 continue;
             }
-            before.clear();
-            before.extend(
-                self.parts
-                    .iter()
-                    .map(|p| (p.mesh.vertex_count() as u32, p.mesh.triangle_count() as u32)),
-            );
-            if let Some(geom) = geom.filter(|_| own) {
-                self.draw_shape(tree, id, &n.scope, &geom)?;
+            let spans = if inserts.is_empty() {
+                // The shape alone: its one part's span is what it drew.
+                let span = match geom.filter(|_| own) {
+                    Some(geom) => self.draw_shape(tree, id, &n.scope, &geom)?,
+                    None => None,
+                };
+                let Some(span) = span else { continue };
+                smallvec::smallvec![span]
+            } else {
+                before.clear();
+                before.extend(
+                    self.parts
+                        .iter()
+                        .map(|p| (p.mesh.vertex_count() as u32, p.mesh.triangle_count() as u32)),
+                );
+                if let Some(geom) = geom.filter(|_| own) {
+                    self.draw_shape(tree, id, &n.scope, &geom)?;
+                }
+                for &c in &inserts {
+                    self.draw_insert(tree, c)?;
+                }
+                self.spans_since(&before)
+            };
+            // A build whose size the tree predicted within the limit
+            // cannot pass it (`plan`).
+            if !self.within_budget {
+                self.check_budget()?;
             }
-            for &c in &inserts {
-                self.draw_insert(tree, c)?;
-            }
-            self.check_budget()?;
-            let spans = self.spans_since(&before);
             if spans.is_empty() {
                 continue;
             }
@@ -749,13 +767,14 @@ impl<'a> ShapeBuilder<'a> {
         id: NodeId,
         scope: &Scope,
         geom: &Geom,
-    ) -> Result<(), GeomError> {
+    ) -> Result<Option<GroupSpan>, GeomError> {
         if !scope_ok(scope) {
             self.dropped += 1;
-            return Ok(());
+            return Ok(None);
         }
         let part = self.part_of(tree, id)?;
         let before = self.parts[part].mesh.triangle_count();
+        let first_vertex = self.parts[part].mesh.vertex_count() as u32;
         let mut tris = std::mem::take(&mut self.tris);
         let mut out = Emitter {
             mesh: &mut self.parts[part].mesh,
@@ -782,13 +801,22 @@ impl<'a> ShapeBuilder<'a> {
             Geom::Edge => {}
         }
         self.tris = tris;
-        if self.parts[part].mesh.triangle_count() == before {
+        let mesh = &self.parts[part].mesh;
+        let (vertices, after) = (mesh.vertex_count() as u32, mesh.triangle_count());
+        let span = (after > before).then(|| GroupSpan {
+            part,
+            first_vertex,
+            vertex_count: vertices - first_vertex,
+            first_triangle: before as u32,
+            triangle_count: (after - before) as u32,
+        });
+        if span.is_none() {
             self.dropped += 1;
         } else {
             self.shapes += 1;
         }
         self.pick(part, before, id);
-        Ok(())
+        Ok(span)
     }
 
     /// Draw an insert's asset fitted to its scope.
