@@ -301,6 +301,9 @@ pub struct CostModel {
     /// there), for the reach look-ahead's branches
     /// ([`Self::uncovered_within_reach`]).
     attached: Vec<(usize, usize, f64)>,
+    /// Whether a bone also covers the other curves whose tube holds both
+    /// its ends (`BonePlan::also`; default on).
+    cover_others: bool,
 }
 
 /// Eq. 4-6: `(d_bone . d_guide + offset) * scale` with
@@ -368,6 +371,7 @@ impl CostModel {
             total_segments: seg_offset,
             density: options.density,
             attached: Vec::new(),
+            cover_others: true,
         };
         m.attach();
         m
@@ -448,6 +452,14 @@ impl CostModel {
     pub fn set_cover_radius(&mut self, radius: f64) {
         self.cover_radius = radius;
         self.attach();
+    }
+
+    /// Whether a bone covers, besides eq. 1's curve, every other curve
+    /// whose covering tube holds both its ends (on by default: a bone that
+    /// leaves a fork along an arm covers the arm; off, only eq. 1's curve,
+    /// as before issue 30's fork fix). Coverage only: the cost is the same.
+    pub fn set_cover_others(&mut self, on: bool) {
+        self.cover_others = on;
     }
 
     /// How many of `curve`'s utilization segments `state` covers: spanned
@@ -583,17 +595,18 @@ impl CostModel {
     /// further along the curve (in its direction), each counted as the
     /// curve's uncovered share `1 - k_c / n_c` (the coverage term's gain
     /// for one more segment is `2 W` times that); summed over the tubes (a
-    /// tip at a fork can grow along each). With `branches`, what is left
-    /// of `reach` where a curve that starts on this one (an arm drawn from
-    /// a trunk) leaves it is followed along that curve too (one level; a
-    /// curve whose tube holds the place is counted once). 0 without tubes
-    /// or for `reach <= 0`.
+    /// tip at a fork can grow along each). With `branches: Some(gap)`, what
+    /// is left of `reach` where a curve that starts on this one (an arm
+    /// drawn from a trunk) leaves it, more than `gap` ahead, is followed
+    /// along that curve too (one level, the best such curve; a curve whose
+    /// tube holds the place is counted once). 0 without tubes or for
+    /// `reach <= 0`.
     pub fn uncovered_within_reach(
         &self,
         state: &CostState,
         tubes: &Tubes,
         reach: f64,
-        branches: bool,
+        branches: Option<f64>,
     ) -> f64 {
         if reach.is_nan() || reach <= 0.0 {
             return 0.0;
@@ -601,14 +614,14 @@ impl CostModel {
         let mut sum = 0.0;
         for &(i, a) in tubes.iter() {
             sum += self.uncovered_along(state, i as usize, a, reach);
-            if !branches {
+            let Some(gap) = branches else {
                 continue;
-            }
+            };
             // One chain follows one branch: the best of them counts.
             let mut best = 0.0f64;
             for &(j, on, at) in &self.attached {
                 if on == i as usize
-                    && at > a
+                    && at - a > gap.max(0.0)
                     && at - a < reach
                     && !tubes.iter().any(|&(k, _)| k as usize == j)
                 {
@@ -776,7 +789,7 @@ impl CostModel {
             (None, None)
         };
         let mut also = [None; MAX_ALSO];
-        if segments.is_some() && self.curves.len() > 1 {
+        if segments.is_some() && self.cover_others && self.curves.len() > 1 {
             let mut n = 0;
             for (i, o) in self.curves.iter().enumerate() {
                 if i == curve || n == MAX_ALSO || o.params.utilization_scale <= 0.0 {

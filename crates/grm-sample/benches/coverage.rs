@@ -16,11 +16,15 @@
 //! median of at most 25 ms), and each curve's median coverage; a curve no
 //! model came near is named as unreached.
 //!
-//! Configurations, run one after another in the same process so that their
-//! times compare: `paper` (Calder's weights: one candidate, no tempering,
-//! uniform expansion order, the paper's equations alone), `before` (the
-//! defaults before the curve-coverage work: 3 candidates, ESS floor 0.1,
-//! the paper's cost and order) and `default` (`SampleOptions::default()`).
+//! Configurations, run in the same process, interleaved seed by seed (for
+//! each seed every configuration in turn) so that their times compare:
+//! `paper` (Calder's weights: one candidate, no tempering, uniform
+//! expansion order, the paper's equations alone), `before` (the defaults
+//! before the curve-coverage work: 3 candidates, ESS floor 0.1, the
+//! paper's cost and order), `prev` (the defaults before the reach
+//! look-ahead: 12 candidates, a tournament of 4, the coverage term, each
+//! bone covering eq. 1's curve alone) and `default`
+//! (`SampleOptions::default()`).
 //! `paper` and `before` run with the particle counts the grammars asked
 //! for before that work (Calder's 100 -> 15, the vine's 400 -> 60), the
 //! others with the grammars' own.
@@ -28,7 +32,11 @@
 //! (repeatable) adds a row `custom`: the defaults with those changes
 //! (keys: `particles=A..B`, `pscale` (the
 //! schedule's particle counts times this), `candidates`, `ess`, `order`, `cover`,
-//! `generations`), for trying a change before it is made a default.
+//! `generations`, and the [`grm_sample::Reach`] look-ahead's `reach_c`,
+//! `reach_o`, `reach_s`, `reach_w`, `recent`, `branches`; `others=0`: bones cover
+//! eq. 1's curve alone), for trying a
+//! change before it is made a default; `--custom K=V,K=V` (repeatable) adds
+//! rows `custom1`, `custom2`, ... the same way.
 //!
 //! Scenes: the Calder tree with its own curves file (a trunk and two arms),
 //! and with three curve sets of this bench's own (a single S-curve, a fork
@@ -39,7 +47,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use grm_guide::{CoverageOptions, Curves, FOLLOWED, coverage};
-use grm_sample::{ExpectedOptions, Guide, Objective, SampleOptions, Sampler, Schedule};
+use grm_sample::{ExpectedOptions, Guide, Objective, Reach, SampleOptions, Sampler, Schedule};
 
 const S_CURVE: &str = r#"{ "version": 1, "defaults": { "utilization_scale": 100 }, "curves": [
   { "name": "s_curve", "points": [[0, 0, 0], [1.5, 1.5, 0], [-1.5, 3, 0], [0, 4.5, 0]] } ] }"#;
@@ -65,6 +73,36 @@ fn cpu_ms() -> f64 {
         .map_or(f64::NAN, |ns| ns / 1e6)
 }
 
+/// Which sampler a row runs.
+enum Config {
+    Paper,
+    Before,
+    Prev,
+    Default,
+    Custom(Vec<(String, String)>),
+}
+
+/// One row's figures, seed by seed.
+struct Row {
+    times: Vec<f64>,
+    cpus: Vec<f64>,
+    costs: Vec<f64>,
+    per_curve: Vec<Vec<f64>>,
+    all80: u32,
+}
+
+impl Row {
+    fn new(curves: usize) -> Row {
+        Row {
+            times: Vec::new(),
+            cpus: Vec::new(),
+            costs: Vec::new(),
+            per_curve: vec![Vec::new(); curves],
+            all80: 0,
+        }
+    }
+}
+
 fn pct(xs: &[f64], p: f64) -> f64 {
     let mut v = xs.to_vec();
     v.sort_by(|a, b| a.total_cmp(b));
@@ -79,6 +117,18 @@ fn before(mut o: SampleOptions) -> SampleOptions {
     o.candidates = 3;
     o.ess_target = 0.1;
     o.guide = Guide::paper();
+    o
+}
+
+/// The defaults before the reach look-ahead (issue 30's first search: 12
+/// candidates, a tournament of 4, the coverage term at W = 150, no reach
+/// look-ahead; with a sampler whose bones cover eq. 1's curve alone).
+fn prev(mut o: SampleOptions) -> SampleOptions {
+    o.guide = Guide {
+        order: 4,
+        cover: 150.0,
+    };
+    o.reach = Reach::off();
     o
 }
 
@@ -119,11 +169,9 @@ fn custom(mut o: SampleOptions, with: &[(String, String)]) -> SampleOptions {
             "reach_c" => o.reach.candidates = f(),
             "reach_o" => o.reach.order = f(),
             "reach_s" => o.reach.scale = f(),
-            "frontier" => o.reach.frontier = f() as u32,
-            "span" => o.reach.span = f(),
-            "spent" => o.reach.spent = f(),
-            "islands" => o.reach.islands = f() as u32,
             "reach_w" => o.reach.weights = f(),
+            // Which sampler: `others=0` covers eq. 1's curve alone.
+            "others" => {}
             "branches" => o.reach.branches = f() != 0.0,
             "recent" => o.reach.recent = f() as u32,
             _ => panic!("unknown --with key {k}"),
@@ -137,12 +185,25 @@ fn main() {
     let mut only: Vec<String> = Vec::new();
     let mut configs: Vec<String> = Vec::new();
     let mut with: Vec<(String, String)> = Vec::new();
+    let mut customs: Vec<Vec<(String, String)>> = Vec::new();
     let mut it = std::env::args().skip(1);
     while let Some(x) = it.next() {
         match x.as_str() {
             "--seeds" => seeds = it.next().and_then(|s| s.parse().ok()).unwrap_or(50),
             "--only" => only.extend(it.next()),
             "--config" => configs.extend(it.next()),
+            "--custom" => {
+                let list = it.next().unwrap_or_default();
+                customs.push(
+                    list.split(',')
+                        .filter(|kv| !kv.is_empty())
+                        .map(|kv| {
+                            let (k, v) = kv.split_once('=').expect("--custom K=V,K=V");
+                            (k.to_string(), v.to_string())
+                        })
+                        .collect(),
+                );
+            }
             "--with" => {
                 let kv = it.next().unwrap_or_default();
                 let (k, v) = kv.split_once('=').expect("--with KEY=VALUE");
@@ -152,12 +213,20 @@ fn main() {
             _ => {}
         }
     }
-    let mut rows: Vec<&str> = vec!["paper", "before", "default"];
+    let mut rows: Vec<(String, Config)> = vec![
+        ("paper".into(), Config::Paper),
+        ("before".into(), Config::Before),
+        ("prev".into(), Config::Prev),
+        ("default".into(), Config::Default),
+    ];
     if !with.is_empty() {
-        rows.push("custom");
+        rows.push(("custom".into(), Config::Custom(with.clone())));
+    }
+    for (k, c) in customs.iter().enumerate() {
+        rows.push((format!("custom{}", k + 1), Config::Custom(c.clone())));
     }
     if !configs.is_empty() {
-        rows.retain(|r| configs.iter().any(|c| c == r));
+        rows.retain(|(r, _)| configs.iter().any(|c| c == r));
     }
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples");
     let file_curves = |name: &str| Curves::load(root.join(name)).expect("curves");
@@ -233,12 +302,22 @@ fn main() {
             ExpectedOptions::default(),
         )
         .expect("sampler");
+        // `prev`: each bone covers eq. 1's curve alone, as then.
+        let prev_sampler = Sampler::new(
+            system,
+            &compiled,
+            curves,
+            Objective::Curves,
+            ExpectedOptions::default(),
+        )
+        .expect("sampler")
+        .with_cover_others(false);
         let n = curves.curves().len();
-        for row in &rows {
-            let (mut times, mut costs, mut cpus) = (Vec::new(), Vec::new(), Vec::new());
-            let mut per_curve: Vec<Vec<f64>> = vec![Vec::new(); n];
-            let mut all80 = 0u32;
-            for seed in 0..seeds {
+        // Seeds outer, configurations inner: the rows' times are taken
+        // interleaved, so a load that comes and goes weighs on each alike.
+        let mut stats: Vec<Row> = rows.iter().map(|_| Row::new(n)).collect();
+        for seed in 0..seeds {
+            for ((_, config), st) in rows.iter().zip(&mut stats) {
                 let base = SampleOptions {
                     seed,
                     schedule: Schedule::from_settings(&compiled.settings),
@@ -247,18 +326,25 @@ fn main() {
                 };
                 let mut old = base.clone();
                 (old.schedule.particles_start, old.schedule.particles_end) = *old_particles;
-                let opts = match *row {
-                    "paper" => paper(old),
-                    "before" => before(old),
-                    "custom" => custom(base, &with),
-                    _ => base,
+                let opts = match config {
+                    Config::Paper => paper(old),
+                    Config::Before => before(old),
+                    Config::Prev => prev(base),
+                    Config::Custom(with) => custom(base, with),
+                    Config::Default => base,
                 };
+                let others_off = match config {
+                    Config::Prev => true,
+                    Config::Custom(with) => with.iter().any(|(k, v)| k == "others" && v == "0"),
+                    _ => false,
+                };
+                let s = if others_off { &prev_sampler } else { &sampler };
                 let (t, c) = (Instant::now(), cpu_ms());
-                let r = sampler.sample(&opts).expect("samples");
-                times.push(t.elapsed().as_secs_f64() * 1e3);
-                cpus.push(cpu_ms() - c);
+                let r = s.sample(&opts).expect("samples");
+                st.times.push(t.elapsed().as_secs_f64() * 1e3);
+                st.cpus.push(cpu_ms() - c);
                 let m = r.best().expect("a model");
-                costs.push(m.cost.total());
+                st.costs.push(m.cost.total());
                 let bones: Vec<(glam::Vec3, glam::Vec3)> = m
                     .bone_list()
                     .into_iter()
@@ -266,16 +352,18 @@ fn main() {
                     .collect();
                 let cov = coverage(curves, &bones, &CoverageOptions::default());
                 if cov.iter().all(|c| c.fraction >= FOLLOWED) {
-                    all80 += 1;
+                    st.all80 += 1;
                 }
                 for (k, c) in cov.iter().enumerate() {
-                    per_curve[k].push(c.fraction);
+                    st.per_curve[k].push(c.fraction);
                 }
             }
+        }
+        for ((label, _), st) in rows.iter().zip(&stats) {
             let curve_text: Vec<String> = curves
                 .curves()
                 .iter()
-                .zip(&per_curve)
+                .zip(&st.per_curve)
                 .enumerate()
                 .map(|(k, (c, v))| {
                     let name = c.name.clone().unwrap_or_else(|| format!("curve {k}"));
@@ -289,11 +377,11 @@ fn main() {
             println!(
                 "{:<20} {:<8} {:>9.1} {:>8.1} {:>11.1} {:>11.0}% | {}",
                 name,
-                row,
-                pct(&times, 50.0),
-                cpus.iter().sum::<f64>() / cpus.len().max(1) as f64,
-                pct(&costs, 50.0),
-                100.0 * f64::from(all80) / f64::from(seeds.max(1)),
+                label,
+                pct(&st.times, 50.0),
+                st.cpus.iter().sum::<f64>() / st.cpus.len().max(1) as f64,
+                pct(&st.costs, 50.0),
+                100.0 * f64::from(st.all80) / f64::from(seeds.max(1)),
                 curve_text.join(", ")
             );
         }

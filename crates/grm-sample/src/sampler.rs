@@ -84,8 +84,10 @@ pub const DEFAULT_ESS_TARGET: f64 = 0.1;
 /// it was 3.
 pub const DEFAULT_CANDIDATES: u32 = 12;
 
-/// The default [`Guide::order`]: the most promising of 4 open symbols.
-pub const DEFAULT_ORDER: u32 = 4;
+/// The default [`Guide::order`]: the most promising of 3 open symbols
+/// drawn at random (with [`Reach::recent`]'s 3 newest: of 6). It was 4
+/// before the reach look-ahead (`docs/sampling.md` section 4.4).
+pub const DEFAULT_ORDER: u32 = 3;
 
 /// The default [`Guide::cover`]: the coverage term at `W = 150`.
 pub const DEFAULT_COVER: f64 = 150.0;
@@ -129,9 +131,10 @@ impl Guide {
 }
 
 impl Default for Guide {
-    /// The measured best (`docs/sampling.md` section 4.3): a tournament
-    /// of 4 for the order ([`DEFAULT_ORDER`]) and the coverage term at
-    /// `W = 150` ([`DEFAULT_COVER`]).
+    /// The measured best (`docs/sampling.md` sections 4.3-4.4): a
+    /// tournament of 3 random draws for the order ([`DEFAULT_ORDER`]; with
+    /// [`Reach::recent`] the newest open symbols enter too) and the
+    /// coverage term at `W = 150` ([`DEFAULT_COVER`]).
     fn default() -> Self {
         Guide {
             order: DEFAULT_ORDER,
@@ -153,15 +156,6 @@ pub struct Reach {
     pub order: f64,
     /// Multiplier of the symbols' reach factors.
     pub scale: f64,
-    /// Candidates for an expansion of a symbol on a curve's frontier (0:
-    /// the same as elsewhere, [`SampleOptions::candidates`]): in a covering
-    /// tube, with segments not yet covered within [`Reach::span`] times its
-    /// frame's scale ahead of it.
-    pub frontier: u32,
-    /// How far ahead a frontier symbol has uncovered segments, in units
-    /// of its frame's scale (about the length of the bone it grows next);
-    /// 0: within its reach (the reach factor times the frame's scale).
-    pub span: f64,
     /// Whether the candidates' look-ahead follows the curves that start
     /// on a curve (an arm drawn from a trunk: a longer trunk bone reaches
     /// further along the arms).
@@ -170,19 +164,17 @@ pub struct Reach {
     /// expansion's tournament besides its [`Guide::order`] random draws,
     /// so a chain that follows a curve can be grown on at once.
     pub recent: u32,
-    /// Added to the order's promise of a symbol in a covering tube that
-    /// has nothing left to cover within its reach (in units of `2 W`): a
-    /// shrunk chain's tip is grown only when nothing better is drawn.
-    pub spent: f64,
-    /// Islands: the population is split into this many contiguous groups,
-    /// each resampled on its own (1: one population), so that as many
-    /// lineages grow the model's first bones independently; the final
-    /// models of every island compete.
-    pub islands: u32,
     /// Weight of the look-ahead at a particle's newest tip in its score
     /// (so in the weights that resample the population): 0 leaves the
     /// weights as without the look-ahead.
     pub weights: f64,
+    /// Whether a reach is capped by the bones the generations left can
+    /// grow (a bone a generation, each the symbol's stride): where the
+    /// schedule, not the grammar, is what limits the model (the vine). The
+    /// one part of the search that depends on the run's length, so with it
+    /// frame K is the model of the run stopped after generation K but not
+    /// that of a run of K + 1 generations (`docs/sampling.md` section 9).
+    pub budget: bool,
 }
 
 impl Reach {
@@ -192,20 +184,31 @@ impl Reach {
             candidates: 0.0,
             order: 0.0,
             scale: 1.0,
-            frontier: 0,
-            span: 0.0,
             branches: false,
             recent: 0,
-            spent: 0.0,
-            islands: 1,
             weights: 0.0,
+            budget: false,
         }
     }
 }
 
 impl Default for Reach {
+    /// The measured best (`docs/sampling.md` section 4.4): the look-ahead
+    /// in the candidates' choice at weight 1 and in the order's promise at
+    /// 0.5, reach factors times 1.5, following the curves that start on a
+    /// curve, the 3 newest open symbols in every tournament, the newest
+    /// tip's look-ahead in the particles' scores at 0.25, and reaches
+    /// capped by the generations left.
     fn default() -> Self {
-        Reach::off()
+        Reach {
+            candidates: 1.0,
+            order: 0.5,
+            scale: 1.5,
+            branches: true,
+            recent: 3,
+            weights: 0.25,
+            budget: true,
+        }
     }
 }
 
@@ -393,6 +396,9 @@ pub struct Sampler<'a> {
     /// grown depth first from the symbol alone in the identity frame, of
     /// the longest chain of bones (0 for symbols that grow none).
     reach: Vec<f32>,
+    /// Per symbol: the median length of the first bone its depth-first
+    /// sub-derivations grow (a bone's length in the identity frame).
+    stride: Vec<f32>,
     expected_time: Duration,
     /// Per curve: its Bézier and parameters (as the cost model has them).
     guides: Vec<(grm_guide::Bezier3, grm_guide::CurveParams)>,
@@ -440,6 +446,37 @@ fn resample_uniform(seed: u32, g: u32) -> f64 {
 /// drawn there gets under a uniform scale).
 fn frame_scale(t: &Turtle) -> f64 {
     f64::from(t.frame.matrix3.determinant().abs().cbrt())
+}
+
+/// Per symbol: the expected direction (eq. 9), the reach factor and the
+/// stride ([`Sampler::new`]'s estimates).
+type PerSymbol = (Vec<Vec3>, Vec<f32>, Vec<f32>);
+
+/// A run's look-ahead: the options and how many generations are left
+/// after the one being grown (a particle grows a bone a generation, so
+/// nothing reaches further than that many bones).
+struct Look<'r> {
+    o: &'r Reach,
+    left: f64,
+}
+
+impl Look<'_> {
+    /// [`CostModel::uncovered_within_reach`]'s `branches` for a reach the
+    /// grammar bounds (`shrinks`) or the generations left: the curves that
+    /// start on a curve are followed only where the chain's own shrinking
+    /// bounds it (a longer bone then reaches further along them); where
+    /// the generations left bound it, following them would only keep tips
+    /// short of a fork (measured on the vine: `docs/sampling.md` 4.4).
+    fn branches(&self, shrinks: bool) -> Option<f64> {
+        (self.o.branches && shrinks).then_some(0.0)
+    }
+}
+
+impl std::ops::Deref for Look<'_> {
+    type Target = Reach;
+    fn deref(&self) -> &Reach {
+        self.o
+    }
 }
 
 /// Pick an index in `0 .. n` with draw `draw` of `ctx`.
@@ -515,6 +552,7 @@ impl<'a> Sampler<'a> {
             volume,
             expected: Vec::new(),
             reach: Vec::new(),
+            stride: Vec::new(),
             expected_time: Duration::ZERO,
             guides: curves
                 .curves()
@@ -523,9 +561,18 @@ impl<'a> Sampler<'a> {
                 .collect(),
         };
         let t = Instant::now();
-        (s.expected, s.reach) = s.expected_directions(&expected)?;
+        (s.expected, s.reach, s.stride) = s.expected_directions(&expected)?;
         s.expected_time = t.elapsed();
         Ok(s)
+    }
+
+    /// [`CostModel::set_cover_others`] for this sampler's cost model: with
+    /// `false`, a bone covers only eq. 1's curve (the coverage term as
+    /// before the fork fix of `docs/sampling.md` section 4.4; for
+    /// comparisons).
+    pub fn with_cover_others(mut self, on: bool) -> Self {
+        self.cost.set_cover_others(on);
+        self
     }
 
     /// The curve cost model.
@@ -644,7 +691,7 @@ impl<'a> Sampler<'a> {
     fn expected_directions(
         &self,
         opts: &ExpectedOptions,
-    ) -> Result<(Vec<Vec3>, Vec<f32>), SampleError> {
+    ) -> Result<PerSymbol, SampleError> {
         let n = self.g.phase.len();
         let mut w = self.g.worker();
         let mut params: Vec<Vec<Vec<f32>>> = vec![Vec::new(); n];
@@ -689,6 +736,7 @@ impl<'a> Sampler<'a> {
         }
         let mut out = vec![Vec3::ZERO; n];
         let mut reach = vec![0.0f32; n];
+        let mut stride = vec![0.0f32; n];
         let identity = self.g.initial_turtle();
         for s in 0..n {
             if !self.g.is_skeleton(s as u32) || params[s].is_empty() {
@@ -722,6 +770,7 @@ impl<'a> Sampler<'a> {
             // The reach factor: the longest chain of bones of sub-derivations
             // grown depth first from the symbol alone (draws of their own).
             let mut longest = Vec::with_capacity(per);
+            let mut first = Vec::with_capacity(per);
             for m in 0..per {
                 let mut open = vec![Loose {
                     symbol: s as u32,
@@ -743,11 +792,19 @@ impl<'a> Sampler<'a> {
                     |_, _| {},
                 )?;
                 longest.push(l);
+                if let Some(&(b, t)) = bones.first() {
+                    let len = b.distance(t);
+                    if len.is_finite() {
+                        first.push(len);
+                    }
+                }
             }
             longest.sort_by(f32::total_cmp);
             reach[s] = longest[(longest.len() * 3) / 4].max(0.0);
+            first.sort_by(f32::total_cmp);
+            stride[s] = first.get(first.len() / 2).copied().unwrap_or(0.0);
         }
-        Ok((out, reach))
+        Ok((out, reach, stride))
     }
 
     /// The axiom's skeleton symbols as loose open items (for the parameter
@@ -1255,12 +1312,17 @@ impl<'a> Sampler<'a> {
         temperature: f64,
         guide: &Guide,
         reach: &Reach,
+        left: u32,
     ) -> Result<(Particle, Step, u32, f64), SampleError> {
         let mut q = p.clone();
         local.clear();
         let cur = (g + 1, i);
         let compute_h = h_scale > 0.0;
-        w.append_spawns = reach.recent > 0;
+        let reach = &Look {
+            o: reach,
+            left: f64::from(left),
+        };
+        w.append_spawns = guide.order > 1 && reach.recent > 0;
         let mut k = 0;
         let mut correction = 0.0;
         // A particle whose open symbols can none lead to a bone (W0015)
@@ -1306,17 +1368,7 @@ impl<'a> Sampler<'a> {
                     }
                 }
             }
-            let chosen = spawn_at(idx);
-            let symbol = chosen.map(|sp| sp.symbol);
-            // A symbol on the frontier of a curve (in a covering tube, with
-            // uncovered segments within its reach) may draw its own number
-            // of candidates.
-            let kc = match chosen {
-                Some(sp) if kc > 1 && reach.frontier > 0 && self.on_frontier(&q, &sp, reach) => {
-                    reach.frontier
-                }
-                _ => kc,
-            };
+            let symbol = spawn_at(idx).map(|sp| sp.symbol);
             let candidates = kc > 1 && symbol.is_some_and(|s| self.g.can_bone[s as usize]);
             let added = if candidates {
                 let (c, corr) = self.draw_candidates(
@@ -1382,7 +1434,7 @@ impl<'a> Sampler<'a> {
     /// (`2 W (1 - s)`, `s` the curve's covered share). A
     /// symbol that never grows a bone, or at a non-finite position, is
     /// least promising (`+inf`).
-    fn promise(&self, q: &Particle, sp: &Spawn, guide: &Guide, reach: &Reach) -> f64 {
+    fn promise(&self, q: &Particle, sp: &Spawn, guide: &Guide, reach: &Look<'_>) -> f64 {
         let e = self
             .expected
             .get(sp.symbol as usize)
@@ -1403,14 +1455,9 @@ impl<'a> Sampler<'a> {
                 .cost
                 .tubes_near(n.position.as_dvec3(), (n.curve, &n.closest));
             if !tubes.is_empty() {
-                let r = self.reach_of(sp.symbol, &sp.turtle, reach);
-                let ahead = self.cost.uncovered_within_reach(&q.cost, &tubes, r, false);
+                let (r, _) = self.reach_of(sp.symbol, &sp.turtle, reach);
+                let ahead = self.cost.uncovered_within_reach(&q.cost, &tubes, r, None);
                 v -= 2.0 * guide.cover * reach.order * ahead;
-                if ahead == 0.0 {
-                    // Spent: on a curve with nothing left to cover within
-                    // its reach (a chain's tip that has shrunk).
-                    v += 2.0 * guide.cover * reach.spent;
-                }
             }
         } else if guide.cover > 0.0 && !self.cost.covered_ahead(&q.cost, n.curve, n.closest.t) {
             let (k, m) = self.cost.covered_segments(&q.cost, n.curve);
@@ -1419,30 +1466,26 @@ impl<'a> Sampler<'a> {
         if v.is_nan() { f64::INFINITY } else { v }
     }
 
-    /// Whether open symbol `sp` of `q` is on a curve's frontier: in a
-    /// covering tube, with segments not yet covered within its reach.
-    fn on_frontier(&self, q: &Particle, sp: &Spawn, reach: &Reach) -> bool {
-        let Some(n) = sp.near else {
-            return false;
-        };
-        let tubes = self
-            .cost
-            .tubes_near(n.position.as_dvec3(), (n.curve, &n.closest));
-        let r = if reach.span > 0.0 {
-            frame_scale(&sp.turtle) * reach.span
-        } else {
-            self.reach_of(sp.symbol, &sp.turtle, reach)
-        };
-        !tubes.is_empty() && self.cost.uncovered_within_reach(&q.cost, &tubes, r, false) > 0.0
-    }
-
     /// How far a subtree of `symbol` grown from turtle state `t` could
     /// reach along a curve: its reach factor times the frame's scale
     /// (`|det|^(1/3)`) times [`Reach::scale`].
-    fn reach_of(&self, symbol: u32, t: &Turtle, reach: &Reach) -> f64 {
+    fn reach_of(&self, symbol: u32, t: &Turtle, reach: &Look<'_>) -> (f64, bool) {
         let f = self.reach.get(symbol as usize).copied().unwrap_or(0.0);
-        let r = f64::from(f) * frame_scale(t) * reach.scale;
-        if r.is_finite() { r } else { 0.0 }
+        let stride = self.stride.get(symbol as usize).copied().unwrap_or(0.0);
+        let s = frame_scale(t);
+        let grammar = f64::from(f) * s * reach.scale;
+        // No further than the bones the generations left can grow.
+        let budget = if reach.budget {
+            f64::from(stride) * s * (reach.left + 1.0)
+        } else {
+            f64::INFINITY
+        };
+        let r = grammar.min(budget);
+        if r.is_finite() {
+            (r, grammar <= budget)
+        } else {
+            (0.0, false)
+        }
     }
 
     /// The reach look-ahead of open symbols `spawns` (emitted by one
@@ -1453,18 +1496,21 @@ impl<'a> Sampler<'a> {
         &self,
         state: &grm_guide::CostState,
         spawns: &[Spawn],
-        reach: &Reach,
+        reach: &Look<'_>,
     ) -> f64 {
         let mut sum = 0.0;
         let mut i = 0;
         while i < spawns.len() {
             let sp = &spawns[i];
-            let mut r = self.reach_of(sp.symbol, &sp.turtle, reach);
+            let (mut r, mut shrinks) = self.reach_of(sp.symbol, &sp.turtle, reach);
             let mut j = i + 1;
             while j < spawns.len()
                 && spawns[j].turtle.frame.translation == sp.turtle.frame.translation
             {
-                r = r.max(self.reach_of(spawns[j].symbol, &spawns[j].turtle, reach));
+                let (rj, sj) = self.reach_of(spawns[j].symbol, &spawns[j].turtle, reach);
+                if rj > r {
+                    (r, shrinks) = (rj, sj);
+                }
                 j += 1;
             }
             if let Some(n) = sp.near
@@ -1475,7 +1521,7 @@ impl<'a> Sampler<'a> {
                     .tubes_near(n.position.as_dvec3(), (n.curve, &n.closest));
                 sum += self
                     .cost
-                    .uncovered_within_reach(state, &tubes, r, reach.branches);
+                    .uncovered_within_reach(state, &tubes, r, reach.branches(shrinks));
             }
             i = j;
         }
@@ -1491,14 +1537,14 @@ impl<'a> Sampler<'a> {
         alt: u32,
         state: &grm_guide::CostState,
         plans: &[BonePlan],
-        reach: &Reach,
+        reach: &Look<'_>,
     ) -> f64 {
         let sys = self.g.sys;
         let a = &sys.alts[alt as usize];
-        let mut at: Option<(Vec3, f64)> = None;
+        let mut at: Option<(Vec3, (f64, bool))> = None;
         let mut sum = 0.0;
-        let flush = |at: Option<(Vec3, f64)>, sum: &mut f64| {
-            if let Some((pos, r)) = at {
+        let flush = |at: Option<(Vec3, (f64, bool))>, sum: &mut f64| {
+            if let Some((pos, (r, shrinks))) = at {
                 let p = pos.as_dvec3();
                 let known = plans
                     .iter()
@@ -1506,9 +1552,9 @@ impl<'a> Sampler<'a> {
                     .and_then(BonePlan::tip_closest);
                 if r > 0.0 {
                     let tubes = self.cost.tubes_at(p, known);
-                    *sum += self
-                        .cost
-                        .uncovered_within_reach(state, &tubes, r, reach.branches);
+                    *sum +=
+                        self.cost
+                            .uncovered_within_reach(state, &tubes, r, reach.branches(shrinks));
                 }
             }
         };
@@ -1520,7 +1566,7 @@ impl<'a> Sampler<'a> {
             let pos = Vec3::from(t.frame.translation);
             let r = self.reach_of(sym, &t, reach);
             match at {
-                Some((p, r0)) if p == pos => at = Some((p, r0.max(r))),
+                Some((p, r0)) if p == pos => at = Some((p, if r.0 > r0.0 { r } else { r0 })),
                 _ => {
                     flush(at, &mut sum);
                     at = Some((pos, r));
@@ -1555,7 +1601,7 @@ impl<'a> Sampler<'a> {
         kc: u32,
         temperature: f64,
         cover: f64,
-        reach: &Reach,
+        reach: &Look<'_>,
     ) -> Result<(usize, f64), SampleError> {
         let r = *q.open.get(idx).ok_or_else(missing_node)?;
         let (sp, _) = self.open_spawn(w, Arena { layers, local, cur }, r)?;
@@ -1831,7 +1877,6 @@ impl<'a> Sampler<'a> {
         let mut log_w = Vec::new();
         let mut weights = Vec::new();
         let mut ancestors = Vec::new();
-        let mut island = Vec::new();
         let mut stopped_early = false;
         let mut last: Vec<Arc<Particle>> = Vec::new();
         let mut frames: Vec<(u32, Result<SampledModel, SampleError>)> = Vec::new();
@@ -1904,6 +1949,7 @@ impl<'a> Sampler<'a> {
                     temperature,
                     &opts.guide,
                     &opts.reach,
+                    gens - g - 1,
                 )
             };
             let results: Vec<Result<(Particle, Step, u32, f64), SampleError>> = if parallel {
@@ -2003,36 +2049,12 @@ impl<'a> Sampler<'a> {
                 last = next;
                 break;
             }
-            let n_next = sched.particles(g + 1) as usize;
-            let k = (opts.reach.islands.max(1) as usize)
-                .min(next.len())
-                .min(n_next);
-            if k <= 1 {
-                resample::systematic(&weights, n_next, resample_uniform(seed, g), &mut ancestors);
-            } else {
-                // Islands: contiguous ranges of the population, each
-                // resampled on its own to its share of the next generation
-                // (no lineage crosses from one to another).
-                ancestors.clear();
-                let share = |n: usize, j: usize| n / k + usize::from(j < n % k);
-                let mut from = 0;
-                for j in 0..k {
-                    let len = share(next.len(), j);
-                    let u = if j == 0 {
-                        resample_uniform(seed, g)
-                    } else {
-                        f64::from(rng::uniform(seed, g, u32::MAX - j as u32, STREAM_RESAMPLE))
-                    };
-                    resample::systematic(
-                        &weights[from..from + len],
-                        share(n_next, j),
-                        u,
-                        &mut island,
-                    );
-                    ancestors.extend(island.iter().map(|&a| from + a));
-                    from += len;
-                }
-            }
+            resample::systematic(
+                &weights,
+                sched.particles(g + 1),
+                resample_uniform(seed, g),
+                &mut ancestors,
+            );
             pop = ancestors.iter().map(|&a| Arc::clone(&next[a])).collect();
             // A step that no resampled particle descends from is never
             // read again: recycle its buffers.
