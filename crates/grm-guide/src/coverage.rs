@@ -154,6 +154,10 @@ pub const FOLLOWED: f64 = 0.8;
 /// (each bone covering at most its length plus the covering radius on
 /// either side), a line that says so: the grammar cannot reach every
 /// curve with the bones its schedule grows, whatever the search does.
+/// Otherwise, a line for each curve under [`FOLLOWED`] that the bones
+/// left over by the other curves' coverage (the most they cover in all,
+/// less what they cover already) cannot bring to it: the curves compete
+/// for the bones, and this one loses.
 pub fn describe(curves: &Curves, bones: &[(Vec3, Vec3)], options: &CoverageOptions) -> Vec<String> {
     let cov = coverage(curves, bones, options);
     let names: Vec<String> = cov
@@ -217,6 +221,25 @@ pub fn describe(curves: &Curves, bones: &[(Vec3, Vec3)], options: &CoverageOptio
             finite.len(),
             100.0 * FOLLOWED
         ));
+    } else {
+        // Enough bones for the curves together, but those that follow
+        // some curves are not free for another: a curve the rest cannot
+        // bring to FOLLOWED is named (the curves compete for the bones).
+        let covered: Vec<f64> = cov.iter().map(|c| c.fraction * c.length).collect();
+        let all: f64 = covered.iter().sum();
+        for (k, (c, name)) in cov.iter().zip(&names).enumerate() {
+            let lacks = FOLLOWED * c.length - covered[k];
+            let free = reach - all;
+            if c.fraction < FOLLOWED && free < lacks {
+                out.push(format!(
+                    "  too few bones for {name}: the {} bones cover at most {reach:.2} of curve length (their {bone_length:.2} and the covering radius at each end), {:.2} of it along the other curves; the {:.2} left is short of the {lacks:.2} it lacks for {:.0}% (the curves compete for the bones: more generations grow more bones; fewer curves need fewer)",
+                    finite.len(),
+                    all - covered[k],
+                    free.max(0.0),
+                    100.0 * FOLLOWED
+                ));
+            }
+        }
     }
     out
 }
@@ -334,6 +357,24 @@ mod tests {
         let lines = describe(&two, &many, &CoverageOptions::default());
         assert_eq!(lines.len(), 3, "{lines:#?}");
         assert!(lines[1].contains("100.0%  no gaps"), "{}", lines[1]);
+        // Enough in all for a far curve as long as the trunk (8 bones can
+        // cover at most 4 + 8 * 0.3 = 6.4, 80% of the curves' 8), but they
+        // all cover the trunk: the 2.4 left cannot give `far` the 3.2 it
+        // lacks.
+        let long_far = curves(
+            r#"{ "version": 1, "curves": [
+                { "name": "trunk", "points": [[0,0,0], [0,1.3333333333333333,0], [0,2.6666666666666665,0], [0,4,0]] },
+                { "name": "far", "points": [[5,0,0], [5,1.3333333333333333,0], [5,2.6666666666666665,0], [5,4,0]] } ] }"#,
+        );
+        let lines = describe(&long_far, &many, &CoverageOptions::default());
+        assert_eq!(lines.len(), 4, "{lines:#?}");
+        assert!(
+            lines[3].contains("too few bones for `far`: the 8 bones cover at most 6.40")
+                && lines[3].contains("4.00 of it along the other curves")
+                && lines[3].contains("the 2.40 left is short of the 3.20 it lacks"),
+            "{}",
+            lines[3]
+        );
         // No bones at all.
         let lines = describe(&two, &[], &CoverageOptions::default());
         assert!(lines[1].contains("not reached: the model has no bones"));
