@@ -359,11 +359,26 @@ fn iteration_generation_and_particle_flags_are_bounded() {
 #[test]
 fn readme_command_table_lists_every_flag() {
     let readme = std::fs::read_to_string(common::repo().join("README.md")).expect("README");
-    for cmd in ["check", "fmt", "derive", "disasm", "sample", "view", "lsp"] {
-        let help = common::text(&common::grmc(&[cmd, "--help"]).stdout);
+    for cmd in [
+        "check",
+        "fmt",
+        "derive",
+        "disasm",
+        "sample",
+        "view",
+        "lsp",
+        "edits check",
+    ] {
+        let args: Vec<&str> = cmd.split(' ').chain(["--help"]).collect();
+        let help = common::text(&common::grmc(&args).stdout);
+        // `grmc edits check|list` shares one row.
+        let prefix = match cmd {
+            "edits check" => "| `grmc edits check\\|list".to_owned(),
+            _ => format!("| `grmc {cmd}"),
+        };
         let row = readme
             .lines()
-            .find(|l| l.starts_with(&format!("| `grmc {cmd}")))
+            .find(|l| l.starts_with(&prefix))
             .unwrap_or_else(|| panic!("README has no row for `grmc {cmd}`"));
         let usage = row.split(" | ").next().unwrap_or(row);
         let flags: Vec<&str> = help
