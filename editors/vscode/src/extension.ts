@@ -58,9 +58,12 @@ async function startClient(context: vscode.ExtensionContext): Promise<void> {
     documentSelector: [
       { scheme: 'file', language: 'grm' },
       { scheme: 'untitled', language: 'grm' },
+      // The persistent edits beside a grammar (docs/edits.md): the server
+      // replays the open buffer and publishes its diagnostics there.
+      { scheme: 'file', pattern: '**/*.edits.json' },
     ],
     outputChannel: output,
-    synchronize: { fileEvents: vscode.workspace.createFileSystemWatcher('**/*.{grm,curves.json,obj}') },
+    synchronize: { fileEvents: vscode.workspace.createFileSystemWatcher('**/*.{grm,curves.json,edits.json,obj}') },
   };
   // The client id `grm` makes vscode-languageclient honour `grm.trace.server`.
   let c: LanguageClient | undefined;
