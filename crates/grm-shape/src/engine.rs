@@ -199,7 +199,7 @@ pub fn derive_with_edits(
         Some(Queries::build(program, &first.nodes))
     };
     let engine = engine(queries.as_ref());
-    let (mut nodes, outlines, removed) = finish(pass(&engine)?)?;
+    let (mut nodes, outlines, removed, hits) = finish(pass(&engine)?)?;
     let attrs = engine.attrs.into_inner().unwrap_or_else(|e| e.into_inner());
     if attrs.full {
         return Err(ShapeError::TooManyAttributes {
@@ -213,6 +213,7 @@ pub fn derive_with_edits(
         attributes,
         seed: options.seed,
         removed,
+        edit_hits: edits.map(|_| hits),
     })
 }
 
@@ -224,6 +225,8 @@ struct Job {
     nodes: Vec<Node>,
     /// The shapes an edit removed (ascending).
     removed: Vec<u32>,
+    /// (edit id, shape) for every shape an edit's target named.
+    hits: Vec<(u32, u32)>,
     /// One outline per node with one, in node order.
     outlines: Vec<Arc<Outline>>,
     failures: Vec<(u32, ShapeError)>,
@@ -531,6 +534,7 @@ impl Engine<'_> {
             outlines: root_outline.into_iter().collect(),
             nodes: vec![root],
             removed: Vec::new(),
+            hits: Vec::new(),
             failures: Vec::new(),
             cut: Vec::new(),
             roots_kind,
@@ -550,9 +554,14 @@ impl Engine<'_> {
             } else {
                 Vec::new()
             },
-            forced: vec![Forced::default()],
+            forced: if plan.forces() {
+                vec![Forced::default()]
+            } else {
+                Vec::new()
+            },
             matched: Vec::new(),
             tags: Vec::new(),
+            memo: Vec::new(),
         });
         while let Some(at) = stack.pop() {
             if stop.load(Ordering::Relaxed) {
@@ -574,6 +583,7 @@ impl Engine<'_> {
                 let state = r.trie.get(here).copied().unwrap_or(replay::NONE);
                 r.matched.clear();
                 plan.matches(&job.nodes, here, state, &mut r.tags, &mut r.matched);
+                job.hits.extend(r.matched.iter().map(|&(id, _)| (id, at)));
                 let own = Own::of(&r.matched);
                 forced = r.forced.get(here).copied().unwrap_or_default();
                 if own.remove {
@@ -590,7 +600,7 @@ impl Engine<'_> {
                 }
                 scratch.force = own.force;
                 if let Some(m) = forced.material {
-                    match self.set_attribute(&Op::Material(m), None, job.nodes[here].attrs) {
+                    match self.forced_material(r, job.nodes[here].attrs, m) {
                         Ok(a) => job.nodes[here].attrs = a,
                         Err(e) => job.failures.push((at, e)),
                     }
@@ -1413,6 +1423,7 @@ impl Engine<'_> {
             out[r].children_offset = if root.1 > 0 { starts[c] - r as u32 } else { 0 };
         }
         Ok(Job {
+            hits: Vec::new(),
             removed: Vec::new(),
             nodes: out,
             outlines,
@@ -1435,6 +1446,8 @@ struct Replay {
     /// Scratch: the edits of the shape at hand, the tags on its path.
     matched: Vec<(u32, replay::Action)>,
     tags: Vec<(TagId, u32, u32)>,
+    /// Forced materials remembered: (attributes, material, result).
+    memo: Vec<(AttrId, crate::ir::MaterialId, AttrId)>,
 }
 
 impl Engine<'_> {
@@ -1455,39 +1468,66 @@ impl Engine<'_> {
         forced: Forced,
     ) {
         let end = job.nodes.len();
+        let here = at as usize;
+        let on_path = plan.has_exact() && r.trie.get(here).is_some_and(|&s| s != replay::NONE);
         if plan.has_exact() {
             r.trie.resize(end, replay::NONE);
         }
-        r.forced.resize(end, Forced::default());
-        let material = |attrs: AttrId, m, failures: &mut Vec<(u32, ShapeError)>| match self
-            .set_attribute(&Op::Material(m), None, attrs)
-        {
-            Ok(a) => a,
-            Err(e) => {
-                failures.push((at, e));
-                attrs
-            }
-        };
+        let forcing = forced != Forced::default();
+        if plan.forces() {
+            r.forced.resize(end, Forced::default());
+        }
+        // Off every exact target's path and nothing passed down: the
+        // block's nodes are all off too (what the resizes wrote).
+        if !on_path && !forcing {
+            return;
+        }
         for j in start..end {
             let p = j - job.nodes[j].parent_offset as usize;
-            if plan.has_exact() {
+            if on_path {
                 r.trie[j] = plan.step(r.trie[p], &job.nodes[j]);
             }
-            let f = r.forced[p];
-            r.forced[j] = f;
-            if let Some(m) = f.material {
-                job.nodes[j].attrs = material(job.nodes[j].attrs, m, &mut job.failures);
+            if !forcing {
+                continue;
             }
-            if let (Some(a), NodeKind::Insert { .. }) = (f.mesh, job.nodes[j].kind) {
+            r.forced[j] = r.forced[p];
+            if let Some(m) = forced.material {
+                match self.forced_material(r, job.nodes[j].attrs, m) {
+                    Ok(a) => job.nodes[j].attrs = a,
+                    Err(e) => job.failures.push((at, e)),
+                }
+            }
+            if let (Some(a), NodeKind::Insert { .. }) = (forced.mesh, job.nodes[j].kind) {
                 job.nodes[j].kind = NodeKind::Insert { asset: a };
             }
         }
         if end == start
             && let Some(m) = forced.material
         {
-            let here = at as usize;
-            job.nodes[here].attrs = material(job.nodes[here].attrs, m, &mut job.failures);
+            match self.forced_material(r, job.nodes[here].attrs, m) {
+                Ok(a) => job.nodes[here].attrs = a,
+                Err(e) => job.failures.push((at, e)),
+            }
         }
+    }
+
+    /// The attributes `attrs` with material `m` forced by an edit,
+    /// remembered (a forced floor's hundreds of parts share a few sets).
+    fn forced_material(
+        &self,
+        r: &mut Replay,
+        attrs: AttrId,
+        m: crate::ir::MaterialId,
+    ) -> Result<AttrId, ShapeError> {
+        if let Some(&(_, _, a)) = r.memo.iter().find(|e| e.0 == attrs && e.1 == m) {
+            return Ok(a);
+        }
+        let a = self.set_attribute(&Op::Material(m), None, attrs)?;
+        if r.memo.len() >= 16 {
+            r.memo.remove(0);
+        }
+        r.memo.push((attrs, m, a));
+        Ok(a)
     }
 
     /// The attributes `current` with the attribute `op` sets (`rgb`: a
@@ -1688,21 +1728,23 @@ fn intern_outline(outlines: &mut Vec<Arc<Outline>>, g: &Geom) -> Geometry {
 /// A job's nodes and outlines (in node order), or its first failure in
 /// the tree's order.
 /// A finished derivation: its nodes, outlines and removed shapes.
-type Finished = (Vec<Node>, Vec<Arc<Outline>>, Vec<u32>);
+type Finished = (Vec<Node>, Vec<Arc<Outline>>, Vec<u32>, Vec<(u32, u32)>);
 
 fn finish(job: Job) -> Result<Finished, ShapeError> {
     let mut removed = job.removed;
     removed.sort_unstable();
+    let mut hits = job.hits;
+    hits.sort_unstable();
     match job.failures.into_iter().min_by_key(|(i, _)| *i) {
         Some((_, e)) => Err(e),
-        None if job.ordered => Ok((job.nodes, job.outlines, removed)),
+        None if job.ordered => Ok((job.nodes, job.outlines, removed, hits)),
         None => {
             let mut nodes = job.nodes;
             let mut outlines = Vec::with_capacity(job.outlines.len());
             for n in &mut nodes {
                 renumber(n, &job.outlines, &mut outlines);
             }
-            Ok((nodes, outlines, removed))
+            Ok((nodes, outlines, removed, hits))
         }
     }
 }

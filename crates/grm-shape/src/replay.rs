@@ -31,8 +31,8 @@
 use crate::ir::{AssetId, MaterialId, Program, SymbolId, TagId};
 use crate::locator::{Anchor, EdgeRef};
 use crate::tree::{Command, Node, NodeKind};
+use foldhash::HashMap;
 use grm_edits::{Edit, Op, Target};
-use std::collections::HashMap;
 
 /// A node's label as the plan compares it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -72,10 +72,13 @@ pub struct EditPlan {
     by_key: HashMap<u32, Vec<u32>>,
     /// Semantic queries: (label, entries, edit), indexed by label.
     semantic: Vec<(QueryIds, u32)>,
-    semantic_by_symbol: HashMap<SymbolId, Vec<u32>>,
+    /// Per symbol (by id), its queries.
+    semantic_by_symbol: Vec<Vec<u32>>,
     semantic_any: Vec<u32>,
     /// Edits the plan cannot replay: (id, why).
     unsupported: Vec<(u32, String)>,
+    /// Whether an edit passes a material or mesh down its subtree.
+    forces: bool,
 }
 
 /// The label of a node.
@@ -175,13 +178,20 @@ impl EditPlan {
                     let k = plan.semantic.len() as u32;
                     plan.semantic.push((entries, index));
                     match label {
-                        Some(s) => plan.semantic_by_symbol.entry(s).or_default().push(k),
+                        Some(s) => {
+                            let i = s.0 as usize;
+                            if plan.semantic_by_symbol.len() <= i {
+                                plan.semantic_by_symbol.resize(i + 1, Vec::new());
+                            }
+                            plan.semantic_by_symbol[i].push(k);
+                        }
                         None => plan.semantic_any.push(k),
                     }
                     true
                 }
             };
             if lowered {
+                plan.forces |= matches!(action, Action::Material(_) | Action::Mesh(_));
                 plan.actions.push((e.id, action));
             }
         }
@@ -227,6 +237,11 @@ impl EditPlan {
     /// The edits the plan cannot replay, with why.
     pub fn unsupported(&self) -> &[(u32, String)] {
         &self.unsupported
+    }
+
+    /// Whether an edit passes something down a subtree (material, mesh).
+    pub(crate) fn forces(&self) -> bool {
+        self.forces
     }
 
     /// Whether nodes need trie states (the plan has exact targets).
@@ -284,7 +299,10 @@ impl EditPlan {
         let NodeKind::Shape { symbol, .. } = n.kind else {
             return;
         };
-        let by_label = self.semantic_by_symbol.get(&symbol);
+        let by_label = self
+            .semantic_by_symbol
+            .get(symbol.0 as usize)
+            .filter(|q| !q.is_empty());
         if by_label.is_none() && self.semantic_any.is_empty() {
             return;
         }

@@ -120,6 +120,9 @@ pub struct ShapeTree {
     pub(crate) attributes: Vec<Attributes>,
     /// The shapes a persistent edit removed, ascending (`crate::replay`).
     pub(crate) removed: Vec<u32>,
+    /// Grown with a plan of edits: (edit id, shape) for every shape an
+    /// edit's target named while deriving, ascending.
+    pub(crate) edit_hits: Option<Vec<(u32, u32)>>,
 }
 
 impl ShapeTree {
@@ -127,6 +130,25 @@ impl ShapeTree {
     /// (its locators resolve) but was not expanded and draws nothing.
     pub fn is_removed(&self, id: NodeId) -> bool {
         self.removed.binary_search(&id.0).is_ok()
+    }
+
+    /// Whether the tree was grown with a plan of persistent edits.
+    pub fn replayed(&self) -> bool {
+        self.edit_hits.is_some()
+    }
+
+    /// When the tree was grown with a plan of edits: the shapes edit `id`'s
+    /// target named while deriving (before a pin changed a key), ascending.
+    pub fn edit_hits(&self, id: u32) -> Option<Vec<NodeId>> {
+        let hits = self.edit_hits.as_ref()?;
+        let from = hits.partition_point(|h| h.0 < id);
+        Some(
+            hits[from..]
+                .iter()
+                .take_while(|h| h.0 == id)
+                .map(|h| NodeId(h.1))
+                .collect(),
+        )
     }
 
     /// The shapes persistent edits removed, ascending.

@@ -52,17 +52,19 @@ pub fn classify<'e>(
     edits: impl IntoIterator<Item = &'e Edit>,
 ) -> Vec<EditReport> {
     let edits: Vec<&Edit> = edits.into_iter().collect();
-    // Nodes by key, only when a key target asks.
-    let by_key: HashMap<u32, Vec<NodeId>> =
-        if edits.iter().any(|e| matches!(e.target, Target::Key(_))) {
-            let mut m: HashMap<u32, Vec<NodeId>> = HashMap::new();
-            for (i, n) in tree.nodes().iter().enumerate() {
-                m.entry(n.key).or_default().push(NodeId(i as u32));
-            }
-            m
-        } else {
-            HashMap::new()
-        };
+    // Nodes by key, only when a key target asks and the replay did not
+    // record what it matched.
+    let by_key: HashMap<u32, Vec<NodeId>> = if !tree.replayed()
+        && edits.iter().any(|e| matches!(e.target, Target::Key(_)))
+    {
+        let mut m: HashMap<u32, Vec<NodeId>> = HashMap::new();
+        for (i, n) in tree.nodes().iter().enumerate() {
+            m.entry(n.key).or_default().push(NodeId(i as u32));
+        }
+        m
+    } else {
+        HashMap::new()
+    };
     let shape_program = &lowered.program;
     edits
         .into_iter()
@@ -85,7 +87,11 @@ pub fn classify<'e>(
                     ),
                 },
                 Target::Semantic(q) => {
-                    let found = tree.select(shape_program, q);
+                    // What the replay matched, when the tree was grown with
+                    // the edits (no string per shape per query); else found.
+                    let found = tree
+                        .edit_hits(e.id)
+                        .unwrap_or_else(|| tree.select(shape_program, q));
                     if found.is_empty() {
                         (
                             EditClass::StructurallyInvalid,
@@ -96,7 +102,11 @@ pub fn classify<'e>(
                         (EditClass::Valid, found, String::new())
                     }
                 }
-                Target::Key(k) => match by_key.get(k).map(Vec::as_slice) {
+                Target::Key(k) => match tree
+                    .edit_hits(e.id)
+                    .or_else(|| by_key.get(k).cloned())
+                    .as_deref()
+                {
                     None | Some([]) => (
                         EditClass::StructurallyInvalid,
                         Vec::new(),
