@@ -158,7 +158,7 @@ pub struct Tubes {
 
 impl Tubes {
     /// The most tubes recorded.
-    pub const MAX: usize = 3;
+    pub const MAX: usize = 8;
 
     /// (curve, arc length) of each tube.
     pub fn iter(&self) -> impl Iterator<Item = &(u32, f64)> {
@@ -770,6 +770,24 @@ impl CostModel {
         curve: usize,
         closest: &ClosestPoint,
     ) -> BonePlan {
+        self.plan_bone_near_in(base, tip, curve, closest, None)
+    }
+
+    /// [`Self::plan_bone_near`] given also the covering tubes that hold the
+    /// base (`base_tubes`: [`Self::tubes_at`] or [`Self::tubes_near`] of
+    /// the base, as the caller computed it once for several bones sharing
+    /// it): the other curves' closest points to the base are not searched
+    /// again. The plan is the same, bit for bit.
+    pub fn plan_bone_near_in(
+        &self,
+        base: Vec3,
+        tip: Vec3,
+        curve: usize,
+        closest: &ClosestPoint,
+        base_tubes: Option<&Tubes>,
+    ) -> BonePlan {
+        // A full list may have left tubes out: search then.
+        let base_tubes = base_tubes.filter(|t| (t.n as usize) < Tubes::MAX);
         let (b, t) = (base.as_dvec3(), tip.as_dvec3());
         let Some(c) = self.curves.get(curve) else {
             return BonePlan::non_finite(base, tip);
@@ -805,8 +823,17 @@ impl CostModel {
                         .closest_point_within(&o.samples, p, r)
                         .filter(|cp| cp.dist <= r)
                 };
-                if let (Some(cb), Some(ct)) = (near(b), near(t)) {
-                    let (s0, s1) = (o.segment(cb.t), o.segment(ct.t));
+                // The base's segment on this curve, from the tubes when
+                // given (the same closest point, so the same segment).
+                let s_base = match base_tubes {
+                    Some(tubes) => tubes
+                        .iter()
+                        .find(|&&(k, _)| k as usize == i)
+                        .map(|&(_, a)| o.segment_at_arc(a)),
+                    None => near(b).map(|cb| o.segment(cb.t)),
+                };
+                if let (Some(s0), Some(ct)) = (s_base, near(t)) {
+                    let s1 = o.segment(ct.t);
                     also[n] = Some((i as u32, s0.min(s1) as u32, s0.max(s1) as u32));
                     n += 1;
                 }

@@ -688,10 +688,7 @@ impl<'a> Sampler<'a> {
     /// with parameter values it actually takes: those of its occurrences in
     /// forward samples from the axiom (a symbol never met there gets no
     /// heuristic).
-    fn expected_directions(
-        &self,
-        opts: &ExpectedOptions,
-    ) -> Result<PerSymbol, SampleError> {
+    fn expected_directions(&self, opts: &ExpectedOptions) -> Result<PerSymbol, SampleError> {
         let n = self.g.phase.len();
         let mut w = self.g.worker();
         let mut params: Vec<Vec<Vec<f32>>> = vec![Vec::new(); n];
@@ -1617,6 +1614,7 @@ impl<'a> Sampler<'a> {
         // Eq. 1 at the symbol's own position (where a successor's first
         // bone starts) is the spawn's; other bases are remembered.
         let mut memo = None;
+        let mut base_tubes = None;
         let input = std::mem::take(&mut w.input);
         for c in 0..n {
             let ctx = DrawCtx {
@@ -1650,13 +1648,20 @@ impl<'a> Sampler<'a> {
                     let plan = if !(b.is_finite() && t.is_finite()) {
                         self.cost.plan_bone(b, t)
                     } else {
-                        let near = match sp.near {
-                            Some(n) if n.position == b => Some(n),
-                            _ => self.near_at(b, &mut memo),
-                        };
-                        match near {
-                            Some(n) => self.cost.plan_bone_near(b, t, n.curve, &n.closest),
-                            None => self.cost.plan_bone(b, t),
+                        match sp.near {
+                            // Based at the symbol: its tubes are searched
+                            // once for all the candidates.
+                            Some(n) if n.position == b => {
+                                let tubes = base_tubes.get_or_insert_with(|| {
+                                    self.cost.tubes_near(b.as_dvec3(), (n.curve, &n.closest))
+                                });
+                                self.cost
+                                    .plan_bone_near_in(b, t, n.curve, &n.closest, Some(tubes))
+                            }
+                            _ => match self.near_at(b, &mut memo) {
+                                Some(n) => self.cost.plan_bone_near(b, t, n.curve, &n.closest),
+                                None => self.cost.plan_bone(b, t),
+                            },
                         }
                     };
                     cost +=
