@@ -274,3 +274,39 @@ fn semantic_and_key_targets_replay_too() {
     let tree = h.grow(&file(&[(Target::Key(key), Op::Remove)]));
     assert_eq!(tree.removed(), [h.find(&tree, window).0]);
 }
+
+#[test]
+fn edits_inside_a_removed_or_pinned_part_are_reported_not_applied() {
+    let h = house();
+    let floor = h.shapes("Floor")[0];
+    let window = h
+        .shapes("Window")
+        .into_iter()
+        .find(|&w| h.plain.path(w).contains(&floor))
+        .expect("a window on the floor");
+    let key = Target::Key(h.plain.node(window).unwrap().key);
+    let wood = Op::Material {
+        name: "wood".into(),
+    };
+    let p = &h.checked.program;
+    for (outer, what) in [(Op::Remove, "removed"), (Op::Pin { key: 7 }, "pinned")] {
+        let f = file(&[
+            (h.exact(floor), outer),
+            (key.clone(), wood.clone()),
+            (h.exact(window), wood.clone()),
+        ]);
+        let tree = h.grow(&f);
+        let r = edits::classify(p, &h.lowered, &tree, &f.edits);
+        assert_eq!(r[0].class, grm_edits::EditClass::Valid, "{what}");
+        // The key names nothing now: the part is gone or its key changed.
+        assert_eq!(r[1].class, grm_edits::EditClass::StructurallyInvalid, "{what}");
+        assert!(!r[1].replayed);
+        // The exact locator: gone under a removal, found under a pin.
+        let exact = if what == "removed" {
+            grm_edits::EditClass::StructurallyInvalid
+        } else {
+            grm_edits::EditClass::Valid
+        };
+        assert_eq!(r[2].class, exact, "{what}: {:?}", r[2]);
+    }
+}

@@ -580,25 +580,29 @@ impl Engine<'_> {
             let mut forced = Forced::default();
             if let (Some(plan), Some(r)) = (self.edits, replay.as_mut()) {
                 let here = at as usize;
+                // What the shape's ancestors' edits pass down (vectors
+                // shorter than the tree read as nothing).
                 let state = r.trie.get(here).copied().unwrap_or(replay::NONE);
-                r.matched.clear();
-                plan.matches(&job.nodes, here, state, &mut r.tags, &mut r.matched);
-                job.hits.extend(r.matched.iter().map(|&(id, _)| (id, at)));
-                let own = Own::of(&r.matched);
                 forced = r.forced.get(here).copied().unwrap_or_default();
-                if own.remove {
-                    job.removed.push(at);
-                    continue;
+                if plan.may_match(state, symbol, job.nodes[here].key) {
+                    r.matched.clear();
+                    plan.matches(&job.nodes, here, state, &mut r.tags, &mut r.matched);
                 }
-                forced.material = own.material.or(forced.material);
-                forced.mesh = own.mesh.or(forced.mesh);
-                if let Some(f) = r.forced.get_mut(here) {
-                    *f = forced;
+                if !r.matched.is_empty() {
+                    job.hits.extend(r.matched.iter().map(|&(id, _)| (id, at)));
+                    let own = Own::of(&r.matched);
+                    r.matched.clear();
+                    if own.remove {
+                        job.removed.push(at);
+                        continue;
+                    }
+                    forced.material = own.material.or(forced.material);
+                    forced.mesh = own.mesh.or(forced.mesh);
+                    if let Some(k) = own.pin {
+                        job.nodes[here].key = k;
+                    }
+                    scratch.force = own.force;
                 }
-                if let Some(k) = own.pin {
-                    job.nodes[here].key = k;
-                }
-                scratch.force = own.force;
                 if let Some(m) = forced.material {
                     match self.forced_material(r, job.nodes[here].attrs, m) {
                         Ok(a) => job.nodes[here].attrs = a,
@@ -667,7 +671,13 @@ impl Engine<'_> {
                 n.children_len = (end - start) as u32;
             }
             if let (Some(plan), Some(r)) = (self.edits, replay.as_mut()) {
-                self.replay_block(plan, r, &mut job, at, start, forced);
+                let on_path = r.trie.get(at as usize).is_some_and(|&s| s != replay::NONE);
+                // Off every exact target's path with nothing passed down:
+                // so are the block's nodes (what a state vector shorter
+                // than the tree says).
+                if on_path || forced != Forced::default() {
+                    self.replay_block(plan, r, &mut job, at, start, on_path, forced);
+                }
             }
             for j in (start..end).rev() {
                 if job.nodes[j].is_shape() {
@@ -1458,6 +1468,7 @@ impl Engine<'_> {
     /// material too.
     #[cold]
     #[inline(never)]
+    #[allow(clippy::too_many_arguments)]
     fn replay_block(
         &self,
         plan: &EditPlan,
@@ -1465,32 +1476,28 @@ impl Engine<'_> {
         job: &mut Job,
         at: u32,
         start: usize,
+        on_path: bool,
         forced: Forced,
     ) {
         let end = job.nodes.len();
         let here = at as usize;
-        let on_path = plan.has_exact() && r.trie.get(here).is_some_and(|&s| s != replay::NONE);
-        if plan.has_exact() {
+        let forcing = forced != Forced::default();
+        if on_path {
             r.trie.resize(end, replay::NONE);
         }
-        let forcing = forced != Forced::default();
-        if plan.forces() {
+        if forcing {
             r.forced.resize(end, Forced::default());
         }
-        // Off every exact target's path and nothing passed down: the
-        // block's nodes are all off too (what the resizes wrote).
-        if !on_path && !forcing {
-            return;
-        }
         for j in start..end {
-            let p = j - job.nodes[j].parent_offset as usize;
             if on_path {
+                let p = j - job.nodes[j].parent_offset as usize;
                 r.trie[j] = plan.step(r.trie[p], &job.nodes[j]);
             }
             if !forcing {
                 continue;
             }
-            r.forced[j] = r.forced[p];
+            // Every node of the block is below the shape: its forcing.
+            r.forced[j] = forced;
             if let Some(m) = forced.material {
                 match self.forced_material(r, job.nodes[j].attrs, m) {
                     Ok(a) => job.nodes[j].attrs = a,

@@ -244,6 +244,20 @@ impl EditPlan {
         self.forces
     }
 
+    /// Whether an edit may name the shape of `symbol` with key `key` whose
+    /// trie state is `state` (what [`EditPlan::matches`] would look at):
+    /// most shapes of a building are named by none, and cost this alone.
+    #[inline]
+    pub(crate) fn may_match(&self, state: u32, symbol: SymbolId, key: u32) -> bool {
+        state != NONE
+            || (!self.by_key.is_empty() && self.by_key.contains_key(&key))
+            || !self.semantic_any.is_empty()
+            || self
+                .semantic_by_symbol
+                .get(symbol.0 as usize)
+                .is_some_and(|q| !q.is_empty())
+    }
+
     /// Whether nodes need trie states (the plan has exact targets).
     pub(crate) fn has_exact(&self) -> bool {
         self.root.is_some()
