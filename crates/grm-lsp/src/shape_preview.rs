@@ -429,7 +429,22 @@ pub(crate) fn build(
     let t2 = Instant::now();
     // A pick's origin is the rule that made its node (the `origin` field
     // is set to the node below); found for the picked nodes only.
-    let origin_of = |node: u32| picks.made_by(NodeId(node)).map(|m| m.0);
+    // The rule depends on the node's parent alone (the shape whose rule
+    // made it, or the command that shape's rule ran): the last parent's
+    // is remembered, since a split's or repeat's parts come in a row (a
+    // walk up the tree per window was most of the encoding).
+    let last = std::cell::Cell::new((u32::MAX, None));
+    let origin_of = |node: u32| {
+        let parent = picks.tree.parent(NodeId(node))?.0;
+        match last.get() {
+            (p, rule) if p == parent => rule,
+            _ => {
+                let rule = picks.made_by(NodeId(node)).map(|m| m.0);
+                last.set((parent, rule));
+                rule
+            }
+        }
+    };
     let is_focus = |node: u32| focus.is_some() && origin_of(node) == focus;
     let mut table = PickTable {
         version: fa.version,
