@@ -299,7 +299,11 @@ fn edits_inside_a_removed_or_pinned_part_are_reported_not_applied() {
         let r = edits::classify(p, &h.lowered, &tree, &f.edits);
         assert_eq!(r[0].class, grm_edits::EditClass::Valid, "{what}");
         // The key names nothing now: the part is gone or its key changed.
-        assert_eq!(r[1].class, grm_edits::EditClass::StructurallyInvalid, "{what}");
+        assert_eq!(
+            r[1].class,
+            grm_edits::EditClass::StructurallyInvalid,
+            "{what}"
+        );
         assert!(!r[1].replayed);
         // The exact locator: gone under a removal, found under a pin.
         let exact = if what == "removed" {

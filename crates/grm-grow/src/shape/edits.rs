@@ -54,17 +54,16 @@ pub fn classify<'e>(
     let edits: Vec<&Edit> = edits.into_iter().collect();
     // Nodes by key, only when a key target asks and the replay did not
     // record what it matched.
-    let by_key: HashMap<u32, Vec<NodeId>> = if !tree.replayed()
-        && edits.iter().any(|e| matches!(e.target, Target::Key(_)))
-    {
-        let mut m: HashMap<u32, Vec<NodeId>> = HashMap::new();
-        for (i, n) in tree.nodes().iter().enumerate() {
-            m.entry(n.key).or_default().push(NodeId(i as u32));
-        }
-        m
-    } else {
-        HashMap::new()
-    };
+    let by_key: HashMap<u32, Vec<NodeId>> =
+        if !tree.replayed() && edits.iter().any(|e| matches!(e.target, Target::Key(_))) {
+            let mut m: HashMap<u32, Vec<NodeId>> = HashMap::new();
+            for (i, n) in tree.nodes().iter().enumerate() {
+                m.entry(n.key).or_default().push(NodeId(i as u32));
+            }
+            m
+        } else {
+            HashMap::new()
+        };
     let shape_program = &lowered.program;
     edits
         .into_iter()
