@@ -270,3 +270,17 @@ test('a model of an older document version is never shown over a newer one or it
   v.reset();
   assert.equal(v.model(1), true);
 });
+
+test("a request's failure after a newer model was shown is about an older text", () => {
+  const v = new ShownVersion();
+  v.model(3);
+  // A request goes (its text, `seed = 2`, has errors); the model of the finished text comes first.
+  const mark = v.mark();
+  assert.equal(v.shownSince(mark), false);
+  assert.equal(v.model(5), true);
+  assert.equal(v.shownSince(mark), true);
+  // A model not shown (older) is not news.
+  const again = v.mark();
+  assert.equal(v.model(4), false);
+  assert.equal(v.shownSince(again), false);
+});

@@ -6,7 +6,7 @@ import type { V3 } from './bezier.js';
 import { Coalescer, type Delivery, SharedRequest } from './coalesce.js';
 import { PARAM_KEYS, PARAM_RANGES, type ParamKey, checkParam, cloneSet, setProblem } from './curves.js';
 import { type PlayAt, SearchPlayer, isSearchResult, playButtonView, scrubberView, showsUpdate } from './generation.js';
-import { type NotificationMethod, type ViewParams, usableCamera, viewAngles } from './messages.js';
+import { type NotificationMethod, SERVER_CANCELLED, type ViewParams, usableCamera, viewAngles } from './messages.js';
 import { coverageLabel } from './coverage.js';
 import { pictureFileName, pictureParams } from './picture.js';
 import {
@@ -28,7 +28,7 @@ import {
 import { PreviewScene, ThumbnailRenderer } from './scene.js';
 import { scopeLines } from './scopes.js';
 import { PageState, ShownVersion } from './state.js';
-import { type RequestTiming, type Transport, detectTransport, isSuperseded } from './transport.js';
+import { type RequestTiming, type Transport, TransportError, detectTransport, isSuperseded } from './transport.js';
 
 /** A preview answer, the parameters asked (JSON) and where the time went on its way (ms). */
 interface Fetched {
@@ -413,6 +413,7 @@ class App {
   }
 
   private async requestPreview(params: PreviewParams, order: number): Promise<Fetched> {
+    const mark = this.shownVersion.mark();
     try {
       const t0 = performance.now();
       const timing: RequestTiming = {};
@@ -434,6 +435,8 @@ class App {
         await this.ensureCurves();
         return { result: decodePreview(await this.transport.request('preview', this.ordered(this.state.previewParams()))), breakdown: {} };
       }
+      // A model of a newer text came while this one was on its way: its failure is not the state (dropped as superseded).
+      if (!isSuperseded(e) && this.shownVersion.shownSince(mark)) throw new TransportError(msg, SERVER_CANCELLED);
       throw e;
     }
   }

@@ -288,12 +288,30 @@ export class PageState {
  */
 export class ShownVersion {
   private version = -1;
+  /** Models shown so far (a request's failure knows from it whether one came after it went). */
+  private models = 0;
 
   /** A model of `version` came: whether to show it (it is then the version shown). */
   model(version: number): boolean {
     if (version < this.version) return false;
     this.version = version;
+    this.models++;
     return true;
+  }
+
+  /** A mark to give [`ShownVersion.shownSince`] when a request goes. */
+  mark(): number {
+    return this.models;
+  }
+
+  /**
+   * Whether a model was shown since `mark`: then a request that went
+   * before it and failed (its text had errors: `seed = 2` while `seed = 2;`
+   * was typed) speaks of an older text than the one on screen. The
+   * server's update reports the latest text's errors itself.
+   */
+  shownSince(mark: number): boolean {
+    return this.models > mark;
   }
 
   /**
