@@ -255,6 +255,19 @@ struct Ancestry {
 /// commands crossed (with the index and count of the child below) and the
 /// keys of the ancestors.
 fn ancestry(nodes: &[Node], at: usize, tags: &mut Vec<(TagId, u32, u32)>, keys: &mut Vec<u32>) {
+    walk_up(nodes, at, |p, child| {
+        if let NodeKind::Command { tag: Some(t), .. } = nodes[p].kind {
+            tags.push((t, nodes[child].index, nodes[child].count));
+        }
+        keys.push(nodes[p].key);
+    });
+}
+
+/// Visit each (parent, child) pair on the path from node `at` of `nodes`
+/// up to node 0 (or to the first node whose parent is not in `nodes`),
+/// innermost first.
+#[inline]
+pub(crate) fn walk_up(nodes: &[Node], at: usize, mut f: impl FnMut(usize, usize)) {
     let mut cur = at;
     while cur > 0 {
         let up = nodes[cur].parent_offset as usize;
@@ -262,10 +275,7 @@ fn ancestry(nodes: &[Node], at: usize, tags: &mut Vec<(TagId, u32, u32)>, keys: 
             break;
         }
         let p = cur - up;
-        if let NodeKind::Command { tag: Some(t), .. } = nodes[p].kind {
-            tags.push((t, nodes[cur].index, nodes[cur].count));
-        }
-        keys.push(nodes[p].key);
+        f(p, cur);
         cur = p;
     }
 }

@@ -322,18 +322,11 @@ impl EditPlan {
         }
         // The tagged commands on the path, root first.
         tags.clear();
-        let mut cur = at;
-        while cur > 0 {
-            let up = nodes[cur].parent_offset as usize;
-            if up == 0 || up > cur {
-                break;
-            }
-            let p = cur - up;
+        crate::engine::walk_up(nodes, at, |p, child| {
             if let NodeKind::Command { tag: Some(t), .. } = nodes[p].kind {
-                tags.push((t, nodes[cur].index, nodes[cur].count));
+                tags.push((t, nodes[child].index, nodes[child].count));
             }
-            cur = p;
-        }
+        });
         tags.reverse();
         for &k in by_label.into_iter().flatten().chain(&self.semantic_any) {
             let (entries, edit) = &self.semantic[k as usize];
