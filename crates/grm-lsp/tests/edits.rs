@@ -183,20 +183,7 @@ impl Editor {
 
     /// A notification matching `f` (10 s at most).
     async fn wait_for(&mut self, f: impl Fn(&Request) -> bool) -> Request {
-        if let Some(i) = self.seen.iter().position(&f) {
-            return self.seen.remove(i);
-        }
-        let deadline = tokio::time::Instant::now() + Duration::from_secs(10);
-        loop {
-            let r = tokio::time::timeout_at(deadline, self.notes.recv())
-                .await
-                .expect("notification in time")
-                .expect("socket open");
-            if f(&r) {
-                return r;
-            }
-            self.seen.push(r);
-        }
+        wait_for_in(&mut self.seen, &mut self.notes, f).await
     }
 
     /// The next `grm/previewUpdated` whose result satisfies `f`.

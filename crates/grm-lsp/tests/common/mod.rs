@@ -39,6 +39,30 @@ pub struct Client {
     pub initialized: Value,
 }
 
+/// A notification matching `f`: one already `seen` (taken from it), else
+/// the next of `notes` to match (10 s at most), keeping the others in
+/// `seen`. Shared by the test clients.
+pub async fn wait_for_in(
+    seen: &mut Vec<Request>,
+    notes: &mut tokio::sync::mpsc::UnboundedReceiver<Request>,
+    f: impl Fn(&Request) -> bool,
+) -> Request {
+    if let Some(i) = seen.iter().position(&f) {
+        return seen.remove(i);
+    }
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(10);
+    loop {
+        let r = tokio::time::timeout_at(deadline, notes.recv())
+            .await
+            .expect("notification in time")
+            .expect("socket open");
+        if f(&r) {
+            return r;
+        }
+        seen.push(r);
+    }
+}
+
 /// The repository root.
 pub fn root() -> PathBuf {
     let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
@@ -211,20 +235,7 @@ impl Client {
 
     /// Wait for a notification matching `f` (10 s at most).
     pub async fn wait_for(&mut self, f: impl Fn(&Request) -> bool) -> Request {
-        if let Some(i) = self.seen.iter().position(&f) {
-            return self.seen.remove(i);
-        }
-        let deadline = tokio::time::Instant::now() + Duration::from_secs(10);
-        loop {
-            let r = tokio::time::timeout_at(deadline, self.notes.recv())
-                .await
-                .expect("notification in time")
-                .expect("socket open");
-            if f(&r) {
-                return r;
-            }
-            self.seen.push(r);
-        }
+        wait_for_in(&mut self.seen, &mut self.notes, f).await
     }
 
     /// The diagnostics published for `u` at `version`.
