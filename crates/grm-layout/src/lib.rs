@@ -1,0 +1,31 @@
+//! City layouts with layers (issue 29; Lipp's dissertation, chapter 4).
+//!
+//! Role: the urban-layout engine above the building engines: a planar
+//! street graph (nodes, streets with a class, width and priority), the
+//! blocks it encloses (computed faces, never stored), parcels (simple
+//! polygons, each owned by at most one block) and tags on all of them,
+//! kept in layers that are merged in order into one valid layout.
+//!
+//! Inputs: generator parameters (grid, radial), GeoJSON files (LineStrings
+//! as streets, Polygons as parcels), the artist's sidecar
+//! `NAME.layout.json` (layers, moves, deletions, protections, anchored
+//! assignments). Outputs: a merged [`model::Layout`], its GeoJSON
+//! (byte-identical for the same inputs), typed errors and reports.
+//!
+//! Invariants: identities are minted from structure ([`id`]: a generator's
+//! seed and construction path, a street's end nodes, a block's streets, a
+//! parcel's block and split path), never from array indices or creation
+//! order; every operator leaves a layout that passes
+//! [`validity::check`] (no street crosses a street except at a shared
+//! node, no parcel overlaps a street with its width or another parcel) or
+//! returns a typed error and leaves its input as it was; maps are ordered
+//! by identity, so everything is deterministic; library code never panics
+//! on user input.
+pub mod blocks;
+pub mod generate;
+pub mod geom;
+pub mod id;
+pub mod index;
+pub mod model;
+pub mod subdivide;
+pub mod validity;

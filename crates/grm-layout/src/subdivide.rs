@@ -1,0 +1,291 @@
+//! Blocks subdivided into parcels (4.1.2, "local regeneration"): the
+//! block's area minus every nearby street widened to half its width plus a
+//! setback, then split recursively across the long axis of each piece's
+//! minimum rotated rectangle (the split point jittered by the block's own
+//! seed) until pieces are small enough. A parcel's identity is minted from
+//! the block's identity and the split path, its random draws from the
+//! block's seed alone, so regrowing one block changes nothing elsewhere.
+
+use crate::blocks::Block;
+use crate::geom::{self, check_ring, open_ccw};
+use crate::id::{Id, Stream};
+use crate::index::{Seg, bounds};
+use crate::model::{Layout, Parcel, ParcelOrigin, Rest, Tags};
+use geo::{Area, BooleanOps, Buffer, Coord, LineString, MinimumRotatedRect, MultiPolygon, Polygon};
+use rstar::RTree;
+use std::collections::BTreeSet;
+
+/// How blocks are cut into parcels.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ParcelParams {
+    /// A piece at most this large (m^2) becomes a parcel.
+    pub max_area: f64,
+    /// Pieces smaller than this are dropped (left open).
+    pub min_area: f64,
+    /// Extra distance (m) kept from a street's edge.
+    pub setback: f64,
+    /// The split point moves up to this fraction of the long side off centre.
+    pub jitter: f64,
+    /// Splits at most this deep.
+    pub max_depth: u32,
+}
+
+impl Default for ParcelParams {
+    fn default() -> Self {
+        ParcelParams {
+            max_area: 900.0,
+            min_area: 40.0,
+            setback: 1.0,
+            jitter: 0.15,
+            max_depth: 14,
+        }
+    }
+}
+
+impl ParcelParams {
+    /// Whether every value is usable.
+    pub fn is_valid(&self) -> bool {
+        self.max_area.is_finite()
+            && self.max_area > 0.0
+            && self.min_area.is_finite()
+            && self.min_area >= 0.0
+            && self.setback.is_finite()
+            && self.setback > 0.0
+            && self.jitter.is_finite()
+            && (0.0..0.5).contains(&self.jitter)
+    }
+}
+
+/// The seed of a block's parcels: the layer's seed and the block's identity.
+pub fn block_seed(layer_seed: u64, block: Id) -> Id {
+    Id::mint("block-seed").u64(layer_seed).id(block).finish()
+}
+
+/// The area of a block parcels may use: the block minus its holes minus
+/// every street near it, widened.
+pub fn parcel_area(
+    layout: &Layout,
+    segs: &RTree<Seg>,
+    block: &Block,
+    params: &ParcelParams,
+) -> MultiPolygon {
+    let holes: Vec<LineString> = block
+        .holes
+        .iter()
+        .map(|h| LineString::new(geom::close(h)))
+        .collect();
+    let poly = Polygon::new(LineString::new(geom::close(&block.ring)), holes);
+    let (min, max) = bounds(&block.ring);
+    let max_half = layout
+        .streets
+        .values()
+        .map(|s| s.width * 0.5)
+        .fold(0.0, f64::max)
+        + params.setback;
+    let env = crate::index::grown(min, max, max_half);
+    let near: BTreeSet<Id> = segs
+        .locate_in_envelope_intersecting(&env)
+        .map(|s| s.street)
+        .collect();
+    let mut bufs: Vec<MultiPolygon> = Vec::new();
+    for id in near {
+        let Some(s) = layout.streets.get(&id) else {
+            continue;
+        };
+        let Some(pl) = layout.polyline(s) else {
+            continue;
+        };
+        let d = s.width * 0.5 + params.setback;
+        bufs.push(LineString::new(pl).buffer(d));
+    }
+    let mut region = MultiPolygon::new(vec![poly]);
+    if !bufs.is_empty() {
+        let streets = geo::unary_union(bufs.iter());
+        region = region.difference(&streets);
+    }
+    region
+}
+
+/// The parcels of one block.
+pub fn subdivide_block(
+    layout: &Layout,
+    segs: &RTree<Seg>,
+    block: &Block,
+    seed: Id,
+    params: &ParcelParams,
+) -> Vec<Parcel> {
+    let region = parcel_area(layout, segs, block, params);
+    let mut out = Vec::new();
+    let mut pieces: Vec<Polygon> = region.0;
+    sort_pieces(&mut pieces);
+    for (k, piece) in pieces.into_iter().enumerate() {
+        split(piece, &mut vec![k as u8], block, seed, params, 0, &mut out);
+    }
+    out
+}
+
+fn sort_pieces(p: &mut [Polygon]) {
+    // Deterministic order whatever the clipper returns: by lowest vertex.
+    p.sort_by(|a, b| {
+        let ka = key(a);
+        let kb = key(b);
+        ka.0.total_cmp(&kb.0).then(ka.1.total_cmp(&kb.1))
+    });
+}
+
+fn key(p: &Polygon) -> (f64, f64) {
+    p.exterior()
+        .0
+        .iter()
+        .fold((f64::INFINITY, f64::INFINITY), |m, c| {
+            if (c.y, c.x) < (m.0, m.1) {
+                (c.y, c.x)
+            } else {
+                m
+            }
+        })
+}
+
+fn split(
+    piece: Polygon,
+    path: &mut Vec<u8>,
+    block: &Block,
+    seed: Id,
+    params: &ParcelParams,
+    depth: u32,
+    out: &mut Vec<Parcel>,
+) {
+    let area = piece.unsigned_area();
+    if area < params.min_area {
+        return;
+    }
+    let simple = piece.interiors().is_empty();
+    if (area <= params.max_area && simple) || depth >= params.max_depth {
+        if !simple {
+            return;
+        }
+        let ring = open_ccw(piece.exterior());
+        if check_ring(&ring).is_err() {
+            return;
+        }
+        let mut m = Id::mint("parcel").id(block.id);
+        for b in path.iter() {
+            m = m.u64(u64::from(*b));
+        }
+        out.push(Parcel {
+            id: m.finish(),
+            ring: ring.clone(),
+            origin: ParcelOrigin::Generated { block: block.id },
+            tags: Tags::new(),
+            rest: Some(Rest {
+                block_ring: block.ring.clone(),
+                ring,
+            }),
+        });
+        return;
+    }
+    let Some(rect) = piece.minimum_rotated_rect() else {
+        return;
+    };
+    let c = &rect.exterior().0;
+    if c.len() < 4 {
+        return;
+    }
+    let e0 = Coord {
+        x: c[1].x - c[0].x,
+        y: c[1].y - c[0].y,
+    };
+    let e1 = Coord {
+        x: c[2].x - c[1].x,
+        y: c[2].y - c[1].y,
+    };
+    let (l0, l1) = (e0.x.hypot(e0.y), e1.x.hypot(e1.y));
+    let (long, llen) = if l0 >= l1 { (e0, l0) } else { (e1, l1) };
+    if llen <= 0.0 {
+        return;
+    }
+    let u = Coord {
+        x: long.x / llen,
+        y: long.y / llen,
+    };
+    let v = Coord { x: -u.y, y: u.x };
+    let centre = geom::lerp(c[0], c[2], 0.5);
+    let mut rng = Stream::new(Id::mint("split").id(seed).u64(path.len() as u64).finish());
+    for b in path.iter() {
+        rng = Stream::new(
+            Id::mint("split")
+                .u64(rng.next_u64())
+                .u64(u64::from(*b))
+                .finish(),
+        );
+    }
+    let t = rng.range(-params.jitter, params.jitter) * llen;
+    let at = Coord {
+        x: centre.x + u.x * t,
+        y: centre.y + u.y * t,
+    };
+    let big = llen + l0.min(l1) + 10.0;
+    let half = |sign: f64| {
+        let p = |a: f64, b: f64| Coord {
+            x: at.x + u.x * a * sign + v.x * b,
+            y: at.y + u.y * a * sign + v.y * b,
+        };
+        Polygon::new(
+            LineString::new(vec![
+                p(0.0, -big),
+                p(big, -big),
+                p(big, big),
+                p(0.0, big),
+                p(0.0, -big),
+            ]),
+            vec![],
+        )
+    };
+    for (side, sign) in [(0u8, -1.0), (1u8, 1.0)] {
+        let mut parts = piece.intersection(&half(sign)).0;
+        sort_pieces(&mut parts);
+        for (k, part) in parts.into_iter().enumerate() {
+            path.push(side * 64 + (k.min(63) as u8));
+            split(part, path, block, seed, params, depth + 1, out);
+            path.pop();
+        }
+    }
+}
+
+/// Replaces the generated parcels of the given blocks (all blocks when
+/// `only` is None) with freshly subdivided ones; explicit parcels stay.
+pub fn regrow(
+    layout: &mut Layout,
+    blocks: &[Block],
+    layer_seed: u64,
+    params: &ParcelParams,
+    only: Option<&BTreeSet<Id>>,
+) {
+    let segs = crate::index::segments(layout);
+    let chosen: Vec<&Block> = blocks
+        .iter()
+        .filter(|b| only.is_none_or(|o| o.contains(&b.id)))
+        .collect();
+    let ids: BTreeSet<Id> = chosen.iter().map(|b| b.id).collect();
+    layout.parcels.retain(|_, p| match p.origin {
+        ParcelOrigin::Generated { block } => only.is_some() && !ids.contains(&block),
+        ParcelOrigin::Explicit => true,
+    });
+    let explicit_boxes = crate::validity::parcel_boxes(layout);
+    let mut fresh = Vec::new();
+    for b in chosen {
+        for p in subdivide_block(layout, &segs, b, block_seed(layer_seed, b.id), params) {
+            // An explicit parcel already there keeps its place.
+            let (min, max) = bounds(&p.ring);
+            let clash = explicit_boxes
+                .locate_in_envelope_intersecting(&crate::index::grown(min, max, 0.0))
+                .any(|o| crate::validity::rings_overlap(&p.ring, &layout.parcels[&o.id].ring));
+            if !clash {
+                fresh.push(p);
+            }
+        }
+    }
+    for p in fresh {
+        layout.parcels.insert(p.id, p);
+    }
+}
