@@ -110,12 +110,8 @@ pub fn blocks(layout: &Layout) -> Vec<Block> {
         let area = signed_area(&ring);
         if area > 1e-9 {
             let streets: Vec<Id> = streets.into_iter().collect();
-            let mut m = Id::mint("block");
-            for s in &streets {
-                m = m.id(*s);
-            }
             bounded.push(Block {
-                id: m.finish(),
+                id: block_id(&streets),
                 ring,
                 holes: Vec::new(),
                 streets,
@@ -172,6 +168,15 @@ pub fn blocks(layout: &Layout) -> Vec<Block> {
     }
     bounded.sort_by_key(|b| b.id);
     bounded
+}
+
+/// A block's identity: minted from the sorted set of its streets.
+pub fn block_id(sorted_streets: &[Id]) -> Id {
+    let mut m = Id::mint("block");
+    for s in sorted_streets {
+        m = m.id(*s);
+    }
+    m.finish()
 }
 
 /// The component (smallest node id) of every node.

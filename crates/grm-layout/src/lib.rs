@@ -23,9 +23,13 @@
 //! on user input.
 pub mod blocks;
 pub mod generate;
+pub mod geojson_io;
 pub mod geom;
 pub mod id;
 pub mod index;
+pub mod merge;
 pub mod model;
+pub mod shared;
 pub mod subdivide;
+pub mod transform;
 pub mod validity;

@@ -1,0 +1,649 @@
+//! The two merges of a lower layout `U_a` and an upper `U_b` (4.1.3,
+//! 4.1.4). Both build the shared graph ([`crate::shared`]).
+//!
+//! Hard merge `M_h`: every upper street stays; a lower piece stays unless
+//! it lies inside a block of the upper layout (the upper components'
+//! concave hulls) or runs along an upper street.
+//!
+//! Flexible merge `M_f` by graph cut: each piece's capacity is its
+//! priority (times a numeric `priority` tag, e.g. from an anchored
+//! assignment); dead ends are left out of the cut graph; border nodes
+//! (a node of one side on a piece that reaches a crossing, and not inside
+//! a block of the other side) are tied to the source (lower) or the sink
+//! (upper) by arcs no cut can afford; when a side has no border node, the
+//! ends of its five highest-priority streets are tied instead. The minimum
+//! cut comes from `pathfinding`'s Edmonds-Karp; the source side is what
+//! the residual graph reaches from the source. A lower piece stays when
+//! both its ends are on the source side, an upper piece when both are on
+//! the sink side; then mending adds back lower pieces with one end on the
+//! source side, and lower pieces reached from the kept ones that do not
+//! enter an upper block.
+//!
+//! Then (both): a street whose pieces all stayed, with nothing else at the
+//! cuts, is whole again (its identity back); the parcels of every block
+//! bounded by one side's streets alone come from that side, the other
+//! blocks regrow; parcels that still clash are dropped, the lower side's
+//! first.
+
+use crate::blocks::{Block, blocks, ownership};
+use crate::geom::{self, point_in_ring};
+use crate::id::Id;
+use crate::index::{self, Boxed, bounds};
+use crate::model::{Layout, Parcel, ParcelOrigin, TagValue};
+use crate::shared::{Shared, Side, shared};
+use crate::subdivide::{ParcelParams, block_seed, subdivide_block};
+use crate::validity::{Violation, check};
+use geo::Coord;
+use pathfinding::directed::edmonds_karp::{SparseCapacity, edmonds_karp};
+use rstar::RTree;
+use std::collections::{BTreeMap, BTreeSet};
+
+/// Which merge joins a layer to the layers above it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MergeMode {
+    /// `M_h`: everything above stays.
+    Hard,
+    /// `M_f`: a minimum cut by street priorities.
+    GraphCut,
+}
+
+impl MergeMode {
+    pub fn name(self) -> &'static str {
+        match self {
+            MergeMode::Hard => "hard",
+            MergeMode::GraphCut => "graph_cut",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<MergeMode> {
+        match s {
+            "hard" => Some(MergeMode::Hard),
+            "graph_cut" | "graphcut" | "flexible" => Some(MergeMode::GraphCut),
+            _ => None,
+        }
+    }
+}
+
+/// The merge's knobs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MergeParams {
+    pub parcels: ParcelParams,
+    /// The seed regrown blocks' parcels are drawn from.
+    pub seed: u64,
+    /// How many of a side's highest-priority streets are tied when it has
+    /// no border node (Lipp: 5).
+    pub constrain_top: usize,
+}
+
+impl Default for MergeParams {
+    fn default() -> Self {
+        MergeParams {
+            parcels: ParcelParams::default(),
+            seed: 1,
+            constrain_top: 5,
+        }
+    }
+}
+
+/// What a merge did.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct MergeReport {
+    pub crossings: usize,
+    /// The minimum cut's capacity (graph cut only).
+    pub cut: i64,
+    pub lower_pieces_dropped: usize,
+    pub upper_pieces_dropped: usize,
+    pub mended: usize,
+    pub blocks_kept: usize,
+    pub blocks_regrown: usize,
+    pub parcels_dropped: usize,
+}
+
+/// Why a merge failed (the result would not be valid).
+#[derive(Debug, Clone, PartialEq)]
+pub enum MergeError {
+    Invalid(Vec<Violation>),
+}
+
+impl std::fmt::Display for MergeError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let MergeError::Invalid(v) = self;
+        write!(
+            f,
+            "the merge left an invalid layout: {}",
+            v.first().map(Violation::describe).unwrap_or_default()
+        )
+    }
+}
+
+/// A piece's capacity in the cut (integers: priorities in thousandths).
+pub fn capacity(s: &crate::model::Street) -> i64 {
+    let k = match s.tags.get("priority") {
+        Some(TagValue::Num(x)) if x.is_finite() && *x >= 0.0 => *x,
+        _ => 1.0,
+    };
+    let c = (s.priority * k * 1000.0).round();
+    if c.is_finite() {
+        (c as i64).clamp(1, 1 << 40)
+    } else {
+        1
+    }
+}
+
+/// Blocks' boxes for point-in-block queries.
+struct BlockIndex<'a> {
+    blocks: &'a [Block],
+    tree: RTree<Boxed>,
+    by_id: BTreeMap<Id, usize>,
+}
+
+impl<'a> BlockIndex<'a> {
+    fn new(blocks: &'a [Block]) -> Self {
+        let tree = RTree::bulk_load(
+            blocks
+                .iter()
+                .map(|b| {
+                    let (min, max) = bounds(&b.ring);
+                    Boxed { id: b.id, min, max }
+                })
+                .collect(),
+        );
+        let by_id = blocks.iter().enumerate().map(|(i, b)| (b.id, i)).collect();
+        BlockIndex {
+            blocks,
+            tree,
+            by_id,
+        }
+    }
+
+    /// Whether a point is inside some block's outer ring.
+    fn inside(&self, p: Coord) -> bool {
+        self.tree
+            .locate_in_envelope_intersecting(&rstar::AABB::from_point([p.x, p.y]))
+            .any(|bx| {
+                self.by_id
+                    .get(&bx.id)
+                    .is_some_and(|&i| point_in_ring(p, &self.blocks[i].ring))
+            })
+    }
+}
+
+fn midpoint(l: &Layout, id: Id) -> Option<Coord> {
+    let s = l.streets.get(&id)?;
+    Some(geom::polyline_midpoint(&l.polyline(s)?))
+}
+
+/// Merges `upper` onto `lower` with the given mode.
+pub fn merge(
+    lower: &Layout,
+    upper: &Layout,
+    mode: MergeMode,
+    params: &MergeParams,
+) -> Result<(Layout, MergeReport), MergeError> {
+    let sh = shared(lower, upper);
+    let blocks_a = blocks(lower);
+    let blocks_b = blocks(upper);
+    let idx_a = BlockIndex::new(&blocks_a);
+    let idx_b = BlockIndex::new(&blocks_b);
+    let mut report = MergeReport {
+        crossings: sh.crossings.len(),
+        ..MergeReport::default()
+    };
+    let keep: BTreeSet<Id> = match mode {
+        MergeMode::Hard => hard_keep(&sh, &idx_b),
+        MergeMode::GraphCut => cut_keep(&sh, &idx_a, &idx_b, params, &mut report),
+    };
+    for (id, (side, _)) in &sh.origin {
+        if !keep.contains(id) {
+            match side {
+                Side::A => report.lower_pieces_dropped += 1,
+                Side::B => report.upper_pieces_dropped += 1,
+            }
+        }
+    }
+    let mut out = Layout {
+        nodes: sh.layout.nodes.clone(),
+        streets: sh
+            .layout
+            .streets
+            .iter()
+            .filter(|(k, _)| keep.contains(k))
+            .map(|(k, v)| (*k, v.clone()))
+            .collect(),
+        parcels: BTreeMap::new(),
+    };
+    rejoin(&mut out, &sh);
+    out.drop_isolated_nodes();
+    let v = crate::validity::check_streets(&out, &index::segments(&out), None);
+    if !v.is_empty() {
+        return Err(MergeError::Invalid(v));
+    }
+    parcels(
+        &mut out,
+        lower,
+        upper,
+        &blocks_a,
+        &blocks_b,
+        &sh,
+        params,
+        &mut report,
+    );
+    let v = check(&out);
+    if !v.is_empty() {
+        return Err(MergeError::Invalid(v));
+    }
+    Ok((out, report))
+}
+
+fn hard_keep(sh: &Shared, idx_b: &BlockIndex) -> BTreeSet<Id> {
+    sh.origin
+        .iter()
+        .filter(|(id, (side, _))| {
+            *side == Side::B || midpoint(&sh.layout, **id).is_some_and(|m| !idx_b.inside(m))
+        })
+        .map(|(id, _)| *id)
+        .collect()
+}
+
+fn cut_keep(
+    sh: &Shared,
+    idx_a: &BlockIndex,
+    idx_b: &BlockIndex,
+    params: &MergeParams,
+    report: &mut MergeReport,
+) -> BTreeSet<Id> {
+    let l = &sh.layout;
+    if sh.crossings.is_empty() {
+        return sh.origin.keys().copied().collect();
+    }
+    // The cut graph without dead ends (peeled leaf by leaf).
+    let mut adj: BTreeMap<Id, BTreeSet<Id>> = BTreeMap::new();
+    for s in l.streets.values() {
+        adj.entry(s.a).or_default().insert(s.id);
+        adj.entry(s.b).or_default().insert(s.id);
+    }
+    let mut removed_streets: BTreeSet<Id> = BTreeSet::new();
+    let mut peel: Vec<(Id, Id)> = Vec::new(); // (leaf node, node it hangs from)
+    let mut stack: Vec<Id> = adj
+        .iter()
+        .filter(|(_, e)| e.len() == 1)
+        .map(|(n, _)| *n)
+        .collect();
+    while let Some(n) = stack.pop() {
+        let Some(es) = adj.get(&n) else { continue };
+        if es.len() != 1 {
+            continue;
+        }
+        let Some(&e) = es.iter().next() else { continue };
+        let Some(s) = l.streets.get(&e) else { continue };
+        let other = s.other(n);
+        removed_streets.insert(e);
+        adj.remove(&n);
+        peel.push((n, other));
+        if let Some(o) = adj.get_mut(&other) {
+            o.remove(&e);
+            if o.len() == 1 {
+                stack.push(other);
+            }
+        }
+    }
+    // Border nodes.
+    let mut src: BTreeSet<Id> = BTreeSet::new();
+    let mut snk: BTreeSet<Id> = BTreeSet::new();
+    for s in l.streets.values() {
+        if removed_streets.contains(&s.id) {
+            continue;
+        }
+        let Some(&(side, _)) = sh.origin.get(&s.id) else {
+            continue;
+        };
+        for (n, m) in [(s.a, s.b), (s.b, s.a)] {
+            if !sh.crossings.contains(&m) || sh.crossings.contains(&n) {
+                continue;
+            }
+            let Some(p) = l.nodes.get(&n).map(|x| x.pos) else {
+                continue;
+            };
+            match side {
+                Side::A if !idx_b.inside(p) => {
+                    src.insert(n);
+                }
+                Side::B if !idx_a.inside(p) => {
+                    snk.insert(n);
+                }
+                _ => {}
+            }
+        }
+    }
+    let tie_top = |side: Side, set: &mut BTreeSet<Id>| {
+        let mut v: Vec<(i64, Id)> = l
+            .streets
+            .values()
+            .filter(|s| {
+                !removed_streets.contains(&s.id)
+                    && sh.origin.get(&s.id).is_some_and(|o| o.0 == side)
+            })
+            .map(|s| (capacity(s), s.id))
+            .collect();
+        v.sort_by(|x, y| y.0.cmp(&x.0).then(x.1.cmp(&y.1)));
+        for (_, id) in v.into_iter().take(params.constrain_top) {
+            let s = &l.streets[&id];
+            for n in [s.a, s.b] {
+                if !sh.crossings.contains(&n) {
+                    set.insert(n);
+                }
+            }
+        }
+    };
+    if src.is_empty() {
+        tie_top(Side::A, &mut src);
+    }
+    if snk.is_empty() {
+        tie_top(Side::B, &mut snk);
+    }
+    snk.retain(|n| !src.contains(n));
+    let mut edges: Vec<(Id, Id, i64)> = Vec::new();
+    for s in l.streets.values() {
+        if !removed_streets.contains(&s.id) {
+            edges.push((s.a, s.b, capacity(s)));
+        }
+    }
+    let (cut, mut in_s) = min_cut(&edges, &src, &snk);
+    report.cut = cut;
+    // Dead ends take the side of the node they hang from.
+    for (leaf, from) in peel.iter().rev() {
+        if in_s.contains(from) {
+            in_s.insert(*leaf);
+        }
+    }
+    let mut keep: BTreeSet<Id> = BTreeSet::new();
+    for s in l.streets.values() {
+        let Some(&(side, _)) = sh.origin.get(&s.id) else {
+            continue;
+        };
+        let (ia, ib) = (in_s.contains(&s.a), in_s.contains(&s.b));
+        let ok = match side {
+            Side::A => ia && ib,
+            Side::B => !ia && !ib,
+        };
+        if ok {
+            keep.insert(s.id);
+        }
+    }
+    // Mending: lower pieces with one end on the source side, then lower
+    // pieces reached from kept ones that stay out of the upper blocks.
+    for s in l.streets.values() {
+        if sh.origin.get(&s.id).is_some_and(|o| o.0 == Side::A)
+            && !keep.contains(&s.id)
+            && (in_s.contains(&s.a) || in_s.contains(&s.b))
+        {
+            keep.insert(s.id);
+            report.mended += 1;
+        }
+    }
+    let mut inc: BTreeMap<Id, Vec<Id>> = BTreeMap::new();
+    for s in l.streets.values() {
+        if sh.origin.get(&s.id).is_some_and(|o| o.0 == Side::A) {
+            inc.entry(s.a).or_default().push(s.id);
+            inc.entry(s.b).or_default().push(s.id);
+        }
+    }
+    let mut stack: Vec<Id> = keep
+        .iter()
+        .copied()
+        .filter(|id| sh.origin.get(id).is_some_and(|o| o.0 == Side::A))
+        .collect();
+    while let Some(e) = stack.pop() {
+        let s = &l.streets[&e];
+        for n in [s.a, s.b] {
+            for &f in inc.get(&n).map(Vec::as_slice).unwrap_or(&[]) {
+                if keep.contains(&f) {
+                    continue;
+                }
+                if midpoint(l, f).is_some_and(|m| !idx_b.inside(m)) {
+                    keep.insert(f);
+                    report.mended += 1;
+                    stack.push(f);
+                }
+            }
+        }
+    }
+    keep
+}
+
+/// The minimum cut of an undirected graph with capacities, between the
+/// nodes in `sources` (tied to a source) and those in `sinks` (tied to a
+/// sink): its capacity and the nodes on the source side. The maximum flow
+/// is `pathfinding`'s Edmonds-Karp; the source side is what the residual
+/// graph reaches from the source.
+pub fn min_cut(
+    edges: &[(Id, Id, i64)],
+    sources: &BTreeSet<Id>,
+    sinks: &BTreeSet<Id>,
+) -> (i64, BTreeSet<Id>) {
+    let source = Id::mint("cut").str("source").finish();
+    let sink = Id::mint("cut").str("sink").finish();
+    let mut cap_map: BTreeMap<(Id, Id), i64> = BTreeMap::new();
+    let mut total: i64 = 1;
+    let mut vs: BTreeSet<Id> = BTreeSet::new();
+    for &(a, b, c) in edges {
+        if a == b || c <= 0 {
+            continue;
+        }
+        total = total.saturating_add(c);
+        *cap_map.entry((a, b)).or_default() += c;
+        *cap_map.entry((b, a)).or_default() += c;
+        vs.insert(a);
+        vs.insert(b);
+    }
+    let inf = total.saturating_add(1);
+    for n in sources {
+        *cap_map.entry((source, *n)).or_default() += inf;
+        vs.insert(*n);
+    }
+    for n in sinks.iter().filter(|n| !sources.contains(n)) {
+        *cap_map.entry((*n, sink)).or_default() += inf;
+        vs.insert(*n);
+    }
+    let mut vertices: Vec<Id> = vs.into_iter().collect();
+    vertices.push(source);
+    vertices.push(sink);
+    let caps: Vec<((Id, Id), i64)> = cap_map.iter().map(|(k, c)| (*k, *c)).collect();
+    let (flows, cut, _) =
+        edmonds_karp::<Id, i64, _, SparseCapacity<i64>>(&vertices, &source, &sink, caps);
+    let mut flow: BTreeMap<(Id, Id), i64> = BTreeMap::new();
+    for ((u, v), f) in flows {
+        *flow.entry((u, v)).or_default() += f;
+    }
+    let mut out_edges: BTreeMap<Id, Vec<Id>> = BTreeMap::new();
+    for (u, v) in cap_map.keys() {
+        out_edges.entry(*u).or_default().push(*v);
+        out_edges.entry(*v).or_default().push(*u);
+    }
+    let residual = |u: Id, v: Id| {
+        cap_map.get(&(u, v)).copied().unwrap_or(0) - flow.get(&(u, v)).copied().unwrap_or(0)
+            + flow.get(&(v, u)).copied().unwrap_or(0)
+    };
+    let mut in_s: BTreeSet<Id> = BTreeSet::from([source]);
+    let mut queue = vec![source];
+    while let Some(u) = queue.pop() {
+        for &v in out_edges.get(&u).map(Vec::as_slice).unwrap_or(&[]) {
+            if !in_s.contains(&v) && residual(u, v) > 0 {
+                in_s.insert(v);
+                queue.push(v);
+            }
+        }
+    }
+    in_s.remove(&source);
+    (cut, in_s)
+}
+
+/// A street whose pieces all stayed, with nothing else at its cuts, is
+/// put back whole under its own identity.
+fn rejoin(out: &mut Layout, sh: &Shared) {
+    let inc = out.incidence();
+    for ((_, orig), pieces) in &sh.pieces {
+        if pieces.len() < 2 || !pieces.iter().all(|p| out.streets.contains_key(p)) {
+            continue;
+        }
+        let inner: Vec<Id> = pieces
+            .windows(2)
+            .filter_map(|w| {
+                let (x, y) = (&out.streets[&w[0]], &out.streets[&w[1]]);
+                [x.a, x.b].into_iter().find(|n| *n == y.a || *n == y.b)
+            })
+            .collect();
+        if inner.len() + 1 != pieces.len()
+            || inner
+                .iter()
+                .any(|n| inc.get(n).is_none_or(|v| v.len() != 2))
+        {
+            continue;
+        }
+        let Some(whole) = sh.originals.get(&(sh.origin[&pieces[0]].0, *orig)) else {
+            continue;
+        };
+        if out.streets.contains_key(&whole.id) {
+            continue;
+        }
+        for p in pieces {
+            out.streets.remove(p);
+        }
+        out.streets.insert(whole.id, whole.clone());
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn parcels(
+    out: &mut Layout,
+    lower: &Layout,
+    upper: &Layout,
+    blocks_a: &[Block],
+    blocks_b: &[Block],
+    sh: &Shared,
+    params: &MergeParams,
+    report: &mut MergeReport,
+) {
+    let result_blocks = blocks(out);
+    let mut orig_side: BTreeMap<Id, (Side, Id)> = sh.origin.clone();
+    for (side, id) in sh.originals.keys() {
+        orig_side.insert(*id, (*side, *id));
+    }
+    let rings_a: BTreeMap<Id, &Block> = blocks_a.iter().map(|b| (b.id, b)).collect();
+    let rings_b: BTreeMap<Id, &Block> = blocks_b.iter().map(|b| (b.id, b)).collect();
+    // The block of one side this result block is (the same original
+    // streets, the same area).
+    let source_block = |b: &Block| -> Option<(Side, Id)> {
+        let mut sides = BTreeSet::new();
+        let mut origs = BTreeSet::new();
+        for s in &b.streets {
+            let (side, o) = orig_side.get(s)?;
+            sides.insert(*side);
+            origs.insert(*o);
+        }
+        if sides.len() != 1 {
+            return None;
+        }
+        let side = *sides.iter().next()?;
+        let origs: Vec<Id> = origs.into_iter().collect();
+        let id = crate::blocks::block_id(&origs);
+        let src = match side {
+            Side::A => rings_a.get(&id),
+            Side::B => rings_b.get(&id),
+        }?;
+        ((src.area - b.area).abs() <= 1e-6 * src.area.max(1.0)).then_some((side, id))
+    };
+    let own_a = ownership(lower, blocks_a);
+    let own_b = ownership(upper, blocks_b);
+    let owned = |l: &Layout, own: &BTreeMap<Id, Id>, block: Id| -> Vec<Parcel> {
+        l.parcels
+            .values()
+            .filter(|p| match p.origin {
+                ParcelOrigin::Generated { block: b } => b == block,
+                ParcelOrigin::Explicit => own.get(&p.id) == Some(&block),
+            })
+            .cloned()
+            .collect()
+    };
+    let segs = index::segments(out);
+    let mut from_a: BTreeSet<Id> = BTreeSet::new();
+    let mut fresh: BTreeSet<Id> = BTreeSet::new();
+    for b in &result_blocks {
+        let src = source_block(b);
+        let kept = match src {
+            Some((Side::B, id)) => Some(owned(upper, &own_b, id)),
+            Some((Side::A, id)) => Some(owned(lower, &own_a, id)),
+            None => None,
+        };
+        match kept {
+            Some(ps) => {
+                report.blocks_kept += 1;
+                for p in ps {
+                    if matches!(src, Some((Side::A, _))) {
+                        from_a.insert(p.id);
+                    }
+                    out.parcels.insert(p.id, p);
+                }
+            }
+            None => {
+                report.blocks_regrown += 1;
+                for p in subdivide_block(
+                    out,
+                    &segs,
+                    b,
+                    block_seed(params.seed, b.id),
+                    &params.parcels,
+                ) {
+                    fresh.insert(p.id);
+                    out.parcels.insert(p.id, p);
+                }
+            }
+        }
+    }
+    // Free parcels: the upper's, then the lower's.
+    for (l, own, is_a) in [(upper, &own_b, false), (lower, &own_a, true)] {
+        for p in l.parcels.values() {
+            if p.origin == ParcelOrigin::Explicit
+                && !own.contains_key(&p.id)
+                && !out.parcels.contains_key(&p.id)
+            {
+                if is_a {
+                    from_a.insert(p.id);
+                }
+                out.parcels.insert(p.id, p.clone());
+            }
+        }
+    }
+    // Clashes: drop the lower side's parcel first, then a regrown one.
+    for _ in 0..8 {
+        let v = crate::validity::check_parcels(out, &segs, None);
+        if v.is_empty() {
+            break;
+        }
+        let mut drop: BTreeSet<Id> = BTreeSet::new();
+        let rank = |id: &Id| {
+            if from_a.contains(id) {
+                0
+            } else if fresh.contains(id) {
+                1
+            } else {
+                2
+            }
+        };
+        for x in v {
+            match x {
+                Violation::ParcelOnStreet { parcel, .. } | Violation::BadParcel { parcel, .. } => {
+                    drop.insert(parcel);
+                }
+                Violation::ParcelsOverlap { a, b } => {
+                    drop.insert(if rank(&a) <= rank(&b) { a } else { b });
+                }
+                _ => {}
+            }
+        }
+        report.parcels_dropped += drop.len();
+        for id in drop {
+            out.parcels.remove(&id);
+        }
+    }
+}

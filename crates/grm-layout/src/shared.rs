@@ -1,0 +1,278 @@
+//! The shared graph of two layouts (4.1.3, step 2): the lower layout's
+//! streets and the upper's in one planar graph, each street split where it
+//! meets a street of the other layout. Nodes at the same place become one
+//! (the upper's identity); an intersection node's identity is minted from
+//! the two streets and the place; a piece's from its street and its end
+//! nodes (an unsplit street keeps its identity). A lower street running
+//! along an upper one is dropped (coincident streets are deleted).
+
+use crate::geom::{self, Meet};
+use crate::id::Id;
+use crate::index;
+use crate::model::{Layout, Street};
+use geo::Coord;
+use std::collections::{BTreeMap, BTreeSet};
+
+/// Which input a piece or node comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Side {
+    /// The lower layout (`U_a`).
+    A,
+    /// The upper layout (`U_b`).
+    B,
+}
+
+/// The shared graph and where each piece came from.
+#[derive(Debug, Clone, Default)]
+pub struct Shared {
+    pub layout: Layout,
+    /// Piece -> (side, the original street's identity).
+    pub origin: BTreeMap<Id, (Side, Id)>,
+    /// Original street -> its pieces, in order along it.
+    pub pieces: BTreeMap<(Side, Id), Vec<Id>>,
+    /// Nodes where a street of one side meets a street of the other.
+    pub crossings: BTreeSet<Id>,
+    /// Node -> the sides whose streets use it.
+    pub node_sides: BTreeMap<Id, BTreeSet<Side>>,
+    /// Lower streets dropped because they run along upper ones.
+    pub coincident: Vec<Id>,
+    /// The lower layout's nodes and streets renamed: old -> new identity.
+    pub renamed: BTreeMap<Id, Id>,
+    /// The original streets (after renaming), by side.
+    pub originals: BTreeMap<(Side, Id), Street>,
+}
+
+/// Where a street is cut: its segment, the parameter along it, the node.
+type Cut = (usize, f64, Id);
+
+fn bits(c: Coord) -> (u64, u64) {
+    let z = |v: f64| {
+        if v == 0.0 {
+            0.0f64.to_bits()
+        } else {
+            v.to_bits()
+        }
+    };
+    (z(c.x), z(c.y))
+}
+
+/// Builds the shared graph of `a` (lower) and `b` (upper).
+pub fn shared(a: &Layout, b: &Layout) -> Shared {
+    let mut sh = Shared::default();
+    let mut base = Layout::default();
+    let mut at: BTreeMap<(u64, u64), Id> = BTreeMap::new();
+    for n in b.nodes.values() {
+        base.nodes.insert(n.id, n.clone());
+        at.insert(bits(n.pos), n.id);
+    }
+    let mut node_map: BTreeMap<Id, Id> = BTreeMap::new();
+    for n in a.nodes.values() {
+        if let Some(&id) = at.get(&bits(n.pos)) {
+            node_map.insert(n.id, id);
+            continue;
+        }
+        let mut id = n.id;
+        if base.nodes.contains_key(&id) {
+            id = Id::mint("under").id(n.id).finish();
+            sh.renamed.insert(n.id, id);
+        }
+        let mut m = n.clone();
+        m.id = id;
+        base.nodes.insert(id, m);
+        at.insert(bits(n.pos), id);
+        node_map.insert(n.id, id);
+    }
+    let mut streets: Vec<(Side, Street)> =
+        b.streets.values().map(|s| (Side::B, s.clone())).collect();
+    let b_ids: BTreeSet<Id> = b.streets.keys().copied().collect();
+    for s in a.streets.values() {
+        let mut t = s.clone();
+        t.a = node_map.get(&s.a).copied().unwrap_or(s.a);
+        t.b = node_map.get(&s.b).copied().unwrap_or(s.b);
+        if b_ids.contains(&t.id) {
+            let same = b.streets.get(&t.id).is_some_and(|u| {
+                (u.a == t.a && u.b == t.b && u.interior == t.interior)
+                    || (u.a == t.b && u.b == t.a && u.interior.iter().rev().eq(t.interior.iter()))
+            });
+            if same {
+                sh.coincident.push(s.id);
+                continue;
+            }
+            let id = Id::mint("under").id(s.id).finish();
+            sh.renamed.insert(s.id, id);
+            t.id = id;
+        }
+        streets.push((Side::A, t));
+    }
+    for (side, s) in &streets {
+        sh.originals.insert((*side, s.id), s.clone());
+    }
+    // Polylines and an index over the upper streets' segments.
+    fn poly(base: &Layout, s: &Street) -> Option<Vec<Coord>> {
+        let mut v = vec![base.nodes.get(&s.a)?.pos];
+        v.extend_from_slice(&s.interior);
+        v.push(base.nodes.get(&s.b)?.pos);
+        Some(v)
+    }
+    let mut upper = Layout {
+        nodes: base.nodes.clone(),
+        ..Layout::default()
+    };
+    for (side, s) in &streets {
+        if *side == Side::B {
+            upper.streets.insert(s.id, s.clone());
+        }
+    }
+    let useg = index::segments(&upper);
+    // Cuts per street: (segment, parameter, node).
+    let mut cuts: BTreeMap<(Side, Id), Vec<Cut>> = BTreeMap::new();
+    let mut drop_a: BTreeSet<Id> = BTreeSet::new();
+    let mut new_nodes: BTreeMap<Id, Coord> = BTreeMap::new();
+    for (side, s) in &streets {
+        if *side != Side::A {
+            continue;
+        }
+        let Some(pl) = poly(&base, s) else { continue };
+        'segs: for (k, w) in pl.windows(2).enumerate() {
+            let env = rstar::AABB::from_corners([w[0].x, w[0].y], [w[1].x, w[1].y]);
+            let mut hits: Vec<&index::Seg> = useg.locate_in_envelope_intersecting(&env).collect();
+            hits.sort_by(|x, y| x.street.cmp(&y.street).then(x.k.cmp(&y.k)));
+            for o in hits {
+                let Some(t) = upper.streets.get(&o.street) else {
+                    continue;
+                };
+                match geom::meet(w[0], w[1], o.a, o.b) {
+                    None => {}
+                    Some(Meet::Overlap) => {
+                        drop_a.insert(s.id);
+                        break 'segs;
+                    }
+                    Some(Meet::Point(p)) => {
+                        let ends = [s.a, s.b, t.a, t.b];
+                        let node = ends
+                            .iter()
+                            .copied()
+                            .find(|n| base.nodes.get(n).is_some_and(|m| m.pos == p))
+                            .unwrap_or_else(|| {
+                                Id::mint("x").id(s.id).id(t.id).f64(p.x).f64(p.y).finish()
+                            });
+                        if !base.nodes.contains_key(&node) {
+                            new_nodes.insert(node, p);
+                        }
+                        if node != s.a && node != s.b {
+                            cuts.entry((Side::A, s.id)).or_default().push((
+                                k,
+                                param(w[0], w[1], p),
+                                node,
+                            ));
+                        }
+                        if node != t.a && node != t.b {
+                            cuts.entry((Side::B, t.id)).or_default().push((
+                                o.k,
+                                param(o.a, o.b, p),
+                                node,
+                            ));
+                        }
+                        sh.crossings.insert(node);
+                    }
+                }
+            }
+        }
+    }
+    for id in &drop_a {
+        sh.coincident.push(*id);
+        cuts.remove(&(Side::A, *id));
+    }
+    for (id, p) in new_nodes {
+        base.add_node(id, p);
+    }
+    let mut out = Layout {
+        nodes: base.nodes.clone(),
+        streets: BTreeMap::new(),
+        parcels: BTreeMap::new(),
+    };
+    for (side, s) in &streets {
+        if *side == Side::A && drop_a.contains(&s.id) {
+            continue;
+        }
+        let Some(pl) = poly(&base, s) else { continue };
+        let mut c = cuts.remove(&(*side, s.id)).unwrap_or_default();
+        c.sort_by(|x, y| x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)));
+        c.dedup_by(|x, y| x.2 == y.2);
+        let pieces = split_street(s, &pl, &c, &out.nodes);
+        let mut ids = Vec::new();
+        for p in pieces {
+            sh.origin.insert(p.id, (*side, s.id));
+            for n in [p.a, p.b] {
+                sh.node_sides.entry(n).or_default().insert(*side);
+            }
+            ids.push(p.id);
+            out.streets.insert(p.id, p);
+        }
+        sh.pieces.insert((*side, s.id), ids);
+    }
+    for (n, sides) in &sh.node_sides {
+        if sides.len() > 1 {
+            sh.crossings.insert(*n);
+        }
+    }
+    out.drop_isolated_nodes();
+    sh.layout = out;
+    sh
+}
+
+fn param(a: Coord, b: Coord, p: Coord) -> f64 {
+    let (dx, dy) = (b.x - a.x, b.y - a.y);
+    let l2 = dx * dx + dy * dy;
+    if l2 == 0.0 {
+        0.0
+    } else {
+        ((p.x - a.x) * dx + (p.y - a.y) * dy) / l2
+    }
+}
+
+/// A street cut at the given (segment, parameter, node) points, in order.
+fn split_street(
+    s: &Street,
+    pl: &[Coord],
+    cuts: &[(usize, f64, Id)],
+    nodes: &BTreeMap<Id, crate::model::Node>,
+) -> Vec<Street> {
+    if cuts.is_empty() {
+        return vec![s.clone()];
+    }
+    let mut out = Vec::new();
+    let mut start = s.a;
+    let mut pts: Vec<Coord> = vec![pl[0]];
+    let mut ci = 0;
+    let push_piece = |from: Id, to: Id, pts: &[Coord], out: &mut Vec<Street>| {
+        if from == to || pts.len() < 2 {
+            return;
+        }
+        let mut t = s.clone();
+        t.id = Id::mint("piece").id(s.id).id(from).id(to).finish();
+        t.a = from;
+        t.b = to;
+        t.interior = pts[1..pts.len() - 1].to_vec();
+        out.push(t);
+    };
+    for k in 0..pl.len() - 1 {
+        while ci < cuts.len() && cuts[ci].0 == k {
+            let node = cuts[ci].2;
+            let p = nodes.get(&node).map_or(pl[k], |n| n.pos);
+            if pts.last() != Some(&p) {
+                pts.push(p);
+            }
+            push_piece(start, node, &pts, &mut out);
+            start = node;
+            pts = vec![p];
+            ci += 1;
+        }
+        let q = pl[k + 1];
+        if pts.last() != Some(&q) {
+            pts.push(q);
+        }
+    }
+    push_piece(start, s.b, &pts, &mut out);
+    out
+}
