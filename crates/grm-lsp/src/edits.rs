@@ -859,6 +859,16 @@ pub(crate) struct EditCaps {
 }
 
 impl EditCaps {
+    /// The client applies `workspace/applyEdit`.
+    pub(crate) fn can_apply(&self) -> bool {
+        self.apply
+    }
+
+    /// The client takes `documentChanges` (versioned document edits).
+    pub(crate) fn document_changes(&self) -> bool {
+        self.document_changes
+    }
+
     pub(crate) fn of(c: &ClientCapabilities) -> EditCaps {
         let w = c.workspace.as_ref();
         let we = w.and_then(|w| w.workspace_edit.as_ref());

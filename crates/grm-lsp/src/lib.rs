@@ -38,6 +38,7 @@
 pub mod convert;
 pub mod coverage;
 pub mod edits;
+pub mod manip;
 pub mod picture;
 pub mod preview;
 pub mod shape_preview;
@@ -300,6 +301,10 @@ fn build(
         .custom_method("grm/picture", Backend::picture)
         .custom_method("grm/edit", Backend::edit)
         .custom_method("grm/removeEdit", Backend::remove_edit)
+        .custom_method("grm/provenance", Backend::provenance)
+        .custom_method("grm/drag", Backend::drag)
+        .custom_method("grm/sketch", Backend::sketch)
+        .custom_method("grm/writeParams", Backend::write_params)
         .finish()
 }
 

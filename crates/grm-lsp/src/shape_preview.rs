@@ -71,6 +71,23 @@ pub struct ScopeOut {
     /// origin, sorted, without 0 and the scope's size): the split planes.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub cuts: Vec<f32>,
+    /// The node's identity key (8 hex digits): a command's names its
+    /// planes in `grm/drag`.
+    #[serde(default)]
+    pub key: String,
+    /// A split's or repeat's planes a drag can move: the end of each
+    /// child (by its edge number) inside the scope.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub planes: Vec<PlaneOut>,
+}
+
+/// A split's or repeat's plane: the end of child `edge`, at `at` from the
+/// command scope's origin along its axis.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(rename_all = "camelCase")]
+pub struct PlaneOut {
+    pub edge: u32,
+    pub at: f32,
 }
 
 /// What `grm/pick` says of a shape.
@@ -185,13 +202,21 @@ impl ShapePicks {
             NodeKind::Insert { .. } => ("insert".to_string(), false, None),
         };
         let mut cuts = Vec::new();
+        let mut planes = Vec::new();
         if let Some(a) = axis {
             let dir = s.axis(a);
             let len = s.size[a.index()];
             for c in self.tree.children(id) {
                 let Some(k) = self.tree.node(c) else { continue };
                 let start = (k.scope.origin - s.origin).dot(dir);
-                for x in [start, start + k.scope.size[a.index()]] {
+                let end = start + k.scope.size[a.index()];
+                if end > len * 1e-5 && end < len * (1.0 - 1e-5) {
+                    planes.push(PlaneOut {
+                        edge: k.edge,
+                        at: end,
+                    });
+                }
+                for x in [start, end] {
                     if x > len * 1e-5 && x < len * (1.0 - 1e-5) {
                         cuts.push(x);
                     }
@@ -209,6 +234,8 @@ impl ShapePicks {
             size: s.size.to_array(),
             axis: axis.map(|a| a.index() as u32),
             cuts,
+            key: grm_grow::json::key_text(n.key),
+            planes,
         })
     }
 

@@ -290,7 +290,7 @@ impl Candidate {
 }
 
 /// `text` with each `(span, replacement)` applied (spans disjoint).
-pub(crate) fn apply(text: &str, edits: &[(Span, String)]) -> String {
+pub fn apply(text: &str, edits: &[(Span, String)]) -> String {
     let mut sorted: Vec<&(Span, String)> = edits.iter().collect();
     sorted.sort_by_key(|(s, _)| s.start);
     let mut out = String::with_capacity(text.len() + 64);

@@ -38,6 +38,7 @@
 //! input (typed [`ManipError`]s).
 
 pub mod candidates;
+pub mod defaults;
 mod probe;
 mod sketch;
 mod solve;

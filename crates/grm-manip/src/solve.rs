@@ -38,6 +38,7 @@ impl std::fmt::Debug for Manip<'_> {
 #[derive(Clone, Debug, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub struct Source {
+    #[serde(flatten)]
     pub candidate: Candidate,
     /// The derivative of each of the part's measures with respect to the
     /// candidate's value (forward difference, `step`).

@@ -3,6 +3,8 @@
 
 #![allow(dead_code)]
 
+pub mod editor;
+
 use futures::StreamExt;
 use grm_diag::SourceFile;
 use grm_lsp::Config;
