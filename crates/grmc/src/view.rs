@@ -23,6 +23,7 @@
 //! | `POST /api/preview`, `/api/pick` | 200 with `{"result": ...}` or `{"error": "...", "code": N}` (`code`: the language server's JSON-RPC error code, where it gave one: a preview a newer one superseded is -32802, a cancelled one -32800); every call that reached the server is answered 200, as a JSON-RPC reply is, since a grammar that cannot be previewed is no HTTP failure (browsers log every 4xx answer in the console); 4xx only for a request that is not a call (bad JSON, too large, another origin) |
 //! | `POST /api/picture` | `grm/picture`: the preview's model drawn as a PNG (base64 in the JSON), for the page's "Save picture" |
 //! | `POST /api/symbols` | `textDocument/documentSymbol` (the page reads the meta-parameters' ranges) |
+//! | `POST /api/provenance`, `/api/drag`, `/api/sketch`, `/api/writeParams` | `grm/provenance`, `grm/drag`, ... (direct manipulation): an edit of the grammar is written here (the server answers the edited text to this client, which cannot apply edits) and sent to the server at once, which regrows the live preview; the answer says `written` |
 //! | `POST /api/loadCurves`, `/api/saveCurves` | the curves file next to the grammar (`tree.grm` -> `tree.curves.json`); saved only if `grm-guide` accepts it |
 //! | `GET /api/events?after=N[&wait=MS]` | long poll (20 s at most): `{"seq": M, "events": [{"method", "params"}]}` |
 //!
@@ -506,6 +507,34 @@ impl State {
         );
     }
 
+    /// Write the grammar (through a file beside it, renamed over it) and
+    /// send its text to the server at once, which regrows the live
+    /// preview: the page's own edit (a drag) is not left for the watcher.
+    fn write_grammar(&self, text: &str) -> Result<(), String> {
+        let mut seen = self.seen.lock().unwrap_or_else(PoisonError::into_inner);
+        let mut tmp = self.path.as_os_str().to_os_string();
+        tmp.push(".tmp");
+        let tmp = PathBuf::from(tmp);
+        std::fs::write(&tmp, text)
+            .and_then(|()| std::fs::rename(&tmp, &self.path))
+            .map_err(|e| {
+                let _ = std::fs::remove_file(&tmp);
+                format!("cannot write {}: {e}", self.path.display())
+            })?;
+        let (modified, len) = stat(&self.path);
+        seen.0 = modified;
+        seen.1 = len;
+        seen.2 += 1;
+        self.lsp.notify(
+            "textDocument/didChange",
+            json!({
+                "textDocument": { "uri": self.uri, "version": seen.2 },
+                "contentChanges": [{ "text": text }],
+            }),
+        );
+        Ok(())
+    }
+
     /// The document a request is about: only the served one.
     fn check_uri(&self, params: &Value) -> Result<(), String> {
         let uri = params
@@ -531,6 +560,21 @@ impl State {
         match method {
             "preview" => self.lsp.request("grm/preview", params),
             "pick" => self.lsp.request("grm/pick", params),
+            "provenance" => self.lsp.request("grm/provenance", params),
+            // Edits of the grammar: this client cannot apply them, so the
+            // server answers the edited text, which is written here.
+            "drag" | "sketch" | "writeParams" => {
+                let mut out = self.lsp.request(&format!("grm/{method}"), params)?;
+                if let Some(text) = out.get("text").and_then(Value::as_str).map(str::to_owned) {
+                    self.write_grammar(&text)?;
+                    out["applied"] = json!(true);
+                    out["written"] = json!(true);
+                    if let Some(o) = out.as_object_mut() {
+                        o.remove("text");
+                    }
+                }
+                Ok(out)
+            }
             "picture" => self.lsp.request("grm/picture", params),
             "symbols" => self.lsp.request(
                 "textDocument/documentSymbol",
@@ -1340,5 +1384,74 @@ mod tests {
             }
         };
         assert_eq!(updated["result"]["skeleton"]["boneCount"], 32);
+    }
+
+    #[test]
+    fn a_drag_through_the_page_rewrites_the_file_and_regrows_the_preview() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let grammar = dir.path().join("bar.grm");
+        let text =
+            "system Bar {\n    iterations = 1;\n    axiom A;\n    A -> F(2) +(30) F(1);\n}\n";
+        std::fs::write(&grammar, text).expect("write");
+        let grammar = grm_sema::normalize(&std::fs::canonicalize(&grammar).expect("canonical"));
+        let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
+        let server = Server::start(&grammar, listener, None).expect("start");
+        let addr = server.addr;
+        let (_, ev) = exchange(
+            addr,
+            &format!("GET /api/events?after=0 HTTP/1.1\r\nHost: {addr}\r\n\r\n"),
+        );
+        let uri = ev["events"][0]["params"]["uri"].clone();
+        let mut after = ev["seq"].as_u64().unwrap_or(0);
+        let (status, r) = post(
+            addr,
+            "/api/preview",
+            &json!({ "textDocument": { "uri": uri }, "live": true }),
+        );
+        assert_eq!(status, 200, "{r}");
+        let (_, p) = post(
+            addr,
+            "/api/pick",
+            &json!({ "textDocument": { "uri": uri }, "bone": 1 }),
+        );
+        let key = p["result"]["key"].clone();
+        assert_eq!(key.as_str().map(str::len), Some(8), "{p}");
+        // The second bone, 1 long, dragged along itself to 1.5.
+        let bones = base64::Engine::decode(
+            &base64::engine::general_purpose::STANDARD,
+            r["result"]["skeleton"]["bones"].as_str().expect("bones"),
+        )
+        .expect("base64");
+        let f = |i: usize| f32::from_le_bytes(bones[i * 4..i * 4 + 4].try_into().unwrap()) as f64;
+        let (base, tip) = ([f(8), f(9), f(10)], [f(11), f(12), f(13)]);
+        let at: Vec<f64> = (0..3).map(|i| base[i] + (tip[i] - base[i]) * 1.5).collect();
+        let (status, d) = post(
+            addr,
+            "/api/drag",
+            &json!({ "textDocument": { "uri": uri }, "part": { "kind": "bone", "key": key },
+                     "target": { "kind": "tip", "at": at } }),
+        );
+        assert_eq!(status, 200, "{d}");
+        assert_eq!(d["result"]["outcome"], "solved", "{d}");
+        assert_eq!(d["result"]["written"], true, "{d}");
+        assert!(d["result"].get("text").is_none());
+        let on_disk = std::fs::read_to_string(&grammar).expect("read");
+        assert!(on_disk.contains("A -> F(2) +(30) F(1.5);"), "{on_disk}");
+        // The live preview regrows from the written text.
+        let deadline = Instant::now() + Duration::from_secs(20);
+        loop {
+            assert!(Instant::now() < deadline, "no previewUpdated");
+            let (_, ev) = exchange(
+                addr,
+                &format!("GET /api/events?after={after} HTTP/1.1\r\nHost: {addr}\r\n\r\n"),
+            );
+            after = ev["seq"].as_u64().unwrap_or(after);
+            if ev["events"]
+                .as_array()
+                .is_some_and(|es| es.iter().any(|e| e["method"] == "previewUpdated"))
+            {
+                break;
+            }
+        }
     }
 }
