@@ -73,7 +73,7 @@ test('scopes become boxes, the picked box and split planes', () => {
 
 test('a turned scope is drawn along its own axes', () => {
   // A wall facing -x: x along -z, y up, z out along -x; cut at 1 along its x.
-  const s: ScopeBox = { node: 1, label: 'split.x', command: true, origin: [0, 0, 5], axes: [[0, 0, -1], [0, 1, 0], [-1, 0, 0]], size: [5, 3, 0], axis: 0, cuts: [1] };
+  const s: ScopeBox = { node: 1, label: 'split.x', command: true, origin: [0, 0, 5], axes: [[0, 0, -1], [0, 1, 0], [-1, 0, 0]], size: [5, 3, 0], axis: 0, cuts: [1], key: null, planes: [] };
   const lines = scopeLines([s]);
   assert.deepEqual(lines.cuts, [0, 0, 4, 0, 3, 4]);
 });

@@ -8,8 +8,26 @@ import { PARAM_KEYS, PARAM_RANGES, type ParamKey, checkParam, cloneSet, setProbl
 import { type PlayAt, SearchPlayer, isSearchResult, playButtonView, scrubberView, showsUpdate } from './generation.js';
 import { type NotificationMethod, SERVER_CANCELLED, type ViewParams, usableCamera, viewAngles } from './messages.js';
 import { coverageLabel } from './coverage.js';
+import {
+  type PlaneHandle,
+  type Ray,
+  SketchKeys,
+  describeTarget,
+  dragPlaneAt,
+  manipSummary,
+  paramsToWrite,
+  planeCentre,
+  planeHandles,
+  rayPlane,
+  short,
+  sliderNameProblem,
+} from './manip.js';
 import { pictureFileName, pictureParams } from './picture.js';
 import {
+  type ManipBase,
+  type ManipPart,
+  type ManipResult,
+  type ManipTarget,
   type Origin,
   type PickParams,
   type PickResult,
@@ -18,15 +36,18 @@ import {
   type PreviewResult,
   type SampleInfo,
   type SceneModel,
+  KEY,
+  decodeManipResult,
   decodePick,
   decodePicture,
   decodePreview,
   decodePreviewUpdated,
+  findPick,
   modeFromSymbols,
   paramsFromSymbols,
 } from './protocol.js';
 import { PreviewScene, ThumbnailRenderer } from './scene.js';
-import { scopeLines } from './scopes.js';
+import { cutRect, scopeLines } from './scopes.js';
 import { PageState, ShownVersion } from './state.js';
 import { type RequestTiming, type Transport, TransportError, detectTransport, isSuperseded } from './transport.js';
 
@@ -138,7 +159,37 @@ interface DebugInfo {
   pictures: number;
   lastPicture: { name: string; width: number; height: number; generation?: number; saved?: string | null } | null;
   pictureError: string | null;
+  /**
+   * Direct manipulation (issue 28): the handles drawn (a picked shape's split planes, a picked bone's tip), with
+   * where each is on screen, for tests that drag them.
+   */
+  handles: () => { kind: 'plane' | 'tip'; label: string; command: string | null; edge: number | null; at: number | V3; screen: [number, number] }[];
+  /** The direct-manipulation status line. */
+  manipStatus: string;
+  /** Drags sent, and the last drag's, sketch's and write's answers (null: none yet, or it failed: see lastError). */
+  drags: number;
+  lastDrag: ManipResult | null;
+  lastDragRequest: unknown;
+  lastSketch: ManipResult | null;
+  lastSketchRequest: unknown;
+  lastWrite: ManipResult | null;
+  /** Per applied drag, milliseconds from the release to the end of the frame that shows the regrown model, and the part of it until the answer came. */
+  dragLatencies: number[];
+  dragAnswerMs: number[];
+  /** The sketched poses waiting for "Make slider…". */
+  sketchPoses: number;
 }
+
+/** What the pointer is doing in the view: drawing a curve, dragging a control point or a handle, or a click. */
+type Gesture =
+  | { kind: 'none' }
+  | { kind: 'draw'; points: V3[]; centre: V3; startX: number; startY: number }
+  | { kind: 'drag'; curve: number; handle: number; through: V3; moved: boolean }
+  /** A split plane's handle (index into the handles) along its axis: grabbed at `at0` with the pointer's ray `ray0`. */
+  | { kind: 'plane'; handle: number; at0: number; ray0: Ray; facing: V3; at: number; moved: boolean }
+  /** A bone's tip in the view plane through where it was grabbed. */
+  | { kind: 'tip'; tip0: V3; at: V3; moved: boolean }
+  | { kind: 'click'; x: number; y: number; t: number };
 
 /** How long the camera must rest before the page tells the host its view (not on every frame of a drag). */
 const VIEW_REST_MS = 200;
@@ -163,12 +214,25 @@ class App {
   private showScopes = false;
   /** The scopes of the last shape picked. */
   private pickedScopes: ScopeBox[] | null = null;
+  /**
+   * Direct manipulation: what the last pick can drag (a shape's path's split planes, a bone's tip), the pick
+   * request that found it (asked again once a drag's model is shown) and the picked part's key.
+   */
+  private manip:
+    | { kind: 'planes'; handles: PlaneHandle[]; key: string | null; pick: PickParams }
+    | { kind: 'tip'; key: string; bone: number; base: V3; tip: V3; pick: PickParams }
+    | null = null;
+  /** The model the pick (scopes, handles) was made on (`modelSignature`): another model drops them. */
+  private pickedFor = '';
+  /** Sketch mode: a released drag records a pose (at the t of the number field) instead of rewriting the grammar. */
+  private sketchMode = false;
+  private readonly sketch = new SketchKeys();
+  /** The last sketched pose, drawn where it was dropped: the plane (index into the handles) or the tip. */
+  private posed: { plane: number; at: number } | { tip: V3 } | null = null;
+  /** A drag sent: when it was released and the version of the model then on screen (a newer model is its regrown one). */
+  private dragWait: { releasedAt: number; version: number; answeredAt: number | null; repick: boolean } | null = null;
   private paramSignature = '';
-  private gesture:
-    | { kind: 'none' }
-    | { kind: 'draw'; points: V3[]; centre: V3; startX: number; startY: number }
-    | { kind: 'drag'; curve: number; handle: number; through: V3; moved: boolean }
-    | { kind: 'click'; x: number; y: number; t: number } = { kind: 'none' };
+  private gesture: Gesture = { kind: 'none' };
   private thumbs: ThumbnailRenderer | null = null;
   private galleryStart = 0;
   private galleryToken = 0;
@@ -291,6 +355,17 @@ class App {
       pictures: 0,
       lastPicture: null,
       pictureError: null,
+      handles: () => this.handleList(),
+      manipStatus: '',
+      drags: 0,
+      lastDrag: null,
+      lastDragRequest: null,
+      lastSketch: null,
+      lastSketchRequest: null,
+      lastWrite: null,
+      dragLatencies: [],
+      dragAnswerMs: [],
+      sketchPoses: 0,
     };
     (globalThis as unknown as { __grm: DebugInfo }).__grm = this.debug;
     this.wireUi();
@@ -535,6 +610,9 @@ class App {
       this.showSkippedParams(r.paramsWithoutRange);
     }
     $('overlay-msg').textContent = this.state.curvesError ? `curves: ${this.state.curvesError}` : '';
+    // A drag's regrown model: a model of a newer version than the one on screen when it was released.
+    const dragDone = this.dragWait && r.uri === this.state.uri && r.version > this.dragWait.version ? this.dragWait : null;
+    if (dragDone) this.dragWait = null;
     const tBuild = performance.now();
     // The curves' stretches no bone follows, tinted (sample mode).
     this.scene.setGaps((r.sample?.coverage ?? []).flatMap((c) => c.gapPoints));
@@ -557,6 +635,10 @@ class App {
         this.debug.coverage = (r.sample?.coverage ?? []).map((c) => ({ name: c.name, fraction: c.fraction, unreached: c.unreached, gaps: c.gaps.length, note: c.note }));
         this.debug.lastLatencyMs = ms;
         this.debug.latencies.push(ms);
+        if (dragDone) {
+          this.debug.dragLatencies.push(now - dragDone.releasedAt);
+          this.debug.dragAnswerMs.push((dragDone.answeredAt ?? now) - dragDone.releasedAt);
+        }
         this.debug.meshCount = this.scene.meshCount;
         this.setStatus(this.summary(r, ms), false, r.warnings.length > 0);
         $('status-text').title = r.warnings
@@ -575,7 +657,20 @@ class App {
     this.debug.seed = r.seed;
     // The scopes toggle is shape mode's; a new model's shapes may have moved.
     $('scopes-toggle').hidden = r.mode !== 'shape';
-    this.pickedScopes = null;
+    $('manip-section').hidden = r.mode === 'sample';
+    // Another model (not the same one regrown, e.g. to highlight a rule): the picked shape's scopes and the
+    // handles are the old model's. After a drag the same part is picked again, its handles where it now is.
+    const sig = modelSignature(r);
+    if (sig !== this.pickedFor) {
+      const again = dragDone?.repick ? this.manip?.pick : undefined;
+      const key = this.manip?.kind === 'planes' ? this.manip.key : this.manip?.kind === 'tip' ? this.manip.key : null;
+      this.pickedFor = sig;
+      this.pickedScopes = null;
+      this.manip = null;
+      this.posed = null;
+      this.drawHandles();
+      if (again && key) void this.pickAgain(again, key);
+    }
     this.drawScopes();
     this.debug.ready = true;
     this.debug.lastError = null;
@@ -727,6 +822,29 @@ class App {
       const o = v === '' ? undefined : this.last?.origins[Number(v)];
       this.setFocus(o ? o.range.start : null);
     });
+    // Direct manipulation: the sketch mode and its slider, and writing the sliders back (asked first).
+    $<HTMLInputElement>('sketch-mode').addEventListener('change', (e) => this.setSketchMode((e.target as HTMLInputElement).checked));
+    $('sketch-make').addEventListener('click', () => this.askSliderName());
+    $('sketch-clear').addEventListener('click', () => {
+      this.sketch.clear();
+      this.posed = null;
+      this.drawHandles();
+      this.refreshSketch();
+    });
+    $('sketch-ok').addEventListener('click', () => void this.makeSlider());
+    $('sketch-cancel').addEventListener('click', () => {
+      $('sketch-form').hidden = true;
+    });
+    $<HTMLInputElement>('sketch-name').addEventListener('keydown', (e) => {
+      if (e.key === 'Enter') void this.makeSlider();
+      else if (e.key === 'Escape') $('sketch-form').hidden = true;
+    });
+    $('write-params').addEventListener('click', () => this.askWriteParams());
+    $('write-ok').addEventListener('click', () => void this.writeParams());
+    $('write-cancel').addEventListener('click', () => {
+      $('write-confirm').hidden = true;
+    });
+    this.refreshSketch();
     const vp = $('viewport');
     // Capture phase: decide before OrbitControls (registered on the canvas) sees the press.
     vp.addEventListener('pointerdown', (e) => this.pointerDown(e), { capture: true });
@@ -763,6 +881,10 @@ class App {
       if (this.last?.model.bounds) this.scene.frame(this.last.model.bounds);
     } else if (e.key === 'Delete' || e.key === 'Backspace') this.deleteSelected();
     else if (e.key === 'Escape') {
+      // The handles go with the selection.
+      this.manip = null;
+      this.posed = null;
+      this.drawHandles();
       this.state.selected = null;
       this.refreshCurves();
       this.refreshPanel();
@@ -773,6 +895,7 @@ class App {
 
   private pointerDown(e: PointerEvent): void {
     if (e.button !== 0) return;
+    if (this.grabHandle(e)) return;
     const handle = this.showCurves ? this.scene.handleAt(e.clientX, e.clientY) : null;
     const sel = this.state.selected;
     if (handle !== null && sel !== null && this.state.curves) {
@@ -798,7 +921,9 @@ class App {
 
   private pointerMove(e: PointerEvent): void {
     const g = this.gesture;
-    if (g.kind === 'draw') {
+    if (g.kind === 'plane' || g.kind === 'tip') {
+      this.moveHandle(e);
+    } else if (g.kind === 'draw') {
       const p = this.scene.planePoint(e.clientX, e.clientY, g.centre);
       if (p) {
         g.points.push(p);
@@ -818,7 +943,9 @@ class App {
     const g = this.gesture;
     this.gesture = { kind: 'none' };
     this.scene.controls.enabled = true;
-    if (g.kind === 'draw') {
+    if (g.kind === 'plane' || g.kind === 'tip') {
+      this.releaseHandle(g);
+    } else if (g.kind === 'draw') {
       this.scene.setStroke([]);
       const longEnough = Math.hypot(e.clientX - g.startX, e.clientY - g.startY) > 8 || g.points.length > 4;
       if (longEnough && this.state.addStroke(g.points) !== null) this.curvesChanged(true);
@@ -861,6 +988,8 @@ class App {
     try {
       const r = decodePick(await this.transport.request('pick', params));
       this.debug.lastPick = r;
+      this.pickedFor = this.last ? modelSignature(this.last) : '';
+      this.setManip(r, params);
       const info = $('rule-info');
       if (r && r.shape) {
         // Shape mode: the shape, where it was made, its locators; its path's scopes.
@@ -972,6 +1101,318 @@ class App {
     if (token !== this.spreadToken) return;
     this.debug.spreadBones = segs.length;
     this.scene.setHighlight(current, segs);
+  }
+
+  // ------------------------------------------------------------- direct manipulation
+
+  /** What a pick makes draggable: a shape's path's split planes (shape mode), a bone's tip (derive mode). */
+  private setManip(r: PickResult | null, pick: PickParams): void {
+    this.manip = null;
+    this.posed = null;
+    const model = this.last?.model;
+    if (r?.shape) {
+      const handles = planeHandles(r.shape.scopes);
+      this.manip = { kind: 'planes', handles, key: r.key, pick };
+      this.setManipStatus(
+        handles.length
+          ? `${handles.length} split plane${handles.length === 1 ? '' : 's'} to drag: release one to rewrite the grammar's numbers`
+          : r.shape.scopes.some((s) => s.command && s.axis !== null)
+            ? 'the server names no split planes to drag (no key and planes in its scopes)'
+            : 'no split or repeat above this shape: nothing to drag',
+      );
+    } else if (r && model && this.state.mode === 'derive' && r.key && KEY.test(r.key)) {
+      let bone = pick.bone ?? null;
+      if (bone === null && pick.part !== undefined && pick.triangle !== undefined) {
+        const range = model.parts[pick.part] ? findPick(model.parts[pick.part], pick.triangle) : null;
+        bone = range?.kind === 'bone' ? range.index : null;
+      }
+      const b = bone !== null ? model.bones[bone] : undefined;
+      if (bone !== null && b) {
+        this.manip = { kind: 'tip', key: r.key, bone, base: [...b.base] as V3, tip: [...b.tip] as V3, pick };
+        this.setManipStatus(`bone ${r.symbol}: drag its tip (the white dot) in the view plane`);
+      }
+    }
+    this.drawHandles();
+  }
+
+  /** After a drag's model is shown: the same part picked again (same request), its handles kept if it is still the same part. */
+  private async pickAgain(pick: PickParams, key: string): Promise<void> {
+    try {
+      const r = decodePick(await this.transport.request('pick', pick));
+      if (!r || r.key !== key || this.manip) return;
+      this.debug.lastPick = r;
+      if (r.shape) this.pickedScopes = r.shape.scopes;
+      this.setManip(r, pick);
+      this.drawScopes();
+    } catch {
+      // The handles stay away until the next pick.
+    }
+  }
+
+  /** The part a drag moves, and where its handle is now (the drag's target), for the gesture in progress or the last pose. */
+  private manipTarget(g: Gesture): { part: ManipPart; target: ManipTarget } | null {
+    const m = this.manip;
+    if (!m) return null;
+    if (g.kind === 'plane' && m.kind === 'planes') {
+      const h = m.handles[g.handle];
+      return h ? { part: { kind: 'plane', command: h.command, edge: h.edge }, target: { kind: 'plane', at: g.at } } : null;
+    }
+    if (g.kind === 'tip' && m.kind === 'tip') return { part: { kind: 'bone', key: m.key }, target: { kind: 'tip', at: g.at } };
+    return null;
+  }
+
+  /** Draw the handles: the planes (the one dragged where the pointer has it, a sketched pose where it was dropped), a bone's tip. */
+  private drawHandles(): void {
+    const m = this.manip;
+    if (!m) {
+      this.scene.setHandles(null);
+      return;
+    }
+    const g = this.gesture;
+    const grips: { at: V3; active: boolean }[] = [];
+    const lines: number[] = [];
+    const activeLines: number[] = [];
+    if (m.kind === 'planes') {
+      m.handles.forEach((h, i) => {
+        const dragged = g.kind === 'plane' && g.handle === i;
+        const posed = this.posed && 'plane' in this.posed && this.posed.plane === i ? this.posed.at : null;
+        const at = dragged ? g.at : (posed ?? h.at);
+        const active = dragged || posed !== null;
+        cutRect(h.scope, h.axis, at, active ? activeLines : lines);
+        // Where it was, while it is away.
+        if (active && at !== h.at) cutRect(h.scope, h.axis, h.at, lines);
+        grips.push({ at: planeCentre(h, at), active });
+      });
+    } else {
+      const posed = this.posed && 'tip' in this.posed ? this.posed.tip : null;
+      const at = g.kind === 'tip' ? g.at : (posed ?? m.tip);
+      const active = g.kind === 'tip' || posed !== null;
+      (active ? activeLines : lines).push(...m.base, ...at);
+      if (active) lines.push(...m.base, ...m.tip);
+      grips.push({ at, active });
+    }
+    this.scene.setHandles({ grips, lines, activeLines });
+  }
+
+  /** The handles with their screen positions (window.__grm.handles, for tests). */
+  private handleList(): ReturnType<DebugInfo['handles']> {
+    const m = this.manip;
+    if (!m) return [];
+    if (m.kind === 'planes') {
+      return m.handles.map((h) => ({ kind: 'plane' as const, label: h.label, command: h.command, edge: h.edge, at: h.at, screen: this.scene.toScreen(planeCentre(h)) }));
+    }
+    return [{ kind: 'tip' as const, label: 'tip', command: null, edge: null, at: [...m.tip] as V3, screen: this.scene.toScreen(m.tip) }];
+  }
+
+  /** A press on a handle's grip starts its drag (true); the orbit controls stay still until the release. */
+  private grabHandle(e: PointerEvent): boolean {
+    const m = this.manip;
+    if (!m) return false;
+    const i = this.scene.gripAt(e.clientX, e.clientY);
+    if (i === null) return false;
+    if (m.kind === 'planes') {
+      const h = m.handles[i];
+      if (!h) return false;
+      // A sketched pose is dragged on from where it was dropped.
+      const at0 = this.posed && 'plane' in this.posed && this.posed.plane === i ? this.posed.at : h.at;
+      this.gesture = { kind: 'plane', handle: i, at0, ray0: this.scene.pointerRay(e.clientX, e.clientY), facing: this.scene.viewDirection(), at: at0, moved: false };
+    } else {
+      const tip0 = this.posed && 'tip' in this.posed ? this.posed.tip : m.tip;
+      this.gesture = { kind: 'tip', tip0, at: tip0, moved: false };
+    }
+    this.scene.controls.enabled = false;
+    e.stopPropagation();
+    e.preventDefault();
+    return true;
+  }
+
+  /** A move of a handle's drag: the plane along its axis, the tip in the view plane through it. */
+  private moveHandle(e: PointerEvent): void {
+    const g = this.gesture;
+    const m = this.manip;
+    const ray = this.scene.pointerRay(e.clientX, e.clientY);
+    if (g.kind === 'plane' && m?.kind === 'planes') {
+      const h = m.handles[g.handle];
+      const at = h ? dragPlaneAt(h, g.at0, g.ray0, ray, g.facing) : null;
+      if (at === null || !h) return;
+      g.at = at;
+      g.moved = true;
+      this.setStatus(`${h.label} plane ${h.edge}: ${short(h.at)} → ${short(at)}`);
+    } else if (g.kind === 'tip') {
+      const p = rayPlane(ray, this.scene.viewDirection(), g.tip0);
+      if (!p) return;
+      g.at = p;
+      g.moved = true;
+      this.setStatus(`tip → (${p.map(short).join(', ')})`);
+    } else {
+      return;
+    }
+    this.drawHandles();
+  }
+
+  /** The release of a handle's drag: a pose for the sketch (sketch mode), else a drag sent to the server. */
+  private releaseHandle(g: Gesture): void {
+    const releasedAt = performance.now();
+    const what = this.manipTarget(g);
+    if (!what || !(g.kind === 'plane' || g.kind === 'tip') || !g.moved) {
+      this.drawHandles();
+      return;
+    }
+    if (this.sketchMode) {
+      const t = Number($<HTMLInputElement>('sketch-t').value);
+      if (!this.sketch.set(JSON.stringify(what.part), t, what.target)) {
+        this.setManipStatus('the pose\'s t must be more than 0 and at most 1 (t = 0 is the model as it is)', true);
+        this.drawHandles();
+        return;
+      }
+      this.posed = g.kind === 'plane' ? { plane: g.handle, at: g.at } : { tip: g.at };
+      this.drawHandles();
+      this.refreshSketch();
+      this.setManipStatus(`pose at t = ${short(t)}: ${describeTarget(what.target)}${this.sketch.ready ? '; press Make slider…' : '; a pose at t = 1 is still needed'}`);
+      return;
+    }
+    this.drawHandles();
+    void this.sendDrag(what.part, what.target, releasedAt);
+  }
+
+  /** What every manipulation request carries: the model on screen's document, system, seed and slider values. */
+  private manipBase(): ManipBase {
+    const p = this.state.previewParams();
+    const base: ManipBase = { textDocument: { uri: this.state.uri } };
+    const system = this.last?.system || this.state.system;
+    if (system) base.system = system;
+    const seed = this.last?.seed ?? p.seed;
+    if (seed !== undefined) base.seed = seed;
+    if (p.params) base.params = p.params;
+    return base;
+  }
+
+  private async sendDrag(part: ManipPart, target: ManipTarget, releasedAt: number): Promise<void> {
+    const version = this.last?.version;
+    const params = { ...this.manipBase(), ...(version !== undefined ? { version } : {}), part, target };
+    this.debug.drags++;
+    this.debug.lastDragRequest = params;
+    this.debug.lastDrag = null;
+    // The model regrown from the edit may come before the answer (the file is written before the answer is sent).
+    const wait = version !== undefined ? { releasedAt, version, answeredAt: null as number | null, repick: true } : null;
+    this.dragWait = wait;
+    this.setManipStatus(`solving for the ${describeTarget(target)}…`);
+    try {
+      const r = decodeManipResult(await this.transport.request('drag', params), 'drag');
+      if (wait) wait.answeredAt = performance.now();
+      this.debug.lastDrag = r;
+      const s = manipSummary(r);
+      this.setManipStatus(s.text, s.error);
+      // Nothing written: no model to wait for; the handle goes back to where the part is.
+      if (r.outcome === 'unreachable' || r.outcome === 'unchanged' || r.applied === false) {
+        if (this.dragWait === wait) this.dragWait = null;
+        this.drawHandles();
+      }
+    } catch (e) {
+      if (this.dragWait === wait) this.dragWait = null;
+      this.debug.lastDrag = null;
+      this.drawHandles();
+      this.setManipStatus('');
+      this.showError(`drag: ${(e as Error).message}`);
+    }
+  }
+
+  private setManipStatus(text: string, error = false): void {
+    this.debug.manipStatus = text;
+    const el = $('manip-status');
+    el.textContent = text;
+    el.classList.toggle('error', error);
+    if (text) this.setStatus(text, error);
+  }
+
+  /** The sketch panel: its poses, and whether a slider can be made (a pose at t = 1). */
+  private refreshSketch(): void {
+    $('sketch-panel').hidden = !this.sketchMode;
+    this.debug.sketchPoses = this.sketch.size;
+    const keys = this.sketch.keyframes();
+    $('sketch-poses').textContent = keys.length ? `poses: ${keys.map((k) => `t = ${short(k.t)} (${describeTarget(k.target)})`).join('; ')}` : 'Drag a handle to the pose the slider ends at (t = 1).';
+    $<HTMLButtonElement>('sketch-make').disabled = !this.sketch.ready;
+    if (!this.sketch.ready) $('sketch-form').hidden = true;
+  }
+
+  private setSketchMode(on: boolean): void {
+    this.sketchMode = on;
+    $<HTMLInputElement>('sketch-mode').checked = on;
+    if (!on) {
+      this.sketch.clear();
+      this.posed = null;
+      this.drawHandles();
+    }
+    this.refreshSketch();
+  }
+
+  /** "Make slider…" asks for the name in the page. */
+  private askSliderName(): void {
+    if (!this.sketch.ready) return;
+    $('sketch-form').hidden = false;
+    const name = $<HTMLInputElement>('sketch-name');
+    name.focus();
+    name.select();
+  }
+
+  /** Send the sketch: a new slider named as asked, through the poses (t = 1 and any in between). */
+  private async makeSlider(): Promise<void> {
+    const name = $<HTMLInputElement>('sketch-name').value.trim();
+    const problem = sliderNameProblem(name);
+    if (problem) {
+      this.setManipStatus(problem, true);
+      return;
+    }
+    const part = JSON.parse(this.sketch.part || 'null') as ManipPart | null;
+    if (!part || !this.sketch.ready) return;
+    const params = { ...this.manipBase(), part, name, keyframes: this.sketch.keyframes() };
+    this.debug.lastSketchRequest = params;
+    this.debug.lastSketch = null;
+    $('sketch-form').hidden = true;
+    this.setManipStatus(`fitting slider ${name}…`);
+    try {
+      const r = decodeManipResult(await this.transport.request('sketch', params), 'sketch');
+      this.debug.lastSketch = r;
+      const s = manipSummary(r, 'sketch');
+      this.setManipStatus(s.text, s.error);
+      if (r.outcome !== 'unreachable' && r.applied !== false) {
+        this.sketch.clear();
+        this.posed = null;
+        this.drawHandles();
+        this.refreshSketch();
+      }
+    } catch (e) {
+      this.setManipStatus('');
+      this.showError(`sketch: ${(e as Error).message}`);
+    }
+  }
+
+  /** "Write slider values": what would be written, asked in the page first (never silently). */
+  private askWriteParams(): void {
+    const { params, prompt } = paramsToWrite(this.state.paramInfo, (n) => this.state.paramValue(n));
+    if (Object.keys(params).length === 0) {
+      this.setManipStatus('the sliders are at the grammar\'s defaults: nothing to write');
+      $('write-confirm').hidden = true;
+      return;
+    }
+    $('write-prompt').textContent = prompt;
+    $('write-confirm').hidden = false;
+  }
+
+  private async writeParams(): Promise<void> {
+    $('write-confirm').hidden = true;
+    const { params } = paramsToWrite(this.state.paramInfo, (n) => this.state.paramValue(n));
+    if (Object.keys(params).length === 0) return;
+    const base = this.manipBase();
+    this.debug.lastWrite = null;
+    try {
+      const r = decodeManipResult(await this.transport.request('writeParams', { textDocument: base.textDocument, ...(base.system ? { system: base.system } : {}), params }), 'writeParams');
+      this.debug.lastWrite = r;
+      const s = manipSummary(r, 'slider values written');
+      this.setManipStatus(s.text, s.error);
+    } catch (e) {
+      this.showError(`writeParams: ${(e as Error).message}`);
+    }
   }
 
   // ------------------------------------------------------------- curves
@@ -1167,6 +1608,7 @@ class App {
         box.append(row);
       }
     }
+    $('write-params').hidden = info.length === 0;
     for (const slider of box.querySelectorAll<HTMLInputElement>('input[type=range]')) {
       const v = this.state.paramValue(slider.dataset.param ?? '');
       if (v !== undefined && document.activeElement !== slider) slider.value = String(v);
@@ -1342,6 +1784,11 @@ class App {
     this.galleryToken++;
     $('gallery').hidden = true;
   }
+}
+
+/** What makes one model another: its document version, system, seed and meta-parameter values (not a rule's highlight). */
+function modelSignature(r: PreviewResult): string {
+  return JSON.stringify([r.uri, r.version, r.system, r.seed, r.params.map((p) => [p.name, p.value])]);
 }
 
 /** Download bytes as a file: a click on a link to a blob with `download` set (browsers; not in a VS Code webview). */

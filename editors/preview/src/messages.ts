@@ -23,9 +23,17 @@ export type Method =
   /** Write the grammar's curves file: `{ uri, text }` -> `{ path }`. */
   | 'saveCurves'
   /** Show a rule in the editor: `{ uri, line, character }` -> `{}`. */
-  | 'reveal';
+  | 'reveal'
+  /** Direct manipulation (issue 28): the source numbers that place a part, `ProvenanceParams` (LSP `grm/provenance`). */
+  | 'provenance'
+  /** Move a part by rewriting the grammar's numbers: `DragParams` -> `ManipResult` (LSP `grm/drag`; the server applies the edit). */
+  | 'drag'
+  /** A new slider from sketched poses: `SketchParams` -> `ManipResult` (LSP `grm/sketch`). */
+  | 'sketch'
+  /** Write slider values back as the `param` defaults, after the page asked the user: `WriteParamsParams` -> `ManipResult` (LSP `grm/writeParams`). */
+  | 'writeParams';
 
-export const METHODS: readonly Method[] = ['preview', 'pick', 'picture', 'symbols', 'loadCurves', 'saveCurves', 'reveal'];
+export const METHODS: readonly Method[] = ['preview', 'pick', 'picture', 'symbols', 'loadCurves', 'saveCurves', 'reveal', 'provenance', 'drag', 'sketch', 'writeParams'];
 
 /** What the host tells the page without being asked. */
 export type NotificationMethod =

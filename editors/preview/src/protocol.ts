@@ -262,6 +262,16 @@ export interface ScopeBox {
   axis: number | null;
   /** Where its parts begin and end along that axis: the split planes. */
   cuts: number[];
+  /** A command's identity key (8 hex digits), when the server sends it: what a plane drag names. */
+  key: string | null;
+  /** A split's or repeat's draggable planes: the plane at the end of child `edge` (from 1), `at` along the axis from the origin. */
+  planes: ScopePlane[];
+}
+
+/** A split plane of a command scope (`grm/pick`'s `planes`). */
+export interface ScopePlane {
+  edge: number;
+  at: number;
 }
 
 /** What `grm/pick` says of a shape (shape mode). */
@@ -702,6 +712,13 @@ function decodeShapePick(v: Record<string, unknown>): ShapePick {
       size: decodeV3(q.size, `${what}.size`),
       axis: typeof q.axis === 'number' ? q.axis : null,
       cuts: (Array.isArray(q.cuts) ? q.cuts : []).map((c: unknown) => num(c, `${what}.cuts`)),
+      key: typeof q.key === 'string' && KEY.test(q.key) ? q.key : null,
+      planes: (Array.isArray(q.planes) ? q.planes : []).map((c: unknown, k: number): ScopePlane => {
+        if (!isObject(c)) throw new ProtocolError(`${what}.planes[${k}]: expected an object`);
+        const edge = num(c.edge, `${what}.planes[${k}].edge`);
+        if (!Number.isSafeInteger(edge) || edge < 1) throw new ProtocolError(`${what}.planes[${k}].edge: expected a child number from 1, got ${edge}`);
+        return { edge, at: num(c.at, `${what}.planes[${k}].at`) };
+      }),
     };
   });
   return {
@@ -794,4 +811,125 @@ export function findPick(part: ScenePart, triangle: number): PickRange | null {
   }
   const p = picks[lo - 1];
   return p && triangle < p.firstTriangle + p.triangleCount ? p : null;
+}
+
+// ---------------------------------------------------------------- direct manipulation (issue 28)
+
+/** An identity key as the server writes it: 8 hex digits. */
+export const KEY = /^[0-9a-f]{8}$/i;
+
+/** A picked part a drag moves (docs/lsp-extensions.md, "Direct manipulation"), named by identity key. */
+export type ManipPart =
+  /** Shape mode: the plane at the end of child `edge` (from 1) of the split or repeat whose key is `command`. */
+  | { kind: 'plane'; command: string; edge: number }
+  /** Shape mode: a shape's scope. */
+  | { kind: 'shape'; key: string }
+  /** Derive mode: a bone (its module's key). */
+  | { kind: 'bone'; key: string };
+
+/** Where a drag puts its part (the model's frame, y up). */
+export type ManipTarget =
+  /** A plane's distance from its command's scope corner, along its axis. */
+  | { kind: 'plane'; at: number }
+  | { kind: 'size'; axis: number; size: number }
+  | { kind: 'corner'; at: V3 }
+  /** A bone's tip. */
+  | { kind: 'tip'; at: V3 }
+  | { kind: 'length'; length: number };
+
+/** What every manipulation request carries besides its own fields: the model on screen's system, seed and slider values. */
+export interface ManipBase {
+  textDocument: { uri: string };
+  system?: string;
+  seed?: number;
+  params?: Record<string, number>;
+}
+
+/** `grm/provenance`: the source numbers that place a part. */
+export interface ProvenanceParams extends ManipBase {
+  part: ManipPart;
+}
+
+/** `grm/drag`: move a part to a target by rewriting the fewest source numbers. */
+export interface DragParams extends ManipBase {
+  /** The document version the model on screen was grown from (the server refuses a drag of an older model: ContentModified). */
+  version?: number;
+  part: ManipPart;
+  target: ManipTarget;
+  /** Default true; false: only propose. */
+  apply?: boolean;
+}
+
+/** A sketched pose of the part at slider value `t` (0 < t <= 1; t = 0 is the model as it is). */
+export interface SketchKeyframe {
+  t: number;
+  target: ManipTarget;
+}
+
+/** `grm/sketch`: a new meta-parameter `name` in 0 .. 1 that sweeps the part from where it is (t = 0) to the keyframes' poses. */
+export interface SketchParams extends ManipBase {
+  part: ManipPart;
+  name: string;
+  keyframes: SketchKeyframe[];
+  apply?: boolean;
+}
+
+/** `grm/writeParams`: slider values written back as the `param` declarations' defaults. */
+export interface WriteParamsParams {
+  textDocument: { uri: string };
+  system?: string;
+  params: Record<string, number>;
+}
+
+/** One source number rewritten: its text before and after. */
+export interface SourceChange {
+  range: Range;
+  old: string;
+  new: string;
+}
+
+/** The answer to a drag, a sketch or a write of the sliders. */
+export interface ManipResult {
+  /** `solved`, `unchanged` (the part is there already) or `unreachable` (nothing written); null where the answer has none (`grm/writeParams`). */
+  outcome: string | null;
+  /** Why a drag is unreachable. */
+  why: string | null;
+  changes: SourceChange[];
+  /** The part's distance from the target, grown with the edit. */
+  residual: number | null;
+  /** Terminal parts that move (the part included). */
+  moved: number | null;
+  /** Whether the edit was applied (the client's answer, or the file written); null when the answer does not say. */
+  applied: boolean | null;
+  failureReason: string | null;
+  /** Sketch: the new meta-parameter, each keyframe's distance from its pose (`[t, distance]`), and whether t = 0 grows the original model bit for bit. */
+  name: string | null;
+  residuals: [number, number][];
+  exactAtZero: boolean | null;
+}
+
+/** Decode the answer to `drag`, `sketch` or `writeParams` (`what` names it in errors). */
+export function decodeManipResult(v: unknown, what: string): ManipResult {
+  if (!isObject(v)) throw new ProtocolError(`${what}: expected an object`);
+  const changes = (Array.isArray(v.changes) ? v.changes : []).map((c: unknown, i: number): SourceChange => {
+    if (!isObject(c)) throw new ProtocolError(`${what}: changes[${i}] is not an object`);
+    return { range: decodeRange(c.range, `${what}.changes[${i}].range`), old: str(c.old), new: str(c.new) };
+  });
+  const residuals = (Array.isArray(v.residuals) ? v.residuals : []).map((r: unknown, i: number): [number, number] => {
+    if (!Array.isArray(r) || r.length !== 2) throw new ProtocolError(`${what}: residuals[${i}] is not a pair [t, distance]`);
+    return [num(r[0], `${what}.residuals[${i}][0]`), num(r[1], `${what}.residuals[${i}][1]`)];
+  });
+  const optional = (x: unknown): number | null => (typeof x === 'number' && Number.isFinite(x) ? x : null);
+  return {
+    outcome: typeof v.outcome === 'string' ? v.outcome : null,
+    why: typeof v.why === 'string' ? v.why : null,
+    changes,
+    residual: optional(v.residual),
+    moved: optional(v.moved),
+    applied: typeof v.applied === 'boolean' ? v.applied : null,
+    failureReason: typeof v.failureReason === 'string' ? v.failureReason : null,
+    name: typeof v.name === 'string' ? v.name : null,
+    residuals,
+    exactAtZero: typeof v.exactAtZero === 'boolean' ? v.exactAtZero : null,
+  };
 }

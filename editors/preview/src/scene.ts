@@ -16,6 +16,7 @@ import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { type Bezier, type V3, sampleBezier } from './bezier.js';
 import type { Bounds, PickRange, SceneModel } from './protocol.js';
 import { findPick } from './protocol.js';
+import type { Ray } from './manip.js';
 import type { ScopeLines } from './scopes.js';
 
 const CURVE_COLOR = 0x3a8dde;
@@ -29,6 +30,21 @@ const SPREAD_COLOR = 0xff40c0;
 const SCOPE_COLOR = 0x7fb0ff;
 const SCOPE_PICKED_COLOR = 0xffe14d;
 const SCOPE_CUT_COLOR = 0xff8c1a;
+/** Direct manipulation: the draggable planes and bone tips, and the one being dragged. */
+const HANDLE_COLOR = 0x3fd6a0;
+const HANDLE_ACTIVE_COLOR = 0xffffff;
+
+/**
+ * Direct manipulation's handles as the scene draws them: grips (a sphere
+ * each, hit-tested on screen) and line segments (flattened pairs of points:
+ * a plane's rectangle, a bone's stick), those of the handle being dragged
+ * apart.
+ */
+export interface HandleView {
+  grips: { at: V3; active: boolean }[];
+  lines: number[];
+  activeLines: number[];
+}
 
 export interface PartHit {
   part: number;
@@ -173,6 +189,9 @@ export class PreviewScene {
   private readonly overlayRoot = new THREE.Group();
   /** Shape mode: the scopes of the picked shape's path (wireframe). */
   private readonly scopesRoot = new THREE.Group();
+  /** Direct manipulation's handles (drawn over everything). */
+  private readonly handlesRoot = new THREE.Group();
+  private handleGrips: V3[] = [];
   private readonly strokeLine: THREE.Line;
   private model: SceneModel | null = null;
   /** The model's materials (pruned to the current model's after each new model is drawn). */
@@ -216,7 +235,7 @@ export class PreviewScene {
     this.grid = new THREE.GridHelper(20, 20, 0x666666, 0x3a3a3a);
     this.scene.add(this.grid);
     addLights(this.scene);
-    this.scene.add(this.modelRoot, this.skeletonRoot, this.curvesRoot, this.gapsRoot, this.overlayRoot, this.scopesRoot);
+    this.scene.add(this.modelRoot, this.skeletonRoot, this.curvesRoot, this.gapsRoot, this.overlayRoot, this.scopesRoot, this.handlesRoot);
     const sg = new THREE.BufferGeometry();
     sg.setAttribute('position', new THREE.BufferAttribute(new Float32Array(0), 3));
     this.strokeLine = new THREE.Line(sg, new THREE.LineBasicMaterial({ color: 0xffffff, depthTest: false }));
@@ -454,6 +473,66 @@ export class PreviewScene {
       add(lines.picked, 'scope picked', SCOPE_PICKED_COLOR, 1, 8);
     }
     this.requestRender();
+  }
+
+  /** Draw direct manipulation's handles (null: none). */
+  setHandles(v: HandleView | null): void {
+    clearGroup(this.handlesRoot);
+    this.handleGrips = v ? v.grips.map((g) => g.at) : [];
+    if (v) {
+      const lines = (pos: number[], color: number, order: number): void => {
+        if (pos.length === 0) return;
+        const g = new THREE.BufferGeometry();
+        g.setAttribute('position', new THREE.Float32BufferAttribute(pos, 3));
+        const l = new THREE.LineSegments(g, this.materials.get(`handle line ${color}`, () => new THREE.LineBasicMaterial({ color, depthTest: false })));
+        l.renderOrder = order;
+        this.handlesRoot.add(l);
+      };
+      lines(v.lines, HANDLE_COLOR, 9);
+      lines(v.activeLines, HANDLE_ACTIVE_COLOR, 10);
+      const sphere = new THREE.SphereGeometry(this.handleRadius * 1.4, 12, 8);
+      for (const g of v.grips) {
+        const color = g.active ? HANDLE_ACTIVE_COLOR : HANDLE_COLOR;
+        const m = new THREE.Mesh(sphere, this.materials.get(`handle grip ${color}`, () => new THREE.MeshBasicMaterial({ color, depthTest: false })));
+        m.position.set(...g.at);
+        m.renderOrder = g.active ? 12 : 11;
+        this.handlesRoot.add(m);
+      }
+    }
+    this.requestRender();
+  }
+
+  /** Grips drawn (for tests). */
+  get handleCount(): number {
+    return this.handleGrips.length;
+  }
+
+  /** The grip nearest the pointer on screen, within `px` pixels (its index in the last `setHandles`). */
+  gripAt(clientX: number, clientY: number, px = 12): number | null {
+    let best: number | null = null;
+    let bestD = px;
+    this.handleGrips.forEach((p, i) => {
+      const [x, y] = this.toScreen(p);
+      const d = Math.hypot(x - clientX, y - clientY);
+      if (d < bestD) {
+        bestD = d;
+        best = i;
+      }
+    });
+    return best;
+  }
+
+  /** The ray from the camera through the pointer (world frame). */
+  pointerRay(clientX: number, clientY: number): Ray {
+    this.raycaster.setFromCamera(this.ndc(clientX, clientY), this.camera);
+    const { origin, direction } = this.raycaster.ray;
+    return { origin: [origin.x, origin.y, origin.z], dir: [direction.x, direction.y, direction.z] };
+  }
+
+  /** Where the camera looks (a unit vector): the normal of the view plane. */
+  viewDirection(): V3 {
+    const d = this.camera.getWorldDirection(new THREE.Vector3());
+    return [d.x, d.y, d.z];
   }
 
   /** Highlight bones (indices into the model's bones) and draw spread segments (bones from other seeds) faintly. */

@@ -49,7 +49,7 @@ function boxEdges(s: ScopeBox, out: number[]): void {
 }
 
 /** The rectangle where the plane at `d` along `axis` crosses the scope. */
-function cutRect(s: ScopeBox, axis: number, d: number, out: number[]): void {
+export function cutRect(s: ScopeBox, axis: number, d: number, out: number[]): void {
   const [u, v] = [0, 1, 2].filter((k) => k !== axis);
   const p = (a: number, b: number): V3 => {
     const local: V3 = [0, 0, 0];

@@ -1,6 +1,9 @@
 // The extension's side of the preview page's messages (see
 // preview/src/messages.ts): answers the page's requests by asking the
-// language server (`grm/preview`, `grm/pick`, docs/lsp-extensions.md) or the
+// language server (`grm/preview`, `grm/pick`, and direct manipulation's
+// `grm/provenance`, `grm/drag`, `grm/sketch`, `grm/writeParams`, whose
+// edits the server applies through `workspace/applyEdit`;
+// docs/lsp-extensions.md) or the
 // editor (read and save the curves file, reveal a rule, save a picture:
 // `grm/picture`'s PNG, which a webview cannot download), forwards the
 // server's `grm/previewUpdated` and the editor's cursor as notifications,
@@ -245,6 +248,15 @@ export class PreviewHost {
         parseCurves(text);
         await this.deps.writeFile(path, text);
         return { path };
+      }
+      case 'provenance':
+      case 'drag':
+      case 'sketch':
+      case 'writeParams': {
+        // Direct manipulation (issue 28): the server solves and sends the edit to the editor itself
+        // (workspace/applyEdit, one undo step); the live preview regrows from the edited text.
+        this.checkUri(params);
+        return this.deps.request(`grm/${method}`, params);
       }
       case 'reveal': {
         const uri = this.checkUri(params);
