@@ -62,7 +62,7 @@ pub enum Part {
     /// command (shape mode): its distance from the command's scope
     /// corner along the command's axis.
     Plane { command: u32, edge: u32 },
-    /// A bone (derive mode), by its module's key: its base and tip.
+    /// A bone (derive mode), by its module's key: its base, tip and width.
     Bone { key: u32 },
 }
 
@@ -80,6 +80,8 @@ pub enum Target {
     Tip { at: [f64; 3] },
     /// A bone's new length.
     Length { length: f64 },
+    /// A bone's new width (its tube's diameter).
+    Width { width: f64 },
 }
 
 impl Target {
@@ -103,6 +105,7 @@ impl Target {
                     .sqrt();
                 vec![l - length]
             }
+            (Part::Bone { .. }, Target::Width { width }) => vec![m[6] - width],
             _ => return Err(bad()),
         })
     }

@@ -25,7 +25,8 @@ pub(crate) enum Measure {
     /// A split's or repeat's plane at the end of its child `edge`: the
     /// distance from the command's scope origin along its axis.
     Plane(u32, u32),
-    /// A bone (derive mode), by its module's key: base (3), tip (3).
+    /// A bone (derive mode), by its module's key: base (3), tip (3),
+    /// width (the tube's diameter).
     Bone(u32),
 }
 
@@ -268,6 +269,7 @@ pub(crate) fn grow_seeded(
                 let v = [b.base, b.tip]
                     .iter()
                     .flat_map(|p| p.to_array())
+                    .chain([b.width_base])
                     .map(f64::from)
                     .collect();
                 if snap.measures.insert(m, v).is_none() {
