@@ -49,7 +49,7 @@ use serde::Serialize;
 pub use candidates::{Candidate, CandidateKind, format_number};
 pub use probe::{Grown, Setup};
 pub use sketch::{Keyframe, SketchOutcome};
-pub use solve::{Change, DragOutcome, Manip, Provenance, Solution, Source};
+pub use solve::{Change, DragOutcome, Manip, PartInfo, Provenance, Solution, Source};
 
 /// A picked part, by identity key (docs/engine.md and docs/shapes.md,
 /// "Identity"), as `grm/pick` names it.

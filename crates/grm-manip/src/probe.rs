@@ -71,6 +71,8 @@ pub(crate) struct Snapshot {
     pub(crate) measures: HashMap<Measure, Vec<f64>>,
     /// Terminal parts (leaf shapes, bones): what "moved" counts.
     pub(crate) terminal: Vec<Measure>,
+    /// What each part is, in words (the base growth only: [`grow_labelled`]).
+    pub(crate) labels: HashMap<Measure, String>,
 }
 
 impl Snapshot {
@@ -219,11 +221,25 @@ pub(crate) fn grow(setup: &Setup<'_>, text: &str) -> Result<Snapshot, ManipError
     grow_seeded(setup, text, setup.seed)
 }
 
+/// [`grow`], naming every part in words too.
+pub(crate) fn grow_labelled(setup: &Setup<'_>, text: &str) -> Result<Snapshot, ManipError> {
+    grow_with(setup, text, setup.seed, true)
+}
+
 /// [`grow`] with another seed.
 pub(crate) fn grow_seeded(
     setup: &Setup<'_>,
     text: &str,
     seed: Option<u32>,
+) -> Result<Snapshot, ManipError> {
+    grow_with(setup, text, seed, false)
+}
+
+fn grow_with(
+    setup: &Setup<'_>,
+    text: &str,
+    seed: Option<u32>,
+    labels: bool,
 ) -> Result<Snapshot, ManipError> {
     let (program, index, values, _) = checked(setup, text)?;
     let sys = &program.systems[index];
@@ -241,6 +257,9 @@ pub(crate) fn grow_seeded(
             let grown = grm_grow::shape::grow(&program, sys, &values, &options, None, setup.edits)
                 .map_err(|e| fail(&e))?;
             measure_shapes(&grown.tree, &mut snap);
+            if labels {
+                label_shapes(&grown.tree, &grown.lowered.program, &mut snap);
+            }
         }
         Mode::Derive => {
             let compiled = grm_compile::compile(&program, sys, &values)
@@ -261,11 +280,26 @@ pub(crate) fn grow_seeded(
             let g = grower.derive(&opts, &mut |_| {}).map_err(|e| fail(&e))?;
             let interp =
                 grm_turtle::interpret(sys, &compiled.settings, &g.string).map_err(|e| fail(&e))?;
-            for b in &interp.bones {
+            for (i, b) in interp.bones.iter().enumerate() {
                 let Some(key) = g.string.key(b.module as usize) else {
                     continue;
                 };
                 let m = Measure::Bone(key);
+                if labels {
+                    let sym = g
+                        .string
+                        .syms
+                        .get(b.module as usize)
+                        .and_then(|&s| compiled.symbol_names.get(s as usize));
+                    snap.labels.insert(
+                        m,
+                        format!(
+                            "bone {i} ({}, module {})",
+                            sym.map_or("?", String::as_str),
+                            b.module
+                        ),
+                    );
+                }
                 let v = [b.base, b.tip]
                     .iter()
                     .flat_map(|p| p.to_array())
@@ -311,11 +345,53 @@ fn measure_shapes(tree: &grm_shape::ShapeTree, snap: &mut Snapshot) {
                 ..
             } => {
                 let dir = n.scope.axis(a);
+                let len = n.scope.size[a.index()];
                 for c in tree.children(id) {
                     let Some(k) = tree.node(c) else { continue };
                     let end = (k.scope.origin - n.scope.origin).dot(dir) + k.scope.size[a.index()];
-                    snap.measures
-                        .insert(Measure::Plane(n.key, k.edge), vec![f64::from(end)]);
+                    // The scope's own end is no plane a drag moves.
+                    if end < len * (1.0 - 1e-5) {
+                        snap.measures
+                            .insert(Measure::Plane(n.key, k.edge), vec![f64::from(end)]);
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
+/// Name every shape and plane of `tree` in words.
+fn label_shapes(tree: &grm_shape::ShapeTree, program: &grm_shape::Program, snap: &mut Snapshot) {
+    use grm_shape::{Command, NodeId, NodeKind};
+    for (i, n) in tree.nodes().iter().enumerate() {
+        let id = NodeId(i as u32);
+        match n.kind {
+            NodeKind::Shape { .. } => {
+                snap.labels
+                    .entry(Measure::Shape(n.key))
+                    .or_insert_with(|| tree.semantic_locator(program, id).to_string());
+            }
+            NodeKind::Command {
+                command: Command::Split(_) | Command::Repeat(_),
+                ..
+            } => {
+                let owner = tree
+                    .parent(id)
+                    .map(|p| tree.semantic_locator(program, p).to_string())
+                    .unwrap_or_default();
+                for c in tree.children(id) {
+                    let Some(k) = tree.node(c) else { continue };
+                    snap.labels
+                        .entry(Measure::Plane(n.key, k.edge))
+                        .or_insert_with(|| {
+                            format!(
+                                "{owner} {}: after part {} ({})",
+                                tree.label(program, id),
+                                k.edge,
+                                tree.label(program, c)
+                            )
+                        });
                 }
             }
             _ => {}

@@ -20,6 +20,8 @@ pub struct Manip<'a> {
     /// Per candidate: its probe (step, growth), grown on first need;
     /// `None` when the perturbed text does not grow.
     probes: Vec<OnceCell<Option<(f64, Snapshot)>>>,
+    /// Per candidate: its probe the other way (provenance's smoothness).
+    back: Vec<OnceCell<Option<Snapshot>>>,
     /// The largest distance a solved part may be from its target.
     pub tolerance: f64,
 }
@@ -34,6 +36,17 @@ impl std::fmt::Debug for Manip<'_> {
     }
 }
 
+/// A part of the base growth.
+#[derive(Clone, Debug, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct PartInfo {
+    pub part: Part,
+    /// What it is: a shape's path of symbols, a plane's command and part,
+    /// a bone's number and symbol.
+    pub label: String,
+    pub measures: Vec<f64>,
+}
+
 /// One source of a part: a candidate whose change moves it.
 #[derive(Clone, Debug, Serialize)]
 #[serde(rename_all = "camelCase")]
@@ -44,6 +57,10 @@ pub struct Source {
     /// candidate's value (forward difference, `step`).
     pub derivative: Vec<f64>,
     pub step: f64,
+    /// Whether the part moves smoothly with it: a step either way gives
+    /// the same derivative (a number that changes a count, a repeat's
+    /// tiles or a choice, does not).
+    pub smooth: bool,
     /// Terminal parts (leaf shapes, bones) that move with it.
     pub moves: usize,
 }
@@ -60,7 +77,8 @@ pub struct Provenance {
     pub measures: Vec<f64>,
     /// The candidates that move it, in source order.
     pub sources: Vec<Source>,
-    /// Whether it moves with the seed (placed, in part, by random draws).
+    /// Whether a random draw's arguments move it (it is placed, in part,
+    /// by a draw).
     pub random: bool,
     /// Candidates probed (every source number of the system).
     pub probed: usize,
@@ -131,8 +149,9 @@ impl<'a> Manip<'a> {
     pub fn new(setup: Setup<'a>, text: &str) -> Result<Self, ManipError> {
         let facts = probe::facts(&setup, text)?;
         let candidates = candidates::find(text, facts.system, &facts.consts, &facts.names);
-        let base = probe::grow(&setup, text)?;
+        let base = probe::grow_labelled(&setup, text)?;
         let probes = candidates.iter().map(|_| OnceCell::new()).collect();
+        let back = candidates.iter().map(|_| OnceCell::new()).collect();
         Ok(Manip {
             setup,
             text: text.to_string(),
@@ -140,6 +159,7 @@ impl<'a> Manip<'a> {
             candidates,
             base,
             probes,
+            back,
             tolerance: 1e-3,
         })
     }
@@ -147,6 +167,35 @@ impl<'a> Manip<'a> {
     /// Every candidate source number of the system.
     pub fn candidates(&self) -> &[Candidate] {
         &self.candidates
+    }
+
+    /// Every part a drag can move, named in words, with its measures:
+    /// shapes, split and repeat planes (shape mode), bones (derive mode),
+    /// ordered by what they are.
+    pub fn parts(&self) -> Vec<PartInfo> {
+        let mut out: Vec<PartInfo> = self
+            .base
+            .measures
+            .iter()
+            .map(|(m, v)| PartInfo {
+                part: match *m {
+                    Measure::Shape(key) => Part::Shape { key },
+                    Measure::Plane(command, edge) => Part::Plane { command, edge },
+                    Measure::Bone(key) => Part::Bone { key },
+                },
+                label: self.base.labels.get(m).cloned().unwrap_or_default(),
+                measures: v.clone(),
+            })
+            .collect();
+        out.sort_by(|a, b| {
+            a.label.cmp(&b.label).then(
+                a.measures
+                    .iter()
+                    .partial_cmp(b.measures.iter())
+                    .unwrap_or(std::cmp::Ordering::Equal),
+            )
+        });
+        out
     }
 
     /// The engine the system grows on.
@@ -198,17 +247,33 @@ impl<'a> Manip<'a> {
             .as_ref()
     }
 
-    /// Whether the part's measures change with the seed.
+    /// Whether a random draw's arguments move the part: a literal or a
+    /// use inside `uniform(...)`, `normal(...)`, ... whose probe moves it.
+    /// (Another seed cannot tell: identity keys are minted from the seed.)
     fn random(&self, part: &Part) -> bool {
-        // Another seed than the one grown with (the system's own, when none
-        // was given, is not known here: any fixed other seed will do).
-        let seed = self.setup.seed.map_or(0x9e37_79b9, |s| s.wrapping_add(1));
-        let other = probe::grow_seeded(&self.setup, &self.text, Some(seed));
         let m = Self::measure(part);
-        match (other, self.base.get(&m)) {
-            (Ok(o), Some(a)) => o.get(&m).is_none_or(|b| a != b),
-            _ => false,
-        }
+        let Some(base) = self.base.get(&m) else {
+            return false;
+        };
+        self.candidates.iter().enumerate().any(|(c, cand)| {
+            cand.random.is_some()
+                && self
+                    .probe(c)
+                    .and_then(|(_, s)| s.get(&m))
+                    .is_some_and(|v| v != base)
+        })
+    }
+
+    /// The probe of candidate `c` the other way (its value less the step).
+    fn back_probe(&self, c: usize) -> Option<&Snapshot> {
+        self.back[c]
+            .get_or_init(|| {
+                let (step, _) = self.probe(c)?;
+                let cand = &self.candidates[c];
+                let text = self.text_with(&[c], &[cand.value - step]);
+                probe::grow(&self.setup, &text).ok()
+            })
+            .as_ref()
     }
 
     /// The source numbers that place `part`, with their derivatives.
@@ -231,8 +296,17 @@ impl<'a> Manip<'a> {
             if derivative.iter().all(|d| d.abs() < 1e-6) {
                 continue;
             }
+            // Smooth where the step the other way agrees (a count that
+            // changes, a choice that flips, is not).
+            let smooth = self.back_probe(c).and_then(|s| s.get(&m)).is_some_and(|b| {
+                derivative.iter().zip(b).zip(&base).all(|((d, b), a)| {
+                    let back = (a - b) / step;
+                    (d - back).abs() <= 0.05 * d.abs().max(back.abs()) + 1e-4
+                })
+            });
             sources.push(Source {
                 candidate: cand.clone(),
+                smooth,
                 derivative,
                 step: *step,
                 moves: snap.moved_from(&self.base, 1e-6),

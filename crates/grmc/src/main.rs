@@ -32,6 +32,7 @@ mod fmt;
 mod forest;
 mod gpu;
 mod lsp;
+mod manip;
 mod sample;
 mod shape;
 mod tree;
@@ -79,6 +80,9 @@ enum Command {
     /// The grammar's persistent edits (NAME.edits.json): `check`
     /// classifies each against the model, `list` prints them.
     Edits(edits::EditsArgs),
+    /// Direct manipulation: list the parts a drag can move, the source
+    /// numbers that place one, solve a drag, sketch a meta-parameter.
+    Manip(manip::ManipArgs),
     /// Benchmarks (`grmc bench derive`, `grmc bench gpu`, `grmc bench render`).
     Bench(bench::BenchArgs),
 }
@@ -170,6 +174,7 @@ fn main() -> ExitCode {
         Command::Forest(a) => forest::run(a),
         Command::Sample(a) => sample::run(a),
         Command::Edits(a) => edits::run(a),
+        Command::Manip(a) => manip::run(a),
         Command::Disasm(a) => disasm::run(a),
         Command::Bench(a) => bench::run(a),
     };
