@@ -22,9 +22,10 @@ import {
   planeHandles,
   rayPlane,
   sliderNameProblem,
+  tipDragNormal,
 } from '../preview/src/manip.js';
 import { type HostToPage, METHODS, parsePageMessage } from '../preview/src/messages.js';
-import { ProtocolError, decodeManipResult, decodePick } from '../preview/src/protocol.js';
+import { ProtocolError, bytesToBase64, decodeManipResult, decodePick, decodePreview } from '../preview/src/protocol.js';
 import { type HostDeps, PreviewHost } from '../vscode/src/host.js';
 
 const X = [1, 0, 0];
@@ -173,6 +174,28 @@ test('the pointer along a line: in the plane through the line that faces the vie
   // Seen end on (the ray along the line): no point along it.
   assert.equal(alongLine({ origin: [0, 0, 10], dir: [0, 0, -1] }, [0, 0, 0], [0, 0, 1], [0, 0, -1]), null);
   assert.equal(alongLine({ origin: [0, 0, 10], dir: [1, 0, 0] }, [0, 0, 0], [0, 0, 0], [0, 0, -1]), null);
+});
+
+test("a bone tip is dragged in the plane of the bone and its parent, else in the plane through the bone facing the view", () => {
+  const up: V3 = [0, 1, 0];
+  // A flat L-system: a bone at 30 degrees off its parent, in the plane z = 0, seen from the front-ish.
+  const n = tipDragNormal([0, 2, 0], [0.5, 2.866, 0], up, [-0.4, -0.3, -1]);
+  closeV([Math.abs(n[0]), Math.abs(n[1]), Math.abs(n[2])], [0, 0, 1], 1e-12);
+  // The turtle's plane seen edge on (the camera in it): the plane through the bone that faces the view.
+  const edge = tipDragNormal([0, 2, 0], [0.5, 2.866, 0], up, [1, 0, 0]);
+  const u: V3 = [0.5, 0.866, 0];
+  close(edge[0] * u[0] + edge[1] * u[1] + edge[2] * u[2], 0, 1e-9);
+  assert.ok(Math.abs(edge[0]) > 0.4, `it faces the view: ${edge}`);
+  // A bone in line with its parent, or a root: the plane through the bone facing the view.
+  const inline = tipDragNormal([0, 0, 0], [0, 1, 0], up, [0, 0, -1]);
+  closeV(inline, [0, 0, -1], 1e-12);
+  closeV(tipDragNormal([0, 0, 0], [0, 1, 0], null, [0, -0.6, -0.8]), [0, 0, -1], 1e-12);
+  // Looking along the bone: the view plane.
+  closeV(tipDragNormal([0, 0, 0], [0, 0, 1], null, [0, 0, -2]), [0, 0, -1], 1e-12);
+  // The tip dragged along the bone on screen stays on its line: a ray through a point of the line meets the plane there.
+  const eye: V3 = [3, 4, 9];
+  const target: V3 = [0.75, 3.299, 0];
+  closeV(rayPlane({ origin: eye, dir: [target[0] - eye[0], target[1] - eye[1], target[2] - eye[2]] }, n, [0.5, 2.866, 0]), target, 1e-9);
 });
 
 test("a bone tip's drag: the pointer's ray meets the view plane through the tip", () => {
@@ -333,4 +356,20 @@ test('the extension forwards direct manipulation to the language server, for the
   assert.equal(posted[4].type, 'response');
   assert.match((posted[4] as { error: string }).error, /shows file:\/\/\/w\/house\.grm, not file:\/\/\/w\/other\.grm/);
   assert.match((posted[5] as { error: string }).error, /names no document/);
+});
+
+test("a preview's skeleton says each bone's parent (-1 a root); a server that does not is read as before", () => {
+  const f32 = (xs: number[]) => bytesToBase64(new Uint8Array(new Float32Array(xs).buffer));
+  const i32 = (xs: number[]) => bytesToBase64(new Uint8Array(new Int32Array(xs).buffer));
+  const bones = f32([0, 0, 0, 0, 2, 0, 0.1, 0.1, 0, 2, 0, 0.5, 2.866, 0, 0.1, 0.1]);
+  const base = { uri: 'file:///b.grm', version: 1, system: 'Bar', mode: 'derive', seed: 0, encoding: 'base64-le', materials: [], parts: [], origins: [] };
+  const r = decodePreview({ ...base, skeleton: { boneCount: 2, bones, parents: i32([-1, 0]) } });
+  assert.deepEqual(
+    r.model.bones.map((b) => b.parent),
+    [null, 0],
+  );
+  assert.equal(decodePreview({ ...base, skeleton: { boneCount: 2, bones } }).model.bones[1].parent, null);
+  // A parent past the bones is no parent.
+  assert.equal(decodePreview({ ...base, skeleton: { boneCount: 2, bones, parents: i32([-1, 7]) } }).model.bones[1].parent, null);
+  assert.throws(() => decodePreview({ ...base, skeleton: { boneCount: 2, bones, parents: i32([-1]) } }), ProtocolError);
 });

@@ -67,8 +67,9 @@ test('a preview result decodes: parts, picks with origins and focus, skeleton, o
   assert.deepEqual(r.model.parts[0].picks[0], { firstTriangle: 0, triangleCount: 1, kind: 'bone', index: 0, module: 3, origin: 1, focus: true });
   assert.equal(r.model.parts[0].picks[1].origin, null);
   assert.equal(r.model.bones.length, 2);
-  assert.deepEqual(r.model.bones[1], { base: [0, 1, 0], tip: [1, 2, 0], width: Math.fround(0.08), origin: null });
+  assert.deepEqual(r.model.bones[1], { base: [0, 1, 0], tip: [1, 2, 0], width: Math.fround(0.08), origin: null, parent: 0 });
   assert.equal(r.model.bones[0].origin, 1);
+  assert.equal(r.model.bones[0].parent, null, 'a root');
   assert.deepEqual(r.model.bounds, { min: [0, 0, 0], max: [1, 2, 0.5] });
   assert.equal(r.origins[1].symbol, 'A');
   assert.equal(r.origins[1].range.start.line, 5);

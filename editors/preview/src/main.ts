@@ -21,6 +21,7 @@ import {
   rayPlane,
   short,
   sliderNameProblem,
+  tipDragNormal,
 } from './manip.js';
 import { pictureFileName, pictureParams } from './picture.js';
 import {
@@ -166,6 +167,8 @@ interface DebugInfo {
   handles: () => { kind: 'plane' | 'tip'; label: string; command: string | null; edge: number | null; at: number | V3; screen: [number, number] }[];
   /** The direct-manipulation status line. */
   manipStatus: string;
+  /** Picks answered (the user's clicks, not the page's own pick after a drag). */
+  picks: number;
   /** Drags sent, and the last drag's, sketch's and write's answers (null: none yet, or it failed: see lastError). */
   drags: number;
   lastDrag: ManipResult | null;
@@ -188,7 +191,7 @@ type Gesture =
   /** A split plane's handle (index into the handles) along its axis: grabbed at `at0` with the pointer's ray `ray0`. */
   | { kind: 'plane'; handle: number; at0: number; ray0: Ray; facing: V3; at: number; moved: boolean }
   /** A bone's tip in the view plane through where it was grabbed. */
-  | { kind: 'tip'; tip0: V3; at: V3; moved: boolean }
+  | { kind: 'tip'; tip0: V3; normal: V3; at: V3; moved: boolean }
   | { kind: 'click'; x: number; y: number; t: number };
 
 /** How long the camera must rest before the page tells the host its view (not on every frame of a drag). */
@@ -220,7 +223,7 @@ class App {
    */
   private manip:
     | { kind: 'planes'; handles: PlaneHandle[]; key: string | null; pick: PickParams }
-    | { kind: 'tip'; key: string; bone: number; base: V3; tip: V3; pick: PickParams }
+    | { kind: 'tip'; key: string; bone: number; base: V3; tip: V3; parentDir: V3 | null; pick: PickParams }
     | null = null;
   /** The model the pick (scopes, handles) was made on (`modelSignature`): another model drops them. */
   private pickedFor = '';
@@ -357,6 +360,7 @@ class App {
       pictureError: null,
       handles: () => this.handleList(),
       manipStatus: '',
+      picks: 0,
       drags: 0,
       lastDrag: null,
       lastDragRequest: null,
@@ -988,6 +992,7 @@ class App {
     try {
       const r = decodePick(await this.transport.request('pick', params));
       this.debug.lastPick = r;
+      this.debug.picks++;
       this.pickedFor = this.last ? modelSignature(this.last) : '';
       this.setManip(r, params);
       const info = $('rule-info');
@@ -1106,14 +1111,15 @@ class App {
   // ------------------------------------------------------------- direct manipulation
 
   /** What a pick makes draggable: a shape's path's split planes (shape mode), a bone's tip (derive mode). */
-  private setManip(r: PickResult | null, pick: PickParams): void {
+  private setManip(r: PickResult | null, pick: PickParams, quiet = false): void {
     this.manip = null;
     this.posed = null;
     const model = this.last?.model;
     if (r?.shape) {
       const handles = planeHandles(r.shape.scopes);
       this.manip = { kind: 'planes', handles, key: r.key, pick };
-      this.setManipStatus(
+      if (!quiet)
+        this.setManipStatus(
         handles.length
           ? `${handles.length} split plane${handles.length === 1 ? '' : 's'} to drag: release one to rewrite the grammar's numbers`
           : r.shape.scopes.some((s) => s.command && s.axis !== null)
@@ -1128,8 +1134,10 @@ class App {
       }
       const b = bone !== null ? model.bones[bone] : undefined;
       if (bone !== null && b) {
-        this.manip = { kind: 'tip', key: r.key, bone, base: [...b.base] as V3, tip: [...b.tip] as V3, pick };
-        this.setManipStatus(`bone ${r.symbol}: drag its tip (the white dot) in the view plane`);
+        const parent = b.parent != null ? model.bones[b.parent] : undefined;
+        const parentDir: V3 | null = parent ? [parent.tip[0] - parent.base[0], parent.tip[1] - parent.base[1], parent.tip[2] - parent.base[2]] : null;
+        this.manip = { kind: 'tip', key: r.key, bone, base: [...b.base] as V3, tip: [...b.tip] as V3, parentDir, pick };
+        if (!quiet) this.setManipStatus(`bone ${r.symbol}: drag its tip (the dot) to rewrite the numbers that place it`);
       }
     }
     this.drawHandles();
@@ -1142,7 +1150,8 @@ class App {
       if (!r || r.key !== key || this.manip) return;
       this.debug.lastPick = r;
       if (r.shape) this.pickedScopes = r.shape.scopes;
-      this.setManip(r, pick);
+      // The drag's answer stays in the status line.
+      this.setManip(r, pick, true);
       this.drawScopes();
     } catch {
       // The handles stay away until the next pick.
@@ -1218,7 +1227,7 @@ class App {
       this.gesture = { kind: 'plane', handle: i, at0, ray0: this.scene.pointerRay(e.clientX, e.clientY), facing: this.scene.viewDirection(), at: at0, moved: false };
     } else {
       const tip0 = this.posed && 'tip' in this.posed ? this.posed.tip : m.tip;
-      this.gesture = { kind: 'tip', tip0, at: tip0, moved: false };
+      this.gesture = { kind: 'tip', tip0, normal: tipDragNormal(m.base, tip0, m.parentDir, this.scene.viewDirection()), at: tip0, moved: false };
     }
     this.scene.controls.enabled = false;
     e.stopPropagation();
@@ -1239,7 +1248,7 @@ class App {
       g.moved = true;
       this.setStatus(`${h.label} plane ${h.edge}: ${short(h.at)} → ${short(at)}`);
     } else if (g.kind === 'tip') {
-      const p = rayPlane(ray, this.scene.viewDirection(), g.tip0);
+      const p = rayPlane(ray, g.normal, g.tip0);
       if (!p) return;
       g.at = p;
       g.moved = true;

@@ -139,6 +139,33 @@ export function rayPlane(ray: Ray, normal: V3, point: V3): V3 | null {
   return [ray.origin[0] + ray.dir[0] * t, ray.origin[1] + ray.dir[1] * t, ray.origin[2] + ray.dir[2] * t];
 }
 
+const cross = (a: V3, b: V3): V3 => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+const unit = (a: V3): V3 | null => {
+  const l = Math.sqrt(dot(a, a));
+  return l > 1e-12 && Number.isFinite(l) ? [a[0] / l, a[1] / l, a[2] / l] : null;
+};
+
+/**
+ * The normal of the plane a bone's tip is dragged in (through the tip):
+ * the plane of the bone and the bone it grows from (the turtle's plane: a
+ * flat L-system stays flat, so a tip dropped off that plane would be out of
+ * the numbers' reach), unless that plane is seen nearly edge on or the two
+ * bones are in line; then the plane that holds the bone and faces the view
+ * as nearly as it can (a drag along the bone on screen stays on its line);
+ * looking along the bone, the view plane.
+ */
+export function tipDragNormal(base: V3, tip: V3, parentDir: V3 | null, view: V3): V3 {
+  const v = unit(view) ?? [0, 0, -1];
+  const u = unit(sub(tip, base));
+  if (!u) return v;
+  const p = parentDir ? unit(parentDir) : null;
+  const turtle = p ? unit(cross(u, p)) : null;
+  // Edge on past about 78 degrees: the pointer's ray would meet it far off.
+  if (turtle && Math.abs(dot(turtle, v)) > 0.2) return turtle;
+  const k = dot(v, u);
+  return unit([v[0] - k * u[0], v[1] - k * u[1], v[2] - k * u[2]]) ?? v;
+}
+
 /** A short number for the page: at most 3 decimals, no trailing zeros. */
 export function short(x: number): string {
   if (!Number.isFinite(x)) return String(x);

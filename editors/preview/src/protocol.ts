@@ -132,6 +132,8 @@ export interface SceneBone {
   width: number;
   /** Index into the result's origins, or null when unknown. */
   origin: number | null;
+  /** The bone it grows from (an index into the bones), null for a root; absent where the server does not say. */
+  parent?: number | null;
 }
 
 export interface Bounds {
@@ -546,9 +548,13 @@ export function decodeModel(v: Record<string, unknown>): SceneModel {
     if (f.length !== count * 8) throw new ProtocolError(`skeleton.bones: ${f.length} floats for ${count} bones (8 each)`);
     const o = count > 0 && sk.origins !== undefined ? decodeU32(sk.origins, 'skeleton.origins') : null;
     if (o && o.length !== count) throw new ProtocolError(`skeleton.origins: ${o.length} for ${count} bones`);
+    // i32 per bone, -1 (0xFFFFFFFF read as u32) for a root.
+    const par = count > 0 && typeof sk.parents === 'string' && sk.parents !== '' ? decodeU32(sk.parents, 'skeleton.parents') : null;
+    if (par && par.length !== count) throw new ProtocolError(`skeleton.parents: ${par.length} for ${count} bones`);
     for (let i = 0; i < count; i++) {
       const b = f.subarray(i * 8, i * 8 + 8);
-      bones.push({ base: [b[0], b[1], b[2]], tip: [b[3], b[4], b[5]], width: b[6], origin: o ? optIndex(o[i]) : null });
+      const parent = par ? optIndex(par[i]) : null;
+      bones.push({ base: [b[0], b[1], b[2]], tip: [b[3], b[4], b[5]], width: b[6], origin: o ? optIndex(o[i]) : null, parent: parent !== null && parent < count ? parent : null });
     }
   }
   let bounds: Bounds | null = null;

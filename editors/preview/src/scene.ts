@@ -490,7 +490,7 @@ export class PreviewScene {
       };
       lines(v.lines, HANDLE_COLOR, 9);
       lines(v.activeLines, HANDLE_ACTIVE_COLOR, 10);
-      const sphere = new THREE.SphereGeometry(this.handleRadius * 1.4, 12, 8);
+      const sphere = new THREE.SphereGeometry(this.handleRadius * 0.8, 12, 8);
       for (const g of v.grips) {
         const color = g.active ? HANDLE_ACTIVE_COLOR : HANDLE_COLOR;
         const m = new THREE.Mesh(sphere, this.materials.get(`handle grip ${color}`, () => new THREE.MeshBasicMaterial({ color, depthTest: false })));

@@ -1,0 +1,413 @@
+// Direct manipulation (issue 28) in headless Chromium against `grmc view`:
+// a picked shape's split plane dragged with the mouse and released
+// rewrites the grammar's number on disk, and the model regrows from it
+// (the same wall picked again has its plane where it was dropped); the time
+// from the release to the regrown model on screen is measured over several
+// drags; a sketched pose becomes a new slider (`param NAME = 0 in 0 .. 1;`,
+// exact at t = 0), and "Write slider values" writes a slider back as its
+// default after the page asked. In derive mode a picked bone's tip is
+// dragged in the view plane and the bone's F length is rewritten.
+//
+// Needs: `cargo build -p grmc` (or GRMC=path), Debian's chromium
+// (CHROMIUM=path, default /usr/bin/chromium). PAGE_DIST=editors/preview/dist
+// serves the page from that folder instead of the copy built into grmc.
+// Screenshots and the measured latency (manip-latency.json) go to
+// target/browser-test/.
+
+import assert from 'node:assert/strict';
+import { type ChildProcess, spawn } from 'node:child_process';
+import { existsSync, mkdirSync, mkdtempSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
+import { loadavg, tmpdir } from 'node:os';
+import { join } from 'node:path';
+import { after, before, test } from 'node:test';
+import { type Browser, type Page, chromium } from 'playwright-core';
+
+const root = join(import.meta.dirname, '../../..');
+const artifacts = join(root, 'target/browser-test');
+const grmc = process.env.GRMC ?? join(process.env.CARGO_TARGET_DIR ?? join(root, 'target'), 'debug/grmc');
+const chromiumPath = process.env.CHROMIUM ?? '/usr/bin/chromium';
+const pageDist = process.env.PAGE_DIST;
+
+type V3 = [number, number, number];
+
+let browser: Browser;
+const servers: ChildProcess[] = [];
+const temps: string[] = [];
+const latency: Record<string, unknown> = {};
+
+before(async () => {
+  assert.ok(existsSync(grmc), `${grmc} is missing: run cargo build -p grmc first`);
+  assert.ok(existsSync(chromiumPath), `${chromiumPath} is missing: apt-get install chromium`);
+  mkdirSync(artifacts, { recursive: true });
+  browser = await chromium.launch({
+    executablePath: chromiumPath,
+    headless: true,
+    args: [
+      '--headless',
+      '--no-sandbox',
+      '--disable-gpu',
+      '--disable-quic',
+      '--no-first-run',
+      '--disable-background-networking',
+      '--disable-component-update',
+      '--disable-sync',
+      '--use-angle=swiftshader',
+      '--enable-unsafe-swiftshader',
+    ],
+  });
+});
+
+after(async () => {
+  if (Object.keys(latency).length > 0) writeFileSync(join(artifacts, 'manip-latency.json'), JSON.stringify(latency, null, 2) + '\n');
+  await browser?.close();
+  for (const s of servers) s.kill();
+  for (const d of temps) rmSync(d, { recursive: true, force: true });
+});
+
+/** A grammar in a fresh folder (the drag rewrites it). */
+function grammar(name: string, text: string): string {
+  const dir = mkdtempSync(join(tmpdir(), 'grm-manip-'));
+  temps.push(dir);
+  const file = join(dir, name);
+  writeFileSync(file, text);
+  return file;
+}
+
+/** Start `grmc view FILE` and return the URL it prints. */
+async function view(file: string): Promise<string> {
+  const proc = spawn(grmc, ['view', file], { stdio: ['ignore', 'pipe', 'pipe'] });
+  servers.push(proc);
+  let out = '';
+  let err = '';
+  proc.stderr?.on('data', (d) => (err += d));
+  return new Promise((resolve, reject) => {
+    const timer = setTimeout(() => reject(new Error(`grmc view printed no URL in 20 s: ${out} ${err}`)), 20_000);
+    proc.stdout?.on('data', (d) => {
+      out += d;
+      const m = /http:\/\/127\.0\.0\.1:\d+\//.exec(out);
+      if (m) {
+        clearTimeout(timer);
+        resolve(m[0]);
+      }
+    });
+    proc.on('exit', (code) => reject(new Error(`grmc view exited with ${code}: ${err}`)));
+  });
+}
+
+async function openPage(url: string): Promise<Page> {
+  const page = await browser.newPage({ viewport: { width: 1100, height: 720 } });
+  const errors: string[] = [];
+  page.on('pageerror', (e) => errors.push(String(e)));
+  page.on('console', (m) => {
+    if (m.type() === 'error') errors.push(m.text());
+  });
+  (page as unknown as { errors: string[] }).errors = errors;
+  if (pageDist) {
+    const types: Record<string, string> = { '': 'text/html', 'index.html': 'text/html', 'preview.js': 'text/javascript', 'preview.css': 'text/css' };
+    await page.route(/\/(index\.html|preview\.js|preview\.css)?$/, (route) => {
+      const name = new URL(route.request().url()).pathname.slice(1);
+      return route.fulfill({ contentType: types[name], body: readFileSync(join(pageDist, name || 'index.html')) });
+    });
+  }
+  await page.goto(url);
+  return page;
+}
+
+const pageErrors = (page: Page): string[] => (page as unknown as { errors: string[] }).errors;
+
+interface Handle {
+  kind: 'plane' | 'tip';
+  label: string;
+  command: string | null;
+  edge: number | null;
+  at: number | V3;
+  screen: [number, number];
+}
+
+interface Change {
+  old: string;
+  new: string;
+}
+
+interface ManipResult {
+  outcome: string | null;
+  why: string | null;
+  changes: Change[];
+  residual: number | null;
+  moved: number | null;
+  applied: boolean | null;
+  name: string | null;
+  residuals: [number, number][];
+  exactAtZero: boolean | null;
+}
+
+interface Grm {
+  ready: boolean;
+  regrows: number;
+  lastError: string | null;
+  mode: string;
+  renderer: string;
+  lastPick: { symbol: string; key: string | null } | null;
+  picks: number;
+  manipStatus: string;
+  drags: number;
+  lastDrag: ManipResult | null;
+  lastDragRequest: { version?: number; target: { kind: string; at: number | V3 } } | null;
+  lastSketch: ManipResult | null;
+  lastWrite: ManipResult | null;
+  dragLatencies: number[];
+  dragAnswerMs: number[];
+  sketchPoses: number;
+}
+
+const grm = (page: Page): Promise<Grm> =>
+  page.evaluate(() => {
+    const g = (globalThis as unknown as { __grm: Record<string, unknown> }).__grm;
+    return JSON.parse(JSON.stringify(g)) as Grm;
+  });
+
+const handles = (page: Page): Promise<Handle[]> => page.evaluate(() => (globalThis as unknown as { __grm: { handles(): Handle[] } }).__grm.handles());
+
+const toScreen = (page: Page, p: V3): Promise<[number, number]> =>
+  page.evaluate((q) => (globalThis as unknown as { __grm: { toScreen(p: V3): [number, number] } }).__grm.toScreen(q), p);
+
+async function waitFor(page: Page, what: string, f: (g: Grm) => boolean, timeout = 30_000): Promise<Grm> {
+  const start = Date.now();
+  for (;;) {
+    const g = await grm(page);
+    if (f(g)) return g;
+    if (Date.now() - start > timeout) throw new Error(`${what}: not in ${timeout} ms (${JSON.stringify(g)})`);
+    await page.waitForTimeout(20);
+  }
+}
+
+/** Press on a grip, move in steps, release: a handle's drag as the mouse makes it. */
+async function dragFromTo(page: Page, from: [number, number], to: [number, number]): Promise<void> {
+  await page.mouse.move(from[0], from[1]);
+  await page.mouse.down();
+  await page.mouse.move(to[0], to[1], { steps: 8 });
+  await page.mouse.up();
+}
+
+const median = (xs: number[]): number => [...xs].sort((a, b) => a - b)[Math.floor(xs.length / 2)];
+const r1 = (x: number) => Math.round(x * 10) / 10;
+
+const ROW = [
+  'system Row {',
+  '    mode = shape;',
+  '    lot = rect(24, 10);',
+  '    axiom Lot;',
+  '    Lot -> extrude(12.8) Mass;',
+  '    Mass -> comp(faces, facade) { front: Facade | side: Wall | top: Roof };',
+  '    Roof -> roof(hip, 30, 0.4);',
+  '    Facade -> split(y) { 4: Ground | ~1: Upper };',
+  '    Upper -> repeat(y, floor) { 3.2: Floor };',
+  '    Floor -> repeat(x, column) { ~3: Tile };',
+  '    Tile -> split(x) { ~1: Wall | 1.2: Window | ~1: Wall };',
+  '}',
+  '',
+].join('\n');
+
+/** The ground floor's height as the file on disk says it (`split(y) { H: Ground`). */
+function groundHeight(file: string): string {
+  const m = /split\(y\) \{ ([^:]+): Ground/.exec(readFileSync(file, 'utf8'));
+  assert.ok(m, readFileSync(file, 'utf8'));
+  return m[1];
+}
+
+/** Pick the wall of the first upper floor (a point on the front facade, which faces +z) until the page shows its handles. */
+async function pickWall(page: Page): Promise<Handle[]> {
+  const [x, y] = await toScreen(page, [0.45, 6.5, 0.01]);
+  for (let i = 0; i < 3; i++) {
+    const before = (await grm(page)).picks;
+    await page.mouse.click(x, y);
+    const start = Date.now();
+    while (Date.now() - start < 10_000) {
+      const h = await handles(page);
+      if (h.length > 0 && (await grm(page)).picks > before) return h;
+      await page.waitForTimeout(20);
+    }
+  }
+  throw new Error(`no handles after picking the wall: ${JSON.stringify(await grm(page))}`);
+}
+
+/** The screen point of the split.y plane's grip moved to `at` (its scope starts at the ground, y up in the model frame). */
+async function gripAt(page: Page, _h: Handle, at: number): Promise<[number, number]> {
+  // The facade's split.y: x across the front (24 wide, grip at the middle), y up, the front at z = 0.
+  return toScreen(page, [12, at, 0]);
+}
+
+test('shape mode: dragging a split plane rewrites the number on disk and regrows the building; release to regrown model measured; a sketched pose makes a slider; slider values are written after a confirm', async () => {
+  const file = grammar('row.grm', ROW);
+  const url = await view(file);
+  const page = await openPage(url);
+  const g0 = await waitFor(page, 'first building', (g) => g.regrows >= 1 || g.lastError !== null);
+  assert.equal(g0.mode, 'shape', g0.lastError ?? '');
+  assert.equal(await page.isHidden('#manip-section'), false, 'the direct manipulation section shows in shape mode');
+
+  const hs = await pickWall(page);
+  // The path's splits and repeats: the ground floor's split (1 plane), the floors (2), the columns (7), the tile (2).
+  assert.deepEqual(
+    hs.map((h) => `${h.label} ${h.edge}`),
+    ['split.y 1', 'repeat.y 1', 'repeat.y 2', ...[1, 2, 3, 4, 5, 6, 7].map((e) => `repeat.x ${e}`), 'split.x 1', 'split.x 2'],
+  );
+  const split = hs[0];
+  assert.ok(Math.abs((split.at as number) - 4) < 1e-5, `the ground floor's plane at ${split.at}`);
+  await page.screenshot({ path: join(artifacts, 'manip-handles.png') });
+
+  // Drag the ground floor's plane from 4 to 5 (a point of the facade 1 higher) and release.
+  const from = split.screen;
+  const to = await gripAt(page, split, 5);
+  const r0 = (await grm(page)).regrows;
+  await page.mouse.move(from[0], from[1]);
+  await page.mouse.down();
+  await page.mouse.move(to[0], to[1], { steps: 8 });
+  // While dragging: the plane follows the pointer, and the status says where it goes.
+  await page.waitForTimeout(100);
+  assert.match((await page.textContent('#status-text')) ?? '', /split\.y plane 1: 4 → (4\.9|5)/);
+  await page.screenshot({ path: join(artifacts, 'manip-drag-plane.png') });
+  await page.mouse.up();
+  const g1 = await waitFor(page, 'the drag answered and the model regrown', (g) => (g.lastDrag !== null && g.dragLatencies.length >= 1) || g.lastError !== null);
+  assert.equal(g1.lastError, null);
+  const sent = g1.lastDragRequest?.target.at as number;
+  assert.ok(Math.abs(sent - 5) < 0.1, `dropped at ${sent}`);
+  assert.equal(g1.lastDrag?.outcome, 'solved', JSON.stringify(g1.lastDrag));
+  assert.equal(g1.lastDrag?.applied, true);
+  assert.equal(g1.lastDrag?.changes.length, 1);
+  assert.equal(g1.lastDrag?.changes[0].old, '4');
+  // The file on disk has the number the server wrote, where the plane was dropped.
+  const written = groundHeight(file);
+  assert.equal(written, g1.lastDrag?.changes[0].new);
+  assert.ok(Math.abs(Number(written) - sent) < 1e-3, `${written} written for a drop at ${sent}`);
+  assert.ok(g1.regrows > r0, 'the model regrew');
+  // The status line says what changed and how many parts move.
+  assert.match(g1.manipStatus, new RegExp(`^drag: 4 → ${written.replace('.', '\\.')} · moves \\d+ parts`));
+  assert.match((await page.textContent('#manip-status')) ?? '', /4 → /);
+  // The regrown building: the same wall, picked again by the page, has its plane where it was dropped.
+  const again = await handles(page).then(async (h) => (h.length ? h : pickWall(page)));
+  assert.ok(Math.abs((again[0].at as number) - Number(written)) < 1e-4, `the plane is at ${again[0].at} after the drag`);
+  await page.screenshot({ path: join(artifacts, 'manip-dragged.png') });
+
+  // Release to regrown model, over several drags (between 4.5 and 5.5).
+  for (const at of [5.5, 4.5, 5.25, 4.75, 5.5, 4.5, 5]) {
+    let h = await handles(page);
+    if (h.length === 0 || h[0].label !== 'split.y') h = await pickWall(page);
+    const n = (await grm(page)).dragLatencies.length;
+    await dragFromTo(page, h[0].screen, await gripAt(page, h[0], at));
+    const g = await waitFor(page, `the drag to ${at}`, (x) => x.dragLatencies.length > n || x.lastError !== null);
+    assert.equal(g.lastError, null);
+    assert.equal(g.lastDrag?.outcome, 'solved');
+    assert.equal(groundHeight(file), g.lastDrag?.changes[0].new);
+  }
+  const g2 = await grm(page);
+  const ms = g2.dragLatencies.map(r1);
+  const answer = g2.dragAnswerMs.map(r1);
+  latency['shape: split plane drag, release to regrown model'] = { grammar: 'row.grm (24 x 10 lot, 4 floors of 8 columns)', renderer: g2.renderer, ms, median: median(ms), answerMs: answer, answerMedian: median(answer), load: loadavg()[0] };
+  console.log(`split plane drag: release to regrown model on screen ${ms.join(', ')} ms (median ${median(ms)}); release to the drag's answer ${answer.join(', ')} ms (median ${median(answer)}); load ${loadavg()[0].toFixed(1)}`);
+
+  // Sketch parameter: the plane dragged to a pose at t = 1 records it (the grammar is not written), Make slider… asks for a name.
+  const before = readFileSync(file, 'utf8');
+  await page.check('#sketch-mode');
+  let h = await handles(page);
+  if (h.length === 0) h = await pickWall(page);
+  const start = h[0].at as number;
+  await dragFromTo(page, h[0].screen, await gripAt(page, h[0], start + 1));
+  await waitFor(page, 'a pose', (g) => g.sketchPoses === 1);
+  assert.equal(readFileSync(file, 'utf8'), before, 'a pose writes nothing');
+  assert.match((await grm(page)).manipStatus, /pose at t = 1/);
+  await page.screenshot({ path: join(artifacts, 'manip-sketch-pose.png') });
+  assert.equal(await page.isDisabled('#sketch-make'), false);
+  await page.click('#sketch-make');
+  assert.equal(await page.isVisible('#sketch-name'), true, 'the page asks for the name');
+  await page.fill('#sketch-name', 'lift');
+  await page.click('#sketch-ok');
+  const g3 = await waitFor(page, 'the sketch answered', (g) => g.lastSketch !== null || g.lastError !== null);
+  assert.equal(g3.lastError, null);
+  assert.equal(g3.lastSketch?.outcome, 'solved', JSON.stringify(g3.lastSketch));
+  assert.equal(g3.lastSketch?.name, 'lift');
+  assert.equal(g3.lastSketch?.exactAtZero, true);
+  assert.ok((g3.lastSketch?.residuals.length ?? 0) >= 1);
+  assert.match(g3.manipStatus, /slider lift · residuals t=1: [\d.e-]+ · exact at t = 0/);
+  const sketched = readFileSync(file, 'utf8');
+  assert.match(sketched, /param lift = 0 in 0 \.\. 1;/);
+  // The new slider appears once the model regrows from the edited text.
+  const slider = page.locator('input[type=range][data-param=lift]');
+  await slider.waitFor({ timeout: 20_000 });
+  await page.uncheck('#sketch-mode');
+
+  // Write slider values: the slider moved to 1, the page asks first; Cancel writes nothing, Write writes the default.
+  const n = (await grm(page)).regrows;
+  await slider.evaluate((el: HTMLInputElement) => {
+    el.value = '1';
+    el.dispatchEvent(new Event('input', { bubbles: true }));
+    el.dispatchEvent(new Event('change', { bubbles: true }));
+  });
+  await waitFor(page, 'the slider regrew the model', (g) => g.regrows > n);
+  await page.click('#write-params');
+  assert.equal(await page.isVisible('#write-confirm'), true, 'the page asks before writing');
+  assert.match((await page.textContent('#write-prompt')) ?? '', /lift: 0 → 1/);
+  await page.click('#write-cancel');
+  assert.equal(readFileSync(file, 'utf8'), sketched, 'cancelled: nothing written');
+  await page.click('#write-params');
+  await page.click('#write-ok');
+  const g4 = await waitFor(page, 'the write answered', (g) => g.lastWrite !== null || g.lastError !== null);
+  assert.equal(g4.lastError, null);
+  assert.match(readFileSync(file, 'utf8'), /param lift = 1 in 0 \.\. 1;/);
+  assert.deepEqual(pageErrors(page), []);
+  await page.close();
+});
+
+test('derive mode: dragging a bone tip rewrites its F length and regrows the skeleton', async () => {
+  const file = grammar('bar.grm', 'system Bar {\n    iterations = 1;\n    axiom A;\n    A -> F(2) +(30) F(1);\n}\n');
+  const url = await view(file);
+  const page = await openPage(url);
+  const g0 = await waitFor(page, 'first model', (g) => g.regrows >= 1 || g.lastError !== null);
+  assert.equal(g0.mode, 'derive', g0.lastError ?? '');
+  const bones = () => page.evaluate(() => (globalThis as unknown as { __grm: { bonesList(): { base: V3; tip: V3 }[] } }).__grm.bonesList());
+  const [, b1] = await bones();
+  // Click the second bone in its middle.
+  const mid: V3 = [(b1.base[0] + b1.tip[0]) / 2, (b1.base[1] + b1.tip[1]) / 2, (b1.base[2] + b1.tip[2]) / 2];
+  await page.mouse.click(...(await toScreen(page, mid)));
+  const start = Date.now();
+  let h: Handle[] = [];
+  while (Date.now() - start < 10_000 && h.length === 0) {
+    h = await handles(page);
+    await page.waitForTimeout(20);
+  }
+  assert.equal(h.length, 1, `a tip handle (${JSON.stringify(await grm(page))})`);
+  assert.equal(h[0].kind, 'tip');
+  assert.deepEqual(h[0].at, b1.tip);
+  // Drag the tip along the bone to 1.5 times its length (on screen; the page moves it in the plane of the bone and its parent).
+  const target: V3 = [0, 1, 2].map((i) => b1.base[i] + (b1.tip[i] - b1.base[i]) * 1.5) as V3;
+  const n = (await grm(page)).regrows;
+  await page.mouse.move(...h[0].screen);
+  await page.mouse.down();
+  await page.mouse.move(...(await toScreen(page, target)), { steps: 8 });
+  await page.waitForTimeout(100);
+  await page.screenshot({ path: join(artifacts, 'manip-drag-tip.png') });
+  await page.mouse.up();
+  const g1 = await waitFor(page, 'the drag answered and the model regrown', (g) => (g.lastDrag !== null && g.dragLatencies.length >= 1) || g.lastError !== null);
+  assert.equal(g1.lastError, null);
+  assert.equal(g1.lastDrag?.outcome, 'solved', JSON.stringify(g1.lastDrag));
+  assert.equal(g1.lastDragRequest?.target.kind, 'tip');
+  const change = g1.lastDrag?.changes[0];
+  assert.ok(change, 'a change');
+  assert.equal(change.old, '1');
+  const text = readFileSync(file, 'utf8');
+  assert.ok(text.includes(`A -> F(2) +(30) F(${change.new});`), text);
+  // Dropped on the screen where 1.5 times the bone's length is, in the plane of the bone and its parent (z = 0):
+  // 1.5, to within a pixel.
+  assert.ok(Math.abs(Number(change.new) - 1.5) < 0.02, `F(${change.new})`);
+  assert.ok(g1.regrows > n, 'the model regrew');
+  const [, after] = await bones();
+  const len = Math.hypot(after.tip[0] - after.base[0], after.tip[1] - after.base[1], after.tip[2] - after.base[2]);
+  assert.ok(Math.abs(len - Number(change.new)) < 1e-4, `the regrown bone is ${len} long`);
+  // The regrown tip is as close to the dropped point as the server says.
+  const dropped = g1.lastDragRequest?.target.at as V3;
+  const off = Math.hypot(after.tip[0] - dropped[0], after.tip[1] - dropped[1], after.tip[2] - dropped[2]);
+  assert.ok(Math.abs(off - (g1.lastDrag?.residual ?? 0)) < 1e-3, `the tip is ${off} from the drop, the server says ${g1.lastDrag?.residual}`);
+  console.log(`bone tip drag: release to regrown model on screen ${g1.dragLatencies.map(r1).join(', ')} ms; F(1) -> F(${change.new})`);
+  latency['derive: bone tip drag, release to regrown model'] = { grammar: 'bar.grm (2 bones)', renderer: g1.renderer, ms: g1.dragLatencies.map(r1), answerMs: g1.dragAnswerMs.map(r1) };
+  assert.deepEqual(pageErrors(page), []);
+  await page.close();
+});
