@@ -220,11 +220,28 @@ pub fn components(layout: &Layout) -> BTreeMap<Id, Id> {
 /// The block owning each parcel (4.1.1: a parcel completely inside a block;
 /// tested with its vertex centroid and every vertex).
 pub fn ownership(layout: &Layout, blocks: &[Block]) -> BTreeMap<Id, Id> {
+    let tree = rstar::RTree::bulk_load(
+        blocks
+            .iter()
+            .enumerate()
+            .map(|(i, b)| {
+                let (min, max) = crate::index::bounds(&b.ring);
+                crate::index::Boxed {
+                    id: Id(i as u64),
+                    min,
+                    max,
+                }
+            })
+            .collect(),
+    );
     let mut own = BTreeMap::new();
     for p in layout.parcels.values() {
         let c = crate::geom::vertex_centroid(&p.ring);
         let mut best: Option<&Block> = None;
-        for b in blocks {
+        for bx in tree.locate_in_envelope_intersecting(&rstar::AABB::from_point([c.x, c.y])) {
+            let Some(b) = blocks.get(bx.id.0 as usize) else {
+                continue;
+            };
             if b.contains(c)
                 && p.ring.iter().all(|v| point_in_ring(*v, &b.ring))
                 && best.is_none_or(|k| k.area > b.area)

@@ -442,7 +442,6 @@ fn add_parcel(
             ring: pts,
             origin: ParcelOrigin::Explicit,
             tags: tags_from(props),
-            rest: None,
         },
     );
     Ok(())

@@ -21,15 +21,19 @@
 //! returns a typed error and leaves its input as it was; maps are ordered
 //! by identity, so everything is deterministic; library code never panics
 //! on user input.
+pub mod assign;
 pub mod blocks;
 pub mod generate;
 pub mod geojson_io;
 pub mod geom;
 pub mod id;
 pub mod index;
+pub mod layers;
 pub mod merge;
 pub mod model;
+pub mod select;
 pub mod shared;
+pub mod sidecar;
 pub mod subdivide;
 pub mod transform;
 pub mod validity;

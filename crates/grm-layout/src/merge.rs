@@ -211,6 +211,7 @@ pub fn merge(
             .map(|(k, v)| (*k, v.clone()))
             .collect(),
         parcels: BTreeMap::new(),
+        rests: BTreeMap::new(),
     };
     rejoin(&mut out, &sh);
     out.drop_isolated_nodes();
@@ -578,7 +579,11 @@ fn parcels(
         match kept {
             Some(ps) => {
                 report.blocks_kept += 1;
-                for p in ps {
+                for mut p in ps {
+                    // The parcel now belongs to the result's block.
+                    if matches!(p.origin, ParcelOrigin::Generated { .. }) {
+                        p.origin = ParcelOrigin::Generated { block: b.id };
+                    }
                     if matches!(src, Some((Side::A, _))) {
                         from_a.insert(p.id);
                     }

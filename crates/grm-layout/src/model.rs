@@ -114,13 +114,15 @@ pub enum ParcelOrigin {
     Explicit,
 }
 
-/// The pose a parcel was made in: its owner block's ring and its own ring
-/// then. Smooth transforms start from it, so moving a block away and back
-/// restores the parcel exactly.
+/// The pose a block's parcels were first moved from: the block's ring
+/// then and its parcels then. The non-topological transform computes a
+/// moved block's parcels from it alone (smoothly, or regrown past the
+/// thresholds), so they depend on the block's ring, not on the path of
+/// moves: moving a block away and back restores its parcels exactly.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Rest {
-    pub block_ring: Vec<Coord>,
+pub struct BlockRest {
     pub ring: Vec<Coord>,
+    pub parcels: Vec<Parcel>,
 }
 
 /// A simple polygon (open ring, counter-clockwise, at least 3 vertices).
@@ -130,7 +132,6 @@ pub struct Parcel {
     pub ring: Vec<Coord>,
     pub origin: ParcelOrigin,
     pub tags: Tags,
-    pub rest: Option<Rest>,
 }
 
 /// One urban layout: a street graph and parcels.
@@ -139,6 +140,9 @@ pub struct Layout {
     pub nodes: BTreeMap<Id, Node>,
     pub streets: BTreeMap<Id, Street>,
     pub parcels: BTreeMap<Id, Parcel>,
+    /// Rest poses of moved blocks, by block identity (derived state the
+    /// transform keeps; not part of the layout's content or its files).
+    pub rests: BTreeMap<Id, BlockRest>,
 }
 
 /// What kind of element an identity names.

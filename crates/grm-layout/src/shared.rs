@@ -188,8 +188,7 @@ pub fn shared(a: &Layout, b: &Layout) -> Shared {
     }
     let mut out = Layout {
         nodes: base.nodes.clone(),
-        streets: BTreeMap::new(),
-        parcels: BTreeMap::new(),
+        ..Layout::default()
     };
     for (side, s) in &streets {
         if *side == Side::A && drop_a.contains(&s.id) {

@@ -10,7 +10,7 @@ use crate::blocks::Block;
 use crate::geom::{self, check_ring, open_ccw};
 use crate::id::{Id, Stream};
 use crate::index::{Seg, bounds};
-use crate::model::{Layout, Parcel, ParcelOrigin, Rest, Tags};
+use crate::model::{Layout, Parcel, ParcelOrigin, Tags};
 use geo::{Area, BooleanOps, Buffer, Coord, LineString, MinimumRotatedRect, MultiPolygon, Polygon};
 use rstar::RTree;
 use std::collections::BTreeSet;
@@ -174,13 +174,9 @@ fn split(
         }
         out.push(Parcel {
             id: m.finish(),
-            ring: ring.clone(),
+            ring,
             origin: ParcelOrigin::Generated { block: block.id },
             tags: Tags::new(),
-            rest: Some(Rest {
-                block_ring: block.ring.clone(),
-                ring,
-            }),
         });
         return;
     }
@@ -267,17 +263,21 @@ pub fn regrow(
         .filter(|b| only.is_none_or(|o| o.contains(&b.id)))
         .collect();
     let ids: BTreeSet<Id> = chosen.iter().map(|b| b.id).collect();
+    // A regrown block's rest pose is gone (its parcels are new).
+    layout
+        .rests
+        .retain(|k, _| only.is_some() && !ids.contains(k));
     layout.parcels.retain(|_, p| match p.origin {
         ParcelOrigin::Generated { block } => only.is_some() && !ids.contains(&block),
         ParcelOrigin::Explicit => true,
     });
-    let explicit_boxes = crate::validity::parcel_boxes(layout);
+    let boxes = crate::validity::parcel_boxes(layout);
     let mut fresh = Vec::new();
     for b in chosen {
         for p in subdivide_block(layout, &segs, b, block_seed(layer_seed, b.id), params) {
-            // An explicit parcel already there keeps its place.
+            // A parcel already there (given, or kept by a merge) keeps its place.
             let (min, max) = bounds(&p.ring);
-            let clash = explicit_boxes
+            let clash = boxes
                 .locate_in_envelope_intersecting(&crate::index::grown(min, max, 0.0))
                 .any(|o| crate::validity::rings_overlap(&p.ring, &layout.parcels[&o.id].ring));
             if !clash {

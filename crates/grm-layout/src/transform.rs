@@ -15,7 +15,7 @@ use crate::blocks::{Block, blocks, ownership};
 use crate::geom::{self, Affine, apply_coords, mean_value_coords, quantize};
 use crate::id::Id;
 use crate::index;
-use crate::model::{Layout, ParcelOrigin, Rest};
+use crate::model::{BlockRest, Layout, Parcel, ParcelOrigin};
 use crate::subdivide::{ParcelParams, block_seed, subdivide_block};
 use crate::validity::{Violation, check_parcels, check_streets, parcel_street_hit};
 use std::collections::{BTreeMap, BTreeSet};
@@ -158,6 +158,11 @@ pub fn transform(
         ..Moved::default()
     };
     let mut changed_parcels: BTreeSet<Id> = BTreeSet::new();
+    let max_half = u
+        .streets
+        .values()
+        .map(|s| s.width * 0.5)
+        .fold(0.0, f64::max);
     for b in before
         .iter()
         .filter(|b| b.nodes.iter().any(|n| w.contains_key(n)))
@@ -174,72 +179,33 @@ pub fn transform(
             })
             .map(|p| p.id)
             .collect();
-        let mut regrow = false;
-        let mut restored = true;
+        let rest = u
+            .rests
+            .entry(b.id)
+            .or_insert_with(|| BlockRest {
+                ring: b.ring.clone(),
+                parcels: members
+                    .iter()
+                    .filter_map(|id| layout.parcels.get(id).cloned())
+                    .collect(),
+            })
+            .clone();
         for id in &members {
-            let Some(p) = u.parcels.get_mut(id) else {
-                continue;
-            };
-            let rest = p.rest.get_or_insert_with(|| Rest {
-                block_ring: b.ring.clone(),
-                ring: p.ring.clone(),
-            });
-            if rest.block_ring == b1.ring {
-                p.ring = rest.ring.clone();
-                changed_parcels.insert(p.id);
-                continue;
-            }
-            restored = false;
-            let generated = matches!(p.origin, ParcelOrigin::Generated { .. });
-            if generated && too_different(&rest.block_ring, &b1.ring, params) {
-                regrow = true;
-                break;
-            }
-            match smooth(&rest.ring, &rest.block_ring, &b1.ring) {
-                Some(r) => p.ring = r,
-                None if generated => {
-                    regrow = true;
-                    break;
-                }
-                None => {}
-            }
+            u.parcels.remove(id);
+        }
+        let (new, how) = parcels_for(&u, &segs, &rest, b1, params, max_half);
+        match how {
+            How::Restored => out.blocks_restored += 1,
+            How::Smoothed => out.blocks_smoothed += 1,
+            How::Regrown => out.blocks_regrown += 1,
+        }
+        for p in new {
             changed_parcels.insert(p.id);
-        }
-        if !regrow {
-            // Smooth parcels that now touch a street regrow the block instead.
-            let max_half = u
-                .streets
-                .values()
-                .map(|s| s.width * 0.5)
-                .fold(0.0, f64::max);
-            regrow = members.iter().any(|id| {
-                u.parcels.get(id).is_some_and(|p| {
-                    matches!(p.origin, ParcelOrigin::Generated { .. })
-                        && (geom::check_ring(&p.ring).is_err()
-                            || parcel_street_hit(&u, &segs, &p.ring, max_half).is_some())
-                })
-            });
-        }
-        if regrow {
-            u.parcels
-                .retain(|_, p| p.origin != ParcelOrigin::Generated { block: b.id });
-            for p in subdivide_block(
-                &u,
-                &segs,
-                b1,
-                block_seed(params.seed, b.id),
-                &params.parcels,
-            ) {
-                changed_parcels.insert(p.id);
-                u.parcels.insert(p.id, p);
-            }
-            out.blocks_regrown += 1;
-        } else if restored && !members.is_empty() {
-            out.blocks_restored += 1;
-        } else {
-            out.blocks_smoothed += 1;
+            u.parcels.insert(p.id, p);
         }
     }
+    let live: BTreeSet<Id> = after.iter().map(|b| b.id).collect();
+    u.rests.retain(|k, _| live.contains(k));
     // Every parcel near a moved street, and every parcel that changed, must be clear.
     let mut near: BTreeSet<Id> = changed_parcels;
     let boxes = crate::validity::parcel_boxes(&u);
@@ -262,6 +228,77 @@ pub fn transform(
     }
     *layout = u;
     Ok(out)
+}
+
+enum How {
+    Restored,
+    Smoothed,
+    Regrown,
+}
+
+/// A block's parcels in a new pose, from its rest pose alone: the rest
+/// parcels when the ring is the rest ring; else the given (explicit)
+/// parcels moved smoothly, and the generated ones moved smoothly too
+/// unless the block changed past the thresholds or a moved parcel would
+/// touch a street, when they regrow (clear of the explicit ones).
+fn parcels_for(
+    u: &Layout,
+    segs: &rstar::RTree<index::Seg>,
+    rest: &BlockRest,
+    b1: &Block,
+    params: &UpdateParams,
+    max_half: f64,
+) -> (Vec<Parcel>, How) {
+    if rest.ring == b1.ring {
+        return (rest.parcels.clone(), How::Restored);
+    }
+    let mut explicit = Vec::new();
+    let mut generated = Vec::new();
+    let mut regrow = too_different(&rest.ring, &b1.ring, params);
+    for p in &rest.parcels {
+        let is_gen = matches!(p.origin, ParcelOrigin::Generated { .. });
+        if is_gen && regrow {
+            continue;
+        }
+        let mut q = p.clone();
+        match smooth(&p.ring, &rest.ring, &b1.ring) {
+            Some(r) => q.ring = r,
+            None if is_gen => regrow = true,
+            None => {}
+        }
+        if is_gen {
+            if geom::check_ring(&q.ring).is_err()
+                || parcel_street_hit(u, segs, &q.ring, max_half).is_some()
+            {
+                regrow = true;
+            }
+            generated.push(q);
+        } else {
+            explicit.push(q);
+        }
+    }
+    if !regrow {
+        // Smoothing bends shared edges with a vertex of one parcel in the
+        // middle of the other's edge; parcels that then overlap regrow.
+        let all: Vec<&Parcel> = explicit.iter().chain(generated.iter()).collect();
+        let clash = generated.iter().any(|g| {
+            all.iter()
+                .any(|o| o.id != g.id && crate::validity::rings_overlap(&g.ring, &o.ring))
+        });
+        if !clash {
+            explicit.extend(generated);
+            return (explicit, How::Smoothed);
+        }
+    }
+    for p in subdivide_block(u, segs, b1, block_seed(params.seed, b1.id), &params.parcels) {
+        if !explicit
+            .iter()
+            .any(|e| crate::validity::rings_overlap(&e.ring, &p.ring))
+        {
+            explicit.push(p);
+        }
+    }
+    (explicit, How::Regrown)
 }
 
 fn too_different(a: &[geo::Coord], b: &[geo::Coord], p: &UpdateParams) -> bool {

@@ -66,6 +66,11 @@ impl Violation {
 /// Tolerance (m) by which a parcel may come nearer a street than half its width.
 pub const STREET_TOLERANCE: f64 = 1e-6;
 
+/// Depth (m) by which two parcels may overlap before it counts: the
+/// clipper rounds, and a smooth transform bends an edge that has another
+/// parcel's vertex in its middle by far less.
+pub const OVERLAP_TOLERANCE: f64 = 1e-3;
+
 /// Every violation in a layout.
 pub fn check(layout: &Layout) -> Vec<Violation> {
     let segs = index::segments(layout);
@@ -246,6 +251,14 @@ pub fn parcel_street_hit(
             continue;
         };
         let half = st.width * 0.5 - STREET_TOLERANCE;
+        let (smin, smax) = bounds(&[sg.a, sg.b]);
+        if smin[0] - half > max[0]
+            || smax[0] + half < min[0]
+            || smin[1] - half > max[1]
+            || smax[1] + half < min[1]
+        {
+            continue;
+        }
         if segment_ring_dist(sg.a, sg.b, ring) < half {
             hits.push(sg.street);
         }
@@ -287,14 +300,14 @@ pub fn rings_overlap(a: &[Coord], b: &[Coord]) -> bool {
     if amax[0] <= bmin[0] || bmax[0] <= amin[0] || amax[1] <= bmin[1] || bmax[1] <= amin[1] {
         return false;
     }
-    let eps = 1e-6;
+    let eps = OVERLAP_TOLERANCE;
     let na = a.len();
     let nb = b.len();
     for i in 0..na {
         let (p, q) = (a[i], a[(i + 1) % na]);
         for j in 0..nb {
             let (r, s) = (b[j], b[(j + 1) % nb]);
-            if crosses_clearly(p, q, r, s, 1e-6) {
+            if crosses_clearly(p, q, r, s, eps) {
                 return true;
             }
         }

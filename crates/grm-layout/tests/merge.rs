@@ -69,13 +69,14 @@ fn the_hard_merge_keeps_every_upper_street_and_is_valid() {
         upper.len()
     );
     assert_eq!(r.upper_pieces_dropped, 0);
-    // Parcels of untouched upper blocks come through unchanged.
+    // Parcels of untouched upper blocks come through with their identities
+    // and polygons (owned now by the merged layout's block).
     let kept = b
         .parcels
-        .keys()
-        .filter(|k| m.parcels.get(k) == b.parcels.get(k))
+        .iter()
+        .filter(|(k, p)| m.parcels.get(k).is_some_and(|q| q.ring == p.ring))
         .count();
-    assert!(kept > 0);
+    assert!(kept * 2 > b.parcels.len(), "{kept} of {}", b.parcels.len());
 }
 
 #[test]

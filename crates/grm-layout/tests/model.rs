@@ -131,7 +131,6 @@ fn the_check_finds_each_violation() {
         ring: vec![c(10.0, 2.0), c(30.0, 2.0), c(30.0, 20.0), c(10.0, 20.0)],
         origin: ParcelOrigin::Explicit,
         tags: Tags::new(),
-        rest: None,
     };
     let mut p2 = p1.clone();
     p2.id = Id::mint("p").u64(2).finish();
