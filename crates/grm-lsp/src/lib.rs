@@ -43,6 +43,7 @@ pub mod picture;
 pub mod preview;
 pub mod shape_preview;
 pub mod stdio;
+pub mod tree_view;
 pub mod uris;
 
 use grm_analysis::{Analysis, FileAnalysis, Lookup};
@@ -302,6 +303,7 @@ fn build(
         .custom_method("grm/edit", Backend::edit)
         .custom_method("grm/removeEdit", Backend::remove_edit)
         .custom_method("grm/provenance", Backend::provenance)
+        .custom_method("grm/tree", Backend::tree)
         .custom_method("grm/drag", Backend::drag)
         .custom_method("grm/sketch", Backend::sketch)
         .custom_method("grm/writeParams", Backend::write_params)

@@ -133,6 +133,26 @@ fn model(v: Vec3) -> [f32; 3] {
 }
 
 impl ShapePicks {
+    /// The shape tree of the preview.
+    pub(crate) fn tree(&self) -> &ShapeTree {
+        &self.tree
+    }
+
+    /// The lowered program (symbol, tag and asset names).
+    pub(crate) fn program(&self) -> &grm_shape::Program {
+        &self.lowered.program
+    }
+
+    /// Where the operation that made `node` is written (the system's name
+    /// for the axiom).
+    pub(crate) fn made_range(&self, node: NodeId) -> Option<(Uri, Range)> {
+        if node.0 == 0 {
+            return Some((self.uri.clone(), self.system));
+        }
+        let (_, _, range) = self.made_by(node)?;
+        Some((self.uri.clone(), range))
+    }
+
     /// The node a pick names: the shape whose group was picked (an
     /// insert's shape is the one whose rule inserted it).
     fn shape_of(&self, node: NodeId) -> Option<NodeId> {

@@ -1,0 +1,125 @@
+//! `grm/tree` (issue 28, item 4): the last preview's derivation tree a
+//! level at a time, linked to picks (by key: the path to a picked part)
+//! and to the source (each node's rule), in shape and derive mode.
+
+mod common;
+
+use common::*;
+use serde_json::json;
+
+const HOUSE: &str = "system House {
+    mode = shape;
+    seed = 1;
+    lot = rect(10, 6);
+    axiom Lot;
+
+    Lot -> extrude(8) Mass;
+    Mass -> split(z) { 3: Ground | ~1: Top };
+    Ground -> split(x) { ~1: Wall | 2: Door | ~1: Wall };
+}
+";
+
+const TREE: &str = "system T {
+    iterations = 2;
+    axiom A;
+    A -> F(1) [ + A ] A;
+}
+";
+
+#[tokio::test]
+async fn the_shape_tree_is_walked_a_level_at_a_time_and_reveals_a_pick() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let p = dir.path().join("house.grm");
+    std::fs::write(&p, HOUSE).unwrap();
+    let mut c = Client::start().await;
+    let u = c.open(&p, HOUSE).await;
+    c.ok("grm/preview", json!({ "textDocument": { "uri": u } }))
+        .await;
+    let root = c
+        .ok("grm/tree", json!({ "textDocument": { "uri": u } }))
+        .await;
+    assert_eq!(root["mode"], "shape");
+    assert_eq!(root["node"]["label"], "Lot");
+    assert_eq!(root["node"]["node"], 0);
+    let kids = root["children"].as_array().unwrap();
+    assert_eq!(kids.len(), 1);
+    assert_eq!(kids[0]["label"], "Mass");
+    // The node's range is the operation that made it: in `Lot -> extrude(8) Mass;`.
+    assert_eq!(kids[0]["range"]["start"]["line"], 6);
+    let mass = c
+        .ok(
+            "grm/tree",
+            json!({ "textDocument": { "uri": u }, "node": kids[0]["node"] }),
+        )
+        .await;
+    let labels: Vec<&str> = mass["children"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|k| k["label"].as_str().unwrap())
+        .collect();
+    assert_eq!(labels, ["split.z"]);
+    // A pick's key reveals its path, ending at the picked shape.
+    let pick = c
+        .ok(
+            "grm/pick",
+            json!({ "textDocument": { "uri": u }, "part": 0, "triangle": 0 }),
+        )
+        .await;
+    let found = c
+        .ok(
+            "grm/tree",
+            json!({ "textDocument": { "uri": u }, "key": pick["key"] }),
+        )
+        .await;
+    let path = found["path"].as_array().unwrap();
+    assert_eq!(path.first(), Some(&json!(0)));
+    assert_eq!(path.last(), Some(&pick["shape"]["node"]));
+    assert_eq!(found["node"]["key"], pick["key"]);
+    assert_eq!(found["node"]["range"], pick["range"]);
+    // No such node: null.
+    let none = c
+        .ok(
+            "grm/tree",
+            json!({ "textDocument": { "uri": u }, "node": 100000 }),
+        )
+        .await;
+    assert!(none.is_null());
+}
+
+#[tokio::test]
+async fn the_derive_tree_links_picks_and_productions() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let p = dir.path().join("t.grm");
+    std::fs::write(&p, TREE).unwrap();
+    let mut c = Client::start().await;
+    let u = c.open(&p, TREE).await;
+    c.ok("grm/preview", json!({ "textDocument": { "uri": u } }))
+        .await;
+    let root = c
+        .ok("grm/tree", json!({ "textDocument": { "uri": u } }))
+        .await;
+    assert_eq!(root["mode"], "derive");
+    assert_eq!(root["node"]["label"], "axiom");
+    let kids = root["children"].as_array().unwrap();
+    assert_eq!(kids.len(), 1);
+    assert_eq!(kids[0]["label"], "A (iteration 0)");
+    // A was rewritten by `A -> ...` on line 3: its six children.
+    assert_eq!(kids[0]["range"]["start"]["line"], 3);
+    assert_eq!(kids[0]["children"], 6);
+    let pick = c
+        .ok(
+            "grm/pick",
+            json!({ "textDocument": { "uri": u }, "bone": 2 }),
+        )
+        .await;
+    let found = c
+        .ok(
+            "grm/tree",
+            json!({ "textDocument": { "uri": u }, "key": pick["key"] }),
+        )
+        .await;
+    let path = found["path"].as_array().unwrap();
+    assert_eq!(path.len(), pick["ancestry"].as_array().unwrap().len());
+    assert_eq!(found["node"]["key"], pick["key"]);
+}
