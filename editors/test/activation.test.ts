@@ -23,6 +23,13 @@ async function activateWith(setting: string): Promise<{ commands: string[]; erro
   const disposable = { dispose() {} };
   const vscode = new Proxy(
     {
+      // The derivation view's change event (esbuild's namespace copy of the
+      // module sees only these own properties).
+      EventEmitter: class {
+        event = () => disposable;
+        fire() {}
+        dispose() {}
+      },
       commands: {
         registerCommand: (id: string) => {
           calls.commands.push(id);
@@ -37,6 +44,7 @@ async function activateWith(setting: string): Promise<{ commands: string[]; erro
           return undefined;
         },
         showInformationMessage: async () => undefined,
+        createTreeView: () => ({ visible: false, reveal: async () => undefined, dispose() {} }),
       },
       workspace: {
         getConfiguration: () => ({ get: (k: string) => (k === 'server.path' ? setting : undefined) }),

@@ -10,6 +10,7 @@ import * as path from 'node:path';
 import * as vscode from 'vscode';
 import { LanguageClient, type LanguageClientOptions, type ServerOptions } from 'vscode-languageclient/node';
 import { defaultOutput, type ExportFormat, exportArgs, firstSystemMode, framesSummary, framesWritten, pictureSize } from './exportArgs.js';
+import { DerivationTree, type TreeNode } from './derivationTree.js';
 import { PreviewHost, curvesPathFor } from './host.js';
 import { resolveServerPath } from './serverPath.js';
 import { makeNonce, webviewHtml } from './webviewHtml.js';
@@ -18,6 +19,65 @@ let client: LanguageClient | undefined;
 let serverPath: string | undefined;
 let output: vscode.OutputChannel;
 let preview: PreviewPanel | undefined;
+let derivation: DerivationView | undefined;
+
+/**
+ * The "grm: Derivation" view (explorer): the previewed document's
+ * derivation tree (`grm/tree`), a node's rule opened on selection, and a
+ * part picked in the preview revealed in it.
+ */
+class DerivationView implements vscode.TreeDataProvider<TreeNode> {
+  readonly tree = new DerivationTree({
+    request: async (method, params) => {
+      if (!client) throw new Error('the grm language server is not running');
+      return client.sendRequest(method, params);
+    },
+  });
+  private readonly changed = new vscode.EventEmitter<TreeNode | undefined>();
+  readonly onDidChangeTreeData = this.changed.event;
+  readonly view: vscode.TreeView<TreeNode>;
+
+  constructor(context: vscode.ExtensionContext) {
+    this.view = vscode.window.createTreeView('grm.derivation', { treeDataProvider: this, showCollapseAll: true });
+    context.subscriptions.push(this.view, this.changed);
+  }
+
+  getTreeItem(n: TreeNode): vscode.TreeItem {
+    const item = new vscode.TreeItem(n.label, n.children > 0 ? vscode.TreeItemCollapsibleState.Collapsed : vscode.TreeItemCollapsibleState.None);
+    item.description = n.key;
+    item.tooltip = `${n.label} (key ${n.key})${n.children ? `, ${n.children} children` : ''}`;
+    if (n.uri && n.range) {
+      const r = n.range;
+      item.command = {
+        command: 'vscode.open',
+        title: 'Go to its rule',
+        arguments: [vscode.Uri.parse(n.uri), { selection: new vscode.Range(r.start.line, r.start.character, r.end.line, r.end.character), preserveFocus: true }],
+      };
+    }
+    return item;
+  }
+
+  getChildren(n?: TreeNode): Promise<TreeNode[]> {
+    return n ? this.tree.children(n) : this.tree.roots();
+  }
+
+  getParent(n: TreeNode): TreeNode | undefined {
+    return this.tree.parentOf(n);
+  }
+
+  /** A new preview of `uri`: the tree read again. */
+  previewed(uri: string): void {
+    this.tree.setDocument(uri, undefined);
+    this.changed.fire(undefined);
+  }
+
+  /** A part picked in the preview: its node selected in the view. */
+  async reveal(key: string): Promise<void> {
+    if (!this.view.visible) return;
+    const n = await this.tree.find(key);
+    if (n) await this.view.reveal(n, { select: true, focus: false, expand: true });
+  }
+}
 
 function isExecutable(p: string): boolean {
   try {
@@ -69,7 +129,12 @@ async function startClient(context: vscode.ExtensionContext): Promise<void> {
   let c: LanguageClient | undefined;
   try {
     c = new LanguageClient('grm', 'grm language server', serverOptions, clientOptions);
-    c.onNotification('grm/previewUpdated', (p: unknown) => preview?.host.previewUpdated(p));
+    c.onNotification('grm/previewUpdated', (p: unknown) => {
+      preview?.host.previewUpdated(p);
+      const q = p as { uri?: unknown; result?: { uri?: unknown } } | null;
+      const uri = q?.result?.uri ?? q?.uri;
+      if (typeof uri === 'string') derivation?.previewed(uri);
+    });
     await c.start();
     client = c;
   } catch (e) {
@@ -110,7 +175,13 @@ class PreviewPanel {
     this.host = new PreviewHost({
       request: async (method, params) => {
         if (!client) throw new Error('the grm language server is not running (see the "grm" output)');
-        return client.sendRequest(method, params);
+        const result = await client.sendRequest(method, params);
+        // The derivation view follows the preview and its picks.
+        const uri = (params as { textDocument?: { uri?: unknown } } | null)?.textDocument?.uri;
+        if (method === 'grm/preview' && typeof uri === 'string') derivation?.previewed(uri);
+        const key = (result as { key?: unknown } | null)?.key;
+        if (method === 'grm/pick' && typeof key === 'string') void derivation?.reveal(key).catch(() => {});
+        return result;
       },
       readFile: async (file) => {
         try {
@@ -307,6 +378,9 @@ async function exportModel(frames: boolean): Promise<void> {
 
 export async function activate(context: vscode.ExtensionContext): Promise<void> {
   output = vscode.window.createOutputChannel('grm');
+  derivation = new DerivationView(context);
+  // The derivation view shows in the explorer once grm is active.
+  void vscode.commands.executeCommand('setContext', 'grm.active', true);
   context.subscriptions.push(
     output,
     vscode.commands.registerCommand('grm.openPreview', () => openPreview(context)),
