@@ -33,6 +33,26 @@ const SCOPE_CUT_COLOR = 0xff8c1a;
 /** Direct manipulation: the draggable planes and bone tips, and the one being dragged. */
 const HANDLE_COLOR = 0x3fd6a0;
 const HANDLE_ACTIVE_COLOR = 0xffffff;
+/** A grip's diameter on screen, in CSS pixels (a press within 12 pixels of its centre grabs it). */
+const GRIP_PX = 13;
+
+let gripMap: THREE.Texture | null = null;
+
+/** A round dot (the grips are points, square without it), made once. */
+function gripTexture(): THREE.Texture {
+  if (gripMap) return gripMap;
+  const c = document.createElement('canvas');
+  c.width = c.height = 64;
+  const ctx = c.getContext('2d');
+  if (ctx) {
+    ctx.fillStyle = '#ffffff';
+    ctx.beginPath();
+    ctx.arc(32, 32, 30, 0, Math.PI * 2);
+    ctx.fill();
+  }
+  gripMap = new THREE.CanvasTexture(c);
+  return gripMap;
+}
 
 /**
  * Direct manipulation's handles as the scene draws them: grips (a sphere
@@ -490,14 +510,23 @@ export class PreviewScene {
       };
       lines(v.lines, HANDLE_COLOR, 9);
       lines(v.activeLines, HANDLE_ACTIVE_COLOR, 10);
-      const sphere = new THREE.SphereGeometry(this.handleRadius * 0.8, 12, 8);
-      for (const g of v.grips) {
-        const color = g.active ? HANDLE_ACTIVE_COLOR : HANDLE_COLOR;
-        const m = new THREE.Mesh(sphere, this.materials.get(`handle grip ${color}`, () => new THREE.MeshBasicMaterial({ color, depthTest: false })));
-        m.position.set(...g.at);
-        m.renderOrder = g.active ? 12 : 11;
-        this.handlesRoot.add(m);
-      }
+      // Grips as dots of a fixed size on screen (a model's scale says nothing of how big a hand is).
+      const dots = (pts: V3[], color: number, px: number, order: number): void => {
+        if (pts.length === 0) return;
+        // Drawing-buffer pixels: a CSS pixel is `pixelRatio` of them.
+        const size = px * this.renderer.getPixelRatio();
+        const g = new THREE.BufferGeometry();
+        g.setAttribute('position', new THREE.Float32BufferAttribute(pts.flat(), 3));
+        const m = this.materials.get(
+          `handle grip ${color} ${size}`,
+          () => new THREE.PointsMaterial({ color, size, sizeAttenuation: false, map: gripTexture(), alphaTest: 0.5, depthTest: false, transparent: true }),
+        );
+        const p = new THREE.Points(g, m);
+        p.renderOrder = order;
+        this.handlesRoot.add(p);
+      };
+      dots(v.grips.filter((g) => !g.active).map((g) => g.at), HANDLE_COLOR, GRIP_PX, 11);
+      dots(v.grips.filter((g) => g.active).map((g) => g.at), HANDLE_ACTIVE_COLOR, GRIP_PX + 2, 12);
     }
     this.requestRender();
   }
