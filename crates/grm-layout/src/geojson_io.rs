@@ -15,7 +15,7 @@ use crate::model::{
 };
 use geo::Coord;
 use serde_json::{Map, Value, json};
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 
 /// What is wrong with one element of a GeoJSON input.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -128,7 +128,16 @@ pub fn read(text: &str, source: &str) -> Loaded {
             ..Default::default()
         }],
     };
+    let mut names: BTreeMap<Id, (usize, String)> = BTreeMap::new();
+    let junctions = junctions(&features);
     for (i, f) in features.iter().enumerate() {
+        let before: BTreeSet<Id> = out
+            .layout
+            .streets
+            .keys()
+            .chain(out.layout.parcels.keys())
+            .copied()
+            .collect();
         let name = match &f.id {
             Some(geojson::feature::Id::String(s)) => s.clone(),
             Some(geojson::feature::Id::Number(n)) => n.to_string(),
@@ -176,7 +185,7 @@ pub fn read(text: &str, source: &str) -> Loaded {
                     fid,
                     explicit_id,
                     source,
-                    None,
+                    &junctions,
                 ) {
                     out.errors.push(e);
                 }
@@ -193,7 +202,7 @@ pub fn read(text: &str, source: &str) -> Loaded {
                         pid,
                         None,
                         source,
-                        Some(k),
+                        &junctions,
                     ) {
                         out.errors.push(e);
                     }
@@ -218,8 +227,13 @@ pub fn read(text: &str, source: &str) -> Loaded {
                 "only LineString, MultiLineString (streets) and Polygon (parcels) are read",
             )),
         }
+        for id in out.layout.streets.keys().chain(out.layout.parcels.keys()) {
+            if !before.contains(id) {
+                names.insert(*id, (i, name.clone()));
+            }
+        }
     }
-    drop_conflicts(&mut out);
+    drop_conflicts(&mut out, &names);
     out
 }
 
@@ -256,7 +270,7 @@ fn add_street(
     fid: Option<&str>,
     explicit: Option<Id>,
     source: &str,
-    _part: Option<usize>,
+    junctions: &BTreeSet<(u64, u64)>,
 ) -> Result<(), LoadError> {
     let mut pts: Vec<Coord> = Vec::with_capacity(coords.len());
     for p in coords {
@@ -328,7 +342,6 @@ fn add_street(
     };
     let width = num("width", class.default_width())?;
     let priority = num("priority", class.default_priority())?;
-    let n = pts.len();
     let node = |c: Coord| {
         Id::mint("node")
             .str("geojson")
@@ -337,32 +350,110 @@ fn add_street(
             .f64(c.y)
             .finish()
     };
-    let a = l.add_node(node(pts[0]), pts[0]);
-    let b = l.add_node(node(pts[n - 1]), pts[n - 1]);
-    let interior = pts[1..n - 1].to_vec();
-    let id = match (explicit, fid) {
-        (Some(id), _) => id,
-        (None, Some(f)) => Id::mint("street")
-            .str("geojson")
-            .str(source)
-            .str(f)
-            .finish(),
-        (None, None) => Street::mint_id(a, b, &interior),
-    };
-    if l.kind_of(id).is_some() {
-        return Err(err(
-            LoadErrorKind::Conflict,
-            name,
-            format!("identity {id} is already used"),
-        ));
+    // A street is cut where another street starts, ends or passes through
+    // one of its points (a junction drawn as a shared vertex).
+    let mut pieces: Vec<Vec<Coord>> = vec![vec![pts[0]]];
+    for (i, p) in pts.iter().enumerate().skip(1) {
+        if let Some(cur) = pieces.last_mut() {
+            cur.push(*p);
+        }
+        if i + 1 < pts.len() && junctions.contains(&key(*p)) {
+            pieces.push(vec![*p]);
+        }
     }
-    let mut s = Street::new(id, a, b, class);
-    s.interior = interior;
-    s.width = width;
-    s.priority = priority;
-    s.tags = tags_from(props);
-    l.streets.insert(id, s);
+    let whole = pieces.len() == 1;
+    for (k, pts) in pieces.into_iter().enumerate() {
+        let n = pts.len();
+        let a = l.add_node(node(pts[0]), pts[0]);
+        let b = l.add_node(node(pts[n - 1]), pts[n - 1]);
+        let interior = pts[1..n - 1].to_vec();
+        let base = match (explicit, fid) {
+            (Some(id), _) => id,
+            (None, Some(f)) => Id::mint("street")
+                .str("geojson")
+                .str(source)
+                .str(f)
+                .finish(),
+            (None, None) => Street::mint_id(a, b, &interior),
+        };
+        let id = if whole || (explicit.is_none() && fid.is_none()) {
+            base
+        } else {
+            Id::mint("street-piece").id(base).u64(k as u64).finish()
+        };
+        if l.kind_of(id).is_some() {
+            return Err(err(
+                LoadErrorKind::Conflict,
+                name,
+                format!("identity {id} is already used"),
+            ));
+        }
+        let mut s = Street::new(id, a, b, class);
+        s.interior = interior;
+        s.width = width;
+        s.priority = priority;
+        s.tags = tags_from(props);
+        l.streets.insert(id, s);
+    }
     Ok(())
+}
+
+fn key(c: Coord) -> (u64, u64) {
+    let z = |v: f64| {
+        if v == 0.0 {
+            0.0f64.to_bits()
+        } else {
+            v.to_bits()
+        }
+    };
+    (z(c.x), z(c.y))
+}
+
+/// Points where streets meet: every end of a line, and every point that
+/// two lines share.
+fn junctions(features: &[geojson::Feature]) -> BTreeSet<(u64, u64)> {
+    let mut ends = BTreeSet::new();
+    let mut seen: BTreeMap<(u64, u64), usize> = BTreeMap::new();
+    let mut line = 0usize;
+    let mut visit = |coords: &[geojson::Position], ends: &mut BTreeSet<(u64, u64)>| {
+        line += 1;
+        let pts: Vec<Coord> = coords
+            .iter()
+            .filter_map(|p| match p.as_slice() {
+                [x, y, ..] if x.is_finite() && y.is_finite() => Some(Coord { x: *x, y: *y }),
+                _ => None,
+            })
+            .collect();
+        if let (Some(f), Some(l)) = (pts.first(), pts.last()) {
+            ends.insert(key(*f));
+            ends.insert(key(*l));
+        }
+        for p in pts {
+            let e = seen.entry(key(p)).or_insert(line);
+            if *e != line {
+                *e = usize::MAX;
+            }
+        }
+    };
+    for f in features {
+        match f.geometry.as_ref().map(|g| &g.value) {
+            Some(geojson::GeometryValue::LineString { coordinates }) => {
+                visit(coordinates, &mut ends)
+            }
+            Some(geojson::GeometryValue::MultiLineString { coordinates }) => {
+                for c in coordinates {
+                    visit(c, &mut ends);
+                }
+            }
+            _ => {}
+        }
+    }
+    ends.extend(
+        seen.into_iter()
+            .filter(|(_, v)| *v == usize::MAX)
+            .map(|(k, _)| k),
+    );
+    ends
 }
 
 fn add_parcel(
@@ -447,46 +538,83 @@ fn add_parcel(
     Ok(())
 }
 
-/// Streets that cross earlier ones and parcels that overlap a street or an
-/// earlier parcel are dropped and reported (the layout stays valid).
-fn drop_conflicts(out: &mut Loaded) {
+/// Streets that cross earlier ones, then parcels that overlap a street or
+/// an earlier parcel, are dropped and reported by their feature's name
+/// (the layout stays valid).
+fn drop_conflicts(out: &mut Loaded, names: &BTreeMap<Id, (usize, String)>) {
     use crate::validity::{Violation, check};
+    let order = |id: &Id| names.get(id).map_or(usize::MAX, |n| n.0);
+    let name = |id: &Id, l: &Layout| {
+        names.get(id).map_or_else(
+            || {
+                format!(
+                    "{} {id}",
+                    l.kind_of(*id).map_or("element", ElementKind::name)
+                )
+            },
+            |n| n.1.clone(),
+        )
+    };
     for _ in 0..64 {
         let v = check(&out.layout);
         if v.is_empty() {
             break;
         }
-        let mut drop: BTreeSet<Id> = BTreeSet::new();
+        let streets_wrong = v.iter().any(|x| {
+            matches!(
+                x,
+                Violation::StreetsCross { .. }
+                    | Violation::StreetsOverlap { .. }
+                    | Violation::StreetSelfCrossing { .. }
+                    | Violation::DegenerateStreet { .. }
+                    | Violation::MissingNode { .. }
+            )
+        });
+        let later = |a: &Id, b: &Id| {
+            if order(a) > order(b) {
+                (*a, *b)
+            } else {
+                (*b, *a)
+            }
+        };
+        let mut drop: BTreeMap<Id, String> = BTreeMap::new();
         for x in &v {
             let (victim, msg) = match x {
-                Violation::StreetsCross { b, a, .. } => {
-                    (*b, format!("crosses street {a} away from a shared node"))
+                Violation::StreetsCross { a, b, .. } => {
+                    let (v, o) = later(a, b);
+                    (
+                        v,
+                        format!(
+                            "crosses street `{}` away from a shared node",
+                            name(&o, &out.layout)
+                        ),
+                    )
                 }
-                Violation::StreetsOverlap { b, a } => (*b, format!("runs along street {a}")),
-                Violation::ParcelOnStreet { parcel, street } => {
-                    (*parcel, format!("overlaps street {street}"))
+                Violation::StreetsOverlap { a, b } => {
+                    let (v, o) = later(a, b);
+                    (v, format!("runs along street `{}`", name(&o, &out.layout)))
                 }
-                Violation::ParcelsOverlap { b, a } => (*b, format!("overlaps parcel {a}")),
                 Violation::StreetSelfCrossing { street } => (*street, "crosses itself".to_string()),
                 Violation::DegenerateStreet { street } => (*street, "is degenerate".to_string()),
-                Violation::BadParcel { parcel, .. } => (*parcel, "is not simple".to_string()),
                 Violation::MissingNode { street, .. } => {
                     (*street, "names a missing node".to_string())
                 }
+                _ if streets_wrong => continue,
+                Violation::ParcelOnStreet { parcel, street } => (
+                    *parcel,
+                    format!("overlaps street `{}`", name(street, &out.layout)),
+                ),
+                Violation::ParcelsOverlap { a, b } => {
+                    let (v, o) = later(a, b);
+                    (v, format!("overlaps parcel `{}`", name(&o, &out.layout)))
+                }
+                Violation::BadParcel { parcel, .. } => (*parcel, "is not simple".to_string()),
             };
-            if drop.insert(victim) {
-                let kind = out
-                    .layout
-                    .kind_of(victim)
-                    .map_or("element", ElementKind::name);
-                out.errors.push(err(
-                    LoadErrorKind::Conflict,
-                    &format!("{kind} {victim}"),
-                    msg,
-                ));
-            }
+            drop.entry(victim).or_insert(msg);
         }
-        for id in drop {
+        for (id, msg) in drop {
+            out.errors
+                .push(err(LoadErrorKind::Conflict, &name(&id, &out.layout), msg));
             out.layout.delete(id);
         }
         out.layout.drop_isolated_nodes();

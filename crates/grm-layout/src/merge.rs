@@ -189,10 +189,11 @@ pub fn merge(
         crossings: sh.crossings.len(),
         ..MergeReport::default()
     };
-    let keep: BTreeSet<Id> = match mode {
+    let mut keep: BTreeSet<Id> = match mode {
         MergeMode::Hard => hard_keep(&sh, &idx_b),
         MergeMode::GraphCut => cut_keep(&sh, &idx_a, &idx_b, params, &mut report),
     };
+    clear_free_parcels(&sh, upper, &blocks_b, &mut keep);
     for (id, (side, _)) in &sh.origin {
         if !keep.contains(id) {
             match side {
@@ -236,6 +237,44 @@ pub fn merge(
     Ok((out, report))
 }
 
+/// The upper layout's free parcels (owned by none of its blocks) stand
+/// like blocks of their own (Lipp encloses them with streets): a lower
+/// piece that would touch one is dropped.
+fn clear_free_parcels(sh: &Shared, upper: &Layout, blocks_b: &[Block], keep: &mut BTreeSet<Id>) {
+    let own = ownership(upper, blocks_b);
+    let free: Vec<&Parcel> = upper
+        .parcels
+        .values()
+        .filter(|p| p.origin == ParcelOrigin::Explicit && !own.contains_key(&p.id))
+        .collect();
+    if free.is_empty() {
+        return;
+    }
+    let mut lower = Layout {
+        nodes: sh.layout.nodes.clone(),
+        ..Layout::default()
+    };
+    for id in keep.iter() {
+        if sh.origin.get(id).is_some_and(|o| o.0 == Side::A)
+            && let Some(s) = sh.layout.streets.get(id)
+        {
+            lower.streets.insert(*id, s.clone());
+        }
+    }
+    let segs = index::segments(&lower);
+    let max_half = lower
+        .streets
+        .values()
+        .map(|s| s.width * 0.5)
+        .fold(0.0, f64::max);
+    for p in free {
+        while let Some(hit) = crate::validity::parcel_street_hit(&lower, &segs, &p.ring, max_half) {
+            keep.remove(&hit);
+            lower.streets.remove(&hit);
+        }
+    }
+}
+
 fn hard_keep(sh: &Shared, idx_b: &BlockIndex) -> BTreeSet<Id> {
     sh.origin
         .iter()
@@ -254,47 +293,15 @@ fn cut_keep(
     report: &mut MergeReport,
 ) -> BTreeSet<Id> {
     let l = &sh.layout;
-    if sh.crossings.is_empty() {
+    if sh.splits.is_empty() {
+        // Nothing crosses: the union is planar as it is.
         return sh.origin.keys().copied().collect();
     }
-    // The cut graph without dead ends (peeled leaf by leaf).
-    let mut adj: BTreeMap<Id, BTreeSet<Id>> = BTreeMap::new();
-    for s in l.streets.values() {
-        adj.entry(s.a).or_default().insert(s.id);
-        adj.entry(s.b).or_default().insert(s.id);
-    }
-    let mut removed_streets: BTreeSet<Id> = BTreeSet::new();
-    let mut peel: Vec<(Id, Id)> = Vec::new(); // (leaf node, node it hangs from)
-    let mut stack: Vec<Id> = adj
-        .iter()
-        .filter(|(_, e)| e.len() == 1)
-        .map(|(n, _)| *n)
-        .collect();
-    while let Some(n) = stack.pop() {
-        let Some(es) = adj.get(&n) else { continue };
-        if es.len() != 1 {
-            continue;
-        }
-        let Some(&e) = es.iter().next() else { continue };
-        let Some(s) = l.streets.get(&e) else { continue };
-        let other = s.other(n);
-        removed_streets.insert(e);
-        adj.remove(&n);
-        peel.push((n, other));
-        if let Some(o) = adj.get_mut(&other) {
-            o.remove(&e);
-            if o.len() == 1 {
-                stack.push(other);
-            }
-        }
-    }
-    // Border nodes.
+    // Border nodes (on the whole shared graph): a node of one side on a
+    // piece that reaches a crossing, not inside a block of the other side.
     let mut src: BTreeSet<Id> = BTreeSet::new();
     let mut snk: BTreeSet<Id> = BTreeSet::new();
     for s in l.streets.values() {
-        if removed_streets.contains(&s.id) {
-            continue;
-        }
         let Some(&(side, _)) = sh.origin.get(&s.id) else {
             continue;
         };
@@ -316,31 +323,64 @@ fn cut_keep(
             }
         }
     }
-    let tie_top = |side: Side, set: &mut BTreeSet<Id>| {
+    // A side without border nodes has the ends of its highest-priority
+    // pieces tied (crossings too, when that is all they have).
+    let tie_top = |side: Side, set: &mut BTreeSet<Id>, other: &BTreeSet<Id>| {
         let mut v: Vec<(i64, Id)> = l
             .streets
             .values()
-            .filter(|s| {
-                !removed_streets.contains(&s.id)
-                    && sh.origin.get(&s.id).is_some_and(|o| o.0 == side)
-            })
+            .filter(|s| sh.origin.get(&s.id).is_some_and(|o| o.0 == side))
             .map(|s| (capacity(s), s.id))
             .collect();
         v.sort_by(|x, y| y.0.cmp(&x.0).then(x.1.cmp(&y.1)));
         for (_, id) in v.into_iter().take(params.constrain_top) {
             let s = &l.streets[&id];
             for n in [s.a, s.b] {
-                if !sh.crossings.contains(&n) {
+                if !other.contains(&n) {
                     set.insert(n);
                 }
             }
         }
     };
     if src.is_empty() {
-        tie_top(Side::A, &mut src);
+        tie_top(Side::A, &mut src, &snk);
     }
     if snk.is_empty() {
-        tie_top(Side::B, &mut snk);
+        tie_top(Side::B, &mut snk, &src);
+    }
+    // The cut graph without dead ends (peeled leaf by leaf; a node tied to
+    // the source or the sink is no dead end).
+    let mut adj: BTreeMap<Id, BTreeSet<Id>> = BTreeMap::new();
+    for s in l.streets.values() {
+        adj.entry(s.a).or_default().insert(s.id);
+        adj.entry(s.b).or_default().insert(s.id);
+    }
+    let tied = |n: &Id| src.contains(n) || snk.contains(n);
+    let mut removed_streets: BTreeSet<Id> = BTreeSet::new();
+    let mut peel: Vec<(Id, Id)> = Vec::new(); // (leaf node, node it hangs from)
+    let mut stack: Vec<Id> = adj
+        .iter()
+        .filter(|(n, e)| e.len() == 1 && !tied(n))
+        .map(|(n, _)| *n)
+        .collect();
+    while let Some(n) = stack.pop() {
+        let Some(es) = adj.get(&n) else { continue };
+        if es.len() != 1 {
+            continue;
+        }
+        let Some(&e) = es.iter().next() else { continue };
+        let Some(s) = l.streets.get(&e) else { continue };
+        let other = s.other(n);
+        removed_streets.insert(e);
+        adj.remove(&n);
+        peel.push((n, other));
+        if let Some(o) = adj.get_mut(&other)
+            && o.remove(&e)
+            && o.len() == 1
+            && !tied(&other)
+        {
+            stack.push(other);
+        }
     }
     snk.retain(|n| !src.contains(n));
     let mut edges: Vec<(Id, Id, i64)> = Vec::new();

@@ -13,6 +13,9 @@ use crate::model::{Layout, Street};
 use geo::Coord;
 use std::collections::{BTreeMap, BTreeSet};
 
+/// The tag a piece of a cut street carries: the whole street's identity.
+pub const PART_OF: &str = "part_of";
+
 /// Which input a piece or node comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Side {
@@ -32,6 +35,9 @@ pub struct Shared {
     pub pieces: BTreeMap<(Side, Id), Vec<Id>>,
     /// Nodes where a street of one side meets a street of the other.
     pub crossings: BTreeSet<Id>,
+    /// Nodes where a street was cut (a subset of the crossings): empty
+    /// when the two layouts only touch at shared nodes.
+    pub splits: BTreeSet<Id>,
     /// Node -> the sides whose streets use it.
     pub node_sides: BTreeMap<Id, BTreeSet<Side>>,
     /// Lower streets dropped because they run along upper ones.
@@ -198,6 +204,7 @@ pub fn shared(a: &Layout, b: &Layout) -> Shared {
         let mut c = cuts.remove(&(*side, s.id)).unwrap_or_default();
         c.sort_by(|x, y| x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)));
         c.dedup_by(|x, y| x.2 == y.2);
+        sh.splits.extend(c.iter().map(|x| x.2));
         let pieces = split_street(s, &pl, &c, &out.nodes);
         let mut ids = Vec::new();
         for p in pieces {
@@ -250,6 +257,10 @@ fn split_street(
         }
         let mut t = s.clone();
         t.id = Id::mint("piece").id(s.id).id(from).id(to).finish();
+        t.tags.insert(
+            PART_OF.to_string(),
+            crate::model::TagValue::Text(s.id.to_string()),
+        );
         t.a = from;
         t.b = to;
         t.interior = pts[1..pts.len() - 1].to_vec();
