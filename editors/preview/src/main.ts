@@ -179,6 +179,12 @@ interface DebugInfo {
   /** Per applied drag, milliseconds from the release to the end of the frame that shows the regrown model, and the part of it until the answer came. */
   dragLatencies: number[];
   dragAnswerMs: number[];
+  /**
+   * Per applied drag, where the time went (ms): `answer` (release to the drag's answer: the server's solve and the
+   * file written), `model` (release to the regrown model received and decoded (`grm/previewUpdated`); it may come before
+   * the answer), then the page's `decode`, `scene`, `render` and `present` of that model, as `lastBreakdown`.
+   */
+  dragBreakdowns: Record<string, number>[];
   /** The sketched poses waiting for "Make slider…". */
   sketchPoses: number;
 }
@@ -369,6 +375,7 @@ class App {
       lastWrite: null,
       dragLatencies: [],
       dragAnswerMs: [],
+      dragBreakdowns: [],
       sketchPoses: 0,
     };
     (globalThis as unknown as { __grm: DebugInfo }).__grm = this.debug;
@@ -642,6 +649,11 @@ class App {
         if (dragDone) {
           this.debug.dragLatencies.push(now - dragDone.releasedAt);
           this.debug.dragAnswerMs.push((dragDone.answeredAt ?? now) - dragDone.releasedAt);
+          this.debug.dragBreakdowns.push({
+            answer: (dragDone.answeredAt ?? now) - dragDone.releasedAt,
+            model: d.editedAt - dragDone.releasedAt,
+            ...this.debug.lastBreakdown,
+          });
         }
         this.debug.meshCount = this.scene.meshCount;
         this.setStatus(this.summary(r, ms), false, r.warnings.length > 0);
