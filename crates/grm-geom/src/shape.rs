@@ -195,12 +195,40 @@ pub fn build_shape_model(
     assets: &ShapeAssets,
     options: &BuildOptions,
 ) -> Result<Model, GeomError> {
+    build_shape_model_cut(tree, program, assets, options, None)
+}
+
+/// How a node is drawn in a model built with a cut (focus and context:
+/// a few levels below a selection, the rest as proxies).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Cut {
+    /// As in the whole model.
+    #[default]
+    Drawn,
+    /// A proxy: a shape drawn with its own geometry (its mass, its
+    /// facade's rectangle) as if it were terminal; nothing below it is.
+    Proxy,
+    /// Below a proxy: not drawn.
+    Hidden,
+}
+
+/// [`build_shape_model`] with a cut: per node of the tree (by index),
+/// how it is drawn (`None`: every node as in the whole model). A cut
+/// shorter than the tree draws the nodes past it as usual.
+pub fn build_shape_model_cut(
+    tree: &ShapeTree,
+    program: &ShapeProgram,
+    assets: &ShapeAssets,
+    options: &BuildOptions,
+    cut: Option<&[Cut]>,
+) -> Result<Model, GeomError> {
     let nodes = tree.nodes();
     let threads = match options.threads {
         0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
         n => n,
     };
     let mut b = ShapeBuilder::new(program, assets, options)?;
+    b.cut = cut;
     let whole = 0..nodes.len();
     let (predicted, groups) = b.plan(tree, whole.clone());
     // In halves: when the tree says what will be drawn (boxes and
@@ -213,6 +241,7 @@ pub fn build_shape_model(
     } else {
         let mid = nodes.len() / 2;
         let mut second = ShapeBuilder::new(program, assets, options)?;
+        second.cut = cut;
         // This builder's parts are reserved for the whole (the other's
         // join them without moving), the other's for its half.
         second.plan(tree, mid..nodes.len());
@@ -228,6 +257,7 @@ pub fn build_shape_model(
             // A panic in the second half: build it here instead.
             Err(_) => {
                 let mut again = ShapeBuilder::new(program, assets, options)?;
+                again.cut = cut;
                 again.plan(tree, mid..nodes.len());
                 again.build_range(tree, mid..nodes.len())?;
                 again
@@ -329,6 +359,8 @@ struct ShapeBuilder<'a> {
     /// Set when the tree predicted the whole model's size within the
     /// limit: no group's check is needed.
     within_budget: bool,
+    /// Focus and context: how each node is drawn ([`Cut`]).
+    cut: Option<&'a [Cut]>,
 }
 
 impl<'a> ShapeBuilder<'a> {
@@ -357,7 +389,13 @@ impl<'a> ShapeBuilder<'a> {
             attr_sizes: Vec::new(),
             attrs_of: HashMap::new(),
             within_budget: false,
+            cut: None,
         })
+    }
+
+    /// How node `i` is drawn.
+    fn cut_of(&self, i: usize) -> Cut {
+        self.cut.and_then(|c| c.get(i).copied()).unwrap_or_default()
     }
 
     /// Count what the terminal shapes of `range` will draw per attribute
@@ -377,11 +415,22 @@ impl<'a> ShapeBuilder<'a> {
         let mut groups = 0;
         let mut known = true;
         let mut f = Footprint::default();
-        for n in tree.nodes().iter().take(range.end).skip(range.start) {
+        for (i, n) in tree
+            .nodes()
+            .iter()
+            .enumerate()
+            .take(range.end)
+            .skip(range.start)
+        {
+            let cut = self.cut_of(i);
+            if cut == Cut::Hidden {
+                continue;
+            }
             if matches!(n.kind, NodeKind::Insert { .. }) {
                 known = false;
             }
-            if !matches!(n.kind, NodeKind::Shape { .. }) || n.has_children() {
+            let leaf = !n.has_children() || cut == Cut::Proxy;
+            if !matches!(n.kind, NodeKind::Shape { .. }) || !leaf {
                 continue;
             }
             let (v, t) = match n.geometry {
@@ -424,15 +473,17 @@ impl<'a> ShapeBuilder<'a> {
             let NodeKind::Shape { symbol, .. } = n.kind else {
                 continue;
             };
-            let geom = if n.has_children() {
-                None
-            } else {
-                tree.geom(id)
-            };
+            let cut = self.cut_of(i);
+            if cut == Cut::Hidden {
+                continue;
+            }
+            // A proxy draws its own geometry, as a terminal shape would.
+            let leaf = !n.has_children() || cut == Cut::Proxy;
+            let geom = if leaf { tree.geom(id) } else { None };
             // A shape a persistent edit removed draws nothing.
             let own = draws(&geom) && !tree.is_removed(id);
             inserts.clear();
-            if n.has_children() {
+            if n.has_children() && cut == Cut::Drawn {
                 inserts.extend(
                     tree.children(id)
                         .filter(|&c| matches!(nodes[c.0 as usize].kind, NodeKind::Insert { .. })),

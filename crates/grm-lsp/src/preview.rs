@@ -196,6 +196,20 @@ pub struct PreviewParams {
     /// in derive mode.
     #[serde(default)]
     pub generation: Option<u32>,
+    /// Shape mode: focus and context (issue 28): the subtree of the shape
+    /// with this key shown `depth` levels down, the rest of the building
+    /// as proxies at its level (docs/lsp-extensions.md).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub context: Option<ContextIn>,
+}
+
+/// `grm/preview`'s `context`: a shape's key and how many levels below it
+/// are drawn.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "camelCase")]
+pub struct ContextIn {
+    pub key: String,
+    pub depth: u32,
 }
 
 /// A run of triangles of a part and what made it: one record of a part's

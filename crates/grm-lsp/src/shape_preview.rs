@@ -413,13 +413,25 @@ pub(crate) fn build(
             grm_geom::Output::Model,
         )
     };
-    let model = grm_grow::shape::model(
+    // Focus and context: the focused shape's subtree a few levels down,
+    // the rest as proxies (an unknown key: the whole building).
+    let cut = p.context.as_ref().and_then(|c| {
+        let key = grm_edits::file::parse_key(c.key.trim())?;
+        let at = grown.tree.nodes().iter().position(|n| n.key == key)?;
+        Some(grm_grow::shape::focus_cut(
+            &grown.tree,
+            NodeId(at as u32),
+            c.depth,
+        ))
+    });
+    let model = grm_grow::shape::model_cut(
         prog,
         &values,
         &grown.lowered,
         &grown.tree,
         dir.as_deref(),
         &build,
+        cut.as_deref(),
     )
     .map_err(|e| match e {
         ShapeGrowError::Geom(g) => too_large(&g),

@@ -123,3 +123,94 @@ async fn the_derive_tree_links_picks_and_productions() {
     assert_eq!(path.len(), pick["ancestry"].as_array().unwrap().len());
     assert_eq!(found["node"]["key"], pick["key"]);
 }
+
+/// The drawn parts' triangle count of a preview.
+fn triangles(r: &serde_json::Value) -> u64 {
+    r["stats"]["triangles"].as_u64().expect("triangles")
+}
+
+#[tokio::test]
+async fn focus_and_context_draws_the_rest_as_proxies() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let p = dir.path().join("house.grm");
+    std::fs::write(&p, HOUSE).unwrap();
+    let mut c = Client::start().await;
+    let u = c.open(&p, HOUSE).await;
+    let whole = c
+        .ok("grm/preview", json!({ "textDocument": { "uri": u } }))
+        .await;
+    // The ground floor's key, from the tree.
+    let root = c
+        .ok("grm/tree", json!({ "textDocument": { "uri": u } }))
+        .await;
+    let mass = &root["children"][0];
+    let split = &c
+        .ok(
+            "grm/tree",
+            json!({ "textDocument": { "uri": u }, "node": mass["node"] }),
+        )
+        .await["children"][0];
+    let parts = c
+        .ok(
+            "grm/tree",
+            json!({ "textDocument": { "uri": u }, "node": split["node"] }),
+        )
+        .await;
+    let ground = parts["children"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|n| n["label"] == "Ground")
+        .unwrap()
+        .clone();
+    // Depth 0: the ground floor is one proxy box (its wall, door, wall not drawn).
+    let focused = c
+        .ok(
+            "grm/preview",
+            json!({ "textDocument": { "uri": u }, "context": { "key": ground["key"], "depth": 0 } }),
+        )
+        .await;
+    assert_eq!(
+        triangles(&whole) - triangles(&focused),
+        24,
+        "{}",
+        focused["stats"]
+    );
+    // The proxy is picked as the ground floor itself.
+    let (part, tri) = focused["parts"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .enumerate()
+        .find_map(|(i, part)| {
+            picks(part)
+                .into_iter()
+                .find(|p| p["module"] == ground["node"])
+                .map(|p| (i, p["firstTriangle"].clone()))
+        })
+        .expect("the proxy's triangles");
+    let pick = c
+        .ok(
+            "grm/pick",
+            json!({ "textDocument": { "uri": u }, "part": part, "triangle": tri }),
+        )
+        .await;
+    assert_eq!(pick["symbol"], "Ground", "{pick}");
+    assert_eq!(pick["key"], ground["key"]);
+    // Deep enough: the whole building again.
+    let deep = c
+        .ok(
+            "grm/preview",
+            json!({ "textDocument": { "uri": u }, "context": { "key": ground["key"], "depth": 5 } }),
+        )
+        .await;
+    assert_eq!(triangles(&deep), triangles(&whole));
+    // Focus on the lot at depth 1: only the mass, as one proxy box.
+    let top = c
+        .ok(
+            "grm/preview",
+            json!({ "textDocument": { "uri": u }, "context": { "key": root["node"]["key"], "depth": 1 } }),
+        )
+        .await;
+    assert_eq!(triangles(&top), 12, "{}", top["stats"]);
+}

@@ -273,10 +273,64 @@ pub fn model(
     dir: Option<&Path>,
     build: &BuildOptions,
 ) -> Result<Model, ShapeGrowError> {
+    model_cut(program, params, lowered, tree, dir, build, None)
+}
+
+/// [`model`] with a cut (focus and context: per node, drawn, a proxy or
+/// hidden; [`grm_geom::shape::Cut`], [`focus_cut`]).
+pub fn model_cut(
+    program: &grm_sema::Program,
+    params: &[Value],
+    lowered: &Lowered,
+    tree: &ShapeTree,
+    dir: Option<&Path>,
+    build: &BuildOptions,
+    cut: Option<&[grm_geom::shape::Cut]>,
+) -> Result<Model, ShapeGrowError> {
     let assets = grm_geom::shape::ShapeAssets::from_program(program, params, dir)
         .map_err(ShapeGrowError::Geom)?;
-    grm_geom::shape::build_shape_model(tree, &lowered.program, &assets, build)
+    grm_geom::shape::build_shape_model_cut(tree, &lowered.program, &assets, build, cut)
         .map_err(ShapeGrowError::Geom)
+}
+
+/// Focus and context (Lipp, section 3.3.2): the cut that shows `focus`'s
+/// subtree down to `depth` levels below it, and the rest of the building
+/// as proxies at the focus's own level: a shape at its limit that has
+/// children is drawn with its own geometry (its mass, its facade), the
+/// nodes below it are not drawn. The limit is the focus's depth plus
+/// `depth` inside its subtree, the focus's depth outside it. Nodes are in
+/// expansion order, every parent before its children.
+pub fn focus_cut(
+    tree: &ShapeTree,
+    focus: grm_shape::NodeId,
+    depth: u32,
+) -> Vec<grm_geom::shape::Cut> {
+    use grm_geom::shape::Cut;
+    let nodes = tree.nodes();
+    let Some(f) = tree.node(focus) else {
+        return vec![Cut::Drawn; nodes.len()];
+    };
+    let base = f.depth;
+    let mut inside = vec![false; nodes.len()];
+    let mut cut = vec![Cut::Drawn; nodes.len()];
+    for (i, n) in nodes.iter().enumerate() {
+        let id = grm_shape::NodeId(i as u32);
+        let parent = tree.parent(id);
+        inside[i] = id == focus || parent.is_some_and(|p| inside[p.0 as usize]);
+        if parent.is_some_and(|p| cut[p.0 as usize] != Cut::Drawn) {
+            cut[i] = Cut::Hidden;
+            continue;
+        }
+        let limit = if inside[i] {
+            base.saturating_add(depth)
+        } else {
+            base
+        };
+        if n.is_shape() && n.depth >= limit && n.has_children() {
+            cut[i] = Cut::Proxy;
+        }
+    }
+    cut
 }
 
 /// Grow `system` of `program` (a shape system checked without errors)
