@@ -143,10 +143,10 @@ pub struct Derivation {
 }
 
 /// `fast[sym]`: the module is copied unchanged.
-const COPY: u32 = u32::MAX;
+pub(crate) const COPY: u32 = u32::MAX;
 /// `fast[sym]`: groups must be tried (context, condition or several groups
 /// or alternatives).
-const SLOW: u32 = u32::MAX - 1;
+pub(crate) const SLOW: u32 = u32::MAX - 1;
 
 /// Chunks smaller than this are not worth a task.
 const MIN_CHUNK: usize = 8192;
@@ -167,11 +167,11 @@ pub struct Engine<'a> {
     /// Per symbol: `(fast, output modules, output words)`, the count pass's
     /// table (one load per module); `fast` is `COPY`, `SLOW`, or the one
     /// alternative that always applies.
-    counts: Vec<(u32, u32, u32)>,
+    pub(crate) counts: Vec<(u32, u32, u32)>,
     /// Per symbol: parameter words.
-    sym_words: Vec<u32>,
+    pub(crate) sym_words: Vec<u32>,
     /// Per symbol: 1 for `[`, 2 for `]`, 0 otherwise.
-    bracket: Vec<u8>,
+    pub(crate) bracket: Vec<u8>,
     /// Per symbol: in the ignore list.
     ignored: Vec<bool>,
     /// When no symbol needs the group search: per symbol, the symbols it
@@ -186,11 +186,11 @@ pub struct Engine<'a> {
     /// Per successor module (parallel to `sys.succ`): its identity salt,
     /// premixed (`rng::premix`: the half of `child_key` that depends on
     /// the salt alone, computed once here instead of per module written).
-    succ_salts: Vec<u32>,
+    pub(crate) succ_salts: Vec<u32>,
     /// Whether strings carry identity keys (`ModuleString::keys`): always
     /// when the system draws random numbers (the draws are keyed by
     /// them), else when asked for ([`Engine::with_keys`]).
-    keyed: bool,
+    pub(crate) keyed: bool,
     /// Per alternative: its parameter words with the constants filled in
     /// (`tpl[plan.tpl ..][.. plan.words]`), then `2 * PAD` zeros.
     tpl: Vec<f32>,
@@ -200,12 +200,12 @@ pub struct Engine<'a> {
     /// zero).
     ariths: Vec<Arith>,
     /// Per alternative.
-    plans: Vec<Plan>,
+    pub(crate) plans: Vec<Plan>,
     /// Per symbol: what the rewrite does with it ([`Act`]).
     acts: Vec<Act>,
     /// Per symbol: its action is a copy ([`Act::Copy0`], [`Act::Copy`]).
     /// The rewrite moves a run of such modules whole.
-    copies: Vec<bool>,
+    pub(crate) copies: Vec<bool>,
     has_context: bool,
     threads: usize,
     min_chunk: usize,
@@ -213,6 +213,9 @@ pub struct Engine<'a> {
     /// Recycled string buffers (at most [`SPARES`]), so repeated iterations
     /// and derivations reuse memory instead of faulting in fresh pages.
     spare: std::sync::Mutex<Vec<ModuleString>>,
+    /// The persistent edits replayed while deriving ([`Engine::with_edits`];
+    /// `None`: none, the plain derivation).
+    pub(crate) edits: Option<Box<crate::edits::EditPlan>>,
 }
 
 /// How many recycled buffers an engine keeps.
@@ -235,7 +238,7 @@ fn fit<T: Copy + Default>(v: &mut Vec<T>, n: usize) {
 
 /// Where the binding words of a decision are.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Binds {
+pub(crate) enum Binds {
     /// The predecessor's own parameters (no copy needed).
     Direct,
     /// The worker's binding buffer.
@@ -244,11 +247,11 @@ enum Binds {
 
 /// Everything the rewrite needs about one alternative, in one record.
 #[derive(Clone, Copy, Debug, Default)]
-struct Plan {
+pub(crate) struct Plan {
     /// First successor module (index into `succ_syms` / `succ_words`).
-    succ: u32,
-    len: u32,
-    words: u32,
+    pub(crate) succ: u32,
+    pub(crate) len: u32,
+    pub(crate) words: u32,
     /// Start of its parameter template in `tpl`.
     tpl: u32,
     /// Its patches: `patches[patch_lo .. patch_hi]`.
@@ -403,21 +406,21 @@ struct Arith {
 }
 
 /// Per-chunk scratch: the VM and the binding buffer.
-struct Worker {
+pub(crate) struct Worker {
     vm: Vm,
-    buf: Vec<f32>,
+    pub(crate) buf: Vec<f32>,
     weights: Vec<f32>,
 }
 
 /// Everything one iteration reads.
-struct Step<'s> {
-    input: &'s ModuleString,
+pub(crate) struct Step<'s> {
+    pub(crate) input: &'s ModuleString,
     /// The input's keys (empty when the engine is not keyed).
-    keys: &'s [u32],
+    pub(crate) keys: &'s [u32],
     /// Bracket partners (context-sensitive systems only).
-    mate: &'s [u32],
-    seed: u32,
-    iteration: u32,
+    pub(crate) mate: &'s [u32],
+    pub(crate) seed: u32,
+    pub(crate) iteration: u32,
 }
 
 impl Step<'_> {
@@ -435,13 +438,13 @@ impl Step<'_> {
 
 /// Where a successor is written: a chunk's output slices and the module
 /// and word positions in them.
-struct Out<'o> {
-    syms: &'o mut [u32],
-    starts: &'o mut [u32],
-    params: &'o mut [f32],
-    word_base: u32,
-    o: usize,
-    wo: usize,
+pub(crate) struct Out<'o> {
+    pub(crate) syms: &'o mut [u32],
+    pub(crate) starts: &'o mut [u32],
+    pub(crate) params: &'o mut [f32],
+    pub(crate) word_base: u32,
+    pub(crate) o: usize,
+    pub(crate) wo: usize,
 }
 
 /// One chunk's output slices.
@@ -665,6 +668,7 @@ impl<'a> Engine<'a> {
             min_chunk: MIN_CHUNK,
             pool,
             spare: std::sync::Mutex::new(Vec::new()),
+            edits: None,
         })
     }
 
@@ -685,7 +689,7 @@ impl<'a> Engine<'a> {
     /// A string of `m` modules and `w` parameter words whose contents will
     /// be overwritten: a recycled buffer that fits without waste, else fresh
     /// memory.
-    fn take(&self, m: usize, w: usize) -> ModuleString {
+    pub(crate) fn take(&self, m: usize, w: usize) -> ModuleString {
         let mut spare = self.spare.lock().unwrap_or_else(|p| p.into_inner());
         let fits = |s: &ModuleString| s.syms.capacity() >= m && s.params.capacity() >= w;
         // A buffer that fits and is not more than 4x too large (a much
@@ -748,6 +752,9 @@ impl<'a> Engine<'a> {
         opts: &DeriveOptions,
         progress: &mut dyn FnMut(&IterationStats),
     ) -> Result<Derivation, DeriveError> {
+        if self.edits.is_some() {
+            return self.derive_edited(opts, progress).map(|(d, _)| d);
+        }
         let t = Instant::now();
         let mut string = self.axiom(opts.seed)?;
         // Not sized by `opts.iterations` (any u32): a string that stops
@@ -889,7 +896,7 @@ impl<'a> Engine<'a> {
 
     /// The bracket partners of `input` (context-sensitive systems only;
     /// empty otherwise), in chunks of `chunk` modules.
-    fn mates(&self, input: &ModuleString, chunk: usize, parallel: bool) -> Vec<u32> {
+    pub(crate) fn mates(&self, input: &ModuleString, chunk: usize, parallel: bool) -> Vec<u32> {
         if !self.has_context {
             return Vec::new();
         }
@@ -899,7 +906,7 @@ impl<'a> Engine<'a> {
     }
 
     /// What step `iteration` over `input` reads.
-    fn step_of<'s>(
+    pub(crate) fn step_of<'s>(
         &self,
         input: &'s ModuleString,
         mate: &'s [u32],
@@ -915,7 +922,7 @@ impl<'a> Engine<'a> {
         }
     }
 
-    fn check_input(&self, s: &ModuleString) -> Result<(), DeriveError> {
+    pub(crate) fn check_input(&self, s: &ModuleString) -> Result<(), DeriveError> {
         if !s.is_well_formed() {
             return Err(DeriveError::InvalidInput("offsets are inconsistent".into()));
         }
@@ -947,7 +954,7 @@ impl<'a> Engine<'a> {
     }
 
     /// Chunk ranges for an input of `n` modules.
-    fn chunks(&self, n: usize) -> Vec<Range<usize>> {
+    pub(crate) fn chunks(&self, n: usize) -> Vec<Range<usize>> {
         if self.threads == 1 || n <= self.min_chunk {
             return std::iter::once(0..n).collect();
         }
@@ -962,14 +969,14 @@ impl<'a> Engine<'a> {
             .collect()
     }
 
-    fn in_pool<R: Send>(&self, f: impl FnOnce() -> R + Send) -> R {
+    pub(crate) fn in_pool<R: Send>(&self, f: impl FnOnce() -> R + Send) -> R {
         match &self.pool {
             Some(p) => p.install(f),
             None => f(),
         }
     }
 
-    fn worker(&self) -> Worker {
+    pub(crate) fn worker(&self) -> Worker {
         Worker {
             vm: Vm::new(),
             buf: vec![0.0; self.sys.max_bind_words as usize],
@@ -1105,7 +1112,7 @@ impl<'a> Engine<'a> {
         Ok(out)
     }
 
-    fn check_limits(
+    pub(crate) fn check_limits(
         &self,
         input: &ModuleString,
         mate: &[u32],
@@ -1611,7 +1618,7 @@ impl<'a> Engine<'a> {
 
     /// Write alternative `alt`'s successor for the module at `position`.
     #[inline(always)]
-    fn emit(
+    pub(crate) fn emit(
         &self,
         step: &Step<'_>,
         worker: &mut Worker,
@@ -1680,7 +1687,7 @@ impl<'a> Engine<'a> {
         Ok(())
     }
 
-    fn runtime(
+    pub(crate) fn runtime(
         &self,
         step: &Step<'_>,
         position: usize,
@@ -1711,11 +1718,25 @@ impl<'a> Engine<'a> {
 
     /// Decide the production for the module at `i`: the alternative and
     /// where its bindings are, or `None` to copy the module.
-    fn decide(
+    pub(crate) fn decide(
         &self,
         step: &Step<'_>,
         worker: &mut Worker,
         i: usize,
+    ) -> Result<Option<(u32, Binds)>, RuntimeError> {
+        self.decide_in::<false>(step, worker, i, 0)
+    }
+
+    /// [`Engine::decide`]; `F`: a persistent edit forces alternative
+    /// `force` (from 1) of the group that applies, when it has that many
+    /// (else the group races as written).
+    #[inline(always)]
+    pub(crate) fn decide_in<const F: bool>(
+        &self,
+        step: &Step<'_>,
+        worker: &mut Worker,
+        i: usize,
+        force: u32,
     ) -> Result<Option<(u32, Binds)>, RuntimeError> {
         let sys = self.sys;
         let input = step.input;
@@ -1752,6 +1773,9 @@ impl<'a> Engine<'a> {
                 }
             }
             let binds = if direct { Binds::Direct } else { Binds::Buffer };
+            if F && force >= 1 && force <= g.alt_count {
+                return Ok(Some((g.first_alt + force - 1, binds)));
+            }
             if g.alt_count == 1 {
                 return Ok(Some((g.first_alt, binds)));
             }
@@ -1935,7 +1959,7 @@ fn copy_small<T: Copy>(dst: &mut [T], src: &[T]) {
     }
 }
 
-fn keep_first(slot: &mut Option<RuntimeError>, e: RuntimeError) {
+pub(crate) fn keep_first(slot: &mut Option<RuntimeError>, e: RuntimeError) {
     if slot.as_ref().is_none_or(|f| e.position < f.position) {
         *slot = Some(e);
     }

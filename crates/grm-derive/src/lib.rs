@@ -23,11 +23,15 @@
 //!   grammar the checker accepts.
 
 mod brackets;
+pub mod edits;
 pub mod engine;
 mod error;
 mod pages;
 pub mod string;
 
+pub use edits::{
+    EditAction, EditOutcome, EditPlan, EditState, KeyHits, SlotTarget, StepRecord, ValueOp,
+};
 pub use engine::{
     Derivation, DeriveLimits, DeriveOptions, Engine, IterationStats, MAX_THREADS, derive,
 };

@@ -1,0 +1,987 @@
+//! Persistent edits replayed while deriving (docs/edits.md, "Replay and
+//! classification in the engines"; Lipp, 3.1-3.3).
+//!
+//! An [`EditPlan`] holds, per identity key, what the artist changed on
+//! the module with that key: remove it (and so its whole future subtree),
+//! set or offset one of its parameters (and the same parameter of every
+//! module of its subtree that has it), force the alternative of the
+//! production that rewrites it, or pin its key (the key its random draws
+//! and its subtree's keys come from). The plan is resolved to the
+//! compiled system by the caller (`grm_grow` reads the edits file and
+//! names parameters); this crate knows no file.
+//!
+//! The replay is a second rewrite beside the engine's own, run only when
+//! a plan is given ([`Engine::with_edits`]): the plain derivation's hot
+//! loop is untouched, so a derivation without edits costs what it did.
+//! The edited rewrite keeps the engine's structure (count, scan, rewrite
+//! over chunks in parallel, the same decisions, `emit` and keys) and adds:
+//!
+//! - a **tag** per module of the string (0: no edit reaches it), carried
+//!   by copies and inherited by successors: the alternative a `force`
+//!   edit imposes on the module's own rewrite, and the **scope** of `set`
+//!   and `offset` edits of its ancestors (and its own), applied to every
+//!   successor module as it is written;
+//! - per successor module written, its key looked up in the plan (a bit of
+//!   a 65,536-bit filter, then a hash map on a hit): a module whose key
+//!   has edits is settled after the chunk's rewrite, in position order on
+//!   one thread: removed (a `[` or `]` with the whole branch to its
+//!   partner), its key replaced by a pinned one, its values set (its own
+//!   edits over its ancestors', per slot: the deeper target wins), its tag
+//!   given.
+//!
+//! Determinism: decisions and values depend only on the input string, its
+//! tags, the seed and the iteration, never on the chunking; tags are
+//! created in position order. The output is the same for any thread count.
+
+use std::collections::HashMap;
+use std::time::Instant;
+
+use grm_compile::rng;
+use rayon::prelude::*;
+
+use crate::engine::{
+    Binds, Derivation, DeriveLimits, DeriveOptions, Engine, IterationStats, Out, SLOW, Step,
+    keep_first,
+};
+use crate::error::{DeriveError, RuntimeError, RuntimeErrorKind};
+use crate::string::ModuleString;
+
+/// What a `set` or `offset` edit does to a parameter's words.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ValueOp {
+    /// Replace the value (a `bool` parameter becomes 1 for any non-zero
+    /// value, 0 for zero).
+    Set(f32),
+    /// Add to the value the production computed (not applied to `bool`
+    /// parameters).
+    Offset(f32),
+}
+
+/// One edit of the module with some key, resolved to the compiled system.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum EditAction {
+    /// The module never appears (nor, so, its subtree).
+    Remove,
+    /// Its rewrite uses this alternative (from 1) of the group that
+    /// applies (its context and condition as written; the weights and the
+    /// draw ignored). A group with fewer alternatives races as written.
+    Force(u32),
+    /// Its key becomes this one: its draws, and its subtree's keys, are
+    /// those of this key.
+    Pin(u32),
+    /// A parameter of the module and of every module of its subtree that
+    /// has it: slot `slot` of [`EditPlan::add_slot`].
+    Value { slot: u32, op: ValueOp },
+}
+
+/// Where a value slot (a parameter name) lives in one symbol's words.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SlotTarget {
+    /// The first parameter word.
+    pub word: u32,
+    /// How many words (0: the symbol has no such parameter).
+    pub words: u32,
+    /// A `bool` parameter.
+    pub boolean: bool,
+}
+
+/// The edits of one key: per slot the edit with the larger id.
+#[derive(Clone, Debug, Default)]
+struct Node {
+    key: u32,
+    remove: Option<u32>,
+    /// (id, alternative from 1).
+    force: Option<(u32, u32)>,
+    /// (id, key).
+    pin: Option<(u32, u32)>,
+    /// (slot, id, op), one per slot.
+    values: Vec<(u32, u32, ValueOp)>,
+}
+
+/// Bits of the key filter (a power of two).
+const FILTER_BITS: usize = 1 << 16;
+
+/// The persistent edits of one derivation, by identity key.
+#[derive(Clone, Debug)]
+pub struct EditPlan {
+    nodes: Vec<Node>,
+    index: HashMap<u32, u32>,
+    /// Bit `key % FILTER_BITS` set for every key with edits.
+    filter: Vec<u64>,
+    /// Per slot, per symbol: where the slot's parameter is.
+    slots: Vec<Vec<SlotTarget>>,
+}
+
+impl Default for EditPlan {
+    fn default() -> EditPlan {
+        EditPlan::new()
+    }
+}
+
+impl EditPlan {
+    /// A plan without edits.
+    pub fn new() -> EditPlan {
+        EditPlan {
+            nodes: Vec::new(),
+            index: HashMap::new(),
+            filter: vec![0; FILTER_BITS / 64],
+            slots: Vec::new(),
+        }
+    }
+
+    /// A value slot (one parameter name): per symbol id, where that
+    /// parameter is (`words == 0` where the symbol has none; symbols past
+    /// the vector's end have none). Returns the slot's number for
+    /// [`EditAction::Value`].
+    pub fn add_slot(&mut self, per_symbol: Vec<SlotTarget>) -> u32 {
+        self.slots.push(per_symbol);
+        (self.slots.len() - 1) as u32
+    }
+
+    /// Add edit `id` of the module with `key`. Of two edits of one key in
+    /// one slot (removal, the alternative, the pin, one value slot) the
+    /// larger id wins, whatever the order they are added in.
+    pub fn add(&mut self, key: u32, id: u32, action: EditAction) {
+        let n = match self.index.get(&key) {
+            Some(&n) => n as usize,
+            None => {
+                self.index.insert(key, self.nodes.len() as u32);
+                self.nodes.push(Node {
+                    key,
+                    ..Node::default()
+                });
+                let b = key as usize % FILTER_BITS;
+                self.filter[b / 64] |= 1 << (b % 64);
+                self.nodes.len() - 1
+            }
+        };
+        let node = &mut self.nodes[n];
+        fn later<T>(slot: &mut Option<(u32, T)>, id: u32, v: T) {
+            if slot.as_ref().is_none_or(|(old, _)| id >= *old) {
+                *slot = Some((id, v));
+            }
+        }
+        match action {
+            EditAction::Remove => {
+                if node.remove.is_none_or(|old| id >= old) {
+                    node.remove = Some(id);
+                }
+            }
+            EditAction::Force(k) => later(&mut node.force, id, k),
+            EditAction::Pin(p) => later(&mut node.pin, id, p),
+            EditAction::Value { slot, op } => {
+                match node.values.iter_mut().find(|v| v.0 == slot) {
+                    Some(v) => {
+                        if id >= v.1 {
+                            *v = (slot, id, op);
+                        }
+                    }
+                    None => node.values.push((slot, id, op)),
+                }
+                node.values.sort_by_key(|v| v.0);
+            }
+        }
+    }
+
+    /// Whether the plan has no edits.
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+
+    /// The number of keys with edits.
+    pub fn len(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// The keys with edits, in the order they were first added.
+    pub fn keys(&self) -> impl Iterator<Item = u32> + '_ {
+        self.nodes.iter().map(|n| n.key)
+    }
+
+    /// The node of `key`, if it has edits: one filter bit, then the map.
+    #[inline(always)]
+    fn lookup(&self, key: u32) -> Option<u32> {
+        let b = key as usize % FILTER_BITS;
+        if self.filter[b / 64] & (1 << (b % 64)) == 0 {
+            return None;
+        }
+        self.index.get(&key).copied()
+    }
+
+    /// Apply `values` to the parameter words `params` of a module of
+    /// symbol `sym`; `Err(v)` for the first value that is not finite.
+    fn apply(&self, values: &[(u32, ValueOp)], sym: u32, params: &mut [f32]) -> Result<(), f32> {
+        for &(slot, op) in values {
+            let Some(t) = self
+                .slots
+                .get(slot as usize)
+                .and_then(|s| s.get(sym as usize))
+            else {
+                continue;
+            };
+            let (a, b) = (t.word as usize, t.word as usize + t.words as usize);
+            let Some(words) = params.get_mut(a..b) else {
+                continue;
+            };
+            for x in words {
+                let v = match op {
+                    ValueOp::Set(v) if t.boolean => {
+                        if v != 0.0 {
+                            1.0
+                        } else {
+                            0.0
+                        }
+                    }
+                    ValueOp::Set(v) => v,
+                    ValueOp::Offset(_) if t.boolean => continue,
+                    ValueOp::Offset(by) => *x + by,
+                };
+                if !v.is_finite() {
+                    return Err(v);
+                }
+                *x = v;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// What the edits met in one derivation: per key with edits, how many
+/// modules were made with it (a module is made once; a copy is the same
+/// module) and the symbol of the first.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct EditOutcome {
+    hits: HashMap<u32, KeyHits>,
+}
+
+/// The modules made with one key.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct KeyHits {
+    /// How many (more than one: keys collide, the edit is ambiguous).
+    pub modules: u32,
+    /// The first one's symbol.
+    pub symbol: u32,
+}
+
+impl EditOutcome {
+    /// The modules made with `key`; `None` when none was (or the key has
+    /// no edits).
+    pub fn hits(&self, key: u32) -> Option<KeyHits> {
+        self.hits.get(&key).copied()
+    }
+}
+
+/// The tags and scopes of one edited derivation (see the module doc).
+#[derive(Clone, Debug)]
+struct Table {
+    /// Per tag: (forced alternative or 0, scope). Tag 0 is (0, 0).
+    entries: Vec<(u32, u32)>,
+    /// Per scope: the values in force, one per slot. Scope 0 is empty.
+    scopes: Vec<Vec<(u32, ValueOp)>>,
+    /// Per scope: its tag without a forced alternative (what successors
+    /// inherit).
+    scope_tag: Vec<u32>,
+    /// (parent scope, node) -> scope.
+    composed: HashMap<(u32, u32), u32>,
+    /// (force, scope) -> tag.
+    tags: HashMap<(u32, u32), u32>,
+}
+
+impl Table {
+    fn new() -> Table {
+        Table {
+            entries: vec![(0, 0)],
+            scopes: vec![Vec::new()],
+            scope_tag: vec![0],
+            composed: HashMap::new(),
+            tags: HashMap::from([((0, 0), 0)]),
+        }
+    }
+
+    fn tag(&mut self, force: u32, scope: u32) -> u32 {
+        if let Some(&t) = self.tags.get(&(force, scope)) {
+            return t;
+        }
+        let t = self.entries.len() as u32;
+        self.entries.push((force, scope));
+        self.tags.insert((force, scope), t);
+        t
+    }
+
+    /// The scope of a module of `node` whose parent's scope is `parent`:
+    /// the node's values over the parent's, per slot.
+    fn compose(&mut self, plan: &EditPlan, parent: u32, node: u32) -> u32 {
+        if let Some(&s) = self.composed.get(&(parent, node)) {
+            return s;
+        }
+        let mut values = self.scopes[parent as usize].clone();
+        for &(slot, _, op) in &plan.nodes[node as usize].values {
+            match values.iter_mut().find(|v| v.0 == slot) {
+                Some(v) => v.1 = op,
+                None => values.push((slot, op)),
+            }
+        }
+        values.sort_by_key(|v| v.0);
+        let s = self.scopes.len() as u32;
+        self.scopes.push(values);
+        let t = self.tag(0, s);
+        self.scope_tag.push(t);
+        self.composed.insert((parent, node), s);
+        s
+    }
+}
+
+/// The state an edited derivation carries from one string to the next:
+/// per module its tag, the tags' table, and what the edits met so far.
+#[derive(Clone, Debug)]
+pub struct EditState {
+    tags: Vec<u32>,
+    table: Table,
+    /// Per plan node: modules made with its key, the first one's symbol.
+    hits: Vec<(u32, u32)>,
+}
+
+impl EditState {
+    /// What the edits met so far.
+    pub fn outcome(&self, plan: &EditPlan) -> EditOutcome {
+        EditOutcome {
+            hits: plan
+                .nodes
+                .iter()
+                .zip(&self.hits)
+                .filter(|(_, h)| h.0 > 0)
+                .map(|(n, &(modules, symbol))| (n.key, KeyHits { modules, symbol }))
+                .collect(),
+        }
+    }
+}
+
+/// What one edited step decided, for callers that build the derivation
+/// tree: per input module the alternative that rewrote it (`None`: copied)
+/// and how many of the modules it became are in the output (fewer than
+/// its successor's length where edits removed some).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct StepRecord {
+    pub decided: Vec<Option<u32>>,
+    pub kept: Vec<u32>,
+}
+
+/// A successor module whose key has edits, settled after the rewrite.
+#[derive(Clone, Copy, Debug)]
+struct Match {
+    /// Its output position.
+    pos: usize,
+    /// Its plan node.
+    node: u32,
+    /// Its parent's scope.
+    scope: u32,
+}
+
+/// One chunk's output slices, with the tags.
+struct EditChunk<'o> {
+    range: std::ops::Range<usize>,
+    /// The chunk's first output module.
+    base: usize,
+    syms: &'o mut [u32],
+    keys: &'o mut [u32],
+    tags: &'o mut [u32],
+    starts: &'o mut [u32],
+    params: &'o mut [f32],
+    word_base: u32,
+}
+
+/// What one chunk's rewrite found.
+struct ChunkDone {
+    matches: Vec<Match>,
+    decided: Vec<Option<u32>>,
+}
+
+impl<'a> Engine<'a> {
+    /// Replay `plan` in every derivation of this engine ([`Engine::derive`]
+    /// and [`Engine::derive_edited`]; strings then carry keys). An empty
+    /// plan changes nothing: the plain derivation.
+    pub fn with_edits(mut self, plan: EditPlan) -> Engine<'a> {
+        if plan.is_empty() {
+            self.edits = None;
+        } else {
+            self.keyed = true;
+            self.edits = Some(Box::new(plan));
+        }
+        self
+    }
+
+    /// The edits this engine replays, if any.
+    pub fn edit_plan(&self) -> Option<&EditPlan> {
+        self.edits.as_deref()
+    }
+
+    /// [`Engine::derive`] with the engine's edits replayed, and what they
+    /// met (empty without edits).
+    pub fn derive_edited(
+        &self,
+        opts: &DeriveOptions,
+        progress: &mut dyn FnMut(&IterationStats),
+    ) -> Result<(Derivation, EditOutcome), DeriveError> {
+        let Some(plan) = self.edits.as_deref() else {
+            // `derive` takes the edited road only with a plan.
+            return self
+                .derive(opts, progress)
+                .map(|d| (d, EditOutcome::default()));
+        };
+        let t = Instant::now();
+        let (mut string, mut state) = self.edited_axiom(opts.seed)?;
+        let mut stats = Vec::with_capacity(opts.iterations.min(64) as usize + 1);
+        let first = IterationStats::of(&string, 0, 0, 0, t.elapsed());
+        progress(&first);
+        stats.push(first);
+        let (mut cumulative, mut processed) = (0u64, 0u64);
+        for iteration in 1..=opts.iterations {
+            let t = Instant::now();
+            processed += string.len() as u64;
+            let (next, _) = self.edited_inner(
+                plan,
+                &mut state,
+                &string,
+                iteration,
+                opts.seed,
+                &opts.limits,
+                false,
+            )?;
+            self.recycle(std::mem::replace(&mut string, next));
+            cumulative += string.len() as u64;
+            let s = IterationStats::of(&string, iteration, cumulative, processed, t.elapsed());
+            progress(&s);
+            stats.push(s);
+        }
+        let outcome = state.outcome(plan);
+        Ok((Derivation { string, stats }, outcome))
+    }
+
+    /// The axiom with the engine's edits replayed on its modules, and the
+    /// state [`Engine::edited_step`] carries on (without edits: the plain
+    /// axiom and an empty state).
+    pub fn edited_axiom(&self, seed: u32) -> Result<(ModuleString, EditState), DeriveError> {
+        let mut s = self.axiom(seed)?;
+        let mut state = EditState {
+            tags: vec![0; s.len()],
+            table: Table::new(),
+            hits: vec![(0, 0); self.edits.as_deref().map_or(0, EditPlan::len)],
+        };
+        if let Some(plan) = self.edits.as_deref() {
+            let matches: Vec<Match> = (0..s.len())
+                .filter_map(|j| {
+                    plan.lookup(s.keys[j]).map(|node| Match {
+                        pos: j,
+                        node,
+                        scope: 0,
+                    })
+                })
+                .collect();
+            let mut tags = std::mem::take(&mut state.tags);
+            self.settle(plan, &mut state, &mut s, &mut tags, &matches, 0)?;
+            state.tags = tags;
+        }
+        Ok((s, state))
+    }
+
+    /// One rewriting step with the engine's edits replayed: the string
+    /// that follows `input` (the previous string of the same edited
+    /// derivation, `state` its state). `record`: what the step decided,
+    /// for the derivation tree. Without edits, the plain step.
+    #[allow(clippy::too_many_arguments)]
+    pub fn edited_step(
+        &self,
+        state: &mut EditState,
+        input: &ModuleString,
+        iteration: u32,
+        seed: u32,
+        limits: &DeriveLimits,
+        record: Option<&mut StepRecord>,
+    ) -> Result<ModuleString, DeriveError> {
+        self.check_input(input)?;
+        if state.tags.len() != input.len() {
+            return Err(DeriveError::InvalidInput(
+                "the edit state is not the input string's".into(),
+            ));
+        }
+        let Some(plan) = self.edits.as_deref() else {
+            if let Some(r) = record {
+                let decided = self.decisions(input, iteration, seed)?;
+                r.kept = decided
+                    .iter()
+                    .map(|d| d.map_or(1, |a| self.plans[a as usize].len))
+                    .collect();
+                r.decided = decided;
+            }
+            let next = self.step(input, iteration, seed, limits)?;
+            state.tags.clear();
+            state.tags.resize(next.len(), 0);
+            return Ok(next);
+        };
+        if state
+            .tags
+            .iter()
+            .any(|&t| t as usize >= state.table.entries.len())
+        {
+            return Err(DeriveError::InvalidInput(
+                "the edit state is not the input string's".into(),
+            ));
+        }
+        let (next, rec) = self.edited_inner(
+            plan,
+            state,
+            input,
+            iteration,
+            seed,
+            limits,
+            record.is_some(),
+        )?;
+        if let (Some(r), Some(rec)) = (record, rec) {
+            *r = rec;
+        }
+        Ok(next)
+    }
+
+    /// The edited step (see the module doc).
+    #[allow(clippy::too_many_arguments)]
+    fn edited_inner(
+        &self,
+        plan: &EditPlan,
+        state: &mut EditState,
+        input: &ModuleString,
+        iteration: u32,
+        seed: u32,
+        limits: &DeriveLimits,
+        record: bool,
+    ) -> Result<(ModuleString, Option<StepRecord>), DeriveError> {
+        let n = input.len();
+        let chunks = self.chunks(n);
+        let parallel = chunks.len() > 1;
+        let chunk = chunks.first().map_or(n, |c| c.len());
+        let mate = self.in_pool(|| self.mates(input, chunk, parallel));
+        let step = self.step_of(input, &mate, iteration, seed);
+        let (tags, table) = (&state.tags[..], &state.table);
+
+        // 1. Count.
+        let counts: Vec<Result<(u64, u64), RuntimeError>> = if parallel {
+            self.in_pool(|| {
+                chunks
+                    .par_iter()
+                    .map(|r| self.count_edited(&step, tags, table, r.clone()))
+                    .collect()
+            })
+        } else {
+            chunks
+                .iter()
+                .map(|r| self.count_edited(&step, tags, table, r.clone()))
+                .collect()
+        };
+        let mut totals = Vec::with_capacity(counts.len());
+        let mut first_err: Option<RuntimeError> = None;
+        for c in counts {
+            match c {
+                Ok(t) => totals.push(t),
+                Err(e) => keep_first(&mut first_err, e),
+            }
+        }
+        if let Some(e) = first_err {
+            return Err(DeriveError::Runtime(e));
+        }
+
+        // 2. Scan and the limits.
+        let (mut m, mut w) = (0u64, 0u64);
+        let mut offsets = Vec::with_capacity(totals.len());
+        for &(cm, cw) in &totals {
+            offsets.push((m, w));
+            m += cm;
+            w += cw;
+        }
+        self.check_limits(input, &mate, iteration, m, w, limits)?;
+        let (m, w) = (m as usize, w as usize);
+
+        // 3. Rewrite.
+        let mut out = self.take(m, w);
+        let mut otags = vec![0u32; m];
+        let done = {
+            let mut parts = Vec::with_capacity(chunks.len());
+            let (mut syms, mut starts, mut params) =
+                (&mut out.syms[..], &mut out.starts[..m], &mut out.params[..]);
+            let mut keys = &mut out.keys[..];
+            let mut ts = &mut otags[..];
+            for ((r, &(cm, cw)), &(base, word_base)) in chunks.iter().zip(&totals).zip(&offsets) {
+                let cm = cm as usize;
+                let (s, rest) = syms.split_at_mut(cm);
+                syms = rest;
+                let (k, rest) = keys.split_at_mut(cm);
+                keys = rest;
+                let (t, rest) = ts.split_at_mut(cm);
+                ts = rest;
+                let (st, rest) = starts.split_at_mut(cm);
+                starts = rest;
+                let (p, rest) = params.split_at_mut(cw as usize);
+                params = rest;
+                parts.push(EditChunk {
+                    range: r.clone(),
+                    base: base as usize,
+                    syms: s,
+                    keys: k,
+                    tags: t,
+                    starts: st,
+                    params: p,
+                    word_base: word_base as u32,
+                });
+            }
+            let work = |c: EditChunk<'_>| self.rewrite_edited(&step, plan, tags, table, c, record);
+            let results: Vec<Result<ChunkDone, RuntimeError>> = if parallel {
+                self.in_pool(|| parts.into_par_iter().map(work).collect())
+            } else {
+                parts.into_iter().map(work).collect()
+            };
+            let mut first_err = None;
+            let mut done = Vec::with_capacity(results.len());
+            for r in results {
+                match r {
+                    Ok(d) => done.push(d),
+                    Err(e) => keep_first(&mut first_err, e),
+                }
+            }
+            if let Some(e) = first_err {
+                return Err(DeriveError::Runtime(e));
+            }
+            done
+        };
+        out.starts[m] = w as u32;
+        let matches: Vec<Match> = done
+            .iter()
+            .flat_map(|d| d.matches.iter().copied())
+            .collect();
+        let removed = self.settle(plan, state, &mut out, &mut otags, &matches, iteration)?;
+        state.tags = otags;
+        let rec = record.then(|| {
+            let decided: Vec<Option<u32>> = done.into_iter().flat_map(|d| d.decided).collect();
+            let mut o = 0usize;
+            let kept = decided
+                .iter()
+                .map(|d| {
+                    let len = d.map_or(1, |a| self.plans[a as usize].len as usize);
+                    let k = match &removed {
+                        Some(mask) => mask[o..o + len].iter().filter(|&&r| !r).count(),
+                        None => len,
+                    };
+                    o += len;
+                    k as u32
+                })
+                .collect();
+            StepRecord { decided, kept }
+        });
+        Ok((out, rec))
+    }
+
+    /// The decision for input module `i` tagged `tag`: the engine's, but
+    /// for a forced alternative.
+    #[inline(always)]
+    fn decide_edited(
+        &self,
+        step: &Step<'_>,
+        worker: &mut crate::engine::Worker,
+        table: &Table,
+        tag: u32,
+        i: usize,
+    ) -> Result<Option<(u32, Binds)>, RuntimeError> {
+        let s = step.input.syms[i] as usize;
+        if self.copies[s] {
+            return Ok(None);
+        }
+        let force = table.entries[tag as usize].0;
+        let f = self.counts[s].0;
+        if force == 0 {
+            if f != SLOW {
+                return Ok(Some((f, Binds::Direct)));
+            }
+            return self.decide(step, worker, i);
+        }
+        self.decide_in::<true>(step, worker, i, force)
+    }
+
+    fn count_edited(
+        &self,
+        step: &Step<'_>,
+        tags: &[u32],
+        table: &Table,
+        range: std::ops::Range<usize>,
+    ) -> Result<(u64, u64), RuntimeError> {
+        let syms = &step.input.syms;
+        let (mut m, mut w) = (0u64, 0u64);
+        let mut worker: Option<crate::engine::Worker> = None;
+        for i in range {
+            let s = syms[i] as usize;
+            let (f, len, words) = self.counts[s];
+            let tag = tags[i];
+            if f != SLOW && (tag == 0 || table.entries[tag as usize].0 == 0) {
+                m += u64::from(len);
+                w += u64::from(words);
+                continue;
+            }
+            let wk = worker.get_or_insert_with(|| self.worker());
+            match self.decide_edited(step, wk, table, tag, i)? {
+                Some((alt, _)) => {
+                    let a = &self.system().alts[alt as usize];
+                    m += u64::from(a.succ_len);
+                    w += u64::from(a.succ_words);
+                }
+                None => {
+                    m += 1;
+                    w += u64::from(self.sym_words[s]);
+                }
+            }
+        }
+        Ok((m, w))
+    }
+
+    fn rewrite_edited(
+        &self,
+        step: &Step<'_>,
+        plan: &EditPlan,
+        tags: &[u32],
+        table: &Table,
+        c: EditChunk<'_>,
+        record: bool,
+    ) -> Result<ChunkDone, RuntimeError> {
+        let EditChunk {
+            range,
+            base,
+            syms: osyms,
+            keys: okeys,
+            tags: otags,
+            starts: ostarts,
+            params: oparams,
+            word_base,
+        } = c;
+        let input = step.input;
+        let (isyms, istarts, iparams, ikeys) = (
+            &input.syms[..],
+            &input.starts[..],
+            &input.params[..],
+            step.keys,
+        );
+        let mut worker = self.worker();
+        let mut done = ChunkDone {
+            matches: Vec::new(),
+            decided: Vec::with_capacity(if record { range.len() } else { 0 }),
+        };
+        let (mut o, mut wo) = (0usize, 0usize);
+        for i in range {
+            let sym = isyms[i];
+            let tag = tags[i];
+            let (ps, pe) = (istarts[i] as usize, istarts[i + 1] as usize);
+            match self.decide_edited(step, &mut worker, table, tag, i)? {
+                None => {
+                    osyms[o] = sym;
+                    ostarts[o] = word_base + wo as u32;
+                    oparams[wo..wo + (pe - ps)].copy_from_slice(&iparams[ps..pe]);
+                    okeys[o] = ikeys[i];
+                    otags[o] = tag;
+                    o += 1;
+                    wo += pe - ps;
+                    if record {
+                        done.decided.push(None);
+                    }
+                }
+                Some((alt, binds)) => {
+                    let mut out = Out {
+                        syms: &mut *osyms,
+                        starts: &mut *ostarts,
+                        params: &mut *oparams,
+                        word_base,
+                        o,
+                        wo,
+                    };
+                    if binds == Binds::Buffer {
+                        let buf = std::mem::take(&mut worker.buf);
+                        let r = self.emit(step, &mut worker, alt, &buf, i, &mut out);
+                        worker.buf = buf;
+                        r?;
+                    } else {
+                        self.emit(step, &mut worker, alt, &iparams[ps..pe], i, &mut out)?;
+                    }
+                    let p = self.plans[alt as usize];
+                    let len = p.len as usize;
+                    let key = ikeys[i];
+                    let scope = table.entries[tag as usize].1;
+                    let inherit = table.scope_tag[scope as usize];
+                    let salts = &self.succ_salts[p.succ as usize..][..len];
+                    for (k, &salt) in salts.iter().enumerate() {
+                        let j = o + k;
+                        let ck = rng::child_key_premixed(key, salt);
+                        okeys[j] = ck;
+                        if let Some(node) = plan.lookup(ck) {
+                            // Settled after the rewrite, its values with it.
+                            otags[j] = 0;
+                            done.matches.push(Match {
+                                pos: base + j,
+                                node,
+                                scope,
+                            });
+                            continue;
+                        }
+                        otags[j] = inherit;
+                        if scope != 0 {
+                            let s = osyms[j];
+                            let a = (ostarts[j] - word_base) as usize;
+                            let words = self.sym_words[s as usize] as usize;
+                            let values = &table.scopes[scope as usize];
+                            if let Err(v) = plan.apply(values, s, &mut oparams[a..a + words]) {
+                                return Err(self.edit_error(step.iteration, i, s, v));
+                            }
+                        }
+                    }
+                    o += len;
+                    wo += p.words as usize;
+                    if record {
+                        done.decided.push(Some(alt));
+                    }
+                }
+            }
+        }
+        Ok(done)
+    }
+
+    /// A value an edit made that is not finite (R0204, at the system).
+    #[cold]
+    fn edit_error(&self, iteration: u32, position: usize, sym: u32, value: f32) -> RuntimeError {
+        let sys = self.system();
+        RuntimeError {
+            iteration,
+            position: position as u64,
+            symbol: sys
+                .symbol_names
+                .get(sym as usize)
+                .cloned()
+                .unwrap_or_default(),
+            kind: RuntimeErrorKind::NonFinite { value },
+            file: sys.file,
+            span: sys.span,
+        }
+    }
+
+    /// Settle the modules of `out` whose keys have edits (`matches`, in
+    /// position order), then drop the removed ones. Returns the removal
+    /// mask over the string as written, when something was removed.
+    fn settle(
+        &self,
+        plan: &EditPlan,
+        state: &mut EditState,
+        out: &mut ModuleString,
+        otags: &mut Vec<u32>,
+        matches: &[Match],
+        iteration: u32,
+    ) -> Result<Option<Vec<bool>>, DeriveError> {
+        let mut removed: Option<Vec<bool>> = None;
+        for m in matches {
+            let j = m.pos;
+            let sym = out.syms[j];
+            let hit = &mut state.hits[m.node as usize];
+            if hit.0 == 0 {
+                hit.1 = sym;
+            }
+            hit.0 = hit.0.saturating_add(1);
+            if removed.as_ref().is_some_and(|r| r[j]) {
+                continue;
+            }
+            let node = &plan.nodes[m.node as usize];
+            if node.remove.is_some() {
+                let mask = removed.get_or_insert_with(|| vec![false; out.len()]);
+                let range = self.branch(&out.syms, j);
+                mask[range].fill(true);
+                continue;
+            }
+            if let Some((_, p)) = node.pin {
+                out.keys[j] = p;
+            }
+            let scope = if node.values.is_empty() {
+                m.scope
+            } else {
+                state.table.compose(plan, m.scope, m.node)
+            };
+            if scope != 0 {
+                let (a, b) = (out.starts[j] as usize, out.starts[j + 1] as usize);
+                let values = &state.table.scopes[scope as usize];
+                if let Err(v) = plan.apply(values, sym, &mut out.params[a..b]) {
+                    return Err(DeriveError::Runtime(self.edit_error(iteration, j, sym, v)));
+                }
+            }
+            let force = node.force.map_or(0, |f| f.1);
+            otags[j] = state.table.tag(force, scope);
+        }
+        if let Some(mask) = &removed {
+            compact(out, otags, mask);
+        }
+        Ok(removed)
+    }
+
+    /// What removing module `j` of `syms` removes: the module, or for a
+    /// `[` (`]`) the whole branch to its partner (itself alone when it has
+    /// none).
+    fn branch(&self, syms: &[u32], j: usize) -> std::ops::Range<usize> {
+        let kind = |p: usize| self.bracket.get(syms[p] as usize).copied().unwrap_or(0);
+        match kind(j) {
+            1 => {
+                let mut depth = 0usize;
+                for p in j..syms.len() {
+                    match kind(p) {
+                        1 => depth += 1,
+                        2 => {
+                            depth -= 1;
+                            if depth == 0 {
+                                return j..p + 1;
+                            }
+                        }
+                        _ => {}
+                    }
+                }
+                j..j + 1
+            }
+            2 => {
+                let mut depth = 0usize;
+                for p in (0..=j).rev() {
+                    match kind(p) {
+                        2 => depth += 1,
+                        1 => {
+                            depth -= 1;
+                            if depth == 0 {
+                                return p..j + 1;
+                            }
+                        }
+                        _ => {}
+                    }
+                }
+                j..j + 1
+            }
+            _ => j..j + 1,
+        }
+    }
+}
+
+/// Drop the modules `mask` marks from `out` and its tags, in place.
+fn compact(out: &mut ModuleString, tags: &mut Vec<u32>, mask: &[bool]) {
+    let (mut w, mut pw) = (0usize, 0usize);
+    for j in 0..out.syms.len() {
+        if mask[j] {
+            continue;
+        }
+        let (s, e) = (out.starts[j] as usize, out.starts[j + 1] as usize);
+        out.syms[w] = out.syms[j];
+        out.keys[w] = out.keys[j];
+        tags[w] = tags[j];
+        out.starts[w] = pw as u32;
+        out.params.copy_within(s..e, pw);
+        pw += e - s;
+        w += 1;
+    }
+    out.syms.truncate(w);
+    out.keys.truncate(w);
+    tags.truncate(w);
+    out.starts.truncate(w + 1);
+    out.starts[w] = pw as u32;
+    out.params.truncate(pw);
+}
