@@ -150,6 +150,7 @@ interface Grm {
   lastPick: { symbol: string; key: string | null } | null;
   picks: number;
   manipStatus: string;
+  provenance: string;
   drags: number;
   lastDrag: ManipResult | null;
   lastDragRequest: { version?: number; target: { kind: string; at: number | V3 } } | null;
@@ -288,9 +289,13 @@ test('shape mode: dragging a split plane rewrites the number on disk and regrows
   await page.mouse.move(from[0], from[1]);
   await page.mouse.down();
   await page.mouse.move(to[0], to[1], { steps: 8 });
-  // While dragging: the plane follows the pointer, and the status says where it goes.
+  // While dragging: the plane follows the pointer, and the status says where it goes; the panel says which number
+  // places the plane (grm/provenance, asked when the grip was grabbed).
   await page.waitForTimeout(100);
-  assert.match((await page.textContent('#status-text')) ?? '', /split\.y plane 1: 4 → (4\.9|5)/);
+  assert.match((await page.textContent('#status-text')) ?? '', /split\.y plane 1: 4 → (4\.9|5)|placed by/);
+  const placed = await waitFor(page, 'the provenance of the plane', (g) => g.provenance !== '', 10_000);
+  assert.match(placed.provenance, /^placed by 4 \(line 12, moves \d+ parts\)$/);
+  assert.equal((await page.textContent('#manip-status')) ?? '', placed.provenance);
   await page.screenshot({ path: join(artifacts, 'manip-drag-plane.png') });
   await page.mouse.up();
   const g1 = await waitFor(page, 'the drag answered and the model regrown', (g) => (g.lastDrag !== null && g.dragLatencies.length >= 1) || g.lastError !== null);
@@ -319,7 +324,14 @@ test('shape mode: dragging a split plane rewrites the number on disk and regrows
     const h = await handlesAfterDrag(page);
     assert.equal(h[0].label, 'split.y');
     const n = (await grm(page)).dragLatencies.length;
-    await dragFromTo(page, h[0].screen, await gripAt(page, h[0], at));
+    // As a hand drags (longer than the test's mouse): the page's question at the grab (which numbers place the
+    // plane) is answered before the release, so the release's time is the drag's own.
+    const placedBy = `placed by ${groundHeight(file)} (`;
+    await page.mouse.move(...h[0].screen);
+    await page.mouse.down();
+    await page.mouse.move(...(await gripAt(page, h[0], at)), { steps: 8 });
+    await waitFor(page, 'the provenance of the plane', (g) => g.provenance.startsWith(placedBy), 10_000);
+    await page.mouse.up();
     // The regrown model may come before the drag's answer (the file is written before the server answers).
     const g = await waitFor(page, `the drag to ${at}`, (x) => (x.dragLatencies.length > n && x.lastDrag !== null) || x.lastError !== null);
     assert.equal(g.lastError, null);

@@ -18,6 +18,7 @@ import {
   manipSummary,
   paramsToWrite,
   planeAxis,
+  provenanceSummary,
   planeCentre,
   planeHandles,
   rayPlane,
@@ -25,7 +26,7 @@ import {
   tipDragNormal,
 } from '../preview/src/manip.js';
 import { type HostToPage, METHODS, parsePageMessage } from '../preview/src/messages.js';
-import { ProtocolError, bytesToBase64, decodeManipResult, decodePick, decodePreview } from '../preview/src/protocol.js';
+import { ProtocolError, bytesToBase64, decodeManipResult, decodePick, decodePreview, decodeProvenance } from '../preview/src/protocol.js';
 import { type HostDeps, PreviewHost } from '../vscode/src/host.js';
 
 const X = [1, 0, 0];
@@ -372,4 +373,28 @@ test("a preview's skeleton says each bone's parent (-1 a root); a server that do
   // A parent past the bones is no parent.
   assert.equal(decodePreview({ ...base, skeleton: { boneCount: 2, bones, parents: i32([-1, 7]) } }).model.bones[1].parent, null);
   assert.throws(() => decodePreview({ ...base, skeleton: { boneCount: 2, bones, parents: i32([-1]) } }), ProtocolError);
+});
+
+test("a part's provenance: the numbers that place it, said with their lines and what moves with them", () => {
+  const wire = {
+    part: { kind: 'plane', command: 1888792066, edge: 1 },
+    mode: 'shape',
+    system: 'Row',
+    measures: [4],
+    random: false,
+    probed: 12,
+    sources: [
+      { range: { start: { line: 7, character: 25 }, end: { line: 7, character: 26 } }, text: '4', value: 4, kind: 'literal', derivative: [1.00004], step: 0.004, moves: 49 },
+      { range: { start: { line: 2, character: 10 }, end: { line: 2, character: 11 } }, text: 'H', value: 3, kind: 'name', name: 'H', derivative: [0.5], moves: 1 },
+    ],
+  };
+  const p = decodeProvenance(wire);
+  assert.deepEqual(p.measures, [4]);
+  assert.equal(p.sources[0].moves, 49);
+  assert.deepEqual(p.sources[1].derivative, [0.5]);
+  assert.equal(provenanceSummary(p), 'placed by 4 (line 8, moves 49 parts), H (line 3, moves 1 part)');
+  assert.equal(provenanceSummary(decodeProvenance({ sources: [], random: true })), 'no number in this file places it; a random draw places it too');
+  assert.throws(() => decodeProvenance([]), ProtocolError);
+  assert.throws(() => decodeProvenance({ sources: [{ text: '4', value: 4 }] }), ProtocolError);
+  assert.throws(() => decodeProvenance({ sources: [{ range: wire.sources[0].range, value: 'x' }] }), ProtocolError);
 });

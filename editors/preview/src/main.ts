@@ -18,6 +18,7 @@ import {
   paramsToWrite,
   planeCentre,
   planeHandles,
+  provenanceSummary,
   rayPlane,
   short,
   sliderNameProblem,
@@ -40,6 +41,7 @@ import {
   KEY,
   decodeManipResult,
   decodePick,
+  decodeProvenance,
   decodePicture,
   decodePreview,
   decodePreviewUpdated,
@@ -167,6 +169,8 @@ interface DebugInfo {
   handles: () => { kind: 'plane' | 'tip'; label: string; command: string | null; edge: number | null; at: number | V3; screen: [number, number] }[];
   /** The direct-manipulation status line. */
   manipStatus: string;
+  /** What the page last said of a dragged part's provenance. */
+  provenance: string;
   /** Picks answered (the user's clicks, not the page's own pick after a drag). */
   picks: number;
   /** Drags sent, and the last drag's, sketch's and write's answers (null: none yet, or it failed: see lastError). */
@@ -238,6 +242,11 @@ class App {
   private readonly sketch = new SketchKeys();
   /** The last sketched pose, drawn where it was dropped: the plane (index into the handles) or the tip. */
   private posed: { plane: number; at: number } | { tip: V3 } | null = null;
+  /** After a drag: the pick to make again once the regrown model is on screen, and the key it must find. */
+  private pickAfterShown: { pick: PickParams; key: string } | null = null;
+  /** What the page said of each part's provenance (by the part's JSON), for the model it was asked on (`pickedFor`). */
+  private provenance = new Map<string, string>();
+  private provenanceFor = '';
   /** A drag sent: when it was released and the version of the model then on screen (a newer model is its regrown one). */
   private dragWait: { releasedAt: number; version: number; answeredAt: number | null; repick: boolean } | null = null;
   private paramSignature = '';
@@ -366,6 +375,7 @@ class App {
       pictureError: null,
       handles: () => this.handleList(),
       manipStatus: '',
+      provenance: '',
       picks: 0,
       drags: 0,
       lastDrag: null,
@@ -646,6 +656,9 @@ class App {
         this.debug.coverage = (r.sample?.coverage ?? []).map((c) => ({ name: c.name, fraction: c.fraction, unreached: c.unreached, gaps: c.gaps.length, note: c.note }));
         this.debug.lastLatencyMs = ms;
         this.debug.latencies.push(ms);
+        const again = this.pickAfterShown;
+        this.pickAfterShown = null;
+        if (again) void this.pickAgain(again.pick, again.key);
         if (dragDone) {
           this.debug.dragLatencies.push(now - dragDone.releasedAt);
           this.debug.dragAnswerMs.push((dragDone.answeredAt ?? now) - dragDone.releasedAt);
@@ -685,7 +698,8 @@ class App {
       this.manip = null;
       this.posed = null;
       this.drawHandles();
-      if (again && key) void this.pickAgain(again, key);
+      // Once the regrown model is on screen: its frame does not wait for the pick.
+      if (again && key) this.pickAfterShown = { pick: again, key };
     }
     this.drawScopes();
     this.debug.ready = true;
@@ -1244,7 +1258,33 @@ class App {
     this.scene.controls.enabled = false;
     e.stopPropagation();
     e.preventDefault();
+    const what = this.manipTarget(this.gesture);
+    if (what) void this.showProvenance(what.part);
     return true;
+  }
+
+  /** While a handle is dragged: which source numbers place its part (`grm/provenance`, asked once per part and model). */
+  private async showProvenance(part: ManipPart): Promise<void> {
+    if (this.provenanceFor !== this.pickedFor) {
+      this.provenance.clear();
+      this.provenanceFor = this.pickedFor;
+    }
+    const key = JSON.stringify(part);
+    let text = this.provenance.get(key);
+    if (text === undefined) {
+      try {
+        text = provenanceSummary(decodeProvenance(await this.transport.request('provenance', { ...this.manipBase(), part })));
+      } catch {
+        // Not a failure of the drag: the release asks the server anyway.
+        return;
+      }
+      if (this.provenanceFor === this.pickedFor) this.provenance.set(key, text);
+    }
+    this.debug.provenance = text;
+    // Only while this part's drag goes on: the release's answer is what the line says then.
+    const g = this.gesture;
+    const now = this.manipTarget(g);
+    if (now && JSON.stringify(now.part) === key) this.setManipStatus(text);
   }
 
   /** A move of a handle's drag: the plane along its axis, the tip in the view plane through it. */

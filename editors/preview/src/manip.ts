@@ -7,7 +7,7 @@
 // requests.
 
 import type { V3 } from './bezier.js';
-import type { ManipResult, ManipTarget, ScopeBox, SketchKeyframe } from './protocol.js';
+import type { ManipResult, ManipTarget, ProvenanceResult, ScopeBox, SketchKeyframe } from './protocol.js';
 
 /** A draggable split plane: the plane at the end of child `edge` of the split or repeat `command`. */
 export interface PlaneHandle {
@@ -279,4 +279,16 @@ export function paramsToWrite(info: readonly { name: string; default: number }[]
     lines.push(`${p.name}: ${short(p.default)} → ${short(v)}`);
   }
   return { params, prompt: lines.length ? `Write these slider values into the grammar as the defaults? ${lines.join(', ')}` : '' };
+}
+
+/**
+ * What the page says of a part's provenance while it is dragged: the
+ * numbers that place it (each with its line and how many parts move with
+ * it), and that a random draw places it too (a drag may then not be
+ * written).
+ */
+export function provenanceSummary(p: ProvenanceResult): string {
+  const numbers = p.sources.map((s) => `${s.text} (line ${s.range.start.line + 1}${s.moves !== null ? `, moves ${plural(s.moves, 'part')}` : ''})`);
+  const by = numbers.length ? `placed by ${numbers.join(', ')}` : 'no number in this file places it';
+  return p.random ? `${by}; a random draw places it too` : by;
 }

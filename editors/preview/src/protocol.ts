@@ -939,3 +939,47 @@ export function decodeManipResult(v: unknown, what: string): ManipResult {
     exactAtZero: typeof v.exactAtZero === 'boolean' ? v.exactAtZero : null,
   };
 }
+
+/** A source number that places a part (`grm/provenance`'s `sources`). */
+export interface ProvenanceSource {
+  range: Range;
+  /** Its text in the source (`4`, `H`). */
+  text: string;
+  value: number;
+  /** `literal`, `name` (a use of a constant or meta-parameter), ... as the server says. */
+  kind: string;
+  /** How the part's measures change with it (d measures / d value). */
+  derivative: number[];
+  /** Terminal parts that move with it. */
+  moves: number | null;
+}
+
+/** `grm/provenance`'s answer: the numbers that place a part, and whether a random draw does too. */
+export interface ProvenanceResult {
+  measures: number[];
+  random: boolean;
+  probed: number;
+  sources: ProvenanceSource[];
+}
+
+export function decodeProvenance(v: unknown): ProvenanceResult {
+  if (!isObject(v)) throw new ProtocolError('provenance: expected an object');
+  const sources = (Array.isArray(v.sources) ? v.sources : []).map((q: unknown, i: number): ProvenanceSource => {
+    const what = `provenance.sources[${i}]`;
+    if (!isObject(q)) throw new ProtocolError(`${what}: expected an object`);
+    return {
+      range: decodeRange(q.range, `${what}.range`),
+      text: str(q.text),
+      value: num(q.value, `${what}.value`),
+      kind: str(q.kind),
+      derivative: (Array.isArray(q.derivative) ? q.derivative : []).map((d: unknown) => num(d, `${what}.derivative`)),
+      moves: typeof q.moves === 'number' && Number.isFinite(q.moves) ? q.moves : null,
+    };
+  });
+  return {
+    measures: (Array.isArray(v.measures) ? v.measures : []).map((m: unknown) => num(m, 'provenance.measures')),
+    random: v.random === true,
+    probed: optNum(v.probed, 0),
+    sources,
+  };
+}
