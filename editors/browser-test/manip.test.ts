@@ -354,15 +354,23 @@ test('shape mode: dragging a split plane rewrites the number on disk and regrows
   };
   console.log(`split plane drag: release to regrown model on screen ${ms.join(', ')} ms (median ${median(ms)}); release to the drag's answer ${answer.join(', ')} ms (median ${median(answer)}); load ${loadavg()[0].toFixed(1)}`);
 
-  // Sketch parameter: the plane dragged to a pose at t = 1 records it (the grammar is not written), Make slider… asks for a name.
+  // Sketch parameter: the plane dragged to a pose at t = 0.5, then on to one at t = 1, records them (the grammar is
+  // not written); Make slider… asks for a name.
   const before = readFileSync(file, 'utf8');
   await page.check('#sketch-mode');
   const h = await handlesAfterDrag(page);
   const start = h[0].at as number;
-  await dragFromTo(page, h[0].screen, await gripAt(page, h[0], start + 1));
-  await waitFor(page, 'a pose', (g) => g.sketchPoses === 1);
+  await page.fill('#sketch-t', '0.5');
+  await dragFromTo(page, h[0].screen, await gripAt(page, h[0], start + 0.4));
+  await waitFor(page, 'a pose at t = 0.5', (g) => g.sketchPoses === 1);
+  assert.equal(await page.isDisabled('#sketch-make'), true, 'no slider without a pose at t = 1');
+  await page.fill('#sketch-t', '1');
+  // The posed plane is dragged on from where it was dropped.
+  await dragFromTo(page, await gripAt(page, h[0], start + 0.4), await gripAt(page, h[0], start + 1));
+  await waitFor(page, 'a pose at t = 1', (g) => g.sketchPoses === 2);
   assert.equal(readFileSync(file, 'utf8'), before, 'a pose writes nothing');
   assert.match((await grm(page)).manipStatus, /pose at t = 1/);
+  assert.match((await page.textContent('#sketch-poses')) ?? '', /t = 0\.5 \(plane at [\d.]+\); t = 1 \(plane at [\d.]+\)/);
   await page.screenshot({ path: join(artifacts, 'manip-sketch-pose.png') });
   assert.equal(await page.isDisabled('#sketch-make'), false);
   await page.click('#sketch-make');
@@ -374,10 +382,16 @@ test('shape mode: dragging a split plane rewrites the number on disk and regrows
   assert.equal(g3.lastSketch?.outcome, 'solved', JSON.stringify(g3.lastSketch));
   assert.equal(g3.lastSketch?.name, 'lift');
   assert.equal(g3.lastSketch?.exactAtZero, true);
-  assert.ok((g3.lastSketch?.residuals.length ?? 0) >= 1);
-  assert.match(g3.manipStatus, /slider lift · residuals t=1: [\d.e-]+ · exact at t = 0/);
+  assert.deepEqual(
+    g3.lastSketch?.residuals.map(([t]) => t),
+    [0.5, 1],
+  );
+  for (const [, d] of g3.lastSketch?.residuals ?? []) assert.ok(d < 1e-3, `a pose missed by ${d}`);
+  assert.match(g3.manipStatus, /slider lift · residuals t=0\.5: [\d.e-]+, t=1: [\d.e-]+ · exact at t = 0/);
   const sketched = readFileSync(file, 'utf8');
   assert.match(sketched, /param lift = 0 in 0 \.\. 1;/);
+  // The ground floor's height is now a spline of the slider.
+  assert.match(sketched, /split\(y\) \{ [^:]*\blift\b[^:]*: Ground/);
   // The new slider appears once the model regrows from the edited text.
   const slider = page.locator('input[type=range][data-param=lift]');
   await slider.waitFor({ timeout: 20_000 });

@@ -1217,6 +1217,10 @@ class App {
         // Where it was, while it is away.
         if (active && at !== h.at) cutRect(h.scope, h.axis, h.at, lines);
         grips.push({ at: planeCentre(h, at), active });
+        // The other poses sketched for it (each t's).
+        if (this.sketch.part === JSON.stringify({ kind: 'plane', command: h.command, edge: h.edge })) {
+          for (const k of this.sketch.keyframes()) if (k.target.kind === 'plane' && k.target.at !== at) cutRect(h.scope, h.axis, k.target.at, activeLines);
+        }
       });
     } else {
       const posed = this.posed && 'tip' in this.posed ? this.posed.tip : null;
@@ -1224,6 +1228,9 @@ class App {
       const active = g.kind === 'tip' || posed !== null;
       (active ? activeLines : lines).push(...m.base, ...at);
       if (active) lines.push(...m.base, ...m.tip);
+      if (this.sketch.part === JSON.stringify({ kind: 'bone', key: m.key })) {
+        for (const k of this.sketch.keyframes()) if (k.target.kind === 'tip' && k.target.at !== at) activeLines.push(...m.base, ...k.target.at);
+      }
       grips.push({ at, active });
     }
     this.scene.setHandles({ grips, lines, activeLines });
