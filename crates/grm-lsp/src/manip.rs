@@ -244,6 +244,38 @@ impl Doc {
     fn range(&self, span: Span) -> Range {
         convert::range(&SourceFile::new("", &self.text), span)
     }
+
+    fn changes(&self, changes: &[grm_manip::Change]) -> Vec<ChangeOut> {
+        changes
+            .iter()
+            .map(|c| ChangeOut {
+                range: self.range(c.span),
+                old: c.old.clone(),
+                new: c.new.clone(),
+            })
+            .collect()
+    }
+}
+
+/// Run `f` on the document's [`Manip`] on a blocking thread (each growth
+/// is a whole derivation); the document back with its answer.
+async fn with_manip<T: Send + 'static>(
+    doc: Doc,
+    common: Common,
+    f: impl FnOnce(&Manip<'_>) -> std::result::Result<T, grm_manip::ManipError> + Send + 'static,
+) -> Result<(Doc, T)> {
+    tokio::task::spawn_blocking(move || {
+        let path = doc.path.to_string_lossy().into_owned();
+        let ps = doc.params(&common);
+        let out = {
+            let m = Manip::new(setup(&doc, &path, &common, &ps), &doc.text)
+                .map_err(|e| manip_failed(&e))?;
+            f(&m).map_err(|e| manip_failed(&e))?
+        };
+        Ok((doc, out))
+    })
+    .await
+    .map_err(|e| failed(e.to_string()))?
 }
 
 fn manip_failed(e: &grm_manip::ManipError) -> Error {
@@ -303,26 +335,18 @@ impl Backend {
     pub async fn provenance(&self, params: ProvenanceParams) -> Result<serde_json::Value> {
         let doc = self.manip_doc(&params.common.text_document.uri, params.common.version)?;
         let part = part_of(&params.part)?;
-        tokio::task::spawn_blocking(move || {
-            let path = doc.path.to_string_lossy().into_owned();
-            let ps = doc.params(&params.common);
-            let m = Manip::new(setup(&doc, &path, &params.common, &ps), &doc.text)
-                .map_err(|e| manip_failed(&e))?;
-            let p = m.provenance(&part).map_err(|e| manip_failed(&e))?;
-            let sources: Vec<SourceOut> = p
-                .sources
-                .iter()
-                .map(|s| SourceOut {
-                    range: doc.range(s.candidate.span),
-                    source: s.clone(),
-                })
-                .collect();
-            let mut out = serde_json::to_value(&p).map_err(|e| failed(e.to_string()))?;
-            out["sources"] = serde_json::to_value(sources).map_err(|e| failed(e.to_string()))?;
-            Ok(out)
-        })
-        .await
-        .map_err(|e| failed(e.to_string()))?
+        let (doc, p) = with_manip(doc, params.common.clone(), move |m| m.provenance(&part)).await?;
+        let sources: Vec<SourceOut> = p
+            .sources
+            .iter()
+            .map(|s| SourceOut {
+                range: doc.range(s.candidate.span),
+                source: s.clone(),
+            })
+            .collect();
+        let mut out = serde_json::to_value(&p).map_err(|e| failed(e.to_string()))?;
+        out["sources"] = serde_json::to_value(sources).map_err(|e| failed(e.to_string()))?;
+        Ok(out)
     }
 
     /// `grm/drag`.
@@ -330,17 +354,8 @@ impl Backend {
         let doc = self.manip_doc(&params.common.text_document.uri, params.common.version)?;
         let part = part_of(&params.part)?;
         let target = target_of(&params.target)?;
-        let (doc, out) = tokio::task::spawn_blocking(move || {
-            let path = doc.path.to_string_lossy().into_owned();
-            let ps = doc.params(&params.common);
-            let m = Manip::new(setup(&doc, &path, &params.common, &ps), &doc.text)
-                .map_err(|e| manip_failed(&e))?;
-            let o = m.drag(&part, &target).map_err(|e| manip_failed(&e))?;
-            drop(m);
-            Ok::<_, Error>((doc, o))
-        })
-        .await
-        .map_err(|e| failed(e.to_string()))??;
+        let (doc, out) =
+            with_manip(doc, params.common.clone(), move |m| m.drag(&part, &target)).await?;
         let mut answer = EditOut {
             version: doc.version.unwrap_or(0),
             ..EditOut::default()
@@ -353,15 +368,7 @@ impl Backend {
             }
             DragOutcome::Solved(s) => {
                 answer.outcome = "solved".into();
-                answer.changes = s
-                    .changes
-                    .iter()
-                    .map(|c| ChangeOut {
-                        range: doc.range(c.span),
-                        old: c.old.clone(),
-                        new: c.new.clone(),
-                    })
-                    .collect();
+                answer.changes = doc.changes(&s.changes);
                 answer.residual = Some(s.residual);
                 answer.moved = Some(s.moved);
                 let edits: Vec<(Span, String)> =
@@ -395,32 +402,14 @@ impl Backend {
             })
             .collect::<Result<Vec<_>>>()?;
         let name = params.name.clone();
-        let common = params.common.clone();
-        let (doc, s) = tokio::task::spawn_blocking(move || {
-            let path = doc.path.to_string_lossy().into_owned();
-            let ps = doc.params(&common);
-            let m = Manip::new(setup(&doc, &path, &common, &ps), &doc.text)
-                .map_err(|e| manip_failed(&e))?;
-            let s = m
-                .sketch(&part, &keys, &name)
-                .map_err(|e| manip_failed(&e))?;
-            drop(m);
-            Ok::<_, Error>((doc, s))
+        let (doc, s) = with_manip(doc, params.common.clone(), move |m| {
+            m.sketch(&part, &keys, &name)
         })
-        .await
-        .map_err(|e| failed(e.to_string()))??;
+        .await?;
         let mut answer = EditOut {
             outcome: "solved".into(),
             version: doc.version.unwrap_or(0),
-            changes: s
-                .changes
-                .iter()
-                .map(|c| ChangeOut {
-                    range: doc.range(c.span),
-                    old: c.old.clone(),
-                    new: c.new.clone(),
-                })
-                .collect(),
+            changes: doc.changes(&s.changes),
             name: Some(s.name.clone()),
             residuals: s.residuals.clone(),
             exact_at_zero: Some(s.exact_at_zero),

@@ -26,15 +26,32 @@ const TREE: &str = "system T {
 }
 ";
 
+/// A client with `text` open as NAME in a fresh folder, previewed once;
+/// the folder (kept while the test runs), the client, the URI and the
+/// preview.
+async fn previewed(
+    name: &str,
+    text: &str,
+) -> (
+    tempfile::TempDir,
+    Client,
+    tower_lsp_server::ls_types::Uri,
+    serde_json::Value,
+) {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let p = dir.path().join(name);
+    std::fs::write(&p, text).unwrap();
+    let mut c = Client::start().await;
+    let u = c.open(&p, text).await;
+    let r = c
+        .ok("grm/preview", json!({ "textDocument": { "uri": u } }))
+        .await;
+    (dir, c, u, r)
+}
+
 #[tokio::test]
 async fn the_shape_tree_is_walked_a_level_at_a_time_and_reveals_a_pick() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let p = dir.path().join("house.grm");
-    std::fs::write(&p, HOUSE).unwrap();
-    let mut c = Client::start().await;
-    let u = c.open(&p, HOUSE).await;
-    c.ok("grm/preview", json!({ "textDocument": { "uri": u } }))
-        .await;
+    let (_dir, mut c, u, _) = previewed("house.grm", HOUSE).await;
     let root = c
         .ok("grm/tree", json!({ "textDocument": { "uri": u } }))
         .await;
@@ -89,13 +106,7 @@ async fn the_shape_tree_is_walked_a_level_at_a_time_and_reveals_a_pick() {
 
 #[tokio::test]
 async fn the_derive_tree_links_picks_and_productions() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let p = dir.path().join("t.grm");
-    std::fs::write(&p, TREE).unwrap();
-    let mut c = Client::start().await;
-    let u = c.open(&p, TREE).await;
-    c.ok("grm/preview", json!({ "textDocument": { "uri": u } }))
-        .await;
+    let (_dir, mut c, u, _) = previewed("t.grm", TREE).await;
     let root = c
         .ok("grm/tree", json!({ "textDocument": { "uri": u } }))
         .await;
@@ -131,14 +142,7 @@ fn triangles(r: &serde_json::Value) -> u64 {
 
 #[tokio::test]
 async fn focus_and_context_draws_the_rest_as_proxies() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let p = dir.path().join("house.grm");
-    std::fs::write(&p, HOUSE).unwrap();
-    let mut c = Client::start().await;
-    let u = c.open(&p, HOUSE).await;
-    let whole = c
-        .ok("grm/preview", json!({ "textDocument": { "uri": u } }))
-        .await;
+    let (_dir, mut c, u, whole) = previewed("house.grm", HOUSE).await;
     // The ground floor's key, from the tree.
     let root = c
         .ok("grm/tree", json!({ "textDocument": { "uri": u } }))
