@@ -7,6 +7,8 @@ use std::time::Instant;
 use grm_compile::CompiledSystem;
 use grm_derive::{DeriveError, DeriveOptions, Engine, IterationStats};
 
+#[cfg(doc)]
+use crate::Grown;
 use crate::tree::{self, Tree};
 use crate::{Backend, Event, GrowError, Grown, Record};
 
@@ -14,6 +16,9 @@ use crate::{Backend, Event, GrowError, Grown, Record};
 #[derive(Debug)]
 pub struct Grower<'a> {
     record: Record,
+    /// The GPU backend was asked for, and edits moved the derivation to
+    /// the CPU.
+    moved_for_edits: bool,
     /// The CPU engine (the CPU backend).
     engine: Option<Engine<'a>>,
     /// The GPU backend.
@@ -42,6 +47,7 @@ impl<'a> Grower<'a> {
     ) -> Result<Self, DeriveError> {
         Ok(Grower {
             record,
+            moved_for_edits: false,
             engine: Some(cpu_engine(sys, threads, record)?),
             #[cfg(feature = "gpu")]
             gpu: None,
@@ -73,6 +79,7 @@ impl<'a> Grower<'a> {
                 }
                 Ok(Grower {
                     record,
+                    moved_for_edits: false,
                     engine: None,
                     gpu: Some(OnGpu {
                         sys,
@@ -83,6 +90,31 @@ impl<'a> Grower<'a> {
                 })
             }
         }
+    }
+
+    /// Replay `plan` (a system's persistent edits, [`crate::edits::
+    /// edit_plan`]) in every derivation (docs/edits.md). Edits are
+    /// replayed by the CPU engine: on the GPU backend a plan with edits
+    /// makes the grower derive on the CPU ([`Grower::on_cpu_for_edits`]);
+    /// an empty plan changes nothing. What the edits met comes back in
+    /// [`Grown::edits`].
+    pub fn with_edits(mut self, plan: grm_derive::EditPlan) -> Result<Self, DeriveError> {
+        if plan.is_empty() {
+            return Ok(self);
+        }
+        #[cfg(feature = "gpu")]
+        if let Some(g) = self.gpu.take() {
+            self.engine = Some(cpu_engine(g.sys, g.threads, self.record)?);
+            self.moved_for_edits = true;
+        }
+        self.engine = self.engine.take().map(|e| e.with_edits(plan));
+        Ok(self)
+    }
+
+    /// Whether the GPU backend was asked for but the grower derives on the
+    /// CPU, because it replays edits ([`Grower::with_edits`]).
+    pub fn on_cpu_for_edits(&self) -> bool {
+        self.moved_for_edits
     }
 
     /// The CPU engine (for callers that derive again, such as frames);
@@ -178,6 +210,15 @@ fn derive_cpu(
             return Ok(None);
         }
         progress(Event::Cpu);
+        if engine.edit_plan().is_some() {
+            let (d, outcome) = engine.derive_edited(opts, &mut |s| step(progress, s))?;
+            return Ok(Some(Grown {
+                string: d.string,
+                stats: d.stats,
+                edits: Some(outcome),
+                ..Grown::default()
+            }));
+        }
         let d = engine.derive(opts, &mut |s| step(progress, s))?;
         return Ok(Some(Grown {
             string: d.string,
@@ -188,7 +229,15 @@ fn derive_cpu(
     progress(Event::Cpu);
     let sys = engine.system();
     let t = Instant::now();
-    let mut string = engine.axiom(opts.seed)?;
+    // With edits: the edited road, its state carried step to step.
+    let mut edited = None;
+    let mut string = if engine.edit_plan().is_some() {
+        let (s, state) = engine.edited_axiom(opts.seed)?;
+        edited = Some(state);
+        s
+    } else {
+        engine.axiom(opts.seed)?
+    };
     let mut stats = vec![IterationStats::of(&string, 0, 0, 0, t.elapsed())];
     step(progress, &stats[0]);
     let mut tree = r.tree.then(|| Tree::axiom(sys, opts.seed, &string));
@@ -200,8 +249,30 @@ fn derive_cpu(
             return Ok(None);
         }
         let t = Instant::now();
-        let decided = engine.decisions(&string, iteration, opts.seed)?;
-        let next = engine.step(&string, iteration, opts.seed, &opts.limits)?;
+        let (decided, kept, next) = match &mut edited {
+            Some(state) => {
+                let mut rec = grm_derive::StepRecord::default();
+                let next = engine.edited_step(
+                    state,
+                    &string,
+                    iteration,
+                    opts.seed,
+                    &opts.limits,
+                    Some(&mut rec),
+                )?;
+                (rec.decided, Some(rec.kept), next)
+            }
+            None => {
+                let decided = engine.decisions(&string, iteration, opts.seed)?;
+                let next = engine.step(&string, iteration, opts.seed, &opts.limits)?;
+                (decided, None, next)
+            }
+        };
+        // How many modules of the next string each module became.
+        let made = |i: usize, d: Option<u32>| match &kept {
+            Some(k) => k[i] as usize,
+            None => d.map_or(1, |a| sys.alts[a as usize].succ_len as usize),
+        };
         if let Some(tree) = &mut tree {
             // The tree grows by the new string's rewritten modules.
             let grown = tree.nodes.len() as u64 + next.len() as u64;
@@ -218,17 +289,15 @@ fn derive_cpu(
                     span: sys.span,
                 });
             }
-            tree.advance(sys, iteration, &decided, &next);
+            tree.advance(iteration, &decided, &made, &next);
         }
         if let Some(o) = &mut origins {
             let mut out = Vec::with_capacity(next.len());
             for (i, d) in decided.iter().enumerate() {
+                let n = made(i, *d);
                 match *d {
-                    None => out.push(o[i]),
-                    Some(a) => {
-                        let n = sys.alts[a as usize].succ_len as usize;
-                        out.extend(std::iter::repeat_n(a, n));
-                    }
+                    None => out.extend(std::iter::repeat_n(o[i], n)),
+                    Some(a) => out.extend(std::iter::repeat_n(a, n)),
                 }
             }
             *o = out;
@@ -236,12 +305,10 @@ fn derive_cpu(
         if let (Some(f), Some(alt)) = (&mut focus, r.focus) {
             let mut out = Vec::with_capacity(next.len());
             for (i, d) in decided.iter().enumerate() {
+                let n = made(i, *d);
                 match *d {
-                    None => out.push(f[i]),
-                    Some(a) => {
-                        let n = sys.alts[a as usize].succ_len as usize;
-                        out.extend(std::iter::repeat_n(f[i] || a == alt, n));
-                    }
+                    None => out.extend(std::iter::repeat_n(f[i], n)),
+                    Some(a) => out.extend(std::iter::repeat_n(f[i] || a == alt, n)),
                 }
             }
             *f = out;
@@ -256,12 +323,17 @@ fn derive_cpu(
     if let Some(tree) = &mut tree {
         tree.finish(&string);
     }
+    let edits = edited.map(|state| match engine.edit_plan() {
+        Some(plan) => state.outcome(plan),
+        None => grm_derive::EditOutcome::default(),
+    });
     Ok(Some(Grown {
         string,
         stats,
         tree,
         origins,
         focus,
+        edits,
         ..Grown::default()
     }))
 }

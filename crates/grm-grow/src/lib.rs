@@ -50,6 +50,7 @@
 //!   module; docs/gpu.md): the choice changes the time, never the model.
 
 mod derive;
+pub mod edits;
 pub mod forest;
 #[cfg(feature = "gpu")]
 pub mod gpu;
@@ -140,6 +141,9 @@ pub struct Grown {
     /// Per module of the final string: it descends from an application of
     /// [`Record::focus`].
     pub focus: Option<Vec<bool>>,
+    /// What the persistent edits met, when the grower replayed some
+    /// ([`Grower::with_edits`]; classify them with [`edits::classify`]).
+    pub edits: Option<grm_derive::EditOutcome>,
     /// The GPU's run (its path, timings, interpretation; the string moved
     /// to [`Grown::string`]) when the GPU derived it.
     #[cfg(feature = "gpu")]

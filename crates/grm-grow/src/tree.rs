@@ -94,11 +94,13 @@ impl Tree {
 
     /// Record step `iteration`: `decided` is the engine's decision per
     /// module of the current string, `next` the string it made.
+    /// `made(i, decided[i])` how many modules of `next` module `i` became
+    /// (a successor's length, fewer where edits removed some; a copy 1).
     pub(crate) fn advance(
         &mut self,
-        sys: &CompiledSystem,
         iteration: u32,
         decided: &[Option<u32>],
+        made: &dyn Fn(usize, Option<u32>) -> usize,
         next: &ModuleString,
     ) {
         let mut cur = Vec::with_capacity(next.len());
@@ -107,12 +109,13 @@ impl Tree {
             let node = self.module_node[i];
             match *d {
                 None => {
-                    cur.push(node);
-                    o += 1;
+                    let n = made(i, None);
+                    cur.extend(std::iter::repeat_n(node, n));
+                    o += n;
                 }
                 Some(a) => {
                     self.nodes[node as usize].production = Some(a);
-                    let n = sys.alts[a as usize].succ_len as usize;
+                    let n = made(i, Some(a));
                     for j in o..o + n {
                         cur.push(self.nodes.len() as u32);
                         self.nodes.push(TreeNode {
