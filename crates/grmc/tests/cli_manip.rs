@@ -47,12 +47,33 @@ fn a_drag_is_solved_printed_and_written_on_request() {
     let shown = text(&out.stdout);
     assert!(shown.contains("2.4"), "{shown}");
     let before = std::fs::read_to_string(&grm).unwrap();
-    let out = grmc(&["manip", "drag", path(&grm), "--part", &part, "--to", "width:3"]);
+    let out = grmc(&[
+        "manip",
+        "drag",
+        path(&grm),
+        "--part",
+        &part,
+        "--to",
+        "width:3",
+    ]);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    assert!(text(&out.stdout).contains("2.4 -> 3"), "{}", text(&out.stdout));
+    assert!(
+        text(&out.stdout).contains("2.4 -> 3"),
+        "{}",
+        text(&out.stdout)
+    );
     assert!(text(&out.stderr).contains("not written"));
     assert_eq!(std::fs::read_to_string(&grm).unwrap(), before);
-    let out = grmc(&["manip", "drag", path(&grm), "--part", &part, "--to", "width:3", "--write"]);
+    let out = grmc(&[
+        "manip",
+        "drag",
+        path(&grm),
+        "--part",
+        &part,
+        "--to",
+        "width:3",
+        "--write",
+    ]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let after = std::fs::read_to_string(&grm).unwrap();
     assert_eq!(after, before.replace("!(2.4)", "!(3)"));
@@ -66,23 +87,63 @@ fn a_sketch_adds_a_parameter_and_an_unreachable_drag_says_why() {
     let (_dir, grm) = vase();
     let part = belly(&grm);
     let out = grmc(&[
-        "manip", "sketch", path(&grm), "--part", &part, "--name", "belly", "--key", "1:width:3.4",
+        "manip",
+        "sketch",
+        path(&grm),
+        "--part",
+        &part,
+        "--name",
+        "belly",
+        "--key",
+        "1:width:3.4",
         "--write",
     ]);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    assert!(text(&out.stdout).contains("(bit for bit)"), "{}", text(&out.stdout));
+    assert!(
+        text(&out.stdout).contains("(bit for bit)"),
+        "{}",
+        text(&out.stdout)
+    );
     let after = std::fs::read_to_string(&grm).unwrap();
     assert!(after.contains("param belly = 0 in 0 .. 1;"), "{after}");
     assert!(after.contains("!(mix(2.4, 3.4, belly))"), "{after}");
     let out = grmc(&["derive", path(&grm), "--param", "belly=1"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     // A width below zero: no number of the vase gives it.
-    let out = grmc(&["manip", "drag", path(&grm), "--part", &part, "--to", "width:-1"]);
+    let out = grmc(&[
+        "manip",
+        "drag",
+        path(&grm),
+        "--part",
+        &part,
+        "--to",
+        "width:-1",
+    ]);
     assert_eq!(out.status.code(), Some(1), "{}", text(&out.stdout));
-    assert!(text(&out.stderr).contains("error: "), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stderr).contains("error: "),
+        "{}",
+        text(&out.stderr)
+    );
     // Bad parts and targets are usage errors.
-    let out = grmc(&["manip", "drag", path(&grm), "--part", "bone:zz", "--to", "width:1"]);
+    let out = grmc(&[
+        "manip",
+        "drag",
+        path(&grm),
+        "--part",
+        "bone:zz",
+        "--to",
+        "width:1",
+    ]);
     assert_eq!(out.status.code(), Some(2));
-    let out = grmc(&["manip", "drag", path(&grm), "--part", &part, "--to", "girth:1"]);
+    let out = grmc(&[
+        "manip",
+        "drag",
+        path(&grm),
+        "--part",
+        &part,
+        "--to",
+        "girth:1",
+    ]);
     assert_eq!(out.status.code(), Some(2));
 }
