@@ -138,11 +138,16 @@ impl EditPlan {
         (self.slots.len() - 1) as u32
     }
 
-    /// Add edit `id` of the module with `key`. Of two edits of one key in
-    /// one slot (removal, the alternative, the pin, one value slot) the
-    /// larger id wins, whatever the order they are added in.
-    pub fn add(&mut self, key: u32, id: u32, action: EditAction) {
-        let n = match self.index.get(&key) {
+    /// Count the modules made with `key` ([`EditOutcome::hits`]) without
+    /// editing them: for edits the engine does not replay, whose targets
+    /// are still classified.
+    pub fn watch(&mut self, key: u32) {
+        self.node(key);
+    }
+
+    /// The node of `key`, made when missing.
+    fn node(&mut self, key: u32) -> usize {
+        match self.index.get(&key) {
             Some(&n) => n as usize,
             None => {
                 self.index.insert(key, self.nodes.len() as u32);
@@ -154,7 +159,14 @@ impl EditPlan {
                 self.filter[b / 64] |= 1 << (b % 64);
                 self.nodes.len() - 1
             }
-        };
+        }
+    }
+
+    /// Add edit `id` of the module with `key`. Of two edits of one key in
+    /// one slot (removal, the alternative, the pin, one value slot) the
+    /// larger id wins, whatever the order they are added in.
+    pub fn add(&mut self, key: u32, id: u32, action: EditAction) {
+        let n = self.node(key);
         let node = &mut self.nodes[n];
         fn later<T>(slot: &mut Option<(u32, T)>, id: u32, v: T) {
             if slot.as_ref().is_none_or(|(old, _)| id >= *old) {

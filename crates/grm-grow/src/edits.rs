@@ -134,13 +134,23 @@ pub fn edit_plan<'e>(
             Op::Pin { key } => EditAction::Pin(*key),
             Op::Set { name, value: v } => match finite_f32(*v) {
                 Some(v) => value(name, ValueOp::Set(v)),
-                None => continue,
+                None => {
+                    plan.watch(key);
+                    continue;
+                }
             },
             Op::Offset { name, by } => match finite_f32(*by) {
                 Some(by) => value(name, ValueOp::Offset(by)),
-                None => continue,
+                None => {
+                    plan.watch(key);
+                    continue;
+                }
             },
-            Op::Material { .. } | Op::Mesh { .. } => continue,
+            Op::Material { .. } | Op::Mesh { .. } => {
+                // Not replayed, but its target is classified.
+                plan.watch(key);
+                continue;
+            }
         };
         plan.add(key, e.id, action);
     }

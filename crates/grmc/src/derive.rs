@@ -75,11 +75,12 @@ pub struct DeriveArgs {
     /// (docs/engine.md, "Identity"). Not with --gpu.
     #[arg(long, value_name = "FILE.json", conflicts_with = "gpu")]
     pub tree: Option<PathBuf>,
-    /// Shape systems: replay the persistent edits of this file instead of
-    /// NAME.edits.json beside the grammar (docs/edits.md).
+    /// Replay the persistent edits of this file instead of NAME.edits.json
+    /// beside the grammar (docs/edits.md; derive mode replays key targets,
+    /// on the CPU).
     #[arg(long, value_name = "FILE.edits.json", conflicts_with = "no_edits")]
     pub edits: Option<PathBuf>,
-    /// Shape systems: grow without the persistent edits.
+    /// Grow without the persistent edits.
     #[arg(long)]
     pub no_edits: bool,
     /// With `--gpu`: derive on the CPU when no GPU can be used or the
@@ -428,13 +429,23 @@ fn ms(d: Duration) -> f64 {
 }
 
 pub fn run(args: DeriveArgs) -> Outcome {
-    let checked = match load_checked(&args.file, args.system.as_deref(), &args.params) {
+    let mut checked = match load_checked(&args.file, args.system.as_deref(), &args.params) {
         Ok(c) => c,
         Err(o) => return o,
     };
     if checked.system().mode == grm_sema::Mode::Shape {
         return crate::shape::run(&args, checked);
     }
+    // The persistent edits (docs/edits.md), read before compiling: a sample
+    // system is refused below whatever its edits.
+    let edits = if checked.system().mode == grm_sema::Mode::Derive {
+        match crate::shape::edits_of(&args, &mut checked) {
+            Ok(e) => e,
+            Err(o) => return o,
+        }
+    } else {
+        None
+    };
     let loaded = match checked.compile() {
         Ok(l) => l,
         Err(o) => return o,
@@ -502,6 +513,21 @@ pub fn run(args: DeriveArgs) -> Outcome {
             Ok(g) => g,
             Err(e) => return report_grow_error(&loaded.sources, c, &e),
         };
+    let mine: Vec<&grm_edits::Edit> = edits
+        .as_ref()
+        .map(|(f, _)| f.of_system(&c.name).collect())
+        .unwrap_or_default();
+    let plan = grm_grow::edits::edit_plan(loaded.system(), mine.iter().copied());
+    let grower = match grower.with_edits(plan) {
+        Ok(g) => g,
+        Err(e) => return report_derive_error(&loaded.sources, c, &e),
+    };
+    if grower.on_cpu_for_edits() {
+        eprintln!(
+            "note: {}: persistent edits are replayed by the CPU engine: deriving on the CPU, not the GPU (--no-edits to derive on the GPU)",
+            crate::count(mine.len() as u64, "edit")
+        );
+    }
     let mut bar: Option<indicatif::ProgressBar> = None;
     let mut start = Instant::now();
     // Which engine makes the strings (the table's columns differ).
@@ -578,11 +604,46 @@ pub fn run(args: DeriveArgs) -> Outcome {
         Err(e) => return report_grow_error(&loaded.sources, c, &e),
     };
     let total = start.elapsed();
+    // What became of the edits (docs/edits.md, "Classes").
+    let edit_problems = edits.as_ref().is_some_and(|(_, problems)| *problems);
+    if edits.is_some() {
+        let none = grm_derive::EditOutcome::default();
+        let outcome = d.edits.as_ref().unwrap_or(&none);
+        let reports = grm_grow::edits::classify(loaded.system(), c, outcome, mine.iter().copied());
+        let replayed = reports.iter().filter(|r| r.replayed).count();
+        eprintln!(
+            "{}: replayed {} of {}{}",
+            c.name,
+            replayed,
+            crate::count(reports.len() as u64, "edit"),
+            if replayed < reports.len() {
+                " (the others are listed by `grmc edits check`)"
+            } else {
+                ""
+            }
+        );
+        for r in reports.iter().filter(|r| !r.replayed) {
+            eprintln!(
+                "  edit {}: {}{}{}",
+                r.id,
+                r.class.as_str(),
+                if r.detail.is_empty() { "" } else { ": " },
+                r.detail
+            );
+        }
+    }
+    let done = |o: Outcome| {
+        if o == Outcome::Ok && edit_problems {
+            Outcome::InputErrors
+        } else {
+            o
+        }
+    };
     if let Some(r) = d.gpu.take() {
         // The GPU's report: its engines, path and timings.
         crate::gpu::summary(c, &opts, &r, total, args.stats);
         if !args.print && args.output.is_none() {
-            return Outcome::Ok;
+            return done(Outcome::Ok);
         }
     } else if let Some(s) = d.stats.last().copied() {
         let rate = if total.as_secs_f64() > 0.0 {
@@ -626,7 +687,7 @@ pub fn run(args: DeriveArgs) -> Outcome {
         if args.frames
             && let Some(engine) = grower.engine()
         {
-            return export_frames(
+            return done(export_frames(
                 &loaded,
                 engine,
                 &opts,
@@ -634,16 +695,22 @@ pub fn run(args: DeriveArgs) -> Outcome {
                 path,
                 &args.image,
                 args.max_memory,
-            );
+            ));
         }
         // Only the final string is needed now: the engine's spare strings
         // and the derivation tree go before the model is built.
         let string = d.string;
         drop(d.tree);
         drop(grower);
-        return export_string(&loaded, &string, path, &args.image, args.max_memory);
+        return done(export_string(
+            &loaded,
+            &string,
+            path,
+            &args.image,
+            args.max_memory,
+        ));
     }
-    Outcome::Ok
+    done(Outcome::Ok)
 }
 
 /// Render a growth's error (where errors that name no place point: the

@@ -3,14 +3,16 @@
 //!
 //! - `list` prints each edit (id, system, target, operation) after the
 //!   file's own problems (R0901-R0911, rendered in the edits file);
-//! - `check` also grows each shape system that has edits and classifies
-//!   every edit against its tree (`grm_grow::shape::edits`): valid,
-//!   structurally or semantically invalid, ambiguous, stale. Exit 0 when
-//!   the file has no problems and every edit is valid, 1 otherwise.
+//! - `check` also grows each shape or derive-mode system that has edits
+//!   with its edits replayed and classifies every edit
+//!   (`grm_grow::shape::edits` against the shape tree,
+//!   `grm_grow::edits` from what the CPU engine met): valid, structurally
+//!   or semantically invalid, ambiguous, stale. Exit 0 when the file has
+//!   no problems and every edit was replayed, 1 otherwise.
 //!
 //! `--format json` prints one JSON object instead of the table. Edits of
-//! derive- and sample-mode systems are listed, and `check` says they were
-//! not classified (their replay is not built yet).
+//! sample-mode systems are listed, and `check` says they were not
+//! classified (their replay is not built yet).
 
 use std::path::PathBuf;
 
@@ -233,11 +235,14 @@ fn classify(
             }
             continue;
         };
+        if sys.mode == grm_sema::Mode::Derive {
+            classify_derive(program, sys, values, seed, rows);
+            continue;
+        }
         if sys.shape.is_none() {
             for r in rows.iter_mut().filter(|r| r.edit.system == name) {
                 r.detail =
-                    "not classified: edits of derive- and sample-mode systems are not replayed yet"
-                        .to_owned();
+                    "not classified: edits of sample-mode systems are not replayed yet".to_owned();
             }
             continue;
         }
@@ -273,6 +278,63 @@ fn classify(
             r.replayed = rep.replayed;
             r.parts = rep.parts.len();
             r.detail = rep.detail;
+        }
+    }
+}
+
+/// Grow a derive-mode system once with its edits replayed (the CPU
+/// engine, every core) and classify them (`grm_grow::edits`).
+fn classify_derive(
+    program: &grm_sema::Program,
+    sys: &grm_sema::System,
+    values: &[grm_sema::Value],
+    seed: Option<u32>,
+    rows: &mut [Row],
+) {
+    let name = sys.name.as_str();
+    let mine: Vec<&Edit> = rows
+        .iter()
+        .filter(|r| r.edit.system == name)
+        .map(|r| r.edit)
+        .collect();
+    let grown = grm_compile::compile(program, sys, values)
+        .map_err(|e| e.to_string())
+        .and_then(|c| {
+            let opts = grm_derive::DeriveOptions {
+                seed: seed.unwrap_or(c.settings.seed),
+                ..grm_derive::DeriveOptions::from_system(&c)
+            };
+            let plan = grm_grow::edits::edit_plan(sys, mine.iter().copied());
+            let grown = grm_grow::Grower::new(&c, 0, grm_grow::Record::default())
+                .and_then(|g| g.with_edits(plan))
+                .map_err(|e| grm_grow::GrowError::from(e).to_string())?
+                .derive(&opts, &mut |_| {})
+                .map_err(|e| e.to_string())?;
+            let outcome = grown.edits.unwrap_or_default();
+            Ok(grm_grow::edits::classify(
+                sys,
+                &c,
+                &outcome,
+                mine.iter().copied(),
+            ))
+        });
+    match grown {
+        Ok(reports) => {
+            for (r, rep) in rows
+                .iter_mut()
+                .filter(|r| r.edit.system == name)
+                .zip(reports)
+            {
+                r.class = Some(rep.class);
+                r.replayed = rep.replayed;
+                r.parts = rep.modules as usize;
+                r.detail = rep.detail;
+            }
+        }
+        Err(e) => {
+            for r in rows.iter_mut().filter(|r| r.edit.system == name) {
+                r.detail = format!("not classified: the system does not grow: {e}");
+            }
         }
     }
 }

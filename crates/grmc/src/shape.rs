@@ -195,8 +195,9 @@ pub fn run(args: &DeriveArgs, mut checked: Checked) -> Outcome {
 /// The edits file to replay (`--edits`, else NAME.edits.json beside the
 /// grammar; none with `--no-edits` or when the default file is missing),
 /// its problems printed (coded R09xx, in the file) and whether it had any.
-/// `Err`: a named file that cannot be read (exit 2).
-fn edits_of(
+/// `Err`: a named file that cannot be read (exit 2). Derive mode reads
+/// them here too (`crate::derive::run`).
+pub(crate) fn edits_of(
     args: &DeriveArgs,
     checked: &mut Checked,
 ) -> Result<Option<(grm_edits::EditsFile, bool)>, Outcome> {
