@@ -220,6 +220,16 @@ pub fn components(layout: &Layout) -> BTreeMap<Id, Id> {
 /// The block owning each parcel (4.1.1: a parcel completely inside a block;
 /// tested with its vertex centroid and every vertex).
 pub fn ownership(layout: &Layout, blocks: &[Block]) -> BTreeMap<Id, Id> {
+    ownership_of(layout, blocks, false)
+}
+
+/// The block owning each explicit parcel (a generated parcel names its
+/// block itself).
+pub fn explicit_ownership(layout: &Layout, blocks: &[Block]) -> BTreeMap<Id, Id> {
+    ownership_of(layout, blocks, true)
+}
+
+fn ownership_of(layout: &Layout, blocks: &[Block], explicit_only: bool) -> BTreeMap<Id, Id> {
     let tree = rstar::RTree::bulk_load(
         blocks
             .iter()
@@ -236,6 +246,9 @@ pub fn ownership(layout: &Layout, blocks: &[Block]) -> BTreeMap<Id, Id> {
     );
     let mut own = BTreeMap::new();
     for p in layout.parcels.values() {
+        if explicit_only && p.origin != crate::model::ParcelOrigin::Explicit {
+            continue;
+        }
         let c = crate::geom::vertex_centroid(&p.ring);
         let mut best: Option<&Block> = None;
         for bx in tree.locate_in_envelope_intersecting(&rstar::AABB::from_point([c.x, c.y])) {

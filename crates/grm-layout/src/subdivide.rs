@@ -1,6 +1,6 @@
 //! Blocks subdivided into parcels (4.1.2, "local regeneration"): the
-//! block's area minus every nearby street widened to half its width plus a
-//! setback, then split recursively across the long axis of each piece's
+//! block's area minus every nearby street's corridor (half its width plus
+//! a setback either side, octagons at its points), then split recursively across the long axis of each piece's
 //! minimum rotated rectangle (the split point jittered by the block's own
 //! seed) until pieces are small enough. A parcel's identity is minted from
 //! the block's identity and the split path, its random draws from the
@@ -11,7 +11,7 @@ use crate::geom::{self, check_ring, open_ccw};
 use crate::id::{Id, Stream};
 use crate::index::{Seg, bounds};
 use crate::model::{Layout, Parcel, ParcelOrigin, Tags};
-use geo::{Area, BooleanOps, Buffer, Coord, LineString, MinimumRotatedRect, MultiPolygon, Polygon};
+use geo::{Area, BooleanOps, Coord, LineString, MinimumRotatedRect, MultiPolygon, Polygon};
 use rstar::RTree;
 use std::collections::BTreeSet;
 
@@ -87,7 +87,11 @@ pub fn parcel_area(
         .locate_in_envelope_intersecting(&env)
         .map(|s| s.street)
         .collect();
-    let mut bufs: Vec<MultiPolygon> = Vec::new();
+    // Each street as a corridor: a rectangle per segment and an octagon
+    // around each of its points (containing the round join), all counter-
+    // clockwise, taken away in one operation under the non-zero fill rule
+    // (overlapping corridors count once).
+    let mut corridors: Vec<Polygon> = Vec::new();
     for id in near {
         let Some(s) = layout.streets.get(&id) else {
             continue;
@@ -96,12 +100,50 @@ pub fn parcel_area(
             continue;
         };
         let d = s.width * 0.5 + params.setback;
-        bufs.push(LineString::new(pl).buffer(d));
+        for w in pl.windows(2) {
+            let (dx, dy) = (w[1].x - w[0].x, w[1].y - w[0].y);
+            let l = dx.hypot(dy);
+            if l <= 0.0 {
+                continue;
+            }
+            let (nx, ny) = (-dy / l * d, dx / l * d);
+            let c = |p: Coord, sx: f64| Coord {
+                x: p.x + nx * sx,
+                y: p.y + ny * sx,
+            };
+            corridors.push(Polygon::new(
+                LineString::new(vec![
+                    c(w[0], -1.0),
+                    c(w[1], -1.0),
+                    c(w[1], 1.0),
+                    c(w[0], 1.0),
+                    c(w[0], -1.0),
+                ]),
+                vec![],
+            ));
+        }
+        let r = d / (std::f64::consts::PI / 8.0).cos();
+        for p in &pl {
+            let ring: Vec<Coord> = (0..=8)
+                .map(|k| {
+                    let a =
+                        std::f64::consts::TAU * f64::from(k % 8) / 8.0 + std::f64::consts::PI / 8.0;
+                    Coord {
+                        x: p.x + r * a.cos(),
+                        y: p.y + r * a.sin(),
+                    }
+                })
+                .collect();
+            corridors.push(Polygon::new(LineString::new(ring), vec![]));
+        }
     }
     let mut region = MultiPolygon::new(vec![poly]);
-    if !bufs.is_empty() {
-        let streets = geo::unary_union(bufs.iter());
-        region = region.difference(&streets);
+    if !corridors.is_empty() {
+        region = region.boolean_op_with_fill_rule(
+            &MultiPolygon::new(corridors),
+            geo::algorithm::bool_ops::OpType::Difference,
+            geo::algorithm::bool_ops::FillRule::NonZero,
+        );
     }
     region
 }

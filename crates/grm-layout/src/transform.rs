@@ -11,7 +11,7 @@
 //! back in its rest pose gets its parcels' rest rings back exactly, so
 //! moving away and back restores identities and geometry.
 
-use crate::blocks::{Block, blocks, ownership};
+use crate::blocks::{Block, blocks};
 use crate::geom::{self, Affine, apply_coords, mean_value_coords, quantize};
 use crate::id::Id;
 use crate::index;
@@ -152,7 +152,7 @@ pub fn transform(
     }
     let after = blocks(&u);
     let after_by: BTreeMap<Id, &Block> = after.iter().map(|b| (b.id, b)).collect();
-    let own = ownership(layout, &before);
+    let own = crate::blocks::explicit_ownership(layout, &before);
     let mut out = Moved {
         nodes: w.len(),
         ..Moved::default()
