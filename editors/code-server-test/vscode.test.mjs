@@ -17,6 +17,10 @@
 //   - the preview follows the active editor to calder_tree.grm (a sample
 //     system), and editing its `seed = 1;` to `seed = 2;` regrows it with
 //     seed 2, without an error (issue 32, item 7).
+//   - direct manipulation (issue 28): a bone's tip dragged in the preview
+//     rewrites its F length in the editor's buffer (the server's
+//     workspace/applyEdit), the preview regrows from it, and one Ctrl+Z
+//     takes the drag back.
 //
 // Needs: `cargo build -p grmc` (or GRMC=path), the packaged extension
 // (`editors/vscode/scripts/package.sh --out target/grm.vsix`, or
@@ -103,6 +107,8 @@ before(async () => {
   temp = mkdtempSync(join(tmpdir(), 'grm-cs-'));
   ws = join(temp, 'examples');
   cpSync(join(root, 'examples'), ws, { recursive: true });
+  // A two-bone grammar for the direct-manipulation step (written before VS Code indexes the folder).
+  writeFileSync(join(ws, 'drag_bar.grm'), 'system Bar {\n    iterations = 1;\n    axiom A;\n    A -> F(2) +(30) F(1);\n}\n');
   const data = join(temp, 'data');
   mkdirSync(join(data, 'user/User'), { recursive: true });
   mkdirSync(join(data, 'ext'), { recursive: true });
@@ -546,4 +552,81 @@ step("an edit of the grammar's seed regrows the preview with that seed (a sample
   assert.doesNotMatch(status, /error/);
   const after = await frame.evaluate(() => globalThis.__grm.bonesList?.().slice(0, 50));
   assert.notDeepEqual(after, before, 'another tree');
+});
+
+step('direct manipulation: a bone tip dragged in the preview rewrites the grammar in the editor (grm/drag through workspace/applyEdit), and Ctrl+Z takes it back in one step', async () => {
+  const input = await quickInput('Control+P', 'drag_bar.grm');
+  await page.locator('.quick-input-list .monaco-list-row', { hasText: 'drag_bar.grm' }).first().waitFor({ timeout: LONG });
+  await input.press('Enter');
+  await page.locator('.tab.active', { hasText: /^drag_bar\.grm/ }).waitFor();
+  await page.locator('.tab', { hasText: 'Preview drag_bar.grm' }).waitFor();
+  const frame = await previewFrame();
+  await frame.waitForFunction(() => globalThis.__grm.mode === 'derive' && globalThis.__grm.bones === 2 && globalThis.__grm.lastError === null && !globalThis.__grm.busy, null, {
+    timeout: LONG,
+    polling: 100,
+  });
+  // The frame's client pixels as the main page's: the canvas' box in the page, less its box in the frame (read
+  // each time: the editor's jump to a picked rule may move or resize the preview).
+  const onPage = async ([x, y]) => {
+    const canvas = await frame.locator('#view').boundingBox();
+    const rect = await frame.evaluate(() => {
+      const r = document.getElementById('view').getBoundingClientRect();
+      return { left: r.left, top: r.top, width: r.width };
+    });
+    // The webview may be scaled (its zoom): page pixels per frame pixel.
+    const k = canvas.width / rect.width;
+    return [canvas.x + (x - rect.left) * k, canvas.y + (y - rect.top) * k];
+  };
+  const toScreen = async (p) => onPage(await frame.evaluate((q) => globalThis.__grm.toScreen(q), p));
+  const bones = () => frame.evaluate(() => globalThis.__grm.bonesList());
+  const [, b1] = await bones();
+  const mid = [0, 1, 2].map((i) => (b1.base[i] + b1.tip[i]) / 2);
+  // A click on the second bone picks it (the editor jumps to its rule) and gives its tip a handle.
+  await page.mouse.click(...(await toScreen(mid)));
+  await frame.waitForFunction(() => globalThis.__grm.handles().length === 1, null, { timeout: LONG, polling: 100 });
+  // Once the editor has jumped to the rule (the preview may have moved).
+  await page.waitForTimeout(500);
+  const [tip] = await frame.evaluate(() => globalThis.__grm.handles());
+  assert.equal(tip.kind, 'tip');
+  const target = [0, 1, 2].map((i) => b1.base[i] + (b1.tip[i] - b1.base[i]) * 1.5);
+  // The drag as pointer events in the preview's own frame, at its own client pixels: the webview's place and zoom
+  // in the workbench do not enter (a grip's press never reaches the orbit controls, so no pointer capture is asked).
+  const to = await frame.evaluate((q) => globalThis.__grm.toScreen(q), target);
+  const view = frame.locator('#view');
+  const at = (x, y) => ({ clientX: x, clientY: y, button: 0, buttons: 1, pointerId: 1, pointerType: 'mouse', isPrimary: true });
+  await view.dispatchEvent('pointerdown', at(...tip.screen));
+  for (let k = 1; k <= 8; k++) {
+    await view.dispatchEvent('pointermove', at(tip.screen[0] + ((to[0] - tip.screen[0]) * k) / 8, tip.screen[1] + ((to[1] - tip.screen[1]) * k) / 8));
+  }
+  await view.dispatchEvent('pointerup', { ...at(...to), buttons: 0 });
+  await frame.waitForFunction(() => globalThis.__grm.lastDrag !== null || globalThis.__grm.lastError !== null, null, { timeout: LONG, polling: 100 });
+  const g = await frame.evaluate(() => JSON.parse(JSON.stringify(globalThis.__grm)));
+  assert.equal(g.lastError, null);
+  assert.equal(g.lastDrag.outcome, 'solved', JSON.stringify(g.lastDrag));
+  assert.equal(g.lastDrag.applied, true, 'VS Code applied the edit');
+  const written = g.lastDrag.changes[0].new;
+  assert.ok(Math.abs(Number(written) - 1.5) < 0.02, `F(${written})`);
+  log(`drag: ${g.manipStatus}`);
+  // The editor's buffer changed (not the file: the edit is the editor's, unsaved), and the preview regrew from it.
+  const edited = page.locator('.monaco-editor .view-line', { hasText: `A -> F(2) +(30) F(${written});` });
+  await edited.waitFor({ timeout: LONG });
+  await page.locator('.tab.dirty', { hasText: /^drag_bar\.grm/ }).waitFor({ timeout: SHORT });
+  assert.match(readFileSync(join(ws, 'drag_bar.grm'), 'utf8'), /F\(1\);/, 'the file on disk is as it was until saved');
+  const length = async () => {
+    const [, b] = await bones();
+    return Math.hypot(b.tip[0] - b.base[0], b.tip[1] - b.base[1], b.tip[2] - b.base[2]);
+  };
+  await frame.waitForFunction(() => globalThis.__grm.dragLatencies.length === 1, null, { timeout: LONG, polling: 100 });
+  assert.ok(Math.abs((await length()) - Number(written)) < 1e-4, `the regrown bone is ${await length()} long`);
+  log(`release to the regrown model: ${(await frame.evaluate(() => globalThis.__grm.dragLatencies[0])).toFixed(0)} ms`);
+  // One undo takes the drag back, and the preview regrows with the old length.
+  await focusEditor('drag_bar.grm');
+  await page.keyboard.press('Control+Z');
+  await page.locator('.monaco-editor .view-line', { hasText: 'A -> F(2) +(30) F(1);' }).waitFor({ timeout: SHORT });
+  await page.locator('.tab.dirty', { hasText: /^drag_bar\.grm/ }).waitFor({ state: 'detached', timeout: SHORT });
+  const deadline = Date.now() + LONG;
+  while (Math.abs((await length()) - 1) > 1e-4) {
+    assert.ok(Date.now() < deadline, `the preview did not regrow after the undo (bone ${await length()} long)`);
+    await page.waitForTimeout(100);
+  }
 });

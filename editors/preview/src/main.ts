@@ -137,6 +137,8 @@ interface DebugInfo {
   saves: number;
   /** Screen position of a world point (for tests that aim at things). */
   toScreen: (p: V3) => [number, number];
+  /** The ray from the camera through a screen position (what a drag projects). */
+  rayAt: (x: number, y: number) => Ray;
   /** Control points of curve i. */
   curvePoints: (i: number) => V3[] | null;
   selectedCurve: () => number | null;
@@ -200,8 +202,11 @@ type Gesture =
   | { kind: 'drag'; curve: number; handle: number; through: V3; moved: boolean }
   /** A split plane's handle (index into the handles) along its axis: grabbed at `at0` with the pointer's ray `ray0`. */
   | { kind: 'plane'; handle: number; at0: number; ray0: Ray; facing: V3; at: number; moved: boolean }
-  /** A bone's tip in the view plane through where it was grabbed. */
-  | { kind: 'tip'; tip0: V3; normal: V3; at: V3; moved: boolean }
+  /**
+   * A bone's tip, in the plane through it with normal `normal`: moved by what the pointer moved in that plane since
+   * the grab (where the grabbing ray met it, `grab`), so a grip pressed off its centre does not jump.
+   */
+  | { kind: 'tip'; tip0: V3; normal: V3; grab: V3 | null; at: V3; moved: boolean }
   | { kind: 'click'; x: number; y: number; t: number };
 
 /** How long the camera must rest before the page tells the host its view (not on every frame of a drag). */
@@ -352,6 +357,7 @@ class App {
       lastError: null,
       saves: 0,
       toScreen: (p) => this.scene.toScreen(p),
+      rayAt: (x, y) => this.scene.pointerRay(x, y),
       curvePoints: (i) => this.state.curves?.curves[i]?.points.map((p) => [...p] as V3) ?? null,
       selectedCurve: () => this.state.selected,
       bonesList: () => this.last?.model.bones.map((b) => ({ base: b.base, tip: b.tip, origin: b.origin })) ?? [],
@@ -1260,7 +1266,9 @@ class App {
       this.gesture = { kind: 'plane', handle: i, at0, ray0: this.scene.pointerRay(e.clientX, e.clientY), facing: this.scene.viewDirection(), at: at0, moved: false };
     } else {
       const tip0 = this.posed && 'tip' in this.posed ? this.posed.tip : m.tip;
-      this.gesture = { kind: 'tip', tip0, normal: tipDragNormal(m.base, tip0, m.parentDir, this.scene.viewDirection()), at: tip0, moved: false };
+      const normal = tipDragNormal(m.base, tip0, m.parentDir, this.scene.viewDirection());
+      const grab = rayPlane(this.scene.pointerRay(e.clientX, e.clientY), normal, tip0);
+      this.gesture = { kind: 'tip', tip0, normal, grab, at: tip0, moved: false };
     }
     this.scene.controls.enabled = false;
     e.stopPropagation();
@@ -1309,9 +1317,9 @@ class App {
     } else if (g.kind === 'tip') {
       const p = rayPlane(ray, g.normal, g.tip0);
       if (!p) return;
-      g.at = p;
+      g.at = g.grab ? [g.tip0[0] + p[0] - g.grab[0], g.tip0[1] + p[1] - g.grab[1], g.tip0[2] + p[2] - g.grab[2]] : p;
       g.moved = true;
-      this.setStatus(`tip → (${p.map(short).join(', ')})`);
+      this.setStatus(`tip → (${g.at.map(short).join(', ')})`);
     } else {
       return;
     }
