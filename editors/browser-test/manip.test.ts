@@ -354,6 +354,25 @@ test('shape mode: dragging a split plane rewrites the number on disk and regrows
   };
   console.log(`split plane drag: release to regrown model on screen ${ms.join(', ')} ms (median ${median(ms)}); release to the drag's answer ${answer.join(', ')} ms (median ${median(answer)}); load ${loadavg()[0].toFixed(1)}`);
 
+  // A drag no number can follow (the ground floor's plane above the facade, 12.8 high): nothing written, the page
+  // says why, in red, and the plane goes back.
+  {
+    const h = await handlesAfterDrag(page);
+    const unchanged = readFileSync(file, 'utf8');
+    const drags = (await grm(page)).drags;
+    await dragFromTo(page, h[0].screen, await gripAt(page, h[0], 14));
+    const g = await waitFor(page, 'the unreachable drag answered', (x) => (x.drags > drags && x.lastDrag !== null) || x.lastError !== null);
+    assert.equal(g.lastError, null);
+    assert.equal(g.lastDrag?.outcome, 'unreachable', JSON.stringify(g.lastDrag));
+    assert.ok(g.lastDrag?.why, 'the server says why');
+    assert.equal(g.manipStatus, `drag: cannot be written: ${g.lastDrag?.why}`);
+    assert.equal(await page.evaluate(() => document.getElementById('manip-status')?.classList.contains('error')), true);
+    assert.equal(readFileSync(file, 'utf8'), unchanged, 'nothing written');
+    const back = await handles(page);
+    assert.equal(back[0].at, h[0].at, 'the plane is where it was');
+    await page.screenshot({ path: join(artifacts, 'manip-unreachable.png') });
+  }
+
   // Sketch parameter: the plane dragged to a pose at t = 0.5, then on to one at t = 1, records them (the grammar is
   // not written); Make slider… asks for a name.
   const before = readFileSync(file, 'utf8');

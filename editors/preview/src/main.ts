@@ -245,7 +245,7 @@ class App {
   /** Sketch mode: a released drag records a pose (at the t of the number field) instead of rewriting the grammar. */
   private sketchMode = false;
   private readonly sketch = new SketchKeys();
-  /** The last sketched pose, drawn where it was dropped: the plane (index into the handles) or the tip. */
+  /** The last sketched pose, or a drag's drop while its answer is on the way, drawn where it was dropped: the plane (index into the handles) or the tip. */
   private posed: { plane: number; at: number } | { tip: V3 } | null = null;
   /** After a drag: the pick to make again once the regrown model is on screen, and the key it must find. */
   private pickAfterShown: { pick: PickParams; key: string } | null = null;
@@ -1347,6 +1347,8 @@ class App {
       this.setManipStatus(`pose at t = ${short(t)}: ${describeTarget(what.target)}${this.sketch.ready ? '; press Make slider…' : '; a pose at t = 1 is still needed'}`);
       return;
     }
+    // The handle stays where it was dropped until the model regrows there (or goes back if nothing is written).
+    this.posed = g.kind === 'plane' ? { plane: g.handle, at: g.at } : { tip: g.at };
     this.drawHandles();
     void this.sendDrag(what.part, what.target, releasedAt);
   }
@@ -1382,11 +1384,13 @@ class App {
       // Nothing written: no model to wait for; the handle goes back to where the part is.
       if (r.outcome === 'unreachable' || r.outcome === 'unchanged' || r.applied === false) {
         if (this.dragWait === wait) this.dragWait = null;
+        if (!this.sketchMode) this.posed = null;
         this.drawHandles();
       }
     } catch (e) {
       if (this.dragWait === wait) this.dragWait = null;
       this.debug.lastDrag = null;
+      if (!this.sketchMode) this.posed = null;
       this.drawHandles();
       this.setManipStatus('');
       this.showError(`drag: ${(e as Error).message}`);
