@@ -1150,14 +1150,12 @@ class App {
     if (r?.shape) {
       const handles = planeHandles(r.shape.scopes);
       this.manip = { kind: 'planes', handles, key: r.key, pick };
-      if (!quiet)
-        this.setManipStatus(
-        handles.length
-          ? `${handles.length} split plane${handles.length === 1 ? '' : 's'} to drag: release one to rewrite the grammar's numbers`
-          : r.shape.scopes.some((s) => s.command && s.axis !== null)
-            ? 'the server names no split planes to drag (no key and planes in its scopes)'
-            : 'no split or repeat above this shape: nothing to drag',
-      );
+      const what = handles.length
+        ? `${handles.length} split plane${handles.length === 1 ? '' : 's'} to drag: release one to rewrite the grammar's numbers`
+        : r.shape.scopes.some((s) => s.command && s.axis !== null)
+          ? 'the server names no split planes to drag (no key and planes in its scopes)'
+          : 'no split or repeat above this shape: nothing to drag';
+      if (!quiet) this.setManipStatus(what);
     } else if (r && model && this.state.mode === 'derive' && r.key && KEY.test(r.key)) {
       let bone = pick.bone ?? null;
       if (bone === null && pick.part !== undefined && pick.triangle !== undefined) {
