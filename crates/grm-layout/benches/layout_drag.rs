@@ -90,6 +90,15 @@ fn city(p: &ParcelParams) -> (Vec<LayerSpec>, Vec<Layout>) {
     (vec![s0, s1, s2, s3], layouts)
 }
 
+/// This thread's CPU time so far in ms (`/proc/thread-self/schedstat`: the
+/// nanoseconds it ran), which a busy machine's waits do not inflate; None
+/// where the file is missing.
+fn cpu_ms() -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    let ns: f64 = s.split_whitespace().next()?.parse().ok()?;
+    Some(ns / 1e6)
+}
+
 fn stats(mut v: Vec<f64>) -> (f64, f64, f64, f64) {
     v.sort_by(f64::total_cmp);
     let mean = v.iter().sum::<f64>() / v.len() as f64;
@@ -118,6 +127,7 @@ fn main() {
             s.merge = mode;
         }
         let mut times = Vec::new();
+        let mut cpu = Vec::new();
         let mut last = (0, 0);
         for k in 0..updates + 2 {
             // The drag: 3 m a step along a diagonal, the layer re-placed from its source pose.
@@ -127,6 +137,7 @@ fn main() {
             };
             let mut ls = layouts.clone();
             let t0 = Instant::now();
+            let c0 = cpu_ms();
             // The dragged layer from its source pose (the lower layers as they are).
             ls[3] = layouts[3].clone();
             specs[3].place = Place {
@@ -137,6 +148,7 @@ fn main() {
             let mut issues: Vec<LayerIssue> = Vec::new();
             let (merged, reports) = merge_layers(&specs, &ls, &p, &mut issues);
             let dt = t0.elapsed().as_secs_f64() * 1e3;
+            let dc = cpu_ms().zip(c0).map(|(b, a)| b - a);
             assert!(
                 issues.is_empty(),
                 "{:?}",
@@ -144,6 +156,7 @@ fn main() {
             );
             if k >= 2 {
                 times.push(dt);
+                cpu.extend(dc);
             }
             last = (merged.streets.len(), merged.parcels.len());
             if k == updates + 1 {
@@ -172,6 +185,13 @@ fn main() {
             last.0,
             last.1
         );
+        if !cpu.is_empty() {
+            let (min, med, mean, max) = stats(cpu);
+            println!(
+                "{:<9} CPU time per update: fastest {min:.1} ms, median {med:.1} ms, mean {mean:.1} ms, slowest {max:.1} ms",
+                mode.name()
+            );
+        }
     }
     // Where an update's time goes: one merge of the base under the rest, by parts.
     let t0 = Instant::now();

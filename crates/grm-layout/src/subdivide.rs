@@ -1,6 +1,6 @@
 //! Blocks subdivided into parcels (4.1.2, "local regeneration"): the
-//! block's area minus every nearby street's corridor (half its width plus
-//! a setback either side, octagons at its points), then split recursively across the long axis of each piece's
+//! block shrunk by its widest street's half width plus a setback, minus
+//! any other street's corridor that comes near, then split recursively across the long axis of each piece's
 //! minimum rotated rectangle (the split point jittered by the block's own
 //! seed) until pieces are small enough. A parcel's identity is minted from
 //! the block's identity and the split path, its random draws from the
@@ -11,7 +11,7 @@ use crate::geom::{self, check_ring, open_ccw};
 use crate::id::{Id, Stream};
 use crate::index::{Seg, bounds};
 use crate::model::{Layout, Parcel, ParcelOrigin, Tags};
-use geo::{Area, BooleanOps, Coord, LineString, MinimumRotatedRect, MultiPolygon, Polygon};
+use geo::{Area, BooleanOps, Buffer, Coord, LineString, MinimumRotatedRect, MultiPolygon, Polygon};
 use rstar::RTree;
 use std::collections::BTreeSet;
 
@@ -61,8 +61,12 @@ pub fn block_seed(layer_seed: u64, block: Id) -> Id {
     Id::mint("block-seed").u64(layer_seed).id(block).finish()
 }
 
-/// The area of a block parcels may use: the block minus its holes minus
-/// every street near it, widened.
+/// The area of a block parcels may use: the block (minus its holes) shrunk
+/// by the widest of its streets' half widths plus the setback (Lipp
+/// shrinks the block by the distance to the road, 4.1.2), then minus the
+/// corridor of any other street that comes near (a rectangle per segment
+/// and an octagon around each point, half the street's width plus the
+/// setback either side, taken away in one non-zero-fill difference).
 pub fn parcel_area(
     layout: &Layout,
     segs: &RTree<Seg>,
@@ -75,22 +79,25 @@ pub fn parcel_area(
         .map(|h| LineString::new(geom::close(h)))
         .collect();
     let poly = Polygon::new(LineString::new(geom::close(&block.ring)), holes);
-    let (min, max) = bounds(&block.ring);
-    let max_half = layout
+    let own: BTreeSet<Id> = block.streets.iter().copied().collect();
+    let inset = block
         .streets
-        .values()
+        .iter()
+        .filter_map(|id| layout.streets.get(id))
         .map(|s| s.width * 0.5)
         .fold(0.0, f64::max)
         + params.setback;
-    let env = crate::index::grown(min, max, max_half);
+    let mut region = poly.buffer(-inset);
+    if region.0.is_empty() {
+        return region;
+    }
+    let (min, max) = bounds(&block.ring);
+    let env = crate::index::grown(min, max, 0.0);
     let near: BTreeSet<Id> = segs
         .locate_in_envelope_intersecting(&env)
         .map(|s| s.street)
+        .filter(|s| !own.contains(s))
         .collect();
-    // Each street as a corridor: a rectangle per segment and an octagon
-    // around each of its points (containing the round join), all counter-
-    // clockwise, taken away in one operation under the non-zero fill rule
-    // (overlapping corridors count once).
     let mut corridors: Vec<Polygon> = Vec::new();
     for id in near {
         let Some(s) = layout.streets.get(&id) else {
@@ -137,7 +144,6 @@ pub fn parcel_area(
             corridors.push(Polygon::new(LineString::new(ring), vec![]));
         }
     }
-    let mut region = MultiPolygon::new(vec![poly]);
     if !corridors.is_empty() {
         region = region.boolean_op_with_fill_rule(
             &MultiPolygon::new(corridors),
