@@ -40,8 +40,8 @@ use grm_compile::rng;
 use rayon::prelude::*;
 
 use crate::engine::{
-    Binds, Derivation, DeriveLimits, DeriveOptions, Engine, IterationStats, Out, SLOW, Step,
-    keep_first,
+    Act, Binds, Derivation, DeriveLimits, DeriveOptions, Engine, IterationStats, Out, SLOW, Step,
+    copy_small, keep_first,
 };
 use crate::error::{DeriveError, RuntimeError, RuntimeErrorKind};
 use crate::string::ModuleString;
@@ -348,6 +348,8 @@ impl Table {
 #[derive(Clone, Debug)]
 pub struct EditState {
     tags: Vec<u32>,
+    /// A spare buffer for the next string's tags.
+    spare: Vec<u32>,
     table: Table,
     /// Per plan node: modules made with its key, the first one's symbol.
     hits: Vec<(u32, u32)>,
@@ -476,6 +478,7 @@ impl<'a> Engine<'a> {
         let mut s = self.axiom(seed)?;
         let mut state = EditState {
             tags: vec![0; s.len()],
+            spare: Vec::new(),
             table: Table::new(),
             hits: vec![(0, 0); self.edits.as_deref().map_or(0, EditPlan::len)],
         };
@@ -613,7 +616,10 @@ impl<'a> Engine<'a> {
 
         // 3. Rewrite.
         let mut out = self.take(m, w);
-        let mut otags = vec![0u32; m];
+        // The tags' buffer: the one of the string before the input, kept.
+        let mut otags = std::mem::take(&mut state.spare);
+        otags.clear();
+        otags.resize(m, 0);
         let done = {
             let mut parts = Vec::with_capacity(chunks.len());
             let (mut syms, mut starts, mut params) =
@@ -668,7 +674,7 @@ impl<'a> Engine<'a> {
             .flat_map(|d| d.matches.iter().copied())
             .collect();
         let removed = self.settle(plan, state, &mut out, &mut otags, &matches, iteration)?;
-        state.tags = otags;
+        state.spare = std::mem::replace(&mut state.tags, otags);
         let rec = record.then(|| {
             let decided: Vec<Option<u32>> = done.into_iter().flat_map(|d| d.decided).collect();
             let mut o = 0usize;
@@ -782,9 +788,80 @@ impl<'a> Engine<'a> {
             decided: Vec::with_capacity(if record { range.len() } else { 0 }),
         };
         let (mut o, mut wo) = (0usize, 0usize);
-        for i in range {
+        let (end, mut i) = (range.end, range.start);
+        while i < end {
             let sym = isyms[i];
+            let s = sym as usize;
+            if self.copies[s] {
+                // A run of copied modules, moved whole with their keys and
+                // tags (as the plain rewrite moves them).
+                let mut j = i + 1;
+                while j < end && self.copies[isyms[j] as usize] {
+                    j += 1;
+                }
+                let (len, ps, pe) = (j - i, istarts[i] as usize, istarts[j] as usize);
+                if len == 1 {
+                    // One module (a turn between two rewritten ones).
+                    osyms[o] = sym;
+                    ostarts[o] = word_base + wo as u32;
+                    if pe - ps == 1 {
+                        oparams[wo] = iparams[ps];
+                    } else {
+                        copy_small(&mut oparams[wo..wo + (pe - ps)], &iparams[ps..pe]);
+                    }
+                    okeys[o] = ikeys[i];
+                    otags[o] = tags[i];
+                } else {
+                    osyms[o..o + len].copy_from_slice(&isyms[i..j]);
+                    let delta = (word_base + wo as u32).wrapping_sub(istarts[i]);
+                    for (d, &st) in ostarts[o..o + len].iter_mut().zip(&istarts[i..j]) {
+                        *d = st.wrapping_add(delta);
+                    }
+                    oparams[wo..wo + (pe - ps)].copy_from_slice(&iparams[ps..pe]);
+                    okeys[o..o + len].copy_from_slice(&ikeys[i..j]);
+                    otags[o..o + len].copy_from_slice(&tags[i..j]);
+                }
+                if record {
+                    done.decided.extend(std::iter::repeat_n(None, len));
+                }
+                o += len;
+                wo += pe - ps;
+                i = j;
+                continue;
+            }
             let tag = tags[i];
+            if tag == 0
+                && let Act::Unit(u) = self.acts[s]
+            {
+                // `F(l) -> F(l * k)`, inline (as the plain rewrite writes
+                // it): one word, one key.
+                let v = iparams[istarts[i] as usize] * u.m + u.a;
+                if !v.is_finite() {
+                    let span = self.system().param_spans[u.span as usize];
+                    let kind = RuntimeErrorKind::NonFinite { value: v };
+                    return Err(self.runtime(step, i, kind, span));
+                }
+                osyms[o] = u.sym;
+                ostarts[o] = word_base + wo as u32;
+                oparams[wo] = v;
+                let ck = rng::child_key_premixed(ikeys[i], self.succ_salts[u.succ as usize]);
+                okeys[o] = ck;
+                otags[o] = 0;
+                if let Some(node) = plan.lookup(ck) {
+                    done.matches.push(Match {
+                        pos: base + o,
+                        node,
+                        scope: 0,
+                    });
+                }
+                if record {
+                    done.decided.push(Some(self.counts[s].0));
+                }
+                o += 1;
+                wo += 1;
+                i += 1;
+                continue;
+            }
             let (ps, pe) = (istarts[i] as usize, istarts[i + 1] as usize);
             match self.decide_edited(step, &mut worker, table, tag, i)? {
                 None => {
@@ -854,6 +931,7 @@ impl<'a> Engine<'a> {
                     }
                 }
             }
+            i += 1;
         }
         Ok(done)
     }
@@ -974,21 +1052,33 @@ impl<'a> Engine<'a> {
     }
 }
 
-/// Drop the modules `mask` marks from `out` and its tags, in place.
+/// Drop the modules `mask` marks from `out` and its tags, in place: each
+/// run of kept modules moved as one block.
 fn compact(out: &mut ModuleString, tags: &mut Vec<u32>, mask: &[bool]) {
-    let (mut w, mut pw) = (0usize, 0usize);
-    for j in 0..out.syms.len() {
+    let n = out.syms.len();
+    let (mut w, mut pw, mut j) = (0usize, 0usize, 0usize);
+    while j < n {
         if mask[j] {
+            j += 1;
             continue;
         }
-        let (s, e) = (out.starts[j] as usize, out.starts[j + 1] as usize);
-        out.syms[w] = out.syms[j];
-        out.keys[w] = out.keys[j];
-        tags[w] = tags[j];
-        out.starts[w] = pw as u32;
+        let mut k = j + 1;
+        while k < n && !mask[k] {
+            k += 1;
+        }
+        let (s, e) = (out.starts[j] as usize, out.starts[k] as usize);
+        let delta = (pw as u32).wrapping_sub(out.starts[j]);
+        out.syms.copy_within(j..k, w);
+        out.keys.copy_within(j..k, w);
+        tags.copy_within(j..k, w);
+        // Written at `w + (t - j) <= t`, after `t` was read.
+        for t in j..k {
+            out.starts[w + t - j] = out.starts[t].wrapping_add(delta);
+        }
         out.params.copy_within(s..e, pw);
         pw += e - s;
-        w += 1;
+        w += k - j;
+        j = k;
     }
     out.syms.truncate(w);
     out.keys.truncate(w);

@@ -202,7 +202,7 @@ pub struct Engine<'a> {
     /// Per alternative.
     pub(crate) plans: Vec<Plan>,
     /// Per symbol: what the rewrite does with it ([`Act`]).
-    acts: Vec<Act>,
+    pub(crate) acts: Vec<Act>,
     /// Per symbol: its action is a copy ([`Act::Copy0`], [`Act::Copy`]).
     /// The rewrite moves a run of such modules whole.
     pub(crate) copies: Vec<bool>,
@@ -268,20 +268,20 @@ pub(crate) struct Plan {
 /// string. The rewrite loop writes it inline instead of through the
 /// general `emit` (the same single f32 operation, the same error).
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct Unit {
-    sym: u32,
+pub(crate) struct Unit {
+    pub(crate) sym: u32,
     /// Its successor module (index into `succ_salts`).
-    succ: u32,
+    pub(crate) succ: u32,
     /// The patch, `x * m + a` ([`Patch::Arith`]).
-    m: f32,
-    a: f32,
-    span: u32,
+    pub(crate) m: f32,
+    pub(crate) a: f32,
+    pub(crate) span: u32,
 }
 
 /// What the rewrite does with a module, per symbol: one load and one
 /// branch for the common cases.
 #[derive(Clone, Copy, Debug, PartialEq)]
-enum Act {
+pub(crate) enum Act {
     /// Copied unchanged; the symbol has no parameters.
     Copy0,
     /// Copied unchanged with its `words` parameter words.
@@ -1945,7 +1945,7 @@ impl<'a> Engine<'a> {
 /// Copy a short slice without a call to `memcpy`: successors are a few to
 /// a few dozen words, where the call costs more than the copy.
 #[inline(always)]
-fn copy_small<T: Copy>(dst: &mut [T], src: &[T]) {
+pub(crate) fn copy_small<T: Copy>(dst: &mut [T], src: &[T]) {
     let n = dst.len().min(src.len());
     let (mut d, mut s) = (&mut dst[..n], &src[..n]);
     while d.len() >= 8 {
