@@ -21,6 +21,16 @@
 //     rewrites its F length in the editor's buffer (the server's
 //     workspace/applyEdit), the preview regrows from it, and one Ctrl+Z
 //     takes the drag back.
+//   - a shape grammar (house.grm, a mass split at 3 into Ground and Top):
+//     the explorer's "grm: Derivation" view shows its tree (root Lot); a
+//     click on the ground floor in the preview picks it (the editor jumps
+//     to its split) and its node is revealed and selected in the view; a
+//     node clicked there selects its operation in the editor; the split
+//     plane's grip dragged along its axis to 4.5 rewrites `3` in the
+//     editor's buffer (dirty, the file untouched), the preview regrows
+//     (the page's own pick again has the plane there, revealed again in
+//     the view), and one Ctrl+Z gives back exactly the original text and
+//     a regrown preview with the plane at 3.
 //
 // Needs: `cargo build -p grmc` (or GRMC=path), the packaged extension
 // (`editors/vscode/scripts/package.sh --out target/grm.vsix`, or
@@ -629,4 +639,369 @@ step('direct manipulation: a bone tip dragged in the preview rewrites the gramma
     assert.ok(Date.now() < deadline, `the preview did not regrow after the undo (bone ${await length()} long)`);
     await page.waitForTimeout(100);
   }
+});
+
+// ---------------------------------------------------------------- a shape grammar: the derivation view, a pick, a split plane's drag
+
+/** A small split grammar: a 10 x 6 lot, 8 high, its mass split at 3 into a ground floor and the rest. */
+const HOUSE = [
+  'system House {',
+  '    mode = shape;',
+  '    lot = rect(10, 6);',
+  '    axiom Lot;',
+  '',
+  '    Lot -> extrude(8) Mass;',
+  '    Mass -> split(z) { 3: Ground | ~1: Top };',
+  '}',
+  '',
+].join('\n');
+
+/** The preview's frame for house.grm and the screen (main page pixels) of its world points. */
+let house = null;
+
+/** The preview page's `__grm`, as JSON. */
+const grmState = (frame) => frame.evaluate(() => JSON.parse(JSON.stringify(globalThis.__grm ?? null)));
+
+/** The "grm: Derivation" view in the explorer, its rows, and the label of the selected one. */
+const derivationPane = () => page.locator('.pane', { has: page.locator('.pane-header', { hasText: 'grm: Derivation' }) });
+const derivationRows = () => derivationPane().locator('.monaco-list-row');
+async function derivationLabels() {
+  return derivationRows().evaluateAll((rows) =>
+    rows.map((r) => `${r.getAttribute('aria-level')}:${r.querySelector('.label-name')?.textContent ?? r.textContent}${r.classList.contains('selected') ? ' (selected)' : ''}`),
+  );
+}
+
+/**
+ * The text of the active editor, line by line as Monaco renders them (in order of their place; empty lines kept): the
+ * whole document where it is this short.
+ */
+async function documentText() {
+  const lines = await page
+    .locator('.editor-group-container.active .monaco-editor .view-lines .view-line')
+    .evaluateAll((ls) => ls.map((l) => ({ top: parseFloat(l.style.top), text: l.textContent.replace(/\u00a0/g, ' ') })));
+  return lines
+    .sort((a, b) => a.top - b.top)
+    .map((l) => l.text)
+    .join('\n');
+}
+
+/** Wait until the one selected row of the derivation view is LABEL's; returns it. */
+async function selectedNode(label) {
+  try {
+    await page.waitForFunction(
+      (l) => {
+        const pane = [...document.querySelectorAll('.pane')].find((p) => /grm: Derivation/i.test(p.querySelector('.pane-header')?.textContent ?? ''));
+        const rows = pane ? [...pane.querySelectorAll('.monaco-list-row.selected')] : [];
+        return rows.length === 1 && rows[0].querySelector('.label-name')?.textContent === l;
+      },
+      label,
+      { timeout: LONG, polling: 100 },
+    );
+  } catch (e) {
+    throw new Error(`${label} is not the selected node of the derivation view: ${JSON.stringify(await derivationLabels())}`, { cause: e });
+  }
+  return derivationPane().locator('.monaco-list-row.selected');
+}
+
+/** A point of a scope (`grm/pick`'s scopes) from its local coordinates along its axes, in the model's frame. */
+function scopePoint(s, local) {
+  return [0, 1, 2].map((i) => s.origin[i] + s.axes[0][i] * local[0] + s.axes[1][i] * local[1] + s.axes[2][i] * local[2]);
+}
+
+/**
+ * Zoom the preview out (the mouse wheel over its canvas) until the whole house is in it with a margin: the camera
+ * frames a model's height, and the preview's canvas beside its panel is narrow.
+ */
+async function fitHouse() {
+  const { frame, onPage } = house;
+  const corners = [0, 10].flatMap((x) => [0, 8].flatMap((y) => [0, -6].map((z) => [x, y, z])));
+  for (let i = 0; ; i++) {
+    // Measured once the wheel's last events have landed.
+    await viewAtRest();
+    const { box, pts } = await frame.evaluate((cs) => {
+      const r = document.getElementById('view').getBoundingClientRect();
+      return { box: { left: r.left, top: r.top, right: r.right, bottom: r.bottom }, pts: cs.map((c) => globalThis.__grm.toScreen(c)) };
+    }, corners);
+    const m = 12;
+    if (pts.every(([x, y]) => x > box.left + m && x < box.right - m && y > box.top + m && y < box.bottom - m)) return;
+    assert.ok(i < 40, `the house does not fit in the preview's canvas: ${JSON.stringify({ box, pts })}`);
+    await page.mouse.move(...(await onPage([(box.left + box.right) / 2, (box.top + box.bottom) / 2])));
+    await page.mouse.wheel(0, 400);
+  }
+}
+
+/**
+ * Wait until the preview's view rests: a corner of the house at the same place on the page in consecutive reads (the
+ * wheel's zoom and a resize of the webview land when the busy page gets to them).
+ */
+async function viewAtRest() {
+  const { toScreen } = house;
+  const deadline = Date.now() + SHORT;
+  let last = null;
+  let same = 0;
+  while (same < 3) {
+    assert.ok(Date.now() < deadline, "the preview's view does not rest");
+    await page.waitForTimeout(150);
+    const now = await toScreen([10, 8, -6]);
+    same = last && Math.hypot(now[0] - last[0], now[1] - last[1]) < 0.01 ? same + 1 : 0;
+    last = now;
+  }
+}
+
+/**
+ * Open FILE with Quick Open, its own row clicked (townhouse.grm matches `house.grm` too, and may come first); asked
+ * again while the row is not there (a file just written may not be in the file search's list yet).
+ */
+async function quickOpen(file) {
+  const name = new RegExp(`^${file.replace('.', '\\.')}$`);
+  const deadline = Date.now() + LONG;
+  for (let attempt = 1; ; attempt++) {
+    await quickInput('Control+P', file);
+    try {
+      const row = page.locator('.quick-input-list .monaco-list-row', { has: page.locator('.label-name', { hasText: name }) }).first();
+      await row.waitFor({ timeout: 10_000 });
+      await row.click();
+      await page.locator('.tab.active', { hasText: new RegExp(`^${file.replace('.', '\\.')}`) }).waitFor({ timeout: SHORT });
+      return;
+    } catch (e) {
+      if (Date.now() > deadline) throw e;
+      log(`quick open ${file}: not opened (attempt ${attempt}), again`);
+      await page.keyboard.press('Escape');
+    }
+  }
+}
+
+/** Pick the ground floor (a point low on the front face, which faces +z, away from the grips) until the page has its handles. */
+async function pickGround() {
+  const { frame, toScreen } = house;
+  for (let attempt = 1; ; attempt++) {
+    const before = (await grmState(frame)).picks;
+    await page.mouse.click(...(await toScreen([2, 1, 0.01])));
+    try {
+      await frame.waitForFunction(
+        (n) => {
+          const g = globalThis.__grm;
+          return g.picks > n && g.lastPick?.symbol === 'Ground' && g.handles().length > 0;
+        },
+        before,
+        { timeout: SHORT, polling: 100 },
+      );
+      return;
+    } catch (e) {
+      if (attempt === 3) throw new Error(`the ground floor was not picked: ${JSON.stringify((await grmState(frame)).lastPick)}`, { cause: e });
+      log(`the pick of the ground floor did not come (attempt ${attempt}), again`);
+    }
+  }
+}
+
+step('the grm: Derivation view shows the tree of a previewed shape grammar (house.grm: its root is Lot)', async () => {
+  writeFileSync(join(ws, 'house.grm'), HOUSE);
+  await quickOpen('house.grm');
+  await page.locator('.editor-group-container.active .view-line', { hasText: 'Mass -> split(z)' }).waitFor();
+  // The open preview follows the active editor (opened here when this step runs alone).
+  const tab = page.locator('.tab', { hasText: 'Preview house.grm' });
+  if ((await page.locator('.tab', { hasText: /^Preview / }).count()) === 0) {
+    await focusEditor('house.grm');
+    await command('grm: Open Preview');
+  }
+  await tab.waitFor();
+  const frame = await previewFrame();
+  try {
+    await frame.waitForFunction(
+      () => {
+        const g = globalThis.__grm;
+        return !!g && g.mode === 'shape' && g.lastError === null && g.triangles > 0 && !g.busy && /House/.test(document.getElementById('status-text')?.textContent ?? '');
+      },
+      null,
+      { timeout: LONG, polling: 100 },
+    );
+  } catch (e) {
+    const g = await grmState(frame);
+    throw new Error(`no model of house.grm in the preview: ${JSON.stringify(g && { mode: g.mode, lastError: g.lastError, triangles: g.triangles })}`, { cause: e });
+  }
+  log(`house: ${(await frame.locator('#status-text').innerText()).trim()}`);
+  // The frame's client pixels as the main page's (read each time: the editor's jump to a picked rule may move or
+  // resize the preview; the webview may be zoomed).
+  const onPage = async ([x, y]) => {
+    const canvas = await frame.locator('#view').boundingBox();
+    const rect = await frame.evaluate(() => {
+      const r = document.getElementById('view').getBoundingClientRect();
+      return { left: r.left, top: r.top, width: r.width };
+    });
+    const k = canvas.width / rect.width;
+    return [canvas.x + (x - rect.left) * k, canvas.y + (y - rect.top) * k];
+  };
+  const toScreen = async (p) => onPage(await frame.evaluate((q) => globalThis.__grm.toScreen(q), p));
+  house = { frame, onPage, toScreen };
+  await fitHouse();
+
+  // The view, in the explorer (expanded if its pane is collapsed), shows the previewed document's tree: its root, Lot.
+  const header = derivationPane().locator('.pane-header');
+  await header.waitFor({ timeout: LONG });
+  if ((await header.getAttribute('aria-expanded')) !== 'true') await header.click();
+  await page.waitForFunction(
+    () => [...document.querySelectorAll('.pane-header')].some((h) => /grm: Derivation/i.test(h.textContent ?? '') && h.getAttribute('aria-expanded') === 'true'),
+    null,
+    { timeout: SHORT, polling: 100 },
+  );
+  const root = derivationRows().filter({ has: page.locator('.label-name', { hasText: /^Lot$/ }) });
+  try {
+    await root.first().waitFor({ timeout: LONG });
+  } catch (e) {
+    throw new Error(`no Lot in the derivation view: ${JSON.stringify(await derivationLabels())}`, { cause: e });
+  }
+  assert.equal(await root.first().getAttribute('aria-level'), '1', 'Lot is the root');
+  log(`derivation view: ${JSON.stringify(await derivationLabels())}`);
+});
+
+step('a shape picked in the preview is revealed and selected in the grm: Derivation view; a node clicked there opens its rule', async () => {
+  const { frame } = house;
+  const mass = lineOf('house.grm', 'Mass -> split(z)');
+  const lot = lineOf('house.grm', 'Lot -> extrude(8)');
+  // Away from the rules, so the jumps below are seen.
+  await goTo(1, 1, 'house.grm');
+  await pickGround();
+  const g = await grmState(frame);
+  log(`picked: ${g.lastPick.symbol} ${g.lastPick.key} (${g.manipStatus})`);
+  // The editor jumps to the operation that made the ground floor: the split in Mass's rule.
+  const col = HOUSE.split('\n')[mass - 1].indexOf('split(z)') + 1;
+  await page.locator('#status\\.editor\\.selection', { hasText: new RegExp(`^Ln ${mass}, Col ${col}$`) }).waitFor({ timeout: SHORT });
+  // Its node is revealed (its ancestors expanded) and selected in the view.
+  const selected = await selectedNode('Ground');
+  assert.equal(await selected.getAttribute('aria-level'), '4', 'Lot > Mass > split.z > Ground');
+  const description = (await selected.locator('.label-description').innerText()).trim();
+  assert.equal(description, g.lastPick.key, "the node's key is the pick's");
+  log(`derivation view after the pick: ${JSON.stringify(await derivationLabels())}`);
+
+  // A node clicked opens its rule with the operation that made it selected: Mass the successor `Mass` in Lot's rule,
+  // the ground floor the split in Mass's (the status bar: the selection's end, and its length).
+  const selection = (line, text) => {
+    const start = HOUSE.split('\n')[line - 1].indexOf(text);
+    assert.ok(start >= 0);
+    return `Ln ${line}, Col ${start + text.length + 1} (${text.length} selected)`;
+  };
+  const row = (label) => derivationRows().filter({ has: page.locator('.label-name', { hasText: new RegExp(`^${label.replace('.', '\\.')}$`) }) }).first();
+  for (const [label, where] of [
+    ['Mass', selection(lot, 'Mass')],
+    ['Ground', selection(mass, 'split(z) { 3: Ground | ~1: Top }')],
+  ]) {
+    await row(label).click();
+    try {
+      await page.locator('#status\\.editor\\.selection', { hasText: where }).waitFor({ timeout: SHORT });
+    } catch (e) {
+      throw new Error(`${label} clicked: the editor's selection is not ${where}: ${await page.locator('#status\\.editor\\.selection').innerText()}`, { cause: e });
+    }
+    await page.locator('.tab.active', { hasText: /^house\.grm/ }).waitFor({ timeout: SHORT });
+    log(`${label} clicked: ${where}`);
+  }
+});
+
+step("a shape's split plane dragged in the preview rewrites its size in the editor (workspace/applyEdit), the preview regrows, and Ctrl+Z takes it back in one step", async () => {
+  const { frame, onPage, toScreen } = house;
+  // The pick's handles are there (the step before picked the ground floor); picked again if a regrow dropped them.
+  if ((await frame.evaluate(() => globalThis.__grm.handles().length)) === 0) await pickGround();
+  const g0 = await grmState(frame);
+  const handles = await frame.evaluate(() => globalThis.__grm.handles());
+  assert.deepEqual(
+    handles.map((h) => `${h.kind} ${h.label} ${h.edge}`),
+    ['plane split.z 1'],
+  );
+  const [plane] = handles;
+  assert.ok(Math.abs(plane.at - 3) < 1e-5, `the split plane at ${plane.at}`);
+  // The split's scope (the mass): the grip is the plane's centre; it is dragged along the split's axis to 4.5.
+  const scope = g0.lastPick.shape.scopes.find((s) => s.command && s.key === plane.command);
+  assert.ok(scope, `the scope of ${plane.command}: ${JSON.stringify(g0.lastPick.shape.scopes)}`);
+  // The derivation view collapsed (its Collapse All), so the reveal of the pick after the drag is seen.
+  await derivationPane().locator('.pane-header .action-label[aria-label*="Collapse All"]').click();
+  await page.waitForFunction(
+    () => {
+      const pane = [...document.querySelectorAll('.pane')].find((p) => /grm: Derivation/i.test(p.querySelector('.pane-header')?.textContent ?? ''));
+      return pane?.querySelectorAll('.monaco-list-row').length === 1;
+    },
+    null,
+    { timeout: SHORT, polling: 100 },
+  );
+  const dropAt = (at) => {
+    const local = scope.size.map((x) => x / 2);
+    local[scope.axis] = at;
+    return toScreen(scopePoint(scope, local));
+  };
+  await viewAtRest();
+  const from = await onPage(plane.screen);
+  const r0 = g0.regrows;
+  const n0 = g0.dragLatencies.length;
+  const d0 = g0.drags;
+  await page.mouse.move(...from);
+  await page.mouse.down();
+  await page.mouse.move(...(await dropAt(3.75)), { steps: 4 });
+  // Aimed again once the view rests, as a hand would: anything that moves the view under the pointer while it drags
+  // (a status line that once wrapped resized the canvas) does not move the drop. The page moves the plane by the
+  // pointer's ray, so only where it ends matters.
+  await viewAtRest();
+  await page.mouse.move(...(await dropAt(4.5)), { steps: 4 });
+  await page.mouse.up();
+  try {
+    await frame.waitForFunction(
+      ([d, n]) => {
+        const g = globalThis.__grm;
+        return (g.drags > d && g.lastDrag !== null && g.dragLatencies.length > n) || g.lastError !== null;
+      },
+      [d0, n0],
+      { timeout: LONG, polling: 100 },
+    );
+  } catch (e) {
+    const g = await grmState(frame);
+    throw new Error(`the drag was not answered and regrown: ${JSON.stringify({ drags: g.drags, lastDrag: g.lastDrag, manipStatus: g.manipStatus })}`, { cause: e });
+  }
+  const g1 = await grmState(frame);
+  assert.equal(g1.lastError, null);
+  assert.equal(g1.lastDragRequest.part.kind, 'plane');
+  const sent = g1.lastDragRequest.target.at;
+  assert.ok(Math.abs(sent - 4.5) < 0.15, `dropped at ${sent}`);
+  assert.equal(g1.lastDrag.outcome, 'solved', JSON.stringify(g1.lastDrag));
+  assert.equal(g1.lastDrag.applied, true, 'VS Code applied the edit');
+  assert.equal(g1.lastDrag.changes.length, 1);
+  assert.equal(g1.lastDrag.changes[0].old, '3');
+  const written = g1.lastDrag.changes[0].new;
+  assert.ok(Math.abs(Number(written) - sent) < 1e-3, `${written} written for a drop at ${sent}`);
+  log(`drag: ${g1.manipStatus}; release to the regrown model ${g1.dragLatencies.at(-1).toFixed(0)} ms`);
+
+  // The editor's buffer has the number (the server's workspace/applyEdit), unsaved; the file is as it was.
+  const edited = HOUSE.replace('{ 3: Ground', `{ ${written}: Ground`);
+  await page.locator('.monaco-editor .view-line', { hasText: `Mass -> split(z) { ${written}: Ground | ~1: Top };` }).waitFor({ timeout: LONG });
+  await page.locator('.tab.dirty', { hasText: /^house\.grm/ }).waitFor({ timeout: SHORT });
+  assert.equal(readFileSync(join(ws, 'house.grm'), 'utf8'), HOUSE, 'the file on disk is as it was until saved');
+  await focusEditor('house.grm');
+  assert.equal(await documentText(), edited);
+  // The preview regrew from the edited text: the page picks the ground floor again on the regrown model, its plane
+  // where it was dropped.
+  assert.ok(g1.regrows > r0, 'the preview regrew');
+  try {
+    await frame.waitForFunction((w) => globalThis.__grm.handles().some((h) => Math.abs(h.at - w) < 1e-4), Number(written), { timeout: SHORT, polling: 100 });
+  } catch (e) {
+    throw new Error(`no handle at ${written} after the drag: ${JSON.stringify(await frame.evaluate(() => globalThis.__grm.handles()))}`, { cause: e });
+  }
+  // That pick, on the regrown model's tree, is revealed in the derivation view again.
+  await selectedNode('Ground');
+  log(`derivation view after the drag: ${JSON.stringify(await derivationLabels())}`);
+
+  // One undo (in the editor) takes the whole drag back: the text exactly as it was, not dirty, and the preview regrows
+  // with the ground floor 3 high again.
+  const r1 = (await grmState(frame)).regrows;
+  await focusEditor('house.grm');
+  await page.keyboard.press('Control+Z');
+  await page.locator('.editor-group-container.active .view-line', { hasText: 'Mass -> split(z) { 3: Ground | ~1: Top };' }).waitFor({ timeout: SHORT });
+  await page.locator('.tab.dirty', { hasText: /^house\.grm/ }).waitFor({ state: 'detached', timeout: SHORT });
+  assert.equal(await documentText(), HOUSE);
+  await frame.waitForFunction((r) => globalThis.__grm.regrows > r && !globalThis.__grm.busy && globalThis.__grm.lastError === null, r1, { timeout: LONG, polling: 100 });
+  // The regrown ground floor, picked again, has its plane at 3.
+  const deadline = Date.now() + LONG;
+  for (;;) {
+    await pickGround();
+    const [h] = await frame.evaluate(() => globalThis.__grm.handles());
+    if (Math.abs(h.at - 3) < 1e-5) break;
+    assert.ok(Date.now() < deadline, `the preview did not regrow after the undo (the plane at ${h.at})`);
+    await page.waitForTimeout(250);
+  }
+  log('undone: the ground floor picked again has its plane at 3');
 });

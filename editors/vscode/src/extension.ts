@@ -65,17 +65,31 @@ class DerivationView implements vscode.TreeDataProvider<TreeNode> {
     return this.tree.parentOf(n);
   }
 
+  /** New previews so far: each one drops the nodes read. */
+  private generation = 0;
+
   /** A new preview of `uri`: the tree read again. */
   previewed(uri: string): void {
+    this.generation++;
     this.tree.setDocument(uri, undefined);
     this.changed.fire(undefined);
   }
 
-  /** A part picked in the preview: its node selected in the view. */
+  /**
+   * A part picked in the preview: its node selected in the view. A new preview while it is found or revealed (a pick
+   * moves the editor's cursor, and the page regrows to highlight the rule there) drops the nodes under the reveal
+   * (VS Code logs "No tree item with id ..." and reveals nothing): it is found again on the new tree and revealed.
+   */
   async reveal(key: string): Promise<void> {
-    if (!this.view.visible) return;
-    const n = await this.tree.find(key);
-    if (n) await this.view.reveal(n, { select: true, focus: false, expand: true });
+    for (let attempt = 0; attempt < 10; attempt++) {
+      if (!this.view.visible) return;
+      const generation = this.generation;
+      const n = await this.tree.find(key);
+      if (!n) return;
+      if (generation !== this.generation) continue;
+      await this.view.reveal(n, { select: true, focus: false, expand: true });
+      if (generation === this.generation) return;
+    }
   }
 }
 
