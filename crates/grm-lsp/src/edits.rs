@@ -205,7 +205,7 @@ pub(crate) fn classify(
 ) -> (EditsOut, EditsRun) {
     let file = &loaded.parsed.file;
     let mine: Vec<&Edit> = file.of_system(system).collect();
-    let mut by_id: HashMap<u32, EditOut> =
+    let by_id: HashMap<u32, EditOut> =
         grm_grow::shape::edits::classify(prog, lowered, tree, mine.iter().copied())
             .into_iter()
             .zip(&mine)
@@ -214,6 +214,42 @@ pub(crate) fn classify(
                 (r.id, edit_out(e, r.class, r.detail, r.replayed, parts))
             })
             .collect();
+    collect(loaded, uri, prog, system, by_id)
+}
+
+/// Classify the edits of the derive-mode system `sys` (and of systems the
+/// grammar lacks) from what a preview's derivation met replaying them
+/// (`grm_grow::edits::classify`). A report's `parts` is empty: derive mode
+/// names modules by key.
+pub(crate) fn classify_derive(
+    loaded: &Loaded,
+    uri: Uri,
+    prog: &grm_sema::Program,
+    sys: &grm_sema::System,
+    compiled: &grm_compile::CompiledSystem,
+    outcome: &grm_derive::EditOutcome,
+) -> (EditsOut, EditsRun) {
+    let file = &loaded.parsed.file;
+    let mine: Vec<&Edit> = file.of_system(&sys.name).collect();
+    let by_id: HashMap<u32, EditOut> =
+        grm_grow::edits::classify(sys, compiled, outcome, mine.iter().copied())
+            .into_iter()
+            .zip(&mine)
+            .map(|(r, e)| (r.id, edit_out(e, r.class, r.detail, r.replayed, Vec::new())))
+            .collect();
+    collect(loaded, uri, prog, &sys.name, by_id)
+}
+
+/// The reports of `system`'s edits (`by_id`) and of the edits of systems
+/// the grammar lacks, in the file's order.
+fn collect(
+    loaded: &Loaded,
+    uri: Uri,
+    prog: &grm_sema::Program,
+    system: &str,
+    mut by_id: HashMap<u32, EditOut>,
+) -> (EditsOut, EditsRun) {
+    let file = &loaded.parsed.file;
     let mut reports = Vec::new();
     for e in &file.edits {
         let out = if e.system == system {
@@ -583,7 +619,12 @@ pub(crate) async fn after_preview(
     doc: &Path,
     table: &crate::preview::PickTable,
 ) {
-    let Some(run) = table.shape.as_ref().and_then(|s| s.edits.as_ref()) else {
+    let Some(run) = table
+        .shape
+        .as_ref()
+        .and_then(|s| s.edits.as_ref())
+        .or(table.edits.as_deref())
+    else {
         return;
     };
     {

@@ -539,6 +539,9 @@ pub(crate) struct PickTable {
     pub(crate) tree: Option<Arc<(grm_grow::Tree, Vec<u32>)>>,
     /// Shape mode: the shape tree and where its rules are written.
     pub(crate) shape: Option<Arc<crate::shape_preview::ShapePicks>>,
+    /// Derive mode: the edits file replayed, and what became of its edits
+    /// (shape mode keeps its own in `shape`).
+    pub(crate) edits: Option<Arc<crate::edits::EditsRun>>,
 }
 
 /// Base64 of 4-byte words, encoded as they come in blocks of a whole
@@ -598,10 +601,13 @@ struct Grown {
     origin: Option<Vec<u32>>,
     focus: Vec<bool>,
     tree: Option<grm_grow::Tree>,
+    /// What the persistent edits met (with a plan).
+    edits: Option<grm_derive::EditOutcome>,
 }
 
 /// Derive `sys` through `grm_grow`, recording origins, the focus flags
 /// and (`tree`) the derivation tree; stops when `cancel` is set.
+#[cfg(test)]
 fn grow(
     sys: &CompiledSystem,
     iterations: u32,
@@ -611,13 +617,41 @@ fn grow(
     tree: bool,
     cancel: Option<&CancelToken>,
 ) -> std::result::Result<Grown, Failure> {
+    grow_edited(
+        sys,
+        iterations,
+        seed,
+        max_modules,
+        focus,
+        tree,
+        None,
+        cancel,
+    )
+}
+
+/// [`grow`], replaying `edits` (the system's persistent edits, docs/
+/// edits.md) while deriving.
+#[allow(clippy::too_many_arguments)]
+fn grow_edited(
+    sys: &CompiledSystem,
+    iterations: u32,
+    seed: u32,
+    max_modules: u64,
+    focus: Option<u32>,
+    tree: bool,
+    edits: Option<&grm_derive::EditPlan>,
+    cancel: Option<&CancelToken>,
+) -> std::result::Result<Grown, Failure> {
     let record = grm_grow::Record {
         tree,
         origins: true,
         keys: true,
         focus: Some(focus.unwrap_or(NO_ORIGIN)),
     };
-    let grower = grm_grow::Grower::new(sys, 1, record).map_err(|e| e.to_string())?;
+    let mut grower = grm_grow::Grower::new(sys, 1, record).map_err(|e| e.to_string())?;
+    if let Some(plan) = edits {
+        grower = grower.with_edits(plan.clone()).map_err(|e| e.to_string())?;
+    }
     let opts = grm_derive::DeriveOptions {
         iterations,
         seed,
@@ -636,6 +670,7 @@ fn grow(
         origin: g.origins,
         tree: g.tree,
         string: g.string,
+        edits: g.edits,
     })
 }
 
@@ -652,10 +687,13 @@ struct Made {
     build_ms: f64,
     focus_out: Option<FocusOut>,
     sample: Option<SampleOut>,
+    /// Derive mode: what the persistent edits met.
+    edits: Option<grm_derive::EditOutcome>,
 }
 
 /// Derive mode: the CPU engine through `grm_grow`, exact provenance,
-/// focus spread over seeds.
+/// focus spread over seeds; `edits` replayed (the spread's seeds too).
+#[allow(clippy::too_many_arguments)]
 fn derive_model(
     prog: &grm_sema::Program,
     sys: &grm_sema::System,
@@ -663,17 +701,19 @@ fn derive_model(
     settings: &grm_sema::Settings,
     p: &PreviewParams,
     focus: Option<u32>,
+    edits: Option<&grm_derive::EditPlan>,
     cancel: Option<&CancelToken>,
 ) -> std::result::Result<Made, Failure> {
     let max_modules = p.max_modules.unwrap_or(2_000_000).min(50_000_000);
     let t0 = Instant::now();
-    let grown = grow(
+    let grown = grow_edited(
         compiled,
         settings.iterations,
         settings.seed,
         max_modules,
         focus,
         true,
+        edits,
         cancel,
     )?;
     let derive_ms = t0.elapsed().as_secs_f64() * 1e3;
@@ -713,13 +753,14 @@ fn derive_model(
         let mut spread = Vec::with_capacity(n as usize);
         for k in 0..n {
             let seed = settings.seed.wrapping_add(k);
-            let g = grow(
+            let g = grow_edited(
                 compiled,
                 settings.iterations,
                 seed,
                 max_modules,
                 focus,
                 false,
+                edits,
                 cancel,
             )?;
             let mut st = settings.clone();
@@ -744,6 +785,7 @@ fn derive_model(
         build_ms,
         focus_out,
         sample: None,
+        edits: grown.edits,
     })
 }
 
@@ -867,6 +909,7 @@ fn sample_model(
             generation: shown,
             coverage,
         }),
+        edits: None,
     })
 }
 
@@ -1076,9 +1119,26 @@ pub(crate) fn build_with_model(
             .position(|s| s.contains(off) || s.end == off)
             .map(|a| a as u32)
     });
+    // Derive mode: the edits file beside the system's grammar (its buffer,
+    // else the disk), replayed by the CPU engine (docs/edits.md).
+    let loaded =
+        (mode == PreviewMode::Derive).then(|| edits.load(&grm_edits::edits_path(&sys_path)));
+    let plan = loaded
+        .as_ref()
+        .filter(|l| l.text.is_some())
+        .map(|l| grm_grow::edits::edit_plan(sys, l.parsed.file.of_system(&sys.name)));
     let made = match mode {
         PreviewMode::Sample => sample_model(fa, sys, &compiled, &settings, p, focus, cancel)?,
-        _ => derive_model(prog, sys, &compiled, &settings, p, focus, cancel)?,
+        _ => derive_model(
+            prog,
+            sys,
+            &compiled,
+            &settings,
+            p,
+            focus,
+            plan.as_ref(),
+            cancel,
+        )?,
     };
     check(cancel)?;
     let Made {
@@ -1090,7 +1150,18 @@ pub(crate) fn build_with_model(
         build_ms,
         focus_out,
         sample,
+        edits: outcome,
     } = made;
+    // What became of each edit.
+    let (edits_out, edits_run) = match (&loaded, uris.uri_of(&grm_edits::edits_path(&sys_path))) {
+        (Some(l), Some(edits_uri)) => {
+            let outcome = outcome.unwrap_or_default();
+            let (o, r) =
+                crate::edits::classify_derive(l, edits_uri, prog, sys, &compiled, &outcome);
+            (Some(o), Some(r))
+        }
+        _ => (None, None),
+    };
     let params_out = params_out(prog, &values);
     fits_answer(&model, origin_table.len())?;
     let t2 = Instant::now();
@@ -1109,6 +1180,7 @@ pub(crate) fn build_with_model(
             }
             Arc::new((t, place))
         }),
+        edits: edits_run.map(Arc::new),
         ..PickTable::default()
     };
     let parts = parts_out(&model, &origin_of, &is_focus, &mut table.parts);
@@ -1160,7 +1232,7 @@ pub(crate) fn build_with_model(
         stats: stats_out(&model, modules, derive_ms, build_ms, t2),
         warnings,
         shape: None,
-        edits: None,
+        edits: edits_out,
     };
     Ok((result, table, model))
 }
