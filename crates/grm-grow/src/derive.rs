@@ -7,8 +7,6 @@ use std::time::Instant;
 use grm_compile::CompiledSystem;
 use grm_derive::{DeriveError, DeriveOptions, Engine, IterationStats};
 
-#[cfg(doc)]
-use crate::Grown;
 use crate::tree::{self, Tree};
 use crate::{Backend, Event, GrowError, Grown, Record};
 
