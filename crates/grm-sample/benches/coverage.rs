@@ -23,17 +23,23 @@
 //! before the curve-coverage work: 3 candidates, ESS floor 0.1, the
 //! paper's cost and order), `prev` (the defaults before the reach
 //! look-ahead: 12 candidates, a tournament of 4, the coverage term, each
-//! bone covering eq. 1's curve alone) and `default`
-//! (`SampleOptions::default()`).
+//! bone covering eq. 1's curve alone), `lookahead` (the defaults of the
+//! reach look-ahead, before paced symbols drew fewer candidates:
+//! `Reach::paced` 0) and `default` (`SampleOptions::default()`).
 //! `paper` and `before` run with the particle counts the grammars asked
-//! for before that work (Calder's 100 -> 15, the vine's 400 -> 60), the
-//! others with the grammars' own.
-//! `--config NAME` (repeatable) runs only those; `--with KEY=VALUE`
+//! for before that work (Calder's 100 -> 15, the vine's 400 -> 60),
+//! `prev` and `lookahead` with those of their time (the vine's 100 -> 15,
+//! before it grew twice the particles with paced candidates), `default`
+//! with the grammars' own.
+//! `--config NAME` (repeatable) runs only those; `--detail` prints a line
+//! per seed and configuration (each curve's coverage, the bones, and the
+//! `--stats` report's "too few bones" verdicts of a model that misses a
+//! curve); `--with KEY=VALUE`
 //! (repeatable) adds a row `custom`: the defaults with those changes
 //! (keys: `particles=A..B`, `pscale` (the
 //! schedule's particle counts times this), `candidates`, `ess`, `order`, `cover`,
 //! `generations`, and the [`grm_sample::Reach`] look-ahead's `reach_c`,
-//! `reach_o`, `reach_s`, `reach_w`, `recent`, `branches`; `others=0`: bones cover
+//! `reach_o`, `reach_s`, `reach_w`, `recent`, `branches`, `paced`; `others=0`: bones cover
 //! eq. 1's curve alone), for trying a
 //! change before it is made a default; `--custom K=V,K=V` (repeatable) adds
 //! rows `custom1`, `custom2`, ... the same way.
@@ -46,7 +52,7 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use grm_guide::{CoverageOptions, Curves, FOLLOWED, coverage};
+use grm_guide::{CoverageOptions, Curves, FOLLOWED, coverage, describe_coverage};
 use grm_sample::{ExpectedOptions, Guide, Objective, Reach, SampleOptions, Sampler, Schedule};
 
 const S_CURVE: &str = r#"{ "version": 1, "defaults": { "utilization_scale": 100 }, "curves": [
@@ -73,11 +79,17 @@ fn cpu_ms() -> f64 {
         .map_or(f64::NAN, |ns| ns / 1e6)
 }
 
+/// A scene: its name, grammar file, curves, the particle counts of the
+/// `paper` and `before` rows, and those of the `prev` and `lookahead` rows
+/// (`None`: the grammar's own).
+type Scene<'a> = (&'a str, &'a str, Curves, (u32, u32), Option<(u32, u32)>);
+
 /// Which sampler a row runs.
 enum Config {
     Paper,
     Before,
     Prev,
+    Lookahead,
     Default,
     Custom(Vec<(String, String)>),
 }
@@ -132,6 +144,14 @@ fn prev(mut o: SampleOptions) -> SampleOptions {
     o
 }
 
+/// The defaults of the reach look-ahead (`docs/sampling.md` 4.4, before
+/// paced symbols drew fewer candidates): `Reach::paced` 0, 12 candidates
+/// for every bone.
+fn lookahead(mut o: SampleOptions) -> SampleOptions {
+    o.reach.paced = 0;
+    o
+}
+
 /// Calder's paper: one candidate, untempered weights, uniform order.
 fn paper(o: SampleOptions) -> SampleOptions {
     SampleOptions {
@@ -174,6 +194,7 @@ fn custom(mut o: SampleOptions, with: &[(String, String)]) -> SampleOptions {
             "others" => {}
             "branches" => o.reach.branches = f() != 0.0,
             "recent" => o.reach.recent = f() as u32,
+            "paced" => o.reach.paced = f() as u32,
             _ => panic!("unknown --with key {k}"),
         }
     }
@@ -186,12 +207,14 @@ fn main() {
     let mut configs: Vec<String> = Vec::new();
     let mut with: Vec<(String, String)> = Vec::new();
     let mut customs: Vec<Vec<(String, String)>> = Vec::new();
+    let mut detail = false;
     let mut it = std::env::args().skip(1);
     while let Some(x) = it.next() {
         match x.as_str() {
             "--seeds" => seeds = it.next().and_then(|s| s.parse().ok()).unwrap_or(50),
             "--only" => only.extend(it.next()),
             "--config" => configs.extend(it.next()),
+            "--detail" => detail = true,
             "--custom" => {
                 let list = it.next().unwrap_or_default();
                 customs.push(
@@ -217,6 +240,7 @@ fn main() {
         ("paper".into(), Config::Paper),
         ("before".into(), Config::Before),
         ("prev".into(), Config::Prev),
+        ("lookahead".into(), Config::Lookahead),
         ("default".into(), Config::Default),
     ];
     if !with.is_empty() {
@@ -234,36 +258,43 @@ fn main() {
     // Per scene, the particle counts its grammar asked for before the
     // curve-coverage work (Calder's 100 -> 15; the vine's 400 -> 60): the
     // `paper` and `before` rows run with them, as they ran then.
-    let scenes: Vec<(&str, &str, Curves, (u32, u32))> = vec![
+    // The `prev` and `lookahead` rows run with the counts of their time
+    // (the vine's 100 -> 15; `None`: the grammar's own).
+    let scenes: Vec<Scene> = vec![
         (
             "calder_tree",
             "calder_tree.grm",
             file_curves("calder_tree.curves.json"),
             (100, 15),
+            None,
         ),
         (
             "calder_s_curve",
             "calder_tree.grm",
             inline("s_curve", S_CURVE),
             (100, 15),
+            None,
         ),
         (
             "calder_fork4",
             "calder_tree.grm",
             inline("fork4", FORK),
             (100, 15),
+            None,
         ),
         (
             "calder_out_of_plane",
             "calder_tree.grm",
             inline("out_of_plane", OUT_OF_PLANE),
             (100, 15),
+            None,
         ),
         (
             "vine_wall",
             "vine_wall.grm",
             file_curves("vine_wall.curves.json"),
             (400, 60),
+            Some((100, 15)),
         ),
     ];
     let load = || {
@@ -279,10 +310,10 @@ fn main() {
         println!("custom: the defaults with {with:?}");
     }
     println!(
-        "{:<20} {:<8} {:>9} {:>8} {:>11} {:>12} | median coverage per curve",
+        "{:<20} {:<9} {:>9} {:>8} {:>11} {:>12} | median coverage per curve",
         "scene", "config", "median ms", "mean cpu", "median cost", "all >= 80%"
     );
-    for (name, file, curves, old_particles) in &scenes {
+    for (name, file, curves, old_particles, then_particles) in &scenes {
         if !only.is_empty() && !only.iter().any(|o| o == name) {
             continue;
         }
@@ -317,7 +348,7 @@ fn main() {
         // interleaved, so a load that comes and goes weighs on each alike.
         let mut stats: Vec<Row> = rows.iter().map(|_| Row::new(n)).collect();
         for seed in 0..seeds {
-            for ((_, config), st) in rows.iter().zip(&mut stats) {
+            for ((label, config), st) in rows.iter().zip(&mut stats) {
                 let base = SampleOptions {
                     seed,
                     schedule: Schedule::from_settings(&compiled.settings),
@@ -326,10 +357,15 @@ fn main() {
                 };
                 let mut old = base.clone();
                 (old.schedule.particles_start, old.schedule.particles_end) = *old_particles;
+                let mut then = base.clone();
+                if let Some(counts) = then_particles {
+                    (then.schedule.particles_start, then.schedule.particles_end) = *counts;
+                }
                 let opts = match config {
                     Config::Paper => paper(old),
                     Config::Before => before(old),
-                    Config::Prev => prev(base),
+                    Config::Prev => prev(then),
+                    Config::Lookahead => lookahead(then),
                     Config::Custom(with) => custom(base, with),
                     Config::Default => base,
                 };
@@ -351,6 +387,31 @@ fn main() {
                     .map(|(a, b)| (glam::Vec3::from_array(a), glam::Vec3::from_array(b)))
                     .collect();
                 let cov = coverage(curves, &bones, &CoverageOptions::default());
+                if detail {
+                    // Per seed: each curve's coverage, the bones (how many,
+                    // how long in all) and, for a model that misses a curve,
+                    // the `--stats` report's verdict lines.
+                    let length: f32 = bones.iter().map(|(a, b)| a.distance(*b)).sum();
+                    let per: Vec<String> = cov
+                        .iter()
+                        .map(|c| format!("{:.0}%", 100.0 * c.fraction))
+                        .collect();
+                    println!(
+                        "  seed {seed:>3} {:<9} cost {:>9.1} bones {:>3} ({length:.2} long) | {}",
+                        label,
+                        m.cost.total(),
+                        bones.len(),
+                        per.join(" ")
+                    );
+                    if cov.iter().any(|c| c.fraction < FOLLOWED) {
+                        for line in describe_coverage(curves, &bones, &CoverageOptions::default())
+                            .iter()
+                            .filter(|l| l.contains("too few"))
+                        {
+                            println!("    {}", line.trim());
+                        }
+                    }
+                }
                 if cov.iter().all(|c| c.fraction >= FOLLOWED) {
                     st.all80 += 1;
                 }
@@ -375,7 +436,7 @@ fn main() {
                 })
                 .collect();
             println!(
-                "{:<20} {:<8} {:>9.1} {:>8.1} {:>11.1} {:>11.0}% | {}",
+                "{:<20} {:<9} {:>9.1} {:>8.1} {:>11.1} {:>11.0}% | {}",
                 name,
                 label,
                 pct(&st.times, 50.0),

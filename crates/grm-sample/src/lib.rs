@@ -85,6 +85,7 @@ pub use model::{
 };
 pub use sampler::{
     DEFAULT_CANDIDATES, DEFAULT_COVER, DEFAULT_ESS_TARGET, DEFAULT_MAX_BYTES, DEFAULT_ORDER,
-    ExpectedOptions, Guide, MAX_THREADS, Objective, Reach, SampleOptions, Sampler,
+    DEFAULT_PACED_CANDIDATES, ExpectedOptions, Guide, MAX_THREADS, Objective, Reach, SampleOptions,
+    Sampler,
 };
 pub use schedule::Schedule;

@@ -175,6 +175,17 @@ pub struct Reach {
     /// frame K is the model of the run stopped after generation K but not
     /// that of a run of K + 1 generations (`docs/sampling.md` section 9).
     pub budget: bool,
+    /// Candidates per bone for a *paced* symbol (when more than 0 and
+    /// fewer than [`SampleOptions::candidates`]): one whose reach the
+    /// run's generations bound, not the grammar's shrinking (its reach
+    /// factor times [`Self::scale`] is more than its stride times the
+    /// generations: bones that keep their length, the vine's internodes).
+    /// There a candidate can choose a bone's direction but not a longer
+    /// bone, and what decides the model is where the chains fork, which
+    /// the population chooses: fewer candidates leave the time for more
+    /// particles (`docs/sampling.md` section 4.4). Only with
+    /// [`Self::budget`] and the coverage term on; 0 is off.
+    pub paced: u32,
 }
 
 impl Reach {
@@ -188,6 +199,7 @@ impl Reach {
             recent: 0,
             weights: 0.0,
             budget: false,
+            paced: 0,
         }
     }
 }
@@ -208,9 +220,13 @@ impl Default for Reach {
             recent: 3,
             weights: 0.25,
             budget: true,
+            paced: DEFAULT_PACED_CANDIDATES,
         }
     }
 }
+
+/// Candidates per bone for a paced symbol by default ([`Reach::paced`]).
+pub const DEFAULT_PACED_CANDIDATES: u32 = 2;
 
 /// Wrap-up and geometry expansions between two checks of the cancel token.
 const CANCEL_EVERY: u32 = 4096;
@@ -458,6 +474,8 @@ type PerSymbol = (Vec<Vec3>, Vec<f32>, Vec<f32>);
 struct Look<'r> {
     o: &'r Reach,
     left: f64,
+    /// The run's generations.
+    gens: f64,
 }
 
 impl Look<'_> {
@@ -1309,7 +1327,7 @@ impl<'a> Sampler<'a> {
         temperature: f64,
         guide: &Guide,
         reach: &Reach,
-        left: u32,
+        (left, gens): (u32, u32),
     ) -> Result<(Particle, Step, u32, f64), SampleError> {
         let mut q = p.clone();
         local.clear();
@@ -1318,6 +1336,7 @@ impl<'a> Sampler<'a> {
         let reach = &Look {
             o: reach,
             left: f64::from(left),
+            gens: f64::from(gens),
         };
         w.append_spawns = guide.order > 1 && reach.recent > 0;
         let mut k = 0;
@@ -1366,6 +1385,10 @@ impl<'a> Sampler<'a> {
                 }
             }
             let symbol = spawn_at(idx).map(|sp| sp.symbol);
+            let kc = match symbol {
+                Some(s) if guide.cover > 0.0 && self.paced(s, reach) => kc.min(reach.paced),
+                _ => kc,
+            };
             let candidates = kc > 1 && symbol.is_some_and(|s| self.g.can_bone[s as usize]);
             let added = if candidates {
                 let (c, corr) = self.draw_candidates(
@@ -1461,6 +1484,18 @@ impl<'a> Sampler<'a> {
             v -= 2.0 * guide.cover * (1.0 - k as f64 / m.max(1) as f64);
         }
         if v.is_nan() { f64::INFINITY } else { v }
+    }
+
+    /// Whether `symbol` is paced ([`Reach::paced`]): its reach is bound by
+    /// the run's generations (a bone a generation, each its stride), not
+    /// by the grammar's shrinking. Scale-free (both scale with the frame).
+    fn paced(&self, symbol: u32, reach: &Look<'_>) -> bool {
+        if !reach.budget || reach.paced == 0 {
+            return false;
+        }
+        let f = f64::from(self.reach.get(symbol as usize).copied().unwrap_or(0.0));
+        let stride = f64::from(self.stride.get(symbol as usize).copied().unwrap_or(0.0));
+        stride > 0.0 && f * reach.scale > stride * reach.gens
     }
 
     /// How far a subtree of `symbol` grown from turtle state `t` could
@@ -1954,7 +1989,7 @@ impl<'a> Sampler<'a> {
                     temperature,
                     &opts.guide,
                     &opts.reach,
-                    gens - g - 1,
+                    (gens - g - 1, gens),
                 )
             };
             let results: Vec<Result<(Particle, Step, u32, f64), SampleError>> = if parallel {
