@@ -9,10 +9,10 @@
 use geo::Coord;
 use grm_layout::blocks::blocks;
 use grm_layout::generate::{GridParams, RadialParams, grid, radial};
-use grm_layout::layers::{LayerIssue, LayerSpec, Place, Source, merge_layers, place};
+use grm_layout::layers::{LayerIssue, LayerSpec, Place, Source, merge_layers_cached, place};
 use grm_layout::merge::MergeMode;
 use grm_layout::model::Layout;
-use grm_layout::subdivide::{ParcelParams, regrow};
+use grm_layout::subdivide::{MergeCache, ParcelParams, regrow};
 use grm_layout::validity::check;
 use std::time::Instant;
 
@@ -107,7 +107,7 @@ fn stats(mut v: Vec<f64>) -> (f64, f64, f64, f64) {
 
 fn main() {
     let p = ParcelParams {
-        max_area: 260.0,
+        max_area: 215.0,
         min_area: 40.0,
         ..ParcelParams::default()
     };
@@ -128,6 +128,8 @@ fn main() {
         }
         let mut times = Vec::new();
         let mut cpu = Vec::new();
+        // The editor's cache, kept over the drag.
+        let cache = MergeCache::default();
         let mut last = (0, 0);
         for k in 0..updates + 2 {
             // The drag: 3 m a step along a diagonal, the layer re-placed from its source pose.
@@ -146,7 +148,7 @@ fn main() {
             };
             place(&mut ls[3], &specs[3].place.affine());
             let mut issues: Vec<LayerIssue> = Vec::new();
-            let (merged, reports) = merge_layers(&specs, &ls, &p, &mut issues);
+            let (merged, reports) = merge_layers_cached(&specs, &ls, &p, &mut issues, &cache);
             let dt = t0.elapsed().as_secs_f64() * 1e3;
             let dc = cpu_ms().zip(c0).map(|(b, a)| b - a);
             assert!(

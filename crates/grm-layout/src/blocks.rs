@@ -26,6 +26,11 @@ pub struct Block {
     /// The nodes around it, sorted, each once.
     pub nodes: Vec<Id>,
     pub area: f64,
+    /// Whether streets of another component lie inside (a hole, or a tree
+    /// of streets that encloses nothing).
+    pub inner: bool,
+    /// Streets with the block on both sides (dead ends and bridges inside it).
+    pub both_sides: Vec<Id>,
 }
 
 impl Block {
@@ -75,6 +80,7 @@ pub fn blocks(layout: &Layout) -> Vec<Block> {
         }
         let mut ring = Vec::new();
         let mut streets = BTreeSet::new();
+        let mut twice = BTreeSet::new();
         let mut nodes = BTreeSet::new();
         let mut h = start;
         let mut guard = 0usize;
@@ -88,7 +94,9 @@ pub fn blocks(layout: &Layout) -> Vec<Block> {
             }
             let (s, fwd) = h;
             let pl = &polys[&s];
-            streets.insert(s);
+            if !streets.insert(s) {
+                twice.insert(s);
+            }
             let st = &layout.streets[&s];
             let (from, to) = if fwd { (st.a, st.b) } else { (st.b, st.a) };
             nodes.insert(from);
@@ -117,6 +125,8 @@ pub fn blocks(layout: &Layout) -> Vec<Block> {
                 streets,
                 nodes: nodes.into_iter().collect(),
                 area,
+                inner: false,
+                both_sides: twice.into_iter().collect(),
             });
         } else if let Some(&n) = nodes.iter().next() {
             ring.reverse();
@@ -145,10 +155,11 @@ pub fn blocks(layout: &Layout) -> Vec<Block> {
                 best = Some(i);
             }
         }
-        if let Some(i) = best
-            && signed_area(&ring).abs() > 1e-9
-        {
-            bounded[i].holes.push(ring);
+        if let Some(i) = best {
+            bounded[i].inner = true;
+            if signed_area(&ring).abs() > 1e-9 {
+                bounded[i].holes.push(ring);
+            }
         }
     }
     // Holes inside holes: keep only the outermost per block (an inner

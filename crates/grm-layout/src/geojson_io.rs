@@ -636,7 +636,8 @@ fn tags_json(tags: &Tags, m: &mut Map<String, Value>) {
 }
 
 fn num(x: f64) -> Value {
-    serde_json::Number::from_f64(x).map_or(Value::Null, Value::Number)
+    // -0 is written as 0 (equal numbers, one text).
+    serde_json::Number::from_f64(x + 0.0).map_or(Value::Null, Value::Number)
 }
 
 fn pos(c: Coord) -> Value {

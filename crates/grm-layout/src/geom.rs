@@ -14,9 +14,10 @@ pub const GRID: f64 = 1.0 / 65536.0;
 /// Snaps a coordinate to the grid (round half away from zero, so
 /// `q(-x) == -q(x)`).
 pub fn quantize(c: Coord) -> Coord {
+    // `+ 0.0` turns -0 into 0: a point moved away and back writes the same.
     Coord {
-        x: (c.x / GRID).round() * GRID,
-        y: (c.y / GRID).round() * GRID,
+        x: (c.x / GRID).round() * GRID + 0.0,
+        y: (c.y / GRID).round() * GRID + 0.0,
     }
 }
 
@@ -111,6 +112,41 @@ pub fn open_ccw(ls: &LineString) -> Vec<Coord> {
         v.reverse();
     }
     v
+}
+
+/// A face walk's ring without its spikes (a dead end walked out and back,
+/// `a, b, a`), so what is left is a simple outline the clipper reads
+/// right; the dead ends' streets are cut away separately.
+pub fn remove_spikes(ring: &[Coord]) -> Vec<Coord> {
+    let mut v = ring.to_vec();
+    loop {
+        let n = v.len();
+        if n < 3 {
+            return v;
+        }
+        let mut changed = false;
+        for i in 0..n {
+            let prev = v[(i + n - 1) % n];
+            let next = v[(i + 1) % n];
+            if prev == next {
+                // Drop the tip and one copy of the point it returns to.
+                let (a, b) = (i, (i + 1) % n);
+                let (hi, lo) = if a > b { (a, b) } else { (b, a) };
+                v.remove(hi);
+                v.remove(lo);
+                changed = true;
+                break;
+            }
+            if v[i] == next {
+                v.remove(i);
+                changed = true;
+                break;
+            }
+        }
+        if !changed {
+            return v;
+        }
+    }
 }
 
 /// Point in an open ring (even-odd; points on the boundary may go either
@@ -422,6 +458,35 @@ mod tests {
         let w = mean_value_coords(p, &ring).unwrap();
         let q = apply_coords(&w, &ring);
         assert!(dist(p, q) < 1e-12, "{q:?}");
+    }
+
+    #[test]
+    fn spikes_come_off_a_face_walk() {
+        // A square with a dead end from (1, 1) out to (2, 2) and back.
+        let ring = [
+            c(0.0, 0.0),
+            c(1.0, 0.0),
+            c(1.0, 1.0),
+            c(2.0, 2.0),
+            c(1.0, 1.0),
+            c(0.0, 1.0),
+        ];
+        assert_eq!(
+            remove_spikes(&ring),
+            vec![c(0.0, 0.0), c(1.0, 0.0), c(1.0, 1.0), c(0.0, 1.0)]
+        );
+        // A two-segment dead end.
+        let ring = [
+            c(0.0, 0.0),
+            c(1.0, 0.0),
+            c(1.0, 1.0),
+            c(2.0, 2.0),
+            c(3.0, 2.0),
+            c(2.0, 2.0),
+            c(1.0, 1.0),
+            c(0.0, 1.0),
+        ];
+        assert_eq!(remove_spikes(&ring).len(), 4);
     }
 
     #[test]

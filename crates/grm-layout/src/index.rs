@@ -53,8 +53,13 @@ pub fn bounds(pts: &[Coord]) -> ([f64; 2], [f64; 2]) {
 
 /// Every street segment of a layout, bulk-loaded.
 pub fn segments(layout: &Layout) -> RTree<Seg> {
+    segments_where(layout, |_| true)
+}
+
+/// The segments of the streets `keep` accepts.
+pub fn segments_where(layout: &Layout, keep: impl Fn(Id) -> bool) -> RTree<Seg> {
     let mut v = Vec::new();
-    for s in layout.streets.values() {
+    for s in layout.streets.values().filter(|s| keep(s.id)) {
         if let Some(pl) = layout.polyline(s) {
             for (k, w) in pl.windows(2).enumerate() {
                 v.push(Seg {

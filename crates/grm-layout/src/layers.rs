@@ -15,10 +15,10 @@ use crate::generate::{self, GridParams, RadialParams};
 use crate::geojson_io::{self, LoadError};
 use crate::geom::{Affine, quantize};
 use crate::id::Id;
-use crate::merge::{MergeMode, MergeParams, MergeReport, merge};
+use crate::merge::{MergeMode, MergeParams, MergeReport, merge_cached};
 use crate::model::{Layout, PROTECTED, TagValue};
 use crate::select::Selection;
-use crate::subdivide::{ParcelParams, regrow};
+use crate::subdivide::{MergeCache, ParcelParams, regrow};
 use crate::transform::{TransformError, UpdateParams, transform};
 use geo::Coord;
 use std::collections::BTreeSet;
@@ -345,6 +345,18 @@ pub fn merge_layers(
     parcels: &ParcelParams,
     issues: &mut Vec<LayerIssue>,
 ) -> (Layout, Vec<MergeReport>) {
+    merge_layers_cached(specs, layouts, parcels, issues, &MergeCache::default())
+}
+
+/// [`merge_layers`] with a cache kept between calls (an editor dragging a
+/// layer keeps one: the same results, less work per update).
+pub fn merge_layers_cached(
+    specs: &[LayerSpec],
+    layouts: &[Layout],
+    parcels: &ParcelParams,
+    issues: &mut Vec<LayerIssue>,
+    cache: &MergeCache,
+) -> (Layout, Vec<MergeReport>) {
     let visible: Vec<usize> = (0..specs.len().min(layouts.len()))
         .filter(|&i| specs[i].visible)
         .collect();
@@ -360,7 +372,7 @@ pub fn merge_layers(
             seed: specs[i].seed,
             ..MergeParams::default()
         };
-        match merge(&layouts[i], &acc, specs[above].merge, &params) {
+        match merge_cached(&layouts[i], &acc, specs[above].merge, &params, cache) {
             Ok((m, r)) => {
                 acc = m;
                 reports.push(r);

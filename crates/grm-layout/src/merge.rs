@@ -25,13 +25,13 @@
 //! blocks regrow; parcels that still clash are dropped, the lower side's
 //! first.
 
-use crate::blocks::{Block, blocks};
+use crate::blocks::Block;
 use crate::geom::{self, point_in_ring};
 use crate::id::Id;
 use crate::index::{self, Boxed, bounds};
 use crate::model::{Layout, Parcel, ParcelOrigin, TagValue};
 use crate::shared::{Shared, Side, shared};
-use crate::subdivide::{ParcelParams, block_seed, subdivide_block};
+use crate::subdivide::{MergeCache, ParcelParams, block_seed};
 use crate::validity::{Violation, check};
 use geo::Coord;
 use pathfinding::directed::edmonds_karp::{SparseCapacity, edmonds_karp};
@@ -180,9 +180,21 @@ pub fn merge(
     mode: MergeMode,
     params: &MergeParams,
 ) -> Result<(Layout, MergeReport), MergeError> {
+    merge_cached(lower, upper, mode, params, &MergeCache::default())
+}
+
+/// [`merge`] with blocks and regrown parcels kept in a cache between calls
+/// (the same results; a drag's updates repeat most of that work).
+pub fn merge_cached(
+    lower: &Layout,
+    upper: &Layout,
+    mode: MergeMode,
+    params: &MergeParams,
+    cache: &MergeCache,
+) -> Result<(Layout, MergeReport), MergeError> {
     let sh = shared(lower, upper);
-    let blocks_a = blocks(lower);
-    let blocks_b = blocks(upper);
+    let blocks_a = cache.blocks(lower);
+    let blocks_b = cache.blocks(upper);
     let idx_a = BlockIndex::new(&blocks_a);
     let idx_b = BlockIndex::new(&blocks_b);
     let mut report = MergeReport {
@@ -216,7 +228,8 @@ pub fn merge(
     };
     rejoin(&mut out, &sh);
     out.drop_isolated_nodes();
-    let v = crate::validity::check_streets(&out, &index::segments(&out), None);
+    let segs = index::segments(&out);
+    let v = crate::validity::check_streets(&out, &segs, None);
     if !v.is_empty() {
         return Err(MergeError::Invalid(v));
     }
@@ -229,6 +242,8 @@ pub fn merge(
         &sh,
         params,
         &mut report,
+        cache,
+        &segs,
     );
     // The clash pass above settles the parcels; a debug build checks the
     // whole result as well (the test suites run it after every merge).
@@ -617,8 +632,10 @@ fn parcels(
     sh: &Shared,
     params: &MergeParams,
     report: &mut MergeReport,
+    cache: &MergeCache,
+    segs: &rstar::RTree<index::Seg>,
 ) {
-    let result_blocks = blocks(out);
+    let result_blocks = cache.blocks(out);
     let mut orig_side: BTreeMap<Id, (Side, Id)> = sh.origin.clone();
     for (side, id) in sh.originals.keys() {
         orig_side.insert(*id, (*side, *id));
@@ -673,12 +690,13 @@ fn parcels(
             })
             .unwrap_or_default()
     };
-    let segs = index::segments(out);
     let mut from_a: BTreeSet<Id> = BTreeSet::new();
     let mut fresh: BTreeSet<Id> = BTreeSet::new();
     let mut free: BTreeSet<Id> = BTreeSet::new();
     for b in &result_blocks {
-        let src = source_block(b);
+        // A block with another component inside (a hole of the other
+        // side's streets and blocks) regrows.
+        let src = if b.inner { None } else { source_block(b) };
         let kept = match src {
             Some((Side::B, id)) => Some(owned(upper, &parcels_b, id)),
             Some((Side::A, id)) => Some(owned(lower, &parcels_a, id)),
@@ -700,13 +718,9 @@ fn parcels(
             }
             None => {
                 report.blocks_regrown += 1;
-                for p in subdivide_block(
-                    out,
-                    &segs,
-                    b,
-                    block_seed(params.seed, b.id),
-                    &params.parcels,
-                ) {
+                for p in
+                    cache.subdivide(out, segs, b, block_seed(params.seed, b.id), &params.parcels)
+                {
                     fresh.insert(p.id);
                     out.parcels.insert(p.id, p);
                 }
@@ -747,12 +761,26 @@ fn parcels(
         .values()
         .map(|s| s.width * 0.5)
         .fold(0.0, f64::max);
+    // A kept parcel keeps clear of its own side's streets (its block is
+    // that side's block, whole); the other side's streets, a wide one
+    // passing close or one inside the block, are checked. Regrown and free
+    // parcels are checked against every street.
+    let side_of = |id: Id| orig_side.get(&id).map(|o| o.0);
+    let segs_a = index::segments_where(out, |id| side_of(id) == Some(Side::A));
+    let segs_b = index::segments_where(out, |id| side_of(id) == Some(Side::B));
     let on_street: Vec<Id> = out
         .parcels
         .values()
         .filter(|p| {
+            let segs = if fresh.contains(&p.id) || free.contains(&p.id) {
+                segs
+            } else if from_a.contains(&p.id) {
+                &segs_b
+            } else {
+                &segs_a
+            };
             geom::check_ring(&p.ring).is_err()
-                || crate::validity::parcel_street_hit(out, &segs, &p.ring, max_half).is_some()
+                || crate::validity::parcel_street_hit(out, segs, &p.ring, max_half).is_some()
         })
         .map(|p| p.id)
         .collect();

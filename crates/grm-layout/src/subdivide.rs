@@ -76,10 +76,28 @@ pub fn parcel_area(
     let holes: Vec<LineString> = block
         .holes
         .iter()
-        .map(|h| LineString::new(geom::close(h)))
+        .map(|h| geom::remove_spikes(h))
+        .filter(|h| h.len() >= 3)
+        .map(|h| LineString::new(geom::close(&h)))
         .collect();
-    let poly = Polygon::new(LineString::new(geom::close(&block.ring)), holes);
-    let own: BTreeSet<Id> = block.streets.iter().copied().collect();
+    // Exterior counter-clockwise, holes clockwise: the offset reads rings
+    // by their winding.
+    let poly = geo::Orient::orient(
+        &Polygon::new(
+            LineString::new(geom::close(&geom::remove_spikes(&block.ring))),
+            holes,
+        ),
+        geo::orient::Direction::Default,
+    );
+    // Streets around the block are kept clear by shrinking it; a street
+    // with the block on both sides (a dead end) vanishes from the shrunk
+    // outline, so it is cut away like any other street nearby.
+    let own: BTreeSet<Id> = block
+        .streets
+        .iter()
+        .copied()
+        .filter(|s| !block.both_sides.contains(s))
+        .collect();
     let inset = block
         .streets
         .iter()
@@ -152,6 +170,95 @@ pub fn parcel_area(
         );
     }
     region
+}
+
+/// Parcels and blocks computed before, for a run of merges that repeat
+/// work (dragging a layer: most regrown blocks and most layers' blocks are
+/// the same from one update to the next). Keys hash everything the result
+/// depends on, so a hit is what would be computed. Emptied when it holds
+/// more than [`MergeCache::LIMIT`] entries.
+#[derive(Debug, Default)]
+pub struct MergeCache {
+    parcels: std::cell::RefCell<std::collections::HashMap<Id, Vec<Parcel>>>,
+    blocks: std::cell::RefCell<std::collections::HashMap<Id, Vec<Block>>>,
+}
+
+impl MergeCache {
+    pub const LIMIT: usize = 50_000;
+
+    /// The blocks of a layout, from the cache when its streets are the same.
+    pub fn blocks(&self, layout: &Layout) -> Vec<Block> {
+        let mut m = Id::mint("blocks-of");
+        for s in layout.streets.values() {
+            m = m.id(s.id).id(s.a).id(s.b);
+            for p in layout.polyline(s).unwrap_or_default() {
+                m = m.f64(p.x).f64(p.y);
+            }
+        }
+        let key = m.finish();
+        if let Some(b) = self.blocks.borrow().get(&key) {
+            return b.clone();
+        }
+        let b = crate::blocks::blocks(layout);
+        let mut c = self.blocks.borrow_mut();
+        if c.len() >= Self::LIMIT {
+            c.clear();
+        }
+        c.insert(key, b.clone());
+        b
+    }
+
+    /// The parcels of a block, from the cache when the block, its
+    /// surroundings, the seed and the knobs are the same.
+    pub fn subdivide(
+        &self,
+        layout: &Layout,
+        segs: &RTree<Seg>,
+        block: &Block,
+        seed: Id,
+        params: &ParcelParams,
+    ) -> Vec<Parcel> {
+        let mut m = Id::mint("parcels-of").id(block.id).id(seed);
+        for v in [
+            params.max_area,
+            params.min_area,
+            params.setback,
+            params.jitter,
+        ] {
+            m = m.f64(v);
+        }
+        m = m.u64(u64::from(params.max_depth));
+        for c in block.ring.iter().chain(block.holes.iter().flatten()) {
+            m = m.f64(c.x).f64(c.y);
+        }
+        let (min, max) = bounds(&block.ring);
+        let mut near: Vec<Id> = segs
+            .locate_in_envelope_intersecting(&crate::index::grown(min, max, 0.0))
+            .map(|s| s.street)
+            .chain(block.streets.iter().copied())
+            .collect();
+        near.sort();
+        near.dedup();
+        for id in near {
+            if let Some(s) = layout.streets.get(&id) {
+                m = m.id(id).f64(s.width);
+                for p in layout.polyline(s).unwrap_or_default() {
+                    m = m.f64(p.x).f64(p.y);
+                }
+            }
+        }
+        let key = m.finish();
+        if let Some(v) = self.parcels.borrow().get(&key) {
+            return v.clone();
+        }
+        let v = subdivide_block(layout, segs, block, seed, params);
+        let mut c = self.parcels.borrow_mut();
+        if c.len() >= Self::LIMIT {
+            c.clear();
+        }
+        c.insert(key, v.clone());
+        v
+    }
 }
 
 /// The parcels of one block.

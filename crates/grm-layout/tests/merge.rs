@@ -182,3 +182,25 @@ fn the_minimum_cut_equals_brute_force_on_small_graphs() {
         );
     }
 }
+
+#[test]
+fn a_cache_kept_over_a_drag_gives_the_same_merges() {
+    use grm_layout::geojson_io::write;
+    use grm_layout::layers::place;
+    use grm_layout::merge::merge_cached;
+    use grm_layout::subdivide::MergeCache;
+    let a = base();
+    let cache = MergeCache::default();
+    for k in 0..6 {
+        let mut b = insert(0.0, 0.0, 20.0);
+        // Back and forth, so later steps meet cached blocks and parcels.
+        let t = [0.0, 4.0, 8.0, 4.0, 0.0, 8.0][k];
+        place(&mut b, &grm_layout::geom::Affine::translate(t, t / 2.0));
+        for mode in [MergeMode::Hard, MergeMode::GraphCut] {
+            let (m1, r1) = merge(&a, &b, mode, &MergeParams::default()).unwrap();
+            let (m2, r2) = merge_cached(&a, &b, mode, &MergeParams::default(), &cache).unwrap();
+            assert_eq!(write(&m1, None), write(&m2, None), "step {k} {mode:?}");
+            assert_eq!(r1, r2);
+        }
+    }
+}
