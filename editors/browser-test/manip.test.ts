@@ -439,6 +439,30 @@ test('shape mode: dragging a split plane rewrites the number on disk and regrows
   await page.close();
 });
 
+test('shape mode: focus and context draws the picked shape a few levels down and the rest as proxies', async () => {
+  const file = grammar('focus.grm', ROW);
+  const url = await view(file);
+  const page = await openPage(url);
+  const g0 = await waitFor(page, 'first building', (g) => g.regrows >= 1 || g.lastError !== null);
+  assert.equal(g0.mode, 'shape', g0.lastError ?? '');
+  const whole = (await grm(page)) as unknown as { triangles: number };
+  assert.equal(await page.isHidden('#context-toggle'), true, 'offered once a shape is picked');
+  await pickWall(page);
+  assert.equal(await page.isHidden('#context-toggle'), false);
+  // The wall's own levels only: the rest of the building as proxies (masses and facades): fewer triangles.
+  await page.fill('#context-depth', '0');
+  const r0 = (await grm(page)).regrows;
+  await page.check('#context-on');
+  const focused = (await waitFor(page, 'the focused model', (g) => g.regrows > r0 && g.lastError === null)) as unknown as { triangles: number };
+  assert.ok(focused.triangles < whole.triangles, `focused ${focused.triangles} triangles, whole ${whole.triangles}`);
+  await page.screenshot({ path: join(artifacts, 'manip-focus.png') });
+  // Off again: the whole building.
+  const r1 = (await grm(page)).regrows;
+  await page.uncheck('#context-on');
+  const back = (await waitFor(page, 'the whole model again', (g) => g.regrows > r1 && g.lastError === null)) as unknown as { triangles: number };
+  assert.equal(back.triangles, whole.triangles);
+});
+
 test('derive mode: dragging a bone tip rewrites its F length and regrows the skeleton', async () => {
   const file = grammar('bar.grm', 'system Bar {\n    iterations = 1;\n    axiom A;\n    A -> F(2) +(30) F(1);\n}\n');
   const url = await view(file);

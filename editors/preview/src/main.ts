@@ -868,6 +868,10 @@ class App {
       this.refreshSketch();
     });
     $('sketch-ok').addEventListener('click', () => void this.makeSlider());
+    // Focus and context (shape mode): the picked shape a few levels down, the rest as proxies.
+    $<HTMLInputElement>('context-on').addEventListener('change', () => this.setContext());
+    $<HTMLInputElement>('context-depth').addEventListener('change', () => this.setContext());
+    $<HTMLSelectElement>('context-node').addEventListener('change', () => this.setContext());
     $('sketch-cancel').addEventListener('click', () => {
       $('sketch-form').hidden = true;
     });
@@ -1033,6 +1037,9 @@ class App {
         info.textContent = `${r.symbol} ${r.shape.semantic.replace(/ \S+$/, '')}: made by ${r.shape.madeBy} (line ${r.range.start.line + 1})`;
         info.title = `${r.shape.exact}\nkey ${r.key ?? '?'}`;
         this.pickedScopes = r.shape.scopes;
+        this.contextChoices(r.shape.scopes);
+        // Focused already: the newly picked shape's parent becomes the focus (a proxy picked opens it).
+        if ($<HTMLInputElement>('context-on').checked) this.setContext();
         this.drawScopes();
       } else if (r) {
         info.textContent = `${r.symbol} (line ${r.range.start.line + 1})`;
@@ -1238,6 +1245,40 @@ class App {
       grips.push({ at, active });
     }
     this.scene.setHandles({ grips, lines, activeLines });
+  }
+
+  /**
+   * The shapes focus and context can center on: the picked shape and the shapes above it (its path's scopes, commands
+   * left out), the picked shape's parent chosen (a picked shape is drawn, so most often a leaf: focusing on it alone
+   * hides nothing).
+   */
+  private contextChoices(scopes: ScopeBox[]): void {
+    const select = $<HTMLSelectElement>('context-node');
+    const shapes = scopes.filter((s) => !s.command && s.key !== null);
+    select.replaceChildren(
+      ...shapes.map((s, i) => {
+        const o = document.createElement('option');
+        o.value = s.key ?? '';
+        o.textContent = `${'  '.repeat(i)}${s.label}`;
+        return o;
+      }),
+    );
+    select.selectedIndex = Math.max(0, shapes.length - 2);
+    $('context-toggle').hidden = shapes.length === 0;
+  }
+
+  /**
+   * Focus and context from the panel: on, the chosen shape (its key) drawn the chosen number of levels down and
+   * the rest of the building as proxies; off, or nothing picked, the whole building. Regrows when it changed.
+   */
+  private setContext(): void {
+    const on = $<HTMLInputElement>('context-on').checked;
+    const depth = Math.max(0, Math.min(20, Math.round(Number($<HTMLInputElement>('context-depth').value) || 0)));
+    const key = $<HTMLSelectElement>('context-node').value || null;
+    const next = on && key ? { key, depth } : null;
+    const before = JSON.stringify(this.state.context);
+    this.state.context = next;
+    if (JSON.stringify(next) !== before) this.regrow();
   }
 
   /** The handles with their screen positions (window.__grm.handles, for tests). */

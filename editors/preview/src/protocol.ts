@@ -44,6 +44,8 @@ export interface PreviewParams {
   focus?: Position;
   /** Seeds for the focus spread. */
   spreadSeeds?: number;
+  /** Shape mode: focus and context: the shape with this key drawn `depth` levels down, the rest as proxies. */
+  context?: { key: string; depth: number };
   /** Ask the server to send `grm/previewUpdated` after edits. */
   live?: boolean;
   /**

@@ -31,6 +31,8 @@ export class PageState {
   curvesError: string | null = null;
   /** The production whose growth is highlighted (a position in it). */
   focus: Position | null = null;
+  /** Shape mode: focus and context (the picked shape's key, the levels drawn below it); null: the whole building. */
+  context: { key: string; depth: number } | null = null;
   /** Curve sets before each finished edit (undo), and those undone (redo). */
   private undoStack: CurveSet[] = [];
   private redoStack: CurveSet[] = [];
@@ -58,6 +60,7 @@ export class PageState {
     if (Object.keys(this.params).length > 0) p.params = { ...this.params };
     if (this.mode === 'sample' && this.curves && this.curves.curves.length > 0) p.curves = JSON.parse(serializeCurves(this.curves));
     if (this.focus) p.focus = { ...this.focus };
+    if (this.context && this.mode === 'shape') p.context = { ...this.context };
     return p;
   }
 
@@ -107,6 +110,7 @@ export class PageState {
     this.curvesError = null;
     this.mode = 'derive';
     this.focus = null;
+    this.context = null;
     this.scrub.reset();
   }
 
