@@ -44,11 +44,11 @@ pub struct Common {
 #[serde(rename_all = "camelCase")]
 pub struct PartIn {
     pub kind: String,
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub key: Option<String>,
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub command: Option<String>,
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub edge: Option<u32>,
 }
 
@@ -346,6 +346,8 @@ impl Backend {
             .collect();
         let mut out = serde_json::to_value(&p).map_err(|e| failed(e.to_string()))?;
         out["sources"] = serde_json::to_value(sources).map_err(|e| failed(e.to_string()))?;
+        // The part as the request named it (keys as 8 hex digits).
+        out["part"] = serde_json::to_value(&params.part).map_err(|e| failed(e.to_string()))?;
         Ok(out)
     }
 

@@ -75,6 +75,7 @@ async fn a_dragged_split_plane_is_one_apply_edit_of_the_grammar() {
             json!({ "textDocument": { "uri": u }, "part": part }),
         )
         .await;
+    assert_eq!(prov["part"]["command"], split["key"], "{prov}");
     let sources = prov["sources"].as_array().expect("sources");
     assert_eq!(sources.len(), 1, "{prov}");
     assert_eq!(sources[0]["text"], "3");
