@@ -33,15 +33,15 @@
 //! tags, the seed and the iteration, never on the chunking; tags are
 //! created in position order. The output is the same for any thread count.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::time::Instant;
 
 use grm_compile::rng;
 use rayon::prelude::*;
 
 use crate::engine::{
-    Act, Binds, Derivation, DeriveLimits, DeriveOptions, Engine, IterationStats, Out, SLOW, Step,
-    copy_small, keep_first,
+    Act, Binds, COPY, ChunkOut, Derivation, DeriveLimits, DeriveOptions, Engine, IterationStats,
+    Out, SLOW, Step, copy_small, keep_first,
 };
 use crate::error::{DeriveError, RuntimeError, RuntimeErrorKind};
 use crate::string::ModuleString;
@@ -97,6 +97,10 @@ struct Node {
     /// (slot, id, op), one per slot.
     values: Vec<(u32, u32, ValueOp)>,
 }
+
+/// The most input modules of one piece of the edited rewrite: a piece
+/// whose modules carry no tag is rewritten by the engine's own loop.
+const EDIT_PIECE: usize = 4096;
 
 /// Bits of the key filter (a power of two).
 const FILTER_BITS: usize = 1 << 16;
@@ -348,6 +352,10 @@ impl Table {
 #[derive(Clone, Debug)]
 pub struct EditState {
     tags: Vec<u32>,
+    /// The keys of the modules settled so far (a pinned one's new key): a
+    /// module with one of them is a copy of one (or a later collision)
+    /// and is not edited again.
+    made: HashSet<u32>,
     /// A spare buffer for the next string's tags.
     spare: Vec<u32>,
     table: Table,
@@ -478,6 +486,7 @@ impl<'a> Engine<'a> {
         let mut s = self.axiom(seed)?;
         let mut state = EditState {
             tags: vec![0; s.len()],
+            made: HashSet::new(),
             spare: Vec::new(),
             table: Table::new(),
             hits: vec![(0, 0); self.edits.as_deref().map_or(0, EditPlan::len)],
@@ -574,6 +583,18 @@ impl<'a> Engine<'a> {
         let parallel = chunks.len() > 1;
         let chunk = chunks.first().map_or(n, |c| c.len());
         let mate = self.in_pool(|| self.mates(input, chunk, parallel));
+        // Pieces of at most `EDIT_PIECE` modules (the smallest chunk, when
+        // smaller: tests): one without tags is the plain rewrite's (see
+        // `rewrite_edited`).
+        let piece = EDIT_PIECE.min(self.min_chunk);
+        let chunks: Vec<std::ops::Range<usize>> = chunks
+            .into_iter()
+            .flat_map(|r| {
+                (r.start..r.end)
+                    .step_by(piece)
+                    .map(move |a| a..(a + piece).min(r.end))
+            })
+            .collect();
         let step = self.step_of(input, &mate, iteration, seed);
         let (tags, table) = (&state.tags[..], &state.table);
 
@@ -616,7 +637,8 @@ impl<'a> Engine<'a> {
 
         // 3. Rewrite.
         let mut out = self.take(m, w);
-        // The tags' buffer: the one of the string before the input, kept.
+        // The tags' buffer: the one of the string before the input, kept;
+        // all zeros (the plain pieces leave them so).
         let mut otags = std::mem::take(&mut state.spare);
         otags.clear();
         otags.resize(m, 0);
@@ -728,6 +750,9 @@ impl<'a> Engine<'a> {
         table: &Table,
         range: std::ops::Range<usize>,
     ) -> Result<(u64, u64), RuntimeError> {
+        if tags[range.clone()].iter().all(|&t| t == 0) {
+            return self.count_chunk(step, range);
+        }
         let syms = &step.input.syms;
         let (mut m, mut w) = (0u64, 0u64);
         let mut worker: Option<crate::engine::Worker> = None;
@@ -776,6 +801,42 @@ impl<'a> Engine<'a> {
             word_base,
         } = c;
         let input = step.input;
+        if tags[range.clone()].iter().all(|&t| t == 0) {
+            // No edit reaches a module of this piece: the plain rewrite
+            // (the same modules and keys the edited one writes), then the
+            // keys written looked up.
+            self.rewrite_chunk_best::<true>(
+                step,
+                ChunkOut {
+                    range: range.clone(),
+                    syms: &mut *osyms,
+                    keys: &mut *okeys,
+                    starts: &mut *ostarts,
+                    params: &mut *oparams,
+                    word_base,
+                },
+            )?;
+            // `otags` is all zeros (`edited_inner`).
+            let mut matches = Vec::new();
+            for (j, &k) in okeys.iter().enumerate() {
+                let b = k as usize % FILTER_BITS;
+                if plan.filter[b / 64] & (1 << (b % 64)) != 0
+                    && let Some(&node) = plan.index.get(&k)
+                {
+                    matches.push(Match {
+                        pos: base + j,
+                        node,
+                        scope: 0,
+                    });
+                }
+            }
+            let decided = if record {
+                self.decide_range(step, range)?
+            } else {
+                Vec::new()
+            };
+            return Ok(ChunkDone { matches, decided });
+        }
         let (isyms, istarts, iparams, ikeys) = (
             &input.syms[..],
             &input.starts[..],
@@ -936,6 +997,26 @@ impl<'a> Engine<'a> {
         Ok(done)
     }
 
+    /// The plain decisions of the modules in `range` (as
+    /// [`Engine::decisions`]).
+    fn decide_range(
+        &self,
+        step: &Step<'_>,
+        range: std::ops::Range<usize>,
+    ) -> Result<Vec<Option<u32>>, RuntimeError> {
+        let mut worker: Option<crate::engine::Worker> = None;
+        range
+            .map(|i| match self.counts[step.input.syms[i] as usize].0 {
+                COPY => Ok(None),
+                SLOW => {
+                    let wk = worker.get_or_insert_with(|| self.worker());
+                    Ok(self.decide(step, wk, i)?.map(|(alt, _)| alt))
+                }
+                alt => Ok(Some(alt)),
+            })
+            .collect()
+    }
+
     /// A value an edit made that is not finite (R0204, at the system).
     #[cold]
     fn edit_error(&self, iteration: u32, position: usize, sym: u32, value: f32) -> RuntimeError {
@@ -967,8 +1048,14 @@ impl<'a> Engine<'a> {
         iteration: u32,
     ) -> Result<Option<Vec<bool>>, DeriveError> {
         let mut removed: Option<Vec<bool>> = None;
+        let mut made = Vec::with_capacity(matches.len());
         for m in matches {
             let j = m.pos;
+            if state.made.contains(&out.keys[j]) {
+                // A copy of a module settled before (or a later module
+                // with its key): edited once, when it was made.
+                continue;
+            }
             let sym = out.syms[j];
             let hit = &mut state.hits[m.node as usize];
             if hit.0 == 0 {
@@ -979,6 +1066,7 @@ impl<'a> Engine<'a> {
                 continue;
             }
             let node = &plan.nodes[m.node as usize];
+            made.push(node.pin.map_or(out.keys[j], |(_, p)| p));
             if node.remove.is_some() {
                 let mask = removed.get_or_insert_with(|| vec![false; out.len()]);
                 let range = self.branch(&out.syms, j);
@@ -1003,6 +1091,7 @@ impl<'a> Engine<'a> {
             let force = node.force.map_or(0, |f| f.1);
             otags[j] = state.table.tag(force, scope);
         }
+        state.made.extend(made);
         if let Some(mask) = &removed {
             compact(out, otags, mask);
         }

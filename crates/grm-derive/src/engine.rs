@@ -208,7 +208,7 @@ pub struct Engine<'a> {
     pub(crate) copies: Vec<bool>,
     has_context: bool,
     threads: usize,
-    min_chunk: usize,
+    pub(crate) min_chunk: usize,
     pool: Option<rayon::ThreadPool>,
     /// Recycled string buffers (at most [`SPARES`]), so repeated iterations
     /// and derivations reuse memory instead of faulting in fresh pages.
@@ -448,14 +448,14 @@ pub(crate) struct Out<'o> {
 }
 
 /// One chunk's output slices.
-struct ChunkOut<'o> {
-    range: Range<usize>,
-    syms: &'o mut [u32],
+pub(crate) struct ChunkOut<'o> {
+    pub(crate) range: Range<usize>,
+    pub(crate) syms: &'o mut [u32],
     /// The chunk's output keys (empty when the engine is not keyed).
-    keys: &'o mut [u32],
-    starts: &'o mut [u32],
-    params: &'o mut [f32],
-    word_base: u32,
+    pub(crate) keys: &'o mut [u32],
+    pub(crate) starts: &'o mut [u32],
+    pub(crate) params: &'o mut [f32],
+    pub(crate) word_base: u32,
 }
 
 impl<'a> Engine<'a> {
@@ -1157,7 +1157,7 @@ impl<'a> Engine<'a> {
         Ok(())
     }
 
-    fn count_chunk(
+    pub(crate) fn count_chunk(
         &self,
         step: &Step<'_>,
         range: Range<usize>,
@@ -1193,7 +1193,7 @@ impl<'a> Engine<'a> {
     /// (its fixed-size moves in 32-byte registers), else for the baseline.
     /// The same f32 operations either way (Rust never fuses a multiply
     /// and an add), so the same bits.
-    fn rewrite_chunk_best<const K: bool>(
+    pub(crate) fn rewrite_chunk_best<const K: bool>(
         &self,
         step: &Step<'_>,
         out: ChunkOut<'_>,

@@ -100,7 +100,9 @@ fn edited<'c>(c: &'c CompiledSystem, threads: usize, plan: EditPlan) -> Engine<'
 }
 
 /// The final string of an edited derivation on 1, 2 and 4 threads (small
-/// chunks), checked equal; through `derive` and `derive_edited`.
+/// chunks, so pieces with and without tags side by side) and on one
+/// thread with the default chunks, checked equal; through `derive` and
+/// `derive_edited`.
 fn final_string(c: &CompiledSystem, n: u32, seed: u32, plan: &EditPlan) -> ModuleString {
     let opts = DeriveOptions {
         iterations: n,
@@ -108,8 +110,13 @@ fn final_string(c: &CompiledSystem, n: u32, seed: u32, plan: &EditPlan) -> Modul
         limits: DeriveLimits::default(),
     };
     let mut out: Option<ModuleString> = None;
-    for threads in [1, 2, 4] {
-        let e = edited(c, threads, plan.clone());
+    // Threads 0: one thread, the default chunks (one piece of the edited
+    // rewrite per 4,096 modules); the others pieces of 3 modules.
+    for threads in [0, 1, 2, 4] {
+        let e = match threads {
+            0 => Engine::new(c, 1).expect("engine").with_edits(plan.clone()),
+            t => edited(c, t, plan.clone()),
+        };
         let (d, _) = e.derive_edited(&opts, &mut |_| {}).expect("derive");
         let again = e.derive(&opts, &mut |_| {}).expect("derive");
         assert_eq!(d.string, again.string);
