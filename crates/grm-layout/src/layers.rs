@@ -384,7 +384,44 @@ pub fn merge_layers_cached(
         }
         above = i;
     }
+    assign_regrown(specs, layouts, &visible, &mut acc);
     (acc, reports)
+}
+
+/// Parcels the merges regrew belong to no layer; they get every visible
+/// layer's assignments, the top layer's first (a value already set stays),
+/// each assignment at the place its anchor has in its own layer.
+fn assign_regrown(specs: &[LayerSpec], layouts: &[Layout], visible: &[usize], acc: &mut Layout) {
+    let known: BTreeSet<Id> = visible
+        .iter()
+        .flat_map(|&i| layouts[i].parcels.keys().copied())
+        .collect();
+    let mut fresh = Layout::default();
+    for (id, p) in &acc.parcels {
+        if !known.contains(id) {
+            fresh.parcels.insert(*id, p.clone());
+        }
+    }
+    if fresh.parcels.is_empty() {
+        return;
+    }
+    for &i in visible.iter().rev() {
+        let placed: Vec<Assignment> = specs[i]
+            .assignments
+            .iter()
+            .map(|a| Assignment {
+                pos: a.position(&layouts[i]),
+                anchor: None,
+                ..a.clone()
+            })
+            .collect();
+        assign::apply(&placed, &mut fresh);
+    }
+    for (id, p) in fresh.parcels {
+        if let Some(q) = acc.parcels.get_mut(&id) {
+            q.tags = p.tags;
+        }
+    }
 }
 
 impl Document {

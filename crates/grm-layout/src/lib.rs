@@ -35,5 +35,6 @@ pub mod select;
 pub mod shared;
 pub mod sidecar;
 pub mod subdivide;
+pub mod svg;
 pub mod transform;
 pub mod validity;

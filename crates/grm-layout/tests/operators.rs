@@ -340,3 +340,43 @@ fn insertion_and_deletion_go_through_layers() {
     );
     assert!(check(&ev.merged).is_empty());
 }
+
+#[test]
+fn parcels_regrown_by_a_merge_get_the_layers_assignments() {
+    let mut doc = base_doc();
+    doc.layers[0].assignments.push(Assignment {
+        tags: tags("style", TagValue::Text("brick".into())),
+        kinds: vec![ElementKind::Parcel],
+        target: Target::Region {
+            radius: 5000.0,
+            falloff: Falloff::None,
+        },
+        pos: Coord { x: 200.0, y: 120.0 },
+        anchor: None,
+    });
+    let avenue = r#"{"type": "FeatureCollection", "features": [
+      {"type": "Feature", "id": "avenue", "properties": {"class": "highway", "priority": 100},
+       "geometry": {"type": "LineString", "coordinates": [[-20, -30], [150, 120], [330, 260]]}}]}"#;
+    let mut ins = LayerSpec::new("avenue", Source::Features(avenue.to_string()));
+    ins.merge = MergeMode::GraphCut;
+    ins.fill = false;
+    doc.layers.push(ins);
+    let ev = doc.evaluate(&no_files);
+    assert!(ev.reports[0].blocks_regrown > 0);
+    let base: BTreeSet<Id> = ev.layers[0].parcels.keys().copied().collect();
+    let regrown = ev
+        .merged
+        .parcels
+        .values()
+        .filter(|p| !base.contains(&p.id))
+        .count();
+    assert!(regrown > 0);
+    for p in ev.merged.parcels.values() {
+        assert_eq!(
+            p.tags.get("style"),
+            Some(&TagValue::Text("brick".into())),
+            "parcel {}",
+            p.id
+        );
+    }
+}
