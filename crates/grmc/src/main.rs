@@ -31,6 +31,7 @@ mod edits;
 mod fmt;
 mod forest;
 mod gpu;
+mod layout;
 mod lsp;
 mod manip;
 mod sample;
@@ -83,6 +84,9 @@ enum Command {
     /// Direct manipulation: list the parts a drag can move, the source
     /// numbers that place one, solve a drag, sketch a meta-parameter.
     Manip(manip::ManipArgs),
+    /// A city layout merged from its layers (NAME.layout.json), written
+    /// as GeoJSON or an SVG plan.
+    Layout(layout::LayoutArgs),
     /// Benchmarks (`grmc bench derive`, `grmc bench gpu`, `grmc bench render`).
     Bench(bench::BenchArgs),
 }
@@ -175,6 +179,7 @@ fn main() -> ExitCode {
         Command::Sample(a) => sample::run(a),
         Command::Edits(a) => edits::run(a),
         Command::Manip(a) => manip::run(a),
+        Command::Layout(a) => layout::run(a),
         Command::Disasm(a) => disasm::run(a),
         Command::Bench(a) => bench::run(a),
     };
