@@ -146,18 +146,33 @@ pub fn coverage(
 /// and the coverage benchmark use it).
 pub const FOLLOWED: f64 = 0.8;
 
+/// How many of the bones' ends meet no other bone's end: a chain's root
+/// and tip, each end of a lone bone (a fork's bones meet at their base). A
+/// chain covers at most its length plus the covering radius at its two
+/// free ends, not at every joint.
+fn free_ends(bones: &[(DVec3, DVec3)]) -> usize {
+    let key = |p: &DVec3| (p.x.to_bits(), p.y.to_bits(), p.z.to_bits());
+    let mut ends: Vec<(u64, u64, u64)> = bones.iter().flat_map(|(a, b)| [key(a), key(b)]).collect();
+    ends.sort_unstable();
+    ends.chunk_by(|x, y| x == y)
+        .filter(|g| g.len() == 1)
+        .count()
+}
+
 /// The coverage report of `grmc sample --stats`: a line per curve (its
 /// covered share and its gaps as arc-length percentages, or, for a curve
 /// no bone comes near, how far the nearest one stays), then, when some
 /// curve is followed over less than [`FOLLOWED`] of its length and the
 /// bones are too few to cover the curves even laid end to end along them
-/// (each bone covering at most its length plus the covering radius on
-/// either side), a line that says so: the grammar cannot reach every
-/// curve with the bones its schedule grows, whatever the search does.
-/// Otherwise, a line for each curve under [`FOLLOWED`] that the bones
-/// left over by the other curves' coverage (the most they cover in all,
-/// less what they cover already) cannot bring to it: the curves compete
-/// for the bones, and this one loses.
+/// (covering at most their length plus the covering radius at each free
+/// end: a chain's root and tip, not its joints), a line that says so: the
+/// grammar cannot reach every curve with the bones its schedule grows,
+/// whatever the search does. Otherwise, a line for each curve under
+/// [`FOLLOWED`] that the bones left over by the other curves' coverage
+/// (the most they cover in all, less what they cover already) cannot
+/// bring to it: the curves compete for the bones, and this one loses. A
+/// curve either verdict names ends its own line with "too few bones for
+/// it" (the preview shows the curves' lines).
 pub fn describe(curves: &Curves, bones: &[(Vec3, Vec3)], options: &CoverageOptions) -> Vec<String> {
     let cov = coverage(curves, bones, options);
     let names: Vec<String> = cov
@@ -173,7 +188,51 @@ pub fn describe(curves: &Curves, bones: &[(Vec3, Vec3)], options: &CoverageOptio
         "coverage (share of each curve's length with a bone within its thickness + {}):",
         options.radius
     )];
-    for (c, name) in cov.iter().zip(&names) {
+    // The verdicts first: a curve they name says so on its own line too
+    // (the preview shows each curve's line, not the report's last ones).
+    let curve_length: f64 = cov.iter().map(|c| c.length).sum();
+    let finite: Vec<(DVec3, DVec3)> = bones
+        .iter()
+        .filter(|(a, b)| a.is_finite() && b.is_finite())
+        .map(|&(a, b)| (a.as_dvec3(), b.as_dvec3()))
+        .collect();
+    let bone_length: f64 = finite.iter().map(|(a, b)| a.distance(*b)).sum();
+    let radius = cov.iter().map(|c| c.radius).fold(0.0, f64::max);
+    let ends = free_ends(&finite);
+    let reach = bone_length + radius * ends as f64;
+    let mut verdicts = Vec::new();
+    let mut short = vec![false; cov.len()];
+    if cov.iter().any(|c| c.fraction < FOLLOWED) && reach < FOLLOWED * curve_length {
+        for (k, c) in cov.iter().enumerate() {
+            short[k] = c.fraction < FOLLOWED;
+        }
+        verdicts.push(format!(
+            "  too few bones: {} bones, {bone_length:.2} long in all, cannot cover {:.0}% of the curves' {curve_length:.2} even laid along them (with the covering radius at their {ends} free ends: more generations grow more bones; fewer curves need fewer)",
+            finite.len(),
+            100.0 * FOLLOWED
+        ));
+    } else {
+        // Enough bones for the curves together, but those that follow
+        // some curves are not free for another: a curve the rest cannot
+        // bring to FOLLOWED is named (the curves compete for the bones).
+        let covered: Vec<f64> = cov.iter().map(|c| c.fraction * c.length).collect();
+        let all: f64 = covered.iter().sum();
+        for (k, (c, name)) in cov.iter().zip(&names).enumerate() {
+            let lacks = FOLLOWED * c.length - covered[k];
+            let free = reach - all;
+            if c.fraction < FOLLOWED && free < lacks {
+                short[k] = true;
+                verdicts.push(format!(
+                    "  too few bones for {name}: the {} bones cover at most {reach:.2} of curve length (their {bone_length:.2} and the covering radius at each of their {ends} free ends), {:.2} of it along the other curves; the {:.2} left is short of the {lacks:.2} it lacks for {:.0}% (the curves compete for the bones: more generations grow more bones; fewer curves need fewer)",
+                    finite.len(),
+                    all - covered[k],
+                    free.max(0.0),
+                    100.0 * FOLLOWED
+                ));
+            }
+        }
+    }
+    for ((c, name), &short) in cov.iter().zip(&names).zip(&short) {
         let pct = 100.0 * c.fraction;
         let tail = if c.fraction == 0.0 {
             if c.nearest.is_finite() {
@@ -204,43 +263,10 @@ pub fn describe(curves: &Curves, bones: &[(Vec3, Vec3)], options: &CoverageOptio
                 }
             )
         };
-        out.push(format!("  {name:<width$} {pct:>5.1}%  {tail}"));
+        let verdict = if short { "; too few bones for it" } else { "" };
+        out.push(format!("  {name:<width$} {pct:>5.1}%  {tail}{verdict}"));
     }
-    let curve_length: f64 = cov.iter().map(|c| c.length).sum();
-    let finite: Vec<(DVec3, DVec3)> = bones
-        .iter()
-        .filter(|(a, b)| a.is_finite() && b.is_finite())
-        .map(|&(a, b)| (a.as_dvec3(), b.as_dvec3()))
-        .collect();
-    let bone_length: f64 = finite.iter().map(|(a, b)| a.distance(*b)).sum();
-    let radius = cov.iter().map(|c| c.radius).fold(0.0, f64::max);
-    let reach = bone_length + 2.0 * radius * finite.len() as f64;
-    if cov.iter().any(|c| c.fraction < FOLLOWED) && reach < FOLLOWED * curve_length {
-        out.push(format!(
-            "  too few bones: {} bones, {bone_length:.2} long in all, cannot cover {:.0}% of the curves' {curve_length:.2} even laid along them (more generations grow more bones; fewer curves need fewer)",
-            finite.len(),
-            100.0 * FOLLOWED
-        ));
-    } else {
-        // Enough bones for the curves together, but those that follow
-        // some curves are not free for another: a curve the rest cannot
-        // bring to FOLLOWED is named (the curves compete for the bones).
-        let covered: Vec<f64> = cov.iter().map(|c| c.fraction * c.length).collect();
-        let all: f64 = covered.iter().sum();
-        for (k, (c, name)) in cov.iter().zip(&names).enumerate() {
-            let lacks = FOLLOWED * c.length - covered[k];
-            let free = reach - all;
-            if c.fraction < FOLLOWED && free < lacks {
-                out.push(format!(
-                    "  too few bones for {name}: the {} bones cover at most {reach:.2} of curve length (their {bone_length:.2} and the covering radius at each end), {:.2} of it along the other curves; the {:.2} left is short of the {lacks:.2} it lacks for {:.0}% (the curves compete for the bones: more generations grow more bones; fewer curves need fewer)",
-                    finite.len(),
-                    all - covered[k],
-                    free.max(0.0),
-                    100.0 * FOLLOWED
-                ));
-            }
-        }
-    }
+    out.extend(verdicts);
     out
 }
 
@@ -345,8 +371,10 @@ mod tests {
             "{}",
             lines[3]
         );
-        // Enough bones (but badly placed): no such line.
-        let many: Vec<(Vec3, Vec3)> = (0..8)
+        // A chain of 8 bones along the trunk covers at most its 4 and the
+        // radius at its 2 free ends (4.3), short of 80% of the curves' 7:
+        // too few, and the curve left short says so on its line too.
+        let chain: Vec<(Vec3, Vec3)> = (0..8)
             .map(|k| {
                 (
                     Vec3::new(0.0, k as f32 * 0.5, 0.0),
@@ -354,24 +382,58 @@ mod tests {
                 )
             })
             .collect();
-        let lines = describe(&two, &many, &CoverageOptions::default());
+        let lines = describe(&two, &chain, &CoverageOptions::default());
+        assert_eq!(lines.len(), 4, "{lines:#?}");
+        assert!(lines[1].contains("100.0%  no gaps"), "{}", lines[1]);
+        assert!(
+            lines[2].ends_with("; too few bones for it") && !lines[1].contains("too few"),
+            "{lines:#?}"
+        );
+        assert!(
+            lines[3].contains("too few bones: 8 bones, 4.00 long in all")
+                && lines[3].contains("at their 2 free ends"),
+            "{}",
+            lines[3]
+        );
+        // Twelve bones apart (24 free ends) could cover 3.6 + 24 * 0.15 =
+        // 7.2: enough for the curves (but badly placed): no such line.
+        let apart: Vec<(Vec3, Vec3)> = (0..12)
+            .map(|k| {
+                (
+                    Vec3::new(0.0, k as f32 / 3.0, 0.0),
+                    Vec3::new(0.0, k as f32 / 3.0 + 0.3, 0.0),
+                )
+            })
+            .collect();
+        let lines = describe(&two, &apart, &CoverageOptions::default());
         assert_eq!(lines.len(), 3, "{lines:#?}");
         assert!(lines[1].contains("100.0%  no gaps"), "{}", lines[1]);
-        // Enough in all for a far curve as long as the trunk (8 bones can
-        // cover at most 4 + 8 * 0.3 = 6.4, 80% of the curves' 8), but they
-        // all cover the trunk: the 2.4 left cannot give `far` the 3.2 it
-        // lacks.
+        assert!(!lines[2].contains("too few"), "{}", lines[2]);
+        // Enough in all for a far curve as long as the trunk (10 bones
+        // apart can cover at most 3.5 + 20 * 0.15 = 6.5, 80% of the
+        // curves' 8 is 6.4), but they all cover the trunk: the 2.5 left
+        // cannot give `far` the 3.2 it lacks.
         let long_far = curves(
             r#"{ "version": 1, "curves": [
                 { "name": "trunk", "points": [[0,0,0], [0,1.3333333333333333,0], [0,2.6666666666666665,0], [0,4,0]] },
                 { "name": "far", "points": [[5,0,0], [5,1.3333333333333333,0], [5,2.6666666666666665,0], [5,4,0]] } ] }"#,
         );
-        let lines = describe(&long_far, &many, &CoverageOptions::default());
+        let ten: Vec<(Vec3, Vec3)> = (0..10)
+            .map(|k| {
+                (
+                    Vec3::new(0.0, k as f32 * 0.4, 0.0),
+                    Vec3::new(0.0, k as f32 * 0.4 + 0.35, 0.0),
+                )
+            })
+            .collect();
+        let lines = describe(&long_far, &ten, &CoverageOptions::default());
         assert_eq!(lines.len(), 4, "{lines:#?}");
+        assert!(lines[2].ends_with("; too few bones for it"), "{}", lines[2]);
         assert!(
-            lines[3].contains("too few bones for `far`: the 8 bones cover at most 6.40")
+            lines[3].contains("too few bones for `far`: the 10 bones cover at most 6.50")
+                && lines[3].contains("each of their 20 free ends")
                 && lines[3].contains("4.00 of it along the other curves")
-                && lines[3].contains("the 2.40 left is short of the 3.20 it lacks"),
+                && lines[3].contains("the 2.50 left is short of the 3.20 it lacks"),
             "{}",
             lines[3]
         );

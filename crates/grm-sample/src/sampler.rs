@@ -176,15 +176,15 @@ pub struct Reach {
     /// that of a run of K + 1 generations (`docs/sampling.md` section 9).
     pub budget: bool,
     /// Candidates per bone for a *paced* symbol (when more than 0 and
-    /// fewer than [`SampleOptions::candidates`]): one whose reach the
-    /// run's generations bound, not the grammar's shrinking (its reach
-    /// factor times [`Self::scale`] is more than its stride times the
-    /// generations: bones that keep their length, the vine's internodes).
-    /// There a candidate can choose a bone's direction but not a longer
-    /// bone, and what decides the model is where the chains fork, which
-    /// the population chooses: fewer candidates leave the time for more
-    /// particles (`docs/sampling.md` section 4.4). Only with
-    /// [`Self::budget`] and the coverage term on; 0 is off.
+    /// fewer than [`SampleOptions::candidates`]): one whose bones all have
+    /// one length (the sub-derivations of its reach factor draw their
+    /// first bone at one length: the vine's internodes, not the Calder
+    /// tree's randomly scaled branches). There a candidate can choose a
+    /// bone's direction but not a longer bone (the chain's reach is the
+    /// bone count's), and what decides the model is where the chains fork,
+    /// which the population chooses: fewer candidates leave the time for
+    /// more particles (`docs/sampling.md` section 4.4). Only with the
+    /// coverage term on; 0 is off.
     pub paced: u32,
 }
 
@@ -415,6 +415,11 @@ pub struct Sampler<'a> {
     /// Per symbol: the median length of the first bone its depth-first
     /// sub-derivations grow (a bone's length in the identity frame).
     stride: Vec<f32>,
+    /// Per symbol: whether the first bones of those sub-derivations all
+    /// have one length (the vine's internodes; not the Calder tree's
+    /// branches, scaled by a random draw): a candidate can turn such a
+    /// bone, not lengthen it ([`Reach::paced`]).
+    fixed: Vec<bool>,
     expected_time: Duration,
     /// Per curve: its Bézier and parameters (as the cost model has them).
     guides: Vec<(grm_guide::Bezier3, grm_guide::CurveParams)>,
@@ -466,7 +471,7 @@ fn frame_scale(t: &Turtle) -> f64 {
 
 /// Per symbol: the expected direction (eq. 9), the reach factor and the
 /// stride ([`Sampler::new`]'s estimates).
-type PerSymbol = (Vec<Vec3>, Vec<f32>, Vec<f32>);
+type PerSymbol = (Vec<Vec3>, Vec<f32>, Vec<f32>, Vec<bool>);
 
 /// A run's look-ahead: the options and how many generations are left
 /// after the one being grown (a particle grows a bone a generation, so
@@ -474,8 +479,6 @@ type PerSymbol = (Vec<Vec3>, Vec<f32>, Vec<f32>);
 struct Look<'r> {
     o: &'r Reach,
     left: f64,
-    /// The run's generations.
-    gens: f64,
 }
 
 impl Look<'_> {
@@ -571,6 +574,7 @@ impl<'a> Sampler<'a> {
             expected: Vec::new(),
             reach: Vec::new(),
             stride: Vec::new(),
+            fixed: Vec::new(),
             expected_time: Duration::ZERO,
             guides: curves
                 .curves()
@@ -579,7 +583,7 @@ impl<'a> Sampler<'a> {
                 .collect(),
         };
         let t = Instant::now();
-        (s.expected, s.reach, s.stride) = s.expected_directions(&expected)?;
+        (s.expected, s.reach, s.stride, s.fixed) = s.expected_directions(&expected)?;
         s.expected_time = t.elapsed();
         Ok(s)
     }
@@ -752,6 +756,7 @@ impl<'a> Sampler<'a> {
         let mut out = vec![Vec3::ZERO; n];
         let mut reach = vec![0.0f32; n];
         let mut stride = vec![0.0f32; n];
+        let mut fixed = vec![false; n];
         let identity = self.g.initial_turtle();
         for s in 0..n {
             if !self.g.is_skeleton(s as u32) || params[s].is_empty() {
@@ -818,8 +823,12 @@ impl<'a> Sampler<'a> {
             reach[s] = longest[(longest.len() * 3) / 4].max(0.0);
             first.sort_by(f32::total_cmp);
             stride[s] = first.get(first.len() / 2).copied().unwrap_or(0.0);
+            fixed[s] = match (first.first(), first.last()) {
+                (Some(&lo), Some(&hi)) => hi > 0.0 && hi - lo <= 1e-6 * hi,
+                _ => false,
+            };
         }
-        Ok((out, reach, stride))
+        Ok((out, reach, stride, fixed))
     }
 
     /// The axiom's skeleton symbols as loose open items (for the parameter
@@ -1327,7 +1336,7 @@ impl<'a> Sampler<'a> {
         temperature: f64,
         guide: &Guide,
         reach: &Reach,
-        (left, gens): (u32, u32),
+        left: u32,
     ) -> Result<(Particle, Step, u32, f64), SampleError> {
         let mut q = p.clone();
         local.clear();
@@ -1336,7 +1345,6 @@ impl<'a> Sampler<'a> {
         let reach = &Look {
             o: reach,
             left: f64::from(left),
-            gens: f64::from(gens),
         };
         w.append_spawns = guide.order > 1 && reach.recent > 0;
         let mut k = 0;
@@ -1486,16 +1494,10 @@ impl<'a> Sampler<'a> {
         if v.is_nan() { f64::INFINITY } else { v }
     }
 
-    /// Whether `symbol` is paced ([`Reach::paced`]): its reach is bound by
-    /// the run's generations (a bone a generation, each its stride), not
-    /// by the grammar's shrinking. Scale-free (both scale with the frame).
+    /// Whether `symbol` is paced ([`Reach::paced`]): the first bones it
+    /// grows all have one length, so its candidates can only turn them.
     fn paced(&self, symbol: u32, reach: &Look<'_>) -> bool {
-        if !reach.budget || reach.paced == 0 {
-            return false;
-        }
-        let f = f64::from(self.reach.get(symbol as usize).copied().unwrap_or(0.0));
-        let stride = f64::from(self.stride.get(symbol as usize).copied().unwrap_or(0.0));
-        stride > 0.0 && f * reach.scale > stride * reach.gens
+        reach.paced > 0 && self.fixed.get(symbol as usize).copied().unwrap_or(false)
     }
 
     /// How far a subtree of `symbol` grown from turtle state `t` could
@@ -1989,7 +1991,7 @@ impl<'a> Sampler<'a> {
                     temperature,
                     &opts.guide,
                     &opts.reach,
-                    (gens - g - 1, gens),
+                    gens - g - 1,
                 )
             };
             let results: Vec<Result<(Particle, Step, u32, f64), SampleError>> = if parallel {

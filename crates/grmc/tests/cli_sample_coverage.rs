@@ -20,9 +20,10 @@ fn stats_report_coverage_gaps_and_unreachable_curves() {
     let dir = tempfile::tempdir().expect("tempdir");
     let curves = dir.path().join("t.curves.json");
     // The trunk of the Calder tree and a curve six units to its side: six
-    // generations grow six bones, which cover the trunk but cannot reach
-    // the other curve (the bones left over are too few for it); four grow
-    // too few for the curves at all.
+    // generations grow six bones, one chain that covers the trunk and
+    // could not cover 80% of both curves even laid along them (its length
+    // and the covering radius at its two free ends); four grow fewer
+    // still.
     std::fs::write(
         &curves,
         r#"{ "version": 1, "defaults": { "utilization_scale": 100 }, "curves": [
@@ -55,8 +56,8 @@ fn stats_report_coverage_gaps_and_unreachable_curves() {
     let expected = "\
 coverage (share of each curve's length with a bone within its thickness + 0.15):
   `trunk`    100.0%  no gaps
-  `far_away`   0.0%  not reached: the nearest bone stays 5.99 from it (covering radius 0.15)
-  too few bones for `far_away`: the 6 bones cover at most 5.68 of curve length (their 3.88 and the covering radius at each end), 4.00 of it along the other curves; the 1.68 left is short of the 2.40 it lacks for 80% (the curves compete for the bones: more generations grow more bones; fewer curves need fewer)";
+  `far_away`   0.0%  not reached: the nearest bone stays 5.99 from it (covering radius 0.15); too few bones for it
+  too few bones: 6 bones, 3.88 long in all, cannot cover 80% of the curves' 7.00 even laid along them (with the covering radius at their 2 free ends: more generations grow more bones; fewer curves need fewer)";
     assert_eq!(coverage_block(&stdout), expected, "{stdout}");
     // Four generations: four bones, too few for the curves at all.
     let o = grmc(&[
