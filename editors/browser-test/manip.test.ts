@@ -439,7 +439,7 @@ test('shape mode: dragging a split plane rewrites the number on disk and regrows
   await page.close();
 });
 
-test('shape mode: focus and context draws the picked shape a few levels down and the rest as proxies', async () => {
+test('shape mode: focus and context draws the picked shape a few levels down and the rest as proxies; the tree panel reveals a pick', async () => {
   const file = grammar('focus.grm', ROW);
   const url = await view(file);
   const page = await openPage(url);
@@ -461,6 +461,22 @@ test('shape mode: focus and context draws the picked shape a few levels down and
   await page.uncheck('#context-on');
   const back = (await waitFor(page, 'the whole model again', (g) => g.regrows > r1 && g.lastError === null)) as unknown as { triangles: number };
   assert.equal(back.triangles, whole.triangles);
+  // The derivation tree panel: the root, then the picked wall revealed and selected in it.
+  await page.click('#tree-details summary');
+  await page.locator('#tree-view .tree-row', { hasText: 'Lot' }).first().waitFor({ timeout: 10_000 });
+  await pickWall(page);
+  const selected = page.locator('#tree-view .tree-row.selected');
+  await selected.waitFor({ timeout: 10_000 });
+  assert.equal((await selected.locator('.label').textContent())?.trim(), 'Wall');
+  const picked = (await grm(page)).lastPick;
+  assert.equal(await selected.getAttribute('data-key'), picked?.key);
+  // Its ancestors are open above it: the facade's split, the floors' repeat, the tile's split.
+  const labels = await page.locator('#tree-view .tree-row .label').allTextContents();
+  for (const l of ['Lot', 'Mass', 'Facade', 'Floor', 'Tile', 'Wall']) assert.ok(labels.includes(l), `${l} in ${labels.join(', ')}`);
+  // Choosing a node says its rule.
+  await page.locator('#tree-view .tree-row .label', { hasText: /^Tile$/ }).first().click();
+  assert.match((await page.textContent('#rule-info')) ?? '', /^Tile: made by the rule at line \d+$/);
+  await page.screenshot({ path: join(artifacts, 'manip-tree.png') });
 });
 
 test('derive mode: dragging a bone tip rewrites its F length and regrows the skeleton', async () => {

@@ -2,7 +2,7 @@
 // from a tree it holds, as the language server does (docs/lsp-extensions.md).
 import assert from 'node:assert/strict';
 import { test } from 'node:test';
-import { DerivationTree, parseTreeAnswer } from '../vscode/src/derivationTree.js';
+import { DerivationTree, parseTreeAnswer } from '../preview/src/tree.js';
 
 // node, parent, key, label
 const NODES: Array<[number, number | null, string, string]> = [

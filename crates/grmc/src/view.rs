@@ -23,6 +23,7 @@
 //! | `POST /api/preview`, `/api/pick` | 200 with `{"result": ...}` or `{"error": "...", "code": N}` (`code`: the language server's JSON-RPC error code, where it gave one: a preview a newer one superseded is -32802, a cancelled one -32800); every call that reached the server is answered 200, as a JSON-RPC reply is, since a grammar that cannot be previewed is no HTTP failure (browsers log every 4xx answer in the console); 4xx only for a request that is not a call (bad JSON, too large, another origin) |
 //! | `POST /api/picture` | `grm/picture`: the preview's model drawn as a PNG (base64 in the JSON), for the page's "Save picture" |
 //! | `POST /api/symbols` | `textDocument/documentSymbol` (the page reads the meta-parameters' ranges) |
+//! | `POST /api/tree` | `grm/tree`: the last preview's derivation tree, a level at a time (the page's tree panel) |
 //! | `POST /api/provenance`, `/api/drag`, `/api/sketch`, `/api/writeParams` | `grm/provenance`, `grm/drag`, ... (direct manipulation): an edit of the grammar is written here (the server answers the edited text to this client, which cannot apply edits) and sent to the server at once, which regrows the live preview; the answer says `written` |
 //! | `POST /api/loadCurves`, `/api/saveCurves` | the curves file next to the grammar (`tree.grm` -> `tree.curves.json`); saved only if `grm-guide` accepts it |
 //! | `GET /api/events?after=N[&wait=MS]` | long poll (20 s at most): `{"seq": M, "events": [{"method", "params"}]}` |
@@ -561,6 +562,7 @@ impl State {
             "preview" => self.lsp.request("grm/preview", params),
             "pick" => self.lsp.request("grm/pick", params),
             "provenance" => self.lsp.request("grm/provenance", params),
+            "tree" => self.lsp.request("grm/tree", params),
             // Edits of the grammar: this client cannot apply them, so the
             // server answers the edited text, which is written here.
             "drag" | "sketch" | "writeParams" => {

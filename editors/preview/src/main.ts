@@ -49,6 +49,7 @@ import {
   modeFromSymbols,
   paramsFromSymbols,
 } from './protocol.js';
+import { TreePanel } from './tree-panel.js';
 import { PreviewScene, ThumbnailRenderer } from './scene.js';
 import { cutRect, scopeLines } from './scopes.js';
 import { PageState, ShownVersion } from './state.js';
@@ -278,8 +279,19 @@ class App {
   /** The document version shown: a model of an older one (an answer that took longer than an update) is not shown. */
   private readonly shownVersion = new ShownVersion();
 
+  /** The derivation tree panel (read only while it is open). */
+  private readonly treePanel: TreePanel;
+
   constructor(private readonly transport: Transport) {
     this.scene = new PreviewScene($<HTMLCanvasElement>('view'));
+    this.treePanel = new TreePanel(
+      $('tree-view'),
+      (params) => this.transport.request('tree', { textDocument: { uri: this.state.uri }, ...(params as object) }),
+      (n) => this.chooseTreeNode(n),
+    );
+    $('tree-details').addEventListener('toggle', () => {
+      if ($<HTMLDetailsElement>('tree-details').open) void this.treePanel.modelShown().catch(() => {});
+    });
     this.coalescer = new Coalescer(
       () => null,
       () => this.fetchPreview(),
@@ -417,6 +429,7 @@ class App {
       this.shownVersion.reset();
       if (p.uri !== this.state.uri) {
         this.state.setDocument(p.uri);
+        this.treePanel.setDocument(p.uri);
         this.framed = false;
         this.paramSignature = '';
         this.curvesLoadedFor = '';
@@ -631,6 +644,8 @@ class App {
     this.debug.shownParams = params;
     this.debug.delivered++;
     this.last = r;
+    // The open tree panel follows the model shown.
+    if ($<HTMLDetailsElement>('tree-details').open) void this.treePanel.modelShown().catch(() => {});
     this.state.absorb(r);
     if (r.params.length > 0 || r.paramsWithoutRange.length > 0) {
       this.serverParams = true;
@@ -1029,6 +1044,7 @@ class App {
       const r = decodePick(await this.transport.request('pick', params));
       this.debug.lastPick = r;
       this.debug.picks++;
+      if (r?.key && $<HTMLDetailsElement>('tree-details').open) void this.treePanel.reveal(r.key).catch(() => {});
       this.pickedFor = this.last ? modelSignature(this.last) : '';
       this.setManip(r, params);
       const info = $('rule-info');
@@ -1245,6 +1261,16 @@ class App {
       grips.push({ at, active });
     }
     this.scene.setHandles({ grips, lines, activeLines });
+  }
+
+  /** A node chosen in the tree panel: its rule said in the panel and shown in the editor (where the host has one). */
+  private chooseTreeNode(n: { label: string; key: string; uri?: string; range?: { start: { line: number; character: number } } }): void {
+    const info = $('rule-info');
+    info.textContent = n.range ? `${n.label}: made by the rule at line ${n.range.start.line + 1}` : n.label;
+    info.title = `key ${n.key}`;
+    if (n.uri && n.range && this.transport.kind === 'vscode') {
+      void this.transport.request('reveal', { uri: n.uri, line: n.range.start.line, character: n.range.start.character }).catch(() => {});
+    }
   }
 
   /**

@@ -31,9 +31,11 @@ export type Method =
   /** A new slider from sketched poses: `SketchParams` -> `ManipResult` (LSP `grm/sketch`). */
   | 'sketch'
   /** Write slider values back as the `param` defaults, after the page asked the user: `WriteParamsParams` -> `ManipResult` (LSP `grm/writeParams`). */
-  | 'writeParams';
+  | 'writeParams'
+  /** The derivation tree of the last preview, a level at a time: `TreeParams` -> a tree answer (LSP `grm/tree`). */
+  | 'tree';
 
-export const METHODS: readonly Method[] = ['preview', 'pick', 'picture', 'symbols', 'loadCurves', 'saveCurves', 'reveal', 'provenance', 'drag', 'sketch', 'writeParams'];
+export const METHODS: readonly Method[] = ['preview', 'pick', 'picture', 'symbols', 'loadCurves', 'saveCurves', 'reveal', 'provenance', 'drag', 'sketch', 'writeParams', 'tree'];
 
 /** What the host tells the page without being asked. */
 export type NotificationMethod =

@@ -1,8 +1,9 @@
-// The "grm: Derivation" view's model: the previewed document's derivation
-// tree, read a level at a time from the language server (`grm/tree`,
-// docs/lsp-extensions.md), linked to picks (a picked part's key reveals
-// its path) and to the source (each node's rule). No `vscode` import: the
-// extension adapts it to a TreeDataProvider, tests drive it directly.
+// The derivation tree of the previewed document, read a level at a time
+// from the language server (`grm/tree`, docs/lsp-extensions.md), linked to
+// picks (a picked part's key reveals its path) and to the source (each
+// node's rule). Shared by VS Code's "grm: Derivation" view (the extension
+// adapts it to a TreeDataProvider) and the preview page's tree panel
+// (tree-panel.ts); no `vscode` or DOM import.
 
 export interface Position {
   line: number;

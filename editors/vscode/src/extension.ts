@@ -10,7 +10,7 @@ import * as path from 'node:path';
 import * as vscode from 'vscode';
 import { LanguageClient, type LanguageClientOptions, type ServerOptions } from 'vscode-languageclient/node';
 import { defaultOutput, type ExportFormat, exportArgs, firstSystemMode, framesSummary, framesWritten, pictureSize } from './exportArgs.js';
-import { DerivationTree, type TreeNode } from './derivationTree.js';
+import { DerivationTree, type TreeNode } from '../../preview/src/tree.js';
 import { PreviewHost, curvesPathFor } from './host.js';
 import { resolveServerPath } from './serverPath.js';
 import { makeNonce, webviewHtml } from './webviewHtml.js';

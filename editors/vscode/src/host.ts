@@ -249,6 +249,10 @@ export class PreviewHost {
         await this.deps.writeFile(path, text);
         return { path };
       }
+      case 'tree': {
+        this.checkUri(params);
+        return this.deps.request('grm/tree', params);
+      }
       case 'provenance':
       case 'drag':
       case 'sketch':
