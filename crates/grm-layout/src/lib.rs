@@ -21,6 +21,13 @@
 //! returns a typed error and leaves its input as it was; maps are ordered
 //! by identity, so everything is deterministic; library code never panics
 //! on user input.
+//!
+//! Modules, in the order of the data: [`id`], [`model`], [`geom`],
+//! [`index`] (R-trees), [`blocks`], [`validity`]; [`generate`],
+//! [`subdivide`] (parcels), [`geojson_io`]; [`transform`] (4.1.2),
+//! [`select`], [`shared`] (the shared graph), [`merge`] (4.1.3, 4.1.4),
+//! [`assign`] (4.3), [`layers`] (4.2), [`sidecar`] (the file); [`svg`].
+//! docs/layout.md explains them.
 pub mod assign;
 pub mod blocks;
 pub mod generate;

@@ -209,7 +209,7 @@ fn parcels(v: &Value, path: &str, errs: &mut Vec<SidecarError>) -> R<ParcelParam
         return Err(bad(
             path,
             SidecarErrorKind::BadValue,
-            "max_area > 0, min_area >= 0, setback > 0, jitter in [0, 0.5)",
+            "max_area >= 1, min_area >= 0, setback > 0, jitter in [0, 0.5), max_depth <= 20",
         ));
     }
     Ok(p)

@@ -44,9 +44,12 @@ impl Default for ParcelParams {
 
 impl ParcelParams {
     /// Whether every value is usable.
+    /// (A block splits at most `max_depth` deep, at most 2^20 pieces: a
+    /// bound on the work a file can ask for.)
     pub fn is_valid(&self) -> bool {
-        self.max_area.is_finite()
-            && self.max_area > 0.0
+        self.max_depth <= 20
+            && self.max_area.is_finite()
+            && self.max_area >= 1.0
             && self.min_area.is_finite()
             && self.min_area >= 0.0
             && self.setback.is_finite()
@@ -315,7 +318,7 @@ fn split(
         return;
     }
     let simple = piece.interiors().is_empty();
-    if (area <= params.max_area && simple) || depth >= params.max_depth {
+    if (area <= params.max_area && simple) || depth >= params.max_depth.min(20) {
         if !simple {
             return;
         }

@@ -190,4 +190,17 @@ fn the_sidecar_is_written_canonically() {
     assert_eq!(errs[0].kind, SidecarErrorKind::Syntax);
     let (_, errs) = sidecar::read("{\"version\": 9}");
     assert_eq!(errs[0].kind, SidecarErrorKind::Version);
+    // Knobs that would ask for unbounded work are refused.
+    for bad in [
+        r#"{"parcels": {"max_area": 0.5}}"#,
+        r#"{"parcels": {"max_depth": 40}}"#,
+    ] {
+        let (doc, errs) = sidecar::read(bad);
+        assert_eq!(errs.len(), 1, "{bad}: {errs:?}");
+        assert_eq!(
+            (errs[0].kind.clone(), errs[0].path.as_str()),
+            (SidecarErrorKind::BadValue, "$.parcels")
+        );
+        assert_eq!(doc.parcels, grm_layout::subdivide::ParcelParams::default());
+    }
 }
