@@ -421,7 +421,10 @@ struct ChunkDone {
 impl<'a> Engine<'a> {
     /// Replay `plan` in every derivation of this engine ([`Engine::derive`]
     /// and [`Engine::derive_edited`]; strings then carry keys). An empty
-    /// plan changes nothing: the plain derivation.
+    /// plan changes nothing: the plain derivation. One step at a time,
+    /// [`Engine::edited_axiom`] and [`Engine::edited_step`] replay it (they
+    /// carry the state a step leaves the next); [`Engine::axiom`],
+    /// [`Engine::step`] and [`Engine::decisions`] stay the plain ones.
     pub fn with_edits(mut self, plan: EditPlan) -> Engine<'a> {
         if plan.is_empty() {
             self.edits = None;
