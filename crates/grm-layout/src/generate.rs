@@ -53,7 +53,7 @@ impl Default for GridParams {
 }
 
 fn finite(v: f64, param: &'static str) -> Result<(), ParamError> {
-    if v.is_finite() {
+    if v.abs() <= crate::geom::MAX_COORD {
         Ok(())
     } else {
         Err(ParamError {
@@ -68,14 +68,10 @@ pub fn grid(p: &GridParams) -> Result<Layout, ParamError> {
     finite(p.origin.x, "origin")?;
     finite(p.origin.y, "origin")?;
     finite(p.rotation_deg, "rotation")?;
-    if !(p.spacing.x.is_finite()
-        && p.spacing.y.is_finite()
-        && p.spacing.x > 1.0
-        && p.spacing.y > 1.0)
-    {
+    if !(p.spacing.x > 1.0 && p.spacing.y > 1.0 && p.spacing.x <= 1e5 && p.spacing.y <= 1e5) {
         return Err(ParamError {
             param: "spacing",
-            reason: "must be finite and above 1 m",
+            reason: "must be 1 m to 100 km",
         });
     }
     if !(p.jitter.is_finite() && (0.0..0.25).contains(&p.jitter)) {
@@ -187,10 +183,10 @@ impl Default for RadialParams {
 pub fn radial(p: &RadialParams) -> Result<Layout, ParamError> {
     finite(p.centre.x, "centre")?;
     finite(p.centre.y, "centre")?;
-    if !(p.ring_spacing.is_finite() && p.ring_spacing > 1.0) {
+    if !(p.ring_spacing > 1.0 && p.ring_spacing <= 1e5) {
         return Err(ParamError {
             param: "ring_spacing",
-            reason: "must be finite and above 1 m",
+            reason: "must be 1 m to 100 km",
         });
     }
     if !(3..=256).contains(&p.spokes) {

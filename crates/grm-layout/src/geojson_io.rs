@@ -8,7 +8,7 @@
 //! round-trip form: the same layout gives the same bytes.
 
 use crate::blocks::Block;
-use crate::geom::{self, RingProblem, check_ring};
+use crate::geom::{self, MAX_COORD, RingProblem, check_ring};
 use crate::id::Id;
 use crate::model::{
     ElementKind, Layout, Parcel, ParcelOrigin, Street, StreetClass, TagValue, Tags,
@@ -34,7 +34,7 @@ pub enum LoadErrorKind {
     BadPolygon,
     /// A polygon with holes (parcels are simple polygons).
     PolygonWithHoles,
-    /// A coordinate that is not a finite number.
+    /// A coordinate that is not a finite number within 1e9 (metres).
     NotFinite,
     /// A property with a value that cannot be used (`class`, `width`, `priority`).
     BadProperty,
@@ -239,11 +239,11 @@ pub fn read(text: &str, source: &str) -> Loaded {
 
 fn coord(p: &[f64], name: &str) -> Result<Coord, LoadError> {
     match p {
-        [x, y, ..] if x.is_finite() && y.is_finite() => Ok(Coord { x: *x, y: *y }),
+        [x, y, ..] if x.abs() <= MAX_COORD && y.abs() <= MAX_COORD => Ok(Coord { x: *x, y: *y }),
         [_, _, ..] => Err(err(
             LoadErrorKind::NotFinite,
             name,
-            "a coordinate is not a finite number",
+            "a coordinate is not a finite number within 1e9 (metres)",
         )),
         _ => Err(err(
             LoadErrorKind::NotFinite,

@@ -11,6 +11,10 @@ use geo::{Coord, Line, LineString, Polygon, line_intersection::LineIntersection}
 /// bits (circular editing).
 pub const GRID: f64 = 1.0 / 65536.0;
 
+/// The largest coordinate (m) any input may give: far past any city, and
+/// well inside what the grid and the clipper handle exactly.
+pub const MAX_COORD: f64 = 1e9;
+
 /// Snaps a coordinate to the grid (round half away from zero, so
 /// `q(-x) == -q(x)`).
 pub fn quantize(c: Coord) -> Coord {

@@ -92,10 +92,21 @@ fn uint(v: &Value, path: &str) -> R<u64> {
 }
 
 fn point(v: &Value, path: &str) -> R<Coord> {
+    let coord = |v: &Value, p: String| -> R<f64> {
+        let x = num(v, &p)?;
+        if x.abs() > crate::geom::MAX_COORD {
+            return Err(bad(
+                &p,
+                SidecarErrorKind::BadValue,
+                "a coordinate within 1e9",
+            ));
+        }
+        Ok(x)
+    };
     match v.as_array().map(Vec::as_slice) {
         Some([x, y]) => Ok(Coord {
-            x: num(x, &format!("{path}[0]"))?,
-            y: num(y, &format!("{path}[1]"))?,
+            x: coord(x, format!("{path}[0]"))?,
+            y: coord(y, format!("{path}[1]"))?,
         }),
         _ => Err(bad(path, SidecarErrorKind::BadValue, "expected [x, y]")),
     }

@@ -30,6 +30,8 @@ const BAD: &str = r#"{
      "geometry": {"type": "LineString", "coordinates": [[150, -50], [150, 50]]}},
     {"type": "Feature", "id": "wide", "properties": {"width": "wide"},
      "geometry": {"type": "LineString", "coordinates": [[0, 0], [0, -100]]}},
+    {"type": "Feature", "id": "far", "properties": {},
+     "geometry": {"type": "LineString", "coordinates": [[0, 0], [1e12, 0]]}},
     {"type": "Feature", "id": "dot", "properties": {},
      "geometry": {"type": "Point", "coordinates": [5, 5]}}
   ]
@@ -53,6 +55,7 @@ fn bad_elements_are_coded_and_named_and_the_rest_loads() {
     assert!(has("open", LoadErrorKind::OpenPolygon), "{got:?}");
     assert!(has("wide", LoadErrorKind::BadProperty), "{got:?}");
     assert!(has("dot", LoadErrorKind::UnsupportedGeometry), "{got:?}");
+    assert!(has("far", LoadErrorKind::NotFinite), "{got:?}");
     // The parcel on the street and the street across another are dropped as conflicts.
     assert_eq!(
         r.errors
