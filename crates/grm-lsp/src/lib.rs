@@ -132,6 +132,9 @@ pub(crate) struct Shared {
     pub(crate) edits_published: tokio::sync::Mutex<edits::Published>,
     /// What the client can do with a workspace edit (from `initialize`).
     pub(crate) edit_caps: Mutex<edits::EditCaps>,
+    /// The last document's direct manipulation, kept between requests
+    /// (a drag's grab and release).
+    pub(crate) manips: Mutex<manip::ManipCache>,
 }
 
 /// The `.grm` files under `roots` (hidden directories, `target` and
@@ -188,6 +191,7 @@ impl Shared {
             edits_gen: AtomicU64::new(0),
             edits_published: tokio::sync::Mutex::new(HashMap::new()),
             edit_caps: Mutex::new(edits::EditCaps::default()),
+            manips: Mutex::new(None),
         }
     }
 

@@ -232,7 +232,7 @@ struct Doc {
     /// The open buffer's version (`None`: read from disk).
     version: Option<i32>,
     text: String,
-    docs: Docs,
+    docs: Arc<Docs>,
     edits: Option<grm_edits::EditsFile>,
 }
 
@@ -257,25 +257,73 @@ impl Doc {
     }
 }
 
-/// Run `f` on the document's [`Manip`] on a blocking thread (each growth
-/// is a whole derivation); the document back with its answer.
-async fn with_manip<T: Send + 'static>(
-    doc: Doc,
-    common: Common,
-    f: impl FnOnce(&Manip<'_>) -> std::result::Result<T, grm_manip::ManipError> + Send + 'static,
-) -> Result<(Doc, T)> {
-    tokio::task::spawn_blocking(move || {
-        let path = doc.path.to_string_lossy().into_owned();
-        let ps = doc.params(&common);
-        let out = {
-            let m = Manip::new(setup(&doc, &path, &common, &ps), &doc.text)
-                .map_err(|e| manip_failed(&e))?;
-            f(&m).map_err(|e| manip_failed(&e))?
+/// What a kept [`Manip`] was made from: a request with the same text,
+/// options and edits reuses it (a drag's release reuses the probes its
+/// grab's `grm/provenance` grew).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(crate) struct ManipKey {
+    path: PathBuf,
+    text: String,
+    system: Option<String>,
+    seed: Option<u32>,
+    params: Vec<String>,
+    edits: u64,
+}
+
+/// The last document's [`Manip`], kept between requests.
+pub(crate) type ManipCache = Option<(ManipKey, Arc<Manip>)>;
+
+/// Models up to this many measured parts are kept between requests (a
+/// kept `Manip` holds one growth per probed number).
+const KEEP_PARTS: usize = 50_000;
+
+impl Backend {
+    /// Run `f` on the document's [`Manip`] (the kept one when it was made
+    /// from the same text, options and edits) on a blocking thread (each
+    /// growth is a whole derivation); the document back with its answer.
+    async fn with_manip<T: Send + 'static>(
+        &self,
+        doc: Doc,
+        common: Common,
+        f: impl FnOnce(&Manip) -> std::result::Result<T, grm_manip::ManipError> + Send + 'static,
+    ) -> Result<(Doc, T)> {
+        let key = ManipKey {
+            path: doc.path.clone(),
+            text: doc.text.clone(),
+            system: common.system.clone(),
+            seed: common.seed,
+            params: doc.params(&common),
+            edits: self.shared.edits_generation(),
         };
+        let kept = self
+            .shared
+            .manips
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .as_ref()
+            .filter(|(k, _)| *k == key)
+            .map(|(_, m)| m.clone());
+        let (doc, out, m) = tokio::task::spawn_blocking(move || {
+            let m = match kept {
+                Some(m) => m,
+                None => Arc::new(
+                    Manip::new(setup(&doc, &common), &doc.text).map_err(|e| manip_failed(&e))?,
+                ),
+            };
+            let out = f(&m).map_err(|e| manip_failed(&e))?;
+            Ok::<_, Error>((doc, out, m))
+        })
+        .await
+        .map_err(|e| failed(e.to_string()))??;
+        if m.part_count() <= KEEP_PARTS {
+            *self
+                .shared
+                .manips
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner) = Some((key, m));
+        }
         Ok((doc, out))
-    })
-    .await
-    .map_err(|e| failed(e.to_string()))?
+    }
 }
 
 fn manip_failed(e: &grm_manip::ManipError) -> Error {
@@ -326,7 +374,7 @@ impl Backend {
             uri: uri.clone(),
             version: doc_version,
             text,
-            docs: Docs { open, base },
+            docs: Arc::new(Docs { open, base }),
             edits,
         })
     }
@@ -335,7 +383,9 @@ impl Backend {
     pub async fn provenance(&self, params: ProvenanceParams) -> Result<serde_json::Value> {
         let doc = self.manip_doc(&params.common.text_document.uri, params.common.version)?;
         let part = part_of(&params.part)?;
-        let (doc, p) = with_manip(doc, params.common.clone(), move |m| m.provenance(&part)).await?;
+        let (doc, p) = self
+            .with_manip(doc, params.common.clone(), move |m| m.provenance(&part))
+            .await?;
         let sources: Vec<SourceOut> = p
             .sources
             .iter()
@@ -356,8 +406,9 @@ impl Backend {
         let doc = self.manip_doc(&params.common.text_document.uri, params.common.version)?;
         let part = part_of(&params.part)?;
         let target = target_of(&params.target)?;
-        let (doc, out) =
-            with_manip(doc, params.common.clone(), move |m| m.drag(&part, &target)).await?;
+        let (doc, out) = self
+            .with_manip(doc, params.common.clone(), move |m| m.drag(&part, &target))
+            .await?;
         let mut answer = EditOut {
             version: doc.version.unwrap_or(0),
             ..EditOut::default()
@@ -404,10 +455,11 @@ impl Backend {
             })
             .collect::<Result<Vec<_>>>()?;
         let name = params.name.clone();
-        let (doc, s) = with_manip(doc, params.common.clone(), move |m| {
-            m.sketch(&part, &keys, &name)
-        })
-        .await?;
+        let (doc, s) = self
+            .with_manip(doc, params.common.clone(), move |m| {
+                m.sketch(&part, &keys, &name)
+            })
+            .await?;
         let mut answer = EditOut {
             outcome: "solved".into(),
             version: doc.version.unwrap_or(0),
@@ -528,13 +580,12 @@ impl Backend {
 }
 
 /// The setup of a request's growths.
-fn setup<'a>(doc: &'a Doc, path: &'a str, c: &'a Common, params: &'a [String]) -> Setup<'a> {
+fn setup(doc: &Doc, c: &Common) -> Setup {
     Setup {
-        path,
-        loader: &doc.docs,
-        system: c.system.as_deref(),
-        params,
+        system: c.system.clone(),
+        params: doc.params(c),
         seed: c.seed,
-        edits: doc.edits.as_ref(),
+        edits: doc.edits.clone(),
+        ..Setup::new(doc.path.to_string_lossy().into_owned(), doc.docs.clone())
     }
 }

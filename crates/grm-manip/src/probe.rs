@@ -31,22 +31,43 @@ pub(crate) enum Measure {
 }
 
 /// What every probe shares: where the text lives and how to grow it.
-pub struct Setup<'a> {
+/// Owned, so a [`crate::Manip`] can be kept between requests (a drag's
+/// release reuses the probes its grab's provenance grew).
+#[derive(Clone)]
+pub struct Setup {
     /// The root file's path, as the loader reads its imports relative to it.
-    pub path: &'a str,
+    pub path: String,
     /// Imports and meshes.
-    pub loader: &'a dyn FileLoader,
+    pub loader: std::sync::Arc<dyn FileLoader + Send + Sync>,
     /// The system (default: the file's first).
-    pub system: Option<&'a str>,
+    pub system: Option<String>,
     /// Meta-parameter values, `name=value` (the preview's sliders).
-    pub params: &'a [String],
+    pub params: Vec<String>,
     /// The seed (default: the system's).
     pub seed: Option<u32>,
     /// The persistent edits replayed (shape mode).
-    pub edits: Option<&'a grm_edits::EditsFile>,
+    pub edits: Option<grm_edits::EditsFile>,
 }
 
-impl std::fmt::Debug for Setup<'_> {
+impl Setup {
+    /// A setup of `path` read through `loader`, the file's first system,
+    /// default values and seed, no edits.
+    pub fn new(
+        path: impl Into<String>,
+        loader: std::sync::Arc<dyn FileLoader + Send + Sync>,
+    ) -> Setup {
+        Setup {
+            path: path.into(),
+            loader,
+            system: None,
+            params: Vec::new(),
+            seed: None,
+            edits: None,
+        }
+    }
+}
+
+impl std::fmt::Debug for Setup {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Setup")
             .field("path", &self.path)
@@ -114,7 +135,7 @@ pub(crate) struct Facts {
 
 /// Check `text`; the program, the system's index and the values.
 fn checked(
-    setup: &Setup<'_>,
+    setup: &Setup,
     text: &str,
 ) -> Result<
     (
@@ -126,8 +147,8 @@ fn checked(
     ManipError,
 > {
     let mut sources = grm_diag::SourceMap::new();
-    let root = sources.add(setup.path, text);
-    let checked = grm_sema::check(&mut sources, root, setup.loader);
+    let root = sources.add(setup.path.as_str(), text);
+    let checked = grm_sema::check(&mut sources, root, setup.loader.as_ref());
     if let Some(d) = checked
         .diagnostics
         .iter()
@@ -139,15 +160,15 @@ fn checked(
     }
     let program = checked.program;
     let index = program
-        .pick_system(setup.system)
+        .pick_system(setup.system.as_deref())
         .map_err(|d| ManipError::Invalid { message: d.message })?;
-    let values = grm_compile::param_values(&program, setup.params)
+    let values = grm_compile::param_values(&program, &setup.params)
         .map_err(|m| ManipError::Invalid { message: m })?;
     Ok((program, index, values, root))
 }
 
 /// What the root text declares that candidates need.
-pub(crate) fn facts(setup: &Setup<'_>, text: &str) -> Result<Facts, ManipError> {
+pub(crate) fn facts(setup: &Setup, text: &str) -> Result<Facts, ManipError> {
     let (program, index, _, root) = checked(setup, text)?;
     let sys = &program.systems[index];
     if sys.file != root {
@@ -217,18 +238,18 @@ pub(crate) fn facts(setup: &Setup<'_>, text: &str) -> Result<Facts, ManipError> 
 const MAX_MODULES: u64 = 4_000_000;
 
 /// Grow `text` and measure every part.
-pub(crate) fn grow(setup: &Setup<'_>, text: &str) -> Result<Snapshot, ManipError> {
+pub(crate) fn grow(setup: &Setup, text: &str) -> Result<Snapshot, ManipError> {
     grow_seeded(setup, text, setup.seed)
 }
 
 /// [`grow`], naming every part in words too.
-pub(crate) fn grow_labelled(setup: &Setup<'_>, text: &str) -> Result<Snapshot, ManipError> {
+pub(crate) fn grow_labelled(setup: &Setup, text: &str) -> Result<Snapshot, ManipError> {
     grow_with(setup, text, setup.seed, true)
 }
 
 /// [`grow`] with another seed.
 pub(crate) fn grow_seeded(
-    setup: &Setup<'_>,
+    setup: &Setup,
     text: &str,
     seed: Option<u32>,
 ) -> Result<Snapshot, ManipError> {
@@ -236,7 +257,7 @@ pub(crate) fn grow_seeded(
 }
 
 fn grow_with(
-    setup: &Setup<'_>,
+    setup: &Setup,
     text: &str,
     seed: Option<u32>,
     labels: bool,
@@ -254,8 +275,9 @@ fn grow_with(
                 threads: 1,
                 ..Default::default()
             };
-            let grown = grm_grow::shape::grow(&program, sys, &values, &options, None, setup.edits)
-                .map_err(|e| fail(&e))?;
+            let grown =
+                grm_grow::shape::grow(&program, sys, &values, &options, None, setup.edits.as_ref())
+                    .map_err(|e| fail(&e))?;
             measure_shapes(&grown.tree, &mut snap);
             if labels {
                 label_shapes(&grown.tree, &grown.lowered.program, &mut snap);

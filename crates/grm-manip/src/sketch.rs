@@ -58,16 +58,12 @@ fn valid_name(name: &str) -> bool {
         && !KEYWORDS.contains(&name)
 }
 
-impl Manip<'_> {
-    /// A setup like this one's with `name = t` added.
-    fn at_t<'s>(&'s self, params: &'s [String]) -> Setup<'s> {
+impl Manip {
+    /// A setup like this one's with these parameter values.
+    fn at_t(&self, params: &[String]) -> Setup {
         Setup {
-            path: self.setup.path,
-            loader: self.setup.loader,
-            system: self.setup.system,
-            params,
-            seed: self.setup.seed,
-            edits: self.setup.edits,
+            params: params.to_vec(),
+            ..self.setup.clone()
         }
     }
 

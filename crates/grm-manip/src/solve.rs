@@ -1,7 +1,7 @@
 //! Provenance and drags: finite differences through the real engines,
 //! Gauss-Newton over the fewest source numbers, every step grown.
 
-use std::cell::OnceCell;
+use std::sync::OnceLock;
 
 use grm_diag::Span;
 use serde::Serialize;
@@ -11,22 +11,24 @@ use crate::probe::{self, Facts, Grown, Measure, Setup, Snapshot};
 use crate::{ManipError, Part, Target, TextEdit, part_name};
 
 /// A root text ready to be manipulated: its base growth and candidates.
-pub struct Manip<'a> {
-    pub(crate) setup: Setup<'a>,
+pub struct Manip {
+    pub(crate) setup: Setup,
     pub(crate) text: String,
     pub(crate) facts: Facts,
     pub(crate) candidates: Vec<Candidate>,
     pub(crate) base: Snapshot,
     /// Per candidate: its probe (step, growth), grown on first need;
     /// `None` when the perturbed text does not grow.
-    probes: Vec<OnceCell<Option<(f64, Snapshot)>>>,
+    probes: Vec<OnceLock<Option<(f64, Snapshot)>>>,
     /// Per candidate: its probe the other way (provenance's smoothness).
-    back: Vec<OnceCell<Option<Snapshot>>>,
+    back: Vec<OnceLock<Option<Snapshot>>>,
     /// The largest distance a solved part may be from its target.
     pub tolerance: f64,
+    /// Texts grown since the base (probes and trials).
+    growths: std::sync::atomic::AtomicUsize,
 }
 
-impl std::fmt::Debug for Manip<'_> {
+impl std::fmt::Debug for Manip {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Manip")
             .field("setup", &self.setup)
@@ -144,14 +146,14 @@ fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
 
-impl<'a> Manip<'a> {
+impl Manip {
     /// Grow `text` as `setup` says and find its candidates.
-    pub fn new(setup: Setup<'a>, text: &str) -> Result<Self, ManipError> {
+    pub fn new(setup: Setup, text: &str) -> Result<Self, ManipError> {
         let facts = probe::facts(&setup, text)?;
         let candidates = candidates::find(text, facts.system, &facts.consts, &facts.names);
         let base = probe::grow_labelled(&setup, text)?;
-        let probes = candidates.iter().map(|_| OnceCell::new()).collect();
-        let back = candidates.iter().map(|_| OnceCell::new()).collect();
+        let probes = candidates.iter().map(|_| OnceLock::new()).collect();
+        let back = candidates.iter().map(|_| OnceLock::new()).collect();
         Ok(Manip {
             setup,
             text: text.to_string(),
@@ -161,7 +163,26 @@ impl<'a> Manip<'a> {
             probes,
             back,
             tolerance: 1e-3,
+            growths: std::sync::atomic::AtomicUsize::new(0),
         })
+    }
+
+    /// Grow an edited text (a probe, a trial), counted.
+    fn grow(&self, text: &str) -> Result<Snapshot, ManipError> {
+        self.growths
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        probe::grow(&self.setup, text)
+    }
+
+    /// How many edited texts were grown so far (each probe once: a drag
+    /// after a provenance of the same part grows only its trials).
+    pub fn growths(&self) -> usize {
+        self.growths.load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    /// How many parts the base growth measured (shapes, planes, bones).
+    pub fn part_count(&self) -> usize {
+        self.base.measures.len()
     }
 
     /// Every candidate source number of the system.
@@ -242,7 +263,7 @@ impl<'a> Manip<'a> {
                     CandidateKind::Name { .. } => 1e-2,
                 };
                 let text = self.text_with(&[c], &[cand.value + step]);
-                probe::grow(&self.setup, &text).ok().map(|s| (step, s))
+                self.grow(&text).ok().map(|s| (step, s))
             })
             .as_ref()
     }
@@ -271,7 +292,7 @@ impl<'a> Manip<'a> {
                 let (step, _) = self.probe(c)?;
                 let cand = &self.candidates[c];
                 let text = self.text_with(&[c], &[cand.value - step]);
-                probe::grow(&self.setup, &text).ok()
+                self.grow(&text).ok()
             })
             .as_ref()
     }
@@ -332,7 +353,7 @@ impl<'a> Manip<'a> {
         values: &[f64],
     ) -> Option<Trial> {
         let text = self.text_with(cands, values);
-        let snap = probe::grow(&self.setup, &text).ok()?;
+        let snap = self.grow(&text).ok()?;
         let m = snap.get(&Self::measure(part))?;
         let residual = target.residual(part, m).ok()?;
         Some(Trial {

@@ -5,14 +5,10 @@ use grm_manip::{DragOutcome, Keyframe, Manip, Part, Setup, Target};
 use grm_sema::MemLoader;
 use grm_shape::{Command, NodeKind};
 
-fn setup<'a>(loader: &'a MemLoader, params: &'a [String]) -> Setup<'a> {
+fn setup(loader: &MemLoader, params: &[String]) -> Setup {
     Setup {
-        path: "/m/house.grm",
-        loader,
-        system: None,
-        params,
-        seed: None,
-        edits: None,
+        params: params.to_vec(),
+        ..Setup::new("/m/house.grm", std::sync::Arc::new(loader.clone()))
     }
 }
 
@@ -246,4 +242,27 @@ fn a_sketched_parameter_is_exact_at_zero_and_reaches_the_pose_at_one() {
     // Taken names and bad names are refused.
     assert!(m2.sketch(&part, &keys, "ground").is_err());
     assert!(m2.sketch(&part, &keys, "if").is_err());
+}
+
+#[test]
+fn a_drag_after_a_provenance_reuses_its_probes() {
+    let loader = MemLoader::default();
+    let m = Manip::new(setup(&loader, &[]), HOUSE).unwrap();
+    let key = split_key(HOUSE, "z");
+    let part = Part::Plane {
+        command: key,
+        edge: 1,
+    };
+    m.provenance(&part).unwrap();
+    let probed = m.growths();
+    // Every number once forward and, for the sources, once back.
+    assert!(probed >= m.candidates().len(), "{probed}");
+    let s = solved(m.drag(&part, &Target::Plane { at: 2.5 }).unwrap());
+    let trials = m.growths() - probed;
+    // Only the trials of the refined numbers are grown, no probe again.
+    assert!(
+        trials < m.candidates().len(),
+        "{trials} growths for the drag"
+    );
+    assert!(s.residual <= 1e-3);
 }

@@ -10,15 +10,8 @@ use grm_shape::{Command, NodeKind};
 use grm_testkit::Rng;
 use std::collections::HashMap;
 
-fn setup<'a>(loader: &'a MemLoader) -> Setup<'a> {
-    Setup {
-        path: "/m/r.grm",
-        loader,
-        system: None,
-        params: &[],
-        seed: None,
-        edits: None,
-    }
+fn setup(loader: &MemLoader) -> Setup {
+    Setup::new("/m/r.grm", std::sync::Arc::new(loader.clone()))
 }
 
 /// A random facade: a lot, a mass, nested splits with absolute and

@@ -18,14 +18,10 @@ fn example(name: &str) -> (String, String) {
     (p.to_string_lossy().into_owned(), text)
 }
 
-fn setup<'a>(path: &'a str, params: &'a [String]) -> Setup<'a> {
+fn setup(path: &str, params: &[String]) -> Setup {
     Setup {
-        path,
-        loader: &FsLoader,
-        system: None,
-        params,
-        seed: None,
-        edits: None,
+        params: params.to_vec(),
+        ..Setup::new(path, std::sync::Arc::new(FsLoader))
     }
 }
 

@@ -206,14 +206,13 @@ fn input(file: &std::path::Path) -> Result<Input, Outcome> {
     })
 }
 
-fn manip<'a>(c: &'a CommonArgs, i: &'a Input) -> Result<Manip<'a>, Outcome> {
+fn manip(c: &CommonArgs, i: &Input) -> Result<Manip, Outcome> {
     let setup = Setup {
-        path: &i.path,
-        loader: &grm_sema::FsLoader,
-        system: c.system.as_deref(),
-        params: &c.params,
+        system: c.system.clone(),
+        params: c.params.clone(),
         seed: c.seed,
-        edits: i.edits.as_ref(),
+        edits: i.edits.clone(),
+        ..Setup::new(i.path.clone(), std::sync::Arc::new(grm_sema::FsLoader))
     };
     Manip::new(setup, &i.text).map_err(|e| {
         eprintln!("error: {e}");
