@@ -808,13 +808,16 @@ fn export_frames(
             Outcome::InputErrors
         })
     };
-    // Every iteration's string in turn, handed to `f`.
+    // Every iteration's string in turn, handed to `f` (with the engine's
+    // persistent edits replayed, when it has some: the plain steps else).
     let each = |f: &mut dyn FnMut(u32, &grm_derive::ModuleString) -> Result<(), Outcome>| {
         let fail = |e: DeriveError| report_derive_error(&loaded.sources, c, &e);
-        let mut s = engine.axiom(opts.seed).map_err(fail)?;
+        let (mut s, mut state) = engine.edited_axiom(opts.seed).map_err(fail)?;
         f(0, &s)?;
         for it in 1..=opts.iterations {
-            let next = engine.step(&s, it, opts.seed, &opts.limits).map_err(fail)?;
+            let next = engine
+                .edited_step(&mut state, &s, it, opts.seed, &opts.limits, None)
+                .map_err(fail)?;
             engine.recycle(std::mem::replace(&mut s, next));
             f(it, &s)?;
         }

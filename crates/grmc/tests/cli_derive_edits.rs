@@ -114,6 +114,40 @@ fn derive_replays_key_edits_and_check_classifies_them() {
     ]);
     assert_eq!(text(&out.stdout), plain);
 
+    // --frames replays them too: the last frame is the edited model (an
+    // OBJ names its material file on line 2).
+    let obj = dir.path().join("a.obj");
+    let out = grmc(&["derive", path(&grm), "-n", "3", "-o", path(&obj)]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let frames = dir.path().join("f.obj");
+    let out = grmc(&[
+        "derive",
+        path(&grm),
+        "-n",
+        "3",
+        "--frames",
+        "-o",
+        path(&frames),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let body = |p: std::path::PathBuf| {
+        let t = std::fs::read_to_string(p).expect("obj");
+        t.lines().skip(2).collect::<Vec<_>>().join("\n")
+    };
+    assert_eq!(body(dir.path().join("f-3.obj")), body(obj.clone()));
+    let plain_obj = dir.path().join("p.obj");
+    let out = grmc(&[
+        "derive",
+        path(&grm),
+        "-n",
+        "3",
+        "--no-edits",
+        "-o",
+        path(&plain_obj),
+    ]);
+    assert!(out.status.success());
+    assert_ne!(body(plain_obj), body(obj));
+
     // --gpu with edits: derived on the CPU, said so, the same string (no
     // GPU is needed).
     let out = grmc(&["derive", path(&grm), "-n", "3", "--print", "--gpu"]);
