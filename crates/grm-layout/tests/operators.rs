@@ -380,3 +380,56 @@ fn parcels_regrown_by_a_merge_get_the_layers_assignments() {
         );
     }
 }
+
+#[test]
+fn a_move_that_would_cross_a_street_is_rejected_and_changes_nothing() {
+    let l0 = straight_grid();
+    let mut l = l0.clone();
+    // Drag the node at (160, 120) past its neighbour's street at x = 240.
+    let n = node_at(&l, 160.0, 120.0);
+    let w = BTreeMap::from([(n, 1.0)]);
+    let e = transform(
+        &mut l,
+        &Affine::translate(100.0, 7.0),
+        &w,
+        &UpdateParams::default(),
+    )
+    .unwrap_err();
+    assert!(
+        matches!(e, grm_layout::transform::TransformError::WouldIntersect(ref v) if !v.is_empty()),
+        "{e}"
+    );
+    assert_eq!(l, l0);
+    // A small move of the same node is applied, and the layout stays valid.
+    let m = transform(
+        &mut l,
+        &Affine::translate(6.0, 4.0),
+        &w,
+        &UpdateParams::default(),
+    )
+    .unwrap();
+    assert_eq!(m.nodes, 1);
+    assert!(m.blocks_smoothed + m.blocks_regrown == 4, "{m:?}");
+    assert!(check(&l).is_empty());
+    // Weights and maps that are not finite are refused.
+    let bad = BTreeMap::from([(n, f64::NAN)]);
+    assert!(
+        transform(
+            &mut l,
+            &Affine::translate(1.0, 1.0),
+            &bad,
+            &UpdateParams::default()
+        )
+        .is_err()
+    );
+    let unknown = BTreeMap::from([(Id::mint("nope").finish(), 1.0)]);
+    assert!(
+        transform(
+            &mut l,
+            &Affine::translate(1.0, 1.0),
+            &unknown,
+            &UpdateParams::default()
+        )
+        .is_err()
+    );
+}
