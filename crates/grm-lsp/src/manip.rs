@@ -303,25 +303,33 @@ impl Backend {
             .as_ref()
             .filter(|(k, _)| *k == key)
             .map(|(_, m)| m.clone());
-        let (doc, out, m) = tokio::task::spawn_blocking(move || {
+        let shared = self.shared.clone();
+        let (doc, out) = tokio::task::spawn_blocking(move || {
             let m = match kept {
                 Some(m) => m,
-                None => Arc::new(
-                    Manip::new(setup(&doc, &common), &doc.text).map_err(|e| manip_failed(&e))?,
-                ),
+                None => {
+                    let m = Arc::new(
+                        Manip::new(setup(&doc, &common), &doc.text)
+                            .map_err(|e| manip_failed(&e))?,
+                    );
+                    // Kept at once: a request for the same text that comes
+                    // while this one runs (a drag's release while its
+                    // grab's provenance still probes) shares its probes.
+                    if m.part_count() <= KEEP_PARTS {
+                        *shared
+                            .manips
+                            .lock()
+                            .unwrap_or_else(std::sync::PoisonError::into_inner) =
+                            Some((key, m.clone()));
+                    }
+                    m
+                }
             };
             let out = f(&m).map_err(|e| manip_failed(&e))?;
-            Ok::<_, Error>((doc, out, m))
+            Ok::<_, Error>((doc, out))
         })
         .await
         .map_err(|e| failed(e.to_string()))??;
-        if m.part_count() <= KEEP_PARTS {
-            *self
-                .shared
-                .manips
-                .lock()
-                .unwrap_or_else(std::sync::PoisonError::into_inner) = Some((key, m));
-        }
         Ok((doc, out))
     }
 }
