@@ -61,7 +61,7 @@ fi
 # grmc view embeds the committed page: it must be the build of the sources.
 git diff --exit-code --stat -- editors/preview/dist
 (cd editors && node --test out/test/)
-bash editors/vscode/scripts/package.sh --out target/grm.vsix
+bash editors/vscode/scripts/package.sh --out "${CARGO_TARGET_DIR:-target}/grm.vsix"
 cargo build -p grmc --locked
 (cd editors && node --test out/browser-test/)
 
