@@ -58,11 +58,35 @@ impl Select {
     }
 }
 
-/// One non-topological move of a selection.
+/// One non-topological move of a selection: scale, then rotate (both
+/// about `about`), then translate. The artist's numbers are kept (the
+/// sidecar writes them back as they were); [`Move::map`] is the affine map.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Move {
     pub select: Select,
-    pub map: Affine,
+    pub translate: Coord,
+    pub rotate_deg: f64,
+    pub scale: f64,
+    pub about: Coord,
+}
+
+impl Move {
+    /// A translation of a selection.
+    pub fn translation(select: Select, d: Coord) -> Move {
+        Move {
+            select,
+            translate: d,
+            rotate_deg: 0.0,
+            scale: 1.0,
+            about: Coord { x: 0.0, y: 0.0 },
+        }
+    }
+
+    pub fn map(&self) -> Affine {
+        Affine::scale(self.scale, self.about)
+            .then(&Affine::rotate(self.rotate_deg, self.about))
+            .then(&Affine::translate(self.translate.x, self.translate.y))
+    }
 }
 
 /// A rigid placement of a whole layer: rotate about `about`, then translate.
@@ -312,7 +336,7 @@ pub fn layer_layout(
     };
     for (i, m) in spec.moves.iter().enumerate() {
         let w = m.select.resolve(&l).node_weights(&l);
-        if let Err(error) = transform(&mut l, &m.map, &w, &up) {
+        if let Err(error) = transform(&mut l, &m.map(), &w, &up) {
             issues.push(LayerIssue::MoveRejected {
                 layer: spec.name.clone(),
                 index: i,

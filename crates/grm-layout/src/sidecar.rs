@@ -9,7 +9,6 @@
 
 use crate::assign::{Anchor, Assignment, Falloff, Target};
 use crate::generate::{GridParams, RadialParams};
-use crate::geom::Affine;
 use crate::id::Id;
 use crate::layers::{Document, LayerSpec, Move, Place, Select, Source};
 use crate::merge::MergeMode;
@@ -500,26 +499,26 @@ fn mov(v: &Value, path: &str, errs: &mut Vec<SidecarError>) -> R<Move> {
         Some(x) => point(x, &format!("{path}.about"))?,
         None => Coord { x: 0.0, y: 0.0 },
     };
-    let mut map = Affine::identity();
+    let mut mv = Move::translation(select, Coord { x: 0.0, y: 0.0 });
+    mv.about = about;
     if let Some(x) = m.get("scale") {
         let k = num(x, &format!("{path}.scale"))?;
-        if k <= 0.0 {
+        if !(k > 0.0 && k <= 1e3) {
             return Err(bad(
                 &format!("{path}.scale"),
                 SidecarErrorKind::BadValue,
-                "a scale above 0",
+                "a scale above 0, up to 1000",
             ));
         }
-        map = map.then(&Affine::scale(k, about));
+        mv.scale = k;
     }
     if let Some(x) = m.get("rotate") {
-        map = map.then(&Affine::rotate(num(x, &format!("{path}.rotate"))?, about));
+        mv.rotate_deg = num(x, &format!("{path}.rotate"))?;
     }
     if let Some(x) = m.get("translate") {
-        let t = point(x, &format!("{path}.translate"))?;
-        map = map.then(&Affine::translate(t.x, t.y));
+        mv.translate = point(x, &format!("{path}.translate"))?;
     }
-    Ok(Move { select, map })
+    Ok(mv)
 }
 
 fn select(v: &Value, path: &str) -> R<Select> {
@@ -805,22 +804,20 @@ fn layer_json(l: &LayerSpec) -> Value {
     Value::Object(m)
 }
 
-/// A move is written as its selection and its map as a scale and a
-/// rotation about the origin, then a translation (exact for a pure
-/// translation, the usual drag; a similarity otherwise, to rounding).
+/// A move is written with the artist's numbers as read.
 fn move_json(mv: &Move) -> Value {
     let mut m = Map::new();
     m.insert("select".into(), select_json(&mv.select));
-    let [a, _b, c, d, _e, f] = mv.map.m;
-    let k = (a * a + d * d).sqrt();
-    if (k - 1.0).abs() > 1e-15 {
-        m.insert("scale".into(), n(k));
+    if mv.scale != 1.0 {
+        m.insert("scale".into(), n(mv.scale));
     }
-    let rot = d.atan2(a).to_degrees();
-    if rot != 0.0 {
-        m.insert("rotate".into(), n(rot));
+    if mv.rotate_deg != 0.0 {
+        m.insert("rotate".into(), n(mv.rotate_deg));
     }
-    m.insert("translate".into(), json!([n(c), n(f)]));
+    if mv.about != (Coord { x: 0.0, y: 0.0 }) {
+        m.insert("about".into(), pt(mv.about));
+    }
+    m.insert("translate".into(), pt(mv.translate));
     Value::Object(m)
 }
 

@@ -100,6 +100,7 @@ const SIDECAR: &str = r#"{
      "place": {"translate": [12, -4]},
      "moves": [
        {"select": {"soft": {"centre": [160, 90], "radius": 30}}, "translate": [3, 1]},
+       {"select": {"continuation": {"street": "0123456789abcdef", "max_turn": 25}}, "rotate": 7.3, "scale": 1.05, "about": [160.5, 90.25], "translate": [0.1, -0.2]},
        {"select": {"ids": ["not-an-id"]}, "translate": [1, 1]},
        {"select": {"region": [[0, 0], [1, 0], [0, 1]]}, "translate": ["a", 1]}
      ],
@@ -124,14 +125,14 @@ fn the_sidecar_is_read_tolerantly_with_typed_errors() {
         |path: &str, kind: SidecarErrorKind| errs.iter().any(|e| e.path == path && e.kind == kind);
     assert!(
         at(
-            "$.layers[2].moves[1].select.ids[0]",
+            "$.layers[2].moves[2].select.ids[0]",
             SidecarErrorKind::BadId
         ),
         "{kinds:?}"
     );
     assert!(
         at(
-            "$.layers[2].moves[2].translate[0]",
+            "$.layers[2].moves[3].translate[0]",
             SidecarErrorKind::BadValue
         ),
         "{kinds:?}"
@@ -155,7 +156,9 @@ fn the_sidecar_is_read_tolerantly_with_typed_errors() {
     // Three layers kept, with what was good in them.
     assert_eq!(doc.layers.len(), 3);
     assert_eq!(doc.layers[1].merge, MergeMode::GraphCut);
-    assert_eq!(doc.layers[2].moves.len(), 1);
+    assert_eq!(doc.layers[2].moves.len(), 2);
+    let mv = &doc.layers[2].moves[1];
+    assert_eq!((mv.rotate_deg, mv.scale, mv.about.x), (7.3, 1.05, 160.5));
     assert_eq!(doc.layers[2].assignments.len(), 1);
     assert!(matches!(doc.layers[1].source, Source::GeoJson(ref p) if p == "missing.geojson"));
     // The missing file is reported; the other layers still merge.
