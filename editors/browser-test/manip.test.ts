@@ -276,7 +276,7 @@ test('shape mode: dragging a split plane rewrites the number on disk and regrows
   // The path's splits and repeats: the ground floor's split (1 plane), the floors (2), the columns (7), the tile (2).
   assert.deepEqual(
     hs.map((h) => `${h.label} ${h.edge}`),
-    ['split.y 1', 'repeat.y 1', 'repeat.y 2', ...[1, 2, 3, 4, 5, 6, 7].map((e) => `repeat.x ${e}`), 'split.x 1', 'split.x 2'],
+    ['split.y 1', 'repeat.y 1', 'repeat.y 2', ...[1, 2, 3, 4, 5, 6, 7].map((e) => `repeat.x ${e}`), 'split.x 1', 'split.x 2', 'Mass height 0'],
   );
   const split = hs[0];
   assert.ok(Math.abs((split.at as number) - 4) < 1e-5, `the ground floor's plane at ${split.at}`);
@@ -477,6 +477,18 @@ test('shape mode: focus and context draws the picked shape a few levels down and
   await page.locator('#tree-view .tree-row .label', { hasText: /^Tile$/ }).first().click();
   assert.match((await page.textContent('#rule-info')) ?? '', /^Tile: made by the rule at line \d+$/);
   await page.screenshot({ path: join(artifacts, 'manip-tree.png') });
+  // The mass's height has a handle too: its top dragged from 12.8 to 16 rewrites the extrusion.
+  const hs = await pickWall(page);
+  const height = hs.find((h) => h.label === 'Mass height');
+  assert.ok(height, hs.map((h) => h.label).join(', '));
+  assert.ok(Math.abs((height.at as number) - 12.8) < 1e-4);
+  const drags = (await grm(page)).drags;
+  // The mass's top: its centre (12 across, 5 deep: the model's -z) at the new height (the model's y).
+  await dragFromTo(page, height.screen, await toScreen(page, [12, 16, -5]));
+  const done = await waitFor(page, 'the height drag answered', (g) => g.drags > drags && g.lastDrag !== null, 30_000);
+  assert.equal(done.lastDrag?.outcome, 'solved', JSON.stringify(done.lastDrag));
+  const m = /Lot -> extrude\(([^)]+)\) Mass;/.exec(readFileSync(file, 'utf8'));
+  assert.ok(m && Math.abs(Number(m[1]) - 16) < 0.3, `extrude(${m?.[1]})`);
 });
 
 test('derive mode: dragging a bone tip rewrites its F length and regrows the skeleton', async () => {

@@ -17,6 +17,7 @@ import {
   manipSummary,
   paramsToWrite,
   planeCentre,
+  handlePart,
   planeHandles,
   provenanceSummary,
   rayPlane,
@@ -1217,7 +1218,7 @@ class App {
     if (!m) return null;
     if (g.kind === 'plane' && m.kind === 'planes') {
       const h = m.handles[g.handle];
-      return h ? { part: { kind: 'plane', command: h.command, edge: h.edge }, target: { kind: 'plane', at: g.at } } : null;
+      return h ? handlePart(h, g.at) : null;
     }
     if (g.kind === 'tip' && m.kind === 'tip') return { part: { kind: 'bone', key: m.key }, target: { kind: 'tip', at: g.at } };
     return null;
@@ -1245,8 +1246,11 @@ class App {
         if (active && at !== h.at) cutRect(h.scope, h.axis, h.at, lines);
         grips.push({ at: planeCentre(h, at), active });
         // The other poses sketched for it (each t's).
-        if (this.sketch.part === JSON.stringify({ kind: 'plane', command: h.command, edge: h.edge })) {
-          for (const k of this.sketch.keyframes()) if (k.target.kind === 'plane' && k.target.at !== at) cutRect(h.scope, h.axis, k.target.at, activeLines);
+        if (this.sketch.part === JSON.stringify(handlePart(h, h.at).part)) {
+          for (const k of this.sketch.keyframes()) {
+            const t = k.target.kind === 'plane' ? k.target.at : k.target.kind === 'size' ? k.target.size : null;
+            if (t !== null && t !== at) cutRect(h.scope, h.axis, t, activeLines);
+          }
         }
       });
     } else {

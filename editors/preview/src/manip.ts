@@ -7,7 +7,7 @@
 // requests.
 
 import type { V3 } from './bezier.js';
-import type { ManipResult, ManipTarget, ProvenanceResult, ScopeBox, SketchKeyframe } from './protocol.js';
+import type { ManipPart, ManipResult, ManipTarget, ProvenanceResult, ScopeBox, SketchKeyframe } from './protocol.js';
 
 /** A draggable split plane: the plane at the end of child `edge` of the split or repeat `command`. */
 export interface PlaneHandle {
@@ -22,16 +22,38 @@ export interface PlaneHandle {
   scope: ScopeBox;
   /** The axis it divides (0 x, 1 y, 2 z). */
   axis: number;
+  /**
+   * A size handle: the far face of a shape's own scope along `axis` (`command` is then the shape's key, `edge` 0);
+   * dragging it sets the shape's size (`{kind: 'shape'}` to `{kind: 'size'}`), e.g. a mass's height.
+   */
+  size?: boolean;
 }
 
-/** The draggable planes of a picked shape's path: each split's or repeat's `planes`, from the axiom down. */
+/**
+ * The draggable planes of a picked shape's path, from the axiom down: each split's or repeat's `planes`, then the top
+ * of each mass on it (a shape with a height: its size along its scope's z, the extrusion's).
+ */
 export function planeHandles(scopes: readonly ScopeBox[]): PlaneHandle[] {
   const out: PlaneHandle[] = [];
+  const heights: PlaneHandle[] = [];
   for (const s of scopes) {
-    if (!s.command || s.axis === null || s.key === null || s.axis < 0 || s.axis > 2) continue;
+    if (s.key === null) continue;
+    if (!s.command) {
+      if (s.size[2] > 1e-6) heights.push({ command: s.key, edge: 0, at: s.size[2], label: `${s.label} height`, scope: s, axis: 2, size: true });
+      continue;
+    }
+    if (s.axis === null || s.axis < 0 || s.axis > 2) continue;
     for (const p of s.planes) out.push({ command: s.key, edge: p.edge, at: p.at, label: s.label, scope: s, axis: s.axis });
   }
-  return out;
+  // The splits' planes first, then the heights.
+  return [...out, ...heights];
+}
+
+/** What a handle's drag names: a split's plane, or a shape's size. */
+export function handlePart(h: PlaneHandle, at: number): { part: ManipPart; target: ManipTarget } {
+  return h.size
+    ? { part: { kind: 'shape', key: h.command }, target: { kind: 'size', axis: h.axis, size: at } }
+    : { part: { kind: 'plane', command: h.command, edge: h.edge }, target: { kind: 'plane', at } };
 }
 
 /** A point of a scope from its local coordinates (along its axes, from its corner). */
