@@ -610,27 +610,11 @@ pub fn run(args: DeriveArgs) -> Outcome {
         let none = grm_derive::EditOutcome::default();
         let outcome = d.edits.as_ref().unwrap_or(&none);
         let reports = grm_grow::edits::classify(loaded.system(), c, outcome, mine.iter().copied());
-        let replayed = reports.iter().filter(|r| r.replayed).count();
-        eprintln!(
-            "{}: replayed {} of {}{}",
-            c.name,
-            replayed,
-            crate::count(reports.len() as u64, "edit"),
-            if replayed < reports.len() {
-                " (the others are listed by `grmc edits check`)"
-            } else {
-                ""
-            }
-        );
-        for r in reports.iter().filter(|r| !r.replayed) {
-            eprintln!(
-                "  edit {}: {}{}{}",
-                r.id,
-                r.class.as_str(),
-                if r.detail.is_empty() { "" } else { ": " },
-                r.detail
-            );
-        }
+        let shown: Vec<_> = reports
+            .iter()
+            .map(|r| (r.id, r.class, r.detail.as_str(), r.replayed))
+            .collect();
+        crate::edits::print_replayed(&c.name, &shown);
     }
     let done = |o: Outcome| {
         if o == Outcome::Ok && edit_problems {

@@ -338,3 +338,31 @@ fn classify_derive(
         }
     }
 }
+
+/// After a growth: how many of the system's edits were replayed, and the
+/// class of each one that was not (on stderr; `grmc derive` of either
+/// mode). `reports`: per edit, its id, class, detail and whether it was
+/// replayed.
+pub fn print_replayed(system: &str, reports: &[(u32, EditClass, &str, bool)]) {
+    let replayed = reports.iter().filter(|r| r.3).count();
+    eprintln!(
+        "{}: replayed {} of {}{}",
+        system,
+        replayed,
+        crate::count(reports.len() as u64, "edit"),
+        if replayed < reports.len() {
+            " (the others are listed by `grmc edits check`)"
+        } else {
+            ""
+        }
+    );
+    for (id, class, detail, _) in reports.iter().filter(|r| !r.3) {
+        eprintln!(
+            "  edit {}: {}{}{}",
+            id,
+            class.as_str(),
+            if detail.is_empty() { "" } else { ": " },
+            detail
+        );
+    }
+}

@@ -91,27 +91,11 @@ pub fn run(args: &DeriveArgs, mut checked: Checked) -> Outcome {
             &tree,
             mine.iter().copied(),
         );
-        let replayed = reports.iter().filter(|r| r.replayed).count();
-        eprintln!(
-            "{}: replayed {} of {}{}",
-            sys.name,
-            replayed,
-            crate::count(reports.len() as u64, "edit"),
-            if replayed < reports.len() {
-                " (the others are listed by `grmc edits check`)"
-            } else {
-                ""
-            }
-        );
-        for r in reports.iter().filter(|r| !r.replayed) {
-            eprintln!(
-                "  edit {}: {}{}{}",
-                r.id,
-                r.class.as_str(),
-                if r.detail.is_empty() { "" } else { ": " },
-                r.detail
-            );
-        }
+        let shown: Vec<_> = reports
+            .iter()
+            .map(|r| (r.id, r.class, r.detail.as_str(), r.replayed))
+            .collect();
+        crate::edits::print_replayed(&sys.name, &shown);
         edit_problems = *problems;
     }
     let done = |o: Outcome| {
