@@ -31,7 +31,7 @@ export interface PlaneHandle {
 
 /**
  * The draggable planes of a picked shape's path, from the axiom down: each split's or repeat's `planes`, then the top
- * of each mass on it (a shape with a height: its size along its scope's z, the extrusion's).
+ * of its mass (the first shape from the lot with a height: its size along its scope's z, the extrusion's).
  */
 export function planeHandles(scopes: readonly ScopeBox[]): PlaneHandle[] {
   const out: PlaneHandle[] = [];
@@ -39,7 +39,8 @@ export function planeHandles(scopes: readonly ScopeBox[]): PlaneHandle[] {
   for (const s of scopes) {
     if (s.key === null) continue;
     if (!s.command) {
-      if (s.size[2] > 1e-6) heights.push({ command: s.key, edge: 0, at: s.size[2], label: `${s.label} height`, scope: s, axis: 2, size: true });
+      // The mass: the first shape from the lot with a height (the shapes inside it are sized by its splits).
+      if (s.size[2] > 1e-6 && heights.length === 0) heights.push({ command: s.key, edge: 0, at: s.size[2], label: `${s.label} height`, scope: s, axis: 2, size: true });
       continue;
     }
     if (s.axis === null || s.axis < 0 || s.axis > 2) continue;
