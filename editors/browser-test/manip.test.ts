@@ -20,12 +20,12 @@ import { existsSync, mkdirSync, mkdtempSync, readFileSync, rmSync, writeFileSync
 import { loadavg, tmpdir } from 'node:os';
 import { join } from 'node:path';
 import { after, before, test } from 'node:test';
-import { type Browser, type Page, chromium } from 'playwright-core';
+import { type Browser, type Page } from 'playwright-core';
+import { launchChromium } from './chromium.js';
 
 const root = join(import.meta.dirname, '../../..');
 const artifacts = join(root, 'target/browser-test');
 const grmc = process.env.GRMC ?? join(process.env.CARGO_TARGET_DIR ?? join(root, 'target'), 'debug/grmc');
-const chromiumPath = process.env.CHROMIUM ?? '/usr/bin/chromium';
 const pageDist = process.env.PAGE_DIST;
 
 type V3 = [number, number, number];
@@ -37,24 +37,8 @@ const latency: Record<string, unknown> = {};
 
 before(async () => {
   assert.ok(existsSync(grmc), `${grmc} is missing: run cargo build -p grmc first`);
-  assert.ok(existsSync(chromiumPath), `${chromiumPath} is missing: apt-get install chromium`);
   mkdirSync(artifacts, { recursive: true });
-  browser = await chromium.launch({
-    executablePath: chromiumPath,
-    headless: true,
-    args: [
-      '--headless',
-      '--no-sandbox',
-      '--disable-gpu',
-      '--disable-quic',
-      '--no-first-run',
-      '--disable-background-networking',
-      '--disable-component-update',
-      '--disable-sync',
-      '--use-angle=swiftshader',
-      '--enable-unsafe-swiftshader',
-    ],
-  });
+  browser = await launchChromium();
 });
 
 after(async () => {

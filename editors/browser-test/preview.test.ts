@@ -33,7 +33,8 @@ import { copyFileSync, existsSync, mkdirSync, mkdtempSync, readFileSync, rmSync,
 import { availableParallelism, tmpdir } from 'node:os';
 import { join } from 'node:path';
 import { after, before, test } from 'node:test';
-import { type Browser, type Page, chromium } from 'playwright-core';
+import { type Browser, type Page } from 'playwright-core';
+import { launchChromium } from './chromium.js';
 import { pictureSize } from '../preview/src/picture.js';
 import { exportArgs } from '../vscode/src/exportArgs.js';
 
@@ -41,7 +42,6 @@ const root = join(import.meta.dirname, '../../..');
 const examples = join(root, 'examples');
 const artifacts = join(root, 'target/browser-test');
 const grmc = process.env.GRMC ?? join(process.env.CARGO_TARGET_DIR ?? join(root, 'target'), 'debug/grmc');
-const chromiumPath = process.env.CHROMIUM ?? '/usr/bin/chromium';
 const pageDist = process.env.PAGE_DIST;
 
 let browser: Browser;
@@ -82,25 +82,8 @@ function record(key: string, grammar: string, edit: string, g: Grm, ms: number[]
 
 before(async () => {
   assert.ok(existsSync(grmc), `${grmc} is missing: run cargo build -p grmc first`);
-  assert.ok(existsSync(chromiumPath), `${chromiumPath} is missing: apt-get install chromium`);
   mkdirSync(artifacts, { recursive: true });
-  browser = await chromium.launch({
-    executablePath: chromiumPath,
-    headless: true,
-    args: [
-      '--headless',
-      '--no-sandbox',
-      '--disable-gpu',
-      '--disable-quic',
-      '--no-first-run',
-      '--disable-background-networking',
-      '--disable-component-update',
-      '--disable-sync',
-      // WebGL on the CPU (no GPU here): SwiftShader through ANGLE.
-      '--use-angle=swiftshader',
-      '--enable-unsafe-swiftshader',
-    ],
-  });
+  browser = await launchChromium();
 });
 
 after(async () => {
