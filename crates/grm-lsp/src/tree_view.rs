@@ -26,6 +26,22 @@ pub struct TreeParams {
     pub node: Option<u32>,
     #[serde(default)]
     pub key: Option<String>,
+    /// Also answer [`TreeResult::drawn`]: what of the model shown the
+    /// node's subtree drew (for an editor to highlight it).
+    #[serde(default)]
+    pub drawn: bool,
+}
+
+/// What of the model shown a node's subtree drew: its triangles (runs per
+/// part, as the preview's `picks` name them) and its bones.
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
+#[serde(rename_all = "camelCase")]
+pub struct DrawnOut {
+    /// Triples (part, first triangle, triangle count), runs merged where
+    /// they meet, by part and first triangle.
+    pub triangles: Vec<u32>,
+    /// Indices into the preview's bones, ascending.
+    pub bones: Vec<u32>,
 }
 
 /// A node of the tree.
@@ -65,6 +81,50 @@ pub struct TreeResult {
     /// to reveal it.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub path: Vec<u32>,
+    /// With `drawn`: what the node's subtree drew.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub drawn: Option<DrawnOut>,
+}
+
+/// Which nodes lie in the subtree of `at` (itself included), from each
+/// node's parent; a parent always precedes its child in both trees.
+fn subtree(n: usize, at: u32, parent: impl Fn(usize) -> Option<u32>) -> Vec<bool> {
+    let mut inside = vec![false; n];
+    for i in 0..n {
+        inside[i] =
+            i as u32 == at || parent(i).is_some_and(|p| (p as usize) < i && inside[p as usize]);
+    }
+    inside
+}
+
+/// The triangles and bones whose module `inside` holds (`module`: a pick's
+/// or bone's module to whether it is inside).
+fn drawn(t: &PickTable, inside: &dyn Fn(u32) -> bool) -> DrawnOut {
+    let mut out = DrawnOut::default();
+    for (part, runs) in t.parts.iter().enumerate() {
+        let mut open: Option<(u32, u32)> = None;
+        for &(first, count, module, _) in runs {
+            if !inside(module) {
+                continue;
+            }
+            match &mut open {
+                Some((f, c)) if *f + *c == first => *c += count,
+                _ => {
+                    if let Some((f, c)) = open.take() {
+                        out.triangles.extend([part as u32, f, c]);
+                    }
+                    open = Some((first, count));
+                }
+            }
+        }
+        if let Some((f, c)) = open {
+            out.triangles.extend([part as u32, f, c]);
+        }
+    }
+    out.bones = (0..t.bones.len() as u32)
+        .filter(|&b| inside(t.bones[b as usize].0))
+        .collect();
+    out
 }
 
 fn key_text(k: u32) -> String {
@@ -104,12 +164,20 @@ fn answer(t: &PickTable, params: &TreeParams) -> Option<TreeResult> {
         } else {
             Vec::new()
         };
+        let drawn = params.drawn.then(|| {
+            let nodes = tree.nodes();
+            let inside = subtree(nodes.len(), at.0, |i| {
+                tree.parent(NodeId(i as u32)).map(|p| p.0)
+            });
+            drawn(t, &|m| inside.get(m as usize) == Some(&true))
+        });
         return Some(TreeResult {
             version: t.version,
             mode: "shape".into(),
             node: out(at)?,
             children: tree.children(at).filter_map(out).collect(),
             path,
+            drawn,
         });
     }
     let (tree, _) = t.tree.as_deref()?;
@@ -169,12 +237,20 @@ fn answer(t: &PickTable, params: &TreeParams) -> Option<TreeResult> {
     } else {
         Vec::new()
     };
+    let drawn = params.drawn.then(|| {
+        let inside = subtree(n, at, |i| tree.nodes[i].parent);
+        drawn(t, &|m| {
+            tree.node_of_module(m)
+                .is_some_and(|x| inside.get(x as usize) == Some(&true))
+        })
+    });
     Some(TreeResult {
         version: t.version,
         mode: "derive".into(),
         node,
         children,
         path,
+        drawn,
     })
 }
 

@@ -218,3 +218,128 @@ async fn focus_and_context_draws_the_rest_as_proxies() {
         .await;
     assert_eq!(triangles(&top), 12, "{}", top["stats"]);
 }
+
+/// Whether the drawn runs (part, first, count triples) hold triangle `tri` of `part`.
+fn holds(triangles: &[serde_json::Value], part: usize, tri: u64) -> bool {
+    triangles.chunks_exact(3).any(|r| {
+        r[0].as_u64() == Some(part as u64)
+            && r[1].as_u64().unwrap() <= tri
+            && tri < r[1].as_u64().unwrap() + r[2].as_u64().unwrap()
+    })
+}
+
+/// A node's drawn parts are exactly the picks whose ancestry holds its key:
+/// every pick of the preview is asked for (`grm/pick`) and compared.
+async fn check_drawn(
+    c: &mut Client,
+    u: &tower_lsp_server::ls_types::Uri,
+    r: &serde_json::Value,
+    node: &serde_json::Value,
+) -> usize {
+    let asked = c
+        .ok(
+            "grm/tree",
+            json!({ "textDocument": { "uri": u }, "node": node["node"], "drawn": true }),
+        )
+        .await;
+    let drawn = &asked["drawn"];
+    let tris = drawn["triangles"].as_array().expect("triangles");
+    assert_eq!(tris.len() % 3, 0);
+    let mut inside = 0;
+    for (i, part) in r["parts"].as_array().unwrap().iter().enumerate() {
+        for p in picks(part) {
+            let first = p["firstTriangle"].as_u64().unwrap();
+            let pick = c
+                .ok(
+                    "grm/pick",
+                    json!({ "textDocument": { "uri": u }, "part": i, "triangle": first }),
+                )
+                .await;
+            let under = pick["ancestry"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .any(|a| a["key"] == node["key"]);
+            assert_eq!(holds(tris, i, first), under, "pick {p} of part {i}: {pick}");
+            let last = first + p["triangleCount"].as_u64().unwrap() - 1;
+            assert_eq!(holds(tris, i, last), under);
+            inside += usize::from(under);
+        }
+    }
+    for b in 0..r["skeleton"]["boneCount"].as_u64().unwrap() {
+        let pick = c
+            .ok(
+                "grm/pick",
+                json!({ "textDocument": { "uri": u }, "bone": b }),
+            )
+            .await;
+        let under = pick["ancestry"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|a| a["key"] == node["key"]);
+        let listed = drawn["bones"].as_array().unwrap().contains(&json!(b));
+        assert_eq!(listed, under, "bone {b}: {pick}");
+        inside += usize::from(under);
+    }
+    inside
+}
+
+#[tokio::test]
+async fn a_node_names_the_parts_its_subtree_drew() {
+    // Derive mode: the axiom's A drew everything; the A in the branch (iteration 1) only its branch.
+    let (_dir, mut c, u, r) = previewed("t.grm", TREE).await;
+    let root = c
+        .ok("grm/tree", json!({ "textDocument": { "uri": u } }))
+        .await;
+    let a = root["children"][0].clone();
+    let all = check_drawn(&mut c, &u, &r, &a).await;
+    let bones = r["skeleton"]["boneCount"].as_u64().unwrap() as usize;
+    assert!(all >= bones && bones > 1, "{all} of {bones} bones");
+    let level = c
+        .ok(
+            "grm/tree",
+            json!({ "textDocument": { "uri": u }, "node": a["node"] }),
+        )
+        .await;
+    let branch = level["children"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|n| n["label"] == "A (iteration 1)")
+        .unwrap()
+        .clone();
+    let some = check_drawn(&mut c, &u, &r, &branch).await;
+    assert!(some > 0 && some < all, "{some} of {all}");
+    // Shape mode: the ground floor drew its wall, door and wall, and nothing else.
+    let (_dir, mut c, u, r) = previewed("house.grm", HOUSE).await;
+    let root = c
+        .ok("grm/tree", json!({ "textDocument": { "uri": u } }))
+        .await;
+    let mass = &root["children"][0];
+    let split = &c
+        .ok(
+            "grm/tree",
+            json!({ "textDocument": { "uri": u }, "node": mass["node"] }),
+        )
+        .await["children"][0];
+    let kids = c
+        .ok(
+            "grm/tree",
+            json!({ "textDocument": { "uri": u }, "node": split["node"] }),
+        )
+        .await;
+    let ground = kids["children"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|n| n["label"] == "Ground")
+        .unwrap()
+        .clone();
+    assert_eq!(check_drawn(&mut c, &u, &r, &ground).await, 3);
+    let lot = root["node"].clone();
+    let everything = check_drawn(&mut c, &u, &r, &lot).await;
+    assert!(everything > 3);
+    // Without `drawn`, none.
+    assert!(kids.get("drawn").is_none());
+}
