@@ -300,3 +300,65 @@ fn the_facade_varies_its_windows_by_weight_and_blanks_its_corners() {
     assert!(types.iter().all(|&t| t >= 8), "{types:?}");
     assert!(types[0] > types[2], "{types:?}");
 }
+
+#[test]
+fn a_system_grows_on_a_lot_the_caller_gives() {
+    use grm_grow::shape::{LowerError, grow_on_lot};
+    let c = checked("city_building.grm");
+    let p = &c.program;
+    let build = grm_geom::BuildOptions::default();
+    // A parcel far from the origin, not a rectangle: the building stands
+    // on it (the model is y-up: world (x, y, z) is (x, z, -y)).
+    let parcel = vec![vec![
+        [500.0, 200.0],
+        [530.0, 205.0],
+        [525.0, 230.0],
+        [498.0, 222.0],
+    ]];
+    let options = ShapeOptions {
+        seed: Some(9),
+        ..ShapeOptions::default()
+    };
+    let g = grow_on_lot(
+        p,
+        system(&c),
+        &p.default_params(),
+        &parcel,
+        &options,
+        Some((&build, None)),
+    )
+    .expect("grows");
+    assert_eq!(g.seed, 9);
+    let m = g.model.expect("a model");
+    let b = m.stats.bounds;
+    assert!(
+        (b.min.x - 498.0).abs() < 1e-3 && (b.max.x - 530.0).abs() < 1e-3,
+        "{b:?}"
+    );
+    assert!(
+        (b.min.z + 230.0).abs() < 1e-3 && (b.max.z + 200.0).abs() < 1e-3,
+        "{b:?}"
+    );
+    assert!((b.max.y - 12.0).abs() < 1e-3, "{b:?}");
+    // The same lot and seed give the same model; the system's own lot
+    // gives another.
+    let again = grow_on_lot(
+        p,
+        system(&c),
+        &p.default_params(),
+        &parcel,
+        &options,
+        Some((&build, None)),
+    )
+    .expect("grows");
+    assert_eq!(again.model.as_ref(), Some(&m));
+    // A lot without area is E0509, naming no place.
+    let flat = vec![vec![[0.0, 0.0], [10.0, 0.0], [20.0, 0.0]]];
+    let e = grow_on_lot(p, system(&c), &p.default_params(), &flat, &options, None)
+        .expect_err("no area");
+    assert!(
+        matches!(&e, ShapeGrowError::Lower(LowerError::Lot { span: None, .. })),
+        "{e:?}"
+    );
+    assert_eq!(e.code(), Code::BadLot);
+}

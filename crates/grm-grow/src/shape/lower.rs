@@ -66,6 +66,18 @@ pub fn lower(
     system: &grm_sema::System,
     params: &[Value],
 ) -> Result<Lowered, LowerError> {
+    lower_on(program, system, params, None)
+}
+
+/// [`lower`] on a lot the caller gives (`Some`: rings of `[x, y]` metres,
+/// the outer ring then holes, e.g. a city parcel) instead of the system's
+/// `lot` setting; such a lot's problems are E0509 with no span.
+pub fn lower_on(
+    program: &grm_sema::Program,
+    system: &grm_sema::System,
+    params: &[Value],
+    given: Option<&[Vec<[f64; 2]>]>,
+) -> Result<Lowered, LowerError> {
     let Some(shape) = system.shape.as_deref() else {
         return Err(LowerError::NotShape {
             system: system.name.clone(),
@@ -81,7 +93,17 @@ pub fn lower(
     let globals = program
         .global_values(params)
         .map_err(|e| LowerError::Internal(format!("a constant cannot be evaluated: {e}")))?;
-    let lot = lot(shape, params, &globals)?;
+    let lot = match given {
+        Some(rings) => {
+            let rings = rings.to_vec();
+            let why = grm_sema::shape::footprint_problem(&rings);
+            if let Some(why) = why {
+                return Err(LowerError::Lot { why, span: None });
+            }
+            footprint(&rings).map_err(|why| LowerError::Lot { why, span: None })?
+        }
+        None => lot(shape, params, &globals)?,
+    };
     let mut b = ProgramBuilder::new(&system.name);
     // The system's symbols first, in their order: engine ids are the
     // checker's ids.

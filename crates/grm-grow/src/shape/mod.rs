@@ -22,7 +22,7 @@ use grm_geom::{BuildOptions, GeomError, Model};
 use grm_sema::Value;
 use grm_shape::{Limits, ShapeError, ShapeTree};
 
-pub use lower::{Lowered, RuleSource, lower};
+pub use lower::{Lowered, RuleSource, lower, lower_on};
 
 /// How to grow a shape system.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -349,6 +349,35 @@ pub fn grow(
     let seed = options.seed.unwrap_or(lowered.seed);
     let plan = edits.map(|f| edit_plan(&lowered, f));
     let tree = derive_with_edits(&lowered, seed, options, plan.as_ref())?;
+    let model = match build {
+        Some((b, dir)) => Some(model(program, params, &lowered, &tree, dir, b)?),
+        None => None,
+    };
+    Ok(ShapeGrown {
+        lowered,
+        tree,
+        seed,
+        model,
+    })
+}
+
+/// [`grow`] on a lot the caller gives instead of the system's `lot`
+/// setting: rings of `[x, y]` metres in the shape world (z up), the outer
+/// ring then holes (a city parcel: `grm_layout::city`). The lot's scope is
+/// its bounding box, so the building stands where the rings are; a lot
+/// without area is E0509 naming no place. The model is built when
+/// `build` is given (lot polygon in, model out).
+pub fn grow_on_lot(
+    program: &grm_sema::Program,
+    system: &grm_sema::System,
+    params: &[Value],
+    rings: &[Vec<[f64; 2]>],
+    options: &ShapeOptions,
+    build: Option<(&BuildOptions, Option<&Path>)>,
+) -> Result<ShapeGrown, ShapeGrowError> {
+    let lowered = lower_on(program, system, params, Some(rings))?;
+    let seed = options.seed.unwrap_or(lowered.seed);
+    let tree = derive(&lowered, seed, options)?;
     let model = match build {
         Some((b, dir)) => Some(model(program, params, &lowered, &tree, dir, b)?),
         None => None,
