@@ -14,6 +14,7 @@
 pub mod edits;
 pub mod json;
 mod lower;
+pub mod retarget;
 
 use std::path::Path;
 
