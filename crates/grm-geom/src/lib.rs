@@ -605,6 +605,23 @@ pub fn build_model_with(
     params: &[Value],
     options: &BuildOptions,
 ) -> Result<Model, GeomError> {
+    build_model_drawn(program, system, string, settings, params, options, None)
+}
+
+/// [`build_model_with`], meshing only the bones, instances and polygons
+/// whose module (of `string`) `drawn` keeps (`None`: all): focus and
+/// context in derive mode, where the rest of the skeleton stays in the
+/// model's [`Model::skeleton`] (an editor draws it as lines). A kept
+/// bone whose parent is not kept starts its own tube.
+pub fn build_model_drawn(
+    program: &Program,
+    system: &System,
+    string: &ModuleString,
+    settings: &Settings,
+    params: &[Value],
+    options: &BuildOptions,
+    drawn: Option<&dyn Fn(u32) -> bool>,
+) -> Result<Model, GeomError> {
     // The string, held throughout, and the model's copy of its keys.
     let held = options
         .held
@@ -635,7 +652,7 @@ pub fn build_model_with(
     // The baseline is counted again by the interpretation's build.
     let held = held - budget::BASELINE_BYTES;
     let options = BuildOptions { held, ..*options };
-    let mut model = build_from_interpretation(program, skeleton, &options, params)?;
+    let mut model = build_interpretation(program, skeleton, &options, params, drawn)?;
     model.module_keys = string.keys.clone();
     Ok(model)
 }
@@ -651,6 +668,19 @@ pub fn build_from_interpretation(
     options: &BuildOptions,
     params: &[Value],
 ) -> Result<Model, GeomError> {
+    build_interpretation(program, skeleton, options, params, None)
+}
+
+/// [`build_from_interpretation`], meshing what `drawn` keeps
+/// ([`build_model_drawn`]).
+fn build_interpretation(
+    program: &Program,
+    skeleton: Interpretation,
+    options: &BuildOptions,
+    params: &[Value],
+    drawn: Option<&dyn Fn(u32) -> bool>,
+) -> Result<Model, GeomError> {
+    let keep = |module: u32| drawn.is_none_or(|d| d(module));
     let mut builder = Builder::new(program, options, params)?;
     let too_large = |footprint: Footprint| GeomError::MemoryLimit {
         footprint,
@@ -694,7 +724,24 @@ pub fn build_from_interpretation(
         }
     }
     builder.check_paints(&skeleton)?;
-    let plan = tube::TubePlan::new(&skeleton.bones);
+    let mut plan = tube::TubePlan::new(&skeleton.bones);
+    if drawn.is_some() {
+        // A tube is cut where its bone or the bone it continues is not
+        // drawn: each side gets its cap.
+        for (i, bone) in skeleton.bones.iter().enumerate() {
+            let Some(p) = bone.parent.map(|p| p as usize) else {
+                continue;
+            };
+            if plan.continues[i]
+                && !(keep(bone.module) && skeleton.bones.get(p).is_some_and(|pb| keep(pb.module)))
+            {
+                plan.continues[i] = false;
+                if plan.next.get(p) == Some(&Some(i as u32)) {
+                    plan.next[p] = None;
+                }
+            }
+        }
+    }
     let unit = UnitShapes::new(options.segments);
     let circle = tube::circle(options.tube_sides);
 
@@ -709,21 +756,26 @@ pub fn build_from_interpretation(
         *s = (s.0 + v, s.1 + t, s.2 + u64::from(t > 0));
     };
     for (i, bone) in skeleton.bones.iter().enumerate() {
-        if plan.dir[i].is_none() {
+        if plan.dir[i].is_none() || !keep(bone.module) {
             continue;
         }
         let part = builder.part(bone.paint);
+        // A parent with a tube of its own (drawn, not bare) shares its tip ring.
         let shared = plan.continues[i]
             && bone.parent.is_some_and(|p| {
-                skeleton
-                    .bones
-                    .get(p as usize)
-                    .is_some_and(|pb| PaintKey::of(pb.paint) == PaintKey::of(bone.paint))
+                skeleton.bones.get(p as usize).is_some_and(|pb| {
+                    PaintKey::of(pb.paint) == PaintKey::of(bone.paint)
+                        && plan.dir[p as usize].is_some()
+                        && keep(pb.module)
+                })
             });
         let (v, t) = tube::bone_size(&plan, i, circle.len() as u64, shared);
         add(&mut sizes, part, v, t);
     }
     for inst in &skeleton.instances {
+        if !keep(inst.module) {
+            continue;
+        }
         let Some(shape) = unit.of(inst.kind, &meshes) else {
             continue;
         };
@@ -732,6 +784,9 @@ pub fn build_from_interpretation(
         add(&mut sizes, part, v, t);
     }
     for poly in &skeleton.polygons {
+        if !keep(poly.module) {
+            continue;
+        }
         let part = builder.part(poly.paint);
         let n = u64::from(poly.len);
         if n >= 3 {
@@ -772,6 +827,9 @@ pub fn build_from_interpretation(
             builder.bare_bones += 1;
             continue;
         }
+        if !keep(bone.module) {
+            continue;
+        }
         let part = builder.part(bone.paint);
         let shared = if plan.continues[i] {
             bone.parent
@@ -804,6 +862,9 @@ pub fn build_from_interpretation(
 
     // Instances.
     for (i, inst) in skeleton.instances.iter().enumerate() {
+        if !keep(inst.module) {
+            continue;
+        }
         // Loaded above for every mesh instance.
         let Some(shape) = unit.of(inst.kind, &meshes) else {
             continue;
@@ -829,6 +890,9 @@ pub fn build_from_interpretation(
     // Polygons.
     let mut tris = Vec::new();
     for (i, poly) in skeleton.polygons.iter().enumerate() {
+        if !keep(poly.module) {
+            continue;
+        }
         let vs = skeleton.vertices(poly);
         let part = builder.part(poly.paint);
         let before = builder.parts[part].mesh.triangle_count();

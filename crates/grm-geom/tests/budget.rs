@@ -94,3 +94,51 @@ fn a_picture_counts_its_buffers() {
     let e = build(KOCH, 2, &BuildOptions::limited(64 << 20, picture)).expect_err("too large");
     assert!(e.to_string().contains("drawing its picture"), "{e}");
 }
+
+/// Focus and context (`build_model_drawn`): only the kept modules' bones,
+/// instances and polygons are meshed, every cut tube is closed with caps
+/// (each part a union of closed surfaces, which may touch),
+/// the count is still exact for tubes, the skeleton is whole, and keeping
+/// everything is the plain build byte for byte.
+#[test]
+fn a_drawn_mask_meshes_only_what_it_keeps_and_closes_cut_tubes() {
+    let p = program("budget.grm", KOCH);
+    let s = &p.systems[0];
+    let string = derive(&p, s, 2);
+    let opts = BuildOptions::default();
+    let params = p.default_params();
+    let whole = build_model_with(&p, s, &string, &s.settings, &params, &opts).expect("builds");
+    let all: &dyn Fn(u32) -> bool = &|_| true;
+    let same = grm_geom::build_model_drawn(&p, s, &string, &s.settings, &params, &opts, Some(all))
+        .expect("builds");
+    assert_eq!(same.parts, whole.parts);
+    // Every third module: chains cut everywhere.
+    let some: &dyn Fn(u32) -> bool = &|m| m % 3 == 0;
+    let cut = grm_geom::build_model_drawn(&p, s, &string, &s.settings, &params, &opts, Some(some))
+        .expect("builds");
+    assert_eq!(cut.skeleton.bones.len(), whole.skeleton.bones.len());
+    assert_eq!(cut.footprint.triangles, cut.stats.triangles as u64);
+    assert_eq!(cut.footprint.vertices, cut.stats.vertices as u64);
+    assert!(cut.stats.triangles > 0 && cut.stats.triangles < whole.stats.triangles);
+    for part in &cut.parts {
+        assert!(edges_balanced(&part.mesh), "a cut tube is open");
+        for pk in &part.picks {
+            assert!(some(pk.module), "module {} meshed", pk.module);
+        }
+    }
+    let kept = whole
+        .skeleton
+        .bones
+        .iter()
+        .filter(|b| some(b.module))
+        .count();
+    let picked: usize = cut.parts.iter().map(|part| part.picks.len()).sum();
+    assert_eq!(picked, kept);
+    // Nothing kept: no triangles, the skeleton whole.
+    let none: &dyn Fn(u32) -> bool = &|_| false;
+    let empty =
+        grm_geom::build_model_drawn(&p, s, &string, &s.settings, &params, &opts, Some(none))
+            .expect("builds");
+    assert_eq!(empty.stats.triangles, 0);
+    assert_eq!(empty.skeleton.bones.len(), whole.skeleton.bones.len());
+}

@@ -200,6 +200,38 @@ impl Tree {
         path
     }
 
+    /// Focus and context in derive mode (issue 28): per module of the
+    /// final string, whether it lies within `depth` levels below the node
+    /// keyed `key` (that node's own modules at level 0). The rest of the
+    /// model is context (an editor draws its bones as lines). `None` when
+    /// no node has that key.
+    pub fn focus_window(&self, key: u32, depth: u32) -> Option<Vec<bool>> {
+        let at = self.nodes.iter().position(|n| n.key == key)?;
+        // A parent always precedes its child: one pass. Levels below the
+        // focus, for the nodes inside its subtree.
+        let mut below: Vec<Option<u32>> = vec![None; self.nodes.len()];
+        below[at] = Some(0);
+        for i in at + 1..self.nodes.len() {
+            below[i] = self.nodes[i]
+                .parent
+                .filter(|&p| (p as usize) < i)
+                .and_then(|p| below[p as usize])
+                .map(|d| d.saturating_add(1));
+        }
+        Some(
+            self.module_node
+                .iter()
+                .map(|&n| {
+                    below
+                        .get(n as usize)
+                        .copied()
+                        .flatten()
+                        .is_some_and(|d| d <= depth)
+                })
+                .collect(),
+        )
+    }
+
     /// Every node's children, in order.
     pub fn children(&self) -> Vec<Vec<u32>> {
         let mut out = vec![Vec::new(); self.nodes.len()];

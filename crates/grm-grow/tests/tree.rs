@@ -219,3 +219,50 @@ fn a_tree_over_the_memory_limit_stops_the_run() {
         ),
     }
 }
+
+/// Focus and context in derive mode: a module is in the window of node
+/// `at` with `depth` exactly when `at` is on its path from the root at
+/// most `depth` levels above it (checked against `ancestry` for every
+/// node and depths 0 to 3); an unknown key has no window.
+#[test]
+fn the_focus_window_is_the_subtree_a_few_levels_down() {
+    let (_, checked) = load("ternary_tree.grm");
+    let c = compile(&checked);
+    let record = Record {
+        tree: true,
+        ..Record::default()
+    };
+    let g = Grower::new(&c, 1, record)
+        .expect("engine")
+        .derive(&options(&c, 3), &mut |_| {})
+        .expect("derives");
+    let tree = g.tree.as_ref().expect("a tree");
+    let mut sizes = Vec::new();
+    for at in 0..tree.nodes.len() {
+        // Keys are unique in a tree: the node is found by its key.
+        let key = tree.nodes[at].key;
+        for depth in 0..4 {
+            let w = tree.focus_window(key, depth).expect("a window");
+            assert_eq!(w.len(), g.string.len());
+            for (m, &inside) in w.iter().enumerate() {
+                let path = tree.ancestry(tree.node_of_module(m as u32).unwrap());
+                let want = path
+                    .iter()
+                    .position(|&n| n as usize == at)
+                    .is_some_and(|i| path.len() - 1 - i <= depth as usize);
+                assert_eq!(inside, want, "node {at} depth {depth} module {m}");
+            }
+            sizes.push(w.iter().filter(|&&x| x).count());
+        }
+    }
+    // The root at depth 3 and more holds every module; some windows are partial.
+    assert!(sizes.iter().any(|&n| n > 0 && n < g.string.len()));
+    assert_eq!(
+        tree.focus_window(tree.root_key, 100).unwrap(),
+        vec![true; g.string.len()]
+    );
+    let unused = (0..u32::MAX)
+        .find(|k| tree.nodes.iter().all(|n| n.key != *k))
+        .unwrap();
+    assert!(tree.focus_window(unused, 1).is_none());
+}
