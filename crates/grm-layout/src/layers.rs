@@ -154,11 +154,13 @@ impl LayerSpec {
     }
 }
 
-/// The artist's whole layout: layers bottom to top, and the parcel knobs.
+/// The artist's whole layout: layers bottom to top, the parcel knobs,
+/// and the shape system the parcels grow ([`crate::city`]).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Document {
     pub layers: Vec<LayerSpec>,
     pub parcels: ParcelParams,
+    pub buildings: Option<crate::city::BuildingSpec>,
 }
 
 /// Something that went wrong in one layer; the other layers still merge.

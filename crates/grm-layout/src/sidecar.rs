@@ -8,6 +8,7 @@
 //! reading and writing a canonical file gives the same bytes.
 
 use crate::assign::{Anchor, Assignment, Falloff, Target};
+use crate::city::BuildingSpec;
 use crate::generate::{GridParams, RadialParams};
 use crate::id::Id;
 use crate::layers::{Document, LayerSpec, Move, Place, Select, Source};
@@ -154,7 +155,12 @@ pub fn read(text: &str) -> (Document, Vec<SidecarError>) {
         errs.push(bad("$", SidecarErrorKind::BadValue, "expected an object"));
         return (doc, errs);
     };
-    keys(top, &["version", "parcels", "layers"], "$", &mut errs);
+    keys(
+        top,
+        &["version", "parcels", "buildings", "layers"],
+        "$",
+        &mut errs,
+    );
     if let Some(ver) = top.get("version") {
         match ver.as_u64() {
             Some(n) if n <= VERSION => {}
@@ -168,6 +174,12 @@ pub fn read(text: &str) -> (Document, Vec<SidecarError>) {
     if let Some(p) = top.get("parcels") {
         match parcels(p, "$.parcels", &mut errs) {
             Ok(pp) => doc.parcels = pp,
+            Err(e) => errs.push(e),
+        }
+    }
+    if let Some(b) = top.get("buildings") {
+        match buildings(b, "$.buildings", &mut errs) {
+            Ok(spec) => doc.buildings = Some(spec),
             Err(e) => errs.push(e),
         }
     }
@@ -223,6 +235,66 @@ fn parcels(v: &Value, path: &str, errs: &mut Vec<SidecarError>) -> R<ParcelParam
         ));
     }
     Ok(p)
+}
+
+/// `"buildings": {"grammar", "system", "seed", "params"}` (docs/layout.md,
+/// "Buildings").
+fn buildings(v: &Value, path: &str, errs: &mut Vec<SidecarError>) -> R<BuildingSpec> {
+    let m = obj(v, path)?;
+    keys(m, &["grammar", "system", "seed", "params"], path, errs);
+    let text = |k: &str| -> R<Option<String>> {
+        match m.get(k) {
+            None => Ok(None),
+            Some(Value::String(s)) if !s.is_empty() => Ok(Some(s.clone())),
+            Some(_) => Err(bad(
+                &format!("{path}.{k}"),
+                SidecarErrorKind::BadValue,
+                "expected a non-empty string",
+            )),
+        }
+    };
+    let grammar = text("grammar")?.ok_or_else(|| {
+        bad(
+            &format!("{path}.grammar"),
+            SidecarErrorKind::Missing,
+            "the grammar file (a shape system) the parcels grow",
+        )
+    })?;
+    let system = text("system")?;
+    let seed = match m.get("seed") {
+        None => 0,
+        Some(x) => u32::try_from(uint(x, &format!("{path}.seed"))?).map_err(|_| {
+            bad(
+                &format!("{path}.seed"),
+                SidecarErrorKind::BadValue,
+                "a seed below 2^32",
+            )
+        })?,
+    };
+    let mut params = Tags::new();
+    if let Some(ps) = m.get("params") {
+        for (k, x) in obj(ps, &format!("{path}.params"))? {
+            let at = format!("{path}.params.{k}");
+            let v = match x {
+                Value::Bool(b) => TagValue::Bool(*b),
+                Value::Number(_) => TagValue::Num(num(x, &at)?),
+                _ => {
+                    return Err(bad(
+                        &at,
+                        SidecarErrorKind::BadValue,
+                        "expected a number or true or false",
+                    ));
+                }
+            };
+            params.insert(k.clone(), v);
+        }
+    }
+    Ok(BuildingSpec {
+        grammar,
+        system,
+        seed,
+        params,
+    })
 }
 
 fn layer(v: &Value, path: &str, errs: &mut Vec<SidecarError>) -> R<LayerSpec> {
@@ -743,6 +815,20 @@ pub fn write(doc: &Document) -> String {
             json!({"max_area": n(p.max_area), "min_area": n(p.min_area), "setback": n(p.setback), "jitter": n(p.jitter), "max_depth": p.max_depth}),
         );
     }
+    if let Some(b) = &doc.buildings {
+        let mut m = Map::new();
+        m.insert("grammar".into(), json!(b.grammar));
+        if let Some(sys) = &b.system {
+            m.insert("system".into(), json!(sys));
+        }
+        if b.seed != 0 {
+            m.insert("seed".into(), json!(b.seed));
+        }
+        if !b.params.is_empty() {
+            m.insert("params".into(), tags_json(&b.params));
+        }
+        top.insert("buildings".into(), Value::Object(m));
+    }
     let layers: Vec<Value> = doc.layers.iter().map(layer_json).collect();
     top.insert("layers".into(), Value::Array(layers));
     let mut s = serde_json::to_string_pretty(&Value::Object(top)).unwrap_or_default();
@@ -837,11 +923,10 @@ fn select_json(s: &Select) -> Value {
     }
 }
 
-fn assignment_json(a: &Assignment) -> Value {
+fn tags_json(tags: &Tags) -> Value {
     let mut m = Map::new();
-    let mut tags = Map::new();
-    for (k, v) in &a.tags {
-        tags.insert(
+    for (k, v) in tags {
+        m.insert(
             k.clone(),
             match v {
                 TagValue::Num(x) => n(*x),
@@ -850,7 +935,12 @@ fn assignment_json(a: &Assignment) -> Value {
             },
         );
     }
-    m.insert("tags".into(), Value::Object(tags));
+    Value::Object(m)
+}
+
+fn assignment_json(a: &Assignment) -> Value {
+    let mut m = Map::new();
+    m.insert("tags".into(), tags_json(&a.tags));
     m.insert(
         "kinds".into(),
         json!(a.kinds.iter().map(|k| k.name()).collect::<Vec<_>>()),

@@ -216,6 +216,7 @@ fn base_doc() -> Document {
     Document {
         layers: vec![base],
         parcels: ParcelParams::default(),
+        buildings: None,
     }
 }
 

@@ -328,6 +328,7 @@ fn doc(rng: &mut Rng) -> Document {
     Document {
         layers: vec![base, ring],
         parcels: ParcelParams::default(),
+        buildings: None,
     }
 }
 
