@@ -100,6 +100,7 @@ async function openPage(url: string): Promise<Page> {
 const pageErrors = (page: Page): string[] => (page as unknown as { errors: string[] }).errors;
 
 interface Handle {
+  /** `tip`: a bone's tip, or the length or angle grip beside it (`label`). */
   kind: 'plane' | 'tip';
   label: string;
   command: string | null;
@@ -145,6 +146,16 @@ interface Grm {
   dragBreakdowns: Record<string, number>[];
   sketchPoses: number;
 }
+
+/** The node chosen in the derivation tree and what of it the page highlights (`__grm.chosen`). */
+const chosenOf = (g: Grm): { key: string; triangles: number; bones: number } | null => (g as unknown as { chosen: { key: string; triangles: number; bones: number } | null }).chosen;
+
+/**
+ * Until the focused rule's spread over other seeds is over: a pick in derive mode highlights its rule, and the page
+ * asks for other seeds' models, which are the server's tables for picks and the tree meanwhile.
+ */
+const spreadOver = (page: Page): Promise<Grm> =>
+  waitFor(page, 'the focus spread over', (g) => !(g as unknown as { spreading: boolean }).spreading && !(g as unknown as { busy: boolean }).busy, 20_000);
 
 const grm = (page: Page): Promise<Grm> =>
   page.evaluate(() => {
@@ -457,10 +468,18 @@ test('shape mode: focus and context draws the picked shape a few levels down and
   // Its ancestors are open above it: the facade's split, the floors' repeat, the tile's split.
   const labels = await page.locator('#tree-view .tree-row .label').allTextContents();
   for (const l of ['Lot', 'Mass', 'Facade', 'Floor', 'Tile', 'Wall']) assert.ok(labels.includes(l), `${l} in ${labels.join(', ')}`);
-  // Choosing a node says its rule.
-  await page.locator('#tree-view .tree-row .label', { hasText: /^Tile$/ }).first().click();
+  // Choosing a node says its rule and highlights the parts its subtree drew: the tile's wall, window and wall.
+  const tileRow = page.locator('#tree-view .tree-row', { has: page.locator('.label', { hasText: /^Tile$/ }) }).first();
+  const tileKey = await tileRow.getAttribute('data-key');
+  await tileRow.locator('.label').click();
   assert.match((await page.textContent('#rule-info')) ?? '', /^Tile: made by the rule at line \d+$/);
+  const chosen = (await waitFor(page, 'the tile highlighted', (g) => chosenOf(g)?.key === tileKey && chosenOf(g)!.triangles > 0, 10_000)) as unknown as { chosen: { triangles: number } };
+  const tile = chosen.chosen.triangles;
+  assert.ok(tile < whole.triangles / 10, `a tile: ${tile} of ${whole.triangles} triangles`);
   await page.screenshot({ path: join(artifacts, 'manip-tree.png') });
+  // The lot (the root) drew the whole building.
+  await page.locator('#tree-view .tree-row .label', { hasText: /^Lot$/ }).first().click();
+  await waitFor(page, 'the lot highlighted', (g) => chosenOf(g)?.triangles === whole.triangles, 10_000);
   // The mass's height has a handle too: its top dragged from 12.8 to 16 rewrites the extrusion.
   const hs = await pickWall(page);
   const height = hs.find((h) => h.label === 'Mass height');
@@ -498,8 +517,12 @@ test('derive mode: dragging a bone tip rewrites its F length and regrows the ske
     h = await handles(page);
     await page.waitForTimeout(20);
   }
-  assert.equal(h.length, 1, `a tip handle (${JSON.stringify(await grm(page))})`);
-  assert.equal(h[0].kind, 'tip');
+  // The tip, and the length and angle grips beside it.
+  assert.deepEqual(
+    h.map((x) => `${x.kind} ${x.label}`),
+    ['tip tip', 'tip length', 'tip angle'],
+    `a tip handle (${JSON.stringify(await grm(page))})`,
+  );
   assert.deepEqual(h[0].at, b1.tip);
   // Drag the tip along the bone to 1.5 times its length (on screen; the page moves it in the plane of the bone and its parent).
   const target: V3 = [0, 1, 2].map((i) => b1.base[i] + (b1.tip[i] - b1.base[i]) * 1.5) as V3;
@@ -532,6 +555,170 @@ test('derive mode: dragging a bone tip rewrites its F length and regrows the ske
   assert.ok(Math.abs(off - (g1.lastDrag?.residual ?? 0)) < 1e-3, `the tip is ${off} from the drop, the server says ${g1.lastDrag?.residual}`);
   console.log(`bone tip drag: release to regrown model on screen ${g1.dragLatencies.map(r1).join(', ')} ms; F(1) -> F(${change.new})`);
   latency['derive: bone tip drag, release to regrown model'] = { grammar: 'bar.grm (2 bones)', renderer: g1.renderer, ms: g1.dragLatencies.map(r1), answerMs: g1.dragAnswerMs.map(r1) };
+  assert.deepEqual(pageErrors(page), []);
+  await page.close();
+});
+
+test("derive mode: focus and context meshes a few levels below a picked bone's ancestor, the other bones as lines; a tree node chosen highlights the bones it grew", async () => {
+  const file = grammar('fan.grm', 'system Fan {\n    iterations = 3;\n    angle = 30;\n    axiom A;\n    A -> F(1) [ + A ] [ - A ];\n}\n');
+  const url = await view(file);
+  const page = await openPage(url);
+  const g0 = await waitFor(page, 'first model', (g) => g.regrows >= 1 || g.lastError !== null);
+  assert.equal(g0.mode, 'derive', g0.lastError ?? '');
+  const whole = (await grm(page)) as unknown as { triangles: number; bones: number };
+  assert.equal(whole.bones, 7, 'a trunk and two levels of branches');
+  assert.equal(await page.isHidden('#context-toggle'), true, 'offered once a part is picked');
+  // Pick the trunk (the first bone) in its middle.
+  const bones = () => page.evaluate(() => (globalThis as unknown as { __grm: { bonesList(): { base: V3; tip: V3 }[] } }).__grm.bonesList());
+  const [trunk] = await bones();
+  const mid: V3 = [0, 1, 2].map((i) => (trunk.base[i] + trunk.tip[i]) / 2) as V3;
+  const before = (await grm(page)).picks;
+  await page.mouse.click(...(await toScreen(page, mid)));
+  await waitFor(page, 'the trunk picked', (g) => g.picks > before && g.lastPick !== null, 10_000);
+  assert.equal(await page.isHidden('#context-toggle'), false);
+  // The choices: the root, the axiom's A, the trunk's F; the A is chosen (the picked part's parent).
+  const options = await page.locator('#context-node option').allTextContents();
+  assert.deepEqual(options.map((o) => o.trim()), ['axiom', 'A', 'F']);
+  // One level below the A: its F (the trunk) meshed; the branches (grown from the A's below it) as lines.
+  await page.fill('#context-depth', '1');
+  const r0 = (await grm(page)).regrows;
+  await page.check('#context-on');
+  const focused = (await waitFor(page, 'the focused model', (g) => g.regrows > r0 && g.lastError === null)) as unknown as { triangles: number; bones: number };
+  assert.ok(focused.triangles > 0 && focused.triangles < whole.triangles / 5, `focused ${focused.triangles} triangles, whole ${whole.triangles}`);
+  assert.equal(focused.bones, whole.bones, 'every bone still drawn (as a line)');
+  await page.screenshot({ path: join(artifacts, 'manip-focus-derive.png') });
+  // Three levels: the whole tree again.
+  const r1 = (await grm(page)).regrows;
+  await page.fill('#context-depth', '3');
+  await page.dispatchEvent('#context-depth', 'change');
+  const deep = (await waitFor(page, 'three levels down', (g) => g.regrows > r1 && g.lastError === null)) as unknown as { triangles: number };
+  assert.equal(deep.triangles, whole.triangles);
+  const r2 = (await grm(page)).regrows;
+  await page.uncheck('#context-on');
+  await waitFor(page, 'the whole model again', (g) => g.regrows > r2 && g.lastError === null);
+  await spreadOver(page);
+  // The tree panel: a branch's A chosen highlights the bones it grew (its F and the two below), the axiom's A all.
+  await page.click('#tree-details summary');
+  // The root (`axiom`) opened: the axiom's A below it.
+  const rootRow = page.locator('#tree-view .tree-row', { has: page.locator('.label', { hasText: /^axiom$/ }) }).first();
+  await rootRow.waitFor({ timeout: 10_000 });
+  await rootRow.locator('.twisty').click();
+  const axiomA = page.locator('#tree-view .tree-row', { has: page.locator('.label', { hasText: /^A \(iteration 0\)$/ }) }).first();
+  await axiomA.waitFor({ timeout: 10_000 });
+  await axiomA.locator('.twisty').click();
+  const branch = page.locator('#tree-view .tree-row', { has: page.locator('.label', { hasText: /^A \(iteration 1\)$/ }) }).first();
+  await branch.waitFor({ timeout: 10_000 });
+  const branchKey = await branch.getAttribute('data-key');
+  await branch.locator('.label').click();
+  const lit = await waitFor(page, 'the branch highlighted', (g) => chosenOf(g)?.key === branchKey, 10_000);
+  assert.equal(chosenOf(lit)?.bones, 3, JSON.stringify(chosenOf(lit)));
+  assert.ok(chosenOf(lit)!.triangles > 0 && chosenOf(lit)!.triangles < whole.triangles);
+  await page.screenshot({ path: join(artifacts, 'manip-tree-derive.png') });
+  const axiomKey = await axiomA.getAttribute('data-key');
+  await axiomA.locator('.label').click();
+  const all = await waitFor(page, 'the axiom A highlighted', (g) => chosenOf(g)?.key === axiomKey, 10_000);
+  assert.equal(chosenOf(all)?.bones, 7);
+  assert.equal(chosenOf(all)?.triangles, whole.triangles);
+  assert.deepEqual(pageErrors(page), []);
+  await page.close();
+});
+
+test("derive mode: a bone's length grip scales it; its angle grip, sketched, makes a slider that turns it", async () => {
+  const file = grammar('bend.grm', 'system Bend {\n    iterations = 1;\n    axiom A;\n    A -> F(2) +(30) F(1);\n}\n');
+  const url = await view(file);
+  const page = await openPage(url);
+  const g0 = await waitFor(page, 'first model', (g) => g.regrows >= 1 || g.lastError !== null);
+  assert.equal(g0.mode, 'derive', g0.lastError ?? '');
+  const box = await page.locator('#view').boundingBox();
+  assert.ok(box);
+  await page.mouse.move(box.x + box.width / 2, box.y + box.height / 2);
+  // Zoomed out further: the grips beside the tip of a bone made longer stay in the view.
+  await page.mouse.wheel(0, 900);
+  await page.waitForTimeout(300);
+  const bones = () => page.evaluate(() => (globalThis as unknown as { __grm: { bonesList(): { base: V3; tip: V3 }[] } }).__grm.bonesList());
+  /** The second bone picked (in its middle) until its three grips show; its grips. */
+  const pickSecond = async (): Promise<Handle[]> => {
+    await spreadOver(page);
+    const [, b] = await bones();
+    const mid: V3 = [0, 1, 2].map((i) => (b.base[i] + b.tip[i]) / 2) as V3;
+    const picks = (await grm(page)).picks;
+    await page.mouse.click(...(await toScreen(page, mid)));
+    const start = Date.now();
+    for (;;) {
+      const h = await handles(page);
+      // This click's pick answered (the grips of a pick before it may still show).
+      if (h.length === 3 && (await grm(page)).picks > picks) return h;
+      if (Date.now() - start > 10_000) throw new Error(`no grips: ${JSON.stringify(await grm(page))}`);
+      await page.waitForTimeout(20);
+    }
+  };
+  let [, b1] = await bones();
+  let h = await pickSecond();
+  await spreadOver(page);
+  const [, lengthGrip] = h;
+  assert.equal(lengthGrip.label, 'length');
+  // The length grip moved half a unit along the bone: a length of 1.5, sent as a length (the direction free).
+  const u: V3 = [0, 1, 2].map((i) => b1.tip[i] - b1.base[i]) as V3;
+  const lenGrip = lengthGrip.at as V3;
+  const drags = (await grm(page)).drags;
+  await dragFromTo(page, lengthGrip.screen, await toScreen(page, [0, 1, 2].map((i) => lenGrip[i] + u[i] * 0.5) as V3));
+  const g1 = await waitFor(page, 'the length drag answered', (g) => (g.drags > drags && g.lastDrag !== null) || g.lastError !== null);
+  assert.equal(g1.lastError, null);
+  assert.equal(g1.lastDragRequest?.target.kind, 'length');
+  assert.equal(g1.lastDrag?.outcome, 'solved', JSON.stringify(g1.lastDrag));
+  const m = /\+\(30\) F\(([^)]+)\);/.exec(readFileSync(file, 'utf8'));
+  assert.ok(m && Math.abs(Number(m[1]) - 1.5) < 0.02, readFileSync(file, 'utf8'));
+  await page.screenshot({ path: join(artifacts, 'manip-length.png') });
+  await waitFor(page, 'the regrown bone', (g) => g.regrows > g1.regrows || g.dragLatencies.length > 0, 20_000);
+  await page.waitForTimeout(200);
+
+  // Sketch: the angle grip turned 20 degrees about the bone's base (in the bone's plane, z = 0) is the pose at t = 1.
+  await page.check('#sketch-mode');
+  [, b1] = await bones();
+  h = await pickSecond();
+  await spreadOver(page);
+  h = await handles(page);
+  const angleGrip = h[2];
+  assert.equal(angleGrip.label, 'angle');
+  const a = angleGrip.at as V3;
+  const turn = (20 * Math.PI) / 180;
+  const [dx, dy] = [a[0] - b1.base[0], a[1] - b1.base[1]];
+  const turned: V3 = [b1.base[0] + dx * Math.cos(turn) - dy * Math.sin(turn), b1.base[1] + dx * Math.sin(turn) + dy * Math.cos(turn), a[2]];
+  await page.fill('#sketch-t', '1');
+  await dragFromTo(page, angleGrip.screen, await toScreen(page, turned));
+  await waitFor(page, 'a turned pose at t = 1', (g) => g.sketchPoses === 1);
+  assert.match((await grm(page)).manipStatus, /pose at t = 1: tip at/);
+  await page.screenshot({ path: join(artifacts, 'manip-sketch-angle.png') });
+  const before = readFileSync(file, 'utf8');
+  await page.click('#sketch-make');
+  await page.fill('#sketch-name', 'bend');
+  await page.click('#sketch-ok');
+  const g2 = await waitFor(page, 'the sketch answered', (g) => g.lastSketch !== null || g.lastError !== null, 60_000);
+  assert.equal(g2.lastError, null);
+  assert.equal(g2.lastSketch?.outcome, 'solved', JSON.stringify(g2.lastSketch));
+  assert.equal(g2.lastSketch?.exactAtZero, true);
+  for (const [, d] of g2.lastSketch?.residuals ?? []) assert.ok(d < 1e-3, `the pose missed by ${d}`);
+  const sketched = readFileSync(file, 'utf8');
+  assert.notEqual(sketched, before);
+  assert.match(sketched, /param bend = 0 in 0 \.\. 1;/);
+  // The turn is the angle's: `+(30)` is now a spline of the slider; the lengths are as they were.
+  assert.match(sketched, /\+\([^)]*\bbend\b/);
+  assert.ok(sketched.includes('A -> F(2) +('), sketched);
+  // At t = 1 the bone points where it was turned to: the slider moved to 1 regrows it there.
+  const slider = page.locator('input[type=range][data-param=bend]');
+  await slider.waitFor({ timeout: 20_000 });
+  const n = (await grm(page)).regrows;
+  await slider.evaluate((el: HTMLInputElement) => {
+    el.value = '1';
+    el.dispatchEvent(new Event('input', { bubbles: true }));
+    el.dispatchEvent(new Event('change', { bubbles: true }));
+  });
+  await waitFor(page, 'the slider regrew the model', (g) => g.regrows > n);
+  const [, b2] = await bones();
+  const want = (Math.atan2(b1.tip[1] - b1.base[1], b1.tip[0] - b1.base[0]) * 180) / Math.PI + 20;
+  const got = (Math.atan2(b2.tip[1] - b2.base[1], b2.tip[0] - b2.base[0]) * 180) / Math.PI;
+  assert.ok(Math.abs(got - want) < 1.5, `the bone points at ${got} degrees, turned to ${want}`);
+  await page.uncheck('#sketch-mode');
   assert.deepEqual(pageErrors(page), []);
   await page.close();
 });

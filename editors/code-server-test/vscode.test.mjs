@@ -25,7 +25,8 @@
 //     the explorer's "grm: Derivation" view shows its tree (root Lot); a
 //     click on the ground floor in the preview picks it (the editor jumps
 //     to its split) and its node is revealed and selected in the view; a
-//     node clicked there selects its operation in the editor; the split
+//     node clicked there selects its operation in the editor and the
+//     preview highlights the parts its subtree drew; the split
 //     plane's grip dragged along its axis to 4.5 rewrites `3` in the
 //     editor's buffer (dirty, the file untouched), the preview regrows
 //     (the page's own pick again has the plane there, revealed again in
@@ -593,7 +594,8 @@ step('direct manipulation: a bone tip dragged in the preview rewrites the gramma
   const mid = [0, 1, 2].map((i) => (b1.base[i] + b1.tip[i]) / 2);
   // A click on the second bone picks it (the editor jumps to its rule) and gives its tip a handle.
   await page.mouse.click(...(await toScreen(mid)));
-  await frame.waitForFunction(() => globalThis.__grm.handles().length === 1, null, { timeout: LONG, polling: 100 });
+  // The tip's grip first, then the length and angle grips beside it.
+  await frame.waitForFunction(() => globalThis.__grm.handles()[0]?.label === 'tip', null, { timeout: LONG, polling: 100 });
   // Once the editor has jumped to the rule (the preview may have moved).
   await page.waitForTimeout(500);
   const [tip] = await frame.evaluate(() => globalThis.__grm.handles());
@@ -892,7 +894,15 @@ step('a shape picked in the preview is revealed and selected in the grm: Derivat
       throw new Error(`${label} clicked: the editor's selection is not ${where}: ${await page.locator('#status\\.editor\\.selection').innerText()}`, { cause: e });
     }
     await page.locator('.tab.active', { hasText: /^house\.grm/ }).waitFor({ timeout: SHORT });
-    log(`${label} clicked: ${where}`);
+    // The preview highlights the parts the node's subtree drew (the page asks grm/tree's `drawn` for its key).
+    const key = (await row(label).locator('.label-description').innerText()).trim();
+    try {
+      await frame.waitForFunction((k) => globalThis.__grm.chosen?.key === k && globalThis.__grm.chosen.triangles > 0, key, { timeout: SHORT });
+    } catch (e) {
+      throw new Error(`${label} clicked: the preview does not highlight ${key}: ${JSON.stringify(await frame.evaluate(() => globalThis.__grm.chosen))}`, { cause: e });
+    }
+    const chosen = await frame.evaluate(() => globalThis.__grm.chosen);
+    log(`${label} clicked: ${where}; ${chosen.triangles} triangles highlighted in the preview`);
   }
 });
 

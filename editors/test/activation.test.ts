@@ -44,7 +44,7 @@ async function activateWith(setting: string): Promise<{ commands: string[]; erro
           return undefined;
         },
         showInformationMessage: async () => undefined,
-        createTreeView: () => ({ visible: false, reveal: async () => undefined, dispose() {} }),
+        createTreeView: () => ({ visible: false, reveal: async () => undefined, onDidChangeSelection: () => disposable, dispose() {} }),
       },
       workspace: {
         getConfiguration: () => ({ get: (k: string) => (k === 'server.path' ? setting : undefined) }),

@@ -24,6 +24,10 @@ import {
   rayPlane,
   sliderNameProblem,
   tipDragNormal,
+  boneGrips,
+  draggedLength,
+  rotatedTip,
+  BONE_GRIP_OFFSET,
 } from '../preview/src/manip.js';
 import { type HostToPage, METHODS, parsePageMessage } from '../preview/src/messages.js';
 import { ProtocolError, bytesToBase64, decodeManipResult, decodePick, decodePreview, decodeProvenance } from '../preview/src/protocol.js';
@@ -397,4 +401,50 @@ test("a part's provenance: the numbers that place it, said with their lines and 
   assert.throws(() => decodeProvenance([]), ProtocolError);
   assert.throws(() => decodeProvenance({ sources: [{ text: '4', value: 4 }] }), ProtocolError);
   assert.throws(() => decodeProvenance({ sources: [{ range: wire.sources[0].range, value: 'x' }] }), ProtocolError);
+});
+
+test("a pick's ancestry is read (key and symbol per node, the root's symbol null); entries without a key are left out", () => {
+  const r = decodePick({
+    ...pick(),
+    shape: null,
+    ancestry: [
+      { key: '00c0ffee', symbol: null, child: null, production: 0 },
+      { key: 'ABCDEF01', symbol: 'A', child: 0, production: 1 },
+      { key: 'nope', symbol: 'B' },
+      { symbol: 'C' },
+      { key: '12345678', symbol: 'F', child: 2, production: null },
+    ],
+  });
+  assert.deepEqual(r?.ancestry, [
+    { key: '00c0ffee', symbol: null },
+    { key: 'ABCDEF01', symbol: 'A' },
+    { key: '12345678', symbol: 'F' },
+  ]);
+  assert.deepEqual(decodePick(pick())?.ancestry, []);
+});
+
+test("a bone's length and angle grips sit beside its tip; dragging them scales it along itself or turns it about its base", () => {
+  const base: V3 = [1, 0, 0];
+  const tip: V3 = [1, 2, 0];
+  const normal: V3 = [0, 0, 1];
+  const g = boneGrips(base, tip, normal);
+  assert.ok(g);
+  closeV(g.length, [1, 2 + 2 * BONE_GRIP_OFFSET, 0]);
+  // Across the bone, in the plane (z x y = -x).
+  closeV(g.angle, [1 - 2 * BONE_GRIP_OFFSET, 2, 0]);
+  assert.equal(boneGrips(base, base, normal), null);
+  // Length: the move along the bone counts, the move across it does not.
+  close(draggedLength(base, tip, g.length, [1.4, 2.5 + 2 * BONE_GRIP_OFFSET, 0]) ?? NaN, 2.5);
+  assert.equal(draggedLength(base, tip, g.length, [1, -1, 0]), null);
+  // Angle: the grip turned a quarter turn about the base (counter-clockwise about +z) turns the bone with it.
+  const r = rotatedTip(base, tip, normal, [1, 2, 0], [-1, 0, 0]);
+  assert.ok(r);
+  close(r.degrees, 90);
+  closeV(r.tip, [-1, 0, 0]);
+  // Off the plane: projected into it; the length stays.
+  const r2 = rotatedTip(base, tip, normal, [1, 2, 0], [1 + Math.SQRT2, Math.SQRT2, 5]);
+  assert.ok(r2);
+  close(r2.degrees, -45);
+  close(Math.hypot(r2.tip[0] - 1, r2.tip[1], r2.tip[2]), 2);
+  assert.equal(rotatedTip(base, tip, normal, base, [2, 0, 0]), null);
 });

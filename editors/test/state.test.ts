@@ -285,13 +285,15 @@ test("a request's failure after a newer model was shown is about an older text",
   assert.equal(v.shownSince(again), false);
 });
 
-test('focus and context goes with shape-mode requests only, and a new document drops it', () => {
+test('focus and context goes with shape- and derive-mode requests, not sample mode, and a new document drops it', () => {
   const s = new PageState();
   s.setDocument('file:///h.grm');
   s.absorb(result({ mode: 'shape' }));
   s.context = { key: '5ad0c3e1', depth: 2 };
   assert.deepEqual(s.previewParams().context, { key: '5ad0c3e1', depth: 2 });
   s.absorb(result({ mode: 'derive' }));
+  assert.deepEqual(s.previewParams().context, { key: '5ad0c3e1', depth: 2 });
+  s.absorb(result({ mode: 'sample' }));
   assert.equal(s.previewParams().context, undefined);
   s.setDocument('file:///other.grm');
   assert.equal(s.context, null);

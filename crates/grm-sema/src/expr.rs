@@ -309,7 +309,10 @@ impl Checker<'_> {
             }
             ExprKind::Call { func, args }
                 if sc.shape
-                    && (func.name == "tagged" || ShapeQuery::from_name(&func.name).is_some()) =>
+                    && (func.name == "tagged"
+                        || (matches!(func.name.as_str(), "index" | "count")
+                            && args.len() == 1)
+                        || ShapeQuery::from_name(&func.name).is_some()) =>
             {
                 self.shape_call(file, func, args, span)
             }
@@ -359,8 +362,9 @@ impl Checker<'_> {
         }
     }
 
-    /// `tagged(tag)`, `overlaps(Sym)`, `touches(Sym)`, `inside(Sym)` in a
-    /// shape rule: one plain name, not an expression.
+    /// `tagged(tag)`, `index(tag)`, `count(tag)`, `overlaps(Sym)`,
+    /// `touches(Sym)`, `inside(Sym)` in a shape rule: one plain name, not
+    /// an expression.
     fn shape_call(
         &mut self,
         file: FileId,
@@ -368,7 +372,7 @@ impl Checker<'_> {
         args: &[Expr],
         span: Span,
     ) -> TExpr {
-        let what = if func.name == "tagged" {
+        let what = if matches!(func.name.as_str(), "tagged" | "index" | "count") {
             "a tag name"
         } else {
             "a shape symbol"
@@ -410,13 +414,15 @@ impl Checker<'_> {
             }
             return TExpr::error(span);
         };
-        let v = match ShapeQuery::from_name(&func.name) {
-            Some(q) => ShapeValue::Query(q, name),
-            None => ShapeValue::Tagged(name),
+        let (v, ty) = match (ShapeQuery::from_name(&func.name), func.name.as_str()) {
+            (Some(q), _) => (ShapeValue::Query(q, name), Ty::Bool),
+            (None, "index") => (ShapeValue::TagIndex(name), Ty::Float),
+            (None, "count") => (ShapeValue::TagCount(name), Ty::Float),
+            (None, _) => (ShapeValue::Tagged(name), Ty::Bool),
         };
         TExpr {
             kind: TExprKind::Shape(v),
-            ty: Ty::Bool,
+            ty,
             span,
         }
     }

@@ -215,6 +215,43 @@ fn shape_values_and_random_draws_are_typed() {
 }
 
 #[test]
+fn a_tags_index_and_count_are_numbers() {
+    let p = check_ok(&shape(
+        "A : tagged(floor) && index(floor) == 2 && count(floor) - index(floor) > index -> B;",
+    ));
+    let sys = p.systems[0].shape.as_ref().unwrap();
+    let cond = sys.rules[0].condition.as_ref().unwrap();
+    let mut found = Vec::new();
+    cond.walk(&mut |e| {
+        if let TExprKind::Shape(v) = &e.kind {
+            found.push((v.clone(), e.ty));
+        }
+    });
+    let floor = |v: &ShapeValue| match v {
+        ShapeValue::TagIndex(n) | ShapeValue::TagCount(n) => n.as_str() == "floor",
+        _ => true,
+    };
+    assert!(found.iter().all(|(v, _)| floor(v)));
+    let kinds: Vec<(String, Ty)> = found
+        .iter()
+        .map(|(v, t)| (format!("{v:?}").split('(').next().unwrap().to_owned(), *t))
+        .collect();
+    assert_eq!(
+        kinds,
+        [
+            ("Tagged".to_owned(), Ty::Bool),
+            ("TagIndex".to_owned(), Ty::Float),
+            ("TagCount".to_owned(), Ty::Float),
+            ("TagIndex".to_owned(), Ty::Float),
+            ("Index".to_owned(), Ty::Float),
+        ]
+    );
+    // A tag is a name, not a number; `index(floor)` is not a condition.
+    assert_eq!(codes(&shape("A : index(2) == 1 -> B;")), ["E0201"]);
+    assert_eq!(codes(&shape("A : index(floor) -> B;")), ["E0204"]);
+}
+
+#[test]
 fn derive_systems_do_not_know_shape_values() {
     assert_eq!(
         codes("system S { axiom A; A : depth > 1 -> B; }"),

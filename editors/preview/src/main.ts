@@ -24,6 +24,9 @@ import {
   short,
   sliderNameProblem,
   tipDragNormal,
+  boneGrips,
+  draggedLength,
+  rotatedTip,
 } from './manip.js';
 import { pictureFileName, pictureParams } from './picture.js';
 import {
@@ -147,6 +150,10 @@ interface DebugInfo {
   /** Bone endpoints and origins of the current model. */
   bonesList: () => { base: V3; tip: V3; origin: number | null }[];
   origins: () => Origin[];
+  /** The node chosen in the derivation tree (the page's panel or the editor's view) and what of it is highlighted. */
+  chosen: { key: string; triangles: number; bones: number } | null;
+  /** The focused rule's spread over other seeds is being asked for (the server's tables are other seeds' meanwhile). */
+  readonly spreading: boolean;
   /** Bones highlighted for the focused rule, and bones of its spread over other seeds. */
   focusBones: number;
   spreadBones: number;
@@ -206,10 +213,16 @@ type Gesture =
   | { kind: 'plane'; handle: number; at0: number; ray0: Ray; facing: V3; at: number; moved: boolean }
   /**
    * A bone's tip, in the plane through it with normal `normal`: moved by what the pointer moved in that plane since
-   * the grab (where the grabbing ray met it, `grab`), so a grip pressed off its centre does not jump.
+   * the grab (where the grabbing ray met it, `grab`), so a grip pressed off its centre does not jump. `grip`: the tip
+   * itself, or the grips beside it: `length` (along the bone; `length` is the new length) or `angle` (the bone
+   * turned about its base in that plane, its length kept; `degrees` the turn).
    */
-  | { kind: 'tip'; tip0: V3; normal: V3; grab: V3 | null; at: V3; moved: boolean }
+  | { kind: 'tip'; grip: BoneGrip; tip0: V3; normal: V3; grab: V3 | null; at: V3; length: number | null; degrees: number; moved: boolean }
   | { kind: 'click'; x: number; y: number; t: number };
+
+/** A bone's grips, in the order they are drawn (their index in the scene's grips). */
+const BONE_GRIPS = ['tip', 'length', 'angle'] as const;
+type BoneGrip = (typeof BONE_GRIPS)[number];
 
 /** How long the camera must rest before the page tells the host its view (not on every frame of a drag). */
 const VIEW_REST_MS = 200;
@@ -317,8 +330,12 @@ class App {
     const coalescer = this.coalescer;
     const scene = this.scene;
     const player = this.player;
+    const page = this;
     this.debug = {
       ready: false,
+      get spreading() {
+        return page.spreading > 0;
+      },
       get busy() {
         return coalescer.busy;
       },
@@ -375,6 +392,7 @@ class App {
       selectedCurve: () => this.state.selected,
       bonesList: () => this.last?.model.bones.map((b) => ({ base: b.base, tip: b.tip, origin: b.origin })) ?? [],
       origins: () => this.last?.origins ?? [],
+      chosen: null,
       focusBones: 0,
       spreadBones: 0,
       renderer: this.scene.rendererName,
@@ -470,6 +488,11 @@ class App {
       this.regrow();
     } else if (method === 'cursor' && typeof p.line === 'number') {
       this.setFocus({ line: p.line, character: typeof p.character === 'number' ? p.character : 0 });
+    } else if (method === 'treeNode' && p.uri === this.state.uri) {
+      // A node chosen in the editor's derivation view: its parts highlighted here, and revealed in the page's panel.
+      const key = typeof p.key === 'string' ? p.key : null;
+      void this.highlightNode(key);
+      if (key && $<HTMLDetailsElement>('tree-details').open) void this.treePanel.reveal(key).catch(() => {});
     }
   }
 
@@ -662,6 +685,8 @@ class App {
     this.refreshCurveList();
     this.scene.setModel(r.model, !this.framed, () => {
       const rendered = performance.now();
+      // The chosen tree node's parts, on the new model (its key stays; its triangles are asked again).
+      if (this.chosenKey) void this.highlightNode(this.chosenKey);
       // The frame is done (and its pixels exist) when the task that ran
       // this animation frame ends: the browser commits the frame in it
       // (with software compositing, reading the WebGL canvas back).
@@ -1054,12 +1079,15 @@ class App {
         info.textContent = `${r.symbol} ${r.shape.semantic.replace(/ \S+$/, '')}: made by ${r.shape.madeBy} (line ${r.range.start.line + 1})`;
         info.title = `${r.shape.exact}\nkey ${r.key ?? '?'}`;
         this.pickedScopes = r.shape.scopes;
-        this.contextChoices(r.shape.scopes);
+        this.contextChoices(r.shape.scopes.flatMap((s) => (!s.command && s.key !== null ? [{ key: s.key, label: s.label }] : [])));
         // Focused already: the newly picked shape's parent becomes the focus (a proxy picked opens it).
         if ($<HTMLInputElement>('context-on').checked) this.setContext();
         this.drawScopes();
       } else if (r) {
         info.textContent = `${r.symbol} (line ${r.range.start.line + 1})`;
+        // Focus and context in derive mode: the picked module or one it descends from.
+        this.contextChoices(r.ancestry.map((a) => ({ key: a.key, label: a.symbol ?? 'axiom' })));
+        if ($<HTMLInputElement>('context-on').checked) this.setContext();
         this.setFocus(r.range.start);
       } else {
         info.textContent = 'No known rule made that part.';
@@ -1130,6 +1158,24 @@ class App {
    * is the current state again, so the server's live preview keeps it.
    */
   private async loadSpread(token: number, r: PreviewResult, current: number[]): Promise<void> {
+    // Meanwhile the server's tables are the other seeds' models: a tree node's parts are asked once it is over.
+    this.spreading++;
+    try {
+      await this.loadSpreadSeeds(token, r, current);
+    } finally {
+      this.spreading--;
+      // The server's tables are this model's again: the tree panel and the chosen node's parts read anew.
+      if (this.spreading === 0) {
+        if ($<HTMLDetailsElement>('tree-details').open) void this.treePanel.modelShown().catch(() => {});
+        if (this.chosenKey) void this.highlightNode(this.chosenKey);
+      }
+    }
+  }
+
+  /** Requests in flight for the focus spread (their models are not the one shown). */
+  private spreading = 0;
+
+  private async loadSpreadSeeds(token: number, r: PreviewResult, current: number[]): Promise<void> {
     const seeds = 4;
     const segs: [V3, V3][] = [];
     const base = this.state.previewParams();
@@ -1220,7 +1266,12 @@ class App {
       const h = m.handles[g.handle];
       return h ? handlePart(h, g.at) : null;
     }
-    if (g.kind === 'tip' && m.kind === 'tip') return { part: { kind: 'bone', key: m.key }, target: { kind: 'tip', at: g.at } };
+    if (g.kind === 'tip' && m.kind === 'tip') {
+      const part: ManipPart = { kind: 'bone', key: m.key };
+      // The length grip asks for a length alone (the direction is free); the tip and angle grips for a tip.
+      if (g.grip === 'length' && g.length !== null) return { part, target: { kind: 'length', length: g.length } };
+      return { part, target: { kind: 'tip', at: g.at } };
+    }
     return null;
   }
 
@@ -1260,15 +1311,63 @@ class App {
       (active ? activeLines : lines).push(...m.base, ...at);
       if (active) lines.push(...m.base, ...m.tip);
       if (this.sketch.part === JSON.stringify({ kind: 'bone', key: m.key })) {
-        for (const k of this.sketch.keyframes()) if (k.target.kind === 'tip' && k.target.at !== at) activeLines.push(...m.base, ...k.target.at);
+        for (const k of this.sketch.keyframes()) {
+          if (k.target.kind === 'tip' && k.target.at !== at) activeLines.push(...m.base, ...k.target.at);
+          if (k.target.kind === 'length') {
+            const d: V3 = [m.tip[0] - m.base[0], m.tip[1] - m.base[1], m.tip[2] - m.base[2]];
+            const s = k.target.length / (Math.hypot(...d) || 1);
+            activeLines.push(...m.base, ...m.base.map((b, i) => b + d[i]! * s));
+          }
+        }
       }
-      grips.push({ at, active });
+      grips.push({ at, active: g.kind === 'tip' ? g.grip === 'tip' : active });
+      // The length and angle grips beside the tip, joined to it.
+      const side = this.boneSideGrips(m, at);
+      if (side) {
+        for (const name of ['length', 'angle'] as const) {
+          grips.push({ at: side[name], active: g.kind === 'tip' && g.grip === name });
+          lines.push(...at, ...side[name]);
+        }
+      }
     }
     this.scene.setHandles({ grips, lines, activeLines });
   }
 
-  /** A node chosen in the tree panel: its rule said in the panel and shown in the editor (where the host has one). */
+  /** The key of the node chosen in the derivation tree (its parts highlighted), null: none. */
+  private chosenKey: string | null = null;
+
+  /**
+   * Highlight the parts a tree node's subtree drew (`grm/tree`'s `drawn`): its triangles tinted, its bones as lines.
+   * A key the model shown lacks (or no key) clears the highlight.
+   */
+  private async highlightNode(key: string | null): Promise<void> {
+    this.chosenKey = key;
+    // The focus spread's requests replace the server's tree with other seeds' for a while: asked again at its end.
+    if (key && this.spreading > 0) return;
+    const version = this.last?.version;
+    let drawn: { triangles: number[]; bones: number[] } = { triangles: [], bones: [] };
+    if (key) {
+      try {
+        const a = (await this.transport.request('tree', { textDocument: { uri: this.state.uri }, key, drawn: true })) as {
+          version?: number;
+          drawn?: { triangles?: unknown; bones?: unknown };
+        } | null;
+        const nums = (v: unknown): number[] => (Array.isArray(v) ? v.filter((x): x is number => typeof x === 'number') : []);
+        if (a?.drawn) drawn = { triangles: nums(a.drawn.triangles), bones: nums(a.drawn.bones) };
+        // Chosen again, or another model shown meanwhile (its answer is that model's): the later call draws.
+        if (key !== this.chosenKey || version !== this.last?.version || (a && a.version !== version)) return;
+      } catch {
+        // No tree for this preview (or it is being regrown): nothing highlighted.
+      }
+    }
+    if (key !== this.chosenKey) return;
+    const lit = this.scene.setChosen(drawn.triangles, drawn.bones);
+    this.debug.chosen = key ? { key, ...lit } : null;
+  }
+
+  /** A node chosen in the tree panel: its parts highlighted, its rule said in the panel and shown in the editor (where the host has one). */
   private chooseTreeNode(n: { label: string; key: string; uri?: string; range?: { start: { line: number; character: number } } }): void {
+    void this.highlightNode(n.key);
     const info = $('rule-info');
     info.textContent = n.range ? `${n.label}: made by the rule at line ${n.range.start.line + 1}` : n.label;
     info.title = `key ${n.key}`;
@@ -1278,23 +1377,23 @@ class App {
   }
 
   /**
-   * The shapes focus and context can center on: the picked shape and the shapes above it (its path's scopes, commands
-   * left out), the picked shape's parent chosen (a picked shape is drawn, so most often a leaf: focusing on it alone
-   * hides nothing).
+   * The nodes focus and context can center on, from the root down to the picked part: shape mode, the picked shape
+   * and the shapes above it (its path's scopes, commands left out); derive mode, the picked module and the modules it
+   * descends from (its ancestry). The picked part's parent is chosen (a picked part is drawn, so most often a leaf:
+   * focusing on it alone hides nothing).
    */
-  private contextChoices(scopes: ScopeBox[]): void {
+  private contextChoices(nodes: { key: string; label: string }[]): void {
     const select = $<HTMLSelectElement>('context-node');
-    const shapes = scopes.filter((s) => !s.command && s.key !== null);
     select.replaceChildren(
-      ...shapes.map((s, i) => {
+      ...nodes.map((s, i) => {
         const o = document.createElement('option');
-        o.value = s.key ?? '';
+        o.value = s.key;
         o.textContent = `${'  '.repeat(i)}${s.label}`;
         return o;
       }),
     );
-    select.selectedIndex = Math.max(0, shapes.length - 2);
-    $('context-toggle').hidden = shapes.length === 0;
+    select.selectedIndex = Math.max(0, nodes.length - 2);
+    $('context-toggle').hidden = nodes.length === 0;
   }
 
   /**
@@ -1318,7 +1417,17 @@ class App {
     if (m.kind === 'planes') {
       return m.handles.map((h) => ({ kind: 'plane' as const, label: h.label, command: h.command, edge: h.edge, at: h.at, screen: this.scene.toScreen(planeCentre(h)) }));
     }
-    return [{ kind: 'tip' as const, label: 'tip', command: null, edge: null, at: [...m.tip] as V3, screen: this.scene.toScreen(m.tip) }];
+    const tip = { kind: 'tip' as const, label: 'tip', command: null, edge: null, at: [...m.tip] as V3, screen: this.scene.toScreen(m.tip) };
+    const side = this.boneSideGrips(m, m.tip);
+    if (!side) return [tip];
+    return [tip, ...(['length', 'angle'] as const).map((label) => ({ kind: 'tip' as const, label, command: null, edge: null, at: side[label], screen: this.scene.toScreen(side[label]) }))];
+  }
+
+  /** A picked bone's length and angle grips for its tip at `at` (in the plane a drag of it moves in). */
+  private boneSideGrips(m: { base: V3; parentDir: V3 | null }, at: V3): { length: V3; angle: V3 } | null {
+    const g = this.gesture;
+    const normal = g.kind === 'tip' ? g.normal : tipDragNormal(m.base, at, m.parentDir, this.scene.viewDirection());
+    return boneGrips(m.base, at, normal);
   }
 
   /** A press on a handle's grip starts its drag (true); the orbit controls stay still until the release. */
@@ -1336,8 +1445,9 @@ class App {
     } else {
       const tip0 = this.posed && 'tip' in this.posed ? this.posed.tip : m.tip;
       const normal = tipDragNormal(m.base, tip0, m.parentDir, this.scene.viewDirection());
+      const grip = BONE_GRIPS[i] ?? 'tip';
       const grab = rayPlane(this.scene.pointerRay(e.clientX, e.clientY), normal, tip0);
-      this.gesture = { kind: 'tip', tip0, normal, grab, at: tip0, moved: false };
+      this.gesture = { kind: 'tip', grip, tip0, normal, grab, at: tip0, length: null, degrees: 0, moved: false };
     }
     this.scene.controls.enabled = false;
     e.stopPropagation();
@@ -1383,12 +1493,28 @@ class App {
       g.at = at;
       g.moved = true;
       this.setStatus(`${h.label} plane ${h.edge}: ${short(h.at)} → ${short(at)}`);
-    } else if (g.kind === 'tip') {
+    } else if (g.kind === 'tip' && m?.kind === 'tip') {
       const p = rayPlane(ray, g.normal, g.tip0);
       if (!p) return;
-      g.at = g.grab ? [g.tip0[0] + p[0] - g.grab[0], g.tip0[1] + p[1] - g.grab[1], g.tip0[2] + p[2] - g.grab[2]] : p;
+      if (g.grip === 'length') {
+        const len = g.grab ? draggedLength(m.base, g.tip0, g.grab, p) : null;
+        if (len === null) return;
+        const d: V3 = [g.tip0[0] - m.base[0], g.tip0[1] - m.base[1], g.tip0[2] - m.base[2]];
+        const l0 = Math.hypot(...d);
+        g.length = len;
+        g.at = [0, 1, 2].map((k) => m.base[k]! + (d[k]! * len) / l0) as V3;
+        this.setStatus(`length ${short(l0)} → ${short(len)}`);
+      } else if (g.grip === 'angle') {
+        const r = g.grab ? rotatedTip(m.base, g.tip0, g.normal, g.grab, p) : null;
+        if (!r) return;
+        g.at = r.tip;
+        g.degrees = r.degrees;
+        this.setStatus(`turned ${short(r.degrees)}° → tip (${g.at.map(short).join(', ')})`);
+      } else {
+        g.at = g.grab ? [g.tip0[0] + p[0] - g.grab[0], g.tip0[1] + p[1] - g.grab[1], g.tip0[2] + p[2] - g.grab[2]] : p;
+        this.setStatus(`tip → (${g.at.map(short).join(', ')})`);
+      }
       g.moved = true;
-      this.setStatus(`tip → (${g.at.map(short).join(', ')})`);
     } else {
       return;
     }

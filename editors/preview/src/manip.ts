@@ -189,6 +189,66 @@ export function tipDragNormal(base: V3, tip: V3, parentDir: V3 | null, view: V3)
   return unit([v[0] - k * u[0], v[1] - k * u[1], v[2] - k * u[2]]) ?? v;
 }
 
+/** How far beside a bone's tip its length and angle grips sit, as a share of the bone's length. */
+export const BONE_GRIP_OFFSET = 0.35;
+
+/**
+ * A bone's length and angle grips beside its tip (issue 28, item 2): the length grip on the bone's line past the tip,
+ * the angle grip off the tip across the bone, in the drag plane (whose normal is `normal`, as `tipDragNormal` gives).
+ * Null for a bone of no length.
+ */
+export function boneGrips(base: V3, tip: V3, normal: V3): { length: V3; angle: V3 } | null {
+  const d = sub(tip, base);
+  const len = Math.hypot(d[0], d[1], d[2]);
+  const u = unit(d);
+  const w = u ? unit(cross(normal, u)) : null;
+  if (!u || !w || !(len > 0)) return null;
+  const k = BONE_GRIP_OFFSET * len;
+  return {
+    length: [tip[0] + k * u[0], tip[1] + k * u[1], tip[2] + k * u[2]],
+    angle: [tip[0] + k * w[0], tip[1] + k * w[1], tip[2] + k * w[2]],
+  };
+}
+
+/**
+ * The length grip dragged from `grab` to `p` (points of the drag plane): the bone's new length, its old one plus
+ * the move along the bone; null when it would be no length at all.
+ */
+export function draggedLength(base: V3, tip: V3, grab: V3, p: V3): number | null {
+  const d = sub(tip, base);
+  const u = unit(d);
+  if (!u) return null;
+  const len = Math.hypot(d[0], d[1], d[2]) + dot(sub(p, grab), u);
+  return len > 1e-6 ? len : null;
+}
+
+/**
+ * The angle grip dragged from `grab` to `p`: the bone turned about its base, in the drag plane (normal `normal`), by
+ * the angle from `grab` to `p` as seen from the base; its length kept. The new tip and the angle (degrees,
+ * counter-clockwise about `normal`).
+ */
+export function rotatedTip(base: V3, tip: V3, normal: V3, grab: V3, p: V3): { tip: V3; degrees: number } | null {
+  const n = unit(normal);
+  if (!n) return null;
+  // Both in the plane through the base.
+  const flat = (v: V3): V3 => {
+    const k = dot(v, n);
+    return [v[0] - k * n[0], v[1] - k * n[1], v[2] - k * n[2]];
+  };
+  const a = flat(sub(grab, base));
+  const b = flat(sub(p, base));
+  if (!unit(a) || !unit(b)) return null;
+  const angle = Math.atan2(dot(cross(a, b), n), dot(a, b));
+  // Rodrigues: the bone's vector turned by `angle` about n.
+  const v = sub(tip, base);
+  const c = Math.cos(angle);
+  const s = Math.sin(angle);
+  const kv = cross(n, v);
+  const nv = dot(n, v) * (1 - c);
+  const r: V3 = [0, 1, 2].map((i) => v[i]! * c + kv[i]! * s + n[i]! * nv) as V3;
+  return { tip: [base[0] + r[0], base[1] + r[1], base[2] + r[2]], degrees: (angle * 180) / Math.PI };
+}
+
 /** A short number for the page: at most 3 decimals, no trailing zeros. */
 export function short(x: number): string {
   if (!Number.isFinite(x)) return String(x);

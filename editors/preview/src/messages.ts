@@ -46,7 +46,9 @@ export type NotificationMethod =
   /** The cursor moved: `{ uri, line, character }` (for the rule highlight). */
   | 'cursor'
   /** The curves file was changed outside the page: `{ uri }`. The page reloads it. */
-  | 'curvesChanged';
+  | 'curvesChanged'
+  /** A node chosen in the editor's derivation view: `{ uri, key }` (key null: none). The page highlights its parts. */
+  | 'treeNode';
 
 /** What the page tells the host without being asked (no answer comes back). */
 export type PageNotificationMethod =
@@ -209,7 +211,7 @@ export function parseHostMessage(v: unknown): HostToPage | null {
     return out;
   }
   if (v.type === 'notify' && typeof v.method === 'string') {
-    if (v.method === 'document' || v.method === 'previewUpdated' || v.method === 'cursor' || v.method === 'curvesChanged') {
+    if (v.method === 'document' || v.method === 'previewUpdated' || v.method === 'cursor' || v.method === 'curvesChanged' || v.method === 'treeNode') {
       return { type: 'notify', method: v.method, params: v.params };
     }
   }

@@ -248,6 +248,8 @@ export interface PickResult {
   module: number;
   /** The picked part's identity key (8 hex digits), when the server sends it. */
   key: string | null;
+  /** The nodes from the root to the picked part (its key and symbol each; the root's symbol null). */
+  ancestry: { key: string; symbol: string | null }[];
   /** Shape mode: the picked shape's locators and its path's scopes. */
   shape: ShapePick | null;
 }
@@ -697,6 +699,9 @@ export function decodePick(v: unknown): PickResult | null {
     version: optNum(v.version, 0),
     module: optNum(v.module, 0),
     key: typeof v.key === 'string' ? v.key : null,
+    ancestry: (Array.isArray(v.ancestry) ? v.ancestry : []).flatMap((a: unknown) =>
+      isObject(a) && typeof a.key === 'string' && KEY.test(a.key) ? [{ key: a.key, symbol: typeof a.symbol === 'string' ? a.symbol : null }] : [],
+    ),
     shape: isObject(v.shape) ? decodeShapePick(v.shape) : null,
   };
 }

@@ -207,6 +207,8 @@ export class PreviewScene {
   private readonly gapsRoot = new THREE.Group();
   private gaps: V3[][] = [];
   private readonly overlayRoot = new THREE.Group();
+  /** The parts of the node chosen in the derivation tree (its subtree's triangles and bones). */
+  private readonly chosenRoot = new THREE.Group();
   /** Shape mode: the scopes of the picked shape's path (wireframe). */
   private readonly scopesRoot = new THREE.Group();
   /** Direct manipulation's handles (drawn over everything). */
@@ -255,7 +257,7 @@ export class PreviewScene {
     this.grid = new THREE.GridHelper(20, 20, 0x666666, 0x3a3a3a);
     this.scene.add(this.grid);
     addLights(this.scene);
-    this.scene.add(this.modelRoot, this.skeletonRoot, this.curvesRoot, this.gapsRoot, this.overlayRoot, this.scopesRoot, this.handlesRoot);
+    this.scene.add(this.modelRoot, this.skeletonRoot, this.curvesRoot, this.gapsRoot, this.overlayRoot, this.chosenRoot, this.scopesRoot, this.handlesRoot);
     const sg = new THREE.BufferGeometry();
     sg.setAttribute('position', new THREE.BufferAttribute(new Float32Array(0), 3));
     this.strokeLine = new THREE.Line(sg, new THREE.LineBasicMaterial({ color: 0xffffff, depthTest: false }));
@@ -319,6 +321,8 @@ export class PreviewScene {
   setModel(model: SceneModel | null, frame: boolean, then?: () => void): void {
     clearGroup(this.modelRoot);
     clearGroup(this.skeletonRoot);
+    // The chosen node's runs index the old model's triangles.
+    clearGroup(this.chosenRoot);
     this.model = model;
     this.modelUsed = new Set();
     if (model) {
@@ -562,6 +566,61 @@ export class PreviewScene {
   viewDirection(): V3 {
     const d = this.camera.getWorldDirection(new THREE.Vector3());
     return [d.x, d.y, d.z];
+  }
+
+  /**
+   * Highlight what a chosen node of the derivation tree drew: `triangles` as (part, first triangle, count) triples
+   * (`grm/tree`'s `drawn`), tinted over the model, and `bones` (indices) as lines over everything. Empty: none.
+   * Returns the triangles and bones highlighted.
+   */
+  setChosen(triangles: number[], bones: number[]): { triangles: number; bones: number } {
+    clearGroup(this.chosenRoot);
+    const model = this.model;
+    let tris = 0;
+    let lit = 0;
+    if (model) {
+      const byPart = new Map<number, number[]>();
+      for (let i = 0; i + 2 < triangles.length; i += 3) {
+        const [part, first, count] = [triangles[i]!, triangles[i + 1]!, triangles[i + 2]!];
+        const p = model.parts[part];
+        if (!p) continue;
+        const end = Math.min(first + count, p.indices.length / 3);
+        if (end <= first) continue;
+        let idx = byPart.get(part);
+        if (!idx) byPart.set(part, (idx = []));
+        for (let k = 3 * first; k < 3 * end; k++) idx.push(p.indices[k]!);
+        tris += end - first;
+      }
+      const tint = this.materials.get(
+        'chosen',
+        () =>
+          new THREE.MeshBasicMaterial({ color: HIGHLIGHT_COLOR, transparent: true, opacity: 0.55, side: THREE.DoubleSide, depthWrite: false, polygonOffset: true, polygonOffsetFactor: -2, polygonOffsetUnits: -2 }),
+      );
+      for (const [part, idx] of byPart) {
+        const g = new THREE.BufferGeometry();
+        g.setAttribute('position', new THREE.BufferAttribute(model.parts[part]!.positions, 3));
+        g.setIndex(idx);
+        const m = new THREE.Mesh(g, tint);
+        m.renderOrder = 4;
+        this.chosenRoot.add(m);
+      }
+      const pos: number[] = [];
+      for (const i of bones) {
+        const b = model.bones[i];
+        if (!b) continue;
+        pos.push(...b.base, ...b.tip);
+        lit++;
+      }
+      if (pos.length > 0) {
+        const g = new THREE.BufferGeometry();
+        g.setAttribute('position', new THREE.Float32BufferAttribute(pos, 3));
+        const l = new THREE.LineSegments(g, this.materials.get('highlight', () => new THREE.LineBasicMaterial({ color: HIGHLIGHT_COLOR, depthTest: false })));
+        l.renderOrder = 6;
+        this.chosenRoot.add(l);
+      }
+    }
+    this.requestRender();
+    return { triangles: tris, bones: lit };
   }
 
   /** Highlight bones (indices into the model's bones) and draw spread segments (bones from other seeds) faintly. */

@@ -31,7 +31,7 @@ export class PageState {
   curvesError: string | null = null;
   /** The production whose growth is highlighted (a position in it). */
   focus: Position | null = null;
-  /** Shape mode: focus and context (the picked shape's key, the levels drawn below it); null: the whole building. */
+  /** Focus and context (shape and derive mode): the chosen node's key, the levels drawn below it; null: the whole model. */
   context: { key: string; depth: number } | null = null;
   /** Curve sets before each finished edit (undo), and those undone (redo). */
   private undoStack: CurveSet[] = [];
@@ -60,7 +60,7 @@ export class PageState {
     if (Object.keys(this.params).length > 0) p.params = { ...this.params };
     if (this.mode === 'sample' && this.curves && this.curves.curves.length > 0) p.curves = JSON.parse(serializeCurves(this.curves));
     if (this.focus) p.focus = { ...this.focus };
-    if (this.context && this.mode === 'shape') p.context = { ...this.context };
+    if (this.context && this.mode !== 'sample') p.context = { ...this.context };
     return p;
   }
 

@@ -23,8 +23,9 @@ let derivation: DerivationView | undefined;
 
 /**
  * The "grm: Derivation" view (explorer): the previewed document's
- * derivation tree (`grm/tree`), a node's rule opened on selection, and a
- * part picked in the preview revealed in it.
+ * derivation tree (`grm/tree`), a node's rule opened and its parts
+ * highlighted in the preview on selection, and a part picked in the
+ * preview revealed in it.
  */
 class DerivationView implements vscode.TreeDataProvider<TreeNode> {
   readonly tree = new DerivationTree({
@@ -40,6 +41,13 @@ class DerivationView implements vscode.TreeDataProvider<TreeNode> {
   constructor(context: vscode.ExtensionContext) {
     this.view = vscode.window.createTreeView('grm.derivation', { treeDataProvider: this, showCollapseAll: true });
     context.subscriptions.push(this.view, this.changed);
+    // A node chosen here: the preview highlights the parts its subtree drew.
+    context.subscriptions.push(
+      this.view.onDidChangeSelection((e) => {
+        const uri = this.tree.document;
+        if (uri) preview?.host.treeNode(uri, e.selection[0]?.key ?? null);
+      }),
+    );
   }
 
   getTreeItem(n: TreeNode): vscode.TreeItem {

@@ -136,6 +136,12 @@ export class PreviewHost {
     this.notify('cursor', { uri, line, character });
   }
 
+  /** A node chosen in the editor's derivation view (`key` null: none): the page highlights its parts, if it shows `uri`. */
+  treeNode(uri: string, key: string | null): void {
+    if (!this.documentUri || !sameUri(uri, this.documentUri) || !this.ready) return;
+    this.notify('treeNode', { uri: this.documentUri, key });
+  }
+
   private notify(method: NotificationMethod, params: unknown): void {
     const msg: HostToPage = { type: 'notify', method, params };
     if (!this.ready) {

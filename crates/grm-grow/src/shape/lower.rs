@@ -473,6 +473,8 @@ impl Cx<'_, '_> {
                 ShapeValue::Count => Val::S(Expr::Count),
                 ShapeValue::Depth => Val::S(Expr::Depth),
                 ShapeValue::Tagged(t) => Val::S(Expr::Tagged(self.b.tag(t))),
+                ShapeValue::TagIndex(t) => Val::S(Expr::TagIndex(self.b.tag(t))),
+                ShapeValue::TagCount(t) => Val::S(Expr::TagCount(self.b.tag(t))),
                 ShapeValue::Query(q, sym) => {
                     // Every symbol of the system is declared already.
                     Val::S(Expr::Query(*q, self.b.symbol(sym)))

@@ -11,6 +11,7 @@
 //! kind of shape, R0805 internal), each pointing at the first rule of the
 //! symbol the engine names, and the model's (`grm_geom::GeomError`).
 
+pub mod bake;
 pub mod edits;
 pub mod json;
 mod lower;

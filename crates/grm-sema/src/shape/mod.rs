@@ -45,6 +45,11 @@ pub enum ShapeValue {
     Depth,
     /// `tagged(tag)`: whether a command with this tag is above the shape.
     Tagged(Name),
+    /// `index(tag)`: which child of the nearest command with this tag
+    /// above the shape its path goes through (from 1; 0 when none is).
+    TagIndex(Name),
+    /// `count(tag)`: how many children that command made (0 when none).
+    TagCount(Name),
     /// `overlaps(Sym)`, `touches(Sym)`, `inside(Sym)`: a context query
     /// against the shapes of a symbol (named; the checker makes sure it is
     /// a symbol of the system).
