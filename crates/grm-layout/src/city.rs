@@ -34,6 +34,10 @@ use grm_sema::{Program, System, Ty, Value};
 use crate::id::Id;
 use crate::model::{Layout, Parcel, TagValue, Tags};
 
+/// The tag that keeps a parcel free of a building when it is `false` (a
+/// park, a square): its ground is drawn as open ground.
+pub const NO_BUILDING: &str = "building";
+
 /// The sidecar's `buildings` section: which shape system grows on the
 /// parcels, with what base values.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -231,7 +235,8 @@ fn ground_material(name: &str, color: [f32; 3]) -> ModelMaterial {
 }
 
 /// Build the city: the ground (streets, parcels, open areas) and, with
-/// `buildings`, a building on every parcel. `progress(done, total)` is
+/// `buildings`, a building on every parcel but those tagged
+/// `building: false` ([`NO_BUILDING`]). `progress(done, total)` is
 /// called after each parcel.
 pub fn city(
     layout: &Layout,
@@ -262,8 +267,10 @@ pub fn city(
     let mut issues = Vec::new();
     for (done, p) in layout.parcels.values().enumerate() {
         let start = a.start();
-        flat_polygon(&p.ring, &mut a.model.parts[parcel].mesh);
-        if let Some(b) = buildings {
+        let unbuilt = p.tags.get(NO_BUILDING) == Some(&TagValue::Bool(false));
+        let ground = if unbuilt { open_ground } else { parcel };
+        flat_polygon(&p.ring, &mut a.model.parts[ground].mesh);
+        if let Some(b) = buildings.filter(|_| !unbuilt) {
             match building(b, p, build) {
                 Ok(m) => {
                     a.append(&m);
@@ -323,6 +330,9 @@ fn flat_polygon(ring: &[geo::Coord], m: &mut MeshData) {
     let up = Vec3::Y;
     let mut tris = Vec::new();
     grm_geom::polygon::triangulate(&vs, up, &mut tris);
+    if tris.is_empty() {
+        return;
+    }
     let first = m.positions.len() as u32;
     for v in &vs {
         m.vertex(*v, up);

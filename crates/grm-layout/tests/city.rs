@@ -220,6 +220,7 @@ fn tags_are_the_buildings_parameters_and_bad_ones_are_reported() {
             &square(200.0),
             &[("style", TagValue::Text("brick".into()))],
         ),
+        parcel(6, &square(250.0), &[("building", TagValue::Bool(false))]),
     ] {
         layout.parcels.insert(p.id, p);
     }
@@ -247,6 +248,19 @@ fn tags_are_the_buildings_parameters_and_bad_ones_are_reported() {
             "{text}"
         );
         assert!(matches!(c.issues[1].error, BuildingError::Tag { .. }));
+        // A parcel tagged `building: false` (a park) has ground only, the
+        // open ground's.
+        let park = c
+            .model
+            .groups
+            .iter()
+            .find(|g| g.name == "parcel.0000000000000006")
+            .expect("the park's node");
+        assert_eq!(park.spans.len(), 1);
+        assert_eq!(
+            c.model.materials[c.model.parts[park.spans[0].part].material].name,
+            "layout.open"
+        );
         // The parcels without a building keep their ground.
         assert!(
             c.model

@@ -1,19 +1,26 @@
-//! `grmc layout FILE.layout.json [-o city.geojson|city.svg] [--blocks]`: a
-//! city layout (docs/layout.md) merged from the sidecar's layers and
-//! written as GeoJSON or an SVG plan.
+//! `grmc layout FILE.layout.json [-o city.glb|city.png|city.geojson|city.svg]
+//! [--blocks] [--no-buildings]`: a city layout (docs/layout.md) merged
+//! from the sidecar's layers and written as GeoJSON or an SVG plan, or as
+//! a model (glb, OBJ, PLY, a PNG picture): the streets, parcels and open
+//! ground, and on every parcel the building the sidecar's `buildings`
+//! grammar grows (`grm_layout::city`; none with `--no-buildings` or
+//! without a `buildings` section). Progress goes to stderr.
 //!
-//! The sidecar's problems (S001-S006, at their JSON paths) and each
-//! layer's (a bad GeoJSON element, L001-L010, naming it; a missing file; a
-//! rejected move) are printed; the plan is still written from what loaded,
-//! and the exit code is 1. A sidecar or output that cannot be read or
-//! written is exit 2. GeoJSON files named by layers are read relative to
-//! the sidecar.
-
+//! The sidecar's problems (S001-S006, at their JSON paths), each layer's
+//! (a bad GeoJSON element, L001-L010, naming it; a missing file; a
+//! rejected move) and each parcel's without a building (B001, E0509,
+//! R08xx, naming it) are printed; the rest is still written, and the exit
+//! code is 1. A sidecar, grammar or output that cannot be read or written
+//! is exit 2. Files named by the sidecar are read relative to it.
 use std::path::{Path, PathBuf};
 
 use clap::Args;
+use grm_grow::shape::ShapeOptions;
 use grm_layout::blocks::blocks;
+use grm_layout::city::{self, Buildings};
+use grm_layout::model::TagValue;
 use grm_layout::{geojson_io, sidecar, svg};
+use std::time::Instant;
 
 use crate::Outcome;
 
@@ -21,13 +28,17 @@ use crate::Outcome;
 pub struct LayoutArgs {
     /// The layout sidecar (NAME.layout.json).
     pub file: PathBuf,
-    /// Write the merged plan: .geojson or .svg.
+    /// Write the city: .geojson or .svg (the plan), .glb, .obj, .ply or
+    /// .png (streets, parcels and buildings).
     #[arg(short, long, value_name = "PATH")]
     pub output: Option<PathBuf>,
     /// Also write the blocks (GeoJSON features with `kind: "block"`; grey
     /// areas in the SVG).
     #[arg(long)]
     pub blocks: bool,
+    /// A model or picture of the plan alone, without the buildings.
+    #[arg(long)]
+    pub no_buildings: bool,
 }
 
 /// The most a sidecar or a layer's GeoJSON file may be.
@@ -78,18 +89,29 @@ pub fn run(a: LayoutArgs) -> Outcome {
         bs.len(),
         ev.merged.parcels.len()
     );
+    let problems = !errs.is_empty() || !ev.issues.is_empty();
     if let Some(out) = &a.output {
         let shown = a.blocks.then_some(bs.as_slice());
-        let body = match out.extension().and_then(|e| e.to_str()) {
-            Some("geojson") | Some("json") => geojson_io::write(&ev.merged, shown),
-            Some("svg") => svg::svg(&ev.merged, shown),
-            _ => {
-                eprintln!(
-                    "error: cannot write {}: unknown format (use .geojson or .svg)",
-                    out.display()
-                );
-                return Outcome::Usage;
-            }
+        let ext = out.extension().and_then(|e| e.to_str()).unwrap_or("");
+        let body = match ext {
+            "geojson" | "json" => geojson_io::write(&ev.merged, shown),
+            "svg" => svg::svg(&ev.merged, shown),
+            _ => match grm_geom::ExportFormat::from_path(out) {
+                Some(format) => {
+                    return match model(&a, &doc, &dir, &ev.merged, out, format) {
+                        Ok(issues) if problems || issues => Outcome::InputErrors,
+                        Ok(_) => Outcome::Ok,
+                        Err(o) => o,
+                    };
+                }
+                None => {
+                    eprintln!(
+                        "error: cannot write {}: unknown format (use .geojson, .svg, .glb, .obj, .ply or .png)",
+                        out.display()
+                    );
+                    return Outcome::Usage;
+                }
+            },
         };
         if let Err(e) = grm_geom::export::write_atomic(out, |w| w.write_all(body.as_bytes())) {
             eprintln!("error: {e}");
@@ -97,9 +119,101 @@ pub fn run(a: LayoutArgs) -> Outcome {
         }
         outln!("wrote {}", out.display());
     }
-    if errs.is_empty() && ev.issues.is_empty() {
+    if !problems {
         Outcome::Ok
     } else {
         Outcome::InputErrors
     }
+}
+
+/// The city as a model written to `out`: the buildings grown from the
+/// sidecar's grammar unless `--no-buildings`. `Ok(true)`: some parcel has
+/// no building (printed).
+fn model(
+    a: &LayoutArgs,
+    doc: &grm_layout::layers::Document,
+    dir: &Path,
+    layout: &grm_layout::model::Layout,
+    out: &Path,
+    format: grm_geom::ExportFormat,
+) -> Result<bool, Outcome> {
+    let spec = doc.buildings.as_ref().filter(|_| !a.no_buildings);
+    let loaded = match spec {
+        Some(spec) => {
+            let params: Vec<String> = spec
+                .params
+                .iter()
+                .map(|(k, v)| match v {
+                    TagValue::Num(x) => format!("{k}={x}"),
+                    TagValue::Bool(b) => format!("{k}={b}"),
+                    TagValue::Text(t) => format!("{k}={t}"),
+                })
+                .collect();
+            let grammar = dir.join(&spec.grammar);
+            let checked = crate::derive::load_checked(&grammar, spec.system.as_deref(), &params)?;
+            if checked.system().mode != grm_sema::Mode::Shape {
+                eprintln!(
+                    "error: {}: system `{}` is not a shape system (it has no `mode = shape;`): parcels grow shape systems",
+                    grammar.display(),
+                    checked.system().name
+                );
+                return Err(Outcome::Usage);
+            }
+            Some((checked, grammar))
+        }
+        None => None,
+    };
+    let buildings = loaded.as_ref().map(|(c, grammar)| Buildings {
+        program: &c.program,
+        system: c.system(),
+        params: &c.values,
+        dir: grammar.parent(),
+        seed: spec.map_or(0, |s| s.seed),
+        options: ShapeOptions::default(),
+    });
+    let build = grm_geom::BuildOptions {
+        group_names: false,
+        ..grm_geom::BuildOptions::default()
+    };
+    let start = Instant::now();
+    let mut shown = Instant::now();
+    let mut progress = |done: usize, total: usize| {
+        if buildings.is_some() && (shown.elapsed().as_secs_f64() >= 1.0 || done == total) {
+            eprint!("\rbuildings: {done}/{total}");
+            if done == total {
+                eprintln!();
+            }
+            shown = Instant::now();
+        }
+    };
+    let grown = match city::city(layout, buildings.as_ref(), &build, &mut progress) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("error[{}]: {e}", grm_diag::Code::MemoryLimit.as_str());
+            return Err(Outcome::InputErrors);
+        }
+    };
+    for i in &grown.issues {
+        eprintln!(
+            "{}: error[{}]: {}",
+            a.file.display(),
+            i.code(),
+            i.describe()
+        );
+    }
+    if buildings.is_some() {
+        outln!(
+            "{} buildings on {} parcels in {:.0} ms",
+            grown.buildings,
+            layout.parcels.len(),
+            start.elapsed().as_secs_f64() * 1e3
+        );
+    }
+    let m = &grown.model;
+    if let Err(e) = grm_geom::export::export_as(m, out, format) {
+        eprintln!("error: {e}");
+        return Err(Outcome::Usage);
+    }
+    outln!("wrote {} ({} triangles)", out.display(), m.stats.triangles);
+    Ok(!grown.issues.is_empty())
 }

@@ -1,7 +1,10 @@
 //! `grmc layout` (issue 29): the example city merged from its sidecar's
 //! layers into GeoJSON and SVG, byte-identical on a second run; a layer
 //! naming a missing file and a bad sidecar entry are reported with their
-//! codes (exit 1) while the other layers still merge.
+//! codes (exit 1) while the other layers still merge; the city with its
+//! buildings as a glb (the same twice) and a picture, the plan alone with
+//! `--no-buildings`; a parcel without a building is B001 (exit 1), a
+//! missing grammar exit 2.
 
 mod common;
 
@@ -94,11 +97,112 @@ fn problems_are_reported_and_the_rest_still_merges() {
     );
     // No such format, no such sidecar: usage errors.
     assert_eq!(
-        grmc(&["layout", path(&side), "-o", "x.png"]).status.code(),
+        grmc(&["layout", path(&side), "-o", "x.dxf"]).status.code(),
         Some(2)
     );
     assert_eq!(
         grmc(&["layout", "no/such.layout.json"]).status.code(),
         Some(2)
     );
+}
+
+/// The glTF JSON chunk of a glb file.
+fn glb_json(bytes: &[u8]) -> serde_json::Value {
+    assert_eq!(&bytes[..4], b"glTF");
+    let len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    serde_json::from_slice(&bytes[20..20 + len]).expect("the JSON chunk")
+}
+
+#[test]
+fn the_example_city_grows_its_buildings_into_a_glb_and_a_picture() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let city = example("city.layout.json");
+    let (a, b, plan, png) = (
+        dir.path().join("a.glb"),
+        dir.path().join("b.glb"),
+        dir.path().join("plan.glb"),
+        dir.path().join("city.png"),
+    );
+    for out in [&a, &b] {
+        let o = grmc(&["layout", &city, "-o", path(out)]);
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        let s = text(&o.stdout);
+        // Every parcel but the park grows a building.
+        assert!(s.contains("196 buildings on 197 parcels"), "{s}");
+        assert!(text(&o.stderr).contains("buildings: 197/197"));
+    }
+    let bytes = std::fs::read(&a).expect("a");
+    assert_eq!(bytes, std::fs::read(&b).expect("b"));
+    let v = glb_json(&bytes);
+    let names: Vec<&str> = v["nodes"]
+        .as_array()
+        .expect("nodes")
+        .iter()
+        .filter_map(|n| n["name"].as_str())
+        .collect();
+    assert_eq!(
+        names.iter().filter(|n| n.starts_with("parcel.")).count(),
+        197
+    );
+    assert!(names.iter().filter(|n| n.starts_with("street.")).count() > 200);
+    let materials: Vec<&str> = v["materials"]
+        .as_array()
+        .expect("materials")
+        .iter()
+        .filter_map(|m| m["name"].as_str())
+        .collect();
+    assert!(materials.contains(&"glass") && materials.contains(&"layout.street"));
+    // The plan alone is a fraction of it.
+    let o = grmc(&["layout", &city, "--no-buildings", "-o", path(&plan)]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(!text(&o.stdout).contains("buildings on"));
+    assert!(std::fs::metadata(&plan).unwrap().len() * 10 < bytes.len() as u64);
+    let o = grmc(&["layout", &city, "-o", path(&png)]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert_eq!(
+        &std::fs::read(&png).expect("png")[..8],
+        b"\x89PNG\r\n\x1a\n"
+    );
+}
+
+#[test]
+fn a_parcel_without_a_building_is_reported_and_a_missing_grammar_is_exit_2() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let grammar = std::fs::read_to_string(example("city_building.grm")).expect("grammar");
+    std::fs::write(dir.path().join("house.grm"), grammar).expect("write");
+    let side = dir.path().join("town.layout.json");
+    let out = dir.path().join("town.glb");
+    let write = |buildings: &str| {
+        std::fs::write(
+            &side,
+            format!(
+                r#"{{"buildings": {buildings}, "layers": [
+                  {{"name": "base", "source": {{"grid": {{"size": [3, 3]}}}},
+                   "assignments": [{{"tags": {{"height": 900}}, "kinds": ["parcel"], "at": [0, 0]}}]}}
+                ]}}"#
+            ),
+        )
+        .expect("write")
+    };
+    // One parcel (the nearest to the origin) gets a height past the
+    // grammar's range: B001 naming it, exit 1, the rest grown and written.
+    write(r#"{"grammar": "house.grm"}"#);
+    let o = grmc(&["layout", path(&side), "-o", path(&out)]);
+    let err = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("error[B001]: parcel ") && err.contains("outside its range 0 .. 300"),
+        "{err}"
+    );
+    assert!(text(&o.stdout).contains("wrote "), "{}", text(&o.stdout));
+    assert!(out.exists());
+    // A grammar that is not there: exit 2, nothing written.
+    std::fs::remove_file(&out).expect("rm");
+    write(r#"{"grammar": "nowhere.grm"}"#);
+    let o = grmc(&["layout", path(&side), "-o", path(&out)]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
+    assert!(!out.exists());
+    // --no-buildings needs no grammar.
+    let o = grmc(&["layout", path(&side), "--no-buildings", "-o", path(&out)]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
 }
