@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Export checks: every shipped example grown into a .glb, and the shape
+# Export checks: every shipped example grown into a .glb (the city's
+# layout with its buildings too), and the shape
 # builder's test houses (grm-geom's tests/shape.rs: windows with boxes and
 # an OBJ each, and the same with an embedded PNG texture), each checked by
 # the Khronos glTF validator (npm `gltf-validator`, tests/export/) and
@@ -45,6 +46,10 @@ for ex in examples/*.grm; do
     fi
     glbs+=("$glb")
 done
+# The example city (docs/layout.md): streets, parcels and a building on
+# every parcel but the park, one node per street and parcel.
+"$grmc" layout examples/city.layout.json -o "$out/city.glb" >/dev/null 2>&1
+glbs+=("$out/city.glb")
 mkdir "$out/houses"
 GRM_SHAPE_GLB_OUT="$out/houses" cargo test -q --locked -p grm-geom --test shape sample_glbs_for_the_validator >/dev/null
 node tests/export/validate.mjs "${glbs[@]}" "$out"/houses/*.glb
@@ -57,6 +62,8 @@ for glb in "${glbs[@]}"; do
         townhouse.glb) blender "$glb" 300 Glass.house1 Roof.house3 ;;
         office_tower.glb) blender "$glb" 2000 Glass.facade6 ;;
         facade_variety.glb) blender "$glb" 400 Glass.facade1.floor5 ;;
+        # 225 streets, 197 parcels (with their buildings), open ground.
+        city.glb) blender "$glb" 400 street. parcel. ;;
         *) blender "$glb" 1 ;;
     esac
 done
