@@ -196,9 +196,11 @@ pub struct PreviewParams {
     /// in derive mode.
     #[serde(default)]
     pub generation: Option<u32>,
-    /// Shape mode: focus and context (issue 28): the subtree of the shape
-    /// with this key shown `depth` levels down, the rest of the building
-    /// as proxies at its level (docs/lsp-extensions.md).
+    /// Focus and context (issue 28): the subtree of the node with this key
+    /// shown `depth` levels down, the rest as proxies: shape mode, the rest
+    /// of the building as boxes at its level; derive mode, the other bones
+    /// without tubes (the skeleton's lines) and no other instances or
+    /// polygons (docs/lsp-extensions.md).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub context: Option<ContextIn>,
 }
@@ -719,13 +721,28 @@ fn derive_model(
     let derive_ms = t0.elapsed().as_secs_f64() * 1e3;
     check(cancel)?;
     let t1 = Instant::now();
-    let mut model = grm_geom::build_model_with(
+    // Focus and context: the modules a few levels below the focused one
+    // are meshed, the rest left to the skeleton's lines (an unknown key:
+    // the whole model).
+    let window = p.context.as_ref().and_then(|c| {
+        let key = grm_edits::file::parse_key(c.key.trim())?;
+        grown.tree.as_ref()?.focus_window(key, c.depth)
+    });
+    let in_window = |m: u32| {
+        window
+            .as_ref()
+            .is_some_and(|w| w.get(m as usize) == Some(&true))
+    };
+    let mut model = grm_geom::build_model_drawn(
         prog,
         sys,
         &grown.string,
         settings,
         &compiled.param_values,
         &grm_geom::BuildOptions::limited(PREVIEW_MAX_BYTES, grm_geom::Output::Model),
+        window
+            .is_some()
+            .then_some(&in_window as &dyn Fn(u32) -> bool),
     )
     .map_err(|e| too_large(&e))?;
     if let Some(o) = &grown.origin {

@@ -343,3 +343,72 @@ async fn a_node_names_the_parts_its_subtree_drew() {
     // Without `drawn`, none.
     assert!(kids.get("drawn").is_none());
 }
+
+#[tokio::test]
+async fn derive_mode_focus_and_context_meshes_a_few_levels_and_leaves_the_rest_to_lines() {
+    let (_dir, mut c, u, whole) = previewed("t.grm", TREE).await;
+    let root = c
+        .ok("grm/tree", json!({ "textDocument": { "uri": u } }))
+        .await;
+    let a = &root["children"][0];
+    let level = c
+        .ok(
+            "grm/tree",
+            json!({ "textDocument": { "uri": u }, "node": a["node"] }),
+        )
+        .await;
+    let branch = level["children"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|n| n["label"] == "A (iteration 1)")
+        .unwrap()
+        .clone();
+    let bones = |r: &serde_json::Value| r["skeleton"]["boneCount"].as_u64().unwrap();
+    // One level below the branch's A: its F (and the A's below it: no bones) meshed, the rest lines.
+    let focused = c
+        .ok(
+            "grm/preview",
+            json!({ "textDocument": { "uri": u }, "context": { "key": branch["key"], "depth": 1 } }),
+        )
+        .await;
+    assert_eq!(bones(&focused), bones(&whole), "the skeleton stays whole");
+    assert!(triangles(&focused) > 0 && triangles(&focused) < triangles(&whole));
+    let mut meshed = 0;
+    for (i, part) in focused["parts"].as_array().unwrap().iter().enumerate() {
+        for p in picks(part) {
+            let pick = c
+                .ok(
+                    "grm/pick",
+                    json!({ "textDocument": { "uri": u }, "part": i, "triangle": p["firstTriangle"] }),
+                )
+                .await;
+            let path = pick["ancestry"].as_array().unwrap();
+            let at = path.iter().position(|x| x["key"] == branch["key"]);
+            assert!(
+                at.is_some_and(|k| path.len() - 1 - k <= 1),
+                "a meshed bone outside the window: {pick}"
+            );
+            meshed += 1;
+        }
+    }
+    assert_eq!(meshed, 1, "the branch's own F");
+    // Depth 0: the branch's A was rewritten, so nothing of it is meshed.
+    let none = c
+        .ok(
+            "grm/preview",
+            json!({ "textDocument": { "uri": u }, "context": { "key": branch["key"], "depth": 0 } }),
+        )
+        .await;
+    assert_eq!(triangles(&none), 0);
+    // The root deep enough, or an unknown key: the whole model.
+    for key in [root["node"]["key"].clone(), json!("00000000")] {
+        let all = c
+            .ok(
+                "grm/preview",
+                json!({ "textDocument": { "uri": u }, "context": { "key": key, "depth": 10 } }),
+            )
+            .await;
+        assert_eq!(triangles(&all), triangles(&whole));
+    }
+}
