@@ -303,7 +303,7 @@ fn the_facade_varies_its_windows_by_weight_and_blanks_its_corners() {
 
 #[test]
 fn a_system_grows_on_a_lot_the_caller_gives() {
-    use grm_grow::shape::{LowerError, grow_on_lot};
+    use grm_grow::shape::{GivenLot, LowerError, grow_on_lot};
     let c = checked("city_building.grm");
     let p = &c.program;
     let build = grm_geom::BuildOptions::default();
@@ -315,6 +315,10 @@ fn a_system_grows_on_a_lot_the_caller_gives() {
         [525.0, 230.0],
         [498.0, 222.0],
     ]];
+    let world = |rings| GivenLot {
+        rings,
+        x_axis: [1.0, 0.0],
+    };
     let options = ShapeOptions {
         seed: Some(9),
         ..ShapeOptions::default()
@@ -323,7 +327,7 @@ fn a_system_grows_on_a_lot_the_caller_gives() {
         p,
         system(&c),
         &p.default_params(),
-        &parcel,
+        world(&parcel),
         &options,
         Some((&build, None)),
     )
@@ -346,7 +350,7 @@ fn a_system_grows_on_a_lot_the_caller_gives() {
         p,
         system(&c),
         &p.default_params(),
-        &parcel,
+        world(&parcel),
         &options,
         Some((&build, None)),
     )
@@ -354,11 +358,77 @@ fn a_system_grows_on_a_lot_the_caller_gives() {
     assert_eq!(again.model.as_ref(), Some(&m));
     // A lot without area is E0509, naming no place.
     let flat = vec![vec![[0.0, 0.0], [10.0, 0.0], [20.0, 0.0]]];
-    let e = grow_on_lot(p, system(&c), &p.default_params(), &flat, &options, None)
-        .expect_err("no area");
+    let e = grow_on_lot(
+        p,
+        system(&c),
+        &p.default_params(),
+        world(&flat),
+        &options,
+        None,
+    )
+    .expect_err("no area");
     assert!(
-        matches!(&e, ShapeGrowError::Lower(LowerError::Lot { span: None, .. })),
+        matches!(
+            &e,
+            ShapeGrowError::Lower(LowerError::Lot { span: None, .. })
+        ),
         "{e:?}"
     );
     assert_eq!(e.code(), Code::BadLot);
+}
+
+#[test]
+fn a_given_lot_turns_its_scope_to_its_x_axis() {
+    use grm_grow::shape::{GivenLot, grow_on_lot};
+    let c = checked("city_building.grm");
+    let p = &c.program;
+    // A 20 m by 12 m rectangle turned 30 degrees, at (100, 50).
+    let (cos, sin) = (30f64.to_radians().cos(), 30f64.to_radians().sin());
+    let at = |x: f64, y: f64| [100.0 + cos * x - sin * y, 50.0 + sin * x + cos * y];
+    let rings = vec![vec![
+        at(0.0, 0.0),
+        at(20.0, 0.0),
+        at(20.0, 12.0),
+        at(0.0, 12.0),
+    ]];
+    let grow = |x_axis| {
+        grow_on_lot(
+            p,
+            system(&c),
+            &p.default_params(),
+            GivenLot {
+                rings: &rings,
+                x_axis,
+            },
+            &ShapeOptions::default(),
+            None,
+        )
+        .expect("grows")
+    };
+    // Along its front edge the lot's scope is the rectangle itself, at
+    // its corner; along the world's axes it is the larger bounding box.
+    let along = grow([cos, sin]);
+    let root = along.tree.nodes()[0].scope;
+    assert!(
+        (root.size.x - 20.0).abs() < 1e-3 && (root.size.y - 12.0).abs() < 1e-3,
+        "{root:?}"
+    );
+    assert!(
+        (root.origin.x - 100.0).abs() < 1e-3 && (root.origin.y - 50.0).abs() < 1e-3,
+        "{root:?}"
+    );
+    let x = root.rotation() * glam::Vec3::X;
+    assert!((x.x - cos as f32).abs() < 1e-5 && (x.y - sin as f32).abs() < 1e-5);
+    let world = grow([1.0, 0.0]).tree.nodes()[0].scope;
+    assert!(world.size.x > 20.0 && world.size.y > 12.0, "{world:?}");
+    // Ground floor bays: about 20 / 4 on each long facade along the front
+    // edge; the world-aligned scope's facades are the same walls.
+    let count = |g: &grm_grow::shape::ShapeGrown| {
+        g.tree
+            .nodes()
+            .iter()
+            .filter(|n| matches!(n.kind, NodeKind::Shape { symbol, .. } if g.lowered.program.symbol_name(symbol) == "Shop"))
+            .count()
+    };
+    assert_eq!(count(&along), count(&grow([1.0, 0.0])));
 }

@@ -1,8 +1,9 @@
 //! Buildings on parcels and the city as one model (issue 29, "buildings
 //! grown on the parcels"): every parcel's polygon is the lot of a shape
 //! system (a split grammar, `mode = shape`), grown on the one road
-//! (`grm_grow::shape::grow_on_lot`: lot polygon in, model out), with the
-//! parcel's tags as the building's meta-parameters; the streets, parcels
+//! (`grm_grow::shape::grow_on_lot`: lot polygon in, model out), its x
+//! axis along the parcel's street front ([`Fronts`]), with the parcel's
+//! tags as the building's meta-parameters; the streets, parcels
 //! and open ground drawn flat under them; all of it one
 //! [`grm_geom::Model`] that exports as glTF (one node per street, parcel
 //! and open area, a parcel's building in its node) or a picture.
@@ -10,7 +11,8 @@
 //! Identity: a building's seed is minted from its parcel's identity and
 //! the spec's seed ([`parcel_seed`]), never from the parcel's place in a
 //! list, so a layout change that keeps a parcel (same identity, same
-//! polygon, same tags) regrows the same building, byte for byte; parcels
+//! polygon, same tags, and so the same street front) regrows the same
+//! building, byte for byte; parcels
 //! are visited in identity order, so the city's model is the same for the
 //! same layout.
 //!
@@ -28,11 +30,12 @@ use glam::Vec3;
 use grm_geom::grm_turtle::Aabb;
 use grm_geom::shape::{GroupSpan, ShapeGroup};
 use grm_geom::{BuildOptions, MeshData, Model, ModelMaterial, ModelTexture, Part};
-use grm_grow::shape::{ShapeGrowError, ShapeOptions, grow_on_lot};
+use grm_grow::shape::{GivenLot, ShapeGrowError, ShapeOptions, grow_on_lot};
 use grm_sema::{Program, System, Ty, Value};
 
 use crate::id::Id;
 use crate::model::{Layout, Parcel, TagValue, Tags};
+use crate::{geom, index};
 
 /// The tag that keeps a parcel free of a building when it is `false` (a
 /// park, a square): its ground is drawn as open ground.
@@ -195,11 +198,13 @@ pub fn parcel_params(b: &Buildings, tags: &Tags) -> Result<Vec<Value>, BuildingE
     Ok(values)
 }
 
-/// Grow the building on one parcel: its polygon the lot, its tags the
+/// Grow the building on one parcel: its polygon the lot, with the lot's
+/// x axis along `x_axis` (its street front, [`Fronts::of`]), its tags the
 /// meta-parameters, its identity the seed.
 pub fn building(
     b: &Buildings,
     parcel: &Parcel,
+    x_axis: [f64; 2],
     build: &BuildOptions,
 ) -> Result<Model, BuildingError> {
     let params = parcel_params(b, &parcel.tags)?;
@@ -208,16 +213,101 @@ pub fn building(
         seed: Some(parcel_seed(parcel.id, b.seed)),
         ..b.options
     };
+    let rings = [ring];
+    let lot = GivenLot {
+        rings: &rings,
+        x_axis,
+    };
     let grown = grow_on_lot(
         b.program,
         b.system,
         &params,
-        &[ring],
+        lot,
         &options,
         Some((build, b.dir)),
     )
     .map_err(BuildingError::Grow)?;
     Ok(grown.model.unwrap_or_default())
+}
+
+/// How far from a parcel a street still makes its front.
+const FRONT_REACH: f64 = 60.0;
+
+/// The street fronts of a layout's parcels: the lot's x axis runs along
+/// the parcel's edge nearest a street's centre line (among the edges at
+/// least a quarter as long as the longest, so a sliver at a corner does
+/// not turn the building), with the parcel on its left (its +y), so a
+/// grammar's `front` face looks at the street. A parcel with no street
+/// within 60 m runs along its longest edge.
+#[derive(Debug)]
+pub struct Fronts {
+    segments: rstar::RTree<index::Seg>,
+}
+
+impl Fronts {
+    pub fn new(layout: &Layout) -> Fronts {
+        Fronts {
+            segments: index::segments(layout),
+        }
+    }
+
+    /// The direction of `parcel`'s street front (a unit vector).
+    pub fn of(&self, parcel: &Parcel) -> [f64; 2] {
+        let mut ring = open(&parcel.ring);
+        if ring.len() < 2 {
+            return [1.0, 0.0];
+        }
+        // Counter-clockwise: the inside is left of each edge.
+        let twice_area: f64 = (0..ring.len())
+            .map(|i| {
+                let (a, b) = (ring[i], ring[(i + 1) % ring.len()]);
+                a.x * b.y - b.x * a.y
+            })
+            .sum();
+        if twice_area < 0.0 {
+            ring.reverse();
+        }
+        let edges: Vec<(geo::Coord, geo::Coord, f64)> = (0..ring.len())
+            .map(|i| {
+                let (a, b) = (ring[i], ring[(i + 1) % ring.len()]);
+                (a, b, geom::dist(a, b))
+            })
+            .collect();
+        let longest = edges.iter().map(|e| e.2).fold(0.0, f64::max);
+        if !(longest > 0.0 && longest.is_finite()) {
+            return [1.0, 0.0];
+        }
+        let (lo, hi) = index::bounds(&ring);
+        let near: Vec<&index::Seg> = self
+            .segments
+            .locate_in_envelope_intersecting(&index::grown(lo, hi, FRONT_REACH))
+            .collect();
+        let mut best: Option<(f64, f64, usize)> = None;
+        for (i, &(a, b, len)) in edges.iter().enumerate() {
+            if len < longest / 4.0 {
+                continue;
+            }
+            let mid = geo::Coord {
+                x: (a.x + b.x) / 2.0,
+                y: (a.y + b.y) / 2.0,
+            };
+            let d = near
+                .iter()
+                .map(|s| geom::point_segment_dist(mid, s.a, s.b))
+                .fold(f64::INFINITY, f64::min);
+            // Nearest first, then longest, then first.
+            let better = match best {
+                None => true,
+                Some((bd, bl, _)) => d < bd || (d == bd && len > bl),
+            };
+            if better {
+                best = Some((d, len, i));
+            }
+        }
+        let i = best.map_or(0, |(_, _, i)| i);
+        let (a, b, len) = edges[i];
+        [(b.x - a.x) / len, (b.y - a.y) / len]
+    }
 }
 
 /// The ground's materials (names no grammar's material is likely to
@@ -262,6 +352,7 @@ pub fn city(
         flat_polygon(&rest.ring, &mut a.model.parts[open_ground].mesh);
         a.group(format!("open.{id}"), *id, start);
     }
+    let fronts = buildings.map(|_| Fronts::new(layout));
     let total = layout.parcels.len();
     let mut grown = 0;
     let mut issues = Vec::new();
@@ -270,8 +361,8 @@ pub fn city(
         let unbuilt = p.tags.get(NO_BUILDING) == Some(&TagValue::Bool(false));
         let ground = if unbuilt { open_ground } else { parcel };
         flat_polygon(&p.ring, &mut a.model.parts[ground].mesh);
-        if let Some(b) = buildings.filter(|_| !unbuilt) {
-            match building(b, p, build) {
+        if let (Some(b), Some(fronts)) = (buildings.filter(|_| !unbuilt), &fronts) {
+            match building(b, p, fronts.of(p), build) {
                 Ok(m) => {
                     a.append(&m);
                     grown += 1;

@@ -8,7 +8,7 @@
 
 use geo::Coord;
 use grm_geom::BuildOptions;
-use grm_layout::city::{BuildingError, Buildings, building, city, parcel_seed};
+use grm_layout::city::{BuildingError, Buildings, Fronts, building, city, parcel_seed};
 use grm_layout::generate::GridParams;
 use grm_layout::id::Id;
 use grm_layout::layers::{Document, LayerSpec, Move, Select, Source};
@@ -100,7 +100,7 @@ fn every_parcel_grows_a_building_and_the_city_is_the_same_every_time() {
         // A building's triangles are in its parcel's node: more than the
         // ground's.
         let p = layout.parcels.values().next().unwrap();
-        let own = building(b, p, &build).expect("grows");
+        let own = building(b, p, Fronts::new(&layout).of(p), &build).expect("grows");
         let g = c
             .model
             .groups
@@ -144,12 +144,15 @@ fn a_street_move_keeps_the_untouched_parcels_buildings_byte_for_byte() {
     assert_ne!(before.nodes[&node].pos, after.nodes[&node].pos);
     with_buildings(|b| {
         let build = BuildOptions::default();
+        let (f1, f2) = (Fronts::new(&before), Fronts::new(&after));
         let (mut kept, mut changed) = (0, 0);
         for (id, p) in &before.parcels {
             match after.parcels.get(id) {
                 Some(q) if q == p => {
-                    let one = building(b, p, &build).expect("grows");
-                    let two = building(b, q, &build).expect("grows");
+                    // The same street front, so the same building.
+                    assert_eq!(f1.of(p), f2.of(q), "parcel {id}");
+                    let one = building(b, p, f1.of(p), &build).expect("grows");
+                    let two = building(b, q, f2.of(q), &build).expect("grows");
                     assert_eq!(glb(&one), glb(&two), "parcel {id}");
                     kept += 1;
                 }
@@ -226,10 +229,11 @@ fn tags_are_the_buildings_parameters_and_bad_ones_are_reported() {
     }
     with_buildings(|b| {
         let build = BuildOptions::default();
-        let tall = building(b, &layout.parcels[&Id(1)], &build).expect("grows");
+        let x = [1.0, 0.0];
+        let tall = building(b, &layout.parcels[&Id(1)], x, &build).expect("grows");
         assert!((tall.stats.bounds.max.y - 40.0).abs() < 1e-3);
         // A tag that names no parameter is ignored: the default height.
-        let plain = building(b, &layout.parcels[&Id(5)], &build).expect("grows");
+        let plain = building(b, &layout.parcels[&Id(5)], x, &build).expect("grows");
         assert!((plain.stats.bounds.max.y - 12.0).abs() < 1e-3);
         let c = city(&layout, Some(b), &build, &mut |_, _| {}).expect("builds");
         assert_eq!(c.buildings, 2);
@@ -323,4 +327,46 @@ fn the_sidecars_buildings_read_and_write_back() {
         assert!(d.buildings.is_none());
         assert_eq!(d.layers.len(), 1, "{bad}");
     }
+}
+
+#[test]
+fn a_buildings_front_is_its_parcels_edge_on_the_street() {
+    // A deep lot (10 m wide on the street, 30 m deep) south of an
+    // east-west street, its ring starting at the back: the front is the
+    // street edge, running so the lot lies on its left.
+    let mut layout = doc().evaluate(&no_files).merged;
+    layout.parcels.clear();
+    let (a, b) = (Id(1), Id(2));
+    layout.add_node(a, Coord { x: -100.0, y: 0.0 });
+    layout.add_node(b, Coord { x: 100.0, y: 0.0 });
+    layout.streets.clear();
+    let s = grm_layout::model::Street::new(
+        grm_layout::model::Street::mint_id(a, b, &[]),
+        a,
+        b,
+        grm_layout::model::StreetClass::Minor,
+    );
+    layout.streets.insert(s.id, s);
+    let deep = parcel(
+        9,
+        &[(0.0, -35.0), (10.0, -35.0), (10.0, -5.0), (0.0, -5.0)],
+        &[],
+    );
+    let f = Fronts::new(&layout).of(&deep);
+    assert!((f[0] + 1.0).abs() < 1e-12 && f[1].abs() < 1e-12, "{f:?}");
+    // Clockwise, the same.
+    let mut cw = deep.clone();
+    cw.ring.reverse();
+    assert_eq!(Fronts::new(&layout).of(&cw), f);
+    // No street near: the longest edge.
+    let far = parcel(
+        10,
+        &[(0.0, -500.0), (10.0, -500.0), (10.0, -470.0), (0.0, -470.0)],
+        &[],
+    );
+    let f = Fronts::new(&layout).of(&far);
+    assert!(
+        f[0].abs() < 1e-12 && (f[1].abs() - 1.0).abs() < 1e-12,
+        "{f:?}"
+    );
 }

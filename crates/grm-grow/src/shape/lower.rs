@@ -69,14 +69,24 @@ pub fn lower(
     lower_on(program, system, params, None)
 }
 
-/// [`lower`] on a lot the caller gives (`Some`: rings of `[x, y]` metres,
-/// the outer ring then holes, e.g. a city parcel) instead of the system's
+/// A lot the caller gives instead of the system's `lot` setting (a city
+/// parcel): rings of `[x, y]` metres in the shape world, the outer ring
+/// then holes, and the direction of the lot's x axis (`[1, 0]`: the
+/// world's; a parcel's street front, so its `front` face looks at the
+/// street). The lot's scope is the polygon's bounding box in that frame.
+#[derive(Clone, Copy, Debug)]
+pub struct GivenLot<'a> {
+    pub rings: &'a [Vec<[f64; 2]>],
+    pub x_axis: [f64; 2],
+}
+
+/// [`lower`] on a lot the caller gives (`Some`) instead of the system's
 /// `lot` setting; such a lot's problems are E0509 with no span.
 pub fn lower_on(
     program: &grm_sema::Program,
     system: &grm_sema::System,
     params: &[Value],
-    given: Option<&[Vec<[f64; 2]>]>,
+    given: Option<GivenLot>,
 ) -> Result<Lowered, LowerError> {
     let Some(shape) = system.shape.as_deref() else {
         return Err(LowerError::NotShape {
@@ -94,13 +104,14 @@ pub fn lower_on(
         .global_values(params)
         .map_err(|e| LowerError::Internal(format!("a constant cannot be evaluated: {e}")))?;
     let lot = match given {
-        Some(rings) => {
-            let rings = rings.to_vec();
+        Some(given) => {
+            let rings = given.rings.to_vec();
             let why = grm_sema::shape::footprint_problem(&rings);
             if let Some(why) = why {
                 return Err(LowerError::Lot { why, span: None });
             }
-            footprint(&rings).map_err(|why| LowerError::Lot { why, span: None })?
+            footprint_along(&rings, given.x_axis)
+                .map_err(|why| LowerError::Lot { why, span: None })?
         }
         None => lot(shape, params, &globals)?,
     };
@@ -185,6 +196,35 @@ fn lot(
         return Ok(Lot::rectangle(w as f32, d as f32));
     }
     footprint(&rings).map_err(|why| LowerError::Lot { why, span })
+}
+
+/// [`footprint`] in the frame whose x axis is `x_axis` (z up): the rings
+/// turned into that frame, the scope turned back (the building stands
+/// where the rings are).
+fn footprint_along(rings: &[Vec<[f64; 2]>], x_axis: [f64; 2]) -> Result<Lot, String> {
+    let len = x_axis[0].hypot(x_axis[1]);
+    if !(len.is_finite() && len > 0.0) {
+        return Err("the lot's x axis has no direction".into());
+    }
+    let (c, s) = (x_axis[0] / len, x_axis[1] / len);
+    if s == 0.0 && c > 0.0 {
+        return footprint(rings);
+    }
+    let local: Vec<Vec<[f64; 2]>> = rings
+        .iter()
+        .map(|r| {
+            r.iter()
+                .map(|p| [c * p[0] + s * p[1], -s * p[0] + c * p[1]])
+                .collect()
+        })
+        .collect();
+    let mut lot = footprint(&local)?;
+    let o = lot.scope.origin;
+    let (ox, oy) = (f64::from(o.x), f64::from(o.y));
+    let origin = glam::Vec3::new((c * ox - s * oy) as f32, (s * ox + c * oy) as f32, 0.0);
+    let turn = glam::Quat::from_rotation_z(s.atan2(c) as f32);
+    lot.scope = grm_shape::Scope::with_rotation(origin, turn, lot.scope.size);
+    Ok(lot)
 }
 
 /// A footprint with holes (courtyards) as a lot: as

@@ -24,7 +24,7 @@ use grm_geom::{BuildOptions, GeomError, Model};
 use grm_sema::Value;
 use grm_shape::{Limits, ShapeError, ShapeTree};
 
-pub use lower::{Lowered, RuleSource, lower, lower_on};
+pub use lower::{GivenLot, Lowered, RuleSource, lower, lower_on};
 
 /// How to grow a shape system.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -364,20 +364,21 @@ pub fn grow(
 }
 
 /// [`grow`] on a lot the caller gives instead of the system's `lot`
-/// setting: rings of `[x, y]` metres in the shape world (z up), the outer
-/// ring then holes (a city parcel: `grm_layout::city`). The lot's scope is
-/// its bounding box, so the building stands where the rings are; a lot
-/// without area is E0509 naming no place. The model is built when
-/// `build` is given (lot polygon in, model out).
+/// setting ([`GivenLot`]: rings of `[x, y]` metres in the shape world, z
+/// up, and the direction of the lot's x axis; a city parcel:
+/// `grm_layout::city`). The lot's scope is its bounding box in that frame,
+/// so the building stands where the rings are; a lot without area is
+/// E0509 naming no place. The model is built when `build` is given (lot
+/// polygon in, model out).
 pub fn grow_on_lot(
     program: &grm_sema::Program,
     system: &grm_sema::System,
     params: &[Value],
-    rings: &[Vec<[f64; 2]>],
+    lot: GivenLot,
     options: &ShapeOptions,
     build: Option<(&BuildOptions, Option<&Path>)>,
 ) -> Result<ShapeGrown, ShapeGrowError> {
-    let lowered = lower_on(program, system, params, Some(rings))?;
+    let lowered = lower_on(program, system, params, Some(lot))?;
     let seed = options.seed.unwrap_or(lowered.seed);
     let tree = derive(&lowered, seed, options)?;
     let model = match build {
