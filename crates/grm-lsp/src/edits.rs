@@ -19,6 +19,7 @@
 //! JSON, not grm, and no grm request (hover, tokens, formatting) answers
 //! for them.
 
+use crate::edit_fixes::{minimal_edit, without_edit};
 use crate::{Backend, Shared, convert, failed};
 use grm_diag::{FileId, SourceFile, Span};
 use grm_edits::{Edit, EditClass, EditsError, Parsed};
@@ -62,14 +63,27 @@ pub(crate) struct EditsState {
     reports: HashMap<PathBuf, BTreeMap<String, Vec<(Edit, EditOut)>>>,
     /// Per previewed document: the edits file its last shape preview read.
     read_by: HashMap<PathBuf, PathBuf>,
+    /// The last print of each edit's part while it was valid.
+    prints: Arc<Prints>,
 }
 
 /// Where a preview reads edits files from: the client's buffers (a
 /// snapshot), else the disk.
 #[derive(Clone, Debug, Default)]
 pub struct Source {
-    open: HashMap<PathBuf, (i32, Arc<str>)>,
+    pub(crate) open: HashMap<PathBuf, (i32, Arc<str>)>,
+    /// The last print of each edit's part while it was valid.
+    prints: Arc<Prints>,
 }
+
+/// An edit as a print is kept for: its edits file, system, id and
+/// target's text (a retargeted edit starts again).
+pub(crate) type PrintKey = (PathBuf, String, u32, String);
+
+/// What each edit named when last valid (`grm_grow::shape::retarget`):
+/// the ordering values and place its retarget candidates are ranked by.
+/// Kept while the server runs.
+pub(crate) type Prints = HashMap<PrintKey, grm_grow::shape::retarget::PartPrint>;
 
 /// An edits file as a preview read it.
 #[derive(Debug)]
@@ -112,7 +126,7 @@ type Text = (Option<i32>, Arc<str>);
 /// The text of the edits file at `path`: the open buffer (with its
 /// version), else the file on disk (`None` for the version); `Ok(None)`
 /// when neither exists.
-fn read(
+pub(crate) fn read(
     open: &HashMap<PathBuf, (i32, Arc<str>)>,
     path: &Path,
 ) -> std::result::Result<Option<Text>, EditsError> {
@@ -164,6 +178,40 @@ pub struct EditOut {
     pub replayed: bool,
     /// The tree nodes its target names now (`grm/pick`'s `shape.node`).
     pub parts: Vec<u32>,
+    /// Targets it could be given instead, best first (shape mode, an
+    /// edit that is structurally or semantically invalid or ambiguous;
+    /// docs/edits.md, "Retargeting"): the quick fixes on its diagnostic.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub retarget: Vec<RetargetOut>,
+}
+
+/// A target an edit could be given (`EditOut::retarget`).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(rename_all = "camelCase")]
+pub struct RetargetOut {
+    /// As in the file: `{ "exact": "..." }`, `{ "semantic": "..." }` or
+    /// `{ "key": "..." }`.
+    pub target: serde_json::Value,
+    /// Why it is proposed: `ordering` (the same label and ordering
+    /// values), `symbol_and_tags`, `nearest` (of the same symbol),
+    /// `one_of_matched` (a part an ambiguous target matches).
+    pub reason: String,
+    /// The tree nodes it names.
+    pub parts: Vec<u32>,
+}
+
+impl RetargetOut {
+    /// The target as the file reads it.
+    pub(crate) fn target(&self) -> Option<grm_edits::Target> {
+        let (kind, text) = self.target.as_object()?.iter().next()?;
+        let text = text.as_str()?;
+        match kind.as_str() {
+            "key" => grm_edits::file::parse_key(text).map(grm_edits::Target::Key),
+            "exact" => text.parse().ok().map(grm_edits::Target::Exact),
+            "semantic" => text.parse().ok().map(grm_edits::Target::Semantic),
+            _ => None,
+        }
+    }
 }
 
 /// What a shape preview keeps of its edits for the diagnostics.
@@ -172,6 +220,8 @@ pub(crate) struct EditsRun {
     pub(crate) path: PathBuf,
     pub(crate) system: String,
     pub(crate) reports: Vec<(Edit, EditOut)>,
+    /// The prints of the parts valid edits named (shape mode).
+    pub(crate) prints: Vec<(PrintKey, grm_grow::shape::retarget::PartPrint)>,
 }
 
 fn edit_out(
@@ -190,12 +240,20 @@ fn edit_out(
         detail,
         replayed,
         parts,
+        retarget: Vec::new(),
     }
 }
 
+/// How many retarget candidates an edit gets.
+const CANDIDATES: usize = 4;
+
 /// Classify the edits of `system` (and of systems the grammar lacks)
-/// against the tree a preview grew with them.
+/// against the tree a preview grew with them; an edit whose target no
+/// longer names what it did gets retarget candidates, ranked by the print
+/// `source` kept of its part (else by what its target says), and a valid
+/// edit on one part leaves that part's print.
 pub(crate) fn classify(
+    source: &Source,
     loaded: &Loaded,
     uri: Uri,
     prog: &grm_sema::Program,
@@ -203,18 +261,48 @@ pub(crate) fn classify(
     tree: &grm_shape::ShapeTree,
     system: &str,
 ) -> (EditsOut, EditsRun) {
+    use grm_grow::shape::retarget;
     let file = &loaded.parsed.file;
     let mine: Vec<&Edit> = file.of_system(system).collect();
+    let mut orderings = retarget::Orderings::new(lowered, tree);
+    let mut prints = Vec::new();
+    let key = |e: &Edit| (loaded.path.clone(), e.system.clone(), e.id, e.target.text());
     let by_id: HashMap<u32, EditOut> =
         grm_grow::shape::edits::classify(prog, lowered, tree, mine.iter().copied())
             .into_iter()
             .zip(&mine)
             .map(|(r, e)| {
-                let parts = r.parts.iter().map(|n| n.0).collect();
-                (r.id, edit_out(e, r.class, r.detail, r.replayed, parts))
+                let mut out = edit_out(
+                    e,
+                    r.class,
+                    r.detail,
+                    r.replayed,
+                    r.parts.iter().map(|n| n.0).collect(),
+                );
+                if r.class == EditClass::Valid && r.parts.len() == 1 {
+                    prints.push((key(e), orderings.print(r.parts[0])));
+                } else if retarget::wants_candidates(r.class) {
+                    let print = source
+                        .prints
+                        .get(&key(e))
+                        .cloned()
+                        .unwrap_or_else(|| retarget::print_of_target(lowered, tree, &e.target));
+                    out.retarget =
+                        retarget::candidates(lowered, tree, e, &print, &r.parts, CANDIDATES)
+                            .into_iter()
+                            .map(|c| RetargetOut {
+                                target: serde_json::json!({ c.target.kind(): c.target.text() }),
+                                reason: c.reason.as_str().to_owned(),
+                                parts: c.parts.iter().map(|n| n.0).collect(),
+                            })
+                            .collect();
+                }
+                (r.id, out)
             })
             .collect();
-    collect(loaded, uri, prog, system, by_id)
+    let (out, mut run) = collect(loaded, uri, prog, system, by_id);
+    run.prints = prints;
+    (out, run)
 }
 
 /// Classify the edits of the derive-mode system `sys` (and of systems the
@@ -279,6 +367,7 @@ fn collect(
         path: loaded.path.clone(),
         system: system.to_owned(),
         reports,
+        prints: Vec::new(),
     };
     (out, run)
 }
@@ -372,211 +461,31 @@ fn diagnostics<'a>(
         {
             message.push_str(&format!("\nnote: {}", c.explanation()));
         }
-        message.push_str(
-            "\nhelp: retarget it, or delete it (quick fix); `grmc edits check` lists every edit's class",
-        );
+        if r.retarget.is_empty() {
+            message.push_str(
+                "\nhelp: retarget it, or delete it (quick fix); `grmc edits check` lists every edit's class",
+            );
+        } else {
+            message.push_str(&format!(
+                "\nhelp: retarget it to one of {} parts found for it (quick fixes, best first), or delete it",
+                r.retarget.len()
+            ));
+        }
         out.push(Diagnostic {
             range: convert::range(&src, clamp(now.span, text)),
             severity: Some(DiagnosticSeverity::WARNING),
             code: Some(NumberOrString::String(format!("edit.{}", r.class))),
             source: Some("grm".into()),
             message,
-            data: Some(serde_json::json!({ "edit": r.id, "class": r.class })),
+            data: Some(if r.retarget.is_empty() {
+                serde_json::json!({ "edit": r.id, "class": r.class })
+            } else {
+                serde_json::json!({ "edit": r.id, "class": r.class, "retarget": r.retarget })
+            }),
             ..Diagnostic::default()
         });
     }
     out
-}
-
-// ---------------------------------------------------------------------
-// The layout of an edits file's text: where each element of `edits` is.
-
-/// Where the `edits` array and its elements are in a text (found by a
-/// tolerant scan: strings and nesting are followed, nothing else checked).
-#[derive(Debug, Default, PartialEq)]
-pub(crate) struct Layout {
-    /// After the array's `[` and at its `]`.
-    pub(crate) inside: Option<(usize, usize)>,
-    /// Each element's byte range.
-    pub(crate) elements: Vec<(usize, usize)>,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Tok {
-    Open(u8),
-    Close(u8),
-    Colon,
-    Comma,
-    Str,
-    Other,
-}
-
-fn tokens(text: &str) -> Vec<(Tok, usize, usize)> {
-    let b = text.as_bytes();
-    let mut out = Vec::new();
-    let mut i = 0;
-    while i < b.len() {
-        let c = b[i];
-        let start = i;
-        let tok = match c {
-            b' ' | b'\t' | b'\r' | b'\n' => {
-                i += 1;
-                continue;
-            }
-            b'{' | b'[' => Tok::Open(c),
-            b'}' | b']' => Tok::Close(c),
-            b':' => Tok::Colon,
-            b',' => Tok::Comma,
-            b'"' => {
-                i += 1;
-                while i < b.len() && b[i] != b'"' {
-                    i += if b[i] == b'\\' { 2 } else { 1 };
-                }
-                out.push((Tok::Str, start, (i + 1).min(b.len())));
-                i += 1;
-                continue;
-            }
-            _ => {
-                while i < b.len() && !b" \t\r\n{}[]:,\"".contains(&b[i]) {
-                    i += 1;
-                }
-                out.push((Tok::Other, start, i));
-                continue;
-            }
-        };
-        i += 1;
-        out.push((tok, start, i));
-    }
-    out
-}
-
-/// The index after the value starting at token `i` (nested values
-/// followed to their close).
-fn skip_value(toks: &[(Tok, usize, usize)], i: usize) -> usize {
-    match toks.get(i) {
-        Some((Tok::Open(_), ..)) => {
-            let mut depth = 0usize;
-            let mut j = i;
-            while j < toks.len() {
-                match toks[j].0 {
-                    Tok::Open(_) => depth += 1,
-                    Tok::Close(_) => {
-                        depth -= 1;
-                        if depth == 0 {
-                            return j + 1;
-                        }
-                    }
-                    _ => {}
-                }
-                j += 1;
-            }
-            j
-        }
-        Some(_) => i + 1,
-        None => i,
-    }
-}
-
-/// The layout of an edits file's text.
-pub(crate) fn layout(text: &str) -> Layout {
-    let toks = tokens(text);
-    let mut out = Layout::default();
-    if !matches!(toks.first(), Some((Tok::Open(b'{'), ..))) {
-        return out;
-    }
-    let mut i = 1;
-    while i < toks.len() {
-        let (t, s, e) = toks[i];
-        if t == Tok::Comma {
-            i += 1;
-            continue;
-        }
-        if t != Tok::Str || toks.get(i + 1).map(|t| t.0) != Some(Tok::Colon) {
-            return out;
-        }
-        let key = &text[s..e];
-        let v = i + 2;
-        if key == "\"edits\"" && matches!(toks.get(v), Some((Tok::Open(b'['), ..))) {
-            let end = skip_value(&toks, v);
-            let close = toks
-                .get(end.saturating_sub(1))
-                .filter(|t| t.0 == Tok::Close(b']'))
-                .map_or(text.len(), |t| t.1);
-            out.inside = Some((toks[v].2, close));
-            let mut j = v + 1;
-            while j < end.saturating_sub(1) {
-                if toks[j].0 == Tok::Comma {
-                    j += 1;
-                    continue;
-                }
-                let k = skip_value(&toks, j).max(j + 1);
-                out.elements.push((toks[j].1, toks[k - 1].2));
-                j = k;
-            }
-            return out;
-        }
-        i = skip_value(&toks, v);
-    }
-    out
-}
-
-/// The text edit that removes element `at` of the `edits` array, with
-/// the comma and white space between it and its neighbour.
-fn remove_element(lay: &Layout, at: usize) -> Option<(Span, String)> {
-    let (s, e) = *lay.elements.get(at)?;
-    let span = if let Some(next) = lay.elements.get(at + 1) {
-        (s, next.0)
-    } else if let Some(prev) = at.checked_sub(1).and_then(|p| lay.elements.get(p)) {
-        (prev.1, e)
-    } else {
-        lay.inside.unwrap_or((s, e))
-    };
-    Some((Span::from_range(span.0..span.1), String::new()))
-}
-
-/// The smallest edit that turns `old` into `new`: their common start and
-/// end kept (on character boundaries).
-pub(crate) fn minimal_edit(old: &str, new: &str) -> (Span, String) {
-    let (a, b) = (old.as_bytes(), new.as_bytes());
-    let mut p = a.iter().zip(b).take_while(|(x, y)| x == y).count();
-    while !old.is_char_boundary(p) || !new.is_char_boundary(p) {
-        p -= 1;
-    }
-    let max = (a.len() - p).min(b.len() - p);
-    let mut s = a
-        .iter()
-        .rev()
-        .zip(b.iter().rev())
-        .take(max)
-        .take_while(|(x, y)| x == y)
-        .count();
-    while !old.is_char_boundary(a.len() - s) || !new.is_char_boundary(b.len() - s) {
-        s -= 1;
-    }
-    (
-        Span::from_range(p..a.len() - s),
-        new[p..b.len() - s].to_owned(),
-    )
-}
-
-/// The new text of the edits file `text` without edit `id`: written
-/// canonically when the file has no problems (`grm_edits::write`), else
-/// with just that edit's element taken out (a rewrite would drop the
-/// edits that have problems). `None` when there is no such edit.
-fn without_edit(text: &str, id: u32) -> Option<(Span, String)> {
-    let parsed = grm_edits::parse(text);
-    if parsed.errors.is_empty() {
-        let mut file = parsed.file;
-        file.remove(id)?;
-        return Some(minimal_edit(text, &grm_edits::write(&file)));
-    }
-    let span = parsed.file.get(id)?.span;
-    let lay = layout(text);
-    let at = lay
-        .elements
-        .iter()
-        .position(|&(s, e)| s == span.start as usize && e == span.end as usize)?;
-    remove_element(&lay, at)
 }
 
 // ---------------------------------------------------------------------
@@ -589,11 +498,25 @@ impl Shared {
             .unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
-    /// The open edits files, for a preview.
+    /// The open edits files and the prints kept, for a preview.
     pub(crate) fn edits_source(&self) -> Source {
+        let st = self.edits_state();
         Source {
-            open: self.edits_state().docs.clone(),
+            open: st.docs.clone(),
+            prints: st.prints.clone(),
         }
+    }
+
+    /// What the last preview of the edits file `path` made of edit `id`
+    /// (as it read it).
+    pub(crate) fn edit_report(&self, path: &Path, id: u32) -> Option<(Edit, EditOut)> {
+        let st = self.edits_state();
+        st.reports
+            .get(path)?
+            .values()
+            .flatten()
+            .find(|(_, o)| o.id == id)
+            .cloned()
     }
 
     /// Whether the client has the edits file `path` open.
@@ -634,6 +557,12 @@ pub(crate) async fn after_preview(
             .entry(run.path.clone())
             .or_default()
             .insert(run.system.clone(), run.reports.clone());
+        if !run.prints.is_empty() {
+            let prints = Arc::make_mut(&mut st.prints);
+            for (k, p) in &run.prints {
+                prints.insert(k.clone(), p.clone());
+            }
+        }
     }
     publish(shared, client, &run.path).await;
 }
@@ -762,73 +691,6 @@ impl Backend {
         self.shared.uris_mut().close(&path);
         self.shared.edits_state().docs.remove(&path);
         changed(&self.shared, &self.client, path, Duration::ZERO);
-    }
-
-    /// Quick fixes on an edits file: delete the edit a diagnostic is on.
-    pub(crate) async fn edits_code_actions(
-        &self,
-        params: CodeActionParams,
-        path: PathBuf,
-    ) -> Result<Option<CodeActionResponse>> {
-        let uri = params.text_document.uri.clone();
-        let open = self.shared.edits_source().open;
-        let p = path.clone();
-        let actions = tokio::task::spawn_blocking(move || {
-            let Ok(Some((_, text))) = read(&open, &p) else {
-                return Vec::new();
-            };
-            let src = SourceFile::new("", &*text);
-            let parsed = grm_edits::parse(&text);
-            let lay = layout(&text);
-            let mut done = HashSet::new();
-            let mut out = Vec::new();
-            for d in &params.context.diagnostics {
-                let at = convert::offset(&src, d.range.start) as usize;
-                let Some(el) = lay.elements.iter().position(|&(s, e)| s <= at && at < e) else {
-                    continue;
-                };
-                if !done.insert(el) {
-                    continue;
-                }
-                let (s, e) = lay.elements[el];
-                let id = parsed
-                    .file
-                    .edits
-                    .iter()
-                    .find(|x| x.span == Span::from_range(s..e))
-                    .map(|x| x.id);
-                let edit = match id {
-                    Some(id) => without_edit(&text, id),
-                    None => remove_element(&lay, el),
-                };
-                let Some((span, new_text)) = edit else {
-                    continue;
-                };
-                out.push(CodeActionOrCommand::CodeAction(CodeAction {
-                    title: match id {
-                        Some(id) => format!("Delete edit {id}"),
-                        None => "Delete this edit".to_owned(),
-                    },
-                    kind: Some(CodeActionKind::QUICKFIX),
-                    diagnostics: Some(vec![d.clone()]),
-                    edit: Some(WorkspaceEdit {
-                        changes: Some(HashMap::from([(
-                            uri.clone(),
-                            vec![TextEdit {
-                                range: convert::range(&src, span),
-                                new_text,
-                            }],
-                        )])),
-                        ..WorkspaceEdit::default()
-                    }),
-                    ..CodeAction::default()
-                }));
-            }
-            out
-        })
-        .await
-        .map_err(|e| failed(e.to_string()))?;
-        Ok(Some(actions))
     }
 }
 
@@ -1250,88 +1112,5 @@ mod tests {
             grm_edits::edits_path(&grammar_of(Path::new("/x/t.edits.json")).unwrap()),
             Path::new("/x/t.edits.json")
         );
-    }
-
-    #[test]
-    fn minimal_edits_keep_the_common_ends() {
-        for (a, b) in [
-            ("", "abc"),
-            ("abc", ""),
-            ("abc", "abc"),
-            ("abXc", "abc"),
-            ("aé", "aè"),
-            ("x\u{1F333}y", "x\u{1F332}y"),
-            ("aaa", "aaaa"),
-        ] {
-            let (span, text) = minimal_edit(a, b);
-            let mut s = a.to_string();
-            s.replace_range(span.range(), &text);
-            assert_eq!(s, b, "{a:?} -> {b:?}");
-        }
-        assert_eq!(minimal_edit("abXc", "abc").0, Span::new(2, 3));
-    }
-
-    fn file_of(n: u32) -> String {
-        let mut f = grm_edits::EditsFile::default();
-        for i in 0..n {
-            f.add(
-                "S",
-                grm_edits::Target::Key(i),
-                grm_edits::Op::Force { alternative: 1 },
-            );
-        }
-        grm_edits::write(&f)
-    }
-
-    #[test]
-    fn layout_finds_each_element_and_removal_leaves_json() {
-        for n in 1..4 {
-            let text = file_of(n);
-            let parsed = grm_edits::parse(&text);
-            let lay = layout(&text);
-            let spans: Vec<(usize, usize)> = parsed
-                .file
-                .edits
-                .iter()
-                .map(|e| (e.span.start as usize, e.span.end as usize))
-                .collect();
-            assert_eq!(lay.elements, spans);
-            for at in 0..n as usize {
-                let (span, t) = remove_element(&lay, at).unwrap();
-                let mut s = text.clone();
-                s.replace_range(span.range(), &t);
-                let p = grm_edits::parse(&s);
-                assert!(p.errors.is_empty(), "{s}");
-                assert_eq!(p.file.edits.len(), n as usize - 1);
-                assert!(p.file.get(at as u32 + 1).is_none());
-            }
-        }
-        // A broken element is found too (strings with braces, escapes).
-        let text = r#"{ "version": 1, "edits": [ { "id": "x{\"", "op": [1, {"a": 2}] }, 7 ] }"#;
-        let lay = layout(text);
-        assert_eq!(lay.elements.len(), 2);
-        assert_eq!(&text[lay.elements[1].0..lay.elements[1].1], "7");
-        assert!(text[lay.elements[0].0..lay.elements[0].1].ends_with("}] }"));
-        assert_eq!(layout("not json").elements, []);
-    }
-
-    #[test]
-    fn removing_an_edit_rewrites_or_cuts() {
-        let text = file_of(3);
-        let (span, t) = without_edit(&text, 2).unwrap();
-        let mut s = text.clone();
-        s.replace_range(span.range(), &t);
-        let mut f = grm_edits::parse(&text).file;
-        f.remove(2);
-        assert_eq!(s, grm_edits::write(&f), "canonical");
-        // With a problem in the file, the edit's element alone is cut out.
-        let bad = text.replacen("\"op\": \"force\"", "\"op\": \"forse\"", 1);
-        let (span, t) = without_edit(&bad, 3).unwrap();
-        let mut s = bad.clone();
-        s.replace_range(span.range(), &t);
-        let p = grm_edits::parse(&s);
-        assert_eq!(p.errors.len(), 1, "the broken edit stays");
-        assert_eq!(p.file.edits.len(), 1);
-        assert!(without_edit(&bad, 9).is_none());
     }
 }

@@ -37,6 +37,7 @@
 
 pub mod convert;
 pub mod coverage;
+mod edit_fixes;
 pub mod edits;
 pub mod manip;
 pub mod picture;
@@ -572,7 +573,10 @@ impl LanguageServer for Backend {
                 document_formatting_provider: Some(OneOf::Left(true)),
                 code_action_provider: Some(CodeActionProviderCapability::Options(
                     CodeActionOptions {
-                        code_action_kinds: Some(vec![CodeActionKind::QUICKFIX]),
+                        code_action_kinds: Some(vec![
+                            CodeActionKind::QUICKFIX,
+                            CodeActionKind::REFACTOR_REWRITE,
+                        ]),
                         ..CodeActionOptions::default()
                     },
                 )),

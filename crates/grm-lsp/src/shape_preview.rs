@@ -388,6 +388,7 @@ pub(crate) fn build(
     let (edits_out, edits_run) = match uris.uri_of(&edits_path) {
         Some(edits_uri) => {
             let (o, r) = crate::edits::classify(
+                edits,
                 &loaded,
                 edits_uri,
                 prog,
