@@ -2,7 +2,7 @@
 // together: the page's webview transport talking to the extension's host.
 import assert from 'node:assert/strict';
 import { test } from 'node:test';
-import { type HostToPage, viewAngles } from '../preview/src/messages.js';
+import { type HostToPage, parseHostMessage, viewAngles } from '../preview/src/messages.js';
 import { pngSize } from '../preview/src/picture.js';
 import { bytesToBase64, decodePicture } from '../preview/src/protocol.js';
 import { VsCodeTransport, isSuperseded } from '../preview/src/transport.js';
@@ -84,6 +84,24 @@ test('saving the curves file in the editor tells the page to reload it', async (
   assert.equal(posted.length, n);
   host.fileSaved('/w/tree.curves.json');
   assert.deepEqual(posted.at(-1), { type: 'notify', method: 'curvesChanged', params: { uri: 'file:///w/tree.grm' } });
+});
+
+test("a node chosen in the editor's derivation view is sent to the page showing its document (the page highlights its parts)", async () => {
+  const { host, posted } = fakeHost();
+  host.setDocument('file:///w/house.grm', 'house.grm');
+  host.treeNode('file:///w/house.grm', '5ad0c3e1');
+  assert.equal(posted.length, 0, 'not before the page is ready');
+  await host.handle({ type: 'ready' });
+  const n = posted.length;
+  host.treeNode('file:///w/other.grm', '5ad0c3e1');
+  assert.equal(posted.length, n, 'another document: nothing');
+  host.treeNode('file:///w/house.grm', '5ad0c3e1');
+  host.treeNode('file:///w/house.grm', null);
+  assert.deepEqual(posted.slice(n), [
+    { type: 'notify', method: 'treeNode', params: { uri: 'file:///w/house.grm', key: '5ad0c3e1' } },
+    { type: 'notify', method: 'treeNode', params: { uri: 'file:///w/house.grm', key: null } },
+  ]);  // The page reads it as a notification.
+  for (const m of posted.slice(n)) assert.deepEqual(parseHostMessage(JSON.parse(JSON.stringify(m))), m);
 });
 
 test('server URIs are matched however they escape the path', async () => {
