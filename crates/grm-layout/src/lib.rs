@@ -9,8 +9,10 @@
 //! Inputs: generator parameters (grid, radial), GeoJSON files (LineStrings
 //! as streets, Polygons as parcels), the artist's sidecar
 //! `NAME.layout.json` (layers, moves, deletions, protections, anchored
-//! assignments). Outputs: a merged [`model::Layout`], its GeoJSON
-//! (byte-identical for the same inputs), typed errors and reports.
+//! assignments) and the shape system its parcels grow. Outputs: a merged
+//! [`model::Layout`], its GeoJSON (byte-identical for the same inputs),
+//! the city as one model with a building on every parcel ([`city`]),
+//! typed errors and reports.
 //!
 //! Invariants: identities are minted from structure ([`id`]: a generator's
 //! seed and construction path, a street's end nodes, a block's streets, a
