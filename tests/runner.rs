@@ -608,6 +608,7 @@ fn sample(
         max_expansions_per_step: 1000,
         limits: grm_sample::FinishLimits::default(),
         reach: grm_sample::Reach::default(),
+        refine: grm_sample::Refine::default(),
         max_bytes: o
             .number::<u64>("--max-memory")
             .map_err(Stop::Usage)?

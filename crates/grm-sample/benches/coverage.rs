@@ -13,7 +13,8 @@
 //! a mean over the seeds and not a median: what a busy machine does not
 //! inflate), the median cost, the share of models that cover **every** curve
 //! at 80% or more (the curve-coverage issue's target is 90% of them, at a
-//! median of at most 25 ms), and each curve's median coverage; a curve no
+//! median of at most 25 ms), the refinement rounds run per model (mean),
+//! and each curve's median coverage; a curve no
 //! model came near is named as unreached.
 //!
 //! Configurations, run in the same process, interleaved seed by seed (for
@@ -25,7 +26,9 @@
 //! look-ahead: 12 candidates, a tournament of 4, the coverage term, each
 //! bone covering eq. 1's curve alone), `lookahead` (the defaults of the
 //! reach look-ahead, before paced symbols drew fewer candidates:
-//! `Reach::paced` 0) and `default` (`SampleOptions::default()`).
+//! `Reach::paced` 0), `pass` (the defaults before refinement: the SMC
+//! pass alone, `Refine::off()`) and `default` (`SampleOptions::default()`).
+//! Every row but `default` and `custom` runs without refinement.
 //! `paper` and `before` run with the particle counts the grammars asked
 //! for before that work (Calder's 100 -> 15, the vine's 400 -> 60),
 //! `prev` and `lookahead` with those of their time (the vine's 100 -> 15,
@@ -39,7 +42,9 @@
 //! (keys: `particles=A..B`, `pscale` (the
 //! schedule's particle counts times this), `candidates`, `ess`, `order`, `cover`,
 //! `generations`, and the [`grm_sample::Reach`] look-ahead's `reach_c`,
-//! `reach_o`, `reach_s`, `reach_w`, `recent`, `branches`, `paced`; `others=0`: bones cover
+//! `reach_o`, `reach_s`, `reach_w`, `recent`, `branches`, `paced`, and
+//! [`grm_sample::Refine`]'s `refine` (rounds), `refine_from` and
+//! `refine_prefer` (0 or 1); `others=0`: bones cover
 //! eq. 1's curve alone), for trying a
 //! change before it is made a default; `--custom K=V,K=V` (repeatable) adds
 //! rows `custom1`, `custom2`, ... the same way.
@@ -53,7 +58,9 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use grm_guide::{CoverageOptions, Curves, FOLLOWED, coverage, describe_coverage};
-use grm_sample::{ExpectedOptions, Guide, Objective, Reach, SampleOptions, Sampler, Schedule};
+use grm_sample::{
+    ExpectedOptions, Guide, Objective, Reach, Refine, SampleOptions, Sampler, Schedule,
+};
 
 const S_CURVE: &str = r#"{ "version": 1, "defaults": { "utilization_scale": 100 }, "curves": [
   { "name": "s_curve", "points": [[0, 0, 0], [1.5, 1.5, 0], [-1.5, 3, 0], [0, 4.5, 0]] } ] }"#;
@@ -90,6 +97,7 @@ enum Config {
     Before,
     Prev,
     Lookahead,
+    Pass,
     Default,
     Custom(Vec<(String, String)>),
 }
@@ -101,6 +109,8 @@ struct Row {
     costs: Vec<f64>,
     per_curve: Vec<Vec<f64>>,
     all80: u32,
+    /// Refinement rounds run, summed over the seeds.
+    rounds: u32,
 }
 
 impl Row {
@@ -111,6 +121,7 @@ impl Row {
             costs: Vec::new(),
             per_curve: vec![Vec::new(); curves],
             all80: 0,
+            rounds: 0,
         }
     }
 }
@@ -126,6 +137,7 @@ fn pct(xs: &[f64], p: f64) -> f64 {
 
 /// The defaults before the curve-coverage work.
 fn before(mut o: SampleOptions) -> SampleOptions {
+    o.refine = Refine::off();
     o.candidates = 3;
     o.ess_target = 0.1;
     o.guide = Guide::paper();
@@ -141,6 +153,7 @@ fn prev(mut o: SampleOptions) -> SampleOptions {
         cover: 150.0,
     };
     o.reach = Reach::off();
+    o.refine = Refine::off();
     o
 }
 
@@ -149,6 +162,14 @@ fn prev(mut o: SampleOptions) -> SampleOptions {
 /// for every bone.
 fn lookahead(mut o: SampleOptions) -> SampleOptions {
     o.reach.paced = 0;
+    o.refine = Refine::off();
+    o
+}
+
+/// The defaults before refinement (`docs/sampling.md` 4.5): the SMC pass
+/// alone.
+fn pass(mut o: SampleOptions) -> SampleOptions {
+    o.refine = Refine::off();
     o
 }
 
@@ -195,6 +216,9 @@ fn custom(mut o: SampleOptions, with: &[(String, String)]) -> SampleOptions {
             "branches" => o.reach.branches = f() != 0.0,
             "recent" => o.reach.recent = f() as u32,
             "paced" => o.reach.paced = f() as u32,
+            "refine" => o.refine.rounds = f() as u32,
+            "refine_from" => o.refine.from = f(),
+            "refine_prefer" => o.refine.prefer_covering = f() != 0.0,
             _ => panic!("unknown --with key {k}"),
         }
     }
@@ -241,6 +265,7 @@ fn main() {
         ("before".into(), Config::Before),
         ("prev".into(), Config::Prev),
         ("lookahead".into(), Config::Lookahead),
+        ("pass".into(), Config::Pass),
         ("default".into(), Config::Default),
     ];
     if !with.is_empty() {
@@ -310,8 +335,8 @@ fn main() {
         println!("custom: the defaults with {with:?}");
     }
     println!(
-        "{:<20} {:<9} {:>9} {:>8} {:>11} {:>12} | median coverage per curve",
-        "scene", "config", "median ms", "mean cpu", "median cost", "all >= 80%"
+        "{:<20} {:<9} {:>9} {:>8} {:>11} {:>12} {:>6} | median coverage per curve",
+        "scene", "config", "median ms", "mean cpu", "median cost", "all >= 80%", "rounds"
     );
     for (name, file, curves, old_particles, then_particles) in &scenes {
         if !only.is_empty() && !only.iter().any(|o| o == name) {
@@ -366,6 +391,7 @@ fn main() {
                     Config::Before => before(old),
                     Config::Prev => prev(then),
                     Config::Lookahead => lookahead(then),
+                    Config::Pass => pass(base),
                     Config::Custom(with) => custom(base, with),
                     Config::Default => base,
                 };
@@ -379,6 +405,7 @@ fn main() {
                 let r = s.sample(&opts).expect("samples");
                 st.times.push(t.elapsed().as_secs_f64() * 1e3);
                 st.cpus.push(cpu_ms() - c);
+                st.rounds += r.refinements;
                 let m = r.best().expect("a model");
                 st.costs.push(m.cost.total());
                 let bones: Vec<(glam::Vec3, glam::Vec3)> = m
@@ -397,10 +424,11 @@ fn main() {
                         .map(|c| format!("{:.0}%", 100.0 * c.fraction))
                         .collect();
                     println!(
-                        "  seed {seed:>3} {:<9} cost {:>9.1} bones {:>3} ({length:.2} long) | {}",
+                        "  seed {seed:>3} {:<9} cost {:>9.1} bones {:>3} ({length:.2} long) rounds {} | {}",
                         label,
                         m.cost.total(),
                         bones.len(),
+                        r.refinements,
                         per.join(" ")
                     );
                     if cov.iter().any(|c| c.fraction < FOLLOWED) {
@@ -436,13 +464,14 @@ fn main() {
                 })
                 .collect();
             println!(
-                "{:<20} {:<9} {:>9.1} {:>8.1} {:>11.1} {:>11.0}% | {}",
+                "{:<20} {:<9} {:>9.1} {:>8.1} {:>11.1} {:>11.0}% {:>6.2} | {}",
                 name,
                 label,
                 pct(&st.times, 50.0),
                 st.cpus.iter().sum::<f64>() / st.cpus.len().max(1) as f64,
                 pct(&st.costs, 50.0),
                 100.0 * f64::from(st.all80) / f64::from(seeds.max(1)),
+                f64::from(st.rounds) / f64::from(seeds.max(1)),
                 curve_text.join(", ")
             );
         }

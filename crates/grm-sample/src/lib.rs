@@ -74,6 +74,7 @@ mod expand;
 mod model;
 mod particle;
 pub mod pvec;
+mod refine;
 pub mod resample;
 mod sampler;
 mod schedule;
@@ -83,6 +84,7 @@ pub use error::{ExpandError, ExpandErrorKind, LimitKind, SampleError};
 pub use model::{
     DerivationTree, FinishLimits, GenerationStats, NodeKind, SampleResult, SampledModel, TreeNode,
 };
+pub use refine::{DEFAULT_REFINE_FROM, DEFAULT_REFINE_ROUNDS, Refine};
 pub use sampler::{
     DEFAULT_CANDIDATES, DEFAULT_COVER, DEFAULT_ESS_TARGET, DEFAULT_MAX_BYTES, DEFAULT_ORDER,
     DEFAULT_PACED_CANDIDATES, ExpectedOptions, Guide, MAX_THREADS, Objective, Reach, SampleOptions,

@@ -188,13 +188,18 @@ pub struct SampleResult {
     /// The best models, lowest objective first (at most
     /// [`crate::SampleOptions::best`]).
     pub models: Vec<SampledModel>,
-    /// One entry per generation run.
+    /// One entry per generation run (the search's, not those of
+    /// refinement rounds).
     pub generations: Vec<GenerationStats>,
     /// The objective of every distinct final particle after wrap-up, in
-    /// particle order (the models were the lowest of these).
+    /// particle order (the models were the lowest of these), then those of
+    /// each refinement round's final particles.
     pub candidates: Vec<f64>,
     /// Whether the wall-clock budget stopped the skeleton phase early.
     pub stopped_early: bool,
+    /// Refinement rounds run after the search ([`crate::Refine`]): 0 when
+    /// its best model covered every curve, or refinement was off.
+    pub refinements: u32,
     /// Wall time of the whole run (search, wrap-up, geometry phase).
     pub elapsed: Duration,
     /// With [`crate::SampleOptions::frames`] (or

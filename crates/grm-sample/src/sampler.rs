@@ -24,6 +24,7 @@ use crate::expand::{Grammar, Which, Worker};
 use crate::model::*;
 use crate::particle::*;
 use crate::pvec::PVec;
+use crate::refine::{self, Refine};
 use crate::resample;
 use crate::schedule::Schedule;
 
@@ -320,6 +321,9 @@ pub struct SampleOptions {
     pub guide: Guide,
     /// The reach look-ahead ([`Reach`]).
     pub reach: Reach,
+    /// Refinement rounds after the SMC pass, for a model that leaves a
+    /// curve under-covered ([`Refine`]; [`Refine::off`] is the pass alone).
+    pub refine: Refine,
     pub limits: FinishLimits,
     /// Stop with [`SampleError::MemoryLimit`] after a generation that
     /// leaves the search holding more than this many bytes
@@ -362,6 +366,7 @@ impl Default for SampleOptions {
             candidates: DEFAULT_CANDIDATES,
             guide: Guide::default(),
             reach: Reach::default(),
+            refine: Refine::default(),
             limits: FinishLimits::default(),
             max_bytes: DEFAULT_MAX_BYTES,
             cancel: None,
@@ -1340,7 +1345,9 @@ impl<'a> Sampler<'a> {
     ) -> Result<(Particle, Step, u32, f64), SampleError> {
         let mut q = p.clone();
         local.clear();
-        let cur = (g + 1, i);
+        // The layer this generation's steps go to (generation g's is g + 1
+        // in the first pass; a refinement round's are appended after).
+        let cur = (layers.len() as u32, i);
         let compute_h = h_scale > 0.0;
         let reach = &Look {
             o: reach,
@@ -1744,12 +1751,15 @@ impl<'a> Sampler<'a> {
     }
 
     /// Close every open skeleton symbol of `p` with its wrap-up production
-    /// (nodes in step `cur`).
+    /// (nodes in step `cur`; draws keyed by `key`, the particle's index
+    /// among the run's final particles over every refinement round).
+    #[allow(clippy::too_many_arguments)]
     fn wrap_up(
         &self,
         w: &mut Worker,
         layers: &[Vec<Step>],
         cur: (u32, u32),
+        key: u32,
         p: &Particle,
         seed: u32,
         opts: &SampleOptions,
@@ -1772,7 +1782,7 @@ impl<'a> Sampler<'a> {
                     span: self.g.sys.span,
                 });
             }
-            let draws = tagged(seed, STREAM_WRAPUP, cur.1, k);
+            let draws = tagged(seed, STREAM_WRAPUP, key, k);
             k += 1;
             let idx = q.open.len() - 1;
             let how = How::Draw {
@@ -1966,195 +1976,267 @@ impl<'a> Sampler<'a> {
                 Ok(())
             }
         };
-        for g in 0..gens {
-            // Between generations: a cancelled run stops here (a
-            // generation of the Calder tree is a fraction of a millisecond).
-            cancel::check(cancel)?;
-            let h = h_of(g);
-            let lay: &[Vec<Step>] = &layers;
-            let bufs: Vec<Step> = (0..pop.len())
-                .map(|_| spare.pop().unwrap_or_default())
-                .collect();
-            let taken_bytes: u64 = bufs.iter().map(|s| s.bytes() as u64).sum();
-            let step = |w: &mut Worker, (i, (p, buf)): (usize, (&Arc<Particle>, Step))| {
-                self.advance(
-                    w,
-                    lay,
-                    buf,
-                    p,
-                    seed,
-                    g,
-                    i as u32,
-                    h,
-                    max_k,
-                    kc,
-                    temperature,
-                    &opts.guide,
-                    &opts.reach,
-                    gens - g - 1,
-                )
-            };
-            let results: Vec<Result<(Particle, Step, u32, f64), SampleError>> = if parallel {
-                pop.par_iter()
-                    .zip(bufs)
-                    .enumerate()
-                    .map_init(|| self.g.worker(), step)
-                    .collect()
+        // Refinement (`Refine`): the generation its rounds restart from,
+        // the population kept there, and every round's wrapped-up final
+        // particles (the first pass's first).
+        let restart = if opts.budget.is_none()
+            && opts.guide.cover > 0.0
+            && matches!(self.objective, Objective::Curves)
+            && temperature.is_finite()
+        {
+            opts.refine.restart(gens)
+        } else {
+            None
+        };
+        let covering = restart.is_some() && opts.refine.prefer_covering;
+        let mut checkpoint: Option<Vec<Arc<Particle>>> = None;
+        let mut kept_bytes: u64 = 0;
+        let mut finals: Vec<Particle> = Vec::new();
+        let mut seen_finals = std::collections::HashSet::new();
+        let mut first = 0;
+        let mut round = 0;
+        let mut searched_gens = 0;
+        loop {
+            // Round r > 0 draws with a seed of its own.
+            let rseed = if round == 0 {
+                seed
             } else {
-                pop.iter()
-                    .zip(bufs)
-                    .enumerate()
-                    .map(|x| step(&mut w, x))
-                    .collect()
+                refine::round_seed(seed, round)
             };
-            let mut next = Vec::with_capacity(results.len());
-            let mut layer = Vec::with_capacity(results.len());
-            let mut expansions = 0u64;
-            let mut corrections = Vec::with_capacity(results.len());
-            for r in results {
-                // The first error in particle order, whatever the threads.
-                let (q, st, k, corr) = r?;
-                expansions += u64::from(k);
-                next.push(Arc::new(q));
-                layer.push(st);
-                corrections.push(corr);
-            }
-            // Taken from `spare` (counted there) or new: the arena holds
-            // whatever capacity they have now.
-            arena_bytes += layer.iter().map(|s| s.bytes() as u64).sum::<u64>();
-            arena_bytes -= taken_bytes;
-            layer_bytes += (layer.capacity() * size_of::<Step>() + size_of::<Vec<Step>>()) as u64;
-            layers.push(layer);
-            log_w.clear();
-            log_w.extend(
-                next.iter()
-                    .zip(&pop)
-                    .zip(&corrections)
-                    .map(|((q, p), corr)| {
-                        if temperature.is_infinite() {
-                            0.0
-                        } else {
-                            -(q.score - p.score) / temperature + corr
+            for g in first..gens {
+                if round == 0 && restart == Some(g) {
+                    // What refinement rounds restart from (its particles'
+                    // own state is held: counted with the search's).
+                    kept_bytes = pop.iter().map(|p| p.own_bytes() as u64).sum();
+                    checkpoint = Some(pop.clone());
+                }
+                // Between generations: a cancelled run stops here (a
+                // generation of the Calder tree is a fraction of a millisecond).
+                cancel::check(cancel)?;
+                let h = h_of(g);
+                let lay: &[Vec<Step>] = &layers;
+                let bufs: Vec<Step> = (0..pop.len())
+                    .map(|_| spare.pop().unwrap_or_default())
+                    .collect();
+                let taken_bytes: u64 = bufs.iter().map(|s| s.bytes() as u64).sum();
+                let step = |w: &mut Worker, (i, (p, buf)): (usize, (&Arc<Particle>, Step))| {
+                    self.advance(
+                        w,
+                        lay,
+                        buf,
+                        p,
+                        rseed,
+                        g,
+                        i as u32,
+                        h,
+                        max_k,
+                        kc,
+                        temperature,
+                        &opts.guide,
+                        &opts.reach,
+                        gens - g - 1,
+                    )
+                };
+                let results: Vec<Result<(Particle, Step, u32, f64), SampleError>> = if parallel {
+                    pop.par_iter()
+                        .zip(bufs)
+                        .enumerate()
+                        .map_init(|| self.g.worker(), step)
+                        .collect()
+                } else {
+                    pop.iter()
+                        .zip(bufs)
+                        .enumerate()
+                        .map(|x| step(&mut w, x))
+                        .collect()
+                };
+                let mut next = Vec::with_capacity(results.len());
+                let mut layer = Vec::with_capacity(results.len());
+                let mut expansions = 0u64;
+                let mut corrections = Vec::with_capacity(results.len());
+                for r in results {
+                    // The first error in particle order, whatever the threads.
+                    let (q, st, k, corr) = r?;
+                    expansions += u64::from(k);
+                    next.push(Arc::new(q));
+                    layer.push(st);
+                    corrections.push(corr);
+                }
+                // Taken from `spare` (counted there) or new: the arena holds
+                // whatever capacity they have now.
+                arena_bytes += layer.iter().map(|s| s.bytes() as u64).sum::<u64>();
+                arena_bytes -= taken_bytes;
+                layer_bytes +=
+                    (layer.capacity() * size_of::<Step>() + size_of::<Vec<Step>>()) as u64;
+                layers.push(layer);
+                log_w.clear();
+                log_w.extend(
+                    next.iter()
+                        .zip(&pop)
+                        .zip(&corrections)
+                        .map(|((q, p), corr)| {
+                            if temperature.is_infinite() {
+                                0.0
+                            } else {
+                                -(q.score - p.score) / temperature + corr
+                            }
+                        }),
+                );
+                let beta = if ess_target > 0.0 {
+                    resample::temper(&log_w, ess_target * next.len() as f64)
+                } else {
+                    1.0
+                };
+                resample::scale(&mut log_w, beta);
+                resample::normalized(&log_w, &mut weights);
+                let best = next
+                    .iter()
+                    .map(|q| self.objective_of(q))
+                    .fold(f64::INFINITY, f64::min);
+                stats.push(GenerationStats {
+                    generation: g,
+                    particles: next.len(),
+                    expanding: pop.iter().filter(|p| p.live > 0).count(),
+                    ess: resample::ess(&weights),
+                    beta,
+                    survivors: 0,
+                    heuristic_scale: h,
+                    best_objective: best,
+                    mean_bones: next.iter().map(|q| f64::from(q.bones)).sum::<f64>()
+                        / next.len().max(1) as f64,
+                    expansions,
+                    memory_bytes: 0,
+                });
+                let out_of_time = opts
+                    .budget
+                    .is_some_and(|b| start.elapsed().saturating_sub(frame_time) >= b);
+                if round == 0 && keep.wants(g) && !(g + 1 == gens || out_of_time) {
+                    // The last generation's frame is the returned model.
+                    let t = Instant::now();
+                    let f = self.frame(&mut w, &mut layers, &next, seed, opts, parallel)?;
+                    frame_bytes += f.as_ref().map_or(0, |m| m.heap_bytes() as u64);
+                    frames.push((g, f));
+                    frame_time += t.elapsed();
+                }
+                if g + 1 == gens || out_of_time {
+                    stopped_early = g + 1 < gens;
+                    let mut seen = std::collections::HashSet::new();
+                    let distinct = next.iter().filter(|p| seen.insert(p.head)).count();
+                    let held = arena_bytes
+                        + layer_bytes
+                        + bookkeeping(&layers, &stats, &spare, next.len())
+                        + frame_bytes
+                        + kept_bytes
+                        + next.iter().map(|p| p.own_bytes() as u64).sum::<u64>();
+                    if let Some(st) = stats.last_mut() {
+                        st.survivors = distinct;
+                        st.memory_bytes = held;
+                    }
+                    check_memory(g, held, next.len(), &stats)?;
+                    last = next;
+                    break;
+                }
+                resample::systematic(
+                    &weights,
+                    sched.particles(g + 1),
+                    resample_uniform(rseed, g),
+                    &mut ancestors,
+                );
+                pop = ancestors.iter().map(|&a| Arc::clone(&next[a])).collect();
+                // A step that no resampled particle descends from is never
+                // read again: recycle its buffers.
+                used.clear();
+                used.resize(next.len(), false);
+                for &a in &ancestors {
+                    used[a] = true;
+                }
+                if let Some(st) = stats.last_mut() {
+                    st.survivors = used.iter().filter(|&&u| u).count();
+                }
+                if let Some(layer) = layers.last_mut() {
+                    for (st, _) in layer.iter_mut().zip(&used).filter(|(_, u)| !**u) {
+                        let mut st = std::mem::take(st);
+                        st.clear();
+                        spare.push(st);
+                    }
+                    // Steps without nodes at the layer's end are never looked
+                    // up (a node id names a node that exists): a search whose
+                    // particles add nothing (all finished, or expanding
+                    // nothing that lasts) keeps no `Step` per particle per
+                    // generation for them.
+                    let before = (layer.capacity() * size_of::<Step>()) as u64;
+                    while layer.last().is_some_and(|s| s.nodes.is_empty()) {
+                        if let Some(st) = layer.pop()
+                            && st.bytes() > 0
+                        {
+                            spare.push(st);
                         }
-                    }),
-            );
-            let beta = if ess_target > 0.0 {
-                resample::temper(&log_w, ess_target * next.len() as f64)
-            } else {
-                1.0
-            };
-            resample::scale(&mut log_w, beta);
-            resample::normalized(&log_w, &mut weights);
-            let best = next
-                .iter()
-                .map(|q| self.objective_of(q))
-                .fold(f64::INFINITY, f64::min);
-            stats.push(GenerationStats {
-                generation: g,
-                particles: next.len(),
-                expanding: pop.iter().filter(|p| p.live > 0).count(),
-                ess: resample::ess(&weights),
-                beta,
-                survivors: 0,
-                heuristic_scale: h,
-                best_objective: best,
-                mean_bones: next.iter().map(|q| f64::from(q.bones)).sum::<f64>()
-                    / next.len().max(1) as f64,
-                expansions,
-                memory_bytes: 0,
-            });
-            let out_of_time = opts
-                .budget
-                .is_some_and(|b| start.elapsed().saturating_sub(frame_time) >= b);
-            if keep.wants(g) && !(g + 1 == gens || out_of_time) {
-                // The last generation's frame is the returned model.
-                let t = Instant::now();
-                let f = self.frame(&mut w, &mut layers, &next, seed, opts, parallel)?;
-                frame_bytes += f.as_ref().map_or(0, |m| m.heap_bytes() as u64);
-                frames.push((g, f));
-                frame_time += t.elapsed();
-            }
-            if g + 1 == gens || out_of_time {
-                stopped_early = g + 1 < gens;
-                let mut seen = std::collections::HashSet::new();
-                let distinct = next.iter().filter(|p| seen.insert(p.head)).count();
+                    }
+                    layer.shrink_to_fit();
+                    layer_bytes -= before;
+                    layer_bytes += (layer.capacity() * size_of::<Step>()) as u64;
+                }
                 let held = arena_bytes
                     + layer_bytes
                     + bookkeeping(&layers, &stats, &spare, next.len())
                     + frame_bytes
-                    + next.iter().map(|p| p.own_bytes() as u64).sum::<u64>();
+                    + kept_bytes
+                    + next
+                        .iter()
+                        .zip(&used)
+                        .filter(|(_, u)| **u)
+                        .map(|(p, _)| p.own_bytes() as u64)
+                        .sum::<u64>();
                 if let Some(st) = stats.last_mut() {
-                    st.survivors = distinct;
                     st.memory_bytes = held;
                 }
-                check_memory(g, held, next.len(), &stats)?;
-                last = next;
+                check_memory(g, held, pop.len(), &stats)?;
+            }
+            if round == 0 {
+                searched_gens = stats.len();
+            }
+            cancel::check(cancel)?;
+            let wrapped = self.wrap_finals(
+                &mut w,
+                &mut layers,
+                &last,
+                seed,
+                opts,
+                parallel,
+                &mut seen_finals,
+                finals.len(),
+            )?;
+            finals.extend(wrapped);
+            let (Some(from), Some(kept)) = (restart, checkpoint.as_ref()) else {
+                break;
+            };
+            if round >= opts.refine.rounds || stopped_early {
                 break;
             }
-            resample::systematic(
-                &weights,
-                sched.particles(g + 1),
-                resample_uniform(seed, g),
-                &mut ancestors,
-            );
-            pop = ancestors.iter().map(|&a| Arc::clone(&next[a])).collect();
-            // A step that no resampled particle descends from is never
-            // read again: recycle its buffers.
-            used.clear();
-            used.resize(next.len(), false);
-            for &a in &ancestors {
-                used[a] = true;
+            let best = self.ranked(&finals, opts.guide.cover, covering, 1);
+            if best
+                .first()
+                .is_none_or(|&b| refine::covers_every_curve(&self.cost, &finals[b].cost))
+            {
+                break;
             }
-            if let Some(st) = stats.last_mut() {
-                st.survivors = used.iter().filter(|&&u| u).count();
-            }
-            if let Some(layer) = layers.last_mut() {
-                for (st, _) in layer.iter_mut().zip(&used).filter(|(_, u)| !**u) {
-                    let mut st = std::mem::take(st);
-                    st.clear();
-                    spare.push(st);
-                }
-                // Steps without nodes at the layer's end are never looked
-                // up (a node id names a node that exists): a search whose
-                // particles add nothing (all finished, or expanding
-                // nothing that lasts) keeps no `Step` per particle per
-                // generation for them.
-                let before = (layer.capacity() * size_of::<Step>()) as u64;
-                while layer.last().is_some_and(|s| s.nodes.is_empty()) {
-                    if let Some(st) = layer.pop()
-                        && st.bytes() > 0
-                    {
-                        spare.push(st);
-                    }
-                }
-                layer.shrink_to_fit();
-                layer_bytes -= before;
-                layer_bytes += (layer.capacity() * size_of::<Step>()) as u64;
-            }
-            let held = arena_bytes
-                + layer_bytes
-                + bookkeeping(&layers, &stats, &spare, next.len())
-                + frame_bytes
-                + next
-                    .iter()
-                    .zip(&used)
-                    .filter(|(_, u)| **u)
-                    .map(|(p, _)| p.own_bytes() as u64)
-                    .sum::<u64>();
-            if let Some(st) = stats.last_mut() {
-                st.memory_bytes = held;
-            }
-            check_memory(g, held, pop.len(), &stats)?;
+            round += 1;
+            pop = kept.clone();
+            first = from;
         }
+        drop(checkpoint);
         drop(pop);
         cancel::check(cancel)?;
-        let (models, candidates) = self.finish(
+        // The refinement rounds' generations are not the search's: the
+        // records are the first pass's.
+        stats.truncate(searched_gens);
+        let (models, candidates) = self.build_best(
             &mut w,
-            &mut layers,
-            &last,
+            &layers,
+            &finals,
             seed,
             opts,
-            parallel,
+            covering,
             opts.best.max(1),
         )?;
         // The last generation's frame: the returned model.
@@ -2170,18 +2252,15 @@ impl<'a> Sampler<'a> {
             generations: stats,
             candidates,
             stopped_early,
+            refinements: round,
             elapsed: start.elapsed(),
         })
     }
 
     /// The end of a run from `last` (its final generation's particles):
-    /// wrap up the distinct ones (copies share their head node), each with
-    /// the draws of its index among them; rank them by objective (lowest
-    /// first; NaN last; ties by index) and build the first `best`. The
-    /// wrap-ups' nodes go into a new layer of `layers`, which the caller
-    /// may drop once the models are built. Returns the models and the
-    /// objective of every distinct particle after wrap-up, in particle
-    /// order.
+    /// [`Self::wrap_finals`], then [`Self::build_best`] of the first `best`.
+    /// The wrap-ups' nodes go into a new layer of `layers`, which the
+    /// caller may drop once the models are built.
     #[allow(clippy::too_many_arguments)]
     fn finish(
         &self,
@@ -2193,13 +2272,34 @@ impl<'a> Sampler<'a> {
         parallel: bool,
         best: usize,
     ) -> Result<(Vec<SampledModel>, Vec<f64>), SampleError> {
-        let cancel = opts.cancel.as_ref();
         let mut seen = std::collections::HashSet::new();
+        let done = self.wrap_finals(w, layers, last, seed, opts, parallel, &mut seen, 0)?;
+        self.build_best(w, layers, &done, seed, opts, false, best)
+    }
+
+    /// Wrap up the distinct particles of `last` (copies share their head
+    /// node; a head in `seen`, wrapped up before, is skipped), each with
+    /// the draws of its index among them plus `offset` (the particles
+    /// wrapped up before, in earlier refinement rounds). Their nodes go
+    /// into a new layer of `layers`. In particle order.
+    #[allow(clippy::too_many_arguments)]
+    fn wrap_finals(
+        &self,
+        w: &mut Worker,
+        layers: &mut Vec<Vec<Step>>,
+        last: &[Arc<Particle>],
+        seed: u32,
+        opts: &SampleOptions,
+        parallel: bool,
+        seen: &mut std::collections::HashSet<NodeId>,
+        offset: usize,
+    ) -> Result<Vec<Particle>, SampleError> {
+        let cancel = opts.cancel.as_ref();
         let finals: Vec<&Arc<Particle>> = last.iter().filter(|p| seen.insert(p.head)).collect();
         let wl = layers.len() as u32;
         let lay: &[Vec<Step>] = layers;
         let wrap = |w: &mut Worker, (c, p): (usize, &&Arc<Particle>)| {
-            self.wrap_up(w, lay, (wl, c as u32), p, seed, opts)
+            self.wrap_up(w, lay, (wl, c as u32), (offset + c) as u32, p, seed, opts)
         };
         let wrapped: Vec<Result<(Particle, Step), SampleError>> = if parallel {
             finals
@@ -2219,23 +2319,56 @@ impl<'a> Sampler<'a> {
         }
         cancel::check(cancel)?;
         layers.push(layer);
-        // Ranked by the objective searched (with the coverage term).
-        let candidates: Vec<f64> = done
+        Ok(done)
+    }
+
+    /// The indices of the `best` lowest of `done` by the objective
+    /// searched (with the coverage term `w`): lowest first, NaN last, ties
+    /// by index; with `covering`, those that cover every curve
+    /// ([`Refine::prefer_covering`]) before the others.
+    fn ranked(&self, done: &[Particle], w: f64, covering: bool, best: usize) -> Vec<usize> {
+        let objective: Vec<f64> = done.iter().map(|q| self.searched(q, w)).collect();
+        // With `covering`, those that leave a curve under-covered last.
+        let misses: Vec<bool> = done
             .iter()
-            .map(|q| self.searched(q, opts.guide.cover))
+            .map(|q| covering && !refine::covers_every_curve(&self.cost, &q.cost))
             .collect();
         let mut order: Vec<usize> = (0..done.len()).collect();
         order.sort_by(|&a, &b| {
-            let (x, y) = (candidates[a], candidates[b]);
-            x.partial_cmp(&y)
-                .unwrap_or_else(|| x.is_nan().cmp(&y.is_nan()))
-                .then(a.cmp(&b))
+            let (x, y) = (objective[a], objective[b]);
+            misses[a].cmp(&misses[b]).then(
+                x.partial_cmp(&y)
+                    .unwrap_or_else(|| x.is_nan().cmp(&y.is_nan()))
+                    .then(a.cmp(&b)),
+            )
         });
         order.truncate(best);
+        order
+    }
+
+    /// The models of the `best` first of the wrapped-up final particles
+    /// `done` ([`Self::ranked`] with `covering`; the geometry phase of each drawn with its
+    /// index), and the objective of every one, in order.
+    #[allow(clippy::too_many_arguments)]
+    fn build_best(
+        &self,
+        w: &mut Worker,
+        layers: &[Vec<Step>],
+        done: &[Particle],
+        seed: u32,
+        opts: &SampleOptions,
+        covering: bool,
+        best: usize,
+    ) -> Result<(Vec<SampledModel>, Vec<f64>), SampleError> {
+        let order = self.ranked(done, opts.guide.cover, covering, best);
         let mut models = Vec::with_capacity(order.len());
         for c in order {
             models.push(self.build_model(w, layers, &done[c], seed, c as u32, opts)?);
         }
+        let candidates = done
+            .iter()
+            .map(|q| self.searched(q, opts.guide.cover))
+            .collect();
         Ok((models, candidates))
     }
 

@@ -161,6 +161,9 @@ fn frame_k_is_the_result_of_the_run_stopped_after_generation_k() {
             budget: false,
             ..Reach::default()
         },
+        // So are refinement rounds, run when a run ends (a frame is the
+        // model of the run stopped there by its budget, which runs none).
+        refine: Refine::off(),
         ..SampleOptions::default()
     };
     let cases: Vec<(&str, &Sampler, SampleOptions)> = vec![

@@ -49,14 +49,33 @@ fn the_memory_figure_is_deterministic_and_grows() {
     assert!(figures[0] > 0);
     assert!(figures[29] > 3 * figures[0], "{figures:?}");
     // The default bound is far above a small run: the model is unchanged.
+    // (Without refinement rounds, which hold more than the search's last
+    // generation; the population they restart from is counted with it.)
+    let pass = SampleOptions {
+        schedule: schedule(),
+        refine: Refine::off(),
+        ..SampleOptions::default()
+    };
     let bounded = s
         .sample(&SampleOptions {
-            schedule: schedule(),
             max_bytes: figures[29],
-            ..SampleOptions::default()
+            ..pass.clone()
         })
         .expect("at the bound is within it");
-    assert_eq!(bounded.models[0].cost, one.models[0].cost);
+    let unbounded = s.sample(&pass).expect("samples");
+    assert_eq!(bounded.models[0].cost, unbounded.models[0].cost);
+    // Refinement rounds count towards the bound: this seed's pass leaves
+    // a curve, and its rounds grow past the pass's last figure.
+    assert!(one.refinements > 0);
+    let rounds = s.sample(&SampleOptions {
+        schedule: schedule(),
+        max_bytes: figures[29],
+        ..SampleOptions::default()
+    });
+    assert!(
+        matches!(rounds, Err(SampleError::MemoryLimit { .. })),
+        "{rounds:?}"
+    );
 }
 
 #[test]
