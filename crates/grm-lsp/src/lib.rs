@@ -35,6 +35,7 @@
 //!   message before the server reads it, and answers a malformed one
 //!   (tower-lsp-server's reader ends the session at the first).
 
+mod b64;
 pub mod convert;
 pub mod coverage;
 mod edit_fixes;

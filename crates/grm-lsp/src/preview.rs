@@ -546,55 +546,22 @@ pub(crate) struct PickTable {
     pub(crate) edits: Option<Arc<crate::edits::EditsRun>>,
 }
 
-/// Base64 of 4-byte words, encoded as they come in blocks of a whole
-/// number of 3-byte groups (no padding but at the end: the text is that
-/// of all the words' bytes encoded at once), without a copy of the whole
-/// as bytes. `len`: how many words (the text's capacity).
-fn b64_words(len: usize, words: impl Iterator<Item = [u8; 4]>) -> String {
-    use base64::engine::general_purpose::STANDARD;
-    /// Words per block: 3,072 bytes.
-    const WORDS: usize = 768;
-    let mut out = String::with_capacity((len * 4).div_ceil(3) * 4);
-    let mut block = [0u8; WORDS * 4];
-    let mut n = 0;
-    for w in words {
-        block[4 * n..4 * n + 4].copy_from_slice(&w);
-        n += 1;
-        if n == WORDS {
-            STANDARD.encode_string(&block[..], &mut out);
-            n = 0;
-        }
-    }
-    if n > 0 {
-        STANDARD.encode_string(&block[..n * 4], &mut out);
-    }
-    out
-}
-
-fn b64<T: Copy>(xs: &[T], to: fn(T) -> [u8; 4]) -> String {
-    b64_words(xs.len(), xs.iter().map(|&x| to(x)))
-}
-
 /// A quads mesh's positions on the wire (`layout: "quads"`): the first
 /// three corners of each quad (the fourth is `a + c - b`).
 fn quad_corners(mesh: &grm_geom::MeshData) -> String {
-    let words = mesh
-        .positions
-        .chunks_exact(4)
-        .flat_map(|q| q[..3].iter().flatten().map(|x| x.to_le_bytes()));
-    b64_words(mesh.positions.len() / 4 * 9, words)
+    crate::b64::quad_corners(&mesh.positions)
 }
 
 pub(crate) fn f32s(xs: &[f32]) -> String {
-    b64(xs, f32::to_le_bytes)
+    crate::b64::words(xs, f32::to_le_bytes)
 }
 
 pub(crate) fn u32s(xs: &[u32]) -> String {
-    b64(xs, u32::to_le_bytes)
+    crate::b64::words(xs, u32::to_le_bytes)
 }
 
 fn i32s(xs: &[i32]) -> String {
-    b64(xs, i32::to_le_bytes)
+    crate::b64::words(xs, i32::to_le_bytes)
 }
 
 /// A derived string with provenance.
@@ -1353,7 +1320,7 @@ pub(crate) fn parts_out(
                     }
                     runs.push((pk.first_triangle, pk.triangle_count, pk.module, pk.origin));
                 }
-                let picks = base64::engine::general_purpose::STANDARD.encode(&picks);
+                let picks = crate::b64::encode(&picks);
                 let indices = if quads {
                     String::new()
                 } else {
