@@ -51,6 +51,12 @@
 //! - **inconsistent**: classified valid but not applied, or applied but
 //!   classified otherwise (replay and classification disagree).
 //!
+//! Of the lost, the bench also counts those whose **retarget quick fix**
+//! (`grm_grow::shape::retarget::candidates`, what the editor offers on
+//! the edit's diagnostic, ranked by the part's print in the unmutated
+//! tree, as the editor keeps it) names the intended part alone: the first
+//! candidate (`rt1st`), or one of the four (`rtany`).
+//!
 //! Targets, as the preview makes them from the unedited tree:
 //!
 //! - `exact`: the part's exact locator (what a pick gives);
@@ -70,7 +76,9 @@
 
 use glam::Vec3;
 use grm_edits::{Anchor, EditClass, EditsFile, Op, SemanticQuery, Target};
-use grm_grow::shape::{Lowered, ShapeOptions, derive, derive_with_edits, edit_plan, edits, lower};
+use grm_grow::shape::{
+    Lowered, ShapeOptions, derive, derive_with_edits, edit_plan, edits, lower, retarget,
+};
 use grm_shape::{NodeId, NodeKind, ShapeTree};
 use grm_testkit::Rng;
 use std::collections::HashMap;
@@ -494,6 +502,10 @@ struct Tally {
     n: [usize; 6],
     /// Of the lost, per class reported.
     lost_by: HashMap<&'static str, usize>,
+    /// Of the lost: those whose first retarget candidate names the
+    /// intended part alone, and those where one of the candidates does.
+    lost_first: usize,
+    lost_any: usize,
 }
 
 impl Tally {
@@ -507,6 +519,8 @@ impl Tally {
         for (k, v) in &o.lost_by {
             *self.lost_by.entry(k).or_default() += v;
         }
+        self.lost_first += o.lost_first;
+        self.lost_any += o.lost_any;
     }
     fn total(&self) -> usize {
         self.n.iter().sum()
@@ -522,7 +536,7 @@ impl Tally {
     }
     fn row(&self) -> String {
         format!(
-            "{:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6}   {:>6.1}%",
+            "{:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6}   {:>6.1}%   {:>6} {:>6}",
             self.total(),
             self.n[0],
             self.n[1],
@@ -530,7 +544,9 @@ impl Tally {
             self.n[3],
             self.n[4],
             self.n[5],
-            100.0 * self.survival()
+            100.0 * self.survival(),
+            self.lost_first,
+            self.lost_any
         )
     }
 }
@@ -678,6 +694,11 @@ fn survival(title: &str, text: &str, draws: u64, verbose: bool) {
         rng.shuffle(&mut pool);
         let parts: Vec<&Part> = pool.into_iter().take(EDITS).collect();
         let targets = targets(&base, &parts);
+        // What the editor keeps of each part while its edit is valid.
+        let prints: Vec<retarget::PartPrint> = {
+            let mut o = retarget::Orderings::new(&base.lowered, &base.tree);
+            parts.iter().map(|p| o.print(p.id)).collect()
+        };
         fits += targets.iter().filter(|t| t[1].is_some()).count();
         for (mi, m) in mutations.iter().enumerate() {
             let mutated = m.apply(text);
@@ -724,8 +745,25 @@ fn survival(title: &str, text: &str, draws: u64, verbose: bool) {
                     let applied = marked.get(&i).cloned().unwrap_or_default();
                     let valid = r.class == EditClass::Valid;
                     let outcome = if applied.is_empty() && !valid {
-                        if truth[i].is_some() {
+                        if let Some(t) = truth[i] {
                             *tallies[mi][k].lost_by.entry(r.class.as_str()).or_default() += 1;
+                            // The retarget quick fixes the editor offers.
+                            if retarget::wants_candidates(r.class) {
+                                let c = retarget::candidates(
+                                    &edited.lowered,
+                                    &edited.tree,
+                                    &file.edits[e],
+                                    &prints[i],
+                                    &r.parts,
+                                    4,
+                                );
+                                if c.first().is_some_and(|c| c.parts == [t]) {
+                                    tallies[mi][k].lost_first += 1;
+                                }
+                                if c.iter().any(|c| c.parts == [t]) {
+                                    tallies[mi][k].lost_any += 1;
+                                }
+                            }
                             Outcome::Lost
                         } else {
                             Outcome::Gone
@@ -764,11 +802,21 @@ fn survival(title: &str, text: &str, draws: u64, verbose: bool) {
         100.0 * fits as f64 / (draws as usize * EDITS) as f64
     );
     let header = format!(
-        "    {:<10} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6}   {:>7}",
-        "target", "edits", "right", "gone", "lost", "wrong!", "wrongR", "incons", "survive"
+        "    {:<10} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6}   {:>7}   {:>6} {:>6}",
+        "target",
+        "edits",
+        "right",
+        "gone",
+        "lost",
+        "wrong!",
+        "wrongR",
+        "incons",
+        "survive",
+        "rt1st",
+        "rtany"
     );
     println!(
-        "\nper mutation (right: applied to the intended part; gone: reported, the part is gone; lost: reported, the part is there; wrong!: applied to another part, classified valid; wrongR: applied elsewhere, reported; incons: replay and classification disagree; survive: right / edits whose part is there)"
+        "\nper mutation (right: applied to the intended part; gone: reported, the part is gone; lost: reported, the part is there; wrong!: applied to another part, classified valid; wrongR: applied elsewhere, reported; incons: replay and classification disagree; survive: right / edits whose part is there; rt1st, rtany: of the lost, those whose first retarget quick fix, or one of the four, names the intended part alone, ranked by the part's print in the unmutated tree)"
     );
     let classes: Vec<&str> = {
         let mut c: Vec<&str> = mutations.iter().map(|m| m.class).collect();
