@@ -271,7 +271,7 @@ test('shape mode: dragging a split plane rewrites the number on disk and regrows
   // The path's splits and repeats: the ground floor's split (1 plane), the floors (2), the columns (7), the tile (2).
   assert.deepEqual(
     hs.map((h) => `${h.label} ${h.edge}`),
-    ['split.y 1', 'repeat.y 1', 'repeat.y 2', ...[1, 2, 3, 4, 5, 6, 7].map((e) => `repeat.x ${e}`), 'split.x 1', 'split.x 2', 'Mass height 0'],
+    ['split.y 1', 'repeat.y 1', 'repeat.y 2', ...[1, 2, 3, 4, 5, 6, 7].map((e) => `repeat.x ${e}`), 'split.x 1', 'split.x 2', 'Mass height 0', 'Mass width 0', 'Mass depth 0'],
   );
   const split = hs[0];
   assert.ok(Math.abs((split.at as number) - 4) < 1e-5, `the ground floor's plane at ${split.at}`);
@@ -485,13 +485,28 @@ test('shape mode: focus and context draws the picked shape a few levels down and
   const height = hs.find((h) => h.label === 'Mass height');
   assert.ok(height, hs.map((h) => h.label).join(', '));
   assert.ok(Math.abs((height.at as number) - 12.8) < 1e-4);
-  const drags = (await grm(page)).drags;
+  const { drags, dragLatencies: shown0 } = await grm(page);
   // The mass's top: its centre (12 across, 5 deep: the model's -z) at the new height (the model's y).
   await dragFromTo(page, height.screen, await toScreen(page, [12, 16, -5]));
   const done = await waitFor(page, 'the height drag answered', (g) => g.drags > drags && g.lastDrag !== null, 30_000);
   assert.equal(done.lastDrag?.outcome, 'solved', JSON.stringify(done.lastDrag));
   const m = /Lot -> extrude\(([^)]+)\) Mass;/.exec(readFileSync(file, 'utf8'));
   assert.ok(m && Math.abs(Number(m[1]) - 16) < 0.3, `extrude(${m?.[1]})`);
+  // Its width too (a scale along x): the far side face dragged from 24 to 28 rewrites the lot's width.
+  await waitFor(page, 'the taller building', (g) => g.dragLatencies.length > shown0.length, 20_000);
+  const hw = await pickWall(page);
+  const width = hw.find((h) => h.label === 'Mass width');
+  assert.ok(width, hw.map((h) => h.label).join(', '));
+  assert.ok(Math.abs((width.at as number) - 24) < 1e-4, `the width at ${width.at}`);
+  const wDrags = (await grm(page)).drags;
+  const wh = Number(m[1]);
+  // The side face's centre: 24 across, half the height up (the model's y), 5 deep (the model's -z).
+  await dragFromTo(page, width.screen, await toScreen(page, [28, wh / 2, -5]));
+  const wDone = await waitFor(page, 'the width drag answered', (g) => g.drags > wDrags && g.lastDrag !== null, 30_000);
+  assert.equal(wDone.lastDragRequest?.target.kind, 'size');
+  assert.equal(wDone.lastDrag?.outcome, 'solved', JSON.stringify(wDone.lastDrag));
+  const w = /lot = rect\(([^,]+), 10\);/.exec(readFileSync(file, 'utf8'));
+  assert.ok(w && Math.abs(Number(w[1]) - 28) < 0.3, `rect(${w?.[1]}, 10)`);
 });
 
 test('derive mode: dragging a bone tip rewrites its F length and regrows the skeleton', async () => {

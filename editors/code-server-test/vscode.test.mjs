@@ -914,8 +914,8 @@ step("a shape's split plane dragged in the preview rewrites its size in the edit
   const handles = await frame.evaluate(() => globalThis.__grm.handles());
   assert.deepEqual(
     handles.map((h) => `${h.kind} ${h.label} ${h.edge}`),
-    // The ground floor's split plane, then the mass's height.
-    ['plane split.z 1', 'plane Mass height 0'],
+    // The ground floor's split plane, then the mass's height, width and depth.
+    ['plane split.z 1', 'plane Mass height 0', 'plane Mass width 0', 'plane Mass depth 0'],
   );
   const [plane] = handles;
   assert.ok(Math.abs(plane.at - 3) < 1e-5, `the split plane at ${plane.at}`);

@@ -44,7 +44,7 @@ async function activateWith(setting: string): Promise<{ commands: string[]; erro
           return undefined;
         },
         showInformationMessage: async () => undefined,
-        createTreeView: () => ({ visible: false, reveal: async () => undefined, onDidChangeSelection: () => disposable, dispose() {} }),
+        createTreeView: () => ({ visible: false, reveal: async () => undefined, dispose() {} }),
       },
       workspace: {
         getConfiguration: () => ({ get: (k: string) => (k === 'server.path' ? setting : undefined) }),
@@ -79,9 +79,9 @@ async function activateWith(setting: string): Promise<{ commands: string[]; erro
   }
 }
 
-test('the bundle activates: four commands, a clear error for a missing server', async () => {
+test("the bundle activates: four commands (and the Derivation view's own), a clear error for a missing server", async () => {
   const calls = await activateWith('/nonexistent/grmc');
-  assert.deepEqual(calls.commands.sort(), ['grm.exportFrames', 'grm.exportModel', 'grm.openPreview', 'grm.restartServer']);
+  assert.deepEqual(calls.commands.sort(), ['grm.derivation.choose', 'grm.exportFrames', 'grm.exportModel', 'grm.openPreview', 'grm.restartServer']);
   assert.deepEqual(calls.errors, ['grm.server.path is set to /nonexistent/grmc, but /nonexistent/grmc is not an executable file']);
   assert.match(calls.log.join('\n'), /tried:\n {2}\/nonexistent\/grmc/);
 });
@@ -97,7 +97,7 @@ test('a server that cannot start is reported; activation still succeeds', async 
     writeFileSync(fake, '#!/bin/sh\nexit 3\n');
     chmodSync(fake, 0o755);
     const calls = await activateWith(fake);
-    assert.deepEqual(calls.commands.sort(), ['grm.exportFrames', 'grm.exportModel', 'grm.openPreview', 'grm.restartServer']);
+    assert.deepEqual(calls.commands.sort(), ['grm.derivation.choose', 'grm.exportFrames', 'grm.exportModel', 'grm.openPreview', 'grm.restartServer']);
     assert.equal(calls.errors.length, 1, JSON.stringify(calls));
     assert.match(calls.errors[0], new RegExp(`^the grm language server could not start \\(${fake} lsp\\): `));
     assert.match(calls.log.join('\n'), /could not start/);

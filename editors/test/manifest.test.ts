@@ -11,7 +11,10 @@ const source = readFileSync(join(vscodeDir, 'src/extension.ts'), 'utf8');
 test('every contributed command is registered, and every registered command contributed', () => {
   const contributed = manifest.contributes.commands.map((c: { command: string }) => c.command).sort();
   const registered = [...source.matchAll(/registerCommand\('([^']+)'/g)].map((m) => m[1]).sort();
-  assert.deepEqual(contributed, ['grm.exportFrames', 'grm.exportModel', 'grm.openPreview', 'grm.restartServer']);
+  assert.deepEqual(contributed, ['grm.derivation.choose', 'grm.exportFrames', 'grm.exportModel', 'grm.openPreview', 'grm.restartServer']);
+  // The Derivation view's own (a node clicked): not in the command palette.
+  const palette = manifest.contributes.menus.commandPalette.find((c: { command: string }) => c.command === 'grm.derivation.choose');
+  assert.equal(palette?.when, 'false');
   assert.deepEqual(registered, contributed);
 });
 

@@ -31,7 +31,8 @@ export interface PlaneHandle {
 
 /**
  * The draggable planes of a picked shape's path, from the axiom down: each split's or repeat's `planes`, then the top
- * of its mass (the first shape from the lot with a height: its size along its scope's z, the extrusion's).
+ * of its mass (the first shape from the lot with a height: its size along its scope's z, the extrusion's) and its far
+ * faces along x and y (its width and depth: the lot's).
  */
 export function planeHandles(scopes: readonly ScopeBox[]): PlaneHandle[] {
   const out: PlaneHandle[] = [];
@@ -39,8 +40,13 @@ export function planeHandles(scopes: readonly ScopeBox[]): PlaneHandle[] {
   for (const s of scopes) {
     if (s.key === null) continue;
     if (!s.command) {
-      // The mass: the first shape from the lot with a height (the shapes inside it are sized by its splits).
-      if (s.size[2] > 1e-6 && heights.length === 0) heights.push({ command: s.key, edge: 0, at: s.size[2], label: `${s.label} height`, scope: s, axis: 2, size: true });
+      // The mass: the first shape from the lot with a height (the shapes inside it are sized by its splits): its
+      // height, then its width and depth (its far faces along x and y; a drag scales it along that axis).
+      if (s.size[2] > 1e-6 && heights.length === 0) {
+        heights.push({ command: s.key, edge: 0, at: s.size[2], label: `${s.label} height`, scope: s, axis: 2, size: true });
+        if (s.size[0] > 1e-6) heights.push({ command: s.key, edge: 0, at: s.size[0], label: `${s.label} width`, scope: s, axis: 0, size: true });
+        if (s.size[1] > 1e-6) heights.push({ command: s.key, edge: 0, at: s.size[1], label: `${s.label} depth`, scope: s, axis: 1, size: true });
+      }
       continue;
     }
     if (s.axis === null || s.axis < 0 || s.axis > 2) continue;

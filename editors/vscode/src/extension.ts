@@ -41,11 +41,19 @@ class DerivationView implements vscode.TreeDataProvider<TreeNode> {
   constructor(context: vscode.ExtensionContext) {
     this.view = vscode.window.createTreeView('grm.derivation', { treeDataProvider: this, showCollapseAll: true });
     context.subscriptions.push(this.view, this.changed);
-    // A node chosen here: the preview highlights the parts its subtree drew.
+    // A node chosen here (clicked, or Enter): the preview highlights the parts its subtree drew (on each new model
+    // too: the page keeps the key), and the editor opens its rule.
     context.subscriptions.push(
-      this.view.onDidChangeSelection((e) => {
+      vscode.commands.registerCommand('grm.derivation.choose', async (n: TreeNode) => {
         const uri = this.tree.document;
-        if (uri) preview?.host.treeNode(uri, e.selection[0]?.key ?? null);
+        if (uri) preview?.host.treeNode(uri, n.key);
+        if (n.uri && n.range) {
+          const r = n.range;
+          await vscode.commands.executeCommand('vscode.open', vscode.Uri.parse(n.uri), {
+            selection: new vscode.Range(r.start.line, r.start.character, r.end.line, r.end.character),
+            preserveFocus: true,
+          });
+        }
       }),
     );
   }
@@ -54,14 +62,7 @@ class DerivationView implements vscode.TreeDataProvider<TreeNode> {
     const item = new vscode.TreeItem(n.label, n.children > 0 ? vscode.TreeItemCollapsibleState.Collapsed : vscode.TreeItemCollapsibleState.None);
     item.description = n.key;
     item.tooltip = `${n.label} (key ${n.key})${n.children ? `, ${n.children} children` : ''}`;
-    if (n.uri && n.range) {
-      const r = n.range;
-      item.command = {
-        command: 'vscode.open',
-        title: 'Go to its rule',
-        arguments: [vscode.Uri.parse(n.uri), { selection: new vscode.Range(r.start.line, r.start.character, r.end.line, r.end.character), preserveFocus: true }],
-      };
-    }
+    item.command = { command: 'grm.derivation.choose', title: 'Highlight its parts and go to its rule', arguments: [n] };
     return item;
   }
 
