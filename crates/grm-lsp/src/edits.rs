@@ -247,6 +247,10 @@ fn edit_out(
 /// How many retarget candidates an edit gets.
 const CANDIDATES: usize = 4;
 
+/// How many edits of one preview get candidates (the first, in the file's
+/// order): each is a search of the tree.
+const PROPOSED: usize = 32;
+
 /// Classify the edits of `system` (and of systems the grammar lacks)
 /// against the tree a preview grew with them; an edit whose target no
 /// longer names what it did gets retarget candidates, ranked by the print
@@ -266,6 +270,7 @@ pub(crate) fn classify(
     let mine: Vec<&Edit> = file.of_system(system).collect();
     let mut orderings = retarget::Orderings::new(lowered, tree);
     let mut prints = Vec::new();
+    let mut proposed = 0usize;
     let key = |e: &Edit| (loaded.path.clone(), e.system.clone(), e.id, e.target.text());
     let by_id: HashMap<u32, EditOut> =
         grm_grow::shape::edits::classify(prog, lowered, tree, mine.iter().copied())
@@ -281,14 +286,15 @@ pub(crate) fn classify(
                 );
                 if r.class == EditClass::Valid && r.parts.len() == 1 {
                     prints.push((key(e), orderings.print(r.parts[0])));
-                } else if retarget::wants_candidates(r.class) {
+                } else if retarget::wants_candidates(r.class) && proposed < PROPOSED {
+                    proposed += 1;
                     let print = source
                         .prints
                         .get(&key(e))
                         .cloned()
                         .unwrap_or_else(|| retarget::print_of_target(lowered, tree, &e.target));
                     out.retarget =
-                        retarget::candidates(lowered, tree, e, &print, &r.parts, CANDIDATES)
+                        retarget::candidates_with(&mut orderings, e, &print, &r.parts, CANDIDATES)
                             .into_iter()
                             .map(|c| RetargetOut {
                                 target: serde_json::json!({ c.target.kind(): c.target.text() }),

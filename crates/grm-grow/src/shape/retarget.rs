@@ -324,8 +324,26 @@ pub fn candidates(
     matched: &[NodeId],
     max: usize,
 ) -> Vec<Candidate> {
+    candidates_with(
+        &mut Orderings::new(lowered, tree),
+        edit,
+        print,
+        matched,
+        max,
+    )
+}
+
+/// [`candidates`] with the tree's ordering values computed once for many
+/// edits.
+pub fn candidates_with(
+    ord: &mut Orderings<'_>,
+    edit: &Edit,
+    print: &PartPrint,
+    matched: &[NodeId],
+    max: usize,
+) -> Vec<Candidate> {
+    let (lowered, tree) = (ord.lowered, ord.tree);
     let program = &lowered.program;
-    let mut ord = Orderings::new(lowered, tree);
     let mut ranked: Vec<(Reason, NodeId)> = Vec::new();
     if matched.len() > 1 {
         let mut m: Vec<(f32, NodeId)> = matched
