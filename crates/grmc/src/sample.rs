@@ -429,6 +429,13 @@ pub fn run(args: SampleArgs) -> Outcome {
         schedule.particles_start,
         schedule.particles_end,
     );
+    if result.refinements > 0 {
+        // docs/sampling.md 4.5: the search's best left a curve under 80%.
+        outln!(
+            "refined: {} grown again from generation 1 (the search's best model left a curve under 80%)",
+            crate::count(u64::from(result.refinements), "round")
+        );
+    }
     if args.stats {
         print_generations(&result.generations);
     }
