@@ -901,6 +901,29 @@ test('sample mode: the preview says how much of each curve the model follows, ti
   await page.close();
 });
 
+test('sample mode: a curve longer than the bones can cover says "too few bones for it" in the curve list', async () => {
+  const dir = scratch(['calder_tree.grm', 'leaf.obj', 'trunk.obj']);
+  // One curve 60 units up: the Calder tree's 100 bones are about 20 long in all.
+  const curves = { version: 1, defaults: { utilization_scale: 100 }, curves: [{ name: 'tall', points: [[0, 0, 0], [0, 20, 0], [0, 40, 0], [0, 60, 0]] }] };
+  writeFileSync(join(dir, 'calder_tree.curves.json'), JSON.stringify(curves));
+  const url = await view(join(dir, 'calder_tree.grm'));
+  const page = await openPage(url);
+  const g = await settled(page, 0, 'first model');
+  assert.equal(g.mode, 'sample');
+  assert.equal(g.coverage.length, 1, JSON.stringify(g.coverage));
+  const tall = g.coverage[0];
+  // Followed from its base, not unreached, and short of bones: the note says so.
+  assert.equal(tall.unreached, false, JSON.stringify(tall));
+  assert.ok(tall.fraction > 0 && tall.fraction < 0.8, JSON.stringify(tall));
+  assert.match(tall.note, /^gaps at .*; too few bones for it$/);
+  // The curve list gives its share, and the note on it.
+  const row = page.locator('#curve-list .curve');
+  assert.equal(await row.count(), 1);
+  assert.match((await row.first().textContent()) ?? '', /^tall \d+%$/);
+  assert.equal(await row.first().locator('.coverage').getAttribute('title'), tall.note);
+  await page.close();
+});
+
 test('sample mode: the generation scrubber shows the model the search held after an earlier generation, Save picture takes it, the end is the result', async () => {
   const dir = scratch(['calder_tree.grm', 'calder_tree.curves.json', 'leaf.obj', 'trunk.obj']);
   const grammar = join(dir, 'calder_tree.grm');
