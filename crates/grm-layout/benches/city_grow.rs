@@ -6,12 +6,15 @@
 //! ground, fronts and joining), the plan alone (`city::city` without
 //! buildings), and for scale the same number of buildings grown on the
 //! grammar's own 20 m by 12 m lot (`grm_grow::shape::grow`). Prints the
-//! times (median of 5 runs after one warm-up) and the ratios. One thread.
+//! times (median of 5 runs after one warm-up) and the ratios. Then a drag
+//! with a `BuildingCache`: one crossing of the grid moved 6 m and back,
+//! each update regrowing only the parcels the move changed, against the
+//! whole city grown again. One thread.
 //! Run: `cargo bench -p grm-layout --bench city_grow`.
 
 use grm_geom::BuildOptions;
 use grm_grow::shape::{ShapeOptions, grow};
-use grm_layout::city::{Buildings, Fronts, building, city};
+use grm_layout::city::{BuildingCache, Buildings, Fronts, building, city, city_cached};
 use grm_layout::sidecar;
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -96,6 +99,34 @@ fn main() {
             std::hint::black_box(g.model);
         }
     });
+    // A drag: one crossing of the base grid moved and back.
+    let mut moved = doc.clone();
+    let incidence = layout.incidence();
+    let node = *incidence
+        .iter()
+        .find(|(n, s)| s.len() == 4 && ev.layers[0].nodes.contains_key(n))
+        .map(|(n, _)| n)
+        .expect("a crossing of the base grid");
+    moved.layers[0]
+        .moves
+        .push(grm_layout::layers::Move::translation(
+            grm_layout::layers::Select::Ids(vec![node]),
+            geo::Coord { x: 6.0, y: -4.0 },
+        ));
+    let away = moved.evaluate(&load).merged;
+    let changed = layout
+        .parcels
+        .iter()
+        .filter(|(id, p)| away.parcels.get(id) != Some(p))
+        .count();
+    let mut cache = BuildingCache::default();
+    city_cached(&layout, Some(&b), &build, &mut cache, &mut |_, _| {}).expect("builds");
+    let mut reused = 0;
+    let drag = time(|| {
+        let c = city_cached(&away, Some(&b), &build, &mut cache, &mut |_, _| {}).expect("builds");
+        reused = c.reused;
+        city_cached(&layout, Some(&b), &build, &mut cache, &mut |_, _| {}).expect("builds");
+    }) / 2;
     let ms = |d: Duration| d.as_secs_f64() * 1e3;
     println!(
         "city: {} parcels, {} streets; {n} buildings, {triangles} triangles",
@@ -113,6 +144,11 @@ fn main() {
         ms(one_by_one),
         ms(alone),
         ms(alone) / n.max(1) as f64
+    );
+    println!(
+        "drag (a crossing moved 6 m, {changed} parcels changed): {:.1} ms an update with the cache ({reused} buildings reused), {:.3}x the whole city",
+        ms(drag),
+        ms(drag) / ms(with)
     );
     println!(
         "ratio: city / the buildings one by one = {:.2}x (the ground, fronts and joining)",

@@ -143,6 +143,9 @@ pub struct City {
     pub model: Model,
     /// Parcels with a building.
     pub buildings: usize,
+    /// Of those, the buildings taken from a [`BuildingCache`] rather than
+    /// grown.
+    pub reused: usize,
     /// Parcels without one, and why.
     pub issues: Vec<BuildingIssue>,
 }
@@ -334,6 +337,66 @@ pub fn city(
     build: &BuildOptions,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<City, CityError> {
+    city_with(layout, buildings, build, None, progress)
+}
+
+/// The buildings of the last growth of a city, kept for the next (an
+/// editor's drag): each with the parcel, front and system's seed and
+/// values it was grown from, so a parcel that is the same gets its
+/// building back without growing it ([`city_cached`]). It holds a second
+/// copy of the buildings' meshes. Clear it when the grammar changes.
+#[derive(Debug, Default)]
+pub struct BuildingCache {
+    kept: HashMap<Id, Kept>,
+}
+
+#[derive(Debug)]
+struct Kept {
+    parcel: Parcel,
+    x_axis: [f64; 2],
+    seed: u32,
+    params: Vec<Value>,
+    model: Model,
+}
+
+impl BuildingCache {
+    pub fn clear(&mut self) {
+        self.kept.clear();
+    }
+
+    /// Buildings kept.
+    pub fn len(&self) -> usize {
+        self.kept.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.kept.is_empty()
+    }
+}
+
+/// [`city`], taking the buildings of parcels that are the same (identity,
+/// polygon, tags, front, and the system's seed and values) from `cache`
+/// instead of growing them, and keeping this growth's buildings there
+/// (those of parcels that are gone are dropped). The model is the same,
+/// byte for byte, as [`city`]'s (tested); [`City::reused`] counts the
+/// buildings taken.
+pub fn city_cached(
+    layout: &Layout,
+    buildings: Option<&Buildings>,
+    build: &BuildOptions,
+    cache: &mut BuildingCache,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<City, CityError> {
+    city_with(layout, buildings, build, Some(cache), progress)
+}
+
+fn city_with(
+    layout: &Layout,
+    buildings: Option<&Buildings>,
+    build: &BuildOptions,
+    mut cache: Option<&mut BuildingCache>,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<City, CityError> {
     let mut a = Assembler::default();
     let street = a.material(ground_material("layout.street", [0.18, 0.18, 0.2]));
     let parcel = a.material(ground_material("layout.parcel", [0.62, 0.6, 0.55]));
@@ -355,17 +418,45 @@ pub fn city(
     let fronts = buildings.map(|_| Fronts::new(layout));
     let total = layout.parcels.len();
     let mut grown = 0;
+    let mut reused = 0;
     let mut issues = Vec::new();
+    let mut next: HashMap<Id, Kept> = HashMap::new();
     for (done, p) in layout.parcels.values().enumerate() {
         let start = a.start();
         let unbuilt = p.tags.get(NO_BUILDING) == Some(&TagValue::Bool(false));
         let ground = if unbuilt { open_ground } else { parcel };
         flat_polygon(&p.ring, &mut a.model.parts[ground].mesh);
         if let (Some(b), Some(fronts)) = (buildings.filter(|_| !unbuilt), &fronts) {
-            match building(b, p, fronts.of(p), build) {
+            let x_axis = fronts.of(p);
+            let hit = cache
+                .as_deref_mut()
+                .and_then(|c| c.kept.remove(&p.id))
+                .filter(|k| {
+                    k.parcel == *p && k.x_axis == x_axis && k.seed == b.seed && k.params == b.params
+                });
+            let made = match hit {
+                Some(k) => {
+                    reused += 1;
+                    Ok(k.model)
+                }
+                None => building(b, p, x_axis, build),
+            };
+            match made {
                 Ok(m) => {
                     a.append(&m);
                     grown += 1;
+                    if cache.is_some() {
+                        next.insert(
+                            p.id,
+                            Kept {
+                                parcel: p.clone(),
+                                x_axis,
+                                seed: b.seed,
+                                params: b.params.to_vec(),
+                                model: m,
+                            },
+                        );
+                    }
                 }
                 Err(error) => issues.push(BuildingIssue {
                     parcel: p.id,
@@ -383,9 +474,13 @@ pub fn city(
         }
         progress(done + 1, total);
     }
+    if let Some(c) = cache {
+        c.kept = next;
+    }
     Ok(City {
         model: a.finish(),
         buildings: grown,
+        reused,
         issues,
     })
 }

@@ -8,7 +8,9 @@
 
 use geo::Coord;
 use grm_geom::BuildOptions;
-use grm_layout::city::{BuildingError, Buildings, Fronts, building, city, parcel_seed};
+use grm_layout::city::{
+    BuildingCache, BuildingError, Buildings, Fronts, building, city, city_cached, parcel_seed,
+};
 use grm_layout::generate::GridParams;
 use grm_layout::id::Id;
 use grm_layout::layers::{Document, LayerSpec, Move, Select, Source};
@@ -190,6 +192,26 @@ fn a_street_move_keeps_the_untouched_parcels_buildings_byte_for_byte() {
             out
         };
         assert_eq!(triangles(&one.model), triangles(&two.model));
+        // A cache regrows only the parcels the move changed, and the city
+        // is the same as the one grown whole.
+        let mut cache = BuildingCache::default();
+        let first = city_cached(&before, Some(b), &build, &mut cache, &mut |_, _| {}).unwrap();
+        assert_eq!(first.reused, 0);
+        assert_eq!(glb(&first.model), glb(&one.model));
+        assert_eq!(cache.len(), before.parcels.len());
+        let second = city_cached(&after, Some(b), &build, &mut cache, &mut |_, _| {}).unwrap();
+        assert_eq!(second.reused, kept);
+        assert_eq!(glb(&second.model), glb(&two.model));
+        assert_eq!(cache.len(), after.parcels.len());
+        // Other values for the system: nothing is taken.
+        let mut tall = b.params.to_vec();
+        tall[0] = grm_sema::Value::Float(20.0);
+        let other = Buildings {
+            params: &tall,
+            ..*b
+        };
+        let third = city_cached(&after, Some(&other), &build, &mut cache, &mut |_, _| {}).unwrap();
+        assert_eq!(third.reused, 0);
     });
 }
 
