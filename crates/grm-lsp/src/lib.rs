@@ -39,6 +39,7 @@ mod b64;
 pub mod convert;
 pub mod coverage;
 mod edit_fixes;
+mod edit_requests;
 pub mod edits;
 pub mod manip;
 pub mod picture;
