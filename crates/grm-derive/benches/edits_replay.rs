@@ -80,7 +80,7 @@ fn plans(c: &CompiledSystem) -> Vec<(&'static str, EditPlan, usize)> {
             .expect("step");
         strings.push(next);
     }
-    let mut keys: Vec<u32> = strings.iter().flat_map(|s| s.keys.clone()).collect();
+    let mut keys: Vec<u32> = strings.iter().flat_map(|s| s.keys().to_vec()).collect();
     keys.sort_unstable();
     keys.dedup();
     let mut rng = Rng::new(27);
@@ -136,7 +136,7 @@ fn plans(c: &CompiledSystem) -> Vec<(&'static str, EditPlan, usize)> {
     let before_last = &strings[ITERATIONS as usize - 1];
     let mut one = EditPlan::new();
     one.add(
-        before_last.keys[before_last.len() / 2],
+        before_last.keys()[before_last.len() / 2],
         1,
         EditAction::Remove,
     );

@@ -230,7 +230,7 @@ fn main() {
             // memory already written (as the warm engine's recycled
             // strings are; a fresh destination would time its page
             // faults, not the bandwidth).
-            let st = &d.string;
+            let st = d.string.parts();
             let dst = dst.get_or_insert_with(|| {
                 (
                     vec![1u32; st.syms.len()],

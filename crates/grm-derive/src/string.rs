@@ -1,6 +1,14 @@
 //! The module string: the output of a derivation and the input of turtle
-//! interpretation, stored as three flat arrays (structure of arrays) so the
-//! GPU engine can upload and download it unchanged.
+//! interpretation, stored as flat arrays (structure of arrays) so the GPU
+//! engine can upload and download it unchanged.
+//!
+//! The arrays are private: readers go through [`ModuleString::get`],
+//! [`ModuleString::sym`], [`ModuleString::iter`] and
+//! [`ModuleString::symbols`], and the GPU engine through
+//! [`ModuleString::parts`] / [`ModuleString::from_parts`], so the storage
+//! can be made more compact without touching them.
+
+use std::borrow::Cow;
 
 /// A parametric module string.
 ///
@@ -19,10 +27,22 @@
 /// as long as `syms`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ModuleString {
-    pub syms: Vec<u32>,
-    pub starts: Vec<u32>,
-    pub params: Vec<f32>,
-    pub keys: Vec<u32>,
+    pub(crate) syms: Vec<u32>,
+    pub(crate) starts: Vec<u32>,
+    pub(crate) params: Vec<f32>,
+    pub(crate) keys: Vec<u32>,
+}
+
+/// A string's flat arrays in the layout the GPU engine uploads (see
+/// [`ModuleString`]): borrowed where the string stores them so, built
+/// where it stores them more compactly.
+#[derive(Clone, Debug)]
+pub struct Parts<'a> {
+    pub syms: Cow<'a, [u32]>,
+    pub starts: Cow<'a, [u32]>,
+    pub params: Cow<'a, [f32]>,
+    /// Empty when the string carries no keys.
+    pub keys: &'a [u32],
 }
 
 impl Default for ModuleString {
@@ -52,6 +72,49 @@ impl ModuleString {
         }
     }
 
+    /// A string from its flat arrays (the layout of [`Parts`]; `keys`
+    /// empty or one per module). Not checked: a GPU download or a test's
+    /// deliberately broken string is checked with
+    /// [`ModuleString::is_well_formed`], and the engine checks its input.
+    pub fn from_parts(
+        syms: Vec<u32>,
+        starts: Vec<u32>,
+        params: Vec<f32>,
+        keys: Vec<u32>,
+    ) -> ModuleString {
+        ModuleString {
+            syms,
+            starts,
+            params,
+            keys,
+        }
+    }
+
+    /// The flat arrays (see [`Parts`]).
+    pub fn parts(&self) -> Parts<'_> {
+        Parts {
+            syms: Cow::Borrowed(&self.syms),
+            starts: Cow::Borrowed(&self.starts),
+            params: Cow::Borrowed(&self.params),
+            keys: &self.keys,
+        }
+    }
+
+    /// The flat arrays, owned: `(syms, starts, params, keys)` as
+    /// [`ModuleString::from_parts`] takes them.
+    pub fn into_parts(self) -> (Vec<u32>, Vec<u32>, Vec<f32>, Vec<u32>) {
+        (self.syms, self.starts, self.params, self.keys)
+    }
+
+    /// Remove every module (the memory is kept).
+    pub fn clear(&mut self) {
+        self.syms.clear();
+        self.starts.clear();
+        self.starts.push(0);
+        self.params.clear();
+        self.keys.clear();
+    }
+
     /// Append a module (to a string without keys).
     pub fn push(&mut self, sym: u32, params: &[f32]) {
         self.syms.push(sym);
@@ -69,6 +132,18 @@ impl ModuleString {
     /// Whether the string carries identity keys (an empty string does).
     pub fn has_keys(&self) -> bool {
         self.keys.len() == self.syms.len()
+    }
+
+    /// Drop the identity keys (a string without keys, as an engine that
+    /// is not keyed derives).
+    pub fn clear_keys(&mut self) {
+        self.keys.clear();
+    }
+
+    /// The identity keys, one per module (empty when the string carries
+    /// none).
+    pub fn keys(&self) -> &[u32] {
+        if self.has_keys() { &self.keys } else { &[] }
     }
 
     /// The identity key of module `i`, if the string carries keys.
@@ -96,8 +171,37 @@ impl ModuleString {
         (self.syms[i], &self.params[s..e])
     }
 
-    pub fn iter(&self) -> impl Iterator<Item = (u32, &[f32])> + '_ {
-        (0..self.len()).map(move |i| self.get(i))
+    /// The symbol of module `i`.
+    pub fn sym(&self, i: usize) -> u32 {
+        self.syms[i]
+    }
+
+    /// The symbol of module `i`, `None` past the end.
+    pub fn sym_at(&self, i: usize) -> Option<u32> {
+        self.syms.get(i).copied()
+    }
+
+    /// The parameters of module `i`.
+    pub fn params_of(&self, i: usize) -> &[f32] {
+        &self.params[self.starts[i] as usize..self.starts[i + 1] as usize]
+    }
+
+    /// The modules' symbols, in order.
+    pub fn symbols(&self) -> impl ExactSizeIterator<Item = u32> + DoubleEndedIterator + '_ {
+        self.syms.iter().copied()
+    }
+
+    /// Every module's symbol and parameters, in order.
+    pub fn iter(&self) -> impl ExactSizeIterator<Item = (u32, &[f32])> + '_ {
+        self.syms
+            .iter()
+            .zip(self.starts.windows(2))
+            .map(move |(&s, w)| (s, &self.params[w[0] as usize..w[1] as usize]))
+    }
+
+    /// Total parameter words over all modules.
+    pub fn param_words(&self) -> usize {
+        self.params.len()
     }
 
     /// Append all modules of `other` (keys are kept when both strings carry

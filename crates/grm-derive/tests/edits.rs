@@ -38,7 +38,7 @@ impl Tracked {
 /// edited road, tracking the subtrees of `keys`.
 fn track(engine: &Engine<'_>, n: u32, seed: u32, keys: &[u32]) -> Tracked {
     let (axiom, mut state) = engine.edited_axiom(seed).expect("axiom");
-    let first: Vec<bool> = axiom.keys.iter().map(|k| keys.contains(k)).collect();
+    let first: Vec<bool> = axiom.keys().iter().map(|k| keys.contains(k)).collect();
     let mut t = Tracked {
         strings: vec![axiom],
         inside: vec![first],
@@ -64,7 +64,7 @@ fn track(engine: &Engine<'_>, n: u32, seed: u32, keys: &[u32]) -> Tracked {
             let kept = rec.kept[i] as usize;
             for j in o..o + kept {
                 // A copy keeps its key and its flag.
-                let born = d.is_some() && keys.contains(&next.keys[j]);
+                let born = d.is_some() && keys.contains(&next.keys()[j]);
                 out.push(flags[i] || born);
             }
             o += kept;
@@ -83,7 +83,7 @@ fn modules(s: &ModuleString, keep: impl Fn(usize) -> bool) -> Vec<(u32, Vec<u32>
         .filter(|&i| keep(i))
         .map(|i| {
             let (sym, p) = s.get(i);
-            (sym, p.iter().map(|x| x.to_bits()).collect(), s.keys[i])
+            (sym, p.iter().map(|x| x.to_bits()).collect(), s.keys()[i])
         })
         .collect()
 }
@@ -145,10 +145,10 @@ fn key_of(c: &CompiledSystem, t: &Tracked, it: usize, name: &str, k: usize) -> u
         .expect("symbol") as u32;
     let s = &t.strings[it];
     let i = (0..s.len())
-        .filter(|&i| s.syms[i] == sym)
+        .filter(|&i| s.sym(i) == sym)
         .nth(k)
         .expect("module");
-    s.keys[i]
+    s.keys()[i]
 }
 
 #[test]
@@ -231,8 +231,8 @@ fn set_reaches_the_subtree_and_offset_the_generated_value() {
     let want = ref_run.last();
     // Same structure and keys; outside the subtree the same bits; inside,
     // every A's `w` is 2.5 (its `len` untouched: `w` does not feed it).
-    assert_eq!(got.syms, want.syms);
-    assert_eq!(got.keys, want.keys);
+    assert_eq!(got.parts().syms, want.parts().syms);
+    assert_eq!(got.keys(), want.keys());
     let a = c.symbol_names.iter().position(|n| n == "A").expect("A") as u32;
     let mut seen = 0;
     for i in 0..got.len() {
@@ -250,8 +250,8 @@ fn set_reaches_the_subtree_and_offset_the_generated_value() {
 
     // A deeper edit wins in its own subtree: an offset on one A below.
     let deeper = (0..want.len())
-        .find(|&i| inside[i] && want.syms[i] == a && want.keys[i] != key)
-        .map(|i| want.keys[i])
+        .find(|&i| inside[i] && want.sym(i) == a && want.keys()[i] != key)
+        .map(|i| want.keys()[i])
         .expect("an A below");
     let s2 = p.add_slot(w_slot(&c));
     assert_eq!(s2, 1);
@@ -265,7 +265,7 @@ fn set_reaches_the_subtree_and_offset_the_generated_value() {
     );
     let got = final_string(&c, 4, 0, &p);
     let i = (0..got.len())
-        .find(|&i| got.keys[i] == deeper)
+        .find(|&i| got.keys()[i] == deeper)
         .expect("kept");
     // The A was made in the subtree, from a parent whose w is 2.5: its
     // generated w (2.5 * 0.7, or 2.5 along the stem) plus 1, its own
@@ -278,12 +278,12 @@ fn set_reaches_the_subtree_and_offset_the_generated_value() {
     let f = c.symbol_names.iter().position(|n| n == "F").expect("F") as u32;
     let j = (0..want.len())
         .rev()
-        .find(|&i| want.syms[i] == f)
+        .find(|&i| want.sym(i) == f)
         .expect("F");
     let mut p = EditPlan::new();
     let s = p.add_slot(slot(&c, |n| (n == "F").then_some(0)));
     p.add(
-        want.keys[j],
+        want.keys()[j],
         1,
         EditAction::Value {
             slot: s,
@@ -319,8 +319,8 @@ fn force_picks_the_alternative_and_leaves_the_rest() {
     let mut forced = 0;
     for it in 1..4usize {
         let s = &base.strings[it];
-        for i in (0..s.len()).filter(|&i| s.syms[i] == a).take(3) {
-            let key = s.keys[i];
+        for i in (0..s.len()).filter(|&i| s.sym(i) == a).take(3) {
+            let key = s.keys()[i];
             let was = base.records[it].decided[i].expect("rewritten");
             let k = (was - group.first_alt + 1) % group.alt_count + 1;
             let mut p = EditPlan::new();
@@ -329,7 +329,7 @@ fn force_picks_the_alternative_and_leaves_the_rest() {
             let run = track(&e, 5, 3, &[key]);
             // The module with this key is rewritten by alternative k.
             let j = (0..run.strings[it].len())
-                .find(|&j| run.strings[it].keys[j] == key)
+                .find(|&j| run.strings[it].keys()[j] == key)
                 .expect("made");
             assert_eq!(
                 run.records[it].decided[j],
@@ -377,14 +377,14 @@ fn pin_replays_another_keys_draws() {
         .find_map(|it| {
             let s = &base.strings[it];
             let firsts: Vec<usize> = (1..s.len())
-                .filter(|&i| s.syms[i] == a && s.syms[i - 1] == plus)
+                .filter(|&i| s.sym(i) == a && s.sym(i - 1) == plus)
                 .collect();
-            firsts.first().map(|&i| (it, s.keys[i], s.keys[i + 4]))
+            firsts.first().map(|&i| (it, s.keys()[i], s.keys()[i + 4]))
         })
         .expect("a branching");
     let s = &base.strings[it];
-    let i2 = (0..s.len()).find(|&i| s.keys[i] == k2).expect("second");
-    assert_eq!(s.syms[i2], a);
+    let i2 = (0..s.len()).find(|&i| s.keys()[i] == k2).expect("second");
+    assert_eq!(s.sym(i2), a);
     let mut p = EditPlan::new();
     p.add(k2, 1, EditAction::Pin(k1));
     let run = track(&edited(&c, 1, p.clone()), 5, 0, &[k1]);
@@ -448,9 +448,9 @@ fn the_larger_id_wins_on_one_key_and_a_bracket_takes_its_branch() {
     // Removing a `[` removes its whole branch.
     let push = c.symbol_names.iter().position(|n| n == "[").expect("[") as u32;
     let s1 = &base.strings[1];
-    let i = (0..s1.len()).find(|&i| s1.syms[i] == push).expect("[");
+    let i = (0..s1.len()).find(|&i| s1.sym(i) == push).expect("[");
     let mut p = EditPlan::new();
-    p.add(s1.keys[i], 1, EditAction::Remove);
+    p.add(s1.keys()[i], 1, EditAction::Remove);
     let got = final_string(&c, 1, 0, &p);
     let text = got.to_text(&c.symbol_names);
     assert!(!text.contains('+'), "{text}");
@@ -545,10 +545,10 @@ fn random_edits_change_their_subtree_only() {
             let it = rng.below(n as usize + 1);
             let s = &base.strings[it];
             let i = rng.below(s.len());
-            if Some(s.syms[i]) == push || Some(s.syms[i]) == pop {
+            if Some(s.sym(i)) == push || Some(s.sym(i)) == pop {
                 continue;
             }
-            let key = s.keys[i];
+            let key = s.keys()[i];
             let ref_run = track(&plain(&c), n, seed, &[key]);
             let inside = ref_run.last_inside();
             let want = ref_run.last();
@@ -574,8 +574,8 @@ fn random_edits_change_their_subtree_only() {
                         },
                     );
                     let got = final_string(&c, n, seed, &p);
-                    assert_eq!(got.syms, want.syms, "{ctx}");
-                    assert_eq!(got.keys, want.keys, "{ctx}");
+                    assert_eq!(got.parts().syms, want.parts().syms, "{ctx}");
+                    assert_eq!(got.keys(), want.keys(), "{ctx}");
                     for j in 0..got.len() {
                         let (sym, gp) = got.get(j);
                         let name = &c.symbol_names[sym as usize];
@@ -589,14 +589,14 @@ fn random_edits_change_their_subtree_only() {
                 2 => {
                     // Offset a module of the final string.
                     let j = rng.below(want.len());
-                    let name = &c.symbol_names[want.syms[j] as usize];
+                    let name = &c.symbol_names[want.sym(j) as usize];
                     if !matches!(name.as_str(), "A" | "B" | "F") {
                         continue;
                     }
                     let by = rng.range_f32(-2.0, 2.0);
                     let s = p.add_slot(x_slot(&c));
                     p.add(
-                        want.keys[j],
+                        want.keys()[j],
                         1,
                         EditAction::Value {
                             slot: s,
@@ -604,9 +604,9 @@ fn random_edits_change_their_subtree_only() {
                         },
                     );
                     let got = final_string(&c, n, seed, &p);
-                    let dup = want.keys.iter().filter(|&&k| k == want.keys[j]).count();
+                    let dup = want.keys().iter().filter(|&&k| k == want.keys()[j]).count();
                     for m in 0..got.len() {
-                        if want.keys[m] == want.keys[j] {
+                        if want.keys()[m] == want.keys()[j] {
                             assert_eq!(got.get(m).1[0], want.get(m).1[0] + by, "{ctx}");
                         } else if dup == 1 {
                             assert_eq!(got.get(m), want.get(m), "{ctx}");

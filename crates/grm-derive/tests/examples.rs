@@ -52,11 +52,11 @@ fn stochastic_plant_bounds() {
         );
         let mut depth = 0i64;
         for i in 0..last.len() {
-            let name = &names[last.syms[i] as usize];
+            let name = &names[last.sym(i) as usize];
             match name.as_str() {
                 "[" => {
                     depth += 1;
-                    let next = &names[last.syms[i + 1] as usize];
+                    let next = &names[last.sym(i + 1) as usize];
                     assert!(next == "+" || next == "-", "seed {seed}: `[` then {next}");
                 }
                 "]" => depth -= 1,

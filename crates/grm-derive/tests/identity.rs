@@ -20,7 +20,7 @@ fn modules(c: &CompiledSystem, s: &ModuleString) -> Vec<(String, Vec<u32>, u32)>
             (
                 c.symbol_names[sym as usize].clone(),
                 params.iter().map(|x| x.to_bits()).collect(),
-                s.keys[i],
+                s.keys()[i],
             )
         })
         .collect()
@@ -449,7 +449,8 @@ fn keys_do_not_depend_on_threads() {
                 .step(&s, it, 5, &DeriveLimits::default())
                 .expect("step");
             assert_eq!(
-                s.keys, base[it as usize].keys,
+                s.keys(),
+                base[it as usize].keys(),
                 "{threads} threads, iteration {it}"
             );
         }
@@ -465,7 +466,7 @@ fn key_collisions_are_as_rare_as_chance() {
         let c = example(file, None);
         let s = keyed_strings(&c, n, 1);
         let last = s.last().expect("final");
-        let mut keys = last.keys.clone();
+        let mut keys = last.keys().to_vec();
         keys.sort_unstable();
         let dup = keys.windows(2).filter(|w| w[0] == w[1]).count();
         let m = keys.len() as f64;

@@ -251,7 +251,7 @@ fn f32_arithmetic_is_exact() {
     ];
     for threads in [1, 2] {
         let s = strings(&c, 1, 0, threads);
-        let got: Vec<u32> = s[1].params.iter().map(|v| v.to_bits()).collect();
+        let got: Vec<u32> = s[1].parts().params.iter().map(|v| v.to_bits()).collect();
         let want: Vec<u32> = want.iter().map(|v| v.to_bits()).collect();
         assert_eq!(got, want);
     }
@@ -301,8 +301,9 @@ fn broken_tables_are_refused() {
 fn foreign_strings_are_refused() {
     let c = inline("system S { axiom A(1); A(x) -> A(x + 1); }");
     let engine = grm_derive::Engine::new(&c, 1).expect("engine");
-    let mut s = engine.axiom(0).expect("axiom");
-    s.syms[0] = 99;
+    let (mut syms, starts, params, keys) = engine.axiom(0).expect("axiom").into_parts();
+    syms[0] = 99;
+    let s = grm_derive::ModuleString::from_parts(syms, starts, params, keys);
     let e = engine
         .step(&s, 1, 0, &DeriveLimits::default())
         .expect_err("unknown symbol");

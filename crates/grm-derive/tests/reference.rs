@@ -45,7 +45,7 @@ fn reference_step(
     let draws = |i: usize| DrawCtx {
         seed,
         iteration,
-        position: input.keys[i],
+        position: input.keys()[i],
     };
     // Decide: per module, the alternative and its bound words.
     let mut decided = Vec::with_capacity(input.len());
@@ -84,7 +84,7 @@ fn reference_step(
     let mut out = ModuleString::new();
     for (i, applied) in decided.into_iter().enumerate() {
         let (sym, params) = input.get(i);
-        let key = input.keys[i];
+        let key = input.keys()[i];
         let Some((alt, first_alt, bind)) = applied else {
             out.push_keyed(sym, params, key);
             continue;
@@ -238,9 +238,9 @@ fn the_engine_rewrites_as_the_reference_does() {
         ];
         assert!(!engines[3].keyed());
         let mut want = engines[0].axiom(case).expect("axiom");
-        assert_eq!(want.keys, axiom_keys(&c, case), "case {case} axiom\n{src}");
+        assert_eq!(want.keys(), axiom_keys(&c, case), "case {case} axiom\n{src}");
         let mut got: Vec<ModuleString> = engines.iter().map(|_| want.clone()).collect();
-        got[3].keys.clear();
+        got[3].clear_keys();
         for it in 1..=6 {
             let next = reference_step(&c, &want, it, case, limits.max_modules);
             for (e, g) in engines.iter().zip(&mut got) {
@@ -288,11 +288,11 @@ fn the_engine_rewrites_as_the_reference_does() {
 
 /// Bit-for-bit equality, parameters compared as bits.
 fn same_bits(what: &str, a: &ModuleString, b: &ModuleString) {
-    assert_eq!(a.syms, b.syms, "{what}: symbols");
-    assert_eq!(a.starts, b.starts, "{what}: starts");
-    let bits = |s: &ModuleString| s.params.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(a.parts().syms, b.parts().syms, "{what}: symbols");
+    assert_eq!(a.parts().starts, b.parts().starts, "{what}: starts");
+    let bits = |s: &ModuleString| s.parts().params.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     assert_eq!(bits(a), bits(b), "{what}: parameters");
-    if !b.keys.is_empty() {
-        assert_eq!(a.keys, b.keys, "{what}: keys");
+    if !b.keys().is_empty() {
+        assert_eq!(a.keys(), b.keys(), "{what}: keys");
     }
 }

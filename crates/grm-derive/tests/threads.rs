@@ -7,9 +7,9 @@ use grm_derive::{DeriveLimits, Engine, ModuleString};
 
 fn bits(s: &ModuleString) -> (Vec<u32>, Vec<u32>, Vec<u32>) {
     (
-        s.syms.clone(),
-        s.starts.clone(),
-        s.params.iter().map(|x| x.to_bits()).collect(),
+        s.symbols().collect(),
+        s.parts().starts.to_vec(),
+        s.parts().params.iter().map(|x| x.to_bits()).collect(),
     )
 }
 

@@ -156,7 +156,7 @@ pub fn count_string(system: &System, string: &ModuleString) -> Footprint {
     let mut f = Footprint::default();
     let mut pushes = 0u64;
     let mut starts = 0u64;
-    for &s in &string.syms {
+    for s in string.symbols() {
         match ops.get(s as usize).copied().flatten() {
             Some(T::Forward) => {
                 f.bones += 1;

@@ -627,7 +627,7 @@ pub fn build_model_drawn(
         .held
         .saturating_add(budget::BASELINE_BYTES)
         .saturating_add(string.heap_bytes() as u64)
-        .saturating_add(4 * string.keys.len() as u64);
+        .saturating_add(4 * string.keys().len() as u64);
     let mut pre = budget::count_string(system, string);
     pre.bytes = pre.bytes.saturating_add(held);
     if pre.bytes > options.max_bytes {
@@ -653,7 +653,7 @@ pub fn build_model_drawn(
     let held = held - budget::BASELINE_BYTES;
     let options = BuildOptions { held, ..*options };
     let mut model = build_interpretation(program, skeleton, &options, params, drawn)?;
-    model.module_keys = string.keys.clone();
+    model.module_keys = string.keys().to_vec();
     Ok(model)
 }
 

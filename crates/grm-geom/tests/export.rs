@@ -466,9 +466,8 @@ fn examples_end_to_end() {
     assert_eq!(
         model.stats.bones,
         string
-            .syms
-            .iter()
-            .filter(|&&s| { system.symbols[s as usize].name == "F" })
+            .symbols()
+            .filter(|&s| { system.symbols[s as usize].name == "F" })
             .count()
     );
     let bytes = glb_bytes(&model).expect("small");
@@ -569,8 +568,9 @@ fn internal_geometry_errors_have_codes() {
         "material red { color = rgb(1, 0, 0); }\nsystem S { axiom F material(red) F; }",
     );
     let system = &program.systems[0];
-    let mut broken = axiom(system);
-    broken.starts.push(7);
+    let (syms, mut starts, params, keys) = axiom(system).into_parts();
+    starts.push(7);
+    let broken = grm_derive::ModuleString::from_parts(syms, starts, params, keys);
     let e = build_with_defaults(&program, system, &broken).expect_err("malformed");
     assert!(matches!(e, GeomError::Turtle(_)), "{e:?}");
     assert_eq!(e.code(), Code::InterpretString);

@@ -149,25 +149,26 @@ fn best<T>(
 /// Compare two derived strings: symbols, starts and identity keys
 /// exactly, parameters within a relative 1e-4.
 pub fn same_string(cpu: &ModuleString, gpu: &ModuleString) -> Result<(), String> {
-    if cpu.syms != gpu.syms || cpu.starts != gpu.starts {
-        let at = cpu.syms.iter().zip(&gpu.syms).position(|(a, b)| a != b);
+    let (c, g) = (cpu.parts(), gpu.parts());
+    if c.syms != g.syms || c.starts != g.starts {
+        let at = c.syms.iter().zip(g.syms.iter()).position(|(a, b)| a != b);
         return Err(format!(
             "the GPU string differs from the CPU string ({} vs {} modules, first difference at {at:?})",
             gpu.len(),
             cpu.len()
         ));
     }
-    for (k, (a, b)) in cpu.params.iter().zip(&gpu.params).enumerate() {
+    for (k, (a, b)) in c.params.iter().zip(g.params.iter()).enumerate() {
         if a.to_bits() != b.to_bits() && (a - b).abs() > 1e-4 * a.abs().max(1.0) {
             return Err(format!("parameter word {k}: CPU {a}, GPU {b}"));
         }
     }
-    if cpu.keys != gpu.keys {
-        let at = cpu.keys.iter().zip(&gpu.keys).position(|(a, b)| a != b);
+    if c.keys != g.keys {
+        let at = c.keys.iter().zip(g.keys).position(|(a, b)| a != b);
         return Err(format!(
             "the GPU's identity keys differ from the CPU's ({} vs {} keys, first difference at {at:?})",
-            gpu.keys.len(),
-            cpu.keys.len()
+            g.keys.len(),
+            c.keys.len()
         ));
     }
     Ok(())

@@ -132,7 +132,7 @@ pub fn match_brackets(
         let mut words: Vec<u32> = bytemuck::cast_slice(&[dir]).to_vec();
         words.extend_from_slice(&sys.pack());
         let tables = gpu.upload("tables", &words)?;
-        let syms = gpu.upload("symbols", &s.syms)?;
+        let syms = gpu.upload("symbols", &s.parts().syms)?;
         let n = s.len() as u64;
         let mut enc = gpu.encoder();
         let tree = record_match(gpu, &mut enc, &tables, &syms, n)?;

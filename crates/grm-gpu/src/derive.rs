@@ -178,18 +178,19 @@ impl DeviceString {
         s: &ModuleString,
     ) -> Result<DeviceString, GpuError> {
         check_string(sys, s)?;
+        let p = s.parts();
         let keys = if s.has_keys() && !s.is_empty() {
-            Some(gpu.upload("identity keys", &s.keys)?)
+            Some(gpu.upload("identity keys", p.keys)?)
         } else {
             None
         };
         Ok(DeviceString {
-            syms: gpu.upload("symbols", &s.syms)?,
-            starts: gpu.upload("parameter starts", &s.starts)?,
-            params: gpu.upload("parameters", &s.params)?,
+            syms: gpu.upload("symbols", &p.syms)?,
+            starts: gpu.upload("parameter starts", &p.starts)?,
+            params: gpu.upload("parameters", &p.params)?,
             keys,
             len: s.len() as u64,
-            words: s.params.len() as u64,
+            words: p.params.len() as u64,
         })
     }
 
@@ -216,30 +217,27 @@ impl DeviceString {
         } else {
             Vec::new()
         };
-        let s = ModuleString {
-            syms,
-            starts,
-            params,
-            keys,
-        };
+        let s = ModuleString::from_parts(syms, starts, params, keys);
         if !s.is_well_formed() {
             if std::env::var_os("GRM_DEBUG_STRING").is_some() {
-                let bad = (0..s.syms.len())
-                    .find(|&i| s.starts[i + 1] < s.starts[i])
+                let p = s.parts();
+                let (syms, starts, params) = (&p.syms, &p.starts, &p.params);
+                let bad = (0..syms.len())
+                    .find(|&i| starts.get(i + 1) < starts.get(i))
                     .unwrap_or(0);
                 let lo = bad.saturating_sub(3);
+                let from = starts.get(lo).map_or(0, |&x| x as usize).min(params.len());
                 eprintln!(
                     "DEBUG len {} words {} first bad {bad}: syms {:?} starts {:?} params {:?}",
-                    s.syms.len(),
-                    s.params.len(),
-                    &s.syms[lo..(bad + 4).min(s.syms.len())],
-                    &s.starts[lo..(bad + 5).min(s.starts.len())],
-                    &s.params
-                        [s.starts[lo] as usize..(s.starts[lo] as usize + 6).min(s.params.len())]
+                    syms.len(),
+                    params.len(),
+                    &syms[lo.min(syms.len())..(bad + 4).min(syms.len())],
+                    &starts[lo.min(starts.len())..(bad + 5).min(starts.len())],
+                    &params[from..(from + 6).min(params.len())]
                 );
                 eprintln!(
                     "DEBUG tail starts {:?}",
-                    &s.starts[s.starts.len().saturating_sub(4)..]
+                    &starts[starts.len().saturating_sub(4)..]
                 );
             }
             return Err(GpuError::Readback(
@@ -266,16 +264,16 @@ pub(crate) fn check_string(sys: &CompiledSystem, s: &ModuleString) -> Result<(),
             "the module string breaks its invariant".into(),
         ));
     }
-    for (i, &sym) in s.syms.iter().enumerate() {
+    for (i, (sym, p)) in s.iter().enumerate() {
         let Some(e) = sys.symbols.get(sym as usize) else {
             return Err(GpuError::InvalidInput(format!(
                 "module {i}: symbol {sym} is not in the system"
             )));
         };
-        if s.starts[i + 1] - s.starts[i] != e.param_words {
+        if p.len() as u32 != e.param_words {
             return Err(GpuError::InvalidInput(format!(
                 "module {i}: {} parameter words, its symbol has {}",
-                s.starts[i + 1] - s.starts[i],
+                p.len(),
                 e.param_words
             )));
         }
@@ -429,7 +427,7 @@ pub(crate) fn split_string(
     keyed: &[bool],
 ) -> Result<Vec<ModuleString>, GpuError> {
     let mut strings = Vec::with_capacity(dir.len());
-    let with_keys = all.has_keys() && !all.keys.is_empty();
+    let with_keys = all.has_keys() && !all.keys().is_empty();
     for (k, e) in dir.iter().enumerate() {
         let (a, b) = (e.start as usize, e.end as usize);
         if a > b || b > all.len() {
@@ -437,14 +435,19 @@ pub(crate) fn split_string(
                 "a system's range is outside the string".into(),
             ));
         }
-        let words = (all.starts[b] - all.starts[a]) as usize;
+        let words = (a..b).map(|i| all.params_of(i).len()).sum();
         let mut one = ModuleString::with_capacity(b - a, words);
-        for i in a..b {
-            let (sym, p) = all.get(i);
-            one.push(sym & SYM_MASK, p);
-        }
         if with_keys && keyed.get(k).copied().unwrap_or(false) {
-            one.keys = all.keys[a..b].to_vec();
+            let keys = &all.keys()[a..b];
+            for (i, &key) in (a..b).zip(keys) {
+                let (sym, p) = all.get(i);
+                one.push_keyed(sym & SYM_MASK, p, key);
+            }
+        } else {
+            for i in a..b {
+                let (sym, p) = all.get(i);
+                one.push(sym & SYM_MASK, p);
+            }
         }
         strings.push(one);
     }
@@ -738,7 +741,7 @@ impl<'a> GpuSystem<'a> {
         }
         let totals = |strings: &[ModuleString]| {
             strings.iter().fold((0u64, 0u64), |(m, w), s| {
-                (m + s.len() as u64, w + s.params.len() as u64)
+                (m + s.len() as u64, w + s.param_words() as u64)
             })
         };
         let stat = |k: u32, (m, w): (u64, u64), elapsed: Duration| GpuIterationStats {
@@ -759,12 +762,12 @@ impl<'a> GpuSystem<'a> {
             for (j, s) in strings.iter().enumerate() {
                 if k >= its[j] {
                     next.0 += s.len() as u64;
-                    next.1 += s.params.len() as u64;
+                    next.1 += s.param_words() as u64;
                     continue;
                 }
                 let sys = self.jobs[j].system;
                 let row = &rows[engine_of[j]];
-                for &sym in &s.syms {
+                for sym in s.symbols() {
                     for &(t, q) in row.get(sym as usize)? {
                         next.0 = next.0.saturating_add(q);
                         next.1 = next.1.saturating_add(
@@ -805,7 +808,7 @@ impl<'a> GpuSystem<'a> {
                 *h.get_mut(sym as usize)? += 1;
                 let tagged = sym | ((j as u32) << SYS_SHIFT);
                 if self.keyed {
-                    string.push_keyed(tagged, p, one.keys[i]);
+                    string.push_keyed(tagged, p, one.keys()[i]);
                 } else {
                     string.push(tagged, p);
                 }
@@ -1208,7 +1211,7 @@ impl<'a> GpuSystem<'a> {
             Some(p) => (
                 Vec::new(),
                 p.string.len() as u64,
-                p.string.params.len() as u64,
+                p.string.param_words() as u64,
             ),
             None => self.axiom_offsets()?,
         };
@@ -1497,7 +1500,7 @@ impl<'a> GpuSystem<'a> {
         let mut string = match prefix {
             Some(p) => {
                 let s = &p.string;
-                let out = self.alloc_string(s.len() as u64, s.params.len() as u64)?;
+                let out = self.alloc_string(s.len() as u64, s.param_words() as u64)?;
                 write_string(self.gpu, &out, s);
                 for st in &p.stats {
                     progress(st);
@@ -2033,17 +2036,18 @@ pub(crate) struct Prefix {
 /// them).
 fn write_string(gpu: &Gpu, out: &DeviceString, s: &ModuleString) {
     let q = gpu.queue();
-    if !s.syms.is_empty() {
-        q.write_buffer(&out.syms, 0, bytemuck::cast_slice(&s.syms));
+    let p = s.parts();
+    if !p.syms.is_empty() {
+        q.write_buffer(&out.syms, 0, bytemuck::cast_slice(&p.syms));
         if let Some(k) = &out.keys
             && s.has_keys()
         {
-            q.write_buffer(k, 0, bytemuck::cast_slice(&s.keys));
+            q.write_buffer(k, 0, bytemuck::cast_slice(p.keys));
         }
     }
-    q.write_buffer(&out.starts, 0, bytemuck::cast_slice(&s.starts));
-    if !s.params.is_empty() {
-        q.write_buffer(&out.params, 0, bytemuck::cast_slice(&s.params));
+    q.write_buffer(&out.starts, 0, bytemuck::cast_slice(&p.starts));
+    if !p.params.is_empty() {
+        q.write_buffer(&out.params, 0, bytemuck::cast_slice(&p.params));
     }
 }
 

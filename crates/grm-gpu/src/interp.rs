@@ -401,7 +401,7 @@ fn check_depths(got: &[Vec<u32>], ranges: &[(u64, u64)]) -> Result<(u64, u64), G
 fn host_bracket_bounds(program: &TurtleProgram, string: &ModuleString) -> BracketBounds {
     let kinds = program.bracket_kinds();
     let (mut d, mut depth, mut opens) = (0i64, 0i64, 0u64);
-    for &sym in &string.syms {
+    for sym in string.symbols() {
         let k = kinds.get(sym as usize).copied().unwrap_or(0);
         d += i64::from(k);
         opens += u64::from(k > 0);
@@ -488,26 +488,26 @@ pub fn interpret_with(
         ));
     }
     if let Some(i) = string
-        .syms
-        .iter()
-        .position(|&s| s as usize >= program.syms.len())
+        .symbols()
+        .position(|s| s as usize >= program.syms.len())
     {
         return Err(GpuError::InvalidInput(format!(
             "module {i}: symbol {} is not in the system",
-            string.syms[i]
+            string.sym(i)
         )));
     }
     gpu.run(|| {
+        let p = string.parts();
         let s = DeviceString {
-            syms: gpu.upload("symbols", &string.syms)?,
-            starts: gpu.upload("parameter starts", &string.starts)?,
-            params: gpu.upload("parameters", &string.params)?,
+            syms: gpu.upload("symbols", &p.syms)?,
+            starts: gpu.upload("parameter starts", &p.starts)?,
+            params: gpu.upload("parameters", &p.params)?,
             keys: None,
             len: string.len() as u64,
-            words: string.params.len() as u64,
+            words: p.params.len() as u64,
         };
         let mut counts = vec![0u64; program.syms.len()];
-        for &sym in &string.syms {
+        for sym in string.symbols() {
             // In range: checked above.
             counts[sym as usize] += 1;
         }

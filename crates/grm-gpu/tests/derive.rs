@@ -60,8 +60,8 @@ fn weights_past_the_float_range_draw_fairly_on_both_engines() {
             let cpu = cpu_derive(sys, 1, seed).expect("cpu derives");
             let gpu = derive(g, sys, &gpu_opts(sys, 1, seed)).expect("gpu derives");
             assert_same(&format!("{what} seed {seed}"), &cpu, &gpu.string);
-            let f = cpu.syms.iter().filter(|&&s| s == cpu.syms[0]).count();
-            let distinct: std::collections::HashSet<_> = cpu.syms.iter().collect();
+            let f = cpu.symbols().filter(|&s| s == cpu.sym(0)).count();
+            let distinct: std::collections::HashSet<_> = cpu.symbols().collect();
             assert_eq!(distinct.len(), 2, "{what}: both alternatives are drawn");
             // 200 fair (1:1) or 2:3 draws: far from all one way.
             assert!((20..=180).contains(&f), "{what} seed {seed}: {f} of 200");

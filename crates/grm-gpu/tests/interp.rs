@@ -199,9 +199,8 @@ fn derived_strings_interpret_with_table_bounds() {
         let string = cpu_derive(&c, iterations, c.settings.seed).expect("derives");
         let cpu = grm_turtle::interpret(sys, &c.settings, &string).expect("cpu interprets");
         let depth = string
-            .syms
-            .iter()
-            .scan(0i64, |d, &s| {
+            .symbols()
+            .scan(0i64, |d, s| {
                 match sys.symbols[s as usize].name.as_str() {
                     "[" => *d += 1,
                     "]" => *d -= 1,

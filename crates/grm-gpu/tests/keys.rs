@@ -39,7 +39,7 @@ fn check(what: &str, sys: &CompiledSystem, iterations: u32, seeds: &[u32]) -> Ve
     for &seed in seeds {
         let cpu = cpu_derive(sys, iterations, seed).expect("cpu derives");
         assert_eq!(
-            cpu.has_keys() && !cpu.keys.is_empty(),
+            cpu.has_keys() && !cpu.keys().is_empty(),
             sys.draws_randomly() && !cpu.is_empty(),
             "{what}: the CPU carries keys where the system draws"
         );
@@ -49,7 +49,7 @@ fn check(what: &str, sys: &CompiledSystem, iterations: u32, seeds: &[u32]) -> Ve
                 let o = opts(sys, iterations, seed, prefix);
                 let (d, path) = derive_with(g, sys, &o, strategy).expect("gpu derives");
                 assert_eq!(
-                    d.string.keys.len(),
+                    d.string.keys().len(),
                     if sys.draws_randomly() {
                         d.string.len()
                     } else {
@@ -169,7 +169,7 @@ fn a_mixed_forest_carries_each_systems_keys() {
         for (k, ((job, got), want)) in jobs.iter().zip(strings).zip(&want).enumerate() {
             let what = format!("{what}: job {k} ({}, seed {})", job.system.name, job.seed);
             assert_eq!(
-                !got.keys.is_empty(),
+                !got.keys().is_empty(),
                 job.system.draws_randomly() && !got.is_empty(),
                 "{what}: keys"
             );
@@ -218,7 +218,7 @@ fn check_asked(what: &str, sys: &CompiledSystem, iterations: u32, seed: u32) -> 
         .expect("cpu derives")
         .string;
     assert_eq!(
-        cpu.keys.len(),
+        cpu.keys().len(),
         cpu.len(),
         "{what}: the CPU keys every module"
     );
@@ -231,7 +231,7 @@ fn check_asked(what: &str, sys: &CompiledSystem, iterations: u32, seed: u32) -> 
                 ..opts(sys, iterations, seed, prefix)
             };
             let (d, path) = derive_with(g, sys, &o, strategy).expect("gpu derives");
-            assert_eq!(d.string.keys.len(), d.string.len(), "{w}: keys");
+            assert_eq!(d.string.keys().len(), d.string.len(), "{w}: keys");
             assert_same(&w, &cpu, &d.string);
             paths.push(path);
         }
@@ -287,7 +287,7 @@ fn deterministic_systems_carry_the_cpu_keys_when_asked() {
         .expect("cpu derives")
         .string;
     let got = r.string.expect("read");
-    assert!(!got.keys.is_empty());
+    assert!(!got.keys().is_empty());
     assert_same("run, keys asked for", &want, &got);
     // A forest of seeds: every tree keyed, as derived alone.
     let jobs: Vec<GpuJob<'_>> = (0..3)
@@ -313,11 +313,11 @@ fn deterministic_systems_carry_the_cpu_keys_when_asked() {
             DeriveStrategy::PerIteration,
         )
         .expect("derives");
-        assert_eq!(s.keys.len(), s.len(), "tree {k}: keys");
+        assert_eq!(s.keys().len(), s.len(), "tree {k}: keys");
         assert_same(&format!("forest tree {k}, keys asked for"), &d.string, s);
     }
     // Without the option nothing changes: no keys.
     let (d, _) =
         derive_with(gpu(), &sys, &opts(&sys, 3, 0, 0), DeriveStrategy::Auto).expect("derives");
-    assert!(d.string.keys.is_empty());
+    assert!(d.string.keys().is_empty());
 }

@@ -73,9 +73,9 @@ impl Tree {
             production: Some(sys.axiom_alt),
             modules: 0..0,
         });
-        for (i, &sym) in axiom.syms.iter().enumerate() {
+        for (i, sym) in axiom.symbols().enumerate() {
             nodes.push(TreeNode {
-                key: axiom.keys.get(i).copied().unwrap_or_default(),
+                key: axiom.keys().get(i).copied().unwrap_or_default(),
                 parent: Some(0),
                 symbol: Some(sym),
                 iteration: 0,
@@ -119,9 +119,9 @@ impl Tree {
                     for j in o..o + n {
                         cur.push(self.nodes.len() as u32);
                         self.nodes.push(TreeNode {
-                            key: next.keys.get(j).copied().unwrap_or_default(),
+                            key: next.keys().get(j).copied().unwrap_or_default(),
                             parent: Some(node),
-                            symbol: next.syms.get(j).copied(),
+                            symbol: next.sym_at(j),
                             iteration,
                             production: None,
                             modules: 0..0,

@@ -149,7 +149,7 @@ fn a_key_edits_file_is_replayed_and_classified() {
     );
     // The set F: 7.5 in the final string.
     let f = (0..without.string.len())
-        .find(|&i| without.string.keys[i] == leaf.key)
+        .find(|&i| without.string.keys()[i] == leaf.key)
         .expect("the F");
     assert_eq!(without.string.get(f).1, &[7.5]);
 

@@ -61,11 +61,11 @@ fn the_gpu_grows_the_cpus_string_with_its_keys() {
             assert!(events.contains(&format!("step {n}")), "{what}: {events:?}");
             let run = grown.gpu.as_ref().expect("the GPU's report");
             assert!(run.string.is_none(), "{what}: the string moved out");
-            assert_eq!(grown.string.syms, cpu.string.syms, "{what}");
-            assert_eq!(grown.string.starts, cpu.string.starts, "{what}");
-            assert_eq!(grown.string.keys, cpu.string.keys, "{what}");
+            assert_eq!(grown.string.parts().syms, cpu.string.parts().syms, "{what}");
+            assert_eq!(grown.string.parts().starts, cpu.string.parts().starts, "{what}");
+            assert_eq!(grown.string.keys(), cpu.string.keys(), "{what}");
             assert_eq!(
-                grown.string.keys.is_empty(),
+                grown.string.keys().is_empty(),
                 !keys && !c.draws_randomly(),
                 "{what}"
             );
@@ -182,8 +182,8 @@ fn a_gpu_forest_is_the_cpu_forest() {
     assert!(matches!(gpu.ran, Ran::Gpu { bones: None, .. }));
     assert_eq!((gpu.modules, gpu.produced), (cpu.modules, cpu.produced));
     for (k, (a, b)) in cpu.trees.iter().zip(&gpu.trees).enumerate() {
-        assert_eq!(a.kept.syms, b.kept.syms, "tree {k}");
-        assert_eq!(a.kept.keys, b.kept.keys, "tree {k}");
+        assert_eq!(a.kept.parts().syms, b.kept.parts().syms, "tree {k}");
+        assert_eq!(a.kept.keys(), b.kept.keys(), "tree {k}");
         let (ia, ib) = (
             a.interpretation.as_ref().expect("cpu"),
             b.interpretation.as_ref().expect("gpu"),

@@ -38,7 +38,7 @@ fn every_vertex_of_a_glb_names_its_part_and_identity() {
         .expect("derives");
     let model =
         grm_geom::build_model(p, sys, &g.string, &c.settings, &c.param_values).expect("model");
-    assert_eq!(model.module_keys, g.string.keys);
+    assert_eq!(model.module_keys, g.string.keys());
     let bytes = grm_geom::export::glb_bytes(&model).expect("fits");
     // `from_slice` validates the document, the custom attribute included.
     let gltf = gltf::Gltf::from_slice(&bytes).expect("valid glb");
@@ -55,7 +55,7 @@ fn every_vertex_of_a_glb_names_its_part_and_identity() {
     for part in parts {
         let m = part["module"].as_u64().expect("module") as u32;
         let key = u32::from_str_radix(part["key"].as_str().expect("key"), 16).expect("hex");
-        assert_eq!(key, g.string.keys[m as usize]);
+        assert_eq!(key, g.string.keys()[m as usize]);
         let node = tree.node_of_module(m).expect("a node");
         assert_eq!(tree.nodes[node as usize].key, key);
     }

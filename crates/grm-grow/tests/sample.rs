@@ -59,7 +59,7 @@ fn the_result_is_shown_with_its_tree() {
     assert_eq!(tree.nodes[0].key, tree.root_key);
     assert_eq!(tree, &s.tree_of(m));
     // Every module of the string is its expansion's, and carries a key.
-    assert_eq!(m.string.keys.len(), m.string.len());
+    assert_eq!(m.string.keys().len(), m.string.len());
     for k in 0..m.string.len() as u32 {
         let n = tree.node_of_module(k).expect("an owner");
         assert!(tree.nodes[n as usize].modules.contains(&k), "module {k}");
@@ -70,16 +70,12 @@ fn the_result_is_shown_with_its_tree() {
     let again = run(&checked, &request);
     let a = again.shown().models()[0].string.clone();
     assert_eq!(
-        (a.syms, a.params, a.keys),
-        (
-            m.string.syms.clone(),
-            m.string.params.clone(),
-            m.string.keys.clone()
-        )
+        a.into_parts(),
+        m.string.clone().into_parts()
     );
     let other = run(&checked, &SampleRequest::new(&curves, short(8)));
     assert!(other.tree.is_none(), "no tree asked for");
-    assert_ne!(other.shown().models()[0].string.keys, m.string.keys);
+    assert_ne!(other.shown().models()[0].string.keys(), m.string.keys());
 }
 
 #[test]
@@ -113,8 +109,8 @@ fn a_generation_shows_its_frame() {
         },
     );
     assert_eq!(
-        full.shown().models()[0].string.keys,
-        last.shown().models()[0].string.keys
+        full.shown().models()[0].string.keys(),
+        last.shown().models()[0].string.keys()
     );
 }
 

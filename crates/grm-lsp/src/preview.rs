@@ -1770,10 +1770,9 @@ mod tests {
     fn makers(c: &CompiledSystem, g: &Grown) -> Vec<String> {
         let o = g.origin.as_ref().expect("origins");
         g.string
-            .syms
-            .iter()
+            .symbols()
             .zip(o)
-            .map(|(&s, &a)| {
+            .map(|(s, &a)| {
                 let alt = &c.alts[a as usize];
                 let first = c.successor(alt).first().map_or("ε".to_string(), |m| {
                     c.symbol_names[m.symbol as usize].clone()
@@ -1823,7 +1822,7 @@ mod tests {
                     Some(a),
                     "seed {seed}"
                 );
-                if c.symbol_names[g.string.syms[m] as usize] == "G" {
+                if c.symbol_names[g.string.sym(m) as usize] == "G" {
                     seen.insert(a);
                 }
             }
@@ -1845,9 +1844,8 @@ mod tests {
         let g = grow(&c, 3, 0, 1000, Some(b_alt), false, None).unwrap();
         let names: Vec<&str> = g
             .string
-            .syms
-            .iter()
-            .map(|&s| c.symbol_names[s as usize].as_str())
+            .symbols()
+            .map(|s| c.symbol_names[s as usize].as_str())
             .collect();
         assert_eq!(names, ["F", "G", "G", "G"]);
         assert_eq!(g.focus, [false, true, true, true]);

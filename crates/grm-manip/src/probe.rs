@@ -310,9 +310,8 @@ fn grow_with(
                 if labels {
                     let sym = g
                         .string
-                        .syms
-                        .get(b.module as usize)
-                        .and_then(|&s| compiled.symbol_names.get(s as usize));
+                        .sym_at(b.module as usize)
+                        .and_then(|s| compiled.symbol_names.get(s as usize));
                     snap.labels.insert(
                         m,
                         format!(

@@ -355,10 +355,7 @@ impl<'a> Grammar<'a> {
             return Ok(());
         };
         let s = &mut w.scratch;
-        s.syms.clear();
-        s.params.clear();
-        s.starts.clear();
-        s.starts.push(0);
+        s.clear();
         for m in sys.successor(a) {
             let n = self.words.get(m.symbol as usize).copied().unwrap_or(0) as usize;
             let o = m.word_offset as usize;

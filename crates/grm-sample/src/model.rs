@@ -25,7 +25,7 @@ pub struct TreeNode {
     /// keys"): the run's root key for the axiom, else `child_key(the
     /// parent's key, the module's salt)`, as in a derivation. The model's
     /// string carries the keys of all its modules
-    /// ([`SampledModel::string`]`.keys`).
+    /// ([`SampledModel::string`]`.keys()`).
     pub key: u32,
     pub kind: NodeKind,
     /// The expanded symbol (`u32::MAX` for the axiom).
@@ -140,7 +140,7 @@ impl SampledModel {
         )?;
         // The string carries the expansions' identity keys: exports name
         // parts by them.
-        model.module_keys = self.string.keys.clone();
+        model.module_keys = self.string.keys().to_vec();
         Ok(model)
     }
 }

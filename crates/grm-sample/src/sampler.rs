@@ -2509,11 +2509,11 @@ impl<'a> Sampler<'a> {
                         turtle: t,
                         parent,
                         depth: 0,
-                        key: string.keys[i],
+                        key: string.keys()[i],
                     });
                     continue;
                 }
-                let sym = string.syms[i];
+                let sym = string.sym(i);
                 if !self.g.is_geometry(sym) {
                     // Inert: a symbol without a phase, or (only if the
                     // checker let one through) a skeleton symbol.
@@ -2556,7 +2556,7 @@ impl<'a> Sampler<'a> {
                         turtle: t,
                         parent,
                         depth,
-                        key: string.keys[i],
+                        key: string.keys()[i],
                     });
                 }
             }

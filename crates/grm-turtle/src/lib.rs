@@ -901,14 +901,10 @@ impl Interpreter {
         let base_depth = self.stack.len();
         let mut t = start;
         let mut i = range.start;
-        let syms = &string.syms;
-        let starts = &string.starts;
-        let params = &string.params;
         while i < range.end {
-            let sym = syms[i];
-            // Well-formedness of the range (checked above) makes these
-            // slices valid.
-            let p = &params[starts[i] as usize..starts[i + 1] as usize];
+            // Well-formedness of the range (checked above) makes this
+            // slice valid.
+            let (sym, p) = string.get(i);
             let op = match self.ops.get(sym as usize) {
                 Some(op) => *op,
                 None => {
@@ -948,7 +944,7 @@ impl Interpreter {
     fn skip_branch(&self, string: &ModuleString, from: usize, end: usize) -> usize {
         let mut depth = 0u32;
         for j in from..end {
-            match self.ops.get(string.syms[j] as usize) {
+            match self.ops.get(string.sym(j) as usize) {
                 Some(Some(Terminal::Push)) => depth += 1,
                 Some(Some(Terminal::Pop)) => {
                     if depth == 0 {

@@ -344,8 +344,9 @@ fn robustness() {
             symbol: 999
         })
     );
-    let mut bad = string("F F");
-    bad.starts[1] = 7;
+    let (syms, mut starts, params, keys) = string("F F").into_parts();
+    starts[1] = 7;
+    let bad = ModuleString::from_parts(syms, starts, params, keys);
     assert_eq!(it.run(&bad), Err(TurtleError::MalformedString));
     assert!(matches!(
         it.run_range(it.initial(), &string("F"), 0..2, &mut |_, _| {}),

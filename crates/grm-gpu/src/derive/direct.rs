@@ -611,7 +611,7 @@ impl GpuSystem<'_> {
         let gpu = self.gpu;
         let (total, total_words) = plan.total();
         let out = self.alloc_string(total, total_words)?;
-        let ax = &plan.axioms;
+        let ax = plan.axioms.parts();
         // Everything the kernel reads, in one upload: each part at an
         // aligned offset of one pooled buffer (one write, one binding
         // range each).
@@ -623,7 +623,7 @@ impl GpuSystem<'_> {
             bytemuck::cast_slice(&ax.params),
             bytemuck::cast_slice(&plan.in_offs),
             // The axiom modules' identity keys (empty without keys).
-            bytemuck::cast_slice(&ax.keys),
+            bytemuck::cast_slice(ax.keys),
         ];
         let align = gpu.storage_offset_alignment() as usize;
         let mut packed: Vec<u8> = Vec::new();
@@ -644,7 +644,7 @@ impl GpuSystem<'_> {
         let params = gpu.uniform(
             "expand params",
             &ExpandParams {
-                n_in: ax.len() as u32,
+                n_in: plan.axioms.len() as u32,
                 total: total as u32,
                 total_words: total_words as u32,
                 keyed: u32::from(self.keyed),
@@ -825,7 +825,7 @@ impl GpuSystem<'_> {
                 o != Some(push) && o != Some(pop) && balanced(&mut c.iter().copied())
             }
             None => true,
-        }) && balanced(&mut plan.axioms.syms.iter().map(|&x| x & SYM_MASK));
+        }) && balanced(&mut plan.axioms.symbols().map(|x| x & SYM_MASK));
         if !brackets_ok {
             return Ok(None);
         }
@@ -859,7 +859,7 @@ impl GpuSystem<'_> {
         }
         let f_top = ft.len();
         let mut at = 0u64;
-        for &sym in &plan.axioms.syms {
+        for sym in plan.axioms.symbols() {
             ft.push(u32::try_from(at).unwrap_or(u32::MAX));
             at = at.saturating_add(f[steps][(sym & SYM_MASK) as usize]);
         }
@@ -916,6 +916,7 @@ impl GpuSystem<'_> {
             }
             Ok(b)
         };
+        let st = st.parts();
         let syms = put("slot symbols", bytemuck::cast_slice(&st.syms))?;
         let starts = put("slot parameter starts", bytemuck::cast_slice(&st.starts))?;
         let params = put("slot parameters", bytemuck::cast_slice(&st.params))?;

@@ -64,19 +64,19 @@ pub fn cpu_derive(
 /// "Identity keys"), or neither carries any.
 pub fn assert_same_keys(what: &str, a: &grm_derive::ModuleString, b: &grm_derive::ModuleString) {
     assert_eq!(
-        a.keys.is_empty(),
-        b.keys.is_empty(),
+        a.keys().is_empty(),
+        b.keys().is_empty(),
         "{what}: one string carries identity keys ({} and {} keys)",
-        a.keys.len(),
-        b.keys.len()
+        a.keys().len(),
+        b.keys().len()
     );
-    if let Some(i) = (0..a.keys.len().min(b.keys.len())).find(|&i| a.keys[i] != b.keys[i]) {
+    if let Some(i) = (0..a.keys().len().min(b.keys().len())).find(|&i| a.keys()[i] != b.keys()[i]) {
         panic!(
             "{what}: module {i}: identity key {:#010x}, then {:#010x}",
-            a.keys[i], b.keys[i]
+            a.keys()[i], b.keys()[i]
         );
     }
-    assert_eq!(a.keys.len(), b.keys.len(), "{what}: identity keys");
+    assert_eq!(a.keys().len(), b.keys().len(), "{what}: identity keys");
 }
 
 /// Relative tolerance of GPU parameters against the CPU's (see the crate
@@ -90,15 +90,15 @@ pub const PARAM_TOLERANCE: f32 = 1e-4;
 /// [`PARAM_TOLERANCE`].
 pub fn assert_same(what: &str, cpu: &grm_derive::ModuleString, gpu: &grm_derive::ModuleString) {
     assert_eq!(cpu.len(), gpu.len(), "{what}: lengths");
-    if let Some(i) = (0..cpu.len()).find(|&i| cpu.syms[i] != gpu.syms[i]) {
+    if let Some(i) = (0..cpu.len()).find(|&i| cpu.sym(i) != gpu.sym(i)) {
         panic!(
             "{what}: module {i}: symbol {} on the CPU, {} on the GPU",
-            cpu.syms[i], gpu.syms[i]
+            cpu.sym(i), gpu.sym(i)
         );
     }
-    assert_eq!(cpu.starts, gpu.starts, "{what}: parameter starts");
+    assert_eq!(cpu.parts().starts, gpu.parts().starts, "{what}: parameter starts");
     assert_same_keys(what, cpu, gpu);
-    for (k, (c, g)) in cpu.params.iter().zip(&gpu.params).enumerate() {
+    for (k, (c, g)) in cpu.parts().params.iter().zip(gpu.parts().params.iter()).enumerate() {
         let ok = c.to_bits() == g.to_bits() || (c - g).abs() <= PARAM_TOLERANCE * c.abs().max(1.0);
         assert!(
             ok,
@@ -144,11 +144,11 @@ pub fn inline_program(src: &str) -> Option<(grm_sema::Program, grm_compile::Comp
 /// The two strings are identical, parameters bit for bit, identity keys
 /// included.
 pub fn same_bits(what: &str, a: &grm_derive::ModuleString, b: &grm_derive::ModuleString) {
-    assert_eq!(a.syms, b.syms, "{what}: symbols");
-    assert_eq!(a.starts, b.starts, "{what}: starts");
+    assert_eq!(a.parts().syms, b.parts().syms, "{what}: symbols");
+    assert_eq!(a.parts().starts, b.parts().starts, "{what}: starts");
     assert_same_keys(what, a, b);
     let bits =
-        |s: &grm_derive::ModuleString| s.params.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        |s: &grm_derive::ModuleString| s.parts().params.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     assert_eq!(bits(a), bits(b), "{what}: parameters");
 }
 
