@@ -238,7 +238,11 @@ fn the_engine_rewrites_as_the_reference_does() {
         ];
         assert!(!engines[3].keyed());
         let mut want = engines[0].axiom(case).expect("axiom");
-        assert_eq!(want.keys(), axiom_keys(&c, case), "case {case} axiom\n{src}");
+        assert_eq!(
+            want.keys(),
+            axiom_keys(&c, case),
+            "case {case} axiom\n{src}"
+        );
         let mut got: Vec<ModuleString> = engines.iter().map(|_| want.clone()).collect();
         got[3].clear_keys();
         for it in 1..=6 {
@@ -290,7 +294,13 @@ fn the_engine_rewrites_as_the_reference_does() {
 fn same_bits(what: &str, a: &ModuleString, b: &ModuleString) {
     assert_eq!(a.parts().syms, b.parts().syms, "{what}: symbols");
     assert_eq!(a.parts().starts, b.parts().starts, "{what}: starts");
-    let bits = |s: &ModuleString| s.parts().params.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    let bits = |s: &ModuleString| {
+        s.parts()
+            .params
+            .iter()
+            .map(|x| x.to_bits())
+            .collect::<Vec<_>>()
+    };
     assert_eq!(bits(a), bits(b), "{what}: parameters");
     if !b.keys().is_empty() {
         assert_eq!(a.keys(), b.keys(), "{what}: keys");

@@ -244,6 +244,6 @@ fn a_long_batched_derivation_crosses_submission_chunks() {
     assert_eq!(path, DerivePath::Batched);
     let cpu = cpu_derive(&sys, iterations, 9).expect("CPU derives");
     assert_same("2,500 iterations", &cpu, &d.string);
-    let x = cpu.params[0];
+    let x = cpu.params_of(0)[0];
     assert!(x > 2_500.0 && x < 5_000.0, "A({x})");
 }

@@ -115,7 +115,7 @@ fn draws_between_huge_bounds_stay_between_them() {
     assert_same("huge bounds", &cpu, &gpu.string);
     let mut signs = [0, 0];
     let mut chosen = [0, 0];
-    for m in cpu.params.chunks(3) {
+    for m in cpu.parts().params.chunks(3) {
         assert!(m.iter().all(|x| x.is_finite()), "{m:?}");
         assert!((-3e38..=3e38).contains(&m[0]) && (-2e38..=2e38).contains(&m[1]));
         assert_eq!(m[1], m[1].round());

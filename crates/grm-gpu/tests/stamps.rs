@@ -50,8 +50,16 @@ fn check(
         assert!(set <= level && set <= g.timestamps());
         let (timed, _) = derive_with(g, sys, o, strategy).expect("derives");
         g.set_profiling(Timestamps::None);
-        assert_eq!(timed.string.parts().syms, plain.string.parts().syms, "{level:?}");
-        assert_eq!(timed.string.parts().starts, plain.string.parts().starts, "{level:?}");
+        assert_eq!(
+            timed.string.parts().syms,
+            plain.string.parts().syms,
+            "{level:?}"
+        );
+        assert_eq!(
+            timed.string.parts().starts,
+            plain.string.parts().starts,
+            "{level:?}"
+        );
         assert_eq!(timed.stats.len(), plain.stats.len());
         assert!(timed.stats[0].device.is_none(), "the axiom is not a step");
         if set == Timestamps::None {

@@ -282,7 +282,7 @@ fn derive_cpu(
                     bytes,
                     limit: opts.limits.max_bytes,
                     modules: next.len() as u64,
-                    words: next.params.len() as u64,
+                    words: next.param_words() as u64,
                     file: sys.file,
                     span: sys.span,
                 });

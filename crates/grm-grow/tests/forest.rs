@@ -60,7 +60,11 @@ fn every_tree_is_its_own_derivation() {
                 .derive(&options(t.iterations, t.seed), &mut |_| {})
                 .expect("derives");
             assert_eq!(g.kept.parts().syms, alone.string.parts().syms, "tree {k}");
-            assert_eq!(g.kept.params, alone.string.params, "tree {k}");
+            assert_eq!(
+                g.kept.parts().params,
+                alone.string.parts().params,
+                "tree {k}"
+            );
             assert_eq!(g.kept.keys(), alone.string.keys(), "tree {k}");
             assert_eq!(g.modules, alone.string.len() as u64);
             let i = grm_turtle::interpret(sys, &c.settings, &alone.string).expect("interprets");

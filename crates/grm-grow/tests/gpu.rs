@@ -62,7 +62,11 @@ fn the_gpu_grows_the_cpus_string_with_its_keys() {
             let run = grown.gpu.as_ref().expect("the GPU's report");
             assert!(run.string.is_none(), "{what}: the string moved out");
             assert_eq!(grown.string.parts().syms, cpu.string.parts().syms, "{what}");
-            assert_eq!(grown.string.parts().starts, cpu.string.parts().starts, "{what}");
+            assert_eq!(
+                grown.string.parts().starts,
+                cpu.string.parts().starts,
+                "{what}"
+            );
             assert_eq!(grown.string.keys(), cpu.string.keys(), "{what}");
             assert_eq!(
                 grown.string.keys().is_empty(),

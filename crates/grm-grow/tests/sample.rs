@@ -69,10 +69,7 @@ fn the_result_is_shown_with_its_tree() {
     // seed, another model.
     let again = run(&checked, &request);
     let a = again.shown().models()[0].string.clone();
-    assert_eq!(
-        a.into_parts(),
-        m.string.clone().into_parts()
-    );
+    assert_eq!(a.into_parts(), m.string.clone().into_parts());
     let other = run(&checked, &SampleRequest::new(&curves, short(8)));
     assert!(other.tree.is_none(), "no tree asked for");
     assert_ne!(other.shown().models()[0].string.keys(), m.string.keys());

@@ -73,7 +73,8 @@ pub fn assert_same_keys(what: &str, a: &grm_derive::ModuleString, b: &grm_derive
     if let Some(i) = (0..a.keys().len().min(b.keys().len())).find(|&i| a.keys()[i] != b.keys()[i]) {
         panic!(
             "{what}: module {i}: identity key {:#010x}, then {:#010x}",
-            a.keys()[i], b.keys()[i]
+            a.keys()[i],
+            b.keys()[i]
         );
     }
     assert_eq!(a.keys().len(), b.keys().len(), "{what}: identity keys");
@@ -93,12 +94,23 @@ pub fn assert_same(what: &str, cpu: &grm_derive::ModuleString, gpu: &grm_derive:
     if let Some(i) = (0..cpu.len()).find(|&i| cpu.sym(i) != gpu.sym(i)) {
         panic!(
             "{what}: module {i}: symbol {} on the CPU, {} on the GPU",
-            cpu.sym(i), gpu.sym(i)
+            cpu.sym(i),
+            gpu.sym(i)
         );
     }
-    assert_eq!(cpu.parts().starts, gpu.parts().starts, "{what}: parameter starts");
+    assert_eq!(
+        cpu.parts().starts,
+        gpu.parts().starts,
+        "{what}: parameter starts"
+    );
     assert_same_keys(what, cpu, gpu);
-    for (k, (c, g)) in cpu.parts().params.iter().zip(gpu.parts().params.iter()).enumerate() {
+    for (k, (c, g)) in cpu
+        .parts()
+        .params
+        .iter()
+        .zip(gpu.parts().params.iter())
+        .enumerate()
+    {
         let ok = c.to_bits() == g.to_bits() || (c - g).abs() <= PARAM_TOLERANCE * c.abs().max(1.0);
         assert!(
             ok,
@@ -147,8 +159,13 @@ pub fn same_bits(what: &str, a: &grm_derive::ModuleString, b: &grm_derive::Modul
     assert_eq!(a.parts().syms, b.parts().syms, "{what}: symbols");
     assert_eq!(a.parts().starts, b.parts().starts, "{what}: starts");
     assert_same_keys(what, a, b);
-    let bits =
-        |s: &grm_derive::ModuleString| s.parts().params.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    let bits = |s: &grm_derive::ModuleString| {
+        s.parts()
+            .params
+            .iter()
+            .map(|x| x.to_bits())
+            .collect::<Vec<_>>()
+    };
     assert_eq!(bits(a), bits(b), "{what}: parameters");
 }
 
