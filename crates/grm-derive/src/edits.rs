@@ -428,10 +428,12 @@ impl<'a> Engine<'a> {
     pub fn with_edits(mut self, plan: EditPlan) -> Engine<'a> {
         if plan.is_empty() {
             self.edits = None;
-        } else {
-            self.keyed = true;
-            self.edits = Some(Box::new(plan));
+            return self;
         }
+        // An edit may set any module's words: every module stores them.
+        self = self.with_implicit_words(false);
+        self.keyed = true;
+        self.edits = Some(Box::new(plan));
         self
     }
 
@@ -525,7 +527,7 @@ impl<'a> Engine<'a> {
         limits: &DeriveLimits,
         record: Option<&mut StepRecord>,
     ) -> Result<ModuleString, DeriveError> {
-        self.check_input(input)?;
+        let input = &*self.check_input(input)?;
         if state.tags.len() != input.len() {
             return Err(DeriveError::InvalidInput(
                 "the edit state is not the input string's".into(),
@@ -754,7 +756,7 @@ impl<'a> Engine<'a> {
         range: std::ops::Range<usize>,
     ) -> Result<(u64, u64), RuntimeError> {
         if tags[range.clone()].iter().all(|&t| t == 0) {
-            return self.count_chunk(step, range);
+            return self.count_chunk(step, range).map(|(m, w, _)| (m, w));
         }
         let syms = &step.input.syms;
         let (mut m, mut w) = (0u64, 0u64);

@@ -33,7 +33,9 @@
 //! successor into positions the following ones overwrite, never past the
 //! chunk's slice.
 
+use std::borrow::Cow;
 use std::ops::Range;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use grm_compile::CompiledSystem;
@@ -45,7 +47,7 @@ use rayon::prelude::*;
 
 use crate::brackets::{self, UNMATCHED};
 use crate::error::{DeriveError, RuntimeError, RuntimeErrorKind};
-use crate::string::ModuleString;
+use crate::string::{Implicit, ModuleString};
 
 /// Limits that stop a runaway grammar before it exhausts the machine.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -124,7 +126,7 @@ impl IterationStats {
         IterationStats {
             iteration,
             modules: s.len() as u64,
-            param_words: s.params.len() as u64,
+            param_words: s.param_words() as u64,
             cumulative_modules: cumulative,
             processed_modules: processed,
             bytes: s.heap_bytes() as u64,
@@ -163,7 +165,7 @@ pub const MAX_THREADS: usize = 1024;
 /// A compiled system prepared for derivation, with its thread pool.
 #[derive(Debug)]
 pub struct Engine<'a> {
-    sys: &'a CompiledSystem,
+    pub(crate) sys: &'a CompiledSystem,
     /// Per symbol: `(fast, output modules, output words)`, the count pass's
     /// table (one load per module); `fast` is `COPY`, `SLOW`, or the one
     /// alternative that always applies.
@@ -207,15 +209,84 @@ pub struct Engine<'a> {
     /// The rewrite moves a run of such modules whole.
     pub(crate) copies: Vec<bool>,
     has_context: bool,
-    threads: usize,
+    pub(crate) threads: usize,
     pub(crate) min_chunk: usize,
-    pool: Option<rayon::ThreadPool>,
+    pub(crate) pool: Option<rayon::ThreadPool>,
     /// Recycled string buffers (at most [`SPARES`]), so repeated iterations
     /// and derivations reuse memory instead of faulting in fresh pages.
     spare: std::sync::Mutex<Vec<ModuleString>>,
     /// The persistent edits replayed while deriving ([`Engine::with_edits`];
     /// `None`: none, the plain derivation).
     pub(crate) edits: Option<Box<crate::edits::EditPlan>>,
+    /// The words this engine's strings do not store ([`Implicit`]; `None`:
+    /// every module stores its words, as an engine with edits does).
+    pub(crate) implicit: Option<Arc<Implicit>>,
+    /// Per symbol: its implicit words; per alternative: those of its
+    /// successor (what the count pass adds up for
+    /// [`ModuleString::param_words`]).
+    implicit_sym: Vec<u32>,
+    implicit_alt: Vec<u32>,
+}
+
+/// The symbols whose words can be implicit ([`Implicit`]): every module
+/// of the symbol that any production (the axiom included) writes has the
+/// same constant words, and nothing reads them while deriving (no group
+/// of the symbol binds its parameters, and the system has no context,
+/// which could). The turtle and every other reader still get them, from
+/// the table.
+fn implicit_words(sys: &CompiledSystem) -> Option<Implicit> {
+    if sys.has_context() {
+        return None;
+    }
+    let n = sys.symbols.len();
+    // Per symbol: `None` not seen yet, `Some(Some(w))` always `w`,
+    // `Some(None)` not implicit.
+    let mut seen: Vec<Option<Option<Vec<f32>>>> = vec![None; n];
+    for (s, e) in sys.symbols.iter().enumerate() {
+        let bound = sys
+            .groups_of(s as u32)
+            .iter()
+            .any(|g| g.pred_bind_words != 0 || g.bind_words != 0);
+        if e.param_words == 0 || bound {
+            seen[s] = Some(None);
+        }
+    }
+    let mut w = Vec::new();
+    for a in &sys.alts {
+        for m in sys.successor(a) {
+            let s = m.symbol as usize;
+            if matches!(seen.get(s), Some(Some(None)) | None) {
+                continue;
+            }
+            w.clear();
+            let mut constant = true;
+            for p in sys.module_params(m) {
+                let (lo, hi) = (p.a as usize, p.a as usize + p.words as usize);
+                match sys.consts.get(lo..hi) {
+                    Some(c) if p.kind == PARAM_CONST => w.extend_from_slice(c),
+                    _ => constant = false,
+                }
+            }
+            seen[s] = match &seen[s] {
+                _ if !constant || w.len() != sys.symbols[s].param_words as usize => Some(None),
+                None => Some(Some(w.clone())),
+                Some(Some(v)) if crate::string::same_bits(v, &w) => Some(Some(w.clone())),
+                _ => Some(None),
+            };
+        }
+    }
+    let mut t = Implicit {
+        at: vec![(0, 0); n],
+        words: Vec::new(),
+    };
+    for (s, v) in seen.into_iter().enumerate() {
+        if let Some(Some(v)) = v {
+            let lo = t.words.len() as u32;
+            t.words.extend_from_slice(&v);
+            t.at[s] = (lo, t.words.len() as u32);
+        }
+    }
+    (!t.words.is_empty()).then_some(t)
 }
 
 /// How many recycled buffers an engine keeps.
@@ -465,6 +536,16 @@ impl<'a> Engine<'a> {
     /// (more is [`DeriveError::TooManyThreads`]; a pool the operating
     /// system refuses is [`DeriveError::ThreadPool`]).
     pub fn new(sys: &'a CompiledSystem, threads: usize) -> Result<Engine<'a>, DeriveError> {
+        Engine::build(sys, threads, true)
+    }
+
+    /// [`Engine::new`]; `compact`: strings leave implicit words unstored
+    /// ([`Implicit`]).
+    pub(crate) fn build(
+        sys: &'a CompiledSystem,
+        threads: usize,
+        compact: bool,
+    ) -> Result<Engine<'a>, DeriveError> {
         if threads > MAX_THREADS {
             return Err(DeriveError::TooManyThreads {
                 threads,
@@ -474,6 +555,29 @@ impl<'a> Engine<'a> {
         sys.validate()
             .map_err(|e| DeriveError::InvalidTables(e.0))?;
         let n = sys.symbols.len();
+        let implicit = if compact { implicit_words(sys) } else { None };
+        // Per symbol, the words its modules store.
+        let stored = |s: u32| -> u32 {
+            let w = sys.symbols.get(s as usize).map_or(0, |e| e.param_words);
+            match &implicit {
+                Some(t) if t.width(s) > 0 => 0,
+                _ => w,
+            }
+        };
+        let implicit_sym: Vec<u32> = (0..n as u32)
+            .map(|s| implicit.as_ref().map_or(0, |t| t.width(s) as u32))
+            .collect();
+        // Per alternative, the words its successor stores and the implicit
+        // ones.
+        let alt_words: Vec<(u32, u32)> = sys
+            .alts
+            .iter()
+            .map(|a| {
+                sys.successor(a).iter().fold((0, 0), |(w, i), m| {
+                    (w + stored(m.symbol), i + implicit_sym[m.symbol as usize])
+                })
+            })
+            .collect();
         let mut fast = vec![COPY; n];
         let mut fast_len = vec![1; n];
         let mut fast_words = vec![0; n];
@@ -481,8 +585,8 @@ impl<'a> Engine<'a> {
         let mut ignored = vec![false; n];
         let mut sym_words = vec![0; n];
         for (i, s) in sys.symbols.iter().enumerate() {
-            sym_words[i] = s.param_words;
-            fast_words[i] = s.param_words;
+            sym_words[i] = stored(i as u32);
+            fast_words[i] = stored(i as u32);
             ignored[i] = s.flags & SYM_IGNORED != 0;
             if s.flags & SYM_PUSH != 0 {
                 bracket[i] = 1;
@@ -504,7 +608,7 @@ impl<'a> Engine<'a> {
                 let alt = &sys.alts[g.first_alt as usize];
                 fast[i] = g.first_alt;
                 fast_len[i] = alt.succ_len;
-                fast_words[i] = alt.succ_words;
+                fast_words[i] = alt_words[g.first_alt as usize].0;
             } else {
                 fast[i] = SLOW;
             }
@@ -534,15 +638,31 @@ impl<'a> Engine<'a> {
         });
         let succ_syms: Vec<u32> = sys.succ.iter().map(|m| m.symbol).collect();
         let succ_salts: Vec<u32> = sys.succ.iter().map(|m| rng::premix(m.salt)).collect();
-        let succ_words: Vec<u32> = sys.succ.iter().map(|m| m.word_offset).collect();
+        // Each successor module's offset among the words its successor
+        // stores.
+        let mut succ_words: Vec<u32> = sys.succ.iter().map(|m| m.word_offset).collect();
+        for a in &sys.alts {
+            let mut off = 0;
+            let o = a.succ_offset as usize;
+            for (k, m) in sys.successor(a).iter().enumerate() {
+                if let Some(x) = succ_words.get_mut(o + k) {
+                    *x = off;
+                }
+                off += stored(m.symbol);
+            }
+        }
         let mut tpl = Vec::new();
         let mut patches = Vec::new();
         let mut plans = Vec::with_capacity(sys.alts.len());
-        for a in &sys.alts {
+        for (ai, a) in sys.alts.iter().enumerate() {
             let tpl_start = tpl.len() as u32;
             let first_patch = patches.len() as u32;
             let mut dst = 0u32;
             for m in sys.successor(a) {
+                if implicit_sym[m.symbol as usize] > 0 {
+                    // Constants, not stored.
+                    continue;
+                }
                 for p in sys.module_params(m) {
                     let w = p.words as usize;
                     match p.kind {
@@ -560,7 +680,7 @@ impl<'a> Engine<'a> {
             plans.push(Plan {
                 succ: a.succ_offset,
                 len: a.succ_len,
-                words: a.succ_words,
+                words: alt_words[ai].0,
                 tpl: tpl_start,
                 patch_lo: first_patch,
                 patch_hi: patches.len() as u32,
@@ -669,7 +789,37 @@ impl<'a> Engine<'a> {
             pool,
             spare: std::sync::Mutex::new(Vec::new()),
             edits: None,
+            implicit: implicit.map(Arc::new),
+            implicit_sym,
+            implicit_alt: alt_words.iter().map(|&(_, i)| i).collect(),
         })
+    }
+
+    /// Whether this engine's strings leave implicit words unstored.
+    pub(crate) fn compact(&self) -> bool {
+        self.implicit.is_some()
+    }
+
+    /// Leave the words that every production writes as the same constants
+    /// unstored (`true`, the default of [`Engine::new`]; see
+    /// [`ModuleString`], "Compact storage"), or store every module's
+    /// words (`false`; an engine with edits does). The strings read the
+    /// same either way. Recycled buffers are dropped.
+    pub fn with_implicit_words(mut self, on: bool) -> Engine<'a> {
+        if on == self.compact() {
+            return self;
+        }
+        // The same system, already validated, on one thread: nothing can
+        // fail (the pool and the settings are kept).
+        if let Ok(mut e) = Engine::build(self.sys, 1, on) {
+            e.threads = self.threads;
+            e.pool = self.pool.take();
+            e.min_chunk = self.min_chunk;
+            e.keyed = self.keyed;
+            e.edits = self.edits.take();
+            self = e;
+        }
+        self
     }
 
     /// Give a string back to the engine: its memory is reused for the next
@@ -709,8 +859,14 @@ impl<'a> Engine<'a> {
         };
         drop(spare);
         fit(&mut s.syms, m);
-        fit(&mut s.starts, m + 1);
+        // A compact string whose modules store no word keeps no starts.
+        fit(
+            &mut s.starts,
+            if w == 0 && self.compact() { 0 } else { m + 1 },
+        );
         fit(&mut s.params, w);
+        s.implicit = self.implicit.clone();
+        s.implicit_words = 0;
         if self.keyed {
             fit(&mut s.keys, m);
         } else {
@@ -795,14 +951,12 @@ impl<'a> Engine<'a> {
         let sys = self.sys;
         let alt = &sys.alts[sys.axiom_alt as usize];
         let n = alt.succ_len as usize;
-        let w = alt.succ_words as usize;
+        let w = self.plans[sys.axiom_alt as usize].words as usize;
         let root = sys.root_key(seed);
-        let mut out = ModuleString {
-            syms: vec![0; n],
-            starts: vec![0; n + 1],
-            params: vec![0.0; w],
-            keys: Vec::new(),
-        };
+        let mut out =
+            ModuleString::from_parts(vec![0; n], vec![0; n + 1], vec![0.0; w], Vec::new());
+        out.implicit = self.implicit.clone();
+        out.implicit_words = self.implicit_alt[sys.axiom_alt as usize] as usize;
         if self.keyed {
             let salts = &self.succ_salts[alt.succ_offset as usize..][..n];
             out.keys = salts
@@ -857,8 +1011,8 @@ impl<'a> Engine<'a> {
         seed: u32,
         limits: &DeriveLimits,
     ) -> Result<ModuleString, DeriveError> {
-        self.check_input(input)?;
-        self.step_counted(input, iteration, seed, limits, None)
+        let input = self.check_input(input)?;
+        self.step_counted(&input, iteration, seed, limits, None)
     }
 
     /// The productions applied by step `iteration` to `input`: per input
@@ -874,7 +1028,7 @@ impl<'a> Engine<'a> {
         iteration: u32,
         seed: u32,
     ) -> Result<Vec<Option<u32>>, DeriveError> {
-        self.check_input(input)?;
+        let input = &*self.check_input(input)?;
         let n = input.len();
         let mate = self.mates(input, n, false);
         let step = self.step_of(input, &mate, iteration, seed);
@@ -922,7 +1076,14 @@ impl<'a> Engine<'a> {
         }
     }
 
-    pub(crate) fn check_input(&self, s: &ModuleString) -> Result<(), DeriveError> {
+    /// Check that `s` is a string of this system, in this engine's layout
+    /// (implicit words or not): a string in the other layout is brought
+    /// into it, which fails where a module's words differ from the
+    /// constants that this engine leaves implicit.
+    pub(crate) fn check_input<'s>(
+        &self,
+        s: &'s ModuleString,
+    ) -> Result<Cow<'s, ModuleString>, DeriveError> {
         if !s.is_well_formed() {
             return Err(DeriveError::InvalidInput("offsets are inconsistent".into()));
         }
@@ -935,6 +1096,9 @@ impl<'a> Engine<'a> {
                     .into(),
             ));
         }
+        if s.implicit != self.implicit {
+            return self.relayout(s).map(Cow::Owned);
+        }
         for i in 0..s.len() {
             let sym = s.syms[i] as usize;
             let Some(&w) = self.sym_words.get(sym) else {
@@ -942,15 +1106,53 @@ impl<'a> Engine<'a> {
                     "module {i} has unknown symbol {sym}"
                 )));
             };
-            if s.starts[i + 1] - s.starts[i] != w {
+            let stored = s.stored(i).len();
+            if stored != w as usize {
                 return Err(DeriveError::InvalidInput(format!(
-                    "module {i} (`{}`) has {} parameter words, not {w}",
+                    "module {i} (`{}`) has {stored} parameter words, not {w}",
                     self.sys.symbol_names[sym],
-                    s.starts[i + 1] - s.starts[i]
                 )));
             }
         }
-        Ok(())
+        Ok(Cow::Borrowed(s))
+    }
+
+    /// `s` (well-formed) in this engine's layout, checked module by module.
+    #[cold]
+    fn relayout(&self, s: &ModuleString) -> Result<ModuleString, DeriveError> {
+        let keyed = s.has_keys();
+        let mut out = ModuleString::with_capacity(s.len(), s.param_words());
+        out.implicit = self.implicit.clone();
+        for (i, (sym, p)) in s.iter().enumerate() {
+            let Some(e) = self.sys.symbols.get(sym as usize) else {
+                return Err(DeriveError::InvalidInput(format!(
+                    "module {i} has unknown symbol {sym}"
+                )));
+            };
+            let w = e.param_words;
+            if p.len() != w as usize {
+                return Err(DeriveError::InvalidInput(format!(
+                    "module {i} (`{}`) has {} parameter words, not {w}",
+                    self.sys.symbol_names[sym as usize],
+                    p.len()
+                )));
+            }
+            if let Some(t) = &self.implicit
+                && let Some(c) = t.of(sym)
+                && !crate::string::same_bits(c, p)
+            {
+                return Err(DeriveError::InvalidInput(format!(
+                    "module {i} (`{}`) has other parameters than the constants every production of this system writes for it",
+                    self.sys.symbol_names[sym as usize],
+                )));
+            }
+            if keyed {
+                out.push_keyed(sym, p, s.keys[i]);
+            } else {
+                out.push(sym, p);
+            }
+        }
+        Ok(out)
     }
 
     /// Chunk ranges for an input of `n` modules.
@@ -1000,7 +1202,7 @@ impl<'a> Engine<'a> {
         // Counts from the histogram (exact: no symbol needs a decision).
         let mut from_hist = None;
         if let (Some(h), Some(sh)) = (hist, &self.succ_hist) {
-            let (mut m, mut w) = (0u64, 0u64);
+            let (mut m, mut w, mut iw) = (0u64, 0u64, 0u64);
             let mut next = vec![0u64; h.len()];
             for (s, &c) in h.iter().enumerate() {
                 if c == 0 {
@@ -1009,13 +1211,14 @@ impl<'a> Engine<'a> {
                 let (_, len, words) = self.counts[s];
                 m += c * u64::from(len);
                 w += c * u64::from(words);
+                iw += c * u64::from(self.implicit_words_of(s));
                 for &(t, k) in &sh[s] {
                     next[t as usize] += c * k;
                 }
             }
             *h = next;
             if !parallel {
-                from_hist = Some((m, w));
+                from_hist = Some((m, w, iw));
             }
         }
         let chunk = chunks.first().map_or(n, |c| c.len());
@@ -1023,7 +1226,7 @@ impl<'a> Engine<'a> {
         let step = self.step_of(input, &mate, iteration, seed);
 
         // 1. Count.
-        let counts: Vec<Result<(u64, u64), RuntimeError>> = if let Some(t) = from_hist {
+        let counts: Vec<Result<(u64, u64, u64), RuntimeError>> = if let Some(t) = from_hist {
             vec![Ok(t)]
         } else if parallel {
             self.in_pool(|| {
@@ -1052,28 +1255,34 @@ impl<'a> Engine<'a> {
 
         // 2. Scan, and the limits before allocating.
         let mut offsets = Vec::with_capacity(totals.len());
-        let (mut m, mut w) = (0u64, 0u64);
-        for &(cm, cw) in &totals {
+        let (mut m, mut w, mut iw) = (0u64, 0u64, 0u64);
+        for &(cm, cw, ciw) in &totals {
             offsets.push((m, w));
             m += cm;
             w += cw;
+            iw += ciw;
         }
         self.check_limits(input, &mate, iteration, m, w, limits)?;
         let (m, w) = (m as usize, w as usize);
 
         // 3. Rewrite into disjoint slices.
         let mut out = self.take(m, w);
+        out.implicit_words = iw as usize;
         {
             let mut parts = Vec::with_capacity(chunks.len());
-            let (mut syms, mut starts, mut params) =
-                (&mut out.syms[..], &mut out.starts[..m], &mut out.params[..]);
+            let with_starts = !out.starts.is_empty();
+            let (mut syms, mut starts, mut params) = (
+                &mut out.syms[..],
+                &mut out.starts[..if with_starts { m } else { 0 }],
+                &mut out.params[..],
+            );
             let mut keys = &mut out.keys[..];
-            for ((r, &(cm, cw)), &(_, word_base)) in chunks.iter().zip(&totals).zip(&offsets) {
+            for ((r, &(cm, cw, _)), &(_, word_base)) in chunks.iter().zip(&totals).zip(&offsets) {
                 let (s, rest) = syms.split_at_mut(cm as usize);
                 syms = rest;
                 let (k, rest) = keys.split_at_mut(if self.keyed { cm as usize } else { 0 });
                 keys = rest;
-                let (st, rest) = starts.split_at_mut(cm as usize);
+                let (st, rest) = starts.split_at_mut(if with_starts { cm as usize } else { 0 });
                 starts = rest;
                 let (p, rest) = params.split_at_mut(cw as usize);
                 params = rest;
@@ -1108,8 +1317,21 @@ impl<'a> Engine<'a> {
                 return Err(DeriveError::Runtime(e));
             }
         }
-        out.starts[m] = w as u32;
+        if let Some(last) = out.starts.get_mut(m) {
+            *last = w as u32;
+        }
         Ok(out)
+    }
+
+    /// The implicit words a module of symbol `s` leaves behind when the
+    /// fast path rewrites or copies it (`counts`).
+    #[inline]
+    fn implicit_words_of(&self, s: usize) -> u32 {
+        match self.counts[s].0 {
+            COPY => self.implicit_sym[s],
+            SLOW => 0,
+            alt => self.implicit_alt[alt as usize],
+        }
     }
 
     pub(crate) fn check_limits(
@@ -1161,32 +1383,38 @@ impl<'a> Engine<'a> {
         &self,
         step: &Step<'_>,
         range: Range<usize>,
-    ) -> Result<(u64, u64), RuntimeError> {
+    ) -> Result<(u64, u64, u64), RuntimeError> {
         let syms = &step.input.syms[range.clone()];
-        let (mut m, mut w) = (0u64, 0u64);
+        let (mut m, mut w, mut iw) = (0u64, 0u64, 0u64);
         let mut worker: Option<Worker> = None;
+        let compact = self.compact();
         for (k, &sym) in syms.iter().enumerate() {
             let s = sym as usize;
             let (f, len, words) = self.counts[s];
             if f != SLOW {
                 m += u64::from(len);
                 w += u64::from(words);
+                if compact {
+                    iw += u64::from(self.implicit_words_of(s));
+                }
                 continue;
             }
             let wk = worker.get_or_insert_with(|| self.worker());
             match self.decide(step, wk, range.start + k)? {
                 Some((alt, _)) => {
-                    let a = &self.sys.alts[alt as usize];
-                    m += u64::from(a.succ_len);
-                    w += u64::from(a.succ_words);
+                    let plan = &self.plans[alt as usize];
+                    m += u64::from(plan.len);
+                    w += u64::from(plan.words);
+                    iw += u64::from(self.implicit_alt[alt as usize]);
                 }
                 None => {
                     m += 1;
                     w += u64::from(self.sym_words[s]);
+                    iw += u64::from(self.implicit_sym[s]);
                 }
             }
         }
-        Ok((m, w))
+        Ok((m, w, iw))
     }
 
     /// [`Engine::rewrite_chunk`] compiled for AVX2 where the CPU has it
@@ -1242,7 +1470,7 @@ impl<'a> Engine<'a> {
         // The input's words are walked with the modules: every module has
         // its symbol's word count (`check_input`, and the engine's own
         // strings), so `starts` is not read.
-        let mut wi = input.starts[range.start] as usize;
+        let mut wi = input.start(range.start);
         // The tables, hoisted out of the loop (the compiler reloads fields
         // behind `self` after every store otherwise).
         let (acts, plans, sym_words) = (&self.acts[..], &self.plans[..], &self.sym_words[..]);
@@ -1264,6 +1492,8 @@ impl<'a> Engine<'a> {
             };
         }
         let (isyms, istarts, iparams) = (&input.syms[..], &input.starts[..], &input.params[..]);
+        // The input stores no word (no starts), the output none either.
+        let (ino, ono) = (istarts.is_empty(), ostarts.is_empty());
         let copies = &self.copies[..];
         let end = range.end;
         let mut i = range.start;
@@ -1279,13 +1509,15 @@ impl<'a> Engine<'a> {
                     j += 1;
                 }
                 let len = j - i;
-                let wj = istarts[j] as usize;
+                let wj = if ino { wi } else { istarts[j] as usize };
                 let words = wj - wi;
                 if len == 1 {
                     // One module (a turn between two rewritten `F`s):
                     // three stores, not three block moves.
                     osyms[o] = sym;
-                    ostarts[o] = word_base + wo as u32;
+                    if !ono {
+                        ostarts[o] = word_base + wo as u32;
+                    }
                     if words == 1 {
                         oparams[wo] = iparams[wi];
                     } else {
@@ -1300,19 +1532,32 @@ impl<'a> Engine<'a> {
                     i = j;
                     continue;
                 }
-                // The input's starts shifted to the output's words.
-                let delta = (word_base + wo as u32).wrapping_sub(istarts[i]);
-                if len <= PAD && i + PAD <= isyms.len() && o + PAD <= osyms.len() {
-                    // Fixed-size moves (see `PAD`; the chunk's `starts` is
-                    // as long as its `syms`, the input's one longer).
-                    osyms[o..o + PAD].copy_from_slice(&isyms[i..i + PAD]);
-                    for (d, &st) in ostarts[o..o + PAD].iter_mut().zip(&istarts[i..i + PAD]) {
-                        *d = st.wrapping_add(delta);
+                if ono {
+                    // Symbols only.
+                    if len <= PAD && i + PAD <= isyms.len() && o + PAD <= osyms.len() {
+                        osyms[o..o + PAD].copy_from_slice(&isyms[i..i + PAD]);
+                    } else {
+                        copy_small(&mut osyms[o..o + len], &isyms[i..j]);
                     }
-                } else {
+                } else if ino {
+                    // No input word: every start is the output's position.
                     copy_small(&mut osyms[o..o + len], &isyms[i..j]);
-                    for (d, &st) in ostarts[o..o + len].iter_mut().zip(&istarts[i..j]) {
-                        *d = st.wrapping_add(delta);
+                    ostarts[o..o + len].fill(word_base + wo as u32);
+                } else {
+                    // The input's starts shifted to the output's words.
+                    let delta = (word_base + wo as u32).wrapping_sub(istarts[i]);
+                    if len <= PAD && i + PAD <= isyms.len() && o + PAD <= osyms.len() {
+                        // Fixed-size moves (see `PAD`; the chunk's `starts`
+                        // is as long as its `syms`, the input's one longer).
+                        osyms[o..o + PAD].copy_from_slice(&isyms[i..i + PAD]);
+                        for (d, &st) in ostarts[o..o + PAD].iter_mut().zip(&istarts[i..i + PAD]) {
+                            *d = st.wrapping_add(delta);
+                        }
+                    } else {
+                        copy_small(&mut osyms[o..o + len], &isyms[i..j]);
+                        for (d, &st) in ostarts[o..o + len].iter_mut().zip(&istarts[i..j]) {
+                            *d = st.wrapping_add(delta);
+                        }
                     }
                 }
                 if words > 0 {
@@ -1340,7 +1585,9 @@ impl<'a> Engine<'a> {
                 // per-module form of the same writes.
                 Act::Copy0 => {
                     osyms[o] = sym;
-                    ostarts[o] = word_base + wo as u32;
+                    if !ono {
+                        ostarts[o] = word_base + wo as u32;
+                    }
                     o += 1;
                 }
                 Act::Copy(n) => {
@@ -1454,7 +1701,9 @@ impl<'a> Engine<'a> {
                     match self.decide(step, &mut worker, i)? {
                         None => {
                             osyms[o] = sym;
-                            ostarts[o] = word_base + wo as u32;
+                            if !ono {
+                                ostarts[o] = word_base + wo as u32;
+                            }
                             copy_small(&mut oparams[wo..wo + n], &input.params[wi..wi + n]);
                             o += 1;
                             wo += n;
@@ -1524,6 +1773,17 @@ impl<'a> Engine<'a> {
         let (so, len) = (plan.succ as usize, plan.len as usize);
         let (o, wo) = (out.o, out.wo);
         let base = out.word_base + wo as u32;
+        if out.starts.is_empty() {
+            // The output stores no word: symbols only.
+            if len <= PAD && o + PAD <= out.syms.len() {
+                out.syms[o..o + PAD].copy_from_slice(&self.succ_syms[so..so + PAD]);
+            } else if len <= 2 * PAD && o + 2 * PAD <= out.syms.len() {
+                out.syms[o..o + 2 * PAD].copy_from_slice(&self.succ_syms[so..so + 2 * PAD]);
+            } else {
+                copy_small(&mut out.syms[o..o + len], &self.succ_syms[so..so + len]);
+            }
+            return;
+        }
         if len <= PAD && o + PAD <= out.syms.len() {
             // Fixed-size moves (see `PAD`); `starts` has the same length.
             out.syms[o..o + PAD].copy_from_slice(&self.succ_syms[so..so + PAD]);
@@ -1741,7 +2001,7 @@ impl<'a> Engine<'a> {
         let sys = self.sys;
         let input = step.input;
         let sym = input.syms[i];
-        let (ps, pe) = (input.starts[i] as usize, input.starts[i + 1] as usize);
+        let std::ops::Range { start: ps, end: pe } = input.stored(i);
         let draws = step.draws(i);
         for g in sys.groups_of(sym) {
             let direct = g.pred_bind_offset == 0 && g.bind_words == g.pred_bind_words;
@@ -1805,7 +2065,7 @@ impl<'a> Engine<'a> {
     fn bind(&self, step: &Step<'_>, buf: &mut [f32], pos: usize, item: &ContextItem) {
         if item.bind_words > 0 {
             let input = step.input;
-            let (s, e) = (input.starts[pos] as usize, input.starts[pos + 1] as usize);
+            let std::ops::Range { start: s, end: e } = input.stored(pos);
             let o = item.bind_offset as usize;
             buf[o..o + (e - s)].copy_from_slice(&input.params[s..e]);
         }
@@ -1995,12 +2255,7 @@ mod tests {
         starts.resize(len + 1, 0);
         let mut params = Vec::with_capacity(cap);
         params.resize(len, 0.0);
-        ModuleString {
-            syms,
-            starts,
-            params,
-            keys: Vec::new(),
-        }
+        ModuleString::from_parts(syms, starts, params, Vec::new())
     }
 
     /// Of two recycled buffers as large as each other, a string takes the
