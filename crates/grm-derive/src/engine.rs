@@ -228,67 +228,6 @@ pub struct Engine<'a> {
     implicit_alt: Vec<u32>,
 }
 
-/// The symbols whose words can be implicit ([`Implicit`]): every module
-/// of the symbol that any production (the axiom included) writes has the
-/// same constant words, and nothing reads them while deriving (no group
-/// of the symbol binds its parameters, and the system has no context,
-/// which could). The turtle and every other reader still get them, from
-/// the table.
-fn implicit_words(sys: &CompiledSystem) -> Option<Implicit> {
-    if sys.has_context() {
-        return None;
-    }
-    let n = sys.symbols.len();
-    // Per symbol: `None` not seen yet, `Some(Some(w))` always `w`,
-    // `Some(None)` not implicit.
-    let mut seen: Vec<Option<Option<Vec<f32>>>> = vec![None; n];
-    for (s, e) in sys.symbols.iter().enumerate() {
-        let bound = sys
-            .groups_of(s as u32)
-            .iter()
-            .any(|g| g.pred_bind_words != 0 || g.bind_words != 0);
-        if e.param_words == 0 || bound {
-            seen[s] = Some(None);
-        }
-    }
-    let mut w = Vec::new();
-    for a in &sys.alts {
-        for m in sys.successor(a) {
-            let s = m.symbol as usize;
-            if matches!(seen.get(s), Some(Some(None)) | None) {
-                continue;
-            }
-            w.clear();
-            let mut constant = true;
-            for p in sys.module_params(m) {
-                let (lo, hi) = (p.a as usize, p.a as usize + p.words as usize);
-                match sys.consts.get(lo..hi) {
-                    Some(c) if p.kind == PARAM_CONST => w.extend_from_slice(c),
-                    _ => constant = false,
-                }
-            }
-            seen[s] = match &seen[s] {
-                _ if !constant || w.len() != sys.symbols[s].param_words as usize => Some(None),
-                None => Some(Some(w.clone())),
-                Some(Some(v)) if crate::string::same_bits(v, &w) => Some(Some(w.clone())),
-                _ => Some(None),
-            };
-        }
-    }
-    let mut t = Implicit {
-        at: vec![(0, 0); n],
-        words: Vec::new(),
-    };
-    for (s, v) in seen.into_iter().enumerate() {
-        if let Some(Some(v)) = v {
-            let lo = t.words.len() as u32;
-            t.words.extend_from_slice(&v);
-            t.at[s] = (lo, t.words.len() as u32);
-        }
-    }
-    (!t.words.is_empty()).then_some(t)
-}
-
 /// How many recycled buffers an engine keeps.
 const SPARES: usize = 3;
 
@@ -555,7 +494,11 @@ impl<'a> Engine<'a> {
         sys.validate()
             .map_err(|e| DeriveError::InvalidTables(e.0))?;
         let n = sys.symbols.len();
-        let implicit = if compact { implicit_words(sys) } else { None };
+        let implicit = if compact {
+            crate::compact::implicit_words(sys)
+        } else {
+            None
+        };
         // Per symbol, the words its modules store.
         let stored = |s: u32| -> u32 {
             let w = sys.symbols.get(s as usize).map_or(0, |e| e.param_words);
@@ -793,33 +736,6 @@ impl<'a> Engine<'a> {
             implicit_sym,
             implicit_alt: alt_words.iter().map(|&(_, i)| i).collect(),
         })
-    }
-
-    /// Whether this engine's strings leave implicit words unstored.
-    pub(crate) fn compact(&self) -> bool {
-        self.implicit.is_some()
-    }
-
-    /// Leave the words that every production writes as the same constants
-    /// unstored (`true`, the default of [`Engine::new`]; see
-    /// [`ModuleString`], "Compact storage"), or store every module's
-    /// words (`false`; an engine with edits does). The strings read the
-    /// same either way. Recycled buffers are dropped.
-    pub fn with_implicit_words(mut self, on: bool) -> Engine<'a> {
-        if on == self.compact() {
-            return self;
-        }
-        // The same system, already validated, on one thread: nothing can
-        // fail (the pool and the settings are kept).
-        if let Ok(mut e) = Engine::build(self.sys, 1, on) {
-            e.threads = self.threads;
-            e.pool = self.pool.take();
-            e.min_chunk = self.min_chunk;
-            e.keyed = self.keyed;
-            e.edits = self.edits.take();
-            self = e;
-        }
-        self
     }
 
     /// Give a string back to the engine: its memory is reused for the next
@@ -1115,44 +1031,6 @@ impl<'a> Engine<'a> {
             }
         }
         Ok(Cow::Borrowed(s))
-    }
-
-    /// `s` (well-formed) in this engine's layout, checked module by module.
-    #[cold]
-    fn relayout(&self, s: &ModuleString) -> Result<ModuleString, DeriveError> {
-        let keyed = s.has_keys();
-        let mut out = ModuleString::with_capacity(s.len(), s.param_words());
-        out.implicit = self.implicit.clone();
-        for (i, (sym, p)) in s.iter().enumerate() {
-            let Some(e) = self.sys.symbols.get(sym as usize) else {
-                return Err(DeriveError::InvalidInput(format!(
-                    "module {i} has unknown symbol {sym}"
-                )));
-            };
-            let w = e.param_words;
-            if p.len() != w as usize {
-                return Err(DeriveError::InvalidInput(format!(
-                    "module {i} (`{}`) has {} parameter words, not {w}",
-                    self.sys.symbol_names[sym as usize],
-                    p.len()
-                )));
-            }
-            if let Some(t) = &self.implicit
-                && let Some(c) = t.of(sym)
-                && !crate::string::same_bits(c, p)
-            {
-                return Err(DeriveError::InvalidInput(format!(
-                    "module {i} (`{}`) has other parameters than the constants every production of this system writes for it",
-                    self.sys.symbol_names[sym as usize],
-                )));
-            }
-            if keyed {
-                out.push_keyed(sym, p, s.keys[i]);
-            } else {
-                out.push(sym, p);
-            }
-        }
-        Ok(out)
     }
 
     /// Chunk ranges for an input of `n` modules.

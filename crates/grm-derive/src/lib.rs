@@ -23,6 +23,7 @@
 //!   grammar the checker accepts.
 
 mod brackets;
+mod compact;
 pub mod edits;
 pub mod engine;
 mod error;
