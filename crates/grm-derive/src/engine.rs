@@ -692,7 +692,6 @@ impl<'a> Engine<'a> {
             .collect();
         // The padded tables (see `PAD`).
         let mut succ_syms = succ_syms;
-        let mut succ_words = succ_words;
         succ_syms.extend([0; 2 * PAD]);
         succ_words.extend([0; 2 * PAD]);
         tpl.extend([0.0; 2 * PAD]);
