@@ -85,7 +85,8 @@ enum Command {
     /// numbers that place one, solve a drag, sketch a meta-parameter.
     Manip(manip::ManipArgs),
     /// A city layout merged from its layers (NAME.layout.json), written
-    /// as GeoJSON or an SVG plan.
+    /// as GeoJSON or an SVG plan, or as a model or picture (glb, obj,
+    /// ply, png) with a building grown on every parcel.
     Layout(layout::LayoutArgs),
     /// Benchmarks (`grmc bench derive`, `grmc bench gpu`, `grmc bench render`).
     Bench(bench::BenchArgs),
