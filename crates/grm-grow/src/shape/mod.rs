@@ -348,6 +348,19 @@ pub fn grow(
     edits: Option<&grm_edits::EditsFile>,
 ) -> Result<ShapeGrown, ShapeGrowError> {
     let lowered = lower(program, system, params)?;
+    grow_lowered(program, params, lowered, options, build, edits)
+}
+
+/// Derive a lowered system (replaying `edits`) and build its model when
+/// `build` is given: the end of [`grow`] and [`grow_on_lot`].
+fn grow_lowered(
+    program: &grm_sema::Program,
+    params: &[Value],
+    lowered: Lowered,
+    options: &ShapeOptions,
+    build: Option<(&BuildOptions, Option<&Path>)>,
+    edits: Option<&grm_edits::EditsFile>,
+) -> Result<ShapeGrown, ShapeGrowError> {
     let seed = options.seed.unwrap_or(lowered.seed);
     let plan = edits.map(|f| edit_plan(&lowered, f));
     let tree = derive_with_edits(&lowered, seed, options, plan.as_ref())?;
@@ -379,16 +392,5 @@ pub fn grow_on_lot(
     build: Option<(&BuildOptions, Option<&Path>)>,
 ) -> Result<ShapeGrown, ShapeGrowError> {
     let lowered = lower_on(program, system, params, Some(lot))?;
-    let seed = options.seed.unwrap_or(lowered.seed);
-    let tree = derive(&lowered, seed, options)?;
-    let model = match build {
-        Some((b, dir)) => Some(model(program, params, &lowered, &tree, dir, b)?),
-        None => None,
-    };
-    Ok(ShapeGrown {
-        lowered,
-        tree,
-        seed,
-        model,
-    })
+    grow_lowered(program, params, lowered, options, build, None)
 }
