@@ -67,6 +67,37 @@ test('levels are read on demand and cached; a pick key reveals its path with par
   assert.equal(t.parentOf(again!)!.label, 'split.z');
 });
 
+test('stillCurrent: the same preview keeps what was read; another version or root key drops it', async () => {
+  const version = { v: 3 };
+  const s = server(version);
+  const t = new DerivationTree({ request: s.request });
+  t.setDocument('file:///h.grm', 3);
+  const [root] = await t.roots();
+  await t.children(root!);
+  assert.equal(await t.stillCurrent(), true, 'the same version and root');
+  const before = s.asked.length;
+  await t.children(root!);
+  assert.equal(s.asked.length, before, 'the levels read are kept');
+  version.v = 4;
+  assert.equal(await t.stillCurrent(), false, 'a newer preview');
+  const asked = s.asked.length;
+  const [again] = await t.roots();
+  assert.equal(s.asked.length, asked, 'the new root is kept');
+  assert.equal(again!.label, 'Lot');
+  const [mass] = await t.children(again!);
+  assert.equal(s.asked.length, asked, "the new root's answer brought its children");
+  await t.children(mass!);
+  assert.ok(s.asked.length > asked, 'the deeper levels are read again');
+  assert.equal(await t.stillCurrent(), true);
+  // Another seed's tree: the same version, another root key.
+  NODES[0]![2] = '0000000a';
+  try {
+    assert.equal(await t.stillCurrent(), false, 'another root key');
+  } finally {
+    NODES[0]![2] = '00000001';
+  }
+});
+
 test('answers that are not trees are refused', () => {
   assert.equal(parseTreeAnswer(null), null);
   assert.throws(() => parseTreeAnswer({ version: 1 }), /not a tree answer/);

@@ -133,6 +133,30 @@ export class DerivationTree {
     }
   }
 
+  /**
+   * After a new preview of the document: whether what was read is still the
+   * server's tree (the same preview version and the same root key; another
+   * seed's tree has another root key). The root is asked again; a tree that
+   * changed drops what was read and keeps the new root. An editor's view
+   * redraws only when this is false, so a preview of the same model (the
+   * page regrows to highlight the rule at the cursor) does not redraw the
+   * view under a click.
+   */
+  async stillCurrent(): Promise<boolean> {
+    const had = this.root;
+    const version = this.version;
+    const a = await this.ask({});
+    if (!a) return false;
+    const same = had !== undefined && a.version === version && a.node.key === had.key;
+    if (!same) {
+      this.parents.clear();
+      this.kids.clear();
+      this.root = undefined;
+      this.remember(a);
+    }
+    return same;
+  }
+
   /** A node's children. */
   async children(n: TreeNode): Promise<TreeNode[]> {
     const known = this.kids.get(n.node);

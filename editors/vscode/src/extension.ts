@@ -77,11 +77,26 @@ class DerivationView implements vscode.TreeDataProvider<TreeNode> {
   /** New previews so far: each one drops the nodes read. */
   private generation = 0;
 
-  /** A new preview of `uri`: the tree read again. */
+  /**
+   * A new preview of `uri`: the view redrawn when its tree changed (another
+   * document, version or seed). A preview of the model already shown (the
+   * page regrows to highlight the rule at the cursor, as a click here moves
+   * it) leaves the rows as they are: redrawing them lost a click that came
+   * just after.
+   */
   previewed(uri: string): void {
     this.generation++;
-    this.tree.setDocument(uri, undefined);
-    this.changed.fire(undefined);
+    if (uri !== this.tree.document) {
+      this.tree.setDocument(uri, undefined);
+      this.changed.fire(undefined);
+      return;
+    }
+    this.tree.stillCurrent().then(
+      (same) => {
+        if (!same) this.changed.fire(undefined);
+      },
+      () => this.changed.fire(undefined),
+    );
   }
 
   /**
