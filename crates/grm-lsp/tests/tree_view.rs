@@ -140,10 +140,13 @@ fn triangles(r: &serde_json::Value) -> u64 {
     r["stats"]["triangles"].as_u64().expect("triangles")
 }
 
-#[tokio::test]
-async fn focus_and_context_draws_the_rest_as_proxies() {
-    let (_dir, mut c, u, whole) = previewed("house.grm", HOUSE).await;
-    // The ground floor's key, from the tree.
+/// House's tree read down to the ground floor: the root's answer, the
+/// answer of the split that made the floors (its children), and the
+/// ground floor's node.
+async fn house_ground(
+    c: &mut Client,
+    u: &tower_lsp_server::ls_types::Uri,
+) -> (serde_json::Value, serde_json::Value, serde_json::Value) {
     let root = c
         .ok("grm/tree", json!({ "textDocument": { "uri": u } }))
         .await;
@@ -154,19 +157,27 @@ async fn focus_and_context_draws_the_rest_as_proxies() {
             json!({ "textDocument": { "uri": u }, "node": mass["node"] }),
         )
         .await["children"][0];
-    let parts = c
+    let kids = c
         .ok(
             "grm/tree",
             json!({ "textDocument": { "uri": u }, "node": split["node"] }),
         )
         .await;
-    let ground = parts["children"]
+    let ground = kids["children"]
         .as_array()
         .unwrap()
         .iter()
         .find(|n| n["label"] == "Ground")
         .unwrap()
         .clone();
+    (root, kids, ground)
+}
+
+#[tokio::test]
+async fn focus_and_context_draws_the_rest_as_proxies() {
+    let (_dir, mut c, u, whole) = previewed("house.grm", HOUSE).await;
+    // The ground floor's key, from the tree.
+    let (root, _, ground) = house_ground(&mut c, &u).await;
     // Depth 0: the ground floor is one proxy box (its wall, door, wall not drawn).
     let focused = c
         .ok(
@@ -313,29 +324,7 @@ async fn a_node_names_the_parts_its_subtree_drew() {
     assert!(some > 0 && some < all, "{some} of {all}");
     // Shape mode: the ground floor drew its wall, door and wall, and nothing else.
     let (_dir, mut c, u, r) = previewed("house.grm", HOUSE).await;
-    let root = c
-        .ok("grm/tree", json!({ "textDocument": { "uri": u } }))
-        .await;
-    let mass = &root["children"][0];
-    let split = &c
-        .ok(
-            "grm/tree",
-            json!({ "textDocument": { "uri": u }, "node": mass["node"] }),
-        )
-        .await["children"][0];
-    let kids = c
-        .ok(
-            "grm/tree",
-            json!({ "textDocument": { "uri": u }, "node": split["node"] }),
-        )
-        .await;
-    let ground = kids["children"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|n| n["label"] == "Ground")
-        .unwrap()
-        .clone();
+    let (root, kids, ground) = house_ground(&mut c, &u).await;
     assert_eq!(check_drawn(&mut c, &u, &r, &ground).await, 3);
     let lot = root["node"].clone();
     let everything = check_drawn(&mut c, &u, &r, &lot).await;
