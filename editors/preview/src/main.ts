@@ -54,6 +54,7 @@ import {
   paramsFromSymbols,
 } from './protocol.js';
 import { TreePanel } from './tree-panel.js';
+import { LayoutView, isLayoutUri } from './layout-view.js';
 import { PreviewScene, ThumbnailRenderer } from './scene.js';
 import { cutRect, scopeLines } from './scopes.js';
 import { PageState, ShownVersion } from './state.js';
@@ -296,7 +297,12 @@ class App {
   /** The derivation tree panel (read only while it is open). */
   private readonly treePanel: TreePanel;
 
+  /** The layout view, shown for a `NAME.layout.json` (issue 29). */
+  private readonly layoutView: LayoutView;
+
   constructor(private readonly transport: Transport) {
+    this.layoutView = new LayoutView({ request: (m, p) => this.transport.request(m, p) });
+    document.body.append(this.layoutView.root);
     this.scene = new PreviewScene($<HTMLCanvasElement>('view'));
     this.treePanel = new TreePanel(
       $('tree-view'),
@@ -443,7 +449,17 @@ class App {
     const p = (params ?? {}) as Record<string, unknown>;
     // The host's side changed: a request for the page's (same) state is sent anew, not shared with one on its way.
     if (method !== 'cursor') this.previewRequest.forget();
+    if (method === 'document' && typeof p.uri === 'string' && isLayoutUri(p.uri)) {
+      if (typeof p.title === 'string') document.title = `grm layout: ${p.title}`;
+      void this.layoutView.show(p.uri);
+      return;
+    }
+    if (method === 'layoutUpdated') {
+      this.layoutView.updated(params);
+      return;
+    }
     if (method === 'document' && typeof p.uri === 'string') {
+      if (this.layoutView.shown) this.layoutView.hide();
       // Another document, or the same one after the host's server restarted: any version is news.
       this.shownVersion.reset();
       if (p.uri !== this.state.uri) {

@@ -33,9 +33,13 @@ export type Method =
   /** Write slider values back as the `param` defaults, after the page asked the user: `WriteParamsParams` -> `ManipResult` (LSP `grm/writeParams`). */
   | 'writeParams'
   /** The derivation tree of the last preview, a level at a time: `TreeParams` -> a tree answer (LSP `grm/tree`). */
-  | 'tree';
+  | 'tree'
+  /** The merged city layout of a `NAME.layout.json` (issue 29): `{ uri }` -> `LayoutResult` (LSP `grm/layout`). */
+  | 'layout'
+  /** An operator on a layout layer (move, protect, cut, assign, visible): `LayoutEditParams` -> `LayoutEditResult` (LSP `grm/layoutEdit`; VS Code applies it, `grmc view`'s server writes the file). */
+  | 'layoutEdit';
 
-export const METHODS: readonly Method[] = ['preview', 'pick', 'picture', 'symbols', 'loadCurves', 'saveCurves', 'reveal', 'provenance', 'drag', 'sketch', 'writeParams', 'tree'];
+export const METHODS: readonly Method[] = ['preview', 'pick', 'picture', 'symbols', 'loadCurves', 'saveCurves', 'reveal', 'provenance', 'drag', 'sketch', 'writeParams', 'tree', 'layout', 'layoutEdit'];
 
 /** What the host tells the page without being asked. */
 export type NotificationMethod =
@@ -48,7 +52,9 @@ export type NotificationMethod =
   /** The curves file was changed outside the page: `{ uri }`. The page reloads it. */
   | 'curvesChanged'
   /** A node chosen in the editor's derivation view: `{ uri, key }` (key null: none). The page highlights its parts. */
-  | 'treeNode';
+  | 'treeNode'
+  /** The layout sidecar shown changed (LSP `grm/layoutUpdated`): `{ uri, version }`. The layout view asks for it again. */
+  | 'layoutUpdated';
 
 /** What the page tells the host without being asked (no answer comes back). */
 export type PageNotificationMethod =
@@ -211,7 +217,7 @@ export function parseHostMessage(v: unknown): HostToPage | null {
     return out;
   }
   if (v.type === 'notify' && typeof v.method === 'string') {
-    if (v.method === 'document' || v.method === 'previewUpdated' || v.method === 'cursor' || v.method === 'curvesChanged' || v.method === 'treeNode') {
+    if (v.method === 'document' || v.method === 'previewUpdated' || v.method === 'cursor' || v.method === 'curvesChanged' || v.method === 'treeNode' || v.method === 'layoutUpdated') {
       return { type: 'notify', method: v.method, params: v.params };
     }
   }

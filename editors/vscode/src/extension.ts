@@ -159,6 +159,9 @@ async function startClient(context: vscode.ExtensionContext): Promise<void> {
       // The persistent edits beside a grammar (docs/edits.md): the server
       // replays the open buffer and publishes its diagnostics there.
       { scheme: 'file', pattern: '**/*.edits.json' },
+      // City layouts (docs/layout.md, "In the editor"): the preview's layout
+      // view evaluates the open buffer.
+      { scheme: 'file', pattern: '**/*.layout.json' },
     ],
     outputChannel: output,
     synchronize: { fileEvents: vscode.workspace.createFileSystemWatcher('**/*.{grm,curves.json,edits.json,obj}') },
@@ -167,6 +170,7 @@ async function startClient(context: vscode.ExtensionContext): Promise<void> {
   let c: LanguageClient | undefined;
   try {
     c = new LanguageClient('grm', 'grm language server', serverOptions, clientOptions);
+    c.onNotification('grm/layoutUpdated', (p: unknown) => preview?.host.layoutUpdated(p));
     c.onNotification('grm/previewUpdated', (p: unknown) => {
       preview?.host.previewUpdated(p);
       const q = p as { uri?: unknown; result?: { uri?: unknown } } | null;
@@ -198,6 +202,12 @@ async function stopClient(): Promise<void> {
 
 function isGrm(doc: vscode.TextDocument | undefined): doc is vscode.TextDocument {
   return doc?.languageId === 'grm';
+}
+
+/** A grammar, or a city layout sidecar (the preview's layout view). */
+function isPreviewable(doc: vscode.TextDocument | undefined): doc is vscode.TextDocument {
+  if (!doc) return false;
+  return doc.languageId === 'grm' || (doc.uri.scheme === 'file' && doc.uri.fsPath.endsWith('.layout.json'));
 }
 
 class PreviewPanel {
@@ -267,7 +277,7 @@ class PreviewPanel {
     this.disposables.push(
       webview.onDidReceiveMessage((m) => void this.host.handle(m)),
       vscode.window.onDidChangeActiveTextEditor((e) => {
-        if (isGrm(e?.document)) this.show(e.document);
+        if (isPreviewable(e?.document)) this.show(e.document);
       }),
       vscode.workspace.onDidSaveTextDocument((d) => {
         if (d.uri.scheme === 'file') this.host.fileSaved(d.uri.fsPath);
@@ -299,8 +309,8 @@ class PreviewPanel {
 
 function openPreview(context: vscode.ExtensionContext): void {
   const doc = vscode.window.activeTextEditor?.document;
-  if (!isGrm(doc)) {
-    void vscode.window.showInformationMessage('Open a .grm file to preview it.');
+  if (!isPreviewable(doc)) {
+    void vscode.window.showInformationMessage('Open a .grm file (or a city layout, NAME.layout.json) to preview it.');
     return;
   }
   if (!preview) {

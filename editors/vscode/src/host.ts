@@ -122,6 +122,12 @@ export class PreviewHost {
     this.notify('previewUpdated', { ...params, uri: this.documentUri });
   }
 
+  /** The server's `grm/layoutUpdated` (the shown layout sidecar changed): passed on if it is about the shown document. */
+  layoutUpdated(params: unknown): void {
+    if (!isObject(params) || typeof params.uri !== 'string' || !this.documentUri || !sameUri(params.uri, this.documentUri)) return;
+    this.notify('layoutUpdated', { ...params, uri: this.documentUri });
+  }
+
   /** A file was saved in the editor: if it is the shown grammar's curves file, the page reloads it. */
   fileSaved(path: string): void {
     const uri = this.documentUri;
@@ -258,6 +264,12 @@ export class PreviewHost {
       case 'tree': {
         this.checkUri(params);
         return this.deps.request('grm/tree', params);
+      }
+      case 'layout':
+      case 'layoutEdit': {
+        // A city layout's view (issue 29): the server applies an operator as a workspace edit (one undo step).
+        this.checkUri(params);
+        return this.deps.request(`grm/${method}`, params);
       }
       case 'provenance':
       case 'drag':

@@ -1,0 +1,172 @@
+// The layout view (issue 29, item 6) in headless Chromium against
+// `grmc view examples/city.layout.json` (a copy): the page shows the plan
+// and its layers; a street of the base layer dragged with the mouse lands
+// in the sidecar as a move and the view redraws it where it was dropped; a
+// layer's checkbox hides its streets (the sidecar says `visible: false`).
+// The picture of the view goes to target/browser-test/layout-view.png
+// (docs/img/layout-editor.png is one).
+//
+// Needs: `cargo build -p grmc` (or GRMC=path), Debian's chromium
+// (CHROMIUM=path). PAGE_DIST=editors/preview/dist serves the page from that
+// folder instead of the copy built into grmc.
+
+import assert from 'node:assert/strict';
+import { type ChildProcess, spawn } from 'node:child_process';
+import { copyFileSync, existsSync, mkdirSync, mkdtempSync, readFileSync, rmSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { join } from 'node:path';
+import { after, before, test } from 'node:test';
+import { type Browser, type Page } from 'playwright-core';
+import { launchChromium } from './chromium.js';
+
+const root = join(import.meta.dirname, '../../..');
+const artifacts = join(root, 'target/browser-test');
+const grmc = process.env.GRMC ?? join(process.env.CARGO_TARGET_DIR ?? join(root, 'target'), 'debug/grmc');
+const pageDist = process.env.PAGE_DIST;
+
+let browser: Browser;
+const servers: ChildProcess[] = [];
+const temps: string[] = [];
+
+before(async () => {
+  assert.ok(existsSync(grmc), `${grmc} is missing: run cargo build -p grmc first`);
+  mkdirSync(artifacts, { recursive: true });
+  browser = await launchChromium();
+});
+
+after(async () => {
+  await browser?.close();
+  for (const s of servers) s.kill();
+  for (const d of temps) rmSync(d, { recursive: true, force: true });
+});
+
+/** The example city in a fresh folder (the view rewrites its sidecar). */
+function city(): string {
+  const dir = mkdtempSync(join(tmpdir(), 'grm-layout-'));
+  temps.push(dir);
+  for (const f of ['city.layout.json', 'city_park.geojson', 'city_building.grm']) copyFileSync(join(root, 'examples', f), join(dir, f));
+  return join(dir, 'city.layout.json');
+}
+
+async function view(file: string): Promise<string> {
+  const proc = spawn(grmc, ['view', file], { stdio: ['ignore', 'pipe', 'pipe'] });
+  servers.push(proc);
+  let out = '';
+  let err = '';
+  proc.stderr?.on('data', (d) => (err += d));
+  return new Promise((resolve, reject) => {
+    const timer = setTimeout(() => reject(new Error(`grmc view printed no URL in 20 s: ${out} ${err}`)), 20_000);
+    proc.stdout?.on('data', (d) => {
+      out += d;
+      const m = /http:\/\/127\.0\.0\.1:\d+\//.exec(out);
+      if (m) {
+        clearTimeout(timer);
+        resolve(m[0]);
+      }
+    });
+    proc.on('exit', (code) => reject(new Error(`grmc view exited with ${code}: ${err}`)));
+  });
+}
+
+async function openPage(url: string): Promise<{ page: Page; errors: string[] }> {
+  const page = await browser.newPage({ viewport: { width: 1100, height: 720 } });
+  const errors: string[] = [];
+  page.on('pageerror', (e) => errors.push(String(e)));
+  page.on('console', (m) => {
+    if (m.type() === 'error') errors.push(m.text());
+  });
+  if (pageDist) {
+    const types: Record<string, string> = { '': 'text/html', 'index.html': 'text/html', 'preview.js': 'text/javascript', 'preview.css': 'text/css' };
+    await page.route(/\/(index\.html|preview\.js|preview\.css)?$/, (route) => {
+      const name = new URL(route.request().url()).pathname.slice(1);
+      return route.fulfill({ contentType: types[name], body: readFileSync(join(pageDist, name || 'index.html')) });
+    });
+  }
+  await page.goto(url);
+  return { page, errors };
+}
+
+interface Drawn {
+  id: string;
+  layer: string;
+  /** Screen points, relative to the plan. */
+  points: [number, number][];
+}
+
+/** The plan's streets as drawn, its draw count, and the fit (metres to pixels). */
+async function plan(page: Page): Promise<{ draws: number; streets: Drawn[]; fit: { scale: number; ox: number; oy: number } }> {
+  return page.evaluate(() => {
+    const svg = document.getElementById('layout-plan') as unknown as SVGSVGElement;
+    const streets = Array.from(svg.querySelectorAll('polyline[data-street]')).map((p) => ({
+      id: p.getAttribute('data-street') ?? '',
+      layer: p.getAttribute('data-layer') ?? '',
+      points: (p.getAttribute('points') ?? '')
+        .trim()
+        .split(/\s+/)
+        .map((xy: string) => xy.split(',').map(Number) as [number, number]),
+    }));
+    return { draws: Number(svg.dataset.draws ?? 0), streets, fit: JSON.parse(svg.dataset.fit ?? '{}') };
+  });
+}
+
+test('a street dragged in grmc view lands in the sidecar, the view redraws it, and a hidden layer hides its streets', async () => {
+  const file = city();
+  const { page, errors } = await openPage(await view(file));
+  await page.waitForSelector('#layout-view:not([hidden])');
+  await page.waitForFunction(() => Number(document.getElementById('layout-plan')?.dataset.draws ?? 0) > 0);
+  await page.waitForSelector('#layout-layers .layout-layer');
+  const names = await page.$$eval('#layout-layers .layout-layer span:nth-of-type(1)', (xs) => xs.map((x) => x.textContent));
+  assert.deepEqual(names, ['avenue', 'park', 'old town', 'base'], 'top layer first');
+  const before = await plan(page);
+  const f = before.fit;
+  const world = (p: [number, number]): [number, number] => [(p[0] - f.ox) / f.scale, -(p[1] - f.oy) / f.scale];
+  // A base street in the east, away from the old town and the avenue.
+  const s = before.streets.find(
+    (x) =>
+      x.layer === '0' &&
+      x.points.length === 2 &&
+      x.points.every((p) => {
+        const [wx, wy] = world(p);
+        return wx > 480 && wx < 680 && wy > 100 && wy < 300;
+      }),
+  );
+  assert.ok(s, 'a base street in the east');
+  const box = await page.locator('#layout-plan').boundingBox();
+  assert.ok(box);
+  const mid: [number, number] = [(s.points[0][0] + s.points[1][0]) / 2, (s.points[0][1] + s.points[1][1]) / 2];
+  await page.mouse.move(box.x + mid[0], box.y + mid[1]);
+  await page.mouse.down();
+  for (let k = 1; k <= 4; k++) await page.mouse.move(box.x + mid[0] + 2 * k, box.y + mid[1] - k);
+  await page.mouse.up();
+
+  // The sidecar has the move; the view drew the street where it was dropped.
+  const deadline = Date.now() + 30_000;
+  while (!readFileSync(file, 'utf8').includes('"moves"')) {
+    assert.ok(Date.now() < deadline, `no move in the sidecar: ${await page.textContent('#layout-status')}`);
+    await new Promise((r) => setTimeout(r, 100));
+  }
+  const sidecar = JSON.parse(readFileSync(file, 'utf8'));
+  const move = sidecar.layers[0].moves[0];
+  assert.deepEqual(move.select, { ids: [s.id] });
+  assert.ok(Math.abs(move.translate[0] - 8 / f.scale) < 0.01 && Math.abs(move.translate[1] - 4 / f.scale) < 0.01, JSON.stringify(move));
+  await page.waitForFunction(
+    ([id, x]) => {
+      const p = document.querySelector(`#layout-plan polyline[data-street="${id}"]`);
+      const first = Number((p?.getAttribute('points') ?? '').split(',')[0]);
+      return Math.abs(first - x) < 1;
+    },
+    [s.id, s.points[0][0] + 8] as const,
+    { timeout: 30_000 },
+  );
+  await page.screenshot({ path: join(artifacts, 'layout-view.png') });
+
+  // Hide the avenue: its streets leave the plan, and the sidecar says so.
+  const avenue = (await plan(page)).streets.filter((x) => x.layer === '3');
+  assert.ok(avenue.length > 0);
+  await page.locator('#layout-layers .layout-layer[data-layer="3"] .layout-visible').uncheck();
+  await page.waitForFunction(() => document.querySelectorAll('#layout-plan polyline[data-layer="3"]').length === 0, undefined, { timeout: 30_000 });
+  assert.equal(JSON.parse(readFileSync(file, 'utf8')).layers[3].visible, false);
+  const after = await plan(page);
+  for (const a of avenue) assert.ok(!after.streets.some((x) => x.id === a.id), `${a.id} hidden`);
+  assert.deepEqual(errors, []);
+});
