@@ -198,7 +198,9 @@ pub struct SampleResult {
     /// Whether the wall-clock budget stopped the skeleton phase early.
     pub stopped_early: bool,
     /// Refinement rounds run after the search ([`crate::Refine`]): 0 when
-    /// its best model covered every curve, or refinement was off.
+    /// its best model covered every curve, or refinement was off. Only
+    /// rounds that ran to their end count: one the wall-clock budget
+    /// stopped part-way is dropped.
     pub refinements: u32,
     /// Wall time of the whole run (search, wrap-up, geometry phase).
     pub elapsed: Duration,

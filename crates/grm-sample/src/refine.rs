@@ -23,9 +23,13 @@ use grm_guide::{CostModel, CostState, FOLLOWED};
 /// final particles, so a round can only lower it.
 ///
 /// Only with the coverage term on (`Guide::cover > 0`, the curve
-/// objective, a finite temperature) and without a wall-clock budget
-/// stopping the search; a run whose first pass covers every curve is the
-/// same, bit for bit, as without refinement.
+/// objective, a finite temperature); a run whose first pass covers every
+/// curve is the same, bit for bit, as without refinement. With a
+/// wall-clock budget ([`crate::SampleOptions::budget`]), no round runs
+/// after a pass the budget stopped, and a round the budget stops before
+/// its last generation is dropped: the model is the best of the pass and
+/// the rounds that ran to their end (so a budget that stops nothing gives
+/// the same model as no budget; the preview refines within its budget).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Refine {
     /// Rounds at most (0: off).

@@ -1979,8 +1979,7 @@ impl<'a> Sampler<'a> {
         // Refinement (`Refine`): the generation its rounds restart from,
         // the population kept there, and every round's wrapped-up final
         // particles (the first pass's first).
-        let restart = if opts.budget.is_none()
-            && opts.guide.cover > 0.0
+        let restart = if opts.guide.cover > 0.0
             && matches!(self.objective, Objective::Curves)
             && temperature.is_finite()
         {
@@ -1995,6 +1994,9 @@ impl<'a> Sampler<'a> {
         let mut seen_finals = std::collections::HashSet::new();
         let mut first = 0;
         let mut round = 0;
+        // Rounds run to their end (a round the budget cuts short is
+        // dropped, below).
+        let mut completed = 0;
         let mut searched_gens = 0;
         loop {
             // Round r > 0 draws with a seed of its own.
@@ -2110,6 +2112,12 @@ impl<'a> Sampler<'a> {
                 let out_of_time = opts
                     .budget
                     .is_some_and(|b| start.elapsed().saturating_sub(frame_time) >= b);
+                if round > 0 && out_of_time && g + 1 < gens {
+                    // A refinement round the budget stops before its end is
+                    // dropped: the model is the best of the pass and the
+                    // rounds that ran to their end (`last` stays empty).
+                    break;
+                }
                 if round == 0 && keep.wants(g) && !(g + 1 == gens || out_of_time) {
                     // The last generation's frame is the returned model.
                     let t = Instant::now();
@@ -2194,6 +2202,11 @@ impl<'a> Sampler<'a> {
             }
             if round == 0 {
                 searched_gens = stats.len();
+            } else if last.is_empty() {
+                // This round was cut short by the budget (above).
+                break;
+            } else {
+                completed = round;
             }
             cancel::check(cancel)?;
             let wrapped = self.wrap_finals(
@@ -2223,6 +2236,7 @@ impl<'a> Sampler<'a> {
             round += 1;
             pop = kept.clone();
             first = from;
+            last = Vec::new();
         }
         drop(checkpoint);
         drop(pop);
@@ -2252,7 +2266,7 @@ impl<'a> Sampler<'a> {
             generations: stats,
             candidates,
             stopped_early,
-            refinements: round,
+            refinements: completed,
             elapsed: start.elapsed(),
         })
     }

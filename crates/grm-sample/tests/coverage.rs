@@ -299,3 +299,43 @@ fn refinement_rounds_follow_the_fork_of_four_where_the_pass_leaves_an_arm() {
     assert!(refined >= 7, "{refined} of 8");
     assert!(pass <= 6, "{pass} of 8: the pass alone should miss here");
 }
+
+#[test]
+fn refinement_rounds_run_within_a_wall_clock_budget() {
+    // The preview samples with a budget (`grm/preview`, 5 s by default):
+    // rounds run there too, and a budget that stops nothing gives the
+    // model of a run without one, bit for bit.
+    let p = example("calder_tree.grm");
+    let c = compile(&p, 0);
+    let curves = Curves::from_json_str("fork4", FORK).expect("curves");
+    let s = curves_sampler(&p, &c, &curves);
+    let o = SampleOptions {
+        seed: 0,
+        schedule: Schedule::from_settings(&c.settings),
+        ..SampleOptions::default()
+    };
+    let free = s.sample(&o).expect("samples");
+    assert!(free.refinements > 0, "seed 0 leaves an arm in its pass");
+    let budgeted = s
+        .sample(&SampleOptions {
+            budget: Some(std::time::Duration::from_secs(600)),
+            ..o.clone()
+        })
+        .expect("samples");
+    assert!(!budgeted.stopped_early);
+    assert_eq!(budgeted.refinements, free.refinements);
+    let (a, b) = (free.best().expect("model"), budgeted.best().expect("model"));
+    assert_eq!(a.cost.total().to_bits(), b.cost.total().to_bits());
+    assert_eq!(a.bone_list(), b.bone_list());
+    assert_eq!(budgeted.candidates, free.candidates);
+    // A budget that stops the pass itself leaves no time for a round.
+    let short = s
+        .sample(&SampleOptions {
+            budget: Some(std::time::Duration::ZERO),
+            ..o.clone()
+        })
+        .expect("samples");
+    assert!(short.stopped_early);
+    assert_eq!(short.refinements, 0);
+    assert!(short.best().is_some());
+}
