@@ -51,7 +51,23 @@ pub struct RemoveEditParams {
     pub id: u32,
 }
 
-/// `grm/edit` and `grm/removeEdit` result.
+/// `grm/retargetEdit` parameters: edit `id` gets `target` (one of the
+/// candidates the preview proposed, or any target), keeping its id, so its
+/// place among the edits (a later edit wins) stays.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase")]
+pub struct RetargetEditParams {
+    /// The grammar, or the edits file itself.
+    pub uri: Uri,
+    /// As in `grm/removeEdit`.
+    #[serde(default)]
+    pub system: Option<String>,
+    pub id: u32,
+    /// As in `grm/edit`.
+    pub target: serde_json::Value,
+}
+
+/// `grm/edit`, `grm/removeEdit` and `grm/retargetEdit` result.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(rename_all = "camelCase")]
 pub struct EditResult {
@@ -275,6 +291,45 @@ impl Backend {
             Some(&old),
             new,
             "grm: remove edit",
+        )
+        .await
+    }
+
+    /// `grm/retargetEdit`: give an edit another target, keeping its id.
+    pub async fn retarget_edit(&self, params: RetargetEditParams) -> Result<EditResult> {
+        let (path, _) = locate(&self.shared, &params.uri, params.system.clone()).await?;
+        // The target read as the file reads it (R0909 for one that does not read).
+        let probe = EditParams {
+            uri: params.uri.clone(),
+            system: None,
+            target: params.target.clone(),
+            op: serde_json::Value::String("remove".into()),
+            note: None,
+        };
+        let target = requested_edit(&probe, "S")?.target;
+        let current = read(&self.shared.edits_source().open, &path)
+            .map_err(|e| failed(format!("{e} ({})", e.code())))?;
+        let Some((version, old)) = current else {
+            return Err(failed("there is no edits file"));
+        };
+        let parsed = grm_edits::parse(&old);
+        if let Some(e) = parsed.errors.first() {
+            return Err(failed(format!(
+                "the edits file has problems (the first: {e} ({})): fix them first, it is rewritten whole",
+                e.code()
+            )));
+        }
+        let mut file = parsed.file;
+        file.retarget(params.id, target)
+            .ok_or_else(|| failed(format!("the edits file has no edit {}", params.id)))?;
+        let new = grm_edits::write(&file);
+        self.apply(
+            path,
+            params.id,
+            version,
+            Some(&old),
+            new,
+            "grm: retarget edit",
         )
         .await
     }

@@ -20,7 +20,7 @@
 //! for them.
 
 pub(crate) use crate::edit_requests::EditCaps;
-pub use crate::edit_requests::{EditParams, EditResult, RemoveEditParams};
+pub use crate::edit_requests::{EditParams, EditResult, RemoveEditParams, RetargetEditParams};
 use crate::{Backend, Shared, convert};
 use grm_diag::{FileId, SourceFile, Span};
 use grm_edits::{Edit, EditClass, EditsError, Parsed};

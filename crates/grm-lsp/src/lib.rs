@@ -309,6 +309,7 @@ fn build(
         .custom_method("grm/picture", Backend::picture)
         .custom_method("grm/edit", Backend::edit)
         .custom_method("grm/removeEdit", Backend::remove_edit)
+        .custom_method("grm/retargetEdit", Backend::retarget_edit)
         .custom_method("grm/provenance", Backend::provenance)
         .custom_method("grm/tree", Backend::tree)
         .custom_method("grm/drag", Backend::drag)

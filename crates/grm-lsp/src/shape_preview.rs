@@ -79,6 +79,13 @@ pub struct ScopeOut {
     /// child (by its edge number) inside the scope.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub planes: Vec<PlaneOut>,
+    /// A shape's exact locator (absent for commands and inserts): what the
+    /// page's edit panel targets when it goes up a level.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub exact: Option<String>,
+    /// A shape's semantic locator (absent for commands and inserts).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub semantic: Option<String>,
 }
 
 /// A split's or repeat's plane: the end of child `edge`, at `at` from the
@@ -245,6 +252,14 @@ impl ShapePicks {
             cuts.sort_by(f32::total_cmp);
             cuts.dedup_by(|a, b| (*a - *b).abs() <= len * 1e-5);
         }
+        let program = &self.lowered.program;
+        let (exact, semantic) = match n.kind {
+            NodeKind::Shape { .. } => (
+                Some(self.tree.exact_locator(program, id).to_string()),
+                Some(self.tree.semantic_locator(program, id).to_string()),
+            ),
+            _ => (None, None),
+        };
         Some(ScopeOut {
             node: id.0,
             label,
@@ -256,6 +271,8 @@ impl ShapePicks {
             cuts,
             key: grm_grow::json::key_text(n.key),
             planes,
+            exact,
+            semantic,
         })
     }
 

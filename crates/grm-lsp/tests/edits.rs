@@ -501,3 +501,88 @@ async fn a_client_that_cannot_apply_edits_gets_the_file_written() {
     let parsed = grm_edits::parse(&std::fs::read_to_string(edits_path(&p)).unwrap());
     assert!(parsed.file.edits.is_empty());
 }
+
+#[tokio::test]
+async fn retarget_edit_keeps_the_id_and_a_pick_names_each_shape_of_its_path() {
+    let (_dir, p, text) = house();
+    // As `grmc view`: the server writes the file.
+    let mut c = Client::start().await;
+    let u = c.open(&p, &text).await;
+    c.ok("grm/preview", json!({ "textDocument": { "uri": u } }))
+        .await;
+    let pk = c
+        .call_ok(
+            "grm/pick",
+            json!({ "textDocument": { "uri": u }, "part": 0, "triangle": 0 }),
+        )
+        .await;
+    // The edit panel goes up a level with these: every shape of the path has
+    // its exact and semantic locator, a command neither.
+    let scopes = pk["shape"]["scopes"].as_array().expect("scopes");
+    let last = scopes.last().expect("the shape");
+    assert_eq!(last["exact"], pk["shape"]["exact"]);
+    assert_eq!(last["semantic"], pk["shape"]["semantic"]);
+    for s in scopes {
+        assert_eq!(
+            s["exact"].is_string(),
+            s["command"] == false && s["label"] != "insert",
+            "{s}"
+        );
+    }
+    let parent = scopes[..scopes.len() - 1]
+        .iter()
+        .rev()
+        .find(|s| s["command"] == false)
+        .expect("a shape above");
+    let exact = pk["shape"]["exact"].as_str().unwrap();
+    let up = parent["exact"].as_str().unwrap();
+    assert!(
+        exact.starts_with(&up[..up.len() - 1]),
+        "{up} is a prefix of {exact}"
+    );
+
+    for op in [
+        json!("remove"),
+        json!({ "op": "material", "name": "glass" }),
+    ] {
+        c.ok(
+            "grm/edit",
+            json!({ "uri": u, "target": { "exact": exact }, "op": op }),
+        )
+        .await;
+    }
+    let res = c
+        .ok(
+            "grm/retargetEdit",
+            json!({ "uri": u, "id": 1, "target": { "exact": up } }),
+        )
+        .await;
+    assert_eq!(
+        (res["id"].clone(), res["written"].clone()),
+        (json!(1), json!(true))
+    );
+    let parsed = grm_edits::parse(&std::fs::read_to_string(edits_path(&p)).unwrap());
+    assert!(parsed.errors.is_empty());
+    let ids: Vec<(u32, String)> = parsed
+        .file
+        .edits
+        .iter()
+        .map(|e| (e.id, e.target.to_string()))
+        .collect();
+    assert_eq!(ids.len(), 2);
+    assert_eq!(ids[0].0, 1, "the id stays: {ids:?}");
+    assert!(ids[0].1.contains(up), "{ids:?}");
+    assert!(ids[1].1.contains(exact), "edit 2 untouched: {ids:?}");
+    // No such edit, and a target that does not read: refused, the file as it was.
+    let before = std::fs::read_to_string(edits_path(&p)).unwrap();
+    for (id, target) in [(9, json!({ "exact": up })), (1, json!("not a target"))] {
+        let r = c
+            .request(
+                "grm/retargetEdit",
+                json!({ "uri": u, "id": id, "target": target }),
+            )
+            .await;
+        assert!(r.is_err(), "{id} {target}: {r:?}");
+    }
+    assert_eq!(std::fs::read_to_string(edits_path(&p)).unwrap(), before);
+}

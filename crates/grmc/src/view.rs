@@ -577,6 +577,12 @@ impl State {
                 }
                 Ok(out)
             }
+            // Persistent edits (the page's edit panel): this client declares
+            // no workspace.applyEdit, so the server writes the edits file
+            // itself and regrows the live preview.
+            "edit" | "removeEdit" | "retargetEdit" => {
+                self.lsp.request(&format!("grm/{method}"), params)
+            }
             "picture" => self.lsp.request("grm/picture", params),
             "symbols" => self.lsp.request(
                 "textDocument/documentSymbol",
