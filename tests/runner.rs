@@ -9,7 +9,9 @@
 //! of cargo tests), as if `grmc` ran there: `--curves
 //! ../examples/calder_tree.curves.json`. `// run: edits [--edits PATH]`
 //! reads the grammar's edits file (NAME.edits.json beside it) as the
-//! commands that grow a model read it, and reports its problems.
+//! commands that grow a model read it, and reports its problems; `// run:
+//! layout [--no-buildings]` merges the layout file beside it
+//! (NAME.layout.json) and grows the case's shape system on its parcels.
 //!
 //! Invariants: the driver makes the same library calls as grmc in the same
 //! order and stops at the first error, as grmc does; it never writes into
@@ -162,6 +164,10 @@ pub const EXEMPT: &[(Code, &str)] = &[
         "needs a 65,536-control spline: too large for a snapshot (grm-compile tests/errors.rs)",
     ),
     (
+        Code::LayoutMergeFailed,
+        "internal: a merge leaves a valid layout or the layer's own error (grm-layout tests/properties.rs: 10,000 operations)",
+    ),
+    (
         Code::ModelTooLarge,
         "needs a model of over 4 GiB in memory: not tested",
     ),
@@ -293,11 +299,12 @@ fn run(
 ) -> Result<(), Stop> {
     let Some((command, rest)) = args.split_first() else {
         return Err(Stop::Usage(
-            "second line must be `// run: derive|sample|disasm|edits ARGS`".into(),
+            "second line must be `// run: derive|sample|disasm|edits|layout ARGS`".into(),
         ));
     };
     match command.as_str() {
         "edits" => edits(rel, sources, program, rest, warnings),
+        "layout" => layout(rel, program, rest, warnings),
         "derive" => derive(program, rest, warnings),
         "sample" => sample(rel, program, rest, warnings),
         "disasm" => {
@@ -338,6 +345,74 @@ fn edits(
     let file = sources.add(shown, text.clone());
     let parsed = grm_edits::parse(&text);
     diags.extend(parsed.errors.iter().map(|e| e.to_diagnostic(file)));
+    Ok(())
+}
+
+/// `grmc layout` on the case's layout file, `NAME.layout.json` beside
+/// it (docs/layout.md): the sidecar's problems (R1021-R1026), each
+/// layer's (R1001-R1015), and, unless `--no-buildings`, each parcel's
+/// without a building (R1031, the shape engine's codes) when the sidecar
+/// has a `buildings` section: its grammar is the case itself (the system
+/// `--system` or the default, the case's defaults with the section's
+/// `params`). All of them are reported and the rest still merges and
+/// grows, so they go with the warnings; labelled at the system.
+fn layout(
+    rel: &Path,
+    program: &Program,
+    args: &[String],
+    diags: &mut Vec<Diagnostic>,
+) -> Result<(), Stop> {
+    use grm_layout::diag::{building_diagnostic, layer_diagnostic, sidecar_diagnostic};
+    let o = Opts::parse(args, &["--no-buildings"], &["--system"]).map_err(Stop::Usage)?;
+    let index = program.pick_system(o.get("--system"))?;
+    let system = &program.systems[index];
+    let at = (system.file, system.loc.span);
+    let path = rel.with_extension("layout.json");
+    let shown = path.to_string_lossy().replace('\\', "/");
+    let text = std::fs::read_to_string(&path)
+        .map_err(|e| Stop::Usage(format!("cannot read {shown}: {e}")))?;
+    let (doc, errs) = grm_layout::sidecar::read(&text);
+    diags.extend(
+        errs.iter()
+            .map(|e| sidecar_diagnostic(e, &shown, at.0, at.1)),
+    );
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let load = |p: &str| std::fs::read_to_string(dir.join(p)).map_err(|e| e.to_string());
+    let ev = doc.evaluate(&load);
+    diags.extend(
+        ev.issues
+            .iter()
+            .map(|i| layer_diagnostic(i, &shown, at.0, at.1)),
+    );
+    let Some(spec) = doc.buildings.as_ref().filter(|_| !o.has("--no-buildings")) else {
+        return Ok(());
+    };
+    let params: Vec<String> = spec
+        .params
+        .iter()
+        .map(|(k, v)| match v {
+            grm_layout::model::TagValue::Num(x) => format!("{k}={x}"),
+            grm_layout::model::TagValue::Bool(b) => format!("{k}={b}"),
+            grm_layout::model::TagValue::Text(t) => format!("{k}={t}"),
+        })
+        .collect();
+    let values = grm_compile::param_values(program, &params).map_err(Stop::Usage)?;
+    let buildings = grm_layout::city::Buildings {
+        program,
+        system,
+        params: &values,
+        dir: rel.parent(),
+        seed: spec.seed,
+        options: grm_grow::shape::ShapeOptions::default(),
+    };
+    let build = grm_geom::BuildOptions::default();
+    let city = grm_layout::city::city(&ev.merged, Some(&buildings), &build, &mut |_, _| {})
+        .map_err(|e| Stop::Usage(e.to_string()))?;
+    diags.extend(
+        city.issues
+            .iter()
+            .map(|b| building_diagnostic(b, at.0, at.1)),
+    );
     Ok(())
 }
 

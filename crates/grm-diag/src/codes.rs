@@ -401,6 +401,54 @@ codes! {
     /// `value` or `by` that is not finite, an `alternative` below 1, a
     /// pinned key that is not 8 hex digits, an empty name.
     EditsBadValue = "R0911", Error, "value out of range in an edit";
+
+    // R10xx: city layouts (grm-layout; docs/layout.md). A bad element,
+    // layer or sidecar entry is skipped; the other layers still merge.
+    /// A layer's GeoJSON text is not GeoJSON (nothing of it loads).
+    LayoutNotGeoJson = "R1001", Error, "layer is not GeoJSON";
+    /// A GeoJSON geometry other than (Multi)LineString or Polygon.
+    LayoutUnsupportedGeometry = "R1002", Error, "unsupported geometry in a layer";
+    /// A street with fewer than two distinct points or both ends at one place.
+    LayoutDegenerateStreet = "R1003", Error, "degenerate street";
+    /// A street polyline that crosses itself.
+    LayoutSelfCrossingStreet = "R1004", Error, "street crosses itself";
+    /// A polygon ring whose last point is not its first.
+    LayoutOpenPolygon = "R1005", Error, "open polygon";
+    /// A polygon ring that crosses itself, has under three points or no area.
+    LayoutBadPolygon = "R1006", Error, "self-intersecting or empty polygon";
+    /// A polygon with holes (parcels are simple polygons).
+    LayoutPolygonWithHoles = "R1007", Error, "parcel polygon with holes";
+    /// A coordinate that is not a finite number within 1e9 m.
+    LayoutNotFinite = "R1008", Error, "coordinate not finite";
+    /// A `class`, `width` or `priority` property that cannot be used.
+    LayoutBadProperty = "R1009", Error, "unusable element property";
+    /// An element that crosses or overlaps one loaded before it.
+    LayoutConflict = "R1010", Error, "element crosses an earlier one";
+    /// A layer's generator parameters out of range.
+    LayoutBadGenerator = "R1011", Error, "unusable generator parameters";
+    /// A layer's GeoJSON file cannot be read.
+    LayoutMissingFile = "R1012", Error, "layer file cannot be read";
+    /// An artist's move that would make streets cross; it is not applied.
+    LayoutMoveRejected = "R1013", Error, "move rejected";
+    /// A deletion or protection naming an element the layer lacks.
+    LayoutUnknownElement = "R1014", Error, "no such element in the layer";
+    /// Internal: a merge that left an invalid layout (the layer is left out).
+    LayoutMergeFailed = "R1015", Error, "merge failed";
+    /// The sidecar is not JSON (nothing is read).
+    SidecarSyntax = "R1021", Error, "layout file is not valid JSON";
+    /// A sidecar value of the wrong type or out of range.
+    SidecarBadValue = "R1022", Error, "bad value in the layout file";
+    /// A key the sidecar needs is missing.
+    SidecarMissing = "R1023", Error, "missing key in the layout file";
+    /// A key the sidecar format does not know (ignored).
+    SidecarUnknownKey = "R1024", Error, "unknown key in the layout file";
+    /// An element identity that is not 16 hex digits.
+    SidecarBadId = "R1025", Error, "bad element identity in the layout file";
+    /// A sidecar `version` newer than this grm reads.
+    SidecarVersion = "R1026", Error, "unsupported layout file version";
+    /// A parcel tag naming a building meta-parameter with a value that
+    /// does not fit it; the parcel stays open ground.
+    BuildingTag = "R1031", Error, "parcel tag does not fit the building";
 }
 
 impl std::fmt::Display for Code {

@@ -16,7 +16,7 @@
 //! are visited in identity order, so the city's model is the same for the
 //! same layout.
 //!
-//! Errors: a parcel whose tag does not fit the parameter it names (B001)
+//! Errors: a parcel whose tag does not fit the parameter it names (R1031)
 //! or whose building does not grow (the shape engine's coded error:
 //! E0509 a lot without area, R0801 too many shapes, ...) is reported as a
 //! [`BuildingIssue`] naming the parcel and keeps its ground; the others
@@ -78,7 +78,7 @@ pub struct Buildings<'a> {
 /// Why one parcel has no building.
 #[derive(Debug)]
 pub enum BuildingError {
-    /// A tag names a meta-parameter but its value does not fit it (B001).
+    /// A tag names a meta-parameter but its value does not fit it (R1031).
     Tag {
         name: String,
         value: String,
@@ -96,12 +96,17 @@ pub struct BuildingIssue {
 }
 
 impl BuildingIssue {
-    /// The stable code: B001, or the shape engine's (E0509, R08xx).
-    pub fn code(&self) -> String {
+    /// The stable code: R1031, or the shape engine's (E0509, R08xx).
+    pub fn diag_code(&self) -> grm_diag::Code {
         match &self.error {
-            BuildingError::Tag { .. } => "B001".into(),
-            BuildingError::Grow(e) => e.code().as_str().to_string(),
+            BuildingError::Tag { .. } => grm_diag::Code::BuildingTag,
+            BuildingError::Grow(e) => e.code(),
         }
+    }
+
+    /// The stable code as written.
+    pub fn code(&self) -> String {
+        self.diag_code().as_str().to_string()
     }
 
     pub fn describe(&self) -> String {

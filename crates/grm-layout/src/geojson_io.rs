@@ -43,20 +43,26 @@ pub enum LoadErrorKind {
 }
 
 impl LoadErrorKind {
-    /// The stable code.
-    pub fn code(&self) -> &'static str {
+    /// The stable code (R1001-R1010 in grm-diag's registry).
+    pub fn diag_code(&self) -> grm_diag::Code {
+        use grm_diag::Code;
         match self {
-            LoadErrorKind::NotGeoJson => "L001",
-            LoadErrorKind::UnsupportedGeometry => "L002",
-            LoadErrorKind::DegenerateStreet => "L003",
-            LoadErrorKind::SelfCrossingStreet => "L004",
-            LoadErrorKind::OpenPolygon => "L005",
-            LoadErrorKind::BadPolygon => "L006",
-            LoadErrorKind::PolygonWithHoles => "L007",
-            LoadErrorKind::NotFinite => "L008",
-            LoadErrorKind::BadProperty => "L009",
-            LoadErrorKind::Conflict => "L010",
+            LoadErrorKind::NotGeoJson => Code::LayoutNotGeoJson,
+            LoadErrorKind::UnsupportedGeometry => Code::LayoutUnsupportedGeometry,
+            LoadErrorKind::DegenerateStreet => Code::LayoutDegenerateStreet,
+            LoadErrorKind::SelfCrossingStreet => Code::LayoutSelfCrossingStreet,
+            LoadErrorKind::OpenPolygon => Code::LayoutOpenPolygon,
+            LoadErrorKind::BadPolygon => Code::LayoutBadPolygon,
+            LoadErrorKind::PolygonWithHoles => Code::LayoutPolygonWithHoles,
+            LoadErrorKind::NotFinite => Code::LayoutNotFinite,
+            LoadErrorKind::BadProperty => Code::LayoutBadProperty,
+            LoadErrorKind::Conflict => Code::LayoutConflict,
         }
+    }
+
+    /// The stable code as written (`R1005`).
+    pub fn code(&self) -> &'static str {
+        self.diag_code().as_str()
     }
 }
 

@@ -189,6 +189,25 @@ pub enum LayerIssue {
 }
 
 impl LayerIssue {
+    /// The stable code: the element's (R1001-R1010) or the layer's
+    /// (R1011-R1015).
+    pub fn diag_code(&self) -> grm_diag::Code {
+        use grm_diag::Code;
+        match self {
+            LayerIssue::Params { .. } => Code::LayoutBadGenerator,
+            LayerIssue::MissingFile { .. } => Code::LayoutMissingFile,
+            LayerIssue::Element { error, .. } => error.kind.diag_code(),
+            LayerIssue::MoveRejected { .. } => Code::LayoutMoveRejected,
+            LayerIssue::UnknownElement { .. } => Code::LayoutUnknownElement,
+            LayerIssue::Merge { .. } => Code::LayoutMergeFailed,
+        }
+    }
+
+    /// The stable code as written (`R1012`).
+    pub fn code(&self) -> &'static str {
+        self.diag_code().as_str()
+    }
+
     pub fn describe(&self) -> String {
         match self {
             LayerIssue::Params { layer, message } => format!("layer `{layer}`: {message}"),
@@ -197,7 +216,9 @@ impl LayerIssue {
                 path,
                 message,
             } => format!("layer `{layer}`: cannot read `{path}`: {message}"),
-            LayerIssue::Element { layer, error } => format!("layer `{layer}`: {error}"),
+            LayerIssue::Element { layer, error } => {
+                format!("layer `{layer}`: {}: {}", error.element, error.message)
+            }
             LayerIssue::MoveRejected {
                 layer,
                 index,

@@ -30,11 +30,13 @@
 //! [`select`], [`shared`] (the shared graph), [`merge`] (4.1.3, 4.1.4),
 //! [`assign`] (4.3), [`layers`] (4.2), [`sidecar`] (the file); [`svg`];
 //! [`city`] (buildings grown on the parcels by a shape system, and the
-//! city as one model for glTF and pictures).
+//! city as one model for glTF and pictures); [`diag`] (the problems as
+//! coded diagnostics, R10xx).
 //! docs/layout.md explains them.
 pub mod assign;
 pub mod blocks;
 pub mod city;
+pub mod diag;
 pub mod generate;
 pub mod geojson_io;
 pub mod geom;

@@ -36,15 +36,22 @@ pub enum SidecarErrorKind {
 }
 
 impl SidecarErrorKind {
-    pub fn code(&self) -> &'static str {
+    /// The stable code (R1021-R1026 in grm-diag's registry).
+    pub fn diag_code(&self) -> grm_diag::Code {
+        use grm_diag::Code;
         match self {
-            SidecarErrorKind::Syntax => "S001",
-            SidecarErrorKind::BadValue => "S002",
-            SidecarErrorKind::Missing => "S003",
-            SidecarErrorKind::UnknownKey => "S004",
-            SidecarErrorKind::BadId => "S005",
-            SidecarErrorKind::Version => "S006",
+            SidecarErrorKind::Syntax => Code::SidecarSyntax,
+            SidecarErrorKind::BadValue => Code::SidecarBadValue,
+            SidecarErrorKind::Missing => Code::SidecarMissing,
+            SidecarErrorKind::UnknownKey => Code::SidecarUnknownKey,
+            SidecarErrorKind::BadId => Code::SidecarBadId,
+            SidecarErrorKind::Version => Code::SidecarVersion,
         }
+    }
+
+    /// The stable code as written (`R1022`).
+    pub fn code(&self) -> &'static str {
+        self.diag_code().as_str()
     }
 }
 

@@ -1,7 +1,7 @@
 //! Buildings grown on parcels (`grm_layout::city`): a building on every
 //! parcel, keyed by the parcel's identity, so a street move leaves the
 //! untouched parcels' buildings byte for byte; tags as meta-parameters
-//! (a tag that does not fit is B001, naming the parcel, and the rest
+//! (a tag that does not fit is R1031, naming the parcel, and the rest
 //! grow); a lot without area is E0509; the city's glb is the same for
 //! the same layout, parses, and names every street and parcel; the
 //! sidecar's `buildings` section reads and writes back.
@@ -263,8 +263,8 @@ fn tags_are_the_buildings_parameters_and_bad_ones_are_reported() {
         assert_eq!(
             issues,
             [
-                (Id(2), "B001".to_string()),
-                (Id(3), "B001".to_string()),
+                (Id(2), "R1031".to_string()),
+                (Id(3), "R1031".to_string()),
                 (Id(4), "E0509".to_string())
             ]
         );
@@ -323,17 +323,17 @@ fn the_sidecars_buildings_read_and_write_back() {
     assert_eq!(sidecar::write(&sidecar::read(&out).0), out);
     // Bad sections are coded at their path, and the layers still read.
     for (bad, path, code) in [
-        (r#"{"seed": 1}"#, "$.buildings.grammar", "S003"),
-        (r#"{"grammar": 3}"#, "$.buildings.grammar", "S002"),
+        (r#"{"seed": 1}"#, "$.buildings.grammar", "R1023"),
+        (r#"{"grammar": 3}"#, "$.buildings.grammar", "R1022"),
         (
             r#"{"grammar": "a.grm", "seed": -1}"#,
             "$.buildings.seed",
-            "S002",
+            "R1022",
         ),
         (
             r#"{"grammar": "a.grm", "params": {"h": "x"}}"#,
             "$.buildings.params.h",
-            "S002",
+            "R1022",
         ),
     ] {
         let text = format!(

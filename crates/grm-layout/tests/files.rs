@@ -77,9 +77,9 @@ fn bad_elements_are_coded_and_named_and_the_rest_loads() {
     );
     assert!(check(&r.layout).is_empty());
     // Codes are distinct and stable.
-    assert_eq!(LoadErrorKind::OpenPolygon.code(), "L005");
+    assert_eq!(LoadErrorKind::OpenPolygon.code(), "R1005");
     let display = r.errors[0].to_string();
-    assert!(display.starts_with('L'), "{display}");
+    assert!(display.starts_with("R10"), "{display}");
 }
 
 #[test]

@@ -6,9 +6,10 @@
 //! grammar grows (`grm_layout::city`; none with `--no-buildings` or
 //! without a `buildings` section). Progress goes to stderr.
 //!
-//! The sidecar's problems (S001-S006, at their JSON paths), each layer's
-//! (a bad GeoJSON element, L001-L010, naming it; a missing file; a
-//! rejected move) and each parcel's without a building (B001, E0509,
+//! The sidecar's problems (R1021-R1026, at their JSON paths), each layer's
+//! (a bad GeoJSON element, R1001-R1010, naming it; a generator's
+//! parameters, a missing file, a rejected move, an unknown element:
+//! R1011-R1015) and each parcel's without a building (R1031, E0509,
 //! R08xx, naming it) are printed; the rest is still written, and the exit
 //! code is 1. A sidecar, grammar or output that cannot be read or written
 //! is exit 2. Files named by the sidecar are read relative to it.
@@ -78,7 +79,12 @@ pub fn run(a: LayoutArgs) -> Outcome {
     };
     let ev = doc.evaluate(&load);
     for i in &ev.issues {
-        eprintln!("{}: error: {}", a.file.display(), i.describe());
+        eprintln!(
+            "{}: error[{}]: {}",
+            a.file.display(),
+            i.code(),
+            i.describe()
+        );
     }
     let bs = blocks(&ev.merged);
     outln!(

@@ -3,7 +3,7 @@
 //! naming a missing file and a bad sidecar entry are reported with their
 //! codes (exit 1) while the other layers still merge; the city with its
 //! buildings as a glb (the same twice) and a picture, the plan alone with
-//! `--no-buildings`; a parcel without a building is B001 (exit 1), a
+//! `--no-buildings`; a parcel without a building is R1031 (exit 1), a
 //! missing grammar exit 2.
 
 mod common;
@@ -73,15 +73,15 @@ fn problems_are_reported_and_the_rest_still_merges() {
     let err = text(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(
-        err.contains("error[S005]") && err.contains("$.layers[3].moves[0].select.ids[0]"),
+        err.contains("error[R1025]") && err.contains("$.layers[3].moves[0].select.ids[0]"),
         "{err}"
     );
     assert!(
-        err.contains("error[S002]") && err.contains("$.layers[2].source.grid.size"),
+        err.contains("error[R1022]") && err.contains("$.layers[2].source.grid.size"),
         "{err}"
     );
     assert!(
-        err.contains("layer `lake`: cannot read `lake.geojson`"),
+        err.contains("error[R1012]: layer `lake`: cannot read `lake.geojson`"),
         "{err}"
     );
     let v: serde_json::Value =
@@ -185,13 +185,13 @@ fn a_parcel_without_a_building_is_reported_and_a_missing_grammar_is_exit_2() {
         .expect("write")
     };
     // One parcel (the nearest to the origin) gets a height past the
-    // grammar's range: B001 naming it, exit 1, the rest grown and written.
+    // grammar's range: R1031 naming it, exit 1, the rest grown and written.
     write(r#"{"grammar": "house.grm"}"#);
     let o = grmc(&["layout", path(&side), "-o", path(&out)]);
     let err = text(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(
-        err.contains("error[B001]: parcel ") && err.contains("outside its range 0 .. 300"),
+        err.contains("error[R1031]: parcel ") && err.contains("outside its range 0 .. 300"),
         "{err}"
     );
     assert!(text(&o.stdout).contains("wrote "), "{}", text(&o.stdout));
