@@ -442,6 +442,11 @@ pub struct SampleOut {
     pub candidates: usize,
     /// The wall-clock budget stopped the search early.
     pub stopped_early: bool,
+    /// Refinement rounds run to their end after the search, within the
+    /// budget (`grm_sample::Refine`; docs/sampling.md 4.5): the model shown
+    /// is the best of the pass and these rounds.
+    #[serde(default)]
+    pub refinements: u32,
     /// Where the curves came from (`request` or a file path).
     pub curves: String,
     /// The generation whose model is shown, when the request asked for one
@@ -889,6 +894,7 @@ fn sample_model(
             generations: run.generations.len(),
             candidates: run.candidates.len(),
             stopped_early: run.stopped_early,
+            refinements: run.refinements,
             curves: from,
             generation: shown,
             coverage,
