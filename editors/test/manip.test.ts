@@ -403,7 +403,7 @@ test("a part's provenance: the numbers that place it, said with their lines and 
   assert.throws(() => decodeProvenance({ sources: [{ range: wire.sources[0].range, value: 'x' }] }), ProtocolError);
 });
 
-test("a pick's ancestry is read (key and symbol per node, the root's symbol null); entries without a key are left out", () => {
+test("a pick's ancestry is read (key, symbol and production per node, the root's symbol null); entries without a key are left out", () => {
   const r = decodePick({
     ...pick(),
     shape: null,
@@ -416,9 +416,9 @@ test("a pick's ancestry is read (key and symbol per node, the root's symbol null
     ],
   });
   assert.deepEqual(r?.ancestry, [
-    { key: '00c0ffee', symbol: null },
-    { key: 'ABCDEF01', symbol: 'A' },
-    { key: '12345678', symbol: 'F' },
+    { key: '00c0ffee', symbol: null, production: 0 },
+    { key: 'ABCDEF01', symbol: 'A', production: 1 },
+    { key: '12345678', symbol: 'F', production: null },
   ]);
   assert.deepEqual(decodePick(pick())?.ancestry, []);
 });

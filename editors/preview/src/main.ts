@@ -54,6 +54,7 @@ import {
   paramsFromSymbols,
 } from './protocol.js';
 import { TreePanel } from './tree-panel.js';
+import { EditPanel } from './edit-panel.js';
 import { LayoutView, isLayoutUri } from './layout-view.js';
 import { PreviewScene, ThumbnailRenderer } from './scene.js';
 import { cutRect, scopeLines } from './scopes.js';
@@ -296,6 +297,8 @@ class App {
 
   /** The derivation tree panel (read only while it is open). */
   private readonly treePanel: TreePanel;
+  /** The edit panel: persistent edits of the picked part (issue 27). */
+  private readonly editPanel: EditPanel;
 
   /** The layout view, shown for a `NAME.layout.json` (issue 29). */
   private readonly layoutView: LayoutView;
@@ -309,6 +312,7 @@ class App {
       (params) => this.transport.request('tree', { textDocument: { uri: this.state.uri }, ...(params as object) }),
       (n) => this.chooseTreeNode(n),
     );
+    this.editPanel = new EditPanel($('edit-section'), { request: (m, p) => this.transport.request(m, p), uri: () => this.state.uri });
     $('tree-details').addEventListener('toggle', () => {
       if ($<HTMLDetailsElement>('tree-details').open) void this.treePanel.modelShown().catch(() => {});
     });
@@ -465,6 +469,7 @@ class App {
       if (p.uri !== this.state.uri) {
         this.state.setDocument(p.uri);
         this.treePanel.setDocument(p.uri);
+        this.editPanel.setDocument();
         this.framed = false;
         this.paramSignature = '';
         this.curvesLoadedFor = '';
@@ -687,6 +692,7 @@ class App {
     // The open tree panel follows the model shown.
     if ($<HTMLDetailsElement>('tree-details').open) void this.treePanel.modelShown().catch(() => {});
     this.state.absorb(r);
+    this.editPanel.modelShown(r.mode, r.origins, r.edits);
     if (r.params.length > 0 || r.paramsWithoutRange.length > 0) {
       this.serverParams = true;
       this.showSkippedParams(r.paramsWithoutRange);
@@ -785,6 +791,7 @@ class App {
     this.symbolsFor = key;
     try {
       const symbols = await this.transport.request('symbols', { uri: this.state.uri });
+      this.editPanel.setSymbols(symbols);
       // A server that lists the meta-parameters in its results is the better source.
       if (!this.serverParams) {
         const { params, skipped } = paramsFromSymbols(symbols);
@@ -1089,6 +1096,7 @@ class App {
       if (r?.key && $<HTMLDetailsElement>('tree-details').open) void this.treePanel.reveal(r.key).catch(() => {});
       this.pickedFor = this.last ? modelSignature(this.last) : '';
       this.setManip(r, params);
+      this.editPanel.picked(r);
       const info = $('rule-info');
       if (r && r.shape) {
         // Shape mode: the shape, where it was made, its locators; its path's scopes.

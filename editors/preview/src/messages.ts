@@ -34,12 +34,18 @@ export type Method =
   | 'writeParams'
   /** The derivation tree of the last preview, a level at a time: `TreeParams` -> a tree answer (LSP `grm/tree`). */
   | 'tree'
+  /** Add a persistent edit to the edits file (issue 27): `EditParams` -> `EditAnswer` (LSP `grm/edit`; VS Code applies it, one undo step; `grmc view`'s server writes the file). */
+  | 'edit'
+  /** Remove a persistent edit by id: `RemoveEditParams` -> `EditAnswer` (LSP `grm/removeEdit`). */
+  | 'removeEdit'
+  /** Give an edit another target, keeping its id: `RetargetEditParams` -> `EditAnswer` (LSP `grm/retargetEdit`). */
+  | 'retargetEdit'
   /** The merged city layout of a `NAME.layout.json` (issue 29): `{ uri }` -> `LayoutResult` (LSP `grm/layout`). */
   | 'layout'
   /** An operator on a layout layer (move, protect, cut, assign, visible): `LayoutEditParams` -> `LayoutEditResult` (LSP `grm/layoutEdit`; VS Code applies it, `grmc view`'s server writes the file). */
   | 'layoutEdit';
 
-export const METHODS: readonly Method[] = ['preview', 'pick', 'picture', 'symbols', 'loadCurves', 'saveCurves', 'reveal', 'provenance', 'drag', 'sketch', 'writeParams', 'tree', 'layout', 'layoutEdit'];
+export const METHODS: readonly Method[] = ['preview', 'pick', 'picture', 'symbols', 'loadCurves', 'saveCurves', 'reveal', 'provenance', 'drag', 'sketch', 'writeParams', 'tree', 'edit', 'removeEdit', 'retargetEdit', 'layout', 'layoutEdit'];
 
 /** What the host tells the page without being asked. */
 export type NotificationMethod =

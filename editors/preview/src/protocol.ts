@@ -10,6 +10,7 @@
 import type { V3 } from './bezier.js';
 import type { CameraParams } from './messages.js';
 import { pngSize } from './picture.js';
+import { type EditsInfo, decodeEdits } from './edits-protocol.js';
 
 // ---------------------------------------------------------------- requests
 
@@ -230,6 +231,8 @@ export interface PreviewResult {
   stats: Record<string, number>;
   /** What the model lacks that its string asked for (none from a server that does not send them). */
   warnings: ModelWarning[];
+  /** The edits file's edits with their classes (shape and derive mode; null: none sent). */
+  edits: EditsInfo | null;
 }
 
 /** `grm/previewUpdated`: a new model after an edit, or why there is none. */
@@ -249,7 +252,7 @@ export interface PickResult {
   /** The picked part's identity key (8 hex digits), when the server sends it. */
   key: string | null;
   /** The nodes from the root to the picked part (its key and symbol each; the root's symbol null). */
-  ancestry: { key: string; symbol: string | null }[];
+  ancestry: { key: string; symbol: string | null; production?: number | null }[];
   /** Shape mode: the picked shape's locators and its path's scopes. */
   shape: ShapePick | null;
 }
@@ -272,6 +275,9 @@ export interface ScopeBox {
   key: string | null;
   /** A split's or repeat's draggable planes: the plane at the end of child `edge` (from 1), `at` along the axis from the origin. */
   planes: ScopePlane[];
+  /** A shape's exact and semantic locators (null: a command or insert, or a server that does not send them). */
+  exact?: string | null;
+  semantic?: string | null;
 }
 
 /** A split plane of a command scope (`grm/pick`'s `planes`). */
@@ -674,6 +680,7 @@ export function decodePreview(v: unknown): PreviewResult {
       const notes = (Array.isArray(w.notes) ? w.notes : []).filter((n: unknown): n is string => typeof n === 'string');
       return { code: str(w.code), message: str(w.message), notes, help: typeof w.help === 'string' ? w.help : null };
     }),
+    edits: decodeEdits(v.edits),
   };
 }
 
@@ -700,7 +707,9 @@ export function decodePick(v: unknown): PickResult | null {
     module: optNum(v.module, 0),
     key: typeof v.key === 'string' ? v.key : null,
     ancestry: (Array.isArray(v.ancestry) ? v.ancestry : []).flatMap((a: unknown) =>
-      isObject(a) && typeof a.key === 'string' && KEY.test(a.key) ? [{ key: a.key, symbol: typeof a.symbol === 'string' ? a.symbol : null }] : [],
+      isObject(a) && typeof a.key === 'string' && KEY.test(a.key)
+        ? [{ key: a.key, symbol: typeof a.symbol === 'string' ? a.symbol : null, production: typeof a.production === 'number' ? a.production : null }]
+        : [],
     ),
     shape: isObject(v.shape) ? decodeShapePick(v.shape) : null,
   };
@@ -732,6 +741,8 @@ function decodeShapePick(v: Record<string, unknown>): ShapePick {
         if (!Number.isSafeInteger(edge) || edge < 1) throw new ProtocolError(`${what}.planes[${k}].edge: expected a child number from 1, got ${edge}`);
         return { edge, at: num(c.at, `${what}.planes[${k}].at`) };
       }),
+      exact: typeof q.exact === 'string' ? q.exact : null,
+      semantic: typeof q.semantic === 'string' ? q.semantic : null,
     };
   });
   return {

@@ -271,11 +271,14 @@ export class PreviewHost {
         this.checkUri(params);
         return this.deps.request(`grm/${method}`, params);
       }
+      case 'edit':
+      case 'removeEdit':
+      case 'retargetEdit':
       case 'provenance':
       case 'drag':
       case 'sketch':
       case 'writeParams': {
-        // Direct manipulation (issue 28): the server solves and sends the edit to the editor itself
+        // Persistent edits (issue 27) and direct manipulation (issue 28): the server sends the edit to the editor itself
         // (workspace/applyEdit, one undo step); the live preview regrows from the edited text.
         this.checkUri(params);
         return this.deps.request(`grm/${method}`, params);
