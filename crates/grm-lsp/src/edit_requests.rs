@@ -406,7 +406,7 @@ impl Backend {
 }
 
 /// Write `text` to `path` through a file beside it (renamed over it).
-fn write_file(path: &Path, text: &str) -> std::io::Result<()> {
+pub(crate) fn write_file(path: &Path, text: &str) -> std::io::Result<()> {
     let mut tmp = path.as_os_str().to_os_string();
     tmp.push(".tmp");
     let tmp = PathBuf::from(tmp);
@@ -418,7 +418,7 @@ fn write_file(path: &Path, text: &str) -> std::io::Result<()> {
 
 /// The workspace edit turning `old` into `new` in the file `uri` (created
 /// when `old` is `None`).
-fn workspace_edit(
+pub(crate) fn workspace_edit(
     uri: &Uri,
     version: Option<i32>,
     old: Option<&str>,

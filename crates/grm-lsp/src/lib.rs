@@ -5,7 +5,8 @@
 //! requests with its plain results converted to LSP types ([`convert`]),
 //! publishes diagnostics as the user types, and serves the live-preview
 //! extension (`grm/preview`, `grm/previewUpdated`, `grm/pick`,
-//! `grm/picture`; see docs/lsp-extensions.md). Built on `tower-lsp-server`, the maintained
+//! `grm/picture`; a city layout's view: `grm/layout`, `grm/layoutEdit`,
+//! [`layout`]; see docs/lsp-extensions.md). Built on `tower-lsp-server`, the maintained
 //! community fork of `tower-lsp`. Started by `grmc lsp` over stdio
 //! ([`run_stdio`]).
 //!
@@ -41,6 +42,8 @@ pub mod coverage;
 mod edit_fixes;
 mod edit_requests;
 pub mod edits;
+pub mod layout;
+pub mod layout_city;
 pub mod manip;
 pub mod picture;
 pub mod preview;
@@ -138,6 +141,8 @@ pub(crate) struct Shared {
     /// The last document's direct manipulation, kept between requests
     /// (a drag's grab and release).
     pub(crate) manips: Mutex<manip::ManipCache>,
+    /// The layout sidecars: open buffers, merge caches (layout.rs).
+    pub(crate) layouts: Mutex<layout::LayoutState>,
 }
 
 /// The `.grm` files under `roots` (hidden directories, `target` and
@@ -195,6 +200,7 @@ impl Shared {
             edits_published: tokio::sync::Mutex::new(HashMap::new()),
             edit_caps: Mutex::new(edits::EditCaps::default()),
             manips: Mutex::new(None),
+            layouts: Mutex::new(layout::LayoutState::default()),
         }
     }
 
@@ -315,6 +321,9 @@ fn build(
         .custom_method("grm/drag", Backend::drag)
         .custom_method("grm/sketch", Backend::sketch)
         .custom_method("grm/writeParams", Backend::write_params)
+        .custom_method("grm/layout", Backend::layout)
+        .custom_method("grm/layoutEdit", Backend::layout_edit)
+        .custom_method("grm/layoutCity", Backend::layout_city)
         .finish()
 }
 
@@ -630,6 +639,10 @@ impl LanguageServer for Backend {
             self.edits_opened(path, d.uri, version, d.text).await;
             return;
         }
+        if layout::is_layout_path(&path) {
+            self.layout_opened(path, params.text_document, version).await;
+            return;
+        }
         // Its spelling first: what is published for it is named so.
         self.shared
             .uris_mut()
@@ -650,6 +663,10 @@ impl LanguageServer for Backend {
         let version = params.text_document.version;
         if edits::is_edits_path(&path) {
             self.edits_edited(params, path).await;
+            return;
+        }
+        if layout::is_layout_path(&path) {
+            self.layout_changed(&path, &params).await;
             return;
         }
         let open = {
@@ -692,6 +709,10 @@ impl LanguageServer for Backend {
         };
         if edits::is_edits_path(&path) {
             self.edits_closed(path).await;
+            return;
+        }
+        if layout::is_layout_path(&path) {
+            self.shared.layout_closed(&path);
             return;
         }
         // Its importers now read the file on disk (the buffer may have had

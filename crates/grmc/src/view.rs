@@ -25,6 +25,7 @@
 //! | `POST /api/symbols` | `textDocument/documentSymbol` (the page reads the meta-parameters' ranges) |
 //! | `POST /api/tree` | `grm/tree`: the last preview's derivation tree, a level at a time (the page's tree panel) |
 //! | `POST /api/provenance`, `/api/drag`, `/api/sketch`, `/api/writeParams` | `grm/provenance`, `grm/drag`, ... (direct manipulation): an edit of the grammar is written here (the server answers the edited text to this client, which cannot apply edits) and sent to the server at once, which regrows the live preview; the answer says `written` |
+//! | `POST /api/layout`, `/api/layoutEdit`, `/api/layoutCity` | `grm/layout`, `grm/layoutEdit`, `grm/layoutCity`: the layout view of a served `NAME.layout.json` (the server writes the sidecar; `grm/layoutUpdated` becomes the `layoutUpdated` event) |
 //! | `POST /api/loadCurves`, `/api/saveCurves` | the curves file next to the grammar (`tree.grm` -> `tree.curves.json`); saved only if `grm-guide` accepts it |
 //! | `GET /api/events?after=N[&wait=MS]` | long poll (20 s at most): `{"seq": M, "events": [{"method", "params"}]}` |
 //!
@@ -266,6 +267,14 @@ impl Lsp {
                 {
                     events.push("previewUpdated", p.clone());
                 }
+                // A layout file served (docs/layout.md, "In the editor"):
+                // it changed, the page asks for its layout again.
+                if msg.method() == "grm/layoutUpdated"
+                    && let Some(p) = msg.params()
+                    && p.get("uri") == Some(&uri)
+                {
+                    events.push("layoutUpdated", p.clone());
+                }
             }
         });
         Lsp {
@@ -415,9 +424,15 @@ impl Server {
             .map_err(|e| e.message)?;
         lsp.notify("initialized", json!({}));
         let (modified, len) = stat(path);
+        // A layout sidecar is served by the page's layout view.
+        let language = if grm_lsp::layout::is_layout_path(path) {
+            "json"
+        } else {
+            "grm"
+        };
         lsp.notify(
             "textDocument/didOpen",
-            json!({ "textDocument": { "uri": uri_json, "languageId": "grm", "version": 1, "text": text } }),
+            json!({ "textDocument": { "uri": uri_json, "languageId": language, "version": 1, "text": text } }),
         );
         let title = path
             .file_name()
@@ -584,6 +599,9 @@ impl State {
                 self.lsp.request(&format!("grm/{method}"), params)
             }
             "picture" => self.lsp.request("grm/picture", params),
+            // The layout view of a `NAME.layout.json` (grm-lsp layout.rs):
+            // the server writes the sidecar itself (no workspace.applyEdit).
+            "layout" | "layoutEdit" | "layoutCity" => self.lsp.request(&format!("grm/{method}"), params),
             "symbols" => self.lsp.request(
                 "textDocument/documentSymbol",
                 json!({ "textDocument": { "uri": self.uri } }),
