@@ -2,9 +2,10 @@
 // `grmc view examples/city.layout.json` (a copy): the page shows the plan
 // and its layers; a street of the base layer dragged with the mouse lands
 // in the sidecar as a move and the view redraws it where it was dropped; a
-// layer's checkbox hides its streets (the sidecar says `visible: false`).
-// The picture of the view goes to target/browser-test/layout-view.png
-// (docs/img/layout-editor.png is one).
+// layer's checkbox hides its streets (the sidecar says `visible: false`);
+// the 3D mode shows the city with its buildings. The pictures of the view
+// go to target/browser-test/layout-view.png and layout-city.png
+// (docs/img/layout-editor.png is the first).
 //
 // Needs: `cargo build -p grmc` (or GRMC=path), Debian's chromium
 // (CHROMIUM=path). PAGE_DIST=editors/preview/dist serves the page from that
@@ -168,5 +169,12 @@ test('a street dragged in grmc view lands in the sidecar, the view redraws it, a
   assert.equal(JSON.parse(readFileSync(file, 'utf8')).layers[3].visible, false);
   const after = await plan(page);
   for (const a of avenue) assert.ok(!after.streets.some((x) => x.id === a.id), `${a.id} hidden`);
+
+  // 3D: the buildings grown on the parcels, drawn by the server.
+  await page.locator('#layout-3d').check();
+  await page.waitForFunction(() => Number(document.getElementById('layout-city')?.dataset.buildings ?? 0) > 100, undefined, { timeout: 60_000 });
+  assert.equal(await page.locator('#layout-city').isVisible(), true);
+  await page.waitForFunction(() => (document.getElementById('layout-city') as HTMLImageElement | null)?.complete === true);
+  await page.screenshot({ path: join(artifacts, 'layout-city.png') });
   assert.deepEqual(errors, []);
 });

@@ -7,7 +7,9 @@ import assert from 'node:assert/strict';
 import { test } from 'node:test';
 import {
   type LayoutStreet,
+  cityCaption,
   decodeLayout,
+  decodeLayoutCity,
   decodeLayoutEdit,
   distToPolyline,
   draggedStreets,
@@ -155,4 +157,10 @@ test("the server's answers decode; malformed ones throw", () => {
     newLayer: null,
   });
   assert.equal(decodeLayoutEdit({ applied: true, written: true, newLayer: 2 }).newLayer, 2);
+});
+
+test("the 3D mode's answer decodes and its caption says what grew and what the cache kept", () => {
+  const c = decodeLayoutCity({ uri: 'file:///c.layout.json', png: 'iVBO', width: 10, height: 10, buildings: 196, reused: 181, parcels: 197, triangles: 9, problems: [], growMs: 18.4 });
+  assert.equal(cityCaption(c), '196 buildings on 197 parcels; 15 grown in 18 ms, 181 kept from the last update');
+  assert.throws(() => decodeLayoutCity({ png: 1 }));
 });

@@ -313,7 +313,35 @@ export function draggedStreets(s: LayoutSelection, streets: LayoutStreet[]): Lay
 // ---------------------------------------------------------------- the view
 
 export interface LayoutHost {
-  request(method: 'layout' | 'layoutEdit', params: unknown): Promise<unknown>;
+  request(method: 'layout' | 'layoutEdit' | 'layoutCity', params: unknown): Promise<unknown>;
+}
+
+/** A `grm/layoutCity` answer: the city with its buildings as a picture. */
+export interface LayoutCity {
+  png: string;
+  buildings: number;
+  reused: number;
+  parcels: number;
+  growMs: number;
+  problems: LayoutProblem[];
+}
+
+export function decodeLayoutCity(raw: unknown): LayoutCity {
+  const o = obj(raw, 'layoutCity');
+  return {
+    png: str(o.png, 'png'),
+    buildings: num(o.buildings, 'buildings'),
+    reused: num(o.reused, 'reused'),
+    parcels: num(o.parcels, 'parcels'),
+    growMs: num(o.growMs, 'growMs'),
+    problems: problems(o.problems, 'problems'),
+  };
+}
+
+/** What the 3D mode says under its picture. */
+export function cityCaption(c: LayoutCity): string {
+  const grown = c.buildings - c.reused;
+  return `${c.buildings} buildings on ${c.parcels} parcels; ${grown} grown in ${c.growMs.toFixed(0)} ms, ${c.reused} kept from the last update`;
 }
 
 const SVG = 'http://www.w3.org/2000/svg';
@@ -346,6 +374,8 @@ export class LayoutView {
   private readonly mode: HTMLSelectElement;
   private readonly radius: HTMLInputElement;
   private readonly tags: HTMLInputElement;
+  private readonly threeD: HTMLInputElement;
+  private readonly picture: HTMLImageElement;
   private uri = '';
   private answer: LayoutAnswer | null = null;
   private fit: ViewFit | null = null;
@@ -365,13 +395,24 @@ export class LayoutView {
     this.plan = document.createElementNS(SVG, 'svg') as SVGSVGElement;
     this.plan.id = 'layout-plan';
     this.plan.style.cssText = 'flex:1;min-width:0;height:100%;touch-action:none;cursor:crosshair';
+    this.picture = el('img');
+    this.picture.id = 'layout-city';
+    this.picture.hidden = true;
+    this.picture.alt = 'the city with its buildings';
+    this.picture.style.cssText = 'flex:1;min-width:0;height:100%;object-fit:contain';
     const side = el('div');
     side.id = 'layout-side';
     side.style.cssText = 'width:260px;overflow-y:auto;padding:8px;border-left:1px solid #3a3b40;background:#242528';
     side.append(el('h3', 'Layers'));
     this.layersList = el('div');
     this.layersList.id = 'layout-layers';
-    side.append(this.layersList, el('h3', 'Select and drag'));
+    this.threeD = el('input');
+    this.threeD.type = 'checkbox';
+    this.threeD.id = 'layout-3d';
+    const threeDRow = el('label', ' 3D: the buildings on the parcels');
+    threeDRow.prepend(this.threeD);
+    this.threeD.addEventListener('change', () => void this.showMode());
+    side.append(this.layersList, threeDRow, el('h3', 'Select and drag'));
     this.mode = el('select');
     this.mode.id = 'layout-mode';
     for (const [v, label] of [
@@ -424,7 +465,7 @@ export class LayoutView {
     this.problemsList.id = 'layout-problems';
     this.problemsList.style.cssText = 'padding-left:16px;color:#e9a';
     side.append(this.status, el('h3', 'Problems'), this.problemsList);
-    this.root.append(this.plan, side);
+    this.root.append(this.plan, this.picture, side);
     this.plan.addEventListener('pointerdown', (e) => this.down(e));
     this.plan.addEventListener('pointermove', (e) => this.move(e));
     this.plan.addEventListener('pointerup', (e) => void this.up(e));
@@ -471,6 +512,37 @@ export class LayoutView {
     this.activeLayer = Math.min(this.activeLayer, Math.max(0, this.answer.layers.length - 1));
     this.draw();
     this.listLayers();
+    if (this.threeD.checked) await this.drawCity();
+  }
+
+  /** The plan (2D, where dragging happens) or the city's picture (3D). */
+  private async showMode(): Promise<void> {
+    const three = this.threeD.checked;
+    this.plan.style.display = three ? 'none' : '';
+    this.picture.hidden = !three;
+    if (three) await this.drawCity();
+    else {
+      this.fit = null;
+      this.draw();
+    }
+  }
+
+  /** Ask the server to grow the city (only the parcels that changed) and show its picture. */
+  private async drawCity(): Promise<void> {
+    const r = this.root.getBoundingClientRect();
+    const w = Math.max(64, Math.round(r.width - 260));
+    const h = Math.max(64, Math.round(r.height));
+    try {
+      const c = decodeLayoutCity(await this.host.request('layoutCity', { uri: this.uri, width: w, height: h }));
+      this.picture.src = `data:image/png;base64,${c.png}`;
+      this.picture.dataset.buildings = String(c.buildings);
+      this.picture.dataset.reused = String(c.reused);
+      this.setStatus(cityCaption(c));
+      const answer = this.answer;
+      if (answer) this.problemsList.replaceChildren(...[...answer.problems, ...c.problems.filter((p) => !answer.problems.some((q) => q.message === p.message))].map((p) => el('li', `${p.code}: ${p.message}`)));
+    } catch (e) {
+      this.setStatus(`3D: ${(e as Error).message}`);
+    }
   }
 
   private setStatus(text: string): void {

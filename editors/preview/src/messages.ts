@@ -43,9 +43,11 @@ export type Method =
   /** The merged city layout of a `NAME.layout.json` (issue 29): `{ uri }` -> `LayoutResult` (LSP `grm/layout`). */
   | 'layout'
   /** An operator on a layout layer (move, protect, cut, assign, visible): `LayoutEditParams` -> `LayoutEditResult` (LSP `grm/layoutEdit`; VS Code applies it, `grmc view`'s server writes the file). */
-  | 'layoutEdit';
+  | 'layoutEdit'
+  /** The city with a building on every parcel, as a picture (the layout view's 3D mode): `{ uri, width, height }` -> `{ png, buildings, reused, ... }` (LSP `grm/layoutCity`). */
+  | 'layoutCity';
 
-export const METHODS: readonly Method[] = ['preview', 'pick', 'picture', 'symbols', 'loadCurves', 'saveCurves', 'reveal', 'provenance', 'drag', 'sketch', 'writeParams', 'tree', 'edit', 'removeEdit', 'retargetEdit', 'layout', 'layoutEdit'];
+export const METHODS: readonly Method[] = ['preview', 'pick', 'picture', 'symbols', 'loadCurves', 'saveCurves', 'reveal', 'provenance', 'drag', 'sketch', 'writeParams', 'tree', 'edit', 'removeEdit', 'retargetEdit', 'layout', 'layoutEdit', 'layoutCity'];
 
 /** What the host tells the page without being asked. */
 export type NotificationMethod =

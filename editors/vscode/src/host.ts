@@ -266,7 +266,8 @@ export class PreviewHost {
         return this.deps.request('grm/tree', params);
       }
       case 'layout':
-      case 'layoutEdit': {
+      case 'layoutEdit':
+      case 'layoutCity': {
         // A city layout's view (issue 29): the server applies an operator as a workspace edit (one undo step).
         this.checkUri(params);
         return this.deps.request(`grm/${method}`, params);
