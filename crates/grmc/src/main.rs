@@ -67,7 +67,8 @@ enum Command {
     Fmt(fmt::FmtArgs),
     /// Run the language server (LSP over stdio).
     Lsp(lsp::LspArgs),
-    /// Serve the live preview page for a .grm file on localhost.
+    /// Serve the live preview page for a .grm file (or the layout view of a
+    /// NAME.layout.json) on localhost.
     View(view::ViewArgs),
     /// Derive a system: statistics, the string, or an exported model.
     Derive(derive::DeriveArgs),

@@ -90,7 +90,7 @@ const EVENT_LOG: usize = 64;
 
 #[derive(clap::Args, Debug)]
 pub struct ViewArgs {
-    /// The .grm file to preview.
+    /// The .grm file to preview (or a NAME.layout.json: the layout view).
     pub file: PathBuf,
     /// Port on 127.0.0.1 (0: a free one, printed).
     #[arg(long, default_value_t = 0)]
