@@ -22,6 +22,8 @@ import {
   type TagMatch,
 } from '../preview/src/edit-panel.js';
 import { decodeEditAnswer, decodeEdits, decodeTarget, targetParam } from '../preview/src/edits-protocol.js';
+import type { HostToPage } from '../preview/src/messages.js';
+import { type HostDeps, PreviewHost } from '../vscode/src/host.js';
 import { type Origin, type PickResult, ProtocolError, decodePick, decodePreview } from '../preview/src/protocol.js';
 
 const WINDOW = '(house = 2/3, facade = 1/2, floor = 3/3, column = 4/5) Window';
@@ -239,4 +241,37 @@ test("the edit requests' answer decodes; a missing id is a ProtocolError", () =>
   });
   assert.equal(decodeEditAnswer({ id: 1, applied: false, failureReason: 'no' }).failureReason, 'no');
   assert.throws(() => decodeEditAnswer({ applied: true }), ProtocolError);
+});
+
+test("VS Code's host sends the panel's edit requests to the server as they are (the server applies them as workspace edits); another document's are refused", async () => {
+  const requests: Array<[string, unknown]> = [];
+  const posted: HostToPage[] = [];
+  const deps: HostDeps = {
+    request: async (method, params) => {
+      requests.push([method, params]);
+      return { uri: 'file:///w/row.edits.json', id: 3, edit: {}, applied: true, written: false };
+    },
+    readFile: async () => null,
+    writeFile: async () => {},
+    savePicture: async () => null,
+    reveal: async () => {},
+    fsPath: (uri) => uri.slice('file://'.length),
+    post: (m) => posted.push(m),
+  };
+  const host = new PreviewHost(deps);
+  host.setDocument('file:///w/row.grm', 'row.grm');
+  await host.handle({ type: 'ready' });
+  const edit = { uri: 'file:///w/row.grm', target: { semantic: '(floor = 2) Window' }, op: { op: 'force', alternative: 2 } };
+  await host.handle({ type: 'request', id: 1, method: 'edit', params: edit });
+  await host.handle({ type: 'request', id: 2, method: 'removeEdit', params: { uri: 'file:///w/row.grm', id: 3 } });
+  await host.handle({ type: 'request', id: 3, method: 'retargetEdit', params: { uri: 'file:///w/row.grm', id: 3, target: { exact: '{Lot}' } } });
+  assert.deepEqual(
+    requests.map(([m]) => m),
+    ['grm/edit', 'grm/removeEdit', 'grm/retargetEdit'],
+  );
+  assert.deepEqual(requests[0][1], edit);
+  assert.equal(decodeEditAnswer((posted.at(-1) as { result: unknown }).result).id, 3);
+  await host.handle({ type: 'request', id: 4, method: 'edit', params: { ...edit, uri: 'file:///w/other.grm' } });
+  assert.equal(requests.length, 3, 'not sent');
+  assert.match(String((posted.at(-1) as { error?: string }).error), /other\.grm/);
 });
