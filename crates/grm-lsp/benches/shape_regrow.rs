@@ -22,6 +22,12 @@
 //! the same for a slider's `grm/preview` request. Each figure is the median
 //! of the rounds; the ratios are over the 50 ms target.
 //!
+//! Protocol 2 (base64 in the JSON) and protocol 3 (`"binary": true`: the
+//! buffers in a blob beside a small JSON message, `grm_lsp::blob`) in the
+//! same run: the library stages for both, then the server in process for
+//! both, rounds alternating (for protocol 3 the client reads the message
+//! as JSON text and copies the blob once, as the stdio transport writes it).
+//!
 //! The bench runs with grmc's allocator (`grm_derive::HugePageAlloc`) in
 //! the mode `grmc lsp` sets (`HugePageAlloc::serve`: the system
 //! allocator's reuse, no fresh huge-page mappings).
@@ -141,6 +147,15 @@ fn main() {
     let mut to_value = Vec::new();
     let mut to_string = Vec::new();
     let mut bytes = 0;
+    let bin_params: PreviewParams = {
+        let mut v = serde_json::to_value(&params).expect("json");
+        v["binary"] = json!(true);
+        serde_json::from_value(v).expect("params")
+    };
+    let mut bin_answers = Vec::new();
+    let mut bin_encode = Vec::new();
+    let mut bin_send = Vec::new();
+    let (mut bin_bytes, mut blob_bytes) = (0, 0);
     for r in 0..rounds {
         let t = Instant::now();
         let fa = FileAnalysis::new(&path, r as i32 + 2, &texts[r % 2], &loader);
@@ -200,6 +215,26 @@ fn main() {
         let s = serde_json::to_string(&v).expect("json");
         to_string.push(ms(t));
         bytes = s.len();
+        drop((v, s, note));
+
+        // Protocol 3: the same answer with its buffers in a blob.
+        let t = Instant::now();
+        let mut result = answer(&fa, &uri, &bin_params).expect("preview");
+        bin_answers.push(ms(t));
+        bin_encode.push(result.stats.encode_ms);
+        let t = Instant::now();
+        let blob = result.take_blob(r as u64 + 1).expect("a blob");
+        let note = PreviewUpdatedParams {
+            uri: uri.clone(),
+            version: fa.version,
+            result: Some(result),
+            error: None,
+        };
+        let s = serde_json::to_string(&serde_json::to_value(&note).expect("json")).expect("json");
+        // What the stdio transport writes: the message and the blob's bytes.
+        black_box(blob.to_vec());
+        bin_send.push(ms(t));
+        (bin_bytes, blob_bytes) = (s.len(), blob.len());
     }
     println!("stages (library calls, one thread unless said):");
     let m_analysis = row("analysis (parse + check + compile check)", analysis);
@@ -226,6 +261,22 @@ fn main() {
         m_analysis + m_answer + m_value + m_string,
     );
     total("slider: answer + send", m_answer + m_value + m_string);
+    println!("  protocol 3 (binary: a blob beside the JSON):");
+    row("  of which encode (stats.encodeMs)", bin_encode);
+    let b_answer = row("  answer in all", bin_answers);
+    let b_send = row(
+        &format!(
+            "send: take_blob + JSON ({:.1} kB) + the blob's bytes ({:.1} MB)",
+            bin_bytes as f64 / 1e3,
+            blob_bytes as f64 / 1e6
+        ),
+        bin_send,
+    );
+    total(
+        "edit, protocol 3: analysis + answer + send",
+        m_analysis + b_answer + b_send,
+    );
+    total("slider, protocol 3: answer + send", b_answer + b_send);
 
     // The whole server, in process.
     let rt = tokio::runtime::Builder::new_multi_thread()
@@ -233,17 +284,42 @@ fn main() {
         .enable_all()
         .build()
         .expect("runtime");
-    let (edits, sliders) = rt.block_on(async {
-        let mut c = Client::with(Config {
-            debounce: Duration::ZERO,
-            ..Config::default()
-        })
+    let store = std::sync::Arc::new(grm_lsp::blob::BlobStore::default());
+    let mut results = Vec::new();
+    for binary in [false, true] {
+        let store = store.clone();
+        let slider = |floors: f64| {
+            let mut v = serde_json::to_value(slider(floors)).expect("json");
+            if binary {
+                v["binary"] = json!(true);
+            }
+            v
+        };
+        let (edits, sliders) = rt.block_on(async {
+        let mut c = Client::with_blobs(
+            Config {
+                debounce: Duration::ZERO,
+                ..Config::default()
+            },
+            store.clone(),
+        )
         .await;
         let u = c.open(&path, &text).await;
+        // What the client does with a preview: read the JSON text, and
+        // with protocol 3 take its blob (the stdio transport copies it
+        // once into the pipe).
+        let take = |v: &serde_json::Value| {
+            black_box(serde_json::to_string(v).expect("json"));
+            if let Some(id) = v["blob"]["id"].as_u64() {
+                black_box(store.get(id).expect("the blob is kept").to_vec());
+            } else {
+                assert!(!binary, "protocol 3 sends a blob");
+            }
+        };
         let r = c
             .ok(
                 "grm/preview",
-                json!({ "textDocument": { "uri": u }, "live": true }),
+                json!({ "textDocument": { "uri": u }, "live": true, "binary": binary }),
             )
             .await;
         assert_eq!(r["mode"], "shape");
@@ -265,6 +341,7 @@ fn main() {
             let p = n.params().expect("params");
             assert!(p["result"].is_object(), "{}", p["error"]);
             black_box(serde_json::to_string(p).expect("json"));
+            take(&p["result"]);
             edits.push(ms(t));
             c.seen.clear();
         }
@@ -272,18 +349,20 @@ fn main() {
         for k in 0..rounds {
             let floors = if k % 2 == 0 { 24.0 } else { 25.0 };
             let t = Instant::now();
-            let r = c
-                .ok(
-                    "grm/preview",
-                    serde_json::to_value(slider(floors)).expect("json"),
-                )
-                .await;
-            black_box(serde_json::to_string(&r).expect("json"));
+            let r = c.ok("grm/preview", slider(floors)).await;
+            take(&r);
             sliders.push(ms(t));
         }
         (edits, sliders)
     });
-    println!("the server in process (debounce 0):");
-    total("didChange -> grm/previewUpdated", median(edits));
-    total("grm/preview with a slider's value", median(sliders));
+        results.push((binary, edits, sliders));
+    }
+    for (binary, edits, sliders) in results {
+        println!(
+            "the server in process (debounce 0), protocol {}:",
+            if binary { "3 (binary)" } else { "2 (base64)" }
+        );
+        total("didChange -> grm/previewUpdated", median(edits));
+        total("grm/preview with a slider's value", median(sliders));
+    }
 }

@@ -37,6 +37,7 @@
 //!   (tower-lsp-server's reader ends the session at the first).
 
 mod b64;
+pub mod blob;
 pub mod convert;
 pub mod coverage;
 mod edit_fixes;
@@ -141,6 +142,10 @@ pub(crate) struct Shared {
     /// The last document's direct manipulation, kept between requests
     /// (a drag's grab and release).
     pub(crate) manips: Mutex<manip::ManipCache>,
+    /// Where protocol 3's blobs go (none: buffers stay base64 text), and
+    /// the next blob's id.
+    pub(crate) blobs: Option<blob::BlobSink>,
+    pub(crate) blob_seq: AtomicU64,
     /// The layout sidecars: open buffers, merge caches (layout.rs).
     pub(crate) layouts: Mutex<layout::LayoutState>,
 }
@@ -200,6 +205,8 @@ impl Shared {
             edits_published: tokio::sync::Mutex::new(HashMap::new()),
             edit_caps: Mutex::new(edits::EditCaps::default()),
             manips: Mutex::new(None),
+            blobs: None,
+            blob_seq: AtomicU64::new(1),
             layouts: Mutex::new(layout::LayoutState::default()),
         }
     }
@@ -302,14 +309,24 @@ impl std::fmt::Debug for Backend {
 
 /// The server as a tower service (for stdio, sockets or in-process tests).
 pub fn service(config: Config) -> (LspService<Backend>, ClientSocket) {
-    build(config, Arc::default())
+    build(config, Arc::default(), None)
+}
+
+/// [`service`] whose protocol-3 previews (`"binary": true`) put their
+/// buffers in `store` (`grmc view` serves them from there).
+pub fn service_with_blobs(
+    config: Config,
+    store: Arc<blob::BlobStore>,
+) -> (LspService<Backend>, ClientSocket) {
+    build(config, Arc::default(), Some(blob::BlobSink::Store(store)))
 }
 
 fn build(
     config: Config,
     shut_down: Arc<std::sync::atomic::AtomicBool>,
+    blobs: Option<blob::BlobSink>,
 ) -> (LspService<Backend>, ClientSocket) {
-    LspService::build(|client| Backend::new(client, config, shut_down))
+    LspService::build(|client| Backend::new(client, config, shut_down, blobs))
         .custom_method("grm/preview", Backend::preview)
         .custom_method("grm/pick", Backend::pick)
         .custom_method("grm/picture", Backend::picture)
@@ -337,7 +354,12 @@ pub fn run_stdio() -> std::io::Result<bool> {
         .build()?;
     let shut_down = Arc::new(std::sync::atomic::AtomicBool::new(false));
     rt.block_on(async {
-        let (service, socket) = build(Config::default(), shut_down.clone());
+        let (blobs, blobs_rx) = tokio::sync::mpsc::unbounded_channel();
+        let (service, socket) = build(
+            Config::default(),
+            shut_down.clone(),
+            Some(blob::BlobSink::Frames(blobs)),
+        );
         // The server reads and writes through the guard ([`stdio`]): a
         // malformed message is answered, not the end of the session.
         let (server_in, to_server) = tokio::io::duplex(1 << 16);
@@ -348,7 +370,7 @@ pub fn run_stdio() -> std::io::Result<bool> {
         // down without waiting for it.
         tokio::spawn(stdio::guard_input(tokio::io::stdin(), to_server, answers));
         let serve = Server::new(server_in, from_server, socket).serve(service);
-        let write = stdio::merge_output(server_out, tokio::io::stdout(), answers_rx);
+        let write = stdio::merge_output(server_out, tokio::io::stdout(), answers_rx, blobs_rx);
         tokio::join!(serve, write);
     });
     rt.shutdown_background();
@@ -377,10 +399,13 @@ impl Backend {
         client: Client,
         config: Config,
         shut_down: Arc<std::sync::atomic::AtomicBool>,
+        blobs: Option<blob::BlobSink>,
     ) -> Backend {
+        let mut shared = Shared::new(config);
+        shared.blobs = blobs;
         Backend {
             client,
-            shared: Arc::new(Shared::new(config)),
+            shared: Arc::new(shared),
             shut_down,
         }
     }

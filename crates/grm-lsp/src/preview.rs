@@ -4,9 +4,11 @@
 //! bone back to the production that made it.
 //!
 //! Buffers are base64 of little-endian `f32` / `u32` / `i32` arrays inside
-//! the JSON: JSON-RPC over stdio has no binary frames, base64 is 4/3 of the
-//! raw size (decimal JSON numbers are about 3x and must be parsed one by
-//! one), and a webview turns it into a `Float32Array` with one `atob`.
+//! the JSON: base64 is 4/3 of the raw size (decimal JSON numbers are about
+//! 3x and must be parsed one by one), and a webview turns it into a
+//! `Float32Array` with one `atob`. A request with `binary` (protocol 3)
+//! gets them as ranges of a binary blob sent beside the message instead
+//! ([`crate::blob`]), where the server has somewhere to send it.
 //! Everything is computed on a blocking thread, never on the executor.
 //!
 //! Superseding: a `grm/preview` with `live: true` supersedes the document's
@@ -28,6 +30,7 @@
 //! From the tree `grm/pick` answers the picked part's identity key and its
 //! ancestry.
 
+use crate::blob::{Buf, Enc};
 use crate::{Backend, Shared, convert, failed};
 use base64::Engine as _;
 use grm_analysis::FileAnalysis;
@@ -48,7 +51,9 @@ use tower_lsp_server::ls_types::{Position, Range, TextDocumentIdentifier, Uri};
 
 /// Bumped on any incompatible change of the messages below.
 /// 2: picks are base64 of six `u32`s each, no longer one object per pick.
-pub const PROTOCOL_VERSION: u32 = 2;
+/// 3: a request with `binary` gets its buffers as ranges of a binary blob
+/// sent beside the answer ([`crate::blob`]); without it, as in 2.
+pub const PROTOCOL_VERSION: u32 = 3;
 
 /// No origin (a module whose maker is unknown).
 pub const NO_ORIGIN: u32 = u32::MAX;
@@ -203,6 +208,11 @@ pub struct PreviewParams {
     /// polygons (docs/lsp-extensions.md).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub context: Option<ContextIn>,
+    /// Protocol 3: the buffers as ranges of a binary blob sent beside the
+    /// answer (where the server has somewhere to send it, [`crate::blob`]),
+    /// not as base64 text.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub binary: bool,
 }
 
 /// `grm/preview`'s `context`: a shape's key and how many levels below it
@@ -279,19 +289,19 @@ pub struct PartOut {
     pub vertex_count: usize,
     pub triangle_count: usize,
     /// base64 of `f32` x, y, z per vertex.
-    pub positions: String,
+    pub positions: Buf,
     /// base64 of `f32` unit normals, one per vertex; empty when they are
     /// the flat normals of the triangles (`grm_geom::MeshData::flat_normals`:
     /// the client computes them, summing each vertex's face normals).
-    pub normals: String,
+    pub normals: Buf,
     /// base64 of `u32` vertex indices, three per triangle (empty in the
     /// `quads` layout).
-    pub indices: String,
+    pub indices: Buf,
     /// The number of picks (runs of triangles and what made them).
     pub pick_count: usize,
     /// base64 of [`PICK_WORDS`] `u32`s per pick, by first triangle
     /// ([`PickOut`], [`decode_picks`]).
-    pub picks: String,
+    pub picks: Buf,
     /// `quads` when the part is parallelogram quads
     /// (`grm_geom::MeshData::is_quads`): `positions` holds the corners
     /// `a b c` of each quad (nine floats), the fourth being `a + c - b`,
@@ -320,11 +330,11 @@ pub struct MaterialOut {
 pub struct SkeletonOut {
     pub bone_count: usize,
     /// base64 of `f32` per bone: base x y z, tip x y z, width at base, at tip.
-    pub bones: String,
+    pub bones: Buf,
     /// base64 of `i32` per bone: the parent bone, -1 for none.
-    pub parents: String,
+    pub parents: Buf,
     /// base64 of `u32` per bone: index into the origins, `0xFFFFFFFF` unknown.
-    pub origins: String,
+    pub origins: Buf,
 }
 
 /// A production that made part of the model.
@@ -382,8 +392,13 @@ pub struct PreviewResult {
     pub mode: PreviewMode,
     pub seed: u32,
     pub iterations: u32,
-    /// Always `base64-le`.
+    /// `base64-le`: the buffers are base64 text; `blob-le`: ranges of
+    /// `blob` (protocol 3, [`crate::blob`]).
     pub encoding: String,
+    /// Protocol 3: the blob the buffers' ranges are in, sent before this
+    /// message.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub blob: Option<crate::blob::BlobRef>,
     pub materials: Vec<MaterialOut>,
     pub parts: Vec<PartOut>,
     pub skeleton: SkeletonOut,
@@ -406,6 +421,40 @@ pub struct PreviewResult {
     /// and what became of each of its edits.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub edits: Option<crate::edits::EditsOut>,
+}
+
+impl PreviewResult {
+    /// Protocol 3: moves the buffers' bytes into blob `id` (each buffer
+    /// becomes its range; `encoding` becomes `blob-le`). `None` when
+    /// they are base64 text already (a request without `binary`).
+    pub fn take_blob(&mut self, id: u64) -> Option<crate::blob::Blob> {
+        let (mut at, mut chunks) = (0, Vec::new());
+        for part in &mut self.parts {
+            for b in [
+                &mut part.positions,
+                &mut part.normals,
+                &mut part.indices,
+                &mut part.picks,
+            ] {
+                b.place(&mut at, &mut chunks);
+            }
+        }
+        let s = &mut self.skeleton;
+        for b in [&mut s.bones, &mut s.parents, &mut s.origins] {
+            b.place(&mut at, &mut chunks);
+        }
+        if chunks.is_empty() {
+            return None;
+        }
+        self.encoding = "blob-le".into();
+        self.blob = Some(crate::blob::BlobRef { id, bytes: at });
+        Some(crate::blob::Blob { id, chunks })
+    }
+}
+
+/// How a request's buffers are written.
+pub(crate) fn encoding(p: &PreviewParams) -> Enc {
+    if p.binary { Enc::Binary } else { Enc::Base64 }
 }
 
 /// A model warning (`grm_geom::Model::warnings`).
@@ -551,22 +600,24 @@ pub(crate) struct PickTable {
     pub(crate) edits: Option<Arc<crate::edits::EditsRun>>,
 }
 
-/// A quads mesh's positions on the wire (`layout: "quads"`): the first
-/// three corners of each quad (the fourth is `a + c - b`).
-fn quad_corners(mesh: &grm_geom::MeshData) -> String {
-    crate::b64::quad_corners(&mesh.positions)
-}
-
-pub(crate) fn f32s(xs: &[f32]) -> String {
+#[cfg(test)]
+fn f32s(xs: &[f32]) -> String {
     crate::b64::words(xs, f32::to_le_bytes)
 }
 
-pub(crate) fn u32s(xs: &[u32]) -> String {
+#[cfg(test)]
+fn u32s(xs: &[u32]) -> String {
     crate::b64::words(xs, u32::to_le_bytes)
 }
 
+#[cfg(test)]
 fn i32s(xs: &[i32]) -> String {
     crate::b64::words(xs, i32::to_le_bytes)
+}
+
+#[cfg(test)]
+fn quad_corners(mesh: &grm_geom::MeshData) -> String {
+    crate::b64::quad_corners(&mesh.positions)
 }
 
 /// A derived string with provenance.
@@ -1173,7 +1224,8 @@ pub(crate) fn build_with_model(
         edits: edits_run.map(Arc::new),
         ..PickTable::default()
     };
-    let parts = parts_out(&model, &origin_of, &is_focus, &mut table.parts);
+    let enc = encoding(p);
+    let parts = parts_out(&model, &origin_of, &is_focus, &mut table.parts, enc);
     let bones = &model.skeleton.bones;
     let mut bone_f = Vec::with_capacity(bones.len() * 8);
     let mut parents = Vec::with_capacity(bones.len());
@@ -1189,9 +1241,9 @@ pub(crate) fn build_with_model(
     }
     let skeleton = SkeletonOut {
         bone_count: bones.len(),
-        bones: f32s(&bone_f),
-        parents: i32s(&parents),
-        origins: u32s(&bone_o),
+        bones: enc.f32s(&bone_f),
+        parents: enc.i32s(&parents),
+        origins: enc.u32s(&bone_o),
     };
     let materials = materials_out(&model);
     let warnings: Vec<WarningOut> = model
@@ -1212,6 +1264,7 @@ pub(crate) fn build_with_model(
         seed: settings.seed,
         iterations: settings.iterations,
         encoding: "base64-le".into(),
+        blob: None,
         materials,
         parts,
         skeleton,
@@ -1278,6 +1331,7 @@ pub(crate) fn parts_out(
     origin_of: &dyn Fn(u32) -> Option<u32>,
     is_focus: &dyn Fn(u32) -> bool,
     table: &mut Vec<Vec<(u32, u32, u32, u32)>>,
+    enc: Enc,
 ) -> Vec<PartOut> {
     model
         .parts
@@ -1293,14 +1347,14 @@ pub(crate) fn parts_out(
             // walls), the picks and indices here.
             let vertices = || {
                 if quads {
-                    return (quad_corners(mesh), String::new());
+                    return (enc.quad_corners(&mesh.positions), Buf::default());
                 }
                 let normals = if mesh.flat_normals() {
-                    String::new()
+                    Buf::default()
                 } else {
-                    f32s(mesh.normals.as_flattened())
+                    enc.f32s(mesh.normals.as_flattened())
                 };
-                (f32s(mesh.positions.as_flattened()), normals)
+                (enc.f32s(mesh.positions.as_flattened()), normals)
             };
             let rest = || {
                 let mut picks = Vec::with_capacity(part.picks.len() * 4 * PICK_WORDS);
@@ -1326,11 +1380,11 @@ pub(crate) fn parts_out(
                     }
                     runs.push((pk.first_triangle, pk.triangle_count, pk.module, pk.origin));
                 }
-                let picks = crate::b64::encode(&picks);
+                let picks = enc.bytes(picks);
                 let indices = if quads {
-                    String::new()
+                    Buf::default()
                 } else {
-                    u32s(&mesh.indices)
+                    enc.u32s(&mesh.indices)
                 };
                 (indices, picks, runs)
             };
@@ -1542,6 +1596,19 @@ impl Drop for Ticket {
     }
 }
 
+/// Protocol 3: sends the answer's buffers as a blob, where the server has
+/// somewhere to send it, just before the message that names it; else (or
+/// for base64 text) the answer stays as it is.
+pub(crate) fn ship(shared: &Shared, r: &mut PreviewResult) {
+    let Some(sink) = &shared.blobs else {
+        return;
+    };
+    let id = shared.blob_seq.fetch_add(1, Ordering::Relaxed);
+    if let Some(blob) = r.take_blob(id) {
+        sink.send(blob);
+    }
+}
+
 /// The answer of a superseded `grm/preview`.
 fn superseded() -> Error {
     Error {
@@ -1572,9 +1639,11 @@ impl Backend {
         match outcome {
             // Superseded while being built: a newer request answers.
             _ if ticket.token.is_cancelled() => Err(superseded()),
-            Ok((r, table)) => {
+            Ok((mut r, table)) => {
                 crate::edits::after_preview(&self.shared, &self.client, &path, &table).await;
                 store(&self.shared, path, table);
+                // The blob goes out before the answer that names it.
+                ship(&self.shared, &mut r);
                 Ok(r)
             }
             Err(Failure::Cancelled) => Err(superseded()),
@@ -1748,6 +1817,10 @@ pub(crate) async fn refresh(shared: &Arc<Shared>, client: &Client, path: PathBuf
         return;
     }
     sent.insert(path, (version, key));
+    let mut result = result;
+    if let Some(r) = &mut result {
+        ship(shared, r);
+    }
     client
         .send_notification::<PreviewUpdated>(PreviewUpdatedParams {
             uri,

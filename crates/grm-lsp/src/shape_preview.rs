@@ -534,7 +534,13 @@ pub(crate) fn build(
             pk.origin = pk.module;
         }
     }
-    let parts = parts_out(&model, &origin_of, &is_focus, &mut table.parts);
+    let parts = parts_out(
+        &model,
+        &origin_of,
+        &is_focus,
+        &mut table.parts,
+        crate::preview::encoding(p),
+    );
     let nodes = picks.tree.nodes();
     let shapes = nodes.iter().filter(|n| n.is_shape()).count();
     let shape_out = ShapeOut {
@@ -562,13 +568,14 @@ pub(crate) fn build(
         seed,
         iterations: 0,
         encoding: "base64-le".into(),
+        blob: None,
         materials: materials_out(&model),
         parts,
         skeleton: SkeletonOut {
             bone_count: 0,
-            bones: String::new(),
-            parents: String::new(),
-            origins: String::new(),
+            bones: Default::default(),
+            parents: Default::default(),
+            origins: Default::default(),
         },
         origins,
         focus: None,

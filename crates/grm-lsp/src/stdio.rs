@@ -469,13 +469,29 @@ fn outgoing_within(body: Vec<u8>, max: usize) -> Option<Vec<u8>> {
     ))
 }
 
+/// Writes a blob's frame (protocol 3, [`crate::blob`]).
+async fn write_blob(
+    output: &mut (impl AsyncWrite + Unpin),
+    blob: &crate::blob::Blob,
+) -> std::io::Result<()> {
+    output.write_all(&crate::blob::frame_header(blob)).await?;
+    for c in &blob.chunks {
+        output.write_all(c).await?;
+    }
+    Ok(())
+}
+
 /// Copy the server's messages to `output`, with the guard's answers
 /// between them; ends when the server's output ends. A message of the
-/// server's is never dropped unanswered ([`outgoing`]).
+/// server's is never dropped unanswered ([`outgoing`]). The server's blobs
+/// (protocol 3) are written as frames of their own, each before any
+/// message of the server's read after it was sent: before the answer or
+/// notification that names it.
 pub async fn merge_output(
     mut server: impl AsyncRead + Unpin,
     mut output: impl AsyncWrite + Unpin,
     mut answers: tokio::sync::mpsc::UnboundedReceiver<Vec<u8>>,
+    mut blobs: tokio::sync::mpsc::UnboundedReceiver<crate::blob::Blob>,
 ) {
     let mut d = Deframer::with_max(usize::MAX);
     let mut buf = vec![0u8; 1 << 16];
@@ -487,6 +503,13 @@ pub async fn merge_output(
                     Ok(n) => n,
                 };
                 d.push(&buf[..n]);
+                // Sent before these messages were written: before the one
+                // that names it.
+                while let Ok(blob) = blobs.try_recv() {
+                    if write_blob(&mut output, &blob).await.is_err() {
+                        return;
+                    }
+                }
                 while let Some(ev) = d.next_event() {
                     if let Event::Body(b) = ev
                         && let Some(b) = outgoing(b)
@@ -691,7 +714,8 @@ mod tests {
         let (stdout_w, mut stdout_r) = tokio::io::duplex(1 << 16);
         let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
         let guard = tokio::spawn(guard_input(stdin, server_in_w, tx));
-        let merge = tokio::spawn(merge_output(server_out_r, stdout_w, rx));
+        let (_blobs, blobs_rx) = tokio::sync::mpsc::unbounded_channel();
+        let merge = tokio::spawn(merge_output(server_out_r, stdout_w, rx, blobs_rx));
         let good = br#"{"jsonrpc":"2.0","id":1,"method":"a"}"#;
         client_w.write_all(&frame(good)).await.unwrap();
         client_w.write_all(&frame(b"{oops")).await.unwrap();
@@ -711,5 +735,36 @@ mod tests {
         let text = String::from_utf8(out).unwrap();
         assert!(text.contains("-32700"), "{text}");
         assert!(text.contains("{\"x\":1}"), "{text}");
+    }
+
+    /// A blob sent before a message of the server's is written, as a frame
+    /// of its own, before it.
+    #[tokio::test]
+    async fn blobs_go_before_the_message_that_names_them() {
+        let (mut server_out_w, server_out_r) = tokio::io::duplex(4096);
+        let (stdout_w, mut stdout_r) = tokio::io::duplex(1 << 16);
+        let (_tx, rx) = tokio::sync::mpsc::unbounded_channel();
+        let (blobs, blobs_rx) = tokio::sync::mpsc::unbounded_channel();
+        let merge = tokio::spawn(merge_output(server_out_r, stdout_w, rx, blobs_rx));
+        blobs
+            .send(crate::blob::Blob {
+                id: 7,
+                chunks: vec![vec![0, 1, 2, 3], vec![255; 4]],
+            })
+            .unwrap();
+        server_out_w
+            .write_all(&frame(br#"{"blob":{"id":7}}"#))
+            .await
+            .unwrap();
+        drop(server_out_w);
+        merge.await.unwrap();
+        let mut out = Vec::new();
+        stdout_r.read_to_end(&mut out).await.unwrap();
+        let mut want =
+            b"Content-Length: 8\r\nContent-Type: application/vnd.grm.blob\r\nGrm-Blob: 7\r\n\r\n"
+                .to_vec();
+        want.extend([0, 1, 2, 3, 255, 255, 255, 255]);
+        want.extend(frame(br#"{"blob":{"id":7}}"#));
+        assert_eq!(out, want);
     }
 }

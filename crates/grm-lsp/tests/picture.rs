@@ -122,7 +122,7 @@ async fn the_server_announces_pictures() {
     let c = Client::start().await;
     assert_eq!(
         c.initialized["capabilities"]["experimental"]["grmPreview"],
-        json!({ "version": 2, "picture": true })
+        json!({ "version": 3, "picture": true })
     );
 }
 

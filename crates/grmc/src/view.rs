@@ -28,6 +28,7 @@
 //! | `POST /api/layout`, `/api/layoutEdit`, `/api/layoutCity` | `grm/layout`, `grm/layoutEdit`, `grm/layoutCity`: the layout view of a served `NAME.layout.json` (the server writes the sidecar; `grm/layoutUpdated` becomes the `layoutUpdated` event) |
 //! | `POST /api/loadCurves`, `/api/saveCurves` | the curves file next to the grammar (`tree.grm` -> `tree.curves.json`); saved only if `grm-guide` accepts it |
 //! | `GET /api/events?after=N[&wait=MS]` | long poll (20 s at most): `{"seq": M, "events": [{"method", "params"}]}` |
+//! | `GET /api/blob/ID` | a preview's buffers asked with `"binary": true` (protocol 3): `application/octet-stream`, the newest previews' kept |
 //!
 //! Every `POST /api/...` answer carries `Server-Timing: app;dur=MS`: the
 //! milliseconds from the request read to the answer ready to write (the
@@ -238,8 +239,15 @@ struct Lsp {
 }
 
 impl Lsp {
-    fn start(rt: &tokio::runtime::Runtime, events: Arc<EventQueue>, uri: Value) -> Lsp {
-        let (service, socket) = grm_lsp::service(grm_lsp::Config::default());
+    fn start(
+        rt: &tokio::runtime::Runtime,
+        events: Arc<EventQueue>,
+        uri: Value,
+        blobs: Arc<grm_lsp::blob::BlobStore>,
+    ) -> Lsp {
+        // A preview asked with `binary` (protocol 3) leaves its buffers in
+        // `blobs`, served as `GET /api/blob/ID`.
+        let (service, socket) = grm_lsp::service_with_blobs(grm_lsp::Config::default(), blobs);
         let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<(Request, Option<Reply>)>();
         rt.spawn(async move {
             let mut service = service;
@@ -324,6 +332,8 @@ struct State {
     uri: String,
     curves_path: PathBuf,
     lsp: Lsp,
+    /// Previews' blobs (protocol 3), for `GET /api/blob/ID`.
+    blobs: Arc<grm_lsp::blob::BlobStore>,
     events: Arc<EventQueue>,
     /// The file as last sent to the server: (modified, length, version).
     seen: Mutex<(Option<SystemTime>, u64, i32)>,
@@ -419,7 +429,8 @@ impl Server {
             events: Mutex::new(Events::default()),
             changed: Condvar::new(),
         });
-        let lsp = Lsp::start(&rt, events.clone(), uri_json.clone());
+        let blobs = Arc::new(grm_lsp::blob::BlobStore::default());
+        let lsp = Lsp::start(&rt, events.clone(), uri_json.clone(), blobs.clone());
         lsp.request("initialize", json!({ "capabilities": {} }))
             .map_err(|e| e.message)?;
         lsp.notify("initialized", json!({}));
@@ -446,6 +457,7 @@ impl Server {
             curves_seen: Mutex::new(stat(&curves_path)),
             curves_path,
             lsp,
+            blobs,
             events,
             seen: Mutex::new((modified, len, 1)),
             addr,
@@ -808,6 +820,22 @@ fn respond_with(
     w.flush()
 }
 
+/// A preview's blob (protocol 3) as `application/octet-stream`.
+fn respond_blob(w: &mut impl Write, blob: &grm_lsp::blob::Blob) -> std::io::Result<()> {
+    let head = format!(
+        "HTTP/1.1 200 OK\r\nContent-Type: application/octet-stream\r\nContent-Length: {}\r\nCache-Control: no-store\r\nX-Content-Type-Options: nosniff\r\nContent-Security-Policy: {CSP}; {CSP_FRAMES}\r\nConnection: close\r\n\r\n",
+        blob.len()
+    );
+    // One buffer: small writes would wait for the client's delayed ACK.
+    let mut out = Vec::with_capacity(head.len() + blob.len());
+    out.extend_from_slice(head.as_bytes());
+    for c in &blob.chunks {
+        out.extend_from_slice(c);
+    }
+    w.write_all(&out)?;
+    w.flush()
+}
+
 fn respond_json(w: &mut impl Write, status: u16, v: &Value) -> std::io::Result<()> {
     respond(w, status, "application/json", v.to_string().as_bytes())
 }
@@ -877,6 +905,20 @@ fn handle(st: &State, stream: TcpStream) -> std::io::Result<()> {
                 200,
                 &st.events.after(arg("after").unwrap_or(0), wait),
             )
+        }
+        ("GET", p) if p.starts_with("/api/blob/") => {
+            match p["/api/blob/".len()..]
+                .parse()
+                .ok()
+                .and_then(|id| st.blobs.get(id))
+            {
+                Some(blob) => respond_blob(&mut w, &blob),
+                None => respond_json(
+                    &mut w,
+                    404,
+                    &json!({ "error": "no such blob (kept: the newest previews')" }),
+                ),
+            }
         }
         ("POST", p) if p.starts_with("/api/") => {
             if !origin_ok(&req, st.addr) {
@@ -1479,5 +1521,82 @@ mod tests {
                 break;
             }
         }
+    }
+
+    /// Protocol 3 over HTTP: a preview asked with `binary` names a blob
+    /// that `GET /api/blob/ID` serves, and each buffer read from it is the
+    /// base64 answer's; an unknown blob is 404.
+    #[test]
+    fn a_binary_previews_blob_holds_the_base64_previews_buffers() {
+        use grm_lsp::blob::Buf;
+        let dir = tempfile::tempdir().expect("tempdir");
+        let grammar = dir.path().join("koch.grm");
+        std::fs::write(
+            &grammar,
+            "system Koch {\n    iterations = 2;\n    angle = 90;\n    width = 0.1;\n    axiom F - F - F - F;\n    F -> F - F + F + F F - F - F + F;\n}\n",
+        )
+        .expect("write");
+        let grammar = grm_sema::normalize(&std::fs::canonicalize(&grammar).expect("canonical"));
+        let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
+        let server = Server::start(&grammar, listener, None).expect("start");
+        let addr = server.addr;
+        let (_, ev) = exchange(
+            addr,
+            &format!("GET /api/events?after=0 HTTP/1.1\r\nHost: {addr}\r\n\r\n"),
+        );
+        let uri = ev["events"][0]["params"]["uri"].clone();
+        let (_, text) = post(
+            addr,
+            "/api/preview",
+            &json!({ "textDocument": { "uri": uri } }),
+        );
+        let (_, bin) = post(
+            addr,
+            "/api/preview",
+            &json!({ "textDocument": { "uri": uri }, "binary": true }),
+        );
+        let (text, bin) = (&text["result"], &bin["result"]);
+        assert_eq!(text["encoding"], "base64-le");
+        assert_eq!(bin["encoding"], "blob-le", "{bin}");
+        let id = bin["blob"]["id"].as_u64().expect("blob id");
+        let mut s = TcpStream::connect(addr).expect("connect");
+        s.write_all(format!("GET /api/blob/{id} HTTP/1.1\r\nHost: {addr}\r\n\r\n").as_bytes())
+            .expect("send");
+        let mut out = Vec::new();
+        s.read_to_end(&mut out).expect("read");
+        let at = out.windows(4).position(|w| w == b"\r\n\r\n").expect("head") + 4;
+        let head = String::from_utf8_lossy(&out[..at]);
+        assert!(head.starts_with("HTTP/1.1 200"), "{head}");
+        assert!(head.contains("application/octet-stream"), "{head}");
+        let blob = &out[at..];
+        assert_eq!(Some(blob.len() as u64), bin["blob"]["bytes"].as_u64());
+        let buf = |v: &Value| serde_json::from_value::<Buf>(v.clone()).expect("a buffer");
+        let mut compared = 0;
+        let (tp, bp) = (
+            text["parts"].as_array().expect("parts"),
+            bin["parts"].as_array().expect("parts"),
+        );
+        assert_eq!(tp.len(), bp.len());
+        for (a, b) in tp.iter().zip(bp) {
+            for k in ["positions", "normals", "indices", "picks"] {
+                assert_eq!(buf(&a[k]).decode(&[]), buf(&b[k]).decode(blob), "{k}");
+                compared += 1;
+            }
+        }
+        for k in ["bones", "parents", "origins"] {
+            let (a, b) = (&text["skeleton"][k], &bin["skeleton"][k]);
+            assert!(b.is_object(), "{k}: a range");
+            assert_eq!(buf(a).decode(&[]), buf(b).decode(blob), "{k}");
+            compared += 1;
+        }
+        assert!(compared > 3);
+        let (status, _) = exchange(
+            addr,
+            &format!(
+                "GET /api/blob/{} HTTP/1.1\r\nHost: {addr}\r\n\r\n",
+                id + 100
+            ),
+        );
+        assert_eq!(status, 404);
     }
 }

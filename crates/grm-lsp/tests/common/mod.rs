@@ -127,7 +127,27 @@ impl Client {
 
     /// A client whose `initialize` sends `init`.
     pub async fn with_init(config: Config, init: Value) -> Client {
-        let (service, socket) = grm_lsp::service(config);
+        Client::with_service(grm_lsp::service(config), init).await
+    }
+
+    /// A client of a server whose protocol-3 previews leave their blobs
+    /// in `store` (as `grmc view`'s does).
+    #[allow(dead_code)]
+    pub async fn with_blobs(
+        config: Config,
+        store: std::sync::Arc<grm_lsp::blob::BlobStore>,
+    ) -> Client {
+        Client::with_service(
+            grm_lsp::service_with_blobs(config, store),
+            json!({ "capabilities": {} }),
+        )
+        .await
+    }
+
+    async fn with_service(
+        (service, socket): (LspService<grm_lsp::Backend>, tower_lsp_server::ClientSocket),
+        init: Value,
+    ) -> Client {
         let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
         tokio::spawn(async move {
             let mut socket = socket;
