@@ -86,9 +86,10 @@ test('http transport: POST JSON per method, result or error', async () => {
     return { ok: true, status: 200, json: async () => ({ result: { echo: body } }), text: async () => '' };
   };
   const t = new HttpTransport('http://127.0.0.1:9', fetchFn);
-  assert.deepEqual(await t.request('preview', { uri: 'x', seed: 2 }), { echo: { uri: 'x', seed: 2 } });
+  // A preview asks for its buffers as a blob (protocol 3, test/blob.test.ts).
+  assert.deepEqual(await t.request('preview', { uri: 'x', seed: 2 }), { echo: { uri: 'x', seed: 2, binary: true } });
   await assert.rejects(t.request('pick', {}), /no such preview/);
-  assert.deepEqual(calls[0], { url: 'http://127.0.0.1:9/api/preview', body: '{"uri":"x","seed":2}', method: 'POST' });
+  assert.deepEqual(calls[0], { url: 'http://127.0.0.1:9/api/preview', body: '{"uri":"x","seed":2,"binary":true}', method: 'POST' });
 });
 
 test('http transport and webview transport: the server error code comes with the error', async () => {

@@ -128,6 +128,8 @@ export interface ResponseMessage {
   error?: string;
   /** With `error`: the language server's JSON-RPC error code, where it gave one. */
   code?: number;
+  /** Protocol 3: the blob the result's buffers are ranges of (src/blob.ts). */
+  blob?: ArrayBuffer;
 }
 
 /** LSP's RequestCancelled: the client cancelled the request (`$/cancelRequest`). */
@@ -144,6 +146,8 @@ export interface NotificationMessage {
   type: 'notify';
   method: NotificationMethod;
   params: unknown;
+  /** Protocol 3: the blob of a `previewUpdated`'s result (src/blob.ts). */
+  blob?: ArrayBuffer;
 }
 
 /** The page's first message: it is listening. */
@@ -218,6 +222,7 @@ export function parseHostMessage(v: unknown): HostToPage | null {
   if (v.type === 'response' && typeof v.id === 'number') {
     const out: ResponseMessage = { type: 'response', id: v.id };
     if ('result' in v) out.result = v.result;
+    if (v.blob instanceof ArrayBuffer) out.blob = v.blob;
     if (typeof v.error === 'string') {
       out.error = v.error;
       if (typeof v.code === 'number' && Number.isSafeInteger(v.code)) out.code = v.code;
@@ -226,7 +231,7 @@ export function parseHostMessage(v: unknown): HostToPage | null {
   }
   if (v.type === 'notify' && typeof v.method === 'string') {
     if (v.method === 'document' || v.method === 'previewUpdated' || v.method === 'cursor' || v.method === 'curvesChanged' || v.method === 'treeNode' || v.method === 'layoutUpdated') {
-      return { type: 'notify', method: v.method, params: v.params };
+      return v.blob instanceof ArrayBuffer ? { type: 'notify', method: v.method, params: v.params, blob: v.blob } : { type: 'notify', method: v.method, params: v.params };
     }
   }
   return null;

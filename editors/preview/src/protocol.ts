@@ -391,11 +391,11 @@ export function bytesToBase64(bytes: Uint8Array): string {
   return btoa(bin);
 }
 
-/** A float array given as numbers or as base64 of little-endian f32. */
+/** A float array given as numbers, as base64 of little-endian f32, or as those bytes (a blob's range, protocol 3: src/blob.ts). */
 export function decodeF32(v: unknown, what: string): Float32Array {
   if (Array.isArray(v)) return Float32Array.from(v, (x) => num(x, what));
-  if (typeof v === 'string') {
-    const bytes = base64ToBytes(v);
+  if (typeof v === 'string' || v instanceof Uint8Array) {
+    const bytes = typeof v === 'string' ? base64ToBytes(v) : v;
     if (bytes.length % 4 !== 0) throw new ProtocolError(`${what}: ${bytes.length} bytes is not a whole number of f32`);
     // The wire is little-endian, like every machine a browser runs on: view the bytes as they are.
     if (LITTLE_ENDIAN && bytes.byteOffset % 4 === 0) return new Float32Array(bytes.buffer, bytes.byteOffset, bytes.length / 4);
@@ -407,7 +407,7 @@ export function decodeF32(v: unknown, what: string): Float32Array {
   throw new ProtocolError(`${what}: expected numbers or base64`);
 }
 
-/** An index array given as numbers or as base64 of little-endian u32. */
+/** An index array given as numbers, as base64 of little-endian u32, or as those bytes (a blob's range). */
 export function decodeU32(v: unknown, what: string): Uint32Array {
   if (Array.isArray(v)) {
     return Uint32Array.from(v, (x) => {
@@ -416,8 +416,8 @@ export function decodeU32(v: unknown, what: string): Uint32Array {
       return n;
     });
   }
-  if (typeof v === 'string') {
-    const bytes = base64ToBytes(v);
+  if (typeof v === 'string' || v instanceof Uint8Array) {
+    const bytes = typeof v === 'string' ? base64ToBytes(v) : v;
     if (bytes.length % 4 !== 0) throw new ProtocolError(`${what}: ${bytes.length} bytes is not a whole number of u32`);
     if (LITTLE_ENDIAN && bytes.byteOffset % 4 === 0) return new Uint32Array(bytes.buffer, bytes.byteOffset, bytes.length / 4);
     const dv = new DataView(bytes.buffer, bytes.byteOffset, bytes.byteLength);
@@ -559,7 +559,7 @@ export function decodeModel(v: Record<string, unknown>): SceneModel {
     const o = count > 0 && sk.origins !== undefined ? decodeU32(sk.origins, 'skeleton.origins') : null;
     if (o && o.length !== count) throw new ProtocolError(`skeleton.origins: ${o.length} for ${count} bones`);
     // i32 per bone, -1 (0xFFFFFFFF read as u32) for a root.
-    const par = count > 0 && typeof sk.parents === 'string' && sk.parents !== '' ? decodeU32(sk.parents, 'skeleton.parents') : null;
+    const par = count > 0 && ((typeof sk.parents === 'string' && sk.parents !== '') || sk.parents instanceof Uint8Array) ? decodeU32(sk.parents, 'skeleton.parents') : null;
     if (par && par.length !== count) throw new ProtocolError(`skeleton.parents: ${par.length} for ${count} bones`);
     for (let i = 0; i < count; i++) {
       const b = f.subarray(i * 8, i * 8 + 8);
@@ -619,7 +619,8 @@ function numberRecord(v: unknown): Record<string, number> {
 /** Decode a `grm/preview` result. */
 export function decodePreview(v: unknown): PreviewResult {
   if (!isObject(v)) throw new ProtocolError('preview: expected an object');
-  if (v.encoding !== undefined && v.encoding !== 'base64-le') throw new ProtocolError(`preview: unknown encoding ${String(v.encoding)}`);
+  // `blob-le` (protocol 3): the transport has put the blob's bytes in place of the ranges (src/blob.ts).
+  if (v.encoding !== undefined && v.encoding !== 'base64-le' && v.encoding !== 'blob-le') throw new ProtocolError(`preview: unknown encoding ${String(v.encoding)}`);
   const mode = str(v.mode, 'derive');
   if (mode !== 'derive' && mode !== 'sample' && mode !== 'shape') throw new ProtocolError(`preview: unknown mode ${mode}`);
   // Meta-parameters as the server lists them; one without a numeric range

@@ -1,7 +1,10 @@
 // One small interface between the page and its host, two implementations:
 // the VS Code webview (`acquireVsCodeApi().postMessage` and `message` events)
 // and a browser talking to `grmc view` (HTTP POST JSON, long-polled events).
+// Both hand the page a preview's buffers as bytes where the server sent
+// them in a binary blob (protocol 3, src/blob.ts).
 
+import { attachBlob, attachBlobToUpdate, blobRef } from './blob.js';
 import {
   type HostToPage,
   type Method,
@@ -47,6 +50,15 @@ export class TransportError extends Error {
 /** The host dropped the request on purpose: a newer one superseded it (ServerCancelled) or it was cancelled (RequestCancelled). Not a failure to show. */
 export function isSuperseded(e: unknown): boolean {
   return e instanceof TransportError && isCancelledCode(e.code);
+}
+
+/** A `previewUpdated`'s params with its blob in place; one whose blob is missing or wrong says why instead of its model. */
+function updateWithBlob(params: unknown, blob: ArrayBuffer | undefined): unknown {
+  try {
+    return attachBlobToUpdate(params, blob);
+  } catch (e) {
+    return { ...(params as object), result: null, error: e instanceof Error ? e.message : String(e) };
+  }
 }
 
 // ----------------------------------------------------------- VS Code webview
@@ -110,14 +122,21 @@ export class VsCodeTransport implements Transport {
     const msg: HostToPage | null = parseHostMessage(data);
     if (!msg) return;
     if (msg.type === 'notify') {
-      this.handler(msg.method, msg.params);
+      // The host posts a preview's blob (protocol 3) beside its message.
+      this.handler(msg.method, msg.method === 'previewUpdated' ? updateWithBlob(msg.params, msg.blob) : msg.params);
       return;
     }
     const p = this.pending.get(msg.id);
     if (!p) return;
     this.pending.delete(msg.id);
     if (msg.error !== undefined) p.reject(new TransportError(msg.error, msg.code));
-    else p.resolve(msg.result);
+    else {
+      try {
+        p.resolve(attachBlob(msg.result, msg.blob));
+      } catch (e) {
+        p.reject(new TransportError(e instanceof Error ? e.message : String(e)));
+      }
+    }
   }
 }
 
@@ -129,6 +148,8 @@ export type FetchFn = (url: string, init?: { method?: string; headers?: Record<s
   headers?: { get(name: string): string | null };
   json(): Promise<unknown>;
   text(): Promise<string>;
+  /** The body as bytes (a preview's blob, protocol 3). */
+  arrayBuffer?(): Promise<ArrayBuffer>;
 }>;
 
 /** The `app` metric of a `Server-Timing` header (`app;dur=12.5`), in milliseconds. */
@@ -181,10 +202,12 @@ export class HttpTransport implements Transport {
   }
 
   async request(method: Method, params: unknown, timing?: RequestTiming): Promise<unknown> {
+    // The page reads protocol 3: a preview's buffers come as a blob, fetched apart (`withBlob`).
+    const sent = method === 'preview' && params !== null && typeof params === 'object' ? { ...params, binary: true } : params;
     const res = await this.fetchFn(`${this.base}/api/${method}`, {
       method: 'POST',
       headers: { 'content-type': 'application/json' },
-      body: JSON.stringify(params ?? null),
+      body: JSON.stringify(sent ?? null),
       signal: this.abort.signal,
     });
     if (timing) timing.serverMs = serverTimingMs(res.headers?.get('server-timing'));
@@ -198,7 +221,31 @@ export class HttpTransport implements Transport {
     if (obj && typeof obj.error === 'string') throw new TransportError(obj.error, typeof obj.code === 'number' ? obj.code : undefined);
     if (!res.ok) throw new TransportError(`${method}: HTTP ${res.status}`);
     if (!obj || !('result' in obj)) throw new TransportError(`${method}: the answer has no result`);
-    return obj.result;
+    return this.withBlob(obj.result);
+  }
+
+  /** A preview answer with the bytes of its blob (`GET /api/blob/ID`) in place of its ranges; others as they are. */
+  private async withBlob(result: unknown): Promise<unknown> {
+    const ref = blobRef(result);
+    if (!ref) return result;
+    const res = await this.fetchFn(`${this.base}/api/blob/${ref.id}`, { signal: this.abort.signal });
+    if (!res.ok || !res.arrayBuffer) throw new TransportError(`blob ${ref.id}: HTTP ${res.status}`);
+    try {
+      return attachBlob(result, await res.arrayBuffer());
+    } catch (e) {
+      throw new TransportError(e instanceof Error ? e.message : String(e));
+    }
+  }
+
+  /** A `previewUpdated`'s params with its result's blob fetched and in place (or why it could not be, instead of the model). */
+  private async updateWithBlob(params: unknown): Promise<unknown> {
+    const p = params as { result?: unknown } | null;
+    if (!p || !blobRef(p.result)) return params;
+    try {
+      return { ...p, result: await this.withBlob(p.result) };
+    } catch (e) {
+      return { ...p, result: null, error: e instanceof Error ? e.message : String(e) };
+    }
   }
 
   /** `grmc view` exports nothing, so what the page tells it (the camera's view) has no use there and is not sent. */
@@ -214,7 +261,7 @@ export class HttpTransport implements Transport {
         if (Array.isArray(body.events)) {
           for (const e of body.events) {
             const msg = parseHostMessage({ type: 'notify', ...(e as object) });
-            if (msg && msg.type === 'notify') this.handler(msg.method, msg.params);
+            if (msg && msg.type === 'notify') this.handler(msg.method, msg.method === 'previewUpdated' ? await this.updateWithBlob(msg.params) : msg.params);
           }
         }
       } catch {

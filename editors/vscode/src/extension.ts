@@ -2,13 +2,14 @@
 // preview page in a webview beside the editor, exports models and pictures
 // (one, or every frame of the growth or search) with `grmc`.
 
-import { execFile } from 'node:child_process';
+import { type ChildProcess, execFile, spawn } from 'node:child_process';
 import { randomBytes } from 'node:crypto';
 import { accessSync, constants, readFileSync, statSync } from 'node:fs';
 import * as os from 'node:os';
 import * as path from 'node:path';
 import * as vscode from 'vscode';
-import { LanguageClient, type LanguageClientOptions, type ServerOptions } from 'vscode-languageclient/node';
+import { LanguageClient, type LanguageClientOptions, type ServerOptions, type StreamInfo } from 'vscode-languageclient/node';
+import { BlobFrames, BlobShelf } from './blobFrames.js';
 import { defaultOutput, type ExportFormat, exportArgs, firstSystemMode, framesSummary, framesWritten, pictureSize } from './exportArgs.js';
 import { DerivationTree, type TreeNode } from '../../preview/src/tree.js';
 import { PreviewHost, curvesPathFor } from './host.js';
@@ -16,6 +17,9 @@ import { resolveServerPath } from './serverPath.js';
 import { makeNonce, webviewHtml } from './webviewHtml.js';
 
 let client: LanguageClient | undefined;
+/** The running server's process, and where its blobs (preview protocol 3) are kept until the host takes them. */
+let serverProcess: ChildProcess | undefined;
+const blobs = new BlobShelf();
 let serverPath: string | undefined;
 let output: vscode.OutputChannel;
 let preview: PreviewPanel | undefined;
@@ -151,7 +155,26 @@ function findServer(context: vscode.ExtensionContext): string | undefined {
 async function startClient(context: vscode.ExtensionContext): Promise<void> {
   serverPath = findServer(context);
   if (!serverPath) return;
-  const serverOptions: ServerOptions = { command: serverPath, args: ['lsp'] };
+  const command = serverPath;
+  // Started here rather than by vscode-languageclient: its stdout goes
+  // through BlobFrames, which keeps the preview's binary frames (protocol 3,
+  // docs/lsp-extensions.md) and passes the JSON-RPC messages on.
+  const serverOptions: ServerOptions = async (): Promise<StreamInfo> => {
+    const child = spawn(command, ['lsp'], { stdio: 'pipe' });
+    await new Promise<void>((resolve, reject) => {
+      child.once('spawn', () => resolve());
+      child.once('error', reject);
+    });
+    serverProcess = child;
+    child.stderr?.on('data', (d: Buffer) => output.append(d.toString('utf8')));
+    child.on('exit', () => {
+      if (serverProcess === child) serverProcess = undefined;
+    });
+    const reader = new BlobFrames(blobs);
+    child.stdout?.pipe(reader);
+    if (!child.stdin) throw new Error('the server has no stdin');
+    return { reader, writer: child.stdin };
+  };
   const clientOptions: LanguageClientOptions = {
     documentSelector: [
       { scheme: 'file', language: 'grm' },
@@ -198,6 +221,17 @@ async function stopClient(): Promise<void> {
   const c = client;
   client = undefined;
   if (c) await c.stop();
+  // It exits on `exit`; one that did not (hung) is ended, as vscode-languageclient does with a process it started.
+  const p = serverProcess;
+  serverProcess = undefined;
+  if (p && p.exitCode === null) setTimeout(() => p.exitCode === null && p.kill(), 2000).unref();
+}
+
+/** The server announced preview protocol 3 (binary buffers). */
+function serverHasBlobs(): boolean {
+  const exp = client?.initializeResult?.capabilities.experimental as { grmPreview?: { version?: unknown } } | undefined;
+  const v = exp?.grmPreview?.version;
+  return typeof v === 'number' && v >= 3;
 }
 
 function isGrm(doc: vscode.TextDocument | undefined): doc is vscode.TextDocument {
@@ -264,6 +298,7 @@ class PreviewPanel {
         return u.scheme === 'file' ? u.fsPath : null;
       },
       post: (msg) => void webview.postMessage(msg),
+      blobs: { enabled: serverHasBlobs, take: (id) => blobs.take(id) },
     });
     const media = vscode.Uri.joinPath(context.extensionUri, 'dist', 'preview');
     webview.options = { enableScripts: true, localResourceRoots: [media] };

@@ -11,6 +11,7 @@
 // through its camera). Free of the `vscode` module: the editor and the
 // server are passed in, so the message handling is unit-tested under node.
 
+import { blobRef } from '../../preview/src/blob.js';
 import { parseCurves } from '../../preview/src/curves.js';
 import { type HostToPage, type Method, type NotificationMethod, type ViewParams, parsePageMessage, parseViewParams } from '../../preview/src/messages.js';
 import { pictureFileName } from '../../preview/src/picture.js';
@@ -37,6 +38,13 @@ export interface HostDeps {
   fsPath(uri: string): string | null;
   /** Send a message to the page. */
   post(message: HostToPage): void;
+  /**
+   * Protocol 3 (docs/lsp-extensions.md, "Binary buffers"): where the
+   * server's blobs are read (src/blobFrames.ts). With it, and `enabled()`
+   * (the server announced version 3), previews are asked with `binary` and
+   * each answer's blob is posted to the page beside it; without, base64.
+   */
+  blobs?: { enabled(): boolean; take(id: number): ArrayBuffer | undefined };
 }
 
 /** `tree.grm` -> `tree.curves.json` beside it (docs/curves.md). */
@@ -116,10 +124,18 @@ export class PreviewHost {
     if (this.documentUri) this.notify('document', { uri: this.documentUri, title: this.documentUri.split('/').pop() ?? this.documentUri });
   }
 
-  /** The server's `grm/previewUpdated` (a new model after an edit): passed on if it is about the shown document. */
+  /** The server's `grm/previewUpdated` (a new model after an edit): passed on if it is about the shown document, with its blob (protocol 3). */
   previewUpdated(params: unknown): void {
+    // Taken whatever becomes of the message: a blob no one takes is dropped.
+    const blob = this.takeBlob(isObject(params) ? params.result : undefined);
     if (!isObject(params) || typeof params.uri !== 'string' || !this.documentUri || !sameUri(params.uri, this.documentUri)) return;
-    this.notify('previewUpdated', { ...params, uri: this.documentUri });
+    this.notify('previewUpdated', { ...params, uri: this.documentUri }, blob);
+  }
+
+  /** The blob a preview answer names (protocol 3), taken from where the server's blobs are read. */
+  private takeBlob(result: unknown): ArrayBuffer | undefined {
+    const ref = blobRef(result);
+    return ref ? this.deps.blobs?.take(ref.id) : undefined;
   }
 
   /** The server's `grm/layoutUpdated` (the shown layout sidecar changed): passed on if it is about the shown document. */
@@ -148,8 +164,8 @@ export class PreviewHost {
     this.notify('treeNode', { uri: this.documentUri, key });
   }
 
-  private notify(method: NotificationMethod, params: unknown): void {
-    const msg: HostToPage = { type: 'notify', method, params };
+  private notify(method: NotificationMethod, params: unknown, blob?: ArrayBuffer): void {
+    const msg: HostToPage = blob ? { type: 'notify', method, params, blob } : { type: 'notify', method, params };
     if (!this.ready) {
       // Before `ready` only the latest document notification matters.
       if (method === 'document') this.queued = [msg];
@@ -179,7 +195,9 @@ export class PreviewHost {
     }
     try {
       const result = await this.answer(msg.method, msg.params);
-      this.deps.post({ type: 'response', id: msg.id, result });
+      // A preview's buffers (protocol 3) go beside it as an ArrayBuffer, which the webview receives without a copy through JSON.
+      const blob = msg.method === 'preview' ? this.takeBlob(result) : undefined;
+      this.deps.post(blob ? { type: 'response', id: msg.id, result, blob } : { type: 'response', id: msg.id, result });
     } catch (e) {
       const error = e instanceof Error ? e.message : String(e);
       // The language client's ResponseError carries the server's JSON-RPC code (e.g. ServerCancelled for a superseded preview).
@@ -207,7 +225,8 @@ export class PreviewHost {
     switch (method) {
       case 'preview': {
         const uri = this.checkUri(params);
-        const result = await this.deps.request('grm/preview', params);
+        const binary = this.deps.blobs?.enabled() === true && isObject(params);
+        const result = await this.deps.request('grm/preview', binary ? { ...params, binary: true } : params);
         const p = params as Record<string, unknown>;
         const r = isObject(result) ? result : {};
         this.last.set(uri, {
