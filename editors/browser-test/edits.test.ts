@@ -8,7 +8,8 @@
 // the unedited one. An edit that loses its part when the floors go (a
 // semantic query on the top floor) is listed as structurally invalid, and
 // Retarget puts it on one of the server's candidates. Delete in the list
-// removes an edit too.
+// removes an edit too. In derive mode a picked bone is edited by its key
+// (its length offset, then removed) and Undo restores the skeleton.
 //
 // Needs: `cargo build -p grmc` (or GRMC=path), Debian's chromium
 // (CHROMIUM=path). PAGE_DIST=editors/preview/dist serves the page from
@@ -358,3 +359,50 @@ test('edit panel: an edit that loses its part is listed by its class (colour) an
 });
 
 const pageErrors = (page: Page): string[] => (page as unknown as { errors: string[] }).errors;
+
+test('edit panel, derive mode: a picked bone is edited by its key (an offset of its length, a removal), each lands in the file and replays; Undo takes both out', async () => {
+  const dir = mkdtempSync(join(tmpdir(), 'grm-edits-'));
+  temps.push(dir);
+  const file = join(dir, 'bar.grm');
+  writeFileSync(file, 'system Bar {\n    iterations = 1;\n    axiom A;\n    A -> F(2) [ +(30) F(1) ] F(1.5);\n}\n');
+  const page = await openPage(await view(file));
+  const s0 = await waitFor(page, 'first model', (s) => s.regrows >= 1 || s.lastError !== null);
+  assert.equal(s0.mode, 'derive', s0.lastError ?? '');
+  type Bone = { base: number[]; tip: number[] };
+  const bones = () => page.evaluate(() => (globalThis as unknown as { __grm: { bonesList(): Bone[] } }).__grm.bonesList());
+  const before = await bones();
+  assert.equal(before.length, 3);
+  const len = (b: Bone) => Math.hypot(b.tip[0] - b.base[0], b.tip[1] - b.base[1], b.tip[2] - b.base[2]);
+  // Pick the branch (the second bone) in its middle.
+  const b1 = before[1];
+  const mid = [0, 1, 2].map((i) => (b1.base[i] + b1.tip[i]) / 2);
+  const n = (await state(page)).picks;
+  await page.mouse.click(...(await page.evaluate((p) => (globalThis as unknown as { __grm: { toScreen(p: number[]): [number, number] } }).__grm.toScreen(p), mid)));
+  let s = await waitFor(page, 'the branch picked', (x) => x.picks > n && x.edits.selection !== null, 10_000);
+  assert.equal(s.edits.selection?.label, 'F');
+  assert.equal(s.edits.selection?.target?.kind, 'key', 'derive mode names parts by key');
+  const key = s.edits.selection!.target!.text;
+  assert.equal(await page.isDisabled('input[name=edit-kind][value=exact]'), true, 'no exact target in derive mode');
+  // Its length (F's first parameter) offset by 0.5: the bone grows from 1 to 1.5.
+  await page.fill('#edit-param-name', '1');
+  await page.selectOption('#edit-param-how', 'offset');
+  await page.fill('#edit-param-value', '0.5');
+  s = await act(page, '#edit-param-apply', 'offset its length', (x) => validAndReplayed(x, [1]));
+  assert.deepEqual(fileEdits(file), [{ id: 1, system: 'Bar', target: { key }, op: 'offset', name: '1', by: 0.5 }]);
+  const longer = await bones();
+  assert.ok(Math.abs(len(longer[1]) - 1.5) < 1e-4, `the branch is 1.5 long: ${len(longer[1])}`);
+  // Up one level is the axiom's A (the module that made it): no bone of its own; back down, then removed.
+  await page.click('#edit-up');
+  assert.equal((await state(page)).edits.selection?.label, 'A');
+  await page.click('#edit-down');
+  s = await act(page, '#edit-remove', 'remove the branch', (x) => validAndReplayed(x, [1, 2]));
+  assert.deepEqual(fileEdits(file)[1], { id: 2, system: 'Bar', target: { key }, op: 'remove' });
+  assert.equal((await bones()).length, 2, 'the branch is gone');
+  for (const id of [2, 1]) {
+    await act(page, '#edit-undo', `undo edit ${id}`, (x) => x.edits.list.length === id - 1);
+  }
+  assert.deepEqual(fileEdits(file), []);
+  const after = await bones();
+  assert.deepEqual(after, before, 'with both undone the skeleton is the unedited one');
+  assert.deepEqual(pageErrors(page), []);
+});
