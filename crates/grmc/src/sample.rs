@@ -45,7 +45,8 @@ pub struct SampleArgs {
     #[arg(long, value_name = "A..B")]
     pub particles: Option<String>,
     /// Stop the search after this many milliseconds of wall time (then wrap
-    /// up and finish). The one non-deterministic option.
+    /// up and finish; a refinement round the budget would cut short is
+    /// dropped). The one non-deterministic option.
     #[arg(long, value_name = "MS")]
     pub budget_ms: Option<u64>,
     /// Worker threads: 1 runs on the main thread, 0 uses all cores (at
