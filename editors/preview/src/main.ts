@@ -1222,7 +1222,9 @@ class App {
       // preview itself, and this one would supersede it.
       if (this.coalescer.busy) return;
       const again = decodePreview(await this.transport.request('preview', this.ordered(base)));
-      if (again.version !== r.version && token === this.spreadToken && !this.coalescer.busy) {
+      // A change of the edits file (an edit made in the panel) regrows the same version with other edits: news too.
+      const newEdits = JSON.stringify(again.edits) !== JSON.stringify(this.last?.edits ?? null);
+      if ((again.version !== r.version || newEdits) && token === this.spreadToken && !this.coalescer.busy) {
         this.show({ result: again, editedAt: performance.now(), final: true });
         return;
       }
