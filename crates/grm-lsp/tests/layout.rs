@@ -358,3 +358,91 @@ async fn the_city_grows_on_the_parcels_and_a_move_regrows_only_what_changed() {
         "only the parcels near the move grew: {reused} of {built} kept"
     );
 }
+
+/// A city of one rotated and moved layer (`place`).
+const PLACED: &str = r#"{
+  "version": 1,
+  "layers": [
+    {"name": "base", "seed": 7, "place": {"translate": [500, 20], "rotate": 90, "about": [0, 0]},
+     "source": {"grid": {"origin": [0, 0], "size": [4, 3], "spacing": [80, 60], "seed": 11}}}
+  ]
+}
+"#;
+
+fn points(s: &Value) -> Vec<(f64, f64)> {
+    s["points"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| (p[0].as_f64().unwrap(), p[1].as_f64().unwrap()))
+        .collect()
+}
+
+fn close(a: &[(f64, f64)], b: &[(f64, f64)]) -> bool {
+    a.len() == b.len()
+        && a.iter()
+            .zip(b)
+            .all(|(p, q)| (p.0 - q.0).abs() < 1e-3 && (p.1 - q.1).abs() < 1e-3)
+}
+
+#[tokio::test]
+async fn moves_are_given_in_the_merged_coordinates_of_a_placed_layer() {
+    let (_dir, p) = city();
+    std::fs::write(&p, PLACED).unwrap();
+    let mut c = Client::start().await;
+    let u = uri(&p);
+    let r = c.ok("grm/layout", json!({ "uri": u })).await;
+    assert_eq!(r["problems"], json!([]), "{}", r["problems"]);
+    // A street of the rotated grid, moved 3 m along the merged x axis.
+    let s = r["streets"].as_array().unwrap()[0].clone();
+    let before = points(&s);
+    c.ok(
+        "grm/layoutEdit",
+        json!({ "uri": u, "layer": 0,
+                "op": { "move": { "select": { "ids": [s["layerId"]] }, "translate": [3, 0] } } }),
+    )
+    .await;
+    let (d, _) = grm_layout::sidecar::read(&std::fs::read_to_string(&p).unwrap());
+    let t = d.layers[0].moves[0].translate;
+    assert!(
+        t.x.abs() < 1e-9 && (t.y + 3.0).abs() < 1e-9,
+        "in the layer's own frame (turned 90 degrees back): {t:?}"
+    );
+    let r2 = c.ok("grm/layout", json!({ "uri": u })).await;
+    let after = points(street(&r2, &s["id"]).expect("the same street"));
+    let want: Vec<(f64, f64)> = before.iter().map(|(x, y)| (x + 3.0, *y)).collect();
+    assert!(close(&after, &want), "{after:?} against {want:?}");
+
+    // A soft selection around the grid's first crossing, and a region
+    // around all of it: written as given, in the layer's frame.
+    c.ok(
+        "grm/layoutEdit",
+        json!({ "uri": u, "layer": 0,
+                "op": { "move": { "select": { "soft": { "centre": [500, 20], "radius": 30 } }, "translate": [0, 1] } } }),
+    )
+    .await;
+    c.ok(
+        "grm/layoutEdit",
+        json!({ "uri": u, "layer": 0,
+                "op": { "move": { "select": { "region": [[0, -100], [600, -100], [600, 400], [0, 400]] }, "translate": [-2, 0] } } }),
+    )
+    .await;
+    let (d, errs) = grm_layout::sidecar::read(&std::fs::read_to_string(&p).unwrap());
+    assert!(errs.is_empty());
+    let m = &d.layers[0].moves;
+    assert_eq!(m.len(), 3);
+    match &m[1].select {
+        Select::Soft { centre, radius } => {
+            assert!(centre.x.abs() < 1e-9 && centre.y.abs() < 1e-9, "{centre:?}");
+            assert_eq!(*radius, 30.0);
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(matches!(&m[2].select, Select::Region(r) if r.len() == 4));
+    let r3 = c.ok("grm/layout", json!({ "uri": u })).await;
+    assert_eq!(r3["problems"], json!([]), "{}", r3["problems"]);
+    assert_eq!(r3["invalid"], json!([]));
+    // The region held the whole layer: every street moved 2 m to -x.
+    let whole = street(&r3, &s["id"]).expect("the same street");
+    assert!((points(whole)[0].0 - (after[0].0 - 2.0)).abs() < 1.5);
+}
