@@ -665,7 +665,8 @@ impl LanguageServer for Backend {
             return;
         }
         if layout::is_layout_path(&path) {
-            self.layout_opened(path, params.text_document, version).await;
+            self.layout_opened(path, params.text_document, version)
+                .await;
             return;
         }
         // Its spelling first: what is published for it is named so.

@@ -613,7 +613,9 @@ impl State {
             "picture" => self.lsp.request("grm/picture", params),
             // The layout view of a `NAME.layout.json` (grm-lsp layout.rs):
             // the server writes the sidecar itself (no workspace.applyEdit).
-            "layout" | "layoutEdit" | "layoutCity" => self.lsp.request(&format!("grm/{method}"), params),
+            "layout" | "layoutEdit" | "layoutCity" => {
+                self.lsp.request(&format!("grm/{method}"), params)
+            }
             "symbols" => self.lsp.request(
                 "textDocument/documentSymbol",
                 json!({ "textDocument": { "uri": self.uri } }),
