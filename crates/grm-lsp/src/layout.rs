@@ -4,8 +4,10 @@
 //!
 //! `grm/layout` evaluates the sidecar (the client's buffer when it is
 //! open, else the file) with grm-layout's public road (each layer built,
-//! then merged in order, with a [`MergeCache`] kept per file so a drag's
-//! updates reuse what did not change) and answers the merged streets,
+//! then merged in order, with the layers as last built and a
+//! [`MergeCache`] kept per file ([`Caches`]), so a drag's updates build
+//! again only the layer that changed and reuse the merge's blocks and
+//! parcels that did not) and answers the merged streets,
 //! parcels and blocks, each with the layer it comes from, the layers, and
 //! every problem with its code (the sidecar's R1021-R1026, a layer's
 //! R1001-R1015).
@@ -55,10 +57,28 @@ pub fn is_layout_path(path: &Path) -> bool {
 pub(crate) struct LayoutState {
     /// The sidecars open in the client: version and text.
     docs: HashMap<PathBuf, (i32, Arc<str>)>,
-    /// Per sidecar: the merge cache a drag's updates share.
-    caches: HashMap<PathBuf, Arc<Mutex<MergeCache>>>,
+    /// Per sidecar: what a drag's updates share.
+    caches: HashMap<PathBuf, Arc<Mutex<Caches>>>,
     /// Per sidecar: the buildings last grown (layout_city.rs).
     pub(crate) cities: HashMap<PathBuf, Arc<Mutex<grm_layout::city::BuildingCache>>>,
+}
+
+/// What the evaluations of one sidecar keep between requests: the merge
+/// cache, and each layer as last built with what built it (a drag's update
+/// builds again only the layer whose spec changed).
+#[derive(Debug, Default)]
+pub(crate) struct Caches {
+    merge: MergeCache,
+    layers: Vec<Option<BuiltLayer>>,
+}
+
+/// A layer built from `spec` with `parcels`.
+#[derive(Debug)]
+struct BuiltLayer {
+    spec: LayerSpec,
+    parcels: grm_layout::subdivide::ParcelParams,
+    layout: Layout,
+    issues: Vec<LayerIssue>,
 }
 
 /// `grm/layout` parameters.
@@ -260,17 +280,47 @@ fn loader(path: &Path) -> impl Fn(&str) -> std::result::Result<String, String> +
     move |p: &str| std::fs::read_to_string(dir.join(p)).map_err(|e| e.to_string())
 }
 
-/// Reads the sidecar `text` (at `path`) and merges its layers.
-pub(crate) fn evaluate_text(path: &Path, text: &str, cache: &MergeCache) -> Evaluated {
+/// Reads the sidecar `text` (at `path`) and merges its layers. A layer
+/// whose spec and parcel knobs are those it was last built from is taken
+/// from `cache` (one read from a GeoJSON file is built again: the file may
+/// have changed).
+pub(crate) fn evaluate_text(path: &Path, text: &str, cache: &mut Caches) -> Evaluated {
     let (doc, errors) = sidecar::read(text);
     let load = loader(path);
     let mut issues = Vec::new();
-    let layers: Vec<Layout> = doc
-        .layers
-        .iter()
-        .map(|spec| layer_layout(spec, &doc.parcels, &load, &mut issues))
-        .collect();
-    let (merged, _) = merge_layers_cached(&doc.layers, &layers, &doc.parcels, &mut issues, cache);
+    let mut layers = Vec::with_capacity(doc.layers.len());
+    let mut built = Vec::with_capacity(doc.layers.len());
+    for (i, spec) in doc.layers.iter().enumerate() {
+        let hit = cache.layers.get(i).and_then(Option::as_ref).filter(|b| {
+            b.spec == *spec
+                && b.parcels == doc.parcels
+                && !matches!(spec.source, Source::GeoJson(_))
+        });
+        let (layout, own) = match hit {
+            Some(b) => (b.layout.clone(), b.issues.clone()),
+            None => {
+                let mut own = Vec::new();
+                let l = layer_layout(spec, &doc.parcels, &load, &mut own);
+                (l, own)
+            }
+        };
+        issues.extend(own.iter().cloned());
+        built.push(Some(BuiltLayer {
+            spec: spec.clone(),
+            parcels: doc.parcels,
+            layout: layout.clone(),
+            issues: own,
+        }));
+        layers.push(layout);
+    }
+    cache.layers = built;
+    let (merged, _) = merge_layers_cached(
+        &doc.layers,
+        &layers,
+        &doc.parcels,
+        &mut issues,
+        &cache.merge,
+    );
     Evaluated {
         doc,
         errors,
@@ -637,7 +687,7 @@ impl Shared {
         Ok((None, Arc::from(t)))
     }
 
-    pub(crate) fn layout_cache(&self, path: &Path) -> Arc<Mutex<MergeCache>> {
+    pub(crate) fn layout_cache(&self, path: &Path) -> Arc<Mutex<Caches>> {
         self.layouts_lock()
             .caches
             .entry(path.to_path_buf())
@@ -719,8 +769,8 @@ impl Backend {
         let cache = self.shared.layout_cache(&path);
         let uri = params.uri.clone();
         tokio::task::spawn_blocking(move || {
-            let cache = cache.lock().unwrap_or_else(PoisonError::into_inner);
-            let ev = evaluate_text(&path, &text, &cache);
+            let mut cache = cache.lock().unwrap_or_else(PoisonError::into_inner);
+            let ev = evaluate_text(&path, &text, &mut cache);
             result(uri, version, &ev, params.blocks)
         })
         .await
@@ -734,8 +784,8 @@ impl Backend {
         let cache = self.shared.layout_cache(&path);
         let (p, old2) = (path.clone(), old.clone());
         let (outcome, new) = tokio::task::spawn_blocking(move || -> Result<(Outcome, String)> {
-            let cache = cache.lock().unwrap_or_else(PoisonError::into_inner);
-            let mut ev = evaluate_text(&p, &old2, &cache);
+            let mut cache = cache.lock().unwrap_or_else(PoisonError::into_inner);
+            let mut ev = evaluate_text(&p, &old2, &mut cache);
             if let Some(e) = ev.errors.first() {
                 return Err(failed(format!(
                     "the layout file has {} problem{} (the first: {}: {} ({})): fix {} first, it is rewritten whole",

@@ -147,8 +147,8 @@ impl Backend {
         let uri = params.uri.clone();
         tokio::task::spawn_blocking(move || -> Result<LayoutCityResult> {
             let ev = {
-                let m = merge.lock().unwrap_or_else(PoisonError::into_inner);
-                evaluate_text(&path, &text, &m)
+                let mut m = merge.lock().unwrap_or_else(PoisonError::into_inner);
+                evaluate_text(&path, &text, &mut m)
             };
             let start = Instant::now();
             let grown = {

@@ -272,6 +272,12 @@ async fn a_client_that_cannot_apply_edits_gets_the_file_written_and_layers_toggl
     let last = c.ok("grm/layout", json!({ "uri": u })).await;
     assert_eq!(last["problems"], json!([]), "{}", last["problems"]);
     assert_eq!(last["invalid"], json!([]));
+    // Layers taken from the server's cache give what a fresh server builds.
+    let mut fresh = Client::start().await;
+    let f = fresh.ok("grm/layout", json!({ "uri": u })).await;
+    for k in ["layers", "streets", "parcels", "problems"] {
+        assert_eq!(f[k], last[k], "{k}");
+    }
 }
 
 #[tokio::test]
