@@ -32,6 +32,11 @@
 //     (the page's own pick again has the plane there, revealed again in
 //     the view), and one Ctrl+Z gives back exactly the original text and
 //     a regrown preview with the plane at 3.
+//   - Persistent edits (issue 27): Remove in the preview's edit panel on
+//     the picked ground floor lands in house.edits.json's buffer (the
+//     server's workspace/applyEdit; dirty, the file untouched), the
+//     preview replays it (listed valid, the floor gone), and one Ctrl+Z
+//     in that file takes it back (the preview whole again).
 //
 // Needs: `cargo build -p grmc` (or GRMC=path), the packaged extension
 // (`editors/vscode/scripts/package.sh --out target/grm.vsix`, or
@@ -1015,4 +1020,44 @@ step("a shape's split plane dragged in the preview rewrites its size in the edit
     await page.waitForTimeout(250);
   }
   log('undone: the ground floor picked again has its plane at 3');
+});
+
+step("persistent edits: Remove in the preview's edit panel lands in house.edits.json's buffer (grm/edit through workspace/applyEdit), the preview replays it, and Ctrl+Z in that file takes it back", async () => {
+  const { frame } = house;
+  const editsPath = join(ws, 'house.edits.json');
+  const EMPTY = '{\n  "version": 1,\n  "edits": []\n}\n';
+  writeFileSync(editsPath, EMPTY);
+  await pickGround();
+  await frame.waitForFunction(() => globalThis.__grmEdits?.selection?.label === 'Ground' && globalThis.__grmEdits.selection.target?.kind === 'exact', null, { timeout: SHORT, polling: 100 });
+  const t0 = (await grmState(frame)).triangles;
+  const n = await frame.evaluate(() => globalThis.__grmEdits.answers);
+  await frame.locator('#edit-remove').click();
+  await frame.waitForFunction((k) => globalThis.__grmEdits.answers > k, n, { timeout: LONG, polling: 100 });
+  const e1 = await frame.evaluate(() => JSON.parse(JSON.stringify(globalThis.__grmEdits)));
+  assert.equal(e1.lastError, null, `the edit: ${e1.lastError}`);
+  assert.equal(e1.lastAnswer.applied, true, 'VS Code applied the edit');
+  assert.equal(e1.lastAnswer.written, false, 'the editor, not the server, changed the file');
+  // The live preview replays it: the ground floor is gone, the edit listed valid.
+  try {
+    await frame.waitForFunction(
+      (t) => {
+        const e = globalThis.__grmEdits;
+        return e.list.length === 1 && e.list[0].class === 'valid' && e.list[0].replayed && globalThis.__grm.triangles < t;
+      },
+      t0,
+      { timeout: LONG, polling: 100 },
+    );
+  } catch (e) {
+    throw new Error(`the edit was not replayed: ${JSON.stringify(await frame.evaluate(() => globalThis.__grmEdits.list))}`, { cause: e });
+  }
+  assert.equal(readFileSync(editsPath, 'utf8'), EMPTY, 'the file on disk is as it was until saved');
+  // The edit is in the edits file's buffer, unsaved; one Ctrl+Z there takes it back and the preview regrows whole.
+  await quickOpen('house.edits.json');
+  await page.locator('.tab.dirty', { hasText: /^house\.edits\.json/ }).waitFor({ timeout: SHORT });
+  assert.match(await documentText(), /"op": "remove"/);
+  await page.keyboard.press('Control+Z');
+  await page.locator('.tab.dirty', { hasText: /^house\.edits\.json/ }).waitFor({ state: 'detached', timeout: SHORT });
+  assert.doesNotMatch(await documentText(), /remove/);
+  await frame.waitForFunction((t) => globalThis.__grmEdits.list.length === 0 && globalThis.__grm.triangles === t, t0, { timeout: LONG, polling: 100 });
+  log('persistent edit: removed through the panel, replayed, undone in the editor');
 });
