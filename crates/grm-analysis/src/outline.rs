@@ -140,6 +140,25 @@ impl FileAnalysis {
                     }
                     out.push(node);
                 }
+                Item::Layout(l) => {
+                    let mut node = leaf(
+                        l.name.name.to_string(),
+                        Some("layout".into()),
+                        SymbolKind::System,
+                        l.span,
+                        l.name.span,
+                    );
+                    for f in &l.fields {
+                        node.children.push(leaf(
+                            f.name.name.to_string(),
+                            Some(squash(self.slice(f.value.span), 40)),
+                            SymbolKind::Setting,
+                            f.span,
+                            f.name.span,
+                        ));
+                    }
+                    out.push(node);
+                }
                 Item::System(s) => {
                     let mode = self
                         .checked
@@ -263,6 +282,10 @@ impl FileAnalysis {
                 }),
                 Item::Material(m) => out.push(FoldingRange {
                     span: m.span,
+                    kind: FoldKind::Region,
+                }),
+                Item::Layout(l) => out.push(FoldingRange {
+                    span: l.span,
                     kind: FoldKind::Region,
                 }),
                 _ => {}

@@ -155,7 +155,28 @@ impl FileAnalysis {
             }
             T::Ident => {
                 let text = self.slice(span);
-                if next == Some(T::LParen) && docs::function(text).is_some() {
+                let layout_head = |i: Option<TokKind>| i == Some(T::Ident);
+                if text == "layout"
+                    && layout_head(next)
+                    && matches!(prev, Some(T::Semi | T::RBrace) | None)
+                {
+                    // `layout NAME {`: a contextual keyword.
+                    (TokenKind::Keyword, none)
+                } else if next == Some(T::LBrace) && layout_head(prev) && self.layouts_at(span) {
+                    (
+                        TokenKind::System,
+                        TokenModifier {
+                            declaration: true,
+                            ..none
+                        },
+                    )
+                } else if next == Some(T::LParen)
+                    && matches!(text, "grid" | "radial" | "geojson" | "lsystem" | "edited")
+                    && self.in_layout(span)
+                {
+                    // A layer source (docs/layout.md).
+                    (TokenKind::Function, lib)
+                } else if next == Some(T::LParen) && docs::function(text).is_some() {
                     (TokenKind::Function, lib)
                 } else if prev == Some(T::Dot) {
                     (TokenKind::Property, none)
@@ -177,6 +198,24 @@ impl FileAnalysis {
             // (and `[` `]` of a right context, `{` `}` of a broken string).
             _ => (TokenKind::Operator, none),
         }
+    }
+}
+
+impl FileAnalysis {
+    /// Whether `span` is the name of a `layout` item of this file.
+    fn layouts_at(&self, span: Span) -> bool {
+        self.checked
+            .program
+            .layouts
+            .iter()
+            .any(|l| l.loc.file == self.root && l.loc.span == span)
+    }
+
+    /// Whether `span` lies inside a `layout` item of this file.
+    fn in_layout(&self, span: Span) -> bool {
+        self.checked.program.layouts.iter().any(|l| {
+            l.loc.file == self.root && l.span.start <= span.start && span.end <= l.span.end
+        })
     }
 }
 

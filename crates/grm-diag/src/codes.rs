@@ -183,6 +183,16 @@ codes! {
     /// in a shape rule.
     ShapeUnsupportedFunction = "E0513", Error, "function not available in shape rules";
 
+    // ---- E06xx: city layouts (`layout NAME { ... }`; docs/layout.md) -----
+    /// A layout field whose value is not a layer source (`grid(...)`,
+    /// `radial(...)`, `geojson("file")`, `lsystem(System)`, `edited()`).
+    LayoutUnknownSource = "E0601", Error, "not a layer source";
+    /// A layer source with the wrong number or kind of arguments.
+    LayoutSourceArguments = "E0602", Error, "wrong arguments to a layer source";
+    /// `buildings = S;` naming a system that is not a shape system, or
+    /// `lsystem(S)` one that is not a derive system.
+    LayoutWrongSystemMode = "E0603", Error, "system of the wrong mode in a layout";
+
     // ---- W0xxx: warnings -------------------------------------------------
     /// A parameter bound in a predecessor and never used.
     UnusedParameter = "W0001", Warning, "unused parameter";

@@ -177,6 +177,15 @@ fn item(i: &mut Item) {
             }
             m.span = Z;
         }
+        Item::Layout(m) => {
+            ident(&mut m.name);
+            for f in &mut m.fields {
+                ident(&mut f.name);
+                expr(&mut f.value);
+                f.span = Z;
+            }
+            m.span = Z;
+        }
         Item::System(s) => {
             ident(&mut s.name);
             for i in &mut s.items {

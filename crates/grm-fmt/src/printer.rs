@@ -102,7 +102,7 @@ fn kind(s: Stmt<'_>) -> Kind {
         Stmt::Item(Item::Const(_)) => Kind::Const,
         Stmt::Item(Item::Param(_)) => Kind::Param,
         Stmt::Item(Item::Mesh(_)) => Kind::Mesh,
-        Stmt::Item(Item::Material(_) | Item::System(_)) => Kind::Block,
+        Stmt::Item(Item::Material(_) | Item::System(_) | Item::Layout(_)) => Kind::Block,
         Stmt::Item(Item::Error(_)) | Stmt::Sys(_) | Stmt::Field(_) => Kind::Error,
     }
 }
@@ -469,6 +469,10 @@ impl<'a> Printer<'a> {
             Item::System(s) => {
                 let stmts: Vec<Stmt<'_>> = s.items.iter().map(Stmt::Sys).collect();
                 self.braced("system", s.span, &s.name, &stmts);
+            }
+            Item::Layout(l) => {
+                let stmts: Vec<Stmt<'_>> = l.fields.iter().map(Stmt::Field).collect();
+                self.braced("layout", l.span, &l.name, &stmts);
             }
             Item::Error(span) => self.verbatim(*span),
         }

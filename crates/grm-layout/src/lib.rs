@@ -31,7 +31,8 @@
 //! [`assign`] (4.3), [`layers`] (4.2), [`sidecar`] (the file); [`svg`];
 //! [`city`] (buildings grown on the parcels by a shape system, and the
 //! city as one model for glTF and pictures); [`diag`] (the problems as
-//! coded diagnostics, R10xx).
+//! coded diagnostics, R10xx); [`program`] (a `.grm` file's `layout`
+//! item made into a document: the one road from a grammar to a city).
 //! docs/layout.md explains them.
 pub mod assign;
 pub mod blocks;
@@ -45,6 +46,7 @@ pub mod index;
 pub mod layers;
 pub mod merge;
 pub mod model;
+pub mod program;
 pub mod select;
 pub mod shared;
 pub mod sidecar;

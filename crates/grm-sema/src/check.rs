@@ -49,6 +49,7 @@ pub(crate) fn count_names(files: &[LoadedFile]) -> usize {
                     }
                 }
                 Item::Material(m) => exprs.extend(m.fields.iter().map(|f| &f.value)),
+                Item::Layout(l) => exprs.extend(l.fields.iter().map(|f| &f.value)),
                 Item::System(s) => {
                     for si in &s.items {
                         match si {
@@ -435,6 +436,7 @@ impl<'a> Checker<'a> {
                 meshes: Vec::new(),
                 materials: Vec::new(),
                 systems: Vec::new(),
+                layouts: Vec::new(),
                 index: RefIndex::default(),
                 imports: Vec::new(),
             },
@@ -485,7 +487,9 @@ impl<'a> Checker<'a> {
                     Item::Param(p) => &p.name,
                     Item::Mesh(m) => &m.name,
                     Item::Material(m) => &m.name,
-                    Item::Import(_) | Item::System(_) | Item::Error(_) => continue,
+                    Item::Import(_) | Item::System(_) | Item::Layout(_) | Item::Error(_) => {
+                        continue;
+                    }
                 };
                 let key = (self.load_rank[fi], name.span.start);
                 self.first_defs
@@ -604,7 +608,7 @@ impl<'a> Checker<'a> {
                             material_asts.push((fi, m));
                         }
                     }
-                    Item::Import(_) | Item::System(_) | Item::Error(_) => {}
+                    Item::Import(_) | Item::System(_) | Item::Layout(_) | Item::Error(_) => {}
                 }
             }
         }

@@ -77,6 +77,7 @@ pub mod eval;
 mod expr;
 mod index;
 mod infer;
+pub mod layout;
 mod loader;
 pub mod phases;
 mod program;
@@ -130,6 +131,7 @@ pub fn check(sources: &mut SourceMap, root: FileId, loader: &dyn FileLoader) -> 
         .collect();
     cx.globals();
     cx.systems(bodies);
+    cx.layouts();
     cx.file_warnings();
     let mut program = cx.program;
     let mut diagnostics = cx.diags;

@@ -389,6 +389,8 @@ pub struct Program {
     /// All systems: the root file's first, in source order, then those of
     /// imported files in load order.
     pub systems: Vec<System>,
+    /// The `layout` items of every file (docs/layout.md), in load order.
+    pub layouts: Vec<crate::layout::LayoutDef>,
     /// Name occurrences and their definitions, for the language server.
     pub index: RefIndex,
     /// Every import that loaded a file: where it is written (the path

@@ -50,6 +50,8 @@ pub enum Item {
     Material(MaterialDecl),
     /// `system NAME { ... }`
     System(System),
+    /// `layout NAME { key = expr; ... }`: a city layout (docs/layout.md).
+    Layout(LayoutDecl),
     /// Text the parser could not make sense of (already reported).
     Error(Span),
 }
@@ -63,6 +65,7 @@ impl Item {
             Item::Mesh(m) => m.span,
             Item::Material(m) => m.span,
             Item::System(s) => s.span,
+            Item::Layout(l) => l.span,
             Item::Error(s) => *s,
         }
     }
@@ -113,7 +116,19 @@ pub struct MaterialDecl {
     pub span: Span,
 }
 
-/// `key = expr;` inside a material.
+/// `layout NAME { key = expr; ... }`: a city layout. `layout` is a
+/// keyword only before a name and `{`. Each field is a layer, bottom to
+/// top (`base = grid(9, 6, 80, 60);`), except `buildings = System;`, the
+/// shape system every parcel grows, and `seed = N;`; the checker gives
+/// them their meaning (grm-sema, docs/layout.md).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LayoutDecl {
+    pub name: Ident,
+    pub fields: Vec<Field>,
+    pub span: Span,
+}
+
+/// `key = expr;` inside a material or a layout.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Field {
     pub name: Ident,

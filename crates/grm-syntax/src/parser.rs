@@ -581,13 +581,20 @@ impl<'a, 't> Driver<'a, 't> {
                     let material = self.material();
                     sink(material);
                 }
+                TokKind::Ident if self.layout_at(self.pos) => {
+                    let layout = self.layout();
+                    sink(layout);
+                }
                 _ => {
                     // Garbage between items: skip to the next item keyword at
                     // brace depth 0, one diagnostic for the whole run.
                     let start = self.pos;
                     let mut depth = 0i32;
                     while let Some(k) = self.peek_kind() {
-                        if depth <= 0 && starts_item_at(self.toks, self.pos) && self.pos > start {
+                        if depth <= 0
+                            && (starts_item_at(self.toks, self.pos) || self.layout_at(self.pos))
+                            && self.pos > start
+                        {
                             break;
                         }
                         match k {
@@ -609,7 +616,7 @@ impl<'a, 't> Driver<'a, 't> {
                         },
                         self.file,
                         t.span,
-                        "items start with `system`, `const`, `param`, `mesh`, `material` or `import`",
+                        "items start with `system`, `const`, `param`, `mesh`, `material`, `layout` or `import`",
                     );
                     match (t.kind == TokKind::Ident)
                         .then(|| item_keyword_for(t.text(self.text)))
@@ -642,7 +649,10 @@ impl<'a, 't> Driver<'a, 't> {
                 // (`mesh(leaf)`); they start an item only as `mesh NAME =`.
                 // A keyword in a declaration's name place (`const system =
                 // 1;`) is a misused name, not the next item.
-                _ if !first && starts_item_at(self.toks, i) && !self.keyword_as_name(i) => {
+                _ if !first
+                    && (starts_item_at(self.toks, i) && !self.keyword_as_name(i)
+                        || !in_block && self.layout_at(i)) =>
+                {
                     return i;
                 }
                 _ => {}
@@ -1114,6 +1124,52 @@ impl<'a, 't> Driver<'a, 't> {
         ));
         // Source order: before any error inside the declaration itself.
         self.diags.insert(before, d);
+    }
+
+    /// Whether token `i` starts a `layout NAME {` item. `layout` is a
+    /// keyword only there (a contextual keyword): anywhere else it is a
+    /// name, so grammars that use it as one keep their meaning.
+    fn layout_at(&self, i: usize) -> bool {
+        let kind = |j: usize| self.toks.get(j).map(|t| t.kind);
+        kind(i) == Some(TokKind::Ident)
+            && self.toks[i].text(self.text) == "layout"
+            && kind(i + 1) == Some(TokKind::Ident)
+            && kind(i + 2) == Some(TokKind::LBrace)
+    }
+
+    /// `layout NAME { key = expr; ... }` (docs/layout.md): its fields are
+    /// read as a material's are; the checker gives them their meaning.
+    fn layout(&mut self) -> Item {
+        let start = self.toks[self.pos].span;
+        let (name, braced) = self.block_header("layout");
+        let mut fields = Vec::new();
+        if braced {
+            while let Some(k) = self.peek_kind() {
+                if k == TokKind::RBrace
+                    || starts_item_at(self.toks, self.pos)
+                    || self.layout_at(self.pos)
+                {
+                    break;
+                }
+                let end = self.stmt_end(true).max(self.pos + 1);
+                let toks = self.take_stmt(end);
+                for s in self.statement(toks, Entry::Mat) {
+                    if let Stmt::Field(f) = s {
+                        fields.push(f);
+                    }
+                }
+            }
+        }
+        let close = if braced {
+            self.block_close(start, "layout")
+        } else {
+            name.span
+        };
+        Item::Layout(LayoutDecl {
+            name,
+            fields: shrink(fields),
+            span: start.to(close),
+        })
     }
 
     fn material(&mut self) -> Item {

@@ -1,10 +1,13 @@
-//! `grmc layout FILE.layout.json [-o city.glb|city.png|city.geojson|city.svg]
+//! `grmc layout FILE.grm|FILE.layout.json [-o city.glb|city.png|city.geojson|city.svg]
 //! [--blocks] [--no-buildings]`: a city layout (docs/layout.md) merged
 //! from the sidecar's layers and written as GeoJSON or an SVG plan, or as
 //! a model (glb, OBJ, PLY, a PNG picture): the streets, parcels and open
 //! ground, and on every parcel the building the sidecar's `buildings`
 //! grammar grows (`grm_layout::city`; none with `--no-buildings` or
-//! without a `buildings` section). Progress goes to stderr.
+//! without a `buildings` section). Progress goes to stderr. A `.grm` is
+//! checked and its first `layout` item made into the document on the one
+//! road (`grm_layout::program::document`), with `FILE.layout.json` beside
+//! it as the artist's edits; its `buildings` system grows on the parcels.
 //!
 //! The sidecar's problems (R1021-R1026, at their JSON paths), each layer's
 //! (a bad GeoJSON element, R1001-R1010, naming it; a generator's
@@ -27,7 +30,8 @@ use crate::Outcome;
 
 #[derive(Debug, Args)]
 pub struct LayoutArgs {
-    /// The layout sidecar (NAME.layout.json).
+    /// A grammar with a `layout` item (NAME.grm), or a layout sidecar
+    /// (NAME.layout.json).
     pub file: PathBuf,
     /// Write the city: .geojson or .svg (the plan), .glb, .obj, .ply or
     /// .png (streets, parcels and buildings).
@@ -49,7 +53,73 @@ fn read(path: &Path, what: &str) -> Result<String, String> {
     grm_diag::input::read_bounded_string(path, MAX_INPUT, what).map_err(|e| e.to_string())
 }
 
+/// `grmc layout FILE.grm`: the grammar's first `layout` item
+/// (`grm_layout::program::document`), the artist's edits from
+/// `NAME.layout.json` beside it when there is one, the buildings grown by
+/// the item's `buildings` system with the grammar's defaults.
+fn from_grammar(
+    a: &LayoutArgs,
+) -> Result<(grm_layout::layers::Document, crate::derive::Checked, bool), Outcome> {
+    let mut checked = crate::derive::load_checked(&a.file, None, &[])?;
+    let Some(def) = checked.program.layouts.first().cloned() else {
+        eprintln!(
+            "error: {} has no `layout NAME {{ ... }}` item (docs/layout.md)",
+            a.file.display()
+        );
+        return Err(Outcome::Usage);
+    };
+    let side = a.file.with_extension("layout.json");
+    let mut problems = false;
+    let sidecar = match std::fs::metadata(&side) {
+        Ok(_) => {
+            let text = read(
+                &side,
+                "it is larger than 256 MiB, the most a layout file may be",
+            )
+            .map_err(|e| {
+                eprintln!("error: cannot read {}: {e}", side.display());
+                Outcome::Usage
+            })?;
+            let (doc, errs) = sidecar::read(&text);
+            for e in &errs {
+                eprintln!(
+                    "{}: error[{}]: {}: {}",
+                    side.display(),
+                    e.kind.code(),
+                    e.path,
+                    e.message
+                );
+            }
+            problems |= !errs.is_empty();
+            Some(doc)
+        }
+        Err(_) => None,
+    };
+    let (doc, issues) =
+        grm_layout::program::document(&checked.program, &def, &checked.values, sidecar.as_ref());
+    for i in &issues {
+        eprintln!(
+            "{}: error[{}]: {}",
+            a.file.display(),
+            i.code(),
+            i.describe()
+        );
+    }
+    problems |= !issues.is_empty();
+    if let Some(i) = def.buildings {
+        checked.system = i;
+    }
+    Ok((doc, checked, problems))
+}
+
 pub fn run(a: LayoutArgs) -> Outcome {
+    if a.file.extension().is_some_and(|e| e == "grm") {
+        let (doc, checked, problems) = match from_grammar(&a) {
+            Ok(r) => r,
+            Err(o) => return o,
+        };
+        return write_city(&a, doc, Some(&checked), problems);
+    }
     let text = match read(
         &a.file,
         "it is larger than 256 MiB, the most a layout file may be",
@@ -70,6 +140,17 @@ pub fn run(a: LayoutArgs) -> Outcome {
             e.message
         );
     }
+    write_city(&a, doc, None, !errs.is_empty())
+}
+
+/// Merges the document's layers and writes the city (`grammar`: the
+/// buildings' checked grammar, when a `.grm` named them).
+fn write_city(
+    a: &LayoutArgs,
+    doc: grm_layout::layers::Document,
+    grammar: Option<&crate::derive::Checked>,
+    mut problems: bool,
+) -> Outcome {
     let dir = a.file.parent().map(Path::to_path_buf).unwrap_or_default();
     let load = |p: &str| -> Result<String, String> {
         read(
@@ -95,7 +176,7 @@ pub fn run(a: LayoutArgs) -> Outcome {
         bs.len(),
         ev.merged.parcels.len()
     );
-    let problems = !errs.is_empty() || !ev.issues.is_empty();
+    problems |= !ev.issues.is_empty();
     if let Some(out) = &a.output {
         let shown = a.blocks.then_some(bs.as_slice());
         let ext = out.extension().and_then(|e| e.to_str()).unwrap_or("");
@@ -104,7 +185,7 @@ pub fn run(a: LayoutArgs) -> Outcome {
             "svg" => svg::svg(&ev.merged, shown),
             _ => match grm_geom::ExportFormat::from_path(out) {
                 Some(format) => {
-                    return match model(&a, &doc, &dir, &ev.merged, out, format) {
+                    return match model(a, &doc, grammar, &dir, &ev.merged, out, format) {
                         Ok(issues) if problems || issues => Outcome::InputErrors,
                         Ok(_) => Outcome::Ok,
                         Err(o) => o,
@@ -138,6 +219,7 @@ pub fn run(a: LayoutArgs) -> Outcome {
 fn model(
     a: &LayoutArgs,
     doc: &grm_layout::layers::Document,
+    grammar: Option<&crate::derive::Checked>,
     dir: &Path,
     layout: &grm_layout::model::Layout,
     out: &Path,
@@ -145,6 +227,7 @@ fn model(
 ) -> Result<bool, Outcome> {
     let spec = doc.buildings.as_ref().filter(|_| !a.no_buildings);
     let loaded = match spec {
+        Some(_) if grammar.is_some() => None,
         Some(spec) => {
             let params: Vec<String> = spec
                 .params
@@ -169,14 +252,21 @@ fn model(
         }
         None => None,
     };
-    let buildings = loaded.as_ref().map(|(c, grammar)| Buildings {
-        program: &c.program,
-        system: c.system(),
-        params: &c.values,
-        dir: grammar.parent(),
-        seed: spec.map_or(0, |s| s.seed),
-        options: ShapeOptions::default(),
-    });
+    let from_grm = grammar
+        .filter(|_| spec.is_some())
+        .map(|c| (c, a.file.as_path()));
+    let buildings = loaded
+        .as_ref()
+        .map(|(c, grammar)| (c, grammar.as_path()))
+        .or(from_grm)
+        .map(|(c, grammar)| Buildings {
+            program: &c.program,
+            system: c.system(),
+            params: &c.values,
+            dir: grammar.parent(),
+            seed: spec.map_or(0, |s| s.seed),
+            options: ShapeOptions::default(),
+        });
     let build = grm_geom::BuildOptions {
         group_names: false,
         ..grm_geom::BuildOptions::default()

@@ -85,7 +85,8 @@ enum Command {
     /// Direct manipulation: list the parts a drag can move, the source
     /// numbers that place one, solve a drag, sketch a meta-parameter.
     Manip(manip::ManipArgs),
-    /// A city layout merged from its layers (NAME.layout.json), written
+    /// A city layout merged from its layers (a .grm's `layout` item or
+    /// NAME.layout.json), written
     /// as GeoJSON or an SVG plan, or as a model or picture (glb, obj,
     /// ply, png) with a building grown on every parcel.
     Layout(layout::LayoutArgs),

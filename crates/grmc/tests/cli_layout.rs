@@ -206,3 +206,89 @@ fn a_parcel_without_a_building_is_reported_and_a_missing_grammar_is_exit_2() {
     let o = grmc(&["layout", path(&side), "--no-buildings", "-o", path(&out)]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
 }
+
+/// `grmc layout FILE.grm`: the grammar's `layout` item (an L-system's
+/// streets, a grid, a GeoJSON park; buildings from an imported shape
+/// system) with the artist's sidecar beside it; the same bytes twice; a
+/// grammar without a layout item is exit 2.
+#[test]
+fn a_grammar_with_a_layout_item_lays_out_and_grows_the_city() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    for f in ["city.grm", "city_building.grm", "city_park.geojson"] {
+        std::fs::copy(example(f), dir.path().join(f)).expect("copy");
+    }
+    let grm = dir.path().join("city.grm");
+    let plan = dir.path().join("plan.geojson");
+    let o = grmc(&["layout", path(&grm), "-o", path(&plan)]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    // Without the sidecar: the item's three layers.
+    assert!(
+        text(&o.stdout).starts_with("3 layers: "),
+        "{}",
+        text(&o.stdout)
+    );
+    let first = std::fs::read(&plan).expect("plan");
+    // The avenue's streets are there: the plan without it has fewer.
+    let no_avenue = std::fs::read_to_string(&grm)
+        .expect("grm")
+        .replace("avenue = lsystem(Avenues);", "");
+    std::fs::write(dir.path().join("bare.grm"), no_avenue).expect("write");
+    let bare = dir.path().join("bare.geojson");
+    let o = grmc(&[
+        "layout",
+        path(&dir.path().join("bare.grm")),
+        "-o",
+        path(&bare),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let streets = |b: &[u8]| {
+        let v: serde_json::Value = serde_json::from_slice(b).expect("json");
+        v["features"]
+            .as_array()
+            .expect("features")
+            .iter()
+            .filter(|f| f["properties"]["kind"] == "street")
+            .count()
+    };
+    assert!(
+        streets(&first) > streets(&std::fs::read(&bare).expect("bare")),
+        "the L-system's streets are in the plan"
+    );
+    // With the sidecar beside it, its layers add the artist's edits and
+    // its hand-edited layer.
+    std::fs::copy(
+        example("city.layout.json"),
+        dir.path().join("city.layout.json"),
+    )
+    .expect("copy");
+    let glb = dir.path().join("city.glb");
+    let o = grmc(&["layout", path(&grm), "-o", path(&glb)]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(
+        text(&o.stdout).starts_with("4 layers: "),
+        "{}",
+        text(&o.stdout)
+    );
+    assert!(
+        text(&o.stdout).contains(" buildings on "),
+        "{}",
+        text(&o.stdout)
+    );
+    let again = dir.path().join("again.glb");
+    let o = grmc(&["layout", path(&grm), "-o", path(&again)]);
+    assert!(o.status.success());
+    assert_eq!(std::fs::read(&glb).unwrap(), std::fs::read(&again).unwrap());
+    // No layout item: exit 2.
+    let o = grmc(&[
+        "layout",
+        path(&dir.path().join("city_building.grm")),
+        "-o",
+        path(&plan),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
+    assert!(
+        text(&o.stderr).contains("has no `layout NAME"),
+        "{}",
+        text(&o.stderr)
+    );
+}
