@@ -445,3 +445,38 @@ fn shape_command_parts() {
         1
     );
 }
+
+/// `layout NAME { ... }` is an item; `layout` elsewhere is a name; a
+/// broken field costs one diagnostic and the rest of the layout, and the
+/// items after it, still parse; every prefix of a layout parses (with
+/// diagnostics) without failing.
+#[test]
+fn layout_items_parse_and_recover() {
+    let src = "param layout = 2;\nlayout Town {\n  base = grid(4, 3, 80, 60);\n  avenue = lsystem(Streets);\n  buildings = House;\n}\nsystem S { axiom A(layout); }\n";
+    let p = parse(FileId(0), src);
+    assert!(p.diagnostics.is_empty(), "{:#?}", p.diagnostics);
+    assert!(matches!(p.file.items[0], Item::Param(ref d) if &*d.name.name == "layout"));
+    let Item::Layout(l) = &p.file.items[1] else {
+        panic!("{:#?}", p.file.items[1])
+    };
+    assert_eq!(&*l.name.name, "Town");
+    let keys: Vec<&str> = l.fields.iter().map(|f| &*f.name.name).collect();
+    assert_eq!(keys, ["base", "avenue", "buildings"]);
+    assert!(matches!(p.file.items[2], Item::System(_)));
+
+    let broken =
+        "layout Town {\n  base = grid(4, ;\n  park = geojson(\"p.geojson\");\n}\nconst X = 1;";
+    let p = parse(FileId(0), broken);
+    assert_eq!(codes(broken), ["E0001"], "{:#?}", p.diagnostics);
+    let Item::Layout(l) = &p.file.items[0] else {
+        panic!()
+    };
+    assert_eq!(l.fields.last().map(|f| &*f.name.name), Some("park"));
+    assert!(matches!(p.file.items[1], Item::Const(_)));
+
+    for end in 0..=src.len() {
+        if src.is_char_boundary(end) {
+            let _ = parse(FileId(0), &src[..end]);
+        }
+    }
+}
