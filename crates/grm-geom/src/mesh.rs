@@ -84,19 +84,33 @@ impl MeshData {
     /// corners per quad say it all: the preview sends them alone (a
     /// building's walls, windows and boxes; a third of its bytes).
     pub fn is_quads(&self) -> bool {
+        self.quad_indices() && self.quad_geometry()
+    }
+
+    /// The index half of [`MeshData::is_quads`]: four vertices a quad
+    /// and its triangles `a b c`, `a c d` in order (what the indices say;
+    /// the positions and normals are [`MeshData::quad_geometry`]'s). The
+    /// preview checks the two halves on different threads.
+    pub fn quad_indices(&self) -> bool {
         let q = self.positions.len() / 4;
         if q == 0 || self.positions.len() != 4 * q || self.indices.len() != 6 * q {
             return false;
         }
-        let pattern = self.indices.chunks_exact(6).enumerate().all(|(k, t)| {
+        self.indices.chunks_exact(6).enumerate().all(|(k, t)| {
             let b = 4 * k as u32;
             t == [b, b + 1, b + 2, b, b + 2, b + 3]
-        });
+        })
+    }
+
+    /// The geometry half of [`MeshData::is_quads`]: each run of four
+    /// vertices a parallelogram with one normal, its face's.
+    pub fn quad_geometry(&self) -> bool {
         // Per quad: a parallelogram, one normal for its four vertices, and
         // that normal its face's (what `flat_normals` asks of each
         // triangle: both triangles of a parallelogram share the face's
         // normal), compared squared (no root per quad).
-        pattern
+        !self.positions.is_empty()
+            && self.positions.len().is_multiple_of(4)
             && self.normals.len() == self.positions.len()
             && self
                 .positions
@@ -416,9 +430,11 @@ mod tests {
         let mut kite = square(Vec3::Z);
         kite.positions[3] = [0.0, 1.5, 0.0];
         assert!(!kite.is_quads());
+        assert!(kite.quad_indices() && !kite.quad_geometry());
         let mut order = square(Vec3::Z);
         order.indices = vec![0, 1, 3, 1, 2, 3];
         assert!(!order.is_quads());
+        assert!(!order.quad_indices() && order.quad_geometry());
         let mut tri = MeshData::default();
         tri.vertex(Vec3::ZERO, Vec3::Z);
         tri.vertex(Vec3::X, Vec3::Z);

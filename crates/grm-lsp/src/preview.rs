@@ -1342,19 +1342,20 @@ pub(crate) fn parts_out(
             // corners each, without indices or normals (`layout: "quads"`,
             // `MeshData::is_quads`); other meshes' flat normals are left
             // out (`MeshData::flat_normals`): the client computes both.
-            let quads = mesh.is_quads();
-            // The vertices on a second thread (a large part: a building's
+            // The index half of the test here, its geometry half with the
+            // vertices on a second thread (a large part: a building's
             // walls), the picks and indices here.
+            let quad_indices = mesh.quad_indices();
             let vertices = || {
-                if quads {
-                    return (enc.quad_corners(&mesh.positions), Buf::default());
+                if quad_indices && mesh.quad_geometry() {
+                    return (enc.quad_corners(&mesh.positions), Buf::default(), true);
                 }
                 let normals = if mesh.flat_normals() {
                     Buf::default()
                 } else {
                     enc.f32s(mesh.normals.as_flattened())
                 };
-                (enc.f32s(mesh.positions.as_flattened()), normals)
+                (enc.f32s(mesh.positions.as_flattened()), normals, false)
             };
             let rest = || {
                 let mut picks = Vec::with_capacity(part.picks.len() * 4 * PICK_WORDS);
@@ -1381,14 +1382,12 @@ pub(crate) fn parts_out(
                     runs.push((pk.first_triangle, pk.triangle_count, pk.module, pk.origin));
                 }
                 let picks = enc.bytes(picks);
-                let indices = if quads {
-                    Buf::default()
-                } else {
-                    enc.u32s(&mesh.indices)
-                };
+                // Indices in quad order are left out unless the geometry
+                // half says otherwise (then written after the join).
+                let indices = (!quad_indices).then(|| enc.u32s(&mesh.indices));
                 (indices, picks, runs)
             };
-            let ((positions, normals), (indices, picks_b64, runs)) =
+            let ((positions, normals, quads), (indices, picks_b64, runs)) =
                 if mesh.positions.len() >= PARALLEL_VERTICES {
                     std::thread::scope(|s| {
                         let h = s.spawn(vertices);
@@ -1398,6 +1397,11 @@ pub(crate) fn parts_out(
                 } else {
                     (vertices(), rest())
                 };
+            let indices = match indices {
+                Some(b) => b,
+                None if quads => Buf::default(),
+                None => enc.u32s(&mesh.indices),
+            };
             table.push(runs);
             PartOut {
                 material: part.material,
