@@ -17,34 +17,15 @@
 // target/browser-test/ (edits-panel.png is docs/img/edits-panel.png).
 
 import assert from 'node:assert/strict';
-import { type ChildProcess, spawn } from 'node:child_process';
-import { existsSync, mkdirSync, mkdtempSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
-import { tmpdir } from 'node:os';
+import { existsSync, readFileSync, writeFileSync } from 'node:fs';
 import { join } from 'node:path';
-import { after, before, test } from 'node:test';
-import { type Browser, type Page } from 'playwright-core';
-import { launchChromium } from './chromium.js';
+import { test } from 'node:test';
+import { type Page } from 'playwright-core';
+import { artifacts, harness, pageErrors } from './harness.js';
 
-const root = join(import.meta.dirname, '../../..');
-const artifacts = join(root, 'target/browser-test');
-const grmc = process.env.GRMC ?? join(process.env.CARGO_TARGET_DIR ?? join(root, 'target'), 'debug/grmc');
-const pageDist = process.env.PAGE_DIST;
-
-let browser: Browser;
-const servers: ChildProcess[] = [];
-const temps: string[] = [];
-
-before(async () => {
-  assert.ok(existsSync(grmc), `${grmc} is missing: run cargo build -p grmc first`);
-  mkdirSync(artifacts, { recursive: true });
-  browser = await launchChromium();
-});
-
-after(async () => {
-  await browser?.close();
-  for (const s of servers) s.kill();
-  for (const d of temps) rmSync(d, { recursive: true, force: true });
-});
+const h = harness();
+const { view } = h;
+const openPage = (url: string): Promise<Page> => h.openPage(url, { width: 1100, height: 820 });
 
 const ROW = [
   'param floors = 3 in 1 .. 6;',
@@ -75,50 +56,10 @@ const ROW = [
 
 /** The grammar in a fresh folder (its edits file is written beside it). */
 function grammar(): string {
-  const dir = mkdtempSync(join(tmpdir(), 'grm-edits-'));
-  temps.push(dir);
+  const dir = h.temp();
   const file = join(dir, 'row.grm');
   writeFileSync(file, ROW);
   return file;
-}
-
-async function view(file: string): Promise<string> {
-  const proc = spawn(grmc, ['view', file], { stdio: ['ignore', 'pipe', 'pipe'] });
-  servers.push(proc);
-  let out = '';
-  let err = '';
-  proc.stderr?.on('data', (d) => (err += d));
-  return new Promise((resolve, reject) => {
-    const timer = setTimeout(() => reject(new Error(`grmc view printed no URL in 20 s: ${out} ${err}`)), 20_000);
-    proc.stdout?.on('data', (d) => {
-      out += d;
-      const m = /http:\/\/127\.0\.0\.1:\d+\//.exec(out);
-      if (m) {
-        clearTimeout(timer);
-        resolve(m[0]);
-      }
-    });
-    proc.on('exit', (code) => reject(new Error(`grmc view exited with ${code}: ${err}`)));
-  });
-}
-
-async function openPage(url: string): Promise<Page> {
-  const page = await browser.newPage({ viewport: { width: 1100, height: 820 } });
-  const errors: string[] = [];
-  page.on('pageerror', (e) => errors.push(String(e)));
-  page.on('console', (m) => {
-    if (m.type() === 'error') errors.push(m.text());
-  });
-  (page as unknown as { errors: string[] }).errors = errors;
-  if (pageDist) {
-    const types: Record<string, string> = { '': 'text/html', 'index.html': 'text/html', 'preview.js': 'text/javascript', 'preview.css': 'text/css' };
-    await page.route(/\/(index\.html|preview\.js|preview\.css)?$/, (route) => {
-      const name = new URL(route.request().url()).pathname.slice(1);
-      return route.fulfill({ contentType: types[name], body: readFileSync(join(pageDist, name || 'index.html')) });
-    });
-  }
-  await page.goto(url);
-  return page;
 }
 
 interface Listed {
@@ -358,11 +299,8 @@ test('edit panel: an edit that loses its part is listed by its class (colour) an
   assert.deepEqual(pageErrors(page), []);
 });
 
-const pageErrors = (page: Page): string[] => (page as unknown as { errors: string[] }).errors;
-
 test('edit panel, derive mode: a picked bone is edited by its key (an offset of its length, a removal), each lands in the file and replays; Undo takes both out', async () => {
-  const dir = mkdtempSync(join(tmpdir(), 'grm-edits-'));
-  temps.push(dir);
+  const dir = h.temp();
   const file = join(dir, 'bar.grm');
   writeFileSync(file, 'system Bar {\n    iterations = 1;\n    axiom A;\n    A -> F(2) [ +(30) F(1) ] F(1.5);\n}\n');
   const page = await openPage(await view(file));

@@ -12,79 +12,20 @@
 // folder instead of the copy built into grmc.
 
 import assert from 'node:assert/strict';
-import { type ChildProcess, spawn } from 'node:child_process';
-import { copyFileSync, existsSync, mkdirSync, mkdtempSync, readFileSync, rmSync } from 'node:fs';
-import { tmpdir } from 'node:os';
+import { copyFileSync, readFileSync } from 'node:fs';
 import { join } from 'node:path';
-import { after, before, test } from 'node:test';
-import { type Browser, type Page } from 'playwright-core';
-import { launchChromium } from './chromium.js';
+import { test } from 'node:test';
+import { type Page } from 'playwright-core';
+import { artifacts, harness, pageErrors, root } from './harness.js';
 
-const root = join(import.meta.dirname, '../../..');
-const artifacts = join(root, 'target/browser-test');
-const grmc = process.env.GRMC ?? join(process.env.CARGO_TARGET_DIR ?? join(root, 'target'), 'debug/grmc');
-const pageDist = process.env.PAGE_DIST;
-
-let browser: Browser;
-const servers: ChildProcess[] = [];
-const temps: string[] = [];
-
-before(async () => {
-  assert.ok(existsSync(grmc), `${grmc} is missing: run cargo build -p grmc first`);
-  mkdirSync(artifacts, { recursive: true });
-  browser = await launchChromium();
-});
-
-after(async () => {
-  await browser?.close();
-  for (const s of servers) s.kill();
-  for (const d of temps) rmSync(d, { recursive: true, force: true });
-});
+const h = harness();
+const { view, openPage } = h;
 
 /** The example city in a fresh folder (the view rewrites its sidecar). */
 function city(): string {
-  const dir = mkdtempSync(join(tmpdir(), 'grm-layout-'));
-  temps.push(dir);
+  const dir = h.temp();
   for (const f of ['city.layout.json', 'city_park.geojson', 'city_building.grm']) copyFileSync(join(root, 'examples', f), join(dir, f));
   return join(dir, 'city.layout.json');
-}
-
-async function view(file: string): Promise<string> {
-  const proc = spawn(grmc, ['view', file], { stdio: ['ignore', 'pipe', 'pipe'] });
-  servers.push(proc);
-  let out = '';
-  let err = '';
-  proc.stderr?.on('data', (d) => (err += d));
-  return new Promise((resolve, reject) => {
-    const timer = setTimeout(() => reject(new Error(`grmc view printed no URL in 20 s: ${out} ${err}`)), 20_000);
-    proc.stdout?.on('data', (d) => {
-      out += d;
-      const m = /http:\/\/127\.0\.0\.1:\d+\//.exec(out);
-      if (m) {
-        clearTimeout(timer);
-        resolve(m[0]);
-      }
-    });
-    proc.on('exit', (code) => reject(new Error(`grmc view exited with ${code}: ${err}`)));
-  });
-}
-
-async function openPage(url: string): Promise<{ page: Page; errors: string[] }> {
-  const page = await browser.newPage({ viewport: { width: 1100, height: 720 } });
-  const errors: string[] = [];
-  page.on('pageerror', (e) => errors.push(String(e)));
-  page.on('console', (m) => {
-    if (m.type() === 'error') errors.push(m.text());
-  });
-  if (pageDist) {
-    const types: Record<string, string> = { '': 'text/html', 'index.html': 'text/html', 'preview.js': 'text/javascript', 'preview.css': 'text/css' };
-    await page.route(/\/(index\.html|preview\.js|preview\.css)?$/, (route) => {
-      const name = new URL(route.request().url()).pathname.slice(1);
-      return route.fulfill({ contentType: types[name], body: readFileSync(join(pageDist, name || 'index.html')) });
-    });
-  }
-  await page.goto(url);
-  return { page, errors };
 }
 
 interface Drawn {
@@ -112,7 +53,8 @@ async function plan(page: Page): Promise<{ draws: number; streets: Drawn[]; fit:
 
 test('a street dragged in grmc view lands in the sidecar, the view redraws it, and a hidden layer hides its streets', async () => {
   const file = city();
-  const { page, errors } = await openPage(await view(file));
+  const page = await openPage(await view(file));
+  const errors = pageErrors(page);
   await page.waitForSelector('#layout-view:not([hidden])');
   await page.waitForFunction(() => Number(document.getElementById('layout-plan')?.dataset.draws ?? 0) > 0);
   await page.waitForSelector('#layout-layers .layout-layer');

@@ -15,89 +15,29 @@
 // target/browser-test/.
 
 import assert from 'node:assert/strict';
-import { type ChildProcess, spawn } from 'node:child_process';
-import { existsSync, mkdirSync, mkdtempSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
-import { loadavg, tmpdir } from 'node:os';
+import { readFileSync, writeFileSync } from 'node:fs';
+import { loadavg } from 'node:os';
 import { join } from 'node:path';
-import { after, before, test } from 'node:test';
-import { type Browser, type Page } from 'playwright-core';
-import { launchChromium } from './chromium.js';
-
-const root = join(import.meta.dirname, '../../..');
-const artifacts = join(root, 'target/browser-test');
-const grmc = process.env.GRMC ?? join(process.env.CARGO_TARGET_DIR ?? join(root, 'target'), 'debug/grmc');
-const pageDist = process.env.PAGE_DIST;
+import { test } from 'node:test';
+import { type Page } from 'playwright-core';
+import { artifacts, harness, pageErrors } from './harness.js';
 
 type V3 = [number, number, number];
 
-let browser: Browser;
-const servers: ChildProcess[] = [];
-const temps: string[] = [];
 const latency: Record<string, unknown> = {};
 
-before(async () => {
-  assert.ok(existsSync(grmc), `${grmc} is missing: run cargo build -p grmc first`);
-  mkdirSync(artifacts, { recursive: true });
-  browser = await launchChromium();
-});
-
-after(async () => {
+const h = harness(() => {
   if (Object.keys(latency).length > 0) writeFileSync(join(artifacts, 'manip-latency.json'), JSON.stringify(latency, null, 2) + '\n');
-  await browser?.close();
-  for (const s of servers) s.kill();
-  for (const d of temps) rmSync(d, { recursive: true, force: true });
 });
+const { view, openPage } = h;
 
 /** A grammar in a fresh folder (the drag rewrites it). */
 function grammar(name: string, text: string): string {
-  const dir = mkdtempSync(join(tmpdir(), 'grm-manip-'));
-  temps.push(dir);
+  const dir = h.temp();
   const file = join(dir, name);
   writeFileSync(file, text);
   return file;
 }
-
-/** Start `grmc view FILE` and return the URL it prints. */
-async function view(file: string): Promise<string> {
-  const proc = spawn(grmc, ['view', file], { stdio: ['ignore', 'pipe', 'pipe'] });
-  servers.push(proc);
-  let out = '';
-  let err = '';
-  proc.stderr?.on('data', (d) => (err += d));
-  return new Promise((resolve, reject) => {
-    const timer = setTimeout(() => reject(new Error(`grmc view printed no URL in 20 s: ${out} ${err}`)), 20_000);
-    proc.stdout?.on('data', (d) => {
-      out += d;
-      const m = /http:\/\/127\.0\.0\.1:\d+\//.exec(out);
-      if (m) {
-        clearTimeout(timer);
-        resolve(m[0]);
-      }
-    });
-    proc.on('exit', (code) => reject(new Error(`grmc view exited with ${code}: ${err}`)));
-  });
-}
-
-async function openPage(url: string): Promise<Page> {
-  const page = await browser.newPage({ viewport: { width: 1100, height: 720 } });
-  const errors: string[] = [];
-  page.on('pageerror', (e) => errors.push(String(e)));
-  page.on('console', (m) => {
-    if (m.type() === 'error') errors.push(m.text());
-  });
-  (page as unknown as { errors: string[] }).errors = errors;
-  if (pageDist) {
-    const types: Record<string, string> = { '': 'text/html', 'index.html': 'text/html', 'preview.js': 'text/javascript', 'preview.css': 'text/css' };
-    await page.route(/\/(index\.html|preview\.js|preview\.css)?$/, (route) => {
-      const name = new URL(route.request().url()).pathname.slice(1);
-      return route.fulfill({ contentType: types[name], body: readFileSync(join(pageDist, name || 'index.html')) });
-    });
-  }
-  await page.goto(url);
-  return page;
-}
-
-const pageErrors = (page: Page): string[] => (page as unknown as { errors: string[] }).errors;
 
 interface Handle {
   /** `tip`: a bone's tip, or the length or angle grip beside it (`label`). */
@@ -590,6 +530,11 @@ test("derive mode: focus and context meshes a few levels below a picked bone's a
   const before = (await grm(page)).picks;
   await page.mouse.click(...(await toScreen(page, mid)));
   await waitFor(page, 'the trunk picked', (g) => g.picks > before && g.lastPick !== null, 10_000);
+  // The pick focuses its rule: that model (the whole tree, its rule's bones
+  // highlighted) and its spread over other seeds come first, so the regrow
+  // counted below is the context's (on a busy machine it came after r0).
+  await waitFor(page, "the picked rule's model", (g) => (g as unknown as { focusBones: number }).focusBones > 0, 20_000);
+  await spreadOver(page);
   assert.equal(await page.isHidden('#context-toggle'), false);
   // The choices: the root, the axiom's A, the trunk's F; the A is chosen (the picked part's parent).
   const options = await page.locator('#context-node option').allTextContents();

@@ -28,25 +28,18 @@
 // changes without rebuilding grmc).
 
 import assert from 'node:assert/strict';
-import { type ChildProcess, execFileSync, spawn } from 'node:child_process';
-import { copyFileSync, existsSync, mkdirSync, mkdtempSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
-import { availableParallelism, tmpdir } from 'node:os';
+import { execFileSync, spawn } from 'node:child_process';
+import { copyFileSync, readFileSync, writeFileSync } from 'node:fs';
+import { availableParallelism } from 'node:os';
 import { join } from 'node:path';
-import { after, before, test } from 'node:test';
-import { type Browser, type Page } from 'playwright-core';
-import { launchChromium } from './chromium.js';
+import { test } from 'node:test';
+import { type Page } from 'playwright-core';
+import { artifacts, grmc, harness, pageErrors, root } from './harness.js';
 import { pictureSize } from '../preview/src/picture.js';
 import { exportArgs } from '../vscode/src/exportArgs.js';
 
-const root = join(import.meta.dirname, '../../..');
 const examples = join(root, 'examples');
-const artifacts = join(root, 'target/browser-test');
-const grmc = process.env.GRMC ?? join(process.env.CARGO_TARGET_DIR ?? join(root, 'target'), 'debug/grmc');
-const pageDist = process.env.PAGE_DIST;
 
-let browser: Browser;
-const servers: ChildProcess[] = [];
-const temps: string[] = [];
 /** Edit-to-screen times measured by the tests, written to target/browser-test/latency.json. */
 const latency: Record<
   string,
@@ -80,51 +73,23 @@ function record(key: string, grammar: string, edit: string, g: Grm, ms: number[]
   return median;
 }
 
-before(async () => {
-  assert.ok(existsSync(grmc), `${grmc} is missing: run cargo build -p grmc first`);
-  mkdirSync(artifacts, { recursive: true });
-  browser = await launchChromium();
-});
-
-after(async () => {
+const h = harness(() => {
   if (Object.keys(latency).length > 0) writeFileSync(join(artifacts, 'latency.json'), JSON.stringify(latency, null, 2) + '\n');
-  await browser?.close();
-  for (const s of servers) s.kill();
-  for (const d of temps) rmSync(d, { recursive: true, force: true });
 });
+/**
+ * `grmc view FILE` with the longest time budget: a search stopped by the
+ * budget (5 s by default) holds a model that depends on the machine's load,
+ * and the tests compare the page's models with the server's own answers for
+ * the same state.
+ */
+const view = (file: string): Promise<string> => h.view(file, ['--budget-ms', '600000']);
+const { openPage } = h;
 
 /** Copy example files to a fresh folder (the test saves curves next to the grammar). */
 function scratch(files: string[]): string {
-  const dir = mkdtempSync(join(tmpdir(), 'grm-browser-'));
-  temps.push(dir);
+  const dir = h.temp();
   for (const f of files) copyFileSync(join(examples, f), join(dir, f));
   return dir;
-}
-
-/**
- * Start `grmc view FILE` and return the URL it prints. Sample searches get
- * the longest time budget: a search stopped by the budget (5 s by default)
- * holds a model that depends on the machine's load, and the tests compare
- * the page's models with the server's own answers for the same state.
- */
-async function view(file: string): Promise<string> {
-  const proc = spawn(grmc, ['view', file, '--budget-ms', '600000'], { stdio: ['ignore', 'pipe', 'pipe'] });
-  servers.push(proc);
-  let out = '';
-  let err = '';
-  proc.stderr?.on('data', (d) => (err += d));
-  return new Promise((resolve, reject) => {
-    const timer = setTimeout(() => reject(new Error(`grmc view printed no URL in 20 s: ${out} ${err}`)), 20_000);
-    proc.stdout?.on('data', (d) => {
-      out += d;
-      const m = /http:\/\/127\.0\.0\.1:\d+\//.exec(out);
-      if (m) {
-        clearTimeout(timer);
-        resolve(m[0]);
-      }
-    });
-    proc.on('exit', (code) => reject(new Error(`grmc view exited with ${code}: ${err}`)));
-  });
 }
 
 /** A perspective camera, as the page tells it and `/api/picture` takes it. */
@@ -225,27 +190,6 @@ async function litPixels(page: Page): Promise<number> {
     return n;
   });
 }
-
-async function openPage(url: string): Promise<Page> {
-  const page = await browser.newPage({ viewport: { width: 1100, height: 720 } });
-  const errors: string[] = [];
-  page.on('pageerror', (e) => errors.push(String(e)));
-  page.on('console', (m) => {
-    if (m.type() === 'error') errors.push(m.text());
-  });
-  (page as unknown as { errors: string[] }).errors = errors;
-  if (pageDist) {
-    const types: Record<string, string> = { '': 'text/html', 'index.html': 'text/html', 'preview.js': 'text/javascript', 'preview.css': 'text/css' };
-    await page.route(/\/(index\.html|preview\.js|preview\.css)?$/, (route) => {
-      const name = new URL(route.request().url()).pathname.slice(1);
-      return route.fulfill({ contentType: types[name], body: readFileSync(join(pageDist, name || 'index.html')) });
-    });
-  }
-  await page.goto(url);
-  return page;
-}
-
-const pageErrors = (page: Page): string[] => (page as unknown as { errors: string[] }).errors;
 
 /** Ask `grmc view` for a picture directly (POST /api/picture), as the page does. */
 async function picture(url: string, params: unknown): Promise<{ png: string; width: number; height: number; camera?: Camera }> {
@@ -1410,7 +1354,7 @@ test('under load (a busy loop on every core): a drag released while a request is
   await waitRegrows(page, 1, 'first model');
   await page.click('#curve-list .curve:nth-child(2)');
   const hogs = Array.from({ length: availableParallelism() }, () => spawn(process.execPath, ['-e', 'for (;;) {}'], { stdio: 'ignore' }));
-  servers.push(...hogs);
+  h.servers.push(...hogs);
   let result;
   try {
     result = await dragReleases(page, url, 4, 12);
@@ -1425,8 +1369,7 @@ test('under load (a busy loop on every core): a drag released while a request is
 });
 
 test('shape mode: a building renders, a pick names the shape and what made it, the scopes toggle draws its path', async () => {
-  const dir = mkdtempSync(join(tmpdir(), 'grm-browser-'));
-  temps.push(dir);
+  const dir = h.temp();
   const file = join(dir, 'row.grm');
   const text = [
     'system Row {',
