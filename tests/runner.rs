@@ -11,7 +11,8 @@
 //! reads the grammar's edits file (NAME.edits.json beside it) as the
 //! commands that grow a model read it, and reports its problems; `// run:
 //! layout [--no-buildings]` merges the layout file beside it
-//! (NAME.layout.json) and grows the case's shape system on its parcels.
+//! (NAME.layout.json) and grows the case's shape system on its parcels,
+//! with the building edits of NAME.edits.json beside it replayed.
 //!
 //! Invariants: the driver makes the same library calls as grmc in the same
 //! order and stops at the first error, as grmc does; it never writes into
@@ -406,12 +407,38 @@ fn layout(
         options: grm_grow::shape::ShapeOptions::default(),
     };
     let build = grm_geom::BuildOptions::default();
-    let city = grm_layout::city::city(&ev.merged, Some(&buildings), &build, &mut |_, _| {})
-        .map_err(|e| Stop::Usage(e.to_string()))?;
+    // The building edits of NAME.edits.json beside the case, when there
+    // is one (docs/layout.md, "Building edits").
+    let edits_path = rel.with_extension("edits.json");
+    let edits_shown = edits_path.to_string_lossy().replace('\\', "/");
+    let edits = match std::fs::read_to_string(&edits_path) {
+        Ok(text) => {
+            let parsed = grm_edits::parse(&text);
+            if !parsed.errors.is_empty() {
+                return Err(Stop::Usage(format!("{edits_shown}: {:?}", parsed.errors)));
+            }
+            parsed.file
+        }
+        Err(_) => grm_edits::EditsFile::default(),
+    };
+    let city = grm_layout::city::city_edited(
+        &ev.merged,
+        Some(&buildings),
+        &build,
+        &edits,
+        None,
+        &mut |_, _| {},
+    )
+    .map_err(|e| Stop::Usage(e.to_string()))?;
     diags.extend(
         city.issues
             .iter()
             .map(|b| building_diagnostic(b, at.0, at.1)),
+    );
+    diags.extend(
+        city.edit_issues
+            .iter()
+            .map(|e| grm_layout::diag::edit_diagnostic(e, &edits_shown, at.0, at.1)),
     );
     Ok(())
 }

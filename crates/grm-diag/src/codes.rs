@@ -459,6 +459,10 @@ codes! {
     /// A parcel tag naming a building meta-parameter with a value that
     /// does not fit it; the parcel stays open ground.
     BuildingTag = "R1031", Error, "parcel tag does not fit the building";
+    /// A building edit (an edit with a `parcel`) whose parcel the layout
+    /// no longer has, whose parcel grows no building, or that names
+    /// another system than the parcels grow: reported, applied nowhere.
+    BuildingEditUnplaced = "R1032", Error, "building edit has no parcel to apply to";
 }
 
 impl std::fmt::Display for Code {

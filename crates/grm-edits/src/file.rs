@@ -37,6 +37,12 @@ pub struct Edit {
     pub id: u32,
     /// The system's name in the grammar.
     pub system: String,
+    /// The city parcel whose building the edit belongs to (its identity,
+    /// 16 hex digits in the file; docs/layout.md, "Building edits"):
+    /// such an edit is replayed only in that parcel's building, by
+    /// `grm_layout::city`, never in the system grown on its own. `None`:
+    /// an edit of the system itself.
+    pub parcel: Option<u64>,
     pub target: Target,
     pub op: Op,
     /// Free text, kept as written.
@@ -51,6 +57,7 @@ impl PartialEq for Edit {
     fn eq(&self, other: &Edit) -> bool {
         self.id == other.id
             && self.system == other.system
+            && self.parcel == other.parcel
             && self.target == other.target
             && self.op == other.op
             && self.note == other.note
@@ -124,6 +131,22 @@ pub fn key_text(key: u32) -> String {
 pub fn parse_key(s: &str) -> Option<u32> {
     if s.len() == 8 && s.bytes().all(|b| b.is_ascii_hexdigit()) {
         u32::from_str_radix(s, 16).ok()
+    } else {
+        None
+    }
+}
+
+/// A parcel's identity as the file writes it (`grm_layout::id::Id`'s
+/// form): 16 lowercase hex digits.
+pub fn parcel_text(parcel: u64) -> String {
+    format!("{parcel:016x}")
+}
+
+/// A parcel identity's text read back: exactly 16 hex digits (either
+/// case).
+pub fn parse_parcel(s: &str) -> Option<u64> {
+    if s.len() == 16 && s.bytes().all(|b| b.is_ascii_hexdigit()) {
+        u64::from_str_radix(s, 16).ok()
     } else {
         None
     }
@@ -382,7 +405,7 @@ fn field<'o, 'a>(obj: &'o Object<'a>, name: &str) -> Option<&'o ObjectProp<'a>> 
 }
 
 /// The fields every edit has, beside its operation's.
-const COMMON: &[&str] = &["id", "system", "target", "op", "note"];
+const COMMON: &[&str] = &["id", "system", "parcel", "target", "op", "note"];
 
 /// One edit, or every problem found in it (all reported, the edit skipped).
 fn read_edit(text: &str, o: &Object<'_>) -> Result<Edit, Vec<EditsError>> {
@@ -431,6 +454,28 @@ fn read_edit(text: &str, o: &Object<'_>) -> Result<Edit, Vec<EditsError>> {
         },
     };
     let system = required_name(o, "system", whole, &mut errors);
+    let parcel = match field(o, "parcel") {
+        None => None,
+        Some(p) => match string(p) {
+            Err(e) => {
+                errors.push(e);
+                None
+            }
+            Ok(s) => match parse_parcel(s) {
+                Some(v) => Some(v),
+                None => {
+                    errors.push(at_edit(
+                        K::BadValue {
+                            field: "parcel".into(),
+                            problem: format!("is \"{s}\": a parcel's identity is 16 hex digits"),
+                        },
+                        span(p.value.range()),
+                    ));
+                    None
+                }
+            },
+        },
+    };
     let target = match field(o, "target") {
         None => {
             errors.push(at_edit(K::MissingField { field: "target" }, whole));
@@ -509,6 +554,7 @@ fn read_edit(text: &str, o: &Object<'_>) -> Result<Edit, Vec<EditsError>> {
         return Ok(Edit {
             id,
             system,
+            parcel,
             target,
             op,
             note,
@@ -763,7 +809,7 @@ fn read_target(p: &ObjectProp<'_>) -> Result<Target, EditsError> {
 }
 
 /// The file's canonical text: edits sorted by (system, id), keys in a
-/// fixed order (id, system, target, op, the operation's fields, note),
+/// fixed order (id, system, parcel, target, op, the operation's fields, note),
 /// two-space indent, a trailing newline; one edit per block, so a diff
 /// shows one edit per change. [`parse`] reads it back to the same file
 /// (sorted), and writing that again gives the same text. A value that is
@@ -800,9 +846,12 @@ pub fn write_edit(edit: &Edit) -> String {
 
 /// One edit's block, at the list's indent, without the comma after it.
 fn write_block(s: &mut String, e: &Edit) {
-    let mut fields: Vec<(&str, String)> = vec![
-        ("id", e.id.to_string()),
-        ("system", json_string(&e.system)),
+    let mut fields: Vec<(&str, String)> =
+        vec![("id", e.id.to_string()), ("system", json_string(&e.system))];
+    if let Some(parcel) = e.parcel {
+        fields.push(("parcel", json_string(&parcel_text(parcel))));
+    }
+    fields.extend([
         (
             "target",
             format!(
@@ -812,7 +861,7 @@ fn write_block(s: &mut String, e: &Edit) {
             ),
         ),
         ("op", json_string(e.op.kind().as_str())),
-    ];
+    ]);
     match &e.op {
         Op::Set { name, value } => {
             fields.push(("name", json_string(name)));
@@ -884,6 +933,7 @@ impl EditsFile {
         let edit = Edit {
             id,
             system: system.to_owned(),
+            parcel: None,
             target,
             op,
             note: None,

@@ -33,7 +33,8 @@ pub mod scoping;
 pub use class::EditClass;
 pub use error::{EditsError, EditsErrorKind};
 pub use file::{
-    Edit, EditsFile, Op, OpKind, Parsed, Target, key_text, parse, parse_key, write, write_edit,
+    Edit, EditsFile, Op, OpKind, Parsed, Target, key_text, parcel_text, parse, parse_key,
+    parse_parcel, write, write_edit,
 };
 pub use locator::{Anchor, EdgeRef, ExactLocator, SemanticEntry, SemanticLocator, SemanticQuery};
 pub use scoping::{Scoping, Slot, scope};

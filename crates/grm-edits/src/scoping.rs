@@ -143,6 +143,7 @@ mod tests {
         Edit {
             id,
             system: "S".into(),
+            parcel: None,
             target: Target::Key(id),
             op,
             note: None,

@@ -656,3 +656,42 @@ fn random_file(rng: &mut grm_testkit::Rng) -> EditsFile {
     rng.shuffle(&mut f.edits);
     f
 }
+
+/// A building edit on a city parcel (docs/layout.md, "Building edits"):
+/// the `parcel` field reads, is written after `system`, and reads back the
+/// same; an identity that is not 16 hex digits is R0911, a number R0907,
+/// and the edit is skipped.
+#[test]
+fn parcel_edits_read_write_and_reject_bad_identities() {
+    let text = r#"{
+  "version": 1,
+  "edits": [
+    {
+      "id": 3,
+      "system": "House",
+      "parcel": "00ab00cd00ef0012",
+      "target": { "semantic": "(floor = 2) Window" },
+      "op": "remove"
+    }
+  ]
+}
+"#;
+    let p = parse(text);
+    assert!(p.errors.is_empty(), "{:?}", p.errors);
+    assert_eq!(p.file.edits[0].parcel, Some(0x00ab_00cd_00ef_0012));
+    assert_eq!(write(&p.file), text);
+    // Without the field: an edit of the system itself.
+    assert_eq!(parse(EXAMPLE).file.edits[0].parcel, None);
+    let mut other = p.file.clone();
+    other.edits[0].parcel = Some(1);
+    assert_ne!(other, p.file, "the parcel is part of the edit");
+    for (bad, code) in [
+        (r#""parcel": "ab","#, "R0911"),
+        (r#""parcel": "00ab00cd00ef001g","#, "R0911"),
+        (r#""parcel": 12,"#, "R0907"),
+    ] {
+        let t = text.replace(r#""parcel": "00ab00cd00ef0012","#, bad);
+        assert_eq!(codes(&t), [code], "{bad}");
+        assert!(parse(&t).file.edits.is_empty(), "{bad}");
+    }
+}

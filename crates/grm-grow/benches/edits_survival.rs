@@ -723,6 +723,7 @@ fn survival(title: &str, text: &str, draws: u64, verbose: bool) {
                     file.edits.push(grm_edits::Edit {
                         id: i as u32 + 1,
                         system: SYSTEM.into(),
+                        parcel: None,
                         target,
                         op: Op::Material {
                             name: format!("m{}", i + 1),

@@ -27,12 +27,14 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use glam::Vec3;
+use grm_edits::{Edit, EditsFile};
 use grm_geom::grm_turtle::Aabb;
 use grm_geom::shape::{GroupSpan, ShapeGroup};
 use grm_geom::{BuildOptions, MeshData, Model, ModelMaterial, ModelTexture, Part};
-use grm_grow::shape::{GivenLot, ShapeGrowError, ShapeOptions, grow_on_lot};
+use grm_grow::shape::{GivenLot, ShapeGrowError, ShapeOptions, grow_on_lot_with_edits};
 use grm_sema::{Program, System, Ty, Value};
 
+use crate::building_edits::{self, EditIssue};
 use crate::id::Id;
 use crate::model::{Layout, Parcel, TagValue, Tags};
 use crate::{geom, index};
@@ -153,6 +155,10 @@ pub struct City {
     pub reused: usize,
     /// Parcels without one, and why.
     pub issues: Vec<BuildingIssue>,
+    /// Buildings grown with building edits replayed ([`city_edited`]).
+    pub edited: usize,
+    /// Building edits applied to no building, and why (R1032).
+    pub edit_issues: Vec<EditIssue>,
 }
 
 /// The seed of the building on `parcel`: its identity mixed with the
@@ -215,6 +221,20 @@ pub fn building(
     x_axis: [f64; 2],
     build: &BuildOptions,
 ) -> Result<Model, BuildingError> {
+    building_edited(b, parcel, x_axis, build, &[])
+}
+
+/// [`building`] with the parcel's building edits replayed inside its
+/// derivation (`grm_grow::shape::grow_on_lot_with_edits`; those naming
+/// another system are left out). The caller picks the parcel's edits
+/// ([`building_edits::by_parcel`]).
+pub fn building_edited(
+    b: &Buildings,
+    parcel: &Parcel,
+    x_axis: [f64; 2],
+    build: &BuildOptions,
+    edits: &[&Edit],
+) -> Result<Model, BuildingError> {
     let params = parcel_params(b, &parcel.tags)?;
     let ring: Vec<[f64; 2]> = open(&parcel.ring).iter().map(|c| [c.x, c.y]).collect();
     let options = ShapeOptions {
@@ -226,13 +246,14 @@ pub fn building(
         rings: &rings,
         x_axis,
     };
-    let grown = grow_on_lot(
+    let grown = grow_on_lot_with_edits(
         b.program,
         b.system,
         &params,
         lot,
         &options,
         Some((build, b.dir)),
+        edits,
     )
     .map_err(BuildingError::Grow)?;
     Ok(grown.model.unwrap_or_default())
@@ -342,7 +363,23 @@ pub fn city(
     build: &BuildOptions,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<City, CityError> {
-    city_with(layout, buildings, build, None, progress)
+    city_with(layout, buildings, build, None, None, progress)
+}
+
+/// [`city`] (or [`city_cached`] with `cache`) with the building edits of
+/// `edits` (those with a `parcel`; docs/layout.md, "Building edits"):
+/// each parcel's replayed in its building, the rest reported in
+/// [`City::edit_issues`] (R1032) and applied nowhere. A building is the
+/// same, byte for byte, as long as its parcel and its edits are.
+pub fn city_edited(
+    layout: &Layout,
+    buildings: Option<&Buildings>,
+    build: &BuildOptions,
+    edits: &EditsFile,
+    cache: Option<&mut BuildingCache>,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<City, CityError> {
+    city_with(layout, buildings, build, Some(edits), cache, progress)
 }
 
 /// The buildings of the last growth of a city, kept for the next (an
@@ -361,6 +398,7 @@ struct Kept {
     x_axis: [f64; 2],
     seed: u32,
     params: Vec<Value>,
+    edits: Vec<Edit>,
     model: Model,
 }
 
@@ -392,13 +430,14 @@ pub fn city_cached(
     cache: &mut BuildingCache,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<City, CityError> {
-    city_with(layout, buildings, build, Some(cache), progress)
+    city_with(layout, buildings, build, None, Some(cache), progress)
 }
 
 fn city_with(
     layout: &Layout,
     buildings: Option<&Buildings>,
     build: &BuildOptions,
+    edits: Option<&EditsFile>,
     mut cache: Option<&mut BuildingCache>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Result<City, CityError> {
@@ -426,6 +465,8 @@ fn city_with(
     let mut reused = 0;
     let mut issues = Vec::new();
     let mut next: HashMap<Id, Kept> = HashMap::new();
+    let by_parcel = edits.map(building_edits::by_parcel).unwrap_or_default();
+    let mut edited = 0;
     for (done, p) in layout.parcels.values().enumerate() {
         let start = a.start();
         let unbuilt = p.tags.get(NO_BUILDING) == Some(&TagValue::Bool(false));
@@ -433,23 +474,32 @@ fn city_with(
         flat_polygon(&p.ring, &mut a.model.parts[ground].mesh);
         if let (Some(b), Some(fronts)) = (buildings.filter(|_| !unbuilt), &fronts) {
             let x_axis = fronts.of(p);
+            let mine: &[&Edit] = by_parcel.get(&p.id).map_or(&[], Vec::as_slice);
             let hit = cache
                 .as_deref_mut()
                 .and_then(|c| c.kept.remove(&p.id))
                 .filter(|k| {
-                    k.parcel == *p && k.x_axis == x_axis && k.seed == b.seed && k.params == b.params
+                    k.parcel == *p
+                        && k.x_axis == x_axis
+                        && k.seed == b.seed
+                        && k.params == b.params
+                        && k.edits.len() == mine.len()
+                        && k.edits.iter().zip(mine).all(|(a, e)| a == *e)
                 });
             let made = match hit {
                 Some(k) => {
                     reused += 1;
                     Ok(k.model)
                 }
-                None => building(b, p, x_axis, build),
+                None => building_edited(b, p, x_axis, build, mine),
             };
             match made {
                 Ok(m) => {
                     a.append(&m);
                     grown += 1;
+                    if mine.iter().any(|e| e.system == b.system.name) {
+                        edited += 1;
+                    }
                     if cache.is_some() {
                         next.insert(
                             p.id,
@@ -458,6 +508,7 @@ fn city_with(
                                 x_axis,
                                 seed: b.seed,
                                 params: b.params.to_vec(),
+                                edits: mine.iter().map(|e| (*e).clone()).collect(),
                                 model: m,
                             },
                         );
@@ -482,11 +533,18 @@ fn city_with(
     if let Some(c) = cache {
         c.kept = next;
     }
+    // Without buildings nothing is edited, and nothing is reported.
+    let edit_issues = match buildings {
+        Some(b) => building_edits::unplaced(layout, &by_parcel, &b.system.name),
+        None => Vec::new(),
+    };
     Ok(City {
         model: a.finish(),
         buildings: grown,
         reused,
         issues,
+        edited,
+        edit_issues,
     })
 }
 

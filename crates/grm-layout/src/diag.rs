@@ -7,6 +7,7 @@
 
 use grm_diag::{Diagnostic, FileId, Span};
 
+use crate::building_edits::EditIssue;
 use crate::city::BuildingIssue;
 use crate::layers::LayerIssue;
 use crate::sidecar::SidecarError;
@@ -58,4 +59,17 @@ pub fn layer_diagnostic(i: &LayerIssue, file_name: &str, at: FileId, span: Span)
 pub fn building_diagnostic(b: &BuildingIssue, at: FileId, span: Span) -> Diagnostic {
     Diagnostic::new(b.diag_code(), b.describe(), at, span, "grown on the parcel")
         .with_help("the parcel keeps its ground; the other parcels grow")
+}
+
+/// A building edit applied to no building (R1032) in `file_name` (the
+/// edits file), naming the edit and its parcel.
+pub fn edit_diagnostic(e: &EditIssue, file_name: &str, at: FileId, span: Span) -> Diagnostic {
+    Diagnostic::new(
+        e.diag_code(),
+        format!("{file_name}: {}", e.describe()),
+        at,
+        span,
+        "grown on the parcels",
+    )
+    .with_help("a building edit applies only to its own parcel; the other edits still apply")
 }

@@ -30,12 +30,15 @@
 //! [`select`], [`shared`] (the shared graph), [`merge`] (4.1.3, 4.1.4),
 //! [`assign`] (4.3), [`layers`] (4.2), [`sidecar`] (the file); [`svg`];
 //! [`city`] (buildings grown on the parcels by a shape system, and the
-//! city as one model for glTF and pictures); [`diag`] (the problems as
+//! city as one model for glTF and pictures), [`building_edits`] (an
+//! artist's edits of one parcel's building, replayed there, reported
+//! when the parcel is gone); [`diag`] (the problems as
 //! coded diagnostics, R10xx); [`program`] (a `.grm` file's `layout`
 //! item made into a document: the one road from a grammar to a city).
 //! docs/layout.md explains them.
 pub mod assign;
 pub mod blocks;
+pub mod building_edits;
 pub mod city;
 pub mod diag;
 pub mod generate;

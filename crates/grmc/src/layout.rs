@@ -8,13 +8,16 @@
 //! checked and its first `layout` item made into the document on the one
 //! road (`grm_layout::program::document`), with `FILE.layout.json` beside
 //! it as the artist's edits; its `buildings` system grows on the parcels.
+//! The building edits of `NAME.edits.json` beside the layout (edits with
+//! a `parcel`) are replayed in their parcels' buildings; one whose parcel
+//! is gone is printed (R1032) and applied nowhere.
 //!
 //! The sidecar's problems (R1021-R1026, at their JSON paths), each layer's
 //! (a bad GeoJSON element, R1001-R1010, naming it; a generator's
 //! parameters, a missing file, a rejected move, an unknown element:
-//! R1011-R1015) and each parcel's without a building (R1031, E0509,
-//! R08xx, naming it) are printed; the rest is still written, and the exit
-//! code is 1. A sidecar, grammar or output that cannot be read or written
+//! R1011-R1015), each parcel's without a building (R1031, E0509, R08xx,
+//! naming it) and the edits file's (R0902-R0911, R1032) are printed; the
+//! rest is still written, and the exit code is 1. A sidecar, grammar or output that cannot be read or written
 //! is exit 2. Files named by the sidecar are read relative to it.
 use std::path::{Path, PathBuf};
 
@@ -282,7 +285,19 @@ fn model(
             shown = Instant::now();
         }
     };
-    let grown = match city::city(layout, buildings.as_ref(), &build, &mut progress) {
+    let edits = if buildings.is_some() {
+        building_edits(&a.file)?
+    } else {
+        (PathBuf::new(), grm_edits::EditsFile::default(), false)
+    };
+    let grown = match city::city_edited(
+        layout,
+        buildings.as_ref(),
+        &build,
+        &edits.1,
+        None,
+        &mut progress,
+    ) {
         Ok(c) => c,
         Err(e) => {
             eprintln!("error[{}]: {e}", grm_diag::Code::MemoryLimit.as_str());
@@ -297,6 +312,14 @@ fn model(
             i.describe()
         );
     }
+    for e in &grown.edit_issues {
+        eprintln!(
+            "{}: error[{}]: {}",
+            edits.0.display(),
+            e.code(),
+            e.describe()
+        );
+    }
     if buildings.is_some() {
         outln!(
             "{} buildings on {} parcels in {:.0} ms",
@@ -304,6 +327,9 @@ fn model(
             layout.parcels.len(),
             start.elapsed().as_secs_f64() * 1e3
         );
+        if grown.edited > 0 {
+            outln!("{} buildings with building edits", grown.edited);
+        }
     }
     let m = &grown.model;
     if let Err(e) = grm_geom::export::export_as(m, out, format) {
@@ -311,5 +337,30 @@ fn model(
         return Err(Outcome::Usage);
     }
     outln!("wrote {} ({} triangles)", out.display(), m.stats.triangles);
-    Ok(!grown.issues.is_empty())
+    Ok(!grown.issues.is_empty() || !grown.edit_issues.is_empty() || edits.2)
+}
+
+/// The building edits beside the layout (docs/layout.md, "Building
+/// edits"): `NAME.edits.json` for `NAME.grm` or `NAME.layout.json`; none
+/// without one. A file that cannot be read is exit 2; an edit with a
+/// problem (R0902-R0911) is printed and skipped, the others apply.
+fn building_edits(file: &Path) -> Result<(PathBuf, grm_edits::EditsFile, bool), Outcome> {
+    let name = file.file_name().and_then(|n| n.to_str()).unwrap_or("");
+    let path = match name.strip_suffix(".layout.json") {
+        Some(stem) => file.with_file_name(format!("{stem}.edits.json")),
+        None => grm_edits::edits_path(file),
+    };
+    let text = match grm_edits::read(&path) {
+        Ok(t) => t,
+        Err(e) if e.is_not_found() => return Ok((path, grm_edits::EditsFile::default(), false)),
+        Err(e) => {
+            eprintln!("error[{}]: {e}", e.code().as_str());
+            return Err(Outcome::Usage);
+        }
+    };
+    let parsed = grm_edits::parse(&text);
+    for e in &parsed.errors {
+        eprintln!("{}: error[{}]: {e}", path.display(), e.code().as_str());
+    }
+    Ok((path, parsed.file, !parsed.errors.is_empty()))
 }

@@ -255,12 +255,16 @@ pub fn derive_with_edits(
     })
 }
 
-/// The replay plan of the edits of `file` that name the lowered system.
+/// The replay plan of the edits of `file` that name the lowered system
+/// (not those of one city parcel's building, `Edit::parcel`: only
+/// [`grow_on_lot_with_edits`] replays those, for their parcel).
 pub fn edit_plan(lowered: &Lowered, file: &grm_edits::EditsFile) -> grm_shape::EditPlan {
     let name = lowered.program.name();
     grm_shape::EditPlan::new(
         &lowered.program,
-        file.edits.iter().filter(|e| e.system == name),
+        file.edits
+            .iter()
+            .filter(|e| e.system == name && e.parcel.is_none()),
     )
 }
 
@@ -361,9 +365,21 @@ fn grow_lowered(
     build: Option<(&BuildOptions, Option<&Path>)>,
     edits: Option<&grm_edits::EditsFile>,
 ) -> Result<ShapeGrown, ShapeGrowError> {
-    let seed = options.seed.unwrap_or(lowered.seed);
     let plan = edits.map(|f| edit_plan(&lowered, f));
-    let tree = derive_with_edits(&lowered, seed, options, plan.as_ref())?;
+    grow_planned(program, params, lowered, options, build, plan.as_ref())
+}
+
+/// [`grow_lowered`] with the replay plan made.
+fn grow_planned(
+    program: &grm_sema::Program,
+    params: &[Value],
+    lowered: Lowered,
+    options: &ShapeOptions,
+    build: Option<(&BuildOptions, Option<&Path>)>,
+    plan: Option<&grm_shape::EditPlan>,
+) -> Result<ShapeGrown, ShapeGrowError> {
+    let seed = options.seed.unwrap_or(lowered.seed);
+    let tree = derive_with_edits(&lowered, seed, options, plan)?;
     let model = match build {
         Some((b, dir)) => Some(model(program, params, &lowered, &tree, dir, b)?),
         None => None,
@@ -393,4 +409,30 @@ pub fn grow_on_lot(
 ) -> Result<ShapeGrown, ShapeGrowError> {
     let lowered = lower_on(program, system, params, Some(lot))?;
     grow_lowered(program, params, lowered, options, build, None)
+}
+
+/// [`grow_on_lot`] replaying `edits` inside the derivation (the engine's
+/// replay, docs/edits.md): those of them that name `system`, whatever
+/// their `parcel` (the caller picks the edits of one lot's building: a
+/// city parcel's, `grm_layout::city`). No edits grows what
+/// [`grow_on_lot`] grows.
+pub fn grow_on_lot_with_edits(
+    program: &grm_sema::Program,
+    system: &grm_sema::System,
+    params: &[Value],
+    lot: GivenLot,
+    options: &ShapeOptions,
+    build: Option<(&BuildOptions, Option<&Path>)>,
+    edits: &[&grm_edits::Edit],
+) -> Result<ShapeGrown, ShapeGrowError> {
+    let lowered = lower_on(program, system, params, Some(lot))?;
+    if edits.is_empty() {
+        return grow_lowered(program, params, lowered, options, build, None);
+    }
+    let name = lowered.program.name();
+    let plan = grm_shape::EditPlan::new(
+        &lowered.program,
+        edits.iter().copied().filter(|e| e.system == name),
+    );
+    grow_planned(program, params, lowered, options, build, Some(&plan))
 }
