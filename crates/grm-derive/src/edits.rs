@@ -41,7 +41,7 @@ use rayon::prelude::*;
 
 use crate::engine::{
     Act, Binds, COPY, ChunkOut, Derivation, DeriveLimits, DeriveOptions, Engine, IterationStats,
-    Out, SLOW, Step, copy_small, keep_first,
+    Made, Out, Replay, SLOW, Step, copy_small, keep_first,
 };
 use crate::error::{DeriveError, RuntimeError, RuntimeErrorKind};
 use crate::string::ModuleString;
@@ -104,6 +104,11 @@ const EDIT_PIECE: usize = 4096;
 
 /// Bits of the key filter (a power of two).
 const FILTER_BITS: usize = 1 << 16;
+
+/// The bit of a tag whose entry forces an alternative (the rest: its
+/// index in [`Table::entries`]), so that a piece without forced modules
+/// is found by OR-ing its tags.
+const FORCED: u32 = 1 << 31;
 
 /// The persistent edits of one derivation, by identity key.
 #[derive(Clone, Debug)]
@@ -314,11 +319,17 @@ impl Table {
         }
     }
 
+    /// The entry of tag `t` (its [`FORCED`] bit cleared).
+    #[inline(always)]
+    fn entry(&self, t: u32) -> (u32, u32) {
+        self.entries[(t & !FORCED) as usize]
+    }
+
     fn tag(&mut self, force: u32, scope: u32) -> u32 {
         if let Some(&t) = self.tags.get(&(force, scope)) {
             return t;
         }
-        let t = self.entries.len() as u32;
+        let t = self.entries.len() as u32 | if force != 0 { FORCED } else { 0 };
         self.entries.push((force, scope));
         self.tags.insert((force, scope), t);
         t
@@ -397,6 +408,98 @@ struct Match {
     node: u32,
     /// Its parent's scope.
     scope: u32,
+}
+
+/// The edits' hooks in the engine's rewrite loop ([`Replay`]): the same
+/// tags, lookups and values as [`Engine::rewrite_edited`]'s own loop.
+struct Hooks<'h, 'o> {
+    engine: &'h Engine<'h>,
+    iteration: u32,
+    plan: &'h EditPlan,
+    table: &'h Table,
+    /// The input's tags.
+    tags: &'h [u32],
+    /// The chunk's output tags (all zeros when the rewrite starts).
+    otags: &'o mut [u32],
+    /// The chunk's first output module.
+    base: usize,
+    /// Whether a module of the chunk's input carries a tag.
+    tagged: bool,
+    matches: Vec<Match>,
+}
+
+impl Replay for Hooks<'_, '_> {
+    #[inline(always)]
+    fn force(&self, i: usize) -> u32 {
+        if !self.tagged {
+            return 0;
+        }
+        let t = self.tags[i];
+        if t & FORCED == 0 {
+            0
+        } else {
+            self.table.entry(t).0
+        }
+    }
+
+    #[inline(always)]
+    fn copied(&mut self, i: std::ops::Range<usize>, o: usize) {
+        if self.tagged {
+            let n = i.len();
+            copy_small(&mut self.otags[o..o + n], &self.tags[i]);
+        }
+    }
+
+    #[inline(always)]
+    fn made(
+        &mut self,
+        i: usize,
+        o: usize,
+        made: Made<'_>,
+        params: &mut [f32],
+    ) -> Result<(), crate::error::RuntimeError> {
+        let tag = if self.tagged { self.tags[i] } else { 0 };
+        if tag == 0 {
+            for (k, &ck) in made.keys.iter().enumerate() {
+                if let Some(node) = self.plan.lookup(ck) {
+                    self.found(o + k, node, 0);
+                }
+            }
+            return Ok(());
+        }
+        let scope = self.table.entry(tag).1;
+        let inherit = self.table.scope_tag[scope as usize];
+        for (k, &ck) in made.keys.iter().enumerate() {
+            if let Some(node) = self.plan.lookup(ck) {
+                // Settled after the rewrite, its values with it.
+                self.found(o + k, node, scope);
+                continue;
+            }
+            self.otags[o + k] = inherit;
+            if scope != 0 && !made.starts.is_empty() {
+                let s = made.syms[k];
+                let a = (made.starts[k] - made.word_base) as usize;
+                let words = self.engine.sym_words[s as usize] as usize;
+                let values = &self.table.scopes[scope as usize];
+                if let Err(v) = self.plan.apply(values, s, &mut params[a..a + words]) {
+                    return Err(self.engine.edit_error(self.iteration, i, s, v));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Hooks<'_, '_> {
+    #[cold]
+    #[inline(never)]
+    fn found(&mut self, o: usize, node: u32, scope: u32) {
+        self.matches.push(Match {
+            pos: self.base + o,
+            node,
+            scope,
+        });
+    }
 }
 
 /// One chunk's output slices, with the tags.
@@ -550,7 +653,7 @@ impl<'a> Engine<'a> {
         if state
             .tags
             .iter()
-            .any(|&t| t as usize >= state.table.entries.len())
+            .any(|&t| (t & !FORCED) as usize >= state.table.entries.len())
         {
             return Err(DeriveError::InvalidInput(
                 "the edit state is not the input string's".into(),
@@ -703,13 +806,20 @@ impl<'a> Engine<'a> {
         let removed = self.settle(plan, state, &mut out, &mut otags, &matches, iteration)?;
         state.spare = std::mem::replace(&mut state.tags, otags);
         let rec = record.then(|| {
+            let mask = removed.map(|cut| {
+                let mut mask = vec![false; m];
+                for r in cut {
+                    mask[r].fill(true);
+                }
+                mask
+            });
             let decided: Vec<Option<u32>> = done.into_iter().flat_map(|d| d.decided).collect();
             let mut o = 0usize;
             let kept = decided
                 .iter()
                 .map(|d| {
                     let len = d.map_or(1, |a| self.plans[a as usize].len as usize);
-                    let k = match &removed {
+                    let k = match &mask {
                         Some(mask) => mask[o..o + len].iter().filter(|&&r| !r).count(),
                         None => len,
                     };
@@ -737,7 +847,7 @@ impl<'a> Engine<'a> {
         if self.copies[s] {
             return Ok(None);
         }
-        let force = table.entries[tag as usize].0;
+        let force = table.entry(tag).0;
         let f = self.counts[s].0;
         if force == 0 {
             if f != SLOW {
@@ -755,9 +865,61 @@ impl<'a> Engine<'a> {
         table: &Table,
         range: std::ops::Range<usize>,
     ) -> Result<(u64, u64), RuntimeError> {
-        if tags[range.clone()].iter().all(|&t| t == 0) {
+        // No forced module: the engine's own decisions, its count.
+        if tags[range.clone()].iter().fold(0, |a, &t| a | t) & FORCED == 0 {
             return self.count_chunk(step, range).map(|(m, w, _)| (m, w));
         }
+        // The engine's count, each forced module's own decision in place
+        // of the engine's (an error of the engine's: the count below, so
+        // that only the decisions the replay takes can fail).
+        if let Ok((mut m, mut w, _)) = self.count_chunk(step, range.clone()) {
+            let mut worker = self.worker();
+            for i in range.clone() {
+                let tag = tags[i];
+                if tag & FORCED == 0 {
+                    continue;
+                }
+                let (Ok((pm, pw)), (fm, fw)) = (
+                    self.count_one(step, &mut worker, table, 0, i),
+                    self.count_one(step, &mut worker, table, tag, i)?,
+                ) else {
+                    return self.count_modules(step, tags, table, range);
+                };
+                m = m - pm + fm;
+                w = w - pw + fw;
+            }
+            return Ok((m, w));
+        }
+        self.count_modules(step, tags, table, range)
+    }
+
+    /// The modules and words input module `i` tagged `tag` becomes.
+    fn count_one(
+        &self,
+        step: &Step<'_>,
+        worker: &mut crate::engine::Worker,
+        table: &Table,
+        tag: u32,
+        i: usize,
+    ) -> Result<(u64, u64), RuntimeError> {
+        let s = step.input.syms[i] as usize;
+        Ok(match self.decide_edited(step, worker, table, tag, i)? {
+            Some((alt, _)) => {
+                let a = &self.system().alts[alt as usize];
+                (u64::from(a.succ_len), u64::from(a.succ_words))
+            }
+            None => (1, u64::from(self.sym_words[s])),
+        })
+    }
+
+    /// [`Engine::count_edited`] module by module.
+    fn count_modules(
+        &self,
+        step: &Step<'_>,
+        tags: &[u32],
+        table: &Table,
+        range: std::ops::Range<usize>,
+    ) -> Result<(u64, u64), RuntimeError> {
         let syms = &step.input.syms;
         let (mut m, mut w) = (0u64, 0u64);
         let mut worker: Option<crate::engine::Worker> = None;
@@ -765,7 +927,7 @@ impl<'a> Engine<'a> {
             let s = syms[i] as usize;
             let (f, len, words) = self.counts[s];
             let tag = tags[i];
-            if f != SLOW && (tag == 0 || table.entries[tag as usize].0 == 0) {
+            if f != SLOW && tag & FORCED == 0 {
                 m += u64::from(len);
                 w += u64::from(words);
                 continue;
@@ -806,11 +968,42 @@ impl<'a> Engine<'a> {
             word_base,
         } = c;
         let input = step.input;
+        if !record {
+            // The engine's own loop with the edits' hooks.
+            let tagged = tags[range.clone()].iter().fold(0, |a, &t| a | t) != 0;
+            let mut hooks = Hooks {
+                engine: self,
+                iteration: step.iteration,
+                plan,
+                table,
+                tags,
+                otags,
+                base,
+                tagged,
+                matches: Vec::new(),
+            };
+            self.rewrite_chunk_best::<true, Hooks<'_, '_>>(
+                step,
+                ChunkOut {
+                    range,
+                    syms: osyms,
+                    keys: okeys,
+                    starts: ostarts,
+                    params: oparams,
+                    word_base,
+                },
+                &mut hooks,
+            )?;
+            return Ok(ChunkDone {
+                matches: hooks.matches,
+                decided: Vec::new(),
+            });
+        }
         if tags[range.clone()].iter().all(|&t| t == 0) {
             // No edit reaches a module of this piece: the plain rewrite
             // (the same modules and keys the edited one writes), then the
             // keys written looked up.
-            self.rewrite_chunk_best::<true>(
+            self.rewrite_chunk_best::<true, ()>(
                 step,
                 ChunkOut {
                     range: range.clone(),
@@ -820,6 +1013,7 @@ impl<'a> Engine<'a> {
                     params: &mut *oparams,
                     word_base,
                 },
+                &mut (),
             )?;
             // `otags` is all zeros (`edited_inner`).
             let mut matches = Vec::new();
@@ -962,7 +1156,7 @@ impl<'a> Engine<'a> {
                     let p = self.plans[alt as usize];
                     let len = p.len as usize;
                     let key = ikeys[i];
-                    let scope = table.entries[tag as usize].1;
+                    let scope = table.entry(tag).1;
                     let inherit = table.scope_tag[scope as usize];
                     let salts = &self.succ_salts[p.succ as usize..][..len];
                     for (k, &salt) in salts.iter().enumerate() {
@@ -1041,8 +1235,9 @@ impl<'a> Engine<'a> {
     }
 
     /// Settle the modules of `out` whose keys have edits (`matches`, in
-    /// position order), then drop the removed ones. Returns the removal
-    /// mask over the string as written, when something was removed.
+    /// position order), then drop the removed ones. Returns the removed
+    /// ranges of the string as written (sorted, disjoint), when something
+    /// was removed.
     fn settle(
         &self,
         plan: &EditPlan,
@@ -1051,8 +1246,12 @@ impl<'a> Engine<'a> {
         otags: &mut Vec<u32>,
         matches: &[Match],
         iteration: u32,
-    ) -> Result<Option<Vec<bool>>, DeriveError> {
-        let mut removed: Option<Vec<bool>> = None;
+    ) -> Result<Option<Vec<std::ops::Range<usize>>>, DeriveError> {
+        // The removed ranges, and the end of the furthest: each starts at
+        // or before its match, so a later match is removed when it lies
+        // before that end.
+        let mut cut: Vec<std::ops::Range<usize>> = Vec::new();
+        let mut reach = 0usize;
         let mut made = Vec::with_capacity(matches.len());
         for m in matches {
             let j = m.pos;
@@ -1067,15 +1266,15 @@ impl<'a> Engine<'a> {
                 hit.1 = sym;
             }
             hit.0 = hit.0.saturating_add(1);
-            if removed.as_ref().is_some_and(|r| r[j]) {
+            if j < reach {
                 continue;
             }
             let node = &plan.nodes[m.node as usize];
             made.push(node.pin.map_or(out.keys[j], |(_, p)| p));
             if node.remove.is_some() {
-                let mask = removed.get_or_insert_with(|| vec![false; out.len()]);
                 let range = self.branch(&out.syms, j);
-                mask[range].fill(true);
+                reach = reach.max(range.end);
+                cut.push(range);
                 continue;
             }
             if let Some((_, p)) = node.pin {
@@ -1097,10 +1296,19 @@ impl<'a> Engine<'a> {
             otags[j] = state.table.tag(force, scope);
         }
         state.made.extend(made);
-        if let Some(mask) = &removed {
-            compact(out, otags, mask);
+        if cut.is_empty() {
+            return Ok(None);
         }
-        Ok(removed)
+        cut.sort_unstable_by_key(|r| r.start);
+        let mut merged: Vec<std::ops::Range<usize>> = Vec::with_capacity(cut.len());
+        for r in cut {
+            match merged.last_mut() {
+                Some(last) if r.start <= last.end => last.end = last.end.max(r.end),
+                _ => merged.push(r),
+            }
+        }
+        compact(out, otags, &merged);
+        Ok(Some(merged))
     }
 
     /// What removing module `j` of `syms` removes: the module, or for a
@@ -1146,19 +1354,19 @@ impl<'a> Engine<'a> {
     }
 }
 
-/// Drop the modules `mask` marks from `out` and its tags, in place: each
-/// run of kept modules moved as one block.
-fn compact(out: &mut ModuleString, tags: &mut Vec<u32>, mask: &[bool]) {
+/// Drop the modules in `cut` (sorted, disjoint ranges) from `out` and its
+/// tags, in place: each run of kept modules moved as one block.
+fn compact(out: &mut ModuleString, tags: &mut Vec<u32>, cut: &[std::ops::Range<usize>]) {
     let n = out.syms.len();
-    let (mut w, mut pw, mut j) = (0usize, 0usize, 0usize);
-    while j < n {
-        if mask[j] {
-            j += 1;
+    let first = cut.first().map_or(n, |r| r.start);
+    let (mut w, mut pw) = (first, out.starts[first] as usize);
+    let kept = cut
+        .iter()
+        .zip(cut.iter().skip(1).map(|r| r.start).chain([n]))
+        .map(|(r, next)| r.end..next);
+    for std::ops::Range { start: j, end: k } in kept {
+        if j >= k {
             continue;
-        }
-        let mut k = j + 1;
-        while k < n && !mask[k] {
-            k += 1;
         }
         let (s, e) = (out.starts[j] as usize, out.starts[k] as usize);
         let delta = (pw as u32).wrapping_sub(out.starts[j]);
@@ -1172,7 +1380,6 @@ fn compact(out: &mut ModuleString, tags: &mut Vec<u32>, mask: &[bool]) {
         out.params.copy_within(s..e, pw);
         pw += e - s;
         w += k - j;
-        j = k;
     }
     out.syms.truncate(w);
     out.keys.truncate(w);

@@ -457,6 +457,50 @@ pub(crate) struct Out<'o> {
     pub(crate) wo: usize,
 }
 
+/// The successor modules one input module became in a chunk's output
+/// (for [`Replay::made`]): their keys, symbols and starts (empty when the
+/// output stores no word), and the chunk's first word's position.
+pub(crate) struct Made<'m> {
+    pub(crate) keys: &'m [u32],
+    pub(crate) syms: &'m [u32],
+    pub(crate) starts: &'m [u32],
+    pub(crate) word_base: u32,
+}
+
+/// What a persistent-edits replay adds to the engine's keyed rewrite loop
+/// (`edits.rs`); `()` adds nothing, and the loop compiles to the plain
+/// one. Positions are the chunk's (input: the string's, output: from the
+/// chunk's first module).
+pub(crate) trait Replay {
+    /// The alternative an edit forces on input module `i` (from 1; 0:
+    /// none, the engine's own decision).
+    fn force(&self, i: usize) -> u32;
+    /// Input modules `i` were copied to output `o..` (their keys kept).
+    fn copied(&mut self, i: Range<usize>, o: usize);
+    /// Input module `i` was rewritten to output modules `o..o +
+    /// made.keys.len()` (keys written); `params` the chunk's words.
+    fn made(
+        &mut self,
+        i: usize,
+        o: usize,
+        made: Made<'_>,
+        params: &mut [f32],
+    ) -> Result<(), RuntimeError>;
+}
+
+impl Replay for () {
+    #[inline(always)]
+    fn force(&self, _: usize) -> u32 {
+        0
+    }
+    #[inline(always)]
+    fn copied(&mut self, _: Range<usize>, _: usize) {}
+    #[inline(always)]
+    fn made(&mut self, _: usize, _: usize, _: Made<'_>, _: &mut [f32]) -> Result<(), RuntimeError> {
+        Ok(())
+    }
+}
+
 /// One chunk's output slices.
 pub(crate) struct ChunkOut<'o> {
     pub(crate) range: Range<usize>,
@@ -1174,9 +1218,9 @@ impl<'a> Engine<'a> {
             }
             let work = |out: ChunkOut<'_>| {
                 if self.keyed {
-                    self.rewrite_chunk_best::<true>(&step, out)
+                    self.rewrite_chunk_best::<true, ()>(&step, out, &mut ())
                 } else {
-                    self.rewrite_chunk_best::<false>(&step, out)
+                    self.rewrite_chunk_best::<false, ()>(&step, out, &mut ())
                 }
             };
             let results: Vec<Result<(), RuntimeError>> = if parallel {
@@ -1298,10 +1342,11 @@ impl<'a> Engine<'a> {
     /// (its fixed-size moves in 32-byte registers), else for the baseline.
     /// The same f32 operations either way (Rust never fuses a multiply
     /// and an add), so the same bits.
-    pub(crate) fn rewrite_chunk_best<const K: bool>(
+    pub(crate) fn rewrite_chunk_best<const K: bool, R: Replay>(
         &self,
         step: &Step<'_>,
         out: ChunkOut<'_>,
+        replay: &mut R,
     ) -> Result<(), RuntimeError> {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
@@ -1309,29 +1354,32 @@ impl<'a> Engine<'a> {
             // feature `rewrite_chunk_avx2` is compiled for beyond the
             // baseline.
             #[allow(unsafe_code)]
-            return unsafe { self.rewrite_chunk_avx2::<K>(step, out) };
+            return unsafe { self.rewrite_chunk_avx2::<K, R>(step, out, replay) };
         }
-        self.rewrite_chunk::<K>(step, out)
+        self.rewrite_chunk::<K, R>(step, out, replay)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn rewrite_chunk_avx2<const K: bool>(
+    fn rewrite_chunk_avx2<const K: bool, R: Replay>(
         &self,
         step: &Step<'_>,
         out: ChunkOut<'_>,
+        replay: &mut R,
     ) -> Result<(), RuntimeError> {
-        self.rewrite_chunk::<K>(step, out)
+        self.rewrite_chunk::<K, R>(step, out, replay)
     }
 
     /// Rewrite one chunk; `K`: the engine is keyed (write every output
     /// module's identity key: a copied module keeps its key, a successor
-    /// module gets `child_key(parent key, salt)`).
+    /// module gets `child_key(parent key, salt)`). `replay`: the edits'
+    /// hooks (`()`: none, the plain loop; see [`Replay`]).
     #[inline(always)]
-    fn rewrite_chunk<const K: bool>(
+    fn rewrite_chunk<const K: bool, R: Replay>(
         &self,
         step: &Step<'_>,
         out: ChunkOut<'_>,
+        replay: &mut R,
     ) -> Result<(), RuntimeError> {
         let ChunkOut {
             range,
@@ -1402,6 +1450,7 @@ impl<'a> Engine<'a> {
                     }
                     if K {
                         okeys[o] = ikeys[i];
+                        replay.copied(i..j, o);
                     }
                     o += 1;
                     wo += words;
@@ -1446,6 +1495,7 @@ impl<'a> Engine<'a> {
                 }
                 if K {
                     copy_small(&mut okeys[o..o + len], &ikeys[i..j]);
+                    replay.copied(i..j, o);
                 }
                 o += len;
                 wo += words;
@@ -1457,7 +1507,9 @@ impl<'a> Engine<'a> {
             // first successor module (or `KCOPY`).
             let o0 = o;
             let mut ksucc = KCOPY;
-            match acts[s] {
+            // An edit's forced alternative: the general road (`()`: never).
+            let forced = replay.force(i);
+            match if forced != 0 { Act::Slow } else { acts[s] } {
                 // Copies are moved as runs above; these two arms keep the
                 // per-module form of the same writes.
                 Act::Copy0 => {
@@ -1575,7 +1627,12 @@ impl<'a> Engine<'a> {
                 }
                 Act::Slow => {
                     let n = sym_words[s] as usize;
-                    match self.decide(step, &mut worker, i)? {
+                    let decided = if forced != 0 {
+                        self.decide_in::<true>(step, &mut worker, i, forced)?
+                    } else {
+                        self.decide(step, &mut worker, i)?
+                    };
+                    match decided {
                         None => {
                             osyms[o] = sym;
                             if !ono {
@@ -1612,11 +1669,19 @@ impl<'a> Engine<'a> {
                 let key = ikeys[i];
                 if ksucc == KCOPY {
                     okeys[o0] = key;
+                    replay.copied(i..i + 1, o0);
                 } else {
                     let salts = &salts[ksucc as usize..][..o - o0];
                     for (k, &salt) in okeys[o0..o].iter_mut().zip(salts) {
                         *k = rng::child_key_premixed(key, salt);
                     }
+                    let made = Made {
+                        keys: &okeys[o0..o],
+                        syms: &osyms[o0..o],
+                        starts: if ono { &[] } else { &ostarts[o0..o] },
+                        word_base,
+                    };
+                    replay.made(i, o0, made, oparams)?;
                 }
             }
             i += 1;
