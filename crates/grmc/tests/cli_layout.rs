@@ -4,7 +4,8 @@
 //! codes (exit 1) while the other layers still merge; the city with its
 //! buildings as a glb (the same twice) and a picture, the plan alone with
 //! `--no-buildings`; a parcel without a building is R1031 (exit 1), a
-//! missing grammar exit 2.
+//! missing grammar exit 2; building edits beside the layout apply to
+//! their parcels, one whose parcel is gone is R1032.
 
 mod common;
 
@@ -291,4 +292,97 @@ fn a_grammar_with_a_layout_item_lays_out_and_grows_the_city() {
         "{}",
         text(&o.stderr)
     );
+}
+
+/// Building edits (docs/layout.md, "Building edits"): `NAME.edits.json`
+/// beside the layout; an edit on a parcel of the layout is replayed in
+/// its building (the glb changes), one on a parcel the layout does not
+/// have is R1032 (exit 1) and changes nothing else; a bad edit is its
+/// R09xx code.
+#[test]
+fn building_edits_beside_the_layout_apply_to_their_parcel_and_the_rest_are_reported() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let grammar = std::fs::read_to_string(example("city_building.grm")).expect("grammar");
+    std::fs::write(dir.path().join("house.grm"), grammar).expect("write");
+    let side = dir.path().join("town.layout.json");
+    std::fs::write(
+        &side,
+        r#"{"buildings": {"grammar": "house.grm"}, "layers": [
+          {"name": "base", "source": {"grid": {"size": [3, 3]}}}]}"#,
+    )
+    .expect("write");
+    let plan = dir.path().join("town.geojson");
+    let o = grmc(&["layout", path(&side), "-o", path(&plan)]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let v: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&plan).expect("plan")).expect("GeoJSON");
+    let parcel = v["features"]
+        .as_array()
+        .expect("features")
+        .iter()
+        .find(|f| f["properties"]["kind"] == "parcel")
+        .and_then(|f| f["id"].as_str())
+        .expect("a parcel")
+        .to_string();
+    let glb = |name: &str| -> (std::process::Output, Vec<u8>) {
+        let out = dir.path().join(name);
+        let o = grmc(&["layout", path(&side), "-o", path(&out)]);
+        let bytes = std::fs::read(&out).unwrap_or_default();
+        (o, bytes)
+    };
+    let (o, plain) = glb("plain.glb");
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let edit = |id: u32, parcel: &str| {
+        format!(
+            r#"{{"id": {id}, "system": "Building", "parcel": "{parcel}",
+               "target": {{"semantic": "(floor = 1) Floor"}}, "op": "remove"}}"#
+        )
+    };
+    let edits = dir.path().join("town.edits.json");
+    std::fs::write(
+        &edits,
+        format!(
+            r#"{{"version": 1, "edits": [{}, {}]}}"#,
+            edit(1, &parcel),
+            edit(2, "00000000000000ff")
+        ),
+    )
+    .expect("write");
+    let (o, edited) = glb("edited.glb");
+    let err = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("town.edits.json: error[R1032]: edit 2: parcel 00000000000000ff"),
+        "{err}"
+    );
+    assert!(!err.contains("edit 1"), "{err}");
+    assert!(
+        text(&o.stdout).contains("1 buildings with building edits"),
+        "{}",
+        text(&o.stdout)
+    );
+    assert!(!edited.is_empty() && edited != plain);
+    // The edit alone: exit 0, the same city as with the unplaced one.
+    std::fs::write(
+        &edits,
+        format!(r#"{{"version": 1, "edits": [{}]}}"#, edit(1, &parcel)),
+    )
+    .expect("write");
+    let (o, alone) = glb("alone.glb");
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert_eq!(alone, edited);
+    // A parcel that is not 16 hex digits: R0911, the edit skipped.
+    std::fs::write(
+        &edits,
+        format!(r#"{{"version": 1, "edits": [{}]}}"#, edit(1, "12")),
+    )
+    .expect("write");
+    let (o, skipped) = glb("skipped.glb");
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o.stderr));
+    assert!(
+        text(&o.stderr).contains("error[R0911]"),
+        "{}",
+        text(&o.stderr)
+    );
+    assert_eq!(skipped, plain);
 }
