@@ -51,6 +51,13 @@ fn doc() -> Document {
 
 /// The layout before and after moving one inside crossing.
 fn before_and_after() -> (Layout, Layout) {
+    let (before, after, _) = away_and_back();
+    (before, after)
+}
+
+/// The layout before, after moving one inside crossing, and after moving
+/// it back (circular editing: the same identities and geometry).
+fn away_and_back() -> (Layout, Layout, Layout) {
     let mut d = doc();
     let before = d.evaluate(&no_files).merged;
     let incidence = before.incidence();
@@ -65,7 +72,13 @@ fn before_and_after() -> (Layout, Layout) {
     ));
     let ev = d.evaluate(&no_files);
     assert!(ev.issues.is_empty(), "{:?}", ev.issues);
-    (before, ev.merged)
+    d.layers[0].moves.push(Move::translation(
+        Select::Ids(vec![node]),
+        Coord { x: -30.0, y: 20.0 },
+    ));
+    let back = d.evaluate(&no_files);
+    assert!(back.issues.is_empty(), "{:?}", back.issues);
+    (before, ev.merged, back.merged)
 }
 
 /// A parcel's group in the city's model: its triangles' corners, bit for
@@ -97,7 +110,7 @@ fn edit(file: &mut EditsFile, system: &str, parcel: Id, target: &str, op: Op) ->
 
 #[test]
 fn a_parcels_building_edit_survives_a_move_that_keeps_the_parcel_and_is_reported_when_it_is_gone() {
-    let (before, after) = before_and_after();
+    let (before, after, back) = away_and_back();
     let kept: Vec<Id> = before
         .parcels
         .iter()
@@ -199,6 +212,13 @@ fn a_parcels_building_edit_survives_a_move_that_keeps_the_parcel_and_is_reported
         grm_geom::export::glb_bytes(&again.model).unwrap(),
         grm_geom::export::glb_bytes(&two.model).unwrap()
     );
+
+    // Moving the crossing back brings the regrown parcel back with its
+    // identity: its edit applies again.
+    assert!(back.parcels.contains_key(&g));
+    let three = city_edited(&back, Some(&b), &build, &file, None, &mut |_, _| {}).unwrap();
+    assert_eq!(three.edited, 2);
+    assert_eq!(three.edit_issues, one.edit_issues);
 
     // With a cache: the kept parcels' buildings (the edited one too) are
     // taken, and the city is the one grown whole; a changed edit regrows
