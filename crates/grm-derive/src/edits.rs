@@ -10,11 +10,14 @@
 //! compiled system by the caller (`grm_grow` reads the edits file and
 //! names parameters); this crate knows no file.
 //!
-//! The replay is a second rewrite beside the engine's own, run only when
-//! a plan is given ([`Engine::with_edits`]): the plain derivation's hot
-//! loop is untouched, so a derivation without edits costs what it did.
-//! The edited rewrite keeps the engine's structure (count, scan, rewrite
-//! over chunks in parallel, the same decisions, `emit` and keys) and adds:
+//! The replay runs only when a plan is given ([`Engine::with_edits`]),
+//! inside the engine's own rewrite loop through its `Replay` hooks (the
+//! plain derivation passes `()`, which compiles to the plain loop, so a
+//! derivation without edits costs what it did); a step that records its
+//! decisions (`edited_step` with a record) takes a second loop of its own
+//! that writes the same string. Either keeps the engine's structure
+//! (count, scan, rewrite over chunks in parallel, the same decisions,
+//! `emit` and keys) and adds:
 //!
 //! - a **tag** per module of the string (0: no edit reaches it), carried
 //!   by copies and inherited by successors: the alternative a `force`
@@ -116,7 +119,7 @@ pub struct EditPlan {
     nodes: Vec<Node>,
     index: HashMap<u32, u32>,
     /// Bit `key % FILTER_BITS` set for every key with edits.
-    filter: Vec<u64>,
+    filter: Box<[u64; FILTER_BITS / 64]>,
     /// Per slot, per symbol: where the slot's parameter is.
     slots: Vec<Vec<SlotTarget>>,
 }
@@ -133,7 +136,7 @@ impl EditPlan {
         EditPlan {
             nodes: Vec::new(),
             index: HashMap::new(),
-            filter: vec![0; FILTER_BITS / 64],
+            filter: Box::new([0; FILTER_BITS / 64]),
             slots: Vec::new(),
         }
     }
@@ -222,6 +225,7 @@ impl EditPlan {
     /// The node of `key`, if it has edits: one filter bit, then the map.
     #[inline(always)]
     fn lookup(&self, key: u32) -> Option<u32> {
+        // In bounds by construction: no check in the loop that calls it.
         let b = key as usize % FILTER_BITS;
         if self.filter[b / 64] & (1 << (b % 64)) == 0 {
             return None;
