@@ -59,6 +59,7 @@ pub(crate) fn implicit_words(sys: &CompiledSystem) -> Option<Implicit> {
     let mut t = Implicit {
         at: vec![(0, 0); n],
         words: Vec::new(),
+        widths: Vec::new(),
     };
     for (s, v) in seen.into_iter().enumerate() {
         if let Some(Some(v)) = v {
@@ -74,6 +75,12 @@ impl<'a> Engine<'a> {
     /// Whether this engine's strings leave implicit words unstored.
     pub(crate) fn compact(&self) -> bool {
         self.implicit.is_some()
+    }
+
+    /// Whether this engine's strings walk their stored words (see
+    /// [`ModuleString`], "Walked words").
+    pub(crate) fn walks(&self) -> bool {
+        self.implicit.as_ref().is_some_and(|t| t.walks())
     }
 
     /// Leave the words that every production writes as the same constants

@@ -871,12 +871,12 @@ impl<'a> Engine<'a> {
     ) -> Result<(u64, u64), RuntimeError> {
         // No forced module: the engine's own decisions, its count.
         if tags[range.clone()].iter().fold(0, |a, &t| a | t) & FORCED == 0 {
-            return self.count_chunk(step, range).map(|(m, w, _)| (m, w));
+            return self.count_chunk(step, range).map(|(m, w, _, _)| (m, w));
         }
         // The engine's count, each forced module's own decision in place
         // of the engine's (an error of the engine's: the count below, so
         // that only the decisions the replay takes can fail).
-        if let Ok((mut m, mut w, _)) = self.count_chunk(step, range.clone()) {
+        if let Ok((mut m, mut w, _, _)) = self.count_chunk(step, range.clone()) {
             let mut worker = self.worker();
             for i in range.clone() {
                 let tag = tags[i];
@@ -989,6 +989,7 @@ impl<'a> Engine<'a> {
             self.rewrite_chunk_best::<true, Hooks<'_, '_>>(
                 step,
                 ChunkOut {
+                    word_in: input.start(range.start),
                     range,
                     syms: osyms,
                     keys: okeys,
@@ -1016,6 +1017,8 @@ impl<'a> Engine<'a> {
                     starts: &mut *ostarts,
                     params: &mut *oparams,
                     word_base,
+                    // An engine with edits stores every word (`starts`).
+                    word_in: input.start(range.start),
                 },
                 &mut (),
             )?;

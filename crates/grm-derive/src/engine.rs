@@ -510,6 +510,8 @@ pub(crate) struct ChunkOut<'o> {
     pub(crate) starts: &'o mut [u32],
     pub(crate) params: &'o mut [f32],
     pub(crate) word_base: u32,
+    /// Where the chunk's first input module's stored words begin.
+    pub(crate) word_in: usize,
 }
 
 impl<'a> Engine<'a> {
@@ -739,6 +741,16 @@ impl<'a> Engine<'a> {
         succ_syms.extend([0; 2 * PAD]);
         succ_words.extend([0; 2 * PAD]);
         tpl.extend([0.0; 2 * PAD]);
+        // Strings walk their stored words (no `starts`) where every symbol
+        // is rewritten without a decision: nothing then reads a module's
+        // words out of order while deriving ([`ModuleString`], "Walked
+        // words").
+        let mut implicit = implicit;
+        if let Some(t) = &mut implicit
+            && succ_hist.is_some()
+        {
+            t.widths = sym_words.clone();
+        }
         let pool = if threads > 1 {
             Some(
                 rayon::ThreadPoolBuilder::new()
@@ -819,10 +831,16 @@ impl<'a> Engine<'a> {
         drop(spare);
         fit(&mut s.syms, m);
         // A compact string whose modules store no word keeps no starts.
+        // A walked string neither.
         fit(
             &mut s.starts,
-            if w == 0 && self.compact() { 0 } else { m + 1 },
+            if (w == 0 && self.compact()) || self.walks() {
+                0
+            } else {
+                m + 1
+            },
         );
+        s.marks = std::sync::OnceLock::new();
         fit(&mut s.params, w);
         s.implicit = self.implicit.clone();
         s.implicit_words = 0;
@@ -1058,6 +1076,11 @@ impl<'a> Engine<'a> {
         if s.implicit != self.implicit {
             return self.relayout(s).map(Cow::Owned);
         }
+        if s.walks() {
+            // Its widths are this engine's (the same table), and
+            // `is_well_formed` checked them.
+            return Ok(Cow::Borrowed(s));
+        }
         for i in 0..s.len() {
             let sym = s.syms[i] as usize;
             let Some(&w) = self.sym_words.get(sym) else {
@@ -1147,21 +1170,22 @@ impl<'a> Engine<'a> {
         let step = self.step_of(input, &mate, iteration, seed);
 
         // 1. Count.
-        let counts: Vec<Result<(u64, u64, u64), RuntimeError>> = if let Some(t) = from_hist {
-            vec![Ok(t)]
-        } else if parallel {
-            self.in_pool(|| {
+        let counts: Vec<Result<(u64, u64, u64, u64), RuntimeError>> =
+            if let Some((m, w, iw)) = from_hist {
+                vec![Ok((m, w, iw, 0))]
+            } else if parallel {
+                self.in_pool(|| {
+                    chunks
+                        .par_iter()
+                        .map(|r| self.count_chunk(&step, r.clone()))
+                        .collect()
+                })
+            } else {
                 chunks
-                    .par_iter()
+                    .iter()
                     .map(|r| self.count_chunk(&step, r.clone()))
                     .collect()
-            })
-        } else {
-            chunks
-                .iter()
-                .map(|r| self.count_chunk(&step, r.clone()))
-                .collect()
-        };
+            };
         let mut totals = Vec::with_capacity(counts.len());
         let mut first_err: Option<RuntimeError> = None;
         for c in counts {
@@ -1176,12 +1200,20 @@ impl<'a> Engine<'a> {
 
         // 2. Scan, and the limits before allocating.
         let mut offsets = Vec::with_capacity(totals.len());
-        let (mut m, mut w, mut iw) = (0u64, 0u64, 0u64);
-        for &(cm, cw, ciw) in &totals {
-            offsets.push((m, w));
+        let (mut m, mut w, mut iw, mut wi) = (0u64, 0u64, 0u64, 0u64);
+        for (&(cm, cw, ciw, cwi), r) in totals.iter().zip(&chunks) {
+            // Where the chunk's input words begin: a walked input's from
+            // the counts (one chunk: at 0), another's from its starts.
+            let word_in = if input.walks() {
+                wi
+            } else {
+                input.start(r.start) as u64
+            };
+            offsets.push((m, w, word_in as usize));
             m += cm;
             w += cw;
             iw += ciw;
+            wi += cwi;
         }
         self.check_limits(input, &mate, iteration, m, w, limits)?;
         let (m, w) = (m as usize, w as usize);
@@ -1198,7 +1230,9 @@ impl<'a> Engine<'a> {
                 &mut out.params[..],
             );
             let mut keys = &mut out.keys[..];
-            for ((r, &(cm, cw, _)), &(_, word_base)) in chunks.iter().zip(&totals).zip(&offsets) {
+            for ((r, &(cm, cw, _, _)), &(_, word_base, word_in)) in
+                chunks.iter().zip(&totals).zip(&offsets)
+            {
                 let (s, rest) = syms.split_at_mut(cm as usize);
                 syms = rest;
                 let (k, rest) = keys.split_at_mut(if self.keyed { cm as usize } else { 0 });
@@ -1214,6 +1248,7 @@ impl<'a> Engine<'a> {
                     starts: st,
                     params: p,
                     word_base: word_base as u32,
+                    word_in,
                 });
             }
             let work = |out: ChunkOut<'_>| {
@@ -1304,13 +1339,19 @@ impl<'a> Engine<'a> {
         &self,
         step: &Step<'_>,
         range: Range<usize>,
-    ) -> Result<(u64, u64, u64), RuntimeError> {
+    ) -> Result<(u64, u64, u64, u64), RuntimeError> {
         let syms = &step.input.syms[range.clone()];
-        let (mut m, mut w, mut iw) = (0u64, 0u64, 0u64);
+        let (mut m, mut w, mut iw, mut wi) = (0u64, 0u64, 0u64, 0u64);
         let mut worker: Option<Worker> = None;
         let compact = self.compact();
+        // A walked input's words of the chunk (where the next chunk's
+        // begin).
+        let walks = step.input.walks();
         for (k, &sym) in syms.iter().enumerate() {
             let s = sym as usize;
+            if walks {
+                wi += u64::from(self.sym_words[s]);
+            }
             let (f, len, words) = self.counts[s];
             if f != SLOW {
                 m += u64::from(len);
@@ -1335,7 +1376,7 @@ impl<'a> Engine<'a> {
                 }
             }
         }
-        Ok((m, w, iw))
+        Ok((m, w, iw, wi))
     }
 
     /// [`Engine::rewrite_chunk`] compiled for AVX2 where the CPU has it
@@ -1388,6 +1429,7 @@ impl<'a> Engine<'a> {
             starts: ostarts,
             params: oparams,
             word_base,
+            word_in,
         } = out;
         let input = step.input;
         let mut worker = self.worker();
@@ -1395,7 +1437,7 @@ impl<'a> Engine<'a> {
         // The input's words are walked with the modules: every module has
         // its symbol's word count (`check_input`, and the engine's own
         // strings), so `starts` is not read.
-        let mut wi = input.start(range.start);
+        let mut wi = word_in;
         // The tables, hoisted out of the loop (the compiler reloads fields
         // behind `self` after every store otherwise).
         let (acts, plans, sym_words) = (&self.acts[..], &self.plans[..], &self.sym_words[..]);
@@ -1417,8 +1459,10 @@ impl<'a> Engine<'a> {
             };
         }
         let (isyms, istarts, iparams) = (&input.syms[..], &input.starts[..], &input.params[..]);
-        // The input stores no word (no starts), the output none either.
+        // The input stores no word (no starts) or walks them, the output
+        // stores none or walks them.
         let (ino, ono) = (istarts.is_empty(), ostarts.is_empty());
+        let iwalk = ino && !iparams.is_empty();
         let copies = &self.copies[..];
         let end = range.end;
         let mut i = range.start;
@@ -1434,7 +1478,17 @@ impl<'a> Engine<'a> {
                     j += 1;
                 }
                 let len = j - i;
-                let wj = if ino { wi } else { istarts[j] as usize };
+                let wj = if iwalk {
+                    let mut wj = wi;
+                    for &t in &isyms[i..j] {
+                        wj += sym_words[t as usize] as usize;
+                    }
+                    wj
+                } else if ino {
+                    wi
+                } else {
+                    istarts[j] as usize
+                };
                 let words = wj - wi;
                 if len == 1 {
                     // One module (a turn between two rewritten `F`s):
@@ -1466,9 +1520,18 @@ impl<'a> Engine<'a> {
                         copy_small(&mut osyms[o..o + len], &isyms[i..j]);
                     }
                 } else if ino {
-                    // No input word: every start is the output's position.
+                    // No input word: every start is the output's position;
+                    // walked input words: the widths added up.
                     copy_small(&mut osyms[o..o + len], &isyms[i..j]);
-                    ostarts[o..o + len].fill(word_base + wo as u32);
+                    if iwalk {
+                        let mut at = word_base + wo as u32;
+                        for (d, &t) in ostarts[o..o + len].iter_mut().zip(&isyms[i..j]) {
+                            *d = at;
+                            at += sym_words[t as usize];
+                        }
+                    } else {
+                        ostarts[o..o + len].fill(word_base + wo as u32);
+                    }
                 } else {
                     // The input's starts shifted to the output's words.
                     let delta = (word_base + wo as u32).wrapping_sub(istarts[i]);
@@ -1522,7 +1585,9 @@ impl<'a> Engine<'a> {
                 Act::Copy(n) => {
                     let n = n as usize;
                     osyms[o] = sym;
-                    ostarts[o] = word_base + wo as u32;
+                    if !ono {
+                        ostarts[o] = word_base + wo as u32;
+                    }
                     if n == 1 {
                         oparams[wo] = input.params[wi];
                     } else {
@@ -1543,7 +1608,9 @@ impl<'a> Engine<'a> {
                         ));
                     }
                     osyms[o] = u.sym;
-                    ostarts[o] = word_base + wo as u32;
+                    if !ono {
+                        ostarts[o] = word_base + wo as u32;
+                    }
                     oparams[wo] = v;
                     o += 1;
                     wo += 1;

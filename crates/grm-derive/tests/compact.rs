@@ -86,14 +86,16 @@ fn compact_strings_read_as_stored_ones() {
 
 /// The classic scenes store no word at all (every word is a constant of
 /// its symbol: `F`'s default length, the turns' angle), so a module costs
-/// its symbol word alone; the row of trees stores `F`'s computed length.
+/// its symbol word alone; the row of trees stores `F`'s computed length
+/// and no start (its words are walked).
 #[test]
 fn the_classic_scenes_store_their_symbols_alone() {
     for (file, n, stored_max) in [
         ("koch_island.grm", 4, 4.1),
         ("bracketed_plant.grm", 4, 4.1),
         ("hilbert3d.grm", 3, 4.1),
-        ("row_of_trees.grm", 6, 10.0),
+        // `F`'s length, walked (no start a module).
+        ("row_of_trees.grm", 6, 6.0),
     ] {
         let c = example(file, None);
         let e = Engine::new(&c, 1).expect("engine");
@@ -183,5 +185,51 @@ fn pushing_other_words_stores_every_word() {
     assert_eq!(t.len(), 1 + other.len());
     for i in 0..other.len() {
         assert_eq!(t.get(i + 1), other.get(i));
+    }
+}
+
+/// A walked string (the row of trees: `F` stores its length, the turns
+/// nothing, no starts) read in any order, stepped on from the middle of a
+/// derivation, and grown by `push`, reads as the stored layout does.
+#[test]
+fn walked_strings_read_in_any_order() {
+    let c = example("row_of_trees.grm", None);
+    let opts = DeriveOptions {
+        iterations: 4,
+        ..DeriveOptions::from_system(&c)
+    };
+    let e = Engine::new(&c, 1).expect("engine");
+    let flat = Engine::new(&c, 1)
+        .expect("engine")
+        .with_implicit_words(false);
+    let a = e.derive(&opts, &mut |_| {}).expect("derives").string;
+    let b = flat.derive(&opts, &mut |_| {}).expect("derives").string;
+    assert!(a.is_well_formed());
+    assert!(a.heap_bytes() < b.heap_bytes() * 6 / 10);
+    // Backwards, then every 7th: the marks give the same words as the walk.
+    for i in (0..a.len()).rev().chain((0..a.len()).step_by(7)) {
+        assert_eq!(a.get(i), b.get(i), "module {i}");
+    }
+    // On from the walked string, into either engine, 1 and 3 threads.
+    for threads in [1, 3] {
+        let e3 = Engine::new(&c, threads).expect("engine").with_min_chunk(5);
+        let l = DeriveLimits::default();
+        let x = e3.step(&a, 5, opts.seed, &l).expect("walked into compact");
+        let y = flat.step(&a, 5, opts.seed, &l).expect("walked into flat");
+        assert_eq!(seen(&x), seen(&y), "{threads} threads");
+    }
+    // Pushing a module of the right width keeps it walked; another width
+    // stores starts; both read the same.
+    let mut s = a.clone();
+    let (f, p) = a.get(0);
+    s.push(f, p);
+    assert_eq!(s.get(s.len() - 1), (f, p));
+    assert!(s.is_well_formed());
+    let mut t = s.clone();
+    t.push(f, &[1.0, 2.0]);
+    assert!(t.is_well_formed());
+    assert_eq!(t.get(t.len() - 1), (f, &[1.0, 2.0][..]));
+    for i in 0..s.len() {
+        assert_eq!(t.get(i), s.get(i), "module {i}");
     }
 }
