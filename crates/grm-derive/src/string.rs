@@ -225,12 +225,12 @@ impl ModuleString {
             let mut marks = Vec::with_capacity(self.len() / MARK + 1);
             let mut at = 0usize;
             for (k, &s) in self.syms.iter().enumerate() {
-                if k % MARK == 0 {
+                if k.is_multiple_of(MARK) {
                     marks.push(at as u32);
                 }
                 at += self.stored_width(s);
             }
-            if self.len() % MARK == 0 {
+            if self.len().is_multiple_of(MARK) {
                 marks.push(at as u32);
             }
             marks
