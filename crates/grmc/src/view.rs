@@ -969,6 +969,22 @@ fn handle(st: &State, stream: TcpStream) -> std::io::Result<()> {
 mod tests {
     use super::*;
 
+    /// A classic grammar small enough for every request.
+    const KOCH: &str = "system Koch {\n    iterations = 2;\n    angle = 90;\n    width = 0.1;\n    axiom F - F - F - F;\n    F -> F - F + F + F F - F - F + F;\n}\n";
+
+    /// `text` written to `name` in a fresh folder (which lives as long as
+    /// the first value) and a server started on it; the grammar's path as
+    /// the server names it.
+    fn serve(name: &str, text: &str) -> (tempfile::TempDir, PathBuf, Server) {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let grammar = dir.path().join(name);
+        std::fs::write(&grammar, text).expect("write");
+        let grammar = grm_sema::normalize(&std::fs::canonicalize(&grammar).expect("canonical"));
+        let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
+        let server = Server::start(&grammar, listener, None).expect("start");
+        (dir, grammar, server)
+    }
+
     fn parse(raw: &str) -> Result<HttpRequest, (u16, String)> {
         read_request(&mut BufReader::new(raw.as_bytes()))
     }
@@ -1155,16 +1171,10 @@ mod tests {
     /// document's URI and one guiding curve; the folder lives as long as
     /// the first value.
     fn endless_server() -> (tempfile::TempDir, Server, Value, Value) {
-        let dir = tempfile::tempdir().expect("tempdir");
-        let grammar = dir.path().join("endless.grm");
-        std::fs::write(
-            &grammar,
+        let (dir, _, server) = serve(
+            "endless.grm",
             "system Endless {\n    mode = sample;\n    generations = 100000;\n    particles_start = 8;\n    particles_end = 4;\n    axiom branch;\n    skeleton branch, maybe;\n    geometry tip;\n    branch -> roty(uniform(0, 360)) rotz(uniform(0, 40)) F(1) maybe;\n    maybe -> (3) branch;\n    maybe -> (1) tip;\n    wrapup branch -> tip;\n    wrapup maybe -> tip;\n    tip -> sphere(0.1);\n}\n",
-        )
-        .expect("write");
-        let grammar = grm_sema::normalize(&std::fs::canonicalize(&grammar).expect("canonical"));
-        let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
-        let server = Server::start(&grammar, listener, None).expect("start");
+        );
         let addr = server.addr;
         let (_, ev) = exchange(
             addr,
@@ -1250,16 +1260,7 @@ mod tests {
 
     #[test]
     fn serves_the_page_and_the_language_servers_preview() {
-        let dir = tempfile::tempdir().expect("tempdir");
-        let grammar = dir.path().join("koch.grm");
-        std::fs::write(
-            &grammar,
-            "system Koch {\n    iterations = 2;\n    angle = 90;\n    width = 0.1;\n    axiom F - F - F - F;\n    F -> F - F + F + F F - F - F + F;\n}\n",
-        )
-        .expect("write");
-        let grammar = grm_sema::normalize(&std::fs::canonicalize(&grammar).expect("canonical"));
-        let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
-        let server = Server::start(&grammar, listener, None).expect("start");
+        let (_dir, grammar, server) = serve("koch.grm", KOCH);
         let addr = server.addr;
 
         let (status, page) = exchange(addr, &format!("GET / HTTP/1.1\r\nHost: {addr}\r\n\r\n"));
@@ -1458,14 +1459,9 @@ mod tests {
 
     #[test]
     fn a_drag_through_the_page_rewrites_the_file_and_regrows_the_preview() {
-        let dir = tempfile::tempdir().expect("tempdir");
-        let grammar = dir.path().join("bar.grm");
         let text =
             "system Bar {\n    iterations = 1;\n    axiom A;\n    A -> F(2) +(30) F(1);\n}\n";
-        std::fs::write(&grammar, text).expect("write");
-        let grammar = grm_sema::normalize(&std::fs::canonicalize(&grammar).expect("canonical"));
-        let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
-        let server = Server::start(&grammar, listener, None).expect("start");
+        let (_dir, grammar, server) = serve("bar.grm", text);
         let addr = server.addr;
         let (_, ev) = exchange(
             addr,
@@ -1531,16 +1527,7 @@ mod tests {
     #[test]
     fn a_binary_previews_blob_holds_the_base64_previews_buffers() {
         use grm_lsp::blob::Buf;
-        let dir = tempfile::tempdir().expect("tempdir");
-        let grammar = dir.path().join("koch.grm");
-        std::fs::write(
-            &grammar,
-            "system Koch {\n    iterations = 2;\n    angle = 90;\n    width = 0.1;\n    axiom F - F - F - F;\n    F -> F - F + F + F F - F - F + F;\n}\n",
-        )
-        .expect("write");
-        let grammar = grm_sema::normalize(&std::fs::canonicalize(&grammar).expect("canonical"));
-        let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
-        let server = Server::start(&grammar, listener, None).expect("start");
+        let (_dir, _, server) = serve("koch.grm", KOCH);
         let addr = server.addr;
         let (_, ev) = exchange(
             addr,
