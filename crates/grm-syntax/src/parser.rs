@@ -1140,14 +1140,27 @@ impl<'a, 't> Driver<'a, 't> {
     /// `layout NAME { key = expr; ... }` (docs/layout.md): its fields are
     /// read as a material's are; the checker gives them their meaning.
     fn layout(&mut self) -> Item {
+        let (name, fields, span) = self.field_block("layout", true);
+        Item::Layout(LayoutDecl { name, fields, span })
+    }
+
+    fn material(&mut self) -> Item {
+        let (name, fields, span) = self.field_block("material", false);
+        Item::Material(MaterialDecl { name, fields, span })
+    }
+
+    /// A `KEYWORD NAME { key = expr; ... }` block of fields (a material, a
+    /// layout): its name, fields and span. The fields end at its `}`, at
+    /// the start of another item, or (`stop_at_layout`) at a `layout NAME {`.
+    fn field_block(&mut self, keyword: &str, stop_at_layout: bool) -> (Ident, Vec<Field>, Span) {
         let start = self.toks[self.pos].span;
-        let (name, braced) = self.block_header("layout");
+        let (name, braced) = self.block_header(keyword);
         let mut fields = Vec::new();
         if braced {
             while let Some(k) = self.peek_kind() {
                 if k == TokKind::RBrace
                     || starts_item_at(self.toks, self.pos)
-                    || self.layout_at(self.pos)
+                    || stop_at_layout && self.layout_at(self.pos)
                 {
                     break;
                 }
@@ -1161,45 +1174,11 @@ impl<'a, 't> Driver<'a, 't> {
             }
         }
         let close = if braced {
-            self.block_close(start, "layout")
+            self.block_close(start, keyword)
         } else {
             name.span
         };
-        Item::Layout(LayoutDecl {
-            name,
-            fields: shrink(fields),
-            span: start.to(close),
-        })
-    }
-
-    fn material(&mut self) -> Item {
-        let start = self.toks[self.pos].span;
-        let (name, braced) = self.block_header("material");
-        let mut fields = Vec::new();
-        if braced {
-            while let Some(k) = self.peek_kind() {
-                if k == TokKind::RBrace || starts_item_at(self.toks, self.pos) {
-                    break;
-                }
-                let end = self.stmt_end(true).max(self.pos + 1);
-                let toks = self.take_stmt(end);
-                for s in self.statement(toks, Entry::Mat) {
-                    if let Stmt::Field(f) = s {
-                        fields.push(f);
-                    }
-                }
-            }
-        }
-        let close = if braced {
-            self.block_close(start, "material")
-        } else {
-            name.span
-        };
-        Item::Material(MaterialDecl {
-            name,
-            fields: shrink(fields),
-            span: start.to(close),
-        })
+        (name, shrink(fields), start.to(close))
     }
 }
 
