@@ -466,24 +466,10 @@ fn result(uri: Uri, version: Option<i32>, ev: &Evaluated, with_blocks: bool) -> 
 /// sidecar reads a move's (so its problems are the file's, R1021-R1026).
 fn read_move(v: &Value) -> Result<Move> {
     let mv = v.as_object().ok_or_else(|| invalid("move: an object"))?;
-    let text = serde_json::json!({
-        "version": 1,
-        "layers": [{ "name": "edit", "moves": [Value::Object(mv.clone())] }]
-    })
-    .to_string();
-    let (doc, errs) = sidecar::read(&text);
-    if let Some(e) = errs.first() {
-        return Err(invalid(format!(
-            "move: {}: {} ({})",
-            e.path,
-            e.message,
-            e.kind.code()
-        )));
-    }
-    doc.layers
+    read_in_layer("move", "moves", mv.clone())?
+        .moves
         .into_iter()
         .next()
-        .and_then(|l| l.moves.into_iter().next())
         .ok_or_else(|| invalid("move: no move"))
 }
 
@@ -495,15 +481,28 @@ fn read_assignment(v: &Value) -> Result<grm_layout::assign::Assignment> {
         .ok_or_else(|| invalid("assign: an object"))?
         .clone();
     a.remove("anchor");
-    let text = serde_json::json!({
-        "version": 1,
-        "layers": [{ "name": "edit", "assignments": [Value::Object(a)] }]
-    })
-    .to_string();
+    read_in_layer("assign", "assignments", a)?
+        .assignments
+        .into_iter()
+        .next()
+        .ok_or_else(|| invalid("assign: no assignment"))
+}
+
+/// `entry` read as the one element of a layer's `list` in a sidecar (its
+/// problems the file's, named with `what`).
+fn read_in_layer(
+    what: &str,
+    list: &str,
+    entry: serde_json::Map<String, Value>,
+) -> Result<grm_layout::layers::LayerSpec> {
+    let mut layer = serde_json::Map::new();
+    layer.insert("name".into(), "edit".into());
+    layer.insert(list.into(), Value::Array(vec![Value::Object(entry)]));
+    let text = serde_json::json!({ "version": 1, "layers": [layer] }).to_string();
     let (doc, errs) = sidecar::read(&text);
     if let Some(e) = errs.first() {
         return Err(invalid(format!(
-            "assign: {}: {} ({})",
+            "{what}: {}: {} ({})",
             e.path,
             e.message,
             e.kind.code()
@@ -512,8 +511,7 @@ fn read_assignment(v: &Value) -> Result<grm_layout::assign::Assignment> {
     doc.layers
         .into_iter()
         .next()
-        .and_then(|l| l.assignments.into_iter().next())
-        .ok_or_else(|| invalid("assign: no assignment"))
+        .ok_or_else(|| invalid(format!("{what}: no layer")))
 }
 
 fn ids_of(v: &Value, what: &str) -> Result<Vec<Id>> {
