@@ -5,7 +5,7 @@
 
 use crate::{Analysis, FileAnalysis, Location, Span};
 use grm_sema::SymbolKind as SemaSymbolKind;
-use grm_syntax::ast::{ContextItem, Item, Phase, SystemItem};
+use grm_syntax::ast::{ContextItem, Field, Item, Phase, SystemItem};
 
 /// What an outline entry is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -129,15 +129,7 @@ impl FileAnalysis {
                         m.span,
                         m.name.span,
                     );
-                    for f in &m.fields {
-                        node.children.push(leaf(
-                            f.name.name.to_string(),
-                            Some(squash(self.slice(f.value.span), 40)),
-                            SymbolKind::Setting,
-                            f.span,
-                            f.name.span,
-                        ));
-                    }
+                    node.children = self.settings(&m.fields);
                     out.push(node);
                 }
                 Item::Layout(l) => {
@@ -148,15 +140,7 @@ impl FileAnalysis {
                         l.span,
                         l.name.span,
                     );
-                    for f in &l.fields {
-                        node.children.push(leaf(
-                            f.name.name.to_string(),
-                            Some(squash(self.slice(f.value.span), 40)),
-                            SymbolKind::Setting,
-                            f.span,
-                            f.name.span,
-                        ));
-                    }
+                    node.children = self.settings(&l.fields);
                     out.push(node);
                 }
                 Item::System(s) => {
@@ -185,6 +169,21 @@ impl FileAnalysis {
             }
         }
         out
+    }
+
+    /// A material's or a layout's fields, each a setting with its value.
+    fn settings(&self, fields: &[Field]) -> Vec<SymbolNode> {
+        fields
+            .iter()
+            .map(|f| SymbolNode {
+                name: f.name.name.to_string(),
+                detail: Some(squash(self.slice(f.value.span), 40)),
+                kind: SymbolKind::Setting,
+                span: f.span,
+                selection: f.name.span,
+                children: Vec::new(),
+            })
+            .collect()
     }
 
     fn system_item(&self, it: &SystemItem) -> Option<SymbolNode> {
