@@ -116,11 +116,11 @@ impl EditsError {
             EditsErrorKind::Syntax { .. } => ("here", "the edits file is JSON: fix it here"),
             EditsErrorKind::Version { .. } => (
                 "here",
-                "write `\"version\": 1`, the format docs/edits.md describes",
+                "write `\"version\": 2`, the format docs/edits.md describes",
             ),
             EditsErrorKind::Structure { .. } => (
                 "here",
-                "an edits file is `{ \"version\": 1, \"edits\": [ { ... }, ... ] }` (docs/edits.md)",
+                "an edits file is `{ \"version\": 2, \"edits\": [ { ... }, ... ] }` (docs/edits.md)",
             ),
             EditsErrorKind::NotAnObject => (
                 "this element is skipped",
@@ -178,13 +178,12 @@ impl fmt::Display for EditsError {
             EditsErrorKind::Version { found: None } => {
                 write!(
                     f,
-                    "the edits file has no `version` (this grm reads version 1)"
+                    "the edits file has no `version` (this grm reads versions 1 and 2)"
                 )
             }
             EditsErrorKind::Version { found: Some(v) } => write!(
                 f,
-                "version {v} is not supported (this grm reads version {})",
-                crate::FORMAT_VERSION
+                "version {v} is not supported (this grm reads versions 1 and 2)"
             ),
             EditsErrorKind::Structure { problem } => f.write_str(problem),
             EditsErrorKind::NotAnObject => f.write_str("an element of `edits` is not an object"),

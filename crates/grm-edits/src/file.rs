@@ -14,7 +14,10 @@ use std::fmt::Write as _;
 /// A whole edits file.
 #[derive(Clone, Debug, PartialEq)]
 pub struct EditsFile {
-    /// The format version (1).
+    /// The format version read (1 or 2; a new file is 1): [`write`]
+    /// writes it, or 2 ([`FORMAT_VERSION`]) when an edit needs it (an
+    /// ordinal edge, a `selected` count), so that a file without them
+    /// stays readable by a grm that reads version 1 only.
     pub version: u32,
     /// The edits; [`write`] sorts them by (system, id), [`parse`] keeps
     /// the file's order.
@@ -24,7 +27,7 @@ pub struct EditsFile {
 impl Default for EditsFile {
     fn default() -> EditsFile {
         EditsFile {
-            version: FORMAT_VERSION,
+            version: 1,
             edits: Vec::new(),
         }
     }
@@ -44,6 +47,11 @@ pub struct Edit {
     /// an edit of the system itself.
     pub parcel: Option<u64>,
     pub target: Target,
+    /// For a semantic target: how many parts its query selected when the
+    /// edit was made (`selected` in the file, version 2). A derivation
+    /// where it selects more classifies the edit `ambiguous`. `None`: not
+    /// recorded (any number is accepted, as in version 1).
+    pub selected: Option<u32>,
     pub op: Op,
     /// Free text, kept as written.
     pub note: Option<String>,
@@ -59,6 +67,7 @@ impl PartialEq for Edit {
             && self.system == other.system
             && self.parcel == other.parcel
             && self.target == other.target
+            && self.selected == other.selected
             && self.op == other.op
             && self.note == other.note
     }
@@ -308,8 +317,12 @@ pub fn parse(text: &str) -> Parsed {
             return out;
         }
         Some(p) => {
-            let ok = matches!(&p.value, Value::NumberLit(n) if n.value.parse::<f64>() == Ok(f64::from(FORMAT_VERSION)));
-            if !ok {
+            let read = crate::READ_VERSIONS.iter().copied().find(|&v| {
+                matches!(&p.value, Value::NumberLit(n) if n.value.parse::<f64>() == Ok(f64::from(v)))
+            });
+            if let Some(v) = read {
+                out.file.version = v;
+            } else {
                 let found = Some(p.value.text(text).to_owned());
                 out.errors
                     .push(EditsError::new(K::Version { found }, span(p.value.range())));
@@ -405,7 +418,7 @@ fn field<'o, 'a>(obj: &'o Object<'a>, name: &str) -> Option<&'o ObjectProp<'a>> 
 }
 
 /// The fields every edit has, beside its operation's.
-const COMMON: &[&str] = &["id", "system", "parcel", "target", "op", "note"];
+const COMMON: &[&str] = &["id", "system", "parcel", "target", "selected", "op", "note"];
 
 /// One edit, or every problem found in it (all reported, the edit skipped).
 fn read_edit(text: &str, o: &Object<'_>) -> Result<Edit, Vec<EditsError>> {
@@ -489,6 +502,41 @@ fn read_edit(text: &str, o: &Object<'_>) -> Result<Edit, Vec<EditsError>> {
             }
         },
     };
+    let selected = match field(o, "selected") {
+        None => None,
+        Some(p) => match number(p) {
+            Err(e) => {
+                errors.push(e);
+                None
+            }
+            Ok(v)
+                if v.fract() == 0.0
+                    && (1.0..=f64::from(u32::MAX)).contains(&v)
+                    && matches!(target, Some(Target::Semantic(_)) | None) =>
+            {
+                Some(v as u32)
+            }
+            Ok(_) => {
+                let problem = if matches!(target, Some(Target::Semantic(_)) | None) {
+                    format!(
+                        "is {}: how many parts the query selected is a whole number from 1",
+                        p.value.text(text)
+                    )
+                } else {
+                    "is given for a target that is not semantic (only a query selects several parts)"
+                        .to_owned()
+                };
+                errors.push(at_edit(
+                    K::BadValue {
+                        field: "selected".into(),
+                        problem,
+                    },
+                    span(p.value.range()),
+                ));
+                None
+            }
+        },
+    };
     let kind = match field(o, "op") {
         None => {
             errors.push(at_edit(K::MissingField { field: "op" }, whole));
@@ -556,6 +604,7 @@ fn read_edit(text: &str, o: &Object<'_>) -> Result<Edit, Vec<EditsError>> {
             system,
             parcel,
             target,
+            selected,
             op,
             note,
             span: whole,
@@ -820,7 +869,7 @@ pub fn write(file: &EditsFile) -> String {
     order.sort_by(|a, b| (&a.system, a.id).cmp(&(&b.system, b.id)));
     let mut s = String::new();
     let _ = writeln!(s, "{{");
-    let _ = writeln!(s, "  \"version\": {},", file.version);
+    let _ = writeln!(s, "  \"version\": {},", file.written_version());
     if order.is_empty() {
         let _ = writeln!(s, "  \"edits\": []");
     } else {
@@ -851,17 +900,18 @@ fn write_block(s: &mut String, e: &Edit) {
     if let Some(parcel) = e.parcel {
         fields.push(("parcel", json_string(&parcel_text(parcel))));
     }
-    fields.extend([
-        (
-            "target",
-            format!(
-                "{{ {}: {} }}",
-                json_string(e.target.kind()),
-                json_string(&e.target.text())
-            ),
+    fields.extend([(
+        "target",
+        format!(
+            "{{ {}: {} }}",
+            json_string(e.target.kind()),
+            json_string(&e.target.text())
         ),
-        ("op", json_string(e.op.kind().as_str())),
-    ]);
+    )]);
+    if let (Some(n), Target::Semantic(_)) = (e.selected, &e.target) {
+        fields.push(("selected", n.to_string()));
+    }
+    fields.push(("op", json_string(e.op.kind().as_str())));
     match &e.op {
         Op::Set { name, value } => {
             fields.push(("name", json_string(name)));
@@ -898,6 +948,22 @@ fn json_number(v: f64) -> String {
 }
 
 impl EditsFile {
+    /// The version [`write`] gives the file: [`FORMAT_VERSION`] when an
+    /// edit has an ordinal edge (`#k`) or a `selected` count, its own
+    /// version otherwise.
+    pub fn written_version(&self) -> u32 {
+        let needs_2 = self.edits.iter().any(|e| {
+            e.selected.is_some()
+                || matches!(&e.target, Target::Exact(l)
+                    if l.edges.iter().any(|g| matches!(g, crate::locator::EdgeRef::Ordinal(_))))
+        });
+        if needs_2 {
+            FORMAT_VERSION
+        } else {
+            self.version.clamp(1, FORMAT_VERSION)
+        }
+    }
+
     /// The edit with this id.
     pub fn get(&self, id: u32) -> Option<&Edit> {
         self.edits.iter().find(|e| e.id == id)
@@ -935,6 +1001,7 @@ impl EditsFile {
             system: system.to_owned(),
             parcel: None,
             target,
+            selected: None,
             op,
             note: None,
             span: Span::default(),
@@ -954,9 +1021,11 @@ impl EditsFile {
 
     /// Point the edit with this id at another target (a quick fix); its
     /// old target, if there was such an edit. Its id, and so its place
-    /// among later and earlier edits, stays.
+    /// among later and earlier edits, stays; its `selected` count is
+    /// dropped (it was the old target's).
     pub fn retarget(&mut self, id: u32, target: Target) -> Option<Target> {
         let e = self.edits.iter_mut().find(|e| e.id == id)?;
+        e.selected = None;
         Some(std::mem::replace(&mut e.target, target))
     }
 }

@@ -41,8 +41,14 @@ pub use scoping::{Scoping, Slot, scope};
 
 use std::path::{Path, PathBuf};
 
-/// The file format version this crate reads and writes.
-pub const FORMAT_VERSION: u32 = 1;
+/// The file format version this crate writes. Version 2 added ordinal
+/// edges in exact locators (`#k`) and a semantic edit's `selected` count;
+/// a version 1 file reads unchanged (its numbered edges keep their raw
+/// meaning) and is written back as version 2.
+pub const FORMAT_VERSION: u32 = 2;
+
+/// Every version this crate reads.
+pub const READ_VERSIONS: [u32; 2] = [1, 2];
 
 /// The largest edits file read (16 MiB; some 100,000 edits).
 pub const MAX_EDITS_BYTES: u64 = 16 << 20;

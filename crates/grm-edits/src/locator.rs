@@ -5,7 +5,10 @@
 //!
 //! - The **exact locator** is the path from the axiom: every node's label
 //!   (symbol, command or insert) and the number of the edge taken out of
-//!   it, `{Lot, 1, comp.faces, front 1, Facade, 1, repeat.y, 3, Floor, ...}`.
+//!   it, `{Lot, #1, comp.faces, front 1, Facade, #1, repeat.y, #3, Floor, ...}`.
+//!   An edge `#k` is the k-th child bearing the next label (a part
+//!   inserted before it under another symbol does not shift it); a plain
+//!   number `k` is the raw k-th edge (edits files of version 1).
 //!   A component split's edges are named by selector and index within it,
 //!   never by a raw face index. Labels are names, not ids, so a locator
 //!   outlives a renumbering of the program. In derive and sample mode the
@@ -27,8 +30,14 @@ use std::str::FromStr;
 /// The edge taken out of a node.
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub enum EdgeRef {
-    /// The edge's number, from 1.
+    /// The edge's raw number, from 1 (what version 1 of the edits file
+    /// wrote): shifted by a part inserted before it.
     Number(u32),
+    /// `#k`: the `k`-th (from 1) of the node's children whose label is the
+    /// one that follows the edge in the locator (the path's next label),
+    /// in the children's order (version 2, what locators are made with):
+    /// a part of another symbol inserted before it does not shift it.
+    Ordinal(u32),
     /// A component split's child: its case's selector and its index within
     /// that case, from 1.
     Component { selector: Selector, index: u32 },
@@ -38,6 +47,7 @@ impl fmt::Display for EdgeRef {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             EdgeRef::Number(n) => write!(f, "{n}"),
+            EdgeRef::Ordinal(k) => write!(f, "#{k}"),
             EdgeRef::Component { selector, index } => write!(f, "{} {index}", selector.name()),
         }
     }
@@ -75,13 +85,23 @@ impl fmt::Display for ExactLocator {
 impl FromStr for EdgeRef {
     type Err = String;
 
-    /// `3` or `front 2` (the [`fmt::Display`] form).
+    /// `3`, `#2` or `front 2` (the [`fmt::Display`] form).
     fn from_str(s: &str) -> Result<EdgeRef, String> {
         let s = s.trim();
         if let Ok(n) = s.parse::<u32>() {
             return Ok(EdgeRef::Number(n));
         }
-        let bad = || format!("`{s}` is not an edge (a number, or a selector and an index)");
+        let bad = || {
+            format!(
+                "`{s}` is not an edge (a number, `#` and an ordinal, or a selector and an index)"
+            )
+        };
+        if let Some(k) = s.strip_prefix('#') {
+            return match k.parse::<u32>() {
+                Ok(n) if n >= 1 && !k.starts_with('+') => Ok(EdgeRef::Ordinal(n)),
+                _ => Err(bad()),
+            };
+        }
         let (name, index) = s.split_once(' ').ok_or_else(bad)?;
         // Every selector, the roof's included (`slope 2`, `eave 1`).
         let selector = Selector::from_name(name).ok_or_else(bad)?;
@@ -393,6 +413,7 @@ mod tests {
             "{Lot}",
             "{Lot, 1, comp.faces, front 1, Facade, 1, repeat.y, 3, Floor}",
             "{Roof, 1, comp.faces, slope 2, Slope, 1, insert:box}",
+            "{Lot, #1, repeat.x, #3, Plot, #1, split.y, #2, Upper}",
         ] {
             let l: ExactLocator = text.parse().unwrap_or_else(|e| panic!("{text}: {e}"));
             assert_eq!(l.to_string(), text);
@@ -413,6 +434,11 @@ mod tests {
             "{Lot, front, A}",
             "{Lot, 1, A B}",
             "{Lot, 1, , 2, A}",
+            "{Lot, #0, A}",
+            "{Lot, #, A}",
+            "{Lot, #+1, A}",
+            "{Lot, # 1, A}",
+            "{Lot, #-1, A}",
         ] {
             assert!(bad.parse::<ExactLocator>().is_err(), "{bad:?} was read");
         }

@@ -145,6 +145,7 @@ mod tests {
             system: "S".into(),
             parcel: None,
             target: Target::Key(id),
+            selected: None,
             op,
             note: None,
             span: Default::default(),

@@ -226,7 +226,8 @@ fn bad_files_are_refused_whole() {
         ("{\"version\": 1, \"edits\": []} {}", "R0902"),
         ("[]", "R0904"),
         ("{\"edits\": []}", "R0903"),
-        ("{\"version\": 2, \"edits\": []}", "R0903"),
+        ("{\"version\": 3, \"edits\": []}", "R0903"),
+        ("{\"version\": 0, \"edits\": []}", "R0903"),
         ("{\"version\": \"1\", \"edits\": []}", "R0903"),
         ("{\"version\": 1}", "R0904"),
         ("{\"version\": 1, \"edits\": {}}", "R0904"),
@@ -521,6 +522,7 @@ fn random_files_round_trip() {
         assert!(p.errors.is_empty(), "{:?}\n{text}", p.errors);
         let mut sorted = f.clone();
         sorted.sort();
+        sorted.version = f.written_version();
         assert_eq!(p.file, sorted, "{text}");
         assert_eq!(write(&p.file), text);
         for e in &p.file.edits {
@@ -604,6 +606,8 @@ fn random_exact(rng: &mut grm_testkit::Rng) -> ExactLocator {
                     selector: *rng.pick(Selector::ALL),
                     index: rng.below(9u32) + 1,
                 }
+            } else if rng.below(2u32) == 0 {
+                EdgeRef::Ordinal(rng.below(100u32) + 1)
             } else {
                 EdgeRef::Number(rng.below(100u32) + 1)
             }
@@ -645,7 +649,12 @@ fn random_file(rng: &mut grm_testkit::Rng) -> EditsFile {
             _ => Op::Remove,
         };
         let system = *rng.pick(&names);
+        let semantic = matches!(target, Target::Semantic(_));
         let id = f.add(system, target, op).unwrap();
+        if semantic && rng.below(2u32) == 0 {
+            let n = rng.below(50u32) + 1;
+            f.edits.iter_mut().find(|e| e.id == id).unwrap().selected = Some(n);
+        }
         if rng.below(3u32) == 0 {
             let note =
                 (*rng.pick(&["", "tab\there", "line\nbreak", "quote \" and \\", "é✓"])).to_owned();
@@ -693,5 +702,76 @@ fn parcel_edits_read_write_and_reject_bad_identities() {
         let t = text.replace(r#""parcel": "00ab00cd00ef0012","#, bad);
         assert_eq!(codes(&t), [code], "{bad}");
         assert!(parse(&t).file.edits.is_empty(), "{bad}");
+    }
+}
+
+/// Version 2 (docs/edits.md, "Versions"): ordinal edges (`#k`) and a
+/// semantic edit's `selected` count read and write; a file that uses
+/// neither is written as the version it was read (1 stays 1); one that
+/// uses either is written as version 2; `selected` on a target that is
+/// not semantic, or not a whole number from 1, is R0911 and the edit is
+/// skipped; an ordinal `#0` is R0909; a version grm does not read is R0903.
+#[test]
+fn version_2_ordinal_edges_and_selected_counts() {
+    let text = r#"{
+  "version": 2,
+  "edits": [
+    {
+      "id": 1,
+      "system": "Tower",
+      "target": { "exact": "{Lot, #1, comp.faces, front 1, Facade, #1, split.y, #2, Upper}" },
+      "op": "remove"
+    },
+    {
+      "id": 2,
+      "system": "Tower",
+      "target": { "semantic": "(floor = 2) Window" },
+      "selected": 3,
+      "op": "remove"
+    }
+  ]
+}
+"#;
+    let p = parse(text);
+    assert!(p.errors.is_empty(), "{:?}", p.errors);
+    assert_eq!(p.file.version, 2);
+    let Target::Exact(l) = &p.file.edits[0].target else {
+        panic!("{:?}", p.file.edits[0].target)
+    };
+    assert_eq!(l.edges[0], EdgeRef::Ordinal(1));
+    assert_eq!(l.edges[3], EdgeRef::Ordinal(2));
+    assert_eq!(p.file.edits[1].selected, Some(3));
+    assert_eq!(p.file.edits[0].selected, None);
+    assert_eq!(write(&p.file), text);
+    // A version-1 file keeps its version until an edit needs version 2.
+    let mut f = parse(EXAMPLE).file;
+    assert_eq!(f.version, 1);
+    assert!(write(&f).contains("\"version\": 1,"));
+    f.edits[0].target = Target::Exact("{Lot, #1, A}".parse().unwrap());
+    assert!(write(&f).contains("\"version\": 2,"));
+    let mut f = parse(EXAMPLE).file;
+    f.edits[0].target = Target::Semantic("(floor = 1)".parse().unwrap());
+    f.edits[0].selected = Some(1);
+    let written = write(&f);
+    assert!(written.contains("\"version\": 2,"), "{written}");
+    assert!(written.contains("\"selected\": 1,"), "{written}");
+    // Retargeting drops the old target's count.
+    f.retarget(1, Target::Key(7));
+    assert_eq!(f.edits[0].selected, None);
+    for (from, to, code) in [
+        (r#""selected": 3,"#, r#""selected": 0,"#, "R0911"),
+        (r#""selected": 3,"#, r#""selected": 1.5,"#, "R0911"),
+        (r#""selected": 3,"#, r#""selected": "3","#, "R0907"),
+        (
+            r#""semantic": "(floor = 2) Window" },"#,
+            r#""key": "00000001" },"#,
+            "R0911",
+        ),
+        (r#""version": 2,"#, r#""version": 3,"#, "R0903"),
+        (r#"#2, Upper"#, r#"#0, Upper"#, "R0909"),
+    ] {
+        assert!(text.contains(from), "{from}");
+        let t = text.replace(from, to);
+        assert_eq!(codes(&t), [code], "{to}");
     }
 }

@@ -725,6 +725,7 @@ fn survival(title: &str, text: &str, draws: u64, verbose: bool) {
                         system: SYSTEM.into(),
                         parcel: None,
                         target,
+                        selected: None,
                         op: Op::Material {
                             name: format!("m{}", i + 1),
                         },
