@@ -142,6 +142,7 @@ interface Grm {
   lastPicture: { name: string; width: number; height: number; generation?: number } | null;
   pictureError: string | null;
   coverage: { name: string | null; fraction: number; unreached: boolean; gaps: number; note: string }[];
+  refinements: number | null;
   gapTubes: number;
 }
 
@@ -822,6 +823,11 @@ test('sample mode: the preview says how much of each curve the model follows, ti
   assert.equal(labels.length, 4);
   labels.slice(0, 3).forEach((l, i) => assert.match(l, new RegExp(`^${['trunk', 'left_arm', 'right_arm'][i]} \\d+%$`), l));
   assert.match(labels[3], /^far ⚠ 0%: not reached: the nearest bone stays \d+\.\d+ from it/);
+  // Beside the coverage, the refinement rounds the answer counts: the far curve is never followed, so
+  // the search's pass leaves it and rounds run (docs/sampling.md 4.5), and the list says how many.
+  assert.ok(g.refinements !== null && g.refinements >= 1 && g.refinements <= 3, `refinements ${g.refinements}`);
+  const refined = await page.locator('#curve-list .refinements').textContent();
+  assert.equal(refined, `${g.refinements} refinement round${g.refinements === 1 ? '' : 's'}`);
   // The far curve's gap is drawn in the tint: a reddish pixel where its middle projects.
   const [x, y] = await page.evaluate(() => (globalThis as unknown as { __grm: { toScreen: (p: number[]) => [number, number] } }).__grm.toScreen([12, 1.5, 0]));
   const tinted = await page.evaluate(

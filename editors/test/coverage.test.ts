@@ -4,7 +4,7 @@
 // no bone reaches named with the reason).
 import assert from 'node:assert/strict';
 import { test } from 'node:test';
-import { coverageLabel } from '../preview/src/coverage.js';
+import { coverageLabel, refinementsLabel } from '../preview/src/coverage.js';
 import { type CurveCoverage, ProtocolError, decodePreview } from '../preview/src/protocol.js';
 
 function result(coverage: unknown) {
@@ -52,4 +52,19 @@ test("the curve list's label gives a curve's share, and says why a curve is not 
   const c = decodePreview(result([trunk, far])).sample?.coverage as CurveCoverage[];
   assert.equal(coverageLabel(c[0]), '75%');
   assert.equal(coverageLabel(c[1]), '⚠ 0%: not reached: the nearest bone stays 39.90 from it (covering radius 0.15)');
+});
+
+test('sample.refinements is decoded (0 when absent) and worded under the curve list', () => {
+  const withRounds = result([trunk]);
+  (withRounds.sample as Record<string, unknown>).refinements = 2;
+  const r = decodePreview(withRounds);
+  assert.equal(r.sample?.refinements, 2);
+  assert.equal(refinementsLabel(r.sample)?.text, '2 refinement rounds');
+  const none = decodePreview(result([trunk]));
+  assert.equal(none.sample?.refinements, 0);
+  assert.equal(refinementsLabel(none.sample)?.text, 'no refinement rounds');
+  assert.equal(refinementsLabel(r.sample && { ...r.sample, refinements: 1 })?.text, '1 refinement round');
+  // An earlier generation's model (the scrubber) was not refined: no line.
+  assert.equal(refinementsLabel(r.sample && { ...r.sample, generation: 3 }), null);
+  assert.equal(refinementsLabel(null), null);
 });

@@ -24,7 +24,7 @@ import { PageState } from '../preview/src/state.js';
 const CURVES = JSON.stringify({ version: 1, curves: [{ name: 'trunk', points: [[0, 0, 0], [0, 1, 0], [0, 2, 0], [0, 3, 0]] }] });
 
 function sample(over: Partial<SampleInfo> = {}): SampleInfo {
-  return { objective: -100, generations: 100, candidates: 15, stoppedEarly: false, curves: 'request', generation: null, coverage: [], ...over };
+  return { objective: -100, generations: 100, candidates: 15, stoppedEarly: false, curves: 'request', generation: null, coverage: [], refinements: 0, ...over };
 }
 
 function result(over: Record<string, unknown> = {}) {

@@ -199,7 +199,7 @@ test('meta-parameters and sampler figures in a result; a parameter without a num
   );
   assert.deepEqual(r.params, [{ name: 'spread', value: 40, min: 10, max: 60, default: 30 }]);
   assert.deepEqual(r.paramsWithoutRange, ['k']);
-  assert.deepEqual(r.sample, { objective: -1234.5, generations: 100, candidates: 15, stoppedEarly: false, curves: 'request', generation: null, coverage: [] });
+  assert.deepEqual(r.sample, { objective: -1234.5, generations: 100, candidates: 15, stoppedEarly: false, curves: 'request', generation: null, coverage: [], refinements: 0 });
   assert.equal(decodePreview(wire([0, 0, 0, 1, 0, 0, 0, 1, 0], [0, 1, 2])).sample, null);
 });
 

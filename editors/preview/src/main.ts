@@ -7,7 +7,7 @@ import { Coalescer, type Delivery, SharedRequest } from './coalesce.js';
 import { PARAM_KEYS, PARAM_RANGES, type ParamKey, checkParam, cloneSet, setProblem } from './curves.js';
 import { type PlayAt, SearchPlayer, isSearchResult, playButtonView, scrubberView, showsUpdate } from './generation.js';
 import { type NotificationMethod, SERVER_CANCELLED, type ViewParams, usableCamera, viewAngles } from './messages.js';
-import { coverageLabel } from './coverage.js';
+import { coverageLabel, refinementsLine } from './coverage.js';
 import {
   type PlaneHandle,
   type Ray,
@@ -166,6 +166,7 @@ interface DebugInfo {
   readonly curveDraws: number;
   /** Per guiding curve, how much of it the model shown follows (sample mode; [] otherwise), and the tinted gaps drawn. */
   coverage: { name: string | null; fraction: number; unreached: boolean; gaps: number; note: string }[];
+  refinements: number | null;
   readonly gapTubes: number;
   programs: () => number[];
   /** The last view the page told the host (where the camera looks from, and the camera, once it rested), and how many it told. */
@@ -411,6 +412,7 @@ class App {
         return scene.curveDraws;
       },
       coverage: [],
+      refinements: null,
       get gapTubes() {
         return scene.gapTubes;
       },
@@ -723,6 +725,7 @@ class App {
         this.debug.generation = r.sample && !isSearchResult(r.sample) ? r.sample.generation : null;
         this.debug.generations = r.sample?.generations ?? null;
         this.debug.coverage = (r.sample?.coverage ?? []).map((c) => ({ name: c.name, fraction: c.fraction, unreached: c.unreached, gaps: c.gaps.length, note: c.note }));
+        this.debug.refinements = r.sample?.refinements ?? null;
         this.debug.lastLatencyMs = ms;
         this.debug.latencies.push(ms);
         const again = this.pickAfterShown;
@@ -1946,6 +1949,9 @@ class App {
       });
       list.append(el);
     });
+    // Beside the coverage: the refinement rounds the search ran for it.
+    const refined = set?.curves.length ? refinementsLine(this.last?.sample) : null;
+    if (refined) list.append(refined);
     const sel = this.state.selected;
     const curve = sel !== null ? set?.curves[sel] : undefined;
     const panel = $('curve-panel');

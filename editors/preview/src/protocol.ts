@@ -201,6 +201,8 @@ export interface SampleInfo {
   generation: number | null;
   /** Per curve, in the curves' order: how much of it the shown model follows. */
   coverage: CurveCoverage[];
+  /** Refinement rounds run after the search (docs/sampling.md 4.5): the model shown is the best of the pass and these. */
+  refinements: number;
 }
 
 /** A warning about the model itself (W0013 no triangles, W0014 geometry left out). */
@@ -647,6 +649,7 @@ export function decodePreview(v: unknown): PreviewResult {
       curves: str(v.sample.curves),
       generation: typeof v.sample.generation === 'number' && Number.isInteger(v.sample.generation) && v.sample.generation >= 0 ? v.sample.generation : null,
       coverage: (Array.isArray(v.sample.coverage) ? v.sample.coverage : []).map((c: unknown, i: number) => parseCoverage(c, `sample.coverage[${i}]`)),
+      refinements: optNum(v.sample.refinements, 0),
     };
   }
   const stats = numberRecord(v.stats);
