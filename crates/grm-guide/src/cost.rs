@@ -216,6 +216,12 @@ impl CostBreakdown {
 /// (`crate::density`).
 #[derive(Clone, Debug)]
 pub struct CostState {
+    /// The use count of each utilization segment (`total_segments` of
+    /// them), then each curve's count of covered segments (`covered`'s
+    /// `true` flags in its range, kept as flags are set, so the coverage
+    /// term and the look-ahead read it without a scan; at most
+    /// [`crate::MAX_SEGMENTS_TOTAL`], so a `u16` holds it): one
+    /// allocation for both.
     uses: Vec<u16>,
     /// Per utilization segment: whether a bone within the covering radius
     /// of the curve spans it ([`CostModel::covered_segments`]).
@@ -267,15 +273,19 @@ impl CurveData {
     /// Arc length from the start to parameter `t` (linear in the table).
     fn arc_at(&self, t: f64) -> f64 {
         let x = t.clamp(0.0, 1.0) * ARC_TABLE as f64;
-        let i = (x.floor() as usize).min(ARC_TABLE - 1);
+        // `x >= 0` (or NaN, which casts to 0): the cast truncates, which is
+        // `floor` there, without a call to libm's `floor` (the baseline
+        // x86-64 target has no rounding instruction).
+        let i = (x as usize).min(ARC_TABLE - 1);
         self.arc[i] + (self.arc[i + 1] - self.arc[i]) * (x - i as f64)
     }
 
     /// Utilization segment holding arc length `s`, clamped to the last.
     fn segment_at_arc(&self, s: f64) -> usize {
-        let k = (s / self.params.segment_length).floor();
-        // Saturating cast; k >= 0 as s >= 0 (NaN casts to 0).
-        (k.max(0.0) as usize).min(self.n_seg - 1)
+        // Saturating cast, truncating: `floor` for the non-negative values
+        // `max` leaves (NaN casts to 0), without a call to libm's `floor`.
+        let k = (s / self.params.segment_length).max(0.0);
+        (k as usize).min(self.n_seg - 1)
     }
 
     #[inline]
@@ -399,7 +409,7 @@ impl CostModel {
     /// A fresh state: no bones.
     pub fn new_state(&self) -> CostState {
         CostState {
-            uses: vec![0; self.total_segments],
+            uses: vec![0; self.total_segments + self.curves.len()],
             covered: vec![false; self.total_segments],
             distance: 0,
             alignment: 0,
@@ -475,11 +485,7 @@ impl CostModel {
         if c.params.utilization_scale <= 0.0 {
             return (0, c.n_seg);
         }
-        let k = state
-            .covered
-            .get(c.seg_offset..c.seg_offset + c.n_seg)
-            .map_or(0, |f| f.iter().filter(|&&x| x).count());
-        (k, c.n_seg)
+        (usize::from(self.covered_count(state, curve)), c.n_seg)
     }
 
     /// How many segments of its curve `plan` would newly cover in `state`
@@ -653,8 +659,33 @@ impl CostModel {
         if ahead == 0 {
             return 0.0;
         }
-        let k = flags.iter().filter(|&&x| x).count();
-        ahead as f64 * (1.0 - k as f64 / c.n_seg as f64)
+        let k = self.covered_count(state, i);
+        ahead as f64 * (1.0 - f64::from(k) / c.n_seg as f64)
+    }
+
+    /// Curve `i`'s covered segments, as counted when their flags were set
+    /// (`CostState::uses`' tail); 0 for an index out of range.
+    #[inline]
+    fn covered_count(&self, state: &CostState, i: usize) -> u16 {
+        state
+            .uses
+            .get(self.total_segments + i)
+            .copied()
+            .unwrap_or(0)
+    }
+
+    /// Sets the covered flags of segments `a..=b` (indices into all
+    /// curves' segments, within curve `curve`'s range), counting the newly
+    /// set ones in the curve's count.
+    fn set_covered(&self, state: &mut CostState, curve: usize, a: usize, b: usize) {
+        let mut new = 0u16;
+        for f in state.covered.get_mut(a..=b).unwrap_or_default() {
+            new += u16::from(!*f);
+            *f = true;
+        }
+        if let Some(n) = state.uses.get_mut(self.total_segments + curve) {
+            *n += new;
+        }
     }
 
     /// What the next bone would gain in utilization (eq. 7, so `<= 0`) by
@@ -867,7 +898,11 @@ impl CostModel {
         // from another model (a caller bug) gets no utilization rather than
         // a panic.
         let (a, b) = (c.seg_offset + s0 as usize, c.seg_offset + s1 as usize);
-        debug_assert_eq!(uses.len(), self.total_segments, "state from another model");
+        debug_assert_eq!(
+            uses.len(),
+            self.total_segments + self.curves.len(),
+            "state from another model"
+        );
         let mut delta = 0i128;
         for &n in uses.get(a..=b).unwrap_or_default() {
             delta += c.util(n.saturating_add(1)) - c.util(n);
@@ -956,16 +991,12 @@ impl CostModel {
                 *n = n.saturating_add(1);
             }
             if self.plan_covers(plan) {
-                for c in state.covered.get_mut(a..=b).unwrap_or_default() {
-                    *c = true;
-                }
+                self.set_covered(state, ci, a, b);
             }
             for &(ci, s0, s1) in plan.also.iter().flatten() {
                 if let Some(c) = self.curves.get(ci as usize) {
                     let (a, b) = (c.seg_offset + s0 as usize, c.seg_offset + s1 as usize);
-                    for f in state.covered.get_mut(a..=b).unwrap_or_default() {
-                        *f = true;
-                    }
+                    self.set_covered(state, ci as usize, a, b);
                 }
             }
         }

@@ -81,34 +81,16 @@ pub fn coverage(
     options: &CoverageOptions,
 ) -> Vec<CurveCoverage> {
     let n = options.samples.max(2);
-    let bones: Vec<(DVec3, DVec3)> = bones
-        .iter()
-        .filter(|(a, b)| a.is_finite() && b.is_finite())
-        .map(|&(a, b)| (a.as_dvec3(), b.as_dvec3()))
-        .collect();
+    let bones = finite_bones(bones);
     curves
         .curves()
         .iter()
         .map(|c| {
             let radius = c.params.thickness + options.radius;
-            // Parameters of n points evenly spaced in arc length, from a
-            // finer arc-length table (linear between its entries).
-            let fine = 8 * n;
-            let table = c.bezier.arc_length_table(fine);
-            let length = table.last().copied().unwrap_or(0.0);
+            let (length, points) = sample_points(c, n);
             let mut covered = Vec::with_capacity(n);
             let mut nearest = f64::INFINITY;
-            let mut j = 0usize;
-            for i in 0..n {
-                // The middle of the i-th of n equal stretches.
-                let s = length * (i as f64 + 0.5) / n as f64;
-                while j + 1 < fine && table[j + 1] < s {
-                    j += 1;
-                }
-                let (s0, s1) = (table[j], table[(j + 1).min(fine)]);
-                let f = if s1 > s0 { (s - s0) / (s1 - s0) } else { 0.0 };
-                let t = (j as f64 + f.clamp(0.0, 1.0)) / fine as f64;
-                let p = c.bezier.eval(t);
+            for p in points {
                 let d = bones
                     .iter()
                     .map(|&(a, b)| segment_distance(p, a, b))
@@ -145,6 +127,73 @@ pub fn coverage(
 /// as followed (the curve-coverage issue's measure; `grmc sample --stats`
 /// and the coverage benchmark use it).
 pub const FOLLOWED: f64 = 0.8;
+
+/// The bones with both ends finite, in `f64`.
+fn finite_bones(bones: &[(Vec3, Vec3)]) -> Vec<(DVec3, DVec3)> {
+    bones
+        .iter()
+        .filter(|(a, b)| a.is_finite() && b.is_finite())
+        .map(|&(a, b)| (a.as_dvec3(), b.as_dvec3()))
+        .collect()
+}
+
+/// Curve `c`'s arc length and its `n` sample points, evenly spaced in arc
+/// length (the middle of each of `n` equal stretches), from a finer
+/// arc-length table (linear between its entries).
+fn sample_points(c: &crate::GuideCurve, n: usize) -> (f64, impl Iterator<Item = DVec3> + '_) {
+    let fine = 8 * n;
+    let table = c.bezier.arc_length_table(fine);
+    let length = table.last().copied().unwrap_or(0.0);
+    let mut j = 0usize;
+    let points = (0..n).map(move |i| {
+        let s = length * (i as f64 + 0.5) / n as f64;
+        while j + 1 < fine && table[j + 1] < s {
+            j += 1;
+        }
+        let (s0, s1) = (table[j], table[(j + 1).min(fine)]);
+        let f = if s1 > s0 { (s - s0) / (s1 - s0) } else { 0.0 };
+        let t = (j as f64 + f.clamp(0.0, 1.0)) / fine as f64;
+        c.bezier.eval(t)
+    });
+    (length, points)
+}
+
+/// Whether [`coverage`] gives every curve a fraction of [`FOLLOWED`] or
+/// more, decided with the same sample points and distances but without
+/// measuring more than the verdict needs: a sample is covered at the first
+/// bone within the radius, and a curve is decided once its covered samples
+/// reach the share or its uncovered ones make the share out of reach. The
+/// same answer as `coverage(..).iter().all(|c| c.fraction >= FOLLOWED)`
+/// (a test checks it), at a fraction of the cost where curves are covered:
+/// the refinement rounds' check (`grm-sample`, `docs/sampling.md` 4.5).
+pub fn follows_every_curve(
+    curves: &Curves,
+    bones: &[(Vec3, Vec3)],
+    options: &CoverageOptions,
+) -> bool {
+    let n = options.samples.max(2);
+    let bones = finite_bones(bones);
+    let share = |k: usize| k as f64 / n as f64 >= FOLLOWED;
+    curves.curves().iter().all(|c| {
+        let radius = c.params.thickness + options.radius;
+        let (_, points) = sample_points(c, n);
+        let mut k = 0usize;
+        for (i, p) in points.enumerate() {
+            if bones
+                .iter()
+                .any(|&(a, b)| segment_distance(p, a, b) <= radius)
+            {
+                k += 1;
+                if share(k) {
+                    return true;
+                }
+            } else if !share(k + (n - 1 - i)) {
+                return false;
+            }
+        }
+        share(k)
+    })
+}
 
 /// How many of the bones' ends meet no other bone's end: a chain's root
 /// and tip, each end of a lone bone (a fork's bones meet at their base). A
@@ -284,6 +333,37 @@ mod tests {
             r#"{ "version": 1, "curves": [
                 { "name": "trunk", "points": [[0,0,0], [0,1.3333333333333333,0], [0,2.6666666666666665,0], [0,4,0]] } ] }"#,
         )
+    }
+
+    #[test]
+    fn follows_every_curve_is_coverages_verdict() {
+        // Two curves; a bone up the trunk to a varying height, and one
+        // along the arm to another: around 80% of either, each side.
+        let two = curves(
+            r#"{ "version": 1, "curves": [
+                { "name": "trunk", "points": [[0,0,0], [0,1,0], [0,2,0], [0,3,0]] },
+                { "name": "arm", "points": [[0,3,0], [0.5,3.5,0], [1.2,4,0], [2,4.3,0]] } ] }"#,
+        );
+        let opts = CoverageOptions::default();
+        let (mut yes, mut no) = (0, 0);
+        for i in 0..=40 {
+            for j in [0.0f32, 0.3, 0.6, 0.7, 0.75, 0.8, 0.9, 1.0] {
+                let h = 1.5 + 1.5 * i as f32 / 40.0;
+                let arm = two.curves()[1].bezier.eval(f64::from(j)).as_vec3();
+                let bones = [
+                    (Vec3::ZERO, Vec3::new(0.0, h, 0.0)),
+                    (Vec3::new(0.0, 3.0, 0.0), arm),
+                ];
+                let all = coverage(&two, &bones, &opts)
+                    .iter()
+                    .all(|c| c.fraction >= FOLLOWED);
+                assert_eq!(follows_every_curve(&two, &bones, &opts), all, "{h} {j}");
+                if all { yes += 1 } else { no += 1 }
+            }
+        }
+        // Both verdicts are exercised.
+        assert!(yes > 10 && no > 10, "{yes} {no}");
+        assert!(!follows_every_curve(&two, &[], &opts));
     }
 
     #[test]

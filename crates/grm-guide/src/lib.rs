@@ -61,6 +61,7 @@ pub use cost::{
 };
 pub use coverage::{
     CoverageOptions, CurveCoverage, FOLLOWED, coverage, describe as describe_coverage,
+    follows_every_curve,
 };
 pub use curves::{
     CurveParams, Curves, CurvesError, CurvesErrorKind, DensityParams, FORMAT_VERSION, GuideCurve,
