@@ -142,9 +142,10 @@ pub fn derive(program: &Program, lot: &Lot, options: &Options) -> Result<ShapeTr
 }
 
 /// [`derive`], replaying a system's persistent edits while deriving
-/// (`crate::replay`, docs/edits.md). A plan with edits derives on one
-/// thread (a node's edits are found from its path, which a parallel job
-/// holds only below its root).
+/// (`crate::replay`, docs/edits.md), on `options.threads` like `derive`:
+/// each parallel job starts from its root's replay state (trie state and
+/// forcing) and reads the tagged commands above its root from its
+/// ancestry, so the tree is the one-thread tree, byte for byte.
 pub fn derive_with_edits(
     program: &Program,
     lot: &Lot,
@@ -154,7 +155,6 @@ pub fn derive_with_edits(
     lot.check()?;
     let edits = edits.filter(|p| !p.is_empty());
     let threads = match options.threads {
-        _ if edits.is_some() => 1,
         0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
         n => n,
     };
@@ -183,6 +183,7 @@ pub fn derive_with_edits(
                     max,
                     &AtomicBool::new(false),
                     &Ancestry::default(),
+                    None,
                 )
                 .map_err(|Overflow| ShapeError::TooManyShapes { max })
         } else {
@@ -227,6 +228,8 @@ struct Job {
     removed: Vec<u32>,
     /// (edit id, shape) for every shape an edit's target named.
     hits: Vec<(u32, u32)>,
+    /// With a plan of edits, the replay state of each shape in `cut`.
+    cut_carried: Vec<Carried>,
     /// One outline per node with one, in node order.
     outlines: Vec<Arc<Outline>>,
     failures: Vec<(u32, ShapeError)>,
@@ -236,6 +239,8 @@ struct Job {
     /// The root's attributes, kept likewise (a rule that makes nothing
     /// sets its shape's).
     root_attrs: AttrId,
+    /// The root's key, kept likewise (an edit may pin it).
+    root_key: u32,
     /// Whether `outlines` is one entry per node with one, in node order
     /// (false when a shape whose rule made nothing took an outline where
     /// it had none, or gave one up: [`finish`] orders it again).
@@ -459,6 +464,10 @@ struct Scratch {
     /// The alternative a persistent edit forces on the shape being
     /// expanded (from 0).
     force: Option<u32>,
+    /// Whether a persistent edit forces the material of the shape being
+    /// expanded (its attributes carry it): its rule's `material` is
+    /// skipped, so the block inherits the forced one (crate::replay).
+    keep_material: bool,
     /// Recent attribute operations: (the attributes before, the operation
     /// (kind, value bits), the attributes after), at most [`ATTR_MEMO`]
     /// (the attribute table only grows, so an entry stays true).
@@ -524,6 +533,9 @@ impl Engine<'_> {
     /// `d` or deeper (but the root) are not expanded: they are listed in
     /// `Job::cut` for other jobs, with the position their slice goes to.
     /// Stops with `Overflow` past `budget` nodes or when `stop` is set.
+    /// `carried`: the root's replay state, when a parallel job's (`None`:
+    /// the axiom's).
+    #[allow(clippy::too_many_arguments)]
     fn run(
         &self,
         mut root: Node,
@@ -532,6 +544,7 @@ impl Engine<'_> {
         budget: usize,
         stop: &AtomicBool,
         prefix: &Ancestry,
+        carried: Option<Carried>,
     ) -> Result<Job, Overflow> {
         let roots_kind = (root.kind, 0);
         root.geometry = match (root.geometry, &root_outline) {
@@ -545,10 +558,12 @@ impl Engine<'_> {
             nodes: vec![root],
             removed: Vec::new(),
             hits: Vec::new(),
+            cut_carried: Vec::new(),
             failures: Vec::new(),
             cut: Vec::new(),
             roots_kind,
             root_attrs: AttrId(0),
+            root_key: 0,
             ordered: true,
         };
         let mut stack: Vec<u32> = vec![0];
@@ -556,47 +571,55 @@ impl Engine<'_> {
             prefix: prefix.clone(),
             ..Scratch::default()
         };
-        // Persistent edits (crate::replay): per node, its trie state and
-        // what its ancestors' edits force on it.
+        // Persistent edits (crate::replay): per shape on the stack, its
+        // trie state and what its ancestors' edits force on it.
         let mut replay = self.edits.map(|plan| Replay {
-            trie: if plan.has_exact() {
-                vec![plan.root_state(&job.nodes[0])]
-            } else {
-                Vec::new()
-            },
-            forced: if plan.forces() {
-                vec![Forced::default()]
-            } else {
-                Vec::new()
-            },
+            stack: vec![carried.unwrap_or(Carried {
+                state: plan.root_state(&job.nodes[0]),
+                forced: Forced::default(),
+            })],
+            block: Vec::new(),
             matched: Vec::new(),
             tags: Vec::new(),
+            read: Vec::new(),
             memo: Vec::new(),
         });
         while let Some(at) = stack.pop() {
             if stop.load(Ordering::Relaxed) {
                 return Err(Overflow);
             }
+            // The shape's replay state, popped in step with the stack.
+            let carried = match replay.as_mut() {
+                Some(r) => r.stack.pop().unwrap_or(Carried::NONE),
+                None => Carried::NONE,
+            };
             let shape = &job.nodes[at as usize];
             let NodeKind::Shape { symbol, .. } = shape.kind else {
                 continue;
             };
             if at > 0 && cut.is_some_and(|d| shape.depth >= d) {
                 job.cut.push((at, job.nodes.len() as u32));
+                if replay.is_some() {
+                    job.cut_carried.push(carried);
+                }
                 continue;
             }
             let start = job.nodes.len();
             scratch.force = None;
-            let mut forced = Forced::default();
+            let mut forced = carried.forced;
             if let (Some(plan), Some(r)) = (self.edits, replay.as_mut()) {
                 let here = at as usize;
-                // What the shape's ancestors' edits pass down (vectors
-                // shorter than the tree read as nothing).
-                let state = r.trie.get(here).copied().unwrap_or(replay::NONE);
-                forced = r.forced.get(here).copied().unwrap_or_default();
-                if plan.may_match(state, symbol, job.nodes[here].key) {
+                if plan.may_match(carried.state, symbol, job.nodes[here].key) {
                     r.matched.clear();
-                    plan.matches(&job.nodes, here, state, &mut r.tags, &mut r.matched);
+                    plan.matches(
+                        &job.nodes,
+                        here,
+                        carried.state,
+                        &scratch.prefix.tags,
+                        &mut r.tags,
+                        &mut r.read,
+                        &mut r.matched,
+                    );
                 }
                 if !r.matched.is_empty() {
                     job.hits.extend(r.matched.iter().map(|&(id, _)| (id, at)));
@@ -606,19 +629,23 @@ impl Engine<'_> {
                         job.removed.push(at);
                         continue;
                     }
-                    forced.material = own.material.or(forced.material);
+                    // The shape's own material, once on its attributes:
+                    // its subtree inherits them (the rules' materials
+                    // below are skipped, `Scratch::keep_material`).
+                    if let Some(m) = own.material {
+                        forced.material = Some(m);
+                        match self.forced_material(r, job.nodes[here].attrs, m) {
+                            Ok(a) => job.nodes[here].attrs = a,
+                            Err(e) => job.failures.push((at, e)),
+                        }
+                    }
                     forced.mesh = own.mesh.or(forced.mesh);
                     if let Some(k) = own.pin {
                         job.nodes[here].key = k;
                     }
                     scratch.force = own.force;
                 }
-                if let Some(m) = forced.material {
-                    match self.forced_material(r, job.nodes[here].attrs, m) {
-                        Ok(a) => job.nodes[here].attrs = a,
-                        Err(e) => job.failures.push((at, e)),
-                    }
-                }
+                scratch.keep_material = forced.material.is_some();
             }
             let shape = &job.nodes[at as usize];
             let inherited = job.nodes[at as usize].attrs;
@@ -681,13 +708,7 @@ impl Engine<'_> {
                 n.children_len = (end - start) as u32;
             }
             if let (Some(plan), Some(r)) = (self.edits, replay.as_mut()) {
-                let on_path = r.trie.get(at as usize).is_some_and(|&s| s != replay::NONE);
-                // Off every exact target's path with nothing passed down:
-                // so are the block's nodes (what a state vector shorter
-                // than the tree says).
-                if on_path || forced != Forced::default() {
-                    self.replay_block(plan, r, &mut job, at, start, on_path, forced);
-                }
+                replay_block(plan, r, &mut job.nodes, at, start, carried.state, forced);
             }
             for j in (start..end).rev() {
                 if job.nodes[j].is_shape() {
@@ -1216,6 +1237,8 @@ impl Engine<'_> {
                         out[cmd_at].children_offset = 1;
                         out[cmd_at].children_len = len as u32;
                     }
+                    // A material an edit forces wins (crate::replay).
+                    Op::Material(_) if s.keep_material => {}
                     Op::Material(_) | Op::Color(_) | Op::Texture(_) => {
                         let mut rgb = None;
                         if let Op::Color(c) = op {
@@ -1287,6 +1310,7 @@ impl Engine<'_> {
                     max,
                     &never,
                     &Ancestry::default(),
+                    None,
                 )
                 .map_err(|Overflow| ShapeError::TooManyShapes { max })?;
             // Deep enough for four subtrees per worker; but never derive a
@@ -1303,11 +1327,15 @@ impl Engine<'_> {
         };
         let budget = max.saturating_sub(top.nodes.len());
         let uses = &self.program.exprs.uses;
-        let needs_ancestry = uses.tags || !uses.queried.is_empty();
-        let roots: Vec<(Node, Option<Arc<Outline>>, Ancestry)> = top
+        // The edits' semantic queries read the tagged commands above a
+        // job's root too.
+        let needs_ancestry =
+            uses.tags || !uses.queried.is_empty() || self.edits.is_some_and(EditPlan::has_semantic);
+        let roots: Vec<JobRoot> = top
             .cut
             .iter()
-            .map(|&(i, _)| {
+            .enumerate()
+            .map(|(c, &(i, _))| {
                 let n = top.nodes[i as usize];
                 let mut a = Ancestry::default();
                 if needs_ancestry {
@@ -1319,6 +1347,7 @@ impl Engine<'_> {
                         .outline_id()
                         .and_then(|o| top.outlines.get(o.0 as usize).cloned()),
                     a,
+                    top.cut_carried.get(c).copied(),
                 )
             })
             .collect();
@@ -1332,10 +1361,13 @@ impl Engine<'_> {
                         let mut mine = Vec::new();
                         loop {
                             let j = next.fetch_add(1, Ordering::Relaxed);
-                            let Some((r, o, a)) = roots.get(j) else { break };
+                            let Some((r, o, a, carried)) = roots.get(j) else {
+                                break;
+                            };
                             let mut r = *r;
                             r.parent_offset = 0;
-                            let result = self.run(r, o.clone(), None, budget + 1, &stop, a);
+                            let result =
+                                self.run(r, o.clone(), None, budget + 1, &stop, a, *carried);
                             if result.is_err() {
                                 stop.store(true, Ordering::Relaxed);
                             }
@@ -1399,6 +1431,14 @@ impl Engine<'_> {
         for (i, e) in top.failures {
             failures.push((new(i as usize), e));
         }
+        // The replay's removed shapes and hits, renumbered likewise (the
+        // jobs' in `splice`).
+        let mut removed: Vec<u32> = top.removed.iter().map(|&i| new(i as usize)).collect();
+        let mut hits: Vec<(u32, u32)> = top
+            .hits
+            .iter()
+            .map(|&(id, i)| (id, new(i as usize)))
+            .collect();
         let mut c = 0;
         let mut starts = vec![0u32; top.cut.len()];
         for (i, mut n) in top.nodes.iter().copied().enumerate() {
@@ -1409,6 +1449,8 @@ impl Engine<'_> {
                     &mut jobs[c],
                     new(top.cut[c].0 as usize),
                     &mut failures,
+                    &mut removed,
+                    &mut hits,
                 );
                 c += 1;
             }
@@ -1429,6 +1471,8 @@ impl Engine<'_> {
                 &mut jobs[c],
                 new(top.cut[c].0 as usize),
                 &mut failures,
+                &mut removed,
+                &mut hits,
             );
             c += 1;
         }
@@ -1439,95 +1483,125 @@ impl Engine<'_> {
             let root = &jobs[c].roots_kind;
             out[r].kind = root.0;
             out[r].attrs = jobs[c].root_attrs;
+            out[r].key = jobs[c].root_key;
             out[r].children_len = root.1;
             out[r].children_offset = if root.1 > 0 { starts[c] - r as u32 } else { 0 };
         }
         Ok(Job {
-            hits: Vec::new(),
-            removed: Vec::new(),
+            hits,
+            removed,
+            cut_carried: Vec::new(),
             nodes: out,
             outlines,
             failures,
             cut: Vec::new(),
             roots_kind: (root.kind, 0),
             root_attrs: root.attrs,
+            root_key: root.key,
             ordered: true,
         })
     }
 }
 
-/// The derivation loop's replay state (one job: a plan derives on one thread).
+/// A parallel job's root: the node, its outline, its ancestors' tags and
+/// keys, and with a plan of edits its replay state.
+type JobRoot = (Node, Option<Arc<Outline>>, Ancestry, Option<Carried>);
+
+/// The derivation loop's replay state (a job's).
 struct Replay {
-    /// Per node, its state in the exact targets' trie (empty without exact
-    /// targets).
-    trie: Vec<u32>,
-    /// Per node, what the edits of it and its ancestors force on its subtree.
-    forced: Vec<Forced>,
-    /// Scratch: the edits of the shape at hand, the tags on its path.
+    /// Per shape on the derivation stack, in step with it: its trie state
+    /// and what its ancestors' edits force on it.
+    stack: Vec<Carried>,
+    /// Scratch: the trie states of the block at hand, from its start.
+    block: Vec<u32>,
+    /// Scratch: the edits of the shape at hand, the tags on its path, the
+    /// indices a query pattern reads there.
     matched: Vec<(u32, replay::Action)>,
     tags: Vec<(TagId, u32, u32)>,
+    read: Vec<i64>,
     /// Forced materials remembered: (attributes, material, result).
     memo: Vec<(AttrId, crate::ir::MaterialId, AttrId)>,
 }
 
-impl Engine<'_> {
-    /// After the shape at `at` made the block `job.nodes[start..]`: each
-    /// new node's trie state and inherited forcing, the forced material
-    /// on the block's nodes (over what the rule set) and the forced mesh
-    /// on its inserts; a shape whose rule made nothing keeps its forced
-    /// material too.
-    #[cold]
-    #[inline(never)]
-    #[allow(clippy::too_many_arguments)]
-    fn replay_block(
-        &self,
-        plan: &EditPlan,
-        r: &mut Replay,
-        job: &mut Job,
-        at: u32,
-        start: usize,
-        on_path: bool,
-        forced: Forced,
-    ) {
-        let end = job.nodes.len();
-        let here = at as usize;
-        let forcing = forced != Forced::default();
-        if on_path {
-            r.trie.resize(end, replay::NONE);
-        }
-        if forcing {
-            r.forced.resize(end, Forced::default());
-        }
-        for j in start..end {
-            if on_path {
-                let p = j - job.nodes[j].parent_offset as usize;
-                r.trie[j] = plan.step(r.trie[p], &job.nodes[j]);
-            }
-            if !forcing {
-                continue;
-            }
-            // Every node of the block is below the shape: its forcing.
-            r.forced[j] = forced;
-            if let Some(m) = forced.material {
-                match self.forced_material(r, job.nodes[j].attrs, m) {
-                    Ok(a) => job.nodes[j].attrs = a,
-                    Err(e) => job.failures.push((at, e)),
-                }
-            }
-            if let (Some(a), NodeKind::Insert { .. }) = (forced.mesh, job.nodes[j].kind) {
-                job.nodes[j].kind = NodeKind::Insert { asset: a };
-            }
-        }
-        if end == start
-            && let Some(m) = forced.material
-        {
-            match self.forced_material(r, job.nodes[here].attrs, m) {
-                Ok(a) => job.nodes[here].attrs = a,
-                Err(e) => job.failures.push((at, e)),
+/// A shape's replay state, carried down from its parent's.
+#[derive(Clone, Copy)]
+struct Carried {
+    /// Its state in the exact targets' trie (`replay::NONE`: off every
+    /// target's path, and so is its subtree).
+    state: u32,
+    /// What its ancestors' edits force on it.
+    forced: Forced,
+}
+
+impl Carried {
+    const NONE: Carried = Carried {
+        state: replay::NONE,
+        forced: Forced {
+            material: None,
+            mesh: None,
+        },
+    };
+}
+
+/// After the shape at `at` (trie state `state`, forcing `forced`: its own
+/// edits over its ancestors') made the block `nodes[start..]`: the forced
+/// mesh on the block's inserts, and each new shape's replay state pushed on
+/// `r.stack` in the order the derivation stack takes them (the block's
+/// shapes, last first). A forced material needs nothing here: the shape's
+/// attributes carry it to the block and its rules' materials were skipped.
+#[inline]
+fn replay_block(
+    plan: &EditPlan,
+    r: &mut Replay,
+    nodes: &mut [Node],
+    at: u32,
+    start: usize,
+    state: u32,
+    forced: Forced,
+) {
+    let block = &mut nodes[start..];
+    if let Some(a) = forced.mesh {
+        for n in block.iter_mut() {
+            if let NodeKind::Insert { .. } = n.kind {
+                n.kind = NodeKind::Insert { asset: a };
             }
         }
     }
+    if state == replay::NONE {
+        // Off every exact target's path: so is the block.
+        let c = Carried {
+            state: replay::NONE,
+            forced,
+        };
+        for n in block.iter().rev() {
+            if n.is_shape() {
+                r.stack.push(c);
+            }
+        }
+        return;
+    }
+    // Each node's state from its parent's (the shape or a command of the
+    // block before it).
+    r.block.clear();
+    for (k, n) in block.iter().enumerate() {
+        let p = (start + k).wrapping_sub(n.parent_offset as usize);
+        let parent = if p == at as usize {
+            state
+        } else if p >= start && p < start + k {
+            r.block[p - start]
+        } else {
+            replay::NONE
+        };
+        r.block.push(plan.step(parent, n));
+    }
+    for (n, &state) in block.iter().zip(&r.block).rev() {
+        if n.is_shape() {
+            r.stack.push(Carried { state, forced });
+        }
+    }
+}
 
+impl Engine<'_> {
     /// The attributes `attrs` with material `m` forced by an edit,
     /// remembered (a forced floor's hundreds of parts share a few sets).
     fn forced_material(
@@ -1632,13 +1706,19 @@ fn splice(
     job: &mut Job,
     root: u32,
     failures: &mut Vec<(u32, ShapeError)>,
+    removed: &mut Vec<u32>,
+    hits: &mut Vec<(u32, u32)>,
 ) -> u32 {
     let base = out.len() as u32; // job index k goes to base + k - 1
+    let at = |k: u32| if k == 0 { root } else { base + k - 1 };
     job.roots_kind = (job.nodes[0].kind, job.nodes[0].children_len);
     job.root_attrs = job.nodes[0].attrs;
+    job.root_key = job.nodes[0].key;
     for (k, e) in job.failures.drain(..) {
-        failures.push((if k == 0 { root } else { base + k - 1 }, e));
+        failures.push((at(k), e));
     }
+    removed.extend(job.removed.iter().map(|&k| at(k)));
+    hits.extend(job.hits.iter().map(|&(id, k)| (id, at(k))));
     for (k, mut n) in job.nodes.drain(..).enumerate().skip(1) {
         renumber(&mut n, &job.outlines, outlines);
         if k as u32 == n.parent_offset {

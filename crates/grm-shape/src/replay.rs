@@ -10,10 +10,15 @@
 //!   with one hash lookup, and only while its path is a prefix of some
 //!   target's (a node off every target's path is `NONE` and its subtree is
 //!   never looked up again);
-//! - **key** targets are a hash map from identity keys, consulted for
-//!   every shape (one lookup);
-//! - **semantic** queries are indexed by their label; a shape of a
-//!   queried symbol walks up its path once to collect its tagged commands.
+//! - **key** targets are a hash map from identity keys, behind a bitmap of
+//!   their low 16 bits: a shape whose key is no target's costs one bit test
+//!   (one in 300 passes it with 200 key targets);
+//! - **semantic** queries are indexed by their label, then grouped by
+//!   their pattern (the tags and anchors they name, in order) with a hash
+//!   map from the indices they want to the edits: a shape of a queried
+//!   symbol walks up its path once to collect its tagged commands, and
+//!   costs one lookup per pattern, however many queries share it (the
+//!   tower's 80 window queries are three patterns).
 //!
 //! What applies (Lipp 3.2.2, `grm_edits::scoping`): `remove`, `material`
 //! and `mesh` reach the whole subtree (a deeper target's edit overrides an
@@ -53,8 +58,37 @@ pub(crate) enum Action {
     Mesh(AssetId),
 }
 
-/// A semantic query's entries in the program's ids: (tag, anchor, index).
-type QueryIds = Vec<(TagId, Anchor, i64)>;
+/// Semantic queries that name the same tags with the same anchors, in the
+/// same order (and the same label): the indices they want, each to its
+/// edits.
+#[derive(Clone, Debug, Default)]
+struct Pattern {
+    /// The tags named and their anchors, in order.
+    entries: Vec<(TagId, Anchor)>,
+    /// The wanted indices (one per entry, anchored) to the edits.
+    wants: HashMap<Box<[i64]>, Vec<u32>>,
+}
+
+impl Pattern {
+    /// The indices this pattern reads off a path's tagged commands (root
+    /// first), in `out`; false when the path's entries of the named tags
+    /// are not this pattern's tags in order (no query of it can match).
+    fn read(&self, path: &[(TagId, u32, u32)], out: &mut Vec<i64>) -> bool {
+        out.clear();
+        let named = |t: TagId| self.entries.iter().any(|q| q.0 == t);
+        let mut kept = path.iter().filter(|e| named(e.0));
+        for &(tag, anchor) in &self.entries {
+            match kept.next() {
+                Some(&(t, index, count)) if t == tag => out.push(anchor.index(index, count)),
+                _ => return false,
+            }
+        }
+        kept.next().is_none()
+    }
+}
+
+/// The key filter's size in bits (keys by their low 16 bits).
+const KEY_BITS: usize = 1 << 16;
 
 /// The state of a node outside every exact target's path.
 pub(crate) const NONE: u32 = u32::MAX;
@@ -70,15 +104,17 @@ pub struct EditPlan {
     /// Per trie state, the edits whose target ends there.
     finals: Vec<Vec<u32>>,
     by_key: HashMap<u32, Vec<u32>>,
-    /// Semantic queries: (label, entries, edit), indexed by label.
-    semantic: Vec<(QueryIds, u32)>,
-    /// Per symbol (by id), its queries.
+    /// Bit `k & 0xffff` set for every target key `k` (empty without key
+    /// targets).
+    key_filter: Vec<u64>,
+    /// Semantic queries grouped by pattern.
+    semantic: Vec<Pattern>,
+    /// Per symbol (by id), the patterns of its queries.
     semantic_by_symbol: Vec<Vec<u32>>,
+    /// The patterns of queries without a label.
     semantic_any: Vec<u32>,
     /// Edits the plan cannot replay: (id, why).
     unsupported: Vec<(u32, String)>,
-    /// Whether an edit passes a material or mesh down its subtree.
-    forces: bool,
 }
 
 /// The label of a node.
@@ -158,6 +194,11 @@ impl EditPlan {
             let lowered = match &e.target {
                 Target::Key(k) => {
                     plan.by_key.entry(*k).or_default().push(index);
+                    if plan.key_filter.is_empty() {
+                        plan.key_filter = vec![0; KEY_BITS / 64];
+                    }
+                    let bit = (*k as usize) & (KEY_BITS - 1);
+                    plan.key_filter[bit / 64] |= 1 << (bit % 64);
                     true
                 }
                 Target::Exact(loc) => plan.insert_exact(program, loc, index),
@@ -169,33 +210,62 @@ impl EditPlan {
                         },
                         None => None,
                     };
-                    let entries: Option<QueryIds> = q
+                    let entries: Option<Vec<(TagId, Anchor)>> = q
                         .entries
                         .iter()
-                        .map(|(t, a, i)| Some((program.tag(t)?, *a, *i)))
+                        .map(|(t, a, _)| Some((program.tag(t)?, *a)))
                         .collect();
                     let Some(entries) = entries else { continue };
-                    let k = plan.semantic.len() as u32;
-                    plan.semantic.push((entries, index));
-                    match label {
-                        Some(s) => {
-                            let i = s.0 as usize;
-                            if plan.semantic_by_symbol.len() <= i {
-                                plan.semantic_by_symbol.resize(i + 1, Vec::new());
-                            }
-                            plan.semantic_by_symbol[i].push(k);
-                        }
-                        None => plan.semantic_any.push(k),
-                    }
+                    let wants: Box<[i64]> = q.entries.iter().map(|e| e.2).collect();
+                    plan.insert_query(label, entries, wants, index);
                     true
                 }
             };
             if lowered {
-                plan.forces |= matches!(action, Action::Material(_) | Action::Mesh(_));
                 plan.actions.push((e.id, action));
             }
         }
         plan
+    }
+
+    /// Add a semantic query (its label, pattern and wanted indices) for
+    /// edit `edit`: to the pattern's group under the label, made if new.
+    fn insert_query(
+        &mut self,
+        label: Option<SymbolId>,
+        entries: Vec<(TagId, Anchor)>,
+        wants: Box<[i64]>,
+        edit: u32,
+    ) {
+        let list = match label {
+            Some(s) => {
+                let i = s.0 as usize;
+                if self.semantic_by_symbol.len() <= i {
+                    self.semantic_by_symbol.resize(i + 1, Vec::new());
+                }
+                &mut self.semantic_by_symbol[i]
+            }
+            None => &mut self.semantic_any,
+        };
+        let k = match list
+            .iter()
+            .find(|&&k| self.semantic[k as usize].entries == entries)
+        {
+            Some(&k) => k,
+            None => {
+                list.push(self.semantic.len() as u32);
+                self.semantic.push(Pattern {
+                    entries,
+                    wants: HashMap::default(),
+                });
+                self.semantic.len() as u32 - 1
+            }
+        };
+        self.semantic[k as usize]
+            .wants
+            .entry(wants)
+            .or_default()
+            .push(edit);
     }
 
     /// Add an exact target's path to the trie; false when a label is not
@@ -239,18 +309,16 @@ impl EditPlan {
         &self.unsupported
     }
 
-    /// Whether an edit passes something down a subtree (material, mesh).
-    pub(crate) fn forces(&self) -> bool {
-        self.forces
-    }
-
     /// Whether an edit may name the shape of `symbol` with key `key` whose
     /// trie state is `state` (what [`EditPlan::matches`] would look at):
     /// most shapes of a building are named by none, and cost this alone.
     #[inline]
     pub(crate) fn may_match(&self, state: u32, symbol: SymbolId, key: u32) -> bool {
         state != NONE
-            || (!self.by_key.is_empty() && self.by_key.contains_key(&key))
+            || self
+                .key_filter
+                .get((key as usize & (KEY_BITS - 1)) / 64)
+                .is_some_and(|w| w & (1 << (key % 64)) != 0)
             || !self.semantic_any.is_empty()
             || self
                 .semantic_by_symbol
@@ -258,9 +326,10 @@ impl EditPlan {
                 .is_some_and(|q| !q.is_empty())
     }
 
-    /// Whether nodes need trie states (the plan has exact targets).
-    pub(crate) fn has_exact(&self) -> bool {
-        self.root.is_some()
+    /// Whether the plan has semantic queries (which read the tagged
+    /// commands above a parallel job's root).
+    pub(crate) fn has_semantic(&self) -> bool {
+        !self.semantic.is_empty()
     }
 
     /// The axiom's trie state.
@@ -285,13 +354,17 @@ impl EditPlan {
 
     /// The actions of the edits whose target is the shape `nodes[at]`
     /// (its trie state `state`), pushed on `out` as (edit id, action).
-    /// `tags` is scratch space.
+    /// `prefix`: the tagged commands above `nodes[0]` (a parallel job's
+    /// root), innermost first. `tags` and `read` are scratch space.
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn matches(
         &self,
         nodes: &[Node],
         at: usize,
         state: u32,
+        prefix: &[(TagId, u32, u32)],
         tags: &mut Vec<(TagId, u32, u32)>,
+        read: &mut Vec<i64>,
         out: &mut Vec<(u32, Action)>,
     ) {
         let n = &nodes[at];
@@ -327,29 +400,20 @@ impl EditPlan {
                 tags.push((t, nodes[child].index, nodes[child].count));
             }
         });
+        tags.extend_from_slice(prefix);
         tags.reverse();
+        // `grm_edits::SemanticQuery::matches` on ids, a pattern at a time:
+        // the path's entries of the tags a query names are exactly the
+        // query's, in order, each at its anchored index.
         for &k in by_label.into_iter().flatten().chain(&self.semantic_any) {
-            let (entries, edit) = &self.semantic[k as usize];
-            if semantic_match(entries, tags) {
-                push(*edit);
+            let pattern = &self.semantic[k as usize];
+            if pattern.read(tags, read)
+                && let Some(edits) = pattern.wants.get(&read[..])
+            {
+                edits.iter().for_each(|&i| push(i));
             }
         }
     }
-}
-
-/// `grm_edits::SemanticQuery::matches` on ids: the path's entries of the
-/// tags the query names are exactly the query's, in order, each at its
-/// anchored index.
-fn semantic_match(query: &[(TagId, Anchor, i64)], path: &[(TagId, u32, u32)]) -> bool {
-    let named = |t: TagId| query.iter().any(|q| q.0 == t);
-    let mut kept = path.iter().filter(|e| named(e.0));
-    for &(tag, anchor, want) in query {
-        match kept.next() {
-            Some(&(t, index, count)) if t == tag && anchor.index(index, count) == want => {}
-            _ => return false,
-        }
-    }
-    kept.next().is_none()
 }
 
 /// What the edits reaching one node decide (scoping: the node's own
