@@ -135,7 +135,7 @@ fn ordering_values_count_per_floor_and_facade_not_across() {
 }
 
 #[test]
-fn a_wrapped_split_breaks_the_path_and_the_first_candidate_is_the_same_window() {
+fn a_wrapped_split_is_gone_through_and_a_renamed_floor_gets_the_same_window_first() {
     let before = grow(&townhouse());
     let w = before.window(2, 2);
     let loc = before.tree.exact_locator(&before.lowered.program, w);
@@ -143,13 +143,28 @@ fn a_wrapped_split_breaks_the_path_and_the_first_candidate_is_the_same_window() 
     let f = one_edit(Target::Exact(loc));
 
     // The upper floors' repeat wrapped in a one-part split: the windows
-    // are where they were, but every exact locator below the facade
-    // breaks.
+    // are where they were, and the exact locator's step to the repeat
+    // goes through the inserted level (one repeat fits there).
     let text = townhouse().replace(
         "Upper -> repeat(y, floor) { STOREY: Floor };",
         "Upper -> split(y) { ~1: Uppers };\n    Uppers -> repeat(y, floor) { STOREY: Floor };",
     );
-    let after = grow(&text);
+    let wrapped = grow(&text);
+    let r = edits::classify(
+        &wrapped.checked.program,
+        &wrapped.lowered,
+        &wrapped.tree,
+        &f.edits,
+    );
+    assert_eq!(r[0].class, EditClass::Valid, "{}", r[0].detail);
+    let [n] = r[0].parts[..] else {
+        panic!("{:?}", r[0].parts)
+    };
+    assert_eq!(wrapped.centre(n), before.centre(w), "the same window");
+
+    // `Floor` renamed: the label on the path no longer fits, and the
+    // first quick fix is the same window.
+    let after = grow(&renamed(&townhouse(), "Floor", "Storey"));
     let r = edits::classify(
         &after.checked.program,
         &after.lowered,
@@ -265,4 +280,21 @@ fn an_ambiguous_target_offers_each_part_it_matches_first() {
     assert_eq!(c[0].parts, [b], "the one where the part was first");
     assert_eq!(c[1].parts, [a]);
     assert_eq!(c[0].target, Target::Key(g.tree.node(b).unwrap().key));
+}
+
+/// `text` with the identifier `from` renamed `to` (whole words only).
+fn renamed(text: &str, from: &str, to: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut word = String::new();
+    for c in text.chars().chain(std::iter::once(' ')) {
+        if c.is_alphanumeric() || c == '_' {
+            word.push(c);
+            continue;
+        }
+        out.push_str(if word == from { to } else { &word });
+        word.clear();
+        out.push(c);
+    }
+    out.pop();
+    out
 }

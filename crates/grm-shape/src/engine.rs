@@ -152,6 +152,21 @@ pub fn derive_with_edits(
     options: &Options,
     edits: Option<&EditPlan>,
 ) -> Result<ShapeTree, ShapeError> {
+    let tree = derive_once(program, lot, options, edits)?;
+    // Exact targets a wrapping put out of the replay's reach (crate::rewrap).
+    match edits.and_then(|p| p.rewrapped(program, &tree)) {
+        Some(plan) => derive_once(program, lot, options, Some(&plan)),
+        None => Ok(tree),
+    }
+}
+
+/// One derivation of [`derive_with_edits`].
+fn derive_once(
+    program: &Program,
+    lot: &Lot,
+    options: &Options,
+    edits: Option<&EditPlan>,
+) -> Result<ShapeTree, ShapeError> {
     lot.check()?;
     let edits = edits.filter(|p| !p.is_empty());
     let threads = match options.threads {
@@ -1592,7 +1607,7 @@ fn replay_block(
         } else {
             replay::NONE
         };
-        r.block.push(plan.step(parent, n));
+        r.block.push(plan.step(parent, block, k));
     }
     for (n, &state) in block.iter().zip(&r.block).rev() {
         if n.is_shape() {

@@ -47,6 +47,7 @@ pub mod ir;
 mod locator;
 mod query;
 pub mod replay;
+mod rewrap;
 pub mod roof;
 pub mod scope;
 pub mod split;

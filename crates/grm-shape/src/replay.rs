@@ -101,6 +101,9 @@ pub struct EditPlan {
     /// The trie's first state, if the axiom's label is some target's first.
     root: Option<(Label, u32)>,
     trie: HashMap<(u32, Label, EdgeRef), u32>,
+    /// The (state, label) pairs some ordinal edge (`#k`) leaves by: only
+    /// their children count their ordinal.
+    ordinal_from: foldhash::HashSet<(u32, Label)>,
     /// Per trie state, the edits whose target ends there.
     finals: Vec<Vec<u32>>,
     by_key: HashMap<u32, Vec<u32>>,
@@ -115,6 +118,9 @@ pub struct EditPlan {
     semantic_any: Vec<u32>,
     /// Edits the plan cannot replay: (id, why).
     unsupported: Vec<(u32, String)>,
+    /// The edits lowered, as given, when some has an exact target:
+    /// `crate::rewrap` finds those a wrapping put out of the trie's reach.
+    pub(crate) lowered: Vec<Edit>,
 }
 
 /// The label of a node.
@@ -135,6 +141,25 @@ pub(crate) fn edge(n: &Node) -> EdgeRef {
         },
         None => EdgeRef::Number(n.edge),
     }
+}
+
+/// The ordinal of `nodes[j]` among its parent's children: 1 + its
+/// siblings before it with its label (`ShapeTree::ordinal`). `nodes` is
+/// the tree or a block of it (its parent may lie before the slice: parent
+/// offsets are relative, and a block holds all of its shape's children).
+pub(crate) fn ordinal(nodes: &[Node], j: usize) -> u32 {
+    let n = &nodes[j];
+    let parent = j as isize - n.parent_offset as isize;
+    let mut k = 1;
+    let mut i = j as isize - 1;
+    while i > parent && i >= 0 {
+        let s = &nodes[i as usize];
+        if i - s.parent_offset as isize == parent && s.kind.same_label(&n.kind) {
+            k += 1;
+        }
+        i -= 1;
+    }
+    k
 }
 
 /// A label's text read back against the program.
@@ -223,6 +248,7 @@ impl EditPlan {
             };
             if lowered {
                 plan.actions.push((e.id, action));
+                plan.lowered.push(e.clone());
             }
         }
         plan
@@ -289,6 +315,9 @@ impl EditPlan {
         };
         let mut state = state;
         for (l, e) in labels[1..].iter().zip(&loc.edges) {
+            if let EdgeRef::Ordinal(_) = e {
+                self.ordinal_from.insert((state, *l));
+            }
             let next = self.finals.len() as u32;
             state = *self.trie.entry((state, *l, e.clone())).or_insert(next);
             if state == next {
@@ -340,14 +369,25 @@ impl EditPlan {
         }
     }
 
-    /// A child's trie state from its parent's.
+    /// A child's trie state from its parent's: the child is `nodes[j]`,
+    /// its siblings before it are in `nodes[..j]` (the tree, or a block
+    /// of it: parent offsets are relative). An ordinal edge (`#k`) is
+    /// counted only where some target continues with the child's label.
     #[inline]
-    pub(crate) fn step(&self, parent: u32, child: &Node) -> u32 {
+    pub(crate) fn step(&self, parent: u32, nodes: &[Node], j: usize) -> u32 {
         if parent == NONE {
             return NONE;
         }
+        let child = &nodes[j];
+        let l = label(child);
+        if let Some(&s) = self.trie.get(&(parent, l, edge(child))) {
+            return s;
+        }
+        if child.selector.is_some() || !self.ordinal_from.contains(&(parent, l)) {
+            return NONE;
+        }
         self.trie
-            .get(&(parent, label(child), edge(child)))
+            .get(&(parent, l, EdgeRef::Ordinal(ordinal(nodes, j))))
             .copied()
             .unwrap_or(NONE)
     }

@@ -98,6 +98,20 @@ pub struct Node {
     pub(crate) children_len: u32,
 }
 
+impl NodeKind {
+    /// Whether two nodes have one label (the same symbol, command or
+    /// asset; a shape's alternative and a command's tag aside): what an
+    /// ordinal edge (`#k`) counts.
+    pub fn same_label(&self, other: &NodeKind) -> bool {
+        match (self, other) {
+            (NodeKind::Shape { symbol: a, .. }, NodeKind::Shape { symbol: b, .. }) => a == b,
+            (NodeKind::Command { command: a, .. }, NodeKind::Command { command: b, .. }) => a == b,
+            (NodeKind::Insert { asset: a }, NodeKind::Insert { asset: b }) => a == b,
+            _ => false,
+        }
+    }
+}
+
 impl Node {
     /// Whether this node is a shape.
     pub fn is_shape(&self) -> bool {
@@ -258,6 +272,21 @@ impl ShapeTree {
             };
             Some(NodeId(c))
         })
+    }
+
+    /// A node's ordinal among its parent's children: 1 + how many of the
+    /// children before it have its label (the axiom's is 1). What an
+    /// exact locator's ordinal edge (`#k`) names.
+    pub fn ordinal(&self, id: NodeId) -> u32 {
+        let Some(n) = self.node(id) else { return 1 };
+        let Some(parent) = self.parent(id) else {
+            return 1;
+        };
+        1 + self
+            .children(parent)
+            .take_while(|&c| c != id)
+            .filter(|&c| self.nodes[c.0 as usize].kind.same_label(&n.kind))
+            .count() as u32
     }
 
     /// The path from the axiom to `id`, both included.

@@ -4,11 +4,14 @@
 //!
 //! - **exact** target: [`ShapeTree::resolve`]: found (valid), a path whose
 //!   edge number is past the children there (structurally invalid: its
-//!   place does not exist now, and may come back), or a path whose labels
-//!   do not fit the tree (semantically invalid);
+//!   place does not exist now, and may come back), a step that fits two or
+//!   more parts through an inserted level (ambiguous), or a path whose
+//!   labels do not fit the tree (semantically invalid);
 //! - **semantic** target: [`ShapeTree::select`]: the shapes it selects
-//!   (valid), or none (structurally invalid: the tagged places it names are
-//!   not there now);
+//!   (valid), more than the edit's `selected` count (ambiguous: the query
+//!   widened, reported rather than applied silently to the new parts), or
+//!   none (structurally invalid: the tagged places it names are not there
+//!   now);
 //! - **key** target: the nodes with that identity key: one (valid), none
 //!   (structurally invalid), several (ambiguous).
 //!
@@ -79,6 +82,16 @@ pub fn classify<'e>(
                             loc.labels.get(matched.saturating_sub(1)).map_or("", String::as_str)
                         ),
                     ),
+                    Resolution::Ambiguous {
+                        matched,
+                        candidates,
+                    } => (
+                        EditClass::Ambiguous,
+                        Vec::new(),
+                        format!(
+                            "the path's first {matched} labels are there, then {candidates} parts fit the next step through an inserted level: not applied"
+                        ),
+                    ),
                     Resolution::Invalid => (
                         EditClass::SemanticallyInvalid,
                         Vec::new(),
@@ -96,6 +109,15 @@ pub fn classify<'e>(
                             EditClass::StructurallyInvalid,
                             found,
                             "the query selects no part now".to_owned(),
+                        )
+                    } else if let Some(made) = e.selected.filter(|&n| found.len() > n as usize) {
+                        let n = found.len();
+                        (
+                            EditClass::Ambiguous,
+                            found,
+                            format!(
+                                "the query selects {n} parts now, {made} when the edit was made (the replay reached all {n})"
+                            ),
                         )
                     } else {
                         (EditClass::Valid, found, String::new())
@@ -135,7 +157,11 @@ pub fn classify<'e>(
                 class,
                 parts,
                 detail,
-                replayed: class == EditClass::Valid && !unsupported,
+                // A widened query is still replayed (on all its parts).
+                replayed: !unsupported
+                    && (class == EditClass::Valid
+                        || (class == EditClass::Ambiguous
+                            && matches!(e.target, Target::Semantic(_)))),
             }
         })
         .collect()
