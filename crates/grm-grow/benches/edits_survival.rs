@@ -713,7 +713,7 @@ fn survival(title: &str, text: &str, draws: u64, verbose: bool) {
                 .collect();
             for (k, kind) in KINDS.iter().enumerate() {
                 let mut file = EditsFile {
-                    version: 1,
+                    version: 2,
                     edits: Vec::new(),
                 };
                 // Edit id i + 1 gives part i marker m{i + 1}.
@@ -724,8 +724,9 @@ fn survival(title: &str, text: &str, draws: u64, verbose: bool) {
                         id: i as u32 + 1,
                         system: SYSTEM.into(),
                         parcel: None,
+                        // A query made where it selects the part alone.
+                        selected: matches!(target, Target::Semantic(_)).then_some(1),
                         target,
-                        selected: None,
                         op: Op::Material {
                             name: format!("m{}", i + 1),
                         },

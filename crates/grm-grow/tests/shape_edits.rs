@@ -314,3 +314,44 @@ fn edits_inside_a_removed_or_pinned_part_are_reported_not_applied() {
         assert_eq!(r[2].class, exact, "{what}: {:?}", r[2]);
     }
 }
+
+/// A semantic edit records how many parts its query selected when made
+/// (`selected`, edits file version 2): a derivation where the query
+/// selects more (here: the count says 1, the query names every window of
+/// a floor) classifies it ambiguous, reported rather than applied
+/// silently to parts it did not name; where it selects as many or fewer
+/// it is valid; without a count any number is valid (version 1).
+#[test]
+fn a_semantic_edit_selecting_more_than_it_did_is_ambiguous() {
+    let h = house();
+    let q: grm_edits::SemanticQuery = "(house = 1, floor = 2) Window".parse().unwrap();
+    let n = h.plain.select(&h.lowered.program, &q).len();
+    assert!(n > 1, "{n}");
+    let material = Op::Material {
+        name: "brick".into(),
+    };
+    for (selected, class) in [
+        (None, grm_edits::EditClass::Valid),
+        (Some(n as u32), grm_edits::EditClass::Valid),
+        (Some(n as u32 + 3), grm_edits::EditClass::Valid),
+        (Some(1), grm_edits::EditClass::Ambiguous),
+    ] {
+        let mut f = file(&[(Target::Semantic(q.clone()), material.clone())]);
+        f.edits[0].selected = selected;
+        assert_eq!(f.written_version(), if selected.is_some() { 2 } else { 1 });
+        let tree = h.grow(&f);
+        let r = edits::classify(&h.checked.program, &h.lowered, &tree, &f.edits);
+        assert_eq!(r[0].class, class, "{selected:?}: {}", r[0].detail);
+        assert_eq!(r[0].parts.len(), n);
+        // The replay reached the query's parts either way.
+        assert!(r[0].replayed);
+        if class == grm_edits::EditClass::Ambiguous {
+            assert!(
+                r[0].detail
+                    .contains(&format!("selects {n} parts now, 1 when")),
+                "{}",
+                r[0].detail
+            );
+        }
+    }
+}

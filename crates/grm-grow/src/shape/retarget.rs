@@ -205,14 +205,17 @@ fn deepest(lowered: &Lowered, tree: &ShapeTree, loc: &ExactLocator) -> Option<No
     for (edge, label) in loc.edges.iter().zip(loc.labels.iter().skip(1)) {
         let next = tree.children(cur).find(|&c| {
             let n = &tree.nodes()[c.0 as usize];
-            let r = match n.selector {
-                Some(selector) => EdgeRef::Component {
-                    selector,
-                    index: n.index,
-                },
-                None => EdgeRef::Number(n.edge),
+            let fits = match (n.selector, edge) {
+                (Some(selector), _) => {
+                    EdgeRef::Component {
+                        selector,
+                        index: n.index,
+                    } == *edge
+                }
+                (None, EdgeRef::Ordinal(k)) => tree.ordinal(c) == *k,
+                (None, _) => EdgeRef::Number(n.edge) == *edge,
             };
-            r == *edge && tree.label(program, c) == *label
+            fits && tree.label(program, c) == *label
         });
         match next {
             Some(c) => cur = c,
