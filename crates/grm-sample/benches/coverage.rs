@@ -27,8 +27,11 @@
 //! bone covering eq. 1's curve alone), `lookahead` (the defaults of the
 //! reach look-ahead, before paced symbols drew fewer candidates:
 //! `Reach::paced` 0), `pass` (the defaults before refinement: the SMC
-//! pass alone, `Refine::off()`) and `default` (`SampleOptions::default()`).
-//! Every row but `default` and `custom` runs without refinement.
+//! pass alone, `Refine::off()`), `default` (`SampleOptions::default()`)
+//! and `followed` (the defaults with `Refine::followed_ends`: the
+//! refinement rounds also end when the best model follows every curve by
+//! this bench's measure).
+//! Every row but `default`, `followed` and `custom` runs without refinement.
 //! `paper` and `before` run with the particle counts the grammars asked
 //! for before that work (Calder's 100 -> 15, the vine's 400 -> 60),
 //! `prev` and `lookahead` with those of their time (the vine's 100 -> 15,
@@ -43,8 +46,8 @@
 //! schedule's particle counts times this), `candidates`, `ess`, `order`, `cover`,
 //! `generations`, and the [`grm_sample::Reach`] look-ahead's `reach_c`,
 //! `reach_o`, `reach_s`, `reach_w`, `recent`, `branches`, `paced`, and
-//! [`grm_sample::Refine`]'s `refine` (rounds), `refine_from` and
-//! `refine_prefer` (0 or 1); `others=0`: bones cover
+//! [`grm_sample::Refine`]'s `refine` (rounds), `refine_from`,
+//! `refine_prefer` and `refine_followed` (0 or 1); `others=0`: bones cover
 //! eq. 1's curve alone), for trying a
 //! change before it is made a default; `--custom K=V,K=V` (repeatable) adds
 //! rows `custom1`, `custom2`, ... the same way.
@@ -99,6 +102,7 @@ enum Config {
     Lookahead,
     Pass,
     Default,
+    Followed,
     Custom(Vec<(String, String)>),
 }
 
@@ -173,6 +177,13 @@ fn pass(mut o: SampleOptions) -> SampleOptions {
     o
 }
 
+/// The defaults with `Refine::followed_ends`: refinement rounds also end
+/// when the best model follows every curve by `grm_guide::coverage`.
+fn followed(mut o: SampleOptions) -> SampleOptions {
+    o.refine.followed_ends = true;
+    o
+}
+
 /// Calder's paper: one candidate, untempered weights, uniform order.
 fn paper(o: SampleOptions) -> SampleOptions {
     SampleOptions {
@@ -219,6 +230,7 @@ fn custom(mut o: SampleOptions, with: &[(String, String)]) -> SampleOptions {
             "refine" => o.refine.rounds = f() as u32,
             "refine_from" => o.refine.from = f(),
             "refine_prefer" => o.refine.prefer_covering = f() != 0.0,
+            "refine_followed" => o.refine.followed_ends = f() != 0.0,
             _ => panic!("unknown --with key {k}"),
         }
     }
@@ -267,6 +279,7 @@ fn main() {
         ("lookahead".into(), Config::Lookahead),
         ("pass".into(), Config::Pass),
         ("default".into(), Config::Default),
+        ("followed".into(), Config::Followed),
     ];
     if !with.is_empty() {
         rows.push(("custom".into(), Config::Custom(with.clone())));
@@ -392,6 +405,7 @@ fn main() {
                     Config::Prev => prev(then),
                     Config::Lookahead => lookahead(then),
                     Config::Pass => pass(base),
+                    Config::Followed => followed(base),
                     Config::Custom(with) => custom(base, with),
                     Config::Default => base,
                 };

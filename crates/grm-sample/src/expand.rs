@@ -85,6 +85,9 @@ pub(crate) struct Worker {
     /// open list (the expanded one's slot is removed), so that the newest
     /// are last (`Reach::recent`); otherwise the first takes the slot.
     pub append_spawns: bool,
+    /// The covering tubes at open symbols' positions, remembered
+    /// (`crate::tubes_memo`).
+    pub tubes: crate::tubes_memo::TubesMemo,
 }
 
 /// The terminal of symbol `sym`, if it is one.
@@ -161,6 +164,7 @@ impl<'a> Grammar<'a> {
             cand_non_finite: Vec::new(),
             cand_logv: Vec::new(),
             append_spawns: false,
+            tubes: crate::tubes_memo::TubesMemo::new(),
         }
     }
 

@@ -78,6 +78,7 @@ mod refine;
 pub mod resample;
 mod sampler;
 mod schedule;
+mod tubes_memo;
 
 pub use cancel::CancelToken;
 pub use error::{ExpandError, ExpandErrorKind, LimitKind, SampleError};

@@ -27,6 +27,7 @@ use crate::pvec::PVec;
 use crate::refine::{self, Refine};
 use crate::resample;
 use crate::schedule::Schedule;
+use crate::tubes_memo::TubesMemo;
 
 /// What the search minimizes.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -428,6 +429,9 @@ pub struct Sampler<'a> {
     expected_time: Duration,
     /// Per curve: its Bézier and parameters (as the cost model has them).
     guides: Vec<(grm_guide::Bezier3, grm_guide::CurveParams)>,
+    /// The curves, for refinement's coverage check
+    /// ([`Refine::followed_ends`]).
+    curves: Curves,
 }
 
 // Random streams. Every draw is `rng::hash` of the run's seed and a tuple
@@ -581,6 +585,7 @@ impl<'a> Sampler<'a> {
             stride: Vec::new(),
             fixed: Vec::new(),
             expected_time: Duration::ZERO,
+            curves: curves.clone(),
             guides: curves
                 .curves()
                 .iter()
@@ -1377,8 +1382,9 @@ impl<'a> Sampler<'a> {
             if guide.order > 1 {
                 // A tournament: the most promising of `order` uniform
                 // draws (the first draw is the paper's).
-                let mut best =
-                    spawn_at(idx).map_or(f64::INFINITY, |sp| self.promise(&q, &sp, guide, reach));
+                let mut best = spawn_at(idx).map_or(f64::INFINITY, |sp| {
+                    self.promise(&q, &sp, guide, reach, &mut w.tubes)
+                });
                 // With `Reach::recent`, the newest open symbols (last in
                 // the list) enter too.
                 let recent = (reach.recent as usize).min(n_open);
@@ -1391,8 +1397,9 @@ impl<'a> Sampler<'a> {
                     if other == idx {
                         continue;
                     }
-                    let v = spawn_at(other)
-                        .map_or(f64::INFINITY, |sp| self.promise(&q, &sp, guide, reach));
+                    let v = spawn_at(other).map_or(f64::INFINITY, |sp| {
+                        self.promise(&q, &sp, guide, reach, &mut w.tubes)
+                    });
                     if v < best {
                         best = v;
                         idx = other;
@@ -1452,7 +1459,7 @@ impl<'a> Sampler<'a> {
             // its symbols could still cover): a heuristic term of the
             // particle's score, taken back in the next generation's weight.
             if let Some(node) = local.nodes.last() {
-                let ahead = self.spawns_lookahead(&q.cost, local.spawns(node), reach);
+                let ahead = self.spawns_lookahead(&q.cost, local.spawns(node), reach, &mut w.tubes);
                 q.score -= 2.0 * guide.cover * reach.weights * ahead;
             }
         }
@@ -1469,7 +1476,14 @@ impl<'a> Sampler<'a> {
     /// (`2 W (1 - s)`, `s` the curve's covered share). A
     /// symbol that never grows a bone, or at a non-finite position, is
     /// least promising (`+inf`).
-    fn promise(&self, q: &Particle, sp: &Spawn, guide: &Guide, reach: &Look<'_>) -> f64 {
+    fn promise(
+        &self,
+        q: &Particle,
+        sp: &Spawn,
+        guide: &Guide,
+        reach: &Look<'_>,
+        memo: &mut TubesMemo,
+    ) -> f64 {
         let e = self
             .expected
             .get(sp.symbol as usize)
@@ -1486,9 +1500,7 @@ impl<'a> Sampler<'a> {
             + self.heuristic_near(&sp.turtle.frame, e, Some(n))
             + self.cost.utilization_ahead(&q.cost, n.curve, n.closest.t);
         if guide.cover > 0.0 && reach.order > 0.0 {
-            let tubes = self
-                .cost
-                .tubes_near(n.position.as_dvec3(), (n.curve, &n.closest));
+            let tubes = memo.tubes_near(&self.cost, &n);
             if !tubes.is_empty() {
                 let (r, _) = self.reach_of(sp.symbol, &sp.turtle, reach);
                 let ahead = self.cost.uncovered_within_reach(&q.cost, &tubes, r, None);
@@ -1538,6 +1550,7 @@ impl<'a> Sampler<'a> {
         state: &grm_guide::CostState,
         spawns: &[Spawn],
         reach: &Look<'_>,
+        memo: &mut TubesMemo,
     ) -> f64 {
         let mut sum = 0.0;
         let mut i = 0;
@@ -1557,9 +1570,7 @@ impl<'a> Sampler<'a> {
             if let Some(n) = sp.near
                 && r > 0.0
             {
-                let tubes = self
-                    .cost
-                    .tubes_near(n.position.as_dvec3(), (n.curve, &n.closest));
+                let tubes = memo.tubes_near(&self.cost, &n);
                 sum += self
                     .cost
                     .uncovered_within_reach(state, &tubes, r, reach.branches(shrinks));
@@ -1696,9 +1707,8 @@ impl<'a> Sampler<'a> {
                             // Based at the symbol: its tubes are searched
                             // once for all the candidates.
                             Some(n) if n.position == b => {
-                                let tubes = base_tubes.get_or_insert_with(|| {
-                                    self.cost.tubes_near(b.as_dvec3(), (n.curve, &n.closest))
-                                });
+                                let tubes = base_tubes
+                                    .get_or_insert_with(|| w.tubes.tubes_near(&self.cost, &n));
                                 self.cost
                                     .plan_bone_near_in(b, t, n.curve, &n.closest, Some(tubes))
                             }
@@ -2227,9 +2237,12 @@ impl<'a> Sampler<'a> {
                 break;
             }
             let best = self.ranked(&finals, opts.guide.cover, covering, 1);
-            if best
-                .first()
-                .is_none_or(|&b| refine::covers_every_curve(&self.cost, &finals[b].cost))
+            let Some(&b) = best.first() else {
+                break;
+            };
+            if refine::covers_every_curve(&self.cost, &finals[b].cost)
+                || (opts.refine.followed_ends
+                    && self.follows_every_curve(&mut w, &layers, &finals[b], seed, b, opts)?)
             {
                 break;
             }
@@ -2334,6 +2347,40 @@ impl<'a> Sampler<'a> {
         cancel::check(cancel)?;
         layers.push(layer);
         Ok(done)
+    }
+
+    /// Whether the model of wrapped-up final particle `p` (index `c` among
+    /// the run's final particles: the model [`Self::build_best`] returns
+    /// when it ranks first) follows every curve by
+    /// [`grm_guide::coverage`]'s measure ([`Refine::followed_ends`]). A
+    /// model that cannot be built (a geometry-phase limit) does not; a
+    /// cancellation is passed on.
+    fn follows_every_curve(
+        &self,
+        w: &mut Worker,
+        layers: &[Vec<Step>],
+        p: &Particle,
+        seed: u32,
+        c: usize,
+        opts: &SampleOptions,
+    ) -> Result<bool, SampleError> {
+        match self.build_model(w, layers, p, seed, c as u32, opts) {
+            Ok(m) => {
+                let bones: Vec<(Vec3, Vec3)> = m
+                    .interpretation
+                    .bones
+                    .iter()
+                    .map(|b| (b.base, b.tip))
+                    .collect();
+                Ok(grm_guide::follows_every_curve(
+                    &self.curves,
+                    &bones,
+                    &grm_guide::CoverageOptions::default(),
+                ))
+            }
+            Err(SampleError::Cancelled) => Err(SampleError::Cancelled),
+            Err(_) => Ok(false),
+        }
     }
 
     /// The indices of the `best` lowest of `done` by the objective
