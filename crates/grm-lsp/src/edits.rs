@@ -65,6 +65,10 @@ pub(crate) struct EditsState {
     read_by: HashMap<PathBuf, PathBuf>,
     /// The last print of each edit's part while it was valid.
     prints: Arc<Prints>,
+    /// Per edits file: its building edits (those with a `parcel`) that
+    /// the last `grm/layoutCity` applied to no building (layout_city.rs):
+    /// edit id, code (R1032) and message.
+    pub(crate) layout_issues: HashMap<PathBuf, Vec<(u32, String, String)>>,
 }
 
 /// Where a preview reads edits files from: the client's buffers (a
@@ -494,6 +498,36 @@ fn diagnostics<'a>(
     out
 }
 
+/// An error on each building edit a city applied to no building
+/// (`EditsState::layout_issues`: R1032, its parcel gone), at the edit, if
+/// the file still has it.
+fn layout_diagnostics(
+    path: &Path,
+    text: &str,
+    issues: &[(u32, String, String)],
+) -> Vec<Diagnostic> {
+    if issues.is_empty() {
+        return Vec::new();
+    }
+    let src = SourceFile::new(path.to_string_lossy(), text);
+    let parsed = grm_edits::parse(text);
+    issues
+        .iter()
+        .filter_map(|(id, code, message)| {
+            let now = parsed.file.get(*id)?;
+            Some(Diagnostic {
+                range: convert::range(&src, clamp(now.span, text)),
+                severity: Some(DiagnosticSeverity::ERROR),
+                code: Some(NumberOrString::String(code.clone())),
+                source: Some("grm".into()),
+                message: message.clone(),
+                data: Some(serde_json::json!({ "edit": id })),
+                ..Diagnostic::default()
+            })
+        })
+        .collect()
+}
+
 // ---------------------------------------------------------------------
 // The server's side.
 
@@ -585,15 +619,17 @@ pub(crate) async fn publish(shared: &Arc<Shared>, client: &Client, path: &Path) 
             .read_by
             .iter()
             .any(|(d, e)| e == path && shared.version(d).is_some());
-        let shown = st.docs.contains_key(path) || beside || read;
+        let layout = st.layout_issues.get(path).cloned().unwrap_or_default();
+        let shown = st.docs.contains_key(path) || beside || read || !layout.is_empty();
         let reports: Vec<(Edit, EditOut)> = st
             .reports
             .get(path)
             .map(|m| m.values().flatten().cloned().collect())
             .unwrap_or_default();
         let open = st.docs.clone();
-        (shown.then_some(open), reports)
+        (shown.then_some(open), (reports, layout))
     };
+    let (reports, layout) = reports;
     let Some(uri) = shared.uris().uri_of(path) else {
         return;
     };
@@ -603,7 +639,11 @@ pub(crate) async fn publish(shared: &Arc<Shared>, client: &Client, path: &Path) 
             let p = path.to_path_buf();
             let u = uri.clone();
             let computed = tokio::task::spawn_blocking(move || match read(&open, &p) {
-                Ok(Some((v, text))) => (v, diagnostics(&u, &p, &text, None, reports.iter())),
+                Ok(Some((v, text))) => {
+                    let mut d = diagnostics(&u, &p, &text, None, reports.iter());
+                    d.extend(layout_diagnostics(&p, &text, &layout));
+                    (v, d)
+                }
                 Ok(None) => (None, Vec::new()),
                 Err(e) => (None, diagnostics(&u, &p, "", Some(&e), reports.iter())),
             })

@@ -85,11 +85,16 @@ struct BuiltLayer {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase")]
 pub struct LayoutParams {
-    /// The sidecar, `NAME.layout.json`.
+    /// The sidecar, `NAME.layout.json`, or a grammar `NAME.grm` with a
+    /// `layout` item (layout_grm.rs).
     pub uri: Uri,
     /// Also answer the merged layout's blocks.
     #[serde(default)]
     pub blocks: bool,
+    /// Only say whether there is a layout (a grammar's item, by name):
+    /// nothing is built, the lists are empty.
+    #[serde(default)]
+    pub probe: bool,
 }
 
 /// One layer as the view lists it.
@@ -171,6 +176,13 @@ pub struct LayoutResult {
     pub invalid: Vec<String>,
     /// `[min x, min y, max x, max y]` of the merged streets and parcels.
     pub bounds: [f64; 4],
+    /// A grammar's layout item: its name (the edits go to `sidecar`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub item: Option<String>,
+    /// Where the artist's edits are written: the sidecar itself, or the
+    /// one beside the grammar (which may not exist yet).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sidecar: Option<Uri>,
 }
 
 /// `grm/layoutEdit` parameters.
@@ -268,10 +280,12 @@ fn source_name(s: &Source) -> &'static str {
 /// A sidecar read and evaluated.
 pub(crate) struct Evaluated {
     pub(crate) doc: Document,
-    errors: Vec<sidecar::SidecarError>,
+    pub(crate) errors: Vec<sidecar::SidecarError>,
     layers: Vec<Layout>,
     pub(crate) merged: Layout,
-    issues: Vec<LayerIssue>,
+    pub(crate) issues: Vec<LayerIssue>,
+    /// A `.grm`'s layout item (layout_grm.rs): where its edits go.
+    pub(crate) grm: Option<crate::layout_grm::FromGrm>,
 }
 
 /// Reads the files a layer names, relative to the sidecar.
@@ -286,6 +300,17 @@ fn loader(path: &Path) -> impl Fn(&str) -> std::result::Result<String, String> +
 /// have changed).
 pub(crate) fn evaluate_text(path: &Path, text: &str, cache: &mut Caches) -> Evaluated {
     let (doc, errors) = sidecar::read(text);
+    evaluate_doc(path, doc, errors, cache)
+}
+
+/// Builds and merges the layers of `doc` (read from the file at `path`,
+/// with `errors`), as [`evaluate_text`].
+pub(crate) fn evaluate_doc(
+    path: &Path,
+    doc: Document,
+    errors: Vec<sidecar::SidecarError>,
+    cache: &mut Caches,
+) -> Evaluated {
     let load = loader(path);
     let mut issues = Vec::new();
     let mut layers = Vec::with_capacity(doc.layers.len());
@@ -327,6 +352,7 @@ pub(crate) fn evaluate_text(path: &Path, text: &str, cache: &mut Caches) -> Eval
         layers,
         merged,
         issues,
+        grm: None,
     }
 }
 
@@ -457,6 +483,11 @@ fn result(uri: Uri, version: Option<i32>, ev: &Evaluated, with_blocks: bool) -> 
             .map(|v| v.describe())
             .collect(),
         bounds,
+        item: ev.grm.as_ref().map(|g| g.item.clone()),
+        sidecar: ev
+            .grm
+            .as_ref()
+            .and_then(|g| crate::uris::uri_of(&g.sidecar)),
     }
 }
 
@@ -693,6 +724,16 @@ impl Shared {
             .clone()
     }
 
+    /// Whether the client has the sidecar `path` open.
+    pub(crate) fn layout_is_open(&self, path: &Path) -> bool {
+        self.layouts_lock().docs.contains_key(path)
+    }
+
+    /// Whether a layout view was shown for `path` (its caches are kept).
+    pub(crate) fn layout_is_shown(&self, path: &Path) -> bool {
+        self.layouts_lock().caches.contains_key(path)
+    }
+
     pub(crate) fn layout_opened(&self, path: PathBuf, version: i32, text: String) {
         self.layouts_lock()
             .docs
@@ -743,8 +784,9 @@ pub struct LayoutUpdatedParams {
 impl Backend {
     /// `didOpen` of a sidecar.
     pub(crate) async fn layout_opened(&self, path: PathBuf, doc: TextDocumentItem, version: i32) {
-        self.shared.layout_opened(path, version, doc.text);
+        self.shared.layout_opened(path.clone(), version, doc.text);
         self.layout_notify(doc.uri, version).await;
+        self.layout_notify_grammar(&path).await;
     }
 
     /// `didChange` of a sidecar.
@@ -752,6 +794,34 @@ impl Backend {
         self.shared.layout_edited(path, params);
         let d = &params.text_document;
         self.layout_notify(d.uri.clone(), d.version).await;
+        self.layout_notify_grammar(path).await;
+    }
+
+    /// A sidecar changed: the view of the grammar beside it (`NAME.grm`,
+    /// when one was shown) asks for its layout again.
+    async fn layout_notify_grammar(&self, sidecar: &Path) {
+        let Some(stem) = sidecar
+            .file_name()
+            .and_then(|n| n.to_str())
+            .and_then(|n| n.strip_suffix(SUFFIX))
+        else {
+            return;
+        };
+        let grm = sidecar.with_file_name(format!("{stem}.grm"));
+        if self.shared.layout_is_shown(&grm)
+            && let Some(uri) = self.shared.uris().uri_of(&grm)
+        {
+            let version = self.shared.version(&grm).unwrap_or(0);
+            self.layout_notify(uri, version).await;
+        }
+    }
+
+    /// A grammar changed (`didChange`): its layout view, if one was
+    /// shown, asks for its layout again (a generator's argument regrows it).
+    pub(crate) async fn layout_grammar_changed(&self, grm: &Path, uri: Uri, version: i32) {
+        if self.shared.layout_is_shown(grm) {
+            self.layout_notify(uri, version).await;
+        }
     }
 
     async fn layout_notify(&self, uri: Uri, version: i32) {
@@ -760,30 +830,77 @@ impl Backend {
             .await;
     }
 
-    /// `grm/layout`: the merged layout of a sidecar.
+    /// `grm/layout`: the merged layout of a sidecar or a grammar's item.
     pub async fn layout(&self, params: LayoutParams) -> Result<LayoutResult> {
-        let path = layout_path(&params.uri)?;
-        let (version, text) = self.shared.layout_text(&path)?;
-        let cache = self.shared.layout_cache(&path);
+        let target = crate::layout_grm::target(&params.uri)?;
+        if params.probe {
+            return self.layout_probe(params.uri, &target).await;
+        }
+        let cache = self.shared.layout_cache(target.path());
         let uri = params.uri.clone();
+        let shared = self.shared.clone();
         tokio::task::spawn_blocking(move || {
             let mut cache = cache.lock().unwrap_or_else(PoisonError::into_inner);
-            let ev = evaluate_text(&path, &text, &mut cache);
-            result(uri, version, &ev, params.blocks)
+            let (version, ev) = crate::layout_grm::evaluate(&shared, &target, &mut cache)?;
+            Ok(result(uri, version, &ev, params.blocks))
         })
         .await
-        .map_err(|e| failed(e.to_string()))
+        .map_err(|e| failed(e.to_string()))?
+    }
+
+    /// `grm/layout` with `probe`: whether there is a layout, built not.
+    async fn layout_probe(
+        &self,
+        uri: Uri,
+        target: &crate::layout_grm::Target,
+    ) -> Result<LayoutResult> {
+        let item = match target {
+            crate::layout_grm::Target::Sidecar(_) => None,
+            crate::layout_grm::Target::Grm(grm) => {
+                let (shared, g) = (self.shared.clone(), grm.clone());
+                let fa = tokio::task::spawn_blocking(move || shared.analyze(&g))
+                    .await
+                    .map_err(|e| failed(e.to_string()))?
+                    .ok_or_else(|| failed(format!("cannot read {}", grm.display())))?;
+                let def = fa.checked.program.layouts.first().ok_or_else(|| {
+                    failed(format!(
+                        "{} has no `layout NAME {{ ... }}` item",
+                        grm.display()
+                    ))
+                })?;
+                Some(def.name.clone())
+            }
+        };
+        Ok(LayoutResult {
+            version: self.shared.version(target.path()),
+            uri,
+            layers: Vec::new(),
+            streets: Vec::new(),
+            parcels: Vec::new(),
+            blocks: Vec::new(),
+            problems: Vec::new(),
+            invalid: Vec::new(),
+            bounds: [0.0; 4],
+            sidecar: crate::uris::uri_of(&target.sidecar()),
+            item,
+        })
     }
 
     /// `grm/layoutEdit`: an operator on a layer, written to the sidecar.
     pub async fn layout_edit(&self, params: LayoutEditParams) -> Result<LayoutEditResult> {
-        let path = layout_path(&params.uri)?;
-        let (version, old) = self.shared.layout_text(&path)?;
-        let cache = self.shared.layout_cache(&path);
-        let (p, old2) = (path.clone(), old.clone());
+        let target = crate::layout_grm::target(&params.uri)?;
+        // The sidecar written: the one named, or the one beside the grammar.
+        let path = target.sidecar();
+        let (version, old) = match self.shared.layout_text_if_any(&path)? {
+            Some((v, t)) => (v, Some(t)),
+            None => (None, None),
+        };
+        let cache = self.shared.layout_cache(target.path());
+        let shared = self.shared.clone();
         let (outcome, new) = tokio::task::spawn_blocking(move || -> Result<(Outcome, String)> {
             let mut cache = cache.lock().unwrap_or_else(PoisonError::into_inner);
-            let mut ev = evaluate_text(&p, &old2, &mut cache);
+            let (_, mut ev) = crate::layout_grm::evaluate(&shared, &target, &mut cache)?;
+            let p = target.path().to_path_buf();
             if let Some(e) = ev.errors.first() {
                 return Err(failed(format!(
                     "the layout file has {} problem{} (the first: {}: {} ({})): fix {} first, it is rewritten whole",
@@ -795,12 +912,27 @@ impl Backend {
                     if ev.errors.len() == 1 { "it" } else { "them" },
                 )));
             }
+            let before = ev.grm.is_some().then(|| ev.doc.clone());
             let o = operate(&p, &mut ev, params.layer, &params.op)?;
-            Ok((o, sidecar::write(&ev.doc)))
+            let doc = match (&ev.grm, before) {
+                (Some(g), Some(before)) => g.to_sidecar(&before, &ev.doc),
+                _ => ev.doc.clone(),
+            };
+            Ok((o, sidecar::write(&doc)))
         })
         .await
         .map_err(|e| failed(e.to_string()))??;
         let uri = params.uri;
+        // The sidecar's URI as the client spells it (the request's, or the
+        // one beside a grammar).
+        let side_uri = if convert::path_of(&uri).as_deref() == Some(path.as_path()) {
+            uri.clone()
+        } else {
+            self.shared
+                .uris()
+                .uri_of(&path)
+                .ok_or_else(|| failed(format!("no URI for {}", path.display())))?
+        };
         let new_layer = match outcome {
             Outcome::Rejected(problem) => {
                 return Ok(LayoutEditResult {
@@ -820,7 +952,7 @@ impl Backend {
             .edit_caps
             .lock()
             .unwrap_or_else(PoisonError::into_inner);
-        let edit = workspace_edit(&uri, version, Some(&old), &new, caps);
+        let edit = workspace_edit(&side_uri, version, old.as_deref(), &new, caps);
         if !caps.can_apply() {
             let p = path.clone();
             let text = new.clone();

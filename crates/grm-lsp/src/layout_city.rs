@@ -1,21 +1,33 @@
 //! `grm/layoutCity` (docs/lsp-extensions.md, "City layouts"): the layout
 //! view's 3D mode, the merged city with a building grown on every parcel
-//! by the sidecar's `buildings` grammar (grm-layout's `city`), drawn as a
-//! PNG picture from above at an angle by `grm_geom::render` (the picture
-//! `grmc layout -o city.png` writes).
+//! (grm-layout's `city`), answered as the model's mesh buffers, the same
+//! parts and materials `grm/preview` answers (the page draws them with its
+//! three.js renderer, orbiting): base64 text, or with `"binary": true` on a
+//! server that sends blobs, ranges of one blob (protocol 3, blob.rs).
 //!
-//! A [`BuildingCache`] is kept per sidecar, so after a drag only the
-//! parcels the move changed grow again (`city::city_cached`: the same
-//! model, byte for byte, as a whole growth); the answer says how many
-//! buildings were taken from it.
+//! The buildings are grown by the sidecar's `buildings` grammar, or for a
+//! grammar's `layout` item (layout_grm.rs) by the item's `buildings`
+//! system. The building edits of the edits file beside the layout
+//! (`NAME.edits.json` for `NAME.layout.json` or `NAME.grm`; edits with a
+//! `parcel`) are replayed in their parcels' buildings
+//! (`city::city_edited`, as `grmc layout` does); one whose parcel is gone
+//! (R1032) is applied nowhere, listed in the answer and published as an
+//! error on the edits file.
+//!
+//! A [`BuildingCache`] is kept per layout, so after a drag only the
+//! parcels the move changed grow again (the same model, byte for byte, as
+//! a whole growth); the answer says how many buildings were taken from it.
 
-use crate::layout::{LayoutProblem, evaluate_text, layout_path};
+use crate::blob::Enc;
+use crate::layout::{Evaluated, LayoutProblem};
+use crate::layout_grm::{Target, evaluate, target};
+use crate::preview::{MaterialOut, PartOut, fits_answer, materials_out, parts_out};
 use crate::{Backend, Shared, failed};
-use base64::Engine as _;
 use grm_layout::city::{self, BuildingCache, Buildings};
 use grm_layout::model::TagValue;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Instant;
 use tower_lsp_server::jsonrpc::Result;
@@ -25,17 +37,12 @@ use tower_lsp_server::ls_types::Uri;
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase")]
 pub struct LayoutCityParams {
+    /// A sidecar `NAME.layout.json` or a grammar with a `layout` item.
     pub uri: Uri,
-    /// Pixels (default 800 x 600; each side 16 to 4096).
+    /// Protocol 3: the buffers as ranges of a blob (where the server has
+    /// somewhere to send it), not base64 text.
     #[serde(default)]
-    pub width: Option<u32>,
-    #[serde(default)]
-    pub height: Option<u32>,
-    /// The view's direction in degrees (as `grmc --view`): default 30, 45.
-    #[serde(default)]
-    pub azimuth: Option<f32>,
-    #[serde(default)]
-    pub elevation: Option<f32>,
+    pub binary: bool,
 }
 
 /// `grm/layoutCity` result.
@@ -43,21 +50,58 @@ pub struct LayoutCityParams {
 #[serde(rename_all = "camelCase")]
 pub struct LayoutCityResult {
     pub uri: Uri,
-    /// The picture, PNG, base64.
-    pub png: String,
-    pub width: u32,
-    pub height: u32,
+    /// `base64-le` or `blob-le` (as `grm/preview`'s).
+    pub encoding: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub blob: Option<crate::blob::BlobRef>,
+    /// The city's model: ground, streets, parcels and buildings, y up (a
+    /// layout point `(x, y)` is `(x, 0, -y)`), as `grm/preview`'s parts.
+    pub materials: Vec<MaterialOut>,
+    pub parts: Vec<PartOut>,
+    pub bounds_min: [f32; 3],
+    pub bounds_max: [f32; 3],
     /// Buildings in the city, and how many of them the cache gave (the
     /// rest grew for this answer).
     pub buildings: usize,
     pub reused: usize,
+    /// Buildings grown with building edits replayed.
+    pub edited: usize,
     pub parcels: usize,
     pub triangles: u64,
+    pub vertices: u64,
     /// Parcels without a building (R1031 a tag that does not fit, or the
-    /// shape engine's code), and the layout's own problems.
+    /// shape engine's code), building edits applied nowhere (R1032), and
+    /// the layout's own problems.
     pub problems: Vec<LayoutProblem>,
-    /// Milliseconds to grow the city (not drawing it).
+    /// The edits file whose building edits were replayed (none without one).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub edits: Option<Uri>,
+    /// Milliseconds to grow the city (not encoding it).
     pub grow_ms: f64,
+}
+
+impl LayoutCityResult {
+    /// Protocol 3: moves the parts' bytes into blob `id` (as
+    /// `PreviewResult::take_blob`).
+    pub fn take_blob(&mut self, id: u64) -> Option<crate::blob::Blob> {
+        let (mut at, mut chunks) = (0, Vec::new());
+        for part in &mut self.parts {
+            for b in [
+                &mut part.positions,
+                &mut part.normals,
+                &mut part.indices,
+                &mut part.picks,
+            ] {
+                b.place(&mut at, &mut chunks);
+            }
+        }
+        if chunks.is_empty() {
+            return None;
+        }
+        self.encoding = "blob-le".into();
+        self.blob = Some(crate::blob::BlobRef { id, bytes: at });
+        Some(crate::blob::Blob { id, chunks })
+    }
 }
 
 impl Shared {
@@ -70,23 +114,61 @@ impl Shared {
     }
 }
 
-/// The grammar's system and values for the sidecar's `buildings` section.
+/// The edits file beside a layout: `NAME.edits.json` for
+/// `NAME.layout.json` or `NAME.grm`.
+pub(crate) fn edits_beside(t: &Target) -> PathBuf {
+    let file = t.path();
+    let name = file.file_name().and_then(|n| n.to_str()).unwrap_or("");
+    match name.strip_suffix(crate::layout::SUFFIX) {
+        Some(stem) => file.with_file_name(format!("{stem}.edits.json")),
+        None => grm_edits::edits_path(file),
+    }
+}
+
+/// The building edits of `path` (the client's buffer, else the file; none
+/// without either). Its own problems are the edits file's diagnostics
+/// (edits.rs); an edit with one is skipped.
+fn read_edits(
+    shared: &Shared,
+    path: &Path,
+) -> std::result::Result<Option<grm_edits::EditsFile>, String> {
+    let open = shared.edits_source().open;
+    match crate::edits::read(&open, path) {
+        Ok(Some((_, text))) => Ok(Some(grm_edits::parse(&text).file)),
+        Ok(None) => Ok(None),
+        Err(e) => Err(format!("error[{}]: {e}", e.code().as_str())),
+    }
+}
+
+/// Grows the city: the buildings of the sidecar's `buildings` section or
+/// of the grammar's item, with the building edits replayed.
 fn grow(
     shared: &Shared,
-    sidecar: &Path,
-    ev: &crate::layout::Evaluated,
+    target: &Target,
+    ev: &Evaluated,
+    edits: &grm_edits::EditsFile,
     cache: &mut BuildingCache,
 ) -> std::result::Result<city::City, String> {
+    let build = grm_geom::BuildOptions {
+        group_names: false,
+        ..grm_geom::BuildOptions::default()
+    };
     let Some(spec) = ev.doc.buildings.as_ref() else {
-        let build = grm_geom::BuildOptions {
-            group_names: false,
-            ..grm_geom::BuildOptions::default()
-        };
-        return city::city_cached(&ev.merged, None, &build, cache, &mut |_, _| {})
+        return city::city_edited(&ev.merged, None, &build, edits, Some(cache), &mut |_, _| {})
             .map_err(|e| e.to_string());
     };
-    let dir = sidecar.parent().map(Path::to_path_buf).unwrap_or_default();
-    let grammar: PathBuf = grm_sema::normalize(&dir.join(&spec.grammar));
+    let grammar: PathBuf = match &ev.grm {
+        // The item's system is in the grammar itself.
+        Some(g) => g.grm.clone(),
+        None => {
+            let dir = target
+                .path()
+                .parent()
+                .map(Path::to_path_buf)
+                .unwrap_or_default();
+            grm_sema::normalize(&dir.join(&spec.grammar))
+        }
+    };
     let fa = shared
         .analyze(&grammar)
         .ok_or_else(|| format!("cannot read {}", grammar.display()))?;
@@ -128,69 +210,134 @@ fn grow(
         seed: spec.seed,
         options: grm_grow::shape::ShapeOptions::default(),
     };
-    let build = grm_geom::BuildOptions {
-        group_names: false,
-        ..grm_geom::BuildOptions::default()
+    city::city_edited(
+        &ev.merged,
+        Some(&b),
+        &build,
+        edits,
+        Some(cache),
+        &mut |_, _| {},
+    )
+    .map_err(|e| e.to_string())
+}
+
+/// What the answer's thread computed, with what goes to the edits file.
+struct Grown {
+    result: LayoutCityResult,
+    edits_path: PathBuf,
+    edit_issues: Vec<(u32, String, String)>,
+}
+
+/// The city of `target` as mesh buffers (`enc`).
+fn city_answer(shared: &Shared, uri: Uri, target: &Target, enc: Enc) -> Result<Grown> {
+    let merge = shared.layout_cache(target.path());
+    let cache = shared.city_cache(target.path());
+    let (_, ev) = {
+        let mut m = merge.lock().unwrap_or_else(PoisonError::into_inner);
+        evaluate(shared, target, &mut m)?
     };
-    city::city_cached(&ev.merged, Some(&b), &build, cache, &mut |_, _| {})
-        .map_err(|e| e.to_string())
+    let edits_path = edits_beside(target);
+    let edits = read_edits(shared, &edits_path).map_err(failed)?;
+    let start = Instant::now();
+    let grown = {
+        let mut c = cache.lock().unwrap_or_else(PoisonError::into_inner);
+        grow(
+            shared,
+            target,
+            &ev,
+            edits.as_ref().unwrap_or(&Default::default()),
+            &mut c,
+        )
+        .map_err(failed)?
+    };
+    let grow_ms = start.elapsed().as_secs_f64() * 1e3;
+    let model = &grown.model;
+    fits_answer(model, 0).map_err(|e| failed(e.to_string()))?;
+    let parts = parts_out(model, &|_| None, &|_| false, &mut Vec::new(), enc);
+    let mut problems = crate::layout::problems_of(&ev);
+    problems.extend(grown.issues.iter().map(|i| LayoutProblem {
+        code: i.code(),
+        message: i.describe(),
+    }));
+    problems.extend(grown.edit_issues.iter().map(|i| LayoutProblem {
+        code: i.code(),
+        message: i.describe(),
+    }));
+    let edit_issues = grown
+        .edit_issues
+        .iter()
+        .map(|i| (i.edit, i.code(), i.describe()))
+        .collect();
+    let st = &model.stats;
+    let finite = |v: [f32; 3]| v.map(|x| if x.is_finite() { x } else { 0.0 });
+    Ok(Grown {
+        result: LayoutCityResult {
+            uri,
+            encoding: "base64-le".into(),
+            blob: None,
+            materials: materials_out(model),
+            parts,
+            bounds_min: finite(st.bounds.min.to_array()),
+            bounds_max: finite(st.bounds.max.to_array()),
+            buildings: grown.buildings,
+            reused: grown.reused,
+            edited: grown.edited,
+            parcels: ev.merged.parcels.len(),
+            triangles: st.triangles as u64,
+            vertices: st.vertices as u64,
+            problems,
+            edits: edits
+                .is_some()
+                .then(|| crate::uris::uri_of(&edits_path))
+                .flatten(),
+            grow_ms,
+        },
+        edits_path,
+        edit_issues,
+    })
 }
 
 impl Backend {
-    /// `grm/layoutCity`: the city with its buildings, as a picture.
+    /// `grm/layoutCity`: the city with its buildings, as mesh buffers.
     pub async fn layout_city(&self, params: LayoutCityParams) -> Result<LayoutCityResult> {
-        let path = layout_path(&params.uri)?;
-        let (_, text) = self.shared.layout_text(&path)?;
-        let merge = self.shared.layout_cache(&path);
-        let cache = self.shared.city_cache(&path);
+        let target = target(&params.uri)?;
         let shared = self.shared.clone();
         let uri = params.uri.clone();
-        tokio::task::spawn_blocking(move || -> Result<LayoutCityResult> {
-            let ev = {
-                let mut m = merge.lock().unwrap_or_else(PoisonError::into_inner);
-                evaluate_text(&path, &text, &mut m)
-            };
-            let start = Instant::now();
-            let grown = {
-                let mut c = cache.lock().unwrap_or_else(PoisonError::into_inner);
-                grow(&shared, &path, &ev, &mut c).map_err(failed)?
-            };
-            let grow_ms = start.elapsed().as_secs_f64() * 1e3;
-            let width = params.width.unwrap_or(800).clamp(16, 4096);
-            let height = params.height.unwrap_or(600).clamp(16, 4096);
-            let options = grm_geom::render::RenderOptions {
-                width,
-                height,
-                view: grm_geom::render::View::Angles {
-                    azimuth: params.azimuth.unwrap_or(30.0),
-                    elevation: params.elevation.unwrap_or(45.0),
-                },
-                samples: 2,
-                ..grm_geom::render::RenderOptions::default()
-            };
-            let image = grm_geom::render::render(&grown.model, &options)
-                .map_err(|e| failed(format!("the city could not be drawn: {e}")))?;
-            let png = grm_geom::render::png_bytes(&image)
-                .map_err(|e| failed(format!("the picture could not be encoded: {e}")))?;
-            let mut problems = crate::layout::problems_of(&ev);
-            problems.extend(grown.issues.iter().map(|i| LayoutProblem {
-                code: i.code(),
-                message: i.describe(),
-            }));
-            Ok(LayoutCityResult {
-                uri,
-                png: base64::engine::general_purpose::STANDARD.encode(png),
-                width,
-                height,
-                buildings: grown.buildings,
-                reused: grown.reused,
-                parcels: ev.merged.parcels.len(),
-                triangles: grown.model.stats.triangles as u64,
-                problems,
-                grow_ms,
-            })
-        })
-        .await
-        .map_err(|e| failed(e.to_string()))?
+        let enc = if params.binary && self.shared.blobs.is_some() {
+            Enc::Binary
+        } else {
+            Enc::Base64
+        };
+        let Grown {
+            mut result,
+            edits_path,
+            edit_issues,
+        } = tokio::task::spawn_blocking(move || city_answer(&shared, uri, &target, enc))
+            .await
+            .map_err(|e| failed(e.to_string()))??;
+        // R1032 on the edits file (its diagnostics, with its own problems).
+        let had = {
+            let mut st = self.shared.edits_state();
+            let had = st.layout_issues.contains_key(&edits_path);
+            if edit_issues.is_empty() {
+                st.layout_issues.remove(&edits_path);
+            } else {
+                st.layout_issues
+                    .insert(edits_path.clone(), edit_issues.clone());
+            }
+            had
+        };
+        if had || !edit_issues.is_empty() {
+            crate::edits::publish(&self.shared, &self.client, &edits_path).await;
+        }
+        if enc == Enc::Binary
+            && let Some(sink) = &self.shared.blobs
+        {
+            let id = self.shared.blob_seq.fetch_add(1, Ordering::Relaxed);
+            if let Some(blob) = result.take_blob(id) {
+                sink.send(blob);
+            }
+        }
+        Ok(result)
     }
 }

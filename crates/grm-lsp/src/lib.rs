@@ -45,6 +45,7 @@ mod edit_requests;
 pub mod edits;
 pub mod layout;
 pub mod layout_city;
+pub mod layout_grm;
 pub mod manip;
 pub mod picture;
 pub mod preview;
@@ -726,6 +727,9 @@ impl LanguageServer for Backend {
         // edits that follow each other closer than the debounce wait it out
         // (and all but the last are then skipped by the version check).
         let delay = self.shared.edit_delay(&path);
+        // A layout view of its `layout` item regrows (layout_grm.rs).
+        self.layout_grammar_changed(&path, params.text_document.uri.clone(), version)
+            .await;
         self.changed(path, version, delay).await;
     }
 

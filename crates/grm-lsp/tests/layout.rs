@@ -5,8 +5,8 @@
 //! server for a client that cannot apply edits), reports a rejected move
 //! with its code and writes nothing, hides a layer, protects, cuts to a new
 //! layer and anchors an assignment; `grm/layoutCity` grows the buildings
-//! on the parcels and, after a move, takes the unchanged ones from its
-//! cache.
+//! on the parcels (answered as mesh buffers) and, after a move, takes the
+//! unchanged ones from its cache.
 
 mod common;
 
@@ -309,12 +309,7 @@ async fn the_city_grows_on_the_parcels_and_a_move_regrows_only_what_changed() {
     std::fs::write(&p, &text).unwrap();
     let mut c = Client::start().await;
     let u = uri(&p);
-    let first = c
-        .ok(
-            "grm/layoutCity",
-            json!({ "uri": u, "width": 160, "height": 120 }),
-        )
-        .await;
+    let first = c.ok("grm/layoutCity", json!({ "uri": u })).await;
     assert_eq!(first["problems"], json!([]), "{}", first["problems"]);
     let parcels = first["parcels"].as_u64().unwrap();
     assert!(parcels > 10);
@@ -325,17 +320,19 @@ async fn the_city_grows_on_the_parcels_and_a_move_regrows_only_what_changed() {
     );
     assert_eq!(first["reused"], 0);
     assert!(first["triangles"].as_u64().unwrap() > 1000);
-    let png = base64::Engine::decode(
-        &base64::engine::general_purpose::STANDARD,
-        first["png"].as_str().unwrap(),
-    )
-    .unwrap();
-    let info = png::Decoder::new(std::io::Cursor::new(png))
-        .read_info()
-        .expect("a PNG")
-        .info()
-        .clone();
-    assert_eq!((info.width, info.height), (160, 120));
+    // The model as the preview's mesh buffers (base64 here: no blob sink).
+    assert_eq!(first["encoding"], "base64-le");
+    let parts = first["parts"].as_array().unwrap();
+    assert!(!parts.is_empty());
+    let triangles: u64 = parts
+        .iter()
+        .map(|p| p["triangleCount"].as_u64().unwrap())
+        .sum();
+    assert_eq!(triangles, first["triangles"].as_u64().unwrap());
+    assert!(
+        first["boundsMax"][1].as_f64().unwrap() > 3.0,
+        "buildings stand up"
+    );
 
     // A street moved: most buildings come from the cache.
     let r = c.ok("grm/layout", json!({ "uri": u })).await;
@@ -348,12 +345,7 @@ async fn the_city_grows_on_the_parcels_and_a_move_regrows_only_what_changed() {
         )
         .await;
     assert_eq!(res["written"], true);
-    let again = c
-        .ok(
-            "grm/layoutCity",
-            json!({ "uri": u, "width": 160, "height": 120 }),
-        )
-        .await;
+    let again = c.ok("grm/layoutCity", json!({ "uri": u })).await;
     let (built, reused) = (
         again["buildings"].as_u64().unwrap(),
         again["reused"].as_u64().unwrap(),

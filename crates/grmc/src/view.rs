@@ -25,10 +25,10 @@
 //! | `POST /api/symbols` | `textDocument/documentSymbol` (the page reads the meta-parameters' ranges) |
 //! | `POST /api/tree` | `grm/tree`: the last preview's derivation tree, a level at a time (the page's tree panel) |
 //! | `POST /api/provenance`, `/api/drag`, `/api/sketch`, `/api/writeParams` | `grm/provenance`, `grm/drag`, ... (direct manipulation): an edit of the grammar is written here (the server answers the edited text to this client, which cannot apply edits) and sent to the server at once, which regrows the live preview; the answer says `written` |
-//! | `POST /api/layout`, `/api/layoutEdit`, `/api/layoutCity` | `grm/layout`, `grm/layoutEdit`, `grm/layoutCity`: the layout view of a served `NAME.layout.json` (the server writes the sidecar; `grm/layoutUpdated` becomes the `layoutUpdated` event) |
+//! | `POST /api/layout`, `/api/layoutEdit`, `/api/layoutCity` | `grm/layout`, `grm/layoutEdit`, `grm/layoutCity`: the layout view of a served `NAME.layout.json`, or of a served grammar's `layout` item (its edits go to the sidecar beside it; the city's buffers as a blob when asked with `binary`) (the server writes the sidecar; `grm/layoutUpdated` becomes the `layoutUpdated` event) |
 //! | `POST /api/loadCurves`, `/api/saveCurves` | the curves file next to the grammar (`tree.grm` -> `tree.curves.json`); saved only if `grm-guide` accepts it |
 //! | `GET /api/events?after=N[&wait=MS]` | long poll (20 s at most): `{"seq": M, "events": [{"method", "params"}]}` |
-//! | `GET /api/blob/ID` | a preview's buffers asked with `"binary": true` (protocol 3): `application/octet-stream`, the newest previews' kept |
+//! | `GET /api/blob/ID` | a preview's or a city's buffers asked with `"binary": true` (protocol 3): `application/octet-stream`, the newest previews' kept |
 //!
 //! Every `POST /api/...` answer carries `Server-Timing: app;dur=MS`: the
 //! milliseconds from the request read to the answer ready to write (the
