@@ -589,10 +589,13 @@ impl Engine<'_> {
         // Persistent edits (crate::replay): per shape on the stack, its
         // trie state and what its ancestors' edits force on it.
         let mut replay = self.edits.map(|plan| Replay {
-            stack: vec![carried.unwrap_or(Carried {
-                state: plan.root_state(&job.nodes[0]),
-                forced: Forced::default(),
-            })],
+            stack: vec![(
+                carried.unwrap_or(Carried {
+                    state: plan.root_state(&job.nodes[0]),
+                    forced: Forced::default(),
+                }),
+                1,
+            )],
             block: Vec::new(),
             matched: Vec::new(),
             tags: Vec::new(),
@@ -605,7 +608,7 @@ impl Engine<'_> {
             }
             // The shape's replay state, popped in step with the stack.
             let carried = match replay.as_mut() {
-                Some(r) => r.stack.pop().unwrap_or(Carried::NONE),
+                Some(r) => r.take(),
                 None => Carried::NONE,
             };
             let shape = &job.nodes[at as usize];
@@ -722,13 +725,24 @@ impl Engine<'_> {
                 n.children_offset = (start - at as usize) as u32;
                 n.children_len = (end - start) as u32;
             }
-            if let (Some(plan), Some(r)) = (self.edits, replay.as_mut()) {
-                replay_block(plan, r, &mut job.nodes, at, start, carried.state, forced);
-            }
+            let before = stack.len();
             for j in (start..end).rev() {
                 if job.nodes[j].is_shape() {
                     stack.push(j as u32);
                 }
+            }
+            if let (Some(plan), Some(r)) = (self.edits, replay.as_mut()) {
+                let shapes = (stack.len() - before) as u32;
+                replay_block(
+                    plan,
+                    r,
+                    &mut job.nodes,
+                    at,
+                    start,
+                    shapes,
+                    carried.state,
+                    forced,
+                );
             }
         }
         job.ordered = !scratch.unordered;
@@ -1524,9 +1538,11 @@ type JobRoot = (Node, Option<Arc<Outline>>, Ancestry, Option<Carried>);
 
 /// The derivation loop's replay state (a job's).
 struct Replay {
-    /// Per shape on the derivation stack, in step with it: its trie state
-    /// and what its ancestors' edits force on it.
-    stack: Vec<Carried>,
+    /// The shapes on the derivation stack, in step with it: their trie
+    /// state and what their ancestors' edits force on them, and how many
+    /// consecutive shapes of the stack share it (a block off every exact
+    /// target's path is one entry, however many shapes it made).
+    stack: Vec<(Carried, u32)>,
     /// Scratch: the trie states of the block at hand, from its start.
     block: Vec<u32>,
     /// Scratch: the edits of the shape at hand, the tags on its path, the
@@ -1536,6 +1552,24 @@ struct Replay {
     read: Vec<i64>,
     /// Forced materials remembered: (attributes, material, result).
     memo: Vec<(AttrId, crate::ir::MaterialId, AttrId)>,
+}
+
+impl Replay {
+    /// The replay state of the shape just popped off the derivation stack.
+    #[inline]
+    fn take(&mut self) -> Carried {
+        match self.stack.last_mut() {
+            Some((c, n)) => {
+                let c = *c;
+                *n -= 1;
+                if *n == 0 {
+                    self.stack.pop();
+                }
+                c
+            }
+            None => Carried::NONE,
+        }
+    }
 }
 
 /// A shape's replay state, carried down from its parent's.
@@ -1560,17 +1594,20 @@ impl Carried {
 
 /// After the shape at `at` (trie state `state`, forcing `forced`: its own
 /// edits over its ancestors') made the block `nodes[start..]`: the forced
-/// mesh on the block's inserts, and each new shape's replay state pushed on
-/// `r.stack` in the order the derivation stack takes them (the block's
-/// shapes, last first). A forced material needs nothing here: the shape's
+/// mesh on the block's inserts, and the replay state of its `shapes` new
+/// shapes pushed on `r.stack` in the order the derivation stack took them
+/// (the block's shapes, last first; one entry for all of them off every
+/// exact target's path). A forced material needs nothing here: the shape's
 /// attributes carry it to the block and its rules' materials were skipped.
 #[inline]
+#[allow(clippy::too_many_arguments)]
 fn replay_block(
     plan: &EditPlan,
     r: &mut Replay,
     nodes: &mut [Node],
     at: u32,
     start: usize,
+    shapes: u32,
     state: u32,
     forced: Forced,
 ) {
@@ -1584,14 +1621,12 @@ fn replay_block(
     }
     if state == replay::NONE {
         // Off every exact target's path: so is the block.
-        let c = Carried {
-            state: replay::NONE,
-            forced,
-        };
-        for n in block.iter().rev() {
-            if n.is_shape() {
-                r.stack.push(c);
-            }
+        if shapes > 0 {
+            let c = Carried {
+                state: replay::NONE,
+                forced,
+            };
+            r.stack.push((c, shapes));
         }
         return;
     }
@@ -1611,7 +1646,7 @@ fn replay_block(
     }
     for (n, &state) in block.iter().zip(&r.block).rev() {
         if n.is_shape() {
-            r.stack.push(Carried { state, forced });
+            r.stack.push((Carried { state, forced }, 1));
         }
     }
 }

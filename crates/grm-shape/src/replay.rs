@@ -191,6 +191,8 @@ impl EditPlan {
     /// [`EditPlan::unsupported`].
     pub fn new<'e>(program: &Program, edits: impl IntoIterator<Item = &'e Edit>) -> EditPlan {
         let mut plan = EditPlan::default();
+        // Labels read back once each (a command's label is formatted).
+        let mut labels: HashMap<String, Option<Label>> = HashMap::default();
         for e in edits {
             let action = match &e.op {
                 Op::Remove => Action::Remove,
@@ -226,7 +228,7 @@ impl EditPlan {
                     plan.key_filter[bit / 64] |= 1 << (bit % 64);
                     true
                 }
-                Target::Exact(loc) => plan.insert_exact(program, loc, index),
+                Target::Exact(loc) => plan.insert_exact(program, &mut labels, loc, index),
                 Target::Semantic(q) => {
                     let label = match &q.label {
                         Some(l) => match program.symbol(l) {
@@ -295,13 +297,27 @@ impl EditPlan {
     }
 
     /// Add an exact target's path to the trie; false when a label is not
-    /// the program's (it can match nothing).
-    fn insert_exact(&mut self, program: &Program, loc: &crate::ExactLocator, edit: u32) -> bool {
+    /// the program's (it can match nothing). `known`: labels read so far.
+    fn insert_exact(
+        &mut self,
+        program: &Program,
+        known: &mut HashMap<String, Option<Label>>,
+        loc: &crate::ExactLocator,
+        edit: u32,
+    ) -> bool {
         if loc.labels.len() != loc.edges.len() + 1 {
             return false;
         }
-        let labels: Option<Vec<Label>> =
-            loc.labels.iter().map(|l| parse_label(program, l)).collect();
+        let labels: Option<Vec<Label>> = loc
+            .labels
+            .iter()
+            .map(|l| match known.get(l.as_str()) {
+                Some(&label) => label,
+                None => *known
+                    .entry(l.clone())
+                    .or_insert_with(|| parse_label(program, l)),
+            })
+            .collect();
         let Some(labels) = labels else { return false };
         let state = match self.root {
             Some((l, s)) if l == labels[0] => s,
