@@ -4,9 +4,8 @@
 //! tower (`crates/grm-lsp/benches/tower_10k.grm`: 25 floors, four facades
 //! of 100 columns, 10,000 windows).
 //!
-//! Cases, each derived on one thread (a plan with edits derives on one
-//! thread, `grm_shape::derive_with_edits`), in alternating order round by
-//! round:
+//! Cases, each derived on one thread (the honest comparison: the same
+//! work against the same work), in alternating order round by round:
 //!
 //! - `none`: `derive` (no plan), the baseline;
 //! - `empty`: `derive_with_edits` with an empty plan;
@@ -19,8 +18,10 @@
 //!   time (what a regrow does after lowering: the plan's ids are the
 //!   lowered program's).
 //!
-//! Also `none` on every core (`threads = 0`, what the preview derives
-//! with: edits take that away), and the classification of the 1,000 edits
+//! Also `none` and `mix` on every core (`threads = 0`, what the preview
+//! derives with; each parallel job starts from its root's replay state, so
+//! edits keep the parallel derivation: `mix/all` over `none/all` is the
+//! ratio the preview sees), and the classification of the 1,000 edits
 //! against the edited tree (`grm_grow::shape::edits::classify`, what
 //! `grmc edits check` and the editor run after a derivation).
 //!
@@ -245,7 +246,7 @@ fn mix(b: &Building) -> (EditsFile, Vec<(&'static str, usize)>) {
     (f, counts)
 }
 
-const CASES: [&str; 10] = [
+const CASES: [&str; 11] = [
     "none",
     "empty",
     "one",
@@ -256,6 +257,7 @@ const CASES: [&str; 10] = [
     "mix",
     "mix+plan",
     "none/all",
+    "mix/all",
 ];
 
 /// The plans of the cases: one edit; the mix's exact, key and semantic
@@ -294,6 +296,7 @@ fn run(b: &Building, case: &str, plans: &Plans, file: &EditsFile) -> usize {
             b.grow(Some(&plan), 1)
         }
         "none/all" => b.grow(None, 0),
+        "mix/all" => b.grow(Some(&plans.mix), 0),
         _ => panic!("unknown case {case}"),
     };
     black_box(&tree).len()
@@ -496,6 +499,19 @@ fn main() {
             load()
         );
     }
+    // The preview's ratio: the mix on every core over no edits on every core.
+    let (all, mix_all) = (CASES.len() - 2, CASES.len() - 1);
+    let paired: Vec<f64> = times[mix_all]
+        .iter()
+        .zip(&times[all])
+        .map(|(a, b)| a / b)
+        .collect();
+    println!(
+        "  mix/all over none/all: {:.3}x (median of per-round ratios {:.3}x)   load {}",
+        median(&times[mix_all]) / median(&times[all]),
+        median(&paired),
+        load()
+    );
     println!(
         "  plan of the 1,000 edits (EditPlan::new) {:8.3} ms = {:.3}x a derivation; load {}",
         median(&plan_ms),
@@ -525,7 +541,7 @@ fn main() {
     if args.iter().any(|a| a == "--instructions") {
         println!("  instructions (cachegrind; one derivation = (3 derivations - 1) / 2):");
         let mut base = None;
-        for case in CASES.iter().filter(|c| **c != "none/all") {
+        for case in CASES.iter().filter(|c| !c.ends_with("/all")) {
             let (Some(a), Some(c)) = (instructions(case, 1), instructions(case, 3)) else {
                 println!("  valgrind did not run");
                 break;
