@@ -3,7 +3,8 @@
 // and its layers; a street of the base layer dragged with the mouse lands
 // in the sidecar as a move and the view redraws it where it was dropped; a
 // layer's checkbox hides its streets (the sidecar says `visible: false`);
-// the 3D mode shows the city with its buildings. The pictures of the view
+// the 3D mode shows the city with its buildings (a WebGL canvas that draws
+// triangles). The pictures of the view
 // go to target/browser-test/layout-view.png and layout-city.png
 // (docs/img/layout-editor.png is the first).
 //
@@ -112,11 +113,11 @@ test('a street dragged in grmc view lands in the sidecar, the view redraws it, a
   const after = await plan(page);
   for (const a of avenue) assert.ok(!after.streets.some((x) => x.id === a.id), `${a.id} hidden`);
 
-  // 3D: the buildings grown on the parcels, drawn by the server.
+  // 3D: the buildings grown on the parcels, drawn by the page's three.js from the server's mesh buffers.
   await page.locator('#layout-3d').check();
   await page.waitForFunction(() => Number(document.getElementById('layout-city')?.dataset.buildings ?? 0) > 100, undefined, { timeout: 60_000 });
   assert.equal(await page.locator('#layout-city').isVisible(), true);
-  await page.waitForFunction(() => (document.getElementById('layout-city') as HTMLImageElement | null)?.complete === true);
+  await page.waitForFunction(() => Number(document.getElementById('layout-city')?.dataset.drawnTriangles ?? 0) > 0, undefined, { timeout: 30_000 });
   await page.screenshot({ path: join(artifacts, 'layout-city.png') });
   assert.deepEqual(errors, []);
 });

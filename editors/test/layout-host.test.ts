@@ -55,3 +55,39 @@ test("the server's layoutUpdated reaches the page for the shown sidecar only", a
   host.layoutUpdated({ uri: CITY, version: 3 });
   assert.deepEqual(posted.slice(1), [{ type: 'notify', method: 'layoutUpdated', params: { uri: CITY, version: 3 } }]);
 });
+
+test("the 3D mode's city is asked with binary when the server sends blobs, and its blob reaches the page beside the answer", async () => {
+  const posted: HostToPage[] = [];
+  const requests: Array<[string, unknown]> = [];
+  const blob = new ArrayBuffer(12);
+  const taken: number[] = [];
+  const deps: HostDeps = {
+    request: async (method, params) => {
+      requests.push([method, params]);
+      return { encoding: 'blob-le', blob: { id: 5, bytes: 12 }, parts: [] };
+    },
+    readFile: async () => null,
+    writeFile: async () => {},
+    savePicture: async () => null,
+    reveal: async () => {},
+    fsPath: (uri) => (uri.startsWith('file://') ? uri.slice('file://'.length) : null),
+    post: (m) => posted.push(m),
+    blobs: {
+      enabled: () => true,
+      take: (id) => {
+        taken.push(id);
+        return id === 5 ? blob : undefined;
+      },
+    },
+  };
+  const host = new PreviewHost(deps);
+  const grm = 'file:///w/city.grm';
+  host.setDocument(grm, 'city.grm');
+  await host.handle({ type: 'ready' });
+  await host.handle({ type: 'request', id: 7, method: 'layoutCity', params: { uri: grm } });
+  assert.deepEqual(requests, [['grm/layoutCity', { uri: grm, binary: true }]]);
+  assert.deepEqual(taken, [5]);
+  const last = posted.at(-1) as { type: string; id: number; blob?: ArrayBuffer };
+  assert.equal(last.id, 7);
+  assert.equal(last.blob, blob, 'the blob goes beside the answer');
+});

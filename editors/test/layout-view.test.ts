@@ -7,14 +7,13 @@ import assert from 'node:assert/strict';
 import { test } from 'node:test';
 import {
   type LayoutStreet,
-  cityCaption,
   decodeLayout,
-  decodeLayoutCity,
   decodeLayoutEdit,
   distToPolyline,
   draggedStreets,
   fitView,
   hitStreet,
+  isGrmUri,
   isLayoutUri,
   moveOp,
   parseTags,
@@ -159,8 +158,14 @@ test("the server's answers decode; malformed ones throw", () => {
   assert.equal(decodeLayoutEdit({ applied: true, written: true, newLayer: 2 }).newLayer, 2);
 });
 
-test("the 3D mode's answer decodes and its caption says what grew and what the cache kept", () => {
-  const c = decodeLayoutCity({ uri: 'file:///c.layout.json', png: 'iVBO', width: 10, height: 10, buildings: 196, reused: 181, parcels: 197, triangles: 9, problems: [], growMs: 18.4 });
-  assert.equal(cityCaption(c), '196 buildings on 197 parcels; 15 grown in 18 ms, 181 kept from the last update');
-  assert.throws(() => decodeLayoutCity({ png: 1 }));
+test("a grammar is offered the view (its layout item), and the answer says the item and the sidecar it edits", () => {
+  assert.ok(isGrmUri('file:///x/city.grm'));
+  assert.ok(!isGrmUri('file:///x/city.layout.json'));
+  assert.ok(!isGrmUri('file:///x/.grm'));
+  const probe = decodeLayout({ uri: 'file:///x/city.grm', version: 1, item: 'City', sidecar: 'file:///x/city.layout.json', layers: [], streets: [], parcels: [], problems: [], invalid: [], bounds: [0, 0, 0, 0] });
+  assert.equal(probe.item, 'City');
+  assert.equal(probe.sidecar, 'file:///x/city.layout.json');
+  const side = decodeLayout({ layers: [], streets: [], parcels: [] });
+  assert.equal(side.item, null, 'a sidecar has no item');
+  assert.equal(side.sidecar, null);
 });

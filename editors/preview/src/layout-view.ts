@@ -1,7 +1,9 @@
 // The preview page's layout view (issue 29, item 6; docs/layout.md, "In the
-// editor"): a top-down plan of a `NAME.layout.json` city layout, drawn as
-// SVG from the language server's `grm/layout` (the merged streets, parcels
-// and layers). The layers are listed and toggled; a street is dragged
+// editor"): a top-down plan of a city layout, a `NAME.layout.json` sidecar
+// or a `.grm` file's `layout` item (offered by a toolbar button when the
+// grammar has one; its edits go to the sidecar beside it), drawn as SVG
+// from the language server's `grm/layout` (the merged streets, parcels and
+// layers), or in 3D (layout-3d.ts: the buildings on the parcels, three.js). The layers are listed and toggled; a street is dragged
 // (simple selection), or a street continuation, a soft selection around the
 // pointer, or a drawn region; the selected street is protected, cut to a new
 // layer, or given an anchored assignment. Every operator goes through the
@@ -13,6 +15,8 @@
 // The pure parts (the view's fit, hit tests, regions, tags, the operators'
 // JSON, the answer's decoding) are exported for the unit tests
 // (editors/test/layout-view.test.ts).
+
+import { City3D, cityCaption, decodeLayoutCity } from './layout-3d.js';
 
 export type Pt = [number, number];
 
@@ -52,6 +56,10 @@ export interface LayoutProblem {
 
 export interface LayoutAnswer {
   version: number | null;
+  /** A grammar's layout item (its name); null for a sidecar. */
+  item: string | null;
+  /** The sidecar the edits are written to (a grammar's may not exist yet). */
+  sidecar: string | null;
   layers: LayoutLayer[];
   streets: LayoutStreet[];
   parcels: LayoutParcel[];
@@ -71,6 +79,11 @@ export interface LayoutEditAnswer {
 /** Whether a document is a layout sidecar (shown by this view, not grown). */
 export function isLayoutUri(uri: string): boolean {
   return /[^/]\.layout\.json$/i.test(uri);
+}
+
+/** Whether a document is a grammar (which may have a `layout` item: the view is offered for it). */
+export function isGrmUri(uri: string): boolean {
+  return /[^/]\.grm$/i.test(uri);
 }
 
 function obj(v: unknown, what: string): Record<string, unknown> {
@@ -119,6 +132,8 @@ export function decodeLayout(raw: unknown): LayoutAnswer {
   };
   return {
     version: typeof o.version === 'number' ? o.version : null,
+    item: typeof o.item === 'string' ? o.item : null,
+    sidecar: typeof o.sidecar === 'string' ? o.sidecar : null,
     layers: list(o.layers, 'layers').map((l, i) => {
       const x = obj(l, `layers[${i}]`);
       return {
@@ -316,33 +331,8 @@ export interface LayoutHost {
   request(method: 'layout' | 'layoutEdit' | 'layoutCity', params: unknown): Promise<unknown>;
 }
 
-/** A `grm/layoutCity` answer: the city with its buildings as a picture. */
-export interface LayoutCity {
-  png: string;
-  buildings: number;
-  reused: number;
-  parcels: number;
-  growMs: number;
-  problems: LayoutProblem[];
-}
-
-export function decodeLayoutCity(raw: unknown): LayoutCity {
-  const o = obj(raw, 'layoutCity');
-  return {
-    png: str(o.png, 'png'),
-    buildings: num(o.buildings, 'buildings'),
-    reused: num(o.reused, 'reused'),
-    parcels: num(o.parcels, 'parcels'),
-    growMs: num(o.growMs, 'growMs'),
-    problems: problems(o.problems, 'problems'),
-  };
-}
-
-/** What the 3D mode says under its picture. */
-export function cityCaption(c: LayoutCity): string {
-  const grown = c.buildings - c.reused;
-  return `${c.buildings} buildings on ${c.parcels} parcels; ${grown} grown in ${c.growMs.toFixed(0)} ms, ${c.reused} kept from the last update`;
-}
+export { cityCaption, decodeLayoutCity } from './layout-3d.js';
+export type { LayoutCity } from './layout-3d.js';
 
 const SVG = 'http://www.w3.org/2000/svg';
 
@@ -375,7 +365,12 @@ export class LayoutView {
   private readonly radius: HTMLInputElement;
   private readonly tags: HTMLInputElement;
   private readonly threeD: HTMLInputElement;
-  private readonly picture: HTMLImageElement;
+  private readonly city = new City3D();
+  /** The toolbar's button that opens the view for a grammar with a `layout` item. */
+  readonly openButton: HTMLButtonElement;
+  private readonly closeButton: HTMLButtonElement;
+  /** The grammar the open button offers (its probe answered with an item). */
+  private offered = '';
   private uri = '';
   private answer: LayoutAnswer | null = null;
   private fit: ViewFit | null = null;
@@ -395,15 +390,22 @@ export class LayoutView {
     this.plan = document.createElementNS(SVG, 'svg') as SVGSVGElement;
     this.plan.id = 'layout-plan';
     this.plan.style.cssText = 'flex:1;min-width:0;height:100%;touch-action:none;cursor:crosshair';
-    this.picture = el('img');
-    this.picture.id = 'layout-city';
-    this.picture.hidden = true;
-    this.picture.alt = 'the city with its buildings';
-    this.picture.style.cssText = 'flex:1;min-width:0;height:100%;object-fit:contain';
+    this.city.canvas.style.display = 'none';
+    this.openButton = el('button', 'Layout');
+    this.openButton.id = 'layout-open';
+    this.openButton.hidden = true;
+    this.openButton.title = "The grammar's city layout: its layers, streets and parcels to drag, and the buildings in 3D";
+    this.openButton.addEventListener('click', () => {
+      if (this.offered) void this.show(this.offered);
+    });
+    this.closeButton = el('button', 'Back to the preview');
+    this.closeButton.id = 'layout-close';
+    this.closeButton.hidden = true;
+    this.closeButton.addEventListener('click', () => this.hide());
     const side = el('div');
     side.id = 'layout-side';
     side.style.cssText = 'width:260px;overflow-y:auto;padding:8px;border-left:1px solid #3a3b40;background:#242528';
-    side.append(el('h3', 'Layers'));
+    side.append(this.closeButton, el('h3', 'Layers'));
     this.layersList = el('div');
     this.layersList.id = 'layout-layers';
     this.threeD = el('input');
@@ -465,7 +467,7 @@ export class LayoutView {
     this.problemsList.id = 'layout-problems';
     this.problemsList.style.cssText = 'padding-left:16px;color:#e9a';
     side.append(this.status, el('h3', 'Problems'), this.problemsList);
-    this.root.append(this.plan, this.picture, side);
+    this.root.append(this.plan, this.city.canvas, side);
     this.plan.addEventListener('pointerdown', (e) => this.down(e));
     this.plan.addEventListener('pointermove', (e) => this.move(e));
     this.plan.addEventListener('pointerup', (e) => void this.up(e));
@@ -479,15 +481,18 @@ export class LayoutView {
     return !this.root.hidden;
   }
 
-  /** Show a layout sidecar (VS Code: the active editor's; `grmc view`: its file). */
+  /** Show a layout sidecar or a grammar's layout item (VS Code: the active editor's; `grmc view`: its file). */
   show(uri: string): Promise<void> {
     if (uri !== this.uri) {
       this.uri = uri;
       this.answer = null;
       this.fit = null;
       this.selection = null;
+      this.city.reframe();
     }
     this.root.hidden = false;
+    // A grammar's view closes back to its preview; a sidecar has none.
+    this.closeButton.hidden = !isGrmUri(uri);
     return this.reload();
   }
 
@@ -496,7 +501,28 @@ export class LayoutView {
     this.uri = '';
   }
 
-  /** The sidecar changed (the server's `layoutUpdated`). */
+  /**
+   * Another document is shown (not a sidecar): the view closes, and for a
+   * grammar with a `layout` item the toolbar offers it (the server's probe
+   * says, building nothing).
+   */
+  async offer(uri: string): Promise<void> {
+    if (this.shown && this.uri !== uri) this.hide();
+    this.offered = '';
+    this.openButton.hidden = true;
+    if (!isGrmUri(uri)) return;
+    try {
+      const a = decodeLayout(await this.host.request('layout', { uri, probe: true }));
+      if (!a.item) return;
+      this.offered = uri;
+      this.openButton.textContent = `Layout ${a.item}`;
+      this.openButton.hidden = false;
+    } catch {
+      // No layout item (or the grammar does not check): nothing to offer.
+    }
+  }
+
+  /** The layout changed (the server's `layoutUpdated`: the sidecar, or the grammar of a shown item). */
   updated(params: unknown): void {
     const p = (params ?? {}) as { uri?: unknown };
     if (this.shown && p.uri === this.uri && !this.busy) void this.reload();
@@ -507,8 +533,10 @@ export class LayoutView {
       this.answer = decodeLayout(await this.host.request('layout', { uri: this.uri }));
     } catch (e) {
       this.setStatus(`layout: ${(e as Error).message}`);
+      this.root.dataset.error = (e as Error).message;
       return;
     }
+    delete this.root.dataset.error;
     this.activeLayer = Math.min(this.activeLayer, Math.max(0, this.answer.layers.length - 1));
     this.draw();
     this.listLayers();
@@ -519,7 +547,7 @@ export class LayoutView {
   private async showMode(): Promise<void> {
     const three = this.threeD.checked;
     this.plan.style.display = three ? 'none' : '';
-    this.picture.hidden = !three;
+    this.city.canvas.style.display = three ? 'block' : 'none';
     if (three) await this.drawCity();
     else {
       this.fit = null;
@@ -527,16 +555,15 @@ export class LayoutView {
     }
   }
 
-  /** Ask the server to grow the city (only the parcels that changed) and show its picture. */
+  /** Ask the server to grow the city (only the parcels that changed) and draw its model in 3D. */
   private async drawCity(): Promise<void> {
-    const r = this.root.getBoundingClientRect();
-    const w = Math.max(64, Math.round(r.width - 260));
-    const h = Math.max(64, Math.round(r.height));
     try {
-      const c = decodeLayoutCity(await this.host.request('layoutCity', { uri: this.uri, width: w, height: h }));
-      this.picture.src = `data:image/png;base64,${c.png}`;
-      this.picture.dataset.buildings = String(c.buildings);
-      this.picture.dataset.reused = String(c.reused);
+      const c = decodeLayoutCity(await this.host.request('layoutCity', { uri: this.uri }));
+      this.city.setModel(c.model);
+      const d = this.city.canvas.dataset;
+      d.buildings = String(c.buildings);
+      d.reused = String(c.reused);
+      d.edited = String(c.edited);
       this.setStatus(cityCaption(c));
       const answer = this.answer;
       if (answer) this.problemsList.replaceChildren(...[...answer.problems, ...c.problems.filter((p) => !answer.problems.some((q) => q.message === p.message))].map((p) => el('li', `${p.code}: ${p.message}`)));
@@ -613,6 +640,7 @@ export class LayoutView {
           'stroke-linecap': 'round',
           'stroke-dasharray': s.protected ? '6 3' : '',
           'data-street': s.id,
+          'data-layer-id': s.layerId ?? '',
           'data-layer': s.layer === null ? '' : String(s.layer),
         }),
       );

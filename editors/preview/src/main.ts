@@ -307,6 +307,7 @@ class App {
   constructor(private readonly transport: Transport) {
     this.layoutView = new LayoutView({ request: (m, p) => this.transport.request(m, p) });
     document.body.append(this.layoutView.root);
+    $('toolbar').append(this.layoutView.openButton);
     this.scene = new PreviewScene($<HTMLCanvasElement>('view'));
     this.treePanel = new TreePanel(
       $('tree-view'),
@@ -465,7 +466,8 @@ class App {
       return;
     }
     if (method === 'document' && typeof p.uri === 'string') {
-      if (this.layoutView.shown) this.layoutView.hide();
+      // A grammar with a `layout` item: the toolbar offers its layout view.
+      void this.layoutView.offer(p.uri);
       // Another document, or the same one after the host's server restarted: any version is news.
       this.shownVersion.reset();
       if (p.uri !== this.state.uri) {

@@ -202,8 +202,8 @@ export class HttpTransport implements Transport {
   }
 
   async request(method: Method, params: unknown, timing?: RequestTiming): Promise<unknown> {
-    // The page reads protocol 3: a preview's buffers come as a blob, fetched apart (`withBlob`).
-    const sent = method === 'preview' && params !== null && typeof params === 'object' ? { ...params, binary: true } : params;
+    // The page reads protocol 3: a preview's (and a city's) buffers come as a blob, fetched apart (`withBlob`).
+    const sent = (method === 'preview' || method === 'layoutCity') && params !== null && typeof params === 'object' ? { ...params, binary: true } : params;
     const res = await this.fetchFn(`${this.base}/api/${method}`, {
       method: 'POST',
       headers: { 'content-type': 'application/json' },

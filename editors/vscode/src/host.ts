@@ -196,7 +196,7 @@ export class PreviewHost {
     try {
       const result = await this.answer(msg.method, msg.params);
       // A preview's buffers (protocol 3) go beside it as an ArrayBuffer, which the webview receives without a copy through JSON.
-      const blob = msg.method === 'preview' ? this.takeBlob(result) : undefined;
+      const blob = msg.method === 'preview' || msg.method === 'layoutCity' ? this.takeBlob(result) : undefined;
       this.deps.post(blob ? { type: 'response', id: msg.id, result, blob } : { type: 'response', id: msg.id, result });
     } catch (e) {
       const error = e instanceof Error ? e.message : String(e);
@@ -285,11 +285,16 @@ export class PreviewHost {
         return this.deps.request('grm/tree', params);
       }
       case 'layout':
-      case 'layoutEdit':
-      case 'layoutCity': {
+      case 'layoutEdit': {
         // A city layout's view (issue 29): the server applies an operator as a workspace edit (one undo step).
         this.checkUri(params);
         return this.deps.request(`grm/${method}`, params);
+      }
+      case 'layoutCity': {
+        // The city's model: its buffers as a blob (protocol 3) where the server sends blobs.
+        this.checkUri(params);
+        const binary = this.deps.blobs?.enabled() === true && isObject(params);
+        return this.deps.request('grm/layoutCity', binary ? { ...params, binary: true } : params);
       }
       case 'edit':
       case 'removeEdit':
