@@ -38,6 +38,7 @@ use std::ops::Range;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use crate::expand::Carried;
 use grm_compile::CompiledSystem;
 use grm_compile::rng::{self, DrawCtx};
 use grm_compile::select::{self, AltError};
@@ -180,7 +181,7 @@ pub struct Engine<'a> {
     /// becomes and how many of each. The derivation then carries the
     /// string's symbol histogram from one iteration to the next and the
     /// one-chunk path counts from it instead of scanning the string.
-    succ_hist: Option<Vec<Vec<(u32, u64)>>>,
+    pub(crate) succ_hist: Option<Vec<Vec<(u32, u64)>>>,
     /// Per successor module (parallel to `sys.succ`, then `2 * PAD`
     /// zeros): symbol, word offset.
     succ_syms: Vec<u32>,
@@ -898,6 +899,7 @@ impl<'a> Engine<'a> {
         stats.push(first);
         let mut cumulative = 0u64;
         let mut processed = 0u64;
+        let mut carried = Carried::default();
         let mut hist = self.succ_hist.as_ref().map(|_| {
             let mut h = vec![0u64; self.sym_words.len()];
             for &s in &string.syms {
@@ -908,8 +910,14 @@ impl<'a> Engine<'a> {
         for iteration in 1..=opts.iterations {
             let t = Instant::now();
             processed += string.len() as u64;
-            let next =
-                self.step_counted(&string, iteration, opts.seed, &opts.limits, hist.as_mut())?;
+            let next = self.step_counted(
+                &string,
+                iteration,
+                opts.seed,
+                &opts.limits,
+                hist.as_mut(),
+                Some(&mut carried),
+            )?;
             // Recycle the input before reporting, so the peak stays at one
             // input plus one output (and the spares).
             self.recycle(std::mem::replace(&mut string, next));
@@ -989,7 +997,7 @@ impl<'a> Engine<'a> {
         limits: &DeriveLimits,
     ) -> Result<ModuleString, DeriveError> {
         let input = self.check_input(input)?;
-        self.step_counted(&input, iteration, seed, limits, None)
+        self.step_counted(&input, iteration, seed, limits, None, None)
     }
 
     /// The productions applied by step `iteration` to `input`: per input
@@ -1139,10 +1147,22 @@ impl<'a> Engine<'a> {
         seed: u32,
         limits: &DeriveLimits,
         hist: Option<&mut Vec<u64>>,
+        carried: Option<&mut Carried>,
     ) -> Result<ModuleString, DeriveError> {
         let n = input.len();
-        let chunks = self.chunks(n);
+        let mut chunks = self.chunks(n);
         let parallel = chunks.len() > 1;
+        // Several chunks: their counts from carried histograms (no count
+        // pass; `expand.rs`) where no symbol needs a decision.
+        let mut from_chunks = None;
+        if let Some(c) = carried {
+            if !parallel {
+                *c = Carried::default();
+            } else if let Some((ch, counts)) = self.counts_carried(&input.syms, c) {
+                chunks = ch;
+                from_chunks = Some(counts);
+            }
+        }
         // Counts from the histogram (exact: no symbol needs a decision).
         let mut from_hist = None;
         if let (Some(h), Some(sh)) = (hist, &self.succ_hist) {
@@ -1173,6 +1193,8 @@ impl<'a> Engine<'a> {
         let counts: Vec<Result<(u64, u64, u64, u64), RuntimeError>> =
             if let Some((m, w, iw)) = from_hist {
                 vec![Ok((m, w, iw, 0))]
+            } else if let Some(counts) = from_chunks {
+                counts.into_iter().map(Ok).collect()
             } else if parallel {
                 self.in_pool(|| {
                     chunks
@@ -1282,7 +1304,7 @@ impl<'a> Engine<'a> {
     /// The implicit words a module of symbol `s` leaves behind when the
     /// fast path rewrites or copies it (`counts`).
     #[inline]
-    fn implicit_words_of(&self, s: usize) -> u32 {
+    pub(crate) fn implicit_words_of(&self, s: usize) -> u32 {
         match self.counts[s].0 {
             COPY => self.implicit_sym[s],
             SLOW => 0,

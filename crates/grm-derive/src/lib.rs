@@ -27,6 +27,7 @@ mod compact;
 pub mod edits;
 pub mod engine;
 mod error;
+mod expand;
 mod pages;
 pub mod string;
 
