@@ -39,6 +39,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use crate::expand::Carried;
+use crate::fan::Fan;
 use grm_compile::CompiledSystem;
 use grm_compile::rng::{self, DrawCtx};
 use grm_compile::select::{self, AltError};
@@ -204,6 +205,8 @@ pub struct Engine<'a> {
     ariths: Vec<Arith>,
     /// Per alternative.
     pub(crate) plans: Vec<Plan>,
+    /// The successors of [`Act::Fan`].
+    fans: Vec<Fan>,
     /// Per symbol: what the rewrite does with it ([`Act`]).
     pub(crate) acts: Vec<Act>,
     /// Per symbol: its action is a copy ([`Act::Copy0`], [`Act::Copy`]).
@@ -264,13 +267,13 @@ pub(crate) struct Plan {
     pub(crate) len: u32,
     pub(crate) words: u32,
     /// Start of its parameter template in `tpl`.
-    tpl: u32,
+    pub(crate) tpl: u32,
     /// Its patches: `patches[patch_lo .. patch_hi]`.
-    patch_lo: u32,
-    patch_hi: u32,
+    pub(crate) patch_lo: u32,
+    pub(crate) patch_hi: u32,
     /// Every patch is [`Patch::Arith`] (none can fault but by a
     /// non-finite value).
-    arith: bool,
+    pub(crate) arith: bool,
 }
 
 /// A symbol whose one production always applies and rewrites it into one
@@ -309,6 +312,11 @@ pub(crate) enum Act {
     /// move and its patches into that window without bounds checks, the
     /// non-finite test folded into one bit for the whole successor.
     Small(u32),
+    /// [`Act::Small`] where every stored word of the successor is an
+    /// arithmetic patch of the same binding word (the row of trees' `F`):
+    /// `fans[i]`, its words computed as one vector multiply-add
+    /// (`fan.rs`).
+    Fan(u32),
     /// The groups must be tried ([`Engine::decide`]).
     Slow,
 }
@@ -320,7 +328,7 @@ pub(crate) enum Act {
 /// positions of the chunk's output that the following modules' successors
 /// overwrite (the rewrite writes its output in order, every position
 /// once), or are never reached when the output has no room.
-const PAD: usize = 8;
+pub(crate) const PAD: usize = 8;
 
 /// How one non-constant successor parameter is computed. The arithmetic
 /// forms are the bytecode `load a; const k; mul|add|sub w1; ret` (or
@@ -679,6 +687,7 @@ impl<'a> Engine<'a> {
                     .all(|p| matches!(p, Patch::Arith { .. })),
             });
         }
+        let mut fans = Vec::new();
         let acts: Vec<Act> = (0..n)
             .map(|i| {
                 let alt = fast[i];
@@ -723,7 +732,21 @@ impl<'a> Engine<'a> {
                             }
                             _ => false,
                         });
-                if small {
+                let arith = |p: &Patch| match *p {
+                    Patch::Arith { dst, src, m, a, .. } => Some((dst, src, m, a)),
+                    _ => None,
+                };
+                let fan = Fan::of(
+                    plan,
+                    patches[plan.patch_lo as usize..plan.patch_hi as usize]
+                        .iter()
+                        .map(arith),
+                    sym_words[i],
+                );
+                if let (true, Some(fan)) = (small, fan) {
+                    fans.push(fan);
+                    Act::Fan(fans.len() as u32 - 1)
+                } else if small {
                     Act::Small(alt)
                 } else {
                     Act::Plan(alt)
@@ -777,6 +800,7 @@ impl<'a> Engine<'a> {
             patches,
             ariths,
             plans,
+            fans,
             copies: acts
                 .iter()
                 .map(|a| matches!(a, Act::Copy0 | Act::Copy(_)))
@@ -1463,7 +1487,7 @@ impl<'a> Engine<'a> {
         // The tables, hoisted out of the loop (the compiler reloads fields
         // behind `self` after every store otherwise).
         let (acts, plans, sym_words) = (&self.acts[..], &self.plans[..], &self.sym_words[..]);
-        let (ariths, tpls) = (&self.ariths[..], &self.tpl[..]);
+        let (ariths, tpls, fans) = (&self.ariths[..], &self.tpl[..], &self.fans[..]);
         let (ikeys, salts) = (step.keys, &self.succ_salts[..]);
         /// `ksucc`: the module was copied (keeps its key).
         const KCOPY: u32 = u32::MAX;
@@ -1713,6 +1737,26 @@ impl<'a> Engine<'a> {
                     o += plan.len as usize;
                     wo += words;
                     wi += n;
+                }
+                Act::Fan(f) => {
+                    let fan = &fans[f as usize];
+                    let plan = fan.plan;
+                    ksucc = plan.succ;
+                    let (v, bad) = fan.apply(iparams[wi + fan.src as usize]);
+                    let mut out = out_at!(o, wo);
+                    self.emit_syms(plan, &mut out);
+                    let words = plan.words as usize;
+                    match oparams.get_mut(wo..wo + PAD) {
+                        Some(d) => d.copy_from_slice(&v),
+                        None => oparams[wo..wo + words].copy_from_slice(&v[..words]),
+                    }
+                    if bad {
+                        let patches = &self.patches[plan.patch_lo as usize..plan.patch_hi as usize];
+                        return Err(self.non_finite(step, i, &oparams[wo..wo + words], patches));
+                    }
+                    o += plan.len as usize;
+                    wo += words;
+                    wi += sym_words[s] as usize;
                 }
                 Act::Slow => {
                     let n = sym_words[s] as usize;

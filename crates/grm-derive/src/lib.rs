@@ -28,6 +28,7 @@ pub mod edits;
 pub mod engine;
 mod error;
 mod expand;
+mod fan;
 mod pages;
 pub mod string;
 
