@@ -1520,21 +1520,26 @@ impl<'a> Engine<'a> {
                 // instead of a dispatch per module (Hilbert 3D's `F` and
                 // turns between its rewritten symbols).
                 let mut j = i + 1;
-                while j < end && copies[isyms[j] as usize] {
-                    j += 1;
-                }
-                let len = j - i;
                 let wj = if iwalk {
-                    let mut wj = wi;
-                    for &t in &isyms[i..j] {
-                        wj += sym_words[t as usize] as usize;
+                    // Walked words: the widths added up while the run is
+                    // found (one pass over it).
+                    let mut wj = wi + sym_words[s] as usize;
+                    while j < end {
+                        let t = isyms[j] as usize;
+                        if !copies[t] {
+                            break;
+                        }
+                        wj += sym_words[t] as usize;
+                        j += 1;
                     }
                     wj
-                } else if ino {
-                    wi
                 } else {
-                    istarts[j] as usize
+                    while j < end && copies[isyms[j] as usize] {
+                        j += 1;
+                    }
+                    if ino { wi } else { istarts[j] as usize }
                 };
+                let len = j - i;
                 let words = wj - wi;
                 if len == 1 {
                     // One module (a turn between two rewritten `F`s):
