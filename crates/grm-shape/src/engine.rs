@@ -607,32 +607,31 @@ impl Engine<'_> {
                 return Err(Overflow);
             }
             // The shape's replay state, popped in step with the stack.
-            let carried = match replay.as_mut() {
-                Some(r) => r.take(),
-                None => Carried::NONE,
-            };
+            let carried = replay.as_mut().map(Replay::take);
             let shape = &job.nodes[at as usize];
             let NodeKind::Shape { symbol, .. } = shape.kind else {
                 continue;
             };
             if at > 0 && cut.is_some_and(|d| shape.depth >= d) {
                 job.cut.push((at, job.nodes.len() as u32));
-                if replay.is_some() {
-                    job.cut_carried.push(carried);
+                if let Some(c) = carried {
+                    job.cut_carried.push(c);
                 }
                 continue;
             }
             let start = job.nodes.len();
             scratch.force = None;
-            let mut forced = carried.forced;
-            if let (Some(plan), Some(r)) = (self.edits, replay.as_mut()) {
+            let mut forced = Forced::default();
+            let mut state = replay::NONE;
+            if let (Some(plan), Some(r), Some(c)) = (self.edits, replay.as_mut(), carried) {
+                (forced, state) = (c.forced, c.state);
                 let here = at as usize;
-                if plan.may_match(carried.state, symbol, job.nodes[here].key) {
+                if plan.may_match(state, symbol, job.nodes[here].key) {
                     r.matched.clear();
                     plan.matches(
                         &job.nodes,
                         here,
-                        carried.state,
+                        state,
                         &scratch.prefix.tags,
                         &mut r.tags,
                         &mut r.read,
@@ -733,16 +732,7 @@ impl Engine<'_> {
             }
             if let (Some(plan), Some(r)) = (self.edits, replay.as_mut()) {
                 let shapes = (stack.len() - before) as u32;
-                replay_block(
-                    plan,
-                    r,
-                    &mut job.nodes,
-                    at,
-                    start,
-                    shapes,
-                    carried.state,
-                    forced,
-                );
+                replay_block(plan, r, &mut job.nodes, at, start, shapes, state, forced);
             }
         }
         job.ordered = !scratch.unordered;
