@@ -10,22 +10,26 @@
 //! compiled system by the caller (`grm_grow` reads the edits file and
 //! names parameters); this crate knows no file.
 //!
-//! The replay runs only when a plan is given ([`Engine::with_edits`]),
-//! inside the engine's own rewrite loop through its `Replay` hooks (the
-//! plain derivation passes `()`, which compiles to the plain loop, so a
-//! derivation without edits costs what it did); a step that records its
-//! decisions (`edited_step` with a record) takes a second loop of its own
-//! that writes the same string. Either keeps the engine's structure
-//! (count, scan, rewrite over chunks in parallel, the same decisions,
-//! `emit` and keys) and adds:
+//! The replay runs only when a plan is given ([`Engine::with_edits`]), in
+//! pieces of at most 4,096 input modules: a piece no edit reaches (no
+//! module of it carries a tag) is the engine's plain rewrite, its written
+//! keys then scanned; another is the engine's own rewrite loop through its
+//! `Replay` hooks (the plain derivation passes `()`, which compiles to the
+//! plain loop, so a derivation without edits costs what it did); a step
+//! that records its decisions (`edited_step` with a record) takes a second
+//! loop of its own that writes the same string. Either keeps the engine's
+//! structure (count, scan, rewrite over chunks in parallel, the same
+//! decisions, `emit` and keys) and adds:
 //!
-//! - a **tag** per module of the string (0: no edit reaches it), carried
+//! - a **tag** per module of the string (0: no edit reaches it; no tag
+//!   buffer at all until an edit makes the first tag), carried
 //!   by copies and inherited by successors: the alternative a `force`
 //!   edit imposes on the module's own rewrite, and the **scope** of `set`
 //!   and `offset` edits of its ancestors (and its own), applied to every
 //!   successor module as it is written;
 //! - per successor module written, its key looked up in the plan (a bit of
-//!   a 65,536-bit filter, then a hash map on a hit): a module whose key
+//!   a 65,536-bit filter, tested eight keys at a time: an AVX2 gather where
+//!   the CPU has it, `filter.rs`; then a hash map on a hit): a module whose key
 //!   has edits is settled after the chunk's rewrite, in position order on
 //!   one thread: removed (a `[` or `]` with the whole branch to its
 //!   partner), its key replaced by a pinned one, its values set (its own
@@ -35,6 +39,8 @@
 //! Determinism: decisions and values depend only on the input string, its
 //! tags, the seed and the iteration, never on the chunking; tags are
 //! created in position order. The output is the same for any thread count.
+
+mod filter;
 
 use std::collections::{HashMap, HashSet};
 use std::time::Instant;
@@ -105,9 +111,6 @@ struct Node {
 /// whose modules carry no tag is rewritten by the engine's own loop.
 const EDIT_PIECE: usize = 4096;
 
-/// Bits of the key filter (a power of two).
-const FILTER_BITS: usize = 1 << 16;
-
 /// The bit of a tag whose entry forces an alternative (the rest: its
 /// index in [`Table::entries`]), so that a piece without forced modules
 /// is found by OR-ing its tags.
@@ -118,8 +121,8 @@ const FORCED: u32 = 1 << 31;
 pub struct EditPlan {
     nodes: Vec<Node>,
     index: HashMap<u32, u32>,
-    /// Bit `key % FILTER_BITS` set for every key with edits.
-    filter: Box<[u64; FILTER_BITS / 64]>,
+    /// A bit set for every key with edits (its low bits).
+    filter: filter::KeyFilter,
     /// Per slot, per symbol: where the slot's parameter is.
     slots: Vec<Vec<SlotTarget>>,
 }
@@ -136,7 +139,7 @@ impl EditPlan {
         EditPlan {
             nodes: Vec::new(),
             index: HashMap::new(),
-            filter: Box::new([0; FILTER_BITS / 64]),
+            filter: filter::KeyFilter::new(),
             slots: Vec::new(),
         }
     }
@@ -167,8 +170,7 @@ impl EditPlan {
                     key,
                     ..Node::default()
                 });
-                let b = key as usize % FILTER_BITS;
-                self.filter[b / 64] |= 1 << (b % 64);
+                self.filter.insert(key);
                 self.nodes.len() - 1
             }
         }
@@ -225,12 +227,25 @@ impl EditPlan {
     /// The node of `key`, if it has edits: one filter bit, then the map.
     #[inline(always)]
     fn lookup(&self, key: u32) -> Option<u32> {
-        // In bounds by construction: no check in the loop that calls it.
-        let b = key as usize % FILTER_BITS;
-        if self.filter[b / 64] & (1 << (b % 64)) == 0 {
+        if !self.filter.maybe(key) {
             return None;
         }
         self.index.get(&key).copied()
+    }
+
+    /// Push a [`Match`] (scope 0) for every key of `keys` with edits, the
+    /// first at output position `base`: the filter tested eight keys at a
+    /// time, the map only where a bit is set.
+    fn scan(&self, keys: &[u32], base: usize, matches: &mut Vec<Match>) {
+        self.filter.scan(keys, |j| {
+            if let Some(&node) = self.index.get(&keys[j]) {
+                matches.push(Match {
+                    pos: base + j,
+                    node,
+                    scope: 0,
+                });
+            }
+        });
     }
 
     /// Apply `values` to the parameter words `params` of a module of
@@ -366,7 +381,11 @@ impl Table {
 /// per module its tag, the tags' table, and what the edits met so far.
 #[derive(Clone, Debug)]
 pub struct EditState {
+    /// Per module of the string its tag; empty while no module has one
+    /// (no buffer until a tag is made).
     tags: Vec<u32>,
+    /// The string's length.
+    len: usize,
     /// The keys of the modules settled so far (a pinned one's new key): a
     /// module with one of them is a copy of one (or a later collision)
     /// and is not edited again.
@@ -427,17 +446,12 @@ struct Hooks<'h, 'o> {
     otags: &'o mut [u32],
     /// The chunk's first output module.
     base: usize,
-    /// Whether a module of the chunk's input carries a tag.
-    tagged: bool,
     matches: Vec<Match>,
 }
 
 impl Replay for Hooks<'_, '_> {
     #[inline(always)]
     fn force(&self, i: usize) -> u32 {
-        if !self.tagged {
-            return 0;
-        }
         let t = self.tags[i];
         if t & FORCED == 0 {
             0
@@ -448,10 +462,8 @@ impl Replay for Hooks<'_, '_> {
 
     #[inline(always)]
     fn copied(&mut self, i: std::ops::Range<usize>, o: usize) {
-        if self.tagged {
-            let n = i.len();
-            copy_small(&mut self.otags[o..o + n], &self.tags[i]);
-        }
+        let n = i.len();
+        copy_small(&mut self.otags[o..o + n], &self.tags[i]);
     }
 
     #[inline(always)]
@@ -462,19 +474,19 @@ impl Replay for Hooks<'_, '_> {
         made: Made<'_>,
         params: &mut [f32],
     ) -> Result<(), crate::error::RuntimeError> {
-        let tag = if self.tagged { self.tags[i] } else { 0 };
+        let tag = self.tags[i];
+        // Most modules made have no edits: one test of all their keys.
+        let maybe = self.plan.filter.any(made.keys);
         if tag == 0 {
-            for (k, &ck) in made.keys.iter().enumerate() {
-                if let Some(node) = self.plan.lookup(ck) {
-                    self.found(o + k, node, 0);
-                }
+            if maybe {
+                self.found_in(o, made.keys, 0);
             }
             return Ok(());
         }
         let scope = self.table.entry(tag).1;
         let inherit = self.table.scope_tag[scope as usize];
         for (k, &ck) in made.keys.iter().enumerate() {
-            if let Some(node) = self.plan.lookup(ck) {
+            if maybe && let Some(node) = self.plan.lookup(ck) {
                 // Settled after the rewrite, its values with it.
                 self.found(o + k, node, scope);
                 continue;
@@ -495,6 +507,18 @@ impl Replay for Hooks<'_, '_> {
 }
 
 impl Hooks<'_, '_> {
+    /// The keys with edits among `keys`, made at `o..`, their parent's
+    /// scope `scope`.
+    #[cold]
+    #[inline(never)]
+    fn found_in(&mut self, o: usize, keys: &[u32], scope: u32) {
+        for (k, &ck) in keys.iter().enumerate() {
+            if let Some(node) = self.plan.lookup(ck) {
+                self.found(o + k, node, scope);
+            }
+        }
+    }
+
     #[cold]
     #[inline(never)]
     fn found(&mut self, o: usize, node: u32, scope: u32) {
@@ -597,7 +621,8 @@ impl<'a> Engine<'a> {
     pub fn edited_axiom(&self, seed: u32) -> Result<(ModuleString, EditState), DeriveError> {
         let mut s = self.axiom(seed)?;
         let mut state = EditState {
-            tags: vec![0; s.len()],
+            tags: Vec::new(),
+            len: s.len(),
             made: HashSet::new(),
             spare: Vec::new(),
             table: Table::new(),
@@ -616,6 +641,7 @@ impl<'a> Engine<'a> {
             let mut tags = std::mem::take(&mut state.tags);
             self.settle(plan, &mut state, &mut s, &mut tags, &matches, 0)?;
             state.tags = tags;
+            state.len = s.len();
         }
         Ok((s, state))
     }
@@ -635,7 +661,7 @@ impl<'a> Engine<'a> {
         record: Option<&mut StepRecord>,
     ) -> Result<ModuleString, DeriveError> {
         let input = &*self.check_input(input)?;
-        if state.tags.len() != input.len() {
+        if state.len != input.len() || !(state.tags.is_empty() || state.tags.len() == state.len) {
             return Err(DeriveError::InvalidInput(
                 "the edit state is not the input string's".into(),
             ));
@@ -651,7 +677,7 @@ impl<'a> Engine<'a> {
             }
             let next = self.step(input, iteration, seed, limits)?;
             state.tags.clear();
-            state.tags.resize(next.len(), 0);
+            state.len = next.len();
             return Ok(next);
         };
         if state
@@ -750,10 +776,13 @@ impl<'a> Engine<'a> {
         // 3. Rewrite.
         let mut out = self.take(m, w);
         // The tags' buffer: the one of the string before the input, kept;
-        // all zeros (the plain pieces leave them so).
+        // all zeros (the plain pieces leave them so). None while the input
+        // has no tag (`settle` makes one when it makes a tag).
         let mut otags = std::mem::take(&mut state.spare);
         otags.clear();
-        otags.resize(m, 0);
+        if !tags.is_empty() {
+            otags.resize(m, 0);
+        }
         let done = {
             let mut parts = Vec::with_capacity(chunks.len());
             let (mut syms, mut starts, mut params) =
@@ -766,7 +795,7 @@ impl<'a> Engine<'a> {
                 syms = rest;
                 let (k, rest) = keys.split_at_mut(cm);
                 keys = rest;
-                let (t, rest) = ts.split_at_mut(cm);
+                let (t, rest) = ts.split_at_mut(if tags.is_empty() { 0 } else { cm });
                 ts = rest;
                 let (st, rest) = starts.split_at_mut(cm);
                 starts = rest;
@@ -809,6 +838,7 @@ impl<'a> Engine<'a> {
             .collect();
         let removed = self.settle(plan, state, &mut out, &mut otags, &matches, iteration)?;
         state.spare = std::mem::replace(&mut state.tags, otags);
+        state.len = out.len();
         let rec = record.then(|| {
             let mask = removed.map(|cut| {
                 let mut mask = vec![false; m];
@@ -870,7 +900,7 @@ impl<'a> Engine<'a> {
         range: std::ops::Range<usize>,
     ) -> Result<(u64, u64), RuntimeError> {
         // No forced module: the engine's own decisions, its count.
-        if tags[range.clone()].iter().fold(0, |a, &t| a | t) & FORCED == 0 {
+        if tags.is_empty() || tags[range.clone()].iter().fold(0, |a, &t| a | t) & FORCED == 0 {
             return self.count_chunk(step, range).map(|(m, w, _, _)| (m, w));
         }
         // The engine's count, each forced module's own decision in place
@@ -972,9 +1002,36 @@ impl<'a> Engine<'a> {
             word_base,
         } = c;
         let input = step.input;
+        let tagged = !tags.is_empty() && tags[range.clone()].iter().fold(0, |a, &t| a | t) != 0;
+        if !tagged {
+            // No edit reaches a module of this piece: the plain rewrite
+            // (the same modules and keys as the edited one), then the keys
+            // written looked up. `otags` is all zeros, or empty (`edited_inner`).
+            self.rewrite_chunk_best::<true, ()>(
+                step,
+                ChunkOut {
+                    range: range.clone(),
+                    syms: &mut *osyms,
+                    keys: &mut *okeys,
+                    starts: &mut *ostarts,
+                    params: &mut *oparams,
+                    word_base,
+                    // An engine with edits stores every word (`starts`).
+                    word_in: input.start(range.start),
+                },
+                &mut (),
+            )?;
+            let mut matches = Vec::new();
+            plan.scan(okeys, base, &mut matches);
+            let decided = if record {
+                self.decide_range(step, range)?
+            } else {
+                Vec::new()
+            };
+            return Ok(ChunkDone { matches, decided });
+        }
         if !record {
             // The engine's own loop with the edits' hooks.
-            let tagged = tags[range.clone()].iter().fold(0, |a, &t| a | t) != 0;
             let mut hooks = Hooks {
                 engine: self,
                 iteration: step.iteration,
@@ -983,7 +1040,6 @@ impl<'a> Engine<'a> {
                 tags,
                 otags,
                 base,
-                tagged,
                 matches: Vec::new(),
             };
             self.rewrite_chunk_best::<true, Hooks<'_, '_>>(
@@ -1003,45 +1059,6 @@ impl<'a> Engine<'a> {
                 matches: hooks.matches,
                 decided: Vec::new(),
             });
-        }
-        if tags[range.clone()].iter().all(|&t| t == 0) {
-            // No edit reaches a module of this piece: the plain rewrite
-            // (the same modules and keys the edited one writes), then the
-            // keys written looked up.
-            self.rewrite_chunk_best::<true, ()>(
-                step,
-                ChunkOut {
-                    range: range.clone(),
-                    syms: &mut *osyms,
-                    keys: &mut *okeys,
-                    starts: &mut *ostarts,
-                    params: &mut *oparams,
-                    word_base,
-                    // An engine with edits stores every word (`starts`).
-                    word_in: input.start(range.start),
-                },
-                &mut (),
-            )?;
-            // `otags` is all zeros (`edited_inner`).
-            let mut matches = Vec::new();
-            for (j, &k) in okeys.iter().enumerate() {
-                let b = k as usize % FILTER_BITS;
-                if plan.filter[b / 64] & (1 << (b % 64)) != 0
-                    && let Some(&node) = plan.index.get(&k)
-                {
-                    matches.push(Match {
-                        pos: base + j,
-                        node,
-                        scope: 0,
-                    });
-                }
-            }
-            let decided = if record {
-                self.decide_range(step, range)?
-            } else {
-                Vec::new()
-            };
-            return Ok(ChunkDone { matches, decided });
         }
         let (isyms, istarts, iparams, ikeys) = (
             &input.syms[..],
@@ -1300,7 +1317,16 @@ impl<'a> Engine<'a> {
                 }
             }
             let force = node.force.map_or(0, |f| f.1);
-            otags[j] = state.table.tag(force, scope);
+            let tag = state.table.tag(force, scope);
+            if tag != 0 {
+                if otags.is_empty() {
+                    // The string's first tag: its buffer.
+                    otags.resize(out.len(), 0);
+                }
+                otags[j] = tag;
+            } else if !otags.is_empty() {
+                otags[j] = 0;
+            }
         }
         state.made.extend(made);
         if cut.is_empty() {
@@ -1379,7 +1405,9 @@ fn compact(out: &mut ModuleString, tags: &mut Vec<u32>, cut: &[std::ops::Range<u
         let delta = (pw as u32).wrapping_sub(out.starts[j]);
         out.syms.copy_within(j..k, w);
         out.keys.copy_within(j..k, w);
-        tags.copy_within(j..k, w);
+        if !tags.is_empty() {
+            tags.copy_within(j..k, w);
+        }
         // Written at `w + (t - j) <= t`, after `t` was read.
         for t in j..k {
             out.starts[w + t - j] = out.starts[t].wrapping_add(delta);
