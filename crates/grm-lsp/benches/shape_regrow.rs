@@ -19,8 +19,11 @@
 //! meta-parameter sent with the request, the analysis cached) costs
 //! answer + send. Last, the whole server in-process: `didChange` to the
 //! `grm/previewUpdated` that carries the new version (debounce 0), and
-//! the same for a slider's `grm/preview` request. Each figure is the median
-//! of the rounds; the ratios are over the 50 ms target.
+//! the same for a slider's `grm/preview` request, with the server's own
+//! build (its answer's `stats`: derive, model, encode) and the rest of the
+//! round trip (the server's road around the build, the transport and the
+//! client) beside them. Each figure is the median of the rounds; the
+//! ratios are over the 50 ms target.
 //!
 //! Protocol 2 (base64 in the JSON) and protocol 3 (`"binary": true`: the
 //! buffers in a blob beside a small JSON message, `grm_lsp::blob`) in the
@@ -295,7 +298,7 @@ fn main() {
             }
             v
         };
-        let (edits, sliders) = rt.block_on(async {
+        let (edits, sliders, builds) = rt.block_on(async {
         let mut c = Client::with_blobs(
             Config {
                 debounce: Duration::ZERO,
@@ -310,11 +313,17 @@ fn main() {
         // once into the pipe).
         let take = |v: &serde_json::Value| {
             black_box(serde_json::to_string(v).expect("json"));
+            // The server's own build (its `stats`), the rest of the round
+            // trip being the server's road around it and the transport.
+            let st = &v["stats"];
+            let built = ["deriveMs", "buildMs", "encodeMs"]
+                .map(|k| st[k].as_f64().expect("stats"));
             if let Some(id) = v["blob"]["id"].as_u64() {
                 black_box(store.get(id).expect("the blob is kept").to_vec());
             } else {
                 assert!(!binary, "protocol 3 sends a blob");
             }
+            built
         };
         let r = c
             .ok(
@@ -324,6 +333,7 @@ fn main() {
             .await;
         assert_eq!(r["mode"], "shape");
         let mut edits = Vec::new();
+        let mut builds = Vec::new();
         for v in 2..rounds as i32 + 2 {
             tokio::time::sleep(Duration::from_millis(50)).await;
             let t = Instant::now();
@@ -341,8 +351,10 @@ fn main() {
             let p = n.params().expect("params");
             assert!(p["result"].is_object(), "{}", p["error"]);
             black_box(serde_json::to_string(p).expect("json"));
-            take(&p["result"]);
-            edits.push(ms(t));
+            let built = take(&p["result"]);
+            let wall = ms(t);
+            edits.push(wall);
+            builds.push((built, wall));
             c.seen.clear();
         }
         let mut sliders = Vec::new();
@@ -350,19 +362,34 @@ fn main() {
             let floors = if k % 2 == 0 { 24.0 } else { 25.0 };
             let t = Instant::now();
             let r = c.ok("grm/preview", slider(floors)).await;
-            take(&r);
-            sliders.push(ms(t));
+            let built = take(&r);
+            let wall = ms(t);
+            sliders.push(wall);
+            builds.push((built, wall));
         }
-        (edits, sliders)
+        (edits, sliders, builds)
     });
-        results.push((binary, edits, sliders));
+        results.push((binary, edits, sliders, builds));
     }
-    for (binary, edits, sliders) in results {
+    for (binary, edits, sliders, builds) in results {
         println!(
             "the server in process (debounce 0), protocol {}:",
             if binary { "3 (binary)" } else { "2 (base64)" }
         );
         total("didChange -> grm/previewUpdated", median(edits));
         total("grm/preview with a slider's value", median(sliders));
+        // Where a round went (edits and sliders together): the server's
+        // own build, as its answer's `stats` time it, and the rest.
+        let stage = |i: usize| builds.iter().map(|(b, _)| b[i]).collect();
+        row("  of which lower + derive (stats.deriveMs)", stage(0));
+        row("  of which model (stats.buildMs)", stage(1));
+        row("  of which encode (stats.encodeMs)", stage(2));
+        row(
+            "  the rest: the server's road and the client",
+            builds
+                .iter()
+                .map(|(b, wall)| wall - b.iter().sum::<f64>())
+                .collect(),
+        );
     }
 }
