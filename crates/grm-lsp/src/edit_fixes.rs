@@ -277,7 +277,13 @@ impl Backend {
                             continue;
                         };
                         let title = retarget_title(now.id, &target, c);
-                        if let Some((span, new_text)) = retargeted(&text, now.id, target) {
+                        // A semantic candidate keeps how many parts it
+                        // selects now (the edit's `selected`).
+                        let selected = (matches!(target, Target::Semantic(_))
+                            && !c.parts.is_empty())
+                        .then_some(c.parts.len() as u32);
+                        if let Some((span, new_text)) = retargeted(&text, now.id, target, selected)
+                        {
                             out.push(action(title, d, span, new_text));
                         }
                     }
@@ -436,23 +442,55 @@ fn retarget_title(id: u32, target: &Target, c: &RetargetOut) -> String {
 /// The new text of the edits file `text` with edit `id`'s target
 /// replaced: written canonically when the file has no problems, else just
 /// that edit's element written again (a rewrite would drop the edits that
-/// have problems).
-fn retargeted(text: &str, id: u32, target: Target) -> Option<(Span, String)> {
+/// have problems). `selected`: the new target's count of parts, for a
+/// semantic one (`Edit::selected`; the old target's is dropped).
+fn retargeted(
+    text: &str,
+    id: u32,
+    target: Target,
+    selected: Option<u32>,
+) -> Option<(Span, String)> {
     let parsed = grm_edits::parse(text);
+    let semantic = matches!(target, Target::Semantic(_));
     if parsed.errors.is_empty() {
         let mut file = parsed.file;
         file.retarget(id, target)?;
+        if let Some(e) = file.edits.iter_mut().find(|e| e.id == id) {
+            e.selected = selected.filter(|_| semantic);
+        }
         return Some(minimal_edit(text, &grm_edits::write(&file)));
     }
     let mut e = parsed.file.get(id)?.clone();
     let span = e.span;
     e.target = target;
+    e.selected = selected.filter(|_| semantic);
     Some((span, grm_edits::write_edit(&e)))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_semantic_retarget_records_its_count_and_an_exact_one_drops_it() {
+        let text = grm_edits::write(&{
+            let mut f = grm_edits::EditsFile::default();
+            f.add("S", Target::Key(1), grm_edits::Op::Remove);
+            f
+        });
+        let q: Target = Target::Semantic("(floor = 2) Window".parse().unwrap());
+        let (span, new) = retargeted(&text, 1, q, Some(3)).unwrap();
+        let mut t = text.clone();
+        t.replace_range(span.range(), &new);
+        let f = grm_edits::parse(&t).file;
+        assert_eq!(f.version, 2, "{t}");
+        assert_eq!(f.edits[0].selected, Some(3), "{t}");
+        let exact = Target::Exact("{Lot, #1, A}".parse().unwrap());
+        let (span, new) = retargeted(&t, 1, exact, Some(3)).unwrap();
+        let mut u = t.clone();
+        u.replace_range(span.range(), &new);
+        assert_eq!(grm_edits::parse(&u).file.edits[0].selected, None, "{u}");
+    }
 
     #[test]
     fn minimal_edits_keep_the_common_ends() {
