@@ -63,7 +63,9 @@
 //! - `semantic`: its semantic locator as a query (every entry counted from
 //!   the start, its symbol), only where it fits: where that query selects
 //!   the part alone in the unedited tree (a wall beside a window shares
-//!   its tags with the wall on the other side: no query names it alone);
+//!   its tags with the wall on the other side: no query names it alone),
+//!   with its `selected` count, 1 (a query that selects more after the
+//!   mutation is classified ambiguous);
 //! - `key`: its identity key;
 //! - `sem|exact`: the semantic query where it fits, the exact locator
 //!   otherwise.
