@@ -5,7 +5,8 @@
 // beside the grammar (its `base` layer's moves, the item's generated
 // sources not written); the 3D mode draws the city's buildings with the
 // page's three.js (a WebGL canvas with drawn triangles), grown again after
-// a second drag with most buildings kept. The picture goes to
+// a second drag with most buildings kept; a generator's argument changed in
+// the grammar on disk regrows the view. The picture goes to
 // target/browser-test/layout-grm-city.png.
 //
 // Needs: `cargo build -p grmc` (or GRMC=path), Debian's chromium
@@ -13,7 +14,7 @@
 // folder instead of the copy built into grmc.
 
 import assert from 'node:assert/strict';
-import { copyFileSync, readFileSync } from 'node:fs';
+import { copyFileSync, readFileSync, writeFileSync } from 'node:fs';
 import { join } from 'node:path';
 import { test } from 'node:test';
 import { type Page } from 'playwright-core';
@@ -133,6 +134,13 @@ test("a grammar's layout item: offered, dragged into its sidecar, and its buildi
   );
   const again = await page.evaluate(() => ({ ...document.getElementById('layout-city')?.dataset }));
   assert.ok(Number(again.reused) > Number(again.buildings) / 2, `most kept: ${JSON.stringify(again)}`);
+
+  // A generator's argument changed in the grammar on disk: grmc view's watcher tells the server, the view regrows.
+  const baseInfo = () => page.textContent('#layout-layers .layout-layer[data-layer="0"]');
+  const was = await baseInfo();
+  writeFileSync(grm, readFileSync(grm, 'utf8').replace('grid(7, 5, 80, 60, 11)', 'grid(8, 5, 80, 60, 11)'));
+  await page.waitForFunction((old) => document.querySelector('#layout-layers .layout-layer[data-layer="0"]')?.textContent !== old, was, { timeout: 60_000 });
+  assert.notEqual(await baseInfo(), was, 'a wider grid: more base streets');
 
   // Back to the preview of the grammar.
   await page.click('#layout-close');
