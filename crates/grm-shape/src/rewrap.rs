@@ -21,27 +21,34 @@ impl EditPlan {
     /// `tree` (grown with this plan) but resolves to one there given that
     /// shape's exact locator; `None` when there is no such target.
     pub(crate) fn rewrapped(&self, program: &Program, tree: &ShapeTree) -> Option<EditPlan> {
-        if !self
+        // The exact edits that named no shape but resolve to one: their
+        // new paths (nothing is cloned when there are none, the usual case).
+        let moved: Vec<(usize, Target)> = self
             .lowered
             .iter()
-            .any(|e| matches!(e.target, Target::Exact(_)))
-        {
+            .enumerate()
+            .filter_map(|(i, e)| {
+                let Target::Exact(loc) = &e.target else {
+                    return None;
+                };
+                if !tree.edit_hits(e.id).is_some_and(|h| h.is_empty()) {
+                    return None;
+                }
+                match tree.resolve(program, loc) {
+                    Resolution::Found(n) if tree.node(n).is_some_and(|n| n.is_shape()) => {
+                        Some((i, Target::Exact(tree.exact_locator(program, n))))
+                    }
+                    _ => None,
+                }
+            })
+            .collect();
+        if moved.is_empty() {
             return None;
         }
-        let mut changed = false;
         let mut edits = self.lowered.clone();
-        for e in &mut edits {
-            let Target::Exact(loc) = &e.target else {
-                continue;
-            };
-            if tree.edit_hits(e.id).is_some_and(|h| h.is_empty())
-                && let Resolution::Found(n) = tree.resolve(program, loc)
-                && tree.node(n).is_some_and(|n| n.is_shape())
-            {
-                e.target = Target::Exact(tree.exact_locator(program, n));
-                changed = true;
-            }
+        for (i, t) in moved {
+            edits[i].target = t;
         }
-        changed.then(|| EditPlan::new(program, &edits))
+        Some(EditPlan::new(program, &edits))
     }
 }
