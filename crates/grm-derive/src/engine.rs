@@ -1190,20 +1190,7 @@ impl<'a> Engine<'a> {
         // Counts from the histogram (exact: no symbol needs a decision).
         let mut from_hist = None;
         if let (Some(h), Some(sh)) = (hist, &self.succ_hist) {
-            let (mut m, mut w, mut iw) = (0u64, 0u64, 0u64);
-            let mut next = vec![0u64; h.len()];
-            for (s, &c) in h.iter().enumerate() {
-                if c == 0 {
-                    continue;
-                }
-                let (_, len, words) = self.counts[s];
-                m += c * u64::from(len);
-                w += c * u64::from(words);
-                iw += c * u64::from(self.implicit_words_of(s));
-                for &(t, k) in &sh[s] {
-                    next[t as usize] += c * k;
-                }
-            }
+            let ((m, w, iw, _), next) = self.image(h, sh, true);
             *h = next;
             if !parallel {
                 from_hist = Some((m, w, iw));

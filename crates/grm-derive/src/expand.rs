@@ -60,23 +60,7 @@ impl Engine<'_> {
         let mut next_hists = Vec::with_capacity(carried.chunks.len());
         let mut at = 0usize;
         for h in &carried.hists {
-            let (mut m, mut w, mut iw, mut wi) = (0u64, 0u64, 0u64, 0u64);
-            let mut next = vec![0u64; h.len()];
-            for (s, &c) in h.iter().enumerate() {
-                if c == 0 {
-                    continue;
-                }
-                let (_, len, words) = self.counts[s];
-                m += c * u64::from(len);
-                w += c * u64::from(words);
-                if compact {
-                    iw += c * u64::from(self.implicit_words_of(s));
-                }
-                wi += c * u64::from(self.sym_words[s]);
-                for &(t, k) in &succ[s] {
-                    next[t as usize] += c * k;
-                }
-            }
+            let ((m, w, iw, wi), next) = self.image(h, succ, compact);
             counts.push((m, w, iw, wi));
             // Past `usize` only beyond the limits, which the caller checks
             // before anything is written; the chunks are then dropped.
@@ -88,6 +72,38 @@ impl Engine<'_> {
         let chunks = std::mem::replace(&mut carried.chunks, next_chunks);
         carried.hists = next_hists;
         Some((chunks, counts))
+    }
+}
+
+impl Engine<'_> {
+    /// The counts of a string whose symbol histogram is `h` (output
+    /// modules, stored and, with `implicit`, implicit output words, stored
+    /// input words), and the histogram of its output (`succ`: the
+    /// engine's `succ_hist`): one multiply-add per symbol.
+    pub(crate) fn image(
+        &self,
+        h: &[u64],
+        succ: &[Vec<(u32, u64)>],
+        implicit: bool,
+    ) -> (Counts, Vec<u64>) {
+        let (mut m, mut w, mut iw, mut wi) = (0u64, 0u64, 0u64, 0u64);
+        let mut next = vec![0u64; h.len()];
+        for (s, &c) in h.iter().enumerate() {
+            if c == 0 {
+                continue;
+            }
+            let (_, len, words) = self.counts[s];
+            m += c * u64::from(len);
+            w += c * u64::from(words);
+            if implicit {
+                iw += c * u64::from(self.implicit_words_of(s));
+            }
+            wi += c * u64::from(self.sym_words[s]);
+            for &(t, k) in &succ[s] {
+                next[t as usize] += c * k;
+            }
+        }
+        ((m, w, iw, wi), next)
     }
 }
 
