@@ -121,8 +121,20 @@ fn main() {
             .map(|l| (l.streets.len(), l.parcels.len()))
             .collect::<Vec<_>>()
     );
-    let updates = 24;
+    // `LAYOUT_DRAG_UPDATES=N` and `LAYOUT_DRAG_MODE=hard|graph_cut` narrow
+    // the run (instruction counts under callgrind: `valgrind
+    // --tool=callgrind` of a few updates of one mode).
+    let updates: usize = std::env::var("LAYOUT_DRAG_UPDATES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(24);
+    let only = std::env::var("LAYOUT_DRAG_MODE")
+        .ok()
+        .and_then(|v| MergeMode::parse(&v));
     for mode in [MergeMode::Hard, MergeMode::GraphCut] {
+        if only.is_some_and(|m| m != mode) {
+            continue;
+        }
         for s in &mut specs {
             s.merge = mode;
         }

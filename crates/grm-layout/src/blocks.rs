@@ -241,6 +241,14 @@ pub fn explicit_ownership(layout: &Layout, blocks: &[Block]) -> BTreeMap<Id, Id>
 }
 
 fn ownership_of(layout: &Layout, blocks: &[Block], explicit_only: bool) -> BTreeMap<Id, Id> {
+    let asks = |p: &crate::model::Parcel| {
+        !explicit_only || p.origin == crate::model::ParcelOrigin::Explicit
+    };
+    if !layout.parcels.values().any(asks) {
+        // No parcel to place (a merge's layers often have only generated
+        // ones): no index either.
+        return BTreeMap::new();
+    }
     let tree = rstar::RTree::bulk_load(
         blocks
             .iter()
@@ -257,7 +265,7 @@ fn ownership_of(layout: &Layout, blocks: &[Block], explicit_only: bool) -> BTree
     );
     let mut own = BTreeMap::new();
     for p in layout.parcels.values() {
-        if explicit_only && p.origin != crate::model::ParcelOrigin::Explicit {
+        if !asks(p) {
             continue;
         }
         let c = crate::geom::vertex_centroid(&p.ring);

@@ -18,6 +18,7 @@ use crate::id::Id;
 use crate::merge::{MergeMode, MergeParams, MergeReport, merge_cached};
 use crate::model::{Layout, PROTECTED, TagValue};
 use crate::select::Selection;
+use crate::stack_cache;
 use crate::subdivide::{MergeCache, ParcelParams, regrow};
 use crate::transform::{TransformError, UpdateParams, transform};
 use geo::Coord;
@@ -411,26 +412,43 @@ pub fn merge_layers_cached(
     let Some((&top, rest)) = visible.split_last() else {
         return (Layout::default(), reports);
     };
-    let mut acc = layouts[top].clone();
+    let mut acc = std::sync::Arc::new((layouts[top].clone(), MergeReport::default()));
     let mut above = top;
+    // The stack merged so far, by its key: an unchanged run of layers at
+    // the top comes from the cache (a step that misses merges, and is kept
+    // for the next call).
+    let mut key = stack_cache::top_key(&acc.0);
     for &i in rest.iter().rev() {
         let params = MergeParams {
             parcels: *parcels,
             seed: specs[i].seed,
             ..MergeParams::default()
         };
-        match merge_cached(&layouts[i], &acc, specs[above].merge, &params, cache) {
-            Ok((m, r)) => {
-                acc = m;
-                reports.push(r);
+        let mode = specs[above].merge;
+        key = stack_cache::step_key(key, &layouts[i], mode, &params);
+        let step = match cache.stack.get(key) {
+            Some(step) => step,
+            None => {
+                let step = merge_cached(&layouts[i], &acc.0, mode, &params, cache)
+                    .map(std::sync::Arc::new)
+                    .map_err(|e| e.to_string());
+                cache.stack.insert(key, step.clone());
+                step
             }
-            Err(e) => issues.push(LayerIssue::Merge {
+        };
+        match step {
+            Ok(m) => {
+                reports.push(m.1.clone());
+                acc = m;
+            }
+            Err(message) => issues.push(LayerIssue::Merge {
                 layer: specs[i].name.clone(),
-                message: e.to_string(),
+                message,
             }),
         }
         above = i;
     }
+    let mut acc = std::sync::Arc::try_unwrap(acc).map_or_else(|rc| rc.0.clone(), |m| m.0);
     assign_regrown(specs, layouts, &visible, &mut acc);
     (acc, reports)
 }

@@ -28,7 +28,8 @@
 //! [`index`] (R-trees), [`blocks`], [`validity`]; [`generate`],
 //! [`subdivide`] (parcels), [`geojson_io`]; [`transform`] (4.1.2),
 //! [`select`], [`shared`] (the shared graph), [`merge`] (4.1.3, 4.1.4),
-//! [`assign`] (4.3), [`layers`] (4.2), [`sidecar`] (the file); [`svg`];
+//! [`assign`] (4.3), [`layers`] (4.2), [`stack_cache`] (merged layer
+//! stacks kept for an editor), [`sidecar`] (the file); [`svg`];
 //! [`city`] (buildings grown on the parcels by a shape system, and the
 //! city as one model for glTF and pictures), [`building_edits`] (an
 //! artist's edits of one parcel's building, replayed there, reported
@@ -53,6 +54,7 @@ pub mod program;
 pub mod select;
 pub mod shared;
 pub mod sidecar;
+pub mod stack_cache;
 pub mod subdivide;
 pub mod svg;
 pub mod transform;

@@ -195,7 +195,6 @@ pub fn merge_cached(
     let sh = shared(lower, upper);
     let blocks_a = cache.blocks(lower);
     let blocks_b = cache.blocks(upper);
-    let idx_a = BlockIndex::new(&blocks_a);
     let idx_b = BlockIndex::new(&blocks_b);
     let mut report = MergeReport {
         crossings: sh.crossings.len(),
@@ -203,7 +202,13 @@ pub fn merge_cached(
     };
     let mut keep: BTreeSet<Id> = match mode {
         MergeMode::Hard => hard_keep(&sh, &idx_b),
-        MergeMode::GraphCut => cut_keep(&sh, &idx_a, &idx_b, params, &mut report),
+        MergeMode::GraphCut => cut_keep(
+            &sh,
+            &BlockIndex::new(&blocks_a),
+            &idx_b,
+            params,
+            &mut report,
+        ),
     };
     clear_free_parcels(&sh, upper, &blocks_b, &mut keep);
     for (id, (side, _)) in &sh.origin {
@@ -793,7 +798,7 @@ fn parcels(
             } else {
                 &segs_a
             };
-            geom::check_ring(&p.ring).is_err()
+            !cache.ring_ok(&p.ring)
                 || crate::validity::parcel_street_hit(out, segs, &p.ring, max_half).is_some()
         })
         .map(|p| p.id)

@@ -184,6 +184,10 @@ pub fn parcel_area(
 pub struct MergeCache {
     parcels: std::cell::RefCell<std::collections::HashMap<Id, Vec<Parcel>>>,
     blocks: std::cell::RefCell<std::collections::HashMap<Id, Vec<Block>>>,
+    /// Merged prefixes of a layer stack ([`crate::layers::merge_layers_cached`]).
+    pub stack: crate::stack_cache::StackCache,
+    /// Whether a ring passes [`check_ring`], by the ring's content.
+    rings: std::cell::RefCell<std::collections::HashMap<Id, bool>>,
 }
 
 impl MergeCache {
@@ -209,6 +213,23 @@ impl MergeCache {
         }
         c.insert(key, b.clone());
         b
+    }
+
+    /// Whether a ring is a simple polygon ([`check_ring`]), from the cache
+    /// when the same ring was checked before (a merge's kept parcels are
+    /// the same rings from one update to the next).
+    pub fn ring_ok(&self, ring: &[Coord]) -> bool {
+        let key = crate::stack_cache::ring_key(ring);
+        if let Some(&ok) = self.rings.borrow().get(&key) {
+            return ok;
+        }
+        let ok = check_ring(ring).is_ok();
+        let mut c = self.rings.borrow_mut();
+        if c.len() >= Self::LIMIT {
+            c.clear();
+        }
+        c.insert(key, ok);
+        ok
     }
 
     /// The parcels of a block, from the cache when the block, its

@@ -204,3 +204,84 @@ fn a_cache_kept_over_a_drag_gives_the_same_merges() {
         }
     }
 }
+
+/// The layer stack's cache (merged prefixes of the stack, kept between
+/// calls): over a random sequence of drags of any of three layers, each
+/// merge mode, the cached stack gives the bytes a fresh merge gives, and a
+/// call with nothing changed merges nothing again.
+#[test]
+fn a_stack_cache_kept_over_random_drags_gives_the_same_merges() {
+    use grm_layout::geom::Affine;
+    use grm_layout::layers::{LayerSpec, Source, merge_layers, merge_layers_cached, place};
+    use grm_layout::subdivide::MergeCache;
+    let top = {
+        let p = GridParams {
+            nx: 2,
+            ny: 3,
+            spacing: Coord { x: 45.0, y: 40.0 },
+            origin: Coord { x: 60.0, y: 60.0 },
+            rotation_deg: -15.0,
+            seed: 91,
+            ..GridParams::default()
+        };
+        filled(grid(&p).unwrap(), 3)
+    };
+    let sources = [base(), insert(0.0, 0.0, 20.0), top];
+    let mut specs: Vec<LayerSpec> = ["base", "middle", "top"]
+        .iter()
+        .enumerate()
+        .map(|(i, n)| {
+            let mut s = LayerSpec::new(n, Source::Empty);
+            s.seed = 10 + i as u64;
+            s
+        })
+        .collect();
+    let pp = ParcelParams::default();
+    let mut offsets = [Coord { x: 0.0, y: 0.0 }; 3];
+    let cache = MergeCache::default();
+    let mut rng = Rng::seeded(0x0073_7461_636b);
+    for step in 0..14 {
+        // Drag one layer to one of a few places (so places repeat), and
+        // now and then switch a layer's merge mode.
+        let l = rng.below(3usize);
+        offsets[l] = [
+            Coord { x: 0.0, y: 0.0 },
+            Coord { x: 6.0, y: 3.0 },
+            Coord { x: -9.0, y: 12.0 },
+        ][rng.below(3usize)];
+        if rng.below(4usize) == 0 {
+            let k = 1 + rng.below(2usize);
+            specs[k].merge = match specs[k].merge {
+                MergeMode::Hard => MergeMode::GraphCut,
+                MergeMode::GraphCut => MergeMode::Hard,
+            };
+        }
+        let layouts: Vec<Layout> = sources
+            .iter()
+            .zip(&offsets)
+            .map(|(s, o)| {
+                let mut s = s.clone();
+                place(&mut s, &Affine::translate(o.x, o.y));
+                s
+            })
+            .collect();
+        let (mut i1, mut i2) = (Vec::new(), Vec::new());
+        let (m1, r1) = merge_layers(&specs, &layouts, &pp, &mut i1);
+        let (m2, r2) = merge_layers_cached(&specs, &layouts, &pp, &mut i2, &cache);
+        assert_eq!(format!("{m1:?}"), format!("{m2:?}"), "step {step}");
+        assert_eq!(r1, r2, "step {step}");
+        assert_eq!(i1, i2, "step {step}");
+        assert!(describe(&m2).is_empty(), "step {step}: {:?}", describe(&m2));
+        // Nothing changed: every step of the stack comes from the cache.
+        let kept = cache.stack.len();
+        let mut i3 = Vec::new();
+        let (m3, r3) = merge_layers_cached(&specs, &layouts, &pp, &mut i3, &cache);
+        assert_eq!(
+            cache.stack.len(),
+            kept,
+            "step {step}: a second call merged again"
+        );
+        assert_eq!(format!("{m1:?}"), format!("{m3:?}"), "step {step}");
+        assert_eq!(r1, r3);
+    }
+}
