@@ -164,7 +164,7 @@ fn a_wrapped_split_is_gone_through_and_a_renamed_floor_gets_the_same_window_firs
 
     // `Floor` renamed: the label on the path no longer fits, and the
     // first quick fix is the same window.
-    let after = grow(&renamed(&townhouse(), "Floor", "Storey"));
+    let after = grow(&grm_testkit::renamed(&townhouse(), "Floor", "Storey"));
     let r = edits::classify(
         &after.checked.program,
         &after.lowered,
@@ -280,21 +280,4 @@ fn an_ambiguous_target_offers_each_part_it_matches_first() {
     assert_eq!(c[0].parts, [b], "the one where the part was first");
     assert_eq!(c[1].parts, [a]);
     assert_eq!(c[0].target, Target::Key(g.tree.node(b).unwrap().key));
-}
-
-/// `text` with the identifier `from` renamed `to` (whole words only).
-fn renamed(text: &str, from: &str, to: &str) -> String {
-    let mut out = String::with_capacity(text.len());
-    let mut word = String::new();
-    for c in text.chars().chain(std::iter::once(' ')) {
-        if c.is_alphanumeric() || c == '_' {
-            word.push(c);
-            continue;
-        }
-        out.push_str(if word == from { to } else { &word });
-        word.clear();
-        out.push(c);
-    }
-    out.pop();
-    out
 }

@@ -111,7 +111,7 @@ async fn an_edit_whose_path_broke_is_offered_its_part_again_first() {
     // `Floor` renamed `Storey`: the windows stay where they are, the
     // exact locator's label on the path breaks. (A wrapped split no longer
     // breaks it: the step goes through the inserted level.)
-    let wrapped = renamed(&text, "Floor", "Storey");
+    let wrapped = grm_testkit::renamed(&text, "Floor", "Storey");
     assert_ne!(wrapped, text);
     let after = grow(&wrapped);
     let same = after
@@ -366,21 +366,4 @@ async fn bake_writes_the_edit_into_the_rules_and_deletes_it_in_one_workspace_edi
     // Edit 2 (a material on floor 1) is still replayed; edit 1's effect is
     // in the rules: the same triangles as with both edits.
     assert_eq!(r["stats"]["triangles"], edited["stats"]["triangles"]);
-}
-
-/// `text` with the identifier `from` renamed `to` (whole words only).
-fn renamed(text: &str, from: &str, to: &str) -> String {
-    let mut out = String::with_capacity(text.len());
-    let mut word = String::new();
-    for c in text.chars().chain(std::iter::once(' ')) {
-        if c.is_alphanumeric() || c == '_' {
-            word.push(c);
-            continue;
-        }
-        out.push_str(if word == from { to } else { &word });
-        word.clear();
-        out.push(c);
-    }
-    out.pop();
-    out
 }

@@ -38,25 +38,6 @@ fn city() -> (tempfile::TempDir, PathBuf) {
     (dir, p)
 }
 
-/// A street of `layer` in the merged layout, away from the avenue (its
-/// first point left of x = 100 and below y = 70).
-fn base_street(r: &Value) -> Value {
-    r["streets"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|s| {
-            s["layer"] == 0
-                && s["points"]
-                    .as_array()
-                    .unwrap()
-                    .iter()
-                    .all(|p| p[0].as_f64().unwrap() < 100.0 && p[1].as_f64().unwrap() < 70.0)
-        })
-        .cloned()
-        .expect("a base street near the origin")
-}
-
 fn street<'a>(r: &'a Value, id: &Value) -> Option<&'a Value> {
     r["streets"]
         .as_array()
@@ -89,7 +70,7 @@ async fn a_dragged_street_lands_in_the_sidecar_and_the_layout_follows() {
             .any(|s| s["layer"] == 1),
         "the avenue is the top layer's"
     );
-    let s = base_street(&r);
+    let s = layout::base_street(&r);
     let before = s["points"].clone();
 
     let res = c
@@ -140,7 +121,7 @@ async fn a_rejected_move_is_reported_with_its_code_and_nothing_is_written() {
     let mut c = Editor::start().await;
     let u = c.open(&p, CITY, 1).await;
     let r = c.ok("grm/layout", json!({ "uri": u })).await;
-    let s = base_street(&r);
+    let s = layout::base_street(&r);
     // Two rows up: the street's neighbours would cross the grid.
     let res = c
         .ok(
@@ -231,7 +212,7 @@ async fn a_client_that_cannot_apply_edits_gets_the_file_written_and_layers_toggl
     assert_eq!(shown["parcels"], r["parcels"]);
 
     // Protect a street, cut it to a new layer, anchor an assignment to it.
-    let s = base_street(&r);
+    let s = layout::base_street(&r);
     c.ok(
         "grm/layoutEdit",
         json!({ "uri": u, "layer": 0, "op": { "protect": { "ids": [s["layerId"]] } } }),
@@ -336,7 +317,7 @@ async fn the_city_grows_on_the_parcels_and_a_move_regrows_only_what_changed() {
 
     // A street moved: most buildings come from the cache.
     let r = c.ok("grm/layout", json!({ "uri": u })).await;
-    let s = base_street(&r);
+    let s = layout::base_street(&r);
     let res = c
         .ok(
             "grm/layoutEdit",

@@ -40,24 +40,6 @@ fn names(r: &Value) -> Vec<String> {
         .collect()
 }
 
-/// A street of the base layer near the origin (away from the avenue).
-fn base_street(r: &Value) -> Value {
-    r["streets"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|s| {
-            s["layer"] == 0
-                && s["points"]
-                    .as_array()
-                    .unwrap()
-                    .iter()
-                    .all(|p| p[0].as_f64().unwrap() < 100.0 && p[1].as_f64().unwrap() < 70.0)
-        })
-        .cloned()
-        .expect("a base street near the origin")
-}
-
 #[tokio::test]
 async fn a_grammars_layout_item_is_shown_merged_with_its_sidecar() {
     let (_dir, grm) = city(true);
@@ -135,7 +117,7 @@ async fn an_edit_of_a_grammars_layout_goes_to_the_sidecar_and_a_grammar_change_r
     let text = std::fs::read_to_string(&grm).unwrap();
     let u = c.open(&grm, &text, 1).await;
     let r = c.ok("grm/layout", json!({ "uri": u })).await;
-    let s = base_street(&r);
+    let s = layout::base_street(&r);
     let res = c
         .ok(
             "grm/layoutEdit",
@@ -335,19 +317,7 @@ async fn the_city_of_a_grammar_is_answered_as_mesh_buffers_with_its_building_edi
             .contains("edit 2: parcel 00000000000000ff")
     );
     assert_ne!(ed["triangles"], first["triangles"], "a floor removed");
-    let d = c
-        .wait_for(|r| {
-            r.method() == "textDocument/publishDiagnostics"
-                && r.params().is_some_and(|p| {
-                    p["uri"] == json!(uri(&edits))
-                        && p["diagnostics"]
-                            .as_array()
-                            .unwrap()
-                            .iter()
-                            .any(|d| d["code"] == "R1032")
-                })
-        })
-        .await;
+    let d = r1032_published(&mut c, &edits, true).await;
     let diags = d.params().unwrap()["diagnostics"].clone();
     let r1032 = diags
         .as_array()
@@ -372,16 +342,27 @@ async fn the_city_of_a_grammar_is_answered_as_mesh_buffers_with_its_building_edi
             .iter()
             .all(|p| p["code"] != "R1032")
     );
+    r1032_published(&mut c, &edits, false).await;
+}
+
+/// The next diagnostics published on the edits file `edits` with an
+/// R1032 among them (`present`), or with none.
+async fn r1032_published(
+    c: &mut Client,
+    edits: &std::path::Path,
+    present: bool,
+) -> tower_lsp_server::jsonrpc::Request {
     c.wait_for(|r| {
         r.method() == "textDocument/publishDiagnostics"
             && r.params().is_some_and(|p| {
-                p["uri"] == json!(uri(&edits))
+                p["uri"] == json!(uri(edits))
                     && p["diagnostics"]
                         .as_array()
                         .unwrap()
                         .iter()
-                        .all(|d| d["code"] != "R1032")
+                        .any(|d| d["code"] == "R1032")
+                        == present
             })
     })
-    .await;
+    .await
 }

@@ -1,5 +1,6 @@
 //! What the workspace's test suites share: the generator of their random
-//! inputs (random grammars, strings, edits, curves, points).
+//! inputs (random grammars, strings, edits, curves, points), and
+//! [`renamed`], the scripted rename of a grammar's identifier.
 //!
 //! Input: a test's own fixed seed, and optionally the `GRM_TEST_SEED`
 //! environment variable. Output: a splitmix64 stream and the draws the
@@ -169,5 +170,34 @@ mod tests {
         s.sort_unstable();
         assert_eq!(s, (0..50).collect::<Vec<_>>());
         assert_ne!(v, s, "50 elements shuffled into their own order");
+    }
+}
+
+/// `text` with the identifier `from` renamed `to` (whole words only: a
+/// word is a run of alphanumerics and `_`).
+pub fn renamed(text: &str, from: &str, to: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut word = String::new();
+    for c in text.chars().chain(std::iter::once(' ')) {
+        if c.is_alphanumeric() || c == '_' {
+            word.push(c);
+            continue;
+        }
+        out.push_str(if word == from { to } else { &word });
+        word.clear();
+        out.push(c);
+    }
+    out.pop();
+    out
+}
+
+#[cfg(test)]
+mod rename_tests {
+    #[test]
+    fn only_whole_words_are_renamed() {
+        assert_eq!(
+            super::renamed("Floor -> FloorTop Floor(1) _Floor", "Floor", "Storey"),
+            "Storey -> FloorTop Storey(1) _Floor"
+        );
     }
 }

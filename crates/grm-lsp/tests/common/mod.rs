@@ -4,6 +4,7 @@
 #![allow(dead_code)]
 
 pub mod editor;
+pub mod layout;
 
 use futures::StreamExt;
 use grm_diag::SourceFile;
