@@ -553,13 +553,43 @@ impl Engine<'_> {
     #[allow(clippy::too_many_arguments)]
     fn run(
         &self,
-        mut root: Node,
+        root: Node,
         root_outline: Option<Arc<Outline>>,
         cut: Option<u32>,
         budget: usize,
         stop: &AtomicBool,
         prefix: &Ancestry,
         carried: Option<Carried>,
+    ) -> Result<Job, Overflow> {
+        match self.edits {
+            // The plain loop: `()` hooks compile to nothing.
+            None => self.run_with(root, root_outline, cut, budget, stop, prefix, &mut ()),
+            Some(plan) => {
+                let mut replay = Replay::new(
+                    plan,
+                    carried.unwrap_or(Carried {
+                        state: plan.root_state(&root),
+                        forced: Forced::default(),
+                    }),
+                );
+                // Node indices below the stack's flag bit.
+                let budget = budget.min(FLAGGED as usize - 1);
+                self.run_with(root, root_outline, cut, budget, stop, prefix, &mut replay)
+            }
+        }
+    }
+
+    /// [`Engine::run`] with the replay hook `hook` (`()`: no edits).
+    #[allow(clippy::too_many_arguments)]
+    fn run_with<'r, H: Hook<'r>>(
+        &self,
+        mut root: Node,
+        root_outline: Option<Arc<Outline>>,
+        cut: Option<u32>,
+        budget: usize,
+        stop: &AtomicBool,
+        prefix: &Ancestry,
+        hook: &mut H,
     ) -> Result<Job, Overflow> {
         let roots_kind = (root.kind, 0);
         root.geometry = match (root.geometry, &root_outline) {
@@ -581,49 +611,43 @@ impl Engine<'_> {
             root_key: 0,
             ordered: true,
         };
-        let mut stack: Vec<u32> = vec![0];
+        // The root has its replay state on the hook's stack (flagged).
+        let mut stack: Vec<u32> = vec![H::FLAG];
         let mut scratch = Scratch {
             prefix: prefix.clone(),
             ..Scratch::default()
         };
-        // Persistent edits (crate::replay): per shape on the stack, its
-        // trie state and what its ancestors' edits force on it.
-        let mut replay = self.edits.map(|plan| Replay {
-            stack: vec![(
-                carried.unwrap_or(Carried {
-                    state: plan.root_state(&job.nodes[0]),
-                    forced: Forced::default(),
-                }),
-                1,
-            )],
-            block: Vec::new(),
-            matched: Vec::new(),
-            tags: Vec::new(),
-            read: Vec::new(),
-            memo: Vec::new(),
-        });
-        while let Some(at) = stack.pop() {
+        while let Some(entry) = stack.pop() {
             if stop.load(Ordering::Relaxed) {
                 return Err(Overflow);
             }
-            // The shape's replay state, popped in step with the stack.
-            let carried = replay.as_mut().map(Replay::take);
+            // The shape's replay state, popped in step with the stack when
+            // the shape has one (flagged: an edit may name it or reach it).
+            let at = entry & !H::FLAG;
+            let carried = match hook.get() {
+                Some(r) if entry & H::FLAG != 0 => Some(r.take()),
+                _ => None,
+            };
             let shape = &job.nodes[at as usize];
             let NodeKind::Shape { symbol, .. } = shape.kind else {
                 continue;
             };
             if at > 0 && cut.is_some_and(|d| shape.depth >= d) {
                 job.cut.push((at, job.nodes.len() as u32));
-                if let Some(c) = carried {
-                    job.cut_carried.push(c);
+                if hook.get().is_some() {
+                    job.cut_carried.push(carried.unwrap_or(Carried::NONE));
                 }
                 continue;
             }
             let start = job.nodes.len();
-            scratch.force = None;
             let mut forced = Forced::default();
             let mut state = replay::NONE;
-            if let (Some(plan), Some(r), Some(c)) = (self.edits, replay.as_mut(), carried) {
+            if hook.get().is_some() {
+                scratch.force = None;
+                scratch.keep_material = false;
+            }
+            if let (Some(r), Some(c)) = (hook.get(), carried) {
+                let plan = r.plan;
                 (forced, state) = (c.forced, c.state);
                 let here = at as usize;
                 if plan.may_match(state, symbol, job.nodes[here].key) {
@@ -730,9 +754,16 @@ impl Engine<'_> {
                     stack.push(j as u32);
                 }
             }
-            if let (Some(plan), Some(r)) = (self.edits, replay.as_mut()) {
-                let shapes = (stack.len() - before) as u32;
-                replay_block(plan, r, &mut job.nodes, at, start, shapes, state, forced);
+            if let Some(r) = hook.get() {
+                replay_block(
+                    r,
+                    &mut job.nodes,
+                    at,
+                    start,
+                    &mut stack[before..],
+                    state,
+                    forced,
+                );
             }
         }
         job.ordered = !scratch.unordered;
@@ -1526,8 +1557,40 @@ impl Engine<'_> {
 /// keys, and with a plan of edits its replay state.
 type JobRoot = (Node, Option<Arc<Outline>>, Ancestry, Option<Carried>);
 
+/// The derivation loop's replay hook: `()` replays nothing (every call
+/// inlines to nothing, so the plain derivation is the loop without
+/// edits), [`Replay`] a plan's edits.
+trait Hook<'p> {
+    /// The bit of a derivation stack entry that says the shape has an
+    /// entry on the replay's stack (0: no replay).
+    const FLAG: u32;
+    /// The replay state, if any.
+    fn get(&mut self) -> Option<&mut Replay<'p>>;
+}
+
+/// [`Hook::FLAG`] of a replay.
+const FLAGGED: u32 = 1 << 31;
+
+impl<'p> Hook<'p> for () {
+    const FLAG: u32 = 0;
+    #[inline(always)]
+    fn get(&mut self) -> Option<&mut Replay<'p>> {
+        None
+    }
+}
+
+impl<'p> Hook<'p> for Replay<'p> {
+    const FLAG: u32 = FLAGGED;
+    #[inline(always)]
+    fn get(&mut self) -> Option<&mut Replay<'p>> {
+        Some(self)
+    }
+}
+
 /// The derivation loop's replay state (a job's).
-struct Replay {
+struct Replay<'p> {
+    /// The edits replayed.
+    plan: &'p EditPlan,
     /// The shapes on the derivation stack, in step with it: their trie
     /// state and what their ancestors' edits force on them, and how many
     /// consecutive shapes of the stack share it (a block off every exact
@@ -1544,7 +1607,20 @@ struct Replay {
     memo: Vec<(AttrId, crate::ir::MaterialId, AttrId)>,
 }
 
-impl Replay {
+impl<'p> Replay<'p> {
+    /// The state of a job whose root's replay state is `root`.
+    fn new(plan: &'p EditPlan, root: Carried) -> Replay<'p> {
+        Replay {
+            plan,
+            stack: vec![(root, 1)],
+            block: Vec::new(),
+            matched: Vec::new(),
+            tags: Vec::new(),
+            read: Vec::new(),
+            memo: Vec::new(),
+        }
+    }
+
     /// The replay state of the shape just popped off the derivation stack.
     #[inline]
     fn take(&mut self) -> Carried {
@@ -1583,24 +1659,31 @@ impl Carried {
 }
 
 /// After the shape at `at` (trie state `state`, forcing `forced`: its own
-/// edits over its ancestors') made the block `nodes[start..]`: the forced
-/// mesh on the block's inserts, and the replay state of its `shapes` new
-/// shapes pushed on `r.stack` in the order the derivation stack took them
-/// (the block's shapes, last first; one entry for all of them off every
-/// exact target's path). A forced material needs nothing here: the shape's
-/// attributes carry it to the block and its rules' materials were skipped.
+/// edits over its ancestors') made the block `nodes[start..]`, whose shapes
+/// the derivation stack took as `pushed` (last first): the forced mesh on
+/// the block's inserts, and which of its shapes get a replay state, decided
+/// for the block. Off every exact target's path with nothing forced, only
+/// the shapes an edit may name by key or query are flagged (one entry on
+/// `r.stack` for all: they share the empty state), and the others cost the
+/// loop nothing more; with something forced, all are flagged under one
+/// entry; on a target's path, each its own state. A forced material needs
+/// nothing here: the shape's attributes carry it to the block and its
+/// rules' materials were skipped.
 #[inline]
 #[allow(clippy::too_many_arguments)]
 fn replay_block(
-    plan: &EditPlan,
     r: &mut Replay,
     nodes: &mut [Node],
     at: u32,
     start: usize,
-    shapes: u32,
+    pushed: &mut [u32],
     state: u32,
     forced: Forced,
 ) {
+    if pushed.is_empty() && forced.mesh.is_none() {
+        return;
+    }
+    let plan = r.plan;
     let block = &mut nodes[start..];
     if let Some(a) = forced.mesh {
         for n in block.iter_mut() {
@@ -1611,12 +1694,30 @@ fn replay_block(
     }
     if state == replay::NONE {
         // Off every exact target's path: so is the block.
-        if shapes > 0 {
-            let c = Carried {
-                state: replay::NONE,
-                forced,
-            };
-            r.stack.push((c, shapes));
+        let c = Carried {
+            state: replay::NONE,
+            forced,
+        };
+        let flagged = if forced != Forced::default() {
+            pushed.iter_mut().for_each(|e| *e |= FLAGGED);
+            pushed.len() as u32
+        } else if plan.names_any() {
+            let mut k = 0;
+            for e in pushed.iter_mut() {
+                let n = &nodes[*e as usize];
+                if let NodeKind::Shape { symbol, .. } = n.kind
+                    && plan.may_name(symbol, n.key)
+                {
+                    *e |= FLAGGED;
+                    k += 1;
+                }
+            }
+            k
+        } else {
+            0
+        };
+        if flagged > 0 {
+            r.stack.push((c, flagged));
         }
         return;
     }
@@ -1634,10 +1735,10 @@ fn replay_block(
         };
         r.block.push(plan.step(parent, block, k));
     }
-    for (n, &state) in block.iter().zip(&r.block).rev() {
-        if n.is_shape() {
-            r.stack.push((Carried { state, forced }, 1));
-        }
+    for e in pushed.iter_mut() {
+        let state = r.block[*e as usize - start];
+        *e |= FLAGGED;
+        r.stack.push((Carried { state, forced }, 1));
     }
 }
 

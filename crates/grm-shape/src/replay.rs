@@ -371,6 +371,27 @@ impl EditPlan {
                 .is_some_and(|q| !q.is_empty())
     }
 
+    /// Whether some edit names its shapes by key or by query (without,
+    /// only the shapes on an exact target's path can be named).
+    #[inline]
+    pub(crate) fn names_any(&self) -> bool {
+        !self.key_filter.is_empty() || !self.semantic.is_empty()
+    }
+
+    /// Whether a key target or a query may name a shape of `symbol` with
+    /// key `key` (what [`EditPlan::may_match`] asks off every exact path).
+    #[inline]
+    pub(crate) fn may_name(&self, symbol: SymbolId, key: u32) -> bool {
+        self.key_filter
+            .get((key as usize & (KEY_BITS - 1)) / 64)
+            .is_some_and(|w| w & (1 << (key % 64)) != 0)
+            || !self.semantic_any.is_empty()
+            || self
+                .semantic_by_symbol
+                .get(symbol.0 as usize)
+                .is_some_and(|q| !q.is_empty())
+    }
+
     /// Whether the plan has semantic queries (which read the tagged
     /// commands above a parallel job's root).
     pub(crate) fn has_semantic(&self) -> bool {
