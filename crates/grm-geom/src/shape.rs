@@ -230,7 +230,8 @@ pub fn build_shape_model_cut(
     let mut b = ShapeBuilder::new(program, assets, options)?;
     b.cut = cut;
     let whole = 0..nodes.len();
-    let (predicted, groups) = b.plan(tree, whole.clone());
+    let mid = nodes.len() / 2;
+    let (predicted, groups, tail) = b.plan(tree, whole.clone(), mid);
     // In halves: when the tree says what will be drawn (boxes and
     // rectangles only) and that fits the budget (so neither half can pass
     // it), and there is enough of it to be worth a thread.
@@ -239,16 +240,25 @@ pub fn build_shape_model_cut(
     if !halves {
         b.build_range(tree, whole)?;
     } else {
-        let mid = nodes.len() / 2;
         let mut second = ShapeBuilder::new(program, assets, options)?;
         second.cut = cut;
         // This builder's parts are reserved for the whole (the other's
-        // join them without moving), the other's for its half.
-        second.plan(tree, mid..nodes.len());
+        // join them without moving), the other's for its half (counted
+        // by the same walk).
+        second.plan_tail(tail);
         second.within_budget = true;
+        // Each half's parts' bounds on its own thread (`finish` folds
+        // them in the order it would have read their vertices).
         let (first, other) = std::thread::scope(|s| {
-            let h = s.spawn(|| second.build_range(tree, mid..nodes.len()).map(|()| second));
-            let first = b.build_range(tree, 0..mid);
+            let h = s.spawn(|| {
+                second.build_range(tree, mid..nodes.len()).map(|()| {
+                    second.bounds = part_bounds(&second.parts);
+                    second
+                })
+            });
+            let first = b.build_range(tree, 0..mid).map(|()| {
+                b.bounds = part_bounds(&b.parts);
+            });
             (first, h.join())
         });
         first?;
@@ -258,7 +268,7 @@ pub fn build_shape_model_cut(
             Err(_) => {
                 let mut again = ShapeBuilder::new(program, assets, options)?;
                 again.cut = cut;
-                again.plan(tree, mid..nodes.len());
+                again.plan(tree, mid..nodes.len(), nodes.len());
                 again.build_range(tree, mid..nodes.len())?;
                 again
             }
@@ -270,6 +280,27 @@ pub fn build_shape_model_cut(
         unique_names(&mut b.groups);
     }
     Ok(b.finish())
+}
+
+/// Each part's bounds (its vertices as `Aabb::add` takes them).
+fn part_bounds(parts: &[Part]) -> Vec<grm_turtle::Aabb> {
+    parts
+        .iter()
+        .map(|p| {
+            let mut b = grm_turtle::Aabb::EMPTY;
+            for v in &p.mesh.positions {
+                b.add(Vec3::from_array(*v));
+            }
+            b
+        })
+        .collect()
+}
+
+/// What [`ShapeBuilder::plan`] counted from its split on: per attribute
+/// set, the vertices, triangles and picks; and the groups.
+struct Tail {
+    sizes: Vec<(usize, usize, usize)>,
+    groups: usize,
 }
 
 /// Groups from which a shape model is built on two threads
@@ -361,6 +392,11 @@ struct ShapeBuilder<'a> {
     within_budget: bool,
     /// Focus and context: how each node is drawn ([`Cut`]).
     cut: Option<&'a [Cut]>,
+    /// Built in halves: per part, the bounds of this half's vertices
+    /// (empty otherwise), and after [`ShapeBuilder::join`] the other
+    /// half's in `tail_bounds`.
+    bounds: Vec<grm_turtle::Aabb>,
+    tail_bounds: Vec<grm_turtle::Aabb>,
 }
 
 impl<'a> ShapeBuilder<'a> {
@@ -390,6 +426,8 @@ impl<'a> ShapeBuilder<'a> {
             attrs_of: HashMap::new(),
             within_budget: false,
             cut: None,
+            bounds: Vec::new(),
+            tail_bounds: Vec::new(),
         })
     }
 
@@ -404,14 +442,26 @@ impl<'a> ShapeBuilder<'a> {
     /// footprint of the whole (an upper bound: faces without area are
     /// left out) when the range draws boxes and rectangles alone (no
     /// other geometry, no insert, no texture), and the number of groups.
+    /// The same counts for the nodes from `split` on go into `tail` (a
+    /// second half's plan, [`ShapeBuilder::plan_tail`], without a second
+    /// walk of the tree); `split` at or past the range's end counts none.
     fn plan(
         &mut self,
         tree: &ShapeTree,
         range: std::ops::Range<usize>,
-    ) -> (Option<Footprint>, usize) {
+        split: usize,
+    ) -> (Option<Footprint>, usize, Tail) {
         let table = tree.attribute_table();
         self.attr_parts = vec![None; table.len()];
         self.attr_sizes = vec![(0, 0, 0); table.len()];
+        let mut tail = Tail {
+            sizes: if split < range.end {
+                vec![(0, 0, 0); table.len()]
+            } else {
+                Vec::new()
+            },
+            groups: 0,
+        };
         let mut groups = 0;
         let mut known = true;
         let mut f = Footprint::default();
@@ -443,8 +493,15 @@ impl<'a> ShapeBuilder<'a> {
                 }
             };
             groups += 1;
-            if let Some(a) = self.attr_sizes.get_mut(usize::from(n.attrs.0)) {
+            let attr = usize::from(n.attrs.0);
+            if let Some(a) = self.attr_sizes.get_mut(attr) {
                 *a = (a.0 + v, a.1 + t, a.2 + 1);
+            }
+            if i >= split {
+                tail.groups += 1;
+                if let Some(a) = tail.sizes.get_mut(attr) {
+                    *a = (a.0 + v, a.1 + t, a.2 + 1);
+                }
             }
             f.vertices += v as u64;
             f.triangles += t as u64;
@@ -453,7 +510,15 @@ impl<'a> ShapeBuilder<'a> {
         }
         known &= table.iter().all(|a| a.texture.is_none());
         self.groups.reserve(groups);
-        (known.then_some(f), groups)
+        (known.then_some(f), groups, tail)
+    }
+
+    /// A second half's plan from the first's [`Tail`] (what
+    /// [`ShapeBuilder::plan`] of its range would have reserved).
+    fn plan_tail(&mut self, tail: Tail) {
+        self.attr_parts = vec![None; tail.sizes.len()];
+        self.attr_sizes = tail.sizes;
+        self.groups.reserve(tail.groups);
     }
 
     /// Draw the groups of the nodes in `range` (in node order).
@@ -561,6 +626,7 @@ impl<'a> ShapeBuilder<'a> {
         // Per part of the other: (this builder's part, vertex and triangle
         // offsets).
         let mut moved = vec![(0usize, 0u32, 0u32); other.parts.len()];
+        let parts_before = self.parts.len();
         for (key, i) in keys {
             let Some(part) = other.parts.get(i) else {
                 continue;
@@ -588,15 +654,27 @@ impl<'a> ShapeBuilder<'a> {
             }));
             moved[i] = (mine, v0, t0);
         }
-        self.groups.reserve(other.groups.len());
-        for mut g in other.groups {
+        let made = self.parts.len() - parts_before;
+        self.groups.extend(other.groups.into_iter().map(|mut g| {
             for span in &mut g.spans {
                 let (mine, v0, t0) = moved[span.part];
                 span.part = mine;
                 span.first_vertex += v0;
                 span.first_triangle += t0;
             }
-            self.groups.push(g);
+            g
+        }));
+        // Per part, the first half's bounds, then the other's (parts new
+        // to the other have none of this half's).
+        if self.bounds.len() == self.parts.len() - made && other.bounds.len() == other.parts.len() {
+            self.bounds
+                .resize(self.parts.len(), grm_turtle::Aabb::EMPTY);
+            self.tail_bounds = vec![grm_turtle::Aabb::EMPTY; self.parts.len()];
+            for (i, &(mine, ..)) in moved.iter().enumerate() {
+                self.tail_bounds[mine] = other.bounds[i];
+            }
+        } else {
+            self.bounds.clear();
         }
         self.dropped += other.dropped;
         self.shapes += other.shapes;
@@ -938,11 +1016,21 @@ impl<'a> ShapeBuilder<'a> {
         let mut bounds = grm_turtle::Aabb::EMPTY;
         let mut vertices = 0;
         let mut triangles = 0;
-        for p in &self.parts {
+        // Built in halves: each part's bounds are its halves' (found on
+        // their threads), folded in the vertices' order: the same box, to
+        // the sign of a zero (a fold of `Aabb::add` over a run of points
+        // is the union with the run's own bounds).
+        let halves =
+            self.bounds.len() == self.parts.len() && self.tail_bounds.len() == self.parts.len();
+        for (k, p) in self.parts.iter().enumerate() {
             vertices += p.mesh.vertex_count();
             triangles += p.mesh.triangle_count();
-            for v in &p.mesh.positions {
-                bounds.add(Vec3::from_array(*v));
+            if halves {
+                bounds = bounds.union(&self.bounds[k]).union(&self.tail_bounds[k]);
+            } else {
+                for v in &p.mesh.positions {
+                    bounds.add(Vec3::from_array(*v));
+                }
             }
         }
         let footprint = self.footprint();
@@ -1002,11 +1090,26 @@ impl Emitter<'_> {
     }
 
     /// A quad `a b c d` (counter-clockwise seen from `normal`).
+    /// The four vertices go in with one append per buffer (the same
+    /// arithmetic per corner as [`Emitter::vertex`]: the same bytes).
+    #[inline]
     fn quad(&mut self, corners: [Vec3; 4], normal: Vec3, uvs: [[f32; 2]; 4]) {
-        let n = self.normal(normal);
-        let i: [u32; 4] = std::array::from_fn(|k| self.vertex(corners[k], n, uvs[k]));
-        self.mesh.triangle(i[0], i[1], i[2]);
-        self.mesh.triangle(i[0], i[2], i[3]);
+        let n = self.normal(normal).to_array();
+        let (o, rot) = (self.scope.origin, self.rot);
+        let at = |p: Vec3| to_model(o + rot * p).to_array();
+        let [a, b, c, d] = [
+            at(corners[0]),
+            at(corners[1]),
+            at(corners[2]),
+            at(corners[3]),
+        ];
+        let m = &mut *self.mesh;
+        let i = m.positions.len() as u32;
+        m.positions.extend_from_slice(&[a, b, c, d]);
+        m.normals.extend_from_slice(&[n; 4]);
+        m.uvs.extend_from_slice(&uvs);
+        m.indices
+            .extend_from_slice(&[i, i + 1, i + 2, i, i + 2, i + 3]);
     }
 
     /// The box `[0, s]`: six quads, those of zero area left out.

@@ -750,6 +750,13 @@ fn two_threads_build_the_same_model() {
         };
         let many = build_shape_model(&tree, &program, &assets(), &options).unwrap();
         assert!(many == one, "{threads} threads: another model");
+        // The bounds (folded from each half's, found on its thread) to
+        // the bit: `==` takes -0.0 for 0.0.
+        let bits = |m: &grm_geom::Model| {
+            let b = m.stats.bounds;
+            [b.min.to_array(), b.max.to_array()].map(|v| v.map(f32::to_bits))
+        };
+        assert_eq!(bits(&many), bits(&one), "{threads} threads: other bounds");
     }
     let (program, tree) = building(None);
     let one = build_shape_model(&tree, &program, &assets(), &BuildOptions::default()).unwrap();
