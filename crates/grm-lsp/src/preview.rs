@@ -1369,16 +1369,20 @@ pub(crate) fn parts_out(
                     };
                     let flags = kind | if is_focus(pk.module) { PICK_FOCUS } else { 0 };
                     let origin = origin_of(pk.origin).unwrap_or(u32::MAX);
-                    for w in [
+                    let words = [
                         pk.first_triangle,
                         pk.triangle_count,
                         flags,
                         index,
                         pk.module,
                         origin,
-                    ] {
-                        picks.extend_from_slice(&w.to_le_bytes());
+                    ];
+                    // One append of the pick's 24 bytes.
+                    let mut bytes = [0u8; 4 * PICK_WORDS];
+                    for (d, w) in bytes.chunks_exact_mut(4).zip(words) {
+                        d.copy_from_slice(&w.to_le_bytes());
                     }
+                    picks.extend_from_slice(&bytes);
                     runs.push((pk.first_triangle, pk.triangle_count, pk.module, pk.origin));
                 }
                 let picks = enc.bytes(picks);
