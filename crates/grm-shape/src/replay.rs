@@ -106,6 +106,9 @@ pub struct EditPlan {
     ordinal_from: foldhash::HashSet<(u32, Label)>,
     /// Per trie state, the edits whose target ends there.
     finals: Vec<Vec<u32>>,
+    /// Per trie state, the edges that leave it: bit 0 a numbered or
+    /// component edge, bit 1 an ordinal one (`step` looks up only those).
+    leaves: Vec<u8>,
     by_key: HashMap<u32, Vec<u32>>,
     /// Bit `k & 0xffff` set for every target key `k` (empty without key
     /// targets).
@@ -324,6 +327,7 @@ impl EditPlan {
             Some(_) => return false,
             None => {
                 self.finals.push(Vec::new());
+                self.leaves.push(0);
                 let s = self.finals.len() as u32 - 1;
                 self.root = Some((labels[0], s));
                 s
@@ -333,11 +337,15 @@ impl EditPlan {
         for (l, e) in labels[1..].iter().zip(&loc.edges) {
             if let EdgeRef::Ordinal(_) = e {
                 self.ordinal_from.insert((state, *l));
+                self.leaves[state as usize] |= 2;
+            } else {
+                self.leaves[state as usize] |= 1;
             }
             let next = self.finals.len() as u32;
             state = *self.trie.entry((state, *l, e.clone())).or_insert(next);
             if state == next {
                 self.finals.push(Vec::new());
+                self.leaves.push(0);
             }
         }
         self.finals[state as usize].push(edit);
@@ -415,12 +423,19 @@ impl EditPlan {
         if parent == NONE {
             return NONE;
         }
+        let leaves = self.leaves.get(parent as usize).copied().unwrap_or(0);
+        if leaves == 0 {
+            return NONE;
+        }
         let child = &nodes[j];
         let l = label(child);
-        if let Some(&s) = self.trie.get(&(parent, l, edge(child))) {
+        if leaves & 1 != 0
+            && let Some(&s) = self.trie.get(&(parent, l, edge(child)))
+        {
             return s;
         }
-        if child.selector.is_some() || !self.ordinal_from.contains(&(parent, l)) {
+        if leaves & 2 == 0 || child.selector.is_some() || !self.ordinal_from.contains(&(parent, l))
+        {
             return NONE;
         }
         self.trie
