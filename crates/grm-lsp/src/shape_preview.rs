@@ -507,24 +507,19 @@ pub(crate) fn build(
     // A pick's origin is the rule that made its node (the `origin` field
     // is set to the node below); found for the picked nodes only.
     // The rule depends on the node's parent alone (the shape whose rule
-    // made it, or the command that shape's rule ran): each parent's is
-    // remembered (a split's parts are picked in different parts, a
-    // window's frame in one and its glass in another; a walk up the tree
-    // per window was most of the encoding).
-    const UNSEEN: u32 = u32::MAX;
-    const NO_RULE: u32 = u32::MAX - 1;
-    let seen = vec![std::cell::Cell::new(UNSEEN); picks.tree.nodes().len()];
+    // made it, or the command that shape's rule ran): the last parent's
+    // is remembered, since a split's or repeat's parts come in a row (a
+    // walk up the tree per window was most of the encoding).
+    let last = std::cell::Cell::new((u32::MAX, None));
     let origin_of = |node: u32| {
         let parent = picks.tree.parent(NodeId(node))?.0;
-        let slot = seen.get(parent as usize)?;
-        match slot.get() {
-            UNSEEN => {
+        match last.get() {
+            (p, rule) if p == parent => rule,
+            _ => {
                 let rule = picks.made_by(NodeId(node)).map(|m| m.0);
-                slot.set(rule.unwrap_or(NO_RULE));
+                last.set((parent, rule));
                 rule
             }
-            NO_RULE => None,
-            rule => Some(rule),
         }
     };
     let is_focus = |node: u32| focus.is_some() && origin_of(node) == focus;
