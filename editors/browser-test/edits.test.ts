@@ -180,7 +180,7 @@ test('edit panel round trip: every edit made in the page lands in the edits file
   let s = await state(page);
   assert.equal(s.edits.selection?.target?.kind, 'exact');
   const paneTarget = s.edits.selection!.target!.text;
-  assert.match(paneTarget, /^\{Lot, .*Pane, 1, Glass\}$/);
+  assert.match(paneTarget, /^\{Lot, .*Pane, #1, Glass\}$/);
   await page.fill('#edit-material', 'brick');
   s = await act(page, '#edit-material-apply', 'material brick', (x) => validAndReplayed(x, [1]));
   assert.deepEqual(fileEdits(file), [{ id: 1, system: 'Row', target: { exact: paneTarget }, op: 'material', name: 'brick' }]);
@@ -325,6 +325,20 @@ test('edit panel, derive mode: a picked bone is edited by its key (an offset of 
   await page.fill('#edit-param-name', '1');
   await page.selectOption('#edit-param-how', 'offset');
   await page.fill('#edit-param-value', '0.5');
+  // Models arriving while the artist types (the seed changed and back)
+  // redraw the panel's fields: what was typed stays.
+  const seed0 = await page.inputValue('#seed');
+  for (const seed of [String(Number(seed0) + 1), seed0]) {
+    const r = (await state(page)).regrows;
+    await page.fill('#seed', seed);
+    await page.press('#seed', 'Enter');
+    await waitFor(page, `regrown with seed ${seed}`, (x) => x.regrows > r);
+  }
+  assert.deepEqual(
+    [await page.inputValue('#edit-param-name'), await page.inputValue('#edit-param-how'), await page.inputValue('#edit-param-value')],
+    ['1', 'offset', '0.5'],
+    'the typed parameter edit survives the redraws',
+  );
   s = await act(page, '#edit-param-apply', 'offset its length', (x) => validAndReplayed(x, [1]));
   assert.deepEqual(fileEdits(file), [{ id: 1, system: 'Bar', target: { key }, op: 'offset', name: '1', by: 0.5 }]);
   const longer = await bones();

@@ -265,6 +265,9 @@ export class EditPanel {
   private mode = '';
   private edits: EditsInfo | null = null;
   private materials: string[] = [];
+  /** What the artist typed in the operations' fields (by field id): a
+   * model or the symbols arriving redraw the fields, and must not wipe it. */
+  private drafts = new Map<string, string>();
   private meshes: string[] = [];
   readonly debug: EditPanelDebug = { selection: null, list: [], added: [], answers: 0, lastAnswer: null, lastError: null };
 
@@ -307,6 +310,7 @@ export class EditPanel {
     this.levels = [];
     this.edits = null;
     this.debug.added = [];
+    this.drafts.clear();
     this.render();
   }
 
@@ -346,6 +350,17 @@ export class EditPanel {
     if (!l) return null;
     const t = targetOf(l, this.kind, this.match);
     return 'target' in t ? t.target : null;
+  }
+
+  /** `field` with the value the artist last gave it (kept in `drafts`
+   * across redraws), remembering each change. */
+  private kept<T extends HTMLInputElement | HTMLSelectElement>(field: T): T {
+    const v = this.drafts.get(field.id);
+    if (v !== undefined) field.value = v;
+    const keep = () => this.drafts.set(field.id, field.value);
+    field.addEventListener('input', keep);
+    field.addEventListener('change', keep);
+    return field;
   }
 
   private render(): void {
@@ -434,11 +449,14 @@ export class EditPanel {
     if (!l || !this.target()) return;
     // Parameters: derive mode replays set/offset on a module's parameter (its name or its place from 1).
     if (this.mode === 'derive') {
-      const name = el('input', { type: 'text', id: 'edit-param-name', value: '1', size: 6, spellcheck: false, title: 'the parameter: its declared name, or its place from 1 (`.x` for one component of a vec3)' });
-      const how = el('select', { id: 'edit-param-how' }, el('option', { value: 'offset', textContent: 'offset by' }), el('option', { value: 'set', textContent: 'set to' }));
-      const slider = el('input', { type: 'range', id: 'edit-param-slider', min: '-5', max: '5', step: '0.05', value: '0' });
-      const num = el('input', { type: 'number', id: 'edit-param-value', value: '0', step: '0.05' });
-      slider.addEventListener('input', () => (num.value = slider.value));
+      const name = this.kept(el('input', { type: 'text', id: 'edit-param-name', value: '1', size: 6, spellcheck: false, title: 'the parameter: its declared name, or its place from 1 (`.x` for one component of a vec3)' }));
+      const how = this.kept(el('select', { id: 'edit-param-how' }, el('option', { value: 'offset', textContent: 'offset by' }), el('option', { value: 'set', textContent: 'set to' })));
+      const num = this.kept(el('input', { type: 'number', id: 'edit-param-value', value: '0', step: '0.05' }));
+      const slider = el('input', { type: 'range', id: 'edit-param-slider', min: '-5', max: '5', step: '0.05', value: num.value });
+      slider.addEventListener('input', () => {
+        num.value = slider.value;
+        this.drafts.set(num.id, num.value);
+      });
       num.addEventListener('input', () => (slider.value = num.value));
       const apply = el('button', { id: 'edit-param-apply' }, 'Apply');
       apply.addEventListener('click', () => {
@@ -469,7 +487,7 @@ export class EditPanel {
     remove.addEventListener('click', () => void this.add({ op: 'remove' }));
     this.ops.append(el('div', { className: 'row' }, pin, remove));
     const named = (what: 'material' | 'mesh', names: string[]) => {
-      const input = el('input', { type: 'text', id: `edit-${what}`, size: 10, spellcheck: false, placeholder: names[0] ?? what });
+      const input = this.kept(el('input', { type: 'text', id: `edit-${what}`, size: 10, spellcheck: false, placeholder: names[0] ?? what }));
       const listId = `edit-${what}-names`;
       input.setAttribute('list', listId);
       const dl = el('datalist', { id: listId });
