@@ -367,16 +367,7 @@ impl EditPlan {
     /// most shapes of a building are named by none, and cost this alone.
     #[inline]
     pub(crate) fn may_match(&self, state: u32, symbol: SymbolId, key: u32) -> bool {
-        state != NONE
-            || self
-                .key_filter
-                .get((key as usize & (KEY_BITS - 1)) / 64)
-                .is_some_and(|w| w & (1 << (key % 64)) != 0)
-            || !self.semantic_any.is_empty()
-            || self
-                .semantic_by_symbol
-                .get(symbol.0 as usize)
-                .is_some_and(|q| !q.is_empty())
+        state != NONE || self.may_name(symbol, key)
     }
 
     /// Whether some edit names its shapes by key or by query (without,
