@@ -122,6 +122,19 @@ impl Buf {
     }
 }
 
+/// Moves the bytes of `bufs` into one blob's chunks, in order, each
+/// buffer becoming its range: the blob's length and chunks, or `None`
+/// when none had bytes (base64 text already).
+pub(crate) fn gather<'a>(
+    bufs: impl IntoIterator<Item = &'a mut Buf>,
+) -> Option<(u64, Vec<Vec<u8>>)> {
+    let (mut at, mut chunks) = (0, Vec::new());
+    for b in bufs {
+        b.place(&mut at, &mut chunks);
+    }
+    (!chunks.is_empty()).then_some((at, chunks))
+}
+
 /// How an answer's buffers are written.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Enc {

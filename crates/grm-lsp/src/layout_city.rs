@@ -84,22 +84,10 @@ impl LayoutCityResult {
     /// Protocol 3: moves the parts' bytes into blob `id` (as
     /// `PreviewResult::take_blob`).
     pub fn take_blob(&mut self, id: u64) -> Option<crate::blob::Blob> {
-        let (mut at, mut chunks) = (0, Vec::new());
-        for part in &mut self.parts {
-            for b in [
-                &mut part.positions,
-                &mut part.normals,
-                &mut part.indices,
-                &mut part.picks,
-            ] {
-                b.place(&mut at, &mut chunks);
-            }
-        }
-        if chunks.is_empty() {
-            return None;
-        }
+        let bufs = self.parts.iter_mut().flat_map(PartOut::bufs);
+        let (bytes, chunks) = crate::blob::gather(bufs)?;
         self.encoding = "blob-le".into();
-        self.blob = Some(crate::blob::BlobRef { id, bytes: at });
+        self.blob = Some(crate::blob::BlobRef { id, bytes });
         Some(crate::blob::Blob { id, chunks })
     }
 }

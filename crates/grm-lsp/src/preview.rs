@@ -428,27 +428,25 @@ impl PreviewResult {
     /// becomes its range; `encoding` becomes `blob-le`). `None` when
     /// they are base64 text already (a request without `binary`).
     pub fn take_blob(&mut self, id: u64) -> Option<crate::blob::Blob> {
-        let (mut at, mut chunks) = (0, Vec::new());
-        for part in &mut self.parts {
-            for b in [
-                &mut part.positions,
-                &mut part.normals,
-                &mut part.indices,
-                &mut part.picks,
-            ] {
-                b.place(&mut at, &mut chunks);
-            }
-        }
         let s = &mut self.skeleton;
-        for b in [&mut s.bones, &mut s.parents, &mut s.origins] {
-            b.place(&mut at, &mut chunks);
-        }
-        if chunks.is_empty() {
-            return None;
-        }
+        let skeleton = [&mut s.bones, &mut s.parents, &mut s.origins];
+        let bufs = self.parts.iter_mut().flat_map(PartOut::bufs);
+        let (bytes, chunks) = crate::blob::gather(bufs.chain(skeleton))?;
         self.encoding = "blob-le".into();
-        self.blob = Some(crate::blob::BlobRef { id, bytes: at });
+        self.blob = Some(crate::blob::BlobRef { id, bytes });
         Some(crate::blob::Blob { id, chunks })
+    }
+}
+
+impl PartOut {
+    /// Its buffers, in the order a blob holds them.
+    pub(crate) fn bufs(&mut self) -> [&mut Buf; 4] {
+        [
+            &mut self.positions,
+            &mut self.normals,
+            &mut self.indices,
+            &mut self.picks,
+        ]
     }
 }
 
