@@ -8,6 +8,7 @@
 
 use crate::geom::{point_in_ring, signed_area};
 use crate::id::Id;
+use crate::index::same_bits;
 use crate::model::Layout;
 use geo::Coord;
 use std::collections::{BTreeMap, BTreeSet};
@@ -286,4 +287,319 @@ fn ownership_of(layout: &Layout, blocks: &[Block], explicit_only: bool) -> BTree
         }
     }
     own
+}
+
+/// One face of the street graph as [`blocks`] traces it, before holes are
+/// assigned: a bounded face is a block (no holes, not `inner`), the other
+/// kind is a component's outline (its ring reversed, its smallest node).
+#[derive(Debug, Clone)]
+enum Face {
+    Bounded(Block),
+    Outline {
+        ring: Vec<Coord>,
+        node: Id,
+        /// Its nodes, sorted.
+        nodes: Vec<Id>,
+    },
+}
+
+/// A street walked one way (forward: from its `a` to its `b`).
+type HalfEdge = (Id, bool);
+
+/// The faces of a layout's street graph kept between calls, so that the
+/// blocks of the next layout reuse every face no changed street touches
+/// (an editor dragging a layer changes a seam of the city, not the city).
+///
+/// [`Faces::update`] gives exactly what [`blocks`] gives for the new
+/// layout, whatever layout the faces were kept from: a street is changed
+/// when it is new, gone, or has other end nodes or points; a node is
+/// dirty when a changed street ends at it. The half-edges leaving a clean
+/// node keep their order (the same streets at the same angles), so a face
+/// with no dirty node is the same walk as before (the same half-edges, the
+/// same ring from the same smallest half-edge), and every other face of
+/// the new graph passes a dirty node: it is traced again from there and
+/// its ring rotated to start at its smallest half-edge, where [`blocks`]
+/// starts it. Holes are assigned again over all faces, as [`blocks`] does.
+#[derive(Debug, Clone, Default)]
+pub struct Faces {
+    /// Street -> its end nodes and polyline (streets [`blocks`] walks).
+    polys: BTreeMap<Id, (Id, Id, Vec<Coord>)>,
+    /// Node -> its outgoing half-edges (angle, street, forward), sorted.
+    out: BTreeMap<Id, Vec<(f64, Id, bool)>>,
+    /// Half-edge -> (its node, its place in that node's list).
+    slot: BTreeMap<(Id, bool), (Id, usize)>,
+    /// Faces (their half-edges and the face) by their smallest half-edge.
+    faces: BTreeMap<HalfEdge, (Vec<HalfEdge>, Face)>,
+    /// Half-edge -> the face it belongs to (the face's smallest half-edge).
+    edge_face: BTreeMap<(Id, bool), (Id, bool)>,
+    /// Faces traced again by the last update (for tests and reports).
+    pub retraced: usize,
+}
+
+fn same_poly(layout: &Layout, s: &crate::model::Street, old: &(Id, Id, Vec<Coord>)) -> bool {
+    if old.0 != s.a || old.1 != s.b || old.2.len() != s.interior.len() + 2 {
+        return false;
+    }
+    let (Some(a), Some(b)) = (layout.nodes.get(&s.a), layout.nodes.get(&s.b)) else {
+        return false;
+    };
+    let n = old.2.len();
+    same_bits(&old.2[..1], &[a.pos])
+        && same_bits(&old.2[n - 1..], &[b.pos])
+        && same_bits(&old.2[1..n - 1], &s.interior)
+}
+
+impl Faces {
+    /// The blocks of `layout` (equal to [`blocks`]`(layout)`), reusing the
+    /// faces kept from the last call; keeps the new faces for the next.
+    pub fn update(&mut self, layout: &Layout) -> Vec<Block> {
+        // Streets [`blocks`] walks, and which of them changed.
+        let mut changed: BTreeMap<Id, Option<(Id, Id, Vec<Coord>)>> = BTreeMap::new();
+        for s in layout.streets.values() {
+            let pl = match self.polys.get(&s.id) {
+                Some(old) if same_poly(layout, s, old) => continue,
+                _ => layout.polyline(s),
+            };
+            let new = pl
+                .filter(|pl| s.a != s.b && pl.len() >= 2)
+                .map(|pl| (s.a, s.b, pl));
+            if new.is_some() || self.polys.contains_key(&s.id) {
+                changed.insert(s.id, new);
+            }
+        }
+        for id in self.polys.keys() {
+            if !layout.streets.contains_key(id) {
+                changed.insert(*id, None);
+            }
+        }
+        let mut dirty: BTreeSet<Id> = BTreeSet::new();
+        for (id, new) in &changed {
+            if let Some(old) = self.polys.get(id) {
+                dirty.extend([old.0, old.1]);
+            }
+            if let Some(new) = new {
+                dirty.extend([new.0, new.1]);
+            }
+        }
+        // Faces through a dirty node are gone (every face leaves each of
+        // its nodes by one of its half-edges).
+        for n in &dirty {
+            for &(_, s, fwd) in self.out.get(n).map(Vec::as_slice).unwrap_or(&[]) {
+                if let Some(key) = self.edge_face.get(&(s, fwd)).copied()
+                    && let Some((edges, _)) = self.faces.remove(&key)
+                {
+                    for e in edges {
+                        self.edge_face.remove(&e);
+                    }
+                }
+            }
+        }
+        // The changed streets' polylines, then the dirty nodes' lists.
+        for (id, new) in &changed {
+            match new {
+                Some(v) => {
+                    self.polys.insert(*id, v.clone());
+                }
+                None => {
+                    self.polys.remove(id);
+                }
+            }
+        }
+        // The changed streets' half-edges by the node they leave.
+        let mut leaving: BTreeMap<Id, Vec<(f64, Id, bool)>> = BTreeMap::new();
+        for (id, new) in &changed {
+            let Some((a, b, pl)) = new else { continue };
+            let k = pl.len();
+            leaving.entry(*a).or_default().push((
+                (pl[1].y - pl[0].y).atan2(pl[1].x - pl[0].x),
+                *id,
+                true,
+            ));
+            leaving.entry(*b).or_default().push((
+                (pl[k - 2].y - pl[k - 1].y).atan2(pl[k - 2].x - pl[k - 1].x),
+                *id,
+                false,
+            ));
+        }
+        for n in &dirty {
+            let old = self.out.remove(n).unwrap_or_default();
+            for &(_, s, fwd) in &old {
+                self.slot.remove(&(s, fwd));
+            }
+            let mut v: Vec<(f64, Id, bool)> = old
+                .into_iter()
+                .filter(|(_, s, _)| !changed.contains_key(s))
+                .collect();
+            v.extend(leaving.remove(n).unwrap_or_default());
+            if v.is_empty() {
+                continue;
+            }
+            v.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
+            for (i, &(_, s, fwd)) in v.iter().enumerate() {
+                self.slot.insert((s, fwd), (*n, i));
+            }
+            self.out.insert(*n, v);
+        }
+        // Trace the faces through dirty nodes again.
+        let mut retraced = 0;
+        for n in &dirty {
+            let starts: Vec<(Id, bool)> = self
+                .out
+                .get(n)
+                .map(|v| v.iter().map(|&(_, s, f)| (s, f)).collect())
+                .unwrap_or_default();
+            for h in starts {
+                if self.edge_face.contains_key(&h) {
+                    continue;
+                }
+                let Some(seq) = self.orbit(h) else { continue };
+                retraced += 1;
+                let key = seq[0];
+                for e in &seq {
+                    self.edge_face.insert(*e, key);
+                }
+                let face = self.face(&seq);
+                self.faces.insert(key, (seq, face));
+            }
+        }
+        self.retraced = retraced;
+        self.blocks(layout)
+    }
+
+    /// The half-edges of the face through `h`, from the smallest.
+    fn orbit(&self, start: (Id, bool)) -> Option<Vec<(Id, bool)>> {
+        let mut seq = Vec::new();
+        let mut h = start;
+        loop {
+            seq.push(h);
+            if seq.len() > self.slot.len() + 1 {
+                return None;
+            }
+            let (node, i) = *self.slot.get(&(h.0, !h.1))?;
+            let list = &self.out[&node];
+            let j = (i + list.len() - 1) % list.len();
+            h = (list[j].1, list[j].2);
+            if h == start {
+                break;
+            }
+        }
+        let k = (0..seq.len()).min_by_key(|&i| seq[i])?;
+        seq.rotate_left(k);
+        Some(seq)
+    }
+
+    /// A face from its half-edges, as [`blocks`] builds it.
+    fn face(&self, seq: &[(Id, bool)]) -> Face {
+        let mut ring = Vec::new();
+        let mut streets = BTreeSet::new();
+        let mut twice = BTreeSet::new();
+        let mut nodes = BTreeSet::new();
+        for &(s, fwd) in seq {
+            let (a, b, pl) = &self.polys[&s];
+            if !streets.insert(s) {
+                twice.insert(s);
+            }
+            nodes.insert(if fwd { *a } else { *b });
+            if fwd {
+                ring.extend_from_slice(&pl[..pl.len() - 1]);
+            } else {
+                ring.extend(pl[1..].iter().rev());
+            }
+        }
+        let area = signed_area(&ring);
+        if area > 1e-9 {
+            let streets: Vec<Id> = streets.into_iter().collect();
+            Face::Bounded(Block {
+                id: block_id(&streets),
+                ring,
+                holes: Vec::new(),
+                streets,
+                nodes: nodes.into_iter().collect(),
+                area,
+                inner: false,
+                both_sides: twice.into_iter().collect(),
+            })
+        } else {
+            ring.reverse();
+            Face::Outline {
+                ring,
+                node: nodes.iter().next().copied().unwrap_or_default(),
+                nodes: nodes.into_iter().collect(),
+            }
+        }
+    }
+
+    /// The blocks with their holes, in identity order (as [`blocks`]).
+    fn blocks(&self, layout: &Layout) -> Vec<Block> {
+        let mut bounded: Vec<Block> = Vec::new();
+        let mut outers: Vec<(&[Coord], Id, &[Id])> = Vec::new();
+        for (_, f) in self.faces.values() {
+            match f {
+                Face::Bounded(b) => bounded.push(b.clone()),
+                Face::Outline { ring, node, nodes } => outers.push((ring, *node, nodes)),
+            }
+        }
+        // Holes as in [`blocks`]. A block sharing a node with the outline
+        // is of its component; the components are computed only when some
+        // other block contains an outline's first point.
+        let mut comp: Option<BTreeMap<Id, Id>> = None;
+        for (ring, node, nodes) in outers {
+            let Some(&p) = ring.first() else { continue };
+            let mut best: Option<usize> = None;
+            for i in 0..bounded.len() {
+                if !point_in_ring(p, &bounded[i].ring) || shares(nodes, &bounded[i].nodes) {
+                    continue;
+                }
+                let comp = comp.get_or_insert_with(|| components(layout));
+                let c = comp.get(&node).copied().unwrap_or(node);
+                let bc = bounded[i]
+                    .nodes
+                    .first()
+                    .and_then(|n| comp.get(n).copied())
+                    .unwrap_or_default();
+                if bc == c {
+                    continue;
+                }
+                if best.is_none_or(|k| bounded[k].area > bounded[i].area) {
+                    best = Some(i);
+                }
+            }
+            if let Some(i) = best {
+                bounded[i].inner = true;
+                if signed_area(ring).abs() > 1e-9 {
+                    bounded[i].holes.push(ring.to_vec());
+                }
+            }
+        }
+        for b in &mut bounded {
+            if b.holes.len() < 2 {
+                continue;
+            }
+            let hs = std::mem::take(&mut b.holes);
+            b.holes = hs
+                .iter()
+                .filter(|h| {
+                    !hs.iter().any(|o| {
+                        !std::ptr::eq(*h, o) && h.first().is_some_and(|p| point_in_ring(*p, o))
+                    })
+                })
+                .cloned()
+                .collect();
+        }
+        bounded.sort_by_key(|b| b.id);
+        bounded
+    }
+}
+
+/// Whether two sorted lists share an element.
+fn shares(a: &[Id], b: &[Id]) -> bool {
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() && j < b.len() {
+        match a[i].cmp(&b[j]) {
+            std::cmp::Ordering::Less => i += 1,
+            std::cmp::Ordering::Greater => j += 1,
+            std::cmp::Ordering::Equal => return true,
+        }
+    }
+    false
 }

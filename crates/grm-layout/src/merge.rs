@@ -30,7 +30,7 @@ use crate::geom::{self, point_in_ring};
 use crate::id::Id;
 use crate::index::{self, Boxed, bounds};
 use crate::model::{Layout, Parcel, ParcelOrigin, TagValue};
-use crate::shared::{Shared, Side, shared};
+use crate::shared::{Shared, Side};
 use crate::subdivide::{MergeCache, ParcelParams, block_seed};
 use crate::validity::{Violation, check};
 use geo::Coord;
@@ -132,38 +132,48 @@ pub fn capacity(s: &crate::model::Street) -> i64 {
 
 /// Blocks' boxes for point-in-block queries.
 struct BlockIndex<'a> {
+    /// Sorted by identity (as [`crate::blocks::blocks`] gives them).
     blocks: &'a [Block],
-    tree: RTree<Boxed>,
-    by_id: BTreeMap<Id, usize>,
+    tree: std::borrow::Cow<'a, RTree<Boxed>>,
+}
+
+/// The blocks' boxes (each block's identity and the bounds of its ring).
+fn block_boxes(blocks: &[Block]) -> Vec<Boxed> {
+    blocks
+        .iter()
+        .map(|b| {
+            let (min, max) = bounds(&b.ring);
+            Boxed { id: b.id, min, max }
+        })
+        .collect()
 }
 
 impl<'a> BlockIndex<'a> {
     fn new(blocks: &'a [Block]) -> Self {
-        let tree = RTree::bulk_load(
-            blocks
-                .iter()
-                .map(|b| {
-                    let (min, max) = bounds(&b.ring);
-                    Boxed { id: b.id, min, max }
-                })
-                .collect(),
-        );
-        let by_id = blocks.iter().enumerate().map(|(i, b)| (b.id, i)).collect();
         BlockIndex {
             blocks,
-            tree,
-            by_id,
+            tree: std::borrow::Cow::Owned(RTree::bulk_load(block_boxes(blocks))),
         }
     }
 
-    /// Whether a point is inside some block's outer ring.
+    /// Over a tree of the blocks' boxes kept elsewhere.
+    fn with_tree(blocks: &'a [Block], tree: &'a RTree<Boxed>) -> Self {
+        BlockIndex {
+            blocks,
+            tree: std::borrow::Cow::Borrowed(tree),
+        }
+    }
+
+    /// Whether a point is inside some block's outer ring (a box stands for
+    /// the last block with its identity).
     fn inside(&self, p: Coord) -> bool {
         self.tree
             .locate_in_envelope_intersecting(&rstar::AABB::from_point([p.x, p.y]))
             .any(|bx| {
-                self.by_id
-                    .get(&bx.id)
-                    .is_some_and(|&i| point_in_ring(p, &self.blocks[i].ring))
+                let k = self.blocks.partition_point(|b| b.id <= bx.id);
+                k > 0
+                    && self.blocks[k - 1].id == bx.id
+                    && point_in_ring(p, &self.blocks[k - 1].ring)
             })
     }
 }
@@ -192,10 +202,44 @@ pub fn merge_cached(
     params: &MergeParams,
     cache: &MergeCache,
 ) -> Result<(Layout, MergeReport), MergeError> {
-    let sh = shared(lower, upper);
+    // The upper side and the result change where a dragged layer moved:
+    // the shared graph's meetings, the faces and the clash checks are kept
+    // per merge (a slot named by the lower layout) and redone where the
+    // upper side changed.
+    let slot = |role: &str| {
+        let mut m = Id::mint("merge-slot")
+            .str(role)
+            .u64(lower.streets.len() as u64);
+        for id in lower
+            .streets
+            .keys()
+            .take(1)
+            .chain(lower.streets.keys().last())
+        {
+            m = m.id(*id);
+        }
+        m.finish()
+    };
+    let mut sh = {
+        let key = slot("shared");
+        let mut memo = cache.shared.borrow_mut().remove(&key).unwrap_or_default();
+        let sh = crate::shared::shared_with(lower, upper, Some(&mut memo));
+        let mut c = cache.shared.borrow_mut();
+        if c.len() >= 64 {
+            c.clear();
+        }
+        c.insert(key, memo);
+        sh
+    };
     let blocks_a = cache.blocks(lower);
-    let blocks_b = cache.blocks(upper);
-    let idx_b = BlockIndex::new(&blocks_b);
+    let blocks_b = cache.blocks_in(slot("upper"), upper);
+    let mut boxes_b = cache
+        .boxes
+        .borrow_mut()
+        .remove(&slot("upper"))
+        .unwrap_or_default();
+    boxes_b.update(block_boxes(&blocks_b));
+    let idx_b = BlockIndex::with_tree(&blocks_b, boxes_b.tree());
     let mut report = MergeReport {
         crossings: sh.crossings.len(),
         ..MergeReport::default()
@@ -210,6 +254,14 @@ pub fn merge_cached(
             &mut report,
         ),
     };
+    drop(idx_b);
+    {
+        let mut c = cache.boxes.borrow_mut();
+        if c.len() >= 64 {
+            c.clear();
+        }
+        c.insert(slot("upper"), boxes_b);
+    }
     clear_free_parcels(&sh, upper, &blocks_b, &mut keep);
     for (id, (side, _)) in &sh.origin {
         if !keep.contains(id) {
@@ -219,21 +271,42 @@ pub fn merge_cached(
             }
         }
     }
+    // The shared graph's layout is not read past this point: its nodes
+    // and kept pieces move into the result.
     let mut out = Layout {
-        nodes: sh.layout.nodes.clone(),
-        streets: sh
-            .layout
-            .streets
-            .iter()
+        nodes: std::mem::take(&mut sh.layout.nodes),
+        streets: std::mem::take(&mut sh.layout.streets)
+            .into_iter()
             .filter(|(k, _)| keep.contains(k))
-            .map(|(k, v)| (*k, v.clone()))
             .collect(),
         parcels: BTreeMap::new(),
         rests: BTreeMap::new(),
     };
     rejoin(&mut out, &sh);
     out.drop_isolated_nodes();
-    let segs = index::segments(&out);
+    // Which side each piece and whole street came from.
+    let mut orig_side: BTreeMap<Id, (Side, Id)> = sh.origin.clone();
+    for (side, id) in sh.originals.keys() {
+        orig_side.insert(*id, (*side, *id));
+    }
+    // The result's segments: an index kept for this merge and brought up
+    // to date (only the changed streets' segments go out and in); a
+    // street's side and width count as part of it (the clash checks read
+    // them).
+    let mut seg_index = cache
+        .segs
+        .borrow_mut()
+        .remove(&slot("result"))
+        .unwrap_or_default();
+    let changes = seg_index.update(&out, out.streets.values(), |s| {
+        let side = match orig_side.get(&s.id).map(|o| o.0) {
+            Some(Side::A) => 1,
+            Some(Side::B) => 2,
+            None => 0,
+        };
+        (side, s.width)
+    });
+    let segs = seg_index.tree();
     // A street of one side that was not cut met no street of the other
     // side, and each side was valid: only the pieces and the streets at a
     // crossing can have come to meet wrongly (a debug build checks all).
@@ -248,9 +321,14 @@ pub fn merge_cached(
         })
         .map(|s| s.id)
         .collect();
-    let v = crate::validity::check_streets(&out, &segs, Some(&seam));
-    if !v.is_empty() {
-        return Err(MergeError::Invalid(v));
+    if !crate::validity::check_streets(&out, segs, Some(&seam)).is_empty() {
+        // The violations in the order a fresh index gives them.
+        let fresh = index::segments(&out);
+        return Err(MergeError::Invalid(crate::validity::check_streets(
+            &out,
+            &fresh,
+            Some(&seam),
+        )));
     }
     parcels(
         &mut out,
@@ -258,12 +336,21 @@ pub fn merge_cached(
         upper,
         &blocks_a,
         &blocks_b,
-        &sh,
         params,
         &mut report,
         cache,
-        &segs,
+        segs,
+        &changes,
+        &orig_side,
+        slot("result"),
     );
+    {
+        let mut c = cache.segs.borrow_mut();
+        if c.len() >= 64 {
+            c.clear();
+        }
+        c.insert(slot("result"), seg_index);
+    }
     // The clash pass above settles the parcels; a debug build checks the
     // whole result as well (the test suites run it after every merge).
     let v = if cfg!(debug_assertions) {
@@ -641,6 +728,16 @@ fn rejoin(out: &mut Layout, sh: &Shared) {
     }
 }
 
+/// The clash checks of one merge's result kept for the next merge in the
+/// same slot: each parcel's verdict by its ring and its class (checked
+/// against every street, the upper side's, or the lower side's), kept
+/// while no changed street (gone, new, moved, widened, or of the other
+/// side now) comes within its half width of the parcel's box.
+#[derive(Debug, Default)]
+pub(crate) struct ClashMemo {
+    verdicts: std::collections::HashMap<Id, (Id, u8, bool)>,
+}
+
 #[allow(clippy::too_many_arguments)]
 fn parcels(
     out: &mut Layout,
@@ -648,17 +745,15 @@ fn parcels(
     upper: &Layout,
     blocks_a: &[Block],
     blocks_b: &[Block],
-    sh: &Shared,
     params: &MergeParams,
     report: &mut MergeReport,
     cache: &MergeCache,
     segs: &rstar::RTree<index::Seg>,
+    changes: &[index::SegChange],
+    orig_side: &BTreeMap<Id, (Side, Id)>,
+    slot: Id,
 ) {
-    let result_blocks = cache.blocks(out);
-    let mut orig_side: BTreeMap<Id, (Side, Id)> = sh.origin.clone();
-    for (side, id) in sh.originals.keys() {
-        orig_side.insert(*id, (*side, *id));
-    }
+    let result_blocks = cache.blocks_in(slot, out);
     let rings_a: BTreeMap<Id, &Block> = blocks_a.iter().map(|b| (b.id, b)).collect();
     let rings_b: BTreeMap<Id, &Block> = blocks_b.iter().map(|b| (b.id, b)).collect();
     // The block of one side this result block is (the same original
@@ -785,24 +880,80 @@ fn parcels(
     // passing close or one inside the block, are checked. Regrown and free
     // parcels are checked against every street.
     let side_of = |id: Id| orig_side.get(&id).map(|o| o.0);
-    let segs_a = index::segments_where(out, |id| side_of(id) == Some(Side::A));
-    let segs_b = index::segments_where(out, |id| side_of(id) == Some(Side::B));
-    let on_street: Vec<Id> = out
-        .parcels
-        .values()
-        .filter(|p| {
-            let segs = if fresh.contains(&p.id) || free.contains(&p.id) {
-                segs
-            } else if from_a.contains(&p.id) {
-                &segs_b
-            } else {
-                &segs_a
-            };
-            !cache.ring_ok(&p.ring)
-                || crate::validity::parcel_street_hit(out, segs, &p.ring, max_half).is_some()
-        })
-        .map(|p| p.id)
-        .collect();
+    // Each parcel's verdict is kept from the last merge in this slot when
+    // its ring and the streets it is checked against are the same there:
+    // no changed street (gone, new, moved, widened or of the other side
+    // now) comes within its half width of the parcel's box.
+    let mut memo = cache.clash.borrow_mut().remove(&slot).unwrap_or_default();
+    let dirty: RTree<Boxed> = RTree::bulk_load(
+        changes
+            .iter()
+            .flat_map(|c| [&c.old, &c.new])
+            .flatten()
+            .map(|(pl, _, width)| {
+                let (min, max) = bounds(pl);
+                let r = width.abs() * 0.5;
+                Boxed {
+                    id: Id(0),
+                    min: [min[0] - r, min[1] - r],
+                    max: [max[0] + r, max[1] + r],
+                }
+            })
+            .collect(),
+    );
+    let mut verdicts: std::collections::HashMap<Id, (Id, u8, bool)> =
+        std::collections::HashMap::with_capacity(out.parcels.len());
+    let mut on_street: Vec<Id> = Vec::new();
+    for p in out.parcels.values() {
+        let class: u8 = if fresh.contains(&p.id) || free.contains(&p.id) {
+            0
+        } else if from_a.contains(&p.id) {
+            1
+        } else {
+            2
+        };
+        let ring = crate::stack_cache::ring_key(&p.ring);
+        let (min, max) = bounds(&p.ring);
+        let kept = memo.verdicts.get(&p.id).filter(|v| {
+            v.0 == ring
+                && v.1 == class
+                && dirty
+                    .locate_in_envelope_intersecting(&index::grown(min, max, 0.0))
+                    .next()
+                    .is_none()
+        });
+        let hit = match kept {
+            Some(v) => v.2,
+            None => {
+                let side = match class {
+                    0 => None,
+                    1 => Some(Side::B),
+                    _ => Some(Side::A),
+                };
+                !cache.ring_ok_key(ring, &p.ring)
+                    || crate::validity::parcel_street_hit_where(
+                        out,
+                        segs,
+                        &p.ring,
+                        max_half,
+                        |id| side.is_none() || side_of(id) == side,
+                    )
+                    .is_some()
+            }
+        };
+        verdicts.insert(p.id, (ring, class, hit));
+        if hit {
+            on_street.push(p.id);
+        }
+    }
+    memo.verdicts = verdicts;
+    {
+        let mut c = cache.clash.borrow_mut();
+        if c.len() >= 64 {
+            c.clear();
+        }
+        c.insert(slot, memo);
+    }
     let mut drop: BTreeSet<Id> = on_street.into_iter().collect();
     // Regrown parcels keep clear of each other and of kept ones (disjoint
     // faces); only a free parcel can overlap another.

@@ -64,6 +64,117 @@ fn bits(c: Coord) -> (u64, u64) {
 
 /// Builds the shared graph of `a` (lower) and `b` (upper).
 pub fn shared(a: &Layout, b: &Layout) -> Shared {
+    shared_with(a, b, None)
+}
+
+/// One meeting of a lower street with an upper street: the node, its
+/// place, and the cut it makes on either street (none at an end node).
+#[derive(Debug, Clone)]
+struct Meeting {
+    node: Id,
+    p: Coord,
+    on_lower: Option<(usize, f64)>,
+    on_upper: Option<(Id, usize, f64)>,
+}
+
+/// A lower street's meetings with the upper streets, in the order the
+/// shared graph makes them, and whether it runs along an upper street
+/// (the meetings then stop there).
+#[derive(Debug, Clone)]
+pub(crate) struct Meetings {
+    a: Id,
+    b: Id,
+    poly: Vec<Coord>,
+    events: Vec<Meeting>,
+    overlap: bool,
+}
+
+/// The lower streets' meetings kept from one shared graph for the next
+/// one with the same lower layout (a drag moves the upper side): a lower
+/// street's meetings depend only on the street (its end nodes as the
+/// shared graph names them, its polyline) and the upper segments whose
+/// boxes meet its segments' boxes, so they are kept unless a changed
+/// upper street (new, gone, or with other ends or points) comes there.
+#[derive(Debug, Default)]
+pub struct SharedMemo {
+    /// The upper streets' segments, kept up to date.
+    useg: index::SegIndex,
+    recs: std::collections::HashMap<Id, Meetings>,
+}
+
+/// Whether a changed upper street's box meets one of the polyline's
+/// segments' boxes.
+fn touches(dirty: &rstar::RTree<index::Boxed>, pl: &[Coord]) -> bool {
+    pl.windows(2).any(|w| {
+        let env = rstar::AABB::from_corners([w[0].x, w[0].y], [w[1].x, w[1].y]);
+        dirty.locate_in_envelope_intersecting(&env).next().is_some()
+    })
+}
+
+fn poly_of(base: &Layout, s: &Street) -> Option<Vec<Coord>> {
+    let mut v = vec![base.nodes.get(&s.a)?.pos];
+    v.extend_from_slice(&s.interior);
+    v.push(base.nodes.get(&s.b)?.pos);
+    Some(v)
+}
+
+/// A lower street's meetings with the upper streets (the shared graph's
+/// walk over its segments, each segment's hits in street and segment order).
+fn meetings(
+    s: &Street,
+    pl: Vec<Coord>,
+    useg: &rstar::RTree<index::Seg>,
+    upper: &BTreeMap<Id, &Street>,
+    base: &Layout,
+) -> Meetings {
+    let mut events = Vec::new();
+    let mut overlap = false;
+    'segs: for (k, w) in pl.windows(2).enumerate() {
+        let env = rstar::AABB::from_corners([w[0].x, w[0].y], [w[1].x, w[1].y]);
+        let mut hits: Vec<&index::Seg> = useg.locate_in_envelope_intersecting(&env).collect();
+        hits.sort_by(|x, y| x.street.cmp(&y.street).then(x.k.cmp(&y.k)));
+        for o in hits {
+            let Some(t) = upper.get(&o.street) else {
+                continue;
+            };
+            match geom::meet(w[0], w[1], o.a, o.b) {
+                None => {}
+                Some(Meet::Overlap) => {
+                    overlap = true;
+                    break 'segs;
+                }
+                Some(Meet::Point(p)) => {
+                    let ends = [s.a, s.b, t.a, t.b];
+                    let node = ends
+                        .iter()
+                        .copied()
+                        .find(|n| base.nodes.get(n).is_some_and(|m| m.pos == p))
+                        .unwrap_or_else(|| {
+                            Id::mint("x").id(s.id).id(t.id).f64(p.x).f64(p.y).finish()
+                        });
+                    events.push(Meeting {
+                        node,
+                        p,
+                        on_lower: (node != s.a && node != s.b).then(|| (k, param(w[0], w[1], p))),
+                        on_upper: (node != t.a && node != t.b)
+                            .then(|| (t.id, o.k, param(o.a, o.b, p))),
+                    });
+                }
+            }
+        }
+    }
+    Meetings {
+        a: s.a,
+        b: s.b,
+        poly: pl,
+        events,
+        overlap,
+    }
+}
+
+/// [`shared`], keeping the lower streets' meetings in `memo` for the next
+/// call with the same lower layout (the same graph, less work per drag).
+pub fn shared_with(a: &Layout, b: &Layout, memo: Option<&mut SharedMemo>) -> Shared {
     let mut sh = Shared::default();
     let mut base = Layout::default();
     let mut at: BTreeMap<(u64, u64), Id> = BTreeMap::new();
@@ -114,22 +225,60 @@ pub fn shared(a: &Layout, b: &Layout) -> Shared {
         sh.originals.insert((*side, s.id), s.clone());
     }
     // Polylines and an index over the upper streets' segments.
-    fn poly(base: &Layout, s: &Street) -> Option<Vec<Coord>> {
-        let mut v = vec![base.nodes.get(&s.a)?.pos];
-        v.extend_from_slice(&s.interior);
-        v.push(base.nodes.get(&s.b)?.pos);
-        Some(v)
-    }
-    let mut upper = Layout {
-        nodes: base.nodes.clone(),
-        ..Layout::default()
-    };
-    for (side, s) in &streets {
-        if *side == Side::B {
-            upper.streets.insert(s.id, s.clone());
+    let poly = poly_of;
+    // The upper streets by identity, and their segments' index.
+    let upper: BTreeMap<Id, &Street> = streets
+        .iter()
+        .filter(|(side, _)| *side == Side::B)
+        .map(|(_, s)| (s.id, s))
+        .collect();
+    // With a memo: its index of the upper segments brought up to date, and
+    // the segments' boxes of the upper streets that changed since (as they
+    // were and as they are).
+    let fresh_useg;
+    let (useg, dirty, mut kept_recs) = match memo {
+        Some(m) => {
+            let SharedMemo { useg, recs } = m;
+            let changes = useg.update(&base, upper.values().copied(), |_| (0, 0.0));
+            let boxes: Vec<index::Boxed> = changes
+                .iter()
+                .flat_map(|c| [&c.old, &c.new])
+                .flatten()
+                .flat_map(|(pl, _, _)| pl.windows(2))
+                .map(|w| {
+                    let (min, max) = index::bounds(w);
+                    index::Boxed {
+                        id: Id(0),
+                        min,
+                        max,
+                    }
+                })
+                .collect();
+            (
+                useg.tree(),
+                Some(rstar::RTree::bulk_load(boxes)),
+                Some(recs),
+            )
         }
-    }
-    let useg = index::segments(&upper);
+        None => {
+            let mut v = Vec::new();
+            for s in upper.values() {
+                if let Some(pl) = poly(&base, s) {
+                    for (k, w) in pl.windows(2).enumerate() {
+                        v.push(index::Seg {
+                            street: s.id,
+                            k,
+                            a: w[0],
+                            b: w[1],
+                        });
+                    }
+                }
+            }
+            fresh_useg = rstar::RTree::bulk_load(v);
+            (&fresh_useg, None, None)
+        }
+    };
+    let mut recs: std::collections::HashMap<Id, Meetings> = std::collections::HashMap::new();
     // Cuts per street: (segment, parameter, node).
     let mut cuts: BTreeMap<(Side, Id), Vec<Cut>> = BTreeMap::new();
     let mut drop_a: BTreeSet<Id> = BTreeSet::new();
@@ -139,51 +288,44 @@ pub fn shared(a: &Layout, b: &Layout) -> Shared {
             continue;
         }
         let Some(pl) = poly(&base, s) else { continue };
-        'segs: for (k, w) in pl.windows(2).enumerate() {
-            let env = rstar::AABB::from_corners([w[0].x, w[0].y], [w[1].x, w[1].y]);
-            let mut hits: Vec<&index::Seg> = useg.locate_in_envelope_intersecting(&env).collect();
-            hits.sort_by(|x, y| x.street.cmp(&y.street).then(x.k.cmp(&y.k)));
-            for o in hits {
-                let Some(t) = upper.streets.get(&o.street) else {
-                    continue;
-                };
-                match geom::meet(w[0], w[1], o.a, o.b) {
-                    None => {}
-                    Some(Meet::Overlap) => {
-                        drop_a.insert(s.id);
-                        break 'segs;
-                    }
-                    Some(Meet::Point(p)) => {
-                        let ends = [s.a, s.b, t.a, t.b];
-                        let node = ends
-                            .iter()
-                            .copied()
-                            .find(|n| base.nodes.get(n).is_some_and(|m| m.pos == p))
-                            .unwrap_or_else(|| {
-                                Id::mint("x").id(s.id).id(t.id).f64(p.x).f64(p.y).finish()
-                            });
-                        if !base.nodes.contains_key(&node) {
-                            new_nodes.insert(node, p);
-                        }
-                        if node != s.a && node != s.b {
-                            cuts.entry((Side::A, s.id)).or_default().push((
-                                k,
-                                param(w[0], w[1], p),
-                                node,
-                            ));
-                        }
-                        if node != t.a && node != t.b {
-                            cuts.entry((Side::B, t.id)).or_default().push((
-                                o.k,
-                                param(o.a, o.b, p),
-                                node,
-                            ));
-                        }
-                        sh.crossings.insert(node);
-                    }
-                }
+        // The street's meetings with the upper streets: kept from the last
+        // shared graph when the street is the same and no changed upper
+        // street comes near it, computed otherwise.
+        let kept = match (kept_recs.as_deref_mut(), &dirty) {
+            (Some(m), Some(d)) => m.remove(&s.id).filter(|r| {
+                r.a == s.a && r.b == s.b && index::same_bits(&r.poly, &pl) && !touches(d, &pl)
+            }),
+            _ => None,
+        };
+        let rec = match kept {
+            Some(r) => r,
+            None => meetings(s, pl, useg, &upper, &base),
+        };
+        for ev in &rec.events {
+            if !base.nodes.contains_key(&ev.node) {
+                new_nodes.insert(ev.node, ev.p);
             }
+            if let Some((k, t)) = ev.on_lower {
+                cuts.entry((Side::A, s.id))
+                    .or_default()
+                    .push((k, t, ev.node));
+            }
+            if let Some((street, k, t)) = ev.on_upper {
+                cuts.entry((Side::B, street))
+                    .or_default()
+                    .push((k, t, ev.node));
+            }
+            sh.crossings.insert(ev.node);
         }
+        if rec.overlap {
+            drop_a.insert(s.id);
+        }
+        if kept_recs.is_some() {
+            recs.insert(s.id, rec);
+        }
+    }
+    if let Some(m) = kept_recs {
+        *m = recs;
     }
     for id in &drop_a {
         sh.coincident.push(*id);
@@ -193,14 +335,14 @@ pub fn shared(a: &Layout, b: &Layout) -> Shared {
         base.add_node(id, p);
     }
     let mut out = Layout {
-        nodes: base.nodes.clone(),
+        nodes: std::mem::take(&mut base.nodes),
         ..Layout::default()
     };
     for (side, s) in &streets {
         if *side == Side::A && drop_a.contains(&s.id) {
             continue;
         }
-        let Some(pl) = poly(&base, s) else { continue };
+        let Some(pl) = poly(&out, s) else { continue };
         let mut c = cuts.remove(&(*side, s.id)).unwrap_or_default();
         c.sort_by(|x, y| x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)));
         c.dedup_by(|x, y| x.2 == y.2);

@@ -188,6 +188,18 @@ pub struct MergeCache {
     pub stack: crate::stack_cache::StackCache,
     /// Whether a ring passes [`check_ring`], by the ring's content.
     rings: std::cell::RefCell<std::collections::HashMap<Id, bool>>,
+    /// The faces of the last layout seen in each slot (a merge's upper
+    /// side, its result), updated where the streets changed.
+    faces: std::cell::RefCell<std::collections::HashMap<Id, crate::blocks::Faces>>,
+    /// A merge's clash checks of its result's parcels, per slot, with the
+    /// streets they were checked against.
+    pub(crate) clash: std::cell::RefCell<std::collections::HashMap<Id, crate::merge::ClashMemo>>,
+    /// A merge's result's street segments, per slot.
+    pub(crate) segs: std::cell::RefCell<std::collections::HashMap<Id, crate::index::SegIndex>>,
+    /// The boxes of a merge's upper blocks, per slot.
+    pub(crate) boxes: std::cell::RefCell<std::collections::HashMap<Id, crate::index::BoxIndex>>,
+    /// A merge's shared-graph meetings, per slot.
+    pub(crate) shared: std::cell::RefCell<std::collections::HashMap<Id, crate::shared::SharedMemo>>,
 }
 
 impl MergeCache {
@@ -215,11 +227,31 @@ impl MergeCache {
         b
     }
 
+    /// The blocks of a layout (equal to [`crate::blocks::blocks`]), from
+    /// the faces kept in `slot` for the last layout seen there: only the
+    /// faces through a changed street are traced again. A slot names a
+    /// role (the upper side of the merge under some layer, its result);
+    /// any slot gives the same blocks, a good one less work.
+    pub fn blocks_in(&self, slot: Id, layout: &Layout) -> Vec<Block> {
+        let mut f = self.faces.borrow_mut().remove(&slot).unwrap_or_default();
+        let b = f.update(layout);
+        let mut c = self.faces.borrow_mut();
+        if c.len() >= 64 {
+            c.clear();
+        }
+        c.insert(slot, f);
+        b
+    }
+
     /// Whether a ring is a simple polygon ([`check_ring`]), from the cache
     /// when the same ring was checked before (a merge's kept parcels are
     /// the same rings from one update to the next).
     pub fn ring_ok(&self, ring: &[Coord]) -> bool {
-        let key = crate::stack_cache::ring_key(ring);
+        self.ring_ok_key(crate::stack_cache::ring_key(ring), ring)
+    }
+
+    /// [`MergeCache::ring_ok`] with the ring's key computed already.
+    pub(crate) fn ring_ok_key(&self, key: Id, ring: &[Coord]) -> bool {
         if let Some(&ok) = self.rings.borrow().get(&key) {
             return ok;
         }

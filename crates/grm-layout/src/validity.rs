@@ -244,9 +244,23 @@ pub fn parcel_street_hit(
     ring: &[Coord],
     max_half: f64,
 ) -> Option<Id> {
+    parcel_street_hit_where(layout, segs, ring, max_half, |_| true)
+}
+
+/// [`parcel_street_hit`] among the streets `keep` accepts.
+pub fn parcel_street_hit_where(
+    layout: &Layout,
+    segs: &RTree<Seg>,
+    ring: &[Coord],
+    max_half: f64,
+    keep: impl Fn(Id) -> bool,
+) -> Option<Id> {
     let (min, max) = bounds(ring);
     let mut hits: Vec<Id> = Vec::new();
     for sg in segs.locate_in_envelope_intersecting(&grown(min, max, max_half)) {
+        if !keep(sg.street) {
+            continue;
+        }
         let Some(st) = layout.streets.get(&sg.street) else {
             continue;
         };
