@@ -203,9 +203,8 @@ pub fn merge_cached(
     cache: &MergeCache,
 ) -> Result<(Layout, MergeReport), MergeError> {
     // The upper side and the result change where a dragged layer moved:
-    // the shared graph's meetings, the faces and the clash checks are kept
-    // per merge (a slot named by the lower layout) and redone where the
-    // upper side changed.
+    // the faces, the indexes and the clash checks are kept per merge (a
+    // slot named by the lower layout) and redone where they changed.
     let slot = |role: &str| {
         let mut m = Id::mint("merge-slot")
             .str(role)
@@ -220,17 +219,7 @@ pub fn merge_cached(
         }
         m.finish()
     };
-    let mut sh = {
-        let key = slot("shared");
-        let mut memo = cache.shared.borrow_mut().remove(&key).unwrap_or_default();
-        let sh = crate::shared::shared_with(lower, upper, Some(&mut memo));
-        let mut c = cache.shared.borrow_mut();
-        if c.len() >= 64 {
-            c.clear();
-        }
-        c.insert(key, memo);
-        sh
-    };
+    let mut sh = crate::shared::shared(lower, upper);
     let blocks_a = cache.blocks(lower);
     let blocks_b = cache.blocks_in(slot("upper"), upper);
     let mut boxes_b = cache

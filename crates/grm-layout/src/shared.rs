@@ -62,11 +62,6 @@ fn bits(c: Coord) -> (u64, u64) {
     (z(c.x), z(c.y))
 }
 
-/// Builds the shared graph of `a` (lower) and `b` (upper).
-pub fn shared(a: &Layout, b: &Layout) -> Shared {
-    shared_with(a, b, None)
-}
-
 /// One meeting of a lower street with an upper street: the node, its
 /// place, and the cut it makes on either street (none at an end node).
 #[derive(Debug, Clone)]
@@ -81,34 +76,9 @@ struct Meeting {
 /// shared graph makes them, and whether it runs along an upper street
 /// (the meetings then stop there).
 #[derive(Debug, Clone)]
-pub(crate) struct Meetings {
-    a: Id,
-    b: Id,
-    poly: Vec<Coord>,
+struct Meetings {
     events: Vec<Meeting>,
     overlap: bool,
-}
-
-/// The lower streets' meetings kept from one shared graph for the next
-/// one with the same lower layout (a drag moves the upper side): a lower
-/// street's meetings depend only on the street (its end nodes as the
-/// shared graph names them, its polyline) and the upper segments whose
-/// boxes meet its segments' boxes, so they are kept unless a changed
-/// upper street (new, gone, or with other ends or points) comes there.
-#[derive(Debug, Default)]
-pub struct SharedMemo {
-    /// The upper streets' segments, kept up to date.
-    useg: index::SegIndex,
-    recs: std::collections::HashMap<Id, Meetings>,
-}
-
-/// Whether a changed upper street's box meets one of the polyline's
-/// segments' boxes.
-fn touches(dirty: &rstar::RTree<index::Boxed>, pl: &[Coord]) -> bool {
-    pl.windows(2).any(|w| {
-        let env = rstar::AABB::from_corners([w[0].x, w[0].y], [w[1].x, w[1].y]);
-        dirty.locate_in_envelope_intersecting(&env).next().is_some()
-    })
 }
 
 fn poly_of(base: &Layout, s: &Street) -> Option<Vec<Coord>> {
@@ -122,7 +92,7 @@ fn poly_of(base: &Layout, s: &Street) -> Option<Vec<Coord>> {
 /// walk over its segments, each segment's hits in street and segment order).
 fn meetings(
     s: &Street,
-    pl: Vec<Coord>,
+    pl: &[Coord],
     useg: &rstar::RTree<index::Seg>,
     upper: &BTreeMap<Id, &Street>,
     base: &Layout,
@@ -163,18 +133,11 @@ fn meetings(
             }
         }
     }
-    Meetings {
-        a: s.a,
-        b: s.b,
-        poly: pl,
-        events,
-        overlap,
-    }
+    Meetings { events, overlap }
 }
 
-/// [`shared`], keeping the lower streets' meetings in `memo` for the next
-/// call with the same lower layout (the same graph, less work per drag).
-pub fn shared_with(a: &Layout, b: &Layout, memo: Option<&mut SharedMemo>) -> Shared {
+/// Builds the shared graph of `a` (lower) and `b` (upper).
+pub fn shared(a: &Layout, b: &Layout) -> Shared {
     let mut sh = Shared::default();
     let mut base = Layout::default();
     let mut at: BTreeMap<(u64, u64), Id> = BTreeMap::new();
@@ -232,53 +195,22 @@ pub fn shared_with(a: &Layout, b: &Layout, memo: Option<&mut SharedMemo>) -> Sha
         .filter(|(side, _)| *side == Side::B)
         .map(|(_, s)| (s.id, s))
         .collect();
-    // With a memo: its index of the upper segments brought up to date, and
-    // the segments' boxes of the upper streets that changed since (as they
-    // were and as they are).
-    let fresh_useg;
-    let (useg, dirty, mut kept_recs) = match memo {
-        Some(m) => {
-            let SharedMemo { useg, recs } = m;
-            let changes = useg.update(&base, upper.values().copied(), |_| (0, 0.0));
-            let boxes: Vec<index::Boxed> = changes
-                .iter()
-                .flat_map(|c| [&c.old, &c.new])
-                .flatten()
-                .flat_map(|(pl, _, _)| pl.windows(2))
-                .map(|w| {
-                    let (min, max) = index::bounds(w);
-                    index::Boxed {
-                        id: Id(0),
-                        min,
-                        max,
-                    }
-                })
-                .collect();
-            (
-                useg.tree(),
-                Some(rstar::RTree::bulk_load(boxes)),
-                Some(recs),
-            )
-        }
-        None => {
-            let mut v = Vec::new();
-            for s in upper.values() {
-                if let Some(pl) = poly(&base, s) {
-                    for (k, w) in pl.windows(2).enumerate() {
-                        v.push(index::Seg {
-                            street: s.id,
-                            k,
-                            a: w[0],
-                            b: w[1],
-                        });
-                    }
+    let useg = {
+        let mut v = Vec::new();
+        for s in upper.values() {
+            if let Some(pl) = poly(&base, s) {
+                for (k, w) in pl.windows(2).enumerate() {
+                    v.push(index::Seg {
+                        street: s.id,
+                        k,
+                        a: w[0],
+                        b: w[1],
+                    });
                 }
             }
-            fresh_useg = rstar::RTree::bulk_load(v);
-            (&fresh_useg, None, None)
         }
+        rstar::RTree::bulk_load(v)
     };
-    let mut recs: std::collections::HashMap<Id, Meetings> = std::collections::HashMap::new();
     // Cuts per street: (segment, parameter, node).
     let mut cuts: BTreeMap<(Side, Id), Vec<Cut>> = BTreeMap::new();
     let mut drop_a: BTreeSet<Id> = BTreeSet::new();
@@ -288,19 +220,7 @@ pub fn shared_with(a: &Layout, b: &Layout, memo: Option<&mut SharedMemo>) -> Sha
             continue;
         }
         let Some(pl) = poly(&base, s) else { continue };
-        // The street's meetings with the upper streets: kept from the last
-        // shared graph when the street is the same and no changed upper
-        // street comes near it, computed otherwise.
-        let kept = match (kept_recs.as_deref_mut(), &dirty) {
-            (Some(m), Some(d)) => m.remove(&s.id).filter(|r| {
-                r.a == s.a && r.b == s.b && index::same_bits(&r.poly, &pl) && !touches(d, &pl)
-            }),
-            _ => None,
-        };
-        let rec = match kept {
-            Some(r) => r,
-            None => meetings(s, pl, useg, &upper, &base),
-        };
+        let rec = meetings(s, &pl, &useg, &upper, &base);
         for ev in &rec.events {
             if !base.nodes.contains_key(&ev.node) {
                 new_nodes.insert(ev.node, ev.p);
@@ -320,12 +240,6 @@ pub fn shared_with(a: &Layout, b: &Layout, memo: Option<&mut SharedMemo>) -> Sha
         if rec.overlap {
             drop_a.insert(s.id);
         }
-        if kept_recs.is_some() {
-            recs.insert(s.id, rec);
-        }
-    }
-    if let Some(m) = kept_recs {
-        *m = recs;
     }
     for id in &drop_a {
         sh.coincident.push(*id);

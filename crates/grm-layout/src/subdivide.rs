@@ -198,8 +198,6 @@ pub struct MergeCache {
     pub(crate) segs: std::cell::RefCell<std::collections::HashMap<Id, crate::index::SegIndex>>,
     /// The boxes of a merge's upper blocks, per slot.
     pub(crate) boxes: std::cell::RefCell<std::collections::HashMap<Id, crate::index::BoxIndex>>,
-    /// A merge's shared-graph meetings, per slot.
-    pub(crate) shared: std::cell::RefCell<std::collections::HashMap<Id, crate::shared::SharedMemo>>,
 }
 
 impl MergeCache {
