@@ -179,7 +179,10 @@ pub fn parcel_area(
 /// work (dragging a layer: most regrown blocks and most layers' blocks are
 /// the same from one update to the next). Keys hash everything the result
 /// depends on, so a hit is what would be computed. Emptied when it holds
-/// more than [`MergeCache::LIMIT`] entries.
+/// more than [`MergeCache::LIMIT`] entries. Per merge of a stack (a slot
+/// named by the lower layout) it also keeps the last update's faces,
+/// R-trees and clash verdicts, brought up to date where streets changed
+/// (the incremental merge: the same bytes as a merge from scratch).
 #[derive(Debug, Default)]
 pub struct MergeCache {
     parcels: std::cell::RefCell<std::collections::HashMap<Id, Vec<Parcel>>>,
