@@ -22,19 +22,27 @@
 //! decisions, `emit` and keys) and adds:
 //!
 //! - a **tag** per module of the string (0: no edit reaches it; no tag
-//!   buffer at all until an edit makes the first tag), carried
+//!   buffer at all until an edit makes the first tag; buffers are reused,
+//!   never zeroed: every tag of a piece is written), carried
 //!   by copies and inherited by successors: the alternative a `force`
 //!   edit imposes on the module's own rewrite, and the **scope** of `set`
 //!   and `offset` edits of its ancestors (and its own), applied to every
-//!   successor module as it is written;
-//! - per successor module written, its key looked up in the plan (a bit of
-//!   a 65,536-bit filter, tested eight keys at a time: an AVX2 gather where
-//!   the CPU has it, `filter.rs`; then a hash map on a hit): a module whose key
+//!   successor module as it is written (compiled per scope and successor
+//!   list to word operations; scopes with the same values are one);
+//! - every key written looked up in the plan (two bits of one word of a
+//!   65,536-bit filter, tested eight keys at a time after the piece: an
+//!   AVX2 gather where the CPU has it, `filter.rs`; then a hash map on a
+//!   hit; the successors of a tagged module are looked up by the hooks,
+//!   with their parent's scope): a module whose key
 //!   has edits is settled after the chunk's rewrite, in position order on
 //!   one thread: removed (a `[` or `]` with the whole branch to its
 //!   partner), its key replaced by a pinned one, its values set (its own
 //!   edits over its ancestors', per slot: the deeper target wins), its tag
-//!   given.
+//!   given. A copy of a settled module is passed over.
+//! - removed modules stay in the string [`Engine::derive_edited`] passes
+//!   to the next step, which skips them (its pieces split around them),
+//!   and are dropped once after the last step (where no rule reads a
+//!   neighbour; a step of [`Engine::edited_step`] drops its own).
 //!
 //! Determinism: decisions and values depend only on the input string, its
 //! tags, the seed and the iteration, never on the chunking; tags are
@@ -43,6 +51,8 @@
 mod filter;
 
 use std::collections::{HashMap, HashSet};
+use std::hash::{BuildHasherDefault, Hasher};
+use std::sync::Mutex;
 use std::time::Instant;
 
 use grm_compile::rng;
@@ -54,6 +64,44 @@ use crate::engine::{
 };
 use crate::error::{DeriveError, RuntimeError, RuntimeErrorKind};
 use crate::string::ModuleString;
+
+/// A hasher for identity keys (already well mixed: a multiply spreads
+/// them over the table) and small tuples of them; the maps of the replay
+/// are looked up per module, where SipHash costs more than the lookup.
+#[derive(Clone, Copy, Debug, Default)]
+struct KeyHasher(u64);
+
+impl Hasher for KeyHasher {
+    #[inline(always)]
+    fn finish(&self) -> u64 {
+        self.0
+    }
+
+    #[inline(always)]
+    fn write_u32(&mut self, x: u32) {
+        self.0 = (self.0.rotate_left(26) ^ u64::from(x)).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+    }
+
+    #[inline(always)]
+    fn write_u64(&mut self, x: u64) {
+        self.write_u32(x as u32);
+        self.write_u32((x >> 32) as u32);
+    }
+
+    #[inline(always)]
+    fn write_usize(&mut self, x: usize) {
+        self.write_u64(x as u64);
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u32(u32::from(b));
+        }
+    }
+}
+
+type KeyMap<K, V> = HashMap<K, V, BuildHasherDefault<KeyHasher>>;
+type KeySet<K> = HashSet<K, BuildHasherDefault<KeyHasher>>;
 
 /// What a `set` or `offset` edit does to a parameter's words.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -120,11 +168,90 @@ const FORCED: u32 = 1 << 31;
 #[derive(Clone, Debug)]
 pub struct EditPlan {
     nodes: Vec<Node>,
-    index: HashMap<u32, u32>,
+    index: KeyMap<u32, u32>,
     /// A bit set for every key with edits (its low bits).
     filter: filter::KeyFilter,
     /// Per slot, per symbol: where the slot's parameter is.
     slots: Vec<Vec<SlotTarget>>,
+    /// Tag buffers of earlier derivations, reused (see [`TagPool`]).
+    pool: TagPool,
+}
+
+/// What an edited derivation leaves for the next one (as the engine keeps
+/// its strings' buffers): its tag buffers (one as long as the string it is
+/// taken for needs no zeroing, since the edited rewrite writes every tag
+/// of a piece with tags and zeroes the others) and its tags' table (the
+/// scopes and tags it composed, found again rather than composed anew; a
+/// tag's number means nothing outside its derivation). A clone of a plan
+/// starts without them.
+#[derive(Debug, Default)]
+struct TagPool(Mutex<Vec<Vec<u32>>>, Mutex<Option<Table>>);
+
+impl Clone for TagPool {
+    fn clone(&self) -> TagPool {
+        TagPool::default()
+    }
+}
+
+impl TagPool {
+    /// At most this many buffers are kept (the longest).
+    const KEEP: usize = 4;
+    /// A table with more scopes than this is not kept.
+    const KEEP_SCOPES: usize = 1 << 16;
+
+    /// The table a derivation of `engine` left, or a new one.
+    fn table(&self, engine: &Engine<'_>) -> Table {
+        let kept = self.1.lock().unwrap_or_else(|p| p.into_inner()).take();
+        match kept {
+            Some(t) if t.sym_words == engine.sym_words && t.plans == engine.plans.len() => t,
+            _ => Table::new(engine),
+        }
+    }
+
+    /// Keep `table` for a later derivation.
+    fn give_table(&self, table: Table) {
+        if table.scopes.len() <= TagPool::KEEP_SCOPES {
+            *self.1.lock().unwrap_or_else(|p| p.into_inner()) = Some(table);
+        }
+    }
+
+    /// A buffer of at least `m` tags, their values unspecified (zeros
+    /// where the buffer had to grow): `spare` when long enough, else the
+    /// shortest kept buffer that is, else `spare` grown. Never shortened:
+    /// what a buffer's length covers needs no zeroing the next time.
+    fn take(&self, spare: Vec<u32>, m: usize) -> Vec<u32> {
+        let mut b = spare;
+        if b.len() < m {
+            let mut pool = self.0.lock().unwrap_or_else(|p| p.into_inner());
+            let pick = (0..pool.len())
+                .filter(|&i| pool[i].len() >= m)
+                .min_by_key(|&i| pool[i].len());
+            if let Some(i) = pick {
+                let p = pool.swap_remove(i);
+                if b.capacity() > 0 {
+                    pool.push(b);
+                }
+                b = p;
+            }
+        }
+        if b.len() < m {
+            b.resize(m, 0);
+        }
+        b
+    }
+
+    /// Keep `b` for a later derivation.
+    fn give(&self, b: Vec<u32>) {
+        if b.is_empty() {
+            return;
+        }
+        let mut pool = self.0.lock().unwrap_or_else(|p| p.into_inner());
+        pool.push(b);
+        if pool.len() > TagPool::KEEP {
+            pool.sort_by_key(|v| std::cmp::Reverse(v.len()));
+            pool.truncate(TagPool::KEEP);
+        }
+    }
 }
 
 impl Default for EditPlan {
@@ -138,9 +265,10 @@ impl EditPlan {
     pub fn new() -> EditPlan {
         EditPlan {
             nodes: Vec::new(),
-            index: HashMap::new(),
+            index: KeyMap::default(),
             filter: filter::KeyFilter::new(),
             slots: Vec::new(),
+            pool: TagPool::default(),
         }
     }
 
@@ -247,43 +375,6 @@ impl EditPlan {
             }
         });
     }
-
-    /// Apply `values` to the parameter words `params` of a module of
-    /// symbol `sym`; `Err(v)` for the first value that is not finite.
-    fn apply(&self, values: &[(u32, ValueOp)], sym: u32, params: &mut [f32]) -> Result<(), f32> {
-        for &(slot, op) in values {
-            let Some(t) = self
-                .slots
-                .get(slot as usize)
-                .and_then(|s| s.get(sym as usize))
-            else {
-                continue;
-            };
-            let (a, b) = (t.word as usize, t.word as usize + t.words as usize);
-            let Some(words) = params.get_mut(a..b) else {
-                continue;
-            };
-            for x in words {
-                let v = match op {
-                    ValueOp::Set(v) if t.boolean => {
-                        if v != 0.0 {
-                            1.0
-                        } else {
-                            0.0
-                        }
-                    }
-                    ValueOp::Set(v) => v,
-                    ValueOp::Offset(_) if t.boolean => continue,
-                    ValueOp::Offset(by) => *x + by,
-                };
-                if !v.is_finite() {
-                    return Err(v);
-                }
-                *x = v;
-            }
-        }
-        Ok(())
-    }
 }
 
 /// What the edits met in one derivation: per key with edits, how many
@@ -291,7 +382,7 @@ impl EditPlan {
 /// module) and the symbol of the first.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct EditOutcome {
-    hits: HashMap<u32, KeyHits>,
+    hits: KeyMap<u32, KeyHits>,
 }
 
 /// The modules made with one key.
@@ -311,6 +402,23 @@ impl EditOutcome {
     }
 }
 
+/// One word a scope's values change on a module of one symbol (`word`:
+/// among the module's words), or on the modules of one successor list
+/// (`word`: among the list's words, `sym` the module's symbol): set to
+/// `v`, or `v` added (`offset`).
+#[derive(Clone, Copy, Debug)]
+struct WordOp {
+    word: u32,
+    offset: bool,
+    v: f32,
+    sym: u32,
+}
+
+/// At most this many successor lists get their scopes' values compiled
+/// per list (each scope holds a range per list); more fall back to the
+/// per-symbol operations.
+const MAX_LISTS: usize = 256;
+
 /// The tags and scopes of one edited derivation (see the module doc).
 #[derive(Clone, Debug)]
 struct Table {
@@ -322,19 +430,65 @@ struct Table {
     /// inherit).
     scope_tag: Vec<u32>,
     /// (parent scope, node) -> scope.
-    composed: HashMap<(u32, u32), u32>,
+    composed: KeyMap<(u32, u32), u32>,
+    /// The values of each scope (per slot: the slot, set or offset, the
+    /// value's bits) -> the scope: compositions with the same values share
+    /// one scope (a value edit below another of the same values).
+    by_values: KeyMap<Vec<(u32, u32, u32)>, u32>,
     /// (force, scope) -> tag.
-    tags: HashMap<(u32, u32), u32>,
+    tags: KeyMap<(u32, u32), u32>,
+    /// The symbols' word counts (the engine's).
+    sym_words: Vec<u32>,
+    /// The engine's alternatives (how many).
+    plans: usize,
+    /// Per scope, per symbol (`scope * symbols + symbol`): its values
+    /// compiled to word operations, the range of them in `ops` (empty for
+    /// a symbol none of the values names).
+    sym_ops: Vec<(u32, u32)>,
+    ops: Vec<WordOp>,
+    /// The successor lists of the alternatives (their first module in
+    /// the engine's `succ_syms`, their symbols), at most [`MAX_LISTS`].
+    lists: Vec<(u32, Vec<u32>)>,
+    /// Per first successor module: its list in `lists`, plus one (0: none).
+    list_of: Vec<u32>,
+    /// Per scope, per list (`scope * lists + list`): the range in `ops` of
+    /// its values on the list's modules (words from the list's first).
+    list_ops: Vec<(u32, u32)>,
 }
 
 impl Table {
-    fn new() -> Table {
+    fn new(engine: &Engine<'_>) -> Table {
+        let sym_words = &engine.sym_words[..];
+        let mut lists: Vec<(u32, Vec<u32>)> = Vec::new();
+        let mut list_of = Vec::new();
+        if engine.plans.len() <= MAX_LISTS {
+            list_of = vec![0u32; engine.succ_syms.len()];
+            for p in &engine.plans {
+                let (a, n) = (p.succ as usize, p.len as usize);
+                let Some(syms) = engine.succ_syms.get(a..a + n) else {
+                    continue;
+                };
+                if n == 0 || list_of[a] != 0 {
+                    continue;
+                }
+                lists.push((p.succ, syms.to_vec()));
+                list_of[a] = lists.len() as u32;
+            }
+        }
         Table {
+            list_ops: vec![(0, 0); lists.len()],
+            lists,
+            list_of,
             entries: vec![(0, 0)],
             scopes: vec![Vec::new()],
             scope_tag: vec![0],
-            composed: HashMap::new(),
-            tags: HashMap::from([((0, 0), 0)]),
+            composed: KeyMap::default(),
+            by_values: KeyMap::default(),
+            tags: KeyMap::from_iter([((0, 0), 0)]),
+            sym_words: sym_words.to_vec(),
+            plans: engine.plans.len(),
+            sym_ops: vec![(0, 0); sym_words.len()],
+            ops: Vec::new(),
         }
     }
 
@@ -368,12 +522,118 @@ impl Table {
             }
         }
         values.sort_by_key(|v| v.0);
+        let key: Vec<(u32, u32, u32)> = values
+            .iter()
+            .map(|&(slot, op)| match op {
+                ValueOp::Set(v) => (slot, 0, v.to_bits()),
+                ValueOp::Offset(v) => (slot, 1, v.to_bits()),
+            })
+            .collect();
+        if let Some(&s) = self.by_values.get(&key) {
+            self.composed.insert((parent, node), s);
+            return s;
+        }
+        // Per symbol, the values' word operations in slot order (a slot
+        // the symbol has not, or whose words lie past the symbol's, does
+        // nothing; a `bool` is set to 0 or 1 and never offset).
+        for (sym, &words) in self.sym_words.iter().enumerate() {
+            let lo = self.ops.len() as u32;
+            for &(slot, op) in &values {
+                let Some(t) = plan.slots.get(slot as usize).and_then(|s| s.get(sym)) else {
+                    continue;
+                };
+                if u64::from(t.word) + u64::from(t.words) > u64::from(words) {
+                    continue;
+                }
+                for word in t.word..t.word + t.words {
+                    let (offset, v) = match op {
+                        ValueOp::Set(v) if t.boolean => (false, if v != 0.0 { 1.0 } else { 0.0 }),
+                        ValueOp::Set(v) => (false, v),
+                        ValueOp::Offset(_) if t.boolean => continue,
+                        ValueOp::Offset(by) => (true, by),
+                    };
+                    self.ops.push(WordOp {
+                        word,
+                        offset,
+                        v,
+                        sym: sym as u32,
+                    });
+                }
+            }
+            self.sym_ops.push((lo, self.ops.len() as u32));
+        }
+        // Per successor list, its modules' operations in order, their
+        // words counted from the list's first.
+        let scope = self.scopes.len();
+        let n = self.sym_words.len();
+        for l in 0..self.lists.len() {
+            let lo = self.ops.len() as u32;
+            let mut at = 0u32;
+            for k in 0..self.lists[l].1.len() {
+                let sym = self.lists[l].1[k] as usize;
+                let (a, b) = self.sym_ops[scope * n + sym];
+                for j in a..b {
+                    let op = self.ops[j as usize];
+                    self.ops.push(WordOp {
+                        word: at + op.word,
+                        ..op
+                    });
+                }
+                at += self.sym_words.get(sym).copied().unwrap_or(0);
+            }
+            self.list_ops.push((lo, self.ops.len() as u32));
+        }
         let s = self.scopes.len() as u32;
         self.scopes.push(values);
         let t = self.tag(0, s);
         self.scope_tag.push(t);
         self.composed.insert((parent, node), s);
+        self.by_values.insert(key, s);
         s
+    }
+
+    /// Apply scope `scope`'s values to the words `params` of a module of
+    /// symbol `sym`; `Err(v)` for the first value that is not finite.
+    #[inline(always)]
+    fn apply(&self, scope: u32, sym: u32, params: &mut [f32]) -> Result<(), f32> {
+        let at = scope as usize * self.sym_words.len() + sym as usize;
+        let Some(&(lo, hi)) = self.sym_ops.get(at) else {
+            return Ok(());
+        };
+        if lo == hi {
+            return Ok(());
+        }
+        self.apply_ops(&self.ops[lo as usize..hi as usize], params)
+            .map_err(|(v, _)| v)
+    }
+
+    /// Scope `scope`'s values compiled for the modules of successor list
+    /// `succ` (`n` modules): `None` where the list has none compiled.
+    #[inline(always)]
+    fn list_ops(&self, scope: u32, succ: u32, n: usize) -> Option<&[WordOp]> {
+        let l = *self.list_of.get(succ as usize)? as usize;
+        if l == 0 || self.lists[l - 1].1.len() != n {
+            return None;
+        }
+        let (lo, hi) = self.list_ops[scope as usize * self.lists.len() + l - 1];
+        Some(&self.ops[lo as usize..hi as usize])
+    }
+
+    /// Apply `ops` to `params` (their words counted from its first);
+    /// `Err((v, sym))` for the first value that is not finite.
+    #[inline(always)]
+    fn apply_ops(&self, ops: &[WordOp], params: &mut [f32]) -> Result<(), (f32, u32)> {
+        for op in ops {
+            let Some(x) = params.get_mut(op.word as usize) else {
+                continue;
+            };
+            let v = if op.offset { *x + op.v } else { op.v };
+            if !v.is_finite() {
+                return Err((v, op.sym));
+            }
+            *x = v;
+        }
+        Ok(())
     }
 }
 
@@ -381,15 +641,21 @@ impl Table {
 /// per module its tag, the tags' table, and what the edits met so far.
 #[derive(Clone, Debug)]
 pub struct EditState {
-    /// Per module of the string its tag; empty while no module has one
-    /// (no buffer until a tag is made).
+    /// Per module of the string its tag (the first `len`; the buffer may
+    /// be longer); empty while no module has one (no buffer until a tag is
+    /// made).
     tags: Vec<u32>,
     /// The string's length.
     len: usize,
+    /// The modules of the string removed by the last step and not yet
+    /// dropped (sorted, disjoint ranges): [`Engine::derive_edited`] leaves
+    /// them for the next step to skip and drops them once, after the last
+    /// step (a system without context only; empty otherwise).
+    dead: Vec<std::ops::Range<usize>>,
     /// The keys of the modules settled so far (a pinned one's new key): a
     /// module with one of them is a copy of one (or a later collision)
     /// and is not edited again.
-    made: HashSet<u32>,
+    made: KeySet<u32>,
     /// A spare buffer for the next string's tags.
     spare: Vec<u32>,
     table: Table,
@@ -400,15 +666,15 @@ pub struct EditState {
 impl EditState {
     /// What the edits met so far.
     pub fn outcome(&self, plan: &EditPlan) -> EditOutcome {
-        EditOutcome {
-            hits: plan
-                .nodes
+        let mut hits = KeyMap::with_capacity_and_hasher(plan.len(), Default::default());
+        hits.extend(
+            plan.nodes
                 .iter()
                 .zip(&self.hits)
                 .filter(|(_, h)| h.0 > 0)
-                .map(|(n, &(modules, symbol))| (n.key, KeyHits { modules, symbol }))
-                .collect(),
-        }
+                .map(|(n, &(modules, symbol))| (n.key, KeyHits { modules, symbol })),
+        );
+        EditOutcome { hits }
     }
 }
 
@@ -442,17 +708,22 @@ struct Hooks<'h, 'o> {
     table: &'h Table,
     /// The input's tags.
     tags: &'h [u32],
-    /// The chunk's output tags (all zeros when the rewrite starts).
+    /// The chunk's output tags (their values unspecified when the
+    /// rewrite starts: every one is written).
     otags: &'o mut [u32],
     /// The chunk's first output module.
     base: usize,
     matches: Vec<Match>,
+    /// The tag of the module `force` was last asked about.
+    tag: u32,
 }
 
 impl Replay for Hooks<'_, '_> {
     #[inline(always)]
-    fn force(&self, i: usize) -> u32 {
+    fn force(&mut self, i: usize) -> u32 {
         let t = self.tags[i];
+        // `made` for this module comes next (`Replay::force`).
+        self.tag = t;
         if t & FORCED == 0 {
             0
         } else {
@@ -463,7 +734,18 @@ impl Replay for Hooks<'_, '_> {
     #[inline(always)]
     fn copied(&mut self, i: std::ops::Range<usize>, o: usize) {
         let n = i.len();
-        copy_small(&mut self.otags[o..o + n], &self.tags[i]);
+        if n == 1 {
+            self.otags[o] = self.tags[i.start];
+        } else if n <= TAG_MOVE
+            && o + TAG_MOVE <= self.otags.len()
+            && i.start + TAG_MOVE <= self.tags.len()
+        {
+            // One fixed-size move: the tags past the run's are written
+            // again by the modules after it (every tag of the piece is).
+            self.otags[o..o + TAG_MOVE].copy_from_slice(&self.tags[i.start..i.start + TAG_MOVE]);
+        } else {
+            copy_small(&mut self.otags[o..o + n], &self.tags[i]);
+        }
     }
 
     #[inline(always)]
@@ -474,20 +756,54 @@ impl Replay for Hooks<'_, '_> {
         made: Made<'_>,
         params: &mut [f32],
     ) -> Result<(), crate::error::RuntimeError> {
-        let tag = self.tags[i];
-        // Most modules made have no edits: one test of all their keys.
-        let maybe = self.plan.filter.any(made.keys);
+        // Module `i`'s tag, read by `force` just before.
+        let tag = self.tag;
+        debug_assert_eq!(tag, self.tags[i]);
         if tag == 0 {
-            if maybe {
-                self.found_in(o, made.keys, 0);
+            // Every output tag is written (the buffer is not zeroed); the
+            // keys are looked up after the piece (`rewrite_edited`).
+            let n = made.keys.len();
+            if n == 1 {
+                self.otags[o] = 0;
+            } else if n <= TAG_MOVE && o + TAG_MOVE <= self.otags.len() {
+                // As in `copied`: the tags past these are written again.
+                self.otags[o..o + TAG_MOVE].fill(0);
+            } else {
+                self.otags[o..o + n].fill(0);
             }
             return Ok(());
         }
+        // Most modules made have no edits: one test of all their keys.
+        let maybe = self.plan.filter.any(made.keys);
         let scope = self.table.entry(tag).1;
         let inherit = self.table.scope_tag[scope as usize];
+        let n = made.keys.len();
+        if !maybe || !made.keys.iter().any(|&ck| self.plan.lookup(ck).is_some()) {
+            // No successor has edits of its own: all inherit the tag, and
+            // the scope's values compiled for the list apply at once.
+            if n == 1 {
+                self.otags[o] = inherit;
+            } else {
+                self.otags[o..o + n].fill(inherit);
+            }
+            if scope == 0 || made.starts.is_empty() {
+                return Ok(());
+            }
+            if let Some(ops) = self.table.list_ops(scope, made.succ, n) {
+                if ops.is_empty() {
+                    return Ok(());
+                }
+                let a = (made.starts[0] - made.word_base) as usize;
+                return match self.table.apply_ops(ops, &mut params[a..]) {
+                    Ok(()) => Ok(()),
+                    Err((v, s)) => Err(self.engine.edit_error(self.iteration, i, s, v)),
+                };
+            }
+        }
         for (k, &ck) in made.keys.iter().enumerate() {
             if maybe && let Some(node) = self.plan.lookup(ck) {
-                // Settled after the rewrite, its values with it.
+                // Settled after the rewrite, its values and tag with it.
+                self.otags[o + k] = 0;
                 self.found(o + k, node, scope);
                 continue;
             }
@@ -496,8 +812,7 @@ impl Replay for Hooks<'_, '_> {
                 let s = made.syms[k];
                 let a = (made.starts[k] - made.word_base) as usize;
                 let words = self.engine.sym_words[s as usize] as usize;
-                let values = &self.table.scopes[scope as usize];
-                if let Err(v) = self.plan.apply(values, s, &mut params[a..a + words]) {
+                if let Err(v) = self.table.apply(scope, s, &mut params[a..a + words]) {
                     return Err(self.engine.edit_error(self.iteration, i, s, v));
                 }
             }
@@ -507,18 +822,6 @@ impl Replay for Hooks<'_, '_> {
 }
 
 impl Hooks<'_, '_> {
-    /// The keys with edits among `keys`, made at `o..`, their parent's
-    /// scope `scope`.
-    #[cold]
-    #[inline(never)]
-    fn found_in(&mut self, o: usize, keys: &[u32], scope: u32) {
-        for (k, &ck) in keys.iter().enumerate() {
-            if let Some(node) = self.plan.lookup(ck) {
-                self.found(o + k, node, scope);
-            }
-        }
-    }
-
     #[cold]
     #[inline(never)]
     fn found(&mut self, o: usize, node: u32, scope: u32) {
@@ -529,6 +832,10 @@ impl Hooks<'_, '_> {
         });
     }
 }
+
+/// The tags a run of copied modules (or the successors of an untagged
+/// module) moves at once, when the buffers have room.
+const TAG_MOVE: usize = 16;
 
 /// One chunk's output slices, with the tags.
 struct EditChunk<'o> {
@@ -593,9 +900,13 @@ impl<'a> Engine<'a> {
         progress(&first);
         stats.push(first);
         let (mut cumulative, mut processed) = (0u64, 0u64);
+        // Removed modules are dropped by the next step, which skips them
+        // (one move of the string's tail saved per step with a removal),
+        // where no rule reads a neighbour.
+        let defer = !self.has_context;
         for iteration in 1..=opts.iterations {
             let t = Instant::now();
-            processed += string.len() as u64;
+            processed += (string.len() - dead_modules(&state.dead)) as u64;
             let (next, _) = self.edited_inner(
                 plan,
                 &mut state,
@@ -604,14 +915,30 @@ impl<'a> Engine<'a> {
                 opts.seed,
                 &opts.limits,
                 false,
+                defer,
             )?;
             self.recycle(std::mem::replace(&mut string, next));
-            cumulative += string.len() as u64;
-            let s = IterationStats::of(&string, iteration, cumulative, processed, t.elapsed());
+            let live = (string.len() - dead_modules(&state.dead)) as u64;
+            cumulative += live;
+            let mut s = IterationStats::of(&string, iteration, cumulative, processed, t.elapsed());
+            s.modules = live;
+            s.param_words -= state
+                .dead
+                .iter()
+                .map(|r| (string.start(r.end) - string.start(r.start)) as u64)
+                .sum::<u64>();
             progress(&s);
             stats.push(s);
         }
+        if !state.dead.is_empty() {
+            compact(&mut string, &mut Vec::new(), &state.dead);
+            state.dead.clear();
+            state.len = string.len();
+        }
         let outcome = state.outcome(plan);
+        plan.pool.give(std::mem::take(&mut state.tags));
+        plan.pool.give(std::mem::take(&mut state.spare));
+        plan.pool.give_table(state.table);
         Ok((Derivation { string, stats }, outcome))
     }
 
@@ -623,9 +950,16 @@ impl<'a> Engine<'a> {
         let mut state = EditState {
             tags: Vec::new(),
             len: s.len(),
-            made: HashSet::new(),
+            dead: Vec::new(),
+            made: KeySet::with_capacity_and_hasher(
+                self.edits.as_deref().map_or(0, EditPlan::len),
+                Default::default(),
+            ),
             spare: Vec::new(),
-            table: Table::new(),
+            table: match self.edits.as_deref() {
+                Some(plan) => plan.pool.table(self),
+                None => Table::new(self),
+            },
             hits: vec![(0, 0); self.edits.as_deref().map_or(0, EditPlan::len)],
         };
         if let Some(plan) = self.edits.as_deref() {
@@ -639,7 +973,9 @@ impl<'a> Engine<'a> {
                 })
                 .collect();
             let mut tags = std::mem::take(&mut state.tags);
-            self.settle(plan, &mut state, &mut s, &mut tags, &matches, 0)?;
+            if let Some(cut) = self.settle(plan, &mut state, &mut s, &mut tags, &matches, 0)? {
+                compact(&mut s, &mut tags, &cut);
+            }
             state.tags = tags;
             state.len = s.len();
         }
@@ -661,7 +997,7 @@ impl<'a> Engine<'a> {
         record: Option<&mut StepRecord>,
     ) -> Result<ModuleString, DeriveError> {
         let input = &*self.check_input(input)?;
-        if state.len != input.len() || !(state.tags.is_empty() || state.tags.len() == state.len) {
+        if state.len != input.len() || !(state.tags.is_empty() || state.tags.len() >= state.len) {
             return Err(DeriveError::InvalidInput(
                 "the edit state is not the input string's".into(),
             ));
@@ -683,6 +1019,7 @@ impl<'a> Engine<'a> {
         if state
             .tags
             .iter()
+            .take(state.len)
             .any(|&t| (t & !FORCED) as usize >= state.table.entries.len())
         {
             return Err(DeriveError::InvalidInput(
@@ -697,6 +1034,7 @@ impl<'a> Engine<'a> {
             seed,
             limits,
             record.is_some(),
+            false,
         )?;
         if let (Some(r), Some(rec)) = (record, rec) {
             *r = rec;
@@ -715,8 +1053,11 @@ impl<'a> Engine<'a> {
         seed: u32,
         limits: &DeriveLimits,
         record: bool,
+        defer: bool,
     ) -> Result<(ModuleString, Option<StepRecord>), DeriveError> {
         let n = input.len();
+        // The input's removed modules, skipped (`EditState::dead`).
+        let dead = std::mem::take(&mut state.dead);
         let chunks = self.chunks(n);
         let parallel = chunks.len() > 1;
         let chunk = chunks.first().map_or(n, |c| c.len());
@@ -733,8 +1074,28 @@ impl<'a> Engine<'a> {
                     .map(move |a| a..(a + piece).min(r.end))
             })
             .collect();
+        let chunks = if dead.is_empty() {
+            chunks
+        } else {
+            live_pieces(chunks, &dead)
+        };
+        // A runtime error's position in the string without its removed
+        // modules (the string the caller sees).
+        let fix = |mut e: RuntimeError| {
+            e.position -= dead
+                .iter()
+                .take_while(|r| r.end as u64 <= e.position)
+                .map(|r| r.len() as u64)
+                .sum::<u64>();
+            e
+        };
         let step = self.step_of(input, &mate, iteration, seed);
-        let (tags, table) = (&state.tags[..], &state.table);
+        let tags = if state.tags.is_empty() {
+            &[][..]
+        } else {
+            &state.tags[..n]
+        };
+        let table = &state.table;
 
         // 1. Count.
         let counts: Vec<Result<(u64, u64), RuntimeError>> = if parallel {
@@ -759,7 +1120,7 @@ impl<'a> Engine<'a> {
             }
         }
         if let Some(e) = first_err {
-            return Err(DeriveError::Runtime(e));
+            return Err(DeriveError::Runtime(fix(e)));
         }
 
         // 2. Scan and the limits.
@@ -775,13 +1136,16 @@ impl<'a> Engine<'a> {
 
         // 3. Rewrite.
         let mut out = self.take(m, w);
-        // The tags' buffer: the one of the string before the input, kept;
-        // all zeros (the plain pieces leave them so). None while the input
-        // has no tag (`settle` makes one when it makes a tag).
+        // The tags' buffer: the one of the string before the input, or
+        // one an earlier derivation left; its values are overwritten (a
+        // piece with tags writes each of its own, the others are zeroed:
+        // `rewrite_edited`). None while the input has no tag (`settle`
+        // makes one when it makes a tag).
         let mut otags = std::mem::take(&mut state.spare);
-        otags.clear();
-        if !tags.is_empty() {
-            otags.resize(m, 0);
+        if tags.is_empty() {
+            otags.clear();
+        } else {
+            otags = plan.pool.take(otags, m);
         }
         let done = {
             let mut parts = Vec::with_capacity(chunks.len());
@@ -827,7 +1191,7 @@ impl<'a> Engine<'a> {
                 }
             }
             if let Some(e) = first_err {
-                return Err(DeriveError::Runtime(e));
+                return Err(DeriveError::Runtime(fix(e)));
             }
             done
         };
@@ -837,6 +1201,13 @@ impl<'a> Engine<'a> {
             .flat_map(|d| d.matches.iter().copied())
             .collect();
         let removed = self.settle(plan, state, &mut out, &mut otags, &matches, iteration)?;
+        if let Some(cut) = &removed {
+            if defer && !record {
+                state.dead = cut.clone();
+            } else {
+                compact(&mut out, &mut otags, cut);
+            }
+        }
         state.spare = std::mem::replace(&mut state.tags, otags);
         state.len = out.len();
         let rec = record.then(|| {
@@ -908,19 +1279,30 @@ impl<'a> Engine<'a> {
         // that only the decisions the replay takes can fail).
         if let Ok((mut m, mut w, _, _)) = self.count_chunk(step, range.clone()) {
             let mut worker = self.worker();
-            for i in range.clone() {
-                let tag = tags[i];
-                if tag & FORCED == 0 {
+            // Blocks of 64 tags without a forced one passed at once.
+            let mut a = range.start;
+            while a < range.end {
+                let b = (a + 64).min(range.end);
+                let block = &tags[a..b];
+                if block.iter().fold(0, |x, &t| x | t) & FORCED == 0 {
+                    a = b;
                     continue;
                 }
-                let (Ok((pm, pw)), (fm, fw)) = (
-                    self.count_one(step, &mut worker, table, 0, i),
-                    self.count_one(step, &mut worker, table, tag, i)?,
-                ) else {
-                    return self.count_modules(step, tags, table, range);
-                };
-                m = m - pm + fm;
-                w = w - pw + fw;
+                for (k, &tag) in block.iter().enumerate() {
+                    if tag & FORCED == 0 {
+                        continue;
+                    }
+                    let i = a + k;
+                    let (Ok((pm, pw)), (fm, fw)) = (
+                        self.count_one(step, &mut worker, table, 0, i),
+                        self.count_one(step, &mut worker, table, tag, i)?,
+                    ) else {
+                        return self.count_modules(step, tags, table, range);
+                    };
+                    m = m - pm + fm;
+                    w = w - pw + fw;
+                }
+                a = b;
             }
             return Ok((m, w));
         }
@@ -1006,7 +1388,8 @@ impl<'a> Engine<'a> {
         if !tagged {
             // No edit reaches a module of this piece: the plain rewrite
             // (the same modules and keys as the edited one), then the keys
-            // written looked up. `otags` is all zeros, or empty (`edited_inner`).
+            // written looked up; its tags zeros (`otags` may be empty:
+            // `edited_inner`).
             self.rewrite_chunk_best::<true, ()>(
                 step,
                 ChunkOut {
@@ -1021,6 +1404,7 @@ impl<'a> Engine<'a> {
                 },
                 &mut (),
             )?;
+            otags.fill(0);
             let mut matches = Vec::new();
             plan.scan(okeys, base, &mut matches);
             let decided = if record {
@@ -1041,6 +1425,7 @@ impl<'a> Engine<'a> {
                 otags,
                 base,
                 matches: Vec::new(),
+                tag: 0,
             };
             self.rewrite_chunk_best::<true, Hooks<'_, '_>>(
                 step,
@@ -1055,8 +1440,31 @@ impl<'a> Engine<'a> {
                 },
                 &mut hooks,
             )?;
+            // The keys written looked up (those the hooks did not: the
+            // successors of untagged modules, scope 0, and copies, which
+            // `settle` passes over), merged in position order with the
+            // hooks' matches.
+            let mut scanned = Vec::new();
+            plan.scan(okeys, base, &mut scanned);
+            let found = hooks.matches;
+            let matches = if found.is_empty() {
+                scanned
+            } else {
+                let mut all = Vec::with_capacity(scanned.len() + found.len());
+                let mut f = found.into_iter().peekable();
+                for m in scanned {
+                    while let Some(h) = f.next_if(|h| h.pos <= m.pos) {
+                        all.push(h);
+                    }
+                    if all.last().is_none_or(|l| l.pos != m.pos) {
+                        all.push(m);
+                    }
+                }
+                all.extend(f);
+                all
+            };
             return Ok(ChunkDone {
-                matches: hooks.matches,
+                matches,
                 decided: Vec::new(),
             });
         }
@@ -1202,8 +1610,7 @@ impl<'a> Engine<'a> {
                             let s = osyms[j];
                             let a = (ostarts[j] - word_base) as usize;
                             let words = self.sym_words[s as usize] as usize;
-                            let values = &table.scopes[scope as usize];
-                            if let Err(v) = plan.apply(values, s, &mut oparams[a..a + words]) {
+                            if let Err(v) = table.apply(scope, s, &mut oparams[a..a + words]) {
                                 return Err(self.edit_error(step.iteration, i, s, v));
                             }
                         }
@@ -1259,9 +1666,8 @@ impl<'a> Engine<'a> {
     }
 
     /// Settle the modules of `out` whose keys have edits (`matches`, in
-    /// position order), then drop the removed ones. Returns the removed
-    /// ranges of the string as written (sorted, disjoint), when something
-    /// was removed.
+    /// position order). Returns the ranges to remove (sorted, disjoint),
+    /// when something is removed: the caller drops them ([`compact`]).
     fn settle(
         &self,
         plan: &EditPlan,
@@ -1311,8 +1717,7 @@ impl<'a> Engine<'a> {
             };
             if scope != 0 {
                 let (a, b) = (out.starts[j] as usize, out.starts[j + 1] as usize);
-                let values = &state.table.scopes[scope as usize];
-                if let Err(v) = plan.apply(values, sym, &mut out.params[a..b]) {
+                if let Err(v) = state.table.apply(scope, sym, &mut out.params[a..b]) {
                     return Err(DeriveError::Runtime(self.edit_error(iteration, j, sym, v)));
                 }
             }
@@ -1340,7 +1745,6 @@ impl<'a> Engine<'a> {
                 _ => merged.push(r),
             }
         }
-        compact(out, otags, &merged);
         Ok(Some(merged))
     }
 
@@ -1387,6 +1791,39 @@ impl<'a> Engine<'a> {
     }
 }
 
+/// How many modules `dead` (disjoint ranges) covers.
+fn dead_modules(dead: &[std::ops::Range<usize>]) -> usize {
+    dead.iter().map(|r| r.len()).sum()
+}
+
+/// `pieces` (sorted, disjoint ranges) less the modules in `dead` (sorted,
+/// disjoint): the live parts of each piece, in order.
+fn live_pieces(
+    pieces: Vec<std::ops::Range<usize>>,
+    dead: &[std::ops::Range<usize>],
+) -> Vec<std::ops::Range<usize>> {
+    let mut out = Vec::with_capacity(pieces.len() + dead.len());
+    let mut d = 0usize;
+    for r in pieces {
+        while d < dead.len() && dead[d].end <= r.start {
+            d += 1;
+        }
+        let mut a = r.start;
+        let mut k = d;
+        while k < dead.len() && dead[k].start < r.end {
+            if dead[k].start > a {
+                out.push(a..dead[k].start);
+            }
+            a = a.max(dead[k].end);
+            k += 1;
+        }
+        if a < r.end {
+            out.push(a..r.end);
+        }
+    }
+    out
+}
+
 /// Drop the modules in `cut` (sorted, disjoint ranges) from `out` and its
 /// tags, in place: each run of kept modules moved as one block.
 fn compact(out: &mut ModuleString, tags: &mut Vec<u32>, cut: &[std::ops::Range<usize>]) {
@@ -1408,9 +1845,10 @@ fn compact(out: &mut ModuleString, tags: &mut Vec<u32>, cut: &[std::ops::Range<u
         if !tags.is_empty() {
             tags.copy_within(j..k, w);
         }
-        // Written at `w + (t - j) <= t`, after `t` was read.
-        for t in j..k {
-            out.starts[w + t - j] = out.starts[t].wrapping_add(delta);
+        // Moved, then shifted in place (one pass the compiler vectorizes).
+        out.starts.copy_within(j..k, w);
+        for s in &mut out.starts[w..w + (k - j)] {
+            *s = s.wrapping_add(delta);
         }
         out.params.copy_within(s..e, pw);
         pw += e - s;

@@ -185,7 +185,7 @@ pub struct Engine<'a> {
     pub(crate) succ_hist: Option<Vec<Vec<(u32, u64)>>>,
     /// Per successor module (parallel to `sys.succ`, then `2 * PAD`
     /// zeros): symbol, word offset.
-    succ_syms: Vec<u32>,
+    pub(crate) succ_syms: Vec<u32>,
     succ_words: Vec<u32>,
     /// Per successor module (parallel to `sys.succ`): its identity salt,
     /// premixed (`rng::premix`: the half of `child_key` that depends on
@@ -212,7 +212,7 @@ pub struct Engine<'a> {
     /// Per symbol: its action is a copy ([`Act::Copy0`], [`Act::Copy`]).
     /// The rewrite moves a run of such modules whole.
     pub(crate) copies: Vec<bool>,
-    has_context: bool,
+    pub(crate) has_context: bool,
     pub(crate) threads: usize,
     pub(crate) min_chunk: usize,
     pub(crate) pool: Option<rayon::ThreadPool>,
@@ -470,6 +470,8 @@ pub(crate) struct Out<'o> {
 /// (for [`Replay::made`]): their keys, symbols and starts (empty when the
 /// output stores no word), and the chunk's first word's position.
 pub(crate) struct Made<'m> {
+    /// Its successor list (index into `succ_syms`).
+    pub(crate) succ: u32,
     pub(crate) keys: &'m [u32],
     pub(crate) syms: &'m [u32],
     pub(crate) starts: &'m [u32],
@@ -482,8 +484,10 @@ pub(crate) struct Made<'m> {
 /// chunk's first module).
 pub(crate) trait Replay {
     /// The alternative an edit forces on input module `i` (from 1; 0:
-    /// none, the engine's own decision).
-    fn force(&self, i: usize) -> u32;
+    /// none, the engine's own decision). Called for every module the loop
+    /// takes one by one, before [`Replay::made`] or [`Replay::copied`] for
+    /// it.
+    fn force(&mut self, i: usize) -> u32;
     /// Input modules `i` were copied to output `o..` (their keys kept).
     fn copied(&mut self, i: Range<usize>, o: usize);
     /// Input module `i` was rewritten to output modules `o..o +
@@ -499,7 +503,7 @@ pub(crate) trait Replay {
 
 impl Replay for () {
     #[inline(always)]
-    fn force(&self, _: usize) -> u32 {
+    fn force(&mut self, _: usize) -> u32 {
         0
     }
     #[inline(always)]
@@ -1801,6 +1805,7 @@ impl<'a> Engine<'a> {
                         *k = rng::child_key_premixed(key, salt);
                     }
                     let made = Made {
+                        succ: ksucc,
                         keys: &okeys[o0..o],
                         syms: &osyms[o0..o],
                         starts: if ono { &[] } else { &ostarts[o0..o] },
