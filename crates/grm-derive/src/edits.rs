@@ -1196,10 +1196,11 @@ impl<'a> Engine<'a> {
             done
         };
         out.starts[m] = w as u32;
-        let matches: Vec<Match> = done
-            .iter()
-            .flat_map(|d| d.matches.iter().copied())
-            .collect();
+        let mut matches: Vec<Match> =
+            Vec::with_capacity(done.iter().map(|d| d.matches.len()).sum());
+        for d in &done {
+            matches.extend_from_slice(&d.matches);
+        }
         let removed = self.settle(plan, state, &mut out, &mut otags, &matches, iteration)?;
         if let Some(cut) = &removed {
             if defer && !record {
