@@ -101,8 +101,11 @@ pub fn classify<'e>(
                 Target::Semantic(q) => {
                     // What the replay matched, when the tree was grown with
                     // the edits (no string per shape per query); else found.
+                    // No hits may be an edit the replay did not plan (a
+                    // `set`, a material that is gone): found, too.
                     let found = tree
                         .edit_hits(e.id)
+                        .filter(|h| !h.is_empty())
                         .unwrap_or_else(|| tree.select(shape_program, q));
                     if found.is_empty() {
                         (
