@@ -8,7 +8,8 @@ use crate::edit_fixes::{minimal_edit, without_edit};
 use crate::edits::{changed, is_edits_path, read};
 use crate::{Backend, Shared, convert, failed};
 use grm_diag::SourceFile;
-use grm_edits::Edit;
+use grm_edits::locator::SemanticQuery;
+use grm_edits::{Edit, Target};
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -224,6 +225,49 @@ async fn locate(
     .map_err(|e| failed(e.to_string()))?
 }
 
+/// How many parts `query` selects in the last shape preview of `system`
+/// whose edits file is `edits` (the model as the preview shows it, its
+/// edits replayed): the preview of the document at `uri` when it is one,
+/// else any document's. `None` when there is no such preview or the query
+/// selects nothing there.
+async fn selected_now(
+    shared: &Arc<Shared>,
+    uri: &Uri,
+    edits: &Path,
+    system: &str,
+    query: SemanticQuery,
+) -> Option<u32> {
+    let me = convert::path_of(uri);
+    let shape = {
+        let picks = shared
+            .picks
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let fits = |t: &&crate::preview::PickTable| {
+            t.shape.as_ref().is_some_and(|s| {
+                s.program().name() == system && s.edits.as_ref().is_none_or(|r| r.path == edits)
+            })
+        };
+        me.as_ref()
+            .and_then(|p| picks.get(p))
+            .filter(fits)
+            .or_else(|| {
+                // The others in a fixed order (the map's is not).
+                let mut v: Vec<_> = picks.iter().filter(|(_, t)| fits(t)).collect();
+                v.sort_by(|a, b| a.0.cmp(b.0));
+                v.first().map(|(_, t)| *t)
+            })
+            .and_then(|t| t.shape.clone())?
+    };
+    tokio::task::spawn_blocking(move || {
+        let n = shape.tree().select(shape.program(), &query).len();
+        u32::try_from(n).ok().filter(|&n| n >= 1)
+    })
+    .await
+    .ok()
+    .flatten()
+}
+
 impl Backend {
     /// `grm/edit`: add an edit to the edits file.
     pub async fn edit(&self, params: EditParams) -> Result<EditResult> {
@@ -259,13 +303,22 @@ impl Backend {
             }
             None => grm_edits::EditsFile::default(),
         };
+        // A query's count of parts: as the request gives it, else what it
+        // selects in the system's last shape preview (docs/edits.md, "The
+        // file": a later derivation where it selects more is ambiguous).
+        let selected = match (&edit.target, edit.selected) {
+            (_, Some(n)) => Some(n),
+            (Target::Semantic(q), None) => {
+                selected_now(&self.shared, &params.uri, &path, &system, q.clone()).await
+            }
+            _ => None,
+        };
         let id = file
             .add(&edit.system, edit.target, edit.op)
             .ok_or_else(|| failed("no id is left after the largest"))?;
-        if let Some(n) = edit.note
-            && let Some(e) = file.edits.iter_mut().find(|e| e.id == id)
-        {
-            e.note = Some(n);
+        if let Some(e) = file.edits.iter_mut().find(|e| e.id == id) {
+            e.note = edit.note;
+            e.selected = selected;
         }
         let new = grm_edits::write(&file);
         self.apply(path, id, version, old.as_deref(), new, "grm: add edit")
@@ -320,8 +373,23 @@ impl Backend {
             )));
         }
         let mut file = parsed.file;
+        let system = file
+            .get(params.id)
+            .map(|e| e.system.clone())
+            .ok_or_else(|| failed(format!("the edits file has no edit {}", params.id)))?;
+        // A query's count of parts in the system's last shape preview (the
+        // old target's count goes with it).
+        let selected = match &target {
+            Target::Semantic(q) => {
+                selected_now(&self.shared, &params.uri, &path, &system, q.clone()).await
+            }
+            _ => None,
+        };
         file.retarget(params.id, target)
             .ok_or_else(|| failed(format!("the edits file has no edit {}", params.id)))?;
+        if let Some(e) = file.edits.iter_mut().find(|e| e.id == params.id) {
+            e.selected = selected;
+        }
         let new = grm_edits::write(&file);
         self.apply(
             path,
