@@ -45,7 +45,7 @@ pub use actions::CodeAction;
 pub use complete::{CompletionItem, CompletionKind, Signature, SignatureHelp};
 pub use hints::{InlayHint, InlayHintKind};
 pub use hover::Hover;
-pub use nav::RenameError;
+pub use nav::{RenameError, RenamedKind, RenamedName, RenamedSystem};
 pub use outline::{FoldKind, FoldingRange, SymbolKind, SymbolNode, WorkspaceSymbol};
 pub use tags::{COLUMN_WIDTH, FLOOR_HEIGHT, TagSuggestion};
 pub use tokens::{SemanticToken, TokenKind, TokenModifier};

@@ -88,6 +88,15 @@ impl FileAnalysis {
         Some((r.def, self.path_of(loc.file), loc.span))
     }
 
+    /// A system of this program as a rename names it.
+    fn renamed_system(&self, s: &grm_sema::System) -> RenamedSystem {
+        RenamedSystem {
+            file: grm_sema::normalize(Path::new(&self.sources.get(s.file).path)),
+            name: s.name.clone(),
+            shape: s.mode == grm_sema::Mode::Shape,
+        }
+    }
+
     /// This program's definition written at (path, span), if it sees it.
     fn def_written_at(&self, path: &Path, span: Span) -> Option<Def> {
         let file = self.sources.find(&path.to_string_lossy())?;
@@ -249,7 +258,102 @@ pub(crate) fn valid_identifier(s: &str) -> Result<(), RenameError> {
     Ok(())
 }
 
+/// The kind of a renamed name, as the edits file beside a grammar uses it
+/// (docs/edits.md): a system in an edit's `system`, a symbol in its
+/// target's labels, a material or mesh in its operation (a mesh also in
+/// an `insert:NAME` label), a meta-parameter or constant in a shape-mode
+/// `set` or `offset`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RenamedKind {
+    System,
+    Symbol,
+    Material,
+    Mesh,
+    Parameter,
+}
+
+/// A system whose edits may name a renamed name: where its edits file is
+/// (beside `file`, the file that declares it), its name, its mode.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RenamedSystem {
+    pub file: PathBuf,
+    pub name: String,
+    /// `mode = shape;` (a `set` or `offset` names a meta-parameter or a
+    /// constant there; in derive mode a module's parameter).
+    pub shape: bool,
+}
+
+/// What a rename means for the edits files ([`Analysis::renamed_name`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RenamedName {
+    pub kind: RenamedKind,
+    /// The name as it is written now.
+    pub old: String,
+    /// The systems whose edits may name it (each once, by file and name).
+    pub systems: Vec<RenamedSystem>,
+}
+
 impl Analysis {
+    /// What the rename of the name under `offset` of `path` means for the
+    /// edits files beside the grammars ([`RenamedName`]); `None` for a name
+    /// no edit uses (a production's binding) or nothing renameable.
+    pub fn renamed_name(&mut self, path: &Path, offset: u32) -> Option<RenamedName> {
+        let fa = self.analyze(path)?;
+        let (_, old) = fa.prepare_rename(offset).ok()?;
+        let (def, dpath, dspan) = fa.def_key(offset)?;
+        let kind = match def {
+            Def::System(_) => RenamedKind::System,
+            Def::Symbol(..) => RenamedKind::Symbol,
+            Def::Material(_) => RenamedKind::Material,
+            Def::Mesh(_) => RenamedKind::Mesh,
+            Def::Param(_) | Def::Const(_) => RenamedKind::Parameter,
+            Def::Binding { .. } => return None,
+        };
+        if let Def::System(sid) | Def::Symbol(sid, _) = def {
+            let sys = fa.checked.program.systems.get(sid.index())?;
+            return Some(RenamedName {
+                kind,
+                old,
+                systems: vec![fa.renamed_system(sys)],
+            });
+        }
+        // A global: every system that sees it, in this program or another
+        // that sees the same definition. A system sees it when the file
+        // that declares the system does (an imported file does not see its
+        // importer's globals).
+        let mut candidates: Vec<RenamedSystem> = fa
+            .checked
+            .program
+            .systems
+            .iter()
+            .map(|s| fa.renamed_system(s))
+            .collect();
+        for (_, other, _) in self.others_seeing(path, &dpath, dspan) {
+            candidates.extend(
+                other
+                    .checked
+                    .program
+                    .systems
+                    .iter()
+                    .map(|s| other.renamed_system(s)),
+            );
+        }
+        let mut systems: Vec<RenamedSystem> = Vec::new();
+        for s in candidates {
+            if systems.contains(&s) {
+                continue;
+            }
+            let sees = self
+                .analyze(&s.file)
+                .is_some_and(|g| g.def_written_at(&dpath, dspan).is_some());
+            if sees {
+                systems.push(s);
+            }
+        }
+        systems.sort_by(|a, b| (&a.file, &a.name).cmp(&(&b.file, &b.name)));
+        Some(RenamedName { kind, old, systems })
+    }
+
     /// References to the name under `offset` of `path`, in every open
     /// document and known workspace file (and their imports) that sees the
     /// same definition.

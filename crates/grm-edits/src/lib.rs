@@ -28,6 +28,7 @@ pub mod class;
 pub mod error;
 pub mod file;
 pub mod locator;
+pub mod rename;
 pub mod scoping;
 
 pub use class::EditClass;
@@ -37,6 +38,7 @@ pub use file::{
     parse_parcel, write, write_edit,
 };
 pub use locator::{Anchor, EdgeRef, ExactLocator, SemanticEntry, SemanticLocator, SemanticQuery};
+pub use rename::NameKind;
 pub use scoping::{Scoping, Slot, scope};
 
 use std::path::{Path, PathBuf};

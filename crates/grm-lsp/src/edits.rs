@@ -528,6 +528,106 @@ fn layout_diagnostics(
         .collect()
 }
 
+/// The kind of name the edits file uses, for a kind the analysis renames.
+fn name_kind(k: grm_analysis::RenamedKind) -> grm_edits::NameKind {
+    use grm_analysis::RenamedKind as R;
+    use grm_edits::NameKind as N;
+    match k {
+        R::System => N::System,
+        R::Symbol => N::Symbol,
+        R::Material => N::Material,
+        R::Mesh => N::Mesh,
+        R::Parameter => N::Parameter,
+    }
+}
+
+/// An edits file a rename changes: its path, its text now, the changes.
+pub(crate) type RenamedFile = (PathBuf, Arc<str>, Vec<(Span, String)>);
+
+/// The edits files' share of a rename (docs/edits.md, "In the editor"):
+/// per edits file beside a system that may use the name (`renamed`), its
+/// text now and the changes that rename `renamed.old` to `new` in the
+/// edits of those systems: the file written again canonically
+/// (`grm_edits::write`, one change over the lines that differ) when it has
+/// no problems, else each renamed edit's element written again
+/// (`grm_edits::write_edit`; a rewrite would drop the edits that do not
+/// read). A file without such an edit, or none, has no entry.
+pub(crate) fn renamed_in_edits(
+    source: &Source,
+    renamed: &grm_analysis::RenamedName,
+    new: &str,
+) -> Vec<RenamedFile> {
+    let kind = name_kind(renamed.kind);
+    // Per edits file, the systems whose edits may use the name.
+    let mut files: BTreeMap<PathBuf, Vec<&str>> = BTreeMap::new();
+    for s in &renamed.systems {
+        // A set or offset names a module's parameter in derive mode.
+        if kind == grm_edits::NameKind::Parameter && !s.shape {
+            continue;
+        }
+        files
+            .entry(grm_edits::edits_path(&s.file))
+            .or_default()
+            .push(&s.name);
+    }
+    let mut out = Vec::new();
+    for (path, systems) in files {
+        let Ok(Some((_, text))) = read(&source.open, &path) else {
+            continue;
+        };
+        let parsed = grm_edits::parse(&text);
+        let mut file = parsed.file;
+        let mut changed = Vec::new();
+        for e in &mut file.edits {
+            if systems.contains(&e.system.as_str()) && e.rename(kind, &renamed.old, new) {
+                changed.push((e.span, grm_edits::write_edit(e)));
+            }
+        }
+        if changed.is_empty() {
+            continue;
+        }
+        let changes = if parsed.errors.is_empty() {
+            let (span, t) = crate::edit_fixes::minimal_edit(&text, &grm_edits::write(&file));
+            vec![(span, t)]
+        } else {
+            changed
+        };
+        out.push((path, text, changes));
+    }
+    out
+}
+
+/// Add the edits files' share of a rename ([`renamed_in_edits`]) to the
+/// rename's workspace edit (its `changes`, one entry per edits file).
+pub(crate) fn rename_edits_files(
+    shared: &Shared,
+    renamed: Option<&grm_analysis::RenamedName>,
+    new: &str,
+    edit: &mut WorkspaceEdit,
+) {
+    let Some(renamed) = renamed else {
+        return;
+    };
+    let source = shared.edits_source();
+    let uris = shared.uris();
+    for (path, text, changes) in renamed_in_edits(&source, renamed, new) {
+        let Some(uri) = uris.uri_of(&path) else {
+            continue;
+        };
+        let src = SourceFile::new("", &*text);
+        let edits = changes
+            .into_iter()
+            .map(|(span, new_text)| TextEdit {
+                range: convert::range(&src, span),
+                new_text,
+            })
+            .collect();
+        edit.changes
+            .get_or_insert_with(HashMap::new)
+            .insert(uri, edits);
+    }
+}
+
 // ---------------------------------------------------------------------
 // The server's side.
 

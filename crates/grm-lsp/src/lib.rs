@@ -901,16 +901,25 @@ impl LanguageServer for Backend {
         let at = p.position;
         let new_name = params.new_name;
         self.warm_workspace().await?;
+        let name = new_name.clone();
         let r = self
             .with_host(move |a| {
                 let fa = a.analyze(&path)?;
                 let off = convert::offset(fa.source(), at);
-                Some(a.rename(&path, off, &new_name))
+                // And what the edits files beside the grammars use of it.
+                Some(
+                    a.rename(&path, off, &name)
+                        .map(|files| (files, a.renamed_name(&path, off))),
+                )
             })
             .await?;
         match r {
             None => Ok(None),
-            Some(Ok(files)) => Ok(Some(convert::workspace_edit(&self.shared.uris(), &files))),
+            Some(Ok((files, renamed))) => {
+                let mut edit = convert::workspace_edit(&self.shared.uris(), &files);
+                edits::rename_edits_files(&self.shared, renamed.as_ref(), &new_name, &mut edit);
+                Ok(Some(edit))
+            }
             Some(Err(e)) => Err(failed(e.0)),
         }
     }
