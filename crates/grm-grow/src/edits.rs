@@ -20,6 +20,11 @@
 //! an alternative past every production of the target's symbol, is
 //! **stale**. Exact and semantic targets, `material` and `mesh` are not
 //! replayed in derive mode: they are reported, never applied silently.
+//!
+//! Sample mode replays the same key targets and operations inside the
+//! guided sampler ([`sample_plan`], [`crate::sample::SampleRequest::
+//! edits`]) and classifies them the same way from what the model shown
+//! met ([`classify_sampled`]).
 
 use grm_compile::CompiledSystem;
 use grm_derive::{EditAction, EditOutcome, EditPlan, SlotTarget, ValueOp};
@@ -174,6 +179,87 @@ pub fn classify<'e>(
     outcome: &EditOutcome,
     edits: impl IntoIterator<Item = &'e Edit>,
 ) -> Vec<EditReport> {
+    classify_hits(system, sys, "derive", |k| outcome.hits(k), edits)
+}
+
+/// The sampler's replay plan of `edits` (those of `system`; others are
+/// skipped): as [`edit_plan`], for [`grm_sample::Sampler::with_edits`]
+/// (key targets; `remove`, `set`, `offset`, `force`, `pin`; `material`
+/// and `mesh` only watched, to be classified).
+pub fn sample_plan<'e>(
+    system: &grm_sema::System,
+    edits: impl IntoIterator<Item = &'e Edit>,
+) -> grm_sample::EditPlan {
+    let mut plan = grm_sample::EditPlan::new();
+    let mut slots: Vec<(String, u32)> = Vec::new();
+    for e in edits {
+        if e.system != system.name {
+            continue;
+        }
+        let Target::Key(key) = e.target else {
+            continue;
+        };
+        let mut value = |name: &str, op: ValueOp| {
+            let slot = match slots.iter().find(|(n, _)| n == name) {
+                Some(&(_, s)) => s,
+                None => {
+                    let s = plan.add_slot(parameter_slot(system, name));
+                    slots.push((name.to_owned(), s));
+                    s
+                }
+            };
+            EditAction::Value { slot, op }
+        };
+        let action = match &e.op {
+            Op::Remove => EditAction::Remove,
+            Op::Force { alternative } => EditAction::Force(*alternative),
+            Op::Pin { key } => EditAction::Pin(*key),
+            Op::Set { name, value: v } => match finite_f32(*v) {
+                Some(v) => value(name, ValueOp::Set(v)),
+                None => {
+                    plan.watch(key);
+                    continue;
+                }
+            },
+            Op::Offset { name, by } => match finite_f32(*by) {
+                Some(by) => value(name, ValueOp::Offset(by)),
+                None => {
+                    plan.watch(key);
+                    continue;
+                }
+            },
+            Op::Material { .. } | Op::Mesh { .. } => {
+                plan.watch(key);
+                continue;
+            }
+        };
+        plan.add(key, e.id, action);
+    }
+    plan
+}
+
+/// Classify `edits` (those of one sample-mode system) after a sampled
+/// derivation that replayed them: `hits` is what the model shown met
+/// ([`grm_sample::SampledModel::edits`]); as [`classify`] does for derive
+/// mode.
+pub fn classify_sampled<'e>(
+    system: &grm_sema::System,
+    sys: &CompiledSystem,
+    hits: &grm_sample::EditHits,
+    edits: impl IntoIterator<Item = &'e Edit>,
+) -> Vec<EditReport> {
+    classify_hits(system, sys, "sample", |k| hits.hits(k), edits)
+}
+
+/// [`classify`] of a `mode` ("derive", "sample") with the modules made
+/// per key given by `hits`.
+fn classify_hits<'e>(
+    system: &grm_sema::System,
+    sys: &CompiledSystem,
+    mode: &str,
+    hits_of: impl Fn(u32) -> Option<grm_derive::KeyHits>,
+    edits: impl IntoIterator<Item = &'e Edit>,
+) -> Vec<EditReport> {
     edits
         .into_iter()
         .map(|e| {
@@ -190,7 +276,7 @@ pub fn classify<'e>(
                     return report(
                         EditClass::SemanticallyInvalid,
                         0,
-                        "not replayed: derive mode replays key targets only (pick the part to target it by its key)".to_owned(),
+                        format!("not replayed: {mode} mode replays key targets only (pick the part to target it by its key)"),
                         false,
                     );
                 }
@@ -203,7 +289,7 @@ pub fn classify<'e>(
                     );
                 }
             };
-            let Some(hits) = outcome.hits(key) else {
+            let Some(hits) = hits_of(key) else {
                 return report(
                     EditClass::StructurallyInvalid,
                     0,
@@ -228,7 +314,7 @@ pub fn classify<'e>(
                     class,
                     hits.modules,
                     format!(
-                        "not replayed: `{}` is not replayed in derive mode (modules carry no materials or meshes of their own)",
+                        "not replayed: `{}` is not replayed in {mode} mode (modules carry no materials or meshes of their own)",
                         e.op.kind().as_str()
                     ),
                     false,

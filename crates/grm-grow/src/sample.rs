@@ -40,6 +40,12 @@ pub struct SampleRequest<'a> {
     pub generation: Option<u32>,
     /// Build the derivation tree of the first model shown.
     pub tree: bool,
+    /// The persistent edits to replay while sampling (docs/edits.md,
+    /// "Sample mode"): those of the system are replayed
+    /// ([`crate::edits::sample_plan`]) and classified after the run
+    /// against the first model shown ([`Sampled::edits`]); `None`: no
+    /// edits (the plain sampler).
+    pub edits: Option<&'a [grm_edits::Edit]>,
 }
 
 impl<'a> SampleRequest<'a> {
@@ -52,6 +58,7 @@ impl<'a> SampleRequest<'a> {
             options,
             generation: None,
             tree: false,
+            edits: None,
         }
     }
 }
@@ -74,6 +81,10 @@ pub struct Sampled {
     /// The run's seed and root key (the tree's).
     pub seed: u32,
     pub root_key: u32,
+    /// What became of each edit of the system ([`SampleRequest::edits`]),
+    /// classified against the first model shown (none shown: every edit
+    /// finds no module). `None` without edits.
+    pub edits: Option<Vec<crate::edits::EditReport>>,
 }
 
 /// The models a search shows.
@@ -139,6 +150,17 @@ pub fn sample(
         request.objective,
         request.expected,
     )?;
+    let mine: Vec<&grm_edits::Edit> = request
+        .edits
+        .unwrap_or(&[])
+        .iter()
+        .filter(|e| e.system == system.name)
+        .collect();
+    let sampler = if mine.is_empty() {
+        sampler
+    } else {
+        sampler.with_edits(crate::edits::sample_plan(system, mine.iter().copied()))
+    };
     let prepare = t0.elapsed();
     let opts = &request.options;
     // The one frame asked for, not one per generation.
@@ -154,7 +176,23 @@ pub fn sample(
         expected_time: sampler.expected_time(),
         seed: opts.seed,
         root_key: compiled.root_key(opts.seed),
+        edits: None,
     };
+    if request.edits.is_some() {
+        let none = grm_sample::EditHits::default();
+        let hits = sampled
+            .shown()
+            .models()
+            .first()
+            .and_then(|m| m.edits.as_ref())
+            .unwrap_or(&none);
+        sampled.edits = Some(crate::edits::classify_sampled(
+            system,
+            compiled,
+            hits,
+            mine.iter().copied(),
+        ));
+    }
     if request.tree {
         sampled.tree = sampled.shown().models().first().map(|m| sampled.tree_of(m));
     }

@@ -88,6 +88,9 @@ pub(crate) struct Worker {
     /// The covering tubes at open symbols' positions, remembered
     /// (`crate::tubes_memo`).
     pub tubes: crate::tubes_memo::TubesMemo,
+    /// The persistent edits' view of the successor being written
+    /// (`crate::edits::Replay::successor`; untouched without a plan).
+    pub succ: crate::edits::SuccEdits,
 }
 
 /// The terminal of symbol `sym`, if it is one.
@@ -165,6 +168,7 @@ impl<'a> Grammar<'a> {
             cand_logv: Vec::new(),
             append_spawns: false,
             tubes: crate::tubes_memo::TubesMemo::new(),
+            succ: crate::edits::SuccEdits::default(),
         }
     }
 
@@ -203,7 +207,7 @@ impl<'a> Grammar<'a> {
         params.get(s..s + w).unwrap_or(&[])
     }
 
-    fn error(
+    pub(crate) fn error(
         &self,
         phase: &'static str,
         sym: u32,
@@ -288,6 +292,59 @@ impl<'a> Grammar<'a> {
         Ok(None)
     }
 
+    /// [`Self::choose`] with the `force`-th alternative (from 1) of the
+    /// group that applies imposed by a persistent edit: the group's
+    /// condition as written, its weights and the draw ignored; a group
+    /// with fewer alternatives is drawn as written (the edit is stale).
+    #[allow(clippy::too_many_arguments)]
+    pub fn choose_forced(
+        &self,
+        w: &mut Worker,
+        sym: u32,
+        params: &[f32],
+        which: Which,
+        draws: &DrawCtx,
+        phase: &'static str,
+        force: u32,
+    ) -> Result<Option<u32>, SampleError> {
+        let sys = self.sys;
+        let Some(s) = sys.symbols.get(sym as usize) else {
+            return Ok(None);
+        };
+        let (first, count) = match which {
+            Which::Normal => (s.first_group, s.group_count),
+            Which::Wrapup => (s.first_wrapup, s.wrapup_count),
+        };
+        let groups = sys
+            .groups
+            .get(first as usize..first as usize + count as usize)
+            .unwrap_or(&[]);
+        for g in groups {
+            w.bind.clear();
+            w.bind.resize(g.bind_words as usize, 0.0);
+            if g.pred_bind_words > 0 {
+                let o = g.pred_bind_offset as usize;
+                let n = (g.pred_bind_words as usize).min(params.len());
+                if let Some(dst) = w.bind.get_mut(o..o + n) {
+                    dst.copy_from_slice(&params[..n]);
+                }
+            }
+            if g.cond_code != NONE {
+                let c =
+                    w.vm.run1(&sys.code, &sys.consts, g.cond_code, &w.bind, draws)
+                        .map_err(|e| self.fault(phase, sym, e))?;
+                if c == 0.0 {
+                    continue;
+                }
+            }
+            if force <= g.alt_count {
+                return Ok(Some(g.first_alt + force - 1));
+            }
+            break;
+        }
+        self.choose(w, sym, params, which, draws, phase)
+    }
+
     /// Evaluate alternative `alt`'s successor parameters into `w.params`,
     /// with the bindings `choose` left in `w.bind`.
     pub fn eval_successor(
@@ -360,7 +417,13 @@ impl<'a> Grammar<'a> {
         };
         let s = &mut w.scratch;
         s.clear();
-        for m in sys.successor(a) {
+        // Modules a persistent edit removed are not interpreted (set by
+        // `Replay::successor` for this successor only).
+        let removing = std::mem::take(&mut w.succ.removing);
+        for (j, m) in sys.successor(a).iter().enumerate() {
+            if removing && w.succ.mods.get(j).is_some_and(|e| e.removed) {
+                continue;
+            }
             let n = self.words.get(m.symbol as usize).copied().unwrap_or(0) as usize;
             let o = m.word_offset as usize;
             s.push(m.symbol, w.params.get(o..o + n).unwrap_or(&[]));
@@ -377,6 +440,12 @@ impl<'a> Grammar<'a> {
                 users.push((i as u32, *t));
             })
             .map_err(|e| SampleError::Turtle(e.to_string()))?;
+        if removing {
+            // Back to successor positions.
+            for u in &mut w.users {
+                u.0 = w.succ.kept.get(u.0 as usize).copied().unwrap_or(u.0);
+            }
+        }
         let out = &w.interp.collector.out;
         w.bones.extend(out.bones.iter().map(|b| (b.base, b.tip)));
         w.non_finite = out.warnings.non_finite > 0;

@@ -69,6 +69,7 @@
 //!   limits ([`FinishLimits`]).
 
 mod cancel;
+pub mod edits;
 mod error;
 mod expand;
 mod model;
@@ -81,6 +82,7 @@ mod schedule;
 mod tubes_memo;
 
 pub use cancel::CancelToken;
+pub use edits::{EditHits, EditPlan};
 pub use error::{ExpandError, ExpandErrorKind, LimitKind, SampleError};
 pub use model::{
     DerivationTree, FinishLimits, GenerationStats, NodeKind, SampleResult, SampledModel, TreeNode,

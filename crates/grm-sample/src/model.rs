@@ -94,6 +94,10 @@ pub struct SampledModel {
     /// The meta-parameter values it was grown with (those the system was
     /// compiled with); [`SampledModel::build`] evaluates materials with them.
     pub param_values: Vec<Value>,
+    /// What the persistent edits met in it ([`crate::Sampler::with_edits`]):
+    /// per key with edits, the modules written with it; `None` without
+    /// edits.
+    pub edits: Option<crate::edits::EditHits>,
 }
 
 impl SampledModel {

@@ -70,6 +70,12 @@ pub(crate) struct Spawn {
     /// its expansion draws from that position (every copy of the particle
     /// shares it). `None` at a non-finite position.
     pub near: Option<Near>,
+    /// Persistent edits (`crate::edits`; all 0 without a plan): its
+    /// identity key, its scope (what it inherits from edited ancestors)
+    /// and the alternative (from 1) forced on it, or 0.
+    pub key: u32,
+    pub scope: u32,
+    pub force: u32,
 }
 
 /// The guiding curve nearest to a position (eq. 1) and the closest point

@@ -19,6 +19,7 @@ use grm_turtle::{Interpreter, Turtle};
 use rayon::prelude::*;
 
 use crate::cancel::{self, CancelToken};
+use crate::edits::{EditPlan, PINNED, Replay, pinned_draws};
 use crate::error::{LimitKind, SampleError};
 use crate::expand::{Grammar, Which, Worker};
 use crate::model::*;
@@ -432,6 +433,9 @@ pub struct Sampler<'a> {
     /// The curves, for refinement's coverage check
     /// ([`Refine::followed_ends`]).
     curves: Curves,
+    /// The persistent edits replayed ([`Self::with_edits`]); `None`: the
+    /// plain sampler.
+    replay: Option<Replay>,
 }
 
 // Random streams. Every draw is `rng::hash` of the run's seed and a tuple
@@ -591,11 +595,70 @@ impl<'a> Sampler<'a> {
                 .iter()
                 .map(|c| (c.bezier, c.params))
                 .collect(),
+            replay: None,
         };
         let t = Instant::now();
         (s.expected, s.reach, s.stride, s.fixed) = s.expected_directions(&expected)?;
         s.expected_time = t.elapsed();
         Ok(s)
+    }
+
+    /// Replay the persistent edits of `plan` while sampling (docs/edits.md,
+    /// "Sample mode"): every module the search, wrap-up and the geometry
+    /// phase write is looked up by its identity key, the key the model's
+    /// tree gives it. A removed module and its subtree are not written; a
+    /// forced module's production is the alternative forced (the weights
+    /// and the draw ignored: the proposal is the constrained grammar's, so
+    /// the particle weights stay those of SMC for the edited model); a
+    /// pinned module takes the pinned key and it and its subtree draw from
+    /// their keys, not from the particle's place in the search; `set` and
+    /// `offset` change the parameter words of the target and of every
+    /// module of its subtree that has the parameter, as they are written.
+    /// The expected directions (computed by [`Self::new`]) are the
+    /// grammar's, not the edited model's. An empty plan is the plain
+    /// sampler. The model's [`SampledModel::edits`] says what the edits met.
+    pub fn with_edits(mut self, plan: EditPlan) -> Self {
+        self.replay = (!plan.is_empty()).then(|| Replay::new(plan));
+        self
+    }
+
+    /// The edits' hook where a module is expanded: the successor of `alt`
+    /// written by the module with key `key` and scope `scope` (symbol
+    /// `sym`) looked up in the plan, with `values` its parameter words in
+    /// `w.params` edited ([`Replay::successor`]). Nothing without a plan.
+    #[allow(clippy::too_many_arguments)]
+    fn edit_successor(
+        &self,
+        w: &mut Worker,
+        key: u32,
+        scope: u32,
+        alt: u32,
+        values: bool,
+        sym: u32,
+        phase: &'static str,
+    ) -> Result<(), SampleError> {
+        let Some(r) = &self.replay else {
+            return Ok(());
+        };
+        let params = if values {
+            Some(&mut w.params[..])
+        } else {
+            None
+        };
+        r.successor(&self.g, key, scope, alt, params, &mut w.succ, None)
+            .map_err(|value| self.non_finite_edit(sym, alt, value, phase))
+    }
+
+    /// The error of a value a `set` or `offset` edit made not finite.
+    fn non_finite_edit(&self, sym: u32, alt: u32, value: f32, phase: &'static str) -> SampleError {
+        let sys = self.g.sys;
+        let span = sys.alt_spans.get(alt as usize).copied().unwrap_or(sys.span);
+        self.g.error(
+            phase,
+            sym,
+            crate::error::ExpandErrorKind::NonFinite { value },
+            span,
+        )
     }
 
     /// [`CostModel::set_cover_others`] for this sampler's cost model: with
@@ -1062,6 +1125,11 @@ impl<'a> Sampler<'a> {
                     0
                 };
                 h_sum += i128::from(h);
+                let e = if self.replay.is_some() {
+                    w.succ.mods.get(m as usize).copied().unwrap_or_default()
+                } else {
+                    crate::edits::Succ::default()
+                };
                 out.push(Spawn {
                     ordinal: ord as u32,
                     symbol: sym,
@@ -1069,6 +1137,9 @@ impl<'a> Sampler<'a> {
                     turtle: t,
                     h,
                     near,
+                    key: e.key,
+                    scope: e.scope,
+                    force: e.force,
                 });
             }
         }
@@ -1169,6 +1240,8 @@ impl<'a> Sampler<'a> {
                 w.params.extend_from_slice(p);
             }
         }
+        let root = self.g.sys.root_key(seed);
+        self.edit_successor(w, root, 0, alt, given.is_none(), u32::MAX, "axiom")?;
         self.g.interpret(w, alt, &self.g.initial_turtle())?;
         let mut p = Particle {
             head: NodeId {
@@ -1252,8 +1325,19 @@ impl<'a> Sampler<'a> {
         let prepared = matches!(how, How::Prepared { .. });
         let alt = match how {
             How::Draw { draws, phase, .. } => {
+                // A pinned module draws from its key.
+                let draws = if sp.scope & PINNED != 0 {
+                    pinned_draws(sp.key)
+                } else {
+                    draws
+                };
                 let input = std::mem::take(&mut w.input);
-                let chosen = self.g.choose(w, sp.symbol, &input, which, &draws, phase);
+                let chosen = if sp.force != 0 {
+                    self.g
+                        .choose_forced(w, sp.symbol, &input, which, &draws, phase, sp.force)
+                } else {
+                    self.g.choose(w, sp.symbol, &input, which, &draws, phase)
+                };
                 w.input = input;
                 match chosen? {
                     Some(a) => {
@@ -1283,7 +1367,13 @@ impl<'a> Sampler<'a> {
         };
         let mut bones = 0;
         if alt != INERT {
-            if !prepared {
+            // A drawn successor's values are edited here; a given or
+            // prepared one's were (its keys and scopes are found again).
+            let drawn = matches!(how, How::Draw { .. });
+            self.edit_successor(w, sp.key, sp.scope, alt, drawn, sp.symbol, "skeleton")?;
+            if prepared {
+                w.succ.removing = false;
+            } else {
                 self.g.interpret(w, alt, &sp.turtle)?;
             }
             self.add_bones(w, p, plans, sp.near);
@@ -1672,13 +1762,29 @@ impl<'a> Sampler<'a> {
         let mut base_tubes = None;
         let input = std::mem::take(&mut w.input);
         for c in 0..n {
-            let ctx = DrawCtx {
-                position: c as u32,
-                ..draws
+            // A pinned module draws from its key (every candidate the same).
+            let ctx = if sp.scope & PINNED != 0 {
+                pinned_draws(sp.key)
+            } else {
+                DrawCtx {
+                    position: c as u32,
+                    ..draws
+                }
             };
-            let chosen = self
-                .g
-                .choose(w, sp.symbol, &input, Which::Normal, &ctx, "skeleton");
+            let chosen = if sp.force != 0 {
+                self.g.choose_forced(
+                    w,
+                    sp.symbol,
+                    &input,
+                    Which::Normal,
+                    &ctx,
+                    "skeleton",
+                    sp.force,
+                )
+            } else {
+                self.g
+                    .choose(w, sp.symbol, &input, Which::Normal, &ctx, "skeleton")
+            };
             let alt = match chosen {
                 Ok(Some(a)) => a,
                 Ok(None) => INERT,
@@ -1694,6 +1800,9 @@ impl<'a> Sampler<'a> {
                 let done = self
                     .g
                     .eval_successor(w, sp.symbol, alt, &ctx, "skeleton")
+                    .and_then(|()| {
+                        self.edit_successor(w, sp.key, sp.scope, alt, true, sp.symbol, "skeleton")
+                    })
                     .and_then(|()| self.g.interpret(w, alt, &sp.turtle));
                 if let Err(e) = done {
                     w.input = input;
@@ -2505,6 +2614,8 @@ impl<'a> Sampler<'a> {
             /// The expanded module's identity key (the root key for the
             /// axiom).
             key: u32,
+            /// Its persistent edits' scope (`crate::edits`; 0 without).
+            scope: u32,
         }
         let mut interp = Interpreter::from_parts(self.g.ops.clone(), self.g.cfg);
         let mut string = ModuleString::new();
@@ -2517,9 +2628,39 @@ impl<'a> Sampler<'a> {
             parent: None,
             depth: 0,
             key: sys.root_key(seed),
+            scope: 0,
         }];
         let mut geometry = 0u64;
-        while let Some(item) = stack.pop() {
+        let mut hits = self.replay.as_ref().map(Replay::new_hits);
+        while let Some(mut item) = stack.pop() {
+            // The persistent edits of the successor about to be written
+            // (a chain node's values were edited when the search made it).
+            let edited = if let Some(r) = &self.replay {
+                let (sym, alt, values) = match &mut item.src {
+                    Src::Chain(seq) => {
+                        let n = chain[*seq as usize].1;
+                        (n.symbol, n.alt, None)
+                    }
+                    Src::Fresh {
+                        symbol,
+                        alt,
+                        params,
+                    } => (*symbol, *alt, Some(&mut params[..])),
+                };
+                r.successor(
+                    &self.g,
+                    item.key,
+                    item.scope,
+                    alt,
+                    values,
+                    &mut w.succ,
+                    hits.as_mut(),
+                )
+                .map_err(|v| self.non_finite_edit(sym, alt, v, "geometry"))?;
+                true
+            } else {
+                false
+            };
             let (symbol, kind, alt, params): (u32, NodeKind, u32, &[f32]) = match &item.src {
                 Src::Chain(seq) => {
                     let (st, n) = chain[*seq as usize];
@@ -2534,10 +2675,18 @@ impl<'a> Sampler<'a> {
             let idx = tree.nodes.len() as u32;
             let first = string.len();
             if let Some(a) = sys.alts.get(alt as usize) {
-                for m in sys.successor(a) {
+                for (j, m) in sys.successor(a).iter().enumerate() {
+                    let key = if edited {
+                        let e = w.succ.mods[j];
+                        if e.removed {
+                            continue;
+                        }
+                        e.key
+                    } else {
+                        grm_compile::rng::child_key(item.key, m.salt)
+                    };
                     let n = self.g.words[m.symbol as usize] as usize;
                     let o = m.word_offset as usize;
-                    let key = grm_compile::rng::child_key(item.key, m.salt);
                     string.push_keyed(m.symbol, params.get(o..o + n).unwrap_or(&[]), key);
                     origins.push(alt);
                 }
@@ -2562,6 +2711,18 @@ impl<'a> Sampler<'a> {
             });
             for (ord, &(i, t)) in users.iter().enumerate().rev() {
                 let parent = Some((idx, ord as u32));
+                // Its edits (by its successor position).
+                let e = if edited {
+                    let j = i - first;
+                    let j = if w.succ.removing {
+                        w.succ.kept.get(j).map_or(j, |&k| k as usize)
+                    } else {
+                        j
+                    };
+                    w.succ.mods.get(j).copied().unwrap_or_default()
+                } else {
+                    crate::edits::Succ::default()
+                };
                 if let Src::Chain(seq) = item.src
                     && let Ok(pos) = kids.binary_search_by_key(&key(seq, ord as u32), |k| k.0)
                 {
@@ -2571,6 +2732,7 @@ impl<'a> Sampler<'a> {
                         parent,
                         depth: 0,
                         key: string.keys()[i],
+                        scope: e.scope,
                     });
                     continue;
                 }
@@ -2600,13 +2762,28 @@ impl<'a> Sampler<'a> {
                 if geometry.is_multiple_of(u64::from(CANCEL_EVERY)) {
                     cancel::check(cancel)?;
                 }
-                let draws = tagged(seed, STREAM_GEOMETRY, c, geometry as u32);
+                let draws = if e.scope & PINNED != 0 {
+                    pinned_draws(string.keys()[i])
+                } else {
+                    tagged(seed, STREAM_GEOMETRY, c, geometry as u32)
+                };
                 geometry += 1;
                 let input: Vec<f32> = string.get(i).1.to_vec();
-                if let Some(a) = self
-                    .g
-                    .choose(w, sym, &input, Which::Normal, &draws, "geometry")?
-                {
+                let chosen = if e.force != 0 {
+                    self.g.choose_forced(
+                        w,
+                        sym,
+                        &input,
+                        Which::Normal,
+                        &draws,
+                        "geometry",
+                        e.force,
+                    )?
+                } else {
+                    self.g
+                        .choose(w, sym, &input, Which::Normal, &draws, "geometry")?
+                };
+                if let Some(a) = chosen {
                     self.g.eval_successor(w, sym, a, &draws, "geometry")?;
                     stack.push(Item {
                         src: Src::Fresh {
@@ -2618,6 +2795,7 @@ impl<'a> Sampler<'a> {
                         parent,
                         depth,
                         key: string.keys()[i],
+                        scope: e.scope,
                     });
                 }
             }
@@ -2638,6 +2816,11 @@ impl<'a> Sampler<'a> {
             tree,
             candidate: c as usize,
             param_values: sys.param_values.clone(),
+            edits: self
+                .replay
+                .as_ref()
+                .zip(hits.as_ref())
+                .map(|(r, h)| r.hits(h)),
         })
     }
 
