@@ -50,8 +50,13 @@
 //! cachegrind` per case with 1 and 3 derivations and prints the difference
 //! over 2, one derivation's instructions without the setup.
 //!
+//! `--digest` prints, per case, a digest of the whole tree it derives (its
+//! debug text: nodes, attributes, removed parts, hits), to compare two
+//! builds of the replay: a change to how edits are found must leave every
+//! line the same.
+//!
 //! Run: `cargo bench -p grm-grow --bench edits_replay [-- ROUNDS]
-//! [--instructions]`.
+//! [--instructions] [--digest]`.
 
 use grm_edits::{EditsFile, Op, SemanticQuery, Target};
 use grm_grow::shape::{Lowered, ShapeOptions, derive, derive_with_edits, edit_plan, edits, lower};
@@ -366,6 +371,43 @@ fn main() {
             .unwrap_or(1);
         for _ in 0..n {
             run(&b, &case, &plans, &file);
+        }
+        return;
+    }
+
+    // The trees every case derives, as digests of their full debug text
+    // (nodes, attributes, removed parts, hits): compare two builds' lines
+    // to show a change to the replay leaves every tree bit-identical.
+    if args.iter().any(|a| a == "--digest") {
+        for case in CASES {
+            let tree = match case {
+                "none/all" => b.grow(None, 0),
+                "mix/all" => b.grow(Some(&plans.mix), 0),
+                "mix+plan" => b.grow(Some(&edit_plan(&b.lowered, &file)), 1),
+                _ => {
+                    let plan = match case {
+                        "none" => None,
+                        "empty" => Some(EditPlan::default()),
+                        "one" => Some(plans.one.clone()),
+                        "exact" => Some(plans.exact.clone()),
+                        "key" => Some(plans.key.clone()),
+                        "semantic" => Some(plans.semantic.clone()),
+                        "no-material" => Some(plans.no_material.clone()),
+                        "mix" => Some(plans.mix.clone()),
+                        _ => panic!("unknown case {case}"),
+                    };
+                    b.grow(plan.as_ref(), 1)
+                }
+            };
+            let text = format!("{tree:?}");
+            let mut h = std::collections::hash_map::DefaultHasher::new();
+            std::hash::Hash::hash(&text, &mut h);
+            println!(
+                "{case:<12} {:016x} {} nodes {} bytes",
+                std::hash::Hasher::finish(&h),
+                tree.len(),
+                text.len()
+            );
         }
         return;
     }

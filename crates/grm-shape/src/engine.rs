@@ -1596,8 +1596,10 @@ struct Replay<'p> {
     /// consecutive shapes of the stack share it (a block off every exact
     /// target's path is one entry, however many shapes it made).
     stack: Vec<(Carried, u32)>,
-    /// Scratch: the trie states of the block at hand, from its start.
+    /// Scratch: the trie states of the block at hand, from its start, and
+    /// its ordinals counted (`EditPlan::block_states`).
     block: Vec<u32>,
+    counts: Vec<(usize, replay::Label, u32)>,
     /// Scratch: the edits of the shape at hand, the tags on its path, the
     /// indices a query pattern reads there.
     matched: Vec<(u32, replay::Action)>,
@@ -1614,6 +1616,7 @@ impl<'p> Replay<'p> {
             plan,
             stack: vec![(root, 1)],
             block: Vec::new(),
+            counts: Vec::new(),
             matched: Vec::new(),
             tags: Vec::new(),
             read: Vec::new(),
@@ -1723,18 +1726,14 @@ fn replay_block(
     }
     // Each node's state from its parent's (the shape or a command of the
     // block before it).
-    r.block.clear();
-    for (k, n) in block.iter().enumerate() {
-        let p = (start + k).wrapping_sub(n.parent_offset as usize);
-        let parent = if p == at as usize {
-            state
-        } else if p >= start && p < start + k {
-            r.block[p - start]
-        } else {
-            replay::NONE
-        };
-        r.block.push(plan.step(parent, block, k));
-    }
+    plan.block_states(
+        block,
+        start,
+        at as usize,
+        state,
+        &mut r.block,
+        &mut r.counts,
+    );
     for e in pushed.iter_mut() {
         let state = r.block[*e as usize - start];
         *e |= FLAGGED;

@@ -41,7 +41,7 @@ use grm_edits::{Edit, Op, Target};
 
 /// A node's label as the plan compares it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-enum Label {
+pub(crate) enum Label {
     Symbol(SymbolId),
     Command(Command),
     Insert(AssetId),
@@ -101,9 +101,6 @@ pub struct EditPlan {
     /// The trie's first state, if the axiom's label is some target's first.
     root: Option<(Label, u32)>,
     trie: HashMap<(u32, Label, EdgeRef), u32>,
-    /// The (state, label) pairs some ordinal edge (`#k`) leaves by: only
-    /// their children count their ordinal.
-    ordinal_from: foldhash::HashSet<(u32, Label)>,
     /// Per trie state, the edits whose target ends there.
     finals: Vec<Vec<u32>>,
     /// Per trie state, the edges that leave it: bit 0 a numbered or
@@ -144,25 +141,6 @@ pub(crate) fn edge(n: &Node) -> EdgeRef {
         },
         None => EdgeRef::Number(n.edge),
     }
-}
-
-/// The ordinal of `nodes[j]` among its parent's children: 1 + its
-/// siblings before it with its label (`ShapeTree::ordinal`). `nodes` is
-/// the tree or a block of it (its parent may lie before the slice: parent
-/// offsets are relative, and a block holds all of its shape's children).
-pub(crate) fn ordinal(nodes: &[Node], j: usize) -> u32 {
-    let n = &nodes[j];
-    let parent = j as isize - n.parent_offset as isize;
-    let mut k = 1;
-    let mut i = j as isize - 1;
-    while i > parent && i >= 0 {
-        let s = &nodes[i as usize];
-        if i - s.parent_offset as isize == parent && s.kind.same_label(&n.kind) {
-            k += 1;
-        }
-        i -= 1;
-    }
-    k
 }
 
 /// A label's text read back against the program.
@@ -336,7 +314,6 @@ impl EditPlan {
         let mut state = state;
         for (l, e) in labels[1..].iter().zip(&loc.edges) {
             if let EdgeRef::Ordinal(_) = e {
-                self.ordinal_from.insert((state, *l));
                 self.leaves[state as usize] |= 2;
             } else {
                 self.leaves[state as usize] |= 1;
@@ -405,12 +382,48 @@ impl EditPlan {
         }
     }
 
-    /// A child's trie state from its parent's: the child is `nodes[j]`,
-    /// its siblings before it are in `nodes[..j]` (the tree, or a block
-    /// of it: parent offsets are relative). An ordinal edge (`#k`) is
-    /// counted only where some target continues with the child's label.
+    /// The trie states of the block `block` (the nodes the shape at
+    /// `at`, trie state `state`, made from `start` on: parent offsets are
+    /// relative, so a node's parent is `at` or a command before it in the
+    /// block), in `out`, one per node. An ordinal edge (`#k`) is counted
+    /// in one pass over the block (`counts`: scratch, per parent and label
+    /// the siblings seen so far), and only under a parent some target
+    /// leaves by an ordinal edge: what `ShapeTree::ordinal` gives.
+    pub(crate) fn block_states(
+        &self,
+        block: &[Node],
+        start: usize,
+        at: usize,
+        state: u32,
+        out: &mut Vec<u32>,
+        counts: &mut Vec<(usize, Label, u32)>,
+    ) {
+        out.clear();
+        counts.clear();
+        for (k, n) in block.iter().enumerate() {
+            let p = (start + k).wrapping_sub(n.parent_offset as usize);
+            let parent = if p == at {
+                state
+            } else if p >= start && p < start + k {
+                out[p - start]
+            } else {
+                NONE
+            };
+            out.push(self.step(parent, p, n, counts));
+        }
+    }
+
+    /// A child's trie state from its parent's (`parent`, the parent at
+    /// position `p`), counting its ordinal in `counts` where some target
+    /// leaves the parent's state by an ordinal edge.
     #[inline]
-    pub(crate) fn step(&self, parent: u32, nodes: &[Node], j: usize) -> u32 {
+    fn step(
+        &self,
+        parent: u32,
+        p: usize,
+        child: &Node,
+        counts: &mut Vec<(usize, Label, u32)>,
+    ) -> u32 {
         if parent == NONE {
             return NONE;
         }
@@ -418,19 +431,33 @@ impl EditPlan {
         if leaves == 0 {
             return NONE;
         }
-        let child = &nodes[j];
         let l = label(child);
+        // The child's ordinal among its parent's children of its label
+        // (every such sibling counts, whatever its edge).
+        let ordinal = if leaves & 2 != 0 {
+            match counts.iter_mut().rev().find(|c| c.0 == p && c.1 == l) {
+                Some(c) => {
+                    c.2 += 1;
+                    c.2
+                }
+                None => {
+                    counts.push((p, l, 1));
+                    1
+                }
+            }
+        } else {
+            0
+        };
         if leaves & 1 != 0
             && let Some(&s) = self.trie.get(&(parent, l, edge(child)))
         {
             return s;
         }
-        if leaves & 2 == 0 || child.selector.is_some() || !self.ordinal_from.contains(&(parent, l))
-        {
+        if ordinal == 0 || child.selector.is_some() {
             return NONE;
         }
         self.trie
-            .get(&(parent, l, EdgeRef::Ordinal(ordinal(nodes, j))))
+            .get(&(parent, l, EdgeRef::Ordinal(ordinal)))
             .copied()
             .unwrap_or(NONE)
     }
