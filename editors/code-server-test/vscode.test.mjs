@@ -37,6 +37,11 @@
 //     server's workspace/applyEdit; dirty, the file untouched), the
 //     preview replays it (listed valid, the floor gone), and one Ctrl+Z
 //     in that file takes it back (the preview whole again).
+//   - City layouts (issue 29): city.grm's layout item opened in the
+//     preview's layout view (its four layers listed), a base street
+//     dragged in the plan lands in city.layout.json's buffer as one move
+//     (the server's workspace/applyEdit; dirty, the file untouched), the
+//     plan redraws, and one Ctrl+Z in that file takes it back.
 //
 // Needs: `cargo build -p grmc` (or GRMC=path), the packaged extension
 // (`editors/vscode/scripts/package.sh --out target/grm.vsix`, or
@@ -1060,4 +1065,81 @@ step("persistent edits: Remove in the preview's edit panel lands in house.edits.
   assert.doesNotMatch(await documentText(), /remove/);
   await frame.waitForFunction((t) => globalThis.__grmEdits.list.length === 0 && globalThis.__grm.triangles === t, t0, { timeout: LONG, polling: 100 });
   log('persistent edit: removed through the panel, replayed, undone in the editor');
+});
+
+step("a city's layout view (issue 29): city.grm's layout item opened in the preview, its layers listed, a base street dragged lands in city.layout.json's buffer as a move (grm/layoutEdit through workspace/applyEdit), the plan redraws, and Ctrl+Z in that file takes it back", async () => {
+  const sidePath = join(ws, 'city.layout.json');
+  const before = readFileSync(sidePath, 'utf8');
+  await quickOpen('city.grm');
+  await page.locator('.editor-group-container.active .view-line', { hasText: 'import "city_building.grm"' }).first().waitFor({ timeout: LONG });
+  // The open preview follows the active editor (opened here when this step runs alone).
+  if ((await page.locator('.tab', { hasText: /^Preview / }).count()) === 0) {
+    await focusEditor('city.grm');
+    await command('grm: Open Preview');
+  }
+  await page.locator('.tab', { hasText: 'Preview city.grm' }).waitFor({ timeout: LONG });
+  const frame = await previewFrame();
+  // The toolbar offers the item's layout; the view opens on it.
+  await frame.waitForSelector('#layout-open:not([hidden])', { timeout: LONG });
+  assert.equal((await frame.textContent('#layout-open'))?.trim(), 'Layout City');
+  await frame.click('#layout-open');
+  await frame.waitForSelector('#layout-view:not([hidden])', { timeout: SHORT });
+  await frame.waitForFunction(() => Number(document.getElementById('layout-plan')?.dataset.draws ?? 0) > 0, null, { timeout: LONG, polling: 100 });
+  await frame.waitForSelector('#layout-layers .layout-layer', { timeout: SHORT });
+  const names = await frame.$$eval('#layout-layers .layout-layer span:nth-of-type(1)', (xs) => xs.map((x) => x.textContent));
+  assert.deepEqual(names, ['old town', 'park', 'avenue', 'base'], "the sidecar's own layer on top of the item's");
+  const draws = await frame.evaluate(() => Number(document.getElementById('layout-plan').dataset.draws));
+
+  // A base street in the east (two points, inside x 480..680, y 100..300 in the world), dragged by its middle: the
+  // plan's SVG points are the page's CSS pixels from its box; the webview may be zoomed, so they are scaled to the
+  // main page's pixels by the box's width over its CSS width.
+  const plan = await frame.evaluate(() => {
+    const svg = document.getElementById('layout-plan');
+    const r = svg.getBoundingClientRect();
+    return {
+      width: r.width,
+      fit: JSON.parse(svg.dataset.fit ?? '{}'),
+      streets: [...svg.querySelectorAll('polyline[data-layer="0"]')].map((p) => ({
+        id: p.getAttribute('data-layer-id') ?? '',
+        points: (p.getAttribute('points') ?? '').trim().split(/\s+/).map((xy) => xy.split(',').map(Number)),
+      })),
+    };
+  });
+  const { fit } = plan;
+  const world = (p) => [(p[0] - fit.ox) / fit.scale, -(p[1] - fit.oy) / fit.scale];
+  const street = plan.streets.find(
+    (s) => s.points.length === 2 && s.points.every((p) => {
+      const [x, y] = world(p);
+      return x > 480 && x < 680 && y > 100 && y < 300;
+    }),
+  );
+  assert.ok(street, `a base street in the east: ${plan.streets.length} base streets`);
+  const box = await frame.locator('#layout-plan').boundingBox();
+  const k = box.width / plan.width;
+  const mid = [(street.points[0][0] + street.points[1][0]) / 2, (street.points[0][1] + street.points[1][1]) / 2];
+  const at = (dx, dy) => [box.x + (mid[0] + dx) * k, box.y + (mid[1] + dy) * k];
+  await page.mouse.move(...at(0, 0));
+  await page.mouse.down();
+  for (let s = 1; s <= 4; s++) await page.mouse.move(...at(2 * s, -s));
+  await page.mouse.up();
+
+  // The move is in the sidecar's buffer (dirty; the file on disk as it was), and the plan redraws from it.
+  await frame.waitForFunction((d) => Number(document.getElementById('layout-plan').dataset.draws) > d, draws, { timeout: LONG, polling: 100 });
+  assert.equal(readFileSync(sidePath, 'utf8'), before, 'the file on disk is as it was until saved');
+  await quickOpen('city.layout.json');
+  await page.locator('.tab.dirty', { hasText: /^city\.layout\.json/ }).waitFor({ timeout: SHORT });
+  // The buffer holds one move (the file had none), found with the editor's find widget.
+  await page.keyboard.press('Control+F');
+  const find = page.locator('.editor-group-container.active .find-widget textarea, .editor-group-container.active .find-widget input').first();
+  await find.waitFor({ timeout: SHORT });
+  await find.fill('"translate"');
+  await page.locator('.editor-group-container.active .find-widget .matchesCount', { hasText: /^1 of 1$/ }).waitFor({ timeout: SHORT });
+  await find.fill(`"${street.id}"`);
+  await page.locator('.editor-group-container.active .find-widget .matchesCount', { hasText: /^1 of 1$/ }).waitFor({ timeout: SHORT });
+  // Back in the text, one Ctrl+Z takes the move back: the buffer is the file again.
+  await page.keyboard.press('Escape');
+  await page.waitForFunction(() => !!document.activeElement?.closest('.part.editor .monaco-editor'), null, { timeout: SHORT, polling: 50 });
+  await page.keyboard.press('Control+Z');
+  await page.locator('.tab.dirty', { hasText: /^city\.layout\.json/ }).waitFor({ state: 'detached', timeout: SHORT });
+  log(`city layout: street ${street.id} dragged into city.layout.json's buffer (${draws} draws before), undone in the editor`);
 });
