@@ -130,6 +130,12 @@ pub struct Bezier3 {
     b: DVec3,
     c: DVec3,
     d: DVec3,
+    /// `3 a`, `2 b` and `6 a`, for [`Self::derivative`] and
+    /// [`Self::second_derivative`] (the same products those formulas
+    /// compute first, so the same values bit for bit).
+    a3: DVec3,
+    b2: DVec3,
+    a6: DVec3,
     /// Control polygon length (size scale for tolerances).
     polygon: f64,
     /// Bound on how far the curve strays from its nearest bracket sample:
@@ -144,10 +150,15 @@ impl Bezier3 {
         let [p0, p1, p2, p3] = points;
         let (l0, l1, l2) = (p0.distance(p1), p1.distance(p2), p2.distance(p3));
         let max_speed = 3.0 * l0.max(l1).max(l2);
+        let a = p3 - p0 + 3.0 * (p1 - p2);
+        let b = 3.0 * (p0 - 2.0 * p1 + p2);
         Self {
             points,
-            a: p3 - p0 + 3.0 * (p1 - p2),
-            b: 3.0 * (p0 - 2.0 * p1 + p2),
+            a,
+            b,
+            a3: 3.0 * a,
+            b2: 2.0 * b,
+            a6: 6.0 * a,
             c: 3.0 * (p1 - p0),
             d: p0,
             polygon: l0 + l1 + l2,
@@ -170,13 +181,13 @@ impl Bezier3 {
     /// `B'(t)`, the (unnormalized) derivative.
     #[inline]
     pub fn derivative(&self, t: f64) -> DVec3 {
-        (3.0 * self.a * t + 2.0 * self.b) * t + self.c
+        (self.a3 * t + self.b2) * t + self.c
     }
 
     /// `B''(t)`.
     #[inline]
     pub fn second_derivative(&self, t: f64) -> DVec3 {
-        6.0 * self.a * t + 2.0 * self.b
+        self.a6 * t + self.b2
     }
 
     /// Axis-aligned box of the control points; by the convex-hull property
