@@ -47,7 +47,8 @@
 //! `generations`, and the [`grm_sample::Reach`] look-ahead's `reach_c`,
 //! `reach_o`, `reach_s`, `reach_w`, `recent`, `branches`, `paced`, and
 //! [`grm_sample::Refine`]'s `refine` (rounds), `refine_from`,
-//! `refine_prefer` and `refine_followed` (0 or 1); `others=0`: bones cover
+//! `refine_prefer` and `refine_followed` (0 or 1) and `refine_min` (rounds at
+//! least once started); `others=0`: bones cover
 //! eq. 1's curve alone), for trying a
 //! change before it is made a default; `--custom K=V,K=V` (repeatable) adds
 //! rows `custom1`, `custom2`, ... the same way.
@@ -231,6 +232,7 @@ fn custom(mut o: SampleOptions, with: &[(String, String)]) -> SampleOptions {
             "refine_from" => o.refine.from = f(),
             "refine_prefer" => o.refine.prefer_covering = f() != 0.0,
             "refine_followed" => o.refine.followed_ends = f() != 0.0,
+            "refine_min" => o.refine.min_rounds = f() as u32,
             _ => panic!("unknown --with key {k}"),
         }
     }

@@ -2349,9 +2349,12 @@ impl<'a> Sampler<'a> {
             let Some(&b) = best.first() else {
                 break;
             };
-            if refine::covers_every_curve(&self.cost, &finals[b].cost)
-                || (opts.refine.followed_ends
-                    && self.follows_every_curve(&mut w, &layers, &finals[b], seed, b, opts)?)
+            // Once started, `min_rounds` rounds run whatever the best.
+            let may_end = round == 0 || round >= opts.refine.min_rounds;
+            if may_end
+                && (refine::covers_every_curve(&self.cost, &finals[b].cost)
+                    || (opts.refine.followed_ends
+                        && self.follows_every_curve(&mut w, &layers, &finals[b], seed, b, opts)?))
             {
                 break;
             }
