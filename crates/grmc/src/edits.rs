@@ -3,16 +3,16 @@
 //!
 //! - `list` prints each edit (id, system, target, operation) after the
 //!   file's own problems (R0901-R0911, rendered in the edits file);
-//! - `check` also grows each shape or derive-mode system that has edits
-//!   with its edits replayed and classifies every edit
-//!   (`grm_grow::shape::edits` against the shape tree,
-//!   `grm_grow::edits` from what the CPU engine met): valid, structurally
+//! - `check` also grows each system that has edits with its edits
+//!   replayed and classifies every edit (`grm_grow::shape::edits` against
+//!   the shape tree, `grm_grow::edits` from what the CPU engine or, in
+//!   sample mode, the guided sampler met: a sample system is sampled once
+//!   with its own schedule and seed, guided by `NAME.curves.json` beside
+//!   the grammar): valid, structurally
 //!   or semantically invalid, ambiguous, stale. Exit 0 when the file has
 //!   no problems and every edit was replayed, 1 otherwise.
 //!
-//! `--format json` prints one JSON object instead of the table. Edits of
-//! sample-mode systems are listed, and `check` says they were not
-//! classified (their replay is not built yet).
+//! `--format json` prints one JSON object instead of the table.
 
 use std::path::PathBuf;
 
@@ -125,7 +125,11 @@ fn go(a: &EditsFileArgs, check: bool) -> Outcome {
         })
         .collect();
     if check {
-        classify(&program, &values, a.seed, &parsed.file, &mut rows);
+        // Sample mode's curves: NAME.curves.json beside the grammar, as
+        // `grmc sample` reads them.
+        let stem = a.file.file_stem().unwrap_or_default().to_string_lossy();
+        let curves = a.file.with_file_name(format!("{stem}.curves.json"));
+        classify(&program, &values, a.seed, &curves, &parsed.file, &mut rows);
     }
     let all_valid = problems.is_empty() && rows.iter().all(|r| r.replayed);
     match a.format {
@@ -220,6 +224,7 @@ fn classify(
     program: &grm_sema::Program,
     values: &[grm_sema::Value],
     seed: Option<u32>,
+    curves: &std::path::Path,
     file: &grm_edits::EditsFile,
     rows: &mut [Row],
 ) {
@@ -239,11 +244,8 @@ fn classify(
             classify_derive(program, sys, values, seed, rows);
             continue;
         }
-        if sys.shape.is_none() {
-            for r in rows.iter_mut().filter(|r| r.edit.system == name) {
-                r.detail =
-                    "not classified: edits of sample-mode systems are not replayed yet".to_owned();
-            }
+        if sys.mode == grm_sema::Mode::Sample {
+            classify_sample(program, sys, values, seed, curves, rows);
             continue;
         }
         let grown = grm_grow::shape::lower(program, sys, values)
@@ -317,6 +319,61 @@ fn classify_derive(
                 &outcome,
                 mine.iter().copied(),
             ))
+        });
+    match grown {
+        Ok(reports) => {
+            for (r, rep) in rows
+                .iter_mut()
+                .filter(|r| r.edit.system == name)
+                .zip(reports)
+            {
+                r.class = Some(rep.class);
+                r.replayed = rep.replayed;
+                r.parts = rep.modules as usize;
+                r.detail = rep.detail;
+            }
+        }
+        Err(e) => {
+            for r in rows.iter_mut().filter(|r| r.edit.system == name) {
+                r.detail = format!("not classified: the system does not grow: {e}");
+            }
+        }
+    }
+}
+
+/// Sample a sample-mode system once (its own schedule and seed, every
+/// core) with its edits replayed, guided by `curves`, and classify them
+/// against the model it returns (`grm_grow::sample`).
+fn classify_sample(
+    program: &grm_sema::Program,
+    sys: &grm_sema::System,
+    values: &[grm_sema::Value],
+    seed: Option<u32>,
+    curves: &std::path::Path,
+    rows: &mut [Row],
+) {
+    let name = sys.name.as_str();
+    let mine: Vec<Edit> = rows
+        .iter()
+        .filter(|r| r.edit.system == name)
+        .map(|r| r.edit.clone())
+        .collect();
+    let grown = grm_compile::compile(program, sys, values)
+        .map_err(|e| e.to_string())
+        .and_then(|c| {
+            let curves = grm_guide::Curves::load(curves)
+                .map_err(|e| format!("cannot read the curves {}: {e}", curves.display()))?;
+            let opts = grm_sample::SampleOptions {
+                seed: seed.unwrap_or(c.settings.seed),
+                schedule: grm_sample::Schedule::from_settings(&c.settings),
+                ..grm_sample::SampleOptions::default()
+            };
+            let request = grm_grow::sample::SampleRequest {
+                edits: Some(&mine),
+                ..grm_grow::sample::SampleRequest::new(&curves, opts)
+            };
+            let sampled = grm_grow::sample::sample(sys, &c, &request).map_err(|e| e.to_string())?;
+            Ok(sampled.edits.unwrap_or_default())
         });
     match grown {
         Ok(reports) => {
