@@ -75,14 +75,8 @@ pub struct DeriveArgs {
     /// (docs/engine.md, "Identity"). Not with --gpu.
     #[arg(long, value_name = "FILE.json", conflicts_with = "gpu")]
     pub tree: Option<PathBuf>,
-    /// Replay the persistent edits of this file instead of NAME.edits.json
-    /// beside the grammar (docs/edits.md; derive mode replays key targets,
-    /// on the CPU).
-    #[arg(long, value_name = "FILE.edits.json", conflicts_with = "no_edits")]
-    pub edits: Option<PathBuf>,
-    /// Grow without the persistent edits.
-    #[arg(long)]
-    pub no_edits: bool,
+    #[command(flatten)]
+    pub edits: EditsArgs,
     /// With `--gpu`: derive on the CPU when no GPU can be used or the
     /// derivation outgrows the device.
     #[arg(long, requires = "gpu")]
@@ -92,6 +86,20 @@ pub struct DeriveArgs {
     /// GPU; the string is the same either way).
     #[arg(long, requires = "gpu", value_name = "MODULES", default_value_t = grm_gpu::derive::CPU_PREFIX_MODULES)]
     pub cpu_prefix: u64,
+}
+
+/// Which persistent edits a growth replays (`derive` and `sample` share
+/// these flags; `crate::shape::edits_of` reads the file).
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct EditsArgs {
+    /// Replay the persistent edits of this file instead of NAME.edits.json
+    /// beside the grammar (docs/edits.md; derive mode replays key targets,
+    /// on the CPU; sample mode replays them in the sampler).
+    #[arg(long, value_name = "FILE.edits.json", conflicts_with = "no_edits")]
+    pub edits: Option<PathBuf>,
+    /// Grow without the persistent edits.
+    #[arg(long)]
+    pub no_edits: bool,
 }
 
 /// How a `.png` output is drawn (`derive`, `forest` and `sample` share
@@ -439,7 +447,7 @@ pub fn run(args: DeriveArgs) -> Outcome {
     // The persistent edits (docs/edits.md), read before compiling: a sample
     // system is refused below whatever its edits.
     let edits = if checked.system().mode == grm_sema::Mode::Derive {
-        match crate::shape::edits_of(&args, &mut checked) {
+        match crate::shape::edits_of(&args.edits, &mut checked) {
             Ok(e) => e,
             Err(o) => return o,
         }

@@ -11,7 +11,7 @@ use grm_guide::{Curves, VolumeOptions};
 use grm_sample::{FinishLimits, Objective, SampleError, SampleOptions, Schedule};
 
 use crate::Outcome;
-use crate::derive::{emit, export_model, load};
+use crate::derive::{emit, export_model, load_checked};
 
 /// What the search minimizes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -140,6 +140,8 @@ pub struct SampleArgs {
     pub tree: Option<PathBuf>,
     #[command(flatten)]
     pub image: crate::derive::ImageArgs,
+    #[command(flatten)]
+    pub edits: crate::derive::EditsArgs,
 }
 
 /// A number > 0 (`inf` included), for `--temperature`.
@@ -268,7 +270,21 @@ pub fn run(args: SampleArgs) -> Outcome {
             .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
         args.file.with_file_name(format!("{stem}.curves.json"))
     });
-    let loaded = match load(&args.file, args.system.as_deref(), &args.params) {
+    let mut checked = match load_checked(&args.file, args.system.as_deref(), &args.params) {
+        Ok(c) => c,
+        Err(o) => return o,
+    };
+    // The persistent edits (docs/edits.md, "Sample mode"), read before
+    // compiling; a derive system is refused below whatever its edits.
+    let edits = if checked.system().mode == grm_sema::Mode::Sample {
+        match crate::shape::edits_of(&args.edits, &mut checked) {
+            Ok(e) => e,
+            Err(o) => return o,
+        }
+    } else {
+        None
+    };
+    let loaded = match checked.compile() {
         Ok(l) => l,
         Err(o) => return o,
     };
@@ -371,6 +387,7 @@ pub fn run(args: SampleArgs) -> Outcome {
         // --generation: the one frame asked for, not one per generation.
         generation: args.generation,
         tree: args.tree.is_some(),
+        edits: edits.as_ref().map(|(f, _)| f.edits.as_slice()),
         ..grm_grow::sample::SampleRequest::new(&curves, opts.clone())
     };
     let sampled = match grm_grow::sample::sample(loaded.system(), c, &request) {
@@ -394,6 +411,25 @@ pub fn run(args: SampleArgs) -> Outcome {
         }
     };
     let result = &sampled.result;
+    // What became of the edits (docs/edits.md, "Classes"), classified
+    // against the first model reported.
+    let edit_problems = edits.as_ref().is_some_and(|(_, problems)| *problems);
+    if let Some(reports) = &sampled.edits {
+        let shown: Vec<_> = reports
+            .iter()
+            .map(|r| (r.id, r.class, r.detail.as_str(), r.replayed))
+            .collect();
+        crate::edits::print_replayed(&c.name, &shown);
+    }
+    // Problems in the edits file (printed above, R09xx) fail the run once
+    // it has written what it was asked for, as `grmc derive` does.
+    let done = |o: Outcome| {
+        if o == Outcome::Ok && edit_problems {
+            Outcome::InputErrors
+        } else {
+            o
+        }
+    };
     let heuristic_text =
         if heuristic && schedule.heuristic_until > 0 && schedule.heuristic_scale > 0.0 {
             format!(
@@ -555,7 +591,12 @@ pub fn run(args: SampleArgs) -> Outcome {
                 }
             }
         }
-        return crate::derive::export_frame_models(&loaded, &models, path, &args.image);
+        return done(crate::derive::export_frame_models(
+            &loaded,
+            &models,
+            path,
+            &args.image,
+        ));
     }
     if let Some(path) = &args.output {
         for (k, m) in reported.iter().enumerate() {
@@ -576,7 +617,7 @@ pub fn run(args: SampleArgs) -> Outcome {
             }
         }
     }
-    Outcome::Ok
+    done(Outcome::Ok)
 }
 
 /// The `--stats` coverage of each curve by `m`'s bones (`grm_guide::describe_coverage`).

@@ -14,7 +14,7 @@ use crate::derive::{Checked, DeriveArgs, check_output_at, emit, export_model_at,
 
 /// Grow a checked shape system as `args` say.
 pub fn run(args: &DeriveArgs, mut checked: Checked) -> Outcome {
-    let edits = match edits_of(args, &mut checked) {
+    let edits = match edits_of(&args.edits, &mut checked) {
         Ok(e) => e,
         Err(o) => return o,
     };
@@ -179,10 +179,11 @@ pub fn run(args: &DeriveArgs, mut checked: Checked) -> Outcome {
 /// The edits file to replay (`--edits`, else NAME.edits.json beside the
 /// grammar; none with `--no-edits` or when the default file is missing),
 /// its problems printed (coded R09xx, in the file) and whether it had any.
-/// `Err`: a named file that cannot be read (exit 2). Derive mode reads
-/// them here too (`crate::derive::run`).
+/// `Err`: a named file that cannot be read (exit 2). Derive mode
+/// (`crate::derive::run`) and sample mode (`crate::sample::run`) read
+/// them here too.
 pub(crate) fn edits_of(
-    args: &DeriveArgs,
+    args: &crate::derive::EditsArgs,
     checked: &mut Checked,
 ) -> Result<Option<(grm_edits::EditsFile, bool)>, Outcome> {
     if args.no_edits {
