@@ -338,6 +338,27 @@ pub(crate) fn classify_derive(
     collect(loaded, uri, prog, &sys.name, by_id)
 }
 
+/// Classify the edits of the sample-mode system `sys` (and of systems the
+/// grammar lacks) from the reports of a preview's sampled run
+/// (`grm_grow::sample::Sampled::edits`, in the order of the system's edits
+/// in the file). A report's `parts` is empty: sample mode names modules by
+/// key.
+pub(crate) fn classify_sampled(
+    loaded: &Loaded,
+    uri: Uri,
+    prog: &grm_sema::Program,
+    sys: &grm_sema::System,
+    reports: Vec<grm_grow::edits::EditReport>,
+) -> (EditsOut, EditsRun) {
+    let file = &loaded.parsed.file;
+    let by_id: HashMap<u32, EditOut> = reports
+        .into_iter()
+        .zip(file.of_system(&sys.name))
+        .map(|(r, e)| (r.id, edit_out(e, r.class, r.detail, r.replayed, Vec::new())))
+        .collect();
+    collect(loaded, uri, prog, &sys.name, by_id)
+}
+
 /// The reports of `system`'s edits (`by_id`) and of the edits of systems
 /// the grammar lacks, in the file's order.
 fn collect(

@@ -712,6 +712,8 @@ struct Made {
     sample: Option<SampleOut>,
     /// Derive mode: what the persistent edits met.
     edits: Option<grm_derive::EditOutcome>,
+    /// Sample mode: what became of the persistent edits replayed.
+    sampled_edits: Option<Vec<grm_grow::edits::EditReport>>,
 }
 
 /// Derive mode: the CPU engine through `grm_grow`, exact provenance,
@@ -824,13 +826,17 @@ fn derive_model(
         focus_out,
         sample: None,
         edits: grown.edits,
+        sampled_edits: None,
     })
 }
 
 /// Sample mode: the guided sampler through `grm_grow::sample` with the
 /// request's curves (or the file's `NAME.curves.json` next to it); the
 /// sampler reports provenance itself. Focus marks what the focused
-/// production made directly.
+/// production made directly. `edits` (the edits file's, those of other
+/// systems skipped) are replayed in the sampler and classified against
+/// the model shown.
+#[allow(clippy::too_many_arguments)]
 fn sample_model(
     fa: &FileAnalysis,
     sys: &grm_sema::System,
@@ -838,6 +844,7 @@ fn sample_model(
     settings: &grm_sema::Settings,
     p: &PreviewParams,
     focus: Option<u32>,
+    edits: Option<&[grm_edits::Edit]>,
     cancel: Option<&CancelToken>,
 ) -> std::result::Result<Made, Failure> {
     let prog = &fa.checked.program;
@@ -876,6 +883,7 @@ fn sample_model(
         // The one frame shown, not one per generation.
         generation: p.generation,
         tree: true,
+        edits,
         ..grm_grow::sample::SampleRequest::new(&curves, opts)
     };
     let mut sampled = grm_grow::sample::sample(sys, compiled, &request).map_err(|e| match e {
@@ -884,6 +892,7 @@ fn sample_model(
     })?;
     // The shown model's tree (identity and ancestry for `grm/pick`).
     let tree = sampled.tree.take();
+    let sampled_edits = sampled.edits.take();
     let run = &sampled.result;
     // The frame asked for (the last one past the end: the result).
     let (shown, best) = match sampled.shown() {
@@ -949,6 +958,7 @@ fn sample_model(
             coverage,
         }),
         edits: None,
+        sampled_edits,
     })
 }
 
@@ -1158,16 +1168,30 @@ pub(crate) fn build_with_model(
             .position(|s| s.contains(off) || s.end == off)
             .map(|a| a as u32)
     });
-    // Derive mode: the edits file beside the system's grammar (its buffer,
-    // else the disk), replayed by the CPU engine (docs/edits.md).
-    let loaded =
-        (mode == PreviewMode::Derive).then(|| edits.load(&grm_edits::edits_path(&sys_path)));
+    // Derive and sample mode: the edits file beside the system's grammar
+    // (its buffer, else the disk), replayed by the CPU engine or the
+    // sampler (docs/edits.md).
+    let loaded = matches!(mode, PreviewMode::Derive | PreviewMode::Sample)
+        .then(|| edits.load(&grm_edits::edits_path(&sys_path)));
     let plan = loaded
         .as_ref()
-        .filter(|l| l.text.is_some())
+        .filter(|l| mode == PreviewMode::Derive && l.text.is_some())
         .map(|l| grm_grow::edits::edit_plan(sys, l.parsed.file.of_system(&sys.name)));
+    let sample_edits = loaded
+        .as_ref()
+        .filter(|l| l.text.is_some())
+        .map(|l| l.parsed.file.edits.as_slice());
     let made = match mode {
-        PreviewMode::Sample => sample_model(fa, sys, &compiled, &settings, p, focus, cancel)?,
+        PreviewMode::Sample => sample_model(
+            fa,
+            sys,
+            &compiled,
+            &settings,
+            p,
+            focus,
+            sample_edits,
+            cancel,
+        )?,
         _ => derive_model(
             prog,
             sys,
@@ -1190,9 +1214,15 @@ pub(crate) fn build_with_model(
         focus_out,
         sample,
         edits: outcome,
+        sampled_edits,
     } = made;
     // What became of each edit.
     let (edits_out, edits_run) = match (&loaded, uris.uri_of(&grm_edits::edits_path(&sys_path))) {
+        (Some(l), Some(edits_uri)) if mode == PreviewMode::Sample => {
+            let reports = sampled_edits.unwrap_or_default();
+            let (o, r) = crate::edits::classify_sampled(l, edits_uri, prog, sys, reports);
+            (Some(o), Some(r))
+        }
         (Some(l), Some(edits_uri)) => {
             let outcome = outcome.unwrap_or_default();
             let (o, r) =
