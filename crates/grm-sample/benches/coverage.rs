@@ -28,10 +28,11 @@
 //! reach look-ahead, before paced symbols drew fewer candidates:
 //! `Reach::paced` 0), `pass` (the defaults before refinement: the SMC
 //! pass alone, `Refine::off()`), `default` (`SampleOptions::default()`)
-//! and `followed` (the defaults with `Refine::followed_ends`: the
-//! refinement rounds also end when the best model follows every curve by
-//! this bench's measure).
-//! Every row but `default`, `followed` and `custom` runs without refinement.
+//! and `s26` (the refinement defaults of session 26, before
+//! `Refine::followed_ends` and `Refine::min_rounds` were on: 3 rounds,
+//! ended by the first best model that covers every curve by the
+//! segment check).
+//! Every row but `default`, `s26` and `custom` runs without refinement.
 //! `paper` and `before` run with the particle counts the grammars asked
 //! for before that work (Calder's 100 -> 15, the vine's 400 -> 60),
 //! `prev` and `lookahead` with those of their time (the vine's 100 -> 15,
@@ -103,7 +104,7 @@ enum Config {
     Lookahead,
     Pass,
     Default,
-    Followed,
+    S26,
     Custom(Vec<(String, String)>),
 }
 
@@ -178,10 +179,12 @@ fn pass(mut o: SampleOptions) -> SampleOptions {
     o
 }
 
-/// The defaults with `Refine::followed_ends`: refinement rounds also end
-/// when the best model follows every curve by `grm_guide::coverage`.
-fn followed(mut o: SampleOptions) -> SampleOptions {
-    o.refine.followed_ends = true;
+/// The refinement defaults of session 26: 3 rounds, `followed_ends` off,
+/// no minimum once started.
+fn s26(mut o: SampleOptions) -> SampleOptions {
+    o.refine.rounds = 3;
+    o.refine.followed_ends = false;
+    o.refine.min_rounds = 0;
     o
 }
 
@@ -281,7 +284,7 @@ fn main() {
         ("lookahead".into(), Config::Lookahead),
         ("pass".into(), Config::Pass),
         ("default".into(), Config::Default),
-        ("followed".into(), Config::Followed),
+        ("s26".into(), Config::S26),
     ];
     if !with.is_empty() {
         rows.push(("custom".into(), Config::Custom(with.clone())));
@@ -407,7 +410,7 @@ fn main() {
                     Config::Prev => prev(then),
                     Config::Lookahead => lookahead(then),
                     Config::Pass => pass(base),
-                    Config::Followed => followed(base),
+                    Config::S26 => s26(base),
                     Config::Custom(with) => custom(base, with),
                     Config::Default => base,
                 };

@@ -87,7 +87,7 @@ pub use error::{ExpandError, ExpandErrorKind, LimitKind, SampleError};
 pub use model::{
     DerivationTree, FinishLimits, GenerationStats, NodeKind, SampleResult, SampledModel, TreeNode,
 };
-pub use refine::{DEFAULT_REFINE_FROM, DEFAULT_REFINE_ROUNDS, Refine};
+pub use refine::{DEFAULT_REFINE_FROM, DEFAULT_REFINE_MIN_ROUNDS, DEFAULT_REFINE_ROUNDS, Refine};
 pub use sampler::{
     DEFAULT_CANDIDATES, DEFAULT_COVER, DEFAULT_ESS_TARGET, DEFAULT_MAX_BYTES, DEFAULT_ORDER,
     DEFAULT_PACED_CANDIDATES, ExpectedOptions, Guide, MAX_THREADS, Objective, Reach, SampleOptions,

@@ -50,20 +50,20 @@ pub struct Refine {
     /// ends the rounds too: the segment check (a segment counts when one
     /// bone has both ends in the tube) is stricter, and without this some
     /// models the report calls followed ran rounds (`docs/sampling.md`
-    /// 4.5, session 26). Off by default: on, the fork of four's median
-    /// model runs no round (the pass's time) at the same coverage, but
-    /// its median cost is 0.3-0.5% higher than the default's (the rounds
-    /// it skips found cheaper models), though 4,000 below the sampler's
-    /// before the curve-coverage work (`docs/sampling.md` 4.5, session 27:
-    /// the baseline the cost criterion is read against).
+    /// 4.5, session 26). On by default (since session 27, with
+    /// [`Refine::min_rounds`]): the fork of four's and the vine's median
+    /// model then runs no round (the pass's time); alone it raised the
+    /// fork's median cost 0.3-0.5%, which five rounds at least once
+    /// started win back (`docs/sampling.md` 4.5, session 27).
     pub followed_ends: bool,
     /// Rounds that run at least, once the pass's best model has started
     /// them (capped by `rounds`): before that many, a round whose best
     /// model covers every curve does not end the rounds. A pass that
     /// covers runs none either way, so this spends time only on the runs
     /// that already pay for a round (above the median time wherever most
-    /// passes cover), and can only lower their model's objective. 0 (the
-    /// default): the rounds end at the first best model that covers.
+    /// passes cover), and can only lower their model's objective. 0: the
+    /// rounds end at the first best model that covers. By default
+    /// [`DEFAULT_REFINE_MIN_ROUNDS`] (all the rounds, once started).
     pub min_rounds: u32,
 }
 
@@ -92,20 +92,36 @@ impl Refine {
 
 impl Default for Refine {
     /// [`DEFAULT_REFINE_ROUNDS`] rounds from [`DEFAULT_REFINE_FROM`] of
-    /// the run.
+    /// the run, all of them once started ([`DEFAULT_REFINE_MIN_ROUNDS`]),
+    /// ended early by a best model that covers or follows every curve
+    /// ([`Refine::followed_ends`]) only before they start.
+    ///
+    /// Chosen in session 27 (`docs/sampling.md` 4.5) over the session-26
+    /// defaults (3 rounds, `followed_ends` off, no minimum): over 50 seeds
+    /// on the bench's five scenes every median cost is as low or lower
+    /// (the fork of four -23,563 against -23,524, the vine -16,018 against
+    /// -16,001), every scene's share of models covering every curve as high
+    /// or higher (the fork and the vine 100% against 96%), and the median
+    /// model of every scene is a pass without rounds; the price is the
+    /// runs that start the rounds, which run all five (the fork's mean
+    /// instructions a model 1.25x, the vine's 1.65x).
     fn default() -> Self {
         Refine {
             rounds: DEFAULT_REFINE_ROUNDS,
             from: DEFAULT_REFINE_FROM,
             prefer_covering: true,
-            followed_ends: false,
-            min_rounds: 0,
+            followed_ends: true,
+            min_rounds: DEFAULT_REFINE_MIN_ROUNDS,
         }
     }
 }
 
 /// Refinement rounds at most by default ([`Refine::rounds`]).
-pub const DEFAULT_REFINE_ROUNDS: u32 = 3;
+pub const DEFAULT_REFINE_ROUNDS: u32 = 5;
+
+/// Refinement rounds at least, once started, by default
+/// ([`Refine::min_rounds`]).
+pub const DEFAULT_REFINE_MIN_ROUNDS: u32 = 5;
 
 /// Where refinement rounds start by default ([`Refine::from`]).
 pub const DEFAULT_REFINE_FROM: f64 = 0.0;

@@ -60,9 +60,9 @@ coverage (share of each curve's length with a bone within its thickness + 0.15):
   too few bones: 6 bones, 3.88 long in all, cannot cover 80% of the curves' 7.00 even laid along them (with the covering radius at their 2 free ends: more generations grow more bones; fewer curves need fewer)";
     assert_eq!(coverage_block(&stdout), expected, "{stdout}");
     // The search's best model leaves `far_away` (and every round's does):
-    // the refinement rounds (docs/sampling.md 4.5) ran, all three, and say so.
+    // the refinement rounds (docs/sampling.md 4.5) ran, all five, and say so.
     assert!(
-        stdout.contains("\nrefined: 3 rounds grown again from generation 1 (the search's best model left a curve under 80%)\n"),
+        stdout.contains("\nrefined: 5 rounds grown again from generation 1 (the search's best model left a curve under 80%)\n"),
         "{stdout}"
     );
     // Four generations: four bones, too few for the curves at all.
