@@ -716,6 +716,8 @@ struct Hooks<'h, 'o> {
     matches: Vec<Match>,
     /// The tag of the module `force` was last asked about.
     tag: u32,
+    /// Where the output written so far ends.
+    end: usize,
 }
 
 impl Replay for Hooks<'_, '_> {
@@ -734,6 +736,7 @@ impl Replay for Hooks<'_, '_> {
     #[inline(always)]
     fn copied(&mut self, i: std::ops::Range<usize>, o: usize) {
         let n = i.len();
+        self.end = o + n;
         if n == 1 {
             self.otags[o] = self.tags[i.start];
         } else if n <= TAG_MOVE
@@ -756,6 +759,7 @@ impl Replay for Hooks<'_, '_> {
         made: Made<'_>,
         params: &mut [f32],
     ) -> Result<(), crate::error::RuntimeError> {
+        self.end = o + made.keys.len();
         // Module `i`'s tag, read by `force` just before.
         let tag = self.tag;
         debug_assert_eq!(tag, self.tags[i]);
@@ -821,6 +825,31 @@ impl Replay for Hooks<'_, '_> {
     }
 }
 
+/// The hooks of a run without tags: where its output ends, nothing else.
+struct Tail(usize);
+
+impl Replay for Tail {
+    #[inline(always)]
+    fn force(&mut self, _: usize) -> u32 {
+        0
+    }
+    #[inline(always)]
+    fn copied(&mut self, i: std::ops::Range<usize>, o: usize) {
+        self.0 = o + i.len();
+    }
+    #[inline(always)]
+    fn made(
+        &mut self,
+        _: usize,
+        o: usize,
+        made: Made<'_>,
+        _: &mut [f32],
+    ) -> Result<(), crate::error::RuntimeError> {
+        self.0 = o + made.keys.len();
+        Ok(())
+    }
+}
+
 impl Hooks<'_, '_> {
     #[cold]
     #[inline(never)]
@@ -836,6 +865,12 @@ impl Hooks<'_, '_> {
 /// The tags a run of copied modules (or the successors of an untagged
 /// module) moves at once, when the buffers have room.
 const TAG_MOVE: usize = 16;
+
+/// The blocks of input tags a tagged piece is split by: a run of at least
+/// `QUIET` blocks of `TAG_BLOCK` modules without a tag is rewritten without
+/// the hooks.
+const TAG_BLOCK: usize = 16;
+const QUIET: usize = 4;
 
 /// One chunk's output slices, with the tags.
 struct EditChunk<'o> {
@@ -1416,38 +1451,94 @@ impl<'a> Engine<'a> {
             return Ok(ChunkDone { matches, decided });
         }
         if !record {
-            // The engine's own loop with the edits' hooks.
-            let mut hooks = Hooks {
-                engine: self,
-                iteration: step.iteration,
-                plan,
-                table,
-                tags,
-                otags,
-                base,
-                matches: Vec::new(),
-                tag: 0,
-            };
-            self.rewrite_chunk_best::<true, Hooks<'_, '_>>(
-                step,
-                ChunkOut {
-                    word_in: input.start(range.start),
-                    range,
-                    syms: osyms,
-                    keys: okeys,
-                    starts: ostarts,
-                    params: oparams,
-                    word_base,
-                },
-                &mut hooks,
-            )?;
+            // The engine's own loop: with the edits' hooks over the runs
+            // of blocks that hold a tag, without (`()`, then zero tags)
+            // over the long runs that hold none (the tags are sparse: a
+            // value edit's subtree, a forced module).
+            let mut found = Vec::new();
+            let (mut o, mut wo) = (0usize, 0usize);
+            let mut a = range.start;
+            while a < range.end {
+                // The run from `a`: tagged or not as its first block, to
+                // the first block of the other kind (an untagged run
+                // shorter than `QUIET` blocks joins the tagged one).
+                let hot = |b: usize| {
+                    let e = (b + TAG_BLOCK).min(range.end);
+                    tags[b..e].iter().fold(0, |x, &t| x | t) != 0
+                };
+                let mut b = a;
+                let first_hot = hot(a);
+                if first_hot {
+                    loop {
+                        b = (b + TAG_BLOCK).min(range.end);
+                        // The quiet blocks after it, up to `QUIET`.
+                        let (mut c, mut q) = (b, 0);
+                        while c < range.end && q < QUIET && !hot(c) {
+                            c = (c + TAG_BLOCK).min(range.end);
+                            q += 1;
+                        }
+                        if q == QUIET {
+                            break;
+                        }
+                        b = c;
+                        if c >= range.end {
+                            break;
+                        }
+                    }
+                } else {
+                    while b < range.end && !hot(b) {
+                        b = (b + TAG_BLOCK).min(range.end);
+                    }
+                }
+                let out = ChunkOut {
+                    word_in: input.start(a),
+                    range: a..b,
+                    syms: &mut osyms[o..],
+                    keys: &mut okeys[o..],
+                    starts: &mut ostarts[o..],
+                    params: &mut oparams[wo..],
+                    word_base: word_base + wo as u32,
+                };
+                let m = if first_hot {
+                    let mut hooks = Hooks {
+                        engine: self,
+                        iteration: step.iteration,
+                        plan,
+                        table,
+                        tags,
+                        otags: &mut otags[o..],
+                        base: base + o,
+                        matches: std::mem::take(&mut found),
+                        tag: 0,
+                        end: 0,
+                    };
+                    let r = self.rewrite_chunk_best::<true, Hooks<'_, '_>>(step, out, &mut hooks);
+                    found = hooks.matches;
+                    r?;
+                    hooks.end
+                } else {
+                    let mut tail = Tail(0);
+                    self.rewrite_chunk_best::<true, Tail>(step, out, &mut tail)?;
+                    otags[o..o + tail.0].fill(0);
+                    tail.0
+                };
+                // Every module's words are stored (`with_edits`).
+                let w = if m == 0 {
+                    0
+                } else {
+                    let last = (ostarts[o + m - 1] - word_base) as usize;
+                    last + self.sym_words[osyms[o + m - 1] as usize] as usize - wo
+                };
+                o += m;
+                wo += w;
+                a = b;
+            }
             // The keys written looked up (those the hooks did not: the
             // successors of untagged modules, scope 0, and copies, which
             // `settle` passes over), merged in position order with the
             // hooks' matches.
             let mut scanned = Vec::new();
             plan.scan(okeys, base, &mut scanned);
-            let found = hooks.matches;
             let matches = if found.is_empty() {
                 scanned
             } else {
