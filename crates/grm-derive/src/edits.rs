@@ -870,7 +870,7 @@ const TAG_MOVE: usize = 16;
 /// `QUIET` blocks of `TAG_BLOCK` modules without a tag is rewritten without
 /// the hooks.
 const TAG_BLOCK: usize = 16;
-const QUIET: usize = 4;
+const QUIET: usize = 2;
 
 /// One chunk's output slices, with the tags.
 struct EditChunk<'o> {
