@@ -15,7 +15,9 @@
 //! module of it carries a tag) is the engine's plain rewrite, its written
 //! keys then scanned; another is the engine's own rewrite loop through its
 //! `Replay` hooks (the plain derivation passes `()`, which compiles to the
-//! plain loop, so a derivation without edits costs what it did); a step
+//! plain loop, so a derivation without edits costs what it did) over its
+//! runs of tagged modules, and without them over its long runs of untagged
+//! ones (`TAG_BLOCK`, `QUIET`); a step
 //! that records its decisions (`edited_step` with a record) takes a second
 //! loop of its own that writes the same string. Either keeps the engine's
 //! structure (count, scan, rewrite over chunks in parallel, the same
