@@ -144,17 +144,86 @@ pub struct SlotTarget {
     pub boolean: bool,
 }
 
-/// The edits of one key: per slot the edit with the larger id.
+/// The edits of one key: per slot (removal, the alternative, the pin,
+/// one value slot) the edit with the larger id. Shared by every engine
+/// that replays key targets (the guided sampler's plan holds these too).
 #[derive(Clone, Debug, Default)]
-struct Node {
-    key: u32,
-    remove: Option<u32>,
+pub struct KeyEdits {
+    /// The identity key.
+    pub key: u32,
+    /// The id of the edit that removes it.
+    pub remove: Option<u32>,
     /// (id, alternative from 1).
-    force: Option<(u32, u32)>,
+    pub force: Option<(u32, u32)>,
     /// (id, key).
-    pin: Option<(u32, u32)>,
-    /// (slot, id, op), one per slot.
-    values: Vec<(u32, u32, ValueOp)>,
+    pub pin: Option<(u32, u32)>,
+    /// (slot, id, op), one per slot, sorted by slot.
+    pub values: Vec<(u32, u32, ValueOp)>,
+}
+
+impl KeyEdits {
+    /// No edits yet of `key`.
+    pub fn new(key: u32) -> KeyEdits {
+        KeyEdits {
+            key,
+            ..KeyEdits::default()
+        }
+    }
+
+    /// Take edit `id`'s `action`: of two edits in one slot the larger id
+    /// wins, whatever the order they come in.
+    pub fn merge(&mut self, id: u32, action: EditAction) {
+        fn later<T>(slot: &mut Option<(u32, T)>, id: u32, v: T) {
+            if slot.as_ref().is_none_or(|(old, _)| id >= *old) {
+                *slot = Some((id, v));
+            }
+        }
+        match action {
+            EditAction::Remove => {
+                if self.remove.is_none_or(|old| id >= old) {
+                    self.remove = Some(id);
+                }
+            }
+            EditAction::Force(k) => later(&mut self.force, id, k),
+            EditAction::Pin(p) => later(&mut self.pin, id, p),
+            EditAction::Value { slot, op } => {
+                match self.values.iter_mut().find(|v| v.0 == slot) {
+                    Some(v) => {
+                        if id >= v.1 {
+                            *v = (slot, id, op);
+                        }
+                    }
+                    None => self.values.push((slot, id, op)),
+                }
+                self.values.sort_by_key(|v| v.0);
+            }
+        }
+    }
+}
+
+/// A replay plan by identity key, as an edits file is resolved into it
+/// (`grm_grow::edits`): this crate's [`EditPlan`] and the guided
+/// sampler's.
+pub trait KeyPlan {
+    /// A value slot (one parameter name): per symbol id, where that
+    /// parameter is. Returns the slot's number for [`EditAction::Value`].
+    fn add_slot(&mut self, per_symbol: Vec<SlotTarget>) -> u32;
+    /// Count the modules made with `key` without editing them.
+    fn watch(&mut self, key: u32);
+    /// Add edit `id` of the module with `key` ([`KeyEdits::merge`]).
+    fn add(&mut self, key: u32, id: u32, action: EditAction);
+}
+
+impl KeyPlan for EditPlan {
+    fn add_slot(&mut self, per_symbol: Vec<SlotTarget>) -> u32 {
+        EditPlan::add_slot(self, per_symbol)
+    }
+    fn watch(&mut self, key: u32) {
+        EditPlan::watch(self, key);
+    }
+    fn add(&mut self, key: u32, id: u32, action: EditAction) {
+        EditPlan::add(self, key, id, action);
+    }
 }
 
 /// The most input modules of one piece of the edited rewrite: a piece
@@ -169,7 +238,7 @@ const FORCED: u32 = 1 << 31;
 /// The persistent edits of one derivation, by identity key.
 #[derive(Clone, Debug)]
 pub struct EditPlan {
-    nodes: Vec<Node>,
+    nodes: Vec<KeyEdits>,
     index: KeyMap<u32, u32>,
     /// A bit set for every key with edits (its low bits).
     filter: filter::KeyFilter,
@@ -296,10 +365,7 @@ impl EditPlan {
             Some(&n) => n as usize,
             None => {
                 self.index.insert(key, self.nodes.len() as u32);
-                self.nodes.push(Node {
-                    key,
-                    ..Node::default()
-                });
+                self.nodes.push(KeyEdits::new(key));
                 self.filter.insert(key);
                 self.nodes.len() - 1
             }
@@ -311,32 +377,7 @@ impl EditPlan {
     /// larger id wins, whatever the order they are added in.
     pub fn add(&mut self, key: u32, id: u32, action: EditAction) {
         let n = self.node(key);
-        let node = &mut self.nodes[n];
-        fn later<T>(slot: &mut Option<(u32, T)>, id: u32, v: T) {
-            if slot.as_ref().is_none_or(|(old, _)| id >= *old) {
-                *slot = Some((id, v));
-            }
-        }
-        match action {
-            EditAction::Remove => {
-                if node.remove.is_none_or(|old| id >= old) {
-                    node.remove = Some(id);
-                }
-            }
-            EditAction::Force(k) => later(&mut node.force, id, k),
-            EditAction::Pin(p) => later(&mut node.pin, id, p),
-            EditAction::Value { slot, op } => {
-                match node.values.iter_mut().find(|v| v.0 == slot) {
-                    Some(v) => {
-                        if id >= v.1 {
-                            *v = (slot, id, op);
-                        }
-                    }
-                    None => node.values.push((slot, id, op)),
-                }
-                node.values.sort_by_key(|v| v.0);
-            }
-        }
+        self.nodes[n].merge(id, action);
     }
 
     /// Whether the plan has no edits.

@@ -113,7 +113,18 @@ pub fn edit_plan<'e>(
     system: &grm_sema::System,
     edits: impl IntoIterator<Item = &'e Edit>,
 ) -> EditPlan {
-    let mut plan = EditPlan::new();
+    key_plan(EditPlan::new(), system, edits)
+}
+
+/// `edits` of `system` with key targets added to `plan` (others are
+/// skipped): `remove`, `force`, `pin`, `set` and `offset` as actions (a
+/// value that is not a finite f32 only watched), `material` and `mesh`
+/// watched (not replayed by these engines, but their targets classified).
+fn key_plan<'e, P: grm_derive::KeyPlan>(
+    mut plan: P,
+    system: &grm_sema::System,
+    edits: impl IntoIterator<Item = &'e Edit>,
+) -> P {
     let mut slots: Vec<(String, u32)> = Vec::new();
     for e in edits {
         if e.system != system.name {
@@ -152,7 +163,6 @@ pub fn edit_plan<'e>(
                 }
             },
             Op::Material { .. } | Op::Mesh { .. } => {
-                // Not replayed, but its target is classified.
                 plan.watch(key);
                 continue;
             }
@@ -190,52 +200,7 @@ pub fn sample_plan<'e>(
     system: &grm_sema::System,
     edits: impl IntoIterator<Item = &'e Edit>,
 ) -> grm_sample::EditPlan {
-    let mut plan = grm_sample::EditPlan::new();
-    let mut slots: Vec<(String, u32)> = Vec::new();
-    for e in edits {
-        if e.system != system.name {
-            continue;
-        }
-        let Target::Key(key) = e.target else {
-            continue;
-        };
-        let mut value = |name: &str, op: ValueOp| {
-            let slot = match slots.iter().find(|(n, _)| n == name) {
-                Some(&(_, s)) => s,
-                None => {
-                    let s = plan.add_slot(parameter_slot(system, name));
-                    slots.push((name.to_owned(), s));
-                    s
-                }
-            };
-            EditAction::Value { slot, op }
-        };
-        let action = match &e.op {
-            Op::Remove => EditAction::Remove,
-            Op::Force { alternative } => EditAction::Force(*alternative),
-            Op::Pin { key } => EditAction::Pin(*key),
-            Op::Set { name, value: v } => match finite_f32(*v) {
-                Some(v) => value(name, ValueOp::Set(v)),
-                None => {
-                    plan.watch(key);
-                    continue;
-                }
-            },
-            Op::Offset { name, by } => match finite_f32(*by) {
-                Some(by) => value(name, ValueOp::Offset(by)),
-                None => {
-                    plan.watch(key);
-                    continue;
-                }
-            },
-            Op::Material { .. } | Op::Mesh { .. } => {
-                plan.watch(key);
-                continue;
-            }
-        };
-        plan.add(key, e.id, action);
-    }
-    plan
+    key_plan(grm_sample::EditPlan::new(), system, edits)
 }
 
 /// Classify `edits` (those of one sample-mode system) after a sampled

@@ -26,24 +26,11 @@
 use std::collections::HashMap;
 use std::sync::RwLock;
 
-pub use grm_derive::{EditAction, KeyHits, SlotTarget, ValueOp};
+pub use grm_derive::{EditAction, KeyEdits, KeyHits, KeyPlan, SlotTarget, ValueOp};
 
 /// The bit of a scope number that pins the draws of the module and of
 /// its subtree to their keys.
 pub(crate) const PINNED: u32 = 1 << 31;
-
-/// The edits of one key: per slot the edit with the larger id.
-#[derive(Clone, Debug, Default)]
-struct KeyEdits {
-    key: u32,
-    remove: Option<u32>,
-    /// (id, alternative from 1).
-    force: Option<(u32, u32)>,
-    /// (id, key).
-    pin: Option<(u32, u32)>,
-    /// (slot, id, op), one per slot, sorted by slot.
-    values: Vec<(u32, u32, ValueOp)>,
-}
 
 /// The persistent edits of one sampled derivation, by identity key.
 #[derive(Clone, Debug)]
@@ -94,10 +81,7 @@ impl EditPlan {
             return n as usize;
         }
         self.index.insert(key, self.nodes.len() as u32);
-        self.nodes.push(KeyEdits {
-            key,
-            ..KeyEdits::default()
-        });
+        self.nodes.push(KeyEdits::new(key));
         let b = (key & 0xffff) as usize;
         self.filter[b / 64] |= 1 << (b % 64);
         self.nodes.len() - 1
@@ -107,32 +91,7 @@ impl EditPlan {
     /// one slot the larger id wins, whatever the order they are added in.
     pub fn add(&mut self, key: u32, id: u32, action: EditAction) {
         let n = self.node(key);
-        let node = &mut self.nodes[n];
-        fn later<T>(slot: &mut Option<(u32, T)>, id: u32, v: T) {
-            if slot.as_ref().is_none_or(|(old, _)| id >= *old) {
-                *slot = Some((id, v));
-            }
-        }
-        match action {
-            EditAction::Remove => {
-                if node.remove.is_none_or(|old| id >= old) {
-                    node.remove = Some(id);
-                }
-            }
-            EditAction::Force(k) => later(&mut node.force, id, k),
-            EditAction::Pin(p) => later(&mut node.pin, id, p),
-            EditAction::Value { slot, op } => {
-                match node.values.iter_mut().find(|v| v.0 == slot) {
-                    Some(v) => {
-                        if id >= v.1 {
-                            *v = (slot, id, op);
-                        }
-                    }
-                    None => node.values.push((slot, id, op)),
-                }
-                node.values.sort_by_key(|v| v.0);
-            }
-        }
+        self.nodes[n].merge(id, action);
     }
 
     /// Whether the plan has no edits (nor watched keys).
@@ -153,6 +112,18 @@ impl EditPlan {
             return None;
         }
         self.index.get(&key).copied()
+    }
+}
+
+impl KeyPlan for EditPlan {
+    fn add_slot(&mut self, per_symbol: Vec<SlotTarget>) -> u32 {
+        EditPlan::add_slot(self, per_symbol)
+    }
+    fn watch(&mut self, key: u32) {
+        EditPlan::watch(self, key);
+    }
+    fn add(&mut self, key: u32, id: u32, action: EditAction) {
+        EditPlan::add(self, key, id, action);
     }
 }
 
