@@ -228,12 +228,10 @@ impl<'a> Grammar<'a> {
         self.error(phase, sym, ExpandErrorKind::Fault(e), span)
     }
 
-    /// Choose the production for non-terminal `sym` with parameters
-    /// `params`: the first group (normal or wrap-up) whose condition holds,
-    /// and among its alternatives the one drawn with draw index 0. Leaves
-    /// the group's bindings in `w.bind`. `None` when no group applies (the
-    /// module stays as it is).
-    pub fn choose(
+    /// The first group (normal or wrap-up) of non-terminal `sym` with
+    /// parameters `params` whose condition holds, its bindings left in
+    /// `w.bind`; `None` when none applies.
+    fn group(
         &self,
         w: &mut Worker,
         sym: u32,
@@ -241,8 +239,8 @@ impl<'a> Grammar<'a> {
         which: Which,
         draws: &DrawCtx,
         phase: &'static str,
-    ) -> Result<Option<u32>, SampleError> {
-        let sys = self.sys;
+    ) -> Result<Option<&'a GroupHeader>, SampleError> {
+        let sys: &'a CompiledSystem = self.sys;
         let Some(s) = sys.symbols.get(sym as usize) else {
             return Ok(None);
         };
@@ -274,22 +272,56 @@ impl<'a> Grammar<'a> {
                     continue;
                 }
             }
-            if g.alt_count == 1 {
-                return Ok(Some(g.first_alt));
-            }
-            let alt = select::choose_alternative(sys, g, &mut w.vm, &w.bind, draws, &mut w.cum)
-                .map_err(|e| match e {
-                    AltError::Fault(e) => self.fault(phase, sym, e),
-                    AltError::BadWeight { value, alt } => self.error(
-                        phase,
-                        sym,
-                        ExpandErrorKind::BadWeight { value },
-                        sys.weight_spans[alt as usize],
-                    ),
-                })?;
-            return Ok(Some(alt));
+            return Ok(Some(g));
         }
         Ok(None)
+    }
+
+    /// Among group `g`'s alternatives, the one drawn with draw index 0
+    /// (with the group's bindings in `w.bind`).
+    fn draw(
+        &self,
+        w: &mut Worker,
+        sym: u32,
+        g: &GroupHeader,
+        draws: &DrawCtx,
+        phase: &'static str,
+    ) -> Result<u32, SampleError> {
+        let sys = self.sys;
+        if g.alt_count == 1 {
+            return Ok(g.first_alt);
+        }
+        select::choose_alternative(sys, g, &mut w.vm, &w.bind, draws, &mut w.cum).map_err(|e| {
+            match e {
+                AltError::Fault(e) => self.fault(phase, sym, e),
+                AltError::BadWeight { value, alt } => self.error(
+                    phase,
+                    sym,
+                    ExpandErrorKind::BadWeight { value },
+                    sys.weight_spans[alt as usize],
+                ),
+            }
+        })
+    }
+
+    /// Choose the production for non-terminal `sym` with parameters
+    /// `params`: the first group (normal or wrap-up) whose condition holds,
+    /// and among its alternatives the one drawn with draw index 0. Leaves
+    /// the group's bindings in `w.bind`. `None` when no group applies (the
+    /// module stays as it is).
+    pub fn choose(
+        &self,
+        w: &mut Worker,
+        sym: u32,
+        params: &[f32],
+        which: Which,
+        draws: &DrawCtx,
+        phase: &'static str,
+    ) -> Result<Option<u32>, SampleError> {
+        match self.group(w, sym, params, which, draws, phase)? {
+            Some(g) => self.draw(w, sym, g, draws, phase).map(Some),
+            None => Ok(None),
+        }
     }
 
     /// [`Self::choose`] with the `force`-th alternative (from 1) of the
@@ -307,42 +339,11 @@ impl<'a> Grammar<'a> {
         phase: &'static str,
         force: u32,
     ) -> Result<Option<u32>, SampleError> {
-        let sys = self.sys;
-        let Some(s) = sys.symbols.get(sym as usize) else {
-            return Ok(None);
-        };
-        let (first, count) = match which {
-            Which::Normal => (s.first_group, s.group_count),
-            Which::Wrapup => (s.first_wrapup, s.wrapup_count),
-        };
-        let groups = sys
-            .groups
-            .get(first as usize..first as usize + count as usize)
-            .unwrap_or(&[]);
-        for g in groups {
-            w.bind.clear();
-            w.bind.resize(g.bind_words as usize, 0.0);
-            if g.pred_bind_words > 0 {
-                let o = g.pred_bind_offset as usize;
-                let n = (g.pred_bind_words as usize).min(params.len());
-                if let Some(dst) = w.bind.get_mut(o..o + n) {
-                    dst.copy_from_slice(&params[..n]);
-                }
-            }
-            if g.cond_code != NONE {
-                let c =
-                    w.vm.run1(&sys.code, &sys.consts, g.cond_code, &w.bind, draws)
-                        .map_err(|e| self.fault(phase, sym, e))?;
-                if c == 0.0 {
-                    continue;
-                }
-            }
-            if force <= g.alt_count {
-                return Ok(Some(g.first_alt + force - 1));
-            }
-            break;
+        match self.group(w, sym, params, which, draws, phase)? {
+            Some(g) if force <= g.alt_count => Ok(Some(g.first_alt + force - 1)),
+            Some(g) => self.draw(w, sym, g, draws, phase).map(Some),
+            None => Ok(None),
         }
-        self.choose(w, sym, params, which, draws, phase)
     }
 
     /// Evaluate alternative `alt`'s successor parameters into `w.params`,
