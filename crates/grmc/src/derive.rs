@@ -618,19 +618,9 @@ pub fn run(args: DeriveArgs) -> Outcome {
         let none = grm_derive::EditOutcome::default();
         let outcome = d.edits.as_ref().unwrap_or(&none);
         let reports = grm_grow::edits::classify(loaded.system(), c, outcome, mine.iter().copied());
-        let shown: Vec<_> = reports
-            .iter()
-            .map(|r| (r.id, r.class, r.detail.as_str(), r.replayed))
-            .collect();
-        crate::edits::print_replayed(&c.name, &shown);
+        crate::edits::print_replayed(&c.name, &reports);
     }
-    let done = |o: Outcome| {
-        if o == Outcome::Ok && edit_problems {
-            Outcome::InputErrors
-        } else {
-            o
-        }
-    };
+    let done = |o: Outcome| crate::edits::after_edit_problems(o, edit_problems);
     if let Some(r) = d.gpu.take() {
         // The GPU's report: its engines, path and timings.
         crate::gpu::summary(c, &opts, &r, total, args.stats);

@@ -320,6 +320,17 @@ fn classify_derive(
                 mine.iter().copied(),
             ))
         });
+    fill_rows(rows, name, grown);
+}
+
+/// The rows of system `name`'s edits filled from its classification
+/// (`reports`, in the rows' order), or each marked not classified with why
+/// the system did not grow.
+fn fill_rows(
+    rows: &mut [Row],
+    name: &str,
+    grown: Result<Vec<grm_grow::edits::EditReport>, String>,
+) {
     match grown {
         Ok(reports) => {
             for (r, rep) in rows
@@ -375,45 +386,47 @@ fn classify_sample(
             let sampled = grm_grow::sample::sample(sys, &c, &request).map_err(|e| e.to_string())?;
             Ok(sampled.edits.unwrap_or_default())
         });
-    match grown {
-        Ok(reports) => {
-            for (r, rep) in rows
-                .iter_mut()
-                .filter(|r| r.edit.system == name)
-                .zip(reports)
-            {
-                r.class = Some(rep.class);
-                r.replayed = rep.replayed;
-                r.parts = rep.modules as usize;
-                r.detail = rep.detail;
-            }
-        }
-        Err(e) => {
-            for r in rows.iter_mut().filter(|r| r.edit.system == name) {
-                r.detail = format!("not classified: the system does not grow: {e}");
-            }
-        }
+    fill_rows(rows, name, grown);
+}
+
+/// An edit's report after a growth, as either engine family classifies
+/// it (`grm_grow::edits` for derive and sample mode, `grm_grow::shape::edits`
+/// for shape mode).
+pub trait Reported {
+    /// (id, class, detail, whether the growth replayed it).
+    fn row(&self) -> (u32, EditClass, &str, bool);
+}
+
+impl Reported for grm_grow::edits::EditReport {
+    fn row(&self) -> (u32, EditClass, &str, bool) {
+        (self.id, self.class, self.detail.as_str(), self.replayed)
+    }
+}
+
+impl Reported for grm_grow::shape::edits::EditReport {
+    fn row(&self) -> (u32, EditClass, &str, bool) {
+        (self.id, self.class, self.detail.as_str(), self.replayed)
     }
 }
 
 /// After a growth: how many of the system's edits were replayed, and the
-/// class of each one that was not (on stderr; `grmc derive` of either
-/// mode). `reports`: per edit, its id, class, detail and whether it was
-/// replayed.
-pub fn print_replayed(system: &str, reports: &[(u32, EditClass, &str, bool)]) {
-    let replayed = reports.iter().filter(|r| r.3).count();
+/// class of each one that was not (on stderr; `grmc derive` of any mode
+/// and `grmc sample`).
+pub fn print_replayed<R: Reported>(system: &str, reports: &[R]) {
+    let rows: Vec<_> = reports.iter().map(Reported::row).collect();
+    let replayed = rows.iter().filter(|r| r.3).count();
     eprintln!(
         "{}: replayed {} of {}{}",
         system,
         replayed,
-        crate::count(reports.len() as u64, "edit"),
-        if replayed < reports.len() {
+        crate::count(rows.len() as u64, "edit"),
+        if replayed < rows.len() {
             " (the others are listed by `grmc edits check`)"
         } else {
             ""
         }
     );
-    for (id, class, detail, _) in reports.iter().filter(|r| !r.3) {
+    for (id, class, detail, _) in rows.iter().filter(|r| !r.3) {
         eprintln!(
             "  edit {}: {}{}{}",
             id,
@@ -421,5 +434,16 @@ pub fn print_replayed(system: &str, reports: &[(u32, EditClass, &str, bool)]) {
             if detail.is_empty() { "" } else { ": " },
             detail
         );
+    }
+}
+
+/// What a run that grew its model exits with when its edits file had
+/// problems (printed, R09xx): input errors once it has written what it was
+/// asked for, else `o`.
+pub fn after_edit_problems(o: Outcome, problems: bool) -> Outcome {
+    if o == Outcome::Ok && problems {
+        Outcome::InputErrors
+    } else {
+        o
     }
 }

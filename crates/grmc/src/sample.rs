@@ -415,21 +415,11 @@ pub fn run(args: SampleArgs) -> Outcome {
     // against the first model reported.
     let edit_problems = edits.as_ref().is_some_and(|(_, problems)| *problems);
     if let Some(reports) = &sampled.edits {
-        let shown: Vec<_> = reports
-            .iter()
-            .map(|r| (r.id, r.class, r.detail.as_str(), r.replayed))
-            .collect();
-        crate::edits::print_replayed(&c.name, &shown);
+        crate::edits::print_replayed(&c.name, reports);
     }
     // Problems in the edits file (printed above, R09xx) fail the run once
     // it has written what it was asked for, as `grmc derive` does.
-    let done = |o: Outcome| {
-        if o == Outcome::Ok && edit_problems {
-            Outcome::InputErrors
-        } else {
-            o
-        }
-    };
+    let done = |o: Outcome| crate::edits::after_edit_problems(o, edit_problems);
     let heuristic_text =
         if heuristic && schedule.heuristic_until > 0 && schedule.heuristic_scale > 0.0 {
             format!(

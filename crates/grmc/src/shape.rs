@@ -91,20 +91,10 @@ pub fn run(args: &DeriveArgs, mut checked: Checked) -> Outcome {
             &tree,
             mine.iter().copied(),
         );
-        let shown: Vec<_> = reports
-            .iter()
-            .map(|r| (r.id, r.class, r.detail.as_str(), r.replayed))
-            .collect();
-        crate::edits::print_replayed(&sys.name, &shown);
+        crate::edits::print_replayed(&sys.name, &reports);
         edit_problems = *problems;
     }
-    let done = |o: Outcome| {
-        if o == Outcome::Ok && edit_problems {
-            Outcome::InputErrors
-        } else {
-            o
-        }
-    };
+    let done = |o: Outcome| crate::edits::after_edit_problems(o, edit_problems);
     let shapes = tree.nodes().iter().filter(|n| n.is_shape()).count();
     let leaves = tree.leaves().count();
     eprintln!(
