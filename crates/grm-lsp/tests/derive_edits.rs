@@ -6,7 +6,7 @@
 mod common;
 
 use common::*;
-use serde_json::{Value, json};
+use serde_json::json;
 
 const PLANT: &str = "system Plant {
     iterations = 3;
@@ -15,29 +15,6 @@ const PLANT: &str = "system Plant {
     A(l) -> F(l) [ + A(l * 0.8) ] [ - A(l * 0.7) ] A(l * 0.9);
 }
 ";
-
-fn triangles(r: &Value) -> u64 {
-    r["stats"]["triangles"].as_u64().expect("triangles")
-}
-
-fn classes(r: &Value) -> String {
-    r["edits"]["list"]
-        .as_array()
-        .map(|l| {
-            l.iter()
-                .map(|e| {
-                    format!(
-                        "{}:{}{}",
-                        e["id"],
-                        e["class"].as_str().unwrap(),
-                        if e["replayed"] == true { "+" } else { "" }
-                    )
-                })
-                .collect::<Vec<_>>()
-                .join(" ")
-        })
-        .unwrap_or_default()
-}
 
 #[tokio::test]
 async fn the_derive_preview_replays_key_edits_and_says_what_became_of_each() {

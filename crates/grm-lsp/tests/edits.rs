@@ -33,10 +33,6 @@ fn edits_text(edits: Value) -> String {
     serde_json::to_string_pretty(&json!({ "version": 1, "edits": edits })).unwrap()
 }
 
-fn triangles(r: &Value) -> u64 {
-    r["stats"]["triangles"].as_u64().expect("triangles")
-}
-
 /// The exact locator of the shape drawn by the first triangle of part 0.
 async fn first_exact(c: &mut impl Lsp, u: &Uri) -> String {
     let pk = c
@@ -46,26 +42,6 @@ async fn first_exact(c: &mut impl Lsp, u: &Uri) -> String {
         )
         .await;
     pk["shape"]["exact"].as_str().expect("exact").to_string()
-}
-
-/// The classes of a preview's edits, `id:class` (`+` when replayed).
-fn classes(r: &Value) -> String {
-    r["edits"]["list"]
-        .as_array()
-        .map(|l| {
-            l.iter()
-                .map(|e| {
-                    format!(
-                        "{}:{}{}",
-                        e["id"],
-                        e["class"].as_str().unwrap(),
-                        if e["replayed"] == true { "+" } else { "" }
-                    )
-                })
-                .collect::<Vec<_>>()
-                .join(" ")
-        })
-        .unwrap_or_default()
 }
 
 /// What both clients below can do.

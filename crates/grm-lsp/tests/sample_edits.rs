@@ -7,30 +7,7 @@
 mod common;
 
 use common::*;
-use serde_json::{Value, json};
-
-fn triangles(r: &Value) -> u64 {
-    r["stats"]["triangles"].as_u64().expect("triangles")
-}
-
-fn classes(r: &Value) -> String {
-    r["edits"]["list"]
-        .as_array()
-        .map(|l| {
-            l.iter()
-                .map(|e| {
-                    format!(
-                        "{}:{}{}",
-                        e["id"],
-                        e["class"].as_str().unwrap(),
-                        if e["replayed"] == true { "+" } else { "" }
-                    )
-                })
-                .collect::<Vec<_>>()
-                .join(" ")
-        })
-        .unwrap_or_default()
-}
+use serde_json::json;
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_sample_preview_replays_key_edits_and_says_what_became_of_each() {

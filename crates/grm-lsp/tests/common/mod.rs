@@ -383,3 +383,28 @@ pub fn picks(part: &Value) -> Vec<Value> {
         .map(|p| serde_json::to_value(p).expect("json"))
         .collect()
 }
+
+/// A preview answer's triangle count (its `stats`).
+pub fn triangles(r: &Value) -> u64 {
+    r["stats"]["triangles"].as_u64().expect("triangles")
+}
+
+/// The classes of a preview's edits, `id:class` (`+` when replayed).
+pub fn classes(r: &Value) -> String {
+    r["edits"]["list"]
+        .as_array()
+        .map(|l| {
+            l.iter()
+                .map(|e| {
+                    format!(
+                        "{}:{}{}",
+                        e["id"],
+                        e["class"].as_str().unwrap(),
+                        if e["replayed"] == true { "+" } else { "" }
+                    )
+                })
+                .collect::<Vec<_>>()
+                .join(" ")
+        })
+        .unwrap_or_default()
+}
