@@ -7,24 +7,9 @@ mod common;
 
 use common::*;
 
-fn path(p: &std::path::Path) -> &str {
-    p.to_str().expect("utf-8")
-}
-
 #[test]
 fn check_classifies_sample_mode_edits() {
-    let dir = tempfile::tempdir().expect("temp dir");
-    for f in [
-        "calder_tree.grm",
-        "calder_tree.curves.json",
-        "leaf.obj",
-        "trunk.obj",
-    ] {
-        let from = repo().join("examples").join(f);
-        if from.exists() {
-            std::fs::copy(&from, dir.path().join(f)).expect("copy");
-        }
-    }
+    let dir = calder_copy();
     let grm = dir.path().join("calder_tree.grm");
     let tree = dir.path().join("tree.json");
     let out = grmc(&["sample", path(&grm), "--tree", path(&tree)]);

@@ -8,24 +8,9 @@ mod common;
 
 use common::*;
 
-fn path(p: &std::path::Path) -> &str {
-    p.to_str().expect("utf-8")
-}
-
 #[test]
 fn sample_replays_the_edits_beside_the_grammar() {
-    let dir = tempfile::tempdir().expect("temp dir");
-    for f in [
-        "calder_tree.grm",
-        "calder_tree.curves.json",
-        "leaf.obj",
-        "trunk.obj",
-    ] {
-        let from = repo().join("examples").join(f);
-        if from.exists() {
-            std::fs::copy(&from, dir.path().join(f)).expect("copy");
-        }
-    }
+    let dir = calder_copy();
     let grm = dir.path().join("calder_tree.grm");
     // A short search (the model is the same for the same seed and edits).
     let sample = |out: &std::path::Path, more: &[&str]| {

@@ -61,3 +61,26 @@ pub fn wait_peak_kib(child: &mut std::process::Child) -> (Option<i32>, u64) {
     let code = libc::WIFEXITED(status).then(|| libc::WEXITSTATUS(status));
     (code, usage.ru_maxrss.max(0) as u64)
 }
+
+/// `p` as text (the tests' temporary paths are UTF-8).
+pub fn path(p: &Path) -> &str {
+    p.to_str().expect("utf-8")
+}
+
+/// A temporary folder holding examples/calder_tree.grm with its curves
+/// file and meshes.
+pub fn calder_copy() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().expect("temp dir");
+    for f in [
+        "calder_tree.grm",
+        "calder_tree.curves.json",
+        "leaf.obj",
+        "trunk.obj",
+    ] {
+        let from = repo().join("examples").join(f);
+        if from.exists() {
+            std::fs::copy(&from, dir.path().join(f)).expect("copy");
+        }
+    }
+    dir
+}
