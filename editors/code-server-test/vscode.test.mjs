@@ -1070,14 +1070,20 @@ step("persistent edits: Remove in the preview's edit panel lands in house.edits.
 step("a city's layout view (issue 29): city.grm's layout item opened in the preview, its layers listed, a base street dragged lands in city.layout.json's buffer as a move (grm/layoutEdit through workspace/applyEdit), the plan redraws, and Ctrl+Z in that file takes it back", async () => {
   const sidePath = join(ws, 'city.layout.json');
   const before = readFileSync(sidePath, 'utf8');
+  // The active tab (quickOpen waits for it); its text is not looked for: after the earlier steps the editor may be
+  // too short to show the item's lines below the header comment.
+  // In the first editor group (the preview is beside it; an earlier step may have left the focus in the preview's).
+  await page.keyboard.press('Control+1');
   await quickOpen('city.grm');
-  await page.locator('.editor-group-container.active .view-line', { hasText: 'import "city_building.grm"' }).first().waitFor({ timeout: LONG });
   // The open preview follows the active editor (opened here when this step runs alone).
   if ((await page.locator('.tab', { hasText: /^Preview / }).count()) === 0) {
     await focusEditor('city.grm');
     await command('grm: Open Preview');
   }
-  await page.locator('.tab', { hasText: 'Preview city.grm' }).waitFor({ timeout: LONG });
+  // Its tab brought to the front (the plan is dragged with the mouse: the webview must be on screen).
+  const previewTab = page.locator('.tab', { hasText: 'Preview city.grm' });
+  await previewTab.waitFor({ timeout: LONG });
+  await previewTab.click();
   const frame = await previewFrame();
   // The toolbar offers the item's layout; the view opens on it.
   await frame.waitForSelector('#layout-open:not([hidden])', { timeout: LONG });
@@ -1136,9 +1142,21 @@ step("a city's layout view (issue 29): city.grm's layout item opened in the prev
   await page.locator('.editor-group-container.active .find-widget .matchesCount', { hasText: /^1 of 1$/ }).waitFor({ timeout: SHORT });
   await find.fill(`"${street.id}"`);
   await page.locator('.editor-group-container.active .find-widget .matchesCount', { hasText: /^1 of 1$/ }).waitFor({ timeout: SHORT });
-  // Back in the text, one Ctrl+Z takes the move back: the buffer is the file again.
-  await page.keyboard.press('Escape');
-  await page.waitForFunction(() => !!document.activeElement?.closest('.part.editor .monaco-editor'), null, { timeout: SHORT, polling: 50 });
+  // Back in the text (the find widget closed: a Ctrl+Z in its input would undo the typed search instead), one
+  // Ctrl+Z takes the move back: the buffer is the file again.
+  const findOpen = page.locator('.editor-group-container.active .find-widget.visible');
+  for (let attempt = 1; (await findOpen.count()) > 0; attempt++) {
+    assert.ok(attempt <= 4, 'the find widget does not close');
+    await page.keyboard.press('Escape');
+    await page.waitForTimeout(250);
+  }
+  // Its tab clicked: the keyboard focus in its text (as focusEditor does).
+  await page.locator('.tab.active', { hasText: /^city\.layout\.json/ }).first().click();
+  await page.waitForFunction(
+    () => !!document.activeElement?.closest('.part.editor .monaco-editor') && !document.activeElement?.closest('.find-widget'),
+    null,
+    { timeout: SHORT, polling: 50 },
+  );
   await page.keyboard.press('Control+Z');
   await page.locator('.tab.dirty', { hasText: /^city\.layout\.json/ }).waitFor({ state: 'detached', timeout: SHORT });
   log(`city layout: street ${street.id} dragged into city.layout.json's buffer (${draws} draws before), undone in the editor`);
