@@ -9,17 +9,6 @@ mod common;
 use common::editor::Editor;
 use common::*;
 use serde_json::{Value, json};
-use std::path::PathBuf;
-
-/// The townhouse of tests/lsp/shape.grm, written in a fresh folder.
-fn house() -> (tempfile::TempDir, PathBuf, String) {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let root = grm_sema::normalize(&std::fs::canonicalize(dir.path()).expect("canonical"));
-    let (_, text) = fixture("shape.grm");
-    let p = root.join("house.grm");
-    std::fs::write(&p, &text).expect("write");
-    (dir, p, text)
-}
 
 /// Edit `id` of a preview's list.
 fn listed(r: &Value, id: u32) -> Value {

@@ -11,17 +11,6 @@ use common::editor::Editor;
 use common::*;
 use grm_shape::{NodeId, ShapeTree};
 use serde_json::{Value, json};
-use std::path::PathBuf;
-
-/// The townhouse of tests/lsp/shape.grm, written in a fresh folder.
-fn house() -> (tempfile::TempDir, PathBuf, String) {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let root = grm_sema::normalize(&std::fs::canonicalize(dir.path()).expect("canonical"));
-    let (_, text) = fixture("shape.grm");
-    let p = root.join("house.grm");
-    std::fs::write(&p, &text).expect("write");
-    (dir, p, text)
-}
 
 fn edits_text(edits: Value) -> String {
     serde_json::to_string_pretty(&json!({ "version": 1, "edits": edits })).unwrap()

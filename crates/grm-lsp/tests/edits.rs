@@ -14,16 +14,6 @@ use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 use tower_lsp_server::ls_types::Uri;
 
-/// The townhouse of tests/lsp/shape.grm, written in a fresh folder.
-fn house() -> (tempfile::TempDir, PathBuf, String) {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let root = grm_sema::normalize(&std::fs::canonicalize(dir.path()).expect("canonical"));
-    let (_, text) = fixture("shape.grm");
-    let p = root.join("house.grm");
-    std::fs::write(&p, &text).expect("write");
-    (dir, p, text)
-}
-
 fn edits_path(grammar: &Path) -> PathBuf {
     grm_edits::edits_path(grammar)
 }

@@ -408,3 +408,13 @@ pub fn classes(r: &Value) -> String {
         })
         .unwrap_or_default()
 }
+
+/// The townhouse of tests/lsp/shape.grm, written in a fresh folder.
+pub fn house() -> (tempfile::TempDir, PathBuf, String) {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let root = grm_sema::normalize(&std::fs::canonicalize(dir.path()).expect("canonical"));
+    let (_, text) = fixture("shape.grm");
+    let p = root.join("house.grm");
+    std::fs::write(&p, &text).expect("write");
+    (dir, p, text)
+}
