@@ -543,18 +543,27 @@ step("an edit of the grammar's seed regrows the preview with that seed (a sample
   // The open preview follows the active .grm editor.
   await page.locator('.tab', { hasText: 'Preview calder_tree.grm' }).waitFor();
   const frame = await previewFrame();
+  // The model of SEED on screen with its status line: the page takes a model (its mode, seed and lastError) at
+  // once and draws its frame and status a moment later; typing `seed = 2;` sends `seed = 2` first, whose error
+  // the status line shows until then. `statusOf` says which answer the status line shows.
   const grown = async (seed) => {
     try {
       await frame.waitForFunction(
         (k) => {
           const g = globalThis.__grm;
-          return g.mode === 'sample' && g.seed === k && g.lastError === null && g.bones > 0 && !g.busy;
+          const s = g.statusOf;
+          return g.mode === 'sample' && g.seed === k && g.lastError === null && g.bones > 0 && !g.busy && s?.seed === k && s.error === null;
         },
         seed,
         { timeout: LONG, polling: 100 },
       );
     } catch (e) {
-      const g = await frame.evaluate(() => ({ seed: globalThis.__grm.seed, lastError: globalThis.__grm.lastError, status: document.getElementById('status-text')?.textContent }));
+      const g = await frame.evaluate(() => ({
+        seed: globalThis.__grm.seed,
+        lastError: globalThis.__grm.lastError,
+        statusOf: globalThis.__grm.statusOf,
+        status: document.getElementById('status-text')?.textContent,
+      }));
       throw new Error(`no model of seed ${seed} in the preview: ${JSON.stringify(g)}`, { cause: e });
     }
   };
@@ -568,7 +577,7 @@ step("an edit of the grammar's seed regrows the preview with that seed (a sample
   await page.locator('.editor-group-container.active .view-line', { hasText: 'seed = 2;' }).waitFor();
   await grown(2);
   const status = (await frame.locator('#status-text').innerText()).trim();
-  log(`calder_tree, seed 2: ${status}`);
+  log(`calder_tree, seed 2: ${status} (the model of version ${await frame.evaluate(() => globalThis.__grm.statusOf?.version)})`);
   assert.match(status, /seed 2/);
   assert.doesNotMatch(status, /error/);
   const after = await frame.evaluate(() => globalThis.__grm.bonesList?.().slice(0, 50));

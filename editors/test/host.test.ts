@@ -5,7 +5,7 @@ import { test } from 'node:test';
 import { type HostToPage, parseHostMessage, viewAngles } from '../preview/src/messages.js';
 import { pngSize } from '../preview/src/picture.js';
 import { bytesToBase64, decodePicture } from '../preview/src/protocol.js';
-import { VsCodeTransport, isSuperseded } from '../preview/src/transport.js';
+import { TransportError, VsCodeTransport, isSuperseded } from '../preview/src/transport.js';
 import { type HostDeps, PreviewHost, curvesPathFor } from '../vscode/src/host.js';
 import { pngHeader } from './png.js';
 
@@ -195,6 +195,42 @@ test("the server's error code reaches the page with the error (a superseded prev
   );
   t.start();
   await assert.rejects(t.request('preview', { textDocument: { uri: 'file:///t.grm' } }), (e: unknown) => isSuperseded(e));
+});
+
+test("a failed preview's document version (the server's data.version) reaches the page with the error", async () => {
+  class ResponseError extends Error {
+    constructor(
+      readonly code: number,
+      message: string,
+      readonly data?: unknown,
+    ) {
+      super(message);
+    }
+  }
+  let data: unknown = { version: 7 };
+  const { host, posted } = fakeHost({
+    request: async () => {
+      throw new ResponseError(-32803, 'the program has 1 error: fix it to preview', data);
+    },
+  });
+  host.setDocument('file:///t.grm', 't.grm');
+  await host.handle({ type: 'ready' });
+  await host.handle({ type: 'request', id: 5, method: 'preview', params: { textDocument: { uri: 'file:///t.grm' }, live: true } });
+  assert.deepEqual(posted.at(-1), { type: 'response', id: 5, error: 'the program has 1 error: fix it to preview', code: -32803, version: 7 });
+  // The page's transport gives it to the page with the error.
+  const win = { listeners: [] as Array<(ev: { data: unknown }) => void> };
+  const t = new VsCodeTransport(
+    { postMessage: (m) => void (m.type === 'request' && host.handle(m).then(() => win.listeners.forEach((l) => l({ data: posted.at(-1) })))) },
+    { addEventListener: (_t, l) => win.listeners.push(l), removeEventListener: () => {} },
+  );
+  t.start();
+  await assert.rejects(t.request('preview', { textDocument: { uri: 'file:///t.grm' } }), (e: unknown) => e instanceof TransportError && e.version === 7 && e.code === -32803 && !isSuperseded(e));
+  // No data, or a version that is not a whole number: no version.
+  for (const d of [undefined, { version: 1.5 }, { version: '7' }, 7]) {
+    data = d;
+    await host.handle({ type: 'request', id: 6, method: 'preview', params: { textDocument: { uri: 'file:///t.grm' }, live: true } });
+    assert.deepEqual(posted.at(-1), { type: 'response', id: 6, error: 'the program has 1 error: fix it to preview', code: -32803 }, JSON.stringify(d));
+  }
 });
 
 test('requests about another document, unsaved documents and server failures answer with an error', async () => {

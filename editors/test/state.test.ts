@@ -285,6 +285,49 @@ test("a request's failure after a newer model was shown is about an older text",
   assert.equal(v.shownSince(again), false);
 });
 
+test("a request's failure that names its version is shown only when no newer text is on screen", () => {
+  const v = new ShownVersion();
+  assert.equal(v.model(4), true);
+  const mark = v.mark();
+  // The server names the version whose text failed: `seed = 2` (version 5) went, the finished text's model (version 6) came first.
+  assert.equal(v.model(6), true);
+  assert.equal(v.failure(5, mark), false, 'an older text than the model on screen');
+  assert.equal(v.failure(6, mark), true, "the text on screen's own failure (other parameters) is shown, though a model came since the mark");
+  // A newer text's failure is shown, and then no model of an older text comes over it.
+  assert.equal(v.failure(7, v.mark()), true);
+  assert.equal(v.model(6), false);
+  // Without a version (a server that does not name it): a model since the mark says the text was older.
+  const m2 = v.mark();
+  assert.equal(v.failure(undefined, m2), true);
+  assert.equal(v.model(8), true);
+  assert.equal(v.failure(undefined, m2), false);
+});
+
+test("a model's status goes on screen only when no answer came after it (the errors of a newer text stay)", () => {
+  const v = new ShownVersion();
+  // The model of version 5 is shown; its frame (and status line) is drawn a moment later.
+  assert.equal(v.model(5), true);
+  const five = v.answer();
+  assert.equal(v.latest(five), true);
+  // Before that frame the errors of version 6 are shown: the model's status must not replace them.
+  assert.equal(v.error(6), true);
+  const six = v.answer();
+  assert.equal(v.latest(five), false);
+  assert.equal(v.latest(six), true);
+  // The finished text's model (version 7): its status is the one on screen once its frame is drawn.
+  assert.equal(v.model(7), true);
+  const seven = v.answer();
+  assert.equal(v.latest(six), false);
+  assert.equal(v.latest(seven), true);
+  // A new document starts the versions afresh, not the tickets: an answer before it is still not the latest.
+  v.reset();
+  assert.equal(v.latest(seven), true);
+  assert.equal(v.model(1), true);
+  const one = v.answer();
+  assert.equal(v.latest(seven), false);
+  assert.equal(v.latest(one), true);
+});
+
 test('focus and context goes with shape- and derive-mode requests, not sample mode, and a new document drops it', () => {
   const s = new PageState();
   s.setDocument('file:///h.grm');

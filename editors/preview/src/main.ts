@@ -141,6 +141,13 @@ interface DebugInfo {
   /** Shape mode: segments drawn for the picked shape's scopes (0 when the toggle is off or nothing is picked). */
   readonly scopeSegments: number;
   lastError: string | null;
+  /**
+   * What the status line says, of which answer: the model of `version` with its `seed` (set with the frame that
+   * shows it), or an error (`version`: the document version whose text failed, where known). `mode`, `seed` and
+   * `lastError` above follow an answer as it comes; the status line, with its model's frame, a moment later (and
+   * never for a model an answer after it replaced). A test waits for this, not for those.
+   */
+  statusOf: { version: number | null; seed: number | null; error: string | null } | null;
   saves: number;
   /** Screen position of a world point (for tests that aim at things). */
   toScreen: (p: V3) => [number, number];
@@ -325,7 +332,7 @@ class App {
       (e) => {
         // A replay's step failed: it stops there, the error shown as any other.
         this.stopPlay();
-        this.showError(String((e as Error).message ?? e));
+        this.showError(String((e as Error).message ?? e), e instanceof TransportError ? (e.version ?? null) : null);
       },
       () => performance.now(),
       {
@@ -397,6 +404,7 @@ class App {
         return scene.scopeSegments;
       },
       lastError: null,
+      statusOf: null,
       saves: 0,
       toScreen: (p) => this.scene.toScreen(p),
       rayAt: (x, y) => this.scene.pointerRay(x, y),
@@ -504,7 +512,7 @@ class App {
       else if (u.error && this.shownVersion.error(u.version)) {
         // The latest text has errors: an answer about an older text, still on its way, is not the state
         // (nor are the errors of a text older than the model shown).
-        this.showError(u.error);
+        this.showError(u.error, u.version);
       }
     } else if (method === 'curvesChanged') {
       if (p.uri !== this.state.uri || this.state.mode !== 'sample' || this.gesture.kind !== 'none') return;
@@ -599,8 +607,11 @@ class App {
         await this.ensureCurves();
         return { result: decodePreview(await this.transport.request('preview', this.ordered(this.state.previewParams()))), breakdown: {} };
       }
-      // A model of a newer text came while this one was on its way: its failure is not the state (dropped as superseded).
-      if (!isSuperseded(e) && this.shownVersion.shownSince(mark)) throw new TransportError(msg, SERVER_CANCELLED);
+      // The failure of an older text than the one on screen (a model or the errors of a newer text came while this
+      // request was on its way) is not the state: dropped as superseded.
+      if (!isSuperseded(e) && !this.shownVersion.failure(e instanceof TransportError ? e.version : undefined, mark)) {
+        throw new TransportError(msg, SERVER_CANCELLED);
+      }
       throw e;
     }
   }
@@ -690,6 +701,8 @@ class App {
       this.debug.olderVersions++;
       return;
     }
+    // Its status goes on screen with its frame, unless an answer after it (an error of a newer text) came first.
+    const answer = this.shownVersion.answer();
     this.debug.shownParams = params;
     this.debug.delivered++;
     this.last = r;
@@ -743,10 +756,13 @@ class App {
           });
         }
         this.debug.meshCount = this.scene.meshCount;
-        this.setStatus(this.summary(r, ms), false, r.warnings.length > 0);
-        $('status-text').title = r.warnings
-          .map((w) => [`${w.code}: ${w.message}`, ...w.notes.map((n) => `note: ${n}`), ...(w.help ? [`help: ${w.help}`] : [])].join('\n'))
-          .join('\n');
+        if (this.shownVersion.latest(answer)) {
+          this.setStatus(this.summary(r, ms), false, r.warnings.length > 0);
+          $('status-text').title = r.warnings
+            .map((w) => [`${w.code}: ${w.message}`, ...w.notes.map((n) => `note: ${n}`), ...(w.help ? [`help: ${w.help}`] : [])].join('\n'))
+            .join('\n');
+          this.debug.statusOf = { version: r.version, seed: r.seed, error: null };
+        }
         // On screen now: a replay asks for its next step.
         this.playShown(r, now);
       });
@@ -846,12 +862,18 @@ class App {
     $('status').classList.toggle('warning', warning && !error);
   }
 
-  /** A failure keeps the last good model on screen (as the paper's editor does) and says why. */
-  private showError(text: string): void {
+  /**
+   * A failure keeps the last good model on screen (as the paper's editor does) and says why. `version`: the
+   * document version whose text failed, where known. A model still on its way to the screen no longer puts its
+   * status over it.
+   */
+  private showError(text: string, version: number | null = null): void {
+    this.shownVersion.answer();
     this.debug.lastError = text;
     this.debug.ready = true;
     $('overlay-msg').textContent = text;
     this.setStatus(text.split('\n')[0], true);
+    this.debug.statusOf = { version, seed: null, error: text.split('\n')[0] };
   }
 
   // ------------------------------------------------------------- UI

@@ -128,6 +128,12 @@ export interface ResponseMessage {
   error?: string;
   /** With `error`: the language server's JSON-RPC error code, where it gave one. */
   code?: number;
+  /**
+   * With `error`: the document version whose text failed (a `grm/preview`'s
+   * RequestFailed names it in its `data.version`): a failure of an older
+   * text than the model on screen is not the state.
+   */
+  version?: number;
   /** Protocol 3: the blob the result's buffers are ranges of (src/blob.ts). */
   blob?: ArrayBuffer;
 }
@@ -226,6 +232,7 @@ export function parseHostMessage(v: unknown): HostToPage | null {
     if (typeof v.error === 'string') {
       out.error = v.error;
       if (typeof v.code === 'number' && Number.isSafeInteger(v.code)) out.code = v.code;
+      if (typeof v.version === 'number' && Number.isSafeInteger(v.version)) out.version = v.version;
     }
     return out;
   }

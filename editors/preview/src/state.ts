@@ -294,6 +294,8 @@ export class ShownVersion {
   private version = -1;
   /** Models shown so far (a request's failure knows from it whether one came after it went). */
   private models = 0;
+  /** Answers (models and errors) put on screen so far. */
+  private answers = 0;
 
   /** A model of `version` came: whether to show it (it is then the version shown). */
   model(version: number): boolean {
@@ -329,6 +331,33 @@ export class ShownVersion {
     if (version < this.version) return false;
     this.version = version;
     return true;
+  }
+
+  /**
+   * A request of the page failed: whether to show its failure. `version`
+   * is the document version whose text failed, where the server named it
+   * (`grm/preview`'s `data.version`): shown unless a newer version is on
+   * screen (it is then the version shown). Without it, shown unless a
+   * model came since `mark` (the request's text is then older than the
+   * model's).
+   */
+  failure(version: number | undefined, mark: number): boolean {
+    return version === undefined ? !this.shownSince(mark) : this.error(version);
+  }
+
+  /**
+   * An answer (a model or an error) is being put on screen: its ticket. A
+   * model's status line goes on screen with its frame, a moment later,
+   * and only while [`ShownVersion.latest`] says no answer came after it:
+   * the errors of a newer text, shown meanwhile, stay.
+   */
+  answer(): number {
+    return ++this.answers;
+  }
+
+  /** Whether the answer of `ticket` is the last one put on screen. */
+  latest(ticket: number): boolean {
+    return ticket === this.answers;
   }
 
   /** Another document, or the same after the host's server restarted: any version is news. */

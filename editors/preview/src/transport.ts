@@ -37,11 +37,16 @@ export interface Transport {
   dispose(): void;
 }
 
-/** A request the host answered with an error (`code`: the language server's JSON-RPC error code, where it gave one). */
+/**
+ * A request the host answered with an error (`code`: the language server's
+ * JSON-RPC error code, where it gave one; `version`: the document version
+ * whose text failed, where the server named it).
+ */
 export class TransportError extends Error {
   constructor(
     message: string,
     readonly code?: number,
+    readonly version?: number,
   ) {
     super(message);
   }
@@ -129,7 +134,7 @@ export class VsCodeTransport implements Transport {
     const p = this.pending.get(msg.id);
     if (!p) return;
     this.pending.delete(msg.id);
-    if (msg.error !== undefined) p.reject(new TransportError(msg.error, msg.code));
+    if (msg.error !== undefined) p.reject(new TransportError(msg.error, msg.code, msg.version));
     else {
       try {
         p.resolve(attachBlob(msg.result, msg.blob));

@@ -13,7 +13,7 @@
 
 import { blobRef } from '../../preview/src/blob.js';
 import { parseCurves } from '../../preview/src/curves.js';
-import { type HostToPage, type Method, type NotificationMethod, type ViewParams, parsePageMessage, parseViewParams } from '../../preview/src/messages.js';
+import { type HostToPage, type Method, type NotificationMethod, type ResponseMessage, type ViewParams, parsePageMessage, parseViewParams } from '../../preview/src/messages.js';
 import { pictureFileName } from '../../preview/src/picture.js';
 import { base64ToBytes } from '../../preview/src/protocol.js';
 import { defaultOutput } from './exportArgs.js';
@@ -200,10 +200,15 @@ export class PreviewHost {
       this.deps.post(blob ? { type: 'response', id: msg.id, result, blob } : { type: 'response', id: msg.id, result });
     } catch (e) {
       const error = e instanceof Error ? e.message : String(e);
-      // The language client's ResponseError carries the server's JSON-RPC code (e.g. ServerCancelled for a superseded preview).
+      // The language client's ResponseError carries the server's JSON-RPC code (e.g. ServerCancelled for a superseded preview)
+      // and its data: a failed preview's `version`, the document version whose text failed.
       const code = (e as { code?: unknown } | null)?.code;
-      if (typeof code === 'number' && Number.isSafeInteger(code)) this.deps.post({ type: 'response', id: msg.id, error, code });
-      else this.deps.post({ type: 'response', id: msg.id, error });
+      const data = (e as { data?: unknown } | null)?.data;
+      const version = isObject(data) ? data.version : undefined;
+      const out: ResponseMessage = { type: 'response', id: msg.id, error };
+      if (typeof code === 'number' && Number.isSafeInteger(code)) out.code = code;
+      if (typeof version === 'number' && Number.isSafeInteger(version)) out.version = version;
+      this.deps.post(out);
     }
   }
 
