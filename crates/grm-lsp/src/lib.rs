@@ -29,7 +29,9 @@
 //!   they were computed for; a result is published only if its version is
 //!   still the document's current one when it is published (stale results
 //!   never overwrite newer ones; a client whose versions go backwards
-//!   still gets the diagnostics of the text it sent).
+//!   still gets the diagnostics of the text it sent). Preview answers
+//!   name their version too: a model's `version`, `grm/previewUpdated`'s,
+//!   and a failed `grm/preview`'s `data.version`.
 //! - No request can bring the server down: user input never panics, a
 //!   failed task becomes an error response, a poisoned lock is recovered.
 //!   Over stdio no message can either: [`stdio`] frames and checks every

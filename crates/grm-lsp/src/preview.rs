@@ -1500,6 +1500,13 @@ pub(crate) fn stats_out(
     }
 }
 
+/// What [`compute`] made of a request: the document version it analysed
+/// (none: the document is not open) and the preview or why there is none.
+type Computed = (
+    Option<i32>,
+    std::result::Result<(PreviewResult, PickTable), Failure>,
+);
+
 /// Compute a preview off the executor.
 async fn compute(
     shared: &Arc<Shared>,
@@ -1507,16 +1514,17 @@ async fn compute(
     uri: Uri,
     params: PreviewParams,
     cancel: CancelToken,
-) -> Result<std::result::Result<(PreviewResult, PickTable), Failure>> {
+) -> Result<Computed> {
     let s = shared.clone();
     tokio::task::spawn_blocking(move || {
-        let fa = s
-            .analyze(&path)
-            .ok_or_else(|| "the document is not open".to_string())?;
+        let Some(fa) = s.analyze(&path) else {
+            return (None, Err("the document is not open".into()));
+        };
+        let version = Some(fa.version);
         if let Some(v) = params.version
             && v != fa.version
         {
-            return Err(Failure::Stale(fa.version));
+            return (version, Err(Failure::Stale(fa.version)));
         }
         if params.live {
             // This answer is the live preview of this analysis: a refresh
@@ -1532,7 +1540,10 @@ async fn compute(
             }
         }
         let edits = s.edits_source();
-        build(&fa, &uri, &s.uris(), &edits, &params, Some(&cancel))
+        (
+            version,
+            build(&fa, &uri, &s.uris(), &edits, &params, Some(&cancel)),
+        )
     })
     .await
     .map_err(|e| Error {
@@ -1645,6 +1656,19 @@ pub(crate) fn ship(shared: &Shared, r: &mut PreviewResult) {
     }
 }
 
+/// A `grm/preview` that failed on the text of `version` (the program has
+/// errors, a limit was hit): RequestFailed, with `data.version` the
+/// document version whose text failed, so that a client can tell the
+/// failure of an older text (a request sent while the user typed) from the
+/// current text's and never shows it over a newer model.
+fn failed_at(msg: String, version: Option<i32>) -> Error {
+    let mut e = failed(msg);
+    if let Some(v) = version {
+        e.data = Some(serde_json::json!({ "version": v }));
+    }
+    e
+}
+
 /// The answer of a superseded `grm/preview`.
 fn superseded() -> Error {
     Error {
@@ -1664,7 +1688,7 @@ impl Backend {
             // Its client has begun a later live request for the document.
             return Err(superseded());
         }
-        let outcome = compute(
+        let (version, outcome) = compute(
             &self.shared,
             path.clone(),
             uri,
@@ -1688,7 +1712,7 @@ impl Backend {
                 message: stale.to_string().into(),
                 data: None,
             }),
-            Err(Failure::Msg(msg)) => Err(failed(msg)),
+            Err(Failure::Msg(msg)) => Err(failed_at(msg, version)),
         }
     }
 
