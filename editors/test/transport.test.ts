@@ -100,6 +100,9 @@ test('http transport and webview transport: the server error code comes with the
   const t = new HttpTransport('http://h', fetchFn);
   await assert.rejects(t.request('preview', {}), (e: unknown) => e instanceof TransportError && e.code === -32802 && isSuperseded(e) && /superseded/.test(e.message));
   await assert.rejects(t.request('saveCurves', {}), (e: unknown) => e instanceof TransportError && e.code === undefined && !isSuperseded(e));
+  // grmc view passes a failed preview's document version on, as the extension does.
+  const failed = new HttpTransport('http://h', async () => ({ ok: true, status: 200, json: async () => ({ error: 'the program has 1 error', code: -32803, version: 7 }), text: async () => '' }));
+  await assert.rejects(failed.request('preview', {}), (e: unknown) => e instanceof TransportError && e.code === -32803 && e.version === 7);
 
   const sent: PageToHost[] = [];
   const win = new FakeWindow();

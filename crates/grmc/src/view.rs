@@ -20,7 +20,7 @@
 //! | request | answer |
 //! |---|---|
 //! | `GET /`, `/preview.js`, `/preview.css` | the page |
-//! | `POST /api/preview`, `/api/pick` | 200 with `{"result": ...}` or `{"error": "...", "code": N}` (`code`: the language server's JSON-RPC error code, where it gave one: a preview a newer one superseded is -32802, a cancelled one -32800); every call that reached the server is answered 200, as a JSON-RPC reply is, since a grammar that cannot be previewed is no HTTP failure (browsers log every 4xx answer in the console); 4xx only for a request that is not a call (bad JSON, too large, another origin) |
+//! | `POST /api/preview`, `/api/pick` | 200 with `{"result": ...}` or `{"error": "...", "code": N, "version": V}` (`code`: the language server's JSON-RPC error code, where it gave one: a preview a newer one superseded is -32802, a cancelled one -32800; `version`: the document version whose text failed, where the server named it, so the page drops a failure older than what it shows); every call that reached the server is answered 200, as a JSON-RPC reply is, since a grammar that cannot be previewed is no HTTP failure (browsers log every 4xx answer in the console); 4xx only for a request that is not a call (bad JSON, too large, another origin) |
 //! | `POST /api/picture` | `grm/picture`: the preview's model drawn as a PNG (base64 in the JSON), for the page's "Save picture" |
 //! | `POST /api/symbols` | `textDocument/documentSymbol` (the page reads the meta-parameters' ranges) |
 //! | `POST /api/tree` | `grm/tree`: the last preview's derivation tree, a level at a time (the page's tree panel) |
@@ -210,11 +210,13 @@ impl EventQueue {
 // ------------------------------------------------------------------ the in-process language server
 
 /// A failed API request: the message for the page, and the language
-/// server's JSON-RPC error code when it answered with one.
+/// server's JSON-RPC error code when it answered with one, with the
+/// document version a failed `grm/preview` names (its `data.version`).
 #[derive(Debug)]
 struct ApiError {
     message: String,
     code: Option<i64>,
+    version: Option<u64>,
 }
 
 impl From<String> for ApiError {
@@ -222,6 +224,7 @@ impl From<String> for ApiError {
         ApiError {
             message,
             code: None,
+            version: None,
         }
     }
 }
@@ -318,6 +321,7 @@ impl Lsp {
         body.map_err(|e| ApiError {
             message: e.message.to_string(),
             code: Some(e.code.code()),
+            version: e.data.as_ref().and_then(|d| d["version"].as_u64()),
         })
     }
 

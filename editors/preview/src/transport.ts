@@ -223,7 +223,13 @@ export class HttpTransport implements Transport {
       throw new TransportError(`${method}: HTTP ${res.status}, not JSON`);
     }
     const obj = body as Record<string, unknown> | null;
-    if (obj && typeof obj.error === 'string') throw new TransportError(obj.error, typeof obj.code === 'number' ? obj.code : undefined);
+    if (obj && typeof obj.error === 'string') {
+      throw new TransportError(
+        obj.error,
+        typeof obj.code === 'number' ? obj.code : undefined,
+        typeof obj.version === 'number' ? obj.version : undefined,
+      );
+    }
     if (!res.ok) throw new TransportError(`${method}: HTTP ${res.status}`);
     if (!obj || !('result' in obj)) throw new TransportError(`${method}: the answer has no result`);
     return this.withBlob(obj.result);

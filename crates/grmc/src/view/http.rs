@@ -282,14 +282,16 @@ pub(super) fn handle(st: &State, stream: TcpStream) -> std::io::Result<()> {
             // (browsers log every 4xx answer in the console).
             let answer = match st.api(&p["/api/".len()..], params) {
                 Ok(result) => json!({ "result": result }),
-                Err(ApiError {
-                    message,
-                    code: Some(code),
-                }) => json!({ "error": message, "code": code }),
-                Err(ApiError {
-                    message,
-                    code: None,
-                }) => json!({ "error": message }),
+                Err(e) => {
+                    let mut a = json!({ "error": e.message });
+                    if let Some(code) = e.code {
+                        a["code"] = json!(code);
+                    }
+                    if let Some(version) = e.version {
+                        a["version"] = json!(version);
+                    }
+                    a
+                }
             };
             let status = 200;
             let body = answer.to_string();

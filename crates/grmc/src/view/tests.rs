@@ -290,6 +290,29 @@ fn a_pages_older_preview_arriving_late_supersedes_nothing() {
     }
 }
 
+/// A grammar that cannot be previewed: answered 200 with the error, the
+/// server's code and the document version whose text failed (the page
+/// drops a failure about a text older than the one it shows).
+#[test]
+fn a_failed_preview_names_its_document_version() {
+    let (_dir, _, server) = serve("broken.grm", "system Broken {\n    axiom F\n}\n");
+    let addr = server.addr;
+    let (_, ev) = exchange(
+        addr,
+        &format!("GET /api/events?after=0 HTTP/1.1\r\nHost: {addr}\r\n\r\n"),
+    );
+    let uri = ev["events"][0]["params"]["uri"].clone();
+    let (status, e) = post(
+        addr,
+        "/api/preview",
+        &json!({ "textDocument": { "uri": uri } }),
+    );
+    assert_eq!(status, 200, "{e}");
+    assert!(e["error"].is_string(), "{e}");
+    assert!(e["code"].is_i64(), "{e}");
+    assert!(e["version"].is_u64(), "{e}");
+}
+
 #[test]
 fn serves_the_page_and_the_language_servers_preview() {
     let (_dir, grammar, server) = serve("koch.grm", KOCH);
