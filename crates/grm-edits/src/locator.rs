@@ -188,6 +188,7 @@ pub enum Anchor {
 
 impl Anchor {
     /// The index of child `index` (from 1) of `count`, counted from this anchor.
+    #[inline]
     pub fn index(self, index: u32, count: u32) -> i64 {
         match self {
             Anchor::Start => i64::from(index),

@@ -611,82 +611,65 @@ impl Engine<'_> {
             root_key: 0,
             ordered: true,
         };
-        // The root has its replay state on the hook's stack (flagged).
+        // The root has its trie state on the hook's stack (flagged).
         let mut stack: Vec<u32> = vec![H::FLAG];
         let mut scratch = Scratch {
             prefix: prefix.clone(),
             ..Scratch::default()
         };
+        // The root's forcing (a parallel job's, carried).
+        if let Some(r) = hook.get() {
+            scratch.keep_material = r.forced.material.is_some();
+        }
         while let Some(entry) = stack.pop() {
             if stop.load(Ordering::Relaxed) {
                 return Err(Overflow);
             }
-            // The shape's replay state, popped in step with the stack when
-            // the shape has one (flagged: an edit may name it or reach it).
+            // The shape's replay state: its forcing, the innermost forced
+            // region's it is in, and its trie state, popped in step with
+            // the stack when it has one (flagged: on an exact target's
+            // path; the others are off every path).
             let at = entry & !H::FLAG;
-            let carried = match hook.get() {
-                Some(r) if entry & H::FLAG != 0 => Some(r.take()),
-                _ => None,
-            };
+            let mut state = replay::NONE;
+            if let Some(r) = hook.get() {
+                if stack.len() < r.floor {
+                    r.leave(stack.len());
+                    scratch.keep_material = r.forced.material.is_some();
+                }
+                if entry & H::FLAG != 0 {
+                    state = r.stack.pop().unwrap_or(replay::NONE);
+                }
+            }
             let shape = &job.nodes[at as usize];
             let NodeKind::Shape { symbol, .. } = shape.kind else {
                 continue;
             };
             if at > 0 && cut.is_some_and(|d| shape.depth >= d) {
                 job.cut.push((at, job.nodes.len() as u32));
-                if hook.get().is_some() {
-                    job.cut_carried.push(carried.unwrap_or(Carried::NONE));
+                if let Some(r) = hook.get() {
+                    job.cut_carried.push(Carried {
+                        state,
+                        forced: r.forced,
+                    });
                 }
                 continue;
             }
             let start = job.nodes.len();
-            let mut forced = Forced::default();
-            let mut state = replay::NONE;
-            if hook.get().is_some() {
-                scratch.force = None;
-                scratch.keep_material = false;
-            }
-            if let (Some(r), Some(c)) = (hook.get(), carried) {
-                let plan = r.plan;
-                (forced, state) = (c.forced, c.state);
-                let here = at as usize;
-                if plan.may_match(state, symbol, job.nodes[here].key) {
-                    r.matched.clear();
-                    plan.matches(
-                        &job.nodes,
-                        here,
-                        state,
-                        &scratch.prefix.tags,
-                        &mut r.tags,
-                        &mut r.read,
-                        &mut r.matched,
-                    );
+            // The replay's work on this shape (`Some`: its forcing and
+            // whether its own edits force its block's, opening a region),
+            // only where it is on a target's path, in a forced mesh's
+            // region, or may be named by key or query: the other shapes
+            // cost the tests alone (their forcing is the region's, already
+            // in `scratch`).
+            let mut special = false;
+            if let Some(r) = hook.get()
+                && (state != replay::NONE
+                    || r.attend && (r.meshed || r.plan.may_name(symbol, shape.key)))
+            {
+                if !self.own_edits(r, &mut job, at, state, &mut scratch) {
+                    continue;
                 }
-                if !r.matched.is_empty() {
-                    job.hits.extend(r.matched.iter().map(|&(id, _)| (id, at)));
-                    let own = Own::of(&r.matched);
-                    r.matched.clear();
-                    if own.remove {
-                        job.removed.push(at);
-                        continue;
-                    }
-                    // The shape's own material, once on its attributes:
-                    // its subtree inherits them (the rules' materials
-                    // below are skipped, `Scratch::keep_material`).
-                    if let Some(m) = own.material {
-                        forced.material = Some(m);
-                        match self.forced_material(r, job.nodes[here].attrs, m) {
-                            Ok(a) => job.nodes[here].attrs = a,
-                            Err(e) => job.failures.push((at, e)),
-                        }
-                    }
-                    forced.mesh = own.mesh.or(forced.mesh);
-                    if let Some(k) = own.pin {
-                        job.nodes[here].key = k;
-                    }
-                    scratch.force = own.force;
-                }
-                scratch.keep_material = forced.material.is_some();
+                special = true;
             }
             let shape = &job.nodes[at as usize];
             let inherited = job.nodes[at as usize].attrs;
@@ -754,16 +737,23 @@ impl Engine<'_> {
                     stack.push(j as u32);
                 }
             }
-            if let Some(r) = hook.get() {
+            if let Some(r) = hook.get()
+                && special
+            {
+                let (forced, opens) = r.shape;
                 replay_block(
                     r,
                     &mut job.nodes,
                     at,
                     start,
                     &mut stack[before..],
+                    before,
                     state,
                     forced,
+                    opens,
                 );
+                scratch.force = None;
+                scratch.keep_material = r.forced.material.is_some();
             }
         }
         job.ordered = !scratch.unordered;
@@ -1591,11 +1581,27 @@ impl<'p> Hook<'p> for Replay<'p> {
 struct Replay<'p> {
     /// The edits replayed.
     plan: &'p EditPlan,
-    /// The shapes on the derivation stack, in step with it: their trie
-    /// state and what their ancestors' edits force on them, and how many
-    /// consecutive shapes of the stack share it (a block off every exact
-    /// target's path is one entry, however many shapes it made).
-    stack: Vec<(Carried, u32)>,
+    /// The trie states of the shapes on the derivation stack that are on
+    /// an exact target's path (flagged there), in step with it; the
+    /// shapes off every path have none.
+    stack: Vec<u32>,
+    /// The forced regions, innermost last: where a shape's own edits
+    /// force a material or mesh, its subtree's shapes are those pushed on
+    /// the derivation stack at or above the height (`floor`) its block
+    /// was pushed at, until a shape below it is popped. The first is the
+    /// job root's forcing, at height 0 (never left).
+    regions: Vec<(usize, Forced)>,
+    /// The innermost region's height and forcing, and whether it forces
+    /// a mesh (every block in it then has its inserts replaced).
+    floor: usize,
+    forced: Forced,
+    meshed: bool,
+    /// Whether every shape off the exact targets' paths is looked at:
+    /// some edit names shapes by key or query, or a mesh is forced.
+    attend: bool,
+    /// The forcing of the shape at hand and whether its own edits
+    /// changed it (`Engine::own_edits`).
+    shape: (Forced, bool),
     /// Scratch: the trie states of the block at hand, from its start, and
     /// its ordinals counted (`EditPlan::block_states`).
     block: Vec<u32>,
@@ -1603,8 +1609,7 @@ struct Replay<'p> {
     /// Scratch: the edits of the shape at hand, the tags on its path, the
     /// indices a query pattern reads there.
     matched: Vec<(u32, replay::Action)>,
-    tags: Vec<(TagId, u32, u32)>,
-    read: Vec<i64>,
+    path: replay::PathScratch,
     /// Forced materials remembered: (attributes, material, result).
     memo: Vec<(AttrId, crate::ir::MaterialId, AttrId)>,
 }
@@ -1614,30 +1619,42 @@ impl<'p> Replay<'p> {
     fn new(plan: &'p EditPlan, root: Carried) -> Replay<'p> {
         Replay {
             plan,
-            stack: vec![(root, 1)],
+            stack: vec![root.state],
+            regions: vec![(0, root.forced)],
+            floor: 0,
+            forced: root.forced,
+            meshed: root.forced.mesh.is_some(),
+            attend: plan.names_any() || root.forced.mesh.is_some(),
+            shape: (root.forced, false),
             block: Vec::new(),
             counts: Vec::new(),
             matched: Vec::new(),
-            tags: Vec::new(),
-            read: Vec::new(),
+            path: replay::PathScratch::default(),
             memo: Vec::new(),
         }
     }
 
-    /// The replay state of the shape just popped off the derivation stack.
-    #[inline]
-    fn take(&mut self) -> Carried {
-        match self.stack.last_mut() {
-            Some((c, n)) => {
-                let c = *c;
-                *n -= 1;
-                if *n == 0 {
-                    self.stack.pop();
-                }
-                c
-            }
-            None => Carried::NONE,
+    /// A shape was popped off the derivation stack, which now holds
+    /// `height` entries, below the innermost region's floor: leave the
+    /// regions it is not in.
+    #[cold]
+    #[inline(never)]
+    fn leave(&mut self, height: usize) {
+        while self.regions.len() > 1 && self.regions.last().is_some_and(|r| height < r.0) {
+            self.regions.pop();
         }
+        (self.floor, self.forced) = self.regions.last().copied().unwrap_or_default();
+        self.meshed = self.forced.mesh.is_some();
+        self.attend = self.plan.names_any() || self.meshed;
+    }
+
+    /// Open a forced region (`forced`) for the shapes the derivation
+    /// stack holds from `floor` on.
+    fn open(&mut self, floor: usize, forced: Forced) {
+        self.regions.push((floor, forced));
+        (self.floor, self.forced) = (floor, forced);
+        self.meshed = forced.mesh.is_some();
+        self.attend = self.plan.names_any() || self.meshed;
     }
 }
 
@@ -1651,28 +1668,18 @@ struct Carried {
     forced: Forced,
 }
 
-impl Carried {
-    const NONE: Carried = Carried {
-        state: replay::NONE,
-        forced: Forced {
-            material: None,
-            mesh: None,
-        },
-    };
-}
-
 /// After the shape at `at` (trie state `state`, forcing `forced`: its own
 /// edits over its ancestors') made the block `nodes[start..]`, whose shapes
-/// the derivation stack took as `pushed` (last first): the forced mesh on
-/// the block's inserts, and which of its shapes get a replay state, decided
-/// for the block. Off every exact target's path with nothing forced, only
-/// the shapes an edit may name by key or query are flagged (one entry on
-/// `r.stack` for all: they share the empty state), and the others cost the
-/// loop nothing more; with something forced, all are flagged under one
-/// entry; on a target's path, each its own state. A forced material needs
-/// nothing here: the shape's attributes carry it to the block and its
-/// rules' materials were skipped.
-#[inline]
+/// the derivation stack took as `pushed` (last first, from height `floor`
+/// on), when the block needs
+/// anything of the replay: the forced mesh on the block's inserts; a forced
+/// region for its shapes where the shape's own edits force (`opens`); on a
+/// target's path, each shape's trie state, and those still on a path
+/// flagged. A forced material needs nothing more: the shape's attributes
+/// carry it to the block and its rules' materials were skipped. Off every
+/// path, a shape is matched only when a key target or a query may name it
+/// (`EditPlan::may_name`, asked when it is popped).
+#[inline(never)]
 #[allow(clippy::too_many_arguments)]
 fn replay_block(
     r: &mut Replay,
@@ -1680,13 +1687,11 @@ fn replay_block(
     at: u32,
     start: usize,
     pushed: &mut [u32],
+    floor: usize,
     state: u32,
     forced: Forced,
+    opens: bool,
 ) {
-    if pushed.is_empty() && forced.mesh.is_none() {
-        return;
-    }
-    let plan = r.plan;
     let block = &mut nodes[start..];
     if let Some(a) = forced.mesh {
         for n in block.iter_mut() {
@@ -1695,37 +1700,15 @@ fn replay_block(
             }
         }
     }
-    if state == replay::NONE {
-        // Off every exact target's path: so is the block.
-        let c = Carried {
-            state: replay::NONE,
-            forced,
-        };
-        let flagged = if forced != Forced::default() {
-            pushed.iter_mut().for_each(|e| *e |= FLAGGED);
-            pushed.len() as u32
-        } else if plan.names_any() {
-            let mut k = 0;
-            for e in pushed.iter_mut() {
-                let n = &nodes[*e as usize];
-                if let NodeKind::Shape { symbol, .. } = n.kind
-                    && plan.may_name(symbol, n.key)
-                {
-                    *e |= FLAGGED;
-                    k += 1;
-                }
-            }
-            k
-        } else {
-            0
-        };
-        if flagged > 0 {
-            r.stack.push((c, flagged));
-        }
+    if opens && !pushed.is_empty() {
+        r.open(floor, forced);
+    }
+    if state == replay::NONE || pushed.is_empty() {
         return;
     }
     // Each node's state from its parent's (the shape or a command of the
     // block before it).
+    let plan = r.plan;
     plan.block_states(
         block,
         start,
@@ -1736,12 +1719,73 @@ fn replay_block(
     );
     for e in pushed.iter_mut() {
         let state = r.block[*e as usize - start];
-        *e |= FLAGGED;
-        r.stack.push((Carried { state, forced }, 1));
+        if state != replay::NONE {
+            *e |= FLAGGED;
+            r.stack.push(state);
+        }
     }
 }
 
 impl Engine<'_> {
+    /// The edits whose target is the shape `job.nodes[at]` (trie state
+    /// `state`), resolved and applied to the shape: its hits recorded;
+    /// `None` when one removes it (recorded in `job.removed`); else a
+    /// forced material set on its attributes (its subtree inherits them,
+    /// the rules' materials below are skipped: `Scratch::keep_material`),
+    /// a pin on its key and a forced alternative in `s.force`, and its
+    /// forcing in `r.shape`, with whether its own edits changed it (its
+    /// block opens a forced region); false when removed.
+    #[inline(never)]
+    fn own_edits(
+        &self,
+        r: &mut Replay,
+        job: &mut Job,
+        at: u32,
+        state: u32,
+        s: &mut Scratch,
+    ) -> bool {
+        let here = at as usize;
+        let mut forced = r.forced;
+        r.matched.clear();
+        r.plan.matches(
+            &job.nodes,
+            here,
+            state,
+            &s.prefix.tags,
+            &mut r.path,
+            &mut r.matched,
+        );
+        r.shape = (forced, false);
+        if r.matched.is_empty() {
+            return true;
+        }
+        job.hits.extend(r.matched.iter().map(|&(id, _)| (id, at)));
+        let own = Own::of(&r.matched);
+        r.matched.clear();
+        if own.remove {
+            job.removed.push(at);
+            return false;
+        }
+        if let Some(m) = own.material {
+            match self.forced_material(r, job.nodes[here].attrs, m) {
+                Ok(a) => job.nodes[here].attrs = a,
+                Err(e) => job.failures.push((at, e)),
+            }
+        }
+        if let Some(k) = own.pin {
+            job.nodes[here].key = k;
+        }
+        s.force = own.force;
+        let opens = own.material.is_some() || own.mesh.is_some();
+        if opens {
+            forced.material = own.material.or(forced.material);
+            forced.mesh = own.mesh.or(forced.mesh);
+            s.keep_material = forced.material.is_some();
+        }
+        r.shape = (forced, opens);
+        true
+    }
+
     /// The attributes `attrs` with material `m` forced by an edit,
     /// remembered (a forced floor's hundreds of parts share a few sets).
     fn forced_material(
@@ -1818,17 +1862,18 @@ fn apply_attributes(
     last: AttrId,
     marks: &[(usize, AttrId)],
 ) {
+    // The block in runs, one per mark: a node takes the last mark at or
+    // before it (a mark before the run's start only changes what the
+    // next run takes).
     let mut current = inherited;
-    let mut marks = marks.iter().peekable();
-    for (j, n) in out.iter_mut().enumerate().skip(block) {
-        while let Some(&&(from, a)) = marks.peek() {
-            if from > j {
-                break;
-            }
-            current = a;
-            marks.next();
-        }
-        n.attrs = current;
+    let mut from = block;
+    for &(to, a) in marks {
+        let to = to.clamp(from, out.len());
+        out[from..to].iter_mut().for_each(|n| n.attrs = current);
+        (from, current) = (to, a);
+    }
+    if let Some(rest) = out.get_mut(from..) {
+        rest.iter_mut().for_each(|n| n.attrs = current);
     }
     if out.len() == block
         && let Some(n) = out.get_mut(at as usize)

@@ -14,11 +14,16 @@
 //!   their low 16 bits: a shape whose key is no target's costs one bit test
 //!   (one in 300 passes it with 200 key targets);
 //! - **semantic** queries are indexed by their label, then grouped by
-//!   their pattern (the tags and anchors they name, in order) with a hash
-//!   map from the indices they want to the edits: a shape of a queried
-//!   symbol walks up its path once to collect its tagged commands, and
-//!   costs one lookup per pattern, however many queries share it (the
-//!   tower's 80 window queries are three patterns).
+//!   their pattern (the tags and anchors they name, in order) with a map
+//!   from a mix of the indices they want to the edits, behind a
+//!   256-bit filter of those keys: a shape of a queried symbol walks up its
+//!   path once to collect the tagged commands of the tags queries name
+//!   (each tag a slot: a pattern checks its slots with one mask), and only
+//!   up to its innermost tagged command when that is the last path's (the
+//!   entries above it are kept: a floor's hundred windows read the floor
+//!   and facade once); it costs one reading per pattern, however many
+//!   queries share it (the tower's 80 window queries are three patterns),
+//!   and a map lookup only where the filter lets the key through.
 //!
 //! What applies (Lipp 3.2.2, `grm_edits::scoping`): `remove`, `material`
 //! and `mesh` reach the whole subtree (a deeper target's edit overrides an
@@ -38,6 +43,43 @@ use crate::locator::{Anchor, EdgeRef};
 use crate::tree::{Command, Node, NodeKind};
 use foldhash::HashMap;
 use grm_edits::{Edit, Op, Target};
+use std::hash::{BuildHasherDefault, Hasher};
+
+/// The hasher of keys that are hashes already ([`mix`]): the key is its
+/// own hash.
+#[derive(Clone, Copy, Debug, Default)]
+struct Premixed(u64);
+
+impl Hasher for Premixed {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = mix(self.0, i64::from(b));
+        }
+    }
+
+    fn write_u64(&mut self, v: u64) {
+        self.0 = v;
+    }
+}
+
+/// A map from [`mix`]ed keys.
+type MixedMap<V> = std::collections::HashMap<u64, V, BuildHasherDefault<Premixed>>;
+
+/// `h` with the index `v` mixed in (the wanted indices' key, one index
+/// at a time: a multiply and a fold, so the map's low bits and high bits
+/// both depend on every index).
+#[inline]
+fn mix(h: u64, v: i64) -> u64 {
+    let h = (h ^ v as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+    h ^ (h >> 29)
+}
+
+/// The key of no index yet.
+const MIX_SEED: u64 = 0x243f_6a88_85a3_08d3;
 
 /// A node's label as the plan compares it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -65,25 +107,153 @@ pub(crate) enum Action {
 struct Pattern {
     /// The tags named and their anchors, in order.
     entries: Vec<(TagId, Anchor)>,
-    /// The wanted indices (one per entry, anchored) to the edits.
-    wants: HashMap<Box<[i64]>, Vec<u32>>,
+    /// The plan's slots ([`EditPlan::slot`]) of the entries' tags, one bit
+    /// each; `None` when two entries name one tag or a tag has no slot
+    /// (only the plain reading can match it).
+    mask: Option<u64>,
+    /// The wanted indices (one per entry, anchored) to the edits, by the
+    /// indices' [`mix`]: each key's list holds every wanted list with that
+    /// key (almost always one).
+    wants: MixedMap<Vec<Wanted>>,
+    /// A 256-bit filter of the wanted keys (bit `key >> 56`): most paths'
+    /// keys are none, and cost a bit test instead of a map lookup.
+    filter: [u64; 4],
+}
+
+/// A list of wanted indices (one per pattern entry) and its edits.
+type Wanted = (Box<[i64]>, Vec<u32>);
+
+/// A tagged command on a shape's path, of a tag some query names: the
+/// tag, its slot (`NO_SLOT`: none) and the child's index and count.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PathTag {
+    tag: TagId,
+    slot: u8,
+    index: u32,
+    count: u32,
+}
+
+/// The slot of a tag named by queries beyond the first 64.
+const NO_SLOT: u8 = u8::MAX;
+
+/// Scratch space of [`EditPlan::matches`], one per derivation job: the
+/// path's tagged entries, and those above the innermost tagged command of
+/// the last path read (a window's floor and facade, the same for the
+/// hundred windows of a floor: the next window's walk stops at that
+/// command). Node indices are the job's, which never change.
+#[derive(Debug, Default)]
+pub(crate) struct PathScratch {
+    tags: Vec<PathTag>,
+    /// The last path's innermost tagged command, with the entries above
+    /// it (the job root's prefix included), the slots they fill and
+    /// whether one is filled twice.
+    above_at: Option<usize>,
+    above: Vec<PathTag>,
+    above_seen: u64,
+    above_repeated: bool,
+}
+
+/// Add the entry of tag `tag` (child `index` of `count`) to `tags` if a
+/// query names it, with its slot in `seen` (`repeated`: filled before, or
+/// no slot).
+#[inline]
+fn keep(
+    slots: &[u8],
+    tags: &mut Vec<PathTag>,
+    (seen, repeated): (&mut u64, &mut bool),
+    (tag, index, count): (TagId, u32, u32),
+) {
+    let slot = slots.get(tag.0 as usize).copied().unwrap_or(0);
+    if slot != 0 {
+        let slot = slot.wrapping_sub(1);
+        fill(seen, repeated, slot);
+        tags.push(PathTag {
+            tag,
+            slot,
+            index,
+            count,
+        });
+    }
+}
+
+/// Mark `slot` filled in `seen` (`repeated`: it was, or it is no slot).
+#[inline]
+fn fill(seen: &mut u64, repeated: &mut bool, slot: u8) {
+    *repeated |= slot >= 64 || *seen >> slot & 1 != 0;
+    *seen |= 1u64.checked_shl(u32::from(slot)).unwrap_or(0);
 }
 
 impl Pattern {
-    /// The indices this pattern reads off a path's tagged commands (root
-    /// first), in `out`; false when the path's entries of the named tags
-    /// are not this pattern's tags in order (no query of it can match).
-    fn read(&self, path: &[(TagId, u32, u32)], out: &mut Vec<i64>) -> bool {
-        out.clear();
-        let named = |t: TagId| self.entries.iter().any(|q| q.0 == t);
-        let mut kept = path.iter().filter(|e| named(e.0));
-        for &(tag, anchor) in &self.entries {
-            match kept.next() {
-                Some(&(t, index, count)) if t == tag => out.push(anchor.index(index, count)),
-                _ => return false,
+    /// The edits of the queries of this pattern that match a path whose
+    /// tagged commands of the named tags are `path` (innermost first, so
+    /// read from the end), `seen` the slots they fill and `repeated`
+    /// whether a slot is filled twice or an entry has no slot: the path's
+    /// entries of the tags the pattern names must be its tags in order,
+    /// and their anchored indices a wanted list.
+    #[inline]
+    fn lookup(&self, path: &[PathTag], seen: u64, repeated: bool) -> Option<&[u32]> {
+        let h = match self.mask {
+            // Each named tag once on the path: the pattern's entries are
+            // there if its slots are, and are its entries in order if
+            // their tags follow its own.
+            Some(mask) if !repeated => {
+                if seen & mask != mask {
+                    return None;
+                }
+                let mut h = MIX_SEED;
+                let mut want = self.entries.iter();
+                for e in path.iter().rev() {
+                    if mask >> e.slot & 1 == 0 {
+                        continue;
+                    }
+                    match want.next() {
+                        Some(&(tag, anchor)) if tag == e.tag => {
+                            h = mix(h, anchor.index(e.index, e.count))
+                        }
+                        _ => return None,
+                    }
+                }
+                h
             }
+            None if !repeated => return None,
+            // The plain reading: the path's entries of the named tags,
+            // compared with the pattern's one by one.
+            _ => {
+                let named = |t: TagId| self.entries.iter().any(|q| q.0 == t);
+                let mut h = MIX_SEED;
+                let mut want = self.entries.iter();
+                for e in path.iter().rev().filter(|e| named(e.tag)) {
+                    match want.next() {
+                        Some(&(tag, anchor)) if tag == e.tag => {
+                            h = mix(h, anchor.index(e.index, e.count))
+                        }
+                        _ => return None,
+                    }
+                }
+                if want.next().is_some() {
+                    return None;
+                }
+                h
+            }
+        };
+        let bit = (h >> 56) as usize;
+        if self.filter[bit / 64] >> (bit % 64) & 1 == 0 {
+            return None;
         }
-        kept.next().is_none()
+        // The key's lists, compared index by index (the path's entries of
+        // the pattern's tags are its entries, in order: checked above).
+        let read = || {
+            path.iter()
+                .rev()
+                .filter(|e| self.entries.iter().any(|q| q.0 == e.tag))
+                .zip(&self.entries)
+                .map(|(e, &(_, anchor))| anchor.index(e.index, e.count))
+        };
+        self.wants
+            .get(&h)?
+            .iter()
+            .find(|(w, _)| w.iter().copied().eq(read()))
+            .map(|(_, edits)| &edits[..])
     }
 }
 
@@ -112,6 +282,13 @@ pub struct EditPlan {
     key_filter: Vec<u64>,
     /// Semantic queries grouped by pattern.
     semantic: Vec<Pattern>,
+    /// Per symbol (by id), whether a query may name its shapes (one of
+    /// its label or one without a label): empty without queries.
+    queried: Vec<bool>,
+    /// Per tag (by id), its slot when a query names it (0: none; else the
+    /// slot plus one, `NO_SLOT` past 64 tags): the tagged commands a path
+    /// walk keeps, and the bit of a pattern's mask.
+    slot: Vec<u8>,
     /// Per symbol (by id), the patterns of its queries.
     semantic_by_symbol: Vec<Vec<u32>>,
     /// The patterns of queries without a label.
@@ -234,6 +411,39 @@ impl EditPlan {
                 plan.lowered.push(e.clone());
             }
         }
+        // The symbols and tags the queries name, by id.
+        if !plan.semantic.is_empty() {
+            let any = !plan.semantic_any.is_empty();
+            plan.queried = (0..program.symbols.len())
+                .map(|s| {
+                    any || plan
+                        .semantic_by_symbol
+                        .get(s)
+                        .is_some_and(|q| !q.is_empty())
+                })
+                .collect();
+            let mut slots = 0u8;
+            for p in &mut plan.semantic {
+                let mut mask = Some(0u64);
+                for &(t, _) in &p.entries {
+                    let i = t.0 as usize;
+                    if plan.slot.len() <= i {
+                        plan.slot.resize(i + 1, 0);
+                    }
+                    if plan.slot[i] == 0 {
+                        plan.slot[i] = if slots < 64 { slots + 1 } else { NO_SLOT };
+                        slots = slots.saturating_add(1);
+                    }
+                    mask = match (mask, plan.slot[i]) {
+                        (Some(m), s) if s != NO_SLOT && m >> (s - 1) & 1 == 0 => {
+                            Some(m | 1 << (s - 1))
+                        }
+                        _ => None,
+                    };
+                }
+                p.mask = mask;
+            }
+        }
         plan
     }
 
@@ -265,16 +475,19 @@ impl EditPlan {
                 list.push(self.semantic.len() as u32);
                 self.semantic.push(Pattern {
                     entries,
-                    wants: HashMap::default(),
+                    ..Pattern::default()
                 });
                 self.semantic.len() as u32 - 1
             }
         };
-        self.semantic[k as usize]
-            .wants
-            .entry(wants)
-            .or_default()
-            .push(edit);
+        let h = wants.iter().fold(MIX_SEED, |h, &v| mix(h, v));
+        let bit = (h >> 56) as usize;
+        self.semantic[k as usize].filter[bit / 64] |= 1 << (bit % 64);
+        let lists = self.semantic[k as usize].wants.entry(h).or_default();
+        match lists.iter_mut().find(|(w, _)| *w == wants) {
+            Some((_, edits)) => edits.push(edit),
+            None => lists.push((wants, vec![edit])),
+        }
     }
 
     /// Add an exact target's path to the trie; false when a label is not
@@ -339,33 +552,32 @@ impl EditPlan {
         &self.unsupported
     }
 
-    /// Whether an edit may name the shape of `symbol` with key `key` whose
-    /// trie state is `state` (what [`EditPlan::matches`] would look at):
-    /// most shapes of a building are named by none, and cost this alone.
-    #[inline]
-    pub(crate) fn may_match(&self, state: u32, symbol: SymbolId, key: u32) -> bool {
-        state != NONE || self.may_name(symbol, key)
-    }
-
-    /// Whether some edit names its shapes by key or by query (without,
-    /// only the shapes on an exact target's path can be named).
+    /// Whether some edit names shapes by key or by query (without, only
+    /// the shapes on an exact target's path can be named).
     #[inline]
     pub(crate) fn names_any(&self) -> bool {
         !self.key_filter.is_empty() || !self.semantic.is_empty()
     }
 
     /// Whether a key target or a query may name a shape of `symbol` with
-    /// key `key` (what [`EditPlan::may_match`] asks off every exact path).
+    /// key `key` (what the derivation loop asks of a shape off every exact
+    /// target's path before [`EditPlan::matches`]): most shapes of a
+    /// building are named by none, and cost this alone (a byte and a bit).
     #[inline]
     pub(crate) fn may_name(&self, symbol: SymbolId, key: u32) -> bool {
+        self.queried
+            .get(symbol.0 as usize)
+            .copied()
+            .unwrap_or(false)
+            || self.key_bit(key)
+    }
+
+    /// Whether `key`'s filter bit is set (some key target may be `key`).
+    #[inline]
+    fn key_bit(&self, key: u32) -> bool {
         self.key_filter
             .get((key as usize & (KEY_BITS - 1)) / 64)
             .is_some_and(|w| w & (1 << (key % 64)) != 0)
-            || !self.semantic_any.is_empty()
-            || self
-                .semantic_by_symbol
-                .get(symbol.0 as usize)
-                .is_some_and(|q| !q.is_empty())
     }
 
     /// Whether the plan has semantic queries (which read the tagged
@@ -465,16 +677,14 @@ impl EditPlan {
     /// The actions of the edits whose target is the shape `nodes[at]`
     /// (its trie state `state`), pushed on `out` as (edit id, action).
     /// `prefix`: the tagged commands above `nodes[0]` (a parallel job's
-    /// root), innermost first. `tags` and `read` are scratch space.
-    #[allow(clippy::too_many_arguments)]
+    /// root), innermost first.
     pub(crate) fn matches(
         &self,
         nodes: &[Node],
         at: usize,
         state: u32,
         prefix: &[(TagId, u32, u32)],
-        tags: &mut Vec<(TagId, u32, u32)>,
-        read: &mut Vec<i64>,
+        scratch: &mut PathScratch,
         out: &mut Vec<(u32, Action)>,
     ) {
         let n = &nodes[at];
@@ -488,7 +698,7 @@ impl EditPlan {
         {
             f.iter().for_each(|&i| push(i));
         }
-        if !self.by_key.is_empty()
+        if self.key_bit(n.key)
             && let Some(f) = self.by_key.get(&n.key)
         {
             f.iter().for_each(|&i| push(i));
@@ -503,23 +713,60 @@ impl EditPlan {
         if by_label.is_none() && self.semantic_any.is_empty() {
             return;
         }
-        // The tagged commands on the path, root first.
-        tags.clear();
-        crate::engine::walk_up(nodes, at, |p, child| {
-            if let NodeKind::Command { tag: Some(t), .. } = nodes[p].kind {
-                tags.push((t, nodes[child].index, nodes[child].count));
+        // The tagged commands on the path of the tags some query names,
+        // innermost first, read once for all the patterns.
+        // The slots they fill, and whether one is filled twice (or a tag
+        // has none). Up to the innermost tagged command: the entries above
+        // it are the last path's when it is the last path's.
+        let w = scratch;
+        w.tags.clear();
+        let (mut seen, mut repeated) = (0u64, false);
+        let mut innermost = None;
+        let mut cur = at;
+        let mut known = false;
+        while cur > 0 {
+            let up = nodes[cur].parent_offset as usize;
+            if up == 0 || up > cur {
+                break;
             }
-        });
-        tags.extend_from_slice(prefix);
-        tags.reverse();
+            let p = cur - up;
+            if let NodeKind::Command { tag: Some(t), .. } = nodes[p].kind {
+                let entry = (t, nodes[cur].index, nodes[cur].count);
+                keep(&self.slot, &mut w.tags, (&mut seen, &mut repeated), entry);
+                if innermost.is_none() {
+                    if w.above_at == Some(p) {
+                        known = true;
+                        break;
+                    }
+                    innermost = Some((p, w.tags.len()));
+                }
+            }
+            cur = p;
+        }
+        if known {
+            repeated |= w.above_repeated || seen & w.above_seen != 0;
+            seen |= w.above_seen;
+            w.tags.extend_from_slice(&w.above);
+        } else {
+            for &entry in prefix {
+                keep(&self.slot, &mut w.tags, (&mut seen, &mut repeated), entry);
+            }
+            if let Some((p, from)) = innermost {
+                w.above_at = Some(p);
+                w.above.clear();
+                w.above.extend_from_slice(&w.tags[from..]);
+                (w.above_seen, w.above_repeated) = (0, false);
+                for e in &w.above {
+                    fill(&mut w.above_seen, &mut w.above_repeated, e.slot);
+                }
+            }
+        }
+        let tags = &w.tags;
         // `grm_edits::SemanticQuery::matches` on ids, a pattern at a time:
         // the path's entries of the tags a query names are exactly the
         // query's, in order, each at its anchored index.
         for &k in by_label.into_iter().flatten().chain(&self.semantic_any) {
-            let pattern = &self.semantic[k as usize];
-            if pattern.read(tags, read)
-                && let Some(edits) = pattern.wants.get(&read[..])
-            {
+            if let Some(edits) = self.semantic[k as usize].lookup(tags, seen, repeated) {
                 edits.iter().for_each(|&i| push(i));
             }
         }
