@@ -1,0 +1,265 @@
+//! The derivation loop's replay hook (`crate::replay`): `()` for the plain
+//! loop, [`Replay`] for a plan's edits: the forced regions, the trie
+//! states of the shapes on an exact target's path, and the work on a
+//! shape some edit names.
+
+use super::*;
+
+/// The derivation loop's replay hook: `()` replays nothing (every call
+/// inlines to nothing, so the plain derivation is the loop without
+/// edits), [`Replay`] a plan's edits.
+pub(super) trait Hook<'p> {
+    /// The bit of a derivation stack entry that says the shape has an
+    /// entry on the replay's stack (0: no replay).
+    const FLAG: u32;
+    /// The replay state, if any.
+    fn get(&mut self) -> Option<&mut Replay<'p>>;
+}
+
+/// [`Hook::FLAG`] of a replay.
+pub(super) const FLAGGED: u32 = 1 << 31;
+
+impl<'p> Hook<'p> for () {
+    const FLAG: u32 = 0;
+    #[inline(always)]
+    fn get(&mut self) -> Option<&mut Replay<'p>> {
+        None
+    }
+}
+
+impl<'p> Hook<'p> for Replay<'p> {
+    const FLAG: u32 = FLAGGED;
+    #[inline(always)]
+    fn get(&mut self) -> Option<&mut Replay<'p>> {
+        Some(self)
+    }
+}
+
+/// The derivation loop's replay state (a job's).
+pub(super) struct Replay<'p> {
+    /// The edits replayed.
+    pub(super) plan: &'p EditPlan,
+    /// The trie states of the shapes on the derivation stack that are on
+    /// an exact target's path (flagged there), in step with it; the
+    /// shapes off every path have none.
+    pub(super) stack: Vec<u32>,
+    /// The forced regions, innermost last: where a shape's own edits
+    /// force a material or mesh, its subtree's shapes are those pushed on
+    /// the derivation stack at or above the height (`floor`) its block
+    /// was pushed at, until a shape below it is popped. The first is the
+    /// job root's forcing, at height 0 (never left).
+    pub(super) regions: Vec<(usize, Forced)>,
+    /// The innermost region's height and forcing, and whether it forces
+    /// a mesh (every block in it then has its inserts replaced).
+    pub(super) floor: usize,
+    pub(super) forced: Forced,
+    pub(super) meshed: bool,
+    /// Whether every shape off the exact targets' paths is looked at:
+    /// some edit names shapes by key or query, or a mesh is forced.
+    pub(super) attend: bool,
+    /// The forcing of the shape at hand and whether its own edits
+    /// changed it (`Engine::own_edits`).
+    pub(super) shape: (Forced, bool),
+    /// Scratch: the trie states of the block at hand, from its start, and
+    /// its ordinals counted (`EditPlan::block_states`).
+    pub(super) block: Vec<u32>,
+    pub(super) counts: Vec<(usize, replay::Label, u32)>,
+    /// Scratch: the edits of the shape at hand, the tags on its path, the
+    /// indices a query pattern reads there.
+    pub(super) matched: Vec<(u32, replay::Action)>,
+    pub(super) path: replay::PathScratch,
+    /// Forced materials remembered: (attributes, material, result).
+    pub(super) memo: Vec<(AttrId, crate::ir::MaterialId, AttrId)>,
+}
+
+impl<'p> Replay<'p> {
+    /// The state of a job whose root's replay state is `root`.
+    pub(super) fn new(plan: &'p EditPlan, root: Carried) -> Replay<'p> {
+        Replay {
+            plan,
+            stack: vec![root.state],
+            regions: vec![(0, root.forced)],
+            floor: 0,
+            forced: root.forced,
+            meshed: root.forced.mesh.is_some(),
+            attend: plan.names_any() || root.forced.mesh.is_some(),
+            shape: (root.forced, false),
+            block: Vec::new(),
+            counts: Vec::new(),
+            matched: Vec::new(),
+            path: replay::PathScratch::default(),
+            memo: Vec::new(),
+        }
+    }
+
+    /// A shape was popped off the derivation stack, which now holds
+    /// `height` entries, below the innermost region's floor: leave the
+    /// regions it is not in.
+    #[cold]
+    #[inline(never)]
+    pub(super) fn leave(&mut self, height: usize) {
+        while self.regions.len() > 1 && self.regions.last().is_some_and(|r| height < r.0) {
+            self.regions.pop();
+        }
+        (self.floor, self.forced) = self.regions.last().copied().unwrap_or_default();
+        self.meshed = self.forced.mesh.is_some();
+        self.attend = self.plan.names_any() || self.meshed;
+    }
+
+    /// Open a forced region (`forced`) for the shapes the derivation
+    /// stack holds from `floor` on.
+    fn open(&mut self, floor: usize, forced: Forced) {
+        self.regions.push((floor, forced));
+        (self.floor, self.forced) = (floor, forced);
+        self.meshed = forced.mesh.is_some();
+        self.attend = self.plan.names_any() || self.meshed;
+    }
+}
+
+/// A shape's replay state, carried down from its parent's.
+#[derive(Clone, Copy)]
+pub(super) struct Carried {
+    /// Its state in the exact targets' trie (`replay::NONE`: off every
+    /// target's path, and so is its subtree).
+    pub(super) state: u32,
+    /// What its ancestors' edits force on it.
+    pub(super) forced: Forced,
+}
+
+/// After the shape at `at` (trie state `state`, forcing `forced`: its own
+/// edits over its ancestors') made the block `nodes[start..]`, whose shapes
+/// the derivation stack took as `pushed` (last first, from height `floor`
+/// on), when the block needs
+/// anything of the replay: the forced mesh on the block's inserts; a forced
+/// region for its shapes where the shape's own edits force (`opens`); on a
+/// target's path, each shape's trie state, and those still on a path
+/// flagged. A forced material needs nothing more: the shape's attributes
+/// carry it to the block and its rules' materials were skipped. Off every
+/// path, a shape is matched only when a key target or a query may name it
+/// (`EditPlan::may_name`, asked when it is popped).
+#[inline(never)]
+#[allow(clippy::too_many_arguments)]
+pub(super) fn replay_block(
+    r: &mut Replay,
+    nodes: &mut [Node],
+    at: u32,
+    start: usize,
+    pushed: &mut [u32],
+    floor: usize,
+    state: u32,
+    forced: Forced,
+    opens: bool,
+) {
+    let block = &mut nodes[start..];
+    if let Some(a) = forced.mesh {
+        for n in block.iter_mut() {
+            if let NodeKind::Insert { .. } = n.kind {
+                n.kind = NodeKind::Insert { asset: a };
+            }
+        }
+    }
+    if opens && !pushed.is_empty() {
+        r.open(floor, forced);
+    }
+    if state == replay::NONE || pushed.is_empty() {
+        return;
+    }
+    // Each node's state from its parent's (the shape or a command of the
+    // block before it).
+    let plan = r.plan;
+    plan.block_states(
+        block,
+        start,
+        at as usize,
+        state,
+        &mut r.block,
+        &mut r.counts,
+    );
+    for e in pushed.iter_mut() {
+        let state = r.block[*e as usize - start];
+        if state != replay::NONE {
+            *e |= FLAGGED;
+            r.stack.push(state);
+        }
+    }
+}
+
+impl Engine<'_> {
+    /// The edits whose target is the shape `job.nodes[at]` (trie state
+    /// `state`), resolved and applied to the shape: its hits recorded;
+    /// `None` when one removes it (recorded in `job.removed`); else a
+    /// forced material set on its attributes (its subtree inherits them,
+    /// the rules' materials below are skipped: `Scratch::keep_material`),
+    /// a pin on its key and a forced alternative in `s.force`, and its
+    /// forcing in `r.shape`, with whether its own edits changed it (its
+    /// block opens a forced region); false when removed.
+    #[inline(never)]
+    pub(super) fn own_edits(
+        &self,
+        r: &mut Replay,
+        job: &mut Job,
+        at: u32,
+        state: u32,
+        s: &mut Scratch,
+    ) -> bool {
+        let here = at as usize;
+        let mut forced = r.forced;
+        r.matched.clear();
+        r.plan.matches(
+            &job.nodes,
+            here,
+            state,
+            &s.prefix.tags,
+            &mut r.path,
+            &mut r.matched,
+        );
+        r.shape = (forced, false);
+        if r.matched.is_empty() {
+            return true;
+        }
+        job.hits.extend(r.matched.iter().map(|&(id, _)| (id, at)));
+        let own = Own::of(&r.matched);
+        r.matched.clear();
+        if own.remove {
+            job.removed.push(at);
+            return false;
+        }
+        if let Some(m) = own.material {
+            match self.forced_material(r, job.nodes[here].attrs, m) {
+                Ok(a) => job.nodes[here].attrs = a,
+                Err(e) => job.failures.push((at, e)),
+            }
+        }
+        if let Some(k) = own.pin {
+            job.nodes[here].key = k;
+        }
+        s.force = own.force;
+        let opens = own.material.is_some() || own.mesh.is_some();
+        if opens {
+            forced.material = own.material.or(forced.material);
+            forced.mesh = own.mesh.or(forced.mesh);
+            s.keep_material = forced.material.is_some();
+        }
+        r.shape = (forced, opens);
+        true
+    }
+
+    /// The attributes `attrs` with material `m` forced by an edit,
+    /// remembered (a forced floor's hundreds of parts share a few sets).
+    fn forced_material(
+        &self,
+        r: &mut Replay,
+        attrs: AttrId,
+        m: crate::ir::MaterialId,
+    ) -> Result<AttrId, ShapeError> {
+        if let Some(&(_, _, a)) = r.memo.iter().find(|e| e.0 == attrs && e.1 == m) {
+            return Ok(a);
+        }
+        let a = self.set_attribute(&Op::Material(m), None, attrs)?;
+        if r.memo.len() >= 16 {
+            r.memo.remove(0);
+        }
+        r.memo.push((attrs, m, a));
+        Ok(a)
+    }
+}
