@@ -18,10 +18,11 @@
 //!   from a mix of the indices they want to the edits, behind a
 //!   256-bit filter of those keys: a shape of a queried symbol walks up its
 //!   path once to collect the tagged commands of the tags queries name
-//!   (each tag a slot: a pattern checks its slots with one mask), and only
-//!   up to its innermost tagged command when that is the last path's (the
-//!   entries above it are kept: a floor's hundred windows read the floor
-//!   and facade once); it costs one reading per pattern, however many
+//!   (each tag a slot: a pattern tells its own tags by one mask), and only
+//!   up to its innermost tagged command when that is the last path's: the
+//!   entries above it, and each pattern's reading of them, are kept (a
+//!   floor's hundred windows read the floor and facade once). A shape
+//!   costs one reading of its own entries per pattern, however many
 //!   queries share it (the tower's 80 window queries are three patterns),
 //!   and a map lookup only where the filter lets the key through.
 //!
@@ -140,117 +141,106 @@ const NO_SLOT: u8 = u8::MAX;
 /// path's tagged entries, and those above the innermost tagged command of
 /// the last path read (a window's floor and facade, the same for the
 /// hundred windows of a floor: the next window's walk stops at that
-/// command). Node indices are the job's, which never change.
+/// command, and each pattern's reading of them is kept). Node indices are
+/// the job's, which never change.
 #[derive(Debug, Default)]
 pub(crate) struct PathScratch {
+    /// The entries below the kept ones (innermost first).
     tags: Vec<PathTag>,
-    /// The last path's innermost tagged command, with the entries above
-    /// it (the job root's prefix included), the slots they fill and
-    /// whether one is filled twice.
+    /// The last path's innermost tagged command, the entries above it
+    /// (the job root's prefix included, innermost first) and every
+    /// pattern's reading of them.
     above_at: Option<usize>,
     above: Vec<PathTag>,
-    above_seen: u64,
-    above_repeated: bool,
+    readings: Vec<Reading>,
+}
+
+/// A pattern's reading of a path so far, root first: the indices' key,
+/// how many of its entries were met, and whether the path's entries of
+/// its tags already differ from its own.
+#[derive(Clone, Copy, Debug)]
+struct Reading {
+    key: u64,
+    met: u32,
+    failed: bool,
+}
+
+impl Reading {
+    const START: Reading = Reading {
+        key: MIX_SEED,
+        met: 0,
+        failed: false,
+    };
 }
 
 /// Add the entry of tag `tag` (child `index` of `count`) to `tags` if a
-/// query names it, with its slot in `seen` (`repeated`: filled before, or
-/// no slot).
+/// query names it.
 #[inline]
-fn keep(
-    slots: &[u8],
-    tags: &mut Vec<PathTag>,
-    (seen, repeated): (&mut u64, &mut bool),
-    (tag, index, count): (TagId, u32, u32),
-) {
+fn keep(slots: &[u8], tags: &mut Vec<PathTag>, (tag, index, count): (TagId, u32, u32)) {
     let slot = slots.get(tag.0 as usize).copied().unwrap_or(0);
     if slot != 0 {
-        let slot = slot.wrapping_sub(1);
-        fill(seen, repeated, slot);
         tags.push(PathTag {
             tag,
-            slot,
+            slot: slot.wrapping_sub(1),
             index,
             count,
         });
     }
 }
 
-/// Mark `slot` filled in `seen` (`repeated`: it was, or it is no slot).
-#[inline]
-fn fill(seen: &mut u64, repeated: &mut bool, slot: u8) {
-    *repeated |= slot >= 64 || *seen >> slot & 1 != 0;
-    *seen |= 1u64.checked_shl(u32::from(slot)).unwrap_or(0);
-}
-
 impl Pattern {
-    /// The edits of the queries of this pattern that match a path whose
-    /// tagged commands of the named tags are `path` (innermost first, so
-    /// read from the end), `seen` the slots they fill and `repeated`
-    /// whether a slot is filled twice or an entry has no slot: the path's
-    /// entries of the tags the pattern names must be its tags in order,
+    /// Whether the pattern names the tag of `e` (by its slot, when the
+    /// pattern's tags all have one).
+    #[inline]
+    fn names(&self, e: &PathTag) -> bool {
+        match self.mask {
+            Some(mask) => e.slot < 64 && mask >> e.slot & 1 != 0,
+            None => self.entries.iter().any(|q| q.0 == e.tag),
+        }
+    }
+
+    /// Read the path's next entry (root first) into `r`: an entry of a
+    /// tag the pattern names must be its next entry, and its anchored
+    /// index is mixed into the key.
+    #[inline]
+    fn read(&self, r: &mut Reading, e: &PathTag) {
+        if r.failed || !self.names(e) {
+            return;
+        }
+        match self.entries.get(r.met as usize) {
+            Some(&(tag, anchor)) if tag == e.tag => {
+                r.key = mix(r.key, anchor.index(e.index, e.count));
+                r.met += 1;
+            }
+            _ => r.failed = true,
+        }
+    }
+
+    /// The edits of the queries of this pattern that match the path read
+    /// into `r`, `above` then `below` (each innermost first): the path's
+    /// entries of the tags the pattern names are its entries in order,
     /// and their anchored indices a wanted list.
     #[inline]
-    fn lookup(&self, path: &[PathTag], seen: u64, repeated: bool) -> Option<&[u32]> {
-        let h = match self.mask {
-            // Each named tag once on the path: the pattern's entries are
-            // there if its slots are, and are its entries in order if
-            // their tags follow its own.
-            Some(mask) if !repeated => {
-                if seen & mask != mask {
-                    return None;
-                }
-                let mut h = MIX_SEED;
-                let mut want = self.entries.iter();
-                for e in path.iter().rev() {
-                    if mask >> e.slot & 1 == 0 {
-                        continue;
-                    }
-                    match want.next() {
-                        Some(&(tag, anchor)) if tag == e.tag => {
-                            h = mix(h, anchor.index(e.index, e.count))
-                        }
-                        _ => return None,
-                    }
-                }
-                h
-            }
-            None if !repeated => return None,
-            // The plain reading: the path's entries of the named tags,
-            // compared with the pattern's one by one.
-            _ => {
-                let named = |t: TagId| self.entries.iter().any(|q| q.0 == t);
-                let mut h = MIX_SEED;
-                let mut want = self.entries.iter();
-                for e in path.iter().rev().filter(|e| named(e.tag)) {
-                    match want.next() {
-                        Some(&(tag, anchor)) if tag == e.tag => {
-                            h = mix(h, anchor.index(e.index, e.count))
-                        }
-                        _ => return None,
-                    }
-                }
-                if want.next().is_some() {
-                    return None;
-                }
-                h
-            }
-        };
-        let bit = (h >> 56) as usize;
+    fn edits(&self, r: Reading, above: &[PathTag], below: &[PathTag]) -> Option<&[u32]> {
+        if r.failed || r.met as usize != self.entries.len() {
+            return None;
+        }
+        let bit = (r.key >> 56) as usize;
         if self.filter[bit / 64] >> (bit % 64) & 1 == 0 {
             return None;
         }
-        // The key's lists, compared index by index (the path's entries of
-        // the pattern's tags are its entries, in order: checked above).
+        // The key's lists, compared index by index.
         let read = || {
-            path.iter()
+            above
+                .iter()
                 .rev()
-                .filter(|e| self.entries.iter().any(|q| q.0 == e.tag))
+                .chain(below.iter().rev())
+                .filter(|e| self.names(e))
                 .zip(&self.entries)
                 .map(|(e, &(_, anchor))| anchor.index(e.index, e.count))
         };
         self.wants
-            .get(&h)?
+            .get(&r.key)?
             .iter()
             .find(|(w, _)| w.iter().copied().eq(read()))
             .map(|(_, edits)| &edits[..])
@@ -715,15 +705,14 @@ impl EditPlan {
         }
         // The tagged commands on the path of the tags some query names,
         // innermost first, read once for all the patterns.
-        // The slots they fill, and whether one is filled twice (or a tag
-        // has none). Up to the innermost tagged command: the entries above
-        // it are the last path's when it is the last path's.
+        // Up to the innermost tagged command, and no further when it is
+        // the last path's: the entries above it, and each pattern's
+        // reading of them, are kept.
         let w = scratch;
         w.tags.clear();
-        let (mut seen, mut repeated) = (0u64, false);
         let mut innermost = None;
-        let mut cur = at;
         let mut known = false;
+        let mut cur = at;
         while cur > 0 {
             let up = nodes[cur].parent_offset as usize;
             if up == 0 || up > cur {
@@ -731,8 +720,11 @@ impl EditPlan {
             }
             let p = cur - up;
             if let NodeKind::Command { tag: Some(t), .. } = nodes[p].kind {
-                let entry = (t, nodes[cur].index, nodes[cur].count);
-                keep(&self.slot, &mut w.tags, (&mut seen, &mut repeated), entry);
+                keep(
+                    &self.slot,
+                    &mut w.tags,
+                    (t, nodes[cur].index, nodes[cur].count),
+                );
                 if innermost.is_none() {
                     if w.above_at == Some(p) {
                         known = true;
@@ -743,30 +735,44 @@ impl EditPlan {
             }
             cur = p;
         }
-        if known {
-            repeated |= w.above_repeated || seen & w.above_seen != 0;
-            seen |= w.above_seen;
-            w.tags.extend_from_slice(&w.above);
-        } else {
+        if !known {
             for &entry in prefix {
-                keep(&self.slot, &mut w.tags, (&mut seen, &mut repeated), entry);
+                keep(&self.slot, &mut w.tags, entry);
             }
-            if let Some((p, from)) = innermost {
-                w.above_at = Some(p);
-                w.above.clear();
-                w.above.extend_from_slice(&w.tags[from..]);
-                (w.above_seen, w.above_repeated) = (0, false);
-                for e in &w.above {
-                    fill(&mut w.above_seen, &mut w.above_repeated, e.slot);
+            match innermost {
+                Some((p, from)) => {
+                    w.above_at = Some(p);
+                    w.above.clear();
+                    w.above.extend_from_slice(&w.tags[from..]);
+                    w.tags.truncate(from);
+                    w.readings.clear();
+                    for pattern in &self.semantic {
+                        let mut r = Reading::START;
+                        w.above.iter().rev().for_each(|e| pattern.read(&mut r, e));
+                        w.readings.push(r);
+                    }
+                }
+                // No tagged command on the path: nothing above.
+                None => {
+                    w.above_at = None;
+                    w.above.clear();
+                    w.readings.clear();
+                    w.readings.resize(self.semantic.len(), Reading::START);
                 }
             }
         }
-        let tags = &w.tags;
         // `grm_edits::SemanticQuery::matches` on ids, a pattern at a time:
         // the path's entries of the tags a query names are exactly the
         // query's, in order, each at its anchored index.
         for &k in by_label.into_iter().flatten().chain(&self.semantic_any) {
-            if let Some(edits) = self.semantic[k as usize].lookup(tags, seen, repeated) {
+            let pattern = &self.semantic[k as usize];
+            let mut r = w
+                .readings
+                .get(k as usize)
+                .copied()
+                .unwrap_or(Reading::START);
+            w.tags.iter().rev().for_each(|e| pattern.read(&mut r, e));
+            if let Some(edits) = pattern.edits(r, &w.above, &w.tags) {
                 edits.iter().for_each(|&i| push(i));
             }
         }
