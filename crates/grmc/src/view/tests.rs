@@ -201,17 +201,24 @@ fn post(addr: SocketAddr, path: &str, body: &Value) -> (u16, Value) {
 /// (minutes, unless a budget or a newer request stops it), its
 /// document's URI and one guiding curve; the folder lives as long as
 /// the first value.
+/// The server's first events (the `document` event first) and the URI
+/// that event names, which the page uses in its requests.
+fn first_events(addr: SocketAddr) -> (Value, Value) {
+    let (_, ev) = exchange(
+        addr,
+        &format!("GET /api/events?after=0 HTTP/1.1\r\nHost: {addr}\r\n\r\n"),
+    );
+    let uri = ev["events"][0]["params"]["uri"].clone();
+    (ev, uri)
+}
+
 fn endless_server() -> (tempfile::TempDir, Server, Value, Value) {
     let (dir, _, server) = serve(
         "endless.grm",
         "system Endless {\n    mode = sample;\n    generations = 100000;\n    particles_start = 8;\n    particles_end = 4;\n    axiom branch;\n    skeleton branch, maybe;\n    geometry tip;\n    branch -> roty(uniform(0, 360)) rotz(uniform(0, 40)) F(1) maybe;\n    maybe -> (3) branch;\n    maybe -> (1) tip;\n    wrapup branch -> tip;\n    wrapup maybe -> tip;\n    tip -> sphere(0.1);\n}\n",
     );
     let addr = server.addr;
-    let (_, ev) = exchange(
-        addr,
-        &format!("GET /api/events?after=0 HTTP/1.1\r\nHost: {addr}\r\n\r\n"),
-    );
-    let uri = ev["events"][0]["params"]["uri"].clone();
+    let (_, uri) = first_events(addr);
     let curves =
         json!({ "version": 1, "curves": [{ "points": [[0,0,0],[0,1.3,0],[0,2.7,0],[0,4,0]] }] });
     (dir, server, uri, curves)
@@ -297,11 +304,7 @@ fn a_pages_older_preview_arriving_late_supersedes_nothing() {
 fn a_failed_preview_names_its_document_version() {
     let (_dir, _, server) = serve("broken.grm", "system Broken {\n    axiom F\n}\n");
     let addr = server.addr;
-    let (_, ev) = exchange(
-        addr,
-        &format!("GET /api/events?after=0 HTTP/1.1\r\nHost: {addr}\r\n\r\n"),
-    );
-    let uri = ev["events"][0]["params"]["uri"].clone();
+    let (_, uri) = first_events(addr);
     let (status, e) = post(
         addr,
         "/api/preview",
@@ -347,12 +350,8 @@ fn serves_the_page_and_the_language_servers_preview() {
     assert!(CSP.contains("script-src 'self';") && !CSP.contains("unsafe-eval"));
 
     // The document event names the URI the page must use.
-    let (_, ev) = exchange(
-        addr,
-        &format!("GET /api/events?after=0 HTTP/1.1\r\nHost: {addr}\r\n\r\n"),
-    );
+    let (ev, uri) = first_events(addr);
     assert_eq!(ev["events"][0]["method"], "document");
-    let uri = ev["events"][0]["params"]["uri"].clone();
 
     let (status, r) = post(
         addr,
@@ -516,11 +515,7 @@ fn a_drag_through_the_page_rewrites_the_file_and_regrows_the_preview() {
     let text = "system Bar {\n    iterations = 1;\n    axiom A;\n    A -> F(2) +(30) F(1);\n}\n";
     let (_dir, grammar, server) = serve("bar.grm", text);
     let addr = server.addr;
-    let (_, ev) = exchange(
-        addr,
-        &format!("GET /api/events?after=0 HTTP/1.1\r\nHost: {addr}\r\n\r\n"),
-    );
-    let uri = ev["events"][0]["params"]["uri"].clone();
+    let (ev, uri) = first_events(addr);
     let mut after = ev["seq"].as_u64().unwrap_or(0);
     let (status, r) = post(
         addr,
@@ -582,11 +577,7 @@ fn a_binary_previews_blob_holds_the_base64_previews_buffers() {
     use grm_lsp::blob::Buf;
     let (_dir, _, server) = serve("koch.grm", KOCH);
     let addr = server.addr;
-    let (_, ev) = exchange(
-        addr,
-        &format!("GET /api/events?after=0 HTTP/1.1\r\nHost: {addr}\r\n\r\n"),
-    );
-    let uri = ev["events"][0]["params"]["uri"].clone();
+    let (_, uri) = first_events(addr);
     let (_, text) = post(
         addr,
         "/api/preview",
