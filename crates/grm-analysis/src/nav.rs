@@ -124,6 +124,9 @@ impl FileAnalysis {
 
     /// References within this file's program (the file and its imports).
     pub fn references(&self, offset: u32, include_decl: bool) -> Vec<Location> {
+        if let Some(v) = self.tag_references(offset) {
+            return v;
+        }
         let Some(r) = self.ref_at(offset) else {
             return Vec::new();
         };
@@ -139,6 +142,9 @@ impl FileAnalysis {
     /// Whether the name under `offset` can be renamed: its span and current
     /// text, or why not.
     pub fn prepare_rename(&self, offset: u32) -> Result<(Span, String), RenameError> {
+        if let Some((span, _)) = self.tag_at(offset) {
+            return Ok((span, self.slice(span).to_string()));
+        }
         let Some(r) = self.ref_at(offset) else {
             return Err(RenameError("no renameable name here".into()));
         };
@@ -152,6 +158,62 @@ impl FileAnalysis {
             return Err(RenameError("cannot find where this name is defined".into()));
         }
         Ok((r.loc.span, self.slice(r.loc.span).to_string()))
+    }
+
+    /// Every place the shape system of the tag under `offset` writes it
+    /// (a tag is one name per system: its commands' tags and its rules'
+    /// `tagged`, `index` and `count`); `None` when no tag is there.
+    fn tag_references(&self, offset: u32) -> Option<Vec<Location>> {
+        let (span, sys) = self.tag_at(offset)?;
+        let spans = self.tag_occurrences(sys, self.slice(span));
+        Some(spans.into_iter().map(|s| self.loc(self.root, s)).collect())
+    }
+
+    /// The rename of the tag under `offset` to `new`: its edits in this
+    /// file (a system is written in one file), or why not; `None` when no
+    /// tag is there. Renaming it to a tag the system already uses would
+    /// merge the two.
+    fn tag_rename(&self, offset: u32, new: &str) -> Option<Result<Vec<FileEdits>, RenameError>> {
+        let (span, sys) = self.tag_at(offset)?;
+        let old = self.slice(span);
+        if let Err(e) = valid_identifier(new) {
+            return Some(Err(e));
+        }
+        if new != old
+            && self
+                .shape_tags()
+                .iter()
+                .any(|(t, sp)| t == new && sys.span.contains(sp.start))
+        {
+            return Some(Err(RenameError(format!(
+                "cannot rename to `{new}`: system `{}` already has a tag `{new}` (the two would become one)",
+                sys.name.name
+            ))));
+        }
+        let edits = self
+            .tag_occurrences(sys, old)
+            .into_iter()
+            .map(|s| (self.loc(self.root, s), new.to_string()))
+            .collect();
+        Some(Ok(vec![FileEdits {
+            path: self.path_of(self.root),
+            edits,
+        }]))
+    }
+
+    /// What the rename of the tag under `offset` means for the edits file
+    /// beside its system (the semantic queries that name it).
+    fn renamed_tag(&self, offset: u32) -> Option<RenamedName> {
+        let (span, sys) = self.tag_at(offset)?;
+        Some(RenamedName {
+            kind: RenamedKind::Tag,
+            old: self.slice(span).to_string(),
+            systems: vec![RenamedSystem {
+                file: grm_sema::normalize(&self.path_of(self.root)),
+                name: sys.name.name.to_string(),
+                shape: true,
+            }],
+        })
     }
 
     /// Why renaming `def` to `new` would change the program's meaning or
@@ -270,6 +332,9 @@ pub enum RenamedKind {
     Material,
     Mesh,
     Parameter,
+    /// A semantic tag of a shape system: the tags its edits' semantic
+    /// queries name.
+    Tag,
 }
 
 /// A system whose edits may name a renamed name: where its edits file is
@@ -299,6 +364,9 @@ impl Analysis {
     /// no edit uses (a production's binding) or nothing renameable.
     pub fn renamed_name(&mut self, path: &Path, offset: u32) -> Option<RenamedName> {
         let fa = self.analyze(path)?;
+        if let Some(tag) = fa.renamed_tag(offset) {
+            return Some(tag);
+        }
         let (_, old) = fa.prepare_rename(offset).ok()?;
         let (def, dpath, dspan) = fa.def_key(offset)?;
         let kind = match def {
@@ -361,6 +429,10 @@ impl Analysis {
         let Some(fa) = self.analyze(path) else {
             return Vec::new();
         };
+        // A tag has no declaration: every place its system writes it.
+        if let Some(v) = fa.tag_references(offset) {
+            return v;
+        }
         let Some((def, dpath, dspan)) = fa.def_key(offset) else {
             return Vec::new();
         };
@@ -418,6 +490,9 @@ impl Analysis {
         let fa = self
             .analyze(path)
             .ok_or_else(|| RenameError("the file cannot be read".into()))?;
+        if let Some(r) = fa.tag_rename(offset, new_name) {
+            return r;
+        }
         fa.prepare_rename(offset)?;
         valid_identifier(new_name)?;
         let (def, dpath, dspan) = fa

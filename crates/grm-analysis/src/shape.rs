@@ -303,6 +303,15 @@ impl FileAnalysis {
                         }
                     }
                 }
+                // `index(tag)`, `count(tag)`: a tag's index and count (as
+                // the checker reads them: one bare name).
+                ExprKind::Call { func, args }
+                    if matches!(func.name.as_str(), "index" | "count")
+                        && args.len() == 1
+                        && name_of(&args[0]).is_some() =>
+                {
+                    push(args[0].span, Role::Tag)
+                }
                 ExprKind::Call { args, .. } => exprs.extend(args),
                 ExprKind::Unary { operand, .. } => exprs.push(operand),
                 ExprKind::Binary { lhs, rhs, .. } => exprs.extend([&**lhs, &**rhs]),
@@ -315,13 +324,42 @@ impl FileAnalysis {
     }
 
     /// Every tag written in this file's shape systems (commands' tags and
-    /// `tagged(...)` arguments) with its span, in order.
+    /// `tagged(...)`, `index(...)`, `count(...)` arguments) with its span,
+    /// in order.
     pub(crate) fn shape_tags(&self) -> Vec<(String, Span)> {
         self.shape_sites()
             .into_iter()
             .filter(|s| s.role == Role::Tag)
             .map(|s| (self.slice(s.span).to_string(), s.span))
             .collect()
+    }
+
+    /// The tag under `offset` and the shape system it is written in: a
+    /// tag has no declaration, it is the same name in one system's
+    /// commands and shape values (Lipp's semantic tags, docs/shapes.md).
+    pub(crate) fn tag_at(&self, offset: u32) -> Option<(Span, &System)> {
+        let sys = self.shape_system_at(offset)?;
+        let mut sites = Vec::new();
+        self.system_sites(sys, &mut sites);
+        let site = sites.into_iter().find(|x| {
+            x.role == Role::Tag
+                && (x.span.contains(offset) || (x.span.end == offset && !x.span.is_empty()))
+        })?;
+        Some((site.span, sys))
+    }
+
+    /// Every place `sys` writes the tag `name`, in order.
+    pub(crate) fn tag_occurrences(&self, sys: &System, name: &str) -> Vec<Span> {
+        let mut sites = Vec::new();
+        self.system_sites(sys, &mut sites);
+        let mut out: Vec<Span> = sites
+            .into_iter()
+            .filter(|x| x.role == Role::Tag && self.slice(x.span) == name)
+            .map(|x| x.span)
+            .collect();
+        out.sort_by_key(|s| (s.start, s.end));
+        out.dedup();
+        out
     }
 }
 

@@ -23,6 +23,9 @@ pub enum NameKind {
     /// which is no global: the caller passes this kind for shape systems
     /// only).
     Parameter,
+    /// A semantic tag of a shape system: the tags a semantic query names
+    /// (`(floor = 3) Window`).
+    Tag,
 }
 
 impl Edit {
@@ -68,6 +71,13 @@ impl Edit {
             }
             NameKind::Parameter => match &mut self.op {
                 Op::Set { name, .. } | Op::Offset { name, .. } => swap(name),
+                _ => false,
+            },
+            NameKind::Tag => match &mut self.target {
+                Target::Semantic(q) => q
+                    .entries
+                    .iter_mut()
+                    .fold(false, |any, (tag, _, _)| swap(tag) | any),
                 _ => false,
             },
         }
@@ -152,5 +162,18 @@ mod tests {
                 name: "frame".into()
             }
         );
+
+        // A tag: the query's entries that name it, anchors and indices kept.
+        let mut t = edit(
+            r#"{"id": 5, "system": "Tower", "target": {"semantic": "(facade = 1, floor = end 2, floorplate = 3) floor"}, "op": "remove"}"#,
+        );
+        assert!(t.rename(NameKind::Tag, "floor", "storey"));
+        assert_eq!(
+            t.target.text(),
+            "(facade = 1, storey = end 2, floorplate = 3) floor",
+            "whole tags only, the label is no tag"
+        );
+        assert!(!t.rename(NameKind::Tag, "column", "bay"), "not named");
+        assert!(!e.rename(NameKind::Tag, "Window", "Pane"), "exact: no tags");
     }
 }

@@ -559,6 +559,7 @@ fn name_kind(k: grm_analysis::RenamedKind) -> grm_edits::NameKind {
         R::Material => N::Material,
         R::Mesh => N::Mesh,
         R::Parameter => N::Parameter,
+        R::Tag => N::Tag,
     }
 }
 
