@@ -18,7 +18,11 @@
 //!   each tree interpreted, held to the forest's module and memory limits.
 //!
 //! The derivation tree is one type for both modes ([`Tree`]), written as
-//! JSON by [`json`] (`--tree`).
+//! JSON by [`json`] (`--tree`). Persistent edits: derive mode's plan and
+//! classes in [`edits`], shape mode's in [`shape`]; an edit that lost its
+//! part gets retarget candidates ([`retarget`]: derive and sample mode by
+//! symbol, ancestry and place in the tree; [`shape::retarget`]: Lipp's
+//! ordering values).
 //!
 //! Inputs: a compiled system (`grm_compile`; its `param_values` are the
 //! run's parameters) and the checked system it came from, the options of
@@ -55,6 +59,7 @@ pub mod forest;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod json;
+pub mod retarget;
 pub mod sample;
 pub mod shape;
 mod tree;

@@ -1,7 +1,9 @@
 //! Quick fixes on an edits file (docs/edits.md, "In the editor"): delete
 //! an edit, and retarget one whose target no longer names what it did
-//! (the candidates a shape preview proposed, `grm_grow::shape::retarget`;
-//! each a code action the artist picks, never applied by itself). Also
+//! (the candidates a preview proposed: shape mode's by
+//! `grm_grow::shape::retarget`, derive and sample mode's keys by
+//! `grm_grow::retarget`; each a code action the artist picks, never
+//! applied by itself). Also
 //! the tolerant scan of the file's text that finds each edit's element,
 //! so an edit that does not read can still be cut out.
 
@@ -424,13 +426,8 @@ fn bake_action(
 
 /// `Retarget edit 3 to (floor = 3) Window (same symbol and tags; 6 parts)`.
 fn retarget_title(id: u32, target: &Target, c: &RetargetOut) -> String {
-    let why = match c.reason.as_str() {
-        "ordering" => "same ordering values",
-        "symbol_and_tags" => "same symbol and tags",
-        "nearest" => "nearest of the same symbol",
-        "one_of_matched" => "one of the parts it matches",
-        other => other,
-    };
+    let why = grm_grow::retarget::Reason::from_name(&c.reason)
+        .map_or(c.reason.as_str(), |r| r.words());
     let parts = if c.parts.len() == 1 {
         String::new()
     } else {

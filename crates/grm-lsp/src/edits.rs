@@ -84,10 +84,11 @@ pub struct Source {
 /// target's text (a retargeted edit starts again).
 pub(crate) type PrintKey = (PathBuf, String, u32, String);
 
-/// What each edit named when last valid (`grm_grow::shape::retarget`):
-/// the ordering values and place its retarget candidates are ranked by.
-/// Kept while the server runs.
-pub(crate) type Prints = HashMap<PrintKey, grm_grow::shape::retarget::PartPrint>;
+/// What each edit named when last valid (`grm_grow::retarget`): shape
+/// mode's ordering values and place, derive and sample mode's symbol,
+/// ancestry and place, which its retarget candidates are ranked by. Kept
+/// while the server runs.
+pub(crate) type Prints = HashMap<PrintKey, grm_grow::retarget::PartPrint>;
 
 /// An edits file as a preview read it.
 #[derive(Debug)]
@@ -182,9 +183,10 @@ pub struct EditOut {
     pub replayed: bool,
     /// The tree nodes its target names now (`grm/pick`'s `shape.node`).
     pub parts: Vec<u32>,
-    /// Targets it could be given instead, best first (shape mode, an
+    /// Targets it could be given instead, best first (shape mode: an
     /// edit that is structurally or semantically invalid or ambiguous;
-    /// docs/edits.md, "Retargeting"): the quick fixes on its diagnostic.
+    /// derive and sample mode: a key no module has; docs/edits.md,
+    /// "Retargeting"): the quick fixes on its diagnostic.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub retarget: Vec<RetargetOut>,
 }
@@ -197,10 +199,13 @@ pub struct RetargetOut {
     /// `{ "key": "..." }`.
     pub target: serde_json::Value,
     /// Why it is proposed: `ordering` (the same label and ordering
-    /// values), `symbol_and_tags`, `nearest` (of the same symbol),
-    /// `one_of_matched` (a part an ambiguous target matches).
+    /// values), `symbol_and_tags`, `ancestry` (derive and sample mode:
+    /// the same symbol and chain of producing symbols), `nearest` (of the
+    /// same symbol), `one_of_matched` (a part an ambiguous target
+    /// matches).
     pub reason: String,
-    /// The tree nodes it names.
+    /// The tree nodes it names (shape mode: the shape tree's; derive and
+    /// sample mode: the derivation tree's).
     pub parts: Vec<u32>,
 }
 
@@ -224,8 +229,8 @@ pub(crate) struct EditsRun {
     pub(crate) path: PathBuf,
     pub(crate) system: String,
     pub(crate) reports: Vec<(Edit, EditOut)>,
-    /// The prints of the parts valid edits named (shape mode).
-    pub(crate) prints: Vec<(PrintKey, grm_grow::shape::retarget::PartPrint)>,
+    /// The prints of the parts valid edits named.
+    pub(crate) prints: Vec<(PrintKey, grm_grow::retarget::PartPrint)>,
 }
 
 fn edit_out(
@@ -315,48 +320,114 @@ pub(crate) fn classify(
     (out, run)
 }
 
+/// What a derive- or sample-mode preview grew, for the edits' prints and
+/// retarget candidates: the derivation tree of the model shown, the
+/// compiled system's symbol names, and what the turtle drew.
+#[derive(Clone, Copy)]
+pub(crate) struct KeyTree<'a> {
+    pub(crate) tree: &'a grm_grow::Tree,
+    pub(crate) symbols: &'a [String],
+    pub(crate) drawn: &'a grm_geom::grm_turtle::Interpretation,
+}
+
 /// Classify the edits of the derive-mode system `sys` (and of systems the
 /// grammar lacks) from what a preview's derivation met replaying them
 /// (`grm_grow::edits::classify`). A report's `parts` is empty: derive mode
-/// names modules by key.
+/// names modules by key. With the preview's tree (`grown`), a valid key
+/// edit leaves its module's print and a key no module has gets retarget
+/// candidates ([`key_reports`]).
 pub(crate) fn classify_derive(
+    source: &Source,
     loaded: &Loaded,
     uri: Uri,
     prog: &grm_sema::Program,
-    sys: &grm_sema::System,
-    compiled: &grm_compile::CompiledSystem,
+    (sys, compiled): (&grm_sema::System, &grm_compile::CompiledSystem),
     outcome: &grm_derive::EditOutcome,
+    grown: Option<KeyTree<'_>>,
 ) -> (EditsOut, EditsRun) {
     let file = &loaded.parsed.file;
     let mine: Vec<&Edit> = file.of_system(&sys.name).collect();
-    let by_id: HashMap<u32, EditOut> =
-        grm_grow::edits::classify(sys, compiled, outcome, mine.iter().copied())
-            .into_iter()
-            .zip(&mine)
-            .map(|(r, e)| (r.id, edit_out(e, r.class, r.detail, r.replayed, Vec::new())))
-            .collect();
-    collect(loaded, uri, prog, &sys.name, by_id)
+    let reports = grm_grow::edits::classify(sys, compiled, outcome, mine.iter().copied());
+    key_reports(source, loaded, uri, prog, &sys.name, reports, grown)
 }
 
 /// Classify the edits of the sample-mode system `sys` (and of systems the
 /// grammar lacks) from the reports of a preview's sampled run
 /// (`grm_grow::sample::Sampled::edits`, in the order of the system's edits
 /// in the file). A report's `parts` is empty: sample mode names modules by
-/// key.
+/// key. Prints and candidates as [`classify_derive`]'s.
 pub(crate) fn classify_sampled(
+    source: &Source,
     loaded: &Loaded,
     uri: Uri,
     prog: &grm_sema::Program,
     sys: &grm_sema::System,
     reports: Vec<grm_grow::edits::EditReport>,
+    grown: Option<KeyTree<'_>>,
 ) -> (EditsOut, EditsRun) {
+    key_reports(source, loaded, uri, prog, &sys.name, reports, grown)
+}
+
+/// The reports of the derive- or sample-mode `system`'s edits (`reports`,
+/// in the file's order of its edits) as the preview lists them. With the
+/// tree grown (`grown`, docs/edits.md "Retargeting"): a valid edit whose
+/// key one module has leaves that module's print (symbol, ancestry,
+/// place), and a key target no module has (structurally invalid) gets up
+/// to [`CANDIDATES`] keys of modules of the print's symbol, the same
+/// ancestry first, then nearest (`grm_grow::retarget`), for the first
+/// [`PROPOSED`] such edits.
+fn key_reports(
+    source: &Source,
+    loaded: &Loaded,
+    uri: Uri,
+    prog: &grm_sema::Program,
+    system: &str,
+    reports: Vec<grm_grow::edits::EditReport>,
+    grown: Option<KeyTree<'_>>,
+) -> (EditsOut, EditsRun) {
+    use grm_grow::retarget;
     let file = &loaded.parsed.file;
-    let by_id: HashMap<u32, EditOut> = reports
-        .into_iter()
-        .zip(file.of_system(&sys.name))
-        .map(|(r, e)| (r.id, edit_out(e, r.class, r.detail, r.replayed, Vec::new())))
-        .collect();
-    collect(loaded, uri, prog, &sys.name, by_id)
+    let key = |e: &Edit| (loaded.path.clone(), e.system.clone(), e.id, e.target.text());
+    let mine: Vec<(grm_grow::edits::EditReport, &Edit)> =
+        reports.into_iter().zip(file.of_system(system)).collect();
+    // The tree's places, computed when an edit needs them.
+    let needed = mine.iter().any(|(r, e)| {
+        matches!(e.target, grm_edits::Target::Key(_))
+            && (r.class == EditClass::Valid || retarget::wants_key_candidates(e, r.class))
+    });
+    let parts = grown
+        .filter(|_| needed)
+        .map(|g| retarget::TreeParts::new(g.tree, g.symbols, g.drawn));
+    let mut prints = Vec::new();
+    let mut proposed = 0usize;
+    let mut by_id: HashMap<u32, EditOut> = HashMap::new();
+    for (r, e) in mine {
+        let mut out = edit_out(e, r.class, r.detail, r.replayed, Vec::new());
+        if let grm_edits::Target::Key(k) = e.target
+            && r.class == EditClass::Valid
+            && let Some(p) = parts.as_ref().and_then(|t| t.print_of_key(k))
+        {
+            prints.push((key(e), p));
+        } else if retarget::wants_key_candidates(e, r.class)
+            && proposed < PROPOSED
+            && let Some(print) = source.prints.get(&key(e))
+            && let Some(t) = &parts
+        {
+            proposed += 1;
+            out.retarget = retarget::candidates(t, e, print, CANDIDATES)
+                .into_iter()
+                .map(|c| RetargetOut {
+                    target: serde_json::json!({ c.target.kind(): c.target.text() }),
+                    reason: c.reason.as_str().to_owned(),
+                    parts: vec![c.node],
+                })
+                .collect();
+        }
+        by_id.insert(r.id, out);
+    }
+    let (out, mut run) = collect(loaded, uri, prog, system, by_id);
+    run.prints = prints;
+    (out, run)
 }
 
 /// The reports of `system`'s edits (`by_id`) and of the edits of systems

@@ -1216,17 +1216,31 @@ pub(crate) fn build_with_model(
         edits: outcome,
         sampled_edits,
     } = made;
-    // What became of each edit.
+    // What became of each edit (with the tree, the prints and retarget
+    // candidates of key edits).
+    let grown = tree.as_ref().map(|tree| crate::edits::KeyTree {
+        tree,
+        symbols: &compiled.symbol_names,
+        drawn: &model.skeleton,
+    });
     let (edits_out, edits_run) = match (&loaded, uris.uri_of(&grm_edits::edits_path(&sys_path))) {
         (Some(l), Some(edits_uri)) if mode == PreviewMode::Sample => {
             let reports = sampled_edits.unwrap_or_default();
-            let (o, r) = crate::edits::classify_sampled(l, edits_uri, prog, sys, reports);
+            let (o, r) =
+                crate::edits::classify_sampled(edits, l, edits_uri, prog, sys, reports, grown);
             (Some(o), Some(r))
         }
         (Some(l), Some(edits_uri)) => {
             let outcome = outcome.unwrap_or_default();
-            let (o, r) =
-                crate::edits::classify_derive(l, edits_uri, prog, sys, &compiled, &outcome);
+            let (o, r) = crate::edits::classify_derive(
+                edits,
+                l,
+                edits_uri,
+                prog,
+                (sys, &compiled),
+                &outcome,
+                grown,
+            );
             (Some(o), Some(r))
         }
         _ => (None, None),

@@ -29,59 +29,17 @@
 //! the largest, so columns are counted per floor and per facade, not
 //! across them. The walk follows the tree's structure, not world
 //! positions (as Lipp's does).
+//!
+//! The print, the reasons and the classes that get candidates are shared
+//! with derive and sample mode ([`crate::retarget`], re-exported here).
 
+use crate::retarget::distance;
+pub use crate::retarget::{PartPrint, Reason, wants_candidates};
 use crate::shape::Lowered;
 use grm_edits::locator::{Anchor, EdgeRef, ExactLocator, SemanticQuery};
-use grm_edits::{Edit, EditClass, Target};
+use grm_edits::{Edit, Target};
 use grm_shape::{Command, NodeId, NodeKind, ShapeTree, TagId};
 use std::collections::{HashMap, HashSet};
-
-/// What is known of the part an edit named.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct PartPrint {
-    /// Its label (the symbol), if known.
-    pub label: Option<String>,
-    /// Its ordering value per tag on its path, outermost first (a tag
-    /// once).
-    pub order: Vec<(String, u32)>,
-    /// Its scope's centre in world coordinates, if known.
-    pub centre: Option<[f32; 3]>,
-}
-
-/// Which tier proposed a candidate.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum Reason {
-    /// The same label and ordering values.
-    Ordering,
-    /// The same label and tags.
-    SymbolAndTags,
-    /// The same label, nearest by position.
-    Nearest,
-    /// One of the parts an ambiguous target matches.
-    OneOfMatched,
-}
-
-impl Reason {
-    /// `ordering`, `symbol_and_tags`, `nearest`, `one_of_matched`.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Reason::Ordering => "ordering",
-            Reason::SymbolAndTags => "symbol_and_tags",
-            Reason::Nearest => "nearest",
-            Reason::OneOfMatched => "one_of_matched",
-        }
-    }
-
-    /// In words, for a quick fix's title.
-    pub fn words(self) -> &'static str {
-        match self {
-            Reason::Ordering => "same ordering values",
-            Reason::SymbolAndTags => "same symbol and tags",
-            Reason::Nearest => "nearest of the same symbol",
-            Reason::OneOfMatched => "one of the parts it matches",
-        }
-    }
-}
 
 /// A target an edit could be given.
 #[derive(Clone, Debug, PartialEq)]
@@ -90,16 +48,6 @@ pub struct Candidate {
     pub reason: Reason,
     /// The parts the new target names in the tree.
     pub parts: Vec<NodeId>,
-}
-
-/// Whether an edit of this class gets candidates: every class that says
-/// its target does not name what it did (a stale edit's operation is at
-/// fault, which a part of the same symbol does not mend).
-pub fn wants_candidates(class: EditClass) -> bool {
-    matches!(
-        class,
-        EditClass::StructurallyInvalid | EditClass::SemanticallyInvalid | EditClass::Ambiguous
-    )
 }
 
 /// Ordering values of a tree, computed per tag when first asked.
@@ -156,6 +104,7 @@ impl<'t> Orderings<'t> {
         PartPrint {
             label: Some(self.tree.label(program, node)),
             order,
+            ancestry: None,
             centre: self.tree.node(node).map(|n| n.scope.center().to_array()),
         }
     }
@@ -181,11 +130,13 @@ pub fn print_of_target(lowered: &Lowered, tree: &ShapeTree, target: &Target) -> 
                 .filter(|(_, a, _)| *a == Anchor::Start)
                 .filter_map(|(t, _, n)| Some((t.clone(), u32::try_from(*n).ok()?)))
                 .collect(),
+            ancestry: None,
             centre: None,
         },
         Target::Exact(loc) => PartPrint {
             label: loc.labels.last().cloned(),
             order: Vec::new(),
+            ancestry: None,
             centre: deepest(lowered, tree, loc)
                 .and_then(|n| tree.node(n))
                 .map(|n| n.scope.center().to_array()),
@@ -301,16 +252,6 @@ fn walk(
         *value = most;
     }
     found
-}
-
-fn distance(a: Option<[f32; 3]>, b: Option<[f32; 3]>) -> f32 {
-    match (a, b) {
-        (Some(a), Some(b)) => {
-            let d = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-            (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
-        }
-        _ => 0.0,
-    }
 }
 
 /// Up to `max` targets `edit` could be given in `tree`, best first (the

@@ -1,0 +1,162 @@
+//! Retarget quick fixes in the derive-mode preview (docs/edits.md,
+//! "Retargeting"): a key edit whose module's key changed (an alternative
+//! inserted before the production that made it re-mints every key below)
+//! is proposed the keys of modules of the same symbol, the same ancestry
+//! first, nearest to where its part was drawn (the print the server kept
+//! while the edit was valid); the first is the same module, and the quick
+//! fix makes the edit valid again.
+
+mod common;
+
+use common::editor::Editor;
+use common::*;
+use serde_json::{Value, json};
+
+const PLANT: &str = "system Plant {
+    iterations = 3;
+    seed = 5;
+    module A(len: float);
+    axiom A(1);
+    A(l) -> F(l) [ +(30) A(l * 0.8) ] [ -(25) A(l * 0.7) ] A(l * 0.9);
+}
+";
+
+/// The plant with an alternative of next to no weight before A's
+/// production: the same model, every key below the axiom's A re-minted.
+fn reordered() -> String {
+    let t = PLANT.replace(
+        "    A(l) -> F(l)",
+        "    A(l) -> (1e-20) F(l);\n    A(l) -> (1) F(l)",
+    );
+    assert_ne!(t, PLANT);
+    t
+}
+
+/// The first pick (part, triangle) whose module lies four levels below
+/// the root, and the key of the module that wrote it (an A of string 2).
+async fn deep_pick(c: &mut Editor, u: &Value, r: &Value) -> (usize, Value, String) {
+    for (i, part) in r["parts"].as_array().expect("parts").iter().enumerate() {
+        for pk in picks(part) {
+            let got = c
+                .ok(
+                    "grm/pick",
+                    json!({ "textDocument": { "uri": u }, "part": i,
+                            "triangle": pk["firstTriangle"] }),
+                )
+                .await;
+            let a = got["ancestry"].as_array().expect("ancestry");
+            if a.len() == 5 {
+                let key = a[3]["key"].as_str().expect("key").to_owned();
+                assert_eq!(a[3]["symbol"], "A");
+                return (i, pk["firstTriangle"].clone(), key);
+            }
+        }
+    }
+    panic!("no module four levels down")
+}
+
+/// The key of the module that wrote the pick (`part`, `triangle`).
+async fn writer_key(c: &mut Editor, u: &Value, part: usize, triangle: &Value) -> String {
+    let got = c
+        .ok(
+            "grm/pick",
+            json!({ "textDocument": { "uri": u }, "part": part, "triangle": triangle }),
+        )
+        .await;
+    let a = got["ancestry"].as_array().expect("ancestry");
+    assert_eq!(a.len(), 5, "{got}");
+    a[3]["key"].as_str().expect("key").to_owned()
+}
+
+#[tokio::test]
+async fn a_key_lost_to_a_reordered_alternative_is_offered_the_same_module_first() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let root = grm_sema::normalize(&std::fs::canonicalize(dir.path()).expect("canonical"));
+    let p = root.join("plant.grm");
+    std::fs::write(&p, PLANT).expect("write");
+    let mut c = Editor::start().await;
+    let u = c.open(&p, PLANT, 1).await;
+    let uv = serde_json::to_value(&u).unwrap();
+    let base = c
+        .ok(
+            "grm/preview",
+            json!({ "textDocument": { "uri": u }, "live": true }),
+        )
+        .await;
+    let (part, triangle, key) = deep_pick(&mut c, &uv, &base).await;
+
+    // A small offset of the A's length: valid, replayed, its print kept.
+    let ep = grm_edits::edits_path(&p);
+    let one = serde_json::to_string_pretty(&json!({ "version": 1, "edits": [
+        { "id": 1, "system": "Plant", "target": { "key": key }, "op": "offset", "name": "len", "by": 0.001 }
+    ] }))
+    .unwrap();
+    let eu = c.open(&ep, &one, 1).await;
+    let r = c
+        .updated(|r| r["edits"]["list"][0]["class"] == "valid")
+        .await;
+    assert_eq!(r["edits"]["list"][0]["replayed"], true);
+    assert!(r["edits"]["list"][0].get("retarget").is_none(), "{r}");
+
+    // The alternative inserted: the key is gone, the model the same.
+    let text = reordered();
+    c.replace(&u, 2, &text).await;
+    let r = c
+        .updated(|r| r["edits"]["list"][0]["class"] == "structurally_invalid")
+        .await;
+    assert_eq!(triangles(&r), triangles(&base), "the same model");
+    let want = writer_key(&mut c, &uv, part, &triangle).await;
+    assert_ne!(want, key, "re-minted");
+    let cands = r["edits"]["list"][0]["retarget"]
+        .as_array()
+        .expect("candidates");
+    assert_eq!(cands.len(), 4, "{cands:?}");
+    assert_eq!(cands[0]["target"], json!({ "key": want }), "{cands:?}");
+    assert_eq!(cands[0]["reason"], "ancestry");
+    assert_eq!(cands[0]["parts"].as_array().map(Vec::len), Some(1));
+
+    // The diagnostic carries them; the first quick fix retargets the edit.
+    let ev = serde_json::to_value(&eu).unwrap();
+    let d = c
+        .diagnostics(&eu, |d| {
+            d.len() == 1 && d[0]["code"] == "edit.structurally_invalid"
+        })
+        .await;
+    assert!(
+        d[0]["message"]
+            .as_str()
+            .unwrap()
+            .contains("retarget it to one of 4 parts"),
+        "{}",
+        d[0]
+    );
+    let a = c
+        .ok(
+            "textDocument/codeAction",
+            json!({ "textDocument": { "uri": ev }, "range": d[0]["range"],
+                    "context": { "diagnostics": [d[0].clone()] } }),
+        )
+        .await;
+    let a = a.as_array().expect("actions");
+    assert_eq!(a.len(), 5, "{a:?}");
+    assert_eq!(
+        a[0]["title"],
+        format!("Retarget edit 1 to {want} (same symbol and ancestry)")
+    );
+    assert_eq!(a[4]["title"], "Delete edit 1");
+    let fixed = apply(
+        &one,
+        a[0]["edit"]["changes"][ev.as_str().unwrap()]
+            .as_array()
+            .expect("the edits file's change"),
+    );
+    let parsed = grm_edits::parse(&fixed);
+    assert!(parsed.errors.is_empty(), "{fixed}");
+    assert_eq!(parsed.file.edits[0].target.text(), want);
+    c.replace(&eu, 2, &fixed).await;
+    let r = c
+        .updated(|r| r["edits"]["list"][0]["class"] == "valid")
+        .await;
+    assert_eq!(r["edits"]["list"][0]["replayed"], true);
+    c.diagnostics(&eu, <[Value]>::is_empty).await;
+}
