@@ -69,6 +69,11 @@ fn a_tag_renames_in_its_system_only() {
     let e = a.rename(p, cmd, "facade").unwrap_err();
     assert!(e.0.contains("already has a tag `facade`"), "{e}");
     let in_b = at(TWO, "floor) {", 1) + 2;
-    assert_eq!(a.rename(p, in_b, "facade").expect("free in B")[0].edits.len(), 1);
+    assert_eq!(
+        a.rename(p, in_b, "facade").expect("free in B")[0]
+            .edits
+            .len(),
+        1
+    );
     assert!(a.rename(p, in_b, "system").is_err(), "a reserved word");
 }

@@ -50,13 +50,9 @@ fn run(src: &str) -> Run {
     .expect("grower")
     .derive(&options(4, 3), &mut |_| {})
     .expect("grows");
-    let interp = grm_turtle::interpret(system(&checked), &c.settings, &grown.string)
-        .expect("interprets");
-    Run {
-        c,
-        grown,
-        interp,
-    }
+    let interp =
+        grm_turtle::interpret(system(&checked), &c.settings, &grown.string).expect("interprets");
+    Run { c, grown, interp }
 }
 
 fn key_edit(key: u32) -> Edit {

@@ -426,8 +426,8 @@ fn bake_action(
 
 /// `Retarget edit 3 to (floor = 3) Window (same symbol and tags; 6 parts)`.
 fn retarget_title(id: u32, target: &Target, c: &RetargetOut) -> String {
-    let why = grm_grow::retarget::Reason::from_name(&c.reason)
-        .map_or(c.reason.as_str(), |r| r.words());
+    let why =
+        grm_grow::retarget::Reason::from_name(&c.reason).map_or(c.reason.as_str(), |r| r.words());
     let parts = if c.parts.len() == 1 {
         String::new()
     } else {

@@ -77,7 +77,9 @@ async fn a_tag_rename_renames_the_queries_that_name_it_and_they_stay_valid() {
     assert!(renamed_grammar.contains("tagged(storey)"));
     assert!(renamed_grammar.contains("index(storey) <= count(storey)"));
     assert!(renamed_grammar.contains("param floors"), "not a tag");
-    let e = changes[key(&eu)].as_array().expect("the edits file's changes");
+    let e = changes[key(&eu)]
+        .as_array()
+        .expect("the edits file's changes");
     let renamed_edits = apply(&edits, e);
     let parsed = grm_edits::parse(&renamed_edits);
     assert!(parsed.errors.is_empty(), "{renamed_edits}");

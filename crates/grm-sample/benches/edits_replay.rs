@@ -42,8 +42,7 @@ use std::time::Instant;
 use grm_compile::CompiledSystem;
 use grm_guide::Curves;
 use grm_sample::{
-    EditPlan, ExpectedOptions, NodeKind, Objective, SampleOptions, SampleResult, Sampler,
-    Schedule,
+    EditPlan, ExpectedOptions, NodeKind, Objective, SampleOptions, SampleResult, Sampler, Schedule,
     edits::{EditAction, SlotTarget, ValueOp},
 };
 use grm_testkit::Rng;
