@@ -183,8 +183,8 @@ impl<'t> TreeParts<'t> {
                 continue;
             };
             if let Some(s) = sum.get_mut(node as usize) {
-                for k in 0..3 {
-                    s.0[k] += f64::from(p[k]);
+                for (acc, v) in s.0.iter_mut().zip(p) {
+                    *acc += f64::from(v);
                 }
                 s.1 += 1;
             }
@@ -194,8 +194,8 @@ impl<'t> TreeParts<'t> {
             if let Some(p) = tree.nodes[i].parent.filter(|&p| (p as usize) < i) {
                 let (c, k) = sum[i];
                 let s = &mut sum[p as usize];
-                for j in 0..3 {
-                    s.0[j] += c[j];
+                for (acc, v) in s.0.iter_mut().zip(c) {
+                    *acc += v;
                 }
                 s.1 += k;
             }
