@@ -320,6 +320,16 @@ type HalfEdge = (Id, bool);
 /// the new graph passes a dirty node: it is traced again from there and
 /// its ring rotated to start at its smallest half-edge, where [`blocks`]
 /// starts it. Holes are assigned again over all faces, as [`blocks`] does.
+///
+/// A rigid move (a dragged layer) changes every street of the moved part
+/// but none of its faces' walks: a face whose every node keeps its
+/// half-edges in the same order (the same streets leaving in the same
+/// cyclic order, whatever their angles now) is the same walk as before,
+/// so it is not traced again but re-placed: its ring and area are read
+/// again from the new polylines along the kept walk (the bits [`blocks`]
+/// reads), its identity, streets and nodes kept. Only the faces through a
+/// node whose order changed (a street added, gone, or turned past
+/// another) are traced again.
 #[derive(Debug, Clone, Default)]
 pub struct Faces {
     /// Street -> its end nodes and polyline (streets [`blocks`] walks).
@@ -334,6 +344,8 @@ pub struct Faces {
     edge_face: BTreeMap<(Id, bool), (Id, bool)>,
     /// Faces traced again by the last update (for tests and reports).
     pub retraced: usize,
+    /// Faces the last update re-placed (the same walk, new coordinates).
+    pub replaced: usize,
 }
 
 fn same_poly(layout: &Layout, s: &crate::model::Street, old: &(Id, Id, Vec<Coord>)) -> bool {
@@ -381,16 +393,14 @@ impl Faces {
                 dirty.extend([new.0, new.1]);
             }
         }
-        // Faces through a dirty node are gone (every face leaves each of
-        // its nodes by one of its half-edges).
+        // Faces through a dirty node may change (every face leaves each of
+        // its nodes by one of its half-edges): each is kept as a walk or
+        // traced again once the dirty nodes' orders are known.
+        let mut touched: BTreeSet<HalfEdge> = BTreeSet::new();
         for n in &dirty {
             for &(_, s, fwd) in self.out.get(n).map(Vec::as_slice).unwrap_or(&[]) {
-                if let Some(key) = self.edge_face.get(&(s, fwd)).copied()
-                    && let Some((edges, _)) = self.faces.remove(&key)
-                {
-                    for e in edges {
-                        self.edge_face.remove(&e);
-                    }
+                if let Some(key) = self.edge_face.get(&(s, fwd)).copied() {
+                    touched.insert(key);
                 }
             }
         }
@@ -421,25 +431,69 @@ impl Faces {
                 false,
             ));
         }
+        // Dirty nodes whose half-edges now leave in another order (or are
+        // other half-edges): the faces through them are traced again.
+        let mut reordered: BTreeSet<Id> = BTreeSet::new();
         for n in &dirty {
             let old = self.out.remove(n).unwrap_or_default();
             for &(_, s, fwd) in &old {
                 self.slot.remove(&(s, fwd));
             }
+            let before: Vec<HalfEdge> = old.iter().map(|&(_, s, f)| (s, f)).collect();
             let mut v: Vec<(f64, Id, bool)> = old
                 .into_iter()
                 .filter(|(_, s, _)| !changed.contains_key(s))
                 .collect();
             v.extend(leaving.remove(n).unwrap_or_default());
+            v.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
+            // The same half-edges in the same cyclic order (a turn may
+            // carry one across the angles' cut: the list is then rotated,
+            // and each half-edge's clockwise neighbour is the same).
+            let k = v.iter().position(|x| before.first() == Some(&(x.1, x.2)));
+            let same = v.len() == before.len()
+                && k.is_some_and(|k| {
+                    (0..v.len()).all(|i| {
+                        let x = &v[(k + i) % v.len()];
+                        (x.1, x.2) == before[i]
+                    })
+                });
+            if !same {
+                reordered.insert(*n);
+            }
             if v.is_empty() {
                 continue;
             }
-            v.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
             for (i, &(_, s, fwd)) in v.iter().enumerate() {
                 self.slot.insert((s, fwd), (*n, i));
             }
             self.out.insert(*n, v);
         }
+        // A touched face whose walk turns at no reordered node (and whose
+        // half-edges are all still there) is the same walk: re-placed.
+        // The others are gone, and traced again below.
+        let mut replaced = 0;
+        for key in touched {
+            let Some((seq, old)) = self.faces.remove(&key) else {
+                continue;
+            };
+            let intact = seq.iter().all(|&(s, fwd)| {
+                self.slot.contains_key(&(s, fwd))
+                    && self
+                        .slot
+                        .get(&(s, !fwd))
+                        .is_some_and(|(to, _)| !reordered.contains(to))
+            });
+            if intact {
+                let face = self.replace(&seq, old);
+                replaced += 1;
+                self.faces.insert(key, (seq, face));
+            } else {
+                for e in seq {
+                    self.edge_face.remove(&e);
+                }
+            }
+        }
+        self.replaced = replaced;
         // Trace the faces through dirty nodes again.
         let mut retraced = 0;
         for n in &dirty {
@@ -486,6 +540,37 @@ impl Faces {
         let k = (0..seq.len()).min_by_key(|&i| seq[i])?;
         seq.rotate_left(k);
         Some(seq)
+    }
+
+    /// The ring along a face's half-edges, as [`blocks`] builds it.
+    fn ring(&self, seq: &[HalfEdge]) -> Vec<Coord> {
+        let mut ring = Vec::new();
+        for &(s, fwd) in seq {
+            let (_, _, pl) = &self.polys[&s];
+            if fwd {
+                ring.extend_from_slice(&pl[..pl.len() - 1]);
+            } else {
+                ring.extend(pl[1..].iter().rev());
+            }
+        }
+        ring
+    }
+
+    /// A face whose walk is the same as before, at its new coordinates
+    /// (equal to [`Faces::face`] of the walk: the streets and nodes of a
+    /// walk are the walk's, only the ring and the area are read again; a
+    /// face whose area changed sign is built again).
+    fn replace(&self, seq: &[HalfEdge], old: Face) -> Face {
+        let mut ring = self.ring(seq);
+        let area = signed_area(&ring);
+        match old {
+            Face::Bounded(b) if area > 1e-9 => Face::Bounded(Block { ring, area, ..b }),
+            Face::Outline { node, nodes, .. } if area <= 1e-9 => {
+                ring.reverse();
+                Face::Outline { ring, node, nodes }
+            }
+            _ => self.face(seq),
+        }
     }
 
     /// A face from its half-edges, as [`blocks`] builds it.

@@ -15,7 +15,7 @@ use crate::generate::{self, GridParams, RadialParams};
 use crate::geojson_io::{self, LoadError};
 use crate::geom::{Affine, quantize};
 use crate::id::Id;
-use crate::merge::{MergeMode, MergeParams, MergeReport, merge_cached};
+use crate::merge::{MergeMode, MergeParams, MergeReport, merge_step};
 use crate::model::{Layout, PROTECTED, TagValue};
 use crate::select::Selection;
 use crate::stack_cache;
@@ -418,6 +418,9 @@ pub fn merge_layers_cached(
     // the top comes from the cache (a step that misses merges, and is kept
     // for the next call).
     let mut key = stack_cache::top_key(&acc.0);
+    // The blocks of `acc` when the last step merged it here (the result's
+    // blocks are the next merge's upper blocks: not computed twice).
+    let mut acc_blocks: Option<Vec<crate::blocks::Block>> = None;
     for &i in rest.iter().rev() {
         let params = MergeParams {
             parcels: *parcels,
@@ -426,11 +429,15 @@ pub fn merge_layers_cached(
         };
         let mode = specs[above].merge;
         key = stack_cache::step_key(key, &layouts[i], mode, &params);
+        let mut blocks = None;
         let step = match cache.stack.get(key) {
             Some(step) => step,
             None => {
-                let step = merge_cached(&layouts[i], &acc.0, mode, &params, cache)
-                    .map(std::sync::Arc::new)
+                let step = merge_step(&layouts[i], &acc.0, acc_blocks.take(), mode, &params, cache)
+                    .map(|(l, r, b)| {
+                        blocks = Some(b);
+                        std::sync::Arc::new((l, r))
+                    })
                     .map_err(|e| e.to_string());
                 cache.stack.insert(key, step.clone());
                 step
@@ -440,6 +447,7 @@ pub fn merge_layers_cached(
             Ok(m) => {
                 reports.push(m.1.clone());
                 acc = m;
+                acc_blocks = blocks;
             }
             Err(message) => issues.push(LayerIssue::Merge {
                 layer: specs[i].name.clone(),
@@ -457,6 +465,10 @@ pub fn merge_layers_cached(
 /// layer's assignments, the top layer's first (a value already set stays),
 /// each assignment at the place its anchor has in its own layer.
 fn assign_regrown(specs: &[LayerSpec], layouts: &[Layout], visible: &[usize], acc: &mut Layout) {
+    // No assignment: nothing to set (and no pass over the city's parcels).
+    if visible.iter().all(|&i| specs[i].assignments.is_empty()) {
+        return;
+    }
     let known: BTreeSet<Id> = visible
         .iter()
         .flat_map(|&i| layouts[i].parcels.keys().copied())

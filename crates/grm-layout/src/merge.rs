@@ -202,6 +202,20 @@ pub fn merge_cached(
     params: &MergeParams,
     cache: &MergeCache,
 ) -> Result<(Layout, MergeReport), MergeError> {
+    merge_step(lower, upper, None, mode, params, cache).map(|(l, r, _)| (l, r))
+}
+
+/// [`merge_cached`] given the upper side's blocks when the caller has them
+/// (equal to [`crate::blocks::blocks`]`(upper)`: a stack's next merge has
+/// the blocks of the result of the last), returning the result's blocks.
+pub(crate) fn merge_step(
+    lower: &Layout,
+    upper: &Layout,
+    upper_blocks: Option<Vec<Block>>,
+    mode: MergeMode,
+    params: &MergeParams,
+    cache: &MergeCache,
+) -> Result<(Layout, MergeReport, Vec<Block>), MergeError> {
     // The upper side and the result change where a dragged layer moved:
     // the faces, the indexes and the clash checks are kept per merge (a
     // slot named by the lower layout) and redone where they changed.
@@ -221,7 +235,10 @@ pub fn merge_cached(
     };
     let mut sh = crate::shared::shared(lower, upper);
     let blocks_a = cache.blocks(lower);
-    let blocks_b = cache.blocks_in(slot("upper"), upper);
+    let blocks_b = match upper_blocks {
+        Some(b) => b,
+        None => cache.blocks_in(slot("upper"), upper),
+    };
     let mut boxes_b = cache
         .boxes
         .borrow_mut()
@@ -319,7 +336,7 @@ pub fn merge_cached(
             Some(&seam),
         )));
     }
-    parcels(
+    let result_blocks = parcels(
         &mut out,
         lower,
         upper,
@@ -350,7 +367,7 @@ pub fn merge_cached(
     if !v.is_empty() {
         return Err(MergeError::Invalid(v));
     }
-    Ok((out, report))
+    Ok((out, report, result_blocks))
 }
 
 /// The upper layout's free parcels (owned by none of its blocks) stand
@@ -741,7 +758,7 @@ fn parcels(
     changes: &[index::SegChange],
     orig_side: &BTreeMap<Id, (Side, Id)>,
     slot: Id,
-) {
+) -> Vec<Block> {
     let result_blocks = cache.blocks_in(slot, out);
     let rings_a: BTreeMap<Id, &Block> = blocks_a.iter().map(|b| (b.id, b)).collect();
     let rings_b: BTreeMap<Id, &Block> = blocks_b.iter().map(|b| (b.id, b)).collect();
@@ -877,19 +894,27 @@ fn parcels(
     let dirty: RTree<Boxed> = RTree::bulk_load(
         changes
             .iter()
-            .flat_map(|c| [&c.old, &c.new])
-            .flatten()
-            .map(|(pl, _, width)| {
+            .flat_map(|c| [(c.id, &c.old), (c.id, &c.new)])
+            .filter_map(|(id, x)| x.as_ref().map(|x| (id, x)))
+            .map(|(id, (pl, _, width))| {
                 let (min, max) = bounds(pl);
                 let r = width.abs() * 0.5;
                 Boxed {
-                    id: Id(0),
+                    id,
                     min: [min[0] - r, min[1] - r],
                     max: [max[0] + r, max[1] + r],
                 }
             })
             .collect(),
     );
+    // The changed streets as they are now: a parcel that was clear of
+    // every street and is the same ring of the same class is clear now
+    // unless one of these hits it (an unchanged street is the same
+    // polyline, width and side: the same answer as last time).
+    let changed_now: std::collections::HashMap<Id, &[Coord]> = changes
+        .iter()
+        .filter_map(|c| c.new.as_ref().map(|n| (c.id, n.0.as_slice())))
+        .collect();
     let mut verdicts: std::collections::HashMap<Id, (Id, u8, bool)> =
         std::collections::HashMap::with_capacity(out.parcels.len());
     let mut on_street: Vec<Id> = Vec::new();
@@ -903,31 +928,38 @@ fn parcels(
         };
         let ring = crate::stack_cache::ring_key(&p.ring);
         let (min, max) = bounds(&p.ring);
-        let kept = memo.verdicts.get(&p.id).filter(|v| {
-            v.0 == ring
-                && v.1 == class
-                && dirty
-                    .locate_in_envelope_intersecting(&index::grown(min, max, 0.0))
-                    .next()
-                    .is_none()
-        });
-        let hit = match kept {
-            Some(v) => v.2,
-            None => {
-                let side = match class {
-                    0 => None,
-                    1 => Some(Side::B),
-                    _ => Some(Side::A),
-                };
+        let same = memo
+            .verdicts
+            .get(&p.id)
+            .filter(|v| v.0 == ring && v.1 == class);
+        let side = match class {
+            0 => None,
+            1 => Some(Side::B),
+            _ => Some(Side::A),
+        };
+        let keep = |id: Id| side.is_none() || side_of(id) == side;
+        let near = |env: &rstar::AABB<[f64; 2]>| dirty.locate_in_envelope_intersecting(env);
+        let env = index::grown(min, max, 0.0);
+        let hit = match same {
+            Some(v) if near(&env).next().is_none() => v.2,
+            // Clear last time: only a changed street near it can hit it
+            // now (the check [`crate::validity::parcel_street_hit_where`]
+            // makes, street by street).
+            Some(v) if !v.2 => {
+                let mut ids: Vec<Id> = near(&env).map(|b| b.id).collect();
+                ids.sort_unstable();
+                ids.dedup();
+                ids.into_iter().any(|id| {
+                    keep(id)
+                        && changed_now.get(&id).is_some_and(|pl| {
+                            crate::validity::street_hits_ring(out, id, pl, &p.ring, min, max)
+                        })
+                })
+            }
+            _ => {
                 !cache.ring_ok_key(ring, &p.ring)
-                    || crate::validity::parcel_street_hit_where(
-                        out,
-                        segs,
-                        &p.ring,
-                        max_half,
-                        |id| side.is_none() || side_of(id) == side,
-                    )
-                    .is_some()
+                    || crate::validity::parcel_street_hit_where(out, segs, &p.ring, max_half, keep)
+                        .is_some()
             }
         };
         verdicts.insert(p.id, (ring, class, hit));
@@ -982,4 +1014,5 @@ fn parcels(
     for id in drop {
         out.parcels.remove(&id);
     }
+    result_blocks
 }

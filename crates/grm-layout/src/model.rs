@@ -246,9 +246,10 @@ impl Layout {
 
     /// Removes nodes no street uses.
     pub fn drop_isolated_nodes(&mut self) {
-        let used: std::collections::BTreeSet<Id> =
-            self.streets.values().flat_map(|s| [s.a, s.b]).collect();
-        self.nodes.retain(|id, _| used.contains(id));
+        let mut used: Vec<Id> = self.streets.values().flat_map(|s| [s.a, s.b]).collect();
+        used.sort_unstable();
+        used.dedup();
+        self.nodes.retain(|id, _| used.binary_search(id).is_ok());
     }
 
     /// The kind of element an identity names in this layout.

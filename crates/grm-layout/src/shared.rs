@@ -187,8 +187,9 @@ pub fn shared(a: &Layout, b: &Layout) -> Shared {
     for (side, s) in &streets {
         sh.originals.insert((*side, s.id), s.clone());
     }
-    // Polylines and an index over the upper streets' segments.
-    let poly = poly_of;
+    // Each street's polyline (read once: the nodes added below are new
+    // places, the streets' ends keep theirs).
+    let polys: Vec<Option<Vec<Coord>>> = streets.iter().map(|(_, s)| poly_of(&base, s)).collect();
     // The upper streets by identity, and their segments' index.
     let upper: BTreeMap<Id, &Street> = streets
         .iter()
@@ -197,8 +198,11 @@ pub fn shared(a: &Layout, b: &Layout) -> Shared {
         .collect();
     let useg = {
         let mut v = Vec::new();
-        for s in upper.values() {
-            if let Some(pl) = poly(&base, s) {
+        for ((side, s), pl) in streets.iter().zip(&polys) {
+            if *side != Side::B {
+                continue;
+            }
+            if let Some(pl) = pl {
                 for (k, w) in pl.windows(2).enumerate() {
                     v.push(index::Seg {
                         street: s.id,
@@ -215,12 +219,12 @@ pub fn shared(a: &Layout, b: &Layout) -> Shared {
     let mut cuts: BTreeMap<(Side, Id), Vec<Cut>> = BTreeMap::new();
     let mut drop_a: BTreeSet<Id> = BTreeSet::new();
     let mut new_nodes: BTreeMap<Id, Coord> = BTreeMap::new();
-    for (side, s) in &streets {
+    for ((side, s), pl) in streets.iter().zip(&polys) {
         if *side != Side::A {
             continue;
         }
-        let Some(pl) = poly(&base, s) else { continue };
-        let rec = meetings(s, &pl, &useg, &upper, &base);
+        let Some(pl) = pl else { continue };
+        let rec = meetings(s, pl, &useg, &upper, &base);
         for ev in &rec.events {
             if !base.nodes.contains_key(&ev.node) {
                 new_nodes.insert(ev.node, ev.p);
@@ -252,16 +256,16 @@ pub fn shared(a: &Layout, b: &Layout) -> Shared {
         nodes: std::mem::take(&mut base.nodes),
         ..Layout::default()
     };
-    for (side, s) in &streets {
+    for ((side, s), pl) in streets.iter().zip(&polys) {
         if *side == Side::A && drop_a.contains(&s.id) {
             continue;
         }
-        let Some(pl) = poly(&out, s) else { continue };
+        let Some(pl) = pl else { continue };
         let mut c = cuts.remove(&(*side, s.id)).unwrap_or_default();
         c.sort_by(|x, y| x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)));
         c.dedup_by(|x, y| x.2 == y.2);
         sh.splits.extend(c.iter().map(|x| x.2));
-        let pieces = split_street(s, &pl, &c, &out.nodes);
+        let pieces = split_street(s, pl, &c, &out.nodes);
         let mut ids = Vec::new();
         for p in pieces {
             sh.origin.insert(p.id, (*side, s.id));

@@ -261,23 +261,54 @@ pub fn parcel_street_hit_where(
         if !keep(sg.street) {
             continue;
         }
-        let Some(st) = layout.streets.get(&sg.street) else {
-            continue;
-        };
-        let half = st.width * 0.5 - STREET_TOLERANCE;
-        let (smin, smax) = bounds(&[sg.a, sg.b]);
-        if smin[0] - half > max[0]
-            || smax[0] + half < min[0]
-            || smin[1] - half > max[1]
-            || smax[1] + half < min[1]
-        {
-            continue;
-        }
-        if segment_ring_dist(sg.a, sg.b, ring) < half {
+        if segment_hits_ring(layout, sg.street, sg.a, sg.b, ring, min, max) {
             hits.push(sg.street);
         }
     }
     hits.into_iter().min()
+}
+
+/// Whether a segment of a street comes within the street's half width
+/// (less the tolerance) of a ring whose bounds are `min`, `max`: the test
+/// [`parcel_street_hit_where`] makes of each segment near the ring.
+fn segment_hits_ring(
+    layout: &Layout,
+    street: Id,
+    a: Coord,
+    b: Coord,
+    ring: &[Coord],
+    min: [f64; 2],
+    max: [f64; 2],
+) -> bool {
+    let Some(st) = layout.streets.get(&street) else {
+        return false;
+    };
+    let half = st.width * 0.5 - STREET_TOLERANCE;
+    let (smin, smax) = bounds(&[a, b]);
+    if smin[0] - half > max[0]
+        || smax[0] + half < min[0]
+        || smin[1] - half > max[1]
+        || smax[1] + half < min[1]
+    {
+        return false;
+    }
+    segment_ring_dist(a, b, ring) < half
+}
+
+/// Whether a street (its polyline `pl`) comes within its half width of a
+/// ring (bounds `min`, `max`): [`parcel_street_hit_where`]'s test over the
+/// street's segments (its segments far from the ring, which an index
+/// would not return, fail the test too).
+pub fn street_hits_ring(
+    layout: &Layout,
+    street: Id,
+    pl: &[Coord],
+    ring: &[Coord],
+    min: [f64; 2],
+    max: [f64; 2],
+) -> bool {
+    pl.windows(2)
+        .any(|w| segment_hits_ring(layout, street, w[0], w[1], ring, min, max))
 }
 
 /// Whether segments p-q and r-s cross with each end more than `eps` off

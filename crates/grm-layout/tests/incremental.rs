@@ -212,3 +212,121 @@ fn the_incremental_merge_equals_the_merge_from_scratch_over_random_drags() {
         assert!(first.is_some());
     }
 }
+
+/// The dragged layer placed rigidly from its source pose: turned `deg`
+/// about its middle, then moved by `t` (a layer's `Place`).
+fn placed(l: &Layout, t: Coord, deg: f64) -> Layout {
+    let mut l = l.clone();
+    let p = grm_layout::layers::Place {
+        translate: t,
+        rotate_deg: deg,
+        about: Coord { x: 190.0, y: 140.0 },
+    };
+    place(&mut l, &p.affine());
+    l
+}
+
+/// A drag as an editor makes it: small steps along a path and back, now
+/// and then turning the layer, each step placed from the source pose.
+fn rigid_path(rng: &mut Rng, steps: usize) -> Vec<(Coord, f64)> {
+    let mut out = vec![(Coord { x: 0.0, y: 0.0 }, 0.0)];
+    let (mut t, mut deg) = (Coord { x: 0.0, y: 0.0 }, 0.0);
+    for _ in 0..steps {
+        t = Coord {
+            x: t.x + rng.range(-2.0, 5.0),
+            y: t.y + rng.range(-2.0, 4.0),
+        };
+        if rng.below(3usize) == 0 {
+            deg += rng.range(-4.0, 4.0);
+        }
+        out.push((t, deg));
+    }
+    // Back the same way (circular editing: the first result comes back).
+    let back: Vec<(Coord, f64)> = out.iter().rev().skip(1).copied().collect();
+    out.extend(back);
+    out
+}
+
+#[test]
+fn faces_moved_rigidly_are_replaced_and_equal_the_blocks_from_scratch() {
+    // A dragged grid with faces away from its edge: inside the merged
+    // layout too they touch no seam.
+    let b = filled(
+        grid(&GridParams {
+            nx: 4,
+            ny: 4,
+            spacing: Coord { x: 30.0, y: 28.0 },
+            origin: Coord { x: 140.0, y: 90.0 },
+            rotation_deg: 17.0,
+            seed: 78,
+            major_every: 1,
+            ..GridParams::default()
+        })
+        .unwrap(),
+        2,
+    );
+    let a = base();
+    let mut rng = Rng::seeded(0x0072_6967_6964);
+    let mut upper = Faces::default();
+    let mut result = Faces::default();
+    let (mut replaced, mut retraced) = (0, 0);
+    let mut replaced_result = 0;
+    for (step, (t, deg)) in rigid_path(&mut rng, 20).into_iter().enumerate() {
+        let u = placed(&b, t, deg);
+        assert_eq!(upper.update(&u), blocks(&u), "step {step}: the upper side");
+        if step > 0 {
+            replaced += upper.replaced;
+            retraced += upper.retraced;
+        }
+        let (m, _) = merge(&a, &u, MergeMode::Hard, &MergeParams::default()).unwrap();
+        assert_eq!(
+            result.update(&m),
+            blocks(&m),
+            "step {step}: merged at {t:?}, {deg} degrees"
+        );
+        replaced_result += result.replaced;
+    }
+    // The moved layer's own faces kept their walks: re-placed, not traced
+    // (a face is traced again only where a node's order changed).
+    assert!(replaced > 0 && replaced_result > 0, "{replaced} {replaced_result}");
+    assert!(replaced > retraced, "re-placed {replaced}, traced {retraced}");
+}
+
+#[test]
+fn rigid_drags_merge_as_from_scratch_and_come_back() {
+    let (mut specs, layouts) = stack();
+    let pp = ParcelParams::default();
+    for mode in [MergeMode::Hard, MergeMode::GraphCut] {
+        for s in &mut specs {
+            s.merge = mode;
+        }
+        let cache = MergeCache::default();
+        let mut rng = Rng::seeded(0x0064_7261_6732);
+        let mut first: Option<String> = None;
+        let path = rigid_path(&mut rng, 12);
+        let last = path.len() - 1;
+        for (step, (t, deg)) in path.into_iter().enumerate() {
+            let mut ls = layouts.clone();
+            ls[2] = placed(&layouts[2], t, deg);
+            let (mut i1, mut i2) = (Vec::new(), Vec::new());
+            let (m1, r1) = merge_layers(&specs, &ls, &pp, &mut i1);
+            let (m2, r2) = merge_layers_cached(&specs, &ls, &pp, &mut i2, &cache);
+            let (g1, g2) = (write(&m1, None), write(&m2, None));
+            assert!(
+                g1 == g2,
+                "{mode:?} step {step} at {t:?}, {deg} degrees: the GeoJSON differs"
+            );
+            assert_eq!(format!("{m1:?}"), format!("{m2:?}"), "{mode:?} step {step}");
+            assert_eq!(r1, r2, "{mode:?} step {step}");
+            assert_eq!(i1, i2, "{mode:?} step {step}");
+            match &first {
+                None => first = Some(g2),
+                Some(f) if step == last => assert!(
+                    *f == g2,
+                    "{mode:?}: back at the start, not the same city"
+                ),
+                Some(_) => {}
+            }
+        }
+    }
+}
