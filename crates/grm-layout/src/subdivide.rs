@@ -154,11 +154,10 @@ pub fn parcel_area(
         for p in &pl {
             let ring: Vec<Coord> = (0..=8)
                 .map(|k| {
-                    let a =
-                        std::f64::consts::TAU * f64::from(k % 8) / 8.0 + std::f64::consts::PI / 8.0;
+                    let (cos, sin) = OCTAGON[k % 8];
                     Coord {
-                        x: p.x + r * a.cos(),
-                        y: p.y + r * a.sin(),
+                        x: p.x + r * cos,
+                        y: p.y + r * sin,
                     }
                 })
                 .collect();
@@ -174,6 +173,15 @@ pub fn parcel_area(
     }
     region
 }
+
+/// The corners of a corridor's octagon around a point: the cosine and
+/// sine of `TAU * k / 8 + PI / 8` (computed once; the same bits).
+static OCTAGON: std::sync::LazyLock<[(f64, f64); 8]> = std::sync::LazyLock::new(|| {
+    std::array::from_fn(|k| {
+        let a = std::f64::consts::TAU * f64::from(k as u8) / 8.0 + std::f64::consts::PI / 8.0;
+        (a.cos(), a.sin())
+    })
+});
 
 /// Parcels and blocks computed before, for a run of merges that repeat
 /// work (dragging a layer: most regrown blocks and most layers' blocks are
