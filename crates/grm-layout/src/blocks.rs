@@ -434,11 +434,12 @@ impl Faces {
         // Dirty nodes whose half-edges now leave in another order (or are
         // other half-edges): the faces through them are traced again.
         let mut reordered: BTreeSet<Id> = BTreeSet::new();
+        // Every dirty node's list first, then the places of the half-edges
+        // that moved (a half-edge may leave another node now: all old
+        // places go before any new one is written).
+        let mut placed: Vec<Id> = Vec::new();
         for n in &dirty {
             let old = self.out.remove(n).unwrap_or_default();
-            for &(_, s, fwd) in &old {
-                self.slot.remove(&(s, fwd));
-            }
             let before: Vec<HalfEdge> = old.iter().map(|&(_, s, f)| (s, f)).collect();
             let mut v: Vec<(f64, Id, bool)> = old
                 .into_iter()
@@ -460,13 +461,21 @@ impl Faces {
             if !same {
                 reordered.insert(*n);
             }
-            if v.is_empty() {
-                continue;
+            // Not rotated: every half-edge keeps its place.
+            if k != Some(0) || !same {
+                for h in &before {
+                    self.slot.remove(h);
+                }
+                placed.push(*n);
             }
-            for (i, &(_, s, fwd)) in v.iter().enumerate() {
-                self.slot.insert((s, fwd), (*n, i));
+            if !v.is_empty() {
+                self.out.insert(*n, v);
             }
-            self.out.insert(*n, v);
+        }
+        for n in placed {
+            for (i, &(_, s, fwd)) in self.out.get(&n).map(Vec::as_slice).unwrap_or(&[]).iter().enumerate() {
+                self.slot.insert((s, fwd), (n, i));
+            }
         }
         // A touched face whose walk turns at no reordered node (and whose
         // half-edges are all still there) is the same walk: re-placed.
