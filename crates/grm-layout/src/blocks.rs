@@ -473,7 +473,14 @@ impl Faces {
             }
         }
         for n in placed {
-            for (i, &(_, s, fwd)) in self.out.get(&n).map(Vec::as_slice).unwrap_or(&[]).iter().enumerate() {
+            for (i, &(_, s, fwd)) in self
+                .out
+                .get(&n)
+                .map(Vec::as_slice)
+                .unwrap_or(&[])
+                .iter()
+                .enumerate()
+            {
                 self.slot.insert((s, fwd), (n, i));
             }
         }

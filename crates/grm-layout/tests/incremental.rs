@@ -288,8 +288,14 @@ fn faces_moved_rigidly_are_replaced_and_equal_the_blocks_from_scratch() {
     }
     // The moved layer's own faces kept their walks: re-placed, not traced
     // (a face is traced again only where a node's order changed).
-    assert!(replaced > 0 && replaced_result > 0, "{replaced} {replaced_result}");
-    assert!(replaced > retraced, "re-placed {replaced}, traced {retraced}");
+    assert!(
+        replaced > 0 && replaced_result > 0,
+        "{replaced} {replaced_result}"
+    );
+    assert!(
+        replaced > retraced,
+        "re-placed {replaced}, traced {retraced}"
+    );
 }
 
 #[test]
@@ -321,10 +327,9 @@ fn rigid_drags_merge_as_from_scratch_and_come_back() {
             assert_eq!(i1, i2, "{mode:?} step {step}");
             match &first {
                 None => first = Some(g2),
-                Some(f) if step == last => assert!(
-                    *f == g2,
-                    "{mode:?}: back at the start, not the same city"
-                ),
+                Some(f) if step == last => {
+                    assert!(*f == g2, "{mode:?}: back at the start, not the same city")
+                }
                 Some(_) => {}
             }
         }
