@@ -146,6 +146,19 @@ pub struct Derivation {
     pub stats: Vec<IterationStats>,
 }
 
+/// A derivation under way: the latest string and what the steps carry.
+struct Run {
+    string: ModuleString,
+    stats: Vec<IterationStats>,
+    /// The next step's iteration.
+    iteration: u32,
+    cumulative: u64,
+    processed: u64,
+    carried: Carried,
+    /// The string's symbol histogram (see `succ_hist`).
+    hist: Option<Vec<u64>>,
+}
+
 /// `fast[sym]`: the module is copied unchanged.
 pub(crate) const COPY: u32 = u32::MAX;
 /// `fast[sym]`: groups must be tried (context, condition or several groups
@@ -918,43 +931,128 @@ impl<'a> Engine<'a> {
             return self.derive_edited(opts, progress).map(|(d, _)| d);
         }
         let t = Instant::now();
-        let mut string = self.axiom(opts.seed)?;
+        let string = self.axiom(opts.seed)?;
         // Not sized by `opts.iterations` (any u32): a string that stops
         // growing can run many steps, a limit can end it after a few.
         let mut stats = Vec::with_capacity(opts.iterations.min(64) as usize + 1);
         let first = IterationStats::of(&string, 0, 0, 0, t.elapsed());
         progress(&first);
         stats.push(first);
-        let mut cumulative = 0u64;
-        let mut processed = 0u64;
-        let mut carried = Carried::default();
-        let mut hist = self.succ_hist.as_ref().map(|_| {
+        let hist = self.succ_hist.as_ref().map(|_| {
             let mut h = vec![0u64; self.sym_words.len()];
             for &s in &string.syms {
                 h[s as usize] += 1;
             }
             h
         });
-        for iteration in 1..=opts.iterations {
-            let t = Instant::now();
-            processed += string.len() as u64;
-            let next = self.step_counted(
-                &string,
-                iteration,
-                opts.seed,
-                &opts.limits,
-                hist.as_mut(),
-                Some(&mut carried),
-            )?;
-            // Recycle the input before reporting, so the peak stays at one
-            // input plus one output (and the spares).
-            self.recycle(std::mem::replace(&mut string, next));
-            cumulative += string.len() as u64;
-            let s = IterationStats::of(&string, iteration, cumulative, processed, t.elapsed());
+        let mut run = Run {
+            string,
+            stats,
+            iteration: 1,
+            cumulative: 0,
+            processed: 0,
+            carried: Carried::default(),
+            hist,
+        };
+        // The steps of one chunk on this thread; from the first step of
+        // several, the rest of the derivation on the pool in one piece
+        // (`hand_off`).
+        while run.iteration <= opts.iterations {
+            if self.chunks(run.string.len()).len() > 1 {
+                self.hand_off(
+                    |sent| {
+                        while run.iteration <= opts.iterations {
+                            sent(self.advance(&mut run, opts)?);
+                        }
+                        Ok(())
+                    },
+                    progress,
+                )?;
+                break;
+            }
+            let s = self.advance(&mut run, opts)?;
             progress(&s);
-            stats.push(s);
         }
-        Ok(Derivation { string, stats })
+        Ok(Derivation {
+            string: run.string,
+            stats: run.stats,
+        })
+    }
+
+    /// One step of `run`: its string replaced by the next, whose figures
+    /// are returned (and kept in `run.stats`).
+    fn advance(&self, run: &mut Run, opts: &DeriveOptions) -> Result<IterationStats, DeriveError> {
+        let t = Instant::now();
+        let iteration = run.iteration;
+        run.processed += run.string.len() as u64;
+        let next = self.step_counted(
+            &run.string,
+            iteration,
+            opts.seed,
+            &opts.limits,
+            run.hist.as_mut(),
+            Some(&mut run.carried),
+        )?;
+        // Recycle the input before reporting, so the peak stays at one
+        // input plus one output (and the spares).
+        self.recycle(std::mem::replace(&mut run.string, next));
+        run.cumulative += run.string.len() as u64;
+        let s = IterationStats::of(
+            &run.string,
+            iteration,
+            run.cumulative,
+            run.processed,
+            t.elapsed(),
+        );
+        run.stats.push(s);
+        run.iteration += 1;
+        Ok(s)
+    }
+
+    /// Run `job` on the pool (this engine's, or rayon's global one) as one
+    /// task, while this thread passes the figures it sends on to
+    /// `progress`, as each string is complete. Each parallel phase of a
+    /// step started from outside the pool is a hand-over of its own (this
+    /// thread wakes a worker, sleeps, and is woken when the phase ends),
+    /// about three thread wake-ups a phase, which on a virtual machine
+    /// whose idle cores halt cost tens of microseconds each: as much as a
+    /// short derivation's whole parallel gain (docs/benchmarks.md, "Two
+    /// threads that pay on short scenes"). Inside one task, each phase's
+    /// chunks are the worker's own jobs, which the other workers steal.
+    fn hand_off<'j>(
+        &'j self,
+        job: impl FnOnce(&dyn Fn(IterationStats)) -> Result<(), DeriveError> + Send + 'j,
+        progress: &'j mut dyn FnMut(&IterationStats),
+    ) -> Result<(), DeriveError> {
+        let (tx, rx) = std::sync::mpsc::channel();
+        let mut result = Ok(());
+        {
+            let slot = &mut result;
+            // The same body for either pool (`in_place_scope` is a method
+            // of a pool and a free function for the global one).
+            macro_rules! body {
+                () => {
+                    |scope| {
+                        scope.spawn(move |_| {
+                            // The receiver lives until this task ends.
+                            let sent = |s: IterationStats| {
+                                let _ = tx.send(s);
+                            };
+                            *slot = job(&sent);
+                        });
+                        // Until the task drops its sender.
+                        for s in rx {
+                            progress(&s);
+                        }
+                    }
+                };
+            }
+            match &self.pool {
+                Some(p) => p.in_place_scope(body!()),
+                None => rayon::in_place_scope(body!()),
+            }
+        }
+        result
     }
 
     /// The axiom (string 0): its parameters evaluated with iteration 0 and
@@ -1140,15 +1238,24 @@ impl<'a> Engine<'a> {
         if self.threads == 1 || n <= self.min_chunk {
             return std::iter::once(0..n).collect();
         }
+        // A few chunks per thread balance uneven successors; none shorter
+        // than `min_chunk`, all of about the same length (a short last
+        // chunk left one thread idle for a third of a step split 8192,
+        // 8192 and 947).
+        let k = (n / self.min_chunk).clamp(1, self.most_chunks());
+        let len = n.div_ceil(k);
+        (0..n.div_ceil(len))
+            .map(|c| c * len..((c + 1) * len).min(n))
+            .collect()
+    }
+
+    /// The most chunks a step is split into: a few per thread.
+    pub(crate) fn most_chunks(&self) -> usize {
         let threads = match self.threads {
             0 => rayon::current_num_threads(),
             t => t,
         };
-        // A few chunks per thread balance uneven successors.
-        let len = n.div_ceil(threads * 4).max(self.min_chunk);
-        (0..n.div_ceil(len))
-            .map(|c| c * len..((c + 1) * len).min(n))
-            .collect()
+        threads * 4
     }
 
     pub(crate) fn in_pool<R: Send>(&self, f: impl FnOnce() -> R + Send) -> R {
@@ -1201,7 +1308,11 @@ impl<'a> Engine<'a> {
             }
         }
         let chunk = chunks.first().map_or(n, |c| c.len());
-        let mate = self.in_pool(|| self.mates(input, chunk, parallel));
+        let mate = if self.has_context {
+            self.in_pool(|| self.mates(input, chunk, parallel))
+        } else {
+            Vec::new()
+        };
         let step = self.step_of(input, &mate, iteration, seed);
 
         // 1. Count.

@@ -10,10 +10,19 @@
 //! table (`succ_hist`), so the next step's chunks are the images of this
 //! step's (chunk `i`'s output is the next string's range `offsets[i] ..
 //! offsets[i + 1]`), their histograms known without reading the string.
-//! The chunks are split afresh (one histogram pass over the string, in
-//! parallel, what the count pass cost) only when the images would not
-//! balance the threads: fewer chunks than [`Engine::chunks`] asks for,
-//! more than twice as many, or one over twice the mean length.
+//!
+//! What is carried is finer than what runs: [`FINE`] pieces for each of
+//! the most chunks a step runs (`Engine::most_chunks`, a few per thread),
+//! grouped each step into the chunks [`Engine::chunks`] asks for, contiguous
+//! and of about equal input length. A step's
+//! pieces are the images of the last one's, so the string is split with a
+//! histogram pass (in parallel) only at the first step on several chunks,
+//! and again only when the images would not balance: fewer pieces than
+//! chunks, or one longer than a chunk's share (one symbol grows much faster
+//! than the others). Before, the carried chunks were the chunks that ran,
+//! which the short scenes' first parallel step (the shortest chunks, 8192
+//! modules) left too few and too long for the next: Hilbert 3D's last step
+//! split its input afresh.
 
 use std::ops::Range;
 
@@ -33,11 +42,14 @@ pub(crate) struct Carried {
     hists: Vec<Vec<u64>>,
 }
 
+/// Carried pieces for each of the most chunks a step runs.
+const FINE: usize = 4;
+
 impl Engine<'_> {
     /// The chunks of an input of `n` modules and their counts from
     /// histograms (carried from the previous step when they balance,
     /// else from one histogram pass over `syms`); `carried` is advanced to
-    /// the output's chunks. `None` where a symbol needs a decision.
+    /// the output's pieces. `None` where a symbol needs a decision.
     pub(crate) fn counts_carried(
         &self,
         syms: &[u32],
@@ -45,31 +57,52 @@ impl Engine<'_> {
     ) -> Option<(Vec<Range<usize>>, Vec<Counts>)> {
         let succ = self.succ_hist.as_ref()?;
         let n = syms.len();
-        let want = self.chunks(n);
-        if !carried.fits(n, want.len()) {
+        let want = self.chunks(n).len();
+        if !carried.fits(n, want) {
+            let k = self.most_chunks() * FINE;
+            let len = n.div_ceil(k).max(1);
+            let pieces: Vec<Range<usize>> = (0..n.div_ceil(len))
+                .map(|c| c * len..((c + 1) * len).min(n))
+                .collect();
             carried.hists = self.in_pool(|| {
-                want.par_iter()
+                pieces
+                    .par_iter()
                     .map(|r| histogram(&syms[r.clone()], self.sym_words.len()))
                     .collect()
             });
-            carried.chunks = want;
+            carried.chunks = pieces;
         }
         let compact = self.compact();
-        let mut counts = Vec::with_capacity(carried.chunks.len());
-        let mut next_chunks = Vec::with_capacity(carried.chunks.len());
-        let mut next_hists = Vec::with_capacity(carried.chunks.len());
-        let mut at = 0usize;
-        for h in &carried.hists {
+        let k = carried.chunks.len();
+        let mut next_chunks = Vec::with_capacity(k);
+        let mut next_hists = Vec::with_capacity(k);
+        // Pieces grouped into chunks: chunk `j` ends at the first piece
+        // boundary at or past `(j + 1) * n / want`.
+        let mut chunks = Vec::with_capacity(want);
+        let mut counts: Vec<Counts> = Vec::with_capacity(want);
+        let (mut at, mut from) = (0usize, 0usize);
+        let mut sum = (0u64, 0u64, 0u64, 0u64);
+        let mut j = 1usize;
+        for (r, h) in carried.chunks.iter().zip(&carried.hists) {
             let ((m, w, iw, wi), next) = self.image(h, succ, compact);
-            counts.push((m, w, iw, wi));
+            sum = (sum.0 + m, sum.1 + w, sum.2 + iw, sum.3 + wi);
             // Past `usize` only beyond the limits, which the caller checks
-            // before anything is written; the chunks are then dropped.
+            // before anything is written; the pieces are then dropped.
             let len = usize::try_from(m).unwrap_or(usize::MAX);
             next_chunks.push(at..at.saturating_add(len));
             at = at.saturating_add(len);
             next_hists.push(next);
+            if (r.end == n && from < n) || r.end >= j * n / want {
+                chunks.push(from..r.end);
+                counts.push(sum);
+                sum = (0, 0, 0, 0);
+                from = r.end;
+                while j * n / want <= r.end && j < want {
+                    j += 1;
+                }
+            }
         }
-        let chunks = std::mem::replace(&mut carried.chunks, next_chunks);
+        carried.chunks = next_chunks;
         carried.hists = next_hists;
         Some((chunks, counts))
     }
@@ -108,15 +141,15 @@ impl Engine<'_> {
 }
 
 impl Carried {
-    /// Whether the carried chunks cover `0..n` and balance: between
-    /// `want` and `2 * want` of them, none longer than twice the mean.
+    /// Whether the carried pieces cover `0..n` and group into `want`
+    /// balanced chunks: at least `want` of them, none longer than a
+    /// chunk's share.
     fn fits(&self, n: usize, want: usize) -> bool {
-        let k = self.chunks.len();
-        if k < want.max(2) || k > 2 * want || self.chunks.last().map(|r| r.end) != Some(n) {
+        if self.chunks.len() < want.max(2) || self.chunks.last().map(|r| r.end) != Some(n) {
             return false;
         }
         let longest = self.chunks.iter().map(|r| r.len()).max().unwrap_or(0);
-        longest <= 2 * n.div_ceil(k)
+        longest <= n.div_ceil(want)
     }
 }
 
