@@ -1538,7 +1538,7 @@ impl<'a> Engine<'a> {
         replay: &mut R,
     ) -> Result<(), RuntimeError> {
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
+        if crate::cpu::avx2() {
             // SAFETY: the CPU has AVX2 (checked just above), the only
             // feature `rewrite_chunk_avx2` is compiled for beyond the
             // baseline.

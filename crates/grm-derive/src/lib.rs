@@ -24,6 +24,7 @@
 
 mod brackets;
 mod compact;
+mod cpu;
 pub mod edits;
 pub mod engine;
 mod error;

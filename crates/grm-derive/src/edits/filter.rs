@@ -23,7 +23,7 @@ pub(super) struct KeyFilter {
 impl KeyFilter {
     pub(super) fn new() -> KeyFilter {
         #[cfg(target_arch = "x86_64")]
-        let avx2 = std::arch::is_x86_feature_detected!("avx2");
+        let avx2 = crate::cpu::avx2();
         #[cfg(not(target_arch = "x86_64"))]
         let avx2 = false;
         KeyFilter {
