@@ -921,7 +921,9 @@ impl<'a> Engine<'a> {
     }
 
     /// Derive `opts.iterations` steps from the axiom. `progress` is called
-    /// once per string (the axiom first) as soon as it is complete.
+    /// once per string (the axiom first) as soon as it is complete, always
+    /// on the calling thread (on several threads, while the pool already
+    /// runs the next step).
     pub fn derive(
         &self,
         opts: &DeriveOptions,
@@ -956,9 +958,13 @@ impl<'a> Engine<'a> {
         };
         // The steps of one chunk on this thread; from the first step of
         // several, the rest of the derivation on the pool in one piece
-        // (`hand_off`).
+        // (`hand_off`). Not from a thread that is itself a rayon worker
+        // (a forest's trees derived in parallel): its phases already run
+        // as its own jobs, and it must not block waiting on a task that
+        // may sit in its own queue.
+        let handed = rayon::current_thread_index().is_none();
         while run.iteration <= opts.iterations {
-            if self.chunks(run.string.len()).len() > 1 {
+            if handed && self.chunks(run.string.len()).len() > 1 {
                 self.hand_off(
                     |sent| {
                         while run.iteration <= opts.iterations {

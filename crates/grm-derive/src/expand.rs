@@ -76,13 +76,15 @@ impl Engine<'_> {
         let k = carried.chunks.len();
         let mut next_chunks = Vec::with_capacity(k);
         let mut next_hists = Vec::with_capacity(k);
-        // Pieces grouped into chunks: chunk `j` ends at the first piece
-        // boundary at or past `(j + 1) * n / want`.
+        // Pieces grouped into chunks: chunk `j - 1` ends at the first
+        // piece boundary at or past `j * n / want`.
         let mut chunks = Vec::with_capacity(want);
         let mut counts: Vec<Counts> = Vec::with_capacity(want);
         let (mut at, mut from) = (0usize, 0usize);
         let mut sum = (0u64, 0u64, 0u64, 0u64);
         let mut j = 1usize;
+        // `j * n / want` without overflow where `usize` is 32 bits.
+        let bound = |j: usize| (j as u64 * n as u64 / want as u64) as usize;
         for (r, h) in carried.chunks.iter().zip(&carried.hists) {
             let ((m, w, iw, wi), next) = self.image(h, succ, compact);
             sum = (sum.0 + m, sum.1 + w, sum.2 + iw, sum.3 + wi);
@@ -92,12 +94,13 @@ impl Engine<'_> {
             next_chunks.push(at..at.saturating_add(len));
             at = at.saturating_add(len);
             next_hists.push(next);
-            if (r.end == n && from < n) || r.end >= j * n / want {
+            // (An empty piece closes nothing: no chunk is empty.)
+            if r.end > from && (r.end == n || r.end >= bound(j)) {
                 chunks.push(from..r.end);
                 counts.push(sum);
                 sum = (0, 0, 0, 0);
                 from = r.end;
-                while j * n / want <= r.end && j < want {
+                while bound(j) <= r.end && j < want {
                     j += 1;
                 }
             }
