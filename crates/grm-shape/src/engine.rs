@@ -49,7 +49,7 @@ mod expand;
 mod hook;
 mod parallel;
 
-use hook::{Carried, FLAGGED, Hook, Replay, replay_block};
+use hook::{Carried, FLAGGED, Hook, LEAVE, Replay, replay_block};
 
 /// Bounds on a derivation's work and memory.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -633,17 +633,19 @@ impl Engine<'_> {
             // The shape's replay state: its forcing, the innermost forced
             // region's it is in, and its trie state, popped in step with
             // the stack when it has one (flagged: on an exact target's
-            // path; the others are off every path).
+            // path; the others are off every path). A flagged entry may
+            // be a region's end instead (`LEAVE`): one test for both.
             let at = entry & !H::FLAG;
             let mut state = replay::NONE;
-            if let Some(r) = hook.get() {
-                if stack.len() < r.floor {
-                    r.leave(stack.len());
+            if entry & H::FLAG != 0
+                && let Some(r) = hook.get()
+            {
+                if entry == LEAVE {
+                    r.leave();
                     scratch.keep_material = r.forced.material.is_some();
+                    continue;
                 }
-                if entry & H::FLAG != 0 {
-                    state = r.stack.pop().unwrap_or(replay::NONE);
-                }
+                state = r.stack.pop().unwrap_or(replay::NONE);
             }
             let shape = &job.nodes[at as usize];
             let NodeKind::Shape { symbol, .. } = shape.kind else {
@@ -751,7 +753,7 @@ impl Engine<'_> {
                     &mut job.nodes,
                     at,
                     start,
-                    &mut stack[before..],
+                    &mut stack,
                     before,
                     state,
                     forced,

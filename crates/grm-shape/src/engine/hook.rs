@@ -19,6 +19,12 @@ pub(super) trait Hook<'p> {
 /// [`Hook::FLAG`] of a replay.
 pub(super) const FLAGGED: u32 = 1 << 31;
 
+/// The derivation stack entry below a forced region's shapes: popped, the
+/// region is left (`Replay::leave`). Flagged, so the loop's one test of
+/// the flag finds it; its index is none (the job's nodes are fewer than
+/// `FLAGGED - 1`).
+pub(super) const LEAVE: u32 = u32::MAX;
+
 impl<'p> Hook<'p> for () {
     const FLAG: u32 = 0;
     #[inline(always)]
@@ -43,15 +49,14 @@ pub(super) struct Replay<'p> {
     /// an exact target's path (flagged there), in step with it; the
     /// shapes off every path have none.
     pub(super) stack: Vec<u32>,
-    /// The forced regions, innermost last: where a shape's own edits
-    /// force a material or mesh, its subtree's shapes are those pushed on
-    /// the derivation stack at or above the height (`floor`) its block
-    /// was pushed at, until a shape below it is popped. The first is the
-    /// job root's forcing, at height 0 (never left).
-    pub(super) regions: Vec<(usize, Forced)>,
-    /// The innermost region's height and forcing, and whether it forces
-    /// a mesh (every block in it then has its inserts replaced).
-    pub(super) floor: usize,
+    /// The forced regions' forcing, innermost last: where a shape's own
+    /// edits force a material or mesh, its subtree's shapes are those
+    /// pushed on the derivation stack above the [`LEAVE`] entry its block
+    /// put below them; popping that entry leaves the region. The first is
+    /// the job root's forcing (never left).
+    pub(super) regions: Vec<Forced>,
+    /// The innermost region's forcing, and whether it forces a mesh
+    /// (every block in it then has its inserts replaced).
     pub(super) forced: Forced,
     pub(super) meshed: bool,
     /// Whether every shape off the exact targets' paths is looked at:
@@ -78,8 +83,7 @@ impl<'p> Replay<'p> {
         Replay {
             plan,
             stack: vec![root.state],
-            regions: vec![(0, root.forced)],
-            floor: 0,
+            regions: vec![root.forced],
             forced: root.forced,
             meshed: root.forced.mesh.is_some(),
             attend: plan.names_any() || root.forced.mesh.is_some(),
@@ -92,25 +96,24 @@ impl<'p> Replay<'p> {
         }
     }
 
-    /// A shape was popped off the derivation stack, which now holds
-    /// `height` entries, below the innermost region's floor: leave the
-    /// regions it is not in.
+    /// The innermost region's [`LEAVE`] entry was popped: its shapes are
+    /// done, leave it.
     #[cold]
     #[inline(never)]
-    pub(super) fn leave(&mut self, height: usize) {
-        while self.regions.len() > 1 && self.regions.last().is_some_and(|r| height < r.0) {
+    pub(super) fn leave(&mut self) {
+        if self.regions.len() > 1 {
             self.regions.pop();
         }
-        (self.floor, self.forced) = self.regions.last().copied().unwrap_or_default();
+        self.forced = self.regions.last().copied().unwrap_or_default();
         self.meshed = self.forced.mesh.is_some();
         self.attend = self.plan.names_any() || self.meshed;
     }
 
-    /// Open a forced region (`forced`) for the shapes the derivation
-    /// stack holds from `floor` on.
-    fn open(&mut self, floor: usize, forced: Forced) {
-        self.regions.push((floor, forced));
-        (self.floor, self.forced) = (floor, forced);
+    /// Open a forced region (`forced`) for the shapes pushed on the
+    /// derivation stack last (above its [`LEAVE`] entry).
+    fn open(&mut self, forced: Forced) {
+        self.regions.push(forced);
+        self.forced = forced;
         self.meshed = forced.mesh.is_some();
         self.attend = self.plan.names_any() || self.meshed;
     }
@@ -128,14 +131,14 @@ pub(super) struct Carried {
 
 /// After the shape at `at` (trie state `state`, forcing `forced`: its own
 /// edits over its ancestors') made the block `nodes[start..]`, whose shapes
-/// the derivation stack took as `pushed` (last first, from height `floor`
-/// on), when the block needs
-/// anything of the replay: the forced mesh on the block's inserts; a forced
-/// region for its shapes where the shape's own edits force (`opens`); on a
-/// target's path, each shape's trie state, and those still on a path
-/// flagged. A forced material needs nothing more: the shape's attributes
-/// carry it to the block and its rules' materials were skipped. Off every
-/// path, a shape is matched only when a key target or a query may name it
+/// the derivation stack took last (`stack[before..]`, last first), when the
+/// block needs anything of the replay: the forced mesh on the block's
+/// inserts; a forced region for its shapes where the shape's own edits
+/// force (`opens`: a [`LEAVE`] entry put below them); on a target's path,
+/// each shape's trie state, and those still on a path flagged. A forced
+/// material needs nothing more: the shape's attributes carry it to the
+/// block and its rules' materials were skipped. Off every path, a shape is
+/// matched only when a key target or a query may name it
 /// (`EditPlan::may_name`, asked when it is popped).
 #[inline(never)]
 #[allow(clippy::too_many_arguments)]
@@ -144,8 +147,8 @@ pub(super) fn replay_block(
     nodes: &mut [Node],
     at: u32,
     start: usize,
-    pushed: &mut [u32],
-    floor: usize,
+    stack: &mut Vec<u32>,
+    before: usize,
     state: u32,
     forced: Forced,
     opens: bool,
@@ -158,29 +161,32 @@ pub(super) fn replay_block(
             }
         }
     }
-    if opens && !pushed.is_empty() {
-        r.open(floor, forced);
-    }
-    if state == replay::NONE || pushed.is_empty() {
+    if stack.len() == before {
         return;
     }
-    // Each node's state from its parent's (the shape or a command of the
-    // block before it).
-    let plan = r.plan;
-    plan.block_states(
-        block,
-        start,
-        at as usize,
-        state,
-        &mut r.block,
-        &mut r.counts,
-    );
-    for e in pushed.iter_mut() {
-        let state = r.block[*e as usize - start];
-        if state != replay::NONE {
-            *e |= FLAGGED;
-            r.stack.push(state);
+    if state != replay::NONE {
+        // Each node's state from its parent's (the shape or a command of
+        // the block before it).
+        let plan = r.plan;
+        plan.block_states(
+            block,
+            start,
+            at as usize,
+            state,
+            &mut r.block,
+            &mut r.counts,
+        );
+        for e in stack[before..].iter_mut() {
+            let state = r.block[*e as usize - start];
+            if state != replay::NONE {
+                *e |= FLAGGED;
+                r.stack.push(state);
+            }
         }
+    }
+    if opens {
+        stack.insert(before, LEAVE);
+        r.open(forced);
     }
 }
 
