@@ -125,11 +125,12 @@ struct Pattern {
 type Wanted = (Box<[i64]>, Vec<u32>);
 
 /// A tagged command on a shape's path, of a tag some query names: the
-/// tag, its slot (`NO_SLOT`: none) and the child's index and count.
+/// tag, its slot's bit (0: no slot; a pattern's mask tests it in one
+/// `and`) and the child's index and count.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct PathTag {
     tag: TagId,
-    slot: u8,
+    bit: u64,
     index: u32,
     count: u32,
 }
@@ -181,7 +182,7 @@ fn keep(slots: &[u8], tags: &mut Vec<PathTag>, (tag, index, count): (TagId, u32,
     if slot != 0 {
         tags.push(PathTag {
             tag,
-            slot: slot.wrapping_sub(1),
+            bit: 1u64.checked_shl(u32::from(slot) - 1).unwrap_or(0),
             index,
             count,
         });
@@ -194,9 +195,35 @@ impl Pattern {
     #[inline]
     fn names(&self, e: &PathTag) -> bool {
         match self.mask {
-            Some(mask) => e.slot < 64 && mask >> e.slot & 1 != 0,
+            Some(mask) => mask & e.bit != 0,
             None => self.entries.iter().any(|q| q.0 == e.tag),
         }
+    }
+
+    /// `r` with the path's entries `below` (innermost first) read
+    /// ([`Pattern::read`]), the mask's test out of the loop.
+    #[inline]
+    fn read_below(&self, mut r: Reading, below: &[PathTag]) -> Reading {
+        let Some(mask) = self.mask else {
+            below.iter().rev().for_each(|e| self.read(&mut r, e));
+            return r;
+        };
+        for e in below.iter().rev() {
+            if mask & e.bit == 0 {
+                continue;
+            }
+            match self.entries.get(r.met as usize) {
+                Some(&(tag, anchor)) if tag == e.tag => {
+                    r.key = mix(r.key, anchor.index(e.index, e.count));
+                    r.met += 1;
+                }
+                _ => {
+                    r.failed = true;
+                    break;
+                }
+            }
+        }
+        r
     }
 
     /// Read the path's next entry (root first) into `r`: an entry of a
@@ -764,17 +791,26 @@ impl EditPlan {
         // `grm_edits::SemanticQuery::matches` on ids, a pattern at a time:
         // the path's entries of the tags a query names are exactly the
         // query's, in order, each at its anchored index.
-        for &k in by_label.into_iter().flatten().chain(&self.semantic_any) {
-            let pattern = &self.semantic[k as usize];
-            let mut r = w
-                .readings
-                .get(k as usize)
-                .copied()
-                .unwrap_or(Reading::START);
-            w.tags.iter().rev().for_each(|e| pattern.read(&mut r, e));
-            if let Some(edits) = pattern.edits(r, &w.above, &w.tags) {
+        // A pattern whose reading of the kept entries failed is done.
+        let (above, below, readings) = (&w.above[..], &w.tags[..], &w.readings[..]);
+        let mut each = |k: u32| {
+            let k = k as usize;
+            let (Some(pattern), Some(&r)) = (self.semantic.get(k), readings.get(k)) else {
+                return;
+            };
+            if r.failed {
+                return;
+            }
+            let r = pattern.read_below(r, below);
+            if let Some(edits) = pattern.edits(r, above, below) {
                 edits.iter().for_each(|&i| push(i));
             }
+        };
+        for &k in by_label.into_iter().flatten() {
+            each(k);
+        }
+        for &k in &self.semantic_any {
+            each(k);
         }
     }
 }
