@@ -694,7 +694,9 @@ impl EditPlan {
     /// The actions of the edits whose target is the shape `nodes[at]`
     /// (its trie state `state`), pushed on `out` as (edit id, action).
     /// `prefix`: the tagged commands above `nodes[0]` (a parallel job's
-    /// root), innermost first.
+    /// root), innermost first. Inlined into its one caller,
+    /// `Engine::own_edits` (itself out of the derivation loop).
+    #[inline(always)]
     pub(crate) fn matches(
         &self,
         nodes: &[Node],
