@@ -119,6 +119,17 @@ pub fn parcel_area(
         .map(|s| s.street)
         .filter(|s| !own.contains(s))
         .collect();
+    // Only corridor pieces whose boxes meet the shrunk block's box are
+    // clipped: the others cannot take anything away, and `i_overlay`'s
+    // work (and the grid it snaps to, scaled by its whole input's box)
+    // follows what it is given. Every path (merge from scratch, cached,
+    // incremental, the generators) computes a block's parcels here, so
+    // they all clip the same pieces.
+    let (rmin, rmax) = region_bounds(&region);
+    let meets = |ring: &[Coord]| {
+        let (min, max) = bounds(ring);
+        min[0] <= rmax[0] && max[0] >= rmin[0] && min[1] <= rmax[1] && max[1] >= rmin[1]
+    };
     let mut corridors: Vec<Polygon> = Vec::new();
     for id in near {
         let Some(s) = layout.streets.get(&id) else {
@@ -139,16 +150,16 @@ pub fn parcel_area(
                 x: p.x + nx * sx,
                 y: p.y + ny * sx,
             };
-            corridors.push(Polygon::new(
-                LineString::new(vec![
-                    c(w[0], -1.0),
-                    c(w[1], -1.0),
-                    c(w[1], 1.0),
-                    c(w[0], 1.0),
-                    c(w[0], -1.0),
-                ]),
-                vec![],
-            ));
+            let ring = vec![
+                c(w[0], -1.0),
+                c(w[1], -1.0),
+                c(w[1], 1.0),
+                c(w[0], 1.0),
+                c(w[0], -1.0),
+            ];
+            if meets(&ring) {
+                corridors.push(Polygon::new(LineString::new(ring), vec![]));
+            }
         }
         let r = d / (std::f64::consts::PI / 8.0).cos();
         for p in &pl {
@@ -161,7 +172,9 @@ pub fn parcel_area(
                     }
                 })
                 .collect();
-            corridors.push(Polygon::new(LineString::new(ring), vec![]));
+            if meets(&ring) {
+                corridors.push(Polygon::new(LineString::new(ring), vec![]));
+            }
         }
     }
     if !corridors.is_empty() {
@@ -172,6 +185,18 @@ pub fn parcel_area(
         );
     }
     region
+}
+
+/// The box of every exterior ring of a multipolygon (holes lie inside).
+fn region_bounds(region: &MultiPolygon) -> ([f64; 2], [f64; 2]) {
+    let mut min = [f64::INFINITY; 2];
+    let mut max = [f64::NEG_INFINITY; 2];
+    for p in &region.0 {
+        let (a, b) = bounds(&p.exterior().0);
+        min = [min[0].min(a[0]), min[1].min(a[1])];
+        max = [max[0].max(b[0]), max[1].max(b[1])];
+    }
+    (min, max)
 }
 
 /// The corners of a corridor's octagon around a point: the cosine and
