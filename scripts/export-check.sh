@@ -62,7 +62,7 @@ for glb in "${glbs[@]}"; do
         townhouse.glb) blender "$glb" 300 Glass.house1 Roof.house3 ;;
         office_tower.glb) blender "$glb" 2000 Glass.facade6 ;;
         facade_variety.glb) blender "$glb" 400 Glass.facade1.floor5 ;;
-        # 225 streets, 197 parcels (with their buildings), open ground.
+        # 225 streets, 196 parcels (with their buildings), open ground.
         city.glb) blender "$glb" 400 street. parcel. ;;
         *) blender "$glb" 1 ;;
     esac
