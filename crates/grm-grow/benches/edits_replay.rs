@@ -62,28 +62,13 @@ use grm_edits::{EditsFile, Op, SemanticQuery, Target};
 use grm_grow::shape::{Lowered, ShapeOptions, derive, derive_with_edits, edit_plan, edits, lower};
 use grm_shape::{EditPlan, NodeId, NodeKind, ShapeTree};
 use grm_testkit::Rng;
+use grm_testkit::bench::{cachegrind_instructions, load, median};
 use std::collections::HashMap;
 use std::hint::black_box;
 use std::path::Path;
-use std::process::Command;
 use std::time::Instant;
 
 const SYSTEM: &str = "Tower10k";
-
-fn load() -> String {
-    std::fs::read_to_string("/proc/loadavg")
-        .unwrap_or_default()
-        .split_whitespace()
-        .take(3)
-        .collect::<Vec<_>>()
-        .join(" ")
-}
-
-fn median(v: &[f64]) -> f64 {
-    let mut v = v.to_vec();
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
 
 struct Building {
     checked: grm_sema::Checked,
@@ -307,25 +292,9 @@ fn run(b: &Building, case: &str, plans: &Plans, file: &EditsFile) -> usize {
     black_box(&tree).len()
 }
 
-/// `valgrind --tool=cachegrind` on this bench, one case, `n` derivations:
-/// the instructions counted.
+/// This bench's instructions for one case and `n` derivations (cachegrind).
 fn instructions(case: &str, n: usize) -> Option<u64> {
-    let exe = std::env::current_exe().ok()?;
-    let out = Command::new("valgrind")
-        .args([
-            "--tool=cachegrind",
-            "--cache-sim=no",
-            "--cachegrind-out-file=/dev/null",
-        ])
-        .arg(exe)
-        .args(["--only", case, "--derivations", &n.to_string()])
-        .output()
-        .ok()?;
-    let err = String::from_utf8_lossy(&out.stderr);
-    let line = err
-        .lines()
-        .find(|l| l.contains("I   refs:") || l.contains("I refs:"))?;
-    line.split(':').nth(1)?.trim().replace(',', "").parse().ok()
+    cachegrind_instructions(&["--only", case, "--derivations", &n.to_string()])
 }
 
 fn main() {

@@ -34,9 +34,9 @@
 //! Run: `cargo bench -p grm-sample --bench edits_replay [-- ROUNDS]
 //! [--instructions]`.
 
+use grm_testkit::bench::{cachegrind_instructions, load, median};
 use std::hint::black_box;
 use std::path::PathBuf;
-use std::process::Command;
 use std::time::Instant;
 
 use grm_compile::CompiledSystem;
@@ -210,40 +210,9 @@ fn plans(c: &CompiledSystem, k: &Keys) -> Vec<(&'static str, Option<EditPlan>)> 
     ]
 }
 
-fn median(v: &[f64]) -> f64 {
-    let mut v = v.to_vec();
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
-
-fn load() -> String {
-    std::fs::read_to_string("/proc/loadavg")
-        .unwrap_or_default()
-        .split_whitespace()
-        .take(3)
-        .collect::<Vec<_>>()
-        .join(" ")
-}
-
-/// `valgrind --tool=cachegrind` on this bench, one case, `n` runs: the
-/// instructions counted.
+/// This bench's instructions for one case and `n` runs (cachegrind).
 fn instructions(case: &str, n: usize) -> Option<u64> {
-    let exe = std::env::current_exe().ok()?;
-    let out = Command::new("valgrind")
-        .args([
-            "--tool=cachegrind",
-            "--cache-sim=no",
-            "--cachegrind-out-file=/dev/null",
-        ])
-        .arg(exe)
-        .args(["--only", case, "--runs", &n.to_string()])
-        .output()
-        .ok()?;
-    let err = String::from_utf8_lossy(&out.stderr);
-    let line = err
-        .lines()
-        .find(|l| l.contains("I   refs:") || l.contains("I refs:"))?;
-    line.split(':').nth(1)?.trim().replace(',', "").parse().ok()
+    cachegrind_instructions(&["--only", case, "--runs", &n.to_string()])
 }
 
 fn main() {

@@ -6,6 +6,9 @@
 //! environment variable. Output: a splitmix64 stream and the draws the
 //! suites take from it (`below`, `unit`, `range`, `pick`, `shuffle`).
 //!
+//! [`bench`]: what the benchmarks share (median, load average, cachegrind
+//! instruction counts of the benchmark's own binary).
+//!
 //! Invariants: without `GRM_TEST_SEED` every test draws the same inputs on
 //! every run and machine (CI is reproducible); with it, every test that
 //! seeds with [`Rng::seeded`] draws other inputs for the same properties
@@ -14,6 +17,8 @@
 //! the string), so a failure found by a soak reproduces without the seed.
 //! Used only as a dev-dependency; nothing here panics but on a malformed
 //! `GRM_TEST_SEED`.
+
+pub mod bench;
 
 /// A small deterministic generator (splitmix64).
 #[derive(Debug, Clone)]

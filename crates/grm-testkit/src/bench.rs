@@ -1,0 +1,59 @@
+//! What the benchmarks share: the median of a sample, the machine's load
+//! average (printed beside every timed figure), and the instructions a
+//! benchmark's own binary executes for some arguments under `valgrind
+//! --tool=cachegrind` (load-independent, for same-binary ratios).
+
+use std::process::Command;
+
+/// The median of `v` (the upper one of an even count); NaN for none.
+pub fn median(v: &[f64]) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let mut v = v.to_vec();
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// The 1, 5 and 15 minute load averages (`/proc/loadavg`), or an empty
+/// string where there is none.
+pub fn load() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .unwrap_or_default()
+        .split_whitespace()
+        .take(3)
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// The instructions the running benchmark executes when run again with
+/// `args`, counted by `valgrind --tool=cachegrind --cache-sim=no`; `None`
+/// when valgrind is missing or its summary has no count.
+pub fn cachegrind_instructions(args: &[&str]) -> Option<u64> {
+    let exe = std::env::current_exe().ok()?;
+    let out = Command::new("valgrind")
+        .args([
+            "--tool=cachegrind",
+            "--cache-sim=no",
+            "--cachegrind-out-file=/dev/null",
+        ])
+        .arg(exe)
+        .args(args)
+        .output()
+        .ok()?;
+    let err = String::from_utf8_lossy(&out.stderr);
+    let line = err
+        .lines()
+        .find(|l| l.contains("I   refs:") || l.contains("I refs:"))?;
+    line.split(':').nth(1)?.trim().replace(',', "").parse().ok()
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn median_of_odd_even_and_none() {
+        assert_eq!(super::median(&[3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(super::median(&[4.0, 1.0, 3.0, 2.0]), 3.0);
+        assert!(super::median(&[]).is_nan());
+    }
+}
