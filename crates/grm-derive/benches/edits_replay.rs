@@ -22,7 +22,7 @@
 //! Run: `cargo bench -p grm-derive --bench edits_replay [-- ROUNDS]
 //! [--instructions]`.
 
-use grm_testkit::bench::{cachegrind_instructions, load, median};
+use grm_testkit::bench::{cachegrind_instructions, load, print_instructions, print_medians};
 use std::hint::black_box;
 use std::time::Instant;
 
@@ -239,26 +239,13 @@ fn main() {
             ratios[k].push(t[k] / base);
         }
     }
-    println!("  {rounds} rounds, load {}", load());
-    println!("  case      median ms   ratio (median of per-round, to none on as many threads)");
-    for (k, (name, _)) in engines.iter().enumerate() {
-        println!(
-            "  {name:<8} {:>10.2} {:>8.3}x",
-            median(&times[k]),
-            median(&ratios[k])
-        );
-    }
+    let names: Vec<&str> = engines.iter().map(|(name, _)| *name).collect();
+    print_medians(rounds, "none on as many threads", &names, &times, &ratios);
     if args.iter().any(|a| a == "--instructions") {
-        println!("  instructions (cachegrind; one derivation = (3 derivations - 1) / 2):");
-        let mut base = None;
-        for case in CASES.iter().filter(|c| !c.ends_with("/2")) {
-            let (Some(a), Some(b)) = (instructions(case, 1), instructions(case, 3)) else {
-                println!("  valgrind did not run");
-                break;
-            };
-            let one = b.saturating_sub(a) as f64 / 2.0;
-            let base = *base.get_or_insert(one);
-            println!("  {case:<8} {:>10.2} M {:>8.3}x", one / 1e6, one / base);
-        }
+        print_instructions(
+            "derivation",
+            CASES.iter().copied().filter(|c| !c.ends_with("/2")),
+            instructions,
+        );
     }
 }

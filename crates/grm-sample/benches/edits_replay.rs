@@ -34,7 +34,7 @@
 //! Run: `cargo bench -p grm-sample --bench edits_replay [-- ROUNDS]
 //! [--instructions]`.
 
-use grm_testkit::bench::{cachegrind_instructions, load, median};
+use grm_testkit::bench::{cachegrind_instructions, load, print_instructions, print_medians};
 use std::hint::black_box;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -305,26 +305,9 @@ fn main() {
             ratios[k].push(t[k] / t[0]);
         }
     }
-    println!("  {rounds} rounds, load {}", load());
-    println!("  case      median ms   ratio (median of per-round, to none)");
-    for (k, (name, _)) in samplers.iter().enumerate() {
-        println!(
-            "  {name:<8} {:>10.2} {:>8.3}x",
-            median(&times[k]),
-            median(&ratios[k])
-        );
-    }
+    let names: Vec<&str> = samplers.iter().map(|(name, _)| *name).collect();
+    print_medians(rounds, "none", &names, &times, &ratios);
     if args.iter().any(|a| a == "--instructions") {
-        println!("  instructions (cachegrind; one run = (3 runs - 1 run) / 2):");
-        let mut base = None;
-        for case in CASES {
-            let (Some(a), Some(b)) = (instructions(case, 1), instructions(case, 3)) else {
-                println!("  valgrind did not run");
-                break;
-            };
-            let one = b.saturating_sub(a) as f64 / 2.0;
-            let base = *base.get_or_insert(one);
-            println!("  {case:<8} {:>10.2} M {:>8.3}x", one / 1e6, one / base);
-        }
+        print_instructions("run", CASES.iter().copied(), instructions);
     }
 }

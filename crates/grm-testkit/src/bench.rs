@@ -48,6 +48,49 @@ pub fn cachegrind_instructions(args: &[&str]) -> Option<u64> {
     line.split(':').nth(1)?.trim().replace(',', "").parse().ok()
 }
 
+/// Prints each case's median time and median ratio (to the first case)
+/// over the rounds, with the load average.
+pub fn print_medians(
+    rounds: usize,
+    note: &str,
+    names: &[&str],
+    times: &[Vec<f64>],
+    ratios: &[Vec<f64>],
+) {
+    println!("  {rounds} rounds, load {}", load());
+    println!("  case      median ms   ratio (median of per-round, to {note})");
+    for (k, name) in names.iter().enumerate() {
+        println!(
+            "  {name:<8} {:>10.2} {:>8.3}x",
+            median(&times[k]),
+            median(&ratios[k])
+        );
+    }
+}
+
+/// Prints each case's instructions for one unit of work, `(count(3) -
+/// count(1)) / 2` (the set-up cancels out), and its ratio to the first
+/// case; `count(case, n)` is the instructions of `n` units (e.g. this
+/// bench's binary under [`cachegrind_instructions`]). `unit` names the
+/// unit in the heading ("derivation", "run").
+pub fn print_instructions<'c>(
+    unit: &str,
+    cases: impl IntoIterator<Item = &'c str>,
+    count: impl Fn(&str, usize) -> Option<u64>,
+) {
+    println!("  instructions (cachegrind; one {unit} = (3 - 1) / 2 {unit}s):");
+    let mut base = None;
+    for case in cases {
+        let (Some(a), Some(b)) = (count(case, 1), count(case, 3)) else {
+            println!("  valgrind did not run");
+            break;
+        };
+        let one = b.saturating_sub(a) as f64 / 2.0;
+        let base = *base.get_or_insert(one);
+        println!("  {case:<8} {:>10.2} M {:>8.3}x", one / 1e6, one / base);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     #[test]
