@@ -34,8 +34,8 @@ mod pages;
 pub mod string;
 
 pub use edits::{
-    EditAction, EditOutcome, EditPlan, EditState, KeyEdits, KeyHits, KeyPlan, SlotTarget,
-    StepRecord, ValueOp,
+    EditAction, EditOutcome, EditPlan, EditState, KeyEdits, KeyHits, KeyPlan, RemovedModule,
+    SlotTarget, StepRecord, ValueOp,
 };
 pub use engine::{
     Derivation, DeriveLimits, DeriveOptions, Engine, IterationStats, MAX_THREADS, derive,

@@ -247,7 +247,7 @@ fn derive_cpu(
             return Ok(None);
         }
         let t = Instant::now();
-        let (decided, kept, next) = match &mut edited {
+        let (decided, kept, removed, next) = match &mut edited {
             Some(state) => {
                 let mut rec = grm_derive::StepRecord::default();
                 let next = engine.edited_step(
@@ -258,12 +258,12 @@ fn derive_cpu(
                     &opts.limits,
                     Some(&mut rec),
                 )?;
-                (rec.decided, Some(rec.kept), next)
+                (rec.decided, Some(rec.kept), rec.removed, next)
             }
             None => {
                 let decided = engine.decisions(&string, iteration, opts.seed)?;
                 let next = engine.step(&string, iteration, opts.seed, &opts.limits)?;
-                (decided, None, next)
+                (decided, None, Vec::new(), next)
             }
         };
         // How many modules of the next string each module became.
@@ -287,7 +287,7 @@ fn derive_cpu(
                     span: sys.span,
                 });
             }
-            tree.advance(iteration, &decided, &made, &next);
+            tree.advance(iteration, &decided, &made, &next, &removed);
         }
         if let Some(o) = &mut origins {
             let mut out = Vec::with_capacity(next.len());

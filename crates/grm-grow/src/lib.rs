@@ -68,7 +68,7 @@ use grm_derive::{DeriveError, IterationStats, ModuleString};
 use grm_diag::{Diagnostic, FileId, Span};
 
 pub use derive::Grower;
-pub use tree::{Tree, TreeMode, TreeNode};
+pub use tree::{RemovedPart, Tree, TreeMode, TreeNode};
 
 /// What to record besides the final string.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

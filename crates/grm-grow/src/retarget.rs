@@ -47,6 +47,12 @@ pub struct PartPrint {
     /// derive and sample mode: the centre of what its subtree drew), if
     /// known.
     pub centre: Option<[f32; 3]>,
+    /// Derive mode: `centre` is its parent's (a module an edit removed
+    /// drew nothing of its own).
+    pub centre_of_parent: bool,
+    /// Derive mode: its place among the modules its parent's production
+    /// made (from 0), if known.
+    pub sibling: Option<u32>,
 }
 
 /// Which tier proposed a candidate.
@@ -144,6 +150,8 @@ pub struct TreeParts<'t> {
     centres: Vec<Option<[f32; 3]>>,
     /// Per key: how many nodes have it.
     keys: HashMap<u32, u32>,
+    /// Per node: its place among its parent's children.
+    siblings: Vec<u32>,
 }
 
 impl<'t> TreeParts<'t> {
@@ -210,14 +218,34 @@ impl<'t> TreeParts<'t> {
             })
             .collect();
         let mut keys: HashMap<u32, u32> = HashMap::new();
-        for x in &tree.nodes {
-            *keys.entry(x.key).or_insert(0) += 1;
+        for k in tree
+            .nodes
+            .iter()
+            .map(|x| x.key)
+            .chain(tree.removed.iter().map(|r| r.key))
+        {
+            *keys.entry(k).or_insert(0) += 1;
         }
+        let mut children = vec![0u32; n];
+        let siblings = tree
+            .nodes
+            .iter()
+            .map(
+                |x| match x.parent.and_then(|p| children.get_mut(p as usize)) {
+                    Some(c) => {
+                        *c += 1;
+                        *c - 1
+                    }
+                    None => 0,
+                },
+            )
+            .collect();
         TreeParts {
             tree,
             symbols,
             centres,
             keys,
+            siblings,
         }
     }
 
@@ -249,12 +277,40 @@ impl<'t> TreeParts<'t> {
             order: Vec::new(),
             ancestry: Some(ancestry),
             centre: self.centres.get(node as usize).copied().flatten(),
+            centre_of_parent: false,
+            sibling: (self.tree.mode == crate::TreeMode::Derive)
+                .then(|| self.siblings.get(node as usize).copied())
+                .flatten(),
         }
     }
 
-    /// The print of the module keyed `key`, when one module has it.
+    /// The print of the module keyed `key`, when one module has it: a
+    /// node, or a module an edit removed as it was made ([`Tree::removed`]:
+    /// its symbol, its parent's ancestry and symbol, and for its place,
+    /// having drawn nothing, its parent's).
     pub fn print_of_key(&self, key: u32) -> Option<PartPrint> {
-        self.node_of_key(key).map(|n| self.print(n))
+        if let Some(n) = self.node_of_key(key) {
+            return Some(self.print(n));
+        }
+        if self.keys.get(&key) != Some(&1) {
+            return None;
+        }
+        let r = self.tree.removed.iter().find(|r| r.key == key)?;
+        let ancestry = self
+            .tree
+            .ancestry(r.parent)
+            .iter()
+            .skip(1)
+            .filter_map(|&a| self.symbol(a as usize).map(str::to_owned))
+            .collect();
+        Some(PartPrint {
+            label: self.symbols.get(r.symbol as usize).cloned(),
+            order: Vec::new(),
+            ancestry: Some(ancestry),
+            centre: self.centres.get(r.parent as usize).copied().flatten(),
+            centre_of_parent: true,
+            sibling: Some(r.sibling),
+        })
     }
 }
 
@@ -306,16 +362,30 @@ pub fn candidates(
         at.and_then(|p| nodes.get(p as usize))
             .is_some_and(|x| x.parent.is_none())
     };
-    let mut tiers: [Vec<(bool, f32, u32)>; 2] = Default::default();
+    // (unknown place, distance, another place among its siblings, node)
+    let mut tiers: [Vec<(bool, f32, bool, u32)>; 2] = Default::default();
     for (i, x) in nodes.iter().enumerate().skip(1) {
         if x.symbol.map(|s| s as usize) != Some(symbol) || parts.keys.get(&x.key) != Some(&1) {
             continue;
         }
         let tier = usize::from(!ancestry.as_ref().is_some_and(|a| same_ancestry(i, a)));
-        let centre = parts.centres[i];
+        // A removed part's place is its parent's: compared with the
+        // candidate's parent's, its siblings told apart by their place.
+        let centre = if print.centre_of_parent {
+            x.parent
+                .and_then(|p| parts.centres.get(p as usize).copied().flatten())
+        } else {
+            parts.centres[i]
+        };
+        let other_place = print.sibling.is_some_and(|s| s != parts.siblings[i]);
         // Unknown places last, in tree order.
         let known = print.centre.is_some() && centre.is_some();
-        tiers[tier].push((!known, distance(print.centre, centre), i as u32));
+        tiers[tier].push((
+            !known,
+            distance(print.centre, centre),
+            other_place,
+            i as u32,
+        ));
     }
     let mut out: Vec<KeyCandidate> = Vec::new();
     let mut seen: HashSet<u32> = HashSet::new();
@@ -323,8 +393,13 @@ pub fn candidates(
         seen.insert(k);
     }
     for (t, mut tier) in tiers.into_iter().enumerate() {
-        tier.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)).then(a.2.cmp(&b.2)));
-        for (_, _, n) in tier {
+        tier.sort_by(|a, b| {
+            a.0.cmp(&b.0)
+                .then(a.1.total_cmp(&b.1))
+                .then(a.2.cmp(&b.2))
+                .then(a.3.cmp(&b.3))
+        });
+        for (_, _, _, n) in tier {
             if out.len() >= max {
                 return out;
             }

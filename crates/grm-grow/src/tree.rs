@@ -42,6 +42,20 @@ pub struct TreeNode {
     pub modules: Range<u32>,
 }
 
+/// A module an edit removed as it was made ([`Tree::removed`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RemovedPart {
+    /// Its identity key.
+    pub key: u32,
+    /// The node whose production made it.
+    pub parent: u32,
+    pub symbol: u32,
+    /// The string it would have first appeared in.
+    pub iteration: u32,
+    /// Its place among the modules its parent's production made.
+    pub sibling: u32,
+}
+
 /// Bytes one node costs while the tree is built (the node and the
 /// module-to-node entries), for the memory limit.
 pub(crate) const NODE_BYTES: u64 = std::mem::size_of::<TreeNode>() as u64 + 8;
@@ -54,6 +68,10 @@ pub struct Tree {
     /// The run's root key (the root's key).
     pub root_key: u32,
     pub nodes: Vec<TreeNode>,
+    /// Derive mode: the modules persistent edits removed as they were
+    /// made (they are no nodes: nothing descends from them and they own
+    /// no module), in the order they were made.
+    pub removed: Vec<RemovedPart>,
     /// Per module of the final string: the node that owns it. While a
     /// derive-mode tree is built: per module of the current string.
     module_node: Vec<u32>,
@@ -88,6 +106,7 @@ impl Tree {
             seed,
             root_key,
             nodes,
+            removed: Vec::new(),
             module_node: (1..=axiom.len() as u32).collect(),
         }
     }
@@ -95,14 +114,28 @@ impl Tree {
     /// Record step `iteration`: `decided` is the engine's decision per
     /// module of the current string, `next` the string it made.
     /// `made(i, decided[i])` how many modules of `next` module `i` became
-    /// (a successor's length, fewer where edits removed some; a copy 1).
+    /// (a successor's length, fewer where edits removed some; a copy 1);
+    /// `removed` the modules edits removed from `next` (a removed copy
+    /// stays its node).
     pub(crate) fn advance(
         &mut self,
         iteration: u32,
         decided: &[Option<u32>],
         made: &dyn Fn(usize, Option<u32>) -> usize,
         next: &ModuleString,
+        removed: &[grm_derive::RemovedModule],
     ) {
+        for r in removed.iter().filter(|r| !r.copy) {
+            if let Some(&parent) = self.module_node.get(r.input as usize) {
+                self.removed.push(RemovedPart {
+                    key: r.key,
+                    parent,
+                    symbol: r.symbol,
+                    iteration,
+                    sibling: r.successor,
+                });
+            }
+        }
         let mut cur = Vec::with_capacity(next.len());
         let mut o = 0usize;
         for (i, d) in decided.iter().enumerate() {
@@ -174,6 +207,7 @@ impl Tree {
             seed,
             root_key,
             nodes,
+            removed: Vec::new(),
             module_node,
         }
     }

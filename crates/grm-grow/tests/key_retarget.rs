@@ -160,3 +160,93 @@ fn without_the_ancestry_the_nearest_module_of_the_symbol_comes_first() {
         EditClass::StructurallyInvalid
     ));
 }
+
+/// `src` grown with one edit removing the module keyed `key`.
+fn run_removing(src: &str, key: u32) -> Run {
+    let checked = inline(src);
+    let c = compile(&checked);
+    let mut file = grm_edits::EditsFile::default();
+    file.add("Plant", Target::Key(key), Op::Remove);
+    let plan = grm_grow::edits::edit_plan(system(&checked), &file.edits);
+    let grown = Grower::new(
+        &c,
+        1,
+        Record {
+            tree: true,
+            ..Record::default()
+        },
+    )
+    .expect("grower")
+    .with_edits(plan)
+    .expect("edits")
+    .derive(&options(4, 3), &mut |_| {})
+    .expect("grows");
+    let interp =
+        grm_turtle::interpret(system(&checked), &c.settings, &grown.string).expect("interprets");
+    Run { c, grown, interp }
+}
+
+#[test]
+fn a_removed_module_leaves_a_print_and_is_found_again_after_an_inserted_rule() {
+    // An A of the third string (its subtree drew bones), removed.
+    let plain = run(PLANT);
+    let t = plain.grown.tree.as_ref().unwrap();
+    let is_a = |i: usize| {
+        t.nodes[i]
+            .symbol
+            .is_some_and(|s| plain.c.symbol_names[s as usize] == "A")
+    };
+    let a = (1..t.nodes.len())
+        .find(|&i| t.nodes[i].iteration == 3 && is_a(i) && i % 3 == 0)
+        .expect("an A of the third string");
+    let key = t.nodes[a].key;
+    let parent = t.nodes[a].parent.expect("its parent");
+
+    let removed = run_removing(PLANT, key);
+    let tr = removed.grown.tree.as_ref().unwrap();
+    assert!(
+        removed.grown.string.len() < plain.grown.string.len(),
+        "its subtree is gone"
+    );
+    assert!(tr.nodes.iter().all(|n| n.key != key), "no node has its key");
+    let part = tr
+        .removed
+        .iter()
+        .find(|r| r.key == key)
+        .expect("the tree lists it as removed");
+    assert_eq!(
+        (part.parent, part.iteration),
+        (parent, 3),
+        "made by its parent's production in step 3"
+    );
+    assert_eq!(tr.nodes[parent as usize].key, t.nodes[parent as usize].key);
+    // Its print: its symbol, its ancestry, and (having drawn nothing) its
+    // parent's place.
+    let pr = TreeParts::new(tr, &removed.c.symbol_names, &removed.interp);
+    let print = pr.print_of_key(key).expect("a print of the removed module");
+    let p0 = TreeParts::new(t, &plain.c.symbol_names, &plain.interp);
+    let whole = p0.print_of_key(key).expect("a print without the edit");
+    assert_eq!(print.label, whole.label);
+    assert_eq!(print.ancestry, whole.ancestry);
+    assert!(print.centre.is_some(), "its parent's subtree drew bones");
+
+    // After an inserted rule the key is gone; the first candidate is the
+    // same A, by its ancestry.
+    let after = run_removing(&guarded(), key);
+    let t1 = after.grown.tree.as_ref().unwrap();
+    assert_eq!(
+        after.grown.string.len(),
+        plain.grown.string.len(),
+        "the edit no longer applies"
+    );
+    let p1 = TreeParts::new(t1, &after.c.symbol_names, &after.interp);
+    assert!(p1.print_of_key(key).is_none(), "no module has it now");
+    let e = key_edit(key);
+    let c = candidates(&p1, &e, &print, 4);
+    assert!(!c.is_empty());
+    assert_eq!(c[0].reason, Reason::Ancestry, "{c:?}");
+    // The same A: both trees grow the same nodes in the same order (the
+    // same model), so it is node `a` again.
+    assert_eq!(c[0].node, a as u32);
+    assert_eq!(c[0].target, Target::Key(t1.nodes[a].key));
+}

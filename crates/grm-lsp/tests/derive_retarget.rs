@@ -160,3 +160,77 @@ async fn a_key_lost_to_a_reordered_alternative_is_offered_the_same_module_first(
     assert_eq!(r["edits"]["list"][0]["replayed"], true);
     c.diagnostics(&eu, <[Value]>::is_empty).await;
 }
+
+#[tokio::test]
+async fn a_removed_module_lost_to_a_reordered_alternative_is_offered_the_same_module_first() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let root = grm_sema::normalize(&std::fs::canonicalize(dir.path()).expect("canonical"));
+    let p = root.join("plant.grm");
+    std::fs::write(&p, PLANT).expect("write");
+    let mut c = Editor::start().await;
+    let u = c.open(&p, PLANT, 1).await;
+    let uv = serde_json::to_value(&u).unwrap();
+    let base = c
+        .ok(
+            "grm/preview",
+            json!({ "textDocument": { "uri": u }, "live": true }),
+        )
+        .await;
+    let (part, triangle, key) = deep_pick(&mut c, &uv, &base).await;
+
+    // The A removed: valid, its subtree gone, its print kept (the module
+    // is in no tree, but the derivation recorded what it removed).
+    let ep = grm_edits::edits_path(&p);
+    let one = serde_json::to_string_pretty(&json!({ "version": 1, "edits": [
+        { "id": 1, "system": "Plant", "target": { "key": key }, "op": "remove" }
+    ] }))
+    .unwrap();
+    let eu = c.open(&ep, &one, 1).await;
+    let r = c
+        .updated(|r| r["edits"]["list"][0]["class"] == "valid")
+        .await;
+    assert_eq!(r["edits"]["list"][0]["replayed"], true);
+    assert!(triangles(&r) < triangles(&base), "its subtree is gone");
+
+    // The alternative inserted: the key is gone, so nothing is removed.
+    c.replace(&u, 2, &reordered()).await;
+    let r = c
+        .updated(|r| r["edits"]["list"][0]["class"] == "structurally_invalid")
+        .await;
+    assert_eq!(triangles(&r), triangles(&base), "the whole plant again");
+    let want = writer_key(&mut c, &uv, part, &triangle).await;
+    assert_ne!(want, key, "re-minted");
+    let cands = r["edits"]["list"][0]["retarget"]
+        .as_array()
+        .expect("candidates");
+    assert!(!cands.is_empty(), "{r}");
+    assert_eq!(cands[0]["target"], json!({ "key": want }), "{cands:?}");
+    assert_eq!(cands[0]["reason"], "ancestry");
+
+    // The quick fix's target removes the same A again.
+    let ev = serde_json::to_value(&eu).unwrap();
+    let d = c
+        .diagnostics(&eu, |d| {
+            d.len() == 1 && d[0]["code"] == "edit.structurally_invalid"
+        })
+        .await;
+    let a = c
+        .ok(
+            "textDocument/codeAction",
+            json!({ "textDocument": { "uri": ev }, "range": d[0]["range"],
+                    "context": { "diagnostics": [d[0].clone()] } }),
+        )
+        .await;
+    let a = a.as_array().expect("actions");
+    let fixed = apply(
+        &one,
+        a[0]["edit"]["changes"][ev.as_str().unwrap()]
+            .as_array()
+            .expect("the edits file's change"),
+    );
+    c.replace(&eu, 2, &fixed).await;
+    let r2 = c
+        .updated(|r| r["edits"]["list"][0]["class"] == "valid")
+        .await;
+    assert!(triangles(&r2) < triangles(&base), "removed again");
+}

@@ -106,6 +106,7 @@ impl<'t> Orderings<'t> {
             order,
             ancestry: None,
             centre: self.tree.node(node).map(|n| n.scope.center().to_array()),
+            ..PartPrint::default()
         }
     }
 }
@@ -132,6 +133,7 @@ pub fn print_of_target(lowered: &Lowered, tree: &ShapeTree, target: &Target) -> 
                 .collect(),
             ancestry: None,
             centre: None,
+            ..PartPrint::default()
         },
         Target::Exact(loc) => PartPrint {
             label: loc.labels.last().cloned(),
@@ -140,6 +142,7 @@ pub fn print_of_target(lowered: &Lowered, tree: &ShapeTree, target: &Target) -> 
             centre: deepest(lowered, tree, loc)
                 .and_then(|n| tree.node(n))
                 .map(|n| n.scope.center().to_array()),
+            ..PartPrint::default()
         },
         Target::Key(_) => PartPrint::default(),
     }
