@@ -37,8 +37,18 @@ struct Run {
 }
 
 fn run(src: &str) -> Run {
+    run_removing(src, None)
+}
+
+/// `src` grown, with one edit removing the module keyed `removed`.
+fn run_removing(src: &str, removed: Option<u32>) -> Run {
     let checked = inline(src);
     let c = compile(&checked);
+    let mut file = grm_edits::EditsFile::default();
+    if let Some(key) = removed {
+        file.add("Plant", Target::Key(key), Op::Remove);
+    }
+    let plan = grm_grow::edits::edit_plan(system(&checked), &file.edits);
     let grown = Grower::new(
         &c,
         1,
@@ -48,6 +58,8 @@ fn run(src: &str) -> Run {
         },
     )
     .expect("grower")
+    .with_edits(plan)
+    .expect("edits")
     .derive(&options(4, 3), &mut |_| {})
     .expect("grows");
     let interp =
@@ -161,31 +173,6 @@ fn without_the_ancestry_the_nearest_module_of_the_symbol_comes_first() {
     ));
 }
 
-/// `src` grown with one edit removing the module keyed `key`.
-fn run_removing(src: &str, key: u32) -> Run {
-    let checked = inline(src);
-    let c = compile(&checked);
-    let mut file = grm_edits::EditsFile::default();
-    file.add("Plant", Target::Key(key), Op::Remove);
-    let plan = grm_grow::edits::edit_plan(system(&checked), &file.edits);
-    let grown = Grower::new(
-        &c,
-        1,
-        Record {
-            tree: true,
-            ..Record::default()
-        },
-    )
-    .expect("grower")
-    .with_edits(plan)
-    .expect("edits")
-    .derive(&options(4, 3), &mut |_| {})
-    .expect("grows");
-    let interp =
-        grm_turtle::interpret(system(&checked), &c.settings, &grown.string).expect("interprets");
-    Run { c, grown, interp }
-}
-
 #[test]
 fn a_removed_module_leaves_a_print_and_is_found_again_after_an_inserted_rule() {
     // An A of the third string (its subtree drew bones), removed.
@@ -202,7 +189,7 @@ fn a_removed_module_leaves_a_print_and_is_found_again_after_an_inserted_rule() {
     let key = t.nodes[a].key;
     let parent = t.nodes[a].parent.expect("its parent");
 
-    let removed = run_removing(PLANT, key);
+    let removed = run_removing(PLANT, Some(key));
     let tr = removed.grown.tree.as_ref().unwrap();
     assert!(
         removed.grown.string.len() < plain.grown.string.len(),
@@ -232,7 +219,7 @@ fn a_removed_module_leaves_a_print_and_is_found_again_after_an_inserted_rule() {
 
     // After an inserted rule the key is gone; the first candidate is the
     // same A, by its ancestry.
-    let after = run_removing(&guarded(), key);
+    let after = run_removing(&guarded(), Some(key));
     let t1 = after.grown.tree.as_ref().unwrap();
     assert_eq!(
         after.grown.string.len(),
