@@ -568,23 +568,27 @@ impl Engine<'_> {
     ) -> Result<Job, Overflow> {
         match self.edits {
             // The plain loop: `()` hooks compile to nothing.
-            None => self.run_with(root, root_outline, cut, budget, stop, prefix, &mut ()),
+            None => self.run_with(root, root_outline, cut, budget, stop, prefix, || ()),
             Some(plan) => {
-                let mut replay = Replay::new(
-                    plan,
-                    carried.unwrap_or(Carried {
-                        state: plan.root_state(&root),
-                        forced: Forced::default(),
-                    }),
-                );
+                let state = plan.root_state(&root);
                 // Node indices below the stack's flag bit.
                 let budget = budget.min(FLAGGED as usize - 1);
-                self.run_with(root, root_outline, cut, budget, stop, prefix, &mut replay)
+                self.run_with(root, root_outline, cut, budget, stop, prefix, || {
+                    Replay::new(
+                        plan,
+                        carried.unwrap_or(Carried {
+                            state,
+                            forced: Forced::default(),
+                        }),
+                    )
+                })
             }
         }
     }
 
-    /// [`Engine::run`] with the replay hook `hook` (`()`: no edits).
+    /// [`Engine::run`] with the replay hook `start` makes (`()`: no
+    /// edits): a local of the loop, its state addressed from the loop's
+    /// frame rather than through a pointer kept across the rule run.
     #[allow(clippy::too_many_arguments)]
     fn run_with<'r, H: Hook<'r>>(
         &self,
@@ -594,8 +598,10 @@ impl Engine<'_> {
         budget: usize,
         stop: &AtomicBool,
         prefix: &Ancestry,
-        hook: &mut H,
+        start: impl FnOnce() -> H,
     ) -> Result<Job, Overflow> {
+        let mut hook = start();
+        let hook = &mut hook;
         let roots_kind = (root.kind, 0);
         root.geometry = match (root.geometry, &root_outline) {
             (Geometry::Prism(_), Some(_)) => Geometry::Prism(OutlineId(0)),

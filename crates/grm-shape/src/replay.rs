@@ -277,6 +277,65 @@ impl Pattern {
 /// The key filter's size in bits (keys by their low 16 bits).
 const KEY_BITS: usize = 1 << 16;
 
+/// [`EditPlan::key_filter`]: one bit per value of a key's low 16 bits.
+#[derive(Clone, Debug)]
+struct KeyFilter(Box<[u64; KEY_BITS / 64]>);
+
+impl Default for KeyFilter {
+    fn default() -> KeyFilter {
+        KeyFilter(Box::new([0; KEY_BITS / 64]))
+    }
+}
+
+impl KeyFilter {
+    /// Whether `key`'s bit is set.
+    #[inline(always)]
+    fn has(&self, key: u32) -> bool {
+        let bit = key as usize & (KEY_BITS - 1);
+        self.0[bit / 64] >> (bit % 64) & 1 != 0
+    }
+
+    fn add(&mut self, key: u32) {
+        let bit = key as usize & (KEY_BITS - 1);
+        self.0[bit / 64] |= 1 << (bit % 64);
+    }
+}
+
+/// The numbers (or ordinals) of the edges of one kind that leave a trie
+/// state: a bit each below [`EdgeSet::MAX`], and whether one is larger
+/// (then every larger one is looked up).
+#[derive(Clone, Debug, Default)]
+struct EdgeSet {
+    bits: Vec<u64>,
+    large: bool,
+}
+
+impl EdgeSet {
+    /// The numbers kept as bits.
+    const MAX: u32 = 1 << 12;
+
+    fn add(&mut self, k: u32) {
+        if k >= EdgeSet::MAX {
+            self.large = true;
+            return;
+        }
+        let w = k as usize / 64;
+        if self.bits.len() <= w {
+            self.bits.resize(w + 1, 0);
+        }
+        self.bits[w] |= 1 << (k % 64);
+    }
+
+    /// Whether an edge numbered `k` may leave the state (false: none does).
+    #[inline]
+    fn may_have(&self, k: u32) -> bool {
+        match self.bits.get(k as usize / 64) {
+            Some(w) => w >> (k % 64) & 1 != 0,
+            None => k >= EdgeSet::MAX && self.large,
+        }
+    }
+}
+
 /// The state of a node outside every exact target's path.
 pub(crate) const NONE: u32 = u32::MAX;
 
@@ -293,10 +352,19 @@ pub struct EditPlan {
     /// Per trie state, the edges that leave it: bit 0 a numbered or
     /// component edge, bit 1 an ordinal one (`step` looks up only those).
     leaves: Vec<u8>,
+    /// Per trie state, the numbers and the ordinals of the numbered and
+    /// ordinal edges that leave it: a floor's hundred tiles, of which a
+    /// few are on a target's path, cost a bit test each instead of a
+    /// failed trie lookup.
+    numbers: Vec<EdgeSet>,
+    ordinals: Vec<EdgeSet>,
     by_key: HashMap<u32, Vec<u32>>,
-    /// Bit `k & 0xffff` set for every target key `k` (empty without key
-    /// targets).
-    key_filter: Vec<u64>,
+    /// Bit `k & 0xffff` set for every target key `k` (all clear without
+    /// key targets: a fixed size, so a test is a mask, a load and a
+    /// shift).
+    key_filter: KeyFilter,
+    /// Whether some edit targets a key.
+    has_keys: bool,
     /// Semantic queries grouped by pattern.
     semantic: Vec<Pattern>,
     /// Per symbol (by id), whether a query may name its shapes (one of
@@ -396,11 +464,8 @@ impl EditPlan {
             let lowered = match &e.target {
                 Target::Key(k) => {
                     plan.by_key.entry(*k).or_default().push(index);
-                    if plan.key_filter.is_empty() {
-                        plan.key_filter = vec![0; KEY_BITS / 64];
-                    }
-                    let bit = (*k as usize) & (KEY_BITS - 1);
-                    plan.key_filter[bit / 64] |= 1 << (bit % 64);
+                    plan.key_filter.add(*k);
+                    plan.has_keys = true;
                     true
                 }
                 Target::Exact(loc) => plan.insert_exact(program, &mut labels, loc, index),
@@ -536,6 +601,8 @@ impl EditPlan {
             None => {
                 self.finals.push(Vec::new());
                 self.leaves.push(0);
+                self.numbers.push(EdgeSet::default());
+                self.ordinals.push(EdgeSet::default());
                 let s = self.finals.len() as u32 - 1;
                 self.root = Some((labels[0], s));
                 s
@@ -543,16 +610,24 @@ impl EditPlan {
         };
         let mut state = state;
         for (l, e) in labels[1..].iter().zip(&loc.edges) {
-            if let EdgeRef::Ordinal(_) = e {
-                self.leaves[state as usize] |= 2;
-            } else {
-                self.leaves[state as usize] |= 1;
+            match *e {
+                EdgeRef::Ordinal(k) => {
+                    self.leaves[state as usize] |= 2;
+                    self.ordinals[state as usize].add(k);
+                }
+                EdgeRef::Number(k) => {
+                    self.leaves[state as usize] |= 1;
+                    self.numbers[state as usize].add(k);
+                }
+                EdgeRef::Component { .. } => self.leaves[state as usize] |= 1,
             }
             let next = self.finals.len() as u32;
             state = *self.trie.entry((state, *l, e.clone())).or_insert(next);
             if state == next {
                 self.finals.push(Vec::new());
                 self.leaves.push(0);
+                self.numbers.push(EdgeSet::default());
+                self.ordinals.push(EdgeSet::default());
             }
         }
         self.finals[state as usize].push(edit);
@@ -573,7 +648,7 @@ impl EditPlan {
     /// the shapes on an exact target's path can be named).
     #[inline]
     pub(crate) fn names_any(&self) -> bool {
-        !self.key_filter.is_empty() || !self.semantic.is_empty()
+        self.has_keys || !self.semantic.is_empty()
     }
 
     /// Whether a key target or a query may name a shape of `symbol` with
@@ -586,15 +661,13 @@ impl EditPlan {
             .get(symbol.0 as usize)
             .copied()
             .unwrap_or(false)
-            || self.key_bit(key)
+            | self.key_bit(key)
     }
 
     /// Whether `key`'s filter bit is set (some key target may be `key`).
     #[inline]
     fn key_bit(&self, key: u32) -> bool {
-        self.key_filter
-            .get((key as usize & (KEY_BITS - 1)) / 64)
-            .is_some_and(|w| w & (1 << (key % 64)) != 0)
+        self.key_filter.has(key)
     }
 
     /// Whether the plan has semantic queries (which read the tagged
@@ -677,12 +750,14 @@ impl EditPlan {
         } else {
             0
         };
+        let p = parent as usize;
         if leaves & 1 != 0
+            && (child.selector.is_some() || self.numbers[p].may_have(child.edge))
             && let Some(&s) = self.trie.get(&(parent, l, edge(child)))
         {
             return s;
         }
-        if ordinal == 0 || child.selector.is_some() {
+        if ordinal == 0 || child.selector.is_some() || !self.ordinals[p].may_have(ordinal) {
             return NONE;
         }
         self.trie
