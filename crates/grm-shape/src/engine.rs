@@ -753,18 +753,7 @@ impl Engine<'_> {
             if let Some(r) = hook.get()
                 && special
             {
-                let (forced, opens) = r.shape;
-                replay_block(
-                    r,
-                    &mut job.nodes,
-                    at,
-                    start,
-                    &mut stack,
-                    before,
-                    state,
-                    forced,
-                    opens,
-                );
+                replay_block(r, &mut job.nodes, at, start, &mut stack, before, state);
                 scratch.force = None;
                 scratch.keep_material = r.forced.material.is_some();
             }

@@ -62,9 +62,11 @@ pub(super) struct Replay<'p> {
     /// Whether every shape off the exact targets' paths is looked at:
     /// some edit names shapes by key or query, or a mesh is forced.
     pub(super) attend: bool,
-    /// The forcing of the shape at hand and whether its own edits
-    /// changed it (`Engine::own_edits`).
-    pub(super) shape: (Forced, bool),
+    /// Whether the own edits of the shape at hand changed its forcing
+    /// (`Engine::own_edits`: its block opens a forced region), and the
+    /// forcing then (else it is the region's, `forced`).
+    pub(super) opens: bool,
+    pub(super) opened: Forced,
     /// Scratch: the trie states of the block at hand, from its start, and
     /// its ordinals counted (`EditPlan::block_states`).
     pub(super) block: Vec<u32>,
@@ -87,7 +89,8 @@ impl<'p> Replay<'p> {
             forced: root.forced,
             meshed: root.forced.mesh.is_some(),
             attend: plan.names_any() || root.forced.mesh.is_some(),
-            shape: (root.forced, false),
+            opens: false,
+            opened: root.forced,
             block: Vec::new(),
             counts: Vec::new(),
             matched: Vec::new(),
@@ -129,19 +132,19 @@ pub(super) struct Carried {
     pub(super) forced: Forced,
 }
 
-/// After the shape at `at` (trie state `state`, forcing `forced`: its own
-/// edits over its ancestors') made the block `nodes[start..]`, whose shapes
-/// the derivation stack took last (`stack[before..]`, last first), when the
-/// block needs anything of the replay: the forced mesh on the block's
-/// inserts; a forced region for its shapes where the shape's own edits
-/// force (`opens`: a [`LEAVE`] entry put below them); on a target's path,
+/// After the shape at `at` (trie state `state`; its forcing, its own
+/// edits' over its ancestors', is `r.opened` where those force anything,
+/// `r.opens`, else the region's) made the block `nodes[start..]`, whose
+/// shapes the derivation stack took last (`stack[before..]`, last first),
+/// when the block needs anything of the replay: the forced mesh on the
+/// block's inserts; a forced region for its shapes where the shape's own
+/// edits force (a [`LEAVE`] entry put below them); on a target's path,
 /// each shape's trie state, and those still on a path flagged. A forced
 /// material needs nothing more: the shape's attributes carry it to the
 /// block and its rules' materials were skipped. Off every path, a shape is
 /// matched only when a key target or a query may name it
 /// (`EditPlan::may_name`, asked when it is popped).
 #[inline(never)]
-#[allow(clippy::too_many_arguments)]
 pub(super) fn replay_block(
     r: &mut Replay,
     nodes: &mut [Node],
@@ -150,9 +153,9 @@ pub(super) fn replay_block(
     stack: &mut Vec<u32>,
     before: usize,
     state: u32,
-    forced: Forced,
-    opens: bool,
 ) {
+    let opens = r.opens;
+    let forced = if opens { r.opened } else { r.forced };
     let block = &mut nodes[start..];
     if let Some(a) = forced.mesh {
         for n in block.iter_mut() {
@@ -196,9 +199,9 @@ impl Engine<'_> {
     /// `None` when one removes it (recorded in `job.removed`); else a
     /// forced material set on its attributes (its subtree inherits them,
     /// the rules' materials below are skipped: `Scratch::keep_material`),
-    /// a pin on its key and a forced alternative in `s.force`, and its
-    /// forcing in `r.shape`, with whether its own edits changed it (its
-    /// block opens a forced region); false when removed.
+    /// a pin on its key and a forced alternative in `s.force`, and where
+    /// its own edits change its forcing (its block opens a forced region)
+    /// that forcing in `r.opened` (`r.opens`); false when removed.
     #[inline(never)]
     pub(super) fn own_edits(
         &self,
@@ -209,7 +212,6 @@ impl Engine<'_> {
         s: &mut Scratch,
     ) -> bool {
         let here = at as usize;
-        let mut forced = r.forced;
         r.matched.clear();
         r.plan.matches(
             &job.nodes,
@@ -219,7 +221,7 @@ impl Engine<'_> {
             &mut r.path,
             &mut r.matched,
         );
-        r.shape = (forced, false);
+        r.opens = false;
         if r.matched.is_empty() {
             return true;
         }
@@ -242,11 +244,13 @@ impl Engine<'_> {
         s.force = own.force;
         let opens = own.material.is_some() || own.mesh.is_some();
         if opens {
+            let mut forced = r.forced;
             forced.material = own.material.or(forced.material);
             forced.mesh = own.mesh.or(forced.mesh);
             s.keep_material = forced.material.is_some();
+            r.opened = forced;
+            r.opens = true;
         }
-        r.shape = (forced, opens);
         true
     }
 
