@@ -119,6 +119,9 @@ struct Pattern {
     /// A 256-bit filter of the wanted keys (bit `key >> 56`): most paths'
     /// keys are none, and cost a bit test instead of a map lookup.
     filter: [u64; 4],
+    /// The last wanted index of each wanted list, by the [`mix`] of the
+    /// ones before it ([`Gate`]).
+    lasts: MixedMap<Vec<i64>>,
 }
 
 /// A list of wanted indices (one per pattern entry) and its edits.
@@ -154,6 +157,63 @@ pub(crate) struct PathScratch {
     above_at: Option<usize>,
     above: Vec<PathTag>,
     readings: Vec<Reading>,
+    /// Which children of that command a query may name, for the shapes
+    /// of one symbol below it ([`Gate`]).
+    gate: Gate,
+}
+
+/// The children of the last path's innermost tagged command below which a
+/// shape of symbol `symbol` may be named by a query: a shape's entry of
+/// that command is the only one its walk reads below the kept ones, so the
+/// patterns' readings of the kept entries and their wanted lists say which
+/// of the command's children can complete one (the last wanted index
+/// anchored back to a child's index). A floor's hundred windows cost a
+/// bit test each instead of three pattern readings; a child let through
+/// is read as before. Built for a symbol at its first shape below the
+/// command; `all`: every child (a pattern complete above, or an index out
+/// of the bits' range).
+#[derive(Debug, Default)]
+struct Gate {
+    symbol: Option<SymbolId>,
+    all: bool,
+    bits: Vec<u64>,
+}
+
+/// The children's indices a gate keeps as bits.
+const GATE_MAX: i64 = 1 << 16;
+
+impl Gate {
+    /// Whether child `index` may be named.
+    #[inline]
+    fn lets(&self, index: u32) -> bool {
+        self.all
+            || self
+                .bits
+                .get(index as usize / 64)
+                .is_some_and(|w| w >> (index % 64) & 1 != 0)
+    }
+
+    fn add(&mut self, index: i64) {
+        if !(0..GATE_MAX).contains(&index) {
+            self.all = true;
+            return;
+        }
+        let w = index as usize / 64;
+        if self.bits.len() <= w {
+            self.bits.resize(w + 1, 0);
+        }
+        self.bits[w] |= 1 << (index % 64);
+    }
+}
+
+/// The index of the child (of `count`) whose index counted from `anchor`
+/// is `v`: the inverse of `Anchor::index`.
+fn unanchor(anchor: Anchor, v: i64, count: u32) -> i64 {
+    match anchor {
+        Anchor::Start => v,
+        Anchor::End => i64::from(count) + 1 - v,
+        Anchor::Centre => v + i64::from(count.div_ceil(2).max(1)),
+    }
 }
 
 /// A pattern's reading of a path so far, root first: the indices' key,
@@ -565,6 +625,14 @@ impl EditPlan {
         let h = wants.iter().fold(MIX_SEED, |h, &v| mix(h, v));
         let bit = (h >> 56) as usize;
         self.semantic[k as usize].filter[bit / 64] |= 1 << (bit % 64);
+        if let Some((&last, before)) = wants.split_last() {
+            let prefix = before.iter().fold(MIX_SEED, |h, &v| mix(h, v));
+            self.semantic[k as usize]
+                .lasts
+                .entry(prefix)
+                .or_default()
+                .push(last);
+        }
         let lists = self.semantic[k as usize].wants.entry(h).or_default();
         match lists.iter_mut().find(|(w, _)| *w == wants) {
             Some((_, edits)) => edits.push(edit),
@@ -840,6 +908,7 @@ impl EditPlan {
             cur = p;
         }
         if !known {
+            w.gate.symbol = None;
             for &entry in prefix {
                 keep(&self.slot, &mut w.tags, entry);
             }
@@ -869,6 +938,19 @@ impl EditPlan {
         // the path's entries of the tags a query names are exactly the
         // query's, in order, each at its anchored index.
         // A pattern whose reading of the kept entries failed is done.
+        // Below the kept entries, only the innermost tagged command's
+        // child: the gate says whether a query may name it.
+        if let [e] = w.tags[..]
+            && w.above_at.is_some()
+        {
+            if w.gate.symbol != Some(symbol) {
+                let patterns = by_label.into_iter().flatten().chain(&self.semantic_any);
+                self.gate(&mut w.gate, symbol, &e, &w.readings, patterns);
+            }
+            if !w.gate.lets(e.index) {
+                return;
+            }
+        }
         let (above, below, readings) = (&w.above[..], &w.tags[..], &w.readings[..]);
         let mut each = |k: u32| {
             let k = k as usize;
@@ -886,6 +968,54 @@ impl EditPlan {
         // One call site: the reading inlined.
         for &k in by_label.into_iter().flatten().chain(&self.semantic_any) {
             each(k);
+        }
+    }
+}
+
+impl EditPlan {
+    /// Build `gate` for the shapes of `symbol` whose one entry below the
+    /// kept ones is `e`'s command's (each its own child): the children
+    /// that complete a wanted list of one of `patterns` (the symbol's, with
+    /// their `readings` of the kept entries).
+    #[cold]
+    #[inline(never)]
+    fn gate<'a>(
+        &self,
+        gate: &mut Gate,
+        symbol: SymbolId,
+        e: &PathTag,
+        readings: &[Reading],
+        patterns: impl Iterator<Item = &'a u32>,
+    ) {
+        gate.symbol = Some(symbol);
+        gate.all = false;
+        gate.bits.clear();
+        for &k in patterns {
+            let (Some(p), Some(&r)) = (self.semantic.get(k as usize), readings.get(k as usize))
+            else {
+                continue;
+            };
+            if r.failed {
+                continue;
+            }
+            let met = r.met as usize;
+            if !p.names(e) {
+                // The child's entry is not read: the pattern matches all
+                // of them or none.
+                if met == p.entries.len() {
+                    gate.all = true;
+                }
+                continue;
+            }
+            // Read, the child's entry must be the pattern's last.
+            match p.entries.get(met) {
+                Some(&(tag, anchor)) if tag == e.tag && met + 1 == p.entries.len() => {
+                    for &v in p.lasts.get(&r.key).into_iter().flatten() {
+                        gate.add(unanchor(anchor, v, e.count));
+                    }
+                }
+                _ => {}
+            }
         }
     }
 }
