@@ -679,10 +679,10 @@ impl Engine<'_> {
                 && (state != replay::NONE
                     || r.attend && (r.meshed || r.plan.may_name(symbol, shape.key)))
             {
-                if !self.own_edits(r, &mut job, at, state, &mut scratch) {
-                    continue;
+                match self.own_edits(r, &mut job, at, state, &mut scratch) {
+                    None => continue,
+                    Some(block) => special = block,
                 }
-                special = true;
             }
             let shape = &job.nodes[at as usize];
             let inherited = job.nodes[at as usize].attrs;

@@ -201,7 +201,11 @@ impl Engine<'_> {
     /// the rules' materials below are skipped: `Scratch::keep_material`),
     /// a pin on its key and a forced alternative in `s.force`, and where
     /// its own edits change its forcing (its block opens a forced region)
-    /// that forcing in `r.opened` (`r.opens`); false when removed.
+    /// that forcing in `r.opened` (`r.opens`). `None` when removed, else
+    /// whether the shape's block needs [`replay_block`] (on a target's
+    /// path, a region opened or a forced mesh) or the scratch's forcing
+    /// reset after its rule run (a forced alternative): most shapes a key
+    /// or query may name need neither.
     #[inline(never)]
     pub(super) fn own_edits(
         &self,
@@ -210,7 +214,7 @@ impl Engine<'_> {
         at: u32,
         state: u32,
         s: &mut Scratch,
-    ) -> bool {
+    ) -> Option<bool> {
         let here = at as usize;
         r.matched.clear();
         r.plan.matches(
@@ -223,14 +227,14 @@ impl Engine<'_> {
         );
         r.opens = false;
         if r.matched.is_empty() {
-            return true;
+            return Some(state != replay::NONE || r.meshed);
         }
         job.hits.extend(r.matched.iter().map(|&(id, _)| (id, at)));
         let own = Own::of(&r.matched);
         r.matched.clear();
         if own.remove {
             job.removed.push(at);
-            return false;
+            return None;
         }
         if let Some(m) = own.material {
             match self.forced_material(r, job.nodes[here].attrs, m) {
@@ -251,7 +255,7 @@ impl Engine<'_> {
             r.opened = forced;
             r.opens = true;
         }
-        true
+        Some(opens || own.force.is_some() || state != replay::NONE || r.meshed)
     }
 
     /// The attributes `attrs` with material `m` forced by an edit,
