@@ -44,43 +44,11 @@ use crate::locator::{Anchor, EdgeRef};
 use crate::tree::{Command, Node, NodeKind};
 use foldhash::HashMap;
 use grm_edits::{Edit, Op, Target};
-use std::hash::{BuildHasherDefault, Hasher};
 
-/// The hasher of keys that are hashes already ([`mix`]): the key is its
-/// own hash.
-#[derive(Clone, Copy, Debug, Default)]
-struct Premixed(u64);
+mod pattern;
 
-impl Hasher for Premixed {
-    fn finish(&self) -> u64 {
-        self.0
-    }
-
-    fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.0 = mix(self.0, i64::from(b));
-        }
-    }
-
-    fn write_u64(&mut self, v: u64) {
-        self.0 = v;
-    }
-}
-
-/// A map from [`mix`]ed keys.
-type MixedMap<V> = std::collections::HashMap<u64, V, BuildHasherDefault<Premixed>>;
-
-/// `h` with the index `v` mixed in (the wanted indices' key, one index
-/// at a time: a multiply and a fold, so the map's low bits and high bits
-/// both depend on every index).
-#[inline]
-fn mix(h: u64, v: i64) -> u64 {
-    let h = (h ^ v as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
-    h ^ (h >> 29)
-}
-
-/// The key of no index yet.
-const MIX_SEED: u64 = 0x243f_6a88_85a3_08d3;
+pub(crate) use pattern::PathScratch;
+use pattern::{MIX_SEED, NO_SLOT, Pattern, Reading, keep, mix};
 
 /// A node's label as the plan compares it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -99,239 +67,6 @@ pub(crate) enum Action {
     Pin(u32),
     Material(MaterialId),
     Mesh(AssetId),
-}
-
-/// Semantic queries that name the same tags with the same anchors, in the
-/// same order (and the same label): the indices they want, each to its
-/// edits.
-#[derive(Clone, Debug, Default)]
-struct Pattern {
-    /// The tags named and their anchors, in order.
-    entries: Vec<(TagId, Anchor)>,
-    /// The plan's slots ([`EditPlan::slot`]) of the entries' tags, one bit
-    /// each; `None` when two entries name one tag or a tag has no slot
-    /// (only the plain reading can match it).
-    mask: Option<u64>,
-    /// The wanted indices (one per entry, anchored) to the edits, by the
-    /// indices' [`mix`]: each key's list holds every wanted list with that
-    /// key (almost always one).
-    wants: MixedMap<Vec<Wanted>>,
-    /// A 256-bit filter of the wanted keys (bit `key >> 56`): most paths'
-    /// keys are none, and cost a bit test instead of a map lookup.
-    filter: [u64; 4],
-    /// The last wanted index of each wanted list, by the [`mix`] of the
-    /// ones before it ([`Gate`]).
-    lasts: MixedMap<Vec<i64>>,
-}
-
-/// A list of wanted indices (one per pattern entry) and its edits.
-type Wanted = (Box<[i64]>, Vec<u32>);
-
-/// A tagged command on a shape's path, of a tag some query names: the
-/// tag, its slot's bit (0: no slot; a pattern's mask tests it in one
-/// `and`) and the child's index and count.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct PathTag {
-    tag: TagId,
-    bit: u64,
-    index: u32,
-    count: u32,
-}
-
-/// The slot of a tag named by queries beyond the first 64.
-const NO_SLOT: u8 = u8::MAX;
-
-/// Scratch space of [`EditPlan::matches`], one per derivation job: the
-/// path's tagged entries, and those above the innermost tagged command of
-/// the last path read (a window's floor and facade, the same for the
-/// hundred windows of a floor: the next window's walk stops at that
-/// command, and each pattern's reading of them is kept). Node indices are
-/// the job's, which never change.
-#[derive(Debug, Default)]
-pub(crate) struct PathScratch {
-    /// The entries below the kept ones (innermost first).
-    tags: Vec<PathTag>,
-    /// The last path's innermost tagged command, the entries above it
-    /// (the job root's prefix included, innermost first) and every
-    /// pattern's reading of them.
-    above_at: Option<usize>,
-    above: Vec<PathTag>,
-    readings: Vec<Reading>,
-    /// Which children of that command a query may name, for the shapes
-    /// of one symbol below it ([`Gate`]).
-    gate: Gate,
-}
-
-/// The children of the last path's innermost tagged command below which a
-/// shape of symbol `symbol` may be named by a query: a shape's entry of
-/// that command is the only one its walk reads below the kept ones, so the
-/// patterns' readings of the kept entries and their wanted lists say which
-/// of the command's children can complete one (the last wanted index
-/// anchored back to a child's index). A floor's hundred windows cost a
-/// bit test each instead of three pattern readings; a child let through
-/// is read as before. Built for a symbol at its first shape below the
-/// command; `all`: every child (a pattern complete above, or an index out
-/// of the bits' range).
-#[derive(Debug, Default)]
-struct Gate {
-    symbol: Option<SymbolId>,
-    all: bool,
-    bits: Vec<u64>,
-}
-
-/// The children's indices a gate keeps as bits.
-const GATE_MAX: i64 = 1 << 16;
-
-impl Gate {
-    /// Whether child `index` may be named.
-    #[inline]
-    fn lets(&self, index: u32) -> bool {
-        self.all
-            || self
-                .bits
-                .get(index as usize / 64)
-                .is_some_and(|w| w >> (index % 64) & 1 != 0)
-    }
-
-    fn add(&mut self, index: i64) {
-        if !(0..GATE_MAX).contains(&index) {
-            self.all = true;
-            return;
-        }
-        let w = index as usize / 64;
-        if self.bits.len() <= w {
-            self.bits.resize(w + 1, 0);
-        }
-        self.bits[w] |= 1 << (index % 64);
-    }
-}
-
-/// The index of the child (of `count`) whose index counted from `anchor`
-/// is `v`: the inverse of `Anchor::index`.
-fn unanchor(anchor: Anchor, v: i64, count: u32) -> i64 {
-    match anchor {
-        Anchor::Start => v,
-        Anchor::End => i64::from(count) + 1 - v,
-        Anchor::Centre => v + i64::from(count.div_ceil(2).max(1)),
-    }
-}
-
-/// A pattern's reading of a path so far, root first: the indices' key,
-/// how many of its entries were met, and whether the path's entries of
-/// its tags already differ from its own.
-#[derive(Clone, Copy, Debug)]
-struct Reading {
-    key: u64,
-    met: u32,
-    failed: bool,
-}
-
-impl Reading {
-    const START: Reading = Reading {
-        key: MIX_SEED,
-        met: 0,
-        failed: false,
-    };
-}
-
-/// Add the entry of tag `tag` (child `index` of `count`) to `tags` if a
-/// query names it.
-#[inline]
-fn keep(slots: &[u8], tags: &mut Vec<PathTag>, (tag, index, count): (TagId, u32, u32)) {
-    let slot = slots.get(tag.0 as usize).copied().unwrap_or(0);
-    if slot != 0 {
-        tags.push(PathTag {
-            tag,
-            bit: 1u64.checked_shl(u32::from(slot) - 1).unwrap_or(0),
-            index,
-            count,
-        });
-    }
-}
-
-impl Pattern {
-    /// Whether the pattern names the tag of `e` (by its slot, when the
-    /// pattern's tags all have one).
-    #[inline]
-    fn names(&self, e: &PathTag) -> bool {
-        match self.mask {
-            Some(mask) => mask & e.bit != 0,
-            None => self.entries.iter().any(|q| q.0 == e.tag),
-        }
-    }
-
-    /// `r` with the path's entries `below` (innermost first) read
-    /// ([`Pattern::read`]), the mask's test out of the loop.
-    #[inline]
-    fn read_below(&self, mut r: Reading, below: &[PathTag]) -> Reading {
-        let Some(mask) = self.mask else {
-            below.iter().rev().for_each(|e| self.read(&mut r, e));
-            return r;
-        };
-        for e in below.iter().rev() {
-            if mask & e.bit == 0 {
-                continue;
-            }
-            match self.entries.get(r.met as usize) {
-                Some(&(tag, anchor)) if tag == e.tag => {
-                    r.key = mix(r.key, anchor.index(e.index, e.count));
-                    r.met += 1;
-                }
-                _ => {
-                    r.failed = true;
-                    break;
-                }
-            }
-        }
-        r
-    }
-
-    /// Read the path's next entry (root first) into `r`: an entry of a
-    /// tag the pattern names must be its next entry, and its anchored
-    /// index is mixed into the key.
-    #[inline]
-    fn read(&self, r: &mut Reading, e: &PathTag) {
-        if r.failed || !self.names(e) {
-            return;
-        }
-        match self.entries.get(r.met as usize) {
-            Some(&(tag, anchor)) if tag == e.tag => {
-                r.key = mix(r.key, anchor.index(e.index, e.count));
-                r.met += 1;
-            }
-            _ => r.failed = true,
-        }
-    }
-
-    /// The edits of the queries of this pattern that match the path read
-    /// into `r`, `above` then `below` (each innermost first): the path's
-    /// entries of the tags the pattern names are its entries in order,
-    /// and their anchored indices a wanted list.
-    #[inline]
-    fn edits(&self, r: Reading, above: &[PathTag], below: &[PathTag]) -> Option<&[u32]> {
-        if r.failed || r.met as usize != self.entries.len() {
-            return None;
-        }
-        let bit = (r.key >> 56) as usize;
-        if self.filter[bit / 64] >> (bit % 64) & 1 == 0 {
-            return None;
-        }
-        // The key's lists, compared index by index.
-        let read = || {
-            above
-                .iter()
-                .rev()
-                .chain(below.iter().rev())
-                .filter(|e| self.names(e))
-                .zip(&self.entries)
-                .map(|(e, &(_, anchor))| anchor.index(e.index, e.count))
-        };
-        self.wants
-            .get(&r.key)?
-            .iter()
-            .find(|(w, _)| w.iter().copied().eq(read()))
-            .map(|(_, edits)| &edits[..])
-    }
 }
 
 /// The key filter's size in bits (keys by their low 16 bits).
@@ -361,39 +96,12 @@ impl KeyFilter {
     }
 }
 
-/// The numbers (or ordinals) of the edges of one kind that leave a trie
-/// state: a bit each below [`EdgeSet::MAX`], and whether one is larger
-/// (then every larger one is looked up).
-#[derive(Clone, Debug, Default)]
-struct EdgeSet {
-    bits: Vec<u64>,
-    large: bool,
-}
-
-impl EdgeSet {
-    /// The numbers kept as bits.
-    const MAX: u32 = 1 << 12;
-
-    fn add(&mut self, k: u32) {
-        if k >= EdgeSet::MAX {
-            self.large = true;
-            return;
-        }
-        let w = k as usize / 64;
-        if self.bits.len() <= w {
-            self.bits.resize(w + 1, 0);
-        }
-        self.bits[w] |= 1 << (k % 64);
-    }
-
-    /// Whether an edge numbered `k` may leave the state (false: none does).
-    #[inline]
-    fn may_have(&self, k: u32) -> bool {
-        match self.bits.get(k as usize / 64) {
-            Some(w) => w >> (k % 64) & 1 != 0,
-            None => k >= EdgeSet::MAX && self.large,
-        }
-    }
+/// The bit of a trie state's numbered (`ordinal` false) or ordinal edge
+/// numbered `k` in [`EditPlan::edges`].
+#[inline]
+fn edge_bit(state: u32, ordinal: bool, k: u32) -> u32 {
+    let h = mix(MIX_SEED, i64::from(state) << 1 | i64::from(ordinal));
+    (mix(h, i64::from(k)) >> 32) as u32
 }
 
 /// The state of a node outside every exact target's path.
@@ -412,12 +120,11 @@ pub struct EditPlan {
     /// Per trie state, the edges that leave it: bit 0 a numbered or
     /// component edge, bit 1 an ordinal one (`step` looks up only those).
     leaves: Vec<u8>,
-    /// Per trie state, the numbers and the ordinals of the numbered and
-    /// ordinal edges that leave it: a floor's hundred tiles, of which a
-    /// few are on a target's path, cost a bit test each instead of a
-    /// failed trie lookup.
-    numbers: Vec<EdgeSet>,
-    ordinals: Vec<EdgeSet>,
+    /// A filter of the numbered and ordinal edges of the trie (by
+    /// state, kind and number, [`edge_bit`]): a floor's hundred tiles, of
+    /// which a few are on a target's path, cost a bit test each instead of
+    /// a failed trie lookup.
+    edges: KeyFilter,
     by_key: HashMap<u32, Vec<u32>>,
     /// Bit `k & 0xffff` set for every target key `k` (all clear without
     /// key targets: a fixed size, so a test is a mask, a load and a
@@ -669,8 +376,6 @@ impl EditPlan {
             None => {
                 self.finals.push(Vec::new());
                 self.leaves.push(0);
-                self.numbers.push(EdgeSet::default());
-                self.ordinals.push(EdgeSet::default());
                 let s = self.finals.len() as u32 - 1;
                 self.root = Some((labels[0], s));
                 s
@@ -681,11 +386,11 @@ impl EditPlan {
             match *e {
                 EdgeRef::Ordinal(k) => {
                     self.leaves[state as usize] |= 2;
-                    self.ordinals[state as usize].add(k);
+                    self.edges.add(edge_bit(state, true, k));
                 }
                 EdgeRef::Number(k) => {
                     self.leaves[state as usize] |= 1;
-                    self.numbers[state as usize].add(k);
+                    self.edges.add(edge_bit(state, false, k));
                 }
                 EdgeRef::Component { .. } => self.leaves[state as usize] |= 1,
             }
@@ -694,8 +399,6 @@ impl EditPlan {
             if state == next {
                 self.finals.push(Vec::new());
                 self.leaves.push(0);
-                self.numbers.push(EdgeSet::default());
-                self.ordinals.push(EdgeSet::default());
             }
         }
         self.finals[state as usize].push(edit);
@@ -818,14 +521,16 @@ impl EditPlan {
         } else {
             0
         };
-        let p = parent as usize;
         if leaves & 1 != 0
-            && (child.selector.is_some() || self.numbers[p].may_have(child.edge))
+            && (child.selector.is_some() || self.edges.has(edge_bit(parent, false, child.edge)))
             && let Some(&s) = self.trie.get(&(parent, l, edge(child)))
         {
             return s;
         }
-        if ordinal == 0 || child.selector.is_some() || !self.ordinals[p].may_have(ordinal) {
+        if ordinal == 0
+            || child.selector.is_some()
+            || !self.edges.has(edge_bit(parent, true, ordinal))
+        {
             return NONE;
         }
         self.trie
@@ -971,56 +676,6 @@ impl EditPlan {
         }
     }
 }
-
-impl EditPlan {
-    /// Build `gate` for the shapes of `symbol` whose one entry below the
-    /// kept ones is `e`'s command's (each its own child): the children
-    /// that complete a wanted list of one of `patterns` (the symbol's, with
-    /// their `readings` of the kept entries).
-    #[cold]
-    #[inline(never)]
-    fn gate<'a>(
-        &self,
-        gate: &mut Gate,
-        symbol: SymbolId,
-        e: &PathTag,
-        readings: &[Reading],
-        patterns: impl Iterator<Item = &'a u32>,
-    ) {
-        gate.symbol = Some(symbol);
-        gate.all = false;
-        gate.bits.clear();
-        for &k in patterns {
-            let (Some(p), Some(&r)) = (self.semantic.get(k as usize), readings.get(k as usize))
-            else {
-                continue;
-            };
-            if r.failed {
-                continue;
-            }
-            let met = r.met as usize;
-            if !p.names(e) {
-                // The child's entry is not read: the pattern matches all
-                // of them or none.
-                if met == p.entries.len() {
-                    gate.all = true;
-                }
-                continue;
-            }
-            // Read, the child's entry must be the pattern's last.
-            match p.entries.get(met) {
-                Some(&(tag, anchor)) if tag == e.tag && met + 1 == p.entries.len() => {
-                    for &v in p.lasts.get(&r.key).into_iter().flatten() {
-                        gate.add(unanchor(anchor, v, e.count));
-                    }
-                }
-                _ => {}
-            }
-        }
-    }
-}
-
-/// What the edits reaching one node decide (scoping: the node's own
 /// winners over those it inherited).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(crate) struct Forced {

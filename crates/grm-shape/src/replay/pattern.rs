@@ -1,0 +1,326 @@
+//! Semantic queries in the replay (`crate::replay`): the patterns the
+//! queries are grouped by, the tags a shape's path holds, each pattern's
+//! reading of the entries kept from the last path, and the gate over the
+//! children of that path's innermost tagged command.
+
+use super::EditPlan;
+use crate::ir::{SymbolId, TagId};
+use crate::locator::Anchor;
+use std::hash::{BuildHasherDefault, Hasher};
+
+/// The hasher of keys that are hashes already ([`mix`]): the key is its
+/// own hash.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Premixed(u64);
+
+impl Hasher for Premixed {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = mix(self.0, i64::from(b));
+        }
+    }
+
+    fn write_u64(&mut self, v: u64) {
+        self.0 = v;
+    }
+}
+
+/// A map from [`mix`]ed keys.
+pub(super) type MixedMap<V> = std::collections::HashMap<u64, V, BuildHasherDefault<Premixed>>;
+
+/// `h` with the index `v` mixed in (the wanted indices' key, one index
+/// at a time: a multiply and a fold, so the map's low bits and high bits
+/// both depend on every index).
+#[inline]
+pub(super) fn mix(h: u64, v: i64) -> u64 {
+    let h = (h ^ v as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+    h ^ (h >> 29)
+}
+
+/// The key of no index yet.
+pub(super) const MIX_SEED: u64 = 0x243f_6a88_85a3_08d3;
+
+/// Semantic queries that name the same tags with the same anchors, in the
+/// same order (and the same label): the indices they want, each to its
+/// edits.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Pattern {
+    /// The tags named and their anchors, in order.
+    pub(super) entries: Vec<(TagId, Anchor)>,
+    /// The plan's slots ([`EditPlan::slot`]) of the entries' tags, one bit
+    /// each; `None` when two entries name one tag or a tag has no slot
+    /// (only the plain reading can match it).
+    pub(super) mask: Option<u64>,
+    /// The wanted indices (one per entry, anchored) to the edits, by the
+    /// indices' [`mix`]: each key's list holds every wanted list with that
+    /// key (almost always one).
+    pub(super) wants: MixedMap<Vec<Wanted>>,
+    /// A 256-bit filter of the wanted keys (bit `key >> 56`): most paths'
+    /// keys are none, and cost a bit test instead of a map lookup.
+    pub(super) filter: [u64; 4],
+    /// The last wanted index of each wanted list, by the [`mix`] of the
+    /// ones before it ([`Gate`]).
+    pub(super) lasts: MixedMap<Vec<i64>>,
+}
+
+/// A list of wanted indices (one per pattern entry) and its edits.
+pub(super) type Wanted = (Box<[i64]>, Vec<u32>);
+
+/// A tagged command on a shape's path, of a tag some query names: the
+/// tag, its slot's bit (0: no slot; a pattern's mask tests it in one
+/// `and`) and the child's index and count.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PathTag {
+    pub(super) tag: TagId,
+    pub(super) bit: u64,
+    pub(super) index: u32,
+    pub(super) count: u32,
+}
+
+/// The slot of a tag named by queries beyond the first 64.
+pub(super) const NO_SLOT: u8 = u8::MAX;
+
+/// Scratch space of [`EditPlan::matches`], one per derivation job: the
+/// path's tagged entries, and those above the innermost tagged command of
+/// the last path read (a window's floor and facade, the same for the
+/// hundred windows of a floor: the next window's walk stops at that
+/// command, and each pattern's reading of them is kept). Node indices are
+/// the job's, which never change.
+#[derive(Debug, Default)]
+pub(crate) struct PathScratch {
+    /// The entries below the kept ones (innermost first).
+    pub(super) tags: Vec<PathTag>,
+    /// The last path's innermost tagged command, the entries above it
+    /// (the job root's prefix included, innermost first) and every
+    /// pattern's reading of them.
+    pub(super) above_at: Option<usize>,
+    pub(super) above: Vec<PathTag>,
+    pub(super) readings: Vec<Reading>,
+    /// Which children of that command a query may name, for the shapes
+    /// of one symbol below it ([`Gate`]).
+    pub(super) gate: Gate,
+}
+
+/// The children of the last path's innermost tagged command below which a
+/// shape of symbol `symbol` may be named by a query: a shape's entry of
+/// that command is the only one its walk reads below the kept ones, so the
+/// patterns' readings of the kept entries and their wanted lists say which
+/// of the command's children can complete one (the last wanted index
+/// anchored back to a child's index). A floor's hundred windows cost a
+/// bit test each instead of three pattern readings; a child let through
+/// is read as before. Built for a symbol at its first shape below the
+/// command; `all`: every child (a pattern complete above, or an index out
+/// of the bits' range).
+#[derive(Debug, Default)]
+pub(super) struct Gate {
+    pub(super) symbol: Option<SymbolId>,
+    pub(super) all: bool,
+    pub(super) bits: Vec<u64>,
+}
+
+/// The children's indices a gate keeps as bits.
+const GATE_MAX: i64 = 1 << 16;
+
+impl Gate {
+    /// Whether child `index` may be named.
+    #[inline]
+    pub(super) fn lets(&self, index: u32) -> bool {
+        self.all
+            || self
+                .bits
+                .get(index as usize / 64)
+                .is_some_and(|w| w >> (index % 64) & 1 != 0)
+    }
+
+    pub(super) fn add(&mut self, index: i64) {
+        if !(0..GATE_MAX).contains(&index) {
+            self.all = true;
+            return;
+        }
+        let w = index as usize / 64;
+        if self.bits.len() <= w {
+            self.bits.resize(w + 1, 0);
+        }
+        self.bits[w] |= 1 << (index % 64);
+    }
+}
+
+/// The index of the child (of `count`) whose index counted from `anchor`
+/// is `v`: the inverse of `Anchor::index`.
+pub(super) fn unanchor(anchor: Anchor, v: i64, count: u32) -> i64 {
+    match anchor {
+        Anchor::Start => v,
+        Anchor::End => i64::from(count) + 1 - v,
+        Anchor::Centre => v + i64::from(count.div_ceil(2).max(1)),
+    }
+}
+
+/// A pattern's reading of a path so far, root first: the indices' key,
+/// how many of its entries were met, and whether the path's entries of
+/// its tags already differ from its own.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Reading {
+    pub(super) key: u64,
+    pub(super) met: u32,
+    pub(super) failed: bool,
+}
+
+impl Reading {
+    pub(super) const START: Reading = Reading {
+        key: MIX_SEED,
+        met: 0,
+        failed: false,
+    };
+}
+
+/// Add the entry of tag `tag` (child `index` of `count`) to `tags` if a
+/// query names it.
+#[inline]
+pub(super) fn keep(slots: &[u8], tags: &mut Vec<PathTag>, (tag, index, count): (TagId, u32, u32)) {
+    let slot = slots.get(tag.0 as usize).copied().unwrap_or(0);
+    if slot != 0 {
+        tags.push(PathTag {
+            tag,
+            bit: 1u64.checked_shl(u32::from(slot) - 1).unwrap_or(0),
+            index,
+            count,
+        });
+    }
+}
+
+impl Pattern {
+    /// Whether the pattern names the tag of `e` (by its slot, when the
+    /// pattern's tags all have one).
+    #[inline]
+    pub(super) fn names(&self, e: &PathTag) -> bool {
+        match self.mask {
+            Some(mask) => mask & e.bit != 0,
+            None => self.entries.iter().any(|q| q.0 == e.tag),
+        }
+    }
+
+    /// `r` with the path's entries `below` (innermost first) read
+    /// ([`Pattern::read`]), the mask's test out of the loop.
+    #[inline]
+    pub(super) fn read_below(&self, mut r: Reading, below: &[PathTag]) -> Reading {
+        let Some(mask) = self.mask else {
+            below.iter().rev().for_each(|e| self.read(&mut r, e));
+            return r;
+        };
+        for e in below.iter().rev() {
+            if mask & e.bit == 0 {
+                continue;
+            }
+            match self.entries.get(r.met as usize) {
+                Some(&(tag, anchor)) if tag == e.tag => {
+                    r.key = mix(r.key, anchor.index(e.index, e.count));
+                    r.met += 1;
+                }
+                _ => {
+                    r.failed = true;
+                    break;
+                }
+            }
+        }
+        r
+    }
+
+    /// Read the path's next entry (root first) into `r`: an entry of a
+    /// tag the pattern names must be its next entry, and its anchored
+    /// index is mixed into the key.
+    #[inline]
+    pub(super) fn read(&self, r: &mut Reading, e: &PathTag) {
+        if r.failed || !self.names(e) {
+            return;
+        }
+        match self.entries.get(r.met as usize) {
+            Some(&(tag, anchor)) if tag == e.tag => {
+                r.key = mix(r.key, anchor.index(e.index, e.count));
+                r.met += 1;
+            }
+            _ => r.failed = true,
+        }
+    }
+
+    /// The edits of the queries of this pattern that match the path read
+    /// into `r`, `above` then `below` (each innermost first): the path's
+    /// entries of the tags the pattern names are its entries in order,
+    /// and their anchored indices a wanted list.
+    #[inline]
+    pub(super) fn edits(&self, r: Reading, above: &[PathTag], below: &[PathTag]) -> Option<&[u32]> {
+        if r.failed || r.met as usize != self.entries.len() {
+            return None;
+        }
+        let bit = (r.key >> 56) as usize;
+        if self.filter[bit / 64] >> (bit % 64) & 1 == 0 {
+            return None;
+        }
+        // The key's lists, compared index by index.
+        let read = || {
+            above
+                .iter()
+                .rev()
+                .chain(below.iter().rev())
+                .filter(|e| self.names(e))
+                .zip(&self.entries)
+                .map(|(e, &(_, anchor))| anchor.index(e.index, e.count))
+        };
+        self.wants
+            .get(&r.key)?
+            .iter()
+            .find(|(w, _)| w.iter().copied().eq(read()))
+            .map(|(_, edits)| &edits[..])
+    }
+}
+
+impl EditPlan {
+    /// Build `gate` for the shapes of `symbol` whose one entry below the
+    /// kept ones is `e`'s command's (each its own child): the children
+    /// that complete a wanted list of one of `patterns` (the symbol's, with
+    /// their `readings` of the kept entries).
+    #[cold]
+    #[inline(never)]
+    pub(super) fn gate<'a>(
+        &self,
+        gate: &mut Gate,
+        symbol: SymbolId,
+        e: &PathTag,
+        readings: &[Reading],
+        patterns: impl Iterator<Item = &'a u32>,
+    ) {
+        gate.symbol = Some(symbol);
+        gate.all = false;
+        gate.bits.clear();
+        for &k in patterns {
+            let (Some(p), Some(&r)) = (self.semantic.get(k as usize), readings.get(k as usize))
+            else {
+                continue;
+            };
+            if r.failed {
+                continue;
+            }
+            let met = r.met as usize;
+            if !p.names(e) {
+                // The child's entry is not read: the pattern matches all
+                // of them or none.
+                if met == p.entries.len() {
+                    gate.all = true;
+                }
+                continue;
+            }
+            // Read, the child's entry must be the pattern's last.
+            match p.entries.get(met) {
+                Some(&(tag, anchor)) if tag == e.tag && met + 1 == p.entries.len() => {
+                    for &v in p.lasts.get(&r.key).into_iter().flatten() {
+                        gate.add(unanchor(anchor, v, e.count));
+                    }
+                }
+                _ => {}
+            }
+        }
+    }
+}
