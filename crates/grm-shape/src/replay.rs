@@ -676,6 +676,8 @@ impl EditPlan {
         }
     }
 }
+
+/// What the edits reaching one node decide (scoping: the node's own
 /// winners over those it inherited).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(crate) struct Forced {
