@@ -7,7 +7,9 @@
 //!
 //! - **exact** targets form a trie over (label, edge) from the axiom; each
 //!   node of the tree carries its state in it, computed from its parent's
-//!   with one hash lookup, and only while its path is a prefix of some
+//!   with one hash lookup where a filter of the trie's numbered and ordinal
+//!   edges lets the edge through (most of a floor's hundred tiles are no
+//!   target's: a bit test each), and only while its path is a prefix of some
 //!   target's (a node off every target's path is `NONE` and its subtree is
 //!   never looked up again);
 //! - **key** targets are a hash map from identity keys, behind a bitmap of
@@ -21,10 +23,14 @@
 //!   (each tag a slot: a pattern tells its own tags by one mask), and only
 //!   up to its innermost tagged command when that is the last path's: the
 //!   entries above it, and each pattern's reading of them, are kept (a
-//!   floor's hundred windows read the floor and facade once). A shape
-//!   costs one reading of its own entries per pattern, however many
-//!   queries share it (the tower's 80 window queries are three patterns),
-//!   and a map lookup only where the filter lets the key through.
+//!   floor's hundred windows read the floor and facade once). Below the
+//!   kept entries a shape has one, its innermost command's child: a gate
+//!   per command and symbol (`pattern::Gate`, from the patterns' readings
+//!   and their wanted lists) says which children a query can name, so most
+//!   shapes cost the walk and a bit test. One the gate lets through costs
+//!   one reading of its own entries per pattern, however many queries
+//!   share it (the tower's 80 window queries are three patterns), and a
+//!   map lookup only where the filter lets the key through.
 //!
 //! What applies (Lipp 3.2.2, `grm_edits::scoping`): `remove`, `material`
 //! and `mesh` reach the whole subtree (a deeper target's edit overrides an
