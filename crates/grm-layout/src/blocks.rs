@@ -333,15 +333,16 @@ type HalfEdge = (Id, bool);
 #[derive(Debug, Clone, Default)]
 pub struct Faces {
     /// Street -> its end nodes and polyline (streets [`blocks`] walks).
-    polys: BTreeMap<Id, (Id, Id, Vec<Coord>)>,
+    /// This map and the next three are looked up, never walked in order.
+    polys: crate::id::IdMap<Id, (Id, Id, Vec<Coord>)>,
     /// Node -> its outgoing half-edges (angle, street, forward), sorted.
-    out: BTreeMap<Id, Vec<(f64, Id, bool)>>,
+    out: crate::id::IdMap<Id, Vec<(f64, Id, bool)>>,
     /// Half-edge -> (its node, its place in that node's list).
-    slot: BTreeMap<(Id, bool), (Id, usize)>,
+    slot: crate::id::IdMap<(Id, bool), (Id, usize)>,
     /// Faces (their half-edges and the face) by their smallest half-edge.
     faces: BTreeMap<HalfEdge, (Vec<HalfEdge>, Face)>,
     /// Half-edge -> the face it belongs to (the face's smallest half-edge).
-    edge_face: BTreeMap<(Id, bool), (Id, bool)>,
+    edge_face: crate::id::IdMap<(Id, bool), (Id, bool)>,
     /// Faces traced again by the last update (for tests and reports).
     pub retraced: usize,
     /// Faces the last update re-placed (the same walk, new coordinates).

@@ -37,6 +37,33 @@ impl Id {
     }
 }
 
+/// A hasher for maps keyed by identities (or other words: a point's
+/// bits): the words folded, finished by splitmix64's mix, a few
+/// instructions a key. Only for maps that are looked up, never walked in
+/// their order (a walk's order would follow the table, not the keys).
+#[derive(Debug, Default, Clone, Copy)]
+pub struct IdHasher(u64);
+
+impl std::hash::Hasher for IdHasher {
+    fn finish(&self) -> u64 {
+        mix(self.0)
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        // Not an identity's word (a key of another type): FNV-1a.
+        for &b in bytes {
+            self.0 = (self.0 ^ u64::from(b)).wrapping_mul(FNV_PRIME);
+        }
+    }
+
+    fn write_u64(&mut self, v: u64) {
+        self.0 = self.0.wrapping_mul(FNV_PRIME).rotate_left(29) ^ v;
+    }
+}
+
+/// A hash map keyed by identities ([`IdHasher`]).
+pub type IdMap<K, V> = std::collections::HashMap<K, V, std::hash::BuildHasherDefault<IdHasher>>;
+
 /// Builds an identity from parts (each part is length-prefixed, so
 /// ("ab","c") and ("a","bc") differ).
 #[derive(Debug, Clone)]

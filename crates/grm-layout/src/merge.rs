@@ -234,7 +234,7 @@ pub(crate) fn merge_step(
         m.finish()
     };
     let mut sh = crate::shared::shared(lower, upper);
-    let blocks_a = cache.blocks(lower);
+    let blocks_a = cache.blocks_shared(lower);
     let blocks_b = match upper_blocks {
         Some(b) => b,
         None => cache.blocks_in(slot("upper"), upper),
@@ -254,7 +254,7 @@ pub(crate) fn merge_step(
         MergeMode::Hard => hard_keep(&sh, &idx_b),
         MergeMode::GraphCut => cut_keep(
             &sh,
-            &BlockIndex::new(&blocks_a),
+            &BlockIndex::new(blocks_a.as_slice()),
             &idx_b,
             params,
             &mut report,
@@ -340,7 +340,7 @@ pub(crate) fn merge_step(
         &mut out,
         lower,
         upper,
-        &blocks_a,
+        blocks_a.as_slice(),
         &blocks_b,
         params,
         &mut report,
@@ -702,7 +702,16 @@ pub fn min_cut(
 /// A street whose pieces all stayed, with nothing else at its cuts, is
 /// put back whole under its own identity.
 fn rejoin(out: &mut Layout, sh: &Shared) {
-    let inc = out.incidence();
+    // How many streets meet at each node (as [`Layout::incidence`] counts
+    // them: a loop once), before any street is put back.
+    let mut degree: crate::id::IdMap<Id, usize> =
+        crate::id::IdMap::with_capacity_and_hasher(out.nodes.len(), Default::default());
+    for s in out.streets.values() {
+        *degree.entry(s.a).or_default() += 1;
+        if s.b != s.a {
+            *degree.entry(s.b).or_default() += 1;
+        }
+    }
     for ((_, orig), pieces) in &sh.pieces {
         if pieces.len() < 2 || !pieces.iter().all(|p| out.streets.contains_key(p)) {
             continue;
@@ -715,9 +724,7 @@ fn rejoin(out: &mut Layout, sh: &Shared) {
             })
             .collect();
         if inner.len() + 1 != pieces.len()
-            || inner
-                .iter()
-                .any(|n| inc.get(n).is_none_or(|v| v.len() != 2))
+            || inner.iter().any(|n| degree.get(n).is_none_or(|&d| d != 2))
         {
             continue;
         }
@@ -741,14 +748,14 @@ fn rejoin(out: &mut Layout, sh: &Shared) {
 /// side now) comes within its half width of the parcel's box.
 #[derive(Debug, Default)]
 pub(crate) struct ClashMemo {
-    verdicts: std::collections::HashMap<Id, (Id, u8, bool)>,
+    verdicts: crate::id::IdMap<Id, (Id, u8, bool)>,
 }
 
 #[allow(clippy::too_many_arguments)]
-fn parcels(
+fn parcels<'a>(
     out: &mut Layout,
-    lower: &Layout,
-    upper: &Layout,
+    lower: &'a Layout,
+    upper: &'a Layout,
     blocks_a: &[Block],
     blocks_b: &[Block],
     params: &MergeParams,
@@ -765,18 +772,21 @@ fn parcels(
     // The block of one side this result block is (the same original
     // streets, the same area).
     let source_block = |b: &Block| -> Option<(Side, Id)> {
-        let mut sides = BTreeSet::new();
-        let mut origs = BTreeSet::new();
+        // One side's streets only (every street known), and their
+        // original streets, sorted, each once.
+        let mut side = None;
+        let mut origs: Vec<Id> = Vec::with_capacity(b.streets.len());
         for s in &b.streets {
-            let (side, o) = orig_side.get(s)?;
-            sides.insert(*side);
-            origs.insert(*o);
+            let (sd, o) = orig_side.get(s)?;
+            if side.is_some_and(|x| x != *sd) {
+                return None;
+            }
+            side = Some(*sd);
+            origs.push(*o);
         }
-        if sides.len() != 1 {
-            return None;
-        }
-        let side = *sides.iter().next()?;
-        let origs: Vec<Id> = origs.into_iter().collect();
+        let side = side?;
+        origs.sort_unstable();
+        origs.dedup();
         let id = crate::blocks::block_id(&origs);
         let src = match side {
             Side::A => rings_a.get(&id),
@@ -786,40 +796,51 @@ fn parcels(
     };
     let own_a = crate::blocks::explicit_ownership(lower, blocks_a);
     let own_b = crate::blocks::explicit_ownership(upper, blocks_b);
-    // Each side's parcels by the block that owns them.
-    let by_block = |l: &Layout, own: &BTreeMap<Id, Id>| -> BTreeMap<Id, Vec<Id>> {
-        let mut m: BTreeMap<Id, Vec<Id>> = BTreeMap::new();
-        for p in l.parcels.values() {
-            let b = match p.origin {
-                ParcelOrigin::Generated { block } => Some(block),
-                ParcelOrigin::Explicit => own.get(&p.id).copied(),
-            };
-            if let Some(b) = b {
-                m.entry(b).or_default().push(p.id);
-            }
-        }
+    // Each side's parcels by the block that owns them: (block, parcel)
+    // sorted by block, a block's parcels in identity order.
+    let by_block = |l: &'a Layout, own: &BTreeMap<Id, Id>| -> Vec<(Id, &'a Parcel)> {
+        let mut m: Vec<(Id, &Parcel)> = l
+            .parcels
+            .values()
+            .filter_map(|p| {
+                let b = match p.origin {
+                    ParcelOrigin::Generated { block } => Some(block),
+                    ParcelOrigin::Explicit => own.get(&p.id).copied(),
+                };
+                b.map(|b| (b, p))
+            })
+            .collect();
+        // Stable: a block's parcels stay in identity order.
+        m.sort_by_key(|x| x.0);
         m
     };
     let (parcels_a, parcels_b) = (by_block(lower, &own_a), by_block(upper, &own_b));
-    let owned = |l: &Layout, m: &BTreeMap<Id, Vec<Id>>, block: Id| -> Vec<Parcel> {
-        m.get(&block)
-            .map(|v| {
-                v.iter()
-                    .filter_map(|id| l.parcels.get(id).cloned())
-                    .collect()
-            })
-            .unwrap_or_default()
+    let owned = |m: &[(Id, &Parcel)], block: Id| -> Vec<Parcel> {
+        let k = m.partition_point(|x| x.0 < block);
+        m[k..]
+            .iter()
+            .take_while(|x| x.0 == block)
+            .map(|x| x.1.clone())
+            .collect()
     };
-    let mut from_a: BTreeSet<Id> = BTreeSet::new();
-    let mut fresh: BTreeSet<Id> = BTreeSet::new();
+    // Where each parcel came from (bits: the lower side, regrown, free),
+    // looked up by identity; the free ones also in order (their boxes'
+    // tree is loaded in that order).
+    const FROM_A: u8 = 1;
+    const FRESH: u8 = 2;
+    const FREE: u8 = 4;
+    let mut from: crate::id::IdMap<Id, u8> = crate::id::IdMap::with_capacity_and_hasher(
+        lower.parcels.len() + upper.parcels.len(),
+        Default::default(),
+    );
     let mut free: BTreeSet<Id> = BTreeSet::new();
     for b in &result_blocks {
         // A block with another component inside (a hole of the other
         // side's streets and blocks) regrows.
         let src = if b.inner { None } else { source_block(b) };
         let kept = match src {
-            Some((Side::B, id)) => Some(owned(upper, &parcels_b, id)),
-            Some((Side::A, id)) => Some(owned(lower, &parcels_a, id)),
+            Some((Side::B, id)) => Some(owned(&parcels_b, id)),
+            Some((Side::A, id)) => Some(owned(&parcels_a, id)),
             None => None,
         };
         match kept {
@@ -831,7 +852,7 @@ fn parcels(
                         p.origin = ParcelOrigin::Generated { block: b.id };
                     }
                     if matches!(src, Some((Side::A, _))) {
-                        from_a.insert(p.id);
+                        *from.entry(p.id).or_default() |= FROM_A;
                     }
                     out.parcels.insert(p.id, p);
                 }
@@ -841,7 +862,7 @@ fn parcels(
                 for p in
                     cache.subdivide(out, segs, b, block_seed(params.seed, b.id), &params.parcels)
                 {
-                    fresh.insert(p.id);
+                    *from.entry(p.id).or_default() |= FRESH;
                     out.parcels.insert(p.id, p);
                 }
             }
@@ -854,9 +875,7 @@ fn parcels(
                 && !own.contains_key(&p.id)
                 && !out.parcels.contains_key(&p.id)
             {
-                if is_a {
-                    from_a.insert(p.id);
-                }
+                *from.entry(p.id).or_default() |= if is_a { FROM_A | FREE } else { FREE };
                 free.insert(p.id);
                 out.parcels.insert(p.id, p.clone());
             }
@@ -867,10 +886,11 @@ fn parcels(
     // street (a component inside a kept block), and a free or regrown
     // parcel with another parcel. The lower side's parcel goes first, then
     // a regrown one.
+    let flags = |id: &Id| from.get(id).copied().unwrap_or(0);
     let rank = |id: &Id| {
-        if from_a.contains(id) {
+        if flags(id) & FROM_A != 0 {
             0
-        } else if fresh.contains(id) {
+        } else if flags(id) & FRESH != 0 {
             1
         } else {
             2
@@ -911,17 +931,18 @@ fn parcels(
     // every street and is the same ring of the same class is clear now
     // unless one of these hits it (an unchanged street is the same
     // polyline, width and side: the same answer as last time).
-    let changed_now: std::collections::HashMap<Id, &[Coord]> = changes
+    let changed_now: crate::id::IdMap<Id, &[Coord]> = changes
         .iter()
         .filter_map(|c| c.new.as_ref().map(|n| (c.id, n.0.as_slice())))
         .collect();
-    let mut verdicts: std::collections::HashMap<Id, (Id, u8, bool)> =
-        std::collections::HashMap::with_capacity(out.parcels.len());
+    let mut verdicts: crate::id::IdMap<Id, (Id, u8, bool)> =
+        crate::id::IdMap::with_capacity_and_hasher(out.parcels.len(), Default::default());
     let mut on_street: Vec<Id> = Vec::new();
     for p in out.parcels.values() {
-        let class: u8 = if fresh.contains(&p.id) || free.contains(&p.id) {
+        let f = flags(&p.id);
+        let class: u8 = if f & (FRESH | FREE) != 0 {
             0
-        } else if from_a.contains(&p.id) {
+        } else if f & FROM_A != 0 {
             1
         } else {
             2

@@ -38,8 +38,6 @@ pub struct Shared {
     /// Nodes where a street was cut (a subset of the crossings): empty
     /// when the two layouts only touch at shared nodes.
     pub splits: BTreeSet<Id>,
-    /// Node -> the sides whose streets use it.
-    pub node_sides: BTreeMap<Id, BTreeSet<Side>>,
     /// Lower streets dropped because they run along upper ones.
     pub coincident: Vec<Id>,
     /// The lower layout's nodes and streets renamed: old -> new identity.
@@ -94,7 +92,7 @@ fn meetings(
     s: &Street,
     pl: &[Coord],
     useg: &rstar::RTree<index::Seg>,
-    upper: &BTreeMap<Id, &Street>,
+    upper: &crate::id::IdMap<Id, &Street>,
     base: &Layout,
 ) -> Meetings {
     let mut events = Vec::new();
@@ -140,12 +138,17 @@ fn meetings(
 pub fn shared(a: &Layout, b: &Layout) -> Shared {
     let mut sh = Shared::default();
     let mut base = Layout::default();
-    let mut at: BTreeMap<(u64, u64), Id> = BTreeMap::new();
+    // Looked up only (never walked): hash maps.
+    let mut at: crate::id::IdMap<(u64, u64), Id> = crate::id::IdMap::with_capacity_and_hasher(
+        a.nodes.len() + b.nodes.len(),
+        Default::default(),
+    );
     for n in b.nodes.values() {
         base.nodes.insert(n.id, n.clone());
         at.insert(bits(n.pos), n.id);
     }
-    let mut node_map: BTreeMap<Id, Id> = BTreeMap::new();
+    let mut node_map: crate::id::IdMap<Id, Id> =
+        crate::id::IdMap::with_capacity_and_hasher(a.nodes.len(), Default::default());
     for n in a.nodes.values() {
         if let Some(&id) = at.get(&bits(n.pos)) {
             node_map.insert(n.id, id);
@@ -164,12 +167,11 @@ pub fn shared(a: &Layout, b: &Layout) -> Shared {
     }
     let mut streets: Vec<(Side, Street)> =
         b.streets.values().map(|s| (Side::B, s.clone())).collect();
-    let b_ids: BTreeSet<Id> = b.streets.keys().copied().collect();
     for s in a.streets.values() {
         let mut t = s.clone();
         t.a = node_map.get(&s.a).copied().unwrap_or(s.a);
         t.b = node_map.get(&s.b).copied().unwrap_or(s.b);
-        if b_ids.contains(&t.id) {
+        if b.streets.contains_key(&t.id) {
             let same = b.streets.get(&t.id).is_some_and(|u| {
                 (u.a == t.a && u.b == t.b && u.interior == t.interior)
                     || (u.a == t.b && u.b == t.a && u.interior.iter().rev().eq(t.interior.iter()))
@@ -191,7 +193,7 @@ pub fn shared(a: &Layout, b: &Layout) -> Shared {
     // places, the streets' ends keep theirs).
     let polys: Vec<Option<Vec<Coord>>> = streets.iter().map(|(_, s)| poly_of(&base, s)).collect();
     // The upper streets by identity, and their segments' index.
-    let upper: BTreeMap<Id, &Street> = streets
+    let upper: crate::id::IdMap<Id, &Street> = streets
         .iter()
         .filter(|(side, _)| *side == Side::B)
         .map(|(_, s)| (s.id, s))
@@ -216,7 +218,7 @@ pub fn shared(a: &Layout, b: &Layout) -> Shared {
         rstar::RTree::bulk_load(v)
     };
     // Cuts per street: (segment, parameter, node).
-    let mut cuts: BTreeMap<(Side, Id), Vec<Cut>> = BTreeMap::new();
+    let mut cuts: crate::id::IdMap<(Side, Id), Vec<Cut>> = crate::id::IdMap::default();
     let mut drop_a: BTreeSet<Id> = BTreeSet::new();
     let mut new_nodes: BTreeMap<Id, Coord> = BTreeMap::new();
     for ((side, s), pl) in streets.iter().zip(&polys) {
@@ -256,6 +258,9 @@ pub fn shared(a: &Layout, b: &Layout) -> Shared {
         nodes: std::mem::take(&mut base.nodes),
         ..Layout::default()
     };
+    // The pieces' end nodes with their side (a node both sides use is a
+    // crossing).
+    let mut ends: Vec<(Id, Side)> = Vec::new();
     for ((side, s), pl) in streets.iter().zip(&polys) {
         if *side == Side::A && drop_a.contains(&s.id) {
             continue;
@@ -269,17 +274,17 @@ pub fn shared(a: &Layout, b: &Layout) -> Shared {
         let mut ids = Vec::new();
         for p in pieces {
             sh.origin.insert(p.id, (*side, s.id));
-            for n in [p.a, p.b] {
-                sh.node_sides.entry(n).or_default().insert(*side);
-            }
+            ends.extend([(p.a, *side), (p.b, *side)]);
             ids.push(p.id);
             out.streets.insert(p.id, p);
         }
         sh.pieces.insert((*side, s.id), ids);
     }
-    for (n, sides) in &sh.node_sides {
-        if sides.len() > 1 {
-            sh.crossings.insert(*n);
+    ends.sort_unstable();
+    ends.dedup();
+    for w in ends.windows(2) {
+        if w[0].0 == w[1].0 {
+            sh.crossings.insert(w[0].0);
         }
     }
     out.drop_isolated_nodes();
@@ -311,16 +316,15 @@ fn split_street(
     let mut start = s.a;
     let mut pts: Vec<Coord> = vec![pl[0]];
     let mut ci = 0;
+    // Every piece carries the whole street's identity (written once).
+    let part_of = crate::model::TagValue::Text(s.id.to_string());
     let push_piece = |from: Id, to: Id, pts: &[Coord], out: &mut Vec<Street>| {
         if from == to || pts.len() < 2 {
             return;
         }
         let mut t = s.clone();
         t.id = Id::mint("piece").id(s.id).id(from).id(to).finish();
-        t.tags.insert(
-            PART_OF.to_string(),
-            crate::model::TagValue::Text(s.id.to_string()),
-        );
+        t.tags.insert(PART_OF.to_string(), part_of.clone());
         t.a = from;
         t.b = to;
         t.interior = pts[1..pts.len() - 1].to_vec();

@@ -14,7 +14,6 @@ use crate::id::{Id, mix};
 use crate::merge::{MergeMode, MergeParams, MergeReport};
 use crate::model::{Layout, ParcelOrigin, TagValue, Tags};
 use std::cell::RefCell;
-use std::collections::HashMap;
 use std::sync::Arc;
 
 /// One step of the stack: the merged layout and its report, or the
@@ -24,7 +23,7 @@ pub type StackStep = Result<Arc<(Layout, MergeReport)>, String>;
 /// Merged prefixes of layer stacks by their chained key.
 #[derive(Debug, Default)]
 pub struct StackCache {
-    steps: RefCell<HashMap<Id, StackStep>>,
+    steps: RefCell<crate::id::IdMap<Id, StackStep>>,
 }
 
 impl StackCache {

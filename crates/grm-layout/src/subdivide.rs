@@ -218,22 +218,22 @@ static OCTAGON: std::sync::LazyLock<[(f64, f64); 8]> = std::sync::LazyLock::new(
 /// (the incremental merge: the same bytes as a merge from scratch).
 #[derive(Debug, Default)]
 pub struct MergeCache {
-    parcels: std::cell::RefCell<std::collections::HashMap<Id, Vec<Parcel>>>,
-    blocks: std::cell::RefCell<std::collections::HashMap<Id, Vec<Block>>>,
+    parcels: std::cell::RefCell<crate::id::IdMap<Id, Vec<Parcel>>>,
+    blocks: std::cell::RefCell<crate::id::IdMap<Id, std::sync::Arc<Vec<Block>>>>,
     /// Merged prefixes of a layer stack ([`crate::layers::merge_layers_cached`]).
     pub stack: crate::stack_cache::StackCache,
     /// Whether a ring passes [`check_ring`], by the ring's content.
-    rings: std::cell::RefCell<std::collections::HashMap<Id, bool>>,
+    rings: std::cell::RefCell<crate::id::IdMap<Id, bool>>,
     /// The faces of the last layout seen in each slot (a merge's upper
     /// side, its result), updated where the streets changed.
-    faces: std::cell::RefCell<std::collections::HashMap<Id, crate::blocks::Faces>>,
+    faces: std::cell::RefCell<crate::id::IdMap<Id, crate::blocks::Faces>>,
     /// A merge's clash checks of its result's parcels, per slot, with the
     /// streets they were checked against.
-    pub(crate) clash: std::cell::RefCell<std::collections::HashMap<Id, crate::merge::ClashMemo>>,
+    pub(crate) clash: std::cell::RefCell<crate::id::IdMap<Id, crate::merge::ClashMemo>>,
     /// A merge's result's street segments, per slot.
-    pub(crate) segs: std::cell::RefCell<std::collections::HashMap<Id, crate::index::SegIndex>>,
+    pub(crate) segs: std::cell::RefCell<crate::id::IdMap<Id, crate::index::SegIndex>>,
     /// The boxes of a merge's upper blocks, per slot.
-    pub(crate) boxes: std::cell::RefCell<std::collections::HashMap<Id, crate::index::BoxIndex>>,
+    pub(crate) boxes: std::cell::RefCell<crate::id::IdMap<Id, crate::index::BoxIndex>>,
 }
 
 impl MergeCache {
@@ -241,6 +241,11 @@ impl MergeCache {
 
     /// The blocks of a layout, from the cache when its streets are the same.
     pub fn blocks(&self, layout: &Layout) -> Vec<Block> {
+        self.blocks_shared(layout).as_ref().clone()
+    }
+
+    /// [`MergeCache::blocks`] shared with the cache (not copied).
+    pub(crate) fn blocks_shared(&self, layout: &Layout) -> std::sync::Arc<Vec<Block>> {
         let mut m = Id::mint("blocks-of");
         for s in layout.streets.values() {
             m = m.id(s.id).id(s.a).id(s.b);
@@ -252,7 +257,7 @@ impl MergeCache {
         if let Some(b) = self.blocks.borrow().get(&key) {
             return b.clone();
         }
-        let b = crate::blocks::blocks(layout);
+        let b = std::sync::Arc::new(crate::blocks::blocks(layout));
         let mut c = self.blocks.borrow_mut();
         if c.len() >= Self::LIMIT {
             c.clear();
