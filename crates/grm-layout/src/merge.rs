@@ -180,6 +180,11 @@ impl<'a> BlockIndex<'a> {
 
 fn midpoint(l: &Layout, id: Id) -> Option<Coord> {
     let s = l.streets.get(&id)?;
+    if s.interior.is_empty() {
+        // A straight street's polyline is its two ends (no list built).
+        let (a, b) = (l.nodes.get(&s.a)?.pos, l.nodes.get(&s.b)?.pos);
+        return Some(geom::polyline_midpoint(&[a, b]));
+    }
     Some(geom::polyline_midpoint(&l.polyline(s)?))
 }
 
@@ -291,7 +296,13 @@ pub(crate) fn merge_step(
     rejoin(&mut out, &sh);
     out.drop_isolated_nodes();
     // Which side each piece and whole street came from.
-    let mut orig_side: BTreeMap<Id, (Side, Id)> = sh.origin.clone();
+    // (Looked up only: a hash map.)
+    let mut orig_side: crate::id::IdMap<Id, (Side, Id)> =
+        crate::id::IdMap::with_capacity_and_hasher(
+            sh.origin.len() + sh.originals.len(),
+            Default::default(),
+        );
+    orig_side.extend(sh.origin.iter().map(|(k, v)| (*k, *v)));
     for (side, id) in sh.originals.keys() {
         orig_side.insert(*id, (*side, *id));
     }
@@ -763,7 +774,7 @@ fn parcels<'a>(
     cache: &MergeCache,
     segs: &rstar::RTree<index::Seg>,
     changes: &[index::SegChange],
-    orig_side: &BTreeMap<Id, (Side, Id)>,
+    orig_side: &crate::id::IdMap<Id, (Side, Id)>,
     slot: Id,
 ) -> Vec<Block> {
     let result_blocks = cache.blocks_in(slot, out);
@@ -927,6 +938,11 @@ fn parcels<'a>(
             })
             .collect(),
     );
+    // The box around all of them: a parcel's box outside it meets none
+    // (rstar's test, bounds included; a box with a NaN meets nothing).
+    let reach = dirty.size().gt(&0).then(|| dirty.root().envelope());
+    let may_meet =
+        |env: &rstar::AABB<[f64; 2]>| reach.is_some_and(|r| rstar::Envelope::intersects(&r, env));
     // The changed streets as they are now: a parcel that was clear of
     // every street and is the same ring of the same class is clear now
     // unless one of these hits it (an unchanged street is the same
@@ -962,7 +978,7 @@ fn parcels<'a>(
         let near = |env: &rstar::AABB<[f64; 2]>| dirty.locate_in_envelope_intersecting(env);
         let env = index::grown(min, max, 0.0);
         let hit = match same {
-            Some(v) if near(&env).next().is_none() => v.2,
+            Some(v) if !may_meet(&env) || near(&env).next().is_none() => v.2,
             // Clear last time: only a changed street near it can hit it
             // now (the check [`crate::validity::parcel_street_hit_where`]
             // makes, street by street).

@@ -186,9 +186,6 @@ pub fn shared(a: &Layout, b: &Layout) -> Shared {
         }
         streets.push((Side::A, t));
     }
-    for (side, s) in &streets {
-        sh.originals.insert((*side, s.id), s.clone());
-    }
     // Each street's polyline (read once: the nodes added below are new
     // places, the streets' ends keep theirs).
     let polys: Vec<Option<Vec<Coord>>> = streets.iter().map(|(_, s)| poly_of(&base, s)).collect();
@@ -247,6 +244,7 @@ pub fn shared(a: &Layout, b: &Layout) -> Shared {
             drop_a.insert(s.id);
         }
     }
+    drop(upper);
     for id in &drop_a {
         sh.coincident.push(*id);
         cuts.remove(&(Side::A, *id));
@@ -261,24 +259,27 @@ pub fn shared(a: &Layout, b: &Layout) -> Shared {
     // The pieces' end nodes with their side (a node both sides use is a
     // crossing).
     let mut ends: Vec<(Id, Side)> = Vec::new();
-    for ((side, s), pl) in streets.iter().zip(&polys) {
-        if *side == Side::A && drop_a.contains(&s.id) {
-            continue;
+    let mut pieces: Vec<Street> = Vec::new();
+    // Every street is kept as an original (after renaming), split or not.
+    for ((side, s), pl) in streets.into_iter().zip(&polys) {
+        if let Some(pl) = pl
+            && !(side == Side::A && drop_a.contains(&s.id))
+        {
+            let mut c = cuts.remove(&(side, s.id)).unwrap_or_default();
+            c.sort_by(|x, y| x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)));
+            c.dedup_by(|x, y| x.2 == y.2);
+            sh.splits.extend(c.iter().map(|x| x.2));
+            split_street(&s, pl, &c, &out.nodes, &mut pieces);
+            let mut ids = Vec::with_capacity(pieces.len());
+            for p in pieces.drain(..) {
+                sh.origin.insert(p.id, (side, s.id));
+                ends.extend([(p.a, side), (p.b, side)]);
+                ids.push(p.id);
+                out.streets.insert(p.id, p);
+            }
+            sh.pieces.insert((side, s.id), ids);
         }
-        let Some(pl) = pl else { continue };
-        let mut c = cuts.remove(&(*side, s.id)).unwrap_or_default();
-        c.sort_by(|x, y| x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)));
-        c.dedup_by(|x, y| x.2 == y.2);
-        sh.splits.extend(c.iter().map(|x| x.2));
-        let pieces = split_street(s, pl, &c, &out.nodes);
-        let mut ids = Vec::new();
-        for p in pieces {
-            sh.origin.insert(p.id, (*side, s.id));
-            ends.extend([(p.a, *side), (p.b, *side)]);
-            ids.push(p.id);
-            out.streets.insert(p.id, p);
-        }
-        sh.pieces.insert((*side, s.id), ids);
+        sh.originals.insert((side, s.id), s);
     }
     ends.sort_unstable();
     ends.dedup();
@@ -302,17 +303,19 @@ fn param(a: Coord, b: Coord, p: Coord) -> f64 {
     }
 }
 
-/// A street cut at the given (segment, parameter, node) points, in order.
+/// A street cut at the given (segment, parameter, node) points, in order
+/// (the pieces pushed on `out`).
 fn split_street(
     s: &Street,
     pl: &[Coord],
     cuts: &[(usize, f64, Id)],
     nodes: &BTreeMap<Id, crate::model::Node>,
-) -> Vec<Street> {
+    out: &mut Vec<Street>,
+) {
     if cuts.is_empty() {
-        return vec![s.clone()];
+        out.push(s.clone());
+        return;
     }
-    let mut out = Vec::new();
     let mut start = s.a;
     let mut pts: Vec<Coord> = vec![pl[0]];
     let mut ci = 0;
@@ -337,7 +340,7 @@ fn split_street(
             if pts.last() != Some(&p) {
                 pts.push(p);
             }
-            push_piece(start, node, &pts, &mut out);
+            push_piece(start, node, &pts, out);
             start = node;
             pts = vec![p];
             ci += 1;
@@ -347,6 +350,5 @@ fn split_street(
             pts.push(q);
         }
     }
-    push_piece(start, s.b, &pts, &mut out);
-    out
+    push_piece(start, s.b, &pts, out);
 }

@@ -136,6 +136,27 @@ fn parcel(mut m: Minter, p: &crate::model::Parcel) -> Minter {
     tags(m, &p.tags)
 }
 
+/// A layout's streets (each one's identity, end nodes and polyline, bit
+/// for bit): what its blocks depend on.
+pub fn streets_key(l: &Layout) -> Id {
+    let mut m = Minter::new("blocks-of").u64(l.streets.len() as u64);
+    for s in l.streets.values() {
+        m = m.id(s.id).id(s.a).id(s.b);
+        match (l.nodes.get(&s.a), l.nodes.get(&s.b)) {
+            (Some(a), Some(b)) => {
+                m = m.u64(s.interior.len() as u64 + 2).f64(a.pos.x).f64(a.pos.y);
+                for p in &s.interior {
+                    m = m.f64(p.x).f64(p.y);
+                }
+                m = m.f64(b.pos.x).f64(b.pos.y);
+            }
+            // No polyline (an end node missing).
+            _ => m = m.u64(0),
+        }
+    }
+    m.finish()
+}
+
 /// A ring's content (its points' bits), for memos of checks on rings.
 pub fn ring_key(r: &[geo::Coord]) -> Id {
     ring(Minter::new("ring"), r).finish()

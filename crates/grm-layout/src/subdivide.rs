@@ -246,14 +246,7 @@ impl MergeCache {
 
     /// [`MergeCache::blocks`] shared with the cache (not copied).
     pub(crate) fn blocks_shared(&self, layout: &Layout) -> std::sync::Arc<Vec<Block>> {
-        let mut m = Id::mint("blocks-of");
-        for s in layout.streets.values() {
-            m = m.id(s.id).id(s.a).id(s.b);
-            for p in layout.polyline(s).unwrap_or_default() {
-                m = m.f64(p.x).f64(p.y);
-            }
-        }
-        let key = m.finish();
+        let key = crate::stack_cache::streets_key(layout);
         if let Some(b) = self.blocks.borrow().get(&key) {
             return b.clone();
         }
