@@ -238,7 +238,8 @@ pub(crate) fn merge_step(
         }
         m.finish()
     };
-    let mut sh = crate::shared::shared(lower, upper);
+    // (Its isolated nodes are dropped with the result's, below.)
+    let mut sh = crate::shared::shared_graph(lower, upper, false);
     let blocks_a = cache.blocks_shared(lower);
     let blocks_b = match upper_blocks {
         Some(b) => b,

@@ -136,6 +136,12 @@ fn meetings(
 
 /// Builds the shared graph of `a` (lower) and `b` (upper).
 pub fn shared(a: &Layout, b: &Layout) -> Shared {
+    shared_graph(a, b, true)
+}
+
+/// [`shared`], its layout's isolated nodes left in when `tidy` is false
+/// (a merge drops them from its result anyway, after leaving pieces out).
+pub(crate) fn shared_graph(a: &Layout, b: &Layout, tidy: bool) -> Shared {
     let mut sh = Shared::default();
     let mut base = Layout::default();
     // Looked up only (never walked): hash maps.
@@ -288,7 +294,9 @@ pub fn shared(a: &Layout, b: &Layout) -> Shared {
             sh.crossings.insert(w[0].0);
         }
     }
-    out.drop_isolated_nodes();
+    if tidy {
+        out.drop_isolated_nodes();
+    }
     sh.layout = out;
     sh
 }
