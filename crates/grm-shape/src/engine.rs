@@ -667,99 +667,147 @@ impl Engine<'_> {
                 }
                 continue;
             }
-            let start = job.nodes.len();
-            // The replay's work on this shape (`Some`: its forcing and
-            // whether its own edits force its block's, opening a region),
-            // only where it is on a target's path, in a forced mesh's
-            // region, or may be named by key or query: the other shapes
-            // cost the tests alone (their forcing is the region's, already
-            // in `scratch`).
-            let mut special = false;
+            // The replay's work on this shape, only where it is on a
+            // target's path, in a forced mesh's region, or may be named by
+            // key or query, out of line (its rule run with it): the other
+            // shapes cost the tests alone (their forcing is the region's,
+            // already in `scratch`), and nothing of the replay is live
+            // across their rule run.
             if let Some(r) = hook.get()
                 && (state != replay::NONE
                     || r.attend && (r.meshed || r.plan.may_name(symbol, shape.key)))
             {
-                match self.own_edits(r, &mut job, at, state, &mut scratch) {
-                    None => continue,
-                    Some(block) => special = block,
-                }
-            }
-            let shape = &job.nodes[at as usize];
-            let inherited = job.nodes[at as usize].attrs;
-            scratch.attrs = inherited;
-            scratch.edge = 0;
-            scratch.attr_marks.clear();
-            let simple = self.simple[symbol.0 as usize].as_deref();
-            let result = match simple {
-                // A rule of inserts and successors on a shape without an
-                // outline, within the depth limit: its children, each
-                // with the shape's scope and geometry (what expand writes).
-                Some(children)
-                    if shape.geometry.outline_id().is_none()
-                        && shape.depth < self.limits.max_depth
-                        && scratch.force.is_none() =>
-                {
-                    let (key, depth, scope, geometry) =
-                        (shape.key, shape.depth, shape.scope, shape.geometry);
-                    job.nodes[at as usize].kind = NodeKind::Shape {
-                        symbol,
-                        alternative: Some(0),
-                    };
-                    for (edge, &(kind, salt)) in (1..).zip(children) {
-                        let here = job.nodes.len() as u32;
-                        job.nodes.push(node(
-                            kind,
-                            scope,
-                            geometry,
-                            child_key_premixed(key, salt),
-                            edge,
-                            depth + 1,
-                            here - at,
-                        ));
-                    }
-                    scratch.edge = children.len() as u32;
-                    Ok(())
-                }
-                _ => self.expand(
-                    &mut job.nodes,
-                    &mut job.outlines,
+                self.replayed(
+                    r,
+                    &mut job,
                     at,
                     symbol,
+                    state,
                     budget,
                     &mut scratch,
-                ),
-            };
-            close_block(&mut job.nodes, start, at, inherited, &scratch);
-            match result {
-                Ok(()) => {}
-                Err(Some(e)) => job.failures.push((at, e)),
-                Err(None) => return Err(Overflow),
+                    &mut stack,
+                )?;
+                continue;
             }
-            if job.nodes.len() > budget {
-                return Err(Overflow);
-            }
-            let end = job.nodes.len();
-            let n = &mut job.nodes[at as usize];
-            if end > start {
-                n.children_offset = (start - at as usize) as u32;
-                n.children_len = (end - start) as u32;
-            }
-            let before = stack.len();
-            for j in (start..end).rev() {
-                if job.nodes[j].is_shape() {
-                    stack.push(j as u32);
-                }
-            }
-            if let Some(r) = hook.get()
-                && special
-            {
-                replay_block(r, &mut job.nodes, at, start, &mut stack, before, state);
-                scratch.force = None;
-                scratch.keep_material = r.forced.material.is_some();
-            }
+            self.rule_run(&mut job, at, symbol, budget, &mut scratch, &mut stack)?;
         }
         job.ordered = !scratch.unordered;
         Ok(job)
+    }
+
+    /// The shape `job.nodes[at]` (of `symbol`, trie state `state`) with
+    /// the replay's work (`Engine::own_edits`): its own edits applied,
+    /// then its rule run ([`Engine::rule_run`]), then its block's replay
+    /// state ([`replay_block`]) where it needs one. Out of the loop: most
+    /// shapes have no part in the replay.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn replayed(
+        &self,
+        r: &mut Replay,
+        job: &mut Job,
+        at: u32,
+        symbol: SymbolId,
+        state: u32,
+        budget: usize,
+        scratch: &mut Scratch,
+        stack: &mut Vec<u32>,
+    ) -> Result<(), Overflow> {
+        let Some(special) = self.own_edits(r, job, at, state, scratch) else {
+            return Ok(());
+        };
+        let start = job.nodes.len();
+        let before = self.rule_run(job, at, symbol, budget, scratch, stack)?;
+        if special {
+            replay_block(r, &mut job.nodes, at, start, stack, before, state);
+            scratch.force = None;
+            scratch.keep_material = r.forced.material.is_some();
+        }
+        Ok(())
+    }
+
+    /// The rule of the shape `job.nodes[at]` (of `symbol`) run: its block
+    /// made, closed and its shapes pushed on `stack` (last first, above
+    /// the returned length). A failure is recorded in `job.failures`;
+    /// `Overflow` past the budget.
+    #[inline(always)]
+    fn rule_run(
+        &self,
+        job: &mut Job,
+        at: u32,
+        symbol: SymbolId,
+        budget: usize,
+        scratch: &mut Scratch,
+        stack: &mut Vec<u32>,
+    ) -> Result<usize, Overflow> {
+        let start = job.nodes.len();
+        let shape = &job.nodes[at as usize];
+        let inherited = job.nodes[at as usize].attrs;
+        scratch.attrs = inherited;
+        scratch.edge = 0;
+        scratch.attr_marks.clear();
+        let simple = self.simple[symbol.0 as usize].as_deref();
+        let result = match simple {
+            // A rule of inserts and successors on a shape without an
+            // outline, within the depth limit: its children, each
+            // with the shape's scope and geometry (what expand writes).
+            Some(children)
+                if shape.geometry.outline_id().is_none()
+                    && shape.depth < self.limits.max_depth
+                    && scratch.force.is_none() =>
+            {
+                let (key, depth, scope, geometry) =
+                    (shape.key, shape.depth, shape.scope, shape.geometry);
+                job.nodes[at as usize].kind = NodeKind::Shape {
+                    symbol,
+                    alternative: Some(0),
+                };
+                for (edge, &(kind, salt)) in (1..).zip(children) {
+                    let here = job.nodes.len() as u32;
+                    job.nodes.push(node(
+                        kind,
+                        scope,
+                        geometry,
+                        child_key_premixed(key, salt),
+                        edge,
+                        depth + 1,
+                        here - at,
+                    ));
+                }
+                scratch.edge = children.len() as u32;
+                Ok(())
+            }
+            _ => self.expand(
+                &mut job.nodes,
+                &mut job.outlines,
+                at,
+                symbol,
+                budget,
+                scratch,
+            ),
+        };
+        close_block(&mut job.nodes, start, at, inherited, scratch);
+        match result {
+            Ok(()) => {}
+            Err(Some(e)) => job.failures.push((at, e)),
+            Err(None) => return Err(Overflow),
+        }
+        if job.nodes.len() > budget {
+            return Err(Overflow);
+        }
+        let end = job.nodes.len();
+        let n = &mut job.nodes[at as usize];
+        if end > start {
+            n.children_offset = (start - at as usize) as u32;
+            n.children_len = (end - start) as u32;
+        }
+        let before = stack.len();
+        for j in (start..end).rev() {
+            if job.nodes[j].is_shape() {
+                stack.push(j as u32);
+            }
+        }
+        Ok(before)
     }
 }
 
