@@ -549,7 +549,8 @@ impl EditPlan {
     /// (its trie state `state`), pushed on `out` as (edit id, action).
     /// `prefix`: the tagged commands above `nodes[0]` (a parallel job's
     /// root), innermost first. Inlined into its one caller,
-    /// `Engine::own_edits` (itself out of the derivation loop).
+    /// `Engine::own_edits` (itself inlined into `Engine::replayed`, out of
+    /// the derivation loop).
     #[inline(always)]
     pub(crate) fn matches(
         &self,

@@ -206,7 +206,7 @@ impl Engine<'_> {
     /// path, a region opened or a forced mesh) or the scratch's forcing
     /// reset after its rule run (a forced alternative): most shapes a key
     /// or query may name need neither.
-    #[inline(never)]
+    #[inline(always)]
     pub(super) fn own_edits(
         &self,
         r: &mut Replay,
