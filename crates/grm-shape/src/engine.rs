@@ -49,7 +49,7 @@ mod expand;
 mod hook;
 mod parallel;
 
-use hook::{Carried, FLAGGED, Hook, LEAVE, Replay, replay_block};
+use hook::{Carried, FLAGGED, Hook, LEAVE, Replay};
 
 /// Bounds on a derivation's work and memory.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -693,37 +693,6 @@ impl Engine<'_> {
         }
         job.ordered = !scratch.unordered;
         Ok(job)
-    }
-
-    /// The shape `job.nodes[at]` (of `symbol`, trie state `state`) with
-    /// the replay's work (`Engine::own_edits`): its own edits applied,
-    /// then its rule run ([`Engine::rule_run`]), then its block's replay
-    /// state ([`replay_block`]) where it needs one. Out of the loop: most
-    /// shapes have no part in the replay.
-    #[allow(clippy::too_many_arguments)]
-    #[inline(never)]
-    fn replayed(
-        &self,
-        r: &mut Replay,
-        job: &mut Job,
-        at: u32,
-        symbol: SymbolId,
-        state: u32,
-        budget: usize,
-        scratch: &mut Scratch,
-        stack: &mut Vec<u32>,
-    ) -> Result<(), Overflow> {
-        let Some(special) = self.own_edits(r, job, at, state, scratch) else {
-            return Ok(());
-        };
-        let start = job.nodes.len();
-        let before = self.rule_run(job, at, symbol, budget, scratch, stack)?;
-        if special {
-            replay_block(r, &mut job.nodes, at, start, stack, before, state);
-            scratch.force = None;
-            scratch.keep_material = r.forced.material.is_some();
-        }
-        Ok(())
     }
 
     /// The rule of the shape `job.nodes[at]` (of `symbol`) run: its block

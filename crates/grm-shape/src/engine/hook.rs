@@ -194,6 +194,37 @@ pub(super) fn replay_block(
 }
 
 impl Engine<'_> {
+    /// The shape `job.nodes[at]` (of `symbol`, trie state `state`) with
+    /// the replay's work (`Engine::own_edits`): its own edits applied,
+    /// then its rule run ([`Engine::rule_run`]), then its block's replay
+    /// state ([`replay_block`]) where it needs one. Out of the loop: most
+    /// shapes have no part in the replay.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    pub(super) fn replayed(
+        &self,
+        r: &mut Replay,
+        job: &mut Job,
+        at: u32,
+        symbol: SymbolId,
+        state: u32,
+        budget: usize,
+        scratch: &mut Scratch,
+        stack: &mut Vec<u32>,
+    ) -> Result<(), Overflow> {
+        let Some(special) = self.own_edits(r, job, at, state, scratch) else {
+            return Ok(());
+        };
+        let start = job.nodes.len();
+        let before = self.rule_run(job, at, symbol, budget, scratch, stack)?;
+        if special {
+            replay_block(r, &mut job.nodes, at, start, stack, before, state);
+            scratch.force = None;
+            scratch.keep_material = r.forced.material.is_some();
+        }
+        Ok(())
+    }
+
     /// The edits whose target is the shape `job.nodes[at]` (trie state
     /// `state`), resolved and applied to the shape: its hits recorded;
     /// `None` when one removes it (recorded in `job.removed`); else a
