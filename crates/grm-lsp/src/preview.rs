@@ -475,6 +475,21 @@ pub struct WarningOut {
     pub help: Option<String>,
 }
 
+impl WarningOut {
+    /// The model builder's warnings (`grm_geom::Model::warnings`) as sent.
+    pub(crate) fn all(diags: Vec<grm_diag::Diagnostic>) -> Vec<WarningOut> {
+        diags
+            .into_iter()
+            .map(|d| WarningOut {
+                code: d.code.as_str().to_string(),
+                message: d.message,
+                notes: d.notes,
+                help: d.help,
+            })
+            .collect()
+    }
+}
+
 /// A meta-parameter: its value in this preview, its default and range.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(rename_all = "camelCase")]

@@ -550,16 +550,7 @@ pub(crate) fn build(
     };
     let seed = grown.seed;
     table.shape = Some(Arc::new(picks));
-    let warnings: Vec<WarningOut> = model
-        .warnings(sys.file, sys.loc.span, false)
-        .into_iter()
-        .map(|d| WarningOut {
-            code: d.code.as_str().to_string(),
-            message: d.message,
-            notes: d.notes,
-            help: d.help,
-        })
-        .collect();
+    let warnings = WarningOut::all(model.warnings(sys.file, sys.loc.span, false));
     let result = PreviewResult {
         uri: uri.clone(),
         version: fa.version,

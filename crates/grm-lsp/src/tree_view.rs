@@ -10,7 +10,7 @@
 //! a regrow.
 
 use crate::preview::PickTable;
-use crate::{Backend, convert, failed};
+use crate::{Backend, failed};
 use grm_shape::NodeId;
 use serde::{Deserialize, Serialize};
 use tower_lsp_server::jsonrpc::Result;
@@ -258,19 +258,11 @@ impl Backend {
     /// `grm/tree`: a node of the last preview's derivation tree and its
     /// children; `null` when there is no such node.
     pub async fn tree(&self, params: TreeParams) -> Result<Option<TreeResult>> {
-        let path =
-            convert::path_of(&params.text_document.uri).ok_or_else(|| failed("not a file URI"))?;
-        let tables = self
-            .shared
-            .picks
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner);
-        let Some(t) = tables.get(&path) else {
-            return Err(failed("no preview of this document yet"));
-        };
-        if t.shape.is_none() && t.tree.is_none() {
-            return Err(failed("this preview recorded no derivation tree"));
-        }
-        Ok(answer(t, &params))
+        self.with_picks(&params.text_document.uri, |t| {
+            if t.shape.is_none() && t.tree.is_none() {
+                return Err(failed("this preview recorded no derivation tree"));
+            }
+            Ok(answer(t, &params))
+        })
     }
 }

@@ -694,16 +694,7 @@ pub(crate) fn build_with_model(
         origins: enc.u32s(&bone_o),
     };
     let materials = materials_out(&model);
-    let warnings: Vec<WarningOut> = model
-        .warnings(compiled.file, compiled.span, false)
-        .into_iter()
-        .map(|d| WarningOut {
-            code: d.code.as_str().to_string(),
-            message: d.message,
-            notes: d.notes,
-            help: d.help,
-        })
-        .collect();
+    let warnings = WarningOut::all(model.warnings(compiled.file, compiled.span, false));
     let result = PreviewResult {
         uri: uri.clone(),
         version: fa.version,

@@ -220,10 +220,14 @@ impl Backend {
         }
     }
 
-    /// `grm/pick`.
-    pub async fn pick(&self, params: PickParams) -> Result<Option<PickResult>> {
-        let path =
-            convert::path_of(&params.text_document.uri).ok_or_else(|| failed("not a file URI"))?;
+    /// `f` of the pick table of the last preview of `uri`'s document (an
+    /// error when there is none).
+    pub(crate) fn with_picks<R>(
+        &self,
+        uri: &Uri,
+        f: impl FnOnce(&PickTable) -> Result<R>,
+    ) -> Result<R> {
+        let path = convert::path_of(uri).ok_or_else(|| failed("not a file URI"))?;
         let tables = self
             .shared
             .picks
@@ -232,8 +236,17 @@ impl Backend {
         let Some(t) = tables.get(&path) else {
             return Err(failed("no preview of this document yet"));
         };
+        f(t)
+    }
+
+    /// `grm/pick`.
+    pub async fn pick(&self, params: PickParams) -> Result<Option<PickResult>> {
+        self.with_picks(&params.text_document.uri, |t| Self::pick_in(t, &params))
+    }
+
+    fn pick_in(t: &PickTable, params: &PickParams) -> Result<Option<PickResult>> {
         if let Some(shape) = &t.shape {
-            return Ok(shape.pick(t, &params));
+            return Ok(shape.pick(t, params));
         }
         let found = match (params.part, params.triangle, params.bone) {
             (Some(part), Some(tri), _) => t.parts.get(part).and_then(|ps| {
