@@ -113,6 +113,10 @@ fn edge_bit(state: u32, ordinal: bool, k: u32) -> u32 {
 /// The state of a node outside every exact target's path.
 pub(crate) const NONE: u32 = u32::MAX;
 
+/// The bit of [`EditPlan::leaves`] set on a trie state where some exact
+/// target ends.
+const FINAL: u8 = 4;
+
 /// A system's edits for one derivation.
 #[derive(Clone, Debug, Default)]
 pub struct EditPlan {
@@ -121,10 +125,16 @@ pub struct EditPlan {
     /// The trie's first state, if the axiom's label is some target's first.
     root: Option<(Label, u32)>,
     trie: HashMap<(u32, Label, EdgeRef), u32>,
-    /// Per trie state, the edits whose target ends there.
-    finals: Vec<Vec<u32>>,
+    /// The actions of the edits whose exact target ends at a trie state,
+    /// state by state (those of state `s` from `final_from[s]` to
+    /// `final_from[s + 1]`): one flat table, so a shape on a target's path
+    /// costs a test of its state's [`FINAL`] bit, and a final one a slice
+    /// of this table (no per-state list, no index into `actions`).
+    final_from: Vec<u32>,
+    final_actions: Vec<(u32, Action)>,
     /// Per trie state, the edges that leave it: bit 0 a numbered or
-    /// component edge, bit 1 an ordinal one (`step` looks up only those).
+    /// component edge, bit 1 an ordinal one (`step` looks up only those);
+    /// [`FINAL`] where some target ends there.
     leaves: Vec<u8>,
     /// A filter of the numbered and ordinal edges of the trie (by
     /// state, kind and number, [`edge_bit`]): a floor's hundred tiles, of
@@ -209,6 +219,8 @@ impl EditPlan {
         let mut plan = EditPlan::default();
         // Labels read back once each (a command's label is formatted).
         let mut labels: HashMap<String, Option<Label>> = HashMap::default();
+        // Per trie state, the edits whose target ends there.
+        let mut finals: Vec<Vec<u32>> = Vec::new();
         for e in edits {
             let action = match &e.op {
                 Op::Remove => Action::Remove,
@@ -241,7 +253,9 @@ impl EditPlan {
                     plan.has_keys = true;
                     true
                 }
-                Target::Exact(loc) => plan.insert_exact(program, &mut labels, loc, index),
+                Target::Exact(loc) => {
+                    plan.insert_exact(program, &mut labels, &mut finals, loc, index)
+                }
                 Target::Semantic(q) => {
                     let label = match &q.label {
                         Some(l) => match program.symbol(l) {
@@ -266,6 +280,19 @@ impl EditPlan {
                 plan.lowered.push(e.clone());
             }
         }
+        // The exact targets' actions laid out flat, state by state.
+        plan.final_from.reserve(finals.len() + 1);
+        for (s, f) in finals.iter().enumerate() {
+            plan.final_from.push(plan.final_actions.len() as u32);
+            let before = plan.final_actions.len();
+            let actions = &plan.actions;
+            plan.final_actions
+                .extend(f.iter().filter_map(|&i| actions.get(i as usize).copied()));
+            if plan.final_actions.len() > before {
+                plan.leaves[s] |= FINAL;
+            }
+        }
+        plan.final_from.push(plan.final_actions.len() as u32);
         // The symbols and tags the queries name, by id.
         if !plan.semantic.is_empty() {
             let any = !plan.semantic_any.is_empty();
@@ -359,6 +386,7 @@ impl EditPlan {
         &mut self,
         program: &Program,
         known: &mut HashMap<String, Option<Label>>,
+        finals: &mut Vec<Vec<u32>>,
         loc: &crate::ExactLocator,
         edit: u32,
     ) -> bool {
@@ -380,9 +408,9 @@ impl EditPlan {
             Some((l, s)) if l == labels[0] => s,
             Some(_) => return false,
             None => {
-                self.finals.push(Vec::new());
+                finals.push(Vec::new());
                 self.leaves.push(0);
-                let s = self.finals.len() as u32 - 1;
+                let s = finals.len() as u32 - 1;
                 self.root = Some((labels[0], s));
                 s
             }
@@ -400,14 +428,14 @@ impl EditPlan {
                 }
                 EdgeRef::Component { .. } => self.leaves[state as usize] |= 1,
             }
-            let next = self.finals.len() as u32;
+            let next = finals.len() as u32;
             state = *self.trie.entry((state, *l, e.clone())).or_insert(next);
             if state == next {
-                self.finals.push(Vec::new());
+                finals.push(Vec::new());
                 self.leaves.push(0);
             }
         }
-        self.finals[state as usize].push(edit);
+        finals[state as usize].push(edit);
         true
     }
 
@@ -507,7 +535,7 @@ impl EditPlan {
             return NONE;
         }
         let leaves = self.leaves.get(parent as usize).copied().unwrap_or(0);
-        if leaves == 0 {
+        if leaves & 3 == 0 {
             return NONE;
         }
         let l = label(child);
@@ -562,16 +590,24 @@ impl EditPlan {
         out: &mut Vec<(u32, Action)>,
     ) {
         let n = &nodes[at];
+        if state != NONE
+            && self
+                .leaves
+                .get(state as usize)
+                .is_some_and(|l| l & FINAL != 0)
+            && let (Some(&from), Some(&to)) = (
+                self.final_from.get(state as usize),
+                self.final_from.get(state as usize + 1),
+            )
+            && let Some(f) = self.final_actions.get(from as usize..to as usize)
+        {
+            out.extend_from_slice(f);
+        }
         let mut push = |i: u32| {
             if let Some(a) = self.actions.get(i as usize) {
                 out.push(*a);
             }
         };
-        if state != NONE
-            && let Some(f) = self.finals.get(state as usize)
-        {
-            f.iter().for_each(|&i| push(i));
-        }
         if self.key_bit(n.key)
             && let Some(f) = self.by_key.get(&n.key)
         {
