@@ -639,6 +639,19 @@ impl EditPlan {
                 break;
             }
             let p = cur - up;
+            // The last path's innermost tagged command, its tag known.
+            if innermost.is_none()
+                && let Some((q, t)) = w.above_at
+                && q == p
+            {
+                keep(
+                    &self.slot,
+                    &mut w.tags,
+                    (t, nodes[cur].index, nodes[cur].count),
+                );
+                known = true;
+                break;
+            }
             if let NodeKind::Command { tag: Some(t), .. } = nodes[p].kind {
                 keep(
                     &self.slot,
@@ -646,11 +659,7 @@ impl EditPlan {
                     (t, nodes[cur].index, nodes[cur].count),
                 );
                 if innermost.is_none() {
-                    if w.above_at == Some(p) {
-                        known = true;
-                        break;
-                    }
-                    innermost = Some((p, w.tags.len()));
+                    innermost = Some((p, w.tags.len(), t));
                 }
             }
             cur = p;
@@ -661,8 +670,8 @@ impl EditPlan {
                 keep(&self.slot, &mut w.tags, entry);
             }
             match innermost {
-                Some((p, from)) => {
-                    w.above_at = Some(p);
+                Some((p, from, t)) => {
+                    w.above_at = Some((p, t));
                     w.above.clear();
                     w.above.extend_from_slice(&w.tags[from..]);
                     w.tags.truncate(from);

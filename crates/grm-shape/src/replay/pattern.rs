@@ -97,7 +97,9 @@ pub(crate) struct PathScratch {
     /// The last path's innermost tagged command, the entries above it
     /// (the job root's prefix included, innermost first) and every
     /// pattern's reading of them.
-    pub(super) above_at: Option<usize>,
+    /// (The command's position and tag: a walk that reaches it stops
+    /// there without loading its node again.)
+    pub(super) above_at: Option<(usize, TagId)>,
     pub(super) above: Vec<PathTag>,
     pub(super) readings: Vec<Reading>,
     /// Which children of that command a query may name, for the shapes
