@@ -22,7 +22,9 @@
 //! Run: `cargo bench -p grm-derive --bench edits_replay [-- ROUNDS]
 //! [--instructions]`.
 
-use grm_testkit::bench::{cachegrind_instructions, load, print_instructions, print_medians};
+use grm_testkit::bench::{
+    arg_value, cachegrind_instructions, load, print_instructions, print_medians,
+};
 use std::hint::black_box;
 use std::time::Instant;
 
@@ -167,12 +169,7 @@ fn instructions(case: &str, n: usize) -> Option<u64> {
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let value = |name: &str| {
-        args.iter()
-            .position(|a| a == name)
-            .and_then(|i| args.get(i + 1))
-            .cloned()
-    };
+    let value = |name: &str| arg_value(&args, name);
     let c = compiled();
     let opts = options(&c);
     let plans = plans(&c);

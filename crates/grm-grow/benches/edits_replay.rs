@@ -62,7 +62,7 @@ use grm_edits::{EditsFile, Op, SemanticQuery, Target};
 use grm_grow::shape::{Lowered, ShapeOptions, derive, derive_with_edits, edit_plan, edits, lower};
 use grm_shape::{EditPlan, NodeId, NodeKind, ShapeTree};
 use grm_testkit::Rng;
-use grm_testkit::bench::{cachegrind_instructions, load, median};
+use grm_testkit::bench::{arg_value, cachegrind_instructions, load, median};
 use std::collections::HashMap;
 use std::hint::black_box;
 use std::path::Path;
@@ -299,12 +299,7 @@ fn instructions(case: &str, n: usize) -> Option<u64> {
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let value = |name: &str| {
-        args.iter()
-            .position(|a| a == name)
-            .and_then(|i| args.get(i + 1))
-            .cloned()
-    };
+    let value = |name: &str| arg_value(&args, name);
     let b = building();
     let (file, counts) = mix(&b);
     let window = b.shapes("Window")[4321];

@@ -34,7 +34,9 @@
 //! Run: `cargo bench -p grm-sample --bench edits_replay [-- ROUNDS]
 //! [--instructions]`.
 
-use grm_testkit::bench::{cachegrind_instructions, load, print_instructions, print_medians};
+use grm_testkit::bench::{
+    arg_value, cachegrind_instructions, load, print_instructions, print_medians,
+};
 use std::hint::black_box;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -217,12 +219,7 @@ fn instructions(case: &str, n: usize) -> Option<u64> {
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let value = |name: &str| {
-        args.iter()
-            .position(|a| a == name)
-            .and_then(|i| args.get(i + 1))
-            .cloned()
-    };
+    let value = |name: &str| arg_value(&args, name);
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples");
     let path = root.join("calder_tree.grm");
     let text = std::fs::read_to_string(&path).expect("example");

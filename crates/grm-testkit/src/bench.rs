@@ -5,6 +5,14 @@
 
 use std::process::Command;
 
+/// The value after `name` in a bench's arguments (`--only mix`).
+pub fn arg_value(args: &[String], name: &str) -> Option<String> {
+    args.iter()
+        .position(|a| a == name)
+        .and_then(|i| args.get(i + 1))
+        .cloned()
+}
+
 /// The median of `v` (the upper one of an even count); NaN for none.
 pub fn median(v: &[f64]) -> f64 {
     if v.is_empty() {
