@@ -380,12 +380,7 @@ pub(crate) fn build(
         .as_deref()
         .ok_or_else(|| format!("system `{}` has no shape rules", sys.name))?;
     let sys_file = fa.sources.get(sys.file);
-    let sys_path = grm_sema::normalize(std::path::Path::new(&sys_file.path));
-    let sys_uri = if sys_path == fa.path {
-        uri.clone()
-    } else {
-        uris.uri_of(&sys_path).unwrap_or_else(|| uri.clone())
-    };
+    let (sys_path, sys_uri) = crate::preview::system_file(fa, sys.file, uri, uris);
     let dir = sys_path.parent().map(std::path::Path::to_path_buf);
     let options = ShapeOptions {
         seed: p.seed,

@@ -534,14 +534,7 @@ pub(crate) fn build_with_model(
     }
     let compiled = grm_compile::compile(prog, sys, &values).map_err(|e| e.to_string())?;
     let sys_file = fa.sources.get(sys.file);
-    // The file of the system, named as the client names it (it may be an
-    // imported file: the previewed document's URI only when it is this one).
-    let sys_path = grm_sema::normalize(std::path::Path::new(&sys_file.path));
-    let sys_uri = if sys_path == fa.path {
-        uri.clone()
-    } else {
-        uris.uri_of(&sys_path).unwrap_or_else(|| uri.clone())
-    };
+    let (sys_path, sys_uri) = system_file(fa, sys.file, uri, uris);
     let origin_table: Vec<OriginOut> = compiled
         .alt_spans
         .iter()
@@ -909,4 +902,22 @@ pub(crate) fn stats_out(
         build_ms,
         encode_ms: encode.elapsed().as_secs_f64() * 1e3,
     }
+}
+
+/// The path of the file that holds the system in `file` and its URI as
+/// the client names it (it may be an imported file: the previewed
+/// document's `uri` only when it is this one).
+pub(crate) fn system_file(
+    fa: &FileAnalysis,
+    file: grm_diag::FileId,
+    uri: &Uri,
+    uris: &crate::uris::Uris,
+) -> (PathBuf, Uri) {
+    let path = grm_sema::normalize(std::path::Path::new(&fa.sources.get(file).path));
+    let file_uri = if path == fa.path {
+        uri.clone()
+    } else {
+        uris.uri_of(&path).unwrap_or_else(|| uri.clone())
+    };
+    (path, file_uri)
 }
