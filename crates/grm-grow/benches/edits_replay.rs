@@ -55,8 +55,13 @@
 //! builds of the replay: a change to how edits are found must leave every
 //! line the same.
 //!
+//! `--pair A B [--rounds N]` times two cases only, alternating (which
+//! runs first alternates too) for N rounds (default 101), and prints the
+//! median and quartiles of the per-round ratio B / A: the figure to
+//! compare two builds of the replay by (`--pair none mix`).
+//!
 //! Run: `cargo bench -p grm-grow --bench edits_replay [-- ROUNDS]
-//! [--instructions] [--digest]`.
+//! [--instructions] [--digest] [--pair A B [--rounds N]]`.
 
 use grm_edits::{EditsFile, Op, SemanticQuery, Target};
 use grm_grow::shape::{Lowered, ShapeOptions, derive, derive_with_edits, edit_plan, edits, lower};
@@ -336,6 +341,49 @@ fn main() {
         for _ in 0..n {
             run(&b, &case, &plans, &file);
         }
+        return;
+    }
+
+    // Two cases only, many rounds (the pair alternating which runs first):
+    // the median and quartiles of the per-round ratio, the figure to
+    // compare two builds by in a quiet minute (the default run's 15
+    // rounds of eleven cases move by several points between calls).
+    if let Some(a) = value("--pair") {
+        let pos = args.iter().position(|x| x == "--pair").unwrap_or(0);
+        let b_case = args.get(pos + 2).cloned().unwrap_or_else(|| "mix".into());
+        let rounds: usize = value("--rounds")
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(101)
+            .max(1);
+        let (mut ta, mut tb, mut ratio) = (Vec::new(), Vec::new(), Vec::new());
+        for r in 0..rounds {
+            let one = |case: &str| {
+                let t = Instant::now();
+                run(&b, case, &plans, &file);
+                t.elapsed().as_secs_f64() * 1e3
+            };
+            let (x, y) = if r % 2 == 0 {
+                let x = one(&a);
+                (x, one(&b_case))
+            } else {
+                let y = one(&b_case);
+                (one(&a), y)
+            };
+            ta.push(x);
+            tb.push(y);
+            ratio.push(y / x);
+        }
+        ratio.sort_by(f64::total_cmp);
+        let q = |f: f64| ratio[((ratio.len() - 1) as f64 * f).round() as usize];
+        println!(
+            "  {b_case} over {a}: {:.3}x (median of {rounds} per-round ratios; quartiles {:.3}-{:.3}); {a} {:.2} ms, {b_case} {:.2} ms; load {}",
+            q(0.5),
+            q(0.25),
+            q(0.75),
+            median(&ta),
+            median(&tb),
+            load()
+        );
         return;
     }
 
