@@ -674,8 +674,7 @@ impl Engine<'_> {
             // already in `scratch`), and nothing of the replay is live
             // across their rule run.
             if let Some(r) = hook.get()
-                && (state != replay::NONE
-                    || r.attend && (r.meshed || r.plan.may_name(symbol, shape.key)))
+                && (state != replay::NONE || r.attends(symbol, shape.key))
             {
                 self.replayed(
                     r,

@@ -7,14 +7,14 @@
 //!
 //! - **exact** targets form a trie over (label, edge) from the axiom; each
 //!   node of the tree carries its state in it, computed from its parent's
-//!   with one hash lookup where a filter of the trie's numbered and ordinal
-//!   edges lets the edge through (most of a floor's hundred tiles are no
-//!   target's: a bit test each), and only while its path is a prefix of some
-//!   target's (a node off every target's path is `NONE` and its subtree is
-//!   never looked up again);
-//! - **key** targets are a hash map from identity keys, behind a bitmap of
-//!   their low 16 bits: a shape whose key is no target's costs one bit test
-//!   (one in 300 passes it with 200 key targets);
+//!   with one look at its parent state's edges (which lie together: a
+//!   floor's hundred tiles read its few targeted ones), and only while its
+//!   path is a prefix of some target's (a node off every target's path is
+//!   `NONE` and its subtree is never looked up again);
+//! - **key** targets are a hash map from identity keys, behind a one-bit
+//!   filter sized to stay in the first-level cache: a shape whose key
+//!   is no target's costs one bit test (one in 80 passes it with 200 key
+//!   targets);
 //! - **semantic** queries are indexed by their label, then grouped by
 //!   their pattern (the tags and anchors they name, in order) with a map
 //!   from a mix of the indices they want to the edits, behind a
@@ -54,7 +54,7 @@ use grm_edits::{Edit, Op, Target};
 mod pattern;
 
 pub(crate) use pattern::PathScratch;
-use pattern::{MIX_SEED, NO_SLOT, PackedMap, Pattern, Reading, keep, mix};
+use pattern::{MIX_SEED, NO_SLOT, Pattern, Reading, keep, mix};
 
 /// A node's label as the plan compares it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -75,40 +75,64 @@ pub(crate) enum Action {
     Mesh(AssetId),
 }
 
-/// The key filter's size in bits (keys by their low 16 bits).
-const KEY_BITS: usize = 1 << 16;
+/// The most words a [`KeyFilter`] has (8 KiB).
+const FILTER_WORDS: usize = 1 << 10;
 
-/// [`EditPlan::key_filter`]: one bit per value of a key's low 16 bits.
+/// A one-bit filter of 32-bit hashes ([`EditPlan::key_filter`],
+/// [`EditPlan::edges`]): a value's low bits pick its bit, so a test is one
+/// load and a bit test. Sized by how many values it holds, about 64 bits
+/// each (200 key targets: 2 KiB, about one false pass in 80; at most 8
+/// KiB): the loop tests it for many shapes in turn, and a filter that
+/// stays in the first-level cache costs no miss (the fixed 8 KiB bitmap
+/// it replaced missed on about one test in two, as the derivation's nodes
+/// streamed through that cache), while a false pass costs one map lookup.
 #[derive(Clone, Debug)]
-struct KeyFilter(Box<[u64; KEY_BITS / 64]>);
+struct KeyFilter {
+    words: Box<[u64]>,
+    mask: u32,
+}
 
 impl Default for KeyFilter {
     fn default() -> KeyFilter {
-        KeyFilter(Box::new([0; KEY_BITS / 64]))
+        KeyFilter {
+            words: Box::new([0]),
+            mask: 0,
+        }
     }
 }
 
 impl KeyFilter {
-    /// Whether `key`'s bit is set.
+    /// The filter of `values`.
+    fn of(values: &[u32]) -> KeyFilter {
+        let n = values.len().next_power_of_two().min(FILTER_WORDS);
+        let mut f = KeyFilter {
+            words: vec![0; n].into_boxed_slice(),
+            mask: (n * 64) as u32 - 1,
+        };
+        for &v in values {
+            let bit = v & f.mask;
+            if let Some(w) = f.words.get_mut(bit as usize / 64) {
+                *w |= 1 << (bit % 64);
+            }
+        }
+        f
+    }
+
+    /// Whether `v` may be one of the filter's values (false: it is not).
     #[inline(always)]
-    fn has(&self, key: u32) -> bool {
-        let bit = key as usize & (KEY_BITS - 1);
-        self.0[bit / 64] >> (bit % 64) & 1 != 0
-    }
-
-    fn add(&mut self, key: u32) {
-        let bit = key as usize & (KEY_BITS - 1);
-        self.0[bit / 64] |= 1 << (bit % 64);
+    fn has(&self, v: u32) -> bool {
+        let bit = v & self.mask;
+        self.words
+            .get(bit as usize / 64)
+            .is_some_and(|&w| w >> (bit % 64) & 1 != 0)
     }
 }
 
-/// The bit of a trie state's numbered (`ordinal` false) or ordinal edge
-/// numbered `k` in [`EditPlan::edges`].
-#[inline]
-fn edge_bit(state: u32, ordinal: bool, k: u32) -> u32 {
-    let h = mix(MIX_SEED, i64::from(state) << 1 | i64::from(ordinal));
-    (mix(h, i64::from(k)) >> 32) as u32
-}
+/// [`EditPlan::attention`]: a query may name the symbol's shapes (or a
+/// forced mesh's region holds them).
+pub(crate) const ATTEND: u8 = 1;
+/// [`EditPlan::attention`]: a key target may name the symbol's shapes.
+pub(crate) const KEYED: u8 = 2;
 
 /// The state of a node outside every exact target's path.
 pub(crate) const NONE: u32 = u32::MAX;
@@ -124,9 +148,15 @@ pub struct EditPlan {
     actions: Vec<(u32, Action)>,
     /// The trie's first state, if the axiom's label is some target's first.
     root: Option<(Label, u32)>,
-    /// The trie's edges, (state, label, edge) packed in one integer
-    /// ([`trie_key`]): a lookup hashes it with two multiplies.
-    trie: PackedMap<u32>,
+    /// The trie's edges by state: those leaving state `s` are
+    /// `trie_edges[trie_from[s]..trie_from[s + 1]]`, ordered by the state
+    /// they lead to. One table, so the edges a lookup reads lie together:
+    /// a floor's targeted tiles are one state's few edges, and a target's
+    /// path, whose states were made one after another, is a run of the
+    /// table (a hash map put each lookup on a cache line of its own, a
+    /// miss on most: 5% of a derivation with 700 exact targets).
+    trie_from: Vec<u32>,
+    trie_edges: Vec<TrieEdge>,
     /// The actions of the edits whose exact target ends at a trie state,
     /// state by state (those of state `s` from `final_from[s]` to
     /// `final_from[s + 1]`): one flat table, so a shape on a target's path
@@ -138,15 +168,9 @@ pub struct EditPlan {
     /// component edge, bit 1 an ordinal one (`step` looks up only those);
     /// [`FINAL`] where some target ends there.
     leaves: Vec<u8>,
-    /// A filter of the numbered and ordinal edges of the trie (by
-    /// state, kind and number, [`edge_bit`]): a floor's hundred tiles, of
-    /// which a few are on a target's path, cost a bit test each instead of
-    /// a failed trie lookup.
-    edges: KeyFilter,
     by_key: HashMap<u32, Vec<u32>>,
-    /// Bit `k & 0xffff` set for every target key `k` (all clear without
-    /// key targets: a fixed size, so a test is a mask, a load and a
-    /// shift).
+    /// A filter of the target keys ([`KeyFilter`]: one word, all clear,
+    /// without key targets).
     key_filter: KeyFilter,
     /// Whether some edit targets a key.
     has_keys: bool,
@@ -155,6 +179,14 @@ pub struct EditPlan {
     /// Per symbol (by id), whether a query may name its shapes (one of
     /// its label or one without a label): empty without queries.
     queried: Vec<bool>,
+    /// Per symbol (by id), what the derivation loop asks of a shape off
+    /// every exact target's path ([`EditPlan::attention`]): [`ATTEND`]
+    /// where a query may name it, [`KEYED`] where only a key target may
+    /// (its key's filter bit decides); empty when no edit names shapes by
+    /// key or query. `attend_all`: [`ATTEND`] for every symbol (a forced
+    /// mesh's region, whose every shape has its inserts replaced).
+    attend: Vec<u8>,
+    attend_all: Vec<u8>,
     /// Per tag (by id), its slot when a query names it (0: none; else the
     /// slot plus one, `NO_SLOT` past 64 tags): the tagged commands a path
     /// walk keeps, and the bit of a pattern's mask.
@@ -190,33 +222,49 @@ pub(crate) fn edge(n: &Node) -> EdgeRef {
     }
 }
 
-/// A trie edge, (state, label, edge), packed in one integer (bits 0-31
-/// the state, 32-65 the label, its kind above its id, 66-107 the edge,
-/// its kind, a component's selector and its number): one hash of two
-/// words and one compare, where the tuple hashed and compared each
-/// enum's fields in turn (2-3% of a derivation with 700 exact targets).
-#[inline]
-fn trie_key(state: u32, l: Label, e: &EdgeRef) -> u128 {
-    let label = match l {
-        Label::Symbol(s) => u64::from(s.0),
-        Label::Command(c) => {
-            let code = match c {
-                Command::Split(a) => a.index() as u64,
-                Command::Repeat(a) => 4 + a.index() as u64,
-                Command::Comp(t) => 8 + t as u64,
-            };
-            1 << 32 | code
-        }
-        Label::Insert(a) => 2 << 32 | u64::from(a.0),
-    };
-    let edge = match *e {
-        EdgeRef::Number(k) => u64::from(k),
-        EdgeRef::Ordinal(k) => 1 << 32 | u64::from(k),
-        EdgeRef::Component { selector, index } => {
-            2 << 32 | (selector as u64) << 34 | u64::from(index)
-        }
-    };
-    u128::from(state) | u128::from(label) << 32 | u128::from(edge) << 66
+/// An edge of the exact targets' trie: its label and edge packed in two
+/// words ([`TrieEdge::pack`]; a state's edges are sorted by them), and the
+/// state it leads to.
+#[derive(Clone, Copy, Debug)]
+struct TrieEdge {
+    label: u64,
+    edge: u64,
+    to: u32,
+}
+
+impl TrieEdge {
+    /// `label` and `edge` as two words, each kind above its number.
+    #[inline]
+    fn pack(label: Label, edge: &EdgeRef) -> (u64, u64) {
+        let l = match label {
+            Label::Symbol(s) => u64::from(s.0),
+            Label::Command(c) => {
+                let code = match c {
+                    Command::Split(a) => a.index() as u64,
+                    Command::Repeat(a) => 4 + a.index() as u64,
+                    Command::Comp(t) => 8 + t as u64,
+                };
+                1 << 32 | code
+            }
+            Label::Insert(a) => 2 << 32 | u64::from(a.0),
+        };
+        let e = match *edge {
+            EdgeRef::Number(k) => u64::from(k),
+            EdgeRef::Ordinal(k) => 1 << 40 | u64::from(k),
+            EdgeRef::Component { selector, index } => {
+                2 << 40 | (selector as u64) << 32 | u64::from(index)
+            }
+        };
+        (l, e)
+    }
+}
+
+/// The exact targets' trie while [`EditPlan::new`] builds it: per state
+/// the edits whose target ends there, and the edges.
+#[derive(Default)]
+struct ExactBuild {
+    finals: Vec<Vec<u32>>,
+    trie: HashMap<(u32, Label, EdgeRef), u32>,
 }
 
 /// A label's text read back against the program.
@@ -250,8 +298,10 @@ impl EditPlan {
         let mut plan = EditPlan::default();
         // Labels read back once each (a command's label is formatted).
         let mut labels: HashMap<String, Option<Label>> = HashMap::default();
-        // Per trie state, the edits whose target ends there.
-        let mut finals: Vec<Vec<u32>> = Vec::new();
+        // The exact targets' trie as it is built.
+        let mut build = ExactBuild::default();
+        // The key targets' keys, for their filter.
+        let mut key_values = Vec::new();
         for e in edits {
             let action = match &e.op {
                 Op::Remove => Action::Remove,
@@ -280,12 +330,12 @@ impl EditPlan {
             let lowered = match &e.target {
                 Target::Key(k) => {
                     plan.by_key.entry(*k).or_default().push(index);
-                    plan.key_filter.add(*k);
+                    key_values.push(*k);
                     plan.has_keys = true;
                     true
                 }
                 Target::Exact(loc) => {
-                    plan.insert_exact(program, &mut labels, &mut finals, loc, index)
+                    plan.insert_exact(program, &mut labels, &mut build, loc, index)
                 }
                 Target::Semantic(q) => {
                     let label = match &q.label {
@@ -311,6 +361,28 @@ impl EditPlan {
                 plan.lowered.push(e.clone());
             }
         }
+        plan.key_filter = KeyFilter::of(&key_values);
+        // The trie's edges laid out by state, each state's sorted.
+        let mut edges: Vec<(u32, TrieEdge)> = build
+            .trie
+            .into_iter()
+            .map(|((from, label, edge), to)| {
+                let (label, edge) = TrieEdge::pack(label, &edge);
+                (from, TrieEdge { label, edge, to })
+            })
+            .collect();
+        edges.sort_unstable_by_key(|(from, e)| (*from, e.label, e.edge));
+        let finals = build.finals;
+        plan.trie_from = Vec::with_capacity(finals.len() + 1);
+        let mut at = 0;
+        for s in 0..finals.len() as u32 {
+            plan.trie_from.push(at as u32);
+            while edges.get(at).is_some_and(|(from, _)| *from == s) {
+                at += 1;
+            }
+        }
+        plan.trie_from.push(at as u32);
+        plan.trie_edges = edges.into_iter().map(|(_, e)| e).collect();
         // The exact targets' actions laid out flat, state by state.
         plan.final_from.reserve(finals.len() + 1);
         for (s, f) in finals.iter().enumerate() {
@@ -356,6 +428,23 @@ impl EditPlan {
                 }
                 p.mask = mask;
             }
+        }
+        // What the loop asks of a shape off every exact target's path.
+        let symbols = program.symbols.len();
+        if plan.names_any() {
+            let keyed = if plan.has_keys { KEYED } else { 0 };
+            plan.attend = (0..symbols)
+                .map(|s| {
+                    if plan.queried.get(s).copied().unwrap_or(false) {
+                        ATTEND
+                    } else {
+                        keyed
+                    }
+                })
+                .collect();
+        }
+        if plan.actions.iter().any(|a| matches!(a.1, Action::Mesh(_))) {
+            plan.attend_all = vec![ATTEND; symbols];
         }
         plan
     }
@@ -417,7 +506,7 @@ impl EditPlan {
         &mut self,
         program: &Program,
         known: &mut HashMap<String, Option<Label>>,
-        finals: &mut Vec<Vec<u32>>,
+        build: &mut ExactBuild,
         loc: &crate::ExactLocator,
         edit: u32,
     ) -> bool {
@@ -435,6 +524,7 @@ impl EditPlan {
             })
             .collect();
         let Some(labels) = labels else { return false };
+        let ExactBuild { finals, trie } = build;
         let state = match self.root {
             Some((l, s)) if l == labels[0] => s,
             Some(_) => return false,
@@ -449,18 +539,11 @@ impl EditPlan {
         let mut state = state;
         for (l, e) in labels[1..].iter().zip(&loc.edges) {
             match *e {
-                EdgeRef::Ordinal(k) => {
-                    self.leaves[state as usize] |= 2;
-                    self.edges.add(edge_bit(state, true, k));
-                }
-                EdgeRef::Number(k) => {
-                    self.leaves[state as usize] |= 1;
-                    self.edges.add(edge_bit(state, false, k));
-                }
-                EdgeRef::Component { .. } => self.leaves[state as usize] |= 1,
+                EdgeRef::Ordinal(_) => self.leaves[state as usize] |= 2,
+                EdgeRef::Number(_) | EdgeRef::Component { .. } => self.leaves[state as usize] |= 1,
             }
             let next = finals.len() as u32;
-            state = *self.trie.entry(trie_key(state, *l, e)).or_insert(next);
+            state = *trie.entry((state, *l, e.clone())).or_insert(next);
             if state == next {
                 finals.push(Vec::new());
                 self.leaves.push(0);
@@ -487,22 +570,26 @@ impl EditPlan {
         self.has_keys || !self.semantic.is_empty()
     }
 
-    /// Whether a key target or a query may name a shape of `symbol` with
-    /// key `key` (what the derivation loop asks of a shape off every exact
-    /// target's path before [`EditPlan::matches`]): most shapes of a
-    /// building are named by none, and cost this alone (a byte and a bit).
+    /// The per-symbol table the derivation loop reads for a shape off
+    /// every exact target's path (before [`EditPlan::matches`]): its byte
+    /// for the shape's symbol is 0 where neither a key target nor a query
+    /// can name it (most shapes of a building: one load and a test, with
+    /// the table's slice held by the loop), [`ATTEND`] where a query may,
+    /// [`KEYED`] where a key target may and its key's filter bit decides
+    /// ([`EditPlan::key_bit`]). `meshed`: inside a forced mesh's region,
+    /// where every shape is attended.
     #[inline]
-    pub(crate) fn may_name(&self, symbol: SymbolId, key: u32) -> bool {
-        self.queried
-            .get(symbol.0 as usize)
-            .copied()
-            .unwrap_or(false)
-            | self.key_bit(key)
+    pub(crate) fn attention(&self, meshed: bool) -> &[u8] {
+        if meshed {
+            &self.attend_all
+        } else {
+            &self.attend
+        }
     }
 
     /// Whether `key`'s filter bit is set (some key target may be `key`).
     #[inline]
-    fn key_bit(&self, key: u32) -> bool {
+    pub(crate) fn key_bit(&self, key: u32) -> bool {
         self.key_filter.has(key)
     }
 
@@ -587,21 +674,38 @@ impl EditPlan {
             0
         };
         if leaves & 1 != 0
-            && (child.selector.is_some() || self.edges.has(edge_bit(parent, false, child.edge)))
-            && let Some(&s) = self.trie.get(&trie_key(parent, l, &edge(child)))
+            && let Some(s) = self.child(parent, l, &edge(child))
         {
             return s;
         }
-        if ordinal == 0
-            || child.selector.is_some()
-            || !self.edges.has(edge_bit(parent, true, ordinal))
-        {
+        if ordinal == 0 || child.selector.is_some() {
             return NONE;
         }
-        self.trie
-            .get(&trie_key(parent, l, &EdgeRef::Ordinal(ordinal)))
-            .copied()
+        self.child(parent, l, &EdgeRef::Ordinal(ordinal))
             .unwrap_or(NONE)
+    }
+
+    /// The state the trie's edge (`label`, `edge`) from `state` leads to:
+    /// a look at the state's own edges, which lie together (a floor's
+    /// hundred tiles read its few targeted ones, in cache after the
+    /// first), by a scan where they are few and a binary search where
+    /// they are many.
+    #[inline]
+    fn child(&self, state: u32, label: Label, edge: &EdgeRef) -> Option<u32> {
+        let from = *self.trie_from.get(state as usize)? as usize;
+        let to = *self.trie_from.get(state as usize + 1)? as usize;
+        let edges = self.trie_edges.get(from..to)?;
+        let key = TrieEdge::pack(label, edge);
+        if edges.len() <= 16 {
+            return edges
+                .iter()
+                .find(|t| (t.label, t.edge) == key)
+                .map(|t| t.to);
+        }
+        edges
+            .binary_search_by_key(&key, |t| (t.label, t.edge))
+            .ok()
+            .map(|k| edges[k].to)
     }
 
     /// The actions of the edits whose target is the shape `nodes[at]`

@@ -59,9 +59,10 @@ pub(super) struct Replay<'p> {
     /// (every block in it then has its inserts replaced).
     pub(super) forced: Forced,
     pub(super) meshed: bool,
-    /// Whether every shape off the exact targets' paths is looked at:
-    /// some edit names shapes by key or query, or a mesh is forced.
-    pub(super) attend: bool,
+    /// Per symbol, whether a shape off the exact targets' paths is looked
+    /// at (`EditPlan::attention`: by query, by key, or every shape in a
+    /// forced mesh's region); empty when none is.
+    pub(super) attend: &'p [u8],
     /// Whether the own edits of the shape at hand changed its forcing
     /// (`Engine::own_edits`: its block opens a forced region), and the
     /// forcing then (else it is the region's, `forced`).
@@ -80,6 +81,17 @@ pub(super) struct Replay<'p> {
 }
 
 impl<'p> Replay<'p> {
+    /// Whether the shape of `symbol` with key `key`, off every exact
+    /// target's path, is looked at (`EditPlan::attention`): most shapes
+    /// cost one load and a test.
+    #[inline(always)]
+    pub(super) fn attends(&self, symbol: SymbolId, key: u32) -> bool {
+        match self.attend.get(symbol.0 as usize) {
+            Some(&a) if a != 0 => a & replay::ATTEND != 0 || self.plan.key_bit(key),
+            _ => false,
+        }
+    }
+
     /// The state of a job whose root's replay state is `root`.
     pub(super) fn new(plan: &'p EditPlan, root: Carried) -> Replay<'p> {
         Replay {
@@ -88,7 +100,7 @@ impl<'p> Replay<'p> {
             regions: vec![root.forced],
             forced: root.forced,
             meshed: root.forced.mesh.is_some(),
-            attend: plan.names_any() || root.forced.mesh.is_some(),
+            attend: plan.attention(root.forced.mesh.is_some()),
             opens: false,
             opened: root.forced,
             block: Vec::new(),
@@ -109,7 +121,7 @@ impl<'p> Replay<'p> {
         }
         self.forced = self.regions.last().copied().unwrap_or_default();
         self.meshed = self.forced.mesh.is_some();
-        self.attend = self.plan.names_any() || self.meshed;
+        self.attend = self.plan.attention(self.meshed);
     }
 
     /// Open a forced region (`forced`) for the shapes pushed on the
@@ -118,7 +130,7 @@ impl<'p> Replay<'p> {
         self.regions.push(forced);
         self.forced = forced;
         self.meshed = forced.mesh.is_some();
-        self.attend = self.plan.names_any() || self.meshed;
+        self.attend = self.plan.attention(self.meshed);
     }
 }
 
@@ -143,7 +155,7 @@ pub(super) struct Carried {
 /// material needs nothing more: the shape's attributes carry it to the
 /// block and its rules' materials were skipped. Off every path, a shape is
 /// matched only when a key target or a query may name it
-/// (`EditPlan::may_name`, asked when it is popped).
+/// (`Replay::attends`, asked when it is popped).
 #[inline(never)]
 pub(super) fn replay_block(
     r: &mut Replay,

@@ -29,30 +29,6 @@ impl Hasher for Premixed {
     }
 }
 
-/// The hasher of packed keys ([`PackedMap`]): a `u128` is mixed in as
-/// its two halves.
-#[derive(Clone, Copy, Debug, Default)]
-pub(super) struct Packed(u64);
-
-impl Hasher for Packed {
-    fn finish(&self) -> u64 {
-        self.0
-    }
-
-    fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.0 = mix(self.0, i64::from(b));
-        }
-    }
-
-    fn write_u128(&mut self, v: u128) {
-        self.0 = mix(mix(MIX_SEED, v as u64 as i64), (v >> 64) as u64 as i64);
-    }
-}
-
-/// A map from keys packed in one `u128`.
-pub(super) type PackedMap<V> = std::collections::HashMap<u128, V, BuildHasherDefault<Packed>>;
-
 /// A map from [`mix`]ed keys.
 pub(super) type MixedMap<V> = std::collections::HashMap<u64, V, BuildHasherDefault<Premixed>>;
 
