@@ -11,10 +11,10 @@
 //!   floor's hundred tiles read its few targeted ones), and only while its
 //!   path is a prefix of some target's (a node off every target's path is
 //!   `NONE` and its subtree is never looked up again);
-//! - **key** targets are a hash map from identity keys, behind a one-bit
-//!   filter sized to stay in the first-level cache: a shape whose key
-//!   is no target's costs one bit test (one in 80 passes it with 200 key
-//!   targets);
+//! - **key** targets are a hash map from identity keys, behind a blocked
+//!   Bloom filter sized to stay in the first-level cache: a shape whose key
+//!   is no target's costs one load and a compare (one in 1,500 passes it
+//!   with 200 key targets);
 //! - **semantic** queries are indexed by their label, then grouped by
 //!   their pattern (the tags and anchors they name, in order) with a map
 //!   from a mix of the indices they want to the edits, behind a
@@ -78,14 +78,15 @@ pub(crate) enum Action {
 /// The most words a [`KeyFilter`] has (8 KiB).
 const FILTER_WORDS: usize = 1 << 10;
 
-/// A one-bit filter of 32-bit hashes ([`EditPlan::key_filter`],
-/// [`EditPlan::edges`]): a value's low bits pick its bit, so a test is one
-/// load and a bit test. Sized by how many values it holds, about 64 bits
-/// each (200 key targets: 2 KiB, about one false pass in 80; at most 8
-/// KiB): the loop tests it for many shapes in turn, and a filter that
-/// stays in the first-level cache costs no miss (the fixed 8 KiB bitmap
-/// it replaced missed on about one test in two, as the derivation's nodes
-/// streamed through that cache), while a false pass costs one map lookup.
+/// A blocked Bloom filter of 32-bit hashes ([`EditPlan::key_filter`]): a
+/// value picks a word by its low bits and sets two bits of it chosen by
+/// its high ones, so a test is one load and a compare. Sized by how many
+/// values it holds, about 64 bits each (200 key targets: 2 KiB, about one
+/// false pass in 1,500; at most 8 KiB): the loop tests it for every
+/// shape, and a filter that stays in the first-level cache costs no miss
+/// (the fixed 8 KiB bitmap it replaced missed on about one test in two,
+/// as the derivation's nodes streamed through that cache), while a false
+/// pass costs a call and a map lookup.
 #[derive(Clone, Debug)]
 struct KeyFilter {
     words: Box<[u64]>,
@@ -107,24 +108,29 @@ impl KeyFilter {
         let n = values.len().next_power_of_two().min(FILTER_WORDS);
         let mut f = KeyFilter {
             words: vec![0; n].into_boxed_slice(),
-            mask: (n * 64) as u32 - 1,
+            mask: n as u32 - 1,
         };
         for &v in values {
-            let bit = v & f.mask;
-            if let Some(w) = f.words.get_mut(bit as usize / 64) {
-                *w |= 1 << (bit % 64);
+            if let Some(w) = f.words.get_mut((v & f.mask) as usize) {
+                *w |= Self::bits(v);
             }
         }
         f
     }
 
+    /// The two bits `v` sets in its word.
+    #[inline(always)]
+    fn bits(v: u32) -> u64 {
+        1 << (v >> 26) | 1 << (v >> 20 & 63)
+    }
+
     /// Whether `v` may be one of the filter's values (false: it is not).
     #[inline(always)]
     fn has(&self, v: u32) -> bool {
-        let bit = v & self.mask;
+        let m = Self::bits(v);
         self.words
-            .get(bit as usize / 64)
-            .is_some_and(|&w| w >> (bit % 64) & 1 != 0)
+            .get((v & self.mask) as usize)
+            .is_some_and(|&w| w & m == m)
     }
 }
 
