@@ -355,3 +355,68 @@ fn a_semantic_edit_selecting_more_than_it_did_is_ambiguous() {
         }
     }
 }
+
+/// Queries whose shapes lie deep below the tagged commands (panes, posts
+/// and the glass inside them), alone and together, on one thread and
+/// several: the replay removes exactly the shapes `ShapeTree::select`
+/// finds in the unedited tree. The subtrees no query can name are handed
+/// down as quiet (`EditPlan::quiet_children`); a wrongly quiet one would
+/// lose a match here, a wrongly looked-at one costs time only.
+#[test]
+fn deep_queries_find_what_select_finds() {
+    let h = house();
+    let queries = [
+        "(column = 2) Glass",
+        "(floor = 1, column = end 1) Pane",
+        "(house = 2, floor = 2) Wood",
+        "(facade = 1) Glass",
+        "(house = 1, column = 2) Post",
+        "(floor = 2) Floor",
+        "(house = 2) Tile",
+        "(column = 1) Ledge",
+    ];
+    let mut all = Vec::new();
+    let mut expected = std::collections::BTreeSet::new();
+    for q in queries {
+        let q: grm_edits::SemanticQuery = q.parse().expect("a query");
+        let selected = h.plain.select(&h.lowered.program, &q);
+        assert!(!selected.is_empty(), "{q} selects nothing");
+        for threads in [1, 2] {
+            let plan = edit_plan(
+                &h.lowered,
+                &file(&[(Target::Semantic(q.clone()), Op::Remove)]),
+            );
+            let options = ShapeOptions {
+                threads,
+                ..ShapeOptions::default()
+            };
+            let tree = derive_with_edits(&h.lowered, h.lowered.seed, &options, Some(&plan))
+                .expect("derives with edits");
+            let mut want: Vec<u32> = selected.iter().map(|&s| h.find(&tree, s).0).collect();
+            want.sort_unstable();
+            let mut got = tree.removed().to_vec();
+            got.sort_unstable();
+            assert_eq!(got, want, "{q} on {threads} threads");
+        }
+        expected.extend(selected.iter().map(|s| s.0));
+        all.push((Target::Semantic(q), Op::Remove));
+    }
+    // Together: a removed part's subtree is not grown, so the parts
+    // removed are those selected with no selected ancestor.
+    let tree = h.grow(&file(&all));
+    let mut want: Vec<u32> = expected
+        .iter()
+        .map(|&s| NodeId(s))
+        .filter(|&s| {
+            !h.plain
+                .path(s)
+                .iter()
+                .any(|a| *a != s && expected.contains(&a.0))
+        })
+        .map(|s| h.find(&tree, s).0)
+        .collect();
+    want.sort_unstable();
+    let mut got = tree.removed().to_vec();
+    got.sort_unstable();
+    assert_eq!(got, want);
+}

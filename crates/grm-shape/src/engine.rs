@@ -49,7 +49,7 @@ mod expand;
 mod hook;
 mod parallel;
 
-use hook::{Carried, FLAGGED, Hook, LEAVE, Replay};
+use hook::{Carried, FLAGGED, Hook, LEAVE, QBEGIN, QEND, Replay};
 
 /// Bounds on a derivation's work and memory.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -571,8 +571,9 @@ impl Engine<'_> {
             None => self.run_with(root, root_outline, cut, budget, stop, prefix, || ()),
             Some(plan) => {
                 let state = plan.root_state(&root);
-                // Node indices below the stack's flag bit.
-                let budget = budget.min(FLAGGED as usize - 1);
+                // Node indices below the stack's flag bit and the
+                // markers' indices.
+                let budget = budget.min(FLAGGED as usize - 3);
                 self.run_with(root, root_outline, cut, budget, stop, prefix, || {
                     Replay::new(
                         plan,
@@ -640,15 +641,22 @@ impl Engine<'_> {
             // region's it is in, and its trie state, popped in step with
             // the stack when it has one (flagged: on an exact target's
             // path; the others are off every path). A flagged entry may
-            // be a region's end instead (`LEAVE`): one test for both.
+            // be a region's end instead (`LEAVE`) or a quiet subtree's
+            // bounds (`QBEGIN`, `QEND`): one test for all.
             let at = entry & !H::FLAG;
             let mut state = replay::NONE;
             if entry & H::FLAG != 0
                 && let Some(r) = hook.get()
             {
-                if entry == LEAVE {
-                    r.leave();
-                    scratch.keep_material = r.forced.material.is_some();
+                if entry >= QBEGIN {
+                    match entry {
+                        LEAVE => {
+                            r.leave();
+                            scratch.keep_material = r.forced.material.is_some();
+                        }
+                        QEND => r.set_quiet(false),
+                        _ => r.set_quiet(true),
+                    }
                     continue;
                 }
                 state = r.stack.pop().unwrap_or(replay::NONE);

@@ -53,8 +53,8 @@ use grm_edits::{Edit, Op, Target};
 
 mod pattern;
 
-pub(crate) use pattern::PathScratch;
 use pattern::{MIX_SEED, NO_SLOT, Pattern, Reading, keep, mix};
+pub(crate) use pattern::{PathScratch, QuietScratch};
 
 /// A node's label as the plan compares it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -193,6 +193,13 @@ pub struct EditPlan {
     /// mesh's region, whose every shape has its inserts replaced).
     attend: Vec<u8>,
     attend_all: Vec<u8>,
+    /// The same inside a quiet subtree (no query can name a shape there,
+    /// [`EditPlan::quiet_children`]): key targets alone.
+    attend_quiet: Vec<u8>,
+    /// Per symbol (by id), whether its rule makes a command of a tag some
+    /// query names (the derivation hands down which of that command's
+    /// children no query can name below: [`EditPlan::quiet_children`]).
+    hands_down: Vec<bool>,
     /// Per tag (by id), its slot when a query names it (0: none; else the
     /// slot plus one, `NO_SLOT` past 64 tags): the tagged commands a path
     /// walk keeps, and the bit of a pattern's mask.
@@ -435,19 +442,39 @@ impl EditPlan {
                 p.mask = mask;
             }
         }
-        // What the loop asks of a shape off every exact target's path.
+        // The symbols whose rules make a command of a tag a query names.
         let symbols = program.symbols.len();
+        if !plan.semantic.is_empty() {
+            let named = |t: Option<TagId>| {
+                t.is_some_and(|t| plan.slot.get(t.0 as usize).is_some_and(|&s| s != 0))
+            };
+            plan.hands_down = program
+                .symbols
+                .iter()
+                .map(|info| {
+                    info.rule.iter().flat_map(|r| &r.alternatives).any(|alt| {
+                        alt.ops.iter().any(|op| match op {
+                            crate::ir::Op::Split(s) | crate::ir::Op::Repeat(s) => named(s.tag),
+                            crate::ir::Op::Comp(c) => named(c.tag),
+                            _ => false,
+                        })
+                    })
+                })
+                .collect();
+        }
+        // What the loop asks of a shape off every exact target's path.
         if plan.names_any() {
             let keyed = if plan.has_keys { KEYED } else { 0 };
             plan.attend = (0..symbols)
                 .map(|s| {
-                    if plan.queried.get(s).copied().unwrap_or(false) {
-                        ATTEND
-                    } else {
-                        keyed
-                    }
+                    let queried = plan.queried.get(s).copied().unwrap_or(false);
+                    let hands = plan.hands_down.get(s).copied().unwrap_or(false);
+                    if queried || hands { ATTEND } else { keyed }
                 })
                 .collect();
+            if plan.has_keys {
+                plan.attend_quiet = vec![KEYED; symbols];
+            }
         }
         if plan.actions.iter().any(|a| matches!(a.1, Action::Mesh(_))) {
             plan.attend_all = vec![ATTEND; symbols];
@@ -584,13 +611,28 @@ impl EditPlan {
     /// [`KEYED`] where a key target may and its key's filter bit decides
     /// ([`EditPlan::key_bit`]). `meshed`: inside a forced mesh's region,
     /// where every shape is attended.
+    /// `quiet`: inside a subtree no query can name a shape of
+    /// ([`EditPlan::quiet_children`]), where only key targets are looked
+    /// for.
     #[inline]
-    pub(crate) fn attention(&self, meshed: bool) -> &[u8] {
+    pub(crate) fn attention(&self, meshed: bool, quiet: bool) -> &[u8] {
         if meshed {
             &self.attend_all
+        } else if quiet {
+            &self.attend_quiet
         } else {
             &self.attend
         }
+    }
+
+    /// Whether the shapes of `symbol` make a command of a tag some query
+    /// names ([`EditPlan::quiet_children`] is asked after their rule run).
+    #[inline]
+    pub(crate) fn hands_down(&self, symbol: SymbolId) -> bool {
+        self.hands_down
+            .get(symbol.0 as usize)
+            .copied()
+            .unwrap_or(false)
     }
 
     /// Whether `key`'s filter bit is set (some key target may be `key`).

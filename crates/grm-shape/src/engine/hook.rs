@@ -22,8 +22,17 @@ pub(super) const FLAGGED: u32 = 1 << 31;
 /// The derivation stack entry below a forced region's shapes: popped, the
 /// region is left (`Replay::leave`). Flagged, so the loop's one test of
 /// the flag finds it; its index is none (the job's nodes are fewer than
-/// `FLAGGED - 1`).
+/// `FLAGGED - 3`).
 pub(super) const LEAVE: u32 = u32::MAX;
+
+/// The derivation stack entries around a quiet shape (one no query can
+/// name, nor any shape below it: `EditPlan::quiet_children`): `QBEGIN`
+/// above it, popped first, enters its quiet subtree (only key targets are
+/// looked for there), `QEND` below it, popped when its subtree is done,
+/// leaves it. Flagged, as [`LEAVE`]: one test of the flag finds all
+/// three.
+pub(super) const QEND: u32 = u32::MAX - 1;
+pub(super) const QBEGIN: u32 = u32::MAX - 2;
 
 impl<'p> Hook<'p> for () {
     const FLAG: u32 = 0;
@@ -63,6 +72,9 @@ pub(super) struct Replay<'p> {
     /// at (`EditPlan::attention`: by query, by key, or every shape in a
     /// forced mesh's region); empty when none is.
     pub(super) attend: &'p [u8],
+    /// Whether the shape at hand is in a quiet subtree (between a
+    /// [`QBEGIN`] and its [`QEND`]).
+    pub(super) quiet: bool,
     /// Whether the own edits of the shape at hand changed its forcing
     /// (`Engine::own_edits`: its block opens a forced region), and the
     /// forcing then (else it is the region's, `forced`).
@@ -76,6 +88,11 @@ pub(super) struct Replay<'p> {
     /// indices a query pattern reads there.
     pub(super) matched: Vec<(u32, replay::Action)>,
     pub(super) path: replay::PathScratch,
+    /// Scratch of [`hand_down`]: the quiet scratch, each pushed shape's
+    /// answer, the pushed entries.
+    pub(super) quiet_scratch: replay::QuietScratch,
+    pub(super) quiet_out: Vec<bool>,
+    pub(super) pushed: Vec<u32>,
     /// Forced materials remembered: (attributes, material, result).
     pub(super) memo: Vec<(AttrId, crate::ir::MaterialId, AttrId)>,
 }
@@ -100,13 +117,17 @@ impl<'p> Replay<'p> {
             regions: vec![root.forced],
             forced: root.forced,
             meshed: root.forced.mesh.is_some(),
-            attend: plan.attention(root.forced.mesh.is_some()),
+            attend: plan.attention(root.forced.mesh.is_some(), false),
+            quiet: false,
             opens: false,
             opened: root.forced,
             block: Vec::new(),
             counts: Vec::new(),
             matched: Vec::new(),
             path: replay::PathScratch::default(),
+            quiet_scratch: replay::QuietScratch::default(),
+            quiet_out: Vec::new(),
+            pushed: Vec::new(),
             memo: Vec::new(),
         }
     }
@@ -121,7 +142,16 @@ impl<'p> Replay<'p> {
         }
         self.forced = self.regions.last().copied().unwrap_or_default();
         self.meshed = self.forced.mesh.is_some();
-        self.attend = self.plan.attention(self.meshed);
+        self.attend = self.plan.attention(self.meshed, self.quiet);
+    }
+
+    /// A quiet subtree's [`QBEGIN`] (`true`) or [`QEND`] (`false`) was
+    /// popped.
+    #[cold]
+    #[inline(never)]
+    pub(super) fn set_quiet(&mut self, quiet: bool) {
+        self.quiet = quiet;
+        self.attend = self.plan.attention(self.meshed, quiet);
     }
 
     /// Open a forced region (`forced`) for the shapes pushed on the
@@ -130,7 +160,7 @@ impl<'p> Replay<'p> {
         self.regions.push(forced);
         self.forced = forced;
         self.meshed = forced.mesh.is_some();
-        self.attend = self.plan.attention(self.meshed);
+        self.attend = self.plan.attention(self.meshed, self.quiet);
     }
 }
 
@@ -192,6 +222,10 @@ pub(super) fn replay_block(
             &mut r.counts,
         );
         for e in stack[before..].iter_mut() {
+            // A quiet shape's markers ([`hand_down`]).
+            if *e >= QBEGIN {
+                continue;
+            }
             let state = r.block[*e as usize - start];
             if state != replay::NONE {
                 *e |= FLAGGED;
@@ -202,6 +236,50 @@ pub(super) fn replay_block(
     if opens {
         stack.insert(before, LEAVE);
         r.open(forced);
+    }
+}
+
+/// After the shape at `at` made the block `nodes[start..]`, whose shapes
+/// the derivation stack took last (`stack[before..]`), where its rule
+/// makes a command of a tag some query names: each of those shapes no
+/// query can name, nor any shape below it (`EditPlan::quiet_children`),
+/// put between a [`QBEGIN`] and a [`QEND`], so its subtree's shapes skip
+/// the queries (a window in a column no query wants costs no walk up its
+/// path). `prefix`: the tagged commands above the job's root.
+#[inline(never)]
+pub(super) fn hand_down(
+    r: &mut Replay,
+    nodes: &[Node],
+    at: u32,
+    start: usize,
+    stack: &mut Vec<u32>,
+    before: usize,
+    prefix: &[(crate::ir::TagId, u32, u32)],
+) {
+    if stack.len() == before {
+        return;
+    }
+    r.quiet_out.clear();
+    r.plan.quiet_children(
+        nodes,
+        at as usize,
+        start,
+        prefix,
+        stack[before..].iter().map(|&e| e as usize),
+        &mut r.quiet_scratch,
+        &mut r.quiet_out,
+    );
+    if !r.quiet_out.contains(&true) {
+        return;
+    }
+    r.pushed.clear();
+    r.pushed.extend(stack.drain(before..));
+    for (&e, &quiet) in r.pushed.iter().zip(&r.quiet_out) {
+        if quiet {
+            stack.extend([QEND, e, QBEGIN]);
+        } else {
+            stack.push(e);
+        }
     }
 }
 
@@ -229,6 +307,17 @@ impl Engine<'_> {
         };
         let start = job.nodes.len();
         let before = self.rule_run(job, at, symbol, budget, scratch, stack)?;
+        if !r.quiet && r.plan.hands_down(symbol) {
+            hand_down(
+                r,
+                &job.nodes,
+                at,
+                start,
+                stack,
+                before,
+                &scratch.prefix.tags,
+            );
+        }
         if special {
             replay_block(r, &mut job.nodes, at, start, stack, before, state);
             scratch.force = None;

@@ -6,6 +6,7 @@
 use super::EditPlan;
 use crate::ir::{SymbolId, TagId};
 use crate::locator::Anchor;
+use crate::tree::{Node, NodeKind};
 use std::hash::{BuildHasherDefault, Hasher};
 
 /// The hasher of keys that are hashes already ([`mix`]): the key is its
@@ -324,5 +325,171 @@ impl EditPlan {
                 _ => {}
             }
         }
+    }
+}
+
+/// Scratch space of [`EditPlan::quiet_children`], one per derivation job.
+#[derive(Debug, Default)]
+pub(crate) struct QuietScratch {
+    tags: Vec<PathTag>,
+    below: Vec<PathTag>,
+    readings: Vec<Reading>,
+    /// The children of one tagged command a query may still name below
+    /// (`all`: every one), and that command's position.
+    gate: Gate,
+    command: Option<usize>,
+}
+
+impl EditPlan {
+    /// After the shape `nodes[at]` made the block `nodes[start..]` (its
+    /// rule makes a command of a tag some query names,
+    /// [`EditPlan::hands_down`]): for each of the block's shapes
+    /// `children`, whether no query can name it or any shape below it,
+    /// pushed on `out`. A child is quiet when every pattern's reading of
+    /// its path (the tagged commands above `at`, `prefix` those above the
+    /// job's root, then those in the block above the child) has failed, or
+    /// is complete with indices no query wants: entries further down can
+    /// only fail it. A reading still short of its pattern's entries, or
+    /// complete with wanted indices, keeps the child looked at. A child
+    /// whose one entry in the block is its own command's costs a bit test
+    /// (the command's gate over all patterns, built once: a floor's
+    /// hundred tiles); the shapes below a quiet one (a window, its frames
+    /// and panes) then skip the walk up their path that a query's label
+    /// would cost them.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn quiet_children(
+        &self,
+        nodes: &[Node],
+        at: usize,
+        start: usize,
+        prefix: &[(TagId, u32, u32)],
+        children: impl Iterator<Item = usize>,
+        w: &mut QuietScratch,
+        out: &mut Vec<bool>,
+    ) {
+        // The shape's own path, innermost first, and every pattern's
+        // reading of it.
+        w.tags.clear();
+        let mut cur = at;
+        while cur > 0 {
+            let up = nodes[cur].parent_offset as usize;
+            if up == 0 || up > cur {
+                break;
+            }
+            let p = cur - up;
+            if let NodeKind::Command { tag: Some(t), .. } = nodes[p].kind {
+                keep(
+                    &self.slot,
+                    &mut w.tags,
+                    (t, nodes[cur].index, nodes[cur].count),
+                );
+            }
+            cur = p;
+        }
+        for &entry in prefix {
+            keep(&self.slot, &mut w.tags, entry);
+        }
+        w.readings.clear();
+        for pattern in &self.semantic {
+            let mut r = Reading::START;
+            w.tags.iter().rev().for_each(|e| pattern.read(&mut r, e));
+            w.readings.push(r);
+        }
+        w.command = None;
+        for c in children {
+            // The tagged commands between the child and the shape, and
+            // the innermost one's position.
+            w.below.clear();
+            let mut innermost = None;
+            let mut cur = c;
+            while cur > at {
+                let up = nodes[cur].parent_offset as usize;
+                if up == 0 || up > cur {
+                    break;
+                }
+                let p = cur - up;
+                if p < start {
+                    break;
+                }
+                if let NodeKind::Command { tag: Some(t), .. } = nodes[p].kind {
+                    let before = w.below.len();
+                    keep(
+                        &self.slot,
+                        &mut w.below,
+                        (t, nodes[cur].index, nodes[cur].count),
+                    );
+                    if innermost.is_none() && w.below.len() > before {
+                        innermost = Some(p);
+                    }
+                }
+                cur = p;
+            }
+            let quiet = match (&w.below[..], innermost) {
+                ([], _) | (_, None) => false,
+                ([e], Some(p)) => {
+                    if w.command != Some(p) {
+                        self.hand_down_gate(&mut w.gate, e, &w.readings);
+                        w.command = Some(p);
+                    }
+                    !w.gate.lets(e.index)
+                }
+                _ => self.semantic.iter().zip(&w.readings).all(|(pattern, &r)| {
+                    if r.failed {
+                        return true;
+                    }
+                    let r = pattern.read_below(r, &w.below);
+                    r.failed || (r.met as usize == pattern.entries.len() && !pattern.may_want(r))
+                }),
+            };
+            out.push(quiet);
+        }
+    }
+
+    /// `gate` for the children of `e`'s command, their one entry in the
+    /// block being theirs: those a query of any pattern may name below
+    /// (with its `readings` of the path above). A pattern complete above
+    /// with wanted indices, or short of its entries after the child's,
+    /// lets every child through; one whose last entry is the child's
+    /// lets the children its wanted lists end at.
+    fn hand_down_gate(&self, gate: &mut Gate, e: &PathTag, readings: &[Reading]) {
+        gate.symbol = None;
+        gate.all = false;
+        gate.bits.clear();
+        for (p, &r) in self.semantic.iter().zip(readings) {
+            if r.failed {
+                continue;
+            }
+            let met = r.met as usize;
+            if !p.names(e) {
+                if met < p.entries.len() || p.may_want(r) {
+                    gate.all = true;
+                    return;
+                }
+                continue;
+            }
+            match p.entries.get(met) {
+                Some(&(tag, anchor)) if tag == e.tag => {
+                    if met + 1 < p.entries.len() {
+                        gate.all = true;
+                        return;
+                    }
+                    for &v in p.lasts.get(&r.key).into_iter().flatten() {
+                        gate.add(unanchor(anchor, v, e.count));
+                    }
+                }
+                // The child's entry is not the pattern's next: it fails.
+                _ => {}
+            }
+        }
+    }
+}
+
+impl Pattern {
+    /// Whether a complete reading's indices may be a wanted list (its key
+    /// passes the filter and has lists; false: no query of the pattern
+    /// wants them).
+    fn may_want(&self, r: Reading) -> bool {
+        let bit = (r.key >> 56) as usize;
+        self.filter[bit / 64] >> (bit % 64) & 1 != 0 && self.wants.contains_key(&r.key)
     }
 }
