@@ -370,13 +370,7 @@ impl EditPlan {
         // The shape's own path, innermost first, and every pattern's
         // reading of it.
         w.tags.clear();
-        let mut cur = at;
-        while cur > 0 {
-            let up = nodes[cur].parent_offset as usize;
-            if up == 0 || up > cur {
-                break;
-            }
-            let p = cur - up;
+        crate::engine::walk_up(nodes, at, |p, cur| {
             if let NodeKind::Command { tag: Some(t), .. } = nodes[p].kind {
                 keep(
                     &self.slot,
@@ -384,8 +378,7 @@ impl EditPlan {
                     (t, nodes[cur].index, nodes[cur].count),
                 );
             }
-            cur = p;
-        }
+        });
         for &entry in prefix {
             keep(&self.slot, &mut w.tags, entry);
         }
