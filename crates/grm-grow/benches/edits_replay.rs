@@ -67,7 +67,7 @@ use grm_edits::{EditsFile, Op, SemanticQuery, Target};
 use grm_grow::shape::{Lowered, ShapeOptions, derive, derive_with_edits, edit_plan, edits, lower};
 use grm_shape::{EditPlan, NodeId, NodeKind, ShapeTree};
 use grm_testkit::Rng;
-use grm_testkit::bench::{arg_value, cachegrind_instructions, load, median};
+use grm_testkit::bench::{arg_value, cachegrind_instructions, load, median, quantile};
 use std::collections::HashMap;
 use std::hint::black_box;
 use std::path::Path;
@@ -373,8 +373,7 @@ fn main() {
             tb.push(y);
             ratio.push(y / x);
         }
-        ratio.sort_by(f64::total_cmp);
-        let q = |f: f64| ratio[((ratio.len() - 1) as f64 * f).round() as usize];
+        let q = |f: f64| quantile(&ratio, f);
         println!(
             "  {b_case} over {a}: {:.3}x (median of {rounds} per-round ratios; quartiles {:.3}-{:.3}); {a} {:.2} ms, {b_case} {:.2} ms; load {}",
             q(0.5),

@@ -13,13 +13,13 @@ mod common;
 
 use common::Client;
 use grm_lsp::Config;
+use grm_testkit::bench::quantile;
 use serde_json::json;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-fn stats(mut v: Vec<f64>) -> String {
-    v.sort_by(f64::total_cmp);
-    let q = |p: f64| v[((v.len() - 1) as f64 * p).round() as usize];
+fn stats(v: Vec<f64>) -> String {
+    let q = |p: f64| quantile(&v, p);
     format!(
         "median {:6.2} ms   p90 {:6.2} ms   max {:6.2} ms   (n = {})",
         q(0.5),

@@ -23,6 +23,17 @@ pub fn median(v: &[f64]) -> f64 {
     v[v.len() / 2]
 }
 
+/// The `q`-quantile of `v` (0.5: the median, 1: the largest), the
+/// nearest rank of the sorted values; NaN for none.
+pub fn quantile(v: &[f64], q: f64) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let mut v = v.to_vec();
+    v.sort_by(f64::total_cmp);
+    v[((v.len() - 1) as f64 * q.clamp(0.0, 1.0)).round() as usize]
+}
+
 /// The 1, 5 and 15 minute load averages (`/proc/loadavg`), or an empty
 /// string where there is none.
 pub fn load() -> String {
