@@ -52,6 +52,7 @@ use crate::error::{DeriveError, RuntimeError, RuntimeErrorKind};
 use crate::string::{Implicit, ModuleString};
 
 mod build;
+mod fork;
 mod rewrite;
 mod step;
 
@@ -161,6 +162,9 @@ struct Run {
     carried: Carried,
     /// The string's symbol histogram (see `succ_hist`).
     hist: Option<Vec<u64>>,
+    /// The longest string a fork was declined for (`fork.rs`): a string
+    /// no longer is not planned again.
+    declined: usize,
 }
 
 /// `fast[sym]`: the module is copied unchanged.
@@ -236,6 +240,9 @@ pub struct Engine<'a> {
     /// Recycled string buffers (at most [`SPARES`]), so repeated iterations
     /// and derivations reuse memory instead of faulting in fresh pages.
     spare: std::sync::Mutex<Vec<ModuleString>>,
+    /// Recycled buffers of the threads of a fork (`fork.rs`), so repeated
+    /// derivations reuse them.
+    scratch: std::sync::Mutex<Vec<fork::Scratch>>,
     /// The persistent edits replayed while deriving ([`Engine::with_edits`];
     /// `None`: none, the plain derivation).
     pub(crate) edits: Option<Box<crate::edits::EditPlan>>,
@@ -595,10 +602,10 @@ impl<'a> Engine<'a> {
         // A walked string neither.
         fit(
             &mut s.starts,
-            if (w == 0 && self.compact()) || self.walks() {
-                0
-            } else {
+            if self.keeps_starts(w as u64) {
                 m + 1
+            } else {
+                0
             },
         );
         s.marks = std::sync::OnceLock::new();
@@ -611,6 +618,21 @@ impl<'a> Engine<'a> {
             s.keys.clear();
         }
         s
+    }
+
+    /// Whether a string of `w` stored words keeps `starts` in this
+    /// engine's layout.
+    pub(crate) fn keeps_starts(&self, w: u64) -> bool {
+        !((w == 0 && self.compact()) || self.walks())
+    }
+
+    /// The bytes of a string of `m` modules and `w` stored words as
+    /// [`Engine::take`] lays it out in fresh memory (what
+    /// [`ModuleString::heap_bytes`] says of it).
+    pub(crate) fn string_bytes(&self, m: u64, w: u64) -> u64 {
+        let starts = if self.keeps_starts(w) { m + 1 } else { 0 };
+        let keys = if self.keyed { m } else { 0 };
+        4 * (m + starts + w + keys)
     }
 
     /// Set the smallest chunk (in input modules) worth a parallel task
@@ -674,15 +696,29 @@ impl<'a> Engine<'a> {
             processed: 0,
             carried: Carried::default(),
             hist,
+            declined: 0,
         };
-        // The steps of one chunk on this thread; from the first step of
-        // several, the rest of the derivation on the pool in one piece
-        // (`hand_off`). Not from a thread that is itself a rayon worker
-        // (a forest's trees derived in parallel): its phases already run
-        // as its own jobs, and it must not block waiting on a task that
-        // may sit in its own queue.
+        // Where no symbol needs a decision, the rest of the derivation (up
+        // to 32 steps at a time) as one fork from the first step worth it,
+        // the caller taking its share (`fork.rs`). Otherwise the steps of
+        // one chunk on this thread; from the first step of several, the
+        // rest of the derivation on the pool in one piece (`hand_off`).
+        // Not from a thread that is itself a rayon worker (a forest's
+        // trees derived in parallel): its phases already run as its own
+        // jobs, and it must not block waiting on a task that may sit in
+        // its own queue.
         let handed = rayon::current_thread_index().is_none();
         while run.iteration <= opts.iterations {
+            let began = Instant::now();
+            if self.succ_hist.is_some() {
+                match self.fork_plan(&run, opts) {
+                    Some(f) => {
+                        self.run_fork(&mut run, opts, f, began, progress)?;
+                        continue;
+                    }
+                    None => run.declined = run.declined.max(run.string.len()),
+                }
+            }
             if handed && self.chunks(run.string.len()).len() > 1 {
                 self.hand_off(
                     |sent| {

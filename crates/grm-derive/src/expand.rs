@@ -159,7 +159,7 @@ impl Carried {
 /// The symbol histogram of `syms` (`symbols` entries). Four partial
 /// histograms, so a run of one symbol does not wait on its own previous
 /// increment.
-fn histogram(syms: &[u32], symbols: usize) -> Vec<u64> {
+pub(crate) fn histogram(syms: &[u32], symbols: usize) -> Vec<u64> {
     let mut part = vec![[0u32; 4]; symbols];
     let mut quads = syms.chunks_exact(4);
     for q in &mut quads {

@@ -282,6 +282,7 @@ impl<'a> Engine<'a> {
             min_chunk: MIN_CHUNK,
             pool,
             spare: std::sync::Mutex::new(Vec::new()),
+            scratch: std::sync::Mutex::new(Vec::new()),
             edits: None,
             implicit: implicit.map(Arc::new),
             implicit_sym,

@@ -338,6 +338,20 @@ impl<'a> Engine<'a> {
         w: u64,
         limits: &DeriveLimits,
     ) -> Result<(), DeriveError> {
+        let in_bytes = input.heap_bytes() as u64 + 4 * mate.len() as u64;
+        self.check_limits_bytes(in_bytes, iteration, m, w, limits)
+    }
+
+    /// [`Engine::check_limits`] of an iteration whose input (string and
+    /// bracket table) holds `in_bytes`.
+    pub(crate) fn check_limits_bytes(
+        &self,
+        in_bytes: u64,
+        iteration: u32,
+        m: u64,
+        w: u64,
+        limits: &DeriveLimits,
+    ) -> Result<(), DeriveError> {
         let (file, span) = (self.sys.file, self.sys.span);
         if m > limits.max_modules {
             return Err(DeriveError::ModuleLimit {
@@ -359,7 +373,7 @@ impl<'a> Engine<'a> {
         }
         let key_bytes = if self.keyed { 4 * m } else { 0 };
         let out_bytes = 4 * m + 4 * (m + 1) + 4 * w + key_bytes;
-        let bytes = input.heap_bytes() as u64 + 4 * mate.len() as u64 + out_bytes;
+        let bytes = in_bytes + out_bytes;
         if bytes > limits.max_bytes {
             return Err(DeriveError::MemoryLimit {
                 iteration,
