@@ -243,6 +243,8 @@ pub struct Engine<'a> {
     /// Recycled buffers of the threads of a fork (`fork.rs`), so repeated
     /// derivations reuse them.
     scratch: std::sync::Mutex<Vec<fork::Scratch>>,
+    /// What a fork counts pieces with (`fork.rs`), built on first use.
+    response: std::sync::Mutex<fork::Response>,
     /// The persistent edits replayed while deriving ([`Engine::with_edits`];
     /// `None`: none, the plain derivation).
     pub(crate) edits: Option<Box<crate::edits::EditPlan>>,

@@ -283,6 +283,7 @@ impl<'a> Engine<'a> {
             pool,
             spare: std::sync::Mutex::new(Vec::new()),
             scratch: std::sync::Mutex::new(Vec::new()),
+            response: std::sync::Mutex::new(Default::default()),
             edits: None,
             implicit: implicit.map(Arc::new),
             implicit_sym,

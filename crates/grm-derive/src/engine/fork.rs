@@ -57,8 +57,9 @@ pub(super) struct Fork {
     /// Per step: the string's counts (output modules, stored words,
     /// implicit words, stored input words).
     totals: Vec<Counts>,
-    /// The symbol histogram of the last step's string.
-    hist: Vec<u64>,
+    /// The symbol histogram of the last step's string, where more steps
+    /// follow.
+    hist: Option<Vec<u64>>,
 }
 
 /// A piece of the fork's input string and its counts.
@@ -122,23 +123,26 @@ impl Engine<'_> {
         let last = opts
             .iterations
             .min(first.saturating_add(MAX_FORK_STEPS - 1));
+        let steps = (last - first + 1) as usize;
+        let mut response = self.response.lock().unwrap_or_else(|p| p.into_inner());
+        response.extend(self, succ, steps);
+        let rows = &response.rows[..steps];
         // Every step's counts from the string's histogram, checked against
         // the limits (the input's bytes: the fork's input as it is, then
         // each string as this engine's `take` lays it out).
-        let mut totals = Vec::with_capacity((last - first + 1) as usize);
-        let mut h = hist.clone();
+        let mut totals = Vec::with_capacity(steps);
         let mut in_bytes = input.heap_bytes() as u64;
         let mut work = 0u64;
         let enough = FORK_WORK.saturating_mul(self.min_chunk as u64);
-        for t in first..=last {
-            let (c, next) = self.image(&h, succ, true);
+        for (k, row) in rows.iter().enumerate() {
+            let c = counts_of(hist, row);
+            let t = first + k as u32;
             self.check_limits_bytes(in_bytes, t, c.0, c.1, &opts.limits)
                 .ok()?;
             in_bytes = self.string_bytes(c.0, c.1);
             work = work.saturating_add(c.0);
             totals.push(c);
-            h = next;
-            if !forced && t - first + 1 >= LOOK_AHEAD && work < enough {
+            if !forced && k as u32 + 1 >= LOOK_AHEAD && work < enough {
                 return None;
             }
         }
@@ -153,23 +157,15 @@ impl Engine<'_> {
         let mut words = 0usize;
         for c in 0..n.div_ceil(len) {
             let range = c * len..((c + 1) * len).min(n);
-            let mut h = histogram(&input.syms[range.clone()], self.sym_words.len());
+            let h = piece_histogram(&input.syms[range.clone()], self.sym_words.len());
             let word_in = if walks {
                 words
             } else {
                 input.start(range.start)
             };
-            let mut counts = Vec::with_capacity(totals.len());
-            let mut work = 0u64;
-            for _ in first..=last {
-                let (c, next) = self.image(&h, succ, true);
-                if counts.is_empty() {
-                    words += c.3 as usize;
-                }
-                work = work.saturating_add(c.0);
-                counts.push(c);
-                h = next;
-            }
+            let counts: Vec<Counts> = rows.iter().map(|row| counts_of(&h, row)).collect();
+            words += counts[0].3 as usize;
+            let work = counts.iter().fold(0u64, |a, c| a.saturating_add(c.0));
             pieces.push(Piece {
                 range,
                 word_in,
@@ -177,6 +173,7 @@ impl Engine<'_> {
                 work,
             });
         }
+        drop(response);
         let mut order: Vec<usize> = (0..pieces.len()).collect();
         order.sort_by_key(|&i| std::cmp::Reverse(pieces[i].work));
         if !forced {
@@ -193,13 +190,21 @@ impl Engine<'_> {
                 return None;
             }
         }
+        // The histogram after the fork, where more steps follow it.
+        let hist = (last < opts.iterations).then(|| {
+            let mut h = hist.clone();
+            for _ in 0..steps {
+                h = self.image(&h, succ, true).1;
+            }
+            h
+        });
         Some(Fork {
             first,
             last,
             pieces,
             order,
             totals,
-            hist: h,
+            hist,
         })
     }
 
@@ -352,7 +357,7 @@ impl Engine<'_> {
         }
         self.recycle(std::mem::replace(&mut run.string, out));
         run.iteration = f.last + 1;
-        run.hist = Some(f.hist);
+        run.hist = f.hist;
         run.carried = Carried::default();
         Ok(())
     }
@@ -475,6 +480,95 @@ impl Engine<'_> {
             s.push(bufs);
         }
     }
+}
+
+/// Per step of a fork and symbol, what one module of the symbol adds to
+/// the step's counts: the counts of that step over the string the module
+/// has become by then. A piece's counts at step `k` are its histogram
+/// times row `k`, one multiply-add per symbol, where the images of every
+/// piece's histogram took a pass over the successor table per step. Built
+/// as far as the forks ask, once per engine (the successor table is the
+/// same in every step); counts past `u64` saturate, which only symbols
+/// that no string within the limits holds can reach.
+#[derive(Debug, Default)]
+pub(crate) struct Response {
+    /// Per symbol, what one module of it has become after `rows.len()`
+    /// steps (sparse: symbol, modules).
+    hists: Vec<Vec<(u32, u64)>>,
+    rows: Vec<Vec<Counts>>,
+}
+
+impl Response {
+    /// At least `steps` rows.
+    fn extend(&mut self, e: &Engine<'_>, succ: &[Vec<(u32, u64)>], steps: usize) {
+        let symbols = e.sym_words.len();
+        if self.rows.is_empty() {
+            self.hists = (0..symbols as u32).map(|s| vec![(s, 1)]).collect();
+        }
+        let mut dense = vec![0u64; symbols];
+        while self.rows.len() < steps {
+            let mut row = Vec::with_capacity(symbols);
+            for h in &mut self.hists {
+                let mut c: Counts = (0, 0, 0, 0);
+                for &(s, n) in h.iter() {
+                    let s = s as usize;
+                    let (_, len, words) = e.counts[s];
+                    let add = |x: &mut u64, per: u32| {
+                        *x = x.saturating_add(n.saturating_mul(u64::from(per)));
+                    };
+                    add(&mut c.0, len);
+                    add(&mut c.1, words);
+                    add(&mut c.2, e.implicit_words_of(s));
+                    add(&mut c.3, e.sym_words[s]);
+                    for &(t, k) in &succ[s] {
+                        let d = &mut dense[t as usize];
+                        *d = d.saturating_add(n.saturating_mul(k));
+                    }
+                }
+                row.push(c);
+                h.clear();
+                for (t, d) in dense.iter_mut().enumerate() {
+                    if *d > 0 {
+                        h.push((t as u32, *d));
+                        *d = 0;
+                    }
+                }
+            }
+            self.rows.push(row);
+        }
+    }
+}
+
+/// The counts of a string whose symbol histogram is `h` in a step whose
+/// row of [`Response`] is `row`.
+fn counts_of(h: &[u64], row: &[Counts]) -> Counts {
+    let mut c: Counts = (0, 0, 0, 0);
+    for (&n, r) in h.iter().zip(row) {
+        if n == 0 {
+            continue;
+        }
+        c.0 = c.0.saturating_add(n.saturating_mul(r.0));
+        c.1 = c.1.saturating_add(n.saturating_mul(r.1));
+        c.2 = c.2.saturating_add(n.saturating_mul(r.2));
+        c.3 = c.3.saturating_add(n.saturating_mul(r.3));
+    }
+    c
+}
+
+/// The symbol histogram of a piece: [`histogram`]'s four lanes where the
+/// piece is long, one count per module where it is a few modules (a fork
+/// from an early step cuts pieces of one to a few dozen).
+fn piece_histogram(syms: &[u32], symbols: usize) -> Vec<u64> {
+    if syms.len() >= 256 {
+        return histogram(syms, symbols);
+    }
+    let mut h = vec![0u64; symbols];
+    for &s in syms {
+        if let Some(c) = h.get_mut(s as usize) {
+            *c += 1;
+        }
+    }
+    h
 }
 
 /// The threads a fork of `pieces` pieces runs on, of `threads`.
