@@ -25,7 +25,7 @@
 //! as on the step-by-step road.
 
 use std::sync::Mutex;
-use std::sync::atomic::{AtomicU32, AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicU32, AtomicUsize, Ordering};
 
 use super::*;
 use crate::expand::{Counts, histogram};
@@ -224,7 +224,6 @@ impl Engine<'_> {
         let (m, w) = (m as usize, w as usize);
         let mut out = self.take(m, w);
         out.implicit_words = iw as usize;
-        let nanos: Vec<AtomicU64> = (0..steps).map(|_| AtomicU64::new(0)).collect();
         let errors: Mutex<Vec<(usize, PieceError)>> = Mutex::new(Vec::new());
         {
             // Each piece's slice of the output, in string order.
@@ -269,7 +268,7 @@ impl Engine<'_> {
                 while let Some(&p) = f.order.get(next.fetch_add(1, Ordering::Relaxed)) {
                     let slot = slots[p].lock().unwrap_or_else(|e| e.into_inner()).take();
                     let Some(out) = slot else { continue };
-                    let ctx = (&f, input, opts.seed, &nanos[..], &fail);
+                    let ctx = (&f, input, opts.seed, &fail);
                     if let Err((k, e)) = self.run_piece(ctx, p, out, &mut bufs) {
                         fail.fetch_min(f.first + k as u32, Ordering::Relaxed);
                         let mut errs = errors.lock().unwrap_or_else(|e| e.into_inner());
@@ -316,10 +315,21 @@ impl Engine<'_> {
             .min_by_key(|(k, e)| (*k, e.position));
         let done = first_err.as_ref().map_or(steps, |(k, _)| *k);
         // Each step's time: the fork's wall time shared out in proportion
-        // to the time its pieces' threads spent on that step.
+        // to the modules the step reads and writes (its pieces' steps are
+        // not timed one by one: a clock read per piece and step cost more
+        // than 1% of a short derivation).
         let wall = began.elapsed();
-        let spent: Vec<u64> = nanos.iter().map(|x| x.load(Ordering::Relaxed)).collect();
-        let all: u64 = spent.iter().sum();
+        let moved: Vec<u64> = (0..steps)
+            .map(|k| {
+                let read = if k == 0 {
+                    run.string.len() as u64
+                } else {
+                    f.totals[k - 1].0
+                };
+                read + f.totals[k].0
+            })
+            .collect();
+        let all: u64 = moved.iter().sum();
         for (k, &(cm, cw, ciw, _)) in f.totals.iter().enumerate().take(done) {
             run.processed += if k == 0 {
                 run.string.len() as u64
@@ -330,7 +340,7 @@ impl Engine<'_> {
             let elapsed = if all == 0 {
                 wall / steps as u32
             } else {
-                wall.mul_f64(spent[k] as f64 / all as f64)
+                wall.mul_f64(moved[k] as f64 / all as f64)
             };
             let s = IterationStats {
                 iteration: f.first + k as u32,
@@ -367,7 +377,7 @@ impl Engine<'_> {
     /// intermediate strings in `bufs`, the last into `out`.
     fn run_piece(
         &self,
-        (f, input, seed, nanos, fail): (&Fork, &ModuleString, u32, &[AtomicU64], &AtomicU32),
+        (f, input, seed, fail): (&Fork, &ModuleString, u32, &AtomicU32),
         p: usize,
         out: ChunkOut<'_>,
         bufs: &mut Scratch,
@@ -377,12 +387,11 @@ impl Engine<'_> {
         let mut last = Some(out);
         // The modules of the piece's string in `bufs[0]`.
         let mut len = 0usize;
-        for (k, (counts, spent)) in piece.counts.iter().zip(nanos).enumerate() {
+        for (k, counts) in piece.counts.iter().enumerate() {
             let t = f.first + k as u32;
             if t > fail.load(Ordering::Relaxed) {
                 return Ok(());
             }
-            let clock = Instant::now();
             let [a, b] = &mut *bufs;
             let (src, range, word_in) = if k == 0 {
                 (input, piece.range.clone(), piece.word_in)
@@ -449,7 +458,6 @@ impl Engine<'_> {
                 }
                 res
             };
-            spent.fetch_add(clock.elapsed().as_nanos() as u64, Ordering::Relaxed);
             res.map_err(|e| (k, e))?;
             bufs.swap(0, 1);
             len = m;
