@@ -62,6 +62,23 @@ pub(super) struct Fork {
     hist: Option<Vec<u64>>,
 }
 
+impl Fork {
+    /// The most modules and stored words of a piece's intermediate
+    /// string, and whether any such string keeps starts.
+    fn scratch_size(&self, e: &Engine<'_>) -> (usize, usize, bool) {
+        let inner = self.totals.len() - 1;
+        let (mut m, mut w) = (0u64, 0u64);
+        for p in &self.pieces {
+            for c in &p.counts[..inner] {
+                m = m.max(c.0);
+                w = w.max(c.1);
+            }
+        }
+        let starts = self.totals[..inner].iter().any(|c| e.keeps_starts(c.1));
+        (m as usize, w as usize, starts)
+    }
+}
+
 /// A piece of the fork's input string and its counts.
 struct Piece {
     range: Range<usize>,
@@ -263,8 +280,24 @@ impl Engine<'_> {
             let next = AtomicUsize::new(0);
             let fail = AtomicU32::new(u32::MAX);
             let input = &run.string;
+            // Each thread's buffers sized once for the longest intermediate
+            // string of any piece (grown piece by piece, they were
+            // allocated again and again, each time in fresh pages).
+            let (sm, sw, sstarts) = f.scratch_size(self);
             let body = || {
                 let mut bufs = self.take_scratch();
+                for b in &mut bufs {
+                    grow(&mut b.syms, sm);
+                    if self.keyed {
+                        grow(&mut b.keys, sm);
+                    }
+                    if sstarts {
+                        grow(&mut b.starts, sm + 1);
+                    }
+                    if sw > 0 {
+                        grow(&mut b.params, sw);
+                    }
+                }
                 while let Some(&p) = f.order.get(next.fetch_add(1, Ordering::Relaxed)) {
                     let slot = slots[p].lock().unwrap_or_else(|e| e.into_inner()).take();
                     let Some(out) = slot else { continue };
