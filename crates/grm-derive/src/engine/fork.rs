@@ -194,8 +194,15 @@ impl Engine<'_> {
         let mut order: Vec<usize> = (0..pieces.len()).collect();
         order.sort_by_key(|&i| std::cmp::Reverse(pieces[i].work));
         if !forced {
-            // Balanced: the most work first onto the least loaded thread
+            // Balanced: no piece holds more than a quarter of a thread's
+            // share (so a worker that wakes late still finds enough left to
+            // even out: Koch's first string, four `F`s, forks one step
+            // later), and the most work first onto the least loaded thread
             // ends within a tenth of an even share.
+            let largest = order.first().map_or(0, |&i| pieces[i].work);
+            if largest.saturating_mul(4 * threads as u64) > work {
+                return None;
+            }
             let mut load = vec![0u64; threads];
             for &i in &order {
                 if let Some(l) = load.iter_mut().min() {
