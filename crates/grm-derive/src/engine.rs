@@ -664,9 +664,11 @@ impl<'a> Engine<'a> {
     }
 
     /// Derive `opts.iterations` steps from the axiom. `progress` is called
-    /// once per string (the axiom first) as soon as it is complete, always
-    /// on the calling thread (on several threads, while the pool already
-    /// runs the next step).
+    /// once per string (the axiom first), in order, always on the calling
+    /// thread: as soon as the string is complete (on several threads,
+    /// while the pool already runs the next step), or, for the steps of a
+    /// fork (a system without decisions on several threads: `fork.rs`),
+    /// when the fork ends.
     pub fn derive(
         &self,
         opts: &DeriveOptions,

@@ -181,30 +181,36 @@ fn derive_matches_single_steps() {
 }
 
 /// `Engine::derive` called from rayon's own workers (a forest's trees
-/// derived in parallel), on rayon's global pool and on a pool of its own:
-/// the steps are not handed to the pool as one task there (the caller
-/// would wait on a task that may sit in its own queue), and the strings
-/// and the progress figures are one thread's.
+/// derived in parallel), on rayon's global pool and on a pool of its own,
+/// on both roads: a system without decisions (the bracketed plant) forks
+/// its pieces with the caller taking its share, and its wait for the
+/// spawned tasks runs them or other jobs; one with decisions (the
+/// stochastic plant) is not handed to the pool as one task there (the
+/// caller would wait on a task that may sit in its own queue). The
+/// strings and the progress figures are one thread's.
 #[test]
 fn derive_from_rayon_workers() {
     use rayon::prelude::*;
-    let c = example("bracketed_plant.grm", None);
-    let mut opts = grm_derive::DeriveOptions::from_system(&c);
-    opts.iterations = 4;
-    let run = |threads: usize| {
-        let engine = Engine::new(&c, threads).expect("engine").with_min_chunk(16);
-        let mut lens = Vec::new();
-        let d = engine
-            .derive(&opts, &mut |s| lens.push(s.modules))
-            .expect("derives");
-        (bits(&d.string), lens)
-    };
-    let base = run(1);
-    let got: Vec<_> = (0..8).into_par_iter().map(|i| run([0, 2][i % 2])).collect();
-    for g in got {
-        assert!(
-            g == base,
-            "a string or its figures differ from one thread's"
-        );
+    for file in ["bracketed_plant.grm", "stochastic_plant.grm"] {
+        let c = example(file, None);
+        let mut opts = grm_derive::DeriveOptions::from_system(&c);
+        opts.iterations = 4;
+        let run = |threads: usize| {
+            let engine = Engine::new(&c, threads).expect("engine").with_min_chunk(16);
+            let mut lens = Vec::new();
+            let d = engine
+                .derive(&opts, &mut |s| lens.push(s.modules))
+                .expect("derives");
+            (bits(&d.string), lens)
+        };
+        let base = run(1);
+        assert!(base.0.0.len() > 64, "{file}: {}", base.0.0.len());
+        let got: Vec<_> = (0..8).into_par_iter().map(|i| run([0, 2][i % 2])).collect();
+        for g in got {
+            assert!(
+                g == base,
+                "{file}: a string or its figures differ from one thread's"
+            );
+        }
     }
 }
