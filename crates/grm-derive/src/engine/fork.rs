@@ -553,7 +553,11 @@ impl Response {
         if self.rows.is_empty() {
             self.hists = (0..symbols as u32).map(|s| vec![(s, 1)]).collect();
         }
+        // What one symbol's string becomes, summed densely; `touched`: the
+        // symbols it holds (a pass over the whole alphabet per symbol and
+        // step would be its square).
         let mut dense = vec![0u64; symbols];
+        let mut touched: Vec<u32> = Vec::new();
         while self.rows.len() < steps {
             let mut row = Vec::with_capacity(symbols);
             for h in &mut self.hists {
@@ -570,16 +574,16 @@ impl Response {
                     add(&mut c.3, e.sym_words[s]);
                     for &(t, k) in &succ[s] {
                         let d = &mut dense[t as usize];
+                        if *d == 0 {
+                            touched.push(t);
+                        }
                         *d = d.saturating_add(n.saturating_mul(k));
                     }
                 }
                 row.push(c);
                 h.clear();
-                for (t, d) in dense.iter_mut().enumerate() {
-                    if *d > 0 {
-                        h.push((t as u32, *d));
-                        *d = 0;
-                    }
+                for t in touched.drain(..) {
+                    h.push((t, std::mem::take(&mut dense[t as usize])));
                 }
             }
             self.rows.push(row);
