@@ -34,6 +34,10 @@ use crate::expand::{Counts, histogram};
 /// pieces that grow unevenly.
 const PIECES_PER_THREAD: usize = 16;
 
+/// The most pieces a fork cuts (a pool of hundreds of threads gets fewer
+/// than [`PIECES_PER_THREAD`] each: every piece keeps its counts per step).
+const MAX_PIECES: usize = 4096;
+
 /// The most steps one fork runs (each piece keeps its counts per step).
 const MAX_FORK_STEPS: u32 = 32;
 
@@ -167,7 +171,7 @@ impl Engine<'_> {
             return None;
         }
         // The pieces: equal input lengths, each one's counts per step.
-        let k = (threads * PIECES_PER_THREAD).min(n);
+        let k = (threads * PIECES_PER_THREAD).min(MAX_PIECES).min(n);
         let len = n.div_ceil(k);
         let walks = input.walks();
         let mut pieces = Vec::with_capacity(k);
