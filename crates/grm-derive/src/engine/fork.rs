@@ -4,9 +4,10 @@
 //! a module becomes in every following step depends on its symbol alone:
 //! a piece of a string can be derived on its own through all the steps
 //! that remain, its length and words at each step are the images of its
-//! symbol histogram, and its last string belongs at the offset where the
-//! pieces before it end. So `Engine::derive` cuts the string once into
-//! pieces (a few dozen per thread) and runs them all at once: the calling
+//! symbol histogram (times the per-engine table [`Response`]), and its
+//! last string belongs at the offset where the pieces before it end. So
+//! `Engine::derive` cuts the string once into pieces of equal length (16
+//! per thread, up to 32 steps a fork) and runs them all at once: the calling
 //! thread and one spawned task per other thread take pieces, the most
 //! work first, each deriving its pieces' intermediate strings in two
 //! buffers of its own and writing the last step straight into its slice
@@ -20,7 +21,8 @@
 //! module with the same arithmetic, and its output lands where the whole
 //! string's rewrite would have put it: the result is bit-identical for
 //! every thread count and piece size. The limits are checked for every
-//! step from the histograms before anything is allocated; the first
+//! step from the histograms before anything is allocated (a step over
+//! them is left to the step-by-step road, which reports it); the first
 //! runtime error is the one of the earliest step at the lowest position,
 //! as on the step-by-step road.
 
