@@ -420,3 +420,106 @@ fn deep_queries_find_what_select_finds() {
     got.sort_unstable();
     assert_eq!(got, want);
 }
+
+/// Exact targets on many siblings: thirty of one floor's hundred tiles
+/// and every other floor of one facade, whose trie states have more than
+/// sixteen edges (looked up by binary search among a state's sorted
+/// edges): each tile pinned to a key of its own, each floor removed, and
+/// exactly those parts have them. The tower of the replay bench, four
+/// storeys high (1,600 windows).
+#[test]
+fn exact_targets_on_many_siblings_are_all_found() {
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../grm-lsp/benches/tower_10k.grm");
+    let text = std::fs::read_to_string(&path).expect("tower_10k.grm");
+    let (_, checked) = grm_sema::check_text(&path.display().to_string(), &text);
+    assert!(!checked.has_errors(), "{:?}", checked.diagnostics);
+    let p = &checked.program;
+    let sys = p.default_system().expect("a system");
+    let mut values = p.default_params();
+    values[0] = grm_sema::Value::Float(4.0);
+    let lowered = lower(p, sys, &values).expect("lowers");
+    let plain = derive(&lowered, lowered.seed, &ShapeOptions::default()).expect("derives");
+    let of = |symbol: &str| -> Vec<NodeId> {
+        let s = lowered.program.symbol(symbol).expect("a symbol");
+        (0..plain.len() as u32)
+            .map(NodeId)
+            .filter(|&id| matches!(plain.node(id).map(|n| n.kind), Some(NodeKind::Shape { symbol, .. }) if symbol == s))
+            .collect()
+    };
+    let (tiles, floors) = (of("Tile"), of("Floor"));
+    assert_eq!(tiles.len(), 1600);
+    // The shape `up` levels above `id`.
+    let above = |id: NodeId, up: usize| {
+        let path = plain.path(id);
+        assert_eq!(path.last(), Some(&id), "a path ends at its node");
+        path[path.len() - 1 - up]
+    };
+    let first_floor = above(tiles[0], 2);
+    let pinned: Vec<NodeId> = tiles
+        .iter()
+        .copied()
+        .filter(|&t| above(t, 2) == first_floor)
+        .step_by(3)
+        .collect();
+    assert!(pinned.len() > 16);
+    let first_facade = above(floors[0], 2);
+    let removed: Vec<NodeId> = floors
+        .iter()
+        .copied()
+        .filter(|&f| above(f, 2) == first_facade && f != first_floor)
+        .collect();
+    assert!(removed.len() >= 3);
+    let mut f = EditsFile {
+        version: 1,
+        edits: Vec::new(),
+    };
+    let exact = |id: NodeId| Target::Exact(plain.exact_locator(&lowered.program, id));
+    for (i, &t) in pinned.iter().enumerate() {
+        f.add(
+            "Tower10k",
+            exact(t),
+            Op::Pin {
+                key: 1000 + i as u32,
+            },
+        )
+        .expect("an id");
+    }
+    for &t in &removed {
+        f.add("Tower10k", exact(t), Op::Remove).expect("an id");
+    }
+    for threads in [1, 2] {
+        let plan = edit_plan(&lowered, &f);
+        let options = ShapeOptions {
+            threads,
+            ..ShapeOptions::default()
+        };
+        let tree =
+            derive_with_edits(&lowered, lowered.seed, &options, Some(&plan)).expect("derives");
+        let find = |id: NodeId| match tree
+            .resolve(&lowered.program, &plain.exact_locator(&lowered.program, id))
+        {
+            grm_shape::Resolution::Found(n) => n,
+            r => panic!("{r:?}"),
+        };
+        for (i, &t) in pinned.iter().enumerate() {
+            assert_eq!(
+                tree.node(find(t)).map(|n| n.key),
+                Some(1000 + i as u32),
+                "tile {i}, {threads} threads"
+            );
+        }
+        let pins = (0..tree.len() as u32)
+            .filter(|&n| {
+                tree.node(NodeId(n))
+                    .is_some_and(|n| (1000..1000 + pinned.len() as u32).contains(&n.key))
+            })
+            .count();
+        assert_eq!(pins, pinned.len(), "{threads} threads");
+        let mut want: Vec<u32> = removed.iter().map(|&t| find(t).0).collect();
+        want.sort_unstable();
+        let mut got = tree.removed().to_vec();
+        got.sort_unstable();
+        assert_eq!(got, want, "{threads} threads");
+    }
+}
