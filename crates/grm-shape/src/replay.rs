@@ -30,7 +30,16 @@
 //!   shapes cost the walk and a bit test. One the gate lets through costs
 //!   one reading of its own entries per pattern, however many queries
 //!   share it (the tower's 80 window queries are three patterns), and a
-//!   map lookup only where the filter lets the key through.
+//!   map lookup only where the filter lets the key through;
+//! - **quiet subtrees**: where a rule makes a command of a tag some query
+//!   names, its children that no query can name, nor any shape below them
+//!   (`EditPlan::quiet_children`: one gate over all patterns per command),
+//!   are bracketed on the derivation stack by markers, and the shapes of
+//!   their subtrees are looked at for key targets only: a query's label
+//!   costs its shapes no walk where the query cannot name them.
+//!
+//! Which shapes off every exact target's path the loop looks at is one
+//! byte per symbol ([`EditPlan::attention`]).
 //!
 //! What applies (Lipp 3.2.2, `grm_edits::scoping`): `remove`, `material`
 //! and `mesh` reach the whole subtree (a deeper target's edit overrides an
