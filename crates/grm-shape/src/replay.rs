@@ -39,7 +39,7 @@
 //!   costs its shapes no walk where the query cannot name them.
 //!
 //! Which shapes off every exact target's path the loop looks at is one
-//! byte per symbol ([`EditPlan::attention`]).
+//! byte per symbol (`EditPlan::attention`).
 //!
 //! What applies (Lipp 3.2.2, `grm_edits::scoping`): `remove`, `material`
 //! and `mesh` reach the whole subtree (a deeper target's edit overrides an
