@@ -61,9 +61,11 @@ use foldhash::HashMap;
 use grm_edits::{Edit, Op, Target};
 
 mod pattern;
+mod trie;
 
 use pattern::{MIX_SEED, NO_SLOT, Pattern, Reading, keep, mix};
 pub(crate) use pattern::{PathScratch, QuietScratch};
+use trie::{ExactBuild, TrieEdge};
 
 /// A node's label as the plan compares it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -242,51 +244,6 @@ pub(crate) fn edge(n: &Node) -> EdgeRef {
         },
         None => EdgeRef::Number(n.edge),
     }
-}
-
-/// An edge of the exact targets' trie: its label and edge packed in two
-/// words ([`TrieEdge::pack`]; a state's edges are sorted by them), and the
-/// state it leads to.
-#[derive(Clone, Copy, Debug)]
-struct TrieEdge {
-    label: u64,
-    edge: u64,
-    to: u32,
-}
-
-impl TrieEdge {
-    /// `label` and `edge` as two words, each kind above its number.
-    #[inline]
-    fn pack(label: Label, edge: &EdgeRef) -> (u64, u64) {
-        let l = match label {
-            Label::Symbol(s) => u64::from(s.0),
-            Label::Command(c) => {
-                let code = match c {
-                    Command::Split(a) => a.index() as u64,
-                    Command::Repeat(a) => 4 + a.index() as u64,
-                    Command::Comp(t) => 8 + t as u64,
-                };
-                1 << 32 | code
-            }
-            Label::Insert(a) => 2 << 32 | u64::from(a.0),
-        };
-        let e = match *edge {
-            EdgeRef::Number(k) => u64::from(k),
-            EdgeRef::Ordinal(k) => 1 << 40 | u64::from(k),
-            EdgeRef::Component { selector, index } => {
-                2 << 40 | (selector as u64) << 32 | u64::from(index)
-            }
-        };
-        (l, e)
-    }
-}
-
-/// The exact targets' trie while [`EditPlan::new`] builds it: per state
-/// the edits whose target ends there, and the edges.
-#[derive(Default)]
-struct ExactBuild {
-    finals: Vec<Vec<u32>>,
-    trie: HashMap<(u32, Label, EdgeRef), u32>,
 }
 
 /// A label's text read back against the program.
@@ -542,59 +499,6 @@ impl EditPlan {
         }
     }
 
-    /// Add an exact target's path to the trie; false when a label is not
-    /// the program's (it can match nothing). `known`: labels read so far.
-    fn insert_exact(
-        &mut self,
-        program: &Program,
-        known: &mut HashMap<String, Option<Label>>,
-        build: &mut ExactBuild,
-        loc: &crate::ExactLocator,
-        edit: u32,
-    ) -> bool {
-        if loc.labels.len() != loc.edges.len() + 1 {
-            return false;
-        }
-        let labels: Option<Vec<Label>> = loc
-            .labels
-            .iter()
-            .map(|l| match known.get(l.as_str()) {
-                Some(&label) => label,
-                None => *known
-                    .entry(l.clone())
-                    .or_insert_with(|| parse_label(program, l)),
-            })
-            .collect();
-        let Some(labels) = labels else { return false };
-        let ExactBuild { finals, trie } = build;
-        let state = match self.root {
-            Some((l, s)) if l == labels[0] => s,
-            Some(_) => return false,
-            None => {
-                finals.push(Vec::new());
-                self.leaves.push(0);
-                let s = finals.len() as u32 - 1;
-                self.root = Some((labels[0], s));
-                s
-            }
-        };
-        let mut state = state;
-        for (l, e) in labels[1..].iter().zip(&loc.edges) {
-            match *e {
-                EdgeRef::Ordinal(_) => self.leaves[state as usize] |= 2,
-                EdgeRef::Number(_) | EdgeRef::Component { .. } => self.leaves[state as usize] |= 1,
-            }
-            let next = finals.len() as u32;
-            state = *trie.entry((state, *l, e.clone())).or_insert(next);
-            if state == next {
-                finals.push(Vec::new());
-                self.leaves.push(0);
-            }
-        }
-        finals[state as usize].push(edit);
-        true
-    }
-
     /// Whether the plan has no edit to replay.
     pub fn is_empty(&self) -> bool {
         self.actions.is_empty()
@@ -654,115 +558,6 @@ impl EditPlan {
     /// commands above a parallel job's root).
     pub(crate) fn has_semantic(&self) -> bool {
         !self.semantic.is_empty()
-    }
-
-    /// The axiom's trie state.
-    pub(crate) fn root_state(&self, axiom: &Node) -> u32 {
-        match self.root {
-            Some((l, s)) if l == label(axiom) => s,
-            _ => NONE,
-        }
-    }
-
-    /// The trie states of the block `block` (the nodes the shape at
-    /// `at`, trie state `state`, made from `start` on: parent offsets are
-    /// relative, so a node's parent is `at` or a command before it in the
-    /// block), in `out`, one per node. An ordinal edge (`#k`) is counted
-    /// in one pass over the block (`counts`: scratch, per parent and label
-    /// the siblings seen so far), and only under a parent some target
-    /// leaves by an ordinal edge: what `ShapeTree::ordinal` gives.
-    pub(crate) fn block_states(
-        &self,
-        block: &[Node],
-        start: usize,
-        at: usize,
-        state: u32,
-        out: &mut Vec<u32>,
-        counts: &mut Vec<(usize, Label, u32)>,
-    ) {
-        out.clear();
-        counts.clear();
-        for (k, n) in block.iter().enumerate() {
-            let p = (start + k).wrapping_sub(n.parent_offset as usize);
-            let parent = if p == at {
-                state
-            } else if p >= start && p < start + k {
-                out[p - start]
-            } else {
-                NONE
-            };
-            out.push(self.step(parent, p, n, counts));
-        }
-    }
-
-    /// A child's trie state from its parent's (`parent`, the parent at
-    /// position `p`), counting its ordinal in `counts` where some target
-    /// leaves the parent's state by an ordinal edge.
-    #[inline]
-    fn step(
-        &self,
-        parent: u32,
-        p: usize,
-        child: &Node,
-        counts: &mut Vec<(usize, Label, u32)>,
-    ) -> u32 {
-        if parent == NONE {
-            return NONE;
-        }
-        let leaves = self.leaves.get(parent as usize).copied().unwrap_or(0);
-        if leaves & 3 == 0 {
-            return NONE;
-        }
-        let l = label(child);
-        // The child's ordinal among its parent's children of its label
-        // (every such sibling counts, whatever its edge).
-        let ordinal = if leaves & 2 != 0 {
-            match counts.iter_mut().rev().find(|c| c.0 == p && c.1 == l) {
-                Some(c) => {
-                    c.2 += 1;
-                    c.2
-                }
-                None => {
-                    counts.push((p, l, 1));
-                    1
-                }
-            }
-        } else {
-            0
-        };
-        if leaves & 1 != 0
-            && let Some(s) = self.child(parent, l, &edge(child))
-        {
-            return s;
-        }
-        if ordinal == 0 || child.selector.is_some() {
-            return NONE;
-        }
-        self.child(parent, l, &EdgeRef::Ordinal(ordinal))
-            .unwrap_or(NONE)
-    }
-
-    /// The state the trie's edge (`label`, `edge`) from `state` leads to:
-    /// a look at the state's own edges, which lie together (a floor's
-    /// hundred tiles read its few targeted ones, in cache after the
-    /// first), by a scan where they are few and a binary search where
-    /// they are many.
-    #[inline]
-    fn child(&self, state: u32, label: Label, edge: &EdgeRef) -> Option<u32> {
-        let from = *self.trie_from.get(state as usize)? as usize;
-        let to = *self.trie_from.get(state as usize + 1)? as usize;
-        let edges = self.trie_edges.get(from..to)?;
-        let key = TrieEdge::pack(label, edge);
-        if edges.len() <= 16 {
-            return edges
-                .iter()
-                .find(|t| (t.label, t.edge) == key)
-                .map(|t| t.to);
-        }
-        edges
-            .binary_search_by_key(&key, |t| (t.label, t.edge))
-            .ok()
-            .map(|k| edges[k].to)
     }
 
     /// The actions of the edits whose target is the shape `nodes[at]`
