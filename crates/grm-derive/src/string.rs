@@ -153,6 +153,22 @@ impl Default for ModuleString {
 }
 
 impl ModuleString {
+    /// Its arrays as mutable slices, for cutting into each chunk's or
+    /// piece's part of an output of `m` modules: symbols, starts (empty
+    /// where the string keeps none), parameter words, keys.
+    pub(crate) fn parts_mut(
+        &mut self,
+        m: usize,
+    ) -> (&mut [u32], &mut [u32], &mut [f32], &mut [u32]) {
+        let with_starts = !self.starts.is_empty();
+        (
+            &mut self.syms[..],
+            &mut self.starts[..if with_starts { m } else { 0 }],
+            &mut self.params[..],
+            &mut self.keys[..],
+        )
+    }
+
     pub fn new() -> ModuleString {
         ModuleString {
             syms: Vec::new(),

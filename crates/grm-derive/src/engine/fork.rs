@@ -258,12 +258,7 @@ impl Engine<'_> {
         {
             // Each piece's slice of the output, in string order.
             let with_starts = !out.starts.is_empty();
-            let (mut syms, mut starts, mut params) = (
-                &mut out.syms[..],
-                &mut out.starts[..if with_starts { m } else { 0 }],
-                &mut out.params[..],
-            );
-            let mut keys = &mut out.keys[..];
+            let (mut syms, mut starts, mut params, mut keys) = out.parts_mut(m);
             let mut slots = Vec::with_capacity(f.pieces.len());
             let mut word_base = 0u32;
             for p in &f.pieces {

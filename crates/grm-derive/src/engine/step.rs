@@ -263,12 +263,7 @@ impl<'a> Engine<'a> {
         {
             let mut parts = Vec::with_capacity(chunks.len());
             let with_starts = !out.starts.is_empty();
-            let (mut syms, mut starts, mut params) = (
-                &mut out.syms[..],
-                &mut out.starts[..if with_starts { m } else { 0 }],
-                &mut out.params[..],
-            );
-            let mut keys = &mut out.keys[..];
+            let (mut syms, mut starts, mut params, mut keys) = out.parts_mut(m);
             for ((r, &(cm, cw, _, _)), &(_, word_base, word_in)) in
                 chunks.iter().zip(&totals).zip(&offsets)
             {
