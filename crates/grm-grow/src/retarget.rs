@@ -47,11 +47,11 @@ pub struct PartPrint {
     /// derive and sample mode: the centre of what its subtree drew), if
     /// known.
     pub centre: Option<[f32; 3]>,
-    /// Derive mode: `centre` is its parent's (a module an edit removed
-    /// drew nothing of its own).
+    /// `centre` is its parent's (a module an edit removed drew nothing of
+    /// its own).
     pub centre_of_parent: bool,
-    /// Derive mode: its place among the modules its parent's production
-    /// made (from 0), if known.
+    /// Derive mode, and a removed module in sample mode: its place among
+    /// the modules its parent's production made (from 0), if known.
     pub sibling: Option<u32>,
 }
 

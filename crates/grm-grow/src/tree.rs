@@ -50,9 +50,12 @@ pub struct RemovedPart {
     /// The node whose production made it.
     pub parent: u32,
     pub symbol: u32,
-    /// The string it would have first appeared in.
+    /// Derive mode: the string it would have first appeared in (sample
+    /// mode: 0).
     pub iteration: u32,
-    /// Its place among the modules its parent's production made.
+    /// Its place among the modules its parent's production made (sample
+    /// mode: among the parent's expanded modules, as a node's place is
+    /// counted there).
     pub sibling: u32,
 }
 
@@ -68,9 +71,9 @@ pub struct Tree {
     /// The run's root key (the root's key).
     pub root_key: u32,
     pub nodes: Vec<TreeNode>,
-    /// Derive mode: the modules persistent edits removed as they were
-    /// made (they are no nodes: nothing descends from them and they own
-    /// no module), in the order they were made.
+    /// The modules persistent edits removed as they were made (they are
+    /// no nodes: nothing descends from them and they own no module), in
+    /// the order they were made (derive mode) or met (sample mode).
     pub removed: Vec<RemovedPart>,
     /// Per module of the final string: the node that owns it. While a
     /// derive-mode tree is built: per module of the current string.
@@ -207,7 +210,18 @@ impl Tree {
             seed,
             root_key,
             nodes,
-            removed: Vec::new(),
+            removed: model
+                .tree
+                .removed
+                .iter()
+                .map(|r| RemovedPart {
+                    key: r.key,
+                    parent: r.parent,
+                    symbol: r.symbol,
+                    iteration: 0,
+                    sibling: r.sibling,
+                })
+                .collect(),
             module_node,
         }
     }

@@ -217,6 +217,70 @@ fn a_removed_subtree_is_gone() {
     );
 }
 
+/// A module an edit removed leaves a print in the sampled model's tree
+/// (`DerivationTree::removed`, then `grm_grow::Tree::removed`): its
+/// parent, symbol, key and place among the parent's children. From it,
+/// when the key is lost, the retarget candidates start under the same
+/// parent (the remaining `maybeBranch` there takes its place).
+#[test]
+fn a_removed_module_leaves_a_print_for_its_retarget() {
+    use grm_grow::retarget::{Reason, TreeParts, candidates};
+    let c = Calder::new();
+    let maybe = c.symbol("maybeBranch");
+    let force = Op::Force { alternative: 2 };
+    let plain = c.run(short(7, 1), None);
+    let (_, bol) = first_keys(&c, model(&plain));
+    let forced = c.run(
+        short(7, 1),
+        Some(&file(&[(Target::Key(bol), force.clone())])),
+    );
+    let fm = model(&forced);
+    let bi = fm.tree.nodes.iter().position(|n| n.key == bol).unwrap() as u32;
+    let kids = child_of(fm, bi, maybe);
+    assert_eq!(kids.len(), 2);
+    let target = kids[0].key;
+    // The print the edit's part had while it was there.
+    let ft = forced.tree_of(fm);
+    let fparts = TreeParts::new(&ft, &c.compiled.symbol_names, &fm.interpretation);
+    let before = fparts.print_of_key(target).expect("a print of the module");
+
+    let f = file(&[
+        (Target::Key(bol), force.clone()),
+        (Target::Key(target), Op::Remove),
+    ]);
+    let s = c.run(short(7, 1), Some(&f));
+    let m = model(&s);
+    let bi = m.tree.nodes.iter().position(|n| n.key == bol).unwrap() as u32;
+    // branch, maybeBranch (removed), maybeBranch: one expanded before it.
+    assert_eq!(
+        m.tree.removed,
+        vec![grm_sample::RemovedModule {
+            parent: bi,
+            key: target,
+            symbol: maybe,
+            sibling: 1,
+        }]
+    );
+    let t = s.tree_of(m);
+    assert_eq!(t.removed.len(), 1);
+    let parts = TreeParts::new(&t, &c.compiled.symbol_names, &m.interpretation);
+    let print = parts
+        .print_of_key(target)
+        .expect("a print of the removed module");
+    assert_eq!(print.label.as_deref(), Some("maybeBranch"));
+    assert_eq!(print.ancestry, before.ancestry);
+    assert!(print.centre_of_parent && print.centre.is_some());
+    assert_eq!(print.sibling, Some(1));
+    // As if its key were lost: the first candidate is the maybeBranch
+    // left under the same parent, by ancestry.
+    let lost = file(&[(Target::Key(0x0bad_c0de), Op::Remove)]);
+    let cands = candidates(&parts, &lost.edits[0], &print, 4);
+    let left = child_of(m, bi, maybe)[0].key;
+    assert_eq!(cands[0].reason, Reason::Ancestry, "{cands:?}");
+    assert_eq!(cands[0].target, Target::Key(left), "{cands:?}");
+    assert_eq!(t.nodes[cands[0].node as usize].parent, Some(bi));
+}
+
 #[test]
 fn a_set_parameter_changes_the_bone() {
     let c = Calder::new();

@@ -85,7 +85,8 @@ pub use cancel::CancelToken;
 pub use edits::{EditHits, EditPlan};
 pub use error::{ExpandError, ExpandErrorKind, LimitKind, SampleError};
 pub use model::{
-    DerivationTree, FinishLimits, GenerationStats, NodeKind, SampleResult, SampledModel, TreeNode,
+    DerivationTree, FinishLimits, GenerationStats, NodeKind, RemovedModule, SampleResult,
+    SampledModel, TreeNode,
 };
 pub use refine::{DEFAULT_REFINE_FROM, DEFAULT_REFINE_MIN_ROUNDS, DEFAULT_REFINE_ROUNDS, Refine};
 pub use sampler::{

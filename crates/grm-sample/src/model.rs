@@ -47,6 +47,25 @@ pub struct TreeNode {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct DerivationTree {
     pub nodes: Vec<TreeNode>,
+    /// The modules persistent edits removed as their parent's successor
+    /// was written (no nodes: nothing expands them and they are not in
+    /// the string), in the order they were met: what a retarget of the
+    /// edit that removed one knows of it (docs/edits.md, "Retargeting").
+    pub removed: Vec<RemovedModule>,
+}
+
+/// A module a persistent edit removed ([`DerivationTree::removed`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RemovedModule {
+    /// The node whose successor it was in.
+    pub parent: u32,
+    /// The key the edit named: `child_key(the parent's key, its salt)`.
+    pub key: u32,
+    pub symbol: u32,
+    /// Its place among the parent's children in the tree had it stayed:
+    /// how many of the parent's expanded modules come before it in the
+    /// successor.
+    pub sibling: u32,
 }
 
 impl DerivationTree {

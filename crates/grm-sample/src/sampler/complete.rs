@@ -55,6 +55,10 @@ impl<'a> Sampler<'a> {
         let mut origins: Vec<u32> = Vec::new();
         let mut tree = DerivationTree::default();
         let mut users: Vec<(usize, Turtle)> = Vec::new();
+        // Per expansion: its removed modules, and the successor positions
+        // of the children it pushed (their places in the tree).
+        let mut removed_here: Vec<(u32, u32, u32)> = Vec::new();
+        let mut pushed: Vec<u32> = Vec::new();
         let mut stack = vec![Item {
             src: Src::Chain(0),
             turtle: self.g.initial_turtle(),
@@ -107,11 +111,19 @@ impl<'a> Sampler<'a> {
             };
             let idx = tree.nodes.len() as u32;
             let first = string.len();
+            // The successor's modules an edit removed: (position, the key
+            // the edit named, symbol).
+            removed_here.clear();
             if let Some(a) = sys.alts.get(alt as usize) {
                 for (j, m) in sys.successor(a).iter().enumerate() {
                     let key = if edited {
                         let e = w.succ.mods[j];
                         if e.removed {
+                            removed_here.push((
+                                j as u32,
+                                grm_compile::rng::child_key(item.key, m.salt),
+                                m.symbol,
+                            ));
                             continue;
                         }
                         e.key
@@ -142,16 +154,17 @@ impl<'a> Sampler<'a> {
                 modules: first as u32..string.len() as u32,
                 bones: b0..b1,
             });
+            pushed.clear();
             for (ord, &(i, t)) in users.iter().enumerate().rev() {
                 let parent = Some((idx, ord as u32));
-                // Its edits (by its successor position).
+                // Its successor position, and its edits by it.
+                let j = i - first;
+                let j = if edited && w.succ.removing {
+                    w.succ.kept.get(j).map_or(j, |&k| k as usize)
+                } else {
+                    j
+                };
                 let e = if edited {
-                    let j = i - first;
-                    let j = if w.succ.removing {
-                        w.succ.kept.get(j).map_or(j, |&k| k as usize)
-                    } else {
-                        j
-                    };
                     w.succ.mods.get(j).copied().unwrap_or_default()
                 } else {
                     crate::edits::Succ::default()
@@ -159,6 +172,7 @@ impl<'a> Sampler<'a> {
                 if let Src::Chain(seq) = item.src
                     && let Ok(pos) = kids.binary_search_by_key(&key(seq, ord as u32), |k| k.0)
                 {
+                    pushed.push(j as u32);
                     stack.push(Item {
                         src: Src::Chain(kids[pos].1),
                         turtle: t,
@@ -218,6 +232,7 @@ impl<'a> Sampler<'a> {
                 };
                 if let Some(a) = chosen {
                     self.g.eval_successor(w, sym, a, &draws, "geometry")?;
+                    pushed.push(j as u32);
                     stack.push(Item {
                         src: Src::Fresh {
                             symbol: sym,
@@ -231,6 +246,16 @@ impl<'a> Sampler<'a> {
                         scope: e.scope,
                     });
                 }
+            }
+            // The removed modules' places: the parent's children are its
+            // pushed modules, in successor order.
+            for &(j, key, symbol) in &removed_here {
+                tree.removed.push(RemovedModule {
+                    parent: idx,
+                    key,
+                    symbol,
+                    sibling: pushed.iter().filter(|&&p| p < j).count() as u32,
+                });
             }
         }
         let mut interpretation = interp.finish();
