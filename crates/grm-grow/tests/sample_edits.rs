@@ -175,21 +175,30 @@ fn a_forced_alternative_is_taken() {
     }
 }
 
+/// The first branchOrLeaf forced to grow a branch and two maybeBranch:
+/// the force, that branchOrLeaf's key, the run with it and the key of its
+/// first maybeBranch.
+fn forced_first_branch_or_leaf(c: &Calder) -> (Op, u32, Sampled, u32) {
+    let force = Op::Force { alternative: 2 };
+    let plain = c.run(short(7, 1), None);
+    let (_, bol) = first_keys(c, model(&plain));
+    let s = c.run(
+        short(7, 1),
+        Some(&file(&[(Target::Key(bol), force.clone())])),
+    );
+    let m = model(&s);
+    let bi = m.tree.nodes.iter().position(|n| n.key == bol).unwrap() as u32;
+    let kids = child_of(m, bi, c.symbol("maybeBranch"));
+    assert_eq!(kids.len(), 2);
+    let target = kids[0].key;
+    (force, bol, s, target)
+}
+
 #[test]
 fn a_removed_subtree_is_gone() {
     let c = Calder::new();
     let maybe = c.symbol("maybeBranch");
-    // The first branchOrLeaf forced to grow a branch and two maybeBranch.
-    let force = Op::Force { alternative: 2 };
-    let plain = c.run(short(7, 1), None);
-    let (_, bol) = first_keys(&c, model(&plain));
-    let forced = file(&[(Target::Key(bol), force.clone())]);
-    let s = c.run(short(7, 1), Some(&forced));
-    let m = model(&s);
-    let bi = m.tree.nodes.iter().position(|n| n.key == bol).unwrap() as u32;
-    let kids = child_of(m, bi, maybe);
-    assert_eq!(kids.len(), 2);
-    let target = kids[0].key;
+    let (force, bol, _, target) = forced_first_branch_or_leaf(&c);
     let f = file(&[
         (Target::Key(bol), force.clone()),
         (Target::Key(target), Op::Remove),
@@ -227,18 +236,8 @@ fn a_removed_module_leaves_a_print_for_its_retarget() {
     use grm_grow::retarget::{Reason, TreeParts, candidates};
     let c = Calder::new();
     let maybe = c.symbol("maybeBranch");
-    let force = Op::Force { alternative: 2 };
-    let plain = c.run(short(7, 1), None);
-    let (_, bol) = first_keys(&c, model(&plain));
-    let forced = c.run(
-        short(7, 1),
-        Some(&file(&[(Target::Key(bol), force.clone())])),
-    );
+    let (force, bol, forced, target) = forced_first_branch_or_leaf(&c);
     let fm = model(&forced);
-    let bi = fm.tree.nodes.iter().position(|n| n.key == bol).unwrap() as u32;
-    let kids = child_of(fm, bi, maybe);
-    assert_eq!(kids.len(), 2);
-    let target = kids[0].key;
     // The print the edit's part had while it was there.
     let ft = forced.tree_of(fm);
     let fparts = TreeParts::new(&ft, &c.compiled.symbol_names, &fm.interpretation);
