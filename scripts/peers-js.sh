@@ -12,5 +12,12 @@ if [ ! -f "$dir/node_modules/lindenmayer/package.json" ]; then
     mkdir -p "$dir"
     (cd "$dir" && npm init -y >/dev/null && npm install --no-audit --no-fund lindenmayer@1.5.4)
 fi
+# The lean spawner: the process alone, without node's cost of starting one.
+if command -v cc >/dev/null; then
+    cc -O2 -o "$dir/spawn-time" scripts/spawn-time.c
+else
+    echo "peers-js: no C compiler (cc): the process figure is node's spawnSync's" >&2
+    rm -f "$dir/spawn-time"
+fi
 cargo build --release -p grmc --locked
 node scripts/peers-js.mjs target/release/grmc "${1:-15}" "$dir" ${2:+"$2"}
