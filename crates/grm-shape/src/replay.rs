@@ -215,6 +215,12 @@ pub struct EditPlan {
     /// query names (the derivation hands down which of that command's
     /// children no query can name below: [`EditPlan::quiet_children`]).
     hands_down: Vec<bool>,
+    /// Per symbol (by id), the labels of patterns ([`Pattern::label`]) a
+    /// shape of it or one below it can have, a bit per pattern (where
+    /// there are at most 64 patterns; else empty and every pattern counts
+    /// everywhere): a query on floors cannot name anything inside a
+    /// floor's tiles, so it keeps none of them looked at.
+    reach: Vec<u64>,
     /// Per tag (by id), its slot when a query names it (0: none; else the
     /// slot plus one, `NO_SLOT` past 64 tags): the tagged commands a path
     /// walk keeps, and the bit of a pattern's mask.
@@ -432,6 +438,9 @@ impl EditPlan {
                 })
                 .collect();
         }
+        if !plan.semantic.is_empty() {
+            plan.reach = reach(program, &plan.semantic);
+        }
         // What the loop asks of a shape off every exact target's path.
         if plan.names_any() {
             let keyed = if plan.has_keys { KEYED } else { 0 };
@@ -479,6 +488,7 @@ impl EditPlan {
             None => {
                 list.push(self.semantic.len() as u32);
                 self.semantic.push(Pattern {
+                    label,
                     entries,
                     ..Pattern::default()
                 });
@@ -550,6 +560,20 @@ impl EditPlan {
             .get(symbol.0 as usize)
             .copied()
             .unwrap_or(false)
+    }
+
+    /// The patterns (a bit each) whose label a shape of `symbol` or one
+    /// below it can have ([`EditPlan::reach`]); every pattern where the
+    /// plan keeps no table.
+    #[inline]
+    pub(crate) fn reaches(&self, symbol: SymbolId) -> u64 {
+        if self.reach.is_empty() {
+            return u64::MAX;
+        }
+        self.reach
+            .get(symbol.0 as usize)
+            .copied()
+            .unwrap_or(u64::MAX)
     }
 
     /// Whether `key`'s filter bit is set (some key target may be `key`).
@@ -767,6 +791,75 @@ impl Own {
     }
 }
 
+/// [`EditPlan::reach`]: per symbol, a bit for each pattern whose label a
+/// shape of the symbol or one below it can have (every alternative of
+/// every rule followed: emitted successors, split and repeat parts,
+/// component cases); empty past 64 patterns.
+fn reach(program: &Program, patterns: &[Pattern]) -> Vec<u64> {
+    let n = program.symbols.len();
+    if patterns.len() > 64 {
+        return Vec::new();
+    }
+    // The symbols each symbol's rules make.
+    let made: Vec<Vec<usize>> = program
+        .symbols
+        .iter()
+        .map(|info| {
+            let mut v = Vec::new();
+            for alt in info.rule.iter().flat_map(|r| &r.alternatives) {
+                for op in &alt.ops {
+                    match op {
+                        crate::ir::Op::Emit(t) => v.push(t.0 as usize),
+                        crate::ir::Op::Split(sp) | crate::ir::Op::Repeat(sp) => v.extend(
+                            sp.parts
+                                .iter()
+                                .filter_map(|p| p.target)
+                                .map(|t| t.0 as usize),
+                        ),
+                        crate::ir::Op::Comp(c) => v.extend(
+                            c.cases
+                                .iter()
+                                .filter_map(|c| c.target)
+                                .map(|t| t.0 as usize),
+                        ),
+                        _ => {}
+                    }
+                }
+            }
+            v
+        })
+        .collect();
+    // Own bits: the patterns labelled with the symbol, and every unlabelled one.
+    let any: u64 = patterns
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| p.label.is_none())
+        .fold(0, |m, (k, _)| m | 1 << k);
+    let mut bits = vec![any; n];
+    for (k, p) in patterns.iter().enumerate() {
+        if let Some(b) = p.label.and_then(|l| bits.get_mut(l.0 as usize)) {
+            *b |= 1 << k;
+        }
+    }
+    // What a symbol reaches is its own and what the symbols it makes
+    // reach: to a fixed point (recursion included).
+    loop {
+        let mut changed = false;
+        for s in 0..n {
+            let below = made[s]
+                .iter()
+                .fold(0, |m, &t| m | bits.get(t).copied().unwrap_or(0));
+            if bits[s] | below != bits[s] {
+                bits[s] |= below;
+                changed = true;
+            }
+        }
+        if !changed {
+            return bits;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::KeyFilter;
@@ -783,6 +876,51 @@ mod tests {
                 (z ^ (z >> 31)) as u32
             })
             .collect()
+    }
+
+    /// `reach`: a pattern counts at a symbol whose shapes, or shapes
+    /// below them, can carry its label (recursion and `Emit` followed), and
+    /// an unlabelled one everywhere.
+    #[test]
+    fn a_pattern_reaches_the_symbols_above_its_label() {
+        use super::{Pattern, reach};
+        use crate::ir::{Axis, Op, Part, ProgramBuilder, Split};
+        let mut b = ProgramBuilder::new("reach");
+        let [facade, floor, tile, window, ledge] =
+            ["Facade", "Floor", "Tile", "Window", "Ledge"].map(|n| b.symbol(n));
+        let split = |parts: Vec<Part>| {
+            Op::Repeat(Split {
+                axis: Axis::Y,
+                parts,
+                tag: None,
+            })
+        };
+        b.rule(facade, vec![split(vec![Part::abs(3.0, Some(floor))])]);
+        b.rule(
+            floor,
+            vec![split(vec![
+                Part::abs(2.0, Some(tile)),
+                Part::abs(0.2, Some(ledge)),
+            ])],
+        );
+        b.rule(tile, vec![Op::Emit(window)]);
+        // A ledge makes a ledge again (recursion) and nothing else.
+        b.rule(ledge, vec![split(vec![Part::rel(0.5, Some(ledge))])]);
+        let program = b.build(facade).expect("a program");
+        let patterns = [Some(floor), Some(window), None].map(|label| Pattern {
+            label,
+            ..Pattern::default()
+        });
+        let r = reach(&program, &patterns);
+        let at = |s: crate::ir::SymbolId| r[s.0 as usize];
+        // Bit 0: floors, bit 1: windows, bit 2: unlabelled.
+        assert_eq!(at(facade), 0b111);
+        assert_eq!(at(floor), 0b111);
+        assert_eq!(at(tile), 0b110, "no floor inside a tile");
+        assert_eq!(at(window), 0b110);
+        assert_eq!(at(ledge), 0b100, "a ledge holds only ledges");
+        // Past 64 patterns: no table (every pattern counts everywhere).
+        assert!(reach(&program, &vec![Pattern::default(); 65]).is_empty());
     }
 
     #[test]

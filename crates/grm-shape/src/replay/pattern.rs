@@ -50,6 +50,8 @@ pub(super) const MIX_SEED: u64 = 0x243f_6a88_85a3_08d3;
 /// edits.
 #[derive(Clone, Debug, Default)]
 pub(super) struct Pattern {
+    /// The queries' label (`None`: unlabelled, any shape).
+    pub(super) label: Option<SymbolId>,
     /// The tags named and their anchors, in order.
     pub(super) entries: Vec<(TagId, Anchor)>,
     /// The plan's slots ([`EditPlan::slot`]) of the entries' tags, one bit
@@ -335,9 +337,10 @@ pub(crate) struct QuietScratch {
     below: Vec<PathTag>,
     readings: Vec<Reading>,
     /// The children of one tagged command a query may still name below
-    /// (`all`: every one), and that command's position.
+    /// (`all`: every one), and that command's position and the patterns
+    /// that counted ([`EditPlan::reaches`] of the children's symbol).
     gate: Gate,
-    command: Option<usize>,
+    command: Option<(usize, u64)>,
 }
 
 impl EditPlan {
@@ -417,23 +420,33 @@ impl EditPlan {
                 }
                 cur = p;
             }
-            let quiet = match (&w.below[..], innermost) {
-                ([], _) | (_, None) => false,
-                ([e], Some(p)) => {
-                    if w.command != Some(p) {
-                        self.hand_down_gate(&mut w.gate, e, &w.readings);
-                        w.command = Some(p);
-                    }
-                    !w.gate.lets(e.index)
-                }
-                _ => self.semantic.iter().zip(&w.readings).all(|(pattern, &r)| {
-                    if r.failed {
-                        return true;
-                    }
-                    let r = pattern.read_below(r, &w.below);
-                    r.failed || (r.met as usize == pattern.entries.len() && !pattern.may_want(r))
-                }),
+            // The patterns whose label the child or a shape below it can
+            // have (a bit each; all where the plan keeps no such table).
+            let relevant = match nodes[c].kind {
+                NodeKind::Shape { symbol, .. } => self.reaches(symbol),
+                _ => u64::MAX,
             };
+            let quiet =
+                match (&w.below[..], innermost) {
+                    ([], _) | (_, None) => false,
+                    ([e], Some(p)) => {
+                        if w.command != Some((p, relevant)) {
+                            self.hand_down_gate(&mut w.gate, e, &w.readings, relevant);
+                            w.command = Some((p, relevant));
+                        }
+                        !w.gate.lets(e.index)
+                    }
+                    _ => self.semantic.iter().zip(&w.readings).enumerate().all(
+                        |(k, (pattern, &r))| {
+                            if r.failed || relevant >> k & 1 == 0 {
+                                return true;
+                            }
+                            let r = pattern.read_below(r, &w.below);
+                            r.failed
+                                || (r.met as usize == pattern.entries.len() && !pattern.may_want(r))
+                        },
+                    ),
+                };
             out.push(quiet);
         }
     }
@@ -443,13 +456,15 @@ impl EditPlan {
     /// (with its `readings` of the path above). A pattern complete above
     /// with wanted indices, or short of its entries after the child's,
     /// lets every child through; one whose last entry is the child's
-    /// lets the children its wanted lists end at.
-    fn hand_down_gate(&self, gate: &mut Gate, e: &PathTag, readings: &[Reading]) {
+    /// lets the children its wanted lists end at. Only the patterns of
+    /// `relevant` (a bit each, [`EditPlan::reaches`]) count: one whose
+    /// label cannot be below the child lets none through.
+    fn hand_down_gate(&self, gate: &mut Gate, e: &PathTag, readings: &[Reading], relevant: u64) {
         gate.symbol = None;
         gate.all = false;
         gate.bits.clear();
-        for (p, &r) in self.semantic.iter().zip(readings) {
-            if r.failed {
+        for (k, (p, &r)) in self.semantic.iter().zip(readings).enumerate() {
+            if r.failed || relevant >> k & 1 == 0 {
                 continue;
             }
             let met = r.met as usize;
