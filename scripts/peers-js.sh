@@ -20,4 +20,4 @@ else
     rm -f "$dir/spawn-time"
 fi
 cargo build --release -p grmc --locked
-node scripts/peers-js.mjs target/release/grmc "${1:-15}" "$dir" ${2:+"$2"}
+node scripts/peers-js.mjs "${CARGO_TARGET_DIR:-target}/release/grmc" "${1:-15}" "$dir" ${2:+"$2"}
