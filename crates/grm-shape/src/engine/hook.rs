@@ -25,12 +25,12 @@ pub(super) const FLAGGED: u32 = 1 << 31;
 /// `FLAGGED - 3`).
 pub(super) const LEAVE: u32 = u32::MAX;
 
-/// The derivation stack entries around a quiet shape (one no query can
-/// name, nor any shape below it: `EditPlan::quiet_children`): `QBEGIN`
-/// above it, popped first, enters its quiet subtree (only key targets are
-/// looked for there), `QEND` below it, popped when its subtree is done,
-/// leaves it. Flagged, as [`LEAVE`]: one test of the flag finds all
-/// three.
+/// The derivation stack entries around a run of quiet shapes (ones no
+/// query can name, nor any shape below them:
+/// `EditPlan::quiet_children`): `QBEGIN` above them, popped first, enters
+/// their quiet subtrees (only key targets are looked for there), `QEND`
+/// below them, popped when the last subtree is done, leaves them.
+/// Flagged, as [`LEAVE`]: one test of the flag finds all three.
 pub(super) const QEND: u32 = u32::MAX - 1;
 pub(super) const QBEGIN: u32 = u32::MAX - 2;
 
@@ -243,7 +243,8 @@ pub(super) fn replay_block(
 /// the derivation stack took last (`stack[before..]`), where its rule
 /// makes a command of a tag some query names: each of those shapes no
 /// query can name, nor any shape below it (`EditPlan::quiet_children`),
-/// put between a [`QBEGIN`] and a [`QEND`], so its subtree's shapes skip
+/// put between a [`QBEGIN`] and a [`QEND`] (one pair for a run of them),
+/// so its subtree's shapes skip
 /// the queries (a window in a column no query wants costs no walk up its
 /// path). `prefix`: the tagged commands above the job's root.
 #[inline(never)]
@@ -274,12 +275,20 @@ pub(super) fn hand_down(
     }
     r.pushed.clear();
     r.pushed.extend(stack.drain(before..));
+    // A run of quiet shapes shares one pair of markers: nothing between
+    // them changes the quietness (no shape in a quiet subtree hands down,
+    // so no marker is pushed there), and a floor's hundred tiles, most of
+    // them quiet, cost a pair instead of a hundred.
+    let mut run = false;
     for (&e, &quiet) in r.pushed.iter().zip(&r.quiet_out) {
-        if quiet {
-            stack.extend([QEND, e, QBEGIN]);
-        } else {
-            stack.push(e);
+        if quiet != run {
+            stack.push(if quiet { QEND } else { QBEGIN });
+            run = quiet;
         }
+        stack.push(e);
+    }
+    if run {
+        stack.push(QBEGIN);
     }
 }
 
