@@ -438,7 +438,7 @@ impl EditPlan {
                     }
                     _ => self.semantic.iter().zip(&w.readings).enumerate().all(
                         |(k, (pattern, &r))| {
-                            if r.failed || relevant >> k & 1 == 0 {
+                            if r.failed || !counts(relevant, k) {
                                 return true;
                             }
                             let r = pattern.read_below(r, &w.below);
@@ -464,7 +464,7 @@ impl EditPlan {
         gate.all = false;
         gate.bits.clear();
         for (k, (p, &r)) in self.semantic.iter().zip(readings).enumerate() {
-            if r.failed || relevant >> k & 1 == 0 {
+            if r.failed || !counts(relevant, k) {
                 continue;
             }
             let met = r.met as usize;
@@ -492,6 +492,14 @@ impl EditPlan {
     }
 }
 
+/// Whether pattern `k` counts in `relevant` ([`EditPlan::reaches`]: a bit
+/// per pattern; past 64 patterns the plan keeps no table and every
+/// pattern counts).
+#[inline]
+fn counts(relevant: u64, k: usize) -> bool {
+    k >= 64 || relevant >> k & 1 != 0
+}
+
 impl Pattern {
     /// Whether a complete reading's indices may be a wanted list (its key
     /// passes the filter and has lists; false: no query of the pattern
@@ -499,5 +507,17 @@ impl Pattern {
     fn may_want(&self, r: Reading) -> bool {
         let bit = (r.key >> 56) as usize;
         self.filter[bit / 64] >> (bit % 64) & 1 != 0 && self.wants.contains_key(&r.key)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    /// Past 64 patterns every pattern counts, and no shift overflows.
+    #[test]
+    fn patterns_past_64_count_everywhere() {
+        assert!(super::counts(0b10, 1));
+        assert!(!super::counts(0b10, 0));
+        assert!(super::counts(0, 64));
+        assert!(super::counts(0, 200));
     }
 }
