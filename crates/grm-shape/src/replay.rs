@@ -864,18 +864,10 @@ fn reach(program: &Program, patterns: &[Pattern]) -> Vec<u64> {
 mod tests {
     use super::KeyFilter;
 
-    /// A splitmix-style stream of 32-bit hashes (keys are hashes).
+    /// `n` random 32-bit hashes (keys are hashes).
     fn hashes(seed: u64, n: usize) -> Vec<u32> {
-        let mut x = seed;
-        (0..n)
-            .map(|_| {
-                x = x.wrapping_add(0x9e37_79b9_7f4a_7c15);
-                let mut z = x;
-                z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-                z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-                (z ^ (z >> 31)) as u32
-            })
-            .collect()
+        let mut rng = grm_testkit::Rng::new(seed);
+        (0..n).map(|_| rng.next_u64() as u32).collect()
     }
 
     /// `reach`: a pattern counts at a symbol whose shapes, or shapes
