@@ -459,9 +459,6 @@ struct Scratch {
     /// thousand equal tiles are divided once.
     memo: Vec<Memo>,
     memo_next: usize,
-    /// Where the rule run set attributes: (the block position from which
-    /// on, the attributes), in order.
-    attr_marks: Vec<(usize, AttrId)>,
     /// The attributes saved by `push`.
     attr_stack: Vec<AttrId>,
     /// The rule run's attributes so far (those its shape inherited until
@@ -495,6 +492,10 @@ struct Scratch {
     attr_memo_next: usize,
 }
 
+/// A node as the rule run makes it: `attrs`, the attributes set before it
+/// was made (a block's nodes take them as they are made, so no pass over
+/// the block gives them out afterwards).
+#[allow(clippy::too_many_arguments)]
 #[inline]
 fn node(
     kind: NodeKind,
@@ -504,6 +505,7 @@ fn node(
     edge: u32,
     depth: u32,
     parent_offset: u32,
+    attrs: AttrId,
 ) -> Node {
     Node {
         kind,
@@ -513,7 +515,7 @@ fn node(
         edge,
         case: 0,
         selector: None,
-        attrs: AttrId(0),
+        attrs,
         index: edge,
         count: 0,
         depth,
@@ -546,6 +548,7 @@ impl Engine<'_> {
             0,
             0,
             0,
+            AttrId(0),
         )
     }
 
@@ -721,7 +724,6 @@ impl Engine<'_> {
         let inherited = job.nodes[at as usize].attrs;
         scratch.attrs = inherited;
         scratch.edge = 0;
-        scratch.attr_marks.clear();
         let simple = self.simple[symbol.0 as usize].as_deref();
         let result = match simple {
             // A rule of inserts and successors on a shape without an
@@ -748,6 +750,7 @@ impl Engine<'_> {
                         edge,
                         depth + 1,
                         here - at,
+                        inherited,
                     ));
                 }
                 scratch.edge = children.len() as u32;
@@ -819,8 +822,14 @@ fn close_block(out: &mut [Node], block: usize, at: u32, inherited: AttrId, s: &S
     // Attributes (crate::attributes): each node of the block takes those
     // set before it was made; a shape whose rule made nothing keeps those
     // its rule left.
-    if inherited != AttrId(0) || !s.attr_marks.is_empty() {
-        apply_attributes(out, block, at, inherited, s.attrs, &s.attr_marks);
+    // Each node was made with the attributes set before it
+    // (`Scratch::attrs` then); a shape whose rule made nothing keeps those
+    // its rule left.
+    if out.len() == block
+        && s.attrs != inherited
+        && let Some(n) = out.get_mut(at as usize)
+    {
+        n.attrs = s.attrs;
     }
     // A shape's direct children count its edges, for counting from the end.
     let mut j = block;
@@ -828,40 +837,6 @@ fn close_block(out: &mut [Node], block: usize, at: u32, inherited: AttrId, s: &S
         out[j].count = s.edge;
         j += 1 + out[j].children_len as usize
             * usize::from(matches!(out[j].kind, NodeKind::Command { .. }));
-    }
-}
-
-/// Give each node of the block `out[block..]` the attributes set before it
-/// was made (`marks`: from which position on, which; before the first,
-/// `inherited`); a shape whose rule made nothing (the shape at `at`) keeps
-/// those its rule left, `last`.
-#[cold]
-#[inline(never)]
-fn apply_attributes(
-    out: &mut [Node],
-    block: usize,
-    at: u32,
-    inherited: AttrId,
-    last: AttrId,
-    marks: &[(usize, AttrId)],
-) {
-    // The block in runs, one per mark: a node takes the last mark at or
-    // before it (a mark before the run's start only changes what the
-    // next run takes).
-    let mut current = inherited;
-    let mut from = block;
-    for &(to, a) in marks {
-        let to = to.clamp(from, out.len());
-        out[from..to].iter_mut().for_each(|n| n.attrs = current);
-        (from, current) = (to, a);
-    }
-    if let Some(rest) = out.get_mut(from..) {
-        rest.iter_mut().for_each(|n| n.attrs = current);
-    }
-    if out.len() == block
-        && let Some(n) = out.get_mut(at as usize)
-    {
-        n.attrs = last;
     }
 }
 

@@ -223,10 +223,7 @@ impl Engine<'_> {
                             scope = sc;
                             geometry = g;
                             let saved = s.attr_stack.pop().unwrap_or(inherited);
-                            if saved != s.attrs {
-                                s.attrs = saved;
-                                s.attr_marks.push((out.len(), saved));
-                            }
+                            s.attrs = saved;
                         }
                         None => return fail(ShapeError::PopWithoutPush { symbol: name() }),
                     },
@@ -264,6 +261,7 @@ impl Engine<'_> {
                             s.edge,
                             depth + 1,
                             here - at,
+                            s.attrs,
                         ));
                     }
                     Op::Emit(sym) => {
@@ -281,6 +279,7 @@ impl Engine<'_> {
                             s.edge,
                             depth + 1,
                             here - at,
+                            s.attrs,
                         ));
                     }
                     Op::Split(sp) | Op::Repeat(sp) => {
@@ -382,6 +381,7 @@ impl Engine<'_> {
                             s.edge,
                             depth + 1,
                             cmd_at as u32 - at,
+                            s.attrs,
                         ));
                         let dir = scope.axis(sp.axis);
                         // A box, rectangle or edge is cut by arithmetic
@@ -411,6 +411,7 @@ impl Engine<'_> {
                                 kid.number,
                                 depth + 2,
                                 (here - cmd_at) as u32,
+                                s.attrs,
                             );
                             (n.index, n.count) = (kid.index, kid.count);
                             out.push(n);
@@ -475,6 +476,7 @@ impl Engine<'_> {
                             s.edge,
                             depth + 1,
                             cmd_at as u32 - at,
+                            s.attrs,
                         ));
                         let case_of = |comp: &crate::component::Component| {
                             c.cases
@@ -509,6 +511,7 @@ impl Engine<'_> {
                                 index,
                                 depth + 2,
                                 (here - cmd_at) as u32,
+                                s.attrs,
                             );
                             n.case = k as u32;
                             n.selector = Some(c.cases[k].selector);
@@ -554,10 +557,7 @@ impl Engine<'_> {
                                 id
                             }
                         };
-                        if id != s.attrs {
-                            s.attrs = id;
-                            s.attr_marks.push((out.len(), id));
-                        }
+                        s.attrs = id;
                     }
                 }
             }
