@@ -65,7 +65,7 @@ mod trie;
 
 use pattern::{MIX_SEED, NO_SLOT, Pattern, Reading, keep, mix};
 pub(crate) use pattern::{PathScratch, QuietScratch};
-use trie::{ExactBuild, TrieEdge};
+use trie::{ExactBuild, TrieEdge, TrieState};
 
 /// A node's label as the plan compares it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -169,26 +169,25 @@ pub struct EditPlan {
     actions: Vec<(u32, Action)>,
     /// The trie's first state, if the axiom's label is some target's first.
     root: Option<(Label, u32)>,
-    /// The trie's edges by state: those leaving state `s` are
-    /// `trie_edges[trie_from[s]..trie_from[s + 1]]`, ordered by the state
-    /// they lead to. One table, so the edges a lookup reads lie together:
-    /// a floor's targeted tiles are one state's few edges, and a target's
-    /// path, whose states were made one after another, is a run of the
-    /// table (a hash map put each lookup on a cache line of its own, a
-    /// miss on most: 5% of a derivation with 700 exact targets).
-    trie_from: Vec<u32>,
+    /// The trie's states ([`TrieState`]): where each one's edges and
+    /// final actions lie, which kinds of edge leave it, and a signature of
+    /// its numbered edges. One record a state, so a shape on a target's
+    /// path reads one cache line for all of them.
+    states: Vec<TrieState>,
+    /// The trie's edges, state by state (a state's from
+    /// [`TrieState::edges`]), each state's sorted. One table, so the edges
+    /// a lookup reads lie together: a floor's targeted tiles are one
+    /// state's few edges, and a target's path, whose states were made one
+    /// after another, is a run of the table (a hash map put each lookup on
+    /// a cache line of its own, a miss on most: 5% of a derivation with
+    /// 700 exact targets).
     trie_edges: Vec<TrieEdge>,
     /// The actions of the edits whose exact target ends at a trie state,
-    /// state by state (those of state `s` from `final_from[s]` to
-    /// `final_from[s + 1]`): one flat table, so a shape on a target's path
-    /// costs a test of its state's [`FINAL`] bit, and a final one a slice
-    /// of this table (no per-state list, no index into `actions`).
-    final_from: Vec<u32>,
+    /// state by state (a state's from [`TrieState::finals`]): one flat
+    /// table, so a shape on a target's path costs a test of its state's
+    /// [`FINAL`] bit, and a final one a slice of this table (no per-state
+    /// list, no index into `actions`).
     final_actions: Vec<(u32, Action)>,
-    /// Per trie state, the edges that leave it: bit 0 a numbered or
-    /// component edge, bit 1 an ordinal one (`step` looks up only those);
-    /// [`FINAL`] where some target ends there.
-    leaves: Vec<u8>,
     by_key: HashMap<u32, Vec<u32>>,
     /// A filter of the target keys ([`KeyFilter`]: one word, all clear,
     /// without key targets).
@@ -361,30 +360,37 @@ impl EditPlan {
             })
             .collect();
         edges.sort_unstable_by_key(|(from, e)| (*from, e.label, e.edge));
-        let finals = build.finals;
-        plan.trie_from = Vec::with_capacity(finals.len() + 1);
+        let (finals, leaves) = (build.finals, build.leaves);
+        plan.states = Vec::with_capacity(finals.len());
         let mut at = 0;
-        for s in 0..finals.len() as u32 {
-            plan.trie_from.push(at as u32);
-            while edges.get(at).is_some_and(|(from, _)| *from == s) {
+        for (s, f) in finals.iter().enumerate() {
+            let from = at;
+            let (mut sig, mut osig) = (0u64, 0u64);
+            while let Some((_, e)) = edges.get(at).filter(|(from, _)| *from as usize == s) {
+                match TrieEdge::sig_bit(e.edge) {
+                    (true, b) => osig |= 1 << b,
+                    (false, b) => sig |= 1 << b,
+                }
                 at += 1;
             }
-        }
-        plan.trie_from.push(at as u32);
-        plan.trie_edges = edges.into_iter().map(|(_, e)| e).collect();
-        // The exact targets' actions laid out flat, state by state.
-        plan.final_from.reserve(finals.len() + 1);
-        for (s, f) in finals.iter().enumerate() {
-            plan.final_from.push(plan.final_actions.len() as u32);
             let before = plan.final_actions.len();
             let actions = &plan.actions;
             plan.final_actions
                 .extend(f.iter().filter_map(|&i| actions.get(i as usize).copied()));
-            if plan.final_actions.len() > before {
-                plan.leaves[s] |= FINAL;
+            let done = plan.final_actions.len();
+            let mut flags = leaves.get(s).copied().unwrap_or(0);
+            if done > before {
+                flags |= FINAL;
             }
+            plan.states.push(TrieState {
+                sig,
+                osig,
+                edges: (from as u32, at as u32),
+                finals: (before as u32, done as u32),
+                flags,
+            });
         }
-        plan.final_from.push(plan.final_actions.len() as u32);
+        plan.trie_edges = edges.into_iter().map(|(_, e)| e).collect();
         // The symbols and tags the queries name, by id.
         if !plan.semantic.is_empty() {
             let any = !plan.semantic_any.is_empty();
@@ -605,16 +611,11 @@ impl EditPlan {
         out: &mut Vec<(u32, Action)>,
     ) {
         let n = &nodes[at];
-        if state != NONE
-            && self
-                .leaves
-                .get(state as usize)
-                .is_some_and(|l| l & FINAL != 0)
-            && let (Some(&from), Some(&to)) = (
-                self.final_from.get(state as usize),
-                self.final_from.get(state as usize + 1),
-            )
-            && let Some(f) = self.final_actions.get(from as usize..to as usize)
+        if let Some(st) = self.states.get(state as usize)
+            && st.flags & FINAL != 0
+            && let Some(f) = self
+                .final_actions
+                .get(st.finals.0 as usize..st.finals.1 as usize)
         {
             out.extend_from_slice(f);
         }

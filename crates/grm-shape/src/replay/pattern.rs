@@ -341,6 +341,10 @@ pub(crate) struct QuietScratch {
     /// that counted ([`EditPlan::reaches`] of the children's symbol).
     gate: Gate,
     command: Option<(usize, u64)>,
+    /// The last child's parent and symbol, where its one kept entry was
+    /// its parent's (the gate decided it): a sibling of the same symbol
+    /// under the same command is decided by the same gate at once.
+    last: Option<(usize, Option<SymbolId>)>,
 }
 
 impl EditPlan {
@@ -392,7 +396,19 @@ impl EditPlan {
             w.readings.push(r);
         }
         w.command = None;
+        w.last = None;
         for c in children {
+            let up = nodes[c].parent_offset as usize;
+            let symbol = match nodes[c].kind {
+                NodeKind::Shape { symbol, .. } => Some(symbol),
+                _ => None,
+            };
+            // A floor's hundred tiles: the same command, the same gate.
+            if up != 0 && up <= c && w.last == Some((c - up, symbol)) {
+                out.push(!w.gate.lets(nodes[c].index));
+                continue;
+            }
+            w.last = None;
             // The tagged commands between the child and the shape, and
             // the innermost one's position.
             w.below.clear();
@@ -433,6 +449,9 @@ impl EditPlan {
                         if w.command != Some((p, relevant)) {
                             self.hand_down_gate(&mut w.gate, e, &w.readings, relevant);
                             w.command = Some((p, relevant));
+                        }
+                        if up != 0 && up <= c && c - up == p {
+                            w.last = Some((p, symbol));
                         }
                         !w.gate.lets(e.index)
                     }

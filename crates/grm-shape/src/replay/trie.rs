@@ -18,7 +18,36 @@ pub(super) struct TrieEdge {
     pub(super) to: u32,
 }
 
+/// A state of the exact targets' trie, as the derivation reads it.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct TrieState {
+    /// A bit for each numbered or component edge leaving the state (its
+    /// number or index modulo 64, [`TrieEdge::sig_bit`]): a child whose
+    /// bit is clear is on no target's path by such an edge, known without
+    /// a look at the edges (most of a targeted floor's hundred tiles).
+    pub(super) sig: u64,
+    /// The same for its ordinal edges (their ordinal modulo 64).
+    pub(super) osig: u64,
+    /// Its edges: `trie_edges[edges.0..edges.1]`.
+    pub(super) edges: (u32, u32),
+    /// The actions of the edits whose target ends here:
+    /// `final_actions[finals.0..finals.1]`.
+    pub(super) finals: (u32, u32),
+    /// Bit 0: a numbered or component edge leaves it; bit 1: an ordinal
+    /// one (`step` looks up only those); [`super::FINAL`]: some target
+    /// ends here.
+    pub(super) flags: u8,
+}
+
 impl TrieEdge {
+    /// A packed edge's signature bit: whether it is an ordinal edge (its
+    /// bit is then one of [`TrieState::osig`], else of
+    /// [`TrieState::sig`]), and its number, index or ordinal modulo 64.
+    #[inline]
+    pub(super) fn sig_bit(edge: u64) -> (bool, u32) {
+        (edge >> 40 == 1, edge as u32 & 63)
+    }
+
     /// `label` and `edge` as two words, each kind above its number.
     #[inline]
     pub(super) fn pack(label: Label, edge: &EdgeRef) -> (u64, u64) {
@@ -50,6 +79,8 @@ impl TrieEdge {
 #[derive(Default)]
 pub(super) struct ExactBuild {
     pub(super) finals: Vec<Vec<u32>>,
+    /// Per state, the kinds of edge that leave it ([`TrieState::flags`]).
+    pub(super) leaves: Vec<u8>,
     pub(super) trie: HashMap<(u32, Label, EdgeRef), u32>,
 }
 
@@ -78,13 +109,17 @@ impl EditPlan {
             })
             .collect();
         let Some(labels) = labels else { return false };
-        let ExactBuild { finals, trie } = build;
+        let ExactBuild {
+            finals,
+            leaves,
+            trie,
+        } = build;
         let state = match self.root {
             Some((l, s)) if l == labels[0] => s,
             Some(_) => return false,
             None => {
                 finals.push(Vec::new());
-                self.leaves.push(0);
+                leaves.push(0);
                 let s = finals.len() as u32 - 1;
                 self.root = Some((labels[0], s));
                 s
@@ -93,14 +128,14 @@ impl EditPlan {
         let mut state = state;
         for (l, e) in labels[1..].iter().zip(&loc.edges) {
             match *e {
-                EdgeRef::Ordinal(_) => self.leaves[state as usize] |= 2,
-                EdgeRef::Number(_) | EdgeRef::Component { .. } => self.leaves[state as usize] |= 1,
+                EdgeRef::Ordinal(_) => leaves[state as usize] |= 2,
+                EdgeRef::Number(_) | EdgeRef::Component { .. } => leaves[state as usize] |= 1,
             }
             let next = finals.len() as u32;
             state = *trie.entry((state, *l, e.clone())).or_insert(next);
             if state == next {
                 finals.push(Vec::new());
-                self.leaves.push(0);
+                leaves.push(0);
             }
         }
         finals[state as usize].push(edit);
@@ -157,10 +192,10 @@ impl EditPlan {
         child: &Node,
         counts: &mut Vec<(usize, Label, u32)>,
     ) -> u32 {
-        if parent == NONE {
+        let Some(st) = self.states.get(parent as usize) else {
             return NONE;
-        }
-        let leaves = self.leaves.get(parent as usize).copied().unwrap_or(0);
+        };
+        let leaves = st.flags;
         if leaves & 3 == 0 {
             return NONE;
         }
@@ -181,15 +216,22 @@ impl EditPlan {
         } else {
             0
         };
+        let e = edge(child);
+        let bit = match e {
+            EdgeRef::Number(k) => k,
+            EdgeRef::Component { index, .. } => index,
+            EdgeRef::Ordinal(k) => k,
+        } & 63;
         if leaves & 1 != 0
-            && let Some(s) = self.child(parent, l, &edge(child))
+            && st.sig >> bit & 1 != 0
+            && let Some(s) = self.child(st, l, &e)
         {
             return s;
         }
-        if ordinal == 0 || child.selector.is_some() {
+        if ordinal == 0 || child.selector.is_some() || st.osig >> (ordinal & 63) & 1 == 0 {
             return NONE;
         }
-        self.child(parent, l, &EdgeRef::Ordinal(ordinal))
+        self.child(st, l, &EdgeRef::Ordinal(ordinal))
             .unwrap_or(NONE)
     }
 
@@ -199,10 +241,10 @@ impl EditPlan {
     /// first), by a scan where they are few and a binary search where
     /// they are many.
     #[inline]
-    fn child(&self, state: u32, label: Label, edge: &EdgeRef) -> Option<u32> {
-        let from = *self.trie_from.get(state as usize)? as usize;
-        let to = *self.trie_from.get(state as usize + 1)? as usize;
-        let edges = self.trie_edges.get(from..to)?;
+    fn child(&self, st: &TrieState, label: Label, edge: &EdgeRef) -> Option<u32> {
+        let edges = self
+            .trie_edges
+            .get(st.edges.0 as usize..st.edges.1 as usize)?;
         let key = TrieEdge::pack(label, edge);
         if edges.len() <= 16 {
             return edges
