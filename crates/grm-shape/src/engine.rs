@@ -819,12 +819,9 @@ impl Engine<'_> {
 /// (`inherited`: the shape's attributes before the run).
 #[inline(always)]
 fn close_block(out: &mut [Node], block: usize, at: u32, inherited: AttrId, s: &Scratch) {
-    // Attributes (crate::attributes): each node of the block takes those
-    // set before it was made; a shape whose rule made nothing keeps those
-    // its rule left.
-    // Each node was made with the attributes set before it
-    // (`Scratch::attrs` then); a shape whose rule made nothing keeps those
-    // its rule left.
+    // Attributes (crate::attributes): each node of the block was made with
+    // those set before it (`Scratch::attrs` then); a shape whose rule made
+    // nothing keeps those its rule left.
     if out.len() == block
         && s.attrs != inherited
         && let Some(n) = out.get_mut(at as usize)
