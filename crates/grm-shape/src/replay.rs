@@ -170,9 +170,9 @@ pub struct EditPlan {
     /// The trie's first state, if the axiom's label is some target's first.
     root: Option<(Label, u32)>,
     /// The trie's states ([`TrieState`]): where each one's edges and
-    /// final actions lie, which kinds of edge leave it, and a signature of
-    /// its numbered edges. One record a state, so a shape on a target's
-    /// path reads one cache line for all of them.
+    /// final actions lie, which kinds of edge leave it, and signatures of
+    /// its numbered and its ordinal edges. One record a state, so a shape
+    /// on a target's path reads one cache line for all of them.
     states: Vec<TrieState>,
     /// The trie's edges, state by state (a state's from
     /// [`TrieState::edges`]), each state's sorted. One table, so the edges
