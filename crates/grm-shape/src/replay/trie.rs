@@ -216,17 +216,19 @@ impl EditPlan {
         } else {
             0
         };
-        let e = edge(child);
-        let bit = match e {
-            EdgeRef::Number(k) => k,
-            EdgeRef::Component { index, .. } => index,
-            EdgeRef::Ordinal(k) => k,
-        } & 63;
-        if leaves & 1 != 0
-            && st.sig >> bit & 1 != 0
-            && let Some(s) = self.child(st, l, &e)
-        {
-            return s;
+        // A numbered or component edge, only where one leaves the state
+        // (picks make ordinal edges): its signature bit first.
+        if leaves & 1 != 0 {
+            let e = edge(child);
+            let bit = match e {
+                EdgeRef::Number(k) | EdgeRef::Ordinal(k) => k,
+                EdgeRef::Component { index, .. } => index,
+            } & 63;
+            if st.sig >> bit & 1 != 0
+                && let Some(s) = self.child(st, l, &e)
+            {
+                return s;
+            }
         }
         if ordinal == 0 || child.selector.is_some() || st.osig >> (ordinal & 63) & 1 == 0 {
             return NONE;
