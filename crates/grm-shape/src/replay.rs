@@ -172,7 +172,10 @@ pub struct EditPlan {
     /// The trie's states ([`TrieState`]): where each one's edges and
     /// final actions lie, which kinds of edge leave it, and signatures of
     /// its numbered and its ordinal edges. One record a state, so a shape
-    /// on a target's path reads one cache line for all of them.
+    /// on a target's path reads one cache line for all of them. Numbered
+    /// in depth-first order (`trie::depth_first`), as the derivation
+    /// meets them: the states and edges a floor's subtree reads lie
+    /// together.
     states: Vec<TrieState>,
     /// The trie's edges, state by state (a state's from
     /// [`TrieState::edges`]), each state's sorted. One table, so the edges
@@ -360,7 +363,11 @@ impl EditPlan {
             })
             .collect();
         edges.sort_unstable_by_key(|(from, e)| (*from, e.label, e.edge));
-        let (finals, leaves) = (build.finals, build.leaves);
+        let (mut finals, mut leaves) = (build.finals, build.leaves);
+        if let Some((l, root)) = plan.root {
+            trie::depth_first(root, &mut edges, &mut finals, &mut leaves);
+            plan.root = Some((l, 0));
+        }
         plan.states = Vec::with_capacity(finals.len());
         let mut at = 0;
         for (s, f) in finals.iter().enumerate() {
