@@ -22,7 +22,8 @@ pub enum EditsErrorKind {
     Io { path: String, message: String },
     /// R0902: not JSON (the parser's message).
     Syntax { message: String },
-    /// R0903: `version` missing (`found: None`) or not 1 (its text).
+    /// R0903: `version` missing (`found: None`) or not one this crate
+    /// reads (its text).
     Version { found: Option<String> },
     /// R0904: the top level is not an object with an `edits` array (the
     /// whole file is refused).
@@ -116,7 +117,7 @@ impl EditsError {
             EditsErrorKind::Syntax { .. } => ("here", "the edits file is JSON: fix it here"),
             EditsErrorKind::Version { .. } => (
                 "here",
-                "write `\"version\": 2`, the format docs/edits.md describes",
+                "write `\"version\": 3`, the format docs/edits.md describes",
             ),
             EditsErrorKind::Structure { .. } => (
                 "here",
@@ -178,12 +179,12 @@ impl fmt::Display for EditsError {
             EditsErrorKind::Version { found: None } => {
                 write!(
                     f,
-                    "the edits file has no `version` (this grm reads versions 1 and 2)"
+                    "the edits file has no `version` (this grm reads versions 1 to 3)"
                 )
             }
             EditsErrorKind::Version { found: Some(v) } => write!(
                 f,
-                "version {v} is not supported (this grm reads versions 1 and 2)"
+                "version {v} is not supported (this grm reads versions 1 to 3)"
             ),
             EditsErrorKind::Structure { problem } => f.write_str(problem),
             EditsErrorKind::NotAnObject => f.write_str("an element of `edits` is not an object"),

@@ -14,10 +14,11 @@ use std::fmt::Write as _;
 /// A whole edits file.
 #[derive(Clone, Debug, PartialEq)]
 pub struct EditsFile {
-    /// The format version read (1 or 2; a new file is 1): [`write`]
-    /// writes it, or 2 ([`FORMAT_VERSION`]) when an edit needs it (an
-    /// ordinal edge, a `selected` count), so that a file without them
-    /// stays readable by a grm that reads version 1 only.
+    /// The format version read (1 to 3; a new file is 1): [`write`]
+    /// writes it, or the version an edit needs
+    /// ([`EditsFile::written_version`]: 2 for an ordinal edge or a
+    /// `selected` count, 3 for a key edit's `symbol`), so that a file
+    /// without them stays readable by a grm that reads older versions.
     pub version: u32,
     /// The edits; [`write`] sorts them by (system, id), [`parse`] keeps
     /// the file's order.
@@ -52,6 +53,14 @@ pub struct Edit {
     /// where it selects more classifies the edit `ambiguous`. `None`: not
     /// recorded (any number is accepted, as in version 1).
     pub selected: Option<u32>,
+    /// For a key target: the symbol of the part its key named when the
+    /// edit was made (`symbol` in the file, version 3). The key then names
+    /// a part of that symbol only (a part of another symbol made with the
+    /// same 32-bit key is not it), and an engine looks for the key among
+    /// that symbol's parts alone. Edits of one key in one system that
+    /// record a symbol record the same one (the file is refused an edit
+    /// that does not: R0911). `None`: any symbol (all a version 1 or 2 file can say).
+    pub symbol: Option<String>,
     pub op: Op,
     /// Free text, kept as written.
     pub note: Option<String>,
@@ -68,6 +77,7 @@ impl PartialEq for Edit {
             && self.parcel == other.parcel
             && self.target == other.target
             && self.selected == other.selected
+            && self.symbol == other.symbol
             && self.op == other.op
             && self.note == other.note
     }
@@ -389,7 +399,22 @@ pub fn parse(text: &str) -> Parsed {
         };
         match read_edit(text, o) {
             Ok(edit) => {
-                if let Some(first) = out.file.edits.iter().find(|e| e.id == edit.id) {
+                if let Some((sym, other)) = symbol_conflict(&out.file.edits, &edit) {
+                    let mut e = EditsError::new(
+                        K::BadValue {
+                            field: "symbol".into(),
+                            problem: format!(
+                                "is {}: edit {} of the same key records {} (a key names one part, of one symbol)",
+                                json_string(sym),
+                                other.id,
+                                json_string(other.symbol.as_deref().unwrap_or_default())
+                            ),
+                        },
+                        edit.span,
+                    );
+                    e.edit = Some(edit.id);
+                    out.errors.push(e);
+                } else if let Some(first) = out.file.edits.iter().find(|e| e.id == edit.id) {
                     let mut e = EditsError::new(
                         K::DuplicateId {
                             id: edit.id,
@@ -409,6 +434,21 @@ pub fn parse(text: &str) -> Parsed {
     out
 }
 
+/// The symbol `edit` records for its key and the earlier edit of the same
+/// key and system that records another, if there is one.
+fn symbol_conflict<'a>(earlier: &'a [Edit], edit: &'a Edit) -> Option<(&'a str, &'a Edit)> {
+    let (Target::Key(k), Some(sym)) = (&edit.target, &edit.symbol) else {
+        return None;
+    };
+    let other = earlier.iter().find(|e| {
+        e.system == edit.system
+            && e.parcel == edit.parcel
+            && matches!(e.target, Target::Key(j) if j == *k)
+            && e.symbol.as_ref().is_some_and(|s| s != sym)
+    })?;
+    Some((sym, other))
+}
+
 fn span(r: jsonc_parser::common::Range) -> Span {
     Span::from_range(r.start..r.end)
 }
@@ -418,7 +458,9 @@ fn field<'o, 'a>(obj: &'o Object<'a>, name: &str) -> Option<&'o ObjectProp<'a>> 
 }
 
 /// The fields every edit has, beside its operation's.
-const COMMON: &[&str] = &["id", "system", "parcel", "target", "selected", "op", "note"];
+const COMMON: &[&str] = &[
+    "id", "system", "parcel", "target", "selected", "symbol", "op", "note",
+];
 
 /// One edit, or every problem found in it (all reported, the edit skipped).
 fn read_edit(text: &str, o: &Object<'_>) -> Result<Edit, Vec<EditsError>> {
@@ -537,6 +579,33 @@ fn read_edit(text: &str, o: &Object<'_>) -> Result<Edit, Vec<EditsError>> {
             }
         },
     };
+    let symbol = match field(o, "symbol") {
+        None => None,
+        Some(p) => match string(p) {
+            Err(e) => {
+                errors.push(e);
+                None
+            }
+            Ok(s) if !s.is_empty() && matches!(target, Some(Target::Key(_)) | None) => {
+                Some(s.to_owned())
+            }
+            Ok(s) => {
+                let problem = if s.is_empty() {
+                    "is empty: the symbol of the part the key named".to_owned()
+                } else {
+                    "is given for a target that is not a key (an exact locator and a query name their symbol themselves)".to_owned()
+                };
+                errors.push(at_edit(
+                    K::BadValue {
+                        field: "symbol".into(),
+                        problem,
+                    },
+                    span(p.value.range()),
+                ));
+                None
+            }
+        },
+    };
     let kind = match field(o, "op") {
         None => {
             errors.push(at_edit(K::MissingField { field: "op" }, whole));
@@ -605,6 +674,7 @@ fn read_edit(text: &str, o: &Object<'_>) -> Result<Edit, Vec<EditsError>> {
             parcel,
             target,
             selected,
+            symbol,
             op,
             note,
             span: whole,
@@ -911,6 +981,9 @@ fn write_block(s: &mut String, e: &Edit) {
     if let (Some(n), Target::Semantic(_)) = (e.selected, &e.target) {
         fields.push(("selected", n.to_string()));
     }
+    if let (Some(sym), Target::Key(_)) = (&e.symbol, &e.target) {
+        fields.push(("symbol", json_string(sym)));
+    }
     fields.push(("op", json_string(e.op.kind().as_str())));
     match &e.op {
         Op::Set { name, value } => {
@@ -948,20 +1021,28 @@ fn json_number(v: f64) -> String {
 }
 
 impl EditsFile {
-    /// The version [`write`] gives the file: [`FORMAT_VERSION`] when an
-    /// edit has an ordinal edge (`#k`) or a `selected` count, its own
-    /// version otherwise.
+    /// The version [`write`] gives the file: its own, or the oldest
+    /// that holds its edits where that is newer: 3 when a key edit has a
+    /// `symbol`, 2 when an edit has an ordinal edge (`#k`) or a
+    /// `selected` count.
     pub fn written_version(&self) -> u32 {
+        let needs_3 = self
+            .edits
+            .iter()
+            .any(|e| e.symbol.is_some() && matches!(e.target, Target::Key(_)));
         let needs_2 = self.edits.iter().any(|e| {
             e.selected.is_some()
                 || matches!(&e.target, Target::Exact(l)
                     if l.edges.iter().any(|g| matches!(g, crate::locator::EdgeRef::Ordinal(_))))
         });
-        if needs_2 {
-            FORMAT_VERSION
+        let needs = if needs_3 {
+            3
+        } else if needs_2 {
+            2
         } else {
-            self.version.clamp(1, FORMAT_VERSION)
-        }
+            1
+        };
+        self.version.clamp(1, FORMAT_VERSION).max(needs)
     }
 
     /// The edit with this id.
@@ -1002,6 +1083,7 @@ impl EditsFile {
             parcel: None,
             target,
             selected: None,
+            symbol: None,
             op,
             note: None,
             span: Span::default(),
@@ -1021,11 +1103,12 @@ impl EditsFile {
 
     /// Point the edit with this id at another target (a quick fix); its
     /// old target, if there was such an edit. Its id, and so its place
-    /// among later and earlier edits, stays; its `selected` count is
-    /// dropped (it was the old target's).
+    /// among later and earlier edits, stays; its `selected` count and
+    /// `symbol` are dropped (they were the old target's).
     pub fn retarget(&mut self, id: u32, target: Target) -> Option<Target> {
         let e = self.edits.iter_mut().find(|e| e.id == id)?;
         e.selected = None;
+        e.symbol = None;
         Some(std::mem::replace(&mut e.target, target))
     }
 }

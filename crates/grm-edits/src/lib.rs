@@ -43,14 +43,17 @@ pub use scoping::{Scoping, Slot, scope};
 
 use std::path::{Path, PathBuf};
 
-/// The file format version this crate writes. Version 2 added ordinal
-/// edges in exact locators (`#k`) and a semantic edit's `selected` count;
-/// a version 1 file reads unchanged (its numbered edges keep their raw
-/// meaning) and is written back as version 2.
-pub const FORMAT_VERSION: u32 = 2;
+/// The newest file format version this crate writes. Version 2 added
+/// ordinal edges in exact locators (`#k`) and a semantic edit's
+/// `selected` count; version 3 a key edit's `symbol`. A file is written
+/// with the oldest version that holds its edits
+/// ([`EditsFile::written_version`]), so a file without the newer fields
+/// stays readable by a grm that reads only the older versions; a version
+/// 1 file reads unchanged (its numbered edges keep their raw meaning).
+pub const FORMAT_VERSION: u32 = 3;
 
 /// Every version this crate reads.
-pub const READ_VERSIONS: [u32; 2] = [1, 2];
+pub const READ_VERSIONS: [u32; 3] = [1, 2, 3];
 
 /// The largest edits file read (16 MiB; some 100,000 edits).
 pub const MAX_EDITS_BYTES: u64 = 16 << 20;

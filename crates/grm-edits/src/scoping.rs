@@ -146,6 +146,7 @@ mod tests {
             parcel: None,
             target: Target::Key(id),
             selected: None,
+            symbol: None,
             op,
             note: None,
             span: Default::default(),

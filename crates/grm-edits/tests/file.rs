@@ -226,7 +226,7 @@ fn bad_files_are_refused_whole() {
         ("{\"version\": 1, \"edits\": []} {}", "R0902"),
         ("[]", "R0904"),
         ("{\"edits\": []}", "R0903"),
-        ("{\"version\": 3, \"edits\": []}", "R0903"),
+        ("{\"version\": 4, \"edits\": []}", "R0903"),
         ("{\"version\": 0, \"edits\": []}", "R0903"),
         ("{\"version\": \"1\", \"edits\": []}", "R0903"),
         ("{\"version\": 1}", "R0904"),
@@ -767,11 +767,105 @@ fn version_2_ordinal_edges_and_selected_counts() {
             r#""key": "00000001" },"#,
             "R0911",
         ),
-        (r#""version": 2,"#, r#""version": 3,"#, "R0903"),
+        (r#""version": 2,"#, r#""version": 4,"#, "R0903"),
         (r#"#2, Upper"#, r#"#0, Upper"#, "R0909"),
     ] {
         assert!(text.contains(from), "{from}");
         let t = text.replace(from, to);
         assert_eq!(codes(&t), [code], "{to}");
     }
+}
+
+/// Version 3 (docs/edits.md, "Versions"): a key edit's `symbol` reads and
+/// writes; a file that has one is written as version 3, one without keeps
+/// its version; `symbol` on a target that is not a key, or empty, is
+/// R0911; a later edit of the same key that records another symbol is
+/// R0911 and skipped (the earlier stays); retargeting drops the symbol.
+#[test]
+fn version_3_key_symbols() {
+    let text = r#"{
+  "version": 3,
+  "edits": [
+    {
+      "id": 1,
+      "system": "Tower",
+      "target": { "key": "0a1b2c3d" },
+      "symbol": "Window",
+      "op": "remove"
+    },
+    {
+      "id": 2,
+      "system": "Tower",
+      "target": { "key": "0a1b2c3d" },
+      "op": "pin",
+      "key": "00000007"
+    }
+  ]
+}
+"#;
+    let p = parse(text);
+    assert!(p.errors.is_empty(), "{:?}", p.errors);
+    assert_eq!(p.file.version, 3);
+    assert_eq!(p.file.edits[0].symbol.as_deref(), Some("Window"));
+    assert_eq!(p.file.edits[1].symbol, None);
+    assert_eq!(write(&p.file), text);
+    // A version-1 file keeps its version until a key edit records a symbol.
+    let mut f = parse(EXAMPLE).file;
+    assert!(write(&f).contains("\"version\": 1,"));
+    f.edits[0].target = Target::Key(0x0a1b_2c3d);
+    f.edits[0].symbol = Some("Window".into());
+    let written = write(&f);
+    assert!(written.contains("\"version\": 3,"), "{written}");
+    assert!(written.contains("\"symbol\": \"Window\","), "{written}");
+    let back = parse(&written).file;
+    assert_eq!((back.version, &back.edits), (3, &f.edits), "{written}");
+    // A symbol beside a target that is not a key is not written.
+    f.edits[0].target = Target::Semantic("(floor = 1)".parse().unwrap());
+    assert!(!write(&f).contains("\"symbol\""));
+    let mut f = parse(text).file;
+    f.retarget(1, Target::Key(9));
+    assert_eq!(f.edits[0].symbol, None);
+    for (from, to, code) in [
+        (r#""symbol": "Window","#, r#""symbol": "","#, "R0911"),
+        (r#""symbol": "Window","#, r#""symbol": 3,"#, "R0907"),
+        (
+            r#""key": "0a1b2c3d" },
+      "symbol""#,
+            r#""semantic": "(floor = 2) Window" },
+      "symbol""#,
+            "R0911",
+        ),
+        (
+            r#""op": "pin","#,
+            r#""symbol": "Leaf",
+      "op": "pin","#,
+            "R0911",
+        ),
+    ] {
+        assert!(text.contains(from), "{from}");
+        let t = text.replace(from, to);
+        assert_eq!(codes(&t), [code], "{to}");
+        assert_eq!(parse(&t).file.edits.len(), 1, "{to}");
+    }
+    // The same symbol twice is no conflict; another system's key is not
+    // the same key.
+    let same = text.replace(
+        r#""op": "pin","#,
+        r#""symbol": "Window",
+      "op": "pin","#,
+    );
+    assert!(parse(&same).errors.is_empty());
+    let other = text
+        .replace(
+            r#""op": "pin","#,
+            r#""symbol": "Leaf",
+      "op": "pin","#,
+        )
+        .replace(
+            r#""id": 2,
+      "system": "Tower","#,
+            r#""id": 2,
+      "system": "Other","#,
+        );
+    assert!(parse(&other).errors.is_empty(), "{other}");
 }

@@ -728,6 +728,7 @@ fn survival(title: &str, text: &str, draws: u64, verbose: bool) {
                         parcel: None,
                         // A query made where it selects the part alone.
                         selected: matches!(target, Target::Semantic(_)).then_some(1),
+                        symbol: None,
                         target,
                         op: Op::Material {
                             name: format!("m{}", i + 1),

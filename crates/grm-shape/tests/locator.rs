@@ -143,6 +143,7 @@ fn replayed(p: &Program, loc: &ExactLocator) -> Vec<NodeId> {
         parcel: None,
         target: Target::Exact(loc.clone()),
         selected: None,
+        symbol: None,
         op: EditOp::Remove,
         note: None,
         span: Default::default(),
