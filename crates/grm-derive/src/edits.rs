@@ -162,6 +162,10 @@ pub struct KeyEdits {
     pub pin: Option<(u32, u32)>,
     /// (slot, id, op), one per slot, sorted by slot.
     pub values: Vec<(u32, u32, ValueOp)>,
+    /// The symbol the key's edits recorded (`grm_edits::Edit::symbol`),
+    /// if one did: a module of another symbol made with the key is not
+    /// the part (neither edited nor counted as a hit).
+    pub symbol: Option<u32>,
 }
 
 impl KeyEdits {
@@ -215,6 +219,9 @@ pub trait KeyPlan {
     fn watch(&mut self, key: u32);
     /// Add edit `id` of the module with `key` ([`KeyEdits::merge`]).
     fn add(&mut self, key: u32, id: u32, action: EditAction);
+    /// The module with `key` is one of symbol `symbol` only
+    /// ([`KeyEdits::symbol`]).
+    fn restrict(&mut self, key: u32, symbol: u32);
 }
 
 impl KeyPlan for EditPlan {
@@ -226,6 +233,9 @@ impl KeyPlan for EditPlan {
     }
     fn add(&mut self, key: u32, id: u32, action: EditAction) {
         EditPlan::add(self, key, id, action);
+    }
+    fn restrict(&mut self, key: u32, symbol: u32) {
+        EditPlan::restrict(self, key, symbol);
     }
 }
 
@@ -381,6 +391,13 @@ impl EditPlan {
     pub fn add(&mut self, key: u32, id: u32, action: EditAction) {
         let n = self.node(key);
         self.nodes[n].merge(id, action);
+    }
+
+    /// The module with `key` is one of symbol `symbol` only: a module of
+    /// another symbol made with it is passed over ([`KeyEdits::symbol`]).
+    pub fn restrict(&mut self, key: u32, symbol: u32) {
+        let n = self.node(key);
+        self.nodes[n].symbol = Some(symbol);
     }
 
     /// Whether the plan has no edits.

@@ -13,7 +13,8 @@
 //! - `exact`, `key`, `semantic`: the mix's edits of that kind of target
 //!   alone (700, 200, 100); `no-material`: the mix without its material
 //!   edits (what forcing a material costs);
-//! - `mix`: 1,000 edits, the mix below;
+//! - `mix`: 1,000 edits, the mix below; `mix-anykey` the same with the
+//!   key targets' symbols left out;
 //! - `mix+plan`: the same with the plan built from the edits file each
 //!   time (what a regrow does after lowering: the plan's ids are the
 //!   lowered program's).
@@ -30,7 +31,11 @@
 //!
 //! - 550 exact locators of windows (distinct), 80 of floors, 70 of leaves
 //!   (glass panes and frame bars: what a click hits);
-//! - 200 identity keys (150 windows, 50 tiles);
+//! - 200 identity keys (150 windows, 50 tiles), each with its part's
+//!   symbol as a pick records it (`Edit::symbol`: only windows and tiles
+//!   then test their keys); `mix-anykey` is the mix with the keys
+//!   recording no symbol (a version 1 or 2 file: every shape tests its
+//!   key);
 //! - 100 semantic queries: 40 `(floor = F, column = C) Window` (four
 //!   windows each, one per facade), 30 `(facade = K, floor = F, column =
 //!   end C) Window` (one each), 20 `(facade = K, floor = F) Floor`, 10
@@ -117,6 +122,11 @@ impl Building {
         Target::Key(self.plain.node(id).expect("a node").key)
     }
 
+    /// The symbol of shape `id` (what a pick records with its key).
+    fn symbol(&self, id: NodeId) -> String {
+        self.plain.label(&self.lowered.program, id)
+    }
+
     fn grow(&self, plan: Option<&EditPlan>, threads: usize) -> ShapeTree {
         let options = ShapeOptions {
             threads,
@@ -160,7 +170,8 @@ fn mix(b: &Building) -> (EditsFile, Vec<(&'static str, usize)>) {
         version: 1,
         edits: Vec::new(),
     };
-    let mut edits: Vec<(Target, Op)> = Vec::new();
+    // (target, operation, the symbol a key target records).
+    let mut edits: Vec<(Target, Op, Option<String>)> = Vec::new();
     let windows = b.shapes("Window");
     let floors = b.shapes("Floor");
     let tiles = b.shapes("Tile");
@@ -168,19 +179,19 @@ fn mix(b: &Building) -> (EditsFile, Vec<(&'static str, usize)>) {
     leaves.extend(b.shapes("Frame"));
     assert_eq!(windows.len(), 10_000, "the building has 10,000 windows");
     for w in distinct(&mut rng, &windows, 550) {
-        edits.push((b.exact(w), window_op(&mut rng)));
+        edits.push((b.exact(w), window_op(&mut rng), None));
     }
     for fl in distinct(&mut rng, &floors, 80) {
-        edits.push((b.exact(fl), material(&mut rng)));
+        edits.push((b.exact(fl), material(&mut rng), None));
     }
     for l in distinct(&mut rng, &leaves, 70) {
-        edits.push((b.exact(l), material(&mut rng)));
+        edits.push((b.exact(l), material(&mut rng), None));
     }
     for w in distinct(&mut rng, &windows, 150) {
-        edits.push((b.key(w), window_op(&mut rng)));
+        edits.push((b.key(w), window_op(&mut rng), Some(b.symbol(w))));
     }
     for t in distinct(&mut rng, &tiles, 50) {
-        edits.push((b.key(t), window_op(&mut rng)));
+        edits.push((b.key(t), window_op(&mut rng), Some(b.symbol(t))));
     }
     let q = |s: String| -> Target { Target::Semantic(s.parse::<SemanticQuery>().expect(&s)) };
     for _ in 0..40 {
@@ -194,7 +205,7 @@ fn mix(b: &Building) -> (EditsFile, Vec<(&'static str, usize)>) {
         } else {
             material(&mut rng)
         };
-        edits.push((q(s), op));
+        edits.push((q(s), op, None));
     }
     for _ in 0..30 {
         let s = format!(
@@ -208,7 +219,7 @@ fn mix(b: &Building) -> (EditsFile, Vec<(&'static str, usize)>) {
         } else {
             material(&mut rng)
         };
-        edits.push((q(s), op));
+        edits.push((q(s), op, None));
     }
     for _ in 0..20 {
         let s = format!(
@@ -216,14 +227,14 @@ fn mix(b: &Building) -> (EditsFile, Vec<(&'static str, usize)>) {
             1 + rng.below(4u32),
             1 + rng.below(25u32)
         );
-        edits.push((q(s), material(&mut rng)));
+        edits.push((q(s), material(&mut rng), None));
     }
     for _ in 0..10 {
         let s = format!("(column = {}) Window", 1 + rng.below(100u32));
-        edits.push((q(s), material(&mut rng)));
+        edits.push((q(s), material(&mut rng), None));
     }
     let mut counts: Vec<(&'static str, usize)> = Vec::new();
-    for (t, o) in edits {
+    for (t, o, symbol) in edits {
         let kind = match (&t, &o) {
             (_, Op::Material { .. }) => "material",
             (_, Op::Pin { .. }) => "pin",
@@ -235,13 +246,16 @@ fn mix(b: &Building) -> (EditsFile, Vec<(&'static str, usize)>) {
             Some(c) => c.1 += 1,
             None => counts.push((kind, 1)),
         }
-        f.add(SYSTEM, t, o).expect("an id");
+        let id = f.add(SYSTEM, t, o).expect("an id");
+        if let Some(e) = f.edits.iter_mut().find(|e| e.id == id) {
+            e.symbol = symbol;
+        }
     }
     assert_eq!(f.edits.len(), 1000);
     (f, counts)
 }
 
-const CASES: [&str; 11] = [
+const CASES: [&str; 12] = [
     "none",
     "empty",
     "one",
@@ -250,6 +264,7 @@ const CASES: [&str; 11] = [
     "semantic",
     "no-material",
     "mix",
+    "mix-anykey",
     "mix+plan",
     "none/all",
     "mix/all",
@@ -264,6 +279,7 @@ struct Plans {
     semantic: EditPlan,
     no_material: EditPlan,
     mix: EditPlan,
+    mix_anykey: EditPlan,
 }
 
 /// The edits of `file` that `keep` keeps.
@@ -286,6 +302,7 @@ fn run(b: &Building, case: &str, plans: &Plans, file: &EditsFile) -> usize {
         "semantic" => b.grow(Some(&plans.semantic), 1),
         "no-material" => b.grow(Some(&plans.no_material), 1),
         "mix" => b.grow(Some(&plans.mix), 1),
+        "mix-anykey" => b.grow(Some(&plans.mix_anykey), 1),
         "mix+plan" => {
             let plan = edit_plan(&b.lowered, black_box(file));
             b.grow(Some(&plan), 1)
@@ -331,6 +348,11 @@ fn main() {
             &only(&file, |e| !matches!(e.op, Op::Material { .. })),
         ),
         mix: edit_plan(&b.lowered, &file),
+        mix_anykey: edit_plan(&b.lowered, &{
+            let mut f = file.clone();
+            f.edits.iter_mut().for_each(|e| e.symbol = None);
+            f
+        }),
     };
 
     // Under valgrind: one case, n derivations, nothing printed.
@@ -405,6 +427,7 @@ fn main() {
                         "semantic" => Some(plans.semantic.clone()),
                         "no-material" => Some(plans.no_material.clone()),
                         "mix" => Some(plans.mix.clone()),
+                        "mix-anykey" => Some(plans.mix_anykey.clone()),
                         _ => panic!("unknown case {case}"),
                     };
                     b.grow(plan.as_ref(), 1)

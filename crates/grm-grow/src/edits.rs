@@ -133,6 +133,12 @@ fn key_plan<'e, P: grm_derive::KeyPlan>(
         let Target::Key(key) = e.target else {
             continue;
         };
+        // The recorded symbol: the key names a module of it only (one the
+        // system lacks: none).
+        if let Some(name) = &e.symbol {
+            let symbol = system.symbols.iter().position(|s| s.name == *name);
+            plan.restrict(key, symbol.map_or(u32::MAX, |s| s as u32));
+        }
         let mut value = |name: &str, op: ValueOp| {
             let slot = match slots.iter().find(|(n, _)| n == name) {
                 Some(&(_, s)) => s,
@@ -255,11 +261,17 @@ fn classify_hits<'e>(
                 }
             };
             let Some(hits) = hits_of(key) else {
+                let what = match &e.symbol {
+                    Some(s) if !system.symbols.iter().any(|x| x.name == *s) => {
+                        format!("no module has this key now: the system has no `{s}`")
+                    }
+                    Some(s) => format!("no `{s}` module has this key now"),
+                    None => "no module has this key now".to_owned(),
+                };
                 return report(
                     EditClass::StructurallyInvalid,
                     0,
-                    "no module has this key now (kept dormant: it applies again when the module comes back)"
-                        .to_owned(),
+                    format!("{what} (kept dormant: it applies again when the module comes back)"),
                     false,
                 );
             };

@@ -246,3 +246,73 @@ fn parameters_are_named_by_declaration_position_and_component() {
     assert!(words("0").is_empty());
     assert!(words("nothing").is_empty());
 }
+
+/// A key edit's recorded symbol (`Edit::symbol`, version 3): with the
+/// module's own symbol the edit replays as without one; with another the
+/// module made with the key is not its part: left as it is (the string is
+/// the plain one), the edit reported, with and without the tree.
+#[test]
+fn a_key_edit_with_another_symbol_names_nothing() {
+    let checked = inline(PLANT);
+    let system = system(&checked);
+    let c = compiled(&checked, 25.0);
+    let rec = Record {
+        tree: true,
+        ..Record::default()
+    };
+    let plain = Grower::new(&c, 1, rec)
+        .expect("grower")
+        .derive(&options(4, 1), &mut |_| {})
+        .expect("grows");
+    let tree = plain.tree.as_ref().expect("tree");
+    let sym = |n: &str| c.symbol_names.iter().position(|s| s == n).expect("symbol") as u32;
+    let a = tree
+        .nodes
+        .iter()
+        .find(|n| n.iteration == 2 && n.symbol == Some(sym("A")))
+        .expect("an A");
+    let file = |symbol: &str| {
+        let text = format!(
+            r#"{{ "version": 3, "edits": [
+  {{ "id": 1, "system": "Plant", "target": {{ "key": "{k}" }}, "symbol": "{symbol}", "op": "remove" }}
+] }}"#,
+            k = grm_edits::key_text(a.key),
+        );
+        let parsed = grm_edits::parse(&text);
+        assert!(parsed.errors.is_empty(), "{:?}", parsed.errors);
+        parsed.file
+    };
+    let unsymbolled = {
+        let mut f = file("A");
+        f.edits[0].symbol = None;
+        f
+    };
+    let removed = grow(&c, Record::default(), &unsymbolled, system, 1);
+    assert_ne!(removed.string, plain.string);
+    let classify = |g: &grm_grow::Grown, f: &grm_edits::EditsFile| {
+        let r = grm_grow::edits::classify(system, &c, g.edits.as_ref().expect("outcome"), &f.edits);
+        (r[0].class, r[0].replayed, r[0].detail.clone())
+    };
+    let f = file("A");
+    for record in [Record::default(), rec] {
+        let g = grow(&c, record, &f, system, 1);
+        assert_eq!(g.string, removed.string);
+        assert_eq!(classify(&g, &f).0, EditClass::Valid);
+    }
+    for (symbol, detail) in [
+        ("F", "no `F` module has this key now"),
+        (
+            "Nope",
+            "no module has this key now: the system has no `Nope`",
+        ),
+    ] {
+        let f = file(symbol);
+        for record in [Record::default(), rec] {
+            let g = grow(&c, record, &f, system, 1);
+            assert_eq!(g.string, plain.string, "{symbol}");
+            let (class, replayed, why) = classify(&g, &f);
+            assert_eq!((class, replayed), (EditClass::StructurallyInvalid, false));
+            assert!(why.starts_with(detail), "{why}");
+        }
+    }
+}

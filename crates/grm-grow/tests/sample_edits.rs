@@ -545,3 +545,33 @@ fn each_class() {
     assert!(r[8].detail.contains("sample mode"), "{}", r[8].detail);
     assert_eq!(class(10), (EditClass::SemanticallyInvalid, false));
 }
+
+/// A key edit's recorded symbol (`Edit::symbol`, version 3) in sample
+/// mode: with the module's own symbol it replays as without one; with
+/// another the module made with the key is left as it is (the plain
+/// model) and the edit is reported.
+#[test]
+fn a_key_edit_with_another_symbol_names_nothing() {
+    let c = Calder::new();
+    let plain = c.run(short(7, 1), None);
+    let (b, _) = first_keys(&c, model(&plain));
+    let with = |symbol: Option<&str>| {
+        let mut f = file(&[(Target::Key(b), Op::Remove)]);
+        f.edits[0].symbol = symbol.map(str::to_owned);
+        f
+    };
+    let removed = c.run(short(7, 1), Some(&with(None)));
+    assert!(node(model(&removed), b).is_none());
+    let own = c.run(short(7, 1), Some(&with(Some("branch"))));
+    assert_eq!(model(&own).string, model(&removed).string);
+    assert_eq!(reports(&own), vec![(1, EditClass::Valid, true)]);
+    for symbol in ["branchOrLeaf", "Nope"] {
+        let other = c.run(short(7, 1), Some(&with(Some(symbol))));
+        assert_eq!(model(&other).string, model(&plain).string, "{symbol}");
+        assert_eq!(
+            reports(&other),
+            vec![(1, EditClass::StructurallyInvalid, false)],
+            "{symbol}"
+        );
+    }
+}

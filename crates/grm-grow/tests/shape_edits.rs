@@ -275,6 +275,51 @@ fn semantic_and_key_targets_replay_too() {
     assert_eq!(tree.removed(), [h.find(&tree, window).0]);
 }
 
+/// A key edit's recorded symbol (`Edit::symbol`, version 3): the key
+/// names a part of that symbol only. The right symbol replays as without
+/// one; another symbol's, or one the grammar lacks, matches nothing and
+/// is reported, the part left as it is.
+#[test]
+fn a_key_edit_with_its_symbol_names_that_symbol_only() {
+    let h = house();
+    let p = &h.checked.program;
+    let window = h.shapes("Window")[2];
+    let key = h.plain.node(window).unwrap().key;
+    let with = |symbol: &str| {
+        let mut f = file(&[(Target::Key(key), Op::Remove)]);
+        f.edits[0].symbol = Some(symbol.to_owned());
+        f
+    };
+    let f = with("Window");
+    let tree = h.grow(&f);
+    assert_eq!(tree.removed(), [h.find(&tree, window).0]);
+    let r = edits::classify(p, &h.lowered, &tree, &f.edits);
+    assert_eq!(r[0].class, grm_edits::EditClass::Valid, "{}", r[0].detail);
+    for (symbol, detail) in [
+        ("Door", "no `Door` has this key now"),
+        (
+            "Nope",
+            "no part has this key now: the grammar has no `Nope`",
+        ),
+    ] {
+        let f = with(symbol);
+        let tree = h.grow(&f);
+        assert!(tree.removed().is_empty(), "{symbol}");
+        assert_eq!(tree.nodes(), h.plain.nodes(), "{symbol}");
+        let r = edits::classify(p, &h.lowered, &tree, &f.edits);
+        assert_eq!(r[0].class, grm_edits::EditClass::StructurallyInvalid);
+        assert_eq!(r[0].detail, detail);
+        assert!(!r[0].replayed);
+        // The same against a tree the replay did not grow (the nodes'
+        // keys looked up instead of its hits).
+        let r = edits::classify(p, &h.lowered, &h.plain, &f.edits);
+        assert_eq!(r[0].detail, detail);
+    }
+    let r = edits::classify(p, &h.lowered, &h.plain, &with("Window").edits);
+    assert_eq!(r[0].class, grm_edits::EditClass::Valid);
+    assert_eq!(r[0].parts, [window]);
+}
+
 #[test]
 fn edits_inside_a_removed_or_pinned_part_are_reported_not_applied() {
     let h = house();

@@ -94,6 +94,13 @@ impl EditPlan {
         self.nodes[n].merge(id, action);
     }
 
+    /// The module with `key` is one of symbol `symbol` only
+    /// (`grm_derive::KeyEdits::symbol`).
+    pub fn restrict(&mut self, key: u32, symbol: u32) {
+        let n = self.node(key);
+        self.nodes[n].symbol = Some(symbol);
+    }
+
     /// Whether the plan has no edits (nor watched keys).
     pub fn is_empty(&self) -> bool {
         self.nodes.is_empty()
@@ -124,6 +131,9 @@ impl KeyPlan for EditPlan {
     }
     fn add(&mut self, key: u32, id: u32, action: EditAction) {
         EditPlan::add(self, key, id, action);
+    }
+    fn restrict(&mut self, key: u32, symbol: u32) {
+        EditPlan::restrict(self, key, symbol);
     }
 }
 
@@ -281,7 +291,13 @@ impl Replay {
                 force: 0,
                 removed: false,
             };
-            if let Some(n) = self.plan.lookup(orig) {
+            // A module of another symbol than its key's edits recorded is
+            // not their part.
+            if let Some(n) = self.plan.lookup(orig)
+                && self.plan.nodes[n as usize]
+                    .symbol
+                    .is_none_or(|s| s == m.symbol)
+            {
                 if let Some(h) = hits.as_deref_mut() {
                     let h = &mut h[n as usize];
                     if h.0 == 0 {

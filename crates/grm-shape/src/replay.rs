@@ -191,12 +191,19 @@ pub struct EditPlan {
     /// [`FINAL`] bit, and a final one a slice of this table (no per-state
     /// list, no index into `actions`).
     final_actions: Vec<(u32, Action)>,
-    by_key: HashMap<u32, Vec<u32>>,
+    /// The key targets: per key, its edits' action indices, each with
+    /// the symbol its edit recorded (`Edit::symbol`; `None`: any).
+    by_key: HashMap<u32, Vec<(u32, Option<SymbolId>)>>,
     /// A filter of the target keys ([`KeyFilter`]: one word, all clear,
     /// without key targets).
     key_filter: KeyFilter,
     /// Whether some edit targets a key.
     has_keys: bool,
+    /// Per symbol (by id), whether a key target may name its shapes: its
+    /// edit recorded that symbol, or none (then every symbol's). Only
+    /// those symbols' shapes test their keys against the filter (a key
+    /// picked on a window costs the tower's walls and panes nothing).
+    keyed: Vec<bool>,
     /// Semantic queries grouped by pattern.
     semantic: Vec<Pattern>,
     /// Per symbol (by id), whether a query may name its shapes (one of
@@ -320,7 +327,22 @@ impl EditPlan {
             let index = plan.actions.len() as u32;
             let lowered = match &e.target {
                 Target::Key(k) => {
-                    plan.by_key.entry(*k).or_default().push(index);
+                    // A recorded symbol the program lacks: the key names
+                    // nothing (the classification says so).
+                    let symbol = match &e.symbol {
+                        Some(name) => match program.symbol(name) {
+                            Some(s) => Some(s),
+                            None => continue,
+                        },
+                        None => None,
+                    };
+                    let keyed = &mut plan.keyed;
+                    keyed.resize(program.symbols.len(), false);
+                    match symbol {
+                        Some(s) => keyed[s.0 as usize] = true,
+                        None => keyed.fill(true),
+                    }
+                    plan.by_key.entry(*k).or_default().push((index, symbol));
                     key_values.push(*k);
                     plan.has_keys = true;
                     true
@@ -456,16 +478,22 @@ impl EditPlan {
         }
         // What the loop asks of a shape off every exact target's path.
         if plan.names_any() {
-            let keyed = if plan.has_keys { KEYED } else { 0 };
+            let keyed = |s: usize| {
+                if plan.keyed.get(s).copied().unwrap_or(false) {
+                    KEYED
+                } else {
+                    0
+                }
+            };
             plan.attend = (0..symbols)
                 .map(|s| {
                     let queried = plan.queried.get(s).copied().unwrap_or(false);
                     let hands = plan.hands_down.get(s).copied().unwrap_or(false);
-                    if queried || hands { ATTEND } else { keyed }
+                    if queried || hands { ATTEND } else { keyed(s) }
                 })
                 .collect();
             if plan.has_keys {
-                plan.attend_quiet = vec![KEYED; symbols];
+                plan.attend_quiet = (0..symbols).map(keyed).collect();
             }
         }
         if plan.actions.iter().any(|a| matches!(a.1, Action::Mesh(_))) {
@@ -631,14 +659,18 @@ impl EditPlan {
                 out.push(*a);
             }
         };
-        if self.key_bit(n.key)
-            && let Some(f) = self.by_key.get(&n.key)
-        {
-            f.iter().for_each(|&i| push(i));
-        }
         let NodeKind::Shape { symbol, .. } = n.kind else {
             return;
         };
+        // A key target's edits whose recorded symbol is this shape's, or
+        // which recorded none.
+        if self.key_bit(n.key)
+            && let Some(f) = self.by_key.get(&n.key)
+        {
+            f.iter()
+                .filter(|(_, s)| s.is_none_or(|s| s == symbol))
+                .for_each(|&(i, _)| push(i));
+        }
         let by_label = self
             .semantic_by_symbol
             .get(symbol.0 as usize)

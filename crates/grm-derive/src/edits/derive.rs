@@ -955,6 +955,10 @@ impl<'a> Engine<'a> {
         let mut cut: Vec<std::ops::Range<usize>> = Vec::new();
         let mut reach = 0usize;
         let mut made = Vec::with_capacity(matches.len());
+        // What a module of another symbol than its key's edits recorded
+        // gets: no edits of its own (its parent's scope and tag, as any
+        // module without edits).
+        let no_edits = KeyEdits::default();
         for m in matches {
             let j = m.pos;
             if state.made.contains(&out.keys[j]) {
@@ -963,16 +967,24 @@ impl<'a> Engine<'a> {
                 continue;
             }
             let sym = out.syms[j];
-            let hit = &mut state.hits[m.node as usize];
-            if hit.0 == 0 {
-                hit.1 = sym;
-            }
-            hit.0 = hit.0.saturating_add(1);
+            let node = &plan.nodes[m.node as usize];
+            let mine = node.symbol.is_none_or(|s| s == sym);
+            let node = if mine {
+                let hit = &mut state.hits[m.node as usize];
+                if hit.0 == 0 {
+                    hit.1 = sym;
+                }
+                hit.0 = hit.0.saturating_add(1);
+                node
+            } else {
+                &no_edits
+            };
             if j < reach {
                 continue;
             }
-            let node = &plan.nodes[m.node as usize];
-            made.push(node.pin.map_or(out.keys[j], |(_, p)| p));
+            if mine {
+                made.push(node.pin.map_or(out.keys[j], |(_, p)| p));
+            }
             if node.remove.is_some() {
                 let range = self.branch(&out.syms, j);
                 reach = reach.max(range.end);

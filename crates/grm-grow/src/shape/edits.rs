@@ -128,13 +128,35 @@ pub fn classify<'e>(
                 }
                 Target::Key(k) => match tree
                     .edit_hits(e.id)
-                    .or_else(|| by_key.get(k).cloned())
+                    .or_else(|| {
+                        // Of the recorded symbol only (`Edit::symbol`), as
+                        // the replay matches.
+                        by_key.get(k).map(|parts| {
+                            parts
+                                .iter()
+                                .copied()
+                                .filter(|&n| {
+                                    e.symbol.as_ref().is_none_or(|s| {
+                                        matches!(tree.node(n).map(|n| n.kind),
+                                            Some(NodeKind::Shape { .. }))
+                                            && tree.label(shape_program, n) == *s
+                                    })
+                                })
+                                .collect()
+                        })
+                    })
                     .as_deref()
                 {
                     None | Some([]) => (
                         EditClass::StructurallyInvalid,
                         Vec::new(),
-                        "no part has this key now".to_owned(),
+                        match &e.symbol {
+                            Some(s) if shape_program.symbol(s).is_none() => {
+                                format!("no part has this key now: the grammar has no `{s}`")
+                            }
+                            Some(s) => format!("no `{s}` has this key now"),
+                            None => "no part has this key now".to_owned(),
+                        },
                     ),
                     Some([one]) => (EditClass::Valid, vec![*one], String::new()),
                     Some(many) => (
