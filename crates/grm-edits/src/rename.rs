@@ -11,7 +11,8 @@ pub enum NameKind {
     /// A system: the edit's `system`.
     System,
     /// A symbol of the edit's system: the labels of an exact target (a
-    /// shape's or a module's), the label of a semantic query.
+    /// shape's or a module's), the label of a semantic query, the symbol
+    /// a key edit recorded.
     Symbol,
     /// A material: a `material` operation's name.
     Material,
@@ -46,7 +47,8 @@ impl Edit {
             NameKind::Symbol => match &mut self.target {
                 Target::Exact(l) => l.labels.iter_mut().fold(false, |any, l| swap(l) | any),
                 Target::Semantic(q) => q.label.as_mut().is_some_and(swap),
-                Target::Key(_) => false,
+                // The symbol a key edit recorded (`Edit::symbol`).
+                Target::Key(_) => self.symbol.as_mut().is_some_and(swap),
             },
             NameKind::Material => match &mut self.op {
                 Op::Material { name } => swap(name),
@@ -151,6 +153,15 @@ mod tests {
                 by: 1.0
             }
         );
+        // A key edit's recorded symbol (version 3).
+        let p = parse(
+            r#"{"version": 3, "edits": [{"id": 6, "system": "Tower", "target": {"key": "0a1b2c3d"}, "symbol": "Window", "op": "remove"}]}"#,
+        );
+        let mut k = p.file.edits.into_iter().next().expect("one edit");
+        assert!(!k.rename(NameKind::Symbol, "Win", "Pane"), "whole names");
+        assert!(k.rename(NameKind::Symbol, "Window", "Pane"));
+        assert_eq!(k.symbol.as_deref(), Some("Pane"));
+        assert_eq!(k.target.text(), "0a1b2c3d", "the key stays");
         let mut any = edit(
             r#"{"id": 4, "system": "Tower", "target": {"semantic": "(floor = 2)"}, "op": "mesh", "name": "sash"}"#,
         );
