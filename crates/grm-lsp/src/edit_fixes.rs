@@ -284,7 +284,11 @@ impl Backend {
                         let selected = (matches!(target, Target::Semantic(_))
                             && !c.parts.is_empty())
                         .then_some(c.parts.len() as u32);
-                        if let Some((span, new_text)) = retargeted(&text, now.id, target, selected)
+                        // A key candidate records the symbol of its part
+                        // (the edit's `symbol`).
+                        let symbol = c.symbol.clone();
+                        if let Some((span, new_text)) =
+                            retargeted(&text, now.id, target, selected, symbol)
                         {
                             out.push(action(title, d, span, new_text));
                         }
@@ -440,28 +444,63 @@ fn retarget_title(id: u32, target: &Target, c: &RetargetOut) -> String {
 /// replaced: written canonically when the file has no problems, else just
 /// that edit's element written again (a rewrite would drop the edits that
 /// have problems). `selected`: the new target's count of parts, for a
-/// semantic one (`Edit::selected`; the old target's is dropped).
+/// semantic one (`Edit::selected`); `symbol`: the symbol of the part a
+/// new key target names (`Edit::symbol`); the old target's are dropped.
+/// `None` when there is no such edit, or when the new key's symbol is
+/// not the one another edit of that key records ([`symbol_clash`]: the
+/// file would refuse the edit, R0911).
 fn retargeted(
     text: &str,
     id: u32,
     target: Target,
     selected: Option<u32>,
+    symbol: Option<String>,
 ) -> Option<(Span, String)> {
     let parsed = grm_edits::parse(text);
-    let semantic = matches!(target, Target::Semantic(_));
+    let selected = selected.filter(|_| matches!(target, Target::Semantic(_)));
+    let symbol = symbol.filter(|_| matches!(target, Target::Key(_)));
     if parsed.errors.is_empty() {
         let mut file = parsed.file;
         file.retarget(id, target)?;
-        if let Some(e) = file.edits.iter_mut().find(|e| e.id == id) {
-            e.selected = selected.filter(|_| semantic);
+        let e = file.edits.iter_mut().find(|e| e.id == id)?;
+        e.selected = selected;
+        e.symbol = symbol;
+        let e = file.get(id)?;
+        if symbol_clash(&file.edits, e).is_some() {
+            return None;
         }
         return Some(minimal_edit(text, &grm_edits::write(&file)));
     }
     let mut e = parsed.file.get(id)?.clone();
     let span = e.span;
     e.target = target;
-    e.selected = selected.filter(|_| semantic);
+    e.selected = selected;
+    e.symbol = symbol;
+    if symbol_clash(&parsed.file.edits, &e).is_some() {
+        return None;
+    }
     Some((span, grm_edits::write_edit(&e)))
+}
+
+/// Another edit among `edits` of the key `edit` targets, in its system
+/// and parcel, that records another symbol than the one `edit` records:
+/// with both, the file refuses one of them (R0911: a key names one part,
+/// of one symbol). `None` when there is none, or `edit` records no
+/// symbol or targets no key.
+pub(crate) fn symbol_clash<'a>(
+    edits: &'a [grm_edits::Edit],
+    edit: &grm_edits::Edit,
+) -> Option<&'a grm_edits::Edit> {
+    let (Target::Key(k), Some(sym)) = (&edit.target, &edit.symbol) else {
+        return None;
+    };
+    edits.iter().find(|o| {
+        o.id != edit.id
+            && o.system == edit.system
+            && o.parcel == edit.parcel
+            && matches!(o.target, Target::Key(j) if j == *k)
+            && o.symbol.as_ref().is_some_and(|s| s != sym)
+    })
 }
 
 #[cfg(test)]
@@ -476,17 +515,79 @@ mod tests {
             f
         });
         let q: Target = Target::Semantic("(floor = 2) Window".parse().unwrap());
-        let (span, new) = retargeted(&text, 1, q, Some(3)).unwrap();
+        let (span, new) = retargeted(&text, 1, q, Some(3), Some("Window".into())).unwrap();
         let mut t = text.clone();
         t.replace_range(span.range(), &new);
         let f = grm_edits::parse(&t).file;
         assert_eq!(f.version, 2, "{t}");
         assert_eq!(f.edits[0].selected, Some(3), "{t}");
         let exact = Target::Exact("{Lot, #1, A}".parse().unwrap());
-        let (span, new) = retargeted(&t, 1, exact, Some(3)).unwrap();
+        let (span, new) = retargeted(&t, 1, exact, Some(3), None).unwrap();
         let mut u = t.clone();
         u.replace_range(span.range(), &new);
         assert_eq!(grm_edits::parse(&u).file.edits[0].selected, None, "{u}");
+    }
+
+    #[test]
+    fn a_key_retarget_records_its_symbol_and_another_target_drops_it() {
+        let text = grm_edits::write(&{
+            let mut f = grm_edits::EditsFile::default();
+            f.add(
+                "S",
+                Target::Semantic("(floor = 1) Door".parse().unwrap()),
+                grm_edits::Op::Remove,
+            );
+            f.add("S", Target::Key(7), grm_edits::Op::Remove);
+            f
+        });
+        let apply = |t: &str, (span, new): (Span, String)| {
+            let mut t = t.to_owned();
+            t.replace_range(span.range(), &new);
+            t
+        };
+        // A key with its part's symbol (a count given for it is dropped).
+        let t = apply(
+            &text,
+            retargeted(&text, 1, Target::Key(9), Some(2), Some("Window".into())).unwrap(),
+        );
+        let f = grm_edits::parse(&t);
+        assert!(f.errors.is_empty(), "{t}");
+        assert_eq!(f.file.version, 3, "{t}");
+        let e = f.file.get(1).unwrap();
+        assert_eq!((e.symbol.as_deref(), e.selected), (Some("Window"), None));
+        assert!(t.contains("\"symbol\": \"Window\""), "{t}");
+        // A semantic target records none.
+        let q = Target::Semantic("(floor = 2) Window".parse().unwrap());
+        let u = apply(
+            &t,
+            retargeted(&t, 1, q, Some(2), Some("Window".into())).unwrap(),
+        );
+        assert_eq!(
+            grm_edits::parse(&u).file.get(1).unwrap().symbol,
+            None,
+            "{u}"
+        );
+        // Edit 2's key with another symbol than edit 1 records for it: the
+        // file would refuse it, so it is not offered; with the same, it is.
+        assert!(retargeted(&t, 2, Target::Key(9), None, Some("Wall".into())).is_none());
+        let v = apply(
+            &t,
+            retargeted(&t, 2, Target::Key(9), None, Some("Window".into())).unwrap(),
+        );
+        assert!(grm_edits::parse(&v).errors.is_empty(), "{v}");
+        // With a problem in the file, the element alone gets the symbol.
+        let bad = text.replacen("\"op\": \"remove\"", "\"op\": \"paint\"", 1);
+        let w = apply(
+            &bad,
+            retargeted(&bad, 2, Target::Key(9), None, Some("Window".into())).unwrap(),
+        );
+        let p = grm_edits::parse(&w);
+        assert_eq!(p.errors.len(), 1, "{w}");
+        assert_eq!(
+            p.file.get(2).unwrap().symbol.as_deref(),
+            Some("Window"),
+            "{w}"
+        );
     }
 
     #[test]

@@ -4,7 +4,7 @@
 //! client's undo reverts it; a client that cannot apply edits (`grmc
 //! view`) gets the file written by the server.
 
-use crate::edit_fixes::{minimal_edit, without_edit};
+use crate::edit_fixes::{minimal_edit, symbol_clash, without_edit};
 use crate::edits::{changed, is_edits_path, read};
 use crate::{Backend, Shared, convert, failed};
 use grm_diag::SourceFile;
@@ -37,6 +37,12 @@ pub struct EditParams {
     /// An optional note, kept in the file.
     #[serde(default)]
     pub note: Option<String>,
+    /// For a key target: the symbol of the part the key names (`symbol`
+    /// in the file). Without it, the server records the symbol the key's
+    /// part has in the system's last preview, if that preview has it.
+    /// Refused (R0911) for a target that is not a key.
+    #[serde(default)]
+    pub symbol: Option<String>,
 }
 
 /// `grm/removeEdit` parameters.
@@ -66,6 +72,11 @@ pub struct RetargetEditParams {
     pub id: u32,
     /// As in `grm/edit`.
     pub target: serde_json::Value,
+    /// As in `grm/edit`: for a key target, the symbol of the part the
+    /// key names (a candidate's `symbol`); without it, the one the
+    /// system's last preview gives the key.
+    #[serde(default)]
+    pub symbol: Option<String>,
 }
 
 /// `grm/edit`, `grm/removeEdit` and `grm/retargetEdit` result.
@@ -156,7 +167,8 @@ fn target_json(t: &serde_json::Value) -> Result<serde_json::Value> {
 }
 
 /// The edit a `grm/edit` asks for, read as the file would read it (so its
-/// problems are the file's: R0905-R0911).
+/// problems are the file's: R0905-R0911, a `symbol` for a target that is
+/// not a key among them).
 fn requested_edit(p: &EditParams, system: &str) -> Result<Edit> {
     let mut obj = match &p.op {
         serde_json::Value::String(op) => serde_json::json!({ "op": op }),
@@ -179,6 +191,9 @@ fn requested_edit(p: &EditParams, system: &str) -> Result<Edit> {
     obj["target"] = target_json(&p.target)?;
     if let Some(n) = &p.note {
         obj["note"] = n.clone().into();
+    }
+    if let Some(s) = &p.symbol {
+        obj["symbol"] = s.clone().into();
     }
     let text = serde_json::json!({ "version": 1, "edits": [obj] }).to_string();
     let parsed = grm_edits::parse(&text);
@@ -225,11 +240,55 @@ async fn locate(
     .map_err(|e| failed(e.to_string()))?
 }
 
+/// What the last preview of a system grew: the shape tree (shape mode)
+/// or the derivation tree and the compiled system's symbol names (derive
+/// and sample mode).
+enum Grown {
+    Shape(Arc<crate::shape_preview::ShapePicks>),
+    Derived(Arc<(grm_grow::Tree, Vec<u32>)>, Vec<String>),
+}
+
+/// What the last preview of `system` whose edits file is `edits` grew
+/// (the model as the preview shows it, its edits replayed): the preview of
+/// the document at `uri` when it is one, else any document's (the first
+/// by path). `None` when there is no such preview.
+fn last_grown(shared: &Shared, uri: &Uri, edits: &Path, system: &str) -> Option<Grown> {
+    let me = convert::path_of(uri);
+    let picks = shared
+        .picks
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    let fits = |t: &&crate::preview::PickTable| {
+        let shape = t.shape.as_ref().is_some_and(|s| {
+            s.program().name() == system && s.edits.as_ref().is_none_or(|r| r.path == edits)
+        });
+        // Derive and sample mode name the system in their edits run.
+        let derived = t.tree.is_some()
+            && t.edits
+                .as_ref()
+                .is_some_and(|r| r.system == system && r.path == edits);
+        shape || derived
+    };
+    let t = me
+        .as_ref()
+        .and_then(|p| picks.get(p))
+        .filter(fits)
+        .or_else(|| {
+            // The others in a fixed order (the map's is not).
+            let mut v: Vec<_> = picks.iter().filter(|(_, t)| fits(t)).collect();
+            v.sort_by(|a, b| a.0.cmp(b.0));
+            v.first().map(|(_, t)| *t)
+        })?;
+    match (&t.shape, &t.tree) {
+        (Some(s), _) => Some(Grown::Shape(s.clone())),
+        (None, Some(tree)) => Some(Grown::Derived(tree.clone(), t.symbols.clone())),
+        (None, None) => None,
+    }
+}
+
 /// How many parts `query` selects in the last shape preview of `system`
-/// whose edits file is `edits` (the model as the preview shows it, its
-/// edits replayed): the preview of the document at `uri` when it is one,
-/// else any document's. `None` when there is no such preview or the query
-/// selects nothing there.
+/// whose edits file is `edits` ([`last_grown`]). `None` when there is no
+/// such preview or the query selects nothing there.
 async fn selected_now(
     shared: &Arc<Shared>,
     uri: &Uri,
@@ -237,27 +296,8 @@ async fn selected_now(
     system: &str,
     query: SemanticQuery,
 ) -> Option<u32> {
-    let me = convert::path_of(uri);
-    let shape = {
-        let picks = shared
-            .picks
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner);
-        let fits = |t: &&crate::preview::PickTable| {
-            t.shape.as_ref().is_some_and(|s| {
-                s.program().name() == system && s.edits.as_ref().is_none_or(|r| r.path == edits)
-            })
-        };
-        me.as_ref()
-            .and_then(|p| picks.get(p))
-            .filter(fits)
-            .or_else(|| {
-                // The others in a fixed order (the map's is not).
-                let mut v: Vec<_> = picks.iter().filter(|(_, t)| fits(t)).collect();
-                v.sort_by(|a, b| a.0.cmp(b.0));
-                v.first().map(|(_, t)| *t)
-            })
-            .and_then(|t| t.shape.clone())?
+    let Some(Grown::Shape(shape)) = last_grown(shared, uri, edits, system) else {
+        return None;
     };
     tokio::task::spawn_blocking(move || {
         let n = shape.tree().select(shape.program(), &query).len();
@@ -266,6 +306,60 @@ async fn selected_now(
     .await
     .ok()
     .flatten()
+}
+
+/// The symbol of the part with identity key `key` in the last preview of
+/// `system` whose edits file is `edits` ([`last_grown`]): shape mode's
+/// shapes with the key, derive and sample mode's modules. `None` when
+/// there is no such preview, no part has the key there, or parts of two
+/// symbols share it (the symbol is never guessed).
+async fn symbol_now(
+    shared: &Arc<Shared>,
+    uri: &Uri,
+    edits: &Path,
+    system: &str,
+    key: u32,
+) -> Option<String> {
+    let grown = last_grown(shared, uri, edits, system)?;
+    tokio::task::spawn_blocking(move || match grown {
+        Grown::Shape(s) => crate::edits::shape_key_symbol(s.tree(), s.program(), key),
+        Grown::Derived(t, symbols) => crate::edits::tree_key_symbol(&t.0, &symbols, key),
+    })
+    .await
+    .ok()
+    .flatten()
+}
+
+/// The symbol an edit among `edits` of key `key` in `system` and `parcel`
+/// records: the file's own record of what the key names (edits of one key
+/// record one symbol, R0911), for a key the last preview does not know
+/// (no such preview, or an edit removed the part before it was a node).
+fn recorded_symbol(edits: &[Edit], system: &str, parcel: Option<u64>, key: u32) -> Option<String> {
+    edits
+        .iter()
+        .filter(|e| {
+            e.system == system
+                && e.parcel == parcel
+                && matches!(e.target, Target::Key(k) if k == key)
+        })
+        .find_map(|e| e.symbol.clone())
+}
+
+/// The InvalidParams error for an edit whose key's symbol is not the one
+/// another edit of that key records ([`symbol_clash`]), if it is so.
+fn check_symbol(file: &grm_edits::EditsFile, id: u32) -> Result<()> {
+    let Some(e) = file.get(id) else {
+        return Ok(());
+    };
+    match symbol_clash(&file.edits, e) {
+        None => Ok(()),
+        Some(other) => Err(invalid(format!(
+            "the key's part is a `{}`, but edit {} of the same key records `{}` (a key names one part, of one symbol) (R0911)",
+            e.symbol.as_deref().unwrap_or_default(),
+            other.id,
+            other.symbol.as_deref().unwrap_or_default(),
+        ))),
+    }
 }
 
 impl Backend {
@@ -313,13 +407,29 @@ impl Backend {
             }
             _ => None,
         };
+        // A key's symbol: as the request gives it, else the symbol of the
+        // key's part in the system's last preview (docs/edits.md,
+        // "Targets": the key then names a part of that symbol only), else
+        // the one another edit of the key records.
+        let symbol = match (&edit.target, edit.symbol) {
+            (_, Some(s)) => Some(s),
+            (Target::Key(k), None) => {
+                match symbol_now(&self.shared, &params.uri, &path, &system, *k).await {
+                    Some(s) => Some(s),
+                    None => recorded_symbol(&file.edits, &edit.system, None, *k),
+                }
+            }
+            _ => None,
+        };
         let id = file
             .add(&edit.system, edit.target, edit.op)
             .ok_or_else(|| failed("no id is left after the largest"))?;
         if let Some(e) = file.edits.iter_mut().find(|e| e.id == id) {
             e.note = edit.note;
             e.selected = selected;
+            e.symbol = symbol;
         }
+        check_symbol(&file, id)?;
         let new = grm_edits::write(&file);
         self.apply(path, id, version, old.as_deref(), new, "grm: add edit")
             .await
@@ -358,8 +468,10 @@ impl Backend {
             target: params.target.clone(),
             op: serde_json::Value::String("remove".into()),
             note: None,
+            symbol: params.symbol.clone(),
         };
-        let target = requested_edit(&probe, "S")?.target;
+        let probed = requested_edit(&probe, "S")?;
+        let target = probed.target;
         let current = read(&self.shared.edits_source().open, &path)
             .map_err(|e| failed(format!("{e} ({})", e.code())))?;
         let Some((version, old)) = current else {
@@ -377,11 +489,24 @@ impl Backend {
             .get(params.id)
             .map(|e| e.system.clone())
             .ok_or_else(|| failed(format!("the edits file has no edit {}", params.id)))?;
-        // A query's count of parts in the system's last shape preview (the
-        // old target's count goes with it).
+        // A query's count of parts and a key's symbol in the system's last
+        // preview (the old target's count and symbol go with it; a key the
+        // preview does not know keeps the symbol the file records for it).
         let selected = match &target {
             Target::Semantic(q) => {
                 selected_now(&self.shared, &params.uri, &path, &system, q.clone()).await
+            }
+            _ => None,
+        };
+        let parcel = file.get(params.id).and_then(|e| e.parcel);
+        let symbol = match (&target, probed.symbol) {
+            (_, Some(s)) => Some(s),
+            (Target::Key(k), None) => {
+                match symbol_now(&self.shared, &params.uri, &path, &system, *k).await {
+                    Some(s) => Some(s),
+                    // The file's record (the edit's own, when it keeps its key).
+                    None => recorded_symbol(&file.edits, &system, parcel, *k),
+                }
             }
             _ => None,
         };
@@ -389,7 +514,9 @@ impl Backend {
             .ok_or_else(|| failed(format!("the edits file has no edit {}", params.id)))?;
         if let Some(e) = file.edits.iter_mut().find(|e| e.id == params.id) {
             e.selected = selected;
+            e.symbol = symbol;
         }
+        check_symbol(&file, params.id)?;
         let new = grm_edits::write(&file);
         self.apply(
             path,

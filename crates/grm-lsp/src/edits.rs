@@ -207,6 +207,12 @@ pub struct RetargetOut {
     /// The tree nodes it names (shape mode: the shape tree's; derive and
     /// sample mode: the derivation tree's).
     pub parts: Vec<u32>,
+    /// For a key target: the symbol of the part it names, which the
+    /// retargeted edit records (`symbol` in the edits file, docs/edits.md);
+    /// absent for other targets, and for a key whose part has no symbol
+    /// (a shape mode command or insert).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub symbol: Option<String>,
 }
 
 impl RetargetOut {
@@ -221,6 +227,67 @@ impl RetargetOut {
             _ => None,
         }
     }
+}
+
+/// The one item of `items`: the first, when every other equals it;
+/// `None` when there is none or two differ.
+fn the_one<T: PartialEq>(mut items: impl Iterator<Item = T>) -> Option<T> {
+    let first = items.next()?;
+    items.all(|x| x == first).then_some(first)
+}
+
+/// The symbol of the shapes of `tree` whose identity key is `key` (the
+/// parts a key target names in shape mode, which matches keys on shapes
+/// only): `None` when no shape has the key or shapes of two symbols share
+/// it.
+pub(crate) fn shape_key_symbol(
+    tree: &grm_shape::ShapeTree,
+    program: &grm_shape::Program,
+    key: u32,
+) -> Option<String> {
+    let symbols = tree
+        .nodes()
+        .iter()
+        .filter(|n| n.key == key)
+        .filter_map(|n| match n.kind {
+            grm_shape::NodeKind::Shape { symbol, .. } => Some(symbol),
+            _ => None,
+        });
+    the_one(symbols).map(|s| program.symbol_name(s).to_owned())
+}
+
+/// The symbol of the shape `node` of `tree` (`None` for a command or an
+/// insert, or a node the tree lacks).
+fn shape_symbol(
+    tree: &grm_shape::ShapeTree,
+    program: &grm_shape::Program,
+    node: grm_shape::NodeId,
+) -> Option<String> {
+    match tree.node(node)?.kind {
+        grm_shape::NodeKind::Shape { symbol, .. } => Some(program.symbol_name(symbol).to_owned()),
+        _ => None,
+    }
+}
+
+/// The symbol of the modules of the derivation tree `tree` whose identity
+/// key is `key`, the modules an edit removed as they were made included
+/// (`symbols`: the compiled system's names): `None` when no module has the
+/// key, modules of two symbols share it, or the root has it.
+pub(crate) fn tree_key_symbol(
+    tree: &grm_grow::Tree,
+    symbols: &[String],
+    key: u32,
+) -> Option<String> {
+    let nodes = tree.nodes.iter().filter(|n| n.key == key).map(|n| n.symbol);
+    let removed = tree
+        .removed
+        .iter()
+        .filter(|r| r.key == key)
+        .map(|r| Some(r.symbol));
+    the_one(nodes.chain(removed))
+        .flatten()
+        .and_then(|s| symbols.get(s as usize))
+        .cloned()
 }
 
 /// What a shape preview keeps of its edits for the diagnostics.
@@ -309,6 +376,12 @@ pub(crate) fn classify(
                                 target: serde_json::json!({ c.target.kind(): c.target.text() }),
                                 reason: c.reason.as_str().to_owned(),
                                 parts: c.parts.iter().map(|n| n.0).collect(),
+                                symbol: match (&c.target, c.parts.as_slice()) {
+                                    (grm_edits::Target::Key(_), &[n]) => {
+                                        shape_symbol(tree, &lowered.program, n)
+                                    }
+                                    _ => None,
+                                },
                             })
                             .collect();
                 }
@@ -420,6 +493,16 @@ fn key_reports(
                     target: serde_json::json!({ c.target.kind(): c.target.text() }),
                     reason: c.reason.as_str().to_owned(),
                     parts: vec![c.node],
+                    symbol: match (&c.target, grown) {
+                        (grm_edits::Target::Key(_), Some(g)) => g
+                            .tree
+                            .nodes
+                            .get(c.node as usize)
+                            .and_then(|n| n.symbol)
+                            .and_then(|s| g.symbols.get(s as usize))
+                            .cloned(),
+                        _ => None,
+                    },
                 })
                 .collect();
         }

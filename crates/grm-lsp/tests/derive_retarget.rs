@@ -177,6 +177,8 @@ async fn a_key_lost_to_a_reordered_alternative_is_offered_the_same_module_first(
     assert_eq!(cands[0]["target"], json!({ "key": want }), "{cands:?}");
     assert_eq!(cands[0]["reason"], "ancestry");
     assert_eq!(cands[0]["parts"].as_array().map(Vec::len), Some(1));
+    // Each key names an A: the fix records it (the edit's `symbol`).
+    assert!(cands.iter().all(|c| c["symbol"] == "A"), "{cands:?}");
 
     // The diagnostic carries them; the first quick fix retargets the edit.
     let want = want.clone();
@@ -197,6 +199,8 @@ async fn a_key_lost_to_a_reordered_alternative_is_offered_the_same_module_first(
     let parsed = grm_edits::parse(&fixed);
     assert!(parsed.errors.is_empty(), "{fixed}");
     assert_eq!(parsed.file.edits[0].target.text(), want);
+    assert_eq!(parsed.file.edits[0].symbol.as_deref(), Some("A"), "{fixed}");
+    assert!(fixed.contains("\"version\": 3"), "{fixed}");
     b.c.replace(&b.eu, 2, &fixed).await;
     let r =
         b.c.updated(|r| r["edits"]["list"][0]["class"] == "valid")

@@ -284,7 +284,7 @@ async fn the_edits_file_on_disk_is_replayed_and_watched() {
     assert_eq!(classes(&r), "7:valid+");
     // Changed on disk and reported by the watcher: the live preview
     // regrows, and the problems are published on it (beside an open grammar).
-    std::fs::write(&ep, "{ \"version\": 3, \"edits\": [] }").unwrap();
+    std::fs::write(&ep, "{ \"version\": 4, \"edits\": [] }").unwrap();
     c.notify(
         "workspace/didChangeWatchedFiles",
         json!({ "changes": [{ "uri": uri(&ep), "type": 2 }] }),
