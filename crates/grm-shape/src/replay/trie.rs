@@ -235,6 +235,9 @@ impl EditPlan {
     ) {
         out.clear();
         counts.clear();
+        if self.repeat_states(block, start, at, state, out, counts) {
+            return;
+        }
         for (k, n) in block.iter().enumerate() {
             let p = (start + k).wrapping_sub(n.parent_offset as usize);
             let parent = if p == at {
@@ -248,10 +251,68 @@ impl EditPlan {
         }
     }
 
+    /// [`EditPlan::block_states`] of a block that is one command and its
+    /// children, all of one label (a `repeat`'s: a floor's hundred tiles),
+    /// where the command's state has ordinal edges alone (picks make
+    /// them): a child's ordinal is then its place, so each costs a test of
+    /// its signature bit, without the per-label count. False (nothing
+    /// written) for any other block.
+    fn repeat_states(
+        &self,
+        block: &[Node],
+        start: usize,
+        at: usize,
+        state: u32,
+        out: &mut Vec<u32>,
+        counts: &mut Vec<(usize, Label, u32)>,
+    ) -> bool {
+        let [cmd, kids @ ..] = block else {
+            return false;
+        };
+        let Some(first) = kids.first() else {
+            return false;
+        };
+        let l = label(first);
+        if start.wrapping_sub(cmd.parent_offset as usize) != at
+            || !kids
+                .iter()
+                .enumerate()
+                .all(|(k, n)| n.parent_offset as usize == k + 1 && label(n) == l)
+        {
+            return false;
+        }
+        let cs = self.step(state, at, cmd, counts);
+        let st = match self.states.get(cs as usize) {
+            Some(st) if st.flags & 1 == 0 => st,
+            // Numbered edges leave the command: the general pass.
+            Some(_) => return false,
+            None => {
+                out.push(cs);
+                out.resize(block.len(), NONE);
+                return true;
+            }
+        };
+        out.push(cs);
+        if st.flags & 2 == 0 {
+            out.resize(block.len(), NONE);
+            return true;
+        }
+        out.extend(kids.iter().enumerate().map(|(k, n)| {
+            let ordinal = k as u32 + 1;
+            if n.selector.is_some() || st.osig >> (ordinal & 63) & 1 == 0 {
+                NONE
+            } else {
+                self.child(st, l, &EdgeRef::Ordinal(ordinal))
+                    .unwrap_or(NONE)
+            }
+        }));
+        true
+    }
+
     /// A child's trie state from its parent's (`parent`, the parent at
     /// position `p`), counting its ordinal in `counts` where some target
     /// leaves the parent's state by an ordinal edge.
-    #[inline]
+    #[inline(always)]
     fn step(
         &self,
         parent: u32,
