@@ -715,7 +715,7 @@ fn survival(title: &str, text: &str, draws: u64, verbose: bool) {
                 .collect();
             for (k, kind) in KINDS.iter().enumerate() {
                 let mut file = EditsFile {
-                    version: 2,
+                    version: 3,
                     edits: Vec::new(),
                 };
                 // Edit id i + 1 gives part i marker m{i + 1}.
@@ -728,7 +728,9 @@ fn survival(title: &str, text: &str, draws: u64, verbose: bool) {
                         parcel: None,
                         // A query made where it selects the part alone.
                         selected: matches!(target, Target::Semantic(_)).then_some(1),
-                        symbol: None,
+                        // A key picked records its part's symbol.
+                        symbol: matches!(target, Target::Key(_))
+                            .then(|| base.tree.label(&base.lowered.program, parts[i].id)),
                         target,
                         op: Op::Material {
                             name: format!("m{}", i + 1),

@@ -221,7 +221,7 @@ fn without_a_print_the_target_itself_says_what_it_named() {
     let f = one_edit(Target::Semantic("(floor = 99) Window".parse().unwrap()));
     let r = edits::classify(&g.checked.program, &g.lowered, &g.tree, &f.edits);
     assert_eq!(r[0].class, EditClass::StructurallyInvalid);
-    let print = retarget::print_of_target(&g.lowered, &g.tree, &f.edits[0].target);
+    let print = retarget::print_of_target(&g.lowered, &g.tree, &f.edits[0]);
     assert_eq!(print.order, [("floor".to_owned(), 99)]);
     let c = retarget::candidates(&g.lowered, &g.tree, &f.edits[0], &print, &[], 3);
     let texts: Vec<String> = c.iter().map(|x| x.target.text()).collect();
@@ -248,14 +248,31 @@ fn without_a_print_the_target_itself_says_what_it_named() {
     let f = one_edit(Target::Exact(loc));
     let r = edits::classify(&g.checked.program, &g.lowered, &g.tree, &f.edits);
     assert_eq!(r[0].class, EditClass::StructurallyInvalid);
-    let print = retarget::print_of_target(&g.lowered, &g.tree, &f.edits[0].target);
+    let print = retarget::print_of_target(&g.lowered, &g.tree, &f.edits[0]);
     let c = retarget::candidates(&g.lowered, &g.tree, &f.edits[0], &print, &[], 2);
     assert_eq!(c.len(), 2);
     assert!(c.iter().all(|x| x.reason == Reason::Nearest));
     // A key nothing has, without a print: nothing to go by.
     let f = one_edit(Target::Key(0x0bad_cafe));
-    let print = retarget::print_of_target(&g.lowered, &g.tree, &f.edits[0].target);
+    let print = retarget::print_of_target(&g.lowered, &g.tree, &f.edits[0]);
     assert!(retarget::candidates(&g.lowered, &g.tree, &f.edits[0], &print, &[], 3).is_empty());
+    // The same key, its edit recording the symbol of the part it named:
+    // parts of that symbol (no place to go by: in the tree's order).
+    let mut f = one_edit(Target::Key(0x0bad_cafe));
+    f.edits[0].symbol = Some("Window".into());
+    let print = retarget::print_of_target(&g.lowered, &g.tree, &f.edits[0]);
+    assert_eq!(print.label.as_deref(), Some("Window"));
+    let c = retarget::candidates(&g.lowered, &g.tree, &f.edits[0], &print, &[], 3);
+    assert_eq!(c.len(), 3);
+    for x in &c {
+        assert_eq!(x.reason, Reason::Nearest);
+        assert!(matches!(x.target, Target::Key(_)), "{:?}", x.target);
+        assert!(
+            x.parts
+                .iter()
+                .all(|&n| g.tree.label(&g.lowered.program, n) == "Window")
+        );
+    }
 }
 
 #[test]

@@ -368,7 +368,7 @@ pub(crate) fn classify(
                         .prints
                         .get(&key(e))
                         .cloned()
-                        .unwrap_or_else(|| retarget::print_of_target(lowered, tree, &e.target));
+                        .unwrap_or_else(|| retarget::print_of_target(lowered, tree, e));
                     out.retarget =
                         retarget::candidates_with(&mut orderings, e, &print, &r.parts, CANDIDATES)
                             .into_iter()

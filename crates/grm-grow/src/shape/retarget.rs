@@ -116,13 +116,14 @@ pub fn print_of(lowered: &Lowered, tree: &ShapeTree, node: NodeId) -> PartPrint 
     Orderings::new(lowered, tree).print(node)
 }
 
-/// What a target says by itself of the part it named: a semantic query's
-/// label and its indices from the start (taken as ordering values; those
-/// counted from the end or the centre are resolved in no tree, so left
-/// out); an exact locator's last label and the centre of the deepest
-/// node its path reaches; nothing for a key.
-pub fn print_of_target(lowered: &Lowered, tree: &ShapeTree, target: &Target) -> PartPrint {
-    match target {
+/// What an edit's target says by itself of the part it named: a semantic
+/// query's label and its indices from the start (taken as ordering
+/// values; those counted from the end or the centre are resolved in no
+/// tree, so left out); an exact locator's last label and the centre of
+/// the deepest node its path reaches; for a key, the symbol the edit
+/// recorded (`Edit::symbol`), if it did.
+pub fn print_of_target(lowered: &Lowered, tree: &ShapeTree, edit: &Edit) -> PartPrint {
+    match &edit.target {
         Target::Semantic(q) => PartPrint {
             label: q.label.clone(),
             order: q
@@ -144,7 +145,10 @@ pub fn print_of_target(lowered: &Lowered, tree: &ShapeTree, target: &Target) -> 
                 .map(|n| n.scope.center().to_array()),
             ..PartPrint::default()
         },
-        Target::Key(_) => PartPrint::default(),
+        Target::Key(_) => PartPrint {
+            label: edit.symbol.clone(),
+            ..PartPrint::default()
+        },
     }
 }
 
