@@ -347,7 +347,8 @@ test('edit panel, derive mode: a picked bone is edited by its key (an offset of 
     'the typed parameter edit survives the redraws',
   );
   s = await act(page, '#edit-param-apply', 'offset its length', (x) => validAndReplayed(x, [1]));
-  assert.deepEqual(fileEdits(file), [{ id: 1, system: 'Bar', target: { key }, op: 'offset', name: '1', by: 0.5 }]);
+  // The server records the picked part's symbol with its key (`symbol`, docs/edits.md).
+  assert.deepEqual(fileEdits(file), [{ id: 1, system: 'Bar', target: { key }, symbol: 'F', op: 'offset', name: '1', by: 0.5 }]);
   const longer = await bones();
   assert.ok(Math.abs(len(longer[1]) - 1.5) < 1e-4, `the branch is 1.5 long: ${len(longer[1])}`);
   // Up one level is the axiom's A (the module that made it): no bone of its own; back down, then removed.
@@ -355,7 +356,7 @@ test('edit panel, derive mode: a picked bone is edited by its key (an offset of 
   assert.equal((await state(page)).edits.selection?.label, 'A');
   await page.click('#edit-down');
   s = await act(page, '#edit-remove', 'remove the branch', (x) => validAndReplayed(x, [1, 2]));
-  assert.deepEqual(fileEdits(file)[1], { id: 2, system: 'Bar', target: { key }, op: 'remove' });
+  assert.deepEqual(fileEdits(file)[1], { id: 2, system: 'Bar', target: { key }, symbol: 'F', op: 'remove' });
   assert.equal((await bones()).length, 2, 'the branch is gone');
   for (const id of [2, 1]) {
     await act(page, '#edit-undo', `undo edit ${id}`, (x) => x.edits.list.length === id - 1);
