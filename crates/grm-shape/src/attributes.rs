@@ -125,12 +125,7 @@ impl AttrTable {
                 *slot = out.len() as u16;
                 out.push(self.list[usize::from(id.0)]);
             }
-            // Written only where it changes: the ids are mostly in
-            // first-use order already, and a pass that wrote every node
-            // would dirty every cache line of the tree again.
-            if id.0 != *slot {
-                id.0 = *slot;
-            }
+            id.0 = *slot;
         }
         out
     }
