@@ -16,8 +16,16 @@ const PLANT: &str = "system Plant {
 }
 ";
 
-#[tokio::test]
-async fn the_derive_preview_replays_key_edits_and_says_what_became_of_each() {
+/// The plant written to a temporary directory, opened and previewed:
+/// the directory, the grammar's path, the client, its URI and the
+/// preview's answer.
+async fn plant_previewed() -> (
+    tempfile::TempDir,
+    std::path::PathBuf,
+    Client,
+    tower_lsp_server::ls_types::Uri,
+    serde_json::Value,
+) {
     let dir = tempfile::tempdir().expect("tempdir");
     let root = grm_sema::normalize(&std::fs::canonicalize(dir.path()).expect("canonical"));
     let p = root.join("plant.grm");
@@ -27,6 +35,12 @@ async fn the_derive_preview_replays_key_edits_and_says_what_became_of_each() {
     let base = c
         .ok("grm/preview", json!({ "textDocument": { "uri": u } }))
         .await;
+    (dir, p, c, u, base)
+}
+
+#[tokio::test]
+async fn the_derive_preview_replays_key_edits_and_says_what_became_of_each() {
+    let (_dir, p, mut c, u, base) = plant_previewed().await;
     assert!(base["edits"].is_null() || base["edits"]["found"] == false);
     let pick = c
         .ok(
@@ -70,16 +84,8 @@ async fn the_derive_preview_replays_key_edits_and_says_what_became_of_each() {
 
 #[tokio::test]
 async fn grm_edit_records_the_symbol_of_a_keys_module_in_the_derive_preview() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let root = grm_sema::normalize(&std::fs::canonicalize(dir.path()).expect("canonical"));
-    let p = root.join("plant.grm");
-    std::fs::write(&p, PLANT).expect("write");
     // As `grmc view`: the server writes the file.
-    let mut c = Client::start().await;
-    let u = c.open(&p, PLANT).await;
-    let base = c
-        .ok("grm/preview", json!({ "textDocument": { "uri": u } }))
-        .await;
+    let (_dir, p, mut c, u, base) = plant_previewed().await;
     // A segment two levels below the axiom's A, and the A that wrote it.
     let mut found = None;
     'parts: for (i, part) in base["parts"].as_array().expect("parts").iter().enumerate() {

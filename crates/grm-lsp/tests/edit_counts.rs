@@ -8,16 +8,7 @@ mod common;
 
 use common::editor::Editor;
 use common::*;
-use serde_json::{Value, json};
-
-/// Edit `id` of a preview's list.
-fn listed(r: &Value, id: u32) -> Value {
-    r["edits"]["list"]
-        .as_array()
-        .and_then(|l| l.iter().find(|e| e["id"] == id))
-        .cloned()
-        .unwrap_or_else(|| panic!("edit {id} in {}", r["edits"]))
-}
+use serde_json::json;
 
 #[tokio::test]
 async fn grm_edit_records_how_many_parts_a_query_selects_in_the_preview() {

@@ -8,7 +8,7 @@ mod common;
 
 use common::editor::Editor;
 use common::*;
-use serde_json::{Value, json};
+use serde_json::json;
 
 /// The edits file `old` after the change `grm/edit` or
 /// `grm/retargetEdit` just sent (`""`: it did not exist).
@@ -155,15 +155,6 @@ async fn grm_edit_records_the_symbol_of_a_keys_shape_in_the_last_preview() {
     .await;
     let seven = applied(&mut c, &six).await;
     assert_eq!(symbols(&seven)[3], (4, Some("Door".to_owned())));
-}
-
-/// Edit `id` of a preview's list.
-fn listed(r: &Value, id: u32) -> Value {
-    r["edits"]["list"]
-        .as_array()
-        .and_then(|l| l.iter().find(|e| e["id"] == id))
-        .cloned()
-        .unwrap_or_else(|| panic!("edit {id} in {}", r["edits"]))
 }
 
 #[tokio::test]

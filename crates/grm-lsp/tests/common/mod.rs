@@ -409,6 +409,15 @@ pub fn classes(r: &Value) -> String {
         .unwrap_or_default()
 }
 
+/// Edit `id` of a preview's `edits.list`.
+pub fn listed(r: &Value, id: u32) -> Value {
+    r["edits"]["list"]
+        .as_array()
+        .and_then(|l| l.iter().find(|e| e["id"] == id))
+        .cloned()
+        .unwrap_or_else(|| panic!("edit {id} in {}", r["edits"]))
+}
+
 /// The townhouse of tests/lsp/shape.grm, written in a fresh folder.
 pub fn house() -> (tempfile::TempDir, PathBuf, String) {
     let dir = tempfile::tempdir().expect("tempdir");
