@@ -14,7 +14,10 @@
 //! - **key** targets are a hash map from identity keys, behind a blocked
 //!   Bloom filter sized to stay in the first-level cache: a shape whose key
 //!   is no target's costs one load and a compare (one in 1,500 passes it
-//!   with 200 key targets);
+//!   with 200 key targets), and only the shapes of the symbols the key
+//!   edits recorded (`grm_edits::Edit::symbol`, what a pick writes; every
+//!   symbol where one recorded none) test their keys at all; a key's edit
+//!   applies to a shape of its recorded symbol only;
 //! - **semantic** queries are indexed by their label, then grouped by
 //!   their pattern (the tags and anchors they name, in order) with a map
 //!   from a mix of the indices they want to the edits, behind a
