@@ -139,8 +139,13 @@ fn go(a: &EditsFileArgs, check: bool) -> Outcome {
             }
             for r in &rows {
                 let class = r.class.map_or("-", EditClass::as_str);
+                // A key edit's recorded symbol beside its key.
+                let symbol = match (&r.edit.target, &r.edit.symbol) {
+                    (grm_edits::Target::Key(_), Some(s)) => format!(" ({s})"),
+                    _ => String::new(),
+                };
                 let mut line = format!(
-                    "{:>4}  {:<12} {}  {}",
+                    "{:>4}  {:<12} {}{symbol}  {}",
                     r.edit.id, r.edit.system, r.edit.target, r.edit.op
                 );
                 if check {
@@ -176,7 +181,7 @@ fn go(a: &EditsFileArgs, check: bool) -> Outcome {
             let list: Vec<serde_json::Value> = rows
                 .iter()
                 .map(|r| {
-                    json!({
+                    let mut v = json!({
                         "id": r.edit.id,
                         "system": r.edit.system,
                         "target": { r.edit.target.kind(): r.edit.target.text() },
@@ -185,7 +190,13 @@ fn go(a: &EditsFileArgs, check: bool) -> Outcome {
                         "parts": r.parts,
                         "detail": r.detail,
                         "replayed": r.replayed,
-                    })
+                    });
+                    // A key edit's recorded symbol, where it has one.
+                    if let (grm_edits::Target::Key(_), Some(sym)) = (&r.edit.target, &r.edit.symbol)
+                    {
+                        v["symbol"] = sym.as_str().into();
+                    }
+                    v
                 })
                 .collect();
             let problems: Vec<serde_json::Value> = problems

@@ -161,3 +161,54 @@ fn malformed_edits_are_coded_and_the_valid_ones_still_listed() {
     assert!(out.status.success(), "{}", text(&out.stderr));
     assert!(text(&out.stderr).contains("no edits file"));
 }
+
+/// A key edit's recorded symbol (version 3): `check` classifies the key
+/// on that symbol's parts only and both commands show it beside the key;
+/// a second edit of the key recording another symbol is R0911, exit 1.
+#[test]
+fn key_edits_show_and_keep_their_symbols() {
+    let (dir, grm, nodes) = townhouse();
+    let window = nodes
+        .iter()
+        .find(|n| n["symbol"] == "Window")
+        .expect("a window");
+    let key = window["key"].as_str().expect("key");
+    let write = |edits: &str| {
+        std::fs::write(
+            dir.path().join("townhouse.edits.json"),
+            format!(r#"{{ "version": 3, "edits": [ {edits} ] }}"#),
+        )
+        .expect("write")
+    };
+    write(&format!(
+        r#"{{ "id": 1, "system": "Townhouse", "target": {{ "key": "{key}" }}, "symbol": "Window", "op": "remove" }},
+           {{ "id": 2, "system": "Townhouse", "target": {{ "key": "{key}" }}, "op": "material", "name": "glass" }}"#
+    ));
+    let (ok, v) = check(&grm, &[]);
+    assert!(ok, "{v}");
+    assert_eq!(v["list"][0]["symbol"], "Window");
+    assert!(v["list"][1].get("symbol").is_none(), "{v}");
+    let out = grmc(&["edits", "list", path(&grm)]);
+    assert!(
+        text(&out.stdout).contains(&format!("key {key} (Window)  remove")),
+        "{}",
+        text(&out.stdout)
+    );
+    // Another symbol: nothing of it has the key.
+    write(&format!(
+        r#"{{ "id": 1, "system": "Townhouse", "target": {{ "key": "{key}" }}, "symbol": "Door", "op": "remove" }}"#
+    ));
+    let (ok, v) = check(&grm, &[]);
+    assert!(!ok);
+    assert_eq!(classes(&v), [(1, "structurally_invalid".to_owned())]);
+    assert_eq!(v["list"][0]["detail"], "no `Door` has this key now");
+    // Two symbols for one key: the second edit is refused, the first kept.
+    write(&format!(
+        r#"{{ "id": 1, "system": "Townhouse", "target": {{ "key": "{key}" }}, "symbol": "Window", "op": "remove" }},
+           {{ "id": 2, "system": "Townhouse", "target": {{ "key": "{key}" }}, "symbol": "Door", "op": "remove" }}"#
+    ));
+    let (ok, v) = check(&grm, &[]);
+    assert!(!ok);
+    assert_eq!(classes(&v), [(1, "valid".to_owned())]);
+    assert_eq!(v["problems"][0]["code"], "R0911", "{v}");
+}
